@@ -1,0 +1,68 @@
+# Swazure on ROS 2. `make test` and `make demo` set up everything they need.
+# Setup is a chain of stamp files in the venv, so a second run with nothing
+# changed does nothing, and a change to a .msg/.srv file rebuilds only the
+# interfaces.
+
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+DEPS_STAMP := $(VENV)/.stamp-deps
+MSGS_STAMP := $(VENV)/.stamp-interfaces
+PKG_STAMP := $(VENV)/.stamp-package
+INTERFACE_FILES := msg_defs/CMakeLists.txt msg_defs/package.xml \
+	$(wildcard msg_defs/msg/*.msg) $(wildcard msg_defs/srv/*.srv)
+PYTEST_ARGS ?=
+
+.PHONY: setup test lint demo bench study clean lock help
+.DEFAULT_GOAL := help
+
+help:
+	@echo "make demo   set up if needed, then evaluate the built-in default shape"
+	@echo "make test   set up if needed, then lint, type-check and run every test"
+	@echo "make bench  run the benchmarks and rewrite BENCHMARKS.md (long)"
+	@echo "make lint   ruff (lint and format check) and mypy on the core"
+	@echo "make setup  create .venv with the pinned ROS 2 Jazzy wheels and build msg_defs"
+	@echo "make clean  remove .venv, build/ and caches"
+
+$(PY):
+	$(PYTHON) -m venv $(VENV)
+
+$(DEPS_STAMP): requirements.lock | $(PY)
+	$(PY) -m pip install --disable-pip-version-check --quiet -r requirements.lock
+	@touch $@
+
+$(MSGS_STAMP): $(DEPS_STAMP) $(INTERFACE_FILES) scripts/build_interfaces.sh
+	scripts/build_interfaces.sh $(VENV)
+	@touch $@
+
+$(PKG_STAMP): $(DEPS_STAMP) setup.py package.xml
+	$(PY) -m pip install --disable-pip-version-check --quiet --no-deps \
+		--no-build-isolation -e .
+	@touch $@
+
+setup: $(MSGS_STAMP) $(PKG_STAMP)
+
+lint: setup
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+	$(VENV)/bin/mypy
+
+test: lint
+	$(VENV)/bin/pytest $(PYTEST_ARGS)
+
+demo: setup
+	$(VENV)/bin/swazure evaluate --cloud torus --beta 0.5 --policy shortest-length
+
+bench: setup
+	$(PY) scripts/bench.py
+
+clean:
+	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache .hypothesis
+
+# Regenerate requirements.lock from requirements.in in a scratch venv.
+lock:
+	rm -rf build/lock-venv && $(PYTHON) -m venv build/lock-venv
+	build/lock-venv/bin/pip install --quiet -r requirements.in
+	(echo "# Generated from requirements.in by 'make lock'; do not edit by hand."; \
+	 build/lock-venv/bin/pip freeze | grep -vi swazure; \
+	 echo "setuptools==65.5.0") > requirements.lock

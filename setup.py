@@ -1,0 +1,30 @@
+"""ament_python package swazure_ros (also installable with plain pip)."""
+
+from glob import glob
+
+from setuptools import find_packages, setup
+
+PACKAGE = "swazure_ros"
+
+setup(
+    name=PACKAGE,
+    version="0.1.0",
+    packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
+        (f"share/{PACKAGE}", ["package.xml"]),
+        (f"share/{PACKAGE}/config", glob("config/*.yaml")),
+    ],
+    install_requires=["setuptools"],
+    python_requires=">=3.10",
+    zip_safe=True,
+    maintainer="Swazure developers",
+    maintainer_email="swazure@flyinglightspecks.org",
+    description="Swazure: relative pose of blind neighbours in a swarm of Flying Light Specks",
+    license="Apache-2.0",
+    entry_points={
+        "console_scripts": [
+            "swazure = swazure_ros.cli.main:main",
+        ],
+    },
+)

@@ -1,0 +1,246 @@
+"""Point clouds: reading files (.xyz, .csv, .npy, .ply) and built-in shapes.
+
+Every loader returns an ``(N, 3)`` float array in centimetres (file
+coordinates times ``scale``) and raises :class:`CloudError` with a one-line
+message naming the file when the input cannot be used.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from .errors import CloudError
+
+FloatArray = NDArray[np.float64]
+
+#: Mean nearest-neighbour distance of the published shapes, cm (spec, section 10).
+PUBLISHED_DENSITY = 0.65
+
+#: Scale factors of the published point clouds, by file stem (spec, section 10).
+PUBLISHED_SCALES: dict[str, float] = {
+    "chess_408": 13.6,
+    "palm_725": 34.0,
+    "kangaroo_972": 34.0,
+    "dragon_1147": 40.0,
+    "skateboard_1372": 34.0,
+    "racecar_3720": 40.0,
+}
+
+SUFFIXES = (".xyz", ".txt", ".csv", ".npy", ".ply")
+
+
+@dataclass(frozen=True)
+class Cloud:
+    """A named point cloud in centimetres."""
+
+    name: str
+    points: FloatArray  # (N, 3), cm
+    scale: float
+    source: str  # file path or "builtin"
+
+
+def validate_points(points: object, where: str = "points") -> FloatArray:
+    """Coerce to an (N, 3) float array of finite values with N >= 2, or raise CloudError."""
+    try:
+        array = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise CloudError(f"{where}: coordinates are not numbers ({err})") from err
+    if array.ndim != 2 or array.shape[1] != 3:
+        raise CloudError(
+            f"{where}: expected 3 coordinates per point, got an array of shape {array.shape}"
+        )
+    bad = ~np.isfinite(array).all(axis=1)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise CloudError(f"{where}: point {row} has a NaN or infinite coordinate")
+    if len(array) < 2:
+        raise CloudError(f"{where}: a swarm needs at least two points, got {len(array)}")
+    return array
+
+
+def _read_text(path: Path, delimiter: str | None) -> FloatArray:
+    lines = [
+        (number, line.strip())
+        for number, line in enumerate(path.read_text().splitlines(), start=1)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not lines:
+        raise CloudError(f"{path}: no points in file")
+    header: list[str] | None = None
+    first = lines[0][1].split(delimiter)
+    try:
+        [float(field) for field in first]
+    except ValueError:
+        header = [field.strip().lower() for field in first]
+        lines = lines[1:]
+    columns = [0, 1, 2]
+    if header is not None:
+        if all(name in header for name in "xyz"):
+            columns = [header.index(name) for name in "xyz"]
+        elif len(header) != 3:
+            raise CloudError(f"{path}: header has no x, y, z columns: {','.join(header)}")
+    width = len(header) if header is not None else len(lines[0][1].split(delimiter))
+    if header is None and width != 3:
+        raise CloudError(
+            f"{path}: line {lines[0][0]} has {width} columns, expected 3 (x y z)"
+        )
+    rows = np.empty((len(lines), 3))
+    for row, (number, line) in enumerate(lines):
+        fields = line.split(delimiter)
+        if len(fields) != width:
+            raise CloudError(
+                f"{path}: line {number} has {len(fields)} columns, expected {width}"
+            )
+        try:
+            rows[row] = [float(fields[column]) for column in columns]
+        except ValueError as err:
+            raise CloudError(f"{path}: line {number}: {err}") from err
+    return rows
+
+
+def _read_ply(path: Path) -> FloatArray:
+    from plyfile import PlyData  # local: only PLY users pay for the import
+
+    try:
+        ply = PlyData.read(str(path))
+        vertex = ply["vertex"]
+        return np.column_stack([vertex[axis] for axis in "xyz"]).astype(np.float64)
+    except KeyError as err:
+        raise CloudError(f"{path}: PLY file has no vertex element with x, y, z") from err
+    except Exception as err:  # plyfile raises several kinds for a broken file
+        raise CloudError(f"{path}: not a readable PLY file ({err})") from err
+
+
+def read_points(path: str | Path, scale: float = 1.0) -> FloatArray:
+    """Read an (N, 3) point cloud from a file and multiply it by ``scale`` (to cm)."""
+    path = Path(path)
+    if not math.isfinite(scale) or scale <= 0:
+        raise CloudError(f"scale must be a positive number, got {scale}")
+    if not path.exists():
+        raise CloudError(f"{path}: no such file")
+    if path.is_dir():
+        raise CloudError(f"{path}: is a folder, expected a point cloud file")
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".npy":
+            try:
+                raw: FloatArray = np.load(path, allow_pickle=False)
+            except ValueError as err:
+                raise CloudError(f"{path}: not a readable .npy array ({err})") from err
+        elif suffix == ".ply":
+            raw = _read_ply(path)
+        elif suffix == ".csv":
+            raw = _read_text(path, ",")
+        elif suffix in (".xyz", ".txt"):
+            raw = _read_text(path, None)
+        else:
+            raise CloudError(f"{path}: unknown file type {suffix!r}; use one of {SUFFIXES}")
+    except OSError as err:
+        raise CloudError(f"{path}: cannot read ({err.strerror or err})") from err
+    except UnicodeDecodeError as err:
+        raise CloudError(f"{path}: not a text file") from err
+    return validate_points(raw, str(path)) * scale
+
+
+def _at_density(points: FloatArray, density: float) -> FloatArray:
+    """Rescale ``points`` so that their mean nearest-neighbour distance is ``density`` cm."""
+    distances, _ = cKDTree(points).query(points, k=2)
+    return points * (density / float(distances[:, 1].mean()))
+
+
+def sphere_shell(count: int) -> FloatArray:
+    """A Fibonacci lattice on a sphere: (count, 3), unit radius."""
+    index = np.arange(count) + 0.5
+    polar = np.arccos(1.0 - 2.0 * index / count)
+    azimuth = np.pi * (1.0 + 5.0**0.5) * index
+    return np.column_stack(
+        [np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)]
+    )
+
+
+def torus(count: int, aspect: float = 3.0) -> FloatArray:
+    """Points on a torus surface, tube radius 1 and ring radius ``aspect``: (≈count, 3)."""
+    around_tube = max(3, round(math.sqrt(count / aspect)))
+    around_ring = max(3, round(count / around_tube))
+    ring, tube = np.meshgrid(
+        np.linspace(0, 2 * np.pi, around_ring, endpoint=False),
+        np.linspace(0, 2 * np.pi, around_tube, endpoint=False),
+        indexing="ij",
+    )
+    # Shift every other ring by half a step: a staggered lattice, not a square one.
+    tube = tube + (np.arange(around_ring)[:, None] % 2) * np.pi / around_tube
+    radial = aspect + np.cos(tube)
+    points = np.column_stack(
+        [(radial * np.cos(ring)).ravel(), (radial * np.sin(ring)).ravel(), np.sin(tube).ravel()]
+    )
+    return points
+
+
+def helix(count: int, turns: float = 4.0) -> FloatArray:
+    """Points along a helix of unit radius and pitch 1 per turn: (count, 3)."""
+    angle = np.linspace(0, 2 * np.pi * turns, count)
+    return np.column_stack([np.cos(angle), np.sin(angle), angle / (2 * np.pi)])
+
+
+def cube_lattice(count: int) -> FloatArray:
+    """A solid simple-cubic lattice of about ``count`` points with unit spacing: (M, 3)."""
+    side = max(2, round(count ** (1 / 3)))
+    axis = np.arange(side, dtype=np.float64)
+    return np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3)
+
+
+#: Built-in shapes: name -> (generator, default count).
+BUILTIN_SHAPES: dict[str, tuple[Callable[[int], FloatArray], int]] = {
+    "sphere": (sphere_shell, 500),
+    "torus": (torus, 400),
+    "helix": (helix, 300),
+    "cube": (cube_lattice, 512),
+}
+
+_BUILTIN_PATTERN = re.compile(r"^(?P<name>[a-z_]+)(?::(?P<count>\d+))?$")
+
+
+def builtin_points(spec: str, density: float = PUBLISHED_DENSITY) -> FloatArray:
+    """Points of a built-in shape ``NAME`` or ``NAME:COUNT``, at ``density`` cm mean spacing."""
+    match = _BUILTIN_PATTERN.match(spec)
+    if not match or match["name"] not in BUILTIN_SHAPES:
+        names = ", ".join(sorted(BUILTIN_SHAPES))
+        raise CloudError(f"unknown shape {spec!r}: use a file path or one of {names}")
+    generator, default_count = BUILTIN_SHAPES[match["name"]]
+    count = int(match["count"]) if match["count"] else default_count
+    if count < 8:
+        raise CloudError(f"shape {spec!r}: needs at least 8 points, got {count}")
+    return _at_density(generator(count), density)
+
+
+def is_cloud_path(spec: str) -> bool:
+    """True when ``spec`` names a file rather than a built-in shape."""
+    return "/" in spec or Path(spec).suffix.lower() in SUFFIXES or Path(spec).exists()
+
+
+def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
+    """Resolve ``spec`` (a file path or a built-in shape name) into a :class:`Cloud`.
+
+    ``scale`` defaults to the published scale for the six published files
+    (by file stem) and to 1 otherwise. Built-in shapes are already in cm.
+    """
+    text = str(spec)
+    if isinstance(spec, Path) or is_cloud_path(text):
+        path = Path(text)
+        if scale is None:
+            scale = PUBLISHED_SCALES.get(path.stem, 1.0)
+        return Cloud(path.stem, read_points(path, scale), scale, str(path))
+    points = builtin_points(text)
+    if scale is not None:
+        if not math.isfinite(scale) or scale <= 0:
+            raise CloudError(f"scale must be a positive number, got {scale}")
+        points = points * scale
+    return Cloud(text.replace(":", "_"), points, 1.0 if scale is None else scale, "builtin")

@@ -1,0 +1,20 @@
+"""Domain exceptions of the Swazure core, under one base class."""
+
+
+class SwazureError(Exception):
+    """Base of every error the Swazure core raises about its input."""
+
+
+class CloudError(SwazureError, ValueError):
+    """A point cloud that cannot be read or used (file, format, values)."""
+
+
+class SensorError(SwazureError, ValueError):
+    """A sensor description that does not parse or is inconsistent."""
+
+
+class UnknownFlsError(SwazureError, KeyError):
+    """An FLS id that does not exist in the swarm."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else "unknown FLS"

@@ -1,0 +1,323 @@
+"""The batch evaluation: every ordered blind pair of a swarm, its status, path and errors.
+
+:func:`neighbourhood` computes what the whole swarm shares (neighbour pairs,
+line of sight, the neighbour graphs); :func:`evaluate_pairs` applies section 5
+of the spec to every ordered blind pair; :func:`summarise` reduces the pairs
+to the run's metrics (section 6); :func:`evaluate` does all three.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .. import __version__
+from .geometry import Swarm
+from .metrics import alpha_deg, describe, distance_error_pct, phi_error_deg, theta_error_deg
+from .neighbours import NeighbourPairs, neighbour_pairs, ordered_blind_pairs
+from .paths import Graph, Paths, check_policy, make_graph, path_hops, shortest_paths
+from .sensor import DECAYING, SWEET, Sensor, measured_vectors
+from .sight import Grid, build_grid, obstructed, obstructers
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+# Statuses and reasons; the values equal the constants of swazure_interfaces/PoseEstimate.
+SWEET_PATH, DECAYING_PATH, NO_PATH = 0, 1, 2
+STATUS_NAMES = ("SWEET", "DECAYING", "NO_PATH")
+REASON_NONE, REASON_BLOCKED, REASON_NO_SWEET_PATH = 0, 1, 2
+REASON_NAMES = ("", "BLOCKED", "NO_SWEET_PATH")
+
+
+class Progress(Protocol):
+    """Receives progress of long stages: ``start`` a stage of ``total`` units, then ``advance``."""
+
+    def start(self, stage: str, total: int) -> None: ...
+
+    def advance(self, units: int) -> None: ...
+
+
+class _Silent:
+    def start(self, stage: str, total: int) -> None:
+        pass
+
+    def advance(self, units: int) -> None:
+        pass
+
+
+@dataclass(frozen=True)
+class Neighbourhood:
+    """What every pair evaluation of one swarm shares: pairs, line of sight, graphs."""
+
+    swarm: Swarm
+    sensor: Sensor
+    pairs: NeighbourPairs  # unordered pairs within reach, sorted
+    visible: NDArray[np.bool_]  # (len(pairs),), line of sight (False for blind pairs)
+    grid: Grid
+    sweet_all: Graph  # S_all: sweet pairs, line of sight ignored
+    sweet_visible: Graph  # S_vis
+    any_visible: Graph  # SD_vis: sweet or decaying with line of sight
+
+    def pair_index(self, first: IntArray, second: IntArray) -> IntArray:
+        """Index into ``pairs`` of each unordered pair {first[m], second[m]}; -1 if absent."""
+        low, high = np.minimum(first, second), np.maximum(first, second)
+        size = self.swarm.size
+        keys = self.pairs.first * size + self.pairs.second
+        wanted = low * size + high
+        position = np.searchsorted(keys, wanted)
+        position = np.minimum(position, len(keys) - 1)
+        return np.where(keys[position] == wanted, position, -1)
+
+
+def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None) -> Neighbourhood:
+    """Neighbour pairs, their line of sight, and the graphs S_all, S_vis and SD_vis."""
+    progress = progress or _Silent()
+    pairs = neighbour_pairs(swarm, sensor)
+    edge = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)
+    grid = build_grid(swarm.points, swarm.radius)
+    progress.start("line of sight", int(edge.sum()))
+    visible = np.zeros(len(pairs), dtype=bool)
+    visible[edge] = ~obstructed(
+        swarm.points, swarm.radius, pairs.first[edge], pairs.second[edge], grid
+    )
+    progress.advance(int(edge.sum()))
+
+    def graph(mask: NDArray[np.bool_]) -> Graph:
+        return make_graph(swarm.size, pairs.first[mask], pairs.second[mask], pairs.tracking[mask])
+
+    sweet = pairs.range_class == SWEET
+    return Neighbourhood(
+        swarm, sensor, pairs, visible, grid,
+        sweet_all=graph(sweet), sweet_visible=graph(sweet & visible),
+        any_visible=graph(edge & visible),
+    )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class PairResults:
+    """Per ordered blind pair (M of them): status, path and errors. Indices are swarm indices."""
+
+    source: IntArray  # (M,)
+    target: IntArray  # (M,)
+    status: NDArray[np.int8]  # SWEET_PATH, DECAYING_PATH, NO_PATH
+    reason: NDArray[np.int8]  # REASON_NONE, REASON_BLOCKED, REASON_NO_SWEET_PATH
+    hops: IntArray
+    sweet_hops: IntArray
+    decaying_hops: IntArray
+    path_length: FloatArray  # sum of hop tracking distances, cm; nan without a path
+    offsets: IntArray  # (M + 1,): path m is nodes[offsets[m]:offsets[m + 1]]
+    nodes: IntArray
+    estimate: FloatArray  # (M, 3), cm; nan without a path
+    truth: FloatArray  # (M, 3), cm
+    distance_error: FloatArray  # percent; nan without a path
+    alpha: FloatArray  # degrees
+    theta: FloatArray  # degrees
+    phi: FloatArray  # degrees
+    sweet_connected: NDArray[np.bool_]  # an S_all path exists
+    sweet_obstructed: NDArray[np.bool_]  # the policy's S_all path has an obstructed hop
+    obstructing_flss: IntArray  # distinct obstructing FLSs on that path
+
+    def __len__(self) -> int:
+        return len(self.source)
+
+    def path(self, pair: int) -> list[int]:
+        """Swarm indices of the path of pair ``pair``; [] when it has none."""
+        return [int(node) for node in self.nodes[self.offsets[pair] : self.offsets[pair + 1]]]
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """One run: a swarm, a sensor, a policy, every ordered blind pair and the summary."""
+
+    hood: Neighbourhood
+    policy: str
+    pairs: PairResults
+    summary: dict[str, Any]
+
+
+def _merge(first: Paths, second: Paths, use_second: NDArray[np.bool_]) -> Paths:
+    """Paths taking pair m from ``second`` where use_second[m], else from ``first``.
+
+    ``second`` holds only the pairs where ``use_second`` holds, in order.
+    """
+    size = len(first.found)
+    found = first.found.copy()
+    hops = first.hops.copy()
+    length = first.length.copy()
+    found[use_second] = second.found
+    hops[use_second] = second.hops
+    length[use_second] = second.length
+    counts = np.where(found, hops + 1, 0)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    nodes = np.empty(offsets[-1], dtype=np.int64)
+    owner = np.repeat(np.arange(size), counts)
+    from_second = use_second[owner]
+    nodes[~from_second] = first.nodes[np.repeat(first.found & ~use_second, np.diff(first.offsets))]
+    nodes[from_second] = second.nodes
+    return Paths(found, hops, length, offsets, nodes)
+
+
+def estimates(hood: Neighbourhood, paths: Paths) -> tuple[FloatArray, IntArray, IntArray]:
+    """Summed measured hop vectors of each path (M, 3) cm, and its sweet and decaying hop counts."""
+    swarm = hood.swarm
+    pair, start, end = path_hops(paths)
+    vectors = measured_vectors(hood.sensor, swarm.points, swarm.radius, start, end)
+    size = len(paths.found)
+    # bincount adds in array order: each pair's hops are summed from the source outwards.
+    estimate = np.column_stack(
+        [np.bincount(pair, weights=vectors[:, axis], minlength=size) for axis in range(3)]
+    )
+    estimate[~paths.found] = np.nan
+    hop_class = hood.pairs.range_class[hood.pair_index(start, end)]
+    sweet_hops = np.bincount(pair, weights=hop_class == SWEET, minlength=size).astype(np.int64)
+    decaying_hops = np.bincount(pair, weights=hop_class == DECAYING, minlength=size)
+    return estimate, sweet_hops, decaying_hops.astype(np.int64)
+
+
+def path_obstruction(hood: Neighbourhood, paths: Paths) -> tuple[NDArray[np.bool_], IntArray]:
+    """Whether each path has an obstructed hop, and its number of distinct obstructing FLSs."""
+    size = len(paths.found)
+    pair, start, end = path_hops(paths)
+    hop_pair = hood.pair_index(start, end)
+    blocked = ~hood.visible[hop_pair]
+    has_obstruction = np.bincount(pair[blocked], minlength=size) > 0
+    edges, edge_of_hop = np.unique(hop_pair[blocked], return_inverse=True)
+    swarm = hood.swarm
+    offsets, ids = obstructers(
+        swarm.points, swarm.radius, hood.pairs.first[edges], hood.pairs.second[edges], hood.grid
+    )
+    per_edge = np.diff(offsets)
+    # Expand (path, obstructer) for every obstructed hop, then count distinct per path.
+    hop_counts = per_edge[edge_of_hop]
+    owner = np.repeat(pair[blocked], hop_counts)
+    starts = np.repeat(offsets[edge_of_hop], hop_counts)
+    within = np.arange(len(owner)) - np.repeat(np.cumsum(hop_counts) - hop_counts, hop_counts)
+    who = ids[starts + within]
+    distinct = np.unique(owner * swarm.size + who) // swarm.size
+    return has_obstruction, np.bincount(distinct, minlength=size).astype(np.int64)
+
+
+def evaluate_pairs(
+    hood: Neighbourhood, policy: str, progress: Progress | None = None
+) -> PairResults:
+    """Status, path, estimate and errors of every ordered blind pair (spec, section 5)."""
+    check_policy(policy)
+    progress = progress or _Silent()
+    swarm = hood.swarm
+    source, target = ordered_blind_pairs(hood.pairs)
+    count = len(source)
+
+    progress.start("sweet paths", count)
+    sweet = shortest_paths(hood.sweet_visible, source, target, policy, progress=progress.advance)
+    sweet_labels = hood.sweet_all.components()
+    connected = sweet_labels[source] == sweet_labels[target]
+    fallback = ~sweet.found
+    progress.start("decaying paths", int(fallback.sum()))
+    decaying = shortest_paths(
+        hood.any_visible, source[fallback], target[fallback], policy, progress=progress.advance
+    )
+    paths = _merge(sweet, decaying, fallback)
+    status = np.full(count, NO_PATH, dtype=np.int8)
+    status[paths.found] = DECAYING_PATH
+    status[sweet.found] = SWEET_PATH
+    reason = np.full(count, REASON_NONE, dtype=np.int8)
+    reason[fallback & connected] = REASON_BLOCKED
+    reason[fallback & ~connected] = REASON_NO_SWEET_PATH
+
+    estimate, sweet_hops, decaying_hops = estimates(hood, paths)
+    truth = swarm.points[target] - swarm.points[source]
+    with np.errstate(invalid="ignore"):
+        errors = [
+            metric(estimate, truth)
+            for metric in (distance_error_pct, alpha_deg, theta_error_deg, phi_error_deg)
+        ]
+
+    progress.start("obstruction of sweet paths", int(connected.sum()))
+    sweet_any = shortest_paths(
+        hood.sweet_all, source[connected], target[connected], policy,
+        components=sweet_labels, progress=progress.advance,
+    )  # fmt: skip
+    has_obstruction, obstructing = path_obstruction(hood, sweet_any)
+    sweet_obstructed = np.zeros(count, dtype=bool)
+    sweet_obstructed[connected] = has_obstruction
+    obstructing_flss = np.zeros(count, dtype=np.int64)
+    obstructing_flss[connected] = obstructing
+
+    return PairResults(
+        source, target, status, reason, paths.hops, sweet_hops, decaying_hops, paths.length,
+        paths.offsets, paths.nodes, estimate, truth, *errors,
+        sweet_connected=connected, sweet_obstructed=sweet_obstructed,
+        obstructing_flss=obstructing_flss,
+    )  # fmt: skip
+
+
+def _pct(part: int, whole: int) -> float:
+    return 100.0 * part / whole if whole else 0.0
+
+
+def summarise(hood: Neighbourhood, policy: str, pairs: PairResults) -> dict[str, Any]:
+    """The run's metrics (spec, section 6) as a JSON-ready dict."""
+    swarm, sensor = hood.swarm, hood.sensor
+    total = len(pairs)
+    has_path = pairs.status != NO_PATH
+    sweet, decaying = pairs.status == SWEET_PATH, pairs.status == DECAYING_PATH
+    obstructed_paths = pairs.sweet_obstructed & pairs.sweet_connected
+
+    def stat(values: FloatArray) -> dict[str, Any]:
+        return describe(values[has_path])
+
+    return {
+        "flss": swarm.size,
+        "cloud_points": swarm.size + swarm.removed,
+        "removed": swarm.removed,
+        "radius": swarm.radius,
+        "dmin": swarm.dmin,
+        "beta": swarm.beta,
+        "kissing_pairs": hood.pairs.kissing(),
+        "sweet_neighbour_pairs": hood.pairs.count(SWEET),
+        "decaying_neighbour_pairs": hood.pairs.count(DECAYING),
+        "blind_pairs": total,
+        "sweet_pairs": int(sweet.sum()),
+        "decaying_pairs": int(decaying.sum()),
+        "no_path_pairs": int((~has_path).sum()),
+        "sweet_pct": _pct(int(sweet.sum()), total),
+        "decaying_pct": _pct(int(decaying.sum()), total),
+        "no_path_pct": _pct(int((~has_path).sum()), total),
+        "blocked_pairs": int((pairs.reason == REASON_BLOCKED).sum()),
+        "no_sweet_path_pairs": int((pairs.reason == REASON_NO_SWEET_PATH).sum()),
+        "distance_error_pct": stat(pairs.distance_error),
+        "alpha_deg": stat(pairs.alpha),
+        "theta_deg": stat(pairs.theta),
+        "phi_deg": stat(pairs.phi),
+        "hops": describe(pairs.hops[has_path]),
+        "hops_sweet_paths": describe(pairs.hops[sweet]),
+        "hops_decaying_paths": describe(pairs.hops[decaying]),
+        "sweet_connected_pairs": int(pairs.sweet_connected.sum()),
+        "obstructed_path_pct": _pct(int(obstructed_paths.sum()), int(pairs.sweet_connected.sum())),
+        "obstructing_flss_per_path": describe(pairs.obstructing_flss[obstructed_paths]),
+        "parameters": {
+            "policy": policy,
+            "beta": swarm.beta,
+            "radius": swarm.radius,
+            "sensor": sensor.to_dict(),
+            "accurate": sensor.accurate,
+        },
+        "version": __version__,
+    }
+
+
+def evaluate(
+    swarm: Swarm, sensor: Sensor, policy: str, progress: Progress | None = None
+) -> Evaluation:
+    """Evaluate every ordered blind pair of ``swarm`` under ``policy``; summary included."""
+    check_policy(policy)
+    began = time.perf_counter()
+    hood = neighbourhood(swarm, sensor, progress)
+    pairs = evaluate_pairs(hood, policy, progress)
+    summary = summarise(hood, policy, pairs)
+    summary["seconds"] = time.perf_counter() - began
+    return Evaluation(hood, policy, pairs, summary)

@@ -1,0 +1,82 @@
+"""Neighbour pairs of a swarm and their range classes (blind, sweet, decaying)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from .geometry import KISSING_TOLERANCE, Swarm, centre_distance
+from .sensor import BLIND, DECAYING, SWEET, Sensor
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class NeighbourPairs:
+    """Unordered pairs (first < second) within sensor reach, with their range class."""
+
+    first: IntArray  # (M,)
+    second: IntArray  # (M,)
+    distance: FloatArray  # (M,), centre distance, cm
+    tracking: FloatArray  # (M,), tracking distance, cm
+    range_class: NDArray[np.int8]  # (M,), sensor.CONTACT ... OUT_OF_RANGE
+
+    def __len__(self) -> int:
+        return len(self.first)
+
+    def select(self, mask: NDArray[np.bool_]) -> NeighbourPairs:
+        """The pairs where ``mask`` holds."""
+        return NeighbourPairs(
+            self.first[mask],
+            self.second[mask],
+            self.distance[mask],
+            self.tracking[mask],
+            self.range_class[mask],
+        )
+
+    def count(self, range_class: int) -> int:
+        """Number of unordered pairs of one range class."""
+        return int(np.count_nonzero(self.range_class == range_class))
+
+    def kissing(self) -> int:
+        """Number of unordered pairs whose tracking distance is within 1e-3 cm of 0."""
+        return int(np.count_nonzero(np.abs(self.tracking) <= KISSING_TOLERANCE))
+
+
+def neighbour_pairs(swarm: Swarm, sensor: Sensor) -> NeighbourPairs:
+    """Every unordered pair with tracking distance below ``sensor.decaying_max``, classified.
+
+    Pairs are sorted by (first, second).
+    """
+    reach = sensor.decaying_max + 2.0 * swarm.radius
+    reach = max(reach, 2.0 * swarm.radius + 2 * KISSING_TOLERANCE)
+    candidates = cKDTree(swarm.points).query_pairs(reach, output_type="ndarray")
+    candidates = np.asarray(candidates, dtype=np.int64).reshape(-1, 2)
+    first, second = candidates[:, 0], candidates[:, 1]
+    distance = centre_distance(swarm.points, first, second)
+    tracking = distance - 2.0 * swarm.radius
+    keep = tracking < sensor.decaying_max
+    order = np.lexsort((second[keep], first[keep]))
+    first, second = first[keep][order], second[keep][order]
+    distance, tracking = distance[keep][order], tracking[keep][order]
+    return NeighbourPairs(first, second, distance, tracking, sensor.classify(tracking))
+
+
+def is_edge_class(range_class: NDArray[np.int8], decaying: bool) -> NDArray[np.bool_]:
+    """Pairs that are sweet (and decaying, when ``decaying``): edges of the neighbour graphs."""
+    if decaying:
+        return np.asarray((range_class == SWEET) | (range_class == DECAYING))
+    return np.asarray(range_class == SWEET)
+
+
+def ordered_blind_pairs(pairs: NeighbourPairs) -> tuple[IntArray, IntArray]:
+    """Every ordered blind pair (source, target), sorted by source then target."""
+    blind = pairs.range_class == BLIND
+    source = np.concatenate([pairs.first[blind], pairs.second[blind]])
+    target = np.concatenate([pairs.second[blind], pairs.first[blind]])
+    order = np.lexsort((target, source))
+    return source[order], target[order]

@@ -1,0 +1,395 @@
+"""Neighbour graphs and path policies (spec, sections 4 and 5).
+
+A :class:`Graph` is an undirected graph over FLS indices in CSR form whose
+edge length is the tracking distance. :func:`shortest_paths` finds, for many
+(source, target) pairs at once, the path the policy picks:
+
+- ``fewest-hops``: fewest edges; among those, the smallest length;
+- ``shortest-length``: smallest sum of tracking distances; among those, the
+  fewest edges.
+
+Remaining ties are broken by predecessor: the predecessor of a node on the
+path is the neighbour with the smallest FLS index among those through which
+the node is reached at its optimal (primary, secondary) cost. The rule
+depends only on the cost labels, not on the order of exploration, so any
+correct search (a distributed one included) picks the same path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+FEWEST_HOPS = "fewest-hops"
+SHORTEST_LENGTH = "shortest-length"
+POLICIES = (FEWEST_HOPS, SHORTEST_LENGTH)
+
+#: Path nodes kept per pair in the parallel pass; longer paths take a second pass.
+_WIDTH = 8
+
+
+@dataclass(frozen=True)
+class Graph:
+    """An undirected graph in CSR form: neighbours of node v are indices[indptr[v]:indptr[v+1]]."""
+
+    indptr: IntArray  # (N + 1,)
+    indices: IntArray  # (2E,), sorted within each row
+    weights: FloatArray  # (2E,), tracking distance of each edge, cm
+
+    @property
+    def size(self) -> int:
+        """Number of nodes."""
+        return len(self.indptr) - 1
+
+    @property
+    def edges(self) -> int:
+        """Number of undirected edges."""
+        return len(self.indices) // 2
+
+    def components(self) -> IntArray:
+        """Connected-component label of every node: (N,)."""
+        matrix = csr_matrix(
+            (np.ones(len(self.indices)), self.indices, self.indptr), shape=(self.size,) * 2
+        )
+        _, labels = connected_components(matrix, directed=False)
+        return np.asarray(labels, dtype=np.int64)
+
+
+@dataclass(frozen=True)
+class Paths:
+    """Paths for M (source, target) pairs; path m is nodes[offsets[m]:offsets[m + 1]]."""
+
+    found: NDArray[np.bool_]  # (M,)
+    hops: IntArray  # (M,), 0 where not found
+    length: FloatArray  # (M,), sum of edge lengths, cm; nan where not found
+    offsets: IntArray  # (M + 1,)
+    nodes: IntArray  # from source to target, both included
+
+    def path(self, pair: int) -> list[int]:
+        """Nodes of path ``pair`` from source to target; [] where none was found."""
+        return [int(node) for node in self.nodes[self.offsets[pair] : self.offsets[pair + 1]]]
+
+
+def make_graph(
+    size: int, first: ArrayLike, second: ArrayLike, weights: ArrayLike
+) -> Graph:
+    """Undirected graph on ``size`` nodes from edge lists (E,) with lengths (E,), cm."""
+    first = np.asarray(first, dtype=np.int64)
+    second = np.asarray(second, dtype=np.int64)
+    weights = np.asarray(weights, dtype=np.float64)
+    if not first.shape == second.shape == weights.shape:
+        raise ValueError("`first`, `second` and `weights` must have one length")
+    if np.any(first == second):
+        raise ValueError("a graph edge cannot join a node to itself")
+    tail = np.concatenate([first, second])
+    head = np.concatenate([second, first])
+    both = np.concatenate([weights, weights])
+    order = np.lexsort((head, tail))
+    indptr = np.concatenate([[0], np.cumsum(np.bincount(tail, minlength=size))])
+    return Graph(indptr.astype(np.int64), head[order], both[order])
+
+
+@numba.njit(cache=True, nogil=True)
+def _heap_push(
+    key1: FloatArray, key2: FloatArray, item: IntArray, size: int,
+    k1: float, k2: float, node: int,
+) -> int:  # fmt: skip
+    position = size
+    while position > 0:
+        parent = (position - 1) >> 1
+        if key1[parent] < k1 or (key1[parent] == k1 and key2[parent] <= k2):
+            break
+        key1[position], key2[position], item[position] = key1[parent], key2[parent], item[parent]
+        position = parent
+    key1[position], key2[position], item[position] = k1, k2, node
+    return size + 1
+
+
+@numba.njit(cache=True, nogil=True)
+def _heap_pop(key1: FloatArray, key2: FloatArray, item: IntArray, size: int) -> int:
+    size -= 1
+    k1, k2, node = key1[size], key2[size], item[size]
+    position = 0
+    while True:
+        child = 2 * position + 1
+        if child >= size:
+            break
+        if child + 1 < size and (
+            key1[child + 1] < key1[child]
+            or (key1[child + 1] == key1[child] and key2[child + 1] < key2[child])
+        ):
+            child += 1
+        if key1[child] > k1 or (key1[child] == k1 and key2[child] >= k2):
+            break
+        key1[position], key2[position], item[position] = key1[child], key2[child], item[child]
+        position = child
+    key1[position], key2[position], item[position] = k1, k2, node
+    return size
+
+
+@numba.njit(cache=True, nogil=True)
+def _search_one(
+    indptr: IntArray,
+    indices: IntArray,
+    weights: FloatArray,
+    source: int,
+    targets: IntArray,
+    component: IntArray,
+    fewest_hops: bool,
+    primary: FloatArray,
+    secondary: FloatArray,
+    pred: IntArray,
+    settled: NDArray[np.bool_],
+    wanted: NDArray[np.bool_],
+    touched: IntArray,
+) -> int:
+    """Dijkstra from ``source`` until every reachable target is settled; return nodes touched.
+
+    Leaves cost labels in ``primary``/``secondary`` and predecessors in ``pred``
+    for the touched nodes; the caller resets them.
+    """
+    remaining = 0
+    for target in targets:
+        if component[target] == component[source] and not wanted[target]:
+            wanted[target] = True
+            remaining += 1
+    capacity = 64
+    heap1 = np.empty(capacity)
+    heap2 = np.empty(capacity)
+    heap_item = np.empty(capacity, dtype=np.int64)
+    primary[source] = 0.0
+    secondary[source] = 0.0
+    pred[source] = source
+    touched[0] = source
+    count = 1
+    size = _heap_push(heap1, heap2, heap_item, 0, 0.0, 0.0, source)
+    while size > 0 and remaining > 0:
+        k1, k2, node = heap1[0], heap2[0], heap_item[0]
+        size = _heap_pop(heap1, heap2, heap_item, size)
+        if settled[node] or k1 != primary[node] or k2 != secondary[node]:
+            continue
+        settled[node] = True
+        if wanted[node]:
+            remaining -= 1
+        for slot in range(indptr[node], indptr[node + 1]):
+            neighbour = indices[slot]
+            if settled[neighbour]:
+                continue
+            if fewest_hops:
+                n1, n2 = k1 + 1.0, k2 + weights[slot]
+            else:
+                n1, n2 = k1 + weights[slot], k2 + 1.0
+            p1, p2 = primary[neighbour], secondary[neighbour]
+            if p1 == np.inf:
+                touched[count] = neighbour
+                count += 1
+            if n1 < p1 or (n1 == p1 and n2 < p2):
+                primary[neighbour] = n1
+                secondary[neighbour] = n2
+                pred[neighbour] = node
+                if size == capacity:
+                    capacity *= 2
+                    grown1 = np.empty(capacity)
+                    grown2 = np.empty(capacity)
+                    grown_item = np.empty(capacity, dtype=np.int64)
+                    grown1[:size], grown2[:size], grown_item[:size] = (
+                        heap1[:size], heap2[:size], heap_item[:size],
+                    )  # fmt: skip
+                    heap1, heap2, heap_item = grown1, grown2, grown_item
+                size = _heap_push(heap1, heap2, heap_item, size, n1, n2, neighbour)
+            elif n1 == p1 and n2 == p2 and node < pred[neighbour]:
+                pred[neighbour] = node
+    return count
+
+
+@numba.njit(cache=True, parallel=True)
+def _search_kernel(
+    indptr: IntArray,
+    indices: IntArray,
+    weights: FloatArray,
+    sources: IntArray,
+    target_ptr: IntArray,
+    targets: IntArray,
+    component: IntArray,
+    fewest_hops: bool,
+    width: int,
+    chunks: int,
+) -> tuple[NDArray[np.bool_], IntArray, FloatArray, IntArray]:
+    size = len(indptr) - 1
+    pairs = len(targets)
+    found = np.zeros(pairs, dtype=np.bool_)
+    hops = np.zeros(pairs, dtype=np.int64)
+    length = np.full(pairs, np.nan)
+    buffer = np.full((pairs, width), -1, dtype=np.int64)
+    for chunk in numba.prange(chunks):
+        primary = np.full(size, np.inf)
+        secondary = np.full(size, np.inf)
+        pred = np.full(size, -1, dtype=np.int64)
+        settled = np.zeros(size, dtype=np.bool_)
+        wanted = np.zeros(size, dtype=np.bool_)
+        touched = np.empty(size, dtype=np.int64)
+        for position in range(chunk, len(sources), chunks):
+            source = sources[position]
+            mine = targets[target_ptr[position] : target_ptr[position + 1]]
+            count = _search_one(
+                indptr, indices, weights, source, mine, component, fewest_hops,
+                primary, secondary, pred, settled, wanted, touched,
+            )  # fmt: skip
+            for offset in range(len(mine)):
+                pair = target_ptr[position] + offset
+                target = mine[offset]
+                if target == source or not settled[target]:
+                    continue
+                found[pair] = True
+                steps = int(primary[target] if fewest_hops else secondary[target])
+                hops[pair] = steps
+                length[pair] = secondary[target] if fewest_hops else primary[target]
+                if steps + 1 <= width:
+                    node = target
+                    for back in range(steps, -1, -1):
+                        buffer[pair, back] = node
+                        node = pred[node]
+            for slot in range(count):
+                node = touched[slot]
+                primary[node] = np.inf
+                secondary[node] = np.inf
+                pred[node] = -1
+                settled[node] = False
+            wanted[mine] = False
+    return found, hops, length, buffer
+
+
+@numba.njit(cache=True)
+def _long_paths(
+    indptr: IntArray,
+    indices: IntArray,
+    weights: FloatArray,
+    sources: IntArray,
+    target_ptr: IntArray,
+    targets: IntArray,
+    component: IntArray,
+    fewest_hops: bool,
+    hops: IntArray,
+    width: int,
+    offsets: IntArray,
+    nodes: IntArray,
+) -> None:
+    """Write the paths longer than ``width`` nodes into ``nodes`` at ``offsets``."""
+    size = len(indptr) - 1
+    primary = np.full(size, np.inf)
+    secondary = np.full(size, np.inf)
+    pred = np.full(size, -1, dtype=np.int64)
+    settled = np.zeros(size, dtype=np.bool_)
+    wanted = np.zeros(size, dtype=np.bool_)
+    touched = np.empty(size, dtype=np.int64)
+    for position in range(len(sources)):
+        start, stop = target_ptr[position], target_ptr[position + 1]
+        if np.all(hops[start:stop] + 1 <= width):
+            continue
+        count = _search_one(
+            indptr, indices, weights, sources[position], targets[start:stop], component,
+            fewest_hops, primary, secondary, pred, settled, wanted, touched,
+        )  # fmt: skip
+        for pair in range(start, stop):
+            if hops[pair] + 1 > width:
+                node = targets[pair]
+                for back in range(hops[pair], -1, -1):
+                    nodes[offsets[pair] + back] = node
+                    node = pred[node]
+        for slot in range(count):
+            node = touched[slot]
+            primary[node], secondary[node], pred[node] = np.inf, np.inf, -1
+            settled[node] = False
+        wanted[targets[start:stop]] = False
+
+
+def check_policy(policy: str) -> str:
+    """Return ``policy`` if it names a path policy, else raise ValueError listing them."""
+    if policy not in POLICIES:
+        raise ValueError(f"unknown path policy {policy!r}; expected one of {', '.join(POLICIES)}")
+    return policy
+
+
+def shortest_paths(
+    graph: Graph,
+    sources: ArrayLike,
+    targets: ArrayLike,
+    policy: str,
+    components: IntArray | None = None,
+    progress: Callable[[int], None] | None = None,
+    batch: int = 512,
+) -> Paths:
+    """The policy's path for each pair (sources[m], targets[m]); pairs sorted by source.
+
+    Parameters
+    ----------
+    graph : Graph
+    sources, targets : (M,) array_like of int
+        Pairs, grouped by source (all pairs of one source adjacent).
+    policy : {'fewest-hops', 'shortest-length'}
+    components : (N,) array of int, optional
+        ``graph.components()``, when the caller has it already.
+    progress : callable, optional
+        Called with the number of pairs done after each batch of sources.
+    """
+    fewest_hops = check_policy(policy) == FEWEST_HOPS
+    sources = np.asarray(sources, dtype=np.int64)
+    targets = np.asarray(targets, dtype=np.int64)
+    if sources.shape != targets.shape:
+        raise ValueError("`sources` and `targets` must have one length")
+    if len(sources) and (sources.min() < 0 or max(sources.max(), targets.max()) >= graph.size):
+        raise ValueError("`sources` and `targets` must be nodes of the graph")
+    if len(sources) > 1 and np.any(sources[1:] < sources[:-1]):
+        raise ValueError("pairs must be sorted by source")
+    if components is None:
+        components = graph.components()
+    unique, starts = np.unique(sources, return_index=True)
+    target_ptr = np.append(starts, len(sources)).astype(np.int64)
+    pairs = len(sources)
+    found = np.zeros(pairs, dtype=bool)
+    hops = np.zeros(pairs, dtype=np.int64)
+    length = np.full(pairs, np.nan)
+    buffer = np.full((pairs, _WIDTH), -1, dtype=np.int64)
+    for begin in range(0, len(unique), batch):
+        end = min(begin + batch, len(unique))
+        lo, hi = target_ptr[begin], target_ptr[end]
+        part = _search_kernel(
+            graph.indptr, graph.indices, graph.weights, unique[begin:end],
+            target_ptr[begin : end + 1] - lo, targets[lo:hi], components, fewest_hops, _WIDTH,
+            min(end - begin, 4 * numba.get_num_threads()),
+        )  # fmt: skip
+        found[lo:hi], hops[lo:hi], length[lo:hi], buffer[lo:hi] = part
+        if progress is not None:
+            progress(int(hi - lo))
+    counts = np.where(found, hops + 1, 0)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    nodes = np.empty(offsets[-1], dtype=np.int64)
+    short = counts <= _WIDTH
+    columns = np.arange(_WIDTH)
+    keep = (columns[None, :] < counts[:, None]) & short[:, None]
+    nodes[np.repeat(short, counts)] = buffer[keep]
+    if not short.all():
+        _long_paths(
+            graph.indptr, graph.indices, graph.weights, unique, target_ptr, targets,
+            components, fewest_hops, hops, _WIDTH, offsets, nodes,
+        )  # fmt: skip
+    return Paths(found, hops, length, offsets, nodes)
+
+
+def path_hops(paths: Paths) -> tuple[IntArray, IntArray, IntArray]:
+    """Every hop of every path: (pair, from, to), each (H,), in path order."""
+    counts = np.diff(paths.offsets)
+    pair_of_node = np.repeat(np.arange(len(counts)), counts)
+    not_last = np.ones(len(paths.nodes), dtype=bool)
+    not_last[paths.offsets[1:][counts > 0] - 1] = False
+    position = np.flatnonzero(not_last)
+    return pair_of_node[position], paths.nodes[position], paths.nodes[position + 1]

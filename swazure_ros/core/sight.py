@@ -1,0 +1,248 @@
+"""Line of sight: which FLSs obstruct the segment between two others.
+
+``obstructed(i, j)`` holds when some FLS ``k`` (not ``i``, not ``j``) has its
+centre within distance ``r`` (inclusive) of the segment ``[p_i, p_j]``
+(spec, section 4). Points are bucketed in a uniform grid; each segment is
+walked in steps of one cell, scanning the cells of a box around each step
+that holds every point within ``r`` of that stretch, each cell once, and
+stopping at the first obstructer when only a yes or no is wanted.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial import cKDTree
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: Largest number of cells of the dense grid; coarser cells beyond it.
+MAX_CELLS = 1 << 22
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Points bucketed into a dense uniform grid of cubic cells (a CSR over cells)."""
+
+    origin: FloatArray  # (3,), cm
+    cell: float  # edge of a cell, cm
+    shape: IntArray  # (3,), cells per axis
+    cell_start: IntArray  # (cells + 1,), start of each cell in ``members``
+    members: IntArray  # (N,), point indices sorted by cell
+
+
+def build_grid(points: FloatArray, radius: float) -> Grid:
+    """Bucket ``points`` (N, 3) into cells of about the point spacing, cm, and at least r."""
+    lower = points.min(axis=0)
+    extent = np.ptp(points, axis=0)
+    spacing, _ = cKDTree(points).query(points, k=2)
+    # Cells near the point spacing keep few points per cell and few cells per
+    # segment, whatever r is.
+    cell = max(float(np.median(spacing[:, 1])), radius, float(extent.max()) * 1e-9, 1e-12)
+    while np.prod(np.floor(extent / cell) + 1) > MAX_CELLS:
+        cell *= 1.5
+    shape = (np.floor(extent / cell) + 1).astype(np.int64)
+    coords = np.clip(np.floor((points - lower) / cell).astype(np.int64), 0, shape - 1)
+    keys = (coords[:, 0] * shape[1] + coords[:, 1]) * shape[2] + coords[:, 2]
+    members = np.argsort(keys, kind="stable").astype(np.int64)
+    counts = np.bincount(keys, minlength=int(np.prod(shape)))
+    cell_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    return Grid(lower, cell, shape, cell_start, members)
+
+
+@numba.njit(cache=True, nogil=True)
+def _scan_segment(
+    points: FloatArray,
+    radius: float,
+    a: int,
+    b: int,
+    origin: FloatArray,
+    cell: float,
+    shape: IntArray,
+    cell_start: IntArray,
+    members: IntArray,
+    found: IntArray,
+    stop_at_first: bool,
+) -> int:
+    """Write the obstructers of segment a-b into ``found``; return how many (at most 1 if stop)."""
+    ax, ay, az = points[a, 0], points[a, 1], points[a, 2]
+    dx, dy, dz = points[b, 0] - ax, points[b, 1] - ay, points[b, 2] - az
+    length = np.sqrt(dx * dx + dy * dy + dz * dz)
+    if length == 0.0:
+        return 0
+    ux, uy, uz = dx / length, dy / length, dz / length
+    # Samples every `cell` along the segment; a point within r of the segment
+    # is within step/2 + r of some sample in every coordinate, so it lies in
+    # that sample's box. Boxes move monotonically, so skipping the cells of
+    # the previous box scans every cell exactly once.
+    half = 0.5 * cell + radius
+    samples = int(np.ceil(length / cell)) + 1
+    radius2 = radius * radius
+    count = 0
+    plo0, plo1, plo2, phi0, phi1, phi2 = 1, 1, 1, 0, 0, 0  # empty previous box
+    for sample in range(samples):
+        along = min(sample * cell, length)
+        x = ax + along * ux - origin[0]
+        y = ay + along * uy - origin[1]
+        z = az + along * uz - origin[2]
+        lo0 = max(int(np.floor((x - half) / cell)), 0)
+        lo1 = max(int(np.floor((y - half) / cell)), 0)
+        lo2 = max(int(np.floor((z - half) / cell)), 0)
+        hi0 = min(int(np.floor((x + half) / cell)), shape[0] - 1)
+        hi1 = min(int(np.floor((y + half) / cell)), shape[1] - 1)
+        hi2 = min(int(np.floor((z + half) / cell)), shape[2] - 1)
+        for ix in range(lo0, hi0 + 1):
+            inside0 = plo0 <= ix <= phi0
+            for iy in range(lo1, hi1 + 1):
+                inside1 = inside0 and plo1 <= iy <= phi1
+                for iz in range(lo2, hi2 + 1):
+                    if inside1 and plo2 <= iz <= phi2:
+                        continue
+                    key = (ix * shape[1] + iy) * shape[2] + iz
+                    for slot in range(cell_start[key], cell_start[key + 1]):
+                        k = members[slot]
+                        if k == a or k == b:
+                            continue
+                        wx, wy, wz = points[k, 0] - ax, points[k, 1] - ay, points[k, 2] - az
+                        projection = wx * ux + wy * uy + wz * uz
+                        projection = min(max(projection, 0.0), length)
+                        ox = wx - projection * ux
+                        oy = wy - projection * uy
+                        oz = wz - projection * uz
+                        if ox * ox + oy * oy + oz * oz <= radius2:
+                            found[count] = k
+                            count += 1
+                            if stop_at_first:
+                                return count
+        plo0, plo1, plo2, phi0, phi1, phi2 = lo0, lo1, lo2, hi0, hi1, hi2
+    return count
+
+
+@numba.njit(cache=True, parallel=True)
+def _obstructed_kernel(
+    points: FloatArray,
+    radius: float,
+    first: IntArray,
+    second: IntArray,
+    origin: FloatArray,
+    cell: float,
+    shape: IntArray,
+    cell_start: IntArray,
+    members: IntArray,
+) -> NDArray[np.bool_]:
+    out = np.zeros(len(first), dtype=np.bool_)
+    chunks = 64
+    size = (len(first) + chunks - 1) // chunks
+    for chunk in numba.prange(chunks):
+        found = np.empty(1, dtype=np.int64)
+        for pair in range(chunk * size, min((chunk + 1) * size, len(first))):
+            hits = _scan_segment(
+                points, radius, first[pair], second[pair], origin, cell, shape,
+                cell_start, members, found, True,
+            )  # fmt: skip
+            out[pair] = hits > 0
+    return out
+
+
+@numba.njit(cache=True)
+def _obstructers_kernel(
+    points: FloatArray,
+    radius: float,
+    first: IntArray,
+    second: IntArray,
+    origin: FloatArray,
+    cell: float,
+    shape: IntArray,
+    cell_start: IntArray,
+    members: IntArray,
+) -> tuple[IntArray, IntArray]:
+    found = np.empty(len(points), dtype=np.int64)
+    offsets = np.zeros(len(first) + 1, dtype=np.int64)
+    capacity = max(16, 4 * len(first))
+    ids = np.empty(capacity, dtype=np.int64)
+    for pair in range(len(first)):
+        hits = _scan_segment(
+            points, radius, first[pair], second[pair], origin, cell, shape,
+            cell_start, members, found, False,
+        )  # fmt: skip
+        start = offsets[pair]
+        while start + hits > len(ids):
+            grown = np.empty(2 * len(ids), dtype=np.int64)
+            grown[: len(ids)] = ids
+            ids = grown
+        ids[start : start + hits] = np.sort(found[:hits])
+        offsets[pair + 1] = start + hits
+    return offsets, ids[: offsets[-1]].copy()
+
+
+def _coerce_pairs(points: ArrayLike, first: ArrayLike, second: ArrayLike) -> tuple[
+    FloatArray, IntArray, IntArray
+]:
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    if points.ndim != 2 or points.shape[1] != 3:
+        raise ValueError(f"Expected `points` to have shape (N, 3), got {points.shape}")
+    first = np.ascontiguousarray(first, dtype=np.int64).ravel()
+    second = np.ascontiguousarray(second, dtype=np.int64).ravel()
+    if first.shape != second.shape:
+        raise ValueError(
+            f"Expected `first` and `second` of one length, got {len(first)} and {len(second)}"
+        )
+    if len(first) and (min(first.min(), second.min()) < 0 or
+                       max(first.max(), second.max()) >= len(points)):  # fmt: skip
+        raise ValueError("`first` and `second` must index into `points`")
+    return points, first, second
+
+
+def obstructed(
+    points: ArrayLike,
+    radius: float,
+    first: ArrayLike,
+    second: ArrayLike,
+    grid: Grid | None = None,
+) -> NDArray[np.bool_]:
+    """Whether each segment first[m]-second[m] is obstructed: (M,) bool.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like, cm
+    radius : float, cm
+        FLS radius r; an FLS obstructs when its centre is within r of a segment.
+    first, second : (M,) array_like of int
+        Indices of the segment ends.
+    grid : Grid, optional
+        A grid from :func:`build_grid` for the same points and radius.
+    """
+    points, first, second = _coerce_pairs(points, first, second)
+    grid = grid or build_grid(points, radius)
+    if len(first) == 0:
+        return np.zeros(0, dtype=bool)
+    return np.asarray(
+        _obstructed_kernel(
+            points, float(radius), first, second, grid.origin, grid.cell, grid.shape,
+            grid.cell_start, grid.members,
+        )  # fmt: skip
+    )
+
+
+def obstructers(
+    points: ArrayLike,
+    radius: float,
+    first: ArrayLike,
+    second: ArrayLike,
+    grid: Grid | None = None,
+) -> tuple[IntArray, IntArray]:
+    """Every obstructing FLS of each segment, as CSR ``(offsets (M+1,), ids)``, ids sorted.
+
+    The obstructers of segment ``m`` are ``ids[offsets[m]:offsets[m + 1]]``.
+    """
+    points, first, second = _coerce_pairs(points, first, second)
+    grid = grid or build_grid(points, radius)
+    offsets, ids = _obstructers_kernel(
+        points, float(radius), first, second, grid.origin, grid.cell, grid.shape,
+        grid.cell_start, grid.members,
+    )  # fmt: skip
+    return np.asarray(offsets), np.asarray(ids)
