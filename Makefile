@@ -59,10 +59,8 @@ bench: setup
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache .hypothesis
 
-# Regenerate requirements.lock from requirements.in in a scratch venv.
-lock:
-	rm -rf build/lock-venv && $(PYTHON) -m venv build/lock-venv
-	build/lock-venv/bin/pip install --quiet -r requirements.in
-	(echo "# Generated from requirements.in by 'make lock'; do not edit by hand."; \
-	 build/lock-venv/bin/pip freeze | grep -vi swazure; \
-	 echo "setuptools==65.5.0") > requirements.lock
+# Regenerate requirements.lock from requirements.in (see scripts/lock.py).
+lock: | $(PY)
+	$(PY) -m pip install --disable-pip-version-check --quiet --dry-run --ignore-installed \
+		--report build/pip-report.json -r requirements.in
+	$(PY) scripts/lock.py build/pip-report.json > requirements.lock

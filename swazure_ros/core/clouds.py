@@ -66,6 +66,14 @@ def validate_points(points: object, where: str = "points") -> FloatArray:
     return array
 
 
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _read_text(path: Path, delimiter: str | None) -> FloatArray:
     lines = [
         (number, line.strip())
@@ -76,11 +84,11 @@ def _read_text(path: Path, delimiter: str | None) -> FloatArray:
         raise CloudError(f"{path}: no points in file")
     header: list[str] | None = None
     first = lines[0][1].split(delimiter)
-    try:
-        [float(field) for field in first]
-    except ValueError:
+    if not any(_is_number(field) for field in first):
         header = [field.strip().lower() for field in first]
         lines = lines[1:]
+        if not lines:
+            raise CloudError(f"{path}: no points in file")
     columns = [0, 1, 2]
     if header is not None:
         if all(name in header for name in "xyz"):
@@ -89,16 +97,12 @@ def _read_text(path: Path, delimiter: str | None) -> FloatArray:
             raise CloudError(f"{path}: header has no x, y, z columns: {','.join(header)}")
     width = len(header) if header is not None else len(lines[0][1].split(delimiter))
     if header is None and width != 3:
-        raise CloudError(
-            f"{path}: line {lines[0][0]} has {width} columns, expected 3 (x y z)"
-        )
+        raise CloudError(f"{path}: line {lines[0][0]} has {width} columns, expected 3 (x y z)")
     rows = np.empty((len(lines), 3))
     for row, (number, line) in enumerate(lines):
         fields = line.split(delimiter)
         if len(fields) != width:
-            raise CloudError(
-                f"{path}: line {number} has {len(fields)} columns, expected {width}"
-            )
+            raise CloudError(f"{path}: line {number} has {len(fields)} columns, expected {width}")
         try:
             rows[row] = [float(fields[column]) for column in columns]
         except ValueError as err:

@@ -91,10 +91,15 @@ def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None
 
     sweet = pairs.range_class == SWEET
     return Neighbourhood(
-        swarm, sensor, pairs, visible, grid,
-        sweet_all=graph(sweet), sweet_visible=graph(sweet & visible),
+        swarm,
+        sensor,
+        pairs,
+        visible,
+        grid,
+        sweet_all=graph(sweet),
+        sweet_visible=graph(sweet & visible),
         any_visible=graph(edge & visible),
-    )  # fmt: skip
+    )
 
 
 @dataclass(frozen=True)
@@ -162,7 +167,7 @@ def _merge(first: Paths, second: Paths, use_second: NDArray[np.bool_]) -> Paths:
 
 
 def estimates(hood: Neighbourhood, paths: Paths) -> tuple[FloatArray, IntArray, IntArray]:
-    """Summed measured hop vectors of each path (M, 3) cm, and its sweet and decaying hop counts."""
+    """Summed measured hop vectors of each path (M, 3), cm, and its sweet and decaying hops."""
     swarm = hood.swarm
     pair, start, end = path_hops(paths)
     vectors = measured_vectors(hood.sensor, swarm.points, swarm.radius, start, end)
@@ -170,7 +175,7 @@ def estimates(hood: Neighbourhood, paths: Paths) -> tuple[FloatArray, IntArray, 
     # bincount adds in array order: each pair's hops are summed from the source outwards.
     estimate = np.column_stack(
         [np.bincount(pair, weights=vectors[:, axis], minlength=size) for axis in range(3)]
-    )
+    ).astype(np.float64)  # bincount of nothing is an integer array
     estimate[~paths.found] = np.nan
     hop_class = hood.pairs.range_class[hood.pair_index(start, end)]
     sweet_hops = np.bincount(pair, weights=hop_class == SWEET, minlength=size).astype(np.int64)
@@ -238,21 +243,41 @@ def evaluate_pairs(
 
     progress.start("obstruction of sweet paths", int(connected.sum()))
     sweet_any = shortest_paths(
-        hood.sweet_all, source[connected], target[connected], policy,
-        components=sweet_labels, progress=progress.advance,
-    )  # fmt: skip
+        hood.sweet_all,
+        source[connected],
+        target[connected],
+        policy,
+        components=sweet_labels,
+        progress=progress.advance,
+    )
     has_obstruction, obstructing = path_obstruction(hood, sweet_any)
     sweet_obstructed = np.zeros(count, dtype=bool)
     sweet_obstructed[connected] = has_obstruction
     obstructing_flss = np.zeros(count, dtype=np.int64)
     obstructing_flss[connected] = obstructing
 
+    distance_error, alpha, theta, phi = errors
     return PairResults(
-        source, target, status, reason, paths.hops, sweet_hops, decaying_hops, paths.length,
-        paths.offsets, paths.nodes, estimate, truth, *errors,
-        sweet_connected=connected, sweet_obstructed=sweet_obstructed,
+        source=source,
+        target=target,
+        status=status,
+        reason=reason,
+        hops=paths.hops,
+        sweet_hops=sweet_hops,
+        decaying_hops=decaying_hops,
+        path_length=paths.length,
+        offsets=paths.offsets,
+        nodes=paths.nodes,
+        estimate=estimate,
+        truth=truth,
+        distance_error=distance_error,
+        alpha=alpha,
+        theta=theta,
+        phi=phi,
+        sweet_connected=connected,
+        sweet_obstructed=sweet_obstructed,
         obstructing_flss=obstructing_flss,
-    )  # fmt: skip
+    )
 
 
 def _pct(part: int, whole: int) -> float:

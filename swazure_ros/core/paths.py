@@ -79,9 +79,7 @@ class Paths:
         return [int(node) for node in self.nodes[self.offsets[pair] : self.offsets[pair + 1]]]
 
 
-def make_graph(
-    size: int, first: ArrayLike, second: ArrayLike, weights: ArrayLike
-) -> Graph:
+def make_graph(size: int, first: ArrayLike, second: ArrayLike, weights: ArrayLike) -> Graph:
     """Undirected graph on ``size`` nodes from edge lists (E,) with lengths (E,), cm."""
     first = np.asarray(first, dtype=np.int64)
     second = np.asarray(second, dtype=np.int64)
@@ -100,9 +98,14 @@ def make_graph(
 
 @numba.njit(cache=True, nogil=True)
 def _heap_push(
-    key1: FloatArray, key2: FloatArray, item: IntArray, size: int,
-    k1: float, k2: float, node: int,
-) -> int:  # fmt: skip
+    key1: FloatArray,
+    key2: FloatArray,
+    item: IntArray,
+    size: int,
+    k1: float,
+    k2: float,
+    node: int,
+) -> int:
     position = size
     while position > 0:
         parent = (position - 1) >> 1
@@ -202,8 +205,10 @@ def _search_one(
                     grown2 = np.empty(capacity)
                     grown_item = np.empty(capacity, dtype=np.int64)
                     grown1[:size], grown2[:size], grown_item[:size] = (
-                        heap1[:size], heap2[:size], heap_item[:size],
-                    )  # fmt: skip
+                        heap1[:size],
+                        heap2[:size],
+                        heap_item[:size],
+                    )
                     heap1, heap2, heap_item = grown1, grown2, grown_item
                 size = _heap_push(heap1, heap2, heap_item, size, n1, n2, neighbour)
             elif n1 == p1 and n2 == p2 and node < pred[neighbour]:
@@ -241,9 +246,20 @@ def _search_kernel(
             source = sources[position]
             mine = targets[target_ptr[position] : target_ptr[position + 1]]
             count = _search_one(
-                indptr, indices, weights, source, mine, component, fewest_hops,
-                primary, secondary, pred, settled, wanted, touched,
-            )  # fmt: skip
+                indptr,
+                indices,
+                weights,
+                source,
+                mine,
+                component,
+                fewest_hops,
+                primary,
+                secondary,
+                pred,
+                settled,
+                wanted,
+                touched,
+            )
             for offset in range(len(mine)):
                 pair = target_ptr[position] + offset
                 target = mine[offset]
@@ -296,9 +312,20 @@ def _long_paths(
         if np.all(hops[start:stop] + 1 <= width):
             continue
         count = _search_one(
-            indptr, indices, weights, sources[position], targets[start:stop], component,
-            fewest_hops, primary, secondary, pred, settled, wanted, touched,
-        )  # fmt: skip
+            indptr,
+            indices,
+            weights,
+            sources[position],
+            targets[start:stop],
+            component,
+            fewest_hops,
+            primary,
+            secondary,
+            pred,
+            settled,
+            wanted,
+            touched,
+        )
         for pair in range(start, stop):
             if hops[pair] + 1 > width:
                 node = targets[pair]
@@ -363,10 +390,17 @@ def shortest_paths(
         end = min(begin + batch, len(unique))
         lo, hi = target_ptr[begin], target_ptr[end]
         part = _search_kernel(
-            graph.indptr, graph.indices, graph.weights, unique[begin:end],
-            target_ptr[begin : end + 1] - lo, targets[lo:hi], components, fewest_hops, _WIDTH,
+            graph.indptr,
+            graph.indices,
+            graph.weights,
+            unique[begin:end],
+            target_ptr[begin : end + 1] - lo,
+            targets[lo:hi],
+            components,
+            fewest_hops,
+            _WIDTH,
             min(end - begin, 4 * numba.get_num_threads()),
-        )  # fmt: skip
+        )
         found[lo:hi], hops[lo:hi], length[lo:hi], buffer[lo:hi] = part
         if progress is not None:
             progress(int(hi - lo))
@@ -379,9 +413,19 @@ def shortest_paths(
     nodes[np.repeat(short, counts)] = buffer[keep]
     if not short.all():
         _long_paths(
-            graph.indptr, graph.indices, graph.weights, unique, target_ptr, targets,
-            components, fewest_hops, hops, _WIDTH, offsets, nodes,
-        )  # fmt: skip
+            graph.indptr,
+            graph.indices,
+            graph.weights,
+            unique,
+            target_ptr,
+            targets,
+            components,
+            fewest_hops,
+            hops,
+            _WIDTH,
+            offsets,
+            nodes,
+        )
     return Paths(found, hops, length, offsets, nodes)
 
 

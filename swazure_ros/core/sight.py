@@ -105,7 +105,7 @@ def _scan_segment(
                     key = (ix * shape[1] + iy) * shape[2] + iz
                     for slot in range(cell_start[key], cell_start[key + 1]):
                         k = members[slot]
-                        if k == a or k == b:
+                        if k == a or k == b:  # noqa: SIM109 (numba: plain compares)
                             continue
                         wx, wy, wz = points[k, 0] - ax, points[k, 1] - ay, points[k, 2] - az
                         projection = wx * ux + wy * uy + wz * uz
@@ -141,9 +141,18 @@ def _obstructed_kernel(
         found = np.empty(1, dtype=np.int64)
         for pair in range(chunk * size, min((chunk + 1) * size, len(first))):
             hits = _scan_segment(
-                points, radius, first[pair], second[pair], origin, cell, shape,
-                cell_start, members, found, True,
-            )  # fmt: skip
+                points,
+                radius,
+                first[pair],
+                second[pair],
+                origin,
+                cell,
+                shape,
+                cell_start,
+                members,
+                found,
+                True,
+            )
             out[pair] = hits > 0
     return out
 
@@ -166,9 +175,18 @@ def _obstructers_kernel(
     ids = np.empty(capacity, dtype=np.int64)
     for pair in range(len(first)):
         hits = _scan_segment(
-            points, radius, first[pair], second[pair], origin, cell, shape,
-            cell_start, members, found, False,
-        )  # fmt: skip
+            points,
+            radius,
+            first[pair],
+            second[pair],
+            origin,
+            cell,
+            shape,
+            cell_start,
+            members,
+            found,
+            False,
+        )
         start = offsets[pair]
         while start + hits > len(ids):
             grown = np.empty(2 * len(ids), dtype=np.int64)
@@ -179,9 +197,9 @@ def _obstructers_kernel(
     return offsets, ids[: offsets[-1]].copy()
 
 
-def _coerce_pairs(points: ArrayLike, first: ArrayLike, second: ArrayLike) -> tuple[
-    FloatArray, IntArray, IntArray
-]:
+def _coerce_pairs(
+    points: ArrayLike, first: ArrayLike, second: ArrayLike
+) -> tuple[FloatArray, IntArray, IntArray]:
     points = np.ascontiguousarray(points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3:
         raise ValueError(f"Expected `points` to have shape (N, 3), got {points.shape}")
@@ -191,8 +209,9 @@ def _coerce_pairs(points: ArrayLike, first: ArrayLike, second: ArrayLike) -> tup
         raise ValueError(
             f"Expected `first` and `second` of one length, got {len(first)} and {len(second)}"
         )
-    if len(first) and (min(first.min(), second.min()) < 0 or
-                       max(first.max(), second.max()) >= len(points)):  # fmt: skip
+    if len(first) and (
+        min(first.min(), second.min()) < 0 or max(first.max(), second.max()) >= len(points)
+    ):
         raise ValueError("`first` and `second` must index into `points`")
     return points, first, second
 
@@ -222,9 +241,16 @@ def obstructed(
         return np.zeros(0, dtype=bool)
     return np.asarray(
         _obstructed_kernel(
-            points, float(radius), first, second, grid.origin, grid.cell, grid.shape,
-            grid.cell_start, grid.members,
-        )  # fmt: skip
+            points,
+            float(radius),
+            first,
+            second,
+            grid.origin,
+            grid.cell,
+            grid.shape,
+            grid.cell_start,
+            grid.members,
+        )
     )
 
 
@@ -242,7 +268,14 @@ def obstructers(
     points, first, second = _coerce_pairs(points, first, second)
     grid = grid or build_grid(points, radius)
     offsets, ids = _obstructers_kernel(
-        points, float(radius), first, second, grid.origin, grid.cell, grid.shape,
-        grid.cell_start, grid.members,
-    )  # fmt: skip
+        points,
+        float(radius),
+        first,
+        second,
+        grid.origin,
+        grid.cell,
+        grid.shape,
+        grid.cell_start,
+        grid.members,
+    )
     return np.asarray(offsets), np.asarray(ids)

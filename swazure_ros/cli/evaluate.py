@@ -1,0 +1,175 @@
+"""Evaluate every ordered blind pair of a swarm with the core engine and report the metrics.
+
+Prints a summary table; with --out DIR also writes DIR/summary.json and one
+row per ordered blind pair to DIR/pairs.csv. A progress bar appears on
+stderr for runs longer than two seconds.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+from ..core.clouds import load_cloud
+from ..core.errors import CloudError, SwazureError
+from ..core.evaluate import Progress, evaluate
+from ..core.geometry import make_swarm
+from ..core.paths import POLICIES
+from ..core.results import write_evaluation
+from ..core.sensor import load_sensor
+
+
+def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options that describe a swarm: cloud, scale, beta or radius, sensor, seed."""
+    parser.add_argument(
+        "--cloud",
+        default="torus",
+        metavar="NAME|PATH",
+        help="a point cloud file (.xyz .csv .npy .ply) or a built-in shape "
+        "(sphere, torus, helix, cube; NAME:COUNT for another size); default: torus",
+    )
+    parser.add_argument(
+        "--scale",
+        type=float,
+        default=None,
+        help="multiply file coordinates by this to get cm (default: the published "
+        "scale for the six published files, else 1)",
+    )
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument("--beta", type=float, default=None, help="FLS radius r = beta * dmin")
+    size.add_argument("--radius", type=float, default=None, help="FLS radius r in cm")
+    parser.add_argument(
+        "--sensor",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="sensor YAML (ranges, error model); default: config/sensor.yaml",
+    )
+    parser.add_argument("--accurate", action="store_true", help="measure without error")
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed of the choice of colliding FLSs to remove"
+    )
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``swazure evaluate``."""
+    add_swarm_arguments(parser)
+    parser.add_argument("--policy", choices=POLICIES, default="shortest-length")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="write summary.json and pairs.csv here",
+    )
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+class TqdmProgress:
+    """Progress bars on stderr, one per stage, shown only for stages longer than 2 s."""
+
+    def __init__(self) -> None:
+        self._bar: Any = None
+
+    def start(self, stage: str, total: int) -> None:
+        from tqdm import tqdm
+
+        self.close()
+        self._bar = tqdm(
+            total=total, desc=stage, unit="pair", delay=2.0, file=sys.stderr, leave=False
+        )
+
+    def advance(self, units: int) -> None:
+        if self._bar is not None:
+            self._bar.update(units)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
+def swarm_from_args(args: argparse.Namespace) -> tuple[Any, Any, Any]:
+    """The cloud, swarm and sensor that the swarm options describe."""
+    if args.beta is None and args.radius is None:
+        raise CloudError("give --beta (r = beta * dmin) or --radius (cm)")
+    sensor = load_sensor(args.sensor)
+    if args.accurate:
+        sensor = sensor.error_free()
+    cloud = load_cloud(args.cloud, args.scale)
+    swarm = make_swarm(cloud.points, beta=args.beta, radius=args.radius, seed=args.seed)
+    return cloud, swarm, sensor
+
+
+def _cell(value: Any) -> str:
+    if isinstance(value, float):
+        return "-" if math.isnan(value) else f"{value:.4g}"
+    return "-" if value is None else str(value)
+
+
+def summary_table(summary: dict[str, Any]) -> str:
+    """A readable text table of a run's summary."""
+    rows = [
+        ("FLSs (removed)", f"{summary['flss']} ({summary['removed']})"),
+        ("radius r / dmin, cm", f"{summary['radius']:.4g} / {summary['dmin']:.4g}"),
+        ("kissing pairs", summary["kissing_pairs"]),
+        ("ordered blind pairs", summary["blind_pairs"]),
+        ("sweet path", f"{summary['sweet_pct']:.3f} %"),
+        ("decaying path", f"{summary['decaying_pct']:.3f} %"),
+        ("no path", f"{summary['no_path_pct']:.3f} %"),
+        (
+            "blocked / no sweet path",
+            f"{summary['blocked_pairs']} / {summary['no_sweet_path_pairs']}",
+        ),
+        ("obstructed sweet paths", f"{summary['obstructed_path_pct']:.2f} %"),
+    ]
+    lines = [f"{name:<26} {_cell(value)}" for name, value in rows]
+    lines.append(f"{'':<26} {'mean':>10} {'max':>10}")
+    for key, label in [
+        ("distance_error_pct", "distance error, %"),
+        ("alpha_deg", "alpha, deg"),
+        ("theta_deg", "theta error, deg"),
+        ("phi_deg", "phi error, deg"),
+        ("hops", "hops"),
+    ]:
+        stats = summary[key]
+        lines.append(f"{label:<26} {_cell(stats['mean']):>10} {_cell(stats['max']):>10}")
+    return "\n".join(lines)
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``swazure evaluate``."""
+    cloud, swarm, sensor = swarm_from_args(args)
+    progress: Progress | None = None if args.quiet else TqdmProgress()
+    try:
+        evaluation = evaluate(swarm, sensor, args.policy, progress)
+    finally:
+        if isinstance(progress, TqdmProgress):
+            progress.close()
+    summary = evaluation.summary
+    summary["parameters"].update(
+        {
+            "cloud": cloud.name,
+            "cloud_source": cloud.source,
+            "scale": cloud.scale,
+            "seed": args.seed,
+            "sensor_file": str(args.sensor or "config/sensor.yaml"),
+        }
+    )
+    print(
+        f"{cloud.name}: beta {_cell(swarm.beta)}, {args.policy}, sensor {sensor.name}, "
+        f"{summary['seconds']:.2f} s"
+    )
+    print(summary_table(summary))
+    if args.out is not None:
+        try:
+            summary_path, pairs_path = write_evaluation(args.out, evaluation)
+        except OSError as err:
+            raise SwazureError(
+                f"{args.out}: cannot write results ({err.strerror or err})"
+            ) from err
+        print(f"wrote {summary_path} and {pairs_path}")
+    return 0

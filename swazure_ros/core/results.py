@@ -1,0 +1,87 @@
+"""Writing an evaluation to disk: ``summary.json`` and ``pairs.csv``, atomically.
+
+Every file is written to a temporary name in the same folder and renamed into
+place, so a killed run never leaves a half-written result.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation
+
+PAIRS_FILE = "pairs.csv"
+SUMMARY_FILE = "summary.json"
+
+
+def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
+    """Call ``write(temporary_path)`` and rename the result to ``path``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    os.close(handle)
+    try:
+        write(Path(temporary))
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def write_json(path: Path, document: dict[str, Any]) -> None:
+    """Write ``document`` as indented JSON, atomically."""
+    atomic_write(path, lambda tmp: tmp.write_text(json.dumps(document, indent=2) + "\n"))
+
+
+def pairs_table(evaluation: Evaluation) -> Any:
+    """Per ordered blind pair results as a pyarrow Table; FLS ids are cloud row numbers."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    pairs = evaluation.pairs
+    ids = evaluation.hood.swarm.cloud_index
+    path_ids = pa.ListArray.from_arrays(
+        pa.array(pairs.offsets.astype(np.int32)), pa.array(ids[pairs.nodes].astype(str))
+    )
+    columns = {
+        "source": ids[pairs.source],
+        "target": ids[pairs.target],
+        "status": np.asarray(STATUS_NAMES)[pairs.status],
+        "reason": np.asarray(REASON_NAMES)[pairs.reason],
+        "hops": pairs.hops,
+        "sweet_hops": pairs.sweet_hops,
+        "decaying_hops": pairs.decaying_hops,
+        "path_length": pairs.path_length,
+        "path": pc.binary_join(path_ids, " "),
+        "estimate_x": pairs.estimate[:, 0],
+        "estimate_y": pairs.estimate[:, 1],
+        "estimate_z": pairs.estimate[:, 2],
+        "truth_x": pairs.truth[:, 0],
+        "truth_y": pairs.truth[:, 1],
+        "truth_z": pairs.truth[:, 2],
+        "distance_error_pct": pairs.distance_error,
+        "alpha_deg": pairs.alpha,
+        "theta_deg": pairs.theta,
+        "phi_deg": pairs.phi,
+        "sweet_path_obstructed": pairs.sweet_obstructed,
+        "obstructing_flss": pairs.obstructing_flss,
+    }
+    return pa.table(columns)
+
+
+def write_evaluation(directory: Path, evaluation: Evaluation) -> tuple[Path, Path]:
+    """Write ``summary.json`` and ``pairs.csv`` into ``directory``; return their paths."""
+    import pyarrow.csv as pacsv
+
+    table = pairs_table(evaluation)
+    pairs_path = directory / PAIRS_FILE
+    atomic_write(pairs_path, lambda tmp: pacsv.write_csv(table, str(tmp)))
+    summary_path = directory / SUMMARY_FILE
+    write_json(summary_path, evaluation.summary)
+    return summary_path, pairs_path

@@ -1,0 +1,128 @@
+"""``swazure evaluate`` in a real process: outputs, and one clear line for each bad input."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+
+def swazure(*args, cwd=None):
+    return subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=cwd,
+    )
+
+
+def test_version_and_help():
+    assert swazure("--version").stdout.strip().startswith("swazure ")
+    help_text = swazure("--help").stdout
+    assert "evaluate" in help_text
+    assert "--policy" in swazure("evaluate", "--help").stdout
+
+
+def test_evaluate_writes_summary_and_pairs(tmp_path):
+    run = swazure(
+        "evaluate",
+        "--cloud",
+        "sphere:150",
+        "--beta",
+        "0.4",
+        "--policy",
+        "fewest-hops",
+        "--out",
+        str(tmp_path),
+    )
+    assert run.returncode == 0, run.stderr
+    assert "ordered blind pairs" in run.stdout
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    for key in (
+        "flss",
+        "removed",
+        "radius",
+        "dmin",
+        "kissing_pairs",
+        "blind_pairs",
+        "sweet_pct",
+        "decaying_pct",
+        "no_path_pct",
+        "blocked_pairs",
+        "no_sweet_path_pairs",
+        "obstructed_path_pct",
+        "seconds",
+        "parameters",
+    ):
+        assert key in summary
+    for key in ("distance_error_pct", "alpha_deg", "theta_deg", "phi_deg", "hops"):
+        assert set(summary[key]) >= {"mean", "max"}
+    rows = (tmp_path / "pairs.csv").read_text().splitlines()
+    assert len(rows) == summary["blind_pairs"] + 1
+    assert summary["parameters"]["policy"] == "fewest-hops"
+    assert not list(tmp_path.glob(".*"))  # no temporary file left behind
+
+
+def write(tmp_path, name, text):
+    path = tmp_path / name
+    path.write_text(text)
+    return str(path)
+
+
+SENSOR_OUT_OF_ORDER = """fileversion: 1
+sensor:
+  ranges: {sweet_min: 8, sweet_max: 6, decaying_min: 8, decaying_max: 30}
+"""
+SENSOR_NEGATIVE = SENSOR_OUT_OF_ORDER.replace(
+    "sweet_min: 8, sweet_max: 6", "sweet_min: -2, sweet_max: 6"
+)
+
+
+@pytest.mark.parametrize(
+    ("arguments", "message"),
+    [
+        (["--cloud", "{tmp}/absent.xyz", "--beta", "0.5"], "no such file"),
+        (["--cloud", "{tmp}/binary.xyz", "--beta", "0.5"], "not a text file"),
+        (["--cloud", "{tmp}/columns.xyz", "--beta", "0.5"], "line 2 has 2 columns, expected 3"),
+        (["--cloud", "{tmp}/nan.xyz", "--beta", "0.5"], "NaN or infinite"),
+        (["--cloud", "{tmp}/one.xyz", "--beta", "0.5"], "at least two points"),
+        (["--cloud", "{tmp}/duplicate.xyz", "--beta", "0.5"], "duplicate points"),
+        (["--cloud", "torus", "--beta", "0"], "beta must be in (0, 1]"),
+        (["--cloud", "torus", "--beta", "1.5"], "beta must be in (0, 1]"),
+        (["--cloud", "torus"], "give --beta"),
+        (
+            ["--cloud", "torus", "--beta", "0.5", "--sensor", "{tmp}/order.yaml"],
+            "ranges out of order",
+        ),
+        (
+            ["--cloud", "torus", "--beta", "0.5", "--sensor", "{tmp}/negative.yaml"],
+            "sweet_min must be >= 0",
+        ),
+        (["--cloud", "torus", "--beta", "0.5", "--sensor", "{tmp}/broken.yaml"], "not valid YAML"),
+        (["--cloud", "dodecahedron", "--beta", "0.5"], "unknown shape 'dodecahedron'"),
+        (["--cloud", "torus", "--beta", "0.5", "--policy", "widest"], "invalid choice"),
+    ],
+)
+def test_bad_input_gives_one_line_and_exit_code_2(tmp_path, arguments, message):
+    (tmp_path / "binary.xyz").write_bytes(b"\xff\xfe\x00\x81" * 10)
+    write(tmp_path, "columns.xyz", "1 2 3\n4 5\n")
+    write(tmp_path, "nan.xyz", "1 2 3\nnan 2 3\n")
+    write(tmp_path, "one.xyz", "1 2 3\n")
+    write(tmp_path, "duplicate.xyz", "1 2 3\n1 2 3\n4 5 6\n")
+    write(tmp_path, "order.yaml", SENSOR_OUT_OF_ORDER)
+    write(tmp_path, "negative.yaml", SENSOR_NEGATIVE)
+    write(tmp_path, "broken.yaml", "fileversion: [1\n")
+    run = swazure("evaluate", *[a.format(tmp=tmp_path) for a in arguments])
+    assert run.returncode == 2
+    assert message in run.stderr
+    assert "Traceback" not in run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1, run.stderr
+
+
+def test_colliding_flss_are_removed_and_reported(tmp_path):
+    run = swazure("evaluate", "--cloud", "cube:64", "--beta", "0.9", "--out", str(tmp_path))
+    assert run.returncode == 0, run.stderr
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["removed"] > 0
+    assert summary["flss"] + summary["removed"] == 64

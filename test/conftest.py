@@ -1,0 +1,46 @@
+"""Shared fixtures: hand-built swarms whose answers are obvious, and paths to shared data."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.geometry import Swarm, make_swarm
+from swazure_ros.core.sensor import Sensor
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = REPO.parent / "shared"
+DATASETS = SHARED / "datasets" / "swazure-paper"
+
+# Hand-built scene, r = 0.5 cm so t = d - 1. Indices: A=0, B=1, C=2, K=3, D=4.
+A, B, C, K, D = 0, 1, 2, 3, 4
+SCENE = np.array(
+    [
+        [0.0, 0.0, 0.0],  # A
+        [2.0, 7.0, 0.0],  # B: sweet to A and C (t = 6.28)
+        [4.0, 0.0, 0.0],  # C: blind to A (t = 3)
+        [1.0, 3.5, 0.0],  # K: on segment A-B, obstructs it; blind to A, B, C
+        [2.0, -10.0, 0.0],  # D: decaying to A and C (t = 9.2), in sight of both
+    ]
+)
+
+
+@pytest.fixture
+def sensor() -> Sensor:
+    """The published sensor: sweet 6-8 cm, decaying 8-30 cm, quadratic error."""
+    return Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755), "published")
+
+
+def scene(*indices: int) -> Swarm:
+    """A swarm of the hand-built scene's FLSs ``indices`` (in that order), r = 0.5 cm."""
+    return make_swarm(SCENE[list(indices)], radius=0.5)
+
+
+def dataset(name: str) -> Path:
+    """A published point cloud, or skip when ../shared is not beside the repo."""
+    path = DATASETS / name
+    if not path.exists():
+        pytest.skip(f"published data set {path} is absent (../shared is not beside the repo)")
+    return path

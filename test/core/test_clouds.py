@@ -1,0 +1,66 @@
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from swazure_ros.core.clouds import BUILTIN_SHAPES, PUBLISHED_DENSITY, load_cloud, read_points
+from swazure_ros.core.errors import CloudError
+
+from ..conftest import dataset
+
+POINTS = np.array([[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [4.0, 5.0, 6.5]])
+
+
+def test_xyz_csv_npy_and_ply_read_the_same_points(tmp_path):
+    (tmp_path / "c.xyz").write_text("\n".join(" ".join(map(str, p)) for p in POINTS))
+    (tmp_path / "c.csv").write_text("x,y,z\n" + "\n".join(",".join(map(str, p)) for p in POINTS))
+    np.save(tmp_path / "c.npy", POINTS)
+    from plyfile import PlyData, PlyElement
+
+    vertex = np.array([tuple(p) for p in POINTS], dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
+    PlyData([PlyElement.describe(vertex, "vertex")], text=False).write(str(tmp_path / "b.ply"))
+    PlyData([PlyElement.describe(vertex, "vertex")], text=True).write(str(tmp_path / "a.ply"))
+    for name in ("c.xyz", "c.csv", "c.npy", "b.ply", "a.ply"):
+        np.testing.assert_array_equal(read_points(tmp_path / name, scale=2.0), POINTS * 2.0)
+
+
+def test_published_scale_is_the_default_for_published_files():
+    cloud = load_cloud(dataset("chess_408.xyz"))
+    assert cloud.scale == 13.6
+    assert cloud.points.shape == (408, 3)
+
+
+@pytest.mark.parametrize("name", sorted(BUILTIN_SHAPES))
+def test_builtin_shapes_have_the_published_density(name):
+    points = load_cloud(name).points
+    distances, _ = cKDTree(points).query(points, k=2)
+    assert distances[:, 1].mean() == pytest.approx(PUBLISHED_DENSITY, rel=1e-9)
+
+
+def test_builtin_shape_with_a_count():
+    assert len(load_cloud("sphere:123").points) == 123
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        ("1 2 3\n4 5\n", "line 2 has 2 columns, expected 3"),
+        ("1 2 3 4\n", "has 4 columns, expected 3"),
+        ("1 2 3\nnan 1 1\n", "point 1 has a NaN or infinite coordinate"),
+        ("1 2 3\n1 inf 1\n", "point 1 has a NaN or infinite coordinate"),
+        ("1 2 3\n", "at least two points, got 1"),
+        ("", "no points in file"),
+        ("1 2 x\n3 4 5\n", "line 1: could not convert"),
+    ],
+)
+def test_bad_text_clouds(tmp_path, content, message):
+    path = tmp_path / "bad.xyz"
+    path.write_text(content)
+    with pytest.raises(CloudError, match=message):
+        read_points(path)
+
+
+def test_missing_file_and_unknown_shape(tmp_path):
+    with pytest.raises(CloudError, match="no such file"):
+        read_points(tmp_path / "absent.xyz")
+    with pytest.raises(CloudError, match="unknown shape 'dodecahedron'"):
+        load_cloud("dodecahedron")

@@ -1,0 +1,56 @@
+import numpy as np
+
+from swazure_ros.core.sight import obstructed, obstructers
+
+
+def segment_with(offset: float) -> np.ndarray:
+    """A segment from (0,0,0) to (10,0,0) and a third FLS at (5, offset, 0)."""
+    return np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [5.0, offset, 0.0]])
+
+
+def test_centre_exactly_r_from_the_segment_obstructs():
+    assert obstructed(segment_with(0.5), 0.5, [0], [1]).tolist() == [True]
+
+
+def test_centre_just_beyond_r_does_not_obstruct():
+    assert obstructed(segment_with(0.5001), 0.5, [0], [1]).tolist() == [False]
+
+
+def test_line_of_sight_is_symmetric():
+    points = segment_with(0.3)
+    assert obstructed(points, 0.5, [0, 1], [1, 0]).tolist() == [True, True]
+
+
+def test_the_ends_never_obstruct_their_own_segment():
+    points = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [30.0, 0.0, 0.0]])
+    assert obstructed(points, 0.5, [0], [1]).tolist() == [False]
+
+
+def test_points_beyond_the_segment_ends_do_not_obstruct():
+    # On the line but beyond the far end: more than r from the segment.
+    points = np.array([[0.0, 0.0, 0.0], [10.0, 0.0, 0.0], [11.2, 0.0, 0.0]])
+    assert obstructed(points, 0.5, [0], [1]).tolist() == [False]
+
+
+def test_obstructers_lists_every_obstructing_fls_sorted():
+    points = np.array([[0, 0, 0], [10, 0, 0], [7, 0.2, 0], [3, -0.1, 0.1], [5, 2, 0]], dtype=float)
+    offsets, ids = obstructers(points, 0.5, [0, 0], [1, 4])
+    assert ids[offsets[0] : offsets[1]].tolist() == [2, 3]
+
+
+def test_grid_search_matches_brute_force_on_random_swarms():
+    rng = np.random.default_rng(11)
+    points = rng.uniform(0, 20, size=(300, 3))
+    radius = 0.4
+    first, second = rng.integers(0, 300, size=(2, 2000))
+    keep = first != second
+    first, second = first[keep], second[keep]
+    result = obstructed(points, radius, first, second)
+    for a, b, got in zip(first, second, result):
+        direction = points[b] - points[a]
+        length = np.linalg.norm(direction)
+        offset = points - points[a]
+        along = np.clip(offset @ direction / length, 0, length)
+        distance = np.linalg.norm(offset - along[:, None] * direction / length, axis=1)
+        distance[[a, b]] = np.inf
+        assert got == bool((distance <= radius).any())
