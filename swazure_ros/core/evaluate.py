@@ -12,11 +12,12 @@ import time
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from .. import __version__
-from .geometry import Swarm
+from .geometry import Swarm, tracking_distance
 from .metrics import alpha_deg, describe, distance_error_pct, phi_error_deg, theta_error_deg
 from .neighbours import NeighbourPairs, neighbour_pairs, ordered_blind_pairs
 from .paths import Graph, Paths, check_policy, make_graph, path_hops, shortest_paths
@@ -87,7 +88,10 @@ def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None
     progress.advance(int(edge.sum()))
 
     def graph(mask: NDArray[np.bool_]) -> Graph:
-        return make_graph(swarm.size, pairs.first[mask], pairs.second[mask], pairs.tracking[mask])
+        index = np.flatnonzero(mask)
+        return make_graph(
+            swarm.size, pairs.first[index], pairs.second[index], pairs.tracking[index], index
+        )
 
     sweet = pairs.range_class == SWEET
     return Neighbourhood(
@@ -177,33 +181,65 @@ def estimates(hood: Neighbourhood, paths: Paths) -> tuple[FloatArray, IntArray, 
         [np.bincount(pair, weights=vectors[:, axis], minlength=size) for axis in range(3)]
     ).astype(np.float64)  # bincount of nothing is an integer array
     estimate[~paths.found] = np.nan
-    hop_class = hood.pairs.range_class[hood.pair_index(start, end)]
+    # Classified from the hop's own tracking distance: the same numbers as its pair's.
+    hop_class = hood.sensor.classify(tracking_distance(swarm.points, swarm.radius, start, end))
     sweet_hops = np.bincount(pair, weights=hop_class == SWEET, minlength=size).astype(np.int64)
     decaying_hops = np.bincount(pair, weights=hop_class == DECAYING, minlength=size)
     return estimate, sweet_hops, decaying_hops.astype(np.int64)
 
 
-def path_obstruction(hood: Neighbourhood, paths: Paths) -> tuple[NDArray[np.bool_], IntArray]:
-    """Whether each path has an obstructed hop, and its number of distinct obstructing FLSs."""
+@numba.njit(cache=True, parallel=True)
+def _distinct_per_path(
+    hop_offsets: IntArray, hop_edge: IntArray, edge_offsets: IntArray, edge_ids: IntArray
+) -> IntArray:
+    """Distinct obstructer ids over the hops of each path; hop_edge is -1 for a clear hop."""
+    paths = len(hop_offsets) - 1
+    out = np.zeros(paths, dtype=np.int64)
+    for path in numba.prange(paths):
+        total = 0
+        for hop in range(hop_offsets[path], hop_offsets[path + 1]):
+            if hop_edge[hop] >= 0:
+                total += edge_offsets[hop_edge[hop] + 1] - edge_offsets[hop_edge[hop]]
+        if total == 0:
+            continue
+        gathered = np.empty(total, dtype=np.int64)
+        filled = 0
+        for hop in range(hop_offsets[path], hop_offsets[path + 1]):
+            edge = hop_edge[hop]
+            if edge >= 0:
+                count = edge_offsets[edge + 1] - edge_offsets[edge]
+                gathered[filled : filled + count] = edge_ids[
+                    edge_offsets[edge] : edge_offsets[edge + 1]
+                ]
+                filled += count
+        gathered.sort()
+        distinct = 1
+        for slot in range(1, total):
+            if gathered[slot] != gathered[slot - 1]:
+                distinct += 1
+        out[path] = distinct
+    return out
+
+
+def path_obstruction(
+    hood: Neighbourhood, graph: Graph, paths: Paths
+) -> tuple[NDArray[np.bool_], IntArray]:
+    """Whether each path in ``graph`` has an obstructed hop, and its distinct obstructing FLSs."""
     size = len(paths.found)
     pair, start, end = path_hops(paths)
-    hop_pair = hood.pair_index(start, end)
+    hop_pair = graph.edge_labels(start, end)
     blocked = ~hood.visible[hop_pair]
     has_obstruction = np.bincount(pair[blocked], minlength=size) > 0
-    edges, edge_of_hop = np.unique(hop_pair[blocked], return_inverse=True)
+    edges, edge_of_blocked_hop = np.unique(hop_pair[blocked], return_inverse=True)
     swarm = hood.swarm
     offsets, ids = obstructers(
         swarm.points, swarm.radius, hood.pairs.first[edges], hood.pairs.second[edges], hood.grid
     )
-    per_edge = np.diff(offsets)
-    # Expand (path, obstructer) for every obstructed hop, then count distinct per path.
-    hop_counts = per_edge[edge_of_hop]
-    owner = np.repeat(pair[blocked], hop_counts)
-    starts = np.repeat(offsets[edge_of_hop], hop_counts)
-    within = np.arange(len(owner)) - np.repeat(np.cumsum(hop_counts) - hop_counts, hop_counts)
-    who = ids[starts + within]
-    distinct = np.unique(owner * swarm.size + who) // swarm.size
-    return has_obstruction, np.bincount(distinct, minlength=size).astype(np.int64)
+    hop_edge = np.full(len(pair), -1, dtype=np.int64)
+    hop_edge[blocked] = edge_of_blocked_hop
+    hop_offsets = np.concatenate([[0], np.cumsum(np.bincount(pair, minlength=size))])
+    distinct = _distinct_per_path(hop_offsets.astype(np.int64), hop_edge, offsets, ids)
+    return has_obstruction, np.asarray(distinct)
 
 
 def evaluate_pairs(
@@ -250,7 +286,7 @@ def evaluate_pairs(
         components=sweet_labels,
         progress=progress.advance,
     )
-    has_obstruction, obstructing = path_obstruction(hood, sweet_any)
+    has_obstruction, obstructing = path_obstruction(hood, hood.sweet_all, sweet_any)
     sweet_obstructed = np.zeros(count, dtype=bool)
     sweet_obstructed[connected] = has_obstruction
     obstructing_flss = np.zeros(count, dtype=np.int64)

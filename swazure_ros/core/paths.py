@@ -44,6 +44,7 @@ class Graph:
     indptr: IntArray  # (N + 1,)
     indices: IntArray  # (2E,), sorted within each row
     weights: FloatArray  # (2E,), tracking distance of each edge, cm
+    labels: IntArray  # (2E,), caller's label of each edge (e.g. its pair index)
 
     @property
     def size(self) -> int:
@@ -54,6 +55,18 @@ class Graph:
     def edges(self) -> int:
         """Number of undirected edges."""
         return len(self.indices) // 2
+
+    def edge_labels(self, first: ArrayLike, second: ArrayLike) -> IntArray:
+        """Label of the edge first[m]-second[m] for each m: (M,); -1 where there is none."""
+        return np.asarray(
+            _edge_labels(
+                self.indptr,
+                self.indices,
+                self.labels,
+                np.asarray(first, dtype=np.int64),
+                np.asarray(second, dtype=np.int64),
+            )
+        )
 
     def components(self) -> IntArray:
         """Connected-component label of every node: (N,)."""
@@ -79,21 +92,48 @@ class Paths:
         return [int(node) for node in self.nodes[self.offsets[pair] : self.offsets[pair + 1]]]
 
 
-def make_graph(size: int, first: ArrayLike, second: ArrayLike, weights: ArrayLike) -> Graph:
-    """Undirected graph on ``size`` nodes from edge lists (E,) with lengths (E,), cm."""
+def make_graph(
+    size: int,
+    first: ArrayLike,
+    second: ArrayLike,
+    weights: ArrayLike,
+    labels: ArrayLike | None = None,
+) -> Graph:
+    """Undirected graph on ``size`` nodes from edge lists (E,) with lengths (E,), cm.
+
+    ``labels`` (E,) tag each edge (default: its position in the lists).
+    """
     first = np.asarray(first, dtype=np.int64)
     second = np.asarray(second, dtype=np.int64)
     weights = np.asarray(weights, dtype=np.float64)
-    if not first.shape == second.shape == weights.shape:
-        raise ValueError("`first`, `second` and `weights` must have one length")
+    labels = np.arange(len(first)) if labels is None else np.asarray(labels, dtype=np.int64)
+    if not first.shape == second.shape == weights.shape == labels.shape:
+        raise ValueError("`first`, `second`, `weights` and `labels` must have one length")
     if np.any(first == second):
         raise ValueError("a graph edge cannot join a node to itself")
     tail = np.concatenate([first, second])
     head = np.concatenate([second, first])
-    both = np.concatenate([weights, weights])
     order = np.lexsort((head, tail))
     indptr = np.concatenate([[0], np.cumsum(np.bincount(tail, minlength=size))])
-    return Graph(indptr.astype(np.int64), head[order], both[order])
+    return Graph(
+        indptr.astype(np.int64),
+        head[order],
+        np.concatenate([weights, weights])[order],
+        np.concatenate([labels, labels])[order],
+    )
+
+
+@numba.njit(cache=True, parallel=True)
+def _edge_labels(
+    indptr: IntArray, indices: IntArray, labels: IntArray, first: IntArray, second: IntArray
+) -> IntArray:
+    out = np.full(len(first), -1, dtype=np.int64)
+    for m in numba.prange(len(first)):
+        row = indices[indptr[first[m]] : indptr[first[m] + 1]]
+        position = np.searchsorted(row, second[m])
+        if position < len(row) and row[position] == second[m]:
+            out[m] = labels[indptr[first[m]] + position]
+    return out
 
 
 @numba.njit(cache=True, nogil=True)
@@ -214,6 +254,57 @@ def _search_one(
             elif n1 == p1 and n2 == p2 and node < pred[neighbour]:
                 pred[neighbour] = node
     return count
+
+
+@numba.njit(cache=True, parallel=True)
+def _two_hop_kernel(
+    indptr: IntArray,
+    indices: IntArray,
+    weights: FloatArray,
+    sources: IntArray,
+    targets: IntArray,
+    bound: float,
+) -> tuple[NDArray[np.bool_], IntArray, FloatArray]:
+    """Cheapest common neighbour of each pair, where a 2-hop path is provably the policy's.
+
+    A pair is resolved when it is not itself an edge, has a common neighbour,
+    and its best 2-hop length is at most ``bound`` (inf for fewest-hops,
+    3 * the smallest edge length for shortest-length: no path of 3 or more
+    hops can then be shorter). Lengths are summed as Dijkstra sums them, and
+    ties go to the smallest middle node, as the predecessor rule says.
+    """
+    pairs = len(sources)
+    resolved = np.zeros(pairs, dtype=np.bool_)
+    middle = np.full(pairs, -1, dtype=np.int64)
+    length = np.full(pairs, np.inf)
+    for pair in numba.prange(pairs):
+        source, target = sources[pair], targets[pair]
+        a, a_end = indptr[source], indptr[source + 1]
+        b, b_end = indptr[target], indptr[target + 1]
+        best, best_middle, adjacent = np.inf, -1, False
+        while a < a_end and b < b_end:
+            left, right = indices[a], indices[b]
+            if left == target:
+                adjacent = True
+            if left < right:
+                a += 1
+            elif right < left:
+                b += 1
+            else:
+                total = (0.0 + weights[a]) + weights[b]
+                if total < best:
+                    best, best_middle = total, left
+                a += 1
+                b += 1
+        while a < a_end:
+            if indices[a] == target:
+                adjacent = True
+            a += 1
+        if best_middle >= 0 and not adjacent and best <= bound:
+            resolved[pair] = True
+            middle[pair] = best_middle
+            length[pair] = best
+    return resolved, middle, length
 
 
 @numba.njit(cache=True, parallel=True)
@@ -379,29 +470,47 @@ def shortest_paths(
         raise ValueError("pairs must be sorted by source")
     if components is None:
         components = graph.components()
-    unique, starts = np.unique(sources, return_index=True)
-    target_ptr = np.append(starts, len(sources)).astype(np.int64)
     pairs = len(sources)
     found = np.zeros(pairs, dtype=bool)
     hops = np.zeros(pairs, dtype=np.int64)
     length = np.full(pairs, np.nan)
     buffer = np.full((pairs, _WIDTH), -1, dtype=np.int64)
+
+    # Most blind pairs are joined by a common neighbour: settle those by a join.
+    weights = graph.weights
+    smallest = float(weights.min()) if len(weights) else 0.0
+    # The margin keeps a float sum of three edges from rounding below 3 * smallest.
+    bound = np.inf if fewest_hops else (3.0 * smallest * (1 - 1e-12) if smallest > 0 else -np.inf)
+    joined, middle, joined_length = _two_hop_kernel(
+        graph.indptr, graph.indices, weights, sources, targets, bound
+    )
+    found[joined], hops[joined], length[joined] = True, 2, joined_length[joined]
+    buffer[joined, :3] = np.column_stack([sources[joined], middle[joined], targets[joined]])
+    if progress is not None:
+        progress(int(joined.sum()))
+
+    rest = np.flatnonzero(~joined)
+    rest_sources, rest_targets = sources[rest], targets[rest]
+    unique, starts = np.unique(rest_sources, return_index=True)
+    target_ptr = np.append(starts, len(rest)).astype(np.int64)
     for begin in range(0, len(unique), batch):
         end = min(begin + batch, len(unique))
         lo, hi = target_ptr[begin], target_ptr[end]
-        part = _search_kernel(
+        part_found, part_hops, part_length, part_buffer = _search_kernel(
             graph.indptr,
             graph.indices,
-            graph.weights,
+            weights,
             unique[begin:end],
             target_ptr[begin : end + 1] - lo,
-            targets[lo:hi],
+            rest_targets[lo:hi],
             components,
             fewest_hops,
             _WIDTH,
             min(end - begin, 4 * numba.get_num_threads()),
         )
-        found[lo:hi], hops[lo:hi], length[lo:hi], buffer[lo:hi] = part
+        where = rest[lo:hi]
+        found[where], hops[where], length[where] = part_found, part_hops, part_length
+        buffer[where] = part_buffer
         if progress is not None:
             progress(int(hi - lo))
     counts = np.where(found, hops + 1, 0)
@@ -412,20 +521,33 @@ def shortest_paths(
     keep = (columns[None, :] < counts[:, None]) & short[:, None]
     nodes[np.repeat(short, counts)] = buffer[keep]
     if not short.all():
+        long_sources = np.unique(sources[~short])
+        keep = np.isin(rest_sources, long_sources)
+        _, starts = np.unique(rest_sources[keep], return_index=True)
+        long_hops = hops[rest[keep]]
+        long_offsets = offsets[rest[keep]]
+        scratch = np.empty(int((long_hops + 1).sum()) + 1, dtype=np.int64)
+        scratch_offsets = np.concatenate([[0], np.cumsum(long_hops + 1)])[:-1].astype(np.int64)
         _long_paths(
             graph.indptr,
             graph.indices,
-            graph.weights,
-            unique,
-            target_ptr,
-            targets,
+            weights,
+            long_sources,
+            np.append(starts, keep.sum()).astype(np.int64),
+            rest_targets[keep],
             components,
             fewest_hops,
-            hops,
+            long_hops,
             _WIDTH,
-            offsets,
-            nodes,
+            scratch_offsets,
+            scratch,
         )
+        for slot, pair in enumerate(rest[keep]):
+            if hops[pair] + 1 > _WIDTH:
+                start = scratch_offsets[slot]
+                nodes[long_offsets[slot] : long_offsets[slot] + hops[pair] + 1] = scratch[
+                    start : start + hops[pair] + 1
+                ]
     return Paths(found, hops, length, offsets, nodes)
 
 

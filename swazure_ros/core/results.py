@@ -28,6 +28,10 @@ def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
     os.close(handle)
     try:
         write(Path(temporary))
+        # mkstemp makes the file private; give it the mode a plain open() would.
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary, 0o666 & ~umask)
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
@@ -46,9 +50,9 @@ def pairs_table(evaluation: Evaluation) -> Any:
 
     pairs = evaluation.pairs
     ids = evaluation.hood.swarm.cloud_index
-    path_ids = pa.ListArray.from_arrays(
-        pa.array(pairs.offsets.astype(np.int32)), pa.array(ids[pairs.nodes].astype(str))
-    )
+    # Cast in Arrow: numpy strings of millions of ids would come back chunked.
+    node_ids = pc.cast(pa.array(ids[pairs.nodes]), pa.string())
+    path_ids = pa.LargeListArray.from_arrays(pa.array(pairs.offsets), node_ids)
     columns = {
         "source": ids[pairs.source],
         "target": ids[pairs.target],
