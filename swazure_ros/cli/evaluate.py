@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,14 @@ from ..core.clouds import load_cloud
 from ..core.errors import CloudError, SwazureError
 from ..core.evaluate import Progress, evaluate
 from ..core.geometry import make_swarm
+from ..core.heuristics import (
+    MOVE_OBSTRUCTING,
+    PLAIN,
+    TECHNIQUES,
+    apply,
+    move_obstructing,
+    move_source,
+)
 from ..core.paths import POLICIES
 from ..core.results import write_evaluation
 from ..core.sensor import load_sensor
@@ -58,6 +67,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure evaluate``."""
     add_swarm_arguments(parser)
     parser.add_argument("--policy", choices=POLICIES, default="shortest-length")
+    parser.add_argument(
+        "--technique",
+        choices=TECHNIQUES,
+        default=PLAIN,
+        help="plain Swazure, or a heuristic tried on BLOCKED pairs (default: plain)",
+    )
+    parser.add_argument(
+        "--threshold",
+        type=int,
+        default=10,
+        metavar="T",
+        help="Move Source: probe up to T steps of r per direction (default 10)",
+    )
     parser.add_argument(
         "--out",
         type=Path,
@@ -126,6 +148,17 @@ def summary_table(summary: dict[str, Any]) -> str:
         ),
         ("obstructed sweet paths", f"{summary['obstructed_path_pct']:.2f} %"),
     ]
+    if "technique" in summary:
+        moved = summary["moved_distance"]
+        rows.append(
+            ("tried / resolved pairs", f"{summary['tried_pairs']} / {summary['resolved_pairs']}")
+        )
+        rows.append(
+            (
+                "moves: count, mean, max cm",
+                f"{moved['count']}, {_cell(moved['mean'])}, {_cell(moved['max'])}",
+            )
+        )
     lines = [f"{name:<26} {_cell(value)}" for name, value in rows]
     lines.append(f"{'':<26} {'mean':>10} {'max':>10}")
     for key, label in [
@@ -144,8 +177,21 @@ def main(args: argparse.Namespace) -> int:
     """Run ``swazure evaluate``."""
     cloud, swarm, sensor = swarm_from_args(args)
     progress: Progress | None = None if args.quiet else TqdmProgress()
+    if args.threshold < 1:
+        raise SwazureError(f"--threshold must be at least 1, got {args.threshold}")
+    heuristic = None
     try:
         evaluation = evaluate(swarm, sensor, args.policy, progress)
+        if args.technique != PLAIN:
+            began = time.perf_counter()
+            if progress is not None:
+                progress.start(args.technique, 1)
+            if args.technique == MOVE_OBSTRUCTING:
+                heuristic = move_obstructing(evaluation)
+            else:
+                heuristic = move_source(evaluation, args.threshold)
+            evaluation = apply(evaluation, heuristic)
+            evaluation.summary["seconds"] += time.perf_counter() - began
     finally:
         if isinstance(progress, TqdmProgress):
             progress.close()
@@ -160,13 +206,14 @@ def main(args: argparse.Namespace) -> int:
         }
     )
     print(
-        f"{cloud.name}: beta {_cell(swarm.beta)}, {args.policy}, sensor {sensor.name}, "
+        f"{cloud.name}: beta {_cell(swarm.beta)}, {args.policy}, {args.technique}, "
+        f"sensor {sensor.name}, "
         f"{summary['seconds']:.2f} s"
     )
     print(summary_table(summary))
     if args.out is not None:
         try:
-            summary_path, pairs_path = write_evaluation(args.out, evaluation)
+            summary_path, pairs_path = write_evaluation(args.out, evaluation, heuristic)
         except OSError as err:
             raise SwazureError(
                 f"{args.out}: cannot write results ({err.strerror or err})"

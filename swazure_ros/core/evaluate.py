@@ -148,7 +148,7 @@ class Evaluation:
     summary: dict[str, Any]
 
 
-def _merge(first: Paths, second: Paths, use_second: NDArray[np.bool_]) -> Paths:
+def merge_paths(first: Paths, second: Paths, use_second: NDArray[np.bool_]) -> Paths:
     """Paths taking pair m from ``second`` where use_second[m], else from ``first``.
 
     ``second`` holds only the pairs where ``use_second`` holds, in order.
@@ -261,7 +261,7 @@ def evaluate_pairs(
     decaying = shortest_paths(
         hood.any_visible, source[fallback], target[fallback], policy, progress=progress.advance
     )
-    paths = _merge(sweet, decaying, fallback)
+    paths = merge_paths(sweet, decaying, fallback)
     status = np.full(count, NO_PATH, dtype=np.int8)
     status[paths.found] = DECAYING_PATH
     status[sweet.found] = SWEET_PATH

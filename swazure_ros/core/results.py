@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation
+from .heuristics import HeuristicResult
 
 PAIRS_FILE = "pairs.csv"
 SUMMARY_FILE = "summary.json"
@@ -43,8 +44,13 @@ def write_json(path: Path, document: dict[str, Any]) -> None:
     atomic_write(path, lambda tmp: tmp.write_text(json.dumps(document, indent=2) + "\n"))
 
 
-def pairs_table(evaluation: Evaluation) -> Any:
-    """Per ordered blind pair results as a pyarrow Table; FLS ids are cloud row numbers."""
+def pairs_table(evaluation: Evaluation, heuristic: HeuristicResult | None = None) -> Any:
+    """Per ordered blind pair results as a pyarrow Table; FLS ids are cloud row numbers.
+
+    With ``heuristic``, columns for its moves: tried, resolved, number of
+    moves, the FLSs moved, the largest single move, and for Move Source the
+    distance flown and the net displacement of the source (cm).
+    """
     import pyarrow as pa
     import pyarrow.compute as pc
 
@@ -76,14 +82,38 @@ def pairs_table(evaluation: Evaluation) -> Any:
         "sweet_path_obstructed": pairs.sweet_obstructed,
         "obstructing_flss": pairs.obstructing_flss,
     }
+    if heuristic is not None:
+        counts = np.diff(heuristic.move_offsets)
+        moved_ids = pa.LargeListArray.from_arrays(
+            pa.array(heuristic.move_offsets),
+            pc.cast(pa.array(ids[heuristic.move_fls].astype(np.int64)), pa.string()),
+        )
+        owner = np.repeat(np.arange(len(counts)), counts)
+        largest = np.zeros(len(counts))
+        np.maximum.at(largest, owner, heuristic.move_distance)
+        columns.update(
+            {
+                "tried": heuristic.tried,
+                "resolved": heuristic.resolved,
+                "moves": counts,
+                "moved_flss": pc.binary_join(moved_ids, " "),
+                "largest_move": largest,
+            }
+        )
+        if len(heuristic.flown):
+            displacement = np.zeros(len(counts))
+            displacement[owner] = heuristic.move_distance
+            columns.update({"flown_distance": heuristic.flown, "displacement": displacement})
     return pa.table(columns)
 
 
-def write_evaluation(directory: Path, evaluation: Evaluation) -> tuple[Path, Path]:
+def write_evaluation(
+    directory: Path, evaluation: Evaluation, heuristic: HeuristicResult | None = None
+) -> tuple[Path, Path]:
     """Write ``summary.json`` and ``pairs.csv`` into ``directory``; return their paths."""
     import pyarrow.csv as pacsv
 
-    table = pairs_table(evaluation)
+    table = pairs_table(evaluation, heuristic)
     pairs_path = directory / PAIRS_FILE
     atomic_write(pairs_path, lambda tmp: pacsv.write_csv(table, str(tmp)))
     summary_path = directory / SUMMARY_FILE

@@ -69,8 +69,49 @@ def _scan_segment(
     stop_at_first: bool,
 ) -> int:
     """Write the obstructers of segment a-b into ``found``; return how many (at most 1 if stop)."""
-    ax, ay, az = points[a, 0], points[a, 1], points[a, 2]
-    dx, dy, dz = points[b, 0] - ax, points[b, 1] - ay, points[b, 2] - az
+    return _scan_between(
+        points,
+        radius,
+        points[a, 0],
+        points[a, 1],
+        points[a, 2],
+        points[b, 0],
+        points[b, 1],
+        points[b, 2],
+        a,
+        b,
+        origin,
+        cell,
+        shape,
+        cell_start,
+        members,
+        found,
+        stop_at_first,
+    )
+
+
+@numba.njit(cache=True, nogil=True)
+def _scan_between(
+    points: FloatArray,
+    radius: float,
+    ax: float,
+    ay: float,
+    az: float,
+    bx: float,
+    by: float,
+    bz: float,
+    a: int,
+    b: int,
+    origin: FloatArray,
+    cell: float,
+    shape: IntArray,
+    cell_start: IntArray,
+    members: IntArray,
+    found: IntArray,
+    stop_at_first: bool,
+) -> int:
+    """Obstructers of the segment from (ax, ay, az) to (bx, by, bz), skipping FLSs a and b."""
+    dx, dy, dz = bx - ax, by - ay, bz - az
     length = np.sqrt(dx * dx + dy * dy + dz * dz)
     if length == 0.0:
         return 0

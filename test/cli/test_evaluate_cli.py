@@ -126,3 +126,48 @@ def test_colliding_flss_are_removed_and_reported(tmp_path):
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["removed"] > 0
     assert summary["flss"] + summary["removed"] == 64
+
+
+@pytest.mark.parametrize("technique", ["move-obstructing", "move-source"])
+def test_technique_adds_heuristic_fields_and_columns(tmp_path, technique):
+    run = swazure(
+        "evaluate",
+        "--cloud",
+        "torus:300",
+        "--beta",
+        "0.5",
+        "--technique",
+        technique,
+        "--threshold",
+        "2",
+        "--out",
+        str(tmp_path),
+    )
+    assert run.returncode == 0, run.stderr
+    assert technique in run.stdout
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["technique"] == technique
+    assert summary["tried_pairs"] >= summary["resolved_pairs"] > 0
+    assert set(summary["moved_distance"]) >= {"mean", "max", "count"}
+    if technique == "move-source":
+        assert summary["threshold"] == 2
+        assert set(summary["flown_distance"]) >= {"mean", "max"}
+    header = (tmp_path / "pairs.csv").read_text().splitlines()[0]
+    for column in ("tried", "resolved", "moves", "moved_flss", "largest_move"):
+        assert f'"{column}"' in header
+
+
+def test_threshold_must_be_positive():
+    run = swazure(
+        "evaluate",
+        "--cloud",
+        "torus",
+        "--beta",
+        "0.5",
+        "--technique",
+        "move-source",
+        "--threshold",
+        "0",
+    )
+    assert run.returncode == 2
+    assert "--threshold must be at least 1" in run.stderr

@@ -1,0 +1,592 @@
+"""Move Obstructing and Move Source (spec, sections 7 and 8).
+
+Both are tried on every ordered blind pair whose status is BLOCKED, each
+from the original shape (moves are temporary). :func:`move_obstructing` and
+:func:`move_source` return a :class:`HeuristicResult`: per pair whether it
+was tried and resolved, the new path and estimate, and every individual move
+(which FLS went from where to where), so that a coordinator can issue the
+same moves as commands. :func:`apply` folds a result into the plain run.
+
+Conventions beyond the spec, stated once here:
+
+- An FLS moved onto the obstruction-free circle only touches the line of
+  sight: it obstructs no more (the circle's purpose), although plain line of
+  sight counts a centre at exactly r as obstructing.
+- Obstructers of a hop are taken in the current configuration when the hop is
+  processed, in path order and by increasing FLS index; so an FLS moved into
+  a later hop moves again, and one moved into an earlier hop fails the pair at
+  the final check.
+- An FLS of the path itself cannot step aside: if it obstructs a hop, Move
+  Obstructing fails for the pair.
+- Move Source probes the 26 directions in the lexicographic order of their
+  grid offsets (-1, -1, -1), (-1, -1, 0), ..., (1, 1, 1); among the target's
+  visible sweet neighbours that succeed at one probe it takes the one with the
+  smallest path length t(q, h) + t(h, j), then the smallest index.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from .evaluate import (
+    NO_PATH,
+    REASON_BLOCKED,
+    SWEET_PATH,
+    Evaluation,
+    estimates,
+    merge_paths,
+    summarise,
+)
+from .metrics import alpha_deg, describe, distance_error_pct, phi_error_deg, theta_error_deg
+from .paths import Paths, path_hops, shortest_paths
+from .sensor import measured_vectors
+from .sight import _scan_between, obstructers
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+PLAIN = "plain"
+MOVE_OBSTRUCTING = "move-obstructing"
+MOVE_SOURCE = "move-source"
+TECHNIQUES = (PLAIN, MOVE_OBSTRUCTING, MOVE_SOURCE)
+
+#: The 26 probe directions of Move Source, unit vectors in lexicographic offset order.
+DIRECTIONS = np.array(
+    [offset for offset in itertools.product((-1, 0, 1), repeat=3) if any(offset)], dtype=float
+)
+DIRECTIONS /= np.linalg.norm(DIRECTIONS, axis=1)[:, None]
+
+#: Slack when deciding that an FLS on the obstruction-free circle clears a line of sight, cm.
+_TOUCH = 1e-9
+
+
+@dataclass(frozen=True)
+class HeuristicResult:
+    """Outcome of a heuristic for M ordered blind pairs; moves as a CSR over pairs."""
+
+    technique: str
+    threshold: int | None
+    tried: NDArray[np.bool_]  # (M,)
+    resolved: NDArray[np.bool_]  # (M,)
+    paths: Paths  # the resolved pairs' sweet paths (not found elsewhere)
+    estimate: FloatArray  # (M, 3), cm; nan where not resolved
+    truth: FloatArray  # (M, 3), cm: p_j - p_i, or p_j - q for Move Source
+    move_offsets: IntArray  # (M + 1,)
+    move_fls: IntArray  # (K,), swarm index of the FLS that moved
+    move_from: FloatArray  # (K, 3), cm
+    move_to: FloatArray  # (K, 3), cm
+    flown: FloatArray = field(default_factory=lambda: np.zeros(0))  # (M,), Move Source
+
+    def moves(self, pair: int) -> list[tuple[int, FloatArray, FloatArray]]:
+        """The moves made for pair ``pair``: (fls, from, to), in order."""
+        span = range(self.move_offsets[pair], self.move_offsets[pair + 1])
+        return [(int(self.move_fls[k]), self.move_from[k], self.move_to[k]) for k in span]
+
+    @property
+    def move_distance(self) -> FloatArray:
+        """Length of every individual move, cm: (K,)."""
+        return np.asarray(np.linalg.norm(self.move_to - self.move_from, axis=1))
+
+
+def check_technique(technique: str) -> str:
+    """Return ``technique`` if valid, else raise ValueError listing the valid ones."""
+    if technique not in TECHNIQUES:
+        raise ValueError(
+            f"unknown technique {technique!r}; expected one of {', '.join(TECHNIQUES)}"
+        )
+    return technique
+
+
+def free_circle_point(
+    centre: FloatArray,
+    normal: FloatArray,
+    toward: FloatArray,
+    radius: float,
+    blockers: FloatArray,
+    block_radius: float,
+) -> FloatArray | None:
+    """The point of a circle nearest ``toward`` that is not strictly inside any blocking sphere.
+
+    The circle has centre ``centre``, radius ``radius`` and lies in the plane
+    through ``centre`` perpendicular to ``normal``; each row of ``blockers``
+    (B, 3) is the centre of a sphere of radius ``block_radius`` whose interior
+    is removed. Exact: each sphere removes one open arc, computed in closed
+    form. Returns None when nothing of the circle remains. Units: cm.
+    """
+    point: FloatArray = _free_circle_kernel(
+        np.asarray(centre, dtype=np.float64),
+        np.asarray(normal, dtype=np.float64),
+        np.asarray(toward, dtype=np.float64),
+        float(radius),
+        np.ascontiguousarray(blockers, dtype=np.float64).reshape(-1, 3),
+        float(block_radius),
+    )
+    return None if np.isnan(point[0]) else point
+
+
+@numba.njit(cache=True)
+def _wrap(angle: float) -> float:
+    return (angle + np.pi) % (2 * np.pi) - np.pi
+
+
+@numba.njit(cache=True)
+def _free_circle_kernel(
+    centre: FloatArray,
+    normal: FloatArray,
+    toward: FloatArray,
+    radius: float,
+    blockers: FloatArray,
+    block_radius: float,
+) -> FloatArray:
+    """free_circle_point's work; a nan point means nothing of the circle is free."""
+    normal = normal / np.sqrt(normal @ normal)
+    offset = toward - centre
+    offset = offset - (offset @ normal) * normal
+    if np.sqrt(offset @ offset) < 1e-12 * max(radius, 1.0):
+        # Exactly on the line: any direction is nearest; take a fixed one.
+        axis = np.zeros(3)
+        axis[np.argmin(np.abs(normal))] = 1.0
+        offset = np.cross(normal, axis)
+    first = offset / np.sqrt(offset @ offset)
+    second = np.cross(normal, first)
+    # |q(θ) - s|² < R²  <=>  A cos θ + B sin θ < m, with q(θ) = c + r (cos θ e1 + sin θ e2).
+    phases = np.empty(len(blockers))
+    halves = np.empty(len(blockers))
+    arcs = 0
+    for k in range(len(blockers)):
+        relative = centre - blockers[k]
+        a, b = relative @ first, relative @ second
+        m = -(relative @ relative + radius**2 - block_radius**2) / (2 * radius)
+        rho = np.hypot(a, b)
+        if (rho == 0 and m > 0) or (rho > 0 and m > rho):
+            return np.full(3, np.nan)  # this sphere covers the whole circle
+        if rho > 0 and m > -rho:
+            phases[arcs] = np.arctan2(b, a) + np.pi  # centre of the removed arc
+            halves[arcs] = np.pi - np.arccos(min(max(m / rho, -1.0), 1.0))
+            arcs += 1
+    # Candidates: θ = 0 (the ideal move) and every arc end; nearest = smallest |θ|, then +θ.
+    best = np.nan
+    for candidate in range(2 * arcs + 1):
+        if candidate == 0:
+            theta = 0.0
+        elif candidate <= arcs:
+            theta = _wrap(phases[candidate - 1] - halves[candidate - 1])
+        else:
+            theta = _wrap(phases[candidate - 1 - arcs] + halves[candidate - 1 - arcs])
+        free = True
+        for k in range(arcs):
+            if abs(_wrap(theta - phases[k])) < halves[k] - 1e-12:
+                free = False
+                break
+        if free and (
+            np.isnan(best) or abs(theta) < abs(best) or (abs(theta) == abs(best) and theta > best)
+        ):
+            best = theta
+    if np.isnan(best):
+        return np.full(3, np.nan)
+    point: FloatArray = centre + radius * (np.cos(best) * first + np.sin(best) * second)
+    return point
+
+
+def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
+    """Cross product of two 3-vectors (np.cross costs more than the arithmetic here)."""
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
+
+
+def _closest_on_segment(start: FloatArray, end: FloatArray, point: FloatArray) -> FloatArray:
+    direction = end - start
+    along = float((point - start) @ direction / (direction @ direction))
+    return np.asarray(start + min(max(along, 0.0), 1.0) * direction)
+
+
+def _segment_distance(start: FloatArray, end: FloatArray, point: FloatArray) -> float:
+    gap = point - _closest_on_segment(start, end, point)
+    return math.sqrt(float(gap @ gap))
+
+
+def _blocked_pairs(evaluation: Evaluation) -> IntArray:
+    pairs = evaluation.pairs
+    return np.flatnonzero((pairs.reason == REASON_BLOCKED) & (pairs.status != SWEET_PATH))
+
+
+def _empty_result(technique: str, threshold: int | None, size: int) -> dict[str, Any]:
+    return {
+        "technique": technique,
+        "threshold": threshold,
+        "tried": np.zeros(size, dtype=bool),
+        "resolved": np.zeros(size, dtype=bool),
+        "estimate": np.full((size, 3), np.nan),
+        "truth": np.full((size, 3), np.nan),
+    }
+
+
+def _csr_paths(size: int, rows: dict[int, list[int]]) -> Paths:
+    found = np.zeros(size, dtype=bool)
+    hops = np.zeros(size, dtype=np.int64)
+    length = np.full(size, np.nan)
+    counts = np.zeros(size, dtype=np.int64)
+    for pair, nodes in rows.items():
+        found[pair], hops[pair], counts[pair] = True, len(nodes) - 1, len(nodes)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    flat = np.empty(offsets[-1], dtype=np.int64)
+    for pair, nodes in rows.items():
+        flat[offsets[pair] : offsets[pair + 1]] = nodes
+    return Paths(found, hops, length, offsets, flat)
+
+
+def move_obstructing(evaluation: Evaluation) -> HeuristicResult:
+    """Move Obstructing (section 7) on every BLOCKED pair of a plain evaluation."""
+    hood, pairs = evaluation.hood, evaluation.pairs
+    swarm = hood.swarm
+    points, radius = swarm.points, swarm.radius
+    size = len(pairs)
+    result = _empty_result(MOVE_OBSTRUCTING, None, size)
+    blocked = _blocked_pairs(evaluation)
+    result["tried"][blocked] = True
+    sweet_paths = shortest_paths(
+        hood.sweet_all, pairs.source[blocked], pairs.target[blocked], evaluation.policy
+    )
+    # Obstructers of every hop of those paths in the original shape, once per edge.
+    _, start, end = path_hops(sweet_paths)
+    edge = hood.sweet_all.edge_labels(start, end)
+    edges, _ = np.unique(edge, return_inverse=True)
+    offsets, ids = obstructers(
+        points, radius, hood.pairs.first[edges], hood.pairs.second[edges], hood.grid
+    )
+    original = {
+        int(e): ids[offsets[k] : offsets[k + 1]].tolist() for k, e in enumerate(edges.tolist())
+    }
+    tree = cKDTree(points)
+    new_paths: dict[int, list[int]] = {}
+    move_counts = np.zeros(size, dtype=np.int64)
+    move_fls: list[int] = []
+    move_from: list[FloatArray] = []
+    move_to: list[FloatArray] = []
+    for slot, pair in enumerate(blocked.tolist()):
+        path = sweet_paths.path(slot)
+        moved: dict[int, FloatArray] = {}
+        moves: list[tuple[int, FloatArray, FloatArray]] = []
+        ok = True
+        # Every blocked pair has an S_all path, so path `slot` has hops from here on.
+        first_hop = int(sweet_paths.offsets[slot]) - slot
+        for hop, (a, b) in enumerate(itertools.pairwise(path)):
+            here = original[int(edge[first_hop + hop])]
+            current = [o for o in here if o not in moved]
+            current += [
+                o
+                for o, p in moved.items()
+                if _segment_distance(points[a], points[b], p) < radius - _TOUCH
+            ]
+            for o in sorted(set(current)):
+                if o in path:
+                    ok = False
+                    break
+                position = moved.get(o, points[o])
+                centre = _closest_on_segment(points[a], points[b], position)
+                near = tree.query_ball_point(centre, 5.0 * radius)
+                others = [k for k in near if k != o and k not in moved]
+                blockers = [points[k] for k in others]
+                blockers += [p for k, p in moved.items() if k != o]
+                target = free_circle_point(
+                    centre,
+                    points[b] - points[a],
+                    position,
+                    radius,
+                    np.array(blockers).reshape(-1, 3),
+                    2.0 * radius,
+                )
+                if target is None:
+                    ok = False
+                    break
+                moves.append((o, position, target))
+                moved[o] = target
+            if not ok:
+                break
+        if ok:
+            ok = all(
+                _segment_distance(points[a], points[b], p) >= radius - _TOUCH
+                for a, b in itertools.pairwise(path)
+                for p in moved.values()
+            )
+        for o, old, new in moves:
+            move_fls.append(o)
+            move_from.append(old)
+            move_to.append(new)
+        move_counts[pair] = len(moves)
+        if ok:
+            new_paths[pair] = path
+    resolved = np.zeros(size, dtype=bool)
+    resolved[list(new_paths)] = True
+    result["resolved"] = resolved
+    paths = _csr_paths(size, new_paths)
+    estimate, _, _ = estimates(hood, paths)
+    result["estimate"][resolved] = estimate[resolved]
+    result["truth"][resolved] = pairs.truth[resolved]
+    return HeuristicResult(
+        paths=paths,
+        move_offsets=np.concatenate([[0], np.cumsum(move_counts)]).astype(np.int64),
+        move_fls=np.array(move_fls, dtype=np.int64),
+        move_from=np.array(move_from, dtype=float).reshape(-1, 3),
+        move_to=np.array(move_to, dtype=float).reshape(-1, 3),
+        **result,
+    )
+
+
+@numba.njit(cache=True, parallel=True)
+def _probe_kernel(
+    points: FloatArray,
+    radius: float,
+    sweet_min: float,
+    sweet_max: float,
+    sources: IntArray,
+    targets: IntArray,
+    visible_indptr: IntArray,
+    visible_indices: IntArray,
+    directions: FloatArray,
+    threshold: int,
+    origin: FloatArray,
+    cell: float,
+    shape: IntArray,
+    cell_start: IntArray,
+    members: IntArray,
+) -> tuple[IntArray, FloatArray, FloatArray]:
+    """Per pair: the sweet neighbour reached (-1 if none), probe position, distance flown."""
+    pairs = len(sources)
+    helper = np.full(pairs, -1, dtype=np.int64)
+    probe = np.full((pairs, 3), np.nan)
+    flown = np.zeros(pairs)
+    collide2 = (2.0 * radius) ** 2
+    for pair in numba.prange(pairs):
+        i, j = sources[pair], targets[pair]
+        found = np.empty(1, dtype=np.int64)
+        alive = np.ones(len(directions), dtype=np.bool_)
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        for delta in range(1, threshold + 1):
+            for d in range(len(directions)):
+                if not alive[d]:
+                    continue
+                step = delta * radius
+                qx = points[i, 0] + step * directions[d, 0]
+                qy = points[i, 1] + step * directions[d, 1]
+                qz = points[i, 2] + step * directions[d, 2]
+                # Collision: any other FLS centre closer than 2r to q.
+                collides = False
+                lo0 = max(int(np.floor((qx - 2 * radius - origin[0]) / cell)), 0)
+                lo1 = max(int(np.floor((qy - 2 * radius - origin[1]) / cell)), 0)
+                lo2 = max(int(np.floor((qz - 2 * radius - origin[2]) / cell)), 0)
+                hi0 = min(int(np.floor((qx + 2 * radius - origin[0]) / cell)), shape[0] - 1)
+                hi1 = min(int(np.floor((qy + 2 * radius - origin[1]) / cell)), shape[1] - 1)
+                hi2 = min(int(np.floor((qz + 2 * radius - origin[2]) / cell)), shape[2] - 1)
+                for c0 in range(lo0, hi0 + 1):
+                    for c1 in range(lo1, hi1 + 1):
+                        for c2 in range(lo2, hi2 + 1):
+                            key = (c0 * shape[1] + c1) * shape[2] + c2
+                            for slot in range(cell_start[key], cell_start[key + 1]):
+                                k = members[slot]
+                                if k == i:
+                                    continue
+                                ex = points[k, 0] - qx
+                                ey = points[k, 1] - qy
+                                ez = points[k, 2] - qz
+                                if ex * ex + ey * ey + ez * ez < collide2:
+                                    collides = True
+                if collides:
+                    alive[d] = False
+                    continue
+                flown[pair] += np.sqrt((qx - x) ** 2 + (qy - y) ** 2 + (qz - z) ** 2)
+                x, y, z = qx, qy, qz
+                best, best_length = -1, np.inf
+                for slot in range(visible_indptr[j], visible_indptr[j + 1]):
+                    h = visible_indices[slot]
+                    if h == i:
+                        continue
+                    hx, hy, hz = points[h, 0], points[h, 1], points[h, 2]
+                    tracking = np.sqrt((hx - qx) ** 2 + (hy - qy) ** 2 + (hz - qz) ** 2)
+                    tracking -= 2.0 * radius
+                    if tracking < sweet_min or tracking >= sweet_max:
+                        continue
+                    hop = (
+                        np.sqrt(
+                            (hx - points[j, 0]) ** 2
+                            + (hy - points[j, 1]) ** 2
+                            + (hz - points[j, 2]) ** 2
+                        )
+                        - 2.0 * radius
+                    )
+                    total = (0.0 + tracking) + hop
+                    if total >= best_length:
+                        continue
+                    hits = _scan_between(
+                        points,
+                        radius,
+                        qx,
+                        qy,
+                        qz,
+                        hx,
+                        hy,
+                        hz,
+                        i,
+                        h,
+                        origin,
+                        cell,
+                        shape,
+                        cell_start,
+                        members,
+                        found,
+                        True,
+                    )
+                    if hits == 0:
+                        best, best_length = h, total
+                if best >= 0:
+                    helper[pair] = best
+                    probe[pair, 0], probe[pair, 1], probe[pair, 2] = qx, qy, qz
+                    break
+            if helper[pair] >= 0:
+                break
+    return helper, probe, flown
+
+
+def move_source(evaluation: Evaluation, threshold: int) -> HeuristicResult:
+    """Move Source (section 8) with probe steps delta = 1..``threshold`` on every BLOCKED pair."""
+    if threshold < 1:
+        raise ValueError(f"threshold must be a positive number of steps, got {threshold}")
+    hood, pairs = evaluation.hood, evaluation.pairs
+    swarm, sensor, grid = hood.swarm, hood.sensor, hood.grid
+    size = len(pairs)
+    result = _empty_result(MOVE_SOURCE, threshold, size)
+    blocked = _blocked_pairs(evaluation)
+    result["tried"][blocked] = True
+    visible = hood.sweet_visible
+    helper, probe, flown_blocked = _probe_kernel(
+        swarm.points,
+        swarm.radius,
+        sensor.sweet_min,
+        sensor.sweet_max,
+        pairs.source[blocked],
+        pairs.target[blocked],
+        visible.indptr,
+        visible.indices,
+        DIRECTIONS,
+        int(threshold),
+        grid.origin,
+        grid.cell,
+        grid.shape,
+        grid.cell_start,
+        grid.members,
+    )
+    success = helper >= 0
+    resolved_pairs = blocked[success]
+    resolved = np.zeros(size, dtype=bool)
+    resolved[resolved_pairs] = True
+    flown = np.zeros(size)
+    flown[blocked] = flown_blocked
+    # Hops q -> h -> j, measured with the source at its probe position q.
+    extended = np.vstack([swarm.points, probe[success]])
+    moved_source = swarm.size + np.arange(len(resolved_pairs))
+    middle = helper[success]
+    first_hop = measured_vectors(sensor, extended, swarm.radius, moved_source, middle)
+    second_hop = measured_vectors(
+        sensor, extended, swarm.radius, middle, pairs.target[resolved_pairs]
+    )
+    result["resolved"] = resolved
+    result["estimate"][resolved_pairs] = first_hop + second_hop
+    result["truth"][resolved_pairs] = swarm.points[pairs.target[resolved_pairs]] - probe[success]
+    rows = {
+        int(pair): [int(pairs.source[pair]), int(h), int(pairs.target[pair])]
+        for pair, h in zip(resolved_pairs, middle)
+    }
+    move_counts = np.zeros(size, dtype=np.int64)
+    move_counts[resolved_pairs] = 1
+    return HeuristicResult(
+        paths=_csr_paths(size, rows),
+        move_offsets=np.concatenate([[0], np.cumsum(move_counts)]).astype(np.int64),
+        move_fls=pairs.source[resolved_pairs].astype(np.int64),
+        move_from=swarm.points[pairs.source[resolved_pairs]].reshape(-1, 3),
+        move_to=probe[success].reshape(-1, 3),
+        flown=flown,
+        **result,
+    )
+
+
+def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
+    """The plain evaluation with the heuristic's resolved pairs made SWEET; summary extended."""
+    pairs = evaluation.pairs
+    resolved = heuristic.resolved
+    status = pairs.status.copy()
+    status[resolved] = SWEET_PATH
+    plain = Paths(
+        pairs.status != NO_PATH, pairs.hops, pairs.path_length, pairs.offsets, pairs.nodes
+    )
+    moved = heuristic.paths
+    paths = merge_paths(
+        plain,
+        Paths(
+            moved.found[resolved],
+            moved.hops[resolved],
+            moved.length[resolved],
+            moved.offsets,
+            moved.nodes,
+        ),
+        resolved,
+    )
+    hops = np.where(paths.found, paths.hops, 0)
+    estimate = np.where(resolved[:, None], heuristic.estimate, pairs.estimate)
+    truth = np.where(resolved[:, None], heuristic.truth, pairs.truth)
+    sweet_hops = np.where(resolved, hops, pairs.sweet_hops)
+    decaying_hops = np.where(resolved, 0, pairs.decaying_hops)
+    length = pairs.path_length.copy()
+    length[resolved] = np.nan
+    with np.errstate(invalid="ignore"):
+        errors = [
+            metric(estimate, truth)
+            for metric in (distance_error_pct, alpha_deg, theta_error_deg, phi_error_deg)
+        ]
+    updated = replace(
+        pairs,
+        status=status,
+        hops=hops,
+        sweet_hops=sweet_hops,
+        decaying_hops=decaying_hops,
+        path_length=length,
+        offsets=paths.offsets,
+        nodes=paths.nodes,
+        estimate=estimate,
+        truth=truth,
+        distance_error=errors[0],
+        alpha=errors[1],
+        theta=errors[2],
+        phi=errors[3],
+    )
+    summary = summarise(evaluation.hood, evaluation.policy, updated)
+    summary["seconds"] = evaluation.summary.get("seconds")
+    summary.update(heuristic_summary(heuristic))
+    summary["parameters"]["technique"] = heuristic.technique
+    summary["parameters"]["threshold"] = heuristic.threshold
+    assert not np.any(updated.status[resolved] == NO_PATH)
+    return replace(evaluation, pairs=updated, summary=summary)
+
+
+def heuristic_summary(heuristic: HeuristicResult) -> dict[str, Any]:
+    """The summary fields of a heuristic (section 6): tried, resolved and move distances."""
+    moved = heuristic.move_distance
+    fields: dict[str, Any] = {
+        "technique": heuristic.technique,
+        "threshold": heuristic.threshold,
+        "tried_pairs": int(heuristic.tried.sum()),
+        "resolved_pairs": int(heuristic.resolved.sum()),
+        "moved_distance": {**describe(moved), "count": len(moved)},
+    }
+    if heuristic.technique == MOVE_SOURCE:
+        fields["flown_distance"] = describe(heuristic.flown[heuristic.tried])
+        fields["displacement"] = describe(moved)
+    return fields

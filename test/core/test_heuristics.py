@@ -1,0 +1,201 @@
+"""Move Obstructing and Move Source on hand-built swarms with known answers, and invariants."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.clouds import load_cloud
+from swazure_ros.core.evaluate import NO_PATH, REASON_BLOCKED, SWEET_PATH, evaluate
+from swazure_ros.core.geometry import make_swarm
+from swazure_ros.core.heuristics import (
+    DIRECTIONS,
+    apply,
+    free_circle_point,
+    move_obstructing,
+    move_source,
+)
+from swazure_ros.core.sensor import measured_vectors
+
+R = 0.5
+A, B, C = np.array([0.0, 0, 0]), np.array([2.0, 7, 0]), np.array([4.0, 0, 0])
+MIDPOINT = (A + B) / 2
+ACROSS = np.array([7.0, -2.0, 0.0]) / np.sqrt(53)  # in the plane, perpendicular to A-B
+
+
+def blocked_scene(*extra):
+    """A, B, C with A-B (sweet) obstructed by the extra FLSs; (A, C) is blind. r = 0.5."""
+    return make_swarm(np.vstack([A, B, C, *extra]), radius=R)
+
+
+def pair_index(evaluation, source, target):
+    pairs = evaluation.pairs
+    return int(np.flatnonzero((pairs.source == source) & (pairs.target == target))[0])
+
+
+def test_one_obstructer_moves_exactly_r_minus_u(sensor):
+    u = 0.2
+    evaluation = evaluate(blocked_scene(MIDPOINT + u * ACROSS), sensor, "shortest-length")
+    m = pair_index(evaluation, 0, 2)
+    assert evaluation.pairs.reason[m] == REASON_BLOCKED
+    result = move_obstructing(evaluation)
+    assert result.tried[m] and result.resolved[m]
+    [(fls, start, end)] = result.moves(m)
+    assert fls == 3
+    assert np.linalg.norm(end - start) == pytest.approx(R - u, abs=1e-12)
+    np.testing.assert_allclose(end, MIDPOINT + R * ACROSS, atol=1e-12)
+    assert result.paths.path(m) == [0, 1, 2]
+    hops = measured_vectors(sensor, evaluation.hood.swarm.points, R, [0, 1], [1, 2])
+    np.testing.assert_allclose(result.estimate[m], hops.sum(axis=0), atol=1e-12)
+    after = apply(evaluation, result)
+    assert after.pairs.status[m] == SWEET_PATH
+    assert after.summary["resolved_pairs"] == 2  # (A, C) and (C, A)
+    assert after.summary["moved_distance"]["max"] == pytest.approx(R - u, abs=1e-12)
+
+
+def test_nearest_free_point_blocked_by_a_neighbour_gives_the_sphere_boundary(sensor):
+    obstructer = MIDPOINT + 0.2 * ACROSS
+    neighbour = MIDPOINT + 1.4 * ACROSS  # its sphere of radius 2r covers the ideal point
+    evaluation = evaluate(blocked_scene(obstructer, neighbour), sensor, "shortest-length")
+    result = move_obstructing(evaluation)
+    m = pair_index(evaluation, 0, 2)
+    assert result.resolved[m]
+    [(fls, start, end)] = result.moves(m)
+    assert fls == 3
+    assert np.linalg.norm(end - neighbour) == pytest.approx(2 * R, abs=1e-9)
+    # On the obstruction-free circle: r from the line of sight, in the plane through c.
+    direction = (B - A) / np.linalg.norm(B - A)
+    assert (end - MIDPOINT) @ direction == pytest.approx(0.0, abs=1e-12)
+    assert np.linalg.norm(end - MIDPOINT) == pytest.approx(R, abs=1e-12)
+    assert np.linalg.norm(end - start) > R - 0.2  # more than the ideal move
+
+
+def test_whole_circle_blocked_fails_and_falls_back(sensor):
+    normal = np.cross((B - A) / np.linalg.norm(B - A), ACROSS)
+    ring = [
+        MIDPOINT + 1.1 * (np.cos(angle) * ACROSS + np.sin(angle) * normal)
+        for angle in np.radians([60, 180, 300])
+    ]
+    evaluation = evaluate(blocked_scene(MIDPOINT + 0.2 * ACROSS, *ring), sensor, "fewest-hops")
+    m = pair_index(evaluation, 0, 2)
+    result = move_obstructing(evaluation)
+    assert result.tried[m] and not result.resolved[m]
+    after = apply(evaluation, result)
+    assert after.pairs.status[m] == NO_PATH  # nothing decaying in sight to fall back on
+
+
+def test_two_obstructers_on_one_hop_both_move(sensor):
+    first = A + (B - A) / 3 + 0.2 * ACROSS
+    second = A + 2 * (B - A) / 3 - 0.1 * ACROSS
+    evaluation = evaluate(blocked_scene(first, second), sensor, "shortest-length")
+    m = pair_index(evaluation, 0, 2)
+    result = move_obstructing(evaluation)
+    assert result.resolved[m]
+    moves = result.moves(m)
+    assert [fls for fls, _, _ in moves] == [3, 4]
+    distances = [np.linalg.norm(end - start) for _, start, end in moves]
+    np.testing.assert_allclose(distances, [R - 0.2, R - 0.1], atol=1e-12)
+
+
+def test_free_circle_point_without_blockers_is_the_ideal_move():
+    point = free_circle_point(
+        np.zeros(3), np.array([0, 0, 1.0]), np.array([0.1, 0, 0]), 0.5, np.empty((0, 3)), 1.0
+    )
+    np.testing.assert_allclose(point, [0.5, 0, 0])
+
+
+# Move Source scene: A-B along x (sweet) blocked by K on the line; C blind to A,
+# sweet and in sight of B. Probing from A, every direction stays blocked by K up
+# to delta = 2; at delta = 3 the first direction, (-1, -1, -1), clears it.
+SOURCE_SCENE = np.array([[0, 0, 0], [7.5, 0, 0], [2, 5, 0], [3.75, 0, 0]], dtype=float)
+
+
+def probe_path(threshold_delta, last_direction):
+    """Positions the source flies through: every probe up to the successful one."""
+    positions = [SOURCE_SCENE[0]]
+    for delta in range(1, threshold_delta + 1):
+        for d, direction in enumerate(DIRECTIONS):
+            positions.append(SOURCE_SCENE[0] + delta * R * direction)
+            if delta == threshold_delta and d == last_direction:
+                return np.array(positions)
+    return np.array(positions)
+
+
+def test_move_source_first_success_direction_delta_and_distances(sensor):
+    evaluation = evaluate(make_swarm(SOURCE_SCENE, radius=R), sensor, "shortest-length")
+    m = pair_index(evaluation, 0, 2)
+    assert evaluation.pairs.reason[m] == REASON_BLOCKED
+    result = move_source(evaluation, threshold=10)
+    assert result.resolved[m]
+    [(fls, start, end)] = result.moves(m)
+    assert fls == 0
+    np.testing.assert_allclose(end, 3 * R * DIRECTIONS[0], atol=1e-12)
+    assert result.paths.path(m) == [0, 1, 2]
+    flown = np.linalg.norm(np.diff(probe_path(3, 0), axis=0), axis=1).sum()
+    assert result.flown[m] == pytest.approx(flown, rel=1e-12)
+    assert np.linalg.norm(end - start) == pytest.approx(1.5, abs=1e-12)
+    np.testing.assert_allclose(result.truth[m], SOURCE_SCENE[2] - end, atol=1e-12)
+    after = apply(evaluation, result)
+    assert after.pairs.status[m] == SWEET_PATH
+    assert after.summary["flown_distance"]["max"] >= flown - 1e-9
+
+
+def test_move_source_threshold_limits_the_search(sensor):
+    evaluation = evaluate(make_swarm(SOURCE_SCENE, radius=R), sensor, "shortest-length")
+    m = pair_index(evaluation, 0, 2)
+    result = move_source(evaluation, threshold=2)
+    assert result.tried[m] and not result.resolved[m]
+    assert result.moves(m) == []
+    assert result.flown[m] == pytest.approx(
+        np.linalg.norm(np.diff(probe_path(2, 25), axis=0), axis=1).sum(), rel=1e-12
+    )
+
+
+def test_move_source_drops_a_direction_that_collides(sensor):
+    # An FLS 1.5 cm out along the first direction: the probe at delta = 2 (1 cm) collides.
+    blocker = 1.5 * DIRECTIONS[0]
+    swarm = make_swarm(np.vstack([SOURCE_SCENE, blocker]), radius=R)
+    evaluation = evaluate(swarm, sensor, "shortest-length")
+    m = pair_index(evaluation, 0, 2)
+    result = move_source(evaluation, threshold=10)
+    if result.resolved[m]:
+        [(_, start, end)] = result.moves(m)
+        direction = (end - start) / np.linalg.norm(end - start)
+        assert not np.allclose(direction, DIRECTIONS[0])
+    # The path it flew never entered the collision sphere of the blocker.
+    assert result.flown[m] > 0
+
+
+def segment_distance(start, end, point):
+    direction = end - start
+    along = np.clip((point - start) @ direction / (direction @ direction), 0, 1)
+    return np.linalg.norm(point - (start + along[..., None] * direction), axis=-1)
+
+
+@pytest.mark.parametrize("technique", ["move-obstructing", "move-source"])
+def test_resolved_pairs_have_clear_sweet_hops_and_no_collisions(sensor, technique):
+    swarm = make_swarm(load_cloud("torus:300").points, beta=0.5)
+    evaluation = evaluate(swarm, sensor, "shortest-length")
+    if technique == "move-obstructing":
+        result = move_obstructing(evaluation)
+    else:
+        result = move_source(evaluation, threshold=10)
+    resolved = np.flatnonzero(result.resolved)
+    assert len(resolved) > 0
+    radius = swarm.radius
+    for m in resolved[:: max(1, len(resolved) // 150)]:
+        points = swarm.points.copy()
+        for fls, _, end in result.moves(m):
+            points[fls] = end
+        for fls, _, _ in result.moves(m):
+            gaps = np.linalg.norm(points - points[fls], axis=1)
+            gaps[fls] = np.inf
+            assert gaps.min() >= 2 * radius - 1e-9
+        path = result.paths.path(m)
+        for a, b in itertools.pairwise(path):
+            tracking = np.linalg.norm(points[b] - points[a]) - 2 * radius
+            assert sensor.sweet_min <= tracking < sensor.sweet_max
+            distance = segment_distance(points[a], points[b], points)
+            distance[[a, b]] = np.inf
+            # An FLS on the obstruction-free circle only touches the line of sight.
+            assert distance.min() >= radius - 1e-9
