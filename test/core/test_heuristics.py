@@ -152,18 +152,37 @@ def test_move_source_threshold_limits_the_search(sensor):
 
 
 def test_move_source_drops_a_direction_that_collides(sensor):
-    # An FLS 1.5 cm out along the first direction: the probe at delta = 2 (1 cm) collides.
-    blocker = 1.5 * DIRECTIONS[0]
+    # An FLS 1.6 cm out along the first direction: the probe at delta = 1 is 1.1 cm
+    # (> 2r) from it and allowed; the probe at delta = 2 is 0.6 cm away: the direction dies.
+    blocker = 1.6 * DIRECTIONS[0]
     swarm = make_swarm(np.vstack([SOURCE_SCENE, blocker]), radius=R)
     evaluation = evaluate(swarm, sensor, "shortest-length")
     m = pair_index(evaluation, 0, 2)
     result = move_source(evaluation, threshold=10)
-    if result.resolved[m]:
-        [(_, start, end)] = result.moves(m)
-        direction = (end - start) / np.linalg.norm(end - start)
-        assert not np.allclose(direction, DIRECTIONS[0])
-    # The path it flew never entered the collision sphere of the blocker.
-    assert result.flown[m] > 0
+    assert result.resolved[m]
+    [(_, _, end)] = result.moves(m)
+    # Without the drop, delta = 3 in direction 0 would succeed (as in the scene above).
+    np.testing.assert_allclose(end, 3 * R * DIRECTIONS[2], atol=1e-12)
+    # The flight, probe by probe as section 8 states it: a direction dies at its first
+    # colliding probe; the source flies through every other probe up to the success.
+    others = swarm.points[1:]
+    alive = np.ones(len(DIRECTIONS), dtype=bool)
+    visited = [SOURCE_SCENE[0]]
+    for delta in (1, 2, 3):
+        for d, direction in enumerate(DIRECTIONS):
+            if not alive[d]:
+                continue
+            probe = SOURCE_SCENE[0] + delta * R * direction
+            if (np.linalg.norm(others - probe, axis=1) < 2 * R).any():
+                alive[d] = False
+                continue
+            visited.append(probe)
+            if np.allclose(probe, end):
+                break
+    assert not alive[0]
+    np.testing.assert_allclose(visited[-1], end)
+    flown = np.linalg.norm(np.diff(np.array(visited), axis=0), axis=1).sum()
+    assert result.flown[m] == pytest.approx(flown, rel=1e-12)
 
 
 def segment_distance(start, end, point):
