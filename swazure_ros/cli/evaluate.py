@@ -18,14 +18,7 @@ from ..core.clouds import load_cloud
 from ..core.errors import CloudError, SwazureError
 from ..core.evaluate import Progress, evaluate
 from ..core.geometry import make_swarm
-from ..core.heuristics import (
-    MOVE_OBSTRUCTING,
-    PLAIN,
-    TECHNIQUES,
-    apply,
-    move_obstructing,
-    move_source,
-)
+from ..core.heuristics import PLAIN, TECHNIQUES, HeuristicResult, run_technique
 from ..core.paths import POLICIES
 from ..core.results import write_evaluation
 from ..core.sensor import load_sensor
@@ -179,18 +172,14 @@ def main(args: argparse.Namespace) -> int:
     progress: Progress | None = None if args.quiet else TqdmProgress()
     if args.threshold < 1:
         raise SwazureError(f"--threshold must be at least 1, got {args.threshold}")
-    heuristic = None
+    heuristic: HeuristicResult | None = None
     try:
         evaluation = evaluate(swarm, sensor, args.policy, progress)
         if args.technique != PLAIN:
             began = time.perf_counter()
             if progress is not None:
                 progress.start(args.technique, 1)
-            if args.technique == MOVE_OBSTRUCTING:
-                heuristic = move_obstructing(evaluation)
-            else:
-                heuristic = move_source(evaluation, args.threshold)
-            evaluation = apply(evaluation, heuristic)
+            evaluation, heuristic = run_technique(evaluation, args.technique, args.threshold)
             evaluation.summary["seconds"] += time.perf_counter() - began
     finally:
         if isinstance(progress, TqdmProgress):

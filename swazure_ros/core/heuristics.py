@@ -48,7 +48,7 @@ from .evaluate import (
 from .metrics import alpha_deg, describe, distance_error_pct, phi_error_deg, theta_error_deg
 from .paths import Paths, path_hops, shortest_paths
 from .sensor import measured_vectors
-from .sight import _scan_between, obstructers
+from .sight import _any_within, _scan_between, obstructers
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -194,13 +194,6 @@ def _free_circle_kernel(
         return np.full(3, np.nan)
     point: FloatArray = centre + radius * (np.cos(best) * first + np.sin(best) * second)
     return point
-
-
-def _cross(a: FloatArray, b: FloatArray) -> FloatArray:
-    """Cross product of two 3-vectors (np.cross costs more than the arithmetic here)."""
-    return np.array(
-        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-    )
 
 
 def _closest_on_segment(start: FloatArray, end: FloatArray, point: FloatArray) -> FloatArray:
@@ -365,7 +358,6 @@ def _probe_kernel(
     helper = np.full(pairs, -1, dtype=np.int64)
     probe = np.full((pairs, 3), np.nan)
     flown = np.zeros(pairs)
-    collide2 = (2.0 * radius) ** 2
     for pair in numba.prange(pairs):
         i, j = sources[pair], targets[pair]
         found = np.empty(1, dtype=np.int64)
@@ -380,26 +372,9 @@ def _probe_kernel(
                 qy = points[i, 1] + step * directions[d, 1]
                 qz = points[i, 2] + step * directions[d, 2]
                 # Collision: any other FLS centre closer than 2r to q.
-                collides = False
-                lo0 = max(int(np.floor((qx - 2 * radius - origin[0]) / cell)), 0)
-                lo1 = max(int(np.floor((qy - 2 * radius - origin[1]) / cell)), 0)
-                lo2 = max(int(np.floor((qz - 2 * radius - origin[2]) / cell)), 0)
-                hi0 = min(int(np.floor((qx + 2 * radius - origin[0]) / cell)), shape[0] - 1)
-                hi1 = min(int(np.floor((qy + 2 * radius - origin[1]) / cell)), shape[1] - 1)
-                hi2 = min(int(np.floor((qz + 2 * radius - origin[2]) / cell)), shape[2] - 1)
-                for c0 in range(lo0, hi0 + 1):
-                    for c1 in range(lo1, hi1 + 1):
-                        for c2 in range(lo2, hi2 + 1):
-                            key = (c0 * shape[1] + c1) * shape[2] + c2
-                            for slot in range(cell_start[key], cell_start[key + 1]):
-                                k = members[slot]
-                                if k == i:
-                                    continue
-                                ex = points[k, 0] - qx
-                                ey = points[k, 1] - qy
-                                ez = points[k, 2] - qz
-                                if ex * ex + ey * ey + ez * ez < collide2:
-                                    collides = True
+                collides = _any_within(
+                    points, qx, qy, qz, 2.0 * radius, i, origin, cell, shape, cell_start, members
+                )
                 if collides:
                     alive[d] = False
                     continue
@@ -572,8 +547,20 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
     summary.update(heuristic_summary(heuristic))
     summary["parameters"]["technique"] = heuristic.technique
     summary["parameters"]["threshold"] = heuristic.threshold
-    assert not np.any(updated.status[resolved] == NO_PATH)
     return replace(evaluation, pairs=updated, summary=summary)
+
+
+def run_technique(
+    evaluation: Evaluation, technique: str, threshold: int = 10
+) -> tuple[Evaluation, HeuristicResult | None]:
+    """Apply ``technique`` to a plain evaluation; plain returns it unchanged, with no result."""
+    if check_technique(technique) == PLAIN:
+        return evaluation, None
+    if technique == MOVE_OBSTRUCTING:
+        heuristic = move_obstructing(evaluation)
+    else:
+        heuristic = move_source(evaluation, threshold)
+    return apply(evaluation, heuristic), heuristic
 
 
 def heuristic_summary(heuristic: HeuristicResult) -> dict[str, Any]:

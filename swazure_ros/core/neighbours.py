@@ -9,7 +9,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from .geometry import KISSING_TOLERANCE, Swarm, centre_distance
-from .sensor import BLIND, DECAYING, SWEET, Sensor
+from .sensor import BLIND, Sensor
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -64,13 +64,6 @@ def neighbour_pairs(swarm: Swarm, sensor: Sensor) -> NeighbourPairs:
     first, second = first[keep][order], second[keep][order]
     distance, tracking = distance[keep][order], tracking[keep][order]
     return NeighbourPairs(first, second, distance, tracking, sensor.classify(tracking))
-
-
-def is_edge_class(range_class: NDArray[np.int8], decaying: bool) -> NDArray[np.bool_]:
-    """Pairs that are sweet (and decaying, when ``decaying``): edges of the neighbour graphs."""
-    if decaying:
-        return np.asarray((range_class == SWEET) | (range_class == DECAYING))
-    return np.asarray(range_class == SWEET)
 
 
 def ordered_blind_pairs(pairs: NeighbourPairs) -> tuple[IntArray, IntArray]:

@@ -180,6 +180,15 @@ def _heap_pop(key1: FloatArray, key2: FloatArray, item: IntArray, size: int) -> 
 
 
 @numba.njit(cache=True, nogil=True)
+def _walk_back(pred: IntArray, target: int, steps: int, out: IntArray) -> None:
+    """Write the path ending at ``target`` (``steps`` hops) into out[0 : steps + 1]."""
+    node = target
+    for back in range(steps, -1, -1):
+        out[back] = node
+        node = pred[node]
+
+
+@numba.njit(cache=True, nogil=True)
 def _search_one(
     indptr: IntArray,
     indices: IntArray,
@@ -361,10 +370,7 @@ def _search_kernel(
                 hops[pair] = steps
                 length[pair] = secondary[target] if fewest_hops else primary[target]
                 if steps + 1 <= width:
-                    node = target
-                    for back in range(steps, -1, -1):
-                        buffer[pair, back] = node
-                        node = pred[node]
+                    _walk_back(pred, target, steps, buffer[pair])
             for slot in range(count):
                 node = touched[slot]
                 primary[node] = np.inf
@@ -419,10 +425,7 @@ def _long_paths(
         )
         for pair in range(start, stop):
             if hops[pair] + 1 > width:
-                node = targets[pair]
-                for back in range(hops[pair], -1, -1):
-                    nodes[offsets[pair] + back] = node
-                    node = pred[node]
+                _walk_back(pred, targets[pair], hops[pair], nodes[offsets[pair] :])
         for slot in range(count):
             node = touched[slot]
             primary[node], secondary[node], pred[node] = np.inf, np.inf, -1

@@ -163,6 +163,42 @@ def _scan_between(
     return count
 
 
+@numba.njit(cache=True, nogil=True)
+def _any_within(
+    points: FloatArray,
+    x: float,
+    y: float,
+    z: float,
+    distance: float,
+    skip: int,
+    origin: FloatArray,
+    cell: float,
+    shape: IntArray,
+    cell_start: IntArray,
+    members: IntArray,
+) -> bool:
+    """Whether some point other than ``skip`` is strictly closer than ``distance`` to (x, y, z)."""
+    lo0 = max(int(np.floor((x - distance - origin[0]) / cell)), 0)
+    lo1 = max(int(np.floor((y - distance - origin[1]) / cell)), 0)
+    lo2 = max(int(np.floor((z - distance - origin[2]) / cell)), 0)
+    hi0 = min(int(np.floor((x + distance - origin[0]) / cell)), shape[0] - 1)
+    hi1 = min(int(np.floor((y + distance - origin[1]) / cell)), shape[1] - 1)
+    hi2 = min(int(np.floor((z + distance - origin[2]) / cell)), shape[2] - 1)
+    limit = distance * distance
+    for c0 in range(lo0, hi0 + 1):
+        for c1 in range(lo1, hi1 + 1):
+            for c2 in range(lo2, hi2 + 1):
+                key = (c0 * shape[1] + c1) * shape[2] + c2
+                for slot in range(cell_start[key], cell_start[key + 1]):
+                    k = members[slot]
+                    if k == skip:
+                        continue
+                    ex, ey, ez = points[k, 0] - x, points[k, 1] - y, points[k, 2] - z
+                    if ex * ex + ey * ey + ez * ez < limit:
+                        return True
+    return False
+
+
 @numba.njit(cache=True, parallel=True)
 def _obstructed_kernel(
     points: FloatArray,
