@@ -20,7 +20,7 @@ from ..core.evaluate import Progress, evaluate
 from ..core.geometry import make_swarm
 from ..core.heuristics import PLAIN, TECHNIQUES, HeuristicResult, run_technique
 from ..core.paths import POLICIES
-from ..core.results import write_evaluation
+from ..core.results import describe_source, write_evaluation
 from ..core.sensor import load_sensor
 
 
@@ -185,15 +185,7 @@ def main(args: argparse.Namespace) -> int:
         if isinstance(progress, TqdmProgress):
             progress.close()
     summary = evaluation.summary
-    summary["parameters"].update(
-        {
-            "cloud": cloud.name,
-            "cloud_source": cloud.source,
-            "scale": cloud.scale,
-            "seed": args.seed,
-            "sensor_file": str(args.sensor or "config/sensor.yaml"),
-        }
-    )
+    describe_source(summary, cloud, args.seed, args.sensor)
     print(
         f"{cloud.name}: beta {_cell(swarm.beta)}, {args.policy}, {args.technique}, "
         f"sensor {sensor.name}, "

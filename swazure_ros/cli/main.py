@@ -10,11 +10,12 @@ from types import ModuleType
 
 from .. import __version__
 from ..core.errors import SwazureError
-from . import evaluate
+from . import evaluate, study
 
 #: Verb name -> module with ``add_arguments(parser)`` and ``main(args) -> int``.
 VERBS: dict[str, ModuleType] = {
     "evaluate": evaluate,
+    "study": study,
 }
 
 

@@ -8,6 +8,7 @@ message naming the file when the input cannot be used.
 from __future__ import annotations
 
 import math
+import os
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -35,6 +36,29 @@ PUBLISHED_SCALES: dict[str, float] = {
 }
 
 SUFFIXES = (".xyz", ".txt", ".csv", ".npy", ".ply")
+
+
+def published_dataset_dir() -> Path | None:
+    """The folder of the six published clouds, or None when this machine has none.
+
+    ``$SWAZURE_DATASETS`` wins; otherwise ``../shared/datasets/swazure-paper``
+    beside the source checkout, then beside the working directory.
+    """
+    candidates = []
+    if "SWAZURE_DATASETS" in os.environ:
+        candidates.append(Path(os.environ["SWAZURE_DATASETS"]))
+    relative = Path("shared", "datasets", "swazure-paper")
+    candidates.append(Path(__file__).resolve().parents[3] / relative)
+    candidates.append(Path.cwd().parent / relative)
+    for candidate in candidates:
+        if candidate.is_dir() and any(candidate.glob("*.xyz")):
+            return candidate
+    return None
+
+
+def cloud_files(directory: Path) -> list[Path]:
+    """Point cloud files in ``directory``, sorted by name."""
+    return sorted(p for p in directory.iterdir() if p.is_file() and p.suffix.lower() in SUFFIXES)
 
 
 @dataclass(frozen=True)

@@ -360,6 +360,11 @@ def summarise(hood: Neighbourhood, policy: str, pairs: PairResults) -> dict[str,
         "sweet_connected_pairs": int(pairs.sweet_connected.sum()),
         "obstructed_path_pct": _pct(int(obstructed_paths.sum()), int(pairs.sweet_connected.sum())),
         "obstructing_flss_per_path": describe(pairs.obstructing_flss[obstructed_paths]),
+        # Counts of obstructed paths by their number of obstructing FLSs (index = number),
+        # so that box plots and quantiles can be drawn without the per-pair file.
+        "obstructing_flss_histogram": np.bincount(
+            pairs.obstructing_flss[obstructed_paths].astype(np.int64)
+        ).tolist(),
         "parameters": {
             "policy": policy,
             "beta": swarm.beta,

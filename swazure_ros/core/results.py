@@ -15,11 +15,14 @@ from typing import Any
 
 import numpy as np
 
+from .clouds import Cloud
 from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation
 from .heuristics import HeuristicResult
 
 PAIRS_FILE = "pairs.csv"
+PAIRS_PARQUET_FILE = "pairs.parquet"
 SUMMARY_FILE = "summary.json"
+PAIRS_FORMATS = ("csv", "parquet")
 
 
 def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
@@ -108,14 +111,44 @@ def pairs_table(evaluation: Evaluation, heuristic: HeuristicResult | None = None
 
 
 def write_evaluation(
-    directory: Path, evaluation: Evaluation, heuristic: HeuristicResult | None = None
+    directory: Path,
+    evaluation: Evaluation,
+    heuristic: HeuristicResult | None = None,
+    pairs_format: str = "csv",
 ) -> tuple[Path, Path]:
-    """Write ``summary.json`` and ``pairs.csv`` into ``directory``; return their paths."""
-    import pyarrow.csv as pacsv
+    """Write ``summary.json`` and the per-pair file into ``directory``; return their paths.
 
+    The per-pair file is ``pairs.csv``, or with ``pairs_format="parquet"`` a
+    zstd-compressed ``pairs.parquet`` (typed and a fraction of the size). The
+    summary is written last, so its presence means the run is complete.
+    """
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    if pairs_format not in PAIRS_FORMATS:
+        raise ValueError(f"pairs_format must be one of {PAIRS_FORMATS}, got {pairs_format!r}")
     table = pairs_table(evaluation, heuristic)
-    pairs_path = directory / PAIRS_FILE
-    atomic_write(pairs_path, lambda tmp: pacsv.write_csv(table, str(tmp)))
+    if pairs_format == "csv":
+        pairs_path = directory / PAIRS_FILE
+        atomic_write(pairs_path, lambda tmp: pacsv.write_csv(table, str(tmp)))
+    else:
+        pairs_path = directory / PAIRS_PARQUET_FILE
+        atomic_write(pairs_path, lambda tmp: pq.write_table(table, str(tmp), compression="zstd"))
     summary_path = directory / SUMMARY_FILE
     write_json(summary_path, evaluation.summary)
     return summary_path, pairs_path
+
+
+def describe_source(
+    summary: dict[str, Any], cloud: Cloud, seed: int, sensor_file: str | Path | None
+) -> None:
+    """Record where a run's swarm came from in ``summary["parameters"]``."""
+    summary["parameters"].update(
+        {
+            "cloud": cloud.name,
+            "cloud_source": cloud.source,
+            "scale": cloud.scale,
+            "seed": seed,
+            "sensor_file": str(sensor_file or "config/sensor.yaml"),
+        }
+    )

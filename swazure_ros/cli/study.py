@@ -1,0 +1,187 @@
+"""Run the published evaluation (spec section 10): every run, tables, figures and a report.
+
+Writes into DIR: runs/<shape>/beta-<b>/<policy>/<technique>/ (summary.json and
+pairs.parquet per run), tables.md with tables/*.csv, figures/*.png and
+report.md. Runs already in DIR with the same parameters are not computed
+again, so an interrupted study resumes where it stopped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+from ..core.clouds import BUILTIN_SHAPES, Cloud, cloud_files, load_cloud, published_dataset_dir
+from ..core.errors import CloudError, SwazureError
+from ..core.paths import POLICIES
+from ..core.sensor import load_sensor
+from ..study.run import run_study
+from ..study.sweep import (
+    PUBLISHED_BETAS,
+    PUBLISHED_HEURISTIC_BETAS,
+    PUBLISHED_TECHNIQUES,
+    RunSpec,
+    StudyPlan,
+    SweepProgress,
+    Technique,
+)
+
+QUICK_BETAS = (0.4, 0.5)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``swazure study``."""
+    parser.add_argument(
+        "--clouds",
+        nargs="+",
+        metavar="DIR|FILE|NAME",
+        help="folders of point clouds, cloud files or built-in shapes (default: the six "
+        "published clouds in ../shared/datasets/swazure-paper when present, else "
+        f"{', '.join(BUILTIN_SHAPES)})",
+    )
+    parser.add_argument(
+        "--betas", nargs="+", type=float, metavar="B", help="default: 0.01 0.1 0.2 0.3 0.4 0.5"
+    )
+    parser.add_argument("--policies", nargs="+", choices=POLICIES, help="default: both")
+    parser.add_argument(
+        "--techniques",
+        nargs="+",
+        metavar="T",
+        help="heuristics besides plain Swazure: move-obstructing, move-source[:T] "
+        "(default: move-obstructing move-source:2 move-source:10)",
+    )
+    parser.add_argument(
+        "--heuristic-betas",
+        nargs="+",
+        type=float,
+        metavar="B",
+        help="betas of the heuristics and tables (default: 0.3 0.4 0.5)",
+    )
+    parser.add_argument(
+        "--heuristic-policy",
+        choices=POLICIES,
+        default="shortest-length",
+        help="path policy of the heuristics and tables (default: shortest-length)",
+    )
+    parser.add_argument(
+        "--sensor", type=Path, metavar="FILE", help="sensor YAML (default: config/sensor.yaml)"
+    )
+    parser.add_argument("--accurate", action="store_true", help="measure without error")
+    parser.add_argument("--seed", type=int, default=0, help="seed of collision removal")
+    parser.add_argument(
+        "--out", type=Path, default=Path("study"), metavar="DIR", help="default: ./study"
+    )
+    parser.add_argument(
+        "--jobs",
+        type=int,
+        default=min(2, os.cpu_count() or 1),
+        metavar="N",
+        help="runs in N parallel processes (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="a small study: the two smallest shapes, beta 0.4 and 0.5 only",
+    )
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+class SweepBar(SweepProgress):
+    """A tqdm bar over the whole sweep, counting runs, on stderr."""
+
+    def __init__(self) -> None:
+        self._bar: Any = None
+
+    def start(self, total: int, cached: int) -> None:
+        from tqdm import tqdm
+
+        self._bar = tqdm(
+            total=total, initial=cached, desc="study", unit="run", file=sys.stderr, leave=True
+        )
+
+    def run_done(self, spec: RunSpec, seconds: float) -> None:
+        self._bar.set_postfix_str(f"{spec.folder.relative_to('runs')} {seconds:.1f} s")
+        self._bar.update(1)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+
+def study_clouds(specs: list[str] | None) -> list[Cloud]:
+    """Clouds named on the command line, or the default set."""
+    if not specs:
+        published = published_dataset_dir()
+        specs = [str(published)] if published else list(BUILTIN_SHAPES)
+    clouds = []
+    for spec in specs:
+        path = Path(spec)
+        if path.is_dir():
+            files = cloud_files(path)
+            if not files:
+                raise CloudError(f"{path}: no point cloud files (.xyz .csv .npy .ply) in it")
+            clouds += [load_cloud(file) for file in files]
+        else:
+            clouds.append(load_cloud(spec))
+    return clouds
+
+
+def plan_from_args(args: argparse.Namespace) -> StudyPlan:
+    """The study that the options describe."""
+    clouds = study_clouds(args.clouds)
+    if args.quick:
+        if not args.clouds:
+            clouds = sorted(clouds, key=lambda cloud: len(cloud.points))[:2]
+        betas = tuple(args.betas or QUICK_BETAS)
+        heuristic_betas = tuple(args.heuristic_betas or betas)
+    else:
+        betas = tuple(args.betas or PUBLISHED_BETAS)
+        heuristic_betas = tuple(args.heuristic_betas or PUBLISHED_HEURISTIC_BETAS)
+    techniques = (
+        tuple(Technique.parse(text) for text in args.techniques)
+        if args.techniques
+        else PUBLISHED_TECHNIQUES
+    )
+    sensor = load_sensor(args.sensor)
+    if args.accurate:
+        sensor = sensor.error_free()
+    return StudyPlan(
+        clouds,
+        sensor,
+        betas=betas,
+        policies=tuple(args.policies or POLICIES),
+        techniques=techniques,
+        heuristic_betas=heuristic_betas,
+        heuristic_policy=args.heuristic_policy,
+        sensor_file=None if args.sensor is None else str(args.sensor),
+        seed=args.seed,
+    )
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``swazure study``."""
+    if args.jobs < 1:
+        raise SwazureError(f"--jobs must be at least 1, got {args.jobs}")
+    plan = plan_from_args(args)
+    if args.out.exists() and not args.out.is_dir():
+        raise SwazureError(f"{args.out}: exists and is not a folder")
+    try:
+        outputs = run_study(plan, args.out, args.jobs, None if args.quiet else SweepBar())
+    except OSError as err:
+        raise SwazureError(f"{args.out}: cannot write results ({err.strerror or err})") from err
+    result = outputs.result
+    print(
+        f"{len(result.summaries)} runs: {result.computed} computed "
+        f"({result.compute_seconds:.1f} s of computation), {result.cached} cached; "
+        f"{result.wall_seconds:.1f} s"
+    )
+    for table in outputs.tables:
+        if table.name != "errors":
+            print()
+            print(table.to_markdown(), end="")
+    print()
+    print(f"wrote {outputs.report_path}, {outputs.tables_path}, {len(outputs.figures)} figures")
+    return 0

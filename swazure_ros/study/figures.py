@@ -1,0 +1,238 @@
+"""The study's figures (spec, section 10) as PNG files, drawn with matplotlib's Agg canvas.
+
+Figures are built on ``matplotlib.figure.Figure`` rather than pyplot, so no
+global figure state is kept between calls. Each shape has one colour, the
+same in every figure (its position in the plan, in the tab10 palette).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from ..core.results import PAIRS_PARQUET_FILE, atomic_write
+from .sweep import PLAIN_TECHNIQUE, StudyPlan, SweepResult
+
+POLICY_TITLES = {"fewest-hops": "Fewest-Hops", "shortest-length": "Shortest-Length"}
+BETA_LABEL = "β (FLS radius r = β · dmin)"
+DPI = 120
+
+
+def shape_colours(plan: StudyPlan) -> dict[str, Any]:
+    """One tab10 colour per shape, by its place in the plan."""
+    from matplotlib import colormaps
+
+    palette = colormaps["tab10"]
+    return {cloud.name: palette(index % 10) for index, cloud in enumerate(plan.clouds)}
+
+
+def save(figure: Figure, path: Path) -> Path:
+    """Write ``figure`` as PNG to ``path`` atomically; return the path."""
+    atomic_write(path, lambda tmp: figure.savefig(tmp, format="png", dpi=DPI))
+    return path
+
+
+def _per_policy_axes(plan: StudyPlan, title: str) -> tuple[Figure, list[Axes]]:
+    figure = Figure(figsize=(5.5 * len(plan.policies) + 2.0, 4.6), layout="constrained")
+    axes = figure.subplots(1, len(plan.policies), sharey=True, squeeze=False)[0]
+    figure.suptitle(title)
+    for ax, policy in zip(axes, plan.policies):
+        ax.set_title(POLICY_TITLES.get(policy, policy))
+        ax.grid(True, alpha=0.3)
+    return figure, list(axes)
+
+
+def _legend(figure: Figure, axes: Sequence[Axes]) -> None:
+    handles, labels = axes[0].get_legend_handles_labels()
+    figure.legend(handles, labels, title="shape", loc="outside right center")
+
+
+def metric_vs_beta(
+    plan: StudyPlan,
+    result: SweepResult,
+    value: Callable[[dict[str, Any]], float | None],
+    title: str,
+    ylabel: str,
+    log: bool = False,
+) -> Figure:
+    """One line per shape of ``value(summary)`` against beta, one panel per policy."""
+    colours = shape_colours(plan)
+    figure, axes = _per_policy_axes(plan, title)
+    for ax, policy in zip(axes, plan.policies):
+        for cloud in plan.clouds:
+            points = []
+            for beta in sorted(plan.betas):
+                summary = result.find(cloud.name, beta, policy, PLAIN_TECHNIQUE)
+                y = None if summary is None else value(summary)
+                if y is not None:
+                    points.append((beta, y))
+            if points:
+                xs, ys = zip(*points)
+                ax.plot(xs, ys, marker="o", color=colours[cloud.name], label=cloud.name)
+        ax.set_xlabel(BETA_LABEL)
+        if log:
+            ax.set_yscale("log")
+    axes[0].set_ylabel(ylabel)
+    _legend(figure, axes)
+    return figure
+
+
+def histogram_shape(plan: StudyPlan) -> str:
+    """The shape of the error histogram: the dragon when the study has it, else the first."""
+    for cloud in plan.clouds:
+        if "dragon" in cloud.name:
+            return cloud.name
+    return plan.clouds[0].name
+
+
+def error_histogram(plan: StudyPlan, result: SweepResult, out: Path) -> Figure:
+    """Histogram of per-pair distance errors of one shape at the largest beta, per policy."""
+    import pyarrow.parquet as pq
+
+    shape = histogram_shape(plan)
+    beta = 0.5 if 0.5 in plan.betas else max(plan.betas)
+    colour = shape_colours(plan)[shape]
+    errors = {}
+    for policy in plan.policies:
+        spec = result.spec(shape, beta, policy, PLAIN_TECHNIQUE)
+        if spec is None:
+            continue
+        pairs = out / spec.folder / PAIRS_PARQUET_FILE
+        table = pq.read_table(pairs, columns=["distance_error_pct"])
+        values = table.column(0).to_numpy(zero_copy_only=False).astype(np.float64)
+        errors[policy] = values[np.isfinite(values)]
+    top = max((float(v.max()) for v in errors.values() if len(v)), default=1.0)
+    bins = np.linspace(0.0, top, 80).tolist()
+    figure, axes = _per_policy_axes(
+        plan, f"Distance error of every ordered blind pair with a path: {shape}, β={beta:g}"
+    )
+    for ax, policy in zip(axes, plan.policies):
+        values = errors.get(policy, np.empty(0))
+        ax.hist(values, bins=bins, color=colour, label=f"{shape} ({len(values):,} pairs)")
+        if len(values):
+            mean, p99 = float(values.mean()), float(np.percentile(values, 99))
+            ax.axvline(mean, color="black", linestyle="--", label=f"mean {mean:.2f} %")
+            ax.axvline(p99, color="grey", linestyle=":", label=f"99th percentile {p99:.2f} %")
+        ax.set_yscale("log")
+        ax.set_xlabel("distance error (%)")
+        ax.legend(loc="upper right")
+    axes[0].set_ylabel("ordered blind pairs (log scale)")
+    return figure
+
+
+def box_stats(histogram: Sequence[int], label: str) -> dict[str, Any] | None:
+    """Box-plot statistics of integer samples given as counts per value (index = value)."""
+    counts = np.asarray(histogram, dtype=np.int64)
+    total = int(counts.sum())
+    if total == 0:
+        return None
+    values = np.arange(len(counts))
+    cumulative = np.cumsum(counts)
+
+    def quantile(q: float) -> float:
+        return float(values[np.searchsorted(cumulative, q * total, side="left")])
+
+    present = values[counts > 0]
+    return {
+        "label": label,
+        "med": quantile(0.5),
+        "q1": quantile(0.25),
+        "q3": quantile(0.75),
+        "whislo": float(present.min()),
+        "whishi": float(present.max()),
+        "mean": float((values * counts).sum() / total),
+        "fliers": [],
+    }
+
+
+def obstructing_boxplot(plan: StudyPlan, result: SweepResult) -> Figure:
+    """Distinct obstructing FLSs per obstructed path: boxes per beta, one per shape."""
+    colours = shape_colours(plan)
+    figure, axes = _per_policy_axes(
+        plan,
+        "Obstructing FLSs on each obstructed policy-shortest S_all path\n"
+        "box: quartiles, line: median, diamond: mean, whiskers: min and max",
+    )
+    betas = sorted(plan.betas)
+    group = len(plan.clouds) + 1
+    for ax, policy in zip(axes, plan.policies):
+        for index, cloud in enumerate(plan.clouds):
+            stats, positions = [], []
+            for slot, beta in enumerate(betas):
+                summary = result.find(cloud.name, beta, policy, PLAIN_TECHNIQUE)
+                box = (
+                    None
+                    if summary is None
+                    else box_stats(summary["obstructing_flss_histogram"], f"{beta:g}")
+                )
+                if box is not None:
+                    stats.append(box)
+                    positions.append(slot * group + index)
+            if not stats:
+                continue
+            artists = ax.bxp(
+                stats,
+                positions=positions,
+                widths=0.8,
+                patch_artist=True,
+                showmeans=True,
+                meanprops={"marker": "D", "markerfacecolor": "white", "markersize": 3},
+                medianprops={"color": "black"},
+            )
+            for patch in artists["boxes"]:
+                patch.set_facecolor(colours[cloud.name])
+            artists["boxes"][0].set_label(cloud.name)
+        ax.set_xticks([slot * group + (group - 2) / 2 for slot in range(len(betas))])
+        ax.set_xticklabels([f"{beta:g}" for beta in betas])
+        ax.set_xlabel(BETA_LABEL)
+    axes[0].set_ylabel("obstructing FLSs per path")
+    _legend(figure, axes)
+    return figure
+
+
+def study_figures(plan: StudyPlan, result: SweepResult, out: Path) -> dict[str, Path]:
+    """Draw and write every figure of the study into ``out/figures``; return name -> path."""
+    folder = out / "figures"
+
+    def stat(key: str, name: str) -> Callable[[dict[str, Any]], float | None]:
+        return lambda summary: summary[key][name]
+
+    figures = {
+        "distance_error_mean": metric_vs_beta(
+            plan,
+            result,
+            stat("distance_error_pct", "mean"),
+            "Mean distance error of plain Swazure",
+            "mean distance error (%)",
+        ),
+        "distance_error_max": metric_vs_beta(
+            plan,
+            result,
+            stat("distance_error_pct", "max"),
+            "Maximum distance error of plain Swazure",
+            "max distance error (%, log scale)",
+            log=True,
+        ),
+        "alpha_mean": metric_vs_beta(
+            plan,
+            result,
+            stat("alpha_deg", "mean"),
+            "Mean angle α between estimated and true relative vector",
+            "mean α (degrees)",
+        ),
+        "obstructed_paths": metric_vs_beta(
+            plan,
+            result,
+            lambda summary: summary["obstructed_path_pct"],
+            "Pairs whose policy-shortest sweet path has an obstructed hop",
+            "obstructed sweet paths (% of pairs with an S_all path)",
+        ),
+        "obstructing_flss": obstructing_boxplot(plan, result),
+        "distance_error_histogram": error_histogram(plan, result, out),
+    }
+    return {name: save(figure, folder / f"{name}.png") for name, figure in figures.items()}

@@ -1,0 +1,218 @@
+"""The study's tables (spec, section 10), built from the runs' summaries.
+
+Each table has a CSV form with full-precision values, one column per number,
+and a Markdown form for people, where numbers are rounded and mean and max
+share a cell. Cells of runs that the study did not make are empty (CSV) or
+``-`` (Markdown).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from ..core.heuristics import MOVE_SOURCE
+from .sweep import PLAIN_TECHNIQUE, StudyPlan, SweepResult, Technique
+
+#: The betas of the published no-path and decaying-path columns (spec, section 10).
+NO_PATH_BETAS = (0.4, 0.5)
+DECAYING_BETAS = (0.3, 0.4, 0.5)
+
+
+@dataclass
+class Table:
+    """A table in two forms: full-precision CSV and rounded Markdown."""
+
+    name: str  # file stem, e.g. ``paths_plain``
+    title: str
+    columns: list[str]
+    rows: list[list[Any]]
+    display_columns: list[str]
+    display_rows: list[list[str]]
+    note: str = ""
+
+    def to_csv(self) -> str:
+        """The CSV text: a header line, then one line per row."""
+        buffer = io.StringIO()
+        writer = csv.writer(buffer, lineterminator="\n")
+        writer.writerow(self.columns)
+        writer.writerows([["" if value is None else value for value in row] for row in self.rows])
+        return buffer.getvalue()
+
+    def to_markdown(self) -> str:
+        """The Markdown text: title, table, note."""
+        lines = [f"### {self.title}", ""]
+        lines.append("| " + " | ".join(self.display_columns) + " |")
+        lines.append("| " + " | ".join(["---"] * len(self.display_columns)) + " |")
+        lines += ["| " + " | ".join(row) + " |" for row in self.display_rows]
+        if self.note:
+            lines += ["", self.note]
+        return "\n".join(lines) + "\n"
+
+
+def _fmt(value: Any, digits: int = 2) -> str:
+    return "-" if value is None else f"{value:.{digits}f}"
+
+
+def _table_betas(wanted: Sequence[float], available: Sequence[float]) -> list[float]:
+    """The published betas the study has, or all it has when none of them."""
+    chosen = [beta for beta in wanted if beta in available]
+    return chosen or sorted(available)
+
+
+def paths_table(plan: StudyPlan, result: SweepResult, technique: Technique) -> Table:
+    """% of ordered blind pairs with no path and with a decaying path, per shape."""
+    no_path_betas = _table_betas(NO_PATH_BETAS, plan.heuristic_betas)
+    decaying_betas = _table_betas(DECAYING_BETAS, plan.heuristic_betas)
+    policy = plan.heuristic_policy
+    columns = ["shape", "flss"]
+    columns += [f"no_path_pct_beta_{beta:g}" for beta in no_path_betas]
+    columns += [f"decaying_pct_beta_{beta:g}" for beta in decaying_betas]
+    display = ["shape", "FLSs"]
+    display += [f"no path, β={beta:g}" for beta in no_path_betas]
+    display += [f"decaying, β={beta:g}" for beta in decaying_betas]
+    rows, display_rows = [], []
+    for cloud in plan.clouds:
+        row: list[Any] = [cloud.name, len(cloud.points)]
+        for key, betas in (("no_path_pct", no_path_betas), ("decaying_pct", decaying_betas)):
+            for beta in betas:
+                summary = result.find(cloud.name, beta, policy, technique)
+                row.append(None if summary is None else summary[key])
+        rows.append(row)
+        display_rows.append([cloud.name, str(len(cloud.points))] + [_fmt(v) for v in row[2:]])
+    return Table(
+        f"paths_{technique.label}",
+        f"Blind pairs with no path and with a decaying path (%): {technique.title}",
+        columns,
+        rows,
+        display,
+        display_rows,
+        f"Policy {policy}; % of ordered blind pairs.",
+    )
+
+
+def moved_table(plan: StudyPlan, result: SweepResult) -> Table:
+    """Mean and max distance moved by FLSs at the largest heuristic beta, per technique."""
+    beta = max(plan.heuristic_betas)
+    policy = plan.heuristic_policy
+    columns, display = ["shape", "flss"], ["shape", "FLSs"]
+    for technique in plan.techniques:
+        columns += [f"{technique.label}_{stat}" for stat in ("tried", "resolved", "moves")]
+        columns += [f"{technique.label}_moved_mean_cm", f"{technique.label}_moved_max_cm"]
+        display.append(f"{technique.title}: moved, cm")
+        if technique.name == MOVE_SOURCE:
+            columns += [f"{technique.label}_flown_mean_cm", f"{technique.label}_flown_max_cm"]
+            display.append(f"{technique.title}: flown, cm")
+    rows, display_rows = [], []
+    for cloud in plan.clouds:
+        row: list[Any] = [cloud.name, len(cloud.points)]
+        cells = [cloud.name, str(len(cloud.points))]
+        for technique in plan.techniques:
+            summary = result.find(cloud.name, beta, policy, technique) or {}
+            moved = summary.get("moved_distance", {})
+            row += [summary.get("tried_pairs"), summary.get("resolved_pairs"), moved.get("count")]
+            row += [moved.get("mean"), moved.get("max")]
+            cells.append(f"{_fmt(moved.get('mean'), 3)} ({_fmt(moved.get('max'), 3)})")
+            if technique.name == MOVE_SOURCE:
+                flown = summary.get("flown_distance", {})
+                row += [flown.get("mean"), flown.get("max")]
+                cells.append(f"{_fmt(flown.get('mean'), 3)} ({_fmt(flown.get('max'), 3)})")
+        rows.append(row)
+        display_rows.append(cells)
+    return Table(
+        f"moved_beta_{beta:g}",
+        f"Distance moved by FLSs at β={beta:g}, mean (max), cm",
+        columns,
+        rows,
+        display,
+        display_rows,
+        f"Policy {policy}. Move Obstructing: every individual move of an obstructing FLS. "
+        "Move Source: the source's net displacement, and the distance it flew probing.",
+    )
+
+
+def errors_table(plan: StudyPlan, result: SweepResult) -> Table:
+    """Plain Swazure per shape, beta and policy: paths, errors and obstruction (figure data)."""
+    columns = [
+        "shape",
+        "beta",
+        "policy",
+        "blind_pairs",
+        "sweet_pct",
+        "decaying_pct",
+        "no_path_pct",
+        "distance_error_mean_pct",
+        "distance_error_max_pct",
+        "alpha_mean_deg",
+        "alpha_max_deg",
+        "obstructed_path_pct",
+        "obstructing_flss_mean",
+    ]
+    display = [
+        "shape",
+        "β",
+        "policy",
+        "blind pairs",
+        "sweet %",
+        "decaying %",
+        "no path %",
+        "distance error % mean (max)",
+        "α° mean (max)",
+        "obstructed %",
+    ]
+    rows, display_rows = [], []
+    for cloud in plan.clouds:
+        for policy in plan.policies:
+            for beta in plan.betas:
+                summary = result.find(cloud.name, beta, policy, PLAIN_TECHNIQUE)
+                if summary is None:
+                    continue
+                error, alpha = summary["distance_error_pct"], summary["alpha_deg"]
+                row = [
+                    cloud.name,
+                    beta,
+                    policy,
+                    summary["blind_pairs"],
+                    summary["sweet_pct"],
+                    summary["decaying_pct"],
+                    summary["no_path_pct"],
+                    error["mean"],
+                    error["max"],
+                    alpha["mean"],
+                    alpha["max"],
+                    summary["obstructed_path_pct"],
+                    summary["obstructing_flss_per_path"]["mean"],
+                ]
+                rows.append(row)
+                display_rows.append(
+                    [cloud.name, f"{beta:g}", policy, str(row[3])]
+                    + [_fmt(value) for value in row[4:7]]
+                    + [
+                        f"{_fmt(error['mean'], 3)} ({_fmt(error['max'])})",
+                        f"{_fmt(alpha['mean'], 3)} ({_fmt(alpha['max'])})",
+                        _fmt(summary["obstructed_path_pct"], 1),
+                    ]
+                )
+    return Table(
+        "errors",
+        "Plain Swazure: paths, errors and obstruction per shape, beta and policy",
+        columns,
+        rows,
+        display,
+        display_rows,
+        "Errors over the pairs that have a path; obstructed: % of pairs with an S_all path "
+        "whose policy-shortest S_all path has an obstructed hop.",
+    )
+
+
+def study_tables(plan: StudyPlan, result: SweepResult) -> list[Table]:
+    """Every table of the study: paths per technique, distances moved, errors."""
+    tables = [paths_table(plan, result, PLAIN_TECHNIQUE)]
+    tables += [paths_table(plan, result, technique) for technique in plan.techniques]
+    if plan.techniques:
+        tables.append(moved_table(plan, result))
+    tables.append(errors_table(plan, result))
+    return tables
