@@ -1,0 +1,95 @@
+"""What each FLS observes: camera measurements and radio detections (spec, sections 3 and 4).
+
+The camera of FLS ``i`` measures FLS ``j`` when ``j`` is in sweet or decaying
+range and in line of sight; the measured vector follows the sensor's error
+model. Radio tells ``i`` which FLSs are in its blind and sweet ranges, line of
+sight ignored. Both are views of one :class:`~.evaluate.Neighbourhood`, laid
+out per FLS (CSR) so that a node can take its own slice.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .evaluate import Neighbourhood
+from .sensor import BLIND, DECAYING, SWEET, measured_vectors
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class Observations:
+    """Every FLS's neighbours within sensor reach, grouped by FLS (swarm indices).
+
+    Rows ``indptr[i]:indptr[i+1]`` belong to FLS ``i``, sorted by ``other``.
+    ``vector`` and ``tracking`` are the camera's measurement (cm) where
+    ``measured`` holds, NaN elsewhere.
+    """
+
+    indptr: IntArray  # (N + 1,)
+    other: IntArray  # (E,)
+    range_class: NDArray[np.int8]  # (E,), BLIND, SWEET or DECAYING
+    visible: NDArray[np.bool_]  # (E,), line of sight
+    vector: FloatArray  # (E, 3), measured vector owner -> other, cm
+    tracking: FloatArray  # (E,), measured tracking distance t', cm
+
+    @property
+    def measured(self) -> NDArray[np.bool_]:
+        """(E,) the camera measures the pair: sweet or decaying, in line of sight."""
+        return self.visible & ((self.range_class == SWEET) | (self.range_class == DECAYING))
+
+    def rows(self, fls: int) -> slice:
+        """The rows of FLS ``fls`` (a swarm index)."""
+        return slice(int(self.indptr[fls]), int(self.indptr[fls + 1]))
+
+
+@dataclass(frozen=True)
+class NeighbourSets:
+    """One FLS's neighbours as it knows them, as sorted swarm indices."""
+
+    blind: IntArray  # by radio
+    sweet: IntArray  # by radio: S_all
+    visible_sweet: IntArray  # by camera: S_vis
+    visible_decaying: IntArray  # by camera: decaying with line of sight
+
+
+def observations(hood: Neighbourhood) -> Observations:
+    """Lay out the blind, sweet and decaying pairs of ``hood`` per FLS, both directions."""
+    pairs = hood.pairs
+    keep = np.isin(pairs.range_class, (BLIND, SWEET, DECAYING))
+    first, second = pairs.first[keep], pairs.second[keep]
+    owner = np.concatenate([first, second])
+    other = np.concatenate([second, first])
+    range_class = np.tile(pairs.range_class[keep], 2)
+    visible = np.tile(hood.visible[keep], 2)
+    true_tracking = np.tile(pairs.tracking[keep], 2)
+    order = np.lexsort((other, owner))
+    owner, other = owner[order], other[order]
+    range_class, visible, true_tracking = range_class[order], visible[order], true_tracking[order]
+    indptr = np.zeros(hood.swarm.size + 1, dtype=np.int64)
+    np.cumsum(np.bincount(owner, minlength=hood.swarm.size), out=indptr[1:])
+    measured = visible & ((range_class == SWEET) | (range_class == DECAYING))
+    vector = np.full((len(owner), 3), np.nan)
+    tracking = np.full(len(owner), np.nan)
+    swarm, sensor = hood.swarm, hood.sensor
+    vector[measured] = measured_vectors(
+        sensor, swarm.points, swarm.radius, owner[measured], other[measured]
+    )
+    tracking[measured] = sensor.measured_tracking(true_tracking[measured])
+    return Observations(indptr, other, range_class, visible, vector, tracking)
+
+
+def neighbour_sets(seen: Observations, fls: int) -> NeighbourSets:
+    """The neighbour sets of FLS ``fls`` (a swarm index)."""
+    rows = seen.rows(fls)
+    other, kind, visible = seen.other[rows], seen.range_class[rows], seen.visible[rows]
+    return NeighbourSets(
+        blind=other[kind == BLIND],
+        sweet=other[kind == SWEET],
+        visible_sweet=other[(kind == SWEET) & visible],
+        visible_decaying=other[(kind == DECAYING) & visible],
+    )

@@ -1,0 +1,75 @@
+"""The world node: the simulated physics' authority on where FLSs are.
+
+It publishes the positions of every FLS on ``world`` (swazure_interfaces/
+WorldState, transient local, so late processes get the newest revision) and
+moves FLSs on ``move_commands`` (swazure_interfaces/MoveCommand): a step
+aside or a probe puts the FLS at its assigned point plus the displacement, a
+return puts it back. One world node runs per swarm, in the launcher's process.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+from rclpy.context import Context
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from swazure_interfaces.msg import MoveCommand, WorldState
+
+from ..core.errors import UnknownFlsError
+from .convert import world_message
+
+if TYPE_CHECKING:
+    from .host import WorldReplica
+
+WORLD_TOPIC = "world"
+MOVE_TOPIC = "move_commands"
+WORLD_QOS = QoSProfile(
+    depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+)
+
+
+class WorldNode(Node):
+    """Applies move commands to the world and publishes each new revision."""
+
+    def __init__(
+        self, replica: WorldReplica, *, namespace: str = "swarm", context: Context | None = None
+    ) -> None:
+        super().__init__(
+            "world",
+            namespace=namespace,
+            context=context,
+            enable_rosout=False,
+            start_parameter_services=False,
+        )
+        self._replica = replica
+        self._publisher = self.create_publisher(WorldState, WORLD_TOPIC, WORLD_QOS)
+        self.create_subscription(MoveCommand, MOVE_TOPIC, self._on_move, 100)
+        self.publish_world()
+
+    def publish_world(self) -> None:
+        """Publish every FLS's position at the replica's revision."""
+        world = self._replica.world
+        stamp = self.get_clock().now().to_msg()
+        self._publisher.publish(
+            world_message(world.revision, world.ids, world.swarm.points, stamp)
+        )
+
+    def _on_move(self, command: MoveCommand) -> None:
+        world = self._replica.world
+        try:
+            home = world.home.points[world.index(command.fls_id)]
+        except UnknownFlsError as err:
+            self.get_logger().warning(f"move command ignored: {err}")
+            return
+        if command.kind == MoveCommand.KIND_RETURN:
+            target = home
+        elif command.kind in (MoveCommand.KIND_STEP_ASIDE, MoveCommand.KIND_PROBE):
+            shift = command.displacement
+            target = home + np.array([shift.x, shift.y, shift.z])
+        else:
+            self.get_logger().warning(f"move command ignored: unknown kind {command.kind}")
+            return
+        self._replica.apply(world.moved({command.fls_id: target}))
+        self.publish_world()

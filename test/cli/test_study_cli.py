@@ -1,0 +1,163 @@
+"""``swazure study --quick`` in a real process: every output, values equal to the runs, errors."""
+
+import csv
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from ..conftest import DATASETS
+
+FIGURES = (
+    "alpha_mean",
+    "distance_error_histogram",
+    "distance_error_max",
+    "distance_error_mean",
+    "obstructed_paths",
+    "obstructing_flss",
+)
+TABLES = (
+    "paths_plain",
+    "paths_move-obstructing",
+    "paths_move-source-T2",
+    "paths_move-source-T10",
+    "moved_beta_0.5",
+    "errors",
+)
+
+
+def swazure(*args, timeout=600):
+    return subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", *args],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def quick_clouds():
+    """The two smallest published shapes when ../shared is present, else built-in shapes."""
+    if DATASETS.is_dir():
+        return [str(DATASETS / "chess_408.xyz"), str(DATASETS / "palm_725.xyz")]
+    return ["torus", "helix"]
+
+
+@pytest.fixture(scope="module")
+def quick_study(tmp_path_factory):
+    out = tmp_path_factory.mktemp("study")
+    run = swazure("study", "--quick", "--quiet", "--clouds", *quick_clouds(), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    return out, run
+
+
+def summary_of(out, shape, beta, technique, policy="shortest-length"):
+    path = out / "runs" / shape / f"beta-{beta}" / policy / technique / "summary.json"
+    return json.loads(path.read_text())
+
+
+def test_quick_study_writes_every_table_figure_and_the_report(quick_study):
+    out, run = quick_study
+    assert "20 runs: 20 computed" in run.stdout
+    for name in FIGURES:
+        png = (out / "figures" / f"{name}.png").read_bytes()
+        assert png.startswith(b"\x89PNG\r\n\x1a\n") and len(png) > 10_000, name
+        assert f"figures/{name}.png" in (out / "report.md").read_text()
+    tables_md = (out / "tables.md").read_text()
+    for name in TABLES:
+        assert (out / "tables" / f"{name}.csv").stat().st_size > 0, name
+    assert tables_md.count("### ") == len(TABLES)
+    report = (out / "report.md").read_text()
+    assert tables_md in report
+    assert "numpy" in report and "sensor" in report
+
+
+def test_table_values_equal_the_runs_own_summaries(quick_study):
+    out, _ = quick_study
+    for technique in ("plain", "move-obstructing", "move-source-T10"):
+        with open(out / "tables" / f"paths_{technique}.csv") as handle:
+            for row in csv.DictReader(handle):
+                for beta in ("0.4", "0.5"):
+                    summary = summary_of(out, row["shape"], beta, technique)
+                    assert float(row[f"decaying_pct_beta_{beta}"]) == summary["decaying_pct"]
+                    assert (
+                        float(row["no_path_pct_beta_0.5"])
+                        == summary_of(out, row["shape"], "0.5", technique)["no_path_pct"]
+                    )
+    with open(out / "tables" / "moved_beta_0.5.csv") as handle:
+        for row in csv.DictReader(handle):
+            summary = summary_of(out, row["shape"], "0.5", "move-obstructing")
+            if summary["moved_distance"]["count"]:
+                moved = float(row["move-obstructing_moved_max_cm"])
+                assert moved == summary["moved_distance"]["max"]
+            assert int(row["move-obstructing_tried"]) == summary["tried_pairs"]
+    with open(out / "tables" / "errors.csv") as handle:
+        for row in csv.DictReader(handle):
+            summary = summary_of(out, row["shape"], row["beta"], "plain", row["policy"])
+            assert int(row["blind_pairs"]) == summary["blind_pairs"]
+            mean = summary["distance_error_pct"]["mean"]
+            assert row["distance_error_mean_pct"] == ("" if mean is None else str(mean))
+
+
+def test_rerun_computes_nothing_and_rewrites_the_same_tables(quick_study):
+    out, _ = quick_study
+    before = {name: (out / "tables" / f"{name}.csv").read_text() for name in TABLES}
+    run = swazure("study", "--quick", "--quiet", "--clouds", *quick_clouds(), "--out", str(out))
+    assert run.returncode == 0, run.stderr
+    assert "20 runs: 0 computed" in run.stdout
+    assert before == {name: (out / "tables" / f"{name}.csv").read_text() for name in TABLES}
+
+
+def test_killed_study_resumes_with_only_the_unfinished_runs(tmp_path):
+    args = ["study", "--quick", "--quiet", "--jobs", "1", "--out", str(tmp_path)]
+    args += ["--clouds", "torus", "helix"]
+    process = subprocess.Popen(
+        [sys.executable, "-m", "swazure_ros.cli.main", *args],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
+    deadline = time.monotonic() + 300
+    while not list(tmp_path.glob("runs/**/summary.json")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    os.kill(process.pid, signal.SIGKILL)
+    process.wait()
+    finished = list(tmp_path.glob("runs/**/summary.json"))
+    assert finished, "no run finished before the kill"
+    for path in finished:
+        json.loads(path.read_text())  # whole, never half-written
+    run = swazure(*args)
+    assert run.returncode == 0, run.stderr
+    assert f"20 runs: {20 - len(finished)} computed" in run.stdout
+    assert not [p for p in tmp_path.rglob(".*") if p.is_file()], "temporary files left"
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--jobs", "0"], "--jobs must be at least 1"),
+        (["--clouds", "no-such-shape"], "unknown shape"),
+        (["--clouds", "/no/such/cloud.xyz"], "/no/such/cloud.xyz"),
+        (["--techniques", "teleport"], "unknown technique"),
+        (["--betas", "0"], "beta must be in"),
+        (["--sensor", "/no/such/sensor.yaml"], "sensor.yaml"),
+    ],
+)
+def test_bad_input_gives_one_line_and_exit_2(tmp_path, args, message):
+    run = swazure(
+        "study", "--quick", "--quiet", "--clouds", "helix", "--out", str(tmp_path), *args
+    )
+    assert run.returncode == 2
+    assert message in run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1, run.stderr
+    assert "Traceback" not in run.stderr
+
+
+def test_out_that_is_a_file_is_refused(tmp_path):
+    target = tmp_path / "taken"
+    target.write_text("keep me")
+    run = swazure("study", "--quick", "--quiet", "--clouds", "helix", "--out", str(target))
+    assert run.returncode == 2 and "not a folder" in run.stderr
+    assert target.read_text() == "keep me"
