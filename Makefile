@@ -12,6 +12,10 @@ PKG_STAMP := $(VENV)/.stamp-package
 INTERFACE_FILES := msg_defs/CMakeLists.txt msg_defs/package.xml \
 	$(wildcard msg_defs/msg/*.msg) $(wildcard msg_defs/srv/*.srv)
 PYTEST_ARGS ?=
+# The real `ros2` command line exists only as wheels beside the repo (../shared);
+# tests that drive it skip where it is absent.
+ROS2CLI_WHEELS := $(wildcard ../shared/wheels/ros2cli-jazzy/*.whl)
+ROS2CLI_STAMP := $(VENV)/.stamp-ros2cli
 
 .PHONY: setup test lint demo bench study clean lock help
 .DEFAULT_GOAL := help
@@ -40,7 +44,14 @@ $(PKG_STAMP): $(DEPS_STAMP) setup.py package.xml
 		--no-build-isolation -e .
 	@touch $@
 
-setup: $(MSGS_STAMP) $(PKG_STAMP)
+$(ROS2CLI_STAMP): $(DEPS_STAMP) $(ROS2CLI_WHEELS)
+ifneq ($(ROS2CLI_WHEELS),)
+	$(PY) -m pip install --disable-pip-version-check --quiet --no-deps \
+		argcomplete==3.6.2 $(ROS2CLI_WHEELS)
+endif
+	@touch $@
+
+setup: $(MSGS_STAMP) $(PKG_STAMP) $(ROS2CLI_STAMP)
 
 lint: setup
 	$(VENV)/bin/ruff check .

@@ -10,12 +10,14 @@ from types import ModuleType
 
 from .. import __version__
 from ..core.errors import SwazureError
-from . import evaluate, study
+from . import echo, evaluate, spawn, study
 
 #: Verb name -> module with ``add_arguments(parser)`` and ``main(args) -> int``.
 VERBS: dict[str, ModuleType] = {
     "evaluate": evaluate,
     "study": study,
+    "spawn": spawn,
+    "echo": echo,
 }
 
 

@@ -1,0 +1,139 @@
+"""Print the messages of a topic in the YAML layout of ``ros2 topic echo``.
+
+For machines that have only the ROS 2 wheels and no ``ros2`` command. The
+message type is found on the graph, or given as pkg/msg/Type.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+import time
+from typing import Any
+
+import yaml
+
+from ..core.errors import SwazureError
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``swazure echo``."""
+    parser.add_argument("topic", help="topic name, e.g. /swarm/measurements")
+    parser.add_argument(
+        "message_type", nargs="?", default=None, help="pkg/msg/Type (default: from the graph)"
+    )
+    parser.add_argument("--once", action="store_true", help="print one message and exit")
+    parser.add_argument("--count", type=int, default=None, metavar="N", help="exit after N")
+    parser.add_argument(
+        "--timeout",
+        type=float,
+        default=None,
+        metavar="S",
+        help="exit 1 when no message arrived within S seconds (default: wait)",
+    )
+    parser.add_argument("--domain-id", type=int, default=None, help="default: $ROS_DOMAIN_ID")
+
+
+def message_class(type_name: str) -> Any:
+    """The Python class of ``pkg/msg/Type``."""
+    parts = type_name.split("/")
+    if len(parts) == 2:
+        parts.insert(1, "msg")
+    if len(parts) != 3 or not all(parts):
+        raise SwazureError(f"message type must be pkg/msg/Type, got {type_name!r}")
+    package, kind, name = parts
+    try:
+        return getattr(importlib.import_module(f"{package}.{kind}"), name)
+    except (ImportError, AttributeError) as err:
+        raise SwazureError(f"unknown message type {type_name!r}") from err
+
+
+def message_to_dict(message: Any) -> Any:
+    """A message as nested dicts and lists, fields in declaration order."""
+    if hasattr(message, "get_fields_and_field_types"):
+        return {
+            field: message_to_dict(getattr(message, field))
+            for field in message.get_fields_and_field_types()
+        }
+    if isinstance(message, (list, tuple)) or type(message).__name__ in ("array", "ndarray"):
+        return [message_to_dict(item) for item in message]
+    if isinstance(message, bytes):
+        return list(message)
+    return message.item() if hasattr(message, "item") else message
+
+
+class _Dumper(yaml.SafeDumper):
+    """Keep field order, as ros2 topic echo does."""
+
+
+_Dumper.add_representer(dict, lambda dumper, data: dumper.represent_dict(data.items()))
+
+
+def message_to_yaml(message: Any) -> str:
+    """A message as the YAML block ``ros2 topic echo`` prints (without the ``---``)."""
+    return yaml.dump(
+        message_to_dict(message), Dumper=_Dumper, default_flow_style=False, width=sys.maxsize
+    )
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``swazure echo``."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from rclpy.signals import SignalHandlerOptions
+
+    limit = 1 if args.once else args.count
+    if limit is not None and limit < 1:
+        raise SwazureError(f"--count must be at least 1, got {limit}")
+    topic = args.topic if args.topic.startswith("/") else f"/{args.topic}"
+    context = Context()
+    rclpy.init(
+        context=context, domain_id=args.domain_id, signal_handler_options=SignalHandlerOptions.NO
+    )
+    node = Node(
+        "swazure_echo", context=context, start_parameter_services=False, enable_rosout=False
+    )
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    printed = 0
+    began = time.monotonic()
+    try:
+        type_name = args.message_type
+        while type_name is None:
+            types = dict(node.get_topic_names_and_types()).get(topic)
+            if types:
+                type_name = types[0]
+                break
+            if args.timeout is not None and time.monotonic() - began > args.timeout:
+                raise SwazureError(f"{topic}: no publisher found within {args.timeout:g} s")
+            executor.spin_once(timeout_sec=0.1)
+        cls = message_class(type_name)
+
+        def on_message(message: Any) -> None:
+            nonlocal printed
+            if limit is None or printed < limit:
+                sys.stdout.write(message_to_yaml(message) + "---\n")
+                sys.stdout.flush()
+                printed += 1
+
+        node.create_subscription(cls, topic, on_message, 10)
+        while limit is None or printed < limit:
+            if (
+                args.timeout is not None
+                and not printed
+                and time.monotonic() - began > args.timeout
+            ):
+                print(
+                    f"swazure echo: no message on {topic} within {args.timeout:g} s",
+                    file=sys.stderr,
+                )
+                return 1
+            executor.spin_once(timeout_sec=0.1)
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        context.try_shutdown()
+    return 0

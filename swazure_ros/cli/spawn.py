@@ -1,0 +1,151 @@
+"""Bring up a swarm of FLS nodes (one rclpy node per FLS) and serve it until Ctrl-C.
+
+Every FLS publishes its camera measurements on /NAMESPACE/measurements and
+answers /NAMESPACE/fls_<id>/get_neighbours; the world node publishes the
+positions on /NAMESPACE/world and moves FLSs on /NAMESPACE/move_commands.
+FLS ids are the cloud's row numbers. Node parameters (publish_period) come
+from a ROS 2 parameter file (--params, default config/swarm.yaml).
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+from pathlib import Path
+from typing import Any
+
+from ..core.errors import SwazureError
+from ..core.paths import POLICIES
+from ..core.sensor import config_dir
+from ..sim.world import WorldSpec
+from .evaluate import add_swarm_arguments
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``swazure spawn``."""
+    add_swarm_arguments(parser)
+    parser.add_argument(
+        "--policy",
+        choices=POLICIES,
+        default="shortest-length",
+        help="path policy of the swarm's pose computations",
+    )
+    parser.add_argument(
+        "--processes", type=int, default=1, metavar="P", help="split the nodes over P processes"
+    )
+    parser.add_argument(
+        "--params",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="ROS 2 parameter file (ros__parameters layout; default: config/swarm.yaml)",
+    )
+    parser.add_argument("--namespace", default="swarm", help="namespace of the swarm's nodes")
+    parser.add_argument(
+        "--domain-id", type=int, default=None, help="ROS domain id (default: $ROS_DOMAIN_ID)"
+    )
+    parser.add_argument(
+        "--until-ready",
+        action="store_true",
+        help="exit 0 once the whole swarm is up and discovered, after printing the "
+        "bring-up time and peak memory",
+    )
+    parser.add_argument(
+        "--discovery-timeout",
+        type=float,
+        default=600.0,
+        metavar="S",
+        help="give up when the swarm is not discovered after S seconds (default 600)",
+    )
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+class CreationBar:
+    """A tqdm bar of nodes created across every process, on stderr."""
+
+    def __init__(self, quiet: bool) -> None:
+        self._quiet = quiet
+        self._bar: Any = None
+
+    def __call__(self, created: int, total: int) -> None:
+        if self._quiet:
+            return
+        if self._bar is None:
+            from tqdm import tqdm
+
+            self._bar = tqdm(total=total, desc="FLS nodes", unit="node", file=sys.stderr)
+        self._bar.update(created - self._bar.n)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+
+def config_from_args(args: argparse.Namespace) -> Any:
+    """The swarm the options describe, as a :class:`~swazure_ros.launcher.SwarmConfig`."""
+    from ..launcher import SwarmConfig
+
+    if args.beta is None and args.radius is None:
+        raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
+    if args.processes < 1:
+        raise SwazureError(f"--processes must be at least 1, got {args.processes}")
+    params = args.params if args.params is not None else config_dir() / "swarm.yaml"
+    world = WorldSpec(
+        cloud=args.cloud,
+        scale=args.scale,
+        beta=args.beta,
+        radius=args.radius,
+        sensor_file=None if args.sensor is None else str(args.sensor),
+        accurate=args.accurate,
+        seed=args.seed,
+    )
+    return SwarmConfig(
+        world,
+        processes=args.processes,
+        namespace=args.namespace.strip("/") or "swarm",
+        params_file=str(params),
+        domain_id=args.domain_id,
+        discovery_timeout=args.discovery_timeout,
+    )
+
+
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``swazure spawn``."""
+    # rclpy loads only for the verbs that use it: `swazure evaluate` starts faster.
+    from ..launcher import RunningSwarm
+
+    # Stop cleanly on Ctrl-C and on SIGTERM (a supervisor, a test), also when a shell
+    # that started us in the background made us ignore SIGINT.
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, _interrupt)
+    config = config_from_args(args)
+    bar = CreationBar(args.quiet)
+    try:
+        with RunningSwarm(config, bar) as swarm:
+            bring_up = swarm.wait_until_ready()
+            bar.close()
+            peaks = " + ".join(f"{mb:.0f}" for mb in bring_up.peak_rss_mb)
+            print(
+                f"swarm up: {bring_up.flss} FLS nodes in {bring_up.processes} process(es) "
+                f"under /{config.namespace}, discovered in {bring_up.seconds:.1f} s; "
+                f"peak memory {bring_up.total_peak_mb:.0f} MB ({peaks})",
+                flush=True,
+            )
+            if args.until_ready:
+                return 0
+            print(
+                f"measurements on /{config.namespace}/measurements; Ctrl-C stops the swarm",
+                flush=True,
+            )
+            try:
+                swarm.spin()
+            except KeyboardInterrupt:
+                print("stopping the swarm", file=sys.stderr, flush=True)
+    finally:
+        bar.close()
+    return 0

@@ -1,0 +1,57 @@
+"""Helpers of the ROS tests: the engine's expected values, and collecting messages."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from swazure_ros.core.evaluate import neighbourhood
+from swazure_ros.core.sensor import BLIND, DECAYING, SWEET, measured_vectors
+
+
+def engine_expectations(world):
+    """Per FLS id: {target id: measured vector} and its neighbour id sets, from the engine."""
+    hood = neighbourhood(world.swarm, world.sensor)
+    pairs, ids = hood.pairs, world.ids
+    vectors, sets = {}, {}
+    for fls_id in ids.tolist():
+        vectors[fls_id] = {}
+        sets[fls_id] = {"blind": set(), "sweet": set(), "visible_sweet": set(), "decaying": set()}
+    for first, second, kind, visible in zip(
+        pairs.first.tolist(), pairs.second.tolist(), pairs.range_class.tolist(), hood.visible
+    ):
+        for owner, other in ((first, second), (second, first)):
+            entry = sets[int(ids[owner])]
+            if kind == BLIND:
+                entry["blind"].add(int(ids[other]))
+            elif kind == SWEET:
+                entry["sweet"].add(int(ids[other]))
+                if visible:
+                    entry["visible_sweet"].add(int(ids[other]))
+            elif kind == DECAYING and visible:
+                entry["decaying"].add(int(ids[other]))
+            if kind in (SWEET, DECAYING) and visible:
+                vector = measured_vectors(
+                    world.sensor, world.swarm.points, world.swarm.radius, [owner], [other]
+                )[0]
+                vectors[int(ids[owner])][int(ids[other])] = vector
+    return vectors, sets
+
+
+def spin_until(executor, condition, timeout=60.0):
+    """Spin ``executor`` until ``condition()`` holds; return whether it did."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        executor.spin_once(timeout_sec=0.05)
+    return condition()
+
+
+def received_vectors(message):
+    """{target id: (3,) vector} of a Measurements message."""
+    return {
+        pose.target_id: np.array([pose.vector.x, pose.vector.y, pose.vector.z])
+        for pose in message.poses
+    }

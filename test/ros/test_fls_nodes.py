@@ -1,0 +1,135 @@
+"""FLS nodes in one process over real DDS: measurements and neighbour sets equal the engine's."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import Vector3
+from rclpy.node import Node
+from swazure_interfaces.msg import Measurements, MoveCommand
+from swazure_interfaces.srv import GetNeighbours
+
+from swazure_ros.nodes.fls_node import FlsNode, ParameterError
+from swazure_ros.nodes.host import SwarmHost
+from swazure_ros.sim.world import WorldSpec
+
+from .conftest import make_context
+from .helpers import engine_expectations, received_vectors, spin_until
+
+WORLD = WorldSpec("torus:120", beta=0.5)
+FAST = ["--ros-args", "-p", "publish_period:=0.2"]
+
+
+@pytest.fixture
+def swarm(domain):
+    """A 120-FLS torus, every FLS its own node, and a probe node, in one process."""
+    ctx = make_context(domain, FAST)
+    world = WORLD.build()
+    host = SwarmHost(world, world.ids, context=ctx)
+    probe = Node("probe", context=ctx, start_parameter_services=False, enable_rosout=False)
+    host.executor.add_node(probe)
+    try:
+        host.create_fls_nodes()
+        assert host.spin_until_discovered(60)
+        yield world, host, probe
+    finally:
+        host.executor.remove_node(probe)
+        probe.destroy_node()
+        host.close()
+        ctx.try_shutdown()
+
+
+def collect_measurements(host, probe, count):
+    latest = {}
+    subscription = probe.create_subscription(
+        Measurements, "/swarm/measurements", lambda m: latest.__setitem__(m.source_id, m), 1000
+    )
+    assert spin_until(host.executor, lambda: len(latest) >= count, timeout=60)
+    probe.destroy_subscription(subscription)
+    return latest
+
+
+def call(host, probe, fls_id, asked=None):
+    client = probe.create_client(GetNeighbours, f"/swarm/fls_{fls_id}/get_neighbours")
+    assert spin_until(host.executor, lambda: client.service_is_ready(), timeout=30)
+    future = client.call_async(GetNeighbours.Request(fls_id=fls_id if asked is None else asked))
+    assert spin_until(host.executor, future.done, timeout=30)
+    probe.destroy_client(client)
+    return future.result()
+
+
+def test_every_node_publishes_the_engines_measured_vectors(swarm):
+    world, host, probe = swarm
+    assert len(world.ids) >= 30
+    expected, _ = engine_expectations(world)
+    latest = collect_measurements(host, probe, len(world.ids))
+    assert set(latest) == set(world.ids.tolist())
+    for fls_id, message in latest.items():
+        got = received_vectors(message)
+        assert set(got) == set(expected[fls_id]), fls_id
+        for target, vector in got.items():
+            np.testing.assert_allclose(vector, expected[fls_id][target], rtol=0, atol=1e-12)
+        assert all(pose.source_id == fls_id and pose.line_of_sight for pose in message.poses)
+        assert message.header.frame_id == f"fls_{fls_id}"
+
+
+def test_neighbour_service_of_each_node_returns_the_engines_sets(swarm):
+    world, host, probe = swarm
+    _, expected = engine_expectations(world)
+    for fls_id in world.ids.tolist():
+        response = call(host, probe, fls_id)
+        assert response.success, response.message
+        sets = expected[fls_id]
+        assert list(response.blind_ids) == sorted(sets["blind"])
+        assert list(response.sweet_ids) == sorted(sets["sweet"])
+        assert list(response.visible_sweet_ids) == sorted(sets["visible_sweet"])
+        assert list(response.decaying_ids) == sorted(sets["decaying"])
+
+
+def test_request_for_a_missing_fls_is_an_error_response_and_the_node_keeps_serving(swarm):
+    world, host, probe = swarm
+    fls_id = int(world.ids[3])
+    response = call(host, probe, fls_id, asked=99_999)
+    assert not response.success
+    assert "99999" in response.message and str(fls_id) in response.message
+    assert list(response.blind_ids) == []
+    assert call(host, probe, fls_id).success
+
+
+def test_a_move_command_changes_what_the_nodes_measure(swarm):
+    world, host, probe = swarm
+    mover = int(world.ids[10])
+    shift = np.array([0.0, 0.0, 0.4])
+    moved_world = world.moved({mover: world.position(mover) + shift})
+    expected, _ = engine_expectations(moved_world)
+    publisher = probe.create_publisher(MoveCommand, "/swarm/move_commands", 10)
+    command = MoveCommand(fls_id=mover, kind=MoveCommand.KIND_STEP_ASIDE)
+    command.displacement = Vector3(x=shift[0], y=shift[1], z=shift[2])
+    assert spin_until(host.executor, lambda: publisher.get_subscription_count() > 0)
+    publisher.publish(command)
+    assert spin_until(host.executor, lambda: host.replica.world.revision == 1)
+    latest = collect_measurements(host, probe, len(world.ids))
+    for fls_id, message in latest.items():
+        got = received_vectors(message)
+        assert set(got) == set(expected[fls_id]), fls_id
+        for target, vector in got.items():
+            np.testing.assert_allclose(vector, expected[fls_id][target], rtol=0, atol=1e-12)
+    publisher.publish(MoveCommand(fls_id=mover, kind=MoveCommand.KIND_RETURN))
+    assert spin_until(host.executor, lambda: host.replica.world.revision == 2)
+    np.testing.assert_array_equal(host.replica.world.position(mover), world.position(mover))
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [("-1.0", "publish_period must be a positive number"), ("fast", "publish_period")],
+)
+def test_invalid_parameter_refuses_to_start_with_one_clear_line(domain, value, message):
+    ctx = make_context(domain, ["--ros-args", "-p", f"publish_period:={value}"])
+    world = WORLD.build()
+    try:
+        with pytest.raises(ParameterError, match=message) as raised:
+            FlsNode(int(world.ids[0]), world, context=ctx)
+        assert "\n" not in str(raised.value)
+        assert "/swarm/fls_" in str(raised.value)
+    finally:
+        ctx.try_shutdown()
