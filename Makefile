@@ -23,6 +23,7 @@ ROS2CLI_STAMP := $(VENV)/.stamp-ros2cli
 help:
 	@echo "make demo   set up if needed, then evaluate the built-in default shape"
 	@echo "make test   set up if needed, then lint, type-check and run every test"
+	@echo "make study  regenerate the published tables, figures and report into study/"
 	@echo "make bench  run the benchmarks and rewrite BENCHMARKS.md (long)"
 	@echo "make lint   ruff (lint and format check) and mypy on the core"
 	@echo "make setup  create .venv with the pinned ROS 2 Jazzy wheels and build msg_defs"
@@ -66,6 +67,9 @@ demo: setup
 
 bench: setup
 	$(PY) scripts/bench.py
+
+study: setup
+	$(VENV)/bin/swazure study --out study
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache .hypothesis

@@ -47,27 +47,28 @@ def machine() -> str:
 
 def run(arguments: list[str]) -> tuple[float, float, int]:
     """Run a command; return wall seconds, peak RSS in MB, exit code."""
+    seconds, memory, code, _ = run_output(arguments)
+    return seconds, memory, code
+
+
+def run_output(arguments: list[str]) -> tuple[float, float, int, str]:
+    """Run a command; return wall seconds, peak RSS in MB (largest process), exit code, stdout."""
     began = time.perf_counter()
-    process = subprocess.Popen(arguments, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    process = subprocess.Popen(arguments, stdout=subprocess.PIPE, text=True)
+    assert process.stdout is not None
+    output = process.stdout.read()
     _, status, usage = os.wait4(process.pid, 0)
     seconds = time.perf_counter() - began
-    return seconds, usage.ru_maxrss / 1024, os.waitstatus_to_exitcode(status)
+    return seconds, usage.ru_maxrss / 1024, os.waitstatus_to_exitcode(status), output
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--beta", type=float, default=0.5)
-    parser.add_argument("--output", type=Path, default=REPO / "BENCHMARKS.md")
-    args = parser.parse_args()
-    if not DATASETS.is_dir():
-        print(
-            f"bench: {DATASETS} is absent; the benchmarks need the published clouds",
-            file=sys.stderr,
-        )
-        return 2
-    swazure = [sys.executable, "-m", "swazure_ros.cli.main"]
-    # Warm numba's compilation cache so that no run pays for compiling.
-    run([*swazure, "evaluate", "--cloud", "sphere:200", "--beta", "0.5", "--quiet"])
+SWAZURE = [sys.executable, "-m", "swazure_ros.cli.main"]
+SECTIONS_DIR = REPO / "build" / "bench"
+
+
+def engine_section(args: argparse.Namespace) -> list[str]:
+    """Core engine and heuristics on the six shapes."""
+    swazure = SWAZURE
     rows = []
     heuristic_rows = []
     with tempfile.TemporaryDirectory() as scratch:
@@ -108,11 +109,6 @@ def main() -> int:
                 summary, seconds, memory = evaluate(shape, *options)
                 heuristic_rows.append((shape, technique, threshold, summary, seconds, memory))
     lines = [
-        "# Benchmarks",
-        "",
-        f"Measured {datetime.date.today().isoformat()} on {machine()}.",
-        "Regenerate with `make bench` (writes this file).",
-        "",
         f"## Core engine: `swazure evaluate`, every ordered blind pair, beta {args.beta}",
         "",
         "Wall time of the whole process (start-up, reading, evaluating, writing summary.json",
@@ -162,7 +158,225 @@ def main() -> int:
         "and 886 s (kangaroo) on this machine.",
         "",
     ]
-    args.output.write_text("\n".join(lines))
+    return lines
+
+
+def du_mb(path: Path) -> float:
+    """Disk use of a folder, MB."""
+    return sum(p.stat().st_size for p in path.rglob("*") if p.is_file()) / 2**20
+
+
+def study_section(args: argparse.Namespace) -> list[str]:
+    """The full default study, cold and with nothing changed."""
+    lines = [
+        "## The published study: `swazure study --jobs 2`",
+        "",
+        "6 shapes x 6 betas x 2 policies of plain Swazure, plus Move Obstructing and Move",
+        "Source (T = 2, T = 10) at beta 0.3, 0.4, 0.5 with Shortest-Length: 126 runs.",
+        "Cold: an empty output folder; cached: the same command again. Peak memory is the",
+        "largest single process (a race car run in a worker).",
+        "",
+        "| case | runs computed | wall s | peak MB | output MB |",
+        "| --- | ---: | ---: | ---: | ---: |",
+    ]
+    with tempfile.TemporaryDirectory() as scratch:
+        out = Path(scratch) / "study"
+        for case in ("cold", "cached"):
+            command = [*SWAZURE, "study", "--out", str(out), "--jobs", "2", "--quiet"]
+            seconds, memory, code = run(command)
+            if code != 0:
+                raise SystemExit(f"bench: study ({case}) failed with exit code {code}")
+            computed = json.loads(
+                (
+                    out
+                    / "runs"
+                    / "chess_408"
+                    / "beta-0.5"
+                    / "shortest-length"
+                    / "plain"
+                    / "summary.json"
+                ).read_text()
+            )["study"]["key"] and (126 if case == "cold" else 0)
+            print(f"study {case}: {seconds:.1f} s, {memory:.0f} MB", flush=True)
+            lines.append(
+                f"| {case} | {computed} | {seconds:.1f} | {memory:.0f} | {du_mb(out):,.0f} |"
+            )
+    lines += ["", "Targets (issue 5): under 15 minutes cold, under 10 s with nothing changed.", ""]
+    return lines
+
+
+SWARMS = [
+    ("helix:100", "helix:100"),
+    ("chess_408", None),
+    ("dragon_1147", None),
+    ("racecar_3720", None),
+]
+
+
+def spawn(cloud: str, processes: int, domain: int) -> tuple[float, str]:
+    """Bring a swarm up with --until-ready; return wall seconds and the launcher's line."""
+    command = [
+        *SWAZURE,
+        "spawn",
+        "--cloud",
+        cloud,
+        "--beta",
+        "0.5",
+        "--until-ready",
+        "--quiet",
+        "--processes",
+        str(processes),
+        "--domain-id",
+        str(domain),
+    ]
+    began = time.perf_counter()
+    done = subprocess.run(command, capture_output=True, text=True)
+    seconds = time.perf_counter() - began
+    if done.returncode != 0:
+        raise SystemExit(f"bench: spawn {cloud} x{processes} failed: {done.stderr.strip()}")
+    return seconds, done.stdout.strip().splitlines()[0]
+
+
+def message_rate(cloud: str, domain: int, period: float = 0.1, window: float = 10.0) -> float:
+    """Measurements messages per second a probe receives from a running swarm."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.node import Node
+    from swazure_interfaces.msg import Measurements
+
+    params = Path(tempfile.mkstemp(suffix=".yaml")[1])
+    params.write_text(f"/**:\n  ros__parameters:\n    publish_period: {period}\n")
+    command = [
+        *SWAZURE,
+        "spawn",
+        "--cloud",
+        cloud,
+        "--beta",
+        "0.5",
+        "--quiet",
+        "--params",
+        str(params),
+        "--domain-id",
+        str(domain),
+    ]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
+    try:
+        assert process.stdout is not None
+        process.stdout.readline()  # "swarm up ..."
+        context = Context()
+        rclpy.init(context=context, domain_id=domain)
+        node = Node("bench_probe", context=context)
+        count = 0
+
+        def on_message(message: object) -> None:
+            nonlocal count
+            count += 1
+
+        node.create_subscription(Measurements, "/swarm/measurements", on_message, 1000)
+        executor = rclpy.executors.SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        settle = time.monotonic() + 3.0
+        while time.monotonic() < settle:
+            executor.spin_once(timeout_sec=0.01)
+        count = 0
+        began = time.monotonic()
+        while time.monotonic() - began < window:
+            executor.spin_once(timeout_sec=0.01)
+        rate = count / (time.monotonic() - began)
+        executor.shutdown()
+        node.destroy_node()
+        context.try_shutdown()
+        return rate
+    finally:
+        process.terminate()
+        process.wait(timeout=120)
+        params.unlink()
+
+
+def swarm_section(args: argparse.Namespace) -> list[str]:
+    """Bring-up of node-per-FLS swarms and the message rate once up."""
+    domain = 91
+    lines = [
+        "## The swarm on ROS 2: `swazure spawn --until-ready`, one node per FLS, beta 0.5",
+        "",
+        "Time from launcher start until every process sees every FLS node's publisher and",
+        "service (the launcher's own count), the whole command's wall time, and the peak",
+        "resident memory of each process.",
+        "",
+        "| swarm | FLS nodes | processes | discovered s | wall s | peak MB (per process) |",
+        "| --- | ---: | ---: | ---: | ---: | --- |",
+    ]
+    for name, builtin in SWARMS:
+        cloud = builtin or str(DATASETS / f"{name}.xyz")
+        for processes in (1, 2):
+            seconds, line = spawn(cloud, processes, domain)
+            print(f"spawn {name} x{processes}: {seconds:.1f} s; {line}", flush=True)
+            # "swarm up: N FLS nodes in P process(es) under /swarm, discovered in X s; peak
+            # memory T MB (a + b)"
+            nodes = line.split("swarm up: ")[1].split(" ")[0]
+            discovered = line.split("discovered in ")[1].split(" s;")[0]
+            memory = line.split("peak memory ")[1]
+            lines.append(
+                f"| {name} | {nodes} | {processes} | {discovered} | {seconds:.1f} | {memory} |"
+            )
+    lines += [
+        "",
+        "Messages delivered once up: every FLS publishes its Measurements every 0.1 s on the",
+        "shared topic; a probe node in another process counts what arrives over 10 s.",
+        "",
+        "| swarm | FLS nodes | published per s | received per s |",
+        "| --- | ---: | ---: | ---: |",
+    ]
+    for name, builtin in SWARMS[:3]:
+        cloud = builtin or str(DATASETS / f"{name}.xyz")
+        rate = message_rate(cloud, domain)
+        flss = {"helix:100": 100, "chess_408": 408, "dragon_1147": 1147}[name]
+        print(f"rate {name}: {rate:.0f} msg/s", flush=True)
+        lines.append(f"| {name} | {flss} | {flss / 0.1:,.0f} | {rate:,.0f} |")
+    lines += [
+        "",
+        "Targets (issue 6): the dragon's 1147 nodes up and discovered in under 60 s in one",
+        "process, under 1.5 GB; the race car's 3720 nodes up in some configuration.",
+        "",
+    ]
+    return lines
+
+
+SECTIONS = {"engine": engine_section, "study": study_section, "swarm": swarm_section}
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--beta", type=float, default=0.5)
+    parser.add_argument("--output", type=Path, default=REPO / "BENCHMARKS.md")
+    parser.add_argument(
+        "--sections",
+        nargs="+",
+        choices=list(SECTIONS),
+        default=list(SECTIONS),
+        help="run these sections; the others keep their last results (build/bench/)",
+    )
+    args = parser.parse_args()
+    if not DATASETS.is_dir():
+        print(
+            f"bench: {DATASETS} is absent; the benchmarks need the published clouds",
+            file=sys.stderr,
+        )
+        return 2
+    # Warm numba's compilation cache so that no run pays for compiling.
+    run([*SWAZURE, "evaluate", "--cloud", "sphere:200", "--beta", "0.5", "--quiet"])
+    SECTIONS_DIR.mkdir(parents=True, exist_ok=True)
+    stamp = f"Measured {datetime.date.today().isoformat()} on {machine()}."
+    for name in args.sections:
+        body = SECTIONS[name](args)
+        (SECTIONS_DIR / f"{name}.md").write_text("\n".join([stamp, "", *body]))
+    parts = ["# Benchmarks", "", "Regenerate with `make bench` (writes this file).", ""]
+    for name in SECTIONS:
+        section = SECTIONS_DIR / f"{name}.md"
+        if section.exists():
+            text = section.read_text().split("\n")
+            parts += [*text[2:3], "", text[0], "", *text[3:]]
+    args.output.write_text("\n".join(parts))
     print(f"wrote {args.output}")
     return 0
 

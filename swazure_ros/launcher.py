@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 import rclpy
+import yaml
 from rclpy.context import Context
 from rclpy.signals import SignalHandlerOptions
 
@@ -63,14 +64,32 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+def check_params_file(path: Path) -> None:
+    """Raise SwazureError unless ``path`` holds ROS 2 parameters (node: ros__parameters: ...)."""
+    if not path.is_file():
+        raise SwazureError(f"{path}: parameter file not found")
+    try:
+        document = yaml.safe_load(path.read_text())
+    except (OSError, UnicodeDecodeError, yaml.YAMLError) as err:
+        where = getattr(err, "problem_mark", None)
+        line = f" (line {where.line + 1})" if where is not None else ""
+        raise SwazureError(f"{path}: not a valid ROS 2 parameter file{line}") from err
+    if not isinstance(document, dict) or not all(
+        isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict)
+        for section in document.values()
+    ):
+        raise SwazureError(
+            f"{path}: not a ROS 2 parameter file: expect NODE: {{ros__parameters: {{...}}}}"
+        )
+
+
 def init_context(config: SwarmConfig) -> Context:
     """A fresh rclpy context with the swarm's parameter file and domain."""
     args = []
     if config.params_file is not None:
-        path = Path(config.params_file)
-        if not path.is_file():
-            raise SwazureError(f"{path}: parameter file not found")
-        args = ["--ros-args", "--params-file", str(path)]
+        # Checked here so that a bad file gives our one line, not rcl's log lines too.
+        check_params_file(Path(config.params_file))
+        args = ["--ros-args", "--params-file", config.params_file]
     context = Context()
     try:
         rclpy.init(

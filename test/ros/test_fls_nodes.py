@@ -16,13 +16,13 @@ from swazure_ros.sim.world import WorldSpec
 from .conftest import make_context
 from .helpers import engine_expectations, received_vectors, spin_until
 
-WORLD = WorldSpec("torus:120", beta=0.5)
+WORLD = WorldSpec("helix:100", beta=0.5)
 FAST = ["--ros-args", "-p", "publish_period:=0.2"]
 
 
 @pytest.fixture
 def swarm(domain):
-    """A 120-FLS torus, every FLS its own node, and a probe node, in one process."""
+    """A 100-FLS helix, every FLS its own node, and a probe node, in one process."""
     ctx = make_context(domain, FAST)
     world = WORLD.build()
     host = SwarmHost(world, world.ids, context=ctx)
@@ -62,6 +62,7 @@ def test_every_node_publishes_the_engines_measured_vectors(swarm):
     world, host, probe = swarm
     assert len(world.ids) >= 30
     expected, _ = engine_expectations(world)
+    assert sum(map(len, expected.values())) > 1000  # a swarm whose FLSs measure each other
     latest = collect_measurements(host, probe, len(world.ids))
     assert set(latest) == set(world.ids.tolist())
     for fls_id, message in latest.items():
@@ -76,6 +77,9 @@ def test_every_node_publishes_the_engines_measured_vectors(swarm):
 def test_neighbour_service_of_each_node_returns_the_engines_sets(swarm):
     world, host, probe = swarm
     _, expected = engine_expectations(world)
+    # Sweet neighbours out of sight exist, so radio and camera sets differ.
+    assert any(sets["sweet"] - sets["visible_sweet"] for sets in expected.values())
+    assert any(sets["decaying"] for sets in expected.values())
     for fls_id in world.ids.tolist():
         response = call(host, probe, fls_id)
         assert response.success, response.message

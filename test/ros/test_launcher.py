@@ -1,0 +1,219 @@
+"""A swarm split over processes, `swazure spawn`, `swazure echo` and the real `ros2` CLI."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from geometry_msgs.msg import Vector3
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from swazure_interfaces.msg import Measurements, MoveCommand
+
+from swazure_ros.launcher import RunningSwarm, SwarmConfig
+from swazure_ros.sim.world import WorldSpec
+
+from ..conftest import SHARED
+from .helpers import engine_expectations, received_vectors, spin_until
+
+WORLD = WorldSpec("helix:100", beta=0.5)
+ROS2 = Path(sys.executable).parent / "ros2"
+
+
+@pytest.fixture
+def fast_params(tmp_path):
+    path = tmp_path / "swarm.yaml"
+    path.write_text("/**:\n  ros__parameters:\n    publish_period: 0.2\n")
+    return path
+
+
+def swazure(*args, **options):
+    return subprocess.Popen(
+        [sys.executable, "-m", "swazure_ros.cli.main", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **options,
+    )
+
+
+def stop(process, timeout=60):
+    """SIGTERM, then wait; the launcher must exit 0 having stopped every node."""
+    process.send_signal(signal.SIGTERM)
+    out, err = process.communicate(timeout=timeout)
+    return process.returncode, out, err
+
+
+def test_swarm_split_over_two_processes_gives_the_same_measurements(context, domain, fast_params):
+    config = SwarmConfig(WORLD, processes=2, domain_id=domain, params_file=str(fast_params))
+    probe = Node("probe", context=context, start_parameter_services=False, enable_rosout=False)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(probe)
+    latest = {}
+    probe.create_subscription(
+        Measurements, "/swarm/measurements", lambda m: latest.__setitem__(m.source_id, m), 1000
+    )
+    try:
+        with RunningSwarm(config) as swarm:
+            bring_up = swarm.wait_until_ready()
+            assert bring_up.processes == 2 and len(bring_up.peak_rss_mb) == 2
+            world = swarm.world
+
+            def until(condition):
+                deadline = time.monotonic() + 60
+                while time.monotonic() < deadline and not condition():
+                    swarm.spin(0.02)
+                    for _ in range(500):  # one callback per spin_once: drain the backlog
+                        executor.spin_once(timeout_sec=0.0)
+                return condition()
+
+            assert until(lambda: len(latest) == len(world.ids)), (len(latest), len(world.ids))
+            expected, _ = engine_expectations(world)
+            for fls_id, message in latest.items():
+                got = received_vectors(message)
+                assert set(got) == set(expected[fls_id]), fls_id
+                for target, vector in got.items():
+                    np.testing.assert_allclose(vector, expected[fls_id][target], atol=1e-12)
+
+            # A move made by the world node in the first process reaches the second.
+            remote = max(
+                (i for i in expected if i not in swarm.host.fls_ids),
+                key=lambda i: len(expected[i]),
+            )
+            neighbour = int(next(iter(expected[remote])))
+            shift = np.array([0.3, 0.0, 0.0])
+            moved = world.moved({neighbour: world.position(neighbour) + shift})
+            moved_expected, _ = engine_expectations(moved)
+            command = MoveCommand(fls_id=neighbour, kind=MoveCommand.KIND_STEP_ASIDE)
+            command.displacement = Vector3(x=shift[0], y=shift[1], z=shift[2])
+            publisher = probe.create_publisher(MoveCommand, "/swarm/move_commands", 10)
+            assert until(lambda: publisher.get_subscription_count() > 0)
+            publisher.publish(command)
+
+            def remote_sees_move():
+                message = latest.get(remote)
+                if message is None:
+                    return False
+                got = received_vectors(message)
+                want = moved_expected[remote]
+                return set(got) == set(want) and all(
+                    np.allclose(got[t], want[t], rtol=0, atol=1e-12) for t in got
+                )
+
+            assert until(remote_sees_move)
+    finally:
+        executor.shutdown()
+        probe.destroy_node()
+
+
+def test_spawn_until_ready_prints_bring_up_and_exits_0(domain):
+    run = swazure("spawn", "--cloud", "helix:60", "--beta", "0.5", "--until-ready", "--quiet")
+    out, err = run.communicate(timeout=120)
+    assert run.returncode == 0, err
+    assert "swarm up: 60 FLS nodes in 1 process(es)" in out
+    assert "peak memory" in out
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--cloud", "no-such-shape", "--beta", "0.5"], "unknown shape"),
+        (["--cloud", "helix:60"], "give --beta"),
+        (["--cloud", "helix:60", "--beta", "0.5", "--processes", "0"], "--processes"),
+        (["--cloud", "helix:60", "--beta", "0.5", "--params", "/no/such.yaml"], "not found"),
+    ],
+)
+def test_spawn_bad_input_gives_one_line_and_exit_2(domain, args, message):
+    run = swazure("spawn", *args, "--until-ready", "--quiet")
+    out, err = run.communicate(timeout=120)
+    assert run.returncode == 2, err
+    assert message in err and len(err.strip().splitlines()) == 1, err
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        ("/**:\n  ros__parameters:\n    publish_period: -2.0\n", "publish_period must be"),
+        ("/**:\n  ros__parameters:\n    publish_period: [1, 2\n", "parameter file"),
+    ],
+)
+def test_spawn_with_invalid_parameters_refuses_to_start(domain, tmp_path, content, message):
+    params = tmp_path / "bad.yaml"
+    params.write_text(content)
+    run = swazure("spawn", "--cloud", "helix:60", "--beta", "0.5", "--params", str(params))
+    out, err = run.communicate(timeout=120)
+    assert run.returncode == 2, err
+    assert message in err and len(err.strip().splitlines()) == 1, err
+
+
+@pytest.fixture
+def running_swarm(domain, fast_params):
+    """`swazure spawn` in its own process, serving until stopped."""
+    process = swazure(
+        "spawn", "--cloud", "helix:100", "--beta", "0.5", "--params", str(fast_params), "--quiet"
+    )
+    try:
+        line = process.stdout.readline()
+        assert line.startswith("swarm up"), line + process.stderr.read()
+        yield process
+    finally:
+        if process.poll() is None:
+            code, _, err = stop(process)
+            assert code == 0, err
+
+
+def test_swazure_echo_shows_a_measurement_of_a_running_swarm(running_swarm):
+    echo = swazure("echo", "/swarm/measurements", "--once", "--timeout", "60")
+    out, err = echo.communicate(timeout=120)
+    assert echo.returncode == 0, err
+    assert out.endswith("---\n")
+    assert "source_id:" in out and "poses:" in out and "tracking_distance:" in out
+    code, _, err = stop(running_swarm)
+    assert code == 0, err
+    assert "stopping the swarm" in err
+
+
+def needs_ros2_cli():
+    if not SHARED.is_dir():
+        pytest.skip("the ros2 CLI wheels live in ../shared, which is not beside the repo")
+    if not ROS2.exists():
+        pytest.skip(f"{ROS2} is not installed (make setup installs it from ../shared)")
+
+
+def ros2(*args, timeout=90):
+    env = dict(os.environ, AMENT_PREFIX_PATH=str(Path(sys.executable).parents[1]))
+    return subprocess.run(
+        [str(ROS2), *args], capture_output=True, text=True, timeout=timeout, env=env
+    )
+
+
+def test_real_ros2_cli_sees_nodes_topic_and_service(running_swarm):
+    needs_ros2_cli()
+    assert shutil.which(str(ROS2))
+    for _ in range(3):  # without a daemon, discovery gets only --spin-time
+        nodes = ros2("node", "list", "--no-daemon", "--spin-time", "3")
+        if "/swarm/fls_0" in nodes.stdout.split():
+            break
+    assert "/swarm/fls_0" in nodes.stdout.split(), nodes.stdout + nodes.stderr
+    echo = ros2(
+        "topic", "echo", "--once", "/swarm/measurements", "swazure_interfaces/msg/Measurements"
+    )
+    assert echo.returncode == 0, echo.stderr
+    assert "source_id:" in echo.stdout and "vector:" in echo.stdout
+    call = ros2(
+        "service",
+        "call",
+        "/swarm/fls_0/get_neighbours",
+        "swazure_interfaces/srv/GetNeighbours",
+        "{fls_id: 0}",
+    )
+    assert call.returncode == 0, call.stderr
+    assert "success=True" in call.stdout
