@@ -40,7 +40,8 @@ class Observations:
     @property
     def measured(self) -> NDArray[np.bool_]:
         """(E,) the camera measures the pair: sweet or decaying, in line of sight."""
-        return self.visible & ((self.range_class == SWEET) | (self.range_class == DECAYING))
+        camera_range = (self.range_class == SWEET) | (self.range_class == DECAYING)
+        return np.asarray(self.visible & camera_range, dtype=np.bool_)
 
     def rows(self, fls: int) -> slice:
         """The rows of FLS ``fls`` (a swarm index)."""

@@ -21,7 +21,7 @@ from swazure_ros.launcher import RunningSwarm, SwarmConfig
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SHARED
-from .helpers import engine_expectations, received_vectors, spin_until
+from .helpers import engine_expectations, received_vectors
 
 WORLD = WorldSpec("helix:100", beta=0.5)
 ROS2 = Path(sys.executable).parent / "ros2"
@@ -132,7 +132,7 @@ def test_spawn_until_ready_prints_bring_up_and_exits_0(domain):
 )
 def test_spawn_bad_input_gives_one_line_and_exit_2(domain, args, message):
     run = swazure("spawn", *args, "--until-ready", "--quiet")
-    out, err = run.communicate(timeout=120)
+    _, err = run.communicate(timeout=120)
     assert run.returncode == 2, err
     assert message in err and len(err.strip().splitlines()) == 1, err
     assert "Traceback" not in err
@@ -149,7 +149,7 @@ def test_spawn_with_invalid_parameters_refuses_to_start(domain, tmp_path, conten
     params = tmp_path / "bad.yaml"
     params.write_text(content)
     run = swazure("spawn", "--cloud", "helix:60", "--beta", "0.5", "--params", str(params))
-    out, err = run.communicate(timeout=120)
+    _, err = run.communicate(timeout=120)
     assert run.returncode == 2, err
     assert message in err and len(err.strip().splitlines()) == 1, err
 
