@@ -274,7 +274,15 @@ class RunningSwarm:
             self.host.spin_for(0.1)
 
     def close(self) -> None:
-        """Stop every process and destroy every node."""
+        """Stop every process and destroy every node; Ctrl-C waits until this is done."""
+        stopping = {signal.SIGINT, signal.SIGTERM}
+        signal.pthread_sigmask(signal.SIG_BLOCK, stopping)
+        try:
+            self._close()
+        finally:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, stopping)
+
+    def _close(self) -> None:
         self._stop.set()
         for child in self._children:
             if child.pid is not None:

@@ -125,9 +125,11 @@ def main(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, _interrupt)
     config = config_from_args(args)
     bar = CreationBar(args.quiet)
+    ready = False
     try:
         with RunningSwarm(config, bar) as swarm:
             bring_up = swarm.wait_until_ready()
+            ready = True
             bar.close()
             peaks = " + ".join(f"{mb:.0f}" for mb in bring_up.peak_rss_mb)
             print(
@@ -142,10 +144,12 @@ def main(args: argparse.Namespace) -> int:
                 f"measurements on /{config.namespace}/measurements; Ctrl-C stops the swarm",
                 flush=True,
             )
-            try:
-                swarm.spin()
-            except KeyboardInterrupt:
-                print("stopping the swarm", file=sys.stderr, flush=True)
+            swarm.spin()
+    except KeyboardInterrupt:
+        if not ready:
+            raise
+        # Ctrl-C or SIGTERM is how a served swarm ends: not an error.
+        print("stopping the swarm", file=sys.stderr, flush=True)
     finally:
         bar.close()
     return 0

@@ -181,7 +181,9 @@ def test_swazure_echo_shows_a_measurement_of_a_running_swarm(running_swarm):
     assert "stopping the swarm" in err
 
 
-def needs_ros2_cli():
+@pytest.fixture
+def ros2_cli():
+    """Skip, before any swarm starts, where the real ros2 CLI is absent."""
     if not SHARED.is_dir():
         pytest.skip("the ros2 CLI wheels live in ../shared, which is not beside the repo")
     if not ROS2.exists():
@@ -195,8 +197,7 @@ def ros2(*args, timeout=90):
     )
 
 
-def test_real_ros2_cli_sees_nodes_topic_and_service(running_swarm):
-    needs_ros2_cli()
+def test_real_ros2_cli_sees_nodes_topic_and_service(ros2_cli, running_swarm):
     assert shutil.which(str(ROS2))
     for _ in range(3):  # without a daemon, discovery gets only --spin-time
         nodes = ros2("node", "list", "--no-daemon", "--spin-time", "3")
