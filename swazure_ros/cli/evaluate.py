@@ -56,10 +56,20 @@ def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_policy_argument(parser: argparse.ArgumentParser) -> None:
+    """The path policy option, shared by the verbs that compute poses."""
+    parser.add_argument(
+        "--policy",
+        choices=POLICIES,
+        default="shortest-length",
+        help="path policy (default: shortest-length)",
+    )
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure evaluate``."""
     add_swarm_arguments(parser)
-    parser.add_argument("--policy", choices=POLICIES, default="shortest-length")
+    add_policy_argument(parser)
     parser.add_argument(
         "--technique",
         choices=TECHNIQUES,

@@ -16,21 +16,15 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import SwazureError
-from ..core.paths import POLICIES
 from ..core.sensor import config_dir
 from ..sim.world import WorldSpec
-from .evaluate import add_swarm_arguments
+from .evaluate import add_policy_argument, add_swarm_arguments
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure spawn``."""
     add_swarm_arguments(parser)
-    parser.add_argument(
-        "--policy",
-        choices=POLICIES,
-        default="shortest-length",
-        help="path policy of the swarm's pose computations",
-    )
+    add_policy_argument(parser)
     parser.add_argument(
         "--processes", type=int, default=1, metavar="P", help="split the nodes over P processes"
     )
