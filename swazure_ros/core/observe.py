@@ -2,8 +2,9 @@
 
 The camera of FLS ``i`` measures FLS ``j`` when ``j`` is in sweet or decaying
 range and in line of sight; the measured vector follows the sensor's error
-model. Radio tells ``i`` which FLSs are in its blind and sweet ranges, line of
-sight ignored. Both are views of one :class:`~.evaluate.Neighbourhood`, laid
+model. Radio tells ``i`` which FLSs are in its blind, sweet and decaying
+ranges and how far they are (the tracking distance t, which the path policies
+weigh hops by), line of sight ignored. Both are views of one :class:`~.evaluate.Neighbourhood`, laid
 out per FLS (CSR) so that a node can take its own slice.
 """
 
@@ -36,6 +37,7 @@ class Observations:
     visible: NDArray[np.bool_]  # (E,), line of sight
     vector: FloatArray  # (E, 3), measured vector owner -> other, cm
     tracking: FloatArray  # (E,), measured tracking distance t', cm
+    distance: FloatArray  # (E,), tracking distance t as radio ranging reports it, cm
 
     @property
     def measured(self) -> NDArray[np.bool_]:
@@ -81,7 +83,7 @@ def observations(hood: Neighbourhood) -> Observations:
         sensor, swarm.points, swarm.radius, owner[measured], other[measured]
     )
     tracking[measured] = sensor.measured_tracking(true_tracking[measured])
-    return Observations(indptr, other, range_class, visible, vector, tracking)
+    return Observations(indptr, other, range_class, visible, vector, tracking, true_tracking)
 
 
 def neighbour_sets(seen: Observations, fls: int) -> NeighbourSets:
