@@ -72,7 +72,7 @@ class LocalView:
     @property
     def blind(self) -> IntArray:
         """(B,) ids of the blind neighbours: the targets of this FLS as a source."""
-        return self.other[self.range_class == BLIND]
+        return np.asarray(self.other[self.range_class == BLIND], dtype=np.int64)
 
     def hop_mask(self, phase: int) -> NDArray[np.bool_]:
         """(K,) the neighbours this FLS relays from in ``phase``."""
@@ -255,7 +255,7 @@ class PathSearch:
 
 
 def phase_targets(phase: int, blind: IntArray, sweet_results: dict[int, Found]) -> IntArray:
-    """Targets a source searches in ``phase``: all blind ones, or in SD_vis those without an S_vis path."""
+    """Targets of a source in ``phase``: its blind neighbours; in SD_vis those without S_vis path."""
     if phase == ANY_VISIBLE:
         return np.array([t for t in blind.tolist() if t not in sweet_results], dtype=np.int64)
     return np.asarray(blind, dtype=np.int64)

@@ -4,8 +4,9 @@ The camera of FLS ``i`` measures FLS ``j`` when ``j`` is in sweet or decaying
 range and in line of sight; the measured vector follows the sensor's error
 model. Radio tells ``i`` which FLSs are in its blind, sweet and decaying
 ranges and how far they are (the tracking distance t, which the path policies
-weigh hops by), line of sight ignored. Both are views of one :class:`~.evaluate.Neighbourhood`, laid
-out per FLS (CSR) so that a node can take its own slice.
+weigh hops by), line of sight ignored. Both are views of one
+:class:`~.evaluate.Neighbourhood`, laid out per FLS (CSR) so that a node can
+take its own slice.
 """
 
 from __future__ import annotations
