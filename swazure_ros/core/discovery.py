@@ -255,7 +255,7 @@ class PathSearch:
 
 
 def phase_targets(phase: int, blind: IntArray, sweet_results: dict[int, Found]) -> IntArray:
-    """Targets of a source in ``phase``: its blind neighbours; in SD_vis those without S_vis path."""
+    """A source's targets in ``phase``: blind neighbours (in SD_vis: without S_vis path)."""
     if phase == ANY_VISIBLE:
         return np.array([t for t in blind.tolist() if t not in sweet_results], dtype=np.int64)
     return np.asarray(blind, dtype=np.int64)
