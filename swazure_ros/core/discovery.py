@@ -31,9 +31,14 @@ from .evaluate import (
     REASON_NO_SWEET_PATH,
     REASON_NONE,
     SWEET_PATH,
+    Evaluation,
+    Neighbourhood,
+    pair_results,
+    summarise,
 )
+from .neighbours import ordered_blind_pairs
 from .observe import Observations
-from .paths import FEWEST_HOPS, check_policy
+from .paths import FEWEST_HOPS, check_policy, paths_from_rows
 from .sensor import BLIND, DECAYING, SWEET
 
 FloatArray = NDArray[np.float64]
@@ -303,3 +308,91 @@ def estimate(
             radio_path,
         )
     return Estimate(target, NO_PATH, reason, radio_path=radio_path)
+
+
+class FlsRun:
+    """One FLS's part of one discovery run, phase after phase.
+
+    ``targets`` are the FLS's targets as a source: its blind neighbours by
+    default, none when it is not a source of the run.
+    """
+
+    def __init__(
+        self,
+        view: LocalView,
+        policy: str,
+        width: float,
+        id_space: int,
+        targets: IntArray | None,
+    ) -> None:
+        self.view = view
+        self.policy = policy
+        self.width = width
+        self.id_space = id_space
+        self.targets = targets
+        self.results: dict[int, dict[int, Found]] = {phase: {} for phase in PHASES}
+        self.search: PathSearch | None = None
+        self.departed: frozenset[int] = frozenset()
+
+    def start(self, phase: int, departed: frozenset[int]) -> PathSearch:
+        """Begin (or restart) ``phase``; its earlier results are dropped."""
+        self.departed = departed
+        targets = None
+        if self.targets is not None:
+            wanted = phase_targets(phase, self.targets, self.results[SWEET_VISIBLE])
+            wanted = wanted[~np.isin(wanted, list(departed))]
+            targets = wanted if len(wanted) else None
+        self.search = PathSearch(
+            self.view, phase, self.policy, self.width, self.id_space, targets, departed
+        )
+        self.results[phase] = self.search.results
+        return self.search
+
+    def estimates(self) -> list[Estimate]:
+        """The estimate for every target that has not departed, in target order."""
+        if self.targets is None:
+            return []
+        sweet, radio, decaying = (self.results[phase] for phase in PHASES)
+        return [
+            estimate(target, sweet.get(target), radio.get(target), decaying.get(target))
+            for target in self.targets.tolist()
+            if target not in self.departed
+        ]
+
+
+def evaluation_of(
+    hood: Neighbourhood, policy: str, found: dict[int, list[Estimate]]
+) -> Evaluation:
+    """The evaluation that sources' estimates ({source id: estimates}) make, in engine pair order.
+
+    Only the pairs that were reported count (a departed FLS reports none and
+    is nobody's target); errors and obstruction follow from the geometry.
+    """
+    ids = hood.swarm.cloud_index
+    by_pair = {
+        (source, one.target): one for source, estimates in found.items() for one in estimates
+    }
+    source, target = ordered_blind_pairs(hood.pairs)
+    keys = zip(ids[source].tolist(), ids[target].tolist(), strict=True)
+    reported = [by_pair.get(key) for key in keys]
+    keep = np.array([one is not None for one in reported], dtype=bool)
+    source, target = source[keep], target[keep]
+    kept = [one for one in reported if one is not None]
+    count = len(kept)
+
+    def indices(path: tuple[int, ...]) -> list[int]:
+        return np.searchsorted(ids, path).tolist() if path else []
+
+    status = np.array([one.status for one in kept], dtype=np.int8)
+    reason = np.array([one.reason for one in kept], dtype=np.int8)
+    paths = paths_from_rows(
+        count,
+        {m: indices(one.path) for m, one in enumerate(kept) if one.status != NO_PATH},
+        {m: one.length for m, one in enumerate(kept) if one.status != NO_PATH},
+    )
+    vectors = np.array([one.vector for one in kept], dtype=np.float64).reshape(count, 3)
+    connected = np.array([bool(one.radio_path) for one in kept], dtype=bool)
+    radio_rows = [indices(one.radio_path) for one in kept if one.radio_path]
+    radio = paths_from_rows(len(radio_rows), dict(enumerate(radio_rows)))
+    pairs = pair_results(hood, source, target, status, reason, paths, vectors, radio, connected)
+    return Evaluation(hood, policy, pairs, summarise(hood, policy, pairs))

@@ -181,11 +181,20 @@ def estimates(hood: Neighbourhood, paths: Paths) -> tuple[FloatArray, IntArray, 
         [np.bincount(pair, weights=vectors[:, axis], minlength=size) for axis in range(3)]
     ).astype(np.float64)  # bincount of nothing is an integer array
     estimate[~paths.found] = np.nan
+    sweet_hops, decaying_hops = hop_classes(hood, paths)
+    return estimate, sweet_hops, decaying_hops
+
+
+def hop_classes(hood: Neighbourhood, paths: Paths) -> tuple[IntArray, IntArray]:
+    """Sweet and decaying hops of each path: (M,) each."""
+    swarm = hood.swarm
+    pair, start, end = path_hops(paths)
+    size = len(paths.found)
     # Classified from the hop's own tracking distance: the same numbers as its pair's.
     hop_class = hood.sensor.classify(tracking_distance(swarm.points, swarm.radius, start, end))
     sweet_hops = np.bincount(pair, weights=hop_class == SWEET, minlength=size).astype(np.int64)
     decaying_hops = np.bincount(pair, weights=hop_class == DECAYING, minlength=size)
-    return estimate, sweet_hops, decaying_hops.astype(np.int64)
+    return sweet_hops, decaying_hops.astype(np.int64)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -269,16 +278,9 @@ def evaluate_pairs(
     reason[fallback & connected] = REASON_BLOCKED
     reason[fallback & ~connected] = REASON_NO_SWEET_PATH
 
-    estimate, sweet_hops, decaying_hops = estimates(hood, paths)
-    truth = swarm.points[target] - swarm.points[source]
-    with np.errstate(invalid="ignore"):
-        errors = [
-            metric(estimate, truth)
-            for metric in (distance_error_pct, alpha_deg, theta_error_deg, phi_error_deg)
-        ]
-
+    estimate, _, _ = estimates(hood, paths)
     progress.start("obstruction of sweet paths", int(connected.sum()))
-    sweet_any = shortest_paths(
+    radio = shortest_paths(
         hood.sweet_all,
         source[connected],
         target[connected],
@@ -286,7 +288,35 @@ def evaluate_pairs(
         components=sweet_labels,
         progress=progress.advance,
     )
-    has_obstruction, obstructing = path_obstruction(hood, hood.sweet_all, sweet_any)
+    return pair_results(hood, source, target, status, reason, paths, estimate, radio, connected)
+
+
+def pair_results(
+    hood: Neighbourhood,
+    source: IntArray,
+    target: IntArray,
+    status: NDArray[np.int8],
+    reason: NDArray[np.int8],
+    paths: Paths,
+    estimate: FloatArray,
+    radio: Paths,
+    connected: NDArray[np.bool_],
+) -> PairResults:
+    """Per-pair results from statuses, paths (M pairs) and estimates (M, 3), cm.
+
+    ``radio`` holds the policy's S_all path of each ``connected`` pair, in
+    order; the errors, hop classes and obstruction follow from the geometry.
+    """
+    swarm = hood.swarm
+    sweet_hops, decaying_hops = hop_classes(hood, paths)
+    truth = swarm.points[target] - swarm.points[source]
+    with np.errstate(invalid="ignore"):
+        errors = [
+            metric(estimate, truth)
+            for metric in (distance_error_pct, alpha_deg, theta_error_deg, phi_error_deg)
+        ]
+    count = len(source)
+    has_obstruction, obstructing = path_obstruction(hood, hood.sweet_all, radio)
     sweet_obstructed = np.zeros(count, dtype=bool)
     sweet_obstructed[connected] = has_obstruction
     obstructing_flss = np.zeros(count, dtype=np.int64)

@@ -46,7 +46,7 @@ from .evaluate import (
     summarise,
 )
 from .metrics import alpha_deg, describe, distance_error_pct, phi_error_deg, theta_error_deg
-from .paths import Paths, path_hops, shortest_paths
+from .paths import Paths, path_hops, paths_from_rows, shortest_paths
 from .sensor import measured_vectors
 from .sight import _any_within, _scan_between, obstructers
 
@@ -223,20 +223,6 @@ def _empty_result(technique: str, threshold: int | None, size: int) -> dict[str,
     }
 
 
-def _csr_paths(size: int, rows: dict[int, list[int]]) -> Paths:
-    found = np.zeros(size, dtype=bool)
-    hops = np.zeros(size, dtype=np.int64)
-    length = np.full(size, np.nan)
-    counts = np.zeros(size, dtype=np.int64)
-    for pair, nodes in rows.items():
-        found[pair], hops[pair], counts[pair] = True, len(nodes) - 1, len(nodes)
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    flat = np.empty(offsets[-1], dtype=np.int64)
-    for pair, nodes in rows.items():
-        flat[offsets[pair] : offsets[pair + 1]] = nodes
-    return Paths(found, hops, length, offsets, flat)
-
-
 def move_obstructing(evaluation: Evaluation) -> HeuristicResult:
     """Move Obstructing (section 7) on every BLOCKED pair of a plain evaluation."""
     hood, pairs = evaluation.hood, evaluation.pairs
@@ -321,7 +307,7 @@ def move_obstructing(evaluation: Evaluation) -> HeuristicResult:
     resolved = np.zeros(size, dtype=bool)
     resolved[list(new_paths)] = True
     result["resolved"] = resolved
-    paths = _csr_paths(size, new_paths)
+    paths = paths_from_rows(size, new_paths)
     estimate, _, _ = estimates(hood, paths)
     result["estimate"][resolved] = estimate[resolved]
     result["truth"][resolved] = pairs.truth[resolved]
@@ -483,7 +469,7 @@ def move_source(evaluation: Evaluation, threshold: int) -> HeuristicResult:
     move_counts = np.zeros(size, dtype=np.int64)
     move_counts[resolved_pairs] = 1
     return HeuristicResult(
-        paths=_csr_paths(size, rows),
+        paths=paths_from_rows(size, rows),
         move_offsets=np.concatenate([[0], np.cumsum(move_counts)]).astype(np.int64),
         move_fls=pairs.source[resolved_pairs].astype(np.int64),
         move_from=swarm.points[pairs.source[resolved_pairs]].reshape(-1, 3),

@@ -554,6 +554,28 @@ def shortest_paths(
     return Paths(found, hops, length, offsets, nodes)
 
 
+def paths_from_rows(
+    size: int, rows: dict[int, list[int]], lengths: dict[int, float] | None = None
+) -> Paths:
+    """Paths of ``size`` pairs from {pair: nodes}; pairs without a row have none.
+
+    ``lengths`` gives {pair: length, cm}; lengths are NaN where not given.
+    """
+    found = np.zeros(size, dtype=bool)
+    hops = np.zeros(size, dtype=np.int64)
+    length = np.full(size, np.nan)
+    counts = np.zeros(size, dtype=np.int64)
+    for pair, nodes in rows.items():
+        found[pair], hops[pair], counts[pair] = True, len(nodes) - 1, len(nodes)
+    for pair, value in (lengths or {}).items():
+        length[pair] = value
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    flat = np.empty(offsets[-1], dtype=np.int64)
+    for pair, nodes in rows.items():
+        flat[offsets[pair] : offsets[pair + 1]] = nodes
+    return Paths(found, hops, length, offsets, flat)
+
+
 def path_hops(paths: Paths) -> tuple[IntArray, IntArray, IntArray]:
     """Every hop of every path: (pair, from, to), each (H,), in path order."""
     counts = np.diff(paths.offsets)

@@ -6,8 +6,16 @@ import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, Vector3
 from numpy.typing import NDArray
-from swazure_interfaces.msg import Measurements, RelativePose, WorldState
+from swazure_interfaces.msg import (
+    Measurements,
+    PathOffer,
+    PoseEstimate,
+    PoseEstimates,
+    RelativePose,
+    WorldState,
+)
 
+from ..core.discovery import Estimate, Offer
 from ..core.observe import NeighbourSets
 from ..sim.world import Measurement
 
@@ -65,3 +73,84 @@ def world_positions(message: WorldState) -> dict[int, FloatArray]:
         int(fls_id): np.array([point.x, point.y, point.z])
         for fls_id, point in zip(message.fls_ids, message.positions)
     }
+
+
+def offer_message(
+    run_id: int, phase: int, round_: int, sender: int, offer: Offer, stamp: Time
+) -> PathOffer:
+    """One FLS's labels of one round as a PathOffer message."""
+    message = PathOffer(
+        run_id=run_id,
+        phase=phase,
+        round=round_,
+        sender_id=sender,
+        pending=offer.pending,
+        finished=offer.finished,
+    )
+    message.header.stamp = stamp
+    message.header.frame_id = f"fls_{sender}"
+    # Array fields take numpy arrays of the right dtype without a Python loop.
+    message.source_ids = offer.source_ids.astype(np.uint32)
+    message.hops = offer.hops.astype(np.uint32)
+    message.lengths = offer.lengths.astype(np.float64)
+    message.vectors = offer.vectors.astype(np.float64).ravel()
+    message.path_offsets = offer.path_offsets.astype(np.uint32)
+    message.path_ids = offer.path_ids.astype(np.uint32)
+    return message
+
+
+def offer_from_message(message: PathOffer) -> Offer:
+    """The labels of a PathOffer message."""
+    return Offer(
+        source_ids=np.asarray(message.source_ids, dtype=np.int64),
+        hops=np.asarray(message.hops, dtype=np.int64),
+        lengths=np.asarray(message.lengths, dtype=np.float64),
+        vectors=np.asarray(message.vectors, dtype=np.float64).reshape(-1, 3),
+        path_offsets=np.asarray(message.path_offsets, dtype=np.int64),
+        path_ids=np.asarray(message.path_ids, dtype=np.int64),
+        pending=message.pending,
+        finished=message.finished,
+    )
+
+
+def estimate_message(source: int, found: Estimate) -> PoseEstimate:
+    """One pair's estimate as a PoseEstimate message (NaN vector without a path)."""
+    vector = found.vector.tolist()
+    return PoseEstimate(
+        source_id=source,
+        target_id=found.target,
+        status=found.status,
+        reason=found.reason,
+        path=list(found.path),
+        hops=found.hops,
+        radio_path=list(found.radio_path),
+        vector=Vector3(x=vector[0], y=vector[1], z=vector[2]),
+        path_length=found.length,
+    )
+
+
+def estimates_message(
+    run_id: int, source: int, found: list[Estimate], stamp: Time
+) -> PoseEstimates:
+    """Every estimate of one source as a PoseEstimates message."""
+    message = PoseEstimates(run_id=run_id, source_id=source)
+    message.header.stamp = stamp
+    message.header.frame_id = f"fls_{source}"
+    message.estimates = [estimate_message(source, one) for one in found]
+    for one in message.estimates:
+        one.header = message.header
+    return message
+
+
+def estimate_from_message(message: PoseEstimate) -> Estimate:
+    """The core's Estimate of a PoseEstimate message."""
+    vector = message.vector
+    return Estimate(
+        target=int(message.target_id),
+        status=int(message.status),
+        reason=int(message.reason),
+        path=tuple(int(fls) for fls in message.path),
+        length=float(message.path_length),
+        vector=np.array([vector.x, vector.y, vector.z]),
+        radio_path=tuple(int(fls) for fls in message.radio_path),
+    )

@@ -6,7 +6,15 @@ Topics and services, relative to the swarm namespace (``/swarm`` by default):
   each FLS publishes every ``publish_period`` seconds, and at once after it
   senses anew (when the world changes);
 - ``fls_<id>/get_neighbours`` (swazure_interfaces/GetNeighbours): its blind,
-  sweet and decaying neighbours as it knows them.
+  sweet and decaying neighbours as it knows them;
+- ``radio`` (swazure_interfaces/PathOffer), shared: its path labels, one
+  broadcast per round of a discovery run (docs/protocol.md);
+- ``estimates`` (swazure_interfaces/PoseEstimates), shared: its estimates
+  relative to its targets when a run ends.
+
+The radio medium (which FLSs hear a broadcast) and the coordinator's round
+clock reach the node through its process's host (:mod:`.host`), which calls
+:meth:`FlsNode.on_control` and :meth:`FlsNode.on_offer`.
 
 An FLS keeps its own state: its id, its last measurement and its neighbour
 sets. It learns them from its camera and radio, which the simulated world
@@ -17,22 +25,37 @@ from __future__ import annotations
 
 from typing import Protocol
 
+import numpy as np
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.context import Context
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
-from rclpy.qos import QoSProfile
-from swazure_interfaces.msg import Measurements
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import serialize_message
+from swazure_interfaces.msg import DiscoveryControl, Measurements, PathOffer, PoseEstimates
 from swazure_interfaces.srv import GetNeighbours
 
+from ..core.discovery import FlsRun, LocalView, Offer, bucket_width
 from ..core.errors import SwazureError
 from ..core.observe import NeighbourSets
+from ..core.paths import FEWEST_HOPS, SHORTEST_LENGTH
 from ..sim.world import Measurement
-from .convert import measurements_message, neighbour_fields
+from .convert import estimates_message, measurements_message, neighbour_fields, offer_message
 
 MEASUREMENTS_TOPIC = "measurements"
 NEIGHBOURS_SERVICE = "get_neighbours"
+RADIO_TOPIC = "radio"
+ESTIMATES_TOPIC = "estimates"
 MEASUREMENTS_QOS = QoSProfile(depth=10)
+# A round brings one message from every FLS at once: readers must keep them all.
+ROUND_QOS = QoSProfile(
+    depth=1, history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE
+)
+#: DiscoveryControl.POLICY_* -> the core's policy names.
+POLICY_NAMES = {
+    DiscoveryControl.POLICY_FEWEST_HOPS: FEWEST_HOPS,
+    DiscoveryControl.POLICY_SHORTEST_LENGTH: SHORTEST_LENGTH,
+}
 
 
 class ParameterError(SwazureError):
@@ -47,6 +70,17 @@ class Senses(Protocol):
 
     def neighbours(self, fls_id: int) -> NeighbourSets:
         """The neighbours FLS ``fls_id`` knows by radio and camera."""
+
+    def view(self, fls_id: int) -> LocalView:
+        """What FLS ``fls_id`` knows of its neighbours, for path discovery."""
+
+    @property
+    def sweet_min(self) -> float:
+        """Shortest sweet tracking distance of the sensor, cm."""
+
+    @property
+    def id_space(self) -> int:
+        """One more than the largest FLS id."""
 
 
 def node_name(fls_id: int) -> str:
@@ -95,6 +129,12 @@ class FlsNode(Node):
         self._publisher = self.create_publisher(Measurements, MEASUREMENTS_TOPIC, MEASUREMENTS_QOS)
         self.create_service(GetNeighbours, f"~/{NEIGHBOURS_SERVICE}", self._on_get_neighbours)
         self.create_timer(period, self.publish_measurements)
+        self._radio = self.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
+        self._estimates = self.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
+        self.runs: dict[int, FlsRun] = {}
+        self._first_round: dict[int, int] = {}
+        self.messages_sent = 0
+        self.bytes_sent = 0
 
     def sense(self) -> None:
         """Take new measurements (the world changed) and publish them at once."""
@@ -122,3 +162,62 @@ class FlsNode(Node):
             setattr(response, field, ids)
         response.success = True
         return response
+
+    def on_control(self, control: DiscoveryControl, departed: frozenset[int]) -> None:
+        """Follow the coordinator's round clock (the host hands every control message on)."""
+        if control.command == DiscoveryControl.COMMAND_START:
+            run = self.runs.get(control.run_id)
+            if run is None:
+                run = self.runs[control.run_id] = self._new_run(control)
+            run.start(control.phase, departed)
+            # Rounds count on across phases and restarts; buckets count from the start.
+            self._first_round[control.run_id] = control.round
+        elif control.command == DiscoveryControl.COMMAND_ROUND:
+            run = self.runs.get(control.run_id)
+            if run is not None and run.search is not None:
+                run.search.close(np.asarray(control.finished_ids, dtype=np.int64))
+                first = self._first_round.get(control.run_id, 0)
+                self._broadcast(control, run.search.offer(control.round - first))
+        elif control.command == DiscoveryControl.COMMAND_END:
+            run = self.runs.pop(control.run_id, None)
+            self._first_round.pop(control.run_id, None)
+            if run is not None:
+                stamp = self.get_clock().now().to_msg()
+                self._publish(
+                    self._estimates,
+                    estimates_message(control.run_id, self.fls_id, run.estimates(), stamp),
+                )
+
+    def on_offer(self, run_id: int, sender: int, offer: Offer) -> None:
+        """Hear a neighbour's broadcast of the current phase of run ``run_id``."""
+        run = self.runs.get(run_id)
+        if run is not None and run.search is not None:
+            run.search.hear(sender, offer)
+
+    def _new_run(self, control: DiscoveryControl) -> FlsRun:
+        view = self._senses.view(self.fls_id)
+        targets: np.ndarray | None = view.blind
+        if len(control.source_ids):
+            sources = np.asarray(control.source_ids, dtype=np.int64)
+            mine = sources == self.fls_id
+            if not mine.any():
+                targets = None
+            elif len(control.target_ids):
+                targets = np.asarray(control.target_ids, dtype=np.int64)[mine]
+        policy = POLICY_NAMES[control.policy]
+        width = bucket_width(self._senses.sweet_min, policy)
+        return FlsRun(view, policy, width, self._senses.id_space, targets)
+
+    def _broadcast(self, control: DiscoveryControl, offer: Offer) -> None:
+        stamp = self.get_clock().now().to_msg()
+        message = offer_message(
+            control.run_id, control.phase, control.round, self.fls_id, offer, stamp
+        )
+        self._publish(self._radio, message)
+
+    def _publish(self, publisher: object, message: object) -> None:
+        # Serialised once here, so that the bytes on the wire are counted exactly.
+        data = serialize_message(message)
+        self.messages_sent += 1
+        self.bytes_sent += len(data)
+        publisher.publish(data)  # type: ignore[attr-defined]

@@ -16,12 +16,13 @@ from collections.abc import Callable, Sequence
 from rclpy.context import Context
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
-from swazure_interfaces.msg import WorldState
+from swazure_interfaces.msg import DiscoveryControl, PathOffer, RoundAck, WorldState
 
+from ..core.discovery import LocalView
 from ..core.observe import NeighbourSets
 from ..sim.world import Measurement, World
-from .convert import world_positions
-from .fls_node import MEASUREMENTS_TOPIC, NEIGHBOURS_SERVICE, FlsNode
+from .convert import offer_from_message, world_positions
+from .fls_node import MEASUREMENTS_TOPIC, NEIGHBOURS_SERVICE, RADIO_TOPIC, ROUND_QOS, FlsNode
 from .world_node import WORLD_QOS, WORLD_TOPIC, WorldNode
 
 
@@ -40,6 +41,20 @@ class WorldReplica:
         """FLS ``fls_id``'s neighbours in the current revision."""
         return self.world.neighbours(fls_id)
 
+    def view(self, fls_id: int) -> LocalView:
+        """What FLS ``fls_id`` knows of its neighbours in the current revision."""
+        return self.world.view(fls_id)
+
+    @property
+    def sweet_min(self) -> float:
+        """Shortest sweet tracking distance of the sensor, cm."""
+        return self.world.sensor.sweet_min
+
+    @property
+    def id_space(self) -> int:
+        """One more than the largest FLS id."""
+        return self.world.id_space
+
     def apply(self, world: World) -> None:
         """Take a newer revision; every local FLS senses anew."""
         if world.revision <= self.world.revision:
@@ -52,6 +67,83 @@ class WorldReplica:
         """Take the world node's positions if they are newer than ours."""
         if message.revision > self.world.revision:
             self.apply(self.world.moved(world_positions(message), revision=message.revision))
+
+
+CONTROL_TOPIC = "discovery"
+ACK_TOPIC = "round_acks"
+
+
+class Radio:
+    """The radio medium and round clock of one process (docs/protocol.md).
+
+    It hears every broadcast on ``radio`` once and hands it to the local FLS
+    nodes within radio range of the sender, as a real radio would; it hands
+    the coordinator's control messages to every local FLS; and once it has
+    delivered every offer of a round, it acknowledges the round on
+    ``round_acks`` so that the coordinator can open the next one.
+    """
+
+    def __init__(self, node: Node, replica: WorldReplica, fls_nodes: dict[int, FlsNode]) -> None:
+        self._node = node
+        self._replica = replica
+        self._fls = fls_nodes
+        self._departed: dict[int, frozenset[int]] = {}
+        self._first_round: dict[int, int] = {}
+        self._rounds: dict[tuple[int, int], DiscoveryControl] = {}  # (run, round) -> ROUND
+        self._heard: dict[tuple[int, int], int] = {}
+        self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
+        node.create_subscription(DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS)
+        node.create_subscription(PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS)
+
+    def _on_control(self, control: DiscoveryControl) -> None:
+        run = control.run_id
+        if control.command == DiscoveryControl.COMMAND_START:
+            self._departed[run] = frozenset(int(fls) for fls in control.departed_ids)
+            self._first_round[run] = control.round
+            for key in [key for key in self._heard if key[0] == run]:
+                del self._heard[key]
+        departed = self._departed.get(run, frozenset())
+        for fls_id, node in list(self._fls.items()):
+            if fls_id not in departed:
+                node.on_control(control, departed)
+        if control.command == DiscoveryControl.COMMAND_ROUND:
+            self._rounds[(run, control.round)] = control
+            self._acknowledge(run, control.round)
+        elif control.command == DiscoveryControl.COMMAND_END:
+            self._forget(run)
+
+    def _on_offer(self, message: PathOffer) -> None:
+        run, round_ = message.run_id, message.round
+        if round_ < self._first_round.get(run, 0):
+            return  # from before a restart of the phase
+        departed = self._departed.get(run, frozenset())
+        sender = int(message.sender_id)
+        if sender not in departed:
+            offer = offer_from_message(message)
+            for fls_id in self._replica.world.in_range(sender).tolist():
+                node = self._fls.get(fls_id)
+                if node is not None and fls_id not in departed:
+                    node.on_offer(run, sender, offer)
+        self._heard[(run, round_)] = self._heard.get((run, round_), 0) + 1
+        self._acknowledge(run, round_)
+
+    def _acknowledge(self, run: int, round_: int) -> None:
+        control = self._rounds.get((run, round_))
+        heard = self._heard.get((run, round_), 0)
+        if control is None or heard < control.expected:
+            return
+        del self._rounds[(run, round_)]
+        ack = RoundAck(run_id=run, phase=control.phase, round=round_, heard=heard)
+        ack.host = self._node.get_name()
+        ack.header.stamp = self._node.get_clock().now().to_msg()
+        self._acks.publish(ack)
+
+    def _forget(self, run: int) -> None:
+        self._departed.pop(run, None)
+        self._first_round.pop(run, None)
+        for table in (self._rounds, self._heard):
+            for key in [key for key in table if key[0] == run]:
+                del table[key]
 
 
 class SwarmHost:
@@ -76,6 +168,7 @@ class SwarmHost:
         self.executor = EventsExecutor(context=context)
         self.nodes: list[Node] = []
         self.fls_nodes: list[FlsNode] = []
+        self.fls_by_id: dict[int, FlsNode] = {}
         self.host_node = Node(
             name,
             namespace=self.namespace,
@@ -86,6 +179,7 @@ class SwarmHost:
         self.host_node.create_subscription(
             WorldState, WORLD_TOPIC, self.replica.apply_state, WORLD_QOS
         )
+        self.radio = Radio(self.host_node, self.replica, self.fls_by_id)
         self._add(self.host_node)
         if with_world_node:
             self._add(WorldNode(self.replica, namespace=self.namespace, context=context))
@@ -104,6 +198,7 @@ class SwarmHost:
         for count, fls_id in enumerate(self.fls_ids, start=1):
             node = FlsNode(fls_id, self.replica, namespace=self.namespace, context=self.context)
             self.fls_nodes.append(node)
+            self.fls_by_id[fls_id] = node
             self.replica.listeners.append(node)
             self._add(node)
             if on_created is not None and (count % chunk == 0 or count == len(self.fls_ids)):
@@ -157,6 +252,7 @@ class SwarmHost:
             node.destroy_node()
         self.nodes.clear()
         self.fls_nodes.clear()
+        self.fls_by_id.clear()
         self.replica.listeners.clear()
         self.executor.shutdown()
 

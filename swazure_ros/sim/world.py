@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.clouds import Cloud, load_cloud
+from ..core.discovery import LocalView, local_view
 from ..core.errors import UnknownFlsError
 from ..core.evaluate import Neighbourhood, neighbourhood
 from ..core.geometry import Swarm, make_swarm
@@ -67,6 +68,19 @@ class World:
         """FLS ``fls_id``'s neighbour sets, as FLS ids."""
         sets = neighbour_sets(self.seen, self.index(fls_id))
         return NeighbourSets(*(self.ids[indices] for indices in vars(sets).values()))
+
+    def view(self, fls_id: int) -> LocalView:
+        """What FLS ``fls_id`` knows of its neighbours, for path discovery."""
+        return local_view(self.seen, self.ids, self.index(fls_id))
+
+    def in_range(self, fls_id: int) -> IntArray:
+        """(K,) ids of the FLSs within radio range of FLS ``fls_id`` (blind to decaying)."""
+        return np.asarray(self.ids[self.seen.other[self.seen.rows(self.index(fls_id))]])
+
+    @property
+    def id_space(self) -> int:
+        """One more than the largest FLS id."""
+        return int(self.ids[-1]) + 1
 
     def measurement(self, fls_id: int) -> Measurement:
         """What FLS ``fls_id``'s camera measures now."""

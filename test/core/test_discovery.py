@@ -107,3 +107,27 @@ def test_every_pair_matches_the_engine(policy, beta):
         assert found.path == tuple(int(ids[k]) for k in engine.path(pair))
         if found.status != NO_PATH:
             np.testing.assert_allclose(found.vector, engine.estimate[pair], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("policy", POLICIES)
+def test_evaluation_of_the_estimates_equals_the_engine(policy):
+    from swazure_ros.core.evaluate import evaluate
+
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    results = discover(world.hood, policy)
+    ids = world.ids
+    found = {}
+    for fls in ids.tolist():
+        view = local_view(world.seen, ids, int(np.searchsorted(ids, fls)))
+        found[fls] = [
+            estimate(t, *(results[(fls, phase)].get(t) for phase in PHASES))
+            for t in view.blind.tolist()
+        ]
+    from swazure_ros.core.discovery import evaluation_of
+
+    distributed = evaluation_of(world.hood, policy, found)
+    engine = evaluate(world.swarm, world.sensor, policy)
+    engine.summary.pop("seconds")
+    assert distributed.summary == engine.summary
+    np.testing.assert_array_equal(distributed.pairs.nodes, engine.pairs.nodes)
+    np.testing.assert_allclose(distributed.pairs.estimate, engine.pairs.estimate, atol=1e-9)
