@@ -257,7 +257,6 @@ def evaluate_pairs(
     """Status, path, estimate and errors of every ordered blind pair (spec, section 5)."""
     check_policy(policy)
     progress = progress or _Silent()
-    swarm = hood.swarm
     source, target = ordered_blind_pairs(hood.pairs)
     count = len(source)
 
