@@ -396,3 +396,45 @@ def evaluation_of(
     radio = paths_from_rows(len(radio_rows), dict(enumerate(radio_rows)))
     pairs = pair_results(hood, source, target, status, reason, paths, vectors, radio, connected)
     return Evaluation(hood, policy, pairs, summarise(hood, policy, pairs))
+
+
+@dataclass
+class RoundTally:
+    """What the coordinator knows of one round: who broadcast, what they hold, who delivered."""
+
+    expected: frozenset[int]  # FLS ids that take part
+    hosts: int  # processes whose radio must acknowledge the round
+    senders: set[int] = field(default_factory=set)
+    labels: int = 0
+    pending: bool = False
+    finished: set[int] = field(default_factory=set)
+    acks: set[str] = field(default_factory=set)
+
+    def hear(self, sender: int, labels: int, pending: bool, finished: bool) -> None:
+        """Count one FLS's broadcast of this round."""
+        if sender not in self.expected or sender in self.senders:
+            return
+        self.senders.add(sender)
+        self.labels += labels
+        self.pending |= pending
+        if finished:
+            self.finished.add(sender)
+
+    def ack(self, host: str) -> None:
+        """Count one process's acknowledgement that it delivered every broadcast."""
+        self.acks.add(host)
+
+    @property
+    def complete(self) -> bool:
+        """Every FLS broadcast and every process delivered."""
+        return len(self.senders) == len(self.expected) and len(self.acks) >= self.hosts
+
+    @property
+    def silent(self) -> frozenset[int]:
+        """FLSs that have not broadcast (yet)."""
+        return self.expected - self.senders
+
+    @property
+    def quiet(self) -> bool:
+        """Nothing was sent and nothing is due later: the phase is over."""
+        return self.labels == 0 and not self.pending

@@ -181,7 +181,7 @@ class FlsNode(Node):
         elif control.command == DiscoveryControl.COMMAND_END:
             run = self.runs.pop(control.run_id, None)
             self._first_round.pop(control.run_id, None)
-            if run is not None:
+            if run is not None and run.targets is not None:
                 stamp = self.get_clock().now().to_msg()
                 self._publish(
                     self._estimates,
@@ -203,7 +203,9 @@ class FlsNode(Node):
             if not mine.any():
                 targets = None
             elif len(control.target_ids):
-                targets = np.asarray(control.target_ids, dtype=np.int64)[mine]
+                # On demand, a source answers for its blind neighbours only.
+                asked = np.asarray(control.target_ids, dtype=np.int64)[mine]
+                targets = asked[np.isin(asked, view.blind)]
         policy = POLICY_NAMES[control.policy]
         width = bucket_width(self._senses.sweet_min, policy)
         return FlsRun(view, policy, width, self._senses.id_space, targets)

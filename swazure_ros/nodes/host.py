@@ -206,6 +206,15 @@ class SwarmHost:
                 # Let discovery and pending callbacks run while we keep creating.
                 self.executor.spin_once(timeout_sec=0.0)
 
+    def stop_fls(self, fls_id: int) -> None:
+        """Destroy FLS ``fls_id``'s node, as if its software stopped; its body stays."""
+        node = self.fls_by_id.pop(fls_id)
+        self.fls_nodes.remove(node)
+        self.replica.listeners.remove(node)
+        self.nodes.remove(node)
+        self.executor.remove_node(node)
+        node.destroy_node()
+
     def discovered(self) -> tuple[int, int]:
         """(measurement publishers, neighbour services) of the swarm this process sees."""
         topic = f"/{self.namespace}/{MEASUREMENTS_TOPIC}"
