@@ -194,6 +194,7 @@ class RunningSwarm:
         ]
         self.context: Context | None = None
         self.host: Any = None
+        self.coordinator: Any = None  # a CoordinatorThread
 
     def __enter__(self) -> RunningSwarm:
         try:
@@ -207,7 +208,9 @@ class RunningSwarm:
         self.close()
 
     def _start(self) -> None:
+        from .nodes.coordinator import Coordinator
         from .nodes.host import SwarmHost
+        from .nodes.runner import CoordinatorThread
 
         for child in self._children:
             child.start()
@@ -226,6 +229,14 @@ class RunningSwarm:
             self._drain()
 
         self.host.create_fls_nodes(created)
+        self.coordinator = CoordinatorThread(
+            Coordinator(
+                self.world.ids.tolist(),
+                hosts=self.config.processes,
+                namespace=self.config.namespace,
+                context=self.context,
+            )
+        )
 
     def _drain(self) -> None:
         """Take every pending report from the further processes."""
@@ -266,6 +277,15 @@ class RunningSwarm:
             f"{publishers} of {self.size} FLS publishers and {services} services visible"
         )
 
+    def _spin_step(self, seconds: float) -> None:
+        self._drain()
+        self.host.spin_for(seconds)
+
+    def discover(self, policy: str, timeout: float | None = None) -> Any:
+        """Run discovery for every FLS and blind neighbour; a DiscoveryResult."""
+        coordinator = self.coordinator.coordinator
+        return self.coordinator.run(coordinator.discover(policy), self._spin_step, timeout)
+
     def spin(self, seconds: float | None = None) -> None:
         """Serve the swarm for ``seconds`` (for ever when None), watching the processes."""
         deadline = None if seconds is None else time.monotonic() + seconds
@@ -283,6 +303,9 @@ class RunningSwarm:
             signal.pthread_sigmask(signal.SIG_UNBLOCK, stopping)
 
     def _close(self) -> None:
+        if self.coordinator is not None:
+            self.coordinator.close()
+            self.coordinator = None
         self._stop.set()
         for child in self._children:
             if child.pid is not None:

@@ -135,13 +135,13 @@ def _cell(value: Any) -> str:
     return "-" if value is None else str(value)
 
 
-def summary_table(summary: dict[str, Any]) -> str:
-    """A readable text table of a run's summary."""
+def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
+    """(label, value) rows of a run's summary, as :func:`summary_table` prints them."""
     rows = [
         ("FLSs (removed)", f"{summary['flss']} ({summary['removed']})"),
         ("radius r / dmin, cm", f"{summary['radius']:.4g} / {summary['dmin']:.4g}"),
-        ("kissing pairs", summary["kissing_pairs"]),
-        ("ordered blind pairs", summary["blind_pairs"]),
+        ("kissing pairs", _cell(summary["kissing_pairs"])),
+        ("ordered blind pairs", _cell(summary["blind_pairs"])),
         ("sweet path", f"{summary['sweet_pct']:.3f} %"),
         ("decaying path", f"{summary['decaying_pct']:.3f} %"),
         ("no path", f"{summary['no_path_pct']:.3f} %"),
@@ -162,8 +162,6 @@ def summary_table(summary: dict[str, Any]) -> str:
                 f"{moved['count']}, {_cell(moved['mean'])}, {_cell(moved['max'])}",
             )
         )
-    lines = [f"{name:<26} {_cell(value)}" for name, value in rows]
-    lines.append(f"{'':<26} {'mean':>10} {'max':>10}")
     for key, label in [
         ("distance_error_pct", "distance error, %"),
         ("alpha_deg", "alpha, deg"),
@@ -172,7 +170,20 @@ def summary_table(summary: dict[str, Any]) -> str:
         ("hops", "hops"),
     ]:
         stats = summary[key]
-        lines.append(f"{label:<26} {_cell(stats['mean']):>10} {_cell(stats['max']):>10}")
+        rows.append((f"{label}: mean / max", f"{_cell(stats['mean'])} / {_cell(stats['max'])}"))
+    return rows
+
+
+def summary_table(summary: dict[str, Any], *others: tuple[str, dict[str, Any]]) -> str:
+    """A readable text table of a run's summary; ``others`` add (heading, summary) columns."""
+    columns = [summary_rows(summary)] + [summary_rows(other) for _, other in others]
+    width = max(len(value) for column in columns for _, value in column) + 2
+    lines = []
+    if others:
+        headings = ["this run"] + [heading for heading, _ in others]
+        lines.append(f"{'':<30}" + "".join(f"{heading:>{width}}" for heading in headings))
+    for row, (label, _) in enumerate(columns[0]):
+        lines.append(f"{label:<30}" + "".join(f"{column[row][1]:>{width}}" for column in columns))
     return "\n".join(lines)
 
 

@@ -52,6 +52,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="give up when the swarm is not discovered after S seconds (default 600)",
     )
+    parser.add_argument(
+        "--compute-all",
+        action="store_true",
+        help="once the swarm is up, run path discovery for every FLS and blind neighbour "
+        "(docs/protocol.md), print its summary next to the core engine's, and exit",
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="with --compute-all: write summary.json and pairs.csv here, as swazure evaluate does",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -104,6 +117,63 @@ def config_from_args(args: argparse.Namespace) -> Any:
     )
 
 
+def compute_all(swarm: Any, args: argparse.Namespace) -> int:
+    """Run discovery over the whole swarm, report it beside the engine, write --out."""
+    from ..core.discovery import evaluation_of
+    from ..core.evaluate import evaluate
+    from ..core.results import describe_source, write_evaluation
+    from .evaluate import summary_table
+
+    world = swarm.world
+    print(f"discovery: every FLS for every blind neighbour, {args.policy}", flush=True)
+    result = swarm.discover(args.policy)
+    evaluation = evaluation_of(world.hood, args.policy, result.estimates)
+    summary = evaluation.summary
+    summary["seconds"] = result.seconds
+    summary["distributed"] = {
+        "rounds": result.rounds,
+        "restarts": result.restarts,
+        "departed": sorted(result.departed),
+        "messages": result.traffic.messages,
+        "bytes": result.traffic.bytes,
+    }
+    describe_source(summary, world.cloud, args.seed, args.sensor)
+    engine = evaluate(world.swarm, world.sensor, args.policy)
+    traffic = result.traffic
+    print(
+        f"{world.cloud.name}: beta {world.swarm.beta:.4g}, {args.policy}: distributed "
+        f"{result.seconds:.2f} s, {result.rounds} rounds, {traffic.total_messages} messages, "
+        f"{traffic.total_bytes / 1e6:.1f} MB; engine {engine.summary['seconds']:.2f} s"
+    )
+    print(summary_table(summary, ("engine", engine.summary)).replace("this run", "distributed"))
+    same = _same_results(evaluation, engine)
+    print(f"pairs identical to the engine's (status, path, estimate to 1e-9): {same}")
+    if args.out is not None:
+        try:
+            summary_path, pairs_path = write_evaluation(args.out, evaluation, None)
+        except OSError as err:
+            raise SwazureError(
+                f"{args.out}: cannot write results ({err.strerror or err})"
+            ) from err
+        print(f"wrote {summary_path} and {pairs_path}")
+    return 0
+
+
+def _same_results(ours: Any, engine: Any) -> str:
+    import numpy as np
+
+    mine, theirs = ours.pairs, engine.pairs
+    if len(mine) != len(theirs):
+        return f"no: {len(mine)} pairs reported, the engine has {len(theirs)}"
+    status = int((mine.status != theirs.status).sum())
+    paths = not np.array_equal(mine.nodes, theirs.nodes)
+    with np.errstate(invalid="ignore"):
+        far = int((np.abs(mine.estimate - theirs.estimate) > 1e-9).any(axis=1).sum())
+    if status or paths or far:
+        return f"no: {status} statuses, {far} estimates differ; paths differ: {paths}"
+    return "yes"
+
+
 def _interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
@@ -134,6 +204,8 @@ def main(args: argparse.Namespace) -> int:
             )
             if args.until_ready:
                 return 0
+            if args.compute_all:
+                return compute_all(swarm, args)
             print(
                 f"measurements on /{config.namespace}/measurements; Ctrl-C stops the swarm",
                 flush=True,

@@ -154,7 +154,9 @@ class Coordinator(Node):
         finally:
             self._release()
 
-    async def _discover(self, policy: str, sources: list[int], targets: list[int]) -> DiscoveryResult:
+    async def _discover(
+        self, policy: str, sources: list[int], targets: list[int]
+    ) -> DiscoveryResult:
         began = time.perf_counter()
         run_id = self._next_run
         self._next_run += 1
@@ -165,16 +167,31 @@ class Coordinator(Node):
         for phase in PHASES:
             while True:
                 live = self.fls_ids - self.departed
-                self._send(run_id, DiscoveryControl.COMMAND_START, phase, policy, round_, live,
-                           sources=sources, targets=targets)
+                self._send(
+                    run_id,
+                    DiscoveryControl.COMMAND_START,
+                    phase,
+                    policy,
+                    round_,
+                    live,
+                    sources=sources,
+                    targets=targets,
+                )
                 finished: set[int] = set()
                 newly: list[int] = []
                 restart = False
                 while True:
                     tally = RoundTally(frozenset(live), self.hosts)
                     self._tally, self._round = tally, round_
-                    self._send(run_id, DiscoveryControl.COMMAND_ROUND, phase, policy, round_,
-                               live, finished=newly)
+                    self._send(
+                        run_id,
+                        DiscoveryControl.COMMAND_ROUND,
+                        phase,
+                        policy,
+                        round_,
+                        live,
+                        finished=newly,
+                    )
                     outcome = await self._wait()
                     self._tally = None
                     round_ += 1
