@@ -43,7 +43,10 @@ class CoordinatorThread:
         spin: Callable[[float], None],
         timeout: float | None = None,
     ) -> T:
-        """Run ``coroutine`` on the coordinator's executor; ``spin(seconds)`` the FLS nodes meanwhile."""
+        """Run ``coroutine`` on the coordinator's executor, calling ``spin(seconds)`` meanwhile.
+
+        ``spin`` serves the FLS nodes of this thread's executor while the task runs.
+        """
         done = threading.Event()
         task = self.executor.create_task(coroutine)
         task.add_done_callback(lambda _: done.set())
