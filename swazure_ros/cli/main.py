@@ -10,7 +10,7 @@ from types import ModuleType
 
 from .. import __version__
 from ..core.errors import SwazureError
-from . import echo, evaluate, spawn, study
+from . import echo, evaluate, query, spawn, study
 
 #: Verb name -> module with ``add_arguments(parser)`` and ``main(args) -> int``.
 VERBS: dict[str, ModuleType] = {
@@ -18,6 +18,7 @@ VERBS: dict[str, ModuleType] = {
     "study": study,
     "spawn": spawn,
     "echo": echo,
+    "query": query,
 }
 
 

@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.context import Context
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
@@ -125,7 +126,15 @@ class Coordinator(Node):
         self.create_subscription(
             PoseEstimates, ESTIMATES_TOPIC, self._on_estimates, ROUND_QOS, raw=True
         )
-        self.create_service(ComputePose, "~/compute_pose", self._on_compute_pose)
+        # The service awaits whole runs: in the default mutually exclusive group it
+        # would lock out the very subscriptions that move a run on, and requests
+        # that arrive meanwhile must queue (see _acquire) rather than wait unseen.
+        self.create_service(
+            ComputePose,
+            "~/compute_pose",
+            self._on_compute_pose,
+            callback_group=ReentrantCallbackGroup(),
+        )
         self.create_timer(0.05, self._check_deadline)
         self._next_run = 1
         self._run_id = 0

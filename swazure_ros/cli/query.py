@@ -1,0 +1,102 @@
+"""Ask a running swarm for one source FLS's pose relative to one blind neighbour.
+
+Calls /NAMESPACE/coordinator/compute_pose (swazure_interfaces/ComputePose):
+the coordinator clocks one discovery run in which labels travel from FLS to
+FLS (docs/protocol.md). Prints the status, the path and the summed vector.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from typing import Any
+
+from ..core.discovery import Estimate
+from ..core.errors import SwazureError
+from ..core.evaluate import REASON_NAMES, STATUS_NAMES
+from .evaluate import add_policy_argument
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``swazure query``."""
+    parser.add_argument("--source", type=int, required=True, metavar="I", help="source FLS id")
+    parser.add_argument("--target", type=int, required=True, metavar="J", help="target FLS id")
+    add_policy_argument(parser)
+    parser.add_argument("--namespace", default="swarm", help="namespace of the swarm")
+    parser.add_argument("--domain-id", type=int, default=None, help="default: $ROS_DOMAIN_ID")
+    parser.add_argument(
+        "--timeout",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="give up after S seconds (default 60)",
+    )
+
+
+def describe(source: int, found: Estimate) -> str:
+    """The lines ``swazure query`` prints for one estimate."""
+    status = STATUS_NAMES[found.status]
+    reason = f" ({REASON_NAMES[found.reason]})" if found.reason else ""
+    lines = [f"FLS {source} -> FLS {found.target}: {status}{reason}"]
+    if found.path:
+        lines.append(f"path: {' -> '.join(str(fls) for fls in found.path)} ({found.hops} hops)")
+        x, y, z = found.vector.tolist()
+        norm = math.sqrt(x * x + y * y + z * z)
+        lines.append(f"vector: ({x:.6f}, {y:.6f}, {z:.6f}) cm, |v| = {norm:.6f} cm")
+        lines.append(f"path length: {found.length:.6f} cm")
+    return "\n".join(lines)
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``swazure query``."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from rclpy.signals import SignalHandlerOptions
+    from swazure_interfaces.srv import ComputePose
+
+    from ..nodes.convert import estimate_from_message
+    from ..nodes.coordinator import policy_code
+
+    for name in ("source", "target"):
+        if getattr(args, name) < 0:
+            raise SwazureError(f"--{name} must be an FLS id (0 or more), got {getattr(args, name)}")
+    service = f"/{args.namespace.strip('/') or 'swarm'}/coordinator/compute_pose"
+    context = Context()
+    rclpy.init(
+        context=context, domain_id=args.domain_id, signal_handler_options=SignalHandlerOptions.NO
+    )
+    node = Node(
+        "swazure_query", context=context, start_parameter_services=False, enable_rosout=False
+    )
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    try:
+        client = node.create_client(ComputePose, service)
+        deadline = time.monotonic() + args.timeout
+        while not client.service_is_ready():
+            if time.monotonic() > deadline:
+                raise SwazureError(
+                    f"no service {service} within {args.timeout:g} s: is a swarm running "
+                    "(swazure spawn)?"
+                )
+            executor.spin_once(timeout_sec=0.1)
+        request = ComputePose.Request(
+            source_id=args.source, target_id=args.target, policy=policy_code(args.policy)
+        )
+        future: Any = client.call_async(request)
+        while not future.done():
+            if time.monotonic() > deadline:
+                raise SwazureError(f"{service}: no answer within {args.timeout:g} s")
+            executor.spin_once(timeout_sec=0.1)
+        response = future.result()
+        if not response.success:
+            raise SwazureError(f"{service}: {response.message}")
+        print(describe(args.source, estimate_from_message(response.estimate)))
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        context.try_shutdown()
+    return 0
