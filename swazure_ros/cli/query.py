@@ -61,8 +61,9 @@ def main(args: argparse.Namespace) -> int:
     from ..nodes.coordinator import policy_code
 
     for name in ("source", "target"):
-        if getattr(args, name) < 0:
-            raise SwazureError(f"--{name} must be an FLS id (0 or more), got {getattr(args, name)}")
+        fls_id = getattr(args, name)
+        if fls_id < 0:
+            raise SwazureError(f"--{name} must be an FLS id (0 or more), got {fls_id}")
     service = f"/{args.namespace.strip('/') or 'swarm'}/coordinator/compute_pose"
     context = Context()
     rclpy.init(
