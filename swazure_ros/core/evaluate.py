@@ -86,14 +86,27 @@ def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None
         swarm.points, swarm.radius, pairs.first[edge], pairs.second[edge], grid
     )
     progress.advance(int(edge.sum()))
+    return _with_graphs(swarm, sensor, pairs, visible, grid, np.ones(len(pairs), dtype=bool))
+
+
+def _with_graphs(
+    swarm: Swarm,
+    sensor: Sensor,
+    pairs: NeighbourPairs,
+    visible: NDArray[np.bool_],
+    grid: Grid,
+    usable: NDArray[np.bool_],
+) -> Neighbourhood:
+    """The neighbourhood whose graphs hold the ``usable`` (len(pairs),) pairs only."""
 
     def graph(mask: NDArray[np.bool_]) -> Graph:
-        index = np.flatnonzero(mask)
+        index = np.flatnonzero(mask & usable)
         return make_graph(
             swarm.size, pairs.first[index], pairs.second[index], pairs.tracking[index], index
         )
 
     sweet = pairs.range_class == SWEET
+    decaying = pairs.range_class == DECAYING
     return Neighbourhood(
         swarm,
         sensor,
@@ -102,8 +115,19 @@ def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None
         grid,
         sweet_all=graph(sweet),
         sweet_visible=graph(sweet & visible),
-        any_visible=graph(edge & visible),
+        any_visible=graph((sweet | decaying) & visible),
     )
+
+
+def without(hood: Neighbourhood, gone: IntArray) -> Neighbourhood:
+    """``hood`` with no path through the FLSs at indices ``gone`` (K,); their bodies still block.
+
+    What the swarm offers once these FLSs stop answering: line of sight is
+    unchanged, since a stopped FLS has not left its place.
+    """
+    pairs = hood.pairs
+    usable = ~(np.isin(pairs.first, gone) | np.isin(pairs.second, gone))
+    return _with_graphs(hood.swarm, hood.sensor, pairs, hood.visible, hood.grid, usable)
 
 
 @dataclass(frozen=True)

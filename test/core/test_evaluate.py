@@ -88,3 +88,27 @@ def test_summary_counts_of_the_full_scene(sensor):
     assert summary["kissing_pairs"] == 0
     for key in ("flss", "removed", "radius", "dmin", "seconds", "sweet_pct", "no_path_pct"):
         assert key in summary
+
+
+def test_without_a_stopped_fls_paths_avoid_it_and_its_body_still_blocks(sensor):
+    from swazure_ros.core.evaluate import evaluate_pairs, neighbourhood, without
+
+    hood = neighbourhood(scene(A, B, C, K, D), sensor)
+    # K stops: A-B stays blocked by its body, so A-C keeps its decaying path via D.
+    pairs = evaluate_pairs(without(hood, np.array([K])), "fewest-hops")
+    m = int(np.flatnonzero((pairs.source == A) & (pairs.target == C))[0])
+    assert (pairs.status[m], pairs.reason[m], pairs.path(m)) == (
+        DECAYING_PATH,
+        REASON_BLOCKED,
+        [A, D, C],
+    )
+    # D stops: no path is left, and the sweet path through B is still blocked.
+    pairs = evaluate_pairs(without(hood, np.array([D])), "fewest-hops")
+    assert (pairs.status[m], pairs.reason[m]) == (NO_PATH, REASON_BLOCKED)
+    # B stops: no sweet path exists any more, blocked or not.
+    pairs = evaluate_pairs(without(hood, np.array([B])), "fewest-hops")
+    assert (pairs.status[m], pairs.reason[m], pairs.path(m)) == (
+        DECAYING_PATH,
+        REASON_NO_SWEET_PATH,
+        [A, D, C],
+    )

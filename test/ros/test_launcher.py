@@ -218,3 +218,51 @@ def test_real_ros2_cli_sees_nodes_topic_and_service(ros2_cli, running_swarm):
     )
     assert call.returncode == 0, call.stderr
     assert "success=True" in call.stdout
+
+
+def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(
+    ros2_cli, running_swarm
+):
+    from swazure_ros.core.evaluate import evaluate_pairs
+
+    world = WORLD.build()
+    engine = evaluate_pairs(world.hood, "shortest-length")
+    pair = int(np.flatnonzero(engine.hops >= 2)[0])
+    source, target = int(world.ids[engine.source[pair]]), int(world.ids[engine.target[pair]])
+    env = dict(os.environ, AMENT_PREFIX_PATH=str(Path(sys.executable).parents[1]))
+    echo = subprocess.Popen(
+        [
+            str(ROS2),
+            "topic",
+            "echo",
+            "--once",
+            "/swarm/estimates",
+            "swazure_interfaces/msg/PoseEstimates",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        time.sleep(3)  # the echo's subscription is discovered before the run publishes
+        call = ros2(
+            "service",
+            "call",
+            "/swarm/coordinator/compute_pose",
+            "swazure_interfaces/srv/ComputePose",
+            f"{{source_id: {source}, target_id: {target}, policy: 1}}",
+        )
+        assert call.returncode == 0, call.stderr
+        assert "success=True" in call.stdout, call.stdout
+        path = ", ".join(str(int(world.ids[k])) for k in engine.path(pair))
+        assert f"path=[{path}]" in call.stdout or f"path=array('I', [{path}])" in call.stdout, (
+            call.stdout
+        )
+        out, err = echo.communicate(timeout=60)
+        assert echo.returncode == 0, err
+        assert f"source_id: {source}" in out and f"target_id: {target}" in out, out
+    finally:
+        if echo.poll() is None:
+            echo.kill()
+            echo.communicate()

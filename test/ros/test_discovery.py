@@ -1,0 +1,240 @@
+"""Path discovery between FLS nodes over real DDS, against the core engine."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from swazure_interfaces.srv import ComputePose
+
+from swazure_ros.core.discovery import Estimate
+from swazure_ros.core.evaluate import NO_PATH, evaluate_pairs, without
+from swazure_ros.launcher import RunningSwarm, SwarmConfig
+from swazure_ros.nodes.convert import estimate_from_message
+from swazure_ros.nodes.coordinator import policy_code
+from swazure_ros.sim.world import WorldSpec
+
+# torus:120 at 1.6 x has sweet, blocked and unreachable pairs at both betas.
+SHAPE = ("torus:120", 1.6)
+POLICIES = ("fewest-hops", "shortest-length")
+
+
+@pytest.fixture
+def params(tmp_path):
+    """Slow measurement messages (discovery does not need them), a short departure bound."""
+    path = tmp_path / "swarm.yaml"
+    path.write_text(
+        "/**:\n  ros__parameters:\n    publish_period: 5.0\n"
+        "/**/coordinator:\n  ros__parameters:\n    round_timeout: 1.5\n"
+    )
+    return path
+
+
+def swarm_of(domain, params, beta=0.5):
+    world = WorldSpec(SHAPE[0], scale=SHAPE[1], beta=beta)
+    return RunningSwarm(SwarmConfig(world, domain_id=domain, params_file=str(params)))
+
+
+def by_pair(estimates: dict[int, list[Estimate]]) -> dict[tuple[int, int], Estimate]:
+    return {(source, one.target): one for source, found in estimates.items() for one in found}
+
+
+def assert_matches_engine(world, found, engine):
+    """Every engine pair was reported with the engine's status, hops, path and estimate."""
+    ids = world.ids
+    assert len(found) == len(engine)
+    for pair in range(len(engine)):
+        source, target = int(ids[engine.source[pair]]), int(ids[engine.target[pair]])
+        one = found[(source, target)]
+        assert (one.status, one.reason, one.hops) == (
+            engine.status[pair],
+            engine.reason[pair],
+            engine.hops[pair],
+        ), (source, target)
+        assert one.path == tuple(int(ids[k]) for k in engine.path(pair)), (source, target)
+        if one.status != NO_PATH:
+            np.testing.assert_allclose(one.vector, engine.estimate[pair], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("beta", [0.3, 0.5])
+def test_whole_swarm_discovery_equals_the_engine(domain, params, beta):
+    with swarm_of(domain, params, beta) as swarm:
+        swarm.wait_until_ready()
+        world = swarm.world
+        for policy in POLICIES:
+            result = swarm.discover(policy, timeout=300)
+            engine = evaluate_pairs(world.hood, policy)
+            assert len(engine) > 10_000 and (engine.reason > 0).sum() > 1000
+            assert result.departed == frozenset() and result.restarts == 0
+            assert_matches_engine(world, by_pair(result.estimates), engine)
+            # Each FLS broadcasts once a round and every source reports once.
+            offers = result.traffic.messages["radio"]
+            assert offers == result.rounds * len(world.ids)
+            assert result.traffic.messages["estimates"] == len(world.ids)
+
+
+def test_a_node_stopped_mid_run_departs_and_paths_avoid_it(domain, params):
+    policy = "shortest-length"
+    with swarm_of(domain, params) as swarm:
+        swarm.wait_until_ready()
+        world = swarm.world
+        engine = evaluate_pairs(world.hood, policy)
+        # Stop the FLS that relays the most of the engine's paths.
+        inner = np.concatenate([engine.path(pair)[1:-1] for pair in range(len(engine))])
+        stopped_index = int(np.bincount(inner.astype(np.int64)).argmax())
+        stopped = int(world.ids[stopped_index])
+        fls = swarm.host.fls_by_id[stopped]
+
+        def spin(seconds):
+            # Once the FLS has broadcast twice, its software stops mid-run.
+            if stopped in swarm.host.fls_by_id and fls.messages_sent >= 2:
+                swarm.host.stop_fls(stopped)
+            swarm.spin(seconds)
+
+        coordinator = swarm.coordinator.coordinator
+        began = time.monotonic()
+        result = swarm.coordinator.run(coordinator.discover(policy), spin, timeout=120)
+        assert time.monotonic() - began < 120
+        assert stopped not in swarm.host.fls_by_id
+        assert result.departed == frozenset({stopped}) and result.restarts >= 1
+        assert stopped not in result.estimates
+        found = by_pair(result.estimates)
+        assert not [pair for pair in found if stopped in pair]
+        expected = evaluate_pairs(without(world.hood, np.array([stopped_index])), policy)
+        keep = (expected.source != stopped_index) & (expected.target != stopped_index)
+        changed = 0
+        ids = world.ids
+        for pair in np.flatnonzero(keep).tolist():
+            source, target = int(ids[expected.source[pair]]), int(ids[expected.target[pair]])
+            one = found[(source, target)]
+            assert (one.status, one.reason) == (expected.status[pair], expected.reason[pair])
+            assert one.path == tuple(int(ids[k]) for k in expected.path(pair))
+            if one.status != NO_PATH:
+                np.testing.assert_allclose(one.vector, expected.estimate[pair], atol=1e-9)
+            changed += one.path != tuple(int(ids[k]) for k in engine.path(pair))
+        assert len(found) == int(keep.sum())
+        assert changed > 0  # the stopped FLS mattered
+
+        # The swarm goes on without it: the next run needs no restart.
+        again = swarm.discover(policy, timeout=120)
+        assert again.restarts == 0 and by_pair(again.estimates).keys() == found.keys()
+
+
+class Client:
+    """A ComputePose client in its own context, spun alongside the swarm."""
+
+    def __init__(self, swarm, context):
+        self.swarm = swarm
+        self.node = Node("probe", context=context, start_parameter_services=False)
+        self.executor = SingleThreadedExecutor(context=context)
+        self.executor.add_node(self.node)
+        self.client = self.node.create_client(ComputePose, "/swarm/coordinator/compute_pose")
+
+    def call(self, source, target, policy=0, timeout=60.0):
+        deadline = time.monotonic() + timeout
+        while not self.client.service_is_ready():
+            assert time.monotonic() < deadline, "no compute_pose service"
+            self.executor.spin_once(timeout_sec=0.02)
+            self.swarm.spin(0.02)
+        future = self.client.call_async(
+            ComputePose.Request(source_id=source, target_id=target, policy=policy)
+        )
+        while not future.done():
+            assert time.monotonic() < deadline, "no answer"
+            self.executor.spin_once(timeout_sec=0.02)
+            self.swarm.spin(0.02)
+        return future.result()
+
+    def close(self):
+        self.executor.shutdown()
+        self.node.destroy_node()
+
+
+def test_compute_pose_answers_bad_requests_with_errors_and_keeps_working(domain, params, context):
+    with swarm_of(domain, params) as swarm:
+        swarm.wait_until_ready()
+        world = swarm.world
+        engine = evaluate_pairs(world.hood, "fewest-hops")
+        pair = int(np.flatnonzero(engine.hops >= 2)[0])
+        source, target = int(world.ids[engine.source[pair]]), int(world.ids[engine.target[pair]])
+        not_blind = int(world.neighbours(source).sweet[0])
+        client = Client(swarm, context)
+        try:
+            for request, message in [
+                ((source, 5000), "no target FLS 5000"),
+                ((5000, target), "no source FLS 5000"),
+                ((source, source), f"source and target are both FLS {source}"),
+                ((source, target, 7), "unknown policy 7"),
+                ((source, not_blind), "not a blind neighbour"),
+            ]:
+                response = client.call(*request)
+                assert not response.success and message in response.message, response.message
+            response = client.call(source, target, policy_code("fewest-hops"))
+            assert response.success, response.message
+            one = estimate_from_message(response.estimate)
+            assert (one.target, one.status, one.hops) == (
+                target,
+                engine.status[pair],
+                engine.hops[pair],
+            )
+            assert one.path == tuple(int(world.ids[k]) for k in engine.path(pair))
+            np.testing.assert_allclose(one.vector, engine.estimate[pair], rtol=0, atol=1e-9)
+        finally:
+            client.close()
+
+
+def swazure(*args):
+    return subprocess.Popen(
+        [sys.executable, "-m", "swazure_ros.cli.main", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path):
+    shape = ["--cloud", SHAPE[0], "--scale", str(SHAPE[1]), "--beta", "0.5", "--quiet"]
+    spawn = swazure(
+        "spawn", *shape, "--params", str(params), "--compute-all", "--out", str(tmp_path / "d")
+    )
+    evaluate = swazure("evaluate", *shape, "--out", str(tmp_path / "e"))
+    out, err = spawn.communicate(timeout=300)
+    assert spawn.returncode == 0, err
+    assert "pairs identical to the engine's (status, path, estimate to 1e-9): yes" in out, out
+    assert "distributed" in out and "engine" in out
+    _, err = evaluate.communicate(timeout=300)
+    assert evaluate.returncode == 0, err
+    distributed = (tmp_path / "d" / "pairs.csv").read_bytes()
+    assert distributed == (tmp_path / "e" / "pairs.csv").read_bytes()
+    assert distributed.count(b"\n") > 10_000
+
+
+def test_swazure_query_prints_the_path_and_vector(domain, params):
+    world = WorldSpec(SHAPE[0], scale=SHAPE[1], beta=0.5).build()
+    engine = evaluate_pairs(world.hood, "shortest-length")
+    pair = int(np.flatnonzero(engine.hops >= 2)[0])
+    source, target = int(world.ids[engine.source[pair]]), int(world.ids[engine.target[pair]])
+    shape = ["--cloud", SHAPE[0], "--scale", str(SHAPE[1]), "--beta", "0.5", "--quiet"]
+    spawn = swazure("spawn", *shape, "--params", str(params))
+    try:
+        line = spawn.stdout.readline()
+        assert line.startswith("swarm up"), line + spawn.stderr.read()
+        query = swazure("query", "--source", str(source), "--target", str(target))
+        out, err = query.communicate(timeout=120)
+        assert query.returncode == 0, err
+        path = " -> ".join(str(int(world.ids[k])) for k in engine.path(pair))
+        assert f"path: {path} ({engine.hops[pair]} hops)" in out, out
+        x, y, z = engine.estimate[pair]
+        assert f"vector: ({x:.6f}, {y:.6f}, {z:.6f}) cm" in out, out
+        query = swazure("query", "--source", str(source), "--target", "5000")
+        _, err = query.communicate(timeout=120)
+        assert query.returncode == 2 and len(err.strip().splitlines()) == 1, err
+        assert "no target FLS 5000" in err and "Traceback" not in err
+    finally:
+        spawn.terminate()
+        spawn.communicate(timeout=60)
