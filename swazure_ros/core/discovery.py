@@ -438,3 +438,22 @@ class RoundTally:
     def quiet(self) -> bool:
         """Nothing was sent and nothing is due later: the phase is over."""
         return self.labels == 0 and not self.pending
+
+
+def sweet_hop(
+    others: IntArray,
+    range_class: NDArray[np.int8],
+    vectors: FloatArray,
+    tracking: FloatArray,
+    next_fls: int,
+) -> tuple[FloatArray, float] | None:
+    """An FLS's own measured vector (3,) and measured tracking distance to ``next_fls``, cm.
+
+    ``others`` (K,) are the FLSs it measures now, with their range classes,
+    vectors (K, 3) and tracking distances (K,). None unless ``next_fls`` is
+    among them as a sweet neighbour: a path walk crosses sweet hops only.
+    """
+    where = np.flatnonzero(others == next_fls)
+    if len(where) == 0 or range_class[where[0]] != SWEET:
+        return None
+    return np.asarray(vectors[where[0]], dtype=np.float64), float(tracking[where[0]])

@@ -9,9 +9,10 @@ same moves as commands. :func:`apply` folds a result into the plain run.
 
 Conventions beyond the spec, stated once here:
 
-- An FLS moved onto the obstruction-free circle only touches the line of
-  sight: it obstructs no more (the circle's purpose), although plain line of
-  sight counts a centre at exactly r as obstructing.
+- An FLS steps aside onto the obstruction-free circle enlarged by a relative
+  1e-9 (``_ASIDE``): plain line of sight counts a centre at exactly r as
+  obstructing, and a swarm that makes the move for real (the coordinator's
+  Move Obstructing) must then see the hop clear when it measures again.
 - Obstructers of a hop are taken in the current configuration when the hop is
   processed, in path order and by increasing FLS index; so an FLS moved into
   a later hop moves again, and one moved into an earlier hop fails the pair at
@@ -66,6 +67,8 @@ DIRECTIONS /= np.linalg.norm(DIRECTIONS, axis=1)[:, None]
 
 #: Slack when deciding that an FLS on the obstruction-free circle clears a line of sight, cm.
 _TOUCH = 1e-9
+#: An FLS steps aside this fraction of r beyond the obstruction-free circle.
+_ASIDE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -280,7 +283,7 @@ def move_obstructing(evaluation: Evaluation) -> HeuristicResult:
                     centre,
                     points[b] - points[a],
                     position,
-                    radius,
+                    radius * (1.0 + _ASIDE),
                     np.array(blockers).reshape(-1, 3),
                     2.0 * radius,
                 )
@@ -534,6 +537,89 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
     summary["parameters"]["technique"] = heuristic.technique
     summary["parameters"]["threshold"] = heuristic.threshold
     return replace(evaluation, pairs=updated, summary=summary)
+
+
+def _segment_distances(points: FloatArray, starts: FloatArray, ends: FloatArray) -> FloatArray:
+    """Distance of each point (K, 3) to each segment (S, 3)-(S, 3): (K, S), cm."""
+    direction = ends - starts
+    offset = points[:, None, :] - starts[None, :, :]
+    along = np.einsum("ksd,sd->ks", offset, direction) / np.einsum(
+        "sd,sd->s", direction, direction
+    )
+    closest = starts[None] + np.clip(along, 0.0, 1.0)[..., None] * direction[None]
+    return np.asarray(np.linalg.norm(points[:, None, :] - closest, axis=2))
+
+
+@dataclass
+class _Batch:
+    pairs: list[int]
+    moved: dict[int, tuple[float, float, float]]  # FLS -> where it stands aside, cm
+    on_paths: set[int]
+    starts: list[FloatArray]  # hop segments of the batch's paths, cm
+    ends: list[FloatArray]
+
+
+def move_batches(evaluation: Evaluation, heuristic: HeuristicResult) -> list[IntArray]:
+    """Move Obstructing's resolved pairs in groups whose moves can be made at once.
+
+    A pair joins the first group (in pair order) where no FLS it moves goes
+    elsewhere for another pair or lies on another pair's path, no FLS on its
+    path moves for another pair, and no FLS moved by the group stands within
+    r of a hop of another pair. Every pair of a group then sees its hops
+    exactly as it would alone: its own obstructers aside, nothing new in sight.
+    """
+    points, radius = evaluation.hood.swarm.points, evaluation.hood.swarm.radius
+    paths = heuristic.paths
+    batches: list[_Batch] = []
+    for pair in np.flatnonzero(heuristic.resolved).tolist():
+        path = paths.nodes[paths.offsets[pair] : paths.offsets[pair + 1]].tolist()
+        moved = {fls: tuple(float(x) for x in to) for fls, _, to in heuristic.moves(pair)}
+        starts, ends = points[path[:-1]], points[path[1:]]
+        for batch in batches:
+            if any(fls in batch.on_paths for fls in moved) or any(
+                fls in batch.moved for fls in path
+            ):
+                continue
+            if any(batch.moved.get(fls, to) != to for fls, to in moved.items()):
+                continue
+            mine = [to for fls, to in moved.items() if fls not in batch.moved]
+            if mine and batch.starts:
+                near = _segment_distances(
+                    np.array(mine), np.array(batch.starts), np.array(batch.ends)
+                )
+                if (near < radius - _TOUCH).any():
+                    continue
+            theirs = [to for fls, to in batch.moved.items() if fls not in moved]
+            if (
+                theirs
+                and (_segment_distances(np.array(theirs), starts, ends) < radius - _TOUCH).any()
+            ):
+                continue
+            break
+        else:
+            batch = _Batch([], {}, set(), [], [])
+            batches.append(batch)
+        batch.pairs.append(pair)
+        batch.moved.update(moved)
+        batch.on_paths.update(path)
+        batch.starts.extend(starts)
+        batch.ends.extend(ends)
+    return [np.array(batch.pairs, dtype=np.int64) for batch in batches]
+
+
+def walked(heuristic: HeuristicResult, vectors: dict[int, FloatArray]) -> HeuristicResult:
+    """``heuristic`` with its resolved pairs re-measured: {pair: summed vector (3,), cm}.
+
+    A resolved pair whose path walk did not arrive is not resolved after all.
+    """
+    arrived = np.zeros(len(heuristic.resolved), dtype=bool)
+    arrived[list(vectors)] = True
+    resolved = heuristic.resolved & arrived
+    estimate = np.full_like(heuristic.estimate, np.nan)
+    for pair in np.flatnonzero(resolved).tolist():
+        estimate[pair] = vectors[pair]
+    truth = np.where(resolved[:, None], heuristic.truth, np.nan)
+    return replace(heuristic, resolved=resolved, estimate=estimate, truth=truth)
 
 
 def run_technique(
