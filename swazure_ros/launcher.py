@@ -233,6 +233,7 @@ class RunningSwarm:
             Coordinator(
                 self.world.ids.tolist(),
                 hosts=self.config.processes,
+                world=self.world,
                 namespace=self.config.namespace,
                 context=self.context,
             )
@@ -285,6 +286,11 @@ class RunningSwarm:
         """Run discovery for every FLS and blind neighbour; a DiscoveryResult."""
         coordinator = self.coordinator.coordinator
         return self.coordinator.run(coordinator.discover(policy), self._spin_step, timeout)
+
+    def move_obstructing(self, plain: Any, timeout: float | None = None) -> Any:
+        """Move Obstructing on the BLOCKED pairs of a whole-swarm run; a MoveResult."""
+        coordinator = self.coordinator.coordinator
+        return self.coordinator.run(coordinator.move_obstructing(plain), self._spin_step, timeout)
 
     def spin(self, seconds: float | None = None) -> None:
         """Serve the swarm for ``seconds`` (for ever when None), watching the processes."""

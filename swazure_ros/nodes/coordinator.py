@@ -11,6 +11,13 @@ Its service ``coordinator/compute_pose`` (swazure_interfaces/ComputePose)
 runs one source's search for one target on demand. The coordinator only
 clocks; labels travel from FLS to FLS, and only FLSs sum vectors.
 
+After a whole-swarm run, :meth:`Coordinator.move_obstructing` applies Move
+Obstructing: the core engine plans which obstructers step aside and where
+(from the original shape, as the engine does), the coordinator makes the
+moves batch by batch on ``move_commands``, sends a path walk to the source
+of every pair of the batch (the FLSs of the path measure their hops again
+and sum them), and returns the moved FLSs to their points.
+
 The coordinator is a handful of entities, so it runs on a stock executor,
 which can await inside callbacks (the FLS nodes' events executor cannot).
 """
@@ -22,6 +29,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+from geometry_msgs.msg import Vector3
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.context import Context
@@ -29,14 +37,26 @@ from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message, serialize_message
 from rclpy.task import Future
-from swazure_interfaces.msg import DiscoveryControl, PathOffer, PoseEstimates, RoundAck
+from swazure_interfaces.msg import (
+    DiscoveryControl,
+    MoveCommand,
+    PathOffer,
+    PathWalk,
+    PoseEstimates,
+    RoundAck,
+    WorldState,
+)
 from swazure_interfaces.srv import ComputePose
 
-from ..core.discovery import PHASES, Estimate, RoundTally
+from ..core.discovery import PHASES, Estimate, RoundTally, evaluation_of
+from ..core.evaluate import SWEET_PATH, Evaluation
+from ..core.heuristics import HeuristicResult, apply, move_batches, move_obstructing, walked
 from ..core.paths import FEWEST_HOPS, check_policy
+from ..sim.world import World
 from .convert import estimate_from_message, estimate_message
 from .fls_node import ESTIMATES_TOPIC, POLICY_NAMES, RADIO_TOPIC, ROUND_QOS, ParameterError
-from .host import ACK_TOPIC, CONTROL_TOPIC
+from .host import ACK_TOPIC, CONTROL_TOPIC, WALKS_TOPIC
+from .world_node import MOVE_QOS, MOVE_TOPIC, WORLD_QOS, WORLD_TOPIC
 
 POLICY_CODES = {name: code for code, name in POLICY_NAMES.items()}
 
@@ -78,6 +98,20 @@ class DiscoveryResult:
     traffic: Traffic
 
 
+@dataclass
+class MoveResult:
+    """Move Obstructing made by the swarm: the evaluation after it and what it took."""
+
+    run_id: int
+    evaluation: Evaluation  # the plain run with the resolved pairs made SWEET
+    heuristic: HeuristicResult  # the engine's plan, resolved where the walk arrived
+    batches: int
+    moved: int  # move commands sent, returns included
+    walks: int
+    seconds: float
+    traffic: Traffic
+
+
 class _Timeout:
     """A wait that ended by its deadline."""
 
@@ -90,6 +124,7 @@ class Coordinator(Node):
         fls_ids: Iterable[int],
         hosts: int,
         *,
+        world: World | None = None,
         namespace: str = "swarm",
         context: Context | None = None,
     ) -> None:
@@ -116,6 +151,7 @@ class Coordinator(Node):
                 f"a positive number of seconds, got {timeout!r}"
             )
         self.round_timeout = timeout
+        self.world = world  # the original shape, for planning moves
         self.fls_ids = frozenset(int(fls_id) for fls_id in fls_ids)
         self.hosts = hosts
         self.departed: set[int] = set()
@@ -135,7 +171,16 @@ class Coordinator(Node):
             self._on_compute_pose,
             callback_group=ReentrantCallbackGroup(),
         )
+        self._moves = self.create_publisher(MoveCommand, MOVE_TOPIC, MOVE_QOS)
+        self._walks = self.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
+        self.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS, raw=True)
+        self.create_subscription(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
         self.create_timer(0.05, self._check_deadline)
+        self._revision = 0  # the newest world revision seen
+        self._asked_revision = 0  # the revision our last group of moves makes
+        self._awaited_revision: int | None = None
+        self._walking: set[tuple[int, int]] = set()
+        self._walked: dict[tuple[int, int], Estimate] = {}
         self._next_run = 1
         self._run_id = 0
         self._tally: RoundTally | None = None
@@ -244,6 +289,111 @@ class Coordinator(Node):
             traffic,
         )
 
+    async def move_obstructing(self, plain: DiscoveryResult) -> MoveResult:
+        """Move Obstructing on every BLOCKED pair of a whole-swarm run, moves made for real."""
+        if self.world is None:
+            raise ValueError("the coordinator plans moves from the world it was given: none")
+        await self._acquire()
+        try:
+            return await self._move_obstructing(plain)
+        finally:
+            self._release()
+
+    async def _move_obstructing(self, plain: DiscoveryResult) -> MoveResult:
+        began = time.perf_counter()
+        world = self.world
+        assert world is not None
+        run_id = self._next_run
+        self._next_run += 1
+        self._run_id = run_id
+        traffic_before = (dict(self.traffic.messages), dict(self.traffic.bytes))
+        evaluation = evaluation_of(world.hood, plain.policy, plain.estimates)
+        plan = move_obstructing(evaluation)
+        batches = move_batches(evaluation, plan)
+        ids, pairs = world.ids, evaluation.pairs
+        vectors = {}
+        moved = walks = 0
+        for batch in batches:
+            aside: dict[int, tuple[int, int, object]] = {}  # FLS id -> (source, target, to)
+            for pair in batch.tolist():
+                served = (int(ids[pairs.source[pair]]), int(ids[pairs.target[pair]]))
+                for fls, _, to in plan.moves(pair):
+                    aside[int(ids[fls])] = (*served, to)
+            revision = await self._move_together(MoveCommand.KIND_STEP_ASIDE, aside)
+            moved += len(aside)
+            walking = {}
+            for pair in batch.tolist():
+                path = plan.paths.nodes[plan.paths.offsets[pair] : plan.paths.offsets[pair + 1]]
+                walk = PathWalk(run_id=run_id, revision=revision, path=ids[path].tolist())
+                walk.source_id, walk.target_id = walk.path[0], walk.path[-1]
+                walking[(walk.source_id, walk.target_id)] = pair
+                walk.header.stamp = self.get_clock().now().to_msg()
+                self._publish(self._walks, WALKS_TOPIC, walk)
+            walks += len(walking)
+            for key, found in (await self._walk(walking)).items():
+                if found.status == SWEET_PATH:
+                    vectors[walking[key]] = found.vector
+            await self._move_together(MoveCommand.KIND_RETURN, aside)
+            moved += len(aside)
+        heuristic = walked(plan, vectors)
+        traffic = Traffic(
+            {k: v - traffic_before[0].get(k, 0) for k, v in self.traffic.messages.items()},
+            {k: v - traffic_before[1].get(k, 0) for k, v in self.traffic.bytes.items()},
+        )
+        return MoveResult(
+            run_id,
+            apply(evaluation, heuristic),
+            heuristic,
+            len(batches),
+            moved,
+            walks,
+            time.perf_counter() - began,
+            traffic,
+        )
+
+    async def _move_together(self, kind: int, moves: dict[int, tuple[int, int, object]]) -> int:
+        """Make ``moves`` ({FLS id: (source, target, position)}) in one revision; return it."""
+        assert self.world is not None
+        self._asked_revision = max(self._asked_revision, self._revision) + 1
+        revision = self._asked_revision
+        for fls_id, (source, target, to) in moves.items():
+            command = MoveCommand(
+                fls_id=fls_id,
+                kind=kind,
+                source_id=source,
+                target_id=target,
+                group=revision,
+                group_size=len(moves),
+            )
+            if kind != MoveCommand.KIND_RETURN:
+                shift = to - self.world.home.points[self.world.index(fls_id)]  # type: ignore[operator]
+                command.displacement = Vector3(x=shift[0], y=shift[1], z=shift[2])
+            command.header.stamp = self.get_clock().now().to_msg()
+            self._publish(self._moves, MOVE_TOPIC, command)
+        self._awaited_revision = revision
+        self._progress()
+        outcome = await self._wait()
+        self._awaited_revision = None
+        if isinstance(outcome, _Timeout):
+            self.get_logger().warning(f"world revision {revision} not seen: moves may be lost")
+        return revision
+
+    async def _walk(self, walking: dict[tuple[int, int], int]) -> dict[tuple[int, int], Estimate]:
+        """Wait for the sources' results of the walks ``walking``; those that came back."""
+        self._walking, self._walked = set(walking), {}
+        self._progress()
+        outcome = await self._wait()
+        if isinstance(outcome, _Timeout):
+            missing = sorted(self._walking - set(self._walked))
+            self.get_logger().warning(f"no result of the path walks {missing[:10]}")
+        walked_, self._walking = self._walked, set()
+        return walked_
+
+    def _publish(self, publisher: Any, topic: str, message: object) -> None:
+        data = serialize_message(message)
+        self.traffic.count(topic, len(data))
+        publisher.publish(data)
+
     def _send(
         self,
         run_id: int,
@@ -333,10 +483,27 @@ class Coordinator(Node):
             if tally.complete:
                 self._wake()
 
+    def _on_world(self, state: WorldState) -> None:
+        self._revision = max(self._revision, int(state.revision))
+        if self._awaited_revision is not None and self._revision >= self._awaited_revision:
+            self._wake()
+
+    def _on_walk(self, data: bytes) -> None:
+        self.traffic.count(WALKS_TOPIC, len(data))
+
     def _on_estimates(self, data: bytes) -> None:
         self.traffic.count(ESTIMATES_TOPIC, len(data))
         message: Any = deserialize_message(data, PoseEstimates)
         source = int(message.source_id)
+        if message.run_id == self._run_id and self._walking:
+            for one in message.estimates:
+                key = (source, int(one.target_id))
+                if key in self._walking:
+                    self._walked[key] = estimate_from_message(one)
+            self._progress()
+            if self._walking <= set(self._walked):
+                self._wake()
+            return
         if message.run_id != self._run_id or source not in self._collecting:
             return
         self._collected[source] = [estimate_from_message(one) for one in message.estimates]
@@ -386,4 +553,4 @@ def policy_code(policy: str) -> int:
     return POLICY_CODES[check_policy(policy)]
 
 
-__all__ = ["FEWEST_HOPS", "Coordinator", "DiscoveryResult", "Traffic", "policy_code"]
+__all__ = ["FEWEST_HOPS", "Coordinator", "DiscoveryResult", "MoveResult", "Traffic", "policy_code"]

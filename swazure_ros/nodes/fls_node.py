@@ -10,11 +10,12 @@ Topics and services, relative to the swarm namespace (``/swarm`` by default):
 - ``radio`` (swazure_interfaces/PathOffer), shared: its path labels, one
   broadcast per round of a discovery run (docs/protocol.md);
 - ``estimates`` (swazure_interfaces/PoseEstimates), shared: its estimates
-  relative to its targets when a run ends.
+  relative to its targets when a run ends, and each path walk's result.
 
 The radio medium (which FLSs hear a broadcast) and the coordinator's round
 clock reach the node through its process's host (:mod:`.host`), which calls
-:meth:`FlsNode.on_control` and :meth:`FlsNode.on_offer`.
+:meth:`FlsNode.on_control`, :meth:`FlsNode.on_offer` and
+:meth:`FlsNode.on_walk`.
 
 An FLS keeps its own state: its id, its last measurement and its neighbour
 sets. It learns them from its camera and radio, which the simulated world
@@ -32,11 +33,18 @@ from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
-from swazure_interfaces.msg import DiscoveryControl, Measurements, PathOffer, PoseEstimates
+from swazure_interfaces.msg import (
+    DiscoveryControl,
+    Measurements,
+    PathOffer,
+    PathWalk,
+    PoseEstimates,
+)
 from swazure_interfaces.srv import GetNeighbours
 
-from ..core.discovery import FlsRun, LocalView, Offer, bucket_width
+from ..core.discovery import Estimate, FlsRun, LocalView, Offer, bucket_width, sweet_hop
 from ..core.errors import SwazureError
+from ..core.evaluate import NO_PATH, REASON_BLOCKED, SWEET_PATH
 from ..core.observe import NeighbourSets
 from ..core.paths import FEWEST_HOPS, SHORTEST_LENGTH
 from ..sim.world import Measurement
@@ -193,6 +201,42 @@ class FlsNode(Node):
         run = self.runs.get(run_id)
         if run is not None and run.search is not None:
             run.search.hear(sender, offer)
+
+    def on_walk(self, walk: PathWalk) -> PathWalk | None:
+        """Take a path walk addressed to this FLS; return the walk to send on, if any."""
+        path = [int(fls) for fls in walk.path]
+        if walk.state == PathWalk.STATE_WALKING:
+            if walk.hop + 1 >= len(path):
+                # The target: back to the source (blind neighbours are within radio range).
+                walk.state, walk.hop = PathWalk.STATE_ARRIVED, 0
+                return walk
+            seen = self._senses.measurement(self.fls_id)
+            hop = sweet_hop(
+                seen.target_ids, seen.range_class, seen.vector, seen.tracking, path[walk.hop + 1]
+            )
+            if hop is None:
+                walk.state, walk.hop = PathWalk.STATE_FAILED, 0
+                return walk
+            # Summed from the source outwards, as the core engine sums.
+            walk.vector.x += hop[0][0]
+            walk.vector.y += hop[0][1]
+            walk.vector.z += hop[0][2]
+            walk.hop += 1
+            return walk
+        arrived = walk.state == PathWalk.STATE_ARRIVED
+        found = Estimate(
+            int(walk.target_id),
+            SWEET_PATH if arrived else NO_PATH,
+            REASON_BLOCKED,
+            tuple(path) if arrived else (),
+            vector=np.array([walk.vector.x, walk.vector.y, walk.vector.z])
+            if arrived
+            else np.full(3, np.nan),
+            radio_path=tuple(path),
+        )
+        stamp = self.get_clock().now().to_msg()
+        self._publish(self._estimates, estimates_message(walk.run_id, self.fls_id, [found], stamp))
+        return None
 
     def _new_run(self, control: DiscoveryControl) -> FlsRun:
         view = self._senses.view(self.fls_id)

@@ -16,11 +16,11 @@ from collections.abc import Callable, Sequence
 from rclpy.context import Context
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
-from swazure_interfaces.msg import DiscoveryControl, PathOffer, RoundAck, WorldState
+from swazure_interfaces.msg import DiscoveryControl, PathOffer, PathWalk, RoundAck, WorldState
 
 from ..core.discovery import LocalView
 from ..core.observe import NeighbourSets
-from ..sim.world import Measurement, World
+from ..sim.world import Measurement, World, changed_sight
 from .convert import offer_from_message, world_positions
 from .fls_node import MEASUREMENTS_TOPIC, NEIGHBOURS_SERVICE, RADIO_TOPIC, ROUND_QOS, FlsNode
 from .world_node import WORLD_QOS, WORLD_TOPIC, WorldNode
@@ -32,6 +32,7 @@ class WorldReplica:
     def __init__(self, world: World) -> None:
         self.world = world
         self.listeners: list[FlsNode] = []
+        self.on_revision: list[Callable[[], None]] = []  # called after each new revision
 
     def measurement(self, fls_id: int) -> Measurement:
         """What FLS ``fls_id``'s camera measures in the current revision."""
@@ -56,12 +57,16 @@ class WorldReplica:
         return self.world.id_space
 
     def apply(self, world: World) -> None:
-        """Take a newer revision; every local FLS senses anew."""
+        """Take a newer revision; the local FLSs whose camera sees a change sense anew."""
         if world.revision <= self.world.revision:
             return
-        self.world = world
+        before, self.world = self.world, world
+        affected = changed_sight(before, world)
         for node in self.listeners:
-            node.sense()
+            if node.fls_id in affected:
+                node.sense()
+        for hook in self.on_revision:
+            hook()
 
     def apply_state(self, message: WorldState) -> None:
         """Take the world node's positions if they are newer than ours."""
@@ -71,6 +76,7 @@ class WorldReplica:
 
 CONTROL_TOPIC = "discovery"
 ACK_TOPIC = "round_acks"
+WALKS_TOPIC = "path_walks"
 
 
 class Radio:
@@ -80,7 +86,9 @@ class Radio:
     nodes within radio range of the sender, as a real radio would; it hands
     the coordinator's control messages to every local FLS; and once it has
     delivered every offer of a round, it acknowledges the round on
-    ``round_acks`` so that the coordinator can open the next one.
+    ``round_acks`` so that the coordinator can open the next one. Path walks
+    on ``path_walks`` go to the FLS they are addressed to, once this process
+    has the world revision they must be measured in.
     """
 
     def __init__(self, node: Node, replica: WorldReplica, fls_nodes: dict[int, FlsNode]) -> None:
@@ -94,6 +102,12 @@ class Radio:
         self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
         node.create_subscription(DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS)
         node.create_subscription(PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS)
+        # One walk publisher per process, not per FLS: a thousand more endpoints
+        # would slow the swarm's discovery for a message few FLSs ever send.
+        self._walks = node.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
+        self._early_walks: list[PathWalk] = []
+        node.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS)
+        replica.on_revision.append(self._take_early_walks)
 
     def _on_control(self, control: DiscoveryControl) -> None:
         run = control.run_id
@@ -126,6 +140,23 @@ class Radio:
                     node.on_offer(run, sender, offer)
         self._heard[(run, round_)] = self._heard.get((run, round_), 0) + 1
         self._acknowledge(run, round_)
+
+    def _on_walk(self, walk: PathWalk) -> None:
+        node = self._fls.get(int(walk.path[walk.hop])) if len(walk.path) else None
+        if node is None:
+            return  # another process's FLS, or a stopped one
+        if walk.revision > self._replica.world.revision:
+            self._early_walks.append(walk)
+            return
+        onward = node.on_walk(walk)
+        if onward is not None:
+            onward.header.stamp = self._node.get_clock().now().to_msg()
+            self._walks.publish(onward)
+
+    def _take_early_walks(self) -> None:
+        early, self._early_walks = self._early_walks, []
+        for walk in early:
+            self._on_walk(walk)
 
     def _acknowledge(self, run: int, round_: int) -> None:
         control = self._rounds.get((run, round_))

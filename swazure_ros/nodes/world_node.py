@@ -4,7 +4,9 @@ It publishes the positions of every FLS on ``world`` (swazure_interfaces/
 WorldState, transient local, so late processes get the newest revision) and
 moves FLSs on ``move_commands`` (swazure_interfaces/MoveCommand): a step
 aside or a probe puts the FLS at its assigned point plus the displacement, a
-return puts it back. One world node runs per swarm, in the launcher's process.
+return puts it back. Commands of one group (``group`` > 0) wait until the
+group's ``group_size`` commands are in and are made together, in one revision.
+One world node runs per swarm, in the launcher's process.
 """
 
 from __future__ import annotations
@@ -12,9 +14,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 from rclpy.context import Context
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from swazure_interfaces.msg import MoveCommand, WorldState
 
 from ..core.errors import UnknownFlsError
@@ -23,8 +26,13 @@ from .convert import world_message
 if TYPE_CHECKING:
     from .host import WorldReplica
 
+FloatArray = NDArray[np.float64]
+
 WORLD_TOPIC = "world"
 MOVE_TOPIC = "move_commands"
+MOVE_QOS = QoSProfile(
+    depth=1, history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE
+)
 WORLD_QOS = QoSProfile(
     depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
 )
@@ -45,7 +53,9 @@ class WorldNode(Node):
         )
         self._replica = replica
         self._publisher = self.create_publisher(WorldState, WORLD_TOPIC, WORLD_QOS)
-        self.create_subscription(MoveCommand, MOVE_TOPIC, self._on_move, 100)
+        # Every command of a group counts: a lost one would hold the group for ever.
+        self.create_subscription(MoveCommand, MOVE_TOPIC, self._on_move, MOVE_QOS)
+        self._groups: dict[int, dict[int, FloatArray]] = {}  # group -> {FLS id: position}
         self.publish_world()
 
     def publish_world(self) -> None:
@@ -71,5 +81,14 @@ class WorldNode(Node):
         else:
             self.get_logger().warning(f"move command ignored: unknown kind {command.kind}")
             return
-        self._replica.apply(world.moved({command.fls_id: target}))
+        if command.group == 0 or command.group_size <= 1:
+            self._move({command.fls_id: target})
+            return
+        group = self._groups.setdefault(command.group, {})
+        group[command.fls_id] = target
+        if len(group) >= command.group_size:
+            self._move(self._groups.pop(command.group))
+
+    def _move(self, positions: dict[int, FloatArray]) -> None:
+        self._replica.apply(self._replica.world.moved(positions))
         self.publish_world()
