@@ -573,7 +573,9 @@ def move_batches(evaluation: Evaluation, heuristic: HeuristicResult) -> list[Int
     batches: list[_Batch] = []
     for pair in np.flatnonzero(heuristic.resolved).tolist():
         path = paths.nodes[paths.offsets[pair] : paths.offsets[pair + 1]].tolist()
-        moved = {fls: tuple(float(x) for x in to) for fls, _, to in heuristic.moves(pair)}
+        moved: dict[int, tuple[float, float, float]] = {
+            fls: (float(to[0]), float(to[1]), float(to[2])) for fls, _, to in heuristic.moves(pair)
+        }
         starts, ends = points[path[:-1]], points[path[1:]]
         for batch in batches:
             if any(fls in batch.on_paths for fls in moved) or any(
