@@ -12,10 +12,12 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
 from ..core.errors import SwazureError
+from ..core.heuristics import MOVE_OBSTRUCTING, PLAIN
 from ..core.sensor import config_dir
 from ..sim.world import WorldSpec
 from .evaluate import add_policy_argument, add_swarm_arguments
@@ -59,6 +61,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "(docs/protocol.md), print its summary next to the core engine's, and exit",
     )
     parser.add_argument(
+        "--technique",
+        choices=(PLAIN, MOVE_OBSTRUCTING),
+        default=PLAIN,
+        help="with --compute-all: plain Swazure, or then Move Obstructing on the BLOCKED pairs, "
+        "with the moves made by the swarm (default: plain)",
+    )
+    parser.add_argument(
         "--out",
         type=Path,
         default=None,
@@ -95,6 +104,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
 
     if args.beta is None and args.radius is None:
         raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
+    if not args.compute_all and (args.out is not None or args.technique != PLAIN):
+        raise SwazureError("--out and --technique go with --compute-all")
     if args.processes < 1:
         raise SwazureError(f"--processes must be at least 1, got {args.processes}")
     params = args.params if args.params is not None else config_dir() / "swarm.yaml"
@@ -121,6 +132,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     """Run discovery over the whole swarm, report it beside the engine, write --out."""
     from ..core.discovery import evaluation_of
     from ..core.evaluate import evaluate
+    from ..core.heuristics import run_technique
     from ..core.results import describe_source, write_evaluation
     from .evaluate import summary_table
 
@@ -128,29 +140,55 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     print(f"discovery: every FLS for every blind neighbour, {args.policy}", flush=True)
     result = swarm.discover(args.policy)
     evaluation = evaluation_of(world.hood, args.policy, result.estimates)
-    summary = evaluation.summary
-    summary["seconds"] = result.seconds
-    summary["distributed"] = {
+    evaluation.summary["seconds"] = result.seconds
+    traffic = result.traffic
+    distributed = {
+        "seconds": result.seconds,
         "rounds": result.rounds,
         "restarts": result.restarts,
         "departed": sorted(result.departed),
-        "messages": result.traffic.messages,
-        "bytes": result.traffic.bytes,
+        "messages": traffic.messages,
+        "bytes": traffic.bytes,
     }
-    describe_source(summary, world.cloud, args.seed, args.sensor)
-    engine = evaluate(world.swarm, world.sensor, args.policy)
-    traffic = result.traffic
     print(
-        f"{world.cloud.name}: beta {world.swarm.beta:.4g}, {args.policy}: distributed "
+        f"{world.cloud.name}: beta {world.swarm.beta:.4g}, {args.policy}: discovery "
         f"{result.seconds:.2f} s, {result.rounds} rounds, {traffic.total_messages} messages, "
-        f"{traffic.total_bytes / 1e6:.1f} MB; engine {engine.summary['seconds']:.2f} s"
+        f"{traffic.total_bytes / 1e6:.1f} MB",
+        flush=True,
     )
+    heuristic = None
+    if args.technique == MOVE_OBSTRUCTING:
+        moved = swarm.move_obstructing(result)
+        evaluation, heuristic = moved.evaluation, moved.heuristic
+        evaluation.summary["seconds"] = result.seconds + moved.seconds
+        distributed["move_obstructing"] = {
+            "seconds": moved.seconds,
+            "batches": moved.batches,
+            "move_commands": moved.moved,
+            "path_walks": moved.walks,
+            "messages": moved.traffic.messages,
+            "bytes": moved.traffic.bytes,
+        }
+        print(
+            f"Move Obstructing: {moved.seconds:.2f} s, {moved.batches} batches, "
+            f"{moved.moved} move commands, {moved.walks} path walks, "
+            f"{moved.traffic.total_messages} messages, {moved.traffic.total_bytes / 1e6:.1f} MB"
+        )
+    began = time.perf_counter()
+    engine = evaluate(world.swarm, world.sensor, args.policy)
+    if args.technique == MOVE_OBSTRUCTING:
+        engine, _ = run_technique(engine, MOVE_OBSTRUCTING)
+    engine_seconds = time.perf_counter() - began
+    summary = evaluation.summary
+    summary["distributed"] = distributed
+    describe_source(summary, world.cloud, args.seed, args.sensor)
+    print(f"engine: {engine_seconds:.2f} s for the same work")
     print(summary_table(summary, ("engine", engine.summary)).replace("this run", "distributed"))
     same = _same_results(evaluation, engine)
     print(f"pairs identical to the engine's (status, path, estimate to 1e-9): {same}")
     if args.out is not None:
         try:
-            summary_path, pairs_path = write_evaluation(args.out, evaluation, None)
+            summary_path, pairs_path = write_evaluation(args.out, evaluation, heuristic)
         except OSError as err:
             raise SwazureError(
                 f"{args.out}: cannot write results ({err.strerror or err})"

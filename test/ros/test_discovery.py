@@ -13,7 +13,8 @@ from rclpy.node import Node
 from swazure_interfaces.srv import ComputePose
 
 from swazure_ros.core.discovery import Estimate
-from swazure_ros.core.evaluate import NO_PATH, evaluate_pairs, without
+from swazure_ros.core.evaluate import NO_PATH, evaluate, evaluate_pairs, without
+from swazure_ros.core.heuristics import MOVE_OBSTRUCTING, run_technique
 from swazure_ros.launcher import RunningSwarm, SwarmConfig
 from swazure_ros.nodes.convert import estimate_from_message
 from swazure_ros.nodes.coordinator import policy_code
@@ -76,6 +77,36 @@ def test_whole_swarm_discovery_equals_the_engine(domain, params, beta):
             offers = result.traffic.messages["radio"]
             assert offers == result.rounds * len(world.ids)
             assert result.traffic.messages["estimates"] == len(world.ids)
+
+
+@pytest.mark.parametrize("beta", [0.3, 0.5])
+def test_move_obstructing_made_by_the_swarm_equals_the_engine(domain, params, beta):
+    with swarm_of(domain, params, beta) as swarm:
+        swarm.wait_until_ready()
+        world = swarm.world
+        for policy in POLICIES:
+            plain = swarm.discover(policy, timeout=300)
+            moved = swarm.move_obstructing(plain, timeout=300)
+            engine, plan = run_technique(
+                evaluate(world.swarm, world.sensor, policy), MOVE_OBSTRUCTING
+            )
+            assert plan.resolved.sum() > 1000
+            assert moved.walks == plan.resolved.sum() and moved.batches < moved.walks / 5
+            ours, theirs = moved.evaluation.pairs, engine.pairs
+            np.testing.assert_array_equal(ours.status, theirs.status)
+            np.testing.assert_array_equal(ours.hops, theirs.hops)
+            np.testing.assert_array_equal(ours.offsets, theirs.offsets)
+            np.testing.assert_array_equal(ours.nodes, theirs.nodes)
+            np.testing.assert_allclose(ours.estimate, theirs.estimate, rtol=0, atol=1e-9)
+            np.testing.assert_array_equal(moved.heuristic.resolved, plan.resolved)
+            # Every FLS is back at its point: the next run is the plain run again.
+            assert (swarm.host.replica.world.swarm.points == world.swarm.points).all()
+            again = swarm.discover(policy, timeout=300)
+            assert by_pair(again.estimates).keys() == by_pair(plain.estimates).keys()
+            assert all(
+                one.path == by_pair(plain.estimates)[key].path
+                for key, one in by_pair(again.estimates).items()
+            )
 
 
 def test_a_node_stopped_mid_run_departs_and_paths_avoid_it(domain, params):
@@ -197,21 +228,35 @@ def swazure(*args):
     )
 
 
-def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path):
+@pytest.mark.parametrize("technique", ["plain", "move-obstructing"])
+def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path, technique):
     shape = ["--cloud", SHAPE[0], "--scale", str(SHAPE[1]), "--beta", "0.5", "--quiet"]
+    shape += ["--technique", technique]
+    # A person watches the move commands while the swarm computes.
+    watch = swazure("echo", "/swarm/move_commands", "swazure_interfaces/msg/MoveCommand")
     spawn = swazure(
         "spawn", *shape, "--params", str(params), "--compute-all", "--out", str(tmp_path / "d")
     )
     evaluate = swazure("evaluate", *shape, "--out", str(tmp_path / "e"))
-    out, err = spawn.communicate(timeout=300)
-    assert spawn.returncode == 0, err
-    assert "pairs identical to the engine's (status, path, estimate to 1e-9): yes" in out, out
-    assert "distributed" in out and "engine" in out
-    _, err = evaluate.communicate(timeout=300)
-    assert evaluate.returncode == 0, err
-    distributed = (tmp_path / "d" / "pairs.csv").read_bytes()
-    assert distributed == (tmp_path / "e" / "pairs.csv").read_bytes()
-    assert distributed.count(b"\n") > 10_000
+    try:
+        out, err = spawn.communicate(timeout=300)
+        assert spawn.returncode == 0, err
+        assert "pairs identical to the engine's (status, path, estimate to 1e-9): yes" in out, out
+        assert "distributed" in out and "engine" in out
+        _, err = evaluate.communicate(timeout=300)
+        assert evaluate.returncode == 0, err
+        distributed = (tmp_path / "d" / "pairs.csv").read_bytes()
+        assert distributed == (tmp_path / "e" / "pairs.csv").read_bytes()
+        assert distributed.count(b"\n") > 10_000
+    finally:
+        watch.terminate()
+        watched, _ = watch.communicate(timeout=60)
+    if technique == "move-obstructing":
+        assert "Move Obstructing:" in out and "path walks" in out, out
+        assert watched.count("kind: 0") > 100 and watched.count("kind: 2") > 100, watched[:2000]
+        assert "group_size:" in watched and "displacement:" in watched
+    else:
+        assert watched == ""
 
 
 def test_swazure_query_prints_the_path_and_vector(domain, params):
