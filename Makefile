@@ -64,6 +64,8 @@ test: lint
 
 demo: setup
 	$(VENV)/bin/swazure evaluate --cloud torus --beta 0.5 --policy shortest-length
+	$(VENV)/bin/swazure spawn --cloud torus --beta 0.5 --policy shortest-length \
+		--compute-all --quiet
 
 bench: setup
 	$(PY) scripts/bench.py

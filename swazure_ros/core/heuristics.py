@@ -553,20 +553,23 @@ def _segment_distances(points: FloatArray, starts: FloatArray, ends: FloatArray)
 @dataclass
 class _Batch:
     pairs: list[int]
-    moved: dict[int, tuple[float, float, float]]  # FLS -> where it stands aside, cm
+    moved: dict[int, tuple[float, float, float]]  # FLS -> where it moves to, cm
     on_paths: set[int]
     starts: list[FloatArray]  # hop segments of the batch's paths, cm
     ends: list[FloatArray]
 
 
 def move_batches(evaluation: Evaluation, heuristic: HeuristicResult) -> list[IntArray]:
-    """Move Obstructing's resolved pairs in groups whose moves can be made at once.
+    """A heuristic's resolved pairs in groups whose moves can be made at once.
 
     A pair joins the first group (in pair order) where no FLS it moves goes
     elsewhere for another pair or lies on another pair's path, no FLS on its
-    path moves for another pair, and no FLS moved by the group stands within
-    r of a hop of another pair. Every pair of a group then sees its hops
-    exactly as it would alone: its own obstructers aside, nothing new in sight.
+    path moves for another pair, no FLS moved by the group stands within r
+    of a hop of another pair, and no two FLSs moved for different pairs come
+    closer than 2r. Hops run between where the path's FLSs stand once the
+    pair's moves are made (Move Source's source at its probe position). Every
+    pair of a group then sees its hops exactly as it would alone: its own
+    moves made, nothing new in sight.
     """
     points, radius = evaluation.hood.swarm.points, evaluation.hood.swarm.radius
     paths = heuristic.paths
@@ -576,7 +579,8 @@ def move_batches(evaluation: Evaluation, heuristic: HeuristicResult) -> list[Int
         moved: dict[int, tuple[float, float, float]] = {
             fls: (float(to[0]), float(to[1]), float(to[2])) for fls, _, to in heuristic.moves(pair)
         }
-        starts, ends = points[path[:-1]], points[path[1:]]
+        where = np.array([moved.get(fls, points[fls]) for fls in path], dtype=np.float64)
+        starts, ends = where[:-1], where[1:]
         for batch in batches:
             if any(fls in batch.on_paths for fls in moved) or any(
                 fls in batch.moved for fls in path
@@ -585,13 +589,19 @@ def move_batches(evaluation: Evaluation, heuristic: HeuristicResult) -> list[Int
             if any(batch.moved.get(fls, to) != to for fls, to in moved.items()):
                 continue
             mine = [to for fls, to in moved.items() if fls not in batch.moved]
+            theirs = [to for fls, to in batch.moved.items() if fls not in moved]
+            if mine and theirs:
+                apart = np.linalg.norm(
+                    np.array(mine)[:, None, :] - np.array(theirs)[None, :, :], axis=2
+                )
+                if (apart < 2.0 * radius).any():
+                    continue
             if mine and batch.starts:
                 near = _segment_distances(
                     np.array(mine), np.array(batch.starts), np.array(batch.ends)
                 )
                 if (near < radius - _TOUCH).any():
                     continue
-            theirs = [to for fls, to in batch.moved.items() if fls not in moved]
             if (
                 theirs
                 and (_segment_distances(np.array(theirs), starts, ends) < radius - _TOUCH).any()

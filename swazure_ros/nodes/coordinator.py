@@ -54,7 +54,14 @@ from ..core.heuristics import HeuristicResult, apply, move_batches, move_obstruc
 from ..core.paths import FEWEST_HOPS, check_policy
 from ..sim.world import World
 from .convert import estimate_from_message, estimate_message
-from .fls_node import ESTIMATES_TOPIC, POLICY_NAMES, RADIO_TOPIC, ROUND_QOS, ParameterError
+from .fls_node import (
+    COMPUTE_POSE_SERVICE,
+    ESTIMATES_TOPIC,
+    POLICY_NAMES,
+    RADIO_TOPIC,
+    ROUND_QOS,
+    ParameterError,
+)
 from .host import ACK_TOPIC, CONTROL_TOPIC, WALKS_TOPIC
 from .world_node import MOVE_QOS, MOVE_TOPIC, WORLD_QOS, WORLD_TOPIC
 
@@ -167,7 +174,7 @@ class Coordinator(Node):
         # that arrive meanwhile must queue (see _acquire) rather than wait unseen.
         self.create_service(
             ComputePose,
-            "~/compute_pose",
+            f"~/{COMPUTE_POSE_SERVICE}",
             self._on_compute_pose,
             callback_group=ReentrantCallbackGroup(),
         )

@@ -7,6 +7,9 @@ Topics and services, relative to the swarm namespace (``/swarm`` by default):
   senses anew (when the world changes);
 - ``fls_<id>/get_neighbours`` (swazure_interfaces/GetNeighbours): its blind,
   sweet and decaying neighbours as it knows them;
+- ``fls_<id>/compute_pose`` (swazure_interfaces/ComputePose): its pose
+  relative to one blind neighbour, found by a discovery run that its process
+  asks the coordinator to clock;
 - ``radio`` (swazure_interfaces/PathOffer), shared: its path labels, one
   broadcast per round of a discovery run (docs/protocol.md);
 - ``estimates`` (swazure_interfaces/PoseEstimates), shared: its estimates
@@ -24,6 +27,7 @@ provides (:class:`Senses`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Protocol
 
 import numpy as np
@@ -33,6 +37,7 @@ from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
+from rclpy.task import Future
 from swazure_interfaces.msg import (
     DiscoveryControl,
     Measurements,
@@ -40,7 +45,7 @@ from swazure_interfaces.msg import (
     PathWalk,
     PoseEstimates,
 )
-from swazure_interfaces.srv import GetNeighbours
+from swazure_interfaces.srv import ComputePose, GetNeighbours
 
 from ..core.discovery import Estimate, FlsRun, LocalView, Offer, bucket_width, sweet_hop
 from ..core.errors import SwazureError
@@ -49,9 +54,11 @@ from ..core.observe import NeighbourSets
 from ..core.paths import FEWEST_HOPS, SHORTEST_LENGTH
 from ..sim.world import Measurement
 from .convert import estimates_message, measurements_message, neighbour_fields, offer_message
+from .deferred import Reply, create_deferred_service
 
 MEASUREMENTS_TOPIC = "measurements"
 NEIGHBOURS_SERVICE = "get_neighbours"
+COMPUTE_POSE_SERVICE = "compute_pose"
 RADIO_TOPIC = "radio"
 ESTIMATES_TOPIC = "estimates"
 MEASUREMENTS_QOS = QoSProfile(depth=10)
@@ -91,6 +98,11 @@ class Senses(Protocol):
         """One more than the largest FLS id."""
 
 
+#: How an FLS's process passes a ComputePose request on to the coordinator:
+#: a future of the coordinator's response.
+AskCoordinator = Callable[[ComputePose.Request], Future]
+
+
 def node_name(fls_id: int) -> str:
     """The node name of FLS ``fls_id``."""
     return f"fls_{fls_id}"
@@ -106,6 +118,7 @@ class FlsNode(Node):
         *,
         namespace: str = "swarm",
         context: Context | None = None,
+        ask_coordinator: AskCoordinator | None = None,
     ) -> None:
         super().__init__(
             node_name(fls_id),
@@ -136,6 +149,11 @@ class FlsNode(Node):
         self.known_neighbours = senses.neighbours(fls_id)
         self._publisher = self.create_publisher(Measurements, MEASUREMENTS_TOPIC, MEASUREMENTS_QOS)
         self.create_service(GetNeighbours, f"~/{NEIGHBOURS_SERVICE}", self._on_get_neighbours)
+        # The answer waits for a whole discovery run; meanwhile the node keeps serving.
+        self._ask_coordinator = ask_coordinator
+        create_deferred_service(
+            self, ComputePose, f"~/{COMPUTE_POSE_SERVICE}", self._on_compute_pose
+        )
         self.create_timer(period, self.publish_measurements)
         self._radio = self.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
         self._estimates = self.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
@@ -170,6 +188,25 @@ class FlsNode(Node):
             setattr(response, field, ids)
         response.success = True
         return response
+
+    def _on_compute_pose(self, request: ComputePose.Request, reply: Reply) -> None:
+        if request.source_id != self.fls_id:
+            reply(
+                ComputePose.Response(
+                    success=False,
+                    message=f"this is FLS {self.fls_id}; FLS {request.source_id} computes its "
+                    f"own poses at {self.get_namespace().rstrip('/')}/"
+                    f"{node_name(request.source_id)}/{COMPUTE_POSE_SERVICE} if it exists",
+                )
+            )
+        elif self._ask_coordinator is None:
+            reply(
+                ComputePose.Response(
+                    success=False, message="no coordinator to clock a discovery run"
+                )
+            )
+        else:
+            self._ask_coordinator(request).add_done_callback(lambda answer: reply(answer.result()))
 
     def on_control(self, control: DiscoveryControl, departed: frozenset[int]) -> None:
         """Follow the coordinator's round clock (the host hands every control message on)."""

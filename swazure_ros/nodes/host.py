@@ -16,13 +16,22 @@ from collections.abc import Callable, Sequence
 from rclpy.context import Context
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
+from rclpy.task import Future
 from swazure_interfaces.msg import DiscoveryControl, PathOffer, PathWalk, RoundAck, WorldState
+from swazure_interfaces.srv import ComputePose
 
 from ..core.discovery import LocalView
 from ..core.observe import NeighbourSets
 from ..sim.world import Measurement, World, changed_sight
 from .convert import offer_from_message, world_positions
-from .fls_node import MEASUREMENTS_TOPIC, NEIGHBOURS_SERVICE, RADIO_TOPIC, ROUND_QOS, FlsNode
+from .fls_node import (
+    COMPUTE_POSE_SERVICE,
+    MEASUREMENTS_TOPIC,
+    NEIGHBOURS_SERVICE,
+    RADIO_TOPIC,
+    ROUND_QOS,
+    FlsNode,
+)
 from .world_node import WORLD_QOS, WORLD_TOPIC, WorldNode
 
 
@@ -211,6 +220,10 @@ class SwarmHost:
             WorldState, WORLD_TOPIC, self.replica.apply_state, WORLD_QOS
         )
         self.radio = Radio(self.host_node, self.replica, self.fls_by_id)
+        # One client per process, shared by its FLS nodes' compute_pose services.
+        self._coordinator = self.host_node.create_client(
+            ComputePose, f"coordinator/{COMPUTE_POSE_SERVICE}"
+        )
         self._add(self.host_node)
         if with_world_node:
             self._add(WorldNode(self.replica, namespace=self.namespace, context=context))
@@ -222,12 +235,31 @@ class SwarmHost:
         self.nodes.append(node)
         self.executor.add_node(node)
 
+    def ask_coordinator(self, request: ComputePose.Request) -> Future:
+        """Pass an FLS's ComputePose request on to the coordinator: a future of its answer."""
+        if self._coordinator.service_is_ready():
+            return self._coordinator.call_async(request)
+        unreachable = Future()
+        unreachable.set_result(
+            ComputePose.Response(
+                success=False,
+                message=f"the coordinator's {self._coordinator.srv_name} is not reachable",
+            )
+        )
+        return unreachable
+
     def create_fls_nodes(
         self, on_created: Callable[[int], None] | None = None, chunk: int = 25
     ) -> None:
         """Create every FLS node of this process, reporting progress every ``chunk`` nodes."""
         for count, fls_id in enumerate(self.fls_ids, start=1):
-            node = FlsNode(fls_id, self.replica, namespace=self.namespace, context=self.context)
+            node = FlsNode(
+                fls_id,
+                self.replica,
+                namespace=self.namespace,
+                context=self.context,
+                ask_coordinator=self.ask_coordinator,
+            )
             self.fls_nodes.append(node)
             self.fls_by_id[fls_id] = node
             self.replica.listeners.append(node)

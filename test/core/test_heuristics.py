@@ -224,22 +224,36 @@ def test_resolved_pairs_have_clear_sweet_hops_and_no_collisions(sensor, techniqu
 
 
 @pytest.mark.parametrize("beta", [0.3, 0.5])
-def test_move_batches_let_every_pair_of_a_batch_walk_its_path_as_if_alone(beta):
+@pytest.mark.parametrize("technique", ["move-obstructing", "move-source"])
+def test_move_batches_let_every_pair_of_a_batch_walk_its_path_as_if_alone(beta, technique):
     from swazure_ros.core.discovery import sweet_hop
-    from swazure_ros.core.heuristics import move_batches, move_obstructing, walked
+    from swazure_ros.core.heuristics import move_batches, move_obstructing, move_source, walked
     from swazure_ros.sim.world import WorldSpec
 
     world = WorldSpec("torus:120", scale=1.6, beta=beta).build()
     evaluation = evaluate(world.swarm, world.sensor, "shortest-length")
-    heuristic = move_obstructing(evaluation)
+    if technique == "move-obstructing":
+        heuristic = move_obstructing(evaluation)
+    else:
+        heuristic = move_source(evaluation, 10)
     batches = move_batches(evaluation, heuristic)
     assert sorted(np.concatenate(batches).tolist()) == np.flatnonzero(heuristic.resolved).tolist()
     assert len(batches) < heuristic.resolved.sum() / 5  # batching pays
+    radius = world.swarm.radius
     vectors = {}
     for batch in batches:
         moved = {}
         for pair in batch.tolist():
             moved.update({int(world.ids[fls]): to for fls, _, to in heuristic.moves(pair)})
+        # FLSs moved for different pairs of a batch keep clear of each other. (The
+        # engine places one pair's moves together, and pairs may share a move.)
+        movers = [
+            {int(world.ids[f]) for f, _, _ in heuristic.moves(pair)} for pair in batch.tolist()
+        ]
+        for one, there in moved.items():
+            for other, elsewhere in moved.items():
+                if one < other and not any({one, other} <= group for group in movers):
+                    assert np.linalg.norm(there - elsewhere) >= 2 * radius
         aside = world.moved(moved)
         for pair in batch.tolist():
             path = heuristic.paths.nodes[

@@ -164,15 +164,20 @@ class Client:
         self.node = Node("probe", context=context, start_parameter_services=False)
         self.executor = SingleThreadedExecutor(context=context)
         self.executor.add_node(self.node)
-        self.client = self.node.create_client(ComputePose, "/swarm/coordinator/compute_pose")
+        self.clients = {}
 
-    def call(self, source, target, policy=0, timeout=60.0):
+    def call(self, source, target, policy=0, timeout=60.0, service=None):
+        """Ask the coordinator's service, or ``service`` (e.g. an FLS node's)."""
+        service = service or "/swarm/coordinator/compute_pose"
+        if service not in self.clients:
+            self.clients[service] = self.node.create_client(ComputePose, service)
+        client = self.clients[service]
         deadline = time.monotonic() + timeout
-        while not self.client.service_is_ready():
-            assert time.monotonic() < deadline, "no compute_pose service"
+        while not client.service_is_ready():
+            assert time.monotonic() < deadline, f"no {service} service"
             self.executor.spin_once(timeout_sec=0.02)
             self.swarm.spin(0.02)
-        future = self.client.call_async(
+        future = client.call_async(
             ComputePose.Request(source_id=source, target_id=target, policy=policy)
         )
         while not future.done():
@@ -215,6 +220,18 @@ def test_compute_pose_answers_bad_requests_with_errors_and_keeps_working(domain,
             )
             assert one.path == tuple(int(world.ids[k]) for k in engine.path(pair))
             np.testing.assert_allclose(one.vector, engine.estimate[pair], rtol=0, atol=1e-9)
+            # The source node's own service gives the same answer; another FLS's refuses.
+            mine = f"/swarm/fls_{source}/compute_pose"
+            again = client.call(source, target, policy_code("fewest-hops"), service=mine)
+            assert again.success, again.message
+            twice = estimate_from_message(again.estimate)
+            assert (twice.path, twice.status) == (one.path, one.status)
+            np.testing.assert_array_equal(twice.vector, one.vector)
+            wrong = client.call(source, target, service=f"/swarm/fls_{target}/compute_pose")
+            assert not wrong.success
+            assert f"this is FLS {target}; FLS {source} computes its own poses" in wrong.message
+            bad = client.call(source, 5000, service=mine)
+            assert not bad.success and "no target FLS 5000" in bad.message, bad.message
         finally:
             client.close()
 
