@@ -369,7 +369,7 @@ def compute_all(cloud: str, technique: str, domain: int, out: Path) -> dict[str,
     if code != 0:
         raise SystemExit(f"bench: spawn --compute-all {cloud} {technique} failed (exit {code})")
     distributed = json.loads((out / "summary.json").read_text())["distributed"]
-    moved = distributed.get("move_obstructing", {"seconds": 0.0, "messages": {}, "bytes": {}})
+    moved = distributed.get("moves", {"seconds": 0.0, "messages": {}, "bytes": {}})
     line = next(x for x in output.splitlines() if x.startswith("swarm up:"))
     return {
         "wall": seconds,

@@ -287,10 +287,17 @@ class RunningSwarm:
         coordinator = self.coordinator.coordinator
         return self.coordinator.run(coordinator.discover(policy), self._spin_step, timeout)
 
-    def move_obstructing(self, plain: Any, timeout: float | None = None) -> Any:
-        """Move Obstructing on the BLOCKED pairs of a whole-swarm run; a MoveResult."""
+    def make_moves(
+        self,
+        plain: Any,
+        technique: str = "move-obstructing",
+        threshold: int = 10,
+        timeout: float | None = None,
+    ) -> Any:
+        """A heuristic on the BLOCKED pairs of a whole-swarm run, moves made; a MoveResult."""
         coordinator = self.coordinator.coordinator
-        return self.coordinator.run(coordinator.move_obstructing(plain), self._spin_step, timeout)
+        moves = coordinator.make_moves(plain, technique, threshold)
+        return self.coordinator.run(moves, self._spin_step, timeout)
 
     def spin(self, seconds: float | None = None) -> None:
         """Serve the swarm for ``seconds`` (for ever when None), watching the processes."""

@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import SwazureError
-from ..core.heuristics import MOVE_OBSTRUCTING, PLAIN
+from ..core.heuristics import PLAIN, TECHNIQUES
 from ..core.sensor import config_dir
 from ..sim.world import WorldSpec
 from .evaluate import add_policy_argument, add_swarm_arguments
@@ -62,10 +62,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--technique",
-        choices=(PLAIN, MOVE_OBSTRUCTING),
+        choices=TECHNIQUES,
         default=PLAIN,
-        help="with --compute-all: plain Swazure, or then Move Obstructing on the BLOCKED pairs, "
+        help="with --compute-all: plain Swazure, or then a heuristic on the BLOCKED pairs, "
         "with the moves made by the swarm (default: plain)",
+    )
+    parser.add_argument(
+        "--threshold",
+        type=int,
+        default=10,
+        metavar="T",
+        help="Move Source: probe up to T steps of r per direction (default 10)",
     )
     parser.add_argument(
         "--out",
@@ -106,6 +113,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
     if not args.compute_all and (args.out is not None or args.technique != PLAIN):
         raise SwazureError("--out and --technique go with --compute-all")
+    if args.threshold < 1:
+        raise SwazureError(f"--threshold must be at least 1, got {args.threshold}")
     if args.processes < 1:
         raise SwazureError(f"--processes must be at least 1, got {args.processes}")
     params = args.params if args.params is not None else config_dir() / "swarm.yaml"
@@ -157,11 +166,11 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
         flush=True,
     )
     heuristic = None
-    if args.technique == MOVE_OBSTRUCTING:
-        moved = swarm.move_obstructing(result)
+    if args.technique != PLAIN:
+        moved = swarm.make_moves(result, args.technique, args.threshold)
         evaluation, heuristic = moved.evaluation, moved.heuristic
         evaluation.summary["seconds"] = result.seconds + moved.seconds
-        distributed["move_obstructing"] = {
+        distributed["moves"] = {
             "seconds": moved.seconds,
             "batches": moved.batches,
             "move_commands": moved.moved,
@@ -170,14 +179,13 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
             "bytes": moved.traffic.bytes,
         }
         print(
-            f"Move Obstructing: {moved.seconds:.2f} s, {moved.batches} batches, "
+            f"{args.technique}: {moved.seconds:.2f} s, {moved.batches} batches, "
             f"{moved.moved} move commands, {moved.walks} path walks, "
             f"{moved.traffic.total_messages} messages, {moved.traffic.total_bytes / 1e6:.1f} MB"
         )
     began = time.perf_counter()
     engine = evaluate(world.swarm, world.sensor, args.policy)
-    if args.technique == MOVE_OBSTRUCTING:
-        engine, _ = run_technique(engine, MOVE_OBSTRUCTING)
+    engine, _ = run_technique(engine, args.technique, args.threshold)
     engine_seconds = time.perf_counter() - began
     summary = evaluation.summary
     summary["distributed"] = distributed

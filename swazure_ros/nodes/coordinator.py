@@ -11,12 +11,13 @@ Its service ``coordinator/compute_pose`` (swazure_interfaces/ComputePose)
 runs one source's search for one target on demand. The coordinator only
 clocks; labels travel from FLS to FLS, and only FLSs sum vectors.
 
-After a whole-swarm run, :meth:`Coordinator.move_obstructing` applies Move
-Obstructing: the core engine plans which obstructers step aside and where
-(from the original shape, as the engine does), the coordinator makes the
-moves batch by batch on ``move_commands``, sends a path walk to the source
-of every pair of the batch (the FLSs of the path measure their hops again
-and sum them), and returns the moved FLSs to their points.
+After a whole-swarm run, :meth:`Coordinator.make_moves` applies Move
+Obstructing or Move Source: the core engine plans the moves (which
+obstructers step aside and where, or where a source probes, from the
+original shape, as the engine does), the coordinator makes them batch by
+batch on ``move_commands``, sends a path walk to the source of every pair of
+the batch (the FLSs of the path measure their hops again and sum them), and
+returns the moved FLSs to their points.
 
 The coordinator is a handful of entities, so it runs on a stock executor,
 which can await inside callbacks (the FLS nodes' events executor cannot).
@@ -50,7 +51,16 @@ from swazure_interfaces.srv import ComputePose
 
 from ..core.discovery import PHASES, Estimate, RoundTally, evaluation_of
 from ..core.evaluate import SWEET_PATH, Evaluation
-from ..core.heuristics import HeuristicResult, apply, move_batches, move_obstructing, walked
+from ..core.heuristics import (
+    MOVE_OBSTRUCTING,
+    MOVE_SOURCE,
+    HeuristicResult,
+    apply,
+    move_batches,
+    move_obstructing,
+    move_source,
+    walked,
+)
 from ..core.paths import FEWEST_HOPS, check_policy
 from ..sim.world import World
 from .convert import estimate_from_message, estimate_message
@@ -107,7 +117,7 @@ class DiscoveryResult:
 
 @dataclass
 class MoveResult:
-    """Move Obstructing made by the swarm: the evaluation after it and what it took."""
+    """A heuristic made by the swarm: the evaluation after it and what it took."""
 
     run_id: int
     evaluation: Evaluation  # the plain run with the resolved pairs made SWEET
@@ -296,17 +306,27 @@ class Coordinator(Node):
             traffic,
         )
 
-    async def move_obstructing(self, plain: DiscoveryResult) -> MoveResult:
-        """Move Obstructing on every BLOCKED pair of a whole-swarm run, moves made for real."""
+    async def make_moves(
+        self, plain: DiscoveryResult, technique: str = MOVE_OBSTRUCTING, threshold: int = 10
+    ) -> MoveResult:
+        """A heuristic on every BLOCKED pair of a whole-swarm run, its moves made for real.
+
+        ``technique`` is Move Obstructing or Move Source (probing up to
+        ``threshold`` steps of r).
+        """
         if self.world is None:
             raise ValueError("the coordinator plans moves from the world it was given: none")
+        if technique not in (MOVE_OBSTRUCTING, MOVE_SOURCE):
+            raise ValueError(f"no moves to make for technique {technique!r}")
         await self._acquire()
         try:
-            return await self._move_obstructing(plain)
+            return await self._make_moves(plain, technique, threshold)
         finally:
             self._release()
 
-    async def _move_obstructing(self, plain: DiscoveryResult) -> MoveResult:
+    async def _make_moves(
+        self, plain: DiscoveryResult, technique: str, threshold: int
+    ) -> MoveResult:
         began = time.perf_counter()
         world = self.world
         assert world is not None
@@ -315,19 +335,22 @@ class Coordinator(Node):
         self._run_id = run_id
         traffic_before = (dict(self.traffic.messages), dict(self.traffic.bytes))
         evaluation = evaluation_of(world.hood, plain.policy, plain.estimates)
-        plan = move_obstructing(evaluation)
+        if technique == MOVE_OBSTRUCTING:
+            plan, kind = move_obstructing(evaluation), MoveCommand.KIND_STEP_ASIDE
+        else:
+            plan, kind = move_source(evaluation, threshold), MoveCommand.KIND_PROBE
         batches = move_batches(evaluation, plan)
         ids, pairs = world.ids, evaluation.pairs
         vectors = {}
         moved = walks = 0
         for batch in batches:
-            aside: dict[int, tuple[int, int, object]] = {}  # FLS id -> (source, target, to)
+            moves: dict[int, tuple[int, int, object]] = {}  # FLS id -> (source, target, to)
             for pair in batch.tolist():
                 served = (int(ids[pairs.source[pair]]), int(ids[pairs.target[pair]]))
                 for fls, _, to in plan.moves(pair):
-                    aside[int(ids[fls])] = (*served, to)
-            revision = await self._move_together(MoveCommand.KIND_STEP_ASIDE, aside)
-            moved += len(aside)
+                    moves[int(ids[fls])] = (*served, to)
+            revision = await self._move_together(kind, moves)
+            moved += len(moves)
             walking = {}
             for pair in batch.tolist():
                 path = plan.paths.nodes[plan.paths.offsets[pair] : plan.paths.offsets[pair + 1]]
@@ -340,8 +363,8 @@ class Coordinator(Node):
             for key, found in (await self._walk(walking)).items():
                 if found.status == SWEET_PATH:
                     vectors[walking[key]] = found.vector
-            await self._move_together(MoveCommand.KIND_RETURN, aside)
-            moved += len(aside)
+            await self._move_together(MoveCommand.KIND_RETURN, moves)
+            moved += len(moves)
         heuristic = walked(plan, vectors)
         traffic = Traffic(
             {k: v - traffic_before[0].get(k, 0) for k, v in self.traffic.messages.items()},

@@ -3,8 +3,8 @@
 Topics and services, relative to the swarm namespace (``/swarm`` by default):
 
 - ``measurements`` (swazure_interfaces/Measurements), shared by all FLSs:
-  each FLS publishes every ``publish_period`` seconds, and at once after it
-  senses anew (when the world changes);
+  each FLS publishes what its camera sees every ``publish_period`` seconds
+  (its frame rate), from where it is at that moment;
 - ``fls_<id>/get_neighbours`` (swazure_interfaces/GetNeighbours): its blind,
   sweet and decaying neighbours as it knows them;
 - ``fls_<id>/compute_pose`` (swazure_interfaces/ComputePose): its pose
@@ -145,8 +145,7 @@ class FlsNode(Node):
                 f"a positive number of seconds, got {period!r}"
             )
         self.publish_period = period
-        self.measurement = senses.measurement(fls_id)
-        self.known_neighbours = senses.neighbours(fls_id)
+        self._sensed: tuple[Measurement, NeighbourSets] | None = None
         self._publisher = self.create_publisher(Measurements, MEASUREMENTS_TOPIC, MEASUREMENTS_QOS)
         self.create_service(GetNeighbours, f"~/{NEIGHBOURS_SERVICE}", self._on_get_neighbours)
         # The answer waits for a whole discovery run; meanwhile the node keeps serving.
@@ -162,11 +161,28 @@ class FlsNode(Node):
         self.messages_sent = 0
         self.bytes_sent = 0
 
+    @property
+    def measurement(self) -> Measurement:
+        """What the camera measures where the FLS is now."""
+        return self._sense()[0]
+
+    @property
+    def known_neighbours(self) -> NeighbourSets:
+        """The neighbours the FLS knows by radio and camera where it is now."""
+        return self._sense()[1]
+
     def sense(self) -> None:
-        """Take new measurements (the world changed) and publish them at once."""
-        self.measurement = self._senses.measurement(self.fls_id)
-        self.known_neighbours = self._senses.neighbours(self.fls_id)
-        self.publish_measurements()
+        """The world changed within this FLS's reach: sense anew when next asked."""
+        # Lazily: while a heuristic moves FLSs, revisions come faster than anyone reads.
+        self._sensed = None
+
+    def _sense(self) -> tuple[Measurement, NeighbourSets]:
+        if self._sensed is None:
+            self._sensed = (
+                self._senses.measurement(self.fls_id),
+                self._senses.neighbours(self.fls_id),
+            )
+        return self._sensed
 
     def publish_measurements(self) -> None:
         """Publish the last measurements on the shared topic."""
@@ -247,7 +263,7 @@ class FlsNode(Node):
                 # The target: back to the source (blind neighbours are within radio range).
                 walk.state, walk.hop = PathWalk.STATE_ARRIVED, 0
                 return walk
-            seen = self._senses.measurement(self.fls_id)
+            seen = self.measurement
             hop = sweet_hop(
                 seen.target_ids, seen.range_class, seen.vector, seen.tracking, path[walk.hop + 1]
             )

@@ -21,8 +21,9 @@ from swazure_interfaces.msg import DiscoveryControl, PathOffer, PathWalk, RoundA
 from swazure_interfaces.srv import ComputePose
 
 from ..core.discovery import LocalView
+from ..core.errors import UnknownFlsError
 from ..core.observe import NeighbourSets
-from ..sim.world import Measurement, World, changed_sight
+from ..sim.world import Measurement, World
 from .convert import offer_from_message, world_positions
 from .fls_node import (
     COMPUTE_POSE_SERVICE,
@@ -66,14 +67,12 @@ class WorldReplica:
         return self.world.id_space
 
     def apply(self, world: World) -> None:
-        """Take a newer revision; the local FLSs whose camera sees a change sense anew."""
+        """Take a newer revision; the local FLSs sense anew when next asked."""
         if world.revision <= self.world.revision:
             return
-        before, self.world = self.world, world
-        affected = changed_sight(before, world)
+        self.world = world
         for node in self.listeners:
-            if node.fls_id in affected:
-                node.sense()
+            node.sense()
         for hook in self.on_revision:
             hook()
 
@@ -216,9 +215,7 @@ class SwarmHost:
             enable_rosout=False,
             start_parameter_services=False,
         )
-        self.host_node.create_subscription(
-            WorldState, WORLD_TOPIC, self.replica.apply_state, WORLD_QOS
-        )
+        self.host_node.create_subscription(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
         self.radio = Radio(self.host_node, self.replica, self.fls_by_id)
         # One client per process, shared by its FLS nodes' compute_pose services.
         self._coordinator = self.host_node.create_client(
@@ -230,6 +227,17 @@ class SwarmHost:
         self._service_pattern = re.compile(
             rf"^/{re.escape(self.namespace)}/fls_\d+/{NEIGHBOURS_SERVICE}$"
         )
+
+    def _on_world(self, message: WorldState) -> None:
+        try:
+            self.replica.apply_state(message)
+        except UnknownFlsError as err:
+            # Another swarm's world node on this ROS domain: ours must keep running.
+            self.host_node.get_logger().error(
+                f"ignored world revision {message.revision}: {err}; is another swarm "
+                "running on this ROS_DOMAIN_ID?",
+                throttle_duration_sec=10.0,
+            )
 
     def _add(self, node: Node) -> None:
         self.nodes.append(node)

@@ -110,21 +110,6 @@ class World:
         )
 
 
-def changed_sight(before: World, after: World) -> set[int]:
-    """Ids of the FLSs whose measurements may differ between two revisions.
-
-    The FLSs that moved, and every FLS within range of one of them before or
-    after: a moved FLS changes only hops that it could have blocked or can
-    block now, and both ends of such a hop are within range of it.
-    """
-    moved = np.flatnonzero((before.swarm.points != after.swarm.points).any(axis=1))
-    affected = {int(fls_id) for fls_id in before.ids[moved]}
-    for fls_id in list(affected):
-        affected.update(before.in_range(fls_id).tolist())
-        affected.update(after.in_range(fls_id).tolist())
-    return affected
-
-
 def make_world(
     cloud: Cloud,
     sensor: Sensor,

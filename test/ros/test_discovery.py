@@ -14,7 +14,7 @@ from swazure_interfaces.srv import ComputePose
 
 from swazure_ros.core.discovery import Estimate
 from swazure_ros.core.evaluate import NO_PATH, evaluate, evaluate_pairs, without
-from swazure_ros.core.heuristics import MOVE_OBSTRUCTING, run_technique
+from swazure_ros.core.heuristics import MOVE_OBSTRUCTING, MOVE_SOURCE, run_technique
 from swazure_ros.launcher import RunningSwarm, SwarmConfig
 from swazure_ros.nodes.convert import estimate_from_message
 from swazure_ros.nodes.coordinator import policy_code
@@ -80,17 +80,18 @@ def test_whole_swarm_discovery_equals_the_engine(domain, params, beta):
 
 
 @pytest.mark.parametrize("beta", [0.3, 0.5])
-def test_move_obstructing_made_by_the_swarm_equals_the_engine(domain, params, beta):
+@pytest.mark.parametrize("technique", [MOVE_OBSTRUCTING, MOVE_SOURCE])
+def test_moves_made_by_the_swarm_equal_the_engine(domain, params, technique, beta):
     with swarm_of(domain, params, beta) as swarm:
         swarm.wait_until_ready()
         world = swarm.world
         for policy in POLICIES:
             plain = swarm.discover(policy, timeout=300)
-            moved = swarm.move_obstructing(plain, timeout=300)
+            moved = swarm.make_moves(plain, technique, threshold=10, timeout=300)
             engine, plan = run_technique(
-                evaluate(world.swarm, world.sensor, policy), MOVE_OBSTRUCTING
+                evaluate(world.swarm, world.sensor, policy), technique, threshold=10
             )
-            assert plan.resolved.sum() > 1000
+            assert plan.resolved.sum() > 500
             assert moved.walks == plan.resolved.sum() and moved.batches < moved.walks / 5
             ours, theirs = moved.evaluation.pairs, engine.pairs
             np.testing.assert_array_equal(ours.status, theirs.status)
@@ -245,7 +246,7 @@ def swazure(*args):
     )
 
 
-@pytest.mark.parametrize("technique", ["plain", "move-obstructing"])
+@pytest.mark.parametrize("technique", ["plain", "move-obstructing", "move-source"])
 def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path, technique):
     shape = ["--cloud", SHAPE[0], "--scale", str(SHAPE[1]), "--beta", "0.5", "--quiet"]
     shape += ["--technique", technique]
@@ -268,9 +269,10 @@ def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path,
     finally:
         watch.terminate()
         watched, _ = watch.communicate(timeout=60)
-    if technique == "move-obstructing":
-        assert "Move Obstructing:" in out and "path walks" in out, out
-        assert watched.count("kind: 0") > 100 and watched.count("kind: 2") > 100, watched[:2000]
+    if technique != "plain":
+        assert f"{technique}: " in out and "path walks" in out, out
+        kind = "kind: 0" if technique == "move-obstructing" else "kind: 1"
+        assert watched.count(kind) > 100 and watched.count("kind: 2") > 100, watched[:2000]
         assert "group_size:" in watched and "displacement:" in watched
     else:
         assert watched == ""
