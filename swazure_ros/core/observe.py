@@ -43,8 +43,13 @@ class Observations:
     @property
     def measured(self) -> NDArray[np.bool_]:
         """(E,) the camera measures the pair: sweet or decaying, in line of sight."""
-        camera_range = (self.range_class == SWEET) | (self.range_class == DECAYING)
-        return np.asarray(self.visible & camera_range, dtype=np.bool_)
+        return self.measured_in(slice(None))
+
+    def measured_in(self, rows: slice) -> NDArray[np.bool_]:
+        """``measured`` for the rows ``rows`` only (one FLS's, from :meth:`rows`)."""
+        range_class = self.range_class[rows]
+        camera_range = (range_class == SWEET) | (range_class == DECAYING)
+        return np.asarray(self.visible[rows] & camera_range, dtype=np.bool_)
 
     def rows(self, fls: int) -> slice:
         """The rows of FLS ``fls`` (a swarm index)."""

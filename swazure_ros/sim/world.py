@@ -85,7 +85,7 @@ class World:
     def measurement(self, fls_id: int) -> Measurement:
         """What FLS ``fls_id``'s camera measures now."""
         rows = self.seen.rows(self.index(fls_id))
-        measured = self.seen.measured[rows]
+        measured = self.seen.measured_in(rows)
         return Measurement(
             self.ids[self.seen.other[rows][measured]],
             self.seen.range_class[rows][measured],
