@@ -398,6 +398,8 @@ def discovery_section(args: argparse.Namespace) -> list[str]:
         "pairs.csv, and tearing the nodes down. Messages and bytes are every message the",
         "protocol publishes (docs/protocol.md; the world node's WorldState not counted), as",
         "serialized. Engine: `evaluate` (+ `run_technique`) in the same process, same work.",
+        'Move Source probes up to T = 10 steps. "Moves s" is the heuristic\'s part: planning,',
+        "batches of moves (two world revisions each), path walks.",
         "",
         "| shape | technique | bring-up s | discovery s | rounds | moves s | batches "
         "| messages | MB | wall s | engine s | identical | peak MB |",
@@ -405,7 +407,7 @@ def discovery_section(args: argparse.Namespace) -> list[str]:
         "| --- | ---: |",
     ]
     for name in DISCOVERY:
-        for technique in ("plain", "move-obstructing"):
+        for technique in ("plain", "move-obstructing", "move-source"):
             with tempfile.TemporaryDirectory() as out:
                 row = compute_all(str(DATASETS / f"{name}.xyz"), technique, domain, Path(out))
             print(f"compute-all {name} {technique}: {row}", flush=True)

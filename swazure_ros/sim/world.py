@@ -48,6 +48,9 @@ class World:
     revision: int
     hood: Neighbourhood
     seen: Observations
+    # Revision 0's, kept because a heuristic returns every FLS home after each batch.
+    home_hood: Neighbourhood
+    home_seen: Observations
 
     @property
     def ids(self) -> IntArray:
@@ -102,9 +105,17 @@ class World:
         points = self.swarm.points.copy()
         for fls_id, position in positions.items():
             points[self.index(fls_id)] = position
+        next_revision = self.revision + 1 if revision is None else revision
+        if np.array_equal(points, self.home.points):
+            return replace(
+                self,
+                swarm=self.home,
+                revision=next_revision,
+                hood=self.home_hood,
+                seen=self.home_seen,
+            )
         swarm = replace(self.swarm, points=points)
         hood = neighbourhood(swarm, self.sensor)
-        next_revision = self.revision + 1 if revision is None else revision
         return replace(
             self, swarm=swarm, revision=next_revision, hood=hood, seen=observations(hood)
         )
@@ -120,7 +131,8 @@ def make_world(
     """The world of ``cloud`` at revision 0: FLSs at their points, colliding ones removed."""
     swarm = make_swarm(cloud.points, beta=beta, radius=radius, seed=seed)
     hood = neighbourhood(swarm, sensor)
-    return World(cloud, sensor, swarm, swarm, 0, hood, observations(hood))
+    seen = observations(hood)
+    return World(cloud, sensor, swarm, swarm, 0, hood, seen, hood, seen)
 
 
 @dataclass(frozen=True)
