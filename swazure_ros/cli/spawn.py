@@ -19,6 +19,7 @@ import argparse
 import signal
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -230,6 +231,17 @@ def _interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+def _stopper(swarm: Any) -> Callable[[int, object], None]:
+    """A handler for Ctrl-C and SIGTERM that stops ``swarm`` between spins, not in a callback."""
+
+    def stop(signum: int, frame: object) -> None:
+        if swarm.host is not None and swarm.host.defer_stop():
+            return
+        raise KeyboardInterrupt
+
+    return stop
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure spawn``."""
     # rclpy loads only for the verbs that use it: `swazure evaluate` starts faster.
@@ -243,7 +255,10 @@ def main(args: argparse.Namespace) -> int:
     bar = CreationBar(args.quiet)
     ready = False
     try:
-        with RunningSwarm(config, bar) as swarm:
+        swarm = RunningSwarm(config, bar)
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, _stopper(swarm))
+        with swarm:
             bring_up = swarm.wait_until_ready()
             ready = True
             bar.close()

@@ -205,6 +205,8 @@ class SwarmHost:
         self.swarm_size = len(world.ids) if swarm_size is None else swarm_size
         self.replica = WorldReplica(world)
         self.executor = EventsExecutor(context=context)
+        self._spinning = False
+        self._stop_requested = False
         self.nodes: list[Node] = []
         self.fls_nodes: list[FlsNode] = []
         self.fls_by_id: dict[int, FlsNode] = {}
@@ -275,7 +277,7 @@ class SwarmHost:
             if on_created is not None and (count % chunk == 0 or count == len(self.fls_ids)):
                 on_created(count)
                 # Let discovery and pending callbacks run while we keep creating.
-                self.executor.spin_once(timeout_sec=0.0)
+                self.spin_once(0.0)
 
     def stop_fls(self, fls_id: int) -> None:
         """Destroy FLS ``fls_id``'s node, as if its software stopped; its body stays."""
@@ -316,14 +318,36 @@ class SwarmHost:
                 if publishers >= self.swarm_size and services >= self.swarm_size:
                     return True
                 next_poll = time.monotonic() + poll
-            self.executor.spin_once(timeout_sec=min(poll, 0.05))
+            self.spin_once(min(poll, 0.05))
         return False
+
+    def spin_once(self, timeout: float) -> None:
+        """Spin once, for at most ``timeout`` s; a stop that came meanwhile is raised after it."""
+        self._spinning = True
+        try:
+            self.executor.spin_once(timeout_sec=timeout)
+        finally:
+            self._spinning = False
+        if self._stop_requested:
+            self._stop_requested = False
+            raise KeyboardInterrupt
+
+    def defer_stop(self) -> bool:
+        """For a signal handler: if a spin is under way, stop after it and return True.
+
+        A KeyboardInterrupt raised inside a node's callback would be reported by
+        the executor as that callback's failure; raised after the spin, it is a
+        plain stop.
+        """
+        if self._spinning:
+            self._stop_requested = True
+        return self._spinning
 
     def spin_for(self, seconds: float) -> None:
         """Spin every node for ``seconds``."""
         deadline = time.monotonic() + seconds
         while time.monotonic() < deadline:
-            self.executor.spin_once(timeout_sec=min(0.05, max(0.0, deadline - time.monotonic())))
+            self.spin_once(min(0.05, max(0.0, deadline - time.monotonic())))
 
     def close(self) -> None:
         """Destroy every node and the executor."""

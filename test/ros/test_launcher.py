@@ -178,7 +178,8 @@ def test_swazure_echo_shows_a_measurement_of_a_running_swarm(running_swarm):
     assert "source_id:" in out and "poses:" in out and "tracking_distance:" in out
     code, _, err = stop(running_swarm)
     assert code == 0, err
-    assert "stopping the swarm" in err
+    # A stop is not a failure: no callback reports an exception on the way out.
+    assert err.strip() == "stopping the swarm", err
 
 
 @pytest.fixture
