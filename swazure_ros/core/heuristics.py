@@ -492,6 +492,8 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
         pairs.status != NO_PATH, pairs.hops, pairs.path_length, pairs.offsets, pairs.nodes
     )
     moved = heuristic.paths
+    # A pair may keep its planned path without being resolved (its walk failed: walked()).
+    resolved_nodes = moved.nodes[np.repeat(resolved, np.diff(moved.offsets))]
     paths = merge_paths(
         plain,
         Paths(
@@ -499,7 +501,7 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
             moved.hops[resolved],
             moved.length[resolved],
             moved.offsets,
-            moved.nodes,
+            resolved_nodes,
         ),
         resolved,
     )

@@ -31,11 +31,15 @@ class CoordinatorThread:
         self._thread.start()
 
     def _spin(self) -> None:
-        try:
-            while not self._stop.is_set():
+        while not self._stop.is_set():
+            try:
                 self.executor.spin_once(timeout_sec=0.05)
-        except ExternalShutdownException:
-            pass
+            except ExternalShutdownException:
+                return
+            except Exception:
+                # A failed task re-raises here, but run() is the one to report it: the
+                # thread must live on to complete the task's done callback.
+                continue
 
     def run(
         self,

@@ -277,3 +277,24 @@ def test_move_batches_let_every_pair_of_a_batch_walk_its_path_as_if_alone(beta, 
     np.testing.assert_allclose(
         again.estimate[again.resolved], heuristic.estimate[heuristic.resolved], rtol=0, atol=1e-9
     )
+
+
+def test_a_pair_whose_walk_failed_keeps_its_plain_result():
+    from swazure_ros.core.heuristics import apply, move_source, walked
+    from swazure_ros.sim.world import WorldSpec
+
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    evaluation = evaluate(world.swarm, world.sensor, "shortest-length")
+    heuristic = move_source(evaluation, 10)
+    resolved = np.flatnonzero(heuristic.resolved)
+    failed, arrived = int(resolved[0]), resolved[1:]
+    vectors = {int(pair): heuristic.estimate[pair] + 1.0 for pair in arrived}
+    after = apply(evaluation, walked(heuristic, vectors))
+    plain, pairs = evaluation.pairs, after.pairs
+    assert pairs.status[failed] == plain.status[failed]
+    assert pairs.path(failed) == plain.path(failed)
+    assert (pairs.status[arrived] == SWEET_PATH).all()
+    pair = int(arrived[0])
+    np.testing.assert_array_equal(pairs.estimate[pair], heuristic.estimate[pair] + 1.0)
+    rows = heuristic.paths
+    assert pairs.path(pair) == rows.nodes[rows.offsets[pair] : rows.offsets[pair + 1]].tolist()
