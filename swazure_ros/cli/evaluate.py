@@ -66,6 +66,17 @@ def add_policy_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_threshold_argument(parser: argparse.ArgumentParser) -> None:
+    """Move Source's probe threshold, shared by the verbs that run the heuristics."""
+    parser.add_argument(
+        "--threshold",
+        type=int,
+        default=10,
+        metavar="T",
+        help="Move Source: probe up to T steps of r per direction (default 10)",
+    )
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure evaluate``."""
     add_swarm_arguments(parser)
@@ -76,13 +87,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=PLAIN,
         help="plain Swazure, or a heuristic tried on BLOCKED pairs (default: plain)",
     )
-    parser.add_argument(
-        "--threshold",
-        type=int,
-        default=10,
-        metavar="T",
-        help="Move Source: probe up to T steps of r per direction (default 10)",
-    )
+    add_threshold_argument(parser)
     parser.add_argument(
         "--out",
         type=Path,

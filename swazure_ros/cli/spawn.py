@@ -27,7 +27,7 @@ from ..core.errors import SwazureError
 from ..core.heuristics import PLAIN, TECHNIQUES
 from ..core.sensor import config_dir
 from ..sim.world import WorldSpec
-from .evaluate import add_policy_argument, add_swarm_arguments
+from .evaluate import add_policy_argument, add_swarm_arguments, add_threshold_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -74,13 +74,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --compute-all: plain Swazure, or then a heuristic on the BLOCKED pairs, "
         "with the moves made by the swarm (default: plain)",
     )
-    parser.add_argument(
-        "--threshold",
-        type=int,
-        default=10,
-        metavar="T",
-        help="Move Source: probe up to T steps of r per direction (default 10)",
-    )
+    add_threshold_argument(parser)
     parser.add_argument(
         "--out",
         type=Path,
