@@ -66,6 +66,14 @@ SWAZURE = [sys.executable, "-m", "swazure_ros.cli.main"]
 SECTIONS_DIR = REPO / "build" / "bench"
 
 
+def spawn_command(cloud: str, domain: int, *options: str) -> list[str]:
+    """`swazure spawn --quiet` of ``cloud`` at beta 0.5 on domain ``domain``, plus ``options``."""
+    return [
+        *SWAZURE, "spawn", "--cloud", cloud, "--beta", "0.5", "--quiet",
+        "--domain-id", str(domain), *options,
+    ]  # fmt: skip
+
+
 def engine_section(args: argparse.Namespace) -> list[str]:
     """Core engine and heuristics on the six shapes."""
     swazure = SWAZURE
@@ -215,20 +223,7 @@ SWARMS = [
 
 def spawn(cloud: str, processes: int, domain: int) -> tuple[float, str]:
     """Bring a swarm up with --until-ready; return wall seconds and the launcher's line."""
-    command = [
-        *SWAZURE,
-        "spawn",
-        "--cloud",
-        cloud,
-        "--beta",
-        "0.5",
-        "--until-ready",
-        "--quiet",
-        "--processes",
-        str(processes),
-        "--domain-id",
-        str(domain),
-    ]
+    command = spawn_command(cloud, domain, "--until-ready", "--processes", str(processes))
     began = time.perf_counter()
     done = subprocess.run(command, capture_output=True, text=True)
     seconds = time.perf_counter() - began
@@ -246,19 +241,7 @@ def message_rate(cloud: str, domain: int, period: float = 0.1, window: float = 1
 
     params = Path(tempfile.mkstemp(suffix=".yaml")[1])
     params.write_text(f"/**:\n  ros__parameters:\n    publish_period: {period}\n")
-    command = [
-        *SWAZURE,
-        "spawn",
-        "--cloud",
-        cloud,
-        "--beta",
-        "0.5",
-        "--quiet",
-        "--params",
-        str(params),
-        "--domain-id",
-        str(domain),
-    ]
+    command = spawn_command(cloud, domain, "--params", str(params))
     process = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
     try:
         assert process.stdout is not None
@@ -347,24 +330,12 @@ DISCOVERY = ["chess_408", "dragon_1147"]
 
 def compute_all(cloud: str, technique: str, domain: int, out: Path) -> dict[str, object]:
     """One `swazure spawn --compute-all` run; its timings, traffic and the engine check."""
-    command = [
-        *SWAZURE,
-        "spawn",
-        "--cloud",
+    command = spawn_command(
         cloud,
-        "--beta",
-        "0.5",
-        "--policy",
-        "shortest-length",
-        "--compute-all",
-        "--technique",
-        technique,
-        "--out",
-        str(out),
-        "--quiet",
-        "--domain-id",
-        str(domain),
-    ]
+        domain,
+        *("--policy", "shortest-length", "--compute-all", "--technique", technique),
+        *("--out", str(out)),
+    )
     seconds, memory, code, output = run_output(command)
     if code != 0:
         raise SystemExit(f"bench: spawn --compute-all {cloud} {technique} failed (exit {code})")
