@@ -1,0 +1,392 @@
+"""Tracking a moving neighbour out of sight (spec, section 9).
+
+A source FLS that cannot see its target receives the target's relative
+position from a relay: an FLS in the source's sweet range that sees the
+target. Each sample is stamped with the time it was sensed and arrives late
+(sensing plus communication delay). From the samples the source estimates
+the target's velocity and acceleration relative to itself, two ways:
+
+- central differences (:func:`central_differences`), which lag the present by
+  the delay plus one (velocity) or two (acceleration) sample intervals;
+- a Kalman filter (:class:`KalmanTracker`) with a constant-velocity or
+  constant-acceleration model, which predicts the present state from the last
+  sample, compensating the known delay.
+
+The filter is filterpy's ``KalmanFilter`` (with ``Q_discrete_white_noise``
+for the piecewise white noise models): a maintained, widely used
+implementation, so that only the models are ours. Units: s, cm, cm/s, cm/s^2.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+from filterpy.common import Q_discrete_white_noise
+from filterpy.kalman import KalmanFilter
+from numpy.typing import NDArray
+
+from .errors import SwazureError
+from .motion import Motion
+from .sensor import DECAYING, SWEET, Sensor, measured_vectors
+from .sight import obstructed
+
+FloatArray = NDArray[np.float64]
+
+CONSTANT_VELOCITY = "constant-velocity"
+CONSTANT_ACCELERATION = "constant-acceleration"
+MODELS = (CONSTANT_VELOCITY, CONSTANT_ACCELERATION)
+
+# What a relay reports with each sample.
+RELAY_OK = 0
+RELAY_TARGET_LOST = 1  # the relay's camera no longer sees the target
+RELAY_SOURCE_LOST = 2  # the source left the relay's sweet range or view
+RELAY_STOPPED = 3  # the relay ended the stream
+
+# The state of a source's stream.
+WAITING = "waiting"  # no sample yet
+TRACKING = "tracking"
+ENDED = "ended"  # the relay said the stream ended
+TIMED_OUT = "timed-out"  # the relay went silent for longer than the track allows
+
+
+class TrackingError(SwazureError):
+    """A track that cannot be set up."""
+
+
+def _seen(sensor: Sensor, points: FloatArray, radius: float, first: int, second: int) -> int:
+    """Range class of second as first's camera sees it now, or -1 when it cannot."""
+    tracking = float(np.linalg.norm(points[second] - points[first])) - 2.0 * radius
+    range_class = int(sensor.classify(np.array([tracking]))[0])
+    if range_class not in (SWEET, DECAYING):
+        return -1
+    if obstructed(points, radius, [first], [second])[0]:
+        return -1
+    return range_class
+
+
+def choose_relay(
+    sensor: Sensor, points: FloatArray, radius: float, source: int, target: int
+) -> int | None:
+    """Index of the relay for source -> target, or None: a sweet neighbour that sees the target.
+
+    Both hops need line of sight. Preferred: a target in the relay's sweet
+    range over its decaying range, then the shortest two-hop tracking length,
+    then the lowest index.
+    """
+    tracking = np.linalg.norm(points - points[source], axis=1) - 2.0 * radius
+    candidates = np.flatnonzero(sensor.classify(tracking) == SWEET)
+    candidates = candidates[(candidates != source) & (candidates != target)]
+    best: tuple[int, float, int] | None = None
+    for relay in candidates.tolist():
+        if _seen(sensor, points, radius, source, relay) != SWEET:
+            continue
+        target_class = _seen(sensor, points, radius, relay, target)
+        if target_class < 0:
+            continue
+        to_target = float(np.linalg.norm(points[target] - points[relay])) - 2.0 * radius
+        key = (0 if target_class == SWEET else 1, float(tracking[relay]) + to_target, relay)
+        if best is None or key < best:
+            best = key
+    return None if best is None else best[2]
+
+
+def relay_sample(
+    sensor: Sensor, points: FloatArray, radius: float, source: int, relay: int, target: int
+) -> tuple[int, FloatArray]:
+    """(status, (3,) cm) of one relayed sample: the hop source -> relay plus relay -> target.
+
+    The relay measures both with its own camera at one instant: the hop is
+    minus its measurement of the source, as Swazure sums measured hop vectors.
+    """
+    if _seen(sensor, points, radius, relay, source) != SWEET:
+        return RELAY_SOURCE_LOST, np.full(3, np.nan)
+    if _seen(sensor, points, radius, relay, target) < 0:
+        return RELAY_TARGET_LOST, np.full(3, np.nan)
+    measured = measured_vectors(sensor, points, radius, [relay, relay], [source, target])
+    return RELAY_OK, measured[1] - measured[0]
+
+
+@dataclass(frozen=True)
+class Differences:
+    """Central-difference velocity and acceleration, each at its own sample times."""
+
+    velocity_times: FloatArray  # (K - 2,), s
+    velocity: FloatArray  # (K - 2, 3), cm/s
+    acceleration_times: FloatArray  # (K - 4,), s
+    acceleration: FloatArray  # (K - 4, 3), cm/s^2
+
+
+def _central(times: FloatArray, values: FloatArray) -> tuple[FloatArray, FloatArray]:
+    if len(times) < 3:
+        return np.zeros(0), np.zeros((0, 3))
+    span = (times[2:] - times[:-2])[:, None]
+    return times[1:-1], (values[2:] - values[:-2]) / span
+
+
+def central_differences(times: FloatArray, positions: FloatArray) -> Differences:
+    """Spec section 9: v(t_i) = (p_(i+1) - p_(i-1)) / (t_(i+1) - t_(i-1)), a likewise from v.
+
+    ``times`` (K,) s and ``positions`` (K, 3) cm; with evenly spaced samples
+    the span is the spec's 2 dt.
+    """
+    velocity_times, velocity = _central(times, positions)
+    acceleration_times, acceleration = _central(velocity_times, velocity)
+    return Differences(velocity_times, velocity, acceleration_times, acceleration)
+
+
+def _transition(order: int, dt: float) -> FloatArray:
+    """(3 order, 3 order) state transition over ``dt`` s, state ordered by derivative."""
+    single = np.eye(order)
+    for power in range(1, order):
+        single += np.diag(np.full(order - power, dt**power / math.factorial(power)), power)
+    return np.asarray(np.kron(single, np.eye(3)), dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class TrackState:
+    """A filter's estimate at one time: position (cm), velocity (cm/s), acceleration (cm/s^2)."""
+
+    time: float
+    position: FloatArray  # (3,)
+    velocity: FloatArray  # (3,)
+    acceleration: FloatArray  # (3,), zero under the constant-velocity model
+
+
+class KalmanTracker:
+    """A Kalman filter of relative position samples that predicts the present.
+
+    ``process_noise`` is the standard deviation of the white noise that drives
+    the model's highest derivative: acceleration (cm/s^2) for the
+    constant-velocity model, jerk (cm/s^3) for the constant-acceleration
+    model, per second of prediction. ``measurement_noise`` (cm) is that of a
+    relayed sample.
+    """
+
+    def __init__(
+        self,
+        model: str = CONSTANT_ACCELERATION,
+        process_noise: float = 1.0,
+        measurement_noise: float = 0.05,
+        initial_speed: float = 10.0,
+    ) -> None:
+        if model not in MODELS:
+            raise TrackingError(f"unknown model {model!r}: use one of {', '.join(MODELS)}")
+        if not (process_noise > 0 and measurement_noise > 0 and initial_speed > 0):
+            raise TrackingError("process_noise, measurement_noise and initial_speed must be > 0")
+        self.model = model
+        self.order = 2 if model == CONSTANT_VELOCITY else 3
+        self.process_noise = process_noise
+        self._filter = KalmanFilter(dim_x=3 * self.order, dim_z=3)
+        self._filter.H = np.hstack([np.eye(3), np.zeros((3, 3 * (self.order - 1)))])
+        self._filter.R = np.eye(3) * measurement_noise**2
+        # Unknown motion at first: the first sample fixes the position only.
+        self._filter.P = np.diag(
+            np.repeat([measurement_noise**2] + [initial_speed**2] * (self.order - 1), 3)
+        )
+        self.time: float | None = None
+
+    def _noise(self, dt: float) -> FloatArray:
+        return np.asarray(
+            Q_discrete_white_noise(
+                self.order, dt=dt, var=self.process_noise**2, block_size=3, order_by_dim=False
+            )
+        )
+
+    def update(self, time: float, position: FloatArray) -> None:
+        """Take a sample sensed at ``time`` s: relative position (3,) cm. Samples come in order."""
+        if self.time is None:
+            self._filter.x = np.concatenate([position, np.zeros(3 * (self.order - 1))])
+        else:
+            dt = time - self.time
+            if dt <= 0:
+                raise TrackingError(f"sample at {time} s is not after the last, {self.time} s")
+            self._filter.predict(F=_transition(self.order, dt), Q=self._noise(dt))
+            self._filter.update(np.asarray(position, dtype=np.float64))
+        self.time = time
+
+    def predict(self, time: float) -> TrackState:
+        """The state at ``time`` s (the present), extrapolated from the last sample."""
+        if self.time is None:
+            raise TrackingError("no sample yet")
+        state = _transition(self.order, time - self.time) @ self._filter.x
+        acceleration = state[6:9] if self.order == 3 else np.zeros(3)
+        return TrackState(time, state[0:3], state[3:6], acceleration)
+
+
+@dataclass(frozen=True)
+class TrackEstimate:
+    """What a source knows of its target at one present time."""
+
+    status: str  # WAITING, TRACKING, ENDED, TIMED_OUT
+    time: float  # the present, s
+    sample_time: float  # sensing time of the last sample, s (nan before the first)
+    raw: FloatArray  # (3,) last sample, cm
+    kalman: TrackState | None  # predicted at ``time`` (delay compensated); None unless TRACKING
+    filtered: TrackState | None  # at ``sample_time``: the filter without delay compensation
+    difference_velocity: FloatArray  # (3,) at the last central-difference time, cm/s
+    difference_acceleration: FloatArray  # (3,), cm/s^2
+    message: str = ""
+
+
+class Track:
+    """A source's end of one relayed stream: samples in, estimates of the present out.
+
+    The stream is over when the relay says so or when no sample has been
+    sensed for ``timeout`` s: the source then stops extrapolating.
+    """
+
+    def __init__(self, tracker: KalmanTracker, timeout: float, window: int = 5) -> None:
+        self.tracker = tracker
+        self.timeout = timeout
+        self.status = WAITING
+        self.message = ""
+        self._samples: deque[tuple[float, FloatArray]] = deque(maxlen=max(window, 5))
+
+    def add(self, time: float, position: FloatArray) -> None:
+        """Take a sample sensed at ``time`` s: relative position (3,) cm."""
+        if self.status in (ENDED, TIMED_OUT):
+            return
+        self.tracker.update(time, position)
+        self._samples.append((time, np.asarray(position, dtype=np.float64)))
+        self.status = TRACKING
+
+    def end(self, message: str) -> None:
+        """The relay ended the stream, for the reason ``message``."""
+        if self.status not in (ENDED, TIMED_OUT):
+            self.status, self.message = ENDED, message
+
+    def check(self, now: float) -> bool:
+        """At ``now`` s: time the stream out if it went silent; return True when it just did."""
+        last = self._samples[-1][0] if self._samples else None
+        if self.status == TRACKING and last is not None and now - last > self.timeout:
+            self.status = TIMED_OUT
+            self.message = f"no sample for {now - last:.2f} s (timeout {self.timeout:g} s)"
+            return True
+        return False
+
+    def estimate(self, now: float) -> TrackEstimate:
+        """The estimate at the present ``now`` s."""
+        nothing = np.full(3, np.nan)
+        if not self._samples:
+            return TrackEstimate(
+                self.status, now, np.nan, nothing, None, None, nothing, nothing, self.message
+            )
+        times = np.array([sample[0] for sample in self._samples])
+        positions = np.array([sample[1] for sample in self._samples])
+        differences = central_differences(times, positions)
+        velocity = differences.velocity[-1] if len(differences.velocity) else nothing
+        acceleration = differences.acceleration[-1] if len(differences.acceleration) else nothing
+        tracking = self.status == TRACKING
+        return TrackEstimate(
+            self.status,
+            now,
+            float(times[-1]),
+            positions[-1],
+            self.tracker.predict(now) if tracking else None,
+            self.tracker.predict(float(times[-1])) if tracking else None,
+            velocity,
+            acceleration,
+            self.message,
+        )
+
+
+@dataclass(frozen=True)
+class TrackConfig:
+    """How a track runs: sampling, delays (s), filter and timeout."""
+
+    frame_period: float = 0.1  # s between the relay's camera frames
+    sensing_delay: float = 0.0  # s from the frame to the relay's sample
+    communication_delay: float = 0.0  # s from the relay to the source
+    model: str = CONSTANT_ACCELERATION
+    process_noise: float = 10.0  # cm/s^2 (constant velocity) or cm/s^3 (constant acceleration)
+    measurement_noise: float = 0.05  # cm
+    timeout: float = 1.0  # s without a sample before the stream times out
+
+    @property
+    def delay(self) -> float:
+        """Total delay from sensing to the source, s."""
+        return self.sensing_delay + self.communication_delay
+
+    def __post_init__(self) -> None:
+        if not self.frame_period > 0:
+            raise TrackingError(f"frame_period must be > 0 s, got {self.frame_period}")
+        if self.sensing_delay < 0 or self.communication_delay < 0:
+            raise TrackingError("delays must be >= 0 s")
+        if not self.timeout > 0:
+            raise TrackingError(f"timeout must be > 0 s, got {self.timeout}")
+        self.tracker()  # checks the model and the noises
+
+    def tracker(self) -> KalmanTracker:
+        """A fresh filter of this configuration."""
+        return KalmanTracker(self.model, self.process_noise, self.measurement_noise)
+
+
+def nanoseconds(seconds: float) -> int:
+    """``seconds`` on the ROS clock's integer nanoseconds."""
+    return round(seconds * 1e9)
+
+
+def frame_times(config: TrackConfig, duration: float) -> FloatArray:
+    """(K,) sensing times of the relay's frames in [0, duration], s, on whole nanoseconds."""
+    period = nanoseconds(config.frame_period)
+    count = nanoseconds(duration) // period + 1
+    # As a ROS clock gives them, so that the nodes and this loop agree to the bit.
+    return np.arange(count, dtype=np.int64) * period / 1e9
+
+
+RELAY_MESSAGES = {
+    RELAY_TARGET_LOST: "the relay lost sight of the target",
+    RELAY_SOURCE_LOST: "the source left the relay's sweet range or view",
+    RELAY_STOPPED: "the relay stopped",
+}
+
+
+@dataclass(frozen=True)
+class TrackRun:
+    """One simulated track: the relay and an estimate per sample (and at the end)."""
+
+    source: int
+    target: int
+    relay: int
+    estimates: list[TrackEstimate]
+
+
+def simulate_track(
+    sensor: Sensor,
+    home: FloatArray,
+    ids: NDArray[np.int64],
+    radius: float,
+    motion: Motion,
+    source: int,
+    target: int,
+    config: TrackConfig,
+    duration: float,
+) -> TrackRun:
+    """Relay and source in one loop, as the nodes run them; FLS ids, positions (N, 3) cm.
+
+    The relay is chosen at t = 0 and samples every frame; each sample reaches
+    the source ``config.delay`` s after it was sensed, and the source estimates
+    the present at that moment.
+    """
+    rows = np.searchsorted(ids, [source, target])
+    if source == target or not all(ids[np.minimum(rows, len(ids) - 1)] == [source, target]):
+        raise TrackingError(f"source {source} and target {target} must be two FLSs of the swarm")
+    source_row, target_row = (int(row) for row in rows)
+    relay_row = choose_relay(sensor, motion.points(home, ids, 0.0), radius, source_row, target_row)
+    if relay_row is None:
+        raise TrackingError(f"no sweet neighbour of FLS {source} sees FLS {target}")
+    track = Track(config.tracker(), config.timeout)
+    estimates = []
+    for time in frame_times(config, duration).tolist():
+        points = motion.points(home, ids, time)
+        status, vector = relay_sample(sensor, points, radius, source_row, relay_row, target_row)
+        if status != RELAY_OK:
+            track.end(RELAY_MESSAGES[status])
+            estimates.append(track.estimate(time + config.delay))
+            break
+        track.add(time, vector)
+        estimates.append(track.estimate(time + config.delay))
+    return TrackRun(source, target, int(ids[relay_row]), estimates)
