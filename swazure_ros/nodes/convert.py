@@ -12,11 +12,21 @@ from swazure_interfaces.msg import (
     PoseEstimate,
     PoseEstimates,
     RelativePose,
+    TrackEstimate,
     WorldState,
 )
 
 from ..core.discovery import Estimate, Offer
 from ..core.observe import NeighbourSets
+from ..core.tracking import (
+    CONSTANT_ACCELERATION,
+    CONSTANT_VELOCITY,
+    ENDED,
+    TIMED_OUT,
+    TRACKING,
+    WAITING,
+)
+from ..core.tracking import TrackEstimate as TrackEstimateState
 from ..sim.world import Measurement
 
 FloatArray = NDArray[np.float64]
@@ -154,3 +164,69 @@ def estimate_from_message(message: PoseEstimate) -> Estimate:
         vector=np.array([vector.x, vector.y, vector.z]),
         radio_path=tuple(int(fls) for fls in message.radio_path),
     )
+
+
+def vector3(values: FloatArray | None) -> Vector3:
+    """A (3,) array as a Vector3; None as NaNs."""
+    if values is None:
+        return Vector3(x=float("nan"), y=float("nan"), z=float("nan"))
+    return Vector3(x=float(values[0]), y=float(values[1]), z=float(values[2]))
+
+
+def array3(vector: Vector3) -> FloatArray:
+    """(3,) array of a Vector3."""
+    return np.array([vector.x, vector.y, vector.z])
+
+
+def to_seconds(stamp: Time) -> float:
+    """Seconds of a builtin_interfaces Time, through whole nanoseconds as the clock counts."""
+    return (stamp.sec * 1_000_000_000 + stamp.nanosec) / 1e9
+
+
+def to_stamp(seconds: float) -> Time:
+    """A builtin_interfaces Time of ``seconds`` (>= 0), rounded to whole nanoseconds."""
+    nanoseconds = round(seconds * 1e9)
+    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+
+
+#: TrackEstimate.STATUS_* of the core's stream states.
+TRACK_STATUS = {
+    WAITING: TrackEstimate.STATUS_WAITING,
+    TRACKING: TrackEstimate.STATUS_TRACKING,
+    ENDED: TrackEstimate.STATUS_ENDED,
+    TIMED_OUT: TrackEstimate.STATUS_TIMED_OUT,
+}
+#: TrackEstimate.MODEL_* (and TrackTarget's) of the core's filter models.
+TRACK_MODELS = {
+    CONSTANT_VELOCITY: TrackEstimate.MODEL_CONSTANT_VELOCITY,
+    CONSTANT_ACCELERATION: TrackEstimate.MODEL_CONSTANT_ACCELERATION,
+}
+
+
+def track_estimate_message(
+    source: int, relay: int, target: int, model: str, estimate: TrackEstimateState
+) -> TrackEstimate:
+    """A source's estimate of its target's motion as a TrackEstimate message."""
+    kalman, filtered = estimate.kalman, estimate.filtered
+    message = TrackEstimate(
+        source_id=source,
+        relay_id=relay,
+        target_id=target,
+        status=TRACK_STATUS[estimate.status],
+        model=TRACK_MODELS[model],
+        raw_position=vector3(estimate.raw),
+        position=vector3(kalman and kalman.position),
+        velocity=vector3(kalman and kalman.velocity),
+        acceleration=vector3(kalman and kalman.acceleration),
+        filtered_position=vector3(filtered and filtered.position),
+        filtered_velocity=vector3(filtered and filtered.velocity),
+        filtered_acceleration=vector3(filtered and filtered.acceleration),
+        difference_velocity=vector3(estimate.difference_velocity),
+        difference_acceleration=vector3(estimate.difference_acceleration),
+        message=estimate.message,
+    )
+    message.header.stamp = to_stamp(estimate.time)
+    message.header.frame_id = f"fls_{source}"
+    if np.isfinite(estimate.sample_time):
+        message.sample_stamp = to_stamp(estimate.sample_time)
+    return message

@@ -13,12 +13,19 @@ Topics and services, relative to the swarm namespace (``/swarm`` by default):
 - ``radio`` (swazure_interfaces/PathOffer), shared: its path labels, one
   broadcast per round of a discovery run (docs/protocol.md);
 - ``estimates`` (swazure_interfaces/PoseEstimates), shared: its estimates
-  relative to its targets when a run ends, and each path walk's result.
+  relative to its targets when a run ends, and each path walk's result;
+- ``fls_<id>/track`` (swazure_interfaces/TrackTarget): track a target's motion
+  through a relay (spec, section 9); the relay streams samples on
+  ``track_samples`` and the source publishes on ``track_estimates``
+  (swazure_interfaces/TrackEstimate), shared, one estimate per sample, until
+  the stream ends or times out. Both run on the node's clock, simulated time
+  with ``use_sim_time``.
 
 The radio medium (which FLSs hear a broadcast) and the coordinator's round
 clock reach the node through its process's host (:mod:`.host`), which calls
 :meth:`FlsNode.on_control`, :meth:`FlsNode.on_offer` and
-:meth:`FlsNode.on_walk`.
+:meth:`FlsNode.on_walk`, and the track requests and samples addressed to it
+(:meth:`FlsNode.on_track_request`, :meth:`FlsNode.on_track_sample`).
 
 An FLS keeps its own state: its id, its last measurement and its neighbour
 sets. It learns them from its camera and radio, which the simulated world
@@ -27,7 +34,9 @@ provides (:class:`Senses`).
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -35,6 +44,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.context import Context
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from rclpy.task import Future
@@ -44,16 +54,41 @@ from swazure_interfaces.msg import (
     PathOffer,
     PathWalk,
     PoseEstimates,
+    TrackEstimate,
+    TrackRequest,
+    TrackSample,
 )
-from swazure_interfaces.srv import ComputePose, GetNeighbours
+from swazure_interfaces.srv import ComputePose, GetNeighbours, TrackTarget
 
 from ..core.discovery import Estimate, FlsRun, LocalView, Offer, bucket_width, sweet_hop
-from ..core.errors import SwazureError
+from ..core.errors import SwazureError, UnknownFlsError
 from ..core.evaluate import NO_PATH, REASON_BLOCKED, SWEET_PATH
 from ..core.observe import NeighbourSets
 from ..core.paths import FEWEST_HOPS, SHORTEST_LENGTH
+from ..core.tracking import (
+    CONSTANT_ACCELERATION,
+    CONSTANT_VELOCITY,
+    ENDED,
+    RELAY_MESSAGES,
+    RELAY_OK,
+    TIMED_OUT,
+    Track,
+    TrackConfig,
+    TrackingError,
+    nanoseconds,
+)
 from ..sim.world import Measurement
-from .convert import estimates_message, measurements_message, neighbour_fields, offer_message
+from .convert import (
+    array3,
+    estimates_message,
+    measurements_message,
+    neighbour_fields,
+    offer_message,
+    to_seconds,
+    to_stamp,
+    track_estimate_message,
+    vector3,
+)
 from .deferred import Reply, create_deferred_service
 
 MEASUREMENTS_TOPIC = "measurements"
@@ -61,6 +96,10 @@ NEIGHBOURS_SERVICE = "get_neighbours"
 COMPUTE_POSE_SERVICE = "compute_pose"
 RADIO_TOPIC = "radio"
 ESTIMATES_TOPIC = "estimates"
+TRACK_SERVICE = "track"
+TRACK_REQUESTS_TOPIC = "track_requests"
+TRACK_SAMPLES_TOPIC = "track_samples"
+TRACK_ESTIMATES_TOPIC = "track_estimates"
 MEASUREMENTS_QOS = QoSProfile(depth=10)
 # A round brings one message from every FLS at once: readers must keep them all.
 ROUND_QOS = QoSProfile(
@@ -70,6 +109,21 @@ ROUND_QOS = QoSProfile(
 POLICY_NAMES = {
     DiscoveryControl.POLICY_FEWEST_HOPS: FEWEST_HOPS,
     DiscoveryControl.POLICY_SHORTEST_LENGTH: SHORTEST_LENGTH,
+}
+
+#: TrackTarget.MODEL_* -> the core's filter models.
+MODEL_NAMES = {
+    TrackTarget.Request.MODEL_CONSTANT_VELOCITY: CONSTANT_VELOCITY,
+    TrackTarget.Request.MODEL_CONSTANT_ACCELERATION: CONSTANT_ACCELERATION,
+}
+#: Node parameter (under ``track.``) -> TrackConfig field; the defaults are TrackConfig's.
+TRACK_PARAMETERS = {
+    "frame_period": "seconds between the relay camera's frames of a tracked target",
+    "sensing_delay": "seconds from a frame to the relay's sample",
+    "communication_delay": "seconds from the relay to the source",
+    "timeout": "seconds without a sample after which a track times out",
+    "process_noise": "filter process noise: cm/s^2 (constant velocity), cm/s^3 (acceleration)",
+    "measurement_noise": "filter measurement noise of a relayed sample, cm",
 }
 
 
@@ -97,10 +151,38 @@ class Senses(Protocol):
     def id_space(self) -> int:
         """One more than the largest FLS id."""
 
+    def choose_relay(self, source: int, target: int, seconds: float) -> int | None:
+        """The relay for ``source`` to track ``target`` at time ``seconds``, or None."""
+
+    def track_sample(
+        self, source: int, relay: int, target: int, seconds: float
+    ) -> tuple[int, np.ndarray]:
+        """(RELAY_* status, (3,) cm) of the sample ``relay`` senses for ``source``."""
+
 
 #: How an FLS's process passes a ComputePose request on to the coordinator:
 #: a future of the coordinator's response.
 AskCoordinator = Callable[[ComputePose.Request], Future]
+
+
+@dataclass
+class Relayed:
+    """A stream this FLS relays: the next frame, and samples waiting out their delay."""
+
+    source: int
+    target: int
+    next_frame: int  # ns
+    outbox: deque[tuple[int, TrackSample]] = field(default_factory=deque)  # (release ns, sample)
+    ended: bool = False
+
+
+@dataclass
+class Tracked:
+    """A target this FLS tracks: through which relay, with which filter."""
+
+    relay: int
+    model: str
+    track: Track
 
 
 def node_name(fls_id: int) -> str:
@@ -119,11 +201,13 @@ class FlsNode(Node):
         namespace: str = "swarm",
         context: Context | None = None,
         ask_coordinator: AskCoordinator | None = None,
+        parameter_overrides: list[Parameter] | None = None,
     ) -> None:
         super().__init__(
             node_name(fls_id),
             namespace=namespace,
             context=context,
+            parameter_overrides=parameter_overrides,
             # Each endpoint costs discovery time in swarms of thousands of nodes:
             # no rosout publisher, no parameter services.
             enable_rosout=False,
@@ -145,6 +229,7 @@ class FlsNode(Node):
                 f"a positive number of seconds, got {period!r}"
             )
         self.publish_period = period
+        self.track_config = self._declare_track_config()
         self._sensed: tuple[Measurement, NeighbourSets] | None = None
         self._publisher = self.create_publisher(Measurements, MEASUREMENTS_TOPIC, MEASUREMENTS_QOS)
         self.create_service(GetNeighbours, f"~/{NEIGHBOURS_SERVICE}", self._on_get_neighbours)
@@ -156,10 +241,32 @@ class FlsNode(Node):
         self.create_timer(period, self.publish_measurements)
         self._radio = self.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
         self._estimates = self.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
+        self.create_service(TrackTarget, f"~/{TRACK_SERVICE}", self._on_track)
+        # Created at the first track: most FLSs never relay nor track, and
+        # every endpoint costs discovery time.
+        self._track_publishers: dict[str, object] = {}
+        self._frame_timer: object | None = None
+        self._check_timer: object | None = None
+        self.relayed: dict[tuple[int, int], Relayed] = {}
+        self.tracks: dict[int, Tracked] = {}
         self.runs: dict[int, FlsRun] = {}
         self._first_round: dict[int, int] = {}
         self.messages_sent = 0
         self.bytes_sent = 0
+
+    def _declare_track_config(self) -> TrackConfig:
+        defaults = TrackConfig()
+        values = {}
+        try:
+            for name, description in TRACK_PARAMETERS.items():
+                values[name] = self.declare_parameter(
+                    f"track.{name}",
+                    getattr(defaults, name),
+                    ParameterDescriptor(description=description),
+                ).value
+            return TrackConfig(**values)
+        except (ParameterException, TrackingError) as err:
+            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
 
     @property
     def measurement(self) -> Measurement:
@@ -200,8 +307,8 @@ class FlsNode(Node):
                 f"{NEIGHBOURS_SERVICE} if it exists"
             )
             return response
-        for field, ids in neighbour_fields(self.known_neighbours).items():
-            setattr(response, field, ids)
+        for name, ids in neighbour_fields(self.known_neighbours).items():
+            setattr(response, name, ids)
         response.success = True
         return response
 
@@ -223,6 +330,131 @@ class FlsNode(Node):
             )
         else:
             self._ask_coordinator(request).add_done_callback(lambda answer: reply(answer.result()))
+
+    def _now(self) -> int:
+        return self.get_clock().now().nanoseconds
+
+    def _on_track(
+        self, request: TrackTarget.Request, response: TrackTarget.Response
+    ) -> TrackTarget.Response:
+        response.success = False
+        if request.source_id != self.fls_id:
+            response.message = (
+                f"this is FLS {self.fls_id}; FLS {request.source_id} tracks from its own "
+                f"{node_name(request.source_id)}/{TRACK_SERVICE}"
+            )
+            return response
+        model = MODEL_NAMES.get(request.model)
+        if model is None:
+            response.message = f"unknown model {request.model}: use TrackTarget.MODEL_*"
+            return response
+        target = int(request.target_id)
+        try:
+            relay = self._senses.choose_relay(self.fls_id, target, self._now() / 1e9)
+        except UnknownFlsError as err:
+            response.message = str(err)
+            return response
+        if relay is None or target == self.fls_id:
+            response.message = f"no sweet neighbour of FLS {self.fls_id} sees FLS {target}"
+            return response
+        if target in self.tracks:
+            self._request(TrackRequest.COMMAND_STOP, self.tracks[target].relay, target)
+        config = replace(self.track_config, model=model)
+        self.tracks[target] = Tracked(relay, model, Track(config.tracker(), config.timeout))
+        self._request(TrackRequest.COMMAND_START, relay, target)
+        if self._check_timer is None:
+            self._check_timer = self.create_timer(config.frame_period, self._check_tracks)
+        response.success, response.relay_id = True, relay
+        response.message = f"tracking FLS {target} through FLS {relay}"
+        return response
+
+    def _track_publisher(self, message_type: type, topic: str) -> object:
+        if topic not in self._track_publishers:
+            self._track_publishers[topic] = self.create_publisher(message_type, topic, ROUND_QOS)
+        return self._track_publishers[topic]
+
+    def _request(self, command: int, relay: int, target: int) -> None:
+        request = TrackRequest(
+            command=command, source_id=self.fls_id, relay_id=relay, target_id=target
+        )
+        request.header.stamp = self.get_clock().now().to_msg()
+        self._publish(self._track_publisher(TrackRequest, TRACK_REQUESTS_TOPIC), request)
+
+    def on_track_request(self, request: TrackRequest) -> None:
+        """Start or stop relaying a target to a source (the host hands requests to the relay)."""
+        key = (int(request.source_id), int(request.target_id))
+        if request.command == TrackRequest.COMMAND_STOP:
+            self.relayed.pop(key, None)
+            return
+        # The first frame is the request's moment; the next come every frame period.
+        self.relayed[key] = Relayed(*key, next_frame=self._now())
+        if self._frame_timer is None:
+            self._frame_timer = self.create_timer(
+                self.track_config.frame_period, self._relay_frames
+            )
+        self._relay_frames()
+
+    def _relay_frames(self) -> None:
+        now, period = self._now(), nanoseconds(self.track_config.frame_period)
+        delay = nanoseconds(self.track_config.delay)
+        publisher = self._track_publisher(TrackSample, TRACK_SAMPLES_TOPIC)
+        for key, stream in list(self.relayed.items()):
+            # Frame by frame at their own times, even if the clock jumped past several.
+            while not stream.ended and stream.next_frame <= now:
+                stream.outbox.append((stream.next_frame + delay, self._sample(stream)))
+                stream.ended = stream.outbox[-1][1].status != TrackSample.STATUS_OK
+                stream.next_frame += period
+            while stream.outbox and stream.outbox[0][0] <= now:
+                self._publish(publisher, stream.outbox.popleft()[1])
+            if stream.ended and not stream.outbox:
+                del self.relayed[key]
+
+    def _sample(self, stream: Relayed) -> TrackSample:
+        status, vector = self._senses.track_sample(
+            stream.source, self.fls_id, stream.target, stream.next_frame / 1e9
+        )
+        sample = TrackSample(
+            source_id=stream.source,
+            relay_id=self.fls_id,
+            target_id=stream.target,
+            status=status,
+            position=vector3(vector if status == RELAY_OK else None),
+        )
+        sample.header.stamp = to_stamp(stream.next_frame / 1e9)
+        sample.header.frame_id = node_name(stream.source)
+        return sample
+
+    def on_track_sample(self, sample: TrackSample) -> None:
+        """Take a relayed sample of a tracked target; publish the estimate of the present."""
+        tracked = self.tracks.get(int(sample.target_id))
+        if tracked is None or tracked.relay != sample.relay_id:
+            return  # a stream this FLS stopped, or replaced
+        sensed = to_seconds(sample.header.stamp)
+        if sample.status == TrackSample.STATUS_OK:
+            try:
+                tracked.track.add(sensed, array3(sample.position))
+            except TrackingError:
+                return  # out of order; the relay sends in order, so a duplicate
+        else:
+            tracked.track.end(RELAY_MESSAGES.get(sample.status, "the relay ended the stream"))
+        # The delay is known: the present is the sensing time plus the delay.
+        self._publish_track(int(sample.target_id), sensed + self.track_config.delay)
+
+    def _check_tracks(self) -> None:
+        now = self._now() / 1e9
+        for target, tracked in list(self.tracks.items()):
+            if tracked.track.check(now):
+                self._publish_track(target, now)
+
+    def _publish_track(self, target: int, present: float) -> None:
+        tracked = self.tracks[target]
+        estimate = tracked.track.estimate(present)
+        message = track_estimate_message(
+            self.fls_id, tracked.relay, target, tracked.model, estimate
+        )
+        self._publish(self._track_publisher(TrackEstimate, TRACK_ESTIMATES_TOPIC), message)
+        if estimate.status in (ENDED, TIMED_OUT):
+            del self.tracks[target]
 
     def on_control(self, control: DiscoveryControl, departed: frozenset[int]) -> None:
         """Follow the coordinator's round clock (the host hands every control message on)."""

@@ -16,13 +16,24 @@ from collections.abc import Callable, Sequence
 from rclpy.context import Context
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from rclpy.task import Future
-from swazure_interfaces.msg import DiscoveryControl, PathOffer, PathWalk, RoundAck, WorldState
+from swazure_interfaces.msg import (
+    DiscoveryControl,
+    PathOffer,
+    PathWalk,
+    RoundAck,
+    TrackRequest,
+    TrackSample,
+    WorldState,
+)
 from swazure_interfaces.srv import ComputePose
 
 from ..core.discovery import LocalView
 from ..core.errors import UnknownFlsError
+from ..core.motion import FloatArray, Motion
 from ..core.observe import NeighbourSets
+from ..core.tracking import choose_relay, relay_sample
 from ..sim.world import Measurement, World
 from .convert import offer_from_message, world_positions
 from .fls_node import (
@@ -31,16 +42,23 @@ from .fls_node import (
     NEIGHBOURS_SERVICE,
     RADIO_TOPIC,
     ROUND_QOS,
+    TRACK_REQUESTS_TOPIC,
+    TRACK_SAMPLES_TOPIC,
     FlsNode,
 )
 from .world_node import WORLD_QOS, WORLD_TOPIC, WorldNode
 
 
 class WorldReplica:
-    """This process's copy of the world; the FLS nodes' camera and radio."""
+    """This process's copy of the world; the FLS nodes' camera and radio.
 
-    def __init__(self, world: World) -> None:
+    FLSs with a trajectory in ``motion`` fly it on the ROS clock (simulated
+    time in a track run) from where the world revision puts them.
+    """
+
+    def __init__(self, world: World, motion: Motion | None = None) -> None:
         self.world = world
+        self.motion = motion or Motion()
         self.listeners: list[FlsNode] = []
         self.on_revision: list[Callable[[], None]] = []  # called after each new revision
 
@@ -65,6 +83,35 @@ class WorldReplica:
     def id_space(self) -> int:
         """One more than the largest FLS id."""
         return self.world.id_space
+
+    def _points(self, seconds: float) -> FloatArray:
+        return self.motion.points(self.world.swarm.points, self.world.ids, seconds)
+
+    def choose_relay(self, source: int, target: int, seconds: float) -> int | None:
+        """The relay FLS for ``source`` to track ``target`` at ``seconds``, or None."""
+        world = self.world
+        relay = choose_relay(
+            world.sensor,
+            self._points(seconds),
+            world.swarm.radius,
+            world.index(source),
+            world.index(target),
+        )
+        return None if relay is None else int(world.ids[relay])
+
+    def track_sample(
+        self, source: int, relay: int, target: int, seconds: float
+    ) -> tuple[int, FloatArray]:
+        """(RELAY_* status, (3,) cm) of what ``relay`` senses for ``source`` at ``seconds``."""
+        world = self.world
+        return relay_sample(
+            world.sensor,
+            self._points(seconds),
+            world.swarm.radius,
+            world.index(source),
+            world.index(relay),
+            world.index(target),
+        )
 
     def apply(self, world: World) -> None:
         """Take a newer revision; the local FLSs sense anew when next asked."""
@@ -96,7 +143,8 @@ class Radio:
     delivered every offer of a round, it acknowledges the round on
     ``round_acks`` so that the coordinator can open the next one. Path walks
     on ``path_walks`` go to the FLS they are addressed to, once this process
-    has the world revision they must be measured in.
+    has the world revision they must be measured in; track requests go to
+    their relay and track samples to their source.
     """
 
     def __init__(self, node: Node, replica: WorldReplica, fls_nodes: dict[int, FlsNode]) -> None:
@@ -116,6 +164,22 @@ class Radio:
         self._early_walks: list[PathWalk] = []
         node.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS)
         replica.on_revision.append(self._take_early_walks)
+        node.create_subscription(
+            TrackRequest, TRACK_REQUESTS_TOPIC, self._on_track_request, ROUND_QOS
+        )
+        node.create_subscription(
+            TrackSample, TRACK_SAMPLES_TOPIC, self._on_track_sample, ROUND_QOS
+        )
+
+    def _on_track_request(self, request: TrackRequest) -> None:
+        node = self._fls.get(int(request.relay_id))
+        if node is not None:
+            node.on_track_request(request)
+
+    def _on_track_sample(self, sample: TrackSample) -> None:
+        node = self._fls.get(int(sample.source_id))
+        if node is not None:
+            node.on_track_sample(sample)
 
     def _on_control(self, control: DiscoveryControl) -> None:
         run = control.run_id
@@ -198,12 +262,19 @@ class SwarmHost:
         swarm_size: int | None = None,
         with_world_node: bool = True,
         name: str = "host_0",
+        motion: Motion | None = None,
+        parameters: dict[str, object] | None = None,
     ) -> None:
         self.context = context
         self.namespace = namespace.strip("/")
         self.fls_ids = [int(fls_id) for fls_id in fls_ids]
         self.swarm_size = len(world.ids) if swarm_size is None else swarm_size
-        self.replica = WorldReplica(world)
+        self.replica = WorldReplica(world, motion)
+        # Given to every FLS node over any parameter file, e.g. use_sim_time for a
+        # simulated clock (nodes.clock) or a track run's track.* settings.
+        self._overrides = [
+            Parameter(name, value=value) for name, value in (parameters or {}).items()
+        ]
         self.executor = EventsExecutor(context=context)
         self._spinning = False
         self._stop_requested = False
@@ -241,6 +312,10 @@ class SwarmHost:
                 throttle_duration_sec=10.0,
             )
 
+    def add(self, node: Node) -> None:
+        """Spin ``node`` with this process's nodes; :meth:`close` destroys it."""
+        self._add(node)
+
     def _add(self, node: Node) -> None:
         self.nodes.append(node)
         self.executor.add_node(node)
@@ -269,6 +344,7 @@ class SwarmHost:
                 namespace=self.namespace,
                 context=self.context,
                 ask_coordinator=self.ask_coordinator,
+                parameter_overrides=self._overrides,
             )
             self.fls_nodes.append(node)
             self.fls_by_id[fls_id] = node

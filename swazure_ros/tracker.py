@@ -1,0 +1,241 @@
+"""A track run over ROS 2: a source FLS follows a moving target through a relay.
+
+:class:`TrackSession` hosts the FLS nodes around a source in this process,
+drives their clock (``/clock``, the nodes run with ``use_sim_time``) and
+collects the source's TrackEstimate messages; :func:`run_track` runs one track
+from start to end. The simulated clock advances one frame at a time, and
+only once the estimates due by then have arrived, so a run takes as long as
+the machine needs and gives the same numbers every time, the same as the
+core's :func:`~swazure_ros.core.tracking.simulate_track`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import rclpy
+from rclpy.context import Context
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+from swazure_interfaces.msg import TrackEstimate
+from swazure_interfaces.srv import TrackTarget
+
+from .core.errors import SwazureError
+from .core.motion import Motion
+from .core.tracking import (
+    ENDED,
+    TIMED_OUT,
+    TrackConfig,
+    TrackingError,
+    TrackRun,
+    TrackState,
+    frame_times,
+    nanoseconds,
+)
+from .core.tracking import TrackEstimate as Estimate
+from .nodes.clock import SimClock
+from .nodes.convert import TRACK_MODELS, TRACK_STATUS, array3, to_seconds
+from .nodes.fls_node import ROUND_QOS, TRACK_ESTIMATES_TOPIC, TRACK_SERVICE, node_name
+from .nodes.host import SwarmHost
+from .sim.world import World
+
+STATUS_NAMES = {code: name for name, code in TRACK_STATUS.items()}
+
+
+class SwarmStalledError(SwazureError):
+    """The nodes stopped answering within the wall-clock bound."""
+
+
+def estimate_from_message(message: TrackEstimate) -> Estimate:
+    """The core's estimate of a TrackEstimate message."""
+    status = STATUS_NAMES[message.status]
+    tracking = not np.isnan(message.position.x)
+
+    def state(at: float, prefix: str) -> TrackState | None:
+        if not tracking:
+            return None
+        return TrackState(
+            at,
+            array3(getattr(message, f"{prefix}position")),
+            array3(getattr(message, f"{prefix}velocity")),
+            array3(getattr(message, f"{prefix}acceleration")),
+        )
+
+    present = to_seconds(message.header.stamp)
+    sampled = message.sample_stamp.sec or message.sample_stamp.nanosec or tracking
+    sample_time = to_seconds(message.sample_stamp) if sampled else float("nan")
+    return Estimate(
+        status,
+        present,
+        sample_time,
+        array3(message.raw_position),
+        state(present, ""),
+        state(sample_time, "filtered_"),
+        array3(message.difference_velocity),
+        array3(message.difference_acceleration),
+        message.message,
+    )
+
+
+def track_parameters(config: TrackConfig) -> dict[str, object]:
+    """The FLS node parameters of ``config``, on the simulated clock."""
+    names = ("frame_period", "sensing_delay", "communication_delay", "timeout")
+    parameters: dict[str, object] = {f"track.{name}": getattr(config, name) for name in names}
+    parameters["track.process_noise"] = config.process_noise
+    parameters["track.measurement_noise"] = config.measurement_noise
+    parameters["use_sim_time"] = True
+    return parameters
+
+
+class TrackSession:
+    """FLS nodes on a simulated clock in this process, and a client that tracks."""
+
+    def __init__(
+        self,
+        world: World,
+        motion: Motion,
+        fls_ids: Sequence[int],
+        config: TrackConfig,
+        *,
+        context: Context,
+        namespace: str = "swarm",
+    ) -> None:
+        self.config = config
+        self.namespace = namespace.strip("/")
+        self.host = SwarmHost(
+            world,
+            fls_ids,
+            context=context,
+            namespace=self.namespace,
+            with_world_node=False,
+            motion=motion,
+            parameters=track_parameters(config),
+        )
+        self.clock = SimClock(context=context)
+        self.host.add(self.clock)
+        self.client = Node(
+            "track_client",
+            namespace=self.namespace,
+            context=context,
+            enable_rosout=False,
+            start_parameter_services=False,
+        )
+        self.host.add(self.client)
+        self.estimates: list[TrackEstimate] = []
+        self.client.create_subscription(
+            TrackEstimate, TRACK_ESTIMATES_TOPIC, self.estimates.append, ROUND_QOS
+        )
+
+    def start(self, discovery_timeout: float = 60.0) -> None:
+        """Create the FLS nodes at simulated time 0 and wait until they are discovered."""
+        self.clock.set(0)
+        self.host.create_fls_nodes()
+        if not self.host.spin_until_discovered(discovery_timeout):
+            raise SwarmStalledError(f"the FLS nodes were not discovered in {discovery_timeout} s")
+
+    def track(self, source: int, target: int, model: str, timeout: float = 10.0) -> int:
+        """Ask FLS ``source`` to track ``target``; return the relay, or raise TrackingError."""
+        client = self.client.create_client(TrackTarget, f"{node_name(source)}/{TRACK_SERVICE}")
+        try:
+            if not self._spin_until(client.service_is_ready, timeout):
+                raise TrackingError(f"FLS {source}'s {client.srv_name} is not reachable")
+            request = TrackTarget.Request(
+                source_id=source, target_id=target, model=TRACK_MODELS[model]
+            )
+            future = client.call_async(request)
+            if not self._spin_until(future.done, timeout):
+                raise SwarmStalledError(f"no answer from {client.srv_name} in {timeout} s")
+        finally:
+            self.client.destroy_client(client)
+        response = future.result()
+        if not response.success:
+            raise TrackingError(response.message)
+        relay = self.host.fls_by_id.get(int(response.relay_id))
+        # The relay takes its first frame when the request reaches it: before the clock moves.
+        if relay is not None and not self._spin_until(lambda: bool(relay.relayed), timeout):
+            raise SwarmStalledError(f"relay FLS {response.relay_id} did not start in {timeout} s")
+        return int(response.relay_id)
+
+    def advance(
+        self, nanoseconds: int, settled: Callable[[], bool] | None = None, timeout: float = 10.0
+    ) -> None:
+        """Set the clock to ``nanoseconds``, then spin until ``settled()`` (or briefly)."""
+        self.clock.set(nanoseconds)
+        if settled is None:
+            self.host.spin_for(0.005)
+        elif not self._spin_until(settled, timeout):
+            raise SwarmStalledError(
+                f"the swarm did not answer in {timeout} s of wall time at simulated "
+                f"{nanoseconds / 1e9:.3f} s"
+            )
+
+    def _spin_until(self, condition: Callable[[], bool], timeout: float) -> bool:
+        deadline = time.monotonic() + timeout
+        while not condition():
+            if time.monotonic() > deadline:
+                return False
+            self.host.spin_once(0.01)
+        return True
+
+    def close(self) -> None:
+        """Destroy every node."""
+        self.host.close()
+
+
+def around(world: World, source: int) -> list[int]:
+    """The FLSs that can take part in ``source``'s track: itself and those in its radio range."""
+    return sorted({source, *world.in_range(source).tolist()})
+
+
+def run_track(
+    world: World,
+    motion: Motion,
+    source: int,
+    target: int,
+    config: TrackConfig,
+    duration: float,
+    *,
+    domain_id: int | None = None,
+    namespace: str = "swarm",
+    on_progress: Callable[[float], None] | None = None,
+) -> TrackRun:
+    """Track ``target`` from ``source`` for ``duration`` simulated s over ROS 2; see the module."""
+    world.index(source), world.index(target)  # unknown ids fail before any node starts
+    context = Context()
+    rclpy.init(
+        context=context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO
+    )
+    session = TrackSession(
+        world, motion, around(world, source), config, context=context, namespace=namespace
+    )
+    try:
+        session.start()
+        relay = session.track(source, target, config.model)
+        frames = [nanoseconds(t) for t in frame_times(config, duration).tolist()]
+        delay, step = nanoseconds(config.delay), nanoseconds(config.frame_period)
+        # The relay releases samples at its frame ticks: the last one due is on a tick.
+        last = -(-(frames[-1] + delay) // step) * step
+        now = 0
+        while True:
+            due = sum(1 for frame in frames if frame + delay <= now)
+
+            def settled(due: int = due) -> bool:
+                done = session.estimates and STATUS_NAMES[session.estimates[-1].status] in (
+                    ENDED,
+                    TIMED_OUT,
+                )
+                return bool(done) or len(session.estimates) >= due
+
+            session.advance(now, settled)
+            if on_progress is not None:
+                on_progress(now / 1e9)
+            if now >= last or len(session.estimates) > len(frames) or settled(len(frames)):
+                break
+            now = min(now + step, last)
+        estimates = [estimate_from_message(message) for message in session.estimates]
+        return TrackRun(source, target, relay, estimates[: len(frames)])
+    finally:
+        session.close()
+        context.try_shutdown()
