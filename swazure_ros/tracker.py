@@ -109,6 +109,7 @@ class TrackSession:
             fls_ids,
             context=context,
             namespace=self.namespace,
+            swarm_size=len(fls_ids),
             with_world_node=False,
             motion=motion,
             parameters=track_parameters(config),
@@ -184,9 +185,12 @@ class TrackSession:
         self.host.close()
 
 
-def around(world: World, source: int) -> list[int]:
-    """The FLSs that can take part in ``source``'s track: itself and those in its radio range."""
-    return sorted({source, *world.in_range(source).tolist()})
+def taking_part(world: World, source: int, target: int) -> list[int]:
+    """The FLSs that can take part in a track: source, target, and the source's sweet neighbours.
+
+    A relay is one of the sweet neighbours; the other FLSs would only idle.
+    """
+    return sorted({source, target, *world.neighbours(source).sweet.tolist()})
 
 
 def run_track(
@@ -208,7 +212,12 @@ def run_track(
         context=context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO
     )
     session = TrackSession(
-        world, motion, around(world, source), config, context=context, namespace=namespace
+        world,
+        motion,
+        taking_part(world, source, target),
+        config,
+        context=context,
+        namespace=namespace,
     )
     try:
         session.start()

@@ -337,6 +337,12 @@ def frame_times(config: TrackConfig, duration: float) -> FloatArray:
     return np.arange(count, dtype=np.int64) * period / 1e9
 
 
+def arrival(sensed: float, config: TrackConfig) -> float:
+    """When a sample sensed at ``sensed`` s reaches the source, s: the present it is for."""
+    # In whole nanoseconds, as the ROS clock adds them.
+    return (nanoseconds(sensed) + nanoseconds(config.delay)) / 1e9
+
+
 RELAY_MESSAGES = {
     RELAY_TARGET_LOST: "the relay lost sight of the target",
     RELAY_SOURCE_LOST: "the source left the relay's sweet range or view",
@@ -383,10 +389,91 @@ def simulate_track(
     for time in frame_times(config, duration).tolist():
         points = motion.points(home, ids, time)
         status, vector = relay_sample(sensor, points, radius, source_row, relay_row, target_row)
+        present = arrival(time, config)
         if status != RELAY_OK:
             track.end(RELAY_MESSAGES[status])
-            estimates.append(track.estimate(time + config.delay))
+            estimates.append(track.estimate(present))
             break
         track.add(time, vector)
-        estimates.append(track.estimate(time + config.delay))
+        estimates.append(track.estimate(present))
     return TrackRun(source, target, int(ids[relay_row]), estimates)
+
+
+#: Estimator -> (what it is, the TrackEstimate attribute path) of :func:`track_errors`.
+ESTIMATORS = {
+    "raw": "the last sample / central differences, as received (no compensation)",
+    "filtered": "the Kalman filter at the last sample's time (no compensation)",
+    "predicted": "the Kalman filter predicted to the present (delay compensated)",
+}
+
+
+@dataclass(frozen=True)
+class TrackSeries:
+    """A track's estimates as arrays, (K,) times and (K, 3) vectors, with the truth at each."""
+
+    time: FloatArray  # the present of each estimate, s
+    sample_time: FloatArray  # s
+    position: dict[str, FloatArray]  # estimator -> (K, 3), cm
+    velocity: dict[str, FloatArray]  # cm/s
+    acceleration: dict[str, FloatArray]  # cm/s^2
+    truth_position: FloatArray  # (K, 3) at ``time``
+    truth_velocity: FloatArray
+    truth_acceleration: FloatArray
+
+
+def track_series(
+    run: TrackRun, motion: Motion, home_source: FloatArray, home_target: FloatArray
+) -> TrackSeries:
+    """The TRACKING estimates of ``run`` as arrays, with the true relative motion at each."""
+    tracking = [estimate for estimate in run.estimates if estimate.kalman is not None]
+    time = np.array([estimate.time for estimate in tracking])
+    truth = motion.relative(home_source, home_target, run.source, run.target, time)
+
+    def stack(values: list[FloatArray]) -> FloatArray:
+        return np.array(values, dtype=np.float64).reshape(-1, 3)
+
+    kalman = [estimate.kalman for estimate in tracking]
+    filtered = [estimate.filtered for estimate in tracking]
+    return TrackSeries(
+        time,
+        np.array([estimate.sample_time for estimate in tracking]),
+        {
+            "raw": stack([estimate.raw for estimate in tracking]),
+            "filtered": stack([state.position for state in filtered if state]),
+            "predicted": stack([state.position for state in kalman if state]),
+        },
+        {
+            "raw": stack([estimate.difference_velocity for estimate in tracking]),
+            "filtered": stack([state.velocity for state in filtered if state]),
+            "predicted": stack([state.velocity for state in kalman if state]),
+        },
+        {
+            "raw": stack([estimate.difference_acceleration for estimate in tracking]),
+            "filtered": stack([state.acceleration for state in filtered if state]),
+            "predicted": stack([state.acceleration for state in kalman if state]),
+        },
+        *truth,
+    )
+
+
+def track_errors(series: TrackSeries, settle: float) -> dict[str, dict[str, tuple[float, float]]]:
+    """Quantity -> estimator -> (mean, max) error norm against the truth at the present.
+
+    Only estimates after ``settle`` s count (the filter converging, the
+    central differences filling their window); NaN when none does.
+    """
+    kept = series.time > settle
+    errors: dict[str, dict[str, tuple[float, float]]] = {}
+    for quantity, estimates, truth in (
+        ("position", series.position, series.truth_position),
+        ("velocity", series.velocity, series.truth_velocity),
+        ("acceleration", series.acceleration, series.truth_acceleration),
+    ):
+        errors[quantity] = {}
+        for estimator, values in estimates.items():
+            norms = np.linalg.norm(values[kept] - truth[kept], axis=1)
+            norms = norms[np.isfinite(norms)]
+            errors[quantity][estimator] = (
+                (float(norms.mean()), float(norms.max())) if len(norms) else (np.nan, np.nan)
+            )
+    return errors

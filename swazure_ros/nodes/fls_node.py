@@ -75,6 +75,7 @@ from ..core.tracking import (
     Track,
     TrackConfig,
     TrackingError,
+    arrival,
     nanoseconds,
 )
 from ..sim.world import Measurement
@@ -438,7 +439,7 @@ class FlsNode(Node):
         else:
             tracked.track.end(RELAY_MESSAGES.get(sample.status, "the relay ended the stream"))
         # The delay is known: the present is the sensing time plus the delay.
-        self._publish_track(int(sample.target_id), sensed + self.track_config.delay)
+        self._publish_track(int(sample.target_id), arrival(sensed, self.track_config))
 
     def _check_tracks(self) -> None:
         now = self._now() / 1e9

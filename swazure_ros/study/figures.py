@@ -236,3 +236,40 @@ def study_figures(plan: StudyPlan, result: SweepResult, out: Path) -> dict[str, 
         "distance_error_histogram": error_histogram(plan, result, out),
     }
     return {name: save(figure, folder / f"{name}.png") for name, figure in figures.items()}
+
+
+#: Estimator of a track -> (label, line style) in :func:`track_figure`.
+TRACK_LINES = {
+    "raw": ("central differences (received)", {"linestyle": "none", "marker": ".", "ms": 3}),
+    "filtered": ("Kalman, at the sample time", {"linestyle": ":", "lw": 1.2}),
+    "predicted": ("Kalman, predicted to now", {"linestyle": "-", "lw": 1.4}),
+}
+
+
+def track_figure(series: Any, title: str, path: Path) -> Path:
+    """True and estimated relative velocity and acceleration per axis over time, as PNG.
+
+    ``series`` is a :class:`~swazure_ros.core.tracking.TrackSeries`.
+    """
+    figure = Figure(figsize=(13.0, 6.5), layout="constrained")
+    axes = figure.subplots(2, 3, sharex=True)
+    figure.suptitle(title)
+    for row, (quantity, unit, truth, estimates) in enumerate(
+        (
+            ("velocity", "cm/s", series.truth_velocity, series.velocity),
+            ("acceleration", "cm/s²", series.truth_acceleration, series.acceleration),
+        )
+    ):
+        for column, axis_name in enumerate("xyz"):
+            ax = axes[row][column]
+            ax.plot(series.time, truth[:, column], color="black", lw=2.2, alpha=0.35, label="true")
+            for estimator, (label, style) in TRACK_LINES.items():
+                ax.plot(series.time, estimates[estimator][:, column], label=label, **style)
+            ax.set_title(f"{quantity} {axis_name}")
+            ax.set_ylabel(unit)
+            ax.grid(True, alpha=0.3)
+            if row == 1:
+                ax.set_xlabel("time, s (simulated)")
+    handles, labels = axes[0][0].get_legend_handles_labels()
+    figure.legend(handles, labels, loc="outside lower center", ncols=4)
+    return save(figure, path)

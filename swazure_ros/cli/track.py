@@ -1,0 +1,244 @@
+"""Track a moving FLS out of sight through a relay: true and estimated velocity and acceleration.
+
+The target follows --trajectory (linear:VX,VY,VZ in cm/s; circle:RADIUS,PERIOD
+[,AX,AY,AZ] in cm and s, about +z by default; or a waypoint CSV t,x,y,z of s
+and cm from home). The source's FLS node, its radio neighbours and a
+simulated clock run over ROS 2 in this process; --engine runs the core's
+loop alone. Prints the estimates over time and the errors, with and without
+delay compensation; --plot FILE.png draws them, --csv FILE writes them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from ..core.errors import SwazureError
+from ..core.motion import Motion, parse_trajectory
+from ..core.results import atomic_write
+from ..core.tracking import (
+    ESTIMATORS,
+    MODELS,
+    TrackConfig,
+    TrackRun,
+    TrackSeries,
+    simulate_track,
+    track_errors,
+    track_series,
+)
+from ..sim.world import World, WorldSpec
+from .evaluate import add_swarm_arguments
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of ``swazure track``."""
+    add_swarm_arguments(parser)
+    parser.add_argument("--source", type=int, required=True, help="the tracking FLS's id")
+    parser.add_argument("--target", type=int, required=True, help="the tracked FLS's id")
+    parser.add_argument("--trajectory", required=True, help="the target's motion (see above)")
+    parser.add_argument("--duration", type=float, default=10.0, help="simulated s (default 10)")
+    defaults = TrackConfig()
+    parser.add_argument("--model", choices=MODELS, default=defaults.model, help="filter model")
+    for name, unit in (
+        ("frame_period", "s"),
+        ("sensing_delay", "s"),
+        ("communication_delay", "s"),
+        ("timeout", "s"),
+        ("process_noise", "cm/s^2 or cm/s^3"),
+        ("measurement_noise", "cm"),
+    ):
+        parser.add_argument(
+            f"--{name.replace('_', '-')}",
+            type=float,
+            default=getattr(defaults, name),
+            help=f"{unit} (default {getattr(defaults, name):g})",
+        )
+    parser.add_argument("--settle", type=float, default=1.0, help="s before errors count")
+    parser.add_argument("--every", type=float, default=0.5, help="s between printed rows")
+    parser.add_argument("--engine", action="store_true", help="the core's loop, without ROS")
+    parser.add_argument("--plot", type=Path, metavar="FILE.png", help="write the figure")
+    parser.add_argument("--csv", type=Path, metavar="FILE", help="write every estimate")
+    parser.add_argument("--domain-id", type=int, default=None, help="ROS domain id")
+
+
+def _config(args: argparse.Namespace) -> TrackConfig:
+    return TrackConfig(
+        frame_period=args.frame_period,
+        sensing_delay=args.sensing_delay,
+        communication_delay=args.communication_delay,
+        model=args.model,
+        process_noise=args.process_noise,
+        measurement_noise=args.measurement_noise,
+        timeout=args.timeout,
+    )
+
+
+def _simulate(world: World, motion: Motion, args: argparse.Namespace) -> TrackRun:
+    return simulate_track(
+        world.sensor,
+        world.swarm.points,
+        world.ids,
+        world.swarm.radius,
+        motion,
+        args.source,
+        args.target,
+        _config(args),
+        args.duration,
+    )
+
+
+def _same(first: TrackRun, second: TrackRun) -> bool:
+    """Same relay, statuses, times and predicted states, to the bit."""
+
+    def table(run: TrackRun) -> tuple[list[str], np.ndarray]:
+        rows = [
+            [estimate.time, estimate.sample_time]
+            + (
+                [
+                    *estimate.kalman.position,
+                    *estimate.kalman.velocity,
+                    *estimate.kalman.acceleration,
+                ]
+                if estimate.kalman is not None
+                else [np.nan] * 9
+            )
+            for estimate in run.estimates
+        ]
+        return [estimate.status for estimate in run.estimates], np.array(rows)
+
+    (first_status, first_rows), (second_status, second_rows) = table(first), table(second)
+    return (
+        first.relay == second.relay
+        and first_status == second_status
+        and np.array_equal(first_rows, second_rows, equal_nan=True)
+    )
+
+
+def _fmt(vector: np.ndarray) -> str:
+    return "(" + ", ".join(f"{value:7.3f}" for value in vector) + ")"
+
+
+def _print_rows(series: TrackSeries, every: float) -> None:
+    print(
+        f"{'t s':>6}  {'true velocity cm/s':>27}  {'Kalman velocity':>27}  "
+        f"{'true acceleration cm/s^2':>27}  {'Kalman acceleration':>27}"
+    )
+    next_row = -math.inf
+    for row, now in enumerate(series.time.tolist()):
+        if now + 1e-9 < next_row:
+            continue
+        next_row = now + every
+        print(
+            f"{now:6.2f}  {_fmt(series.truth_velocity[row])}  "
+            f"{_fmt(series.velocity['predicted'][row])}  "
+            f"{_fmt(series.truth_acceleration[row])}  "
+            f"{_fmt(series.acceleration['predicted'][row])}"
+        )
+
+
+def _print_errors(errors: dict[str, dict[str, tuple[float, float]]], settle: float) -> None:
+    print(f"\nerror norms after {settle:g} s, mean (max), against the truth now:")
+    print(f"{'estimator':<11}{'position cm':>20}{'velocity cm/s':>20}{'accel. cm/s^2':>20}")
+    for estimator in ESTIMATORS:
+        cells = "".join(
+            f"{f'{mean:.4f} ({peak:.4f})':>20}"
+            for mean, peak in (errors[quantity][estimator] for quantity in errors)
+        )
+        print(f"{estimator:<11}{cells}")
+    for estimator, meaning in ESTIMATORS.items():
+        print(f"  {estimator}: {meaning}")
+
+
+def _write_csv(path: Path, series: TrackSeries) -> None:
+    buffer = io.StringIO()
+    writer = csv.writer(buffer, lineterminator="\n")
+    columns = ["time", "sample_time"]
+    blocks = [series.time[:, None], series.sample_time[:, None]]
+    for quantity in ("position", "velocity", "acceleration"):
+        blocks.append(getattr(series, f"truth_{quantity}"))
+        columns += [f"true_{quantity}_{axis}" for axis in "xyz"]
+        for estimator, values in getattr(series, quantity).items():
+            blocks.append(values)
+            columns += [f"{estimator}_{quantity}_{axis}" for axis in "xyz"]
+    writer.writerow(columns)
+    writer.writerows(np.hstack(blocks).tolist())
+    atomic_write(path, lambda tmp: tmp.write_text(buffer.getvalue()))
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run one track and report it."""
+    if args.plot is not None and args.plot.suffix.lower() != ".png":
+        raise SwazureError(f"--plot {args.plot}: the figure is a PNG; name it FILE.png")
+    if not args.duration > 0:
+        raise SwazureError(f"--duration must be > 0 s, got {args.duration}")
+    spec = WorldSpec(
+        args.cloud,
+        args.scale,
+        args.beta,
+        args.radius,
+        str(args.sensor) if args.sensor else None,
+        args.accurate,
+        args.seed,
+    )
+    world = spec.build()
+    world.index(args.source), world.index(args.target)
+    motion = Motion({args.target: parse_trajectory(args.trajectory)})
+    config = _config(args)
+    engine = _simulate(world, motion, args)
+    run = engine
+    if not args.engine:
+        from ..tracker import run_track  # rclpy only when ROS runs
+
+        def progress(now: float) -> None:
+            print(f"\rsimulated {now:6.2f} / {args.duration:g} s", end="", file=sys.stderr)
+
+        run = run_track(
+            world,
+            motion,
+            args.source,
+            args.target,
+            config,
+            args.duration,
+            domain_id=args.domain_id,
+            on_progress=progress if sys.stderr.isatty() else None,
+        )
+        if sys.stderr.isatty():
+            print(file=sys.stderr)
+    home = world.swarm.points
+    series = track_series(
+        run, motion, home[world.index(args.source)], home[world.index(args.target)]
+    )
+    print(
+        f"FLS {args.source} tracks FLS {args.target} through relay FLS {run.relay}: "
+        f"{args.trajectory}, {config.model}, frame {config.frame_period:g} s, "
+        f"delay {config.delay:g} s ({config.sensing_delay:g} sensing + "
+        f"{config.communication_delay:g} communication)"
+    )
+    _print_rows(series, args.every)
+    last = run.estimates[-1] if run.estimates else None
+    if last is not None and last.message:
+        print(f"stream {last.status} at {last.time:.2f} s: {last.message}")
+    else:
+        print(f"stream {last.status if last else 'empty'}: {len(run.estimates)} estimates")
+    _print_errors(track_errors(series, args.settle), args.settle)
+    if not args.engine:
+        print(f"identical to the core's loop: {'yes' if _same(run, engine) else 'no'}")
+    if args.csv is not None:
+        _write_csv(args.csv, series)
+        print(f"wrote {args.csv}")
+    if args.plot is not None:
+        from ..study.figures import track_figure
+
+        title = (
+            f"FLS {args.source} tracks FLS {args.target} via FLS {run.relay}: {args.trajectory}, "
+            f"{config.model}, delay {config.delay:g} s"
+        )
+        track_figure(series, title, args.plot)
+        print(f"wrote {args.plot}")
+    return 0
