@@ -140,13 +140,13 @@ class TrackSession:
         """Ask FLS ``source`` to track ``target``; return the relay, or raise TrackingError."""
         client = self.client.create_client(TrackTarget, f"{node_name(source)}/{TRACK_SERVICE}")
         try:
-            if not self._spin_until(client.service_is_ready, timeout):
+            if not self.spin_until(client.service_is_ready, timeout):
                 raise TrackingError(f"FLS {source}'s {client.srv_name} is not reachable")
             request = TrackTarget.Request(
                 source_id=source, target_id=target, model=TRACK_MODELS[model]
             )
             future = client.call_async(request)
-            if not self._spin_until(future.done, timeout):
+            if not self.spin_until(future.done, timeout):
                 raise SwarmStalledError(f"no answer from {client.srv_name} in {timeout} s")
         finally:
             self.client.destroy_client(client)
@@ -155,7 +155,7 @@ class TrackSession:
             raise TrackingError(response.message)
         relay = self.host.fls_by_id.get(int(response.relay_id))
         # The relay takes its first frame when the request reaches it: before the clock moves.
-        if relay is not None and not self._spin_until(lambda: bool(relay.relayed), timeout):
+        if relay is not None and not self.spin_until(lambda: bool(relay.relayed), timeout):
             raise SwarmStalledError(f"relay FLS {response.relay_id} did not start in {timeout} s")
         return int(response.relay_id)
 
@@ -166,13 +166,14 @@ class TrackSession:
         self.clock.set(nanoseconds)
         if settled is None:
             self.host.spin_for(0.005)
-        elif not self._spin_until(settled, timeout):
+        elif not self.spin_until(settled, timeout):
             raise SwarmStalledError(
                 f"the swarm did not answer in {timeout} s of wall time at simulated "
                 f"{nanoseconds / 1e9:.3f} s"
             )
 
-    def _spin_until(self, condition: Callable[[], bool], timeout: float) -> bool:
+    def spin_until(self, condition: Callable[[], bool], timeout: float) -> bool:
+        """Spin until ``condition()`` or ``timeout`` wall s; return whether it holds."""
         deadline = time.monotonic() + timeout
         while not condition():
             if time.monotonic() > deadline:

@@ -1,0 +1,119 @@
+"""Tracking over ROS 2: FLS nodes on a simulated clock relay a moving target to a source.
+
+The swarm: source 0 at the origin, relay 1 in its sweet range, target 2
+blind to the source and in the relay's sweet range (r = 0.5 cm), as in
+test/core/test_tracking.py.
+"""
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.clouds import Cloud
+from swazure_ros.core.motion import Motion, parse_trajectory
+from swazure_ros.core.sensor import load_sensor
+from swazure_ros.core.tracking import (
+    CONSTANT_ACCELERATION,
+    TIMED_OUT,
+    TRACKING,
+    TrackConfig,
+    TrackingError,
+    nanoseconds,
+    simulate_track,
+)
+from swazure_ros.sim.world import make_world
+from swazure_ros.tracker import TrackSession, estimate_from_message, run_track
+
+HOME = np.array([[0.0, 0.0, 0.0], [8.0, 0.0, 0.0], [2.5, 5.5, 0.0]])
+CIRCLE = Motion({2: parse_trajectory("circle:0.5,4,-1,1,0")})
+
+
+@pytest.fixture(scope="module")
+def world():
+    return make_world(Cloud("trio", HOME, 1.0, "test"), load_sensor(), radius=0.5)
+
+
+def test_a_track_over_ros_equals_the_core_loop(world, domain):
+    config = TrackConfig(sensing_delay=0.1, communication_delay=0.2)
+    ours = run_track(world, CIRCLE, 0, 2, config, 3.0, domain_id=domain)
+    core = simulate_track(
+        world.sensor, world.swarm.points, world.ids, world.swarm.radius, CIRCLE, 0, 2, config, 3.0
+    )
+    assert ours.relay == core.relay == 1
+    assert len(ours.estimates) == len(core.estimates) == 31
+    for got, expected in zip(ours.estimates, core.estimates, strict=True):
+        assert got.status == expected.status == TRACKING
+        assert got.time == expected.time
+        assert got.sample_time == expected.sample_time
+        assert np.array_equal(got.kalman.position, expected.kalman.position)
+        assert np.array_equal(got.kalman.acceleration, expected.kalman.acceleration)
+        assert np.array_equal(
+            got.difference_velocity, expected.difference_velocity, equal_nan=True
+        )
+
+
+def tick_until(session, seconds, step):
+    for now in range(step, nanoseconds(seconds) + 1, step):
+        session.advance(now)
+
+
+def test_when_the_relay_stops_the_stream_times_out_and_ends(world, context):
+    config = TrackConfig(timeout=0.5)
+    session = TrackSession(world, CIRCLE, [0, 1, 2], config, context=context)
+    try:
+        session.start()
+        assert session.track(0, 2, CONSTANT_ACCELERATION) == 1
+        step = nanoseconds(config.frame_period)
+        tick_until(session, 1.0, step)
+        session.spin_until(lambda: len(session.estimates) >= 11, 10.0)
+        assert [message.status for message in session.estimates[:11]] == [1] * 11
+        session.host.stop_fls(1)
+        for now in range(nanoseconds(1.0) + step, nanoseconds(3.0) + 1, step):
+            session.advance(now)
+        session.host.spin_for(0.2)
+        estimates = [estimate_from_message(message) for message in session.estimates]
+        statuses = [estimate.status for estimate in estimates]
+        # One final word, then silence: no extrapolation for ever.
+        assert statuses.count(TIMED_OUT) == 1
+        assert statuses[-1] == TIMED_OUT
+        last = estimates[-1]
+        assert last.kalman is None
+        assert "no sample for" in last.message
+        assert 1.5 < last.time <= 1.0 + config.timeout + 2 * config.frame_period
+        count = len(session.estimates)
+        tick_until(session, 4.0, step)
+        assert len(session.estimates) == count
+    finally:
+        session.close()
+
+
+def test_requests_it_cannot_serve_get_an_error_and_the_node_keeps_serving(world, context):
+    session = TrackSession(world, CIRCLE, [0, 1, 2], TrackConfig(), context=context)
+    try:
+        session.start()
+        with pytest.raises(TrackingError, match="no FLS 7 in this swarm"):
+            session.track(0, 7, CONSTANT_ACCELERATION)
+        with pytest.raises(TrackingError, match="no sweet neighbour of FLS 0 sees FLS 1"):
+            session.track(0, 1, CONSTANT_ACCELERATION)
+        assert session.track(0, 2, CONSTANT_ACCELERATION) == 1
+    finally:
+        session.close()
+
+
+def test_swazure_track_over_ros_says_it_matches_the_core(domain, tmp_path):
+    import subprocess
+    import sys
+
+    cloud = tmp_path / "trio.xyz"
+    cloud.write_text("\n".join(" ".join(str(value) for value in row) for row in HOME) + "\n")
+    run = subprocess.run(
+        [
+            sys.executable, "-m", "swazure_ros.cli.main", "track", "--cloud", str(cloud),
+            "--scale", "1", "--radius", "0.5", "--source", "0", "--target", "2",
+            "--trajectory", "linear:0,0,0.2", "--duration", "2", "--sensing-delay", "0.1",
+            "--domain-id", str(domain),
+        ],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert "through relay FLS 1" in run.stdout
+    assert "identical to the core's loop: yes" in run.stdout
