@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import SwazureError
-from ..core.motion import Motion, parse_trajectory
+from ..core.motion import Motion, Trajectory, parse_trajectory
 from ..core.results import atomic_write
 from ..core.tracking import (
     ESTIMATORS,
@@ -42,6 +42,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--source", type=int, required=True, help="the tracking FLS's id")
     parser.add_argument("--target", type=int, required=True, help="the tracked FLS's id")
     parser.add_argument("--trajectory", required=True, help="the target's motion (see above)")
+    parser.add_argument(
+        "--move",
+        action="append",
+        default=[],
+        metavar="FLS=TRAJECTORY",
+        help="another FLS's motion, e.g. the source's (repeatable)",
+    )
     parser.add_argument("--duration", type=float, default=10.0, help="simulated s (default 10)")
     defaults = TrackConfig()
     parser.add_argument("--model", choices=MODELS, default=defaults.model, help="filter model")
@@ -65,6 +72,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--plot", type=Path, metavar="FILE.png", help="write the figure")
     parser.add_argument("--csv", type=Path, metavar="FILE", help="write every estimate")
     parser.add_argument("--domain-id", type=int, default=None, help="ROS domain id")
+
+
+def _moves(world: World, moves: list[str]) -> dict[int, Trajectory]:
+    trajectories = {}
+    for move in moves:
+        fls, separator, trajectory = move.partition("=")
+        if not separator or not fls.strip().isdigit():
+            raise SwazureError(f"--move {move!r}: expected FLS=TRAJECTORY, e.g. 0=linear:0,0,0.1")
+        world.index(int(fls))
+        trajectories[int(fls)] = parse_trajectory(trajectory)
+    return trajectories
 
 
 def _config(args: argparse.Namespace) -> TrackConfig:
@@ -188,7 +206,7 @@ def main(args: argparse.Namespace) -> int:
     )
     world = spec.build()
     world.index(args.source), world.index(args.target)
-    motion = Motion({args.target: parse_trajectory(args.trajectory)})
+    motion = Motion({args.target: parse_trajectory(args.trajectory), **_moves(world, args.move)})
     config = _config(args)
     engine = _simulate(world, motion, args)
     run = engine

@@ -93,6 +93,12 @@ def test_constant_velocity_converges_to_the_true_velocity(sensor, model, accurat
     assert np.linalg.norm(differences[settled] - truth[1][settled], axis=1).max() < tolerance
 
 
+def test_when_the_source_moves_too_the_estimate_is_the_relative_motion(sensor):
+    motion = Motion({0: parse_trajectory("linear:0,0,0.1"), 2: parse_trajectory("linear:0,0,0.3")})
+    result = simulate_track(sensor.error_free(), HOME, IDS, RADIUS, motion, 0, 2, TrackConfig(), 4)
+    assert np.allclose(result.estimates[-1].kalman.velocity, [0.0, 0.0, 0.2], atol=1e-6)
+
+
 def test_on_a_circle_the_acceleration_points_to_the_centre(sensor):
     result, motion, times, _ = run(sensor, CIRCLE, TrackConfig(model=CONSTANT_ACCELERATION))
     circle = motion.trajectories[2]
