@@ -21,7 +21,7 @@ ROS2CLI_STAMP := $(VENV)/.stamp-ros2cli
 .DEFAULT_GOAL := help
 
 help:
-	@echo "make demo   set up if needed, then evaluate the built-in default shape"
+	@echo "make demo   set up if needed, evaluate the built-in default shape, track a moving FLS"
 	@echo "make test   set up if needed, then lint, type-check and run every test"
 	@echo "make study  regenerate the published tables, figures and report into study/"
 	@echo "make bench  run the benchmarks and rewrite BENCHMARKS.md (long)"
@@ -66,6 +66,9 @@ demo: setup
 	$(VENV)/bin/swazure evaluate --cloud torus --beta 0.5 --policy shortest-length
 	$(VENV)/bin/swazure spawn --cloud torus --beta 0.5 --policy shortest-length \
 		--compute-all --quiet
+	$(VENV)/bin/swazure track --cloud config/track/trio.xyz --scale 1 --radius 0.5 \
+		--source 0 --target 2 --trajectory circle:0.5,4,-1,1,0 --duration 6 \
+		--communication-delay 0.3 --every 1
 
 bench: setup
 	$(PY) scripts/bench.py
