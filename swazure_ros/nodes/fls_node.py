@@ -66,8 +66,6 @@ from ..core.evaluate import NO_PATH, REASON_BLOCKED, SWEET_PATH
 from ..core.observe import NeighbourSets
 from ..core.paths import FEWEST_HOPS, SHORTEST_LENGTH
 from ..core.tracking import (
-    CONSTANT_ACCELERATION,
-    CONSTANT_VELOCITY,
     ENDED,
     RELAY_MESSAGES,
     RELAY_OK,
@@ -80,6 +78,7 @@ from ..core.tracking import (
 )
 from ..sim.world import Measurement
 from .convert import (
+    TRACK_MODELS,
     array3,
     estimates_message,
     measurements_message,
@@ -112,11 +111,8 @@ POLICY_NAMES = {
     DiscoveryControl.POLICY_SHORTEST_LENGTH: SHORTEST_LENGTH,
 }
 
-#: TrackTarget.MODEL_* -> the core's filter models.
-MODEL_NAMES = {
-    TrackTarget.Request.MODEL_CONSTANT_VELOCITY: CONSTANT_VELOCITY,
-    TrackTarget.Request.MODEL_CONSTANT_ACCELERATION: CONSTANT_ACCELERATION,
-}
+#: TrackTarget.MODEL_* (the same numbers as TrackEstimate's) -> the core's filter models.
+MODEL_NAMES = {code: name for name, code in TRACK_MODELS.items()}
 #: Node parameter (under ``track.``) -> TrackConfig field; the defaults are TrackConfig's.
 TRACK_PARAMETERS = {
     "frame_period": "seconds between the relay camera's frames of a tracked target",

@@ -7,6 +7,7 @@ test/core/test_tracking.py.
 
 import numpy as np
 import pytest
+from swazure_interfaces.srv import TrackTarget
 
 from swazure_ros.core.clouds import Cloud
 from swazure_ros.core.motion import Motion, parse_trajectory
@@ -94,6 +95,15 @@ def test_requests_it_cannot_serve_get_an_error_and_the_node_keeps_serving(world,
             session.track(0, 7, CONSTANT_ACCELERATION)
         with pytest.raises(TrackingError, match="no sweet neighbour of FLS 0 sees FLS 1"):
             session.track(0, 1, CONSTANT_ACCELERATION)
+        client = session.client.create_client(TrackTarget, "fls_0/track")
+        for request, message in (
+            (TrackTarget.Request(source_id=0, target_id=2, model=7), "unknown model 7"),
+            (TrackTarget.Request(source_id=1, target_id=2, model=1), "this is FLS 0"),
+        ):
+            future = client.call_async(request)
+            assert session.spin_until(future.done, 10.0)
+            assert not future.result().success
+            assert message in future.result().message
         assert session.track(0, 2, CONSTANT_ACCELERATION) == 1
     finally:
         session.close()
