@@ -12,6 +12,7 @@ core's :func:`~swazure_ros.core.tracking.simulate_track`.
 from __future__ import annotations
 
 import time
+from collections import Counter
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -31,7 +32,7 @@ from .core.tracking import (
     TrackingError,
     TrackRun,
     TrackState,
-    frame_times,
+    arrival,
     nanoseconds,
 )
 from .core.tracking import TrackEstimate as Estimate
@@ -76,6 +77,7 @@ def estimate_from_message(message: TrackEstimate) -> Estimate:
         array3(message.difference_velocity),
         array3(message.difference_acceleration),
         message.message,
+        int(message.relay_id),
     )
 
 
@@ -153,16 +155,17 @@ class TrackSession:
         response = future.result()
         if not response.success:
             raise TrackingError(response.message)
-        relay = self.host.fls_by_id.get(int(response.relay_id))
-        # The relay takes its first frame when the request reaches it: before the clock moves.
-        if relay is not None and not self.spin_until(lambda: bool(relay.relayed), timeout):
+        if not self.spin_until(self.delivered, timeout):
             raise SwarmStalledError(f"relay FLS {response.relay_id} did not start in {timeout} s")
         return int(response.relay_id)
 
     def advance(
         self, nanoseconds: int, settled: Callable[[], bool] | None = None, timeout: float = 10.0
     ) -> None:
-        """Set the clock to ``nanoseconds``, then spin until ``settled()`` (or briefly)."""
+        """Set the clock to ``nanoseconds``, then spin until ``settled()`` (or briefly).
+
+        :meth:`delivered` is the ``settled`` that makes a run deterministic.
+        """
         self.clock.set(nanoseconds)
         if settled is None:
             self.host.spin_for(0.005)
@@ -171,6 +174,28 @@ class TrackSession:
                 f"the swarm did not answer in {timeout} s of wall time at simulated "
                 f"{nanoseconds / 1e9:.3f} s"
             )
+
+    def delivered(self) -> bool:
+        """True when every track message due by now in this process has been sent and heard.
+
+        Due: each relay's frames up to now sensed and its samples whose delay
+        has passed published; then every request and sample heard and every
+        estimate received by this session's client.
+        """
+        now = self.clock.nanoseconds
+        traffic: Counter[str] = Counter()
+        for node in self.host.fls_nodes:
+            traffic.update(node.track_traffic)
+            for stream in node.relayed.values():
+                if (not stream.ended and stream.next_frame <= now) or (
+                    stream.outbox and stream.outbox[0][0] <= now
+                ):
+                    return False
+        return (
+            traffic["requests_sent"] == traffic["requests_heard"]
+            and traffic["samples_sent"] == traffic["samples_heard"]
+            and traffic["estimates_sent"] == len(self.estimates)
+        )
 
     def spin_until(self, condition: Callable[[], bool], timeout: float) -> bool:
         """Spin until ``condition()`` or ``timeout`` wall s; return whether it holds."""
@@ -223,29 +248,22 @@ def run_track(
     try:
         session.start()
         relay = session.track(source, target, config.model)
-        frames = [nanoseconds(t) for t in frame_times(config, duration).tolist()]
-        delay, step = nanoseconds(config.delay), nanoseconds(config.frame_period)
-        # The relay releases samples at its frame ticks: the last one due is on a tick.
-        last = -(-(frames[-1] + delay) // step) * step
-        now = 0
-        while True:
-            due = sum(1 for frame in frames if frame + delay <= now)
-
-            def settled(due: int = due) -> bool:
-                done = session.estimates and STATUS_NAMES[session.estimates[-1].status] in (
-                    ENDED,
-                    TIMED_OUT,
-                )
-                return bool(done) or len(session.estimates) >= due
-
-            session.advance(now, settled)
+        step = nanoseconds(config.frame_period)
+        # The relays release samples at their frame ticks: the last one due is on a tick.
+        horizon = nanoseconds(arrival(duration, config))
+        last = -(-horizon // step) * step
+        for now in range(0, last + 1, step):
+            session.advance(now, session.delivered)
             if on_progress is not None:
                 on_progress(now / 1e9)
-            if now >= last or len(session.estimates) > len(frames) or settled(len(frames)):
+            if session.estimates and STATUS_NAMES[session.estimates[-1].status] in (
+                ENDED,
+                TIMED_OUT,
+            ):
                 break
-            now = min(now + step, last)
         estimates = [estimate_from_message(message) for message in session.estimates]
-        return TrackRun(source, target, relay, estimates[: len(frames)])
+        kept = [estimate for estimate in estimates if nanoseconds(estimate.time) <= horizon]
+        return TrackRun(source, target, relay, kept)
     finally:
         session.close()
         context.try_shutdown()

@@ -239,6 +239,12 @@ def main(args: argparse.Namespace) -> int:
         f"{config.communication_delay:g} communication)"
     )
     _print_rows(series, args.every)
+    for before, after in zip(run.estimates, run.estimates[1:]):
+        if after.relay != before.relay:
+            print(
+                f"handed over from relay FLS {before.relay} to FLS {after.relay}; first sample "
+                f"sensed at {after.sample_time:.2f} s"
+            )
     last = run.estimates[-1] if run.estimates else None
     if last is not None and last.message:
         print(f"stream {last.status} at {last.time:.2f} s: {last.message}")

@@ -93,6 +93,14 @@ def choose_relay(
     return None if best is None else best[2]
 
 
+def next_relay(
+    sensor: Sensor, points: FloatArray, radius: float, source: int, target: int, relay: int
+) -> int | None:
+    """Index of the relay to hand a stream over to when ``relay`` lost it, or None."""
+    successor = choose_relay(sensor, points, radius, source, target)
+    return None if successor is None or successor == relay else successor
+
+
 def relay_sample(
     sensor: Sensor, points: FloatArray, radius: float, source: int, relay: int, target: int
 ) -> tuple[int, FloatArray]:
@@ -229,18 +237,24 @@ class TrackEstimate:
     difference_velocity: FloatArray  # (3,) at the last central-difference time, cm/s
     difference_acceleration: FloatArray  # (3,), cm/s^2
     message: str = ""
+    relay: int = -1  # the FLS relaying the stream
 
 
 class Track:
     """A source's end of one relayed stream: samples in, estimates of the present out.
 
-    The stream is over when the relay says so or when no sample has been
-    sensed for ``timeout`` s: the source then stops extrapolating.
+    The stream is over when the relay says so and no other relay can take
+    over, or when no sample has been sensed for ``timeout`` s: the source
+    then stops extrapolating.
     """
 
-    def __init__(self, tracker: KalmanTracker, timeout: float, window: int = 5) -> None:
+    def __init__(
+        self, tracker: KalmanTracker, timeout: float, relay: int = -1, window: int = 5
+    ) -> None:
         self.tracker = tracker
         self.timeout = timeout
+        self.relay = relay
+        self.handovers = 0
         self.status = WAITING
         self.message = ""
         self._samples: deque[tuple[float, FloatArray]] = deque(maxlen=max(window, 5))
@@ -252,6 +266,11 @@ class Track:
         self.tracker.update(time, position)
         self._samples.append((time, np.asarray(position, dtype=np.float64)))
         self.status = TRACKING
+
+    def handover(self, relay: int) -> None:
+        """Another relay takes the stream over; the filter keeps its state."""
+        self.relay = relay
+        self.handovers += 1
 
     def end(self, message: str) -> None:
         """The relay ended the stream, for the reason ``message``."""
@@ -272,7 +291,16 @@ class Track:
         nothing = np.full(3, np.nan)
         if not self._samples:
             return TrackEstimate(
-                self.status, now, np.nan, nothing, None, None, nothing, nothing, self.message
+                self.status,
+                now,
+                np.nan,
+                nothing,
+                None,
+                None,
+                nothing,
+                nothing,
+                self.message,
+                self.relay,
             )
         times = np.array([sample[0] for sample in self._samples])
         positions = np.array([sample[1] for sample in self._samples])
@@ -290,6 +318,7 @@ class Track:
             velocity,
             acceleration,
             self.message,
+            self.relay,
         )
 
 
@@ -329,14 +358,6 @@ def nanoseconds(seconds: float) -> int:
     return round(seconds * 1e9)
 
 
-def frame_times(config: TrackConfig, duration: float) -> FloatArray:
-    """(K,) sensing times of the relay's frames in [0, duration], s, on whole nanoseconds."""
-    period = nanoseconds(config.frame_period)
-    count = nanoseconds(duration) // period + 1
-    # As a ROS clock gives them, so that the nodes and this loop agree to the bit.
-    return np.arange(count, dtype=np.int64) * period / 1e9
-
-
 def arrival(sensed: float, config: TrackConfig) -> float:
     """When a sample sensed at ``sensed`` s reaches the source, s: the present it is for."""
     # In whole nanoseconds, as the ROS clock adds them.
@@ -352,7 +373,7 @@ RELAY_MESSAGES = {
 
 @dataclass(frozen=True)
 class TrackRun:
-    """One simulated track: the relay and an estimate per sample (and at the end)."""
+    """One simulated track: the first relay and an estimate per sample (and at the end)."""
 
     source: int
     target: int
@@ -375,7 +396,9 @@ def simulate_track(
 
     The relay is chosen at t = 0 and samples every frame; each sample reaches
     the source ``config.delay`` s after it was sensed, and the source estimates
-    the present at that moment.
+    the present at that moment. When the relay loses the stream, the source
+    hands it over, at that present, to the relay :func:`choose_relay` picks
+    then, if there is another; that relay samples from then on.
     """
     rows = np.searchsorted(ids, [source, target])
     if source == target or not all(ids[np.minimum(rows, len(ids) - 1)] == [source, target]):
@@ -384,19 +407,30 @@ def simulate_track(
     relay_row = choose_relay(sensor, motion.points(home, ids, 0.0), radius, source_row, target_row)
     if relay_row is None:
         raise TrackingError(f"no sweet neighbour of FLS {source} sees FLS {target}")
-    track = Track(config.tracker(), config.timeout)
+    first_relay = int(ids[relay_row])
+    track = Track(config.tracker(), config.timeout, first_relay)
     estimates = []
-    for time in frame_times(config, duration).tolist():
+    frame, end, period = 0, nanoseconds(duration), nanoseconds(config.frame_period)
+    while frame <= end:
+        time = frame / 1e9
         points = motion.points(home, ids, time)
         status, vector = relay_sample(sensor, points, radius, source_row, relay_row, target_row)
         present = arrival(time, config)
-        if status != RELAY_OK:
+        if status == RELAY_OK:
+            track.add(time, vector)
+            estimates.append(track.estimate(present))
+            frame += period
+            continue
+        successor = next_relay(sensor, motion.points(home, ids, present), radius, source_row,
+                               target_row, relay_row)  # fmt: skip
+        if successor is None:
             track.end(RELAY_MESSAGES[status])
             estimates.append(track.estimate(present))
             break
-        track.add(time, vector)
-        estimates.append(track.estimate(present))
-    return TrackRun(source, target, int(ids[relay_row]), estimates)
+        # The new relay's first frame is the moment the source asks it.
+        relay_row, frame = successor, nanoseconds(present)
+        track.handover(int(ids[relay_row]))
+    return TrackRun(source, target, first_relay, estimates)
 
 
 #: Estimator -> (what it is, the TrackEstimate attribute path) of :func:`track_errors`.

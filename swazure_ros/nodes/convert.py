@@ -204,13 +204,13 @@ TRACK_MODELS = {
 
 
 def track_estimate_message(
-    source: int, relay: int, target: int, model: str, estimate: TrackEstimateState
+    source: int, target: int, model: str, estimate: TrackEstimateState
 ) -> TrackEstimate:
     """A source's estimate of its target's motion as a TrackEstimate message."""
     kalman, filtered = estimate.kalman, estimate.filtered
     message = TrackEstimate(
         source_id=source,
-        relay_id=relay,
+        relay_id=estimate.relay,
         target_id=target,
         status=TRACK_STATUS[estimate.status],
         model=TRACK_MODELS[model],

@@ -34,7 +34,7 @@ provides (:class:`Senses`).
 
 from __future__ import annotations
 
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Protocol
@@ -48,6 +48,7 @@ from rclpy.parameter import Parameter
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import serialize_message
 from rclpy.task import Future
+from rclpy.time import Time
 from swazure_interfaces.msg import (
     DiscoveryControl,
     Measurements,
@@ -151,6 +152,9 @@ class Senses(Protocol):
     def choose_relay(self, source: int, target: int, seconds: float) -> int | None:
         """The relay for ``source`` to track ``target`` at time ``seconds``, or None."""
 
+    def next_relay(self, source: int, target: int, relay: int, seconds: float) -> int | None:
+        """The relay to hand ``relay``'s stream over to at time ``seconds``, or None."""
+
     def track_sample(
         self, source: int, relay: int, target: int, seconds: float
     ) -> tuple[int, np.ndarray]:
@@ -171,15 +175,6 @@ class Relayed:
     next_frame: int  # ns
     outbox: deque[tuple[int, TrackSample]] = field(default_factory=deque)  # (release ns, sample)
     ended: bool = False
-
-
-@dataclass
-class Tracked:
-    """A target this FLS tracks: through which relay, with which filter."""
-
-    relay: int
-    model: str
-    track: Track
 
 
 def node_name(fls_id: int) -> str:
@@ -245,7 +240,9 @@ class FlsNode(Node):
         self._frame_timer: object | None = None
         self._check_timer: object | None = None
         self.relayed: dict[tuple[int, int], Relayed] = {}
-        self.tracks: dict[int, Tracked] = {}
+        self.tracks: dict[int, Track] = {}  # target id -> its stream
+        # Sent and heard, so that whoever drives a simulated clock knows when all is delivered.
+        self.track_traffic: Counter[str] = Counter()
         self.runs: dict[int, FlsRun] = {}
         self._first_round: dict[int, int] = {}
         self.messages_sent = 0
@@ -354,11 +351,12 @@ class FlsNode(Node):
         if relay is None or target == self.fls_id:
             response.message = f"no sweet neighbour of FLS {self.fls_id} sees FLS {target}"
             return response
+        now = self._now()
         if target in self.tracks:
-            self._request(TrackRequest.COMMAND_STOP, self.tracks[target].relay, target)
+            self._request(TrackRequest.COMMAND_STOP, self.tracks[target].relay, target, now)
         config = replace(self.track_config, model=model)
-        self.tracks[target] = Tracked(relay, model, Track(config.tracker(), config.timeout))
-        self._request(TrackRequest.COMMAND_START, relay, target)
+        self.tracks[target] = Track(config.tracker(), config.timeout, relay)
+        self._request(TrackRequest.COMMAND_START, relay, target, now)
         if self._check_timer is None:
             self._check_timer = self.create_timer(config.frame_period, self._check_tracks)
         response.success, response.relay_id = True, relay
@@ -370,21 +368,25 @@ class FlsNode(Node):
             self._track_publishers[topic] = self.create_publisher(message_type, topic, ROUND_QOS)
         return self._track_publishers[topic]
 
-    def _request(self, command: int, relay: int, target: int) -> None:
+    def _request(self, command: int, relay: int, target: int, start: int) -> None:
         request = TrackRequest(
             command=command, source_id=self.fls_id, relay_id=relay, target_id=target
         )
-        request.header.stamp = self.get_clock().now().to_msg()
+        # The relay's first frame: the moment the source asks, whenever the request lands.
+        request.header.stamp = Time(nanoseconds=start).to_msg()
         self._publish(self._track_publisher(TrackRequest, TRACK_REQUESTS_TOPIC), request)
+        self.track_traffic["requests_sent"] += 1
 
     def on_track_request(self, request: TrackRequest) -> None:
         """Start or stop relaying a target to a source (the host hands requests to the relay)."""
+        self.track_traffic["requests_heard"] += 1
         key = (int(request.source_id), int(request.target_id))
         if request.command == TrackRequest.COMMAND_STOP:
             self.relayed.pop(key, None)
             return
         # The first frame is the request's moment; the next come every frame period.
-        self.relayed[key] = Relayed(*key, next_frame=self._now())
+        start = Time.from_msg(request.header.stamp).nanoseconds
+        self.relayed[key] = Relayed(*key, next_frame=start)
         if self._frame_timer is None:
             self._frame_timer = self.create_timer(
                 self.track_config.frame_period, self._relay_frames
@@ -403,6 +405,7 @@ class FlsNode(Node):
                 stream.next_frame += period
             while stream.outbox and stream.outbox[0][0] <= now:
                 self._publish(publisher, stream.outbox.popleft()[1])
+                self.track_traffic["samples_sent"] += 1
             if stream.ended and not stream.outbox:
                 del self.relayed[key]
 
@@ -423,33 +426,40 @@ class FlsNode(Node):
 
     def on_track_sample(self, sample: TrackSample) -> None:
         """Take a relayed sample of a tracked target; publish the estimate of the present."""
-        tracked = self.tracks.get(int(sample.target_id))
-        if tracked is None or tracked.relay != sample.relay_id:
-            return  # a stream this FLS stopped, or replaced
+        self.track_traffic["samples_heard"] += 1
+        target = int(sample.target_id)
+        track = self.tracks.get(target)
+        if track is None or track.relay != sample.relay_id:
+            return  # a stream this FLS stopped, or handed over
         sensed = to_seconds(sample.header.stamp)
+        # The delay is known: the present is the sensing time plus the delay.
+        present = arrival(sensed, self.track_config)
         if sample.status == TrackSample.STATUS_OK:
             try:
-                tracked.track.add(sensed, array3(sample.position))
+                track.add(sensed, array3(sample.position))
             except TrackingError:
                 return  # out of order; the relay sends in order, so a duplicate
         else:
-            tracked.track.end(RELAY_MESSAGES.get(sample.status, "the relay ended the stream"))
-        # The delay is known: the present is the sensing time plus the delay.
-        self._publish_track(int(sample.target_id), arrival(sensed, self.track_config))
+            successor = self._senses.next_relay(self.fls_id, target, track.relay, present)
+            if successor is not None:
+                track.handover(successor)
+                self._request(TrackRequest.COMMAND_START, successor, target, nanoseconds(present))
+                return
+            track.end(RELAY_MESSAGES.get(sample.status, "the relay ended the stream"))
+        self._publish_track(target, present)
 
     def _check_tracks(self) -> None:
         now = self._now() / 1e9
-        for target, tracked in list(self.tracks.items()):
-            if tracked.track.check(now):
+        for target, track in list(self.tracks.items()):
+            if track.check(now):
                 self._publish_track(target, now)
 
     def _publish_track(self, target: int, present: float) -> None:
-        tracked = self.tracks[target]
-        estimate = tracked.track.estimate(present)
-        message = track_estimate_message(
-            self.fls_id, tracked.relay, target, tracked.model, estimate
-        )
+        track = self.tracks[target]
+        estimate = track.estimate(present)
+        message = track_estimate_message(self.fls_id, target, track.tracker.model, estimate)
         self._publish(self._track_publisher(TrackEstimate, TRACK_ESTIMATES_TOPIC), message)
+        self.track_traffic["estimates_sent"] += 1
         if estimate.status in (ENDED, TIMED_OUT):
             del self.tracks[target]
 

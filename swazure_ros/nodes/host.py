@@ -33,7 +33,7 @@ from ..core.discovery import LocalView
 from ..core.errors import UnknownFlsError
 from ..core.motion import FloatArray, Motion
 from ..core.observe import NeighbourSets
-from ..core.tracking import choose_relay, relay_sample
+from ..core.tracking import choose_relay, next_relay, relay_sample
 from ..sim.world import Measurement, World
 from .convert import offer_from_message, world_positions
 from .fls_node import (
@@ -98,6 +98,19 @@ class WorldReplica:
             world.index(target),
         )
         return None if relay is None else int(world.ids[relay])
+
+    def next_relay(self, source: int, target: int, relay: int, seconds: float) -> int | None:
+        """The relay to hand ``relay``'s stream over to at ``seconds``, or None."""
+        world = self.world
+        successor = next_relay(
+            world.sensor,
+            self._points(seconds),
+            world.swarm.radius,
+            world.index(source),
+            world.index(target),
+            world.index(relay),
+        )
+        return None if successor is None else int(world.ids[successor])
 
     def track_sample(
         self, source: int, relay: int, target: int, seconds: float

@@ -196,3 +196,25 @@ def test_a_track_needs_two_flss_and_a_relay(sensor):
         simulate_track(sensor, HOME, IDS, RADIUS, Motion(), 0, 7, TrackConfig(), 1.0)
     with pytest.raises(TrackingError, match="no sweet neighbour of FLS 0 sees FLS 1"):
         simulate_track(sensor, HOME[[0, 2]], IDS[:2], RADIUS, Motion(), 0, 1, TrackConfig(), 1.0)
+
+
+# Two relays: 3 is chosen first (the shorter two hops), until FLS 4 comes
+# between it and the target, which climbs at 0.4 cm/s; relay 1 then takes over.
+HANDOVER_HOME = np.vstack([HOME, [[-5.0, 6.0, 0.0], [-1.25, 5.75, 1.0]]])
+
+
+def test_when_the_relay_loses_the_target_another_relay_takes_over(sensor):
+    motion = Motion({2: parse_trajectory("linear:0,0,0.4")})
+    config = TrackConfig(communication_delay=0.2)
+    result = simulate_track(
+        sensor.error_free(), HANDOVER_HOME, np.arange(5), RADIUS, motion, 0, 2, config, 5.0
+    )
+    relays = [estimate.relay for estimate in result.estimates]
+    assert result.relay == 3
+    first_by_1 = relays.index(1)
+    assert relays == [3] * first_by_1 + [1] * (len(relays) - first_by_1)
+    assert all(estimate.status == TRACKING for estimate in result.estimates)
+    # The new relay starts when the source learns of the loss: one delay of samples is missing.
+    sample_times = np.array([estimate.sample_time for estimate in result.estimates])
+    assert np.isclose(sample_times[first_by_1] - sample_times[first_by_1 - 1], 0.3)
+    assert np.allclose(result.estimates[-1].kalman.velocity, [0.0, 0.0, 0.4], atol=1e-3)

@@ -127,3 +127,25 @@ def test_swazure_track_over_ros_says_it_matches_the_core(domain, tmp_path):
     assert run.returncode == 0, run.stderr
     assert "through relay FLS 1" in run.stdout
     assert "identical to the core's loop: yes" in run.stdout
+
+
+def test_a_handover_to_another_relay_over_ros_equals_the_core_loop(domain):
+    home = np.vstack([HOME, [[-5.0, 6.0, 0.0], [-1.25, 5.75, 1.0]]])
+    world = make_world(Cloud("handover", home, 1.0, "test"), load_sensor(), radius=0.5)
+    motion = Motion({2: parse_trajectory("linear:0,0,0.4")})
+    config = TrackConfig(communication_delay=0.2)
+    ours = run_track(world, motion, 0, 2, config, 5.0, domain_id=domain)
+    core = simulate_track(
+        world.sensor, world.swarm.points, world.ids, world.swarm.radius, motion, 0, 2, config, 5.0
+    )
+    assert [estimate.relay for estimate in ours.estimates] == [
+        estimate.relay for estimate in core.estimates
+    ]
+    assert {estimate.relay for estimate in ours.estimates} == {1, 3}
+    assert [estimate.sample_time for estimate in ours.estimates] == [
+        estimate.sample_time for estimate in core.estimates
+    ]
+    assert np.array_equal(
+        [estimate.kalman.velocity for estimate in ours.estimates],
+        [estimate.kalman.velocity for estimate in core.estimates],
+    )
