@@ -41,7 +41,9 @@ from typing import Protocol
 
 import numpy as np
 from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.clock import JumpThreshold
 from rclpy.context import Context
+from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -237,8 +239,10 @@ class FlsNode(Node):
         # Created at the first track: most FLSs never relay nor track, and
         # every endpoint costs discovery time.
         self._track_publishers: dict[str, object] = {}
-        self._frame_timer: object | None = None
-        self._check_timer: object | None = None
+        # Relay frames and track timeouts run on the node's clock. On simulated
+        # time they follow /clock itself: the EventsExecutor's timers do not
+        # support a simulated clock (ros2/rclcpp#2457) and skip periods.
+        self._track_ticks: object | None = None
         self.relayed: dict[tuple[int, int], Relayed] = {}
         self.tracks: dict[int, Track] = {}  # target id -> its stream
         # Sent and heard, so that whoever drives a simulated clock knows when all is delivered.
@@ -357,8 +361,7 @@ class FlsNode(Node):
         config = replace(self.track_config, model=model)
         self.tracks[target] = Track(config.tracker(), config.timeout, relay)
         self._request(TrackRequest.COMMAND_START, relay, target, now)
-        if self._check_timer is None:
-            self._check_timer = self.create_timer(config.frame_period, self._check_tracks)
+        self._start_track_ticks()
         response.success, response.relay_id = True, relay
         response.message = f"tracking FLS {target} through FLS {relay}"
         return response
@@ -387,11 +390,25 @@ class FlsNode(Node):
         # The first frame is the request's moment; the next come every frame period.
         start = Time.from_msg(request.header.stamp).nanoseconds
         self.relayed[key] = Relayed(*key, next_frame=start)
-        if self._frame_timer is None:
-            self._frame_timer = self.create_timer(
-                self.track_config.frame_period, self._relay_frames
-            )
+        self._start_track_ticks()
         self._relay_frames()
+
+    def _start_track_ticks(self) -> None:
+        if self._track_ticks is not None:
+            return
+        if self.get_parameter("use_sim_time").value:
+            self._track_ticks = self.get_clock().create_jump_callback(
+                JumpThreshold(min_forward=Duration(nanoseconds=1), min_backward=None),
+                post_callback=lambda jump: self._on_track_tick(),
+            )
+        else:
+            self._track_ticks = self.create_timer(
+                self.track_config.frame_period, self._on_track_tick
+            )
+
+    def _on_track_tick(self) -> None:
+        self._relay_frames()
+        self._check_tracks()
 
     def _relay_frames(self) -> None:
         now, period = self._now(), nanoseconds(self.track_config.frame_period)

@@ -149,3 +149,36 @@ def test_a_handover_to_another_relay_over_ros_equals_the_core_loop(domain):
         [estimate.kalman.velocity for estimate in ours.estimates],
         [estimate.kalman.velocity for estimate in core.estimates],
     )
+
+
+def test_a_swarm_on_the_wall_clock_tracks_too(world, context):
+    # As under `swazure spawn`: no simulated clock, the relay's camera on a wall timer.
+    from rclpy.node import Node
+    from swazure_interfaces.msg import TrackEstimate
+
+    from swazure_ros.nodes.host import SwarmHost
+
+    with SwarmHost(
+        world, [0, 1, 2], context=context, parameters={"track.frame_period": 0.05}
+    ) as host:
+        host.create_fls_nodes()
+        client = Node("probe", namespace="swarm", context=context)
+        host.add(client)
+        received = []
+        client.create_subscription(TrackEstimate, "track_estimates", received.append, 100)
+        service = client.create_client(TrackTarget, "fls_0/track")
+        assert host.spin_until_discovered(30.0)
+        future = service.call_async(TrackTarget.Request(source_id=0, target_id=2, model=1))
+        deadline = 30.0
+        while not future.done() and deadline > 0:
+            host.spin_once(0.05)
+            deadline -= 0.05
+        assert future.result().success
+        host.spin_for(1.0)
+        assert len(received) >= 10
+        assert {message.relay_id for message in received} == {1}
+        assert all(message.status == TrackEstimate.STATUS_TRACKING for message in received)
+        # The target is still: the relayed position is its home, the velocity nil.
+        last = estimate_from_message(received[-1])
+        assert np.allclose(last.raw, HOME[2] - HOME[0], atol=0.1)
+        assert np.linalg.norm(last.kalman.velocity) < 1e-6
