@@ -346,16 +346,15 @@ class FlsNode(Node):
         if model is None:
             response.message = f"unknown model {request.model}: use TrackTarget.MODEL_*"
             return response
-        target = int(request.target_id)
+        target, now = int(request.target_id), self._now()
         try:
-            relay = self._senses.choose_relay(self.fls_id, target, self._now() / 1e9)
+            relay = self._senses.choose_relay(self.fls_id, target, now / 1e9)
         except UnknownFlsError as err:
             response.message = str(err)
             return response
         if relay is None or target == self.fls_id:
             response.message = f"no sweet neighbour of FLS {self.fls_id} sees FLS {target}"
             return response
-        now = self._now()
         if target in self.tracks:
             self._request(TrackRequest.COMMAND_STOP, self.tracks[target].relay, target, now)
         config = replace(self.track_config, model=model)
