@@ -2,9 +2,10 @@
 
 The target follows --trajectory (linear:VX,VY,VZ in cm/s; circle:RADIUS,PERIOD
 [,AX,AY,AZ] in cm and s, about +z by default; or a waypoint CSV t,x,y,z of s
-and cm from home). The source's FLS node, its radio neighbours and a
-simulated clock run over ROS 2 in this process; --engine runs the core's
-loop alone. Prints the estimates over time and the errors, with and without
+and cm from home). The source's FLS node, its sweet neighbours (the relays),
+the target's node and a simulated clock run over ROS 2 in this process;
+--engine runs the core's loop alone. When a relay loses the target, another
+takes over if one sees it. Prints the estimates over time and the errors, with and without
 delay compensation; --plot FILE.png draws them, --csv FILE writes them.
 """
 
