@@ -15,6 +15,7 @@ from typing import Any
 import yaml
 
 from ..core.errors import SwazureError
+from .evaluate import add_domain_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -32,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="exit 1 when no message arrived within S seconds (default: wait)",
     )
-    parser.add_argument("--domain-id", type=int, default=None, help="default: $ROS_DOMAIN_ID")
+    add_domain_argument(parser)
 
 
 def message_class(type_name: str) -> Any:

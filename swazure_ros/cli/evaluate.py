@@ -56,6 +56,31 @@ def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+#: The largest ROS domain id whose DDS ports fit (Linux; the ROS 2 "domain id" design note).
+MAX_DOMAIN_ID = 232
+
+
+def domain_id(text: str) -> int:
+    """A ROS domain id from the command line, 0 to MAX_DOMAIN_ID."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if not 0 <= value <= MAX_DOMAIN_ID:
+        raise argparse.ArgumentTypeError(f"{value} is outside 0..{MAX_DOMAIN_ID}")
+    return value
+
+
+def add_domain_argument(parser: argparse.ArgumentParser) -> None:
+    """The ROS domain option of the verbs that join a swarm."""
+    parser.add_argument(
+        "--domain-id",
+        type=domain_id,
+        default=None,
+        help=f"ROS domain id, 0..{MAX_DOMAIN_ID} (default: $ROS_DOMAIN_ID)",
+    )
+
+
 def add_policy_argument(parser: argparse.ArgumentParser) -> None:
     """The path policy option, shared by the verbs that compute poses."""
     parser.add_argument(

@@ -15,7 +15,7 @@ from typing import Any
 from ..core.discovery import Estimate
 from ..core.errors import SwazureError
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
-from .evaluate import add_policy_argument
+from .evaluate import add_domain_argument, add_policy_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -24,7 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--target", type=int, required=True, metavar="J", help="target FLS id")
     add_policy_argument(parser)
     parser.add_argument("--namespace", default="swarm", help="namespace of the swarm")
-    parser.add_argument("--domain-id", type=int, default=None, help="default: $ROS_DOMAIN_ID")
+    add_domain_argument(parser)
     parser.add_argument(
         "--timeout",
         type=float,

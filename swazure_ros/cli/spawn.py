@@ -27,7 +27,12 @@ from ..core.errors import SwazureError
 from ..core.heuristics import PLAIN, TECHNIQUES
 from ..core.sensor import config_dir
 from ..sim.world import WorldSpec
-from .evaluate import add_policy_argument, add_swarm_arguments, add_threshold_argument
+from .evaluate import (
+    add_domain_argument,
+    add_policy_argument,
+    add_swarm_arguments,
+    add_threshold_argument,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -45,9 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="ROS 2 parameter file (ros__parameters layout; default: config/swarm.yaml)",
     )
     parser.add_argument("--namespace", default="swarm", help="namespace of the swarm's nodes")
-    parser.add_argument(
-        "--domain-id", type=int, default=None, help="ROS domain id (default: $ROS_DOMAIN_ID)"
-    )
+    add_domain_argument(parser)
     parser.add_argument(
         "--until-ready",
         action="store_true",

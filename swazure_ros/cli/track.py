@@ -34,7 +34,7 @@ from ..core.tracking import (
     track_series,
 )
 from ..sim.world import World, WorldSpec
-from .evaluate import add_swarm_arguments
+from .evaluate import add_domain_argument, add_swarm_arguments
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -72,7 +72,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--engine", action="store_true", help="the core's loop, without ROS")
     parser.add_argument("--plot", type=Path, metavar="FILE.png", help="write the figure")
     parser.add_argument("--csv", type=Path, metavar="FILE", help="write every estimate")
-    parser.add_argument("--domain-id", type=int, default=None, help="ROS domain id")
+    add_domain_argument(parser)
 
 
 def _moves(world: World, moves: list[str]) -> dict[int, Trajectory]:

@@ -65,3 +65,13 @@ def test_bad_input_is_one_line_and_exit_2(trio, extra, message):
     assert message in run.stderr
     assert len(run.stderr.strip().splitlines()) == 1
     assert "Traceback" not in run.stderr
+
+
+@pytest.mark.parametrize("verb", ["track", "spawn", "echo", "query"])
+@pytest.mark.parametrize(("value", "message"), [("999", "outside 0..232"), ("x", "not a whole")])
+def test_every_verb_that_joins_a_swarm_refuses_a_bad_domain_id(verb, value, message):
+    # The four verbs share the option; DDS itself would fail with log lines and a traceback.
+    run = swazure(verb, "--domain-id", value)
+    assert run.returncode == 2
+    assert message in run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1
