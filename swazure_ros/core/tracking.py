@@ -26,9 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 from filterpy.common import Q_discrete_white_noise
 from filterpy.kalman import KalmanFilter
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .errors import SwazureError
+from .geometry import tracking_distance
 from .motion import Motion
 from .sensor import DECAYING, SWEET, Sensor, measured_vectors
 from .sight import obstructed
@@ -56,15 +57,18 @@ class TrackingError(SwazureError):
     """A track that cannot be set up."""
 
 
-def _seen(sensor: Sensor, points: FloatArray, radius: float, first: int, second: int) -> int:
-    """Range class of second as first's camera sees it now, or -1 when it cannot."""
-    tracking = float(np.linalg.norm(points[second] - points[first])) - 2.0 * radius
-    range_class = int(sensor.classify(np.array([tracking]))[0])
-    if range_class not in (SWEET, DECAYING):
-        return -1
-    if obstructed(points, radius, [first], [second])[0]:
-        return -1
-    return range_class
+def _seen(
+    sensor: Sensor, points: FloatArray, radius: float, first: ArrayLike, second: ArrayLike
+) -> NDArray[np.int8]:
+    """(M,) range class of each second[m] as first[m]'s camera sees it now, or -1 if it cannot."""
+    first = np.atleast_1d(np.asarray(first, dtype=np.int64))
+    second = np.atleast_1d(np.asarray(second, dtype=np.int64))
+    classes = sensor.classify(tracking_distance(points, radius, first, second))
+    measurable = (classes == SWEET) | (classes == DECAYING)
+    # One line-of-sight query (one grid) for every segment in range.
+    blocked = obstructed(points, radius, first[measurable], second[measurable])
+    measurable[np.flatnonzero(measurable)[blocked]] = False
+    return np.where(measurable, classes, -1).astype(np.int8)
 
 
 def choose_relay(
@@ -73,24 +77,33 @@ def choose_relay(
     """Index of the relay for source -> target, or None: a sweet neighbour that sees the target.
 
     Both hops need line of sight. Preferred: a target in the relay's sweet
-    range over its decaying range, then the shortest two-hop tracking length,
-    then the lowest index.
+    range over its decaying range, then the shortest two-hop tracking length
+    (to 1e-7 cm), then the lowest index.
     """
-    tracking = np.linalg.norm(points - points[source], axis=1) - 2.0 * radius
+    everyone = np.arange(len(points))
+    tracking = tracking_distance(points, radius, np.full(len(points), source), everyone)
     candidates = np.flatnonzero(sensor.classify(tracking) == SWEET)
     candidates = candidates[(candidates != source) & (candidates != target)]
-    best: tuple[int, float, int] | None = None
-    for relay in candidates.tolist():
-        if _seen(sensor, points, radius, source, relay) != SWEET:
-            continue
-        target_class = _seen(sensor, points, radius, relay, target)
-        if target_class < 0:
-            continue
-        to_target = float(np.linalg.norm(points[target] - points[relay])) - 2.0 * radius
-        key = (0 if target_class == SWEET else 1, float(tracking[relay]) + to_target, relay)
-        if best is None or key < best:
-            best = key
-    return None if best is None else best[2]
+    count = len(candidates)
+    seen = _seen(
+        sensor,
+        points,
+        radius,
+        np.concatenate([np.full(count, source), candidates]),
+        np.concatenate([candidates, np.full(count, target)]),
+    )
+    from_source, to_target = seen[:count], seen[count:]
+    usable = (from_source == SWEET) & (to_target >= 0)
+    if not usable.any():
+        return None
+    relays = candidates[usable]
+    length = tracking[relays] + tracking_distance(
+        points, radius, relays, np.full(len(relays), target)
+    )
+    # Lengths equal to a nanometre tie, so that symmetric swarms go to the lowest
+    # index whatever rounding the distances took. lexsort: last key sorts first.
+    order = np.lexsort((relays, np.round(length, 7), to_target[usable] != SWEET))
+    return int(relays[order[0]])
 
 
 def next_relay(
@@ -109,9 +122,10 @@ def relay_sample(
     The relay measures both with its own camera at one instant: the hop is
     minus its measurement of the source, as Swazure sums measured hop vectors.
     """
-    if _seen(sensor, points, radius, relay, source) != SWEET:
+    to_source, to_target = _seen(sensor, points, radius, [relay, relay], [source, target])
+    if to_source != SWEET:
         return RELAY_SOURCE_LOST, np.full(3, np.nan)
-    if _seen(sensor, points, radius, relay, target) < 0:
+    if to_target < 0:
         return RELAY_TARGET_LOST, np.full(3, np.nan)
     measured = measured_vectors(sensor, points, radius, [relay, relay], [source, target])
     return RELAY_OK, measured[1] - measured[0]
