@@ -12,6 +12,7 @@ from __future__ import annotations
 import re
 import time
 from collections.abc import Callable, Sequence
+from typing import TypeVar
 
 from rclpy.context import Context
 from rclpy.experimental import EventsExecutor
@@ -47,6 +48,8 @@ from .fls_node import (
     FlsNode,
 )
 from .world_node import WORLD_QOS, WORLD_TOPIC, WorldNode
+
+_Result = TypeVar("_Result")
 
 
 class WorldReplica:
@@ -84,47 +87,29 @@ class WorldReplica:
         """One more than the largest FLS id."""
         return self.world.id_space
 
-    def _points(self, seconds: float) -> FloatArray:
-        return self.motion.points(self.world.swarm.points, self.world.ids, seconds)
+    def _at(self, seconds: float, sensing: Callable[..., _Result], *fls_ids: int) -> _Result:
+        """``sensing(sensor, points, radius, *rows)`` with every FLS where it is at ``seconds``."""
+        world = self.world
+        points = self.motion.points(world.swarm.points, world.ids, seconds)
+        rows = (world.index(fls_id) for fls_id in fls_ids)
+        return sensing(world.sensor, points, world.swarm.radius, *rows)
+
+    def _fls_id(self, row: int | None) -> int | None:
+        return None if row is None else int(self.world.ids[row])
 
     def choose_relay(self, source: int, target: int, seconds: float) -> int | None:
         """The relay FLS for ``source`` to track ``target`` at ``seconds``, or None."""
-        world = self.world
-        relay = choose_relay(
-            world.sensor,
-            self._points(seconds),
-            world.swarm.radius,
-            world.index(source),
-            world.index(target),
-        )
-        return None if relay is None else int(world.ids[relay])
+        return self._fls_id(self._at(seconds, choose_relay, source, target))
 
     def next_relay(self, source: int, target: int, relay: int, seconds: float) -> int | None:
         """The relay to hand ``relay``'s stream over to at ``seconds``, or None."""
-        world = self.world
-        successor = next_relay(
-            world.sensor,
-            self._points(seconds),
-            world.swarm.radius,
-            world.index(source),
-            world.index(target),
-            world.index(relay),
-        )
-        return None if successor is None else int(world.ids[successor])
+        return self._fls_id(self._at(seconds, next_relay, source, target, relay))
 
     def track_sample(
         self, source: int, relay: int, target: int, seconds: float
     ) -> tuple[int, FloatArray]:
         """(RELAY_* status, (3,) cm) of what ``relay`` senses for ``source`` at ``seconds``."""
-        world = self.world
-        return relay_sample(
-            world.sensor,
-            self._points(seconds),
-            world.swarm.radius,
-            world.index(source),
-            world.index(relay),
-            world.index(target),
-        )
+        return self._at(seconds, relay_sample, source, relay, target)
 
     def apply(self, world: World) -> None:
         """Take a newer revision; the local FLSs sense anew when next asked."""
