@@ -28,6 +28,7 @@ from .core.motion import Motion
 from .core.tracking import (
     ENDED,
     TIMED_OUT,
+    TRACK_SETTINGS,
     TrackConfig,
     TrackingError,
     TrackRun,
@@ -83,10 +84,9 @@ def estimate_from_message(message: TrackEstimate) -> Estimate:
 
 def track_parameters(config: TrackConfig) -> dict[str, object]:
     """The FLS node parameters of ``config``, on the simulated clock."""
-    names = ("frame_period", "sensing_delay", "communication_delay", "timeout")
-    parameters: dict[str, object] = {f"track.{name}": getattr(config, name) for name in names}
-    parameters["track.process_noise"] = config.process_noise
-    parameters["track.measurement_noise"] = config.measurement_noise
+    parameters: dict[str, object] = {
+        f"track.{name}": getattr(config, name) for name in TRACK_SETTINGS
+    }
     parameters["use_sim_time"] = True
     return parameters
 

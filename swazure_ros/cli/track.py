@@ -26,6 +26,7 @@ from ..core.results import atomic_write
 from ..core.tracking import (
     ESTIMATORS,
     MODELS,
+    TRACK_SETTINGS,
     TrackConfig,
     TrackRun,
     TrackSeries,
@@ -53,19 +54,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=float, default=10.0, help="simulated s (default 10)")
     defaults = TrackConfig()
     parser.add_argument("--model", choices=MODELS, default=defaults.model, help="filter model")
-    for name, unit in (
-        ("frame_period", "s"),
-        ("sensing_delay", "s"),
-        ("communication_delay", "s"),
-        ("timeout", "s"),
-        ("process_noise", "cm/s^2 or cm/s^3"),
-        ("measurement_noise", "cm"),
-    ):
+    for name, meaning in TRACK_SETTINGS.items():
         parser.add_argument(
             f"--{name.replace('_', '-')}",
             type=float,
             default=getattr(defaults, name),
-            help=f"{unit} (default {getattr(defaults, name):g})",
+            help=f"{meaning} (default {getattr(defaults, name):g})",
         )
     parser.add_argument("--settle", type=float, default=1.0, help="s before errors count")
     parser.add_argument("--every", type=float, default=0.5, help="s between printed rows")
@@ -87,15 +81,7 @@ def _moves(world: World, moves: list[str]) -> dict[int, Trajectory]:
 
 
 def _config(args: argparse.Namespace) -> TrackConfig:
-    return TrackConfig(
-        frame_period=args.frame_period,
-        sensing_delay=args.sensing_delay,
-        communication_delay=args.communication_delay,
-        model=args.model,
-        process_noise=args.process_noise,
-        measurement_noise=args.measurement_noise,
-        timeout=args.timeout,
-    )
+    return TrackConfig(model=args.model, **{name: getattr(args, name) for name in TRACK_SETTINGS})
 
 
 def _simulate(world: World, motion: Motion, args: argparse.Namespace) -> TrackRun:

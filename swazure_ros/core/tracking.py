@@ -367,6 +367,18 @@ class TrackConfig:
         return KalmanTracker(self.model, self.process_noise, self.measurement_noise)
 
 
+#: TrackConfig's numeric settings -> what they mean: one table for the node
+#: parameters (``track.<name>``), the command line and the docs.
+TRACK_SETTINGS = {
+    "frame_period": "seconds between the relay camera's frames of a tracked target",
+    "sensing_delay": "seconds from a frame to the relay's sample",
+    "communication_delay": "seconds from the relay to the source",
+    "timeout": "seconds without a sample after which a track times out",
+    "process_noise": "filter process noise: cm/s^2 (constant velocity), cm/s^3 (acceleration)",
+    "measurement_noise": "filter measurement noise of a relayed sample, cm",
+}
+
+
 def nanoseconds(seconds: float) -> int:
     """``seconds`` on the ROS clock's integer nanoseconds."""
     return round(seconds * 1e9)

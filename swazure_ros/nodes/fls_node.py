@@ -73,6 +73,7 @@ from ..core.tracking import (
     RELAY_MESSAGES,
     RELAY_OK,
     TIMED_OUT,
+    TRACK_SETTINGS,
     Track,
     TrackConfig,
     TrackingError,
@@ -116,15 +117,6 @@ POLICY_NAMES = {
 
 #: TrackTarget.MODEL_* (the same numbers as TrackEstimate's) -> the core's filter models.
 MODEL_NAMES = {code: name for name, code in TRACK_MODELS.items()}
-#: Node parameter (under ``track.``) -> TrackConfig field; the defaults are TrackConfig's.
-TRACK_PARAMETERS = {
-    "frame_period": "seconds between the relay camera's frames of a tracked target",
-    "sensing_delay": "seconds from a frame to the relay's sample",
-    "communication_delay": "seconds from the relay to the source",
-    "timeout": "seconds without a sample after which a track times out",
-    "process_noise": "filter process noise: cm/s^2 (constant velocity), cm/s^3 (acceleration)",
-    "measurement_noise": "filter measurement noise of a relayed sample, cm",
-}
 
 
 class ParameterError(SwazureError):
@@ -256,7 +248,8 @@ class FlsNode(Node):
         defaults = TrackConfig()
         values = {}
         try:
-            for name, description in TRACK_PARAMETERS.items():
+            # track.<name>, defaulting to TrackConfig's.
+            for name, description in TRACK_SETTINGS.items():
                 values[name] = self.declare_parameter(
                     f"track.{name}",
                     getattr(defaults, name),
