@@ -29,6 +29,7 @@ from .core.tracking import (
     ENDED,
     TIMED_OUT,
     TRACK_SETTINGS,
+    MotionEstimate,
     TrackConfig,
     TrackingError,
     TrackRun,
@@ -36,7 +37,6 @@ from .core.tracking import (
     arrival,
     nanoseconds,
 )
-from .core.tracking import TrackEstimate as Estimate
 from .nodes.clock import SimClock
 from .nodes.convert import TRACK_MODELS, TRACK_STATUS, array3, to_seconds
 from .nodes.fls_node import ROUND_QOS, TRACK_ESTIMATES_TOPIC, TRACK_SERVICE, node_name
@@ -50,7 +50,7 @@ class SwarmStalledError(SwazureError):
     """The nodes stopped answering within the wall-clock bound."""
 
 
-def estimate_from_message(message: TrackEstimate) -> Estimate:
+def estimate_from_message(message: TrackEstimate) -> MotionEstimate:
     """The core's estimate of a TrackEstimate message."""
     status = STATUS_NAMES[message.status]
     tracking = not np.isnan(message.position.x)
@@ -66,9 +66,10 @@ def estimate_from_message(message: TrackEstimate) -> Estimate:
         )
 
     present = to_seconds(message.header.stamp)
-    sampled = message.sample_stamp.sec or message.sample_stamp.nanosec or tracking
+    # A stamp of 0 is a real time on a simulated clock: no sample is a NaN raw position.
+    sampled = not np.isnan(message.raw_position.x)
     sample_time = to_seconds(message.sample_stamp) if sampled else float("nan")
-    return Estimate(
+    return MotionEstimate(
         status,
         present,
         sample_time,

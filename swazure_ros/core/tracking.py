@@ -44,7 +44,6 @@ MODELS = (CONSTANT_VELOCITY, CONSTANT_ACCELERATION)
 RELAY_OK = 0
 RELAY_TARGET_LOST = 1  # the relay's camera no longer sees the target
 RELAY_SOURCE_LOST = 2  # the source left the relay's sweet range or view
-RELAY_STOPPED = 3  # the relay ended the stream
 
 # The state of a source's stream.
 WAITING = "waiting"  # no sample yet
@@ -239,7 +238,7 @@ class KalmanTracker:
 
 
 @dataclass(frozen=True)
-class TrackEstimate:
+class MotionEstimate:
     """What a source knows of its target at one present time."""
 
     status: str  # WAITING, TRACKING, ENDED, TIMED_OUT
@@ -262,16 +261,15 @@ class Track:
     then stops extrapolating.
     """
 
-    def __init__(
-        self, tracker: KalmanTracker, timeout: float, relay: int = -1, window: int = 5
-    ) -> None:
+    def __init__(self, tracker: KalmanTracker, timeout: float, relay: int = -1) -> None:
         self.tracker = tracker
         self.timeout = timeout
         self.relay = relay
         self.handovers = 0
         self.status = WAITING
         self.message = ""
-        self._samples: deque[tuple[float, FloatArray]] = deque(maxlen=max(window, 5))
+        # Five samples: the acceleration's central difference spans four intervals.
+        self._samples: deque[tuple[float, FloatArray]] = deque(maxlen=5)
 
     def add(self, time: float, position: FloatArray) -> None:
         """Take a sample sensed at ``time`` s: relative position (3,) cm."""
@@ -300,11 +298,11 @@ class Track:
             return True
         return False
 
-    def estimate(self, now: float) -> TrackEstimate:
+    def estimate(self, now: float) -> MotionEstimate:
         """The estimate at the present ``now`` s."""
         nothing = np.full(3, np.nan)
         if not self._samples:
-            return TrackEstimate(
+            return MotionEstimate(
                 self.status,
                 now,
                 np.nan,
@@ -322,7 +320,7 @@ class Track:
         velocity = differences.velocity[-1] if len(differences.velocity) else nothing
         acceleration = differences.acceleration[-1] if len(differences.acceleration) else nothing
         tracking = self.status == TRACKING
-        return TrackEstimate(
+        return MotionEstimate(
             self.status,
             now,
             float(times[-1]),
@@ -393,7 +391,6 @@ def arrival(sensed: float, config: TrackConfig) -> float:
 RELAY_MESSAGES = {
     RELAY_TARGET_LOST: "the relay lost sight of the target",
     RELAY_SOURCE_LOST: "the source left the relay's sweet range or view",
-    RELAY_STOPPED: "the relay stopped",
 }
 
 
@@ -404,7 +401,7 @@ class TrackRun:
     source: int
     target: int
     relay: int
-    estimates: list[TrackEstimate]
+    estimates: list[MotionEstimate]
 
 
 def simulate_track(
@@ -459,7 +456,7 @@ def simulate_track(
     return TrackRun(source, target, first_relay, estimates)
 
 
-#: Estimator -> (what it is, the TrackEstimate attribute path) of :func:`track_errors`.
+#: Estimator -> (what it is, the MotionEstimate attribute path) of :func:`track_errors`.
 ESTIMATORS = {
     "raw": "the last sample / central differences, as received (no compensation)",
     "filtered": "the Kalman filter at the last sample's time (no compensation)",

@@ -25,8 +25,8 @@ from ..core.tracking import (
     TIMED_OUT,
     TRACKING,
     WAITING,
+    MotionEstimate,
 )
-from ..core.tracking import TrackEstimate as TrackEstimateState
 from ..sim.world import Measurement
 
 FloatArray = NDArray[np.float64]
@@ -204,7 +204,7 @@ TRACK_MODELS = {
 
 
 def track_estimate_message(
-    source: int, target: int, model: str, estimate: TrackEstimateState
+    source: int, target: int, model: str, estimate: MotionEstimate
 ) -> TrackEstimate:
     """A source's estimate of its target's motion as a TrackEstimate message."""
     kalman, filtered = estimate.kalman, estimate.filtered

@@ -182,3 +182,20 @@ def test_a_swarm_on_the_wall_clock_tracks_too(world, context):
         last = estimate_from_message(received[-1])
         assert np.allclose(last.raw, HOME[2] - HOME[0], atol=0.1)
         assert np.linalg.norm(last.kalman.velocity) < 1e-6
+
+
+def test_an_estimate_survives_the_message_round_trip(world):
+    from swazure_ros.core.tracking import KalmanTracker, Track
+    from swazure_ros.nodes.convert import track_estimate_message
+
+    track = Track(KalmanTracker(), timeout=1.0, relay=1)
+    waiting = track_estimate_message(0, 2, CONSTANT_ACCELERATION, track.estimate(0.0))
+    assert np.isnan(estimate_from_message(waiting).sample_time)
+    track.add(0.0, np.array([1.0, 2.0, 3.0]))  # sensed at t = 0, a real time on /clock
+    track.end("the relay lost sight of the target")
+    ended = track.estimate(0.2)
+    back = estimate_from_message(track_estimate_message(0, 2, CONSTANT_ACCELERATION, ended))
+    assert (back.status, back.time, back.sample_time, back.relay) == ("ended", 0.2, 0.0, 1)
+    assert np.array_equal(back.raw, [1.0, 2.0, 3.0])
+    assert back.kalman is None
+    assert back.message == ended.message
