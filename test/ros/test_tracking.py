@@ -67,7 +67,7 @@ def test_when_the_relay_stops_the_stream_times_out_and_ends(world, context):
         tick_until(session, 1.0, step)
         session.spin_until(lambda: len(session.estimates) >= 11, 10.0)
         assert [message.status for message in session.estimates[:11]] == [1] * 11
-        session.host.stop_fls(1)
+        session.stop_fls(1)
         for now in range(nanoseconds(1.0) + step, nanoseconds(3.0) + 1, step):
             session.advance(now)
         session.host.spin_for(0.2)
