@@ -80,23 +80,16 @@ def message_to_yaml(message: Any) -> str:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure echo``."""
-    import rclpy
-    from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
-    from rclpy.node import Node
-    from rclpy.signals import SignalHandlerOptions
+
+    from ..ros.runtime import SwarmNode, init_context
 
     limit = 1 if args.once else args.count
     if limit is not None and limit < 1:
         raise SwazureError(f"--count must be at least 1, got {limit}")
     topic = args.topic if args.topic.startswith("/") else f"/{args.topic}"
-    context = Context()
-    rclpy.init(
-        context=context, domain_id=args.domain_id, signal_handler_options=SignalHandlerOptions.NO
-    )
-    node = Node(
-        "swazure_echo", context=context, start_parameter_services=False, enable_rosout=False
-    )
+    context = init_context(args.domain_id)
+    node = SwarmNode("swazure_echo", context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     printed = 0

@@ -12,9 +12,9 @@ import math
 import time
 from typing import Any
 
-from ..core.discovery import Estimate
 from ..core.errors import SwazureError
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
+from ..protocol.discovery import Estimate
 from .evaluate import add_domain_argument, add_policy_argument
 
 
@@ -50,28 +50,21 @@ def describe(source: int, found: Estimate) -> str:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure query``."""
-    import rclpy
-    from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
-    from rclpy.node import Node
-    from rclpy.signals import SignalHandlerOptions
     from swazure_interfaces.srv import ComputePose
 
-    from ..nodes.convert import estimate_from_message
-    from ..nodes.coordinator import policy_code
+    from ..ros.convert import estimate_from_message
+    from ..ros.names import COMPUTE_POSE_SERVICE, COORDINATOR, policy_code
+    from ..ros.runtime import SwarmNode, init_context
 
     for name in ("source", "target"):
         fls_id = getattr(args, name)
         if fls_id < 0:
             raise SwazureError(f"--{name} must be an FLS id (0 or more), got {fls_id}")
-    service = f"/{args.namespace.strip('/') or 'swarm'}/coordinator/compute_pose"
-    context = Context()
-    rclpy.init(
-        context=context, domain_id=args.domain_id, signal_handler_options=SignalHandlerOptions.NO
-    )
-    node = Node(
-        "swazure_query", context=context, start_parameter_services=False, enable_rosout=False
-    )
+    namespace = args.namespace.strip("/") or "swarm"
+    service = f"/{namespace}/{COORDINATOR}/{COMPUTE_POSE_SERVICE}"
+    context = init_context(args.domain_id)
+    node = SwarmNode("swazure_query", context=context)
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     try:

@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
-import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -111,7 +110,7 @@ class CreationBar:
 
 def config_from_args(args: argparse.Namespace) -> Any:
     """The swarm the options describe, as a :class:`~swazure_ros.launcher.SwarmConfig`."""
-    from ..launcher import SwarmConfig
+    from ..app.swarm import SwarmConfig
 
     if args.beta is None and args.radius is None:
         raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
@@ -143,85 +142,48 @@ def config_from_args(args: argparse.Namespace) -> Any:
 
 def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     """Run discovery over the whole swarm, report it beside the engine, write --out."""
-    from ..core.discovery import evaluation_of
-    from ..core.evaluate import evaluate
-    from ..core.heuristics import run_technique
+    from ..app.swarm import compute_all as run
     from ..core.results import describe_source, write_evaluation
     from .evaluate import summary_table
 
     world = swarm.world
+
+    def discovered(result: Any) -> None:
+        traffic = result.traffic
+        print(
+            f"{world.cloud.name}: beta {world.swarm.beta:.4g}, {args.policy}: discovery "
+            f"{result.seconds:.2f} s, {result.rounds} rounds, {traffic.total_messages} "
+            f"messages, {traffic.total_bytes / 1e6:.1f} MB",
+            flush=True,
+        )
+
     print(f"discovery: every FLS for every blind neighbour, {args.policy}", flush=True)
-    result = swarm.discover(args.policy)
-    evaluation = evaluation_of(world.hood, args.policy, result.estimates)
-    evaluation.summary["seconds"] = result.seconds
-    traffic = result.traffic
-    distributed = {
-        "seconds": result.seconds,
-        "rounds": result.rounds,
-        "restarts": result.restarts,
-        "departed": sorted(result.departed),
-        "messages": traffic.messages,
-        "bytes": traffic.bytes,
-    }
-    print(
-        f"{world.cloud.name}: beta {world.swarm.beta:.4g}, {args.policy}: discovery "
-        f"{result.seconds:.2f} s, {result.rounds} rounds, {traffic.total_messages} messages, "
-        f"{traffic.total_bytes / 1e6:.1f} MB",
-        flush=True,
-    )
-    heuristic = None
-    if args.technique != PLAIN:
-        moved = swarm.make_moves(result, args.technique, args.threshold)
-        evaluation, heuristic = moved.evaluation, moved.heuristic
-        evaluation.summary["seconds"] = result.seconds + moved.seconds
-        distributed["moves"] = {
-            "seconds": moved.seconds,
-            "batches": moved.batches,
-            "move_commands": moved.moved,
-            "path_walks": moved.walks,
-            "messages": moved.traffic.messages,
-            "bytes": moved.traffic.bytes,
-        }
+    computed = run(swarm, args.policy, args.technique, args.threshold, discovered)
+    if computed.moves is not None:
+        moved = computed.moves
         print(
             f"{args.technique}: {moved.seconds:.2f} s, {moved.batches} batches, "
             f"{moved.moved} move commands, {moved.walks} path walks, "
             f"{moved.traffic.total_messages} messages, {moved.traffic.total_bytes / 1e6:.1f} MB"
         )
-    began = time.perf_counter()
-    engine = evaluate(world.swarm, world.sensor, args.policy)
-    engine, _ = run_technique(engine, args.technique, args.threshold)
-    engine_seconds = time.perf_counter() - began
-    summary = evaluation.summary
-    summary["distributed"] = distributed
+    summary = computed.evaluation.summary
+    summary["distributed"] = computed.distributed
     describe_source(summary, world.cloud, args.seed, args.sensor)
-    print(f"engine: {engine_seconds:.2f} s for the same work")
-    print(summary_table(summary, ("engine", engine.summary)).replace("this run", "distributed"))
-    same = _same_results(evaluation, engine)
-    print(f"pairs identical to the engine's (status, path, estimate to 1e-9): {same}")
+    print(f"engine: {computed.engine_seconds:.2f} s for the same work")
+    table = summary_table(summary, ("engine", computed.engine.summary))
+    print(table.replace("this run", "distributed"))
+    print(
+        f"pairs identical to the engine's (status, path, estimate to 1e-9): {computed.identical}"
+    )
     if args.out is not None:
         try:
-            summary_path, pairs_path = write_evaluation(args.out, evaluation, heuristic)
+            paths = write_evaluation(args.out, computed.evaluation, computed.heuristic)
         except OSError as err:
             raise SwazureError(
                 f"{args.out}: cannot write results ({err.strerror or err})"
             ) from err
-        print(f"wrote {summary_path} and {pairs_path}")
+        print(f"wrote {paths[0]} and {paths[1]}")
     return 0
-
-
-def _same_results(ours: Any, engine: Any) -> str:
-    import numpy as np
-
-    mine, theirs = ours.pairs, engine.pairs
-    if len(mine) != len(theirs):
-        return f"no: {len(mine)} pairs reported, the engine has {len(theirs)}"
-    status = int((mine.status != theirs.status).sum())
-    paths = not np.array_equal(mine.nodes, theirs.nodes)
-    with np.errstate(invalid="ignore"):
-        far = int((np.abs(mine.estimate - theirs.estimate) > 1e-9).any(axis=1).sum())
-    if status or paths or far:
-        return f"no: {status} statuses, {far} estimates differ; paths differ: {paths}"
-    return "yes"
 
 
 def _interrupt(signum: int, frame: object) -> None:
@@ -242,7 +204,7 @@ def _stopper(swarm: Any) -> Callable[[int, object], None]:
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure spawn``."""
     # rclpy loads only for the verbs that use it: `swazure evaluate` starts faster.
-    from ..launcher import RunningSwarm
+    from ..app.swarm import RunningSwarm
 
     # Stop cleanly on Ctrl-C and on SIGTERM (a supervisor, a test), also when a shell
     # that started us in the background made us ignore SIGINT.

@@ -30,10 +30,10 @@ from ..core.tracking import (
     TrackConfig,
     TrackRun,
     TrackSeries,
-    simulate_track,
     track_errors,
     track_series,
 )
+from ..protocol.loops import simulate_track
 from ..sim.world import World, WorldSpec
 from .evaluate import add_domain_argument, add_swarm_arguments
 
@@ -95,33 +95,6 @@ def _simulate(world: World, motion: Motion, args: argparse.Namespace) -> TrackRu
         args.target,
         _config(args),
         args.duration,
-    )
-
-
-def _same(first: TrackRun, second: TrackRun) -> bool:
-    """Same relay, statuses, times and predicted states, to the bit."""
-
-    def table(run: TrackRun) -> tuple[list[str], np.ndarray]:
-        rows = [
-            [estimate.time, estimate.sample_time]
-            + (
-                [
-                    *estimate.kalman.position,
-                    *estimate.kalman.velocity,
-                    *estimate.kalman.acceleration,
-                ]
-                if estimate.kalman is not None
-                else [np.nan] * 9
-            )
-            for estimate in run.estimates
-        ]
-        return [estimate.status for estimate in run.estimates], np.array(rows)
-
-    (first_status, first_rows), (second_status, second_rows) = table(first), table(second)
-    return (
-        first.relay == second.relay
-        and first_status == second_status
-        and np.array_equal(first_rows, second_rows, equal_nan=True)
     )
 
 
@@ -198,7 +171,7 @@ def main(args: argparse.Namespace) -> int:
     engine = _simulate(world, motion, args)
     run = engine
     if not args.engine:
-        from ..tracker import run_track  # rclpy only when ROS runs
+        from ..app.track import run_track, same_run  # rclpy only when ROS runs
 
         def progress(now: float) -> None:
             print(f"\rsimulated {now:6.2f} / {args.duration:g} s", end="", file=sys.stderr)
@@ -239,7 +212,7 @@ def main(args: argparse.Namespace) -> int:
         print(f"stream {last.status if last else 'empty'}: {len(run.estimates)} estimates")
     _print_errors(track_errors(series, args.settle), args.settle)
     if not args.engine:
-        print(f"identical to the core's loop: {'yes' if _same(run, engine) else 'no'}")
+        print(f"identical to the core's loop: {'yes' if same_run(run, engine) else 'no'}")
     if args.csv is not None:
         _write_csv(args.csv, series)
         print(f"wrote {args.csv}")

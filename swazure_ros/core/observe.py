@@ -92,6 +92,36 @@ def observations(hood: Neighbourhood) -> Observations:
     return Observations(indptr, other, range_class, visible, vector, tracking, true_tracking)
 
 
+@dataclass(frozen=True)
+class LocalView:
+    """What one FLS knows of its neighbours (K of them), as FLS ids."""
+
+    fls_id: int
+    other: IntArray  # (K,), FLS ids
+    range_class: NDArray[np.int8]  # (K,), BLIND, SWEET or DECAYING
+    visible: NDArray[np.bool_]  # (K,), camera line of sight
+    distance: FloatArray  # (K,), tracking distance by radio, cm
+    vector: FloatArray  # (K, 3), measured vector to the neighbour, cm; NaN without a reading
+
+    @property
+    def blind(self) -> IntArray:
+        """(B,) ids of the blind neighbours."""
+        return np.asarray(self.other[self.range_class == BLIND], dtype=np.int64)
+
+
+def local_view(seen: Observations, ids: IntArray, fls: int) -> LocalView:
+    """The view of the FLS at swarm index ``fls``, with neighbours as FLS ids ``ids``."""
+    rows = seen.rows(fls)
+    return LocalView(
+        fls_id=int(ids[fls]),
+        other=ids[seen.other[rows]],
+        range_class=seen.range_class[rows],
+        visible=seen.visible[rows],
+        distance=seen.distance[rows],
+        vector=seen.vector[rows],
+    )
+
+
 def neighbour_sets(seen: Observations, fls: int) -> NeighbourSets:
     """The neighbour sets of FLS ``fls`` (a swarm index)."""
     rows = seen.rows(fls)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,7 +29,7 @@ from filterpy.common import Q_discrete_white_noise
 from filterpy.kalman import KalmanFilter
 from numpy.typing import ArrayLike, NDArray
 
-from .errors import SwazureError
+from .errors import SwazureError, UnknownFlsError
 from .geometry import tracking_distance
 from .motion import Motion
 from .sensor import DECAYING, SWEET, Sensor, measured_vectors
@@ -128,6 +129,56 @@ def relay_sample(
         return RELAY_TARGET_LOST, np.full(3, np.nan)
     measured = measured_vectors(sensor, points, radius, [relay, relay], [source, target])
     return RELAY_OK, measured[1] - measured[0]
+
+
+class RelaySenses:
+    """Relay choice and relayed samples by FLS id, with every FLS where it is at a given time.
+
+    ``ids`` (N,) are the FLS ids of the rows of ``positions(seconds)``, which
+    gives (N, 3) positions, cm; ``radius`` in cm.
+    """
+
+    def __init__(
+        self,
+        sensor: Sensor,
+        radius: float,
+        ids: NDArray[np.int64],
+        positions: Callable[[float], FloatArray],
+    ) -> None:
+        self.sensor = sensor
+        self.radius = radius
+        self.ids = ids
+        self.positions = positions
+
+    def row(self, fls_id: int) -> int:
+        """Row of FLS ``fls_id``; UnknownFlsError when the swarm has none."""
+        row = int(np.searchsorted(self.ids, fls_id))
+        if row >= len(self.ids) or self.ids[row] != fls_id:
+            raise UnknownFlsError(f"no FLS {fls_id} in this swarm of {len(self.ids)} FLSs")
+        return row
+
+    def _fls_id(self, row: int | None) -> int | None:
+        return None if row is None else int(self.ids[row])
+
+    def choose_relay(self, source: int, target: int, seconds: float) -> int | None:
+        """The relay for ``source`` to track ``target`` at ``seconds`` (:func:`choose_relay`)."""
+        points = self.positions(seconds)
+        relay = choose_relay(self.sensor, points, self.radius, self.row(source), self.row(target))
+        return self._fls_id(relay)
+
+    def next_relay(self, source: int, target: int, relay: int, seconds: float) -> int | None:
+        """The relay to hand ``relay``'s stream over to at ``seconds`` (:func:`next_relay`)."""
+        points = self.positions(seconds)
+        rows = (self.row(source), self.row(target), self.row(relay))
+        return self._fls_id(next_relay(self.sensor, points, self.radius, *rows))
+
+    def track_sample(
+        self, source: int, relay: int, target: int, seconds: float
+    ) -> tuple[int, FloatArray]:
+        """(status, (3,) cm) ``relay`` senses for ``source`` at ``seconds``: relay_sample."""
+        points = self.positions(seconds)
+        rows = (self.row(source), self.row(relay), self.row(target))
+        return relay_sample(self.sensor, points, self.radius, *rows)
 
 
 @dataclass(frozen=True)
@@ -402,58 +453,6 @@ class TrackRun:
     target: int
     relay: int
     estimates: list[MotionEstimate]
-
-
-def simulate_track(
-    sensor: Sensor,
-    home: FloatArray,
-    ids: NDArray[np.int64],
-    radius: float,
-    motion: Motion,
-    source: int,
-    target: int,
-    config: TrackConfig,
-    duration: float,
-) -> TrackRun:
-    """Relay and source in one loop, as the nodes run them; FLS ids, positions (N, 3) cm.
-
-    The relay is chosen at t = 0 and samples every frame; each sample reaches
-    the source ``config.delay`` s after it was sensed, and the source estimates
-    the present at that moment. When the relay loses the stream, the source
-    hands it over, at that present, to the relay :func:`choose_relay` picks
-    then, if there is another; that relay samples from then on.
-    """
-    rows = np.searchsorted(ids, [source, target])
-    if source == target or not all(ids[np.minimum(rows, len(ids) - 1)] == [source, target]):
-        raise TrackingError(f"source {source} and target {target} must be two FLSs of the swarm")
-    source_row, target_row = (int(row) for row in rows)
-    relay_row = choose_relay(sensor, motion.points(home, ids, 0.0), radius, source_row, target_row)
-    if relay_row is None:
-        raise TrackingError(f"no sweet neighbour of FLS {source} sees FLS {target}")
-    first_relay = int(ids[relay_row])
-    track = Track(config.tracker(), config.timeout, first_relay)
-    estimates = []
-    frame, end, period = 0, nanoseconds(duration), nanoseconds(config.frame_period)
-    while frame <= end:
-        time = frame / 1e9
-        points = motion.points(home, ids, time)
-        status, vector = relay_sample(sensor, points, radius, source_row, relay_row, target_row)
-        present = arrival(time, config)
-        if status == RELAY_OK:
-            track.add(time, vector)
-            estimates.append(track.estimate(present))
-            frame += period
-            continue
-        successor = next_relay(sensor, motion.points(home, ids, present), radius, source_row,
-                               target_row, relay_row)  # fmt: skip
-        if successor is None:
-            track.end(RELAY_MESSAGES[status])
-            estimates.append(track.estimate(present))
-            break
-        # The new relay's first frame is the moment the source asks it.
-        relay_row, frame = successor, nanoseconds(present)
-        track.handover(int(ids[relay_row]))
-    return TrackRun(source, target, first_relay, estimates)
 
 
 #: Estimator -> (what it is, the MotionEstimate attribute path) of :func:`track_errors`.

@@ -16,11 +16,17 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.clouds import Cloud, load_cloud
-from ..core.discovery import LocalView, local_view
 from ..core.errors import UnknownFlsError
 from ..core.evaluate import Neighbourhood, neighbourhood
 from ..core.geometry import Swarm, make_swarm
-from ..core.observe import NeighbourSets, Observations, neighbour_sets, observations
+from ..core.observe import (
+    LocalView,
+    NeighbourSets,
+    Observations,
+    local_view,
+    neighbour_sets,
+    observations,
+)
 from ..core.sensor import Sensor, load_sensor
 
 FloatArray = NDArray[np.float64]

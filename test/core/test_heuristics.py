@@ -226,8 +226,8 @@ def test_resolved_pairs_have_clear_sweet_hops_and_no_collisions(sensor, techniqu
 @pytest.mark.parametrize("beta", [0.3, 0.5])
 @pytest.mark.parametrize("technique", ["move-obstructing", "move-source"])
 def test_move_batches_let_every_pair_of_a_batch_walk_its_path_as_if_alone(beta, technique):
-    from swazure_ros.core.discovery import sweet_hop
     from swazure_ros.core.heuristics import move_batches, move_obstructing, move_source, walked
+    from swazure_ros.protocol.moves import ARRIVED, WALKING, Walk, step_walk
     from swazure_ros.sim.world import WorldSpec
 
     world = WorldSpec("torus:120", scale=1.6, beta=beta).build()
@@ -259,19 +259,11 @@ def test_move_batches_let_every_pair_of_a_batch_walk_its_path_as_if_alone(beta, 
             path = heuristic.paths.nodes[
                 heuristic.paths.offsets[pair] : heuristic.paths.offsets[pair + 1]
             ]
-            total = np.zeros(3)
-            for here, there in zip(path[:-1].tolist(), path[1:].tolist()):
-                seen = aside.measurement(int(world.ids[here]))
-                hop = sweet_hop(
-                    seen.target_ids,
-                    seen.range_class,
-                    seen.vector,
-                    seen.tracking,
-                    int(world.ids[there]),
-                )
-                assert hop is not None, (pair, here, there)
-                total = total + hop[0]
-            vectors[pair] = total
+            walk = Walk(0, 0, tuple(world.ids[path].tolist()))
+            while walk.state == WALKING:
+                walk = step_walk(walk, aside.measurement(walk.at))
+            assert walk.state == ARRIVED, (pair, walk)
+            vectors[pair] = walk.vector
     again = walked(heuristic, vectors)
     assert (again.resolved == heuristic.resolved).all()
     np.testing.assert_allclose(

@@ -24,8 +24,8 @@ from swazure_ros.core.tracking import (
     central_differences,
     choose_relay,
     relay_sample,
-    simulate_track,
 )
+from swazure_ros.protocol.loops import simulate_track
 
 RADIUS = 0.5
 HOME = np.array([[0.0, 0.0, 0.0], [8.0, 0.0, 0.0], [2.5, 5.5, 0.0]])

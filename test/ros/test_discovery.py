@@ -12,12 +12,12 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from swazure_interfaces.srv import ComputePose
 
-from swazure_ros.core.discovery import Estimate
+from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
 from swazure_ros.core.evaluate import NO_PATH, evaluate, evaluate_pairs, without
 from swazure_ros.core.heuristics import MOVE_OBSTRUCTING, MOVE_SOURCE, run_technique
-from swazure_ros.launcher import RunningSwarm, SwarmConfig
-from swazure_ros.nodes.convert import estimate_from_message
-from swazure_ros.nodes.coordinator import policy_code
+from swazure_ros.protocol.discovery import Estimate
+from swazure_ros.ros.convert import estimate_from_message
+from swazure_ros.ros.names import policy_code
 from swazure_ros.sim.world import WorldSpec
 
 # torus:120 at 1.6 x has sweet, blocked and unreachable pairs at both betas.

@@ -9,8 +9,8 @@ from rclpy.node import Node
 from swazure_interfaces.msg import Measurements, MoveCommand
 from swazure_interfaces.srv import GetNeighbours
 
-from swazure_ros.nodes.fls_node import FlsNode, ParameterError
-from swazure_ros.nodes.host import SwarmHost
+from swazure_ros.ros.fls_node import FlsNode, ParameterError
+from swazure_ros.ros.host import SwarmHost
 from swazure_ros.sim.world import WorldSpec
 
 from .conftest import make_context

@@ -17,7 +17,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from swazure_interfaces.msg import Measurements, MoveCommand
 
-from swazure_ros.launcher import RunningSwarm, SwarmConfig
+from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SHARED

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from swazure_interfaces.srv import TrackTarget
 
+from swazure_ros.app.track import TrackSession, run_track
 from swazure_ros.core.clouds import Cloud
 from swazure_ros.core.motion import Motion, parse_trajectory
 from swazure_ros.core.sensor import load_sensor
@@ -19,10 +20,10 @@ from swazure_ros.core.tracking import (
     TrackConfig,
     TrackingError,
     nanoseconds,
-    simulate_track,
 )
+from swazure_ros.protocol.loops import simulate_track
+from swazure_ros.ros.convert import motion_estimate as estimate_from_message
 from swazure_ros.sim.world import make_world
-from swazure_ros.tracker import TrackSession, estimate_from_message, run_track
 
 HOME = np.array([[0.0, 0.0, 0.0], [8.0, 0.0, 0.0], [2.5, 5.5, 0.0]])
 CIRCLE = Motion({2: parse_trajectory("circle:0.5,4,-1,1,0")})
@@ -156,7 +157,7 @@ def test_a_swarm_on_the_wall_clock_tracks_too(world, context):
     from rclpy.node import Node
     from swazure_interfaces.msg import TrackEstimate
 
-    from swazure_ros.nodes.host import SwarmHost
+    from swazure_ros.ros.host import SwarmHost
 
     with SwarmHost(
         world, [0, 1, 2], context=context, parameters={"track.frame_period": 0.05}
@@ -174,8 +175,12 @@ def test_a_swarm_on_the_wall_clock_tracks_too(world, context):
             host.spin_once(0.05)
             deadline -= 0.05
         assert future.result().success
-        host.spin_for(1.0)
-        assert len(received) >= 10
+        # Twenty frames of 0.05 s: a bound on waiting, not a sleep.
+        deadline = 30.0
+        while len(received) < 20 and deadline > 0:
+            host.spin_once(0.05)
+            deadline -= 0.05
+        assert len(received) >= 20
         assert {message.relay_id for message in received} == {1}
         assert all(message.status == TrackEstimate.STATUS_TRACKING for message in received)
         # The target is still: the relayed position is its home, the velocity nil.
@@ -186,15 +191,18 @@ def test_a_swarm_on_the_wall_clock_tracks_too(world, context):
 
 def test_an_estimate_survives_the_message_round_trip(world):
     from swazure_ros.core.tracking import KalmanTracker, Track
-    from swazure_ros.nodes.convert import track_estimate_message
+    from swazure_ros.protocol.tracking import TrackReport
+    from swazure_ros.ros.convert import track_estimate_message
 
     track = Track(KalmanTracker(), timeout=1.0, relay=1)
-    waiting = track_estimate_message(0, 2, CONSTANT_ACCELERATION, track.estimate(0.0))
+    waiting = track_estimate_message(TrackReport(0, 2, CONSTANT_ACCELERATION, track.estimate(0.0)))
     assert np.isnan(estimate_from_message(waiting).sample_time)
     track.add(0.0, np.array([1.0, 2.0, 3.0]))  # sensed at t = 0, a real time on /clock
     track.end("the relay lost sight of the target")
     ended = track.estimate(0.2)
-    back = estimate_from_message(track_estimate_message(0, 2, CONSTANT_ACCELERATION, ended))
+    back = estimate_from_message(
+        track_estimate_message(TrackReport(0, 2, CONSTANT_ACCELERATION, ended))
+    )
     assert (back.status, back.time, back.sample_time, back.relay) == ("ended", 0.2, 0.0, 1)
     assert np.array_equal(back.raw, [1.0, 2.0, 3.0])
     assert back.kalman is None

@@ -8,22 +8,18 @@ on every run.
 from __future__ import annotations
 
 from rclpy.context import Context
-from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 
-CLOCK_TOPIC = "/clock"
-CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+from .names import CLOCK_QOS, CLOCK_TOPIC
+from .runtime import SwarmNode
 
 
-class SimClock(Node):
+class SimClock(SwarmNode):
     """Publishes the simulated time on ``/clock``."""
 
     def __init__(self, *, context: Context | None = None, name: str = "sim_clock") -> None:
-        super().__init__(
-            name, context=context, enable_rosout=False, start_parameter_services=False
-        )
+        super().__init__(name, context=context)
         self._publisher = self.create_publisher(Clock, CLOCK_TOPIC, CLOCK_QOS)
         self.nanoseconds = 0
 

@@ -6,7 +6,8 @@ collects the source's TrackEstimate messages; :func:`run_track` runs one track
 from start to end. The simulated clock advances one frame at a time, and
 only once the estimates due by then have arrived, so a run takes as long as
 the machine needs and gives the same numbers every time, the same as the
-core's :func:`~swazure_ros.core.tracking.simulate_track`.
+protocol's in-memory :func:`~swazure_ros.protocol.loops.simulate_track`:
+both drive the same relay and source machines.
 """
 
 from __future__ import annotations
@@ -16,71 +17,39 @@ from collections import Counter
 from collections.abc import Callable, Sequence
 
 import numpy as np
-import rclpy
 from rclpy.context import Context
-from rclpy.node import Node
-from rclpy.signals import SignalHandlerOptions
 from swazure_interfaces.msg import TrackEstimate
 from swazure_interfaces.srv import TrackTarget
 
-from .core.errors import SwazureError
-from .core.motion import Motion
-from .core.tracking import (
+from ..core.errors import SwazureError
+from ..core.motion import Motion
+from ..core.tracking import (
     ENDED,
     TIMED_OUT,
     TRACK_SETTINGS,
-    MotionEstimate,
     TrackConfig,
     TrackingError,
     TrackRun,
-    TrackState,
     arrival,
     nanoseconds,
 )
-from .nodes.clock import SimClock
-from .nodes.convert import TRACK_MODELS, TRACK_STATUS, array3, to_seconds
-from .nodes.fls_node import ROUND_QOS, TRACK_ESTIMATES_TOPIC, TRACK_SERVICE, node_name
-from .nodes.host import SwarmHost
-from .sim.world import World
-
-STATUS_NAMES = {code: name for name, code in TRACK_STATUS.items()}
+from ..ros.clock import SimClock
+from ..ros.convert import motion_estimate
+from ..ros.host import SwarmHost
+from ..ros.names import (
+    ROUND_QOS,
+    TRACK_ESTIMATES_TOPIC,
+    TRACK_MODEL_CODES,
+    TRACK_SERVICE,
+    TRACK_STATE_NAMES,
+    node_name,
+)
+from ..ros.runtime import SwarmNode, init_context
+from ..sim.world import World
 
 
 class SwarmStalledError(SwazureError):
     """The nodes stopped answering within the wall-clock bound."""
-
-
-def estimate_from_message(message: TrackEstimate) -> MotionEstimate:
-    """The core's estimate of a TrackEstimate message."""
-    status = STATUS_NAMES[message.status]
-    tracking = not np.isnan(message.position.x)
-
-    def state(at: float, prefix: str) -> TrackState | None:
-        if not tracking:
-            return None
-        return TrackState(
-            at,
-            array3(getattr(message, f"{prefix}position")),
-            array3(getattr(message, f"{prefix}velocity")),
-            array3(getattr(message, f"{prefix}acceleration")),
-        )
-
-    present = to_seconds(message.header.stamp)
-    # A stamp of 0 is a real time on a simulated clock: no sample is a NaN raw position.
-    sampled = not np.isnan(message.raw_position.x)
-    sample_time = to_seconds(message.sample_stamp) if sampled else float("nan")
-    return MotionEstimate(
-        status,
-        present,
-        sample_time,
-        array3(message.raw_position),
-        state(present, ""),
-        state(sample_time, "filtered_"),
-        array3(message.difference_velocity),
-        array3(message.difference_acceleration),
-        message.message,
-        int(message.relay_id),
-    )
 
 
 def track_parameters(config: TrackConfig) -> dict[str, object]:
@@ -119,13 +88,7 @@ class TrackSession:
         )
         self.clock = SimClock(context=context)
         self.host.add(self.clock)
-        self.client = Node(
-            "track_client",
-            namespace=self.namespace,
-            context=context,
-            enable_rosout=False,
-            start_parameter_services=False,
-        )
+        self.client = SwarmNode("track_client", namespace=self.namespace, context=context)
         self.host.add(self.client)
         self.estimates: list[TrackEstimate] = []
         # What stopped nodes sent and heard: their messages still count as delivered.
@@ -148,7 +111,7 @@ class TrackSession:
             if not self.spin_until(client.service_is_ready, timeout):
                 raise TrackingError(f"FLS {source}'s {client.srv_name} is not reachable")
             request = TrackTarget.Request(
-                source_id=source, target_id=target, model=TRACK_MODELS[model]
+                source_id=source, target_id=target, model=TRACK_MODEL_CODES[model]
             )
             future = client.call_async(request)
             if not self.spin_until(future.done, timeout):
@@ -193,11 +156,8 @@ class TrackSession:
             if node.get_clock().now().nanoseconds < now:
                 return False  # its relay frames and timeouts for this tick have not run
             traffic.update(node.track_traffic)
-            for stream in node.relayed.values():
-                if (not stream.ended and stream.next_frame <= now) or (
-                    stream.outbox and stream.outbox[0][0] <= now
-                ):
-                    return False
+            if node.relay.due(now):
+                return False
         return (
             traffic["requests_sent"] == traffic["requests_heard"]
             and traffic["samples_sent"] == traffic["samples_heard"]
@@ -245,10 +205,7 @@ def run_track(
 ) -> TrackRun:
     """Track ``target`` from ``source`` for ``duration`` simulated s over ROS 2; see the module."""
     world.index(source), world.index(target)  # unknown ids fail before any node starts
-    context = Context()
-    rclpy.init(
-        context=context, domain_id=domain_id, signal_handler_options=SignalHandlerOptions.NO
-    )
+    context = init_context(domain_id)
     session = TrackSession(
         world,
         motion,
@@ -268,14 +225,41 @@ def run_track(
             session.advance(now)
             if on_progress is not None:
                 on_progress(now / 1e9)
-            if session.estimates and STATUS_NAMES[session.estimates[-1].status] in (
+            if session.estimates and TRACK_STATE_NAMES[session.estimates[-1].status] in (
                 ENDED,
                 TIMED_OUT,
             ):
                 break
-        estimates = [estimate_from_message(message) for message in session.estimates]
+        estimates = [motion_estimate(message) for message in session.estimates]
         kept = [estimate for estimate in estimates if nanoseconds(estimate.time) <= horizon]
         return TrackRun(source, target, relay, kept)
     finally:
         session.close()
         context.try_shutdown()
+
+
+def same_run(first: TrackRun, second: TrackRun) -> bool:
+    """Same relay, statuses, times and predicted states, to the bit."""
+
+    def table(run: TrackRun) -> tuple[list[str], np.ndarray]:
+        rows = [
+            [estimate.time, estimate.sample_time]
+            + (
+                [
+                    *estimate.kalman.position,
+                    *estimate.kalman.velocity,
+                    *estimate.kalman.acceleration,
+                ]
+                if estimate.kalman is not None
+                else [np.nan] * 9
+            )
+            for estimate in run.estimates
+        ]
+        return [estimate.status for estimate in run.estimates], np.array(rows)
+
+    (first_status, first_rows), (second_status, second_rows) = table(first), table(second)
+    return (
+        first.relay == second.relay
+        and first_status == second_status
+        and np.array_equal(first_rows, second_rows, equal_nan=True)
+    )

@@ -12,7 +12,6 @@ from __future__ import annotations
 import re
 import time
 from collections.abc import Callable, Sequence
-from typing import TypeVar
 
 from rclpy.context import Context
 from rclpy.experimental import EventsExecutor
@@ -30,136 +29,66 @@ from swazure_interfaces.msg import (
 )
 from swazure_interfaces.srv import ComputePose
 
-from ..core.discovery import LocalView
 from ..core.errors import UnknownFlsError
-from ..core.motion import FloatArray, Motion
-from ..core.observe import NeighbourSets
-from ..core.tracking import choose_relay, next_relay, relay_sample
-from ..sim.world import Measurement, World
-from .convert import offer_from_message, world_positions
-from .fls_node import (
+from ..core.motion import Motion
+from ..protocol.moves import Walk
+from ..protocol.radio import Ack, RadioHub
+from ..sim.replica import WorldReplica
+from ..sim.world import World
+from .convert import (
+    ack_message,
+    control_from_message,
+    offer_from_message,
+    walk_from_message,
+    walk_message,
+    world_positions,
+)
+from .fls_node import FlsNode
+from .names import (
+    ACK_TOPIC,
     COMPUTE_POSE_SERVICE,
+    CONTROL_TOPIC,
+    COORDINATOR,
     MEASUREMENTS_TOPIC,
     NEIGHBOURS_SERVICE,
     RADIO_TOPIC,
     ROUND_QOS,
     TRACK_REQUESTS_TOPIC,
     TRACK_SAMPLES_TOPIC,
-    FlsNode,
+    WALKS_TOPIC,
+    WORLD_QOS,
+    WORLD_TOPIC,
 )
-from .world_node import WORLD_QOS, WORLD_TOPIC, WorldNode
-
-_Result = TypeVar("_Result")
-
-
-class WorldReplica:
-    """This process's copy of the world; the FLS nodes' camera and radio.
-
-    FLSs with a trajectory in ``motion`` fly it on the ROS clock (simulated
-    time in a track run) from where the world revision puts them.
-    """
-
-    def __init__(self, world: World, motion: Motion | None = None) -> None:
-        self.world = world
-        self.motion = motion or Motion()
-        self.listeners: list[FlsNode] = []
-        self.on_revision: list[Callable[[], None]] = []  # called after each new revision
-
-    def measurement(self, fls_id: int) -> Measurement:
-        """What FLS ``fls_id``'s camera measures in the current revision."""
-        return self.world.measurement(fls_id)
-
-    def neighbours(self, fls_id: int) -> NeighbourSets:
-        """FLS ``fls_id``'s neighbours in the current revision."""
-        return self.world.neighbours(fls_id)
-
-    def view(self, fls_id: int) -> LocalView:
-        """What FLS ``fls_id`` knows of its neighbours in the current revision."""
-        return self.world.view(fls_id)
-
-    @property
-    def sweet_min(self) -> float:
-        """Shortest sweet tracking distance of the sensor, cm."""
-        return self.world.sensor.sweet_min
-
-    @property
-    def id_space(self) -> int:
-        """One more than the largest FLS id."""
-        return self.world.id_space
-
-    def _at(self, seconds: float, sensing: Callable[..., _Result], *fls_ids: int) -> _Result:
-        """``sensing(sensor, points, radius, *rows)`` with every FLS where it is at ``seconds``."""
-        world = self.world
-        points = self.motion.points(world.swarm.points, world.ids, seconds)
-        rows = (world.index(fls_id) for fls_id in fls_ids)
-        return sensing(world.sensor, points, world.swarm.radius, *rows)
-
-    def _fls_id(self, row: int | None) -> int | None:
-        return None if row is None else int(self.world.ids[row])
-
-    def choose_relay(self, source: int, target: int, seconds: float) -> int | None:
-        """The relay FLS for ``source`` to track ``target`` at ``seconds``, or None."""
-        return self._fls_id(self._at(seconds, choose_relay, source, target))
-
-    def next_relay(self, source: int, target: int, relay: int, seconds: float) -> int | None:
-        """The relay to hand ``relay``'s stream over to at ``seconds``, or None."""
-        return self._fls_id(self._at(seconds, next_relay, source, target, relay))
-
-    def track_sample(
-        self, source: int, relay: int, target: int, seconds: float
-    ) -> tuple[int, FloatArray]:
-        """(RELAY_* status, (3,) cm) of what ``relay`` senses for ``source`` at ``seconds``."""
-        return self._at(seconds, relay_sample, source, relay, target)
-
-    def apply(self, world: World) -> None:
-        """Take a newer revision; the local FLSs sense anew when next asked."""
-        if world.revision <= self.world.revision:
-            return
-        self.world = world
-        for node in self.listeners:
-            node.sense()
-        for hook in self.on_revision:
-            hook()
-
-    def apply_state(self, message: WorldState) -> None:
-        """Take the world node's positions if they are newer than ours."""
-        if message.revision > self.world.revision:
-            self.apply(self.world.moved(world_positions(message), revision=message.revision))
-
-
-CONTROL_TOPIC = "discovery"
-ACK_TOPIC = "round_acks"
-WALKS_TOPIC = "path_walks"
+from .runtime import SwarmNode
+from .world_node import WorldNode
 
 
 class Radio:
-    """The radio medium and round clock of one process (docs/protocol.md).
+    """The radio medium of one process (:class:`~swazure_ros.protocol.radio.RadioHub`) on ROS.
 
     It hears every broadcast on ``radio`` once and hands it to the local FLS
     nodes within radio range of the sender, as a real radio would; it hands
-    the coordinator's control messages to every local FLS; and once it has
-    delivered every offer of a round, it acknowledges the round on
-    ``round_acks`` so that the coordinator can open the next one. Path walks
-    on ``path_walks`` go to the FLS they are addressed to, once this process
-    has the world revision they must be measured in; track requests go to
-    their relay and track samples to their source.
+    the coordinator's controls to every local FLS; and once it has delivered
+    every offer of a round, it acknowledges the round on ``round_acks``. Path
+    walks on ``path_walks`` go to the FLS they are addressed to, once this
+    process has the world revision they must be measured in; track requests
+    go to their relay and track samples to their source.
     """
 
-    def __init__(self, node: Node, replica: WorldReplica, fls_nodes: dict[int, FlsNode]) -> None:
+    def __init__(
+        self, node: SwarmNode, replica: WorldReplica, fls_nodes: dict[int, FlsNode]
+    ) -> None:
         self._node = node
         self._replica = replica
         self._fls = fls_nodes
-        self._departed: dict[int, frozenset[int]] = {}
-        self._first_round: dict[int, int] = {}
-        self._rounds: dict[tuple[int, int], DiscoveryControl] = {}  # (run, round) -> ROUND
-        self._heard: dict[tuple[int, int], int] = {}
+        self._hub = RadioHub(fls_nodes.keys(), lambda fls_id: replica.world.in_range(fls_id))
         self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
         node.create_subscription(DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS)
         node.create_subscription(PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS)
         # One walk publisher per process, not per FLS: a thousand more endpoints
         # would slow the swarm's discovery for a message few FLSs ever send.
         self._walks = node.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
-        self._early_walks: list[PathWalk] = []
+        self._early_walks: list[Walk] = []
         node.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS)
         replica.on_revision.append(self._take_early_walks)
         node.create_subscription(
@@ -179,40 +108,34 @@ class Radio:
         if node is not None:
             node.on_track_sample(sample)
 
-    def _on_control(self, control: DiscoveryControl) -> None:
-        run = control.run_id
-        if control.command == DiscoveryControl.COMMAND_START:
-            self._departed[run] = frozenset(int(fls) for fls in control.departed_ids)
-            self._first_round[run] = control.round
-            for key in [key for key in self._heard if key[0] == run]:
-                del self._heard[key]
-        departed = self._departed.get(run, frozenset())
-        for fls_id, node in list(self._fls.items()):
-            if fls_id not in departed:
-                node.on_control(control, departed)
-        if control.command == DiscoveryControl.COMMAND_ROUND:
-            self._rounds[(run, control.round)] = control
-            self._acknowledge(run, control.round)
-        elif control.command == DiscoveryControl.COMMAND_END:
-            self._forget(run)
+    def _on_control(self, message: DiscoveryControl) -> None:
+        control = control_from_message(message)
+        recipients, ack = self._hub.on_control(control)
+        for fls_id in recipients:
+            self._fls[fls_id].on_control(control)
+        self._acknowledge(ack)
 
     def _on_offer(self, message: PathOffer) -> None:
-        run, round_ = message.run_id, message.round
-        if round_ < self._first_round.get(run, 0):
-            return  # from before a restart of the phase
-        departed = self._departed.get(run, frozenset())
-        sender = int(message.sender_id)
-        if sender not in departed:
+        recipients, ack = self._hub.on_offer(
+            int(message.run_id), int(message.round), int(message.sender_id)
+        )
+        if recipients:
             offer = offer_from_message(message)
-            for fls_id in self._replica.world.in_range(sender).tolist():
-                node = self._fls.get(fls_id)
-                if node is not None and fls_id not in departed:
-                    node.on_offer(run, sender, offer)
-        self._heard[(run, round_)] = self._heard.get((run, round_), 0) + 1
-        self._acknowledge(run, round_)
+            for fls_id in recipients:
+                self._fls[fls_id].on_offer(message.run_id, message.sender_id, offer)
+        self._acknowledge(ack)
 
-    def _on_walk(self, walk: PathWalk) -> None:
-        node = self._fls.get(int(walk.path[walk.hop])) if len(walk.path) else None
+    def _acknowledge(self, ack: Ack | None) -> None:
+        if ack is not None:
+            stamp = self._node.get_clock().now().to_msg()
+            self._acks.publish(ack_message(ack, self._node.get_name(), stamp))
+
+    def _on_walk(self, message: PathWalk) -> None:
+        if len(message.path):
+            self._take_walk(walk_from_message(message))
+
+    def _take_walk(self, walk: Walk) -> None:
+        node = self._fls.get(walk.at)
         if node is None:
             return  # another process's FLS, or a stopped one
         if walk.revision > self._replica.world.revision:
@@ -220,31 +143,12 @@ class Radio:
             return
         onward = node.on_walk(walk)
         if onward is not None:
-            onward.header.stamp = self._node.get_clock().now().to_msg()
-            self._walks.publish(onward)
+            self._walks.publish(walk_message(onward, self._node.get_clock().now().to_msg()))
 
     def _take_early_walks(self) -> None:
         early, self._early_walks = self._early_walks, []
         for walk in early:
-            self._on_walk(walk)
-
-    def _acknowledge(self, run: int, round_: int) -> None:
-        control = self._rounds.get((run, round_))
-        heard = self._heard.get((run, round_), 0)
-        if control is None or heard < control.expected:
-            return
-        del self._rounds[(run, round_)]
-        ack = RoundAck(run_id=run, phase=control.phase, round=round_, heard=heard)
-        ack.host = self._node.get_name()
-        ack.header.stamp = self._node.get_clock().now().to_msg()
-        self._acks.publish(ack)
-
-    def _forget(self, run: int) -> None:
-        self._departed.pop(run, None)
-        self._first_round.pop(run, None)
-        for table in (self._rounds, self._heard):
-            for key in [key for key in table if key[0] == run]:
-                del table[key]
+            self._take_walk(walk)
 
 
 class SwarmHost:
@@ -279,18 +183,14 @@ class SwarmHost:
         self.nodes: list[Node] = []
         self.fls_nodes: list[FlsNode] = []
         self.fls_by_id: dict[int, FlsNode] = {}
-        self.host_node = Node(
-            name,
-            namespace=self.namespace,
-            context=context,
-            enable_rosout=False,
-            start_parameter_services=False,
-        )
+        self.host_node = SwarmNode(name, namespace=self.namespace, context=context)
         self.host_node.create_subscription(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
+        # Before the radio's hook: walks that waited for a revision measure it afresh.
+        self.replica.on_revision.append(self._sense_anew)
         self.radio = Radio(self.host_node, self.replica, self.fls_by_id)
         # One client per process, shared by its FLS nodes' compute_pose services.
         self._coordinator = self.host_node.create_client(
-            ComputePose, f"coordinator/{COMPUTE_POSE_SERVICE}"
+            ComputePose, f"{COORDINATOR}/{COMPUTE_POSE_SERVICE}"
         )
         self._add(self.host_node)
         if with_world_node:
@@ -299,9 +199,13 @@ class SwarmHost:
             rf"^/{re.escape(self.namespace)}/fls_\d+/{NEIGHBOURS_SERVICE}$"
         )
 
+    def _sense_anew(self) -> None:
+        for node in self.fls_nodes:
+            node.sense()
+
     def _on_world(self, message: WorldState) -> None:
         try:
-            self.replica.apply_state(message)
+            self.replica.apply_positions(int(message.revision), world_positions(message))
         except UnknownFlsError as err:
             # Another swarm's world node on this ROS domain: ours must keep running.
             self.host_node.get_logger().error(
@@ -346,7 +250,6 @@ class SwarmHost:
             )
             self.fls_nodes.append(node)
             self.fls_by_id[fls_id] = node
-            self.replica.listeners.append(node)
             self._add(node)
             if on_created is not None and (count % chunk == 0 or count == len(self.fls_ids)):
                 on_created(count)
@@ -357,7 +260,6 @@ class SwarmHost:
         """Destroy FLS ``fls_id``'s node, as if its software stopped; its body stays."""
         node = self.fls_by_id.pop(fls_id)
         self.fls_nodes.remove(node)
-        self.replica.listeners.remove(node)
         self.nodes.remove(node)
         self.executor.remove_node(node)
         node.destroy_node()
@@ -431,7 +333,6 @@ class SwarmHost:
         self.nodes.clear()
         self.fls_nodes.clear()
         self.fls_by_id.clear()
-        self.replica.listeners.clear()
         self.executor.shutdown()
 
     def __enter__(self) -> SwarmHost:

@@ -11,20 +11,25 @@ Buckets make every broadcast label final. Every hop is at least
 label of a lower bucket, which was broadcast in an earlier round. Each FLS
 therefore broadcasts each source's label once, and keeps, among equal costs,
 the label whose sender has the smallest FLS id: the predecessor rule of
-:mod:`.paths`, so the distributed search picks the core engine's paths.
+:mod:`..core.paths`, so the distributed search picks the core engine's paths.
 
-:func:`estimate` turns one target's phase results into the pair's status,
-reason and path, as section 5 of the spec orders the phases.
+:class:`Participant` is one FLS's state machine over whole runs: the
+coordinator's :class:`Control` messages and the neighbours' offers go in,
+broadcasts and reports come out. The FLS nodes and the in-memory loop
+(:mod:`.loops`) both drive it. :func:`estimate` turns one target's phase
+results into the pair's status, reason and path, as section 5 of the spec
+orders the phases.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .evaluate import (
+from ..core.evaluate import (
     DECAYING_PATH,
     NO_PATH,
     REASON_BLOCKED,
@@ -36,10 +41,10 @@ from .evaluate import (
     pair_results,
     summarise,
 )
-from .neighbours import ordered_blind_pairs
-from .observe import Observations
-from .paths import FEWEST_HOPS, check_policy, paths_from_rows
-from .sensor import BLIND, DECAYING, SWEET
+from ..core.neighbours import ordered_blind_pairs
+from ..core.observe import LocalView
+from ..core.paths import FEWEST_HOPS, check_policy, paths_from_rows
+from ..core.sensor import DECAYING, SWEET
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -48,6 +53,8 @@ IntArray = NDArray[np.int64]
 SWEET_VISIBLE, SWEET_ALL, ANY_VISIBLE = 0, 1, 2
 PHASES = (SWEET_VISIBLE, SWEET_ALL, ANY_VISIBLE)
 PHASE_NAMES = ("S_vis", "S_all", "SD_vis")
+# The coordinator's commands; the values equal DiscoveryControl's COMMAND_*.
+START, ROUND, END = 0, 1, 2
 
 #: Bucket widths sit this fraction below the shortest hop, so that rounding in
 #: a sum of lengths never puts a label in the bucket of the label it extends.
@@ -63,45 +70,16 @@ def bucket_width(sweet_min: float, policy: str) -> float:
     return sweet_min * (1.0 - _BUCKET_MARGIN)
 
 
-@dataclass(frozen=True)
-class LocalView:
-    """What one FLS knows of its neighbours (K of them) when a discovery run starts."""
-
-    fls_id: int
-    other: IntArray  # (K,), FLS ids
-    range_class: NDArray[np.int8]  # (K,), BLIND, SWEET or DECAYING
-    visible: NDArray[np.bool_]  # (K,), camera line of sight
-    distance: FloatArray  # (K,), tracking distance by radio, cm
-    vector: FloatArray  # (K, 3), measured vector to the neighbour, cm; NaN without a reading
-
-    @property
-    def blind(self) -> IntArray:
-        """(B,) ids of the blind neighbours: the targets of this FLS as a source."""
-        return np.asarray(self.other[self.range_class == BLIND], dtype=np.int64)
-
-    def hop_mask(self, phase: int) -> NDArray[np.bool_]:
-        """(K,) the neighbours this FLS relays from in ``phase``."""
-        sweet = self.range_class == SWEET
-        if phase == SWEET_VISIBLE:
-            return np.asarray(sweet & self.visible)
-        if phase == SWEET_ALL:
-            return np.asarray(sweet)
-        if phase == ANY_VISIBLE:
-            return np.asarray((sweet | (self.range_class == DECAYING)) & self.visible)
-        raise ValueError(f"unknown discovery phase {phase}")
-
-
-def local_view(seen: Observations, ids: IntArray, fls: int) -> LocalView:
-    """The view of the FLS at swarm index ``fls``, with neighbours as FLS ids."""
-    rows = seen.rows(fls)
-    return LocalView(
-        fls_id=int(ids[fls]),
-        other=ids[seen.other[rows]],
-        range_class=seen.range_class[rows],
-        visible=seen.visible[rows],
-        distance=seen.distance[rows],
-        vector=seen.vector[rows],
-    )
+def hop_mask(view: LocalView, phase: int) -> NDArray[np.bool_]:
+    """(K,) the neighbours of ``view`` that its FLS relays from in ``phase``."""
+    sweet = view.range_class == SWEET
+    if phase == SWEET_VISIBLE:
+        return np.asarray(sweet & view.visible)
+    if phase == SWEET_ALL:
+        return np.asarray(sweet)
+    if phase == ANY_VISIBLE:
+        return np.asarray((sweet | (view.range_class == DECAYING)) & view.visible)
+    raise ValueError(f"unknown discovery phase {phase}")
 
 
 @dataclass
@@ -160,7 +138,7 @@ class PathSearch:
         self.fls_id = view.fls_id
         self.fewest_hops = check_policy(policy) == FEWEST_HOPS
         self.width = width
-        hop = view.hop_mask(phase) & ~np.isin(view.other, list(departed))
+        hop = hop_mask(view, phase) & ~np.isin(view.other, list(departed))
         # The hop sender -> self is measured by this FLS's camera the other way round.
         self.links: dict[int, tuple[float, FloatArray]] = {
             int(other): (float(distance), -vector)
@@ -360,6 +338,106 @@ class FlsRun:
         ]
 
 
+@dataclass(frozen=True)
+class Control:
+    """One tick of the coordinator's round clock (a DiscoveryControl message)."""
+
+    run_id: int
+    command: int  # START, ROUND or END
+    phase: int = SWEET_VISIBLE
+    policy: str = FEWEST_HOPS
+    round: int = 0
+    expected: int = 0  # FLSs that take part: each sends one offer per round
+    source_ids: tuple[int, ...] = ()  # START: the searching sources; empty: every FLS
+    target_ids: tuple[int, ...] = ()  # START: the one target of each listed source
+    finished_ids: tuple[int, ...] = ()  # ROUND: sources whose search ended since the last round
+    departed_ids: tuple[int, ...] = ()  # FLSs declared gone: nobody relays through them
+
+
+@dataclass(frozen=True)
+class Broadcast:
+    """An FLS's offer of one round, for the radio (a PathOffer message)."""
+
+    run_id: int
+    phase: int
+    round: int
+    sender: int
+    offer: Offer
+
+
+@dataclass(frozen=True)
+class Report:
+    """A source's estimates at the end of a run (a PoseEstimates message)."""
+
+    run_id: int
+    source: int
+    estimates: list[Estimate]
+
+
+class Participant:
+    """One FLS's part of every discovery run: controls and offers in, broadcasts and reports out.
+
+    ``view()`` tells what the FLS knows of its neighbours when a run starts;
+    ``sweet_min`` (cm) sets the bucket width and ``id_space`` bounds the FLS ids.
+    """
+
+    def __init__(
+        self, fls_id: int, view: Callable[[], LocalView], sweet_min: float, id_space: int
+    ) -> None:
+        self.fls_id = fls_id
+        self._view = view
+        self.sweet_min = sweet_min
+        self.id_space = id_space
+        self.runs: dict[int, FlsRun] = {}
+        # Rounds count on across phases and restarts; buckets count from the phase's start.
+        self._first_round: dict[int, int] = {}
+
+    def on_control(self, control: Control) -> Broadcast | Report | None:
+        """Follow the round clock: START a phase, broadcast a ROUND's labels, report at END."""
+        run_id = control.run_id
+        if control.command == START:
+            run = self.runs.get(run_id)
+            if run is None:
+                run = self.runs[run_id] = self._new_run(control)
+            run.start(control.phase, frozenset(control.departed_ids))
+            self._first_round[run_id] = control.round
+            return None
+        if control.command == ROUND:
+            run = self.runs.get(run_id)
+            if run is None or run.search is None:
+                return None
+            run.search.close(np.asarray(control.finished_ids, dtype=np.int64))
+            offer = run.search.offer(control.round - self._first_round.get(run_id, 0))
+            return Broadcast(run_id, control.phase, control.round, self.fls_id, offer)
+        if control.command == END:
+            run = self.runs.pop(run_id, None)
+            self._first_round.pop(run_id, None)
+            if run is not None and run.targets is not None:
+                return Report(run_id, self.fls_id, run.estimates())
+        return None
+
+    def on_offer(self, run_id: int, sender: int, offer: Offer) -> None:
+        """Hear a neighbour's broadcast of the current phase of run ``run_id``."""
+        run = self.runs.get(run_id)
+        if run is not None and run.search is not None:
+            run.search.hear(sender, offer)
+
+    def _new_run(self, control: Control) -> FlsRun:
+        view = self._view()
+        targets: IntArray | None = view.blind
+        if control.source_ids:
+            sources = np.asarray(control.source_ids, dtype=np.int64)
+            mine = sources == self.fls_id
+            if not mine.any():
+                targets = None
+            elif control.target_ids:
+                # On demand, a source answers for its blind neighbours only.
+                asked = np.asarray(control.target_ids, dtype=np.int64)[mine]
+                targets = asked[np.isin(asked, view.blind)]
+        width = bucket_width(self.sweet_min, control.policy)
+        return FlsRun(view, control.policy, width, self.id_space, targets)
+
+
 def evaluation_of(
     hood: Neighbourhood, policy: str, found: dict[int, list[Estimate]]
 ) -> Evaluation:
@@ -396,64 +474,3 @@ def evaluation_of(
     radio = paths_from_rows(len(radio_rows), dict(enumerate(radio_rows)))
     pairs = pair_results(hood, source, target, status, reason, paths, vectors, radio, connected)
     return Evaluation(hood, policy, pairs, summarise(hood, policy, pairs))
-
-
-@dataclass
-class RoundTally:
-    """What the coordinator knows of one round: who broadcast, what they hold, who delivered."""
-
-    expected: frozenset[int]  # FLS ids that take part
-    hosts: int  # processes whose radio must acknowledge the round
-    senders: set[int] = field(default_factory=set)
-    labels: int = 0
-    pending: bool = False
-    finished: set[int] = field(default_factory=set)
-    acks: set[str] = field(default_factory=set)
-
-    def hear(self, sender: int, labels: int, pending: bool, finished: bool) -> None:
-        """Count one FLS's broadcast of this round."""
-        if sender not in self.expected or sender in self.senders:
-            return
-        self.senders.add(sender)
-        self.labels += labels
-        self.pending |= pending
-        if finished:
-            self.finished.add(sender)
-
-    def ack(self, host: str) -> None:
-        """Count one process's acknowledgement that it delivered every broadcast."""
-        self.acks.add(host)
-
-    @property
-    def complete(self) -> bool:
-        """Every FLS broadcast and every process delivered."""
-        return len(self.senders) == len(self.expected) and len(self.acks) >= self.hosts
-
-    @property
-    def silent(self) -> frozenset[int]:
-        """FLSs that have not broadcast (yet)."""
-        return self.expected - self.senders
-
-    @property
-    def quiet(self) -> bool:
-        """Nothing was sent and nothing is due later: the phase is over."""
-        return self.labels == 0 and not self.pending
-
-
-def sweet_hop(
-    others: IntArray,
-    range_class: NDArray[np.int8],
-    vectors: FloatArray,
-    tracking: FloatArray,
-    next_fls: int,
-) -> tuple[FloatArray, float] | None:
-    """An FLS's own measured vector (3,) and measured tracking distance to ``next_fls``, cm.
-
-    ``others`` (K,) are the FLSs it measures now, with their range classes,
-    vectors (K, 3) and tracking distances (K,). None unless ``next_fls`` is
-    among them as a sweet neighbour: a path walk crosses sweet hops only.
-    """
-    where = np.flatnonzero(others == next_fls)
-    if len(where) == 0 or range_class[where[0]] != SWEET:
-        return None
-    return np.asarray(vectors[where[0]], dtype=np.float64), float(tracking[where[0]])

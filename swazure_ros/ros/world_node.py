@@ -11,49 +11,29 @@ One world node runs per swarm, in the launcher's process.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 from numpy.typing import NDArray
 from rclpy.context import Context
-from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from swazure_interfaces.msg import MoveCommand, WorldState
 
 from ..core.errors import UnknownFlsError
-from .convert import world_message
-
-if TYPE_CHECKING:
-    from .host import WorldReplica
+from ..sim.replica import WorldReplica
+from .convert import array3, world_message
+from .names import MOVE_QOS, MOVE_TOPIC, WORLD, WORLD_QOS, WORLD_TOPIC
+from .runtime import SwarmNode
 
 FloatArray = NDArray[np.float64]
 
-WORLD_TOPIC = "world"
-MOVE_TOPIC = "move_commands"
-MOVE_QOS = QoSProfile(
-    depth=1, history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE
-)
-WORLD_QOS = QoSProfile(
-    depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
-)
 
-
-class WorldNode(Node):
+class WorldNode(SwarmNode):
     """Applies move commands to the world and publishes each new revision."""
 
     def __init__(
         self, replica: WorldReplica, *, namespace: str = "swarm", context: Context | None = None
     ) -> None:
-        super().__init__(
-            "world",
-            namespace=namespace,
-            context=context,
-            enable_rosout=False,
-            start_parameter_services=False,
-        )
+        super().__init__(WORLD, namespace=namespace, context=context)
         self._replica = replica
         self._publisher = self.create_publisher(WorldState, WORLD_TOPIC, WORLD_QOS)
-        # Every command of a group counts: a lost one would hold the group for ever.
         self.create_subscription(MoveCommand, MOVE_TOPIC, self._on_move, MOVE_QOS)
         self._groups: dict[int, dict[int, FloatArray]] = {}  # group -> {FLS id: position}
         self.publish_world()
@@ -76,8 +56,7 @@ class WorldNode(Node):
         if command.kind == MoveCommand.KIND_RETURN:
             target = home
         elif command.kind in (MoveCommand.KIND_STEP_ASIDE, MoveCommand.KIND_PROBE):
-            shift = command.displacement
-            target = home + np.array([shift.x, shift.y, shift.z])
+            target = home + array3(command.displacement)
         else:
             self.get_logger().warning(f"move command ignored: unknown kind {command.kind}")
             return

@@ -1,4 +1,4 @@
-"""Bringing a swarm up: FLS nodes in one process or split over several, until discovered.
+"""Running a swarm: bring it up over one or more processes, and compute with it.
 
 The launcher's process hosts the world node and the first share of FLS nodes;
 each further process (multiprocessing, spawn start method) hosts one more
@@ -6,6 +6,11 @@ share. Every process builds the same world from one :class:`WorldSpec`, so
 none needs the others' data, and reports to the launcher over a queue: nodes
 created, discovery complete (with its peak memory), or one error line. The
 swarm is up when every process sees every FLS node's endpoints.
+
+:meth:`RunningSwarm.discover` and :meth:`RunningSwarm.make_moves` run the
+coordinator's protocols over the swarm; :func:`compute_all` runs the whole
+swarm's discovery (and a heuristic) and sets it beside the core engine's
+evaluation of the same work, pair by pair.
 """
 
 from __future__ import annotations
@@ -17,17 +22,21 @@ import signal
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
-import rclpy
-import yaml
 from rclpy.context import Context
-from rclpy.signals import SignalHandlerOptions
+from rclpy.task import Future
 
-from .core.errors import SwazureError
-from .sim.world import WorldSpec
+from ..core.errors import SwazureError
+from ..core.evaluate import Evaluation, evaluate
+from ..core.heuristics import PLAIN, HeuristicResult, run_technique
+from ..protocol.discovery import evaluation_of
+from ..ros import runtime
+from ..ros.coordinator import Coordinator, DiscoveryResult, MoveResult
+from ..ros.host import SwarmHost
+from ..ros.names import host_name
+from ..sim.world import World, WorldSpec
 
 CREATED, READY, FAILED = "created", "ready", "failed"
 
@@ -64,43 +73,9 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def check_params_file(path: Path) -> None:
-    """Raise SwazureError unless ``path`` holds ROS 2 parameters (node: ros__parameters: ...)."""
-    if not path.is_file():
-        raise SwazureError(f"{path}: parameter file not found")
-    try:
-        document = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as err:
-        where = getattr(err, "problem_mark", None)
-        line = f" (line {where.line + 1})" if where is not None else ""
-        raise SwazureError(f"{path}: not a valid ROS 2 parameter file{line}") from err
-    if not isinstance(document, dict) or not all(
-        isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict)
-        for section in document.values()
-    ):
-        raise SwazureError(
-            f"{path}: not a ROS 2 parameter file: expect NODE: {{ros__parameters: {{...}}}}"
-        )
-
-
 def init_context(config: SwarmConfig) -> Context:
     """A fresh rclpy context with the swarm's parameter file and domain."""
-    args = []
-    if config.params_file is not None:
-        # Checked here so that a bad file gives our one line, not rcl's log lines too.
-        check_params_file(Path(config.params_file))
-        args = ["--ros-args", "--params-file", config.params_file]
-    context = Context()
-    try:
-        rclpy.init(
-            args=args,
-            context=context,
-            domain_id=config.domain_id,
-            signal_handler_options=SignalHandlerOptions.NO,
-        )
-    except Exception as err:  # rclpy reports a bad parameter file as a bare RCLError
-        raise SwazureError(f"{config.params_file}: not a valid ROS 2 parameter file") from err
-    return context
+    return runtime.init_context(config.domain_id, config.params_file)
 
 
 def shares(fls_ids: np.ndarray, processes: int) -> list[list[int]]:
@@ -117,8 +92,6 @@ def _host_share(
     stop: Any,
 ) -> None:
     """Entry point of a further process: host one share until told to stop."""
-    from .nodes.host import SwarmHost
-
     # Ctrl-C reaches the whole process group; the launcher decides when we stop.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     context = host = None
@@ -132,7 +105,7 @@ def _host_share(
             namespace=config.namespace,
             swarm_size=swarm_size,
             with_world_node=False,
-            name=f"host_{index}",
+            name=host_name(index),
         )
         host.create_fls_nodes(lambda count: reports.put((CREATED, index, count)))
         if not host.spin_until_discovered(config.discovery_timeout):
@@ -193,8 +166,8 @@ class RunningSwarm:
             if index > 0
         ]
         self.context: Context | None = None
-        self.host: Any = None
-        self.coordinator: Any = None  # a CoordinatorThread
+        self.host: SwarmHost | None = None
+        self.coordinator: Coordinator | None = None
 
     def __enter__(self) -> RunningSwarm:
         try:
@@ -208,10 +181,6 @@ class RunningSwarm:
         self.close()
 
     def _start(self) -> None:
-        from .nodes.coordinator import Coordinator
-        from .nodes.host import SwarmHost
-        from .nodes.runner import CoordinatorThread
-
         for child in self._children:
             child.start()
         self.context = init_context(self.config)
@@ -221,7 +190,7 @@ class RunningSwarm:
             context=self.context,
             namespace=self.config.namespace,
             swarm_size=self.size,
-            name="host_0",
+            name=host_name(0),
         )
 
         def created(count: int) -> None:
@@ -229,15 +198,14 @@ class RunningSwarm:
             self._drain()
 
         self.host.create_fls_nodes(created)
-        self.coordinator = CoordinatorThread(
-            Coordinator(
-                self.world.ids.tolist(),
-                hosts=self.config.processes,
-                world=self.world,
-                namespace=self.config.namespace,
-                context=self.context,
-            )
+        self.coordinator = Coordinator(
+            self.world.ids.tolist(),
+            hosts=self.config.processes,
+            world=self.world,
+            namespace=self.config.namespace,
+            context=self.context,
         )
+        self.host.add(self.coordinator)
 
     def _drain(self) -> None:
         """Take every pending report from the further processes."""
@@ -278,26 +246,55 @@ class RunningSwarm:
             f"{publishers} of {self.size} FLS publishers and {services} services visible"
         )
 
-    def _spin_step(self, seconds: float) -> None:
-        self._drain()
-        self.host.spin_for(seconds)
+    @property
+    def _host(self) -> SwarmHost:
+        if self.host is None:
+            raise SwazureError("the swarm is not running")
+        return self.host
 
-    def discover(self, policy: str, timeout: float | None = None) -> Any:
-        """Run discovery for every FLS and blind neighbour; a DiscoveryResult."""
-        coordinator = self.coordinator.coordinator
-        return self.coordinator.run(coordinator.discover(policy), self._spin_step, timeout)
+    @property
+    def _coordinator(self) -> Coordinator:
+        if self.coordinator is None:
+            raise SwazureError("the swarm is not running")
+        return self.coordinator
+
+    def run(
+        self,
+        run: Future,
+        timeout: float | None = None,
+        step: Callable[[], None] | None = None,
+    ) -> Any:
+        """Serve the swarm until the coordinator's ``run`` is done; its result.
+
+        ``step()`` is called between spins (a test stops a node there).
+        TimeoutError after ``timeout`` seconds.
+        """
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while not run.done():
+            if deadline is not None and time.monotonic() > deadline:
+                raise TimeoutError(f"coordinator run not done after {timeout} s")
+            if step is not None:
+                step()
+            self._drain()
+            self._host.spin_once(0.02)
+        return run.result()
+
+    def discover(self, policy: str, timeout: float | None = None) -> DiscoveryResult:
+        """Run discovery for every FLS and blind neighbour."""
+        result: DiscoveryResult = self.run(self._coordinator.discover(policy), timeout)
+        return result
 
     def make_moves(
         self,
-        plain: Any,
+        plain: DiscoveryResult,
         technique: str = "move-obstructing",
         threshold: int = 10,
         timeout: float | None = None,
-    ) -> Any:
-        """A heuristic on the BLOCKED pairs of a whole-swarm run, moves made; a MoveResult."""
-        coordinator = self.coordinator.coordinator
-        moves = coordinator.make_moves(plain, technique, threshold)
-        return self.coordinator.run(moves, self._spin_step, timeout)
+    ) -> MoveResult:
+        """A heuristic on the BLOCKED pairs of a whole-swarm run, its moves made by the swarm."""
+        moves = self._coordinator.make_moves(plain, technique, threshold)
+        result: MoveResult = self.run(moves, timeout)
+        return result
 
     def spin(self, seconds: float | None = None) -> None:
         """Serve the swarm for ``seconds`` (for ever when None), watching the processes."""
@@ -316,9 +313,7 @@ class RunningSwarm:
             signal.pthread_sigmask(signal.SIG_UNBLOCK, stopping)
 
     def _close(self) -> None:
-        if self.coordinator is not None:
-            self.coordinator.close()
-            self.coordinator = None
+        self.coordinator = None  # its host destroys it
         self._stop.set()
         for child in self._children:
             if child.pid is not None:
@@ -332,3 +327,92 @@ class RunningSwarm:
         if self.context is not None:
             self.context.try_shutdown()
             self.context = None
+
+
+@dataclass(frozen=True)
+class SwarmComputation:
+    """The whole swarm's computation beside the engine's evaluation of the same work."""
+
+    evaluation: Evaluation  # what the swarm computed
+    heuristic: HeuristicResult | None  # the moves made, with a technique
+    discovery: DiscoveryResult
+    moves: MoveResult | None
+    engine: Evaluation  # the core engine's, for the same work
+    engine_seconds: float
+    identical: str  # "yes", or "no: " and what differs
+
+    @property
+    def distributed(self) -> dict[str, Any]:
+        """What the distributed run took: time, rounds, messages and bytes per topic."""
+        result, traffic = self.discovery, self.discovery.traffic
+        summary: dict[str, Any] = {
+            "seconds": result.seconds,
+            "rounds": result.rounds,
+            "restarts": result.restarts,
+            "departed": sorted(result.departed),
+            "messages": traffic.messages,
+            "bytes": traffic.bytes,
+        }
+        if self.moves is not None:
+            moved = self.moves
+            summary["moves"] = {
+                "seconds": moved.seconds,
+                "batches": moved.batches,
+                "move_commands": moved.moved,
+                "path_walks": moved.walks,
+                "messages": moved.traffic.messages,
+                "bytes": moved.traffic.bytes,
+            }
+        return summary
+
+
+def compute_all(
+    swarm: RunningSwarm,
+    policy: str,
+    technique: str = PLAIN,
+    threshold: int = 10,
+    on_discovered: Callable[[DiscoveryResult], None] | None = None,
+) -> SwarmComputation:
+    """Every FLS's pose relative to every blind neighbour, by the swarm, and by the engine.
+
+    With a ``technique`` other than plain, the swarm then makes that heuristic's
+    moves. ``on_discovered`` hears the discovery run's result as soon as it is in.
+    """
+    world: World = swarm.world
+    result = swarm.discover(policy)
+    if on_discovered is not None:
+        on_discovered(result)
+    evaluation = evaluation_of(world.hood, policy, result.estimates)
+    evaluation.summary["seconds"] = result.seconds
+    heuristic, moved = None, None
+    if technique != PLAIN:
+        moved = swarm.make_moves(result, technique, threshold)
+        evaluation, heuristic = moved.evaluation, moved.heuristic
+        evaluation.summary["seconds"] = result.seconds + moved.seconds
+    began = time.perf_counter()
+    engine = evaluate(world.swarm, world.sensor, policy)
+    engine, _ = run_technique(engine, technique, threshold)
+    engine_seconds = time.perf_counter() - began
+    return SwarmComputation(
+        evaluation,
+        heuristic,
+        result,
+        moved,
+        engine,
+        engine_seconds,
+        same_results(evaluation, engine),
+    )
+
+
+def same_results(ours: Evaluation, engine: Evaluation) -> str:
+    """ "yes" when every pair has the engine's status, path and estimate (to 1e-9 cm)."""
+    mine, theirs = ours.pairs, engine.pairs
+    if len(mine) != len(theirs):
+        return f"no: {len(mine)} pairs reported, the engine has {len(theirs)}"
+    status = int((mine.status != theirs.status).sum())
+    paths = not np.array_equal(mine.nodes, theirs.nodes)
+    with np.errstate(invalid="ignore"):
+        far = int((np.abs(mine.estimate - theirs.estimate) > 1e-9).any(axis=1).sum())
+    if status or paths or far:
+        return f"no: {status} statuses, {far} estimates differ; paths differ: {paths}"
+    return "yes"

@@ -1,0 +1,181 @@
+"""The protocols run in one loop, in memory: the same state machines the nodes drive.
+
+:func:`discover` runs distributed discovery (every FLS a
+:class:`~.discovery.Participant`, one :class:`~.radio.RadioHub` as the radio
+of a single process, the coordinator's :class:`~.rounds.RoundClock`) with
+messages handed over in order instead of over DDS. :func:`simulate_track`
+runs a track (:class:`~.tracking.TrackSource` and the relays'
+:class:`~.tracking.RelayStreams`) on a simulated clock. Neither has a second
+copy of an algorithm: the nodes and these loops differ only in how a message
+travels.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from collections.abc import Iterable
+from functools import partial
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.motion import Motion
+from ..core.observe import Observations, local_view
+from ..core.sensor import Sensor
+from ..core.tracking import (
+    ENDED,
+    TIMED_OUT,
+    RelaySenses,
+    TrackConfig,
+    TrackingError,
+    TrackRun,
+    arrival,
+    nanoseconds,
+)
+from .discovery import Broadcast, Control, Participant, Report
+from .radio import RadioHub
+from .rounds import Outcome, RoundClock
+from .tracking import (
+    RelayRequest,
+    RelayStreams,
+    Sample,
+    TrackReport,
+    TrackSource,
+    relay_sense,
+    source_senses,
+)
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+_HOST = "memory"
+
+
+def discover(
+    seen: Observations,
+    ids: IntArray,
+    sweet_min: float,
+    policy: str,
+    *,
+    stopped: Iterable[int] = (),
+    sources: Iterable[int] = (),
+    targets: Iterable[int] = (),
+) -> Outcome:
+    """One discovery run over every FLS of ``seen`` (FLS ids ``ids``), with a perfect radio.
+
+    ``stopped`` FLSs never answer: the clock declares them departed when a
+    round times out, as it does over ROS. ``sweet_min`` is the sensor's, cm.
+    """
+    ids = np.asarray(ids, dtype=np.int64)
+    stopped = frozenset(int(fls) for fls in stopped)
+    id_space = int(ids[-1]) + 1 if len(ids) else 0
+
+    def view_of(row: int) -> Participant:
+        fls_id = int(ids[row])
+        return Participant(fls_id, lambda: local_view(seen, ids, row), sweet_min, id_space)
+
+    participants = {
+        int(ids[row]): view_of(row) for row in range(len(ids)) if int(ids[row]) not in stopped
+    }
+
+    def in_range(fls_id: int) -> IntArray:
+        row = int(np.searchsorted(ids, fls_id))
+        return np.asarray(ids[seen.other[seen.rows(row)]])
+
+    hub = RadioHub(participants.keys(), in_range)
+    clock = RoundClock(
+        1, policy, ids.tolist(), 1, 1.0, sources=tuple(sources), targets=tuple(targets)
+    )
+    controls: deque[Control] = deque(clock.start(0.0))
+    while not clock.done:
+        if not controls:
+            # Everyone who answers has answered: the deadline passes.
+            controls.extend(clock.on_tick(math.inf))
+            continue
+        control = controls.popleft()
+        recipients, ack = hub.on_control(control)
+        broadcasts: list[Broadcast] = []
+        for fls_id in recipients:
+            out = participants[fls_id].on_control(control)
+            if isinstance(out, Broadcast):
+                broadcasts.append(out)
+            elif isinstance(out, Report):
+                controls.extend(clock.on_estimates(out.source, out.estimates, 0.0))
+        if ack is not None:
+            controls.extend(clock.on_ack(ack.round, _HOST, 0.0))
+        for sent in broadcasts:
+            hearers, ack = hub.on_offer(sent.run_id, sent.round, sent.sender)
+            for fls_id in hearers:
+                participants[fls_id].on_offer(sent.run_id, sent.sender, sent.offer)
+            offer = sent.offer
+            controls.extend(
+                clock.on_offer(
+                    sent.round, sent.sender, len(offer), offer.pending, offer.finished, 0.0
+                )
+            )
+            if ack is not None:
+                controls.extend(clock.on_ack(ack.round, _HOST, 0.0))
+    assert clock.outcome is not None
+    return clock.outcome
+
+
+def simulate_track(
+    sensor: Sensor,
+    home: FloatArray,
+    ids: IntArray,
+    radius: float,
+    motion: Motion,
+    source: int,
+    target: int,
+    config: TrackConfig,
+    duration: float,
+) -> TrackRun:
+    """Track ``target`` from ``source`` for ``duration`` simulated s; positions (N, 3) cm.
+
+    The clock advances one frame at a time, as :func:`swazure_ros.app.track.run_track`
+    advances it over ROS: at each tick the relays sense their due frames and
+    release the samples whose delay has passed, the source times out silent
+    streams, and then hears the samples (handing a lost stream over).
+    Estimates up to the arrival of the sample sensed at ``duration`` are kept.
+    """
+    rows = np.searchsorted(ids, [source, target])
+    if source == target or not all(ids[np.minimum(rows, len(ids) - 1)] == [source, target]):
+        raise TrackingError(f"source {source} and target {target} must be two FLSs of the swarm")
+
+    senses = RelaySenses(sensor, radius, ids, lambda seconds: motion.points(home, ids, seconds))
+    relays: dict[int, RelayStreams] = {}
+
+    def deliver(requests: list[RelayRequest], now: int) -> list[Sample]:
+        samples = []
+        for request in requests:
+            relay = request.relay
+            if relay not in relays:
+                relays[relay] = RelayStreams(relay, partial(relay_sense, senses, relay), config)
+            relays[relay].on_request(request)
+            # A relay senses as soon as it is asked, as the nodes do.
+            samples.extend(relays[relay].tick(now))
+        return samples
+
+    tracker = TrackSource(source, config, *source_senses(senses, source))
+    pending = deliver(tracker.begin(target, config.model, 0), 0)
+    first_relay = tracker.relay(target)
+    reports: list[TrackReport] = []
+    step = nanoseconds(config.frame_period)
+    horizon = nanoseconds(arrival(duration, config))
+    for now in range(0, -(-horizon // step) * step + 1, step):
+        samples = deque(pending)
+        pending = []
+        for relay in relays.values():
+            samples.extend(relay.tick(now))
+        reports.extend(tracker.tick(now))
+        while samples:
+            for out in tracker.on_sample(samples.popleft()):
+                if isinstance(out, RelayRequest):
+                    samples.extend(deliver([out], now))
+                else:
+                    reports.append(out)
+        if reports and reports[-1].estimate.status in (ENDED, TIMED_OUT):
+            break
+    estimates = [r.estimate for r in reports if nanoseconds(r.estimate.time) <= horizon]
+    return TrackRun(source, target, first_relay, estimates)

@@ -1,0 +1,232 @@
+"""The coordinator's round clock of one discovery run, as a state machine (docs/protocol.md).
+
+:class:`RoundClock` STARTs each phase, opens rounds one by one while FLSs
+broadcast their labels, closes a round when every FLS has broadcast and
+every process has delivered, and ENDs the run to collect the sources'
+estimates. Every wait has a deadline: ``round_timeout`` seconds without
+progress. The FLSs still silent then have departed, and the phase restarts
+without them; a source that never reports at the END has departed too.
+
+The clock only counts. Events go in (:meth:`RoundClock.on_offer`,
+:meth:`~RoundClock.on_ack`, :meth:`~RoundClock.on_estimates`,
+:meth:`~RoundClock.on_tick`, each with the time ``now`` in seconds) and the
+controls to send come out; the coordinator node and the in-memory loop
+(:mod:`.loops`) both drive it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+
+from .discovery import END, PHASES, ROUND, START, Control, Estimate
+
+
+@dataclass
+class RoundTally:
+    """What the coordinator knows of one round: who broadcast, what they hold, who delivered."""
+
+    expected: frozenset[int]  # FLS ids that take part
+    hosts: int  # processes whose radio must acknowledge the round
+    senders: set[int] = field(default_factory=set)
+    labels: int = 0
+    pending: bool = False
+    finished: set[int] = field(default_factory=set)
+    acks: set[str] = field(default_factory=set)
+
+    def hear(self, sender: int, labels: int, pending: bool, finished: bool) -> None:
+        """Count one FLS's broadcast of this round."""
+        if sender not in self.expected or sender in self.senders:
+            return
+        self.senders.add(sender)
+        self.labels += labels
+        self.pending |= pending
+        if finished:
+            self.finished.add(sender)
+
+    def ack(self, host: str) -> None:
+        """Count one process's acknowledgement that it delivered every broadcast."""
+        self.acks.add(host)
+
+    @property
+    def complete(self) -> bool:
+        """Every FLS broadcast and every process delivered."""
+        return len(self.senders) == len(self.expected) and len(self.acks) >= self.hosts
+
+    @property
+    def silent(self) -> frozenset[int]:
+        """FLSs that have not broadcast (yet)."""
+        return self.expected - self.senders
+
+    @property
+    def quiet(self) -> bool:
+        """Nothing was sent and nothing is due later: the phase is over."""
+        return self.labels == 0 and not self.pending
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """How a run ended: every source's estimates, the departed FLSs, rounds and restarts."""
+
+    estimates: dict[int, list[Estimate]]  # source id -> its estimates
+    departed: frozenset[int]  # every FLS known gone at the end, earlier runs' included
+    rounds: int
+    restarts: int
+    warnings: tuple[str, ...] = ()
+
+
+class RoundClock:
+    """The round clock of run ``run_id`` over the FLSs ``fls_ids``, hosted by ``hosts`` processes.
+
+    ``departed`` FLSs are gone from the start; ``sources`` (with ``targets``,
+    one per source) restrict the run to those pairs, else every FLS searches
+    for every blind neighbour.
+    """
+
+    def __init__(
+        self,
+        run_id: int,
+        policy: str,
+        fls_ids: Iterable[int],
+        hosts: int,
+        round_timeout: float,
+        *,
+        departed: Iterable[int] = (),
+        sources: Iterable[int] = (),
+        targets: Iterable[int] = (),
+    ) -> None:
+        self.run_id = run_id
+        self.policy = policy
+        self.fls_ids = frozenset(fls_ids)
+        self.hosts = hosts
+        self.round_timeout = round_timeout
+        self.departed = set(departed)
+        self.sources = tuple(sources)
+        self.targets = tuple(targets)
+        self.round = 0
+        self.restarts = 0
+        self.warnings: list[str] = []
+        self.outcome: Outcome | None = None
+        self._phase = 0  # index into PHASES; len(PHASES) while collecting estimates
+        self._tally: RoundTally | None = None
+        self._finished: set[int] = set()
+        self._collecting: frozenset[int] = frozenset()
+        self._collected: dict[int, list[Estimate]] = {}
+        self._deadline = float("inf")
+
+    @property
+    def done(self) -> bool:
+        """True once the run has ended (:attr:`outcome` holds it)."""
+        return self.outcome is not None
+
+    @property
+    def live(self) -> frozenset[int]:
+        """The FLSs that take part now."""
+        return self.fls_ids - self.departed
+
+    def start(self, now: float) -> list[Control]:
+        """Begin the run: START the first phase and open its first round."""
+        return self._start_phase(now)
+
+    def on_offer(
+        self, round_: int, sender: int, labels: int, pending: bool, finished: bool, now: float
+    ) -> list[Control]:
+        """An FLS broadcast ``labels`` labels in round ``round_``."""
+        tally = self._tally
+        if tally is None or round_ != self.round:
+            return []
+        tally.hear(sender, labels, pending, finished)
+        self._deadline = now + self.round_timeout
+        return self._close_round(now, timed_out=False) if tally.complete else []
+
+    def on_ack(self, round_: int, host: str, now: float) -> list[Control]:
+        """Process ``host`` delivered every offer of round ``round_``."""
+        tally = self._tally
+        if tally is None or round_ != self.round:
+            return []
+        tally.ack(host)
+        self._deadline = now + self.round_timeout
+        return self._close_round(now, timed_out=False) if tally.complete else []
+
+    def on_estimates(self, source: int, estimates: list[Estimate], now: float) -> list[Control]:
+        """Source ``source`` reported at the END."""
+        if source not in self._collecting or self.done:
+            return []
+        self._collected[source] = estimates
+        self._deadline = now + self.round_timeout
+        if self._collecting <= set(self._collected):
+            self._finish()
+        return []
+
+    def on_tick(self, now: float) -> list[Control]:
+        """The time is ``now``: end a wait whose deadline has passed."""
+        if self.done or now <= self._deadline:
+            return []
+        if self._tally is not None:
+            return self._close_round(now, timed_out=True)
+        gone = self._collecting - set(self._collected)
+        self.departed |= gone
+        self.warnings.append(f"run {self.run_id}: no estimates from FLS {sorted(gone)}")
+        self._finish()
+        return []
+
+    def _control(self, command: int, now: float, **fields: object) -> Control:
+        self._deadline = now + self.round_timeout
+        phase = PHASES[self._phase] if self._phase < len(PHASES) else 0
+        return Control(
+            self.run_id,
+            command,
+            phase,
+            self.policy,
+            self.round,
+            len(self.live),
+            departed_ids=tuple(sorted(self.departed)),
+            **fields,  # type: ignore[arg-type]
+        )
+
+    def _start_phase(self, now: float) -> list[Control]:
+        self._finished = set()
+        start = self._control(START, now, source_ids=self.sources, target_ids=self.targets)
+        return [start, self._open_round(now, finished=())]
+
+    def _open_round(self, now: float, finished: tuple[int, ...]) -> Control:
+        self._tally = RoundTally(self.live, self.hosts)
+        return self._control(ROUND, now, finished_ids=finished)
+
+    def _close_round(self, now: float, timed_out: bool) -> list[Control]:
+        tally = self._tally
+        assert tally is not None
+        self._tally = None
+        self.round += 1
+        if timed_out and tally.silent:
+            self.departed |= tally.silent
+            self.restarts += 1
+            self.warnings.append(
+                f"run {self.run_id}: FLS {sorted(tally.silent)} silent for "
+                f"{self.round_timeout:g} s, departed; phase {PHASES[self._phase]} restarts"
+            )
+            return self._start_phase(now)
+        newly = tuple(sorted(tally.finished - self._finished))
+        self._finished |= tally.finished
+        if not tally.quiet:
+            return [self._open_round(now, newly)]
+        self._phase += 1
+        if self._phase < len(PHASES):
+            return self._start_phase(now)
+        live = self.live
+        self._collecting = frozenset(self.sources) & live if self.sources else live
+        self._collected = {}
+        end = self._control(END, now)
+        if not self._collecting:
+            self._finish()
+        return [end]
+
+    def _finish(self) -> None:
+        self._deadline = float("inf")
+        self.outcome = Outcome(
+            self._collected,
+            frozenset(self.departed),
+            self.round,
+            self.restarts,
+            tuple(self.warnings),
+        )

@@ -1,0 +1,403 @@
+"""Conversions between the core's and the protocol's data and swazure_interfaces messages.
+
+Each message type converts here, and only here, both ways where both are needed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Point, Vector3
+from numpy.typing import NDArray
+from swazure_interfaces.msg import (
+    DiscoveryControl,
+    Measurements,
+    MoveCommand,
+    PathOffer,
+    PathWalk,
+    PoseEstimate,
+    PoseEstimates,
+    RelativePose,
+    RoundAck,
+    TrackEstimate,
+    TrackRequest,
+    TrackSample,
+    WorldState,
+)
+
+from ..core.observe import NeighbourSets
+from ..core.tracking import MotionEstimate, TrackState
+from ..protocol.discovery import Broadcast, Control, Estimate, Offer, Report
+from ..protocol.moves import Move, Walk
+from ..protocol.radio import Ack
+from ..protocol.tracking import RelayRequest, Sample, TrackReport
+from ..sim.world import Measurement
+from .names import (
+    POLICY_CODES,
+    POLICY_NAMES,
+    TRACK_MODEL_CODES,
+    TRACK_STATE_CODES,
+    TRACK_STATE_NAMES,
+    node_name,
+)
+
+FloatArray = NDArray[np.float64]
+
+
+def measurements_message(fls_id: int, measurement: Measurement, stamp: Time) -> Measurements:
+    """One FLS's camera measurements as a Measurements message."""
+    message = Measurements(source_id=fls_id)
+    message.header.stamp = stamp
+    message.header.frame_id = node_name(fls_id)
+    for target, range_class, vector, tracking in zip(
+        measurement.target_ids.tolist(),
+        measurement.range_class.tolist(),
+        measurement.vector.tolist(),
+        measurement.tracking.tolist(),
+    ):
+        pose = RelativePose(
+            source_id=fls_id,
+            target_id=target,
+            range_class=range_class,
+            line_of_sight=True,
+            vector=Vector3(x=vector[0], y=vector[1], z=vector[2]),
+            tracking_distance=tracking,
+        )
+        pose.header = message.header
+        message.poses.append(pose)
+    return message
+
+
+def neighbour_fields(sets: NeighbourSets) -> dict[str, list[int]]:
+    """GetNeighbours response fields from neighbour sets of FLS ids."""
+    return {
+        "blind_ids": sets.blind.tolist(),
+        "sweet_ids": sets.sweet.tolist(),
+        "visible_sweet_ids": sets.visible_sweet.tolist(),
+        "decaying_ids": sets.visible_decaying.tolist(),
+    }
+
+
+def world_message(
+    revision: int, ids: NDArray[np.int64], points: FloatArray, stamp: Time
+) -> WorldState:
+    """Every FLS's position as a WorldState message."""
+    message = WorldState(revision=revision, fls_ids=ids.tolist())
+    message.header.stamp = stamp
+    message.header.frame_id = "world"
+    message.positions = [Point(x=p[0], y=p[1], z=p[2]) for p in points.tolist()]
+    return message
+
+
+def world_positions(message: WorldState) -> dict[int, FloatArray]:
+    """FLS id -> (3,) position, cm, from a WorldState message."""
+    return {
+        int(fls_id): np.array([point.x, point.y, point.z])
+        for fls_id, point in zip(message.fls_ids, message.positions)
+    }
+
+
+def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:
+    """One FLS's labels of one round as a PathOffer message."""
+    offer, sender = sent.offer, sent.sender
+    message = PathOffer(
+        run_id=sent.run_id,
+        phase=sent.phase,
+        round=sent.round,
+        sender_id=sender,
+        pending=offer.pending,
+        finished=offer.finished,
+    )
+    message.header.stamp = stamp
+    message.header.frame_id = node_name(sender)
+    # Array fields take numpy arrays of the right dtype without a Python loop.
+    message.source_ids = offer.source_ids.astype(np.uint32)
+    message.hops = offer.hops.astype(np.uint32)
+    message.lengths = offer.lengths.astype(np.float64)
+    message.vectors = offer.vectors.astype(np.float64).ravel()
+    message.path_offsets = offer.path_offsets.astype(np.uint32)
+    message.path_ids = offer.path_ids.astype(np.uint32)
+    return message
+
+
+def offer_from_message(message: PathOffer) -> Offer:
+    """The labels of a PathOffer message."""
+    return Offer(
+        source_ids=np.asarray(message.source_ids, dtype=np.int64),
+        hops=np.asarray(message.hops, dtype=np.int64),
+        lengths=np.asarray(message.lengths, dtype=np.float64),
+        vectors=np.asarray(message.vectors, dtype=np.float64).reshape(-1, 3),
+        path_offsets=np.asarray(message.path_offsets, dtype=np.int64),
+        path_ids=np.asarray(message.path_ids, dtype=np.int64),
+        pending=message.pending,
+        finished=message.finished,
+    )
+
+
+def estimate_message(source: int, found: Estimate) -> PoseEstimate:
+    """One pair's estimate as a PoseEstimate message (NaN vector without a path)."""
+    vector = found.vector.tolist()
+    return PoseEstimate(
+        source_id=source,
+        target_id=found.target,
+        status=found.status,
+        reason=found.reason,
+        path=list(found.path),
+        hops=found.hops,
+        radio_path=list(found.radio_path),
+        vector=Vector3(x=vector[0], y=vector[1], z=vector[2]),
+        path_length=found.length,
+    )
+
+
+def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
+    """Every estimate of one source as a PoseEstimates message."""
+    source, found = report.source, report.estimates
+    message = PoseEstimates(run_id=report.run_id, source_id=source)
+    message.header.stamp = stamp
+    message.header.frame_id = node_name(source)
+    message.estimates = [estimate_message(source, one) for one in found]
+    for one in message.estimates:
+        one.header = message.header
+    return message
+
+
+def estimate_from_message(message: PoseEstimate) -> Estimate:
+    """The core's Estimate of a PoseEstimate message."""
+    vector = message.vector
+    return Estimate(
+        target=int(message.target_id),
+        status=int(message.status),
+        reason=int(message.reason),
+        path=tuple(int(fls) for fls in message.path),
+        length=float(message.path_length),
+        vector=np.array([vector.x, vector.y, vector.z]),
+        radio_path=tuple(int(fls) for fls in message.radio_path),
+    )
+
+
+def vector3(values: FloatArray | None) -> Vector3:
+    """A (3,) array as a Vector3; None as NaNs."""
+    if values is None:
+        return Vector3(x=float("nan"), y=float("nan"), z=float("nan"))
+    return Vector3(x=float(values[0]), y=float(values[1]), z=float(values[2]))
+
+
+def array3(vector: Vector3) -> FloatArray:
+    """(3,) array of a Vector3."""
+    return np.array([vector.x, vector.y, vector.z])
+
+
+def to_seconds(stamp: Time) -> float:
+    """Seconds of a builtin_interfaces Time, through whole nanoseconds as the clock counts."""
+    return stamp_nanoseconds(stamp) / 1e9
+
+
+def to_stamp(seconds: float) -> Time:
+    """A builtin_interfaces Time of ``seconds`` (>= 0), rounded to whole nanoseconds."""
+    return nanoseconds_stamp(round(seconds * 1e9))
+
+
+def track_estimate_message(report: TrackReport) -> TrackEstimate:
+    """A source's estimate of its target's motion as a TrackEstimate message."""
+    source, target, estimate = report.source, report.target, report.estimate
+    kalman, filtered = estimate.kalman, estimate.filtered
+    message = TrackEstimate(
+        source_id=source,
+        relay_id=estimate.relay,
+        target_id=target,
+        status=TRACK_STATE_CODES[estimate.status],
+        model=TRACK_MODEL_CODES[report.model],
+        raw_position=vector3(estimate.raw),
+        position=vector3(kalman and kalman.position),
+        velocity=vector3(kalman and kalman.velocity),
+        acceleration=vector3(kalman and kalman.acceleration),
+        filtered_position=vector3(filtered and filtered.position),
+        filtered_velocity=vector3(filtered and filtered.velocity),
+        filtered_acceleration=vector3(filtered and filtered.acceleration),
+        difference_velocity=vector3(estimate.difference_velocity),
+        difference_acceleration=vector3(estimate.difference_acceleration),
+        message=estimate.message,
+    )
+    message.header.stamp = to_stamp(estimate.time)
+    message.header.frame_id = node_name(source)
+    if np.isfinite(estimate.sample_time):
+        message.sample_stamp = to_stamp(estimate.sample_time)
+    return message
+
+
+def motion_estimate(message: TrackEstimate) -> MotionEstimate:
+    """The core's estimate of a TrackEstimate message."""
+    tracking = not np.isnan(message.position.x)
+
+    def state(at: float, prefix: str) -> TrackState | None:
+        if not tracking:
+            return None
+        return TrackState(
+            at,
+            array3(getattr(message, f"{prefix}position")),
+            array3(getattr(message, f"{prefix}velocity")),
+            array3(getattr(message, f"{prefix}acceleration")),
+        )
+
+    present = to_seconds(message.header.stamp)
+    # A stamp of 0 is a real time on a simulated clock: no sample is a NaN raw position.
+    sampled = not np.isnan(message.raw_position.x)
+    sample_time = to_seconds(message.sample_stamp) if sampled else float("nan")
+    return MotionEstimate(
+        TRACK_STATE_NAMES[message.status],
+        present,
+        sample_time,
+        array3(message.raw_position),
+        state(present, ""),
+        state(sample_time, "filtered_"),
+        array3(message.difference_velocity),
+        array3(message.difference_acceleration),
+        message.message,
+        int(message.relay_id),
+    )
+
+
+def control_message(control: Control, stamp: Time) -> DiscoveryControl:
+    """A tick of the round clock as a DiscoveryControl message."""
+    message = DiscoveryControl(
+        run_id=control.run_id,
+        command=control.command,
+        phase=control.phase,
+        policy=POLICY_CODES[control.policy],
+        round=control.round,
+        expected=control.expected,
+        source_ids=list(control.source_ids),
+        target_ids=list(control.target_ids),
+        finished_ids=list(control.finished_ids),
+        departed_ids=list(control.departed_ids),
+    )
+    message.header.stamp = stamp
+    return message
+
+
+def control_from_message(message: DiscoveryControl) -> Control:
+    """The round clock's tick of a DiscoveryControl message."""
+    return Control(
+        run_id=int(message.run_id),
+        command=int(message.command),
+        phase=int(message.phase),
+        policy=POLICY_NAMES[message.policy],
+        round=int(message.round),
+        expected=int(message.expected),
+        source_ids=tuple(int(fls) for fls in message.source_ids),
+        target_ids=tuple(int(fls) for fls in message.target_ids),
+        finished_ids=tuple(int(fls) for fls in message.finished_ids),
+        departed_ids=tuple(int(fls) for fls in message.departed_ids),
+    )
+
+
+def ack_message(ack: Ack, host: str, stamp: Time) -> RoundAck:
+    """A process's acknowledgement of a round as a RoundAck message."""
+    message = RoundAck(run_id=ack.run_id, phase=ack.phase, round=ack.round, heard=ack.heard)
+    message.host = host
+    message.header.stamp = stamp
+    return message
+
+
+def move_message(move: Move, stamp: Time) -> MoveCommand:
+    """One FLS's move as a MoveCommand message."""
+    message = MoveCommand(
+        fls_id=move.fls_id,
+        kind=move.kind,
+        source_id=move.source_id,
+        target_id=move.target_id,
+        group=move.group,
+        group_size=move.group_size,
+    )
+    if move.displacement is not None:
+        message.displacement = vector3(move.displacement)
+    message.header.stamp = stamp
+    return message
+
+
+def walk_message(walk: Walk, stamp: Time) -> PathWalk:
+    """A path walk as a PathWalk message."""
+    message = PathWalk(
+        run_id=walk.run_id,
+        revision=walk.revision,
+        source_id=walk.source_id,
+        target_id=walk.target_id,
+        path=list(walk.path),
+        hop=walk.hop,
+        state=walk.state,
+        vector=vector3(walk.vector),
+    )
+    message.header.stamp = stamp
+    return message
+
+
+def walk_from_message(message: PathWalk) -> Walk:
+    """The path walk of a PathWalk message."""
+    return Walk(
+        run_id=int(message.run_id),
+        revision=int(message.revision),
+        path=tuple(int(fls) for fls in message.path),
+        hop=int(message.hop),
+        state=int(message.state),
+        vector=array3(message.vector),
+    )
+
+
+def relay_request_message(request: RelayRequest) -> TrackRequest:
+    """A source's request to a relay as a TrackRequest message, stamped with its first frame."""
+    message = TrackRequest(
+        command=request.command,
+        source_id=request.source,
+        relay_id=request.relay,
+        target_id=request.target,
+    )
+    message.header.stamp = nanoseconds_stamp(request.start)
+    return message
+
+
+def relay_request_from_message(message: TrackRequest) -> RelayRequest:
+    """The request of a TrackRequest message."""
+    return RelayRequest(
+        int(message.command),
+        int(message.source_id),
+        int(message.relay_id),
+        int(message.target_id),
+        stamp_nanoseconds(message.header.stamp),
+    )
+
+
+def sample_message(sample: Sample) -> TrackSample:
+    """A relayed sample as a TrackSample message, stamped when it was sensed."""
+    message = TrackSample(
+        source_id=sample.source,
+        relay_id=sample.relay,
+        target_id=sample.target,
+        status=sample.status,
+        position=vector3(sample.position),
+    )
+    message.header.stamp = nanoseconds_stamp(sample.sensed)
+    message.header.frame_id = node_name(sample.source)
+    return message
+
+
+def sample_from_message(message: TrackSample) -> Sample:
+    """The sample of a TrackSample message."""
+    return Sample(
+        int(message.source_id),
+        int(message.relay_id),
+        int(message.target_id),
+        int(message.status),
+        array3(message.position),
+        stamp_nanoseconds(message.header.stamp),
+    )
+
+
+def nanoseconds_stamp(nanoseconds: int) -> Time:
+    """A builtin_interfaces Time of whole ``nanoseconds`` (>= 0)."""
+    return Time(sec=nanoseconds // 1_000_000_000, nanosec=nanoseconds % 1_000_000_000)
+
+
+def stamp_nanoseconds(stamp: Time) -> int:
+    """Whole nanoseconds of a builtin_interfaces Time."""
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)

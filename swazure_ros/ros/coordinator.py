@@ -1,0 +1,423 @@
+"""The coordinator node: the round clock of path discovery, and the heuristics' mover.
+
+It carries two of the protocol's state machines over ROS: the
+:class:`~swazure_ros.protocol.rounds.RoundClock` of a discovery run
+(docs/protocol.md) and the :class:`~swazure_ros.protocol.moves.MoveRun` of a
+heuristic made by the swarm. Each callback turns a message into one event of
+the running machine and publishes what the machine answers; a timer gives
+the machines the time, so that every wait ends by its deadline. Runs asked
+for while one is under way wait their turn, in order.
+
+Its service ``coordinator/compute_pose`` (swazure_interfaces/ComputePose)
+runs one source's search for one target on demand. The coordinator only
+clocks; labels travel from FLS to FLS, and only FLSs sum vectors.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.context import Context
+from rclpy.exceptions import ParameterException
+from rclpy.publisher import Publisher
+from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.task import Future
+from swazure_interfaces.msg import (
+    DiscoveryControl,
+    MoveCommand,
+    PathOffer,
+    PathWalk,
+    PoseEstimates,
+    RoundAck,
+    WorldState,
+)
+from swazure_interfaces.srv import ComputePose
+
+from ..core.evaluate import Evaluation
+from ..core.heuristics import HeuristicResult
+from ..core.paths import check_policy
+from ..protocol.discovery import Control, Estimate, evaluation_of
+from ..protocol.moves import Move, MoveRun, Walk
+from ..protocol.rounds import RoundClock
+from ..sim.world import World
+from .convert import (
+    control_message,
+    estimate_from_message,
+    estimate_message,
+    move_message,
+    walk_message,
+)
+from .deferred import Reply, create_deferred_service
+from .fls_node import ParameterError
+from .names import (
+    ACK_TOPIC,
+    COMPUTE_POSE_SERVICE,
+    CONTROL_TOPIC,
+    COORDINATOR,
+    ESTIMATES_TOPIC,
+    MOVE_QOS,
+    MOVE_TOPIC,
+    POLICY_NAMES,
+    RADIO_TOPIC,
+    ROUND_QOS,
+    WALKS_TOPIC,
+    WORLD_QOS,
+    WORLD_TOPIC,
+)
+from .runtime import SwarmNode
+
+
+@dataclass
+class Traffic:
+    """Messages and bytes sent during discovery, per topic."""
+
+    messages: dict[str, int] = field(default_factory=dict)
+    bytes: dict[str, int] = field(default_factory=dict)
+
+    def count(self, topic: str, size: int) -> None:
+        """Count one message of ``size`` bytes on ``topic``."""
+        self.messages[topic] = self.messages.get(topic, 0) + 1
+        self.bytes[topic] = self.bytes.get(topic, 0) + size
+
+    def since(self, earlier: Traffic) -> Traffic:
+        """What was counted after ``earlier`` (a copy taken then)."""
+        return Traffic(
+            {k: v - earlier.messages.get(k, 0) for k, v in self.messages.items()},
+            {k: v - earlier.bytes.get(k, 0) for k, v in self.bytes.items()},
+        )
+
+    def copy(self) -> Traffic:
+        """A snapshot."""
+        return Traffic(dict(self.messages), dict(self.bytes))
+
+    @property
+    def total_messages(self) -> int:
+        """Messages on every topic."""
+        return sum(self.messages.values())
+
+    @property
+    def total_bytes(self) -> int:
+        """Bytes on every topic (serialised payloads)."""
+        return sum(self.bytes.values())
+
+
+@dataclass
+class DiscoveryResult:
+    """One discovery run: every source's estimates and what it took."""
+
+    run_id: int
+    policy: str
+    estimates: dict[int, list[Estimate]]  # source id -> estimates
+    departed: frozenset[int]
+    rounds: int
+    restarts: int
+    seconds: float
+    traffic: Traffic
+
+
+@dataclass
+class MoveResult:
+    """A heuristic made by the swarm: the evaluation after it and what it took."""
+
+    run_id: int
+    evaluation: Evaluation  # the plain run with the resolved pairs made SWEET
+    heuristic: HeuristicResult  # the engine's plan, resolved where the walk arrived
+    batches: int
+    moved: int  # move commands sent, returns included
+    walks: int
+    seconds: float
+    traffic: Traffic
+
+
+Machine = RoundClock | MoveRun
+Action = Control | Move | Walk
+
+
+@dataclass
+class _Job:
+    """A run waiting for its turn, then running: how to start it and who waits for it."""
+
+    begin: Callable[[int], Machine]  # run id -> the run's machine
+    future: Future
+    machine: Machine | None = None
+    began: float = 0.0
+    traffic: Traffic = field(default_factory=Traffic)
+
+
+class Coordinator(SwarmNode):
+    """Clocks discovery runs and makes heuristics' moves over the FLS nodes of a swarm."""
+
+    def __init__(
+        self,
+        fls_ids: Iterable[int],
+        hosts: int,
+        *,
+        world: World | None = None,
+        namespace: str = "swarm",
+        context: Context | None = None,
+    ) -> None:
+        super().__init__(COORDINATOR, namespace=namespace, context=context)
+        self.round_timeout = self._declare_round_timeout()
+        self.world = world  # the original shape, for planning moves
+        self.fls_ids = frozenset(int(fls_id) for fls_id in fls_ids)
+        self.hosts = hosts
+        self.departed: set[int] = set()
+        self.traffic = Traffic()
+        self._control = self.create_publisher(DiscoveryControl, CONTROL_TOPIC, ROUND_QOS)
+        self._moves = self.create_publisher(MoveCommand, MOVE_TOPIC, MOVE_QOS)
+        self._walks = self.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
+        self.create_subscription(PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS, raw=True)
+        self.create_subscription(RoundAck, ACK_TOPIC, self._on_ack, ROUND_QOS, raw=True)
+        self.create_subscription(
+            PoseEstimates, ESTIMATES_TOPIC, self._on_estimates, ROUND_QOS, raw=True
+        )
+        self.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS, raw=True)
+        self.create_subscription(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
+        # The answer waits for a whole run; meanwhile the coordinator keeps clocking.
+        create_deferred_service(
+            self, ComputePose, f"~/{COMPUTE_POSE_SERVICE}", self._on_compute_pose
+        )
+        self.create_timer(0.05, self._on_tick)
+        self._revision = 0  # the newest world revision seen
+        self._asked_revision = 0  # the revision our last group of moves makes
+        self._next_run = 1
+        self._jobs: deque[_Job] = deque()
+        self._job: _Job | None = None
+
+    def _declare_round_timeout(self) -> float:
+        try:
+            timeout = self.declare_parameter(
+                "round_timeout",
+                10.0,
+                ParameterDescriptor(
+                    description="seconds without progress after which silent FLSs have departed"
+                ),
+            ).value
+        except ParameterException as err:
+            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
+        if not isinstance(timeout, float) or not timeout > 0:
+            raise ParameterError(
+                f"{self.get_fully_qualified_name()}: parameter round_timeout must be "
+                f"a positive number of seconds, got {timeout!r}"
+            )
+        return timeout
+
+    # Runs ------------------------------------------------------------------
+
+    def discover(
+        self,
+        policy: str,
+        sources: list[int] | None = None,
+        targets: list[int] | None = None,
+    ) -> Future:
+        """Run discovery: every FLS for every blind neighbour, or sources[k] for targets[k].
+
+        Returns a future of the :class:`DiscoveryResult`.
+        """
+        check_policy(policy)
+
+        def begin(run_id: int) -> Machine:
+            return RoundClock(
+                run_id,
+                policy,
+                self.fls_ids,
+                self.hosts,
+                self.round_timeout,
+                departed=self.departed,
+                sources=sources or (),
+                targets=targets or (),
+            )
+
+        return self._enqueue(begin)
+
+    def make_moves(self, plain: DiscoveryResult, technique: str, threshold: int = 10) -> Future:
+        """A heuristic on every BLOCKED pair of a whole-swarm run, its moves made for real.
+
+        ``technique`` is Move Obstructing or Move Source (probing up to
+        ``threshold`` steps of r). Returns a future of the :class:`MoveResult`.
+        """
+        world = self.world
+        if world is None:
+            raise ValueError("the coordinator plans moves from the world it was given: none")
+        evaluation = evaluation_of(world.hood, plain.policy, plain.estimates)
+        # Planned now, so that a bad technique fails here and not inside a callback.
+        planned = MoveRun(0, evaluation, technique, threshold, 0, self.round_timeout)
+
+        def begin(run_id: int) -> Machine:
+            planned.run_id = run_id
+            planned.revision, planned.asked_revision = self._revision, self._asked_revision
+            return planned
+
+        return self._enqueue(begin)
+
+    def _enqueue(self, begin: Callable[[int], Machine]) -> Future:
+        job = _Job(begin, Future())
+        self._jobs.append(job)
+        if self._job is None:
+            self._start_next()
+        return job.future
+
+    def _start_next(self) -> None:
+        while self._job is None and self._jobs:
+            job = self._jobs.popleft()
+            job.machine = job.begin(self._next_run)
+            self._next_run += 1
+            job.began, job.traffic = time.perf_counter(), self.traffic.copy()
+            self._job = job
+            self._act(job.machine.start(time.monotonic()))
+
+    def _act(self, actions: list[Action]) -> None:
+        """Publish what the running machine asks for; finish its run when it is done."""
+        stamp = self.get_clock().now().to_msg()
+        for action in actions:
+            if isinstance(action, Control):
+                self._publish(self._control, CONTROL_TOPIC, control_message(action, stamp))
+            elif isinstance(action, Move):
+                self._publish(self._moves, MOVE_TOPIC, move_message(action, stamp))
+            else:
+                self._publish(self._walks, WALKS_TOPIC, walk_message(action, stamp))
+        job = self._job
+        if job is None or job.machine is None:
+            return
+        machine = job.machine
+        for warning in machine.warnings:
+            self.get_logger().warning(warning)
+        machine.warnings.clear()
+        if machine.done:
+            self._job = None
+            job.future.set_result(self._result(job, machine))
+            self._start_next()
+
+    def _result(self, job: _Job, machine: Machine) -> DiscoveryResult | MoveResult:
+        seconds = time.perf_counter() - job.began
+        traffic = self.traffic.since(job.traffic)
+        if isinstance(machine, RoundClock):
+            outcome = machine.outcome
+            assert outcome is not None
+            self.departed = set(outcome.departed)
+            return DiscoveryResult(
+                machine.run_id,
+                machine.policy,
+                outcome.estimates,
+                outcome.departed,
+                outcome.rounds,
+                outcome.restarts,
+                seconds,
+                traffic,
+            )
+        moved = machine.outcome
+        assert moved is not None
+        self._asked_revision = machine.asked_revision
+        return MoveResult(
+            machine.run_id,
+            moved.evaluation,
+            moved.heuristic,
+            moved.batches,
+            moved.moved,
+            moved.walks,
+            seconds,
+            traffic,
+        )
+
+    def _running(self, run_id: int | None = None) -> Machine | None:
+        """The running machine (of run ``run_id``, if given)."""
+        machine = self._job.machine if self._job is not None else None
+        if machine is None or (run_id is not None and machine.run_id != run_id):
+            return None
+        return machine
+
+    def _publish(self, publisher: Publisher, topic: str, message: object) -> None:
+        data = serialize_message(message)
+        self.traffic.count(topic, len(data))
+        publisher.publish(data)
+
+    # Callbacks: one message -> one event of the running machine -------------
+
+    def _on_tick(self) -> None:
+        machine = self._running()
+        if machine is not None:
+            self._act(machine.on_tick(time.monotonic()))
+
+    def _on_offer(self, data: bytes) -> None:
+        self.traffic.count(RADIO_TOPIC, len(data))
+        if not isinstance(self._running(), RoundClock):
+            return
+        offer = deserialize_message(data, PathOffer)
+        clock = self._running(offer.run_id)
+        if isinstance(clock, RoundClock):
+            self._act(
+                clock.on_offer(
+                    int(offer.round),
+                    int(offer.sender_id),
+                    len(offer.source_ids),
+                    offer.pending,
+                    offer.finished,
+                    time.monotonic(),
+                )
+            )
+
+    def _on_ack(self, data: bytes) -> None:
+        self.traffic.count(ACK_TOPIC, len(data))
+        ack = deserialize_message(data, RoundAck)
+        clock = self._running(ack.run_id)
+        if isinstance(clock, RoundClock):
+            self._act(clock.on_ack(int(ack.round), ack.host, time.monotonic()))
+
+    def _on_estimates(self, data: bytes) -> None:
+        self.traffic.count(ESTIMATES_TOPIC, len(data))
+        message = deserialize_message(data, PoseEstimates)
+        machine = self._running(message.run_id)
+        if machine is not None:
+            estimates = [estimate_from_message(one) for one in message.estimates]
+            source = int(message.source_id)
+            self._act(machine.on_estimates(source, estimates, time.monotonic()))
+
+    def _on_world(self, state: WorldState) -> None:
+        self._revision = max(self._revision, int(state.revision))
+        machine = self._running()
+        if isinstance(machine, MoveRun):
+            self._act(machine.on_revision(self._revision, time.monotonic()))
+
+    def _on_walk(self, data: bytes) -> None:
+        self.traffic.count(WALKS_TOPIC, len(data))
+
+    def _on_compute_pose(self, request: ComputePose.Request, reply: Reply) -> None:
+        source, target = int(request.source_id), int(request.target_id)
+        problem = None
+        if request.policy not in POLICY_NAMES:
+            problem = f"unknown policy {request.policy}: expected one of {sorted(POLICY_NAMES)}"
+        elif source == target:
+            problem = f"source and target are both FLS {source}"
+        else:
+            for role, fls_id in (("source", source), ("target", target)):
+                if fls_id not in self.fls_ids:
+                    problem = f"no {role} FLS {fls_id} in this swarm of {len(self.fls_ids)} FLSs"
+                    break
+                if fls_id in self.departed:
+                    problem = f"{role} FLS {fls_id} has departed"
+                    break
+        if problem is not None:
+            reply(ComputePose.Response(success=False, message=problem))
+            return
+        run = self.discover(POLICY_NAMES[request.policy], [source], [target])
+        run.add_done_callback(lambda done: reply(self._pose_answer(done.result(), source, target)))
+
+    def _pose_answer(
+        self, result: DiscoveryResult, source: int, target: int
+    ) -> ComputePose.Response:
+        found = [one for one in result.estimates.get(source, []) if one.target == target]
+        if not found:
+            message = (
+                f"FLS {target} is not a blind neighbour of FLS {source}: "
+                "Swazure computes poses of blind neighbours only"
+                if source in result.estimates
+                else f"no answer from source FLS {source}"
+            )
+            return ComputePose.Response(success=False, message=message)
+        response = ComputePose.Response(success=True, estimate=estimate_message(source, found[0]))
+        response.estimate.header.stamp = self.get_clock().now().to_msg()
+        return response

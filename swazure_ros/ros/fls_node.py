@@ -1,0 +1,374 @@
+"""One FLS as an rclpy node: its camera and radio, and its part of discovery and tracking.
+
+Topics and services, relative to the swarm namespace (``/swarm`` by default;
+names and QoS in :mod:`.names`):
+
+- ``measurements`` (swazure_interfaces/Measurements), shared by all FLSs:
+  each FLS publishes what its camera sees every ``publish_period`` seconds
+  (its frame rate), from where it is at that moment;
+- ``fls_<id>/get_neighbours`` (swazure_interfaces/GetNeighbours): its blind,
+  sweet and decaying neighbours as it knows them;
+- ``fls_<id>/compute_pose`` (swazure_interfaces/ComputePose): its pose
+  relative to one blind neighbour, found by a discovery run that its process
+  asks the coordinator to clock;
+- ``radio`` and ``estimates``, shared: its path labels, one broadcast per
+  round of a discovery run, and its estimates when a run ends or a path walk
+  comes back (docs/protocol.md);
+- ``fls_<id>/track`` (swazure_interfaces/TrackTarget): track a target's motion
+  through a relay (spec, section 9); relays stream ``track_samples``, the
+  source publishes ``track_estimates``. Both run on the node's clock,
+  simulated time with ``use_sim_time``.
+
+The algorithms are the protocol's state machines, one per idea: the node
+is a :class:`~swazure_ros.protocol.discovery.Participant` of discovery,
+a :class:`~swazure_ros.protocol.tracking.RelayStreams` for the streams it
+relays, and a :class:`~swazure_ros.protocol.tracking.TrackSource` for the
+targets it tracks. Each callback converts a message, makes one call into a
+machine, and publishes what comes out.
+
+The node subscribes to none of the shared topics itself: its process's
+:class:`~.host.Radio` hears each of them once and hands a message to the FLS
+nodes it reaches (:meth:`FlsNode.on_control`, :meth:`~FlsNode.on_offer`,
+:meth:`~FlsNode.on_walk`, :meth:`~FlsNode.on_track_request`,
+:meth:`~FlsNode.on_track_sample`), as a radio would. A thousand
+subscriptions per topic would cost discovery time and deliver every message
+a thousand times.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Callable
+
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.clock import JumpHandle, JumpThreshold
+from rclpy.context import Context
+from rclpy.duration import Duration
+from rclpy.exceptions import ParameterException
+from rclpy.parameter import Parameter
+from rclpy.publisher import Publisher
+from rclpy.serialization import serialize_message
+from rclpy.task import Future
+from rclpy.timer import Timer
+from swazure_interfaces.msg import (
+    Measurements,
+    PathOffer,
+    PoseEstimates,
+    TrackEstimate,
+    TrackRequest,
+    TrackSample,
+)
+from swazure_interfaces.srv import ComputePose, GetNeighbours, TrackTarget
+
+from ..core.errors import SwazureError
+from ..core.observe import NeighbourSets
+from ..core.tracking import TRACK_SETTINGS, FloatArray, TrackConfig, TrackingError
+from ..protocol.discovery import Broadcast, Control, Offer, Participant, Report
+from ..protocol.moves import WALKING, Walk, step_walk, walk_estimate
+from ..protocol.tracking import RelayRequest, RelayStreams, Sample, TrackReport, TrackSource
+from ..sim.replica import WorldReplica
+from ..sim.world import Measurement
+from .convert import (
+    estimates_message,
+    measurements_message,
+    neighbour_fields,
+    offer_message,
+    relay_request_from_message,
+    relay_request_message,
+    sample_from_message,
+    sample_message,
+    track_estimate_message,
+)
+from .deferred import Reply, create_deferred_service
+from .names import (
+    COMPUTE_POSE_SERVICE,
+    ESTIMATES_TOPIC,
+    MEASUREMENTS_QOS,
+    MEASUREMENTS_TOPIC,
+    NEIGHBOURS_SERVICE,
+    RADIO_TOPIC,
+    ROUND_QOS,
+    TRACK_ESTIMATES_TOPIC,
+    TRACK_MODEL_NAMES,
+    TRACK_REQUESTS_TOPIC,
+    TRACK_SAMPLES_TOPIC,
+    TRACK_SERVICE,
+    node_name,
+)
+from .runtime import SwarmNode
+
+
+class ParameterError(SwazureError):
+    """A node parameter with a value the node cannot run with."""
+
+
+#: How an FLS's process passes a ComputePose request on to the coordinator:
+#: a future of the coordinator's response.
+AskCoordinator = Callable[[ComputePose.Request], Future]
+
+
+class FlsNode(SwarmNode):
+    """One Flying Light Speck."""
+
+    def __init__(
+        self,
+        fls_id: int,
+        senses: WorldReplica,
+        *,
+        namespace: str = "swarm",
+        context: Context | None = None,
+        ask_coordinator: AskCoordinator | None = None,
+        parameter_overrides: list[Parameter] | None = None,
+    ) -> None:
+        super().__init__(
+            node_name(fls_id),
+            namespace=namespace,
+            context=context,
+            parameter_overrides=parameter_overrides,
+        )
+        self.fls_id = fls_id
+        self._senses = senses
+        self.publish_period = self._declare_publish_period()
+        self.track_config = self._declare_track_config()
+        self._sensed: tuple[Measurement, NeighbourSets] | None = None
+        self.discovery = Participant(
+            fls_id, lambda: senses.view(fls_id), senses.sweet_min, senses.id_space
+        )
+        self.relay = RelayStreams(fls_id, self._sense_for_relay, self.track_config)
+        self.tracker = TrackSource(
+            fls_id,
+            self.track_config,
+            lambda target, seconds: senses.senses.choose_relay(fls_id, target, seconds),
+            lambda target, relay, seconds: senses.senses.next_relay(
+                fls_id, target, relay, seconds
+            ),
+        )
+        self._publisher = self.create_publisher(Measurements, MEASUREMENTS_TOPIC, MEASUREMENTS_QOS)
+        self.create_service(GetNeighbours, f"~/{NEIGHBOURS_SERVICE}", self._on_get_neighbours)
+        # The answer waits for a whole discovery run; meanwhile the node keeps serving.
+        self._ask_coordinator = ask_coordinator
+        create_deferred_service(
+            self, ComputePose, f"~/{COMPUTE_POSE_SERVICE}", self._on_compute_pose
+        )
+        self.create_timer(self.publish_period, self.publish_measurements)
+        self._radio = self.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
+        self._estimates = self.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
+        self.create_service(TrackTarget, f"~/{TRACK_SERVICE}", self._on_track)
+        # Created at the first track: most FLSs never relay nor track, and
+        # every endpoint costs discovery time.
+        self._track_publishers: dict[str, Publisher] = {}
+        # Relay frames and track timeouts run on the node's clock. On simulated
+        # time they follow /clock itself: the EventsExecutor's timers do not
+        # support a simulated clock (ros2/rclcpp#2457) and skip periods.
+        self._track_ticks: JumpHandle | Timer | None = None
+        # Sent and heard, so that whoever drives a simulated clock knows when all is delivered.
+        self.track_traffic: Counter[str] = Counter()
+        self.messages_sent = 0
+        self.bytes_sent = 0
+
+    def _declare_publish_period(self) -> float:
+        try:
+            period = self.declare_parameter(
+                "publish_period",
+                1.0,
+                ParameterDescriptor(description="seconds between measurement messages"),
+            ).value
+        except ParameterException as err:
+            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
+        if not isinstance(period, float) or not period > 0:
+            raise ParameterError(
+                f"{self.get_fully_qualified_name()}: parameter publish_period must be "
+                f"a positive number of seconds, got {period!r}"
+            )
+        return period
+
+    def _declare_track_config(self) -> TrackConfig:
+        defaults = TrackConfig()
+        values = {}
+        try:
+            # track.<name>, defaulting to TrackConfig's.
+            for name, description in TRACK_SETTINGS.items():
+                values[name] = self.declare_parameter(
+                    f"track.{name}",
+                    getattr(defaults, name),
+                    ParameterDescriptor(description=description),
+                ).value
+            return TrackConfig(**values)
+        except (ParameterException, TrackingError) as err:
+            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
+
+    # Camera and radio --------------------------------------------------------
+
+    @property
+    def measurement(self) -> Measurement:
+        """What the camera measures where the FLS is now."""
+        return self._sense()[0]
+
+    @property
+    def known_neighbours(self) -> NeighbourSets:
+        """The neighbours the FLS knows by radio and camera where it is now."""
+        return self._sense()[1]
+
+    def sense(self) -> None:
+        """The world changed within this FLS's reach: sense anew when next asked."""
+        # Lazily: while a heuristic moves FLSs, revisions come faster than anyone reads.
+        self._sensed = None
+
+    def _sense(self) -> tuple[Measurement, NeighbourSets]:
+        if self._sensed is None:
+            self._sensed = (
+                self._senses.measurement(self.fls_id),
+                self._senses.neighbours(self.fls_id),
+            )
+        return self._sensed
+
+    def publish_measurements(self) -> None:
+        """Publish the last measurements on the shared topic."""
+        stamp = self.get_clock().now().to_msg()
+        self._publisher.publish(measurements_message(self.fls_id, self.measurement, stamp))
+
+    def _elsewhere(self, fls_id: int, service: str) -> str:
+        """Where FLS ``fls_id`` answers ``service`` for itself."""
+        return (
+            f"this is FLS {self.fls_id}; FLS {fls_id} answers for itself at "
+            f"{self.get_namespace().rstrip('/')}/{node_name(fls_id)}/{service} if it exists"
+        )
+
+    def _on_get_neighbours(
+        self, request: GetNeighbours.Request, response: GetNeighbours.Response
+    ) -> GetNeighbours.Response:
+        if request.fls_id != self.fls_id:
+            response.success = False
+            response.message = self._elsewhere(request.fls_id, NEIGHBOURS_SERVICE)
+            return response
+        for name, ids in neighbour_fields(self.known_neighbours).items():
+            setattr(response, name, ids)
+        response.success = True
+        return response
+
+    # Discovery ---------------------------------------------------------------
+
+    def _on_compute_pose(self, request: ComputePose.Request, reply: Reply) -> None:
+        if request.source_id != self.fls_id:
+            message = self._elsewhere(request.source_id, COMPUTE_POSE_SERVICE)
+            reply(ComputePose.Response(success=False, message=message))
+        elif self._ask_coordinator is None:
+            message = "no coordinator to clock a discovery run"
+            reply(ComputePose.Response(success=False, message=message))
+        else:
+            self._ask_coordinator(request).add_done_callback(lambda answer: reply(answer.result()))
+
+    def on_control(self, control: Control) -> None:
+        """Follow the coordinator's round clock (the host hands every control on)."""
+        out = self.discovery.on_control(control)
+        if out is not None:
+            self._publish_discovery(out)
+
+    def on_offer(self, run_id: int, sender: int, offer: Offer) -> None:
+        """Hear a neighbour's broadcast of the current phase of run ``run_id``."""
+        self.discovery.on_offer(run_id, sender, offer)
+
+    def on_walk(self, walk: Walk) -> Walk | None:
+        """Take a path walk addressed to this FLS; return the walk to send on, if any."""
+        if walk.state == WALKING:
+            return step_walk(walk, self.measurement)
+        # Back at the source: its result.
+        self._publish_discovery(Report(walk.run_id, self.fls_id, [walk_estimate(walk)]))
+        return None
+
+    def _publish_discovery(self, out: Broadcast | Report) -> None:
+        stamp = self.get_clock().now().to_msg()
+        if isinstance(out, Broadcast):
+            self._publish(self._radio, offer_message(out, stamp))
+        else:
+            self._publish(self._estimates, estimates_message(out, stamp))
+
+    # Tracking ----------------------------------------------------------------
+
+    def _now(self) -> int:
+        return self.get_clock().now().nanoseconds
+
+    def _sense_for_relay(self, source: int, target: int, seconds: float) -> tuple[int, FloatArray]:
+        return self._senses.senses.track_sample(source, self.fls_id, target, seconds)
+
+    def _on_track(
+        self, request: TrackTarget.Request, response: TrackTarget.Response
+    ) -> TrackTarget.Response:
+        response.success = False
+        if request.source_id != self.fls_id:
+            response.message = self._elsewhere(request.source_id, TRACK_SERVICE)
+            return response
+        model = TRACK_MODEL_NAMES.get(request.model)
+        if model is None:
+            response.message = f"unknown model {request.model}: use TrackTarget.MODEL_*"
+            return response
+        target = int(request.target_id)
+        try:
+            requests = self.tracker.begin(target, model, self._now())
+        except SwazureError as err:
+            response.message = str(err)
+            return response
+        for one in requests:
+            self._publish_track(one)
+        self._start_track_ticks()
+        relay = self.tracker.relay(target)
+        response.success, response.relay_id = True, relay
+        response.message = f"tracking FLS {target} through FLS {relay}"
+        return response
+
+    def on_track_request(self, message: TrackRequest) -> None:
+        """Start or stop relaying a target to a source (the host hands requests to the relay)."""
+        self.track_traffic["requests_heard"] += 1
+        self.relay.on_request(relay_request_from_message(message))
+        self._start_track_ticks()
+        self._relay_frames()
+
+    def on_track_sample(self, message: TrackSample) -> None:
+        """Take a relayed sample of a tracked target; publish the estimate of the present."""
+        self.track_traffic["samples_heard"] += 1
+        for out in self.tracker.on_sample(sample_from_message(message)):
+            self._publish_track(out)
+
+    def _start_track_ticks(self) -> None:
+        if self._track_ticks is not None:
+            return
+        if self.get_parameter("use_sim_time").value:
+            self._track_ticks = self.get_clock().create_jump_callback(
+                JumpThreshold(min_forward=Duration(nanoseconds=1), min_backward=None),
+                post_callback=lambda jump: self._on_track_tick(),
+            )
+        else:
+            self._track_ticks = self.create_timer(
+                self.track_config.frame_period, self._on_track_tick
+            )
+
+    def _on_track_tick(self) -> None:
+        self._relay_frames()
+        for report in self.tracker.tick(self._now()):
+            self._publish_track(report)
+
+    def _relay_frames(self) -> None:
+        for sample in self.relay.tick(self._now()):
+            self._publish_track(sample)
+
+    def _publish_track(self, out: RelayRequest | Sample | TrackReport) -> None:
+        if isinstance(out, RelayRequest):
+            message: object = relay_request_message(out)
+            topic, kind, counter = TRACK_REQUESTS_TOPIC, TrackRequest, "requests_sent"
+        elif isinstance(out, Sample):
+            message = sample_message(out)
+            topic, kind, counter = TRACK_SAMPLES_TOPIC, TrackSample, "samples_sent"
+        else:
+            message = track_estimate_message(out)
+            topic, kind, counter = TRACK_ESTIMATES_TOPIC, TrackEstimate, "estimates_sent"
+        if topic not in self._track_publishers:
+            self._track_publishers[topic] = self.create_publisher(kind, topic, ROUND_QOS)
+        self._publish(self._track_publishers[topic], message)
+        self.track_traffic[counter] += 1
+
+    def _publish(self, publisher: Publisher, message: object) -> None:
+        # Serialised once here, so that the bytes on the wire are counted exactly.
+        data = serialize_message(message)
+        self.messages_sent += 1
+        self.bytes_sent += len(data)
+        publisher.publish(data)

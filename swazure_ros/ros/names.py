@@ -1,0 +1,102 @@
+"""Every name, QoS profile and wire code of the swarm's ROS interface, in one place.
+
+Names are relative to the swarm's namespace (``/swarm`` by default) unless
+they start with ``/``; per-FLS services are under ``fls_<id>/``. Wire codes
+map the message constants (swazure_interfaces) to the core's and the
+protocol's names; where the protocol keeps numbers of its own they equal the
+message constants, which the tests check.
+"""
+
+from __future__ import annotations
+
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from swazure_interfaces.msg import DiscoveryControl, TrackEstimate
+
+from ..core.paths import FEWEST_HOPS, SHORTEST_LENGTH, check_policy
+from ..core.tracking import (
+    CONSTANT_ACCELERATION,
+    CONSTANT_VELOCITY,
+    ENDED,
+    TIMED_OUT,
+    TRACKING,
+    WAITING,
+)
+
+# Topics, shared by every FLS: a reader filters on the FLS id in the message.
+# Per-FLS topics would buy nothing, and every endpoint costs discovery time
+# in a swarm of thousands (docs/swarm.md).
+MEASUREMENTS_TOPIC = "measurements"
+RADIO_TOPIC = "radio"
+ESTIMATES_TOPIC = "estimates"
+CONTROL_TOPIC = "discovery"
+ACK_TOPIC = "round_acks"
+WALKS_TOPIC = "path_walks"
+WORLD_TOPIC = "world"
+MOVE_TOPIC = "move_commands"
+TRACK_REQUESTS_TOPIC = "track_requests"
+TRACK_SAMPLES_TOPIC = "track_samples"
+TRACK_ESTIMATES_TOPIC = "track_estimates"
+CLOCK_TOPIC = "/clock"
+
+# Services: each FLS answers for itself (fls_<id>/...), the coordinator for the swarm.
+NEIGHBOURS_SERVICE = "get_neighbours"
+COMPUTE_POSE_SERVICE = "compute_pose"
+TRACK_SERVICE = "track"
+COORDINATOR = "coordinator"
+WORLD = "world"
+
+
+def node_name(fls_id: int) -> str:
+    """The node name of FLS ``fls_id``."""
+    return f"fls_{fls_id}"
+
+
+def host_name(index: int) -> str:
+    """The node name of the host node of process ``index``."""
+    return f"host_{index}"
+
+
+# A camera stream: the newest few frames are what matters, as in a sensor topic.
+MEASUREMENTS_QOS = QoSProfile(depth=10)
+# A round brings one message from every FLS at once: readers must keep them all,
+# and a lost label would change a path, so delivery is reliable.
+ROUND_QOS = QoSProfile(
+    depth=1, history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE
+)
+# Every command of a move group counts: a lost one would hold the group for ever.
+MOVE_QOS = ROUND_QOS
+# The world's newest revision is state: a process that joins late must get it.
+WORLD_QOS = QoSProfile(
+    depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+)
+# The simulated clock is driven tick by tick and re-published while a tick is
+# outstanding (app.track), so every tick must arrive: reliable, a few deep.
+CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+
+#: DiscoveryControl.POLICY_* (and ComputePose's) -> the core's policy names.
+POLICY_NAMES = {
+    DiscoveryControl.POLICY_FEWEST_HOPS: FEWEST_HOPS,
+    DiscoveryControl.POLICY_SHORTEST_LENGTH: SHORTEST_LENGTH,
+}
+POLICY_CODES = {name: code for code, name in POLICY_NAMES.items()}
+
+#: TrackEstimate.MODEL_* (and TrackTarget's) -> the core's filter models.
+TRACK_MODEL_NAMES = {
+    TrackEstimate.MODEL_CONSTANT_VELOCITY: CONSTANT_VELOCITY,
+    TrackEstimate.MODEL_CONSTANT_ACCELERATION: CONSTANT_ACCELERATION,
+}
+TRACK_MODEL_CODES = {name: code for code, name in TRACK_MODEL_NAMES.items()}
+
+#: TrackEstimate.STATUS_* -> the core's stream states.
+TRACK_STATE_NAMES = {
+    TrackEstimate.STATUS_WAITING: WAITING,
+    TrackEstimate.STATUS_TRACKING: TRACKING,
+    TrackEstimate.STATUS_ENDED: ENDED,
+    TrackEstimate.STATUS_TIMED_OUT: TIMED_OUT,
+}
+TRACK_STATE_CODES = {name: code for code, name in TRACK_STATE_NAMES.items()}
+
+
+def policy_code(policy: str) -> int:
+    """The ComputePose / DiscoveryControl code of a policy name (ValueError if unknown)."""
+    return POLICY_CODES[check_policy(policy)]

@@ -1,0 +1,77 @@
+"""One process's copy of the world: the simulated camera and radio of the FLSs it hosts.
+
+Every process of a swarm builds the same revision 0 from one
+:class:`~.world.WorldSpec` and then follows the world node's revisions
+(:meth:`WorldReplica.apply_positions`), so that each FLS senses the same
+world wherever it runs. FLSs with a trajectory in ``motion`` fly it from
+where the revision puts them, on the ROS clock (simulated time in a track run).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.motion import Motion
+from ..core.observe import LocalView, NeighbourSets
+from ..core.tracking import RelaySenses
+from .world import Measurement, World
+
+FloatArray = NDArray[np.float64]
+
+
+class WorldReplica:
+    """The world as this process knows it; ``on_revision`` hooks run after each new revision."""
+
+    def __init__(self, world: World, motion: Motion | None = None) -> None:
+        self.world = world
+        self.motion = motion or Motion()
+        self.on_revision: list[Callable[[], None]] = []
+
+    def measurement(self, fls_id: int) -> Measurement:
+        """What FLS ``fls_id``'s camera measures in the current revision."""
+        return self.world.measurement(fls_id)
+
+    def neighbours(self, fls_id: int) -> NeighbourSets:
+        """FLS ``fls_id``'s neighbours in the current revision."""
+        return self.world.neighbours(fls_id)
+
+    def view(self, fls_id: int) -> LocalView:
+        """What FLS ``fls_id`` knows of its neighbours in the current revision."""
+        return self.world.view(fls_id)
+
+    @property
+    def sweet_min(self) -> float:
+        """Shortest sweet tracking distance of the sensor, cm."""
+        return self.world.sensor.sweet_min
+
+    @property
+    def id_space(self) -> int:
+        """One more than the largest FLS id."""
+        return self.world.id_space
+
+    @property
+    def senses(self) -> RelaySenses:
+        """Relay choice and samples with every FLS where it flies at a time."""
+        world, motion = self.world, self.motion
+        return RelaySenses(
+            world.sensor,
+            world.swarm.radius,
+            world.ids,
+            lambda seconds: motion.points(world.swarm.points, world.ids, seconds),
+        )
+
+    def apply(self, world: World) -> None:
+        """Take a newer revision; whoever listens senses anew when next asked."""
+        if world.revision <= self.world.revision:
+            return
+        self.world = world
+        for hook in self.on_revision:
+            hook()
+
+    def apply_positions(self, revision: int, positions: dict[int, FloatArray]) -> None:
+        """Take the world node's positions (id -> (3,) cm) if ``revision`` is newer than ours."""
+        if revision > self.world.revision:
+            self.apply(self.world.moved(positions, revision=revision))

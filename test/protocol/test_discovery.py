@@ -1,0 +1,129 @@
+"""The distributed path search, run by the protocol's machines in memory, against the engine."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.evaluate import (
+    DECAYING_PATH,
+    NO_PATH,
+    REASON_BLOCKED,
+    REASON_NO_SWEET_PATH,
+    SWEET_PATH,
+    evaluate,
+    evaluate_pairs,
+    neighbourhood,
+    without,
+)
+from swazure_ros.core.observe import observations
+from swazure_ros.core.paths import POLICIES
+from swazure_ros.protocol.discovery import Found, bucket_width, estimate, evaluation_of
+from swazure_ros.protocol.loops import discover
+from swazure_ros.sim.world import WorldSpec
+
+from ..conftest import A, B, C, D, K, scene
+
+
+def run(hood, policy, **options):
+    """One in-memory discovery run over ``hood``: {(source, target): Estimate}, and the outcome."""
+    outcome = discover(
+        observations(hood), hood.swarm.cloud_index, hood.sensor.sweet_min, policy, **options
+    )
+    found = {(s, one.target): one for s, ones in outcome.estimates.items() for one in ones}
+    return found, outcome
+
+
+def test_bucket_width_is_one_hop_or_just_under_the_shortest_hop():
+    assert bucket_width(6.0, "fewest-hops") == 1.0
+    assert 6.0 - 1e-6 < bucket_width(6.0, "shortest-length") < 6.0
+    with pytest.raises(ValueError, match="sweet_min"):
+        bucket_width(0.0, "shortest-length")
+
+
+def test_scene_pairs_get_the_status_of_section_5(sensor):
+    # A-C is blind; A-B-C is sweet but K blocks A-B; D is decaying to A and C.
+    hood = neighbourhood(scene(A, B, C, K, D), sensor)
+    found, _ = run(hood, "shortest-length")
+    pair = found[(0, 2)]
+    assert (pair.status, pair.reason) == (DECAYING_PATH, REASON_BLOCKED)
+    assert pair.path == (0, 4, 2) and pair.radio_path == (0, 1, 2)
+
+
+def test_estimate_orders_the_phases():
+    hop = Found((0, 1, 2), 13.0, np.ones(3))
+    assert estimate(2, hop, hop, None).status == SWEET_PATH
+    assert estimate(2, None, hop, hop).reason == REASON_BLOCKED
+    blocked = estimate(2, None, hop, None)
+    assert (blocked.status, blocked.reason, blocked.hops) == (NO_PATH, REASON_BLOCKED, 0)
+    assert estimate(2, None, None, None).reason == REASON_NO_SWEET_PATH
+
+
+def assert_pairs_equal(found, engine, ids):
+    """Every engine pair was found with the engine's status, reason, path and estimate."""
+    assert len(found) == len(engine)
+    for pair in range(len(engine)):
+        source, target = int(ids[engine.source[pair]]), int(ids[engine.target[pair]])
+        one = found[(source, target)]
+        assert (one.status, one.reason) == (engine.status[pair], engine.reason[pair])
+        assert one.path == tuple(int(ids[k]) for k in engine.path(pair))
+        if one.status != NO_PATH:
+            np.testing.assert_allclose(one.vector, engine.estimate[pair], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("policy", POLICIES)
+@pytest.mark.parametrize("beta", [0.3, 0.5])
+def test_every_pair_matches_the_engine(policy, beta):
+    # torus:120 at 1.6 x has sweet, blocked and unreachable pairs at both betas.
+    world = WorldSpec("torus:120", scale=1.6, beta=beta).build()
+    engine = evaluate_pairs(world.hood, policy)
+    assert len(engine) > 10_000 and (engine.reason == REASON_BLOCKED).sum() > 1000
+    found, outcome = run(world.hood, policy)
+    assert outcome.restarts == 0 and outcome.departed == frozenset()
+    assert_pairs_equal(found, engine, world.ids)
+
+
+@pytest.mark.parametrize("policy", POLICIES)
+def test_evaluation_of_the_estimates_equals_the_engine(policy):
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    _, outcome = run(world.hood, policy)
+    distributed = evaluation_of(world.hood, policy, outcome.estimates)
+    engine = evaluate(world.swarm, world.sensor, policy)
+    engine.summary.pop("seconds")
+    assert distributed.summary == engine.summary
+    np.testing.assert_array_equal(distributed.pairs.nodes, engine.pairs.nodes)
+    np.testing.assert_allclose(distributed.pairs.estimate, engine.pairs.estimate, atol=1e-9)
+
+
+def test_a_silent_fls_departs_and_the_run_equals_the_engine_without_it():
+    policy = "shortest-length"
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    engine = evaluate_pairs(world.hood, policy)
+    # The FLS that relays the most of the engine's paths never answers.
+    inner = np.concatenate([engine.path(pair)[1:-1] for pair in range(len(engine))])
+    silent_index = int(np.bincount(inner.astype(np.int64)).argmax())
+    silent = int(world.ids[silent_index])
+    found, outcome = run(world.hood, policy, stopped=[silent])
+    assert outcome.departed == frozenset({silent}) and outcome.restarts == 1
+    expected = evaluate_pairs(without(world.hood, np.array([silent_index])), policy)
+    keep = (expected.source != silent_index) & (expected.target != silent_index)
+    ids = world.ids
+    assert len(found) == int(keep.sum())
+    changed = 0
+    for pair in np.flatnonzero(keep).tolist():
+        key = (int(ids[expected.source[pair]]), int(ids[expected.target[pair]]))
+        one = found[key]
+        assert (one.status, one.reason) == (expected.status[pair], expected.reason[pair])
+        assert one.path == tuple(int(ids[k]) for k in expected.path(pair))
+        changed += one.path != tuple(int(ids[k]) for k in engine.path(pair))
+    assert changed > 0  # the silent FLS mattered
+
+
+def test_on_demand_a_source_answers_for_its_one_target():
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    engine = evaluate_pairs(world.hood, "fewest-hops")
+    pair = int(np.flatnonzero(engine.hops >= 2)[0])
+    source, target = (int(world.ids[engine.source[pair]]), int(world.ids[engine.target[pair]]))
+    found, outcome = run(world.hood, "fewest-hops", sources=[source], targets=[target])
+    assert list(found) == [(source, target)]
+    assert found[(source, target)].path == tuple(int(world.ids[k]) for k in engine.path(pair))
