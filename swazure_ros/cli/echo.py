@@ -78,6 +78,9 @@ def message_to_yaml(message: Any) -> str:
     )
 
 
+ECHO_DEPTH = 10_000
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure echo``."""
     from rclpy.executors import SingleThreadedExecutor
@@ -113,7 +116,9 @@ def main(args: argparse.Namespace) -> int:
                 sys.stdout.flush()
                 printed += 1
 
-        node.create_subscription(cls, topic, on_message, 10)
+        # Deep enough for a burst of a round (hundreds of messages at once) while the
+        # printing catches up; a depth of 10 dropped most of a heuristic's moves.
+        node.create_subscription(cls, topic, on_message, ECHO_DEPTH)
         while limit is None or printed < limit:
             if (
                 args.timeout is not None

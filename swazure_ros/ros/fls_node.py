@@ -227,10 +227,10 @@ class FlsNode(SwarmNode):
         stamp = self.get_clock().now().to_msg()
         self._publisher.publish(measurements_message(self.fls_id, self.measurement, stamp))
 
-    def _elsewhere(self, fls_id: int, service: str) -> str:
+    def _elsewhere(self, fls_id: int, service: str, does: str = "answers for itself") -> str:
         """Where FLS ``fls_id`` answers ``service`` for itself."""
         return (
-            f"this is FLS {self.fls_id}; FLS {fls_id} answers for itself at "
+            f"this is FLS {self.fls_id}; FLS {fls_id} {does} at "
             f"{self.get_namespace().rstrip('/')}/{node_name(fls_id)}/{service} if it exists"
         )
 
@@ -250,7 +250,9 @@ class FlsNode(SwarmNode):
 
     def _on_compute_pose(self, request: ComputePose.Request, reply: Reply) -> None:
         if request.source_id != self.fls_id:
-            message = self._elsewhere(request.source_id, COMPUTE_POSE_SERVICE)
+            message = self._elsewhere(
+                request.source_id, COMPUTE_POSE_SERVICE, "computes its own poses"
+            )
             reply(ComputePose.Response(success=False, message=message))
         elif self._ask_coordinator is None:
             message = "no coordinator to clock a discovery run"
@@ -296,7 +298,7 @@ class FlsNode(SwarmNode):
     ) -> TrackTarget.Response:
         response.success = False
         if request.source_id != self.fls_id:
-            response.message = self._elsewhere(request.source_id, TRACK_SERVICE)
+            response.message = self._elsewhere(request.source_id, TRACK_SERVICE, "tracks")
             return response
         model = TRACK_MODEL_NAMES.get(request.model)
         if model is None:

@@ -124,6 +124,6 @@ def test_on_demand_a_source_answers_for_its_one_target():
     engine = evaluate_pairs(world.hood, "fewest-hops")
     pair = int(np.flatnonzero(engine.hops >= 2)[0])
     source, target = (int(world.ids[engine.source[pair]]), int(world.ids[engine.target[pair]]))
-    found, outcome = run(world.hood, "fewest-hops", sources=[source], targets=[target])
+    found, _outcome = run(world.hood, "fewest-hops", sources=[source], targets=[target])
     assert list(found) == [(source, target)]
     assert found[(source, target)].path == tuple(int(world.ids[k]) for k in engine.path(pair))
