@@ -234,10 +234,10 @@ def spawn(cloud: str, processes: int, domain: int) -> tuple[float, str]:
 
 def message_rate(cloud: str, domain: int, period: float = 0.1, window: float = 10.0) -> float:
     """Measurements messages per second a probe receives from a running swarm."""
-    import rclpy
-    from rclpy.context import Context
-    from rclpy.node import Node
+    import rclpy.executors
     from swazure_interfaces.msg import Measurements
+
+    from swazure_ros.ros.runtime import SwarmNode, init_context
 
     params = Path(tempfile.mkstemp(suffix=".yaml")[1])
     params.write_text(f"/**:\n  ros__parameters:\n    publish_period: {period}\n")
@@ -246,9 +246,8 @@ def message_rate(cloud: str, domain: int, period: float = 0.1, window: float = 1
     try:
         assert process.stdout is not None
         process.stdout.readline()  # "swarm up ..."
-        context = Context()
-        rclpy.init(context=context, domain_id=domain)
-        node = Node("bench_probe", context=context)
+        context = init_context(domain)
+        node = SwarmNode("bench_probe", context=context)
         count = 0
 
         def on_message(message: object) -> None:
@@ -419,7 +418,8 @@ def track_errors_row(trajectory: str, accurate: bool, delay: float, model: str) 
     from swazure_ros.core.clouds import load_cloud
     from swazure_ros.core.motion import Motion, parse_trajectory
     from swazure_ros.core.sensor import load_sensor
-    from swazure_ros.core.tracking import TrackConfig, simulate_track, track_errors, track_series
+    from swazure_ros.core.tracking import TrackConfig, track_errors, track_series
+    from swazure_ros.protocol.loops import simulate_track
     from swazure_ros.sim.world import make_world
 
     sensor = load_sensor()

@@ -233,14 +233,14 @@ class RunningSwarm:
         while time.monotonic() < deadline:
             self._drain()
             if not discovered:
-                discovered = self.host.is_discovered()
+                discovered = self._host.is_discovered()
             if discovered and len(self._peaks) == len(self._children):
                 self._peaks[0] = peak_rss_mb()
                 seconds = time.perf_counter() - self._began
                 peaks = [self._peaks[index] for index in range(self.config.processes)]
                 return BringUp(self.size, self.config.processes, seconds, peaks)
-            self.host.spin_for(0.05)
-        publishers, services = self.host.discovered()
+            self._host.spin_for(0.05)
+        publishers, services = self._host.discovered()
         raise SwazureError(
             f"swarm not discovered after {self.config.discovery_timeout:g} s: "
             f"{publishers} of {self.size} FLS publishers and {services} services visible"
@@ -301,7 +301,7 @@ class RunningSwarm:
         deadline = None if seconds is None else time.monotonic() + seconds
         while deadline is None or time.monotonic() < deadline:
             self._drain()
-            self.host.spin_for(0.1)
+            self._host.spin_for(0.1)
 
     def close(self) -> None:
         """Stop every process and destroy every node; Ctrl-C waits until this is done."""

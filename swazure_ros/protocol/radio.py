@@ -13,11 +13,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Collection
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .discovery import END, ROUND, START, Control
+
+_Value = TypeVar("_Value")
 
 
 @dataclass(frozen=True)
@@ -96,6 +99,6 @@ class RadioHub:
         return Ack(run_id, control.phase, round_, heard)
 
     @staticmethod
-    def _drop(table: dict[tuple[int, int], object], run_id: int) -> None:
+    def _drop(table: dict[tuple[int, int], _Value], run_id: int) -> None:
         for key in [key for key in table if key[0] == run_id]:
             del table[key]

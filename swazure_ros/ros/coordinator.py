@@ -20,9 +20,7 @@ from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.context import Context
-from rclpy.exceptions import ParameterException
 from rclpy.publisher import Publisher
 from rclpy.serialization import deserialize_message, serialize_message
 from rclpy.task import Future
@@ -52,7 +50,6 @@ from .convert import (
     walk_message,
 )
 from .deferred import Reply, create_deferred_service
-from .fls_node import ParameterError
 from .names import (
     ACK_TOPIC,
     COMPUTE_POSE_SERVICE,
@@ -161,7 +158,11 @@ class Coordinator(SwarmNode):
         context: Context | None = None,
     ) -> None:
         super().__init__(COORDINATOR, namespace=namespace, context=context)
-        self.round_timeout = self._declare_round_timeout()
+        self.round_timeout = self.declare_seconds(
+            "round_timeout",
+            10.0,
+            "seconds without progress after which silent FLSs have departed",
+        )
         self.world = world  # the original shape, for planning moves
         self.fls_ids = frozenset(int(fls_id) for fls_id in fls_ids)
         self.hosts = hosts
@@ -187,24 +188,6 @@ class Coordinator(SwarmNode):
         self._next_run = 1
         self._jobs: deque[_Job] = deque()
         self._job: _Job | None = None
-
-    def _declare_round_timeout(self) -> float:
-        try:
-            timeout = self.declare_parameter(
-                "round_timeout",
-                10.0,
-                ParameterDescriptor(
-                    description="seconds without progress after which silent FLSs have departed"
-                ),
-            ).value
-        except ParameterException as err:
-            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
-        if not isinstance(timeout, float) or not timeout > 0:
-            raise ParameterError(
-                f"{self.get_fully_qualified_name()}: parameter round_timeout must be "
-                f"a positive number of seconds, got {timeout!r}"
-            )
-        return timeout
 
     # Runs ------------------------------------------------------------------
 

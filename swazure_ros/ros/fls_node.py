@@ -95,12 +95,7 @@ from .names import (
     TRACK_SERVICE,
     node_name,
 )
-from .runtime import SwarmNode
-
-
-class ParameterError(SwazureError):
-    """A node parameter with a value the node cannot run with."""
-
+from .runtime import ParameterError, SwarmNode
 
 #: How an FLS's process passes a ComputePose request on to the coordinator:
 #: a future of the coordinator's response.
@@ -128,7 +123,9 @@ class FlsNode(SwarmNode):
         )
         self.fls_id = fls_id
         self._senses = senses
-        self.publish_period = self._declare_publish_period()
+        self.publish_period = self.declare_seconds(
+            "publish_period", 1.0, "seconds between measurement messages"
+        )
         self.track_config = self._declare_track_config()
         self._sensed: tuple[Measurement, NeighbourSets] | None = None
         self.discovery = Participant(
@@ -165,22 +162,6 @@ class FlsNode(SwarmNode):
         self.track_traffic: Counter[str] = Counter()
         self.messages_sent = 0
         self.bytes_sent = 0
-
-    def _declare_publish_period(self) -> float:
-        try:
-            period = self.declare_parameter(
-                "publish_period",
-                1.0,
-                ParameterDescriptor(description="seconds between measurement messages"),
-            ).value
-        except ParameterException as err:
-            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
-        if not isinstance(period, float) or not period > 0:
-            raise ParameterError(
-                f"{self.get_fully_qualified_name()}: parameter publish_period must be "
-                f"a positive number of seconds, got {period!r}"
-            )
-        return period
 
     def _declare_track_config(self) -> TrackConfig:
         defaults = TrackConfig()

@@ -13,12 +13,18 @@ from pathlib import Path
 
 import rclpy
 import yaml
+from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.context import Context
+from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 
 from ..core.errors import SwazureError
+
+
+class ParameterError(SwazureError):
+    """A node parameter with a value the node cannot run with."""
 
 
 class SwarmNode(Node):
@@ -40,6 +46,21 @@ class SwarmNode(Node):
             enable_rosout=False,
             start_parameter_services=False,
         )
+
+    def declare_seconds(self, name: str, default: float, description: str) -> float:
+        """Declare parameter ``name``: a positive number of seconds; ParameterError if not."""
+        try:
+            value = self.declare_parameter(
+                name, default, ParameterDescriptor(description=description)
+            ).value
+        except ParameterException as err:
+            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
+        if not isinstance(value, float) or not value > 0:
+            raise ParameterError(
+                f"{self.get_fully_qualified_name()}: parameter {name} must be "
+                f"a positive number of seconds, got {value!r}"
+            )
+        return value
 
 
 def check_params_file(path: Path) -> None:
