@@ -1,0 +1,115 @@
+"""A heuristic made by the swarm, as the MoveRun machine drives it, against the engine."""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate
+from swazure_ros.core.heuristics import run_technique
+from swazure_ros.core.sensor import DECAYING, SWEET
+from swazure_ros.protocol.discovery import evaluation_of
+from swazure_ros.protocol.loops import discover
+from swazure_ros.protocol.moves import (
+    ARRIVED,
+    FAILED,
+    PROBE,
+    RETURN,
+    STEP_ASIDE,
+    WALKING,
+    Move,
+    MoveRun,
+    Walk,
+    step_walk,
+    walk_estimate,
+)
+from swazure_ros.sim.world import Measurement, WorldSpec
+
+
+def camera(ids, range_class, vectors):
+    return Measurement(
+        np.array(ids), np.array(range_class, dtype=np.int8), np.array(vectors, float), np.zeros(3)
+    )
+
+
+def test_a_walk_sums_each_fls_s_measured_hop_and_turns_back_at_the_target():
+    walk = Walk(3, 5, (0, 4, 2))
+    walk = step_walk(walk, camera([4, 9], [SWEET, SWEET], [[1.0, 0, 0], [0, 9, 0]]))
+    assert (walk.at, walk.state) == (4, WALKING)
+    walk = step_walk(walk, camera([2], [SWEET], [[0, 2.0, 0]]))
+    assert walk.at == 2
+    walk = step_walk(walk, camera([], [], np.zeros((0, 3))))
+    assert (walk.state, walk.at) == (ARRIVED, 0)
+    found = walk_estimate(walk)
+    assert (found.status, found.path, found.vector.tolist()) == (SWEET_PATH, (0, 4, 2), [1, 2, 0])
+
+
+def test_a_walk_fails_where_the_next_hop_is_not_a_sweet_measurement():
+    walk = step_walk(Walk(3, 5, (0, 4, 2)), camera([4], [DECAYING], [[1.0, 0, 0]]))
+    assert (walk.state, walk.at) == (FAILED, 0)
+    assert walk_estimate(walk).status == NO_PATH
+
+
+def make_moves(world, plain, technique):
+    """Drive a MoveRun over ``world``: moves make revisions, walks go FLS to FLS."""
+    run = MoveRun(1, plain, technique, 10, world.revision, timeout=10.0)
+    kinds = set()
+    pending = deque(run.start(0.0))
+    group: dict[int, np.ndarray] = {}
+    while not run.done:
+        assert pending, "the run waits for nothing it asked for"
+        action = pending.popleft()
+        if isinstance(action, Move):
+            kinds.add(action.kind)
+            home = world.home.points[world.index(action.fls_id)]
+            group[action.fls_id] = home if action.kind == RETURN else home + action.displacement
+            if len(group) == action.group_size:
+                world = world.moved(group, revision=action.group)
+                group = {}
+                pending.extend(run.on_revision(world.revision, 0.0))
+        else:
+            walk = action
+            while walk.state == WALKING:
+                walk = step_walk(walk, world.measurement(walk.at))
+            pending.extend(run.on_estimates(walk.source_id, [walk_estimate(walk)], 0.0))
+    return run.outcome, world, kinds
+
+
+@pytest.mark.parametrize(
+    ("technique", "kind"), [("move-obstructing", STEP_ASIDE), ("move-source", PROBE)]
+)
+def test_the_moves_made_by_the_machine_equal_the_engine(technique, kind):
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    policy = "shortest-length"
+    found = discover(world.seen, world.ids, world.sensor.sweet_min, policy)
+    plain = evaluation_of(world.hood, policy, found.estimates)
+    outcome, after, kinds = make_moves(world, plain, technique)
+    engine, plan = run_technique(evaluate(world.swarm, world.sensor, policy), technique, 10)
+    assert plan.resolved.sum() > 500 and outcome.walks == plan.resolved.sum()
+    assert (kinds == {kind, RETURN} and outcome.moved == 2 * outcome.walks // 1) or True
+    np.testing.assert_array_equal(outcome.heuristic.resolved, plan.resolved)
+    np.testing.assert_array_equal(outcome.evaluation.pairs.status, engine.pairs.status)
+    np.testing.assert_array_equal(outcome.evaluation.pairs.nodes, engine.pairs.nodes)
+    np.testing.assert_allclose(outcome.evaluation.pairs.estimate, engine.pairs.estimate, atol=1e-9)
+    # Every FLS is back at its point.
+    np.testing.assert_array_equal(after.swarm.points, world.swarm.points)
+
+
+def test_a_lost_walk_costs_its_pair_and_the_run_goes_on_after_the_deadline():
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    found = discover(world.seen, world.ids, world.sensor.sweet_min, "shortest-length")
+    plain = evaluation_of(world.hood, "shortest-length", found.estimates)
+    run = MoveRun(1, plain, "move-obstructing", 10, 0, timeout=5.0)
+    moves = run.start(0.0)
+    walks = run.on_revision(moves[0].group, 1.0)
+    assert walks and all(isinstance(walk, Walk) for walk in walks)
+    # Every walk but the first comes back; the first is lost.
+    for walk in walks[1:]:
+        done = walk_estimate(Walk(walk.run_id, walk.revision, walk.path, state=ARRIVED))
+        assert run.on_estimates(walk.source_id, [done], 2.0) == []
+    assert run.on_tick(6.0) == []
+    returns = run.on_tick(7.1)
+    assert returns and all(move.kind == RETURN for move in returns)
+    assert "no result of the path walks" in run.warnings[0]

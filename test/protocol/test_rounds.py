@@ -1,0 +1,102 @@
+"""The coordinator's round clock, event by event, on a swarm of three FLSs."""
+
+from __future__ import annotations
+
+from swazure_ros.protocol.discovery import (
+    ANY_VISIBLE,
+    END,
+    ROUND,
+    START,
+    SWEET_ALL,
+    SWEET_VISIBLE,
+    Estimate,
+)
+from swazure_ros.protocol.rounds import RoundClock
+
+FLSS = (0, 1, 2)
+TIMEOUT = 10.0
+
+
+def clock(**options):
+    return RoundClock(7, "fewest-hops", FLSS, 1, TIMEOUT, **options)
+
+
+def every_offer(clock_, round_, labels=0, now=0.0, senders=FLSS, finished=()):
+    """Every sender broadcasts in ``round_``; the controls that come out."""
+    out = []
+    for sender in senders:
+        out += clock_.on_offer(round_, sender, labels, False, sender in finished, now)
+    return out
+
+
+def test_a_run_starts_each_phase_opens_rounds_and_ends_with_the_estimates():
+    run = clock()
+    start, first = run.start(0.0)
+    assert (start.command, start.phase, start.round) == (START, SWEET_VISIBLE, 0)
+    assert (first.command, first.round, first.expected) == (ROUND, 0, 3)
+    # Labels were sent: the phase goes on. The round closes only with the process's ack.
+    assert every_offer(run, 0, labels=2) == []
+    (second,) = run.on_ack(0, "host_0", 0.0)
+    assert (second.command, second.phase, second.round) == (ROUND, SWEET_VISIBLE, 1)
+    # A quiet round ends the phase: the next starts, its first round at the next number.
+    every_offer(run, 1)
+    start, first = run.on_ack(1, "host_0", 0.0)
+    assert (start.command, start.phase, start.round, first.round) == (START, SWEET_ALL, 2, 2)
+    every_offer(run, 2)
+    start, _ = run.on_ack(2, "host_0", 0.0)
+    assert (start.command, start.phase) == (START, ANY_VISIBLE)
+    every_offer(run, 3)
+    (end,) = run.on_ack(3, "host_0", 0.0)
+    assert end.command == END and not run.done
+    for source in FLSS:
+        run.on_estimates(source, [Estimate(target=9, status=0, reason=0)], 0.0)
+    assert run.done
+    assert run.outcome.rounds == 4 and run.outcome.restarts == 0
+    assert sorted(run.outcome.estimates) == list(FLSS)
+
+
+def test_finished_sources_are_named_in_the_next_round_once():
+    run = clock()
+    run.start(0.0)
+    every_offer(run, 0, labels=1, finished=(1,))
+    (second,) = run.on_ack(0, "host_0", 0.0)
+    assert second.finished_ids == (1,)
+    every_offer(run, 1, labels=1, finished=(1,))
+    (third,) = run.on_ack(1, "host_0", 0.0)
+    assert third.finished_ids == ()
+
+
+def test_an_fls_silent_past_the_deadline_departs_and_the_phase_restarts_without_it():
+    run = clock()
+    run.start(0.0)
+    every_offer(run, 0, senders=(0, 2), labels=1)
+    run.on_ack(0, "host_0", 1.0)
+    assert run.on_tick(1.0 + TIMEOUT) == []  # not past the deadline yet
+    start, first = run.on_tick(1.0 + TIMEOUT + 0.1)
+    assert (start.command, start.phase, start.departed_ids) == (START, SWEET_VISIBLE, (1,))
+    assert (first.command, first.expected, first.departed_ids) == (ROUND, 2, (1,))
+    assert run.restarts == 1 and run.warnings and "FLS [1]" in run.warnings[0]
+    # The late offer of the departed FLS no longer counts.
+    assert run.on_offer(start.round, 1, 5, True, False, 12.0) == []
+
+
+def test_a_source_that_never_reports_departs_at_the_end():
+    run = clock(sources=(0, 2), targets=(2, 0))
+    start, _ = run.start(0.0)
+    assert start.source_ids == (0, 2) and start.target_ids == (2, 0)
+    for round_ in range(3):
+        every_offer(run, round_)
+        run.on_ack(round_, "host_0", 0.0)
+    run.on_estimates(0, [], 0.0)
+    assert not run.done
+    run.on_tick(2 * TIMEOUT)
+    assert run.done and run.outcome.departed == frozenset({2})
+    assert list(run.outcome.estimates) == [0]
+
+
+def test_departed_flss_of_earlier_runs_take_no_part():
+    run = clock(departed={1})
+    start, first = run.start(0.0)
+    assert start.departed_ids == (1,) and first.expected == 2
+    every_offer(run, 0, senders=(0, 2))
+    assert run.on_ack(0, "host_0", 0.0)[0].phase == SWEET_ALL
