@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import signal
 import subprocess
 import sys
 import time
@@ -264,8 +265,12 @@ def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path,
         assert distributed == (tmp_path / "e" / "pairs.csv").read_bytes()
         assert distributed.count(b"\n") > 10_000
     finally:
+        # Still watching when the run is over: it neither failed nor gave up.
+        watching = watch.poll() is None
         watch.terminate()
-        watched, _ = watch.communicate(timeout=60)
+        watched, watch_err = watch.communicate(timeout=60)
+    assert watching and watch.returncode == -signal.SIGTERM, watch_err
+    assert "Traceback" not in watch_err, watch_err
     if technique != "plain":
         assert f"{technique}: " in out and "path walks" in out, out
         kind = "kind: 0" if technique == "move-obstructing" else "kind: 1"

@@ -222,7 +222,7 @@ def test_real_ros2_cli_sees_nodes_topic_and_service(ros2_cli, running_swarm):
 
 
 def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(
-    ros2_cli, running_swarm
+    ros2_cli, running_swarm, context
 ):
     from swazure_ros.core.evaluate import evaluate_pairs
 
@@ -246,7 +246,18 @@ def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(
         env=env,
     )
     try:
-        time.sleep(3)  # the echo's subscription is discovered before the run publishes
+        # The run publishes once: wait until the swarm's graph shows the echo's reader.
+        probe = Node("probe", context=context, start_parameter_services=False)
+
+        def echo_reads() -> bool:
+            readers = probe.get_subscriptions_info_by_topic("/swarm/estimates")
+            return any(reader.node_name != "coordinator" for reader in readers)
+
+        deadline = time.monotonic() + 30
+        while not echo_reads():
+            assert time.monotonic() < deadline, "ros2 topic echo never subscribed"
+            time.sleep(0.05)
+        probe.destroy_node()
         call = ros2(
             "service",
             "call",
