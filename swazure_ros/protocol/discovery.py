@@ -23,8 +23,9 @@ orders the phases.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -118,6 +119,73 @@ class Found:
         return len(self.path) - 1
 
 
+@dataclass(frozen=True)
+class RoundOffers:
+    """The offers one process heard in a round, L labels in all, grouped by sender.
+
+    Built once per round and process (:meth:`of`); each local FLS then takes
+    the labels of the senders it hears (:meth:`labels_of`) in one pass.
+    """
+
+    senders: IntArray  # (S,) sorted sender ids
+    starts: IntArray  # (S + 1,) sender k's labels are starts[k]:starts[k + 1]
+    sender_ids: IntArray  # (L,)
+    source_ids: IntArray  # (L,)
+    hops: IntArray  # (L,)
+    lengths: FloatArray  # (L,), cm
+    vectors: FloatArray  # (L, 3), cm
+    path_offsets: IntArray  # (L + 1,)
+    path_ids: IntArray
+
+    @classmethod
+    def of(cls, heard: Sequence[tuple[int, Offer]]) -> RoundOffers:
+        """The offers ``heard``, as (sender, offer), in one table."""
+        heard = sorted(heard, key=lambda entry: entry[0])
+        offers = [offer for _, offer in heard]
+        counts = np.array([len(offer) for offer in offers], dtype=np.int64)
+        senders = np.array([sender for sender, _ in heard], dtype=np.int64)
+        unique, first = np.unique(senders, return_index=True)
+        starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+
+        def joined(arrays: list[NDArray[Any]], empty: NDArray[Any]) -> NDArray[Any]:
+            return np.concatenate(arrays) if arrays else empty
+
+        path_lengths = joined([np.diff(offer.path_offsets) for offer in offers], np.zeros(0, int))
+        return cls(
+            senders=unique,
+            starts=np.append(starts[first], starts[-1]).astype(np.int64),
+            sender_ids=np.repeat(senders, counts),
+            source_ids=joined([offer.source_ids for offer in offers], np.zeros(0, np.int64)),
+            hops=joined([offer.hops for offer in offers], np.zeros(0, np.int64)),
+            lengths=joined([offer.lengths for offer in offers], np.zeros(0)),
+            vectors=joined([offer.vectors for offer in offers], np.zeros((0, 3))),
+            path_offsets=np.concatenate([[0], np.cumsum(path_lengths)]).astype(np.int64),
+            path_ids=joined([offer.path_ids for offer in offers], np.zeros(0, np.int64)),
+        )
+
+    def __len__(self) -> int:
+        return len(self.source_ids)
+
+    def _rows(self, senders: IntArray) -> IntArray:
+        """Rows into :attr:`senders` of those of ``senders`` that offered."""
+        rows = np.searchsorted(self.senders, senders)
+        rows = rows[rows < len(self.senders)]
+        return rows[np.isin(self.senders[rows], senders)]
+
+    def labels_of(self, senders: IntArray) -> IntArray:
+        """(M,) the labels offered by ``senders`` (sorted ids), sender by sender."""
+        rows = self._rows(senders)
+        low, high = self.starts[rows], self.starts[rows + 1]
+        counts = high - low
+        shift = np.repeat(low - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
+        return np.asarray(shift + np.arange(int(counts.sum())), dtype=np.int64)
+
+    def path(self, label: int) -> tuple[int, ...]:
+        """Path of label ``label``, FLS ids from its source to the sender."""
+        start, stop = self.path_offsets[label], self.path_offsets[label + 1]
+        return tuple(self.path_ids[start:stop].tolist())
+
+
 class PathSearch:
     """One FLS's labels in one phase of a discovery run.
 
@@ -139,13 +207,12 @@ class PathSearch:
         self.fewest_hops = check_policy(policy) == FEWEST_HOPS
         self.width = width
         hop = hop_mask(view, phase) & ~np.isin(view.other, list(departed))
-        # The hop sender -> self is measured by this FLS's camera the other way round.
-        self.links: dict[int, tuple[float, FloatArray]] = {
-            int(other): (float(distance), -vector)
-            for other, distance, vector in zip(
-                view.other[hop], view.distance[hop], view.vector[hop], strict=True
-            )
-        }
+        # The neighbours relayed from, sorted by id (a view lists them so), with the
+        # hop sender -> self, which this FLS's camera measures the other way round.
+        order = np.argsort(view.other[hop], kind="stable")
+        self.link_ids = np.asarray(view.other[hop][order], dtype=np.int64)
+        self.link_weights = np.asarray(view.distance[hop][order], dtype=np.float64)
+        self.link_vectors = -np.asarray(view.vector[hop][order], dtype=np.float64)
         self.hops = np.full(id_space, np.inf)
         self.length = np.full(id_space, np.inf)
         self.pred = np.full(id_space, np.iinfo(np.int64).max, dtype=np.int64)
@@ -155,7 +222,6 @@ class PathSearch:
         self.paths: dict[int, tuple[int, ...]] = {}
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
         self.results: dict[int, Found] = {}
-        self.messages_heard = 0
         if targets is not None:
             me = self.fls_id
             self.hops[me], self.length[me], self.pred[me] = 0.0, 0.0, me
@@ -195,46 +261,55 @@ class PathSearch:
             finished=self.finished,
         )
 
-    def hear(self, sender: int, offer: Offer) -> None:
-        """Take a neighbour's offer: record results, relax labels through the hop from it."""
-        self.messages_heard += 1
-        if not len(offer):
+    def hear(self, heard: RoundOffers) -> None:
+        """Take a round's offers at once: record results, relax labels through the hops.
+
+        Each source's label becomes the best of its own and every candidate
+        (a heard label plus the hop from its sender) under the order
+        (primary cost, secondary cost, sender id). That order is total, so the
+        outcome is the one of hearing the offers one by one, in any order.
+        """
+        missing = [target for target in self.targets if target not in self.results]
+        if missing:
+            from_targets = heard.labels_of(np.array(sorted(missing), dtype=np.int64))
+            for label in from_targets[heard.source_ids[from_targets] == self.fls_id].tolist():
+                sender = int(heard.sender_ids[label])
+                if sender not in self.results:
+                    self.results[sender] = Found(
+                        heard.path(label), float(heard.lengths[label]), heard.vectors[label].copy()
+                    )
+        labels = heard.labels_of(self.link_ids)
+        if not len(labels):
             return
-        if sender in self.targets and sender not in self.results:
-            mine = np.flatnonzero(offer.source_ids == self.fls_id)
-            if len(mine):
-                label = int(mine[0])
-                self.results[sender] = Found(
-                    offer.path(label), float(offer.lengths[label]), offer.vectors[label].copy()
-                )
-        link = self.links.get(sender)
-        if link is None:
+        sources, senders = heard.source_ids[labels], heard.sender_ids[labels]
+        labels = labels[~self.sent[sources] & (sources != self.fls_id)]
+        if not len(labels):
             return
-        weight, hop_vector = link
-        sources = offer.source_ids
+        sources, senders = heard.source_ids[labels], heard.sender_ids[labels]
+        link = np.searchsorted(self.link_ids, senders)
         # Sums in path order, as the engine sums them: cost so far plus this hop.
-        new_hops = offer.hops.astype(np.float64) + 1.0
-        new_length = offer.lengths + weight
-        old_hops, old_length, old_pred = (
-            self.hops[sources],
-            self.length[sources],
-            self.pred[sources],
+        new_hops = heard.hops[labels].astype(np.float64) + 1.0
+        new_length = heard.lengths[labels] + self.link_weights[link]
+        new1, new2 = (new_hops, new_length) if self.fewest_hops else (new_length, new_hops)
+        # The best candidate per source: lexsort's last key sorts first.
+        order = np.lexsort((senders, new2, new1, sources))
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = sources[order][1:] != sources[order][:-1]
+        best = order[first]
+        at = sources[best]
+        old_hops, old_length, old_pred = self.hops[at], self.length[at], self.pred[at]
+        old1, old2 = (old_hops, old_length) if self.fewest_hops else (old_length, old_hops)
+        cand1, cand2, cand_sender = new1[best], new2[best], senders[best]
+        better = (cand1 < old1) | (
+            (cand1 == old1) & ((cand2 < old2) | ((cand2 == old2) & (cand_sender < old_pred)))
         )
-        if self.fewest_hops:
-            new1, new2, old1, old2 = new_hops, new_length, old_hops, old_length
-        else:
-            new1, new2, old1, old2 = new_length, new_hops, old_length, old_hops
-        better = (new1 < old1) | (
-            (new1 == old1) & ((new2 < old2) | ((new2 == old2) & (sender < old_pred)))
-        )
-        better &= ~self.sent[sources] & (sources != self.fls_id)
-        for label in np.flatnonzero(better).tolist():
-            source = int(sources[label])
-            self.hops[source] = new_hops[label]
-            self.length[source] = new_length[label]
-            self.pred[source] = sender
-            self.vector[source] = offer.vectors[label] + hop_vector
-            self.paths[source] = (*offer.path(label), self.fls_id)
+        for candidate in best[better].tolist():
+            source, label = int(sources[candidate]), int(labels[candidate])
+            self.hops[source] = new_hops[candidate]
+            self.length[source] = new_length[candidate]
+            self.pred[source] = senders[candidate]
+            self.vector[source] = heard.vectors[label] + self.link_vectors[link[candidate]]
+            self.paths[source] = (*heard.path(label), self.fls_id)
 
 
 def phase_targets(phase: int, blind: IntArray, sweet_results: dict[int, Found]) -> IntArray:
@@ -392,8 +467,15 @@ class Participant:
         # Rounds count on across phases and restarts; buckets count from the phase's start.
         self._first_round: dict[int, int] = {}
 
-    def on_control(self, control: Control) -> Broadcast | Report | None:
-        """Follow the round clock: START a phase, broadcast a ROUND's labels, report at END."""
+    def on_control(
+        self, control: Control, heard: RoundOffers | None = None
+    ) -> Broadcast | Report | None:
+        """Follow the round clock: START a phase, broadcast a ROUND's labels, report at END.
+
+        ``heard`` are the offers of the rounds since the last control, taken
+        first: a label of round k changes only buckets after k, which nobody
+        broadcasts before round k + 1.
+        """
         run_id = control.run_id
         if control.command == START:
             run = self.runs.get(run_id)
@@ -406,21 +488,19 @@ class Participant:
             run = self.runs.get(run_id)
             if run is None or run.search is None:
                 return None
+            if heard is not None:
+                run.search.hear(heard)
             run.search.close(np.asarray(control.finished_ids, dtype=np.int64))
             offer = run.search.offer(control.round - self._first_round.get(run_id, 0))
             return Broadcast(run_id, control.phase, control.round, self.fls_id, offer)
         if control.command == END:
             run = self.runs.pop(run_id, None)
             self._first_round.pop(run_id, None)
+            if run is not None and run.search is not None and heard is not None:
+                run.search.hear(heard)
             if run is not None and run.targets is not None:
                 return Report(run_id, self.fls_id, run.estimates())
         return None
-
-    def on_offer(self, run_id: int, sender: int, offer: Offer) -> None:
-        """Hear a neighbour's broadcast of the current phase of run ``run_id``."""
-        run = self.runs.get(run_id)
-        if run is not None and run.search is not None:
-            run.search.hear(sender, offer)
 
     def _new_run(self, control: Control) -> FlsRun:
         view = self._view()

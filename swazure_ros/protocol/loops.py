@@ -79,11 +79,7 @@ def discover(
         int(ids[row]): view_of(row) for row in range(len(ids)) if int(ids[row]) not in stopped
     }
 
-    def in_range(fls_id: int) -> IntArray:
-        row = int(np.searchsorted(ids, fls_id))
-        return np.asarray(ids[seen.other[seen.rows(row)]])
-
-    hub = RadioHub(participants.keys(), in_range)
+    hub = RadioHub(participants.keys())
     clock = RoundClock(
         1, policy, ids.tolist(), 1, 1.0, sources=tuple(sources), targets=tuple(targets)
     )
@@ -94,10 +90,10 @@ def discover(
             controls.extend(clock.on_tick(math.inf))
             continue
         control = controls.popleft()
-        recipients, ack = hub.on_control(control)
+        recipients, ack, heard = hub.on_control(control)
         broadcasts: list[Broadcast] = []
         for fls_id in recipients:
-            out = participants[fls_id].on_control(control)
+            out = participants[fls_id].on_control(control, heard)
             if isinstance(out, Broadcast):
                 broadcasts.append(out)
             elif isinstance(out, Report):
@@ -105,10 +101,8 @@ def discover(
         if ack is not None:
             controls.extend(clock.on_ack(ack.round, _HOST, 0.0))
         for sent in broadcasts:
-            hearers, ack = hub.on_offer(sent.run_id, sent.round, sent.sender)
-            for fls_id in hearers:
-                participants[fls_id].on_offer(sent.run_id, sent.sender, sent.offer)
             offer = sent.offer
+            ack = hub.on_offer(sent.run_id, sent.round, sent.sender, offer)
             controls.extend(
                 clock.on_offer(
                     sent.round, sent.sender, len(offer), offer.pending, offer.finished, 0.0

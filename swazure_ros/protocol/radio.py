@@ -1,66 +1,73 @@
-"""The radio medium of one process, and its acknowledgement of each round (docs/protocol.md).
+"""The radio of one process: what its FLSs hear of a round, and its acknowledgement.
 
 A radio broadcast reaches the FLSs within radio range of the sender (blind
 or sweet range, line of sight ignored; spec section 4). A process that hosts
-some of the swarm's FLSs hears every broadcast once and hands it to its own
-FLSs in range (:meth:`RadioHub.on_offer`); it hands the coordinator's
-controls to every local FLS that has not departed (:meth:`RadioHub.on_control`);
-and once it has delivered every offer of a round it acknowledges the round
-(:class:`Ack`), so that the coordinator can open the next one.
+some of the swarm's FLSs hears every broadcast once (:meth:`RadioHub.on_offer`)
+and keeps the round's offers; at the coordinator's next control it hands
+them, in one :class:`~.discovery.RoundOffers`, to every local FLS that has
+not departed (:meth:`RadioHub.on_control`). Each FLS takes from it only the
+labels of its own neighbours, every one of them within its radio range, so
+it hears exactly what a real radio would bring it. Once the process has
+every offer of a round, it acknowledges the round (:class:`Ack`), so that
+the coordinator can open the next one.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection
+from collections.abc import Collection
 from dataclasses import dataclass
 from typing import TypeVar
 
-import numpy as np
-from numpy.typing import NDArray
-
-from .discovery import END, ROUND, START, Control
+from .discovery import END, ROUND, START, Control, Offer, RoundOffers
 
 _Value = TypeVar("_Value")
 
 
 @dataclass(frozen=True)
 class Ack:
-    """A process delivered every offer of one round (a RoundAck message)."""
+    """A process heard every offer of one round (a RoundAck message)."""
 
     run_id: int
     phase: int
     round: int
-    heard: int  # offers of the round delivered
+    heard: int  # offers of the round heard
 
 
 class RadioHub:
-    """Which local FLSs hear what, and when a round is delivered.
+    """A round's offers, the local FLSs that take them, and when a round is heard.
 
     ``local`` holds the ids of the FLSs this process hosts (it may shrink as
-    FLSs stop); ``in_range(fls_id)`` gives the ids within radio range of one.
+    FLSs stop).
     """
 
-    def __init__(
-        self, local: Collection[int], in_range: Callable[[int], NDArray[np.int64]]
-    ) -> None:
+    def __init__(self, local: Collection[int]) -> None:
         self._local = local
-        self._in_range = in_range
         self._departed: dict[int, frozenset[int]] = {}
         self._first_round: dict[int, int] = {}
         self._rounds: dict[tuple[int, int], Control] = {}  # (run, round) -> its ROUND
         self._heard: dict[tuple[int, int], int] = {}
+        self._offers: dict[tuple[int, int], list[tuple[int, Offer]]] = {}
 
     def departed(self, run_id: int) -> frozenset[int]:
         """The FLSs declared gone in run ``run_id``'s current phase."""
         return self._departed.get(run_id, frozenset())
 
-    def on_control(self, control: Control) -> tuple[list[int], Ack | None]:
-        """(the local FLSs to hand ``control`` to, the round's ack if it is now delivered)."""
+    def on_control(self, control: Control) -> tuple[list[int], Ack | None, RoundOffers | None]:
+        """(the local FLSs to hand ``control`` to, the round's ack if now heard, the offers).
+
+        The offers are those of the rounds before ``control.round``, for a
+        ROUND or the END; a START drops those of the phase before.
+        """
         run = control.run_id
+        heard = None
         if control.command == START:
             self._departed[run] = frozenset(control.departed_ids)
             self._first_round[run] = control.round
-            self._drop(self._heard, run)
+            for table in (self._heard, self._offers):
+                self._drop(table, run)
+        else:
+            done = sorted(key for key in self._offers if key[0] == run and key[1] < control.round)
+            heard = RoundOffers.of([entry for key in done for entry in self._offers.pop(key)])
         departed = self.departed(run)
         recipients = [fls_id for fls_id in self._local if fls_id not in departed]
         ack = None
@@ -70,25 +77,19 @@ class RadioHub:
         elif control.command == END:
             self._departed.pop(run, None)
             self._first_round.pop(run, None)
-            self._drop(self._rounds, run)
-            self._drop(self._heard, run)
-        return recipients, ack
+            for table in (self._rounds, self._heard, self._offers):
+                self._drop(table, run)
+        return recipients, ack, heard
 
-    def on_offer(self, run_id: int, round_: int, sender: int) -> tuple[list[int], Ack | None]:
-        """(the local FLSs that hear ``sender``'s offer, the round's ack if now delivered)."""
+    def on_offer(self, run_id: int, round_: int, sender: int, offer: Offer) -> Ack | None:
+        """Hear ``sender``'s offer of round ``round_``; the round's ack if now heard."""
         if round_ < self._first_round.get(run_id, 0):
-            return [], None  # from before a restart of the phase
-        departed = self.departed(run_id)
-        recipients: list[int] = []
-        if sender not in departed:
-            recipients = [
-                fls_id
-                for fls_id in self._in_range(sender).tolist()
-                if fls_id in self._local and fls_id not in departed
-            ]
+            return None  # from before a restart of the phase
         key = (run_id, round_)
+        if sender not in self.departed(run_id):
+            self._offers.setdefault(key, []).append((sender, offer))
         self._heard[key] = self._heard.get(key, 0) + 1
-        return recipients, self._acknowledge(run_id, round_)
+        return self._acknowledge(run_id, round_)
 
     def _acknowledge(self, run_id: int, round_: int) -> Ack | None:
         control = self._rounds.get((run_id, round_))

@@ -28,7 +28,7 @@ machine, and publishes what comes out.
 
 The node subscribes to none of the shared topics itself: its process's
 :class:`~.host.Radio` hears each of them once and hands a message to the FLS
-nodes it reaches (:meth:`FlsNode.on_control`, :meth:`~FlsNode.on_offer`,
+nodes it reaches (:meth:`FlsNode.on_control` with the round's offers,
 :meth:`~FlsNode.on_walk`, :meth:`~FlsNode.on_track_request`,
 :meth:`~FlsNode.on_track_sample`), as a radio would. A thousand
 subscriptions per topic would cost discovery time and deliver every message
@@ -63,7 +63,7 @@ from swazure_interfaces.srv import ComputePose, GetNeighbours, TrackTarget
 from ..core.errors import SwazureError
 from ..core.observe import NeighbourSets
 from ..core.tracking import TRACK_SETTINGS, FloatArray, TrackConfig, TrackingError
-from ..protocol.discovery import Broadcast, Control, Offer, Participant, Report
+from ..protocol.discovery import Broadcast, Control, Participant, Report, RoundOffers
 from ..protocol.moves import WALKING, Walk, step_walk, walk_estimate
 from ..protocol.tracking import RelayRequest, RelayStreams, Sample, TrackReport, TrackSource
 from ..sim.replica import WorldReplica
@@ -241,15 +241,11 @@ class FlsNode(SwarmNode):
         else:
             self._ask_coordinator(request).add_done_callback(lambda answer: reply(answer.result()))
 
-    def on_control(self, control: Control) -> None:
-        """Follow the coordinator's round clock (the host hands every control on)."""
-        out = self.discovery.on_control(control)
+    def on_control(self, control: Control, heard: RoundOffers | None) -> None:
+        """Follow the round clock, taking the offers heard since the last control."""
+        out = self.discovery.on_control(control, heard)
         if out is not None:
             self._publish_discovery(out)
-
-    def on_offer(self, run_id: int, sender: int, offer: Offer) -> None:
-        """Hear a neighbour's broadcast of the current phase of run ``run_id``."""
-        self.discovery.on_offer(run_id, sender, offer)
 
     def on_walk(self, walk: Walk) -> Walk | None:
         """Take a path walk addressed to this FLS; return the walk to send on, if any."""

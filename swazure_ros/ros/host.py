@@ -81,7 +81,7 @@ class Radio:
         self._node = node
         self._replica = replica
         self._fls = fls_nodes
-        self._hub = RadioHub(fls_nodes.keys(), lambda fls_id: replica.world.in_range(fls_id))
+        self._hub = RadioHub(fls_nodes.keys())
         self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
         node.create_subscription(DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS)
         node.create_subscription(PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS)
@@ -110,20 +110,20 @@ class Radio:
 
     def _on_control(self, message: DiscoveryControl) -> None:
         control = control_from_message(message)
-        recipients, ack = self._hub.on_control(control)
+        recipients, ack, heard = self._hub.on_control(control)
         for fls_id in recipients:
-            self._fls[fls_id].on_control(control)
+            self._fls[fls_id].on_control(control, heard)
         self._acknowledge(ack)
 
     def _on_offer(self, message: PathOffer) -> None:
-        recipients, ack = self._hub.on_offer(
-            int(message.run_id), int(message.round), int(message.sender_id)
+        self._acknowledge(
+            self._hub.on_offer(
+                int(message.run_id),
+                int(message.round),
+                int(message.sender_id),
+                offer_from_message(message),
+            )
         )
-        if recipients:
-            offer = offer_from_message(message)
-            for fls_id in recipients:
-                self._fls[fls_id].on_offer(message.run_id, message.sender_id, offer)
-        self._acknowledge(ack)
 
     def _acknowledge(self, ack: Ack | None) -> None:
         if ack is not None:

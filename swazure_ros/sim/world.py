@@ -82,10 +82,6 @@ class World:
         """What FLS ``fls_id`` knows of its neighbours, for path discovery."""
         return local_view(self.seen, self.ids, self.index(fls_id))
 
-    def in_range(self, fls_id: int) -> IntArray:
-        """(K,) ids of the FLSs within radio range of FLS ``fls_id`` (blind to decaying)."""
-        return np.asarray(self.ids[self.seen.other[self.seen.rows(self.index(fls_id))]])
-
     @property
     def id_space(self) -> int:
         """One more than the largest FLS id."""

@@ -1,54 +1,74 @@
-"""One process's radio: who hears a broadcast, and when a round is acknowledged."""
+"""One process's radio: what its FLSs take of a round, and when a round is acknowledged."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from swazure_ros.protocol.discovery import END, ROUND, START, Control
+from swazure_ros.protocol.discovery import END, ROUND, START, Control, Offer, RoundOffers
 from swazure_ros.protocol.radio import Ack, RadioHub
 
-# FLSs 0 and 1 live here, 2 and 3 in another process; 0 hears 1 and 2, 3 hears only 2.
-RANGE = {0: [1, 2], 1: [0], 2: [0, 3], 3: [2]}
+
+def offer(*sources):
+    """An offer of one-hop labels of ``sources`` (paths source -> sender 9)."""
+    count = len(sources)
+    return Offer(
+        source_ids=np.array(sources, dtype=np.int64),
+        hops=np.ones(count, dtype=np.int64),
+        lengths=np.full(count, 6.5),
+        vectors=np.zeros((count, 3)),
+        path_offsets=np.arange(0, 2 * count + 1, 2, dtype=np.int64),
+        path_ids=np.array([fls for source in sources for fls in (source, 9)], dtype=np.int64),
+    )
 
 
-def hub():
-    return RadioHub({0, 1}, lambda fls: np.array(RANGE[fls], dtype=np.int64))
-
-
-def test_a_broadcast_reaches_the_local_flss_in_radio_range_only():
-    radio = hub()
+def test_a_round_is_acknowledged_once_every_offer_is_heard():
+    radio = RadioHub({0, 1})
     radio.on_control(Control(1, START, expected=4))
-    assert radio.on_offer(1, 0, 2)[0] == [0]  # 3 is in range of 2 but not local
-    assert radio.on_offer(1, 0, 0)[0] == [1]
-    assert radio.on_offer(1, 0, 3)[0] == []
-
-
-def test_a_round_is_acknowledged_once_every_offer_is_delivered():
-    radio = hub()
-    radio.on_control(Control(1, START, expected=4))
-    recipients, ack = radio.on_control(Control(1, ROUND, round=0, expected=4))
-    assert sorted(recipients) == [0, 1] and ack is None
+    recipients, ack, heard = radio.on_control(Control(1, ROUND, round=0, expected=4))
+    assert sorted(recipients) == [0, 1] and ack is None and len(heard) == 0
     for sender in (0, 1, 2):
-        assert radio.on_offer(1, 0, sender)[1] is None
-    assert radio.on_offer(1, 0, 3)[1] == Ack(1, 0, 0, 4)
+        assert radio.on_offer(1, 0, sender, offer()) is None
+    assert radio.on_offer(1, 0, 3, offer()) == Ack(1, 0, 0, 4)
 
 
 def test_offers_that_arrive_before_their_round_count_toward_its_ack():
-    radio = hub()
+    radio = RadioHub({0, 1})
     radio.on_control(Control(1, START, expected=2))
-    radio.on_offer(1, 0, 2)
-    radio.on_offer(1, 0, 3)
-    _, ack = radio.on_control(Control(1, ROUND, round=0, expected=2))
+    radio.on_offer(1, 0, 2, offer())
+    radio.on_offer(1, 0, 3, offer())
+    _, ack, _ = radio.on_control(Control(1, ROUND, round=0, expected=2))
     assert ack == Ack(1, 0, 0, 2)
 
 
-def test_departed_flss_neither_hear_nor_are_heard_and_stale_rounds_are_ignored():
-    radio = hub()
+def test_the_next_control_hands_over_the_earlier_rounds_offers_only():
+    radio = RadioHub({0, 1})
+    radio.on_control(Control(1, START, expected=3))
+    radio.on_offer(1, 0, 3, offer(5, 6))
+    radio.on_offer(1, 0, 2, offer(7))
+    radio.on_offer(1, 1, 4, offer(8))  # already round 1's, from a faster process
+    _, _, heard = radio.on_control(Control(1, ROUND, round=1, expected=3))
+    assert heard.senders.tolist() == [2, 3] and heard.source_ids.tolist() == [7, 5, 6]
+    assert heard.labels_of(np.array([3])).tolist() == [1, 2] and heard.path(2) == (6, 9)
+    _, _, later = radio.on_control(Control(1, END, round=2))
+    assert later.senders.tolist() == [4]
+
+
+def test_departed_flss_are_neither_handed_controls_nor_heard_and_stale_rounds_are_dropped():
+    radio = RadioHub({0, 1})
     radio.on_control(Control(1, START, round=0, expected=4))
-    recipients, _ = radio.on_control(Control(1, START, round=3, expected=3, departed_ids=(1,)))
+    radio.on_offer(1, 0, 2, offer(5))
+    recipients, _, _ = radio.on_control(Control(1, START, round=3, expected=3, departed_ids=(1,)))
     assert recipients == [0]
-    assert radio.on_offer(1, 3, 1) == ([], None)  # from the departed FLS
-    assert radio.on_offer(1, 3, 0)[0] == []  # 1 would hear it, but has departed
-    assert radio.on_offer(1, 2, 2) == ([], None)  # from before the restart
-    radio.on_control(Control(1, END))
-    assert radio.departed(1) == frozenset()
+    radio.on_offer(1, 3, 1, offer(5))  # from the departed FLS
+    radio.on_offer(1, 2, 2, offer(5))  # from before the restart
+    radio.on_offer(1, 3, 3, offer(5))
+    _, _, heard = radio.on_control(Control(1, ROUND, round=4, expected=3))
+    assert heard.senders.tolist() == [3]
+
+
+def test_a_round_table_gives_each_sender_s_labels():
+    table = RoundOffers.of([(4, offer(1)), (2, offer(1, 3)), (9, offer())])
+    assert table.senders.tolist() == [2, 4, 9] and len(table) == 3
+    assert table.labels_of(np.array([4, 7])).tolist() == [2]
+    assert table.labels_of(np.array([2, 4, 9])).tolist() == [0, 1, 2]
+    assert table.labels_of(np.array([], dtype=np.int64)).tolist() == []
