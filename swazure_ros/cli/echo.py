@@ -81,6 +81,30 @@ def message_to_yaml(message: Any) -> str:
 ECHO_DEPTH = 10_000
 
 
+def echo_qos(node: Any, topic: str) -> Any:
+    """A reader's QoS that gets what ``topic``'s publishers offer, as ``ros2 topic echo`` does.
+
+    Transient local when every publisher latches (a late reader then gets each
+    one's last message), best effort when any publisher is best effort. Deep
+    enough for a burst of a round (hundreds of messages at once) while the
+    printing catches up; a depth of 10 dropped most of a heuristic's moves.
+    """
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    offered = node.get_publishers_info_by_topic(topic)
+    latched = bool(offered) and all(
+        info.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for info in offered
+    )
+    best_effort = any(
+        info.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for info in offered
+    )
+    return QoSProfile(
+        depth=ECHO_DEPTH,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+        reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
+    )
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure echo``."""
     from rclpy.executors import SingleThreadedExecutor
@@ -116,9 +140,7 @@ def main(args: argparse.Namespace) -> int:
                 sys.stdout.flush()
                 printed += 1
 
-        # Deep enough for a burst of a round (hundreds of messages at once) while the
-        # printing catches up; a depth of 10 dropped most of a heuristic's moves.
-        node.create_subscription(cls, topic, on_message, ECHO_DEPTH)
+        node.create_subscription(cls, topic, on_message, echo_qos(node, topic))
         while limit is None or printed < limit:
             if (
                 args.timeout is not None

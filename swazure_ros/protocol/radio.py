@@ -16,11 +16,8 @@ from __future__ import annotations
 
 from collections.abc import Collection
 from dataclasses import dataclass
-from typing import TypeVar
 
 from .discovery import END, ROUND, START, Control, Offer, RoundOffers
-
-_Value = TypeVar("_Value")
 
 
 @dataclass(frozen=True)
@@ -63,8 +60,7 @@ class RadioHub:
         if control.command == START:
             self._departed[run] = frozenset(control.departed_ids)
             self._first_round[run] = control.round
-            for table in (self._heard, self._offers):
-                self._drop(table, run)
+            self._forget(run, rounds=False)
         else:
             done = sorted(key for key in self._offers if key[0] == run and key[1] < control.round)
             heard = RoundOffers.of([entry for key in done for entry in self._offers.pop(key)])
@@ -77,8 +73,7 @@ class RadioHub:
         elif control.command == END:
             self._departed.pop(run, None)
             self._first_round.pop(run, None)
-            for table in (self._rounds, self._heard, self._offers):
-                self._drop(table, run)
+            self._forget(run, rounds=True)
         return recipients, ack, heard
 
     def on_offer(self, run_id: int, round_: int, sender: int, offer: Offer) -> Ack | None:
@@ -99,7 +94,9 @@ class RadioHub:
         del self._rounds[(run_id, round_)]
         return Ack(run_id, control.phase, round_, heard)
 
-    @staticmethod
-    def _drop(table: dict[tuple[int, int], _Value], run_id: int) -> None:
-        for key in [key for key in table if key[0] == run_id]:
-            del table[key]
+    def _forget(self, run_id: int, rounds: bool) -> None:
+        """Drop what was heard in run ``run_id`` (and its rounds' controls if ``rounds``)."""
+        self._heard = {key: n for key, n in self._heard.items() if key[0] != run_id}
+        self._offers = {key: o for key, o in self._offers.items() if key[0] != run_id}
+        if rounds:
+            self._rounds = {key: c for key, c in self._rounds.items() if key[0] != run_id}

@@ -4,8 +4,10 @@ Topics and services, relative to the swarm namespace (``/swarm`` by default;
 names and QoS in :mod:`.names`):
 
 - ``measurements`` (swazure_interfaces/Measurements), shared by all FLSs:
-  each FLS publishes what its camera sees every ``publish_period`` seconds
-  (its frame rate), from where it is at that moment;
+  each FLS looks every ``publish_period`` seconds (its frame rate) and
+  publishes what its camera sees when that changed, or every
+  ``republish_period`` seconds if set; the last message of each FLS is
+  latched for readers who come later;
 - ``fls_<id>/get_neighbours`` (swazure_interfaces/GetNeighbours): its blind,
   sweet and decaying neighbours as it knows them;
 - ``fls_<id>/compute_pose`` (swazure_interfaces/ComputePose): its pose
@@ -40,11 +42,13 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Callable
 
+from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import JumpHandle, JumpThreshold
 from rclpy.context import Context
 from rclpy.duration import Duration
 from rclpy.exceptions import ParameterException
+from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.serialization import serialize_message
@@ -97,6 +101,34 @@ from .names import (
 )
 from .runtime import ParameterError, SwarmNode
 
+
+class Transmitter:
+    """The radio transmitter of a process's FLSs: one publisher per shared discovery topic.
+
+    Every FLS sends its offers and estimates through its process's
+    transmitter, as it hears through its process's radio (:class:`~.host.Radio`):
+    a thousand FLS nodes then add two publishers, not two thousand, to the
+    swarm's graph. Messages are serialised here once, so that the bytes on the
+    wire are counted exactly.
+    """
+
+    def __init__(self, node: Node) -> None:
+        self._node = node
+        self._radio = node.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
+        self._estimates = node.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
+
+    def send(self, out: Broadcast | Report) -> int:
+        """Send an offer on ``radio`` or a report on ``estimates``; the bytes sent."""
+        stamp = self._node.get_clock().now().to_msg()
+        if isinstance(out, Broadcast):
+            publisher, message = self._radio, offer_message(out, stamp)
+        else:
+            publisher, message = self._estimates, estimates_message(out, stamp)
+        data = serialize_message(message)
+        publisher.publish(data)
+        return len(data)
+
+
 #: How an FLS's process passes a ComputePose request on to the coordinator:
 #: a future of the coordinator's response.
 AskCoordinator = Callable[[ComputePose.Request], Future]
@@ -113,6 +145,7 @@ class FlsNode(SwarmNode):
         namespace: str = "swarm",
         context: Context | None = None,
         ask_coordinator: AskCoordinator | None = None,
+        transmitter: Transmitter | None = None,
         parameter_overrides: list[Parameter] | None = None,
     ) -> None:
         super().__init__(
@@ -124,10 +157,18 @@ class FlsNode(SwarmNode):
         self.fls_id = fls_id
         self._senses = senses
         self.publish_period = self.declare_seconds(
-            "publish_period", 1.0, "seconds between measurement messages"
+            "publish_period", 1.0, "seconds between camera frames: a changed measurement is sent"
+        )
+        self.republish_period = self.declare_seconds(
+            "republish_period",
+            0.0,
+            "seconds after which an unchanged measurement is sent again; 0: never",
+            allow_zero=True,
         )
         self.track_config = self._declare_track_config()
         self._sensed: tuple[Measurement, NeighbourSets] | None = None
+        self._published: Measurement | None = None  # the last measurement sent
+        self._published_at = 0  # ns on the node's clock
         self.discovery = Participant(
             fls_id, lambda: senses.view(fls_id), senses.sweet_min, senses.id_space
         )
@@ -147,9 +188,9 @@ class FlsNode(SwarmNode):
         create_deferred_service(
             self, ComputePose, f"~/{COMPUTE_POSE_SERVICE}", self._on_compute_pose
         )
-        self.create_timer(self.publish_period, self.publish_measurements)
-        self._radio = self.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
-        self._estimates = self.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
+        self.create_timer(self.publish_period, self._on_frame)
+        # Alone (no process hosting it), an FLS transmits with publishers of its own.
+        self._transmitter = transmitter or Transmitter(self)
         self.create_service(TrackTarget, f"~/{TRACK_SERVICE}", self._on_track)
         # Created at the first track: most FLSs never relay nor track, and
         # every endpoint costs discovery time.
@@ -203,10 +244,22 @@ class FlsNode(SwarmNode):
             )
         return self._sensed
 
-    def publish_measurements(self) -> None:
-        """Publish the last measurements on the shared topic."""
-        stamp = self.get_clock().now().to_msg()
-        self._publisher.publish(measurements_message(self.fls_id, self.measurement, stamp))
+    def _on_frame(self) -> None:
+        now = self.get_clock().now()
+        seen = self.measurement
+        due = self.republish_period > 0 and (
+            now.nanoseconds - self._published_at >= round(self.republish_period * 1e9)
+        )
+        if due or self._published is None or not seen.same_as(self._published):
+            self.publish_measurements(now.to_msg())
+
+    def publish_measurements(self, stamp: Time | None = None) -> None:
+        """Publish what the camera measures now on the shared topic."""
+        if stamp is None:
+            stamp = self.get_clock().now().to_msg()
+        self._published = self.measurement
+        self._published_at = self.get_clock().now().nanoseconds
+        self._publisher.publish(measurements_message(self.fls_id, self._published, stamp))
 
     def _elsewhere(self, fls_id: int, service: str, does: str = "answers for itself") -> str:
         """Where FLS ``fls_id`` answers ``service`` for itself."""
@@ -256,11 +309,8 @@ class FlsNode(SwarmNode):
         return None
 
     def _publish_discovery(self, out: Broadcast | Report) -> None:
-        stamp = self.get_clock().now().to_msg()
-        if isinstance(out, Broadcast):
-            self._publish(self._radio, offer_message(out, stamp))
-        else:
-            self._publish(self._estimates, estimates_message(out, stamp))
+        self.bytes_sent += self._transmitter.send(out)
+        self.messages_sent += 1
 
     # Tracking ----------------------------------------------------------------
 

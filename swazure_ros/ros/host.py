@@ -43,7 +43,7 @@ from .convert import (
     walk_message,
     world_positions,
 )
-from .fls_node import FlsNode
+from .fls_node import FlsNode, Transmitter
 from .names import (
     ACK_TOPIC,
     COMPUTE_POSE_SERVICE,
@@ -188,6 +188,7 @@ class SwarmHost:
         # Before the radio's hook: walks that waited for a revision measure it afresh.
         self.replica.on_revision.append(self._sense_anew)
         self.radio = Radio(self.host_node, self.replica, self.fls_by_id)
+        self.transmitter = Transmitter(self.host_node)
         # One client per process, shared by its FLS nodes' compute_pose services.
         self._coordinator = self.host_node.create_client(
             ComputePose, f"{COORDINATOR}/{COMPUTE_POSE_SERVICE}"
@@ -246,6 +247,7 @@ class SwarmHost:
                 namespace=self.namespace,
                 context=self.context,
                 ask_coordinator=self.ask_coordinator,
+                transmitter=self.transmitter,
                 parameter_overrides=self._overrides,
             )
             self.fls_nodes.append(node)

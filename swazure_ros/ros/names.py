@@ -56,8 +56,12 @@ def host_name(index: int) -> str:
     return f"host_{index}"
 
 
-# A camera stream: the newest few frames are what matters, as in a sensor topic.
-MEASUREMENTS_QOS = QoSProfile(depth=10)
+# What an FLS measures changes only when the world does, so an FLS publishes a
+# measurement when it changes, and the last one stays for readers who come later
+# (latched: transient local, one per FLS), as a map or a robot description does.
+MEASUREMENTS_QOS = QoSProfile(
+    depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+)
 # A round brings one message from every FLS at once: readers must keep them all,
 # and a lost label would change a path, so delivery is reliable.
 ROUND_QOS = QoSProfile(

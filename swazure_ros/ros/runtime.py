@@ -3,8 +3,9 @@
 A process of a swarm owns one :class:`~rclpy.context.Context`
 (:func:`init_context`), never the global one, so that tests and tools can
 run several swarms side by side. Its nodes are :class:`SwarmNode`\\ s:
-without a rosout publisher and parameter services, because each endpoint
-costs discovery time in a swarm of thousands of nodes.
+without a rosout publisher, parameter services and the type description
+service, because each endpoint costs discovery time in a swarm of thousands
+of nodes.
 """
 
 from __future__ import annotations
@@ -27,8 +28,14 @@ class ParameterError(SwazureError):
     """A node parameter with a value the node cannot run with."""
 
 
+#: Off for every node of a swarm: the ``~/get_type_description`` service is two
+#: more endpoints per node, and endpoints cost discovery time (docs/swarm.md).
+#: Tools that need a type find it from the interface package instead.
+NO_TYPE_DESCRIPTION_SERVICE = Parameter("start_type_description_service", value=False)
+
+
 class SwarmNode(Node):
-    """A node of a swarm: no rosout, no parameter services."""
+    """A node of a swarm: no rosout, no parameter services, no type description service."""
 
     def __init__(
         self,
@@ -42,23 +49,26 @@ class SwarmNode(Node):
             name,
             namespace=namespace,
             context=context,
-            parameter_overrides=parameter_overrides,
+            parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE, *(parameter_overrides or [])],
             enable_rosout=False,
             start_parameter_services=False,
         )
 
-    def declare_seconds(self, name: str, default: float, description: str) -> float:
-        """Declare parameter ``name``: a positive number of seconds; ParameterError if not."""
+    def declare_seconds(
+        self, name: str, default: float, description: str, allow_zero: bool = False
+    ) -> float:
+        """Declare parameter ``name``: seconds > 0 (or 0 if allowed); ParameterError if not."""
         try:
             value = self.declare_parameter(
                 name, default, ParameterDescriptor(description=description)
             ).value
         except ParameterException as err:
             raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
-        if not isinstance(value, float) or not value > 0:
+        if not isinstance(value, float) or not (value > 0 or (allow_zero and value == 0)):
+            kind = "0 or a positive" if allow_zero else "a positive"
             raise ParameterError(
                 f"{self.get_fully_qualified_name()}: parameter {name} must be "
-                f"a positive number of seconds, got {value!r}"
+                f"{kind} number of seconds, got {value!r}"
             )
         return value
 

@@ -42,6 +42,15 @@ class Measurement:
     vector: FloatArray  # (K, 3)
     tracking: FloatArray  # (K,)
 
+    def same_as(self, other: Measurement) -> bool:
+        """True when ``other`` measures the same FLSs the same way, to the bit."""
+        return (
+            np.array_equal(self.target_ids, other.target_ids)
+            and np.array_equal(self.range_class, other.range_class)
+            and np.array_equal(self.vector, other.vector)
+            and np.array_equal(self.tracking, other.tracking)
+        )
+
 
 @dataclass(frozen=True)
 class World:

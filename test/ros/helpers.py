@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from swazure_ros.core.evaluate import neighbourhood
 from swazure_ros.core.sensor import BLIND, DECAYING, SWEET, measured_vectors
@@ -55,3 +56,17 @@ def received_vectors(message):
         pose.target_id: np.array([pose.vector.x, pose.vector.y, pose.vector.z])
         for pose in message.poses
     }
+
+
+#: A reader of the latched measurements: it gets each FLS's last message when it joins.
+LATCHED = QoSProfile(
+    depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+)
+
+
+def matches(message, expected_vectors):
+    """True when a Measurements message holds exactly ``expected_vectors`` ({id: (3,)})."""
+    got = received_vectors(message)
+    return set(got) == set(expected_vectors) and all(
+        np.allclose(got[t], expected_vectors[t], rtol=0, atol=1e-12) for t in got
+    )

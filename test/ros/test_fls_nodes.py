@@ -14,7 +14,7 @@ from swazure_ros.ros.host import SwarmHost
 from swazure_ros.sim.world import WorldSpec
 
 from .conftest import make_context
-from .helpers import engine_expectations, received_vectors, spin_until
+from .helpers import LATCHED, engine_expectations, matches, received_vectors, spin_until
 
 WORLD = WorldSpec("helix:100", beta=0.5)
 FAST = ["--ros-args", "-p", "publish_period:=0.2"]
@@ -39,12 +39,19 @@ def swarm(domain):
         ctx.try_shutdown()
 
 
-def collect_measurements(host, probe, count):
+def collect_measurements(host, probe, expected):
+    """Every FLS's newest measurement, once each equals ``expected`` ({id: {id: (3,)}})."""
     latest = {}
     subscription = probe.create_subscription(
-        Measurements, "/swarm/measurements", lambda m: latest.__setitem__(m.source_id, m), 1000
+        Measurements, "/swarm/measurements", lambda m: latest.__setitem__(m.source_id, m), LATCHED
     )
-    assert spin_until(host.executor, lambda: len(latest) >= count, timeout=60)
+
+    def all_expected():
+        return len(latest) == len(expected) and all(
+            matches(latest[fls_id], vectors) for fls_id, vectors in expected.items()
+        )
+
+    spin_until(host.executor, all_expected, timeout=60)
     probe.destroy_subscription(subscription)
     return latest
 
@@ -63,7 +70,7 @@ def test_every_node_publishes_the_engines_measured_vectors(swarm):
     assert len(world.ids) >= 30
     expected, _ = engine_expectations(world)
     assert sum(map(len, expected.values())) > 1000  # a swarm whose FLSs measure each other
-    latest = collect_measurements(host, probe, len(world.ids))
+    latest = collect_measurements(host, probe, expected)
     assert set(latest) == set(world.ids.tolist())
     for fls_id, message in latest.items():
         got = received_vectors(message)
@@ -112,7 +119,7 @@ def test_a_move_command_changes_what_the_nodes_measure(swarm):
     assert spin_until(host.executor, lambda: publisher.get_subscription_count() > 0)
     publisher.publish(command)
     assert spin_until(host.executor, lambda: host.replica.world.revision == 1)
-    latest = collect_measurements(host, probe, len(world.ids))
+    latest = collect_measurements(host, probe, expected)
     for fls_id, message in latest.items():
         got = received_vectors(message)
         assert set(got) == set(expected[fls_id]), fls_id
@@ -137,3 +144,36 @@ def test_invalid_parameter_refuses_to_start_with_one_clear_line(domain, value, m
         assert "/swarm/fls_" in str(raised.value)
     finally:
         ctx.try_shutdown()
+
+
+def count_measurements(host, probe, seconds):
+    """Measurements messages a reader that joins now gets in ``seconds`` (latched ones first)."""
+    received = []
+    subscription = probe.create_subscription(
+        Measurements, "/swarm/measurements", received.append, LATCHED
+    )
+    host.spin_for(seconds)
+    probe.destroy_subscription(subscription)
+    return len(received)
+
+
+def test_an_idle_swarm_sends_a_measurement_once_and_a_late_reader_still_gets_every_one(swarm):
+    world, host, probe = swarm
+    expected, _ = engine_expectations(world)
+    collect_measurements(host, probe, expected)
+    # Ten frames of 0.2 s: a reader that joins gets one latched message per FLS, then none.
+    assert count_measurements(host, probe, 2.0) == len(world.ids)
+
+
+def test_republish_period_sends_unchanged_measurements_again(domain):
+    ctx = make_context(domain, [*FAST, "-p", "republish_period:=0.4"])
+    world = WORLD.build()
+    with SwarmHost(world, world.ids, context=ctx) as host:
+        probe = Node("probe", context=ctx, start_parameter_services=False, enable_rosout=False)
+        host.add(probe)
+        host.create_fls_nodes()
+        assert host.spin_until_discovered(60)
+        # 2 s: the latched message, then one at the first frame 0.4 s after each
+        # (frames every 0.2 s), so at least two more per FLS.
+        assert count_measurements(host, probe, 2.0) >= 3 * len(world.ids)
+    ctx.try_shutdown()

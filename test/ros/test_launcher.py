@@ -21,7 +21,7 @@ from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SHARED
-from .helpers import engine_expectations, received_vectors
+from .helpers import LATCHED, engine_expectations, received_vectors
 
 WORLD = WorldSpec("helix:100", beta=0.5)
 ROS2 = Path(sys.executable).parent / "ros2"
@@ -58,7 +58,7 @@ def test_swarm_split_over_two_processes_gives_the_same_measurements(context, dom
     executor.add_node(probe)
     latest = {}
     probe.create_subscription(
-        Measurements, "/swarm/measurements", lambda m: latest.__setitem__(m.source_id, m), 1000
+        Measurements, "/swarm/measurements", lambda m: latest.__setitem__(m.source_id, m), LATCHED
     )
     try:
         with RunningSwarm(config) as swarm:
