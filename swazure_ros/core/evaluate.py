@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Any, Protocol
 
 import numba
@@ -19,10 +20,10 @@ from numpy.typing import NDArray
 from .. import __version__
 from .geometry import Swarm, tracking_distance
 from .metrics import alpha_deg, describe, distance_error_pct, phi_error_deg, theta_error_deg
-from .neighbours import NeighbourPairs, neighbour_pairs, ordered_blind_pairs
+from .neighbours import NeighbourPairs, neighbour_pairs, ordered_blind_pairs, pairs_of
 from .paths import Graph, Paths, check_policy, make_graph, path_hops, shortest_paths
 from .sensor import DECAYING, SWEET, Sensor, measured_vectors
-from .sight import Grid, build_grid, obstructed, obstructers
+from .sight import Grid, build_grid, obstructed, obstructers, segments_near
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -52,16 +53,41 @@ class _Silent:
 
 @dataclass(frozen=True)
 class Neighbourhood:
-    """What every pair evaluation of one swarm shares: pairs, line of sight, graphs."""
+    """What every pair evaluation of one swarm shares: pairs, line of sight, graphs.
+
+    The graphs are built when first used: a simulated world that only senses
+    (a revision of a heuristic's moves) never needs them.
+    """
 
     swarm: Swarm
     sensor: Sensor
     pairs: NeighbourPairs  # unordered pairs within reach, sorted
     visible: NDArray[np.bool_]  # (len(pairs),), line of sight (False for blind pairs)
     grid: Grid
-    sweet_all: Graph  # S_all: sweet pairs, line of sight ignored
-    sweet_visible: Graph  # S_vis
-    any_visible: Graph  # SD_vis: sweet or decaying with line of sight
+    usable: NDArray[np.bool_]  # (len(pairs),), pairs the graphs may hold (see without())
+
+    def _graph(self, mask: NDArray[np.bool_]) -> Graph:
+        index = np.flatnonzero(mask & self.usable)
+        pairs = self.pairs
+        return make_graph(
+            self.swarm.size, pairs.first[index], pairs.second[index], pairs.tracking[index], index
+        )
+
+    @cached_property
+    def sweet_all(self) -> Graph:
+        """S_all: sweet pairs, line of sight ignored."""
+        return self._graph(self.pairs.range_class == SWEET)
+
+    @cached_property
+    def sweet_visible(self) -> Graph:
+        """S_vis: sweet pairs in line of sight."""
+        return self._graph((self.pairs.range_class == SWEET) & self.visible)
+
+    @cached_property
+    def any_visible(self) -> Graph:
+        """SD_vis: sweet or decaying pairs in line of sight."""
+        reach = (self.pairs.range_class == SWEET) | (self.pairs.range_class == DECAYING)
+        return self._graph(reach & self.visible)
 
     def pair_index(self, first: IntArray, second: IntArray) -> IntArray:
         """Index into ``pairs`` of each unordered pair {first[m], second[m]}; -1 if absent."""
@@ -86,37 +112,51 @@ def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None
         swarm.points, swarm.radius, pairs.first[edge], pairs.second[edge], grid
     )
     progress.advance(int(edge.sum()))
-    return _with_graphs(swarm, sensor, pairs, visible, grid, np.ones(len(pairs), dtype=bool))
+    return Neighbourhood(swarm, sensor, pairs, visible, grid, np.ones(len(pairs), dtype=bool))
 
 
-def _with_graphs(
-    swarm: Swarm,
-    sensor: Sensor,
-    pairs: NeighbourPairs,
-    visible: NDArray[np.bool_],
-    grid: Grid,
-    usable: NDArray[np.bool_],
-) -> Neighbourhood:
-    """The neighbourhood whose graphs hold the ``usable`` (len(pairs),) pairs only."""
+def moved_neighbourhood(hood: Neighbourhood, swarm: Swarm, moved: IntArray) -> Neighbourhood:
+    """``hood`` of ``swarm``, where only the FLSs at indices ``moved`` (K,) have new positions.
 
-    def graph(mask: NDArray[np.bool_]) -> Graph:
-        index = np.flatnonzero(mask & usable)
-        return make_graph(
-            swarm.size, pairs.first[index], pairs.second[index], pairs.tracking[index], index
-        )
-
-    sweet = pairs.range_class == SWEET
-    decaying = pairs.range_class == DECAYING
-    return Neighbourhood(
-        swarm,
-        sensor,
-        pairs,
-        visible,
-        grid,
-        sweet_all=graph(sweet),
-        sweet_visible=graph(sweet & visible),
-        any_visible=graph((sweet | decaying) & visible),
+    Equal to ``neighbourhood(swarm, hood.sensor)`` at a cost in proportion to
+    what moved: the pairs of the moved FLSs are found anew, and line of sight
+    is judged again only for those pairs and for the segments that pass
+    within r of a moved FLS's old or new place (an FLS obstructs a segment
+    within r of its centre); every other pair keeps its line of sight.
+    """
+    moved = np.unique(np.asarray(moved, dtype=np.int64))
+    sensor, old = hood.sensor, hood.pairs
+    if len(moved) == 0:
+        return hood
+    involved = np.isin(old.first, moved) | np.isin(old.second, moved)
+    kept = old.select(~involved)
+    fresh = pairs_of(swarm, sensor, moved)
+    first = np.concatenate([kept.first, fresh.first])
+    second = np.concatenate([kept.second, fresh.second])
+    order = np.lexsort((second, first))
+    pairs = NeighbourPairs(
+        first[order],
+        second[order],
+        np.concatenate([kept.distance, fresh.distance])[order],
+        np.concatenate([kept.tracking, fresh.tracking])[order],
+        np.concatenate([kept.range_class, fresh.range_class])[order],
     )
+    visible = np.concatenate([hood.visible[~involved], np.zeros(len(fresh), dtype=bool)])[order]
+    edge = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)
+    anew = np.isin(pairs.first, moved) | np.isin(pairs.second, moved)
+    places = np.concatenate([hood.swarm.points[moved], swarm.points[moved]])
+    passing = edge & ~anew
+    # Twice r: a margin over the obstruction distance, so that no rounding in the
+    # two distance computations can leave out a segment whose sight changed.
+    passing[passing] = segments_near(
+        swarm.points, pairs.first[passing], pairs.second[passing], places, 2.0 * swarm.radius
+    )
+    judge = edge & (anew | passing)
+    grid = build_grid(swarm.points, swarm.radius)
+    visible[judge] = ~obstructed(
+        swarm.points, swarm.radius, pairs.first[judge], pairs.second[judge], grid
+    )
+    return Neighbourhood(swarm, sensor, pairs, visible, grid, np.ones(len(pairs), dtype=bool))
 
 
 def without(hood: Neighbourhood, gone: IntArray) -> Neighbourhood:
@@ -127,7 +167,7 @@ def without(hood: Neighbourhood, gone: IntArray) -> Neighbourhood:
     """
     pairs = hood.pairs
     usable = ~(np.isin(pairs.first, gone) | np.isin(pairs.second, gone))
-    return _with_graphs(hood.swarm, hood.sensor, pairs, hood.visible, hood.grid, usable)
+    return Neighbourhood(hood.swarm, hood.sensor, pairs, hood.visible, hood.grid, usable)
 
 
 @dataclass(frozen=True)

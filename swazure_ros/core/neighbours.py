@@ -66,6 +66,32 @@ def neighbour_pairs(swarm: Swarm, sensor: Sensor) -> NeighbourPairs:
     return NeighbourPairs(first, second, distance, tracking, sensor.classify(tracking))
 
 
+def pairs_of(swarm: Swarm, sensor: Sensor, flss: IntArray) -> NeighbourPairs:
+    """The pairs of :func:`neighbour_pairs` that involve an FLS of ``flss`` (sorted indices).
+
+    The same pairs, distances and classes as the whole swarm's, found from
+    the ``flss`` alone.
+    """
+    reach = sensor.decaying_max + 2.0 * swarm.radius
+    reach = max(reach, 2.0 * swarm.radius + 2 * KISSING_TOLERANCE)
+    found = cKDTree(swarm.points).query_ball_point(swarm.points[flss], reach)
+    counts = np.array([len(near) for near in found], dtype=np.int64)
+    one = np.repeat(np.asarray(flss, dtype=np.int64), counts)
+    other = (
+        np.concatenate([np.asarray(near, dtype=np.int64) for near in found])
+        if len(found)
+        else np.zeros(0, dtype=np.int64)
+    )
+    first, second = np.minimum(one, other), np.maximum(one, other)
+    keys = np.unique(np.stack([first, second], axis=1)[first != second], axis=0)
+    first, second = keys[:, 0], keys[:, 1]
+    distance = centre_distance(swarm.points, first, second)
+    tracking = distance - 2.0 * swarm.radius
+    keep = tracking < sensor.decaying_max
+    first, second, distance, tracking = first[keep], second[keep], distance[keep], tracking[keep]
+    return NeighbourPairs(first, second, distance, tracking, sensor.classify(tracking))
+
+
 def ordered_blind_pairs(pairs: NeighbourPairs) -> tuple[IntArray, IntArray]:
     """Every ordered blind pair (source, target), sorted by source then target."""
     blind = pairs.range_class == BLIND

@@ -356,3 +356,37 @@ def obstructers(
         grid.members,
     )
     return np.asarray(offsets), np.asarray(ids)
+
+
+@numba.njit(cache=True, parallel=True)
+def _near_kernel(
+    starts: FloatArray, ends: FloatArray, probes: FloatArray, reach: float
+) -> NDArray[np.bool_]:
+    near = np.zeros(len(starts), dtype=np.bool_)
+    reach2 = reach * reach
+    for m in numba.prange(len(starts)):
+        a, b = starts[m], ends[m]
+        d = b - a
+        length2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+        for k in range(len(probes)):
+            q = probes[k]
+            t = 0.0
+            if length2 > 0:
+                t = ((q[0] - a[0]) * d[0] + (q[1] - a[1]) * d[1] + (q[2] - a[2]) * d[2]) / length2
+                t = min(1.0, max(0.0, t))
+            x, y, z = a[0] + t * d[0] - q[0], a[1] + t * d[1] - q[1], a[2] + t * d[2] - q[2]
+            if x * x + y * y + z * z <= reach2:
+                near[m] = True
+                break
+    return near
+
+
+def segments_near(
+    points: ArrayLike, first: ArrayLike, second: ArrayLike, probes: ArrayLike, reach: float
+) -> NDArray[np.bool_]:
+    """(M,) whether segment first[m]-second[m] passes within ``reach`` cm of any probe (K, 3)."""
+    points, first, second = _coerce_pairs(points, first, second)
+    probes = np.ascontiguousarray(probes, dtype=np.float64).reshape(-1, 3)
+    if len(first) == 0 or len(probes) == 0:
+        return np.zeros(len(first), dtype=bool)
+    return np.asarray(_near_kernel(points[first], points[second], probes, float(reach)))

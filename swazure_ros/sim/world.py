@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 
 from ..core.clouds import Cloud, load_cloud
 from ..core.errors import UnknownFlsError
-from ..core.evaluate import Neighbourhood, neighbourhood
+from ..core.evaluate import Neighbourhood, moved_neighbourhood, neighbourhood
 from ..core.geometry import Swarm, make_swarm
 from ..core.observe import (
     LocalView,
@@ -126,7 +126,9 @@ class World:
                 seen=self.home_seen,
             )
         swarm = replace(self.swarm, points=points)
-        hood = neighbourhood(swarm, self.sensor)
+        # Only what moved is sensed anew: a heuristic's revision moves a few FLSs.
+        moved = np.flatnonzero((points != self.swarm.points).any(axis=1))
+        hood = moved_neighbourhood(self.hood, swarm, moved)
         return replace(
             self, swarm=swarm, revision=next_revision, hood=hood, seen=observations(hood)
         )

@@ -1,5 +1,7 @@
 """Statuses, paths, estimates and summary on the hand-built scene of conftest.py."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -11,6 +13,7 @@ from swazure_ros.core.evaluate import (
     REASON_NONE,
     SWEET_PATH,
     evaluate,
+    neighbourhood,
 )
 from swazure_ros.core.sensor import measured_vectors
 
@@ -112,3 +115,27 @@ def test_without_a_stopped_fls_paths_avoid_it_and_its_body_still_blocks(sensor):
         REASON_NO_SWEET_PATH,
         [A, D, C],
     )
+
+
+@pytest.mark.parametrize("shape", ["torus:120", "helix:100", "sphere:200"])
+def test_a_moved_neighbourhood_equals_the_one_computed_from_scratch(shape):
+    from swazure_ros.core.evaluate import moved_neighbourhood
+    from swazure_ros.sim.world import WorldSpec
+
+    world = WorldSpec(shape, scale=1.6, beta=0.5).build()
+    rng = np.random.default_rng(7)
+    swarm, hood = world.swarm, world.hood
+    changed = 0
+    for _ in range(20):
+        moved = rng.choice(swarm.size, size=int(rng.integers(1, 6)), replace=False)
+        points = swarm.points.copy()
+        points[moved] += rng.normal(scale=swarm.radius, size=(len(moved), 3))
+        new = replace(swarm, points=points)
+        quick = moved_neighbourhood(hood, new, moved)
+        full = neighbourhood(new, world.sensor)
+        for name in ("first", "second", "distance", "tracking", "range_class"):
+            np.testing.assert_array_equal(getattr(quick.pairs, name), getattr(full.pairs, name))
+        np.testing.assert_array_equal(quick.visible, full.visible)
+        changed += int((full.visible[: len(hood.visible)] != hood.visible).any())
+        swarm, hood = new, quick  # moves pile up, as a heuristic's revisions do
+    assert changed > 5  # the moves did change lines of sight
