@@ -83,8 +83,8 @@ def pairs_of(swarm: Swarm, sensor: Sensor, flss: IntArray) -> NeighbourPairs:
         else np.zeros(0, dtype=np.int64)
     )
     first, second = np.minimum(one, other), np.maximum(one, other)
-    keys = np.unique(np.stack([first, second], axis=1)[first != second], axis=0)
-    first, second = keys[:, 0], keys[:, 1]
+    keys = np.unique((first * swarm.size + second)[first != second])
+    first, second = keys // swarm.size, keys % swarm.size
     distance = centre_distance(swarm.points, first, second)
     tracking = distance - 2.0 * swarm.radius
     keep = tracking < sensor.decaying_max
