@@ -270,12 +270,18 @@ class RunningSwarm:
         TimeoutError after ``timeout`` seconds.
         """
         deadline = None if timeout is None else time.monotonic() + timeout
+        watched = 0.0
         while not run.done():
-            if deadline is not None and time.monotonic() > deadline:
+            now = time.monotonic()
+            if deadline is not None and now > deadline:
                 raise TimeoutError(f"coordinator run not done after {timeout} s")
             if step is not None:
                 step()
-            self._drain()
+            # The other processes' reports (a failure) need no more than a few looks a
+            # second; a look polls a pipe, and a spin can take just microseconds.
+            if now - watched > 0.25:
+                self._drain()
+                watched = now
             self._host.spin_once(0.02)
         return run.result()
 

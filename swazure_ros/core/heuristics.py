@@ -576,6 +576,10 @@ def move_batches(evaluation: Evaluation, heuristic: HeuristicResult) -> list[Int
     points, radius = evaluation.hood.swarm.points, evaluation.hood.swarm.radius
     paths = heuristic.paths
     batches: list[_Batch] = []
+    # Which batches each FLS lies on a path of, or moves in: a pair's conflicts by
+    # FLS are then a few set unions, not a look into every batch.
+    on_path_in: dict[int, set[int]] = {}
+    moved_in: dict[int, dict[int, tuple[float, float, float]]] = {}
     for pair in np.flatnonzero(heuristic.resolved).tolist():
         path = paths.nodes[paths.offsets[pair] : paths.offsets[pair + 1]].tolist()
         moved: dict[int, tuple[float, float, float]] = {
@@ -583,12 +587,14 @@ def move_batches(evaluation: Evaluation, heuristic: HeuristicResult) -> list[Int
         }
         where = np.array([moved.get(fls, points[fls]) for fls in path], dtype=np.float64)
         starts, ends = where[:-1], where[1:]
-        for batch in batches:
-            if any(fls in batch.on_paths for fls in moved) or any(
-                fls in batch.moved for fls in path
-            ):
-                continue
-            if any(batch.moved.get(fls, to) != to for fls, to in moved.items()):
+        excluded: set[int] = set()
+        for fls, to in moved.items():
+            excluded.update(on_path_in.get(fls, ()))
+            excluded.update(k for k, there in moved_in.get(fls, {}).items() if there != to)
+        for fls in path:
+            excluded.update(moved_in.get(fls, ()))
+        for index, batch in enumerate(batches):
+            if index in excluded:
                 continue
             mine = [to for fls, to in moved.items() if fls not in batch.moved]
             theirs = [to for fls, to in batch.moved.items() if fls not in moved]
@@ -611,13 +617,17 @@ def move_batches(evaluation: Evaluation, heuristic: HeuristicResult) -> list[Int
                 continue
             break
         else:
-            batch = _Batch([], {}, set(), [], [])
+            index, batch = len(batches), _Batch([], {}, set(), [], [])
             batches.append(batch)
         batch.pairs.append(pair)
         batch.moved.update(moved)
         batch.on_paths.update(path)
         batch.starts.extend(starts)
         batch.ends.extend(ends)
+        for fls, to in moved.items():
+            moved_in.setdefault(fls, {})[index] = to
+        for fls in path:
+            on_path_in.setdefault(fls, set()).add(index)
     return [np.array(batch.pairs, dtype=np.int64) for batch in batches]
 
 
