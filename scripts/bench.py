@@ -219,6 +219,7 @@ SWARMS = [
     ("dragon_1147", None),
     ("racecar_3720", None),
 ]
+SWARM_SIZES = {"helix:100": 100, "chess_408": 408, "dragon_1147": 1147, "racecar_3720": 3720}
 
 
 def spawn(cloud: str, processes: int, domain: int) -> tuple[float, str]:
@@ -357,7 +358,7 @@ def swarm_section(args: argparse.Namespace) -> list[str]:
     for name, builtin in SWARMS[:3]:
         cloud = builtin or str(DATASETS / f"{name}.xyz")
         rate = message_rate(cloud, domain)
-        flss = {"helix:100": 100, "chess_408": 408, "dragon_1147": 1147}[name]
+        flss = SWARM_SIZES[name]
         print(f"rate {name}: {rate:.0f} msg/s", flush=True)
         lines.append(f"| {name} | {flss} | {flss / 0.1:,.0f} | {rate:,.0f} |")
     lines += [
@@ -371,7 +372,7 @@ def swarm_section(args: argparse.Namespace) -> list[str]:
     for name, builtin in SWARMS[:3]:
         cloud = builtin or str(DATASETS / f"{name}.xyz")
         percent, teardown = idle_cpu(cloud, domain)
-        flss = {"helix:100": 100, "chess_408": 408, "dragon_1147": 1147}[name]
+        flss = SWARM_SIZES[name]
         print(f"idle {name}: {percent:.1f} %, teardown {teardown:.1f} s", flush=True)
         lines.append(f"| {name} | {flss} | {percent:.1f} | {teardown:.1f} |")
     lines += [
