@@ -142,6 +142,10 @@ def test_spawn_bad_input_gives_one_line_and_exit_2(domain, args, message):
     ("content", "message"),
     [
         ("/**:\n  ros__parameters:\n    publish_period: -2.0\n", "publish_period must be"),
+        (
+            "/**:\n  ros__parameters:\n    republish_period: -1.0\n",
+            "republish_period must be 0 or a positive number",
+        ),
         ("/**:\n  ros__parameters:\n    publish_period: [1, 2\n", "parameter file"),
     ],
 )
