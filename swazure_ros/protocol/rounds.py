@@ -64,6 +64,36 @@ class RoundTally:
         return self.labels == 0 and not self.pending
 
 
+class StallClock:
+    """The time the coordinator's deadlines run on: it stands still while its process stalls.
+
+    The coordinator looks at its deadlines every ``tick`` seconds. A look that
+    comes more than ``stall`` seconds late means its process was busy (one long
+    callback of its FLS nodes) and heard nothing meanwhile, whatever was sent:
+    that time is left out, so that a busy process is not taken for silent FLSs.
+    Times in seconds, on any monotonic clock.
+    """
+
+    def __init__(self, tick: float, stall: float, now: float) -> None:
+        self.tick_period = tick
+        self.stall = stall
+        self._last_tick = now
+        self.stalled = 0.0  # seconds left out so far
+
+    def __call__(self, now: float) -> float:
+        """The deadlines' time at monotonic time ``now``."""
+        return now - self.stalled
+
+    def tick(self, now: float) -> bool:
+        """A look at the deadlines at ``now``; False when it came late (hear what waits first)."""
+        late = now - self._last_tick - self.tick_period
+        self._last_tick = now
+        if late > self.stall:
+            self.stalled += late
+            return False
+        return True
+
+
 @dataclass(frozen=True)
 class Outcome:
     """How a run ended: every source's estimates, the departed FLSs, rounds and restarts."""

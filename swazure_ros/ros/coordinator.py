@@ -40,7 +40,7 @@ from ..core.heuristics import HeuristicResult
 from ..core.paths import check_policy
 from ..protocol.discovery import Control, Estimate, evaluation_of
 from ..protocol.moves import Move, MoveRun, Walk
-from ..protocol.rounds import RoundClock
+from ..protocol.rounds import RoundClock, StallClock
 from ..sim.world import World
 from .convert import (
     control_message,
@@ -130,6 +130,11 @@ class MoveResult:
     traffic: Traffic
 
 
+#: Seconds between the coordinator's looks at its deadlines.
+TICK = 0.05
+#: A tick this much later than due means the process was busy, not that FLSs were silent.
+STALL = 0.5
+
 Machine = RoundClock | MoveRun
 Action = Control | Move | Walk
 
@@ -182,7 +187,9 @@ class Coordinator(SwarmNode):
         create_deferred_service(
             self, ComputePose, f"~/{COMPUTE_POSE_SERVICE}", self._on_compute_pose
         )
-        self.create_timer(0.05, self._on_tick)
+        self.create_timer(TICK, self._on_tick)
+        # Deadlines stand still while this process is too busy to hear anything.
+        self._clock = StallClock(TICK, STALL, time.monotonic())
         self._revision = 0  # the newest world revision seen
         self._asked_revision = 0  # the revision our last group of moves makes
         self._next_run = 1
@@ -251,7 +258,7 @@ class Coordinator(SwarmNode):
             self._next_run += 1
             job.began, job.traffic = time.perf_counter(), self.traffic.copy()
             self._job = job
-            self._act(job.machine.start(time.monotonic()))
+            self._act(job.machine.start(self._now()))
 
     def _act(self, actions: list[Action]) -> None:
         """Publish what the running machine asks for; finish its run when it is done."""
@@ -320,10 +327,16 @@ class Coordinator(SwarmNode):
 
     # Callbacks: one message -> one event of the running machine -------------
 
+    def _now(self) -> float:
+        """Seconds on the deadlines' clock: monotonic time less this process's stalls."""
+        return self._clock(time.monotonic())
+
     def _on_tick(self) -> None:
+        if not self._clock.tick(time.monotonic()):
+            return  # whatever arrived meanwhile waits behind this tick: hear it first
         machine = self._running()
         if machine is not None:
-            self._act(machine.on_tick(time.monotonic()))
+            self._act(machine.on_tick(self._now()))
 
     def _on_offer(self, data: bytes) -> None:
         self.traffic.count(RADIO_TOPIC, len(data))
@@ -339,7 +352,7 @@ class Coordinator(SwarmNode):
                     len(offer.source_ids),
                     offer.pending,
                     offer.finished,
-                    time.monotonic(),
+                    self._now(),
                 )
             )
 
@@ -348,7 +361,7 @@ class Coordinator(SwarmNode):
         ack = deserialize_message(data, RoundAck)
         clock = self._running(ack.run_id)
         if isinstance(clock, RoundClock):
-            self._act(clock.on_ack(int(ack.round), ack.host, time.monotonic()))
+            self._act(clock.on_ack(int(ack.round), ack.host, self._now()))
 
     def _on_estimates(self, data: bytes) -> None:
         self.traffic.count(ESTIMATES_TOPIC, len(data))
@@ -357,13 +370,13 @@ class Coordinator(SwarmNode):
         if machine is not None:
             estimates = [estimate_from_message(one) for one in message.estimates]
             source = int(message.source_id)
-            self._act(machine.on_estimates(source, estimates, time.monotonic()))
+            self._act(machine.on_estimates(source, estimates, self._now()))
 
     def _on_world(self, state: WorldState) -> None:
         self._revision = max(self._revision, int(state.revision))
         machine = self._running()
         if isinstance(machine, MoveRun):
-            self._act(machine.on_revision(self._revision, time.monotonic()))
+            self._act(machine.on_revision(self._revision, self._now()))
 
     def _on_walk(self, data: bytes) -> None:
         self.traffic.count(WALKS_TOPIC, len(data))

@@ -100,3 +100,30 @@ def test_departed_flss_of_earlier_runs_take_no_part():
     assert start.departed_ids == (1,) and first.expected == 2
     every_offer(run, 0, senders=(0, 2))
     assert run.on_ack(0, "host_0", 0.0)[0].phase == SWEET_ALL
+
+
+def test_a_stalled_process_does_not_time_its_flss_out():
+    from swazure_ros.protocol.rounds import StallClock
+
+    deadlines = StallClock(tick=0.05, stall=0.5, now=100.0)
+    run = clock()
+
+    def look(now):
+        """The coordinator's tick: the deadlines are looked at unless the tick came late."""
+        return run.on_tick(deadlines(now)) if deadlines.tick(now) else None
+
+    run.start(deadlines(100.0))
+    assert look(100.05) == []
+    # The process was busy for 30 s (three round timeouts): the late look is skipped...
+    assert look(130.05) is None
+    # ...the offers that waited behind it are heard, and the round goes on.
+    every_offer(run, 0, labels=1, now=deadlines(130.06))
+    assert run.on_ack(0, "host_0", deadlines(130.07))[0].round == 1
+    assert look(130.1) == []
+    assert run.restarts == 0 and not run.departed
+    # Silence the process could hear still counts: looks every tick, past the timeout.
+    now = 130.1
+    while not run.departed:
+        now += 0.05
+        look(now)
+    assert run.departed == set(FLSS) and 130.1 + TIMEOUT < now < 130.1 + TIMEOUT + 0.2
