@@ -189,7 +189,7 @@ class Coordinator(SwarmNode):
         )
         self.create_timer(TICK, self._on_tick)
         # Deadlines stand still while this process is too busy to hear anything.
-        self._clock = StallClock(TICK, STALL, time.monotonic())
+        self._deadlines = StallClock(TICK, STALL, time.monotonic())
         self._revision = 0  # the newest world revision seen
         self._asked_revision = 0  # the revision our last group of moves makes
         self._next_run = 1
@@ -329,10 +329,10 @@ class Coordinator(SwarmNode):
 
     def _now(self) -> float:
         """Seconds on the deadlines' clock: monotonic time less this process's stalls."""
-        return self._clock(time.monotonic())
+        return self._deadlines(time.monotonic())
 
     def _on_tick(self) -> None:
-        if not self._clock.tick(time.monotonic()):
+        if not self._deadlines.tick(time.monotonic()):
             return  # whatever arrived meanwhile waits behind this tick: hear it first
         machine = self._running()
         if machine is not None:
