@@ -219,6 +219,13 @@ SWARMS = [
     ("dragon_1147", None),
     ("racecar_3720", None),
 ]
+
+
+def swarm_cloud(name: str, builtin: str | None) -> str:
+    """The --cloud of a benchmark swarm: its built-in shape, or its published file."""
+    return builtin or str(DATASETS / f"{name}.xyz")
+
+
 SWARM_SIZES = {"helix:100": 100, "chess_408": 408, "dragon_1147": 1147, "racecar_3720": 3720}
 
 
@@ -334,7 +341,7 @@ def swarm_section(args: argparse.Namespace) -> list[str]:
         "| --- | ---: | ---: | ---: | ---: | --- |",
     ]
     for name, builtin in SWARMS:
-        cloud = builtin or str(DATASETS / f"{name}.xyz")
+        cloud = swarm_cloud(name, builtin)
         for processes in (1, 2):
             seconds, line = spawn(cloud, processes, domain)
             print(f"spawn {name} x{processes}: {seconds:.1f} s; {line}", flush=True)
@@ -356,7 +363,7 @@ def swarm_section(args: argparse.Namespace) -> list[str]:
         "| --- | ---: | ---: | ---: |",
     ]
     for name, builtin in SWARMS[:3]:
-        cloud = builtin or str(DATASETS / f"{name}.xyz")
+        cloud = swarm_cloud(name, builtin)
         rate = message_rate(cloud, domain)
         flss = SWARM_SIZES[name]
         print(f"rate {name}: {rate:.0f} msg/s", flush=True)
@@ -370,7 +377,7 @@ def swarm_section(args: argparse.Namespace) -> list[str]:
         "| --- | ---: | ---: | ---: |",
     ]
     for name, builtin in SWARMS[:3]:
-        cloud = builtin or str(DATASETS / f"{name}.xyz")
+        cloud = swarm_cloud(name, builtin)
         percent, teardown = idle_cpu(cloud, domain)
         flss = SWARM_SIZES[name]
         print(f"idle {name}: {percent:.1f} %, teardown {teardown:.1f} s", flush=True)
