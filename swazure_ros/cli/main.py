@@ -55,6 +55,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.verb is None:
         parser.print_help()
         return 2
+    code = _run(args)
+    if getattr(args, "exit_process", False):
+        # rclpy loads only for the verbs that use it: `swazure evaluate` starts faster.
+        from ..ros.runtime import exit_process
+
+        exit_process(code)
+    return code
+
+
+def _run(args: argparse.Namespace) -> int:
+    """The verb's exit code; the project's errors become one line on stderr."""
     try:
         return int(args.handler(args))
     except SwazureError as err:

@@ -36,6 +36,8 @@ from .evaluate import (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure spawn``."""
+    # The launcher leaves its nodes to the process's end (ros.runtime.exit_process).
+    parser.set_defaults(exit_process=True)
     add_swarm_arguments(parser)
     add_policy_argument(parser)
     parser.add_argument(
@@ -214,7 +216,7 @@ def main(args: argparse.Namespace) -> int:
     bar = CreationBar(args.quiet)
     ready = False
     try:
-        swarm = RunningSwarm(config, bar)
+        swarm = RunningSwarm(config, bar, leave_nodes=True)
         for signum in (signal.SIGINT, signal.SIGTERM):
             signal.signal(signum, _stopper(swarm))
         with swarm:

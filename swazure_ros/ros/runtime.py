@@ -10,7 +10,12 @@ of nodes.
 
 from __future__ import annotations
 
+import atexit
+import contextlib
+import ctypes
+import sys
 from pathlib import Path
+from typing import NoReturn
 
 import rclpy
 import yaml
@@ -113,3 +118,24 @@ def init_context(domain_id: int | None = None, params_file: str | None = None) -
     except Exception as err:  # rclpy reports a bad parameter file as a bare RCLError
         raise SwazureError(f"{params_file}: not a valid ROS 2 parameter file") from err
     return context
+
+
+def exit_process(code: int) -> NoReturn:
+    """End the process now, leaving its nodes to DDS's own teardown; never returns.
+
+    Destroying nodes one by one costs in proportion to the square of a
+    process's endpoints: rmw_fastrtps republishes the participant's whole
+    entity list after every endpoint it removes (docs/swarm.md, teardown).
+    The C library's exit runs Fast DDS's static teardown instead, which
+    deletes the participant whole and tells its peers so at once; Python's
+    finalizers, which would destroy each node, do not run (its exit handlers do). Call it last,
+    when every output is written.
+    """
+    # Python's exit handlers still run: multiprocessing's releases its semaphores.
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        # A reader gone or a stream closed: nothing is left to save.
+        with contextlib.suppress(OSError, ValueError):
+            stream.flush()
+    ctypes.CDLL(None).exit(code)
+    raise AssertionError("exit returned")  # pragma: no cover
