@@ -68,6 +68,10 @@ class BringUp:
         return float(sum(self.peak_rss_mb))
 
 
+#: Seconds between two progress reports of a long run.
+PROGRESS_PERIOD = 10.0
+
+
 def peak_rss_mb() -> float:
     """This process's peak resident memory, MB."""
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
@@ -269,18 +273,24 @@ class RunningSwarm:
         run: Future,
         timeout: float | None = None,
         step: Callable[[], None] | None = None,
+        on_progress: Callable[[str], None] | None = None,
     ) -> Any:
         """Serve the swarm until the coordinator's ``run`` is done; its result.
 
-        ``step()`` is called between spins (a test stops a node there).
+        ``step()`` is called between spins (a test stops a node there);
+        ``on_progress`` hears how far the run is every PROGRESS_PERIOD s.
         TimeoutError after ``timeout`` seconds.
         """
         deadline = None if timeout is None else time.monotonic() + timeout
         watched = 0.0
+        told = time.monotonic()
         while not run.done():
             now = time.monotonic()
             if deadline is not None and now > deadline:
                 raise TimeoutError(f"coordinator run not done after {timeout} s")
+            if on_progress is not None and now - told > PROGRESS_PERIOD:
+                on_progress(self._coordinator.progress())
+                told = now
             if step is not None:
                 step()
             # The other processes' reports (a failure) need no more than a few looks a
@@ -291,9 +301,15 @@ class RunningSwarm:
             self._host.spin_once(0.02)
         return run.result()
 
-    def discover(self, policy: str, timeout: float | None = None) -> DiscoveryResult:
+    def discover(
+        self,
+        policy: str,
+        timeout: float | None = None,
+        on_progress: Callable[[str], None] | None = None,
+    ) -> DiscoveryResult:
         """Run discovery for every FLS and blind neighbour."""
-        result: DiscoveryResult = self.run(self._coordinator.discover(policy), timeout)
+        run = self._coordinator.discover(policy)
+        result: DiscoveryResult = self.run(run, timeout, on_progress=on_progress)
         return result
 
     def make_moves(
@@ -302,10 +318,11 @@ class RunningSwarm:
         technique: str = "move-obstructing",
         threshold: int = 10,
         timeout: float | None = None,
+        on_progress: Callable[[str], None] | None = None,
     ) -> MoveResult:
         """A heuristic on the BLOCKED pairs of a whole-swarm run, its moves made by the swarm."""
         moves = self._coordinator.make_moves(plain, technique, threshold)
-        result: MoveResult = self.run(moves, timeout)
+        result: MoveResult = self.run(moves, timeout, on_progress=on_progress)
         return result
 
     def spin(self, seconds: float | None = None) -> None:
@@ -384,21 +401,25 @@ def compute_all(
     technique: str = PLAIN,
     threshold: int = 10,
     on_discovered: Callable[[DiscoveryResult], None] | None = None,
+    on_progress: Callable[[str], None] | None = None,
 ) -> SwarmComputation:
     """Every FLS's pose relative to every blind neighbour, by the swarm, and by the engine.
 
     With a ``technique`` other than plain, the swarm then makes that heuristic's
-    moves. ``on_discovered`` hears the discovery run's result as soon as it is in.
+    moves. ``on_discovered`` hears the discovery run's result as soon as it is in;
+    ``on_progress`` how far each run is, every PROGRESS_PERIOD s.
     """
     world: World = swarm.world
-    result = swarm.discover(policy)
+    result = swarm.discover(policy, on_progress=on_progress)
     if on_discovered is not None:
         on_discovered(result)
     evaluation = evaluation_of(world.hood, policy, result.estimates)
     evaluation.summary["seconds"] = result.seconds
     heuristic, moved = None, None
     if technique != PLAIN:
-        moved = swarm.make_moves(result, technique, threshold)
+        if on_progress is not None:
+            on_progress(f"planning {technique}")
+        moved = swarm.make_moves(result, technique, threshold, on_progress=on_progress)
         evaluation, heuristic = moved.evaluation, moved.heuristic
         evaluation.summary["seconds"] = result.seconds + moved.seconds
     began = time.perf_counter()

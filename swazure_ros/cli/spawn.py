@@ -18,6 +18,7 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -159,8 +160,14 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
             flush=True,
         )
 
+    began = time.monotonic()
+
+    def progress(text: str) -> None:
+        if not args.quiet:
+            print(f"  {time.monotonic() - began:.0f} s: {text}", file=sys.stderr, flush=True)
+
     print(f"discovery: every FLS for every blind neighbour, {args.policy}", flush=True)
-    computed = run(swarm, args.policy, args.technique, args.threshold, discovered)
+    computed = run(swarm, args.policy, args.technique, args.threshold, discovered, progress)
     if computed.moves is not None:
         moved = computed.moves
         print(

@@ -189,6 +189,11 @@ class MoveRun:
         """True once every batch is made (:attr:`outcome` holds the result)."""
         return self.outcome is not None
 
+    @property
+    def progress(self) -> str:
+        """How far the run is, for a person watching."""
+        return f"batch {max(self._batch + 1, 0):,} of {len(self.batches):,}"
+
     def start(self, now: float) -> list[Move | Walk]:
         """Begin: the first batch's moves (or the end, when nothing is to be moved)."""
         return self._next_batch(now)

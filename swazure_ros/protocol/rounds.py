@@ -150,6 +150,11 @@ class RoundClock:
         return self.outcome is not None
 
     @property
+    def progress(self) -> str:
+        """How far the run is, for a person watching."""
+        return f"discovery round {self.round}"
+
+    @property
     def live(self) -> frozenset[int]:
         """The FLSs that take part now."""
         return self.fls_ids - self.departed

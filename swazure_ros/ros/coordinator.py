@@ -313,6 +313,11 @@ class Coordinator(SwarmNode):
             traffic,
         )
 
+    def progress(self) -> str:
+        """How far the running job is ("" when idle), for a person watching."""
+        machine = self._running()
+        return machine.progress if machine is not None else ""
+
     def _running(self, run_id: int | None = None) -> Machine | None:
         """The running machine (of run ``run_id``, if given)."""
         machine = self._job.machine if self._job is not None else None
