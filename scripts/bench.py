@@ -12,6 +12,7 @@ import datetime
 import json
 import os
 import platform
+import select
 import subprocess
 import sys
 import tempfile
@@ -213,34 +214,26 @@ def study_section(args: argparse.Namespace) -> list[str]:
     return lines
 
 
-SWARMS = [
-    ("helix:100", "helix:100"),
-    ("chess_408", None),
-    ("dragon_1147", None),
-    ("racecar_3720", None),
-]
+SHAPE_SIZES = {
+    "chess_408": 408,
+    "palm_725": 725,
+    "kangaroo_972": 972,
+    "dragon_1147": 1147,
+    "skateboard_1372": 1372,
+    "racecar_3720": 3720,
+}
+#: The longest a swarm may take to come up before its row says so.
+BRING_UP_LIMIT = 900.0
 
 
-def swarm_cloud(name: str, builtin: str | None) -> str:
-    """The --cloud of a benchmark swarm: its built-in shape, or its published file."""
-    return builtin or str(DATASETS / f"{name}.xyz")
+def swarm_cloud(name: str) -> str:
+    """The --cloud of a published shape."""
+    return str(DATASETS / f"{name}.xyz")
 
 
-SWARM_SIZES = {"helix:100": 100, "chess_408": 408, "dragon_1147": 1147, "racecar_3720": 3720}
-
-
-def spawn(cloud: str, processes: int, domain: int) -> tuple[float, str]:
-    """Bring a swarm up with --until-ready; return wall seconds and the launcher's line."""
-    command = spawn_command(cloud, domain, "--until-ready", "--processes", str(processes))
-    began = time.perf_counter()
-    done = subprocess.run(command, capture_output=True, text=True)
-    seconds = time.perf_counter() - began
-    if done.returncode != 0:
-        raise SystemExit(f"bench: spawn {cloud} x{processes} failed: {done.stderr.strip()}")
-    return seconds, done.stdout.strip().splitlines()[0]
-
-
-def message_rate(cloud: str, domain: int, period: float = 0.1, window: float = 10.0) -> float:
+def message_rate(
+    cloud: str, domain: int, period: float = 0.1, window: float = 10.0, processes: int = 1
+) -> float:
     """Measurements messages per second a probe receives from a running swarm."""
     import rclpy.executors
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -253,7 +246,7 @@ def message_rate(cloud: str, domain: int, period: float = 0.1, window: float = 1
     params.write_text(
         f"/**:\n  ros__parameters:\n    publish_period: {period}\n    republish_period: {period}\n"
     )
-    command = spawn_command(cloud, domain, "--params", str(params))
+    command = spawn_command(cloud, domain, "--params", str(params), "--processes", str(processes))
     process = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
     try:
         assert process.stdout is not None
@@ -292,9 +285,14 @@ def message_rate(cloud: str, domain: int, period: float = 0.1, window: float = 1
         params.unlink()
 
 
-def idle_cpu(cloud: str, domain: int, window: float = 30.0) -> tuple[float, float]:
-    """(% of one core a served swarm uses at rest over ``window`` s, s to stop it on SIGTERM)."""
-    command = spawn_command(cloud, domain)
+def served(cloud: str, processes: int, domain: int, window: float = 20.0) -> dict[str, object]:
+    """Serve a swarm at rest: its bring-up line, idle CPU % of one core, teardown s.
+
+    The CPU is every process of `swazure spawn` over ``window`` s once up (from
+    /proc); teardown is from SIGTERM until the launcher has exited.
+    """
+    command = spawn_command(cloud, domain, "--processes", str(processes))
+    began = time.monotonic()
     process = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
     ticks = os.sysconf("SC_CLK_TCK")
 
@@ -307,18 +305,31 @@ def idle_cpu(cloud: str, domain: int, window: float = 30.0) -> tuple[float, floa
             total += (int(fields[11]) + int(fields[12])) / ticks
         return total
 
+    row: dict[str, object] = {}
     try:
         assert process.stdout is not None
-        process.stdout.readline()  # "swarm up ..."
+        ready = select.select([process.stdout], [], [], BRING_UP_LIMIT)[0]
+        line = process.stdout.readline() if ready else ""
+        if not line.startswith("swarm up:"):
+            row["failed"] = (
+                f"not up in {BRING_UP_LIMIT / 60:.0f} min" if not ready else f"failed: {line}"
+            )
+            return row
+        row["wall_up"] = time.monotonic() - began
+        # "swarm up: N FLS nodes in P process(es) under /swarm, discovered in X s; peak
+        # memory T MB (a + b)"
+        row["discovered"] = float(line.split("discovered in ")[1].split(" s;")[0])
+        row["memory"] = line.split("peak memory ")[1].strip()
         time.sleep(5.0)
-        before, began = cpu_seconds(), time.monotonic()
+        before, sampled = cpu_seconds(), time.monotonic()
         time.sleep(window)
-        percent = 100.0 * (cpu_seconds() - before) / (time.monotonic() - began)
+        row["idle"] = 100.0 * (cpu_seconds() - before) / (time.monotonic() - sampled)
     finally:
         stopped = time.monotonic()
         process.terminate()
         process.wait(timeout=900)
-    return percent, time.monotonic() - stopped
+        row["teardown"] = time.monotonic() - stopped
+    return row
 
 
 def children(pid: int) -> list[int]:
@@ -328,60 +339,49 @@ def children(pid: int) -> list[int]:
 
 
 def swarm_section(args: argparse.Namespace) -> list[str]:
-    """Bring-up of node-per-FLS swarms and the message rate once up."""
+    """Every published shape's swarm: bring-up, rest, message rate, teardown."""
     domain = 91
     lines = [
-        "## The swarm on ROS 2: `swazure spawn --until-ready`, one node per FLS, beta 0.5",
+        "## The swarm on ROS 2: `swazure spawn`, one node per FLS, beta 0.5",
         "",
-        "Time from launcher start until every process sees every FLS node's publisher and",
-        "service (the launcher's own count), the whole command's wall time, and the peak",
-        "resident memory of each process.",
+        "Each row is one served swarm with the default parameters (config/swarm.yaml: a",
+        "measurement is sent when it changes). Discovered: from launcher start until every",
+        "process sees every FLS node's publisher and service. Peak memory per process. Idle",
+        "CPU: every process over 20 s once up, in % of one core. Teardown: from SIGTERM until",
+        "the launcher has exited.",
         "",
-        "| swarm | FLS nodes | processes | discovered s | wall s | peak MB (per process) |",
-        "| --- | ---: | ---: | ---: | ---: | --- |",
+        "| shape | FLS nodes | processes | discovered s | peak MB (per process) "
+        "| idle CPU % | teardown s |",
+        "| --- | ---: | ---: | ---: | --- | ---: | ---: |",
     ]
-    for name, builtin in SWARMS:
-        cloud = swarm_cloud(name, builtin)
+    for name, flss in SHAPE_SIZES.items():
         for processes in (1, 2):
-            seconds, line = spawn(cloud, processes, domain)
-            print(f"spawn {name} x{processes}: {seconds:.1f} s; {line}", flush=True)
-            # "swarm up: N FLS nodes in P process(es) under /swarm, discovered in X s; peak
-            # memory T MB (a + b)"
-            nodes = line.split("swarm up: ")[1].split(" ")[0]
-            discovered = line.split("discovered in ")[1].split(" s;")[0]
-            memory = line.split("peak memory ")[1]
+            row = served(swarm_cloud(name), processes, domain)
+            print(f"served {name} x{processes}: {row}", flush=True)
+            if "failed" in row:
+                lines.append(
+                    f"| {name} | {flss} | {processes} | {row['failed']} | | "
+                    f"| {row['teardown']:.1f} |"
+                )
+                continue
             lines.append(
-                f"| {name} | {nodes} | {processes} | {discovered} | {seconds:.1f} | {memory} |"
+                f"| {name} | {flss} | {processes} | {row['discovered']:.1f} | {row['memory']} "
+                f"| {row['idle']:.1f} | {row['teardown']:.1f} |"
             )
     lines += [
         "",
         "Messages delivered once up: every FLS publishes its Measurements every 0.1 s on the",
         "shared topic (a heartbeat: republish_period 0.1 s); a probe node in another process",
-        "counts what arrives over 10 s.",
+        "counts what arrives over 10 s. One process (two for the race car).",
         "",
-        "| swarm | FLS nodes | published per s | received per s |",
-        "| --- | ---: | ---: | ---: |",
+        "| shape | FLS nodes | processes | published per s | received per s |",
+        "| --- | ---: | ---: | ---: | ---: |",
     ]
-    for name, builtin in SWARMS[:3]:
-        cloud = swarm_cloud(name, builtin)
-        rate = message_rate(cloud, domain)
-        flss = SWARM_SIZES[name]
+    for name, flss in SHAPE_SIZES.items():
+        processes = 2 if flss > 2000 else 1
+        rate = message_rate(swarm_cloud(name), domain, processes=processes)
         print(f"rate {name}: {rate:.0f} msg/s", flush=True)
-        lines.append(f"| {name} | {flss} | {flss / 0.1:,.0f} | {rate:,.0f} |")
-    lines += [
-        "",
-        "A swarm at rest (default parameters: a measurement is sent when it changes): CPU of",
-        "every process of `swazure spawn` over 30 s once up, and the time from SIGTERM to exit.",
-        "",
-        "| swarm | FLS nodes | idle CPU, % of one core | teardown s |",
-        "| --- | ---: | ---: | ---: |",
-    ]
-    for name, builtin in SWARMS[:3]:
-        cloud = swarm_cloud(name, builtin)
-        percent, teardown = idle_cpu(cloud, domain)
-        flss = SWARM_SIZES[name]
-        print(f"idle {name}: {percent:.1f} %, teardown {teardown:.1f} s", flush=True)
-        lines.append(f"| {name} | {flss} | {percent:.1f} | {teardown:.1f} |")
+        lines.append(f"| {name} | {flss} | {processes} | {flss / 0.1:,.0f} | {rate:,.0f} |")
     lines += [
         "",
         "Targets (issue 16): the race car's 3720 nodes up in under 60 s, under 4 GB; the",
@@ -391,26 +391,45 @@ def swarm_section(args: argparse.Namespace) -> list[str]:
     return lines
 
 
-DISCOVERY = ["chess_408", "dragon_1147"]
+#: The longest a --compute-all run may take before its row says how far it got, s.
+RUN_LIMIT = {"plain": 900.0, "move-obstructing": 480.0, "move-source": 480.0}
 
 
-def compute_all(cloud: str, technique: str, domain: int, out: Path) -> dict[str, object]:
-    """One `swazure spawn --compute-all` run; its timings, traffic and the engine check."""
-    command = spawn_command(
-        cloud,
-        domain,
-        *("--policy", "shortest-length", "--compute-all", "--technique", technique),
-        *("--out", str(out)),
-    )
-    seconds, memory, code, output = run_output(command)
-    if code != 0:
-        raise SystemExit(f"bench: spawn --compute-all {cloud} {technique} failed (exit {code})")
+def compute_all(
+    cloud: str, technique: str, domain: int, out: Path, processes: int, limit: float
+) -> dict[str, object]:
+    """One `swazure spawn --compute-all` run; its timings, traffic and the engine check.
+
+    A run still going after ``limit`` s is stopped: the row has how far it got.
+    """
+    command = [
+        *SWAZURE, "spawn", "--cloud", cloud, "--beta", "0.5", "--domain-id", str(domain),
+        "--processes", str(processes), "--policy", "shortest-length", "--compute-all",
+        "--technique", technique, "--out", str(out),
+    ]  # fmt: skip
+    log = out / "stderr.log"
+    began = time.perf_counter()
+    with log.open("w") as stderr:
+        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=stderr, text=True)
+        try:
+            output, _ = process.communicate(timeout=limit)
+        except subprocess.TimeoutExpired:
+            process.terminate()
+            process.communicate(timeout=900)
+            # The last progress line: "  N s: batch k of n".
+            said = [x.strip() for x in log.read_text().splitlines() if " s: " in x]
+            where = said[-1].split(": ", 1)[1] if said else "bringing the swarm up"
+            return {"failed": f"stopped after {limit / 60:.0f} min at {where}"}
+    seconds = time.perf_counter() - began
+    if process.returncode != 0:
+        tail = log.read_text().strip().splitlines()[-1:]
+        return {"failed": f"exit {process.returncode}: {' '.join(tail)}"}
     distributed = json.loads((out / "summary.json").read_text())["distributed"]
     moved = distributed.get("moves", {"seconds": 0.0, "messages": {}, "bytes": {}})
     line = next(x for x in output.splitlines() if x.startswith("swarm up:"))
     return {
         "wall": seconds,
-        "peak": memory,
+        "peak": line.split("peak memory ")[1].split(" MB")[0],
         "bring_up": float(line.split("discovered in ")[1].split(" s;")[0]),
         "discovery": distributed["seconds"],
         "rounds": distributed["rounds"],
@@ -429,32 +448,42 @@ def discovery_section(args: argparse.Namespace) -> list[str]:
     lines = [
         "## Distributed Swazure: `swazure spawn --compute-all`, beta 0.5, Shortest-Length",
         "",
-        "One process holds every FLS node and the coordinator (config/swarm.yaml: every FLS",
-        "also publishes its measurements once a second meanwhile). Wall is the whole command:",
+        "One process holds every FLS node and the coordinator (two processes for the race",
+        "car; config/swarm.yaml, the default parameters). Wall is the whole command:",
         "bring-up, the computation, the engine's run for comparison, writing summary.json and",
         "pairs.csv, and tearing the nodes down. Messages and bytes are every message the",
         "protocol publishes (docs/protocol.md; the world node's WorldState not counted), as",
         "serialized. Engine: `evaluate` (+ `run_technique`) in the same process, same work.",
         'Move Source probes up to T = 10 steps. "Moves s" is the heuristic\'s part: planning,',
-        "batches of moves (two world revisions each), path walks.",
+        "batches of moves (two world revisions each), path walks. A run still going after",
+        f"{RUN_LIMIT['plain'] / 60:.0f} min (plain) or {RUN_LIMIT['move-obstructing'] / 60:.0f} "
+        "min (a heuristic) is stopped; its row says how far it got.",
         "",
-        "| shape | technique | bring-up s | discovery s | rounds | moves s | batches "
-        "| messages | MB | wall s | engine s | identical | peak MB |",
-        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: "
+        "| shape | technique | processes | bring-up s | discovery s | rounds | moves s "
+        "| batches | messages | MB | wall s | engine s | identical | peak MB |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: "
         "| --- | ---: |",
     ]
-    for name in DISCOVERY:
+    for name, flss in SHAPE_SIZES.items():
+        processes = 2 if flss > 2000 else 1
         for technique in ("plain", "move-obstructing", "move-source"):
             with tempfile.TemporaryDirectory() as out:
-                row = compute_all(str(DATASETS / f"{name}.xyz"), technique, domain, Path(out))
+                row = compute_all(
+                    swarm_cloud(name), technique, domain, Path(out), processes,
+                    RUN_LIMIT[technique],
+                )  # fmt: skip
             print(f"compute-all {name} {technique}: {row}", flush=True)
+            if "failed" in row:
+                blank = " |" * 10
+                lines.append(f"| {name} | {technique} | {processes} | {row['failed']} |{blank}")
+                continue
             moving = f"{row['moving']:.1f}" if technique != "plain" else "-"
             batches = f"{row['batches']:,}" if technique != "plain" else "-"
             lines.append(
-                f"| {name} | {technique} | {row['bring_up']:.1f} | {row['discovery']:.1f} "
-                f"| {row['rounds']} | {moving} | {batches} | {row['messages']:,} "
-                f"| {row['bytes'] / 1e6:,.0f} | {row['wall']:.1f} | {row['engine']:.1f} "
-                f"| {row['identical']} | {row['peak']:.0f} |"
+                f"| {name} | {technique} | {processes} | {row['bring_up']:.1f} "
+                f"| {row['discovery']:.1f} | {row['rounds']} | {moving} | {batches} "
+                f"| {row['messages']:,} | {row['bytes'] / 1e6:,.0f} | {row['wall']:.1f} "
+                f"| {row['engine']:.1f} | {row['identical']} | {row['peak']} |"
             )
     lines += [
         "",
@@ -463,9 +492,10 @@ def discovery_section(args: argparse.Namespace) -> list[str]:
         "walk fails and the pair keeps its plain result. The spec's Move Source (section 8), and",
         "so the engine, does not check this (docs/protocol.md).",
         "",
-        "Targets (issue 7): the chess piece's 105,778 ordered blind pairs in under 2 minutes",
-        "including bring-up, the dragon's 263,502 in under 10 minutes, both identical to the",
-        "core engine.",
+        "Targets (issue 16): plain discovery, chess under 10 s, dragon under 60 s, race car",
+        "under 10 minutes; Move Obstructing by the swarm, chess under 60 s, dragon under 5",
+        "minutes, race car under 15 minutes; Move Source T=10 on every shape; identical to",
+        "the engine but for the documented walk failures.",
         "",
     ]
     return lines
