@@ -556,9 +556,31 @@ def _segment_distances(points: FloatArray, starts: FloatArray, ends: FloatArray)
 class _Batch:
     pairs: list[int]
     moved: dict[int, tuple[float, float, float]]  # FLS -> where it moves to, cm
-    on_paths: set[int]
     starts: list[FloatArray]  # hop segments of the batch's paths, cm
     ends: list[FloatArray]
+    _arrays: tuple[IntArray, FloatArray, FloatArray, FloatArray] | None = None
+
+    def arrays(self) -> tuple[IntArray, FloatArray, FloatArray, FloatArray]:
+        """Moved FLSs (M,), where they go (M, 3), hop starts and ends (S, 3) each, cm."""
+        # Cached: a batch is looked at by many pairs between two that join it.
+        if self._arrays is None:
+            self._arrays = (
+                np.fromiter(self.moved, dtype=np.int64, count=len(self.moved)),
+                np.array(list(self.moved.values()), dtype=np.float64).reshape(-1, 3),
+                np.array(self.starts).reshape(-1, 3),
+                np.array(self.ends).reshape(-1, 3),
+            )
+        return self._arrays
+
+    def join(
+        self, pair: int, moved: dict[int, tuple[float, float, float]], where: FloatArray
+    ) -> None:
+        """Add ``pair``, its moves and its hops between ``where`` (H + 1, 3), cm."""
+        self.pairs.append(pair)
+        self.moved.update(moved)
+        self.starts.extend(where[:-1])
+        self.ends.extend(where[1:])
+        self._arrays = None
 
 
 def move_batches(evaluation: Evaluation, heuristic: HeuristicResult) -> list[IntArray]:
@@ -576,58 +598,63 @@ def move_batches(evaluation: Evaluation, heuristic: HeuristicResult) -> list[Int
     points, radius = evaluation.hood.swarm.points, evaluation.hood.swarm.radius
     paths = heuristic.paths
     batches: list[_Batch] = []
-    # Which batches each FLS lies on a path of, or moves in: a pair's conflicts by
-    # FLS are then a few set unions, not a look into every batch.
-    on_path_in: dict[int, set[int]] = {}
-    moved_in: dict[int, dict[int, tuple[float, float, float]]] = {}
+    # Per FLS and batch: does it lie on a path of the batch, and where does it move
+    # in the batch (an index into its destinations; -1: it stays). A pair's
+    # conflicts by FLS are then a few rows of these tables, not a look into every batch.
+    capacity = 64
+    on_path = np.zeros((len(points), capacity), dtype=bool)
+    moves_to = np.full((len(points), capacity), -1, dtype=np.int32)
+    destinations: list[dict[tuple[float, float, float], int]] = [{} for _ in points]
+    is_mover = np.zeros(len(points), dtype=bool)  # the FLSs the pair at hand moves
     for pair in np.flatnonzero(heuristic.resolved).tolist():
-        path = paths.nodes[paths.offsets[pair] : paths.offsets[pair + 1]].tolist()
+        path = paths.nodes[paths.offsets[pair] : paths.offsets[pair + 1]]
         moved: dict[int, tuple[float, float, float]] = {
             fls: (float(to[0]), float(to[1]), float(to[2])) for fls, _, to in heuristic.moves(pair)
         }
-        where = np.array([moved.get(fls, points[fls]) for fls in path], dtype=np.float64)
+        where = np.array([moved.get(fls, points[fls]) for fls in path.tolist()], dtype=np.float64)
         starts, ends = where[:-1], where[1:]
-        excluded: set[int] = set()
-        for fls, to in moved.items():
-            excluded.update(on_path_in.get(fls, ()))
-            excluded.update(k for k, there in moved_in.get(fls, {}).items() if there != to)
-        for fls in path:
-            excluded.update(moved_in.get(fls, ()))
-        for index, batch in enumerate(batches):
-            if index in excluded:
-                continue
-            mine = [to for fls, to in moved.items() if fls not in batch.moved]
-            theirs = [to for fls, to in batch.moved.items() if fls not in moved]
-            if mine and theirs:
-                apart = np.linalg.norm(
-                    np.array(mine)[:, None, :] - np.array(theirs)[None, :, :], axis=2
-                )
+        count = len(batches)
+        excluded = (moves_to[path, :count] >= 0).any(axis=0)
+        movers = np.fromiter(moved, dtype=np.int64, count=len(moved))
+        is_mover[movers] = True
+        if len(movers):
+            going_to = np.array(
+                [
+                    destinations[fls].setdefault(to, len(destinations[fls]))
+                    for fls, to in moved.items()
+                ]
+            )
+            elsewhere = moves_to[movers, :count]
+            excluded |= on_path[movers, :count].any(axis=0)
+            excluded |= ((elsewhere >= 0) & (elsewhere != going_to[:, None])).any(axis=0)
+        for index in np.flatnonzero(~excluded).tolist():
+            batch = batches[index]
+            ids, goes_to, batch_starts, batch_ends = batch.arrays()
+            mine = np.array([to for fls, to in moved.items() if fls not in batch.moved])
+            theirs = goes_to[~is_mover[ids]]
+            if len(mine) and len(theirs):
+                apart = np.linalg.norm(mine[:, None, :] - theirs[None, :, :], axis=2)
                 if (apart < 2.0 * radius).any():
                     continue
-            if mine and batch.starts:
-                near = _segment_distances(
-                    np.array(mine), np.array(batch.starts), np.array(batch.ends)
-                )
+            if len(mine) and len(batch_starts):
+                near = _segment_distances(mine, batch_starts, batch_ends)
                 if (near < radius - _TOUCH).any():
                     continue
-            if (
-                theirs
-                and (_segment_distances(np.array(theirs), starts, ends) < radius - _TOUCH).any()
-            ):
+            if len(theirs) and (_segment_distances(theirs, starts, ends) < radius - _TOUCH).any():
                 continue
             break
         else:
-            index, batch = len(batches), _Batch([], {}, set(), [], [])
+            index, batch = count, _Batch([], {}, [], [])
             batches.append(batch)
-        batch.pairs.append(pair)
-        batch.moved.update(moved)
-        batch.on_paths.update(path)
-        batch.starts.extend(starts)
-        batch.ends.extend(ends)
+            if count == capacity:
+                capacity *= 2
+                on_path = np.pad(on_path, ((0, 0), (0, capacity - count)))
+                moves_to = np.pad(moves_to, ((0, 0), (0, capacity - count)), constant_values=-1)
+        is_mover[movers] = False
+        batch.join(pair, moved, where)
+        on_path[path, index] = True
         for fls, to in moved.items():
-            moved_in.setdefault(fls, {})[index] = to
-        for fls in path:
-            on_path_in.setdefault(fls, set()).add(index)
+            moves_to[fls, index] = destinations[fls][to]
     return [np.array(batch.pairs, dtype=np.int64) for batch in batches]
 
 
