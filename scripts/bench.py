@@ -370,11 +370,12 @@ def swarm_section(args: argparse.Namespace) -> list[str]:
             )
     lines += [
         "",
-        "Messages delivered once up: every FLS publishes its Measurements every 0.1 s on the",
-        "shared topic (a heartbeat: republish_period 0.1 s); a probe node in another process",
-        "counts what arrives over 10 s. One process (two for the race car).",
+        "Messages delivered once up: every FLS is set to publish its Measurements every 0.1 s",
+        "on the shared topic (a heartbeat: republish_period 0.1 s); a probe node in another",
+        "process counts what arrives over 10 s. One process (two for the race car). A process",
+        "sends what its core can build: the large shapes' messages hold hundreds of poses.",
         "",
-        "| shape | FLS nodes | processes | published per s | received per s |",
+        "| shape | FLS nodes | processes | asked per s (heartbeat) | received per s |",
         "| --- | ---: | ---: | ---: | ---: |",
     ]
     for name, flss in SHAPE_SIZES.items():
