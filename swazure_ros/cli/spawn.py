@@ -1,12 +1,12 @@
 """Bring up a swarm of FLS nodes (one rclpy node per FLS) and serve it until Ctrl-C.
 
 Every FLS publishes its camera measurements on /NAMESPACE/measurements and
-answers /NAMESPACE/fls_<id>/get_neighbours and .../compute_pose; the world
-node publishes the positions on /NAMESPACE/world and moves FLSs on
-/NAMESPACE/move_commands; the coordinator clocks path discovery
-(docs/protocol.md). FLS ids are the cloud's row numbers. Node parameters
-(publish_period, round_timeout) come from a ROS 2 parameter file (--params,
-default config/swarm.yaml).
+answers /NAMESPACE/fls_<id>/get_neighbours; the world node publishes the
+positions on /NAMESPACE/world and moves FLSs on /NAMESPACE/move_commands;
+the coordinator clocks path discovery and answers
+/NAMESPACE/coordinator/compute_pose (docs/protocol.md). FLS ids are the
+cloud's row numbers. Node parameters (publish_period, round_timeout) come
+from a ROS 2 parameter file (--params, default config/swarm.yaml).
 
 With --compute-all the swarm computes every FLS's pose relative to every
 blind neighbour once (and, with --technique, a heuristic's moves), prints it

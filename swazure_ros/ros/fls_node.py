@@ -10,9 +10,6 @@ names and QoS in :mod:`.names`):
   latched for readers who come later;
 - ``fls_<id>/get_neighbours`` (swazure_interfaces/GetNeighbours): its blind,
   sweet and decaying neighbours as it knows them;
-- ``fls_<id>/compute_pose`` (swazure_interfaces/ComputePose): its pose
-  relative to one blind neighbour, found by a discovery run that its process
-  asks the coordinator to clock;
 - ``radio`` and ``estimates``, shared: its path labels, one broadcast per
   round of a discovery run, and its estimates when a run ends or a path walk
   comes back (docs/protocol.md);
@@ -40,7 +37,6 @@ a thousand times.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable
 
 from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import ParameterDescriptor
@@ -52,7 +48,6 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.serialization import serialize_message
-from rclpy.task import Future
 from rclpy.timer import Timer
 from swazure_interfaces.msg import (
     Measurements,
@@ -62,7 +57,7 @@ from swazure_interfaces.msg import (
     TrackRequest,
     TrackSample,
 )
-from swazure_interfaces.srv import ComputePose, GetNeighbours, TrackTarget
+from swazure_interfaces.srv import GetNeighbours, TrackTarget
 
 from ..core.errors import SwazureError
 from ..core.observe import NeighbourSets
@@ -83,9 +78,7 @@ from .convert import (
     sample_message,
     track_estimate_message,
 )
-from .deferred import Reply, create_deferred_service
 from .names import (
-    COMPUTE_POSE_SERVICE,
     ESTIMATES_TOPIC,
     MEASUREMENTS_QOS,
     MEASUREMENTS_TOPIC,
@@ -129,11 +122,6 @@ class Transmitter:
         return len(data)
 
 
-#: How an FLS's process passes a ComputePose request on to the coordinator:
-#: a future of the coordinator's response.
-AskCoordinator = Callable[[ComputePose.Request], Future]
-
-
 class FlsNode(SwarmNode):
     """One Flying Light Speck."""
 
@@ -144,7 +132,6 @@ class FlsNode(SwarmNode):
         *,
         namespace: str = "swarm",
         context: Context | None = None,
-        ask_coordinator: AskCoordinator | None = None,
         transmitter: Transmitter | None = None,
         parameter_overrides: list[Parameter] | None = None,
     ) -> None:
@@ -183,11 +170,6 @@ class FlsNode(SwarmNode):
         )
         self._publisher = self.create_publisher(Measurements, MEASUREMENTS_TOPIC, MEASUREMENTS_QOS)
         self.create_service(GetNeighbours, f"~/{NEIGHBOURS_SERVICE}", self._on_get_neighbours)
-        # The answer waits for a whole discovery run; meanwhile the node keeps serving.
-        self._ask_coordinator = ask_coordinator
-        create_deferred_service(
-            self, ComputePose, f"~/{COMPUTE_POSE_SERVICE}", self._on_compute_pose
-        )
         self.create_timer(self.publish_period, self._on_frame)
         # Alone (no process hosting it), an FLS transmits with publishers of its own.
         self._transmitter = transmitter or Transmitter(self)
@@ -281,18 +263,6 @@ class FlsNode(SwarmNode):
         return response
 
     # Discovery ---------------------------------------------------------------
-
-    def _on_compute_pose(self, request: ComputePose.Request, reply: Reply) -> None:
-        if request.source_id != self.fls_id:
-            message = self._elsewhere(
-                request.source_id, COMPUTE_POSE_SERVICE, "computes its own poses"
-            )
-            reply(ComputePose.Response(success=False, message=message))
-        elif self._ask_coordinator is None:
-            message = "no coordinator to clock a discovery run"
-            reply(ComputePose.Response(success=False, message=message))
-        else:
-            self._ask_coordinator(request).add_done_callback(lambda answer: reply(answer.result()))
 
     def on_control(self, control: Control, heard: RoundOffers | None) -> None:
         """Follow the round clock, taking the offers heard since the last control."""

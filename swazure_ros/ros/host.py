@@ -17,7 +17,6 @@ from rclpy.context import Context
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.task import Future
 from swazure_interfaces.msg import (
     DiscoveryControl,
     PathOffer,
@@ -27,7 +26,6 @@ from swazure_interfaces.msg import (
     TrackSample,
     WorldState,
 )
-from swazure_interfaces.srv import ComputePose
 
 from ..core.errors import UnknownFlsError
 from ..core.motion import Motion
@@ -46,9 +44,7 @@ from .convert import (
 from .fls_node import FlsNode, Transmitter
 from .names import (
     ACK_TOPIC,
-    COMPUTE_POSE_SERVICE,
     CONTROL_TOPIC,
-    COORDINATOR,
     MEASUREMENTS_TOPIC,
     NEIGHBOURS_SERVICE,
     RADIO_TOPIC,
@@ -189,10 +185,6 @@ class SwarmHost:
         self.replica.on_revision.append(self._sense_anew)
         self.radio = Radio(self.host_node, self.replica, self.fls_by_id)
         self.transmitter = Transmitter(self.host_node)
-        # One client per process, shared by its FLS nodes' compute_pose services.
-        self._coordinator = self.host_node.create_client(
-            ComputePose, f"{COORDINATOR}/{COMPUTE_POSE_SERVICE}"
-        )
         self._add(self.host_node)
         if with_world_node:
             self._add(WorldNode(self.replica, namespace=self.namespace, context=context))
@@ -223,19 +215,6 @@ class SwarmHost:
         self.nodes.append(node)
         self.executor.add_node(node)
 
-    def ask_coordinator(self, request: ComputePose.Request) -> Future:
-        """Pass an FLS's ComputePose request on to the coordinator: a future of its answer."""
-        if self._coordinator.service_is_ready():
-            return self._coordinator.call_async(request)
-        unreachable = Future()
-        unreachable.set_result(
-            ComputePose.Response(
-                success=False,
-                message=f"the coordinator's {self._coordinator.srv_name} is not reachable",
-            )
-        )
-        return unreachable
-
     def create_fls_nodes(
         self, on_created: Callable[[int], None] | None = None, chunk: int = 25
     ) -> None:
@@ -246,7 +225,6 @@ class SwarmHost:
                 self.replica,
                 namespace=self.namespace,
                 context=self.context,
-                ask_coordinator=self.ask_coordinator,
                 transmitter=self.transmitter,
                 parameter_overrides=self._overrides,
             )

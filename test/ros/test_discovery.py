@@ -219,18 +219,12 @@ def test_compute_pose_answers_bad_requests_with_errors_and_keeps_working(domain,
             )
             assert one.path == tuple(int(world.ids[k]) for k in engine.path(pair))
             np.testing.assert_allclose(one.vector, engine.estimate[pair], rtol=0, atol=1e-9)
-            # The source node's own service gives the same answer; another FLS's refuses.
-            mine = f"/swarm/fls_{source}/compute_pose"
-            again = client.call(source, target, policy_code("fewest-hops"), service=mine)
+            # After the errors the service still answers, and the same each time.
+            again = client.call(source, target, policy_code("fewest-hops"))
             assert again.success, again.message
             twice = estimate_from_message(again.estimate)
             assert (twice.path, twice.status) == (one.path, one.status)
             np.testing.assert_array_equal(twice.vector, one.vector)
-            wrong = client.call(source, target, service=f"/swarm/fls_{target}/compute_pose")
-            assert not wrong.success
-            assert f"this is FLS {target}; FLS {source} computes its own poses" in wrong.message
-            bad = client.call(source, 5000, service=mine)
-            assert not bad.success and "no target FLS 5000" in bad.message, bad.message
         finally:
             client.close()
 

@@ -264,7 +264,7 @@ def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(
             call = ros2(
                 "service",
                 "call",
-                f"/swarm/fls_{source}/compute_pose",
+                "/swarm/coordinator/compute_pose",
                 "swazure_interfaces/srv/ComputePose",
                 f"{{source_id: {source}, target_id: {target}, policy: 1}}",
             )
