@@ -227,6 +227,12 @@ class FlsNode(SwarmNode):
         return self._sensed
 
     def _on_frame(self) -> None:
+        if self._publisher.get_subscription_count() == 0:
+            # Nobody reads: build nothing (a heuristic's revisions change what most FLSs
+            # see many times a second). A reader that comes gets this FLS's last message
+            # at once (latched) and the current one at the next frame.
+            self._published = None
+            return
         now = self.get_clock().now()
         seen = self.measurement
         due = self.republish_period > 0 and (
