@@ -184,6 +184,7 @@ class FlsNode(SwarmNode):
         # Sent and heard, so that whoever drives a simulated clock knows when all is delivered.
         self.track_traffic: Counter[str] = Counter()
         self.messages_sent = 0
+        self.measurements_sent = 0  # Measurements messages published
         self.bytes_sent = 0
 
     def _declare_track_config(self) -> TrackConfig:
@@ -247,6 +248,7 @@ class FlsNode(SwarmNode):
             stamp = self.get_clock().now().to_msg()
         self._published = self.measurement
         self._published_at = self.get_clock().now().nanoseconds
+        self.measurements_sent += 1
         self._publisher.publish(measurements_message(self.fls_id, self._published, stamp))
 
     def _elsewhere(self, fls_id: int, service: str, does: str = "answers for itself") -> str:

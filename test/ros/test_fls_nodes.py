@@ -165,6 +165,16 @@ def test_an_idle_swarm_sends_a_measurement_once_and_a_late_reader_still_gets_eve
     assert count_measurements(host, probe, 2.0) == len(world.ids)
 
 
+def test_nodes_build_no_measurement_while_nobody_reads_and_a_reader_gets_the_current_one(swarm):
+    world, host, probe = swarm
+    host.spin_for(1.0)  # five frames of 0.2 s, nobody subscribed
+    assert sum(node.measurements_sent for node in host.fls_nodes) == 0
+    expected, _ = engine_expectations(world)
+    collect_measurements(host, probe, expected)
+    # At rest, one message per FLS: the first frame after the reader came.
+    assert sum(node.measurements_sent for node in host.fls_nodes) == len(world.ids)
+
+
 def test_republish_period_sends_unchanged_measurements_again(domain):
     ctx = make_context(domain, [*FAST, "-p", "republish_period:=0.4"])
     world = WORLD.build()
