@@ -286,3 +286,39 @@ def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(
         if echo.poll() is None:
             echo.kill()
             echo.communicate()
+
+
+def test_a_stopped_swarm_leaves_every_process_nodes_off_the_graph_at_once(context, fast_params):
+    # Each process deletes its DDS participant as it exits (ros.runtime.exit_process), so
+    # a peer drops its nodes then, not when the participant's lease (20 s) runs out.
+    spawn = swazure(
+        "spawn", "--cloud", "helix:100", "--beta", "0.5", "--processes", "2",
+        "--params", str(fast_params), "--quiet",
+    )  # fmt: skip
+    probe = Node("probe", context=context, start_parameter_services=False, enable_rosout=False)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(probe)
+
+    def fls_nodes():
+        names = probe.get_node_names_and_namespaces()
+        return sum(1 for name, namespace in names if namespace == "/swarm" and "fls_" in name)
+
+    def spin_until(done, seconds):
+        deadline = time.monotonic() + seconds
+        while not done() and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+        return done()
+
+    try:
+        line = spawn.stdout.readline()
+        assert line.startswith("swarm up"), line + spawn.stderr.read()
+        assert spin_until(lambda: fls_nodes() == 100, 30), fls_nodes()
+        code, _, err = stop(spawn)
+        assert code == 0, err
+        assert spin_until(lambda: fls_nodes() == 0, 8.0), f"{fls_nodes()} FLS nodes left"
+    finally:
+        if spawn.poll() is None:
+            spawn.kill()
+            spawn.communicate()
+        executor.shutdown()
+        probe.destroy_node()
