@@ -1,0 +1,413 @@
+"""A rendering ArUco camera: render a neighbour's marker, detect it, solve its pose.
+
+The published sensor model (:mod:`.sensor`) is a fitted curve; this module
+simulates the measurement the curve was fitted to. A :class:`Camera` is a
+pinhole camera with a thin lens (focal length, f-number, focus range) on a
+pixel sensor; it looks at an ArUco marker of a given side and renders what the
+sensor records: the marker seen through the lens (defocus below the closest
+focus, a residual optical blur), photon and read noise, 8-bit quantisation.
+:func:`measure` then runs the measurement of the real camera on that frame:
+``cv2.aruco.ArucoDetector``, ``cv2.cornerSubPix`` and ``cv2.solvePnPGeneric``
+with ``SOLVEPNP_IPPE_SQUARE``.
+
+Units: lengths of the scene in mm, of the image in px, angles in degrees at
+the interface. Only the marker's neighbourhood of the image is rendered and
+searched (a region of interest); the detector's size limits are converted so
+that they mean the same pixels as in the whole frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+from .errors import SensorError
+
+FloatArray = NDArray[np.float64]
+
+CAMERA_FILE_VERSION = 1
+#: Wavelength used for the diffraction blur, mm (green, where the Bayer sensor has most pixels).
+WAVELENGTH_MM = 550e-6
+#: White quiet zone printed around the marker, in marker cells.
+QUIET_ZONE_CELLS = 5.0
+
+
+@dataclass(frozen=True)
+class Degradations:
+    """What makes the recorded frame differ from the ideal projection (camera-independent)."""
+
+    #: Optical blur left at best focus beyond diffraction (lens aberrations, demosaicing), px sigma.
+    residual_blur_px: float = 0.6
+    #: Read noise of a pixel, 8-bit grey levels (sigma).
+    read_noise: float = 2.0
+    #: Photon noise: variance per grey level of signal (grey levels).
+    shot_noise_gain: float = 0.25
+    #: Grey level of the printed white and of the printed black, 8-bit.
+    white_level: float = 200.0
+    black_level: float = 40.0
+    #: Grey level of what lies behind the marker's paper.
+    background_level: float = 110.0
+    #: Half side of the cornerSubPix search window, px (the measurement's own setting).
+    corner_window_px: int = 5
+
+
+@dataclass(frozen=True)
+class Camera:
+    """A pinhole camera with a thin lens reading a square ArUco marker."""
+
+    name: str
+    width: int  # px
+    height: int  # px
+    fx: float  # px
+    fy: float  # px
+    cx: float  # px
+    cy: float  # px
+    focal_length_mm: float
+    f_number: float
+    focus_min_mm: float  # closest distance the lens brings into focus
+    marker_dictionary: str = "DICT_4X4_100"
+    marker_side_mm: float = 4.7
+    marker_id: int = 0
+    degradations: Degradations = field(default_factory=Degradations)
+
+    @property
+    def matrix(self) -> FloatArray:
+        """The 3x3 intrinsic matrix K, px."""
+        return np.array([[self.fx, 0.0, self.cx], [0.0, self.fy, self.cy], [0.0, 0.0, 1.0]])
+
+    @property
+    def pixel_pitch_mm(self) -> float:
+        """Size of one image pixel on the sensor, mm: focal length over fx (binning included)."""
+        return self.focal_length_mm / self.fx
+
+    @property
+    def aperture_mm(self) -> float:
+        """Diameter of the entrance pupil, mm."""
+        return self.focal_length_mm / self.f_number
+
+    def defocus_px(self, distance_mm: float, focus_mm: float) -> float:
+        """Diameter of the thin lens's blur circle, px, for a point at ``distance_mm``
+        when the lens is focused at ``focus_mm`` (``inf`` for infinity)."""
+        f = self.focal_length_mm
+        if distance_mm <= f:
+            return math.inf
+        # c = A f |1/d - 1/s| / (1 - f/s) on the sensor (thin lens), in pixels of f / fx.
+        inverse_focus = 0.0 if math.isinf(focus_mm) else 1.0 / focus_mm
+        blur_mm = self.aperture_mm * f * abs(1.0 / distance_mm - inverse_focus) / (1.0 - f * inverse_focus)
+        return blur_mm / self.pixel_pitch_mm
+
+    def focus_for(self, distance_mm: float, rng: np.random.Generator) -> float:
+        """Where the autofocus leaves the lens for a marker at ``distance_mm``, mm.
+
+        In its range the autofocus focuses on the marker. Nearer than the
+        closest focus it finds no sharp image anywhere in its travel and the
+        lens stops at a random place in it: uniform in dioptres between the
+        closest focus and infinity (why the blind range begins so close to
+        the closest focus, where a lens parked at the near stop would still
+        see a marker sharply enough).
+        """
+        if distance_mm >= self.focus_min_mm:
+            return distance_mm
+        inverse = rng.uniform(0.0, 1.0 / self.focus_min_mm)
+        return math.inf if inverse == 0.0 else 1.0 / inverse
+
+    def diffraction_px(self) -> float:
+        """Sigma of a Gaussian close to the Airy disk of the lens, px."""
+        return 0.42 * WAVELENGTH_MM * self.f_number / self.pixel_pitch_mm
+
+
+# ----------------------------------------------------------------------------- files
+
+
+def _number(mapping: dict[str, Any], key: str, where: str) -> float:
+    if key not in mapping:
+        raise SensorError(f"{where}: missing key '{key}'")
+    value = mapping[key]
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise SensorError(f"{where}.{key} must be a finite number, got {value!r}")
+    return float(value)
+
+
+def camera_from_dict(document: Any, where: str = "camera") -> Camera:
+    """Build a :class:`Camera` from a parsed camera YAML document; errors name the key."""
+    if not isinstance(document, dict) or document.get("fileversion") != CAMERA_FILE_VERSION:
+        raise SensorError(f"{where}: expected a mapping with fileversion {CAMERA_FILE_VERSION}")
+    body = document.get("camera")
+    if not isinstance(body, dict):
+        raise SensorError(f"{where}: missing mapping 'camera'")
+    sections = {}
+    for key in ("image", "lens", "marker", "degradations"):
+        if not isinstance(body.get(key), dict):
+            raise SensorError(f"{where}: missing mapping 'camera.{key}'")
+        sections[key] = body[key]
+    image, lens, marker = sections["image"], sections["lens"], sections["marker"]
+    width = int(_number(image, "width", f"{where}: camera.image"))
+    height = int(_number(image, "height", f"{where}: camera.image"))
+    fx = _number(image, "fx", f"{where}: camera.image")
+    values = {
+        key: _number(sections["degradations"], key, f"{where}: camera.degradations")
+        for key in Degradations.__dataclass_fields__
+    }
+    values["corner_window_px"] = int(values["corner_window_px"])
+    dictionary = str(marker.get("dictionary", "DICT_4X4_100"))
+    if not hasattr(cv2.aruco, dictionary):
+        raise SensorError(f"{where}: camera.marker.dictionary {dictionary!r} is not an ArUco dictionary")
+    camera = Camera(
+        name=str(body.get("name", Path(where).stem)),
+        width=width,
+        height=height,
+        fx=fx,
+        fy=float(image.get("fy", fx)),
+        cx=float(image.get("cx", (width - 1) / 2)),
+        cy=float(image.get("cy", (height - 1) / 2)),
+        focal_length_mm=_number(lens, "focal_length_mm", f"{where}: camera.lens"),
+        f_number=_number(lens, "f_number", f"{where}: camera.lens"),
+        focus_min_mm=_number(lens, "focus_min_mm", f"{where}: camera.lens"),
+        marker_dictionary=dictionary,
+        marker_side_mm=_number(marker, "side_mm", f"{where}: camera.marker"),
+        marker_id=int(marker.get("id", 0)),
+        degradations=Degradations(**values),
+    )
+    if min(width, height, fx, camera.focal_length_mm, camera.f_number, camera.marker_side_mm) <= 0:
+        raise SensorError(f"{where}: sizes, focal lengths and the f-number must be positive")
+    return camera
+
+
+def load_camera(path: str | Path) -> Camera:
+    """Read a camera YAML file (``config/cameras/*.yaml``)."""
+    path = Path(path)
+    try:
+        document = yaml.safe_load(path.read_text())
+    except FileNotFoundError as err:
+        raise SensorError(f"{path}: no such camera file") from err
+    except OSError as err:
+        raise SensorError(f"{path}: cannot read ({err.strerror or err})") from err
+    except yaml.YAMLError as err:
+        raise SensorError(f"{path}: not valid YAML") from err
+    return camera_from_dict(document, str(path))
+
+
+# ----------------------------------------------------------------------------- rendering
+
+
+@dataclass(frozen=True)
+class MarkerPose:
+    """Where the marker is: its centre in the camera frame and how it is turned."""
+
+    distance_mm: float  # along the optical axis to the marker's centre
+    tilt_deg: float = 0.0  # rotation of the marker about the image's vertical axis
+    roll_deg: float = 0.0  # rotation of the marker about its own normal
+    offset_px: tuple[float, float] = (0.0, 0.0)  # where its centre projects, from (cx, cy)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """A rendered region of interest and where it lies in the full image."""
+
+    image: NDArray[np.uint8]  # (h, w) grey
+    origin: tuple[int, int]  # (x, y) of the region's top-left pixel in the full image
+    corners: FloatArray  # (4, 2) true marker corners in full-image px
+
+
+def _rotation(tilt_deg: float, roll_deg: float) -> FloatArray:
+    """Marker-to-camera rotation: marker facing the camera, tilted then rolled, (3, 3)."""
+    tilt, roll = math.radians(tilt_deg), math.radians(roll_deg)
+    # A marker facing the camera has its normal (+z) pointing back along -z of the camera.
+    face = np.diag([1.0, -1.0, -1.0])
+    tilt_y = np.array(
+        [[math.cos(tilt), 0, math.sin(tilt)], [0, 1, 0], [-math.sin(tilt), 0, math.cos(tilt)]]
+    )
+    roll_z = np.array(
+        [[math.cos(roll), -math.sin(roll), 0], [math.sin(roll), math.cos(roll), 0], [0, 0, 1]]
+    )
+    return np.asarray(tilt_y @ face @ roll_z)
+
+
+def marker_object_points(side_mm: float) -> FloatArray:
+    """Corners of a marker of side ``side_mm`` in its own frame, ArUco order, (4, 3) mm."""
+    half = side_mm / 2.0
+    return np.array([[-half, half, 0], [half, half, 0], [half, -half, 0], [-half, -half, 0]])
+
+
+def _marker_texture(camera: Camera, texels_per_cell: int) -> NDArray[np.float32]:
+    """The printed card: marker bits and its quiet zone, as grey levels, (n, n)."""
+    dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, camera.marker_dictionary))
+    cells = dictionary.markerSize + 2
+    bits = cv2.aruco.generateImageMarker(dictionary, camera.marker_id, cells * texels_per_cell, borderBits=1)
+    quiet = int(round(QUIET_ZONE_CELLS * texels_per_cell))
+    card = cv2.copyMakeBorder(bits, quiet, quiet, quiet, quiet, cv2.BORDER_CONSTANT, value=255)
+    d = camera.degradations
+    return (d.black_level + (d.white_level - d.black_level) * (card / 255.0)).astype(np.float32)
+
+
+def _psf(camera: Camera, distance_mm: float, focus_mm: float) -> NDArray[np.float32]:
+    """Point spread function of a point at ``distance_mm``: blur circle convolved with a Gaussian."""
+    sigma = math.hypot(camera.diffraction_px(), camera.degradations.residual_blur_px)
+    diameter = camera.defocus_px(distance_mm, focus_mm)
+    radius = diameter / 2.0
+    half = int(math.ceil(radius + 3.0 * sigma)) + 1
+    grid = np.arange(-half, half + 1, dtype=np.float64)
+    # The blur circle, anti-aliased by 4x4 supersampling of each kernel pixel.
+    sub = (np.arange(4) + 0.5) / 4.0 - 0.5
+    xs = (grid[:, None] + sub[None, :]).ravel()
+    inside = (xs[:, None] ** 2 + xs[None, :] ** 2) <= max(radius, 0.5) ** 2
+    disk = inside.reshape(grid.size, 4, grid.size, 4).mean(axis=(1, 3))
+    gauss = np.exp(-0.5 * (grid / max(sigma, 1e-6)) ** 2)
+    kernel = cv2.sepFilter2D(disk, -1, gauss, gauss, borderType=cv2.BORDER_CONSTANT)
+    return (kernel / kernel.sum()).astype(np.float32)
+
+
+def render(camera: Camera, pose: MarkerPose, rng: np.random.Generator) -> Frame:
+    """Render the region of the image around the marker at ``pose``, seeded by ``rng``."""
+    rotation = _rotation(pose.tilt_deg, pose.roll_deg)
+    centre = np.array(
+        [
+            pose.offset_px[0] * pose.distance_mm / camera.fx,
+            pose.offset_px[1] * pose.distance_mm / camera.fy,
+            pose.distance_mm,
+        ]
+    )
+    cells = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, camera.marker_dictionary)).markerSize + 2
+    card_side = camera.marker_side_mm * (cells + 2 * QUIET_ZONE_CELLS) / cells
+    card = marker_object_points(card_side) @ rotation.T + centre
+    corners_3d = marker_object_points(camera.marker_side_mm) @ rotation.T + centre
+    card_px = _project(camera, card)
+    corners_px = _project(camera, corners_3d)
+    psf = _psf(camera, pose.distance_mm, camera.focus_for(pose.distance_mm, rng))
+    margin = psf.shape[0] // 2 + 12
+    x0 = max(int(math.floor(card_px[:, 0].min())) - margin, 0)
+    y0 = max(int(math.floor(card_px[:, 1].min())) - margin, 0)
+    x1 = min(int(math.ceil(card_px[:, 0].max())) + margin, camera.width)
+    y1 = min(int(math.ceil(card_px[:, 1].max())) + margin, camera.height)
+    if x1 - x0 < 8 or y1 - y0 < 8:
+        return Frame(np.zeros((0, 0), np.uint8), (x0, y0), corners_px)
+    # Texels of about half a pixel: bilinear sampling then keeps edges to a fraction of a pixel.
+    side_px = float(np.linalg.norm(card_px[1] - card_px[0]))
+    texels_per_cell = max(2, int(math.ceil(2.0 * side_px / (cells + 2 * QUIET_ZONE_CELLS))))
+    texture = _marker_texture(camera, texels_per_cell)
+    n = texture.shape[0]
+    source = np.array([[0, 0], [n, 0], [n, n], [0, n]], dtype=np.float32) - 0.5
+    target = (card_px - np.array([x0, y0])).astype(np.float32)
+    homography = cv2.getPerspectiveTransform(source, target)
+    d = camera.degradations
+    scene = cv2.warpPerspective(
+        texture,
+        homography,
+        (x1 - x0, y1 - y0),
+        flags=cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_CONSTANT,
+        borderValue=d.background_level,
+    )
+    scene = cv2.filter2D(scene, -1, psf, borderType=cv2.BORDER_REPLICATE)
+    sigma = np.sqrt(d.read_noise**2 + d.shot_noise_gain * np.maximum(scene, 0.0))
+    scene = scene + sigma * rng.standard_normal(scene.shape).astype(np.float32)
+    image = np.clip(np.rint(scene), 0, 255).astype(np.uint8)
+    return Frame(image, (x0, y0), corners_px)
+
+
+def _project(camera: Camera, points: FloatArray) -> FloatArray:
+    """Pinhole projection of camera-frame points (N, 3) mm to pixels (N, 2)."""
+    return np.column_stack(
+        [
+            camera.fx * points[:, 0] / points[:, 2] + camera.cx,
+            camera.fy * points[:, 1] / points[:, 2] + camera.cy,
+        ]
+    )
+
+
+# ----------------------------------------------------------------------------- measuring
+
+
+class Detector:
+    """The real camera's measurement: ArucoDetector, cornerSubPix, solvePnPGeneric IPPE_SQUARE."""
+
+    def __init__(self, camera: Camera) -> None:
+        self.camera = camera
+        self._dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, camera.marker_dictionary))
+        self._default = cv2.aruco.DetectorParameters()
+        self._objects = marker_object_points(camera.marker_side_mm).astype(np.float32)
+        window = camera.degradations.corner_window_px
+        self._window = (window, window)
+        self._criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 30, 0.01)
+
+    def _detector_for(self, shape: tuple[int, int]) -> cv2.aruco.ArucoDetector:
+        """A detector whose perimeter limits mean the same pixels in a region as in the frame."""
+        parameters = cv2.aruco.DetectorParameters()
+        scale = max(self.camera.width, self.camera.height) / max(shape)
+        parameters.minMarkerPerimeterRate = self._default.minMarkerPerimeterRate * scale
+        # The upper limit stays: a marker cannot outgrow its region, and OpenCV
+        # rejects every candidate when that rate is very large.
+        return cv2.aruco.ArucoDetector(self._dictionary, parameters)
+
+    def corners(self, frame: Frame) -> FloatArray | None:
+        """Refined corners (4, 2) full-image px of the camera's marker in ``frame``, or None."""
+        if frame.image.size == 0:
+            return None
+        found, ids, _ = self._detector_for(frame.image.shape).detectMarkers(frame.image)
+        if ids is None:
+            return None
+        matches = [c for c, i in zip(found, ids.ravel(), strict=True) if i == self.camera.marker_id]
+        if not matches:
+            return None
+        corners = matches[0].reshape(4, 1, 2).astype(np.float32)
+        corners = cv2.cornerSubPix(frame.image, corners, self._window, (-1, -1), self._criteria)
+        return corners.reshape(4, 2).astype(np.float64) + np.array(frame.origin, dtype=np.float64)
+
+    def solve(self, corners: FloatArray) -> FloatArray | None:
+        """Marker centre (3,) mm in the camera frame from its corners; None if no pose fits.
+
+        IPPE_SQUARE returns two poses, sorted by reprojection error; they differ
+        in the marker's tilt and hardly in its position. The rule: the pose with
+        the smaller reprojection error, and on a tie within 5 % the one whose
+        marker faces the camera more directly (the geometry of the swarm: every
+        marker is mounted facing out of its FLS).
+        """
+        count, rotations, translations, errors = cv2.solvePnPGeneric(
+            self._objects,
+            corners.astype(np.float32).reshape(4, 1, 2),
+            self.camera.matrix,
+            None,
+            flags=cv2.SOLVEPNP_IPPE_SQUARE,
+        )
+        if count == 0:
+            # Refined corners that no square fits (they collapsed onto one another).
+            return None
+        best = 0
+        if count > 1:
+            errors = np.asarray(errors).ravel()
+            tied = errors[1] <= errors[0] * 1.05 + 1e-9
+            if tied:
+                facing = [
+                    -cv2.Rodrigues(rotation)[0][2, 2] for rotation in rotations[:2]
+                ]
+                best = int(np.argmax(facing))
+        return np.asarray(translations[best], dtype=np.float64).ravel()
+
+
+def measure(
+    camera: Camera, pose: MarkerPose, rng: np.random.Generator, detector: Detector | None = None
+) -> FloatArray | None:
+    """Render, detect and solve once: the measured marker centre (3,) mm, or None if not detected."""
+    detector = detector or Detector(camera)
+    corners = detector.corners(render(camera, pose, rng))
+    if corners is None:
+        return None
+    return detector.solve(corners)
+
+
+def true_centre(camera: Camera, pose: MarkerPose) -> FloatArray:
+    """The marker centre (3,) mm in the camera frame at ``pose``."""
+    return np.array(
+        [
+            pose.offset_px[0] * pose.distance_mm / camera.fx,
+            pose.offset_px[1] * pose.distance_mm / camera.fy,
+            pose.distance_mm,
+        ]
+    )
