@@ -88,7 +88,11 @@ def observations(hood: Neighbourhood) -> Observations:
     vector[measured] = measured_vectors(
         sensor, swarm.points, swarm.radius, owner[measured], other[measured]
     )
-    tracking[measured] = sensor.measured_tracking(true_tracking[measured])
+    if sensor.noise is None:
+        tracking[measured] = sensor.measured_tracking(true_tracking[measured])
+    else:
+        # The drawn noise is in the vector; its length says what was measured.
+        tracking[measured] = np.linalg.norm(vector[measured], axis=1) - 2.0 * swarm.radius
     return Observations(indptr, other, range_class, visible, vector, tracking, true_tracking)
 
 

@@ -35,6 +35,85 @@ SENSOR_FILE_VERSION = 1
 
 
 @dataclass(frozen=True)
+class SensorNoise:
+    """Random part of a stochastic sensor, tabulated by tracking distance (cm), seeded.
+
+    What a calibration (:mod:`.calibration`) writes: per tracking distance the
+    mean relative error of a measured distance (the bias, a fraction), the
+    probability that a frame detects the marker, the relative standard
+    deviation of a measured distance and that of the direction (per axis,
+    degrees). Values between table rows are interpolated linearly; beyond
+    the table, the end rows hold.
+    """
+
+    tracking_cm: tuple[float, ...]
+    mean_error: tuple[float, ...]
+    detection: tuple[float, ...]
+    distance_sd: tuple[float, ...]
+    direction_sd_deg: tuple[float, ...]
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        columns = (self.detection, self.distance_sd, self.direction_sd_deg)
+        if len(self.mean_error) != len(self.tracking_cm):
+            raise SensorError("sensor noise: every table column needs one value per tracking_cm")
+        if not all(math.isfinite(v) for v in self.mean_error):
+            raise SensorError("sensor noise: mean_error values must be finite")
+        if not self.tracking_cm or any(len(c) != len(self.tracking_cm) for c in columns):
+            raise SensorError("sensor noise: every table column needs one value per tracking_cm")
+        if any(b <= a for a, b in zip(self.tracking_cm, self.tracking_cm[1:])):
+            raise SensorError("sensor noise: tracking_cm must increase")
+        values = [v for c in (self.tracking_cm, *columns) for v in c]
+        if not all(math.isfinite(v) for v in values) or min(v for c in columns for v in c) < 0:
+            raise SensorError("sensor noise: table values must be finite and >= 0")
+        if max(self.detection) > 1:
+            raise SensorError("sensor noise: detection is a probability, at most 1")
+
+    def at(self, column: tuple[float, ...], tracking: ArrayLike) -> FloatArray:
+        """A table column interpolated at tracking distances ``tracking`` (cm)."""
+        return np.interp(np.asarray(tracking, dtype=np.float64), self.tracking_cm, column)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``noise`` mapping of the sensor YAML."""
+        return {
+            "tracking_cm": list(self.tracking_cm),
+            "mean_error": list(self.mean_error),
+            "detection": list(self.detection),
+            "distance_sd": list(self.distance_sd),
+            "direction_sd_deg": list(self.direction_sd_deg),
+        }
+
+
+def standard_normals(seed: int, first: ArrayLike, second: ArrayLike, count: int) -> FloatArray:
+    """Standard normal numbers (M, count) fixed by (seed, first, second) of each pair.
+
+    Counter-based (splitmix64 of the pair, then Box-Muller), so that a pair's
+    measurement is the same in the engine, in any FLS node and in any order.
+    """
+    first = np.asarray(first, dtype=np.uint64).ravel()
+    second = np.asarray(second, dtype=np.uint64).ravel()
+    pairs = 2 * ((count + 1) // 2)
+    with np.errstate(over="ignore"):
+        base = (
+            np.uint64(seed & 0xFFFFFFFFFFFFFFFF) * np.uint64(0xD1B54A32D192ED03)
+            ^ first * np.uint64(0x9E3779B97F4A7C15)
+            ^ second * np.uint64(0xBF58476D1CE4E5B9)
+        )
+        state = base[:, None] + np.arange(1, pairs + 1, dtype=np.uint64)[None, :] * np.uint64(
+            0x94D049BB133111EB
+        )
+        z = state
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        z = z ^ (z >> np.uint64(31))
+    uniform = ((z >> np.uint64(11)).astype(np.float64) + 0.5) / float(1 << 53)
+    radius = np.sqrt(-2.0 * np.log(uniform[:, 0::2]))
+    angle = 2.0 * np.pi * uniform[:, 1::2]
+    normals = np.concatenate([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
+    return np.asarray(normals[:, :count], dtype=np.float64)
+
+
+@dataclass(frozen=True)
 class Sensor:
     """Ranges (cm, of the tracking distance) and relative error polynomial of a sensor."""
 
@@ -45,6 +124,8 @@ class Sensor:
     #: Coefficients of the relative error e(t), highest power first; () = error-free.
     error_coefficients: tuple[float, ...] = ()
     name: str = "sensor"
+    #: Random part of a stochastic sensor; None: deterministic (the published model).
+    noise: SensorNoise | None = None
 
     def __post_init__(self) -> None:
         bounds = (self.sweet_min, self.sweet_max, self.decaying_min, self.decaying_max)
@@ -63,16 +144,18 @@ class Sensor:
     @property
     def accurate(self) -> bool:
         """True when the sensor measures without error."""
-        return not any(self.error_coefficients)
+        return not any(self.error_coefficients) and self.noise is None
 
     def error_free(self) -> Sensor:
         """The same ranges with no measurement error (the 'accurate' mode)."""
-        return replace(self, error_coefficients=(), name=f"{self.name} (accurate)")
+        return replace(self, error_coefficients=(), noise=None, name=f"{self.name} (accurate)")
 
     def relative_error(self, tracking: ArrayLike) -> FloatArray:
         """Relative error e(t) (a fraction) of tracking distances ``tracking`` (cm)."""
         tracking = np.asarray(tracking, dtype=np.float64)
-        if self.accurate:
+        if self.noise is not None:
+            return self.noise.at(self.noise.mean_error, tracking)
+        if not any(self.error_coefficients):
             return np.zeros_like(tracking)
         return np.asarray(np.polyval(self.error_coefficients, tracking), dtype=np.float64)
 
@@ -94,6 +177,16 @@ class Sensor:
 
     def to_dict(self) -> dict[str, Any]:
         """The sensor in the layout of the YAML file's ``sensor`` mapping."""
+        if self.noise is not None:
+            model: dict[str, Any] = {
+                "kind": "stochastic",
+                "seed": self.noise.seed,
+                "noise": self.noise.to_dict(),
+            }
+        elif self.accurate:
+            model = {"kind": "none"}
+        else:
+            model = {"kind": "polynomial", "coefficients": list(self.error_coefficients)}
         return {
             "name": self.name,
             "ranges": {
@@ -102,11 +195,7 @@ class Sensor:
                 "decaying_min": self.decaying_min,
                 "decaying_max": self.decaying_max,
             },
-            "error_model": (
-                {"kind": "polynomial", "coefficients": list(self.error_coefficients)}
-                if not self.accurate
-                else {"kind": "none"}
-            ),
+            "error_model": model,
         }
 
 
@@ -136,6 +225,7 @@ def sensor_from_dict(document: Any, where: str = "sensor") -> Sensor:
     model = body.get("error_model", {"kind": "none"})
     kind = _require(model, "kind", f"{where}: sensor.error_model")
     coefficients: tuple[float, ...] = ()
+    noise: SensorNoise | None = None
     if kind == "polynomial":
         raw = _require(model, "coefficients", f"{where}: sensor.error_model")
         if not isinstance(raw, list) or not all(
@@ -145,12 +235,39 @@ def sensor_from_dict(document: Any, where: str = "sensor") -> Sensor:
                 f"{where}: sensor.error_model.coefficients must be a list of numbers"
             )
         coefficients = tuple(float(c) for c in raw)
-    elif kind != "none":
+    elif kind not in ("none", "stochastic"):
         raise SensorError(
-            f"{where}: sensor.error_model.kind must be 'polynomial' or 'none', got {kind!r}"
+            f"{where}: sensor.error_model.kind must be 'polynomial', 'stochastic' or 'none', "
+            f"got {kind!r}"
         )
+    if kind == "stochastic":
+        noise = _noise_from_dict(model, f"{where}: sensor.error_model")
     try:
-        return Sensor(**values, error_coefficients=coefficients, name=str(body.get("name", "")))
+        return Sensor(
+            **values,
+            error_coefficients=coefficients,
+            name=str(body.get("name", "")),
+            noise=noise,
+        )
+    except SensorError as err:
+        raise SensorError(f"{where}: {err}") from err
+
+
+def _noise_from_dict(model: Any, where: str) -> SensorNoise:
+    table = _require(model, "noise", where)
+    columns: dict[str, tuple[float, ...]] = {}
+    for key in ("tracking_cm", "mean_error", "detection", "distance_sd", "direction_sd_deg"):
+        raw = _require(table, key, f"{where}.noise")
+        if not isinstance(raw, list) or not all(
+            isinstance(v, int | float) and not isinstance(v, bool) for v in raw
+        ):
+            raise SensorError(f"{where}.noise.{key} must be a list of numbers")
+        columns[key] = tuple(float(v) for v in raw)
+    seed = model.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int):
+        raise SensorError(f"{where}.seed must be an integer, got {seed!r}")
+    try:
+        return SensorNoise(**columns, seed=seed)
     except SensorError as err:
         raise SensorError(f"{where}: {err}") from err
 
@@ -211,5 +328,21 @@ def measured_vectors(
     second = np.asarray(second, dtype=np.int64)
     offset = points[second] - points[first]
     distance = centre_distance(points, first, second)
-    measured = sensor.measured_tracking(distance - 2.0 * radius) + 2.0 * radius
-    return np.asarray(offset * (measured / distance)[:, None], dtype=np.float64)
+    tracking = distance - 2.0 * radius
+    measured = sensor.measured_tracking(tracking)
+    noise = sensor.noise
+    if noise is None:
+        return np.asarray(offset * ((measured + 2.0 * radius) / distance)[:, None], dtype=np.float64)
+    # A stochastic sensor: the pair's own draw (fixed by seed and pair) on the
+    # length and on the direction, in the plane normal to the true direction.
+    z = standard_normals(noise.seed, first, second, 3)
+    measured = measured + tracking * noise.at(noise.distance_sd, tracking) * z[:, 0]
+    unit = offset / distance[:, None]
+    helper = np.where(np.abs(unit[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    across = np.cross(unit, helper)
+    across /= np.linalg.norm(across, axis=1, keepdims=True)
+    other = np.cross(unit, across)
+    spread = np.radians(noise.at(noise.direction_sd_deg, tracking))[:, None]
+    direction = unit + spread * (z[:, 1:2] * across + z[:, 2:3] * other)
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    return np.asarray(direction * (measured + 2.0 * radius)[:, None], dtype=np.float64)

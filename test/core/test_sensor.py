@@ -93,3 +93,90 @@ def test_bad_sensor_file_names_the_problem(tmp_path, text, message):
 def test_missing_sensor_file(tmp_path):
     with pytest.raises(SensorError, match="no such sensor file"):
         load_sensor(tmp_path / "absent.yaml")
+
+
+# ----------------------------------------------------------------------------- stochastic
+
+
+def stochastic(seed=0, sd=0.02, direction_deg=1.0):
+    from swazure_ros.core.sensor import SensorNoise
+
+    noise = SensorNoise(
+        tracking_cm=(0.0, 10.0, 30.0),
+        mean_error=(0.0, 0.01, 0.21),
+        detection=(1.0, 1.0, 0.5),
+        distance_sd=(sd, sd, sd),
+        direction_sd_deg=(direction_deg, direction_deg, direction_deg),
+        seed=seed,
+    )
+    return Sensor(6.0, 8.0, 8.0, 30.0, name="stochastic", noise=noise)
+
+
+def ring(count=4000, distance=8.0):
+    """FLS 0 at the origin, ``count`` FLSs around it at ``distance`` cm (centres), r = 0.5."""
+    angles = np.linspace(0, 2 * np.pi, count, endpoint=False)
+    around = np.column_stack([distance * np.cos(angles), distance * np.sin(angles), np.zeros(count)])
+    return np.vstack([[0.0, 0.0, 0.0], around])
+
+
+def test_stochastic_mean_error_is_the_table_interpolated():
+    sensor = stochastic()
+    np.testing.assert_allclose(sensor.relative_error([5.0, 10.0, 20.0, 40.0]), [0.005, 0.01, 0.11, 0.21])
+
+
+def test_stochastic_measurement_scatters_around_the_biased_length_as_the_table_says():
+    sensor = stochastic(sd=0.02, direction_deg=1.0)
+    points = ring()
+    others = np.arange(1, len(points))
+    vectors = measured_vectors(sensor, points, 0.5, np.zeros_like(others), others)
+    tracking = 7.0  # centre distance 8, r = 0.5
+    measured = np.linalg.norm(vectors, axis=1) - 1.0
+    relative = measured / tracking - 1
+    assert np.mean(relative) == pytest.approx(sensor.relative_error(tracking), abs=0.0015)
+    assert np.std(relative) == pytest.approx(0.02, rel=0.05)
+    truth = points[others] / 8.0
+    angle = np.degrees(np.arccos(np.clip(np.sum(vectors * truth, axis=1) / np.linalg.norm(vectors, axis=1), -1, 1)))
+    # Two axes of 1 degree each: the angle off the true direction is Rayleigh, mean 1.2533 degrees.
+    assert np.mean(angle) == pytest.approx(1.2533, rel=0.05)
+
+
+def test_stochastic_measurement_of_a_pair_is_the_same_in_any_call_and_order():
+    sensor = stochastic(seed=3)
+    points = ring(50)
+    first = np.zeros(49, dtype=int)
+    second = np.arange(1, 50)
+    together = measured_vectors(sensor, points, 0.5, first, second)
+    reversed_order = measured_vectors(sensor, points, 0.5, first[::-1], second[::-1])[::-1]
+    one = measured_vectors(sensor, points, 0.5, [0], [17])
+    np.testing.assert_array_equal(together, reversed_order)
+    np.testing.assert_array_equal(together[16], one[0])
+    other_seed = measured_vectors(stochastic(seed=4), points, 0.5, first, second)
+    assert not np.allclose(together, other_seed)
+
+
+def test_accurate_mode_drops_the_noise_too():
+    sensor = stochastic().error_free()
+    assert sensor.accurate and sensor.noise is None
+    points = ring(10)
+    vectors = measured_vectors(sensor, points, 0.5, np.zeros(10, int), np.arange(1, 11))
+    np.testing.assert_allclose(vectors, points[1:])
+
+
+def test_stochastic_sensor_round_trips_through_yaml(tmp_path):
+    import yaml
+
+    sensor = stochastic(seed=9)
+    path = tmp_path / "sensor.yaml"
+    path.write_text(yaml.safe_dump({"fileversion": 1, "sensor": sensor.to_dict()}))
+    assert load_sensor(path) == sensor
+
+
+def test_stochastic_table_errors_are_one_line(tmp_path):
+    import yaml
+
+    document = {"fileversion": 1, "sensor": stochastic().to_dict()}
+    document["sensor"]["error_model"]["noise"]["detection"] = [1.0, 1.0]
+    path = tmp_path / "sensor.yaml"
+    path.write_text(yaml.safe_dump(document))
+    with pytest.raises(SensorError, match="one value per tracking_cm"):
+        load_sensor(path)

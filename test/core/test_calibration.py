@@ -1,0 +1,92 @@
+"""Calibration: ranges from a sweep by the documented criteria, and the fit to measured data."""
+
+import math
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.calibration import (
+    Criteria,
+    Sweep,
+    blind_limit_mm,
+    compare,
+    crossing,
+    load_measured,
+    sensor_from_sweep,
+    sweep,
+)
+from swazure_ros.core.camera import load_camera
+from swazure_ros.core.errors import SensorError
+from swazure_ros.core.sensor import config_dir
+
+from ..conftest import SHARED
+
+MEASURED = SHARED / "datasets" / "aruco-measured" / "rpi-camera-module-3-wide.csv"
+
+
+def hand_sweep():
+    """Ten distances, 40..130 mm: blind up to 50, clean from 60, drifting from 100, lost at 130."""
+    distances = np.arange(40.0, 140.0, 10.0)
+    detection = np.array([0.0, 0.2, 0.8, 1.0, 1.0, 1.0, 1.0, 0.9, 0.6, 0.2])
+    error = np.array([np.nan, 0.05, 0.03, 0.01, 0.005, 0.01, 0.04, 0.08, 0.15, 0.4])
+    column = lambda values: values.reshape(-1, 1)  # noqa: E731
+    return Sweep(distances, np.array([0.0]), 100, column(detection), column(error),
+                 column(np.full(10, 0.01)), column(np.full(10, 0.2)), 0.001)
+
+
+def test_crossing_interpolates_where_the_rate_passes_the_level():
+    distances = np.array([40.0, 50.0, 60.0])
+    assert crossing(distances, np.array([0.2, 0.8, 1.0]), 0.5, rising=True) == pytest.approx(45.0)
+    assert math.isnan(crossing(distances, np.array([0.6, 0.8, 1.0]), 0.5, rising=True))
+    assert crossing(distances, np.array([1.0, 0.8, 0.2]), 0.5, rising=False) == pytest.approx(55.0)
+
+
+def test_ranges_follow_the_documented_criteria():
+    sensor = sensor_from_sweep(hand_sweep(), Criteria(detection=0.5, sweet_detection=0.95, sweet_error=0.02))
+    # Detection passes 50 % at 55 mm, but the error is 3 % at 60: sweet where detection >= 95 %
+    # and error <= 2 %, 70 to 90 mm, up to the first distance that fails (100); decaying from
+    # there until detection falls under 50 % (120 + 10 * 0.1 / 0.4 = 122.5 mm).
+    assert (sensor.sweet_min, sensor.sweet_max) == (7.0, 10.0)
+    assert sensor.decaying_min == 10.0
+    assert sensor.decaying_max == pytest.approx(12.25)
+    assert blind_limit_mm(hand_sweep().distances_mm, hand_sweep().detection[:, 0]) == pytest.approx(55.0)
+    # The error table keeps the measured means where most frames detect, the nearest elsewhere.
+    np.testing.assert_allclose(sensor.relative_error([6.0, 10.0, 13.0]), [0.03, 0.04, 0.15])
+    assert sensor.noise.detection[0] == 0.0
+
+
+def test_a_camera_that_never_detects_is_an_error():
+    blind = hand_sweep()
+    nothing = Sweep(blind.distances_mm, blind.angles_deg, 100, np.zeros_like(blind.detection),
+                    np.full_like(blind.mean_error, np.nan), blind.distance_sd, blind.direction_sd_deg, 0.0)
+    with pytest.raises(SensorError, match="never detects"):
+        sensor_from_sweep(nothing)
+
+
+def test_sweep_is_deterministic_and_each_point_has_its_own_stream():
+    camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
+    first = sweep(camera, (60.0, 120.0), (0.0,), frames=4, seed=5)
+    again = sweep(camera, (60.0, 120.0), (0.0,), frames=4, seed=5)
+    alone = sweep(camera, (120.0,), (0.0,), frames=4, seed=5)
+    np.testing.assert_array_equal(first.mean_error, again.mean_error)
+    assert first.detection[1, 0] == 1.0
+    # Row 1 of the pair is seeded [5, 1, 0], the lone row [5, 0, 0]: different streams.
+    assert alone.mean_error[0, 0] != first.mean_error[1, 0]
+
+
+def test_rendered_wide_camera_against_its_measurements():
+    if not MEASURED.exists():
+        pytest.skip(f"measured camera data {MEASURED} is absent (../shared is not beside the repo)")
+    measured = load_measured(MEASURED)
+    camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
+    result = sweep(camera, tuple(range(35, 60, 5)) + (75.0, 100.0, 150.0, 200.0, 300.0), (0.0,), frames=40)
+    rows = {row.distance_mm: row for row in compare(result, measured)}
+    # Issue 17's acceptance, where this model meets it (docs/camera.md gives the whole table):
+    # detection within 15 points from the closest focus out, the blind limit within 5 mm,
+    # the mean error within a factor 1.5 (or 1 point) at 75-150 mm.
+    for distance in (50.0, 75.0, 100.0, 150.0, 200.0, 300.0):
+        assert rows[distance].detection_ok, rows[distance]
+    for distance in (75.0, 100.0, 150.0):
+        assert rows[distance].error_ok, rows[distance]
+    measured_limit = blind_limit_mm(measured.distances_mm, measured.detect_pct / 100)
+    assert abs(blind_limit_mm(result.distances_mm, result.detection[:, 0]) - measured_limit) <= 5.0
