@@ -10,7 +10,7 @@ from types import ModuleType
 
 from .. import __version__
 from ..core.errors import SwazureError
-from . import echo, evaluate, query, spawn, study, track
+from . import camera, echo, evaluate, query, spawn, study, track
 
 #: Verb name -> module with ``add_arguments(parser)`` and ``main(args) -> int``.
 VERBS: dict[str, ModuleType] = {
@@ -20,6 +20,7 @@ VERBS: dict[str, ModuleType] = {
     "echo": echo,
     "query": query,
     "track": track,
+    "camera": camera,
 }
 
 

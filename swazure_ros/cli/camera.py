@@ -1,0 +1,143 @@
+"""Calibrate a sensor from a rendering ArUco camera (render, detect, solve with OpenCV).
+
+``swazure camera calibrate --camera FILE`` sweeps distance and viewing angle,
+renders many frames per point, and writes a sensor YAML (ranges, error
+polynomial, noise tables) that every other verb reads with --sensor.
+``swazure camera fit`` searches the degradations (blur, noise, corner
+window) that best match a measured camera's table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+from ..core.calibration import (
+    DEFAULT_ANGLES_DEG,
+    Criteria,
+    blind_limit_mm,
+    compare,
+    fit_degradations,
+    load_measured,
+    sensor_from_sweep,
+    sweep,
+)
+from ..core.camera import load_camera
+from ..core.errors import SensorError
+from ..core.results import atomic_write
+from ..core.sensor import SENSOR_FILE_VERSION
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Subcommands of ``swazure camera``."""
+    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True, parser_class=type(parser))
+    calibrate = actions.add_parser("calibrate", help="sweep distance and angle; write a sensor YAML")
+    _common(calibrate)
+    calibrate.add_argument("--out", type=Path, metavar="FILE", help="write the sensor YAML here")
+    calibrate.add_argument("--plot", type=Path, metavar="FILE.png", help="error and detection against distance")
+    calibrate.add_argument("--sheet", type=Path, metavar="FILE.png", help="contact sheet of rendered frames")
+    calibrate.add_argument(
+        "--angles", type=float, nargs="+", default=list(DEFAULT_ANGLES_DEG), metavar="DEG",
+        help="viewing angles of the sweep, degrees (default 0 30 60)",
+    )
+    fit = actions.add_parser("fit", help="search the degradations that match a measured camera")
+    _common(fit)
+    fit.add_argument("--top", type=int, default=5, help="how many of the best settings to print")
+
+
+def _common(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--camera", type=Path, required=True, metavar="FILE", help="camera YAML (config/cameras/)")
+    parser.add_argument(
+        "--measured", type=Path, metavar="CSV",
+        help="a measured camera's table (distance_mm,error_pct,detect_pct) to compare with",
+    )
+    parser.add_argument("--frames", type=int, default=100, help="frames per distance and angle (default 100)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the frames' noise, roll and placement")
+    parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
+
+
+def _progress(quiet: bool, what: str):
+    started = time.monotonic()
+
+    def report(done: int, total: int) -> None:
+        if not quiet and sys.stderr.isatty() or (not quiet and done == total):
+            print(f"\r{what}: {done}/{total} ({time.monotonic() - started:.0f} s)", end="", file=sys.stderr)
+            if done == total:
+                print(file=sys.stderr)
+
+    return report
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``swazure camera ACTION``."""
+    if args.frames < 1:
+        raise SensorError(f"--frames must be at least 1, got {args.frames}")
+    camera = load_camera(args.camera)
+    measured = load_measured(args.measured) if args.measured else None
+    if args.action == "fit":
+        return _fit(args, camera, measured)
+    result = sweep(camera, angles_deg=tuple(args.angles), frames=args.frames, seed=args.seed,
+                   on_progress=_progress(args.quiet, "sweep"))
+    sensor = sensor_from_sweep(result, Criteria(), name=f"{camera.name}-calibrated", seed=args.seed)
+    criteria = Criteria()
+    print(f"camera {camera.name}: {result.frames} frames at each of {result.distances_mm.size} distances "
+          f"x {result.angles_deg.size} angles, {1000 * result.seconds_per_frame:.2f} ms a frame")
+    column = int(abs(result.angles_deg).argmin())
+    print(f"blind limit (detection < {criteria.detection:.0%}): "
+          f"{blind_limit_mm(result.distances_mm, result.detection[:, column]):.1f} mm")
+    print(f"ranges (tracking distance, cm): blind < {sensor.sweet_min:g} <= sweet < {sensor.sweet_max:g} "
+          f"<= decaying < {sensor.decaying_max:g}")
+    at = (sensor.sweet_min, sensor.sweet_max, (sensor.decaying_min + sensor.decaying_max) / 2, sensor.decaying_max)
+    print("mean error: " + ", ".join(f"e({t:g}) = {100 * float(sensor.relative_error(t)):.2f} %" for t in at))
+    if measured is not None:
+        _print_fit(compare(result, measured), measured, result, column)
+    if args.out:
+        document = {"fileversion": SENSOR_FILE_VERSION, "sensor": sensor.to_dict()}
+        header = (f"# Written by `swazure camera calibrate --camera {args.camera} --frames {args.frames} "
+                  f"--seed {args.seed}`.\n# Stochastic sensor: ranges by docs/camera.md's criteria, the mean "
+                  "error polynomial, and the noise tables per tracking distance.\n")
+        text = header + yaml.safe_dump(document, sort_keys=False, width=100)
+        atomic_write(args.out, lambda tmp: tmp.write_text(text))
+        print(f"wrote {args.out}")
+    if args.plot or args.sheet:
+        from ..study.camera import calibration_figure, contact_sheet, save_figure
+
+        if args.plot:
+            save_figure(calibration_figure(result, sensor, camera, measured), args.plot)
+            print(f"wrote {args.plot}")
+        if args.sheet:
+            save_figure(contact_sheet(camera, (35, 45, 60, 100, 200, 300), (0, 45)), args.sheet)
+            print(f"wrote {args.sheet}")
+    return 0
+
+
+def _print_fit(rows, measured, result, column) -> None:
+    print("\ndistance  error %: measured rendered ok   detection %: measured rendered ok")
+    for row in rows:
+        error_ok = {None: "-", True: "yes", False: "NO"}[row.error_ok]
+        print(f"{row.distance_mm:6.0f} mm {row.measured_error_pct:16.2f} {row.rendered_error_pct:8.2f} {error_ok:>4}"
+              f" {row.measured_detect_pct:22.2f} {row.rendered_detect_pct:8.2f} {'yes' if row.detection_ok else 'NO':>3}")
+    measured_limit = blind_limit_mm(measured.distances_mm, measured.detect_pct / 100.0)
+    rendered_limit = blind_limit_mm(result.distances_mm, result.detection[:, column])
+    print(f"blind limit: measured {measured_limit:.1f} mm, rendered {rendered_limit:.1f} mm "
+          f"({'within' if abs(measured_limit - rendered_limit) <= 5 else 'NOT within'} 5 mm)")
+
+
+def _fit(args: argparse.Namespace, camera, measured) -> int:
+    if measured is None:
+        raise SensorError("fit needs --measured CSV")
+    grid = {
+        "residual_blur_px": (0.7, 0.85, 1.0),
+        "read_noise": (2.0, 4.0),
+        "corner_window_px": (11, 12, 13),
+    }
+    ranked = fit_degradations(camera, measured, grid, frames=args.frames, seed=args.seed,
+                              on_progress=_progress(args.quiet, "fit"))
+    for setting, score, rows in ranked[: args.top]:
+        passed = sum(bool(r.detection_ok) for r in rows) + sum(bool(r.error_ok) for r in rows)
+        print(f"score {score:8.2f}  {passed} checks pass  " + " ".join(f"{k}={v}" for k, v in setting.items()))
+    return 0

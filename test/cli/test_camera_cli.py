@@ -1,0 +1,42 @@
+"""``swazure camera calibrate`` in a real process: a sensor YAML the other verbs read, figures."""
+
+import subprocess
+import sys
+
+from swazure_ros.core.sensor import config_dir, load_sensor
+
+WIDE = config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml"
+
+
+def swazure(*args):
+    return subprocess.run([sys.executable, "-m", "swazure_ros.cli.main", *args],
+                          capture_output=True, text=True, timeout=600)
+
+
+def test_calibrate_writes_a_sensor_that_evaluate_runs_on(tmp_path):
+    out, plot, sheet = tmp_path / "sensor.yaml", tmp_path / "curves.png", tmp_path / "sheet.png"
+    run = swazure("camera", "calibrate", "--camera", str(WIDE), "--frames", "6", "--angles", "0", "30",
+                  "--out", str(out), "--plot", str(plot), "--sheet", str(sheet), "--quiet")
+    assert run.returncode == 0, run.stderr
+    assert "ranges (tracking distance, cm)" in run.stdout
+    sensor = load_sensor(out)
+    assert sensor.noise is not None and 3.0 < sensor.sweet_min < sensor.sweet_max < sensor.decaying_max
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and sheet.stat().st_size > 10_000
+    evaluate = swazure("evaluate", "--cloud", "sphere:150", "--beta", "0.4", "--sensor", str(out))
+    assert evaluate.returncode == 0, evaluate.stderr
+    assert "ordered blind pairs" in evaluate.stdout
+
+
+def test_bad_camera_file_is_one_line_and_exit_2(tmp_path):
+    broken = tmp_path / "camera.yaml"
+    broken.write_text("fileversion: 1\ncamera: {image: {width: 10}}\n")
+    run = swazure("camera", "calibrate", "--camera", str(broken))
+    assert run.returncode == 2
+    assert run.stderr.count("\n") == 1 and "camera.lens" in run.stderr
+    missing = swazure("camera", "calibrate", "--camera", str(tmp_path / "none.yaml"))
+    assert missing.returncode == 2 and "no such camera file" in missing.stderr
+
+
+def test_fit_needs_a_measured_table():
+    run = swazure("camera", "fit", "--camera", str(WIDE))
+    assert run.returncode == 2 and "--measured" in run.stderr
