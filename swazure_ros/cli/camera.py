@@ -131,7 +131,7 @@ def _fit(args: argparse.Namespace, camera, measured) -> int:
     if measured is None:
         raise SensorError("fit needs --measured CSV")
     grid = {
-        "residual_blur_px": (0.7, 0.85, 1.0),
+        "residual_blur_px": (0.65, 0.75, 0.85),
         "read_noise": (2.0, 4.0),
         "corner_window_px": (11, 12, 13),
     }

@@ -52,6 +52,8 @@ class Criteria:
     #: Sweet range: at least this many detections and a mean error at most sweet_error.
     sweet_detection: float = 0.95
     sweet_error: float = 0.02
+    #: Out of range, too, where the mean error passes this (the published e(30) is 0.918).
+    decaying_error: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -151,7 +153,8 @@ def sensor_from_sweep(
     Blind below the first distance where detection rises to ``criteria.detection``;
     sweet from the first distance meeting the sweet criteria up to the first
     that does not; decaying from there until detection falls below
-    ``criteria.detection``. The error model is the sweep's table per tracking
+    ``criteria.detection`` or the mean error passes ``criteria.decaying_error``
+    (a corner window wider than a far marker makes wild means). The error model is the sweep's table per tracking
     distance (mean error, detection, scatter), not a polynomial: a camera's
     error is flat, then grows steeply, which a quadratic smooths into
     negative errors at the near end. Where the camera detects nothing the
@@ -182,10 +185,14 @@ def sensor_from_sweep(
         last += 1
     sweet_min = max(float(distances[first]), blind_limit)
     sweet_max = float(distances[last + 1]) if last + 1 < distances.size else float(distances[last])
+    wild = (distances >= sweet_max) & ~(np.abs(np.nan_to_num(error, nan=0.0)) <= criteria.decaying_error)
+    if wild.any():
+        far_limit = min(far_limit, float(distances[int(np.argmax(wild))]))
     decaying_max = max(far_limit, sweet_max + 1e-3)
     tracking_cm = distances / 10.0
     # Only distances most frames detect say what the camera's error is.
-    reliable = (detection >= criteria.detection) & np.isfinite(error)
+    reliable = (detection >= criteria.detection) & (np.abs(error) <= criteria.decaying_error)
+    reliable &= distances <= far_limit
     mean_error = np.interp(tracking_cm, tracking_cm[reliable], error[reliable])
     noise = SensorNoise(
         tracking_cm=tuple(float(t) for t in tracking_cm),

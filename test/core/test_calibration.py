@@ -90,3 +90,14 @@ def test_rendered_wide_camera_against_its_measurements():
         assert rows[distance].error_ok, rows[distance]
     measured_limit = blind_limit_mm(measured.distances_mm, measured.detect_pct / 100)
     assert abs(blind_limit_mm(result.distances_mm, result.detection[:, 0]) - measured_limit) <= 5.0
+
+
+def test_decaying_range_ends_where_the_mean_error_runs_wild():
+    wild = hand_sweep()
+    error = wild.mean_error.copy()
+    error[8, 0] = 3.0  # 120 mm: detected, but the mean is 300 % off
+    wild = Sweep(wild.distances_mm, wild.angles_deg, 100, wild.detection, error,
+                 wild.distance_sd, wild.direction_sd_deg, 0.0)
+    sensor = sensor_from_sweep(wild, Criteria(decaying_error=1.0))
+    assert sensor.decaying_max == 12.0
+    assert sensor.relative_error(12.0) == pytest.approx(0.08)
