@@ -637,7 +637,8 @@ def camera_section(args: argparse.Namespace) -> list[str]:
         "One render-detect-solve (the marker's region of the 1280x720 frame; median of 200",
         "frames, random roll), split into rendering and detecting + refining + solving:",
         "",
-        "| camera | distance (mm) | region (px) | render (ms) | detect + solve (ms) | total (ms) |",
+        "| camera | distance (mm) | region (px) | render (ms) | detect + solve (ms) "
+        "| total (ms) |",
         "| --- | ---: | ---: | ---: | ---: | ---: |",
     ]
     for name, distances in (("wide", (40, 75, 150, 250)), ("standard", (80, 150, 300, 450))):

@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import yaml
@@ -19,6 +20,9 @@ import yaml
 from ..core.calibration import (
     DEFAULT_ANGLES_DEG,
     Criteria,
+    FitRow,
+    Measured,
+    Sweep,
     blind_limit_mm,
     compare,
     fit_degradations,
@@ -26,7 +30,7 @@ from ..core.calibration import (
     sensor_from_sweep,
     sweep,
 )
-from ..core.camera import load_camera
+from ..core.camera import Camera, load_camera
 from ..core.errors import SensorError
 from ..core.results import atomic_write
 from ..core.sensor import SENSOR_FILE_VERSION
@@ -34,14 +38,26 @@ from ..core.sensor import SENSOR_FILE_VERSION
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Subcommands of ``swazure camera``."""
-    actions = parser.add_subparsers(dest="action", metavar="ACTION", required=True, parser_class=type(parser))
-    calibrate = actions.add_parser("calibrate", help="sweep distance and angle; write a sensor YAML")
+    actions = parser.add_subparsers(
+        dest="action", metavar="ACTION", required=True, parser_class=type(parser)
+    )
+    calibrate = actions.add_parser(
+        "calibrate", help="sweep distance and angle; write a sensor YAML"
+    )
     _common(calibrate)
     calibrate.add_argument("--out", type=Path, metavar="FILE", help="write the sensor YAML here")
-    calibrate.add_argument("--plot", type=Path, metavar="FILE.png", help="error and detection against distance")
-    calibrate.add_argument("--sheet", type=Path, metavar="FILE.png", help="contact sheet of rendered frames")
     calibrate.add_argument(
-        "--angles", type=float, nargs="+", default=list(DEFAULT_ANGLES_DEG), metavar="DEG",
+        "--plot", type=Path, metavar="FILE.png", help="error and detection against distance"
+    )
+    calibrate.add_argument(
+        "--sheet", type=Path, metavar="FILE.png", help="contact sheet of rendered frames"
+    )
+    calibrate.add_argument(
+        "--angles",
+        type=float,
+        nargs="+",
+        default=list(DEFAULT_ANGLES_DEG),
+        metavar="DEG",
         help="viewing angles of the sweep, degrees (default 0 30 60)",
     )
     fit = actions.add_parser("fit", help="search the degradations that match a measured camera")
@@ -50,22 +66,34 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--camera", type=Path, required=True, metavar="FILE", help="camera YAML (config/cameras/)")
     parser.add_argument(
-        "--measured", type=Path, metavar="CSV",
+        "--camera", type=Path, required=True, metavar="FILE", help="camera YAML (config/cameras/)"
+    )
+    parser.add_argument(
+        "--measured",
+        type=Path,
+        metavar="CSV",
         help="a measured camera's table (distance_mm,error_pct,detect_pct) to compare with",
     )
-    parser.add_argument("--frames", type=int, default=100, help="frames per distance and angle (default 100)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of the frames' noise, roll and placement")
+    parser.add_argument(
+        "--frames", type=int, default=100, help="frames per distance and angle (default 100)"
+    )
+    parser.add_argument(
+        "--seed", type=int, default=0, help="seed of the frames' noise, roll and placement"
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 
 
-def _progress(quiet: bool, what: str):
+def _progress(quiet: bool, what: str) -> Callable[[int, int], None]:
     started = time.monotonic()
 
     def report(done: int, total: int) -> None:
-        if not quiet and sys.stderr.isatty() or (not quiet and done == total):
-            print(f"\r{what}: {done}/{total} ({time.monotonic() - started:.0f} s)", end="", file=sys.stderr)
+        if (not quiet and sys.stderr.isatty()) or (not quiet and done == total):
+            print(
+                f"\r{what}: {done}/{total} ({time.monotonic() - started:.0f} s)",
+                end="",
+                file=sys.stderr,
+            )
             if done == total:
                 print(file=sys.stderr)
 
@@ -80,26 +108,53 @@ def main(args: argparse.Namespace) -> int:
     measured = load_measured(args.measured) if args.measured else None
     if args.action == "fit":
         return _fit(args, camera, measured)
-    result = sweep(camera, angles_deg=tuple(args.angles), frames=args.frames, seed=args.seed,
-                   on_progress=_progress(args.quiet, "sweep"))
-    sensor = sensor_from_sweep(result, Criteria(), name=f"{camera.name}-calibrated", seed=args.seed)
+    result = sweep(
+        camera,
+        angles_deg=tuple(args.angles),
+        frames=args.frames,
+        seed=args.seed,
+        on_progress=_progress(args.quiet, "sweep"),
+    )
+    sensor = sensor_from_sweep(
+        result, Criteria(), name=f"{camera.name}-calibrated", seed=args.seed
+    )
     criteria = Criteria()
-    print(f"camera {camera.name}: {result.frames} frames at each of {result.distances_mm.size} distances "
-          f"x {result.angles_deg.size} angles, {1000 * result.seconds_per_frame:.2f} ms a frame")
+    print(
+        f"camera {camera.name}: {result.frames} frames at each of "
+        f"{result.distances_mm.size} distances "
+        f"x {result.angles_deg.size} angles, {1000 * result.seconds_per_frame:.2f} ms a frame"
+    )
     column = int(abs(result.angles_deg).argmin())
-    print(f"blind limit (detection < {criteria.detection:.0%}): "
-          f"{blind_limit_mm(result.distances_mm, result.detection[:, column]):.1f} mm")
-    print(f"ranges (tracking distance, cm): blind < {sensor.sweet_min:g} <= sweet < {sensor.sweet_max:g} "
-          f"<= decaying < {sensor.decaying_max:g}")
-    at = (sensor.sweet_min, sensor.sweet_max, (sensor.decaying_min + sensor.decaying_max) / 2, sensor.decaying_max)
-    print("mean error: " + ", ".join(f"e({t:g}) = {100 * float(sensor.relative_error(t)):.2f} %" for t in at))
+    print(
+        f"blind limit (detection < {criteria.detection:.0%}): "
+        f"{blind_limit_mm(result.distances_mm, result.detection[:, column]):.1f} mm"
+    )
+    print(
+        f"ranges (tracking distance, cm): blind < {sensor.sweet_min:g} "
+        f"<= sweet < {sensor.sweet_max:g} "
+        f"<= decaying < {sensor.decaying_max:g}"
+    )
+    at = (
+        sensor.sweet_min,
+        sensor.sweet_max,
+        (sensor.decaying_min + sensor.decaying_max) / 2,
+        sensor.decaying_max,
+    )
+    print(
+        "mean error: "
+        + ", ".join(f"e({t:g}) = {100 * float(sensor.relative_error(t)):.2f} %" for t in at)
+    )
     if measured is not None:
         _print_fit(compare(result, measured), measured, result, column)
     if args.out:
         document = {"fileversion": SENSOR_FILE_VERSION, "sensor": sensor.to_dict()}
-        header = (f"# Written by `swazure camera calibrate --camera {args.camera} --frames {args.frames} "
-                  f"--seed {args.seed}`.\n# Stochastic sensor: ranges by docs/camera.md's criteria, the mean "
-                  "error polynomial, and the noise tables per tracking distance.\n")
+        header = (
+            f"# Written by `swazure camera calibrate --camera {args.camera} "
+            f"--frames {args.frames} "
+            f"--seed {args.seed}`.\n# Stochastic sensor: ranges by docs/camera.md's criteria; "
+            "per tracking "
+            "distance (cm) the mean error, detection and scatter.\n"
+        )
         text = header + yaml.safe_dump(document, sort_keys=False, width=100)
         atomic_write(args.out, lambda tmp: tmp.write_text(text))
         print(f"wrote {args.out}")
@@ -115,29 +170,44 @@ def main(args: argparse.Namespace) -> int:
     return 0
 
 
-def _print_fit(rows, measured, result, column) -> None:
+def _print_fit(rows: list[FitRow], measured: Measured, result: Sweep, column: int) -> None:
     print("\ndistance  error %: measured rendered ok   detection %: measured rendered ok")
     for row in rows:
         error_ok = {None: "-", True: "yes", False: "NO"}[row.error_ok]
-        print(f"{row.distance_mm:6.0f} mm {row.measured_error_pct:16.2f} {row.rendered_error_pct:8.2f} {error_ok:>4}"
-              f" {row.measured_detect_pct:22.2f} {row.rendered_detect_pct:8.2f} {'yes' if row.detection_ok else 'NO':>3}")
+        print(
+            f"{row.distance_mm:6.0f} mm {row.measured_error_pct:16.2f} "
+            f"{row.rendered_error_pct:8.2f} {error_ok:>4}"
+            f" {row.measured_detect_pct:22.2f} {row.rendered_detect_pct:8.2f} "
+            f"{'yes' if row.detection_ok else 'NO':>3}"
+        )
     measured_limit = blind_limit_mm(measured.distances_mm, measured.detect_pct / 100.0)
     rendered_limit = blind_limit_mm(result.distances_mm, result.detection[:, column])
-    print(f"blind limit: measured {measured_limit:.1f} mm, rendered {rendered_limit:.1f} mm "
-          f"({'within' if abs(measured_limit - rendered_limit) <= 5 else 'NOT within'} 5 mm)")
+    print(
+        f"blind limit: measured {measured_limit:.1f} mm, rendered {rendered_limit:.1f} mm "
+        f"({'within' if abs(measured_limit - rendered_limit) <= 5 else 'NOT within'} 5 mm)"
+    )
 
 
-def _fit(args: argparse.Namespace, camera, measured) -> int:
+def _fit(args: argparse.Namespace, camera: Camera, measured: Measured | None) -> int:
     if measured is None:
         raise SensorError("fit needs --measured CSV")
-    grid = {
+    grid: dict[str, Sequence[float]] = {
         "residual_blur_px": (0.65, 0.75, 0.85),
         "read_noise": (2.0, 4.0),
         "corner_window_px": (11, 12, 13),
     }
-    ranked = fit_degradations(camera, measured, grid, frames=args.frames, seed=args.seed,
-                              on_progress=_progress(args.quiet, "fit"))
+    ranked = fit_degradations(
+        camera,
+        measured,
+        grid,
+        frames=args.frames,
+        seed=args.seed,
+        on_progress=_progress(args.quiet, "fit"),
+    )
     for setting, score, rows in ranked[: args.top]:
         passed = sum(bool(r.detection_ok) for r in rows) + sum(bool(r.error_ok) for r in rows)
-        print(f"score {score:8.2f}  {passed} checks pass  " + " ".join(f"{k}={v}" for k, v in setting.items()))
+        print(
+            f"score {score:8.2f}  {passed} checks pass  "
+            + " ".join(f"{k}={v}" for k, v in setting.items())
+        )
     return 0

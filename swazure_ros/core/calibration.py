@@ -19,6 +19,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -133,7 +134,7 @@ def sweep(
 
 
 def crossing(distances: FloatArray, rate: FloatArray, level: float, rising: bool) -> float:
-    """First distance where ``rate`` crosses ``level`` (rising or falling), linearly interpolated."""
+    """First distance where ``rate`` crosses ``level`` (rising or falling), interpolated."""
     above = rate >= level
     for index in range(1, distances.size):
         if (rising and above[index] and not above[index - 1]) or (
@@ -154,8 +155,9 @@ def sensor_from_sweep(
     sweet from the first distance meeting the sweet criteria up to the first
     that does not; decaying from there until detection falls below
     ``criteria.detection`` or the mean error passes ``criteria.decaying_error``
-    (a corner window wider than a far marker makes wild means). The error model is the sweep's table per tracking
-    distance (mean error, detection, scatter), not a polynomial: a camera's
+    (a corner window wider than a far marker makes wild means). The error
+    model is the sweep's table per tracking distance (mean error, detection,
+    scatter), not a polynomial: a camera's
     error is flat, then grows steeply, which a quadratic smooths into
     negative errors at the near end. Where the camera detects nothing the
     mean error of the nearest detected distance holds.
@@ -185,7 +187,9 @@ def sensor_from_sweep(
         last += 1
     sweet_min = max(float(distances[first]), blind_limit)
     sweet_max = float(distances[last + 1]) if last + 1 < distances.size else float(distances[last])
-    wild = (distances >= sweet_max) & ~(np.abs(np.nan_to_num(error, nan=0.0)) <= criteria.decaying_error)
+    wild = (distances >= sweet_max) & ~(
+        np.abs(np.nan_to_num(error, nan=0.0)) <= criteria.decaying_error
+    )
     if wild.any():
         far_limit = min(far_limit, float(distances[int(np.argmax(wild))]))
     decaying_max = max(far_limit, sweet_max + 1e-3)
@@ -198,7 +202,9 @@ def sensor_from_sweep(
         tracking_cm=tuple(float(t) for t in tracking_cm),
         mean_error=tuple(float(e) for e in mean_error),
         detection=tuple(float(p) for p in detection),
-        distance_sd=tuple(float(s) if math.isfinite(s) else 0.0 for s in result.distance_sd[:, column]),
+        distance_sd=tuple(
+            float(s) if math.isfinite(s) else 0.0 for s in result.distance_sd[:, column]
+        ),
         direction_sd_deg=tuple(
             float(s) if math.isfinite(s) else 0.0 for s in result.direction_sd_deg[:, column]
         ),
@@ -227,13 +233,19 @@ def load_measured(path: str | Path) -> Measured:
     """Read ``distance_mm,error_pct,detect_pct`` rows (``#`` comments) from a CSV file."""
     path = Path(path)
     try:
-        lines = [line for line in path.read_text().splitlines() if line and not line.startswith("#")]
+        lines = [
+            line for line in path.read_text().splitlines() if line and not line.startswith("#")
+        ]
     except OSError as err:
         raise SensorError(f"{path}: cannot read ({err.strerror or err})") from err
     rows = list(csv.DictReader(lines))
     try:
         table = [
-            (float(r["distance_mm"]), float(r["error_pct"]) if r["error_pct"] else math.nan, float(r["detect_pct"]))
+            (
+                float(r["distance_mm"]),
+                float(r["error_pct"]) if r["error_pct"] else math.nan,
+                float(r["detect_pct"]),
+            )
             for r in rows
         ]
     except (KeyError, TypeError, ValueError) as err:
@@ -285,13 +297,25 @@ def compare(result: Sweep, measured: Measured) -> list[FitRow]:
             if known[nearest]
             else math.nan
         )
-        rows.append(FitRow(float(distance), float(error_pct), rendered_error, float(detect_pct), detect * 100.0))
+        rows.append(
+            FitRow(
+                float(distance),
+                float(error_pct),
+                rendered_error,
+                float(detect_pct),
+                detect * 100.0,
+            )
+        )
     return rows
 
 
-def blind_limit_mm(distances_mm: FloatArray, detect_fraction: FloatArray, level: float = 0.5) -> float:
+def blind_limit_mm(
+    distances_mm: FloatArray, detect_fraction: FloatArray, level: float = 0.5
+) -> float:
     """Where detection first rises to ``level`` with distance, mm (interpolated)."""
-    return crossing(np.asarray(distances_mm, np.float64), np.asarray(detect_fraction, np.float64), level, True)
+    return crossing(
+        np.asarray(distances_mm, np.float64), np.asarray(detect_fraction, np.float64), level, True
+    )
 
 
 def fit_score(rows: Sequence[FitRow]) -> float:
@@ -322,7 +346,7 @@ def fit_degradations(
     seed: int = 0,
     on_progress: Callable[[int, int], None] | None = None,
 ) -> list[tuple[dict[str, float], float, list[FitRow]]]:
-    """Every combination of ``grid`` (degradation name -> values), best first, by :func:`fit_score`."""
+    """Every combination of ``grid`` (degradation -> values), best first by :func:`fit_score`."""
     import itertools
     from dataclasses import replace
 
@@ -330,7 +354,7 @@ def fit_degradations(
     combos = list(itertools.product(*(grid[name] for name in names)))
     ranked = []
     for index, values in enumerate(combos):
-        setting = dict(zip(names, values, strict=True))
+        setting: dict[str, Any] = dict(zip(names, values, strict=True))
         if "corner_window_px" in setting:
             setting["corner_window_px"] = int(setting["corner_window_px"])
         candidate = replace(camera, degradations=replace(camera.degradations, **setting))

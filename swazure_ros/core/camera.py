@@ -43,7 +43,7 @@ QUIET_ZONE_CELLS = 5.0
 class Degradations:
     """What makes the recorded frame differ from the ideal projection (camera-independent)."""
 
-    #: Optical blur left at best focus beyond diffraction (lens aberrations, demosaicing), px sigma.
+    #: Blur left at best focus beyond diffraction (aberrations, demosaicing), px sigma.
     residual_blur_px: float = 0.6
     #: Read noise of a pixel, 8-bit grey levels (sigma).
     read_noise: float = 2.0
@@ -100,7 +100,12 @@ class Camera:
             return math.inf
         # c = A f |1/d - 1/s| / (1 - f/s) on the sensor (thin lens), in pixels of f / fx.
         inverse_focus = 0.0 if math.isinf(focus_mm) else 1.0 / focus_mm
-        blur_mm = self.aperture_mm * f * abs(1.0 / distance_mm - inverse_focus) / (1.0 - f * inverse_focus)
+        blur_mm = (
+            self.aperture_mm
+            * f
+            * abs(1.0 / distance_mm - inverse_focus)
+            / (1.0 - f * inverse_focus)
+        )
         return blur_mm / self.pixel_pitch_mm
 
     def focus_for(self, distance_mm: float, rng: np.random.Generator) -> float:
@@ -151,14 +156,16 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
     width = int(_number(image, "width", f"{where}: camera.image"))
     height = int(_number(image, "height", f"{where}: camera.image"))
     fx = _number(image, "fx", f"{where}: camera.image")
-    values = {
+    values: dict[str, Any] = {
         key: _number(sections["degradations"], key, f"{where}: camera.degradations")
         for key in Degradations.__dataclass_fields__
     }
     values["corner_window_px"] = int(values["corner_window_px"])
     dictionary = str(marker.get("dictionary", "DICT_4X4_100"))
     if not hasattr(cv2.aruco, dictionary):
-        raise SensorError(f"{where}: camera.marker.dictionary {dictionary!r} is not an ArUco dictionary")
+        raise SensorError(
+            f"{where}: camera.marker.dictionary {dictionary!r} is not an ArUco dictionary"
+        )
     camera = Camera(
         name=str(body.get("name", Path(where).stem)),
         width=width,
@@ -240,19 +247,21 @@ def _marker_texture(camera: Camera, texels_per_cell: int) -> NDArray[np.float32]
     """The printed card: marker bits and its quiet zone, as grey levels, (n, n)."""
     dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, camera.marker_dictionary))
     cells = dictionary.markerSize + 2
-    bits = cv2.aruco.generateImageMarker(dictionary, camera.marker_id, cells * texels_per_cell, borderBits=1)
-    quiet = int(round(QUIET_ZONE_CELLS * texels_per_cell))
+    bits = cv2.aruco.generateImageMarker(
+        dictionary, camera.marker_id, cells * texels_per_cell, borderBits=1
+    )
+    quiet = round(QUIET_ZONE_CELLS * texels_per_cell)
     card = cv2.copyMakeBorder(bits, quiet, quiet, quiet, quiet, cv2.BORDER_CONSTANT, value=255)
     d = camera.degradations
     return (d.black_level + (d.white_level - d.black_level) * (card / 255.0)).astype(np.float32)
 
 
 def _psf(camera: Camera, distance_mm: float, focus_mm: float) -> NDArray[np.float32]:
-    """Point spread function of a point at ``distance_mm``: blur circle convolved with a Gaussian."""
+    """Point spread function at ``distance_mm``: blur circle convolved with a Gaussian."""
     sigma = math.hypot(camera.diffraction_px(), camera.degradations.residual_blur_px)
     diameter = camera.defocus_px(distance_mm, focus_mm)
     radius = diameter / 2.0
-    half = int(math.ceil(radius + 3.0 * sigma)) + 1
+    half = math.ceil(radius + 3.0 * sigma) + 1
     grid = np.arange(-half, half + 1, dtype=np.float64)
     # The blur circle, anti-aliased by 4x4 supersampling of each kernel pixel.
     sub = (np.arange(4) + 0.5) / 4.0 - 0.5
@@ -261,7 +270,7 @@ def _psf(camera: Camera, distance_mm: float, focus_mm: float) -> NDArray[np.floa
     disk = inside.reshape(grid.size, 4, grid.size, 4).mean(axis=(1, 3))
     gauss = np.exp(-0.5 * (grid / max(sigma, 1e-6)) ** 2)
     kernel = cv2.sepFilter2D(disk, -1, gauss, gauss, borderType=cv2.BORDER_CONSTANT)
-    return (kernel / kernel.sum()).astype(np.float32)
+    return np.asarray(kernel / kernel.sum(), dtype=np.float32)
 
 
 def render(camera: Camera, pose: MarkerPose, rng: np.random.Generator) -> Frame:
@@ -274,7 +283,10 @@ def render(camera: Camera, pose: MarkerPose, rng: np.random.Generator) -> Frame:
             pose.distance_mm,
         ]
     )
-    cells = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, camera.marker_dictionary)).markerSize + 2
+    cells = (
+        cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, camera.marker_dictionary)).markerSize
+        + 2
+    )
     card_side = camera.marker_side_mm * (cells + 2 * QUIET_ZONE_CELLS) / cells
     card = marker_object_points(card_side) @ rotation.T + centre
     corners_3d = marker_object_points(camera.marker_side_mm) @ rotation.T + centre
@@ -282,15 +294,15 @@ def render(camera: Camera, pose: MarkerPose, rng: np.random.Generator) -> Frame:
     corners_px = _project(camera, corners_3d)
     psf = _psf(camera, pose.distance_mm, camera.focus_for(pose.distance_mm, rng))
     margin = psf.shape[0] // 2 + 12
-    x0 = max(int(math.floor(card_px[:, 0].min())) - margin, 0)
-    y0 = max(int(math.floor(card_px[:, 1].min())) - margin, 0)
-    x1 = min(int(math.ceil(card_px[:, 0].max())) + margin, camera.width)
-    y1 = min(int(math.ceil(card_px[:, 1].max())) + margin, camera.height)
+    x0 = max(math.floor(card_px[:, 0].min()) - margin, 0)
+    y0 = max(math.floor(card_px[:, 1].min()) - margin, 0)
+    x1 = min(math.ceil(card_px[:, 0].max()) + margin, camera.width)
+    y1 = min(math.ceil(card_px[:, 1].max()) + margin, camera.height)
     if x1 - x0 < 8 or y1 - y0 < 8:
         return Frame(np.zeros((0, 0), np.uint8), (x0, y0), corners_px)
     # Texels of about half a pixel: bilinear sampling then keeps edges to a fraction of a pixel.
     side_px = float(np.linalg.norm(card_px[1] - card_px[0]))
-    texels_per_cell = max(2, int(math.ceil(2.0 * side_px / (cells + 2 * QUIET_ZONE_CELLS))))
+    texels_per_cell = max(2, math.ceil(2.0 * side_px / (cells + 2 * QUIET_ZONE_CELLS)))
     texture = _marker_texture(camera, texels_per_cell)
     n = texture.shape[0]
     source = np.array([[0, 0], [n, 0], [n, n], [0, n]], dtype=np.float32) - 0.5
@@ -305,7 +317,7 @@ def render(camera: Camera, pose: MarkerPose, rng: np.random.Generator) -> Frame:
         borderMode=cv2.BORDER_CONSTANT,
         borderValue=d.background_level,
     )
-    scene = cv2.filter2D(scene, -1, psf, borderType=cv2.BORDER_REPLICATE)
+    scene = np.asarray(cv2.filter2D(scene, -1, psf, borderType=cv2.BORDER_REPLICATE), np.float32)
     sigma = np.sqrt(d.read_noise**2 + d.shot_noise_gain * np.maximum(scene, 0.0))
     scene = scene + sigma * rng.standard_normal(scene.shape).astype(np.float32)
     image = np.clip(np.rint(scene), 0, 255).astype(np.uint8)
@@ -330,7 +342,9 @@ class Detector:
 
     def __init__(self, camera: Camera) -> None:
         self.camera = camera
-        self._dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, camera.marker_dictionary))
+        self._dictionary = cv2.aruco.getPredefinedDictionary(
+            getattr(cv2.aruco, camera.marker_dictionary)
+        )
         self._default = cv2.aruco.DetectorParameters()
         self._objects = marker_object_points(camera.marker_side_mm).astype(np.float32)
         window = camera.degradations.corner_window_px
@@ -353,12 +367,14 @@ class Detector:
         found, ids, _ = self._detector_for(frame.image.shape).detectMarkers(frame.image)
         if ids is None:
             return None
-        matches = [c for c, i in zip(found, ids.ravel(), strict=True) if i == self.camera.marker_id]
+        matches = [
+            c for c, i in zip(found, ids.ravel(), strict=True) if i == self.camera.marker_id
+        ]
         if not matches:
             return None
         corners = matches[0].reshape(4, 1, 2).astype(np.float32)
-        corners = cv2.cornerSubPix(frame.image, corners, self._window, (-1, -1), self._criteria)
-        return corners.reshape(4, 2).astype(np.float64) + np.array(frame.origin, dtype=np.float64)
+        refined = cv2.cornerSubPix(frame.image, corners, self._window, (-1, -1), self._criteria)
+        return np.asarray(refined, np.float64).reshape(4, 2) + np.array(frame.origin, np.float64)
 
     def solve(self, corners: FloatArray) -> FloatArray | None:
         """Marker centre (3,) mm in the camera frame from its corners; None if no pose fits.
@@ -384,9 +400,7 @@ class Detector:
             errors = np.asarray(errors).ravel()
             tied = errors[1] <= errors[0] * 1.05 + 1e-9
             if tied:
-                facing = [
-                    -cv2.Rodrigues(rotation)[0][2, 2] for rotation in rotations[:2]
-                ]
+                facing = [-cv2.Rodrigues(rotation)[0][2, 2] for rotation in rotations[:2]]
                 best = int(np.argmax(facing))
         return np.asarray(translations[best], dtype=np.float64).ravel()
 
@@ -394,7 +408,7 @@ class Detector:
 def measure(
     camera: Camera, pose: MarkerPose, rng: np.random.Generator, detector: Detector | None = None
 ) -> FloatArray | None:
-    """Render, detect and solve once: the measured marker centre (3,) mm, or None if not detected."""
+    """Render, detect and solve once: the measured marker centre (3,) mm, or None."""
     detector = detector or Detector(camera)
     corners = detector.corners(render(camera, pose, rng))
     if corners is None:
@@ -411,3 +425,53 @@ def true_centre(camera: Camera, pose: MarkerPose) -> FloatArray:
             pose.distance_mm,
         ]
     )
+
+
+def measure_pairs(
+    camera: Camera,
+    distances_mm: FloatArray,
+    seed: int,
+    first: NDArray[np.int64],
+    second: NDArray[np.int64],
+    attempts: int = 8,
+) -> FloatArray:
+    """Marker centres (M, 3) mm in each measuring camera's frame, one pair per row.
+
+    The marker faces the camera head-on at ``distances_mm`` (M,). Each pair has
+    its own random stream, seeded by (seed, first, second), so a pair's
+    measurement is the same in every call; the camera looks up to
+    ``attempts`` frames and keeps the first that detects. Rows with no
+    detection are NaN.
+    """
+    detector = Detector(camera)
+    centres = np.full((len(distances_mm), 3), np.nan)
+    for row, (distance, one, other) in enumerate(zip(distances_mm, first, second, strict=True)):
+        rng = np.random.default_rng([seed, int(one), int(other)])
+        for _ in range(attempts):
+            pose = MarkerPose(
+                float(distance),
+                roll_deg=float(rng.uniform(0.0, 360.0)),
+                offset_px=(float(rng.uniform(-0.5, 0.5)), float(rng.uniform(-0.5, 0.5))),
+            )
+            centre = measure(camera, pose, rng, detector)
+            if centre is not None:
+                # The frame's sub-pixel placement is the camera's aim, not the neighbour's place.
+                centres[row] = (
+                    centre
+                    - true_centre(camera, pose)
+                    + true_centre(camera, MarkerPose(float(distance)))
+                )
+                break
+    return centres
+
+
+def full_image(camera: Camera, frame: Frame) -> NDArray[np.uint8]:
+    """The whole (height, width) image of ``frame``: its region over the background."""
+    image = np.full(
+        (camera.height, camera.width), round(camera.degradations.background_level), np.uint8
+    )
+    if frame.image.size:
+        x, y = frame.origin
+        rows, columns = frame.image.shape
+        image[y : y + rows, x : x + columns] = frame.image
+    return image

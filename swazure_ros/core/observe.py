@@ -49,7 +49,8 @@ class Observations:
         """``measured`` for the rows ``rows`` only (one FLS's, from :meth:`rows`)."""
         range_class = self.range_class[rows]
         camera_range = (range_class == SWEET) | (range_class == DECAYING)
-        return np.asarray(self.visible[rows] & camera_range, dtype=np.bool_)
+        read = np.isfinite(self.vector[rows, 0])  # a rendering camera may not detect
+        return np.asarray(self.visible[rows] & camera_range & read, dtype=np.bool_)
 
     def rows(self, fls: int) -> slice:
         """The rows of FLS ``fls`` (a swarm index)."""
@@ -88,10 +89,11 @@ def observations(hood: Neighbourhood) -> Observations:
     vector[measured] = measured_vectors(
         sensor, swarm.points, swarm.radius, owner[measured], other[measured]
     )
-    if sensor.noise is None:
+    if sensor.noise is None and sensor.camera is None:
         tracking[measured] = sensor.measured_tracking(true_tracking[measured])
     else:
-        # The drawn noise is in the vector; its length says what was measured.
+        # The drawn noise or the rendered frame is in the vector; its length says what was
+        # measured (NaN where the camera did not detect the marker: no reading).
         tracking[measured] = np.linalg.norm(vector[measured], axis=1) - 2.0 * swarm.radius
     return Observations(indptr, other, range_class, visible, vector, tracking, true_tracking)
 

@@ -12,7 +12,7 @@ import os
 import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import yaml
@@ -20,6 +20,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import SensorError
 from .geometry import centre_distance
+
+if TYPE_CHECKING:
+    from .camera import Camera
 
 FloatArray = NDArray[np.float64]
 
@@ -126,6 +129,11 @@ class Sensor:
     name: str = "sensor"
     #: Random part of a stochastic sensor; None: deterministic (the published model).
     noise: SensorNoise | None = None
+    #: A rendering camera that measures every pair (small swarms); None: a model.
+    camera: Camera | None = None
+    #: The camera's file as the sensor file names it, and the seed of its frames.
+    camera_file: str = ""
+    camera_seed: int = 0
 
     def __post_init__(self) -> None:
         bounds = (self.sweet_min, self.sweet_max, self.decaying_min, self.decaying_max)
@@ -144,11 +152,13 @@ class Sensor:
     @property
     def accurate(self) -> bool:
         """True when the sensor measures without error."""
-        return not any(self.error_coefficients) and self.noise is None
+        return not any(self.error_coefficients) and self.noise is None and self.camera is None
 
     def error_free(self) -> Sensor:
         """The same ranges with no measurement error (the 'accurate' mode)."""
-        return replace(self, error_coefficients=(), noise=None, name=f"{self.name} (accurate)")
+        return replace(
+            self, error_coefficients=(), noise=None, camera=None, name=f"{self.name} (accurate)"
+        )
 
     def relative_error(self, tracking: ArrayLike) -> FloatArray:
         """Relative error e(t) (a fraction) of tracking distances ``tracking`` (cm)."""
@@ -177,8 +187,14 @@ class Sensor:
 
     def to_dict(self) -> dict[str, Any]:
         """The sensor in the layout of the YAML file's ``sensor`` mapping."""
-        if self.noise is not None:
+        if self.camera is not None:
             model: dict[str, Any] = {
+                "kind": "camera",
+                "camera": self.camera_file,
+                "seed": self.camera_seed,
+            }
+        elif self.noise is not None:
+            model = {
                 "kind": "stochastic",
                 "seed": self.noise.seed,
                 "noise": self.noise.to_dict(),
@@ -205,8 +221,12 @@ def _require(mapping: Any, key: str, where: str) -> Any:
     return mapping[key]
 
 
-def sensor_from_dict(document: Any, where: str = "sensor") -> Sensor:
-    """Build a :class:`Sensor` from a parsed sensor YAML document; errors name the key."""
+def sensor_from_dict(document: Any, where: str = "sensor", base: Path | None = None) -> Sensor:
+    """Build a :class:`Sensor` from a parsed sensor YAML document; errors name the key.
+
+    ``base`` is the folder a ``camera`` kind's camera file is relative to
+    (the sensor file's own folder; default: the configuration folder).
+    """
     if not isinstance(document, dict):
         raise SensorError(f"{where}: expected a mapping with 'fileversion' and 'sensor'")
     version = _require(document, "fileversion", where)
@@ -235,19 +255,31 @@ def sensor_from_dict(document: Any, where: str = "sensor") -> Sensor:
                 f"{where}: sensor.error_model.coefficients must be a list of numbers"
             )
         coefficients = tuple(float(c) for c in raw)
-    elif kind not in ("none", "stochastic"):
+    elif kind not in ("none", "stochastic", "camera"):
         raise SensorError(
-            f"{where}: sensor.error_model.kind must be 'polynomial', 'stochastic' or 'none', "
-            f"got {kind!r}"
+            f"{where}: sensor.error_model.kind must be 'polynomial', 'stochastic', 'camera' "
+            f"or 'none', got {kind!r}"
         )
     if kind == "stochastic":
         noise = _noise_from_dict(model, f"{where}: sensor.error_model")
+    camera, camera_file, camera_seed = None, "", 0
+    if kind == "camera":
+        from .camera import load_camera
+
+        camera_file = str(_require(model, "camera", f"{where}: sensor.error_model"))
+        camera_seed = model.get("seed", 0)
+        if isinstance(camera_seed, bool) or not isinstance(camera_seed, int):
+            raise SensorError(f"{where}: sensor.error_model.seed must be an integer")
+        camera = load_camera((base if base is not None else config_dir()) / camera_file)
     try:
         return Sensor(
             **values,
             error_coefficients=coefficients,
             name=str(body.get("name", "")),
             noise=noise,
+            camera=camera,
+            camera_file=camera_file,
+            camera_seed=camera_seed,
         )
     except SensorError as err:
         raise SensorError(f"{where}: {err}") from err
@@ -285,7 +317,7 @@ def load_sensor(path: str | Path | None = None) -> Sensor:
         mark = getattr(err, "problem_mark", None)
         where = f" at line {mark.line + 1}" if mark is not None else ""
         raise SensorError(f"{path}: not valid YAML{where}") from err
-    return sensor_from_dict(document, str(path))
+    return sensor_from_dict(document, str(path), path.parent)
 
 
 def config_dir() -> Path:
@@ -305,6 +337,14 @@ def config_dir() -> Path:
 def default_sensor_path() -> Path:
     """Path of the default sensor file, ``config/sensor.yaml``."""
     return config_dir() / "sensor.yaml"
+
+
+def _normal_plane(unit: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Two unit vectors (M, 3) each, normal to ``unit`` (M, 3) and to each other."""
+    helper = np.where(np.abs(unit[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    across = np.cross(unit, helper)
+    across /= np.linalg.norm(across, axis=1, keepdims=True)
+    return across, np.cross(unit, across)
 
 
 def measured_vectors(
@@ -329,19 +369,29 @@ def measured_vectors(
     offset = points[second] - points[first]
     distance = centre_distance(points, first, second)
     tracking = distance - 2.0 * radius
+    unit = offset / distance[:, None]
+    if sensor.camera is not None:
+        # The rendering camera on i's surface aims at j; its frame's x, y, z are
+        # (across, other, unit), and it measures the marker's centre on j's surface.
+        from .camera import measure_pairs
+
+        across, other = _normal_plane(unit)
+        centres = measure_pairs(sensor.camera, 10.0 * tracking, sensor.camera_seed, first, second)
+        length = np.linalg.norm(centres, axis=1, keepdims=True)
+        seen = centres / length
+        direction = seen[:, :1] * across + seen[:, 1:2] * other + seen[:, 2:3] * unit
+        return np.asarray(direction * (length / 10.0 + 2.0 * radius), dtype=np.float64)
     measured = sensor.measured_tracking(tracking)
     noise = sensor.noise
     if noise is None:
-        return np.asarray(offset * ((measured + 2.0 * radius) / distance)[:, None], dtype=np.float64)
+        return np.asarray(
+            offset * ((measured + 2.0 * radius) / distance)[:, None], dtype=np.float64
+        )
     # A stochastic sensor: the pair's own draw (fixed by seed and pair) on the
     # length and on the direction, in the plane normal to the true direction.
     z = standard_normals(noise.seed, first, second, 3)
     measured = measured + tracking * noise.at(noise.distance_sd, tracking) * z[:, 0]
-    unit = offset / distance[:, None]
-    helper = np.where(np.abs(unit[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
-    across = np.cross(unit, helper)
-    across /= np.linalg.norm(across, axis=1, keepdims=True)
-    other = np.cross(unit, across)
+    across, other = _normal_plane(unit)
     spread = np.radians(noise.at(noise.direction_sd_deg, tracking))[:, None]
     direction = unit + spread * (z[:, 1:2] * across + z[:, 2:3] * other)
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)

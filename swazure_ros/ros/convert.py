@@ -9,6 +9,8 @@ import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, Vector3
 from numpy.typing import NDArray
+from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import Header
 from swazure_interfaces.msg import (
     DiscoveryControl,
     Measurements,
@@ -25,6 +27,7 @@ from swazure_interfaces.msg import (
     WorldState,
 )
 
+from ..core.camera import Camera
 from ..core.observe import NeighbourSets
 from ..core.tracking import MotionEstimate, TrackState
 from ..protocol.discovery import Broadcast, Control, Estimate, Offer, Report
@@ -401,3 +404,33 @@ def nanoseconds_stamp(nanoseconds: int) -> Time:
 def stamp_nanoseconds(stamp: Time) -> int:
     """Whole nanoseconds of a builtin_interfaces Time."""
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def image_message(image: NDArray[np.uint8], stamp: Time, frame_id: str) -> Image:
+    """A grey (H, W) image as sensor_msgs/Image, mono8."""
+    rows, columns = image.shape
+    return Image(
+        header=Header(stamp=stamp, frame_id=frame_id),
+        height=rows,
+        width=columns,
+        encoding="mono8",
+        is_bigendian=0,
+        step=columns,
+        data=np.ascontiguousarray(image).tobytes(),
+    )
+
+
+def camera_info_message(camera: Camera, stamp: Time, frame_id: str) -> CameraInfo:
+    """The camera's intrinsics as sensor_msgs/CameraInfo (no distortion: the renderer has none)."""
+    matrix = camera.matrix
+    projection = np.hstack([matrix, np.zeros((3, 1))])
+    return CameraInfo(
+        header=Header(stamp=stamp, frame_id=frame_id),
+        height=camera.height,
+        width=camera.width,
+        distortion_model="plumb_bob",
+        d=[0.0] * 5,
+        k=matrix.ravel().tolist(),
+        r=np.eye(3).ravel().tolist(),
+        p=projection.ravel().tolist(),
+    )

@@ -13,6 +13,10 @@ names and QoS in :mod:`.names`):
 - ``radio`` and ``estimates``, shared: its path labels, one broadcast per
   round of a discovery run, and its estimates when a run ends or a path walk
   comes back (docs/protocol.md);
+- ``fls_<id>/camera/image_raw`` and ``fls_<id>/camera/camera_info``
+  (sensor_msgs/Image, CameraInfo), only when the ``camera_view`` parameter
+  names a neighbour: each frame, what the FLS's rendering camera sees aimed
+  at that neighbour's marker (docs/camera.md), to look through its eyes;
 - ``fls_<id>/track`` (swazure_interfaces/TrackTarget): track a target's motion
   through a relay (spec, section 9); relays stream ``track_samples``, the
   source publishes ``track_estimates``. Both run on the node's clock,
@@ -38,6 +42,7 @@ from __future__ import annotations
 
 from collections import Counter
 
+import numpy as np
 from builtin_interfaces.msg import Time
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import JumpHandle, JumpThreshold
@@ -49,6 +54,7 @@ from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.serialization import serialize_message
 from rclpy.timer import Timer
+from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import (
     Measurements,
     PathOffer,
@@ -59,8 +65,10 @@ from swazure_interfaces.msg import (
 )
 from swazure_interfaces.srv import GetNeighbours, TrackTarget
 
-from ..core.errors import SwazureError
+from ..core.camera import Camera, MarkerPose, full_image, load_camera, render
+from ..core.errors import SwazureError, UnknownFlsError
 from ..core.observe import NeighbourSets
+from ..core.sensor import config_dir
 from ..core.tracking import TRACK_SETTINGS, FloatArray, TrackConfig, TrackingError
 from ..protocol.discovery import Broadcast, Control, Participant, Report, RoundOffers
 from ..protocol.moves import WALKING, Walk, step_walk, walk_estimate
@@ -68,7 +76,9 @@ from ..protocol.tracking import RelayRequest, RelayStreams, Sample, TrackReport,
 from ..sim.replica import WorldReplica
 from ..sim.world import Measurement
 from .convert import (
+    camera_info_message,
     estimates_message,
+    image_message,
     measurements_message,
     neighbour_fields,
     offer_message,
@@ -79,6 +89,8 @@ from .convert import (
     track_estimate_message,
 )
 from .names import (
+    CAMERA_IMAGE_TOPIC,
+    CAMERA_INFO_TOPIC,
     ESTIMATES_TOPIC,
     MEASUREMENTS_QOS,
     MEASUREMENTS_TOPIC,
@@ -153,6 +165,7 @@ class FlsNode(SwarmNode):
             allow_zero=True,
         )
         self.track_config = self._declare_track_config()
+        self.camera_view = self._declare_camera_view()
         self._sensed: tuple[Measurement, NeighbourSets] | None = None
         self._published: Measurement | None = None  # the last measurement sent
         self._published_at = 0  # ns on the node's clock
@@ -171,6 +184,15 @@ class FlsNode(SwarmNode):
         self._publisher = self.create_publisher(Measurements, MEASUREMENTS_TOPIC, MEASUREMENTS_QOS)
         self.create_service(GetNeighbours, f"~/{NEIGHBOURS_SERVICE}", self._on_get_neighbours)
         self.create_timer(self.publish_period, self._on_frame)
+        self._eyes: tuple[Camera, Publisher, Publisher] | None = None
+        if self.camera_view >= 0:
+            self._eyes = (
+                self._camera(),
+                self.create_publisher(Image, f"~/{CAMERA_IMAGE_TOPIC}", 1),
+                self.create_publisher(CameraInfo, f"~/{CAMERA_INFO_TOPIC}", 1),
+            )
+            self.frames_shown = 0
+            self.create_timer(self.publish_period, self._on_camera_frame)
         # Alone (no process hosting it), an FLS transmits with publishers of its own.
         self._transmitter = transmitter or Transmitter(self)
         self.create_service(TrackTarget, f"~/{TRACK_SERVICE}", self._on_track)
@@ -186,6 +208,63 @@ class FlsNode(SwarmNode):
         self.messages_sent = 0
         self.measurements_sent = 0  # Measurements messages published
         self.bytes_sent = 0
+
+    def _declare_camera_view(self) -> int:
+        try:
+            value = self.declare_parameter(
+                "camera_view",
+                -1,
+                ParameterDescriptor(
+                    description="id of a neighbour: publish what this FLS's camera sees aimed "
+                    "at its marker on ~/camera/image_raw and ~/camera/camera_info; -1: none"
+                ),
+            ).value
+        except ParameterException as err:
+            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
+        if isinstance(value, bool) or not isinstance(value, int) or value < -1:
+            raise ParameterError(
+                f"{self.get_fully_qualified_name()}: camera_view must be an FLS id or -1, "
+                f"got {value!r}"
+            )
+        if value == self.fls_id:
+            raise ParameterError(
+                f"{self.get_fully_qualified_name()}: camera_view names this FLS itself"
+            )
+        if value >= 0:
+            try:
+                self._senses.world.index(value)
+            except UnknownFlsError as err:
+                raise ParameterError(
+                    f"{self.get_fully_qualified_name()}: camera_view: {err}"
+                ) from err
+        return int(value)
+
+    def _camera(self) -> Camera:
+        """The sensor's rendering camera, or the wide lens camera the published model describes."""
+        sensor_camera = self._senses.world.sensor.camera
+        if sensor_camera is not None:
+            return sensor_camera
+        return load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
+
+    def _on_camera_frame(self) -> None:
+        assert self._eyes is not None
+        camera, images, infos = self._eyes
+        world = self._senses.world
+        offset = world.position(self.camera_view) - world.position(self.fls_id)
+        tracking_mm = 10.0 * (float(np.linalg.norm(offset)) - 2.0 * world.swarm.radius)
+        # One stream per frame: the same swarm shows the same frames.
+        seed = (world.sensor.camera_seed, self.fls_id, self.camera_view, self.frames_shown)
+        self.frames_shown += 1
+        stamp = self.get_clock().now().to_msg()
+        frame_id = f"{node_name(self.fls_id)}_camera"
+        if tracking_mm > camera.focal_length_mm:
+            image = full_image(
+                camera, render(camera, MarkerPose(tracking_mm), np.random.default_rng(seed))
+            )
+        else:  # touching: the marker covers the lens
+            image = np.zeros((camera.height, camera.width), np.uint8)
+        images.publish(image_message(image, stamp, frame_id))
+        infos.publish(camera_info_message(camera, stamp, frame_id))
 
     def _declare_track_config(self) -> TrackConfig:
         defaults = TrackConfig()

@@ -36,6 +36,9 @@ MOVE_TOPIC = "move_commands"
 TRACK_REQUESTS_TOPIC = "track_requests"
 TRACK_SAMPLES_TOPIC = "track_samples"
 TRACK_ESTIMATES_TOPIC = "track_estimates"
+#: Per FLS, when its camera_view parameter names a neighbour: what its camera sees.
+CAMERA_IMAGE_TOPIC = "camera/image_raw"
+CAMERA_INFO_TOPIC = "camera/camera_info"
 CLOCK_TOPIC = "/clock"
 
 # Services: each FLS answers for itself (fls_<id>/...), the coordinator for the swarm.

@@ -20,20 +20,30 @@ def calibration_figure(
     """Mean distance error and detection rate against distance, per angle, measured beside."""
     figure = Figure(figsize=(11.0, 4.4), layout="constrained")
     error_axes, detection_axes = figure.subplots(1, 2)
-    figure.suptitle(f"{camera.name}: rendered, detected and solved ({result.frames} frames a point)")
+    figure.suptitle(
+        f"{camera.name}: rendered, detected and solved ({result.frames} frames a point)"
+    )
     for column, angle in enumerate(result.angles_deg):
         label = f"rendered, {angle:g}°"
         # A mean over a few lucky frames says little: drawn where most frames detect.
         error = np.where(result.detection[:, column] >= 0.5, result.mean_error[:, column], np.nan)
         error_axes.plot(result.distances_mm, 100.0 * error, ".-", label=label)
-        detection_axes.plot(result.distances_mm, 100.0 * result.detection[:, column], ".-", label=label)
+        detection_axes.plot(
+            result.distances_mm, 100.0 * result.detection[:, column], ".-", label=label
+        )
     if measured is not None:
         error_axes.plot(measured.distances_mm, measured.error_pct, "ks", label="measured")
         detection_axes.plot(measured.distances_mm, measured.detect_pct, "ks", label="measured")
     curve = np.linspace(sensor.sweet_min, sensor.decaying_max, 100)
-    error_axes.plot(10.0 * curve, 100.0 * sensor.relative_error(curve), "k--", lw=1, label="calibrated sensor")
+    error_axes.plot(
+        10.0 * curve, 100.0 * sensor.relative_error(curve), "k--", lw=1, label="calibrated sensor"
+    )
     for ax in (error_axes, detection_axes):
-        for bound, name in ((sensor.sweet_min, "sweet"), (sensor.sweet_max, ""), (sensor.decaying_max, "out")):
+        for bound, _name in (
+            (sensor.sweet_min, "sweet"),
+            (sensor.sweet_max, ""),
+            (sensor.decaying_max, "out"),
+        ):
             ax.axvline(10.0 * bound, color="grey", lw=0.8, ls=":")
         ax.axvspan(0, 10.0 * sensor.sweet_min, color="grey", alpha=0.12)
         ax.set_xlabel("distance camera to marker (mm) = tracking distance")
@@ -64,12 +74,17 @@ def contact_sheet(
     for row, angle in enumerate(angles_deg):
         for column, distance in enumerate(distances_mm):
             rng = np.random.default_rng([seed, row, column])
-            frame = render(camera, MarkerPose(float(distance), tilt_deg=float(angle), roll_deg=20.0), rng)
+            frame = render(
+                camera, MarkerPose(float(distance), tilt_deg=float(angle), roll_deg=20.0), rng
+            )
             ax = axes[row, column]
             ax.imshow(frame.image, cmap="gray", vmin=0, vmax=255, interpolation="nearest")
             ax.set_xticks([])
             ax.set_yticks([])
-            ax.set_title(f"{distance:g} mm, {angle:g}°\n{frame.image.shape[1]}x{frame.image.shape[0]} px", fontsize=8)
+            ax.set_title(
+                f"{distance:g} mm, {angle:g}°\n{frame.image.shape[1]}x{frame.image.shape[0]} px",
+                fontsize=8,
+            )
     return figure
 
 

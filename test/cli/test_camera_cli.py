@@ -9,18 +9,41 @@ WIDE = config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml"
 
 
 def swazure(*args):
-    return subprocess.run([sys.executable, "-m", "swazure_ros.cli.main", *args],
-                          capture_output=True, text=True, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", *args],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
 
 
 def test_calibrate_writes_a_sensor_that_evaluate_runs_on(tmp_path):
     out, plot, sheet = tmp_path / "sensor.yaml", tmp_path / "curves.png", tmp_path / "sheet.png"
-    run = swazure("camera", "calibrate", "--camera", str(WIDE), "--frames", "6", "--angles", "0", "30",
-                  "--out", str(out), "--plot", str(plot), "--sheet", str(sheet), "--quiet")
+    run = swazure(
+        "camera",
+        "calibrate",
+        "--camera",
+        str(WIDE),
+        "--frames",
+        "6",
+        "--angles",
+        "0",
+        "30",
+        "--out",
+        str(out),
+        "--plot",
+        str(plot),
+        "--sheet",
+        str(sheet),
+        "--quiet",
+    )
     assert run.returncode == 0, run.stderr
     assert "ranges (tracking distance, cm)" in run.stdout
     sensor = load_sensor(out)
-    assert sensor.noise is not None and 3.0 < sensor.sweet_min < sensor.sweet_max < sensor.decaying_max
+    assert (
+        sensor.noise is not None
+        and 3.0 < sensor.sweet_min < sensor.sweet_max < sensor.decaying_max
+    )
     assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and sheet.stat().st_size > 10_000
     evaluate = swazure("evaluate", "--cloud", "sphere:150", "--beta", "0.4", "--sensor", str(out))
     assert evaluate.returncode == 0, evaluate.stderr

@@ -30,8 +30,16 @@ def hand_sweep():
     detection = np.array([0.0, 0.2, 0.8, 1.0, 1.0, 1.0, 1.0, 0.9, 0.6, 0.2])
     error = np.array([np.nan, 0.05, 0.03, 0.01, 0.005, 0.01, 0.04, 0.08, 0.15, 0.4])
     column = lambda values: values.reshape(-1, 1)  # noqa: E731
-    return Sweep(distances, np.array([0.0]), 100, column(detection), column(error),
-                 column(np.full(10, 0.01)), column(np.full(10, 0.2)), 0.001)
+    return Sweep(
+        distances,
+        np.array([0.0]),
+        100,
+        column(detection),
+        column(error),
+        column(np.full(10, 0.01)),
+        column(np.full(10, 0.2)),
+        0.001,
+    )
 
 
 def test_crossing_interpolates_where_the_rate_passes_the_level():
@@ -42,14 +50,18 @@ def test_crossing_interpolates_where_the_rate_passes_the_level():
 
 
 def test_ranges_follow_the_documented_criteria():
-    sensor = sensor_from_sweep(hand_sweep(), Criteria(detection=0.5, sweet_detection=0.95, sweet_error=0.02))
+    sensor = sensor_from_sweep(
+        hand_sweep(), Criteria(detection=0.5, sweet_detection=0.95, sweet_error=0.02)
+    )
     # Detection passes 50 % at 55 mm, but the error is 3 % at 60: sweet where detection >= 95 %
     # and error <= 2 %, 70 to 90 mm, up to the first distance that fails (100); decaying from
     # there until detection falls under 50 % (120 + 10 * 0.1 / 0.4 = 122.5 mm).
     assert (sensor.sweet_min, sensor.sweet_max) == (7.0, 10.0)
     assert sensor.decaying_min == 10.0
     assert sensor.decaying_max == pytest.approx(12.25)
-    assert blind_limit_mm(hand_sweep().distances_mm, hand_sweep().detection[:, 0]) == pytest.approx(55.0)
+    assert blind_limit_mm(
+        hand_sweep().distances_mm, hand_sweep().detection[:, 0]
+    ) == pytest.approx(55.0)
     # The error table keeps the measured means where most frames detect, the nearest elsewhere.
     np.testing.assert_allclose(sensor.relative_error([6.0, 10.0, 13.0]), [0.03, 0.04, 0.15])
     assert sensor.noise.detection[0] == 0.0
@@ -57,8 +69,16 @@ def test_ranges_follow_the_documented_criteria():
 
 def test_a_camera_that_never_detects_is_an_error():
     blind = hand_sweep()
-    nothing = Sweep(blind.distances_mm, blind.angles_deg, 100, np.zeros_like(blind.detection),
-                    np.full_like(blind.mean_error, np.nan), blind.distance_sd, blind.direction_sd_deg, 0.0)
+    nothing = Sweep(
+        blind.distances_mm,
+        blind.angles_deg,
+        100,
+        np.zeros_like(blind.detection),
+        np.full_like(blind.mean_error, np.nan),
+        blind.distance_sd,
+        blind.direction_sd_deg,
+        0.0,
+    )
     with pytest.raises(SensorError, match="never detects"):
         sensor_from_sweep(nothing)
 
@@ -76,10 +96,14 @@ def test_sweep_is_deterministic_and_each_point_has_its_own_stream():
 
 def test_rendered_wide_camera_against_its_measurements():
     if not MEASURED.exists():
-        pytest.skip(f"measured camera data {MEASURED} is absent (../shared is not beside the repo)")
+        pytest.skip(
+            f"measured camera data {MEASURED} is absent (../shared is not beside the repo)"
+        )
     measured = load_measured(MEASURED)
     camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
-    result = sweep(camera, tuple(range(35, 60, 5)) + (75.0, 100.0, 150.0, 200.0, 300.0), (0.0,), frames=40)
+    result = sweep(
+        camera, (35.0, 40.0, 45.0, 50.0, 55.0, 75.0, 100.0, 150.0, 200.0, 300.0), (0.0,), frames=40
+    )
     rows = {row.distance_mm: row for row in compare(result, measured)}
     # Issue 17's acceptance, where this model meets it (docs/camera.md gives the whole table):
     # detection within 15 points from the closest focus out, the blind limit within 5 mm,
@@ -96,8 +120,16 @@ def test_decaying_range_ends_where_the_mean_error_runs_wild():
     wild = hand_sweep()
     error = wild.mean_error.copy()
     error[8, 0] = 3.0  # 120 mm: detected, but the mean is 300 % off
-    wild = Sweep(wild.distances_mm, wild.angles_deg, 100, wild.detection, error,
-                 wild.distance_sd, wild.direction_sd_deg, 0.0)
+    wild = Sweep(
+        wild.distances_mm,
+        wild.angles_deg,
+        100,
+        wild.detection,
+        error,
+        wild.distance_sd,
+        wild.direction_sd_deg,
+        0.0,
+    )
     sensor = sensor_from_sweep(wild, Criteria(decaying_error=1.0))
     assert sensor.decaying_max == 12.0
     assert sensor.relative_error(12.0) == pytest.approx(0.08)

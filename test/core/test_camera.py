@@ -41,8 +41,12 @@ def standard():
 def detections(camera, distance_mm, frames=30, seed=0, **pose):
     rng = np.random.default_rng(seed)
     detector = Detector(camera)
-    found = [measure(camera, MarkerPose(distance_mm, roll_deg=rng.uniform(0, 360), **pose), rng, detector)
-             for _ in range(frames)]
+    found = [
+        measure(
+            camera, MarkerPose(distance_mm, roll_deg=rng.uniform(0, 360), **pose), rng, detector
+        )
+        for _ in range(frames)
+    ]
     return [f for f in found if f is not None]
 
 
@@ -120,19 +124,26 @@ def test_region_of_interest_detects_as_the_whole_frame_does(wide):
     detector = Detector(wide)
     for distance in (55.0, 100.0, 180.0):
         frame = render(wide, MarkerPose(distance, roll_deg=25.0), np.random.default_rng(1))
-        full = np.full((wide.height, wide.width), int(wide.degradations.background_level), np.uint8)
+        full = np.full(
+            (wide.height, wide.width), int(wide.degradations.background_level), np.uint8
+        )
         x, y = frame.origin
         full[y : y + frame.image.shape[0], x : x + frame.image.shape[1]] = frame.image
         corners, ids, _ = whole_frame.detectMarkers(full)
         roi = detector._detector_for(frame.image.shape).detectMarkers(frame.image)[0]
         assert ids is not None and ids.ravel().tolist() == [0]
-        np.testing.assert_allclose(roi[0].reshape(4, 2) + frame.origin, corners[0].reshape(4, 2), atol=1e-3)
+        np.testing.assert_allclose(
+            roi[0].reshape(4, 2) + frame.origin, corners[0].reshape(4, 2), atol=1e-3
+        )
 
 
 def test_wide_and_standard_share_every_degradation(wide, standard):
     # Same sensor, marker and measurement; only the lens differs (issue 17).
     assert wide.degradations == standard.degradations
-    assert (wide.marker_side_mm, wide.marker_dictionary) == (standard.marker_side_mm, standard.marker_dictionary)
+    assert (wide.marker_side_mm, wide.marker_dictionary) == (
+        standard.marker_side_mm,
+        standard.marker_dictionary,
+    )
 
 
 def test_camera_file_errors_name_the_key(tmp_path):
