@@ -35,8 +35,10 @@ FloatArray = NDArray[np.float64]
 CAMERA_FILE_VERSION = 1
 #: Wavelength used for the diffraction blur, mm (green, where the Bayer sensor has most pixels).
 WAVELENGTH_MM = 550e-6
-#: White quiet zone printed around the marker, in marker cells.
-QUIET_ZONE_CELLS = 5.0
+#: White margin around the marker beyond the widest window of the measurement
+#: (adaptive threshold, corner refinement), px: the marker was on a sheet of
+#: paper, so nothing of the measurement may see past the card.
+QUIET_ZONE_PX = 12.0
 
 
 @dataclass(frozen=True)
@@ -243,14 +245,13 @@ def marker_object_points(side_mm: float) -> FloatArray:
     return np.array([[-half, half, 0], [half, half, 0], [half, -half, 0], [-half, -half, 0]])
 
 
-def _marker_texture(camera: Camera, texels_per_cell: int) -> NDArray[np.float32]:
-    """The printed card: marker bits and its quiet zone, as grey levels, (n, n)."""
+def _marker_texture(camera: Camera, texels_per_cell: int, quiet: int) -> NDArray[np.float32]:
+    """The printed card: marker bits and ``quiet`` texels of white around, as grey levels."""
     dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, camera.marker_dictionary))
     cells = dictionary.markerSize + 2
     bits = cv2.aruco.generateImageMarker(
         dictionary, camera.marker_id, cells * texels_per_cell, borderBits=1
     )
-    quiet = round(QUIET_ZONE_CELLS * texels_per_cell)
     card = cv2.copyMakeBorder(bits, quiet, quiet, quiet, quiet, cv2.BORDER_CONSTANT, value=255)
     d = camera.degradations
     return (d.black_level + (d.white_level - d.black_level) * (card / 255.0)).astype(np.float32)
@@ -287,23 +288,27 @@ def render(camera: Camera, pose: MarkerPose, rng: np.random.Generator) -> Frame:
         cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, camera.marker_dictionary)).markerSize
         + 2
     )
-    card_side = camera.marker_side_mm * (cells + 2 * QUIET_ZONE_CELLS) / cells
-    card = marker_object_points(card_side) @ rotation.T + centre
     corners_3d = marker_object_points(camera.marker_side_mm) @ rotation.T + centre
-    card_px = _project(camera, card)
     corners_px = _project(camera, corners_3d)
+    # Texels of about half a pixel: bilinear sampling then keeps edges to a fraction of a pixel.
+    edges = np.linalg.norm(np.roll(corners_px, -1, axis=0) - corners_px, axis=1)
+    texels_per_cell = max(2, math.ceil(2.0 * float(edges.max()) / cells))
+    cell_px = max(float(edges.min()) / cells, 1e-3)
+    white_px = max(1.5 * cell_px, camera.degradations.corner_window_px + QUIET_ZONE_PX)
+    quiet = math.ceil(white_px / cell_px * texels_per_cell)
+    marker_texels = cells * texels_per_cell
+    card_side = camera.marker_side_mm * (marker_texels + 2 * quiet) / marker_texels
+    card = marker_object_points(card_side) @ rotation.T + centre
+    card_px = _project(camera, card)
     psf = _psf(camera, pose.distance_mm, camera.focus_for(pose.distance_mm, rng))
-    margin = psf.shape[0] // 2 + 12
+    margin = psf.shape[0] // 2 + 8
     x0 = max(math.floor(card_px[:, 0].min()) - margin, 0)
     y0 = max(math.floor(card_px[:, 1].min()) - margin, 0)
     x1 = min(math.ceil(card_px[:, 0].max()) + margin, camera.width)
     y1 = min(math.ceil(card_px[:, 1].max()) + margin, camera.height)
     if x1 - x0 < 8 or y1 - y0 < 8:
         return Frame(np.zeros((0, 0), np.uint8), (x0, y0), corners_px)
-    # Texels of about half a pixel: bilinear sampling then keeps edges to a fraction of a pixel.
-    side_px = float(np.linalg.norm(card_px[1] - card_px[0]))
-    texels_per_cell = max(2, math.ceil(2.0 * side_px / (cells + 2 * QUIET_ZONE_CELLS)))
-    texture = _marker_texture(camera, texels_per_cell)
+    texture = _marker_texture(camera, texels_per_cell, quiet)
     n = texture.shape[0]
     source = np.array([[0, 0], [n, 0], [n, n], [0, n]], dtype=np.float32) - 0.5
     target = (card_px - np.array([x0, y0])).astype(np.float32)

@@ -11,6 +11,7 @@ from swazure_ros.core.camera import (
     Detector,
     MarkerPose,
     camera_from_dict,
+    full_image,
     load_camera,
     measure,
     render,
@@ -122,19 +123,21 @@ def test_region_of_interest_detects_as_the_whole_frame_does(wide):
     dictionary = cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_100)
     whole_frame = cv2.aruco.ArucoDetector(dictionary, cv2.aruco.DetectorParameters())
     detector = Detector(wide)
-    for distance in (55.0, 100.0, 180.0):
-        frame = render(wide, MarkerPose(distance, roll_deg=25.0), np.random.default_rng(1))
-        full = np.full(
-            (wide.height, wide.width), int(wide.degradations.background_level), np.uint8
-        )
-        x, y = frame.origin
-        full[y : y + frame.image.shape[0], x : x + frame.image.shape[1]] = frame.image
-        corners, ids, _ = whole_frame.detectMarkers(full)
-        roi = detector._detector_for(frame.image.shape).detectMarkers(frame.image)[0]
-        assert ids is not None and ids.ravel().tolist() == [0]
-        np.testing.assert_allclose(
-            roi[0].reshape(4, 2) + frame.origin, corners[0].reshape(4, 2), atol=1e-3
-        )
+    rng = np.random.default_rng(1)
+    found = 0
+    for distance in (40.0, 48.0, 55.0, 100.0, 180.0, 260.0):
+        for tilt in (0.0, 30.0, 60.0):
+            pose = MarkerPose(distance, tilt_deg=tilt, roll_deg=float(rng.uniform(0, 360)))
+            frame = render(wide, pose, rng)
+            corners, ids, _ = whole_frame.detectMarkers(full_image(wide, frame))
+            roi, roi_ids, _ = detector._detector_for(frame.image.shape).detectMarkers(frame.image)
+            assert (ids is None) == (roi_ids is None), (distance, tilt)
+            if ids is not None:
+                found += 1
+                np.testing.assert_allclose(
+                    roi[0].reshape(4, 2) + frame.origin, corners[0].reshape(4, 2), atol=1e-3
+                )
+    assert found >= 10
 
 
 def test_wide_and_standard_share_every_degradation(wide, standard):
