@@ -19,6 +19,7 @@ import yaml
 
 from ..core.calibration import (
     DEFAULT_ANGLES_DEG,
+    SMALLEST_MARKER_PX,
     Criteria,
     FitRow,
     Measured,
@@ -100,6 +101,13 @@ def _progress(quiet: bool, what: str) -> Callable[[int, int], None]:
     return report
 
 
+def sheet_distances(camera: Camera) -> tuple[float, ...]:
+    """Distances of the contact sheet, mm: around the closest focus, then out to the far end."""
+    far = camera.fx * camera.marker_side_mm / (1.5 * SMALLEST_MARKER_PX)
+    near = tuple(round(camera.focus_min_mm * f) for f in (0.7, 0.9, 1.2, 2.0))
+    return (*near, round((2.0 * camera.focus_min_mm + far) / 2), round(far))
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure camera ACTION``."""
     if args.frames < 1:
@@ -165,7 +173,7 @@ def main(args: argparse.Namespace) -> int:
             save_figure(calibration_figure(result, sensor, camera, measured), args.plot)
             print(f"wrote {args.plot}")
         if args.sheet:
-            save_figure(contact_sheet(camera, (35, 45, 60, 100, 200, 300), (0, 45)), args.sheet)
+            save_figure(contact_sheet(camera, sheet_distances(camera), (0, 45)), args.sheet)
             print(f"wrote {args.sheet}")
     return 0
 
