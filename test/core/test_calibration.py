@@ -102,9 +102,10 @@ def test_rendered_wide_camera_against_its_measurements():
     measured = load_measured(MEASURED)
     camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
     result = sweep(
-        camera, (35.0, 40.0, 45.0, 50.0, 55.0, 75.0, 100.0, 150.0, 200.0, 300.0), (0.0,), frames=40
+        camera, (35.0, 40.0, 45.0, 50.0, 55.0, 75.0, 100.0, 150.0, 200.0, 300.0), (0.0,), frames=100
     )
     rows = {row.distance_mm: row for row in compare(result, measured)}
+    # 100 frames a point, as `swazure camera calibrate` renders.
     # Issue 17's acceptance, where this model meets it (docs/camera.md gives the whole table):
     # detection within 15 points from the closest focus out, the blind limit within 5 mm,
     # the mean error within a factor 1.5 (or 1 point) at 75-150 mm.
