@@ -101,9 +101,8 @@ def test_rendered_wide_camera_against_its_measurements():
         )
     measured = load_measured(MEASURED)
     camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
-    result = sweep(
-        camera, (35.0, 40.0, 45.0, 50.0, 55.0, 75.0, 100.0, 150.0, 200.0, 300.0), (0.0,), frames=100
-    )
+    distances = (35.0, 40.0, 45.0, 50.0, 55.0, 75.0, 100.0, 150.0, 200.0, 300.0)
+    result = sweep(camera, distances, (0.0,), frames=100)
     rows = {row.distance_mm: row for row in compare(result, measured)}
     # 100 frames a point, as `swazure camera calibrate` renders.
     # Issue 17's acceptance, where this model meets it (docs/camera.md gives the whole table):
