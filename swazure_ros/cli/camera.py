@@ -101,6 +101,14 @@ def _progress(quiet: bool, what: str) -> Callable[[int, int], None]:
     return report
 
 
+def _written(path: Path, write: Callable[[], object]) -> None:
+    """Run ``write``; a file that cannot be written is one line of error, not a traceback."""
+    try:
+        write()
+    except OSError as err:
+        raise SensorError(f"{path}: cannot write ({err.strerror or err})") from err
+
+
 def sheet_distances(camera: Camera) -> tuple[float, ...]:
     """Distances of the contact sheet, mm: around the closest focus, then out to the far end."""
     far = camera.fx * camera.marker_side_mm / (1.5 * SMALLEST_MARKER_PX)
@@ -164,16 +172,18 @@ def main(args: argparse.Namespace) -> int:
             "distance (cm) the mean error, detection and scatter.\n"
         )
         text = header + yaml.safe_dump(document, sort_keys=False, width=100)
-        atomic_write(args.out, lambda tmp: tmp.write_text(text))
+        _written(args.out, lambda: atomic_write(args.out, lambda tmp: tmp.write_text(text)))
         print(f"wrote {args.out}")
     if args.plot or args.sheet:
         from ..study.camera import calibration_figure, contact_sheet, save_figure
 
         if args.plot:
-            save_figure(calibration_figure(result, sensor, camera, measured), args.plot)
+            figure = calibration_figure(result, sensor, camera, measured)
+            _written(args.plot, lambda: save_figure(figure, args.plot))
             print(f"wrote {args.plot}")
         if args.sheet:
-            save_figure(contact_sheet(camera, sheet_distances(camera), (0, 45)), args.sheet)
+            sheet = contact_sheet(camera, sheet_distances(camera), (0, 45))
+            _written(args.sheet, lambda: save_figure(sheet, args.sheet))
             print(f"wrote {args.sheet}")
     return 0
 

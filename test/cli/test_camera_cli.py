@@ -63,3 +63,12 @@ def test_bad_camera_file_is_one_line_and_exit_2(tmp_path):
 def test_fit_needs_a_measured_table():
     run = swazure("camera", "fit", "--camera", str(WIDE))
     assert run.returncode == 2 and "--measured" in run.stderr
+
+
+def test_output_that_cannot_be_written_is_one_line_and_exit_2(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    run = swazure("camera", "calibrate", "--camera", str(WIDE), "--frames", "1", "--angles", "0",
+                  "--out", str(blocker / "sensor.yaml"), "--quiet")  # fmt: skip
+    assert run.returncode == 2
+    assert run.stderr.count("\n") == 1 and "cannot write" in run.stderr
