@@ -35,6 +35,7 @@ from ..core.camera import Camera, load_camera
 from ..core.errors import SensorError
 from ..core.results import atomic_write
 from ..core.sensor import SENSOR_FILE_VERSION
+from .arguments import count, input_file, output_file, png_file
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,12 +47,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "calibrate", help="sweep distance and angle; write a sensor YAML"
     )
     _common(calibrate)
-    calibrate.add_argument("--out", type=Path, metavar="FILE", help="write the sensor YAML here")
     calibrate.add_argument(
-        "--plot", type=Path, metavar="FILE.png", help="error and detection against distance"
+        "--out", type=output_file, metavar="FILE", help="write the sensor YAML here"
     )
     calibrate.add_argument(
-        "--sheet", type=Path, metavar="FILE.png", help="contact sheet of rendered frames"
+        "--plot", type=png_file, metavar="FILE.png", help="error and detection against distance"
+    )
+    calibrate.add_argument(
+        "--sheet", type=png_file, metavar="FILE.png", help="contact sheet of rendered frames"
     )
     calibrate.add_argument(
         "--angles",
@@ -63,21 +66,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     fit = actions.add_parser("fit", help="search the degradations that match a measured camera")
     _common(fit)
-    fit.add_argument("--top", type=int, default=5, help="how many of the best settings to print")
+    fit.add_argument("--top", type=count, default=5, help="how many of the best settings to print")
 
 
 def _common(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
-        "--camera", type=Path, required=True, metavar="FILE", help="camera YAML (config/cameras/)"
+        "--camera",
+        type=input_file,
+        required=True,
+        metavar="FILE",
+        help="camera YAML (config/cameras/)",
     )
     parser.add_argument(
         "--measured",
-        type=Path,
+        type=input_file,
         metavar="CSV",
         help="a measured camera's table (distance_mm,error_pct,detect_pct) to compare with",
     )
     parser.add_argument(
-        "--frames", type=int, default=100, help="frames per distance and angle (default 100)"
+        "--frames", type=count, default=100, help="frames per distance and angle (default 100)"
     )
     parser.add_argument(
         "--seed", type=int, default=0, help="seed of the frames' noise, roll and placement"
@@ -118,8 +125,6 @@ def sheet_distances(camera: Camera) -> tuple[float, ...]:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure camera ACTION``."""
-    if args.frames < 1:
-        raise SensorError(f"--frames must be at least 1, got {args.frames}")
     camera = load_camera(args.camera)
     measured = load_measured(args.measured) if args.measured else None
     if args.action == "fit":

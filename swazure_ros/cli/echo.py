@@ -15,6 +15,7 @@ from typing import Any
 import yaml
 
 from ..core.errors import SwazureError
+from .arguments import count, seconds
 from .evaluate import add_domain_argument
 
 
@@ -25,10 +26,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "message_type", nargs="?", default=None, help="pkg/msg/Type (default: from the graph)"
     )
     parser.add_argument("--once", action="store_true", help="print one message and exit")
-    parser.add_argument("--count", type=int, default=None, metavar="N", help="exit after N")
+    parser.add_argument("--count", type=count, default=None, metavar="N", help="exit after N")
     parser.add_argument(
         "--timeout",
-        type=float,
+        type=seconds,
         default=None,
         metavar="S",
         help="exit 1 when no message arrived within S seconds (default: wait)",
@@ -112,8 +113,6 @@ def main(args: argparse.Namespace) -> int:
     from ..ros.runtime import SwarmNode, init_context
 
     limit = 1 if args.once else args.count
-    if limit is not None and limit < 1:
-        raise SwazureError(f"--count must be at least 1, got {limit}")
     topic = args.topic if args.topic.startswith("/") else f"/{args.topic}"
     context = init_context(args.domain_id)
     node = SwarmNode("swazure_echo", context=context)
@@ -132,6 +131,7 @@ def main(args: argparse.Namespace) -> int:
                 raise SwazureError(f"{topic}: no publisher found within {args.timeout:g} s")
             executor.spin_once(timeout_sec=0.1)
         cls = message_class(type_name)
+        wanted = f"{cls.__module__.split('.')[0]}/msg/{cls.__name__}"
 
         def on_message(message: Any) -> None:
             nonlocal printed
@@ -142,6 +142,12 @@ def main(args: argparse.Namespace) -> int:
 
         node.create_subscription(cls, topic, on_message, echo_qos(node, topic))
         while limit is None or printed < limit:
+            offered = sorted(
+                {info.topic_type for info in node.get_publishers_info_by_topic(topic)}
+            )
+            if offered and wanted not in offered:
+                # A subscription of another type never matches: say so instead of waiting.
+                raise SwazureError(f"{topic} carries {', '.join(offered)}, not {wanted}")
             if (
                 args.timeout is not None
                 and not printed

@@ -11,7 +11,6 @@ import argparse
 import math
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 from ..core.clouds import load_cloud
@@ -22,6 +21,7 @@ from ..core.heuristics import PLAIN, TECHNIQUES, HeuristicResult, run_technique
 from ..core.paths import POLICIES
 from ..core.results import describe_source, write_evaluation
 from ..core.sensor import load_sensor
+from .arguments import MAX_DOMAIN_ID, domain_id, input_file, output_folder
 
 
 def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
@@ -45,7 +45,7 @@ def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
     size.add_argument("--radius", type=float, default=None, help="FLS radius r in cm")
     parser.add_argument(
         "--sensor",
-        type=Path,
+        type=input_file,
         default=None,
         metavar="FILE",
         help="sensor YAML (ranges, error model); default: config/sensor.yaml",
@@ -54,21 +54,6 @@ def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--seed", type=int, default=0, help="seed of the choice of colliding FLSs to remove"
     )
-
-
-#: The largest ROS domain id whose DDS ports fit (Linux; the ROS 2 "domain id" design note).
-MAX_DOMAIN_ID = 232
-
-
-def domain_id(text: str) -> int:
-    """A ROS domain id from the command line, 0 to MAX_DOMAIN_ID."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if not 0 <= value <= MAX_DOMAIN_ID:
-        raise argparse.ArgumentTypeError(f"{value} is outside 0..{MAX_DOMAIN_ID}")
-    return value
 
 
 def add_domain_argument(parser: argparse.ArgumentParser) -> None:
@@ -115,7 +100,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_threshold_argument(parser)
     parser.add_argument(
         "--out",
-        type=Path,
+        type=output_folder,
         default=None,
         metavar="DIR",
         help="write summary.json and pairs.csv here",

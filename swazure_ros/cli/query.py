@@ -15,19 +15,22 @@ from typing import Any
 from ..core.errors import SwazureError
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
 from ..protocol.discovery import Estimate
+from .arguments import fls_id, ros_namespace, seconds
 from .evaluate import add_domain_argument, add_policy_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure query``."""
-    parser.add_argument("--source", type=int, required=True, metavar="I", help="source FLS id")
-    parser.add_argument("--target", type=int, required=True, metavar="J", help="target FLS id")
+    parser.add_argument("--source", type=fls_id, required=True, metavar="I", help="source FLS id")
+    parser.add_argument("--target", type=fls_id, required=True, metavar="J", help="target FLS id")
     add_policy_argument(parser)
-    parser.add_argument("--namespace", default="swarm", help="namespace of the swarm")
+    parser.add_argument(
+        "--namespace", type=ros_namespace, default="swarm", help="namespace of the swarm"
+    )
     add_domain_argument(parser)
     parser.add_argument(
         "--timeout",
-        type=float,
+        type=seconds,
         default=60.0,
         metavar="S",
         help="give up after S seconds (default 60)",

@@ -20,13 +20,13 @@ import signal
 import sys
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 from ..core.errors import SwazureError
 from ..core.heuristics import PLAIN, TECHNIQUES
 from ..core.sensor import config_dir
 from ..sim.world import WorldSpec
+from .arguments import count, input_file, output_folder, ros_namespace, seconds
 from .evaluate import (
     add_domain_argument,
     add_policy_argument,
@@ -42,16 +42,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_swarm_arguments(parser)
     add_policy_argument(parser)
     parser.add_argument(
-        "--processes", type=int, default=1, metavar="P", help="split the nodes over P processes"
+        "--processes", type=count, default=1, metavar="P", help="split the nodes over P processes"
     )
     parser.add_argument(
         "--params",
-        type=Path,
+        type=input_file,
         default=None,
         metavar="FILE",
         help="ROS 2 parameter file (ros__parameters layout; default: config/swarm.yaml)",
     )
-    parser.add_argument("--namespace", default="swarm", help="namespace of the swarm's nodes")
+    parser.add_argument(
+        "--namespace", type=ros_namespace, default="swarm", help="namespace of the swarm's nodes"
+    )
     add_domain_argument(parser)
     parser.add_argument(
         "--until-ready",
@@ -61,7 +63,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--discovery-timeout",
-        type=float,
+        type=seconds,
         default=600.0,
         metavar="S",
         help="give up when the swarm is not discovered after S seconds (default 600)",
@@ -82,7 +84,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_threshold_argument(parser)
     parser.add_argument(
         "--out",
-        type=Path,
+        type=output_folder,
         default=None,
         metavar="DIR",
         help="with --compute-all: write summary.json and pairs.csv here, as swazure evaluate does",

@@ -28,6 +28,7 @@ from ..study.sweep import (
     SweepProgress,
     Technique,
 )
+from .arguments import count, input_file, output_folder
 
 QUICK_BETAS = (0.4, 0.5)
 
@@ -67,16 +68,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="path policy of the heuristics and tables (default: shortest-length)",
     )
     parser.add_argument(
-        "--sensor", type=Path, metavar="FILE", help="sensor YAML (default: config/sensor.yaml)"
+        "--sensor",
+        type=input_file,
+        metavar="FILE",
+        help="sensor YAML (default: config/sensor.yaml)",
     )
     parser.add_argument("--accurate", action="store_true", help="measure without error")
     parser.add_argument("--seed", type=int, default=0, help="seed of collision removal")
     parser.add_argument(
-        "--out", type=Path, default=Path("study"), metavar="DIR", help="default: ./study"
+        "--out", type=output_folder, default=Path("study"), metavar="DIR", help="default: ./study"
     )
     parser.add_argument(
         "--jobs",
-        type=int,
+        type=count,
         default=min(2, os.cpu_count() or 1),
         metavar="N",
         help="runs in N parallel processes (default: %(default)s)",
@@ -163,11 +167,7 @@ def plan_from_args(args: argparse.Namespace) -> StudyPlan:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure study``."""
-    if args.jobs < 1:
-        raise SwazureError(f"--jobs must be at least 1, got {args.jobs}")
     plan = plan_from_args(args)
-    if args.out.exists() and not args.out.is_dir():
-        raise SwazureError(f"{args.out}: exists and is not a folder")
     try:
         outputs = run_study(plan, args.out, args.jobs, None if args.quiet else SweepBar())
     except OSError as err:

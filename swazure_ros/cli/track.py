@@ -35,14 +35,15 @@ from ..core.tracking import (
 )
 from ..protocol.loops import simulate_track
 from ..sim.world import World, WorldSpec
+from .arguments import fls_id, output_file, png_file, seconds
 from .evaluate import add_domain_argument, add_swarm_arguments
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The options of ``swazure track``."""
     add_swarm_arguments(parser)
-    parser.add_argument("--source", type=int, required=True, help="the tracking FLS's id")
-    parser.add_argument("--target", type=int, required=True, help="the tracked FLS's id")
+    parser.add_argument("--source", type=fls_id, required=True, help="the tracking FLS's id")
+    parser.add_argument("--target", type=fls_id, required=True, help="the tracked FLS's id")
     parser.add_argument("--trajectory", required=True, help="the target's motion (see above)")
     parser.add_argument(
         "--move",
@@ -51,7 +52,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="FLS=TRAJECTORY",
         help="another FLS's motion, e.g. the source's (repeatable)",
     )
-    parser.add_argument("--duration", type=float, default=10.0, help="simulated s (default 10)")
+    parser.add_argument("--duration", type=seconds, default=10.0, help="simulated s (default 10)")
     defaults = TrackConfig()
     parser.add_argument("--model", choices=MODELS, default=defaults.model, help="filter model")
     for name, meaning in TRACK_SETTINGS.items():
@@ -62,10 +63,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
             help=f"{meaning} (default {getattr(defaults, name):g})",
         )
     parser.add_argument("--settle", type=float, default=1.0, help="s before errors count")
-    parser.add_argument("--every", type=float, default=0.5, help="s between printed rows")
+    parser.add_argument("--every", type=seconds, default=0.5, help="s between printed rows")
     parser.add_argument("--engine", action="store_true", help="the core's loop, without ROS")
-    parser.add_argument("--plot", type=Path, metavar="FILE.png", help="write the figure")
-    parser.add_argument("--csv", type=Path, metavar="FILE", help="write every estimate")
+    parser.add_argument("--plot", type=png_file, metavar="FILE.png", help="write the figure")
+    parser.add_argument("--csv", type=output_file, metavar="FILE", help="write every estimate")
     add_domain_argument(parser)
 
 
@@ -151,10 +152,6 @@ def _write_csv(path: Path, series: TrackSeries) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run one track and report it."""
-    if args.plot is not None and args.plot.suffix.lower() != ".png":
-        raise SwazureError(f"--plot {args.plot}: the figure is a PNG; name it FILE.png")
-    if not args.duration > 0:
-        raise SwazureError(f"--duration must be > 0 s, got {args.duration}")
     spec = WorldSpec(
         args.cloud,
         args.scale,

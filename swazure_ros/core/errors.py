@@ -13,6 +13,10 @@ class SensorError(SwazureError, ValueError):
     """A sensor description that does not parse or is inconsistent."""
 
 
+class OutputError(SwazureError, OSError):
+    """A result that cannot be written (folder, permissions, disk)."""
+
+
 class UnknownFlsError(SwazureError, KeyError):
     """An FLS id that does not exist in the swarm."""
 

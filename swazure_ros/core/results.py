@@ -6,8 +6,10 @@ place, so a killed run never leaves a half-written result.
 
 from __future__ import annotations
 
+import ctypes
 import json
 import os
+import shutil
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
@@ -16,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from .clouds import Cloud
+from .errors import OutputError
 from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation
 from .heuristics import HeuristicResult
 
@@ -26,8 +29,62 @@ PAIRS_FORMATS = ("csv", "parquet")
 
 
 def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
-    """Call ``write(temporary_path)`` and rename the result to ``path``."""
-    path.parent.mkdir(parents=True, exist_ok=True)
+    """Call ``write(temporary_path)`` and put the result at ``path`` in one rename.
+
+    The temporary file is unnamed (``O_TMPFILE``) while it is written, so a
+    process killed at any moment leaves nothing behind; it gets a name only
+    for the final rename. Where the file system has no unnamed files, a
+    hidden named one is used. Any failure is an :class:`OutputError`.
+    """
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            unnamed = os.open(path.parent, os.O_TMPFILE | os.O_WRONLY, 0o666)
+        except (AttributeError, OSError):
+            _named_atomic_write(path, write)
+            return
+        temporary = path.parent / f".{path.name}.{os.getpid()}.tmp"
+        try:
+            # Writers open a path; this one is the unnamed file itself.
+            write(Path(f"/proc/self/fd/{unnamed}"))
+            temporary.unlink(missing_ok=True)
+            _name_unnamed(unnamed, temporary)
+        finally:
+            os.close(unnamed)
+        try:
+            os.replace(temporary, path)
+        except BaseException:
+            temporary.unlink(missing_ok=True)
+            raise
+    except OSError as err:
+        raise OutputError(f"{path}: cannot write ({err.strerror or err})") from err
+
+
+def _name_unnamed(descriptor: int, name: Path) -> None:
+    """Give the O_TMPFILE file ``descriptor`` the name ``name`` (same folder)."""
+    # linkat(fd, "", AT_FDCWD, name, AT_EMPTY_PATH) needs CAP_DAC_READ_SEARCH; the
+    # /proc/self/fd link needs a kernel that follows it across mounts; a copy always works.
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.linkat(descriptor, b"", _AT_FDCWD, os.fsencode(name), _AT_EMPTY_PATH) == 0:
+        return
+    try:
+        os.link(f"/proc/self/fd/{descriptor}", name, follow_symlinks=True)
+        return
+    except OSError:
+        pass
+    try:
+        with open(f"/proc/self/fd/{descriptor}", "rb") as source, open(name, "xb") as copy:
+            shutil.copyfileobj(source, copy)
+    except BaseException:
+        name.unlink(missing_ok=True)
+        raise
+
+
+_AT_FDCWD = -100
+_AT_EMPTY_PATH = 0x1000
+
+
+def _named_atomic_write(path: Path, write: Callable[[Path], object]) -> None:
     handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     os.close(handle)
     try:

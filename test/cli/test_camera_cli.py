@@ -57,7 +57,7 @@ def test_bad_camera_file_is_one_line_and_exit_2(tmp_path):
     assert run.returncode == 2
     assert run.stderr.count("\n") == 1 and "camera.lens" in run.stderr
     missing = swazure("camera", "calibrate", "--camera", str(tmp_path / "none.yaml"))
-    assert missing.returncode == 2 and "no such camera file" in missing.stderr
+    assert missing.returncode == 2 and "no such file" in missing.stderr
 
 
 def test_fit_needs_a_measured_table():
@@ -71,4 +71,4 @@ def test_output_that_cannot_be_written_is_one_line_and_exit_2(tmp_path):
     run = swazure("camera", "calibrate", "--camera", str(WIDE), "--frames", "1", "--angles", "0",
                   "--out", str(blocker / "sensor.yaml"), "--quiet")  # fmt: skip
     assert run.returncode == 2
-    assert run.stderr.count("\n") == 1 and "cannot write" in run.stderr
+    assert run.stderr.count("\n") == 1 and "is not a folder" in run.stderr

@@ -137,7 +137,7 @@ def test_killed_study_resumes_with_only_the_unfinished_runs(tmp_path):
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--jobs", "0"], "--jobs must be at least 1"),
+        (["--jobs", "0"], "argument --jobs: 0: must be at least 1"),
         (["--clouds", "no-such-shape"], "unknown shape"),
         (["--clouds", "/no/such/cloud.xyz"], "/no/such/cloud.xyz"),
         (["--techniques", "teleport"], "unknown technique"),

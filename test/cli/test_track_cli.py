@@ -49,7 +49,7 @@ def test_track_prints_estimates_errors_csv_and_figure(trio, tmp_path):
     ("extra", "message"),
     [
         (["--trajectory", "spiral:1"], "unknown trajectory 'spiral:1'"),
-        (["--trajectory", "linear:0,0,1", "--plot", "out.svg"], "the figure is a PNG"),
+        (["--trajectory", "linear:0,0,1", "--plot", "out.svg"], "figures are written as PNG"),
         (["--trajectory", "linear:0,0,1", "--target", "9"], "no FLS 9 in this swarm"),
         (["--trajectory", "linear:0,0,1", "--target", "1"], "no sweet neighbour of FLS 0"),
         (["--trajectory", "linear:0,0,1", "--frame-period", "0"], "frame_period must be > 0"),

@@ -1,0 +1,135 @@
+"""Types of command-line values, checked once where options are parsed, for every verb.
+
+Each is an argparse ``type``: it returns the value or raises
+``argparse.ArgumentTypeError`` with the reason, which argparse prints as one
+line (``swazure VERB: error: argument --x: reason``) with exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+from pathlib import Path
+
+#: The largest ROS domain id whose DDS ports fit (Linux; the ROS 2 "domain id" design note).
+MAX_DOMAIN_ID = 232
+#: FLS ids travel in uint32 message fields.
+MAX_FLS_ID = 2**32 - 1
+
+
+def _whole(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+
+
+def _real(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+
+
+def domain_id(text: str) -> int:
+    """A ROS domain id, 0 to MAX_DOMAIN_ID."""
+    value = _whole(text)
+    if not 0 <= value <= MAX_DOMAIN_ID:
+        raise argparse.ArgumentTypeError(f"{value} is outside 0..{MAX_DOMAIN_ID}")
+    return value
+
+
+def fls_id(text: str) -> int:
+    """An FLS id: a whole number that fits the messages' uint32 fields."""
+    value = _whole(text)
+    if not 0 <= value <= MAX_FLS_ID:
+        raise argparse.ArgumentTypeError(f"FLS id {value} is outside 0..{MAX_FLS_ID}")
+    return value
+
+
+def seconds(text: str) -> float:
+    """A duration in seconds, finite and above 0."""
+    value = _real(text)
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text} s: a duration must be above 0")
+    return value
+
+
+def count(text: str) -> int:
+    """A count of things, at least 1."""
+    value = _whole(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value}: must be at least 1")
+    return value
+
+
+def ros_namespace(text: str) -> str:
+    """A ROS namespace without its leading slash, e.g. ``swarm`` or ``show/left``."""
+    from rclpy.exceptions import InvalidNamespaceException
+    from rclpy.validate_namespace import validate_namespace
+
+    name = text.strip("/")
+    if not name:
+        raise argparse.ArgumentTypeError("a namespace needs a name (e.g. swarm)")
+    try:
+        validate_namespace(f"/{name}")
+    except InvalidNamespaceException as err:
+        # rclpy's message spans lines and points with a caret; keep its reason.
+        reason = str(err).splitlines()[0].split(": ", 1)[-1].rstrip(":")
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a ROS namespace ({reason}; use letters, digits, _ and /)"
+        ) from None
+    return name
+
+
+def _writable_folder_for(path: Path) -> None:
+    """Raise unless ``path``'s nearest existing ancestor is a folder this process can write."""
+    ancestor = path.parent
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise argparse.ArgumentTypeError(f"{path}: {ancestor} is not a folder")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise argparse.ArgumentTypeError(f"{path}: cannot write in {ancestor}")
+
+
+def output_folder(text: str) -> Path:
+    """A folder to write results into: made when absent; not an existing file."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{path} exists and is not a folder")
+    if not path.exists():
+        _writable_folder_for(path)
+    elif not os.access(path, os.W_OK | os.X_OK):
+        raise argparse.ArgumentTypeError(f"{path}: cannot write in this folder")
+    return path
+
+
+def output_file(text: str) -> Path:
+    """A file to write: not a folder, in a folder that can be written (or made)."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{path} is a folder, not a file")
+    _writable_folder_for(path)
+    return path
+
+
+def png_file(text: str) -> Path:
+    """A PNG file to write."""
+    path = output_file(text)
+    if path.suffix.lower() != ".png":
+        raise argparse.ArgumentTypeError(f"{path}: figures are written as PNG (name it .png)")
+    return path
+
+
+def input_file(text: str) -> Path:
+    """A file to read: it exists and is not a folder."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{path} is a folder, not a file")
+    if not path.exists():
+        raise argparse.ArgumentTypeError(f"{path}: no such file")
+    if not os.access(path, os.R_OK):
+        raise argparse.ArgumentTypeError(f"{path}: cannot read")
+    return path
