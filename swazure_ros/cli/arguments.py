@@ -83,6 +83,30 @@ def ros_namespace(text: str) -> str:
     return name
 
 
+def ros_topic(text: str) -> str:
+    """A fully qualified ROS topic name (a leading slash is added when missing)."""
+    from rclpy.exceptions import InvalidTopicNameException
+    from rclpy.validate_full_topic_name import validate_full_topic_name
+
+    name = text if text.startswith("/") else f"/{text}"
+    try:
+        validate_full_topic_name(name)
+    except InvalidTopicNameException as err:
+        reason = str(err).splitlines()[0].split(": ", 1)[-1].rstrip(":")
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a ROS topic name ({reason}; use letters, digits, _ and /)"
+        ) from None
+    return name
+
+
+def viewing_angle(text: str) -> float:
+    """A viewing angle of a marker, degrees: 0 (head-on) up to, not including, 90."""
+    value = _real(text)
+    if not 0 <= value < 90:
+        raise argparse.ArgumentTypeError(f"{text}: a viewing angle is in [0, 90) degrees")
+    return value
+
+
 def _writable_folder_for(path: Path) -> None:
     """Raise unless ``path``'s nearest existing ancestor is a folder this process can write."""
     ancestor = path.parent

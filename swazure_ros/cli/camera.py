@@ -35,7 +35,7 @@ from ..core.camera import Camera, load_camera
 from ..core.errors import SensorError
 from ..core.results import atomic_write
 from ..core.sensor import SENSOR_FILE_VERSION
-from .arguments import count, input_file, output_file, png_file
+from .arguments import count, input_file, output_file, png_file, viewing_angle
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -58,7 +58,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     calibrate.add_argument(
         "--angles",
-        type=float,
+        type=viewing_angle,
         nargs="+",
         default=list(DEFAULT_ANGLES_DEG),
         metavar="DEG",
@@ -125,6 +125,8 @@ def sheet_distances(camera: Camera) -> tuple[float, ...]:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure camera ACTION``."""
+    if args.action == "calibrate" and 0.0 not in args.angles:
+        raise SensorError("--angles must include 0: the sensor's ranges come from head-on frames")
     camera = load_camera(args.camera)
     measured = load_measured(args.measured) if args.measured else None
     if args.action == "fit":

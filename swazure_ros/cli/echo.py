@@ -15,13 +15,13 @@ from typing import Any
 import yaml
 
 from ..core.errors import SwazureError
-from .arguments import count, seconds
+from .arguments import count, ros_topic, seconds
 from .evaluate import add_domain_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure echo``."""
-    parser.add_argument("topic", help="topic name, e.g. /swarm/measurements")
+    parser.add_argument("topic", type=ros_topic, help="topic name, e.g. /swarm/measurements")
     parser.add_argument(
         "message_type", nargs="?", default=None, help="pkg/msg/Type (default: from the graph)"
     )
@@ -113,7 +113,7 @@ def main(args: argparse.Namespace) -> int:
     from ..ros.runtime import SwarmNode, init_context
 
     limit = 1 if args.once else args.count
-    topic = args.topic if args.topic.startswith("/") else f"/{args.topic}"
+    topic = args.topic
     context = init_context(args.domain_id)
     node = SwarmNode("swazure_echo", context=context)
     executor = SingleThreadedExecutor(context=context)
