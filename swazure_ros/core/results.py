@@ -7,6 +7,7 @@ place, so a killed run never leaves a half-written result.
 from __future__ import annotations
 
 import ctypes
+import glob
 import json
 import os
 import shutil
@@ -44,6 +45,7 @@ def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
             _named_atomic_write(path, write)
             return
         temporary = path.parent / f".{path.name}.{os.getpid()}.tmp"
+        _remove_stale(path)
         try:
             # Writers open a path; this one is the unnamed file itself.
             write(Path(f"/proc/self/fd/{unnamed}"))
@@ -58,6 +60,24 @@ def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
             raise
     except OSError as err:
         raise OutputError(f"{path}: cannot write ({err.strerror or err})") from err
+
+
+def _remove_stale(path: Path) -> None:
+    """Remove temporaries of ``path`` left by writers that were killed between link and rename."""
+    for stale in path.parent.glob(f".{glob.escape(path.name)}.*.tmp"):
+        pid = stale.name[len(path.name) + 2 : -len(".tmp")]
+        if pid.isdigit() and not _alive(int(pid)):
+            stale.unlink(missing_ok=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def _name_unnamed(descriptor: int, name: Path) -> None:
