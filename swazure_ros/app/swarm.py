@@ -51,6 +51,11 @@ class SwarmConfig:
     params_file: str | None = None
     domain_id: int | None = None
     discovery_timeout: float = 600.0
+    #: This process hosts share ``share`` of ``hosts`` (one per machine of a swarm
+    #: across hosts, each started by hand); share 0 also runs the world node and
+    #: the coordinator. hosts = 1: the whole swarm from here (``processes``).
+    share: int = 0
+    hosts: int = 1
 
 
 @dataclass
@@ -149,6 +154,12 @@ class RunningSwarm:
     ) -> None:
         if config.processes < 1:
             raise SwazureError(f"processes must be at least 1, got {config.processes}")
+        if config.hosts > 1 and config.processes > 1:
+            raise SwazureError(
+                "a share of a swarm across hosts runs in one process (--processes 1)"
+            )
+        if not 0 <= config.share < config.hosts:
+            raise SwazureError(f"share {config.share} of {config.hosts}: no such share")
         self.config = config
         # A process that ends right after the swarm leaves its own nodes to
         # runtime.exit_process: far faster than destroying them one by one.
@@ -157,9 +168,13 @@ class RunningSwarm:
         self._began = time.perf_counter()
         self.world = config.world.build()
         self.size = len(self.world.ids)
-        if config.processes > self.size:
-            raise SwazureError(f"{config.processes} processes for {self.size} FLSs: too many")
-        self._shares = shares(self.world.ids, config.processes)
+        parts = max(config.processes, config.hosts)
+        if parts > self.size:
+            raise SwazureError(f"{parts} shares for {self.size} FLSs: too many")
+        self._shares = shares(self.world.ids, parts)
+        if config.hosts > 1:
+            # Only this host's share here; the others run on their own hosts.
+            self._shares = [self._shares[config.share]]
         self._created = [0] * config.processes
         self._peaks: dict[int, float] = {}
         mp = multiprocessing.get_context("spawn")
@@ -194,13 +209,15 @@ class RunningSwarm:
         for child in self._children:
             child.start()
         self.context = init_context(self.config)
+        leader = self.config.share == 0
         self.host = SwarmHost(
             self.world,
             self._shares[0],
             context=self.context,
             namespace=self.config.namespace,
             swarm_size=self.size,
-            name=host_name(0),
+            with_world_node=leader,
+            name=host_name(self.config.share),
         )
 
         def created(count: int) -> None:
@@ -208,14 +225,15 @@ class RunningSwarm:
             self._drain()
 
         self.host.create_fls_nodes(created)
-        self.coordinator = Coordinator(
-            self.world.ids.tolist(),
-            hosts=self.config.processes,
-            world=self.world,
-            namespace=self.config.namespace,
-            context=self.context,
-        )
-        self.host.add(self.coordinator)
+        if leader:
+            self.coordinator = Coordinator(
+                self.world.ids.tolist(),
+                hosts=max(self.config.processes, self.config.hosts),
+                world=self.world,
+                namespace=self.config.namespace,
+                context=self.context,
+            )
+            self.host.add(self.coordinator)
 
     def _drain(self) -> None:
         """Take every pending report from the further processes."""

@@ -83,6 +83,17 @@ def ros_namespace(text: str) -> str:
     return name
 
 
+def share(text: str) -> tuple[int, int]:
+    """``K/N``: share K (0-based) of a swarm split over N hosts."""
+    index, slash, hosts = text.partition("/")
+    if not slash:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected K/N, e.g. 0/3")
+    k, n = _whole(index), _whole(hosts)
+    if n < 1 or not 0 <= k < n:
+        raise argparse.ArgumentTypeError(f"{text}: need 0 <= K < N")
+    return k, n
+
+
 def ros_topic(text: str) -> str:
     """A fully qualified ROS topic name (a leading slash is added when missing)."""
     from rclpy.exceptions import InvalidTopicNameException

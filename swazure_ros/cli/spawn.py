@@ -26,7 +26,7 @@ from ..core.errors import SwazureError
 from ..core.heuristics import PLAIN, TECHNIQUES
 from ..core.sensor import config_dir
 from ..sim.world import WorldSpec
-from .arguments import count, input_file, output_folder, ros_namespace, seconds
+from .arguments import count, input_file, output_folder, ros_namespace, seconds, share
 from .evaluate import (
     add_domain_argument,
     add_policy_argument,
@@ -53,6 +53,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--namespace", type=ros_namespace, default="swarm", help="namespace of the swarm's nodes"
+    )
+    parser.add_argument(
+        "--share",
+        type=share,
+        default=(0, 1),
+        metavar="K/N",
+        help="host share K of a swarm split over N hosts, each started with the same options "
+        "(share 0 runs the world node and the coordinator; README: across hosts)",
     )
     add_domain_argument(parser)
     parser.add_argument(
@@ -125,6 +133,11 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise SwazureError(f"--threshold must be at least 1, got {args.threshold}")
     if args.processes < 1:
         raise SwazureError(f"--processes must be at least 1, got {args.processes}")
+    index, hosts = args.share
+    if hosts > 1 and args.processes > 1:
+        raise SwazureError("--share runs one process per host: leave out --processes")
+    if index > 0 and args.compute_all:
+        raise SwazureError("--compute-all runs on share 0, the host with the coordinator")
     params = args.params if args.params is not None else config_dir() / "swarm.yaml"
     world = WorldSpec(
         cloud=args.cloud,
@@ -142,6 +155,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
         params_file=str(params),
         domain_id=args.domain_id,
         discovery_timeout=args.discovery_timeout,
+        share=index,
+        hosts=hosts,
     )
 
 
@@ -233,8 +248,13 @@ def main(args: argparse.Namespace) -> int:
             ready = True
             bar.close()
             peaks = " + ".join(f"{mb:.0f}" for mb in bring_up.peak_rss_mb)
+            where = (
+                f"{bring_up.processes} process(es)"
+                if config.hosts == 1
+                else f"{config.hosts} hosts (this is share {config.share})"
+            )
             print(
-                f"swarm up: {bring_up.flss} FLS nodes in {bring_up.processes} process(es) "
+                f"swarm up: {bring_up.flss} FLS nodes in {where} "
                 f"under /{config.namespace}, discovered in {bring_up.seconds:.1f} s; "
                 f"peak memory {bring_up.total_peak_mb:.0f} MB ({peaks})",
                 flush=True,
