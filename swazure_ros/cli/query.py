@@ -60,10 +60,6 @@ def main(args: argparse.Namespace) -> int:
     from ..ros.names import COMPUTE_POSE_SERVICE, COORDINATOR, policy_code
     from ..ros.runtime import SwarmNode, init_context
 
-    for name in ("source", "target"):
-        fls_id = getattr(args, name)
-        if fls_id < 0:
-            raise SwazureError(f"--{name} must be an FLS id (0 or more), got {fls_id}")
     namespace = args.namespace.strip("/") or "swarm"
     service = f"/{namespace}/{COORDINATOR}/{COMPUTE_POSE_SERVICE}"
     context = init_context(args.domain_id)
