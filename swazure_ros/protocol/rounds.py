@@ -193,6 +193,28 @@ class RoundClock:
             self._finish()
         return []
 
+    def on_gone(self, gone: Iterable[int], now: float) -> list[Control]:
+        """FLSs known dead (their nodes left the graph): they depart now, with no deadline.
+
+        As after a timeout: an open round's phase restarts without them; at the
+        END, the run stops waiting for their estimates.
+        """
+        newly = (frozenset(gone) & self.fls_ids) - self.departed
+        if self.done or not newly:
+            return []
+        self.departed |= newly
+        self.warnings.append(f"run {self.run_id}: FLS {sorted(newly)} gone, departed")
+        if self._tally is not None:
+            self._tally = None
+            self.round += 1
+            self.restarts += 1
+            return self._start_phase(now)
+        if self._collecting:
+            self._collecting -= newly
+            if self._collecting <= set(self._collected):
+                self._finish()
+        return []
+
     def on_tick(self, now: float) -> list[Control]:
         """The time is ``now``: end a wait whose deadline has passed."""
         if self.done or now <= self._deadline:

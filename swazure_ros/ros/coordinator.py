@@ -24,7 +24,9 @@ from rclpy.context import Context
 from rclpy.publisher import Publisher
 from rclpy.serialization import deserialize_message, serialize_message
 from rclpy.task import Future
+from std_msgs.msg import Header
 from swazure_interfaces.msg import (
+    Departed,
     DiscoveryControl,
     MoveCommand,
     PathOffer,
@@ -55,6 +57,8 @@ from .names import (
     COMPUTE_POSE_SERVICE,
     CONTROL_TOPIC,
     COORDINATOR,
+    DEPARTED_QOS,
+    DEPARTED_TOPIC,
     ESTIMATES_TOPIC,
     MOVE_QOS,
     MOVE_TOPIC,
@@ -64,6 +68,7 @@ from .names import (
     WALKS_TOPIC,
     WORLD_QOS,
     WORLD_TOPIC,
+    fls_id_of,
 )
 from .runtime import SwarmNode
 
@@ -188,6 +193,17 @@ class Coordinator(SwarmNode):
             self, ComputePose, f"~/{COMPUTE_POSE_SERVICE}", self._on_compute_pose
         )
         self.create_timer(TICK, self._on_tick)
+        # Liveness: an FLS whose node leaves the graph is gone at once, not after a round's
+        # timeout. The graph is DDS's own liveliness: a stopped node is removed at once, a
+        # killed process's nodes when its participant's lease runs out.
+        self.liveness_period = self.declare_seconds(
+            "liveness_period", 0.5, "seconds between looks at the graph for FLS nodes gone"
+        )
+        # Watched once the graph has shown every FLS (before, one may still be coming up).
+        self._watching = False
+        self.gone: set[int] = set()
+        self._gone_publisher = self.create_publisher(Departed, DEPARTED_TOPIC, DEPARTED_QOS)
+        self.create_timer(self.liveness_period, self._on_liveness)
         # Deadlines stand still while this process is too busy to hear anything.
         self._deadlines = StallClock(TICK, STALL, time.monotonic())
         self._revision = 0  # the newest world revision seen
@@ -254,6 +270,8 @@ class Coordinator(SwarmNode):
     def _start_next(self) -> None:
         while self._job is None and self._jobs:
             job = self._jobs.popleft()
+            # A run starts from what the graph shows now, not at the last look.
+            self._on_liveness()
             job.machine = job.begin(self._next_run)
             self._next_run += 1
             job.began, job.traffic = time.perf_counter(), self.traffic.copy()
@@ -342,6 +360,28 @@ class Coordinator(SwarmNode):
         machine = self._running()
         if machine is not None:
             self._act(machine.on_tick(self._now()))
+
+    def _on_liveness(self) -> None:
+        present = {
+            fls_id
+            for name, namespace in self.get_node_names_and_namespaces()
+            if namespace == self.get_namespace()
+            and (fls_id := fls_id_of(name)) is not None
+        }
+        missing = self.fls_ids - present - self.gone
+        if not self._watching:
+            self._watching = not missing
+            return
+        newly = missing
+        if not newly:
+            return
+        self.gone |= newly
+        self.departed |= newly
+        machine = self._running()
+        if isinstance(machine, RoundClock):
+            self._act(machine.on_gone(newly, self._now()))
+        header = Header(stamp=self.get_clock().now().to_msg())
+        self._gone_publisher.publish(Departed(header=header, fls_ids=sorted(self.gone)))
 
     def _on_offer(self, data: bytes) -> None:
         self.traffic.count(RADIO_TOPIC, len(data))

@@ -36,6 +36,7 @@ MOVE_TOPIC = "move_commands"
 TRACK_REQUESTS_TOPIC = "track_requests"
 TRACK_SAMPLES_TOPIC = "track_samples"
 TRACK_ESTIMATES_TOPIC = "track_estimates"
+DEPARTED_TOPIC = "departed"
 #: Per FLS, when its camera_view parameter names a neighbour: what its camera sees.
 CAMERA_IMAGE_TOPIC = "camera/image_raw"
 CAMERA_INFO_TOPIC = "camera/camera_info"
@@ -52,6 +53,12 @@ WORLD = "world"
 def node_name(fls_id: int) -> str:
     """The node name of FLS ``fls_id``."""
     return f"fls_{fls_id}"
+
+
+def fls_id_of(name: str) -> int | None:
+    """The FLS id of node name ``name`` (``fls_12`` -> 12), or None for another node."""
+    prefix, _, digits = name.partition("_")
+    return int(digits) if prefix == "fls" and digits.isdigit() else None
 
 
 def host_name(index: int) -> str:
@@ -76,6 +83,8 @@ MOVE_QOS = ROUND_QOS
 WORLD_QOS = QoSProfile(
     depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
 )
+# Who is gone is state, like the world: a reader that comes later gets the list.
+DEPARTED_QOS = WORLD_QOS
 # The simulated clock is driven tick by tick and re-published while a tick is
 # outstanding (app.track), so every tick must arrive: reliable, a few deep.
 CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)

@@ -127,3 +127,29 @@ def test_a_stalled_process_does_not_time_its_flss_out():
         now += 0.05
         look(now)
     assert run.departed == set(FLSS) and 130.1 + TIMEOUT < now < 130.1 + TIMEOUT + 0.2
+
+
+def test_an_fls_known_gone_departs_at_once_and_the_phase_restarts_without_it():
+    run = clock()
+    run.start(0.0)
+    every_offer(run, 0, senders=(0, 2), labels=1)
+    # Long before the deadline: liveness says FLS 1 is gone.
+    start, first = run.on_gone({1}, 0.5)
+    assert (start.command, start.departed_ids) == (START, (1,))
+    assert (first.command, first.expected) == (ROUND, 2)
+    assert run.restarts == 1 and "FLS [1] gone" in run.warnings[-1]
+    assert run.on_gone({1}, 0.6) == []  # known already
+    assert run.on_gone({99}, 0.6) == []  # not in this swarm
+
+
+def test_a_source_known_gone_at_the_end_is_not_waited_for():
+    run = clock(sources=(0, 2), targets=(2, 0))
+    run.start(0.0)
+    for round_ in range(3):
+        every_offer(run, round_)
+        run.on_ack(round_, "host_0", 0.0)
+    run.on_estimates(0, [], 0.0)
+    assert not run.done
+    run.on_gone({2}, 0.1)
+    assert run.done and run.outcome.departed == frozenset({2})
+    assert list(run.outcome.estimates) == [0]

@@ -155,6 +155,56 @@ def test_a_node_stopped_mid_run_departs_and_paths_avoid_it(domain, params):
         assert again.restarts == 0 and by_pair(again.estimates).keys() == found.keys()
 
 
+def test_nodes_stopped_mid_run_are_known_gone_at_once_not_after_a_round_timeout(domain, tmp_path):
+    # A round timeout far longer than the run may take: only liveness can end it in time.
+    params = tmp_path / "swarm.yaml"
+    params.write_text(
+        "/**:\n  ros__parameters:\n    publish_period: 5.0\n"
+        "/**/coordinator:\n  ros__parameters:\n    round_timeout: 120.0\n"
+        "    liveness_period: 0.2\n"
+    )
+    policy = "shortest-length"
+    with swarm_of(domain, params) as swarm:
+        swarm.wait_until_ready()
+        world = swarm.world
+        # 5 % of the FLSs, spread over the shape (seeded), stop once each has spoken twice.
+        stopped_index = np.sort(np.random.default_rng(5).choice(len(world.ids), 6, replace=False))
+        stopped = {int(world.ids[k]) for k in stopped_index}
+        nodes = {fls: swarm.host.fls_by_id[fls] for fls in stopped}
+        heard = []
+        probe = Node("departed_probe", context=swarm.context, start_parameter_services=False)
+        from swazure_interfaces.msg import Departed
+
+        from swazure_ros.ros.names import DEPARTED_QOS
+
+        probe.create_subscription(Departed, "/swarm/departed", heard.append, DEPARTED_QOS)
+        swarm.host.add(probe)
+
+        def stop_mid_run():
+            if all(node.messages_sent >= 2 for node in nodes.values()):
+                for fls in stopped & set(swarm.host.fls_by_id):
+                    swarm.host.stop_fls(fls)
+
+        began = time.monotonic()
+        result = swarm.run(swarm.coordinator.discover(policy), timeout=60, step=stop_mid_run)
+        took = time.monotonic() - began
+        assert result.departed == frozenset(stopped) and result.restarts >= 1
+        assert took < 60  # the 120 s round timeout never fired
+        expected = evaluate_pairs(without(world.hood, stopped_index), policy)
+        found = by_pair(result.estimates)
+        keep = ~np.isin(expected.source, stopped_index) & ~np.isin(expected.target, stopped_index)
+        ids = world.ids
+        for pair in np.flatnonzero(keep).tolist():
+            source, target = int(ids[expected.source[pair]]), int(ids[expected.target[pair]])
+            one = found[(source, target)]
+            assert (one.status, one.reason) == (expected.status[pair], expected.reason[pair])
+            assert one.path == tuple(int(ids[k]) for k in expected.path(pair))
+        assert len(found) == int(keep.sum())
+        # Who is gone is on /swarm/departed for anyone to read.
+        swarm.spin(1.0)
+        assert heard and sorted(heard[-1].fls_ids) == sorted(stopped)
+
+
 class Client:
     """A ComputePose client in its own context, spun alongside the swarm."""
 
