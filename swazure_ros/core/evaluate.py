@@ -30,9 +30,13 @@ IntArray = NDArray[np.int64]
 
 # Statuses and reasons; the values equal the constants of swazure_interfaces/PoseEstimate.
 SWEET_PATH, DECAYING_PATH, NO_PATH = 0, 1, 2
-STATUS_NAMES = ("SWEET", "DECAYING", "NO_PATH")
+#: A distributed run that ended before its result (never from the engine).
+ABORTED = 3
+STATUS_NAMES = ("SWEET", "DECAYING", "NO_PATH", "ABORTED")
 REASON_NONE, REASON_BLOCKED, REASON_NO_SWEET_PATH = 0, 1, 2
-REASON_NAMES = ("", "BLOCKED", "NO_SWEET_PATH")
+#: Why a distributed run was ABORTED: its coordinator left the graph mid-run.
+REASON_COORDINATOR_LOST = 3
+REASON_NAMES = ("", "BLOCKED", "NO_SWEET_PATH", "COORDINATOR_LOST")
 
 
 class Progress(Protocol):

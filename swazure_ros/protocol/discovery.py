@@ -31,9 +31,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.evaluate import (
+    ABORTED,
     DECAYING_PATH,
     NO_PATH,
     REASON_BLOCKED,
+    REASON_COORDINATOR_LOST,
     REASON_NO_SWEET_PATH,
     REASON_NONE,
     SWEET_PATH,
@@ -501,6 +503,25 @@ class Participant:
             if run is not None and run.targets is not None:
                 return Report(run_id, self.fls_id, run.estimates())
         return None
+
+    def abandon(self) -> list[Report]:
+        """Drop every run (their coordinator is gone); a source's targets are ABORTED."""
+        reports = [
+            Report(
+                run_id,
+                self.fls_id,
+                [
+                    Estimate(target, ABORTED, REASON_COORDINATOR_LOST)
+                    for target in run.targets.tolist()
+                    if target not in run.departed
+                ],
+            )
+            for run_id, run in sorted(self.runs.items())
+            if run.targets is not None and len(run.targets)
+        ]
+        self.runs.clear()
+        self._first_round.clear()
+        return reports
 
     def _new_run(self, control: Control) -> FlsRun:
         view = self._view()

@@ -45,6 +45,14 @@ class RadioHub:
         self._heard: dict[tuple[int, int], int] = {}
         self._offers: dict[tuple[int, int], list[tuple[int, Offer]]] = {}
 
+    def abandon(self) -> None:
+        """Forget every run (their coordinator is gone)."""
+        self._departed.clear()
+        self._first_round.clear()
+        self._rounds.clear()
+        self._heard.clear()
+        self._offers.clear()
+
     def departed(self, run_id: int) -> frozenset[int]:
         """The FLSs declared gone in run ``run_id``'s current phase."""
         return self._departed.get(run_id, frozenset())

@@ -208,7 +208,9 @@ class Coordinator(SwarmNode):
         self._deadlines = StallClock(TICK, STALL, time.monotonic())
         self._revision = 0  # the newest world revision seen
         self._asked_revision = 0  # the revision our last group of moves makes
-        self._next_run = 1
+        # Run ids differ from a coordinator that ran before this one (a restart): its
+        # runs' leftovers can never be taken for ours. Milliseconds, in uint32.
+        self._next_run = (time.time_ns() // 1_000_000) % 2**31 + 1
         self._jobs: deque[_Job] = deque()
         self._job: _Job | None = None
 
@@ -365,8 +367,7 @@ class Coordinator(SwarmNode):
         present = {
             fls_id
             for name, namespace in self.get_node_names_and_namespaces()
-            if namespace == self.get_namespace()
-            and (fls_id := fls_id_of(name)) is not None
+            if namespace == self.get_namespace() and (fls_id := fls_id_of(name)) is not None
         }
         missing = self.fls_ids - present - self.gone
         if not self._watching:

@@ -365,6 +365,13 @@ class FlsNode(SwarmNode):
         self._publish_discovery(Report(walk.run_id, self.fls_id, [walk_estimate(walk)]))
         return None
 
+    def abandon_runs(self) -> int:
+        """Drop every discovery run; as a source, report its targets ABORTED. The count."""
+        reports = self.discovery.abandon()
+        for report in reports:
+            self._publish_discovery(report)
+        return sum(len(report.estimates) for report in reports)
+
     def _publish_discovery(self, out: Broadcast | Report) -> None:
         self.bytes_sent += self._transmitter.send(out)
         self.messages_sent += 1

@@ -45,6 +45,7 @@ from .fls_node import FlsNode, Transmitter
 from .names import (
     ACK_TOPIC,
     CONTROL_TOPIC,
+    COORDINATOR,
     MEASUREMENTS_TOPIC,
     NEIGHBOURS_SERVICE,
     RADIO_TOPIC,
@@ -57,6 +58,9 @@ from .names import (
 )
 from .runtime import SwarmNode
 from .world_node import WorldNode
+
+#: Seconds between a host's looks at the graph for its coordinator.
+COORDINATOR_WATCH_PERIOD = 0.5
 
 
 class Radio:
@@ -93,6 +97,14 @@ class Radio:
         node.create_subscription(
             TrackSample, TRACK_SAMPLES_TOPIC, self._on_track_sample, ROUND_QOS
         )
+
+    def coordinator_lost(self) -> int:
+        """The coordinator left mid-run: every local FLS drops its runs, sources report ABORTED.
+
+        Returns the number of ABORTED estimates sent.
+        """
+        self._hub.abandon()
+        return sum(node.abandon_runs() for node in self._fls.values())
 
     def _on_track_request(self, request: TrackRequest) -> None:
         node = self._fls.get(int(request.relay_id))
@@ -184,6 +196,10 @@ class SwarmHost:
         # Before the radio's hook: walks that waited for a revision measure it afresh.
         self.replica.on_revision.append(self._sense_anew)
         self.radio = Radio(self.host_node, self.replica, self.fls_by_id)
+        # The coordinator's liveness, from the graph like the FLSs' (Coordinator._on_liveness).
+        self._coordinator_seen = False
+        self.aborted = 0  # ABORTED estimates sent after the coordinator was lost
+        self.host_node.create_timer(COORDINATOR_WATCH_PERIOD, self._watch_coordinator)
         self.transmitter = Transmitter(self.host_node)
         self._add(self.host_node)
         if with_world_node:
@@ -191,6 +207,15 @@ class SwarmHost:
         self._service_pattern = re.compile(
             rf"^/{re.escape(self.namespace)}/fls_\d+/{NEIGHBOURS_SERVICE}$"
         )
+
+    def _watch_coordinator(self) -> None:
+        namespace = f"/{self.namespace}"
+        present = (COORDINATOR, namespace) in self.host_node.get_node_names_and_namespaces()
+        if present or not self._coordinator_seen:
+            self._coordinator_seen = present
+            return
+        self._coordinator_seen = False
+        self.aborted += self.radio.coordinator_lost()
 
     def _sense_anew(self) -> None:
         for node in self.fls_nodes:

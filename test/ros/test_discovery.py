@@ -205,6 +205,57 @@ def test_nodes_stopped_mid_run_are_known_gone_at_once_not_after_a_round_timeout(
         assert heard and sorted(heard[-1].fls_ids) == sorted(stopped)
 
 
+def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain, params):
+    from swazure_interfaces.msg import PoseEstimates
+
+    from swazure_ros.core.evaluate import ABORTED, REASON_COORDINATOR_LOST
+    from swazure_ros.ros.coordinator import Coordinator
+    from swazure_ros.ros.names import ROUND_QOS
+
+    policy = "shortest-length"
+    with swarm_of(domain, params) as swarm:
+        swarm.wait_until_ready()
+        world = swarm.world
+        engine = evaluate_pairs(world.hood, policy)
+        aborted = {}
+        probe = Node("estimates_probe", context=swarm.context, start_parameter_services=False)
+
+        def on_estimates(message):
+            for one in message.estimates:
+                if one.status == ABORTED:
+                    assert one.reason == REASON_COORDINATOR_LOST
+                    aborted[(one.source_id, one.target_id)] = message.run_id
+
+        probe.create_subscription(PoseEstimates, "/swarm/estimates", on_estimates, ROUND_QOS)
+        swarm.host.add(probe)
+        run = swarm.coordinator.discover(policy)
+        relay = swarm.host.fls_nodes[0]
+        while relay.messages_sent < 2:  # the run is under way
+            swarm.host.spin_once(0.02)
+        lost = swarm.coordinator
+        swarm.host.executor.remove_node(lost)
+        swarm.host.nodes.remove(lost)
+        lost.destroy_node()  # as a crash: no END, no answer
+        began = time.monotonic()
+        while len(aborted) < len(engine) and time.monotonic() - began < 10:
+            swarm.host.spin_once(0.05)
+        assert not run.done()
+        # Every source's every target has a clear status, and nothing else does.
+        ids = world.ids
+        expected = {(int(ids[s]), int(ids[t])) for s, t in zip(engine.source, engine.target)}
+        assert set(aborted) == expected
+        assert swarm.host.aborted == len(engine)
+
+        # A coordinator started again runs from scratch, as the engine does.
+        swarm.coordinator = Coordinator(
+            ids.tolist(), hosts=1, world=world, namespace="swarm", context=swarm.context
+        )
+        swarm.host.add(swarm.coordinator)
+        result = swarm.discover(policy, timeout=120)
+        assert result.run_id != next(iter(aborted.values()))
+        assert_matches_engine(world, by_pair(result.estimates), engine)
+
+
 class Client:
     """A ComputePose client in its own context, spun alongside the swarm."""
 
