@@ -18,6 +18,7 @@ import numpy as np
 import yaml
 from numpy.typing import ArrayLike, NDArray
 
+from .draws import standard_normals
 from .errors import SensorError
 from .geometry import centre_distance
 
@@ -85,35 +86,6 @@ class SensorNoise:
             "distance_sd": list(self.distance_sd),
             "direction_sd_deg": list(self.direction_sd_deg),
         }
-
-
-def standard_normals(seed: int, first: ArrayLike, second: ArrayLike, count: int) -> FloatArray:
-    """Standard normal numbers (M, count) fixed by (seed, first, second) of each pair.
-
-    Counter-based (splitmix64 of the pair, then Box-Muller), so that a pair's
-    measurement is the same in the engine, in any FLS node and in any order.
-    """
-    first = np.asarray(first, dtype=np.uint64).ravel()
-    second = np.asarray(second, dtype=np.uint64).ravel()
-    pairs = 2 * ((count + 1) // 2)
-    with np.errstate(over="ignore"):
-        base = (
-            np.uint64(seed & 0xFFFFFFFFFFFFFFFF) * np.uint64(0xD1B54A32D192ED03)
-            ^ first * np.uint64(0x9E3779B97F4A7C15)
-            ^ second * np.uint64(0xBF58476D1CE4E5B9)
-        )
-        state = base[:, None] + np.arange(1, pairs + 1, dtype=np.uint64)[None, :] * np.uint64(
-            0x94D049BB133111EB
-        )
-        z = state
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-        z = z ^ (z >> np.uint64(31))
-    uniform = ((z >> np.uint64(11)).astype(np.float64) + 0.5) / float(1 << 53)
-    radius = np.sqrt(-2.0 * np.log(uniform[:, 0::2]))
-    angle = 2.0 * np.pi * uniform[:, 1::2]
-    normals = np.concatenate([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
-    return np.asarray(normals[:, :count], dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -389,7 +361,7 @@ def measured_vectors(
         )
     # A stochastic sensor: the pair's own draw (fixed by seed and pair) on the
     # length and on the direction, in the plane normal to the true direction.
-    z = standard_normals(noise.seed, first, second, 3)
+    z = standard_normals(noise.seed, [first, second], 3)
     measured = measured + tracking * noise.at(noise.distance_sd, tracking) * z[:, 0]
     across, other = _normal_plane(unit)
     spread = np.radians(noise.at(noise.direction_sd_deg, tracking))[:, None]

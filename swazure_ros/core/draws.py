@@ -1,0 +1,57 @@
+"""Counter-based random numbers: a draw fixed by a seed and integer keys, in any order.
+
+A pair's sensor noise or a radio delivery's fate must be the same in the
+engine and in every node, whichever computes it first, so it cannot come
+from a stream. splitmix64 of the keys gives it, vectorised over arrays.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+# Odd constants of splitmix64 and of the key mixing (from the golden ratio and friends).
+_MULTIPLIERS = (
+    0xD1B54A32D192ED03,
+    0x9E3779B97F4A7C15,
+    0xBF58476D1CE4E5B9,
+    0x94D049BB133111EB,
+    0xD6E8FEB86659FD93,
+    0xA0761D6478BD642F,
+    0xE7037ED1A0B428DB,
+)
+
+
+def uniforms(seed: int, keys: list[ArrayLike], count: int) -> FloatArray:
+    """Uniform numbers in (0, 1), shape (M, count), fixed by ``seed`` and each row's keys.
+
+    ``keys`` are up to six integer arrays of M values (broadcast), e.g. the
+    measuring and the measured FLS.
+    """
+    if not 1 <= len(keys) < len(_MULTIPLIERS):
+        raise ValueError(f"uniforms takes 1 to {len(_MULTIPLIERS) - 1} keys, got {len(keys)}")
+    columns = np.broadcast_arrays(*(np.asarray(key, dtype=np.int64).ravel() for key in keys))
+    with np.errstate(over="ignore"):
+        base: NDArray[np.uint64] = np.full(
+            columns[0].shape, np.uint64(seed & 0xFFFFFFFFFFFFFFFF) * np.uint64(_MULTIPLIERS[0])
+        )
+        for column, multiplier in zip(columns, _MULTIPLIERS[1:], strict=False):
+            base = base ^ (column.astype(np.uint64) * np.uint64(multiplier))
+        steps = np.arange(1, count + 1, dtype=np.uint64) * np.uint64(0x94D049BB133111EB)
+        z = np.asarray(base, dtype=np.uint64).reshape(-1, 1) + steps[None, :]
+        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        z = z ^ (z >> np.uint64(31))
+    return np.asarray(((z >> np.uint64(11)).astype(np.float64) + 0.5) / float(1 << 53))
+
+
+def standard_normals(seed: int, keys: list[ArrayLike], count: int) -> FloatArray:
+    """Standard normal numbers (M, count) fixed by ``seed`` and each row's keys (Box-Muller)."""
+    pairs = (count + 1) // 2
+    uniform = uniforms(seed, keys, 2 * pairs)
+    radius = np.sqrt(-2.0 * np.log(uniform[:, 0::2]))
+    angle = 2.0 * np.pi * uniform[:, 1::2]
+    normals = np.concatenate([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
+    return np.asarray(normals[:, :count], dtype=np.float64)
