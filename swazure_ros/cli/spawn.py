@@ -173,7 +173,9 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
         print(
             f"{world.cloud.name}: beta {world.swarm.beta:.4g}, {args.policy}: discovery "
             f"{result.seconds:.2f} s, {result.rounds} rounds, {traffic.total_messages} "
-            f"messages, {traffic.total_bytes / 1e6:.1f} MB",
+            f"messages, {traffic.total_bytes / 1e6:.1f} MB"
+            + (f", {result.repairs} radio repairs" if result.repairs else "")
+            + (" - INCOMPLETE: radio deliveries lost for good" if result.incomplete else ""),
             flush=True,
         )
 

@@ -7,6 +7,8 @@ from a stream. splitmix64 of the keys gives it, vectorised over arrays.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -24,7 +26,7 @@ _MULTIPLIERS = (
 )
 
 
-def uniforms(seed: int, keys: list[ArrayLike], count: int) -> FloatArray:
+def uniforms(seed: int, keys: Sequence[ArrayLike], count: int) -> FloatArray:
     """Uniform numbers in (0, 1), shape (M, count), fixed by ``seed`` and each row's keys.
 
     ``keys`` are up to six integer arrays of M values (broadcast), e.g. the
@@ -47,7 +49,7 @@ def uniforms(seed: int, keys: list[ArrayLike], count: int) -> FloatArray:
     return np.asarray(((z >> np.uint64(11)).astype(np.float64) + 0.5) / float(1 << 53))
 
 
-def standard_normals(seed: int, keys: list[ArrayLike], count: int) -> FloatArray:
+def standard_normals(seed: int, keys: Sequence[ArrayLike], count: int) -> FloatArray:
     """Standard normal numbers (M, count) fixed by ``seed`` and each row's keys (Box-Muller)."""
     pairs = (count + 1) // 2
     uniform = uniforms(seed, keys, 2 * pairs)

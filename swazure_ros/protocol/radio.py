@@ -14,10 +14,61 @@ the coordinator can open the next one.
 
 from __future__ import annotations
 
-from collections.abc import Collection
+from collections.abc import Callable, Collection
 from dataclasses import dataclass
 
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.draws import uniforms
 from .discovery import END, ROUND, START, Control, Offer, RoundOffers
+
+IntArray = NDArray[np.int64]
+
+
+@dataclass(frozen=True)
+class RadioLoss:
+    """A lossy radio: each delivery of an offer to a neighbour is lost with ``probability``.
+
+    Every FLS broadcasts in every round, so a receiver knows whom it did not
+    hear: it asks that neighbour again (a repair request) and the neighbour
+    sends its offer again, each of the two lost with the same probability,
+    up to ``attempts`` tries in all. The fate of every try is a counter-based
+    draw of (seed, run, round, sender, receiver, try): seeded, and the same in
+    any process. A delivery lost on every try is lost for good: the round's
+    acknowledgement says so, and the coordinator restarts the phase.
+    """
+
+    probability: float = 0.0
+    seed: int = 0
+    attempts: int = 12
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.probability < 1.0:
+            raise ValueError(f"radio loss must be in [0, 1), got {self.probability}")
+        if self.attempts < 1:
+            raise ValueError(f"radio attempts must be at least 1, got {self.attempts}")
+
+    def deliver(
+        self, run_id: int, round_: int, senders: IntArray, receivers: IntArray
+    ) -> tuple[int, int]:
+        """(repair messages sent, deliveries lost for good) of deliveries sender -> receiver."""
+        if self.probability == 0.0 or senders.size == 0:
+            return 0, 0
+        keys = [np.full(senders.size, run_id), np.full(senders.size, round_), senders, receivers]
+        # Column 0: the broadcast itself; then per repair, the request and the resend.
+        draws = uniforms(self.seed, keys, 2 * self.attempts - 1)
+        arrived = draws >= self.probability
+        delivered = arrived[:, 0].copy()
+        repairs = 0
+        for attempt in range(1, self.attempts):
+            waiting = ~delivered
+            if not waiting.any():
+                break
+            asked = waiting & arrived[:, 2 * attempt - 1]
+            repairs += int(waiting.sum()) + int(asked.sum())  # requests, then resends
+            delivered |= asked & arrived[:, 2 * attempt]
+        return repairs, int((~delivered).sum())
 
 
 @dataclass(frozen=True)
@@ -28,6 +79,8 @@ class Ack:
     phase: int
     round: int
     heard: int  # offers of the round heard
+    repairs: int = 0  # repair requests and resends a lossy radio needed
+    lost: int = 0  # deliveries to this process's FLSs lost for good
 
 
 class RadioHub:
@@ -37,8 +90,17 @@ class RadioHub:
     FLSs stop).
     """
 
-    def __init__(self, local: Collection[int]) -> None:
+    def __init__(
+        self,
+        local: Collection[int],
+        loss: RadioLoss | None = None,
+        neighbours: Callable[[int], IntArray] | None = None,
+    ) -> None:
         self._local = local
+        self._loss = loss if loss is not None and loss.probability > 0 else None
+        # neighbours(fls): the FLSs whose offers that FLS takes (its view's).
+        self._neighbours = neighbours
+        self._pairs: dict[int, tuple[IntArray, IntArray]] = {}  # run -> (sender, receiver)
         self._departed: dict[int, frozenset[int]] = {}
         self._first_round: dict[int, int] = {}
         self._rounds: dict[tuple[int, int], Control] = {}  # (run, round) -> its ROUND
@@ -47,6 +109,7 @@ class RadioHub:
 
     def abandon(self) -> None:
         """Forget every run (their coordinator is gone)."""
+        self._pairs.clear()
         self._departed.clear()
         self._first_round.clear()
         self._rounds.clear()
@@ -67,6 +130,8 @@ class RadioHub:
         heard = None
         if control.command == START:
             self._departed[run] = frozenset(control.departed_ids)
+            if self._loss is not None and self._neighbours is not None:
+                self._pairs[run] = self._radio_pairs()
             self._first_round[run] = control.round
             self._forget(run, rounds=False)
         else:
@@ -80,6 +145,7 @@ class RadioHub:
             ack = self._acknowledge(run, control.round)
         elif control.command == END:
             self._departed.pop(run, None)
+            self._pairs.pop(run, None)
             self._first_round.pop(run, None)
             self._forget(run, rounds=True)
         return recipients, ack, heard
@@ -100,7 +166,32 @@ class RadioHub:
         if control is None or heard < control.expected:
             return None
         del self._rounds[(run_id, round_)]
-        return Ack(run_id, control.phase, round_, heard)
+        repairs, lost = self._deliver(run_id, round_)
+        return Ack(run_id, control.phase, round_, heard, repairs, lost)
+
+    def _radio_pairs(self) -> tuple[IntArray, IntArray]:
+        """(sender, receiver) of every delivery to a local FLS that takes the sender's offers."""
+        assert self._neighbours is not None
+        senders, receivers = [], []
+        for receiver in self._local:
+            heard_from = np.asarray(self._neighbours(receiver), dtype=np.int64)
+            senders.append(heard_from)
+            receivers.append(np.full(heard_from.size, receiver, dtype=np.int64))
+        if not senders:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        return np.concatenate(senders), np.concatenate(receivers)
+
+    def _deliver(self, run_id: int, round_: int) -> tuple[int, int]:
+        """The lossy radio's repairs and losses for round ``round_``'s offers, if lossy."""
+        if self._loss is None or run_id not in self._pairs:
+            return 0, 0
+        senders, receivers = self._pairs[run_id]
+        sent = np.fromiter(
+            (sender for sender, _ in self._offers.get((run_id, round_), [])), dtype=np.int64
+        )
+        departed = np.fromiter(self.departed(run_id), dtype=np.int64)
+        mine = np.isin(senders, sent) & ~np.isin(receivers, departed)
+        return self._loss.deliver(run_id, round_, senders[mine], receivers[mine])
 
     def _forget(self, run_id: int, rounds: bool) -> None:
         """Drop what was heard in run ``run_id`` (and its rounds' controls if ``rounds``)."""

@@ -21,6 +21,9 @@ from dataclasses import dataclass, field
 
 from .discovery import END, PHASES, ROUND, START, Control, Estimate
 
+#: Phases of one run a lossy radio may spoil (and restart) before the run ends incomplete.
+MAX_LOSS_RESTARTS = 10
+
 
 @dataclass
 class RoundTally:
@@ -33,6 +36,7 @@ class RoundTally:
     pending: bool = False
     finished: set[int] = field(default_factory=set)
     acks: set[str] = field(default_factory=set)
+    lost: int = 0  # deliveries lost for good, as the processes acknowledged
 
     def hear(self, sender: int, labels: int, pending: bool, finished: bool) -> None:
         """Count one FLS's broadcast of this round."""
@@ -103,6 +107,8 @@ class Outcome:
     rounds: int
     restarts: int
     warnings: tuple[str, ...] = ()
+    repairs: int = 0  # a lossy radio's repair requests and resends
+    incomplete: bool = False  # deliveries kept being lost; the estimates are left out
 
 
 class RoundClock:
@@ -129,6 +135,9 @@ class RoundClock:
         self.policy = policy
         self.fls_ids = frozenset(fls_ids)
         self.hosts = hosts
+        self.repairs = 0
+        self.loss_restarts = 0
+        self.incomplete = False
         self.round_timeout = round_timeout
         self.departed = set(departed)
         self.sources = tuple(sources)
@@ -174,12 +183,16 @@ class RoundClock:
         self._deadline = now + self.round_timeout
         return self._close_round(now, timed_out=False) if tally.complete else []
 
-    def on_ack(self, round_: int, host: str, now: float) -> list[Control]:
-        """Process ``host`` delivered every offer of round ``round_``."""
+    def on_ack(
+        self, round_: int, host: str, now: float, repairs: int = 0, lost: int = 0
+    ) -> list[Control]:
+        """Process ``host`` delivered every offer of round ``round_`` (``lost`` for good)."""
         tally = self._tally
         if tally is None or round_ != self.round:
             return []
         tally.ack(host)
+        self.repairs += repairs
+        tally.lost += lost
         self._deadline = now + self.round_timeout
         return self._close_round(now, timed_out=False) if tally.complete else []
 
@@ -263,6 +276,25 @@ class RoundClock:
                 f"{self.round_timeout:g} s, departed; phase {PHASES[self._phase]} restarts"
             )
             return self._start_phase(now)
+        if tally.lost:
+            # A label missed for good could make some path worse: do the phase again.
+            self.loss_restarts += 1
+            self.restarts += 1
+            if self.loss_restarts > MAX_LOSS_RESTARTS:
+                self.warnings.append(
+                    f"run {self.run_id}: deliveries lost for good in {self.loss_restarts} "
+                    "tries of a phase; the run ends incomplete"
+                )
+                self.incomplete = True
+                self._collecting = frozenset()
+                end = self._control(END, now)
+                self._finish()
+                return [end]
+            self.warnings.append(
+                f"run {self.run_id}: {tally.lost} deliveries lost for good in round "
+                f"{self.round - 1}; phase {PHASES[self._phase]} restarts"
+            )
+            return self._start_phase(now)
         newly = tuple(sorted(tally.finished - self._finished))
         self._finished |= tally.finished
         if not tally.quiet:
@@ -281,9 +313,11 @@ class RoundClock:
     def _finish(self) -> None:
         self._deadline = float("inf")
         self.outcome = Outcome(
-            self._collected,
+            {} if self.incomplete else self._collected,
             frozenset(self.departed),
             self.round,
             self.restarts,
             tuple(self.warnings),
+            self.repairs,
+            self.incomplete,
         )

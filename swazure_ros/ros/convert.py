@@ -297,7 +297,14 @@ def control_from_message(message: DiscoveryControl) -> Control:
 
 def ack_message(ack: Ack, host: str, stamp: Time) -> RoundAck:
     """A process's acknowledgement of a round as a RoundAck message."""
-    message = RoundAck(run_id=ack.run_id, phase=ack.phase, round=ack.round, heard=ack.heard)
+    message = RoundAck(
+        run_id=ack.run_id,
+        phase=ack.phase,
+        round=ack.round,
+        heard=ack.heard,
+        repairs=ack.repairs,
+        lost=ack.lost,
+    )
     message.host = host
     message.header.stamp = stamp
     return message

@@ -119,6 +119,8 @@ class DiscoveryResult:
     restarts: int
     seconds: float
     traffic: Traffic
+    repairs: int = 0  # a lossy radio's repair requests and resends
+    incomplete: bool = False  # deliveries kept being lost: no estimates, not wrong ones
 
 
 @dataclass
@@ -318,6 +320,8 @@ class Coordinator(SwarmNode):
                 outcome.restarts,
                 seconds,
                 traffic,
+                outcome.repairs,
+                outcome.incomplete,
             )
         moved = machine.outcome
         assert moved is not None
@@ -407,7 +411,11 @@ class Coordinator(SwarmNode):
         ack = deserialize_message(data, RoundAck)
         clock = self._running(ack.run_id)
         if isinstance(clock, RoundClock):
-            self._act(clock.on_ack(int(ack.round), ack.host, self._now()))
+            self._act(
+                clock.on_ack(
+                    int(ack.round), ack.host, self._now(), int(ack.repairs), int(ack.lost)
+                )
+            )
 
     def _on_estimates(self, data: bytes) -> None:
         self.traffic.count(ESTIMATES_TOPIC, len(data))

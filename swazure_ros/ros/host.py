@@ -13,7 +13,9 @@ import re
 import time
 from collections.abc import Callable, Sequence
 
+import numpy as np
 from rclpy.context import Context
+from rclpy.exceptions import ParameterException
 from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -30,7 +32,7 @@ from swazure_interfaces.msg import (
 from ..core.errors import UnknownFlsError
 from ..core.motion import Motion
 from ..protocol.moves import Walk
-from ..protocol.radio import Ack, RadioHub
+from ..protocol.radio import Ack, RadioHub, RadioLoss
 from ..sim.replica import WorldReplica
 from ..sim.world import World
 from .convert import (
@@ -56,7 +58,7 @@ from .names import (
     WORLD_QOS,
     WORLD_TOPIC,
 )
-from .runtime import SwarmNode
+from .runtime import ParameterError, SwarmNode
 from .world_node import WorldNode
 
 #: Seconds between a host's looks at the graph for its coordinator.
@@ -76,12 +78,18 @@ class Radio:
     """
 
     def __init__(
-        self, node: SwarmNode, replica: WorldReplica, fls_nodes: dict[int, FlsNode]
+        self,
+        node: SwarmNode,
+        replica: WorldReplica,
+        fls_nodes: dict[int, FlsNode],
+        loss: RadioLoss | None = None,
     ) -> None:
         self._node = node
         self._replica = replica
         self._fls = fls_nodes
-        self._hub = RadioHub(fls_nodes.keys())
+        self._hub = RadioHub(
+            fls_nodes.keys(), loss, lambda fls_id: replica.view(fls_id).other.astype(np.int64)
+        )
         self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
         node.create_subscription(DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS)
         node.create_subscription(PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS)
@@ -195,7 +203,7 @@ class SwarmHost:
         self.host_node.create_subscription(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
         # Before the radio's hook: walks that waited for a revision measure it afresh.
         self.replica.on_revision.append(self._sense_anew)
-        self.radio = Radio(self.host_node, self.replica, self.fls_by_id)
+        self.radio = Radio(self.host_node, self.replica, self.fls_by_id, self._radio_loss())
         # The coordinator's liveness, from the graph like the FLSs' (Coordinator._on_liveness).
         self._coordinator_seen = False
         self.aborted = 0  # ABORTED estimates sent after the coordinator was lost
@@ -207,6 +215,17 @@ class SwarmHost:
         self._service_pattern = re.compile(
             rf"^/{re.escape(self.namespace)}/fls_\d+/{NEIGHBOURS_SERVICE}$"
         )
+
+    def _radio_loss(self) -> RadioLoss | None:
+        """The simulated radio's loss, from this host node's parameters (radio.*)."""
+        node = self.host_node
+        try:
+            probability = node.declare_parameter("radio.loss", 0.0).value
+            seed = node.declare_parameter("radio.seed", 0).value
+            attempts = node.declare_parameter("radio.attempts", RadioLoss.attempts).value
+            return RadioLoss(float(probability), int(seed), int(attempts))
+        except (ParameterException, TypeError, ValueError) as err:
+            raise ParameterError(f"{node.get_fully_qualified_name()}: radio: {err}") from err
 
     def _watch_coordinator(self) -> None:
         namespace = f"/{self.namespace}"

@@ -153,3 +153,27 @@ def test_a_source_known_gone_at_the_end_is_not_waited_for():
     run.on_gone({2}, 0.1)
     assert run.done and run.outcome.departed == frozenset({2})
     assert list(run.outcome.estimates) == [0]
+
+
+def test_a_delivery_lost_for_good_restarts_the_phase():
+    run = clock()
+    run.start(0.0)
+    every_offer(run, 0, labels=1)
+    start, first = run.on_ack(0, "host_0", 0.0, repairs=6, lost=1)
+    assert (start.command, first.command) == (START, ROUND)
+    assert run.restarts == 1 and run.repairs == 6 and "lost for good" in run.warnings[-1]
+
+
+def test_a_radio_that_keeps_losing_ends_the_run_incomplete_without_estimates():
+    from swazure_ros.protocol.rounds import MAX_LOSS_RESTARTS
+
+    run = clock()
+    run.start(0.0)
+    for _ in range(MAX_LOSS_RESTARTS):
+        every_offer(run, run.round, labels=1)
+        run.on_ack(run.round, "host_0", 0.0, lost=1)
+    assert not run.done
+    every_offer(run, run.round, labels=1)
+    (end,) = run.on_ack(run.round, "host_0", 0.0, lost=1)
+    assert end.command == END
+    assert run.done and run.outcome.incomplete and run.outcome.estimates == {}

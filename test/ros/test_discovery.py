@@ -256,6 +256,31 @@ def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain,
         assert_matches_engine(world, by_pair(result.estimates), engine)
 
 
+@pytest.mark.parametrize(
+    ("loss", "attempts", "complete"), [(0.1, 12, True), (0.6, 1, False)], ids=["repaired", "lost"]
+)
+def test_a_lossy_radio_gives_the_engines_results_or_says_incomplete(
+    domain, tmp_path, loss, attempts, complete
+):
+    params = tmp_path / "swarm.yaml"
+    params.write_text(
+        "/**:\n  ros__parameters:\n    publish_period: 5.0\n"
+        f"    radio:\n      loss: {loss}\n      seed: 7\n      attempts: {attempts}\n"
+    )
+    policy = "shortest-length"
+    with swarm_of(domain, params) as swarm:
+        swarm.wait_until_ready()
+        result = swarm.discover(policy, timeout=120)
+        if complete:
+            # Every lost delivery was asked for again: the same results as a perfect radio.
+            assert not result.incomplete and result.repairs > 0
+            engine = evaluate_pairs(swarm.world.hood, policy)
+            assert_matches_engine(swarm.world, by_pair(result.estimates), engine)
+        else:
+            # Lost for good, phase after phase: no estimates rather than worse ones.
+            assert result.incomplete and result.estimates == {} and result.repairs == 0
+
+
 class Client:
     """A ComputePose client in its own context, spun alongside the swarm."""
 
