@@ -344,8 +344,11 @@ class FlsNode(SwarmNode):
             response.success = False
             response.message = self._elsewhere(request.fls_id, NEIGHBOURS_SERVICE)
             return response
-        for name, ids in neighbour_fields(self.known_neighbours).items():
+        known = self.known_neighbours
+        for name, ids in neighbour_fields(known).items():
             setattr(response, name, ids)
+        every = np.concatenate([known.blind, known.sweet, known.visible_decaying])
+        response.gone_ids = sorted(set(every.tolist()) & self._senses.gone)
         response.success = True
         return response
 

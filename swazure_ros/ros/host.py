@@ -57,6 +57,7 @@ from .names import (
     WALKS_TOPIC,
     WORLD_QOS,
     WORLD_TOPIC,
+    fls_id_of,
 )
 from .runtime import ParameterError, SwarmNode
 from .world_node import WorldNode
@@ -207,7 +208,8 @@ class SwarmHost:
         # The coordinator's liveness, from the graph like the FLSs' (Coordinator._on_liveness).
         self._coordinator_seen = False
         self.aborted = 0  # ABORTED estimates sent after the coordinator was lost
-        self.host_node.create_timer(COORDINATOR_WATCH_PERIOD, self._watch_coordinator)
+        self._watching_flss = False  # once every FLS has been on the graph
+        self.host_node.create_timer(COORDINATOR_WATCH_PERIOD, self._watch_graph)
         self.transmitter = Transmitter(self.host_node)
         self._add(self.host_node)
         if with_world_node:
@@ -227,9 +229,21 @@ class SwarmHost:
         except (ParameterException, TypeError, ValueError) as err:
             raise ParameterError(f"{node.get_fully_qualified_name()}: radio: {err}") from err
 
-    def _watch_coordinator(self) -> None:
+    def _watch_graph(self) -> None:
+        """Liveness from the graph: FLS nodes gone (replica.gone), and the coordinator."""
         namespace = f"/{self.namespace}"
-        present = (COORDINATOR, namespace) in self.host_node.get_node_names_and_namespaces()
+        nodes = self.host_node.get_node_names_and_namespaces()
+        flss = {
+            fls_id
+            for name, where in nodes
+            if where == namespace and (fls_id := fls_id_of(name)) is not None
+        }
+        missing = set(self.replica.world.ids.tolist()) - flss
+        if self._watching_flss:
+            self.replica.gone |= missing
+        else:
+            self._watching_flss = not missing
+        present = (COORDINATOR, namespace) in nodes
         if present or not self._coordinator_seen:
             self._coordinator_seen = present
             return

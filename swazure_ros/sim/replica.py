@@ -29,6 +29,8 @@ class WorldReplica:
         self.world = world
         self.motion = motion or Motion()
         self.on_revision: list[Callable[[], None]] = []
+        #: FLSs whose nodes this process saw leave the ROS graph (liveness).
+        self.gone: set[int] = set()
 
     def measurement(self, fls_id: int) -> Measurement:
         """What FLS ``fls_id``'s camera measures in the current revision."""

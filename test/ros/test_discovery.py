@@ -203,6 +203,21 @@ def test_nodes_stopped_mid_run_are_known_gone_at_once_not_after_a_round_timeout(
         # Who is gone is on /swarm/departed for anyone to read.
         swarm.spin(1.0)
         assert heard and sorted(heard[-1].fls_ids) == sorted(stopped)
+        # And every FLS knows which of its own neighbours are gone.
+        from swazure_interfaces.srv import GetNeighbours
+
+        asked = next(
+            fls for fls in swarm.host.fls_by_id if stopped & set(world.view(fls).other.tolist())
+        )
+        client = probe.create_client(GetNeighbours, f"/swarm/fls_{asked}/get_neighbours")
+        while not client.service_is_ready():
+            swarm.spin(0.05)
+        future = client.call_async(GetNeighbours.Request(fls_id=asked))
+        while not future.done():
+            swarm.spin(0.05)
+        answer = future.result()
+        known = {*answer.blind_ids, *answer.sweet_ids, *answer.decaying_ids}
+        assert set(answer.gone_ids) == stopped & known and answer.gone_ids
 
 
 def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain, params):

@@ -127,7 +127,7 @@ def test_spawn_until_ready_prints_bring_up_and_exits_0(domain):
         (["--cloud", "no-such-shape", "--beta", "0.5"], "unknown shape"),
         (["--cloud", "helix:60"], "give --beta"),
         (["--cloud", "helix:60", "--beta", "0.5", "--processes", "0"], "--processes"),
-        (["--cloud", "helix:60", "--beta", "0.5", "--params", "/no/such.yaml"], "not found"),
+        (["--cloud", "helix:60", "--beta", "0.5", "--params", "/no/such.yaml"], "no such file"),
     ],
 )
 def test_spawn_bad_input_gives_one_line_and_exit_2(domain, args, message):
