@@ -25,10 +25,10 @@ from typing import Any
 
 import cv2
 import numpy as np
-import yaml
 from numpy.typing import NDArray
 
 from .errors import SensorError
+from .sensor import read_yaml
 
 FloatArray = NDArray[np.float64]
 
@@ -192,15 +192,7 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
 def load_camera(path: str | Path) -> Camera:
     """Read a camera YAML file (``config/cameras/*.yaml``)."""
     path = Path(path)
-    try:
-        document = yaml.safe_load(path.read_text())
-    except FileNotFoundError as err:
-        raise SensorError(f"{path}: no such camera file") from err
-    except OSError as err:
-        raise SensorError(f"{path}: cannot read ({err.strerror or err})") from err
-    except yaml.YAMLError as err:
-        raise SensorError(f"{path}: not valid YAML") from err
-    return camera_from_dict(document, str(path))
+    return camera_from_dict(read_yaml(path, "camera"), str(path))
 
 
 # ----------------------------------------------------------------------------- rendering

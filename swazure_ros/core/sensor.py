@@ -276,20 +276,24 @@ def _noise_from_dict(model: Any, where: str) -> SensorNoise:
         raise SensorError(f"{where}: {err}") from err
 
 
-def load_sensor(path: str | Path | None = None) -> Sensor:
-    """Read a sensor YAML file; ``None`` reads the default, ``config/sensor.yaml``."""
-    path = Path(path) if path is not None else default_sensor_path()
+def read_yaml(path: Path, kind: str) -> Any:
+    """The parsed YAML document of a ``kind`` file (sensor, camera); one-line SensorErrors."""
     try:
-        document = yaml.safe_load(path.read_text())
+        return yaml.safe_load(path.read_text())
     except FileNotFoundError as err:
-        raise SensorError(f"{path}: no such sensor file") from err
+        raise SensorError(f"{path}: no such {kind} file") from err
     except OSError as err:
         raise SensorError(f"{path}: cannot read ({err.strerror or err})") from err
     except yaml.YAMLError as err:
         mark = getattr(err, "problem_mark", None)
         where = f" at line {mark.line + 1}" if mark is not None else ""
         raise SensorError(f"{path}: not valid YAML{where}") from err
-    return sensor_from_dict(document, str(path), path.parent)
+
+
+def load_sensor(path: str | Path | None = None) -> Sensor:
+    """Read a sensor YAML file; ``None`` reads the default, ``config/sensor.yaml``."""
+    path = Path(path) if path is not None else default_sensor_path()
+    return sensor_from_dict(read_yaml(path, "sensor"), str(path), path.parent)
 
 
 def config_dir() -> Path:
