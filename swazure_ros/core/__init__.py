@@ -4,6 +4,9 @@ Modules, each holding one idea of ``docs`` / the spec:
 
 - :mod:`.clouds`: point clouds from files and built-in shapes;
 - :mod:`.sensor`: sensor ranges and error model;
+- :mod:`.camera`: a rendering ArUco camera (OpenCV), and :mod:`.calibration`,
+  the sensor derived from it;
+- :mod:`.draws`: counter-based random draws;
 - :mod:`.geometry`: radius, dmin, collision removal, tracking distance;
 - :mod:`.neighbours`: neighbour pairs and their range classes;
 - :mod:`.sight`: line of sight and obstructing FLSs;
