@@ -262,7 +262,10 @@ class RunningSwarm:
             self._drain()
             if not discovered:
                 discovered = self._host.is_discovered()
-            if discovered and len(self._peaks) == len(self._children):
+            # Seeing every node is not enough: a host whose radio has not matched the
+            # coordinator's controls yet would miss a run's START (shares on other hosts).
+            matched = self.coordinator is None or self.coordinator.hosts_matched()
+            if discovered and matched and len(self._peaks) == len(self._children):
                 self._peaks[0] = peak_rss_mb()
                 seconds = time.perf_counter() - self._began
                 peaks = [self._peaks[index] for index in range(self.config.processes)]

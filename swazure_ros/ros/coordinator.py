@@ -216,6 +216,11 @@ class Coordinator(SwarmNode):
         self._jobs: deque[_Job] = deque()
         self._job: _Job | None = None
 
+    def hosts_matched(self) -> bool:
+        """Every host's radio hears the controls, and the coordinator hears every host's acks."""
+        acks = self.get_publishers_info_by_topic(f"{self.get_namespace().rstrip('/')}/{ACK_TOPIC}")
+        return self._control.get_subscription_count() >= self.hosts and len(acks) >= self.hosts
+
     # Runs ------------------------------------------------------------------
 
     def discover(
