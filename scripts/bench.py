@@ -958,7 +958,8 @@ def soak_section(args: argparse.Namespace) -> list[str]:
         "| ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     step = max(1, len(samples) // 12)
-    for row in [*samples[:-1:step], last]:
+    shown = [row for row in samples[:-1:step] if row["minute"] < last["minute"] - 0.05]
+    for row in [*shown, last]:
         lines.append(
             f"| {row['minute']:.1f} | {row['answered']:.0f} | {row['failed']:.0f} "
             f"| {row['rss']:.0f} | {row['nodes']:.0f} | {row['publishers']:.0f} "
