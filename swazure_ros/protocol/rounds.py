@@ -98,6 +98,27 @@ class StallClock:
         return True
 
 
+class Absences:
+    """Who has been off the graph for ``grace`` seconds without a break.
+
+    A participant whose lease lapses under load (its announcements late) drops
+    off everyone's graph and comes back with its next announcement; a dead one
+    stays off. Only an absence that lasts ``grace`` counts.
+    """
+
+    def __init__(self, grace: float) -> None:
+        self.grace = grace
+        self._since: dict[int, float] = {}
+
+    def gone(self, missing: set[int], now: float) -> set[int]:
+        """Of ``missing`` (off the graph now), those off for ``grace`` s; they are forgotten."""
+        self._since = {key: self._since.get(key, now) for key in missing}
+        done = {key for key, since in self._since.items() if now - since >= self.grace}
+        for key in done:
+            del self._since[key]
+        return done
+
+
 @dataclass(frozen=True)
 class Outcome:
     """How a run ended: every source's estimates, the departed FLSs, rounds and restarts."""

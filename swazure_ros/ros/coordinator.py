@@ -42,7 +42,7 @@ from ..core.heuristics import HeuristicResult
 from ..core.paths import check_policy
 from ..protocol.discovery import Control, Estimate, evaluation_of
 from ..protocol.moves import Move, MoveRun, Walk
-from ..protocol.rounds import RoundClock, StallClock
+from ..protocol.rounds import Absences, RoundClock, StallClock
 from ..sim.world import World
 from .convert import (
     control_message,
@@ -60,6 +60,7 @@ from .names import (
     DEPARTED_QOS,
     DEPARTED_TOPIC,
     ESTIMATES_TOPIC,
+    LIVENESS_GRACE,
     MOVE_QOS,
     MOVE_TOPIC,
     POLICY_NAMES,
@@ -201,8 +202,14 @@ class Coordinator(SwarmNode):
         self.liveness_period = self.declare_seconds(
             "liveness_period", 0.5, "seconds between looks at the graph for FLS nodes gone"
         )
+        self.liveness_grace = self.declare_seconds(
+            "liveness_grace",
+            LIVENESS_GRACE,
+            "seconds an FLS node must stay off the graph before it is gone",
+        )
         # Watched once the graph has shown every FLS (before, one may still be coming up).
         self._watching = False
+        self._missing = Absences(self.liveness_grace)
         self.gone: set[int] = set()
         self._gone_publisher = self.create_publisher(Departed, DEPARTED_TOPIC, DEPARTED_QOS)
         self.create_timer(self.liveness_period, self._on_liveness)
@@ -382,7 +389,7 @@ class Coordinator(SwarmNode):
         if not self._watching:
             self._watching = not missing
             return
-        newly = missing
+        newly = self._missing.gone(missing, time.monotonic())
         if not newly:
             return
         self.gone |= newly

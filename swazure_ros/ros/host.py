@@ -33,6 +33,7 @@ from ..core.errors import UnknownFlsError
 from ..core.motion import Motion
 from ..protocol.moves import Walk
 from ..protocol.radio import Ack, RadioHub, RadioLoss
+from ..protocol.rounds import Absences
 from ..sim.replica import WorldReplica
 from ..sim.world import World
 from .convert import (
@@ -48,6 +49,7 @@ from .names import (
     ACK_TOPIC,
     CONTROL_TOPIC,
     COORDINATOR,
+    LIVENESS_GRACE,
     MEASUREMENTS_TOPIC,
     NEIGHBOURS_SERVICE,
     RADIO_TOPIC,
@@ -91,6 +93,7 @@ class Radio:
         self._hub = RadioHub(
             fls_nodes.keys(), loss, lambda fls_id: replica.view(fls_id).other.astype(np.int64)
         )
+        self.controls_heard = 0  # a control is a sure sign that a coordinator is there
         self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
         node.create_subscription(DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS)
         node.create_subscription(PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS)
@@ -126,6 +129,7 @@ class Radio:
             node.on_track_sample(sample)
 
     def _on_control(self, message: DiscoveryControl) -> None:
+        self.controls_heard += 1
         control = control_from_message(message)
         recipients, ack, heard = self._hub.on_control(control)
         for fls_id in recipients:
@@ -209,6 +213,9 @@ class SwarmHost:
         self._coordinator_seen = False
         self.aborted = 0  # ABORTED estimates sent after the coordinator was lost
         self._watching_flss = False  # once every FLS has been on the graph
+        self._absent = Absences(LIVENESS_GRACE)
+        self._coordinator_absent = Absences(LIVENESS_GRACE)
+        self._controls_at_loss = 0
         self.host_node.create_timer(COORDINATOR_WATCH_PERIOD, self._watch_graph)
         self.transmitter = Transmitter(self.host_node)
         self._add(self.host_node)
@@ -238,17 +245,24 @@ class SwarmHost:
             for name, where in nodes
             if where == namespace and (fls_id := fls_id_of(name)) is not None
         }
-        missing = set(self.replica.world.ids.tolist()) - flss
+        now = time.monotonic()
+        missing = set(self.replica.world.ids.tolist()) - flss - self.replica.gone
         if self._watching_flss:
-            self.replica.gone |= missing
+            self.replica.gone |= self._absent.gone(missing, now)
         else:
             self._watching_flss = not missing
+        # The coordinator as -1 among the absences: it must stay away as long.
         present = (COORDINATOR, namespace) in nodes
+        # Seen on the graph, or heard: a run can start and end between two looks.
+        self._coordinator_seen |= self.radio.controls_heard > self._controls_at_loss
         if present or not self._coordinator_seen:
-            self._coordinator_seen = present
+            self._coordinator_seen = self._coordinator_seen or present
+            self._coordinator_absent.gone(set(), now)
             return
-        self._coordinator_seen = False
-        self.aborted += self.radio.coordinator_lost()
+        if self._coordinator_absent.gone({-1}, now):
+            self._coordinator_seen = False
+            self._controls_at_loss = self.radio.controls_heard
+            self.aborted += self.radio.coordinator_lost()
 
     def _sense_anew(self) -> None:
         for node in self.fls_nodes:

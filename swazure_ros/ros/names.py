@@ -37,6 +37,8 @@ TRACK_REQUESTS_TOPIC = "track_requests"
 TRACK_SAMPLES_TOPIC = "track_samples"
 TRACK_ESTIMATES_TOPIC = "track_estimates"
 DEPARTED_TOPIC = "departed"
+#: Seconds a node must stay off the ROS graph before it counts as gone.
+LIVENESS_GRACE = 2.0
 #: Per FLS, when its camera_view parameter names a neighbour: what its camera sees.
 CAMERA_IMAGE_TOPIC = "camera/image_raw"
 CAMERA_INFO_TOPIC = "camera/camera_info"

@@ -177,3 +177,16 @@ def test_a_radio_that_keeps_losing_ends_the_run_incomplete_without_estimates():
     (end,) = run.on_ack(run.round, "host_0", 0.0, lost=1)
     assert end.command == END
     assert run.done and run.outcome.incomplete and run.outcome.estimates == {}
+
+
+def test_an_absence_counts_only_once_it_lasts_the_grace():
+    from swazure_ros.protocol.rounds import Absences
+
+    absences = Absences(2.0)
+    assert absences.gone({1, 2}, 0.0) == set()
+    assert absences.gone({1, 2}, 1.0) == set()
+    # FLS 2 came back (a lapsed lease, re-announced): its absence starts again.
+    assert absences.gone({1}, 1.5) == set()
+    assert absences.gone({1, 2}, 2.0) == {1}
+    assert absences.gone({2}, 3.9) == set()
+    assert absences.gone({2}, 4.0) == {2}
