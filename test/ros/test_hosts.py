@@ -70,7 +70,9 @@ def test_three_hosts_discover_as_the_engine_does(hosts):
         outputs = [process.communicate(timeout=60) for process in served]
     assert leader.returncode == 0, leader.stderr
     assert "120 FLS nodes in 3 hosts (this is share 0)" in leader.stdout
-    assert "pairs identical to the engine's (status, path, estimate to 1e-9): yes" in leader.stdout
+    assert (
+        "pairs identical to the engine's (status, path, estimate to 1e-9): yes" in leader.stdout
+    ), leader.stdout + leader.stderr
     for index, (stdout, _) in zip((1, 2), outputs, strict=True):
         assert f"120 FLS nodes in 3 hosts (this is share {index})" in stdout
 
