@@ -94,6 +94,7 @@ class Radio:
             fls_nodes.keys(), loss, lambda fls_id: replica.view(fls_id).other.astype(np.int64)
         )
         self.controls_heard = 0  # a control is a sure sign that a coordinator is there
+        self.last_control_at = float("-inf")  # monotonic s
         self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
         node.create_subscription(DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS)
         node.create_subscription(PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS)
@@ -130,6 +131,7 @@ class Radio:
 
     def _on_control(self, message: DiscoveryControl) -> None:
         self.controls_heard += 1
+        self.last_control_at = time.monotonic()
         control = control_from_message(message)
         recipients, ack, heard = self._hub.on_control(control)
         for fls_id in recipients:
@@ -252,7 +254,11 @@ class SwarmHost:
         else:
             self._watching_flss = not missing
         # The coordinator as -1 among the absences: it must stay away as long.
-        present = (COORDINATOR, namespace) in nodes
+        # Remote nodes reach the graph through each participant's node list, which can
+        # lag or flap while the participant itself is fine: a coordinator still heard
+        # clocking rounds is there, whatever the list says.
+        heard_lately = now - self.radio.last_control_at < LIVENESS_GRACE
+        present = (COORDINATOR, namespace) in nodes or heard_lately
         # Seen on the graph, or heard: a run can start and end between two looks.
         self._coordinator_seen |= self.radio.controls_heard > self._controls_at_loss
         if present or not self._coordinator_seen:

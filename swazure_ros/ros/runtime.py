@@ -13,7 +13,6 @@ from __future__ import annotations
 import atexit
 import contextlib
 import ctypes
-import os
 import sys
 from pathlib import Path
 from typing import NoReturn
@@ -98,29 +97,11 @@ def check_params_file(path: Path) -> None:
         )
 
 
-def fastdds_profile() -> Path | None:
-    """The project's Fast DDS profile file (config/fastdds.xml), if installed."""
-    from ..core.errors import SensorError
-    from ..core.sensor import config_dir
-
-    try:
-        path = config_dir() / "fastdds.xml"
-    except SensorError:
-        return None
-    return path if path.is_file() else None
-
-
 def init_context(domain_id: int | None = None, params_file: str | None = None) -> Context:
     """A fresh rclpy context on ``domain_id``, with a ROS 2 parameter file if given.
 
     Signals are left to the caller: a swarm stops between spins, not inside a callback.
     """
-    # Our Fast DDS settings (config/fastdds.xml: a 5 s participant lease) unless the
-    # user chose a profile file; read when the context's first participant is made.
-    if "FASTRTPS_DEFAULT_PROFILES_FILE" not in os.environ:
-        profile = fastdds_profile()
-        if profile is not None:
-            os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(profile)
     args = []
     if params_file is not None:
         # Checked here so that a bad file gives our one line, not rcl's log lines too.

@@ -33,11 +33,16 @@ def _hosts_possible() -> str | None:
 
 
 @pytest.fixture
-def hosts(domain):
+def hosts(domain, tmp_path):
     reason = _hosts_possible()
     if reason is not None:
         pytest.skip(reason)
-    env = dict(os.environ, SWAZURE_NETNS_PREFIX=f"swz{os.getpid() % 10000}")
+    # A host that compiles the numba kernels for the first time (a fresh clone) stalls
+    # for seconds in its first round: longer than the default round timeout, and the
+    # others would take its FLSs for departed.
+    params = tmp_path / "swarm.yaml"
+    params.write_text("/**/coordinator:\n  ros__parameters:\n    round_timeout: 120.0\n")
+    env = dict(os.environ, SWAZURE_NETNS_PREFIX=f"swz{os.getpid() % 10000}", PARAMS=str(params))
     env.pop("ROS_AUTOMATIC_DISCOVERY_RANGE", None)  # the script sets SUBNET on each host
     up = subprocess.run([str(SCRIPT), "up", "3"], env=env, capture_output=True, text=True)
     assert up.returncode == 0, up.stderr
@@ -49,7 +54,8 @@ def hosts(domain):
 
 def on_host(env, index, *arguments):
     command = [str(SCRIPT), "exec", str(index), sys.executable, "-m", "swazure_ros.cli.main"]
-    return [*command, "spawn", *SWARM, "--share", f"{index}/3", *arguments]
+    return [*command, "spawn", *SWARM, "--params", env["PARAMS"], "--share", f"{index}/3",
+            *arguments]  # fmt: skip
 
 
 def test_three_hosts_discover_as_the_engine_does(hosts):
