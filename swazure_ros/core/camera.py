@@ -269,13 +269,7 @@ def _psf(camera: Camera, distance_mm: float, focus_mm: float) -> NDArray[np.floa
 def render(camera: Camera, pose: MarkerPose, rng: np.random.Generator) -> Frame:
     """Render the region of the image around the marker at ``pose``, seeded by ``rng``."""
     rotation = _rotation(pose.tilt_deg, pose.roll_deg)
-    centre = np.array(
-        [
-            pose.offset_px[0] * pose.distance_mm / camera.fx,
-            pose.offset_px[1] * pose.distance_mm / camera.fy,
-            pose.distance_mm,
-        ]
-    )
+    centre = true_centre(camera, pose)
     cells = (
         cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, camera.marker_dictionary)).markerSize
         + 2
