@@ -207,8 +207,7 @@ class Coordinator(SwarmNode):
             LIVENESS_GRACE,
             "seconds an FLS node must stay off the graph before it is gone",
         )
-        # Watched once the graph has shown every FLS (before, one may still be coming up).
-        self._watching = False
+        self._seen: set[int] = set()  # FLSs the graph has shown at least once
         self._missing = Absences(self.liveness_grace)
         self.gone: set[int] = set()
         self._gone_publisher = self.create_publisher(Departed, DEPARTED_TOPIC, DEPARTED_QOS)
@@ -385,10 +384,9 @@ class Coordinator(SwarmNode):
             for name, namespace in self.get_node_names_and_namespaces()
             if namespace == self.get_namespace() and (fls_id := fls_id_of(name)) is not None
         }
-        missing = self.fls_ids - present - self.gone
-        if not self._watching:
-            self._watching = not missing
-            return
+        # Only an FLS once seen can go missing: a swarm's nodes join the graph over seconds.
+        self._seen |= present
+        missing = self._seen - present - self.gone
         newly = self._missing.gone(missing, time.monotonic())
         if not newly:
             return

@@ -214,7 +214,8 @@ class SwarmHost:
         # The coordinator's liveness, from the graph like the FLSs' (Coordinator._on_liveness).
         self._coordinator_seen = False
         self.aborted = 0  # ABORTED estimates sent after the coordinator was lost
-        self._watching_flss = False  # once every FLS has been on the graph
+        # Only an FLS once seen can go missing: remote ones join the graph late.
+        self._seen_flss: set[int] = set()
         self._absent = Absences(LIVENESS_GRACE)
         self._coordinator_absent = Absences(LIVENESS_GRACE)
         self._controls_at_loss = 0
@@ -248,11 +249,9 @@ class SwarmHost:
             if where == namespace and (fls_id := fls_id_of(name)) is not None
         }
         now = time.monotonic()
-        missing = set(self.replica.world.ids.tolist()) - flss - self.replica.gone
-        if self._watching_flss:
-            self.replica.gone |= self._absent.gone(missing, now)
-        else:
-            self._watching_flss = not missing
+        self._seen_flss |= flss
+        missing = self._seen_flss - flss - self.replica.gone
+        self.replica.gone |= self._absent.gone(missing, now)
         # The coordinator as -1 among the absences: it must stay away as long.
         # Remote nodes reach the graph through each participant's node list, which can
         # lag or flap while the participant itself is fine: a coordinator still heard
@@ -308,6 +307,7 @@ class SwarmHost:
             )
             self.fls_nodes.append(node)
             self.fls_by_id[fls_id] = node
+            self._seen_flss.add(fls_id)  # on this participant's graph from now on
             self._add(node)
             if on_created is not None and (count % chunk == 0 or count == len(self.fls_ids)):
                 on_created(count)
