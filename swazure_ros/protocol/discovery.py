@@ -107,6 +107,14 @@ class Offer:
         return tuple(int(fls) for fls in self.path_ids[start:stop])
 
 
+def ragged_indices(starts: IntArray, counts: IntArray) -> IntArray:
+    """(sum(counts),) the indices starts[k] .. starts[k] + counts[k] - 1, run after run."""
+    before = np.cumsum(counts) - counts
+    return np.asarray(
+        np.repeat(starts - before, counts) + np.arange(int(counts.sum())), dtype=np.int64
+    )
+
+
 @dataclass(frozen=True)
 class Found:
     """A path from a source to one FLS: ids, hops, length (cm) and summed vector (3,), cm."""
@@ -171,8 +179,9 @@ class RoundOffers:
     def _rows(self, senders: IntArray) -> IntArray:
         """Rows into :attr:`senders` of those of ``senders`` that offered."""
         rows = np.searchsorted(self.senders, senders)
-        rows = rows[rows < len(self.senders)]
-        return rows[np.isin(self.senders[rows], senders)]
+        found = rows < len(self.senders)
+        rows = rows[found]
+        return np.asarray(rows[self.senders[rows] == senders[found]], dtype=np.int64)
 
     def labels_of(self, senders: IntArray) -> IntArray:
         """(M,) the labels offered by ``senders`` (sorted ids), sender by sender."""
@@ -221,14 +230,21 @@ class PathSearch:
         self.vector = np.full((id_space, 3), np.nan)
         self.sent = np.zeros(id_space, dtype=bool)
         self.closed = np.zeros(id_space, dtype=bool)  # sources whose search has ended
-        self.paths: dict[int, tuple[int, ...]] = {}
+        # A label's path is its sender's (label via_label of the offers heard as
+        # via_offers) plus this FLS; it is copied out only when the label is sent,
+        # since most labels are bettered before they are.
+        self.via_offers = np.full(id_space, -1, dtype=np.int64)  # -1: this FLS is the source
+        self.via_label = np.full(id_space, -1, dtype=np.int64)
+        self._heard: dict[int, RoundOffers] = {}
+        self._heard_count = 0
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
+        self._wanted = np.array(sorted(self.targets), dtype=np.int64)
+        self._found = np.zeros(id_space, dtype=bool)
         self.results: dict[int, Found] = {}
         if targets is not None:
             me = self.fls_id
             self.hops[me], self.length[me], self.pred[me] = 0.0, 0.0, me
             self.vector[me] = 0.0
-            self.paths[me] = (me,)
 
     @property
     def finished(self) -> bool:
@@ -248,20 +264,42 @@ class PathSearch:
         labelled = np.flatnonzero(np.isfinite(self.hops) & ~self.sent & ~self.closed)
         due = labelled[self._buckets(labelled) <= round_]
         self.sent[due] = True
-        paths = [self.paths[int(source)] for source in due]
-        counts = np.array([len(path) for path in paths], dtype=np.int64)
+        path_offsets, path_ids = self._paths_of(due)
         return Offer(
             source_ids=due.astype(np.int64),
             hops=self.hops[due].astype(np.int64),
             lengths=self.length[due],
             vectors=self.vector[due],
-            path_offsets=np.concatenate([[0], np.cumsum(counts)]).astype(np.int64),
-            path_ids=np.fromiter(
-                (fls for path in paths for fls in path), dtype=np.int64, count=int(counts.sum())
-            ),
+            path_offsets=path_offsets,
+            path_ids=path_ids,
             pending=len(due) < len(labelled),
             finished=self.finished,
         )
+
+    def _paths_of(self, sources: IntArray) -> tuple[IntArray, IntArray]:
+        """The paths of the labels of ``sources``, as (offsets (L + 1,), ids), FLS ids."""
+        via, label = self.via_offers[sources], self.via_label[sources]
+        counts = np.ones(len(sources), dtype=np.int64)  # this FLS ends every path
+        keys = np.unique(via[via >= 0]).tolist()
+        for key in keys:
+            rows = via == key
+            offsets = self._heard[key].path_offsets
+            counts[rows] += offsets[label[rows] + 1] - offsets[label[rows]]
+        path_offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        path_ids = np.full(int(path_offsets[-1]), self.fls_id, dtype=np.int64)
+        for key in keys:
+            rows = via == key
+            heard = self._heard[key]
+            start = heard.path_offsets[label[rows]]
+            length = heard.path_offsets[label[rows] + 1] - start
+            path_ids[ragged_indices(path_offsets[:-1][rows], length)] = heard.path_ids[
+                ragged_indices(start, length)
+            ]
+        # Offers heard that no unsent label still comes through are done with.
+        pending = self.via_offers[~self.sent & (self.via_offers >= 0)]
+        for key in set(self._heard) - set(np.unique(pending).tolist()):
+            del self._heard[key]
+        return path_offsets, path_ids
 
     def hear(self, heard: RoundOffers) -> None:
         """Take a round's offers at once: record results, relax labels through the hops.
@@ -271,12 +309,13 @@ class PathSearch:
         (primary cost, secondary cost, sender id). That order is total, so the
         outcome is the one of hearing the offers one by one, in any order.
         """
-        missing = [target for target in self.targets if target not in self.results]
-        if missing:
-            from_targets = heard.labels_of(np.array(sorted(missing), dtype=np.int64))
+        missing = self._wanted[~self._found[self._wanted]]
+        if len(missing):
+            from_targets = heard.labels_of(missing)
             for label in from_targets[heard.source_ids[from_targets] == self.fls_id].tolist():
                 sender = int(heard.sender_ids[label])
                 if sender not in self.results:
+                    self._found[sender] = True
                     self.results[sender] = Found(
                         heard.path(label), float(heard.lengths[label]), heard.vectors[label].copy()
                     )
@@ -293,25 +332,35 @@ class PathSearch:
         new_hops = heard.hops[labels].astype(np.float64) + 1.0
         new_length = heard.lengths[labels] + self.link_weights[link]
         new1, new2 = (new_hops, new_length) if self.fewest_hops else (new_length, new_hops)
+        # Only candidates better than the label they would replace can win; most are
+        # not, and leaving them out before the sort keeps the best of each source.
+        old_hops, old_length = self.hops[sources], self.length[sources]
+        old1, old2 = (old_hops, old_length) if self.fewest_hops else (old_length, old_hops)
+        better = (new1 < old1) | (
+            (new1 == old1) & ((new2 < old2) | ((new2 == old2) & (senders < self.pred[sources])))
+        )
+        if not better.any():
+            return
+        candidates = np.flatnonzero(better)
         # The best candidate per source: lexsort's last key sorts first.
-        order = np.lexsort((senders, new2, new1, sources))
+        order = candidates[
+            np.lexsort(
+                (senders[candidates], new2[candidates], new1[candidates], sources[candidates])
+            )
+        ]
         first = np.ones(len(order), dtype=bool)
         first[1:] = sources[order][1:] != sources[order][:-1]
         best = order[first]
         at = sources[best]
-        old_hops, old_length, old_pred = self.hops[at], self.length[at], self.pred[at]
-        old1, old2 = (old_hops, old_length) if self.fewest_hops else (old_length, old_hops)
-        cand1, cand2, cand_sender = new1[best], new2[best], senders[best]
-        better = (cand1 < old1) | (
-            (cand1 == old1) & ((cand2 < old2) | ((cand2 == old2) & (cand_sender < old_pred)))
-        )
-        for candidate in best[better].tolist():
-            source, label = int(sources[candidate]), int(labels[candidate])
-            self.hops[source] = new_hops[candidate]
-            self.length[source] = new_length[candidate]
-            self.pred[source] = senders[candidate]
-            self.vector[source] = heard.vectors[label] + self.link_vectors[link[candidate]]
-            self.paths[source] = (*heard.path(label), self.fls_id)
+        self.hops[at] = new_hops[best]
+        self.length[at] = new_length[best]
+        self.pred[at] = senders[best]
+        self.vector[at] = heard.vectors[labels[best]] + self.link_vectors[link[best]]
+        key = self._heard_count
+        self._heard_count += 1
+        self._heard[key] = heard
+        self.via_offers[at] = key
+        self.via_label[at] = labels[best]
 
 
 def phase_targets(phase: int, blind: IntArray, sweet_results: dict[int, Found]) -> IntArray:
