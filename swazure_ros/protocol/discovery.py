@@ -27,6 +27,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -62,6 +63,9 @@ START, ROUND, END = 0, 1, 2
 #: Bucket widths sit this fraction below the shortest hop, so that rounding in
 #: a sum of lengths never puts a label in the bucket of the label it extends.
 _BUCKET_MARGIN = 1e-9
+
+#: How many rounds' offers a PathSearch keeps before it drops those no label needs.
+_HEARD_KEPT = 8
 
 
 def bucket_width(sweet_min: float, policy: str) -> float:
@@ -197,6 +201,67 @@ class RoundOffers:
         return tuple(self.path_ids[start:stop].tolist())
 
 
+@numba.njit(cache=True, nogil=True)
+def _relax(
+    me: int,
+    link_ids: IntArray,
+    link_weights: FloatArray,
+    fewest_hops: bool,
+    senders: IntArray,
+    starts: IntArray,
+    source_ids: IntArray,
+    label_hops: IntArray,
+    label_lengths: FloatArray,
+    sent: NDArray[np.bool_],
+    hops: FloatArray,
+    length: FloatArray,
+    pred: IntArray,
+    won_label: IntArray,
+    won_link: IntArray,
+) -> IntArray:
+    """Relax the labels (hops, length, pred: (id_space,)) through the hops from ``link_ids``.
+
+    Each candidate (a heard label plus the hop from its sender) replaces the
+    label of its source when it is better under the total order (primary
+    cost, secondary cost, sender id), so the outcome does not depend on the
+    order of hearing. The winning label and hop are left in ``won_label``
+    and ``won_link`` (scratch, -1 where unchanged); returns the changed sources.
+    """
+    changed = np.empty(len(hops), dtype=np.int64)
+    count = 0
+    row = 0
+    for link in range(len(link_ids)):
+        sender = link_ids[link]
+        # Both lists are sorted by id: one pass finds each sender's row.
+        while row < len(senders) and senders[row] < sender:
+            row += 1
+        if row == len(senders):
+            break
+        if senders[row] != sender:
+            continue
+        weight = link_weights[link]
+        for label in range(starts[row], starts[row + 1]):
+            source = source_ids[label]
+            if sent[source] or source == me:
+                continue
+            # Sums in path order, as the engine sums them: cost so far plus this hop.
+            new_hops = label_hops[label] + 1.0
+            new_length = label_lengths[label] + weight
+            if fewest_hops:
+                new1, new2, old1, old2 = new_hops, new_length, hops[source], length[source]
+            else:
+                new1, new2, old1, old2 = new_length, new_hops, length[source], hops[source]
+            if new1 < old1 or (
+                new1 == old1 and (new2 < old2 or (new2 == old2 and sender < pred[source]))
+            ):
+                if won_label[source] < 0:
+                    changed[count] = source
+                    count += 1
+                hops[source], length[source], pred[source] = new_hops, new_length, sender
+                won_label[source], won_link[source] = label, link
+    return changed[:count]
+
+
 class PathSearch:
     """One FLS's labels in one phase of a discovery run.
 
@@ -237,6 +302,8 @@ class PathSearch:
         self.via_label = np.full(id_space, -1, dtype=np.int64)
         self._heard: dict[int, RoundOffers] = {}
         self._heard_count = 0
+        self._won_label = np.full(id_space, -1, dtype=np.int64)  # scratch of hear()
+        self._won_link = np.zeros(id_space, dtype=np.int64)
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
         self._wanted = np.array(sorted(self.targets), dtype=np.int64)
         self._found = np.zeros(id_space, dtype=bool)
@@ -295,10 +362,12 @@ class PathSearch:
             path_ids[ragged_indices(path_offsets[:-1][rows], length)] = heard.path_ids[
                 ragged_indices(start, length)
             ]
-        # Offers heard that no unsent label still comes through are done with.
-        pending = self.via_offers[~self.sent & (self.via_offers >= 0)]
-        for key in set(self._heard) - set(np.unique(pending).tolist()):
-            del self._heard[key]
+        # Offers heard that no unsent label still comes through are done with
+        # (looked for now and then: a few rounds' offers are kept anyway).
+        if len(self._heard) > _HEARD_KEPT:
+            pending = self.via_offers[~self.sent & (self.via_offers >= 0)]
+            for key in set(self._heard) - set(np.unique(pending).tolist()):
+                del self._heard[key]
         return path_offsets, path_ids
 
     def hear(self, heard: RoundOffers) -> None:
@@ -319,48 +388,33 @@ class PathSearch:
                     self.results[sender] = Found(
                         heard.path(label), float(heard.lengths[label]), heard.vectors[label].copy()
                     )
-        labels = heard.labels_of(self.link_ids)
-        if not len(labels):
-            return
-        sources, senders = heard.source_ids[labels], heard.sender_ids[labels]
-        labels = labels[~self.sent[sources] & (sources != self.fls_id)]
-        if not len(labels):
-            return
-        sources, senders = heard.source_ids[labels], heard.sender_ids[labels]
-        link = np.searchsorted(self.link_ids, senders)
-        # Sums in path order, as the engine sums them: cost so far plus this hop.
-        new_hops = heard.hops[labels].astype(np.float64) + 1.0
-        new_length = heard.lengths[labels] + self.link_weights[link]
-        new1, new2 = (new_hops, new_length) if self.fewest_hops else (new_length, new_hops)
-        # Only candidates better than the label they would replace can win; most are
-        # not, and leaving them out before the sort keeps the best of each source.
-        old_hops, old_length = self.hops[sources], self.length[sources]
-        old1, old2 = (old_hops, old_length) if self.fewest_hops else (old_length, old_hops)
-        better = (new1 < old1) | (
-            (new1 == old1) & ((new2 < old2) | ((new2 == old2) & (senders < self.pred[sources])))
+        changed = _relax(
+            self.fls_id,
+            self.link_ids,
+            self.link_weights,
+            self.fewest_hops,
+            heard.senders,
+            heard.starts,
+            heard.source_ids,
+            heard.hops,
+            heard.lengths,
+            self.sent,
+            self.hops,
+            self.length,
+            self.pred,
+            self._won_label,
+            self._won_link,
         )
-        if not better.any():
+        if not len(changed):
             return
-        candidates = np.flatnonzero(better)
-        # The best candidate per source: lexsort's last key sorts first.
-        order = candidates[
-            np.lexsort(
-                (senders[candidates], new2[candidates], new1[candidates], sources[candidates])
-            )
-        ]
-        first = np.ones(len(order), dtype=bool)
-        first[1:] = sources[order][1:] != sources[order][:-1]
-        best = order[first]
-        at = sources[best]
-        self.hops[at] = new_hops[best]
-        self.length[at] = new_length[best]
-        self.pred[at] = senders[best]
-        self.vector[at] = heard.vectors[labels[best]] + self.link_vectors[link[best]]
+        labels, links = self._won_label[changed], self._won_link[changed]
+        self._won_label[changed] = -1
+        self.vector[changed] = heard.vectors[labels] + self.link_vectors[links]
         key = self._heard_count
         self._heard_count += 1
         self._heard[key] = heard
-        self.via_offers[at] = key
-        self.via_label[at] = labels[best]
+        self.via_offers[changed] = key
+        self.via_label[changed] = labels
 
 
 def phase_targets(phase: int, blind: IntArray, sweet_results: dict[int, Found]) -> IntArray:
