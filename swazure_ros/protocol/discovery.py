@@ -202,6 +202,33 @@ class RoundOffers:
 
 
 @numba.njit(cache=True, nogil=True)
+def _labels_for(
+    source: int, senders_wanted: IntArray, senders: IntArray, starts: IntArray, source_ids: IntArray
+) -> IntArray:
+    """The labels of ``source`` offered by ``senders_wanted`` (sorted ids), sender by sender.
+
+    ``senders``, ``starts`` and ``source_ids`` are a :class:`RoundOffers`'s;
+    a sender offers each source's label once in a phase (it is final when sent).
+    """
+    found = np.empty(len(senders_wanted), dtype=np.int64)
+    count = 0
+    row = 0
+    for sender in senders_wanted:
+        while row < len(senders) and senders[row] < sender:
+            row += 1
+        if row == len(senders):
+            break
+        if senders[row] != sender:
+            continue
+        for label in range(starts[row], starts[row + 1]):
+            if source_ids[label] == source:
+                found[count] = label
+                count += 1
+                break
+    return found[:count]
+
+
+@numba.njit(cache=True, nogil=True)
 def _relax(
     me: int,
     link_ids: IntArray,
@@ -225,7 +252,7 @@ def _relax(
     label of its source when it is better under the total order (primary
     cost, secondary cost, sender id), so the outcome does not depend on the
     order of hearing. The winning label and hop are left in ``won_label``
-    and ``won_link`` (scratch, -1 where unchanged); returns the changed sources.
+    and ``won_link`` (given all -1); returns the changed sources.
     """
     changed = np.empty(len(hops), dtype=np.int64)
     count = 0
@@ -302,8 +329,6 @@ class PathSearch:
         self.via_label = np.full(id_space, -1, dtype=np.int64)
         self._heard: dict[int, RoundOffers] = {}
         self._heard_count = 0
-        self._won_label = np.full(id_space, -1, dtype=np.int64)  # scratch of hear()
-        self._won_link = np.zeros(id_space, dtype=np.int64)
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
         self._wanted = np.array(sorted(self.targets), dtype=np.int64)
         self._found = np.zeros(id_space, dtype=bool)
@@ -380,14 +405,16 @@ class PathSearch:
         """
         missing = self._wanted[~self._found[self._wanted]]
         if len(missing):
-            from_targets = heard.labels_of(missing)
-            for label in from_targets[heard.source_ids[from_targets] == self.fls_id].tolist():
+            mine = _labels_for(self.fls_id, missing, heard.senders, heard.starts, heard.source_ids)
+            for label in mine.tolist():
                 sender = int(heard.sender_ids[label])
                 if sender not in self.results:
                     self._found[sender] = True
                     self.results[sender] = Found(
                         heard.path(label), float(heard.lengths[label]), heard.vectors[label].copy()
                     )
+        won_label = np.full(len(self.hops), -1, dtype=np.int64)
+        won_link = np.zeros(len(self.hops), dtype=np.int64)
         changed = _relax(
             self.fls_id,
             self.link_ids,
@@ -402,13 +429,12 @@ class PathSearch:
             self.hops,
             self.length,
             self.pred,
-            self._won_label,
-            self._won_link,
+            won_label,
+            won_link,
         )
         if not len(changed):
             return
-        labels, links = self._won_label[changed], self._won_link[changed]
-        self._won_label[changed] = -1
+        labels, links = won_label[changed], won_link[changed]
         self.vector[changed] = heard.vectors[labels] + self.link_vectors[links]
         key = self._heard_count
         self._heard_count += 1
