@@ -203,7 +203,11 @@ class RoundOffers:
 
 @numba.njit(cache=True, nogil=True)
 def _labels_for(
-    source: int, senders_wanted: IntArray, senders: IntArray, starts: IntArray, source_ids: IntArray
+    source: int,
+    senders_wanted: IntArray,
+    senders: IntArray,
+    starts: IntArray,
+    source_ids: IntArray,
 ) -> IntArray:
     """The labels of ``source`` offered by ``senders_wanted`` (sorted ids), sender by sender.
 
