@@ -16,11 +16,18 @@ from typing import Any, Protocol
 import numba
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from .. import __version__
 from .geometry import Swarm, tracking_distance
 from .metrics import alpha_deg, describe, distance_error_pct, phi_error_deg, theta_error_deg
-from .neighbours import NeighbourPairs, neighbour_pairs, ordered_blind_pairs, pairs_of
+from .neighbours import (
+    NeighbourPairs,
+    neighbour_pairs,
+    ordered_blind_pairs,
+    pairs_between,
+    pairs_of,
+)
 from .paths import Graph, Paths, check_policy, make_graph, path_hops, shortest_paths
 from .sensor import DECAYING, SWEET, Sensor, measured_vectors
 from .sight import Grid, build_grid, obstructed, obstructers, segments_near
@@ -116,6 +123,39 @@ def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None
         swarm.points, swarm.radius, pairs.first[edge], pairs.second[edge], grid
     )
     progress.advance(int(edge.sum()))
+    return Neighbourhood(swarm, sensor, pairs, visible, grid, np.ones(len(pairs), dtype=bool))
+
+
+def neighbourhood_of(
+    swarm: Swarm,
+    sensor: Sensor,
+    flss: IntArray,
+    grid: Grid | None = None,
+    tree: cKDTree | None = None,
+    others: IntArray | None = None,
+) -> Neighbourhood:
+    """The pairs that involve the FLSs at indices ``flss`` (K,), with their line of sight.
+
+    Each of these FLSs' pairs equal those of ``neighbourhood(swarm, sensor)``;
+    the pairs between other FLSs are left out, and with ``others`` (indices)
+    every pair but those of an FLS of ``flss`` with one of ``others``. ``grid``
+    (``build_grid``'s) and ``tree`` (a cKDTree of the points) are the
+    swarm's, when the caller keeps them.
+    """
+    flss = np.unique(np.asarray(flss, dtype=np.int64))
+    if others is None:
+        pairs = pairs_of(swarm, sensor, flss, tree)
+    else:
+        others = np.asarray(others, dtype=np.int64)
+        pairs = pairs_between(
+            swarm, sensor, np.repeat(flss, len(others)), np.tile(others, len(flss))
+        )
+    edge = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)
+    grid = grid or build_grid(swarm.points, swarm.radius)
+    visible = np.zeros(len(pairs), dtype=bool)
+    visible[edge] = ~obstructed(
+        swarm.points, swarm.radius, pairs.first[edge], pairs.second[edge], grid
+    )
     return Neighbourhood(swarm, sensor, pairs, visible, grid, np.ones(len(pairs), dtype=bool))
 
 

@@ -66,15 +66,19 @@ def neighbour_pairs(swarm: Swarm, sensor: Sensor) -> NeighbourPairs:
     return NeighbourPairs(first, second, distance, tracking, sensor.classify(tracking))
 
 
-def pairs_of(swarm: Swarm, sensor: Sensor, flss: IntArray) -> NeighbourPairs:
+def pairs_of(
+    swarm: Swarm, sensor: Sensor, flss: IntArray, tree: cKDTree | None = None
+) -> NeighbourPairs:
     """The pairs of :func:`neighbour_pairs` that involve an FLS of ``flss`` (sorted indices).
 
     The same pairs, distances and classes as the whole swarm's, found from
-    the ``flss`` alone.
+    the ``flss`` alone. ``tree`` is a cKDTree of the swarm's points, when the
+    caller keeps one.
     """
     reach = sensor.decaying_max + 2.0 * swarm.radius
     reach = max(reach, 2.0 * swarm.radius + 2 * KISSING_TOLERANCE)
-    found = cKDTree(swarm.points).query_ball_point(swarm.points[flss], reach)
+    tree = tree if tree is not None else cKDTree(swarm.points)
+    found = tree.query_ball_point(swarm.points[flss], reach)
     counts = np.array([len(near) for near in found], dtype=np.int64)
     one = np.repeat(np.asarray(flss, dtype=np.int64), counts)
     other = (
@@ -82,6 +86,15 @@ def pairs_of(swarm: Swarm, sensor: Sensor, flss: IntArray) -> NeighbourPairs:
         if len(found)
         else np.zeros(0, dtype=np.int64)
     )
+    return pairs_between(swarm, sensor, one, other)
+
+
+def pairs_between(swarm: Swarm, sensor: Sensor, one: IntArray, other: IntArray) -> NeighbourPairs:
+    """The pairs {one[m], other[m]} (M,) within sensor reach, as :func:`neighbour_pairs` has them.
+
+    Unordered, each once, sorted; a pair of an FLS with itself is left out.
+    """
+    one, other = np.asarray(one, dtype=np.int64), np.asarray(other, dtype=np.int64)
     first, second = np.minimum(one, other), np.maximum(one, other)
     keys = np.unique((first * swarm.size + second)[first != second])
     first, second = keys // swarm.size, keys % swarm.size

@@ -17,7 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .evaluate import Neighbourhood
-from .sensor import BLIND, DECAYING, SWEET, measured_vectors
+from .geometry import Swarm
+from .sensor import BLIND, DECAYING, SWEET, Sensor, measured_vectors
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -85,17 +86,26 @@ def observations(hood: Neighbourhood) -> Observations:
     measured = visible & ((range_class == SWEET) | (range_class == DECAYING))
     vector = np.full((len(owner), 3), np.nan)
     tracking = np.full(len(owner), np.nan)
-    swarm, sensor = hood.swarm, hood.sensor
-    vector[measured] = measured_vectors(
-        sensor, swarm.points, swarm.radius, owner[measured], other[measured]
+    vector[measured], tracking[measured] = camera_readings(
+        hood.swarm, hood.sensor, owner[measured], other[measured], true_tracking[measured]
     )
-    if sensor.noise is None and sensor.camera is None:
-        tracking[measured] = sensor.measured_tracking(true_tracking[measured])
-    else:
-        # The drawn noise or the rendered frame is in the vector; its length says what was
-        # measured (NaN where the camera did not detect the marker: no reading).
-        tracking[measured] = np.linalg.norm(vector[measured], axis=1) - 2.0 * swarm.radius
     return Observations(indptr, other, range_class, visible, vector, tracking, true_tracking)
+
+
+def camera_readings(
+    swarm: Swarm, sensor: Sensor, owner: IntArray, other: IntArray, true_tracking: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """What ``owner`` (M,) reads of ``other`` (M,): vectors (M, 3) and tracking t' (M,), cm.
+
+    ``true_tracking`` is each pair's tracking distance t; the pairs are in
+    camera range and line of sight.
+    """
+    vector = measured_vectors(sensor, swarm.points, swarm.radius, owner, other)
+    if sensor.noise is None and sensor.camera is None:
+        return vector, sensor.measured_tracking(true_tracking)
+    # The drawn noise or the rendered frame is in the vector; its length says what was
+    # measured (NaN where the camera did not detect the marker: no reading).
+    return vector, np.linalg.norm(vector, axis=1) - 2.0 * swarm.radius
 
 
 @dataclass(frozen=True)

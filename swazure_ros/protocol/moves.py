@@ -101,11 +101,17 @@ class Camera(Protocol):
     def vector(self) -> FloatArray: ...
 
 
+def next_hop(walk: Walk) -> tuple[int, ...]:
+    """The FLS whose measurement the walk's FLS adds next (none at the target)."""
+    return walk.path[walk.hop + 1 : walk.hop + 2]
+
+
 def step_walk(walk: Walk, seen: Camera) -> Walk:
     """The walk after its FLS, ``walk.at``, took its turn with what its camera ``seen`` measures.
 
-    On the way out each FLS adds its own measurement of the next hop, which
-    must be sweet and in sight; the target turns the walk back to the source
+    On the way out each FLS adds its own measurement of the next hop
+    (:func:`next_hop`; ``seen`` may hold that one alone), which must be sweet
+    and in sight; the target turns the walk back to the source
     (blind neighbours are within radio range). Sums run from the source
     outwards, as the core engine sums.
     """

@@ -71,7 +71,7 @@ from ..core.observe import NeighbourSets
 from ..core.sensor import config_dir
 from ..core.tracking import TRACK_SETTINGS, FloatArray, TrackConfig, TrackingError
 from ..protocol.discovery import Broadcast, Control, Participant, Report, RoundOffers
-from ..protocol.moves import WALKING, Walk, step_walk, walk_estimate
+from ..protocol.moves import WALKING, Walk, next_hop, step_walk, walk_estimate
 from ..protocol.tracking import RelayRequest, RelayStreams, Sample, TrackReport, TrackSource
 from ..sim.replica import WorldReplica
 from ..sim.world import Measurement
@@ -363,7 +363,7 @@ class FlsNode(SwarmNode):
     def on_walk(self, walk: Walk) -> Walk | None:
         """Take a path walk addressed to this FLS; return the walk to send on, if any."""
         if walk.state == WALKING:
-            return step_walk(walk, self.measurement)
+            return step_walk(walk, self._senses.measurement(self.fls_id, next_hop(walk)))
         # Back at the source: its result.
         self._publish_discovery(Report(walk.run_id, self.fls_id, [walk_estimate(walk)]))
         return None

@@ -9,7 +9,7 @@ where the revision puts them, on the ROS clock (simulated time in a track run).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,9 +32,9 @@ class WorldReplica:
         #: FLSs whose nodes this process saw leave the ROS graph (liveness).
         self.gone: set[int] = set()
 
-    def measurement(self, fls_id: int) -> Measurement:
-        """What FLS ``fls_id``'s camera measures in the current revision."""
-        return self.world.measurement(fls_id)
+    def measurement(self, fls_id: int, of: Sequence[int] | None = None) -> Measurement:
+        """What FLS ``fls_id``'s camera measures in the current revision (of ``of`` only)."""
+        return self.world.measurement(fls_id, of)
 
     def neighbours(self, fls_id: int) -> NeighbourSets:
         """FLS ``fls_id``'s neighbours in the current revision."""

@@ -9,15 +9,23 @@ FLSs' row numbers in the point cloud, the ids of ``pairs.csv``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from ..core.clouds import Cloud, load_cloud
 from ..core.errors import UnknownFlsError
-from ..core.evaluate import Neighbourhood, moved_neighbourhood, neighbourhood
+from ..core.evaluate import (
+    Neighbourhood,
+    moved_neighbourhood,
+    neighbourhood,
+    neighbourhood_of,
+)
 from ..core.geometry import Swarm, make_swarm
 from ..core.observe import (
     LocalView,
@@ -28,6 +36,7 @@ from ..core.observe import (
     observations,
 )
 from ..core.sensor import Sensor, load_sensor
+from ..core.sight import Grid, build_grid
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -54,18 +63,69 @@ class Measurement:
 
 @dataclass(frozen=True)
 class World:
-    """Ground truth of one swarm at one revision, with every FLS's observations."""
+    """Ground truth of one swarm at one revision, with every FLS's observations.
+
+    A revision's neighbourhood is worked out when something needs all of it
+    (:attr:`hood`, :attr:`seen`); one FLS's senses need only that FLS's pairs.
+    While a heuristic moves hundreds of FLSs a revision and only the FLSs on a
+    few paths measure, that is most of the difference in cost.
+    """
 
     cloud: Cloud
     sensor: Sensor
     home: Swarm  # the FLSs at their points of the cloud
     swarm: Swarm  # the FLSs where they are now
     revision: int
-    hood: Neighbourhood
-    seen: Observations
     # Revision 0's, kept because a heuristic returns every FLS home after each batch.
     home_hood: Neighbourhood
     home_seen: Observations
+    # The neighbourhood of this revision or an earlier one, and the FLSs (indices)
+    # whose places differ from it.
+    known: Neighbourhood
+    moved_since: IntArray
+
+    @cached_property
+    def hood(self) -> Neighbourhood:
+        """Every pair within sensor reach, with line of sight."""
+        return moved_neighbourhood(self.known, self.swarm, self.moved_since)
+
+    @cached_property
+    def seen(self) -> Observations:
+        """Every FLS's observations."""
+        hood = self.hood
+        return self.home_seen if hood is self.home_hood else observations(hood)
+
+    @cached_property
+    def _grid(self) -> Grid:
+        return build_grid(self.swarm.points, self.swarm.radius)
+
+    @cached_property
+    def _tree(self) -> cKDTree:
+        return cKDTree(self.swarm.points)
+
+    @cached_property
+    def _one_seen(self) -> dict[int, Observations]:
+        return {}
+
+    def _observed(self, index: int, of: tuple[int, ...] | None = None) -> Observations:
+        """Observations that hold FLS ``index``'s rows (the whole swarm's, or its own).
+
+        With ``of`` (indices), the rows may hold only those of its neighbours.
+        """
+        if "seen" in self.__dict__ or not len(self.moved_since):
+            return self.seen
+        one = self._one_seen.get(index)
+        if one is not None:
+            return one
+        if of is not None:
+            return observations(
+                neighbourhood_of(
+                    self.swarm, self.sensor, np.array([index]), self._grid, None, np.array(of)
+                )
+            )
+        hood = neighbourhood_of(self.swarm, self.sensor, np.array([index]), self._grid, self._tree)
+        one = self._one_seen[index] = observations(hood)
+        return one
 
     @property
     def ids(self) -> IntArray:
@@ -84,27 +144,40 @@ class World:
 
     def neighbours(self, fls_id: int) -> NeighbourSets:
         """FLS ``fls_id``'s neighbour sets, as FLS ids."""
-        sets = neighbour_sets(self.seen, self.index(fls_id))
+        index = self.index(fls_id)
+        sets = neighbour_sets(self._observed(index), index)
         return NeighbourSets(*(self.ids[indices] for indices in vars(sets).values()))
 
     def view(self, fls_id: int) -> LocalView:
         """What FLS ``fls_id`` knows of its neighbours, for path discovery."""
-        return local_view(self.seen, self.ids, self.index(fls_id))
+        index = self.index(fls_id)
+        return local_view(self._observed(index), self.ids, index)
 
     @property
     def id_space(self) -> int:
         """One more than the largest FLS id."""
         return int(self.ids[-1]) + 1
 
-    def measurement(self, fls_id: int) -> Measurement:
-        """What FLS ``fls_id``'s camera measures now."""
-        rows = self.seen.rows(self.index(fls_id))
-        measured = self.seen.measured_in(rows)
+    def measurement(self, fls_id: int, of: Sequence[int] | None = None) -> Measurement:
+        """What FLS ``fls_id``'s camera measures now; with ``of`` (ids), of those FLSs only.
+
+        A path walk asks an FLS for its next hop alone: in a revision whose
+        neighbourhood nobody has worked out, that is one pair to judge, not
+        every pair within the FLS's reach.
+        """
+        index = self.index(fls_id)
+        seen = self._observed(
+            index, None if of is None else tuple(self.index(other) for other in of)
+        )
+        rows = seen.rows(index)
+        measured = seen.measured_in(rows)
+        if of is not None:
+            measured &= np.isin(self.ids[seen.other[rows]], np.asarray(of, dtype=np.int64))
         return Measurement(
-            self.ids[self.seen.other[rows][measured]],
-            self.seen.range_class[rows][measured],
-            self.seen.vector[rows][measured],
-            self.seen.tracking[rows][measured],
+            self.ids[seen.other[rows][measured]],
+            seen.range_class[rows][measured],
+            seen.vector[rows][measured],
+            seen.tracking[rows][measured],
         )
 
     def position(self, fls_id: int) -> FloatArray:
@@ -122,15 +195,18 @@ class World:
                 self,
                 swarm=self.home,
                 revision=next_revision,
-                hood=self.home_hood,
-                seen=self.home_seen,
+                known=self.home_hood,
+                moved_since=np.zeros(0, dtype=np.int64),
             )
-        swarm = replace(self.swarm, points=points)
-        # Only what moved is sensed anew: a heuristic's revision moves a few FLSs.
-        moved = np.flatnonzero((points != self.swarm.points).any(axis=1))
-        hood = moved_neighbourhood(self.hood, swarm, moved)
+        # From the newest neighbourhood worked out: only what moved since is sensed anew.
+        known = self.__dict__.get("hood", self.known)
+        moved_since = np.flatnonzero((points != known.swarm.points).any(axis=1))
         return replace(
-            self, swarm=swarm, revision=next_revision, hood=hood, seen=observations(hood)
+            self,
+            swarm=replace(self.swarm, points=points),
+            revision=next_revision,
+            known=known,
+            moved_since=moved_since,
         )
 
 
@@ -145,7 +221,7 @@ def make_world(
     swarm = make_swarm(cloud.points, beta=beta, radius=radius, seed=seed)
     hood = neighbourhood(swarm, sensor)
     seen = observations(hood)
-    return World(cloud, sensor, swarm, swarm, 0, hood, seen, hood, seen)
+    return World(cloud, sensor, swarm, swarm, 0, hood, seen, hood, np.zeros(0, dtype=np.int64))
 
 
 @dataclass(frozen=True)

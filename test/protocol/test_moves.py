@@ -22,6 +22,7 @@ from swazure_ros.protocol.moves import (
     Move,
     MoveRun,
     Walk,
+    next_hop,
     step_walk,
     walk_estimate,
 )
@@ -72,7 +73,7 @@ def make_moves(world, plain, technique):
         else:
             walk = action
             while walk.state == WALKING:
-                walk = step_walk(walk, world.measurement(walk.at))
+                walk = step_walk(walk, world.measurement(walk.at, next_hop(walk)))
             pending.extend(run.on_estimates(walk.source_id, [walk_estimate(walk)], 0.0))
     return run.outcome, world, kinds
 

@@ -1,0 +1,62 @@
+"""The simulated world: one FLS's senses in a moved world equal the whole world's."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.evaluate import neighbourhood
+from swazure_ros.core.observe import local_view, neighbour_sets, observations
+from swazure_ros.sim.world import WorldSpec
+
+CALIBRATED = Path(__file__).parents[2] / "config" / "cameras" / "sensor-wide-calibrated.yaml"
+
+
+@pytest.mark.parametrize("sensor_file", [None, str(CALIBRATED)], ids=["published", "stochastic"])
+def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gives(sensor_file):
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5, sensor_file=sensor_file).build()
+    rng = np.random.default_rng(11)
+    compared = changed = 0
+    for step in range(12):
+        moved = rng.choice(world.ids, size=int(rng.integers(1, 30)), replace=False)
+        home = world.home.points
+        world = world.moved(
+            {
+                int(fls): home[world.index(int(fls))]
+                + rng.normal(scale=world.swarm.radius, size=3)
+                for fls in moved
+            }
+        )
+        if step % 3 == 2:
+            assert world.hood.swarm is world.swarm  # worked out whole now and then
+        truth = observations(neighbourhood(world.swarm, world.sensor))
+        for fls in rng.choice(world.ids, size=15, replace=False).tolist():
+            index = world.index(fls)
+            measured = world.measurement(fls)
+            rows = truth.rows(index)
+            visible = truth.measured_in(rows)
+            np.testing.assert_array_equal(
+                measured.target_ids, world.ids[truth.other[rows]][visible]
+            )
+            np.testing.assert_array_equal(measured.vector, truth.vector[rows][visible])
+            np.testing.assert_array_equal(measured.tracking, truth.tracking[rows][visible])
+            sets, expected = world.neighbours(fls), neighbour_sets(truth, index)
+            for name in ("blind", "sweet", "visible_sweet", "visible_decaying"):
+                np.testing.assert_array_equal(
+                    getattr(sets, name), world.ids[getattr(expected, name)]
+                )
+            view, expected_view = world.view(fls), local_view(truth, world.ids, index)
+            np.testing.assert_array_equal(view.other, expected_view.other)
+            np.testing.assert_array_equal(view.visible, expected_view.visible)
+            np.testing.assert_array_equal(view.vector, expected_view.vector)
+            compared += 1
+            home_rows = world.home_seen.rows(index)
+            changed += int(
+                not np.array_equal(world.home_seen.visible[home_rows], truth.visible[rows])
+            )
+    assert compared == 12 * 15 and changed > 10  # the moves did change what FLSs see
+    # Back home, the world is revision 0's again.
+    back = world.moved({int(fls): world.home.points[world.index(int(fls))] for fls in world.ids})
+    assert back.hood is world.home_hood and back.seen is world.home_seen
