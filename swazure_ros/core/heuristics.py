@@ -541,22 +541,50 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
     return replace(evaluation, pairs=updated, summary=summary)
 
 
-def _segment_distances(points: FloatArray, starts: FloatArray, ends: FloatArray) -> FloatArray:
-    """Distance of each point (K, 3) to each segment (S, 3)-(S, 3): (K, S), cm."""
-    direction = ends - starts
-    offset = points[:, None, :] - starts[None, :, :]
-    along = np.einsum("ksd,sd->ks", offset, direction) / np.einsum(
-        "sd,sd->s", direction, direction
-    )
-    closest = starts[None] + np.clip(along, 0.0, 1.0)[..., None] * direction[None]
-    return np.asarray(np.linalg.norm(points[:, None, :] - closest, axis=2))
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _near_a_segment(
+    points: FloatArray, starts: FloatArray, ends: FloatArray, reach: float
+) -> bool:
+    """True when a point (K, 3) is closer than ``reach`` to a segment (S, 3)-(S, 3), cm."""
+    for s in range(len(starts)):
+        dx, dy, dz = (
+            ends[s, 0] - starts[s, 0],
+            ends[s, 1] - starts[s, 1],
+            ends[s, 2] - starts[s, 2],
+        )
+        squared = dx * dx + dy * dy + dz * dz
+        for k in range(len(points)):
+            ox, oy, oz = (
+                points[k, 0] - starts[s, 0],
+                points[k, 1] - starts[s, 1],
+                points[k, 2] - starts[s, 2],
+            )
+            along = min(max((ox * dx + oy * dy + oz * dz) / squared, 0.0), 1.0)
+            gx = points[k, 0] - (starts[s, 0] + along * dx)
+            gy = points[k, 1] - (starts[s, 1] + along * dy)
+            gz = points[k, 2] - (starts[s, 2] + along * dz)
+            if np.sqrt(gx * gx + gy * gy + gz * gz) < reach:
+                return True
+    return False
+
+
+@numba.njit(cache=True, nogil=True)
+def _closer_than(first: FloatArray, second: FloatArray, distance: float) -> bool:
+    """True when a point of ``first`` (K, 3) is closer than ``distance`` to one of ``second``."""
+    for k in range(len(first)):
+        for m in range(len(second)):
+            gx, gy = first[k, 0] - second[m, 0], first[k, 1] - second[m, 1]
+            gz = first[k, 2] - second[m, 2]
+            if np.sqrt(gx * gx + gy * gy + gz * gz) < distance:
+                return True
+    return False
 
 
 @dataclass
 class _Batch:
     pairs: list[int]
     moved: dict[int, tuple[float, float, float]]  # FLS -> where it moves to, cm
-    starts: list[FloatArray]  # hop segments of the batch's paths, cm
+    starts: list[FloatArray]  # hop segments of the batch's paths, (H, 3) per pair, cm
     ends: list[FloatArray]
     _arrays: tuple[IntArray, FloatArray, FloatArray, FloatArray] | None = None
 
@@ -567,8 +595,8 @@ class _Batch:
             self._arrays = (
                 np.fromiter(self.moved, dtype=np.int64, count=len(self.moved)),
                 np.array(list(self.moved.values()), dtype=np.float64).reshape(-1, 3),
-                np.array(self.starts).reshape(-1, 3),
-                np.array(self.ends).reshape(-1, 3),
+                np.concatenate(self.starts) if self.starts else np.zeros((0, 3)),
+                np.concatenate(self.ends) if self.ends else np.zeros((0, 3)),
             )
         return self._arrays
 
@@ -578,8 +606,8 @@ class _Batch:
         """Add ``pair``, its moves and its hops between ``where`` (H + 1, 3), cm."""
         self.pairs.append(pair)
         self.moved.update(moved)
-        self.starts.extend(where[:-1])
-        self.ends.extend(where[1:])
+        self.starts.append(where[:-1])
+        self.ends.append(where[1:])
         self._arrays = None
 
 
@@ -627,20 +655,19 @@ def move_batches(evaluation: Evaluation, heuristic: HeuristicResult) -> list[Int
             elsewhere = moves_to[movers, :count]
             excluded |= on_path[movers, :count].any(axis=0)
             excluded |= ((elsewhere >= 0) & (elsewhere != going_to[:, None])).any(axis=0)
+        destination = np.array(list(moved.values()), dtype=np.float64).reshape(-1, 3)
         for index in np.flatnonzero(~excluded).tolist():
             batch = batches[index]
             ids, goes_to, batch_starts, batch_ends = batch.arrays()
-            mine = np.array([to for fls, to in moved.items() if fls not in batch.moved])
+            mine = destination[moves_to[movers, index] < 0]
             theirs = goes_to[~is_mover[ids]]
-            if len(mine) and len(theirs):
-                apart = np.linalg.norm(mine[:, None, :] - theirs[None, :, :], axis=2)
-                if (apart < 2.0 * radius).any():
-                    continue
-            if len(mine) and len(batch_starts):
-                near = _segment_distances(mine, batch_starts, batch_ends)
-                if (near < radius - _TOUCH).any():
-                    continue
-            if len(theirs) and (_segment_distances(theirs, starts, ends) < radius - _TOUCH).any():
+            # Compiled, and each check stops at its first conflict: most candidate
+            # batches of a pair conflict, and this loop is most of the planning.
+            if (
+                _closer_than(mine, theirs, 2.0 * radius)
+                or _near_a_segment(mine, batch_starts, batch_ends, radius - _TOUCH)
+                or _near_a_segment(theirs, starts, ends, radius - _TOUCH)
+            ):
                 continue
             break
         else:
