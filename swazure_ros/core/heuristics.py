@@ -264,11 +264,10 @@ def move_obstructing(evaluation: Evaluation) -> HeuristicResult:
         for hop, (a, b) in enumerate(itertools.pairwise(path)):
             here = original[int(edge[first_hop + hop])]
             current = [o for o in here if o not in moved]
-            current += [
-                o
-                for o, p in moved.items()
-                if _segment_distance(points[a], points[b], p) < radius - _TOUCH
-            ]
+            if moved:
+                where = np.array(list(moved.values())).reshape(-1, 3)
+                near = _near_segment(where, points[a], points[b], radius - _TOUCH)
+                current += [o for o, close in zip(moved, near.tolist(), strict=True) if close]
             for o in sorted(set(current)):
                 if o in path:
                     ok = False
@@ -277,14 +276,18 @@ def move_obstructing(evaluation: Evaluation) -> HeuristicResult:
                 centre = _closest_on_segment(points[a], points[b], position)
                 near = tree.query_ball_point(centre, 5.0 * radius)
                 others = [k for k in near if k != o and k not in moved]
-                blockers = [points[k] for k in others]
-                blockers += [p for k, p in moved.items() if k != o]
+                blockers = np.concatenate(
+                    [
+                        points[others].reshape(-1, 3),
+                        np.array([p for k, p in moved.items() if k != o]).reshape(-1, 3),
+                    ]
+                )
                 target = free_circle_point(
                     centre,
                     points[b] - points[a],
                     position,
                     radius * (1.0 + _ASIDE),
-                    np.array(blockers).reshape(-1, 3),
+                    blockers,
                     2.0 * radius,
                 )
                 if target is None:
@@ -294,12 +297,10 @@ def move_obstructing(evaluation: Evaluation) -> HeuristicResult:
                 moved[o] = target
             if not ok:
                 break
-        if ok:
-            ok = all(
-                _segment_distance(points[a], points[b], p) >= radius - _TOUCH
-                for a, b in itertools.pairwise(path)
-                for p in moved.values()
-            )
+        if ok and moved:
+            hops = points[np.asarray(path, dtype=np.int64)]
+            where = np.array(list(moved.values())).reshape(-1, 3)
+            ok = not _near_a_segment(where, hops[:-1], hops[1:], radius - _TOUCH)
         for o, old, new in moves:
             move_fls.append(o)
             move_from.append(old)
@@ -566,6 +567,21 @@ def _near_a_segment(
             if np.sqrt(gx * gx + gy * gy + gz * gz) < reach:
                 return True
     return False
+
+
+@numba.njit(cache=True, nogil=True, error_model="numpy")
+def _near_segment(
+    points: FloatArray, start: FloatArray, end: FloatArray, reach: float
+) -> NDArray[np.bool_]:
+    """(K,) whether each point (K, 3) is closer than ``reach`` to the segment start-end, cm."""
+    near = np.zeros(len(points), dtype=np.bool_)
+    one = np.empty((1, 3))
+    one[0] = start
+    other = np.empty((1, 3))
+    other[0] = end
+    for k in range(len(points)):
+        near[k] = _near_a_segment(points[k : k + 1], one, other, reach)
+    return near
 
 
 @numba.njit(cache=True, nogil=True)
