@@ -182,10 +182,8 @@ class RoundOffers:
 
     def _rows(self, senders: IntArray) -> IntArray:
         """Rows into :attr:`senders` of those of ``senders`` that offered."""
-        rows = np.searchsorted(self.senders, senders)
-        found = rows < len(self.senders)
-        rows = rows[found]
-        return np.asarray(rows[self.senders[rows] == senders[found]], dtype=np.int64)
+        rows = _sender_rows(np.asarray(senders, dtype=np.int64), self.senders)
+        return rows[rows >= 0]
 
     def labels_of(self, senders: IntArray) -> IntArray:
         """(M,) the labels offered by ``senders`` (sorted ids), sender by sender."""
@@ -199,6 +197,19 @@ class RoundOffers:
         """Path of label ``label``, FLS ids from its source to the sender."""
         start, stop = self.path_offsets[label], self.path_offsets[label + 1]
         return tuple(self.path_ids[start:stop].tolist())
+
+
+@numba.njit(cache=True, nogil=True)
+def _sender_rows(wanted: IntArray, senders: IntArray) -> IntArray:
+    """(W,) the row of each id of ``wanted`` in ``senders``, -1 where absent; both sorted."""
+    rows = np.full(len(wanted), -1, dtype=np.int64)
+    row = 0
+    for k in range(len(wanted)):
+        while row < len(senders) and senders[row] < wanted[k]:
+            row += 1
+        if row < len(senders) and senders[row] == wanted[k]:
+            rows[k] = row
+    return rows
 
 
 @numba.njit(cache=True, nogil=True)
@@ -216,13 +227,8 @@ def _labels_for(
     """
     found = np.empty(len(senders_wanted), dtype=np.int64)
     count = 0
-    row = 0
-    for sender in senders_wanted:
-        while row < len(senders) and senders[row] < sender:
-            row += 1
-        if row == len(senders):
-            break
-        if senders[row] != sender:
+    for row in _sender_rows(senders_wanted, senders):
+        if row < 0:
             continue
         for label in range(starts[row], starts[row + 1]):
             if source_ids[label] == source:
@@ -260,16 +266,12 @@ def _relax(
     """
     changed = np.empty(len(hops), dtype=np.int64)
     count = 0
-    row = 0
+    rows = _sender_rows(link_ids, senders)
     for link in range(len(link_ids)):
-        sender = link_ids[link]
-        # Both lists are sorted by id: one pass finds each sender's row.
-        while row < len(senders) and senders[row] < sender:
-            row += 1
-        if row == len(senders):
-            break
-        if senders[row] != sender:
+        row = rows[link]
+        if row < 0:
             continue
+        sender = link_ids[link]
         weight = link_weights[link]
         for label in range(starts[row], starts[row + 1]):
             source = source_ids[label]
