@@ -28,7 +28,6 @@ Conventions beyond the spec, stated once here:
 from __future__ import annotations
 
 import itertools
-import math
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -203,11 +202,6 @@ def _closest_on_segment(start: FloatArray, end: FloatArray, point: FloatArray) -
     direction = end - start
     along = float((point - start) @ direction / (direction @ direction))
     return np.asarray(start + min(max(along, 0.0), 1.0) * direction)
-
-
-def _segment_distance(start: FloatArray, end: FloatArray, point: FloatArray) -> float:
-    gap = point - _closest_on_segment(start, end, point)
-    return math.sqrt(float(gap @ gap))
 
 
 def _blocked_pairs(evaluation: Evaluation) -> IntArray:
@@ -543,44 +537,37 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
 
 
 @numba.njit(cache=True, nogil=True, error_model="numpy")
+def _gap(point: FloatArray, start: FloatArray, end: FloatArray) -> float:
+    """Distance of ``point`` (3,) to the segment start-end (3,)-(3,), cm."""
+    dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
+    ox, oy, oz = point[0] - start[0], point[1] - start[1], point[2] - start[2]
+    along = min(max((ox * dx + oy * dy + oz * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0)
+    gx = point[0] - (start[0] + along * dx)
+    gy = point[1] - (start[1] + along * dy)
+    gz = point[2] - (start[2] + along * dz)
+    return float(np.sqrt(gx * gx + gy * gy + gz * gz))
+
+
+@numba.njit(cache=True, nogil=True)
 def _near_a_segment(
     points: FloatArray, starts: FloatArray, ends: FloatArray, reach: float
 ) -> bool:
     """True when a point (K, 3) is closer than ``reach`` to a segment (S, 3)-(S, 3), cm."""
     for s in range(len(starts)):
-        dx, dy, dz = (
-            ends[s, 0] - starts[s, 0],
-            ends[s, 1] - starts[s, 1],
-            ends[s, 2] - starts[s, 2],
-        )
-        squared = dx * dx + dy * dy + dz * dz
         for k in range(len(points)):
-            ox, oy, oz = (
-                points[k, 0] - starts[s, 0],
-                points[k, 1] - starts[s, 1],
-                points[k, 2] - starts[s, 2],
-            )
-            along = min(max((ox * dx + oy * dy + oz * dz) / squared, 0.0), 1.0)
-            gx = points[k, 0] - (starts[s, 0] + along * dx)
-            gy = points[k, 1] - (starts[s, 1] + along * dy)
-            gz = points[k, 2] - (starts[s, 2] + along * dz)
-            if np.sqrt(gx * gx + gy * gy + gz * gz) < reach:
+            if _gap(points[k], starts[s], ends[s]) < reach:
                 return True
     return False
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@numba.njit(cache=True, nogil=True)
 def _near_segment(
     points: FloatArray, start: FloatArray, end: FloatArray, reach: float
 ) -> NDArray[np.bool_]:
     """(K,) whether each point (K, 3) is closer than ``reach`` to the segment start-end, cm."""
     near = np.zeros(len(points), dtype=np.bool_)
-    one = np.empty((1, 3))
-    one[0] = start
-    other = np.empty((1, 3))
-    other[0] = end
     for k in range(len(points)):
-        near[k] = _near_a_segment(points[k : k + 1], one, other, reach)
+        near[k] = _gap(points[k], start, end) < reach
     return near
 
 

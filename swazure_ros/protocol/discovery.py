@@ -137,8 +137,9 @@ class Found:
 class RoundOffers:
     """The offers one process heard in a round, L labels in all, grouped by sender.
 
-    Built once per round and process (:meth:`of`); each local FLS then takes
-    the labels of the senders it hears (:meth:`labels_of`) in one pass.
+    Built once per round and process (:meth:`of`); each local FLS then reads
+    the labels of the senders it hears in one compiled pass (:func:`_relax`);
+    :meth:`labels_of` lists them.
     """
 
     senders: IntArray  # (S,) sorted sender ids
@@ -377,22 +378,21 @@ class PathSearch:
     def _paths_of(self, sources: IntArray) -> tuple[IntArray, IntArray]:
         """The paths of the labels of ``sources``, as (offsets (L + 1,), ids), FLS ids."""
         via, label = self.via_offers[sources], self.via_label[sources]
-        counts = np.ones(len(sources), dtype=np.int64)  # this FLS ends every path
-        keys = np.unique(via[via >= 0]).tolist()
-        for key in keys:
+        # Each label's sender path: where it starts in its offers and how long it is.
+        start = np.zeros(len(sources), dtype=np.int64)
+        length = np.zeros(len(sources), dtype=np.int64)
+        for key in np.unique(via[via >= 0]).tolist():
             rows = via == key
             offsets = self._heard[key].path_offsets
-            counts[rows] += offsets[label[rows] + 1] - offsets[label[rows]]
-        path_offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-        path_ids = np.full(int(path_offsets[-1]), self.fls_id, dtype=np.int64)
-        for key in keys:
+            start[rows] = offsets[label[rows]]
+            length[rows] = offsets[label[rows] + 1] - start[rows]
+        path_offsets = np.concatenate([[0], np.cumsum(length + 1)]).astype(np.int64)
+        path_ids = np.full(int(path_offsets[-1]), self.fls_id, dtype=np.int64)  # ends each
+        for key in np.unique(via[via >= 0]).tolist():
             rows = via == key
-            heard = self._heard[key]
-            start = heard.path_offsets[label[rows]]
-            length = heard.path_offsets[label[rows] + 1] - start
-            path_ids[ragged_indices(path_offsets[:-1][rows], length)] = heard.path_ids[
-                ragged_indices(start, length)
-            ]
+            path_ids[ragged_indices(path_offsets[:-1][rows], length[rows])] = self._heard[
+                key
+            ].path_ids[ragged_indices(start[rows], length[rows])]
         # Offers heard that no unsent label still comes through are done with
         # (looked for now and then: a few rounds' offers are kept anyway).
         if len(self._heard) > _HEARD_KEPT:
