@@ -57,6 +57,7 @@ def track_parameters(config: TrackConfig) -> dict[str, object]:
     parameters: dict[str, object] = {
         f"track.{name}": getattr(config, name) for name in TRACK_SETTINGS
     }
+    parameters["track.service"] = True
     parameters["use_sim_time"] = True
     return parameters
 

@@ -165,6 +165,11 @@ class FlsNode(SwarmNode):
             allow_zero=True,
         )
         self.track_config = self._declare_track_config()
+        # Off unless asked: a swarm's services are what its bring-up time grows
+        # with, as the square of their number in a process (docs/swarm.md).
+        self.track_service = self.declare_flag(
+            "track.service", False, "offer ~/track: this FLS follows a moving target on request"
+        )
         self.camera_view = self._declare_camera_view()
         self._sensed: tuple[Measurement, NeighbourSets] | None = None
         self._published: Measurement | None = None  # the last measurement sent
@@ -195,7 +200,8 @@ class FlsNode(SwarmNode):
             self.create_timer(self.publish_period, self._on_camera_frame)
         # Alone (no process hosting it), an FLS transmits with publishers of its own.
         self._transmitter = transmitter or Transmitter(self)
-        self.create_service(TrackTarget, f"~/{TRACK_SERVICE}", self._on_track)
+        if self.track_service:
+            self.create_service(TrackTarget, f"~/{TRACK_SERVICE}", self._on_track)
         # Created at the first track: most FLSs never relay nor track, and
         # every endpoint costs discovery time.
         self._track_publishers: dict[str, Publisher] = {}

@@ -77,6 +77,21 @@ class SwarmNode(Node):
             )
         return value
 
+    def declare_flag(self, name: str, default: bool, description: str) -> bool:
+        """Declare parameter ``name``: true or false; ParameterError if not."""
+        try:
+            value = self.declare_parameter(
+                name, default, ParameterDescriptor(description=description)
+            ).value
+        except ParameterException as err:
+            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
+        if not isinstance(value, bool):
+            raise ParameterError(
+                f"{self.get_fully_qualified_name()}: parameter {name} must be true or false, "
+                f"got {value!r}"
+            )
+        return value
+
 
 def check_params_file(path: Path) -> None:
     """Raise SwazureError unless ``path`` holds ROS 2 parameters (node: ros__parameters: ...)."""

@@ -5,18 +5,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from geometry_msgs.msg import Vector3
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from rclpy.parameter import Parameter
 from swazure_interfaces.msg import Measurements, MoveCommand
 from swazure_interfaces.srv import GetNeighbours
 
 from swazure_ros.ros.fls_node import FlsNode, ParameterError
 from swazure_ros.ros.host import SwarmHost
+from swazure_ros.sim.replica import WorldReplica
 from swazure_ros.sim.world import WorldSpec
 
 from .conftest import make_context
 from .helpers import LATCHED, engine_expectations, matches, received_vectors, spin_until
 
 WORLD = WorldSpec("helix:100", beta=0.5)
+TRACK_SERVICE_ON = Parameter("track.service", value=True)
 FAST = ["--ros-args", "-p", "publish_period:=0.2"]
 
 
@@ -132,10 +136,15 @@ def test_a_move_command_changes_what_the_nodes_measure(swarm):
 
 @pytest.mark.parametrize(
     ("value", "message"),
-    [("-1.0", "publish_period must be a positive number"), ("fast", "publish_period")],
+    [
+        ("-1.0", "publish_period must be a positive number"),
+        ("fast", "publish_period"),
+        ("yes-please", "track.service"),
+    ],
 )
 def test_invalid_parameter_refuses_to_start_with_one_clear_line(domain, value, message):
-    ctx = make_context(domain, ["--ros-args", "-p", f"publish_period:={value}"])
+    name = message.split()[0]
+    ctx = make_context(domain, ["--ros-args", "-p", f"{name}:={value}"])
     world = WORLD.build()
     try:
         with pytest.raises(ParameterError, match=message) as raised:
@@ -144,6 +153,35 @@ def test_invalid_parameter_refuses_to_start_with_one_clear_line(domain, value, m
         assert "/swarm/fls_" in str(raised.value)
     finally:
         ctx.try_shutdown()
+
+
+def test_an_fls_offers_the_track_service_only_where_its_parameter_asks(context):
+    world = WORLD.build()
+    replica = WorldReplica(world)
+    tracker, plain = int(world.ids[0]), int(world.ids[1])
+    nodes = [
+        FlsNode(tracker, replica, context=context, parameter_overrides=[TRACK_SERVICE_ON]),
+        FlsNode(plain, replica, context=context),
+    ]
+    probe = Node("probe", context=context, start_parameter_services=False, enable_rosout=False)
+    executor = SingleThreadedExecutor(context=context)
+    for node in (*nodes, probe):
+        executor.add_node(node)
+
+    def services():
+        return {name for name, _ in probe.get_service_names_and_types()}
+
+    try:
+        want = {f"/swarm/fls_{plain}/get_neighbours", f"/swarm/fls_{tracker}/track"}
+        assert spin_until(executor, lambda: want <= services(), timeout=30)
+        assert f"/swarm/fls_{plain}/track" not in services()
+        assert nodes[0].get_parameter("track.service").value is True
+        assert nodes[1].get_parameter("track.service").value is False
+    finally:
+        for node in (*nodes, probe):
+            executor.remove_node(node)
+            node.destroy_node()
+        executor.shutdown()
 
 
 def count_measurements(host, probe, seconds):

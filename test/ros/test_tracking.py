@@ -153,14 +153,18 @@ def test_a_handover_to_another_relay_over_ros_equals_the_core_loop(domain):
 
 
 def test_a_swarm_on_the_wall_clock_tracks_too(world, context):
-    # As under `swazure spawn`: no simulated clock, the relay's camera on a wall timer.
+    # As under `swazure spawn` with the track service on: no simulated clock,
+    # the relay's camera on a wall timer.
     from rclpy.node import Node
     from swazure_interfaces.msg import TrackEstimate
 
     from swazure_ros.ros.host import SwarmHost
 
     with SwarmHost(
-        world, [0, 1, 2], context=context, parameters={"track.frame_period": 0.05}
+        world,
+        [0, 1, 2],
+        context=context,
+        parameters={"track.frame_period": 0.05, "track.service": True},
     ) as host:
         host.create_fls_nodes()
         client = Node("probe", namespace="swarm", context=context)
