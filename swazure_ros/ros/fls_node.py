@@ -48,6 +48,7 @@ from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import JumpHandle, JumpThreshold
 from rclpy.context import Context
 from rclpy.duration import Duration
+from rclpy.event_handler import PublisherEventCallbacks, QoSPublisherMatchedInfo
 from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -186,9 +187,16 @@ class FlsNode(SwarmNode):
                 fls_id, target, relay, seconds
             ),
         )
-        self._publisher = self.create_publisher(Measurements, MEASUREMENTS_TOPIC, MEASUREMENTS_QOS)
+        self._publisher = self.create_publisher(
+            Measurements,
+            MEASUREMENTS_TOPIC,
+            MEASUREMENTS_QOS,
+            event_callbacks=PublisherEventCallbacks(matched=self._on_reader_matched),
+        )
         self.create_service(GetNeighbours, f"~/{NEIGHBOURS_SERVICE}", self._on_get_neighbours)
-        self.create_timer(self.publish_period, self._on_frame)
+        # Frames run only while there may be something to send: at rest, thousands
+        # of FLSs would otherwise wake a process thousands of times a second.
+        self._frames = self.create_timer(self.publish_period, self._on_frame)
         self._eyes: tuple[Camera, Publisher, Publisher] | None = None
         if self.camera_view >= 0:
             self._eyes = (
@@ -213,6 +221,7 @@ class FlsNode(SwarmNode):
         self.track_traffic: Counter[str] = Counter()
         self.messages_sent = 0
         self.measurements_sent = 0  # Measurements messages published
+        self.frames_taken = 0  # frame timer callbacks run
         self.bytes_sent = 0
 
     def _declare_camera_view(self) -> int:
@@ -303,6 +312,15 @@ class FlsNode(SwarmNode):
         """The world changed within this FLS's reach: sense anew when next asked."""
         # Lazily: while a heuristic moves FLSs, revisions come faster than anyone reads.
         self._sensed = None
+        self._wake_frames()
+
+    def _wake_frames(self) -> None:
+        if self._frames.is_canceled():
+            self._frames.reset()
+
+    def _on_reader_matched(self, info: QoSPublisherMatchedInfo) -> None:
+        if info.current_count_change > 0:
+            self._wake_frames()
 
     def _sense(self) -> tuple[Measurement, NeighbourSets]:
         if self._sensed is None:
@@ -313,11 +331,13 @@ class FlsNode(SwarmNode):
         return self._sensed
 
     def _on_frame(self) -> None:
+        self.frames_taken += 1
         if self._publisher.get_subscription_count() == 0:
             # Nobody reads: build nothing (a heuristic's revisions change what most FLSs
             # see many times a second). A reader that comes gets this FLS's last message
             # at once (latched) and the current one at the next frame.
             self._published = None
+            self._frames.cancel()  # until a reader comes or the world changes
             return
         now = self.get_clock().now()
         seen = self.measurement
@@ -326,6 +346,8 @@ class FlsNode(SwarmNode):
         )
         if due or self._published is None or not seen.same_as(self._published):
             self.publish_measurements(now.to_msg())
+        elif self.republish_period == 0:
+            self._frames.cancel()  # sent and unchanged: nothing to do until it changes
 
     def publish_measurements(self, stamp: Time | None = None) -> None:
         """Publish what the camera measures now on the shared topic."""

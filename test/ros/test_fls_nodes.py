@@ -201,6 +201,10 @@ def test_an_idle_swarm_sends_a_measurement_once_and_a_late_reader_still_gets_eve
     collect_measurements(host, probe, expected)
     # Ten frames of 0.2 s: a reader that joins gets one latched message per FLS, then none.
     assert count_measurements(host, probe, 2.0) == len(world.ids)
+    # At rest, nothing to send, no frame taken: the timers wait for a change or a reader.
+    frames = sum(node.frames_taken for node in host.fls_nodes)
+    host.spin_for(1.0)
+    assert sum(node.frames_taken for node in host.fls_nodes) == frames
 
 
 def test_nodes_build_no_measurement_while_nobody_reads_and_a_reader_gets_the_current_one(swarm):
