@@ -14,11 +14,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .evaluate import Neighbourhood
-from .geometry import Swarm
+from .geometry import Swarm, centre_distance
 from .sensor import BLIND, DECAYING, SWEET, Sensor, measured_vectors
+from .sight import Grid, obstructed
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -90,6 +91,37 @@ def observations(hood: Neighbourhood) -> Observations:
         hood.swarm, hood.sensor, owner[measured], other[measured], true_tracking[measured]
     )
     return Observations(indptr, other, range_class, visible, vector, tracking, true_tracking)
+
+
+@dataclass(frozen=True)
+class Readings:
+    """What one FLS's camera measures of some FLSs (M of them, swarm indices, sorted)."""
+
+    other: IntArray  # (M,)
+    range_class: NDArray[np.int8]  # (M,), SWEET or DECAYING
+    vector: FloatArray  # (M, 3), measured vector owner -> other, cm
+    tracking: FloatArray  # (M,), measured tracking distance t', cm
+
+
+def readings_of(
+    swarm: Swarm, sensor: Sensor, owner: int, others: ArrayLike, grid: Grid | None = None
+) -> Readings:
+    """What FLS ``owner`` (a swarm index) measures of the FLSs at indices ``others`` (K,).
+
+    The rows of ``observations`` for these pairs where ``measured`` holds,
+    worked out for these pairs alone: a path walk's FLS measures its next hop,
+    one pair, in a world revision that nobody has laid out whole.
+    """
+    other = np.unique(np.asarray(others, dtype=np.int64))
+    other = other[other != owner]
+    mine = np.full(len(other), owner, dtype=np.int64)
+    true_tracking = centre_distance(swarm.points, mine, other) - 2.0 * swarm.radius
+    range_class = sensor.classify(true_tracking)
+    seen = (range_class == SWEET) | (range_class == DECAYING)
+    seen[seen] = ~obstructed(swarm.points, swarm.radius, mine[seen], other[seen], grid)
+    vector, tracking = camera_readings(swarm, sensor, mine[seen], other[seen], true_tracking[seen])
+    read = np.isfinite(vector[:, 0])  # a rendering camera may not detect
+    return Readings(other[seen][read], range_class[seen][read], vector[read], tracking[read])
 
 
 def camera_readings(

@@ -5,6 +5,8 @@ Each message type converts here, and only here, both ways where both are needed.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Point, Vector3
@@ -15,6 +17,7 @@ from swazure_interfaces.msg import (
     DiscoveryControl,
     Measurements,
     MoveCommand,
+    MoveCommands,
     PathOffer,
     PathWalk,
     PoseEstimate,
@@ -310,18 +313,20 @@ def ack_message(ack: Ack, host: str, stamp: Time) -> RoundAck:
     return message
 
 
-def move_message(move: Move, stamp: Time) -> MoveCommand:
-    """One FLS's move as a MoveCommand message."""
-    message = MoveCommand(
-        fls_id=move.fls_id,
-        kind=move.kind,
-        source_id=move.source_id,
-        target_id=move.target_id,
-        group=move.group,
-        group_size=move.group_size,
-    )
-    if move.displacement is not None:
-        message.displacement = vector3(move.displacement)
+def moves_message(moves: Sequence[Move], stamp: Time) -> MoveCommands:
+    """Moves made together (one group) as one MoveCommands message."""
+    commands = []
+    for move in moves:
+        command = MoveCommand(
+            fls_id=move.fls_id,
+            kind=move.kind,
+            source_id=move.source_id,
+            target_id=move.target_id,
+        )
+        if move.displacement is not None:
+            command.displacement = vector3(move.displacement)
+        commands.append(command)
+    message = MoveCommands(commands=commands)
     message.header.stamp = stamp
     return message
 

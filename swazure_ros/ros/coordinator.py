@@ -28,7 +28,7 @@ from std_msgs.msg import Header
 from swazure_interfaces.msg import (
     Departed,
     DiscoveryControl,
-    MoveCommand,
+    MoveCommands,
     PathOffer,
     PathWalk,
     PoseEstimates,
@@ -48,7 +48,7 @@ from .convert import (
     control_message,
     estimate_from_message,
     estimate_message,
-    move_message,
+    moves_message,
     walk_message,
 )
 from .deferred import Reply, create_deferred_service
@@ -182,7 +182,7 @@ class Coordinator(SwarmNode):
         self.departed: set[int] = set()
         self.traffic = Traffic()
         self._control = self.create_publisher(DiscoveryControl, CONTROL_TOPIC, ROUND_QOS)
-        self._moves = self.create_publisher(MoveCommand, MOVE_TOPIC, MOVE_QOS)
+        self._moves = self.create_publisher(MoveCommands, MOVE_TOPIC, MOVE_QOS)
         self._walks = self.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
         self.create_subscription(PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS, raw=True)
         self.create_subscription(RoundAck, ACK_TOPIC, self._on_ack, ROUND_QOS, raw=True)
@@ -296,13 +296,16 @@ class Coordinator(SwarmNode):
     def _act(self, actions: list[Action]) -> None:
         """Publish what the running machine asks for; finish its run when it is done."""
         stamp = self.get_clock().now().to_msg()
+        groups: dict[int, list[Move]] = {}  # moves made together go in one message
         for action in actions:
             if isinstance(action, Control):
                 self._publish(self._control, CONTROL_TOPIC, control_message(action, stamp))
             elif isinstance(action, Move):
-                self._publish(self._moves, MOVE_TOPIC, move_message(action, stamp))
+                groups.setdefault(action.group, []).append(action)
             else:
                 self._publish(self._walks, WALKS_TOPIC, walk_message(action, stamp))
+        for moves in groups.values():
+            self._publish(self._moves, MOVE_TOPIC, moves_message(moves, stamp))
         job = self._job
         if job is None or job.machine is None:
             return

@@ -2,10 +2,10 @@
 
 It publishes the positions of every FLS on ``world`` (swazure_interfaces/
 WorldState, transient local, so late processes get the newest revision) and
-moves FLSs on ``move_commands`` (swazure_interfaces/MoveCommand): a step
+moves FLSs on ``move_commands`` (swazure_interfaces/MoveCommands): a step
 aside or a probe puts the FLS at its assigned point plus the displacement, a
-return puts it back. Commands of one group (``group`` > 0) wait until the
-group's ``group_size`` commands are in and are made together, in one revision.
+return puts it back. The commands of one message are made together, in one
+revision.
 One world node runs per swarm, in the launcher's process.
 """
 
@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 from rclpy.context import Context
-from swazure_interfaces.msg import MoveCommand, WorldState
+from swazure_interfaces.msg import MoveCommand, MoveCommands, WorldState
 
 from ..core.errors import UnknownFlsError
 from ..sim.replica import WorldReplica
@@ -34,8 +34,7 @@ class WorldNode(SwarmNode):
         super().__init__(WORLD, namespace=namespace, context=context)
         self._replica = replica
         self._publisher = self.create_publisher(WorldState, WORLD_TOPIC, WORLD_QOS)
-        self.create_subscription(MoveCommand, MOVE_TOPIC, self._on_move, MOVE_QOS)
-        self._groups: dict[int, dict[int, FloatArray]] = {}  # group -> {FLS id: position}
+        self.create_subscription(MoveCommands, MOVE_TOPIC, self._on_moves, MOVE_QOS)
         self.publish_world()
 
     def publish_world(self) -> None:
@@ -46,27 +45,29 @@ class WorldNode(SwarmNode):
             world_message(world.revision, world.ids, world.swarm.points, stamp)
         )
 
-    def _on_move(self, command: MoveCommand) -> None:
+    def _on_moves(self, message: MoveCommands) -> None:
+        positions = {}
+        for command in message.commands:
+            target = self._target(command)
+            if target is not None:
+                positions[int(command.fls_id)] = target
+        if positions:
+            self._move(positions)
+
+    def _target(self, command: MoveCommand) -> FloatArray | None:
+        """Where ``command`` puts its FLS, cm; None (and a warning) for a command to ignore."""
         world = self._replica.world
         try:
             home = world.home.points[world.index(command.fls_id)]
         except UnknownFlsError as err:
             self.get_logger().warning(f"move command ignored: {err}")
-            return
+            return None
         if command.kind == MoveCommand.KIND_RETURN:
-            target = home
-        elif command.kind in (MoveCommand.KIND_STEP_ASIDE, MoveCommand.KIND_PROBE):
-            target = home + array3(command.displacement)
-        else:
-            self.get_logger().warning(f"move command ignored: unknown kind {command.kind}")
-            return
-        if command.group == 0 or command.group_size <= 1:
-            self._move({command.fls_id: target})
-            return
-        group = self._groups.setdefault(command.group, {})
-        group[command.fls_id] = target
-        if len(group) >= command.group_size:
-            self._move(self._groups.pop(command.group))
+            return np.asarray(home)
+        if command.kind in (MoveCommand.KIND_STEP_ASIDE, MoveCommand.KIND_PROBE):
+            return np.asarray(home + array3(command.displacement))
+        self.get_logger().warning(f"move command ignored: unknown kind {command.kind}")
+        return None
 
     def _move(self, positions: dict[int, FloatArray]) -> None:
         self._replica.apply(self._replica.world.moved(positions))

@@ -391,7 +391,7 @@ def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path,
     shape = ["--cloud", SHAPE[0], "--scale", str(SHAPE[1]), "--beta", "0.5", "--quiet"]
     shape += ["--technique", technique]
     # A person watches the move commands while the swarm computes.
-    watch = swazure("echo", "/swarm/move_commands", "swazure_interfaces/msg/MoveCommand")
+    watch = swazure("echo", "/swarm/move_commands", "swazure_interfaces/msg/MoveCommands")
     spawn = swazure(
         "spawn", *shape, "--params", str(params), "--compute-all", "--out", str(tmp_path / "d")
     )
@@ -417,7 +417,7 @@ def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path,
         assert f"{technique}: " in out and "path walks" in out, out
         kind = "kind: 0" if technique == "move-obstructing" else "kind: 1"
         assert watched.count(kind) > 100 and watched.count("kind: 2") > 100, watched[:2000]
-        assert "group_size:" in watched and "displacement:" in watched
+        assert "commands:" in watched and "displacement:" in watched
     else:
         assert watched == ""
 

@@ -8,7 +8,7 @@ from geometry_msgs.msg import Vector3
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from swazure_interfaces.msg import Measurements, MoveCommand
+from swazure_interfaces.msg import Measurements, MoveCommand, MoveCommands
 from swazure_interfaces.srv import GetNeighbours
 
 from swazure_ros.ros.fls_node import FlsNode, ParameterError
@@ -117,11 +117,11 @@ def test_a_move_command_changes_what_the_nodes_measure(swarm):
     shift = np.array([0.0, 0.0, 0.4])
     moved_world = world.moved({mover: world.position(mover) + shift})
     expected, _ = engine_expectations(moved_world)
-    publisher = probe.create_publisher(MoveCommand, "/swarm/move_commands", 10)
+    publisher = probe.create_publisher(MoveCommands, "/swarm/move_commands", 10)
     command = MoveCommand(fls_id=mover, kind=MoveCommand.KIND_STEP_ASIDE)
     command.displacement = Vector3(x=shift[0], y=shift[1], z=shift[2])
     assert spin_until(host.executor, lambda: publisher.get_subscription_count() > 0)
-    publisher.publish(command)
+    publisher.publish(MoveCommands(commands=[command]))
     assert spin_until(host.executor, lambda: host.replica.world.revision == 1)
     latest = collect_measurements(host, probe, expected)
     for fls_id, message in latest.items():
@@ -129,7 +129,8 @@ def test_a_move_command_changes_what_the_nodes_measure(swarm):
         assert set(got) == set(expected[fls_id]), fls_id
         for target, vector in got.items():
             np.testing.assert_allclose(vector, expected[fls_id][target], rtol=0, atol=1e-12)
-    publisher.publish(MoveCommand(fls_id=mover, kind=MoveCommand.KIND_RETURN))
+    back = MoveCommand(fls_id=mover, kind=MoveCommand.KIND_RETURN)
+    publisher.publish(MoveCommands(commands=[back]))
     assert spin_until(host.executor, lambda: host.replica.world.revision == 2)
     np.testing.assert_array_equal(host.replica.world.position(mover), world.position(mover))
 

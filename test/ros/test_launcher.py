@@ -15,7 +15,7 @@ import pytest
 from geometry_msgs.msg import Vector3
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from swazure_interfaces.msg import Measurements, MoveCommand
+from swazure_interfaces.msg import Measurements, MoveCommand, MoveCommands
 
 from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
 from swazure_ros.sim.world import WorldSpec
@@ -93,9 +93,9 @@ def test_swarm_split_over_two_processes_gives_the_same_measurements(context, dom
             moved_expected, _ = engine_expectations(moved)
             command = MoveCommand(fls_id=neighbour, kind=MoveCommand.KIND_STEP_ASIDE)
             command.displacement = Vector3(x=shift[0], y=shift[1], z=shift[2])
-            publisher = probe.create_publisher(MoveCommand, "/swarm/move_commands", 10)
+            publisher = probe.create_publisher(MoveCommands, "/swarm/move_commands", 10)
             assert until(lambda: publisher.get_subscription_count() > 0)
-            publisher.publish(command)
+            publisher.publish(MoveCommands(commands=[command]))
 
             def remote_sees_move():
                 message = latest.get(remote)
