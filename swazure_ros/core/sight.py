@@ -199,8 +199,7 @@ def _any_within(
     return False
 
 
-@numba.njit(cache=True, parallel=True)
-def _obstructed_kernel(
+def _obstructed_segments(
     points: FloatArray,
     radius: float,
     first: IntArray,
@@ -232,6 +231,14 @@ def _obstructed_kernel(
             )
             out[pair] = hits > 0
     return out
+
+
+#: Below this many segments :func:`obstructed` judges them on the calling thread:
+#: waking the parallel kernel's threads costs about a millisecond (measured), a
+#: thousand segments' work. One source, compiled twice (prange runs as range).
+SERIAL_SEGMENTS = 1024
+_obstructed_kernel = numba.njit(cache=True, parallel=True)(_obstructed_segments)
+_obstructed_serial = numba.njit(cache=True, nogil=True)(_obstructed_segments)
 
 
 @numba.njit(cache=True)
@@ -316,8 +323,9 @@ def obstructed(
     grid = grid or build_grid(points, radius)
     if len(first) == 0:
         return np.zeros(0, dtype=bool)
+    kernel = _obstructed_serial if len(first) < SERIAL_SEGMENTS else _obstructed_kernel
     return np.asarray(
-        _obstructed_kernel(
+        kernel(
             points,
             float(radius),
             first,

@@ -34,6 +34,7 @@ from ..core.observe import (
     local_view,
     neighbour_sets,
     observations,
+    readings_of,
 )
 from ..core.sensor import Sensor, load_sensor
 from ..core.sight import Grid, build_grid
@@ -107,22 +108,17 @@ class World:
     def _one_seen(self) -> dict[int, Observations]:
         return {}
 
-    def _observed(self, index: int, of: tuple[int, ...] | None = None) -> Observations:
-        """Observations that hold FLS ``index``'s rows (the whole swarm's, or its own).
+    def _worked_out(self, index: int) -> bool:
+        """Whether FLS ``index``'s observations of this revision are at hand."""
+        return "seen" in self.__dict__ or not len(self.moved_since) or index in self._one_seen
 
-        With ``of`` (indices), the rows may hold only those of its neighbours.
-        """
+    def _observed(self, index: int) -> Observations:
+        """Observations that hold FLS ``index``'s rows (the whole swarm's, or its own)."""
         if "seen" in self.__dict__ or not len(self.moved_since):
             return self.seen
         one = self._one_seen.get(index)
         if one is not None:
             return one
-        if of is not None:
-            return observations(
-                neighbourhood_of(
-                    self.swarm, self.sensor, np.array([index]), self._grid, None, np.array(of)
-                )
-            )
         hood = neighbourhood_of(self.swarm, self.sensor, np.array([index]), self._grid, self._tree)
         one = self._one_seen[index] = observations(hood)
         return one
@@ -166,9 +162,12 @@ class World:
         every pair within the FLS's reach.
         """
         index = self.index(fls_id)
-        seen = self._observed(
-            index, None if of is None else tuple(self.index(other) for other in of)
-        )
+        if of is not None and not self._worked_out(index):
+            read = readings_of(
+                self.swarm, self.sensor, index, [self.index(other) for other in of], self._grid
+            )
+            return Measurement(self.ids[read.other], read.range_class, read.vector, read.tracking)
+        seen = self._observed(index)
         rows = seen.rows(index)
         measured = seen.measured_in(rows)
         if of is not None:

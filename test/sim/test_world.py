@@ -18,7 +18,7 @@ CALIBRATED = Path(__file__).parents[2] / "config" / "cameras" / "sensor-wide-cal
 def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gives(sensor_file):
     world = WorldSpec("torus:120", scale=1.6, beta=0.5, sensor_file=sensor_file).build()
     rng = np.random.default_rng(11)
-    compared = changed = 0
+    compared = changed = asked_few = 0
     for step in range(12):
         moved = rng.choice(world.ids, size=int(rng.integers(1, 30)), replace=False)
         home = world.home.points
@@ -34,9 +34,26 @@ def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gi
         truth = observations(neighbourhood(world.swarm, world.sensor))
         for fls in rng.choice(world.ids, size=15, replace=False).tolist():
             index = world.index(fls)
-            measured = world.measurement(fls)
             rows = truth.rows(index)
             visible = truth.measured_in(rows)
+            # First a path walk's question, the FLS's few pairs alone: measured
+            # neighbours, any neighbours, the farthest FLS and itself.
+            neighbour_ids = world.ids[truth.other[rows]]
+            offsets = world.swarm.points - world.swarm.points[index]
+            of = [
+                *neighbour_ids[visible][:3].tolist(),
+                *rng.choice(neighbour_ids, size=2).tolist(),
+                int(world.ids[np.argmax(np.einsum("ij,ij->i", offsets, offsets))]),
+                fls,
+            ]
+            few = world.measurement(fls, of)
+            asked = visible & np.isin(world.ids[truth.other[rows]], of)
+            np.testing.assert_array_equal(few.target_ids, world.ids[truth.other[rows]][asked])
+            np.testing.assert_array_equal(few.range_class, truth.range_class[rows][asked])
+            np.testing.assert_array_equal(few.vector, truth.vector[rows][asked])
+            np.testing.assert_array_equal(few.tracking, truth.tracking[rows][asked])
+            asked_few += int(asked.sum())
+            measured = world.measurement(fls)
             np.testing.assert_array_equal(
                 measured.target_ids, world.ids[truth.other[rows]][visible]
             )
@@ -57,6 +74,7 @@ def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gi
                 not np.array_equal(world.home_seen.visible[home_rows], truth.visible[rows])
             )
     assert compared == 12 * 15 and changed > 10  # the moves did change what FLSs see
+    assert asked_few > 200  # measured pairs among those asked
     # Back home, the world is revision 0's again.
     back = world.moved({int(fls): world.home.points[world.index(int(fls))] for fls in world.ids})
     assert back.hood is world.home_hood and back.seen is world.home_seen
