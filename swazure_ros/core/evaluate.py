@@ -25,7 +25,6 @@ from .neighbours import (
     NeighbourPairs,
     neighbour_pairs,
     ordered_blind_pairs,
-    pairs_between,
     pairs_of,
 )
 from .paths import Graph, Paths, check_policy, make_graph, path_hops, shortest_paths
@@ -132,24 +131,16 @@ def neighbourhood_of(
     flss: IntArray,
     grid: Grid | None = None,
     tree: cKDTree | None = None,
-    others: IntArray | None = None,
 ) -> Neighbourhood:
     """The pairs that involve the FLSs at indices ``flss`` (K,), with their line of sight.
 
     Each of these FLSs' pairs equal those of ``neighbourhood(swarm, sensor)``;
-    the pairs between other FLSs are left out, and with ``others`` (indices)
-    every pair but those of an FLS of ``flss`` with one of ``others``. ``grid``
-    (``build_grid``'s) and ``tree`` (a cKDTree of the points) are the
-    swarm's, when the caller keeps them.
+    the pairs between other FLSs are left out. ``grid`` (``build_grid``'s)
+    and ``tree`` (a cKDTree of the points) are the swarm's, when the caller
+    keeps them.
     """
     flss = np.unique(np.asarray(flss, dtype=np.int64))
-    if others is None:
-        pairs = pairs_of(swarm, sensor, flss, tree)
-    else:
-        others = np.asarray(others, dtype=np.int64)
-        pairs = pairs_between(
-            swarm, sensor, np.repeat(flss, len(others)), np.tile(others, len(flss))
-        )
+    pairs = pairs_of(swarm, sensor, flss, tree)
     edge = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)
     grid = grid or build_grid(swarm.points, swarm.radius)
     visible = np.zeros(len(pairs), dtype=bool)
