@@ -172,7 +172,8 @@ class FlsNode(SwarmNode):
             "track.service", False, "offer ~/track: this FLS follows a moving target on request"
         )
         self.camera_view = self._declare_camera_view()
-        self._sensed: tuple[Measurement, NeighbourSets] | None = None
+        # (world revision, what the FLS senses in it)
+        self._sensed: tuple[int, Measurement, NeighbourSets] | None = None
         self._published: Measurement | None = None  # the last measurement sent
         self._published_at = 0  # ns on the node's clock
         self.discovery = Participant(
@@ -197,6 +198,7 @@ class FlsNode(SwarmNode):
         # Frames run only while there may be something to send: at rest, thousands
         # of FLSs would otherwise wake a process thousands of times a second.
         self._frames = self.create_timer(self.publish_period, self._on_frame)
+        self._frames_stopped = False
         self._eyes: tuple[Camera, Publisher, Publisher] | None = None
         if self.camera_view >= 0:
             self._eyes = (
@@ -309,26 +311,33 @@ class FlsNode(SwarmNode):
         return self._sense()[1]
 
     def sense(self) -> None:
-        """The world changed within this FLS's reach: sense anew when next asked."""
-        # Lazily: while a heuristic moves FLSs, revisions come faster than anyone reads.
-        self._sensed = None
+        """The world changed within this FLS's reach: take a frame soon."""
         self._wake_frames()
 
     def _wake_frames(self) -> None:
-        if self._frames.is_canceled():
+        if self._frames_stopped:
+            self._frames_stopped = False
             self._frames.reset()
+
+    def _stop_frames(self) -> None:
+        self._frames_stopped = True
+        self._frames.cancel()
 
     def _on_reader_matched(self, info: QoSPublisherMatchedInfo) -> None:
         if info.current_count_change > 0:
             self._wake_frames()
 
     def _sense(self) -> tuple[Measurement, NeighbourSets]:
-        if self._sensed is None:
+        # Lazily, once per revision: while a heuristic moves FLSs, revisions come
+        # faster than anyone reads.
+        revision = self._senses.world.revision
+        if self._sensed is None or self._sensed[0] != revision:
             self._sensed = (
+                revision,
                 self._senses.measurement(self.fls_id),
                 self._senses.neighbours(self.fls_id),
             )
-        return self._sensed
+        return self._sensed[1:]
 
     def _on_frame(self) -> None:
         self.frames_taken += 1
@@ -337,7 +346,7 @@ class FlsNode(SwarmNode):
             # see many times a second). A reader that comes gets this FLS's last message
             # at once (latched) and the current one at the next frame.
             self._published = None
-            self._frames.cancel()  # until a reader comes or the world changes
+            self._stop_frames()  # until a reader comes or the world changes
             return
         now = self.get_clock().now()
         seen = self.measurement
@@ -347,7 +356,7 @@ class FlsNode(SwarmNode):
         if due or self._published is None or not seen.same_as(self._published):
             self.publish_measurements(now.to_msg())
         elif self.republish_period == 0:
-            self._frames.cancel()  # sent and unchanged: nothing to do until it changes
+            self._stop_frames()  # sent and unchanged: nothing to do until it changes
 
     def publish_measurements(self, stamp: Time | None = None) -> None:
         """Publish what the camera measures now on the shared topic."""

@@ -224,6 +224,7 @@ class SwarmHost:
         self._add(self.host_node)
         if with_world_node:
             self._add(WorldNode(self.replica, namespace=self.namespace, context=context))
+        self._measurements_topic = f"/{self.namespace}/{MEASUREMENTS_TOPIC}"
         self._service_pattern = re.compile(
             rf"^/{re.escape(self.namespace)}/fls_\d+/{NEIGHBOURS_SERVICE}$"
         )
@@ -270,8 +271,10 @@ class SwarmHost:
             self.aborted += self.radio.coordinator_lost()
 
     def _sense_anew(self) -> None:
-        for node in self.fls_nodes:
-            node.sense()
+        # An FLS senses a revision when asked; its frames need waking only for a reader.
+        if self.host_node.count_subscribers(self._measurements_topic):
+            for node in self.fls_nodes:
+                node.sense()
 
     def _on_world(self, message: WorldState) -> None:
         try:
@@ -324,8 +327,7 @@ class SwarmHost:
 
     def discovered(self) -> tuple[int, int]:
         """(measurement publishers, neighbour services) of the swarm this process sees."""
-        topic = f"/{self.namespace}/{MEASUREMENTS_TOPIC}"
-        publishers = self.host_node.count_publishers(topic)
+        publishers = self.host_node.count_publishers(self._measurements_topic)
         services = sum(
             1
             for name, _ in self.host_node.get_service_names_and_types()

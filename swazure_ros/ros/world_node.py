@@ -16,9 +16,8 @@ from numpy.typing import NDArray
 from rclpy.context import Context
 from swazure_interfaces.msg import MoveCommand, MoveCommands, WorldState
 
-from ..core.errors import UnknownFlsError
 from ..sim.replica import WorldReplica
-from .convert import array3, world_message
+from .convert import world_message
 from .names import MOVE_QOS, MOVE_TOPIC, WORLD, WORLD_QOS, WORLD_TOPIC
 from .runtime import SwarmNode
 
@@ -46,28 +45,27 @@ class WorldNode(SwarmNode):
         )
 
     def _on_moves(self, message: MoveCommands) -> None:
-        positions = {}
-        for command in message.commands:
-            target = self._target(command)
-            if target is not None:
-                positions[int(command.fls_id)] = target
-        if positions:
-            self._move(positions)
-
-    def _target(self, command: MoveCommand) -> FloatArray | None:
-        """Where ``command`` puts its FLS, cm; None (and a warning) for a command to ignore."""
         world = self._replica.world
-        try:
-            home = world.home.points[world.index(command.fls_id)]
-        except UnknownFlsError as err:
-            self.get_logger().warning(f"move command ignored: {err}")
-            return None
-        if command.kind == MoveCommand.KIND_RETURN:
-            return np.asarray(home)
-        if command.kind in (MoveCommand.KIND_STEP_ASIDE, MoveCommand.KIND_PROBE):
-            return np.asarray(home + array3(command.displacement))
-        self.get_logger().warning(f"move command ignored: unknown kind {command.kind}")
-        return None
+        commands = message.commands
+        if not commands:
+            return
+        ids = np.fromiter((command.fls_id for command in commands), np.int64, len(commands))
+        kinds = np.fromiter((command.kind for command in commands), np.int64, len(commands))
+        rows = np.minimum(np.searchsorted(world.ids, ids), len(world.ids) - 1)
+        known = world.ids[rows] == ids
+        for fls_id in ids[~known].tolist():
+            self.get_logger().warning(f"move command ignored: no FLS {fls_id} in this swarm")
+        aside = np.isin(kinds, (MoveCommand.KIND_STEP_ASIDE, MoveCommand.KIND_PROBE))
+        kept = known & (aside | (kinds == MoveCommand.KIND_RETURN))
+        for kind in kinds[known & ~kept].tolist():
+            self.get_logger().warning(f"move command ignored: unknown kind {kind}")
+        displacement = np.array(
+            [(c.displacement.x, c.displacement.y, c.displacement.z) for c in commands]
+        ).reshape(-1, 3)
+        # A step aside or a probe: home plus the displacement; a return: home.
+        targets = world.home.points[rows] + np.where(aside[:, None], displacement, 0.0)
+        if kept.any():
+            self._move(dict(zip(ids[kept].tolist(), targets[kept], strict=True)))
 
     def _move(self, positions: dict[int, FloatArray]) -> None:
         self._replica.apply(self._replica.world.moved(positions))
