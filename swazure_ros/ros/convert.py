@@ -5,11 +5,12 @@ Each message type converts here, and only here, both ways where both are needed.
 
 from __future__ import annotations
 
+import array
 from collections.abc import Sequence
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Point, Vector3
+from geometry_msgs.msg import Vector3
 from numpy.typing import NDArray
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Header
@@ -88,19 +89,21 @@ def world_message(
     revision: int, ids: NDArray[np.int64], points: FloatArray, stamp: Time
 ) -> WorldState:
     """Every FLS's position as a WorldState message."""
-    message = WorldState(revision=revision, fls_ids=ids.tolist())
+    message = WorldState(revision=revision)
+    message.fls_ids = array.array("I", np.asarray(ids, dtype=np.uint32).tobytes())
+    message.positions = array.array("d", np.asarray(points, dtype=np.float64).tobytes())
     message.header.stamp = stamp
     message.header.frame_id = "world"
-    message.positions = [Point(x=p[0], y=p[1], z=p[2]) for p in points.tolist()]
     return message
 
 
-def world_positions(message: WorldState) -> dict[int, FloatArray]:
-    """FLS id -> (3,) position, cm, from a WorldState message."""
-    return {
-        int(fls_id): np.array([point.x, point.y, point.z])
-        for fls_id, point in zip(message.fls_ids, message.positions)
-    }
+def world_positions(message: WorldState) -> tuple[NDArray[np.int64], FloatArray]:
+    """FLS ids (N,) and their positions (N, 3), cm, from a WorldState message."""
+    ids = np.frombuffer(message.fls_ids, dtype=np.uint32).astype(np.int64)
+    points = np.frombuffer(message.positions, dtype=np.float64).reshape(-1, 3)
+    if len(points) != len(ids):
+        raise ValueError(f"{len(ids)} FLS ids but {len(points)} positions")
+    return ids, points.copy()
 
 
 def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:

@@ -278,8 +278,8 @@ class SwarmHost:
 
     def _on_world(self, message: WorldState) -> None:
         try:
-            self.replica.apply_positions(int(message.revision), world_positions(message))
-        except UnknownFlsError as err:
+            self.replica.apply_positions(int(message.revision), *world_positions(message))
+        except (UnknownFlsError, ValueError) as err:
             # Another swarm's world node on this ROS domain: ours must keep running.
             self.host_node.get_logger().error(
                 f"ignored world revision {message.revision}: {err}; is another swarm "

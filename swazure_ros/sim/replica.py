@@ -20,6 +20,7 @@ from ..core.tracking import RelaySenses
 from .world import Measurement, World
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 
 class WorldReplica:
@@ -73,7 +74,7 @@ class WorldReplica:
         for hook in self.on_revision:
             hook()
 
-    def apply_positions(self, revision: int, positions: dict[int, FloatArray]) -> None:
-        """Take the world node's positions (id -> (3,) cm) if ``revision`` is newer than ours."""
+    def apply_positions(self, revision: int, ids: IntArray, points: FloatArray) -> None:
+        """Take the positions (N, 3), cm, of FLSs ``ids`` (N,) if ``revision`` is newer."""
         if revision > self.world.revision:
-            self.apply(self.world.moved(positions, revision=revision))
+            self.apply(self.world.placed(ids, points, revision=revision))

@@ -15,7 +15,7 @@ from functools import cached_property
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from ..core.clouds import Cloud, load_cloud
@@ -183,11 +183,25 @@ class World:
         """(3,) where FLS ``fls_id`` is now, cm."""
         return np.asarray(self.swarm.points[self.index(fls_id)])
 
+    def indices(self, fls_ids: ArrayLike) -> IntArray:
+        """Swarm indices (K,) of FLSs ``fls_ids`` (K,); UnknownFlsError if one is not here."""
+        fls_ids = np.asarray(fls_ids, dtype=np.int64).reshape(-1)
+        rows = np.minimum(np.searchsorted(self.ids, fls_ids), len(self.ids) - 1)
+        unknown = fls_ids[self.ids[rows] != fls_ids]
+        if len(unknown):
+            self.index(int(unknown[0]))  # raises, saying which
+        return rows
+
     def moved(self, positions: dict[int, FloatArray], revision: int | None = None) -> World:
         """The world with FLSs moved to ``positions`` (id -> (3,) cm), at the next revision."""
+        ids = np.fromiter(positions, dtype=np.int64, count=len(positions))
+        points = np.array(list(positions.values()), dtype=np.float64).reshape(-1, 3)
+        return self.placed(ids, points, revision)
+
+    def placed(self, fls_ids: ArrayLike, at: FloatArray, revision: int | None = None) -> World:
+        """The world with FLSs ``fls_ids`` (K,) at ``at`` (K, 3), cm, at the next revision."""
         points = self.swarm.points.copy()
-        for fls_id, position in positions.items():
-            points[self.index(fls_id)] = position
+        points[self.indices(fls_ids)] = at
         next_revision = self.revision + 1 if revision is None else revision
         if np.array_equal(points, self.home.points):
             return replace(

@@ -1,0 +1,45 @@
+"""Messages built by ros.convert survive serialisation and read back as they were sent."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from builtin_interfaces.msg import Time
+from rclpy.serialization import deserialize_message, serialize_message
+from swazure_interfaces.msg import MoveCommands, WorldState
+
+from swazure_ros.protocol.moves import RETURN, STEP_ASIDE, Move
+from swazure_ros.ros.convert import moves_message, world_message, world_positions
+
+
+def test_a_world_state_reads_back_every_id_and_position_bit_for_bit():
+    ids = np.array([0, 3, 7, 4_000_000_000], dtype=np.int64)
+    points = np.array([[0.1, -2.5, 3.0], [1e-9, 7.25, -0.0], [1 / 3, 2 / 3, 1.0], [5, 6, 7.5]])
+    sent = world_message(12, ids, points, Time(sec=1))
+    got = deserialize_message(serialize_message(sent), WorldState)
+    read_ids, read_points = world_positions(got)
+    assert got.revision == 12 and got.header.frame_id == "world"
+    np.testing.assert_array_equal(read_ids, ids)
+    np.testing.assert_array_equal(read_points, points)
+    read_points[0, 0] = 99.0  # the caller's own array, not the message's buffer
+    assert world_positions(got)[1][0, 0] == 0.1
+
+
+def test_a_world_state_with_positions_missing_is_refused():
+    message = world_message(1, np.arange(3), np.zeros((3, 3)), Time())
+    message.positions = message.positions[:-3]
+    with pytest.raises(ValueError, match="3 FLS ids but 2 positions"):
+        world_positions(message)
+
+
+def test_moves_made_together_go_in_one_message_in_order():
+    moves = [
+        Move(5, STEP_ASIDE, 1, 2, 7, 2, np.array([0.5, 0.0, -0.25])),
+        Move(9, RETURN, 1, 2, 7, 2, None),
+    ]
+    got = deserialize_message(serialize_message(moves_message(moves, Time())), MoveCommands)
+    assert [command.fls_id for command in got.commands] == [5, 9]
+    assert [command.kind for command in got.commands] == [STEP_ASIDE, RETURN]
+    first = got.commands[0]
+    assert (first.source_id, first.target_id) == (1, 2)
+    assert (first.displacement.x, first.displacement.y, first.displacement.z) == (0.5, 0.0, -0.25)
