@@ -44,12 +44,10 @@ from collections import Counter
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.clock import JumpHandle, JumpThreshold
 from rclpy.context import Context
 from rclpy.duration import Duration
 from rclpy.event_handler import PublisherEventCallbacks, QoSPublisherMatchedInfo
-from rclpy.exceptions import ParameterException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
@@ -227,17 +225,12 @@ class FlsNode(SwarmNode):
         self.bytes_sent = 0
 
     def _declare_camera_view(self) -> int:
-        try:
-            value = self.declare_parameter(
-                "camera_view",
-                -1,
-                ParameterDescriptor(
-                    description="id of a neighbour: publish what this FLS's camera sees aimed "
-                    "at its marker on ~/camera/image_raw and ~/camera/camera_info; -1: none"
-                ),
-            ).value
-        except ParameterException as err:
-            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
+        value = self.declare_value(
+            "camera_view",
+            -1,
+            "id of a neighbour: publish what this FLS's camera sees aimed "
+            "at its marker on ~/camera/image_raw and ~/camera/camera_info; -1: none",
+        )
         if isinstance(value, bool) or not isinstance(value, int) or value < -1:
             raise ParameterError(
                 f"{self.get_fully_qualified_name()}: camera_view must be an FLS id or -1, "
@@ -285,17 +278,14 @@ class FlsNode(SwarmNode):
 
     def _declare_track_config(self) -> TrackConfig:
         defaults = TrackConfig()
-        values = {}
+        # track.<name>, defaulting to TrackConfig's.
+        values = {
+            name: self.declare_value(f"track.{name}", getattr(defaults, name), description)
+            for name, description in TRACK_SETTINGS.items()
+        }
         try:
-            # track.<name>, defaulting to TrackConfig's.
-            for name, description in TRACK_SETTINGS.items():
-                values[name] = self.declare_parameter(
-                    f"track.{name}",
-                    getattr(defaults, name),
-                    ParameterDescriptor(description=description),
-                ).value
             return TrackConfig(**values)
-        except (ParameterException, TrackingError) as err:
+        except TrackingError as err:
             raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
 
     # Camera and radio --------------------------------------------------------

@@ -15,7 +15,7 @@ import contextlib
 import ctypes
 import sys
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import rclpy
 import yaml
@@ -59,16 +59,20 @@ class SwarmNode(Node):
             start_parameter_services=False,
         )
 
-    def declare_seconds(
-        self, name: str, default: float, description: str, allow_zero: bool = False
-    ) -> float:
-        """Declare parameter ``name``: seconds > 0 (or 0 if allowed); ParameterError if not."""
+    def declare_value(self, name: str, default: Any, description: str) -> Any:
+        """Declare parameter ``name`` and return its value; ParameterError if it cannot be."""
         try:
-            value = self.declare_parameter(
+            return self.declare_parameter(
                 name, default, ParameterDescriptor(description=description)
             ).value
         except ParameterException as err:
             raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
+
+    def declare_seconds(
+        self, name: str, default: float, description: str, allow_zero: bool = False
+    ) -> float:
+        """Declare parameter ``name``: seconds > 0 (or 0 if allowed); ParameterError if not."""
+        value = self.declare_value(name, default, description)
         if not isinstance(value, float) or not (value > 0 or (allow_zero and value == 0)):
             kind = "0 or a positive" if allow_zero else "a positive"
             raise ParameterError(
@@ -79,12 +83,7 @@ class SwarmNode(Node):
 
     def declare_flag(self, name: str, default: bool, description: str) -> bool:
         """Declare parameter ``name``: true or false; ParameterError if not."""
-        try:
-            value = self.declare_parameter(
-                name, default, ParameterDescriptor(description=description)
-            ).value
-        except ParameterException as err:
-            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
+        value = self.declare_value(name, default, description)
         if not isinstance(value, bool):
             raise ParameterError(
                 f"{self.get_fully_qualified_name()}: parameter {name} must be true or false, "
