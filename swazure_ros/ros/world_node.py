@@ -12,7 +12,6 @@ One world node runs per swarm, in the launcher's process.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 from rclpy.context import Context
 from swazure_interfaces.msg import MoveCommand, MoveCommands, WorldState
 
@@ -20,8 +19,6 @@ from ..sim.replica import WorldReplica
 from .convert import world_message
 from .names import MOVE_QOS, MOVE_TOPIC, WORLD, WORLD_QOS, WORLD_TOPIC
 from .runtime import SwarmNode
-
-FloatArray = NDArray[np.float64]
 
 
 class WorldNode(SwarmNode):
@@ -51,8 +48,7 @@ class WorldNode(SwarmNode):
             return
         ids = np.fromiter((command.fls_id for command in commands), np.int64, len(commands))
         kinds = np.fromiter((command.kind for command in commands), np.int64, len(commands))
-        rows = np.minimum(np.searchsorted(world.ids, ids), len(world.ids) - 1)
-        known = world.ids[rows] == ids
+        rows, known = world.lookup(ids)
         for fls_id in ids[~known].tolist():
             self.get_logger().warning(f"move command ignored: no FLS {fls_id} in this swarm")
         aside = np.isin(kinds, (MoveCommand.KIND_STEP_ASIDE, MoveCommand.KIND_PROBE))
@@ -65,8 +61,5 @@ class WorldNode(SwarmNode):
         # A step aside or a probe: home plus the displacement; a return: home.
         targets = world.home.points[rows] + np.where(aside[:, None], displacement, 0.0)
         if kept.any():
-            self._move(dict(zip(ids[kept].tolist(), targets[kept], strict=True)))
-
-    def _move(self, positions: dict[int, FloatArray]) -> None:
-        self._replica.apply(self._replica.world.moved(positions))
-        self.publish_world()
+            self._replica.apply(world.placed(ids[kept], targets[kept]))
+            self.publish_world()

@@ -183,13 +183,17 @@ class World:
         """(3,) where FLS ``fls_id`` is now, cm."""
         return np.asarray(self.swarm.points[self.index(fls_id)])
 
-    def indices(self, fls_ids: ArrayLike) -> IntArray:
-        """Swarm indices (K,) of FLSs ``fls_ids`` (K,); UnknownFlsError if one is not here."""
+    def lookup(self, fls_ids: ArrayLike) -> tuple[IntArray, NDArray[np.bool_]]:
+        """Swarm indices (K,) of FLSs ``fls_ids`` (K,), and whether each is in the swarm."""
         fls_ids = np.asarray(fls_ids, dtype=np.int64).reshape(-1)
         rows = np.minimum(np.searchsorted(self.ids, fls_ids), len(self.ids) - 1)
-        unknown = fls_ids[self.ids[rows] != fls_ids]
-        if len(unknown):
-            self.index(int(unknown[0]))  # raises, saying which
+        return rows, self.ids[rows] == fls_ids
+
+    def indices(self, fls_ids: ArrayLike) -> IntArray:
+        """Swarm indices (K,) of FLSs ``fls_ids`` (K,); UnknownFlsError if one is not here."""
+        rows, known = self.lookup(fls_ids)
+        if not known.all():
+            self.index(int(np.asarray(fls_ids).reshape(-1)[~known][0]))  # raises, saying which
         return rows
 
     def moved(self, positions: dict[int, FloatArray], revision: int | None = None) -> World:
