@@ -108,13 +108,18 @@ class World:
     def _one_seen(self) -> dict[int, Observations]:
         return {}
 
+    @property
+    def _seen_at_hand(self) -> bool:
+        """Whether the whole swarm's observations of this revision cost nothing to ask."""
+        return "seen" in self.__dict__ or not len(self.moved_since)
+
     def _worked_out(self, index: int) -> bool:
         """Whether FLS ``index``'s observations of this revision are at hand."""
-        return "seen" in self.__dict__ or not len(self.moved_since) or index in self._one_seen
+        return self._seen_at_hand or index in self._one_seen
 
     def _observed(self, index: int) -> Observations:
         """Observations that hold FLS ``index``'s rows (the whole swarm's, or its own)."""
-        if "seen" in self.__dict__ or not len(self.moved_since):
+        if self._seen_at_hand:
             return self.seen
         one = self._one_seen.get(index)
         if one is not None:
@@ -130,13 +135,7 @@ class World:
 
     def index(self, fls_id: int) -> int:
         """Swarm index of FLS ``fls_id``; UnknownFlsError when the swarm has none."""
-        position = int(np.searchsorted(self.ids, fls_id))
-        if position >= len(self.ids) or self.ids[position] != fls_id:
-            raise UnknownFlsError(
-                f"no FLS {fls_id} in this swarm of {len(self.ids)} FLSs "
-                f"(ids {self.ids[0]}..{self.ids[-1]})"
-            )
-        return position
+        return int(self.indices([fls_id])[0])
 
     def neighbours(self, fls_id: int) -> NeighbourSets:
         """FLS ``fls_id``'s neighbour sets, as FLS ids."""
@@ -163,9 +162,7 @@ class World:
         """
         index = self.index(fls_id)
         if of is not None and not self._worked_out(index):
-            read = readings_of(
-                self.swarm, self.sensor, index, [self.index(other) for other in of], self._grid
-            )
+            read = readings_of(self.swarm, self.sensor, index, self.indices(of), self._grid)
             return Measurement(self.ids[read.other], read.range_class, read.vector, read.tracking)
         seen = self._observed(index)
         rows = seen.rows(index)
@@ -193,7 +190,11 @@ class World:
         """Swarm indices (K,) of FLSs ``fls_ids`` (K,); UnknownFlsError if one is not here."""
         rows, known = self.lookup(fls_ids)
         if not known.all():
-            self.index(int(np.asarray(fls_ids).reshape(-1)[~known][0]))  # raises, saying which
+            fls_id = int(np.asarray(fls_ids).reshape(-1)[~known][0])
+            raise UnknownFlsError(
+                f"no FLS {fls_id} in this swarm of {len(self.ids)} FLSs "
+                f"(ids {self.ids[0]}..{self.ids[-1]})"
+            )
         return rows
 
     def moved(self, positions: dict[int, FloatArray], revision: int | None = None) -> World:
