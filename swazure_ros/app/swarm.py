@@ -3,7 +3,8 @@
 The launcher's process hosts the world node and the first share of FLS nodes;
 each further process (multiprocessing, spawn start method) hosts one more
 share. Every process builds the same world from one :class:`WorldSpec`, so
-none needs the others' data, and reports to the launcher over a queue: nodes
+none needs the others' data, and lays out what its own share senses (the
+race car's whole swarm's observations are 650 MB), and reports to the launcher over a queue: nodes
 created, discovery complete (with its peak memory), or one error line. The
 swarm is up when every process sees every FLS node's endpoints.
 
@@ -106,7 +107,7 @@ def _host_share(
     context = host = None
     code = 1
     try:
-        world = config.world.build()
+        world = config.world.build(hosted_ids=fls_ids)
         context = init_context(config)
         host = SwarmHost(
             world,
@@ -166,15 +167,18 @@ class RunningSwarm:
         self._leave_nodes = leave_nodes
         self._on_created = on_created or (lambda created, total: None)
         self._began = time.perf_counter()
-        self.world = config.world.build()
-        self.size = len(self.world.ids)
+        fls_ids = config.world.fls_ids()
+        self.size = len(fls_ids)
         parts = max(config.processes, config.hosts)
         if parts > self.size:
             raise SwazureError(f"{parts} shares for {self.size} FLSs: too many")
-        self._shares = shares(self.world.ids, parts)
+        self._shares = shares(fls_ids, parts)
         if config.hosts > 1:
             # Only this host's share here; the others run on their own hosts.
             self._shares = [self._shares[config.share]]
+        # Each process lays out what its own FLSs sense; the coordinator's
+        # planning and the engine's comparison need the neighbourhood, not that.
+        self.world = config.world.build(hosted_ids=self._shares[0])
         self._created = [0] * config.processes
         self._peaks: dict[int, float] = {}
         mp = multiprocessing.get_context("spawn")

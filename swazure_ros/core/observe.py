@@ -69,16 +69,29 @@ class NeighbourSets:
     visible_decaying: IntArray  # by camera: decaying with line of sight
 
 
-def observations(hood: Neighbourhood) -> Observations:
-    """Lay out the blind, sweet and decaying pairs of ``hood`` per FLS, both directions."""
+def observations(hood: Neighbourhood, owners: IntArray | None = None) -> Observations:
+    """Lay out the blind, sweet and decaying pairs of ``hood`` per FLS, both directions.
+
+    With ``owners`` (K,), swarm indices, only those FLSs' rows are laid out
+    (the others' are empty): a process that hosts a share of the swarm holds
+    what its own FLSs sense, not the whole swarm's.
+    """
     pairs = hood.pairs
     keep = np.isin(pairs.range_class, (BLIND, SWEET, DECAYING))
     first, second = pairs.first[keep], pairs.second[keep]
-    owner = np.concatenate([first, second])
-    other = np.concatenate([second, first])
-    range_class = np.tile(pairs.range_class[keep], 2)
-    visible = np.tile(hood.visible[keep], 2)
-    true_tracking = np.tile(pairs.tracking[keep], 2)
+    range_class, visible = pairs.range_class[keep], hood.visible[keep]
+    true_tracking = pairs.tracking[keep]
+    if owners is None:
+        forward = backward = np.ones(len(first), dtype=bool)
+    else:
+        hosted = np.zeros(hood.swarm.size, dtype=bool)
+        hosted[np.asarray(owners, dtype=np.int64)] = True
+        forward, backward = hosted[first], hosted[second]
+    owner = np.concatenate([first[forward], second[backward]])
+    other = np.concatenate([second[forward], first[backward]])
+    range_class = np.concatenate([range_class[forward], range_class[backward]])
+    visible = np.concatenate([visible[forward], visible[backward]])
+    true_tracking = np.concatenate([true_tracking[forward], true_tracking[backward]])
     order = np.lexsort((other, owner))
     owner, other = owner[order], other[order]
     range_class, visible, true_tracking = range_class[order], visible[order], true_tracking[order]

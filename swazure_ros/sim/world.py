@@ -84,6 +84,9 @@ class World:
     # whose places differ from it.
     known: Neighbourhood
     moved_since: IntArray
+    # The FLSs (sorted indices) whose observations this world lays out; None: every
+    # FLS. A process hosting a share holds its FLSs' rows, asked of others on demand.
+    hosted: IntArray | None = None
 
     @cached_property
     def hood(self) -> Neighbourhood:
@@ -92,9 +95,16 @@ class World:
 
     @cached_property
     def seen(self) -> Observations:
-        """Every FLS's observations."""
+        """Every hosted FLS's observations (every FLS's when ``hosted`` is None)."""
         hood = self.hood
-        return self.home_seen if hood is self.home_hood else observations(hood)
+        return self.home_seen if hood is self.home_hood else observations(hood, self.hosted)
+
+    @cached_property
+    def _laid_out(self) -> NDArray[np.bool_]:
+        """(N,) whether :attr:`seen` holds each FLS's rows."""
+        laid_out = np.zeros(self.swarm.size, dtype=bool)
+        laid_out[slice(None) if self.hosted is None else self.hosted] = True
+        return laid_out
 
     @cached_property
     def _grid(self) -> Grid:
@@ -115,11 +125,11 @@ class World:
 
     def _worked_out(self, index: int) -> bool:
         """Whether FLS ``index``'s observations of this revision are at hand."""
-        return self._seen_at_hand or index in self._one_seen
+        return (self._seen_at_hand and self._laid_out[index]) or index in self._one_seen
 
     def _observed(self, index: int) -> Observations:
-        """Observations that hold FLS ``index``'s rows (the whole swarm's, or its own)."""
-        if self._seen_at_hand:
+        """Observations that hold FLS ``index``'s rows (the hosted FLSs', or its own)."""
+        if self._seen_at_hand and self._laid_out[index]:
             return self.seen
         one = self._one_seen.get(index)
         if one is not None:
@@ -234,12 +244,25 @@ def make_world(
     beta: float | None = None,
     radius: float | None = None,
     seed: int = 0,
+    hosted_ids: Sequence[int] | None = None,
 ) -> World:
-    """The world of ``cloud`` at revision 0: FLSs at their points, colliding ones removed."""
+    """The world of ``cloud`` at revision 0: FLSs at their points, colliding ones removed.
+
+    ``hosted_ids`` (FLS ids) are the FLSs whose observations it lays out (every
+    FLS's when None); any other FLS's are worked out when asked.
+    """
     swarm = make_swarm(cloud.points, beta=beta, radius=radius, seed=seed)
     hood = neighbourhood(swarm, sensor)
-    seen = observations(hood)
-    return World(cloud, sensor, swarm, swarm, 0, hood, seen, hood, np.zeros(0, dtype=np.int64))
+    hosted = None
+    if hosted_ids is not None:
+        hosted = np.unique(np.asarray(hosted_ids, dtype=np.int64))
+        rows = np.minimum(np.searchsorted(swarm.cloud_index, hosted), swarm.size - 1)
+        if len(hosted) and not np.array_equal(swarm.cloud_index[rows], hosted):
+            raise UnknownFlsError(f"hosted FLSs not in this swarm of {swarm.size} FLSs")
+        hosted = rows if len(hosted) < swarm.size else None
+    seen = observations(hood, hosted)
+    no_moves = np.zeros(0, dtype=np.int64)
+    return World(cloud, sensor, swarm, swarm, 0, hood, seen, hood, no_moves, hosted)
 
 
 @dataclass(frozen=True)
@@ -254,10 +277,18 @@ class WorldSpec:
     accurate: bool = False
     seed: int = 0
 
-    def build(self) -> World:
-        """Load the cloud and sensor and make the world at revision 0."""
+    def build(self, hosted_ids: Sequence[int] | None = None) -> World:
+        """Load the cloud and sensor and make the world at revision 0 (see :func:`make_world`)."""
         sensor = load_sensor(Path(self.sensor_file) if self.sensor_file else None)
         if self.accurate:
             sensor = sensor.error_free()
         cloud = load_cloud(self.cloud, self.scale)
-        return make_world(cloud, sensor, beta=self.beta, radius=self.radius, seed=self.seed)
+        return make_world(
+            cloud, sensor, beta=self.beta, radius=self.radius, seed=self.seed, hosted_ids=hosted_ids
+        )
+
+    def fls_ids(self) -> IntArray:
+        """(N,) the ids of the world's FLSs, without sensing anything."""
+        cloud = load_cloud(self.cloud, self.scale)
+        swarm = make_swarm(cloud.points, beta=self.beta, radius=self.radius, seed=self.seed)
+        return swarm.cloud_index

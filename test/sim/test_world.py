@@ -1,4 +1,9 @@
-"""The simulated world: one FLS's senses in a moved world equal the whole world's."""
+"""The simulated world: one FLS's senses in a moved world equal the whole world's.
+
+Also in a world that lays out only a share's FLSs (a process of a swarm hosting
+a share): its own FLSs' rows equal the whole world's, and any other FLS is
+answered the same, on demand.
+"""
 
 from __future__ import annotations
 
@@ -7,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from swazure_ros.core.errors import UnknownFlsError
 from swazure_ros.core.evaluate import neighbourhood
 from swazure_ros.core.observe import local_view, neighbour_sets, observations
 from swazure_ros.sim.world import WorldSpec
@@ -14,9 +20,18 @@ from swazure_ros.sim.world import WorldSpec
 CALIBRATED = Path(__file__).parents[2] / "config" / "cameras" / "sensor-wide-calibrated.yaml"
 
 
+def every_third(spec: WorldSpec) -> list[int]:
+    """A share of the world's FLS ids: one in three."""
+    return spec.fls_ids()[::3].tolist()
+
+
+@pytest.mark.parametrize("share", [False, True], ids=["whole", "share"])
 @pytest.mark.parametrize("sensor_file", [None, str(CALIBRATED)], ids=["published", "stochastic"])
-def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gives(sensor_file):
-    world = WorldSpec("torus:120", scale=1.6, beta=0.5, sensor_file=sensor_file).build()
+def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gives(
+    sensor_file, share
+):
+    spec = WorldSpec("torus:120", scale=1.6, beta=0.5, sensor_file=sensor_file)
+    world = spec.build(hosted_ids=every_third(spec) if share else None)
     rng = np.random.default_rng(11)
     compared = changed = asked_few = 0
     for step in range(12):
@@ -78,3 +93,30 @@ def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gi
     # Back home, the world is revision 0's again.
     back = world.moved({int(fls): world.home.points[world.index(int(fls))] for fls in world.ids})
     assert back.hood is world.home_hood and back.seen is world.home_seen
+
+
+def test_a_share_world_lays_out_its_own_flss_rows_only_and_they_equal_the_whole_worlds():
+    spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
+    whole, hosted_ids = spec.build(), every_third(spec)
+    share = spec.build(hosted_ids=hosted_ids)
+    hosted = whole.indices(hosted_ids)
+    # About a third of the rows: what a process of three holds.
+    assert len(share.seen.other) == sum(len(whole.seen.other[whole.seen.rows(i)]) for i in hosted)
+    assert 0.25 < len(share.seen.other) / len(whole.seen.other) < 0.42
+    for index in range(whole.swarm.size):
+        rows, share_rows = whole.seen.rows(index), share.seen.rows(index)
+        if index in hosted:
+            for name in ("other", "range_class", "visible", "vector", "tracking", "distance"):
+                np.testing.assert_array_equal(
+                    getattr(share.seen, name)[share_rows], getattr(whole.seen, name)[rows]
+                )
+        else:
+            assert share_rows.start == share_rows.stop
+        fls = int(whole.ids[index])
+        np.testing.assert_array_equal(share.measurement(fls).vector, whole.measurement(fls).vector)
+
+
+def test_a_share_of_ids_the_swarm_does_not_hold_is_refused():
+    spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
+    with pytest.raises(UnknownFlsError, match="hosted FLSs not in this swarm"):
+        spec.build(hosted_ids=[0, 10**6])
