@@ -284,7 +284,12 @@ class WorldSpec:
             sensor = sensor.error_free()
         cloud = load_cloud(self.cloud, self.scale)
         return make_world(
-            cloud, sensor, beta=self.beta, radius=self.radius, seed=self.seed, hosted_ids=hosted_ids
+            cloud,
+            sensor,
+            beta=self.beta,
+            radius=self.radius,
+            seed=self.seed,
+            hosted_ids=hosted_ids,
         )
 
     def fls_ids(self) -> IntArray:
