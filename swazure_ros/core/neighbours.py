@@ -60,7 +60,8 @@ def neighbour_pairs(swarm: Swarm, sensor: Sensor) -> NeighbourPairs:
     distance = centre_distance(swarm.points, first, second)
     tracking = distance - 2.0 * swarm.radius
     keep = tracking < sensor.decaying_max
-    order = np.lexsort((second[keep], first[keep]))
+    # One int64 key per pair (unique): a third of lexsort's time on the race car.
+    order = np.argsort(first[keep] * swarm.size + second[keep])
     first, second = first[keep][order], second[keep][order]
     distance, tracking = distance[keep][order], tracking[keep][order]
     return NeighbourPairs(first, second, distance, tracking, sensor.classify(tracking))

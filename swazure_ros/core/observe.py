@@ -92,7 +92,8 @@ def observations(hood: Neighbourhood, owners: IntArray | None = None) -> Observa
     range_class = np.concatenate([range_class[forward], range_class[backward]])
     visible = np.concatenate([visible[forward], visible[backward]])
     true_tracking = np.concatenate([true_tracking[forward], true_tracking[backward]])
-    order = np.lexsort((other, owner))
+    # One int64 key per row (unique): a third of lexsort's time on the race car.
+    order = np.argsort(owner * hood.swarm.size + other)
     owner, other = owner[order], other[order]
     range_class, visible, true_tracking = range_class[order], visible[order], true_tracking[order]
     indptr = np.zeros(hood.swarm.size + 1, dtype=np.int64)
