@@ -458,16 +458,17 @@ def discovery_section(args: argparse.Namespace) -> list[str]:
         "bring-up, the computation, the engine's run for comparison, writing summary.json and",
         "pairs.csv, and tearing the nodes down. Messages and bytes are every message the",
         "protocol publishes (docs/protocol.md; the world node's WorldState not counted), as",
-        "serialized. Engine: `evaluate` (+ `run_technique`) in the same process, same work.",
+        "serialized. Engine: `evaluate` (+ `run_technique`) in the same process, same work;",
+        '"x engine" is (discovery s + moves s) / engine s.',
         'Move Source probes up to T = 10 steps. "Moves s" is the heuristic\'s part: planning,',
         "batches of moves (two world revisions each), path walks. A run still going after",
         f"{RUN_LIMIT['plain'] / 60:.0f} min (plain) or {RUN_LIMIT['move-obstructing'] / 60:.0f} "
         "min (a heuristic) is stopped; its row says how far it got.",
         "",
         "| shape | technique | processes | bring-up s | discovery s | rounds | moves s "
-        "| batches | messages | MB | wall s | engine s | identical | peak MB |",
+        "| batches | messages | MB | wall s | engine s | x engine | identical | peak MB |",
         "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: "
-        "| --- | ---: |",
+        "| ---: | --- | ---: |",
     ]
     for name, flss in SHAPE_SIZES.items():
         processes = 2 if flss > 2000 else 1
@@ -475,7 +476,7 @@ def discovery_section(args: argparse.Namespace) -> list[str]:
         for technique in ("plain", "move-obstructing", "move-source"):
             if plain_failed:
                 # A heuristic starts from the whole-swarm plain run.
-                blank = " |" * 10
+                blank = " |" * 11
                 lines.append(
                     f"| {name} | {technique} | {processes} | not run: it starts from the plain "
                     f"run, {plain_failed} |{blank}"
@@ -489,16 +490,19 @@ def discovery_section(args: argparse.Namespace) -> list[str]:
             print(f"compute-all {name} {technique}: {row}", flush=True)
             if "failed" in row:
                 plain_failed = str(row["failed"]) if technique == "plain" else ""
-                blank = " |" * 10
+                blank = " |" * 11
                 lines.append(f"| {name} | {technique} | {processes} | {row['failed']} |{blank}")
                 continue
             moving = f"{row['moving']:.1f}" if technique != "plain" else "-"
             batches = f"{row['batches']:,}" if technique != "plain" else "-"
+            # The swarm's computation (discovery and moves) over the engine's for the same work.
+            times_engine = (row["discovery"] + row["moving"]) / max(row["engine"], 1e-9)
             lines.append(
                 f"| {name} | {technique} | {processes} | {row['bring_up']:.1f} "
                 f"| {row['discovery']:.1f} | {row['rounds']} | {moving} | {batches} "
                 f"| {row['messages']:,} | {row['bytes'] / 1e6:,.0f} | {row['wall']:.1f} "
-                f"| {row['engine']:.1f} | {row['identical']} | {row['peak']} |"
+                f"| {row['engine']:.1f} | {times_engine:.1f} | {row['identical']} "
+                f"| {row['peak']} |"
             )
     lines += [
         "",
