@@ -57,6 +57,10 @@ class SwarmConfig:
     #: the coordinator. hosts = 1: the whole swarm from here (``processes``).
     share: int = 0
     hosts: int = 1
+    #: ROS parameters of every FLS node, and of single FLSs (id -> name -> value),
+    #: over the parameter file's.
+    parameters: dict[str, object] = field(default_factory=dict)
+    fls_parameters: dict[int, dict[str, object]] = field(default_factory=dict)
 
 
 @dataclass
@@ -117,6 +121,8 @@ def _host_share(
             swarm_size=swarm_size,
             with_world_node=False,
             name=host_name(index),
+            parameters=config.parameters,
+            fls_parameters=config.fls_parameters,
         )
         host.create_fls_nodes(lambda count: reports.put((CREATED, index, count)))
         if not host.spin_until_discovered(config.discovery_timeout):
@@ -172,6 +178,12 @@ class RunningSwarm:
         parts = max(config.processes, config.hosts)
         if parts > self.size:
             raise SwazureError(f"{parts} shares for {self.size} FLSs: too many")
+        strangers = sorted(set(config.fls_parameters) - set(fls_ids.tolist()))
+        if strangers:
+            raise SwazureError(
+                f"parameters for FLS {strangers[0]}: no such FLS in this swarm of {self.size} "
+                f"(ids {fls_ids[0]}..{fls_ids[-1]})"
+            )
         self._shares = shares(fls_ids, parts)
         if config.hosts > 1:
             # Only this host's share here; the others run on their own hosts.
@@ -222,6 +234,8 @@ class RunningSwarm:
             swarm_size=self.size,
             with_world_node=leader,
             name=host_name(self.config.share),
+            parameters=self.config.parameters,
+            fls_parameters=self.config.fls_parameters,
         )
 
         def created(count: int) -> None:

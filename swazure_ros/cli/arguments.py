@@ -18,14 +18,16 @@ MAX_DOMAIN_ID = 232
 MAX_FLS_ID = 2**32 - 1
 
 
-def _whole(text: str) -> int:
+def whole_number(text: str) -> int:
+    """A whole number."""
     try:
         return int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
 
 
-def _real(text: str) -> float:
+def number(text: str) -> float:
+    """A number."""
     try:
         return float(text)
     except ValueError:
@@ -34,7 +36,7 @@ def _real(text: str) -> float:
 
 def domain_id(text: str) -> int:
     """A ROS domain id, 0 to MAX_DOMAIN_ID."""
-    value = _whole(text)
+    value = whole_number(text)
     if not 0 <= value <= MAX_DOMAIN_ID:
         raise argparse.ArgumentTypeError(f"{value} is outside 0..{MAX_DOMAIN_ID}")
     return value
@@ -42,7 +44,7 @@ def domain_id(text: str) -> int:
 
 def fls_id(text: str) -> int:
     """An FLS id: a whole number that fits the messages' uint32 fields."""
-    value = _whole(text)
+    value = whole_number(text)
     if not 0 <= value <= MAX_FLS_ID:
         raise argparse.ArgumentTypeError(f"FLS id {value} is outside 0..{MAX_FLS_ID}")
     return value
@@ -50,7 +52,7 @@ def fls_id(text: str) -> int:
 
 def seconds(text: str) -> float:
     """A duration in seconds, finite and above 0."""
-    value = _real(text)
+    value = number(text)
     if not (math.isfinite(value) and value > 0):
         raise argparse.ArgumentTypeError(f"{text} s: a duration must be above 0")
     return value
@@ -58,7 +60,7 @@ def seconds(text: str) -> float:
 
 def count(text: str) -> int:
     """A count of things, at least 1."""
-    value = _whole(text)
+    value = whole_number(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"{value}: must be at least 1")
     return value
@@ -88,7 +90,7 @@ def share(text: str) -> tuple[int, int]:
     index, slash, hosts = text.partition("/")
     if not slash:
         raise argparse.ArgumentTypeError(f"{text!r}: expected K/N, e.g. 0/3")
-    k, n = _whole(index), _whole(hosts)
+    k, n = whole_number(index), whole_number(hosts)
     if n < 1 or not 0 <= k < n:
         raise argparse.ArgumentTypeError(f"{text}: need 0 <= K < N")
     return k, n
@@ -112,7 +114,7 @@ def ros_topic(text: str) -> str:
 
 def viewing_angle(text: str) -> float:
     """A viewing angle of a marker, degrees: 0 (head-on) up to, not including, 90."""
-    value = _real(text)
+    value = number(text)
     if not 0 <= value < 90:
         raise argparse.ArgumentTypeError(f"{text}: a viewing angle is in [0, 90) degrees")
     return value

@@ -8,6 +8,10 @@ the coordinator clocks path discovery and answers
 cloud's row numbers. Node parameters (publish_period, round_timeout) come
 from a ROS 2 parameter file (--params, default config/swarm.yaml).
 
+A swarm file (``swazure spawn config/swarms/dragon.yaml``) gives these options
+in one YAML file, with every FLS's and single FLSs' parameters; flags given
+beside it override it (cli/swarm_file.py).
+
 With --compute-all the swarm computes every FLS's pose relative to every
 blind neighbour once (and, with --technique, a heuristic's moves), prints it
 beside the core engine's, writes --out like `swazure evaluate`, and exits.
@@ -33,6 +37,7 @@ from .evaluate import (
     add_swarm_arguments,
     add_threshold_argument,
 )
+from .swarm_file import add_swarm_file_argument, apply_swarm_file
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -98,6 +103,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --compute-all: write summary.json and pairs.csv here, as swazure evaluate does",
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_swarm_file_argument(parser)
 
 
 class CreationBar:
@@ -157,6 +163,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
         discovery_timeout=args.discovery_timeout,
         share=index,
         hosts=hosts,
+        parameters=args.parameters,
+        fls_parameters=args.fls_parameters,
     )
 
 
@@ -238,6 +246,7 @@ def main(args: argparse.Namespace) -> int:
     # that started us in the background made us ignore SIGINT.
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, _interrupt)
+    args = apply_swarm_file(args)
     config = config_from_args(args)
     bar = CreationBar(args.quiet)
     ready = False

@@ -189,6 +189,7 @@ class SwarmHost:
         name: str = "host_0",
         motion: Motion | None = None,
         parameters: dict[str, object] | None = None,
+        fls_parameters: dict[int, dict[str, object]] | None = None,
     ) -> None:
         self.context = context
         self.namespace = namespace.strip("/")
@@ -200,6 +201,11 @@ class SwarmHost:
         self._overrides = [
             Parameter(name, value=value) for name, value in (parameters or {}).items()
         ]
+        # One FLS's own parameters, after (so over) every FLS's.
+        self._fls_overrides = {
+            int(fls_id): [Parameter(name, value=value) for name, value in own.items()]
+            for fls_id, own in (fls_parameters or {}).items()
+        }
         self.executor = EventsExecutor(context=context)
         self._spinning = False
         self._stop_requested = False
@@ -306,7 +312,7 @@ class SwarmHost:
                 namespace=self.namespace,
                 context=self.context,
                 transmitter=self.transmitter,
-                parameter_overrides=self._overrides,
+                parameter_overrides=[*self._overrides, *self._fls_overrides.get(fls_id, [])],
             )
             self.fls_nodes.append(node)
             self.fls_by_id[fls_id] = node

@@ -18,6 +18,10 @@ from rclpy.node import Node
 from swazure_interfaces.msg import Measurements, MoveCommand, MoveCommands
 
 from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
+from swazure_ros.cli.main import build_parser
+from swazure_ros.cli.spawn import config_from_args
+from swazure_ros.cli.swarm_file import apply_swarm_file
+from swazure_ros.core.sensor import config_dir
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SHARED
@@ -119,6 +123,25 @@ def test_spawn_until_ready_prints_bring_up_and_exits_0(domain):
     assert run.returncode == 0, err
     assert "swarm up: 60 FLS nodes in 1 process(es)" in out
     assert "peak memory" in out
+
+
+def test_a_swarm_from_a_swarm_file_gives_every_fls_and_one_fls_their_parameters(domain):
+    swarm_file = config_dir() / "swarms" / "torus.yaml"
+    argv = ["spawn", str(swarm_file), "--domain-id", str(domain), "--processes", "2"]
+    config = config_from_args(apply_swarm_file(build_parser().parse_args(argv)))
+    assert config.processes == 2 and config.world.cloud == "torus:120"
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        nodes = swarm.host.fls_by_id
+        assert 0 in nodes  # the first share, here
+        first, other = nodes[0], nodes[max(nodes)]
+        assert first.get_parameter("publish_period").value == 0.1
+        assert first.track_service is True
+        assert other.get_parameter("publish_period").value == 0.5  # every FLS's, from the file
+        assert other.track_service is False  # config/swarm.yaml's
+        services = dict(swarm.host.host_node.get_service_names_and_types())
+        assert "/swarm/fls_0/track" in services
+        assert f"/swarm/fls_{max(nodes)}/track" not in services
 
 
 @pytest.mark.parametrize(

@@ -1,0 +1,134 @@
+"""A swarm in one file: the examples load, flags override the file, bad files get one line."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from swazure_ros.cli.main import build_parser
+from swazure_ros.cli.swarm_file import apply_swarm_file, load_swarm_file
+from swazure_ros.core.errors import SwazureError
+from swazure_ros.core.sensor import config_dir
+
+SWARMS = config_dir() / "swarms"
+TORUS = SWARMS / "torus.yaml"
+
+
+def spawn_args(*argv: str):
+    """``swazure spawn ARGV`` parsed, with the swarm file applied."""
+    return apply_swarm_file(build_parser().parse_args(["spawn", *argv]))
+
+
+@pytest.mark.parametrize("name", ["torus", "dragon", "racecar"])
+def test_every_example_swarm_file_loads(name):
+    options = load_swarm_file(SWARMS / f"{name}.yaml")
+    assert options["beta"] == 0.5 and options["policy"] == "shortest-length"
+    if name != "torus":
+        # The published cloud, relative to the file, comes out absolute with its stem.
+        cloud = Path(options["cloud"])
+        assert cloud.is_absolute() and cloud.name.startswith(name)
+
+
+def test_a_swarm_file_sets_the_options_and_every_and_one_flss_parameters():
+    args = spawn_args(str(TORUS))
+    assert (args.cloud, args.beta, args.radius, args.processes) == ("torus:120", 0.5, None, 1)
+    assert args.namespace == "swarm" and args.policy == "shortest-length"
+    assert args.discovery_timeout == 600.0 and args.seed == 0 and args.accurate is False
+    assert args.parameters == {"publish_period": 0.5}
+    assert args.fls_parameters == {0: {"publish_period": 0.1, "track.service": True}}
+
+
+def test_flags_given_beside_the_file_override_it():
+    args = spawn_args(str(TORUS), "--processes", "2", "--radius", "1.5", "--namespace", "show")
+    assert args.processes == 2 and args.namespace == "show"
+    # The command line's radius replaces the file's beta.
+    assert args.radius == 1.5 and args.beta is None
+    assert args.cloud == "torus:120"  # not given: the file's
+
+
+def test_without_a_file_the_flags_keep_their_defaults():
+    args = spawn_args("--beta", "0.5")
+    assert (args.cloud, args.processes, args.namespace) == ("torus", 1, "swarm")
+    assert args.policy == "shortest-length" and args.discovery_timeout == 600.0
+    assert args.parameters == {} and args.fls_parameters == {}
+
+
+def test_paths_in_a_swarm_file_are_taken_from_its_folder(tmp_path):
+    (tmp_path / "clouds").mkdir()
+    (tmp_path / "clouds" / "three.xyz").write_text("0 0 0\n1 0 0\n0 1 0\n")
+    (tmp_path / "my-sensor.yaml").write_text("kind: published\n")
+    swarm = tmp_path / "swarm.yaml"
+    swarm.write_text("swarm:\n  cloud: clouds/three.xyz\n  sensor: my-sensor.yaml\n")
+    options = load_swarm_file(swarm)
+    assert options["cloud"] == str(tmp_path / "clouds" / "three.xyz")
+    assert options["sensor"] == tmp_path / "my-sensor.yaml"
+
+
+BAD_FILES = [
+    ("swarm: [1, 2\n", "not valid YAML (line 2)"),
+    ("- just a list\n", "a mapping with one key, swarm:"),
+    ("cloud: torus\n", "a mapping with one key, swarm:"),
+    ("swarm:\n  cloud: torus\nextra: 1\n", "unknown top-level key 'extra'"),
+    ("swarm:\n  clowd: torus\n", "unknown key 'clowd' under swarm:"),
+    ("swarm:\n  beta: 0.5\n  radius: 1.0\n", "give beta or radius, not both"),
+    ("swarm:\n  beta: half\n", "swarm.beta: 'half' is not a number"),
+    ("swarm:\n  processes: 0\n", "swarm.processes: 0: must be at least 1"),
+    ("swarm:\n  processes: 2.5\n", "swarm.processes: '2.5' is not a whole number"),
+    ("swarm:\n  processes: [1, 2]\n", "swarm.processes: expected one value, got a list"),
+    ("swarm:\n  namespace: bad name!\n", "swarm.namespace: 'bad name!' is not a ROS namespace"),
+    ("swarm:\n  domain_id: 300\n", "swarm.domain_id: 300 is outside 0..232"),
+    ("swarm:\n  discovery_timeout: -5\n", "swarm.discovery_timeout: -5 s: a duration must"),
+    ("swarm:\n  policy: fastest\n", "swarm.policy: 'fastest': expected one of"),
+    ("swarm:\n  accurate: maybe\n", "swarm.accurate: 'maybe': expected true or false"),
+    ("swarm:\n  sensor: missing.yaml\n", "missing.yaml: no such file"),
+    ("swarm:\n  params: .\n", "is a folder, not a file"),
+    ("swarm:\n  parameters: 3\n", "swarm.parameters: expected a mapping of ROS parameters"),
+    ("swarm:\n  parameters:\n    publish_period: {}\n", "swarm.parameters.publish_period"),
+    ("swarm:\n  parameters:\n    mixed: [1, a]\n", "swarm.parameters.mixed: a ROS parameter"),
+    ("swarm:\n  fls: [1]\n", "swarm.fls: expected FLS ids, each with its parameters"),
+    ("swarm:\n  fls:\n    first: {publish_period: 1.0}\n", "swarm.fls: 'first' is not a whole"),
+    ("swarm:\n  fls:\n    -3: {publish_period: 1.0}\n", "swarm.fls: FLS id -3 is outside"),
+    ("swarm:\n  fls:\n    3: 1.0\n", "swarm.fls.3: expected a mapping of ROS parameters"),
+]
+
+
+@pytest.mark.parametrize(("content", "message"), BAD_FILES)
+def test_a_bad_swarm_file_is_refused_with_the_file_and_key_named(tmp_path, content, message):
+    swarm = tmp_path / "swarm.yaml"
+    swarm.write_text(content)
+    with pytest.raises(SwazureError, match=r"swarm\.yaml: ") as raised:
+        load_swarm_file(swarm)
+    assert message in str(raised.value) and "\n" not in str(raised.value)
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        ("swarm:\n  clowd: torus\n", "unknown key 'clowd' under swarm:"),
+        ("swarm:\n  cloud: torus:60\n", "give --beta"),
+        ("swarm:\n  cloud: nosuch.xyz\n  beta: 0.5\n", "nosuch.xyz"),
+        (
+            "swarm:\n  cloud: torus:60\n  beta: 0.5\n  fls:\n    999: {publish_period: 1.0}\n",
+            "parameters for FLS 999: no such FLS in this swarm of 60",
+        ),
+    ],
+)
+def test_spawn_with_a_bad_swarm_file_says_so_in_one_line_and_writes_nothing(
+    tmp_path, content, message
+):
+    swarm = tmp_path / "swarm.yaml"
+    swarm.write_text(content)
+    run = subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", "spawn", str(swarm), "--until-ready"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=tmp_path,
+    )
+    assert run.returncode == 2, run.stderr
+    assert message in run.stderr and len(run.stderr.strip().splitlines()) == 1, run.stderr
+    assert "Traceback" not in run.stdout + run.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["swarm.yaml"]
