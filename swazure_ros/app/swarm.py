@@ -23,6 +23,7 @@ import signal
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -34,6 +35,7 @@ from ..core.evaluate import Evaluation, evaluate
 from ..core.heuristics import PLAIN, HeuristicResult, run_technique
 from ..protocol.discovery import evaluation_of
 from ..ros import runtime
+from ..ros.bag import Recorder
 from ..ros.coordinator import Coordinator, DiscoveryResult, MoveResult
 from ..ros.host import SwarmHost
 from ..ros.names import host_name
@@ -61,6 +63,8 @@ class SwarmConfig:
     #: over the parameter file's.
     parameters: dict[str, object] = field(default_factory=dict)
     fls_parameters: dict[int, dict[str, object]] = field(default_factory=dict)
+    #: Record every topic of the swarm to this MCAP file (share 0's process).
+    record: str | None = None
 
 
 @dataclass
@@ -209,6 +213,7 @@ class RunningSwarm:
         self.context: Context | None = None
         self.host: SwarmHost | None = None
         self.coordinator: Coordinator | None = None
+        self.recorder: Recorder | None = None
 
     def __enter__(self) -> RunningSwarm:
         try:
@@ -242,6 +247,12 @@ class RunningSwarm:
             self._created[0] = count
             self._drain()
 
+        if leader and self.config.record is not None:
+            # Before the nodes: it hears every topic from its first publisher on.
+            self.recorder = Recorder(
+                Path(self.config.record), self.config.namespace, context=self.context
+            )
+            self.host.add(self.recorder)
         self.host.create_fls_nodes(created)
         if leader:
             self.coordinator = Coordinator(
@@ -283,6 +294,8 @@ class RunningSwarm:
             # Seeing every node is not enough: a host whose radio has not matched the
             # coordinator's controls yet would miss a run's START (shares on other hosts).
             matched = self.coordinator is None or self.coordinator.hosts_matched()
+            # A recording starts with everything the run publishes.
+            matched = matched and (self.recorder is None or self.recorder.caught_up())
             if discovered and matched and len(self._peaks) == len(self._children):
                 self._peaks[0] = peak_rss_mb()
                 seconds = time.perf_counter() - self._began
@@ -382,6 +395,8 @@ class RunningSwarm:
 
     def _close(self) -> None:
         self.coordinator = None  # its host destroys it
+        if self.recorder is not None:
+            self.recorder.close()
         self._stop.set()
         for child in self._children:
             if child.pid is not None:

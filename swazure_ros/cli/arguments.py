@@ -160,6 +160,14 @@ def png_file(text: str) -> Path:
     return path
 
 
+def mcap_file(text: str) -> Path:
+    """An MCAP recording to write."""
+    path = output_file(text)
+    if path.suffix.lower() != ".mcap":
+        raise argparse.ArgumentTypeError(f"{path}: recordings are written as MCAP (name it .mcap)")
+    return path
+
+
 def input_file(text: str) -> Path:
     """A file to read: it exists and is not a folder."""
     path = Path(text)

@@ -10,7 +10,7 @@ from types import ModuleType
 
 from .. import __version__
 from ..core.errors import SwazureError
-from . import camera, echo, evaluate, query, spawn, study, track
+from . import camera, echo, evaluate, query, replay, spawn, study, track
 
 #: Verb name -> module with ``add_arguments(parser)`` and ``main(args) -> int``.
 VERBS: dict[str, ModuleType] = {
@@ -19,6 +19,7 @@ VERBS: dict[str, ModuleType] = {
     "spawn": spawn,
     "echo": echo,
     "query": query,
+    "replay": replay,
     "track": track,
     "camera": camera,
 }

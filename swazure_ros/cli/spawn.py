@@ -30,7 +30,15 @@ from ..core.errors import SwazureError
 from ..core.heuristics import PLAIN, TECHNIQUES
 from ..core.sensor import config_dir
 from ..sim.world import WorldSpec
-from .arguments import count, input_file, output_folder, ros_namespace, seconds, share
+from .arguments import (
+    count,
+    input_file,
+    mcap_file,
+    output_folder,
+    ros_namespace,
+    seconds,
+    share,
+)
 from .evaluate import (
     add_domain_argument,
     add_policy_argument,
@@ -102,6 +110,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="with --compute-all: write summary.json and pairs.csv here, as swazure evaluate does",
     )
+    parser.add_argument(
+        "--record",
+        type=mcap_file,
+        default=None,
+        metavar="FILE.mcap",
+        help="record every topic of the swarm to this MCAP file (ROS 2 CDR, as ros2 bag "
+        "records; Foxglove reads it); written whole when the swarm stops",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_swarm_file_argument(parser)
 
@@ -165,6 +181,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         hosts=hosts,
         parameters=args.parameters,
         fls_parameters=args.fls_parameters,
+        record=None if args.record is None else str(args.record),
     )
 
 
@@ -250,6 +267,7 @@ def main(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     bar = CreationBar(args.quiet)
     ready = False
+    swarm = None
     try:
         swarm = RunningSwarm(config, bar, leave_nodes=True)
         for signum in (signal.SIGINT, signal.SIGTERM):
@@ -286,4 +304,11 @@ def main(args: argparse.Namespace) -> int:
         print("stopping the swarm", file=sys.stderr, flush=True)
     finally:
         bar.close()
+        if swarm is not None and swarm.recorder is not None and swarm.recorder.closed:
+            recorder = swarm.recorder
+            print(
+                f"recorded {sum(recorder.counts.values())} messages on {len(recorder.counts)} "
+                f"topics ({recorder.bytes / 1e6:.1f} MB of messages) to {recorder.path}",
+                file=sys.stderr,
+            )
     return 0

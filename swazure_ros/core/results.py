@@ -12,7 +12,8 @@ import json
 import os
 import shutil
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -37,18 +38,31 @@ def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
     for the final rename. Where the file system has no unnamed files, a
     hidden named one is used. Any failure is an :class:`OutputError`.
     """
+    with atomic_output(path) as temporary:
+        write(temporary)
+
+
+@contextmanager
+def atomic_output(path: Path) -> Iterator[Path]:
+    """A path to write ``path``'s content to; it becomes ``path`` when the block ends well.
+
+    :func:`atomic_write` for a writer that runs as long as the block (a
+    recording): the same unnamed temporary file, named and renamed at the end;
+    nothing is left at ``path`` when the block raises or the process dies.
+    """
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         try:
             unnamed = os.open(path.parent, os.O_TMPFILE | os.O_WRONLY, 0o666)
         except (AttributeError, OSError):
-            _named_atomic_write(path, write)
+            with _named_atomic_output(path) as temporary:
+                yield temporary
             return
         temporary = path.parent / f".{path.name}.{os.getpid()}.tmp"
         _remove_stale(path)
         try:
             # Writers open a path; this one is the unnamed file itself.
-            write(Path(f"/proc/self/fd/{unnamed}"))
+            yield Path(f"/proc/self/fd/{unnamed}")
             temporary.unlink(missing_ok=True)
             _name_unnamed(unnamed, temporary)
         finally:
@@ -104,11 +118,12 @@ _AT_FDCWD = -100
 _AT_EMPTY_PATH = 0x1000
 
 
-def _named_atomic_write(path: Path, write: Callable[[Path], object]) -> None:
+@contextmanager
+def _named_atomic_output(path: Path) -> Iterator[Path]:
     handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
     os.close(handle)
     try:
-        write(Path(temporary))
+        yield Path(temporary)
         # mkstemp makes the file private; give it the mode a plain open() would.
         umask = os.umask(0)
         os.umask(umask)

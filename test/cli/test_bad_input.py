@@ -56,6 +56,15 @@ BAD_INPUTS = [
     (["spawn", *TORUS, "--compute-all", "--out", "afile"], "afile exists and is not a folder"),
     (["spawn", *TORUS, "--domain-id", "-1"], "outside 0..232"),
     (["spawn", *TORUS, "--out", "results"], "--compute-all"),
+    (["spawn", *TORUS, "--record", "run.bag"], "written as MCAP"),
+    (["spawn", *TORUS, "--record", "afolder"], "afolder is a folder"),
+    (["spawn", "afile"], "a swarm file is a mapping with one key, swarm:"),
+    (["spawn", "missing.yaml"], "missing.yaml: no such file"),
+    # replay
+    (["replay", "missing.mcap"], "missing.mcap: no such file"),
+    (["replay", "afolder"], "afolder is a folder"),
+    (["replay", "afile"], "not an MCAP recording"),
+    (["replay", "afile", "--rate", "0"], "a rate must be above 0"),
     # query
     (["query", "--source", "1099511627776", "--target", "3"], "outside 0..4294967295"),
     (["query", "--source", "-1", "--target", "3"], "outside 0..4294967295"),
