@@ -21,7 +21,7 @@ from ..core.heuristics import PLAIN, TECHNIQUES, HeuristicResult, run_technique
 from ..core.paths import POLICIES
 from ..core.results import describe_source, write_evaluation
 from ..core.sensor import load_sensor
-from .arguments import MAX_DOMAIN_ID, domain_id, input_file, output_folder
+from .arguments import MAX_DOMAIN_ID, domain_id, fls_id, input_file, output_folder, png_file
 
 
 def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
@@ -104,6 +104,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="DIR",
         help="write summary.json and pairs.csv here",
+    )
+    parser.add_argument(
+        "--snapshot",
+        type=png_file,
+        default=None,
+        metavar="FILE.png",
+        help="draw the swarm in 3D: FLSs coloured by --colour-by, example paths, and a "
+        "heuristic's moves",
+    )
+    parser.add_argument(
+        "--colour-by",
+        choices=("status", "ranges"),
+        default="status",
+        help="snapshot colours: each FLS's share of blind neighbours with a sweet path "
+        "(status), or range classes seen from FLS --fls (ranges)",
+    )
+    parser.add_argument(
+        "--fls", type=fls_id, default=None, metavar="I", help="--colour-by ranges: seen from FLS I"
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
 
@@ -236,4 +254,11 @@ def main(args: argparse.Namespace) -> int:
                 f"{args.out}: cannot write results ({err.strerror or err})"
             ) from err
         print(f"wrote {summary_path} and {pairs_path}")
+    if args.snapshot is not None:
+        from ..view.scene import evaluation_scene
+        from ..view.snapshot import write_snapshot
+
+        title = f"{cloud.name}, beta {_cell(swarm.beta)}, {args.policy}, {args.technique}"
+        scene = evaluation_scene(evaluation, title, args.colour_by, args.fls, heuristic=heuristic)
+        print(f"wrote {write_snapshot(scene, args.snapshot)}")
     return 0

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..view.snapshot import study_snapshots
 from .figures import study_figures
 from .report import write_report, write_tables
 from .sweep import StudyPlan, SweepProgress, SweepResult, sweep
@@ -30,5 +31,6 @@ def run_study(
     tables = study_tables(plan, result)
     tables_path = write_tables(out, tables)
     figures = study_figures(plan, result, out)
+    figures.update(study_snapshots(plan, out))
     report_path = write_report(plan, result, tables, figures, out)
     return StudyOutputs(result, tables, tables_path, figures, report_path)

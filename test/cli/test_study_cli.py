@@ -66,6 +66,12 @@ def test_quick_study_writes_every_table_figure_and_the_report(quick_study):
         png = (out / "figures" / f"{name}.png").read_bytes()
         assert png.startswith(b"\x89PNG\r\n\x1a\n") and len(png) > 10_000, name
         assert f"figures/{name}.png" in (out / "report.md").read_text()
+    for cloud in quick_clouds():
+        # One 3D snapshot per shape, beside the figures.
+        name = f"snapshot_{cloud.rsplit('/', 1)[-1].removesuffix('.xyz')}"
+        png = (out / "figures" / f"{name}.png").read_bytes()
+        assert png.startswith(b"\x89PNG\r\n\x1a\n") and len(png) > 10_000, name
+        assert f"figures/{name}.png" in (out / "report.md").read_text()
     tables_md = (out / "tables.md").read_text()
     for name in TABLES:
         assert (out / "tables" / f"{name}.csv").stat().st_size > 0, name
