@@ -22,7 +22,7 @@ import resource
 import signal
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -39,7 +39,9 @@ from ..ros.bag import Recorder
 from ..ros.coordinator import Coordinator, DiscoveryResult, MoveResult
 from ..ros.host import SwarmHost
 from ..ros.names import host_name
+from ..ros.view import ViewNode
 from ..sim.world import World, WorldSpec
+from ..view.scene import Scene, evaluation_scene, ranges_scene
 
 CREATED, READY, FAILED = "created", "ready", "failed"
 
@@ -65,6 +67,18 @@ class SwarmConfig:
     fls_parameters: dict[int, dict[str, object]] = field(default_factory=dict)
     #: Record every topic of the swarm to this MCAP file (share 0's process).
     record: str | None = None
+    #: Show the swarm (RViz markers; Foxglove on view.port), from share 0's process.
+    view: ViewConfig | None = None
+
+
+@dataclass(frozen=True)
+class ViewConfig:
+    """What the view shows first, and where Foxglove finds it."""
+
+    port: int = 8765
+    colour_by: str = "ranges"  # or "status": each FLS's share of sweet paths (the engine's)
+    fls: int | None = None  # colour_by ranges: seen from this FLS (default the first)
+    policy: str = "shortest-length"  # colour_by status: the paths' policy
 
 
 @dataclass
@@ -214,6 +228,7 @@ class RunningSwarm:
         self.host: SwarmHost | None = None
         self.coordinator: Coordinator | None = None
         self.recorder: Recorder | None = None
+        self.view: ViewNode | None = None
 
     def __enter__(self) -> RunningSwarm:
         try:
@@ -263,6 +278,14 @@ class RunningSwarm:
                 context=self.context,
             )
             self.host.add(self.coordinator)
+            if self.config.view is not None:
+                self.view = ViewNode(
+                    first_scene(self.world, self.config.view),
+                    namespace=self.config.namespace,
+                    context=self.context,
+                    port=self.config.view.port,
+                )
+                self.host.add(self.view)
 
     def _drain(self) -> None:
         """Take every pending report from the further processes."""
@@ -412,6 +435,19 @@ class RunningSwarm:
             self.context = None
 
 
+def first_scene(world: World, view: ViewConfig) -> Scene:
+    """The scene a view shows when the swarm comes up."""
+    name = world.cloud.name
+    if view.colour_by == "status":
+        evaluation = evaluate(world.swarm, world.sensor, view.policy)
+        title = f"{name}: each FLS's share of blind neighbours with a sweet path"
+        return evaluation_scene(evaluation, title)
+    scene = ranges_scene(world.hood, f"{name}: range classes", view.fls)
+    return replace(
+        scene, title=f"{name}: range classes seen from FLS {scene.ids[scene.highlight]}"
+    )
+
+
 @dataclass(frozen=True)
 class SwarmComputation:
     """The whole swarm's computation beside the engine's evaluation of the same work."""
@@ -469,6 +505,9 @@ def compute_all(
         on_discovered(result)
     evaluation = evaluation_of(world.hood, policy, result.estimates)
     evaluation.summary["seconds"] = result.seconds
+    if swarm.view is not None:
+        title = f"{world.cloud.name}, {policy}: poses found by the swarm"
+        swarm.view.show(evaluation_scene(evaluation, title))
     heuristic, moved = None, None
     if technique != PLAIN:
         if on_progress is not None:
@@ -476,6 +515,9 @@ def compute_all(
         moved = swarm.make_moves(result, technique, threshold, on_progress=on_progress)
         evaluation, heuristic = moved.evaluation, moved.heuristic
         evaluation.summary["seconds"] = result.seconds + moved.seconds
+        if swarm.view is not None:
+            title = f"{world.cloud.name}, {policy}, {technique}: after the swarm's moves"
+            swarm.view.show(evaluation_scene(evaluation, title, heuristic=heuristic))
     began = time.perf_counter()
     engine = evaluate(world.swarm, world.sensor, policy)
     engine, _ = run_technique(engine, technique, threshold)

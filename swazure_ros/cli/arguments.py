@@ -50,6 +50,14 @@ def fls_id(text: str) -> int:
     return value
 
 
+def port(text: str) -> int:
+    """A TCP port, 0 (any free one) to 65535."""
+    value = whole_number(text)
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"{value} is outside 0..65535")
+    return value
+
+
 def seconds(text: str) -> float:
     """A duration in seconds, finite and above 0."""
     value = number(text)

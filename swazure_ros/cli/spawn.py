@@ -32,9 +32,11 @@ from ..core.sensor import config_dir
 from ..sim.world import WorldSpec
 from .arguments import (
     count,
+    fls_id,
     input_file,
     mcap_file,
     output_folder,
+    port,
     ros_namespace,
     seconds,
     share,
@@ -118,6 +120,29 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="record every topic of the swarm to this MCAP file (ROS 2 CDR, as ros2 bag "
         "records; Foxglove reads it); written whole when the swarm stops",
     )
+    parser.add_argument(
+        "--view",
+        action="store_true",
+        help="show the swarm: RViz markers on /NAMESPACE/scene (frame 'swarm', metres) and "
+        "the same scene live in Foxglove (ws://127.0.0.1:--view-port)",
+    )
+    parser.add_argument(
+        "--view-port", type=port, default=8765, metavar="P", help="Foxglove port (default 8765)"
+    )
+    parser.add_argument(
+        "--view-colour",
+        choices=("ranges", "status"),
+        default="ranges",
+        help="colour FLSs by range class seen from --view-fls, or by their share of blind "
+        "neighbours with a sweet path (after --compute-all, the swarm's own)",
+    )
+    parser.add_argument(
+        "--view-fls",
+        type=fls_id,
+        default=None,
+        metavar="I",
+        help="--view-colour ranges: from FLS I",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_swarm_file_argument(parser)
 
@@ -145,7 +170,7 @@ class CreationBar:
 
 def config_from_args(args: argparse.Namespace) -> Any:
     """The swarm the options describe, as a :class:`~swazure_ros.launcher.SwarmConfig`."""
-    from ..app.swarm import SwarmConfig
+    from ..app.swarm import SwarmConfig, ViewConfig
 
     if args.beta is None and args.radius is None:
         raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
@@ -182,6 +207,9 @@ def config_from_args(args: argparse.Namespace) -> Any:
         parameters=args.parameters,
         fls_parameters=args.fls_parameters,
         record=None if args.record is None else str(args.record),
+        view=ViewConfig(args.view_port, args.view_colour, args.view_fls, args.policy)
+        if args.view
+        else None,
     )
 
 
@@ -288,6 +316,13 @@ def main(args: argparse.Namespace) -> int:
                 f"peak memory {bring_up.total_peak_mb:.0f} MB ({peaks})",
                 flush=True,
             )
+            if swarm.view is not None:
+                live = swarm.view.live
+                print(
+                    f"view: RViz MarkerArray on /{config.namespace}/scene (fixed frame swarm); "
+                    f"Foxglove ws://127.0.0.1:{live.port if live else '-'}",
+                    flush=True,
+                )
             if args.until_ready:
                 return 0
             if args.compute_all:

@@ -37,6 +37,8 @@ TRACK_REQUESTS_TOPIC = "track_requests"
 TRACK_SAMPLES_TOPIC = "track_samples"
 TRACK_ESTIMATES_TOPIC = "track_estimates"
 DEPARTED_TOPIC = "departed"
+#: The swarm as RViz markers (view node), and the Foxglove channel of the same scene.
+SCENE_TOPIC = "scene"
 #: Seconds a node must stay off the ROS graph before it counts as gone.
 LIVENESS_GRACE = 2.0
 #: Per FLS, when its camera_view parameter names a neighbour: what its camera sees.
@@ -87,6 +89,8 @@ WORLD_QOS = QoSProfile(
 )
 # Who is gone is state, like the world: a reader that comes later gets the list.
 DEPARTED_QOS = WORLD_QOS
+# So is the scene: RViz started later draws the current one.
+SCENE_QOS = WORLD_QOS
 # The simulated clock is driven tick by tick and re-published while a tick is
 # outstanding (app.track), so every tick must arrive: reliable, a few deep.
 CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)

@@ -7,17 +7,21 @@ RGBA in [0, 1]; positions are cm in the swarm frame.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..core.errors import SwazureError, UnknownFlsError
-from ..core.evaluate import SWEET_PATH, Evaluation
+from ..core.evaluate import SWEET_PATH, Evaluation, Neighbourhood
 from ..core.heuristics import HeuristicResult
 from ..core.sensor import BLIND, DECAYING, SWEET
 
 FloatArray = NDArray[np.float64]
+#: Viewers (RViz, Foxglove) work in metres (REP 103); the swarm's frame is in cm.
+METRES_PER_CM = 0.01
+#: The frame the viewers draw the scene in.
+SCENE_FRAME = "swarm"
 Colour = tuple[float, float, float, float]
 #: A label and its RGBA colour.
 LegendEntry = tuple[str, Colour]
@@ -89,9 +93,8 @@ def status_colours(evaluation: Evaluation) -> tuple[FloatArray, list[LegendEntry
     return colours, legend
 
 
-def range_colours(evaluation: Evaluation, chosen: int) -> tuple[FloatArray, list[LegendEntry]]:
+def range_colours(hood: Neighbourhood, chosen: int) -> tuple[FloatArray, list[LegendEntry]]:
     """(N, 4) colours by the range class of each FLS seen from FLS index ``chosen``."""
-    hood = evaluation.hood
     colours = np.tile(np.array(OTHER[1]), (hood.swarm.size, 1))
     pairs = hood.pairs
     mine = (pairs.first == chosen) | (pairs.second == chosen)
@@ -178,21 +181,35 @@ def evaluation_scene(
         )
     if colour_by != "ranges":
         raise SwazureError(f"unknown colouring {colour_by!r}: status or ranges")
+    scene = ranges_scene(evaluation.hood, title, chosen_fls)
+    return replace(
+        scene,
+        paths=example_paths(evaluation, paths, source=scene.highlight),
+        moves=example_moves(heuristic),
+    )
+
+
+def ranges_scene(hood: Neighbourhood, title: str, chosen_fls: int | None = None) -> Scene:
+    """Every FLS coloured by its range class seen from FLS ``chosen_fls`` (default the first)."""
+    swarm = hood.swarm
     ids = swarm.cloud_index
     chosen = int(ids[0]) if chosen_fls is None else chosen_fls
     index = int(np.searchsorted(ids, chosen))
     if index >= len(ids) or ids[index] != chosen:
         raise UnknownFlsError(f"no FLS {chosen} in this swarm of {len(ids)} FLSs")
-    colours, legend = range_colours(evaluation, index)
+    colours, legend = range_colours(hood, index)
     legend[0] = (f"FLS {chosen}", legend[0][1])
     return Scene(
-        title,
-        ids.copy(),
-        swarm.points.copy(),
-        float(swarm.radius),
-        colours,
-        legend,
-        example_paths(evaluation, paths, source=index),
-        example_moves(heuristic),
+        title, ids.copy(), swarm.points.copy(), float(swarm.radius), colours, legend,
         highlight=index,
-    )
+    )  # fmt: skip
+
+
+def placed(scene: Scene, home: FloatArray, ids: NDArray[np.int64], points: FloatArray) -> Scene:
+    """``scene`` with FLSs ``ids`` (K,) at ``points`` (K, 3), cm; an arrow per FLS off ``home``."""
+    rows = np.searchsorted(scene.ids, ids)
+    known = (rows < len(scene.ids)) & (scene.ids[np.minimum(rows, len(scene.ids) - 1)] == ids)
+    now = scene.points.copy()
+    now[rows[known]] = points[known]
+    away = np.flatnonzero((now != home).any(axis=1))
+    return replace(scene, points=now, moves=[(home[i], now[i]) for i in away])
