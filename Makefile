@@ -17,7 +17,7 @@ PYTEST_ARGS ?=
 ROS2CLI_WHEELS := $(wildcard ../shared/wheels/ros2cli-jazzy/*.whl)
 ROS2CLI_STAMP := $(VENV)/.stamp-ros2cli
 
-.PHONY: setup test lint demo bench study clean lock help
+.PHONY: setup test lint demo bench study colcon clean lock help
 .DEFAULT_GOAL := help
 
 help:
@@ -25,6 +25,7 @@ help:
 	@echo "make test   set up if needed, then lint, type-check and run every test"
 	@echo "make study  regenerate the published tables, figures and report into study/"
 	@echo "make bench  run the benchmarks and rewrite BENCHMARKS.md (long)"
+	@echo "make colcon build both packages with colcon over the venv, run the CLI from install/"
 	@echo "make lint   ruff (lint and format check) and mypy on the core"
 	@echo "make setup  create .venv with the pinned ROS 2 Jazzy wheels and build msg_defs"
 	@echo "make clean  remove .venv, build/ and caches"
@@ -75,6 +76,9 @@ bench: setup
 
 study: setup
 	$(VENV)/bin/swazure study --out study
+
+colcon: setup
+	scripts/colcon_check.sh $(VENV)
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache .hypothesis

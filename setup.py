@@ -15,6 +15,8 @@ setup(
         (f"share/{PACKAGE}", ["package.xml"]),
         (f"share/{PACKAGE}/config", glob("config/*.yaml") + glob("config/*.xml")),
         (f"share/{PACKAGE}/config/cameras", glob("config/cameras/*.yaml")),
+        (f"share/{PACKAGE}/config/swarms", glob("config/swarms/*.yaml")),
+        (f"share/{PACKAGE}/config/track", glob("config/track/*")),
     ],
     install_requires=["setuptools"],
     python_requires=">=3.10",

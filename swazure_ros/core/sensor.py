@@ -301,8 +301,12 @@ def config_dir() -> Path:
     candidates = []
     if "SWAZURE_CONFIG_DIR" in os.environ:
         candidates.append(Path(os.environ["SWAZURE_CONFIG_DIR"]))
-    # A source checkout or editable install, then an installed share/ folder.
-    candidates.append(Path(__file__).resolve().parents[2] / "config")
+    # A source checkout or editable install, then an installed share/ folder: the
+    # package's own install prefix (colcon's install space), then the interpreter's.
+    here = Path(__file__).resolve()
+    candidates.append(here.parents[2] / "config")
+    if len(here.parents) > 5:  # <prefix>/lib/pythonX.Y/site-packages/swazure_ros/core/
+        candidates.append(here.parents[5] / "share" / "swazure_ros" / "config")
     candidates.append(Path(sys.prefix) / "share" / "swazure_ros" / "config")
     for candidate in candidates:
         if (candidate / "sensor.yaml").is_file():
