@@ -78,7 +78,8 @@ class ViewConfig:
     port: int = 8765
     colour_by: str = "ranges"  # or "status": each FLS's share of sweet paths (the engine's)
     fls: int | None = None  # colour_by ranges: seen from this FLS (default the first)
-    policy: str = "shortest-length"  # colour_by status: the paths' policy
+    policy: str = "shortest-length"  # colour_by status and pairs: the paths' policy
+    pairs: tuple[tuple[int, int], ...] = ()  # ordered blind pairs whose paths to draw
 
 
 @dataclass
@@ -438,11 +439,15 @@ class RunningSwarm:
 def first_scene(world: World, view: ViewConfig) -> Scene:
     """The scene a view shows when the swarm comes up."""
     name = world.cloud.name
-    if view.colour_by == "status":
+    if view.colour_by == "status" or view.pairs:
+        # The engine's evaluation: the swarm's discovery finds the same, pair for pair.
         evaluation = evaluate(world.swarm, world.sensor, view.policy)
         title = f"{name}: each FLS's share of blind neighbours with a sweet path"
-        return evaluation_scene(evaluation, title)
-    scene = ranges_scene(world.hood, f"{name}: range classes", view.fls)
+        if view.colour_by == "status":
+            return evaluation_scene(evaluation, title, pairs=view.pairs)
+        scene = evaluation_scene(evaluation, name, "ranges", view.fls, pairs=view.pairs)
+    else:
+        scene = ranges_scene(world.hood, f"{name}: range classes", view.fls)
     return replace(
         scene, title=f"{name}: range classes seen from FLS {scene.ids[scene.highlight]}"
     )
@@ -507,7 +512,8 @@ def compute_all(
     evaluation.summary["seconds"] = result.seconds
     if swarm.view is not None:
         title = f"{world.cloud.name}, {policy}: poses found by the swarm"
-        swarm.view.show(evaluation_scene(evaluation, title))
+        pairs = swarm.config.view.pairs if swarm.config.view else ()
+        swarm.view.show(evaluation_scene(evaluation, title, pairs=pairs))
     heuristic, moved = None, None
     if technique != PLAIN:
         if on_progress is not None:
@@ -517,7 +523,8 @@ def compute_all(
         evaluation.summary["seconds"] = result.seconds + moved.seconds
         if swarm.view is not None:
             title = f"{world.cloud.name}, {policy}, {technique}: after the swarm's moves"
-            swarm.view.show(evaluation_scene(evaluation, title, heuristic=heuristic))
+            scene = evaluation_scene(evaluation, title, heuristic=heuristic, pairs=pairs)
+            swarm.view.show(scene)
     began = time.perf_counter()
     engine = evaluate(world.swarm, world.sensor, policy)
     engine, _ = run_technique(engine, technique, threshold)

@@ -58,6 +58,17 @@ def port(text: str) -> int:
     return value
 
 
+def fls_pairs(text: str) -> tuple[tuple[int, int], ...]:
+    """``I:J,K:L``: ordered pairs of FLS ids (source:target)."""
+    pairs = []
+    for item in text.split(","):
+        source, colon, target = item.partition(":")
+        if not colon:
+            raise argparse.ArgumentTypeError(f"{item!r}: expected SOURCE:TARGET, e.g. 3:17")
+        pairs.append((fls_id(source), fls_id(target)))
+    return tuple(pairs)
+
+
 def seconds(text: str) -> float:
     """A duration in seconds, finite and above 0."""
     value = number(text)

@@ -33,6 +33,7 @@ from ..sim.world import WorldSpec
 from .arguments import (
     count,
     fls_id,
+    fls_pairs,
     input_file,
     mcap_file,
     output_folder,
@@ -143,6 +144,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="I",
         help="--view-colour ranges: from FLS I",
     )
+    parser.add_argument(
+        "--view-pairs",
+        type=fls_pairs,
+        default=(),
+        metavar="I:J,...",
+        help="draw the paths of these ordered blind pairs (source:target ids) instead of examples",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_swarm_file_argument(parser)
 
@@ -207,7 +215,9 @@ def config_from_args(args: argparse.Namespace) -> Any:
         parameters=args.parameters,
         fls_parameters=args.fls_parameters,
         record=None if args.record is None else str(args.record),
-        view=ViewConfig(args.view_port, args.view_colour, args.view_fls, args.policy)
+        view=ViewConfig(
+            args.view_port, args.view_colour, args.view_fls, args.policy, args.view_pairs
+        )
         if args.view
         else None,
     )

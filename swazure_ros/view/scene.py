@@ -7,6 +7,7 @@ RGBA in [0, 1]; positions are cm in the swarm frame.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -139,6 +140,30 @@ def example_paths(
     return chosen
 
 
+def pair_paths(evaluation: Evaluation, pairs: Sequence[tuple[int, int]]) -> list[Polyline]:
+    """The paths of the ordered blind pairs ``pairs`` (source id, target id), as found.
+
+    A pair without a path is left out; SwazureError names a pair that is not
+    an ordered blind pair of the evaluation.
+    """
+    results = evaluation.pairs
+    ids = evaluation.hood.swarm.cloud_index
+    points = evaluation.hood.swarm.points
+    chosen: list[Polyline] = []
+    for source, target in pairs:
+        rows = np.flatnonzero((ids[results.source] == source) & (ids[results.target] == target))
+        if not len(rows):
+            raise SwazureError(f"FLS {source} -> {target} is not a blind pair of this swarm")
+        pair = int(rows[0])
+        nodes = results.nodes[results.offsets[pair] : results.offsets[pair + 1]]
+        if len(nodes) < 2:
+            continue
+        label = f"FLS {source} -> {target}, {int(results.hops[pair])} hops"
+        colour = PATH_COLOURS[len(chosen) % len(PATH_COLOURS)]
+        chosen.append(Polyline(points[nodes].copy(), label, colour))
+    return chosen
+
+
 def example_moves(
     heuristic: HeuristicResult | None, pairs: int = 3
 ) -> list[tuple[FloatArray, FloatArray]]:
@@ -158,6 +183,7 @@ def evaluation_scene(
     chosen_fls: int | None = None,
     paths: int = 3,
     heuristic: HeuristicResult | None = None,
+    pairs: Sequence[tuple[int, int]] = (),
 ) -> Scene:
     """The scene of one evaluation, coloured by ``colour_by``.
 
@@ -165,6 +191,7 @@ def evaluation_scene(
     path, with example paths of the swarm; "ranges": each FLS by its range
     class seen from FLS ``chosen_fls`` (an id; default the first), with
     example paths from it. With ``heuristic``, the moves of a few resolved pairs.
+    With ``pairs`` (source id, target id), those pairs' paths instead of examples.
     """
     swarm = evaluation.hood.swarm
     if colour_by == "status":
@@ -176,7 +203,7 @@ def evaluation_scene(
             float(swarm.radius),
             colours,
             legend,
-            example_paths(evaluation, paths),
+            pair_paths(evaluation, pairs) if pairs else example_paths(evaluation, paths),
             example_moves(heuristic),
         )
     if colour_by != "ranges":
@@ -184,7 +211,9 @@ def evaluation_scene(
     scene = ranges_scene(evaluation.hood, title, chosen_fls)
     return replace(
         scene,
-        paths=example_paths(evaluation, paths, source=scene.highlight),
+        paths=pair_paths(evaluation, pairs)
+        if pairs
+        else example_paths(evaluation, paths, source=scene.highlight),
         moves=example_moves(heuristic),
     )
 

@@ -59,6 +59,8 @@ BAD_INPUTS = [
     (["spawn", *TORUS, "--record", "run.bag"], "written as MCAP"),
     (["spawn", *TORUS, "--record", "afolder"], "afolder is a folder"),
     (["spawn", "afile"], "a swarm file is a mapping with one key, swarm:"),
+    (["spawn", *TORUS, "--view", "--view-pairs", "3-17"], "expected SOURCE:TARGET"),
+    (["spawn", *TORUS, "--view", "--view-port", "70000"], "outside 0..65535"),
     (["spawn", "missing.yaml"], "missing.yaml: no such file"),
     # replay
     (["replay", "missing.mcap"], "missing.mcap: no such file"),

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.clouds import load_cloud
-from swazure_ros.core.errors import UnknownFlsError
+from swazure_ros.core.errors import SwazureError, UnknownFlsError
 from swazure_ros.core.evaluate import SWEET_PATH, evaluate
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.heuristics import run_technique
@@ -95,3 +95,19 @@ def test_a_heuristics_moves_are_the_scenes_arrows(tmp_path):
     path = write_snapshot(scene, tmp_path / "torus.png")
     assert path.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["torus.png"]
+
+
+def test_selected_pairs_paths_are_drawn_and_a_pair_that_is_not_blind_is_refused(evaluation):
+    pairs = evaluation.pairs
+    ids = evaluation.hood.swarm.cloud_index
+    found = np.flatnonzero(pairs.hops >= 2)[:2]
+    selected = [(int(ids[pairs.source[m]]), int(ids[pairs.target[m]])) for m in found]
+    scene = evaluation_scene(evaluation, "torus", pairs=selected)
+    assert [path.label.split(",")[0] for path in scene.paths] == [
+        f"FLS {source} -> {target}" for source, target in selected
+    ]
+    for path, pair in zip(scene.paths, found, strict=True):
+        nodes = pairs.nodes[pairs.offsets[pair] : pairs.offsets[pair + 1]]
+        np.testing.assert_array_equal(path.points, evaluation.hood.swarm.points[nodes])
+    with pytest.raises(SwazureError, match="FLS 0 -> 0 is not a blind pair"):
+        evaluation_scene(evaluation, "torus", pairs=[(0, 0)])
