@@ -439,6 +439,7 @@ def compute_all(
         "discovery": distributed["seconds"],
         "rounds": distributed["rounds"],
         "moving": moved["seconds"],
+        "timeouts": moved.get("timeouts", 0),
         "batches": moved.get("batches", 0),
         "messages": sum(distributed["messages"].values()) + sum(moved["messages"].values()),
         "bytes": sum(distributed["bytes"].values()) + sum(moved["bytes"].values()),
@@ -494,6 +495,9 @@ def discovery_section(args: argparse.Namespace) -> list[str]:
                 lines.append(f"| {name} | {technique} | {processes} | {row['failed']} |{blank}")
                 continue
             moving = f"{row['moving']:.1f}" if technique != "plain" else "-"
+            if row.get("timeouts"):
+                # Each wait that ended at its deadline cost round_timeout seconds.
+                moving += f" ({row['timeouts']} timed out)"
             batches = f"{row['batches']:,}" if technique != "plain" else "-"
             # The swarm's computation (discovery and moves) over the engine's for the same work.
             times_engine = (row["discovery"] + row["moving"]) / max(row["engine"], 1e-9)

@@ -484,6 +484,7 @@ class SwarmComputation:
                 "batches": moved.batches,
                 "move_commands": moved.moved,
                 "path_walks": moved.walks,
+                "timeouts": moved.timeouts,
                 "messages": moved.traffic.messages,
                 "bytes": moved.traffic.bytes,
             }

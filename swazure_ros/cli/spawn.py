@@ -256,6 +256,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
             f"{args.technique}: {moved.seconds:.2f} s, {moved.batches} batches, "
             f"{moved.moved} move commands, {moved.walks} path walks, "
             f"{moved.traffic.total_messages} messages, {moved.traffic.total_bytes / 1e6:.1f} MB"
+            + (f", {moved.timeouts} waits timed out" if moved.timeouts else "")
         )
     summary = computed.evaluation.summary
     summary["distributed"] = computed.distributed

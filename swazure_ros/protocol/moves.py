@@ -146,6 +146,7 @@ class MoveOutcome:
     moved: int  # move commands sent, returns included
     walks: int
     warnings: tuple[str, ...] = ()
+    timeouts: int = 0  # waits that ended at their deadline, not by what they waited for
 
 
 class MoveRun:
@@ -180,6 +181,8 @@ class MoveRun:
         self.walks = 0
         self.warnings: list[str] = []
         self.outcome: MoveOutcome | None = None
+        #: Waits that ended at their deadline (each cost ``timeout`` seconds).
+        self.timeouts = 0
         self._ids = evaluation.hood.swarm.cloud_index
         self._home = evaluation.hood.swarm.points
         self._batch = -1
@@ -230,6 +233,7 @@ class MoveRun:
         """The time is ``now``: end a wait whose deadline has passed."""
         if self.done or now <= self._deadline:
             return []
+        self.timeouts += 1
         if self._stage == _WALKING:
             missing = sorted(set(self._walking) - self._walked)
             self.warnings.append(f"no result of the path walks {missing[:10]}")
@@ -305,4 +309,5 @@ class MoveRun:
             self.moved,
             self.walks,
             tuple(self.warnings),
+            self.timeouts,
         )

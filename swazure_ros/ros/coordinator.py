@@ -136,6 +136,7 @@ class MoveResult:
     walks: int
     seconds: float
     traffic: Traffic
+    timeouts: int = 0  # waits that ended at their deadline (each cost round_timeout s)
 
 
 #: Seconds between the coordinator's looks at its deadlines.
@@ -349,6 +350,7 @@ class Coordinator(SwarmNode):
             moved.walks,
             seconds,
             traffic,
+            moved.timeouts,
         )
 
     def progress(self) -> str:

@@ -114,3 +114,4 @@ def test_a_lost_walk_costs_its_pair_and_the_run_goes_on_after_the_deadline():
     returns = run.on_tick(7.1)
     assert returns and all(move.kind == RETURN for move in returns)
     assert "no result of the path walks" in run.warnings[0]
+    assert run.timeouts == 1
