@@ -17,6 +17,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Iterator
+from contextlib import ExitStack
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -144,9 +145,11 @@ class Recorder(Node):
         )
         self.path = path
         self._prefix = f"/{namespace.strip('/')}/"
-        self._output = atomic_output(path)
-        self._stream: IO[bytes] = open(self._output.__enter__(), "wb")  # noqa: SIM115
-        self._writer = Writer(self._stream)
+        # The file and its atomic rename stay open until close(): a recording is
+        # as long as the swarm runs.
+        self._files = ExitStack()
+        temporary = self._files.enter_context(atomic_output(path))
+        self._writer = Writer(self._files.enter_context(temporary.open("wb")))
         self._writer.start(profile="ros2", library="swazure")
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
@@ -219,8 +222,7 @@ class Recorder(Node):
             return
         self.closed = True
         self._writer.finish()
-        self._stream.close()
-        self._output.__exit__(None, None, None)
+        self._files.close()  # the stream, then the rename into place
 
 
 @dataclass(frozen=True)
