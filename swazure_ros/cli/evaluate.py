@@ -189,12 +189,21 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
         rows.append(
             ("tried / resolved pairs", f"{summary['tried_pairs']} / {summary['resolved_pairs']}")
         )
-        rows.append(
+        per_pair, failed = summary["moved_per_resolved_pair"], summary["failed_moved_distance"]
+        rows += [
             (
                 "moves: count, mean, max cm",
                 f"{moved['count']}, {_cell(moved['mean'])}, {_cell(moved['max'])}",
-            )
-        )
+            ),
+            (
+                "moved per resolved pair: mean, max cm",
+                f"{_cell(per_pair['mean'])}, {_cell(per_pair['max'])}",
+            ),
+            (
+                "moves of failed pairs: count, mean cm",
+                f"{failed['count']}, {_cell(failed['mean'])}",
+            ),
+        ]
     for key, label in [
         ("distance_error_pct", "distance error, %"),
         ("alpha_deg", "alpha, deg"),

@@ -10,12 +10,16 @@ from swazure_ros.core.evaluate import NO_PATH, REASON_BLOCKED, SWEET_PATH, evalu
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.heuristics import (
     DIRECTIONS,
+    MOVE_OBSTRUCTING,
+    MOVE_SOURCE,
     apply,
     free_circle_point,
+    heuristic_summary,
     move_obstructing,
     move_source,
+    run_technique,
 )
-from swazure_ros.core.sensor import measured_vectors
+from swazure_ros.core.sensor import load_sensor, measured_vectors
 
 R = 0.5
 A, B, C = np.array([0.0, 0, 0]), np.array([2.0, 7, 0]), np.array([4.0, 0, 0])
@@ -290,3 +294,28 @@ def test_a_pair_whose_walk_failed_keeps_its_plain_result():
     np.testing.assert_array_equal(pairs.estimate[pair], heuristic.estimate[pair] + 1.0)
     rows = heuristic.paths
     assert pairs.path(pair) == rows.nodes[rows.offsets[pair] : rows.offsets[pair + 1]].tolist()
+
+
+@pytest.mark.parametrize("technique", [MOVE_OBSTRUCTING, MOVE_SOURCE])
+def test_moved_distance_counts_resolved_pairs_and_reports_failed_ones_and_totals_apart(technique):
+    swarm = make_swarm(load_cloud("torus:120", 1.6).points, beta=0.5)
+    evaluation = evaluate(swarm, load_sensor(), "shortest-length")
+    _, heuristic = run_technique(evaluation, technique, 10)
+    summary = heuristic_summary(heuristic)
+    offsets, distance = heuristic.move_offsets, heuristic.move_distance
+    resolved_moves, failed_moves, totals = [], [], []
+    for pair in range(len(heuristic.resolved)):
+        mine = distance[offsets[pair] : offsets[pair + 1]].tolist()
+        if heuristic.resolved[pair]:
+            resolved_moves += mine
+            totals.append(sum(mine))
+        else:
+            failed_moves += mine
+    assert summary["moved_distance"]["count"] == len(resolved_moves) > 0
+    assert summary["moved_distance"]["max"] == pytest.approx(max(resolved_moves))
+    assert summary["failed_moved_distance"]["count"] == len(failed_moves)
+    if technique == MOVE_OBSTRUCTING:
+        assert failed_moves  # here obstructers stepped aside for pairs that still failed
+    assert summary["moved_per_resolved_pair"]["count"] == summary["resolved_pairs"]
+    assert summary["moved_per_resolved_pair"]["mean"] == pytest.approx(np.mean(totals))
+    assert summary["moved_per_resolved_pair"]["max"] == pytest.approx(max(totals))
