@@ -196,11 +196,11 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
                 f"{moved['count']}, {_cell(moved['mean'])}, {_cell(moved['max'])}",
             ),
             (
-                "moved per resolved pair: mean, max cm",
+                "per resolved pair: mean, max",
                 f"{_cell(per_pair['mean'])}, {_cell(per_pair['max'])}",
             ),
             (
-                "moves of failed pairs: count, mean cm",
+                "failed pairs' moves: n, mean",
                 f"{failed['count']}, {_cell(failed['mean'])}",
             ),
         ]
