@@ -21,7 +21,7 @@ from contextlib import ExitStack
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
 
 from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
 from mcap.exceptions import McapError
@@ -243,18 +243,11 @@ class Recorded:
     log_time: int
 
 
-def _reader(stream: IO[bytes], path: Path) -> Any:
-    try:
-        return make_reader(stream)
-    except (McapError, ValueError, EOFError) as err:
-        raise SwazureError(f"{path}: not an MCAP recording ({err})") from err
-
-
 def recorded_channels(path: Path) -> list[Channel]:
     """The ROS 2 (cdr) topics of an MCAP recording; SwazureError if it is not one."""
     try:
         with path.open("rb") as stream:
-            summary = _reader(stream, path).get_summary()
+            summary = make_reader(stream).get_summary()
     except OSError as err:
         raise SwazureError(f"{path}: cannot read ({err.strerror or err})") from err
     except (McapError, ValueError, EOFError) as err:
@@ -272,7 +265,7 @@ def read_recording(path: Path) -> Iterator[Recorded]:
     """The ROS 2 messages of an MCAP recording, in log time order."""
     try:
         with path.open("rb") as stream:
-            messages = _reader(stream, path).iter_messages(log_time_order=True)
+            messages = make_reader(stream).iter_messages(log_time_order=True)
             for schema, channel, message in messages:
                 if schema is not None and channel.message_encoding == "cdr":
                     yield Recorded(channel.topic, message.data, message.log_time)
