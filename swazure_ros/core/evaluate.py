@@ -28,7 +28,7 @@ from .neighbours import (
     pairs_of,
 )
 from .paths import Graph, Paths, check_policy, make_graph, path_hops, shortest_paths
-from .sensor import DECAYING, SWEET, Sensor, measured_vectors
+from .sensor import DECAYING, SWEET, Sensor, hop_error, measured_vectors
 from .sight import Grid, build_grid, obstructed, obstructers, segments_near
 
 FloatArray = NDArray[np.float64]
@@ -79,8 +79,10 @@ class Neighbourhood:
     def _graph(self, mask: NDArray[np.bool_]) -> Graph:
         index = np.flatnonzero(mask & self.usable)
         pairs = self.pairs
+        tracking = pairs.tracking[index]
+        costs = hop_error(self.sensor, tracking, self.swarm.radius)
         return make_graph(
-            self.swarm.size, pairs.first[index], pairs.second[index], pairs.tracking[index], index
+            self.swarm.size, pairs.first[index], pairs.second[index], tracking, index, costs
         )
 
     @cached_property

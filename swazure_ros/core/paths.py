@@ -6,7 +6,10 @@ edge length is the tracking distance. :func:`shortest_paths` finds, for many
 
 - ``fewest-hops``: fewest edges; among those, the smallest length;
 - ``shortest-length``: smallest sum of tracking distances; among those, the
-  fewest edges.
+  fewest edges;
+- ``least-error``: smallest sum of the edges' expected errors
+  (:attr:`Graph.costs`, from :func:`~.sensor.hop_error`); among those, the
+  fewest edges. Derived in docs/core.md ("Least-error paths").
 
 Remaining ties are broken by predecessor: the predecessor of a node on the
 path is the neighbour with the smallest FLS index among those through which
@@ -18,7 +21,7 @@ correct search (a distributed one included) picks the same path.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numba
 import numpy as np
@@ -31,7 +34,8 @@ IntArray = NDArray[np.int64]
 
 FEWEST_HOPS = "fewest-hops"
 SHORTEST_LENGTH = "shortest-length"
-POLICIES = (FEWEST_HOPS, SHORTEST_LENGTH)
+LEAST_ERROR = "least-error"
+POLICIES = (FEWEST_HOPS, SHORTEST_LENGTH, LEAST_ERROR)
 
 #: Path nodes kept per pair in the parallel pass; longer paths take a second pass.
 _WIDTH = 8
@@ -45,6 +49,7 @@ class Graph:
     indices: IntArray  # (2E,), sorted within each row
     weights: FloatArray  # (2E,), tracking distance of each edge, cm
     labels: IntArray  # (2E,), caller's label of each edge (e.g. its pair index)
+    costs: FloatArray | None = None  # (2E,), expected error of each edge (least-error)
 
     @property
     def size(self) -> int:
@@ -56,17 +61,21 @@ class Graph:
         """Number of undirected edges."""
         return len(self.indices) // 2
 
-    def edge_labels(self, first: ArrayLike, second: ArrayLike) -> IntArray:
-        """Label of the edge first[m]-second[m] for each m: (M,); -1 where there is none."""
+    def edge_positions(self, first: ArrayLike, second: ArrayLike) -> IntArray:
+        """Position in ``indices`` of the edge first[m]-second[m] for each m: (M,); -1 if none."""
         return np.asarray(
-            _edge_labels(
+            _edge_positions(
                 self.indptr,
                 self.indices,
-                self.labels,
                 np.asarray(first, dtype=np.int64),
                 np.asarray(second, dtype=np.int64),
             )
         )
+
+    def edge_labels(self, first: ArrayLike, second: ArrayLike) -> IntArray:
+        """Label of the edge first[m]-second[m] for each m: (M,); -1 where there is none."""
+        position = self.edge_positions(first, second)
+        return np.where(position >= 0, self.labels[position], -1)
 
     def components(self) -> IntArray:
         """Connected-component label of every node: (N,)."""
@@ -98,10 +107,12 @@ def make_graph(
     second: ArrayLike,
     weights: ArrayLike,
     labels: ArrayLike | None = None,
+    costs: ArrayLike | None = None,
 ) -> Graph:
     """Undirected graph on ``size`` nodes from edge lists (E,) with lengths (E,), cm.
 
-    ``labels`` (E,) tag each edge (default: its position in the lists).
+    ``labels`` (E,) tag each edge (default: its position in the lists);
+    ``costs`` (E,) are the edges' expected errors, for the least-error policy.
     """
     first = np.asarray(first, dtype=np.int64)
     second = np.asarray(second, dtype=np.int64)
@@ -115,24 +126,31 @@ def make_graph(
     head = np.concatenate([second, first])
     order = np.lexsort((head, tail))
     indptr = np.concatenate([[0], np.cumsum(np.bincount(tail, minlength=size))])
+    edge_costs = None
+    if costs is not None:
+        costs = np.asarray(costs, dtype=np.float64)
+        if costs.shape != weights.shape:
+            raise ValueError("`costs` must have one value per edge")
+        edge_costs = np.concatenate([costs, costs])[order]
     return Graph(
         indptr.astype(np.int64),
         head[order],
         np.concatenate([weights, weights])[order],
         np.concatenate([labels, labels])[order],
+        edge_costs,
     )
 
 
 @numba.njit(cache=True, parallel=True)
-def _edge_labels(
-    indptr: IntArray, indices: IntArray, labels: IntArray, first: IntArray, second: IntArray
+def _edge_positions(
+    indptr: IntArray, indices: IntArray, first: IntArray, second: IntArray
 ) -> IntArray:
     out = np.full(len(first), -1, dtype=np.int64)
     for m in numba.prange(len(first)):
         row = indices[indptr[first[m]] : indptr[first[m] + 1]]
         position = np.searchsorted(row, second[m])
         if position < len(row) and row[position] == second[m]:
-            out[m] = labels[indptr[first[m]] + position]
+            out[m] = indptr[first[m]] + position
     return out
 
 
@@ -456,13 +474,21 @@ def shortest_paths(
     graph : Graph
     sources, targets : (M,) array_like of int
         Pairs, grouped by source (all pairs of one source adjacent).
-    policy : {'fewest-hops', 'shortest-length'}
+    policy : {'fewest-hops', 'shortest-length', 'least-error'}
+        least-error needs ``graph.costs``; its paths' ``length`` is still the
+        sum of their tracking distances.
     components : (N,) array of int, optional
         ``graph.components()``, when the caller has it already.
     progress : callable, optional
         Called with the number of pairs done after each batch of sources.
     """
     fewest_hops = check_policy(policy) == FEWEST_HOPS
+    # Least-error is shortest-length over the edges' costs instead of their lengths.
+    weights = graph.weights
+    if policy == LEAST_ERROR:
+        if graph.costs is None:
+            raise ValueError("the least-error policy needs a graph with edge costs")
+        weights = graph.costs
     sources = np.asarray(sources, dtype=np.int64)
     targets = np.asarray(targets, dtype=np.int64)
     if sources.shape != targets.shape:
@@ -480,7 +506,6 @@ def shortest_paths(
     buffer = np.full((pairs, _WIDTH), -1, dtype=np.int64)
 
     # Most blind pairs are joined by a common neighbour: settle those by a join.
-    weights = graph.weights
     smallest = float(weights.min()) if len(weights) else 0.0
     # The margin keeps a float sum of three edges from rounding below 3 * smallest.
     bound = np.inf if fewest_hops else (3.0 * smallest * (1 - 1e-12) if smallest > 0 else -np.inf)
@@ -551,7 +576,10 @@ def shortest_paths(
                 nodes[long_offsets[slot] : long_offsets[slot] + hops[pair] + 1] = scratch[
                     start : start + hops[pair] + 1
                 ]
-    return Paths(found, hops, length, offsets, nodes)
+    paths = Paths(found, hops, length, offsets, nodes)
+    if policy == LEAST_ERROR:
+        return replace(paths, length=path_sums(graph, paths, graph.weights))
+    return paths
 
 
 def paths_from_rows(
@@ -574,6 +602,20 @@ def paths_from_rows(
     for pair, nodes in rows.items():
         flat[offsets[pair] : offsets[pair + 1]] = nodes
     return Paths(found, hops, length, offsets, flat)
+
+
+def path_sums(graph: Graph, paths: Paths, values: FloatArray) -> FloatArray:
+    """Sum of ``values`` (2E,), one per edge of ``graph``, along each path: (M,); NaN if none.
+
+    Summed from the source outwards, as a search and the distributed
+    protocol sum them, so that equal paths give equal floats.
+    """
+    pair, start, end = path_hops(paths)
+    # bincount adds in array order, and path_hops lists each path's hops in order.
+    sums = np.bincount(
+        pair, weights=values[graph.edge_positions(start, end)], minlength=len(paths.found)
+    )
+    return np.where(paths.found, sums, np.nan)
 
 
 def path_hops(paths: Paths) -> tuple[IntArray, IntArray, IntArray]:

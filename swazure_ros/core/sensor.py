@@ -376,3 +376,50 @@ def measured_vectors(
     direction = unit + spread * (z[:, 1:2] * across + z[:, 2:3] * other)
     direction /= np.linalg.norm(direction, axis=1, keepdims=True)
     return np.asarray(direction * (measured + 2.0 * radius)[:, None], dtype=np.float64)
+
+
+def hop_error(sensor: Sensor, tracking: ArrayLike, radius: float) -> FloatArray:
+    """Expected error that a measured hop adds to a summed vector, per tracking distance (M,).
+
+    The least-error path policy's edge cost (docs/core.md, "Least-error paths"):
+
+    - a deterministic sensor (the published quadratic): the magnitude of the
+      hop's length error, ``|t e(t)|``, cm;
+    - a stochastic sensor: the variance of the hop vector's error, cm^2: the
+      measured length's ``(t sd_d(t))^2`` plus the direction's two axes,
+      ``2 ((t' + 2r) sd_dir(t))^2`` (small angles).
+
+    Zero for an error-free sensor. A rendering camera has no model of its
+    error but the polynomial its sensor file may give.
+    """
+    tracking = np.asarray(tracking, dtype=np.float64)
+    noise = sensor.noise
+    if noise is None:
+        return np.asarray(np.abs(tracking * sensor.relative_error(tracking)), dtype=np.float64)
+    length = sensor.measured_tracking(tracking) + 2.0 * radius
+    distance_sd = tracking * noise.at(noise.distance_sd, tracking)
+    direction_sd = length * np.radians(noise.at(noise.direction_sd_deg, tracking))
+    return np.asarray(distance_sd**2 + 2.0 * direction_sd**2, dtype=np.float64)
+
+
+#: Points per cm at which :func:`smallest_hop_error` samples the camera's ranges.
+_HOP_ERROR_SAMPLES_PER_CM = 1000
+#: How far below the smallest sample :func:`smallest_hop_error` answers (a fraction).
+_HOP_ERROR_MARGIN = 1e-2
+
+
+def smallest_hop_error(sensor: Sensor, radius: float) -> float:
+    """A lower bound of :func:`hop_error` over the camera's ranges, sweet_min to decaying_max.
+
+    Sampled every 10 um and at the noise table's rows, then lowered by 1 %:
+    both error models are smooth or piecewise linear between the samples, so
+    no hop falls below it. Distributed least-error discovery sizes its cost
+    buckets by it (protocol.discovery.bucket_width).
+    """
+    count = int((sensor.decaying_max - sensor.sweet_min) * _HOP_ERROR_SAMPLES_PER_CM) + 2
+    samples = np.linspace(sensor.sweet_min, sensor.decaying_max, count)
+    if sensor.noise is not None:
+        table = np.asarray(sensor.noise.tracking_cm)
+        inside = table[(table >= sensor.sweet_min) & (table <= sensor.decaying_max)]
+        samples = np.concatenate([samples, inside])
+    return float(hop_error(sensor, samples, radius).min() * (1.0 - _HOP_ERROR_MARGIN))

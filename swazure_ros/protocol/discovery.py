@@ -6,9 +6,10 @@ FLS, its hop count and length, and the measured hop vectors summed from the
 source. In round k of a phase an FLS broadcasts the labels whose bucket is k
 (:func:`bucket_width`); its neighbours relax them through their own hop.
 
-Buckets make every broadcast label final. Every hop is at least
-``sweet_min`` long and adds one hop, so a label can only be improved by a
-label of a lower bucket, which was broadcast in an earlier round. Each FLS
+Buckets make every broadcast label final. Every hop adds one hop, at least
+``sweet_min`` of length and at least the sensor's smallest hop error (the
+least-error policy's cost), so a label can only be improved by a label of a
+lower bucket, which was broadcast in an earlier round. Each FLS
 therefore broadcasts each source's label once, and keeps, among equal costs,
 the label whose sender has the smallest FLS id: the predecessor rule of
 :mod:`..core.paths`, so the distributed search picks the core engine's paths.
@@ -47,8 +48,8 @@ from ..core.evaluate import (
 )
 from ..core.neighbours import ordered_blind_pairs
 from ..core.observe import LocalView
-from ..core.paths import FEWEST_HOPS, check_policy, paths_from_rows
-from ..core.sensor import DECAYING, SWEET
+from ..core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy, paths_from_rows
+from ..core.sensor import DECAYING, SWEET, Sensor, hop_error, smallest_hop_error
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -68,13 +69,30 @@ _BUCKET_MARGIN = 1e-9
 _HEARD_KEPT = 8
 
 
-def bucket_width(sweet_min: float, policy: str) -> float:
-    """Cost per round: one hop for fewest-hops, just under ``sweet_min`` cm for shortest-length."""
+#: The order of a label's costs in each policy: (primary, secondary), as _relax reads them.
+_HOPS_FIRST, _LENGTH_FIRST, _ERROR_FIRST = 0, 1, 2
+_COST_ORDER = {FEWEST_HOPS: _HOPS_FIRST, SHORTEST_LENGTH: _LENGTH_FIRST, LEAST_ERROR: _ERROR_FIRST}
+
+
+def bucket_width(sensor: Sensor, radius: float, policy: str) -> float:
+    """Cost per round: the smallest cost a hop can add under ``policy``, a little lowered.
+
+    One hop for fewest-hops; just under ``sweet_min`` cm for shortest-length;
+    :func:`~..core.sensor.smallest_hop_error` for least-error.
+    """
     if check_policy(policy) == FEWEST_HOPS:
         return 1.0
-    if not sweet_min > 0:
-        raise ValueError(f"sweet_min must be positive for shortest-length, got {sweet_min}")
-    return sweet_min * (1.0 - _BUCKET_MARGIN)
+    if policy == LEAST_ERROR:
+        smallest = smallest_hop_error(sensor, radius)
+        if not smallest > 0:
+            raise ValueError(
+                f"least-error needs a sensor whose every hop errs; {sensor.name} has hops "
+                "without error (an accurate sensor has no least-error path)"
+            )
+        return smallest
+    if not sensor.sweet_min > 0:
+        raise ValueError(f"sweet_min must be positive for shortest-length, got {sensor.sweet_min}")
+    return sensor.sweet_min * (1.0 - _BUCKET_MARGIN)
 
 
 def hop_mask(view: LocalView, phase: int) -> NDArray[np.bool_]:
@@ -96,6 +114,7 @@ class Offer:
     source_ids: IntArray  # (L,)
     hops: IntArray  # (L,)
     lengths: FloatArray  # (L,), cm
+    errors: FloatArray  # (L,), expected error summed over the hops (core.sensor.hop_error)
     vectors: FloatArray  # (L, 3), cm, summed from the source to the sender
     path_offsets: IntArray  # (L + 1,)
     path_ids: IntArray
@@ -148,6 +167,7 @@ class RoundOffers:
     source_ids: IntArray  # (L,)
     hops: IntArray  # (L,)
     lengths: FloatArray  # (L,), cm
+    errors: FloatArray  # (L,)
     vectors: FloatArray  # (L, 3), cm
     path_offsets: IntArray  # (L + 1,)
     path_ids: IntArray
@@ -173,6 +193,7 @@ class RoundOffers:
             source_ids=joined([offer.source_ids for offer in offers], np.zeros(0, np.int64)),
             hops=joined([offer.hops for offer in offers], np.zeros(0, np.int64)),
             lengths=joined([offer.lengths for offer in offers], np.zeros(0)),
+            errors=joined([offer.errors for offer in offers], np.zeros(0)),
             vectors=joined([offer.vectors for offer in offers], np.zeros((0, 3))),
             path_offsets=np.concatenate([[0], np.cumsum(path_lengths)]).astype(np.int64),
             path_ids=joined([offer.path_ids for offer in offers], np.zeros(0, np.int64)),
@@ -244,20 +265,23 @@ def _relax(
     me: int,
     link_ids: IntArray,
     link_weights: FloatArray,
-    fewest_hops: bool,
+    link_errors: FloatArray,
+    order: int,
     senders: IntArray,
     starts: IntArray,
     source_ids: IntArray,
     label_hops: IntArray,
     label_lengths: FloatArray,
+    label_errors: FloatArray,
     sent: NDArray[np.bool_],
     hops: FloatArray,
     length: FloatArray,
+    error: FloatArray,
     pred: IntArray,
     won_label: IntArray,
     won_link: IntArray,
 ) -> IntArray:
-    """Relax the labels (hops, length, pred: (id_space,)) through the hops from ``link_ids``.
+    """Relax the labels (hops, length, error, pred: (id_space,)) through the hops of ``link_ids``.
 
     Each candidate (a heard label plus the hop from its sender) replaces the
     label of its source when it is better under the total order (primary
@@ -273,7 +297,7 @@ def _relax(
         if row < 0:
             continue
         sender = link_ids[link]
-        weight = link_weights[link]
+        weight, link_error = link_weights[link], link_errors[link]
         for label in range(starts[row], starts[row + 1]):
             source = source_ids[label]
             if sent[source] or source == me:
@@ -281,17 +305,21 @@ def _relax(
             # Sums in path order, as the engine sums them: cost so far plus this hop.
             new_hops = label_hops[label] + 1.0
             new_length = label_lengths[label] + weight
-            if fewest_hops:
+            new_error = label_errors[label] + link_error
+            if order == _HOPS_FIRST:
                 new1, new2, old1, old2 = new_hops, new_length, hops[source], length[source]
-            else:
+            elif order == _LENGTH_FIRST:
                 new1, new2, old1, old2 = new_length, new_hops, length[source], hops[source]
+            else:
+                new1, new2, old1, old2 = new_error, new_hops, error[source], hops[source]
             if new1 < old1 or (
                 new1 == old1 and (new2 < old2 or (new2 == old2 and sender < pred[source]))
             ):
                 if won_label[source] < 0:
                     changed[count] = source
                     count += 1
-                hops[source], length[source], pred[source] = new_hops, new_length, sender
+                hops[source], length[source], error[source] = new_hops, new_length, new_error
+                pred[source] = sender
                 won_label[source], won_link[source] = label, link
     return changed[:count]
 
@@ -301,6 +329,8 @@ class PathSearch:
 
     ``id_space`` bounds the FLS ids (ids are below it). ``targets`` makes this
     FLS a source that searches for them; ``departed`` FLSs are not relayed from.
+    ``hop_errors`` (K,) is the expected error of the hop to each neighbour of
+    ``view`` (core.sensor.hop_error), which labels sum as they sum lengths.
     """
 
     def __init__(
@@ -312,9 +342,10 @@ class PathSearch:
         id_space: int,
         targets: IntArray | None = None,
         departed: frozenset[int] = frozenset(),
+        hop_errors: FloatArray | None = None,
     ) -> None:
         self.fls_id = view.fls_id
-        self.fewest_hops = check_policy(policy) == FEWEST_HOPS
+        self.order = _COST_ORDER[check_policy(policy)]
         self.width = width
         hop = hop_mask(view, phase) & ~np.isin(view.other, list(departed))
         # The neighbours relayed from, sorted by id (a view lists them so), with the
@@ -322,9 +353,12 @@ class PathSearch:
         order = np.argsort(view.other[hop], kind="stable")
         self.link_ids = np.asarray(view.other[hop][order], dtype=np.int64)
         self.link_weights = np.asarray(view.distance[hop][order], dtype=np.float64)
+        errors = np.zeros(len(view.other)) if hop_errors is None else hop_errors
+        self.link_errors = np.asarray(errors[hop][order], dtype=np.float64)
         self.link_vectors = -np.asarray(view.vector[hop][order], dtype=np.float64)
         self.hops = np.full(id_space, np.inf)
         self.length = np.full(id_space, np.inf)
+        self.error = np.full(id_space, np.inf)
         self.pred = np.full(id_space, np.iinfo(np.int64).max, dtype=np.int64)
         self.vector = np.full((id_space, 3), np.nan)
         self.sent = np.zeros(id_space, dtype=bool)
@@ -342,7 +376,7 @@ class PathSearch:
         self.results: dict[int, Found] = {}
         if targets is not None:
             me = self.fls_id
-            self.hops[me], self.length[me], self.pred[me] = 0.0, 0.0, me
+            self.hops[me], self.length[me], self.error[me], self.pred[me] = 0.0, 0.0, 0.0, me
             self.vector[me] = 0.0
 
     @property
@@ -351,7 +385,7 @@ class PathSearch:
         return bool(self.targets) and len(self.results) == len(self.targets)
 
     def _buckets(self, sources: IntArray) -> FloatArray:
-        primary = self.hops[sources] if self.fewest_hops else self.length[sources]
+        primary = (self.hops, self.length, self.error)[self.order][sources]
         return np.asarray(np.floor(primary / self.width))
 
     def close(self, sources: IntArray) -> None:
@@ -368,6 +402,7 @@ class PathSearch:
             source_ids=due.astype(np.int64),
             hops=self.hops[due].astype(np.int64),
             lengths=self.length[due],
+            errors=self.error[due],
             vectors=self.vector[due],
             path_offsets=path_offsets,
             path_ids=path_ids,
@@ -425,15 +460,18 @@ class PathSearch:
             self.fls_id,
             self.link_ids,
             self.link_weights,
-            self.fewest_hops,
+            self.link_errors,
+            self.order,
             heard.senders,
             heard.starts,
             heard.source_ids,
             heard.hops,
             heard.lengths,
+            heard.errors,
             self.sent,
             self.hops,
             self.length,
+            self.error,
             self.pred,
             won_label,
             won_link,
@@ -504,7 +542,8 @@ class FlsRun:
     """One FLS's part of one discovery run, phase after phase.
 
     ``targets`` are the FLS's targets as a source: its blind neighbours by
-    default, none when it is not a source of the run.
+    default, none when it is not a source of the run. ``hop_errors`` (K,) are
+    the expected errors of the hops to the view's neighbours.
     """
 
     def __init__(
@@ -514,8 +553,10 @@ class FlsRun:
         width: float,
         id_space: int,
         targets: IntArray | None,
+        hop_errors: FloatArray | None = None,
     ) -> None:
         self.view = view
+        self.hop_errors = hop_errors
         self.policy = policy
         self.width = width
         self.id_space = id_space
@@ -533,7 +574,14 @@ class FlsRun:
             wanted = wanted[~np.isin(wanted, list(departed))]
             targets = wanted if len(wanted) else None
         self.search = PathSearch(
-            self.view, phase, self.policy, self.width, self.id_space, targets, departed
+            self.view,
+            phase,
+            self.policy,
+            self.width,
+            self.id_space,
+            targets,
+            departed,
+            self.hop_errors,
         )
         self.results[phase] = self.search.results
         return self.search
@@ -590,15 +638,22 @@ class Participant:
     """One FLS's part of every discovery run: controls and offers in, broadcasts and reports out.
 
     ``view()`` tells what the FLS knows of its neighbours when a run starts;
-    ``sweet_min`` (cm) sets the bucket width and ``id_space`` bounds the FLS ids.
+    ``sensor`` and ``radius`` (cm) what each hop may cost (bucket widths, hop
+    errors), and ``id_space`` bounds the FLS ids.
     """
 
     def __init__(
-        self, fls_id: int, view: Callable[[], LocalView], sweet_min: float, id_space: int
+        self,
+        fls_id: int,
+        view: Callable[[], LocalView],
+        sensor: Sensor,
+        radius: float,
+        id_space: int,
     ) -> None:
         self.fls_id = fls_id
         self._view = view
-        self.sweet_min = sweet_min
+        self.sensor = sensor
+        self.radius = radius
         self.id_space = id_space
         self.runs: dict[int, FlsRun] = {}
         # Rounds count on across phases and restarts; buckets count from the phase's start.
@@ -670,8 +725,9 @@ class Participant:
                 # On demand, a source answers for its blind neighbours only.
                 asked = np.asarray(control.target_ids, dtype=np.int64)[mine]
                 targets = asked[np.isin(asked, view.blind)]
-        width = bucket_width(self.sweet_min, control.policy)
-        return FlsRun(view, control.policy, width, self.id_space, targets)
+        width = bucket_width(self.sensor, self.radius, control.policy)
+        hop_errors = hop_error(self.sensor, view.distance, self.radius)
+        return FlsRun(view, control.policy, width, self.id_space, targets, hop_errors)
 
 
 def evaluation_of(

@@ -55,7 +55,8 @@ _HOST = "memory"
 def discover(
     seen: Observations,
     ids: IntArray,
-    sweet_min: float,
+    sensor: Sensor,
+    radius: float,
     policy: str,
     *,
     stopped: Iterable[int] = (),
@@ -65,7 +66,7 @@ def discover(
     """One discovery run over every FLS of ``seen`` (FLS ids ``ids``), with a perfect radio.
 
     ``stopped`` FLSs never answer: the clock declares them departed when a
-    round times out, as it does over ROS. ``sweet_min`` is the sensor's, cm.
+    round times out, as it does over ROS. ``sensor`` and ``radius`` (cm) are the swarm's.
     """
     ids = np.asarray(ids, dtype=np.int64)
     stopped = frozenset(int(fls) for fls in stopped)
@@ -73,7 +74,7 @@ def discover(
 
     def view_of(row: int) -> Participant:
         fls_id = int(ids[row])
-        return Participant(fls_id, lambda: local_view(seen, ids, row), sweet_min, id_space)
+        return Participant(fls_id, lambda: local_view(seen, ids, row), sensor, radius, id_space)
 
     participants = {
         int(ids[row]): view_of(row) for row in range(len(ids)) if int(ids[row]) not in stopped

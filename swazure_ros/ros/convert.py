@@ -125,6 +125,7 @@ def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:
     message.source_ids = offer.source_ids.astype(np.uint32)
     message.hops = offer.hops.astype(np.uint32)
     message.lengths = offer.lengths.astype(np.float64)
+    message.errors = offer.errors.astype(np.float64)
     message.vectors = offer.vectors.astype(np.float64).ravel()
     message.path_offsets = offer.path_offsets.astype(np.uint32)
     message.path_ids = offer.path_ids.astype(np.uint32)
@@ -137,6 +138,7 @@ def offer_from_message(message: PathOffer) -> Offer:
         source_ids=np.asarray(message.source_ids, dtype=np.int64),
         hops=np.asarray(message.hops, dtype=np.int64),
         lengths=np.asarray(message.lengths, dtype=np.float64),
+        errors=np.asarray(message.errors, dtype=np.float64),
         vectors=np.asarray(message.vectors, dtype=np.float64).reshape(-1, 3),
         path_offsets=np.asarray(message.path_offsets, dtype=np.int64),
         path_ids=np.asarray(message.path_ids, dtype=np.int64),

@@ -175,7 +175,7 @@ class FlsNode(SwarmNode):
         self._published: Measurement | None = None  # the last measurement sent
         self._published_at = 0  # ns on the node's clock
         self.discovery = Participant(
-            fls_id, lambda: senses.view(fls_id), senses.sweet_min, senses.id_space
+            fls_id, lambda: senses.view(fls_id), senses.sensor, senses.radius, senses.id_space
         )
         self.relay = RelayStreams(fls_id, self._sense_for_relay, self.track_config)
         self.tracker = TrackSource(

@@ -12,7 +12,7 @@ from __future__ import annotations
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from swazure_interfaces.msg import DiscoveryControl, TrackEstimate
 
-from ..core.paths import FEWEST_HOPS, SHORTEST_LENGTH, check_policy
+from ..core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
 from ..core.tracking import (
     CONSTANT_ACCELERATION,
     CONSTANT_VELOCITY,
@@ -99,6 +99,7 @@ CLOCK_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 POLICY_NAMES = {
     DiscoveryControl.POLICY_FEWEST_HOPS: FEWEST_HOPS,
     DiscoveryControl.POLICY_SHORTEST_LENGTH: SHORTEST_LENGTH,
+    DiscoveryControl.POLICY_LEAST_ERROR: LEAST_ERROR,
 }
 POLICY_CODES = {name: code for code, name in POLICY_NAMES.items()}
 

@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from ..core.motion import Motion
 from ..core.observe import LocalView, NeighbourSets
+from ..core.sensor import Sensor
 from ..core.tracking import RelaySenses
 from .world import Measurement, World
 
@@ -46,9 +47,14 @@ class WorldReplica:
         return self.world.view(fls_id)
 
     @property
-    def sweet_min(self) -> float:
-        """Shortest sweet tracking distance of the sensor, cm."""
-        return self.world.sensor.sweet_min
+    def sensor(self) -> Sensor:
+        """The sensor every FLS measures with."""
+        return self.world.sensor
+
+    @property
+    def radius(self) -> float:
+        """The FLSs' radius, cm."""
+        return self.world.swarm.radius
 
     @property
     def id_space(self) -> int:

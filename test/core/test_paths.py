@@ -27,6 +27,37 @@ def test_shortest_length_takes_smaller_sum():
     assert paths.length[0] == 3.0
 
 
+def test_least_error_takes_the_smaller_sum_of_edge_costs_and_reports_the_length():
+    # 0-1-3: two hops of 6 cm costing 0.09 each; 0-2-3: two hops of 7.2 cm costing 0.08 each.
+    edges = [(0, 1, 6.0, 0.09), (1, 3, 6.0, 0.09), (0, 2, 7.2, 0.08), (2, 3, 7.2, 0.08)]
+    first, second, weight, cost = zip(*edges)
+    costed = make_graph(4, first, second, weight, costs=cost)
+    assert shortest_paths(costed, [0], [3], "shortest-length").path(0) == [0, 1, 3]
+    paths = shortest_paths(costed, [0], [3], "least-error")
+    assert paths.path(0) == [0, 2, 3]
+    assert paths.length[0] == 14.4  # tracking distances, not costs
+
+
+def test_least_error_breaks_cost_ties_by_hops_and_walks_long_paths():
+    # A chain of 12 hops costing 1/16 each (0.75 in all, exact in binary) against
+    # 0-13-12, two hops of 0.375 (also 0.75), and one dear hop 0-12.
+    chain = [(node, node + 1, 6.0, 0.0625) for node in range(12)]
+    first, second, weight, cost = zip(*chain, (0, 12, 30.0, 1.0), (0, 13, 6.0, 0.375),
+                                       (13, 12, 6.0, 0.375))  # fmt: skip
+    costed = make_graph(14, first, second, weight, costs=cost)
+    paths = shortest_paths(costed, [0], [12], "least-error")
+    assert paths.path(0) == [0, 13, 12]  # equal cost: the fewer hops
+    # 0-13-12 dearer now: the chain, past the parallel search's path buffer.
+    cheaper = make_graph(14, first, second, weight, costs=[*cost[:-2], 0.5, 0.5])
+    assert shortest_paths(cheaper, [0], [12], "least-error").path(0) == list(range(13))
+    assert shortest_paths(cheaper, [0], [12], "least-error").length[0] == 72.0
+
+
+def test_least_error_needs_edge_costs():
+    with pytest.raises(ValueError, match="needs a graph with edge costs"):
+        shortest_paths(graph([(0, 1, 1.0)]), [0], [1], "least-error")
+
+
 def test_fewest_hops_breaks_hop_ties_by_length():
     edges = [(0, 1, 5.0), (1, 3, 5.0), (0, 2, 2.0), (2, 3, 2.0)]
     assert shortest_paths(graph(edges), [0], [3], "fewest-hops").path(0) == [0, 2, 3]

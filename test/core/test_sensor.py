@@ -11,8 +11,10 @@ from swazure_ros.core.sensor import (
     OUT_OF_RANGE,
     SWEET,
     Sensor,
+    hop_error,
     load_sensor,
     measured_vectors,
+    smallest_hop_error,
 )
 
 
@@ -207,3 +209,31 @@ def test_camera_sensor_renders_each_pair_the_same_way_every_time():
     assert np.degrees(np.arccos(min(cosine, 1.0))) < 0.5
     assert not np.array_equal(vectors, truth)
     assert sensor.error_free().camera is None
+
+
+# ----------------------------------------------------------------------------- hop error
+
+
+def test_hop_error_of_the_published_sensor_is_the_length_error_in_cm(sensor):
+    tracking = np.array([6.0, 8.0, 15.0])
+    relative = 0.00180987 * tracking**2 - 0.02756392 * tracking + 0.11561755  # spec, section 3
+    np.testing.assert_allclose(hop_error(sensor, tracking, 0.5), tracking * relative)
+    assert hop_error(sensor.error_free(), [6.0, 8.0], 0.5).tolist() == [0.0, 0.0]
+
+
+def test_hop_error_of_a_stochastic_sensor_is_the_variance_of_the_hop_vector():
+    sensor = stochastic(sd=0.02, direction_deg=1.0)
+    points = ring(distance=9.0)  # tracking distance 8 with r = 0.5
+    others = np.arange(1, len(points))
+    vectors = measured_vectors(sensor, points, 0.5, np.zeros_like(others), others)
+    mean = points[others] * (8.0 * (1 + sensor.relative_error(8.0)) + 1.0) / 9.0
+    scatter = np.mean(np.sum((vectors - mean) ** 2, axis=1))
+    assert hop_error(sensor, [8.0], 0.5)[0] == pytest.approx(scatter, rel=0.08)
+
+
+def test_smallest_hop_error_bounds_every_hop_from_below(sensor):
+    for one in (sensor, stochastic()):
+        tracking = np.linspace(one.sweet_min, one.decaying_max, 100_003)
+        smallest = smallest_hop_error(one, 0.5)
+        assert 0 < smallest <= hop_error(one, tracking, 0.5).min()
+        assert smallest > 0.98 * hop_error(one, tracking, 0.5).min()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -18,6 +20,7 @@ from swazure_ros.core.evaluate import (
 )
 from swazure_ros.core.observe import observations
 from swazure_ros.core.paths import POLICIES
+from swazure_ros.core.sensor import hop_error
 from swazure_ros.protocol.discovery import Found, bucket_width, estimate, evaluation_of
 from swazure_ros.protocol.loops import discover
 from swazure_ros.sim.world import WorldSpec
@@ -28,17 +31,26 @@ from ..conftest import A, B, C, D, K, scene
 def run(hood, policy, **options):
     """One in-memory discovery run over ``hood``: {(source, target): Estimate}, and the outcome."""
     outcome = discover(
-        observations(hood), hood.swarm.cloud_index, hood.sensor.sweet_min, policy, **options
+        observations(hood),
+        hood.swarm.cloud_index,
+        hood.sensor,
+        hood.swarm.radius,
+        policy,
+        **options,
     )
     found = {(s, one.target): one for s, ones in outcome.estimates.items() for one in ones}
     return found, outcome
 
 
-def test_bucket_width_is_one_hop_or_just_under_the_shortest_hop():
-    assert bucket_width(6.0, "fewest-hops") == 1.0
-    assert 6.0 - 1e-6 < bucket_width(6.0, "shortest-length") < 6.0
+def test_bucket_width_is_one_hop_or_just_under_the_cheapest_hop(sensor):
+    assert bucket_width(sensor, 0.5, "fewest-hops") == 1.0
+    assert 6.0 - 1e-6 < bucket_width(sensor, 0.5, "shortest-length") < 6.0
     with pytest.raises(ValueError, match="sweet_min"):
-        bucket_width(0.0, "shortest-length")
+        bucket_width(replace(sensor, sweet_min=0.0), 0.5, "shortest-length")
+    cheapest = hop_error(sensor, np.linspace(6.0, 30.0, 24_001), 0.5).min()  # near t = 7.19 cm
+    assert 0.98 * cheapest < bucket_width(sensor, 0.5, "least-error") < cheapest
+    with pytest.raises(ValueError, match="least-error needs a sensor whose every hop errs"):
+        bucket_width(sensor.error_free(), 0.5, "least-error")
 
 
 def test_scene_pairs_get_the_status_of_section_5(sensor):

@@ -84,7 +84,7 @@ def make_moves(world, plain, technique):
 def test_the_moves_made_by_the_machine_equal_the_engine(technique, kind):
     world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
     policy = "shortest-length"
-    found = discover(world.seen, world.ids, world.sensor.sweet_min, policy)
+    found = discover(world.seen, world.ids, world.sensor, world.swarm.radius, policy)
     plain = evaluation_of(world.hood, policy, found.estimates)
     outcome, after, kinds = make_moves(world, plain, technique)
     engine, plan = run_technique(evaluate(world.swarm, world.sensor, policy), technique, 10)
@@ -100,7 +100,7 @@ def test_the_moves_made_by_the_machine_equal_the_engine(technique, kind):
 
 def test_a_lost_walk_costs_its_pair_and_the_run_goes_on_after_the_deadline():
     world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
-    found = discover(world.seen, world.ids, world.sensor.sweet_min, "shortest-length")
+    found = discover(world.seen, world.ids, world.sensor, world.swarm.radius, "shortest-length")
     plain = evaluation_of(world.hood, "shortest-length", found.estimates)
     run = MoveRun(1, plain, "move-obstructing", 10, 0, timeout=5.0)
     moves = run.start(0.0)

@@ -16,6 +16,7 @@ def offer(*sources):
         source_ids=np.array(sources, dtype=np.int64),
         hops=np.ones(count, dtype=np.int64),
         lengths=np.full(count, 6.5),
+        errors=np.full(count, 0.08),
         vectors=np.zeros((count, 3)),
         path_offsets=np.arange(0, 2 * count + 1, 2, dtype=np.int64),
         path_ids=np.array([fls for source in sources for fls in (source, 9)], dtype=np.int64),

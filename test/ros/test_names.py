@@ -13,8 +13,10 @@ from swazure_interfaces.msg import (
     TrackRequest,
     TrackSample,
 )
+from swazure_interfaces.srv import ComputePose
 
 from swazure_ros.core import tracking
+from swazure_ros.core.paths import POLICIES
 from swazure_ros.protocol import discovery, moves
 from swazure_ros.protocol import tracking as relay
 from swazure_ros.ros import names
@@ -54,3 +56,11 @@ def test_every_name_table_maps_both_ways():
     ):
         assert {code: name for name, code in codes.items()} == names_
     assert set(names.TRACK_MODEL_NAMES.values()) == set(tracking.MODELS)
+    assert set(names.POLICY_NAMES.values()) == set(POLICIES)  # every policy goes on the wire
+
+
+def test_compute_pose_and_discovery_share_the_policy_codes():
+    for name, code in names.POLICY_CODES.items():
+        constant = "POLICY_" + name.upper().replace("-", "_")
+        request = ComputePose.Request
+        assert getattr(request, constant) == getattr(DiscoveryControl, constant) == code
