@@ -46,7 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--betas", nargs="+", type=float, metavar="B", help="default: 0.01 0.1 0.2 0.3 0.4 0.5"
     )
-    parser.add_argument("--policies", nargs="+", choices=POLICIES, help="default: both")
+    parser.add_argument("--policies", nargs="+", choices=POLICIES, help="default: all three")
     parser.add_argument(
         "--techniques",
         nargs="+",

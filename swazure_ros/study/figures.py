@@ -18,7 +18,11 @@ from matplotlib.figure import Figure
 from ..core.results import PAIRS_PARQUET_FILE, atomic_write
 from .sweep import PLAIN_TECHNIQUE, StudyPlan, SweepResult
 
-POLICY_TITLES = {"fewest-hops": "Fewest-Hops", "shortest-length": "Shortest-Length"}
+POLICY_TITLES = {
+    "fewest-hops": "Fewest-Hops",
+    "shortest-length": "Shortest-Length",
+    "least-error": "Least-Error",
+}
 BETA_LABEL = "β (FLS radius r = β · dmin)"
 DPI = 120
 
