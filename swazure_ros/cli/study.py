@@ -17,6 +17,7 @@ from typing import Any
 from ..core.clouds import BUILTIN_SHAPES, Cloud, cloud_files, load_cloud, published_dataset_dir
 from ..core.errors import CloudError, SwazureError
 from ..core.paths import POLICIES
+from ..core.results import COMPACT_PAIRS, PAIR_COLUMNS
 from ..core.sensor import load_sensor
 from ..study.run import run_study
 from ..study.sweep import (
@@ -60,6 +61,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         metavar="B",
         help="betas of the heuristics and tables (default: 0.3 0.4 0.5)",
+    )
+    parser.add_argument(
+        "--pairs",
+        choices=PAIR_COLUMNS,
+        default=COMPACT_PAIRS,
+        help="per-pair columns kept in each run's pairs.parquet: compact (default; what "
+        "nothing else reproduces: ids, status, path, estimate, errors, moves) or full",
     )
     parser.add_argument(
         "--heuristic-policy",
@@ -162,6 +170,7 @@ def plan_from_args(args: argparse.Namespace) -> StudyPlan:
         heuristic_policy=args.heuristic_policy,
         sensor_file=None if args.sensor is None else str(args.sensor),
         seed=args.seed,
+        pairs=args.pairs,
     )
 
 

@@ -28,6 +28,17 @@ PAIRS_FILE = "pairs.csv"
 PAIRS_PARQUET_FILE = "pairs.parquet"
 SUMMARY_FILE = "summary.json"
 PAIRS_FORMATS = ("csv", "parquet")
+#: Per-pair columns: every one, or only those that nothing else reproduces.
+FULL_PAIRS, COMPACT_PAIRS = "full", "compact"
+PAIR_COLUMNS = (FULL_PAIRS, COMPACT_PAIRS)
+#: What a compact file leaves out: each follows from the columns kept and the swarm
+#: (truth and lengths from the positions, hops from the path, angles from estimate
+#: and truth, obstruction from line of sight and the policy's S_all path), and the
+#: run's summary holds their statistics.
+DERIVED_COLUMNS = (
+    "hops", "sweet_hops", "decaying_hops", "path_length", "truth_x", "truth_y", "truth_z",
+    "theta_deg", "phi_deg", "sweet_path_obstructed", "obstructing_flss",
+)  # fmt: skip
 
 
 def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
@@ -139,22 +150,39 @@ def write_json(path: Path, document: dict[str, Any]) -> None:
     atomic_write(path, lambda tmp: tmp.write_text(json.dumps(document, indent=2) + "\n"))
 
 
-def pairs_table(evaluation: Evaluation, heuristic: HeuristicResult | None = None) -> Any:
+def _id_lists(offsets: Any, ids: Any, as_text: bool) -> Any:
+    """FLS id lists (offsets (M + 1,), ids): uint32 lists, or ids joined by spaces for CSV."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    if not as_text:
+        return pa.LargeListArray.from_arrays(pa.array(offsets), pa.array(ids, pa.uint32()))
+    # Cast in Arrow: numpy strings of millions of ids would come back chunked.
+    text = pc.cast(pa.array(ids, pa.int64()), pa.string())
+    return pc.binary_join(pa.LargeListArray.from_arrays(pa.array(offsets), text), " ")
+
+
+def pairs_table(
+    evaluation: Evaluation,
+    heuristic: HeuristicResult | None = None,
+    as_text: bool = True,
+    columns: str = FULL_PAIRS,
+) -> Any:
     """Per ordered blind pair results as a pyarrow Table; FLS ids are cloud row numbers.
 
     With ``heuristic``, columns for its moves: tried, resolved, number of
     moves, the FLSs moved, the largest single move, and for Move Source the
-    distance flown and the net displacement of the source (cm).
+    distance flown and the net displacement of the source (cm). Paths and
+    moved FLSs are uint32 lists, or with ``as_text`` ids joined by spaces (CSV
+    has no lists). ``columns="compact"`` leaves out the DERIVED_COLUMNS.
     """
     import pyarrow as pa
-    import pyarrow.compute as pc
 
+    if columns not in PAIR_COLUMNS:
+        raise ValueError(f"columns must be one of {PAIR_COLUMNS}, got {columns!r}")
     pairs = evaluation.pairs
     ids = evaluation.hood.swarm.cloud_index
-    # Cast in Arrow: numpy strings of millions of ids would come back chunked.
-    node_ids = pc.cast(pa.array(ids[pairs.nodes]), pa.string())
-    path_ids = pa.LargeListArray.from_arrays(pa.array(pairs.offsets), node_ids)
-    columns = {
+    table = {
         "source": ids[pairs.source],
         "target": ids[pairs.target],
         "status": np.asarray(STATUS_NAMES)[pairs.status],
@@ -163,7 +191,7 @@ def pairs_table(evaluation: Evaluation, heuristic: HeuristicResult | None = None
         "sweet_hops": pairs.sweet_hops,
         "decaying_hops": pairs.decaying_hops,
         "path_length": pairs.path_length,
-        "path": pc.binary_join(path_ids, " "),
+        "path": _id_lists(pairs.offsets, ids[pairs.nodes], as_text),
         "estimate_x": pairs.estimate[:, 0],
         "estimate_y": pairs.estimate[:, 1],
         "estimate_z": pairs.estimate[:, 2],
@@ -179,27 +207,26 @@ def pairs_table(evaluation: Evaluation, heuristic: HeuristicResult | None = None
     }
     if heuristic is not None:
         counts = np.diff(heuristic.move_offsets)
-        moved_ids = pa.LargeListArray.from_arrays(
-            pa.array(heuristic.move_offsets),
-            pc.cast(pa.array(ids[heuristic.move_fls].astype(np.int64)), pa.string()),
-        )
+        moved_ids = _id_lists(heuristic.move_offsets, ids[heuristic.move_fls], as_text)
         owner = np.repeat(np.arange(len(counts)), counts)
         largest = np.zeros(len(counts))
         np.maximum.at(largest, owner, heuristic.move_distance)
-        columns.update(
+        table.update(
             {
                 "tried": heuristic.tried,
                 "resolved": heuristic.resolved,
                 "moves": counts,
-                "moved_flss": pc.binary_join(moved_ids, " "),
+                "moved_flss": moved_ids,
                 "largest_move": largest,
             }
         )
         if len(heuristic.flown):
             displacement = np.zeros(len(counts))
             displacement[owner] = heuristic.move_distance
-            columns.update({"flown_distance": heuristic.flown, "displacement": displacement})
-    return pa.table(columns)
+            table.update({"flown_distance": heuristic.flown, "displacement": displacement})
+    if columns == COMPACT_PAIRS:
+        table = {name: value for name, value in table.items() if name not in DERIVED_COLUMNS}
+    return pa.table(table)
 
 
 def write_evaluation(
@@ -207,19 +234,21 @@ def write_evaluation(
     evaluation: Evaluation,
     heuristic: HeuristicResult | None = None,
     pairs_format: str = "csv",
+    columns: str = FULL_PAIRS,
 ) -> tuple[Path, Path]:
     """Write ``summary.json`` and the per-pair file into ``directory``; return their paths.
 
     The per-pair file is ``pairs.csv``, or with ``pairs_format="parquet"`` a
-    zstd-compressed ``pairs.parquet`` (typed and a fraction of the size). The
-    summary is written last, so its presence means the run is complete.
+    zstd-compressed ``pairs.parquet`` (typed, paths as integer lists, a
+    fraction of the size); ``columns`` as :func:`pairs_table`. The summary is
+    written last, so its presence means the run is complete.
     """
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
     if pairs_format not in PAIRS_FORMATS:
         raise ValueError(f"pairs_format must be one of {PAIRS_FORMATS}, got {pairs_format!r}")
-    table = pairs_table(evaluation, heuristic)
+    table = pairs_table(evaluation, heuristic, pairs_format == "csv", columns)
     if pairs_format == "csv":
         pairs_path = directory / PAIRS_FILE
         atomic_write(pairs_path, lambda tmp: pacsv.write_csv(table, str(tmp)))

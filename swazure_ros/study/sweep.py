@@ -2,7 +2,8 @@
 
 A run is one (shape, beta, policy, technique). Its results live in a folder
 of their own, ``runs/<shape>/beta-<beta>/<policy>/<technique>/``, holding
-``pairs.parquet`` and then ``summary.json``, each written atomically. The
+``pairs.parquet`` (compact or full, core.results.PAIR_COLUMNS) and then
+``summary.json``, each written atomically. The
 summary records the run's cache key, a hash of everything its numbers depend
 on: the points, beta, policy, technique, threshold, sensor, seed and the
 software version. A run whose folder holds a summary with the right key is
@@ -32,7 +33,15 @@ from ..core.evaluate import evaluate
 from ..core.geometry import make_swarm
 from ..core.heuristics import MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN, run_technique
 from ..core.paths import POLICIES
-from ..core.results import PAIRS_PARQUET_FILE, SUMMARY_FILE, describe_source, write_evaluation
+from ..core.results import (
+    COMPACT_PAIRS,
+    FULL_PAIRS,
+    PAIR_COLUMNS,
+    PAIRS_PARQUET_FILE,
+    SUMMARY_FILE,
+    describe_source,
+    write_evaluation,
+)
 from ..core.sensor import Sensor
 
 #: The published sweep (spec, section 10).
@@ -117,8 +126,13 @@ class StudyPlan:
     heuristic_policy: str = "shortest-length"
     sensor_file: str | None = None
     seed: int = 0
+    #: Per-pair columns kept: "compact" (what nothing else reproduces) or "full".
+    pairs: str = COMPACT_PAIRS
 
     def __post_init__(self) -> None:
+        if self.pairs not in PAIR_COLUMNS:
+            raise SwazureError(f"unknown per-pair output {self.pairs!r}; expected "
+                               f"{', '.join(PAIR_COLUMNS)}")  # fmt: skip
         if not self.clouds:
             raise SwazureError("the study needs at least one point cloud")
         names = [cloud.name for cloud in self.clouds]
@@ -172,14 +186,18 @@ def cloud_digest(cloud: Cloud) -> str:
     ).hexdigest()
 
 
-def read_summary(out: Path, spec: RunSpec) -> dict[str, Any] | None:
-    """The run's summary if its folder holds complete results under its key, else None."""
+def read_summary(out: Path, spec: RunSpec, pairs: str) -> dict[str, Any] | None:
+    """The run's summary if its folder holds complete results under its key, else None.
+
+    Results whose per-pair file keeps other columns than ``pairs`` asks are not done.
+    """
     folder = out / spec.folder
     try:
         summary: dict[str, Any] = json.loads((folder / SUMMARY_FILE).read_text())
     except (OSError, ValueError):
         return None
-    if summary.get("study", {}).get("key") != spec.key:
+    study = summary.get("study", {})
+    if study.get("key") != spec.key or study.get("pairs", FULL_PAIRS) != pairs:
         return None
     if not (folder / PAIRS_PARQUET_FILE).is_file():
         return None
@@ -198,6 +216,7 @@ class Task:
     sensor_file: str | None
     seed: int
     out: Path
+    pairs: str
 
     @property
     def weight(self) -> int:
@@ -220,8 +239,10 @@ def run_task(task: Task) -> list[tuple[RunSpec, float]]:
         summary = result.summary
         summary["seconds"] = seconds
         describe_source(summary, task.cloud, task.seed, task.sensor_file)
-        summary["study"] = {"key": spec.key, "run": spec.folder.as_posix()}
-        write_evaluation(task.out / spec.folder, result, heuristic, pairs_format="parquet")
+        summary["study"] = {"key": spec.key, "run": spec.folder.as_posix(), "pairs": task.pairs}
+        write_evaluation(
+            task.out / spec.folder, result, heuristic, pairs_format="parquet", columns=task.pairs
+        )
         done.append((spec, seconds))
     return done
 
@@ -233,7 +254,17 @@ def plan_tasks(plan: StudyPlan, out: Path, missing: Sequence[RunSpec]) -> list[T
     for spec in missing:
         groups.setdefault((spec.cloud, spec.beta, spec.policy), []).append(spec)
     tasks = [
-        Task(clouds[name], beta, policy, runs, plan.sensor, plan.sensor_file, plan.seed, out)
+        Task(
+            clouds[name],
+            beta,
+            policy,
+            runs,
+            plan.sensor,
+            plan.sensor_file,
+            plan.seed,
+            out,
+            plan.pairs,
+        )  # fmt: skip
         for (name, beta, policy), runs in groups.items()
     ]
     return sorted(tasks, key=lambda task: -task.weight)
@@ -338,7 +369,7 @@ def sweep(
     remove_partial_files(out)
     specs = plan.runs()
     summaries: dict[RunSpec, dict[str, Any] | None] = {
-        spec: read_summary(out, spec) for spec in specs
+        spec: read_summary(out, spec, plan.pairs) for spec in specs
     }
     missing = [spec for spec, summary in summaries.items() if summary is None]
     cached = len(specs) - len(missing)
@@ -356,7 +387,7 @@ def sweep(
         progress.close()
     complete: dict[RunSpec, dict[str, Any]] = {}
     for spec in specs:
-        summary = summaries[spec] or read_summary(out, spec)
+        summary = summaries[spec] or read_summary(out, spec, plan.pairs)
         if summary is None:
             raise SwazureError(f"{out / spec.folder}: the run left no complete results")
         complete[spec] = summary

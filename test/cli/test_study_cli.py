@@ -61,7 +61,7 @@ def summary_of(out, shape, beta, technique, policy="shortest-length"):
 
 def test_quick_study_writes_every_table_figure_and_the_report(quick_study):
     out, run = quick_study
-    assert "20 runs: 20 computed" in run.stdout
+    assert "24 runs: 24 computed" in run.stdout
     for name in FIGURES:
         png = (out / "figures" / f"{name}.png").read_bytes()
         assert png.startswith(b"\x89PNG\r\n\x1a\n") and len(png) > 10_000, name
@@ -113,7 +113,7 @@ def test_rerun_computes_nothing_and_rewrites_the_same_tables(quick_study):
     before = {name: (out / "tables" / f"{name}.csv").read_text() for name in TABLES}
     run = swazure("study", "--quick", "--quiet", "--clouds", *quick_clouds(), "--out", str(out))
     assert run.returncode == 0, run.stderr
-    assert "20 runs: 0 computed" in run.stdout
+    assert "24 runs: 0 computed" in run.stdout
     assert before == {name: (out / "tables" / f"{name}.csv").read_text() for name in TABLES}
 
 
@@ -136,7 +136,7 @@ def test_killed_study_resumes_with_only_the_unfinished_runs(tmp_path):
         json.loads(path.read_text())  # whole, never half-written
     run = swazure(*args)
     assert run.returncode == 0, run.stderr
-    assert f"20 runs: {20 - len(finished)} computed" in run.stdout
+    assert f"24 runs: {24 - len(finished)} computed" in run.stdout
     assert not [p for p in tmp_path.rglob(".*") if p.is_file()], "temporary files left"
 
 

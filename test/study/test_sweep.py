@@ -139,11 +139,11 @@ def test_an_interrupted_run_is_recomputed_and_its_temporary_file_removed(sensor,
     (tmp_path / half.folder / SUMMARY_FILE).write_text('{"study": ')  # not JSON
     stale = tmp_path / broken.folder / ".pairs.parquet.k1ll3d"
     stale.write_bytes(b"partial")
-    assert read_summary(tmp_path, broken) is None
+    assert read_summary(tmp_path, broken, plan.pairs) is None
     result = sweep(plan, tmp_path)
     assert result.computed == 2
     assert not stale.exists()
-    assert read_summary(tmp_path, broken) is not None
+    assert read_summary(tmp_path, broken, plan.pairs) is not None
 
 
 def test_parallel_sweep_gives_the_serial_numbers(sensor, tmp_path):
@@ -153,3 +153,35 @@ def test_parallel_sweep_gives_the_serial_numbers(sensor, tmp_path):
     assert parallel.computed == 4
     for spec in plan.runs():
         assert without_timing(parallel.summaries[spec]) == without_timing(serial.summaries[spec])
+
+
+def test_compact_pairs_keep_integer_paths_and_what_nothing_else_reproduces(sensor, tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from swazure_ros.core.results import DERIVED_COLUMNS
+
+    compact = sweep(small_plan(sensor), tmp_path / "compact")
+    full = sweep(small_plan(sensor, pairs="full"), tmp_path / "full")
+    for spec in small_plan(sensor).runs():
+        kept = pq.read_table(tmp_path / "compact" / spec.folder / PAIRS_PARQUET_FILE)
+        every = pq.read_table(tmp_path / "full" / spec.folder / PAIRS_PARQUET_FILE)
+        assert set(every.column_names) - set(kept.column_names) == set(DERIVED_COLUMNS)
+        assert kept.schema.field("path").type == pa.large_list(pa.uint32())
+        assert kept.column("path").equals(every.column("path"))
+        # The summaries (every table's numbers) do not depend on what the pairs keep.
+        summary, other = compact.summaries[spec], full.summaries[spec]
+        assert without_timing(summary) == {**without_timing(other), "study": summary["study"]}
+        # A path's hops are its list's length less one: the dropped column follows.
+        assert (pa.compute.list_value_length(kept.column("path")).to_numpy() - 1).clip(
+            0
+        ).tolist() == every.column("hops").to_numpy().tolist()
+
+
+def test_a_run_kept_compact_is_computed_again_when_full_pairs_are_asked(sensor, tmp_path):
+    sweep(small_plan(sensor), tmp_path)
+    again = sweep(small_plan(sensor, pairs="full"), tmp_path)
+    assert (again.computed, again.cached) == (4, 0)
+    assert sweep(small_plan(sensor, pairs="full"), tmp_path).cached == 4
+    with pytest.raises(SwazureError, match="per-pair output"):
+        small_plan(sensor, pairs="some")
