@@ -264,7 +264,7 @@ def plan_tasks(plan: StudyPlan, out: Path, missing: Sequence[RunSpec]) -> list[T
             plan.seed,
             out,
             plan.pairs,
-        )  # fmt: skip
+        )
         for (name, beta, policy), runs in groups.items()
     ]
     return sorted(tasks, key=lambda task: -task.weight)
