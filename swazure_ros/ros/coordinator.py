@@ -40,7 +40,7 @@ from swazure_interfaces.srv import ComputePose
 from ..core.evaluate import Evaluation
 from ..core.heuristics import HeuristicResult
 from ..core.paths import check_policy
-from ..protocol.discovery import Control, Estimate, evaluation_of
+from ..protocol.discovery import Control, Estimate, bucket_width, evaluation_of
 from ..protocol.moves import Move, MoveRun, Walk
 from ..protocol.rounds import Absences, RoundClock, StallClock
 from ..sim.world import World
@@ -238,9 +238,10 @@ class Coordinator(SwarmNode):
     ) -> Future:
         """Run discovery: every FLS for every blind neighbour, or sources[k] for targets[k].
 
-        Returns a future of the :class:`DiscoveryResult`.
+        Returns a future of the :class:`DiscoveryResult`. ValueError for a
+        policy that this swarm's sensor cannot run (least-error without error).
         """
-        check_policy(policy)
+        bucket_width(self.world.sensor, self.world.swarm.radius, check_policy(policy))
 
         def begin(run_id: int) -> Machine:
             return RoundClock(
@@ -455,6 +456,8 @@ class Coordinator(SwarmNode):
         problem = None
         if request.policy not in POLICY_NAMES:
             problem = f"unknown policy {request.policy}: expected one of {sorted(POLICY_NAMES)}"
+        elif (unusable := self._unusable(POLICY_NAMES[request.policy])) is not None:
+            problem = unusable
         elif source == target:
             problem = f"source and target are both FLS {source}"
         else:
@@ -470,6 +473,14 @@ class Coordinator(SwarmNode):
             return
         run = self.discover(POLICY_NAMES[request.policy], [source], [target])
         run.add_done_callback(lambda done: reply(self._pose_answer(done.result(), source, target)))
+
+    def _unusable(self, policy: str) -> str | None:
+        """Why this swarm's FLSs cannot search by ``policy``; None when they can."""
+        try:
+            bucket_width(self.world.sensor, self.world.swarm.radius, policy)
+        except ValueError as err:
+            return str(err)
+        return None
 
     def _pose_answer(
         self, result: DiscoveryResult, source: int, target: int

@@ -103,7 +103,8 @@ def report_markdown(
         "## Tables",
         "",
         "Each table is also a CSV file in `tables/`; every run's `summary.json` and "
-        "`pairs.parquet` are in `runs/<shape>/beta-<β>/<policy>/<technique>/`.",
+        f"`pairs.parquet` ({plan.pairs} per-pair columns) are in "
+        "`runs/<shape>/beta-<β>/<policy>/<technique>/`.",
         "",
         tables_markdown(tables),
         "## Figures",

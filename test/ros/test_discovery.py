@@ -448,3 +448,24 @@ def test_swazure_query_prints_the_path_and_vector(domain, params):
     finally:
         spawn.terminate()
         spawn.communicate(timeout=60)
+
+
+def test_an_error_free_swarm_refuses_least_error_and_answers_the_others(domain, params, context):
+    world = WorldSpec(SHAPE[0], scale=SHAPE[1], beta=0.5, accurate=True)
+    config = SwarmConfig(world, domain_id=domain, params_file=str(params))
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        engine = evaluate_pairs(swarm.world.hood, "shortest-length")
+        ids = swarm.world.ids
+        source, target = int(ids[engine.source[0]]), int(ids[engine.target[0]])
+        client = Client(swarm, context)
+        try:
+            refused = client.call(source, target, policy_code("least-error"))
+            assert not refused.success and "least-error needs a sensor" in refused.message
+            answered = client.call(source, target, policy_code("shortest-length"))
+            assert answered.success, answered.message
+            assert estimate_from_message(answered.estimate).path == tuple(
+                int(ids[k]) for k in engine.path(0)
+            )
+        finally:
+            client.close()
