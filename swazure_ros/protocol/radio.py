@@ -27,39 +27,65 @@ IntArray = NDArray[np.int64]
 
 
 @dataclass(frozen=True)
+class Delivery:
+    """What the radio made of one round's deliveries to one process."""
+
+    repairs: int = 0  # repair requests and resends sent
+    lost: int = 0  # deliveries lost on every try
+    latency: float = 0.0  # s from the round's start until its last delivery arrived
+
+
+@dataclass(frozen=True)
 class RadioLoss:
-    """A lossy radio: each delivery of an offer to a neighbour is lost with ``probability``.
+    """A lossy, slow radio: each message is lost with ``probability`` and late by up to ``delay``.
 
     Every FLS broadcasts in every round, so a receiver knows whom it did not
     hear: it asks that neighbour again (a repair request) and the neighbour
     sends its offer again, each of the two lost with the same probability,
-    up to ``attempts`` tries in all. The fate of every try is a counter-based
-    draw of (seed, run, round, sender, receiver, try): seeded, and the same in
-    any process. A delivery lost on every try is lost for good: the round's
-    acknowledgement says so, and the coordinator restarts the phase.
+    up to ``attempts`` tries in all. Each message takes a delay drawn
+    uniformly from [0, ``delay``] s. A receiver takes a broadcast for lost
+    once ``delay`` has passed, and a repair once twice that has passed since
+    its request, so try k >= 1 starts at ``(2k - 1) delay`` and every
+    delivery that arrives does so within ``(2 attempts - 1) delay``. The fate
+    and delay of every message are counter-based draws of (seed, run, round,
+    sender, receiver, try): seeded, and the same in any process. A delivery
+    lost on every try is lost for good: the round's acknowledgement says so,
+    and the coordinator restarts the phase.
     """
 
     probability: float = 0.0
     seed: int = 0
     attempts: int = 12
+    delay: float = 0.0  # s, the longest one-way delay of a radio message
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.probability < 1.0:
             raise ValueError(f"radio loss must be in [0, 1), got {self.probability}")
         if self.attempts < 1:
             raise ValueError(f"radio attempts must be at least 1, got {self.attempts}")
+        if not 0.0 <= self.delay < float("inf"):
+            raise ValueError(f"radio delay must be a number of seconds >= 0, got {self.delay}")
+
+    @property
+    def active(self) -> bool:
+        """True when the radio loses or delays anything."""
+        return self.probability > 0.0 or self.delay > 0.0
 
     def deliver(
         self, run_id: int, round_: int, senders: IntArray, receivers: IntArray
-    ) -> tuple[int, int]:
-        """(repair messages sent, deliveries lost for good) of deliveries sender -> receiver."""
-        if self.probability == 0.0 or senders.size == 0:
-            return 0, 0
+    ) -> Delivery:
+        """What became of the deliveries sender -> receiver (M each) in round ``round_``."""
+        if not self.active or senders.size == 0:
+            return Delivery()
         keys = [np.full(senders.size, run_id), np.full(senders.size, round_), senders, receivers]
-        # Column 0: the broadcast itself; then per repair, the request and the resend.
-        draws = uniforms(self.seed, keys, 2 * self.attempts - 1)
-        arrived = draws >= self.probability
+        # Columns 0 .. 2 attempts - 2: the broadcast, then per repair the request and the
+        # resend; the next as many columns: each of those messages' delay.
+        messages = 2 * self.attempts - 1
+        draws = uniforms(self.seed, keys, 2 * messages)
+        arrived = draws[:, :messages] >= self.probability
+        late = self.delay * draws[:, messages:]
         delivered = arrived[:, 0].copy()
+        arrival = np.where(delivered, late[:, 0], np.inf)
         repairs = 0
         for attempt in range(1, self.attempts):
             waiting = ~delivered
@@ -67,8 +93,12 @@ class RadioLoss:
                 break
             asked = waiting & arrived[:, 2 * attempt - 1]
             repairs += int(waiting.sum()) + int(asked.sum())  # requests, then resends
-            delivered |= asked & arrived[:, 2 * attempt]
-        return repairs, int((~delivered).sum())
+            now = asked & arrived[:, 2 * attempt]
+            start = (2 * attempt - 1) * self.delay
+            arrival[now] = start + late[now, 2 * attempt - 1] + late[now, 2 * attempt]
+            delivered |= now
+        latency = float(arrival[delivered].max()) if delivered.any() else 0.0
+        return Delivery(repairs, int((~delivered).sum()), latency)
 
 
 @dataclass(frozen=True)
@@ -81,6 +111,7 @@ class Ack:
     heard: int  # offers of the round heard
     repairs: int = 0  # repair requests and resends a lossy radio needed
     lost: int = 0  # deliveries to this process's FLSs lost for good
+    latency: float = 0.0  # s the round's deliveries took: the ack goes out that late
 
 
 class RadioHub:
@@ -97,7 +128,7 @@ class RadioHub:
         neighbours: Callable[[int], IntArray] | None = None,
     ) -> None:
         self._local = local
-        self._loss = loss if loss is not None and loss.probability > 0 else None
+        self._loss = loss if loss is not None and loss.active else None
         # neighbours(fls): the FLSs whose offers that FLS takes (its view's).
         self._neighbours = neighbours
         self._pairs: dict[int, tuple[IntArray, IntArray]] = {}  # run -> (sender, receiver)
@@ -166,8 +197,16 @@ class RadioHub:
         if control is None or heard < control.expected:
             return None
         del self._rounds[(run_id, round_)]
-        repairs, lost = self._deliver(run_id, round_)
-        return Ack(run_id, control.phase, round_, heard, repairs, lost)
+        delivery = self._deliver(run_id, round_)
+        return Ack(
+            run_id,
+            control.phase,
+            round_,
+            heard,
+            delivery.repairs,
+            delivery.lost,
+            delivery.latency,
+        )
 
     def _radio_pairs(self) -> tuple[IntArray, IntArray]:
         """(sender, receiver) of every delivery to a local FLS that takes the sender's offers."""
@@ -181,10 +220,10 @@ class RadioHub:
             return np.zeros(0, np.int64), np.zeros(0, np.int64)
         return np.concatenate(senders), np.concatenate(receivers)
 
-    def _deliver(self, run_id: int, round_: int) -> tuple[int, int]:
-        """The lossy radio's repairs and losses for round ``round_``'s offers, if lossy."""
+    def _deliver(self, run_id: int, round_: int) -> Delivery:
+        """What the lossy or slow radio made of round ``round_``'s offers to this process."""
         if self._loss is None or run_id not in self._pairs:
-            return 0, 0
+            return Delivery()
         senders, receivers = self._pairs[run_id]
         sent = np.fromiter(
             (sender for sender, _ in self._offers.get((run_id, round_), [])), dtype=np.int64

@@ -149,9 +149,22 @@ class Radio:
         )
 
     def _acknowledge(self, ack: Ack | None) -> None:
-        if ack is not None:
-            stamp = self._node.get_clock().now().to_msg()
-            self._acks.publish(ack_message(ack, self._node.get_name(), stamp))
+        if ack is None:
+            return
+        if ack.latency <= 0:
+            self._send_ack(ack)
+            return
+
+        # A slow radio's last delivery of the round arrives this late: so does the ack.
+        def send_once() -> None:
+            self._node.destroy_timer(timer)
+            self._send_ack(ack)
+
+        timer = self._node.create_timer(ack.latency, send_once)
+
+    def _send_ack(self, ack: Ack) -> None:
+        stamp = self._node.get_clock().now().to_msg()
+        self._acks.publish(ack_message(ack, self._node.get_name(), stamp))
 
     def _on_walk(self, message: PathWalk) -> None:
         if len(message.path):
@@ -236,13 +249,14 @@ class SwarmHost:
         )
 
     def _radio_loss(self) -> RadioLoss | None:
-        """The simulated radio's loss, from this host node's parameters (radio.*)."""
+        """The simulated radio's loss and delay, from this host node's parameters (radio.*)."""
         node = self.host_node
         try:
             probability = node.declare_parameter("radio.loss", 0.0).value
             seed = node.declare_parameter("radio.seed", 0).value
             attempts = node.declare_parameter("radio.attempts", RadioLoss.attempts).value
-            return RadioLoss(float(probability), int(seed), int(attempts))
+            delay = node.declare_parameter("radio.delay", 0.0).value
+            return RadioLoss(float(probability), int(seed), int(attempts), float(delay))
         except (ParameterException, TypeError, ValueError) as err:
             raise ParameterError(f"{node.get_fully_qualified_name()}: radio: {err}") from err
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from swazure_ros.protocol.discovery import END, ROUND, START, Control, Offer, RoundOffers
-from swazure_ros.protocol.radio import Ack, RadioHub, RadioLoss
+from swazure_ros.protocol.radio import Ack, Delivery, RadioHub, RadioLoss
 
 
 def offer(*sources):
@@ -78,24 +78,42 @@ def test_a_round_table_gives_each_sender_s_labels():
 
 def test_a_lossless_radio_needs_no_repairs():
     senders, receivers = np.arange(100), np.arange(100, 200)
-    assert RadioLoss(0.0).deliver(1, 0, senders, receivers) == (0, 0)
+    assert RadioLoss(0.0).deliver(1, 0, senders, receivers) == Delivery(0, 0, 0.0)
 
 
 def test_a_lossy_radio_repairs_what_it_loses_and_counts_it():
     senders, receivers = np.repeat(np.arange(100), 100), np.tile(np.arange(100), 100)
-    repairs, lost = RadioLoss(0.1, seed=3).deliver(7, 2, senders, receivers)
+    delivery = RadioLoss(0.1, seed=3).deliver(7, 2, senders, receivers)
     # About 1000 of 10,000 first deliveries lost, each repaired with a request and a resend
     # (a few requests lost and asked again); none lost on all 12 tries.
-    assert lost == 0 and 1800 < repairs < 2600
-    assert RadioLoss(0.1, seed=3).deliver(7, 2, senders, receivers) == (repairs, lost)
-    assert RadioLoss(0.1, seed=4).deliver(7, 2, senders, receivers) != (repairs, lost)
+    assert delivery.lost == 0 and 1800 < delivery.repairs < 2600 and delivery.latency == 0
+    assert RadioLoss(0.1, seed=3).deliver(7, 2, senders, receivers) == delivery
+    assert RadioLoss(0.1, seed=4).deliver(7, 2, senders, receivers) != delivery
     # One try and no repairs: what is lost stays lost.
     once = RadioLoss(0.5, seed=3, attempts=1).deliver(7, 2, senders, receivers)
-    assert once[0] == 0 and 4700 < once[1] < 5300
+    assert once.repairs == 0 and 4700 < once.lost < 5300
+
+
+def test_a_slow_radio_delays_the_round_by_its_latest_delivery_within_the_bound():
+    senders, receivers = np.repeat(np.arange(100), 100), np.tile(np.arange(100), 100)
+    # Delay alone: every broadcast arrives, the last of 10,000 near the longest delay.
+    slow = RadioLoss(0.0, seed=3, delay=0.05).deliver(7, 2, senders, receivers)
+    assert slow.repairs == 0 and slow.lost == 0 and 0.049 < slow.latency <= 0.05
+    # Lost and late: a repaired delivery waits for the broadcast's bound, then a round
+    # trip per try; none arrives after the last try's bound.
+    both = RadioLoss(0.1, seed=3, delay=0.05).deliver(7, 2, senders, receivers)
+    lossy = RadioLoss(0.1, seed=3).deliver(7, 2, senders, receivers)
+    assert (both.repairs, both.lost) == (lossy.repairs, lossy.lost)  # delays change no fate
+    assert 0.05 < both.latency <= (2 * 12 - 1) * 0.05
+    assert RadioLoss(0.1, seed=3, delay=0.05).deliver(7, 2, senders, receivers) == both
+    one = RadioLoss(0.0, seed=3, delay=0.05).deliver(7, 2, senders[:1], receivers[:1])
+    assert 0 < one.latency < slow.latency
 
 
 def test_radio_loss_settings_are_checked():
     with pytest.raises(ValueError, match="radio loss"):
         RadioLoss(1.0)
+    with pytest.raises(ValueError, match="radio delay"):
+        RadioLoss(0.1, delay=-1.0)
     with pytest.raises(ValueError, match="attempts"):
         RadioLoss(0.1, attempts=0)

@@ -281,20 +281,27 @@ def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain,
 
 
 @pytest.mark.parametrize(
-    ("loss", "attempts", "complete"), [(0.1, 12, True), (0.6, 1, False)], ids=["repaired", "lost"]
+    ("loss", "attempts", "delay", "complete"),
+    [(0.1, 12, 0.0, True), (0.1, 12, 0.1, True), (0.6, 1, 0.0, False)],
+    ids=["repaired", "repaired-late", "lost"],
 )
 def test_a_lossy_radio_gives_the_engines_results_or_says_incomplete(
-    domain, tmp_path, loss, attempts, complete
+    domain, tmp_path, loss, attempts, delay, complete
 ):
     params = tmp_path / "swarm.yaml"
     params.write_text(
         "/**:\n  ros__parameters:\n    publish_period: 5.0\n"
         f"    radio:\n      loss: {loss}\n      seed: 7\n      attempts: {attempts}\n"
+        f"      delay: {delay}\n"
     )
     policy = "shortest-length"
     with swarm_of(domain, params) as swarm:
         swarm.wait_until_ready()
+        began = time.monotonic()
         result = swarm.discover(policy, timeout=120)
+        # Each round's ack waits for its last delivery (repaired ones past 0.1 s): a torus
+        # round takes well under 0.1 s on a perfect radio.
+        assert delay == 0 or time.monotonic() - began > result.rounds * delay
         if complete:
             # Every lost delivery was asked for again: the same results as a perfect radio.
             assert not result.incomplete and result.repairs > 0
