@@ -789,6 +789,10 @@ def faults_section(args: argparse.Namespace) -> list[str]:
     for label, extra in (
         ("perfect radio", ""),
         ("10 % of deliveries lost", "    radio:\n      loss: 0.1\n      seed: 7\n"),
+        (
+            "10 % lost, each message up to 50 ms late",
+            "    radio:\n      loss: 0.1\n      seed: 7\n      delay: 0.05\n",
+        ),
     ):
         with swarm(base + extra) as running:
             running.wait_until_ready()
