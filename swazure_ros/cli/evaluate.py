@@ -16,12 +16,21 @@ from typing import Any
 from ..core.clouds import load_cloud
 from ..core.errors import CloudError, SwazureError
 from ..core.evaluate import Progress, evaluate
+from ..core.fusion import fuse
 from ..core.geometry import make_swarm
 from ..core.heuristics import PLAIN, TECHNIQUES, HeuristicResult, run_technique
 from ..core.paths import POLICIES
 from ..core.results import describe_source, write_evaluation
 from ..core.sensor import load_sensor
-from .arguments import MAX_DOMAIN_ID, domain_id, fls_id, input_file, output_folder, png_file
+from .arguments import (
+    MAX_DOMAIN_ID,
+    count,
+    domain_id,
+    fls_id,
+    input_file,
+    output_folder,
+    png_file,
+)
 
 
 def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
@@ -98,6 +107,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="plain Swazure, or a heuristic tried on BLOCKED pairs (default: plain)",
     )
     add_threshold_argument(parser)
+    parser.add_argument(
+        "--fuse",
+        type=count,
+        default=1,
+        metavar="K",
+        help="fuse each sweet pair's estimate from up to K node-disjoint sweet paths, "
+        "weighted by their expected errors (default 1: the policy's path alone)",
+    )
     parser.add_argument(
         "--out",
         type=output_folder,
@@ -183,7 +200,21 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
             f"{summary['blocked_pairs']} / {summary['no_sweet_path_pairs']}",
         ),
         ("obstructed sweet paths", f"{summary['obstructed_path_pct']:.2f} %"),
+        (
+            "predicted error cm; within it",
+            f"{_cell(summary['predicted_error_cm']['mean'])}; "
+            f"{summary['within_predicted_pct']:.1f} %",
+        ),
     ]
+    if "fusion" in summary:
+        fusion = summary["fusion"]
+        one, fused = fusion["distance_error_pct_one_path"], fusion["distance_error_pct_fused"]
+        rows.append(
+            (
+                f"fused ({fusion['paths']} paths): pairs",
+                f"{fusion['pairs_fused']}, error {_cell(one['mean'])} -> {_cell(fused['mean'])}",
+            )
+        )
     if "technique" in summary:
         moved = summary["moved_distance"]
         rows.append(
@@ -244,6 +275,10 @@ def main(args: argparse.Namespace) -> int:
                 progress.start(args.technique, 1)
             evaluation, heuristic = run_technique(evaluation, args.technique, args.threshold)
             evaluation.summary["seconds"] += time.perf_counter() - began
+        if args.fuse > 1:
+            if args.technique != PLAIN:
+                raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
+            evaluation = fuse(evaluation, args.fuse)
     finally:
         if isinstance(progress, TqdmProgress):
             progress.close()

@@ -28,7 +28,7 @@ from .neighbours import (
     pairs_of,
 )
 from .paths import Graph, Paths, check_policy, make_graph, path_hops, shortest_paths
-from .sensor import DECAYING, SWEET, Sensor, hop_error, measured_vectors
+from .sensor import DECAYING, SWEET, Sensor, expected_error, hop_error, measured_vectors
 from .sight import Grid, build_grid, obstructed, obstructers, segments_near
 
 FloatArray = NDArray[np.float64]
@@ -230,6 +230,9 @@ class PairResults:
     sweet_connected: NDArray[np.bool_]  # an S_all path exists
     sweet_obstructed: NDArray[np.bool_]  # the policy's S_all path has an obstructed hop
     obstructing_flss: IntArray  # distinct obstructing FLSs on that path
+    # Predicted error of the estimate, cm (core.sensor.expected_error); nan if unknown.
+    predicted_error: FloatArray
+    fused_paths: IntArray  # paths the estimate combines: 1, more when fused, 0 without a path
 
     def __len__(self) -> int:
         return len(self.source)
@@ -284,6 +287,16 @@ def estimates(hood: Neighbourhood, paths: Paths) -> tuple[FloatArray, IntArray, 
     estimate[~paths.found] = np.nan
     sweet_hops, decaying_hops = hop_classes(hood, paths)
     return estimate, sweet_hops, decaying_hops
+
+
+def summed_hop_errors(hood: Neighbourhood, paths: Paths) -> FloatArray:
+    """Sum of :func:`~.sensor.hop_error` over each path's hops: (M,); nan without a path."""
+    swarm = hood.swarm
+    pair, start, end = path_hops(paths)
+    tracking = tracking_distance(swarm.points, swarm.radius, start, end)
+    costs = hop_error(hood.sensor, tracking, swarm.radius)
+    summed = np.bincount(pair, weights=costs, minlength=len(paths.found))
+    return np.where(paths.found, summed, np.nan)
 
 
 def hop_classes(hood: Neighbourhood, paths: Paths) -> tuple[IntArray, IntArray]:
@@ -424,6 +437,8 @@ def pair_results(
 
     distance_error, alpha, theta, phi = errors
     return PairResults(
+        predicted_error=expected_error(hood.sensor, summed_hop_errors(hood, paths)),
+        fused_paths=np.where(paths.found, 1, 0).astype(np.int64),
         source=source,
         target=target,
         status=status,
@@ -490,6 +505,9 @@ def summarise(hood: Neighbourhood, policy: str, pairs: PairResults) -> dict[str,
         "sweet_connected_pairs": int(pairs.sweet_connected.sum()),
         "obstructed_path_pct": _pct(int(obstructed_paths.sum()), int(pairs.sweet_connected.sum())),
         "obstructing_flss_per_path": describe(pairs.obstructing_flss[obstructed_paths]),
+        "predicted_error_cm": stat(pairs.predicted_error),
+        # How often the estimate's error is within its predicted error (section "Fusion").
+        "within_predicted_pct": _within_predicted_pct(pairs),
         # Counts of obstructed paths by their number of obstructing FLSs (index = number),
         # so that box plots and quantiles can be drawn without the per-pair file.
         "obstructing_flss_histogram": np.bincount(
@@ -504,6 +522,13 @@ def summarise(hood: Neighbourhood, policy: str, pairs: PairResults) -> dict[str,
         },
         "version": __version__,
     }
+
+
+def _within_predicted_pct(pairs: PairResults) -> float:
+    """% of the pairs with a predicted error whose estimate's error (cm) is within it."""
+    known = np.isfinite(pairs.predicted_error) & (pairs.status != NO_PATH)
+    error = np.linalg.norm(pairs.estimate[known] - pairs.truth[known], axis=1)
+    return _pct(int((error <= pairs.predicted_error[known]).sum()), int(known.sum()))
 
 
 def evaluate(

@@ -527,6 +527,9 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
         alpha=errors[1],
         theta=errors[2],
         phi=errors[3],
+        # A resolved pair's path was measured in a moved swarm: no prediction of its error.
+        predicted_error=np.where(resolved, np.nan, pairs.predicted_error),
+        fused_paths=np.where(paths.found, 1, 0).astype(np.int64),
     )
     summary = summarise(evaluation.hood, evaluation.policy, updated)
     summary["seconds"] = evaluation.summary.get("seconds")

@@ -458,6 +458,123 @@ def check_policy(policy: str) -> str:
     return policy
 
 
+def _policy_weights(graph: Graph, policy: str) -> tuple[FloatArray, bool]:
+    """The edge weights a search sums under ``policy`` (2E,), and whether hops come first."""
+    # Least-error is shortest-length over the edges' costs instead of their lengths.
+    if check_policy(policy) == LEAST_ERROR:
+        if graph.costs is None:
+            raise ValueError("the least-error policy needs a graph with edge costs")
+        return graph.costs, False
+    return graph.weights, policy == FEWEST_HOPS
+
+
+@numba.njit(cache=True, parallel=True)
+def _avoiding_kernel(
+    indptr: IntArray,
+    indices: IntArray,
+    weights: FloatArray,
+    component: IntArray,
+    fewest_hops: bool,
+    sources: IntArray,
+    targets: IntArray,
+    avoid_offsets: IntArray,
+    avoid: IntArray,
+    width: int,
+    chunks: int,
+) -> tuple[NDArray[np.bool_], IntArray, IntArray]:
+    size = len(indptr) - 1
+    pairs = len(targets)
+    found = np.zeros(pairs, dtype=np.bool_)
+    hops = np.zeros(pairs, dtype=np.int64)
+    buffer = np.full((pairs, width), -1, dtype=np.int64)
+    for chunk in numba.prange(chunks):
+        primary = np.full(size, np.inf)
+        secondary = np.full(size, np.inf)
+        pred = np.full(size, -1, dtype=np.int64)
+        settled = np.zeros(size, dtype=np.bool_)
+        wanted = np.zeros(size, dtype=np.bool_)
+        touched = np.empty(size, dtype=np.int64)
+        one = np.empty(1, dtype=np.int64)
+        for pair in range(chunk, pairs, chunks):
+            source, target = sources[pair], targets[pair]
+            # An avoided node counts as settled: the search never enters it.
+            blocked = avoid[avoid_offsets[pair] : avoid_offsets[pair + 1]]
+            settled[blocked] = True
+            one[0] = target
+            count = _search_one(
+                indptr,
+                indices,
+                weights,
+                source,
+                one,
+                component,
+                fewest_hops,
+                primary,
+                secondary,
+                pred,
+                settled,
+                wanted,
+                touched,
+            )
+            if target != source and primary[target] < np.inf and settled[target]:
+                steps = int(primary[target] if fewest_hops else secondary[target])
+                if steps + 1 <= width:
+                    found[pair] = True
+                    hops[pair] = steps
+                    _walk_back(pred, target, steps, buffer[pair])
+            for slot in range(count):
+                node = touched[slot]
+                primary[node], secondary[node], pred[node] = np.inf, np.inf, -1
+                settled[node] = False
+            settled[blocked] = False
+            wanted[target] = False
+    return found, hops, buffer
+
+
+#: Longest path, in nodes, that :func:`avoiding_paths` returns.
+AVOIDING_WIDTH = 64
+
+
+def avoiding_paths(
+    graph: Graph,
+    sources: ArrayLike,
+    targets: ArrayLike,
+    policy: str,
+    avoid_offsets: ArrayLike,
+    avoid: ArrayLike,
+    components: IntArray | None = None,
+) -> Paths:
+    """The policy's path for each pair (sources[m], targets[m]) that enters none of its nodes
+    avoid[avoid_offsets[m]:avoid_offsets[m + 1]].
+
+    Pairs in any order; one search per pair. A path longer than
+    AVOIDING_WIDTH nodes counts as not found. Lengths are tracking distances.
+    """
+    weights, fewest_hops = _policy_weights(graph, policy)
+    sources = np.asarray(sources, dtype=np.int64)
+    targets = np.asarray(targets, dtype=np.int64)
+    if components is None:
+        components = graph.components()
+    found, hops, buffer = _avoiding_kernel(
+        graph.indptr,
+        graph.indices,
+        weights,
+        components,
+        fewest_hops,
+        sources,
+        targets,
+        np.asarray(avoid_offsets, dtype=np.int64),
+        np.asarray(avoid, dtype=np.int64),
+        AVOIDING_WIDTH,
+        max(1, min(len(sources), 4 * numba.get_num_threads())),
+    )
+    counts = np.where(found, hops + 1, 0)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    nodes = buffer[np.arange(AVOIDING_WIDTH)[None, :] < counts[:, None]]
+    paths = Paths(found, hops, np.full(len(found), np.nan), offsets, nodes)
+    return replace(paths, length=path_sums(graph, paths, graph.weights))
+
+
 def shortest_paths(
     graph: Graph,
     sources: ArrayLike,
@@ -482,13 +599,7 @@ def shortest_paths(
     progress : callable, optional
         Called with the number of pairs done after each batch of sources.
     """
-    fewest_hops = check_policy(policy) == FEWEST_HOPS
-    # Least-error is shortest-length over the edges' costs instead of their lengths.
-    weights = graph.weights
-    if policy == LEAST_ERROR:
-        if graph.costs is None:
-            raise ValueError("the least-error policy needs a graph with edge costs")
-        weights = graph.costs
+    weights, fewest_hops = _policy_weights(graph, policy)
     sources = np.asarray(sources, dtype=np.int64)
     targets = np.asarray(targets, dtype=np.int64)
     if sources.shape != targets.shape:

@@ -204,6 +204,8 @@ def pairs_table(
         "phi_deg": pairs.phi,
         "sweet_path_obstructed": pairs.sweet_obstructed,
         "obstructing_flss": pairs.obstructing_flss,
+        "predicted_error_cm": pairs.predicted_error,
+        "fused_paths": pairs.fused_paths,
     }
     if heuristic is not None:
         counts = np.diff(heuristic.move_offsets)

@@ -423,3 +423,14 @@ def smallest_hop_error(sensor: Sensor, radius: float) -> float:
         inside = table[(table >= sensor.sweet_min) & (table <= sensor.decaying_max)]
         samples = np.concatenate([samples, inside])
     return float(hop_error(sensor, samples, radius).min() * (1.0 - _HOP_ERROR_MARGIN))
+
+
+def expected_error(sensor: Sensor, summed: ArrayLike) -> FloatArray:
+    """Predicted error (cm) of estimates whose hops' :func:`hop_error` sum to ``summed`` (M,).
+
+    Stochastic sensor: the standard deviation of the summed vector's error,
+    ``sqrt(summed)`` (independent hops' variances add). Deterministic sensor:
+    ``summed`` itself, which bounds the error (triangle inequality).
+    """
+    summed = np.asarray(summed, dtype=np.float64)
+    return np.sqrt(summed) if sensor.noise is not None else summed

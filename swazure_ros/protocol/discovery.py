@@ -49,7 +49,14 @@ from ..core.evaluate import (
 from ..core.neighbours import ordered_blind_pairs
 from ..core.observe import LocalView
 from ..core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy, paths_from_rows
-from ..core.sensor import DECAYING, SWEET, Sensor, hop_error, smallest_hop_error
+from ..core.sensor import (
+    DECAYING,
+    SWEET,
+    Sensor,
+    expected_error,
+    hop_error,
+    smallest_hop_error,
+)
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -145,6 +152,7 @@ class Found:
     path: tuple[int, ...]
     length: float
     vector: FloatArray
+    error: float = float("nan")  # the hops' expected errors summed (core.sensor.hop_error)
 
     @property
     def hops(self) -> int:
@@ -452,7 +460,10 @@ class PathSearch:
                 if sender not in self.results:
                     self._found[sender] = True
                     self.results[sender] = Found(
-                        heard.path(label), float(heard.lengths[label]), heard.vectors[label].copy()
+                        heard.path(label),
+                        float(heard.lengths[label]),
+                        heard.vectors[label].copy(),
+                        float(heard.errors[label]),
                     )
         won_label = np.full(len(self.hops), -1, dtype=np.int64)
         won_link = np.zeros(len(self.hops), dtype=np.int64)
@@ -505,6 +516,7 @@ class Estimate:
     length: float = float("nan")  # cm
     vector: FloatArray = field(default_factory=lambda: np.full(3, np.nan))  # cm
     radio_path: tuple[int, ...] = ()  # the policy's S_all path (obstruction statistics)
+    predicted_error: float = float("nan")  # cm (core.sensor.expected_error); nan without path
 
     @property
     def hops(self) -> int:
@@ -517,12 +529,28 @@ def estimate(
     sweet: Found | None,
     radio: Found | None,
     decaying: Found | None,
+    sensor: Sensor | None = None,
 ) -> Estimate:
-    """Section 5 of the spec for one target, from its S_vis, S_all and SD_vis results."""
+    """Section 5 of the spec for one target, from its S_vis, S_all and SD_vis results.
+
+    With ``sensor``, the estimate's predicted error follows from its path's
+    summed hop errors.
+    """
     radio_path = radio.path if radio is not None else ()
+
+    def predicted(found: Found) -> float:
+        return float("nan") if sensor is None else float(expected_error(sensor, found.error))
+
     if sweet is not None:
         return Estimate(
-            target, SWEET_PATH, REASON_NONE, sweet.path, sweet.length, sweet.vector, radio_path
+            target,
+            SWEET_PATH,
+            REASON_NONE,
+            sweet.path,
+            sweet.length,
+            sweet.vector,
+            radio_path,
+            predicted(sweet),
         )
     reason = REASON_BLOCKED if radio is not None else REASON_NO_SWEET_PATH
     if decaying is not None:
@@ -534,6 +562,7 @@ def estimate(
             decaying.length,
             decaying.vector,
             radio_path,
+            predicted(decaying),
         )
     return Estimate(target, NO_PATH, reason, radio_path=radio_path)
 
@@ -586,13 +615,13 @@ class FlsRun:
         self.results[phase] = self.search.results
         return self.search
 
-    def estimates(self) -> list[Estimate]:
+    def estimates(self, sensor: Sensor | None = None) -> list[Estimate]:
         """The estimate for every target that has not departed, in target order."""
         if self.targets is None:
             return []
         sweet, radio, decaying = (self.results[phase] for phase in PHASES)
         return [
-            estimate(target, sweet.get(target), radio.get(target), decaying.get(target))
+            estimate(target, sweet.get(target), radio.get(target), decaying.get(target), sensor)
             for target in self.targets.tolist()
             if target not in self.departed
         ]
@@ -691,7 +720,7 @@ class Participant:
             if run is not None and run.search is not None and heard is not None:
                 run.search.hear(heard)
             if run is not None and run.targets is not None:
-                return Report(run_id, self.fls_id, run.estimates())
+                return Report(run_id, self.fls_id, run.estimates(self.sensor))
         return None
 
     def abandon(self) -> list[Report]:

@@ -160,6 +160,7 @@ def estimate_message(source: int, found: Estimate) -> PoseEstimate:
         radio_path=list(found.radio_path),
         vector=Vector3(x=vector[0], y=vector[1], z=vector[2]),
         path_length=found.length,
+        predicted_error=found.predicted_error,
     )
 
 
@@ -186,6 +187,7 @@ def estimate_from_message(message: PoseEstimate) -> Estimate:
         length=float(message.path_length),
         vector=np.array([vector.x, vector.y, vector.z]),
         radio_path=tuple(int(fls) for fls in message.radio_path),
+        predicted_error=float(message.predicted_error),
     )
 
 

@@ -81,6 +81,8 @@ def assert_pairs_equal(found, engine, ids):
         assert one.path == tuple(int(ids[k]) for k in engine.path(pair))
         if one.status != NO_PATH:
             np.testing.assert_allclose(one.vector, engine.estimate[pair], rtol=0, atol=1e-9)
+            # The labels' summed hop errors give the engine's predicted error.
+            assert one.predicted_error == pytest.approx(engine.predicted_error[pair], rel=1e-9)
 
 
 @pytest.mark.parametrize("policy", POLICIES)

@@ -1,0 +1,157 @@
+"""Multi-path fusion: a pair's estimate from its k best node-disjoint sweet paths.
+
+A sweet pair's estimate is the sum of the measured hops along one path.
+Another path that shares no FLS with it (besides source and target) sums
+other measurements, so its error is independent under a stochastic sensor,
+and the two estimates can be combined by inverse-variance weighting. The
+paths are found greedily: the policy's path first, then the policy's path
+that avoids the inner FLSs of those before, up to ``count`` paths.
+
+Each path's weight comes from the sum of its hops' expected errors
+(:func:`~.sensor.hop_error`): a variance V under a stochastic sensor, so
+the fused estimate is sum(x_k / V_k) / sum(1 / V_k) with variance
+1 / sum(1 / V_k); a bound B under the deterministic one, weighted as
+1 / B^2, whose fused error is bounded by sum(B_k / B_k^2) / sum(1 / B_k^2).
+docs/core.md ("Multi-path fusion") derives both.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .evaluate import SWEET_PATH, Evaluation, estimates, summarise, summed_hop_errors
+from .metrics import alpha_deg, describe, distance_error_pct, phi_error_deg, theta_error_deg
+from .paths import Paths, avoiding_paths
+from .sensor import Sensor
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+def inner_nodes(paths: Paths) -> tuple[IntArray, IntArray]:
+    """Each path's nodes without its source and target: (offsets (M + 1,), nodes)."""
+    counts = np.diff(paths.offsets)
+    inner = np.maximum(counts - 2, 0)
+    keep = np.ones(len(paths.nodes), dtype=bool)
+    ends = counts > 0
+    keep[paths.offsets[:-1][ends]] = False
+    keep[paths.offsets[1:][ends] - 1] = False
+    offsets = np.concatenate([[0], np.cumsum(inner)]).astype(np.int64)
+    return offsets, paths.nodes[keep]
+
+
+def _joined(
+    first: tuple[IntArray, IntArray], second: tuple[IntArray, IntArray]
+) -> tuple[IntArray, IntArray]:
+    """Two ragged lists (offsets, values) of M rows joined row by row."""
+    counts = np.diff(first[0]) + np.diff(second[0])
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    rows = np.concatenate(
+        [np.repeat(np.arange(len(counts)), np.diff(part[0])) for part in (first, second)]
+    )
+    values = np.concatenate([first[1], second[1]])
+    order = np.argsort(rows, kind="stable")
+    return offsets, values[order]
+
+
+def combine(
+    sensor: Sensor, vectors: FloatArray, summed: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Fuse K estimates of M pairs: vectors (K, M, 3) cm, summed hop errors (K, M), nan if none.
+
+    Returns the fused estimates (M, 3) and their predicted errors (M,), cm.
+    """
+    found = np.isfinite(summed)
+    stochastic = sensor.noise is not None
+    variance = np.where(found, summed if stochastic else summed**2, np.inf)
+    # An error-free path (variance 0) is exact: it alone decides.
+    exact = found & (variance == 0)
+    weight = np.where(exact.any(axis=0), exact.astype(float), 1.0 / variance)
+    total = weight.sum(axis=0)
+    fused = np.einsum("km,kmd->md", weight, np.where(found[..., None], vectors, 0.0))
+    fused /= total[:, None]
+    if stochastic:
+        predicted = np.sqrt(1.0 / total)
+    else:
+        predicted = np.einsum("km,km->m", weight, np.where(found, summed, 0.0)) / total
+    predicted = np.where(exact.any(axis=0), 0.0, predicted)
+    return fused, predicted
+
+
+def fuse(evaluation: Evaluation, count: int) -> Evaluation:
+    """``evaluation`` with every sweet pair's estimate fused from up to ``count`` disjoint paths.
+
+    The reported path stays the policy's; ``fused_paths`` says how many were
+    combined. The summary gains ``fusion``: the pairs with two or more paths
+    and their distance errors before and after.
+    """
+    if count < 1:
+        raise ValueError(f"fusion needs at least one path per pair, got {count}")
+    began = time.perf_counter()
+    hood, pairs = evaluation.hood, evaluation.pairs
+    sweet = np.flatnonzero(pairs.status == SWEET_PATH)
+    first = Paths(
+        np.ones(len(sweet), dtype=bool),
+        pairs.hops[sweet],
+        pairs.path_length[sweet],
+        np.concatenate([[0], np.cumsum(np.diff(pairs.offsets)[sweet])]).astype(np.int64),
+        np.concatenate([pairs.nodes[pairs.offsets[m] : pairs.offsets[m + 1]] for m in sweet])
+        if len(sweet)
+        else np.zeros(0, dtype=np.int64),
+    )
+    graph = hood.sweet_visible
+    components = graph.components()
+    found_paths = [first]
+    avoid = inner_nodes(first)
+    for _ in range(count - 1):
+        more = avoiding_paths(
+            graph, pairs.source[sweet], pairs.target[sweet], evaluation.policy, *avoid,
+            components=components,
+        )  # fmt: skip
+        if not more.found.any():
+            break
+        found_paths.append(more)
+        avoid = _joined(avoid, inner_nodes(more))
+    vectors = np.stack([estimates(hood, paths)[0] for paths in found_paths])
+    summed = np.stack([summed_hop_errors(hood, paths) for paths in found_paths])
+    fused, predicted = combine(hood.sensor, vectors, summed)
+    used = np.isfinite(summed).sum(axis=0)
+
+    estimate = pairs.estimate.copy()
+    estimate[sweet] = fused
+    predicted_error = pairs.predicted_error.copy()
+    predicted_error[sweet] = predicted
+    fused_paths = pairs.fused_paths.copy()
+    fused_paths[sweet] = used
+    with np.errstate(invalid="ignore"):
+        metrics = [
+            metric(estimate, pairs.truth)
+            for metric in (distance_error_pct, alpha_deg, theta_error_deg, phi_error_deg)
+        ]
+    updated = replace(
+        pairs,
+        estimate=estimate,
+        distance_error=metrics[0],
+        alpha=metrics[1],
+        theta=metrics[2],
+        phi=metrics[3],
+        predicted_error=predicted_error,
+        fused_paths=fused_paths,
+    )
+    several = fused_paths >= 2
+    summary = summarise(hood, evaluation.policy, updated)
+    summary["seconds"] = evaluation.summary.get("seconds")
+    summary["fusion"] = {
+        "paths": count,
+        "pairs_fused": int(several.sum()),
+        "paths_per_pair": np.bincount(fused_paths[sweet], minlength=count + 1).tolist(),
+        "distance_error_pct_one_path": describe(pairs.distance_error[several]),
+        "distance_error_pct_fused": describe(metrics[0][several]),
+        "seconds": time.perf_counter() - began,
+    }
+    summary["parameters"]["fuse"] = count
+    return replace(evaluation, pairs=updated, summary=summary)
