@@ -207,6 +207,35 @@ def _walk_back(pred: IntArray, target: int, steps: int, out: IntArray) -> None:
 
 
 @numba.njit(cache=True, nogil=True)
+def _scratch(
+    size: int,
+) -> tuple[FloatArray, FloatArray, IntArray, NDArray[np.bool_], NDArray[np.bool_], IntArray]:
+    """Unset labels of a search over ``size`` nodes: primary, secondary, pred, settled, ..."""
+    return (
+        np.full(size, np.inf),
+        np.full(size, np.inf),
+        np.full(size, -1, dtype=np.int64),
+        np.zeros(size, dtype=np.bool_),
+        np.zeros(size, dtype=np.bool_),
+        np.empty(size, dtype=np.int64),
+    )
+
+
+@numba.njit(cache=True, nogil=True)
+def _reset(
+    touched: IntArray,
+    primary: FloatArray,
+    secondary: FloatArray,
+    pred: IntArray,
+    settled: NDArray[np.bool_],
+) -> None:
+    """Unset the labels of the ``touched`` nodes after a search, for the next one."""
+    for node in touched:
+        primary[node], secondary[node], pred[node] = np.inf, np.inf, -1
+        settled[node] = False
+
+
+@numba.njit(cache=True, nogil=True)
 def _search_one(
     indptr: IntArray,
     indices: IntArray,
@@ -354,12 +383,7 @@ def _search_kernel(
     length = np.full(pairs, np.nan)
     buffer = np.full((pairs, width), -1, dtype=np.int64)
     for chunk in numba.prange(chunks):
-        primary = np.full(size, np.inf)
-        secondary = np.full(size, np.inf)
-        pred = np.full(size, -1, dtype=np.int64)
-        settled = np.zeros(size, dtype=np.bool_)
-        wanted = np.zeros(size, dtype=np.bool_)
-        touched = np.empty(size, dtype=np.int64)
+        primary, secondary, pred, settled, wanted, touched = _scratch(size)
         for position in range(chunk, len(sources), chunks):
             source = sources[position]
             mine = targets[target_ptr[position] : target_ptr[position + 1]]
@@ -389,12 +413,7 @@ def _search_kernel(
                 length[pair] = secondary[target] if fewest_hops else primary[target]
                 if steps + 1 <= width:
                     _walk_back(pred, target, steps, buffer[pair])
-            for slot in range(count):
-                node = touched[slot]
-                primary[node] = np.inf
-                secondary[node] = np.inf
-                pred[node] = -1
-                settled[node] = False
+            _reset(touched[:count], primary, secondary, pred, settled)
             wanted[mine] = False
     return found, hops, length, buffer
 
@@ -416,12 +435,7 @@ def _long_paths(
 ) -> None:
     """Write the paths longer than ``width`` nodes into ``nodes`` at ``offsets``."""
     size = len(indptr) - 1
-    primary = np.full(size, np.inf)
-    secondary = np.full(size, np.inf)
-    pred = np.full(size, -1, dtype=np.int64)
-    settled = np.zeros(size, dtype=np.bool_)
-    wanted = np.zeros(size, dtype=np.bool_)
-    touched = np.empty(size, dtype=np.int64)
+    primary, secondary, pred, settled, wanted, touched = _scratch(size)
     for position in range(len(sources)):
         start, stop = target_ptr[position], target_ptr[position + 1]
         if np.all(hops[start:stop] + 1 <= width):
@@ -444,10 +458,7 @@ def _long_paths(
         for pair in range(start, stop):
             if hops[pair] + 1 > width:
                 _walk_back(pred, targets[pair], hops[pair], nodes[offsets[pair] :])
-        for slot in range(count):
-            node = touched[slot]
-            primary[node], secondary[node], pred[node] = np.inf, np.inf, -1
-            settled[node] = False
+        _reset(touched[:count], primary, secondary, pred, settled)
         wanted[targets[start:stop]] = False
 
 
@@ -488,12 +499,7 @@ def _avoiding_kernel(
     hops = np.zeros(pairs, dtype=np.int64)
     buffer = np.full((pairs, width), -1, dtype=np.int64)
     for chunk in numba.prange(chunks):
-        primary = np.full(size, np.inf)
-        secondary = np.full(size, np.inf)
-        pred = np.full(size, -1, dtype=np.int64)
-        settled = np.zeros(size, dtype=np.bool_)
-        wanted = np.zeros(size, dtype=np.bool_)
-        touched = np.empty(size, dtype=np.int64)
+        primary, secondary, pred, settled, wanted, touched = _scratch(size)
         one = np.empty(1, dtype=np.int64)
         for pair in range(chunk, pairs, chunks):
             source, target = sources[pair], targets[pair]
@@ -522,10 +528,7 @@ def _avoiding_kernel(
                     found[pair] = True
                     hops[pair] = steps
                     _walk_back(pred, target, steps, buffer[pair])
-            for slot in range(count):
-                node = touched[slot]
-                primary[node], secondary[node], pred[node] = np.inf, np.inf, -1
-                settled[node] = False
+            _reset(touched[:count], primary, secondary, pred, settled)
             settled[blocked] = False
             wanted[target] = False
     return found, hops, buffer
