@@ -1024,6 +1024,17 @@ POLICY_SENSORS = {
 POLICY_BETAS = (0.3, 0.4, 0.5)
 
 
+def evaluated(out: Path, shape: str, beta: float, sensor: Path, *options: str) -> dict:
+    """summary.json of `swazure evaluate` of a published shape into ``out``; exits on failure."""
+    code = run(
+        [*SWAZURE, "evaluate", "--cloud", str(DATASETS / f"{shape}.xyz"), "--beta", str(beta),
+         "--sensor", str(sensor), "--quiet", "--out", str(out), *options]
+    )[2]  # fmt: skip
+    if code != 0:
+        raise SystemExit(f"bench: evaluate {shape} {beta} {' '.join(options)} failed ({code})")
+    return json.loads((out / "summary.json").read_text())
+
+
 def policies_section(args: argparse.Namespace) -> list[str]:
     """Least-error against the paper's two policies: errors and engine time (issue 19)."""
     lines = [
@@ -1045,14 +1056,7 @@ def policies_section(args: argparse.Namespace) -> list[str]:
                     found = {}
                     for policy in ("fewest-hops", "shortest-length", "least-error"):
                         out = Path(scratch) / f"{shape}-{beta}-{policy}-{len(found)}"
-                        code = run(
-                            [*SWAZURE, "evaluate", "--cloud", str(DATASETS / f"{shape}.xyz"),
-                             "--beta", str(beta), "--sensor", str(sensor), "--policy", policy,
-                             "--quiet", "--out", str(out)]
-                        )[2]  # fmt: skip
-                        if code != 0:
-                            raise SystemExit(f"bench: {shape} {beta} {policy} failed ({code})")
-                        found[policy] = json.loads((out / "summary.json").read_text())
+                        found[policy] = evaluated(out, shape, beta, sensor, "--policy", policy)
                     error = {p: one["distance_error_pct"]["mean"] for p, one in found.items()}
                     alpha = {p: one["alpha_deg"]["mean"] for p, one in found.items()}
                     seconds = {p: one["seconds"] for p, one in found.items()}
@@ -1096,14 +1100,9 @@ def fusion_section(args: argparse.Namespace) -> list[str]:
                 for policy in ("shortest-length", "least-error"):
                     for paths in (1, 2, 3):
                         out = Path(scratch) / f"{shape}-{len(lines)}"
-                        code = run(
-                            [*SWAZURE, "evaluate", "--cloud", str(DATASETS / f"{shape}.xyz"),
-                             "--beta", str(args.beta), "--sensor", str(sensor), "--policy",
-                             policy, "--fuse", str(paths), "--quiet", "--out", str(out)]
-                        )[2]  # fmt: skip
-                        if code != 0:
-                            raise SystemExit(f"bench: {shape} --fuse {paths} failed ({code})")
-                        summary = json.loads((out / "summary.json").read_text())
+                        summary = evaluated(
+                            out, shape, args.beta, sensor, "--policy", policy, "--fuse", str(paths)
+                        )
                         within = summary["within_predicted_pct"]
                         fusion = summary.get("fusion")
                         if fusion is None:
