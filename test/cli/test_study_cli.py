@@ -111,10 +111,14 @@ def test_table_values_equal_the_runs_own_summaries(quick_study):
 def test_rerun_computes_nothing_and_rewrites_the_same_tables(quick_study):
     out, _ = quick_study
     before = {name: (out / "tables" / f"{name}.csv").read_text() for name in TABLES}
+    snapshots = sorted((out / "figures").glob("snapshot_*.png"))
+    drawn = {path: path.stat().st_mtime_ns for path in snapshots}
     run = swazure("study", "--quick", "--quiet", "--clouds", *quick_clouds(), "--out", str(out))
     assert run.returncode == 0, run.stderr
     assert "24 runs: 0 computed" in run.stdout
     assert before == {name: (out / "tables" / f"{name}.csv").read_text() for name in TABLES}
+    # Nothing changed: no shape is evaluated again to redraw its snapshot.
+    assert snapshots and drawn == {path: path.stat().st_mtime_ns for path in snapshots}
 
 
 def test_killed_study_resumes_with_only_the_unfinished_runs(tmp_path):
