@@ -38,9 +38,12 @@ BAD_INPUTS = [
     (["evaluate", *TORUS, "--out", "afile/sub"], "afile is not a folder"),
     (["evaluate", *TORUS, "--policy", "nope"], "invalid choice: 'nope'"),
     (["evaluate", *TORUS, "--threshold", "-3"], "--threshold must be at least 1"),
+    (["evaluate", *TORUS, "--fuse", "0"], "argument --fuse: 0: must be at least 1"),
+    (["evaluate", *TORUS, "--fuse", "2", "--technique", "move-source"], "drop --technique"),
     (["evaluate", *TORUS, "--seed", "x"], "invalid int value"),
     # study
     (["study", "--jobs", "0"], "argument --jobs: 0: must be at least 1"),
+    (["study", "--pairs", "some", "--out", "s"], "argument --pairs: invalid choice: 'some'"),
     (["study", "--betas", "-1", "--out", "s"], "beta must be in (0, 1]"),
     (["study", "--clouds", "nosuch", "--out", "s"], "unknown shape 'nosuch'"),
     (["study", "--techniques", "nope", "--out", "s"], "unknown technique 'nope'"),
