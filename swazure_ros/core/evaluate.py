@@ -20,7 +20,7 @@ from scipy.spatial import cKDTree
 
 from .. import __version__
 from .geometry import Swarm, tracking_distance
-from .metrics import alpha_deg, describe, distance_error_pct, phi_error_deg, theta_error_deg
+from .metrics import describe, pose_errors
 from .neighbours import (
     NeighbourPairs,
     neighbour_pairs,
@@ -423,11 +423,7 @@ def pair_results(
     swarm = hood.swarm
     sweet_hops, decaying_hops = hop_classes(hood, paths)
     truth = swarm.points[target] - swarm.points[source]
-    with np.errstate(invalid="ignore"):
-        errors = [
-            metric(estimate, truth)
-            for metric in (distance_error_pct, alpha_deg, theta_error_deg, phi_error_deg)
-        ]
+    errors = pose_errors(estimate, truth)
     count = len(source)
     has_obstruction, obstructing = path_obstruction(hood, hood.sweet_all, radio)
     sweet_obstructed = np.zeros(count, dtype=bool)

@@ -12,7 +12,7 @@ Each path's weight comes from the sum of its hops' expected errors
 the fused estimate is sum(x_k / V_k) / sum(1 / V_k) with variance
 1 / sum(1 / V_k); a bound B under the deterministic one, weighted as
 1 / B^2, whose fused error is bounded by sum(B_k / B_k^2) / sum(1 / B_k^2).
-docs/core.md ("Multi-path fusion") derives both.
+docs/core.md ("Predicted errors and multi-path fusion") derives both.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .evaluate import SWEET_PATH, Evaluation, estimates, summarise, summed_hop_errors
-from .metrics import alpha_deg, describe, distance_error_pct, phi_error_deg, theta_error_deg
+from .metrics import describe, pose_errors
 from .paths import Paths, avoiding_paths
 from .sensor import Sensor
 
@@ -94,14 +94,13 @@ def fuse(evaluation: Evaluation, count: int) -> Evaluation:
     began = time.perf_counter()
     hood, pairs = evaluation.hood, evaluation.pairs
     sweet = np.flatnonzero(pairs.status == SWEET_PATH)
+    counts = np.diff(pairs.offsets)
     first = Paths(
         np.ones(len(sweet), dtype=bool),
         pairs.hops[sweet],
         pairs.path_length[sweet],
-        np.concatenate([[0], np.cumsum(np.diff(pairs.offsets)[sweet])]).astype(np.int64),
-        np.concatenate([pairs.nodes[pairs.offsets[m] : pairs.offsets[m + 1]] for m in sweet])
-        if len(sweet)
-        else np.zeros(0, dtype=np.int64),
+        np.concatenate([[0], np.cumsum(counts[sweet])]).astype(np.int64),
+        pairs.nodes[np.repeat(pairs.status == SWEET_PATH, counts)],
     )
     graph = hood.sweet_visible
     components = graph.components()
@@ -127,11 +126,7 @@ def fuse(evaluation: Evaluation, count: int) -> Evaluation:
     predicted_error[sweet] = predicted
     fused_paths = pairs.fused_paths.copy()
     fused_paths[sweet] = used
-    with np.errstate(invalid="ignore"):
-        metrics = [
-            metric(estimate, pairs.truth)
-            for metric in (distance_error_pct, alpha_deg, theta_error_deg, phi_error_deg)
-        ]
+    metrics = pose_errors(estimate, pairs.truth)
     updated = replace(
         pairs,
         estimate=estimate,

@@ -45,7 +45,7 @@ from .evaluate import (
     merge_paths,
     summarise,
 )
-from .metrics import alpha_deg, describe, distance_error_pct, phi_error_deg, theta_error_deg
+from .metrics import describe, pose_errors
 from .paths import Paths, path_hops, paths_from_rows, shortest_paths
 from .sensor import measured_vectors
 from .sight import _any_within, _scan_between, obstructers
@@ -507,11 +507,7 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
     decaying_hops = np.where(resolved, 0, pairs.decaying_hops)
     length = pairs.path_length.copy()
     length[resolved] = np.nan
-    with np.errstate(invalid="ignore"):
-        errors = [
-            metric(estimate, truth)
-            for metric in (distance_error_pct, alpha_deg, theta_error_deg, phi_error_deg)
-        ]
+    errors = pose_errors(estimate, truth)
     updated = replace(
         pairs,
         status=status,

@@ -56,6 +56,22 @@ def phi_error_deg(estimate: ArrayLike, truth: ArrayLike) -> FloatArray:
     return np.asarray(np.minimum(difference, 360.0 - difference))
 
 
+def pose_errors(
+    estimate: ArrayLike, truth: ArrayLike
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Distance error (%), alpha, theta and phi errors (deg) of each estimate: (M,) each.
+
+    NaN where an estimate is NaN (a pair without a path).
+    """
+    with np.errstate(invalid="ignore"):
+        return (
+            distance_error_pct(estimate, truth),
+            alpha_deg(estimate, truth),
+            theta_error_deg(estimate, truth),
+            phi_error_deg(estimate, truth),
+        )
+
+
 def describe(values: ArrayLike) -> dict[str, Any]:
     """Mean, max and quantiles of ``values`` as plain floats (None when empty)."""
     values = np.asarray(values, dtype=np.float64)
