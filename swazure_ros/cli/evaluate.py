@@ -266,6 +266,8 @@ def main(args: argparse.Namespace) -> int:
     progress: Progress | None = None if args.quiet else TqdmProgress()
     if args.threshold < 1:
         raise SwazureError(f"--threshold must be at least 1, got {args.threshold}")
+    if args.fuse > 1 and args.technique != PLAIN:
+        raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
     heuristic: HeuristicResult | None = None
     try:
         evaluation = evaluate(swarm, sensor, args.policy, progress)
@@ -276,8 +278,6 @@ def main(args: argparse.Namespace) -> int:
             evaluation, heuristic = run_technique(evaluation, args.technique, args.threshold)
             evaluation.summary["seconds"] += time.perf_counter() - began
         if args.fuse > 1:
-            if args.technique != PLAIN:
-                raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
             evaluation = fuse(evaluation, args.fuse)
     finally:
         if isinstance(progress, TqdmProgress):
