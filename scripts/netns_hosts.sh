@@ -18,7 +18,13 @@ subnet=${SWAZURE_NETNS_SUBNET:-10.77.0}
 
 hosts() { ip netns list | awk '{print $1}' | grep -E "^${prefix}h[0-9]+$" || true; }
 
+veths() { ip -o link show | awk -F': ' '{print $2}' | cut -d@ -f1 | grep -E "^${prefix}v[0-9]+$" || true; }
+
 down() {
+    # The host ends first: deleting a veth end deletes its pair at once, whereas a
+    # deleted namespace's devices go in the kernel's deferred cleanup, and an `up`
+    # right after would find the old ${prefix}vK still there ("File exists").
+    for veth in $(veths); do ip link delete "$veth"; done
     for ns in $(hosts); do ip netns delete "$ns"; done
     if ip link show "$bridge" >/dev/null 2>&1; then ip link delete "$bridge"; fi
 }

@@ -18,7 +18,7 @@ from ..core.errors import CloudError, SwazureError
 from ..core.evaluate import Progress, evaluate
 from ..core.fusion import fuse
 from ..core.geometry import make_swarm
-from ..core.heuristics import PLAIN, TECHNIQUES, HeuristicResult, run_technique
+from ..core.heuristics import COMPAT_MODES, PLAIN, TECHNIQUES, HeuristicResult, run_technique
 from ..core.paths import POLICIES
 from ..core.results import describe_source, write_evaluation
 from ..core.sensor import load_sensor
@@ -96,6 +96,17 @@ def add_threshold_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_compat_argument(parser: argparse.ArgumentParser) -> None:
+    """The heuristics' mode, shared by the verbs that run them."""
+    parser.add_argument(
+        "--compat",
+        choices=tuple(COMPAT_MODES),
+        default="text",
+        help="the heuristics as the paper's text describes them (default), or as its "
+        "published code runs them, which computed its Tables 2-4 (docs/core.md)",
+    )
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure evaluate``."""
     add_swarm_arguments(parser)
@@ -107,6 +118,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="plain Swazure, or a heuristic tried on BLOCKED pairs (default: plain)",
     )
     add_threshold_argument(parser)
+    add_compat_argument(parser)
     parser.add_argument(
         "--fuse",
         type=count,
@@ -268,6 +280,8 @@ def main(args: argparse.Namespace) -> int:
         raise SwazureError(f"--threshold must be at least 1, got {args.threshold}")
     if args.fuse > 1 and args.technique != PLAIN:
         raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
+    if args.compat != "text" and args.technique == PLAIN:
+        raise SwazureError(f"--compat {args.compat} changes the heuristics; add --technique")
     heuristic: HeuristicResult | None = None
     try:
         evaluation = evaluate(swarm, sensor, args.policy, progress)
@@ -275,7 +289,9 @@ def main(args: argparse.Namespace) -> int:
             began = time.perf_counter()
             if progress is not None:
                 progress.start(args.technique, 1)
-            evaluation, heuristic = run_technique(evaluation, args.technique, args.threshold)
+            evaluation, heuristic = run_technique(
+                evaluation, args.technique, args.threshold, COMPAT_MODES[args.compat]
+            )
             evaluation.summary["seconds"] += time.perf_counter() - began
         if args.fuse > 1:
             evaluation = fuse(evaluation, args.fuse)
@@ -284,8 +300,9 @@ def main(args: argparse.Namespace) -> int:
             progress.close()
     summary = evaluation.summary
     describe_source(summary, cloud, args.seed, args.sensor)
+    technique = args.technique if args.compat == "text" else f"{args.technique} ({args.compat})"
     print(
-        f"{cloud.name}: beta {_cell(swarm.beta)}, {args.policy}, {args.technique}, "
+        f"{cloud.name}: beta {_cell(swarm.beta)}, {args.policy}, {technique}, "
         f"sensor {sensor.name}, "
         f"{summary['seconds']:.2f} s"
     )

@@ -16,6 +16,7 @@ from typing import Any
 
 from ..core.clouds import BUILTIN_SHAPES, Cloud, cloud_files, load_cloud, published_dataset_dir
 from ..core.errors import CloudError, SwazureError
+from ..core.heuristics import COMPAT_MODES
 from ..core.paths import POLICIES
 from ..core.results import COMPACT_PAIRS, PAIR_COLUMNS
 from ..core.sensor import load_sensor
@@ -68,6 +69,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=COMPACT_PAIRS,
         help="per-pair columns kept in each run's pairs.parquet: compact (default; what "
         "nothing else reproduces: ids, status, path, estimate, errors, moves) or full",
+    )
+    parser.add_argument(
+        "--compat",
+        choices=tuple(COMPAT_MODES),
+        default="text",
+        help="published: run every heuristic also as the paper's published code does, and "
+        "report its tables beside the text's (default: text only)",
     )
     parser.add_argument(
         "--heuristic-policy",
@@ -171,6 +179,7 @@ def plan_from_args(args: argparse.Namespace) -> StudyPlan:
         sensor_file=None if args.sensor is None else str(args.sensor),
         seed=args.seed,
         pairs=args.pairs,
+        compat=tuple(dict.fromkeys(("text", args.compat))),
     )
 
 

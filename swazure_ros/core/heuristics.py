@@ -62,12 +62,100 @@ TECHNIQUES = (PLAIN, MOVE_OBSTRUCTING, MOVE_SOURCE)
 DIRECTIONS = np.array(
     [offset for offset in itertools.product((-1, 0, 1), repeat=3) if any(offset)], dtype=float
 )
+#: The same offsets unnormalised: the published code's steps (``Compat.grid_steps``).
+GRID_STEPS = DIRECTIONS.copy()
 DIRECTIONS /= np.linalg.norm(DIRECTIONS, axis=1)[:, None]
 
 #: Slack when deciding that an FLS on the obstruction-free circle clears a line of sight, cm.
 _TOUCH = 1e-9
 #: An FLS steps aside this fraction of r beyond the obstruction-free circle.
 _ASIDE = 1e-9
+
+
+@dataclass(frozen=True)
+class Compat:
+    """Where the heuristics follow the published reference code instead of the text.
+
+    Every switch off is the text (spec, sections 7 and 8), the default;
+    :data:`PUBLISHED` turns every one on, which is how the paper's Tables 2-4
+    were computed (github.com/flyinglightspeck/Swazure, src/orchestrator.py
+    and src/swarm_locator.py). Each switch's ``doc`` metadata says what it
+    changes; the study's report prints them beside the two sets of numbers.
+    """
+
+    independent_moves: bool = field(default=False, metadata={"doc": (
+        "Move Obstructing: each obstructer's destination is found in the original shape, "
+        "so no obstructer sees where another went, and no line of sight is checked after "
+        "the moves (the text makes the moves of a pair in sequence, each collision check "
+        "seeing the earlier moves, and then checks every hop). Its collision check of the "
+        "ideal move looks only at FLSs within a tracking distance |o - ideal| of the "
+        "obstructer, with the FLS's index o standing for its position."
+    )})  # fmt: skip
+    last_neighbour_circle: bool = field(default=False, metadata={"doc": (
+        "Move Obstructing: when the ideal move collides, the candidate destinations are the "
+        "points where the obstruction-free circle crosses the collision sphere of the LAST "
+        "neighbour within 4r (by distance) only: the loop overwrites the list of crossings "
+        "for every neighbour. A pair fails when that one sphere misses the circle."
+    )})  # fmt: skip
+    clear_of_any_one: bool = field(default=False, metadata={"doc": (
+        "Move Obstructing: a crossing is accepted as a destination when it is clear of ANY "
+        "ONE neighbour within 4r, not of all of them, so the FLS may move into another."
+    )})  # fmt: skip
+    last_hop_decides: bool = field(default=False, metadata={"doc": (
+        "Move Obstructing: a pair is judged by its last obstructed hop only: the success "
+        "flag is overwritten per hop, so a pair whose earlier hop cannot be cleared counts "
+        "as resolved when its last obstructed hop can."
+    )})  # fmt: skip
+    grid_steps: bool = field(default=False, metadata={"doc": (
+        "Move Source: the 26 probe directions are grid offsets times r, not unit vectors: "
+        "plane diagonals step sqrt(2) r and space diagonals sqrt(3) r, so the probes reach "
+        "farther than T r."
+    )})  # fmt: skip
+    collisions_near_origin: bool = field(default=False, metadata={"doc": (
+        "Move Source: a probe collides only with FLSs within (T + 2) r of the source's "
+        "original position (the text: with any FLS)."
+    )})  # fmt: skip
+    occlusion_near_origin: bool = field(default=False, metadata={"doc": (
+        "Move Source: the line of sight from a probe q to a helper h is checked only against "
+        "FLSs within |q - p_h| + 2r of the source's original position."
+    )})  # fmt: skip
+    sweet_max_inclusive: bool = field(default=False, metadata={"doc": (
+        "Move Source: a helper exactly at the sweet range's upper bound counts as sweet at a "
+        "probe (the text's ranges are half-open)."
+    )})  # fmt: skip
+    first_helper: bool = field(default=False, metadata={"doc": (
+        "Move Source: among the target's visible sweet neighbours, the first that works at a "
+        "probe is taken, in order of distance from the target; the text's engine takes the "
+        "one of the shortest path t(q, h) + t(h, j)."
+    )})  # fmt: skip
+    published_flown: bool = field(default=False, metadata={"doc": (
+        "Move Source: the flown distance adds |(q_prev - p) + delta u| per probe, where "
+        "q_prev is the previous probe, and counts the probes that collided; the text adds "
+        "the distance between consecutive positions actually reached."
+    )})  # fmt: skip
+
+    def __post_init__(self) -> None:
+        dependent = ("last_neighbour_circle", "clear_of_any_one", "last_hop_decides")
+        for name in dependent:
+            if getattr(self, name) and not self.independent_moves:
+                raise ValueError(f"compat switch {name} needs independent_moves")
+
+    @staticmethod
+    def describe(name: str) -> str:
+        """What switch ``name`` changes, one paragraph."""
+        return str(Compat.__dataclass_fields__[name].metadata["doc"])
+
+    def switches_on(self) -> list[str]:
+        """The names of the switches that are on, in declaration order."""
+        return [name for name in self.__dataclass_fields__ if getattr(self, name)]
+
+
+#: The text's heuristics (spec, sections 7 and 8).
+TEXT = Compat()
+#: The published reference code's heuristics: every switch on.
+PUBLISHED = Compat(**{name: True for name in Compat.__dataclass_fields__})
+#: ``--compat`` choices.
+COMPAT_MODES = {"text": TEXT, "published": PUBLISHED}
 
 
 @dataclass(frozen=True)
@@ -86,6 +174,7 @@ class HeuristicResult:
     move_from: FloatArray  # (K, 3), cm
     move_to: FloatArray  # (K, 3), cm
     flown: FloatArray = field(default_factory=lambda: np.zeros(0))  # (M,), Move Source
+    compat: Compat = TEXT
 
     def moves(self, pair: int) -> list[tuple[int, FloatArray, FloatArray]]:
         """The moves made for pair ``pair``: (fls, from, to), in order."""
@@ -198,6 +287,86 @@ def _free_circle_kernel(
     return point
 
 
+def circle_sphere_crossings(
+    centre: FloatArray,
+    normal: FloatArray,
+    radius: float,
+    sphere: FloatArray,
+    sphere_radius: float,
+) -> FloatArray:
+    """Points (0 to 2, 3) where a circle meets a sphere's surface, cm.
+
+    The circle has centre ``centre`` (3,), radius ``radius`` and lies in the
+    plane through ``centre`` perpendicular to ``normal`` (3,); the sphere has
+    centre ``sphere`` (3,) and radius ``sphere_radius``. A tangent circle gives
+    its one point twice.
+    """
+    normal = normal / np.linalg.norm(normal)
+    axis = np.zeros(3)
+    axis[np.argmin(np.abs(normal))] = 1.0
+    first = np.cross(normal, axis)
+    first /= np.linalg.norm(first)
+    second = np.cross(normal, first)
+    # |c + r (cos θ e1 + sin θ e2) - s|² = R²  <=>  a cos θ + b sin θ = m.
+    relative = centre - sphere
+    a, b = float(relative @ first), float(relative @ second)
+    m = (sphere_radius**2 - relative @ relative - radius**2) / (2.0 * radius)
+    rho = float(np.hypot(a, b))
+    if rho == 0.0 or abs(m) > rho:
+        return np.zeros((0, 3))
+    phase, half = np.arctan2(b, a), np.arccos(m / rho)
+    theta = np.array([phase - half, phase + half])
+    return np.asarray(
+        centre + radius * (np.cos(theta)[:, None] * first + np.sin(theta)[:, None] * second)
+    )
+
+
+def _published_destination(
+    points: FloatArray,
+    radius: float,
+    tree: cKDTree,
+    fls: int,
+    start: FloatArray,
+    end: FloatArray,
+    compat: Compat,
+) -> FloatArray | None:
+    """Where obstructer ``fls`` goes to clear the hop start-end in the original shape, or None."""
+    position = points[fls]
+    centre = _closest_on_segment(start, end, position)
+    offset = position - centre
+    ideal = position + (radius / np.linalg.norm(offset) - 1.0) * offset
+    # The reference looks for a collision of the ideal move among the FLSs whose
+    # tracking distance from `fls` is at most |fls - ideal|, with the FLS's index
+    # standing for its position; reproduced so that its tables are.
+    reach = float(np.linalg.norm(fls - ideal)) + 2.0 * radius
+    near = [k for k in tree.query_ball_point(ideal, 2.0 * radius) if k != fls]
+    collides = any(
+        np.linalg.norm(points[k] - ideal) < 2.0 * radius
+        and np.linalg.norm(points[k] - position) <= reach
+        for k in near
+    )
+    if not collides:
+        return np.asarray(ideal)
+    # Every FLS within 4r (tracking distance 2r) can stand within 2r of the circle.
+    proximity = [k for k in tree.query_ball_point(position, 4.0 * radius) if k != fls]
+    proximity.sort(key=lambda k: (float(np.linalg.norm(points[k] - position)), k))
+    spheres = proximity[-1:] if compat.last_neighbour_circle else proximity
+    crossings = [
+        circle_sphere_crossings(centre, end - start, radius, points[k], 2.0 * radius)
+        for k in spheres
+    ]
+    candidates = np.concatenate([np.zeros((0, 3)), *crossings])
+    if len(candidates) == 0:
+        return None
+    gaps = np.linalg.norm(candidates[:, None, :] - points[proximity][None, :, :], axis=2)
+    clear = gaps >= 2.0 * radius * (1.0 - 1e-12)  # a crossing lies on its own sphere
+    usable = clear.any(axis=1) if compat.clear_of_any_one else clear.all(axis=1)
+    if not usable.any():
+        return None
+    candidates = candidates[usable]
+    return np.asarray(candidates[np.argmin(np.linalg.norm(candidates - position, axis=1))])
+
+
 def _closest_on_segment(start: FloatArray, end: FloatArray, point: FloatArray) -> FloatArray:
     direction = end - start
     along = float((point - start) @ direction / (direction @ direction))
@@ -220,8 +389,10 @@ def _empty_result(technique: str, threshold: int | None, size: int) -> dict[str,
     }
 
 
-def move_obstructing(evaluation: Evaluation) -> HeuristicResult:
+def move_obstructing(evaluation: Evaluation, compat: Compat = TEXT) -> HeuristicResult:
     """Move Obstructing (section 7) on every BLOCKED pair of a plain evaluation."""
+    if compat.independent_moves:
+        return _move_obstructing_independently(evaluation, compat)
     hood, pairs = evaluation.hood, evaluation.pairs
     swarm = hood.swarm
     points, radius = swarm.points, swarm.radius
@@ -319,6 +490,77 @@ def move_obstructing(evaluation: Evaluation) -> HeuristicResult:
     )
 
 
+def _move_obstructing_independently(evaluation: Evaluation, compat: Compat) -> HeuristicResult:
+    """Move Obstructing as the reference code does it (``compat.independent_moves``)."""
+    hood, pairs = evaluation.hood, evaluation.pairs
+    points, radius = hood.swarm.points, hood.swarm.radius
+    size = len(pairs)
+    result = _empty_result(MOVE_OBSTRUCTING, None, size)
+    blocked = _blocked_pairs(evaluation)
+    result["tried"][blocked] = True
+    sweet_paths = shortest_paths(
+        hood.sweet_all, pairs.source[blocked], pairs.target[blocked], evaluation.policy
+    )
+    _, start, end = path_hops(sweet_paths)
+    edge = hood.sweet_all.edge_labels(start, end)
+    edges, _ = np.unique(edge, return_inverse=True)
+    offsets, ids = obstructers(
+        points, radius, hood.pairs.first[edges], hood.pairs.second[edges], hood.grid
+    )
+    tree = cKDTree(points)
+    # Every move is made in the original shape: one destination per hop and obstructer.
+    moves_of: dict[int, tuple[list[tuple[int, FloatArray]], bool]] = {}
+    for k, label in enumerate(edges.tolist()):
+        a, b = int(hood.pairs.first[label]), int(hood.pairs.second[label])
+        hop_moves: list[tuple[int, FloatArray]] = []
+        cleared = True
+        for o in ids[offsets[k] : offsets[k + 1]].tolist():
+            # A centre at exactly r obstructs, but the reference moves only those closer.
+            if _gap(points[o], points[a], points[b]) >= radius:
+                continue
+            target = _published_destination(points, radius, tree, o, points[a], points[b], compat)
+            if target is None:
+                cleared = False
+            else:
+                hop_moves.append((o, target))
+        moves_of[label] = (hop_moves, cleared)
+    new_paths: dict[int, list[int]] = {}
+    move_counts = np.zeros(size, dtype=np.int64)
+    move_fls: list[int] = []
+    move_to: list[FloatArray] = []
+    for slot, pair in enumerate(blocked.tolist()):
+        first_hop = int(sweet_paths.offsets[slot]) - slot
+        hops = sweet_paths.hops[slot]
+        ok = True
+        for label in edge[first_hop : first_hop + hops].tolist():
+            hop_moves, cleared = moves_of[label]
+            if not hop_moves and cleared:
+                continue  # a hop in sight, or touched only at r
+            ok = cleared if compat.last_hop_decides else ok and cleared
+            move_fls.extend(o for o, _ in hop_moves)
+            move_to.extend(target for _, target in hop_moves)
+            move_counts[pair] += len(hop_moves)
+        if ok:
+            new_paths[pair] = sweet_paths.path(slot)
+    resolved = np.zeros(size, dtype=bool)
+    resolved[list(new_paths)] = True
+    result["resolved"] = resolved
+    paths = paths_from_rows(size, new_paths)
+    estimate, _, _ = estimates(hood, paths)
+    result["estimate"][resolved] = estimate[resolved]
+    result["truth"][resolved] = pairs.truth[resolved]
+    fls = np.array(move_fls, dtype=np.int64)
+    return HeuristicResult(
+        paths=paths,
+        move_offsets=np.concatenate([[0], np.cumsum(move_counts)]).astype(np.int64),
+        move_fls=fls,
+        move_from=points[fls].reshape(-1, 3),
+        move_to=np.array(move_to, dtype=float).reshape(-1, 3),
+        compat=compat,
+        **result,
+    )
+
+
 @numba.njit(cache=True, parallel=True)
 def _probe_kernel(
     points: FloatArray,
@@ -336,15 +578,24 @@ def _probe_kernel(
     shape: IntArray,
     cell_start: IntArray,
     members: IntArray,
+    collision_reach: float,
+    occlusion_near_origin: bool,
+    sweet_max_inclusive: bool,
+    first_helper: bool,
+    published_flown: bool,
 ) -> tuple[IntArray, FloatArray, FloatArray]:
-    """Per pair: the sweet neighbour reached (-1 if none), probe position, distance flown."""
+    """Per pair: the sweet neighbour reached (-1 if none), probe position, distance flown.
+
+    The last five arguments are :class:`Compat`'s Move Source switches;
+    ``collision_reach`` is inf when collisions count everywhere.
+    """
     pairs = len(sources)
     helper = np.full(pairs, -1, dtype=np.int64)
     probe = np.full((pairs, 3), np.nan)
     flown = np.zeros(pairs)
     for pair in numba.prange(pairs):
         i, j = sources[pair], targets[pair]
-        found = np.empty(1, dtype=np.int64)
+        found = np.empty(len(points) if occlusion_near_origin else 1, dtype=np.int64)
         alive = np.ones(len(directions), dtype=np.bool_)
         x, y, z = points[i, 0], points[i, 1], points[i, 2]
         for delta in range(1, threshold + 1):
@@ -355,15 +606,35 @@ def _probe_kernel(
                 qx = points[i, 0] + step * directions[d, 0]
                 qy = points[i, 1] + step * directions[d, 1]
                 qz = points[i, 2] + step * directions[d, 2]
+                if published_flown:
+                    # |(q_prev - p) + delta u|, before the collision check, as published.
+                    fx = x - points[i, 0] + qx - points[i, 0]
+                    fy = y - points[i, 1] + qy - points[i, 1]
+                    fz = z - points[i, 2] + qz - points[i, 2]
+                    flown[pair] += np.sqrt(fx * fx + fy * fy + fz * fz)
+                    x, y, z = qx, qy, qz
                 # Collision: any other FLS centre closer than 2r to q.
                 collides = _any_within(
-                    points, qx, qy, qz, 2.0 * radius, i, origin, cell, shape, cell_start, members
+                    points,
+                    qx,
+                    qy,
+                    qz,
+                    2.0 * radius,
+                    i,
+                    origin,
+                    cell,
+                    shape,
+                    cell_start,
+                    members,
+                    points[i],
+                    collision_reach,
                 )
                 if collides:
                     alive[d] = False
                     continue
-                flown[pair] += np.sqrt((qx - x) ** 2 + (qy - y) ** 2 + (qz - z) ** 2)
-                x, y, z = qx, qy, qz
+                if not published_flown:
+                    flown[pair] += np.sqrt((qx - x) ** 2 + (qy - y) ** 2 + (qz - z) ** 2)
+                    x, y, z = qx, qy, qz
                 best, best_length = -1, np.inf
                 for slot in range(visible_indptr[j], visible_indptr[j + 1]):
                     h = visible_indices[slot]
@@ -372,7 +643,9 @@ def _probe_kernel(
                     hx, hy, hz = points[h, 0], points[h, 1], points[h, 2]
                     tracking = np.sqrt((hx - qx) ** 2 + (hy - qy) ** 2 + (hz - qz) ** 2)
                     tracking -= 2.0 * radius
-                    if tracking < sweet_min or tracking >= sweet_max:
+                    if tracking < sweet_min or tracking > sweet_max:
+                        continue
+                    if tracking == sweet_max and not sweet_max_inclusive:
                         continue
                     hop = (
                         np.sqrt(
@@ -402,10 +675,25 @@ def _probe_kernel(
                         cell_start,
                         members,
                         found,
-                        True,
+                        not occlusion_near_origin,
                     )
+                    if occlusion_near_origin:
+                        # As published: only FLSs within |q - p_h| + 2r of the source's origin.
+                        reach = np.sqrt((hx - qx) ** 2 + (hy - qy) ** 2 + (hz - qz) ** 2)
+                        reach += 2.0 * radius
+                        near = 0
+                        for slot_found in range(hits):
+                            k = found[slot_found]
+                            ex = points[k, 0] - points[i, 0]
+                            ey = points[k, 1] - points[i, 1]
+                            ez = points[k, 2] - points[i, 2]
+                            if np.sqrt(ex * ex + ey * ey + ez * ez) <= reach:
+                                near += 1
+                        hits = near
                     if hits == 0:
                         best, best_length = h, total
+                        if first_helper:
+                            break
                 if best >= 0:
                     helper[pair] = best
                     probe[pair, 0], probe[pair, 1], probe[pair, 2] = qx, qy, qz
@@ -415,7 +703,14 @@ def _probe_kernel(
     return helper, probe, flown
 
 
-def move_source(evaluation: Evaluation, threshold: int) -> HeuristicResult:
+def _nearest_first(points: FloatArray, indptr: IntArray, indices: IntArray) -> IntArray:
+    """Each CSR row's column indices by distance from the row's point, then by index."""
+    rows = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
+    distance = np.linalg.norm(points[indices] - points[rows], axis=1)
+    return np.asarray(indices[np.lexsort((indices, distance, rows))], dtype=np.int64)
+
+
+def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -> HeuristicResult:
     """Move Source (section 8) with probe steps delta = 1..``threshold`` on every BLOCKED pair."""
     if threshold < 1:
         raise ValueError(f"threshold must be a positive number of steps, got {threshold}")
@@ -426,6 +721,10 @@ def move_source(evaluation: Evaluation, threshold: int) -> HeuristicResult:
     blocked = _blocked_pairs(evaluation)
     result["tried"][blocked] = True
     visible = hood.sweet_visible
+    helpers = visible.indices.astype(np.int64)
+    if compat.first_helper:
+        helpers = _nearest_first(swarm.points, visible.indptr, helpers)
+    reach = (threshold + 2) * swarm.radius if compat.collisions_near_origin else np.inf
     helper, probe, flown_blocked = _probe_kernel(
         swarm.points,
         swarm.radius,
@@ -434,14 +733,19 @@ def move_source(evaluation: Evaluation, threshold: int) -> HeuristicResult:
         pairs.source[blocked],
         pairs.target[blocked],
         visible.indptr,
-        visible.indices,
-        DIRECTIONS,
+        helpers,
+        GRID_STEPS if compat.grid_steps else DIRECTIONS,
         int(threshold),
         grid.origin,
         grid.cell,
         grid.shape,
         grid.cell_start,
         grid.members,
+        float(reach),
+        compat.occlusion_near_origin,
+        compat.sweet_max_inclusive,
+        compat.first_helper,
+        compat.published_flown,
     )
     success = helper >= 0
     resolved_pairs = blocked[success]
@@ -473,6 +777,7 @@ def move_source(evaluation: Evaluation, threshold: int) -> HeuristicResult:
         move_from=swarm.points[pairs.source[resolved_pairs]].reshape(-1, 3),
         move_to=probe[success].reshape(-1, 3),
         flown=flown,
+        compat=compat,
         **result,
     )
 
@@ -703,15 +1008,15 @@ def walked(heuristic: HeuristicResult, vectors: dict[int, FloatArray]) -> Heuris
 
 
 def run_technique(
-    evaluation: Evaluation, technique: str, threshold: int = 10
+    evaluation: Evaluation, technique: str, threshold: int = 10, compat: Compat = TEXT
 ) -> tuple[Evaluation, HeuristicResult | None]:
     """Apply ``technique`` to a plain evaluation; plain returns it unchanged, with no result."""
     if check_technique(technique) == PLAIN:
         return evaluation, None
     if technique == MOVE_OBSTRUCTING:
-        heuristic = move_obstructing(evaluation)
+        heuristic = move_obstructing(evaluation, compat)
     else:
-        heuristic = move_source(evaluation, threshold)
+        heuristic = move_source(evaluation, threshold, compat)
     return apply(evaluation, heuristic), heuristic
 
 
@@ -737,6 +1042,7 @@ def heuristic_summary(heuristic: HeuristicResult) -> dict[str, Any]:
         "moved_distance": describe(moved[of_resolved]),
         "failed_moved_distance": describe(moved[~of_resolved]),
         "moved_per_resolved_pair": describe(totals),
+        "compat": heuristic.compat.switches_on(),
     }
     if heuristic.technique == MOVE_SOURCE:
         fields["flown_distance"] = describe(heuristic.flown[heuristic.tried])

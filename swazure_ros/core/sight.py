@@ -176,8 +176,13 @@ def _any_within(
     shape: IntArray,
     cell_start: IntArray,
     members: IntArray,
+    around: FloatArray,
+    reach: float,
 ) -> bool:
-    """Whether some point other than ``skip`` is strictly closer than ``distance`` to (x, y, z)."""
+    """Whether some point other than ``skip`` is strictly closer than ``distance`` to (x, y, z).
+
+    Only points within ``reach`` of ``around`` (3,) count; ``reach`` inf: every point.
+    """
     lo0 = max(int(np.floor((x - distance - origin[0]) / cell)), 0)
     lo1 = max(int(np.floor((y - distance - origin[1]) / cell)), 0)
     lo2 = max(int(np.floor((z - distance - origin[2]) / cell)), 0)
@@ -195,7 +200,13 @@ def _any_within(
                         continue
                     ex, ey, ez = points[k, 0] - x, points[k, 1] - y, points[k, 2] - z
                     if ex * ex + ey * ey + ez * ez < limit:
-                        return True
+                        if reach == np.inf:
+                            return True
+                        fx = points[k, 0] - around[0]
+                        fy = points[k, 1] - around[1]
+                        fz = points[k, 2] - around[2]
+                        if np.sqrt(fx * fx + fy * fy + fz * fz) <= reach:
+                            return True
     return False
 
 

@@ -9,6 +9,7 @@ import platform
 import sys
 from pathlib import Path
 
+from ..core.heuristics import PUBLISHED, Compat
 from ..core.results import atomic_write
 from .sweep import StudyPlan, SweepResult
 from .tables import Table
@@ -55,6 +56,24 @@ def software_versions() -> dict[str, str]:
         except importlib.metadata.PackageNotFoundError:
             versions[package] = "not installed"
     return versions
+
+
+def _compat_section(plan: StudyPlan) -> list[str]:
+    """Why the published code's numbers differ from the text's: one paragraph per switch."""
+    if "published" not in plan.compat:
+        return []
+    lines = [
+        "## The published code beside the text",
+        "",
+        "The `-published` runs switch in, one by one, the behaviours in which the "
+        "published reference code (github.com/flyinglightspeck/Swazure) differs from "
+        "the paper's text; the paper's Tables 2-4 are that code's output. Table 3's "
+        "metric is the total moved per resolved pair (the per-pair columns).",
+        "",
+    ]
+    for name in PUBLISHED.switches_on():
+        lines += [f"- `{name}`: {Compat.describe(name)}", ""]
+    return lines
 
 
 def report_markdown(
@@ -107,6 +126,7 @@ def report_markdown(
         "`runs/<shape>/beta-<β>/<policy>/<technique>/`.",
         "",
         tables_markdown(tables),
+        *_compat_section(plan),
         "## Figures",
         "",
     ]

@@ -20,7 +20,7 @@ import os
 import signal
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +31,7 @@ from ..core.clouds import Cloud
 from ..core.errors import SwazureError
 from ..core.evaluate import evaluate
 from ..core.geometry import make_swarm
-from ..core.heuristics import MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN, run_technique
+from ..core.heuristics import COMPAT_MODES, MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN, run_technique
 from ..core.paths import POLICIES
 from ..core.results import (
     COMPACT_PAIRS,
@@ -52,23 +52,31 @@ RUNS_DIR = "runs"
 
 @dataclass(frozen=True, order=True)
 class Technique:
-    """Plain Swazure or a heuristic; ``threshold`` is Move Source's T (None otherwise)."""
+    """Plain Swazure or a heuristic; ``threshold`` is Move Source's T (None otherwise).
+
+    ``compat`` names the heuristic's :data:`~swazure_ros.core.heuristics.COMPAT_MODES`
+    entry: the text's (``text``) or the published code's (``published``).
+    """
 
     name: str
     threshold: int | None = None
+    compat: str = "text"
 
     @property
     def label(self) -> str:
-        """Folder and column name: ``plain``, ``move-obstructing``, ``move-source-T10``."""
-        return self.name if self.threshold is None else f"{self.name}-T{self.threshold}"
+        """Folder and column name: ``plain``, ``move-source-T10``, ``...-published``."""
+        label = self.name if self.threshold is None else f"{self.name}-T{self.threshold}"
+        return label if self.compat == "text" else f"{label}-{self.compat}"
 
     @property
     def title(self) -> str:
-        """Name for people: ``Move Source (T = 10)``."""
+        """Name for people: ``Move Source (T = 10)``, ``Move Obstructing (published code)``."""
         names = {PLAIN: "plain Swazure", MOVE_OBSTRUCTING: "Move Obstructing"}
         if self.name == MOVE_SOURCE:
-            return f"Move Source (T = {self.threshold})"
-        return names[self.name]
+            title = f"Move Source (T = {self.threshold})"
+        else:
+            title = names[self.name]
+        return title if self.compat == "text" else f"{title} ({self.compat} code)"
 
     @classmethod
     def parse(cls, text: str) -> Technique:
@@ -128,6 +136,9 @@ class StudyPlan:
     seed: int = 0
     #: Per-pair columns kept: "compact" (what nothing else reproduces) or "full".
     pairs: str = COMPACT_PAIRS
+    #: The heuristics' modes, each run for every technique: "text", and "published" too
+    #: to put the published code's numbers beside the text's.
+    compat: tuple[str, ...] = ("text",)
 
     def __post_init__(self) -> None:
         if self.pairs not in PAIR_COLUMNS:
@@ -144,8 +155,27 @@ class StudyPlan:
         for policy in (*self.policies, self.heuristic_policy):
             if policy not in POLICIES:
                 raise SwazureError(f"unknown policy {policy!r}; expected {', '.join(POLICIES)}")
+        for mode in self.compat:
+            if mode not in COMPAT_MODES:
+                raise SwazureError(f"unknown compat mode {mode!r}; expected "
+                                   f"{', '.join(COMPAT_MODES)}")  # fmt: skip
         self.clouds = sorted(self.clouds, key=lambda cloud: len(cloud.points))
-        self.techniques = tuple(sorted({t for t in self.techniques if t != PLAIN_TECHNIQUE}))
+        self.techniques = tuple(
+            sorted(
+                {
+                    replace(technique, compat=mode)
+                    for technique in self.techniques
+                    if technique != PLAIN_TECHNIQUE
+                    for mode in self.compat
+                },
+                # Each heuristic's text run first, then its published code's.
+                key=lambda technique: (
+                    technique.name,
+                    technique.threshold or 0,
+                    technique.compat != "text",
+                ),
+            )
+        )
 
     def runs(self) -> list[RunSpec]:
         """Every run: plain at each beta and policy, heuristics at the heuristic betas."""
@@ -175,6 +205,8 @@ class StudyPlan:
             "seed": self.seed,
             "version": __version__,
         }
+        if technique.compat != "text":  # the text's keys stay those of earlier studies
+            inputs["compat"] = technique.compat
         key = hashlib.sha256(json.dumps(inputs, sort_keys=True).encode()).hexdigest()
         return RunSpec(cloud, beta, policy, technique, key)
 
@@ -234,7 +266,9 @@ def run_task(task: Task) -> list[tuple[RunSpec, float]]:
     for spec in task.runs:
         began = time.perf_counter()
         technique = spec.technique
-        result, heuristic = run_technique(plain, technique.name, technique.threshold or 10)
+        result, heuristic = run_technique(
+            plain, technique.name, technique.threshold or 10, COMPAT_MODES[technique.compat]
+        )
         seconds = plain_seconds + time.perf_counter() - began
         summary = result.summary
         summary["seconds"] = seconds

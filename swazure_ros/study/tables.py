@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import csv
 import io
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 from ..core.heuristics import MOVE_SOURCE
@@ -223,11 +223,67 @@ def errors_table(plan: StudyPlan, result: SweepResult) -> Table:
     )
 
 
+def compat_table(plan: StudyPlan, result: SweepResult) -> Table:
+    """Each heuristic as the text describes it beside the published code, per shape and beta."""
+    policy = plan.heuristic_policy
+    texts = [technique for technique in plan.techniques if technique.compat == "text"]
+    metrics: tuple[tuple[str, str, Callable[[dict[str, Any]], Any]], ...] = (
+        ("no_path_pct", "no path %", lambda summary: summary.get("no_path_pct")),
+        ("decaying_pct", "decaying %", lambda summary: summary.get("decaying_pct")),
+        ("resolved", "resolved", lambda summary: summary.get("resolved_pairs")),
+        (
+            "per_pair_mean_cm",
+            "moved per resolved pair, cm",
+            lambda summary: summary.get("moved_per_resolved_pair", {}).get("mean"),
+        ),
+        (
+            "flown_mean_cm",
+            "Move Source flown per tried pair, cm",
+            lambda summary: summary.get("flown_distance", {}).get("mean"),
+        ),
+    )
+    columns = ["shape", "beta", "technique"]
+    display = ["shape", "β", "technique"]
+    for key, title, _ in metrics:
+        columns += [f"{key}_text", f"{key}_published"]
+        display.append(f"{title}: text / published")
+    rows, display_rows = [], []
+    for cloud in plan.clouds:
+        for beta in plan.heuristic_betas:
+            for technique in texts:
+                text = result.find(cloud.name, beta, policy, technique) or {}
+                published = (
+                    result.find(cloud.name, beta, policy, replace(technique, compat="published"))
+                    or {}
+                )
+                row: list[Any] = [cloud.name, beta, technique.title]
+                cells = [cloud.name, f"{beta:g}", technique.title]
+                for key, _, value in metrics:
+                    pair = (value(text), value(published))
+                    row += list(pair)
+                    digits = 0 if key == "resolved" else 3 if key.endswith("cm") else 2
+                    cells.append(" / ".join(_fmt(v, digits) for v in pair))
+                rows.append(row)
+                display_rows.append(cells)
+    return Table(
+        "compat_text_vs_published",
+        "The heuristics as the text describes them / as the published code runs them",
+        columns,
+        rows,
+        display,
+        display_rows,
+        f"Policy {policy}; % of ordered blind pairs. The published code's columns are what "
+        "the paper's Tables 2 and 3 report; the differences behind them follow the tables.",
+    )
+
+
 def study_tables(plan: StudyPlan, result: SweepResult) -> list[Table]:
     """Every table of the study: paths per technique, distances moved, errors."""
     tables = [paths_table(plan, result, PLAIN_TECHNIQUE)]
     tables += [paths_table(plan, result, technique) for technique in plan.techniques]
     if plan.techniques:
         tables.append(moved_table(plan, result))
+    if "published" in plan.compat and plan.techniques:
+        tables.append(compat_table(plan, result))
     tables.append(errors_table(plan, result))
     return tables
