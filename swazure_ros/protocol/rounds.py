@@ -297,7 +297,10 @@ class RoundClock:
                 f"{self.round_timeout:g} s, departed; phase {PHASES[self._phase]} restarts"
             )
             return self._start_phase(now)
-        if tally.lost:
+        # A process that never acknowledged may have missed offers (a radio that had
+        # not matched every transmitter yet, on another host): as lost for good.
+        unheard = self.hosts - len(tally.acks) if timed_out else 0
+        if tally.lost or unheard > 0:
             # A label missed for good could make some path worse: do the phase again.
             self.loss_restarts += 1
             self.restarts += 1
@@ -311,9 +314,14 @@ class RoundClock:
                 end = self._control(END, now)
                 self._finish()
                 return [end]
+            what = (
+                f"{tally.lost} deliveries lost for good"
+                if tally.lost
+                else f"{unheard} process(es) silent for {self.round_timeout:g} s"
+            )
             self.warnings.append(
-                f"run {self.run_id}: {tally.lost} deliveries lost for good in round "
-                f"{self.round - 1}; phase {PHASES[self._phase]} restarts"
+                f"run {self.run_id}: {what} in round {self.round - 1}; "
+                f"phase {PHASES[self._phase]} restarts"
             )
             return self._start_phase(now)
         newly = tuple(sorted(tally.finished - self._finished))

@@ -185,8 +185,12 @@ class Coordinator(SwarmNode):
         self._control = self.create_publisher(DiscoveryControl, CONTROL_TOPIC, ROUND_QOS)
         self._moves = self.create_publisher(MoveCommands, MOVE_TOPIC, MOVE_QOS)
         self._walks = self.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
-        self.create_subscription(PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS, raw=True)
-        self.create_subscription(RoundAck, ACK_TOPIC, self._on_ack, ROUND_QOS, raw=True)
+        self._offers = self.create_subscription(
+            PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS, raw=True
+        )
+        self._acks = self.create_subscription(
+            RoundAck, ACK_TOPIC, self._on_ack, ROUND_QOS, raw=True
+        )
         self.create_subscription(
             PoseEstimates, ESTIMATES_TOPIC, self._on_estimates, ROUND_QOS, raw=True
         )
@@ -224,9 +228,18 @@ class Coordinator(SwarmNode):
         self._job: _Job | None = None
 
     def hosts_matched(self) -> bool:
-        """Every host's radio hears the controls, and the coordinator hears every host's acks."""
-        acks = self.get_publishers_info_by_topic(f"{self.get_namespace().rstrip('/')}/{ACK_TOPIC}")
-        return self._control.get_subscription_count() >= self.hosts and len(acks) >= self.hosts
+        """Every host's radio hears the controls; the coordinator hears its offers and acks.
+
+        Matched endpoints, not names in the graph: a message sent to a reader
+        not matched yet is lost. Whether the hosts' radios have matched each
+        other's transmitters no one host can see: a round that a host never
+        acknowledges restarts its phase (:class:`~swazure_ros.protocol.rounds.RoundClock`).
+        """
+        return (
+            self._control.get_subscription_count() >= self.hosts
+            and self._offers.get_publisher_count() >= self.hosts
+            and self._acks.get_publisher_count() >= self.hosts
+        )
 
     # Runs ------------------------------------------------------------------
 

@@ -40,6 +40,8 @@ BAD_INPUTS = [
     (["evaluate", *TORUS, "--threshold", "-3"], "--threshold must be at least 1"),
     (["evaluate", *TORUS, "--fuse", "0"], "argument --fuse: 0: must be at least 1"),
     (["evaluate", *TORUS, "--fuse", "2", "--technique", "move-source"], "drop --technique"),
+    (["evaluate", *TORUS, "--compat", "published"], "changes the heuristics; add --technique"),
+    (["evaluate", *TORUS, "--compat", "paper"], "argument --compat: invalid choice"),
     (["evaluate", *TORUS, "--seed", "x"], "invalid int value"),
     # study
     (["study", "--jobs", "0"], "argument --jobs: 0: must be at least 1"),

@@ -121,6 +121,32 @@ def test_rerun_computes_nothing_and_rewrites_the_same_tables(quick_study):
     assert snapshots and drawn == {path: path.stat().st_mtime_ns for path in snapshots}
 
 
+def test_compat_published_adds_the_published_codes_runs_beside_the_texts(quick_study):
+    out, _ = quick_study
+    run = swazure("study", "--quick", "--quiet", "--clouds", *quick_clouds(), "--out", str(out),
+                  "--compat", "published")  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    # The text's runs are the cached ones; each heuristic's published code runs beside them.
+    assert "36 runs: 12 computed" in run.stdout
+    with open(out / "tables" / "compat_text_vs_published.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert len(rows) == 2 * 2 * 3  # shapes x heuristic betas x heuristics
+    labels = {"Move Obstructing": "move-obstructing", "Move Source (T = 10)": "move-source-T10"}
+    for row in rows:
+        label = labels.get(row["technique"])
+        if label is None:
+            continue
+        text = summary_of(out, row["shape"], row["beta"], label)
+        published = summary_of(out, row["shape"], row["beta"], f"{label}-published")
+        assert float(row["no_path_pct_text"]) == text["no_path_pct"]
+        assert float(row["no_path_pct_published"]) == published["no_path_pct"]
+        assert published["compat"] and not text["compat"]
+    report = (out / "report.md").read_text()
+    assert "## The published code beside the text" in report
+    for switch in ("independent_moves", "last_hop_decides", "grid_steps", "published_flown"):
+        assert f"- `{switch}`: " in report
+
+
 def test_killed_study_resumes_with_only_the_unfinished_runs(tmp_path):
     args = ["study", "--quick", "--quiet", "--jobs", "1", "--out", str(tmp_path)]
     args += ["--clouds", "torus", "helix"]

@@ -1,6 +1,7 @@
 """Move Obstructing and Move Source on hand-built swarms with known answers, and invariants."""
 
 import itertools
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -12,7 +13,10 @@ from swazure_ros.core.heuristics import (
     DIRECTIONS,
     MOVE_OBSTRUCTING,
     MOVE_SOURCE,
+    PUBLISHED,
+    Compat,
     apply,
+    circle_sphere_crossings,
     free_circle_point,
     heuristic_summary,
     move_obstructing,
@@ -20,6 +24,8 @@ from swazure_ros.core.heuristics import (
     run_technique,
 )
 from swazure_ros.core.sensor import load_sensor, measured_vectors
+
+from ..conftest import dataset
 
 R = 0.5
 A, B, C = np.array([0.0, 0, 0]), np.array([2.0, 7, 0]), np.array([4.0, 0, 0])
@@ -319,3 +325,116 @@ def test_moved_distance_counts_resolved_pairs_and_reports_failed_ones_and_totals
     assert summary["moved_per_resolved_pair"]["count"] == summary["resolved_pairs"]
     assert summary["moved_per_resolved_pair"]["mean"] == pytest.approx(np.mean(totals))
     assert summary["moved_per_resolved_pair"]["max"] == pytest.approx(max(totals))
+
+
+# --compat published: the published reference code's behaviours, switch by switch.
+INDEPENDENT = Compat(independent_moves=True)
+NORMAL = np.cross((B - A) / np.linalg.norm(B - A), ACROSS)
+
+
+def test_circle_sphere_crossings_lie_on_both_and_none_when_apart():
+    centre, normal = np.zeros(3), np.array([0.0, 0.0, 1.0])
+    points = circle_sphere_crossings(centre, normal, 1.0, np.array([1.5, 0.0, 0.0]), 1.0)
+    half = np.sqrt(1 - 0.75**2)
+    np.testing.assert_allclose(
+        points[np.argsort(points[:, 1])], [[0.75, -half, 0], [0.75, half, 0]]
+    )
+    far = circle_sphere_crossings(centre, normal, 1.0, np.array([3.5, 0.0, 0.0]), 1.0)
+    assert far.shape == (0, 3)
+
+
+def test_switches_of_the_independent_moves_need_it():
+    with pytest.raises(ValueError, match="last_hop_decides needs independent_moves"):
+        Compat(last_hop_decides=True)
+    assert PUBLISHED.switches_on()[0] == "independent_moves" and Compat().switches_on() == []
+    assert all(Compat.describe(name) for name in PUBLISHED.switches_on())
+
+
+def obstructed_pair(extra, compat, policy="shortest-length"):
+    """Move Obstructing on pair (A, C) of a blocked scene: (resolved, moves)."""
+    evaluation = evaluate(blocked_scene(*extra), load_sensor(), policy)
+    m = pair_index(evaluation, 0, 2)
+    assert evaluation.pairs.reason[m] == REASON_BLOCKED
+    result = move_obstructing(evaluation, compat)
+    return result.resolved[m], result.moves(m)
+
+
+def test_only_the_last_neighbours_crossings_count_with_last_neighbour_circle():
+    obstructer = MIDPOINT + 0.2 * ACROSS
+    near = MIDPOINT + 1.4 * ACROSS  # covers the ideal point; its sphere crosses the circle
+    # Within 4r of the obstructer and farther than `near`, but its sphere misses the circle.
+    far = MIDPOINT + 1.5 * ACROSS - 1.2 * (B - A) / np.linalg.norm(B - A)
+    scene = [obstructer, near, far]
+    text, independent = obstructed_pair(scene, Compat()), obstructed_pair(scene, INDEPENDENT)
+    assert text[0] and independent[0]
+    np.testing.assert_allclose(independent[1][0][2], text[1][0][2], atol=1e-9)
+    assert obstructed_pair(scene, Compat(independent_moves=True, last_neighbour_circle=True)) == (
+        False,
+        [],
+    )
+
+
+def test_a_destination_clear_of_any_one_neighbour_may_collide_with_another():
+    obstructer, first = MIDPOINT + 0.2 * ACROSS, MIDPOINT + 1.4 * ACROSS
+    crossing = circle_sphere_crossings(MIDPOINT, B - A, R, first, 2 * R)[0]
+    second = crossing + np.array([0.0, 0.0, -0.9])  # covers one of first's crossings
+    scene = [obstructer, first, second]
+    for compat, collides in (
+        (INDEPENDENT, False),
+        (replace(INDEPENDENT, clear_of_any_one=True), True),
+    ):
+        resolved, [(fls, _, end)] = obstructed_pair(scene, compat)
+        assert resolved and fls == 3
+        nearest = min(np.linalg.norm(end - first), np.linalg.norm(end - second))
+        assert (nearest < 2 * R - 1e-9) == collides
+
+
+def test_the_last_obstructed_hop_decides_with_last_hop_decides():
+    # Hop A-B cannot be cleared (the circle is ringed); hop B-C can.
+    ring = [
+        MIDPOINT + 1.1 * (np.cos(angle) * ACROSS + np.sin(angle) * NORMAL)
+        for angle in np.radians([60, 180, 300])
+    ]
+    across_bc = np.array([7.0, 2.0, 0.0]) / np.sqrt(53)
+    scene = [MIDPOINT + 0.2 * ACROSS, *ring, (B + C) / 2 + 0.2 * across_bc]
+    assert not obstructed_pair(scene, Compat(), "fewest-hops")[0]
+    assert not obstructed_pair(scene, INDEPENDENT, "fewest-hops")[0]
+    resolved, moves = obstructed_pair(
+        scene, replace(INDEPENDENT, last_hop_decides=True), "fewest-hops"
+    )
+    assert resolved and [fls for fls, _, _ in moves] == [7]  # B-C's obstructer; A-B's cannot
+
+
+def source_pair(compat, threshold):
+    evaluation = evaluate(make_swarm(SOURCE_SCENE, radius=R), load_sensor(), "shortest-length")
+    m = pair_index(evaluation, 0, 2)
+    return move_source(evaluation, threshold, compat), m
+
+
+def test_grid_steps_reach_sqrt3_r_per_step_on_a_space_diagonal():
+    result, m = source_pair(Compat(grid_steps=True), threshold=2)
+    # The text needs delta = 3 (test above); the unnormalised (-1, -1, -1) clears K at 2.
+    assert result.resolved[m]
+    [(_, start, end)] = result.moves(m)
+    np.testing.assert_allclose(end, 2 * R * np.array([-1.0, -1.0, -1.0]), atol=1e-12)
+    assert np.linalg.norm(end - start) == pytest.approx(2 * R * np.sqrt(3))
+
+
+def test_published_flown_adds_the_previous_offset_to_each_probes():
+    result, m = source_pair(Compat(published_flown=True), threshold=2)
+    positions = probe_path(2, 25) - SOURCE_SCENE[0]
+    expected = np.linalg.norm(positions[:-1] + positions[1:], axis=1).sum()
+    assert not result.resolved[m]
+    assert result.flown[m] == pytest.approx(expected, rel=1e-12)
+
+
+def test_published_mode_gives_the_papers_move_obstructing_no_path_on_the_chess_piece():
+    # The paper's Table 2: Move Obstructing on the chess piece at beta 0.5, 21.43 % no path.
+    swarm = make_swarm(load_cloud(dataset("chess_408.xyz")).points, beta=0.5)
+    evaluation = evaluate(swarm, load_sensor(), "shortest-length")
+    text, _ = run_technique(evaluation, MOVE_OBSTRUCTING)
+    published, heuristic = run_technique(evaluation, MOVE_OBSTRUCTING, compat=PUBLISHED)
+    assert round(published.summary["no_path_pct"], 2) == 21.43
+    assert round(text.summary["no_path_pct"], 2) == 6.02
+    assert heuristic.compat == PUBLISHED
+    assert published.summary["compat"] == PUBLISHED.switches_on()

@@ -164,6 +164,21 @@ def test_a_delivery_lost_for_good_restarts_the_phase():
     assert run.restarts == 1 and run.repairs == 6 and "lost for good" in run.warnings[-1]
 
 
+def test_a_round_that_a_process_never_acknowledged_restarts_the_phase():
+    # Two processes; every FLS broadcast, but process 1 never said it delivered them all.
+    run = RoundClock(7, "fewest-hops", FLSS, 2, TIMEOUT)
+    run.start(0.0)
+    every_offer(run, 0, labels=1)
+    assert run.on_ack(0, "host_0", 0.1) == []
+    assert run.on_tick(0.1 + TIMEOUT / 2) == []
+    start, first = run.on_tick(0.2 + TIMEOUT)
+    # Not on to round 1 as if it had delivered: the phase again, with every FLS.
+    assert (start.command, start.phase, start.departed_ids) == (START, SWEET_VISIBLE, ())
+    assert (first.command, first.expected) == (ROUND, 3)
+    assert run.restarts == 1 and not run.departed
+    assert "1 process(es) silent for 10 s in round 0" in run.warnings[-1]
+
+
 def test_a_radio_that_keeps_losing_ends_the_run_incomplete_without_estimates():
     from swazure_ros.protocol.rounds import MAX_LOSS_RESTARTS
 
