@@ -13,6 +13,8 @@ from __future__ import annotations
 import atexit
 import contextlib
 import ctypes
+import faulthandler
+import signal
 import sys
 from pathlib import Path
 from typing import Any, NoReturn
@@ -134,6 +136,10 @@ def init_context(domain_id: int | None = None, params_file: str | None = None) -
     return context
 
 
+#: Seconds a process's teardown may take before its watchdog ends it (exit code 1).
+TEARDOWN_LIMIT = 30.0
+
+
 def exit_process(code: int) -> NoReturn:
     """End the process now, leaving its nodes to DDS's own teardown; never returns.
 
@@ -145,6 +151,13 @@ def exit_process(code: int) -> NoReturn:
     finalizers, which would destroy each node, do not run (its exit handlers do). Call it last,
     when every output is written.
     """
+    # A share process's teardown was once seen to hang inside a network namespace
+    # (not reproduced since). Python's handlers do not run in the C library's exit:
+    # a second SIGTERM must end the process then, and so does a watchdog thread,
+    # which prints every thread's stack first.
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, signal.SIG_DFL)
+    faulthandler.dump_traceback_later(TEARDOWN_LIMIT, exit=True)
     # Python's exit handlers still run: multiprocessing's releases its semaphores.
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):

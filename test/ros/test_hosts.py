@@ -58,11 +58,6 @@ def on_host(env, index, *arguments):
             *arguments]  # fmt: skip
 
 
-@pytest.mark.skipif(
-    os.environ.get("SWAZURE_HOSTS_TEST") != "1",
-    reason="opt in with SWAZURE_HOSTS_TEST=1: in fresh clones the three-host run still "
-    "differs from the engine now and then (issue 18, open); it passes when run alone",
-)
 def test_three_hosts_discover_as_the_engine_does(hosts):
     env = hosts
     served = [
