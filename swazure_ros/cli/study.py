@@ -71,6 +71,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "nothing else reproduces: ids, status, path, estimate, errors, moves) or full",
     )
     parser.add_argument(
+        "--fuse",
+        type=count,
+        default=1,
+        metavar="K",
+        help="also fuse every sweet pair's estimate from up to K node-disjoint paths "
+        "(--heuristic-policy, every beta), beside the policies in the error figures "
+        "(default 1: no fused runs)",
+    )
+    parser.add_argument(
         "--compat",
         choices=tuple(COMPAT_MODES),
         default="text",
@@ -180,6 +189,7 @@ def plan_from_args(args: argparse.Namespace) -> StudyPlan:
         seed=args.seed,
         pairs=args.pairs,
         compat=tuple(dict.fromkeys(("text", args.compat))),
+        fuse=args.fuse,
     )
 
 

@@ -16,7 +16,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from ..core.results import PAIRS_PARQUET_FILE, atomic_write
-from .sweep import PLAIN_TECHNIQUE, StudyPlan, SweepResult
+from .sweep import PLAIN_TECHNIQUE, StudyPlan, SweepResult, Technique
 
 POLICY_TITLES = {
     "fewest-hops": "Fewest-Hops",
@@ -41,12 +41,25 @@ def save(figure: Figure, path: Path) -> Path:
     return path
 
 
-def _per_policy_axes(plan: StudyPlan, title: str) -> tuple[Figure, list[Axes]]:
-    figure = Figure(figsize=(5.5 * len(plan.policies) + 2.0, 4.6), layout="constrained")
-    axes = figure.subplots(1, len(plan.policies), sharey=True, squeeze=False)[0]
+def _panels(plan: StudyPlan, fused: bool = False) -> list[tuple[str, str, Technique]]:
+    """(title, policy, technique) of each panel: plain Swazure per policy, then fused."""
+    panels = [(POLICY_TITLES.get(p, p), p, PLAIN_TECHNIQUE) for p in plan.policies]
+    if fused and plan.fused is not None:
+        policy = plan.heuristic_policy
+        title = f"{POLICY_TITLES.get(policy, policy)}, {plan.fused.title}"
+        panels.append((title, policy, plan.fused))
+    return panels
+
+
+def _per_policy_axes(
+    plan: StudyPlan, title: str, fused: bool = False
+) -> tuple[Figure, list[Axes]]:
+    panels = _panels(plan, fused)
+    figure = Figure(figsize=(5.5 * len(panels) + 2.0, 4.6), layout="constrained")
+    axes = figure.subplots(1, len(panels), sharey=True, squeeze=False)[0]
     figure.suptitle(title)
-    for ax, policy in zip(axes, plan.policies):
-        ax.set_title(POLICY_TITLES.get(policy, policy))
+    for ax, (panel_title, _, _) in zip(axes, panels, strict=True):
+        ax.set_title(panel_title)
         ax.grid(True, alpha=0.3)
     return figure, list(axes)
 
@@ -63,15 +76,19 @@ def metric_vs_beta(
     title: str,
     ylabel: str,
     log: bool = False,
+    fused: bool = False,
 ) -> Figure:
-    """One line per shape of ``value(summary)`` against beta, one panel per policy."""
+    """One line per shape of ``value(summary)`` against beta, one panel per policy.
+
+    ``fused``: one more panel, the study's fused runs (when it has them).
+    """
     colours = shape_colours(plan)
-    figure, axes = _per_policy_axes(plan, title)
-    for ax, policy in zip(axes, plan.policies):
+    figure, axes = _per_policy_axes(plan, title, fused)
+    for ax, (_, policy, technique) in zip(axes, _panels(plan, fused), strict=True):
         for cloud in plan.clouds:
             points = []
             for beta in sorted(plan.betas):
-                summary = result.find(cloud.name, beta, policy, PLAIN_TECHNIQUE)
+                summary = result.find(cloud.name, beta, policy, technique)
                 y = None if summary is None else value(summary)
                 if y is not None:
                     points.append((beta, y))
@@ -213,6 +230,7 @@ def study_figures(plan: StudyPlan, result: SweepResult, out: Path) -> dict[str, 
             stat("distance_error_pct", "mean"),
             "Mean distance error of plain Swazure",
             "mean distance error (%)",
+            fused=True,
         ),
         "distance_error_max": metric_vs_beta(
             plan,
@@ -221,6 +239,7 @@ def study_figures(plan: StudyPlan, result: SweepResult, out: Path) -> dict[str, 
             "Maximum distance error of plain Swazure",
             "max distance error (%, log scale)",
             log=True,
+            fused=True,
         ),
         "alpha_mean": metric_vs_beta(
             plan,
@@ -228,6 +247,7 @@ def study_figures(plan: StudyPlan, result: SweepResult, out: Path) -> dict[str, 
             stat("alpha_deg", "mean"),
             "Mean angle α between estimated and true relative vector",
             "mean α (degrees)",
+            fused=True,
         ),
         "obstructed_paths": metric_vs_beta(
             plan,

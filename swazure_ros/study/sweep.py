@@ -30,6 +30,7 @@ from .. import __version__
 from ..core.clouds import Cloud
 from ..core.errors import SwazureError
 from ..core.evaluate import evaluate
+from ..core.fusion import fuse
 from ..core.geometry import make_swarm
 from ..core.heuristics import COMPAT_MODES, MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN, run_technique
 from ..core.paths import POLICIES
@@ -47,6 +48,8 @@ from ..core.sensor import Sensor
 #: The published sweep (spec, section 10).
 PUBLISHED_BETAS = (0.01, 0.1, 0.2, 0.3, 0.4, 0.5)
 PUBLISHED_HEURISTIC_BETAS = (0.3, 0.4, 0.5)
+#: Plain Swazure with each sweet pair's estimate fused from up to ``threshold`` paths.
+FUSED = "fused"
 RUNS_DIR = "runs"
 
 
@@ -65,6 +68,8 @@ class Technique:
     @property
     def label(self) -> str:
         """Folder and column name: ``plain``, ``move-source-T10``, ``...-published``."""
+        if self.name == FUSED:
+            return f"{FUSED}-K{self.threshold}"
         label = self.name if self.threshold is None else f"{self.name}-T{self.threshold}"
         return label if self.compat == "text" else f"{label}-{self.compat}"
 
@@ -72,6 +77,8 @@ class Technique:
     def title(self) -> str:
         """Name for people: ``Move Source (T = 10)``, ``Move Obstructing (published code)``."""
         names = {PLAIN: "plain Swazure", MOVE_OBSTRUCTING: "Move Obstructing"}
+        if self.name == FUSED:
+            return f"fused from up to {self.threshold} disjoint paths"
         if self.name == MOVE_SOURCE:
             title = f"Move Source (T = {self.threshold})"
         else:
@@ -139,6 +146,9 @@ class StudyPlan:
     #: The heuristics' modes, each run for every technique: "text", and "published" too
     #: to put the published code's numbers beside the text's.
     compat: tuple[str, ...] = ("text",)
+    #: Above 1: plain Swazure of the heuristic policy also with every sweet pair's estimate
+    #: fused from up to this many node-disjoint paths, at every beta.
+    fuse: int = 1
 
     def __post_init__(self) -> None:
         if self.pairs not in PAIR_COLUMNS:
@@ -155,6 +165,8 @@ class StudyPlan:
         for policy in (*self.policies, self.heuristic_policy):
             if policy not in POLICIES:
                 raise SwazureError(f"unknown policy {policy!r}; expected {', '.join(POLICIES)}")
+        if self.fuse < 1:
+            raise SwazureError(f"fusion needs at least one path per pair, got {self.fuse}")
         for mode in self.compat:
             if mode not in COMPAT_MODES:
                 raise SwazureError(f"unknown compat mode {mode!r}; expected "
@@ -189,7 +201,17 @@ class StudyPlan:
             for beta, policy in moved:
                 for technique in self.techniques:
                     runs.append(self._spec(cloud.name, digest, beta, policy, technique))
+            if self.fused is not None:
+                for beta in self.betas:
+                    runs.append(
+                        self._spec(cloud.name, digest, beta, self.heuristic_policy, self.fused)
+                    )
         return runs
+
+    @property
+    def fused(self) -> Technique | None:
+        """The fused runs' technique, or None when the study fuses nothing."""
+        return Technique(FUSED, self.fuse) if self.fuse > 1 else None
 
     def _spec(
         self, cloud: str, digest: str, beta: float, policy: str, technique: Technique
@@ -266,9 +288,12 @@ def run_task(task: Task) -> list[tuple[RunSpec, float]]:
     for spec in task.runs:
         began = time.perf_counter()
         technique = spec.technique
-        result, heuristic = run_technique(
-            plain, technique.name, technique.threshold or 10, COMPAT_MODES[technique.compat]
-        )
+        if technique.name == FUSED:
+            result, heuristic = fuse(plain, technique.threshold or 1), None
+        else:
+            result, heuristic = run_technique(
+                plain, technique.name, technique.threshold or 10, COMPAT_MODES[technique.compat]
+            )
         seconds = plain_seconds + time.perf_counter() - began
         summary = result.summary
         summary["seconds"] = seconds

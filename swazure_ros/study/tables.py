@@ -179,17 +179,21 @@ def errors_table(plan: StudyPlan, result: SweepResult) -> Table:
         "obstructed %",
     ]
     rows, display_rows = [], []
+    variants = [(policy, policy, PLAIN_TECHNIQUE) for policy in plan.policies]
+    if plan.fused is not None:
+        label = f"{plan.heuristic_policy}, {plan.fused.label}"
+        variants.append((label, plan.heuristic_policy, plan.fused))
     for cloud in plan.clouds:
-        for policy in plan.policies:
+        for label, policy, technique in variants:
             for beta in plan.betas:
-                summary = result.find(cloud.name, beta, policy, PLAIN_TECHNIQUE)
+                summary = result.find(cloud.name, beta, policy, technique)
                 if summary is None:
                     continue
                 error, alpha = summary["distance_error_pct"], summary["alpha_deg"]
                 row = [
                     cloud.name,
                     beta,
-                    policy,
+                    label,
                     summary["blind_pairs"],
                     summary["sweet_pct"],
                     summary["decaying_pct"],

@@ -147,6 +147,27 @@ def test_compat_published_adds_the_published_codes_runs_beside_the_texts(quick_s
         assert f"- `{switch}`: " in report
 
 
+def test_fuse_adds_fused_runs_at_every_beta_to_the_error_table_and_figures(tmp_path):
+    run = swazure("study", "--quiet", "--clouds", "helix", "--betas", "0.3", "0.5",
+                  "--policies", "shortest-length", "--heuristic-betas", "0.5", "--techniques",
+                  "move-obstructing", "--fuse", "2", "--out", str(tmp_path))  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert "5 runs: 5 computed" in run.stdout  # plain x 2, fused x 2, Move Obstructing
+    with open(tmp_path / "tables" / "errors.csv") as handle:
+        rows = [row for row in csv.DictReader(handle) if "fused" in row["policy"]]
+    assert [(row["policy"], row["beta"]) for row in rows] == [
+        ("shortest-length, fused-K2", "0.3"),
+        ("shortest-length, fused-K2", "0.5"),
+    ]
+    for row in rows:
+        summary = summary_of(tmp_path, row["shape"], row["beta"], "fused-K2")
+        assert summary["fusion"]["paths"] == 2 and summary["fusion"]["pairs_fused"] > 0
+        mean = summary["distance_error_pct"]["mean"]
+        assert row["distance_error_mean_pct"] == ("" if mean is None else str(mean))
+    png = (tmp_path / "figures" / "distance_error_mean.png").read_bytes()
+    assert png.startswith(b"\x89PNG")
+
+
 def test_killed_study_resumes_with_only_the_unfinished_runs(tmp_path):
     args = ["study", "--quick", "--quiet", "--jobs", "1", "--out", str(tmp_path)]
     args += ["--clouds", "torus", "helix"]
