@@ -760,7 +760,8 @@ def compat_section(args: argparse.Namespace) -> list[str]:
     lines = [
         "## The published code beside the text: `swazure study --compat published`",
         "",
-        f"`{' '.join(['swazure', *command[len(SWAZURE) :]])}`: {seconds:.0f} s, "
+        f"`{' '.join(['swazure', *command[len(SWAZURE) :]]).replace(str(REPO) + '/', '')}`: "
+        f"{seconds:.0f} s, "
         f"peak {memory:.0f} MB. Per shape, beta and heuristic (policy shortest-length): the",
         "text's number / the published code's. The published code's are what the paper's",
         "Tables 2 and 3 report; the one cell the paper's text quotes, Move Obstructing on the",
