@@ -72,6 +72,11 @@ _TOUCH = 1e-9
 _ASIDE = 1e-9
 
 
+def _switch(doc: str) -> Any:
+    """A :class:`Compat` switch, off by default, with what it changes in ``doc``."""
+    return field(default=False, metadata={"doc": doc})
+
+
 @dataclass(frozen=True)
 class Compat:
     """Where the heuristics follow the published reference code instead of the text.
@@ -83,56 +88,56 @@ class Compat:
     changes; the study's report prints them beside the two sets of numbers.
     """
 
-    independent_moves: bool = field(default=False, metadata={"doc": (
+    independent_moves: bool = _switch(
         "Move Obstructing: each obstructer's destination is found in the original shape, "
         "so no obstructer sees where another went, and no line of sight is checked after "
         "the moves (the text makes the moves of a pair in sequence, each collision check "
         "seeing the earlier moves, and then checks every hop). Its collision check of the "
         "ideal move looks only at FLSs within a tracking distance |o - ideal| of the "
         "obstructer, with the FLS's index o standing for its position."
-    )})  # fmt: skip
-    last_neighbour_circle: bool = field(default=False, metadata={"doc": (
+    )
+    last_neighbour_circle: bool = _switch(
         "Move Obstructing: when the ideal move collides, the candidate destinations are the "
         "points where the obstruction-free circle crosses the collision sphere of the LAST "
         "neighbour within 4r (by distance) only: the loop overwrites the list of crossings "
         "for every neighbour. A pair fails when that one sphere misses the circle."
-    )})  # fmt: skip
-    clear_of_any_one: bool = field(default=False, metadata={"doc": (
+    )
+    clear_of_any_one: bool = _switch(
         "Move Obstructing: a crossing is accepted as a destination when it is clear of ANY "
         "ONE neighbour within 4r, not of all of them, so the FLS may move into another."
-    )})  # fmt: skip
-    last_hop_decides: bool = field(default=False, metadata={"doc": (
+    )
+    last_hop_decides: bool = _switch(
         "Move Obstructing: a pair is judged by its last obstructed hop only: the success "
         "flag is overwritten per hop, so a pair whose earlier hop cannot be cleared counts "
         "as resolved when its last obstructed hop can."
-    )})  # fmt: skip
-    grid_steps: bool = field(default=False, metadata={"doc": (
+    )
+    grid_steps: bool = _switch(
         "Move Source: the 26 probe directions are grid offsets times r, not unit vectors: "
         "plane diagonals step sqrt(2) r and space diagonals sqrt(3) r, so the probes reach "
         "farther than T r."
-    )})  # fmt: skip
-    collisions_near_origin: bool = field(default=False, metadata={"doc": (
+    )
+    collisions_near_origin: bool = _switch(
         "Move Source: a probe collides only with FLSs within (T + 2) r of the source's "
         "original position (the text: with any FLS)."
-    )})  # fmt: skip
-    occlusion_near_origin: bool = field(default=False, metadata={"doc": (
+    )
+    occlusion_near_origin: bool = _switch(
         "Move Source: the line of sight from a probe q to a helper h is checked only against "
         "FLSs within |q - p_h| + 2r of the source's original position."
-    )})  # fmt: skip
-    sweet_max_inclusive: bool = field(default=False, metadata={"doc": (
+    )
+    sweet_max_inclusive: bool = _switch(
         "Move Source: a helper exactly at the sweet range's upper bound counts as sweet at a "
         "probe (the text's ranges are half-open)."
-    )})  # fmt: skip
-    first_helper: bool = field(default=False, metadata={"doc": (
+    )
+    first_helper: bool = _switch(
         "Move Source: among the target's visible sweet neighbours, the first that works at a "
         "probe is taken, in order of distance from the target; the text's engine takes the "
         "one of the shortest path t(q, h) + t(h, j)."
-    )})  # fmt: skip
-    published_flown: bool = field(default=False, metadata={"doc": (
+    )
+    published_flown: bool = _switch(
         "Move Source: the flown distance adds |(q_prev - p) + delta u| per probe, where "
         "q_prev is the previous probe, and counts the probes that collided; the text adds "
         "the distance between consecutive positions actually reached."
-    )})  # fmt: skip
+    )
 
     def __post_init__(self) -> None:
         dependent = ("last_neighbour_circle", "clear_of_any_one", "last_hop_decides")
