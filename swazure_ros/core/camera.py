@@ -58,6 +58,10 @@ class Degradations:
     background_level: float = 110.0
     #: Half side of the cornerSubPix search window, px (the measurement's own setting).
     corner_window_px: int = 5
+    #: Exponent of the camera's transfer curve: light adds up (warp, blur) in linear
+    #: intensity, and the frame holds ``level = 255 (I / 255) ** (1 / tone_gamma)``.
+    #: 1: linear. The grey levels above are those of the frame.
+    tone_gamma: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -161,7 +165,13 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
     values: dict[str, Any] = {
         key: _number(sections["degradations"], key, f"{where}: camera.degradations")
         for key in Degradations.__dataclass_fields__
+        if key != "tone_gamma"
     }
+    if "tone_gamma" in sections["degradations"]:
+        gamma = _number(sections["degradations"], "tone_gamma", f"{where}: camera.degradations")
+        if gamma <= 0:
+            raise SensorError(f"{where}: camera.degradations.tone_gamma must be positive")
+        values["tone_gamma"] = gamma
     values["corner_window_px"] = int(values["corner_window_px"])
     dictionary = str(marker.get("dictionary", "DICT_4X4_100"))
     if not hasattr(cv2.aruco, dictionary):
@@ -249,6 +259,21 @@ def _marker_texture(camera: Camera, texels_per_cell: int, quiet: int) -> NDArray
     return (d.black_level + (d.white_level - d.black_level) * (card / 255.0)).astype(np.float32)
 
 
+def _to_linear(levels: Any, gamma: float) -> Any:
+    """Frame grey levels (0-255) as linear intensity on the same scale."""
+    if gamma == 1.0:
+        return levels
+    return np.float32(255.0) * (np.asarray(levels, np.float32) / np.float32(255.0)) ** gamma
+
+
+def _from_linear(intensity: NDArray[np.float32], gamma: float) -> NDArray[np.float32]:
+    """Linear intensity (0-255 scale) as frame grey levels, through the transfer curve."""
+    if gamma == 1.0:
+        return intensity
+    scaled = np.maximum(intensity, 0.0) / np.float32(255.0)
+    return np.asarray(np.float32(255.0) * scaled ** np.float32(1.0 / gamma), np.float32)
+
+
 def _psf(camera: Camera, distance_mm: float, focus_mm: float) -> NDArray[np.float32]:
     """Point spread function at ``distance_mm``: blur circle convolved with a Gaussian."""
     sigma = math.hypot(camera.diffraction_px(), camera.degradations.residual_blur_px)
@@ -300,15 +325,17 @@ def render(camera: Camera, pose: MarkerPose, rng: np.random.Generator) -> Frame:
     target = (card_px - np.array([x0, y0])).astype(np.float32)
     homography = cv2.getPerspectiveTransform(source, target)
     d = camera.degradations
+    gamma = d.tone_gamma
     scene = cv2.warpPerspective(
-        texture,
+        _to_linear(texture, gamma),
         homography,
         (x1 - x0, y1 - y0),
         flags=cv2.INTER_LINEAR,
         borderMode=cv2.BORDER_CONSTANT,
-        borderValue=d.background_level,
+        borderValue=float(_to_linear(np.float32(d.background_level), gamma)),
     )
-    scene = np.asarray(cv2.filter2D(scene, -1, psf, borderType=cv2.BORDER_REPLICATE), np.float32)
+    blurred = np.asarray(cv2.filter2D(scene, -1, psf, borderType=cv2.BORDER_REPLICATE), np.float32)
+    scene = _from_linear(blurred, gamma)
     sigma = np.sqrt(d.read_noise**2 + d.shot_noise_gain * np.maximum(scene, 0.0))
     scene = scene + sigma * rng.standard_normal(scene.shape).astype(np.float32)
     image = np.clip(np.rint(scene), 0, 255).astype(np.uint8)

@@ -30,8 +30,10 @@ def wide():
 
 @pytest.fixture(scope="module")
 def sharp(wide):
-    """The wide camera measured with a small corner window: no fitted bias, only noise."""
-    return replace(wide, degradations=replace(wide.degradations, corner_window_px=3))
+    """The wide camera, linear and measured with a small corner window: no bias, only noise."""
+    return replace(
+        wide, degradations=replace(wide.degradations, corner_window_px=3, tone_gamma=1.0)
+    )
 
 
 @pytest.fixture(scope="module")
@@ -63,6 +65,17 @@ def test_head_on_marker_is_measured_at_its_distance_and_direction(sharp, distanc
     for centre in found:
         cosine = centre @ truth / np.linalg.norm(centre) / np.linalg.norm(truth)
         assert np.degrees(np.arccos(min(cosine, 1.0))) < 0.5
+
+
+def test_the_transfer_curve_makes_blurred_markers_look_smaller_and_farther(wide, sharp):
+    # Light blurs in linear intensity; the frame's curve then lifts the mixed pixels at the
+    # black border's edges toward white, and the black square shrinks.
+    curved = replace(sharp, degradations=replace(sharp.degradations, tone_gamma=2.2))
+    far = 180.0
+    truth = np.linalg.norm(true_centre(wide, MarkerPose(far)))
+    linear = np.mean(np.linalg.norm(detections(sharp, far, frames=20), axis=1)) / truth - 1
+    gamma = np.mean(np.linalg.norm(detections(curved, far, frames=20), axis=1)) / truth - 1
+    assert gamma > linear + 0.01
 
 
 def test_fitted_corner_window_overestimates_far_markers_as_the_real_camera_does(wide, sharp):
