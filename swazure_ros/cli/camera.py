@@ -217,9 +217,9 @@ def _fit(args: argparse.Namespace, camera: Camera, measured: Measured | None) ->
     if measured is None:
         raise SensorError("fit needs --measured CSV")
     grid: dict[str, Sequence[float]] = {
-        "residual_blur_px": (0.65, 0.75, 0.85),
+        "residual_blur_px": (0.45, 0.55, 0.65),
         "read_noise": (2.0, 4.0),
-        "corner_window_px": (11, 12, 13),
+        "corner_window_px": (10, 11, 12),
     }
     ranked = fit_degradations(
         camera,
