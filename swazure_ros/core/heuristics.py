@@ -394,27 +394,72 @@ def _empty_result(technique: str, threshold: int | None, size: int) -> dict[str,
     }
 
 
+def _blocked_hops(
+    evaluation: Evaluation,
+) -> tuple[IntArray, Paths, IntArray, IntArray, IntArray, IntArray]:
+    """The BLOCKED pairs, their S_all paths, and the obstructers of each hop's edge.
+
+    Returns (blocked pairs (B,), their paths, the edge label of every hop
+    (H,), the distinct labels (E,), and the obstructers in the original shape
+    as a CSR over those labels: offsets (E + 1,), swarm indices).
+    """
+    hood, pairs = evaluation.hood, evaluation.pairs
+    blocked = _blocked_pairs(evaluation)
+    sweet_paths = shortest_paths(
+        hood.sweet_all, pairs.source[blocked], pairs.target[blocked], evaluation.policy
+    )
+    _, start, end = path_hops(sweet_paths)
+    edge = hood.sweet_all.edge_labels(start, end)
+    edges = np.unique(edge)
+    offsets, ids = obstructers(
+        hood.swarm.points,
+        hood.swarm.radius,
+        hood.pairs.first[edges],
+        hood.pairs.second[edges],
+        hood.grid,
+    )
+    return blocked, sweet_paths, edge, edges, offsets, ids
+
+
+def _obstructing_result(
+    evaluation: Evaluation,
+    blocked: IntArray,
+    new_paths: dict[int, list[int]],
+    move_counts: IntArray,
+    move_fls: IntArray,
+    move_from: FloatArray,
+    move_to: FloatArray,
+    compat: Compat,
+) -> HeuristicResult:
+    """Move Obstructing's outcome: the pairs ``new_paths`` resolved, the moves as a CSR."""
+    size = len(evaluation.pairs)
+    result = _empty_result(MOVE_OBSTRUCTING, None, size)
+    result["tried"][blocked] = True
+    resolved = np.zeros(size, dtype=bool)
+    resolved[list(new_paths)] = True
+    result["resolved"] = resolved
+    paths = paths_from_rows(size, new_paths)
+    estimate, _, _ = estimates(evaluation.hood, paths)
+    result["estimate"][resolved] = estimate[resolved]
+    result["truth"][resolved] = evaluation.pairs.truth[resolved]
+    return HeuristicResult(
+        paths=paths,
+        move_offsets=np.concatenate([[0], np.cumsum(move_counts)]).astype(np.int64),
+        move_fls=move_fls,
+        move_from=move_from,
+        move_to=move_to,
+        compat=compat,
+        **result,
+    )
+
+
 def move_obstructing(evaluation: Evaluation, compat: Compat = TEXT) -> HeuristicResult:
     """Move Obstructing (section 7) on every BLOCKED pair of a plain evaluation."""
     if compat.independent_moves:
         return _move_obstructing_independently(evaluation, compat)
-    hood, pairs = evaluation.hood, evaluation.pairs
-    swarm = hood.swarm
-    points, radius = swarm.points, swarm.radius
-    size = len(pairs)
-    result = _empty_result(MOVE_OBSTRUCTING, None, size)
-    blocked = _blocked_pairs(evaluation)
-    result["tried"][blocked] = True
-    sweet_paths = shortest_paths(
-        hood.sweet_all, pairs.source[blocked], pairs.target[blocked], evaluation.policy
-    )
-    # Obstructers of every hop of those paths in the original shape, once per edge.
-    _, start, end = path_hops(sweet_paths)
-    edge = hood.sweet_all.edge_labels(start, end)
-    edges, _ = np.unique(edge, return_inverse=True)
-    offsets, ids = obstructers(
-        points, radius, hood.pairs.first[edges], hood.pairs.second[edges], hood.grid
-    )
+    points, radius = evaluation.hood.swarm.points, evaluation.hood.swarm.radius
+    size = len(evaluation.pairs)
+    blocked, sweet_paths, edge, edges, offsets, ids = _blocked_hops(evaluation)
     original = {
         int(e): ids[offsets[k] : offsets[k + 1]].tolist() for k, e in enumerate(edges.tolist())
     }
@@ -478,40 +523,24 @@ def move_obstructing(evaluation: Evaluation, compat: Compat = TEXT) -> Heuristic
         move_counts[pair] = len(moves)
         if ok:
             new_paths[pair] = path
-    resolved = np.zeros(size, dtype=bool)
-    resolved[list(new_paths)] = True
-    result["resolved"] = resolved
-    paths = paths_from_rows(size, new_paths)
-    estimate, _, _ = estimates(hood, paths)
-    result["estimate"][resolved] = estimate[resolved]
-    result["truth"][resolved] = pairs.truth[resolved]
-    return HeuristicResult(
-        paths=paths,
-        move_offsets=np.concatenate([[0], np.cumsum(move_counts)]).astype(np.int64),
-        move_fls=np.array(move_fls, dtype=np.int64),
-        move_from=np.array(move_from, dtype=float).reshape(-1, 3),
-        move_to=np.array(move_to, dtype=float).reshape(-1, 3),
-        **result,
+    return _obstructing_result(
+        evaluation,
+        blocked,
+        new_paths,
+        move_counts,
+        np.array(move_fls, dtype=np.int64),
+        np.array(move_from, dtype=float).reshape(-1, 3),
+        np.array(move_to, dtype=float).reshape(-1, 3),
+        TEXT,
     )
 
 
 def _move_obstructing_independently(evaluation: Evaluation, compat: Compat) -> HeuristicResult:
     """Move Obstructing as the reference code does it (``compat.independent_moves``)."""
-    hood, pairs = evaluation.hood, evaluation.pairs
+    hood = evaluation.hood
     points, radius = hood.swarm.points, hood.swarm.radius
-    size = len(pairs)
-    result = _empty_result(MOVE_OBSTRUCTING, None, size)
-    blocked = _blocked_pairs(evaluation)
-    result["tried"][blocked] = True
-    sweet_paths = shortest_paths(
-        hood.sweet_all, pairs.source[blocked], pairs.target[blocked], evaluation.policy
-    )
-    _, start, end = path_hops(sweet_paths)
-    edge = hood.sweet_all.edge_labels(start, end)
-    edges, _ = np.unique(edge, return_inverse=True)
-    offsets, ids = obstructers(
-        points, radius, hood.pairs.first[edges], hood.pairs.second[edges], hood.grid
-    )
+    size = len(evaluation.pairs)
+    blocked, sweet_paths, edge, edges, offsets, ids = _blocked_hops(evaluation)
     tree = cKDTree(points)
     # Every move is made in the original shape: one destination per hop and obstructer.
     moves_of: dict[int, tuple[list[tuple[int, FloatArray]], bool]] = {}
@@ -547,22 +576,16 @@ def _move_obstructing_independently(evaluation: Evaluation, compat: Compat) -> H
             move_counts[pair] += len(hop_moves)
         if ok:
             new_paths[pair] = sweet_paths.path(slot)
-    resolved = np.zeros(size, dtype=bool)
-    resolved[list(new_paths)] = True
-    result["resolved"] = resolved
-    paths = paths_from_rows(size, new_paths)
-    estimate, _, _ = estimates(hood, paths)
-    result["estimate"][resolved] = estimate[resolved]
-    result["truth"][resolved] = pairs.truth[resolved]
     fls = np.array(move_fls, dtype=np.int64)
-    return HeuristicResult(
-        paths=paths,
-        move_offsets=np.concatenate([[0], np.cumsum(move_counts)]).astype(np.int64),
-        move_fls=fls,
-        move_from=points[fls].reshape(-1, 3),
-        move_to=np.array(move_to, dtype=float).reshape(-1, 3),
-        compat=compat,
-        **result,
+    return _obstructing_result(
+        evaluation,
+        blocked,
+        new_paths,
+        move_counts,
+        fls,
+        points[fls].reshape(-1, 3),
+        np.array(move_to, dtype=float).reshape(-1, 3),
+        compat,
     )
 
 
