@@ -72,3 +72,28 @@ def test_output_that_cannot_be_written_is_one_line_and_exit_2(tmp_path):
                   "--out", str(blocker / "sensor.yaml"), "--quiet")  # fmt: skip
     assert run.returncode == 2
     assert run.stderr.count("\n") == 1 and "is not a folder" in run.stderr
+
+
+def test_calibrate_compares_at_the_measured_distances_themselves(tmp_path):
+    from swazure_ros.core.calibration import sweep
+    from swazure_ros.core.camera import load_camera
+
+    measured = tmp_path / "measured.csv"
+    measured.write_text("distance_mm,error_pct,detect_pct\n61,1.0,100\n133,9.0,100\n")
+    run = swazure(
+        "camera", "calibrate", "--camera", str(WIDE), "--frames", "6", "--angles", "0",
+        "--measured", str(measured), "--quiet",
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    printed = {
+        int(line.split()[0]): float(line.split()[3])
+        for line in run.stdout.splitlines()
+        if line.strip().endswith(("yes", "NO")) and line.split()[1] == "mm"
+    }
+    # Off the sweep's grid (60 distances from 30 mm), so only a render at 61 and
+    # 133 mm gives these numbers.
+    direct = sweep(load_camera(WIDE), (61.0, 133.0), (0.0,), frames=6, seed=0)
+    assert printed == {
+        61: round(100 * float(direct.mean_error[0, 0]), 2),
+        133: round(100 * float(direct.mean_error[1, 0]), 2),
+    }
