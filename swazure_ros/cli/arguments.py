@@ -77,6 +77,14 @@ def seconds(text: str) -> float:
     return value
 
 
+def distance_mm(text: str) -> float:
+    """A distance in millimetres, finite and above 0."""
+    value = number(text)
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text} mm: a distance must be above 0")
+    return value
+
+
 def count(text: str) -> int:
     """A count of things, at least 1."""
     value = whole_number(text)

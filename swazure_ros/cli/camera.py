@@ -10,11 +10,13 @@ window) that best match a measured camera's table.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from ..core.calibration import (
@@ -28,6 +30,7 @@ from ..core.calibration import (
     compare,
     fit_degradations,
     load_measured,
+    marker_sweep,
     sensor_from_sweep,
     sweep,
 )
@@ -35,7 +38,7 @@ from ..core.camera import Camera, load_camera
 from ..core.errors import SensorError
 from ..core.results import atomic_write
 from ..core.sensor import SENSOR_FILE_VERSION
-from .arguments import count, input_file, output_file, png_file, viewing_angle
+from .arguments import count, distance_mm, input_file, output_file, png_file, viewing_angle
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -64,12 +67,27 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="DEG",
         help="viewing angles of the sweep, degrees (default 0 30 60)",
     )
+    patterns = actions.add_parser(
+        "patterns", help="the error head-on for every marker of the dictionary"
+    )
+    _common(patterns, frames=30)
+    patterns.add_argument(
+        "--distances",
+        type=distance_mm,
+        nargs="+",
+        metavar="MM",
+        help="distances, mm (default: 13 from the closest focus to 4 times it, and the "
+        "measured ones where the measured camera detected)",
+    )
+    patterns.add_argument(
+        "--plot", type=png_file, metavar="FILE.png", help="error against distance per marker"
+    )
     fit = actions.add_parser("fit", help="search the degradations that match a measured camera")
     _common(fit)
     fit.add_argument("--top", type=count, default=5, help="how many of the best settings to print")
 
 
-def _common(parser: argparse.ArgumentParser) -> None:
+def _common(parser: argparse.ArgumentParser, frames: int = 100) -> None:
     parser.add_argument(
         "--camera",
         type=input_file,
@@ -84,7 +102,10 @@ def _common(parser: argparse.ArgumentParser) -> None:
         help="a measured camera's table (distance_mm,error_pct,detect_pct) to compare with",
     )
     parser.add_argument(
-        "--frames", type=count, default=100, help="frames per distance and angle (default 100)"
+        "--frames",
+        type=count,
+        default=frames,
+        help=f"frames per distance and angle (default {frames})",
     )
     parser.add_argument(
         "--seed", type=int, default=0, help="seed of the frames' noise, roll and placement"
@@ -131,6 +152,8 @@ def main(args: argparse.Namespace) -> int:
     measured = load_measured(args.measured) if args.measured else None
     if args.action == "fit":
         return _fit(args, camera, measured)
+    if args.action == "patterns":
+        return _patterns(args, camera, measured)
     result = sweep(
         camera,
         angles_deg=tuple(args.angles),
@@ -219,6 +242,59 @@ def _print_fit(rows: list[FitRow], measured: Measured, result: Sweep, column: in
         f"blind limit: measured {measured_limit:.1f} mm, rendered {rendered_limit:.1f} mm "
         f"({'within' if abs(measured_limit - rendered_limit) <= 5 else 'NOT within'} 5 mm)"
     )
+
+
+def _patterns(args: argparse.Namespace, camera: Camera, measured: Measured | None) -> int:
+    if args.distances:
+        distances = tuple(sorted(set(args.distances)))
+    else:
+        grid = {round(float(d), 1) for d in np.linspace(1.0, 4.0, 13) * camera.focus_min_mm}
+        if measured is not None:
+            grid |= {
+                float(d) for d, p in zip(measured.distances_mm, measured.detect_pct) if p >= 50.0
+            }
+        distances = tuple(sorted(grid))
+    ids = range(camera.dictionary_size)
+    result = marker_sweep(
+        camera, distances, ids, args.frames, args.seed, _progress(args.quiet, "markers")
+    )
+    print(
+        f"camera {camera.name}: {len(ids)} markers of {camera.marker_dictionary} head-on, "
+        f"{args.frames} frames at each of {len(distances)} distances"
+    )
+    print(
+        "distance  error %:"
+        + (" measured" if measured is not None else "")
+        + f"  id {camera.marker_id}    min median    max"
+    )
+    own = int(camera.marker_id)
+    table = {} if measured is None else dict(zip(measured.distances_mm, measured.error_pct))
+    for column, distance in enumerate(distances):
+        errors = 100.0 * result.mean_error[:, column]
+        print(
+            f"{distance:6.0f} mm"
+            + ("" if measured is None else f" {_percent(table.get(distance)):>16}")
+            + f" {errors[own]:6.2f} {np.nanmin(errors):6.2f} {np.nanmedian(errors):6.2f} "
+            f"{np.nanmax(errors):6.2f}"
+        )
+    # The mean |error| over the distances ranks the markers for a swarm to carry.
+    score = np.nanmean(np.abs(result.mean_error), axis=1)
+    best = np.argsort(score, kind="stable")[:10]
+    print(
+        "least error on average: "
+        + ", ".join(f"id {int(result.marker_ids[k])} ({100 * score[k]:.2f} %)" for k in best)
+    )
+    if args.plot:
+        from ..study.camera import pattern_figure, save_figure
+
+        figure = pattern_figure(result, camera, measured)
+        _written(args.plot, lambda: save_figure(figure, args.plot))
+        print(f"wrote {args.plot}")
+    return 0
+
+
+def _percent(value: float | None) -> str:
+    return "-" if value is None or not math.isfinite(value) else f"{value:.2f}"
 
 
 def _fit(args: argparse.Namespace, camera: Camera, measured: Measured | None) -> int:

@@ -5,7 +5,8 @@ viewing angle with :mod:`.camera`; :func:`sensor_from_sweep` turns the
 head-on part of the sweep into the sensor abstraction of :mod:`.sensor`
 (ranges, the error polynomial, and the stochastic noise tables), by the
 criteria of :class:`Criteria`. :func:`compare` sets a sweep beside a measured
-camera's table (``datasets/aruco-measured``).
+camera's table (``datasets/aruco-measured``); :func:`marker_sweep` repeats
+the head-on sweep for each marker of the dictionary.
 
 Distances of the camera are in mm; the sensor's tracking distances in cm
 (the camera on one FLS's surface, the marker on the other's: the camera's
@@ -29,6 +30,7 @@ from .errors import SensorError
 from .sensor import Sensor, SensorNoise
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 #: Default angles of a sweep: head-on and two slants, degrees.
 DEFAULT_ANGLES_DEG = (0.0, 30.0, 60.0)
@@ -130,6 +132,49 @@ def sweep(
         distance_sd,
         direction_sd,
         elapsed / max(1, frames * shape[0] * shape[1]),
+    )
+
+
+@dataclass(frozen=True)
+class MarkerSweep:
+    """Head-on, per marker of the dictionary (rows) and distance (columns)."""
+
+    marker_ids: IntArray  # (M,)
+    distances_mm: FloatArray  # (D,)
+    frames: int
+    detection: FloatArray  # (M, D) fraction of frames with a detection
+    mean_error: FloatArray  # (M, D) relative error of the mean measured distance; nan if none
+
+
+def marker_sweep(
+    camera: Camera,
+    distances_mm: Sequence[float],
+    marker_ids: Sequence[int],
+    frames: int = 30,
+    seed: int = 0,
+    on_progress: Callable[[int, int], None] | None = None,
+) -> MarkerSweep:
+    """:func:`sweep` head-on for each of ``marker_ids`` in place of the camera's own marker.
+
+    Beyond the distance where the corner window reaches the marker's inner
+    edges, the bits next to its corners pull the refined corners, so the
+    error there belongs to the pattern as much as to the camera.
+    """
+    from dataclasses import replace
+
+    detection = np.full((len(marker_ids), len(distances_mm)), np.nan)
+    mean_error = np.full_like(detection, np.nan)
+    for row, marker in enumerate(marker_ids):
+        result = sweep(replace(camera, marker_id=int(marker)), distances_mm, (0.0,), frames, seed)
+        detection[row], mean_error[row] = result.detection[:, 0], result.mean_error[:, 0]
+        if on_progress is not None:
+            on_progress(row + 1, len(marker_ids))
+    return MarkerSweep(
+        np.asarray(marker_ids, dtype=np.int64),
+        np.asarray(distances_mm, dtype=np.float64),
+        frames,
+        detection,
+        mean_error,
     )
 
 

@@ -129,6 +129,12 @@ class Camera:
         inverse = rng.uniform(0.0, 1.0 / self.focus_min_mm)
         return math.inf if inverse == 0.0 else 1.0 / inverse
 
+    @property
+    def dictionary_size(self) -> int:
+        """How many markers the camera's ArUco dictionary holds."""
+        dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, self.marker_dictionary))
+        return int(dictionary.bytesList.shape[0])
+
     def diffraction_px(self) -> float:
         """Sigma of a Gaussian close to the Airy disk of the lens, px."""
         return 0.42 * WAVELENGTH_MM * self.f_number / self.pixel_pitch_mm
@@ -196,6 +202,11 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
     )
     if min(width, height, fx, camera.focal_length_mm, camera.f_number, camera.marker_side_mm) <= 0:
         raise SensorError(f"{where}: sizes, focal lengths and the f-number must be positive")
+    if not 0 <= camera.marker_id < camera.dictionary_size:
+        raise SensorError(
+            f"{where}: camera.marker.id {camera.marker_id} is not in {dictionary} "
+            f"(0 to {camera.dictionary_size - 1})"
+        )
     return camera
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..core.calibration import Measured, Sweep
+from ..core.calibration import MarkerSweep, Measured, Sweep
 from ..core.camera import Camera, MarkerPose, render
 from ..core.sensor import Sensor
 from .figures import save
@@ -60,6 +60,42 @@ def calibration_figure(
     detection_axes.set_ylim(-3, 103)
     error_axes.legend(loc="upper left", fontsize=8)
     detection_axes.legend(loc="lower right", fontsize=8)
+    return figure
+
+
+def pattern_figure(
+    result: MarkerSweep, camera: Camera, measured: Measured | None = None
+) -> Figure:
+    """Mean distance error against distance, one line per marker, the camera's own marker bold."""
+    figure = Figure(figsize=(7.5, 4.6), layout="constrained")
+    axes = figure.subplots()
+    figure.suptitle(
+        f"{camera.name}: the error by marker pattern\n"
+        f"{len(result.marker_ids)} markers of {camera.marker_dictionary}, "
+        f"{result.frames} frames a point, head-on",
+        fontsize=10,
+    )
+    # A mean over a few lucky frames says little: drawn where most frames detect.
+    error = 100.0 * np.where(result.detection >= 0.5, result.mean_error, np.nan)
+    for row in range(len(result.marker_ids)):
+        axes.plot(result.distances_mm, error[row], color="tab:blue", lw=0.6, alpha=0.25)
+    axes.plot([], [], color="tab:blue", lw=0.6, alpha=0.5, label="one marker")
+    axes.plot(result.distances_mm, np.nanmedian(error, axis=0), "b-", lw=2, label="median")
+    own = int(np.flatnonzero(result.marker_ids == camera.marker_id)[0])
+    axes.plot(
+        result.distances_mm, error[own], "r.-", lw=1.5, label=f"id {camera.marker_id} (the file's)"
+    )
+    if measured is not None:
+        axes.plot(measured.distances_mm, measured.error_pct, "ks", label="measured")
+        top = float(np.nanmax(measured.error_pct))
+    else:
+        top = 0.0
+    axes.set_yscale("log")
+    axes.set_ylim(0.1, max(top, float(np.nanmax(error))) * 1.5)
+    axes.set_xlabel("distance camera to marker (mm)")
+    axes.set_ylabel("error of the mean measured distance (%)")
+    axes.grid(True, which="both", alpha=0.3)
+    axes.legend(loc="upper left", fontsize=8)
     return figure
 
 

@@ -159,6 +159,7 @@ BAD_INPUTS = [
     (["camera", "calibrate", "--camera", WIDE, "--angles", "30"], "--angles must include 0"),
     (["camera", "fit", "--camera", WIDE], "fit needs --measured"),
     (["camera", "fit", "--camera", WIDE, "--measured", "afile"], "no rows"),
+    (["camera", "patterns", "--camera", WIDE, "--distances", "0"], "a distance must be above 0"),
     (["camera"], "required: ACTION"),
     (["nosuchverb"], "invalid choice: 'nosuchverb'"),
 ]

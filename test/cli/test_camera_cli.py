@@ -97,3 +97,20 @@ def test_calibrate_compares_at_the_measured_distances_themselves(tmp_path):
         61: round(100 * float(direct.mean_error[0, 0]), 2),
         133: round(100 * float(direct.mean_error[1, 0]), 2),
     }
+
+
+def test_patterns_prints_each_distance_and_ranks_the_markers(tmp_path):
+    plot = tmp_path / "patterns.png"
+    run = swazure(
+        "camera", "patterns", "--camera", str(WIDE), "--frames", "2", "--distances", "50",
+        "110", "--plot", str(plot), "--quiet",
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    rows = [line.split() for line in run.stdout.splitlines() if line.split()[1:2] == ["mm"]]
+    assert [row[0] for row in rows] == ["50", "110"]
+    # id 0, min, median, max: the 100 markers agree at 50 mm and spread at 110.
+    at_50, at_110 = ([float(v) for v in row[2:6]] for row in rows)
+    assert at_50[1] == at_50[3] and at_110[3] - at_110[1] > 2.0
+    ranked = run.stdout.split("least error on average: ")[1]
+    assert ranked.count("id ") == 10
+    assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

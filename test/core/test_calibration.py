@@ -12,6 +12,7 @@ from swazure_ros.core.calibration import (
     compare,
     crossing,
     load_measured,
+    marker_sweep,
     sensor_from_sweep,
     sweep,
 )
@@ -81,6 +82,20 @@ def test_a_camera_that_never_detects_is_an_error():
     )
     with pytest.raises(SensorError, match="never detects"):
         sensor_from_sweep(nothing)
+
+
+def test_the_pattern_moves_the_error_only_where_the_window_reaches_the_bits():
+    camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
+    # At 50 mm a cell is 13 px, beyond the 11 px window; at 100 mm it is 6.6 px.
+    result = marker_sweep(camera, (50.0, 100.0), (0, 1, 22), frames=6, seed=3)
+    near, far = result.mean_error[:, 0], result.mean_error[:, 1]
+    assert np.ptp(near) < 0.001
+    assert np.ptp(far) > 0.02
+    # Each row is the plain sweep of the camera carrying that marker.
+    from dataclasses import replace
+
+    one = sweep(replace(camera, marker_id=22), (50.0, 100.0), (0.0,), frames=6, seed=3)
+    np.testing.assert_array_equal(result.mean_error[2], one.mean_error[:, 0])
 
 
 def test_sweep_is_deterministic_and_each_point_has_its_own_stream():

@@ -171,6 +171,10 @@ def test_camera_file_errors_name_the_key(tmp_path):
     document["camera"]["marker"]["dictionary"] = "DICT_NOPE"
     with pytest.raises(SensorError, match="DICT_NOPE"):
         camera_from_dict(document, "broken.yaml")
+    document["camera"]["marker"]["dictionary"] = "DICT_4X4_100"
+    document["camera"]["marker"]["id"] = 100
+    with pytest.raises(SensorError, match=r"marker.id 100 is not in DICT_4X4_100 \(0 to 99\)"):
+        camera_from_dict(document, "broken.yaml")
     with pytest.raises(SensorError, match="no such camera file"):
         load_camera(tmp_path / "absent.yaml")
 
