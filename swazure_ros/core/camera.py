@@ -18,6 +18,7 @@ that they mean the same pixels as in the whole frame.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -270,6 +271,19 @@ def _marker_texture(camera: Camera, texels_per_cell: int, quiet: int) -> NDArray
     return (d.black_level + (d.white_level - d.black_level) * (card / 255.0)).astype(np.float32)
 
 
+@functools.lru_cache(maxsize=64)
+def _linear_card(camera: Camera, texels_per_cell: int, quiet: int) -> NDArray[np.float32]:
+    """The card of :func:`_marker_texture` as linear intensity, read-only.
+
+    Cached: a sweep renders the same few cards frame after frame.
+    """
+    card = _to_linear(
+        _marker_texture(camera, texels_per_cell, quiet), camera.degradations.tone_gamma
+    )
+    card.flags.writeable = False
+    return np.asarray(card, np.float32)
+
+
 def _to_linear(levels: Any, gamma: float) -> Any:
     """Frame grey levels (0-255) as linear intensity on the same scale."""
     if gamma == 1.0:
@@ -330,15 +344,15 @@ def render(camera: Camera, pose: MarkerPose, rng: np.random.Generator) -> Frame:
     y1 = min(math.ceil(card_px[:, 1].max()) + margin, camera.height)
     if x1 - x0 < 8 or y1 - y0 < 8:
         return Frame(np.zeros((0, 0), np.uint8), (x0, y0), corners_px)
-    texture = _marker_texture(camera, texels_per_cell, quiet)
-    n = texture.shape[0]
+    card_texture = _linear_card(camera, texels_per_cell, quiet)
+    n = card_texture.shape[0]
     source = np.array([[0, 0], [n, 0], [n, n], [0, n]], dtype=np.float32) - 0.5
     target = (card_px - np.array([x0, y0])).astype(np.float32)
     homography = cv2.getPerspectiveTransform(source, target)
     d = camera.degradations
     gamma = d.tone_gamma
     scene = cv2.warpPerspective(
-        _to_linear(texture, gamma),
+        card_texture,
         homography,
         (x1 - x0, y1 - y0),
         flags=cv2.INTER_LINEAR,
