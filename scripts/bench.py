@@ -685,6 +685,22 @@ def camera_section(args: argparse.Namespace) -> list[str]:
         lines += [f"`{name}`: {wall:.1f} s wall, {peak:.0f} MB peak, exit {code}", "", "```"]
         lines += [line for line in output.splitlines() if line.strip()]
         lines += ["```", ""]
+    if measured.exists():
+        wall, peak, code, output = run_output(
+            [*SWAZURE, "camera", "patterns", "--camera",
+             str(cameras / "rpi-camera-module-3-wide.yaml"), "--measured", str(measured),
+             "--quiet"]
+        )  # fmt: skip
+        lines += [
+            "The error by marker pattern (`swazure camera patterns`, the dictionary's 100",
+            f"markers, 30 frames a point, head-on): {wall:.1f} s wall, {peak:.0f} MB peak, "
+            f"exit {code}",
+            "",
+            "```",
+            *[line for line in output.splitlines() if line.strip()],
+            "```",
+            "",
+        ]
     return [*lines, *camera_study_lines()]
 
 
