@@ -438,3 +438,93 @@ def test_published_mode_gives_the_papers_move_obstructing_no_path_on_the_chess_p
     assert round(text.summary["no_path_pct"], 2) == 6.02
     assert heuristic.compat == PUBLISHED
     assert published.summary["compat"] == PUBLISHED.switches_on()
+
+
+def test_a_helper_at_exactly_the_sweet_maximum_counts_with_sweet_max_inclusive():
+    # From the probe (-0.5, 0, 0) (delta 1, direction (-1, 0, 0)) H is (1, -8, 4) away:
+    # 9 cm, tracking exactly 8 = sweet_max, decaying by the text's [6, 8), sweet as published.
+    scene = np.array([[0, 0, 0], [0.5, -8, 4], [-6, -3, 1], [0.55, -4, 2]], dtype=float)
+    sensor = load_sensor()
+    evaluation = evaluate(make_swarm(scene, radius=R), sensor, "shortest-length")
+    m = pair_index(evaluation, 0, 2)
+    assert evaluation.pairs.reason[m] == REASON_BLOCKED
+    probe = R * DIRECTIONS[4]
+    np.testing.assert_array_equal(probe, [-0.5, 0.0, 0.0])
+    offset = scene[1] - probe
+    assert np.sqrt(offset @ offset) - 2 * R == sensor.sweet_max == 8.0
+    text = move_source(evaluation, 1)
+    inclusive = move_source(evaluation, 1, Compat(sweet_max_inclusive=True))
+    [(_, _, end)] = inclusive.moves(m)
+    np.testing.assert_array_equal(end, probe)
+    assert inclusive.paths.path(m) == [0, 1, 2]
+    # The text passes over that probe and succeeds at the next direction.
+    [(_, _, text_end)] = text.moves(m)
+    np.testing.assert_allclose(text_end, R * DIRECTIONS[5], atol=1e-12)
+
+
+def test_first_helper_takes_the_helper_nearest_the_target_not_the_shortest_sum():
+    # SOURCE_SCENE and H2: at the probe of delta 3, direction 0, both B (1) and H2 (4) are
+    # sweet and in sight. B is nearer the target; H2 gives the shorter q -> h -> target.
+    scene = np.vstack([SOURCE_SCENE, [5.5, -1.5, 2.0]])
+    evaluation = evaluate(make_swarm(scene, radius=R), load_sensor(), "shortest-length")
+    m = pair_index(evaluation, 0, 2)
+    probe = 3 * R * DIRECTIONS[0]
+
+    def tracking(a, b):
+        return np.linalg.norm(a - b) - 2 * R
+
+    target = scene[2]
+    assert tracking(scene[1], target) < tracking(scene[4], target)
+    assert tracking(probe, scene[4]) + tracking(scene[4], target) < tracking(
+        probe, scene[1]
+    ) + tracking(scene[1], target)
+    text = move_source(evaluation, 10)
+    first = move_source(evaluation, 10, Compat(first_helper=True))
+    assert text.paths.path(m) == [0, 4, 2] and first.paths.path(m) == [0, 1, 2]
+    for result in (text, first):
+        np.testing.assert_allclose(result.moves(m)[0][2], probe, atol=1e-12)
+
+
+def test_collisions_near_origin_ignores_an_fls_beyond_t_plus_2_r_of_the_source():
+    # With grid steps the probe (-1, -1, -1) of delta 2 is sqrt(3) cm from the source. An
+    # FLS at (-1.5, -1.5, -1.5) is 0.87 cm from that probe, a collision (< 2r), but
+    # 2.6 cm from the source, beyond (T + 2) r = 2 cm.
+    collider = np.full(3, -1.5)
+    scene = np.vstack([SOURCE_SCENE, collider])
+    evaluation = evaluate(make_swarm(scene, radius=R), load_sensor(), "shortest-length")
+    m = pair_index(evaluation, 0, 2)
+    counted = move_source(evaluation, 2, Compat(grid_steps=True))
+    near = move_source(evaluation, 2, Compat(grid_steps=True, collisions_near_origin=True))
+    [(_, _, end)] = near.moves(m)
+    np.testing.assert_allclose(end, [-1.0, -1.0, -1.0], atol=1e-12)
+    assert np.linalg.norm(end - collider) < 2 * R < (2 + 2) * R < np.linalg.norm(collider)
+    # Counted everywhere, the collision kills that direction; the next grid step succeeds.
+    [(_, _, counted_end)] = counted.moves(m)
+    np.testing.assert_allclose(counted_end, [-1.0, -1.0, 1.0], atol=1e-12)
+
+
+def test_occlusion_near_origin_ignores_obstructers_far_from_the_source_on_the_chess_piece():
+    # A probe's sight line is checked only against FLSs within |q - p_h| + 2r of the
+    # source's place; an obstructer near a helper far from the source can lie beyond.
+    swarm = make_swarm(load_cloud(dataset("chess_408.xyz")).points, beta=0.5)
+    evaluation = evaluate(swarm, load_sensor(), "shortest-length")
+    text = move_source(evaluation, 10)
+    near = move_source(evaluation, 10, Compat(occlusion_near_origin=True))
+    assert (text.resolved.sum(), near.resolved.sum()) == (11_095, 11_292)
+    assert not (text.resolved & ~near.resolved).any()
+    from swazure_ros.core.sight import obstructers
+
+    only_near = np.flatnonzero(near.resolved & ~text.resolved)
+    checked = 0
+    for pair in only_near[:20].tolist():
+        source, helper, _ = near.paths.path(pair)
+        [(_, origin, probe)] = near.moves(pair)
+        moved = swarm.points.copy()
+        moved[source] = probe
+        offsets, ids = obstructers(moved, swarm.radius, [source], [helper])
+        if offsets[1] == 0:
+            continue  # resolved earlier than the text found this probe; its sight is clear
+        reach = np.linalg.norm(probe - swarm.points[helper]) + 2 * swarm.radius
+        assert (np.linalg.norm(swarm.points[ids] - origin, axis=1) > reach).all()
+        checked += 1
+    assert checked > 0
