@@ -267,22 +267,25 @@ def _patterns(args: argparse.Namespace, camera: Camera, measured: Measured | Non
         + (" measured" if measured is not None else "")
         + f"  id {camera.marker_id}    min median    max"
     )
-    own = int(camera.marker_id)
+    own = camera.marker_id  # rows are ids 0, 1, ...
     table = {} if measured is None else dict(zip(measured.distances_mm, measured.error_pct))
     for column, distance in enumerate(distances):
-        errors = 100.0 * result.mean_error[:, column]
+        # A mean over a few lucky frames says little: shown where most frames detect.
+        detected = result.detection[:, column] >= 0.5
+        errors = np.where(detected, 100.0 * result.mean_error[:, column], np.nan)
+        known = errors[np.isfinite(errors)]
+        spread = (known.min(), np.median(known), known.max()) if known.size else (math.nan,) * 3
         print(
             f"{distance:6.0f} mm"
             + ("" if measured is None else f" {_percent(table.get(distance)):>16}")
-            + f" {errors[own]:6.2f} {np.nanmin(errors):6.2f} {np.nanmedian(errors):6.2f} "
-            f"{np.nanmax(errors):6.2f}"
+            + "".join(f" {_percent(value):>6}" for value in (errors[own], *spread))
         )
-    # The mean |error| over the distances ranks the markers for a swarm to carry.
-    score = np.nanmean(np.abs(result.mean_error), axis=1)
-    best = np.argsort(score, kind="stable")[:10]
+    ranked, score = result.least_error()
     print(
         "least error on average: "
-        + ", ".join(f"id {int(result.marker_ids[k])} ({100 * score[k]:.2f} %)" for k in best)
+        + ", ".join(
+            f"id {marker} ({100 * value:.2f} %)" for marker, value in zip(ranked[:10], score)
+        )
     )
     if args.plot:
         from ..study.camera import pattern_figure, save_figure

@@ -145,6 +145,18 @@ class MarkerSweep:
     detection: FloatArray  # (M, D) fraction of frames with a detection
     mean_error: FloatArray  # (M, D) relative error of the mean measured distance; nan if none
 
+    def least_error(self) -> tuple[IntArray, FloatArray]:
+        """Marker ids and their mean |error| over the distances, least first (ties by id).
+
+        A distance counts for a marker where at least half its frames detect;
+        a marker that detects at none of them comes last.
+        """
+        reliable = np.where(self.detection >= 0.5, np.abs(self.mean_error), np.nan)
+        counted = np.isfinite(reliable).sum(axis=1)
+        score = np.where(counted > 0, np.nansum(reliable, axis=1) / np.maximum(counted, 1), np.inf)
+        order = np.lexsort((self.marker_ids, score))
+        return self.marker_ids[order], score[order]
+
 
 def marker_sweep(
     camera: Camera,

@@ -7,6 +7,7 @@ import pytest
 
 from swazure_ros.core.calibration import (
     Criteria,
+    MarkerSweep,
     Sweep,
     blind_limit_mm,
     compare,
@@ -96,6 +97,21 @@ def test_the_pattern_moves_the_error_only_where_the_window_reaches_the_bits():
 
     one = sweep(replace(camera, marker_id=22), (50.0, 100.0), (0.0,), frames=6, seed=3)
     np.testing.assert_array_equal(result.mean_error[2], one.mean_error[:, 0])
+
+
+def test_markers_rank_by_mean_absolute_error_where_they_detect_ties_by_id():
+    result = MarkerSweep(
+        np.array([0, 1, 2, 3]),
+        np.array([50.0, 100.0]),
+        10,
+        detection=np.array([[1.0, 1.0], [1.0, 0.2], [1.0, 1.0], [0.1, 0.0]]),
+        # id 1's 100 mm mean rests on 2 frames of 10 and does not count.
+        # Means exact in binary, so that the three ties are exact.
+        mean_error=np.array([[0.125, -0.375], [0.25, 0.90], [-0.5, 0.0], [0.0, np.nan]]),
+    )
+    ids, score = result.least_error()
+    assert ids.tolist() == [0, 1, 2, 3]
+    assert score.tolist() == [0.25, 0.25, 0.25, np.inf]
 
 
 def test_sweep_is_deterministic_and_each_point_has_its_own_stream():
