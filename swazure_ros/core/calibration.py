@@ -18,7 +18,7 @@ from __future__ import annotations
 import csv
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -172,8 +172,6 @@ def marker_sweep(
     edges, the bits next to its corners pull the refined corners, so the
     error there belongs to the pattern as much as to the camera.
     """
-    from dataclasses import replace
-
     detection = np.full((len(marker_ids), len(distances_mm)), np.nan)
     mean_error = np.full_like(detection, np.nan)
     for row, marker in enumerate(marker_ids):
@@ -405,7 +403,6 @@ def fit_degradations(
 ) -> list[tuple[dict[str, float], float, list[FitRow]]]:
     """Every combination of ``grid`` (degradation -> values), best first by :func:`fit_score`."""
     import itertools
-    from dataclasses import replace
 
     names = list(grid)
     combos = list(itertools.product(*(grid[name] for name in names)))
