@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -470,6 +471,11 @@ def true_centre(camera: Camera, pose: MarkerPose) -> FloatArray:
     )
 
 
+def carried_marker(camera: Camera, markers: Sequence[int], index: int) -> int:
+    """The marker FLS ``index`` (swarm index) carries: markers[index % len], else the file's."""
+    return int(markers[index % len(markers)]) if markers else camera.marker_id
+
+
 def measure_pairs(
     camera: Camera,
     distances_mm: FloatArray,
@@ -477,6 +483,7 @@ def measure_pairs(
     first: NDArray[np.int64],
     second: NDArray[np.int64],
     attempts: int = 8,
+    markers: Sequence[int] = (),
 ) -> FloatArray:
     """Marker centres (M, 3) mm in each measuring camera's frame, one pair per row.
 
@@ -484,11 +491,17 @@ def measure_pairs(
     its own random stream, seeded by (seed, first, second), so a pair's
     measurement is the same in every call; the camera looks up to
     ``attempts`` frames and keeps the first that detects. Rows with no
-    detection are NaN.
+    detection are NaN. The FLS ``second`` carries ``markers[second % len]``
+    (default: the camera file's marker).
     """
-    detector = Detector(camera)
+    cameras: dict[int, tuple[Camera, Detector]] = {}
     centres = np.full((len(distances_mm), 3), np.nan)
     for row, (distance, one, other) in enumerate(zip(distances_mm, first, second, strict=True)):
+        marker = carried_marker(camera, markers, int(other))
+        if marker not in cameras:
+            carried = replace(camera, marker_id=marker)
+            cameras[marker] = (carried, Detector(carried))
+        seen, detector = cameras[marker]
         rng = np.random.default_rng([seed, int(one), int(other)])
         for _ in range(attempts):
             pose = MarkerPose(
@@ -496,7 +509,7 @@ def measure_pairs(
                 roll_deg=float(rng.uniform(0.0, 360.0)),
                 offset_px=(float(rng.uniform(-0.5, 0.5)), float(rng.uniform(-0.5, 0.5))),
             )
-            centre = measure(camera, pose, rng, detector)
+            centre = measure(seen, pose, rng, detector)
             if centre is not None:
                 # The frame's sub-pixel placement is the camera's aim, not the neighbour's place.
                 centres[row] = (

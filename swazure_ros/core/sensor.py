@@ -106,6 +106,9 @@ class Sensor:
     #: The camera's file as the sensor file names it, and the seed of its frames.
     camera_file: str = ""
     camera_seed: int = 0
+    #: The markers the FLSs carry, FLS k (swarm index) camera_markers[k % len]; () = the
+    #: camera file's marker on every FLS.
+    camera_markers: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         bounds = (self.sweet_min, self.sweet_max, self.decaying_min, self.decaying_max)
@@ -165,6 +168,11 @@ class Sensor:
                 "camera": self.camera_file,
                 "seed": self.camera_seed,
             }
+            if self.camera_markers:
+                every = tuple(range(self.camera.dictionary_size))
+                model["markers"] = (
+                    "all" if self.camera_markers == every else list(self.camera_markers)
+                )
         elif self.noise is not None:
             model = {
                 "kind": "stochastic",
@@ -235,6 +243,7 @@ def sensor_from_dict(document: Any, where: str = "sensor", base: Path | None = N
     if kind == "stochastic":
         noise = _noise_from_dict(model, f"{where}: sensor.error_model")
     camera, camera_file, camera_seed = None, "", 0
+    markers: tuple[int, ...] = ()
     if kind == "camera":
         from .camera import load_camera
 
@@ -243,6 +252,7 @@ def sensor_from_dict(document: Any, where: str = "sensor", base: Path | None = N
         if isinstance(camera_seed, bool) or not isinstance(camera_seed, int):
             raise SensorError(f"{where}: sensor.error_model.seed must be an integer")
         camera = load_camera((base if base is not None else config_dir()) / camera_file)
+        markers = _markers_from(model.get("markers"), camera.dictionary_size, where)
     try:
         return Sensor(
             **values,
@@ -252,9 +262,29 @@ def sensor_from_dict(document: Any, where: str = "sensor", base: Path | None = N
             camera=camera,
             camera_file=camera_file,
             camera_seed=camera_seed,
+            camera_markers=markers,
         )
     except SensorError as err:
         raise SensorError(f"{where}: {err}") from err
+
+
+def _markers_from(raw: Any, dictionary_size: int, where: str) -> tuple[int, ...]:
+    """A camera sensor's ``markers``: absent, ``all`` (FLS k carries k mod size) or ids."""
+    if raw is None:
+        return ()
+    if raw == "all":
+        return tuple(range(dictionary_size))
+    if (
+        not isinstance(raw, list)
+        or not raw
+        or not all(isinstance(m, int) and not isinstance(m, bool) for m in raw)
+        or not all(0 <= m < dictionary_size for m in raw)
+    ):
+        raise SensorError(
+            f"{where}: sensor.error_model.markers must be 'all' or a list of marker ids "
+            f"from 0 to {dictionary_size - 1}, got {raw!r}"
+        )
+    return tuple(raw)
 
 
 def _noise_from_dict(model: Any, where: str) -> SensorNoise:
@@ -356,7 +386,14 @@ def measured_vectors(
         from .camera import measure_pairs
 
         across, other = _normal_plane(unit)
-        centres = measure_pairs(sensor.camera, 10.0 * tracking, sensor.camera_seed, first, second)
+        centres = measure_pairs(
+            sensor.camera,
+            10.0 * tracking,
+            sensor.camera_seed,
+            first,
+            second,
+            markers=sensor.camera_markers,
+        )
         length = np.linalg.norm(centres, axis=1, keepdims=True)
         seen = centres / length
         direction = seen[:, :1] * across + seen[:, 1:2] * other + seen[:, 2:3] * unit

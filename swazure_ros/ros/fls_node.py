@@ -41,6 +41,7 @@ a thousand times.
 from __future__ import annotations
 
 from collections import Counter
+from dataclasses import replace
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -64,7 +65,14 @@ from swazure_interfaces.msg import (
 )
 from swazure_interfaces.srv import GetNeighbours, TrackTarget
 
-from ..core.camera import Camera, MarkerPose, full_image, load_camera, render
+from ..core.camera import (
+    Camera,
+    MarkerPose,
+    carried_marker,
+    full_image,
+    load_camera,
+    render,
+)
 from ..core.errors import SwazureError, UnknownFlsError
 from ..core.observe import NeighbourSets
 from ..core.sensor import config_dir
@@ -268,8 +276,13 @@ class FlsNode(SwarmNode):
         stamp = self.get_clock().now().to_msg()
         frame_id = f"{node_name(self.fls_id)}_camera"
         if tracking_mm > camera.focal_length_mm:
+            # The neighbour's own marker, as the sensor's measurements render it.
+            marker = carried_marker(
+                camera, world.sensor.camera_markers, world.index(self.camera_view)
+            )
+            seen = replace(camera, marker_id=marker)
             image = full_image(
-                camera, render(camera, MarkerPose(tracking_mm), np.random.default_rng(seed))
+                seen, render(seen, MarkerPose(tracking_mm), np.random.default_rng(seed))
             )
         else:  # touching: the marker covers the lens
             image = np.zeros((camera.height, camera.width), np.uint8)

@@ -2,6 +2,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from swazure_ros.core.errors import SensorError
 from swazure_ros.core.sensor import (
@@ -14,6 +15,7 @@ from swazure_ros.core.sensor import (
     hop_error,
     load_sensor,
     measured_vectors,
+    sensor_from_dict,
     smallest_hop_error,
 )
 
@@ -209,6 +211,39 @@ def test_camera_sensor_renders_each_pair_the_same_way_every_time():
     assert np.degrees(np.arccos(min(cosine, 1.0))) < 0.5
     assert not np.array_equal(vectors, truth)
     assert sensor.error_free().camera is None
+
+
+def test_each_fls_carries_its_own_marker_in_a_camera_sensor(tmp_path):
+    from dataclasses import replace
+
+    from swazure_ros.core.camera import measure_pairs
+
+    folder = Path(__file__).resolve().parents[2] / "config" / "cameras"
+    document = yaml.safe_load((folder / "sensor-wide-camera.yaml").read_text())
+    assert document["sensor"]["error_model"]["markers"] == "all"
+    document["sensor"]["error_model"]["markers"] = [5, 22]
+    sensor = sensor_from_dict(document, "sensor.yaml", base=folder)
+    assert sensor.camera_markers == (5, 22)
+    assert sensor_from_dict(sensor_document(sensor), "again", base=folder) == sensor
+    camera = sensor.camera
+    # At 100 mm the window reaches the bits, so the pattern shows in the measurement.
+    distances, first, second = np.full(2, 100.0), np.array([0, 0]), np.array([2, 3])
+    carried = measure_pairs(camera, distances, 7, first, second, markers=(5, 22))
+    for row, marker in ((0, 5), (1, 22)):
+        alone = measure_pairs(
+            replace(camera, marker_id=marker), distances[:1], 7, first[:1], second[row : row + 1]
+        )
+        np.testing.assert_array_equal(carried[row], alone[0])
+    plain = measure_pairs(camera, distances, 7, first, second)
+    assert not np.array_equal(carried, plain)
+    for markers in ([100], [], "some", [True]):
+        document["sensor"]["error_model"]["markers"] = markers
+        with pytest.raises(SensorError, match="markers must be 'all' or a list of marker ids"):
+            sensor_from_dict(document, "sensor.yaml", base=folder)
+
+
+def sensor_document(sensor):
+    return {"fileversion": 1, "sensor": sensor.to_dict()}
 
 
 # ----------------------------------------------------------------------------- hop error

@@ -92,7 +92,8 @@ def test_an_fls_shows_what_its_camera_sees_aimed_at_a_neighbour(domain):
             cv2.aruco.getPredefinedDictionary(cv2.aruco.DICT_4X4_100)
         )
         corners, ids, _ = detector.detectMarkers(pixels)
-        assert ids is not None and ids.ravel().tolist() == [0]
+        # The neighbour's own marker: FLS k carries marker k mod 100 (markers: all).
+        assert ids is not None and ids.ravel().tolist() == [world.index(neighbour) % 100]
         # The marker's side in pixels says how far it is: fx * 4.7 mm / distance.
         side = np.linalg.norm(corners[0][0, 1] - corners[0][0, 0])
         offset = world.position(neighbour) - world.position(0)
