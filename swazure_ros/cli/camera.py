@@ -60,6 +60,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--sheet", type=png_file, metavar="FILE.png", help="contact sheet of rendered frames"
     )
     calibrate.add_argument(
+        "--all-markers",
+        action="store_true",
+        help="show the dictionary's markers in turn, frame by frame (a swarm whose FLSs "
+        "carry them all), not the camera file's one",
+    )
+    calibrate.add_argument(
         "--angles",
         type=viewing_angle,
         nargs="+",
@@ -154,19 +160,26 @@ def main(args: argparse.Namespace) -> int:
         return _fit(args, camera, measured)
     if args.action == "patterns":
         return _patterns(args, camera, measured)
+    markers = tuple(range(camera.dictionary_size)) if args.all_markers else ()
     result = sweep(
         camera,
         angles_deg=tuple(args.angles),
         frames=args.frames,
         seed=args.seed,
         on_progress=_progress(args.quiet, "sweep"),
+        markers=markers,
     )
     sensor = sensor_from_sweep(
         result, Criteria(), name=f"{camera.name}-calibrated", seed=args.seed
     )
     criteria = Criteria()
+    shown = (
+        f"the {len(markers)} markers of {camera.marker_dictionary} in turn"
+        if markers
+        else f"marker {camera.marker_id}"
+    )
     print(
-        f"camera {camera.name}: {result.frames} frames at each of "
+        f"camera {camera.name} ({shown}): {result.frames} frames at each of "
         f"{result.distances_mm.size} distances "
         f"x {result.angles_deg.size} angles, {1000 * result.seconds_per_frame:.2f} ms a frame"
     )
@@ -194,7 +207,12 @@ def main(args: argparse.Namespace) -> int:
         # Rendered at the measured distances themselves, head-on, not read off
         # the sweep's grid: the error rises steeply between grid points.
         at_measured = sweep(
-            camera, tuple(measured.distances_mm), (0.0,), frames=args.frames, seed=args.seed
+            camera,
+            tuple(measured.distances_mm),
+            (0.0,),
+            frames=args.frames,
+            seed=args.seed,
+            markers=markers,
         )
         _print_fit(compare(at_measured, measured), measured, result, column)
     if args.out:
@@ -202,7 +220,8 @@ def main(args: argparse.Namespace) -> int:
         header = (
             f"# Written by `swazure camera calibrate --camera {args.camera} "
             f"--frames {args.frames} "
-            f"--seed {args.seed}`.\n# Stochastic sensor: ranges by docs/camera.md's criteria; "
+            + ("--all-markers " if markers else "")
+            + f"--seed {args.seed}`.\n# Stochastic sensor: ranges by docs/camera.md's criteria; "
             "per tracking "
             "distance (cm) the mean error, detection and scatter.\n"
         )

@@ -81,18 +81,22 @@ def sweep(
     frames: int = 100,
     seed: int = 0,
     on_progress: Callable[[int, int], None] | None = None,
+    markers: Sequence[int] = (),
 ) -> Sweep:
     """Render ``frames`` frames at each distance and angle: random roll and sub-pixel place.
 
     ``distances_mm`` defaults to :func:`default_distances`; each point has its
     own random stream (seed, row, column), so a point's numbers do not
-    depend on the rest of the sweep.
+    depend on the rest of the sweep. With ``markers`` frame k of a point
+    shows ``markers[k % len]`` (a swarm whose FLSs carry those markers), not
+    the camera file's marker.
     """
     import time
 
     if distances_mm is None:
         distances_mm = default_distances(camera)
-    detector = Detector(camera)
+    shown = [replace(camera, marker_id=int(m)) for m in markers] or [camera]
+    detectors = [Detector(one) for one in shown]
     shape = (len(distances_mm), len(angles_deg))
     detection, mean_error, distance_sd, direction_sd = (np.full(shape, np.nan) for _ in range(4))
     started = time.perf_counter()
@@ -100,14 +104,15 @@ def sweep(
         for column, angle in enumerate(angles_deg):
             rng = np.random.default_rng([seed, row, column])
             ratios, tangents = [], []
-            for _ in range(frames):
+            for frame in range(frames):
                 pose = MarkerPose(
                     float(distance),
                     tilt_deg=float(angle),
                     roll_deg=float(rng.uniform(0.0, 360.0)),
                     offset_px=(float(rng.uniform(-0.5, 0.5)), float(rng.uniform(-0.5, 0.5))),
                 )
-                centre = measure(camera, pose, rng, detector)
+                which = frame % len(shown)
+                centre = measure(shown[which], pose, rng, detectors[which])
                 if centre is None:
                     continue
                 truth = true_centre(camera, pose)
@@ -175,7 +180,7 @@ def marker_sweep(
     detection = np.full((len(marker_ids), len(distances_mm)), np.nan)
     mean_error = np.full_like(detection, np.nan)
     for row, marker in enumerate(marker_ids):
-        result = sweep(replace(camera, marker_id=int(marker)), distances_mm, (0.0,), frames, seed)
+        result = sweep(camera, distances_mm, (0.0,), frames, seed, markers=(int(marker),))
         detection[row], mean_error[row] = result.detection[:, 0], result.mean_error[:, 0]
         if on_progress is not None:
             on_progress(row + 1, len(marker_ids))

@@ -114,3 +114,17 @@ def test_patterns_prints_each_distance_and_ranks_the_markers(tmp_path):
     ranked = run.stdout.split("least error on average: ")[1]
     assert ranked.count("id ") == 10
     assert plot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_calibrate_for_a_swarm_carrying_every_marker(tmp_path):
+    out = tmp_path / "sensor.yaml"
+    common = ["camera", "calibrate", "--camera", str(WIDE), "--frames", "6", "--angles", "0"]
+    run = swazure(*common, "--all-markers", "--out", str(out), "--quiet")
+    assert run.returncode == 0, run.stderr
+    assert "the 100 markers of DICT_4X4_100 in turn" in run.stdout
+    assert "--all-markers" in out.read_text().splitlines()[0]
+    plain = swazure(*common, "--out", str(tmp_path / "plain.yaml"), "--quiet")
+    assert "(marker 0)" in plain.stdout
+    # The decaying error belongs to the patterns: the two sensors' error curves differ.
+    mixed, own = load_sensor(out), load_sensor(tmp_path / "plain.yaml")
+    assert mixed.noise.mean_error != own.noise.mean_error
