@@ -31,6 +31,7 @@ from ..core.calibration import (
     fit_degradations,
     load_measured,
     marker_sweep,
+    pattern_distances,
     sensor_from_sweep,
     sweep,
 )
@@ -264,15 +265,11 @@ def _print_fit(rows: list[FitRow], measured: Measured, result: Sweep, column: in
 
 
 def _patterns(args: argparse.Namespace, camera: Camera, measured: Measured | None) -> int:
-    if args.distances:
-        distances = tuple(sorted(set(args.distances)))
-    else:
-        grid = {round(float(d), 1) for d in np.linspace(1.0, 4.0, 13) * camera.focus_min_mm}
-        if measured is not None:
-            grid |= {
-                float(d) for d, p in zip(measured.distances_mm, measured.detect_pct) if p >= 50.0
-            }
-        distances = tuple(sorted(grid))
+    distances = (
+        tuple(sorted(set(args.distances)))
+        if args.distances
+        else pattern_distances(camera, measured)
+    )
     ids = range(camera.dictionary_size)
     result = marker_sweep(
         camera, distances, ids, args.frames, args.seed, _progress(args.quiet, "markers")
@@ -289,9 +286,7 @@ def _patterns(args: argparse.Namespace, camera: Camera, measured: Measured | Non
     own = camera.marker_id  # rows are ids 0, 1, ...
     table = {} if measured is None else dict(zip(measured.distances_mm, measured.error_pct))
     for column, distance in enumerate(distances):
-        # A mean over a few lucky frames says little: shown where most frames detect.
-        detected = result.detection[:, column] >= 0.5
-        errors = np.where(detected, 100.0 * result.mean_error[:, column], np.nan)
+        errors = 100.0 * result.reliable_error[:, column]
         known = errors[np.isfinite(errors)]
         spread = (known.min(), np.median(known), known.max()) if known.size else (math.nan,) * 3
         print(

@@ -150,17 +150,37 @@ class MarkerSweep:
     detection: FloatArray  # (M, D) fraction of frames with a detection
     mean_error: FloatArray  # (M, D) relative error of the mean measured distance; nan if none
 
+    @property
+    def reliable_error(self) -> FloatArray:
+        """``mean_error`` (M, D) where at least half the frames detect, else nan.
+
+        A mean over a few lucky frames says little.
+        """
+        return np.where(self.detection >= 0.5, self.mean_error, np.nan)
+
     def least_error(self) -> tuple[IntArray, FloatArray]:
         """Marker ids and their mean |error| over the distances, least first (ties by id).
 
-        A distance counts for a marker where at least half its frames detect;
-        a marker that detects at none of them comes last.
+        A distance counts for a marker where its error is reliable; a marker
+        reliable at none of them comes last.
         """
-        reliable = np.where(self.detection >= 0.5, np.abs(self.mean_error), np.nan)
+        reliable = np.abs(self.reliable_error)
         counted = np.isfinite(reliable).sum(axis=1)
         score = np.where(counted > 0, np.nansum(reliable, axis=1) / np.maximum(counted, 1), np.inf)
         order = np.lexsort((self.marker_ids, score))
         return self.marker_ids[order], score[order]
+
+
+def pattern_distances(camera: Camera, measured: Measured | None = None) -> tuple[float, ...]:
+    """Distances of :func:`marker_sweep`, mm: 13 from the closest focus to 4 times it.
+
+    With ``measured``, also its distances where the measured camera detected
+    in at least half its frames.
+    """
+    grid = {round(float(d), 1) for d in np.linspace(1.0, 4.0, 13) * camera.focus_min_mm}
+    if measured is not None:
+        grid |= {float(d) for d, p in zip(measured.distances_mm, measured.detect_pct) if p >= 50.0}
+    return tuple(sorted(grid))
 
 
 def marker_sweep(

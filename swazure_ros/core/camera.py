@@ -471,9 +471,14 @@ def true_centre(camera: Camera, pose: MarkerPose) -> FloatArray:
     )
 
 
-def carried_marker(camera: Camera, markers: Sequence[int], index: int) -> int:
-    """The marker FLS ``index`` (swarm index) carries: markers[index % len], else the file's."""
-    return int(markers[index % len(markers)]) if markers else camera.marker_id
+def camera_seeing(camera: Camera, markers: Sequence[int], index: int) -> Camera:
+    """``camera`` aimed at FLS ``index`` (swarm index), which carries markers[index % len].
+
+    With no ``markers`` every FLS carries the camera file's marker.
+    """
+    if not markers:
+        return camera
+    return replace(camera, marker_id=int(markers[index % len(markers)]))
 
 
 def measure_pairs(
@@ -494,14 +499,13 @@ def measure_pairs(
     detection are NaN. The FLS ``second`` carries ``markers[second % len]``
     (default: the camera file's marker).
     """
-    cameras: dict[int, tuple[Camera, Detector]] = {}
+    detectors: dict[int, Detector] = {}
     centres = np.full((len(distances_mm), 3), np.nan)
     for row, (distance, one, other) in enumerate(zip(distances_mm, first, second, strict=True)):
-        marker = carried_marker(camera, markers, int(other))
-        if marker not in cameras:
-            carried = replace(camera, marker_id=marker)
-            cameras[marker] = (carried, Detector(carried))
-        seen, detector = cameras[marker]
+        seen = camera_seeing(camera, markers, int(other))
+        if seen.marker_id not in detectors:
+            detectors[seen.marker_id] = Detector(seen)
+        detector = detectors[seen.marker_id]
         rng = np.random.default_rng([seed, int(one), int(other)])
         for _ in range(attempts):
             pose = MarkerPose(

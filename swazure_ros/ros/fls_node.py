@@ -41,7 +41,6 @@ a thousand times.
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import replace
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -68,7 +67,7 @@ from swazure_interfaces.srv import GetNeighbours, TrackTarget
 from ..core.camera import (
     Camera,
     MarkerPose,
-    carried_marker,
+    camera_seeing,
     full_image,
     load_camera,
     render,
@@ -277,10 +276,9 @@ class FlsNode(SwarmNode):
         frame_id = f"{node_name(self.fls_id)}_camera"
         if tracking_mm > camera.focal_length_mm:
             # The neighbour's own marker, as the sensor's measurements render it.
-            marker = carried_marker(
+            seen = camera_seeing(
                 camera, world.sensor.camera_markers, world.index(self.camera_view)
             )
-            seen = replace(camera, marker_id=marker)
             image = full_image(
                 seen, render(seen, MarkerPose(tracking_mm), np.random.default_rng(seed))
             )

@@ -75,8 +75,8 @@ def pattern_figure(
         f"{result.frames} frames a point, head-on",
         fontsize=10,
     )
-    # A mean over a few lucky frames says little: drawn where most frames detect.
-    error = 100.0 * np.where(result.detection >= 0.5, result.mean_error, np.nan)
+    # Magnitudes, on a log axis: a marker's error spans two decades over the distances.
+    error = 100.0 * np.abs(result.reliable_error)
     for row in range(len(result.marker_ids)):
         axes.plot(result.distances_mm, error[row], color="tab:blue", lw=0.6, alpha=0.25)
     axes.plot([], [], color="tab:blue", lw=0.6, alpha=0.5, label="one marker")
@@ -93,7 +93,7 @@ def pattern_figure(
     axes.set_yscale("log")
     axes.set_ylim(0.1, max(top, float(np.nanmax(error))) * 1.5)
     axes.set_xlabel("distance camera to marker (mm)")
-    axes.set_ylabel("error of the mean measured distance (%)")
+    axes.set_ylabel("|error of the mean measured distance| (%)")
     axes.grid(True, which="both", alpha=0.3)
     axes.legend(loc="upper left", fontsize=8)
     return figure
