@@ -21,6 +21,8 @@ from swazure_ros.ros.convert import estimate_from_message
 from swazure_ros.ros.names import policy_code
 from swazure_ros.sim.world import WorldSpec
 
+from .conftest import make_context
+
 # torus:120 at 1.6 x has sweet, blocked and unreachable pairs at both betas.
 SHAPE = ("torus:120", 1.6)
 POLICIES = ("fewest-hops", "shortest-length")
@@ -395,12 +397,30 @@ def swazure(*args):
     )
 
 
+def watching_topic(domain, topic, process, timeout=60.0):
+    """Whether a subscription to ``topic`` shows in the graph while ``process`` runs."""
+    ctx = make_context(domain)
+    probe = Node("watch_probe", context=ctx, start_parameter_services=False, enable_rosout=False)
+    try:
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline and process.poll() is None:
+            if probe.count_subscribers(topic) > 0:
+                return True
+            time.sleep(0.1)
+        return False
+    finally:
+        probe.destroy_node()
+        ctx.try_shutdown()
+
+
 @pytest.mark.parametrize("technique", ["plain", "move-obstructing", "move-source"])
 def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path, technique):
     shape = ["--cloud", SHAPE[0], "--scale", str(SHAPE[1]), "--beta", "0.5", "--quiet"]
     shape += ["--technique", technique]
-    # A person watches the move commands while the swarm computes.
+    # A person watches the move commands while the swarm computes: the watch is
+    # up (its subscription in the graph) before the swarm starts, as a person's is.
     watch = swazure("echo", "/swarm/move_commands", "swazure_interfaces/msg/MoveCommands")
+    assert watching_topic(domain, "/swarm/move_commands", watch), watch.stderr.read()
     spawn = swazure(
         "spawn", *shape, "--params", str(params), "--compute-all", "--out", str(tmp_path / "d")
     )
