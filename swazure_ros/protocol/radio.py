@@ -14,6 +14,7 @@ the coordinator can open the next one.
 
 from __future__ import annotations
 
+from collections import deque
 from collections.abc import Callable, Collection
 from dataclasses import dataclass
 
@@ -24,6 +25,10 @@ from ..core.draws import uniforms
 from .discovery import END, ROUND, START, Control, Offer, RoundOffers
 
 IntArray = NDArray[np.int64]
+
+#: Offers a process keeps for runs it has not started: a round of the largest
+#: published shape is 3,720 offers.
+EARLY_OFFERS = 16_384
 
 
 @dataclass(frozen=True)
@@ -136,7 +141,10 @@ class RadioHub:
         self._first_round: dict[int, int] = {}
         self._rounds: dict[tuple[int, int], Control] = {}  # (run, round) -> its ROUND
         self._heard: dict[tuple[int, int], int] = {}
+        self._senders: dict[tuple[int, int], set[int]] = {}
         self._offers: dict[tuple[int, int], list[tuple[int, Offer]]] = {}
+        #: Offers of runs not started here yet, oldest dropped first.
+        self._early: deque[tuple[int, int, int, Offer]] = deque(maxlen=EARLY_OFFERS)
 
     def abandon(self) -> None:
         """Forget every run (their coordinator is gone)."""
@@ -145,7 +153,9 @@ class RadioHub:
         self._first_round.clear()
         self._rounds.clear()
         self._heard.clear()
+        self._senders.clear()
         self._offers.clear()
+        self._early.clear()
 
     def departed(self, run_id: int) -> frozenset[int]:
         """The FLSs declared gone in run ``run_id``'s current phase."""
@@ -165,6 +175,10 @@ class RadioHub:
                 self._pairs[run] = self._radio_pairs()
             self._first_round[run] = control.round
             self._forget(run, rounds=False)
+            self._take_early(run)
+        elif run not in self._first_round:
+            # A run this process never started (or ended): nothing to hand over or ack.
+            return [], None, None
         else:
             done = sorted(key for key in self._offers if key[0] == run and key[1] < control.round)
             heard = RoundOffers.of([entry for key in done for entry in self._offers.pop(key)])
@@ -182,14 +196,36 @@ class RadioHub:
         return recipients, ack, heard
 
     def on_offer(self, run_id: int, round_: int, sender: int, offer: Offer) -> Ack | None:
-        """Hear ``sender``'s offer of round ``round_``; the round's ack if now heard."""
-        if round_ < self._first_round.get(run_id, 0):
+        """Hear ``sender``'s offer of round ``round_``; the round's ack if now heard.
+
+        A second offer of one sender in one round is ignored. Offers of a run
+        whose START has not come yet (another process was quicker) wait, at
+        most :data:`EARLY_OFFERS` of them: what a forged run id can hold is bounded.
+        """
+        if run_id not in self._first_round:
+            self._early.append((run_id, round_, sender, offer))
+            return None
+        if round_ < self._first_round[run_id]:
             return None  # from before a restart of the phase
         key = (run_id, round_)
+        senders = self._senders.setdefault(key, set())
+        if sender in senders:
+            return None
+        senders.add(sender)
         if sender not in self.departed(run_id):
             self._offers.setdefault(key, []).append((sender, offer))
         self._heard[key] = self._heard.get(key, 0) + 1
         return self._acknowledge(run_id, round_)
+
+    def _take_early(self, run_id: int) -> None:
+        """Hear the offers of run ``run_id`` that came before its START."""
+        early = [entry for entry in self._early if entry[0] == run_id]
+        if early:
+            self._early = deque(
+                (entry for entry in self._early if entry[0] != run_id), self._early.maxlen
+            )
+            for entry in early:
+                self.on_offer(*entry)
 
     def _acknowledge(self, run_id: int, round_: int) -> Ack | None:
         control = self._rounds.get((run_id, round_))
@@ -235,6 +271,7 @@ class RadioHub:
     def _forget(self, run_id: int, rounds: bool) -> None:
         """Drop what was heard in run ``run_id`` (and its rounds' controls if ``rounds``)."""
         self._heard = {key: n for key, n in self._heard.items() if key[0] != run_id}
+        self._senders = {key: n for key, n in self._senders.items() if key[0] != run_id}
         self._offers = {key: o for key, o in self._offers.items() if key[0] != run_id}
         if rounds:
             self._rounds = {key: c for key, c in self._rounds.items() if key[0] != run_id}

@@ -33,14 +33,27 @@ from swazure_interfaces.msg import (
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.camera import Camera
+from ..core.evaluate import REASON_NAMES, STATUS_NAMES
 from ..core.observe import NeighbourSets
-from ..core.tracking import MotionEstimate, TrackState
-from ..protocol.discovery import Broadcast, Control, Estimate, Offer, Report
-from ..protocol.moves import Move, Walk
+from ..core.tracking import RELAY_MESSAGES, RELAY_OK, MotionEstimate, TrackState
+from ..protocol.discovery import (
+    END,
+    PHASES,
+    ROUND,
+    START,
+    SWEET_ALL,
+    Broadcast,
+    Control,
+    Estimate,
+    Offer,
+    Report,
+)
+from ..protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
 from ..protocol.radio import Ack
-from ..protocol.tracking import RelayRequest, Sample, TrackReport
+from ..protocol.tracking import START_RELAY, STOP_RELAY, RelayRequest, Sample, TrackReport
 from ..sim.world import Measurement
 from ..view.scene import METRES_PER_CM, MOVE_COLOUR, SCENE_FRAME, Scene
+from .guard import check, check_finite, check_ids, check_size
 from .names import (
     POLICY_CODES,
     POLICY_NAMES,
@@ -51,6 +64,7 @@ from .names import (
 )
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
 
 
 def measurements_message(fls_id: int, measurement: Measurement, stamp: Time) -> Measurements:
@@ -99,13 +113,21 @@ def world_message(
     return message
 
 
-def world_positions(message: WorldState) -> tuple[NDArray[np.int64], FloatArray]:
-    """FLS ids (N,) and their positions (N, 3), cm, from a WorldState message."""
-    ids = np.frombuffer(message.fls_ids, dtype=np.uint32).astype(np.int64)
-    points = np.frombuffer(message.positions, dtype=np.float64).reshape(-1, 3)
-    if len(points) != len(ids):
-        raise ValueError(f"{len(ids)} FLS ids but {len(points)} positions")
-    return ids, points.copy()
+def world_positions(
+    message: WorldState, swarm: IntArray, reach: float
+) -> tuple[NDArray[np.int64], FloatArray]:
+    """FLS ids (N,) and their positions (N, 3), cm, from a WorldState message.
+
+    MessageError unless every id is one of ``swarm``'s (sorted ids), once, and
+    every position is finite and within ``reach`` cm of the origin.
+    """
+    check_size(message.fls_ids, len(swarm), "fls_ids")
+    check(len(message.positions) == 3 * len(message.fls_ids), "not 3 positions per FLS")
+    ids = check_ids(np.frombuffer(message.fls_ids, dtype=np.uint32), swarm, "fls_ids")
+    check(len(np.unique(ids)) == len(ids), "an FLS is listed twice")
+    points = check_finite(np.frombuffer(message.positions, dtype=np.float64), "positions")
+    check(bool(np.all(np.abs(points) <= reach)), f"a position beyond {reach:g} cm")
+    return ids, points.reshape(-1, 3).copy()
 
 
 def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:
@@ -132,16 +154,51 @@ def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:
     return message
 
 
-def offer_from_message(message: PathOffer) -> Offer:
-    """The labels of a PathOffer message."""
+def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
+    """The labels of a PathOffer message from an FLS of ``swarm`` (sorted ids).
+
+    MessageError unless its arrays agree in length, every id is in the swarm,
+    every path runs from its label's source to the sender with ``hops`` hops,
+    and costs are finite and not negative (vectors may be NaN only in the
+    S_all phase, whose hops need no camera reading).
+    """
+    check(message.phase in PHASES, f"unknown phase {message.phase}")
+    check_ids([message.sender_id], swarm, "sender_id")
+    count = len(message.source_ids)
+    check_size(message.source_ids, len(swarm), "source_ids")
+    check(
+        len(message.hops) == count == len(message.lengths) == len(message.errors),
+        "source_ids, hops, lengths and errors differ in length",
+    )
+    check(len(message.vectors) == 3 * count, "not 3 vector values per label")
+    check(len(message.path_offsets) == count + 1, "not one more path offset than labels")
+    sources = check_ids(message.source_ids, swarm, "source_ids")
+    check(len(np.unique(sources)) == count, "a source has two labels")
+    hops = np.asarray(message.hops, dtype=np.int64)
+    lengths = check_finite(message.lengths, "lengths")
+    errors = check_finite(message.errors, "errors")
+    check(bool(np.all(lengths >= 0) and np.all(errors >= 0)), "a negative cost")
+    vectors = check_finite(message.vectors, "vectors", allow_nan=message.phase == SWEET_ALL)
+    offsets = np.asarray(message.path_offsets, dtype=np.int64)
+    check_size(message.path_ids, count * len(swarm), "path_ids")
+    check(
+        offsets[0] == 0 and offsets[-1] == len(message.path_ids),
+        "path offsets do not span path_ids",
+    )
+    check(bool(np.all(np.diff(offsets) == hops + 1)), "a path is not hops + 1 FLSs long")
+    path_ids = check_ids(message.path_ids, swarm, "path_ids")
+    if count:
+        starts, ends = path_ids[offsets[:-1]], path_ids[offsets[1:] - 1]
+        check(bool(np.all(starts == sources)), "a path does not start at its source")
+        check(bool(np.all(ends == message.sender_id)), "a path does not end at the sender")
     return Offer(
-        source_ids=np.asarray(message.source_ids, dtype=np.int64),
-        hops=np.asarray(message.hops, dtype=np.int64),
-        lengths=np.asarray(message.lengths, dtype=np.float64),
-        errors=np.asarray(message.errors, dtype=np.float64),
-        vectors=np.asarray(message.vectors, dtype=np.float64).reshape(-1, 3),
-        path_offsets=np.asarray(message.path_offsets, dtype=np.int64),
-        path_ids=np.asarray(message.path_ids, dtype=np.int64),
+        source_ids=sources,
+        hops=hops,
+        lengths=lengths,
+        errors=errors,
+        vectors=vectors.reshape(-1, 3),
+        path_offsets=offsets,
+        path_ids=path_ids,
         pending=message.pending,
         finished=message.finished,
     )
@@ -176,9 +233,18 @@ def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
     return message
 
 
-def estimate_from_message(message: PoseEstimate) -> Estimate:
-    """The core's Estimate of a PoseEstimate message."""
+def estimate_from_message(message: PoseEstimate, swarm: IntArray | None = None) -> Estimate:
+    """The core's Estimate of a PoseEstimate message; with ``swarm``, checked against it."""
     vector = message.vector
+    if swarm is not None:
+        check_ids([message.target_id, *message.path, *message.radio_path], swarm, "estimate")
+        check(message.status < len(STATUS_NAMES), f"unknown status {message.status}")
+        check(message.reason < len(REASON_NAMES), f"unknown reason {message.reason}")
+        check(
+            len(message.path) <= len(swarm) and len(message.radio_path) <= len(swarm),
+            "a path longer than the swarm",
+        )
+        check_finite([vector.x, vector.y, vector.z, message.path_length], "vector", True)
     return Estimate(
         target=int(message.target_id),
         status=int(message.status),
@@ -291,8 +357,25 @@ def control_message(control: Control, stamp: Time) -> DiscoveryControl:
     return message
 
 
-def control_from_message(message: DiscoveryControl) -> Control:
-    """The round clock's tick of a DiscoveryControl message."""
+def control_from_message(message: DiscoveryControl, swarm: IntArray) -> Control:
+    """The round clock's tick of a DiscoveryControl message to the FLSs of ``swarm`` (sorted ids).
+
+    MessageError for an unknown command, phase or policy, an id not in the swarm,
+    or targets that do not pair with the sources.
+    """
+    check(message.command in (START, ROUND, END), f"unknown command {message.command}")
+    check(message.phase in PHASES, f"unknown phase {message.phase}")
+    check(message.policy in POLICY_NAMES, f"unknown policy {message.policy}")
+    check(message.expected <= len(swarm), f"expects {message.expected} FLSs, more than the swarm")
+    lists = {}
+    for name in ("source_ids", "target_ids", "finished_ids", "departed_ids"):
+        values = getattr(message, name)
+        check_size(values, len(swarm), name)
+        lists[name] = tuple(check_ids(values, swarm, name).tolist())
+    check(
+        not lists["target_ids"] or len(lists["target_ids"]) == len(lists["source_ids"]),
+        "target_ids do not pair with source_ids",
+    )
     return Control(
         run_id=int(message.run_id),
         command=int(message.command),
@@ -300,10 +383,7 @@ def control_from_message(message: DiscoveryControl) -> Control:
         policy=POLICY_NAMES[message.policy],
         round=int(message.round),
         expected=int(message.expected),
-        source_ids=tuple(int(fls) for fls in message.source_ids),
-        target_ids=tuple(int(fls) for fls in message.target_ids),
-        finished_ids=tuple(int(fls) for fls in message.finished_ids),
-        departed_ids=tuple(int(fls) for fls in message.departed_ids),
+        **lists,
     )
 
 
@@ -340,6 +420,29 @@ def moves_message(moves: Sequence[Move], stamp: Time) -> MoveCommands:
     return message
 
 
+def moves_from_message(
+    message: MoveCommands, swarm: IntArray, reach: float
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """(FLS ids (K,), kinds (K,), displacements (K, 3), cm) of a MoveCommands message.
+
+    MessageError unless every FLS is one of ``swarm``'s (sorted ids), once, every
+    kind is known and every displacement is finite and within ``reach`` cm:
+    the batch is made together, so it is taken whole or not at all.
+    """
+    commands = message.commands
+    check_size(commands, len(swarm), "commands")
+    ids = check_ids([command.fls_id for command in commands], swarm, "commands")
+    check(len(np.unique(ids)) == len(ids), "an FLS is commanded twice")
+    kinds = np.array([command.kind for command in commands], dtype=np.int64)
+    known = (MoveCommand.KIND_STEP_ASIDE, MoveCommand.KIND_PROBE, MoveCommand.KIND_RETURN)
+    check(bool(np.isin(kinds, known).all()), "unknown kind")
+    displacement = check_finite(
+        [array3(command.displacement) for command in commands], "displacement"
+    ).reshape(-1, 3)
+    check(bool(np.all(np.abs(displacement) <= reach)), f"a displacement beyond {reach:g} cm")
+    return ids, kinds, displacement
+
+
 def walk_message(walk: Walk, stamp: Time) -> PathWalk:
     """A path walk as a PathWalk message."""
     message = PathWalk(
@@ -356,15 +459,27 @@ def walk_message(walk: Walk, stamp: Time) -> PathWalk:
     return message
 
 
-def walk_from_message(message: PathWalk) -> Walk:
-    """The path walk of a PathWalk message."""
+def walk_from_message(message: PathWalk, swarm: IntArray) -> Walk:
+    """The path walk of a PathWalk message along FLSs of ``swarm`` (sorted ids).
+
+    MessageError unless the path has two or more distinct FLSs of the swarm, the
+    hop is on it, the state is known and a walk under way sums finite vectors.
+    """
+    check(message.state in (WALKING, ARRIVED, FAILED), f"unknown state {message.state}")
+    check(2 <= len(message.path) <= len(swarm), "a path of fewer than 2 or more than N FLSs")
+    path = check_ids(message.path, swarm, "path")
+    check(len(np.unique(path)) == len(path), "a path visits an FLS twice")
+    check(message.hop < len(path), f"hop {message.hop} is past the path's end")
+    vector = array3(message.vector)
+    if message.state != FAILED:
+        check_finite(vector, "vector")
     return Walk(
         run_id=int(message.run_id),
         revision=int(message.revision),
-        path=tuple(int(fls) for fls in message.path),
+        path=tuple(path.tolist()),
         hop=int(message.hop),
         state=int(message.state),
-        vector=array3(message.vector),
+        vector=vector,
     )
 
 
@@ -380,8 +495,10 @@ def relay_request_message(request: RelayRequest) -> TrackRequest:
     return message
 
 
-def relay_request_from_message(message: TrackRequest) -> RelayRequest:
-    """The request of a TrackRequest message."""
+def relay_request_from_message(message: TrackRequest, swarm: IntArray) -> RelayRequest:
+    """The request of a TrackRequest message between FLSs of ``swarm`` (sorted ids)."""
+    check(message.command in (START_RELAY, STOP_RELAY), f"unknown command {message.command}")
+    check_ids([message.source_id, message.relay_id, message.target_id], swarm, "track request")
     return RelayRequest(
         int(message.command),
         int(message.source_id),
@@ -405,8 +522,12 @@ def sample_message(sample: Sample) -> TrackSample:
     return message
 
 
-def sample_from_message(message: TrackSample) -> Sample:
-    """The sample of a TrackSample message."""
+def sample_from_message(message: TrackSample, swarm: IntArray) -> Sample:
+    """The sample of a TrackSample message between FLSs of ``swarm`` (sorted ids)."""
+    check(message.status in RELAY_MESSAGES or message.status == RELAY_OK, "unknown status")
+    check_ids([message.source_id, message.relay_id, message.target_id], swarm, "track sample")
+    if message.status == RELAY_OK:
+        check_finite(array3(message.position), "position")
     return Sample(
         int(message.source_id),
         int(message.relay_id),

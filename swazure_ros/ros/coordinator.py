@@ -20,6 +20,7 @@ from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
+import numpy as np
 from rclpy.context import Context
 from rclpy.publisher import Publisher
 from rclpy.serialization import deserialize_message, serialize_message
@@ -52,6 +53,7 @@ from .convert import (
     walk_message,
 )
 from .deferred import Reply, create_deferred_service
+from .guard import Guard, check, check_ids, check_size
 from .names import (
     ACK_TOPIC,
     COMPUTE_POSE_SERVICE,
@@ -139,6 +141,10 @@ class MoveResult:
     timeouts: int = 0  # waits that ended at their deadline (each cost round_timeout s)
 
 
+#: Seconds between reports of the inbound counts on /diagnostics (when they changed).
+DIAGNOSTICS_PERIOD = 1.0
+#: Characters in a host node's name, at most (ROS names are far shorter).
+MAX_NAME = 255
 #: Seconds between the coordinator's looks at its deadlines.
 TICK = 0.05
 #: A tick this much later than due means the process was busy, not that FLSs were silent.
@@ -185,17 +191,27 @@ class Coordinator(SwarmNode):
         self._control = self.create_publisher(DiscoveryControl, CONTROL_TOPIC, ROUND_QOS)
         self._moves = self.create_publisher(MoveCommands, MOVE_TOPIC, MOVE_QOS)
         self._walks = self.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
+        self._swarm = np.array(sorted(self.fls_ids), dtype=np.int64)
+        self.guard = Guard(self)
+        guard = self.guard.wrap
         self._offers = self.create_subscription(
-            PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS, raw=True
+            PathOffer, RADIO_TOPIC, guard(RADIO_TOPIC, self._on_offer), ROUND_QOS, raw=True
         )
         self._acks = self.create_subscription(
-            RoundAck, ACK_TOPIC, self._on_ack, ROUND_QOS, raw=True
+            RoundAck, ACK_TOPIC, guard(ACK_TOPIC, self._on_ack), ROUND_QOS, raw=True
         )
         self.create_subscription(
-            PoseEstimates, ESTIMATES_TOPIC, self._on_estimates, ROUND_QOS, raw=True
+            PoseEstimates,
+            ESTIMATES_TOPIC,
+            guard(ESTIMATES_TOPIC, self._on_estimates),
+            ROUND_QOS,
+            raw=True,
         )
         self.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS, raw=True)
-        self.create_subscription(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
+        self.create_subscription(
+            WorldState, WORLD_TOPIC, guard(WORLD_TOPIC, self._on_world), WORLD_QOS
+        )
+        self.create_timer(DIAGNOSTICS_PERIOD, self.guard.publish)
         # The answer waits for a whole run; meanwhile the coordinator keeps clocking.
         create_deferred_service(
             self, ComputePose, f"~/{COMPUTE_POSE_SERVICE}", self._on_compute_pose
@@ -424,6 +440,9 @@ class Coordinator(SwarmNode):
         offer = deserialize_message(data, PathOffer)
         clock = self._running(offer.run_id)
         if isinstance(clock, RoundClock):
+            # The clock counts offers; the FLSs' radios check their labels.
+            check_ids([offer.sender_id], self._swarm, "sender_id")
+            check_size(offer.source_ids, len(self._swarm), "source_ids")
             self._act(
                 clock.on_offer(
                     int(offer.round),
@@ -440,6 +459,7 @@ class Coordinator(SwarmNode):
         ack = deserialize_message(data, RoundAck)
         clock = self._running(ack.run_id)
         if isinstance(clock, RoundClock):
+            check(0 < len(ack.host) <= MAX_NAME, "a host name of no or too many characters")
             self._act(
                 clock.on_ack(
                     int(ack.round), ack.host, self._now(), int(ack.repairs), int(ack.lost)
@@ -451,11 +471,14 @@ class Coordinator(SwarmNode):
         message = deserialize_message(data, PoseEstimates)
         machine = self._running(message.run_id)
         if machine is not None:
-            estimates = [estimate_from_message(one) for one in message.estimates]
+            check_ids([message.source_id], self._swarm, "source_id")
+            check_size(message.estimates, len(self._swarm), "estimates")
+            estimates = [estimate_from_message(one, self._swarm) for one in message.estimates]
             source = int(message.source_id)
             self._act(machine.on_estimates(source, estimates, self._now()))
 
     def _on_world(self, state: WorldState) -> None:
+        check(state.revision < 2**63, f"revision {state.revision} out of range")
         self._revision = max(self._revision, int(state.revision))
         machine = self._running()
         if isinstance(machine, MoveRun):

@@ -78,7 +78,14 @@ from ..core.sensor import config_dir
 from ..core.tracking import TRACK_SETTINGS, FloatArray, TrackConfig, TrackingError
 from ..protocol.discovery import Broadcast, Control, Participant, Report, RoundOffers
 from ..protocol.moves import WALKING, Walk, next_hop, step_walk, walk_estimate
-from ..protocol.tracking import RelayRequest, RelayStreams, Sample, TrackReport, TrackSource
+from ..protocol.tracking import (
+    STOP_RELAY,
+    RelayRequest,
+    RelayStreams,
+    Sample,
+    TrackReport,
+    TrackSource,
+)
 from ..sim.replica import WorldReplica
 from ..sim.world import Measurement
 from .convert import (
@@ -88,12 +95,11 @@ from .convert import (
     measurements_message,
     neighbour_fields,
     offer_message,
-    relay_request_from_message,
     relay_request_message,
-    sample_from_message,
     sample_message,
     track_estimate_message,
 )
+from .guard import check
 from .names import (
     CAMERA_IMAGE_TOPIC,
     CAMERA_INFO_TOPIC,
@@ -450,17 +456,27 @@ class FlsNode(SwarmNode):
         response.message = f"tracking FLS {target} through FLS {relay}"
         return response
 
-    def on_track_request(self, message: TrackRequest) -> None:
-        """Start or stop relaying a target to a source (the host hands requests to the relay)."""
+    def on_track_request(self, request: RelayRequest) -> None:
+        """Start or stop relaying a target to a source (the host hands requests to the relay).
+
+        MessageError when its first frame is more than a track's timeout away
+        from now: its source would have timed out (a zero stamp, as
+        ``ros2 topic pub`` sends, would otherwise replay every frame since 1970).
+        """
+        now, timeout = self._now(), round(self.track_config.timeout * 1e9)
+        check(
+            request.command == STOP_RELAY or abs(request.start - now) <= timeout,
+            f"first frame {(request.start - now) / 1e9:+.3g} s from now, beyond the timeout",
+        )
         self.track_traffic["requests_heard"] += 1
-        self.relay.on_request(relay_request_from_message(message))
+        self.relay.on_request(request)
         self._start_track_ticks()
         self._relay_frames()
 
-    def on_track_sample(self, message: TrackSample) -> None:
+    def on_track_sample(self, sample: Sample) -> None:
         """Take a relayed sample of a tracked target; publish the estimate of the present."""
         self.track_traffic["samples_heard"] += 1
-        for out in self.tracker.on_sample(sample_from_message(message)):
+        for out in self.tracker.on_sample(sample):
             self._publish_track(out)
 
     def _start_track_ticks(self) -> None:

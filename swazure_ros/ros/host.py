@@ -11,9 +11,12 @@ from __future__ import annotations
 
 import re
 import time
+from collections import deque
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 from rclpy.context import Context
 from rclpy.exceptions import ParameterException
 from rclpy.experimental import EventsExecutor
@@ -29,9 +32,9 @@ from swazure_interfaces.msg import (
     WorldState,
 )
 
-from ..core.errors import UnknownFlsError
 from ..core.motion import Motion
 from ..protocol.moves import Walk
+from ..protocol.plausible import implausible
 from ..protocol.radio import Ack, RadioHub, RadioLoss
 from ..protocol.rounds import Absences
 from ..sim.replica import WorldReplica
@@ -40,11 +43,14 @@ from .convert import (
     ack_message,
     control_from_message,
     offer_from_message,
+    relay_request_from_message,
+    sample_from_message,
     walk_from_message,
     walk_message,
     world_positions,
 )
 from .fls_node import FlsNode, Transmitter
+from .guard import Guard, check
 from .names import (
     ACK_TOPIC,
     CONTROL_TOPIC,
@@ -58,6 +64,7 @@ from .names import (
     TRACK_SAMPLES_TOPIC,
     WALKS_TOPIC,
     WORLD_QOS,
+    WORLD_REACH,
     WORLD_TOPIC,
     fls_id_of,
 )
@@ -66,6 +73,12 @@ from .world_node import WorldNode
 
 #: Seconds between a host's looks at the graph for its coordinator.
 COORDINATOR_WATCH_PERIOD = 0.5
+#: Seconds between a host's reports of its inbound counts on /diagnostics (when they changed).
+DIAGNOSTICS_PERIOD = 1.0
+#: Path walks a process keeps while they wait for a newer world revision (a heuristic
+#: walks a few paths per group of moves).
+EARLY_WALKS = 4096
+IntArray = NDArray[np.int64]
 
 
 class Radio:
@@ -86,6 +99,7 @@ class Radio:
         replica: WorldReplica,
         fls_nodes: dict[int, FlsNode],
         loss: RadioLoss | None = None,
+        guard: Guard | None = None,
     ) -> None:
         self._node = node
         self._replica = replica
@@ -95,21 +109,26 @@ class Radio:
         )
         self.controls_heard = 0  # a control is a sure sign that a coordinator is there
         self.last_control_at = float("-inf")  # monotonic s
+        self.guard = guard or Guard(node)
         self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
-        node.create_subscription(DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS)
-        node.create_subscription(PathOffer, RADIO_TOPIC, self._on_offer, ROUND_QOS)
+        self._subscribe(DiscoveryControl, CONTROL_TOPIC, self._on_control)
+        self._subscribe(PathOffer, RADIO_TOPIC, self._on_offer)
         # One walk publisher per process, not per FLS: a thousand more endpoints
         # would slow the swarm's discovery for a message few FLSs ever send.
         self._walks = node.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
-        self._early_walks: list[Walk] = []
-        node.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS)
+        # Walks that must wait for a newer world revision, the oldest dropped first.
+        self._early_walks: deque[Walk] = deque(maxlen=EARLY_WALKS)
+        self._subscribe(PathWalk, WALKS_TOPIC, self._on_walk)
         replica.on_revision.append(self._take_early_walks)
-        node.create_subscription(
-            TrackRequest, TRACK_REQUESTS_TOPIC, self._on_track_request, ROUND_QOS
-        )
-        node.create_subscription(
-            TrackSample, TRACK_SAMPLES_TOPIC, self._on_track_sample, ROUND_QOS
-        )
+        self._subscribe(TrackRequest, TRACK_REQUESTS_TOPIC, self._on_track_request)
+        self._subscribe(TrackSample, TRACK_SAMPLES_TOPIC, self._on_track_sample)
+
+    def _subscribe(self, kind: type, topic: str, callback: Callable[[Any], None]) -> None:
+        self._node.create_subscription(kind, topic, self.guard.wrap(topic, callback), ROUND_QOS)
+
+    @property
+    def _swarm(self) -> IntArray:
+        return self._replica.world.ids
 
     def coordinator_lost(self) -> int:
         """The coordinator left mid-run: every local FLS drops its runs, sources report ABORTED.
@@ -119,33 +138,40 @@ class Radio:
         self._hub.abandon()
         return sum(node.abandon_runs() for node in self._fls.values())
 
-    def _on_track_request(self, request: TrackRequest) -> None:
-        node = self._fls.get(int(request.relay_id))
+    def _on_track_request(self, message: TrackRequest) -> None:
+        request = relay_request_from_message(message, self._swarm)
+        node = self._fls.get(request.relay)
         if node is not None:
             node.on_track_request(request)
 
-    def _on_track_sample(self, sample: TrackSample) -> None:
-        node = self._fls.get(int(sample.source_id))
+    def _on_track_sample(self, message: TrackSample) -> None:
+        sample = sample_from_message(message, self._swarm)
+        node = self._fls.get(sample.source)
         if node is not None:
             node.on_track_sample(sample)
 
     def _on_control(self, message: DiscoveryControl) -> None:
+        control = control_from_message(message, self._swarm)
         self.controls_heard += 1
         self.last_control_at = time.monotonic()
-        control = control_from_message(message)
         recipients, ack, heard = self._hub.on_control(control)
         for fls_id in recipients:
             self._fls[fls_id].on_control(control, heard)
         self._acknowledge(ack)
 
     def _on_offer(self, message: PathOffer) -> None:
+        world = self._replica.world
+        offer = offer_from_message(message, world.ids)
+        why = implausible(
+            offer,
+            message.phase,
+            lambda ids: world.swarm.points[world.indices(ids)],
+            world.sensor,
+            world.swarm.radius,
+        )
+        check(why is None, f"implausible: {why}")
         self._acknowledge(
-            self._hub.on_offer(
-                int(message.run_id),
-                int(message.round),
-                int(message.sender_id),
-                offer_from_message(message),
-            )
+            self._hub.on_offer(int(message.run_id), int(message.round), message.sender_id, offer)
         )
 
     def _acknowledge(self, ack: Ack | None) -> None:
@@ -167,8 +193,7 @@ class Radio:
         self._acks.publish(ack_message(ack, self._node.get_name(), stamp))
 
     def _on_walk(self, message: PathWalk) -> None:
-        if len(message.path):
-            self._take_walk(walk_from_message(message))
+        self._take_walk(walk_from_message(message, self._swarm))
 
     def _take_walk(self, walk: Walk) -> None:
         node = self._fls.get(walk.at)
@@ -182,9 +207,10 @@ class Radio:
             self._walks.publish(walk_message(onward, self._node.get_clock().now().to_msg()))
 
     def _take_early_walks(self) -> None:
-        early, self._early_walks = self._early_walks, []
+        early = list(self._early_walks)
+        self._early_walks.clear()
         for walk in early:
-            self._take_walk(walk)
+            self.guard.call(WALKS_TOPIC, self._take_walk, walk)
 
 
 class SwarmHost:
@@ -226,10 +252,16 @@ class SwarmHost:
         self.fls_nodes: list[FlsNode] = []
         self.fls_by_id: dict[int, FlsNode] = {}
         self.host_node = SwarmNode(name, namespace=self.namespace, context=context)
-        self.host_node.create_subscription(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
+        self.guard = Guard(self.host_node)
+        self.host_node.create_subscription(
+            WorldState, WORLD_TOPIC, self.guard.wrap(WORLD_TOPIC, self._on_world), WORLD_QOS
+        )
         # Before the radio's hook: walks that waited for a revision measure it afresh.
         self.replica.on_revision.append(self._sense_anew)
-        self.radio = Radio(self.host_node, self.replica, self.fls_by_id, self._radio_loss())
+        self.radio = Radio(
+            self.host_node, self.replica, self.fls_by_id, self._radio_loss(), self.guard
+        )
+        self.host_node.create_timer(DIAGNOSTICS_PERIOD, self.guard.publish)
         # The coordinator's liveness, from the graph like the FLSs' (Coordinator._on_liveness).
         self._coordinator_seen = False
         self.aborted = 0  # ABORTED estimates sent after the coordinator was lost
@@ -297,15 +329,11 @@ class SwarmHost:
                 node.sense()
 
     def _on_world(self, message: WorldState) -> None:
-        try:
-            self.replica.apply_positions(int(message.revision), *world_positions(message))
-        except (UnknownFlsError, ValueError) as err:
-            # Another swarm's world node on this ROS domain: ours must keep running.
-            self.host_node.get_logger().error(
-                f"ignored world revision {message.revision}: {err}; is another swarm "
-                "running on this ROS_DOMAIN_ID?",
-                throttle_duration_sec=10.0,
-            )
+        # Another swarm's world node on this ROS domain, or a forgery: dropped by the guard.
+        world = self.replica.world
+        ids, points = world_positions(message, world.ids, WORLD_REACH)
+        check(message.revision < 2**63, f"revision {message.revision} out of range")
+        self.replica.apply_positions(int(message.revision), ids, points)
 
     def add(self, node: Node) -> None:
         """Spin ``node`` with this process's nodes; :meth:`close` destroys it."""

@@ -39,6 +39,9 @@ TRACK_ESTIMATES_TOPIC = "track_estimates"
 DEPARTED_TOPIC = "departed"
 #: The swarm as RViz markers (view node), and the Foxglove channel of the same scene.
 SCENE_TOPIC = "scene"
+#: cm from the origin beyond which no FLS position or move is taken from the network:
+#: a display is metres across, and far-off coordinates overflow the geometry.
+WORLD_REACH = 1e6
 #: Seconds a node must stay off the ROS graph before it counts as gone.
 LIVENESS_GRACE = 2.0
 #: Per FLS, when its camera_view parameter names a neighbour: what its camera sees.

@@ -15,7 +15,8 @@ from visualization_msgs.msg import MarkerArray
 from ..view.live import LiveView
 from ..view.scene import Scene, placed
 from .convert import scene_markers, world_positions
-from .names import SCENE_QOS, SCENE_TOPIC, WORLD_QOS, WORLD_TOPIC
+from .guard import Guard
+from .names import SCENE_QOS, SCENE_TOPIC, WORLD_QOS, WORLD_REACH, WORLD_TOPIC
 from .runtime import SwarmNode
 
 #: Seconds between redraws while the world moves: a viewer needs no more.
@@ -38,7 +39,10 @@ class ViewNode(SwarmNode):
         self._scene = scene
         self._markers = self.create_publisher(MarkerArray, SCENE_TOPIC, SCENE_QOS)
         self.live = None if port is None else LiveView(f"/{namespace}/{SCENE_TOPIC}", port)
-        self.create_subscription(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
+        self.guard = Guard(self)
+        self.create_subscription(
+            WorldState, WORLD_TOPIC, self.guard.wrap(WORLD_TOPIC, self._on_world), WORLD_QOS
+        )
         self._stale = False
         self.create_timer(REDRAW_PERIOD, self._redraw)
         self.show(scene)
@@ -56,7 +60,7 @@ class ViewNode(SwarmNode):
             self.live.show(scene)
 
     def _on_world(self, message: WorldState) -> None:
-        ids, points = world_positions(message)
+        ids, points = world_positions(message, self._scene.ids, WORLD_REACH)
         self._scene = placed(self._scene, self._home, ids, points)
         self._stale = True
 

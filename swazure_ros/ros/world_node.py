@@ -16,8 +16,9 @@ from rclpy.context import Context
 from swazure_interfaces.msg import MoveCommand, MoveCommands, WorldState
 
 from ..sim.replica import WorldReplica
-from .convert import world_message
-from .names import MOVE_QOS, MOVE_TOPIC, WORLD, WORLD_QOS, WORLD_TOPIC
+from .convert import moves_from_message, world_message
+from .guard import Guard
+from .names import MOVE_QOS, MOVE_TOPIC, WORLD, WORLD_QOS, WORLD_REACH, WORLD_TOPIC
 from .runtime import SwarmNode
 
 
@@ -30,7 +31,10 @@ class WorldNode(SwarmNode):
         super().__init__(WORLD, namespace=namespace, context=context)
         self._replica = replica
         self._publisher = self.create_publisher(WorldState, WORLD_TOPIC, WORLD_QOS)
-        self.create_subscription(MoveCommands, MOVE_TOPIC, self._on_moves, MOVE_QOS)
+        self.guard = Guard(self)
+        self.create_subscription(
+            MoveCommands, MOVE_TOPIC, self.guard.wrap(MOVE_TOPIC, self._on_moves), MOVE_QOS
+        )
         self.publish_world()
 
     def publish_world(self) -> None:
@@ -43,23 +47,12 @@ class WorldNode(SwarmNode):
 
     def _on_moves(self, message: MoveCommands) -> None:
         world = self._replica.world
-        commands = message.commands
-        if not commands:
+        ids, kinds, displacement = moves_from_message(message, world.ids, WORLD_REACH)
+        if not len(ids):
             return
-        ids = np.fromiter((command.fls_id for command in commands), np.int64, len(commands))
-        kinds = np.fromiter((command.kind for command in commands), np.int64, len(commands))
-        rows, known = world.lookup(ids)
-        for fls_id in ids[~known].tolist():
-            self.get_logger().warning(f"move command ignored: no FLS {fls_id} in this swarm")
-        aside = np.isin(kinds, (MoveCommand.KIND_STEP_ASIDE, MoveCommand.KIND_PROBE))
-        kept = known & (aside | (kinds == MoveCommand.KIND_RETURN))
-        for kind in kinds[known & ~kept].tolist():
-            self.get_logger().warning(f"move command ignored: unknown kind {kind}")
-        displacement = np.array(
-            [(c.displacement.x, c.displacement.y, c.displacement.z) for c in commands]
-        ).reshape(-1, 3)
+        rows = world.indices(ids)
+        aside = kinds != MoveCommand.KIND_RETURN
         # A step aside or a probe: home plus the displacement; a return: home.
         targets = world.home.points[rows] + np.where(aside[:, None], displacement, 0.0)
-        if kept.any():
-            self._replica.apply(world.placed(ids[kept], targets[kept]))
-            self.publish_world()
+        self._replica.apply(world.placed(ids, targets))
+        self.publish_world()

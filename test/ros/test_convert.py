@@ -10,6 +10,7 @@ from swazure_interfaces.msg import MoveCommands, WorldState
 
 from swazure_ros.protocol.moves import RETURN, STEP_ASIDE, Move
 from swazure_ros.ros.convert import moves_message, world_message, world_positions
+from swazure_ros.ros.guard import MessageError
 
 
 def test_a_world_state_reads_back_every_id_and_position_bit_for_bit():
@@ -17,19 +18,19 @@ def test_a_world_state_reads_back_every_id_and_position_bit_for_bit():
     points = np.array([[0.1, -2.5, 3.0], [1e-9, 7.25, -0.0], [1 / 3, 2 / 3, 1.0], [5, 6, 7.5]])
     sent = world_message(12, ids, points, Time(sec=1))
     got = deserialize_message(serialize_message(sent), WorldState)
-    read_ids, read_points = world_positions(got)
+    read_ids, read_points = world_positions(got, ids, 1e6)
     assert got.revision == 12 and got.header.frame_id == "world"
     np.testing.assert_array_equal(read_ids, ids)
     np.testing.assert_array_equal(read_points, points)
     read_points[0, 0] = 99.0  # the caller's own array, not the message's buffer
-    assert world_positions(got)[1][0, 0] == 0.1
+    assert world_positions(got, ids, 1e6)[1][0, 0] == 0.1
 
 
 def test_a_world_state_with_positions_missing_is_refused():
     message = world_message(1, np.arange(3), np.zeros((3, 3)), Time())
     message.positions = message.positions[:-3]
-    with pytest.raises(ValueError, match="3 FLS ids but 2 positions"):
-        world_positions(message)
+    with pytest.raises(MessageError, match="not 3 positions per FLS"):
+        world_positions(message, np.arange(3), 1e6)
 
 
 def test_moves_made_together_go_in_one_message_in_order():

@@ -1,0 +1,158 @@
+"""The network boundary: every message and request from the ROS domain is checked where it arrives.
+
+Anyone on the swarm's ROS domain can publish on its topics (docs/security.md).
+So every callback that takes a message runs inside a :class:`Guard`: the
+conversion in :mod:`.convert` checks the message (ids in the swarm, codes
+known, arrays of matching lengths and bounded sizes, finite numbers) and
+raises :class:`MessageError`; the guard drops the message, counts it by topic and
+reason, and warns at most once every few seconds. An exception of any other
+kind is a defect of ours: it is counted as ``internal`` and logged with its
+type, and it never reaches the executor, so one message cannot stop a process
+that hosts hundreds of FLSs. The counts are published on ``/diagnostics``
+(diagnostic_msgs/DiagnosticArray) by the process's host node.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from collections.abc import Callable, Sized
+from typing import Any, TypeVar
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from numpy.typing import ArrayLike, NDArray
+from rclpy.node import Node
+
+from ..core.errors import SwazureError
+
+#: Seconds between two warnings about dropped messages of one topic.
+WARN_EVERY = 5.0
+#: The counter of exceptions that were not a check's rejection (a defect of ours).
+INTERNAL = "internal"
+
+T = TypeVar("T")
+IntArray = NDArray[np.int64]
+FloatArray = NDArray[np.float64]
+
+
+class MessageError(SwazureError):
+    """A message from the network that is dropped: its ``reason`` in one short phrase."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason
+
+
+def check(condition: bool, reason: str) -> None:
+    """Raise :class:`MessageError` with ``reason`` unless ``condition`` holds."""
+    if not condition:
+        raise MessageError(reason)
+
+
+def check_ids(ids: ArrayLike, swarm: IntArray, what: str) -> IntArray:
+    """``ids`` as int64 if every one is an FLS of ``swarm`` (sorted ids); MessageError if not."""
+    wanted = np.asarray(ids, dtype=np.int64).reshape(-1)
+    if len(wanted) and len(swarm):
+        rows = np.minimum(np.searchsorted(swarm, wanted), len(swarm) - 1)
+        unknown = swarm[rows] != wanted
+    else:
+        unknown = np.ones(len(wanted), dtype=bool)
+    if unknown.any():
+        raise MessageError(f"{what}: no FLS {int(wanted[unknown][0])} in this swarm")
+    return wanted
+
+
+def check_size(values: Sized, limit: int, what: str) -> None:
+    """``values`` holds at most ``limit`` entries."""
+    check(len(values) <= limit, f"{what}: {len(values)} entries, more than {limit}")
+
+
+def check_finite(values: ArrayLike, what: str, allow_nan: bool = False) -> FloatArray:
+    """``values`` as float64 if every one is finite (or NaN, if allowed); MessageError if not."""
+    array = np.asarray(values, dtype=np.float64)
+    bad = np.isinf(array) if allow_nan else ~np.isfinite(array)
+    check(not bad.any(), f"{what}: not a finite number")
+    return array
+
+
+class Guard:
+    """Counts and reports the messages a process drops; wraps its callbacks.
+
+    One guard per process (its host node), shared by every node there, so
+    that the counts are the process's.
+    """
+
+    def __init__(self, node: Node) -> None:
+        self._node = node
+        self.dropped: Counter[tuple[str, str]] = Counter()  # (topic, reason) -> messages
+        self.accepted: Counter[str] = Counter()  # topic -> messages taken
+        self._warned_at: dict[str, float] = {}
+        self._reported = -1
+        self._diagnostics = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
+
+    @property
+    def total_dropped(self) -> int:
+        """Messages dropped, every topic and reason."""
+        return sum(self.dropped.values())
+
+    def internal(self) -> int:
+        """Exceptions that were not rejections: defects, each logged."""
+        return sum(n for (_, reason), n in self.dropped.items() if reason == INTERNAL)
+
+    def wrap(self, topic: str, callback: Callable[[T], Any]) -> Callable[[T], None]:
+        """``callback`` for messages of ``topic``, guarded: nothing it raises escapes."""
+
+        def guarded(message: T) -> None:
+            self.call(topic, callback, message)
+
+        return guarded
+
+    def call(self, topic: str, callback: Callable[..., T], *args: Any) -> T | None:
+        """``callback(*args)``; None when it rejected its message or failed (counted)."""
+        try:
+            result = callback(*args)
+        except MessageError as rejected:
+            self.drop(topic, rejected.reason)
+            return None
+        except Exception as err:  # a defect of ours: counted and logged, never raised
+            self.drop(topic, INTERNAL, f"{type(err).__name__}: {err}")
+            return None
+        self.accepted[topic] += 1
+        return result
+
+    def drop(self, topic: str, reason: str, detail: str | None = None) -> None:
+        """Count a message of ``topic`` dropped for ``reason``; warn now and then."""
+        self.dropped[(topic, reason)] += 1
+        now = self._node.get_clock().now().nanoseconds / 1e9
+        if now - self._warned_at.get(topic, -math.inf) >= WARN_EVERY:
+            self._warned_at[topic] = now
+            total = sum(n for (where, _), n in self.dropped.items() if where == topic)
+            self._node.get_logger().warning(
+                f"dropped a message on {topic}: {detail or reason} ({total} dropped so far)"
+            )
+
+    def publish(self) -> None:
+        """Publish the counts on /diagnostics when they changed since the last time."""
+        total = self.total_dropped + sum(self.accepted.values())
+        if total == self._reported:
+            return
+        self._reported = total
+        values = [
+            KeyValue(key=f"accepted {topic}", value=str(n)) for topic, n in self.accepted.items()
+        ]
+        values += [
+            KeyValue(key=f"dropped {topic}: {reason}", value=str(n))
+            for (topic, reason), n in sorted(self.dropped.items())
+        ]
+        level = DiagnosticStatus.WARN if self.total_dropped else DiagnosticStatus.OK
+        status = DiagnosticStatus(
+            level=level,
+            name=f"swazure: {self._node.get_fully_qualified_name()} inbound messages",
+            message=f"{self.total_dropped} dropped",
+            hardware_id=self._node.get_fully_qualified_name(),
+            values=values,
+        )
+        array = DiagnosticArray(status=[status])
+        array.header.stamp = self._node.get_clock().now().to_msg()
+        self._diagnostics.publish(array)
