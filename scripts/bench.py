@@ -916,7 +916,12 @@ def faults_section(args: argparse.Namespace) -> list[str]:
             running.host.spin_once(0.02)
         until = time.monotonic() - began
         running.coordinator = Coordinator(
-            world.ids.tolist(), hosts=1, world=world, namespace="swarm", context=running.context
+            world.ids.tolist(),
+            hosts=1,
+            world=world,
+            namespace="swarm",
+            context=running.context,
+            key=running.key,
         )
         running.host.add(running.coordinator)
         began = time.monotonic()

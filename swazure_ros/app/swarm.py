@@ -35,6 +35,7 @@ from ..core.evaluate import Evaluation, evaluate
 from ..core.heuristics import PLAIN, HeuristicResult, run_technique
 from ..protocol.discovery import evaluation_of
 from ..ros import runtime
+from ..ros.auth import SwarmKey, new_key
 from ..ros.bag import Recorder
 from ..ros.coordinator import Coordinator, DiscoveryResult, MoveResult
 from ..ros.host import SwarmHost
@@ -69,6 +70,10 @@ class SwarmConfig:
     record: str | None = None
     #: Show the swarm (RViz markers; Foxglove on view.port), from share 0's process.
     view: ViewConfig | None = None
+    #: The swarm's key (ros.auth): every protocol message is signed with it and checked.
+    #: None: a fresh one for a swarm whose every process starts here; across hosts,
+    #: each share must be given the same key, or the swarm runs without one.
+    key: bytes | None = field(default=None, repr=False)
 
 
 @dataclass(frozen=True)
@@ -118,6 +123,7 @@ def shares(fls_ids: np.ndarray, processes: int) -> list[list[int]]:
 
 def _host_share(
     config: SwarmConfig,
+    key: bytes | None,
     index: int,
     fls_ids: list[int],
     swarm_size: int,
@@ -142,6 +148,7 @@ def _host_share(
             name=host_name(index),
             parameters=config.parameters,
             fls_parameters=config.fls_parameters,
+            key=SwarmKey(key),
         )
         host.create_fls_nodes(lambda count: reports.put((CREATED, index, count)))
         if not host.spin_until_discovered(config.discovery_timeout):
@@ -210,6 +217,10 @@ class RunningSwarm:
         # Each process lays out what its own FLSs sense; the coordinator's
         # planning and the engine's comparison need the neighbourhood, not that.
         self.world = config.world.build(hosted_ids=self._shares[0])
+        key = config.key
+        if key is None and config.hosts == 1:
+            key = new_key()
+        self.key = SwarmKey(key)
         self._created = [0] * config.processes
         self._peaks: dict[int, float] = {}
         mp = multiprocessing.get_context("spawn")
@@ -218,7 +229,7 @@ class RunningSwarm:
         self._children = [
             mp.Process(
                 target=_host_share,
-                args=(config, index, share, self.size, self._reports, self._stop),
+                args=(config, key, index, share, self.size, self._reports, self._stop),
                 name=f"swazure-host-{index}",
                 daemon=True,
             )
@@ -257,6 +268,7 @@ class RunningSwarm:
             name=host_name(self.config.share),
             parameters=self.config.parameters,
             fls_parameters=self.config.fls_parameters,
+            key=self.key,
         )
 
         def created(count: int) -> None:
@@ -277,6 +289,7 @@ class RunningSwarm:
                 world=self.world,
                 namespace=self.config.namespace,
                 context=self.context,
+                key=self.key,
             )
             self.host.add(self.coordinator)
             if self.config.view is not None:
@@ -285,6 +298,7 @@ class RunningSwarm:
                     namespace=self.config.namespace,
                     context=self.context,
                     port=self.config.view.port,
+                    key=self.key,
                 )
                 self.host.add(self.view)
 

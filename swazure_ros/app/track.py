@@ -205,6 +205,7 @@ def run_track(
     on_progress: Callable[[float], None] | None = None,
 ) -> TrackRun:
     """Track ``target`` from ``source`` for ``duration`` simulated s over ROS 2; see the module."""
+    config.frames(duration)  # bounded before any work
     world.index(source), world.index(target)  # unknown ids fail before any node starts
     context = init_context(domain_id)
     session = TrackSession(

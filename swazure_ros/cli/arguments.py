@@ -34,6 +34,26 @@ def number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
 
 
+def seed(text: str) -> int:
+    """A random seed: a whole number from 0 to 2**63 - 1 (numpy's seeds are not negative)."""
+    value = whole_number(text)
+    if not 0 <= value < 2**63:
+        raise argparse.ArgumentTypeError(f"seed {value} is outside 0..2**63-1")
+    return value
+
+
+def threshold(text: str) -> int:
+    """Move Source's threshold T: 1 to MAX_THRESHOLD steps of r."""
+    from ..core.heuristics import MAX_THRESHOLD
+
+    value = whole_number(text)
+    if not 1 <= value <= MAX_THRESHOLD:
+        raise argparse.ArgumentTypeError(
+            f"{value}: must be 1 to {MAX_THRESHOLD} steps of r (each probes 26 directions)"
+        )
+    return value
+
+
 def domain_id(text: str) -> int:
     """A ROS domain id, 0 to MAX_DOMAIN_ID."""
     value = whole_number(text)

@@ -39,7 +39,15 @@ from ..core.camera import Camera, load_camera
 from ..core.errors import SensorError
 from ..core.results import atomic_write
 from ..core.sensor import SENSOR_FILE_VERSION
-from .arguments import count, distance_mm, input_file, output_file, png_file, viewing_angle
+from .arguments import (
+    count,
+    distance_mm,
+    input_file,
+    output_file,
+    png_file,
+    seed,
+    viewing_angle,
+)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -115,7 +123,7 @@ def _common(parser: argparse.ArgumentParser, frames: int = 100) -> None:
         help=f"frames per distance and angle (default {frames})",
     )
     parser.add_argument(
-        "--seed", type=int, default=0, help="seed of the frames' noise, roll and placement"
+        "--seed", type=seed, default=0, help="seed of the frames' noise, roll and placement"
     )
     parser.add_argument("--quiet", action="store_true", help="no progress on stderr")
 

@@ -30,6 +30,8 @@ from .arguments import (
     input_file,
     output_folder,
     png_file,
+    seed,
+    threshold,
 )
 
 
@@ -61,7 +63,7 @@ def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--accurate", action="store_true", help="measure without error")
     parser.add_argument(
-        "--seed", type=int, default=0, help="seed of the choice of colliding FLSs to remove"
+        "--seed", type=seed, default=0, help="seed of the choice of colliding FLSs to remove"
     )
 
 
@@ -89,7 +91,7 @@ def add_threshold_argument(parser: argparse.ArgumentParser) -> None:
     """Move Source's probe threshold, shared by the verbs that run the heuristics."""
     parser.add_argument(
         "--threshold",
-        type=int,
+        type=threshold,
         default=10,
         metavar="T",
         help="Move Source: probe up to T steps of r per direction (default 10)",
@@ -276,8 +278,6 @@ def main(args: argparse.Namespace) -> int:
     """Run ``swazure evaluate``."""
     cloud, swarm, sensor = swarm_from_args(args)
     progress: Progress | None = None if args.quiet else TqdmProgress()
-    if args.threshold < 1:
-        raise SwazureError(f"--threshold must be at least 1, got {args.threshold}")
     if args.fuse > 1 and args.technique != PLAIN:
         raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
     if args.compat != "text" and args.technique == PLAIN:

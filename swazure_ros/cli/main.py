@@ -10,7 +10,7 @@ from types import ModuleType
 
 from .. import __version__
 from ..core.errors import SwazureError
-from . import camera, echo, evaluate, query, replay, spawn, study, track
+from . import camera, echo, evaluate, key, query, replay, spawn, study, track
 
 #: Verb name -> module with ``add_arguments(parser)`` and ``main(args) -> int``.
 VERBS: dict[str, ModuleType] = {
@@ -22,6 +22,7 @@ VERBS: dict[str, ModuleType] = {
     "replay": replay,
     "track": track,
     "camera": camera,
+    "key": key,
 }
 
 

@@ -33,11 +33,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_domain_argument(parser)
 
 
+#: Playback rates, slowest and fastest: a thousandth plays a second's recording in
+#: 17 minutes; faster than a thousand times, messages would only queue up.
+RATES = (1e-3, 1e3)
+
+
 def rate(text: str) -> float:
-    """A playback rate above 0."""
+    """A playback rate, from RATES[0] to RATES[1]."""
     value = number(text)
-    if not value > 0 or value == float("inf"):
+    if not value > 0:
         raise argparse.ArgumentTypeError(f"{text}: a rate must be above 0")
+    if not RATES[0] <= value <= RATES[1]:
+        raise argparse.ArgumentTypeError(
+            f"{text}: a rate must be from {RATES[0]:g} to {RATES[1]:g}"
+        )
     return value
 
 

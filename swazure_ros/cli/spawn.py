@@ -20,10 +20,12 @@ beside the core engine's, writes --out like `swazure evaluate`, and exits.
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from ..core.errors import SwazureError
@@ -49,6 +51,9 @@ from .evaluate import (
     add_threshold_argument,
 )
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
+
+#: The environment variable that names a swarm's key file (beside --key-file).
+KEY_FILE_VARIABLE = "SWAZURE_SWARM_KEY_FILE"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -151,6 +156,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="I:J,...",
         help="draw the paths of these ordered blind pairs (source:target ids) instead of examples",
     )
+    parser.add_argument(
+        "--key-file",
+        type=input_file,
+        default=None,
+        metavar="FILE",
+        help="the swarm's key (64 hexadecimal digits; make one with `swazure key`): every "
+        "protocol message is signed with it and checked (docs/security.md). Default: a fresh "
+        f"key for a swarm started here whole; across hosts, ${KEY_FILE_VARIABLE} or none",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_swarm_file_argument(parser)
 
@@ -176,6 +190,14 @@ class CreationBar:
             self._bar.close()
 
 
+def swarm_key(path: Path | None) -> bytes | None:
+    """The key in ``path``, or in the file $SWAZURE_SWARM_KEY_FILE names; None for neither."""
+    from ..ros.keys import read_key
+
+    named = path or os.environ.get(KEY_FILE_VARIABLE)
+    return None if not named else read_key(named)
+
+
 def config_from_args(args: argparse.Namespace) -> Any:
     """The swarm the options describe, as a :class:`~swazure_ros.launcher.SwarmConfig`."""
     from ..app.swarm import SwarmConfig, ViewConfig
@@ -184,8 +206,6 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
     if not args.compute_all and (args.out is not None or args.technique != PLAIN):
         raise SwazureError("--out and --technique go with --compute-all")
-    if args.threshold < 1:
-        raise SwazureError(f"--threshold must be at least 1, got {args.threshold}")
     if args.processes < 1:
         raise SwazureError(f"--processes must be at least 1, got {args.processes}")
     index, hosts = args.share
@@ -215,6 +235,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         parameters=args.parameters,
         fls_parameters=args.fls_parameters,
         record=None if args.record is None else str(args.record),
+        key=swarm_key(args.key_file),
         view=ViewConfig(
             args.view_port, args.view_colour, args.view_fls, args.policy, args.view_pairs
         )

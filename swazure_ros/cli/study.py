@@ -30,7 +30,7 @@ from ..study.sweep import (
     SweepProgress,
     Technique,
 )
-from .arguments import count, input_file, output_folder
+from .arguments import count, input_file, output_folder, seed
 
 QUICK_BETAS = (0.4, 0.5)
 
@@ -99,7 +99,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="sensor YAML (default: config/sensor.yaml)",
     )
     parser.add_argument("--accurate", action="store_true", help="measure without error")
-    parser.add_argument("--seed", type=int, default=0, help="seed of collision removal")
+    parser.add_argument("--seed", type=seed, default=0, help="seed of collision removal")
     parser.add_argument(
         "--out", type=output_folder, default=Path("study"), metavar="DIR", help="default: ./study"
     )

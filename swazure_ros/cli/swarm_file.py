@@ -23,10 +23,9 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from ..core.clouds import is_cloud_path
 from ..core.errors import SwazureError
+from ..core.files import read_yaml
 from ..core.paths import POLICIES
 from . import arguments
 
@@ -55,7 +54,7 @@ CHECKS: dict[str, Callable[[str], Any]] = {
     "radius": arguments.number,
     "sensor": arguments.input_file,
     "accurate": _flag,
-    "seed": arguments.whole_number,
+    "seed": arguments.seed,
     "policy": _policy,
     "processes": arguments.count,
     "params": arguments.input_file,
@@ -76,14 +75,7 @@ def load_swarm_file(path: Path) -> dict[str, Any]:
     to values; ``fls`` maps FLS ids to such mappings. SwazureError names the
     file and the key of the first thing wrong.
     """
-    try:
-        document = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError) as err:
-        raise SwazureError(f"{path}: cannot read the swarm file ({err})") from err
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f" (line {mark.line + 1})" if mark is not None else ""
-        raise SwazureError(f"{path}: not valid YAML{where}") from err
+    document = read_yaml(path, "swarm", SwazureError)
     if not isinstance(document, dict) or not isinstance(document.get("swarm"), dict):
         raise SwazureError(f"{path}: a swarm file is a mapping with one key, swarm:")
     if set(document) != {"swarm"}:
@@ -137,7 +129,10 @@ def _parameters(path: Path, key: str, value: Any) -> dict[str, Any]:
             for inner, inner_value in _parameters(path, where, item).items():
                 flat[f"{name}.{inner}"] = inner_value
         elif isinstance(item, _SCALARS) or (
-            isinstance(item, list) and item and all(isinstance(x, type(item[0])) for x in item)
+            isinstance(item, list)
+            and item
+            and isinstance(item[0], _SCALARS)
+            and all(type(x) is type(item[0]) for x in item)
         ):
             flat[str(name)] = item
         else:

@@ -154,6 +154,10 @@ def _number(mapping: dict[str, Any], key: str, where: str) -> float:
     return float(value)
 
 
+#: Pixels of a camera image's side, at most (an 8K sensor's).
+MAX_IMAGE_PX = 8192
+
+
 def camera_from_dict(document: Any, where: str = "camera") -> Camera:
     """Build a :class:`Camera` from a parsed camera YAML document; errors name the key."""
     if not isinstance(document, dict) or document.get("fileversion") != CAMERA_FILE_VERSION:
@@ -204,6 +208,16 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
     )
     if min(width, height, fx, camera.focal_length_mm, camera.f_number, camera.marker_side_mm) <= 0:
         raise SensorError(f"{where}: sizes, focal lengths and the f-number must be positive")
+    if max(width, height) > MAX_IMAGE_PX:
+        raise SensorError(
+            f"{where}: a {width}x{height} image is more than {MAX_IMAGE_PX} px a side"
+        )
+    window = camera.degradations.corner_window_px
+    if not 1 <= window <= min(width, height) // 4:
+        raise SensorError(
+            f"{where}: camera.degradations.corner_window_px must be 1 to a quarter of the "
+            f"image's shorter side ({min(width, height) // 4}), got {window}"
+        )
     if not 0 <= camera.marker_id < camera.dictionary_size:
         raise SensorError(
             f"{where}: camera.marker.id {camera.marker_id} is not in {dictionary} "

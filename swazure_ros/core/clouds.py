@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from .errors import CloudError
+from .files import regular_file
 
 FloatArray = NDArray[np.float64]
 
@@ -36,6 +37,13 @@ PUBLISHED_SCALES: dict[str, float] = {
 }
 
 SUFFIXES = (".xyz", ".txt", ".csv", ".npy", ".ply")
+#: FLSs in one swarm, at most: 27 times the largest published shape (3,720).
+MAX_POINTS = 100_000
+#: cm from the origin that a point may lie, at most: a display is metres across, and
+#: coordinates far beyond overflow the geometry's squares.
+MAX_EXTENT = 1e6
+#: Bytes of a point cloud file, at most (MAX_POINTS points take a few MB as text).
+MAX_CLOUD_BYTES = 256 * 2**20
 
 
 def published_dataset_dir() -> Path | None:
@@ -72,7 +80,14 @@ class Cloud:
 
 
 def validate_points(points: object, where: str = "points") -> FloatArray:
-    """Coerce to an (N, 3) float array of finite values with N >= 2, or raise CloudError."""
+    """Coerce to an (N, 3) float array of finite values with N >= 2, or raise CloudError.
+
+    At most :data:`MAX_POINTS` points, each within :data:`MAX_EXTENT` cm of the origin.
+    """
+    kind = getattr(points, "dtype", np.dtype(np.float64)).kind
+    if kind not in "fiub":
+        dtype = getattr(points, "dtype", None)
+        raise CloudError(f"{where}: coordinates must be real numbers, got dtype {dtype}")
     try:
         array = np.asarray(points, dtype=np.float64)
     except (TypeError, ValueError) as err:
@@ -87,7 +102,26 @@ def validate_points(points: object, where: str = "points") -> FloatArray:
         raise CloudError(f"{where}: point {row} has a NaN or infinite coordinate")
     if len(array) < 2:
         raise CloudError(f"{where}: a swarm needs at least two points, got {len(array)}")
+    check_count(len(array), where)
+    far = np.abs(array).max(axis=1) > MAX_EXTENT
+    if far.any():
+        row = int(np.flatnonzero(far)[0])
+        raise CloudError(
+            f"{where}: point {row} lies {np.abs(array[row]).max():.3g} cm out, beyond "
+            f"{MAX_EXTENT:g} cm: is the scale right?"
+        )
     return array
+
+
+def check_count(count: int, where: str) -> None:
+    """CloudError unless ``count`` FLSs are at most :data:`MAX_POINTS`; it says what more needs."""
+    if count > MAX_POINTS:
+        # Neighbourhood, line of sight and paths hold ~10 kB per FLS at the published density.
+        need = count * 10e3 / 2**30
+        raise CloudError(
+            f"{where}: {count} points, more than {MAX_POINTS} (a swarm that size would need "
+            f"about {need:,.0f} GiB of memory)"
+        )
 
 
 def _is_number(text: str) -> bool:
@@ -156,6 +190,7 @@ def read_points(path: str | Path, scale: float = 1.0) -> FloatArray:
         raise CloudError(f"{path}: no such file")
     if path.is_dir():
         raise CloudError(f"{path}: is a folder, expected a point cloud file")
+    regular_file(path, "point cloud", MAX_CLOUD_BYTES, CloudError)
     suffix = path.suffix.lower()
     try:
         if suffix == ".npy":
@@ -175,7 +210,7 @@ def read_points(path: str | Path, scale: float = 1.0) -> FloatArray:
         raise CloudError(f"{path}: cannot read ({err.strerror or err})") from err
     except UnicodeDecodeError as err:
         raise CloudError(f"{path}: not a text file") from err
-    return validate_points(raw, str(path)) * scale
+    return validate_points(validate_points(raw, str(path)) * scale, f"{path} at scale {scale:g}")
 
 
 def _at_density(points: FloatArray, density: float) -> FloatArray:
@@ -246,6 +281,7 @@ def builtin_points(spec: str, density: float = PUBLISHED_DENSITY) -> FloatArray:
     count = int(match["count"]) if match["count"] else default_count
     if count < 8:
         raise CloudError(f"shape {spec!r}: needs at least 8 points, got {count}")
+    check_count(count, f"shape {spec!r}")
     return _at_density(generator(count), density)
 
 
@@ -270,5 +306,5 @@ def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
     if scale is not None:
         if not math.isfinite(scale) or scale <= 0:
             raise CloudError(f"scale must be a positive number, got {scale}")
-        points = points * scale
+        points = validate_points(points * scale, f"{text} at scale {scale:g}")
     return Cloud(text.replace(":", "_"), points, 1.0 if scale is None else scale, "builtin")

@@ -22,3 +22,11 @@ class UnknownFlsError(SwazureError, KeyError):
 
     def __str__(self) -> str:
         return str(self.args[0]) if self.args else "unknown FLS"
+
+
+class MessageError(SwazureError, ValueError):
+    """A message from the network that is dropped: its ``reason`` in one short phrase."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(reason)
+        self.reason = reason

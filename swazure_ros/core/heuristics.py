@@ -57,6 +57,9 @@ PLAIN = "plain"
 MOVE_OBSTRUCTING = "move-obstructing"
 MOVE_SOURCE = "move-source"
 TECHNIQUES = (PLAIN, MOVE_OBSTRUCTING, MOVE_SOURCE)
+#: Move Source's threshold T, at most: 26 probes a step, and the published study's
+#: largest T is 10; beyond this the source would fly a thousand radii from its point.
+MAX_THRESHOLD = 1000
 
 #: The 26 probe directions of Move Source, unit vectors in lexicographic offset order.
 DIRECTIONS = np.array(
@@ -740,8 +743,8 @@ def _nearest_first(points: FloatArray, indptr: IntArray, indices: IntArray) -> I
 
 def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -> HeuristicResult:
     """Move Source (section 8) with probe steps delta = 1..``threshold`` on every BLOCKED pair."""
-    if threshold < 1:
-        raise ValueError(f"threshold must be a positive number of steps, got {threshold}")
+    if not 1 <= threshold <= MAX_THRESHOLD:
+        raise ValueError(f"threshold must be 1 to {MAX_THRESHOLD} steps, got {threshold}")
     hood, pairs = evaluation.hood, evaluation.pairs
     swarm, sensor, grid = hood.swarm, hood.sensor, hood.grid
     size = len(pairs)

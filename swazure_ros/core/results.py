@@ -9,6 +9,7 @@ from __future__ import annotations
 import ctypes
 import glob
 import json
+import math
 import os
 import shutil
 import tempfile
@@ -145,9 +146,21 @@ def _named_atomic_output(path: Path) -> Iterator[Path]:
         raise
 
 
+def finite_json(value: Any) -> Any:
+    """``value`` with every NaN or infinite float as None: JSON has no such numbers."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {key: finite_json(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [finite_json(item) for item in value]
+    return value
+
+
 def write_json(path: Path, document: dict[str, Any]) -> None:
-    """Write ``document`` as indented JSON, atomically."""
-    atomic_write(path, lambda tmp: tmp.write_text(json.dumps(document, indent=2) + "\n"))
+    """Write ``document`` as indented JSON (non-finite numbers as null), atomically."""
+    text = json.dumps(finite_json(document), indent=2, allow_nan=False) + "\n"
+    atomic_write(path, lambda tmp: tmp.write_text(text))
 
 
 def _id_lists(offsets: Any, ids: Any, as_text: bool) -> Any:

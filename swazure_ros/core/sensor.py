@@ -15,9 +15,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import yaml
 from numpy.typing import ArrayLike, NDArray
 
+from . import files
 from .draws import standard_normals
 from .errors import SensorError
 from .geometry import centre_distance
@@ -36,6 +36,13 @@ OUT_OF_RANGE = 4  # beyond, or in a gap between the sweet and decaying ranges
 RANGE_NAMES = ("contact", "blind", "sweet", "decaying", "out")
 
 SENSOR_FILE_VERSION = 1
+#: cm of a sensor's reach (decaying_max), at most: every pair within reach is a
+#: neighbour, and a camera reading ArUco markers the size of an FLS's sees a metre or two.
+MAX_REACH = 1000.0
+#: A relative error e(t) above this (1000 %) is no sensor's.
+MAX_RELATIVE_ERROR = 10.0
+#: Points at which a sensor's relative error is checked across its camera ranges.
+_ERROR_CHECK_SAMPLES = 1001
 
 
 @dataclass(frozen=True)
@@ -121,8 +128,24 @@ class Sensor:
                 f"sensor {self.name}: ranges out of order, need "
                 f"sweet_min < sweet_max <= decaying_min < decaying_max, got {bounds}"
             )
+        if self.decaying_max > MAX_REACH:
+            raise SensorError(
+                f"sensor {self.name}: decaying_max {self.decaying_max:g} cm is beyond "
+                f"{MAX_REACH:g} cm: every FLS that far would be every FLS's neighbour"
+            )
         if not all(math.isfinite(c) for c in self.error_coefficients):
             raise SensorError(f"sensor {self.name}: error coefficients must be finite")
+        samples = np.linspace(self.sweet_min, self.decaying_max, _ERROR_CHECK_SAMPLES)
+        with np.errstate(all="ignore"):
+            error = self.relative_error(samples)
+        wrong = ~(np.isfinite(error) & (error > -1.0) & (error <= MAX_RELATIVE_ERROR))
+        if wrong.any():
+            at = float(samples[np.flatnonzero(wrong)[0]])
+            raise SensorError(
+                f"sensor {self.name}: relative error e({at:g} cm) = {float(error[wrong][0]):.3g}; "
+                f"it must stay above -1 (a measured distance above 0) and at most "
+                f"{MAX_RELATIVE_ERROR:g} across the camera's ranges"
+            )
 
     @property
     def accurate(self) -> bool:
@@ -201,6 +224,24 @@ def _require(mapping: Any, key: str, where: str) -> Any:
     return mapping[key]
 
 
+def _known_keys(mapping: Any, known: tuple[str, ...], where: str) -> None:
+    """SensorError naming the first key of ``mapping`` not in ``known`` (a typo is not ignored)."""
+    if not isinstance(mapping, dict):
+        raise SensorError(f"{where}: expected a mapping, got {type(mapping).__name__}")
+    unknown = [str(key) for key in mapping if key not in known]
+    if unknown:
+        raise SensorError(f"{where}: unknown key {unknown[0]!r} (known: {', '.join(known)})")
+
+
+#: The keys of each error model kind, besides ``kind``.
+_MODEL_KEYS = {
+    "none": (),
+    "polynomial": ("coefficients",),
+    "stochastic": ("noise", "seed"),
+    "camera": ("camera", "seed", "markers"),
+}
+
+
 def sensor_from_dict(document: Any, where: str = "sensor", base: Path | None = None) -> Sensor:
     """Build a :class:`Sensor` from a parsed sensor YAML document; errors name the key.
 
@@ -214,8 +255,15 @@ def sensor_from_dict(document: Any, where: str = "sensor", base: Path | None = N
         raise SensorError(
             f"{where}: fileversion {version!r} is not supported (expected {SENSOR_FILE_VERSION})"
         )
+    _known_keys(document, ("fileversion", "sensor"), where)
     body = _require(document, "sensor", where)
+    _known_keys(body, ("name", "ranges", "error_model"), f"{where}: sensor")
     ranges = _require(body, "ranges", f"{where}: sensor")
+    _known_keys(
+        ranges,
+        ("sweet_min", "sweet_max", "decaying_min", "decaying_max"),
+        f"{where}: sensor.ranges",
+    )
     values: dict[str, float] = {}
     for key in ("sweet_min", "sweet_max", "decaying_min", "decaying_max"):
         value = _require(ranges, key, f"{where}: sensor.ranges")
@@ -240,6 +288,7 @@ def sensor_from_dict(document: Any, where: str = "sensor", base: Path | None = N
             f"{where}: sensor.error_model.kind must be 'polynomial', 'stochastic', 'camera' "
             f"or 'none', got {kind!r}"
         )
+    _known_keys(model, ("kind", *_MODEL_KEYS[kind]), f"{where}: sensor.error_model")
     if kind == "stochastic":
         noise = _noise_from_dict(model, f"{where}: sensor.error_model")
     camera, camera_file, camera_seed = None, "", 0
@@ -289,6 +338,11 @@ def _markers_from(raw: Any, dictionary_size: int, where: str) -> tuple[int, ...]
 
 def _noise_from_dict(model: Any, where: str) -> SensorNoise:
     table = _require(model, "noise", where)
+    _known_keys(
+        table,
+        ("tracking_cm", "mean_error", "detection", "distance_sd", "direction_sd_deg"),
+        f"{where}.noise",
+    )
     columns: dict[str, tuple[float, ...]] = {}
     for key in ("tracking_cm", "mean_error", "detection", "distance_sd", "direction_sd_deg"):
         raw = _require(table, key, f"{where}.noise")
@@ -308,16 +362,7 @@ def _noise_from_dict(model: Any, where: str) -> SensorNoise:
 
 def read_yaml(path: Path, kind: str) -> Any:
     """The parsed YAML document of a ``kind`` file (sensor, camera); one-line SensorErrors."""
-    try:
-        return yaml.safe_load(path.read_text())
-    except FileNotFoundError as err:
-        raise SensorError(f"{path}: no such {kind} file") from err
-    except OSError as err:
-        raise SensorError(f"{path}: cannot read ({err.strerror or err})") from err
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark is not None else ""
-        raise SensorError(f"{path}: not valid YAML{where}") from err
+    return files.read_yaml(path, kind, SensorError)
 
 
 def load_sensor(path: str | Path | None = None) -> Sensor:

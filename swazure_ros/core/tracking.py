@@ -385,6 +385,14 @@ class Track:
         )
 
 
+#: Seconds between a relay's frames, at least: a 1 kHz camera.
+MIN_FRAME_PERIOD = 1e-3
+#: Seconds of any delay, timeout or run, at most: a day.
+MAX_TRACK_SECONDS = 86400.0
+#: Frames of one track run, at most (each is a filter step and a message).
+MAX_TRACK_FRAMES = 1_000_000
+
+
 @dataclass(frozen=True)
 class TrackConfig:
     """How a track runs: sampling, delays (s), filter and timeout."""
@@ -403,13 +411,33 @@ class TrackConfig:
         return self.sensing_delay + self.communication_delay
 
     def __post_init__(self) -> None:
-        if not self.frame_period > 0:
-            raise TrackingError(f"frame_period must be > 0 s, got {self.frame_period}")
-        if self.sensing_delay < 0 or self.communication_delay < 0:
-            raise TrackingError("delays must be >= 0 s")
-        if not self.timeout > 0:
-            raise TrackingError(f"timeout must be > 0 s, got {self.timeout}")
+        if not MIN_FRAME_PERIOD <= self.frame_period <= MAX_TRACK_SECONDS:
+            raise TrackingError(
+                f"frame_period must be {MIN_FRAME_PERIOD:g} to {MAX_TRACK_SECONDS:g} s "
+                f"(a camera's frames), got {self.frame_period}"
+            )
+        if not (
+            0 <= self.sensing_delay <= MAX_TRACK_SECONDS
+            and 0 <= self.communication_delay <= MAX_TRACK_SECONDS
+        ):
+            raise TrackingError(f"delays must be 0 to {MAX_TRACK_SECONDS:g} s")
+        if not 0 < self.timeout <= MAX_TRACK_SECONDS:
+            raise TrackingError(
+                f"timeout must be above 0 and at most {MAX_TRACK_SECONDS:g} s, got {self.timeout}"
+            )
         self.tracker()  # checks the model and the noises
+
+    def frames(self, duration: float) -> int:
+        """Frames a relay takes in ``duration`` s; TrackingError past :data:`MAX_TRACK_FRAMES`."""
+        if not 0 < duration <= MAX_TRACK_SECONDS:
+            raise TrackingError(f"a duration must be above 0 and at most {MAX_TRACK_SECONDS:g} s")
+        frames = math.ceil(duration / self.frame_period)
+        if frames > MAX_TRACK_FRAMES:
+            raise TrackingError(
+                f"{duration:g} s at {self.frame_period:g} s a frame is {frames:,} frames, more "
+                f"than {MAX_TRACK_FRAMES:,}: a longer frame_period or a shorter duration"
+            )
+        return frames
 
     def tracker(self) -> KalmanTracker:
         """A fresh filter of this configuration."""

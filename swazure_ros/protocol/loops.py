@@ -157,6 +157,7 @@ def simulate_track(
     first_relay = tracker.relay(target)
     reports: list[TrackReport] = []
     step = nanoseconds(config.frame_period)
+    config.frames(duration)  # bounded before any work
     horizon = nanoseconds(arrival(duration, config))
     for now in range(0, -(-horizon // step) * step + 1, step):
         samples = deque(pending)

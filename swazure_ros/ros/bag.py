@@ -14,6 +14,7 @@ timing.
 
 from __future__ import annotations
 
+import struct
 import sys
 import time
 from collections.abc import Iterator
@@ -250,7 +251,7 @@ def recorded_channels(path: Path) -> list[Channel]:
             summary = make_reader(stream).get_summary()
     except OSError as err:
         raise SwazureError(f"{path}: cannot read ({err.strerror or err})") from err
-    except (McapError, ValueError, EOFError) as err:
+    except (McapError, ValueError, EOFError, struct.error) as err:
         raise SwazureError(f"{path}: not an MCAP recording ({err})") from err
     if summary is None:
         raise SwazureError(f"{path}: not a finished MCAP recording (no summary)")
@@ -271,7 +272,7 @@ def read_recording(path: Path) -> Iterator[Recorded]:
                     yield Recorded(channel.topic, message.data, message.log_time)
     except OSError as err:
         raise SwazureError(f"{path}: cannot read ({err.strerror or err})") from err
-    except (McapError, ValueError, EOFError) as err:
+    except (McapError, ValueError, EOFError, struct.error) as err:
         raise SwazureError(f"{path}: not an MCAP recording ({err})") from err
 
 

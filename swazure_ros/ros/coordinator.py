@@ -23,7 +23,6 @@ from dataclasses import dataclass, field
 import numpy as np
 from rclpy.context import Context
 from rclpy.publisher import Publisher
-from rclpy.serialization import deserialize_message, serialize_message
 from rclpy.task import Future
 from std_msgs.msg import Header
 from swazure_interfaces.msg import (
@@ -45,6 +44,7 @@ from ..protocol.discovery import Control, Estimate, bucket_width, evaluation_of
 from ..protocol.moves import Move, MoveRun, Walk
 from ..protocol.rounds import Absences, RoundClock, StallClock
 from ..sim.world import World
+from .auth import SwarmKey
 from .convert import (
     control_message,
     estimate_from_message,
@@ -176,6 +176,7 @@ class Coordinator(SwarmNode):
         world: World | None = None,
         namespace: str = "swarm",
         context: Context | None = None,
+        key: SwarmKey | None = None,
     ) -> None:
         super().__init__(COORDINATOR, namespace=namespace, context=context)
         self.round_timeout = self.declare_seconds(
@@ -192,7 +193,8 @@ class Coordinator(SwarmNode):
         self._moves = self.create_publisher(MoveCommands, MOVE_TOPIC, MOVE_QOS)
         self._walks = self.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
         self._swarm = np.array(sorted(self.fls_ids), dtype=np.int64)
-        self.guard = Guard(self)
+        self.guard = Guard(self, key)
+        self.key = self.guard.key
         guard = self.guard.wrap
         self._offers = self.create_subscription(
             PathOffer, RADIO_TOPIC, guard(RADIO_TOPIC, self._on_offer), ROUND_QOS, raw=True
@@ -208,9 +210,7 @@ class Coordinator(SwarmNode):
             raw=True,
         )
         self.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS, raw=True)
-        self.create_subscription(
-            WorldState, WORLD_TOPIC, guard(WORLD_TOPIC, self._on_world), WORLD_QOS
-        )
+        self.guard.subscribe(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
         self.create_timer(DIAGNOSTICS_PERIOD, self.guard.publish)
         # The answer waits for a whole run; meanwhile the coordinator keeps clocking.
         create_deferred_service(
@@ -396,7 +396,7 @@ class Coordinator(SwarmNode):
         return machine
 
     def _publish(self, publisher: Publisher, topic: str, message: object) -> None:
-        data = serialize_message(message)
+        data = self.key.serialize(message)
         self.traffic.count(topic, len(data))
         publisher.publish(data)
 
@@ -431,13 +431,14 @@ class Coordinator(SwarmNode):
         if isinstance(machine, RoundClock):
             self._act(machine.on_gone(newly, self._now()))
         header = Header(stamp=self.get_clock().now().to_msg())
-        self._gone_publisher.publish(Departed(header=header, fls_ids=sorted(self.gone)))
+        departed = Departed(header=header, fls_ids=sorted(self.gone))
+        self._gone_publisher.publish(self.key.serialize(departed))
 
     def _on_offer(self, data: bytes) -> None:
         self.traffic.count(RADIO_TOPIC, len(data))
         if not isinstance(self._running(), RoundClock):
             return
-        offer = deserialize_message(data, PathOffer)
+        offer = self.key.deserialize(data, PathOffer)
         clock = self._running(offer.run_id)
         if isinstance(clock, RoundClock):
             # The clock counts offers; the FLSs' radios check their labels.
@@ -456,7 +457,7 @@ class Coordinator(SwarmNode):
 
     def _on_ack(self, data: bytes) -> None:
         self.traffic.count(ACK_TOPIC, len(data))
-        ack = deserialize_message(data, RoundAck)
+        ack = self.key.deserialize(data, RoundAck)
         clock = self._running(ack.run_id)
         if isinstance(clock, RoundClock):
             check(0 < len(ack.host) <= MAX_NAME, "a host name of no or too many characters")
@@ -468,7 +469,7 @@ class Coordinator(SwarmNode):
 
     def _on_estimates(self, data: bytes) -> None:
         self.traffic.count(ESTIMATES_TOPIC, len(data))
-        message = deserialize_message(data, PoseEstimates)
+        message = self.key.deserialize(data, PoseEstimates)
         machine = self._running(message.run_id)
         if machine is not None:
             check_ids([message.source_id], self._swarm, "source_id")

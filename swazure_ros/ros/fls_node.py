@@ -51,7 +51,6 @@ from rclpy.event_handler import PublisherEventCallbacks, QoSPublisherMatchedInfo
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
-from rclpy.serialization import serialize_message
 from rclpy.timer import Timer
 from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import (
@@ -88,6 +87,7 @@ from ..protocol.tracking import (
 )
 from ..sim.replica import WorldReplica
 from ..sim.world import Measurement
+from .auth import SwarmKey
 from .convert import (
     camera_info_message,
     estimates_message,
@@ -129,8 +129,9 @@ class Transmitter:
     wire are counted exactly.
     """
 
-    def __init__(self, node: Node) -> None:
+    def __init__(self, node: Node, key: SwarmKey | None = None) -> None:
         self._node = node
+        self.key = key or SwarmKey()
         self._radio = node.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
         self._estimates = node.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
 
@@ -141,7 +142,7 @@ class Transmitter:
             publisher, message = self._radio, offer_message(out, stamp)
         else:
             publisher, message = self._estimates, estimates_message(out, stamp)
-        data = serialize_message(message)
+        data = self.key.serialize(message)
         publisher.publish(data)
         return len(data)
 
@@ -518,7 +519,7 @@ class FlsNode(SwarmNode):
 
     def _publish(self, publisher: Publisher, message: object) -> None:
         # Serialised once here, so that the bytes on the wire are counted exactly.
-        data = serialize_message(message)
+        data = self._transmitter.key.serialize(message)
         self.messages_sent += 1
         self.bytes_sent += len(data)
         publisher.publish(data)

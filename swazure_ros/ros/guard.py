@@ -23,8 +23,11 @@ import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from numpy.typing import ArrayLike, NDArray
 from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rclpy.subscription import Subscription
 
-from ..core.errors import SwazureError
+from ..core.errors import MessageError
+from .auth import SwarmKey
 
 #: Seconds between two warnings about dropped messages of one topic.
 WARN_EVERY = 5.0
@@ -34,14 +37,6 @@ INTERNAL = "internal"
 T = TypeVar("T")
 IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
-
-
-class MessageError(SwazureError):
-    """A message from the network that is dropped: its ``reason`` in one short phrase."""
-
-    def __init__(self, reason: str) -> None:
-        super().__init__(reason)
-        self.reason = reason
 
 
 def check(condition: bool, reason: str) -> None:
@@ -83,8 +78,9 @@ class Guard:
     that the counts are the process's.
     """
 
-    def __init__(self, node: Node) -> None:
+    def __init__(self, node: Node, key: SwarmKey | None = None) -> None:
         self._node = node
+        self.key = key or SwarmKey()
         self.dropped: Counter[tuple[str, str]] = Counter()  # (topic, reason) -> messages
         self.accepted: Counter[str] = Counter()  # topic -> messages taken
         self._warned_at: dict[str, float] = {}
@@ -107,6 +103,25 @@ class Guard:
             self.call(topic, callback, message)
 
         return guarded
+
+    def subscribe(
+        self,
+        kind: type[T],
+        topic: str,
+        callback: Callable[[T], Any],
+        qos: QoSProfile,
+        node: Node | None = None,
+    ) -> Subscription:
+        """Subscribe ``node`` (the guard's own by default) to ``topic``, guarded and key-checked.
+
+        The callback gets each message of type ``kind`` that the swarm's key
+        signs; every other is dropped and counted.
+        """
+
+        def take(message: T) -> None:
+            self.call(topic, lambda: callback(self.key.verify(message)))
+
+        return (node or self._node).create_subscription(kind, topic, take, qos)
 
     def call(self, topic: str, callback: Callable[..., T], *args: Any) -> T | None:
         """``callback(*args)``; None when it rejected its message or failed (counted)."""

@@ -39,6 +39,7 @@ from ..protocol.radio import Ack, RadioHub, RadioLoss
 from ..protocol.rounds import Absences
 from ..sim.replica import WorldReplica
 from ..sim.world import World
+from .auth import SwarmKey
 from .convert import (
     ack_message,
     control_from_message,
@@ -124,7 +125,7 @@ class Radio:
         self._subscribe(TrackSample, TRACK_SAMPLES_TOPIC, self._on_track_sample)
 
     def _subscribe(self, kind: type, topic: str, callback: Callable[[Any], None]) -> None:
-        self._node.create_subscription(kind, topic, self.guard.wrap(topic, callback), ROUND_QOS)
+        self.guard.subscribe(kind, topic, callback, ROUND_QOS)
 
     @property
     def _swarm(self) -> IntArray:
@@ -190,7 +191,9 @@ class Radio:
 
     def _send_ack(self, ack: Ack) -> None:
         stamp = self._node.get_clock().now().to_msg()
-        self._acks.publish(ack_message(ack, self._node.get_name(), stamp))
+        self._acks.publish(
+            self.guard.key.serialize(ack_message(ack, self._node.get_name(), stamp))
+        )
 
     def _on_walk(self, message: PathWalk) -> None:
         self._take_walk(walk_from_message(message, self._swarm))
@@ -204,7 +207,8 @@ class Radio:
             return
         onward = node.on_walk(walk)
         if onward is not None:
-            self._walks.publish(walk_message(onward, self._node.get_clock().now().to_msg()))
+            stamp = self._node.get_clock().now().to_msg()
+            self._walks.publish(self.guard.key.serialize(walk_message(onward, stamp)))
 
     def _take_early_walks(self) -> None:
         early = list(self._early_walks)
@@ -229,6 +233,7 @@ class SwarmHost:
         motion: Motion | None = None,
         parameters: dict[str, object] | None = None,
         fls_parameters: dict[int, dict[str, object]] | None = None,
+        key: SwarmKey | None = None,
     ) -> None:
         self.context = context
         self.namespace = namespace.strip("/")
@@ -252,10 +257,8 @@ class SwarmHost:
         self.fls_nodes: list[FlsNode] = []
         self.fls_by_id: dict[int, FlsNode] = {}
         self.host_node = SwarmNode(name, namespace=self.namespace, context=context)
-        self.guard = Guard(self.host_node)
-        self.host_node.create_subscription(
-            WorldState, WORLD_TOPIC, self.guard.wrap(WORLD_TOPIC, self._on_world), WORLD_QOS
-        )
+        self.guard = Guard(self.host_node, key)
+        self.guard.subscribe(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
         # Before the radio's hook: walks that waited for a revision measure it afresh.
         self.replica.on_revision.append(self._sense_anew)
         self.radio = Radio(
@@ -271,10 +274,10 @@ class SwarmHost:
         self._coordinator_absent = Absences(LIVENESS_GRACE)
         self._controls_at_loss = 0
         self.host_node.create_timer(COORDINATOR_WATCH_PERIOD, self._watch_graph)
-        self.transmitter = Transmitter(self.host_node)
+        self.transmitter = Transmitter(self.host_node, self.guard.key)
         self._add(self.host_node)
         if with_world_node:
-            self._add(WorldNode(self.replica, namespace=self.namespace, context=context))
+            self._add(WorldNode(self.replica, namespace=self.namespace, context=context, key=key))
         self._measurements_topic = f"/{self.namespace}/{MEASUREMENTS_TOPIC}"
         self._service_pattern = re.compile(
             rf"^/{re.escape(self.namespace)}/fls_\d+/{NEIGHBOURS_SERVICE}$"

@@ -20,7 +20,6 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 import rclpy
-import yaml
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.context import Context
 from rclpy.exceptions import ParameterException
@@ -29,6 +28,7 @@ from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 
 from ..core.errors import SwazureError
+from ..core.files import read_yaml
 
 
 class ParameterError(SwazureError):
@@ -39,6 +39,11 @@ class ParameterError(SwazureError):
 #: more endpoints per node, and endpoints cost discovery time (docs/swarm.md).
 #: Tools that need a type find it from the interface package instead.
 NO_TYPE_DESCRIPTION_SERVICE = Parameter("start_type_description_service", value=False)
+
+
+#: Seconds a period or timeout parameter may be, at most (a day): longer is a typo, and
+#: timers of non-finite periods do not exist.
+MAX_SECONDS = 86400.0
 
 
 class SwarmNode(Node):
@@ -75,11 +80,13 @@ class SwarmNode(Node):
     ) -> float:
         """Declare parameter ``name``: seconds > 0 (or 0 if allowed); ParameterError if not."""
         value = self.declare_value(name, default, description)
-        if not isinstance(value, float) or not (value > 0 or (allow_zero and value == 0)):
+        if not isinstance(value, float) or not (
+            (0 < value < MAX_SECONDS) or (allow_zero and value == 0)
+        ):
             kind = "0 or a positive" if allow_zero else "a positive"
             raise ParameterError(
                 f"{self.get_fully_qualified_name()}: parameter {name} must be "
-                f"{kind} number of seconds, got {value!r}"
+                f"{kind} number of seconds below {MAX_SECONDS:g}, got {value!r}"
             )
         return value
 
@@ -96,14 +103,7 @@ class SwarmNode(Node):
 
 def check_params_file(path: Path) -> None:
     """Raise SwazureError unless ``path`` holds ROS 2 parameters (node: ros__parameters: ...)."""
-    if not path.is_file():
-        raise SwazureError(f"{path}: parameter file not found")
-    try:
-        document = yaml.safe_load(path.read_text())
-    except (OSError, UnicodeDecodeError, yaml.YAMLError) as err:
-        where = getattr(err, "problem_mark", None)
-        line = f" (line {where.line + 1})" if where is not None else ""
-        raise SwazureError(f"{path}: not a valid ROS 2 parameter file{line}") from err
+    document = read_yaml(path, "ROS 2 parameter", SwazureError)
     if not isinstance(document, dict) or not all(
         isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict)
         for section in document.values()

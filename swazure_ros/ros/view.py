@@ -14,6 +14,7 @@ from visualization_msgs.msg import MarkerArray
 
 from ..view.live import LiveView
 from ..view.scene import Scene, placed
+from .auth import SwarmKey
 from .convert import scene_markers, world_positions
 from .guard import Guard
 from .names import SCENE_QOS, SCENE_TOPIC, WORLD_QOS, WORLD_REACH, WORLD_TOPIC
@@ -33,16 +34,15 @@ class ViewNode(SwarmNode):
         namespace: str,
         context: Context,
         port: int | None = None,
+        key: SwarmKey | None = None,
     ) -> None:
         super().__init__("view", namespace=namespace, context=context)
         self._home = scene.points.copy()
         self._scene = scene
         self._markers = self.create_publisher(MarkerArray, SCENE_TOPIC, SCENE_QOS)
         self.live = None if port is None else LiveView(f"/{namespace}/{SCENE_TOPIC}", port)
-        self.guard = Guard(self)
-        self.create_subscription(
-            WorldState, WORLD_TOPIC, self.guard.wrap(WORLD_TOPIC, self._on_world), WORLD_QOS
-        )
+        self.guard = Guard(self, key)
+        self.guard.subscribe(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
         self._stale = False
         self.create_timer(REDRAW_PERIOD, self._redraw)
         self.show(scene)

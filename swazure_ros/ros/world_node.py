@@ -16,6 +16,7 @@ from rclpy.context import Context
 from swazure_interfaces.msg import MoveCommand, MoveCommands, WorldState
 
 from ..sim.replica import WorldReplica
+from .auth import SwarmKey
 from .convert import moves_from_message, world_message
 from .guard import Guard
 from .names import MOVE_QOS, MOVE_TOPIC, WORLD, WORLD_QOS, WORLD_REACH, WORLD_TOPIC
@@ -26,24 +27,26 @@ class WorldNode(SwarmNode):
     """Applies move commands to the world and publishes each new revision."""
 
     def __init__(
-        self, replica: WorldReplica, *, namespace: str = "swarm", context: Context | None = None
+        self,
+        replica: WorldReplica,
+        *,
+        namespace: str = "swarm",
+        context: Context | None = None,
+        key: SwarmKey | None = None,
     ) -> None:
         super().__init__(WORLD, namespace=namespace, context=context)
         self._replica = replica
         self._publisher = self.create_publisher(WorldState, WORLD_TOPIC, WORLD_QOS)
-        self.guard = Guard(self)
-        self.create_subscription(
-            MoveCommands, MOVE_TOPIC, self.guard.wrap(MOVE_TOPIC, self._on_moves), MOVE_QOS
-        )
+        self.guard = Guard(self, key)
+        self.guard.subscribe(MoveCommands, MOVE_TOPIC, self._on_moves, MOVE_QOS)
         self.publish_world()
 
     def publish_world(self) -> None:
         """Publish every FLS's position at the replica's revision."""
         world = self._replica.world
         stamp = self.get_clock().now().to_msg()
-        self._publisher.publish(
-            world_message(world.revision, world.ids, world.swarm.points, stamp)
-        )
+        message = world_message(world.revision, world.ids, world.swarm.points, stamp)
+        self._publisher.publish(self.guard.key.serialize(message))
 
     def _on_moves(self, message: MoveCommands) -> None:
         world = self._replica.world

@@ -37,7 +37,7 @@ BAD_INPUTS = [
     (["evaluate", *TORUS, "--out", "afile"], "afile exists and is not a folder"),
     (["evaluate", *TORUS, "--out", "afile/sub"], "afile is not a folder"),
     (["evaluate", *TORUS, "--policy", "nope"], "invalid choice: 'nope'"),
-    (["evaluate", *TORUS, "--threshold", "-3"], "--threshold must be at least 1"),
+    (["evaluate", *TORUS, "--threshold", "-3"], "-3: must be 1 to 1000 steps of r"),
     (["evaluate", *TORUS, "--fuse", "0"], "argument --fuse: 0: must be at least 1"),
     (["evaluate", *TORUS, "--fuse", "2", "--technique", "move-source"], "drop --technique"),
     (["evaluate", *TORUS, "--compat", "published"], "changes the heuristics; add --technique"),

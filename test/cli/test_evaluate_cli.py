@@ -170,4 +170,4 @@ def test_threshold_must_be_positive():
         "0",
     )
     assert run.returncode == 2
-    assert "--threshold must be at least 1" in run.stderr
+    assert "argument --threshold: 0: must be 1 to 1000 steps of r" in run.stderr

@@ -68,7 +68,7 @@ def test_paths_in_a_swarm_file_are_taken_from_its_folder(tmp_path):
 
 
 BAD_FILES = [
-    ("swarm: [1, 2\n", "not valid YAML (line 2)"),
+    ("swarm: [1, 2\n", "not valid YAML at line 2"),
     ("- just a list\n", "a mapping with one key, swarm:"),
     ("cloud: torus\n", "a mapping with one key, swarm:"),
     ("swarm:\n  cloud: torus\nextra: 1\n", "unknown top-level key 'extra'"),

@@ -274,7 +274,12 @@ def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain,
 
         # A coordinator started again runs from scratch, as the engine does.
         swarm.coordinator = Coordinator(
-            ids.tolist(), hosts=1, world=world, namespace="swarm", context=swarm.context
+            ids.tolist(),
+            hosts=1,
+            world=world,
+            namespace="swarm",
+            context=swarm.context,
+            key=swarm.key,
         )
         swarm.host.add(swarm.coordinator)
         result = swarm.discover(policy, timeout=120)

@@ -99,7 +99,8 @@ def test_swarm_split_over_two_processes_gives_the_same_measurements(context, dom
             command.displacement = Vector3(x=shift[0], y=shift[1], z=shift[2])
             publisher = probe.create_publisher(MoveCommands, "/swarm/move_commands", 10)
             assert until(lambda: publisher.get_subscription_count() > 0)
-            publisher.publish(MoveCommands(commands=[command]))
+            # The swarm takes only what its key signs (docs/security.md).
+            publisher.publish(swarm.key.serialize(MoveCommands(commands=[command])))
 
             def remote_sees_move():
                 message = latest.get(remote)

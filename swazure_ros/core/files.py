@@ -1,0 +1,97 @@
+"""Reading the files people give: regular files of bounded size, YAML of bounded expansion.
+
+A path may name a FIFO, a device or a file of gigabytes, and a YAML file
+may hold an alias bomb (a few lines that expand to billions of nodes) or
+nesting deep enough to exhaust the parser's recursion. Every reader of the
+project goes through :func:`read_bytes` or :func:`read_yaml`, which refuse
+those with one line before any time or memory is spent.
+"""
+
+from __future__ import annotations
+
+import stat
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from .errors import SwazureError
+
+#: Bytes of a configuration file (sensor, camera, swarm, parameters), at most.
+CONFIG_BYTES = 4 * 2**20
+#: Alias uses in one YAML document, at most: configuration files need none.
+YAML_ALIASES = 100
+#: Nesting of YAML collections, at most.
+YAML_DEPTH = 50
+
+
+def regular_file(path: Path, kind: str, limit: int, error: type[SwazureError]) -> Path:
+    """``path`` if a regular file of at most ``limit`` bytes; ``error`` in one line if not."""
+    try:
+        status = path.stat()
+    except FileNotFoundError as err:
+        raise error(f"{path}: no such {kind} file") from err
+    except OSError as err:
+        raise error(f"{path}: cannot read ({err.strerror or err})") from err
+    if stat.S_ISDIR(status.st_mode):
+        raise error(f"{path}: is a folder, expected a {kind} file")
+    if not stat.S_ISREG(status.st_mode):
+        raise error(f"{path}: not a regular file (a pipe or a device?), expected a {kind} file")
+    if status.st_size > limit:
+        raise error(
+            f"{path}: {status.st_size / 2**20:.1f} MiB, more than a {kind} file may be "
+            f"({limit / 2**20:.0f} MiB)"
+        )
+    return path
+
+
+def read_bytes(path: Path, kind: str, limit: int, error: type[SwazureError]) -> bytes:
+    """The content of regular file ``path`` (at most ``limit`` bytes); ``error`` if not."""
+    regular_file(path, kind, limit, error)
+    try:
+        with open(path, "rb") as handle:
+            data = handle.read(limit + 1)
+    except OSError as err:
+        raise error(f"{path}: cannot read ({err.strerror or err})") from err
+    if len(data) > limit:
+        raise error(f"{path}: more than a {kind} file may be ({limit / 2**20:.0f} MiB)")
+    return data
+
+
+class _BoundedLoader(yaml.SafeLoader):
+    """PyYAML's safe loader that refuses alias bombs and deep nesting."""
+
+    def __init__(self, stream: str) -> None:
+        super().__init__(stream)
+        self._aliases = 0
+        self._depth = 0
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            self._aliases += 1
+            if self._aliases > YAML_ALIASES:
+                raise yaml.YAMLError(f"more than {YAML_ALIASES} aliases (an alias bomb?)")
+        self._depth += 1
+        try:
+            if self._depth > YAML_DEPTH:
+                raise yaml.YAMLError(f"nested more than {YAML_DEPTH} deep")
+            return super().compose_node(parent, index)
+        finally:
+            self._depth -= 1
+
+
+def read_yaml(path: Path, kind: str, error: type[SwazureError]) -> Any:
+    """The parsed YAML document of a ``kind`` file; ``error`` in one line if it has none."""
+    data = read_bytes(path, kind, CONFIG_BYTES, error)
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise error(f"{path}: not a text file") from err
+    try:
+        return yaml.load(text, Loader=_BoundedLoader)
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f" at line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(err, "problem", None) or (str(err) if not mark else "")
+        detail = f": {problem}" if problem else ""
+        raise error(f"{path}: not valid YAML{where}{detail}") from err
