@@ -74,6 +74,9 @@ class SwarmConfig:
     #: None: a fresh one for a swarm whose every process starts here; across hosts,
     #: each share must be given the same key, or the swarm runs without one.
     key: bytes | None = field(default=None, repr=False)
+    #: False: no key at all; any peer on the domain may then speak for the swarm, and
+    #: only what the FLSs can check of a message protects them (docs/security.md).
+    authenticate: bool = True
 
 
 @dataclass(frozen=True)
@@ -217,8 +220,8 @@ class RunningSwarm:
         # Each process lays out what its own FLSs sense; the coordinator's
         # planning and the engine's comparison need the neighbourhood, not that.
         self.world = config.world.build(hosted_ids=self._shares[0])
-        key = config.key
-        if key is None and config.hosts == 1:
+        key = config.key if config.authenticate else None
+        if key is None and config.authenticate and config.hosts == 1:
             key = new_key()
         self.key = SwarmKey(key)
         self._created = [0] * config.processes

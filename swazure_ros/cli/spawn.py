@@ -165,6 +165,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "protocol message is signed with it and checked (docs/security.md). Default: a fresh "
         f"key for a swarm started here whole; across hosts, ${KEY_FILE_VARIABLE} or none",
     )
+    parser.add_argument(
+        "--no-key",
+        action="store_true",
+        help="run without a key: any peer on the ROS domain may then speak for the swarm "
+        "(for tools that publish into it, such as ros2 topic pub; docs/security.md)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_swarm_file_argument(parser)
 
@@ -208,6 +214,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise SwazureError("--out and --technique go with --compute-all")
     if args.processes < 1:
         raise SwazureError(f"--processes must be at least 1, got {args.processes}")
+    if args.no_key and args.key_file is not None:
+        raise SwazureError("--no-key and --key-file: choose one")
     index, hosts = args.share
     if hosts > 1 and args.processes > 1:
         raise SwazureError("--share runs one process per host: leave out --processes")
@@ -236,6 +244,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         fls_parameters=args.fls_parameters,
         record=None if args.record is None else str(args.record),
         key=swarm_key(args.key_file),
+        authenticate=not args.no_key,
         view=ViewConfig(
             args.view_port, args.view_colour, args.view_fls, args.policy, args.view_pairs
         )

@@ -145,13 +145,25 @@ class Camera:
 # ----------------------------------------------------------------------------- files
 
 
-def _number(mapping: dict[str, Any], key: str, where: str) -> float:
-    if key not in mapping:
+def _number(mapping: dict[str, Any], key: str, where: str, default: float | None = None) -> float:
+    if key not in mapping and default is None:
         raise SensorError(f"{where}: missing key '{key}'")
-    value = mapping[key]
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+    value = mapping.get(key, default)
+    finite = isinstance(value, int | float) and not isinstance(value, bool)
+    try:
+        finite = finite and math.isfinite(value)
+    except OverflowError:  # an int beyond any float
+        finite = False
+    if not finite:
         raise SensorError(f"{where}.{key} must be a finite number, got {value!r}")
     return float(value)
+
+
+def _whole(mapping: dict[str, Any], key: str, where: str, default: int | None = None) -> int:
+    value = _number(mapping, key, where, default)
+    if value != int(value):
+        raise SensorError(f"{where}.{key} must be a whole number, got {value!r}")
+    return int(value)
 
 
 #: Pixels of a camera image's side, at most (an 8K sensor's).
@@ -171,8 +183,8 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
             raise SensorError(f"{where}: missing mapping 'camera.{key}'")
         sections[key] = body[key]
     image, lens, marker = sections["image"], sections["lens"], sections["marker"]
-    width = int(_number(image, "width", f"{where}: camera.image"))
-    height = int(_number(image, "height", f"{where}: camera.image"))
+    width = _whole(image, "width", f"{where}: camera.image")
+    height = _whole(image, "height", f"{where}: camera.image")
     fx = _number(image, "fx", f"{where}: camera.image")
     values: dict[str, Any] = {
         key: _number(sections["degradations"], key, f"{where}: camera.degradations")
@@ -184,9 +196,11 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
         if gamma <= 0:
             raise SensorError(f"{where}: camera.degradations.tone_gamma must be positive")
         values["tone_gamma"] = gamma
-    values["corner_window_px"] = int(values["corner_window_px"])
+    values["corner_window_px"] = _whole(
+        sections["degradations"], "corner_window_px", f"{where}: camera.degradations"
+    )
     dictionary = str(marker.get("dictionary", "DICT_4X4_100"))
-    if not hasattr(cv2.aruco, dictionary):
+    if not dictionary.startswith("DICT_") or not hasattr(cv2.aruco, dictionary):
         raise SensorError(
             f"{where}: camera.marker.dictionary {dictionary!r} is not an ArUco dictionary"
         )
@@ -195,15 +209,15 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
         width=width,
         height=height,
         fx=fx,
-        fy=float(image.get("fy", fx)),
-        cx=float(image.get("cx", (width - 1) / 2)),
-        cy=float(image.get("cy", (height - 1) / 2)),
+        fy=_number(image, "fy", f"{where}: camera.image", fx),
+        cx=_number(image, "cx", f"{where}: camera.image", (width - 1) / 2),
+        cy=_number(image, "cy", f"{where}: camera.image", (height - 1) / 2),
         focal_length_mm=_number(lens, "focal_length_mm", f"{where}: camera.lens"),
         f_number=_number(lens, "f_number", f"{where}: camera.lens"),
         focus_min_mm=_number(lens, "focus_min_mm", f"{where}: camera.lens"),
         marker_dictionary=dictionary,
         marker_side_mm=_number(marker, "side_mm", f"{where}: camera.marker"),
-        marker_id=int(marker.get("id", 0)),
+        marker_id=_whole(marker, "id", f"{where}: camera.marker", 0),
         degradations=Degradations(**values),
     )
     if min(width, height, fx, camera.focal_length_mm, camera.f_number, camera.marker_side_mm) <= 0:

@@ -19,8 +19,9 @@ from .errors import SwazureError
 
 #: Bytes of a configuration file (sensor, camera, swarm, parameters), at most.
 CONFIG_BYTES = 4 * 2**20
-#: Alias uses in one YAML document, at most: configuration files need none.
-YAML_ALIASES = 100
+#: Nodes of one YAML document with every alias expanded, at most (a configuration
+#: file holds hundreds).
+YAML_NODES = 100_000
 #: Nesting of YAML collections, at most.
 YAML_DEPTH = 50
 
@@ -59,25 +60,43 @@ def read_bytes(path: Path, kind: str, limit: int, error: type[SwazureError]) -> 
 
 
 class _BoundedLoader(yaml.SafeLoader):
-    """PyYAML's safe loader that refuses alias bombs and deep nesting."""
+    """PyYAML's safe loader that refuses alias bombs and deep nesting.
+
+    It counts the nodes a document holds with every alias expanded (an
+    anchored node's count is added again at each alias to it), so that a few
+    lines that would expand to billions of nodes are refused as they are read.
+    """
 
     def __init__(self, stream: str) -> None:
         super().__init__(stream)
-        self._aliases = 0
+        self._expanded = 0
+        self._weights: dict[str, int] = {}
         self._depth = 0
 
     def compose_node(self, parent: Any, index: Any) -> Any:
-        if self.check_event(yaml.AliasEvent):
-            self._aliases += 1
-            if self._aliases > YAML_ALIASES:
-                raise yaml.YAMLError(f"more than {YAML_ALIASES} aliases (an alias bomb?)")
+        event = self.peek_event()
+        if isinstance(event, yaml.AliasEvent):
+            self._count(self._weights.get(event.anchor, 1))
+            return super().compose_node(parent, index)
+        before = self._expanded
+        self._count(1)
         self._depth += 1
         try:
             if self._depth > YAML_DEPTH:
                 raise yaml.YAMLError(f"nested more than {YAML_DEPTH} deep")
-            return super().compose_node(parent, index)
+            node = super().compose_node(parent, index)
         finally:
             self._depth -= 1
+        if getattr(event, "anchor", None) is not None:
+            self._weights[event.anchor] = self._expanded - before
+        return node
+
+    def _count(self, nodes: int) -> None:
+        self._expanded += nodes
+        if self._expanded > YAML_NODES:
+            raise yaml.YAMLError(
+                f"more than {YAML_NODES:,} nodes with its aliases expanded (an alias bomb?)"
+            )
 
 
 def read_yaml(path: Path, kind: str, error: type[SwazureError]) -> Any:
@@ -94,4 +113,4 @@ def read_yaml(path: Path, kind: str, error: type[SwazureError]) -> Any:
         where = f" at line {mark.line + 1}" if mark is not None else ""
         problem = getattr(err, "problem", None) or (str(err) if not mark else "")
         detail = f": {problem}" if problem else ""
-        raise error(f"{path}: not valid YAML{where}{detail}") from err
+        raise error(f"{path}: not valid YAML{where} for a {kind} file{detail}") from err

@@ -72,6 +72,10 @@ START, ROUND, END = 0, 1, 2
 #: a sum of lengths never puts a label in the bucket of the label it extends.
 _BUCKET_MARGIN = 1e-9
 
+#: Discovery runs an FLS takes part in at once, at most: its coordinator runs one at a
+#: time, and a run id that a peer made up must not hold memory for ever.
+RUNS_KEPT = 4
+
 #: How many rounds' offers a PathSearch keeps before it drops those no label needs.
 _HEARD_KEPT = 8
 
@@ -701,6 +705,10 @@ class Participant:
         if control.command == START:
             run = self.runs.get(run_id)
             if run is None:
+                while len(self.runs) >= RUNS_KEPT:  # the oldest run is over or forged
+                    oldest = next(iter(self.runs))
+                    del self.runs[oldest]
+                    self._first_round.pop(oldest, None)
                 run = self.runs[run_id] = self._new_run(control)
             run.start(control.phase, frozenset(control.departed_ids))
             self._first_round[run_id] = control.round

@@ -22,7 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.draws import uniforms
-from .discovery import END, ROUND, START, Control, Offer, RoundOffers
+from .discovery import END, ROUND, RUNS_KEPT, START, Control, Offer, RoundOffers
 
 IntArray = NDArray[np.int64]
 
@@ -170,6 +170,12 @@ class RadioHub:
         run = control.run_id
         heard = None
         if control.command == START:
+            if run not in self._first_round and len(self._first_round) >= RUNS_KEPT:
+                oldest = next(iter(self._first_round))  # over, or made up by a peer
+                self._departed.pop(oldest, None)
+                self._pairs.pop(oldest, None)
+                self._first_round.pop(oldest)
+                self._forget(oldest, rounds=True)
             self._departed[run] = frozenset(control.departed_ids)
             if self._loss is not None and self._neighbours is not None:
                 self._pairs[run] = self._radio_pairs()

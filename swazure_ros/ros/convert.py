@@ -49,9 +49,10 @@ from ..protocol.discovery import (
     Report,
 )
 from ..protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
+from ..protocol.plausible import implausible
 from ..protocol.radio import Ack
 from ..protocol.tracking import START_RELAY, STOP_RELAY, RelayRequest, Sample, TrackReport
-from ..sim.world import Measurement
+from ..sim.world import Measurement, World
 from ..view.scene import METRES_PER_CM, MOVE_COLOUR, SCENE_FRAME, Scene
 from .guard import check, check_finite, check_ids, check_size
 from .names import (
@@ -202,6 +203,24 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
         pending=message.pending,
         finished=message.finished,
     )
+
+
+def plausible_offer(message: PathOffer, world: World) -> Offer:
+    """The labels of ``message`` if every one may be true in ``world``; MessageError if not.
+
+    :func:`offer_from_message`, then :func:`~..protocol.plausible.implausible`
+    by where ``world`` puts every FLS.
+    """
+    offer = offer_from_message(message, world.ids)
+    why = implausible(
+        offer,
+        message.phase,
+        lambda ids: world.swarm.points[world.indices(ids)],
+        world.sensor,
+        world.swarm.radius,
+    )
+    check(why is None, f"implausible: {why}")
+    return offer
 
 
 def estimate_message(source: int, found: Estimate) -> PoseEstimate:

@@ -50,6 +50,7 @@ from .convert import (
     estimate_from_message,
     estimate_message,
     moves_message,
+    plausible_offer,
     walk_message,
 )
 from .deferred import Reply, create_deferred_service
@@ -441,9 +442,11 @@ class Coordinator(SwarmNode):
         offer = self.key.deserialize(data, PathOffer)
         clock = self._running(offer.run_id)
         if isinstance(clock, RoundClock):
-            # The clock counts offers; the FLSs' radios check their labels.
-            check_ids([offer.sender_id], self._swarm, "sender_id")
-            check_size(offer.source_ids, len(self._swarm), "source_ids")
+            # The clock counts offers: a forged one must not count (the FLSs check theirs).
+            if self.world is not None:
+                plausible_offer(offer, self.world)
+            else:
+                check_ids([offer.sender_id], self._swarm, "sender_id")
             self._act(
                 clock.on_offer(
                     int(offer.round),

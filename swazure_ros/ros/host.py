@@ -34,7 +34,6 @@ from swazure_interfaces.msg import (
 
 from ..core.motion import Motion
 from ..protocol.moves import Walk
-from ..protocol.plausible import implausible
 from ..protocol.radio import Ack, RadioHub, RadioLoss
 from ..protocol.rounds import Absences
 from ..sim.replica import WorldReplica
@@ -43,7 +42,7 @@ from .auth import SwarmKey
 from .convert import (
     ack_message,
     control_from_message,
-    offer_from_message,
+    plausible_offer,
     relay_request_from_message,
     sample_from_message,
     walk_from_message,
@@ -161,16 +160,7 @@ class Radio:
         self._acknowledge(ack)
 
     def _on_offer(self, message: PathOffer) -> None:
-        world = self._replica.world
-        offer = offer_from_message(message, world.ids)
-        why = implausible(
-            offer,
-            message.phase,
-            lambda ids: world.swarm.points[world.indices(ids)],
-            world.sensor,
-            world.swarm.radius,
-        )
-        check(why is None, f"implausible: {why}")
+        offer = plausible_offer(message, self._replica.world)
         self._acknowledge(
             self._hub.on_offer(int(message.run_id), int(message.round), message.sender_id, offer)
         )

@@ -1,0 +1,116 @@
+"""What a receiver checks of a path label: forged labels fail, every honest label passes."""
+
+from __future__ import annotations
+
+from collections import Counter
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.sensor import hop_error
+from swazure_ros.protocol.discovery import (
+    ANY_VISIBLE,
+    SWEET_ALL,
+    SWEET_VISIBLE,
+    Broadcast,
+    Offer,
+    Participant,
+)
+from swazure_ros.protocol.plausible import implausible
+from swazure_ros.sim.world import WorldSpec
+
+from ..conftest import SCENE, A, B, C, D
+from .test_discovery import run
+
+RADIUS = 0.5
+
+
+def positions(ids):
+    return SCENE[ids]
+
+
+def label(path, sensor, vector=None, length=None, error=None):
+    """One FLS's offer of one honest label along ``path`` (scene indices as ids)."""
+    hops = np.linalg.norm(np.diff(SCENE[list(path)], axis=0), axis=1) - 2 * RADIUS
+    true = SCENE[path[-1]] - SCENE[path[0]]
+    return Offer(
+        source_ids=np.array([path[0]]),
+        hops=np.array([len(path) - 1]),
+        lengths=np.array([hops.sum() if length is None else length]),
+        errors=np.array([hop_error(sensor, hops, RADIUS).sum() if error is None else error]),
+        vectors=np.array([true if vector is None else vector], dtype=np.float64),
+        path_offsets=np.array([0, len(path)]),
+        path_ids=np.array(path),
+    )
+
+
+def test_an_honest_sweet_label_is_plausible(sensor):
+    # A -> B -> C: two sweet hops (t = 6.28 cm); the vector is within the sensor's bias.
+    assert implausible(label([A, B, C], sensor), SWEET_VISIBLE, positions, sensor, RADIUS) is None
+
+
+def test_the_issues_forged_label_over_a_blind_pair_is_not(sensor):
+    # A and C are blind to each other: no sweet hop joins them.
+    forged = label([A, C], sensor, vector=[123.0, 456.0, 789.0], length=7.0, error=0.1)
+    why = implausible(forged, SWEET_VISIBLE, positions, sensor, RADIUS)
+    assert why == "a hop of a path is not in range"
+
+
+def test_a_decaying_hop_is_in_range_only_in_the_decaying_phase(sensor):
+    honest = label([A, D, C], sensor)
+    assert implausible(honest, ANY_VISIBLE, positions, sensor, RADIUS) is None
+    assert implausible(honest, SWEET_ALL, positions, sensor, RADIUS) is not None
+
+
+@pytest.mark.parametrize(
+    ("change", "reason"),
+    [
+        ({"length": 20.0}, "a length is not its path's"),
+        ({"error": 0.0}, "an expected error is not its path's"),
+        ({"vector": [4.0, 0.5, 0.0]}, "a vector is beyond the sensor's error bounds"),
+    ],
+)
+def test_a_label_whose_sums_are_not_its_path_is_not_plausible(sensor, change, reason):
+    forged = label([A, B, C], sensor, **change)
+    assert implausible(forged, SWEET_VISIBLE, positions, sensor, RADIUS) == reason
+
+
+def test_a_vector_within_the_bias_of_each_hop_passes_and_just_beyond_fails(sensor):
+    path = [A, B, C]
+    hops = np.linalg.norm(np.diff(SCENE[path], axis=0), axis=1) - 2 * RADIUS
+    bound = np.abs(hops * sensor.relative_error(hops)).sum()
+    true = SCENE[C] - SCENE[A]
+    inside = label(path, sensor, vector=true + np.array([0.0, 0.99 * bound, 0.0]))
+    outside = label(path, sensor, vector=true + np.array([0.0, 1.01 * bound, 0.0]))
+    assert implausible(inside, SWEET_VISIBLE, positions, sensor, RADIUS) is None
+    assert implausible(outside, SWEET_VISIBLE, positions, sensor, RADIUS) is not None
+
+
+@pytest.mark.parametrize(
+    "sensor_file", ["config/sensor.yaml", "config/cameras/sensor-wide-calibrated.yaml"]
+)
+@pytest.mark.parametrize("policy", ["shortest-length", "least-error"])
+def test_every_label_of_an_honest_run_is_plausible(monkeypatch, sensor_file, policy):
+    """No false alarm: every broadcast of a whole in-memory run passes the receivers' check."""
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5, sensor_file=sensor_file).build()
+    points = world.swarm.points
+    phases = Counter()
+    take = Participant.on_control
+
+    def checking(participant, control, heard=None):
+        out = take(participant, control, heard)
+        if isinstance(out, Broadcast):
+            why = implausible(
+                out.offer,
+                out.phase,
+                lambda ids: points[world.indices(ids)],
+                world.sensor,
+                world.swarm.radius,
+            )
+            assert why is None, (out.sender, out.phase, out.round, why)
+            phases[out.phase] += len(out.offer)
+        return out
+
+    monkeypatch.setattr(Participant, "on_control", checking)
+    run(world.hood, policy)
+    assert all(phases[phase] > 100 for phase in (SWEET_VISIBLE, SWEET_ALL, ANY_VISIBLE)), phases

@@ -1,0 +1,117 @@
+"""A hostile peer on the swarm's ROS domain: its forged offers change no answer.
+
+The peer hears the coordinator's controls (anyone on the domain can) and,
+in every round, offers the source a label of its own over a blind pair with
+the vector of the issue, [123, 456, 789]: unsigned, and signed with a key
+that is not the swarm's. Without a key the swarm still checks what it can:
+the same label is implausible (its hop is not in range).
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from swazure_interfaces.msg import DiscoveryControl, PathOffer
+
+from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
+from swazure_ros.core.evaluate import SWEET_PATH, evaluate_pairs
+from swazure_ros.ros.auth import SwarmKey, new_key
+from swazure_ros.ros.names import CONTROL_TOPIC, RADIO_TOPIC, ROUND_QOS
+from swazure_ros.sim.world import WorldSpec
+
+from .conftest import make_context
+
+POLICY = "shortest-length"
+
+
+class Forger:
+    """A peer that answers every round of every run with forged offers for one blind pair."""
+
+    def __init__(self, domain: int, source: int, target: int, key: SwarmKey) -> None:
+        self.context = make_context(domain)
+        self.node = Node("forger", namespace="swarm", context=self.context)
+        self.key = key
+        self.sent = 0
+        self.source, self.target = source, target
+        self._offers = self.node.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
+        self.node.create_subscription(DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._thread = threading.Thread(target=self.executor.spin, daemon=True)
+
+    def _on_control(self, control: DiscoveryControl) -> None:
+        if control.command != DiscoveryControl.COMMAND_ROUND:
+            return
+        forged = PathOffer(
+            run_id=control.run_id,
+            phase=control.phase,
+            round=control.round,
+            sender_id=self.target,
+            source_ids=[self.source],
+            hops=[1],
+            lengths=[7.0],
+            errors=[0.1],
+            vectors=[123.0, 456.0, 789.0],
+            path_offsets=[0, 2],
+            path_ids=[self.source, self.target],
+        )
+        self._offers.publish(self.key.serialize(forged))
+        self.sent += 1
+
+    def __enter__(self) -> Forger:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.executor.shutdown()
+        self._thread.join(timeout=10)
+        self.node.destroy_node()
+        self.context.try_shutdown()
+
+
+def blind_pair_with_a_sweet_path(world):
+    """(source, target) ids and the engine's pair row: blind, with a sweet path of 2+ hops."""
+    engine = evaluate_pairs(world.hood, POLICY)
+    row = int(np.flatnonzero((engine.status == SWEET_PATH) & (engine.hops >= 2))[0])
+    ids = world.ids
+    return int(ids[engine.source[row]]), int(ids[engine.target[row]]), engine, row
+
+
+@pytest.mark.parametrize(
+    ("authenticate", "forger_key", "dropped_because"),
+    [
+        (True, SwarmKey(), "not signed with the swarm's key"),
+        (True, SwarmKey(new_key()), "not signed with the swarm's key"),
+        (False, SwarmKey(), "implausible: a hop of a path is not in range"),
+    ],
+    ids=["unsigned", "signed-with-another-key", "no-swarm-key-plausibility"],
+)
+def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, dropped_because):
+    world_spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
+    config = SwarmConfig(world_spec, domain_id=domain, authenticate=authenticate)
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world)
+        with Forger(domain, source, target, forger_key) as forger:
+            # The forger's publisher and subscription are in the graph before the run.
+            deadline = time.monotonic() + 30
+            while time.monotonic() < deadline and not (
+                swarm.host.host_node.count_publishers(f"/swarm/{RADIO_TOPIC}") >= 2
+                and forger.node.count_publishers(f"/swarm/{CONTROL_TOPIC}") >= 1
+            ):
+                swarm.spin(0.05)
+            result = swarm.run(swarm.coordinator.discover(POLICY, [source], [target]), timeout=120)
+        assert forger.sent >= result.rounds > 0
+        (answer,) = result.estimates[source]
+        assert answer.status == SWEET_PATH
+        assert answer.path == tuple(int(swarm.world.ids[k]) for k in engine.path(row))
+        np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)
+        dropped = swarm.host.guard.dropped[(RADIO_TOPIC, dropped_because)]
+        assert dropped >= 1, swarm.host.guard.dropped
+        # The coordinator did not count the forger's offers either.
+        assert swarm.coordinator.guard.dropped[(RADIO_TOPIC, dropped_because)] >= 1
