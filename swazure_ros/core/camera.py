@@ -148,15 +148,14 @@ class Camera:
 def _number(mapping: dict[str, Any], key: str, where: str, default: float | None = None) -> float:
     if key not in mapping and default is None:
         raise SensorError(f"{where}: missing key '{key}'")
-    value = mapping.get(key, default)
-    finite = isinstance(value, int | float) and not isinstance(value, bool)
+    value: Any = mapping.get(key, default)
     try:
-        finite = finite and math.isfinite(value)
-    except OverflowError:  # an int beyond any float
-        finite = False
-    if not finite:
+        number = float(value) if not isinstance(value, bool | str) else math.nan
+    except (TypeError, OverflowError):  # not a number, or an int beyond any float
+        number = math.nan
+    if not math.isfinite(number):
         raise SensorError(f"{where}.{key} must be a finite number, got {value!r}")
-    return float(value)
+    return number
 
 
 def _whole(mapping: dict[str, Any], key: str, where: str, default: int | None = None) -> int:

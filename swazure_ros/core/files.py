@@ -74,9 +74,10 @@ class _BoundedLoader(yaml.SafeLoader):
         self._depth = 0
 
     def compose_node(self, parent: Any, index: Any) -> Any:
-        event = self.peek_event()
+        event = self.peek_event()  # type: ignore[no-untyped-call]
+        anchor = getattr(event, "anchor", None)
         if isinstance(event, yaml.AliasEvent):
-            self._count(self._weights.get(event.anchor, 1))
+            self._count(self._weights.get(anchor or "", 1))
             return super().compose_node(parent, index)
         before = self._expanded
         self._count(1)
@@ -87,8 +88,8 @@ class _BoundedLoader(yaml.SafeLoader):
             node = super().compose_node(parent, index)
         finally:
             self._depth -= 1
-        if getattr(event, "anchor", None) is not None:
-            self._weights[event.anchor] = self._expanded - before
+        if anchor is not None:
+            self._weights[anchor] = self._expanded - before
         return node
 
     def _count(self, nodes: int) -> None:

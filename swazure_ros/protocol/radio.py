@@ -22,10 +22,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.draws import uniforms
+from ..core.errors import MessageError
 from .discovery import END, ROUND, RUNS_KEPT, START, Control, Offer, RoundOffers
 
 IntArray = NDArray[np.int64]
 
+#: Runs whose last control a process remembers, to know a replayed control for one.
+CONTROLS_KEPT = 64
 #: Offers a process keeps for runs it has not started: a round of the largest
 #: published shape is 3,720 offers.
 EARLY_OFFERS = 16_384
@@ -142,6 +145,8 @@ class RadioHub:
         self._rounds: dict[tuple[int, int], Control] = {}  # (run, round) -> its ROUND
         self._heard: dict[tuple[int, int], int] = {}
         self._senders: dict[tuple[int, int], set[int]] = {}
+        #: run -> (round, command) of its last control, for the newest CONTROLS_KEPT runs.
+        self._last_control: dict[int, tuple[int, int]] = {}
         self._offers: dict[tuple[int, int], list[tuple[int, Offer]]] = {}
         #: Offers of runs not started here yet, oldest dropped first.
         self._early: deque[tuple[int, int, int, Offer]] = deque(maxlen=EARLY_OFFERS)
@@ -165,9 +170,19 @@ class RadioHub:
         """(the local FLSs to hand ``control`` to, the round's ack if now heard, the offers).
 
         The offers are those of the rounds before ``control.round``, for a
-        ROUND or the END; a START drops those of the phase before.
+        ROUND or the END; a START drops those of the phase before. A run's
+        controls come in strictly increasing (round, command) order: one that
+        does not is a replay of an earlier one (MessageError).
         """
         run = control.run_id
+        order = (control.round, control.command)
+        if order <= self._last_control.get(run, (-1, -1)):
+            raise MessageError(
+                f"control {order} of run {run} is not after {self._last_control[run]}"
+            )
+        self._last_control[run] = order
+        while len(self._last_control) > CONTROLS_KEPT:
+            del self._last_control[next(iter(self._last_control))]
         heard = None
         if control.command == START:
             if run not in self._first_round and len(self._first_round) >= RUNS_KEPT:

@@ -15,6 +15,7 @@ that hosts hundreds of FLSs. The counts are published on ``/diagnostics``
 from __future__ import annotations
 
 import math
+import re
 from collections import Counter
 from collections.abc import Callable, Sized
 from typing import Any, TypeVar
@@ -35,6 +36,7 @@ WARN_EVERY = 5.0
 INTERNAL = "internal"
 
 T = TypeVar("T")
+_NUMBERS = re.compile(r"[-+]?\d[\d.e+-]*")
 IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
 
@@ -137,14 +139,19 @@ class Guard:
         return result
 
     def drop(self, topic: str, reason: str, detail: str | None = None) -> None:
-        """Count a message of ``topic`` dropped for ``reason``; warn now and then."""
-        self.dropped[(topic, reason)] += 1
+        """Count a message of ``topic`` dropped for ``reason``; warn now and then.
+
+        Counted by the reason's wording with its numbers left out, so that a
+        flood of made-up ids adds one counter, not one per id.
+        """
+        self.dropped[(topic, _NUMBERS.sub("#", reason))] += 1
+        detail = detail or reason
         now = self._node.get_clock().now().nanoseconds / 1e9
         if now - self._warned_at.get(topic, -math.inf) >= WARN_EVERY:
             self._warned_at[topic] = now
             total = sum(n for (where, _), n in self.dropped.items() if where == topic)
             self._node.get_logger().warning(
-                f"dropped a message on {topic}: {detail or reason} ({total} dropped so far)"
+                f"dropped a message on {topic}: {detail} ({total} dropped so far)"
             )
 
     def publish(self) -> None:

@@ -17,8 +17,8 @@ from swazure_interfaces.msg import MoveCommand, MoveCommands, WorldState
 
 from ..sim.replica import WorldReplica
 from .auth import SwarmKey
-from .convert import moves_from_message, world_message
-from .guard import Guard
+from .convert import moves_from_message, stamp_nanoseconds, world_message
+from .guard import Guard, check
 from .names import MOVE_QOS, MOVE_TOPIC, WORLD, WORLD_QOS, WORLD_REACH, WORLD_TOPIC
 from .runtime import SwarmNode
 
@@ -38,6 +38,7 @@ class WorldNode(SwarmNode):
         self._replica = replica
         self._publisher = self.create_publisher(WorldState, WORLD_TOPIC, WORLD_QOS)
         self.guard = Guard(self, key)
+        self._last_stamp = 0  # ns, of the newest batch of moves taken
         self.guard.subscribe(MoveCommands, MOVE_TOPIC, self._on_moves, MOVE_QOS)
         self.publish_world()
 
@@ -51,6 +52,10 @@ class WorldNode(SwarmNode):
     def _on_moves(self, message: MoveCommands) -> None:
         world = self._replica.world
         ids, kinds, displacement = moves_from_message(message, world.ids, WORLD_REACH)
+        # The coordinator stamps its batches in order: an older one is a replay.
+        stamp = stamp_nanoseconds(message.header.stamp)
+        check(stamp >= self._last_stamp, "older than the last batch of moves (a replay?)")
+        self._last_stamp = stamp
         if not len(ids):
             return
         rows = world.indices(ids)
