@@ -42,7 +42,8 @@ BAD_INPUTS = [
     (["evaluate", *TORUS, "--fuse", "2", "--technique", "move-source"], "drop --technique"),
     (["evaluate", *TORUS, "--compat", "published"], "changes the heuristics; add --technique"),
     (["evaluate", *TORUS, "--compat", "paper"], "argument --compat: invalid choice"),
-    (["evaluate", *TORUS, "--seed", "x"], "invalid int value"),
+    (["evaluate", *TORUS, "--seed", "x"], "'x' is not a whole number"),
+    (["evaluate", *TORUS, "--seed", "-1"], "seed -1 is outside 0..2**63-1"),
     # study
     (["study", "--jobs", "0"], "argument --jobs: 0: must be at least 1"),
     (["study", "--pairs", "some", "--out", "s"], "argument --pairs: invalid choice: 'some'"),
@@ -161,6 +162,9 @@ BAD_INPUTS = [
     (["camera", "fit", "--camera", WIDE, "--measured", "afile"], "no rows"),
     (["camera", "patterns", "--camera", WIDE, "--distances", "0"], "a distance must be above 0"),
     (["camera"], "required: ACTION"),
+    # key
+    (["key", "afile"], "afile: exists; --force replaces it"),
+    (["key", "afolder"], "afolder is a folder"),
     (["nosuchverb"], "invalid choice: 'nosuchverb'"),
 ]
 

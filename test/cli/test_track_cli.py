@@ -52,7 +52,7 @@ def test_track_prints_estimates_errors_csv_and_figure(trio, tmp_path):
         (["--trajectory", "linear:0,0,1", "--plot", "out.svg"], "figures are written as PNG"),
         (["--trajectory", "linear:0,0,1", "--target", "9"], "no FLS 9 in this swarm"),
         (["--trajectory", "linear:0,0,1", "--target", "1"], "no sweet neighbour of FLS 0"),
-        (["--trajectory", "linear:0,0,1", "--frame-period", "0"], "frame_period must be > 0"),
+        (["--trajectory", "linear:0,0,1", "--frame-period", "0"], "frame_period must be 0.001 to"),
         (["--trajectory", "linear:0,0,1", "--move", "x"], "expected FLS=TRAJECTORY"),
         (["--trajectory", "linear:0,0,1", "--move", "5=linear:0,0,1"], "no FLS 5"),
     ],

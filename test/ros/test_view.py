@@ -105,7 +105,8 @@ def test_a_viewed_swarm_shows_its_flss_in_rviz_and_foxglove_and_follows_a_move(d
         assert until(lambda: publisher.get_subscription_count() > 0)
         command = MoveCommand(fls_id=moved, kind=MoveCommand.KIND_STEP_ASIDE)
         command.displacement = Vector3(x=shift[0], y=shift[1], z=shift[2])
-        publisher.publish(MoveCommands(commands=[command]))
+        # The swarm takes only what its key signs (docs/security.md).
+        publisher.publish(swarm.key.serialize(MoveCommands(commands=[command])))
 
         def arrow_drawn():
             arrows = [m for m in received[-1].markers if m.ns == "moves"]
