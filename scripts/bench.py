@@ -18,6 +18,8 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -1087,6 +1089,205 @@ def soak_figure(samples: list[dict[str, float]], path: Path) -> None:
     atomic_write(path, lambda tmp: figure.savefig(tmp, format="png", dpi=110))
 
 
+#: How long the hostile-peer soak runs, s; SWAZURE_HOSTILE_SECONDS for a shorter try.
+HOSTILE_SECONDS = float(os.environ.get("SWAZURE_HOSTILE_SECONDS", 600))
+
+
+def signing_costs() -> list[str]:
+    """What the swarm's key costs per message: sign and check beside plain (de)serialisation."""
+    import timeit
+
+    from rclpy.serialization import deserialize_message, serialize_message
+    from swazure_interfaces.msg import PathOffer, PoseEstimate, PoseEstimates
+
+    from swazure_ros.ros.auth import SwarmKey, new_key
+    from swazure_ros.sim.world import WorldSpec
+
+    key = SwarmKey(new_key())
+
+    def offer(labels: int) -> PathOffer:
+        return PathOffer(
+            source_ids=list(range(labels)), hops=[2] * labels, lengths=[13.0] * labels,
+            errors=[0.5] * labels, vectors=[1.5] * (3 * labels),
+            path_offsets=list(range(0, 3 * labels + 1, 3)), path_ids=[7] * (3 * labels),
+        )  # fmt: skip
+
+    cases = [
+        ("PathOffer, 1 label", offer(1)),
+        ("PathOffer, 30 labels", offer(30)),
+        ("PathOffer, 300 labels", offer(300)),
+        ("PoseEstimates, 30 estimates", PoseEstimates(estimates=[PoseEstimate()] * 30)),
+    ]
+    lines = [
+        "| message | bytes | serialise us | sign + serialise us | deserialise us "
+        "| deserialise + check us |",
+        "| --- | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    count = 2000
+
+    def per_call(call: Callable[[], object]) -> float:
+        return timeit.timeit(call, number=count) / count * 1e6
+
+    for name, message in cases:
+        data, kind = key.serialize(message), type(message)
+        plain = per_call(partial(serialize_message, message))
+        signed = per_call(partial(key.serialize, message))
+        read = per_call(partial(deserialize_message, data, kind))
+        checked = per_call(partial(key.deserialize, data, kind))
+        lines.append(
+            f"| {name} | {len(data):,} | {plain:.1f} | {signed:.1f} | {read:.1f} | {checked:.1f} |"
+        )
+    # Per round of the dragon: every FLS sends one offer, every process checks every one.
+    dragon = WorldSpec(swarm_cloud("dragon_1147"), beta=0.5).build()
+    flss = len(dragon.ids)
+    check = timeit.timeit(lambda: key.deserialize(key.serialize(offer(1)), PathOffer), number=500)
+    lines += [
+        "",
+        f"A round of the dragon ({flss} FLSs, one process) signs {flss} offers and checks "
+        f"them at the radio and the coordinator: about {2 * flss * check / 500 * 1000:.0f} ms "
+        "of a round's work for one-label offers.",
+    ]
+    return lines
+
+
+def hostile_section(args: argparse.Namespace) -> list[str]:
+    """A swarm under valid queries while scripts/hostile_peer.py floods every topic."""
+    import numpy as np
+    import rclpy.executors
+    from diagnostic_msgs.msg import DiagnosticArray
+    from swazure_interfaces.srv import ComputePose
+
+    from swazure_ros.core.evaluate import evaluate_pairs
+    from swazure_ros.ros.convert import estimate_from_message
+    from swazure_ros.ros.names import POLICY_CODES
+    from swazure_ros.ros.runtime import SwarmNode, init_context
+    from swazure_ros.sim.world import WorldSpec
+
+    domain, cloud, policy = 93, swarm_cloud("chess_408"), "shortest-length"
+    world = WorldSpec(cloud, beta=args.beta).build()
+    engine = evaluate_pairs(world.hood, policy)
+    rng = np.random.default_rng(0)
+    swarm = subprocess.Popen(spawn_command(cloud, domain), stdout=subprocess.PIPE, text=True)
+    samples: list[tuple[float, float]] = []
+    right = wrong = unanswered = 0
+    diagnostics: dict[str, dict[str, str]] = {}
+    peer_report: dict[str, int] = {}
+    try:
+        assert swarm.stdout is not None
+        if not swarm.stdout.readline().startswith("swarm up:"):
+            return ["## Hostile peers", "", "the chess swarm did not come up", ""]
+        context = init_context(domain)
+        node = SwarmNode("bench_hostile", context=context)
+        executor = rclpy.executors.SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+
+        def on_diagnostics(array: DiagnosticArray) -> None:
+            for status in array.status:
+                diagnostics[status.name] = {value.key: value.value for value in status.values}
+
+        node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
+        client = node.create_client(ComputePose, "/swarm/coordinator/compute_pose")
+        while not client.service_is_ready():
+            executor.spin_once(timeout_sec=0.1)
+        peer = subprocess.Popen(
+            [sys.executable, str(REPO / "scripts" / "hostile_peer.py"), str(domain),
+             str(HOSTILE_SECONDS)],
+            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+        )  # fmt: skip
+
+        def rss() -> float:
+            pids = [swarm.pid, *children(swarm.pid)]
+            pages = sum(int(Path(f"/proc/{pid}/statm").read_text().split()[1]) for pid in pids)
+            return pages * os.sysconf("SC_PAGE_SIZE") / 1e6
+
+        began = time.monotonic()
+        samples.append((0.0, rss()))
+        next_sample = 30.0
+        while time.monotonic() - began < HOSTILE_SECONDS:
+            row = int(rng.integers(len(engine)))
+            source, target = int(world.ids[engine.source[row]]), int(world.ids[engine.target[row]])
+            request = ComputePose.Request(
+                source_id=source, target_id=target, policy=POLICY_CODES[policy]
+            )
+            asked = time.monotonic()
+            future = client.call_async(request)
+            while not future.done() and time.monotonic() - asked < 120:
+                executor.spin_once(timeout_sec=0.05)
+            if not future.done() or not future.result().success:
+                unanswered += 1
+            else:
+                got = estimate_from_message(future.result().estimate)
+                path = tuple(int(world.ids[k]) for k in engine.path(row))
+                same = (got.status, got.path) == (engine.status[row], path) and (
+                    got.status == 2
+                    or np.allclose(got.vector, engine.estimate[row], rtol=0, atol=1e-9)
+                )
+                right, wrong = right + same, wrong + (not same)
+            if time.monotonic() - began >= next_sample:
+                samples.append(((time.monotonic() - began) / 60, rss()))
+                next_sample += 30.0
+        samples.append(((time.monotonic() - began) / 60, rss()))
+        out, _ = peer.communicate(timeout=120)
+        peer_report = json.loads(out.strip().splitlines()[-1]) if out.strip() else {}
+        for _ in range(40):  # the latest counts (published every second when they change)
+            executor.spin_once(timeout_sec=0.05)
+        executor.shutdown()
+        node.destroy_node()
+        context.try_shutdown()
+    finally:
+        swarm.terminate()
+        swarm.wait(timeout=300)
+    hostile_figure(samples, REPO / "docs" / "figures" / "hostile-soak.png")
+    sent = sum(peer_report.values())
+    lines = [
+        f"## Hostile peers: a swarm under valid queries and a flood of forged and malformed "
+        f"messages for {HOSTILE_SECONDS / 60:.0f} minutes",
+        "",
+        "`swazure spawn` of chess_408 (beta 0.5, one process, a fresh swarm key); a client asks",
+        "`/swarm/coordinator/compute_pose` for random blind pairs (seeded) one after another and",
+        "compares each answer with the engine's (status, path, vector to 1e-9); meanwhile",
+        "`scripts/hostile_peer.py` publishes on every topic of the swarm messages generated",
+        "from each type's fields (half unsigned, half under a key of its own) and, every time,",
+        "a forged offer for the live run (sender FLS 1, a path over the blind pair 0-1, vector",
+        "[123, 456, 789]). docs/security.md says what each check stops.",
+        "",
+        f"Valid queries: {right + wrong + unanswered}: {right} right, {wrong} wrong, "
+        f"{unanswered} unanswered within 120 s.",
+        f"Hostile messages sent: {sent:,} ("
+        + ", ".join(f"{topic} {count:,}" for topic, count in sorted(peer_report.items()))
+        + ").",
+        f"Swarm memory: {samples[0][1]:.0f} MB at the start, {samples[-1][1]:.0f} MB at the end "
+        f"(max {max(m for _, m in samples):.0f} MB); figure docs/figures/hostile-soak.png.",
+        "",
+        "The swarm's counts on /diagnostics at the end (messages dropped, by reason):",
+        "",
+        "| node | counter | messages |",
+        "| --- | --- | ---: |",
+    ]
+    for name, values in sorted(diagnostics.items()):
+        for counter, value in sorted(values.items()):
+            lines.append(f"| {name.split(': ')[-1].split(' ')[0]} | {counter} | {value} |")
+    lines += ["", "### What the key costs", "", *signing_costs(), ""]
+    return lines
+
+
+def hostile_figure(samples: list[tuple[float, float]], path: Path) -> None:
+    """The swarm's memory over the hostile soak, as a PNG."""
+    from matplotlib.figure import Figure
+
+    from swazure_ros.core.results import atomic_write
+
+    figure = Figure(figsize=(6.5, 3.6), layout="constrained")
+    axes = figure.subplots()
+    axes.plot([m for m, _ in samples], [r for _, r in samples], ".-")
+    axes.set_xlabel("minute")
+    axes.set_ylabel("resident memory of the swarm (MB)")
+    axes.set_ylim(bottom=0)
+    axes.grid(True, alpha=0.3)
+    axes.set_title("chess_408 swarm under queries and a hostile peer's flood")
+    atomic_write(path, lambda tmp: figure.savefig(tmp, format="png", dpi=110))
+
+
 POLICY_SENSORS = {
     "published": REPO / "config" / "sensor.yaml",
     "wide, calibrated (stochastic)": REPO / "config" / "cameras" / "sensor-wide-calibrated.yaml",
@@ -1207,6 +1408,7 @@ SECTIONS = {
     "camera": camera_section,
     "soak": soak_section,
     "faults": faults_section,
+    "hostile": hostile_section,
 }
 
 

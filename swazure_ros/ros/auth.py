@@ -10,14 +10,14 @@ whatever it likes: no process takes it.
 
 The tag covers the fields' values, not the serialised bytes: CDR leaves its
 alignment padding uninitialised, so one message serialises to different
-bytes each time. :func:`feed` writes each field in order, with its type and
+bytes each time. :func:`content` writes each field in order, with its type and
 length, into the MAC.
 """
 
 from __future__ import annotations
 
 import array
-import hashlib
+import functools
 import hmac
 import struct
 from typing import Any, TypeVar
@@ -28,7 +28,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from ..core.errors import MessageError, SwazureError
 from .keys import KEY_BYTES, new_key, read_key
 
-__all__ = ["SwarmKey", "feed", "new_key", "read_key"]
+__all__ = ["SwarmKey", "content", "new_key", "read_key"]
 
 T = TypeVar("T")
 
@@ -36,36 +36,51 @@ T = TypeVar("T")
 AUTH_FIELD = "auth"
 
 
-def feed(mac: Any, value: Any) -> None:
-    """Write ``value`` (a message, or one of its fields' values) into ``mac``, unambiguously.
+@functools.cache
+def _fields(kind: type) -> tuple[str, ...]:
+    """The fields of message type ``kind`` that the tag covers, in order."""
+    return tuple(name for name in kind.get_fields_and_field_types() if name != AUTH_FIELD)
+
+
+_DOUBLE = struct.Struct("<d").pack
+
+
+def content(message: Any) -> bytes:
+    """Every field of ``message`` but ``auth``, written unambiguously: what the tag covers.
 
     Each value is written with a one-letter type and, for sequences, its
     length, so that two different messages never write the same bytes.
     """
-    if hasattr(value, "get_fields_and_field_types"):
-        fields = value.get_fields_and_field_types()
-        mac.update(b"m" + len(fields).to_bytes(4, "little"))
-        for name in fields:
-            if name != AUTH_FIELD:
-                feed(mac, getattr(value, name))
-    elif isinstance(value, bool | int):
-        mac.update(b"i" + int(value).to_bytes(9, "little", signed=True))
-    elif isinstance(value, float):
-        mac.update(b"f" + struct.pack("<d", value))
-    elif isinstance(value, str):
+    parts: list[bytes] = []
+    _write(parts, message)
+    return b"".join(parts)
+
+
+def _write(parts: list[bytes], value: Any) -> None:
+    kind = type(value)
+    if kind is float:
+        parts.append(b"f" + _DOUBLE(value))
+    elif kind is bool:
+        parts.append(b"T" if value else b"F")
+    elif kind is int:
+        parts.append(b"i" + value.to_bytes(9, "little", signed=True))
+    elif kind is str:
         text = value.encode("utf-8", "surrogatepass")
-        mac.update(b"s" + len(text).to_bytes(8, "little") + text)
-    elif isinstance(value, array.array | np.ndarray | bytes):
-        raw = memoryview(value).cast("B") if not isinstance(value, bytes) else value
-        kind = value.typecode if isinstance(value, array.array) else getattr(value, "dtype", "B")
-        mac.update(b"a" + str(kind).encode() + len(raw).to_bytes(8, "little"))
-        mac.update(raw)
-    elif isinstance(value, list | tuple):
-        mac.update(b"l" + len(value).to_bytes(8, "little"))
+        parts.append(b"s" + len(text).to_bytes(8, "little") + text)
+    elif kind is array.array or kind is np.ndarray or kind is bytes:
+        raw = bytes(memoryview(value).cast("B"))
+        code = value.typecode if kind is array.array else str(getattr(value, "dtype", "B"))
+        parts.append(b"a" + code.encode() + len(raw).to_bytes(8, "little") + raw)
+    elif kind is list or kind is tuple:
+        parts.append(b"l" + len(value).to_bytes(8, "little"))
         for item in value:
-            feed(mac, item)
+            _write(parts, item)
+    elif hasattr(kind, "get_fields_and_field_types"):
+        parts.append(b"m")
+        for name in _fields(kind):
+            _write(parts, getattr(value, name))
     else:
-        raise TypeError(f"cannot sign a {type(value).__name__}")
+        raise TypeError(f"cannot sign a {kind.__name__}")
 
 
 class SwarmKey:
@@ -85,11 +100,9 @@ class SwarmKey:
         return self._key is not None
 
     def tag(self, message: Any) -> bytes:
-        """The tag of ``message``: HMAC-SHA256 of every field but ``auth``."""
+        """The tag of ``message``: HMAC-SHA256 of every field but ``auth`` (:func:`content`)."""
         assert self._key is not None
-        mac = hmac.new(self._key, digestmod=hashlib.sha256)
-        feed(mac, message)
-        return mac.digest()
+        return hmac.digest(self._key, content(message), "sha256")
 
     def sign(self, message: T) -> T:
         """``message`` with its ``auth`` set to its tag (left empty without a key)."""
