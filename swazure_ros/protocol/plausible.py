@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.sensor import DECAYING, SWEET, Sensor, hop_error
-from .discovery import ANY_VISIBLE, Offer
+from .discovery import ANY_VISIBLE, Offer, RoundOffers
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -45,6 +45,74 @@ def hop_bound(sensor: Sensor, tracking: FloatArray, radius: float) -> FloatArray
     return np.asarray(bias + NOISE_BOUND_SD * np.sqrt(hop_error(sensor, tracking, radius)))
 
 
+#: Why a label cannot be true, by the code :func:`implausible_labels` gives it (0: it may be).
+REASONS = (
+    "",
+    "a hop of a path is not in range",
+    "a length is not its path's",
+    "an expected error is not its path's",
+    "a vector is beyond the sensor's error bounds",
+)
+_HOP, _LENGTH, _ERROR, _VECTOR = 1, 2, 3, 4
+
+
+def implausible_labels(
+    lengths: FloatArray,
+    errors: FloatArray,
+    vectors: FloatArray,
+    path_offsets: IntArray,
+    path_ids: IntArray,
+    phase: int,
+    positions: Callable[[IntArray], FloatArray],
+    sensor: Sensor,
+    radius: float,
+) -> NDArray[np.int8]:
+    """(L,) why each of L labels cannot be true (a code of :data:`REASONS`; 0: it may be).
+
+    The labels are an offer's or a round's (lengths, errors (L,), vectors
+    (L, 3), cm, paths as offsets (L + 1,) into ``path_ids``), whose arrays
+    are known to agree (:func:`..ros.convert.offer_from_message`).
+    ``positions(ids)`` gives where FLSs ``ids`` (M,) are, (M, 3), cm.
+    """
+    count = len(lengths)
+    why = np.zeros(count, dtype=np.int8)
+    if not count:
+        return why
+    points = positions(path_ids)
+    # Hop k of the flat path list runs from path_ids[k] to path_ids[k + 1], unless
+    # k + 1 starts the next path; it belongs to the label whose path holds k.
+    offset = points[1:] - points[:-1]
+    step = np.sqrt(np.einsum("...k,...k->...", offset, offset))  # as core.geometry rounds it
+    real = np.ones(len(step), dtype=bool)
+    real[path_offsets[1:-1] - 1] = False
+    tracking = np.where(real, step - 2.0 * radius, 0.0)
+    label_of_hop = np.repeat(np.arange(count), np.diff(path_offsets))[:-1]
+    classes = sensor.classify(tracking)
+    in_range = (classes == SWEET) | ((classes == DECAYING) & (phase == ANY_VISIBLE))
+    why[np.unique(label_of_hop[real & ~in_range])] = _HOP
+
+    # Per label, the sum over its hops: positions offsets[k] .. offsets[k + 1] - 2.
+    def per_label(values: FloatArray) -> FloatArray:
+        summed = np.concatenate([[0.0], np.cumsum(np.where(real, values, 0.0))])
+        return np.asarray(summed[path_offsets[1:] - 1] - summed[path_offsets[:-1]])
+
+    def mark(wrong: NDArray[np.bool_], code: int) -> None:
+        why[(why == 0) & wrong] = code
+
+    mark(~_close(lengths, per_label(tracking)), _LENGTH)
+    hop_errors = hop_error(sensor, tracking, radius)
+    mark(~_close(errors, per_label(hop_errors)), _ERROR)
+    # The published sensor's bound is its hop error itself (|t e(t)|).
+    exact = sensor.noise is None and sensor.camera is None
+    bound = per_label(hop_errors if exact else hop_bound(sensor, tracking, radius))
+    start, end = points[path_offsets[:-1]], points[path_offsets[1:] - 1]
+    miss = vectors - (end - start)
+    off = np.sqrt(np.einsum("...k,...k->...", miss, miss))
+    # NaN (an S_all label sums no camera readings) compares False: it may be.
+    mark(off > bound * (1.0 + SUM_TOLERANCE) + SUM_TOLERANCE, _VECTOR)
+    return why
+
+
 def implausible(
     offer: Offer,
     phase: int,
@@ -52,41 +120,42 @@ def implausible(
     sensor: Sensor,
     radius: float,
 ) -> str | None:
-    """Why the labels of ``offer`` cannot be true, or None when every one may be.
+    """Why the labels of ``offer`` cannot all be true, or None when every one may be."""
+    why = implausible_labels(
+        offer.lengths,
+        offer.errors,
+        offer.vectors,
+        offer.path_offsets,
+        offer.path_ids,
+        phase,
+        positions,
+        sensor,
+        radius,
+    )
+    return REASONS[int(why.max())] if why.any() else None
 
-    ``positions(ids)`` gives where FLSs ``ids`` (M,) are, (M, 3), cm; the
-    offer's arrays are already known to agree (:func:`..ros.convert.offer_from_message`).
-    """
-    if not len(offer):
-        return None
-    path_ids, offsets = offer.path_ids, offer.path_offsets
-    points = positions(path_ids)
-    # Hop k of the flat path list runs from path_ids[k] to path_ids[k + 1], unless
-    # k + 1 starts the next path.
-    offset = points[1:] - points[:-1]
-    step = np.sqrt(np.einsum("...k,...k->...", offset, offset))  # as core.geometry rounds it
-    real = np.ones(len(step), dtype=bool)
-    real[offsets[1:-1] - 1] = False
-    tracking = np.where(real, step - 2.0 * radius, 0.0)
-    allowed = (SWEET, DECAYING) if phase == ANY_VISIBLE else (SWEET,)
-    if not np.isin(sensor.classify(tracking[real]), allowed).all():
-        return "a hop of a path is not in range"
 
-    # Per label, the sum over its hops: positions offsets[k] .. offsets[k + 1] - 2.
-    def per_label(values: FloatArray) -> FloatArray:
-        summed = np.concatenate([[0.0], np.cumsum(np.where(real, values, 0.0))])
-        return np.asarray(summed[offsets[1:] - 1] - summed[offsets[:-1]])
+def round_labels_check(
+    positions: Callable[[IntArray], FloatArray], sensor: Sensor, radius: float
+) -> Callable[[RoundOffers, int], NDArray[np.int8]]:
+    """A radio's check of a round's offers (RadioHub's ``check``): each label's code."""
 
-    length = per_label(tracking)
-    if not np.allclose(offer.lengths, length, rtol=SUM_TOLERANCE, atol=SUM_TOLERANCE):
-        return "a length is not its path's"
-    error = per_label(hop_error(sensor, tracking, radius))
-    if not np.allclose(offer.errors, error, rtol=SUM_TOLERANCE, atol=SUM_TOLERANCE):
-        return "an expected error is not its path's"
-    bound = per_label(hop_bound(sensor, tracking, radius))
-    start, end = points[offsets[:-1]], points[offsets[1:] - 1]
-    off = np.linalg.norm(offer.vectors - (end - start), axis=1)
-    measured = ~np.isnan(off)  # S_all labels sum no camera readings
-    if (off[measured] > bound[measured] * (1.0 + SUM_TOLERANCE) + SUM_TOLERANCE).any():
-        return "a vector is beyond the sensor's error bounds"
-    return None
+    def check(heard: RoundOffers, phase: int) -> NDArray[np.int8]:
+        return implausible_labels(
+            heard.lengths,
+            heard.errors,
+            heard.vectors,
+            heard.path_offsets,
+            heard.path_ids,
+            phase,
+            positions,
+            sensor,
+            radius,
+        )
+
+    return check
+
+
+def _close(sent: FloatArray, summed: FloatArray) -> NDArray[np.bool_]:
+    """Sums that sender and receiver add in different orders agree to SUM_TOLERANCE."""
+    return np.asarray(np.abs(sent - summed) <= SUM_TOLERANCE * (1.0 + np.abs(summed)))

@@ -14,7 +14,7 @@ the coordinator can open the next one.
 
 from __future__ import annotations
 
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Callable, Collection
 from dataclasses import dataclass
 
@@ -24,9 +24,13 @@ from numpy.typing import NDArray
 from ..core.draws import uniforms
 from ..core.errors import MessageError
 from .discovery import END, ROUND, RUNS_KEPT, START, Control, Offer, RoundOffers
+from .plausible import REASONS
 
 IntArray = NDArray[np.int64]
 
+#: Offers of one sender in one round that a process keeps (the first counts; a second
+#: is kept in case the first is a forgery).
+OFFERS_PER_SENDER = 2
 #: Runs whose last control a process remembers, to know a replayed control for one.
 CONTROLS_KEPT = 64
 #: Offers a process keeps for runs it has not started: a round of the largest
@@ -134,17 +138,23 @@ class RadioHub:
         local: Collection[int],
         loss: RadioLoss | None = None,
         neighbours: Callable[[int], IntArray] | None = None,
+        check: Callable[[RoundOffers, int], NDArray[np.int8]] | None = None,
     ) -> None:
         self._local = local
         self._loss = loss if loss is not None and loss.active else None
         # neighbours(fls): the FLSs whose offers that FLS takes (its view's).
         self._neighbours = neighbours
+        # check(offers, phase): why each label heard cannot be true, a code of
+        # plausible.REASONS (0: it may be), checked once a round over every offer heard.
+        self._check = check
+        #: (sender, why) of the offers dropped as implausible, for the caller to count.
+        self.rejected: list[tuple[int, str]] = []
         self._pairs: dict[int, tuple[IntArray, IntArray]] = {}  # run -> (sender, receiver)
         self._departed: dict[int, frozenset[int]] = {}
         self._first_round: dict[int, int] = {}
         self._rounds: dict[tuple[int, int], Control] = {}  # (run, round) -> its ROUND
         self._heard: dict[tuple[int, int], int] = {}
-        self._senders: dict[tuple[int, int], set[int]] = {}
+        self._senders: dict[tuple[int, int], Counter[int]] = {}
         #: run -> (round, command) of its last control, for the newest CONTROLS_KEPT runs.
         self._last_control: dict[int, tuple[int, int]] = {}
         self._offers: dict[tuple[int, int], list[tuple[int, Offer]]] = {}
@@ -170,7 +180,9 @@ class RadioHub:
         """(the local FLSs to hand ``control`` to, the round's ack if now heard, the offers).
 
         The offers are those of the rounds before ``control.round``, for a
-        ROUND or the END; a START drops those of the phase before. A run's
+        ROUND or the END, less those of senders with a label that the hub's
+        ``check`` finds cannot be true (listed in :attr:`rejected`); a START
+        drops those of the phase before. A run's
         controls come in strictly increasing (round, command) order: one that
         does not is a replay of an earlier one (MessageError).
         """
@@ -202,7 +214,18 @@ class RadioHub:
             return [], None, None
         else:
             done = sorted(key for key in self._offers if key[0] == run and key[1] < control.round)
-            heard = RoundOffers.of([entry for key in done for entry in self._offers.pop(key)])
+            entries = [entry for key in done for entry in self._offers.pop(key)]
+            heard = RoundOffers.of(entries)
+            bad = self._implausible(entries, heard, control.phase)
+            # Each sender's first offer that may be true; normally all there are.
+            if bad or len({sender for sender, _ in entries}) < len(entries):
+                kept: dict[int, Offer] = {}
+                for index, (sender, offer) in enumerate(entries):
+                    if index in bad:
+                        self.rejected.append((sender, bad[index]))
+                    elif sender not in kept:
+                        kept[sender] = offer
+                heard = RoundOffers.of(list(kept.items()))
         departed = self.departed(run)
         recipients = [fls_id for fls_id in self._local if fls_id not in departed]
         ack = None
@@ -215,6 +238,23 @@ class RadioHub:
             self._first_round.pop(run, None)
             self._forget(run, rounds=True)
         return recipients, ack, heard
+
+    def _implausible(
+        self, entries: list[tuple[int, Offer]], heard: RoundOffers, phase: int
+    ) -> dict[int, str]:
+        """{index into ``entries``: why} of the offers with a label that cannot be true."""
+        if self._check is None or not len(heard):
+            return {}
+        why = self._check(heard, phase)
+        if not why.any():
+            return {}
+        # RoundOffers.of lays the offers out in a stable sort by sender.
+        order = sorted(range(len(entries)), key=lambda index: entries[index][0])
+        offer_of_label = np.repeat(order, [len(entries[index][1]) for index in order])
+        return {
+            int(offer_of_label[label]): REASONS[int(why[label])]
+            for label in np.flatnonzero(why)[::-1]
+        }
 
     def on_offer(self, run_id: int, round_: int, sender: int, offer: Offer) -> Ack | None:
         """Hear ``sender``'s offer of round ``round_``; the round's ack if now heard.
@@ -229,12 +269,14 @@ class RadioHub:
         if round_ < self._first_round[run_id]:
             return None  # from before a restart of the phase
         key = (run_id, round_)
-        senders = self._senders.setdefault(key, set())
-        if sender in senders:
-            return None
-        senders.add(sender)
-        if sender not in self.departed(run_id):
+        senders = self._senders.setdefault(key, Counter())
+        senders[sender] += 1
+        # A second offer of one sender in one round is kept (once) but not counted: one
+        # of the two may be a forgery that the round's check drops (on_control).
+        if senders[sender] <= OFFERS_PER_SENDER and sender not in self.departed(run_id):
             self._offers.setdefault(key, []).append((sender, offer))
+        if senders[sender] > 1:
+            return None
         self._heard[key] = self._heard.get(key, 0) + 1
         return self._acknowledge(run_id, round_)
 

@@ -16,13 +16,15 @@ length, into the MAC.
 
 from __future__ import annotations
 
-import array
 import functools
 import hmac
+import importlib
+import operator
 import struct
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, TypeVar
 
-import numpy as np
 from rclpy.serialization import deserialize_message, serialize_message
 
 from ..core.errors import MessageError, SwazureError
@@ -36,51 +38,93 @@ T = TypeVar("T")
 AUTH_FIELD = "auth"
 
 
+#: struct codes of the fixed-size primitive field types (floats as doubles: exact).
+_PRIMITIVES = {
+    "boolean": "?", "octet": "B", "char": "B", "byte": "B", "uint8": "B", "int8": "b",
+    "uint16": "H", "int16": "h", "uint32": "I", "int32": "i", "uint64": "Q", "int64": "q",
+    "float": "d", "double": "d",
+}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """How to write one message type: its primitives in one struct, then the rest in order."""
+
+    scalars: struct.Struct
+    scalar_getters: tuple[Callable[[Any], Any], ...]
+    others: tuple[tuple[Callable[[Any], Any], str], ...]  # (getter, "s" | "a" | "m" | "l")
+
+
+def _message_type(name: str) -> type:
+    """The class of ROS message type ``name`` (``pkg/msg/Type`` or ``pkg/Type``)."""
+    package, *_, kind = name.split("/")
+    return getattr(importlib.import_module(f"{package}.msg"), kind)  # type: ignore[no-any-return]
+
+
 @functools.cache
-def _fields(kind: type) -> tuple[str, ...]:
-    """The fields of message type ``kind`` that the tag covers, in order."""
-    return tuple(name for name in kind.get_fields_and_field_types() if name != AUTH_FIELD)
+def _plan(kind: type) -> _Plan:
+    """The :class:`_Plan` of message type ``kind``: nested messages flattened, auth left out."""
+    codes: list[str] = []
+    scalars: list[str] = []
+    others: list[tuple[Callable[[Any], Any], str]] = []
 
+    def walk(kind: type, prefix: str) -> None:
+        for name, field in kind.get_fields_and_field_types().items():
+            if not prefix and name == AUTH_FIELD:
+                continue
+            path = f"{prefix}{name}"
+            if field in _PRIMITIVES:
+                codes.append(_PRIMITIVES[field])
+                scalars.append(path)
+            elif field.startswith("string") or field.startswith("wstring"):
+                others.append((operator.attrgetter(path), "s"))
+            elif field.startswith("sequence<") or "[" in field:
+                inner = field.partition("<")[2].rstrip(">").split(",")[0] or field.split("[")[0]
+                code = "a" if inner in _PRIMITIVES else ("m" if "/" in inner else "l")
+                others.append((operator.attrgetter(path), code))
+            else:  # a nested message: its fields, flattened
+                walk(_message_type(field), f"{path}.")
 
-_DOUBLE = struct.Struct("<d").pack
+    walk(kind, "")
+    return _Plan(
+        struct.Struct("<" + "".join(codes)),
+        tuple(operator.attrgetter(path) for path in scalars),
+        tuple(others),
+    )
 
 
 def content(message: Any) -> bytes:
     """Every field of ``message`` but ``auth``, written unambiguously: what the tag covers.
 
-    Each value is written with a one-letter type and, for sequences, its
-    length, so that two different messages never write the same bytes.
+    Primitives go in one struct of the type's fixed layout; each string,
+    array and sequence goes with its length, so that two different messages
+    never write the same bytes.
     """
     parts: list[bytes] = []
     _write(parts, message)
     return b"".join(parts)
 
 
-def _write(parts: list[bytes], value: Any) -> None:
-    kind = type(value)
-    if kind is float:
-        parts.append(b"f" + _DOUBLE(value))
-    elif kind is bool:
-        parts.append(b"T" if value else b"F")
-    elif kind is int:
-        parts.append(b"i" + value.to_bytes(9, "little", signed=True))
-    elif kind is str:
-        text = value.encode("utf-8", "surrogatepass")
-        parts.append(b"s" + len(text).to_bytes(8, "little") + text)
-    elif kind is array.array or kind is np.ndarray or kind is bytes:
-        raw = bytes(memoryview(value).cast("B"))
-        code = value.typecode if kind is array.array else str(getattr(value, "dtype", "B"))
-        parts.append(b"a" + code.encode() + len(raw).to_bytes(8, "little") + raw)
-    elif kind is list or kind is tuple:
-        parts.append(b"l" + len(value).to_bytes(8, "little"))
-        for item in value:
-            _write(parts, item)
-    elif hasattr(kind, "get_fields_and_field_types"):
-        parts.append(b"m")
-        for name in _fields(kind):
-            _write(parts, getattr(value, name))
-    else:
-        raise TypeError(f"cannot sign a {kind.__name__}")
+def _write(parts: list[bytes], message: Any) -> None:
+    plan = _plan(type(message))
+    parts.append(plan.scalars.pack(*[get(message) for get in plan.scalar_getters]))
+    for get, code in plan.others:
+        value = get(message)
+        if code == "s":
+            text = value.encode("utf-8", "surrogatepass")
+            parts.append(len(text).to_bytes(8, "little") + text)
+        elif code == "a":
+            raw = value.tobytes() if hasattr(value, "tobytes") else bytes(value)
+            parts.append(len(raw).to_bytes(8, "little") + raw)
+        elif code == "m":
+            parts.append(len(value).to_bytes(8, "little"))
+            for item in value:
+                _write(parts, item)
+        else:  # a sequence of strings
+            parts.append(len(value).to_bytes(8, "little"))
+            for item in value:
+                text = item.encode("utf-8", "surrogatepass")
+                parts.append(len(text).to_bytes(8, "little") + text)
 
 
 class SwarmKey:

@@ -252,18 +252,39 @@ def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
     return message
 
 
-def estimate_from_message(message: PoseEstimate, swarm: IntArray | None = None) -> Estimate:
-    """The core's Estimate of a PoseEstimate message; with ``swarm``, checked against it."""
-    vector = message.vector
-    if swarm is not None:
-        check_ids([message.target_id, *message.path, *message.radio_path], swarm, "estimate")
-        check(message.status < len(STATUS_NAMES), f"unknown status {message.status}")
-        check(message.reason < len(REASON_NAMES), f"unknown reason {message.reason}")
+def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> list[Estimate]:
+    """The core's Estimates of a source's report, checked against ``swarm`` (sorted ids).
+
+    MessageError unless the source and every target and path FLS are the
+    swarm's, codes are known, paths are no longer than the swarm and numbers
+    are finite or NaN (no path).
+    """
+    estimates = message.estimates
+    check_size(estimates, len(swarm), "estimates")
+    ids = [message.source_id]
+    for one in estimates:
         check(
-            len(message.path) <= len(swarm) and len(message.radio_path) <= len(swarm),
+            len(one.path) <= len(swarm) and len(one.radio_path) <= len(swarm),
             "a path longer than the swarm",
         )
-        check_finite([vector.x, vector.y, vector.z, message.path_length], "vector", True)
+        ids.append(one.target_id)
+        ids.extend(one.path)
+        ids.extend(one.radio_path)
+    check_ids(ids, swarm, "estimates")
+    check(
+        all(
+            one.status < len(STATUS_NAMES) and one.reason < len(REASON_NAMES) for one in estimates
+        ),
+        "unknown status or reason",
+    )
+    numbers = [(one.vector.x, one.vector.y, one.vector.z, one.path_length) for one in estimates]
+    check_finite(numbers, "vector", allow_nan=True)
+    return [estimate_from_message(one) for one in estimates]
+
+
+def estimate_from_message(message: PoseEstimate) -> Estimate:
+    """The core's Estimate of a PoseEstimate message (unchecked: see estimates_from_message)."""
+    vector = message.vector
     return Estimate(
         target=int(message.target_id),
         status=int(message.status),

@@ -47,14 +47,14 @@ from ..sim.world import World
 from .auth import SwarmKey
 from .convert import (
     control_message,
-    estimate_from_message,
     estimate_message,
+    estimates_from_message,
     moves_message,
     plausible_offer,
     walk_message,
 )
 from .deferred import Reply, create_deferred_service
-from .guard import Guard, check, check_ids, check_size
+from .guard import Guard, check, check_ids
 from .names import (
     ACK_TOPIC,
     COMPUTE_POSE_SERVICE,
@@ -442,8 +442,9 @@ class Coordinator(SwarmNode):
         offer = self.key.deserialize(data, PathOffer)
         clock = self._running(offer.run_id)
         if isinstance(clock, RoundClock):
-            # The clock counts offers: a forged one must not count (the FLSs check theirs).
-            if self.world is not None:
+            # The clock counts offers, and the FLSs' radios check their labels. Without a
+            # key the clock checks them too: a forged offer must not count.
+            if self.world is not None and not self.key.active:
                 plausible_offer(offer, self.world)
             else:
                 check_ids([offer.sender_id], self._swarm, "sender_id")
@@ -475,9 +476,7 @@ class Coordinator(SwarmNode):
         message = self.key.deserialize(data, PoseEstimates)
         machine = self._running(message.run_id)
         if machine is not None:
-            check_ids([message.source_id], self._swarm, "source_id")
-            check_size(message.estimates, len(self._swarm), "estimates")
-            estimates = [estimate_from_message(one, self._swarm) for one in message.estimates]
+            estimates = estimates_from_message(message, self._swarm)
             source = int(message.source_id)
             self._act(machine.on_estimates(source, estimates, self._now()))
 

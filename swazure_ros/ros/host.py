@@ -34,6 +34,7 @@ from swazure_interfaces.msg import (
 
 from ..core.motion import Motion
 from ..protocol.moves import Walk
+from ..protocol.plausible import round_labels_check
 from ..protocol.radio import Ack, RadioHub, RadioLoss
 from ..protocol.rounds import Absences
 from ..sim.replica import WorldReplica
@@ -42,7 +43,7 @@ from .auth import SwarmKey
 from .convert import (
     ack_message,
     control_from_message,
-    plausible_offer,
+    offer_from_message,
     relay_request_from_message,
     sample_from_message,
     walk_from_message,
@@ -79,6 +80,7 @@ DIAGNOSTICS_PERIOD = 1.0
 #: walks a few paths per group of moves).
 EARLY_WALKS = 4096
 IntArray = NDArray[np.int64]
+FloatArray = NDArray[np.float64]
 
 
 class Radio:
@@ -105,7 +107,10 @@ class Radio:
         self._replica = replica
         self._fls = fls_nodes
         self._hub = RadioHub(
-            fls_nodes.keys(), loss, lambda fls_id: replica.view(fls_id).other.astype(np.int64)
+            fls_nodes.keys(),
+            loss,
+            lambda fls_id: replica.view(fls_id).other.astype(np.int64),
+            round_labels_check(self._positions, replica.sensor, replica.radius),
         )
         self.controls_heard = 0  # a control is a sure sign that a coordinator is there
         self.last_control_at = float("-inf")  # monotonic s
@@ -150,17 +155,26 @@ class Radio:
         if node is not None:
             node.on_track_sample(sample)
 
+    def _positions(self, fls_ids: IntArray) -> FloatArray:
+        """Where FLSs ``fls_ids`` are in this process's world revision, (K, 3), cm."""
+        world = self._replica.world
+        return world.swarm.points[world.indices(fls_ids)]
+
     def _on_control(self, message: DiscoveryControl) -> None:
         control = control_from_message(message, self._swarm)
         self.controls_heard += 1
         self.last_control_at = time.monotonic()
         recipients, ack, heard = self._hub.on_control(control)
+        for sender, why in self._hub.rejected:
+            self.guard.drop(RADIO_TOPIC, f"implausible: {why}", f"FLS {sender}'s offer: {why}")
+        self._hub.rejected.clear()
         for fls_id in recipients:
             self._fls[fls_id].on_control(control, heard)
         self._acknowledge(ack)
 
     def _on_offer(self, message: PathOffer) -> None:
-        offer = plausible_offer(message, self._replica.world)
+        # Its labels' meaning is checked once a round, with every offer heard (_implausible).
+        offer = offer_from_message(message, self._swarm)
         self._acknowledge(
             self._hub.on_offer(int(message.run_id), int(message.round), message.sender_id, offer)
         )
