@@ -120,10 +120,10 @@ class Guard:
         signs; every other is dropped and counted.
         """
 
-        def take(message: T) -> None:
-            self.call(topic, lambda: callback(self.key.verify(message)))
+        def take(data: bytes) -> None:
+            self.call(topic, lambda: callback(self.key.deserialize(data, kind)))
 
-        return (node or self._node).create_subscription(kind, topic, take, qos)
+        return (node or self._node).create_subscription(kind, topic, take, qos, raw=True)
 
     def call(self, topic: str, callback: Callable[..., T], *args: Any) -> T | None:
         """``callback(*args)``; None when it rejected its message or failed (counted)."""
