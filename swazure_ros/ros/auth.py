@@ -118,7 +118,8 @@ def _write(parts: list[bytes], message: Any) -> None:
     for get, code in plan.others:
         value = get(message)
         if code == "s":
-            text = value.encode("utf-8", "surrogatepass")
+            # The wire ends a string at its first NUL: so does the tag.
+            text = value.partition("\0")[0].encode("utf-8", "surrogatepass")
             parts.append(len(text).to_bytes(8, "little") + text)
         elif code == "a":
             raw = value.tobytes() if hasattr(value, "tobytes") else bytes(value)
@@ -130,7 +131,7 @@ def _write(parts: list[bytes], message: Any) -> None:
         else:  # a sequence of strings
             parts.append(len(value).to_bytes(8, "little"))
             for item in value:
-                text = item.encode("utf-8", "surrogatepass")
+                text = item.partition("\0")[0].encode("utf-8", "surrogatepass")
                 parts.append(len(text).to_bytes(8, "little") + text)
 
 

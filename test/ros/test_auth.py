@@ -1,0 +1,103 @@
+"""The swarm's key: a tag covers every field, and only the key's holder makes a good one."""
+
+from __future__ import annotations
+
+import os
+import stat
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from rclpy.serialization import deserialize_message, serialize_message
+from swazure_interfaces.msg import PathOffer, PoseEstimate, PoseEstimates
+
+from swazure_ros.core.errors import MessageError, SwazureError
+from swazure_ros.ros.auth import SwarmKey, content, new_key
+from swazure_ros.ros.keys import read_key, write_key
+
+from .fuzz import message
+
+KEY = SwarmKey(new_key())
+IDS = [0, 1, 2, 407]
+
+
+def offer() -> PathOffer:
+    return PathOffer(
+        run_id=7, phase=1, round=3, sender_id=2, source_ids=[0], hops=[2], lengths=[13.0],
+        errors=[0.2], vectors=[1.0, 2.0, 3.0], path_offsets=[0, 3], path_ids=[0, 1, 2],
+    )  # fmt: skip
+
+
+def test_a_signed_message_is_taken_after_the_wire_and_its_tag_is_32_bytes():
+    data = KEY.serialize(offer())
+    back = KEY.deserialize(data, PathOffer)
+    assert len(back.auth) == 32 and list(back.path_ids) == [0, 1, 2]
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("run_id", 8),
+        ("round", 4),
+        ("sender_id", 1),
+        ("pending", True),
+        ("vectors", [1.0, 2.0, 3.5]),
+        ("path_ids", [0, 2, 2]),
+        ("lengths", [13.000001]),
+    ],
+)
+def test_a_changed_field_breaks_the_tag(field, value):
+    signed = deserialize_message(KEY.serialize(offer()), PathOffer)
+    setattr(signed, field, value)
+    with pytest.raises(MessageError, match="not signed with the swarm's key"):
+        KEY.verify(signed)
+
+
+def test_another_key_and_no_key_are_refused_and_a_keyless_swarm_takes_anything():
+    theirs = SwarmKey(new_key())
+    for data in (theirs.serialize(offer()), SwarmKey().serialize(offer())):
+        with pytest.raises(MessageError):
+            KEY.deserialize(data, PathOffer)
+        assert SwarmKey().deserialize(data, PathOffer).run_id == 7
+
+
+def test_garbage_bytes_are_one_message_error():
+    with pytest.raises(MessageError, match="not a PathOffer"):
+        KEY.deserialize(b"\x00\x01\x00\x00garbage", PathOffer)
+
+
+@settings(
+    max_examples=200,
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=list(HealthCheck),
+)
+@given(first=message(PoseEstimates, IDS), second=message(PoseEstimates, IDS))
+def test_content_differs_whenever_the_messages_do(first, second):
+    """Two messages write the same content exactly when every field but auth is equal."""
+    first.auth, second.auth = [], []
+    # What crosses the wire is what the tag covers (a string ends at its first NUL).
+    first = deserialize_message(serialize_message(first), PoseEstimates)
+    second = deserialize_message(serialize_message(second), PoseEstimates)
+    assert content(first) == content(deserialize_message(serialize_message(first), PoseEstimates))
+    # repr tells NaN from NaN and -0.0 from 0.0 as the bits do.
+    assert (content(first) == content(second)) == (repr(first) == repr(second))
+
+
+def test_nested_estimates_are_covered():
+    report = PoseEstimates(run_id=1, source_id=0, estimates=[PoseEstimate(target_id=2)])
+    signed = deserialize_message(KEY.serialize(report), PoseEstimates)
+    signed.estimates[0].vector.x = 123.0
+    with pytest.raises(MessageError):
+        KEY.verify(signed)
+
+
+def test_a_key_file_is_private_and_reads_back(tmp_path):
+    path = tmp_path / "swarm.key"
+    key = new_key()
+    write_key(path, key)
+    assert read_key(path) == key
+    assert stat.S_IMODE(os.stat(path).st_mode) == 0o600
+    (tmp_path / "short.key").write_text("abcd\n")
+    with pytest.raises(SwazureError, match="64 hexadecimal digits"):
+        read_key(tmp_path / "short.key")
