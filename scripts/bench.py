@@ -941,6 +941,14 @@ def faults_section(args: argparse.Namespace) -> list[str]:
 SOAK_SECONDS = float(os.environ.get("SWAZURE_SOAK_SECONDS", 1800))
 
 
+def resident_mb(pid: int) -> float:
+    """Resident memory of process ``pid`` and its children, MB."""
+    pages = sum(
+        int(Path(f"/proc/{one}/statm").read_text().split()[1]) for one in [pid, *children(pid)]
+    )
+    return pages * os.sysconf("SC_PAGE_SIZE") / 1e6
+
+
 def soak_section(args: argparse.Namespace) -> list[str]:
     """A chess swarm answering pose queries without pause: memory and endpoints over time."""
     import numpy as np
@@ -975,12 +983,7 @@ def soak_section(args: argparse.Namespace) -> list[str]:
             executor.spin_once(timeout_sec=0.1)
 
         def sample(elapsed: float) -> None:
-            pids = [process.pid, *children(process.pid)]
-            rss = (
-                sum(int(Path(f"/proc/{pid}/statm").read_text().split()[1]) for pid in pids)
-                * os.sysconf("SC_PAGE_SIZE")
-                / 1e6
-            )
+            rss = resident_mb(process.pid)
             topics = node.get_topic_names_and_types()
             samples.append({
                 "minute": elapsed / 60, "rss": rss, "answered": len(latencies),
@@ -1199,13 +1202,8 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
         )  # fmt: skip
 
-        def rss() -> float:
-            pids = [swarm.pid, *children(swarm.pid)]
-            pages = sum(int(Path(f"/proc/{pid}/statm").read_text().split()[1]) for pid in pids)
-            return pages * os.sysconf("SC_PAGE_SIZE") / 1e6
-
         began = time.monotonic()
-        samples.append((0.0, rss()))
+        samples.append((0.0, resident_mb(swarm.pid)))
         next_sample = 30.0
         while time.monotonic() - began < HOSTILE_SECONDS:
             row = int(rng.integers(len(engine)))
@@ -1228,9 +1226,9 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
                 )
                 right, wrong = right + same, wrong + (not same)
             if time.monotonic() - began >= next_sample:
-                samples.append(((time.monotonic() - began) / 60, rss()))
+                samples.append(((time.monotonic() - began) / 60, resident_mb(swarm.pid)))
                 next_sample += 30.0
-        samples.append(((time.monotonic() - began) / 60, rss()))
+        samples.append(((time.monotonic() - began) / 60, resident_mb(swarm.pid)))
         out, _ = peer.communicate(timeout=120)
         peer_report = json.loads(out.strip().splitlines()[-1]) if out.strip() else {}
         for _ in range(40):  # the latest counts (published every second when they change)
