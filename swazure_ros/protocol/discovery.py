@@ -68,6 +68,10 @@ PHASE_NAMES = ("S_vis", "S_all", "SD_vis")
 # The coordinator's commands; the values equal DiscoveryControl's COMMAND_*.
 START, ROUND, END = 0, 1, 2
 
+#: Rounds that one sweet hop may cost in a least-error run, at most: the calibrated
+#: sensors' cost 24 and 88; a sensor whose error crosses zero in its range, tens of thousands.
+MAX_ROUNDS_PER_HOP = 1000
+
 #: Bucket widths sit this fraction below the shortest hop, so that rounding in
 #: a sum of lengths never puts a label in the bucket of the label it extends.
 _BUCKET_MARGIN = 1e-9
@@ -99,6 +103,17 @@ def bucket_width(sensor: Sensor, radius: float, policy: str) -> float:
             raise ValueError(
                 f"least-error needs a sensor whose every hop errs; {sensor.name} has hops "
                 "without error (an accurate sensor has no least-error path)"
+            )
+        # A sweet hop's cost in buckets is what one hop costs in rounds: where the
+        # error nearly vanishes inside the range, a run would take rounds without end.
+        sweet = np.linspace(sensor.sweet_min, sensor.sweet_max, 1001)
+        rounds = float(hop_error(sensor, sweet, radius).max() / smallest)
+        if rounds > MAX_ROUNDS_PER_HOP:
+            raise ValueError(
+                f"least-error over {sensor.name or 'this sensor'} would take about "
+                f"{rounds:,.0f} rounds a hop (its hop error falls to {smallest:.3g} inside the "
+                f"camera's range; at most {MAX_ROUNDS_PER_HOP:,} are allowed): use "
+                "shortest-length or fewest-hops"
             )
         return smallest
     if not sensor.sweet_min > 0:

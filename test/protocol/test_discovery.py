@@ -20,7 +20,7 @@ from swazure_ros.core.evaluate import (
 )
 from swazure_ros.core.observe import observations
 from swazure_ros.core.paths import POLICIES
-from swazure_ros.core.sensor import hop_error
+from swazure_ros.core.sensor import config_dir, hop_error, load_sensor
 from swazure_ros.protocol.discovery import Found, bucket_width, estimate, evaluation_of
 from swazure_ros.protocol.loops import discover
 from swazure_ros.sim.world import WorldSpec
@@ -51,6 +51,17 @@ def test_bucket_width_is_one_hop_or_just_under_the_cheapest_hop(sensor):
     assert 0.98 * cheapest < bucket_width(sensor, 0.5, "least-error") < cheapest
     with pytest.raises(ValueError, match="least-error needs a sensor whose every hop errs"):
         bucket_width(sensor.error_free(), 0.5, "least-error")
+
+
+def test_least_error_refuses_a_sensor_whose_error_crosses_zero_in_its_sweet_range(sensor):
+    # e(t) = 0.01 (t - 7): a sweet hop of 7 cm costs almost nothing, so a run would
+    # take tens of thousands of rounds a hop (issue 36 saw 2,079 rounds).
+    crossing = replace(sensor, error_coefficients=(0.01, -0.07), name="crossing")
+    with pytest.raises(ValueError, match=r"would take about [\d,]+ rounds a hop"):
+        bucket_width(crossing, 0.5, "least-error")
+    assert bucket_width(crossing, 0.5, "shortest-length") > 0
+    for calibrated in ("sensor-wide-calibrated.yaml", "sensor-standard-calibrated.yaml"):
+        assert bucket_width(load_sensor(config_dir() / "cameras" / calibrated), 0.5, "least-error")
 
 
 def test_scene_pairs_get_the_status_of_section_5(sensor):
