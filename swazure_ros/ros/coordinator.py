@@ -142,8 +142,6 @@ class MoveResult:
     timeouts: int = 0  # waits that ended at their deadline (each cost round_timeout s)
 
 
-#: Seconds between reports of the inbound counts on /diagnostics (when they changed).
-DIAGNOSTICS_PERIOD = 1.0
 #: Characters in a host node's name, at most (ROS names are far shorter).
 MAX_NAME = 255
 #: Seconds between the coordinator's looks at its deadlines.
@@ -212,7 +210,6 @@ class Coordinator(SwarmNode):
         )
         self.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS, raw=True)
         self.guard.subscribe(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
-        self.create_timer(DIAGNOSTICS_PERIOD, self.guard.publish)
         # The answer waits for a whole run; meanwhile the coordinator keeps clocking.
         create_deferred_service(
             self, ComputePose, f"~/{COMPUTE_POSE_SERVICE}", self._on_compute_pose

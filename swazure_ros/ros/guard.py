@@ -30,6 +30,8 @@ from rclpy.subscription import Subscription
 from ..core.errors import MessageError
 from .auth import SwarmKey
 
+#: Seconds between a guard's reports on /diagnostics (sent only when its counts changed).
+DIAGNOSTICS_PERIOD = 1.0
 #: Seconds between two warnings about dropped messages of one topic.
 WARN_EVERY = 5.0
 #: The counter of exceptions that were not a check's rejection (a defect of ours).
@@ -88,6 +90,7 @@ class Guard:
         self._warned_at: dict[str, float] = {}
         self._reported = -1
         self._diagnostics = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        node.create_timer(DIAGNOSTICS_PERIOD, self.publish)
 
     @property
     def total_dropped(self) -> int:

@@ -74,8 +74,6 @@ from .world_node import WorldNode
 
 #: Seconds between a host's looks at the graph for its coordinator.
 COORDINATOR_WATCH_PERIOD = 0.5
-#: Seconds between a host's reports of its inbound counts on /diagnostics (when they changed).
-DIAGNOSTICS_PERIOD = 1.0
 #: Path walks a process keeps while they wait for a newer world revision (a heuristic
 #: walks a few paths per group of moves).
 EARLY_WALKS = 4096
@@ -268,7 +266,6 @@ class SwarmHost:
         self.radio = Radio(
             self.host_node, self.replica, self.fls_by_id, self._radio_loss(), self.guard
         )
-        self.host_node.create_timer(DIAGNOSTICS_PERIOD, self.guard.publish)
         # The coordinator's liveness, from the graph like the FLSs' (Coordinator._on_liveness).
         self._coordinator_seen = False
         self.aborted = 0  # ABORTED estimates sent after the coordinator was lost

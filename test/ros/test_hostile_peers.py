@@ -14,6 +14,7 @@ import time
 
 import numpy as np
 import pytest
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from swazure_interfaces.msg import DiscoveryControl, PathOffer
@@ -40,9 +41,16 @@ class Forger:
         self.source, self.target = source, target
         self._offers = self.node.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
         self.node.create_subscription(DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS)
+        # What the swarm reports it dropped, as anyone on the domain sees it.
+        self.diagnostics: dict[str, dict[str, str]] = {}
+        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._thread = threading.Thread(target=self.executor.spin, daemon=True)
+
+    def _on_diagnostics(self, array: DiagnosticArray) -> None:
+        for status in array.status:
+            self.diagnostics[status.hardware_id] = {one.key: one.value for one in status.values}
 
     def _on_control(self, control: DiscoveryControl) -> None:
         if control.command != DiscoveryControl.COMMAND_ROUND:
@@ -106,6 +114,14 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
             ):
                 swarm.spin(0.05)
             result = swarm.run(swarm.coordinator.discover(POLICY, [source], [target]), timeout=120)
+            # The drops are on /diagnostics within a second or two.
+            counter = f"dropped {RADIO_TOPIC}: {dropped_because}"
+            deadline = time.monotonic() + 10
+            while time.monotonic() < deadline and counter not in forger.diagnostics.get(
+                "/swarm/host_0", {}
+            ):
+                swarm.spin(0.05)
+            assert int(forger.diagnostics["/swarm/host_0"][counter]) >= 1, forger.diagnostics
         assert forger.sent >= result.rounds > 0
         (answer,) = result.estimates[source]
         assert answer.status == SWEET_PATH
