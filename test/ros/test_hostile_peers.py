@@ -40,7 +40,9 @@ class Forger:
         self.sent = 0
         self.source, self.target = source, target
         self._offers = self.node.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
-        self.node.create_subscription(DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS)
+        self.controls = self.node.create_subscription(
+            DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS
+        )
         # What the swarm reports it dropped, as anyone on the domain sees it.
         self.diagnostics: dict[str, dict[str, str]] = {}
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
@@ -106,11 +108,12 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
         swarm.wait_until_ready()
         source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world)
         with Forger(domain, source, target, forger_key) as forger:
-            # The forger's publisher and subscription are in the graph before the run.
+            # The forger hears the coordinator's controls (matched, not only in the graph)
+            # and the swarm knows the forger's radio before the run.
             deadline = time.monotonic() + 30
             while time.monotonic() < deadline and not (
                 swarm.host.host_node.count_publishers(f"/swarm/{RADIO_TOPIC}") >= 2
-                and forger.node.count_publishers(f"/swarm/{CONTROL_TOPIC}") >= 1
+                and forger.controls.get_publisher_count() >= 1
             ):
                 swarm.spin(0.05)
             result = swarm.run(swarm.coordinator.discover(POLICY, [source], [target]), timeout=120)
@@ -122,7 +125,7 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
             ):
                 swarm.spin(0.05)
             assert int(forger.diagnostics["/swarm/host_0"][counter]) >= 1, forger.diagnostics
-        assert forger.sent >= result.rounds > 0
+        assert forger.sent >= 1 and result.rounds > 0
         (answer,) = result.estimates[source]
         assert answer.status == SWEET_PATH
         assert answer.path == tuple(int(swarm.world.ids[k]) for k in engine.path(row))
