@@ -164,7 +164,6 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
     S_all phase, whose hops need no camera reading).
     """
     check(message.phase in PHASES, f"unknown phase {message.phase}")
-    check_ids([message.sender_id], swarm, "sender_id")
     count = len(message.source_ids)
     check_size(message.source_ids, len(swarm), "source_ids")
     check(
@@ -173,8 +172,9 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
     )
     check(len(message.vectors) == 3 * count, "not 3 vector values per label")
     check(len(message.path_offsets) == count + 1, "not one more path offset than labels")
-    sources = check_ids(message.source_ids, swarm, "source_ids")
-    check(len(np.unique(sources)) == count, "a source has two labels")
+    sources = np.asarray(message.source_ids, dtype=np.int64)
+    # A sender offers its labels in source order, one a source (PathSearch.offer).
+    check(bool(np.all(np.diff(sources) > 0)), "sources not in increasing order, once each")
     hops = np.asarray(message.hops, dtype=np.int64)
     lengths = check_finite(message.lengths, "lengths")
     errors = check_finite(message.errors, "errors")
@@ -187,7 +187,9 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
         "path offsets do not span path_ids",
     )
     check(bool(np.all(np.diff(offsets) == hops + 1)), "a path is not hops + 1 FLSs long")
-    path_ids = check_ids(message.path_ids, swarm, "path_ids")
+    path_ids = np.asarray(message.path_ids, dtype=np.int64)
+    # One look-up for every id: the sender's, and those of the paths (sources included).
+    check_ids(np.append(path_ids, message.sender_id), swarm, "offer")
     if count:
         starts, ends = path_ids[offsets[:-1]], path_ids[offsets[1:] - 1]
         check(bool(np.all(starts == sources)), "a path does not start at its source")
