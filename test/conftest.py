@@ -6,9 +6,19 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, settings
 
 from swazure_ros.core.geometry import Swarm, make_swarm
 from swazure_ros.core.sensor import Sensor
+
+#: The fuzz tests' hypothesis settings: the same inputs every run (seeded, no example
+#: database), no time limit per example; each test sets its own max_examples.
+FUZZ = settings(
+    deadline=None,
+    derandomize=True,
+    database=None,
+    suppress_health_check=list(HealthCheck),
+)
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"

@@ -97,10 +97,6 @@ class Guard:
         """Messages dropped, every topic and reason."""
         return sum(self.dropped.values())
 
-    def internal(self) -> int:
-        """Exceptions that were not rejections: defects, each logged."""
-        return sum(n for (_, reason), n in self.dropped.items() if reason == INTERNAL)
-
     def wrap(self, topic: str, callback: Callable[[T], Any]) -> Callable[[T], None]:
         """``callback`` for messages of ``topic``, guarded: nothing it raises escapes."""
 

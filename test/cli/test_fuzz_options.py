@@ -9,11 +9,13 @@ from __future__ import annotations
 import json
 
 import yaml
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
 from swazure_ros.cli.main import main
 from swazure_ros.core.sensor import config_dir
+
+from ..conftest import FUZZ
 
 numbers = st.one_of(
     st.sampled_from(["0", "-1", "0.5", "1", "1e300", "-1e300", "nan", "inf", "-inf", "x", ""]),
@@ -30,13 +32,7 @@ clouds = st.one_of(
 )
 
 
-@settings(
-    max_examples=100,
-    deadline=None,
-    derandomize=True,
-    database=None,
-    suppress_health_check=list(HealthCheck),
-)
+@settings(FUZZ, max_examples=100)
 @given(
     cloud=clouds,
     beta=betas,

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
@@ -27,6 +27,8 @@ from swazure_ros.core.errors import SwazureError
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.sensor import config_dir, load_sensor
 
+from ..conftest import FUZZ as BASE_FUZZ
+
 CONFIG = config_dir()
 FILES = {
     "sensor": (CONFIG / "sensor.yaml", load_sensor),
@@ -34,13 +36,7 @@ FILES = {
     "camera": (CONFIG / "cameras" / "rpi-camera-module-3-wide.yaml", load_camera),
     "swarm": (CONFIG / "swarms" / "torus.yaml", load_swarm_file),
 }
-FUZZ = settings(
-    max_examples=150,
-    deadline=None,
-    derandomize=True,
-    database=None,
-    suppress_health_check=[HealthCheck.function_scoped_fixture],
-)
+FUZZ = settings(BASE_FUZZ, max_examples=150)
 
 scalars = st.one_of(
     st.none(),

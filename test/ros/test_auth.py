@@ -6,7 +6,7 @@ import os
 import stat
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given, settings
 from rclpy.serialization import deserialize_message, serialize_message
 from swazure_interfaces.msg import PathOffer, PoseEstimate, PoseEstimates
 
@@ -14,6 +14,7 @@ from swazure_ros.core.errors import MessageError, SwazureError
 from swazure_ros.ros.auth import SwarmKey, content, new_key
 from swazure_ros.ros.keys import read_key, write_key
 
+from ..conftest import FUZZ
 from .fuzz import message
 
 KEY = SwarmKey(new_key())
@@ -65,13 +66,7 @@ def test_garbage_bytes_are_one_message_error():
         KEY.deserialize(b"\x00\x01\x00\x00garbage", PathOffer)
 
 
-@settings(
-    max_examples=200,
-    deadline=None,
-    derandomize=True,
-    database=None,
-    suppress_health_check=list(HealthCheck),
-)
+@settings(FUZZ, max_examples=200)
 @given(first=message(PoseEstimates, IDS), second=message(PoseEstimates, IDS))
 def test_content_differs_whenever_the_messages_do(first, second):
     """Two messages write the same content exactly when every field but auth is equal."""

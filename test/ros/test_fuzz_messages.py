@@ -13,7 +13,7 @@ key could send, so the checks behind the key are what is tested.
 from __future__ import annotations
 
 import numpy as np
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given, settings
 from hypothesis import strategies as st
 from rclpy.serialization import serialize_message
 from swazure_interfaces.msg import (
@@ -44,6 +44,7 @@ from swazure_ros.ros.names import (
 )
 from swazure_ros.sim.world import WorldSpec
 
+from ..conftest import FUZZ
 from .fuzz import message, well_formed_offer
 from .test_discovery import assert_matches_engine, by_pair
 
@@ -107,13 +108,7 @@ def test_generated_messages_stop_nothing_and_change_no_later_answer(domain, tmp_
         ]
         tried = []
 
-        @settings(
-            max_examples=EXAMPLES,
-            deadline=None,
-            derandomize=True,
-            database=None,
-            suppress_health_check=list(HealthCheck),
-        )
+        @settings(FUZZ, max_examples=EXAMPLES)
         @given(data=st.data())
         def throw(data):
             topic, strategy, handler, node = data.draw(st.sampled_from(targets))
@@ -151,13 +146,7 @@ def test_generated_world_and_move_messages_stop_nothing(domain, tmp_path):
         ids = fls_ids(swarm.world)
         taken = []
 
-        @settings(
-            max_examples=300,
-            deadline=None,
-            derandomize=True,
-            database=None,
-            suppress_health_check=list(HealthCheck),
-        )
+        @settings(FUZZ, max_examples=300)
         @given(
             state=message(WorldState, ids),
             moves=message(MoveCommands, ids),
