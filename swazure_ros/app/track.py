@@ -22,6 +22,7 @@ from swazure_interfaces.msg import TrackEstimate
 from swazure_interfaces.srv import TrackTarget
 
 from ..core.errors import SwazureError
+from ..core.frames import to_metres
 from ..core.motion import Motion
 from ..core.tracking import (
     ENDED,
@@ -241,7 +242,12 @@ def run_track(
 
 
 def same_run(first: TrackRun, second: TrackRun) -> bool:
-    """Same relay, statuses, times and predicted states, to the bit."""
+    """Same relay, statuses, times and predicted states, to the bit of the messages.
+
+    TrackEstimate carries metres (REP-103), so states compare as metres: a
+    state read back from a message is its metres times 100, whose metres are
+    the message's again, bit for bit.
+    """
 
     def table(run: TrackRun) -> tuple[list[str], np.ndarray]:
         rows = [
@@ -257,7 +263,9 @@ def same_run(first: TrackRun, second: TrackRun) -> bool:
             )
             for estimate in run.estimates
         ]
-        return [estimate.status for estimate in run.estimates], np.array(rows)
+        table: np.ndarray = np.array(rows).reshape(-1, 11)
+        table[:, 2:] = to_metres(table[:, 2:])
+        return [estimate.status for estimate in run.estimates], table
 
     (first_status, first_rows), (second_status, second_rows) = table(first), table(second)
     return (

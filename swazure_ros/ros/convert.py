@@ -34,7 +34,8 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.camera import Camera
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
-from ..core.observe import NeighbourSets
+from ..core.frames import METRES_PER_CM, fls_frame, to_centimetres, to_metres
+from ..core.observe import Measurement, NeighbourSets
 from ..core.tracking import RELAY_MESSAGES, RELAY_OK, MotionEstimate, TrackState
 from ..protocol.discovery import (
     END,
@@ -52,8 +53,8 @@ from ..protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
 from ..protocol.plausible import implausible
 from ..protocol.radio import Ack
 from ..protocol.tracking import START_RELAY, STOP_RELAY, RelayRequest, Sample, TrackReport
-from ..sim.world import Measurement, World
-from ..view.scene import METRES_PER_CM, MOVE_COLOUR, SCENE_FRAME, Scene
+from ..sim.world import World
+from ..view.scene import MOVE_COLOUR, SCENE_FRAME, Scene
 from .guard import check, check_finite, check_ids, check_size
 from .names import (
     POLICY_CODES,
@@ -69,15 +70,15 @@ IntArray = NDArray[np.int64]
 
 
 def measurements_message(fls_id: int, measurement: Measurement, stamp: Time) -> Measurements:
-    """One FLS's camera measurements as a Measurements message."""
+    """One FLS's camera measurements as a Measurements message, in metres in the FLS's frame."""
     message = Measurements(source_id=fls_id)
     message.header.stamp = stamp
-    message.header.frame_id = node_name(fls_id)
+    message.header.frame_id = fls_frame(fls_id)
     for target, range_class, vector, tracking in zip(
         measurement.target_ids.tolist(),
         measurement.range_class.tolist(),
-        measurement.vector.tolist(),
-        measurement.tracking.tolist(),
+        to_metres(measurement.vector).tolist(),
+        to_metres(measurement.tracking).tolist(),
     ):
         pose = RelativePose(
             source_id=fls_id,
@@ -311,6 +312,11 @@ def array3(vector: Vector3) -> FloatArray:
     return np.array([vector.x, vector.y, vector.z])
 
 
+def centimetres(vector: Vector3) -> FloatArray:
+    """(3,) array, cm, of a Vector3 in metres."""
+    return to_centimetres(array3(vector))
+
+
 def to_seconds(stamp: Time) -> float:
     """Seconds of a builtin_interfaces Time, through whole nanoseconds as the clock counts."""
     return stamp_nanoseconds(stamp) / 1e9
@@ -325,25 +331,29 @@ def track_estimate_message(report: TrackReport) -> TrackEstimate:
     """A source's estimate of its target's motion as a TrackEstimate message."""
     source, target, estimate = report.source, report.target, report.estimate
     kalman, filtered = estimate.kalman, estimate.filtered
+
+    def metres(values: FloatArray | None) -> Vector3:
+        return vector3(None if values is None else to_metres(values))
+
     message = TrackEstimate(
         source_id=source,
         relay_id=estimate.relay,
         target_id=target,
         status=TRACK_STATE_CODES[estimate.status],
         model=TRACK_MODEL_CODES[report.model],
-        raw_position=vector3(estimate.raw),
-        position=vector3(kalman and kalman.position),
-        velocity=vector3(kalman and kalman.velocity),
-        acceleration=vector3(kalman and kalman.acceleration),
-        filtered_position=vector3(filtered and filtered.position),
-        filtered_velocity=vector3(filtered and filtered.velocity),
-        filtered_acceleration=vector3(filtered and filtered.acceleration),
-        difference_velocity=vector3(estimate.difference_velocity),
-        difference_acceleration=vector3(estimate.difference_acceleration),
+        raw_position=metres(estimate.raw),
+        position=metres(kalman and kalman.position),
+        velocity=metres(kalman and kalman.velocity),
+        acceleration=metres(kalman and kalman.acceleration),
+        filtered_position=metres(filtered and filtered.position),
+        filtered_velocity=metres(filtered and filtered.velocity),
+        filtered_acceleration=metres(filtered and filtered.acceleration),
+        difference_velocity=metres(estimate.difference_velocity),
+        difference_acceleration=metres(estimate.difference_acceleration),
         message=estimate.message,
     )
     message.header.stamp = to_stamp(estimate.time)
-    message.header.frame_id = node_name(source)
+    message.header.frame_id = fls_frame(source)
     if np.isfinite(estimate.sample_time):
         message.sample_stamp = to_stamp(estimate.sample_time)
     return message
@@ -358,9 +368,9 @@ def motion_estimate(message: TrackEstimate) -> MotionEstimate:
             return None
         return TrackState(
             at,
-            array3(getattr(message, f"{prefix}position")),
-            array3(getattr(message, f"{prefix}velocity")),
-            array3(getattr(message, f"{prefix}acceleration")),
+            centimetres(getattr(message, f"{prefix}position")),
+            centimetres(getattr(message, f"{prefix}velocity")),
+            centimetres(getattr(message, f"{prefix}acceleration")),
         )
 
     present = to_seconds(message.header.stamp)
@@ -371,11 +381,11 @@ def motion_estimate(message: TrackEstimate) -> MotionEstimate:
         TRACK_STATE_NAMES[message.status],
         present,
         sample_time,
-        array3(message.raw_position),
+        centimetres(message.raw_position),
         state(present, ""),
         state(sample_time, "filtered_"),
-        array3(message.difference_velocity),
-        array3(message.difference_acceleration),
+        centimetres(message.difference_velocity),
+        centimetres(message.difference_acceleration),
         message.message,
         int(message.relay_id),
     )

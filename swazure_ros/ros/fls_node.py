@@ -72,7 +72,7 @@ from ..core.camera import (
     render,
 )
 from ..core.errors import SwazureError, UnknownFlsError
-from ..core.observe import NeighbourSets
+from ..core.observe import Measurement, NeighbourSets
 from ..core.sensor import config_dir
 from ..core.tracking import TRACK_SETTINGS, FloatArray, TrackConfig, TrackingError
 from ..protocol.discovery import Broadcast, Control, Participant, Report, RoundOffers
@@ -86,7 +86,6 @@ from ..protocol.tracking import (
     TrackSource,
 )
 from ..sim.replica import WorldReplica
-from ..sim.world import Measurement
 from .auth import SwarmKey
 from .convert import (
     camera_info_message,

@@ -15,10 +15,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.motion import Motion
-from ..core.observe import LocalView, NeighbourSets
+from ..core.observe import LocalView, Measurement, NeighbourSets
 from ..core.sensor import Sensor
 from ..core.tracking import RelaySenses
-from .world import Measurement, World
+from .world import World
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]

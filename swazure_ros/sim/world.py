@@ -29,6 +29,7 @@ from ..core.evaluate import (
 from ..core.geometry import Swarm, make_swarm
 from ..core.observe import (
     LocalView,
+    Measurement,
     NeighbourSets,
     Observations,
     local_view,
@@ -41,25 +42,6 @@ from ..core.sight import Grid, build_grid
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
-
-
-@dataclass(frozen=True)
-class Measurement:
-    """One FLS's camera measurements: target ids, range classes, vectors (cm), t' (cm)."""
-
-    target_ids: IntArray  # (K,)
-    range_class: NDArray[np.int8]  # (K,), SWEET or DECAYING
-    vector: FloatArray  # (K, 3)
-    tracking: FloatArray  # (K,)
-
-    def same_as(self, other: Measurement) -> bool:
-        """True when ``other`` measures the same FLSs the same way, to the bit."""
-        return (
-            np.array_equal(self.target_ids, other.target_ids)
-            and np.array_equal(self.range_class, other.range_class)
-            and np.array_equal(self.vector, other.vector)
-            and np.array_equal(self.tracking, other.tracking)
-        )
 
 
 @dataclass(frozen=True)

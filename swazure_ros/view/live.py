@@ -16,7 +16,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.errors import SwazureError
-from .scene import METRES_PER_CM, MOVE_COLOUR, SCENE_FRAME, Scene
+from ..core.frames import METRES_PER_CM
+from .scene import MOVE_COLOUR, SCENE_FRAME, Scene
 
 
 def _quaternion_from_x(direction: NDArray[np.float64]) -> tuple[float, float, float, float]:

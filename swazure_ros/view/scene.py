@@ -15,14 +15,13 @@ from numpy.typing import NDArray
 
 from ..core.errors import SwazureError, UnknownFlsError
 from ..core.evaluate import SWEET_PATH, Evaluation, Neighbourhood
+from ..core.frames import SWARM_FRAME
 from ..core.heuristics import HeuristicResult
 from ..core.sensor import BLIND, DECAYING, SWEET
 
 FloatArray = NDArray[np.float64]
-#: Viewers (RViz, Foxglove) work in metres (REP 103); the swarm's frame is in cm.
-METRES_PER_CM = 0.01
 #: The frame the viewers draw the scene in.
-SCENE_FRAME = "swarm"
+SCENE_FRAME = SWARM_FRAME
 Colour = tuple[float, float, float, float]
 #: A label and its RGBA colour.
 LegendEntry = tuple[str, Colour]

@@ -9,6 +9,7 @@ import pytest
 
 from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate
 from swazure_ros.core.heuristics import run_technique
+from swazure_ros.core.observe import Measurement
 from swazure_ros.core.sensor import DECAYING, SWEET
 from swazure_ros.protocol.discovery import evaluation_of
 from swazure_ros.protocol.loops import discover
@@ -26,7 +27,7 @@ from swazure_ros.protocol.moves import (
     step_walk,
     walk_estimate,
 )
-from swazure_ros.sim.world import Measurement, WorldSpec
+from swazure_ros.sim.world import WorldSpec
 
 
 def camera(ids, range_class, vectors):

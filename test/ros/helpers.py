@@ -8,6 +8,7 @@ import numpy as np
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from swazure_ros.core.evaluate import neighbourhood
+from swazure_ros.core.frames import to_centimetres
 from swazure_ros.core.sensor import BLIND, DECAYING, SWEET, measured_vectors
 
 
@@ -51,9 +52,9 @@ def spin_until(executor, condition, timeout=60.0):
 
 
 def received_vectors(message):
-    """{target id: (3,) vector} of a Measurements message."""
+    """{target id: (3,) vector, cm} of a Measurements message (which carries metres)."""
     return {
-        pose.target_id: np.array([pose.vector.x, pose.vector.y, pose.vector.z])
+        pose.target_id: to_centimetres(np.array([pose.vector.x, pose.vector.y, pose.vector.z]))
         for pose in message.poses
     }
 

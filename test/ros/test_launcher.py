@@ -246,6 +246,16 @@ def test_real_ros2_cli_sees_nodes_topic_and_service(ros2_cli, running_swarm):
     )
     assert echo.returncode == 0, echo.stderr
     assert "source_id:" in echo.stdout and "vector:" in echo.stdout
+    # In metres (REP-103), in the measuring FLS's frame: the helix's neighbours are
+    # centimetres apart, so every tracking distance is a small fraction of a metre.
+    distances = [
+        float(line.split(":")[1])
+        for line in echo.stdout.splitlines()
+        if "tracking_distance:" in line
+    ]
+    assert distances and all(0 < distance < 0.5 for distance in distances), echo.stdout
+    source = next(line for line in echo.stdout.splitlines() if line.startswith("source_id:"))
+    assert f"frame_id: fls_{source.split(':')[1].strip()}" in echo.stdout, echo.stdout
     call = ros2(
         "service",
         "call",

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 from swazure_interfaces.srv import TrackTarget
 
-from swazure_ros.app.track import TrackSession, run_track
+from swazure_ros.app.track import TrackSession, run_track, same_run
 from swazure_ros.core.clouds import Cloud
+from swazure_ros.core.frames import to_metres
 from swazure_ros.core.motion import Motion, parse_trajectory
 from swazure_ros.core.sensor import load_sensor
 from swazure_ros.core.tracking import (
@@ -42,15 +43,21 @@ def test_a_track_over_ros_equals_the_core_loop(world, domain):
     )
     assert ours.relay == core.relay == 1
     assert len(ours.estimates) == len(core.estimates) == 31
+    # The messages carry metres: each state equals the loop's in metres, to the bit.
     for got, expected in zip(ours.estimates, core.estimates, strict=True):
         assert got.status == expected.status == TRACKING
         assert got.time == expected.time
         assert got.sample_time == expected.sample_time
-        assert np.array_equal(got.kalman.position, expected.kalman.position)
-        assert np.array_equal(got.kalman.acceleration, expected.kalman.acceleration)
+        assert np.array_equal(to_metres(got.kalman.position), to_metres(expected.kalman.position))
         assert np.array_equal(
-            got.difference_velocity, expected.difference_velocity, equal_nan=True
+            to_metres(got.kalman.acceleration), to_metres(expected.kalman.acceleration)
         )
+        assert np.array_equal(
+            to_metres(got.difference_velocity),
+            to_metres(expected.difference_velocity),
+            equal_nan=True,
+        )
+    assert same_run(ours, core)
 
 
 def tick_until(session, seconds, step):
@@ -146,9 +153,9 @@ def test_a_handover_to_another_relay_over_ros_equals_the_core_loop(domain):
     assert [estimate.sample_time for estimate in ours.estimates] == [
         estimate.sample_time for estimate in core.estimates
     ]
-    assert np.array_equal(
-        [estimate.kalman.velocity for estimate in ours.estimates],
-        [estimate.kalman.velocity for estimate in core.estimates],
+    assert np.array_equal(  # in metres, as the messages carry them
+        to_metres(np.array([estimate.kalman.velocity for estimate in ours.estimates])),
+        to_metres(np.array([estimate.kalman.velocity for estimate in core.estimates])),
     )
 
 

@@ -15,10 +15,11 @@ from visualization_msgs.msg import Marker, MarkerArray
 from websockets.sync.client import connect
 
 from swazure_ros.app.swarm import RunningSwarm, SwarmConfig, ViewConfig
+from swazure_ros.core.frames import METRES_PER_CM
 from swazure_ros.ros.names import MOVE_QOS, SCENE_QOS
 from swazure_ros.ros.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec
-from swazure_ros.view.scene import METRES_PER_CM, MOVE_COLOUR
+from swazure_ros.view.scene import MOVE_COLOUR
 
 WORLD = WorldSpec("helix:60", beta=0.5)
 #: The Foxglove SDK's WebSocket subprotocol; binary frames of op 1 carry message data.
