@@ -77,6 +77,9 @@ class SwarmConfig:
     #: False: no key at all; any peer on the domain may then speak for the swarm, and
     #: only what the FLSs can check of a message protects them (docs/security.md).
     authenticate: bool = True
+    #: Every FLS node offers parameter services (``ros2 param``): six more services a
+    #: node, which a packed swarm of thousands pays for in bring-up (BENCHMARKS.md).
+    parameter_services: bool = False
 
 
 @dataclass(frozen=True)
@@ -152,6 +155,7 @@ def _host_share(
             parameters=config.parameters,
             fls_parameters=config.fls_parameters,
             key=SwarmKey(key),
+            parameter_services=config.parameter_services,
         )
         host.create_fls_nodes(lambda count: reports.put((CREATED, index, count)))
         if not host.spin_until_discovered(config.discovery_timeout):
@@ -272,6 +276,7 @@ class RunningSwarm:
             parameters=self.config.parameters,
             fls_parameters=self.config.fls_parameters,
             key=self.key,
+            parameter_services=self.config.parameter_services,
         )
 
         def created(count: int) -> None:

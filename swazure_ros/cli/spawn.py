@@ -171,6 +171,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="run without a key: any peer on the ROS domain may then speak for the swarm "
         "(for tools that publish into it, such as ros2 topic pub; docs/security.md)",
     )
+    parser.add_argument(
+        "--parameter-services",
+        action="store_true",
+        help="every FLS node answers `ros2 param` (six more services a node: slower "
+        "bring-up of a large swarm; BENCHMARKS.md)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_swarm_file_argument(parser)
 
@@ -245,6 +251,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         record=None if args.record is None else str(args.record),
         key=swarm_key(args.key_file),
         authenticate=not args.no_key,
+        parameter_services=args.parameter_services,
         view=ViewConfig(
             args.view_port, args.view_colour, args.view_fls, args.policy, args.view_pairs
         )

@@ -41,6 +41,8 @@ a thousand times.
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -63,20 +65,13 @@ from swazure_interfaces.msg import (
 )
 from swazure_interfaces.srv import GetNeighbours, TrackTarget
 
-from ..core.camera import (
-    Camera,
-    MarkerPose,
-    camera_seeing,
-    full_image,
-    load_camera,
-    render,
-)
-from ..core.errors import SwazureError, UnknownFlsError
+from ..core.errors import SwazureError
+from ..core.frames import camera_optical_frame
 from ..core.observe import Measurement, NeighbourSets
-from ..core.sensor import config_dir
-from ..core.tracking import TRACK_SETTINGS, FloatArray, TrackConfig, TrackingError
+from ..core.tracking import TRACK_SETTINGS, FloatArray, RelaySenses, TrackConfig, TrackingError
 from ..protocol.discovery import Broadcast, Control, Participant, Report, RoundOffers
 from ..protocol.moves import WALKING, Walk, next_hop, step_walk, walk_estimate
+from ..protocol.senses import Senses
 from ..protocol.tracking import (
     STOP_RELAY,
     RelayRequest,
@@ -85,7 +80,6 @@ from ..protocol.tracking import (
     TrackReport,
     TrackSource,
 )
-from ..sim.replica import WorldReplica
 from .auth import SwarmKey
 from .convert import (
     camera_info_message,
@@ -117,6 +111,17 @@ from .names import (
 )
 from .runtime import ParameterError, SwarmNode
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from ..core.camera import Camera
+
+
+def _no_relay_senses() -> RelaySenses:
+    raise TrackingError(
+        "this FLS cannot choose relays: tracking needs the simulated world (swazure spawn)"
+    )
+
 
 class Transmitter:
     """The radio transmitter of a process's FLSs: one publisher per shared discovery topic.
@@ -146,27 +151,44 @@ class Transmitter:
         return len(data)
 
 
+#: What a simulated camera shows aimed at a neighbour: (neighbour id, frame number) ->
+#: the camera and its whole image (height, width), uint8.
+Eyes = Callable[[int, int], "tuple[Camera, NDArray[np.uint8]]"]
+
+
 class FlsNode(SwarmNode):
-    """One Flying Light Speck."""
+    """One Flying Light Speck.
+
+    It knows the world only through ``senses`` (:class:`~..protocol.senses.Senses`):
+    the simulator's in packed mode, or its own camera's detections. ``relay_senses``
+    chooses relays and takes relayed samples for tracking, where the senses can
+    (the simulator); ``eyes`` render what its camera sees, for ``camera_view``.
+    """
 
     def __init__(
         self,
         fls_id: int,
-        senses: WorldReplica,
+        senses: Senses,
         *,
         namespace: str = "swarm",
         context: Context | None = None,
         transmitter: Transmitter | None = None,
         parameter_overrides: list[Parameter] | None = None,
+        relay_senses: Callable[[], RelaySenses] | None = None,
+        eyes: Eyes | None = None,
+        parameter_services: bool = False,
     ) -> None:
         super().__init__(
             node_name(fls_id),
             namespace=namespace,
             context=context,
             parameter_overrides=parameter_overrides,
+            parameter_services=parameter_services,
         )
         self.fls_id = fls_id
         self._senses = senses
+        self._relay_senses = relay_senses or _no_relay_senses
+        self._render = eyes
         self.publish_period = self.declare_seconds(
             "publish_period", 1.0, "seconds between camera frames: a changed measurement is sent"
         )
@@ -194,8 +216,8 @@ class FlsNode(SwarmNode):
         self.tracker = TrackSource(
             fls_id,
             self.track_config,
-            lambda target, seconds: senses.senses.choose_relay(fls_id, target, seconds),
-            lambda target, relay, seconds: senses.senses.next_relay(
+            lambda target, seconds: self._relay_senses().choose_relay(fls_id, target, seconds),
+            lambda target, relay, seconds: self._relay_senses().next_relay(
                 fls_id, target, relay, seconds
             ),
         )
@@ -210,10 +232,9 @@ class FlsNode(SwarmNode):
         # of FLSs would otherwise wake a process thousands of times a second.
         self._frames = self.create_timer(self.publish_period, self._on_frame)
         self._frames_stopped = False
-        self._eyes: tuple[Camera, Publisher, Publisher] | None = None
+        self._eyes: tuple[Publisher, Publisher] | None = None
         if self.camera_view >= 0:
             self._eyes = (
-                self._camera(),
                 self.create_publisher(Image, f"~/{CAMERA_IMAGE_TOPIC}", 1),
                 self.create_publisher(CameraInfo, f"~/{CAMERA_INFO_TOPIC}", 1),
             )
@@ -254,42 +275,25 @@ class FlsNode(SwarmNode):
                 f"{self.get_fully_qualified_name()}: camera_view names this FLS itself"
             )
         if value >= 0:
-            try:
-                self._senses.world.index(value)
-            except UnknownFlsError as err:
+            if self._render is None:
                 raise ParameterError(
-                    f"{self.get_fully_qualified_name()}: camera_view: {err}"
-                ) from err
+                    f"{self.get_fully_qualified_name()}: camera_view needs the simulated "
+                    "camera (an FLS of `swazure spawn`); this FLS's senses cannot render"
+                )
+            if value not in self._senses.ids:
+                raise ParameterError(
+                    f"{self.get_fully_qualified_name()}: camera_view: no FLS {value} "
+                    f"in this swarm of {len(self._senses.ids)} FLSs"
+                )
         return int(value)
 
-    def _camera(self) -> Camera:
-        """The sensor's rendering camera, or the wide lens camera the published model describes."""
-        sensor_camera = self._senses.world.sensor.camera
-        if sensor_camera is not None:
-            return sensor_camera
-        return load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
-
     def _on_camera_frame(self) -> None:
-        assert self._eyes is not None
-        camera, images, infos = self._eyes
-        world = self._senses.world
-        offset = world.position(self.camera_view) - world.position(self.fls_id)
-        tracking_mm = 10.0 * (float(np.linalg.norm(offset)) - 2.0 * world.swarm.radius)
-        # One stream per frame: the same swarm shows the same frames.
-        seed = (world.sensor.camera_seed, self.fls_id, self.camera_view, self.frames_shown)
+        assert self._eyes is not None and self._render is not None
+        images, infos = self._eyes
+        camera, image = self._render(self.camera_view, self.frames_shown)
         self.frames_shown += 1
         stamp = self.get_clock().now().to_msg()
-        frame_id = f"{node_name(self.fls_id)}_camera"
-        if tracking_mm > camera.focal_length_mm:
-            # The neighbour's own marker, as the sensor's measurements render it.
-            seen = camera_seeing(
-                camera, world.sensor.camera_markers, world.index(self.camera_view)
-            )
-            image = full_image(
-                seen, render(seen, MarkerPose(tracking_mm), np.random.default_rng(seed))
-            )
-        else:  # touching: the marker covers the lens
-            image = np.zeros((camera.height, camera.width), np.uint8)
+        frame_id = camera_optical_frame(self.fls_id)
         images.publish(image_message(image, stamp, frame_id))
         infos.publish(camera_info_message(camera, stamp, frame_id))
 
@@ -337,7 +341,7 @@ class FlsNode(SwarmNode):
     def _sense(self) -> tuple[Measurement, NeighbourSets]:
         # Lazily, once per revision: while a heuristic moves FLSs, revisions come
         # faster than anyone reads.
-        revision = self._senses.world.revision
+        revision = self._senses.revision
         if self._sensed is None or self._sensed[0] != revision:
             self._sensed = (
                 revision,
@@ -429,7 +433,7 @@ class FlsNode(SwarmNode):
         return self.get_clock().now().nanoseconds
 
     def _sense_for_relay(self, source: int, target: int, seconds: float) -> tuple[int, FloatArray]:
-        return self._senses.senses.track_sample(source, self.fls_id, target, seconds)
+        return self._relay_senses().track_sample(source, self.fls_id, target, seconds)
 
     def _on_track(
         self, request: TrackTarget.Request, response: TrackTarget.Response

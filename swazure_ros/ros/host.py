@@ -13,6 +13,7 @@ import re
 import time
 from collections import deque
 from collections.abc import Callable, Sequence
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -37,6 +38,7 @@ from ..protocol.moves import Walk
 from ..protocol.plausible import round_labels_check
 from ..protocol.radio import Ack, RadioHub, RadioLoss
 from ..protocol.rounds import Absences
+from ..protocol.senses import Senses
 from ..sim.replica import WorldReplica
 from ..sim.world import World
 from .auth import SwarmKey
@@ -95,20 +97,20 @@ class Radio:
 
     def __init__(
         self,
-        node: SwarmNode,
-        replica: WorldReplica,
+        node: Node,
+        senses: Senses,
         fls_nodes: dict[int, FlsNode],
         loss: RadioLoss | None = None,
         guard: Guard | None = None,
     ) -> None:
         self._node = node
-        self._replica = replica
+        self._senses = senses
         self._fls = fls_nodes
         self._hub = RadioHub(
             fls_nodes.keys(),
             loss,
-            lambda fls_id: replica.view(fls_id).other.astype(np.int64),
-            round_labels_check(self._positions, replica.sensor, replica.radius),
+            lambda fls_id: senses.view(fls_id).other.astype(np.int64),
+            round_labels_check(senses.positions, senses.sensor, senses.radius),
         )
         self.controls_heard = 0  # a control is a sure sign that a coordinator is there
         self.last_control_at = float("-inf")  # monotonic s
@@ -122,7 +124,7 @@ class Radio:
         # Walks that must wait for a newer world revision, the oldest dropped first.
         self._early_walks: deque[Walk] = deque(maxlen=EARLY_WALKS)
         self._subscribe(PathWalk, WALKS_TOPIC, self._on_walk)
-        replica.on_revision.append(self._take_early_walks)
+        senses.on_revision.append(self._take_early_walks)
         self._subscribe(TrackRequest, TRACK_REQUESTS_TOPIC, self._on_track_request)
         self._subscribe(TrackSample, TRACK_SAMPLES_TOPIC, self._on_track_sample)
 
@@ -131,7 +133,7 @@ class Radio:
 
     @property
     def _swarm(self) -> IntArray:
-        return self._replica.world.ids
+        return self._senses.ids
 
     def coordinator_lost(self) -> int:
         """The coordinator left mid-run: every local FLS drops its runs, sources report ABORTED.
@@ -152,11 +154,6 @@ class Radio:
         node = self._fls.get(sample.source)
         if node is not None:
             node.on_track_sample(sample)
-
-    def _positions(self, fls_ids: IntArray) -> FloatArray:
-        """Where FLSs ``fls_ids`` are in this process's world revision, (K, 3), cm."""
-        world = self._replica.world
-        return world.swarm.points[world.indices(fls_ids)]
 
     def _on_control(self, message: DiscoveryControl) -> None:
         control = control_from_message(message, self._swarm)
@@ -204,7 +201,7 @@ class Radio:
         node = self._fls.get(walk.at)
         if node is None:
             return  # another process's FLS, or a stopped one
-        if walk.revision > self._replica.world.revision:
+        if walk.revision > self._senses.revision:
             self._early_walks.append(walk)
             return
         onward = node.on_walk(walk)
@@ -236,9 +233,12 @@ class SwarmHost:
         parameters: dict[str, object] | None = None,
         fls_parameters: dict[int, dict[str, object]] | None = None,
         key: SwarmKey | None = None,
+        parameter_services: bool = False,
     ) -> None:
         self.context = context
         self.namespace = namespace.strip("/")
+        #: Every FLS node answers ``ros2 param``: six services more a node.
+        self.parameter_services = parameter_services
         self.fls_ids = [int(fls_id) for fls_id in fls_ids]
         self.swarm_size = len(world.ids) if swarm_size is None else swarm_size
         self.replica = WorldReplica(world, motion)
@@ -359,6 +359,9 @@ class SwarmHost:
                 context=self.context,
                 transmitter=self.transmitter,
                 parameter_overrides=[*self._overrides, *self._fls_overrides.get(fls_id, [])],
+                relay_senses=lambda: self.replica.relay_senses,
+                eyes=partial(self.replica.camera_image, fls_id),
+                parameter_services=self.parameter_services,
             )
             self.fls_nodes.append(node)
             self.fls_by_id[fls_id] = node

@@ -3,9 +3,9 @@
 A process of a swarm owns one :class:`~rclpy.context.Context`
 (:func:`init_context`), never the global one, so that tests and tools can
 run several swarms side by side. Its nodes are :class:`SwarmNode`\\ s:
-without a rosout publisher, parameter services and the type description
-service, because each endpoint costs discovery time in a swarm of thousands
-of nodes.
+without a rosout publisher and the type description service, and with
+parameter services only where asked, because each endpoint costs discovery
+time in a swarm of thousands of nodes.
 """
 
 from __future__ import annotations
@@ -47,7 +47,13 @@ MAX_SECONDS = 86400.0
 
 
 class SwarmNode(Node):
-    """A node of a swarm: no rosout, no parameter services, no type description service."""
+    """A node of a swarm: no rosout, no type description service, parameter services if asked.
+
+    A process that hosts one node (an FLS of its own, the world, the
+    coordinator) turns its parameter services on, so that ``ros2 param``
+    answers; a packed process of hundreds of FLSs leaves them off unless asked
+    (``parameter_services``): they are six services a node (docs/swarm.md).
+    """
 
     def __init__(
         self,
@@ -56,6 +62,7 @@ class SwarmNode(Node):
         namespace: str = "",
         context: Context | None = None,
         parameter_overrides: list[Parameter] | None = None,
+        parameter_services: bool = False,
     ) -> None:
         super().__init__(
             name,
@@ -63,7 +70,7 @@ class SwarmNode(Node):
             context=context,
             parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE, *(parameter_overrides or [])],
             enable_rosout=False,
-            start_parameter_services=False,
+            start_parameter_services=parameter_services,
         )
 
     def declare_value(self, name: str, default: Any, description: str) -> Any:

@@ -10,15 +10,19 @@ where the revision puts them, on the ROS clock (simulated time in a track run).
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..core.motion import Motion
 from ..core.observe import LocalView, Measurement, NeighbourSets
-from ..core.sensor import Sensor
+from ..core.sensor import Sensor, config_dir
 from ..core.tracking import RelaySenses
 from .world import World
+
+if TYPE_CHECKING:
+    from ..core.camera import Camera
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -57,12 +61,26 @@ class WorldReplica:
         return self.world.swarm.radius
 
     @property
+    def ids(self) -> IntArray:
+        """(N,) the swarm's FLS ids, sorted."""
+        return self.world.ids
+
+    @property
+    def revision(self) -> int:
+        """The world revision this process has."""
+        return self.world.revision
+
+    def positions(self, fls_ids: IntArray) -> FloatArray:
+        """(K, 3) where FLSs ``fls_ids`` are in this process's revision, cm."""
+        return self.world.swarm.points[self.world.indices(fls_ids)]
+
+    @property
     def id_space(self) -> int:
         """One more than the largest FLS id."""
         return self.world.id_space
 
     @property
-    def senses(self) -> RelaySenses:
+    def relay_senses(self) -> RelaySenses:
         """Relay choice and samples with every FLS where it flies at a time."""
         world, motion = self.world, self.motion
         return RelaySenses(
@@ -70,6 +88,32 @@ class WorldReplica:
             world.swarm.radius,
             world.ids,
             lambda seconds: motion.points(world.swarm.points, world.ids, seconds),
+        )
+
+    def camera_image(
+        self, fls_id: int, neighbour: int, frame: int
+    ) -> tuple[Camera, NDArray[np.uint8]]:
+        """What FLS ``fls_id``'s camera sees aimed at ``neighbour``'s marker: camera, image.
+
+        The sensor's rendering camera, or the wide lens camera the published
+        model describes; frame ``frame`` of a stream seeded by the pair, so
+        that the same swarm shows the same frames.
+        """
+        from ..core.camera import MarkerPose, camera_seeing, full_image, load_camera, render
+
+        world = self.world
+        camera = world.sensor.camera or load_camera(
+            config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml"
+        )
+        offset = world.position(neighbour) - world.position(fls_id)
+        tracking_mm = 10.0 * (float(np.linalg.norm(offset)) - 2.0 * world.swarm.radius)
+        if tracking_mm <= camera.focal_length_mm:  # touching: the marker covers the lens
+            return camera, np.zeros((camera.height, camera.width), np.uint8)
+        seed = (world.sensor.camera_seed, fls_id, neighbour, frame)
+        # The neighbour's own marker, as the sensor's measurements render it.
+        seen = camera_seeing(camera, world.sensor.camera_markers, world.index(neighbour))
+        return camera, full_image(
+            seen, render(seen, MarkerPose(tracking_mm), np.random.default_rng(seed))
         )
 
     def apply(self, world: World) -> None:

@@ -85,7 +85,7 @@ def test_an_fls_shows_what_its_camera_sees_aimed_at_a_neighbour(domain):
             "mono8",
             1280,
         )
-        assert image.header.frame_id == "fls_0_camera" == info.header.frame_id
+        assert image.header.frame_id == "fls_0_camera_optical" == info.header.frame_id
         assert info.k[0] == pytest.approx(836.8) and (info.width, info.height) == (1280, 720)
         pixels = np.frombuffer(bytes(image.data), np.uint8).reshape(720, 1280)
         detector = cv2.aruco.ArucoDetector(

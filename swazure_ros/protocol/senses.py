@@ -1,0 +1,239 @@
+"""What an FLS senses: the interface an FLS node knows the world through.
+
+An FLS knows its world through two things only: the swarm description it is
+given (its id, the points of the shape the swarm displays, the sensor; a
+display's shape is common knowledge of its FLSs) and what its own camera
+detects. :class:`Senses` is that interface. Two kinds serve it:
+
+- the simulator's :class:`~swazure_ros.sim.replica.WorldReplica`, which
+  senses for every FLS of a process from ground truth (the packed mode);
+- :class:`DetectedSenses`, one FLS's own: ranging from the shape's points and
+  camera readings from the detections its camera publishes (an FLS in its own
+  process, fed by the simulated sensor or by an ArUco detector on a camera).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.errors import UnknownFlsError
+from ..core.observe import LocalView, Measurement, NeighbourSets
+from ..core.sensor import BLIND, DECAYING, SWEET, Sensor
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+class Senses(Protocol):
+    """The camera and radio of the FLSs a process hosts, as their nodes use them."""
+
+    #: FLSs this process saw leave the ROS graph (liveness).
+    gone: set[int]
+    #: Called after the senses change (a new world revision, new detections).
+    on_revision: list[Callable[[], None]]
+
+    @property
+    def sensor(self) -> Sensor:
+        """The sensor every FLS measures with."""
+        ...
+
+    @property
+    def radius(self) -> float:
+        """The FLSs' radius, cm."""
+        ...
+
+    @property
+    def ids(self) -> IntArray:
+        """(N,) the swarm's FLS ids, sorted."""
+        ...
+
+    @property
+    def id_space(self) -> int:
+        """One more than the largest FLS id."""
+        ...
+
+    @property
+    def revision(self) -> int:
+        """Counts changes of what the FLSs sense; walks wait for the revision they name."""
+        ...
+
+    def measurement(self, fls_id: int, of: list[int] | None = None) -> Measurement:
+        """What FLS ``fls_id``'s camera measures now (of FLSs ``of`` only)."""
+        ...
+
+    def neighbours(self, fls_id: int) -> NeighbourSets:
+        """FLS ``fls_id``'s neighbours as it knows them now, FLS ids."""
+        ...
+
+    def view(self, fls_id: int) -> LocalView:
+        """What FLS ``fls_id`` knows of its neighbours, for path discovery."""
+        ...
+
+    def positions(self, fls_ids: IntArray) -> FloatArray:
+        """(K, 3) where FLSs ``fls_ids`` are as far as this process knows, cm."""
+        ...
+
+
+def classify(sensor: Sensor, tracking: FloatArray) -> NDArray[np.int8]:
+    """Range classes (K,) of tracking distances (K,), cm."""
+    return np.asarray(sensor.classify(tracking), dtype=np.int8)
+
+
+class DetectedSenses:
+    """One FLS's senses from the shape's points and its own camera's detections.
+
+    Ranging (which FLSs are blind, sweet or decaying neighbours, and how far)
+    comes from the points each FLS is assigned, ``points`` (N, 3) cm of FLSs
+    ``ids`` (N,), sorted; camera readings come from :meth:`detect`. A marker
+    reads as the FLS whose assigned place is nearest the measured vector
+    among those that carry it (``marker_of``): a camera's dictionary is
+    smaller than a swarm.
+    """
+
+    def __init__(
+        self,
+        fls_id: int,
+        ids: IntArray,
+        points: FloatArray,
+        sensor: Sensor,
+        radius: float,
+        marker_of: Callable[[IntArray], IntArray] | None = None,
+    ) -> None:
+        self.fls_id = fls_id
+        self._ids = np.asarray(ids, dtype=np.int64)
+        self._points = np.asarray(points, dtype=np.float64)
+        self._sensor = sensor
+        self._radius = radius
+        self._marker_of = marker_of or (lambda fls_ids: fls_ids)
+        self.gone: set[int] = set()
+        self.on_revision: list[Callable[[], None]] = []
+        self._revision = 0
+        row = self._row(fls_id)
+        offsets = self._points - self._points[row]
+        tracking = np.linalg.norm(offsets, axis=1) - 2.0 * radius
+        range_class = classify(sensor, tracking)
+        near = np.isin(range_class, (BLIND, SWEET, DECAYING))
+        near[row] = False
+        # The FLS's neighbours by radio, sorted by id (as the simulator's views are).
+        self._near = np.flatnonzero(near)
+        self._range_class = range_class[self._near]
+        self._distance = tracking[self._near]
+        self._vector = np.full((len(self._near), 3), np.nan)
+
+    def _row(self, fls_id: int) -> int:
+        row = int(np.searchsorted(self._ids, fls_id))
+        if row >= len(self._ids) or self._ids[row] != fls_id:
+            raise UnknownFlsError(
+                f"no FLS {fls_id} in this swarm of {len(self._ids)} FLSs "
+                f"(ids {self._ids[0]}..{self._ids[-1]})"
+            )
+        return row
+
+    @property
+    def sensor(self) -> Sensor:
+        """The sensor every FLS measures with."""
+        return self._sensor
+
+    @property
+    def radius(self) -> float:
+        """The FLSs' radius, cm."""
+        return self._radius
+
+    @property
+    def ids(self) -> IntArray:
+        """(N,) the swarm's FLS ids, sorted."""
+        return self._ids
+
+    @property
+    def id_space(self) -> int:
+        """One more than the largest FLS id."""
+        return int(self._ids[-1]) + 1
+
+    @property
+    def revision(self) -> int:
+        """How many frames of detections this FLS has taken."""
+        return self._revision
+
+    def detect(self, marker_ids: IntArray, vectors: FloatArray) -> int:
+        """Take one frame's readings: markers (K,), vectors (K, 3) cm centre to centre.
+
+        A marker that no FLS in camera range carries is left out. Returns the
+        readings kept.
+        """
+        camera_range = (self._range_class == SWEET) | (self._range_class == DECAYING)
+        candidates = self._near[camera_range]
+        candidate_markers = self._marker_of(self._ids[candidates])
+        expected = self._points[candidates] - self._points[self._row(self.fls_id)]
+        vector = np.full((len(self._near), 3), np.nan)
+        kept = 0
+        for marker, measured in zip(
+            np.asarray(marker_ids).tolist(), np.asarray(vectors).reshape(-1, 3), strict=True
+        ):
+            carriers = np.flatnonzero(candidate_markers == marker)
+            if not len(carriers):
+                continue
+            # Nearest by assigned place; on a tie, the smaller id (carriers are sorted).
+            best = carriers[np.argmin(np.linalg.norm(expected[carriers] - measured, axis=1))]
+            vector[np.searchsorted(self._near, candidates[best])] = measured
+            kept += 1
+        self._vector = vector
+        self._revision += 1
+        for hook in self.on_revision:
+            hook()
+        return kept
+
+    def _read(self) -> NDArray[np.bool_]:
+        return np.asarray(np.isfinite(self._vector[:, 0]), dtype=np.bool_)
+
+    def measurement(self, fls_id: int, of: list[int] | None = None) -> Measurement:
+        """What this FLS's camera read in its last frame (of FLSs ``of`` only)."""
+        self._own(fls_id)
+        read = self._read()
+        if of is not None:
+            read &= np.isin(self._ids[self._near], np.asarray(of, dtype=np.int64))
+        vector = self._vector[read]
+        return Measurement(
+            self._ids[self._near[read]],
+            self._range_class[read],
+            vector,
+            np.linalg.norm(vector, axis=1) - 2.0 * self._radius,
+        )
+
+    def neighbours(self, fls_id: int) -> NeighbourSets:
+        """This FLS's neighbours: by ranging, and those its camera read."""
+        self._own(fls_id)
+        ids, kind, read = self._ids[self._near], self._range_class, self._read()
+        return NeighbourSets(
+            blind=ids[kind == BLIND],
+            sweet=ids[kind == SWEET],
+            visible_sweet=ids[(kind == SWEET) & read],
+            visible_decaying=ids[(kind == DECAYING) & read],
+        )
+
+    def view(self, fls_id: int) -> LocalView:
+        """What this FLS knows of its neighbours: a neighbour is visible when it was read."""
+        self._own(fls_id)
+        return LocalView(
+            fls_id=fls_id,
+            other=self._ids[self._near],
+            range_class=self._range_class,
+            visible=self._read(),
+            distance=self._distance,
+            vector=self._vector.copy(),
+        )
+
+    def positions(self, fls_ids: IntArray) -> FloatArray:
+        """(K, 3) the assigned points of FLSs ``fls_ids``, cm."""
+        wanted = np.asarray(fls_ids, dtype=np.int64)
+        rows = np.minimum(np.searchsorted(self._ids, wanted), len(self._ids) - 1)
+        if not np.array_equal(self._ids[rows], wanted):
+            self._row(int(wanted[self._ids[rows] != wanted][0]))  # raises
+        return self._points[rows]
+
+    def _own(self, fls_id: int) -> None:
+        if fls_id != self.fls_id:
+            raise UnknownFlsError(f"this process senses for FLS {self.fls_id}, not {fls_id}")
