@@ -16,6 +16,10 @@ PYTEST_ARGS ?=
 # tests that drive it skip where it is absent.
 ROS2CLI_WHEELS := $(wildcard ../shared/wheels/ros2cli-jazzy/*.whl)
 ROS2CLI_STAMP := $(VENV)/.stamp-ros2cli
+# So does `ros2 launch` (with launch_ros), in wheels of its own.
+LAUNCH_WHEELS_DIR := ../shared/wheels/ros2launch-jazzy
+LAUNCH_WHEELS := $(wildcard $(LAUNCH_WHEELS_DIR)/*.whl)
+LAUNCH_STAMP := $(VENV)/.stamp-ros2launch
 
 .PHONY: setup test lint demo bench study colcon clean lock help
 .DEFAULT_GOAL := help
@@ -41,9 +45,11 @@ $(MSGS_STAMP): $(DEPS_STAMP) $(INTERFACE_FILES) scripts/build_interfaces.sh
 	scripts/build_interfaces.sh $(VENV)
 	@touch $@
 
-$(PKG_STAMP): $(DEPS_STAMP) setup.py package.xml
+$(PKG_STAMP): $(DEPS_STAMP) setup.py package.xml scripts/ament_venv.py $(wildcard scripts/nodes/*) \
+		$(wildcard launch/*.launch.py)
 	$(PY) -m pip install --disable-pip-version-check --quiet --no-deps \
 		--no-build-isolation -e .
+	$(PY) scripts/ament_venv.py $(VENV)
 	@touch $@
 
 $(ROS2CLI_STAMP): $(DEPS_STAMP) $(ROS2CLI_WHEELS)
@@ -53,7 +59,13 @@ ifneq ($(ROS2CLI_WHEELS),)
 endif
 	@touch $@
 
-setup: $(MSGS_STAMP) $(PKG_STAMP) $(ROS2CLI_STAMP)
+$(LAUNCH_STAMP): $(ROS2CLI_STAMP) $(LAUNCH_WHEELS) scripts/install_launch.sh
+ifneq ($(LAUNCH_WHEELS),)
+	scripts/install_launch.sh $(VENV) $(LAUNCH_WHEELS_DIR)
+endif
+	@touch $@
+
+setup: $(MSGS_STAMP) $(PKG_STAMP) $(ROS2CLI_STAMP) $(LAUNCH_STAMP)
 
 lint: setup
 	$(VENV)/bin/ruff check .

@@ -31,6 +31,7 @@ from typing import Any
 from ..core.errors import SwazureError
 from ..core.heuristics import PLAIN, TECHNIQUES
 from ..core.sensor import config_dir
+from ..ros.keys import KEY_FILE_VARIABLE
 from ..sim.world import WorldSpec
 from .arguments import (
     count,
@@ -51,9 +52,6 @@ from .evaluate import (
     add_threshold_argument,
 )
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
-
-#: The environment variable that names a swarm's key file (beside --key-file).
-KEY_FILE_VARIABLE = "SWAZURE_SWARM_KEY_FILE"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

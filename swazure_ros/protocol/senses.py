@@ -83,6 +83,22 @@ def classify(sensor: Sensor, tracking: FloatArray) -> NDArray[np.int8]:
     return np.asarray(sensor.classify(tracking), dtype=np.int8)
 
 
+def carried_markers(sensor: Sensor, ids: IntArray) -> IntArray:
+    """(N,) the ArUco marker each FLS of ``ids`` (N,, swarm order) carries.
+
+    The published model's camera reads an FLS's id; a rendering camera reads
+    the markers its sensor file lists (FLS k carries markers[k % len]), or its
+    camera file's one marker on every FLS.
+    """
+    ids = np.asarray(ids, dtype=np.int64)
+    if sensor.camera is None:
+        return ids
+    if sensor.camera_markers:
+        markers = np.asarray(sensor.camera_markers, dtype=np.int64)
+        return markers[np.arange(len(ids)) % len(markers)]
+    return np.full(len(ids), sensor.camera.marker_id, dtype=np.int64)
+
+
 class DetectedSenses:
     """One FLS's senses from the shape's points and its own camera's detections.
 
@@ -90,8 +106,8 @@ class DetectedSenses:
     comes from the points each FLS is assigned, ``points`` (N, 3) cm of FLSs
     ``ids`` (N,), sorted; camera readings come from :meth:`detect`. A marker
     reads as the FLS whose assigned place is nearest the measured vector
-    among those that carry it (``marker_of``): a camera's dictionary is
-    smaller than a swarm.
+    among those that carry it (:func:`carried_markers`): a camera's
+    dictionary is smaller than a swarm.
     """
 
     def __init__(
@@ -101,14 +117,13 @@ class DetectedSenses:
         points: FloatArray,
         sensor: Sensor,
         radius: float,
-        marker_of: Callable[[IntArray], IntArray] | None = None,
     ) -> None:
         self.fls_id = fls_id
         self._ids = np.asarray(ids, dtype=np.int64)
         self._points = np.asarray(points, dtype=np.float64)
         self._sensor = sensor
         self._radius = radius
-        self._marker_of = marker_of or (lambda fls_ids: fls_ids)
+        self._markers = carried_markers(sensor, self._ids)
         self.gone: set[int] = set()
         self.on_revision: list[Callable[[], None]] = []
         self._revision = 0
@@ -166,7 +181,7 @@ class DetectedSenses:
         """
         camera_range = (self._range_class == SWEET) | (self._range_class == DECAYING)
         candidates = self._near[camera_range]
-        candidate_markers = self._marker_of(self._ids[candidates])
+        candidate_markers = self._markers[candidates]
         expected = self._points[candidates] - self._points[self._row(self.fls_id)]
         vector = np.full((len(self._near), 3), np.nan)
         kept = 0

@@ -10,12 +10,14 @@ from collections.abc import Sequence
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Point, Vector3
+from geometry_msgs.msg import Point, PoseWithCovariance, Vector3
 from numpy.typing import NDArray
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import ColorRGBA, Header
 from swazure_interfaces.msg import (
+    Detections,
     DiscoveryControl,
+    MarkerDetection,
     Measurements,
     MoveCommand,
     MoveCommands,
@@ -36,6 +38,7 @@ from ..core.camera import Camera
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
 from ..core.frames import METRES_PER_CM, fls_frame, to_centimetres, to_metres
 from ..core.observe import Measurement, NeighbourSets
+from ..core.sensor import Sensor
 from ..core.tracking import RELAY_MESSAGES, RELAY_OK, MotionEstimate, TrackState
 from ..protocol.discovery import (
     END,
@@ -91,6 +94,64 @@ def measurements_message(fls_id: int, measurement: Measurement, stamp: Time) -> 
         pose.header = message.header
         message.poses.append(pose)
     return message
+
+
+#: Readings a Detections message may hold: a camera reads a few dozen markers at most.
+MAX_DETECTIONS = 4096
+
+
+def detections_message(
+    fls_id: int,
+    measurement: Measurement,
+    markers: IntArray,
+    sensor: Sensor,
+    stamp: Time,
+) -> Detections:
+    """What FLS ``fls_id``'s simulated camera reads, as its camera would publish it.
+
+    ``markers`` (K,) are the markers of the measured FLSs; each pose is centre
+    to centre in metres in the FLS's frame, its position variance the
+    sensor's length error at that distance, squared, on each axis; its
+    rotation unknown (variance -1).
+    """
+    message = Detections()
+    message.header.stamp = stamp
+    message.header.frame_id = fls_frame(fls_id)
+    error = np.abs(sensor.relative_error(measurement.tracking) * measurement.tracking)
+    for marker, vector, sigma in zip(
+        markers.tolist(),
+        to_metres(measurement.vector).tolist(),
+        to_metres(error).tolist(),
+        strict=True,
+    ):
+        pose = PoseWithCovariance()
+        pose.pose.position = Point(x=vector[0], y=vector[1], z=vector[2])
+        pose.pose.orientation.w = 1.0
+        covariance = np.zeros((6, 6))
+        covariance[[0, 1, 2], [0, 1, 2]] = sigma * sigma
+        covariance[[3, 4, 5], [3, 4, 5]] = -1.0
+        pose.covariance = covariance.ravel().tolist()
+        message.detections.append(MarkerDetection(marker_id=marker, pose=pose))
+    return message
+
+
+def detections_from_message(message: Detections, fls_id: int) -> tuple[IntArray, FloatArray]:
+    """Markers (K,) and centre-to-centre vectors (K, 3), cm, of FLS ``fls_id``'s detections.
+
+    MessageError unless the poses are in the FLS's own frame (a detector's
+    optical-frame poses must be moved there by the camera's mount first),
+    finite and at most MAX_DETECTIONS.
+    """
+    check(
+        message.header.frame_id == fls_frame(fls_id),
+        f"detections in frame {message.header.frame_id[:40]!r}, not {fls_frame(fls_id)}",
+    )
+    check_size(message.detections, MAX_DETECTIONS, "detections")
+    markers = np.array([one.marker_id for one in message.detections], dtype=np.int64)
+    positions = [one.pose.pose.position for one in message.detections]
+    vectors = np.array([[p.x, p.y, p.z] for p in positions], dtype=np.float64).reshape(-1, 3)
+    check_finite(vectors, "detection positions")
+    return markers, to_centimetres(vectors)
 
 
 def neighbour_fields(sets: NeighbourSets) -> dict[str, list[int]]:

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from rclpy.context import Context
+from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.task import Future
 from std_msgs.msg import Header
@@ -43,7 +44,7 @@ from ..core.paths import check_policy
 from ..protocol.discovery import Control, Estimate, bucket_width, evaluation_of
 from ..protocol.moves import Move, MoveRun, Walk
 from ..protocol.rounds import Absences, RoundClock, StallClock
-from ..sim.world import World
+from ..sim.world import World, WorldSpec
 from .auth import SwarmKey
 from .convert import (
     control_message,
@@ -55,6 +56,7 @@ from .convert import (
 )
 from .deferred import Reply, create_deferred_service
 from .guard import Guard, check, check_ids
+from .keys import key_from
 from .names import (
     ACK_TOPIC,
     COMPUTE_POSE_SERVICE,
@@ -74,7 +76,13 @@ from .names import (
     WORLD_TOPIC,
     fls_id_of,
 )
-from .runtime import SwarmNode
+from .runtime import (
+    DESCRIPTION_PARAMETERS,
+    SwarmNode,
+    description_from,
+    run_process,
+    startup_parameters,
+)
 
 
 @dataclass
@@ -176,8 +184,14 @@ class Coordinator(SwarmNode):
         namespace: str = "swarm",
         context: Context | None = None,
         key: SwarmKey | None = None,
+        parameter_services: bool = False,
     ) -> None:
-        super().__init__(COORDINATOR, namespace=namespace, context=context)
+        super().__init__(
+            COORDINATOR,
+            namespace=namespace,
+            context=context,
+            parameter_services=parameter_services,
+        )
         self.round_timeout = self.declare_seconds(
             "round_timeout",
             10.0,
@@ -533,3 +547,35 @@ class Coordinator(SwarmNode):
         response = ComputePose.Response(success=True, estimate=estimate_message(source, found[0]))
         response.estimate.header.stamp = self.get_clock().now().to_msg()
         return response
+
+
+def build_coordinator(context: Context) -> list[Node]:
+    """The coordinator's process, for a swarm whose FLSs run one to a process.
+
+    Parameters: the swarm's description (``cloud``, ``beta`` or ``radius``,
+    ...), ``namespace``, ``key_file``, and ``hosts``: the radios that
+    acknowledge each round (0: one per FLS, each FLS in its own process).
+    It plans heuristics' moves from the description's world (docs/frames.md).
+    """
+    values = startup_parameters(
+        context,
+        {"namespace": "swarm", "key_file": "", "hosts": 0, **DESCRIPTION_PARAMETERS},
+    )
+    world = WorldSpec(**vars(description_from(values))).build()
+    hosts = int(values["hosts"]) or len(world.ids)
+    return [
+        Coordinator(
+            world.ids.tolist(),
+            hosts,
+            world=world,
+            namespace=str(values["namespace"]),
+            context=context,
+            key=SwarmKey(key_from(str(values["key_file"]))),
+            parameter_services=True,
+        )
+    ]
+
+
+def main(args: list[str] | None = None) -> int:
+    """``ros2 run swazure_ros coordinator --ros-args -p cloud:=torus:120 -p beta:=0.5``."""
+    return run_process(build_coordinator, args)

@@ -56,6 +56,7 @@ from rclpy.publisher import Publisher
 from rclpy.timer import Timer
 from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import (
+    Detections,
     Measurements,
     PathOffer,
     PoseEstimates,
@@ -71,7 +72,7 @@ from ..core.observe import Measurement, NeighbourSets
 from ..core.tracking import TRACK_SETTINGS, FloatArray, RelaySenses, TrackConfig, TrackingError
 from ..protocol.discovery import Broadcast, Control, Participant, Report, RoundOffers
 from ..protocol.moves import WALKING, Walk, next_hop, step_walk, walk_estimate
-from ..protocol.senses import Senses
+from ..protocol.senses import DetectedSenses, Senses
 from ..protocol.tracking import (
     STOP_RELAY,
     RelayRequest,
@@ -83,6 +84,7 @@ from ..protocol.tracking import (
 from .auth import SwarmKey
 from .convert import (
     camera_info_message,
+    detections_from_message,
     estimates_message,
     image_message,
     measurements_message,
@@ -92,10 +94,12 @@ from .convert import (
     sample_message,
     track_estimate_message,
 )
-from .guard import check
+from .guard import Guard, check
 from .names import (
     CAMERA_IMAGE_TOPIC,
     CAMERA_INFO_TOPIC,
+    DETECTIONS_QOS,
+    DETECTIONS_TOPIC,
     ESTIMATES_TOPIC,
     MEASUREMENTS_QOS,
     MEASUREMENTS_TOPIC,
@@ -109,7 +113,14 @@ from .names import (
     TRACK_SERVICE,
     node_name,
 )
-from .runtime import ParameterError, SwarmNode
+from .runtime import (
+    DESCRIPTION_PARAMETERS,
+    ParameterError,
+    SwarmNode,
+    description_from,
+    run_process,
+    startup_parameters,
+)
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -177,6 +188,8 @@ class FlsNode(SwarmNode):
         relay_senses: Callable[[], RelaySenses] | None = None,
         eyes: Eyes | None = None,
         parameter_services: bool = False,
+        detections: DetectedSenses | None = None,
+        key: SwarmKey | None = None,
     ) -> None:
         super().__init__(
             node_name(fls_id),
@@ -240,8 +253,15 @@ class FlsNode(SwarmNode):
             )
             self.frames_shown = 0
             self.create_timer(self.publish_period, self._on_camera_frame)
+        # Its own camera's readings, when it senses by them (an FLS in its own process).
+        self._detected = detections
+        if detections is not None:
+            self._guard = Guard(self, key)
+            self._guard.subscribe(
+                Detections, f"~/{DETECTIONS_TOPIC}", self._on_detections, DETECTIONS_QOS
+            )
         # Alone (no process hosting it), an FLS transmits with publishers of its own.
-        self._transmitter = transmitter or Transmitter(self)
+        self._transmitter = transmitter or Transmitter(self, key)
         if self.track_service:
             self.create_service(TrackTarget, f"~/{TRACK_SERVICE}", self._on_track)
         # Created at the first track: most FLSs never relay nor track, and
@@ -333,6 +353,11 @@ class FlsNode(SwarmNode):
     def _stop_frames(self) -> None:
         self._frames_stopped = True
         self._frames.cancel()
+
+    def _on_detections(self, message: Detections) -> None:
+        assert self._detected is not None
+        self._detected.detect(*detections_from_message(message, self.fls_id))
+        self.sense()
 
     def _on_reader_matched(self, info: QoSPublisherMatchedInfo) -> None:
         if info.current_count_change > 0:
@@ -526,3 +551,46 @@ class FlsNode(SwarmNode):
         self.messages_sent += 1
         self.bytes_sent += len(data)
         publisher.publish(data)
+
+
+def build_fls(context: Context) -> list[Node]:
+    """One FLS in its own process: it senses by its camera's detections, radio of its own.
+
+    Parameters: ``fls_id``, the swarm's description (``cloud``, ``beta`` or
+    ``radius``, ``scale``, ``sensor``, ``seed``, ``accurate``),
+    ``namespace`` and ``key_file`` (the swarm's key; "" for none, and then
+    ``SWAZURE_SWARM_KEY_FILE`` if set), besides the FLS node's own.
+    """
+    from .host import Radio  # the radio's module hosts packed swarms too
+    from .keys import key_from
+
+    values = startup_parameters(
+        context,
+        {"fls_id": -1, "namespace": "swarm", "key_file": "", **DESCRIPTION_PARAMETERS},
+    )
+    fls_id = values["fls_id"]
+    if isinstance(fls_id, bool) or not isinstance(fls_id, int) or fls_id < 0:
+        raise ParameterError(f"parameter fls_id: an FLS id (>= 0) is needed, got {fls_id!r}")
+    description = description_from(values)
+    assigned = description.assigned()
+    senses = DetectedSenses(
+        fls_id, assigned.cloud_index, assigned.points, description.sensor(), assigned.radius
+    )
+    key = SwarmKey(key_from(str(values["key_file"])))
+    node = FlsNode(
+        fls_id,
+        senses,
+        namespace=str(values["namespace"]),
+        context=context,
+        transmitter=None,
+        parameter_services=True,
+        detections=senses,
+        key=key,
+    )
+    node.radio = Radio(node, senses, {fls_id: node}, guard=Guard(node, key))
+    return [node]
+
+
+def main(args: list[str] | None = None) -> int:
+    """``ros2 run swazure_ros fls --ros-args -p fls_id:=7 -p cloud:=torus:120 -p beta:=0.5``."""
+    return run_process(build_fls, args)

@@ -11,6 +11,8 @@ from ..core.results import atomic_write
 
 #: Bytes of a key.
 KEY_BYTES = 32
+#: The environment variable that names a swarm's key file (beside --key-file, key_file).
+KEY_FILE_VARIABLE = "SWAZURE_SWARM_KEY_FILE"
 
 
 def new_key() -> bytes:
@@ -43,3 +45,9 @@ def write_key(path: Path, key: bytes) -> None:
         os.chmod(temporary, 0o600)
 
     atomic_write(path, write)
+
+
+def key_from(key_file: str) -> bytes | None:
+    """The key in ``key_file``, else in the file $SWAZURE_SWARM_KEY_FILE names; None if neither."""
+    path = key_file or os.environ.get(KEY_FILE_VARIABLE, "")
+    return read_key(path) if path else None

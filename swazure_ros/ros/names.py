@@ -47,6 +47,8 @@ LIVENESS_GRACE = 2.0
 #: Per FLS, when its camera_view parameter names a neighbour: what its camera sees.
 CAMERA_IMAGE_TOPIC = "camera/image_raw"
 CAMERA_INFO_TOPIC = "camera/camera_info"
+#: An FLS's own camera's readings (swazure_interfaces/Detections), relative to its node.
+DETECTIONS_TOPIC = "camera/detections"
 CLOCK_TOPIC = "/clock"
 
 # Services: each FLS answers for itself (fls_<id>/...), the coordinator for the swarm.
@@ -55,6 +57,8 @@ COMPUTE_POSE_SERVICE = "compute_pose"
 TRACK_SERVICE = "track"
 COORDINATOR = "coordinator"
 WORLD = "world"
+#: The simulated cameras of FLSs that run one to a process (ros.world_node).
+CAMERAS = "cameras"
 
 
 def node_name(fls_id: int) -> str:
@@ -79,6 +83,9 @@ def host_name(index: int) -> str:
 MEASUREMENTS_QOS = QoSProfile(
     depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
 )
+# A camera's last frame of detections is what the FLS sees until the next one: an
+# FLS that starts later must get it at once (latched, like measurements).
+DETECTIONS_QOS = MEASUREMENTS_QOS
 # A round brings one message from every FLS at once: readers must keep them all,
 # and a lost label would change a path, so delivery is reliable.
 ROUND_QOS = QoSProfile(

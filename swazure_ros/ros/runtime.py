@@ -16,6 +16,7 @@ import ctypes
 import faulthandler
 import signal
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -23,10 +24,13 @@ import rclpy
 from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.context import Context
 from rclpy.exceptions import ParameterException
+from rclpy.executors import ExternalShutdownException
+from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
 
+from ..core.description import SwarmDescription
 from ..core.errors import SwazureError
 from ..core.files import read_yaml
 
@@ -173,3 +177,91 @@ def exit_process(code: int) -> NoReturn:
             stream.flush()
     ctypes.CDLL(None).exit(code)
     raise AssertionError("exit returned")  # pragma: no cover
+
+
+#: The parameters that describe a swarm (core.description.SwarmDescription), as every
+#: process of a swarm in processes of its own takes them; 0 or "" means not given.
+DESCRIPTION_PARAMETERS: dict[str, Any] = {
+    "cloud": "",
+    "scale": 0.0,
+    "beta": 0.0,
+    "radius": 0.0,
+    "sensor": "",
+    "accurate": False,
+    "seed": 0,
+}
+
+
+def startup_parameters(context: Context, defaults: dict[str, Any]) -> dict[str, Any]:
+    """The values of parameters a process needs before it can name or build its node.
+
+    They come from the command line's ``-p`` and the ``/**`` section of a
+    parameter file, read by a short-lived node; ParameterError when one has
+    the wrong type.
+    """
+    reader = Node(
+        "swazure_startup",
+        context=context,
+        enable_rosout=False,
+        start_parameter_services=False,
+        parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE],
+    )
+    try:
+        values = {}
+        for name, default in defaults.items():
+            try:
+                values[name] = reader.declare_parameter(name, default).value
+            except (ParameterException, TypeError) as err:
+                raise ParameterError(f"parameter {name}: {err}") from err
+        return values
+    finally:
+        reader.destroy_node()
+
+
+def description_from(values: dict[str, Any]) -> SwarmDescription:
+    """The swarm's description from DESCRIPTION_PARAMETERS values; ParameterError if no cloud."""
+    if not values["cloud"]:
+        raise ParameterError(
+            "parameter cloud: the swarm's point cloud (a file or shape:N) is needed"
+        )
+    return SwarmDescription(
+        cloud=str(values["cloud"]),
+        scale=float(values["scale"]) or None,
+        beta=float(values["beta"]) or None,
+        radius=float(values["radius"]) or None,
+        sensor_file=str(values["sensor"]) or None,
+        accurate=bool(values["accurate"]),
+        seed=int(values["seed"]),
+    )
+
+
+def run_process(build: Callable[[Context], list[Node]], args: list[str] | None = None) -> int:
+    """Start rclpy, build a process's nodes and spin them until SIGINT or SIGTERM.
+
+    Errors in building give one line and exit code 2, never a traceback.
+    """
+    context = Context()
+    rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
+    stop: list[int] = []
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda number, frame: stop.append(number))
+    nodes: list[Node] = []
+    try:
+        nodes = build(context)
+        executor = EventsExecutor(context=context)
+        for node in nodes:
+            executor.add_node(node)
+        # Not executor.spin(): the EventsExecutor's spin neither returns when a signal
+        # shuts the context down nor rests between events (measured: a core each).
+        while context.ok() and not stop:
+            executor.spin_once(timeout_sec=0.5)
+    except SwazureError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        for node in nodes:
+            node.destroy_node()
+        context.try_shutdown()
+    return 0

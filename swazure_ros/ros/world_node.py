@@ -11,16 +11,39 @@ One world node runs per swarm, in the launcher's process.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from rclpy.context import Context
-from swazure_interfaces.msg import MoveCommand, MoveCommands, WorldState
+from rclpy.node import Node
+from swazure_interfaces.msg import Detections, MoveCommand, MoveCommands, WorldState
 
+from ..protocol.senses import carried_markers
 from ..sim.replica import WorldReplica
+from ..sim.world import WorldSpec
 from .auth import SwarmKey
-from .convert import moves_from_message, stamp_nanoseconds, world_message
+from .convert import detections_message, moves_from_message, stamp_nanoseconds, world_message
 from .guard import Guard, check
-from .names import MOVE_QOS, MOVE_TOPIC, WORLD, WORLD_QOS, WORLD_REACH, WORLD_TOPIC
-from .runtime import SwarmNode
+from .keys import key_from
+from .names import (
+    CAMERAS,
+    DETECTIONS_QOS,
+    DETECTIONS_TOPIC,
+    MOVE_QOS,
+    MOVE_TOPIC,
+    WORLD,
+    WORLD_QOS,
+    WORLD_REACH,
+    WORLD_TOPIC,
+    node_name,
+)
+from .runtime import (
+    DESCRIPTION_PARAMETERS,
+    SwarmNode,
+    description_from,
+    run_process,
+    startup_parameters,
+)
 
 
 class WorldNode(SwarmNode):
@@ -33,8 +56,11 @@ class WorldNode(SwarmNode):
         namespace: str = "swarm",
         context: Context | None = None,
         key: SwarmKey | None = None,
+        parameter_services: bool = False,
     ) -> None:
-        super().__init__(WORLD, namespace=namespace, context=context)
+        super().__init__(
+            WORLD, namespace=namespace, context=context, parameter_services=parameter_services
+        )
         self._replica = replica
         self._publisher = self.create_publisher(WorldState, WORLD_TOPIC, WORLD_QOS)
         self.guard = Guard(self, key)
@@ -64,3 +90,74 @@ class WorldNode(SwarmNode):
         targets = world.home.points[rows] + np.where(aside[:, None], displacement, 0.0)
         self._replica.apply(world.placed(ids, targets))
         self.publish_world()
+
+
+class SimulatedCameras(SwarmNode):
+    """The simulated camera of each FLS that runs in a process of its own.
+
+    For every FLS of ``fls_ids`` it publishes what the FLS's camera reads on
+    ``fls_<id>/camera/detections`` (swazure_interfaces/Detections, latched),
+    at the start and after each new world revision, as an ArUco detector on
+    the FLS's camera would.
+    """
+
+    def __init__(
+        self,
+        replica: WorldReplica,
+        fls_ids: Sequence[int],
+        *,
+        namespace: str = "swarm",
+        context: Context | None = None,
+    ) -> None:
+        super().__init__(CAMERAS, namespace=namespace, context=context)
+        self._replica = replica
+        self._detections = {
+            int(fls_id): self.create_publisher(
+                Detections, f"{node_name(int(fls_id))}/{DETECTIONS_TOPIC}", DETECTIONS_QOS
+            )
+            for fls_id in fls_ids
+        }
+        replica.on_revision.append(self.publish_frames)
+        self.publish_frames()
+
+    def publish_frames(self) -> None:
+        """Publish every FLS's detections in the replica's revision."""
+        world = self._replica.world
+        markers = carried_markers(world.sensor, world.ids)
+        stamp = self.get_clock().now().to_msg()
+        for fls_id, publisher in self._detections.items():
+            seen = self._replica.measurement(fls_id)
+            publisher.publish(
+                detections_message(
+                    fls_id, seen, markers[world.indices(seen.target_ids)], world.sensor, stamp
+                )
+            )
+
+
+def build_world(context: Context) -> list[Node]:
+    """The simulator's process: the world node, and the cameras of FLSs in their own processes.
+
+    Parameters: the swarm's description (``cloud``, ``beta`` or ``radius``,
+    ...), ``namespace``, ``key_file``, and ``cameras`` (true: publish every
+    FLS's detections, for FLSs that run one to a process).
+    """
+    values = startup_parameters(
+        context,
+        {"namespace": "swarm", "key_file": "", "cameras": True, **DESCRIPTION_PARAMETERS},
+    )
+    spec = WorldSpec(**vars(description_from(values)))
+    replica = WorldReplica(spec.build())
+    namespace, key = str(values["namespace"]), SwarmKey(key_from(str(values["key_file"])))
+    nodes: list[Node] = [
+        WorldNode(replica, namespace=namespace, context=context, key=key, parameter_services=True)
+    ]
+    if values["cameras"]:
+        nodes.append(
+            SimulatedCameras(replica, replica.ids.tolist(), namespace=namespace, context=context)
+        )
+    return nodes
+
+
+def main(args: list[str] | None = None) -> int:
+    """``ros2 run swazure_ros world --ros-args -p cloud:=torus:120 -p beta:=0.5``."""
+    return run_process(build_world, args)

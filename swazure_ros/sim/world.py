@@ -12,13 +12,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
 from ..core.clouds import Cloud, load_cloud
+from ..core.description import SwarmDescription
 from ..core.errors import UnknownFlsError
 from ..core.evaluate import (
     Neighbourhood,
@@ -37,7 +37,7 @@ from ..core.observe import (
     observations,
     readings_of,
 )
-from ..core.sensor import Sensor, load_sensor
+from ..core.sensor import Sensor
 from ..core.sight import Grid, build_grid
 
 FloatArray = NDArray[np.float64]
@@ -248,34 +248,16 @@ def make_world(
 
 
 @dataclass(frozen=True)
-class WorldSpec:
-    """Everything that determines a world: what every process of a swarm is given."""
-
-    cloud: str
-    scale: float | None = None
-    beta: float | None = None
-    radius: float | None = None
-    sensor_file: str | None = None
-    accurate: bool = False
-    seed: int = 0
+class WorldSpec(SwarmDescription):
+    """A swarm's description, from which every process builds the same ground truth."""
 
     def build(self, hosted_ids: Sequence[int] | None = None) -> World:
         """Load the cloud and sensor and make the world at revision 0 (see :func:`make_world`)."""
-        sensor = load_sensor(Path(self.sensor_file) if self.sensor_file else None)
-        if self.accurate:
-            sensor = sensor.error_free()
-        cloud = load_cloud(self.cloud, self.scale)
         return make_world(
-            cloud,
-            sensor,
+            load_cloud(self.cloud, self.scale),
+            self.sensor(),
             beta=self.beta,
             radius=self.radius,
             seed=self.seed,
             hosted_ids=hosted_ids,
         )
-
-    def fls_ids(self) -> IntArray:
-        """(N,) the ids of the world's FLSs, without sensing anything."""
-        cloud = load_cloud(self.cloud, self.scale)
-        swarm = make_swarm(cloud.points, beta=self.beta, radius=self.radius, seed=self.seed)
-        return swarm.cloud_index

@@ -1,0 +1,125 @@
+"""Bring up a swarm from a swarm file, as `swazure spawn FILE` does.
+
+    ros2 launch swazure_ros swarm.launch.py swarm:=config/swarms/torus.yaml
+    ros2 launch swazure_ros swarm.launch.py swarm:=config/swarms/trio.yaml mode:=per_fls
+
+Arguments:
+
+- ``swarm``: a swarm file (config/swarms/*.yaml; docs/swarm.md);
+- ``mode``: ``packed`` (the default) runs ``swazure spawn`` on the file, its
+  FLS nodes many to a process, each with parameter services (``ros2 param``);
+  ``per_fls`` runs every FLS in a process of its own (``ros2 run swazure_ros
+  fls``), beside the simulator (``world``: the world node and the FLSs'
+  simulated cameras) and the ``coordinator``, as real FLS hardware would.
+
+The swarm's processes share a fresh key (docs/security.md) made here.
+"""
+
+import sys
+import tempfile
+from pathlib import Path
+
+from launch.actions import DeclareLaunchArgument, ExecuteProcess, OpaqueFunction
+from launch.substitutions import LaunchConfiguration
+from launch_ros.actions import Node
+
+from launch import LaunchDescription
+from swazure_ros.cli.swarm_file import load_swarm_file
+from swazure_ros.core.description import SwarmDescription
+from swazure_ros.ros.keys import new_key, write_key
+
+PACKAGE = "swazure_ros"
+
+
+def _packed(path: Path) -> list:
+    command = [sys.executable, "-m", "swazure_ros.cli.main", "spawn", str(path)]
+    return [
+        ExecuteProcess(
+            cmd=[*command, "--parameter-services", "--quiet"],
+            name="swazure_spawn",
+            output="screen",
+        )
+    ]
+
+
+def _per_fls(path: Path) -> list:
+    options = load_swarm_file(path)
+    description = SwarmDescription(
+        cloud=options["cloud"],
+        scale=options.get("scale"),
+        beta=options.get("beta"),
+        radius=options.get("radius"),
+        sensor_file=options.get("sensor"),
+        accurate=bool(options.get("accurate", False)),
+        seed=int(options.get("seed") or 0),
+    )
+    namespace = options.get("namespace") or "swarm"
+    key_file = Path(tempfile.mkdtemp(prefix="swazure-launch-")) / "swarm.key"
+    write_key(key_file, new_key())
+    # The description as the programs take it (ros.runtime.DESCRIPTION_PARAMETERS).
+    shared = {
+        "cloud": description.cloud,
+        "scale": float(description.scale or 0.0),
+        "beta": float(description.beta or 0.0),
+        "radius": float(description.radius or 0.0),
+        "sensor": description.sensor_file or "",
+        "accurate": description.accurate,
+        "seed": description.seed,
+        "namespace": namespace,
+        "key_file": str(key_file),
+    }
+    ids = description.fls_ids().tolist()
+    every_fls = options.get("parameters") or {}
+    own = options.get("fls") or {}
+    actions = [
+        # No name= for a program that names its nodes itself: a node-name remap
+        # would name every node of its process alike.
+        Node(
+            package=PACKAGE,
+            executable="world",
+            namespace=namespace,
+            parameters=[shared],
+            output="screen",
+        ),
+        Node(
+            package=PACKAGE,
+            executable="coordinator",
+            name="coordinator",
+            namespace=namespace,
+            parameters=[{**shared, "hosts": len(ids)}],
+            output="screen",
+        ),
+    ]
+    actions += [
+        Node(
+            package=PACKAGE,
+            executable="fls",
+            namespace=namespace,
+            parameters=[{**shared, **every_fls, **own.get(fls_id, {}), "fls_id": fls_id}],
+            output="screen",
+        )
+        for fls_id in ids
+    ]
+    return actions
+
+
+def _swarm(context):
+    path = Path(LaunchConfiguration("swarm").perform(context)).expanduser().resolve()
+    if LaunchConfiguration("mode").perform(context) == "per_fls":
+        return _per_fls(path)
+    return _packed(path)
+
+
+def generate_launch_description():
+    return LaunchDescription(
+        [
+            DeclareLaunchArgument("swarm", description="a swarm file (config/swarms/*.yaml)"),
+            DeclareLaunchArgument(
+                "mode",
+                default_value="packed",
+                choices=["packed", "per_fls"],
+                description="packed: swazure spawn's processes; per_fls: a process per FLS",
+            ),
+            OpaqueFunction(function=_swarm),
+        ]
+    )
