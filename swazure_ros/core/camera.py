@@ -431,21 +431,46 @@ class Detector:
         # rejects every candidate when that rate is very large.
         return cv2.aruco.ArucoDetector(self._dictionary, parameters)
 
+    def markers(
+        self, image: NDArray[np.uint8], only: int | None = None
+    ) -> list[tuple[int, FloatArray]]:
+        """Every marker of the dictionary in grey ``image`` (h, w): (id, refined corners (4, 2)).
+
+        In the order OpenCV finds them; with ``only``, the first marker of
+        that id alone. Corners are refined each on its own (cornerSubPix), so
+        a marker's corners do not depend on what else the image shows.
+        """
+        if image.size == 0:
+            return []
+        found, ids, _ = self._detector_for(image.shape).detectMarkers(image)
+        if ids is None:
+            return []
+        read = [(int(i), c) for c, i in zip(found, ids.ravel(), strict=True)]
+        if only is not None:
+            read = [(i, c) for i, c in read if i == only][:1]
+        return [
+            (
+                marker,
+                np.asarray(
+                    cv2.cornerSubPix(
+                        image,
+                        corners.reshape(4, 1, 2).astype(np.float32),
+                        self._window,
+                        (-1, -1),
+                        self._criteria,
+                    ),
+                    np.float64,
+                ).reshape(4, 2),
+            )
+            for marker, corners in read
+        ]
+
     def corners(self, frame: Frame) -> FloatArray | None:
         """Refined corners (4, 2) full-image px of the camera's marker in ``frame``, or None."""
-        if frame.image.size == 0:
+        read = self.markers(frame.image, only=self.camera.marker_id)
+        if not read:
             return None
-        found, ids, _ = self._detector_for(frame.image.shape).detectMarkers(frame.image)
-        if ids is None:
-            return None
-        matches = [
-            c for c, i in zip(found, ids.ravel(), strict=True) if i == self.camera.marker_id
-        ]
-        if not matches:
-            return None
-        corners = matches[0].reshape(4, 1, 2).astype(np.float32)
-        refined = cv2.cornerSubPix(frame.image, corners, self._window, (-1, -1), self._criteria)
-        return np.asarray(refined, np.float64).reshape(4, 2) + np.array(frame.origin, np.float64)
+        return read[0][1] + np.array(frame.origin, np.float64)
 
     def solve(self, corners: FloatArray) -> FloatArray | None:
         """Marker centre (3,) mm in the camera frame from its corners; None if no pose fits.
