@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +39,30 @@ SCENE = np.array(
         [2.0, -10.0, 0.0],  # D: decaying to A and C (t = 9.2), in sight of both
     ]
 )
+
+
+def ros2_daemons() -> set[int]:
+    """Process ids of the ros2 CLI's daemons running on this machine."""
+    found = set()
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                command = (entry / "cmdline").read_bytes()
+            except OSError:
+                continue
+            if b"ros2cli.daemon.daemonize" in command:
+                found.add(int(entry.name))
+    return found
+
+
+@pytest.fixture(scope="session", autouse=True)
+def stop_ros2_daemons() -> Iterator[None]:
+    """Stop every ros2 daemon the tests' ros2 commands started (one per domain), at the end."""
+    before = ros2_daemons()
+    yield
+    for pid in ros2_daemons() - before:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGTERM)
 
 
 @pytest.fixture

@@ -79,6 +79,7 @@ from .names import (
 from .runtime import (
     DESCRIPTION_PARAMETERS,
     SwarmNode,
+    declare_startup,
     description_from,
     run_process,
     startup_parameters,
@@ -563,17 +564,17 @@ def build_coordinator(context: Context) -> list[Node]:
     )
     world = WorldSpec(**vars(description_from(values))).build()
     hosts = int(values["hosts"]) or len(world.ids)
-    return [
-        Coordinator(
-            world.ids.tolist(),
-            hosts,
-            world=world,
-            namespace=str(values["namespace"]),
-            context=context,
-            key=SwarmKey(key_from(str(values["key_file"]))),
-            parameter_services=True,
-        )
-    ]
+    coordinator = Coordinator(
+        world.ids.tolist(),
+        hosts,
+        world=world,
+        namespace=str(values["namespace"]),
+        context=context,
+        key=SwarmKey(key_from(str(values["key_file"]))),
+        parameter_services=True,
+    )
+    declare_startup(coordinator, values)
+    return [coordinator]
 
 
 def main(args: list[str] | None = None) -> int:

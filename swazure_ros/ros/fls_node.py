@@ -117,6 +117,7 @@ from .runtime import (
     DESCRIPTION_PARAMETERS,
     ParameterError,
     SwarmNode,
+    declare_startup,
     description_from,
     run_process,
     startup_parameters,
@@ -588,6 +589,7 @@ def build_fls(context: Context) -> list[Node]:
         key=key,
     )
     node.radio = Radio(node, senses, {fls_id: node}, guard=Guard(node, key))
+    declare_startup(node, values)
     return [node]
 
 

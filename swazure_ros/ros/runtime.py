@@ -218,6 +218,21 @@ def startup_parameters(context: Context, defaults: dict[str, Any]) -> dict[str, 
         reader.destroy_node()
 
 
+def declare_startup(node: Node, values: dict[str, Any]) -> None:
+    """Declare on ``node`` the startup parameters it was built from, read-only.
+
+    ``ros2 param get`` then shows what the node was started with; changing them
+    would need a new node.
+    """
+    for name, value in values.items():
+        if not node.has_parameter(name):
+            node.declare_parameter(
+                name,
+                value,
+                ParameterDescriptor(description="set at start (read-only)", read_only=True),
+            )
+
+
 def description_from(values: dict[str, Any]) -> SwarmDescription:
     """The swarm's description from DESCRIPTION_PARAMETERS values; ParameterError if no cloud."""
     if not values["cloud"]:

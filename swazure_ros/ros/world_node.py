@@ -40,6 +40,7 @@ from .names import (
 from .runtime import (
     DESCRIPTION_PARAMETERS,
     SwarmNode,
+    declare_startup,
     description_from,
     run_process,
     startup_parameters,
@@ -151,6 +152,7 @@ def build_world(context: Context) -> list[Node]:
     nodes: list[Node] = [
         WorldNode(replica, namespace=namespace, context=context, key=key, parameter_services=True)
     ]
+    declare_startup(nodes[0], values)
     if values["cameras"]:
         nodes.append(
             SimulatedCameras(replica, replica.ids.tolist(), namespace=namespace, context=context)

@@ -1,0 +1,240 @@
+"""The programs a ROS 2 user starts: `ros2 run swazure_ros ...` and `ros2 launch swazure_ros ...`.
+
+Each test drives the real `ros2` tools (wheels from ../shared) against our
+programs in processes of their own, and skips where they are absent. The
+wheels have no `ros2 run` verb (ros2run is not among them): a program is
+found as `ros2 run` finds it, by ros2pkg's lookup in the ament prefix
+(`ros2 pkg executables --full-path`), and started with the same arguments.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import CameraInfo, Image
+from swazure_interfaces.msg import Detections
+
+from swazure_ros.core.camera import Detector, MarkerPose, full_image, load_camera, render
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.sensor import config_dir
+from swazure_ros.ros.convert import camera_info_message, image_message
+from swazure_ros.ros.names import DETECTIONS_QOS
+from swazure_ros.ros.runtime import SwarmNode
+from swazure_ros.sim.world import WorldSpec
+
+from ..conftest import REPO, SHARED
+
+VENV = Path(sys.executable).parents[1]
+ROS2 = VENV / "bin" / "ros2"
+TRIO = REPO / "config" / "swarms" / "trio.yaml"
+TRIO_ARGS = ["-p", f"cloud:={REPO / 'config/track/trio.xyz'}", "-p", "radius:=0.5"]
+
+
+@pytest.fixture
+def ros2_tools():
+    """Skip where the real ros2 run and ros2 launch are absent."""
+    if not SHARED.is_dir():
+        pytest.skip(
+            "the ros2 CLI and launch wheels live in ../shared, which is not beside the repo"
+        )
+    if not ROS2.exists():
+        pytest.skip(f"{ROS2} is not installed (make setup installs it from ../shared)")
+    if not (VENV / "lib" / "swazure_ros" / "fls").exists():
+        pytest.skip("the venv is not an ament prefix for swazure_ros (make setup makes it one)")
+
+
+def environment() -> dict[str, str]:
+    """The test's domain (set by the domain fixture), with the venv as the ament prefix."""
+    return dict(os.environ, AMENT_PREFIX_PATH=str(VENV), PYTHONUNBUFFERED="1")
+
+
+def ros2(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
+    """Run a ros2 command to its end."""
+    return subprocess.run(
+        [str(ROS2), *args], capture_output=True, text=True, timeout=timeout, env=environment()
+    )
+
+
+def program(name: str) -> str:
+    """The path `ros2 run swazure_ros NAME` runs: ros2pkg's lookup, as ros2run's."""
+    listed = ros2("pkg", "executables", "swazure_ros", "--full-path").stdout.split()
+    found = [path for path in listed if Path(path).name == name]
+    assert found, f"ros2 pkg executables does not list {name}: {listed}"
+    return found[0]
+
+
+def start(*args: str) -> subprocess.Popen[str]:
+    """Start a long-running command: ``run PROGRAM ARGS`` as ros2 run would, or ros2 ARGS."""
+    command = [program(args[2]), *args[3:]] if args[0] == "run" else [str(ROS2), *args]
+    return subprocess.Popen(
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=environment(),
+        start_new_session=True,
+    )
+
+
+def stop(process: subprocess.Popen[str]) -> str:
+    """SIGINT, as Ctrl-C would send; what the process printed. It must end by itself."""
+    os.killpg(process.pid, signal.SIGINT)
+    out, _ = process.communicate(timeout=60)
+    return out
+
+
+def until(command, accept, timeout: float = 60):
+    """Run ``command()`` until ``accept`` holds of its result, or the time is up."""
+    deadline = time.monotonic() + timeout
+    while True:
+        result = command()
+        if accept(result) or time.monotonic() > deadline:
+            return result
+        time.sleep(0.5)
+
+
+def nodes() -> list[str]:
+    return ros2("node", "list", "--no-daemon", "--spin-time", "2").stdout.split()
+
+
+def test_ros2_run_starts_one_fls_that_ros2_param_answers(ros2_tools, domain):
+    world = start("run", "swazure_ros", "world", "--ros-args", *TRIO_ARGS)
+    fls = start(
+        "run", "swazure_ros", "fls", "--ros-args", *TRIO_ARGS, "-p", "fls_id:=1",
+        "-p", "publish_period:=0.25",
+    )  # fmt: skip
+    try:
+        wanted = {"/swarm/fls_1", "/swarm/world", "/swarm/cameras"}
+        listed = until(nodes, lambda names: wanted <= set(names))
+        assert wanted <= set(listed), listed
+        got = ros2("param", "get", "--no-daemon", "--spin-time", "2", "/swarm/fls_1",
+                   "publish_period")  # fmt: skip
+        assert got.returncode == 0 and "Double value is: 0.25" in got.stdout, got
+        described = ros2(
+            "param", "get", "--no-daemon", "--spin-time", "2", "/swarm/fls_1", "cloud"
+        )
+        assert "trio.xyz" in described.stdout, described
+    finally:
+        for process in (fls, world):
+            stop(process)
+    assert fls.returncode == 0 and world.returncode == 0
+
+
+def test_an_fls_without_an_id_says_so_in_one_line(ros2_tools, domain):
+    run = subprocess.run(
+        [program("fls"), "--ros-args", *TRIO_ARGS],
+        capture_output=True, text=True, timeout=60, env=environment(),
+    )  # fmt: skip
+    assert run.returncode == 2
+    assert "fls_id" in run.stderr and "Traceback" not in run.stderr, run.stderr
+
+
+def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(ros2_tools, domain):
+    launch = start("launch", "swazure_ros", "swarm.launch.py", f"swarm:={TRIO}", "mode:=per_fls")
+    try:
+        wanted = {"/swarm/fls_0", "/swarm/fls_1", "/swarm/fls_2", "/swarm/world",
+                  "/swarm/cameras", "/swarm/coordinator"}  # fmt: skip
+        listed = until(nodes, lambda names: wanted <= set(names))
+        assert wanted <= set(listed), listed
+        # A measurement in metres, in the measuring FLS's frame: FLS 1 is 8 cm from FLS 0.
+        echo = ros2("topic", "echo", "--once", "--filter", "m.source_id == 0 and len(m.poses) > 0",
+                    "/swarm/measurements", "swazure_interfaces/msg/Measurements")  # fmt: skip
+        assert echo.returncode == 0, echo
+        assert "frame_id: fls_0" in echo.stdout and "x: 0.08" in echo.stdout, echo.stdout
+        # Discovery by messages between three processes, each an FLS alone.
+        call = until(
+            lambda: ros2(
+                "service",
+                "call",
+                "/swarm/coordinator/compute_pose",
+                "swazure_interfaces/srv/ComputePose",
+                "{source_id: 0, target_id: 2, policy: 1}",
+            ),
+            lambda result: "success=True" in result.stdout,
+        )
+        assert "success=True" in call.stdout, call
+        assert "path=[0, 1, 2]" in call.stdout, call.stdout
+        spec = WorldSpec(str(REPO / "config/track/trio.xyz"), scale=1.0, radius=0.5)
+        engine = evaluate(spec.build().swarm, spec.sensor(), policy="shortest-length")
+        pairs = engine.pairs  # FLS ids are the trio's swarm indices
+        row = np.flatnonzero((pairs.source == 0) & (pairs.target == 2))[0]
+        # The detections carry metres, so each hop is the engine's but for the metres'
+        # last bit; the estimate (cm, the protocol's unit) is the engine's to 1e-12.
+        text = call.stdout.split("vector=geometry_msgs.msg.Vector3(")[1].split(")")[0]
+        vector = [float(part.split("=")[1]) for part in text.split(", ")]
+        assert np.allclose(vector, pairs.estimate[row], rtol=1e-12, atol=0), (vector, pairs)
+    finally:
+        out = stop(launch)
+    assert launch.returncode == 0, out
+
+
+def test_ros2_launch_packed_swarm_answers_ros2_param(ros2_tools, domain):
+    launch = start(
+        "launch", "swazure_ros", "swarm.launch.py",
+        f"swarm:={REPO / 'config/swarms/torus.yaml'}",
+    )  # fmt: skip
+    try:
+        listed = until(nodes, lambda names: "/swarm/fls_119" in names, timeout=120)
+        assert {"/swarm/fls_0", "/swarm/fls_119", "/swarm/coordinator"} <= set(listed), listed
+        got = ros2("param", "get", "--no-daemon", "--spin-time", "3", "/swarm/fls_7",
+                   "publish_period")  # fmt: skip
+        # The swarm file's parameters: every FLS 0.5 s, FLS 0 0.1 s.
+        assert "Double value is: 0.5" in got.stdout, got
+    finally:
+        out = stop(launch)
+    assert launch.returncode == 0, out
+
+
+def test_ros2_run_aruco_detector_reads_rendered_images_as_the_camera_does(ros2_tools, context):
+    detector = start("run", "swazure_ros", "aruco_detector")
+    camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
+    probe = SwarmNode("camera_driver", context=context)
+    images = probe.create_publisher(Image, "image_raw", qos_profile_sensor_data)
+    infos = probe.create_publisher(CameraInfo, "camera_info", qos_profile_sensor_data)
+    received: dict[tuple[int, int], Detections] = {}
+
+    def take(message: Detections) -> None:
+        received[(message.header.stamp.sec, message.header.stamp.nanosec)] = message
+
+    probe.create_subscription(Detections, "detections", take, DETECTIONS_QOS)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(probe)
+    in_process = Detector(camera)
+    try:
+        for number, distance in enumerate((55.0, 65.0, 75.0)):  # mm: the sweet range
+            frame = render(camera, MarkerPose(distance), np.random.default_rng(number))
+            pixels = full_image(camera, frame)
+            stamp = probe.get_clock().now().to_msg()
+            key = (stamp.sec, stamp.nanosec)
+            deadline = time.monotonic() + 60
+            while key not in received and time.monotonic() < deadline:
+                # Again until the detector has matched both topics.
+                infos.publish(camera_info_message(camera, stamp, "fls_0_camera_optical"))
+                images.publish(image_message(pixels, stamp, "fls_0_camera_optical"))
+                executor.spin_once(timeout_sec=0.2)
+            assert key in received, f"no detections of the frame at {distance} mm"
+            message = received[key]
+            assert message.header.frame_id == "fls_0_camera_optical"
+            [(marker, corners)] = in_process.markers(pixels)
+            [detection] = message.detections
+            position = detection.pose.pose.position
+            assert detection.marker_id == marker == camera.marker_id
+            # The camera's own solve, to the bit: mm in the camera, m on the wire.
+            assert [position.x, position.y, position.z] == (
+                in_process.solve(corners) / 1000.0
+            ).tolist()
+            assert abs(position.z - distance / 1000.0) < 0.05 * distance / 1000.0
+    finally:
+        executor.shutdown()
+        probe.destroy_node()
+        out = stop(detector)
+    assert detector.returncode == 0, out
