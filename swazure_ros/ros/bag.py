@@ -24,6 +24,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+import yaml
 from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
@@ -122,8 +123,41 @@ def offered_qos(node: Node, topic: str) -> QoSProfile:
     )
 
 
-def _qos_metadata(qos: QoSProfile) -> dict[str, str]:
+#: rosbag2's "infinite" duration in a QoS profile (Jazzy's metadata writes it so).
+_INFINITE = {"sec": 9223372036, "nsec": 854775807}
+
+
+def offered_qos_profiles(offers: list[QoSProfile]) -> str:
+    """rosbag2's channel metadata ``offered_qos_profiles``: the publishers' QoS, YAML.
+
+    As Jazzy's rosbag2 writes it (policies by name), so that ``ros2 bag
+    play`` offers a latched topic latched again.
+    """
+    profiles = [
+        {
+            "history": "keep_all" if qos.history == HistoryPolicy.KEEP_ALL else "keep_last",
+            "depth": int(qos.depth),
+            "reliability": "reliable"
+            if qos.reliability == ReliabilityPolicy.RELIABLE
+            else "best_effort",
+            "durability": "transient_local"
+            if qos.durability == DurabilityPolicy.TRANSIENT_LOCAL
+            else "volatile",
+            "deadline": dict(_INFINITE),
+            "lifespan": dict(_INFINITE),
+            "liveliness": "automatic",
+            "liveliness_lease_duration": dict(_INFINITE),
+            "avoid_ros_namespace_conventions": False,
+        }
+        for qos in offers
+    ]
+    return yaml.safe_dump(profiles, sort_keys=False)
+
+
+def _qos_metadata(qos: QoSProfile, offers: list[QoSProfile]) -> dict[str, str]:
     return {
+        "offered_qos_profiles": offered_qos_profiles(offers or [qos]),
+        # Our first recordings' keys, kept for the readers of those.
         "reliability": "reliable"
         if qos.reliability == ReliabilityPolicy.RELIABLE
         else "best_effort",
@@ -181,7 +215,9 @@ class Recorder(Node):
             topic=topic,
             message_encoding="cdr",
             schema_id=self._schemas[type_name],
-            metadata=_qos_metadata(qos),
+            metadata=_qos_metadata(
+                qos, [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
+            ),
         )
         self.counts[topic] = 0
         self._matched[topic] = 0
@@ -301,9 +337,19 @@ class Player(Node):
 
 
 def _qos_of(metadata: dict[str, str]) -> QoSProfile:
-    """The publisher QoS of a recorded topic (reliable, volatile when not said)."""
-    reliable = metadata.get("reliability", "reliable") == "reliable"
-    latched = metadata.get("durability") == "transient_local"
+    """The publisher QoS of a recorded topic: rosbag2's rule over the offered profiles.
+
+    Reliable and latched when every publisher offered it; from our first
+    recordings' own keys where there are no profiles (reliable, volatile when
+    not said).
+    """
+    offers = yaml.safe_load(metadata.get("offered_qos_profiles", "")) or []
+    if isinstance(offers, list) and offers and all(isinstance(o, dict) for o in offers):
+        reliable = all(o.get("reliability") in ("reliable", 1) for o in offers)
+        latched = all(o.get("durability") in ("transient_local", 1) for o in offers)
+    else:
+        reliable = metadata.get("reliability", "reliable") == "reliable"
+        latched = metadata.get("durability") == "transient_local"
     return QoSProfile(
         history=HistoryPolicy.KEEP_ALL,
         depth=1,

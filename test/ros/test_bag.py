@@ -9,6 +9,7 @@ from collections import defaultdict
 from functools import partial
 
 import pytest
+import yaml
 from geometry_msgs.msg import Vector3
 from mcap_ros2.decoder import generate_dynamic
 from rclpy.executors import SingleThreadedExecutor
@@ -114,6 +115,15 @@ def test_a_recorded_discovery_reads_back_every_message_the_run_sent(recorded_run
     }
     assert sources == set(world.ids.tolist())
     assert channels["/swarm/measurements"].metadata["durability"] == "transient_local"
+    # rosbag2's own metadata: every FLS's publisher offered reliable and latched.
+    offers = yaml.safe_load(channels["/swarm/measurements"].metadata["offered_qos_profiles"])
+    assert len(offers) == len(world.ids)
+    # (The graph does not tell a publisher's depth: 0, as in rosbag2's own recordings.)
+    assert {(o["reliability"], o["durability"]) for o in offers} == {
+        ("reliable", "transient_local")
+    }
+    radio = yaml.safe_load(channels["/swarm/radio"].metadata["offered_qos_profiles"])
+    assert {(o["history"], o["durability"]) for o in radio} == {("keep_all", "volatile")}
     assert channels["/swarm/radio"].type_name == "swazure_interfaces/msg/PathOffer"
 
 
