@@ -118,12 +118,12 @@ def test_a_recorded_discovery_reads_back_every_message_the_run_sent(recorded_run
     # rosbag2's own metadata: every FLS's publisher offered reliable and latched.
     offers = yaml.safe_load(channels["/swarm/measurements"].metadata["offered_qos_profiles"])
     assert len(offers) == len(world.ids)
-    # (The graph does not tell a publisher's depth: 0, as in rosbag2's own recordings.)
+    # (The graph tells no publisher's history or depth: as in rosbag2's own recordings.)
     assert {(o["reliability"], o["durability"]) for o in offers} == {
         ("reliable", "transient_local")
     }
     radio = yaml.safe_load(channels["/swarm/radio"].metadata["offered_qos_profiles"])
-    assert {(o["history"], o["durability"]) for o in radio} == {("keep_all", "volatile")}
+    assert {(o["reliability"], o["durability"]) for o in radio} == {("reliable", "volatile")}
     assert channels["/swarm/radio"].type_name == "swazure_interfaces/msg/PathOffer"
 
 
