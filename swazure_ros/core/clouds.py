@@ -16,7 +16,6 @@ from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
 from .errors import CloudError
 from .files import regular_file
@@ -215,6 +214,8 @@ def read_points(path: str | Path, scale: float = 1.0) -> FloatArray:
 
 def _at_density(points: FloatArray, density: float) -> FloatArray:
     """Rescale ``points`` so that their mean nearest-neighbour distance is ``density`` cm."""
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
     distances, _ = cKDTree(points).query(points, k=2)
     return points * (density / float(distances[:, 1].mean()))
 

@@ -11,14 +11,13 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
 from .. import __version__
+from . import jit
 from .geometry import Swarm, tracking_distance
 from .metrics import describe, pose_errors
 from .neighbours import (
@@ -30,6 +29,9 @@ from .neighbours import (
 from .paths import Graph, Paths, check_policy, make_graph, path_hops, shortest_paths
 from .sensor import DECAYING, SWEET, Sensor, expected_error, hop_error, measured_vectors
 from .sight import Grid, build_grid, obstructed, obstructers, segments_near
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -311,14 +313,14 @@ def hop_classes(hood: Neighbourhood, paths: Paths) -> tuple[IntArray, IntArray]:
     return sweet_hops, decaying_hops.astype(np.int64)
 
 
-@numba.njit(cache=True, parallel=True)
+@jit.kernel(cache=True, parallel=True)
 def _distinct_per_path(
     hop_offsets: IntArray, hop_edge: IntArray, edge_offsets: IntArray, edge_ids: IntArray
 ) -> IntArray:
     """Distinct obstructer ids over the hops of each path; hop_edge is -1 for a clear hop."""
     paths = len(hop_offsets) - 1
     out = np.zeros(paths, dtype=np.int64)
-    for path in numba.prange(paths):
+    for path in jit.prange(paths):
         total = 0
         for hop in range(hop_offsets[path], hop_offsets[path + 1]):
             if hop_edge[hop] >= 0:

@@ -13,7 +13,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import cKDTree
 
 from .clouds import validate_points
 from .errors import CloudError
@@ -58,12 +57,16 @@ def tracking_distance(
 def min_distance(points: ArrayLike) -> float:
     """dmin: the smallest centre-to-centre distance between two points, cm."""
     points = validate_points(points)
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
     _, nearest = cKDTree(points).query(points, k=2)
     return float(centre_distance(points, np.arange(len(points)), nearest[:, 1]).min())
 
 
 def colliding_pairs(points: FloatArray, radius: float) -> IntArray:
     """Unordered pairs (M, 2) of points closer than 2r (strictly)."""
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
     candidates = cKDTree(points).query_pairs(2.0 * radius, output_type="ndarray")
     if len(candidates) == 0:
         return np.empty((0, 2), dtype=np.int64)

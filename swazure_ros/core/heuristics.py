@@ -29,13 +29,12 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
+from . import jit
 from .evaluate import (
     NO_PATH,
     REASON_BLOCKED,
@@ -49,6 +48,9 @@ from .metrics import describe, pose_errors
 from .paths import Paths, path_hops, paths_from_rows, shortest_paths
 from .sensor import measured_vectors
 from .sight import _any_within, _scan_between, obstructers
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -231,12 +233,12 @@ def free_circle_point(
     return None if np.isnan(point[0]) else point
 
 
-@numba.njit(cache=True)
+@jit.kernel(cache=True)
 def _wrap(angle: float) -> float:
     return (angle + np.pi) % (2 * np.pi) - np.pi
 
 
-@numba.njit(cache=True)
+@jit.kernel(cache=True)
 def _free_circle_kernel(
     centre: FloatArray,
     normal: FloatArray,
@@ -466,6 +468,8 @@ def move_obstructing(evaluation: Evaluation, compat: Compat = TEXT) -> Heuristic
     original = {
         int(e): ids[offsets[k] : offsets[k + 1]].tolist() for k, e in enumerate(edges.tolist())
     }
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
     tree = cKDTree(points)
     new_paths: dict[int, list[int]] = {}
     move_counts = np.zeros(size, dtype=np.int64)
@@ -544,6 +548,8 @@ def _move_obstructing_independently(evaluation: Evaluation, compat: Compat) -> H
     points, radius = hood.swarm.points, hood.swarm.radius
     size = len(evaluation.pairs)
     blocked, sweet_paths, edge, edges, offsets, ids = _blocked_hops(evaluation)
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
     tree = cKDTree(points)
     # Every move is made in the original shape: one destination per hop and obstructer.
     moves_of: dict[int, tuple[list[tuple[int, FloatArray]], bool]] = {}
@@ -592,7 +598,7 @@ def _move_obstructing_independently(evaluation: Evaluation, compat: Compat) -> H
     )
 
 
-@numba.njit(cache=True, parallel=True)
+@jit.kernel(cache=True, parallel=True)
 def _probe_kernel(
     points: FloatArray,
     radius: float,
@@ -624,7 +630,7 @@ def _probe_kernel(
     helper = np.full(pairs, -1, dtype=np.int64)
     probe = np.full((pairs, 3), np.nan)
     flown = np.zeros(pairs)
-    for pair in numba.prange(pairs):
+    for pair in jit.prange(pairs):
         i, j = sources[pair], targets[pair]
         found = np.empty(len(points) if occlusion_near_origin else 1, dtype=np.int64)
         alive = np.ones(len(directions), dtype=np.bool_)
@@ -871,7 +877,7 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
     return replace(evaluation, pairs=updated, summary=summary)
 
 
-@numba.njit(cache=True, nogil=True, error_model="numpy")
+@jit.kernel(cache=True, nogil=True, error_model="numpy")
 def _gap(point: FloatArray, start: FloatArray, end: FloatArray) -> float:
     """Distance of ``point`` (3,) to the segment start-end (3,)-(3,), cm."""
     dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
@@ -883,7 +889,7 @@ def _gap(point: FloatArray, start: FloatArray, end: FloatArray) -> float:
     return float(np.sqrt(gx * gx + gy * gy + gz * gz))
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _near_a_segment(
     points: FloatArray, starts: FloatArray, ends: FloatArray, reach: float
 ) -> bool:
@@ -895,7 +901,7 @@ def _near_a_segment(
     return False
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _near_segment(
     points: FloatArray, start: FloatArray, end: FloatArray, reach: float
 ) -> NDArray[np.bool_]:
@@ -906,7 +912,7 @@ def _near_segment(
     return near
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _closer_than(first: FloatArray, second: FloatArray, distance: float) -> bool:
     """True when a point of ``first`` (K, 3) is closer than ``distance`` to one of ``second``."""
     for k in range(len(first)):

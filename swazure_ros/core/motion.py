@@ -16,7 +16,6 @@ from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.interpolate import CubicSpline
 
 from .errors import SwazureError
 
@@ -129,6 +128,10 @@ class Waypoints:
     def __post_init__(self) -> None:
         if len(self.times) < 2 or np.any(np.diff(self.times) <= 0):
             raise TrajectoryError("waypoint times must be at least two, strictly increasing")
+        from scipy.interpolate import (
+            CubicSpline,  # here, not at import: an FLS alone never calls it
+        )
+
         object.__setattr__(
             self, "_spline", CubicSpline(self.times, self.points, bc_type="clamped")
         )

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
 from .geometry import KISSING_TOLERANCE, Swarm, centre_distance
 from .sensor import BLIND, Sensor
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -54,6 +57,8 @@ def neighbour_pairs(swarm: Swarm, sensor: Sensor) -> NeighbourPairs:
     """
     reach = sensor.decaying_max + 2.0 * swarm.radius
     reach = max(reach, 2.0 * swarm.radius + 2 * KISSING_TOLERANCE)
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
     candidates = cKDTree(swarm.points).query_pairs(reach, output_type="ndarray")
     candidates = np.asarray(candidates, dtype=np.int64).reshape(-1, 2)
     first, second = candidates[:, 0], candidates[:, 1]
@@ -78,6 +83,8 @@ def pairs_of(
     """
     reach = sensor.decaying_max + 2.0 * swarm.radius
     reach = max(reach, 2.0 * swarm.radius + 2 * KISSING_TOLERANCE)
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
     tree = tree if tree is not None else cKDTree(swarm.points)
     found = tree.query_ball_point(swarm.points[flss], reach)
     counts = np.array([len(near) for near in found], dtype=np.int64)

@@ -23,11 +23,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
+
+from . import jit
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -79,6 +78,9 @@ class Graph:
 
     def components(self) -> IntArray:
         """Connected-component label of every node: (N,)."""
+        from scipy.sparse import csr_matrix  # here, not at import: an FLS alone never calls it
+        from scipy.sparse.csgraph import connected_components
+
         matrix = csr_matrix(
             (np.ones(len(self.indices)), self.indices, self.indptr), shape=(self.size,) * 2
         )
@@ -141,12 +143,12 @@ def make_graph(
     )
 
 
-@numba.njit(cache=True, parallel=True)
+@jit.kernel(cache=True, parallel=True)
 def _edge_positions(
     indptr: IntArray, indices: IntArray, first: IntArray, second: IntArray
 ) -> IntArray:
     out = np.full(len(first), -1, dtype=np.int64)
-    for m in numba.prange(len(first)):
+    for m in jit.prange(len(first)):
         row = indices[indptr[first[m]] : indptr[first[m] + 1]]
         position = np.searchsorted(row, second[m])
         if position < len(row) and row[position] == second[m]:
@@ -154,7 +156,7 @@ def _edge_positions(
     return out
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _heap_push(
     key1: FloatArray,
     key2: FloatArray,
@@ -175,7 +177,7 @@ def _heap_push(
     return size + 1
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _heap_pop(key1: FloatArray, key2: FloatArray, item: IntArray, size: int) -> int:
     size -= 1
     k1, k2, node = key1[size], key2[size], item[size]
@@ -197,7 +199,7 @@ def _heap_pop(key1: FloatArray, key2: FloatArray, item: IntArray, size: int) -> 
     return size
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _walk_back(pred: IntArray, target: int, steps: int, out: IntArray) -> None:
     """Write the path ending at ``target`` (``steps`` hops) into out[0 : steps + 1]."""
     node = target
@@ -206,7 +208,7 @@ def _walk_back(pred: IntArray, target: int, steps: int, out: IntArray) -> None:
         node = pred[node]
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _scratch(
     size: int,
 ) -> tuple[FloatArray, FloatArray, IntArray, NDArray[np.bool_], NDArray[np.bool_], IntArray]:
@@ -221,7 +223,7 @@ def _scratch(
     )
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _reset(
     touched: IntArray,
     primary: FloatArray,
@@ -235,7 +237,7 @@ def _reset(
         settled[node] = False
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _search_one(
     indptr: IntArray,
     indices: IntArray,
@@ -312,7 +314,7 @@ def _search_one(
     return count
 
 
-@numba.njit(cache=True, parallel=True)
+@jit.kernel(cache=True, parallel=True)
 def _two_hop_kernel(
     indptr: IntArray,
     indices: IntArray,
@@ -333,7 +335,7 @@ def _two_hop_kernel(
     resolved = np.zeros(pairs, dtype=np.bool_)
     middle = np.full(pairs, -1, dtype=np.int64)
     length = np.full(pairs, np.inf)
-    for pair in numba.prange(pairs):
+    for pair in jit.prange(pairs):
         source, target = sources[pair], targets[pair]
         a, a_end = indptr[source], indptr[source + 1]
         b, b_end = indptr[target], indptr[target + 1]
@@ -363,7 +365,7 @@ def _two_hop_kernel(
     return resolved, middle, length
 
 
-@numba.njit(cache=True, parallel=True)
+@jit.kernel(cache=True, parallel=True)
 def _search_kernel(
     indptr: IntArray,
     indices: IntArray,
@@ -382,7 +384,7 @@ def _search_kernel(
     hops = np.zeros(pairs, dtype=np.int64)
     length = np.full(pairs, np.nan)
     buffer = np.full((pairs, width), -1, dtype=np.int64)
-    for chunk in numba.prange(chunks):
+    for chunk in jit.prange(chunks):
         primary, secondary, pred, settled, wanted, touched = _scratch(size)
         for position in range(chunk, len(sources), chunks):
             source = sources[position]
@@ -418,7 +420,7 @@ def _search_kernel(
     return found, hops, length, buffer
 
 
-@numba.njit(cache=True)
+@jit.kernel(cache=True)
 def _long_paths(
     indptr: IntArray,
     indices: IntArray,
@@ -479,7 +481,7 @@ def _policy_weights(graph: Graph, policy: str) -> tuple[FloatArray, bool]:
     return graph.weights, policy == FEWEST_HOPS
 
 
-@numba.njit(cache=True, parallel=True)
+@jit.kernel(cache=True, parallel=True)
 def _avoiding_kernel(
     indptr: IntArray,
     indices: IntArray,
@@ -498,7 +500,7 @@ def _avoiding_kernel(
     found = np.zeros(pairs, dtype=np.bool_)
     hops = np.zeros(pairs, dtype=np.int64)
     buffer = np.full((pairs, width), -1, dtype=np.int64)
-    for chunk in numba.prange(chunks):
+    for chunk in jit.prange(chunks):
         primary, secondary, pred, settled, wanted, touched = _scratch(size)
         one = np.empty(1, dtype=np.int64)
         for pair in range(chunk, pairs, chunks):
@@ -569,7 +571,7 @@ def avoiding_paths(
         np.asarray(avoid_offsets, dtype=np.int64),
         np.asarray(avoid, dtype=np.int64),
         AVOIDING_WIDTH,
-        max(1, min(len(sources), 4 * numba.get_num_threads())),
+        max(1, min(len(sources), 4 * jit.get_num_threads())),
     )
     counts = np.where(found, hops + 1, 0)
     offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
@@ -648,7 +650,7 @@ def shortest_paths(
             components,
             fewest_hops,
             _WIDTH,
-            min(end - begin, 4 * numba.get_num_threads()),
+            min(end - begin, 4 * jit.get_num_threads()),
         )
         where = rest[lo:hi]
         found[where], hops[where], length[where] = part_found, part_hops, part_length

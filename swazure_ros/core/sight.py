@@ -12,10 +12,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import cKDTree
+
+from . import jit
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -39,6 +39,8 @@ def build_grid(points: FloatArray, radius: float) -> Grid:
     """Bucket ``points`` (N, 3) into cells of about the point spacing, cm, and at least r."""
     lower = points.min(axis=0)
     extent = np.ptp(points, axis=0)
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
     spacing, _ = cKDTree(points).query(points, k=2)
     # Cells near the point spacing keep few points per cell and few cells per
     # segment, whatever r is.
@@ -54,7 +56,7 @@ def build_grid(points: FloatArray, radius: float) -> Grid:
     return Grid(lower, cell, shape, cell_start, members)
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _scan_segment(
     points: FloatArray,
     radius: float,
@@ -90,7 +92,7 @@ def _scan_segment(
     )
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _scan_between(
     points: FloatArray,
     radius: float,
@@ -163,7 +165,7 @@ def _scan_between(
     return count
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _any_within(
     points: FloatArray,
     x: float,
@@ -224,7 +226,7 @@ def _obstructed_segments(
     out = np.zeros(len(first), dtype=np.bool_)
     chunks = 64
     size = (len(first) + chunks - 1) // chunks
-    for chunk in numba.prange(chunks):
+    for chunk in jit.prange(chunks):
         found = np.empty(1, dtype=np.int64)
         for pair in range(chunk * size, min((chunk + 1) * size, len(first))):
             hits = _scan_segment(
@@ -248,11 +250,13 @@ def _obstructed_segments(
 #: waking the parallel kernel's threads costs about a millisecond (measured), a
 #: thousand segments' work. One source, compiled twice (prange runs as range).
 SERIAL_SEGMENTS = 1024
-_obstructed_kernel = numba.njit(cache=True, parallel=True)(_obstructed_segments)
-_obstructed_serial = numba.njit(cache=True, nogil=True)(_obstructed_segments)
+_obstructed_kernel = jit.kernel("_obstructed_kernel", cache=True, parallel=True)(
+    _obstructed_segments
+)
+_obstructed_serial = jit.kernel("_obstructed_serial", cache=True, nogil=True)(_obstructed_segments)
 
 
-@numba.njit(cache=True)
+@jit.kernel(cache=True)
 def _obstructers_kernel(
     points: FloatArray,
     radius: float,
@@ -377,13 +381,13 @@ def obstructers(
     return np.asarray(offsets), np.asarray(ids)
 
 
-@numba.njit(cache=True, parallel=True)
+@jit.kernel(cache=True, parallel=True)
 def _near_kernel(
     starts: FloatArray, ends: FloatArray, probes: FloatArray, reach: float
 ) -> NDArray[np.bool_]:
     near = np.zeros(len(starts), dtype=np.bool_)
     reach2 = reach * reach
-    for m in numba.prange(len(starts)):
+    for m in jit.prange(len(starts)):
         a, b = starts[m], ends[m]
         d = b - a
         length2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]

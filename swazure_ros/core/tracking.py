@@ -25,8 +25,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from filterpy.common import Q_discrete_white_noise
-from filterpy.kalman import KalmanFilter
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import SwazureError, UnknownFlsError
@@ -251,6 +249,9 @@ class KalmanTracker:
         self.model = model
         self.order = 2 if model == CONSTANT_VELOCITY else 3
         self.process_noise = process_noise
+        # Here, not at import: filterpy imports scipy.stats, 0.4 s of an FLS's start.
+        from filterpy.kalman import KalmanFilter
+
         self._filter = KalmanFilter(dim_x=3 * self.order, dim_z=3)
         self._filter.H = np.hstack([np.eye(3), np.zeros((3, 3 * (self.order - 1)))])
         self._filter.R = np.eye(3) * measurement_noise**2
@@ -261,6 +262,8 @@ class KalmanTracker:
         self.time: float | None = None
 
     def _noise(self, dt: float) -> FloatArray:
+        from filterpy.common import Q_discrete_white_noise
+
         return np.asarray(
             Q_discrete_white_noise(
                 self.order, dt=dt, var=self.process_noise**2, block_size=3, order_by_dim=False

@@ -28,10 +28,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core import jit
 from ..core.evaluate import (
     ABORTED,
     DECAYING_PATH,
@@ -248,7 +248,7 @@ class RoundOffers:
         return tuple(self.path_ids[start:stop].tolist())
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _sender_rows(wanted: IntArray, senders: IntArray) -> IntArray:
     """(W,) the row of each id of ``wanted`` in ``senders``, -1 where absent; both sorted."""
     rows = np.full(len(wanted), -1, dtype=np.int64)
@@ -261,7 +261,7 @@ def _sender_rows(wanted: IntArray, senders: IntArray) -> IntArray:
     return rows
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _labels_for(
     source: int,
     senders_wanted: IntArray,
@@ -287,7 +287,7 @@ def _labels_for(
     return found[:count]
 
 
-@numba.njit(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True)
 def _relax(
     me: int,
     link_ids: IntArray,

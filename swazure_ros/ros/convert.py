@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import array
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -34,7 +35,6 @@ from swazure_interfaces.msg import (
 )
 from visualization_msgs.msg import Marker, MarkerArray
 
-from ..core.camera import Camera
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
 from ..core.frames import METRES_PER_CM, fls_frame, to_centimetres, to_metres
 from ..core.observe import Measurement, NeighbourSets
@@ -53,11 +53,8 @@ from ..protocol.discovery import (
     Report,
 )
 from ..protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
-from ..protocol.plausible import implausible
 from ..protocol.radio import Ack
 from ..protocol.tracking import START_RELAY, STOP_RELAY, RelayRequest, Sample, TrackReport
-from ..sim.world import World
-from ..view.scene import MOVE_COLOUR, SCENE_FRAME, Scene
 from .guard import check, check_finite, check_ids, check_size
 from .names import (
     POLICY_CODES,
@@ -67,6 +64,10 @@ from .names import (
     TRACK_STATE_NAMES,
     node_name,
 )
+
+if TYPE_CHECKING:
+    from ..core.camera import Camera
+    from ..view.scene import Scene
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -267,24 +268,6 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
         pending=message.pending,
         finished=message.finished,
     )
-
-
-def plausible_offer(message: PathOffer, world: World) -> Offer:
-    """The labels of ``message`` if every one may be true in ``world``; MessageError if not.
-
-    :func:`offer_from_message`, then :func:`~..protocol.plausible.implausible`
-    by where ``world`` puts every FLS.
-    """
-    offer = offer_from_message(message, world.ids)
-    why = implausible(
-        offer,
-        message.phase,
-        lambda ids: world.swarm.points[world.indices(ids)],
-        world.sensor,
-        world.swarm.radius,
-    )
-    check(why is None, f"implausible: {why}")
-    return offer
 
 
 def estimate_message(source: int, found: Estimate) -> PoseEstimate:
@@ -706,6 +689,9 @@ def scene_markers(scene: Scene, stamp: Time) -> MarkerArray:
 
     The first marker deletes what an earlier scene drew.
     """
+    # Here, not at import: the scene is the viewer's, which an FLS alone never runs.
+    from ..view.scene import MOVE_COLOUR, SCENE_FRAME
+
     header = Header(stamp=stamp, frame_id=SCENE_FRAME)
     markers = [Marker(header=header, action=Marker.DELETEALL)]
     diameter = 2 * scene.radius * METRES_PER_CM

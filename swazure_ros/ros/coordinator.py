@@ -41,8 +41,9 @@ from swazure_interfaces.srv import ComputePose
 from ..core.evaluate import Evaluation
 from ..core.heuristics import HeuristicResult
 from ..core.paths import check_policy
-from ..protocol.discovery import Control, Estimate, bucket_width, evaluation_of
+from ..protocol.discovery import Control, Estimate, Offer, bucket_width, evaluation_of
 from ..protocol.moves import Move, MoveRun, Walk
+from ..protocol.plausible import implausible
 from ..protocol.rounds import Absences, RoundClock, StallClock
 from ..sim.world import World, WorldSpec
 from .auth import SwarmKey
@@ -51,7 +52,7 @@ from .convert import (
     estimate_message,
     estimates_from_message,
     moves_message,
-    plausible_offer,
+    offer_from_message,
     walk_message,
 )
 from .deferred import Reply, create_deferred_service
@@ -87,6 +88,24 @@ from .runtime import (
 
 
 @dataclass
+def plausible_offer(message: PathOffer, world: World) -> Offer:
+    """The labels of ``message`` if every one may be true in ``world``; MessageError if not.
+
+    :func:`offer_from_message`, then :func:`~..protocol.plausible.implausible`
+    by where ``world`` puts every FLS.
+    """
+    offer = offer_from_message(message, world.ids)
+    why = implausible(
+        offer,
+        message.phase,
+        lambda ids: world.swarm.points[world.indices(ids)],
+        world.sensor,
+        world.swarm.radius,
+    )
+    check(why is None, f"implausible: {why}")
+    return offer
+
+
 class Traffic:
     """Messages and bytes sent during discovery, per topic."""
 
