@@ -87,7 +87,6 @@ from .runtime import (
 )
 
 
-@dataclass
 def plausible_offer(message: PathOffer, world: World) -> Offer:
     """The labels of ``message`` if every one may be true in ``world``; MessageError if not.
 
@@ -106,6 +105,7 @@ def plausible_offer(message: PathOffer, world: World) -> Offer:
     return offer
 
 
+@dataclass
 class Traffic:
     """Messages and bytes sent during discovery, per topic."""
 

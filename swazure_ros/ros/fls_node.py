@@ -562,8 +562,8 @@ def build_fls(context: Context) -> list[Node]:
     ``namespace`` and ``key_file`` (the swarm's key; "" for none, and then
     ``SWAZURE_SWARM_KEY_FILE`` if set), besides the FLS node's own.
     """
-    from .host import Radio  # the radio's module hosts packed swarms too
     from .keys import key_from
+    from .radio import Radio  # the radio hands this node what it hears: imported here
 
     values = startup_parameters(
         context,

@@ -11,10 +11,8 @@ from __future__ import annotations
 
 import re
 import time
-from collections import deque
 from collections.abc import Callable, Sequence
 from functools import partial
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -24,196 +22,38 @@ from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from swazure_interfaces.msg import (
-    DiscoveryControl,
-    PathOffer,
-    PathWalk,
-    RoundAck,
-    TrackRequest,
-    TrackSample,
     WorldState,
 )
 
 from ..core.motion import Motion
-from ..protocol.moves import Walk
-from ..protocol.plausible import round_labels_check
-from ..protocol.radio import Ack, RadioHub, RadioLoss
+from ..protocol.radio import RadioLoss
 from ..protocol.rounds import Absences
-from ..protocol.senses import Senses
 from ..sim.replica import WorldReplica
 from ..sim.world import World
 from .auth import SwarmKey
 from .convert import (
-    ack_message,
-    control_from_message,
-    offer_from_message,
-    relay_request_from_message,
-    sample_from_message,
-    walk_from_message,
-    walk_message,
     world_positions,
 )
 from .fls_node import FlsNode, Transmitter
 from .guard import Guard, check
 from .names import (
-    ACK_TOPIC,
-    CONTROL_TOPIC,
     COORDINATOR,
     LIVENESS_GRACE,
     MEASUREMENTS_TOPIC,
     NEIGHBOURS_SERVICE,
-    RADIO_TOPIC,
-    ROUND_QOS,
-    TRACK_REQUESTS_TOPIC,
-    TRACK_SAMPLES_TOPIC,
-    WALKS_TOPIC,
     WORLD_QOS,
     WORLD_REACH,
     WORLD_TOPIC,
     fls_id_of,
 )
+from .radio import Radio
 from .runtime import ParameterError, SwarmNode
 from .world_node import WorldNode
 
 #: Seconds between a host's looks at the graph for its coordinator.
 COORDINATOR_WATCH_PERIOD = 0.5
-#: Path walks a process keeps while they wait for a newer world revision (a heuristic
-#: walks a few paths per group of moves).
-EARLY_WALKS = 4096
 IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
-
-
-class Radio:
-    """The radio medium of one process (:class:`~swazure_ros.protocol.radio.RadioHub`) on ROS.
-
-    It hears every broadcast on ``radio`` once and hands it to the local FLS
-    nodes within radio range of the sender, as a real radio would; it hands
-    the coordinator's controls to every local FLS; and once it has delivered
-    every offer of a round, it acknowledges the round on ``round_acks``. Path
-    walks on ``path_walks`` go to the FLS they are addressed to, once this
-    process has the world revision they must be measured in; track requests
-    go to their relay and track samples to their source.
-    """
-
-    def __init__(
-        self,
-        node: Node,
-        senses: Senses,
-        fls_nodes: dict[int, FlsNode],
-        loss: RadioLoss | None = None,
-        guard: Guard | None = None,
-    ) -> None:
-        self._node = node
-        self._senses = senses
-        self._fls = fls_nodes
-        self._hub = RadioHub(
-            fls_nodes.keys(),
-            loss,
-            lambda fls_id: senses.view(fls_id).other.astype(np.int64),
-            round_labels_check(senses.positions, senses.sensor, senses.radius),
-        )
-        self.controls_heard = 0  # a control is a sure sign that a coordinator is there
-        self.last_control_at = float("-inf")  # monotonic s
-        self.guard = guard or Guard(node)
-        self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
-        self._subscribe(DiscoveryControl, CONTROL_TOPIC, self._on_control)
-        self._subscribe(PathOffer, RADIO_TOPIC, self._on_offer)
-        # One walk publisher per process, not per FLS: a thousand more endpoints
-        # would slow the swarm's discovery for a message few FLSs ever send.
-        self._walks = node.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
-        # Walks that must wait for a newer world revision, the oldest dropped first.
-        self._early_walks: deque[Walk] = deque(maxlen=EARLY_WALKS)
-        self._subscribe(PathWalk, WALKS_TOPIC, self._on_walk)
-        senses.on_revision.append(self._take_early_walks)
-        self._subscribe(TrackRequest, TRACK_REQUESTS_TOPIC, self._on_track_request)
-        self._subscribe(TrackSample, TRACK_SAMPLES_TOPIC, self._on_track_sample)
-
-    def _subscribe(self, kind: type, topic: str, callback: Callable[[Any], None]) -> None:
-        self.guard.subscribe(kind, topic, callback, ROUND_QOS)
-
-    @property
-    def _swarm(self) -> IntArray:
-        return self._senses.ids
-
-    def coordinator_lost(self) -> int:
-        """The coordinator left mid-run: every local FLS drops its runs, sources report ABORTED.
-
-        Returns the number of ABORTED estimates sent.
-        """
-        self._hub.abandon()
-        return sum(node.abandon_runs() for node in self._fls.values())
-
-    def _on_track_request(self, message: TrackRequest) -> None:
-        request = relay_request_from_message(message, self._swarm)
-        node = self._fls.get(request.relay)
-        if node is not None:
-            node.on_track_request(request)
-
-    def _on_track_sample(self, message: TrackSample) -> None:
-        sample = sample_from_message(message, self._swarm)
-        node = self._fls.get(sample.source)
-        if node is not None:
-            node.on_track_sample(sample)
-
-    def _on_control(self, message: DiscoveryControl) -> None:
-        control = control_from_message(message, self._swarm)
-        self.controls_heard += 1
-        self.last_control_at = time.monotonic()
-        recipients, ack, heard = self._hub.on_control(control)
-        for sender, why in self._hub.rejected:
-            self.guard.drop(RADIO_TOPIC, f"implausible: {why}", f"FLS {sender}'s offer: {why}")
-        self._hub.rejected.clear()
-        for fls_id in recipients:
-            self._fls[fls_id].on_control(control, heard)
-        self._acknowledge(ack)
-
-    def _on_offer(self, message: PathOffer) -> None:
-        # Its labels' meaning is checked once a round, with every offer heard (_implausible).
-        offer = offer_from_message(message, self._swarm)
-        self._acknowledge(
-            self._hub.on_offer(int(message.run_id), int(message.round), message.sender_id, offer)
-        )
-
-    def _acknowledge(self, ack: Ack | None) -> None:
-        if ack is None:
-            return
-        if ack.latency <= 0:
-            self._send_ack(ack)
-            return
-
-        # A slow radio's last delivery of the round arrives this late: so does the ack.
-        def send_once() -> None:
-            self._node.destroy_timer(timer)
-            self._send_ack(ack)
-
-        timer = self._node.create_timer(ack.latency, send_once)
-
-    def _send_ack(self, ack: Ack) -> None:
-        stamp = self._node.get_clock().now().to_msg()
-        self._acks.publish(
-            self.guard.key.serialize(ack_message(ack, self._node.get_name(), stamp))
-        )
-
-    def _on_walk(self, message: PathWalk) -> None:
-        self._take_walk(walk_from_message(message, self._swarm))
-
-    def _take_walk(self, walk: Walk) -> None:
-        node = self._fls.get(walk.at)
-        if node is None:
-            return  # another process's FLS, or a stopped one
-        if walk.revision > self._senses.revision:
-            self._early_walks.append(walk)
-            return
-        onward = node.on_walk(walk)
-        if onward is not None:
-            stamp = self._node.get_clock().now().to_msg()
-            self._walks.publish(self.guard.key.serialize(walk_message(onward, stamp)))
-
-    def _take_early_walks(self) -> None:
-        early = list(self._early_walks)
-        self._early_walks.clear()
-        for walk in early:
-            self.guard.call(WALKS_TOPIC, self._take_walk, walk)
 
 
 class SwarmHost:
