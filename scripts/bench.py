@@ -1398,6 +1398,111 @@ def fusion_section(args: argparse.Namespace) -> list[str]:
     return lines
 
 
+def fls_process_section(args: argparse.Namespace) -> list[str]:
+    """One FLS in its own process: resident memory and time from start to discovery-ready."""
+    import rclpy
+    from rclpy.context import Context
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from swazure_interfaces.srv import ComputePose
+
+    venv = Path(sys.executable).parents[1]
+    programs = venv / "lib" / "swazure_ros"
+    if not (programs / "fls").exists():
+        return ["## One FLS per process", "", "Skipped: `make setup` makes the programs."]
+    domain = 151
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    trio = ["-p", f"cloud:={REPO / 'config/track/trio.xyz'}", "-p", "radius:=0.5"]
+    camera_sensor = REPO / "config" / "cameras" / "sensor-wide-calibrated.yaml"
+
+    def start(program: str, *extra: str) -> subprocess.Popen[bytes]:
+        return subprocess.Popen(
+            [str(programs / program), "--ros-args", *trio, *extra],
+            env=env,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+
+    context = Context()
+    rclpy.init(context=context, domain_id=domain)
+    probe = Node("bench_probe", context=context, enable_rosout=False)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(probe)
+
+    def ready(fls_id: int) -> bool:
+        # In the graph with its radio listening for the coordinator's round clock.
+        return any(
+            info.node_name == f"fls_{fls_id}"
+            for info in probe.get_subscriptions_info_by_topic("/swarm/discovery")
+        )
+
+    processes = [start("world")]
+    rows = []
+    try:
+        time.sleep(3.0)  # the simulator first, as a swarm's launch would have it
+        for fls_id, extra in ((0, ()), (1, ()), (2, ())):
+            began = time.monotonic()
+            process = start("fls", "-p", f"fls_id:={fls_id}", *extra)
+            processes.append(process)
+            while not ready(fls_id) and time.monotonic() - began < 60:
+                executor.spin_once(timeout_sec=0.01)
+            rows.append([fls_id, time.monotonic() - began, process.pid])
+        time.sleep(2.0)
+        at_ready = [resident_mb(pid) for _, _, pid in rows]
+        processes.append(start("coordinator"))
+        client = probe.create_client(ComputePose, "/swarm/coordinator/compute_pose")
+        client.wait_for_service(timeout_sec=60)
+        began = time.monotonic()
+        future = client.call_async(ComputePose.Request(source_id=0, target_id=2, policy=1))
+        while not future.done() and time.monotonic() - began < 120:
+            executor.spin_once(timeout_sec=0.05)
+        pose_seconds = time.monotonic() - began
+        after = [resident_mb(pid) for _, _, pid in rows]
+        # A camera-kind FLS: its sensor loads OpenCV.
+        began = time.monotonic()
+        camera = start("fls", "-p", "fls_id:=1", "-p", f"sensor:={camera_sensor}",
+                       "-p", "namespace:=camera_swarm")  # fmt: skip
+        processes.append(camera)
+        while time.monotonic() - began < 60:
+            listening = probe.get_subscriptions_info_by_topic("/camera_swarm/discovery")
+            if any(info.node_name == "fls_1" for info in listening):
+                break
+            executor.spin_once(timeout_sec=0.01)
+        camera_seconds = time.monotonic() - began
+        time.sleep(2.0)
+        camera_mb = resident_mb(camera.pid)
+    finally:
+        for process in processes:
+            process.terminate()
+        for process in processes:
+            process.wait(timeout=30)
+        executor.shutdown()
+        probe.destroy_node()
+        context.try_shutdown()
+    lines = [
+        "## One FLS per process",
+        "",
+        "`ros2 run swazure_ros fls` on the trio (config/swarms/trio.yaml), the world",
+        "program already up. Ready: the FLS's radio is on the graph listening for the",
+        "coordinator's round clock. Memory: resident, 2 s after ready, then after its",
+        "first discovery run (compute_pose 0 -> 2 through the coordinator, which loads",
+        "numba's compiled kernels from its cache).",
+        "",
+        "| FLS | start to ready s | resident at ready MB | after a discovery run MB |",
+        "| --- | ---: | ---: | ---: |",
+    ]
+    for (fls_id, seconds, _), ready_mb, after_mb in zip(rows, at_ready, after, strict=True):
+        lines.append(f"| {fls_id} | {seconds:.2f} | {ready_mb:.0f} | {after_mb:.0f} |")
+    lines += [
+        "",
+        f"The pose query took {pose_seconds:.2f} s. A camera-kind FLS (sensor "
+        f"`{camera_sensor.relative_to(REPO)}`, which loads OpenCV): {camera_seconds:.2f} s "
+        f"to ready, {camera_mb:.0f} MB resident. Targets (issue 31): at most 80 MB and "
+        "under 1 s for a published-model FLS.",
+    ]
+    return lines
+
+
 SECTIONS = {
     "engine": engine_section,
     "policies": policies_section,
@@ -1411,6 +1516,7 @@ SECTIONS = {
     "soak": soak_section,
     "faults": faults_section,
     "hostile": hostile_section,
+    "fls_process": fls_process_section,
 }
 
 

@@ -9,6 +9,7 @@ exactly 0 wherever it is computed.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,10 +55,36 @@ def tracking_distance(
     return centre_distance(points, first, second) - 2.0 * radius
 
 
+#: Clouds up to this many points are searched pair by pair, without a k-d tree: an FLS
+#: in its own process builds its shape's points this way without importing scipy
+#: (30 MB of a process); the two searches give the same pairs and distances.
+SMALL_CLOUD = 2048
+#: Rows of the pairwise search at a time (a few MB of differences).
+_ROWS = 128
+
+
+def _pair_blocks(count: int) -> Iterator[tuple[IntArray, IntArray]]:
+    """Every unordered pair of ``count`` points, first < second, a block of rows at a time."""
+    for start in range(0, count, _ROWS):
+        rows = np.arange(start, min(start + _ROWS, count))
+        others = np.arange(start + 1, count)
+        first, second = np.repeat(rows, len(others)), np.tile(others, len(rows))
+        keep = first < second
+        yield first[keep], second[keep]
+
+
 def min_distance(points: ArrayLike) -> float:
     """dmin: the smallest centre-to-centre distance between two points, cm."""
     points = validate_points(points)
-    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+    if len(points) <= SMALL_CLOUD:
+        return float(
+            min(
+                centre_distance(points, first, second).min()
+                for first, second in _pair_blocks(len(points))
+                if len(first)
+            )
+        )
+    from scipy.spatial import cKDTree  # here: a small cloud needs no tree (SMALL_CLOUD)
 
     _, nearest = cKDTree(points).query(points, k=2)
     return float(centre_distance(points, np.arange(len(points)), nearest[:, 1]).min())
@@ -65,7 +92,13 @@ def min_distance(points: ArrayLike) -> float:
 
 def colliding_pairs(points: FloatArray, radius: float) -> IntArray:
     """Unordered pairs (M, 2) of points closer than 2r (strictly)."""
-    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+    if len(points) <= SMALL_CLOUD:
+        blocks = [
+            np.stack([first, second], axis=1)[centre_distance(points, first, second) < 2 * radius]
+            for first, second in _pair_blocks(len(points))
+        ]
+        return np.asarray(np.concatenate(blocks), dtype=np.int64).reshape(-1, 2)
+    from scipy.spatial import cKDTree  # here: a small cloud needs no tree (SMALL_CLOUD)
 
     candidates = cKDTree(points).query_pairs(2.0 * radius, output_type="ndarray")
     if len(candidates) == 0:

@@ -23,6 +23,18 @@ Function = TypeVar("Function", bound=Callable[..., Any])
 
 #: Module name -> its kernels not compiled yet: (name, function, njit options).
 _pending: dict[str, list[tuple[str, Callable[..., Any], dict[str, Any]]]] = {}
+#: The process's choice (:func:`interpret`): run kernels as Python, never import numba.
+_settings = {"interpret": False}
+
+
+def interpret() -> None:
+    """Run this process's kernels as plain Python from now on; numba is never imported.
+
+    For a process whose kernels see little data: an FLS in its own process
+    relaxes a few labels a round, where numba's import and compiled code cost
+    100 MB (BENCHMARKS.md). Kernels compiled before the call stay compiled.
+    """
+    _settings["interpret"] = True
 
 
 def kernel(name: str | None = None, **options: Any) -> Callable[[Function], Function]:
@@ -53,8 +65,12 @@ def compile_module(module: str) -> None:
     kernels = _pending.pop(module, [])
     if not kernels:
         return
-    numba = importlib.import_module("numba")
     namespace = sys.modules[module].__dict__
+    if _settings["interpret"]:
+        for name, function, _ in kernels:
+            namespace[name] = function
+        return
+    numba = importlib.import_module("numba")
     for _, function, _ in kernels:
         for name, value in list(function.__globals__.items()):
             other = getattr(value, "lazy_module", None)
@@ -66,7 +82,12 @@ def compile_module(module: str) -> None:
 
 
 def __getattr__(name: str) -> Any:
-    """numba's own names (prange, get_num_threads, ...), importing numba at first use."""
+    """numba's own names (prange, get_num_threads, ...), importing numba at first use.
+
+    Interpreted, ``prange`` is ``range``.
+    """
     if name.startswith("__"):
         raise AttributeError(name)
+    if _settings["interpret"] and name == "prange":
+        return range
     return getattr(importlib.import_module("numba"), name)

@@ -225,6 +225,16 @@ class TrackState:
     acceleration: FloatArray  # (3,), zero under the constant-velocity model
 
 
+def check_filter(
+    model: str, process_noise: float, measurement_noise: float, initial_speed: float = 10.0
+) -> None:
+    """TrackingError unless a :class:`KalmanTracker` can be made of these settings."""
+    if model not in MODELS:
+        raise TrackingError(f"unknown model {model!r}: use one of {', '.join(MODELS)}")
+    if not (process_noise > 0 and measurement_noise > 0 and initial_speed > 0):
+        raise TrackingError("process_noise, measurement_noise and initial_speed must be > 0")
+
+
 class KalmanTracker:
     """A Kalman filter of relative position samples that predicts the present.
 
@@ -242,10 +252,7 @@ class KalmanTracker:
         measurement_noise: float = 0.05,
         initial_speed: float = 10.0,
     ) -> None:
-        if model not in MODELS:
-            raise TrackingError(f"unknown model {model!r}: use one of {', '.join(MODELS)}")
-        if not (process_noise > 0 and measurement_noise > 0 and initial_speed > 0):
-            raise TrackingError("process_noise, measurement_noise and initial_speed must be > 0")
+        check_filter(model, process_noise, measurement_noise, initial_speed)
         self.model = model
         self.order = 2 if model == CONSTANT_VELOCITY else 3
         self.process_noise = process_noise
@@ -428,7 +435,7 @@ class TrackConfig:
             raise TrackingError(
                 f"timeout must be above 0 and at most {MAX_TRACK_SECONDS:g} s, got {self.timeout}"
             )
-        self.tracker()  # checks the model and the noises
+        check_filter(self.model, self.process_noise, self.measurement_noise)
 
     def frames(self, duration: float) -> int:
         """Frames a relay takes in ``duration`` s; TrackingError past :data:`MAX_TRACK_FRAMES`."""

@@ -66,6 +66,7 @@ from swazure_interfaces.msg import (
 )
 from swazure_interfaces.srv import GetNeighbours, TrackTarget
 
+from ..core import jit
 from ..core.errors import SwazureError
 from ..core.frames import camera_optical_frame
 from ..core.observe import Measurement, NeighbourSets
@@ -595,4 +596,6 @@ def build_fls(context: Context) -> list[Node]:
 
 def main(args: list[str] | None = None) -> int:
     """``ros2 run swazure_ros fls --ros-args -p fls_id:=7 -p cloud:=torus:120 -p beta:=0.5``."""
+    # One FLS relaxes a few labels a round: numba would cost more than it saves.
+    jit.interpret()
     return run_process(build_fls, args)

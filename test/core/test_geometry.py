@@ -69,3 +69,19 @@ def test_chess_piece_check_values(sensor):
     assert len(ordered_blind_pairs(pairs)[0]) == 105_778
     assert pairs.kissing() == 9
     assert int((pairs.tracking == 0).sum()) == 1
+
+
+@pytest.mark.parametrize("shape", ["torus", "helix:300", "sphere:200"])
+def test_a_small_cloud_searched_pair_by_pair_gives_the_trees_answers(shape, monkeypatch):
+    from swazure_ros.core import geometry
+    from swazure_ros.core.clouds import load_cloud
+
+    points = load_cloud(shape).points
+    assert len(points) <= geometry.SMALL_CLOUD
+    by_pairs = geometry.min_distance(points)
+    radius = 0.6 * by_pairs  # some points collide
+    pairs = {tuple(pair) for pair in geometry.colliding_pairs(points, radius).tolist()}
+    monkeypatch.setattr(geometry, "SMALL_CLOUD", 0)  # the k-d tree's search
+    assert geometry.min_distance(points) == by_pairs
+    assert {tuple(pair) for pair in geometry.colliding_pairs(points, radius).tolist()} == pairs
+    assert pairs
