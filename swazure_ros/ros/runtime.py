@@ -14,6 +14,7 @@ import atexit
 import contextlib
 import ctypes
 import faulthandler
+import os
 import signal
 import sys
 from collections.abc import Callable
@@ -250,6 +251,14 @@ def description_from(values: dict[str, Any]) -> SwarmDescription:
     )
 
 
+def seconds_since_start() -> float:
+    """Seconds since this process started (Linux: /proc), interpreter start-up included."""
+    ticks = os.sysconf("SC_CLK_TCK")
+    # Field 22 of /proc/self/stat, after the command name (which may hold spaces).
+    started = int(Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()[19]) / ticks
+    return float(Path("/proc/uptime").read_text().split()[0]) - started
+
+
 def run_process(build: Callable[[Context], list[Node]], args: list[str] | None = None) -> int:
     """Start rclpy, build a process's nodes and spin them until SIGINT or SIGTERM.
 
@@ -266,6 +275,8 @@ def run_process(build: Callable[[Context], list[Node]], args: list[str] | None =
         executor = EventsExecutor(context=context)
         for node in nodes:
             executor.add_node(node)
+        if nodes:
+            nodes[0].get_logger().info(f"ready, {seconds_since_start():.2f} s after the start")
         # Not executor.spin(): the EventsExecutor's spin neither returns when a signal
         # shuts the context down nor rests between events (measured: a core each).
         while context.ok() and not stop:
