@@ -921,7 +921,7 @@ def faults_section(args: argparse.Namespace) -> list[str]:
         running.coordinator = Coordinator(
             world.ids.tolist(),
             hosts=1,
-            world=world,
+            shape=world.home_hood,
             namespace="swarm",
             context=running.context,
             key=running.key,

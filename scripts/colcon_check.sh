@@ -48,5 +48,22 @@ command -v swazure | grep -q "^$ws/install/" || {
   exit 1
 }
 swazure --version
+# The programs `ros2 run` starts and the launch file, where a colcon install puts them.
+for program in fls world coordinator aruco_detector; do
+  test -x "install/swazure_ros/lib/swazure_ros/$program" || {
+    echo "error: install/swazure_ros/lib/swazure_ros/$program is missing" >&2
+    exit 1
+  }
+done
+test -f install/swazure_ros/share/swazure_ros/launch/swarm.launch.py || {
+  echo "error: the launch file is not in install/swazure_ros/share/swazure_ros/launch" >&2
+  exit 1
+}
+if command -v ros2 >/dev/null; then
+  ros2 pkg executables swazure_ros --full-path | grep -q "^$ws/install/swazure_ros/lib/swazure_ros/fls$" || {
+    echo "error: ros2 pkg executables does not find the install space's fls" >&2
+    exit 1
+  }
+fi
 swazure spawn --cloud torus:60 --beta 0.5 --compute-all --quiet --domain-id 137 | tail -n 1
 echo "colcon: both packages built, sourced and run from $ws/install"

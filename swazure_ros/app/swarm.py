@@ -294,7 +294,7 @@ class RunningSwarm:
             self.coordinator = Coordinator(
                 self.world.ids.tolist(),
                 hosts=max(self.config.processes, self.config.hosts),
-                world=self.world,
+                shape=self.world.home_hood,
                 namespace=self.config.namespace,
                 context=self.context,
                 key=self.key,

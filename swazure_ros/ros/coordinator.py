@@ -38,14 +38,13 @@ from swazure_interfaces.msg import (
 )
 from swazure_interfaces.srv import ComputePose
 
-from ..core.evaluate import Evaluation
+from ..core.evaluate import Evaluation, Neighbourhood, neighbourhood
 from ..core.heuristics import HeuristicResult
 from ..core.paths import check_policy
 from ..protocol.discovery import Control, Estimate, Offer, bucket_width, evaluation_of
 from ..protocol.moves import Move, MoveRun, Walk
 from ..protocol.plausible import implausible
 from ..protocol.rounds import Absences, RoundClock, StallClock
-from ..sim.world import World, WorldSpec
 from .auth import SwarmKey
 from .convert import (
     control_message,
@@ -87,19 +86,20 @@ from .runtime import (
 )
 
 
-def plausible_offer(message: PathOffer, world: World) -> Offer:
-    """The labels of ``message`` if every one may be true in ``world``; MessageError if not.
+def plausible_offer(message: PathOffer, shape: Neighbourhood) -> Offer:
+    """The labels of ``message`` if every one may be true of ``shape``; MessageError if not.
 
     :func:`offer_from_message`, then :func:`~..protocol.plausible.implausible`
-    by where ``world`` puts every FLS.
+    by where ``shape`` (the FLSs at their assigned points) puts every FLS.
     """
-    offer = offer_from_message(message, world.ids)
+    ids = shape.swarm.cloud_index
+    offer = offer_from_message(message, ids)
     why = implausible(
         offer,
         message.phase,
-        lambda ids: world.swarm.points[world.indices(ids)],
-        world.sensor,
-        world.swarm.radius,
+        lambda wanted: shape.swarm.points[np.searchsorted(ids, wanted)],
+        shape.sensor,
+        shape.swarm.radius,
     )
     check(why is None, f"implausible: {why}")
     return offer
@@ -200,7 +200,7 @@ class Coordinator(SwarmNode):
         fls_ids: Iterable[int],
         hosts: int,
         *,
-        world: World | None = None,
+        shape: Neighbourhood | None = None,
         namespace: str = "swarm",
         context: Context | None = None,
         key: SwarmKey | None = None,
@@ -217,7 +217,9 @@ class Coordinator(SwarmNode):
             10.0,
             "seconds without progress after which silent FLSs have departed",
         )
-        self.world = world  # the original shape, for planning moves
+        # The display's shape, every FLS at its assigned point: what the swarm knows
+        # (the points and the sensor are common knowledge), and what moves are planned on.
+        self.shape = shape
         self.fls_ids = frozenset(int(fls_id) for fls_id in fls_ids)
         self.hosts = hosts
         self.departed: set[int] = set()
@@ -302,7 +304,7 @@ class Coordinator(SwarmNode):
         Returns a future of the :class:`DiscoveryResult`. ValueError for a
         policy that this swarm's sensor cannot run (least-error without error).
         """
-        bucket_width(self.world.sensor, self.world.swarm.radius, check_policy(policy))
+        bucket_width(self.shape.sensor, self.shape.swarm.radius, check_policy(policy))
 
         def begin(run_id: int) -> Machine:
             return RoundClock(
@@ -324,10 +326,10 @@ class Coordinator(SwarmNode):
         ``technique`` is Move Obstructing or Move Source (probing up to
         ``threshold`` steps of r). Returns a future of the :class:`MoveResult`.
         """
-        world = self.world
-        if world is None:
-            raise ValueError("the coordinator plans moves from the world it was given: none")
-        evaluation = evaluation_of(world.hood, plain.policy, plain.estimates)
+        shape = self.shape
+        if shape is None:
+            raise ValueError("the coordinator plans moves on the shape it was given: none")
+        evaluation = evaluation_of(shape, plain.policy, plain.estimates)
         # Planned now, so that a bad technique fails here and not inside a callback.
         planned = MoveRun(0, evaluation, technique, threshold, 0, self.round_timeout)
 
@@ -475,8 +477,8 @@ class Coordinator(SwarmNode):
         if isinstance(clock, RoundClock):
             # The clock counts offers, and the FLSs' radios check their labels. Without a
             # key the clock checks them too: a forged offer must not count.
-            if self.world is not None and not self.key.active:
-                plausible_offer(offer, self.world)
+            if self.shape is not None and not self.key.active:
+                plausible_offer(offer, self.shape)
             else:
                 check_ids([offer.sender_id], self._swarm, "sender_id")
             self._act(
@@ -547,7 +549,7 @@ class Coordinator(SwarmNode):
     def _unusable(self, policy: str) -> str | None:
         """Why this swarm's FLSs cannot search by ``policy``; None when they can."""
         try:
-            bucket_width(self.world.sensor, self.world.swarm.radius, policy)
+            bucket_width(self.shape.sensor, self.shape.swarm.radius, policy)
         except ValueError as err:
             return str(err)
         return None
@@ -575,18 +577,20 @@ def build_coordinator(context: Context) -> list[Node]:
     Parameters: the swarm's description (``cloud``, ``beta`` or ``radius``,
     ...), ``namespace``, ``key_file``, and ``hosts``: the radios that
     acknowledge each round (0: one per FLS, each FLS in its own process).
-    It plans heuristics' moves from the description's world (docs/frames.md).
+    It plans heuristics' moves on the description's shape, as the packed one does.
     """
     values = startup_parameters(
         context,
         {"namespace": "swarm", "key_file": "", "hosts": 0, **DESCRIPTION_PARAMETERS},
     )
-    world = WorldSpec(**vars(description_from(values))).build()
-    hosts = int(values["hosts"]) or len(world.ids)
+    description = description_from(values)
+    shape = neighbourhood(description.assigned(), description.sensor())
+    ids = shape.swarm.cloud_index
+    hosts = int(values["hosts"]) or len(ids)
     coordinator = Coordinator(
-        world.ids.tolist(),
+        ids.tolist(),
         hosts,
-        world=world,
+        shape=shape,
         namespace=str(values["namespace"]),
         context=context,
         key=SwarmKey(key_from(str(values["key_file"]))),

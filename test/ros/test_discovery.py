@@ -276,7 +276,7 @@ def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain,
         swarm.coordinator = Coordinator(
             ids.tolist(),
             hosts=1,
-            world=world,
+            shape=world.home_hood,
             namespace="swarm",
             context=swarm.context,
             key=swarm.key,

@@ -48,3 +48,10 @@ def test_the_packed_host_still_brings_the_simulator():
     # The check above can fail: the host's process imports what the FLS does not.
     loaded = imported_by("swazure_ros.ros.host")
     assert "swazure_ros.sim.replica" in loaded
+
+
+def test_the_coordinator_plans_without_the_simulator():
+    # It plans on the shape's assigned points (core.evaluate.neighbourhood), what the
+    # swarm knows; the simulator's world is the world node's alone.
+    loaded = imported_by("swazure_ros.ros.coordinator")
+    assert not [name for name in loaded if name.startswith("swazure_ros.sim")]
