@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.errors import UnknownFlsError
+from ..core.geometry import tracking_distance
 from ..core.observe import LocalView, Measurement, NeighbourSets
 from ..core.sensor import BLIND, DECAYING, SWEET, Sensor
 
@@ -128,8 +129,9 @@ class DetectedSenses:
         self.on_revision: list[Callable[[], None]] = []
         self._revision = 0
         row = self._row(fls_id)
-        offsets = self._points - self._points[row]
-        tracking = np.linalg.norm(offsets, axis=1) - 2.0 * radius
+        # As the simulator's ranging computes it, to the bit: path lengths decide ties.
+        everyone = np.arange(len(self._ids))
+        tracking = tracking_distance(self._points, radius, np.full_like(everyone, row), everyone)
         range_class = classify(sensor, tracking)
         near = np.isin(range_class, (BLIND, SWEET, DECAYING))
         near[row] = False
