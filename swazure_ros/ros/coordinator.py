@@ -187,6 +187,7 @@ class _Job:
 
     begin: Callable[[int], Machine]  # run id -> the run's machine
     future: Future
+    queued: float = field(default_factory=time.monotonic)  # monotonic s
     machine: Machine | None = None
     began: float = 0.0
     traffic: Traffic = field(default_factory=Traffic)
@@ -349,6 +350,12 @@ class Coordinator(SwarmNode):
 
     def _start_next(self) -> None:
         while self._job is None and self._jobs:
+            # A control sent before every radio has matched is lost, and the round would
+            # wait out its timeout: a coordinator started with its swarm (one process per
+            # FLS) waits for the radios first, for a round timeout at most.
+            waited = time.monotonic() - self._jobs[0].queued
+            if not self.hosts_matched() and waited < self.round_timeout:
+                return  # the tick tries again
             job = self._jobs.popleft()
             # A run starts from what the graph shows now, not at the last look.
             self._on_liveness()
@@ -443,6 +450,8 @@ class Coordinator(SwarmNode):
     def _on_tick(self) -> None:
         if not self._deadlines.tick(time.monotonic()):
             return  # whatever arrived meanwhile waits behind this tick: hear it first
+        if self._job is None and self._jobs:
+            self._start_next()
         machine = self._running()
         if machine is not None:
             self._act(machine.on_tick(self._now()))
