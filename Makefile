@@ -59,7 +59,8 @@ ifneq ($(ROS2CLI_WHEELS),)
 endif
 	@touch $@
 
-$(LAUNCH_STAMP): $(ROS2CLI_STAMP) $(LAUNCH_WHEELS) scripts/install_launch.sh
+$(LAUNCH_STAMP): $(ROS2CLI_STAMP) $(LAUNCH_WHEELS) scripts/install_launch.sh \
+		scripts/build_interfaces.sh
 ifneq ($(LAUNCH_WHEELS),)
 	scripts/install_launch.sh $(VENV) $(LAUNCH_WHEELS_DIR)
 endif
