@@ -44,3 +44,38 @@ def test_moves_made_together_go_in_one_message_in_order():
     first = got.commands[0]
     assert (first.source_id, first.target_id) == (1, 2)
     assert (first.displacement.x, first.displacement.y, first.displacement.z) == (0.5, 0.0, -0.25)
+
+
+def test_detections_are_taken_in_the_flss_own_frame_only():
+    from geometry_msgs.msg import PoseWithCovariance
+    from swazure_interfaces.msg import Detections, MarkerDetection
+
+    from swazure_ros.core.errors import MessageError
+    from swazure_ros.ros.convert import detections_from_message
+
+    pose = PoseWithCovariance()
+    pose.pose.position.x, pose.pose.position.y = 0.08, -0.01
+    message = Detections(detections=[MarkerDetection(marker_id=9, pose=pose)])
+    message.header.frame_id = "fls_3"
+    markers, vectors = detections_from_message(message, 3)
+    assert markers.tolist() == [9]
+    assert vectors.tolist() == [[8.0, -1.0, 0.0]]  # cm
+    with pytest.raises(MessageError, match="not fls_4"):
+        detections_from_message(message, 4)  # another FLS's, or a camera's optical frame
+    pose.pose.position.z = float("nan")
+    with pytest.raises(MessageError, match="finite"):
+        detections_from_message(message, 3)
+
+
+def test_an_image_the_detector_cannot_read_is_refused_in_one_line():
+    from sensor_msgs.msg import Image
+
+    from swazure_ros.core.errors import MessageError
+    from swazure_ros.ros.detector_node import grey_image
+
+    with pytest.raises(MessageError, match="encoding"):
+        grey_image(Image(encoding="16UC1", width=2, height=2, step=4, data=[0] * 8))
+    with pytest.raises(MessageError, match="shorter"):
+        grey_image(Image(encoding="mono8", width=4, height=4, step=4, data=[0] * 8))
+    grey = grey_image(Image(encoding="bgr8", width=2, height=1, step=6, data=[0, 0, 255] * 2))
+    assert grey.shape == (1, 2) and grey.dtype.name == "uint8"
