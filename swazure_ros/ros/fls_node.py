@@ -258,8 +258,8 @@ class FlsNode(SwarmNode):
         # Its own camera's readings, when it senses by them (an FLS in its own process).
         self._detected = detections
         if detections is not None:
-            self._guard = Guard(self, key)
-            self._guard.subscribe(
+            self.guard = Guard(self, key)  # the process's one guard: its radio's too
+            self.guard.subscribe(
                 Detections, f"~/{DETECTIONS_TOPIC}", self._on_detections, DETECTIONS_QOS
             )
         # Alone (no process hosting it), an FLS transmits with publishers of its own.
@@ -589,7 +589,7 @@ def build_fls(context: Context) -> list[Node]:
         detections=senses,
         key=key,
     )
-    node.radio = Radio(node, senses, {fls_id: node}, guard=Guard(node, key))
+    node.radio = Radio(node, senses, {fls_id: node}, guard=node.guard)
     declare_startup(node, values)
     return [node]
 
