@@ -140,9 +140,12 @@ def test_replay_publishes_the_recording_again(recorded_run, domain, context):
     )
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(probe.node)
+    # The radio's messages are volatile: the probe must have matched the replay's
+    # publishers before the first one. Discovering a new participant was seen to take
+    # 2.5 s on a loaded 2-core machine (BENCHMARKS.md, one FLS per process): 6 s of delay.
     replay = subprocess.Popen(
         [sys.executable, "-m", "swazure_ros.cli.main", "replay", str(path),
-         "--domain-id", str(domain), "--rate", "2", "--delay", "2"],
+         "--domain-id", str(domain), "--rate", "2", "--delay", "6"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:
