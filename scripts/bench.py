@@ -1102,7 +1102,7 @@ def signing_costs() -> list[str]:
     import timeit
 
     from rclpy.serialization import deserialize_message, serialize_message
-    from swazure_interfaces.msg import PathOffer, PoseEstimate, PoseEstimates
+    from swazure_interfaces.msg import PathEstimate, PathOffer, PoseEstimates
 
     from swazure_ros.ros.auth import SwarmKey, new_key
     from swazure_ros.sim.world import WorldSpec
@@ -1120,7 +1120,7 @@ def signing_costs() -> list[str]:
         ("PathOffer, 1 label", offer(1)),
         ("PathOffer, 30 labels", offer(30)),
         ("PathOffer, 300 labels", offer(300)),
-        ("PoseEstimates, 30 estimates", PoseEstimates(estimates=[PoseEstimate()] * 30)),
+        ("PoseEstimates, 30 estimates", PoseEstimates(estimates=[PathEstimate()] * 30)),
     ]
     lines = [
         "| message | bytes | serialise us | sign + serialise us | deserialise us "
@@ -1166,7 +1166,7 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
     from swazure_interfaces.srv import ComputePose
 
     from swazure_ros.core.evaluate import evaluate_pairs
-    from swazure_ros.ros.convert import estimate_from_message
+    from swazure_ros.ros.convert import pose_estimate_from_message
     from swazure_ros.ros.names import POLICY_CODES
     from swazure_ros.ros.runtime import SwarmNode, init_context
     from swazure_ros.sim.world import WorldSpec
@@ -1219,7 +1219,7 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
             if not future.done() or not future.result().success:
                 unanswered += 1
             else:
-                got = estimate_from_message(future.result().estimate)
+                got = pose_estimate_from_message(future.result().estimate)
                 path = tuple(int(world.ids[k]) for k in engine.path(row))
                 same = (got.status, got.path) == (engine.status[row], path) and (
                     got.status == 2

@@ -56,7 +56,7 @@ def main(args: argparse.Namespace) -> int:
     from rclpy.executors import SingleThreadedExecutor
     from swazure_interfaces.srv import ComputePose
 
-    from ..ros.convert import estimate_from_message
+    from ..ros.convert import pose_estimate_from_message
     from ..ros.names import COMPUTE_POSE_SERVICE, COORDINATOR, policy_code
     from ..ros.runtime import SwarmNode, init_context
 
@@ -87,7 +87,7 @@ def main(args: argparse.Namespace) -> int:
         response = future.result()
         if not response.success:
             raise SwazureError(f"{service}: {response.message}")
-        print(describe(args.source, estimate_from_message(response.estimate)))
+        print(describe(args.source, pose_estimate_from_message(response.estimate)))
     finally:
         executor.shutdown()
         node.destroy_node()

@@ -22,6 +22,7 @@ from swazure_interfaces.msg import (
     Measurements,
     MoveCommand,
     MoveCommands,
+    PathEstimate,
     PathOffer,
     PathWalk,
     PoseEstimate,
@@ -270,11 +271,10 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
     )
 
 
-def estimate_message(source: int, found: Estimate) -> PoseEstimate:
-    """One pair's estimate as a PoseEstimate message (NaN vector without a path)."""
+def estimate_message(found: Estimate) -> PathEstimate:
+    """One pair's estimate as the protocol reports it (cm; NaN vector without a path)."""
     vector = found.vector.tolist()
-    return PoseEstimate(
-        source_id=source,
+    return PathEstimate(
         target_id=found.target,
         status=found.status,
         reason=found.reason,
@@ -287,15 +287,33 @@ def estimate_message(source: int, found: Estimate) -> PoseEstimate:
     )
 
 
+def pose_estimate_message(source: int, found: Estimate, stamp: Time) -> PoseEstimate:
+    """One pair's estimate for people and other software: metres, in ``fls_<source>``."""
+    vector = to_metres(found.vector).tolist()
+    message = PoseEstimate(
+        source_id=source,
+        target_id=found.target,
+        status=found.status,
+        reason=found.reason,
+        path=list(found.path),
+        hops=found.hops,
+        radio_path=list(found.radio_path),
+        vector=Vector3(x=vector[0], y=vector[1], z=vector[2]),
+        path_length=to_metres(found.length),
+        predicted_error=to_metres(found.predicted_error),
+    )
+    message.header.stamp = stamp
+    message.header.frame_id = fls_frame(source)
+    return message
+
+
 def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
     """Every estimate of one source as a PoseEstimates message."""
     source, found = report.source, report.estimates
     message = PoseEstimates(run_id=report.run_id, source_id=source)
     message.header.stamp = stamp
     message.header.frame_id = node_name(source)
-    message.estimates = [estimate_message(source, one) for one in found]
-    for one in message.estimates:
-        one.header = message.header
+    message.estimates = [estimate_message(one) for one in found]
     return message
 
 
@@ -329,8 +347,8 @@ def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> list[Esti
     return [estimate_from_message(one) for one in estimates]
 
 
-def estimate_from_message(message: PoseEstimate) -> Estimate:
-    """The core's Estimate of a PoseEstimate message (unchecked: see estimates_from_message)."""
+def estimate_from_message(message: PathEstimate) -> Estimate:
+    """The core's Estimate of a reported PathEstimate (unchecked: see estimates_from_message)."""
     vector = message.vector
     return Estimate(
         target=int(message.target_id),
@@ -341,6 +359,21 @@ def estimate_from_message(message: PoseEstimate) -> Estimate:
         vector=np.array([vector.x, vector.y, vector.z]),
         radio_path=tuple(int(fls) for fls in message.radio_path),
         predicted_error=float(message.predicted_error),
+    )
+
+
+def pose_estimate_from_message(message: PoseEstimate) -> Estimate:
+    """The core's Estimate (cm) of a PoseEstimate (m), for people: not the protocol's bits."""
+    vector = message.vector
+    return Estimate(
+        target=int(message.target_id),
+        status=int(message.status),
+        reason=int(message.reason),
+        path=tuple(int(fls) for fls in message.path),
+        length=to_centimetres(float(message.path_length)),
+        vector=to_centimetres(np.array([vector.x, vector.y, vector.z])),
+        radio_path=tuple(int(fls) for fls in message.radio_path),
+        predicted_error=to_centimetres(float(message.predicted_error)),
     )
 
 

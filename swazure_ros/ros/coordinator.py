@@ -48,10 +48,10 @@ from ..protocol.rounds import Absences, RoundClock, StallClock
 from .auth import SwarmKey
 from .convert import (
     control_message,
-    estimate_message,
     estimates_from_message,
     moves_message,
     offer_from_message,
+    pose_estimate_message,
     walk_message,
 )
 from .deferred import Reply, create_deferred_service
@@ -575,9 +575,10 @@ class Coordinator(SwarmNode):
                 else f"no answer from source FLS {source}"
             )
             return ComputePose.Response(success=False, message=message)
-        response = ComputePose.Response(success=True, estimate=estimate_message(source, found[0]))
-        response.estimate.header.stamp = self.get_clock().now().to_msg()
-        return response
+        stamp = self.get_clock().now().to_msg()
+        return ComputePose.Response(
+            success=True, estimate=pose_estimate_message(source, found[0], stamp)
+        )
 
 
 def build_coordinator(context: Context) -> list[Node]:

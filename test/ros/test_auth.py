@@ -8,7 +8,7 @@ import stat
 import pytest
 from hypothesis import given, settings
 from rclpy.serialization import deserialize_message, serialize_message
-from swazure_interfaces.msg import PathOffer, PoseEstimate, PoseEstimates
+from swazure_interfaces.msg import PathEstimate, PathOffer, PoseEstimates
 
 from swazure_ros.core.errors import MessageError, SwazureError
 from swazure_ros.ros.auth import SwarmKey, content, new_key
@@ -80,7 +80,7 @@ def test_content_differs_whenever_the_messages_do(first, second):
 
 
 def test_nested_estimates_are_covered():
-    report = PoseEstimates(run_id=1, source_id=0, estimates=[PoseEstimate(target_id=2)])
+    report = PoseEstimates(run_id=1, source_id=0, estimates=[PathEstimate(target_id=2)])
     signed = deserialize_message(KEY.serialize(report), PoseEstimates)
     signed.estimates[0].vector.x = 123.0
     with pytest.raises(MessageError):

@@ -6,10 +6,19 @@ import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
 from rclpy.serialization import deserialize_message, serialize_message
-from swazure_interfaces.msg import MoveCommands, WorldState
+from swazure_interfaces.msg import MoveCommands, PoseEstimates, WorldState
 
+from swazure_ros.protocol.discovery import Estimate, Report
 from swazure_ros.protocol.moves import RETURN, STEP_ASIDE, Move
-from swazure_ros.ros.convert import moves_message, world_message, world_positions
+from swazure_ros.ros.convert import (
+    estimates_from_message,
+    estimates_message,
+    moves_message,
+    pose_estimate_from_message,
+    pose_estimate_message,
+    world_message,
+    world_positions,
+)
 from swazure_ros.ros.guard import MessageError
 
 
@@ -79,3 +88,38 @@ def test_an_image_the_detector_cannot_read_is_refused_in_one_line():
         grey_image(Image(encoding="mono8", width=4, height=4, step=4, data=[0] * 8))
     grey = grey_image(Image(encoding="bgr8", width=2, height=1, step=6, data=[0, 0, 255] * 2))
     assert grey.shape == (1, 2) and grey.dtype.name == "uint8"
+
+
+def _found() -> Estimate:
+    # FLS 3 -> 5 -> 9: 7.3 cm then 6.1 cm, summed as the swarm sums them.
+    return Estimate(
+        target=9,
+        status=0,
+        reason=0,
+        path=(3, 5, 9),
+        length=13.4,
+        vector=np.array([7.3, -6.1, 0.25]),
+        radio_path=(3, 9),
+        predicted_error=0.12,
+    )
+
+
+def test_the_swarms_report_keeps_the_protocols_centimetres_to_the_bit():
+    found = _found()
+    report = Report(run_id=4, source=3, estimates=[found])
+    message = deserialize_message(
+        serialize_message(estimates_message(report, Time(sec=1))), PoseEstimates
+    )
+    (back,) = estimates_from_message(message, np.array([3, 5, 9]))
+    assert (back.target, back.path, back.radio_path, back.length) == (9, (3, 5, 9), (3, 9), 13.4)
+    np.testing.assert_array_equal(back.vector, found.vector)
+
+
+def test_a_pose_estimate_for_people_is_in_metres_in_the_sources_frame():
+    message = pose_estimate_message(3, _found(), Time(sec=1))
+    assert message.header.frame_id == "fls_3" and message.source_id == 3
+    assert (message.vector.x, message.vector.y, message.vector.z) == (0.073, -0.061, 0.0025)
+    assert (message.path_length, message.predicted_error) == (0.134, 0.0012)
+    back = pose_estimate_from_message(message)
+    assert back.path == (3, 5, 9)
+    np.testing.assert_allclose(back.vector, [7.3, -6.1, 0.25], rtol=1e-15)

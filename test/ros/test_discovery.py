@@ -15,9 +15,10 @@ from swazure_interfaces.srv import ComputePose
 
 from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
 from swazure_ros.core.evaluate import NO_PATH, evaluate, evaluate_pairs, without
+from swazure_ros.core.frames import fls_frame, to_metres
 from swazure_ros.core.heuristics import MOVE_OBSTRUCTING, MOVE_SOURCE, run_technique
 from swazure_ros.protocol.discovery import Estimate
-from swazure_ros.ros.convert import estimate_from_message
+from swazure_ros.ros.convert import pose_estimate_from_message
 from swazure_ros.ros.names import policy_code
 from swazure_ros.sim.world import WorldSpec
 
@@ -250,7 +251,7 @@ def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain,
             for one in message.estimates:
                 if one.status == ABORTED:
                     assert one.reason == REASON_COORDINATOR_LOST
-                    aborted[(one.source_id, one.target_id)] = message.run_id
+                    aborted[(message.source_id, one.target_id)] = message.run_id
 
         probe.create_subscription(PoseEstimates, "/swarm/estimates", on_estimates, ROUND_QOS)
         swarm.host.add(probe)
@@ -375,18 +376,24 @@ def test_compute_pose_answers_bad_requests_with_errors_and_keeps_working(domain,
                 assert not response.success and message in response.message, response.message
             response = client.call(source, target, policy_code("fewest-hops"))
             assert response.success, response.message
-            one = estimate_from_message(response.estimate)
+            one = pose_estimate_from_message(response.estimate)
             assert (one.target, one.status, one.hops) == (
                 target,
                 engine.status[pair],
                 engine.hops[pair],
             )
             assert one.path == tuple(int(world.ids[k]) for k in engine.path(pair))
-            np.testing.assert_allclose(one.vector, engine.estimate[pair], rtol=0, atol=1e-9)
+            # The answer is in metres (REP-103), in the source's frame: the engine's
+            # centimetres, converted once, to the bit.
+            answered = response.estimate.vector
+            assert response.estimate.header.frame_id == fls_frame(source)
+            np.testing.assert_array_equal(
+                [answered.x, answered.y, answered.z], to_metres(engine.estimate[pair])
+            )
             # After the errors the service still answers, and the same each time.
             again = client.call(source, target, policy_code("fewest-hops"))
             assert again.success, again.message
-            twice = estimate_from_message(again.estimate)
+            twice = pose_estimate_from_message(again.estimate)
             assert (twice.path, twice.status) == (one.path, one.status)
             np.testing.assert_array_equal(twice.vector, one.vector)
         finally:
@@ -496,7 +503,7 @@ def test_an_error_free_swarm_refuses_least_error_and_answers_the_others(domain, 
             assert not refused.success and "least-error needs a sensor" in refused.message
             answered = client.call(source, target, policy_code("shortest-length"))
             assert answered.success, answered.message
-            assert estimate_from_message(answered.estimate).path == tuple(
+            assert pose_estimate_from_message(answered.estimate).path == tuple(
                 int(ids[k]) for k in engine.path(0)
             )
         finally:

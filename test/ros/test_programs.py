@@ -25,6 +25,7 @@ from swazure_interfaces.msg import Detections
 
 from swazure_ros.core.camera import Detector, MarkerPose, full_image, load_camera, render
 from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.frames import to_metres
 from swazure_ros.core.sensor import config_dir
 from swazure_ros.ros.convert import camera_info_message, image_message
 from swazure_ros.ros.names import DETECTIONS_QOS
@@ -168,10 +169,12 @@ def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(ros2_tools, d
         pairs = engine.pairs  # FLS ids are the trio's swarm indices
         row = np.flatnonzero((pairs.source == 0) & (pairs.target == 2))[0]
         # The detections carry metres, so each hop is the engine's but for the metres'
-        # last bit; the estimate (cm, the protocol's unit) is the engine's to 1e-12.
+        # last bit: the answer, in metres in the source's frame, is the engine's to 1e-12.
+        assert "frame_id='fls_0'" in call.stdout, call.stdout
         text = call.stdout.split("vector=geometry_msgs.msg.Vector3(")[1].split(")")[0]
         vector = [float(part.split("=")[1]) for part in text.split(", ")]
-        assert np.allclose(vector, pairs.estimate[row], rtol=1e-12, atol=0), (vector, pairs)
+        wanted = to_metres(pairs.estimate[row])
+        assert np.allclose(vector, wanted, rtol=1e-12, atol=0), (vector, wanted)
     finally:
         out = stop(launch)
     assert launch.returncode == 0, out
