@@ -27,6 +27,7 @@ from launch import LaunchDescription
 from swazure_ros.cli.swarm_file import load_swarm_file
 from swazure_ros.core.description import SwarmDescription
 from swazure_ros.ros.keys import new_key, write_key
+from swazure_ros.ros.runtime import description_parameters
 
 PACKAGE = "swazure_ros"
 
@@ -56,15 +57,8 @@ def _per_fls(path: Path) -> list:
     namespace = options.get("namespace") or "swarm"
     key_file = Path(tempfile.mkdtemp(prefix="swazure-launch-")) / "swarm.key"
     write_key(key_file, new_key())
-    # The description as the programs take it (ros.runtime.DESCRIPTION_PARAMETERS).
     shared = {
-        "cloud": description.cloud,
-        "scale": float(description.scale or 0.0),
-        "beta": float(description.beta or 0.0),
-        "radius": float(description.radius or 0.0),
-        "sensor": description.sensor_file or "",
-        "accurate": description.accurate,
-        "seed": description.seed,
+        **description_parameters(description),
         "namespace": namespace,
         "key_file": str(key_file),
     }

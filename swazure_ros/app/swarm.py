@@ -20,6 +20,7 @@ import multiprocessing
 import queue
 import resource
 import signal
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -41,8 +42,10 @@ from ..ros.coordinator import Coordinator, DiscoveryResult, MoveResult
 from ..ros.host import SwarmHost
 from ..ros.names import host_name
 from ..ros.view import ViewNode
+from ..ros.world_node import SimulatedCameras
 from ..sim.world import World, WorldSpec
 from ..view.scene import Scene, evaluation_scene, ranges_scene
+from .per_fls import Ended, FlsProcesses
 
 CREATED, READY, FAILED = "created", "ready", "failed"
 
@@ -80,6 +83,12 @@ class SwarmConfig:
     #: Every FLS node offers parameter services (``ros2 param``): six more services a
     #: node, which a packed swarm of thousands pays for in bring-up (BENCHMARKS.md).
     parameter_services: bool = False
+    #: One OS process per FLS (the standalone FLS program, app.per_fls), beside this
+    #: process's simulator and coordinator: the topology of real FLS hardware.
+    per_fls: bool = False
+    #: per_fls: where each FLS process's output goes (fls_<id>.log); None: a new
+    #: temporary folder.
+    log_dir: str | None = None
 
 
 @dataclass(frozen=True)
@@ -200,6 +209,8 @@ class RunningSwarm:
             )
         if not 0 <= config.share < config.hosts:
             raise SwazureError(f"share {config.share} of {config.hosts}: no such share")
+        if config.per_fls and (config.processes > 1 or config.hosts > 1):
+            raise SwazureError("one process per FLS: leave out --processes and --share")
         self.config = config
         # A process that ends right after the swarm leaves its own nodes to
         # runtime.exit_process: far faster than destroying them one by one.
@@ -221,13 +232,29 @@ class RunningSwarm:
         if config.hosts > 1:
             # Only this host's share here; the others run on their own hosts.
             self._shares = [self._shares[config.share]]
-        # Each process lays out what its own FLSs sense; the coordinator's
-        # planning and the engine's comparison need the neighbourhood, not that.
-        self.world = config.world.build(hosted_ids=self._shares[0])
         key = config.key if config.authenticate else None
         if key is None and config.authenticate and config.hosts == 1:
             key = new_key()
         self.key = SwarmKey(key)
+        self.fls_processes: FlsProcesses | None = None
+        if config.per_fls:
+            # Here only the simulator, whose cameras sense for every FLS.
+            self.fls_processes = FlsProcesses(
+                config.world,
+                fls_ids.tolist(),
+                Path(config.log_dir or tempfile.mkdtemp(prefix="swazure-per-fls-")),
+                namespace=config.namespace,
+                key=key,
+                parameters=config.parameters,
+                fls_parameters=config.fls_parameters,
+                params_file=config.params_file,
+                domain_id=config.domain_id,
+            )
+            self._shares = [[]]
+        # Each process lays out what its own FLSs sense; the coordinator's
+        # planning and the engine's comparison need the neighbourhood, not that.
+        hosted = None if config.per_fls else self._shares[0]
+        self.world = config.world.build(hosted_ids=hosted)
         self._created = [0] * config.processes
         self._peaks: dict[int, float] = {}
         mp = multiprocessing.get_context("spawn")
@@ -244,6 +271,8 @@ class RunningSwarm:
             if index > 0
         ]
         self.context: Context | None = None
+        #: per_fls: how every FLS process ended, once the swarm is closed.
+        self.ended: list[Ended] = []
         self.host: SwarmHost | None = None
         self.coordinator: Coordinator | None = None
         self.recorder: Recorder | None = None
@@ -263,6 +292,8 @@ class RunningSwarm:
     def _start(self) -> None:
         for child in self._children:
             child.start()
+        if self.fls_processes is not None:
+            self.fls_processes.start()
         self.context = init_context(self.config)
         leader = self.config.share == 0
         self.host = SwarmHost(
@@ -290,10 +321,18 @@ class RunningSwarm:
             )
             self.host.add(self.recorder)
         self.host.create_fls_nodes(created)
+        if self.fls_processes is not None:
+            cameras = SimulatedCameras(
+                self.host.replica,
+                self.world.ids.tolist(),
+                namespace=self.config.namespace,
+                context=self.context,
+            )
+            self.host.add(cameras)
         if leader:
             self.coordinator = Coordinator(
                 self.world.ids.tolist(),
-                hosts=max(self.config.processes, self.config.hosts),
+                hosts=self._hosts,
                 shape=self.world.home_hood,
                 namespace=self.config.namespace,
                 context=self.context,
@@ -310,8 +349,24 @@ class RunningSwarm:
                 )
                 self.host.add(self.view)
 
+    @property
+    def _hosts(self) -> int:
+        """Processes whose radios take part in a run: one per share, or per FLS."""
+        if self.config.per_fls:
+            return self.size
+        return max(self.config.processes, self.config.hosts)
+
     def _drain(self) -> None:
         """Take every pending report from the further processes."""
+        if self.fls_processes is not None:
+            ended = self.fls_processes.ended()
+            if ended:
+                raise SwazureError(
+                    f"{ended[0].describe()} (log: {self.fls_processes.log(ended[0].fls_id)})"
+                )
+            if self.host is not None:
+                self._on_created(min(self.host.discovered()[0], self.size), self.size)
+            return
         while True:
             try:
                 kind, index, value = self._reports.get_nowait()
@@ -346,7 +401,9 @@ class RunningSwarm:
                 self._peaks[0] = peak_rss_mb()
                 seconds = time.perf_counter() - self._began
                 peaks = [self._peaks[index] for index in range(self.config.processes)]
-                return BringUp(self.size, self.config.processes, seconds, peaks)
+                if self.fls_processes is not None:
+                    peaks += self.fls_processes.peak_rss_mb()
+                return BringUp(self.size, len(peaks), seconds, peaks)
             self._host.spin_for(0.05)
         publishers, services = self._host.discovered()
         raise SwazureError(
@@ -444,6 +501,8 @@ class RunningSwarm:
         if self.recorder is not None:
             self.recorder.close()
         self._stop.set()
+        if self.fls_processes is not None:
+            self.ended = self.fls_processes.stop()
         for child in self._children:
             if child.pid is not None:
                 child.join(timeout=30)

@@ -175,6 +175,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="every FLS node answers `ros2 param` (six more services a node: slower "
         "bring-up of a large swarm; BENCHMARKS.md)",
     )
+    parser.add_argument(
+        "--per-fls",
+        action="store_true",
+        help="run every FLS in an OS process of its own (the standalone FLS program), as "
+        "real FLS hardware does; this process runs the simulator and the coordinator",
+    )
+    parser.add_argument(
+        "--log-dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="--per-fls: write each FLS process's output to DIR/fls_<id>.log (default: a "
+        "new temporary folder, named when the swarm is up)",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_swarm_file_argument(parser)
 
@@ -225,6 +239,10 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise SwazureError("--share runs one process per host: leave out --processes")
     if index > 0 and args.compute_all:
         raise SwazureError("--compute-all runs on share 0, the host with the coordinator")
+    if args.per_fls and (args.processes > 1 or hosts > 1):
+        raise SwazureError("--per-fls runs one process per FLS: leave out --processes and --share")
+    if args.log_dir is not None and not args.per_fls:
+        raise SwazureError("--log-dir goes with --per-fls")
     params = args.params if args.params is not None else config_dir() / "swarm.yaml"
     world = WorldSpec(
         cloud=args.cloud,
@@ -250,6 +268,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
         key=swarm_key(args.key_file),
         authenticate=not args.no_key,
         parameter_services=args.parameter_services,
+        per_fls=args.per_fls,
+        log_dir=None if args.log_dir is None else str(args.log_dir),
         view=ViewConfig(
             args.view_port, args.view_colour, args.view_fls, args.policy, args.view_pairs
         )
@@ -266,10 +286,13 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
 
     world = swarm.world
 
+    beta = world.swarm.beta
+    size = f"radius {world.swarm.radius:.4g} cm" if beta is None else f"beta {beta:.4g}"
+
     def discovered(result: Any) -> None:
         traffic = result.traffic
         print(
-            f"{world.cloud.name}: beta {world.swarm.beta:.4g}, {args.policy}: discovery "
+            f"{world.cloud.name}: {size}, {args.policy}: discovery "
             f"{result.seconds:.2f} s, {result.rounds} rounds, {traffic.total_messages} "
             f"messages, {traffic.total_bytes / 1e6:.1f} MB"
             + (f", {result.repairs} radio repairs" if result.repairs else "")
@@ -311,6 +334,18 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
             ) from err
         print(f"wrote {paths[0]} and {paths[1]}")
     return 0
+
+
+def report_ended(ended: list[Any]) -> None:
+    """One line on how the FLS processes ended: all cleanly, or which did not."""
+    unclean = [one for one in ended if one.code != 0]
+    print(
+        f"{len(ended)} FLS processes stopped"
+        + ("" if unclean else ", every one cleanly (exit code 0)"),
+        file=sys.stderr,
+    )
+    for one in unclean:
+        print(f"  {one.describe()}", file=sys.stderr)
 
 
 def _interrupt(signum: int, frame: object) -> None:
@@ -356,6 +391,14 @@ def main(args: argparse.Namespace) -> int:
                 if config.hosts == 1
                 else f"{config.hosts} hosts (this is share {config.share})"
             )
+            if swarm.fls_processes is not None:
+                where = (
+                    f"{bring_up.flss} processes of one FLS each (logs in "
+                    f"{swarm.fls_processes.log_dir}) and this one"
+                )
+                here, *each = bring_up.peak_rss_mb
+                mean = sum(each) / len(each)
+                peaks = f"{here:.0f} here, {mean:.0f} per FLS, {max(each):.0f} at most"
             print(
                 f"swarm up: {bring_up.flss} FLS nodes in {where} "
                 f"under /{config.namespace}, discovered in {bring_up.seconds:.1f} s; "
@@ -385,6 +428,8 @@ def main(args: argparse.Namespace) -> int:
         print("stopping the swarm", file=sys.stderr, flush=True)
     finally:
         bar.close()
+        if swarm is not None and swarm.fls_processes is not None:
+            report_ended(swarm.ended)
         if swarm is not None and swarm.recorder is not None and swarm.recorder.closed:
             recorder = swarm.recorder
             print(

@@ -589,7 +589,16 @@ def build_fls(context: Context) -> list[Node]:
         detections=senses,
         key=key,
     )
-    node.radio = Radio(node, senses, {fls_id: node}, guard=node.guard)
+
+    def join_radio() -> None:
+        # The swarm's rounds count this FLS once its radio is up (Coordinator.hosts_matched).
+        # Before its camera's first frame it would answer every round as an FLS that
+        # sees no one, and the swarm would find fewer paths than there are.
+        if node.radio is None:
+            node.radio = Radio(node, senses, {fls_id: node}, guard=node.guard)
+
+    node.radio = None
+    senses.on_revision.insert(0, join_radio)
     declare_startup(node, values)
     return [node]
 

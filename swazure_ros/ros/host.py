@@ -103,8 +103,12 @@ class SwarmHost:
         self.guard.subscribe(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
         # Before the radio's hook: walks that waited for a revision measure it afresh.
         self.replica.on_revision.append(self._sense_anew)
-        self.radio = Radio(
-            self.host_node, self.replica, self.fls_by_id, self._radio_loss(), self.guard
+        # A process of no FLS (the simulator beside FLSs that run one to a process)
+        # has nothing to relay: no radio, so that the coordinator counts no host here.
+        self.radio = (
+            Radio(self.host_node, self.replica, self.fls_by_id, self._radio_loss(), self.guard)
+            if self.fls_ids
+            else None
         )
         # The coordinator's liveness, from the graph like the FLSs' (Coordinator._on_liveness).
         self._coordinator_seen = False
@@ -149,6 +153,8 @@ class SwarmHost:
         self._seen_flss |= flss
         missing = self._seen_flss - flss - self.replica.gone
         self.replica.gone |= self._absent.gone(missing, now)
+        if self.radio is None:
+            return  # no FLS here to abort a run for
         # The coordinator as -1 among the absences: it must stay away as long.
         # Remote nodes reach the graph through each participant's node list, which can
         # lag or flap while the participant itself is fine: a coordinator still heard

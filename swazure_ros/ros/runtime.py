@@ -251,6 +251,19 @@ def description_from(values: dict[str, Any]) -> SwarmDescription:
     )
 
 
+def description_parameters(description: SwarmDescription) -> dict[str, Any]:
+    """The DESCRIPTION_PARAMETERS values of ``description``: what description_from reads."""
+    return {
+        "cloud": description.cloud,
+        "scale": float(description.scale or 0.0),
+        "beta": float(description.beta or 0.0),
+        "radius": float(description.radius or 0.0),
+        "sensor": description.sensor_file or "",
+        "accurate": description.accurate,
+        "seed": description.seed,
+    }
+
+
 def seconds_since_start() -> float:
     """Seconds since this process started (Linux: /proc), interpreter start-up included."""
     ticks = os.sysconf("SC_CLK_TCK")

@@ -1,0 +1,195 @@
+"""One OS process per FLS: the standalone FLS program, started, watched and stopped.
+
+:class:`FlsProcesses` runs the program ``ros2 run swazure_ros fls`` runs
+(:func:`swazure_ros.ros.fls_node.main`) once per FLS, as each FLS of real
+hardware runs on its own computer. Every process reads the swarm's
+description, key and parameters from one parameter file, takes its id on the
+command line, and writes its output to a log file of its own
+(``fls_<id>.log``). A process that ends early is reported with its exit code
+and the last line it wrote; :meth:`FlsProcesses.stop` asks every process to
+stop (SIGINT, as Ctrl-C would) and kills (SIGKILL) what has not ended by the
+deadline, so that nothing is left running.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO
+
+import yaml
+
+from ..core.description import SwarmDescription
+from ..core.results import atomic_write
+from ..ros.keys import write_key
+from ..ros.names import node_name
+from ..ros.runtime import description_parameters
+
+#: What starts one FLS: the standalone program, as ``ros2 run swazure_ros fls``.
+FLS_PROGRAM = (
+    sys.executable,
+    "-c",
+    # PR_SET_PDEATHSIG (1): the FLS gets SIGTERM when the launcher dies, even by
+    # SIGKILL, so that no FLS outlives the swarm it belonged to.
+    "import ctypes, signal, sys; ctypes.CDLL(None).prctl(1, signal.SIGTERM); "
+    "from swazure_ros.ros.fls_node import main; sys.exit(main())",
+)
+#: Seconds a process has to end after SIGINT before it is killed.
+STOP_GRACE = 10.0
+
+
+@dataclass(frozen=True)
+class Ended:
+    """An FLS process that has ended: its exit code and the last line of its output."""
+
+    fls_id: int
+    code: int  # negative: killed by that signal
+    last_line: str
+
+    def describe(self) -> str:
+        """One line for people: which FLS, how it ended, what it said last."""
+        how = f"signal {-self.code}" if self.code < 0 else f"code {self.code}"
+        said = f": {self.last_line}" if self.last_line else ""
+        return f"FLS {self.fls_id}'s process ended with {how}{said}"
+
+
+def last_line(path: Path, tail: int = 4096) -> str:
+    """The last non-empty line of file ``path`` (its last ``tail`` bytes), or ""."""
+    try:
+        with path.open("rb") as log:
+            log.seek(max(path.stat().st_size - tail, 0))
+            lines = log.read().decode("utf-8", "replace").splitlines()
+    except OSError:
+        return ""
+    return next((line.strip() for line in reversed(lines) if line.strip()), "")
+
+
+def peak_rss_mb(pid: int) -> float:
+    """Peak resident memory of process ``pid`` (VmHWM), MB; NaN once it has ended."""
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return float("nan")
+
+
+def parameter_file(
+    description: SwarmDescription,
+    namespace: str,
+    key_file: Path | None,
+    parameters: dict[str, object],
+    fls_parameters: dict[int, dict[str, object]],
+) -> dict[str, object]:
+    """The parameter file's content: the description and settings of every FLS, then each's own."""
+    every = {
+        **description_parameters(description),
+        "namespace": namespace,
+        "key_file": "" if key_file is None else str(key_file),
+        **parameters,
+    }
+    content: dict[str, object] = {"/**": {"ros__parameters": every}}
+    for fls_id, own in sorted(fls_parameters.items()):
+        content[f"/{namespace}/{node_name(fls_id)}"] = {"ros__parameters": dict(own)}
+    return content
+
+
+class FlsProcesses:
+    """The FLS processes of a swarm that runs one FLS to a process."""
+
+    def __init__(
+        self,
+        description: SwarmDescription,
+        fls_ids: Sequence[int],
+        log_dir: Path,
+        *,
+        namespace: str = "swarm",
+        key: bytes | None = None,
+        parameters: dict[str, object] | None = None,
+        fls_parameters: dict[int, dict[str, object]] | None = None,
+        params_file: str | None = None,
+        domain_id: int | None = None,
+    ) -> None:
+        self.fls_ids = [int(fls_id) for fls_id in fls_ids]
+        self.log_dir = log_dir
+        log_dir.mkdir(parents=True, exist_ok=True)
+        key_file = None
+        if key is not None:
+            key_file = log_dir / "swarm.key"
+            write_key(key_file, key)
+        self.parameters_path = log_dir / "parameters.yaml"
+        content = parameter_file(
+            description, namespace, key_file, parameters or {}, fls_parameters or {}
+        )
+        atomic_write(
+            self.parameters_path,
+            lambda path: path.write_text(yaml.safe_dump(content, sort_keys=False)),
+        )
+        # A user's parameter file first: the swarm's description must win over it.
+        files = [params_file] if params_file else []
+        self._files = [*files, str(self.parameters_path)]
+        self._environment = dict(os.environ)
+        if domain_id is not None:
+            self._environment["ROS_DOMAIN_ID"] = str(domain_id)
+        self.processes: dict[int, subprocess.Popen[bytes]] = {}
+        self._logs: dict[int, IO[bytes]] = {}
+
+    def log(self, fls_id: int) -> Path:
+        """The log file of FLS ``fls_id``'s process."""
+        return self.log_dir / f"{node_name(fls_id)}.log"
+
+    def command(self, fls_id: int) -> list[str]:
+        """The command line of FLS ``fls_id``'s process."""
+        files = [part for path in self._files for part in ("--params-file", path)]
+        return [*FLS_PROGRAM, "--ros-args", "-p", f"fls_id:={fls_id}", *files]
+
+    def start(self) -> None:
+        """Start every FLS's process, in id order."""
+        for fls_id in self.fls_ids:
+            log = self.log(fls_id).open("wb")
+            self._logs[fls_id] = log
+            self.processes[fls_id] = subprocess.Popen(
+                self.command(fls_id),
+                stdin=subprocess.DEVNULL,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                env=self._environment,
+                # Its own process group: a Ctrl-C at the terminal reaches the launcher
+                # alone, which then stops every FLS in order (stop).
+                start_new_session=True,
+            )
+
+    def ended(self) -> list[Ended]:
+        """The processes that have ended so far, in id order."""
+        return [
+            Ended(fls_id, code, last_line(self.log(fls_id)))
+            for fls_id, process in self.processes.items()
+            if (code := process.poll()) is not None
+        ]
+
+    def peak_rss_mb(self) -> list[float]:
+        """Peak resident memory of every process, MB, in id order."""
+        return [peak_rss_mb(process.pid) for process in self.processes.values()]
+
+    def stop(self, grace: float = STOP_GRACE) -> list[Ended]:
+        """Stop every process (SIGINT, then SIGKILL after ``grace`` s); how each ended."""
+        for process in self.processes.values():
+            if process.poll() is None:
+                process.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + grace
+        for process in self.processes.values():
+            try:
+                process.wait(timeout=max(deadline - time.monotonic(), 0.0))
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait()
+        for log in self._logs.values():
+            log.close()
+        return self.ended()

@@ -1,0 +1,113 @@
+"""A swarm of one OS process per FLS (`swazure spawn --per-fls`): the engine's results,
+each process's end reported, nothing left running."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from ..conftest import REPO
+
+GRID = REPO / "config" / "swarms" / "grid25.yaml"
+TRIO = REPO / "config" / "swarms" / "trio.yaml"
+
+
+def swazure(*args: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, "-m", "swazure_ros.cli.main", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def fls_processes(log_dir: Path) -> list[int]:
+    """Process ids of the FLS processes whose parameter file is in ``log_dir``."""
+    marker = str(log_dir / "parameters.yaml").encode()
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                if marker in (entry / "cmdline").read_bytes():
+                    found.append(int(entry.name))
+            except OSError:
+                pass  # ended meanwhile
+    return found
+
+
+def test_a_swarm_of_one_process_per_fls_computes_what_the_engine_computes(domain, tmp_path):
+    logs = tmp_path / "logs"
+    spawn = swazure("spawn", str(GRID), "--per-fls", "--log-dir", str(logs), "--quiet",
+                    "--compute-all", "--out", str(tmp_path / "d"))  # fmt: skip
+    out, err = spawn.communicate(timeout=600)
+    assert spawn.returncode == 0, err
+    assert "25 FLS nodes in 25 processes of one FLS each" in out, out
+    assert "pairs identical to the engine's (status, path, estimate to 1e-9): yes" in out, out
+    evaluate = subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", "evaluate",
+         "--cloud", str(GRID.with_suffix(".xyz")), "--scale", "1", "--radius", "0.5",
+         "--out", str(tmp_path / "e")],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert evaluate.returncode == 0, evaluate.stderr
+    distributed = (tmp_path / "d" / "pairs.csv").read_bytes()
+    assert distributed == (tmp_path / "e" / "pairs.csv").read_bytes()
+    assert distributed.count(b"\n") == 1 + 144  # every blind pair of the grid
+    # Each FLS ran alone, said it was ready, and ended cleanly when the swarm did.
+    assert "25 FLS processes stopped, every one cleanly (exit code 0)" in err, err
+    for fls_id in (0, 12, 24):
+        assert "ready" in (logs / f"fls_{fls_id}.log").read_text()
+    assert fls_processes(logs) == []
+
+
+def test_sigterm_stops_every_fls_process_within_seconds(domain, tmp_path):
+    spawn = swazure("spawn", str(TRIO), "--per-fls", "--log-dir", str(tmp_path), "--quiet")
+    try:
+        line = spawn.stdout.readline()
+        assert "swarm up: 3 FLS nodes in 3 processes of one FLS each" in line, (
+            line + spawn.stderr.read()
+        )
+        running = fls_processes(tmp_path)
+        assert len(running) == 3, running
+        asked = time.monotonic()
+        spawn.send_signal(signal.SIGTERM)
+        _, err = spawn.communicate(timeout=60)
+        took = time.monotonic() - asked
+    finally:
+        if spawn.poll() is None:
+            spawn.kill()
+    assert spawn.returncode == 0, err
+    assert "3 FLS processes stopped, every one cleanly (exit code 0)" in err, err
+    assert "Traceback" not in err, err
+    assert took < 15, took
+    assert [pid for pid in running if Path(f"/proc/{pid}").exists()] == []
+
+
+def test_an_fls_process_that_fails_is_named_in_one_line(domain, tmp_path):
+    # FLS 1 is told to aim its camera at itself: its program refuses to start.
+    swarm = tmp_path / "trio.yaml"
+    swarm.write_text(
+        TRIO.read_text().replace("../track/trio.xyz", str(REPO / "config/track/trio.xyz"))
+        + "  fls:\n    1:\n      camera_view: 1\n"
+    )
+    spawn = swazure("spawn", str(swarm), "--per-fls", "--log-dir", str(tmp_path / "logs"),
+                    "--quiet")  # fmt: skip
+    try:
+        _, err = spawn.communicate(timeout=120)
+    finally:
+        if spawn.poll() is None:
+            spawn.kill()
+    assert spawn.returncode != 0
+    lines = err.strip().splitlines()
+    failure = [line for line in lines if line.startswith("swazure spawn: error:")]
+    assert len(failure) == 1, err
+    assert "FLS 1's process ended with code 2" in failure[0], failure
+    assert "camera_view names this FLS itself" in failure[0], failure
+    assert "Traceback" not in err, err
+    # The other two were stopped.
+    assert fls_processes(tmp_path / "logs") == []
+    assert os.path.exists(tmp_path / "logs" / "fls_1.log")
