@@ -12,15 +12,19 @@ both drive the same relay and source machines.
 
 from __future__ import annotations
 
+import tempfile
 import time
 from collections import Counter
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from rclpy.context import Context
-from swazure_interfaces.msg import TrackEstimate
+from swazure_interfaces.msg import TrackEstimate, TrackProgress
 from swazure_interfaces.srv import TrackTarget
 
+from ..core.description import SwarmDescription
 from ..core.errors import SwazureError
 from ..core.frames import to_metres
 from ..core.motion import Motion
@@ -34,19 +38,25 @@ from ..core.tracking import (
     arrival,
     nanoseconds,
 )
+from ..protocol.tracking import TrackProgressReport
+from ..ros.auth import SwarmKey
 from ..ros.clock import SimClock
-from ..ros.convert import motion_estimate
+from ..ros.convert import motion_estimate, track_progress_from_message
 from ..ros.host import SwarmHost
 from ..ros.names import (
     ROUND_QOS,
     TRACK_ESTIMATES_TOPIC,
     TRACK_MODEL_CODES,
+    TRACK_PROGRESS_TOPIC,
+    TRACK_REQUESTS_TOPIC,
     TRACK_SERVICE,
     TRACK_STATE_NAMES,
     node_name,
 )
 from ..ros.runtime import SwarmNode, init_context
+from ..ros.world_node import SimulatedCameras
 from ..sim.world import World
+from .per_fls import FlsProcesses
 
 
 class SwarmStalledError(SwazureError):
@@ -63,8 +73,29 @@ def track_parameters(config: TrackConfig) -> dict[str, object]:
     return parameters
 
 
+@dataclass(frozen=True)
+class PerFls:
+    """A track run whose FLSs run one to a process: their swarm's description and motion.
+
+    ``motion`` is the run's :class:`~swazure_ros.core.motion.Motion` as text
+    (``FLS=TRAJECTORY;...``, :func:`~swazure_ros.core.motion.parse_motion`):
+    each FLS process builds its simulated relay camera of it.
+    """
+
+    description: SwarmDescription
+    motion: str
+    log_dir: Path | None = None
+    key: bytes | None = None
+
+
 class TrackSession:
-    """FLS nodes on a simulated clock in this process, and a client that tracks."""
+    """FLS nodes on a simulated clock, and a client that tracks.
+
+    The nodes run in this process, or, with ``per_fls``, each in a process of
+    its own (:class:`~swazure_ros.app.per_fls.FlsProcesses`) beside this
+    process's simulated cameras; they then report their part in the run on
+    ``track_progress``, by which this session knows when all is delivered.
+    """
 
     def __init__(
         self,
@@ -75,19 +106,48 @@ class TrackSession:
         *,
         context: Context,
         namespace: str = "swarm",
+        per_fls: PerFls | None = None,
     ) -> None:
         self.config = config
         self.namespace = namespace.strip("/")
+        self.fls_ids = [int(fls_id) for fls_id in fls_ids]
+        self.processes: FlsProcesses | None = None
+        if per_fls is not None:
+            self.processes = FlsProcesses(
+                per_fls.description,
+                self.fls_ids,
+                per_fls.log_dir or Path(tempfile.mkdtemp(prefix="swazure-track-")),
+                namespace=self.namespace,
+                key=per_fls.key,
+                domain_id=context.get_domain_id(),
+                parameters={
+                    **track_parameters(config),
+                    "track.motion": per_fls.motion,
+                    "track.report_progress": True,
+                },
+            )
         self.host = SwarmHost(
             world,
-            fls_ids,
+            [] if per_fls is not None else self.fls_ids,
             context=context,
             namespace=self.namespace,
-            swarm_size=len(fls_ids),
+            swarm_size=len(self.fls_ids),
             with_world_node=False,
             motion=motion,
             parameters=track_parameters(config),
+            key=SwarmKey(per_fls.key if per_fls is not None else None),
         )
+        self.progress: dict[int, TrackProgressReport] = {}
+        if per_fls is not None:
+            # What the FLSs' cameras see, so that each joins the swarm's radio.
+            self.host.add(
+                SimulatedCameras(
+                    self.host.replica, self.fls_ids, namespace=self.namespace, context=context
+                )
+            )
+            self._progress = self.host.guard.subscribe(
+                TrackProgress, TRACK_PROGRESS_TOPIC, self._on_progress, ROUND_QOS
+            )
         self.clock = SimClock(context=context)
         self.host.add(self.clock)
         self.client = SwarmNode("track_client", namespace=self.namespace, context=context)
@@ -95,16 +155,50 @@ class TrackSession:
         self.estimates: list[TrackEstimate] = []
         # What stopped nodes sent and heard: their messages still count as delivered.
         self._departed_traffic: Counter[str] = Counter()
-        self.client.create_subscription(
+        self._estimates = self.client.create_subscription(
             TrackEstimate, TRACK_ESTIMATES_TOPIC, self.estimates.append, ROUND_QOS
         )
+
+    def _on_progress(self, message: TrackProgress) -> None:
+        report = track_progress_from_message(message, self.host.replica.world.ids)
+        known = self.progress.get(report.fls_id)
+        # Reliable, but two reports may cross: keep the later.
+        if known is None or (report.time, sum(report.traffic.values())) >= (
+            known.time,
+            sum(known.traffic.values()),
+        ):
+            self.progress[report.fls_id] = report
 
     def start(self, discovery_timeout: float = 60.0) -> None:
         """Create the FLS nodes at simulated time 0 and wait until they are discovered."""
         self.clock.set(0)
         self.host.create_fls_nodes()
-        if not self.host.spin_until_discovered(discovery_timeout):
+        if self.processes is not None:
+            self.processes.start()
+        if not self.spin_until(self._ready, discovery_timeout):
             raise SwarmStalledError(f"the FLS nodes were not discovered in {discovery_timeout} s")
+
+    def _check_processes(self) -> None:
+        """SwarmStalledError when an FLS process has ended."""
+        if self.processes is not None and (ended := self.processes.ended()):
+            log = self.processes.log(ended[0].fls_id)
+            raise SwarmStalledError(f"{ended[0].describe()} (log: {log})")
+
+    def _ready(self) -> bool:
+        self._check_processes()
+        if not self.host.is_discovered():
+            return False
+        if self.processes is None:
+            return True
+        # Each FLS's radio is up (at its camera's first frame) and its track publishers
+        # are matched here: nothing they send is lost.
+        count = len(self.fls_ids)
+        requests = f"/{self.namespace}/{TRACK_REQUESTS_TOPIC}"
+        return (
+            self.client.count_subscribers(requests) >= count
+            and self._estimates.get_publisher_count() >= count
+            and self._progress.get_publisher_count() >= count
+        )
 
     def track(self, source: int, target: int, model: str, timeout: float = 10.0) -> int:
         """Ask FLS ``source`` to track ``target``; return the relay, or raise TrackingError."""
@@ -133,6 +227,7 @@ class TrackSession:
         deadline = time.monotonic() + timeout
         republish = time.monotonic() + 0.1
         while not self.delivered():
+            self._check_processes()
             if time.monotonic() > deadline:
                 raise SwarmStalledError(
                     f"the swarm did not answer in {timeout} s of wall time at simulated "
@@ -160,6 +255,12 @@ class TrackSession:
             traffic.update(node.track_traffic)
             if node.relay.due(now):
                 return False
+        # FLSs in processes of their own, as they last reported: one that never
+        # reported has neither tracked nor relayed yet.
+        for report in self.progress.values():
+            if report.time < now or report.due:
+                return False
+            traffic.update(report.traffic)
         return (
             traffic["requests_sent"] == traffic["requests_heard"]
             and traffic["samples_sent"] == traffic["samples_heard"]
@@ -181,7 +282,9 @@ class TrackSession:
         return True
 
     def close(self) -> None:
-        """Destroy every node."""
+        """Destroy every node, and stop every FLS process."""
+        if self.processes is not None:
+            self.processes.stop()
         self.host.close()
 
 
@@ -204,8 +307,12 @@ def run_track(
     domain_id: int | None = None,
     namespace: str = "swarm",
     on_progress: Callable[[float], None] | None = None,
+    per_fls: PerFls | None = None,
 ) -> TrackRun:
-    """Track ``target`` from ``source`` for ``duration`` simulated s over ROS 2; see the module."""
+    """Track ``target`` from ``source`` for ``duration`` simulated s over ROS 2; see the module.
+
+    With ``per_fls``, each FLS taking part runs in a process of its own.
+    """
     config.frames(duration)  # bounded before any work
     world.index(source), world.index(target)  # unknown ids fail before any node starts
     context = init_context(domain_id)
@@ -216,6 +323,7 @@ def run_track(
         config,
         context=context,
         namespace=namespace,
+        per_fls=per_fls,
     )
     try:
         session.start()

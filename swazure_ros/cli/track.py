@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.errors import SwazureError
-from ..core.motion import Motion, Trajectory, parse_trajectory
+from ..core.motion import Motion, Trajectory, TrajectoryError, parse_move, parse_trajectory
 from ..core.results import atomic_write
 from ..core.tracking import (
     ESTIMATORS,
@@ -65,6 +65,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--settle", type=float, default=1.0, help="s before errors count")
     parser.add_argument("--every", type=seconds, default=0.5, help="s between printed rows")
     parser.add_argument("--engine", action="store_true", help="the core's loop, without ROS")
+    parser.add_argument(
+        "--per-fls",
+        action="store_true",
+        help="run each FLS taking part in a process of its own (the standalone FLS program)",
+    )
     parser.add_argument("--plot", type=png_file, metavar="FILE.png", help="write the figure")
     parser.add_argument("--csv", type=output_file, metavar="FILE", help="write every estimate")
     add_domain_argument(parser)
@@ -73,11 +78,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _moves(world: World, moves: list[str]) -> dict[int, Trajectory]:
     trajectories = {}
     for move in moves:
-        fls, separator, trajectory = move.partition("=")
-        if not separator or not fls.strip().isdigit():
-            raise SwazureError(f"--move {move!r}: expected FLS=TRAJECTORY, e.g. 0=linear:0,0,0.1")
-        world.index(int(fls))
-        trajectories[int(fls)] = parse_trajectory(trajectory)
+        try:
+            fls, trajectory = parse_move(move)
+        except TrajectoryError as err:
+            raise SwazureError(f"--move {err}") from err
+        world.index(fls)
+        trajectories[fls] = trajectory
     return trajectories
 
 
@@ -168,7 +174,12 @@ def main(args: argparse.Namespace) -> int:
     engine = _simulate(world, motion, args)
     run = engine
     if not args.engine:
-        from ..app.track import run_track, same_run  # rclpy only when ROS runs
+        from ..app.track import PerFls, run_track, same_run  # rclpy only when ROS runs
+
+        per_fls = None
+        if args.per_fls:
+            moves = [f"{args.target}={args.trajectory}", *args.move]
+            per_fls = PerFls(spec, ";".join(moves))
 
         def progress(now: float) -> None:
             print(f"\rsimulated {now:6.2f} / {args.duration:g} s", end="", file=sys.stderr)
@@ -182,6 +193,7 @@ def main(args: argparse.Namespace) -> int:
             args.duration,
             domain_id=args.domain_id,
             on_progress=progress if sys.stderr.isatty() else None,
+            per_fls=per_fls,
         )
         if sys.stderr.isatty():
             print(file=sys.stderr)

@@ -257,3 +257,16 @@ def parse_trajectory(text: str) -> Trajectory:
         f"unknown trajectory {text!r}: use linear:VX,VY,VZ, circle:RADIUS,PERIOD[,AX,AY,AZ] "
         "or a waypoint CSV file (t,x,y,z)"
     )
+
+
+def parse_move(text: str) -> tuple[int, Trajectory]:
+    """(FLS id, trajectory) of one ``FLS=TRAJECTORY``, e.g. ``0=linear:0,0,0.1``."""
+    fls, separator, trajectory = text.partition("=")
+    if not separator or not fls.strip().isdigit():
+        raise TrajectoryError(f"{text!r}: expected FLS=TRAJECTORY, e.g. 0=linear:0,0,0.1")
+    return int(fls), parse_trajectory(trajectory.strip())
+
+
+def parse_motion(text: str) -> Motion:
+    """The Motion of ``FLS=TRAJECTORY`` moves separated by ``;`` ("" : no FLS moves)."""
+    return Motion(dict(parse_move(move) for move in text.split(";") if move.strip()))

@@ -179,6 +179,13 @@ class RelaySenses:
         return relay_sample(self.sensor, points, self.radius, *rows)
 
 
+def moving_senses(
+    sensor: Sensor, radius: float, ids: NDArray[np.int64], home: FloatArray, motion: Motion
+) -> RelaySenses:
+    """Relay senses of FLSs ``ids`` (N,) starting at ``home`` (N, 3) cm, moving by ``motion``."""
+    return RelaySenses(sensor, radius, ids, lambda seconds: motion.points(home, ids, seconds))
+
+
 @dataclass(frozen=True)
 class Differences:
     """Central-difference velocity and acceleration, each at its own sample times."""

@@ -26,11 +26,11 @@ from ..core.sensor import Sensor
 from ..core.tracking import (
     ENDED,
     TIMED_OUT,
-    RelaySenses,
     TrackConfig,
     TrackingError,
     TrackRun,
     arrival,
+    moving_senses,
     nanoseconds,
 )
 from .discovery import Broadcast, Control, Participant, Report
@@ -138,7 +138,7 @@ def simulate_track(
     if source == target or not all(ids[np.minimum(rows, len(ids) - 1)] == [source, target]):
         raise TrackingError(f"source {source} and target {target} must be two FLSs of the swarm")
 
-    senses = RelaySenses(sensor, radius, ids, lambda seconds: motion.points(home, ids, seconds))
+    senses = moving_senses(sensor, radius, ids, home, motion)
     relays: dict[int, RelayStreams] = {}
 
     def deliver(requests: list[RelayRequest], now: int) -> list[Sample]:

@@ -17,7 +17,7 @@ in one loop, so the two give the same numbers to the bit.
 
 from __future__ import annotations
 
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from functools import partial
@@ -74,6 +74,20 @@ class Sample:
     status: int  # RELAY_*
     position: FloatArray  # (3,), NaN unless RELAY_OK
     sensed: int  # ns, when the relay's camera sensed it
+
+
+@dataclass(frozen=True)
+class TrackProgressReport:
+    """One FLS's part in a track run (a TrackProgress message), for the driver of its clock.
+
+    ``traffic`` counts requests_sent/heard, samples_sent/heard and
+    estimates_sent; ``due``: a relay frame or sample due by ``time`` is still to go.
+    """
+
+    fls_id: int
+    time: int  # ns on the FLS's clock
+    traffic: Counter[str]
+    due: bool
 
 
 @dataclass(frozen=True)

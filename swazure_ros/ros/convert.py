@@ -6,6 +6,7 @@ Each message type converts here, and only here, both ways where both are needed.
 from __future__ import annotations
 
 import array
+from collections import Counter
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -30,6 +31,7 @@ from swazure_interfaces.msg import (
     RelativePose,
     RoundAck,
     TrackEstimate,
+    TrackProgress,
     TrackRequest,
     TrackSample,
     WorldState,
@@ -55,7 +57,14 @@ from ..protocol.discovery import (
 )
 from ..protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
 from ..protocol.radio import Ack
-from ..protocol.tracking import START_RELAY, STOP_RELAY, RelayRequest, Sample, TrackReport
+from ..protocol.tracking import (
+    START_RELAY,
+    STOP_RELAY,
+    RelayRequest,
+    Sample,
+    TrackProgressReport,
+    TrackReport,
+)
 from .guard import check, check_finite, check_ids, check_size
 from .names import (
     POLICY_CODES,
@@ -434,6 +443,35 @@ def track_estimate_message(report: TrackReport) -> TrackEstimate:
     if np.isfinite(estimate.sample_time):
         message.sample_stamp = to_stamp(estimate.sample_time)
     return message
+
+
+#: The counters a TrackProgress message carries, as TrackProgressReport.traffic names them.
+PROGRESS_COUNTERS = (
+    "requests_sent",
+    "requests_heard",
+    "samples_sent",
+    "samples_heard",
+    "estimates_sent",
+)
+
+
+def track_progress_message(report: TrackProgressReport) -> TrackProgress:
+    """One FLS's part in a track run as a TrackProgress message."""
+    message = TrackProgress(fls_id=report.fls_id, relay_due=report.due)
+    for name in PROGRESS_COUNTERS:
+        setattr(message, name, report.traffic[name])
+    message.header.stamp = nanoseconds_stamp(report.time)
+    message.header.frame_id = fls_frame(report.fls_id)
+    return message
+
+
+def track_progress_from_message(message: TrackProgress, swarm: IntArray) -> TrackProgressReport:
+    """The TrackProgressReport of a message; MessageError unless its FLS is the swarm's."""
+    check_ids([message.fls_id], swarm, "track progress")
+    traffic = Counter({name: int(getattr(message, name)) for name in PROGRESS_COUNTERS})
+    return TrackProgressReport(
+        int(message.fls_id), stamp_nanoseconds(message.header.stamp), traffic, message.relay_due
+    )
 
 
 def motion_estimate(message: TrackEstimate) -> MotionEstimate:

@@ -61,6 +61,7 @@ from swazure_interfaces.msg import (
     PathOffer,
     PoseEstimates,
     TrackEstimate,
+    TrackProgress,
     TrackRequest,
     TrackSample,
 )
@@ -69,8 +70,16 @@ from swazure_interfaces.srv import GetNeighbours, TrackTarget
 from ..core import jit
 from ..core.errors import SwazureError
 from ..core.frames import camera_optical_frame
+from ..core.motion import parse_motion
 from ..core.observe import Measurement, NeighbourSets
-from ..core.tracking import TRACK_SETTINGS, FloatArray, RelaySenses, TrackConfig, TrackingError
+from ..core.tracking import (
+    TRACK_SETTINGS,
+    FloatArray,
+    RelaySenses,
+    TrackConfig,
+    TrackingError,
+    moving_senses,
+)
 from ..protocol.discovery import Broadcast, Control, Participant, Report, RoundOffers
 from ..protocol.moves import WALKING, Walk, next_hop, step_walk, walk_estimate
 from ..protocol.senses import DetectedSenses, Senses
@@ -79,6 +88,7 @@ from ..protocol.tracking import (
     RelayRequest,
     RelayStreams,
     Sample,
+    TrackProgressReport,
     TrackReport,
     TrackSource,
 )
@@ -94,6 +104,7 @@ from .convert import (
     relay_request_message,
     sample_message,
     track_estimate_message,
+    track_progress_message,
 )
 from .guard import Guard, check
 from .names import (
@@ -109,6 +120,7 @@ from .names import (
     ROUND_QOS,
     TRACK_ESTIMATES_TOPIC,
     TRACK_MODEL_NAMES,
+    TRACK_PROGRESS_TOPIC,
     TRACK_REQUESTS_TOPIC,
     TRACK_SAMPLES_TOPIC,
     TRACK_SERVICE,
@@ -128,6 +140,15 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from ..core.camera import Camera
+
+
+#: The topics a track run publishes on, and their message types.
+TRACK_TOPICS: dict[str, type] = {
+    TRACK_REQUESTS_TOPIC: TrackRequest,
+    TRACK_SAMPLES_TOPIC: TrackSample,
+    TRACK_ESTIMATES_TOPIC: TrackEstimate,
+    TRACK_PROGRESS_TOPIC: TrackProgress,
+}
 
 
 def _no_relay_senses() -> RelaySenses:
@@ -219,6 +240,12 @@ class FlsNode(SwarmNode):
         self.track_service = self.declare_flag(
             "track.service", False, "offer ~/track: this FLS follows a moving target on request"
         )
+        self.report_progress = self.declare_flag(
+            "track.report_progress",
+            False,
+            "publish track_progress after each track event: for a driver of a simulated "
+            "clock across processes (swazure track --per-fls)",
+        )
         self.camera_view = self._declare_camera_view()
         # (world revision, what the FLS senses in it)
         self._sensed: tuple[int, Measurement, NeighbourSets] | None = None
@@ -267,8 +294,12 @@ class FlsNode(SwarmNode):
         if self.track_service:
             self.create_service(TrackTarget, f"~/{TRACK_SERVICE}", self._on_track)
         # Created at the first track: most FLSs never relay nor track, and
-        # every endpoint costs discovery time.
+        # every endpoint costs discovery time. Under a driver of the clock in another
+        # process, at once: a message sent before its readers have matched is lost.
         self._track_publishers: dict[str, Publisher] = {}
+        if self.report_progress:
+            for topic, kind in TRACK_TOPICS.items():
+                self._track_publishers[topic] = self.create_publisher(kind, topic, ROUND_QOS)
         # Relay frames and track timeouts run on the node's clock. On simulated
         # time they follow /clock itself: the EventsExecutor's timers do not
         # support a simulated clock (ros2/rclcpp#2457) and skip periods.
@@ -482,6 +513,7 @@ class FlsNode(SwarmNode):
         for one in requests:
             self._publish_track(one)
         self._start_track_ticks()
+        self._report_progress()
         relay = self.tracker.relay(target)
         response.success, response.relay_id = True, relay
         response.message = f"tracking FLS {target} through FLS {relay}"
@@ -503,12 +535,14 @@ class FlsNode(SwarmNode):
         self.relay.on_request(request)
         self._start_track_ticks()
         self._relay_frames()
+        self._report_progress()
 
     def on_track_sample(self, sample: Sample) -> None:
         """Take a relayed sample of a tracked target; publish the estimate of the present."""
         self.track_traffic["samples_heard"] += 1
         for out in self.tracker.on_sample(sample):
             self._publish_track(out)
+        self._report_progress()
 
     def _start_track_ticks(self) -> None:
         if self._track_ticks is not None:
@@ -527,22 +561,38 @@ class FlsNode(SwarmNode):
         self._relay_frames()
         for report in self.tracker.tick(self._now()):
             self._publish_track(report)
+        self._report_progress()
+
+    def _report_progress(self) -> None:
+        if self.report_progress:
+            now = self.get_clock().now()
+            progress = TrackProgressReport(
+                self.fls_id,
+                now.nanoseconds,
+                Counter(self.track_traffic),
+                self.relay.due(now.nanoseconds),
+            )
+            self._publish_track(track_progress_message(progress))
 
     def _relay_frames(self) -> None:
         for sample in self.relay.tick(self._now()):
             self._publish_track(sample)
 
-    def _publish_track(self, out: RelayRequest | Sample | TrackReport) -> None:
-        if isinstance(out, RelayRequest):
-            message: object = relay_request_message(out)
-            topic, kind, counter = TRACK_REQUESTS_TOPIC, TrackRequest, "requests_sent"
+    def _publish_track(self, out: RelayRequest | Sample | TrackReport | TrackProgress) -> None:
+        if isinstance(out, TrackProgress):
+            message: object = out
+            topic, counter = TRACK_PROGRESS_TOPIC, "progress_sent"
+        elif isinstance(out, RelayRequest):
+            message = relay_request_message(out)
+            topic, counter = TRACK_REQUESTS_TOPIC, "requests_sent"
         elif isinstance(out, Sample):
             message = sample_message(out)
-            topic, kind, counter = TRACK_SAMPLES_TOPIC, TrackSample, "samples_sent"
+            topic, counter = TRACK_SAMPLES_TOPIC, "samples_sent"
         else:
             message = track_estimate_message(out)
-            topic, kind, counter = TRACK_ESTIMATES_TOPIC, TrackEstimate, "estimates_sent"
+            topic, counter = TRACK_ESTIMATES_TOPIC, "estimates_sent"
         if topic not in self._track_publishers:
+            kind = TRACK_TOPICS[topic]
             self._track_publishers[topic] = self.create_publisher(kind, topic, ROUND_QOS)
         self._publish(self._track_publishers[topic], message)
         self.track_traffic[counter] += 1
@@ -568,7 +618,13 @@ def build_fls(context: Context) -> list[Node]:
 
     values = startup_parameters(
         context,
-        {"fls_id": -1, "namespace": "swarm", "key_file": "", **DESCRIPTION_PARAMETERS},
+        {
+            "fls_id": -1,
+            "namespace": "swarm",
+            "key_file": "",
+            "track.motion": "",
+            **DESCRIPTION_PARAMETERS,
+        },
     )
     fls_id = values["fls_id"]
     if isinstance(fls_id, bool) or not isinstance(fls_id, int) or fls_id < 0:
@@ -579,9 +635,25 @@ def build_fls(context: Context) -> list[Node]:
         fls_id, assigned.cloud_index, assigned.points, description.sensor(), assigned.radius
     )
     key = SwarmKey(key_from(str(values["key_file"])))
+    relay_senses = None
+    if values["track.motion"]:
+        # A simulated track run's relay camera (swazure track --per-fls): the motion
+        # the run gives every FLS, as the packed swarm's replica senses it.
+        try:
+            motion = parse_motion(str(values["track.motion"]))
+        except SwazureError as err:
+            raise ParameterError(f"parameter track.motion: {err}") from err
+        moving = moving_senses(
+            senses.sensor, senses.radius, assigned.cloud_index, assigned.points, motion
+        )
+
+        def relay_senses() -> RelaySenses:
+            return moving
+
     node = FlsNode(
         fls_id,
         senses,
+        relay_senses=relay_senses,
         namespace=str(values["namespace"]),
         context=context,
         transmitter=None,

@@ -36,6 +36,7 @@ MOVE_TOPIC = "move_commands"
 TRACK_REQUESTS_TOPIC = "track_requests"
 TRACK_SAMPLES_TOPIC = "track_samples"
 TRACK_ESTIMATES_TOPIC = "track_estimates"
+TRACK_PROGRESS_TOPIC = "track_progress"
 DEPARTED_TOPIC = "departed"
 #: The swarm as RViz markers (view node), and the Foxglove channel of the same scene.
 SCENE_TOPIC = "scene"

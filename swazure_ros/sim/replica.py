@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from ..core.motion import Motion
 from ..core.observe import LocalView, Measurement, NeighbourSets
 from ..core.sensor import Sensor, config_dir
-from ..core.tracking import RelaySenses
+from ..core.tracking import RelaySenses, moving_senses
 from .world import World
 
 if TYPE_CHECKING:
@@ -82,12 +82,9 @@ class WorldReplica:
     @property
     def relay_senses(self) -> RelaySenses:
         """Relay choice and samples with every FLS where it flies at a time."""
-        world, motion = self.world, self.motion
-        return RelaySenses(
-            world.sensor,
-            world.swarm.radius,
-            world.ids,
-            lambda seconds: motion.points(world.swarm.points, world.ids, seconds),
+        world = self.world
+        return moving_senses(
+            world.sensor, world.swarm.radius, world.ids, world.swarm.points, self.motion
         )
 
     def camera_image(
