@@ -136,6 +136,10 @@ class FlsProcesses:
         files = [params_file] if params_file else []
         self._files = [*files, str(self.parameters_path)]
         self._environment = dict(os.environ)
+        # UDP only, as between FLSs on computers of their own: over Fast DDS's shared
+        # memory, some of 25 FLS processes on one host never got their first, latched
+        # camera frame, in about half of the bring-ups (measured 2026-11-26).
+        self._environment.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "UDPv4")
         if domain_id is not None:
             self._environment["ROS_DOMAIN_ID"] = str(domain_id)
         self.processes: dict[int, subprocess.Popen[bytes]] = {}

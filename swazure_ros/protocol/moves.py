@@ -48,6 +48,14 @@ WALKING, ARRIVED, FAILED = 0, 1, 2
 _MOVING, _WALKING, _RETURNING = "moving", "walking", "returning"
 
 
+def commanded_points(
+    home: FloatArray, kinds: NDArray[np.int64], displacement: FloatArray
+) -> FloatArray:
+    """(K, 3) cm where commanded FLSs go: home (K, 3) + displacement, or home for a return."""
+    aside = kinds != RETURN
+    return np.asarray(home + np.where(aside[:, None], displacement, 0.0), dtype=np.float64)
+
+
 @dataclass(frozen=True)
 class Move:
     """One FLS's move, made together with the ``group_size`` moves of group ``group``."""

@@ -104,11 +104,15 @@ class DetectedSenses:
     """One FLS's senses from the shape's points and its own camera's detections.
 
     Ranging (which FLSs are blind, sweet or decaying neighbours, and how far)
-    comes from the points each FLS is assigned, ``points`` (N, 3) cm of FLSs
-    ``ids`` (N,), sorted; camera readings come from :meth:`detect`. A marker
-    reads as the FLS whose assigned place is nearest the measured vector
-    among those that carry it (:func:`carried_markers`): a camera's
-    dictionary is smaller than a swarm.
+    comes from where the FLSs are as the swarm knows it: the points each FLS is
+    assigned, ``points`` (N, 3) cm of FLSs ``ids`` (N,), sorted, moved by the
+    commands the swarm's heuristics give (:meth:`move`). Camera readings come
+    from :meth:`detect`. A marker reads as the FLS whose place is nearest the
+    measured vector among those that carry it (:func:`carried_markers`): a
+    camera's dictionary is smaller than a swarm.
+
+    :attr:`revision` is the world revision both the FLS's places and its last
+    frame show: a path walk waits for it.
     """
 
     def __init__(
@@ -121,18 +125,29 @@ class DetectedSenses:
     ) -> None:
         self.fls_id = fls_id
         self._ids = np.asarray(ids, dtype=np.int64)
-        self._points = np.asarray(points, dtype=np.float64)
+        self._home = np.asarray(points, dtype=np.float64)
+        self._points = self._home
         self._sensor = sensor
         self._radius = radius
         self._markers = carried_markers(sensor, self._ids)
         self.gone: set[int] = set()
         self.on_revision: list[Callable[[], None]] = []
-        self._revision = 0
-        row = self._row(fls_id)
-        # As the simulator's ranging computes it, to the bit: path lengths decide ties.
-        everyone = np.arange(len(self._ids))
-        tracking = tracking_distance(self._points, radius, np.full_like(everyone, row), everyone)
-        range_class = classify(sensor, tracking)
+        self._moves_revision = 0
+        # The last frame: markers (K,), vectors (K, 3) cm, the world revision it shows.
+        self._frame: tuple[IntArray, FloatArray, int] = (
+            np.zeros(0, dtype=np.int64),
+            np.zeros((0, 3)),
+            0,
+        )
+        self._frames = 0
+        self._range()
+
+    def _range(self) -> None:
+        """Ranging from where the FLSs are, as the simulator's computes it, to the bit."""
+        row = self._row(self.fls_id)
+        points, everyone = self._points, np.arange(len(self._ids))
+        tracking = tracking_distance(points, self._radius, np.full_like(everyone, row), everyone)
+        range_class = classify(self._sensor, tracking)
         near = np.isin(range_class, (BLIND, SWEET, DECAYING))
         near[row] = False
         # The FLS's neighbours by radio, sorted by id (as the simulator's views are).
@@ -172,35 +187,65 @@ class DetectedSenses:
 
     @property
     def revision(self) -> int:
-        """How many frames of detections this FLS has taken."""
-        return self._revision
+        """The world revision that both the FLSs' places and the last frame show."""
+        return min(self._moves_revision, self._frame[2])
 
-    def detect(self, marker_ids: IntArray, vectors: FloatArray) -> int:
+    @property
+    def frames(self) -> int:
+        """Frames of detections taken so far."""
+        return self._frames
+
+    def detect(self, marker_ids: IntArray, vectors: FloatArray, revision: int = 0) -> int:
         """Take one frame's readings: markers (K,), vectors (K, 3) cm centre to centre.
 
-        A marker that no FLS in camera range carries is left out. Returns the
-        readings kept.
+        ``revision``: the world revision the frame shows (0 from a camera
+        driver). A marker that no FLS in camera range carries is left out.
+        Returns the readings kept.
         """
+        self._frame = (
+            np.asarray(marker_ids, dtype=np.int64),
+            np.asarray(vectors, dtype=np.float64).reshape(-1, 3),
+            revision,
+        )
+        self._frames += 1
+        kept = self._read_frame()
+        self._changed()
+        return kept
+
+    def move(self, fls_ids: IntArray, points: FloatArray) -> None:
+        """FLSs ``fls_ids`` (K,) were sent to ``points`` (K, 3) cm: the next world revision."""
+        rows = np.array([self._row(int(fls_id)) for fls_id in fls_ids], dtype=np.int64)
+        moved = self._points.copy()
+        moved[rows] = points
+        # Back home exactly: the simulator's world then is its home again, bit for bit.
+        self._points = self._home if np.array_equal(moved, self._home) else moved
+        self._moves_revision += 1
+        self._range()
+        self._read_frame()
+        self._changed()
+
+    def _changed(self) -> None:
+        for hook in self.on_revision:
+            hook()
+
+    def _read_frame(self) -> int:
+        """Read the last frame against where the FLSs now are; the readings kept."""
+        marker_ids, vectors, _ = self._frame
         camera_range = (self._range_class == SWEET) | (self._range_class == DECAYING)
         candidates = self._near[camera_range]
         candidate_markers = self._markers[candidates]
         expected = self._points[candidates] - self._points[self._row(self.fls_id)]
         vector = np.full((len(self._near), 3), np.nan)
         kept = 0
-        for marker, measured in zip(
-            np.asarray(marker_ids).tolist(), np.asarray(vectors).reshape(-1, 3), strict=True
-        ):
+        for marker, measured in zip(marker_ids.tolist(), vectors, strict=True):
             carriers = np.flatnonzero(candidate_markers == marker)
             if not len(carriers):
                 continue
-            # Nearest by assigned place; on a tie, the smaller id (carriers are sorted).
+            # Nearest by place; on a tie, the smaller id (carriers are sorted).
             best = carriers[np.argmin(np.linalg.norm(expected[carriers] - measured, axis=1))]
             vector[np.searchsorted(self._near, candidates[best])] = measured
             kept += 1
         self._vector = vector
-        self._revision += 1
-        for hook in self.on_revision:
-            hook()
         return kept
 
     def _read(self) -> NDArray[np.bool_]:
@@ -244,12 +289,16 @@ class DetectedSenses:
         )
 
     def positions(self, fls_ids: IntArray) -> FloatArray:
-        """(K, 3) the assigned points of FLSs ``fls_ids``, cm."""
+        """(K, 3) where FLSs ``fls_ids`` are as the swarm knows it, cm."""
         wanted = np.asarray(fls_ids, dtype=np.int64)
         rows = np.minimum(np.searchsorted(self._ids, wanted), len(self._ids) - 1)
         if not np.array_equal(self._ids[rows], wanted):
             self._row(int(wanted[self._ids[rows] != wanted][0]))  # raises
         return self._points[rows]
+
+    def home(self, fls_ids: IntArray) -> FloatArray:
+        """(K, 3) the points FLSs ``fls_ids`` are assigned, cm."""
+        return self._home[[self._row(int(fls_id)) for fls_id in fls_ids]]
 
     def _own(self, fls_id: int) -> None:
         if fls_id != self.fls_id:

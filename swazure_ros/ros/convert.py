@@ -117,15 +117,16 @@ def detections_message(
     markers: IntArray,
     sensor: Sensor,
     stamp: Time,
+    revision: int = 0,
 ) -> Detections:
-    """What FLS ``fls_id``'s simulated camera reads, as its camera would publish it.
+    """What FLS ``fls_id``'s simulated camera reads in world ``revision``, as a camera would.
 
     ``markers`` (K,) are the markers of the measured FLSs; each pose is centre
     to centre in metres in the FLS's frame, its position variance the
     sensor's length error at that distance, squared, on each axis; its
     rotation unknown (variance -1).
     """
-    message = Detections()
+    message = Detections(revision=revision)
     message.header.stamp = stamp
     message.header.frame_id = fls_frame(fls_id)
     error = np.abs(sensor.relative_error(measurement.tracking) * measurement.tracking)

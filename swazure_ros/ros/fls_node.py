@@ -58,6 +58,7 @@ from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import (
     Detections,
     Measurements,
+    MoveCommands,
     PathOffer,
     PoseEstimates,
     TrackEstimate,
@@ -81,7 +82,14 @@ from ..core.tracking import (
     moving_senses,
 )
 from ..protocol.discovery import Broadcast, Control, Participant, Report, RoundOffers
-from ..protocol.moves import WALKING, Walk, next_hop, step_walk, walk_estimate
+from ..protocol.moves import (
+    WALKING,
+    Walk,
+    commanded_points,
+    next_hop,
+    step_walk,
+    walk_estimate,
+)
 from ..protocol.senses import DetectedSenses, Senses
 from ..protocol.tracking import (
     STOP_RELAY,
@@ -99,10 +107,12 @@ from .convert import (
     estimates_message,
     image_message,
     measurements_message,
+    moves_from_message,
     neighbour_fields,
     offer_message,
     relay_request_message,
     sample_message,
+    stamp_nanoseconds,
     track_estimate_message,
     track_progress_message,
 )
@@ -115,6 +125,8 @@ from .names import (
     ESTIMATES_TOPIC,
     MEASUREMENTS_QOS,
     MEASUREMENTS_TOPIC,
+    MOVE_QOS,
+    MOVE_TOPIC,
     NEIGHBOURS_SERVICE,
     RADIO_TOPIC,
     ROUND_QOS,
@@ -124,6 +136,7 @@ from .names import (
     TRACK_REQUESTS_TOPIC,
     TRACK_SAMPLES_TOPIC,
     TRACK_SERVICE,
+    WORLD_REACH,
     node_name,
 )
 from .runtime import (
@@ -289,6 +302,9 @@ class FlsNode(SwarmNode):
             self.guard.subscribe(
                 Detections, f"~/{DETECTIONS_TOPIC}", self._on_detections, DETECTIONS_QOS
             )
+            # Where the heuristics send FLSs: every FLS hears every command.
+            self.guard.subscribe(MoveCommands, MOVE_TOPIC, self._on_moves, MOVE_QOS)
+            self._moves_stamp = 0
         # Alone (no process hosting it), an FLS transmits with publishers of its own.
         self._transmitter = transmitter or Transmitter(self, key)
         if self.track_service:
@@ -389,8 +405,25 @@ class FlsNode(SwarmNode):
 
     def _on_detections(self, message: Detections) -> None:
         assert self._detected is not None
-        self._detected.detect(*detections_from_message(message, self.fls_id))
+        markers, vectors = detections_from_message(message, self.fls_id)
+        check(message.revision < 2**63, f"revision {message.revision} out of range")
+        self._sensed = None
+        self._detected.detect(markers, vectors, int(message.revision))
         self.sense()
+
+    def _on_moves(self, message: MoveCommands) -> None:
+        assert self._detected is not None
+        senses = self._detected
+        ids, kinds, displacement = moves_from_message(message, senses.ids, WORLD_REACH)
+        # As the world node takes them (WorldNode._on_moves): in order, a batch a revision.
+        stamp = stamp_nanoseconds(message.header.stamp)
+        check(stamp >= self._moves_stamp, "older than the last batch of moves (a replay?)")
+        self._moves_stamp = stamp
+        if len(ids):
+            home = senses.home(ids)
+            self._sensed = None
+            senses.move(ids, commanded_points(home, kinds, displacement))
+            self.sense()
 
     def _on_reader_matched(self, info: QoSPublisherMatchedInfo) -> None:
         if info.current_count_change > 0:
@@ -668,6 +701,7 @@ def build_fls(context: Context) -> list[Node]:
         # sees no one, and the swarm would find fewer paths than there are.
         if node.radio is None:
             node.radio = Radio(node, senses, {fls_id: node}, guard=node.guard)
+            node.get_logger().info("on the swarm's radio: its camera's first frame is in")
 
     node.radio = None
     senses.on_revision.insert(0, join_radio)

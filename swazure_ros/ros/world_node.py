@@ -13,11 +13,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-import numpy as np
 from rclpy.context import Context
 from rclpy.node import Node
-from swazure_interfaces.msg import Detections, MoveCommand, MoveCommands, WorldState
+from swazure_interfaces.msg import Detections, MoveCommands, WorldState
 
+from ..protocol.moves import commanded_points
 from ..protocol.senses import carried_markers
 from ..sim.replica import WorldReplica
 from ..sim.world import WorldSpec
@@ -85,10 +85,7 @@ class WorldNode(SwarmNode):
         self._last_stamp = stamp
         if not len(ids):
             return
-        rows = world.indices(ids)
-        aside = kinds != MoveCommand.KIND_RETURN
-        # A step aside or a probe: home plus the displacement; a return: home.
-        targets = world.home.points[rows] + np.where(aside[:, None], displacement, 0.0)
+        targets = commanded_points(world.home.points[world.indices(ids)], kinds, displacement)
         self._replica.apply(world.placed(ids, targets))
         self.publish_world()
 
@@ -128,10 +125,9 @@ class SimulatedCameras(SwarmNode):
         stamp = self.get_clock().now().to_msg()
         for fls_id, publisher in self._detections.items():
             seen = self._replica.measurement(fls_id)
+            markers_seen = markers[world.indices(seen.target_ids)]
             publisher.publish(
-                detections_message(
-                    fls_id, seen, markers[world.indices(seen.target_ids)], world.sensor, stamp
-                )
+                detections_message(fls_id, seen, markers_seen, world.sensor, stamp, world.revision)
             )
 
 

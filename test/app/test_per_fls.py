@@ -13,6 +13,7 @@ from pathlib import Path
 from ..conftest import REPO
 
 GRID = REPO / "config" / "swarms" / "grid25.yaml"
+BLOCKED = Path(__file__).parent / "data" / "blocked25.xyz"
 TRIO = REPO / "config" / "swarms" / "trio.yaml"
 
 
@@ -62,6 +63,20 @@ def test_a_swarm_of_one_process_per_fls_computes_what_the_engine_computes(domain
     for fls_id in (0, 12, 24):
         assert "ready" in (logs / f"fls_{fls_id}.log").read_text()
     assert fls_processes(logs) == []
+
+
+def test_move_source_made_by_fls_processes_is_the_engines(domain, tmp_path):
+    # Each FLS follows the commanded moves (its own and its neighbours') and measures a
+    # path walk in the frame of the world revision the walk names.
+    shape = ["--cloud", str(BLOCKED), "--scale", "1", "--radius", "0.5", "--quiet"]
+    spawn = swazure("spawn", *shape, "--per-fls", "--log-dir", str(tmp_path / "logs"),
+                    "--compute-all", "--technique", "move-source")  # fmt: skip
+    out, err = spawn.communicate(timeout=600)
+    assert spawn.returncode == 0, err
+    assert "move-source: " in out and "7 path walks" in out, out
+    # The detections carry metres (REP-103), so estimates are the engine's to 1e-9 cm.
+    assert "pairs identical to the engine's (status, path, estimate to 1e-9): yes" in out, out
+    assert "25 FLS processes stopped, every one cleanly (exit code 0)" in err, err
 
 
 def test_sigterm_stops_every_fls_process_within_seconds(domain, tmp_path):
