@@ -15,6 +15,7 @@ Arguments:
 The swarm's processes share a fresh key (docs/security.md) made here.
 """
 
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -24,6 +25,7 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from launch import LaunchDescription
+from swazure_ros.app.per_fls import FLS_ENVIRONMENT
 from swazure_ros.cli.swarm_file import load_swarm_file
 from swazure_ros.core.description import SwarmDescription
 from swazure_ros.ros.keys import new_key, write_key
@@ -90,6 +92,8 @@ def _per_fls(path: Path) -> list:
             executable="fls",
             namespace=namespace,
             parameters=[{**shared, **every_fls, **own.get(fls_id, {}), "fls_id": fls_id}],
+            # As swazure spawn --per-fls starts them; the user's environment wins.
+            additional_env={k: v for k, v in FLS_ENVIRONMENT.items() if k not in os.environ},
             output="screen",
         )
         for fls_id in ids

@@ -40,6 +40,11 @@ FLS_PROGRAM = (
     "import ctypes, signal, sys; ctypes.CDLL(None).prctl(1, signal.SIGTERM); "
     "from swazure_ros.ros.fls_node import main; sys.exit(main())",
 )
+#: The environment of an FLS process, unless the user's sets it: UDP only, as between
+#: FLSs on computers of their own. Over Fast DDS's shared memory, some of 25 FLS
+#: processes on one host never got their first, latched camera frame, in about half
+#: of the bring-ups; over UDP, none in 18 (measured 2026-11-26).
+FLS_ENVIRONMENT = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
 #: Seconds a process has to end after SIGINT before it is killed.
 STOP_GRACE = 10.0
 
@@ -135,11 +140,7 @@ class FlsProcesses:
         # A user's parameter file first: the swarm's description must win over it.
         files = [params_file] if params_file else []
         self._files = [*files, str(self.parameters_path)]
-        self._environment = dict(os.environ)
-        # UDP only, as between FLSs on computers of their own: over Fast DDS's shared
-        # memory, some of 25 FLS processes on one host never got their first, latched
-        # camera frame, in about half of the bring-ups (measured 2026-11-26).
-        self._environment.setdefault("FASTDDS_BUILTIN_TRANSPORTS", "UDPv4")
+        self._environment = {**FLS_ENVIRONMENT, **os.environ}
         if domain_id is not None:
             self._environment["ROS_DOMAIN_ID"] = str(domain_id)
         self.processes: dict[int, subprocess.Popen[bytes]] = {}

@@ -167,6 +167,8 @@ def main(args: argparse.Namespace) -> int:
         args.accurate,
         args.seed,
     )
+    if args.per_fls and args.engine:
+        raise SwazureError("--per-fls runs the FLSs over ROS; --engine runs the core's loop alone")
     world = spec.build()
     world.index(args.source), world.index(args.target)
     motion = Motion({args.target: parse_trajectory(args.trajectory), **_moves(world, args.move)})
