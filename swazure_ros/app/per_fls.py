@@ -42,9 +42,17 @@ FLS_PROGRAM = (
 )
 #: The environment of an FLS process, unless the user's sets it: UDP only, as between
 #: FLSs on computers of their own. Over Fast DDS's shared memory, some of 25 FLS
-#: processes on one host never got their first, latched camera frame, in about half
-#: of the bring-ups; over UDP, none in 18 (measured 2026-11-26).
+#: processes on one host missed their first, latched camera frame in about half of
+#: the bring-ups, over UDP in 1 of 19 (measured 2026-11-26; the simulated cameras
+#: now stream, ros.world_node.SimulatedCameras); UDP also keeps 6 MB less resident.
 FLS_ENVIRONMENT = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
+#: Seconds between two FLS processes' starts. Started at once, 25 FLS processes on
+#: this host left one or two of them deaf to the simulator's participant (no camera
+#: frame, no node names; their endpoints still discovered) in 4 of 12 bring-ups;
+#: 0.2 s apart, in none of 16 (2026-11-26). Participants created at the same moment
+#: are known to collide in Fast DDS (rmw_fastrtps#80: the same participant id, so the
+#: same unicast port).
+START_INTERVAL = 0.2
 #: Seconds a process has to end after SIGINT before it is killed.
 STOP_GRACE = 10.0
 
@@ -155,9 +163,11 @@ class FlsProcesses:
         files = [part for path in self._files for part in ("--params-file", path)]
         return [*FLS_PROGRAM, "--ros-args", "-p", f"fls_id:={fls_id}", *files]
 
-    def start(self) -> None:
-        """Start every FLS's process, in id order."""
-        for fls_id in self.fls_ids:
+    def start(self, interval: float = START_INTERVAL) -> None:
+        """Start every FLS's process, in id order, ``interval`` s apart."""
+        for count, fls_id in enumerate(self.fls_ids):
+            if count:
+                time.sleep(interval)
             log = self.log(fls_id).open("wb")
             self._logs[fls_id] = log
             self.processes[fls_id] = subprocess.Popen(

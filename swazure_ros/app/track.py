@@ -160,14 +160,9 @@ class TrackSession:
         )
 
     def _on_progress(self, message: TrackProgress) -> None:
+        # One publisher per FLS, reliable: its reports arrive in order, the last is current.
         report = track_progress_from_message(message, self.host.replica.world.ids)
-        known = self.progress.get(report.fls_id)
-        # Reliable, but two reports may cross: keep the later.
-        if known is None or (report.time, sum(report.traffic.values())) >= (
-            known.time,
-            sum(known.traffic.values()),
-        ):
-            self.progress[report.fls_id] = report
+        self.progress[report.fls_id] = report
 
     def start(self, discovery_timeout: float = 60.0) -> None:
         """Create the FLS nodes at simulated time 0 and wait until they are discovered."""

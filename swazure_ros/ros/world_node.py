@@ -95,8 +95,8 @@ class SimulatedCameras(SwarmNode):
 
     For every FLS of ``fls_ids`` it publishes what the FLS's camera reads on
     ``fls_<id>/camera/detections`` (swazure_interfaces/Detections, latched),
-    at the start and after each new world revision, as an ArUco detector on
-    the FLS's camera would.
+    at the start, after each new world revision and every ``frame_period``
+    seconds, as an ArUco detector on the FLS's camera streams its frames.
     """
 
     def __init__(
@@ -106,6 +106,7 @@ class SimulatedCameras(SwarmNode):
         *,
         namespace: str = "swarm",
         context: Context | None = None,
+        frame_period: float = 1.0,
     ) -> None:
         super().__init__(CAMERAS, namespace=namespace, context=context)
         self._replica = replica
@@ -117,6 +118,10 @@ class SimulatedCameras(SwarmNode):
         }
         replica.on_revision.append(self.publish_frames)
         self.publish_frames()
+        # A stream, not only the latched last frame: an FLS process that joined while
+        # its frame was being sent sometimes never got it (2 of 25 in one bring-up of
+        # 2026-11-26, over UDP; more over shared memory), and would never join the swarm.
+        self.create_timer(frame_period, self.publish_frames)
 
     def publish_frames(self) -> None:
         """Publish every FLS's detections in the replica's revision."""

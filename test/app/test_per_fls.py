@@ -43,7 +43,8 @@ def fls_processes(log_dir: Path) -> list[int]:
 def test_a_swarm_of_one_process_per_fls_computes_what_the_engine_computes(domain, tmp_path):
     logs = tmp_path / "logs"
     spawn = swazure("spawn", str(GRID), "--per-fls", "--log-dir", str(logs), "--quiet",
-                    "--compute-all", "--out", str(tmp_path / "d"))  # fmt: skip
+                    "--discovery-timeout", "120", "--compute-all",
+                    "--out", str(tmp_path / "d"))  # fmt: skip
     out, err = spawn.communicate(timeout=600)
     assert spawn.returncode == 0, err
     assert "25 FLS nodes in 25 processes of one FLS each" in out, out
@@ -68,7 +69,8 @@ def test_a_swarm_of_one_process_per_fls_computes_what_the_engine_computes(domain
 def test_move_source_made_by_fls_processes_is_the_engines(domain, tmp_path):
     # Each FLS follows the commanded moves (its own and its neighbours') and measures a
     # path walk in the frame of the world revision the walk names.
-    shape = ["--cloud", str(BLOCKED), "--scale", "1", "--radius", "0.5", "--quiet"]
+    shape = ["--cloud", str(BLOCKED), "--scale", "1", "--radius", "0.5", "--quiet",
+             "--discovery-timeout", "120"]  # fmt: skip
     spawn = swazure("spawn", *shape, "--per-fls", "--log-dir", str(tmp_path / "logs"),
                     "--compute-all", "--technique", "move-source")  # fmt: skip
     out, err = spawn.communicate(timeout=600)
