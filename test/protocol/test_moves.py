@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections import deque
+from collections import Counter, deque
 
 import numpy as np
 import pytest
@@ -57,14 +57,14 @@ def test_a_walk_fails_where_the_next_hop_is_not_a_sweet_measurement():
 def make_moves(world, plain, technique):
     """Drive a MoveRun over ``world``: moves make revisions, walks go FLS to FLS."""
     run = MoveRun(1, plain, technique, 10, world.revision, timeout=10.0)
-    kinds = set()
+    kinds: Counter[int] = Counter()
     pending = deque(run.start(0.0))
     group: dict[int, np.ndarray] = {}
     while not run.done:
         assert pending, "the run waits for nothing it asked for"
         action = pending.popleft()
         if isinstance(action, Move):
-            kinds.add(action.kind)
+            kinds[action.kind] += 1
             home = world.home.points[world.index(action.fls_id)]
             group[action.fls_id] = home if action.kind == RETURN else home + action.displacement
             if len(group) == action.group_size:
@@ -90,7 +90,11 @@ def test_the_moves_made_by_the_machine_equal_the_engine(technique, kind):
     outcome, after, kinds = make_moves(world, plain, technique)
     engine, plan = run_technique(evaluate(world.swarm, world.sensor, policy), technique, 10)
     assert plan.resolved.sum() > 500 and outcome.walks == plan.resolved.sum()
-    assert (kinds == {kind, RETURN} and outcome.moved == 2 * outcome.walks // 1) or True
+    # Every FLS sent aside (or to a probe) comes back, and only those moves are made.
+    assert set(kinds) == {kind, RETURN} and kinds[kind] == kinds[RETURN]
+    assert outcome.moved == kinds.total()
+    if technique == "move-source":
+        assert kinds[PROBE] == outcome.walks  # one probe, then one walk, per resolved pair
     np.testing.assert_array_equal(outcome.heuristic.resolved, plan.resolved)
     np.testing.assert_array_equal(outcome.evaluation.pairs.status, engine.pairs.status)
     np.testing.assert_array_equal(outcome.evaluation.pairs.nodes, engine.pairs.nodes)
