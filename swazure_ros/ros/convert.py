@@ -39,7 +39,7 @@ from swazure_interfaces.msg import (
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
-from ..core.frames import METRES_PER_CM, fls_frame, to_centimetres, to_metres
+from ..core.frames import CM_PER_METRE, METRES_PER_CM, fls_frame, to_centimetres, to_metres
 from ..core.observe import Measurement, NeighbourSets
 from ..core.sensor import Sensor
 from ..core.tracking import RELAY_MESSAGES, RELAY_OK, MotionEstimate, TrackState
@@ -359,31 +359,26 @@ def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> list[Esti
 
 def estimate_from_message(message: PathEstimate) -> Estimate:
     """The core's Estimate of a reported PathEstimate (unchecked: see estimates_from_message)."""
-    vector = message.vector
-    return Estimate(
-        target=int(message.target_id),
-        status=int(message.status),
-        reason=int(message.reason),
-        path=tuple(int(fls) for fls in message.path),
-        length=float(message.path_length),
-        vector=np.array([vector.x, vector.y, vector.z]),
-        radio_path=tuple(int(fls) for fls in message.radio_path),
-        predicted_error=float(message.predicted_error),
-    )
+    return _estimate(message, 1.0)
 
 
 def pose_estimate_from_message(message: PoseEstimate) -> Estimate:
     """The core's Estimate (cm) of a PoseEstimate (m), for people: not the protocol's bits."""
+    return _estimate(message, CM_PER_METRE)
+
+
+def _estimate(message: PathEstimate | PoseEstimate, cm_per_unit: float) -> Estimate:
+    """An Estimate of either message; lengths times ``cm_per_unit`` (1: already in cm)."""
     vector = message.vector
     return Estimate(
         target=int(message.target_id),
         status=int(message.status),
         reason=int(message.reason),
         path=tuple(int(fls) for fls in message.path),
-        length=to_centimetres(float(message.path_length)),
-        vector=to_centimetres(np.array([vector.x, vector.y, vector.z])),
+        length=float(message.path_length) * cm_per_unit,
+        vector=np.array([vector.x, vector.y, vector.z]) * cm_per_unit,
         radio_path=tuple(int(fls) for fls in message.radio_path),
-        predicted_error=to_centimetres(float(message.predicted_error)),
+        predicted_error=float(message.predicted_error) * cm_per_unit,
     )
 
 
