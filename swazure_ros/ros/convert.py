@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import array
 from collections import Counter
-from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -283,38 +283,31 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
 
 def estimate_message(found: Estimate) -> PathEstimate:
     """One pair's estimate as the protocol reports it (cm; NaN vector without a path)."""
-    vector = found.vector.tolist()
-    return PathEstimate(
-        target_id=found.target,
-        status=found.status,
-        reason=found.reason,
-        path=list(found.path),
-        hops=found.hops,
-        radio_path=list(found.radio_path),
-        vector=Vector3(x=vector[0], y=vector[1], z=vector[2]),
-        path_length=found.length,
-        predicted_error=found.predicted_error,
-    )
+    return PathEstimate(**_estimate_fields(found, lambda centimetres: centimetres))
 
 
 def pose_estimate_message(source: int, found: Estimate, stamp: Time) -> PoseEstimate:
     """One pair's estimate for people and other software: metres, in ``fls_<source>``."""
-    vector = to_metres(found.vector).tolist()
-    message = PoseEstimate(
-        source_id=source,
-        target_id=found.target,
-        status=found.status,
-        reason=found.reason,
-        path=list(found.path),
-        hops=found.hops,
-        radio_path=list(found.radio_path),
-        vector=Vector3(x=vector[0], y=vector[1], z=vector[2]),
-        path_length=to_metres(found.length),
-        predicted_error=to_metres(found.predicted_error),
-    )
+    message = PoseEstimate(source_id=source, **_estimate_fields(found, to_metres))
     message.header.stamp = stamp
     message.header.frame_id = fls_frame(source)
     return message
+
+
+def _estimate_fields(found: Estimate, unit: Callable[[Any], Any]) -> dict[str, Any]:
+    """The fields PathEstimate and PoseEstimate share, lengths converted by ``unit``."""
+    vector = unit(found.vector).tolist()
+    return {
+        "target_id": found.target,
+        "status": found.status,
+        "reason": found.reason,
+        "path": list(found.path),
+        "hops": found.hops,
+        "radio_path": list(found.radio_path),
+        "vector": Vector3(x=vector[0], y=vector[1], z=vector[2]),
+        "path_length": unit(found.length),
+        "predicted_error": unit(found.predicted_error),
+    }
 
 
 def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
