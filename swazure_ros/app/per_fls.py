@@ -30,6 +30,7 @@ from ..core.results import atomic_write
 from ..ros.keys import write_key
 from ..ros.names import node_name
 from ..ros.runtime import description_parameters
+from .discovery_server import ServerAddress, client_environment
 
 #: What starts one FLS: the standalone program, as ``ros2 run swazure_ros fls``.
 FLS_PROGRAM = (
@@ -129,6 +130,7 @@ class FlsProcesses:
         fls_parameters: dict[int, dict[str, object]] | None = None,
         params_file: str | None = None,
         domain_id: int | None = None,
+        discovery_servers: tuple[ServerAddress, ...] = (),
     ) -> None:
         self.fls_ids = [int(fls_id) for fls_id in fls_ids]
         self.log_dir = log_dir
@@ -151,6 +153,10 @@ class FlsProcesses:
         self._environment = {**FLS_ENVIRONMENT, **os.environ}
         if domain_id is not None:
             self._environment["ROS_DOMAIN_ID"] = str(domain_id)
+        if discovery_servers:
+            # A plain client: an FLS hears only of the endpoints that match its own.
+            self._environment.pop("ROS_SUPER_CLIENT", None)
+            self._environment.update(client_environment(discovery_servers, super_client=False))
         self.processes: dict[int, subprocess.Popen[bytes]] = {}
         self._logs: dict[int, IO[bytes]] = {}
 

@@ -17,6 +17,7 @@ evaluation of the same work, pair by pair.
 from __future__ import annotations
 
 import multiprocessing
+import os
 import queue
 import resource
 import signal
@@ -45,6 +46,7 @@ from ..ros.view import ViewNode
 from ..ros.world_node import SimulatedCameras
 from ..sim.world import World, WorldSpec
 from ..view.scene import Scene, evaluation_scene, ranges_scene
+from .discovery_server import DiscoveryServers, ServerAddress, client_environment
 from .per_fls import Ended, FlsProcesses
 
 CREATED, READY, FAILED = "created", "ready", "failed"
@@ -89,6 +91,9 @@ class SwarmConfig:
     #: per_fls: where each FLS process's output goes (fls_<id>.log); None: a new
     #: temporary folder.
     log_dir: str | None = None
+    #: Discover through these Fast DDS Discovery Servers instead of simple discovery
+    #: (app.discovery_server); those whose address is this host's are started here.
+    discovery_servers: tuple[ServerAddress, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -127,7 +132,11 @@ def peak_rss_mb() -> float:
 
 
 def init_context(config: SwarmConfig) -> Context:
-    """A fresh rclpy context with the swarm's parameter file and domain."""
+    """A fresh rclpy context with the swarm's parameter file, domain and discovery."""
+    if config.discovery_servers:
+        # Read by Fast DDS when the context's participant is made, and by nothing else;
+        # a super client, as this process waits until it sees every FLS.
+        os.environ.update(client_environment(config.discovery_servers, super_client=True))
     return runtime.init_context(config.domain_id, config.params_file)
 
 
@@ -209,8 +218,8 @@ class RunningSwarm:
             )
         if not 0 <= config.share < config.hosts:
             raise SwazureError(f"share {config.share} of {config.hosts}: no such share")
-        if config.per_fls and (config.processes > 1 or config.hosts > 1):
-            raise SwazureError("one process per FLS: leave out --processes and --share")
+        if config.per_fls and config.processes > 1:
+            raise SwazureError("one process per FLS: leave out --processes")
         self.config = config
         # A process that ends right after the swarm leaves its own nodes to
         # runtime.exit_process: far faster than destroying them one by one.
@@ -237,18 +246,21 @@ class RunningSwarm:
             key = new_key()
         self.key = SwarmKey(key)
         self.fls_processes: FlsProcesses | None = None
+        log_dir = Path(config.log_dir or tempfile.mkdtemp(prefix="swazure-swarm-"))
+        self.discovery_servers = DiscoveryServers(config.discovery_servers, log_dir)
         if config.per_fls:
-            # Here only the simulator, whose cameras sense for every FLS.
+            # This host's FLS processes; share 0 also simulates every FLS's camera.
             self.fls_processes = FlsProcesses(
                 config.world,
-                fls_ids.tolist(),
-                Path(config.log_dir or tempfile.mkdtemp(prefix="swazure-per-fls-")),
+                self._shares[0],
+                log_dir,
                 namespace=config.namespace,
                 key=key,
                 parameters=config.parameters,
                 fls_parameters=config.fls_parameters,
                 params_file=config.params_file,
                 domain_id=config.domain_id,
+                discovery_servers=config.discovery_servers,
             )
             self._shares = [[]]
         # Each process lays out what its own FLSs sense; the coordinator's
@@ -290,6 +302,7 @@ class RunningSwarm:
         self.close()
 
     def _start(self) -> None:
+        self.discovery_servers.start()
         for child in self._children:
             child.start()
         if self.fls_processes is not None:
@@ -321,7 +334,7 @@ class RunningSwarm:
             )
             self.host.add(self.recorder)
         self.host.create_fls_nodes(created)
-        if self.fls_processes is not None:
+        if self.fls_processes is not None and leader:
             cameras = SimulatedCameras(
                 self.host.replica,
                 self.world.ids.tolist(),
@@ -503,6 +516,7 @@ class RunningSwarm:
         self._stop.set()
         if self.fls_processes is not None:
             self.ended = self.fls_processes.stop()
+        self.discovery_servers.stop()
         for child in self._children:
             if child.pid is not None:
                 child.join(timeout=30)

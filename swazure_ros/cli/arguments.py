@@ -11,6 +11,7 @@ import argparse
 import math
 import os
 from pathlib import Path
+from typing import Any
 
 #: The largest ROS domain id whose DDS ports fit (Linux; the ROS 2 "domain id" design note).
 MAX_DOMAIN_ID = 232
@@ -141,6 +142,16 @@ def share(text: str) -> tuple[int, int]:
     if n < 1 or not 0 <= k < n:
         raise argparse.ArgumentTypeError(f"{text}: need 0 <= K < N")
     return k, n
+
+
+def discovery_servers(text: str) -> tuple[Any, ...]:
+    """``IP[:PORT],...``: Fast DDS Discovery Servers (app.discovery_server.ServerAddress)."""
+    from ..app.discovery_server import parse_servers
+
+    try:
+        return parse_servers(text)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
 
 
 def ros_topic(text: str) -> str:

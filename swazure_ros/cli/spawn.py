@@ -35,6 +35,7 @@ from ..ros.keys import KEY_FILE_VARIABLE
 from ..sim.world import WorldSpec
 from .arguments import (
     count,
+    discovery_servers,
     fls_id,
     fls_pairs,
     input_file,
@@ -186,8 +187,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         metavar="DIR",
-        help="--per-fls: write each FLS process's output to DIR/fls_<id>.log (default: a "
-        "new temporary folder, named when the swarm is up)",
+        help="--per-fls: write each FLS process's output to DIR/fls_<id>.log, and a "
+        "discovery server's to DIR/discovery_server_<i>.log (default: a new temporary "
+        "folder, named when the swarm is up)",
+    )
+    parser.add_argument(
+        "--discovery-server",
+        type=discovery_servers,
+        default=(),
+        metavar="IP[:PORT],...",
+        help="discover through these Fast DDS Discovery Servers (port 11811 unless given; "
+        "two or more for redundancy) instead of simple discovery: a server whose address "
+        "is this host's is started here; give every host the same list (docs/swarm.md)",
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_swarm_file_argument(parser)
@@ -239,10 +250,10 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise SwazureError("--share runs one process per host: leave out --processes")
     if index > 0 and args.compute_all:
         raise SwazureError("--compute-all runs on share 0, the host with the coordinator")
-    if args.per_fls and (args.processes > 1 or hosts > 1):
-        raise SwazureError("--per-fls runs one process per FLS: leave out --processes and --share")
-    if args.log_dir is not None and not args.per_fls:
-        raise SwazureError("--log-dir goes with --per-fls")
+    if args.per_fls and args.processes > 1:
+        raise SwazureError("--per-fls runs one process per FLS: leave out --processes")
+    if args.log_dir is not None and not (args.per_fls or args.discovery_server):
+        raise SwazureError("--log-dir goes with --per-fls or --discovery-server")
     params = args.params if args.params is not None else config_dir() / "swarm.yaml"
     world = WorldSpec(
         cloud=args.cloud,
@@ -270,6 +281,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         parameter_services=args.parameter_services,
         per_fls=args.per_fls,
         log_dir=None if args.log_dir is None else str(args.log_dir),
+        discovery_servers=args.discovery_server,
         view=ViewConfig(
             args.view_port, args.view_colour, args.view_fls, args.policy, args.view_pairs
         )
@@ -392,9 +404,10 @@ def main(args: argparse.Namespace) -> int:
                 else f"{config.hosts} hosts (this is share {config.share})"
             )
             if swarm.fls_processes is not None:
+                share = "" if config.hosts == 1 else f", share {config.share} of {config.hosts}"
                 where = (
-                    f"{bring_up.flss} processes of one FLS each (logs in "
-                    f"{swarm.fls_processes.log_dir}) and this one"
+                    f"{len(swarm.fls_processes.fls_ids)} processes of one FLS each{share} "
+                    f"(logs in {swarm.fls_processes.log_dir}) and this one"
                 )
                 here, *each = bring_up.peak_rss_mb
                 mean = sum(each) / len(each)
