@@ -40,6 +40,7 @@ a thousand times.
 
 from __future__ import annotations
 
+import time
 from collections import Counter
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -186,6 +187,10 @@ class Transmitter:
         self._radio = node.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
         self._estimates = node.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
 
+    def readers(self) -> tuple[int, int]:
+        """Readers matched to (the offers, the estimates): who would hear a message sent now."""
+        return self._radio.get_subscription_count(), self._estimates.get_subscription_count()
+
     def send(self, out: Broadcast | Report) -> int:
         """Send an offer on ``radio`` or a report on ``estimates``; the bytes sent."""
         stamp = self._node.get_clock().now().to_msg()
@@ -198,6 +203,8 @@ class Transmitter:
         return len(data)
 
 
+#: Seconds between two looks of a standalone FLS at whether every FLS hears it yet.
+JOIN_POLL = 0.1
 #: What a simulated camera shows aimed at a neighbour: (neighbour id, frame number) ->
 #: the camera and its whole image (height, width), uint8.
 Eyes = Callable[[int, int], "tuple[Camera, NDArray[np.uint8]]"]
@@ -306,7 +313,7 @@ class FlsNode(SwarmNode):
             self.guard.subscribe(MoveCommands, MOVE_TOPIC, self._on_moves, MOVE_QOS)
             self._moves_stamp = 0
         # Alone (no process hosting it), an FLS transmits with publishers of its own.
-        self._transmitter = transmitter or Transmitter(self, key)
+        self.transmitter = transmitter or Transmitter(self, key)
         if self.track_service:
             self.create_service(TrackTarget, f"~/{TRACK_SERVICE}", self._on_track)
         # Created at the first track: most FLSs never relay nor track, and
@@ -515,7 +522,7 @@ class FlsNode(SwarmNode):
         return sum(len(report.estimates) for report in reports)
 
     def _publish_discovery(self, out: Broadcast | Report) -> None:
-        self.bytes_sent += self._transmitter.send(out)
+        self.bytes_sent += self.transmitter.send(out)
         self.messages_sent += 1
 
     # Tracking ----------------------------------------------------------------
@@ -632,7 +639,7 @@ class FlsNode(SwarmNode):
 
     def _publish(self, publisher: Publisher, message: object) -> None:
         # Serialised once here, so that the bytes on the wire are counted exactly.
-        data = self._transmitter.key.serialize(message)
+        data = self.transmitter.key.serialize(message)
         self.messages_sent += 1
         self.bytes_sent += len(data)
         publisher.publish(data)
@@ -695,15 +702,47 @@ def build_fls(context: Context) -> list[Node]:
         key=key,
     )
 
+    swarm_size = len(senses.ids)
+    radio_up = float("nan")
+
     def join_radio() -> None:
-        # The swarm's rounds count this FLS once its radio is up (Coordinator.hosts_matched).
-        # Before its camera's first frame it would answer every round as an FLS that
-        # sees no one, and the swarm would find fewer paths than there are.
+        # The swarm's rounds count this FLS once it hears the controls
+        # (Coordinator.hosts_matched). Before its camera's first frame it would answer
+        # every round as an FLS that sees no one, and the swarm would find fewer paths
+        # than there are: its radio is made then, and listens once heard (listen_when_heard).
+        nonlocal radio_up
         if node.radio is None:
-            node.radio = Radio(node, senses, {fls_id: node}, guard=node.guard)
-            node.get_logger().info("on the swarm's radio: its camera's first frame is in")
+            node.radio = Radio(node, senses, {fls_id: node}, guard=node.guard, listen=False)
+            radio_up = time.monotonic()
+            node.get_logger().info("radio on: its camera's first frame is in")
+
+    def listen_when_heard() -> None:
+        # Its offers must reach every FLS's radio and the coordinator, its acks and
+        # estimates the coordinator, before a round counts on it: a round sent to
+        # an FLS whose writers are not matched yet waits a round timeout for it. Only
+        # this FLS sees its own writers matched; the coordinator sees its readers.
+        if node.radio is None or node.radio.listening:
+            return
+        offers, estimates = node.transmitter.readers()
+        heard = offers >= swarm_size + 1 and estimates >= 1 and node.radio.ack_readers() >= 1
+        waited = time.monotonic() - radio_up
+        if heard or waited > join_timeout:
+            node.radio.listen()
+            how = (
+                "heard by every FLS and the coordinator"
+                if heard
+                else (f"after {waited:.0f} s, heard by {offers - 1} of {swarm_size} FLSs' radios")
+            )
+            node.get_logger().info(f"on the swarm's radio: {how}")
 
     node.radio = None
+    join_timeout = node.declare_seconds(
+        "join_timeout",
+        30.0,
+        "seconds after its first frame that an FLS waits to be heard "
+        "by every FLS before it takes part in rounds anyway",
+    )
+    node.create_timer(JOIN_POLL, listen_when_heard)
     senses.on_revision.insert(0, join_radio)
     declare_startup(node, values)
     return [node]

@@ -75,6 +75,7 @@ class Radio:
         fls_nodes: dict[int, FlsNode],
         loss: RadioLoss | None = None,
         guard: Guard | None = None,
+        listen: bool = True,
     ) -> None:
         self._node = node
         self._senses = senses
@@ -89,7 +90,9 @@ class Radio:
         self.last_control_at = float("-inf")  # monotonic s
         self.guard = guard or Guard(node)
         self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
-        self._subscribe(DiscoveryControl, CONTROL_TOPIC, self._on_control)
+        self.listening = False
+        if listen:
+            self.listen()
         self._subscribe(PathOffer, RADIO_TOPIC, self._on_offer)
         # One walk publisher per process, not per FLS: a thousand more endpoints
         # would slow the swarm's discovery for a message few FLSs ever send.
@@ -100,6 +103,16 @@ class Radio:
         senses.on_revision.append(self._take_early_walks)
         self._subscribe(TrackRequest, TRACK_REQUESTS_TOPIC, self._on_track_request)
         self._subscribe(TrackSample, TRACK_SAMPLES_TOPIC, self._on_track_sample)
+
+    def listen(self) -> None:
+        """Hear the coordinator's controls: from now on the swarm's rounds count on this radio."""
+        if not self.listening:
+            self._subscribe(DiscoveryControl, CONTROL_TOPIC, self._on_control)
+            self.listening = True
+
+    def ack_readers(self) -> int:
+        """Readers matched to this radio's acknowledgements (the coordinator's)."""
+        return self._acks.get_subscription_count()
 
     def _subscribe(self, kind: type, topic: str, callback: Callable[[Any], None]) -> None:
         self.guard.subscribe(kind, topic, callback, ROUND_QOS)
