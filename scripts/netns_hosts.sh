@@ -6,6 +6,9 @@
 #   sudo scripts/netns_hosts.sh exec K CMD... run CMD on host K, as its machine would
 #   sudo scripts/netns_hosts.sh down          remove every host and the bridge
 #
+# SWAZURE_NETNS_MULTICAST=off makes hosts without multicast, as networks that drop it
+# (many Wi-Fi ones): simple discovery cannot work there, the Discovery Server can.
+#
 # SWAZURE_NETNS_PREFIX (default swz) names the namespaces (PREFIXh0, ...), the
 # bridge (PREFIXbr) and the host ends of the veth pairs, so that two test runs
 # do not meet. `up` removes what an earlier run of the same prefix left, and
@@ -15,6 +18,7 @@ set -euo pipefail
 prefix=${SWAZURE_NETNS_PREFIX:-swz}
 bridge=${prefix}br
 subnet=${SWAZURE_NETNS_SUBNET:-10.77.0}
+multicast=${SWAZURE_NETNS_MULTICAST:-on}
 
 hosts() { ip netns list | awk '{print $1}' | grep -E "^${prefix}h[0-9]+$" || true; }
 
@@ -47,8 +51,13 @@ up() {
         ip -n "$ns" addr add "$subnet.$((10 + i))/24" dev eth0
         ip -n "$ns" link set lo up
         ip -n "$ns" link set eth0 up
-        # DDS discovery multicasts to 239.255.0.1: route multicast out of eth0.
-        ip -n "$ns" route add 224.0.0.0/4 dev eth0
+        if [[ $multicast == off ]]; then
+            ip -n "$ns" link set eth0 multicast off
+            ip -n "$ns" link set lo multicast off
+        else
+            # DDS discovery multicasts to 239.255.0.1: route multicast out of eth0.
+            ip -n "$ns" route add 224.0.0.0/4 dev eth0
+        fi
     done
     trap - ERR
     echo "hosts up: $(hosts | sort -V | tr '\n' ' ')on bridge $bridge ($subnet.0/24)"

@@ -7,34 +7,19 @@ others by multicast on their subnet (scripts/netns_hosts.sh).
 
 from __future__ import annotations
 
-import os
-import shutil
 import subprocess
 import sys
 
 import pytest
 
-from ..conftest import REPO
+from ..netns import SCRIPT, hosts_unavailable, netns_hosts, on_host
 
-SCRIPT = REPO / "scripts" / "netns_hosts.sh"
 SWARM = ["--cloud", "torus:120", "--scale", "1.6", "--beta", "0.5", "--quiet"]
-
-
-def _hosts_possible() -> str | None:
-    if os.geteuid() != 0:
-        return "network namespaces need root"
-    if shutil.which("ip") is None:
-        return "the ip command (iproute2) is not installed"
-    probe = subprocess.run(["ip", "netns", "add", "swzprobe"], capture_output=True, text=True)
-    if probe.returncode != 0:
-        return f"cannot make a network namespace here: {probe.stderr.strip()}"
-    subprocess.run(["ip", "netns", "delete", "swzprobe"], capture_output=True)
-    return None
 
 
 @pytest.fixture
 def hosts(domain, tmp_path):
-    reason = _hosts_possible()
+    reason = hosts_unavailable()
     if reason is not None:
         pytest.skip(reason)
     # A host that compiles the numba kernels for the first time (a fresh clone) stalls
@@ -42,18 +27,12 @@ def hosts(domain, tmp_path):
     # others would take its FLSs for departed.
     params = tmp_path / "swarm.yaml"
     params.write_text("/**/coordinator:\n  ros__parameters:\n    round_timeout: 120.0\n")
-    env = dict(os.environ, SWAZURE_NETNS_PREFIX=f"swz{os.getpid() % 10000}", PARAMS=str(params))
-    env.pop("ROS_AUTOMATIC_DISCOVERY_RANGE", None)  # the script sets SUBNET on each host
-    up = subprocess.run([str(SCRIPT), "up", "3"], env=env, capture_output=True, text=True)
-    assert up.returncode == 0, up.stderr
-    try:
+    with netns_hosts(3, PARAMS=str(params)) as env:
         yield env
-    finally:
-        subprocess.run([str(SCRIPT), "down"], env=env, capture_output=True)
 
 
-def on_host(env, index, *arguments):
-    command = [str(SCRIPT), "exec", str(index), sys.executable, "-m", "swazure_ros.cli.main"]
+def on_host_spawn(env, index, *arguments):
+    command = on_host(index, sys.executable, "-m", "swazure_ros.cli.main")
     return [*command, "spawn", *SWARM, "--params", env["PARAMS"], "--share", f"{index}/3",
             *arguments]  # fmt: skip
 
@@ -61,13 +40,13 @@ def on_host(env, index, *arguments):
 def test_three_hosts_discover_as_the_engine_does(hosts):
     env = hosts
     served = [
-        subprocess.Popen(on_host(env, index), env=env, stdout=subprocess.PIPE,
+        subprocess.Popen(on_host_spawn(env, index), env=env, stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True)
         for index in (1, 2)
     ]  # fmt: skip
     try:
         leader = subprocess.run(
-            on_host(env, 0, "--compute-all", "--discovery-timeout", "90"),
+            on_host_spawn(env, 0, "--compute-all", "--discovery-timeout", "90"),
             env=env, capture_output=True, text=True, timeout=300,
         )  # fmt: skip
     finally:
