@@ -51,12 +51,11 @@ up() {
         ip -n "$ns" addr add "$subnet.$((10 + i))/24" dev eth0
         ip -n "$ns" link set lo up
         ip -n "$ns" link set eth0 up
+        # DDS discovery multicasts to 239.255.0.1: route multicast out of eth0.
+        ip -n "$ns" route add 224.0.0.0/4 dev eth0
         if [[ $multicast == off ]]; then
-            ip -n "$ns" link set eth0 multicast off
-            ip -n "$ns" link set lo multicast off
-        else
-            # DDS discovery multicasts to 239.255.0.1: route multicast out of eth0.
-            ip -n "$ns" route add 224.0.0.0/4 dev eth0
+            # The bridge hands no host's multicast to another (a host still hears its own).
+            bridge link set dev "$veth" mcast_flood off
         fi
     done
     trap - ERR
