@@ -130,6 +130,42 @@ def test_ros2_run_starts_one_fls_that_ros2_param_answers(ros2_tools, domain):
     assert fls.returncode == 0 and world.returncode == 0
 
 
+def test_ros2_as_a_super_client_sees_fls_processes_that_discover_through_a_server(
+    ros2_tools, domain, tmp_path, monkeypatch
+):
+    server = f"127.0.0.1:{11811 + domain}"  # a port of this test's own
+    spawn = subprocess.Popen(
+        [sys.executable, "-m", "swazure_ros.cli.main", "spawn", str(TRIO), "--per-fls",
+         "--discovery-server", server, "--log-dir", str(tmp_path), "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=environment(),
+        start_new_session=True,
+    )  # fmt: skip
+    try:
+        # As the Discovery Server tutorials set up ros2 (a super client hears every endpoint).
+        monkeypatch.setenv("ROS_DISCOVERY_SERVER", server)
+        monkeypatch.setenv("ROS_SUPER_CLIENT", "TRUE")
+        wanted = {"/swarm/fls_0", "/swarm/fls_1", "/swarm/fls_2", "/swarm/coordinator"}
+        listed = until(nodes, lambda names: wanted <= set(names))
+        assert wanted <= set(listed), listed
+
+        def publishers() -> str:
+            info = ("topic", "info", "--no-daemon", "--spin-time", "2", "/swarm/measurements")
+            return ros2(*info).stdout
+
+        info = until(publishers, lambda out: "Publisher count: 3" in out)
+        assert "Publisher count: 3" in info, info
+        got = ros2("param", "get", "--no-daemon", "--spin-time", "2", "/swarm/fls_2", "fls_id")
+        assert "Integer value is: 2" in got.stdout, got
+        # Simple discovery finds nothing of a swarm that discovers through a server.
+        monkeypatch.delenv("ROS_DISCOVERY_SERVER")
+        monkeypatch.delenv("ROS_SUPER_CLIENT")
+        assert not wanted & set(nodes())
+    finally:
+        out = stop(spawn)
+    assert spawn.returncode == 0, out
+    assert "Server is running" in (tmp_path / "discovery_server_0.log").read_text()
+
+
 def test_an_fls_without_an_id_says_so_in_one_line(ros2_tools, domain):
     run = subprocess.run(
         [program("fls"), "--ros-args", *TRIO_ARGS],
