@@ -209,6 +209,7 @@ class RunningSwarm:
         config: SwarmConfig,
         on_created: Callable[[int, int], None] | None = None,
         leave_nodes: bool = False,
+        on_lost: Callable[[Ended], None] | None = None,
     ) -> None:
         if config.processes < 1:
             raise SwazureError(f"processes must be at least 1, got {config.processes}")
@@ -225,6 +226,10 @@ class RunningSwarm:
         # runtime.exit_process: far faster than destroying them one by one.
         self._leave_nodes = leave_nodes
         self._on_created = on_created or (lambda created, total: None)
+        self._on_lost = on_lost or (lambda ended: None)
+        #: Up and discovered (wait_until_ready); per_fls: the FLS processes that ended since.
+        self.ready = False
+        self.lost: list[Ended] = []
         self._began = time.perf_counter()
         fls_ids = config.world.fls_ids()
         self.size = len(fls_ids)
@@ -372,12 +377,19 @@ class RunningSwarm:
     def _drain(self) -> None:
         """Take every pending report from the further processes."""
         if self.fls_processes is not None:
-            ended = self.fls_processes.ended()
-            if ended:
+            known = {one.fls_id for one in self.lost}
+            ended = [one for one in self.fls_processes.ended() if one.fls_id not in known]
+            if ended and not self.ready:
+                # While it comes up, an FLS that ends has a fault to fix: stop and say which.
                 raise SwazureError(
                     f"{ended[0].describe()} (log: {self.fls_processes.log(ended[0].fls_id)})"
                 )
-            if self.host is not None:
+            # Once up, an FLS that ends is an FLS lost, as in flight: the swarm's rounds
+            # find it silent and go on without it (docs/protocol.md, departures).
+            for one in ended:
+                self.lost.append(one)
+                self._on_lost(one)
+            if self.host is not None and not self.ready:
                 self._on_created(min(self.host.discovered()[0], self.size), self.size)
             return
         while True:
@@ -416,6 +428,7 @@ class RunningSwarm:
                 peaks = [self._peaks[index] for index in range(self.config.processes)]
                 if self.fls_processes is not None:
                     peaks += self.fls_processes.peak_rss_mb()
+                self.ready = True
                 return BringUp(self.size, len(peaks), seconds, peaks)
             self._host.spin_for(0.05)
         publishers, services = self._host.discovered()

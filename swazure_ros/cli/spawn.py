@@ -348,6 +348,11 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     return 0
 
 
+def report_lost(ended: Any) -> None:
+    """One line when an FLS process of a running swarm ends: the swarm goes on without it."""
+    print(f"{ended.describe()}; the swarm goes on without it", file=sys.stderr, flush=True)
+
+
 def report_ended(ended: list[Any]) -> None:
     """One line on how the FLS processes ended: all cleanly, or which did not."""
     unclean = [one for one in ended if one.code != 0]
@@ -390,7 +395,7 @@ def main(args: argparse.Namespace) -> int:
     ready = False
     swarm = None
     try:
-        swarm = RunningSwarm(config, bar, leave_nodes=True)
+        swarm = RunningSwarm(config, bar, leave_nodes=True, on_lost=report_lost)
         for signum in (signal.SIGINT, signal.SIGTERM):
             signal.signal(signum, _stopper(swarm))
         with swarm:

@@ -227,14 +227,17 @@ class RoundClock:
             self._finish()
         return []
 
-    def on_gone(self, gone: Iterable[int], now: float) -> list[Control]:
+    def on_gone(self, gone: Iterable[int], now: float, radios: int = 0) -> list[Control]:
         """FLSs known dead (their nodes left the graph): they depart now, with no deadline.
 
         As after a timeout: an open round's phase restarts without them; at the
-        END, the run stops waiting for their estimates.
+        END, the run stops waiting for their estimates. ``radios``: processes
+        gone with them (an FLS that was a process of its own), whose
+        acknowledgements no round waits for any more.
         """
         newly = (frozenset(gone) & self.fls_ids) - self.departed
-        if self.done or not newly:
+        self.hosts = max(self.hosts - radios, 0)
+        if self.done or not (newly or radios):
             return []
         self.departed |= newly
         self.warnings.append(f"run {self.run_id}: FLS {sorted(newly)} gone, departed")

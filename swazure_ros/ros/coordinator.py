@@ -75,6 +75,7 @@ from .names import (
     WORLD_QOS,
     WORLD_TOPIC,
     fls_id_of,
+    node_name,
 )
 from .runtime import (
     DESCRIPTION_PARAMETERS,
@@ -264,6 +265,7 @@ class Coordinator(SwarmNode):
             "seconds an FLS node must stay off the graph before it is gone",
         )
         self._seen: set[int] = set()  # FLSs the graph has shown at least once
+        self._radios: set[str] = set()  # the processes whose radios have acknowledged rounds
         self._missing = Absences(self.liveness_grace)
         self.gone: set[int] = set()
         self._gone_publisher = self.create_publisher(Departed, DEPARTED_TOPIC, DEPARTED_QOS)
@@ -470,9 +472,13 @@ class Coordinator(SwarmNode):
             return
         self.gone |= newly
         self.departed |= newly
+        # An FLS in a process of its own was its own radio (named as its node): gone too.
+        radios = {node_name(fls_id) for fls_id in newly} & self._radios
+        self._radios -= radios
+        self.hosts -= len(radios)
         machine = self._running()
         if isinstance(machine, RoundClock):
-            self._act(machine.on_gone(newly, self._now()))
+            self._act(machine.on_gone(newly, self._now(), radios=len(radios)))
         header = Header(stamp=self.get_clock().now().to_msg())
         departed = Departed(header=header, fls_ids=sorted(self.gone))
         self._gone_publisher.publish(self.key.serialize(departed))
@@ -507,6 +513,8 @@ class Coordinator(SwarmNode):
         clock = self._running(ack.run_id)
         if isinstance(clock, RoundClock):
             check(0 < len(ack.host) <= MAX_NAME, "a host name of no or too many characters")
+            if len(self._radios) < self.hosts:
+                self._radios.add(ack.host)
             self._act(
                 clock.on_ack(
                     int(ack.round), ack.host, self._now(), int(ack.repairs), int(ack.lost)

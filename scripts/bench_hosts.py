@@ -1,0 +1,312 @@
+"""One process per FLS across hosts: bring-up, memory, idle CPU, traffic, identity and faults.
+
+Runs on host 0 of scripts/netns_hosts.sh (``netns_hosts.sh exec 0 python
+scripts/bench_hosts.py ...``, as scripts/bench.py's ``hosts`` section does):
+this process is the leader (simulator, coordinator and host 0's share of FLS
+processes, app.swarm.RunningSwarm); it starts hosts 1..H-1's shares with the
+command a person would run on each (``swazure spawn --per-fls --share K/H``),
+measures, and writes one JSON record (--out). The hosts' eth0 counters give
+the traffic; /proc gives every process's memory and CPU.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+SCRIPT = REPO / "scripts" / "netns_hosts.sh"
+SWAZURE = [sys.executable, "-m", "swazure_ros.cli.main"]
+POLICY = "shortest-length"
+#: The shape: the built-in torus of N FLSs, spaced as test/ros/test_hosts.py's.
+SCALE, BETA = 1.6, 0.5
+#: Resident memory one FLS process needs (76-78 MB measured), with room for the rest.
+FLS_MB = 95.0
+
+
+def prefix() -> str:
+    return os.environ.get("SWAZURE_NETNS_PREFIX", "swz")
+
+
+def address(index: int) -> str:
+    return f"{os.environ.get('SWAZURE_NETNS_SUBNET', '10.77.0')}.{10 + index}"
+
+
+def sent(hosts: int) -> tuple[int, int]:
+    """(packets, bytes) every host has sent on its link so far."""
+    packets = octets = 0
+    for index in range(hosts):
+        shown = subprocess.run(
+            ["ip", "-j", "-s", "-n", f"{prefix()}h{index}", "link", "show", "eth0"],
+            capture_output=True, text=True, check=True,
+        )  # fmt: skip
+        tx = json.loads(shown.stdout)[0]["stats64"]["tx"]
+        packets += int(tx["packets"])
+        octets += int(tx["bytes"])
+    return packets, octets
+
+
+def swarm_pids(root: Path) -> dict[str, list[int]]:
+    """Process ids under ``root`` by kind: the FLS processes and the other hosts' launchers."""
+    marker = str(root).encode()
+    found: dict[str, list[int]] = {"fls": [], "launchers": []}
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit() or int(entry.name) == os.getpid():
+            continue
+        try:
+            cmdline = (entry / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if marker in cmdline and b"fls_node" in cmdline:
+            found["fls"].append(int(entry.name))
+        elif marker in cmdline and b"swazure_ros.cli.main" in cmdline and b"ip\0" not in cmdline:
+            found["launchers"].append(int(entry.name))
+    return found
+
+
+def fls_pid(root: Path, fls_id: int) -> int | None:
+    """The process id of FLS ``fls_id``'s process under ``root``."""
+    wanted = f"fls_id:={fls_id}\0".encode()
+    for pid in swarm_pids(root)["fls"]:
+        try:
+            if wanted in Path(f"/proc/{pid}/cmdline").read_bytes():
+                return pid
+        except OSError:
+            pass
+    return None
+
+
+def resident_mb(pid: int) -> float:
+    try:
+        for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    return 0.0
+
+
+def cpu_seconds(pids: list[int]) -> float:
+    """User and system CPU seconds the processes have used so far."""
+    tick = os.sysconf("SC_CLK_TCK")
+    total = 0
+    for pid in pids:
+        try:
+            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        except OSError:
+            continue
+        total += int(fields[11]) + int(fields[12])
+    return total / tick
+
+
+def available_mb() -> float:
+    for line in Path("/proc/meminfo").read_text().splitlines():
+        if line.startswith("MemAvailable:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def compare_without(world, result, gone_ids: set[int]) -> dict[str, object]:
+    """The swarm's estimates beside the engine's on the shape without ``gone_ids``."""
+    from swazure_ros.core.evaluate import NO_PATH, evaluate_pairs, without
+
+    ids = world.ids
+    gone_index = np.flatnonzero(np.isin(ids, sorted(gone_ids)))
+    expected = evaluate_pairs(without(world.hood, gone_index), POLICY)
+    found = {(one.source, one.target): one for one in result.estimates}
+    keep = ~np.isin(expected.source, gone_index) & ~np.isin(expected.target, gone_index)
+    wrong = missing = 0
+    for pair in np.flatnonzero(keep).tolist():
+        source, target = int(ids[expected.source[pair]]), int(ids[expected.target[pair]])
+        one = found.get((source, target))
+        if one is None:
+            missing += 1
+            continue
+        same = (one.status, one.reason) == (expected.status[pair], expected.reason[pair])
+        same = same and one.path == tuple(int(ids[k]) for k in expected.path(pair))
+        if same and one.status != NO_PATH:
+            same = bool(np.allclose(one.vector, expected.estimate[pair], rtol=0, atol=1e-9))
+        wrong += not same
+    return {
+        "pairs": int(keep.sum()),
+        "reported": len(found),
+        "wrong": wrong,
+        "missing": missing,
+        "identical": wrong == 0 and missing == 0 and len(found) == int(keep.sum()),
+    }
+
+
+def fault_run(swarm, root: Path, victims: list[int], kill_server: bool) -> dict[str, object]:
+    """A discovery run in which ``victims``' processes (and the server) are killed mid-run."""
+    coordinator = swarm.coordinator
+    began = time.monotonic()
+    killed_at: float | None = None
+    detected_at: float | None = None
+
+    def step() -> None:
+        nonlocal killed_at, detected_at
+        if killed_at is None and time.monotonic() - began > 0.5:
+            for fls_id in victims:
+                pid = fls_pid(root, fls_id)
+                if pid is not None:
+                    os.kill(pid, signal.SIGKILL)
+            if kill_server:
+                for process in swarm.discovery_servers.processes.values():
+                    process.kill()
+            killed_at = time.monotonic()
+        if killed_at is not None and detected_at is None and set(victims) <= coordinator.departed:
+            detected_at = time.monotonic()
+
+    result = swarm.run(coordinator.discover(POLICY), timeout=600, step=step)
+    if detected_at is None and set(victims) <= set(result.departed):
+        detected_at = time.monotonic()
+    record = {
+        "killed": victims,
+        "server_killed": kill_server,
+        "seconds": result.seconds,
+        "restarts": result.restarts,
+        "departed": sorted(result.departed),
+        "detection_s": None
+        if detected_at is None or killed_at is None
+        else detected_at - killed_at,
+    }
+    record.update(compare_without(swarm.world, result, set(result.departed) | set(victims)))
+    return record
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--flss", type=int, required=True)
+    parser.add_argument("--hosts", type=int, default=4)
+    parser.add_argument("--discovery", choices=["simple", "server"], required=True)
+    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--compute-all", action="store_true")
+    parser.add_argument("--faults", action="store_true")
+    parser.add_argument("--idle", type=float, default=10.0, help="seconds of idle sampling")
+    parser.add_argument("--timeout", type=float, default=300.0)
+    args = parser.parse_args()
+
+    from swazure_ros.app.discovery_server import parse_servers
+    from swazure_ros.app.swarm import RunningSwarm, SwarmConfig, compute_all
+    from swazure_ros.ros.auth import new_key
+    from swazure_ros.ros.keys import write_key
+    from swazure_ros.sim.world import WorldSpec
+
+    record: dict[str, object] = {
+        "flss": args.flss, "hosts": args.hosts, "discovery": args.discovery,
+    }  # fmt: skip
+    needed = args.flss * FLS_MB + 1500
+    if available_mb() < needed:
+        record["stopped"] = f"memory: {available_mb():.0f} MB available, {needed:.0f} MB needed"
+        args.out.write_text(json.dumps(record, indent=1))
+        return 0
+    root = Path(tempfile.mkdtemp(prefix="swazure-hosts-"))
+    key_file = root / "swarm.key"
+    key = new_key()
+    write_key(key_file, key)
+    servers = parse_servers(address(0)) if args.discovery == "server" else ()
+    cloud = f"torus:{args.flss}"
+    common = ["spawn", "--cloud", cloud, "--scale", str(SCALE), "--beta", str(BETA),
+              "--per-fls", "--key-file", str(key_file), "--quiet",
+              "--discovery-timeout", str(args.timeout)]  # fmt: skip
+    if servers:
+        common += ["--discovery-server", address(0)]
+    packets0, bytes0 = sent(args.hosts)
+    began = time.monotonic()
+    followers = []
+    for index in range(1, args.hosts):
+        share = ["--share", f"{index}/{args.hosts}", "--log-dir", str(root / f"h{index}")]
+        with (root / f"launcher{index}.log").open("w") as log:
+            command = [str(SCRIPT), "exec", str(index), *SWAZURE, *common, *share]
+            followers.append(subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=log))
+    config = SwarmConfig(
+        WorldSpec(cloud=cloud, scale=SCALE, beta=BETA),
+        share=0,
+        hosts=args.hosts,
+        per_fls=True,
+        key=key,
+        discovery_servers=servers,
+        log_dir=str(root / "h0"),
+        discovery_timeout=args.timeout,
+    )
+    try:
+        with RunningSwarm(config) as swarm:
+            try:
+                bring_up = swarm.wait_until_ready()
+            except Exception as err:  # the record says where it stopped
+                record["stopped"] = f"bring-up: {err}"
+                raise
+            record["bring_up_s"] = time.monotonic() - began
+            packets1, bytes1 = sent(args.hosts)
+            record["bring_up_packets"] = packets1 - packets0
+            record["bring_up_bytes"] = bytes1 - bytes0
+            pids = swarm_pids(root)
+            servers_pids = [p.pid for p in swarm.discovery_servers.processes.values()]
+            everyone = [os.getpid(), *pids["launchers"], *pids["fls"], *servers_pids]
+            cpu0, t0 = cpu_seconds(everyone), time.monotonic()
+            swarm.spin(args.idle)
+            cpu1, t1 = cpu_seconds(everyone), time.monotonic()
+            packets2, bytes2 = sent(args.hosts)
+            record["idle_cpu_cores"] = (cpu1 - cpu0) / (t1 - t0)
+            record["idle_packets_per_s"] = (packets2 - packets1) / (t1 - t0)
+            record["idle_bytes_per_s"] = (bytes2 - bytes1) / (t1 - t0)
+            fls_mb = [resident_mb(pid) for pid in pids["fls"]]
+            record["fls_processes"] = len(fls_mb)
+            record["fls_rss_mb_mean"] = float(np.mean(fls_mb)) if fls_mb else None
+            record["fls_rss_mb_max"] = float(np.max(fls_mb)) if fls_mb else None
+            record["launchers_rss_mb"] = [
+                resident_mb(pid) for pid in [os.getpid(), *pids["launchers"]]
+            ]
+            record["servers_rss_mb"] = [resident_mb(pid) for pid in servers_pids]
+            record["total_rss_mb"] = float(
+                sum(fls_mb) + sum(record["launchers_rss_mb"]) + sum(record["servers_rss_mb"])
+            )
+            record["launcher_peak_mb"] = bring_up.peak_rss_mb[0]
+            print(f"bench_hosts: {args.flss} FLSs, {args.discovery}: up in "
+                  f"{record['bring_up_s']:.1f} s", file=sys.stderr, flush=True)  # fmt: skip
+            if args.compute_all:
+                computed = compute_all(swarm, POLICY)
+                record["discovery_s"] = computed.discovery.seconds
+                record["rounds"] = computed.discovery.rounds
+                record["restarts"] = computed.discovery.restarts
+                record["engine_s"] = computed.engine_seconds
+                record["pairs"] = len(computed.engine.pairs)
+                record["identical"] = computed.identical
+            if args.faults:
+                rng = np.random.default_rng(5)
+                count = math.ceil(0.05 * args.flss)
+                victims = sorted(int(v) for v in rng.choice(swarm.world.ids, count, replace=False))
+                record["fault_fls"] = fault_run(swarm, root, victims, kill_server=False)
+                if servers:
+                    record["fault_server"] = fault_run(swarm, root, [], kill_server=True)
+                    # Whether the living stay in each other's graph with the server gone.
+                    swarm.spin(30.0)
+                    record["gone_30s_after_server"] = sorted(
+                        swarm.coordinator.gone - set(record["fault_fls"]["killed"])
+                    )
+    except Exception as err:
+        record.setdefault("stopped", f"{type(err).__name__}: {err}")
+    finally:
+        for follower in followers:
+            follower.send_signal(signal.SIGINT)
+        for follower in followers:
+            try:
+                follower.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                follower.kill()
+        args.out.write_text(json.dumps(record, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
