@@ -1523,6 +1523,156 @@ def fls_process_section(args: argparse.Namespace) -> list[str]:
     return lines
 
 
+#: The hosts section: FLS processes over this many network-namespace hosts, at these sizes.
+HOSTS = 4
+HOST_SIZES = (50, 100, 200)
+#: At this size each mode also computes every blind pair and runs the faults.
+CHECKED_SIZE = 100
+
+
+def hosts_section(args: argparse.Namespace) -> list[str]:
+    """One process per FLS over 4 network-namespace hosts: simple discovery beside the server."""
+    title = "## One process per FLS across hosts"
+    script = REPO / "scripts" / "netns_hosts.sh"
+    if os.geteuid() != 0 or shutil.which("ip") is None:
+        return [title, "", "Skipped: network namespaces need root and iproute2."]
+    env = dict(os.environ, SWAZURE_NETNS_PREFIX="swzbench")
+    env.pop("ROS_AUTOMATIC_DISCOVERY_RANGE", None)
+    subprocess.run([str(script), "up", str(HOSTS)], env=env, check=True, capture_output=True)
+    records: list[dict] = []
+    try:
+        for flss in HOST_SIZES:
+            for discovery in ("server", "simple"):
+                out = SECTIONS_DIR / f"hosts-{flss}-{discovery}.json"
+                extra = ["--compute-all", "--faults"] if flss == CHECKED_SIZE else []
+                print(f"bench: hosts, {flss} FLS processes, {discovery} discovery", flush=True)
+                command = [str(script), "exec", "0", sys.executable,
+                           str(REPO / "scripts" / "bench_hosts.py"), "--flss", str(flss),
+                           "--hosts", str(HOSTS), "--discovery", discovery,
+                           "--out", str(out), *extra]  # fmt: skip
+                try:
+                    subprocess.run(command, env=env, timeout=1800, capture_output=True)
+                    records.append(json.loads(out.read_text()))
+                except (subprocess.TimeoutExpired, OSError, ValueError) as err:
+                    records.append({"flss": flss, "discovery": discovery, "stopped": str(err)})
+    finally:
+        subprocess.run([str(script), "down"], env=env, capture_output=True)
+    hosts_figures(records, REPO / "docs" / "figures")
+    return hosts_lines(records)
+
+
+def _cell(record: dict, key: str, form: str, scale: float = 1.0) -> str:
+    value = record.get(key)
+    return "-" if value is None else format(value * scale, form)
+
+
+def hosts_lines(records: list[dict]) -> list[str]:
+    """The hosts section's tables from the bench_hosts records."""
+    lines = [
+        "## One process per FLS across hosts",
+        "",
+        f"`swazure spawn --per-fls --share K/{HOSTS}` on each of {HOSTS} network-namespace",
+        "hosts (scripts/netns_hosts.sh; run by scripts/bench_hosts.py): the built-in torus",
+        "of N FLSs (scale 1.6, beta 0.5), every FLS a process of its own, host 0 also",
+        "runs the simulator and the coordinator. Bring-up: from the first launcher's start",
+        "until every FLS's writers are matched by every FLS's radio and the coordinator (an",
+        "FLS takes part in rounds only then) and host 0 sees every FLS. Memory: resident",
+        "(Rss) per FLS process; total: proportional (Pss: shared library pages counted",
+        "once) over every process. Idle: 10 s after bring-up, CPU cores used by every",
+        "process of the swarm; traffic: what the hosts sent on their links.",
+        "",
+        "| FLS processes | discovery | bring-up s | FLS process MB | total GB (Pss) "
+        "| idle CPU cores | bring-up packets | bring-up MB | idle packets/s | idle kB/s "
+        "| every blind pair as the engine |",
+        "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
+    ]
+    for record in records:
+        if "bring_up_s" not in record:
+            lines.append(
+                f"| {record['flss']} | {record['discovery']} | stopped: "
+                f"{record.get('stopped', '?')} | | | | | | | | |"
+            )
+            continue
+        identical = record.get("identical", "-")
+        if "pairs" in record:
+            identical = f"{identical} ({record['pairs']} pairs, {record['discovery_s']:.1f} s)"
+        lines.append(
+            f"| {record['flss']} | {record['discovery']} | {record['bring_up_s']:.1f} "
+            f"| {_cell(record, 'fls_rss_mb_mean', '.0f')} "
+            f"| {_cell(record, 'total_pss_mb', '.2f', 1e-3)} "
+            f"| {_cell(record, 'idle_cpu_cores', '.2f')} "
+            f"| {record['bring_up_packets']} | {record['bring_up_bytes'] / 1e6:.1f} "
+            f"| {_cell(record, 'idle_packets_per_s', '.0f')} "
+            f"| {_cell(record, 'idle_bytes_per_s', '.1f', 1e-3)} | {identical} |"
+        )
+    faults = [
+        (record, kind) for record in records for kind in ("fault_fls", "fault_server")
+        if kind in record
+    ]  # fmt: skip
+    if faults:
+        lines += [
+            "",
+            f"Faults at {CHECKED_SIZE} FLS processes, each in a discovery run of every blind "
+            "pair: 5 % of the FLS processes killed (SIGKILL, no goodbye) 0.5 s into the run; "
+            "then the Discovery Server killed 0.5 s into the next run. Detection: from the "
+            "kill until the coordinator counts every killed FLS departed. Right: every pair "
+            "of two living FLSs has the engine's status, path and estimate (1e-9 cm) on the "
+            "shape without the dead.",
+            "",
+            "| discovery | fault | killed | run s | restarts | detection s | departed "
+            "| living pairs right |",
+            "| --- | --- | --- | ---: | ---: | ---: | --- | --- |",
+        ]
+        for record, kind in faults:
+            fault = record[kind]
+            what = "server killed" if fault["server_killed"] else "5 % of FLSs killed"
+            detection = fault["detection_s"]
+            lines.append(
+                f"| {record['discovery']} | {what} | {fault['killed'] or '-'} "
+                f"| {fault['seconds']:.1f} | {fault['restarts']} "
+                f"| {'-' if detection is None else f'{detection:.1f}'} "
+                f"| {fault['departed'] or '-'} | {fault['identical']} "
+                f"({fault['pairs'] - fault['wrong'] - fault['missing']} of {fault['pairs']}) |"
+            )
+        after = [r["gone_30s_after_server"] for r in records if "gone_30s_after_server" in r]
+        if after:
+            lines += ["", f"FLSs the coordinator took for gone in the 30 s after the server "
+                      f"was killed: {after[0] or 'none'}."]  # fmt: skip
+    lines += ["", "Figures: docs/figures/hosts-bringup.png, docs/figures/hosts-traffic.png."]
+    return lines
+
+
+def hosts_figures(records: list[dict], folder: Path) -> None:
+    """Bring-up time and bring-up traffic against the number of FLS processes, as PNGs."""
+    from matplotlib.figure import Figure
+
+    from swazure_ros.core.results import atomic_write
+
+    for name, key, scale, label in (
+        ("hosts-bringup.png", "bring_up_s", 1.0, "bring-up (s)"),
+        ("hosts-traffic.png", "bring_up_bytes", 1e-6, "sent by the hosts during bring-up (MB)"),
+    ):
+        figure = Figure(figsize=(6.4, 4.2), layout="constrained")
+        axes = figure.subplots()
+        for discovery, marker in (("server", "o-"), ("simple", "s--")):
+            done = [r for r in records if r.get("discovery") == discovery and key in r]
+            axes.plot(
+                [r["flss"] for r in done],
+                [r[key] * scale for r in done],
+                marker,
+                label="Discovery Server" if discovery == "server" else "simple discovery",
+            )
+        if key == "bring_up_s":
+            axes.axhline(60, color="grey", linewidth=0.8, linestyle=":")
+        axes.set_xlabel(f"FLS processes over {HOSTS} hosts")
+        axes.set_ylabel(label)
+        axes.set_ylim(bottom=0)
+        axes.grid(True, alpha=0.3)
+        axes.legend()
+        figure.suptitle(f"One process per FLS: {label.split(' (')[0]}")
+        atomic_write(folder / name, lambda tmp, f=figure: f.savefig(tmp, format="png", dpi=110))
+
+
 SECTIONS = {
     "engine": engine_section,
     "policies": policies_section,
@@ -1537,6 +1687,7 @@ SECTIONS = {
     "faults": faults_section,
     "hostile": hostile_section,
     "fls_process": fls_process_section,
+    "hosts": hosts_section,
 }
 
 

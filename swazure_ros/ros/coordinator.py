@@ -431,6 +431,12 @@ class Coordinator(SwarmNode):
         machine = self._running()
         return machine.progress if machine is not None else ""
 
+    def departed_so_far(self) -> frozenset[int]:
+        """The FLSs known departed: earlier runs' and, so far, the running discovery's."""
+        machine = self._running()
+        running = machine.departed if isinstance(machine, RoundClock) else set()
+        return frozenset(self.departed | running)
+
     def _running(self, run_id: int | None = None) -> Machine | None:
         """The running machine (of run ``run_id``, if given)."""
         machine = self._job.machine if self._job is not None else None
