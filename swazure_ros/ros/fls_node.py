@@ -721,7 +721,7 @@ def build_fls(context: Context) -> list[Node]:
         # estimates the coordinator, before a round counts on it: a round sent to
         # an FLS whose writers are not matched yet waits a round timeout for it. Only
         # this FLS sees its own writers matched; the coordinator sees its readers.
-        if node.radio is None or node.radio.listening:
+        if node.radio is None:
             return
         offers, estimates = node.transmitter.readers()
         heard = offers >= swarm_size + 1 and estimates >= 1 and node.radio.ack_readers() >= 1
@@ -734,6 +734,7 @@ def build_fls(context: Context) -> list[Node]:
                 else (f"after {waited:.0f} s, heard by {offers - 1} of {swarm_size} FLSs' radios")
             )
             node.get_logger().info(f"on the swarm's radio: {how}")
+            node.destroy_timer(poll)
 
     node.radio = None
     join_timeout = node.declare_seconds(
@@ -742,7 +743,7 @@ def build_fls(context: Context) -> list[Node]:
         "seconds after its first frame that an FLS waits to be heard "
         "by every FLS before it takes part in rounds anyway",
     )
-    node.create_timer(JOIN_POLL, listen_when_heard)
+    poll = node.create_timer(JOIN_POLL, listen_when_heard)
     senses.on_revision.insert(0, join_radio)
     declare_startup(node, values)
     return [node]
