@@ -30,8 +30,8 @@ SWAZURE = [sys.executable, "-m", "swazure_ros.cli.main"]
 POLICY = "shortest-length"
 #: The shape: the built-in torus of N FLSs, spaced as test/ros/test_hosts.py's.
 SCALE, BETA = 1.6, 0.5
-#: Resident memory one FLS process needs (76-78 MB measured), with room for the rest.
-FLS_MB = 95.0
+#: Memory one FLS process takes of the machine (Pss 43-60 MB measured), with room to spare.
+FLS_MB = 70.0
 
 
 def prefix() -> str:
@@ -210,8 +210,7 @@ def main() -> int:
 
     from swazure_ros.app.discovery_server import parse_servers
     from swazure_ros.app.swarm import RunningSwarm, SwarmConfig, compute_all
-    from swazure_ros.ros.auth import new_key
-    from swazure_ros.ros.keys import write_key
+    from swazure_ros.ros.keys import new_key, write_key
     from swazure_ros.sim.world import WorldSpec
 
     record: dict[str, object] = {
@@ -257,6 +256,12 @@ def main() -> int:
                 bring_up = swarm.wait_until_ready()
             except Exception as err:  # the record says where it stopped
                 record["stopped"] = f"bring-up: {err}"
+                seen = {
+                    name for name, _ in swarm.host.host_node.get_node_names_and_namespaces()
+                }
+                record["unseen"] = [
+                    int(fls_id) for fls_id in swarm.world.ids if f"fls_{fls_id}" not in seen
+                ]
                 raise
             record["bring_up_s"] = time.monotonic() - began
             packets1, bytes1 = sent(args.hosts)

@@ -14,8 +14,7 @@ import sys
 
 import pytest
 
-from swazure_ros.ros.auth import new_key
-from swazure_ros.ros.keys import write_key
+from swazure_ros.ros.keys import new_key, write_key
 
 from ..netns import address, hosts_unavailable, netns_hosts, on_host
 from .test_per_fls import GRID
