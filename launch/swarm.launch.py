@@ -2,6 +2,7 @@
 
     ros2 launch swazure_ros swarm.launch.py swarm:=config/swarms/torus.yaml
     ros2 launch swazure_ros swarm.launch.py swarm:=config/swarms/trio.yaml mode:=per_fls
+    ros2 launch swazure_ros swarm.launch.py swarm:=... discovery_server:=127.0.0.1:11811
 
 Arguments:
 
@@ -10,7 +11,10 @@ Arguments:
   FLS nodes many to a process, each with parameter services (``ros2 param``);
   ``per_fls`` runs every FLS in a process of its own (``ros2 run swazure_ros
   fls``), beside the simulator (``world``: the world node and the FLSs'
-  simulated cameras) and the ``coordinator``, as real FLS hardware would.
+  simulated cameras) and the ``coordinator``, as real FLS hardware would;
+- ``discovery_server``: ``IP[:PORT],...``: discover through these Fast DDS
+  Discovery Servers (those at an address of this machine are started here),
+  as ``swazure spawn --discovery-server`` does (docs/swarm.md).
 
 The swarm's processes share a fresh key (docs/security.md) made here.
 """
@@ -25,6 +29,13 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from launch import LaunchDescription
+from swazure_ros.app.discovery_server import (
+    client_environment,
+    is_local,
+    parse_servers,
+    server_command,
+    server_environment,
+)
 from swazure_ros.app.per_fls import FLS_ENVIRONMENT
 from swazure_ros.cli.swarm_file import load_swarm_file
 from swazure_ros.core.description import SwarmDescription
@@ -34,8 +45,24 @@ from swazure_ros.ros.runtime import description_parameters
 PACKAGE = "swazure_ros"
 
 
-def _packed(path: Path) -> list:
+def _servers(servers: tuple) -> list:
+    """The discovery servers of this machine, as processes of the launch."""
+    return [
+        ExecuteProcess(
+            cmd=server_command(index, server),
+            name=f"discovery_server_{index}",
+            additional_env={"LD_LIBRARY_PATH": server_environment()["LD_LIBRARY_PATH"]},
+            output="screen",
+        )
+        for index, server in enumerate(servers)
+        if is_local(server.host)
+    ]
+
+
+def _packed(path: Path, servers: tuple) -> list:
     command = [sys.executable, "-m", "swazure_ros.cli.main", "spawn", str(path)]
+    if servers:
+        command += ["--discovery-server", ",".join(str(server) for server in servers)]
     return [
         ExecuteProcess(
             cmd=[*command, "--parameter-services", "--quiet"],
@@ -45,7 +72,7 @@ def _packed(path: Path) -> list:
     ]
 
 
-def _per_fls(path: Path) -> list:
+def _per_fls(path: Path, servers: tuple) -> list:
     options = load_swarm_file(path)
     description = SwarmDescription(
         cloud=options["cloud"],
@@ -65,6 +92,9 @@ def _per_fls(path: Path) -> list:
         "key_file": str(key_file),
     }
     ids = description.fls_ids().tolist()
+    # Plain clients of the servers: the coordinator counts matched endpoints, and the
+    # graph's node names reach every participant.
+    clients = client_environment(servers, super_client=False) if servers else {}
     every_fls = options.get("parameters") or {}
     own = options.get("fls") or {}
     actions = [
@@ -75,6 +105,7 @@ def _per_fls(path: Path) -> list:
             executable="world",
             namespace=namespace,
             parameters=[shared],
+            additional_env=clients,
             output="screen",
         ),
         Node(
@@ -83,6 +114,7 @@ def _per_fls(path: Path) -> list:
             name="coordinator",
             namespace=namespace,
             parameters=[{**shared, "hosts": len(ids)}],
+            additional_env=clients,
             output="screen",
         ),
     ]
@@ -93,7 +125,10 @@ def _per_fls(path: Path) -> list:
             namespace=namespace,
             parameters=[{**shared, **every_fls, **own.get(fls_id, {}), "fls_id": fls_id}],
             # As swazure spawn --per-fls starts them; the user's environment wins.
-            additional_env={k: v for k, v in FLS_ENVIRONMENT.items() if k not in os.environ},
+            additional_env={
+                **{k: v for k, v in FLS_ENVIRONMENT.items() if k not in os.environ},
+                **clients,
+            },
             output="screen",
         )
         for fls_id in ids
@@ -103,9 +138,11 @@ def _per_fls(path: Path) -> list:
 
 def _swarm(context):
     path = Path(LaunchConfiguration("swarm").perform(context)).expanduser().resolve()
+    named = LaunchConfiguration("discovery_server").perform(context)
+    servers = parse_servers(named) if named else ()
     if LaunchConfiguration("mode").perform(context) == "per_fls":
-        return _per_fls(path)
-    return _packed(path)
+        return [*_servers(servers), *_per_fls(path, servers)]
+    return _packed(path, servers)  # swazure spawn starts this machine's servers itself
 
 
 def generate_launch_description():
@@ -117,6 +154,11 @@ def generate_launch_description():
                 default_value="packed",
                 choices=["packed", "per_fls"],
                 description="packed: swazure spawn's processes; per_fls: a process per FLS",
+            ),
+            DeclareLaunchArgument(
+                "discovery_server",
+                default_value="",
+                description="IP[:PORT],...: discover through these Fast DDS Discovery Servers",
             ),
             OpaqueFunction(function=_swarm),
         ]

@@ -205,7 +205,7 @@ def main() -> int:
     parser.add_argument("--compute-all", action="store_true")
     parser.add_argument("--faults", action="store_true")
     parser.add_argument("--idle", type=float, default=10.0, help="seconds of idle sampling")
-    parser.add_argument("--timeout", type=float, default=300.0)
+    parser.add_argument("--timeout", type=float, default=420.0, help="bring-up deadline, s")
     args = parser.parse_args()
 
     from swazure_ros.app.discovery_server import parse_servers
@@ -256,9 +256,7 @@ def main() -> int:
                 bring_up = swarm.wait_until_ready()
             except Exception as err:  # the record says where it stopped
                 record["stopped"] = f"bring-up: {err}"
-                seen = {
-                    name for name, _ in swarm.host.host_node.get_node_names_and_namespaces()
-                }
+                seen = {name for name, _ in swarm.host.host_node.get_node_names_and_namespaces()}
                 record["unseen"] = [
                     int(fls_id) for fls_id in swarm.world.ids if f"fls_{fls_id}" not in seen
                 ]

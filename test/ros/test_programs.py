@@ -175,8 +175,17 @@ def test_an_fls_without_an_id_says_so_in_one_line(ros2_tools, domain):
     assert "fls_id" in run.stderr and "Traceback" not in run.stderr, run.stderr
 
 
-def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(ros2_tools, domain):
-    launch = start("launch", "swazure_ros", "swarm.launch.py", f"swarm:={TRIO}", "mode:=per_fls")
+@pytest.mark.parametrize("discovery", ["simple", "server"])
+def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(
+    ros2_tools, domain, discovery, monkeypatch
+):
+    server = f"127.0.0.1:{11811 + domain}"
+    through = [f"discovery_server:={server}"] if discovery == "server" else []
+    launch = start("launch", "swazure_ros", "swarm.launch.py", f"swarm:={TRIO}", "mode:=per_fls",
+                   *through)  # fmt: skip
+    if through:  # ros2 then sees the graph as a super client of the launch's server
+        monkeypatch.setenv("ROS_DISCOVERY_SERVER", server)
+        monkeypatch.setenv("ROS_SUPER_CLIENT", "TRUE")
     try:
         wanted = {"/swarm/fls_0", "/swarm/fls_1", "/swarm/fls_2", "/swarm/world",
                   "/swarm/cameras", "/swarm/coordinator"}  # fmt: skip
