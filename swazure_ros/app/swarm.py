@@ -251,7 +251,9 @@ class RunningSwarm:
             key = new_key()
         self.key = SwarmKey(key)
         self.fls_processes: FlsProcesses | None = None
-        log_dir = Path(config.log_dir or tempfile.mkdtemp(prefix="swazure-swarm-"))
+        # A folder for the logs of the processes started here, if any are.
+        started = config.per_fls or bool(config.discovery_servers)
+        log_dir = Path(config.log_dir or (tempfile.mkdtemp(prefix="swazure-") if started else "."))
         self.discovery_servers = DiscoveryServers(config.discovery_servers, log_dir)
         if config.per_fls:
             # This host's FLS processes; share 0 also simulates every FLS's camera.
