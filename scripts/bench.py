@@ -1573,7 +1573,8 @@ def hosts_lines(records: list[dict]) -> list[str]:
         "",
         f"`swazure spawn --per-fls --share K/{HOSTS}` on each of {HOSTS} network-namespace",
         "hosts (scripts/netns_hosts.sh; run by scripts/bench_hosts.py): the built-in torus",
-        "of N FLSs (scale 1.6, beta 0.5), every FLS a process of its own, host 0 also",
+        "of N FLSs (`torus:N`, which makes 48, 102 and 200 FLSs for N = 50, 100, 200;",
+        "scale 1.6, beta 0.5), every FLS a process of its own, host 0 also",
         "runs the simulator and the coordinator. Bring-up: from the first launcher's start",
         "until every FLS's writers are matched by every FLS's radio and the coordinator (an",
         "FLS takes part in rounds only then) and host 0 sees every FLS. Memory: resident",
@@ -1597,7 +1598,7 @@ def hosts_lines(records: list[dict]) -> list[str]:
         if "pairs" in record:
             identical = f"{identical} ({record['pairs']} pairs, {record['discovery_s']:.1f} s)"
         lines.append(
-            f"| {record['flss']} | {record['discovery']} | {record['bring_up_s']:.1f} "
+            f"| {record['fls_processes']} | {record['discovery']} | {record['bring_up_s']:.1f} "
             f"| {_cell(record, 'fls_rss_mb_mean', '.0f')} "
             f"| {_cell(record, 'total_pss_mb', '.2f', 1e-3)} "
             f"| {_cell(record, 'idle_cpu_cores', '.2f')} "

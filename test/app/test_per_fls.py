@@ -10,6 +10,8 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from ..conftest import REPO
 
 GRID = REPO / "config" / "swarms" / "grid25.yaml"
@@ -128,3 +130,38 @@ def test_an_fls_process_that_fails_is_named_in_one_line(domain, tmp_path):
     # The other two were stopped.
     assert fls_processes(tmp_path / "logs") == []
     assert os.path.exists(tmp_path / "logs" / "fls_1.log")
+
+
+def test_an_fls_process_killed_mid_run_departs_and_the_living_get_the_engines_pairs(
+    domain, tmp_path
+):
+    from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
+    from swazure_ros.core.evaluate import evaluate_pairs, without
+    from swazure_ros.sim.world import WorldSpec
+
+    policy = "shortest-length"
+    spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
+    config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=120)
+    lost = []
+    with RunningSwarm(config, on_lost=lost.append) as swarm:
+        swarm.wait_until_ready()
+        # FLS 12, the grid's centre, relays many paths: killed (no goodbye) as the run starts.
+        swarm.fls_processes.processes[12].kill()
+        result = swarm.discover(policy, timeout=120)
+        assert result.departed == frozenset({12})
+        assert [(one.fls_id, one.code) for one in lost] == [(12, -9)]
+        world = swarm.world
+        expected = evaluate_pairs(without(world.hood, np.array([12])), policy)
+        found = {(s, one.target): one for s, some in result.estimates.items() for one in some}
+        keep = (expected.source != 12) & (expected.target != 12)
+        assert len(found) == int(keep.sum())
+        for pair in np.flatnonzero(keep).tolist():
+            one = found[(int(expected.source[pair]), int(expected.target[pair]))]
+            assert (one.status, one.reason) == (expected.status[pair], expected.reason[pair])
+            assert one.path == tuple(expected.path(pair))
+        # It mattered: the whole grid's paths go through it (ids are the grid's rows).
+        whole = evaluate_pairs(world.hood, policy)
+        assert any(12 in whole.path(pair) for pair in range(len(whole)))
+        # The next run needs no restart: no round waits for the dead FLS's radio.
+        again = swarm.discover(policy, timeout=60)
+        assert again.restarts == 0 and again.departed == frozenset({12})

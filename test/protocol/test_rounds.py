@@ -142,6 +142,27 @@ def test_an_fls_known_gone_departs_at_once_and_the_phase_restarts_without_it():
     assert run.on_gone({99}, 0.6) == []  # not in this swarm
 
 
+def test_an_fls_gone_with_its_own_radio_is_no_longer_waited_for_in_any_round():
+    # One process per FLS: each FLS is a radio of its own, named as its node.
+    run = RoundClock(7, "fewest-hops", FLSS, 3, TIMEOUT)
+    run.start(0.0)
+    every_offer(run, 0, senders=(0, 2), labels=1)
+    run.on_gone({1}, 0.5, radios=1)
+    assert run.hosts == 2
+    # The restarted phase's round closes with the two living radios' acks, at once.
+    every_offer(run, 1, senders=(0, 2), labels=1)
+    assert run.on_ack(1, "fls_0", 1.0) == []
+    (next_round,) = run.on_ack(1, "fls_2", 1.0)
+    assert (next_round.command, next_round.round) == (ROUND, 2)
+    # Without the radio gone too, the same round waits for a third ack.
+    stuck = RoundClock(7, "fewest-hops", FLSS, 3, TIMEOUT)
+    stuck.start(0.0)
+    stuck.on_gone({1}, 0.5)
+    every_offer(stuck, 1, senders=(0, 2), labels=1)
+    stuck.on_ack(1, "fls_0", 1.0)
+    assert stuck.on_ack(1, "fls_2", 1.0) == []
+
+
 def test_a_source_known_gone_at_the_end_is_not_waited_for():
     run = clock(sources=(0, 2), targets=(2, 0))
     run.start(0.0)
