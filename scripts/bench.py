@@ -1717,15 +1717,40 @@ def main() -> int:
     for name in args.sections:
         body = SECTIONS[name](args)
         (SECTIONS_DIR / f"{name}.md").write_text("\n".join([stamp, "", *body]))
-    parts = ["# Benchmarks", "", "Regenerate with `make bench` (writes this file).", ""]
+    fresh = []
     for name in SECTIONS:
         section = SECTIONS_DIR / f"{name}.md"
         if section.exists():
             text = section.read_text().split("\n")
-            parts += [*text[2:3], "", text[0], "", *text[3:]]
-    args.output.write_text("\n".join(parts))
+            fresh.append([*text[2:3], "", text[0], "", *text[3:]])
+    existing = args.output.read_text() if args.output.exists() else ""
+    args.output.write_text(merged(existing, fresh))
     print(f"wrote {args.output}")
     return 0
+
+
+def merged(existing: str, fresh: list[list[str]]) -> str:
+    """The benchmarks file: ``existing``'s sections, each replaced by its fresh run if any.
+
+    A section is a "## " heading and what follows it. Sections run again
+    replace theirs in place; new ones go at the end; the others stay as they
+    were measured (a run of some sections must not drop the rest).
+    """
+    chunks: list[list[str]] = []
+    for line in existing.split("\n"):
+        if line.startswith("## ") or not chunks:
+            chunks.append([])
+        chunks[-1].append(line)
+    header = ["# Benchmarks", "", "Regenerate with `make bench` (writes this file).", ""]
+    if chunks and not chunks[0][0].startswith("## "):
+        header = chunks.pop(0)
+    by_heading = {chunk[0]: chunk for chunk in fresh}
+    out = []
+    for chunk in chunks:
+        out.append(by_heading.pop(chunk[0], chunk))
+    out += [chunk for chunk in fresh if chunk[0] in by_heading]
+    body = [line for chunk in out for line in (chunk if chunk[-1] == "" else [*chunk, ""])]
+    return "\n".join([*header, *body]).rstrip("\n") + "\n"
 
 
 if __name__ == "__main__":
