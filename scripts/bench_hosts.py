@@ -260,8 +260,23 @@ def main() -> int:
                 record["unseen"] = [
                     int(fls_id) for fls_id in swarm.world.ids if f"fls_{fls_id}" not in seen
                 ]
+                # What it had taken by then: memory, and traffic since the start.
+                pids = swarm_pids(root)
+                servers_pids = [p.pid for p in swarm.discovery_servers.processes.values()]
+                everyone = [os.getpid(), *pids["launchers"], *pids["fls"], *servers_pids]
+                record["fls_processes"] = len(pids["fls"])
+                record["total_pss_mb"] = sum(resident_mb(pid, "Pss:") for pid in everyone)
+                record["cpu_s"] = cpu_seconds(everyone)
+                packets1, bytes1 = sent(args.hosts)
+                record["stopped_packets"] = packets1 - packets0
+                record["stopped_bytes"] = bytes1 - bytes0
                 raise
             record["bring_up_s"] = time.monotonic() - began
+            started = swarm_pids(root)
+            servers_started = [p.pid for p in swarm.discovery_servers.processes.values()]
+            record["bring_up_cpu_s"] = cpu_seconds(
+                [os.getpid(), *started["launchers"], *started["fls"], *servers_started]
+            )
             packets1, bytes1 = sent(args.hosts)
             record["bring_up_packets"] = packets1 - packets0
             record["bring_up_bytes"] = bytes1 - bytes0
