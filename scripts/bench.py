@@ -1582,23 +1582,29 @@ def hosts_lines(records: list[dict]) -> list[str]:
         "once) over every process. Idle: 10 s after bring-up, CPU cores used by every",
         "process of the swarm; traffic: what the hosts sent on their links.",
         "",
-        "| FLS processes | discovery | bring-up s | FLS process MB | total GB (Pss) "
-        "| idle CPU cores | bring-up packets | bring-up MB | idle packets/s | idle kB/s "
-        "| every blind pair as the engine |",
-        "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
+        "| FLS processes | discovery | bring-up s | bring-up CPU s | FLS process MB "
+        "| total GB (Pss) | idle CPU cores | bring-up packets | bring-up MB | idle packets/s "
+        "| idle kB/s | every blind pair as the engine |",
+        "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- |",
     ]
     for record in records:
+        count = record.get("fls_processes", record["flss"])
         if "bring_up_s" not in record:
+            stopped = record.get("stopped", "?").replace("|", "/")
             lines.append(
-                f"| {record['flss']} | {record['discovery']} | stopped: "
-                f"{record.get('stopped', '?')} | | | | | | | | |"
+                f"| {count} | {record['discovery']} | {stopped} "
+                f"| {_cell(record, 'cpu_s', '.0f')} | - "
+                f"| {_cell(record, 'total_pss_mb', '.2f', 1e-3)} | - "
+                f"| {record.get('stopped_packets', '-')} "
+                f"| {_cell(record, 'stopped_bytes', '.1f', 1e-6)} | - | - | - |"
             )
             continue
         identical = record.get("identical", "-")
         if "pairs" in record:
             identical = f"{identical} ({record['pairs']} pairs, {record['discovery_s']:.1f} s)"
         lines.append(
-            f"| {record['fls_processes']} | {record['discovery']} | {record['bring_up_s']:.1f} "
+            f"| {count} | {record['discovery']} | {record['bring_up_s']:.1f} "
+            f"| {_cell(record, 'bring_up_cpu_s', '.0f')} "
             f"| {_cell(record, 'fls_rss_mb_mean', '.0f')} "
             f"| {_cell(record, 'total_pss_mb', '.2f', 1e-3)} "
             f"| {_cell(record, 'idle_cpu_cores', '.2f')} "
