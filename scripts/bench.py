@@ -1591,10 +1591,12 @@ def hosts_lines(records: list[dict]) -> list[str]:
         count = record.get("fls_processes", record["flss"])
         if "bring_up_s" not in record:
             stopped = record.get("stopped", "?").replace("|", "/")
+            # Memory and CPU at the stop count only if every FLS process was still there.
+            whole = record.get("fls_processes") == record["flss"]
             lines.append(
-                f"| {count} | {record['discovery']} | {stopped} "
-                f"| {_cell(record, 'cpu_s', '.0f')} | - "
-                f"| {_cell(record, 'total_pss_mb', '.2f', 1e-3)} | - "
+                f"| {record['flss']} | {record['discovery']} | {stopped} "
+                f"| {_cell(record, 'cpu_s', '.0f') if whole else '-'} | - "
+                f"| {_cell(record, 'total_pss_mb', '.2f', 1e-3) if whole else '-'} | - "
                 f"| {record.get('stopped_packets', '-')} "
                 f"| {_cell(record, 'stopped_bytes', '.1f', 1e-6)} | - | - | - |"
             )
@@ -1633,7 +1635,7 @@ def hosts_lines(records: list[dict]) -> list[str]:
         for record, kind in faults:
             fault = record[kind]
             what = "server killed" if fault["server_killed"] else "5 % of FLSs killed"
-            detection = fault["detection_s"]
+            detection = fault["detection_s"] if fault["killed"] else None
             lines.append(
                 f"| {record['discovery']} | {what} | {fault['killed'] or '-'} "
                 f"| {fault['seconds']:.1f} | {fault['restarts']} "
@@ -1650,33 +1652,54 @@ def hosts_lines(records: list[dict]) -> list[str]:
 
 
 def hosts_figures(records: list[dict], folder: Path) -> None:
-    """Bring-up time and bring-up traffic against the number of FLS processes, as PNGs."""
+    """Bring-up time and bring-up traffic against the number of FLS processes, as PNGs.
+
+    A bring-up that did not end by its deadline is drawn hollow: at the deadline
+    in the time figure, with what had been sent by then in the traffic figure.
+    """
     from matplotlib.figure import Figure
 
     from swazure_ros.core.results import atomic_write
 
-    for name, key, scale, label in (
-        ("hosts-bringup.png", "bring_up_s", 1.0, "bring-up (s)"),
-        ("hosts-traffic.png", "bring_up_bytes", 1e-6, "sent by the hosts during bring-up (MB)"),
-    ):
+    def deadline(record: dict) -> float | None:
+        found = re.search(r"after ([0-9.]+) s", record.get("stopped", ""))
+        return float(found[1]) if found else None
+
+    for name, key, stopped_key, scale, label in (
+        ("hosts-bringup.png", "bring_up_s", None, 1.0, "bring-up (s)"),
+        ("hosts-traffic.png", "bring_up_bytes", "stopped_bytes", 1e-6,
+         "sent by the hosts during bring-up (MB)"),
+    ):  # fmt: skip
         figure = Figure(figsize=(6.4, 4.2), layout="constrained")
         axes = figure.subplots()
-        for discovery, marker in (("server", "o-"), ("simple", "s--")):
-            done = [r for r in records if r.get("discovery") == discovery and key in r]
-            axes.plot(
-                [r["flss"] for r in done],
-                [r[key] * scale for r in done],
-                marker,
-                label="Discovery Server" if discovery == "server" else "simple discovery",
-            )
+        for discovery, marker, colour in (("server", "o", "C0"), ("simple", "s", "C1")):
+            mine = [r for r in records if r.get("discovery") == discovery]
+            done = [r for r in mine if key in r]
+            title = "Discovery Server" if discovery == "server" else "simple discovery"
+            axes.plot([r["fls_processes"] for r in done], [r[key] * scale for r in done],
+                      marker=marker, color=colour, label=title)  # fmt: skip
+            for record in mine:
+                if key in record:
+                    continue
+                value = deadline(record) if stopped_key is None else record.get(stopped_key)
+                if value is None:
+                    continue
+                x, y = record["flss"], value * scale
+                axes.plot([x], [y], marker=marker, color=colour, markerfacecolor="none",
+                          markersize=9, linestyle="none")  # fmt: skip
+                what = "not up yet" if stopped_key is None else "by the deadline"
+                axes.annotate(what, (x, y), textcoords="offset points", xytext=(-70, 6),
+                              color=colour, fontsize=8)  # fmt: skip
         if key == "bring_up_s":
             axes.axhline(60, color="grey", linewidth=0.8, linestyle=":")
-        axes.set_xlabel(f"FLS processes over {HOSTS} hosts")
+            axes.annotate("60 s target", (axes.get_xlim()[0], 60), textcoords="offset points",
+                          xytext=(4, 3), color="grey", fontsize=8)  # fmt: skip
+        axes.set_xlabel(f"FLS processes over {HOSTS} hosts (2 cores)")
         axes.set_ylabel(label)
         axes.set_ylim(bottom=0)
         axes.grid(True, alpha=0.3)
-        axes.legend()
-        figure.suptitle(f"One process per FLS: {label.split(' (')[0]}")
+        axes.legend(loc="upper left")
+        figure.suptitle(f"One process per FLS: {label.split(' (')[0]}; hollow: stopped")
         atomic_write(folder / name, lambda tmp, f=figure: f.savefig(tmp, format="png", dpi=110))
 
 
