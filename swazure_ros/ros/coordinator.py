@@ -265,7 +265,7 @@ class Coordinator(SwarmNode):
             "seconds an FLS node must stay off the graph before it is gone",
         )
         self._seen: set[int] = set()  # FLSs the graph has shown at least once
-        self._radios: set[str] = set()  # the processes whose radios have acknowledged rounds
+        self._radios: set[str] = set()  # node names of the processes' radios (acks' writers)
         self._missing = Absences(self.liveness_grace)
         self.gone: set[int] = set()
         self._gone_publisher = self.create_publisher(Departed, DEPARTED_TOPIC, DEPARTED_QOS)
@@ -472,6 +472,11 @@ class Coordinator(SwarmNode):
         }
         # Only an FLS once seen can go missing: a swarm's nodes join the graph over seconds.
         self._seen |= present
+        if len(self._radios) < self.hosts:
+            # The radios, by the names of their nodes, while they are on the graph: the
+            # acks' writers (an FLS may die before its radio ever acknowledged a round).
+            writers = self.get_publishers_info_by_topic(self._acks.topic_name)
+            self._radios |= {info.node_name for info in writers}
         missing = self._seen - present - self.gone
         newly = self._missing.gone(missing, time.monotonic())
         if not newly:
@@ -519,8 +524,6 @@ class Coordinator(SwarmNode):
         clock = self._running(ack.run_id)
         if isinstance(clock, RoundClock):
             check(0 < len(ack.host) <= MAX_NAME, "a host name of no or too many characters")
-            if len(self._radios) < self.hosts:
-                self._radios.add(ack.host)
             self._act(
                 clock.on_ack(
                     int(ack.round), ack.host, self._now(), int(ack.repairs), int(ack.lost)
