@@ -32,31 +32,28 @@ from ..ros.names import node_name
 from ..ros.runtime import description_parameters
 from .discovery_server import ServerAddress, client_environment
 
-#: What starts one FLS: the standalone program, as ``ros2 run swazure_ros fls``.
-FLS_PROGRAM = (
-    sys.executable,
-    "-c",
-    # PR_SET_PDEATHSIG (1): the FLS gets SIGTERM when the launcher dies, even by
-    # SIGKILL, so that no FLS outlives the swarm it belonged to. Niceness: see FLS_NICENESS.
-    "import ctypes, os, signal, sys; ctypes.CDLL(None).prctl(1, signal.SIGTERM); "
-    "os.nice(int(os.environ.get('SWAZURE_FLS_NICENESS', '0'))); "
-    "from swazure_ros.ros.fls_node import main; sys.exit(main())",
-)
 #: How much lower than the launcher's the FLS processes' CPU priority is (nice). A real
 #: FLS has a computer of its own; here hundreds share a few cores with the simulator
 #: and the discovery server, which every FLS waits for. At equal priority, 200 FLS
 #: processes on 2 cores starved them: the server got a few per cent of a core, and 49
 #: FLSs were still unknown to the launcher after 300 s (2026-11-26).
 FLS_NICENESS = 10
+#: What starts one FLS: the standalone program, as ``ros2 run swazure_ros fls``.
+FLS_PROGRAM = (
+    sys.executable,
+    "-c",
+    # PR_SET_PDEATHSIG (1): the FLS gets SIGTERM when the launcher dies, even by
+    # SIGKILL, so that no FLS outlives the swarm it belonged to.
+    "import ctypes, os, signal, sys; ctypes.CDLL(None).prctl(1, signal.SIGTERM); "
+    f"os.nice({FLS_NICENESS}); "
+    "from swazure_ros.ros.fls_node import main; sys.exit(main())",
+)
 #: The environment of an FLS process, unless the user's sets it: UDP only, as between
 #: FLSs on computers of their own. Over Fast DDS's shared memory, some of 25 FLS
 #: processes on one host missed their first, latched camera frame in about half of
 #: the bring-ups, over UDP in 1 of 19 (measured 2026-11-26; the simulated cameras
 #: now stream, ros.world_node.SimulatedCameras); UDP also keeps 6 MB less resident.
-FLS_ENVIRONMENT = {
-    "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4",
-    "SWAZURE_FLS_NICENESS": str(FLS_NICENESS),
-}
+FLS_ENVIRONMENT = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
 #: Seconds between two FLS processes' starts. Started at once, 25 FLS processes on
 #: this host left one or two of them deaf to the simulator's participant (no camera
 #: frame, no node names; their endpoints still discovered) in 4 of 12 bring-ups;
