@@ -16,6 +16,7 @@ from typing import Any
 from ..core.clouds import load_cloud
 from ..core.errors import CloudError, SwazureError
 from ..core.evaluate import Progress, evaluate
+from ..core.fit import ESTIMATORS, LEAST_SQUARES, PATH, refine
 from ..core.fusion import fuse
 from ..core.geometry import make_swarm
 from ..core.heuristics import COMPAT_MODES, PLAIN, TECHNIQUES, HeuristicResult, run_technique
@@ -130,6 +131,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "weighted by their expected errors (default 1: the policy's path alone)",
     )
     parser.add_argument(
+        "--estimator",
+        choices=ESTIMATORS,
+        default=PATH,
+        help="how a pair's pose is estimated: the sum of the measured hops along the "
+        "policy's path, as the paper does (default), or a least-squares fit over every "
+        "measurement of the swarm, with a covariance per estimate (docs/core.md)",
+    )
+    parser.add_argument(
         "--out",
         type=output_folder,
         default=None,
@@ -220,6 +229,14 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
             f"{summary['within_predicted_pct']:.1f} %",
         ),
     ]
+    if "fit" in summary:
+        fit = summary["fit"]
+        rows.append(
+            (
+                "NEES mean; within chi2 95 %",
+                f"{_cell(fit['nees']['mean'])}; {_cell(fit['within_chi2_95_pct'])} %",
+            )
+        )
     if "fusion" in summary:
         fusion = summary["fusion"]
         one, fused = fusion["distance_error_pct_one_path"], fusion["distance_error_pct_fused"]
@@ -280,6 +297,11 @@ def main(args: argparse.Namespace) -> int:
     progress: Progress | None = None if args.quiet else TqdmProgress()
     if args.fuse > 1 and args.technique != PLAIN:
         raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
+    if args.estimator != PATH and (args.fuse > 1 or args.technique != PLAIN):
+        raise SwazureError(
+            "--estimator least-squares estimates plain Swazure's pairs; "
+            "drop --fuse and --technique"
+        )
     if args.compat != "text" and args.technique == PLAIN:
         raise SwazureError(f"--compat {args.compat} changes the heuristics; add --technique")
     heuristic: HeuristicResult | None = None
@@ -295,6 +317,10 @@ def main(args: argparse.Namespace) -> int:
             evaluation.summary["seconds"] += time.perf_counter() - began
         if args.fuse > 1:
             evaluation = fuse(evaluation, args.fuse)
+        if args.estimator == LEAST_SQUARES:
+            if progress is not None:
+                progress.start("least-squares fit", 1)
+            evaluation = refine(evaluation)
     finally:
         if isinstance(progress, TqdmProgress):
             progress.close()
@@ -303,6 +329,7 @@ def main(args: argparse.Namespace) -> int:
     technique = args.technique if args.compat == "text" else f"{args.technique} ({args.compat})"
     print(
         f"{cloud.name}: beta {_cell(swarm.beta)}, {args.policy}, {technique}, "
+        f"{'' if args.estimator == PATH else args.estimator + ', '}"
         f"sensor {sensor.name}, "
         f"{summary['seconds']:.2f} s"
     )

@@ -235,6 +235,8 @@ class PairResults:
     # Predicted error of the estimate, cm (core.sensor.expected_error); nan if unknown.
     predicted_error: FloatArray
     fused_paths: IntArray  # paths the estimate combines: 1, more when fused, 0 without a path
+    # (M, 3, 3), cm^2: the estimate's covariance, where the estimator gives one (core.fit).
+    covariance: FloatArray | None = None
 
     def __len__(self) -> int:
         return len(self.source)

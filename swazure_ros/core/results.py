@@ -42,6 +42,13 @@ DERIVED_COLUMNS = (
 )  # fmt: skip
 
 
+#: The columns of an estimate's covariance (least-squares estimator) and their entries.
+COVARIANCE_ENTRIES = {
+    "covariance_xx": (0, 0), "covariance_xy": (0, 1), "covariance_xz": (0, 2),
+    "covariance_yy": (1, 1), "covariance_yz": (1, 2), "covariance_zz": (2, 2),
+}  # fmt: skip
+
+
 def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
     """Call ``write(temporary_path)`` and put the result at ``path`` in one rename.
 
@@ -220,6 +227,10 @@ def pairs_table(
         "predicted_error_cm": pairs.predicted_error,
         "fused_paths": pairs.fused_paths,
     }
+    if pairs.covariance is not None:
+        # The covariance's six distinct entries, cm^2 (core.fit): x, y, z in the swarm's frame.
+        for name, (row, column) in COVARIANCE_ENTRIES.items():
+            table[name] = pairs.covariance[:, row, column]
     if heuristic is not None:
         counts = np.diff(heuristic.move_offsets)
         moved_ids = _id_lists(heuristic.move_offsets, ids[heuristic.move_fls], as_text)

@@ -460,6 +460,23 @@ def measured_vectors(
     return np.asarray(direction * (measured + 2.0 * radius)[:, None], dtype=np.float64)
 
 
+def _hop_deviations(
+    sensor: Sensor, tracking: FloatArray, radius: float
+) -> tuple[FloatArray, FloatArray]:
+    """Standard deviations (cm) of a hop vector's error along the hop and per axis across it.
+
+    Stochastic sensor: the table's scatter of the length, ``t sd_d(t)``, and of
+    the direction, ``(t' + 2r) sd_dir(t)`` (small angles). Deterministic
+    sensor: its bias ``|t e(t)|`` along the hop and an exact direction.
+    """
+    noise = sensor.noise
+    if noise is None:
+        return np.abs(tracking * sensor.relative_error(tracking)), np.zeros_like(tracking)
+    length = sensor.measured_tracking(tracking) + 2.0 * radius
+    along = tracking * noise.at(noise.distance_sd, tracking)
+    return along, length * np.radians(noise.at(noise.direction_sd_deg, tracking))
+
+
 def hop_error(sensor: Sensor, tracking: ArrayLike, radius: float) -> FloatArray:
     """Expected error that a measured hop adds to a summed vector, per tracking distance (M,).
 
@@ -475,13 +492,62 @@ def hop_error(sensor: Sensor, tracking: ArrayLike, radius: float) -> FloatArray:
     error but the polynomial its sensor file may give.
     """
     tracking = np.asarray(tracking, dtype=np.float64)
-    noise = sensor.noise
-    if noise is None:
-        return np.asarray(np.abs(tracking * sensor.relative_error(tracking)), dtype=np.float64)
-    length = sensor.measured_tracking(tracking) + 2.0 * radius
-    distance_sd = tracking * noise.at(noise.distance_sd, tracking)
-    direction_sd = length * np.radians(noise.at(noise.direction_sd_deg, tracking))
-    return np.asarray(distance_sd**2 + 2.0 * direction_sd**2, dtype=np.float64)
+    along, across = _hop_deviations(sensor, tracking, radius)
+    if sensor.noise is None:
+        return np.asarray(along, dtype=np.float64)
+    return np.asarray(along**2 + 2.0 * across**2, dtype=np.float64)
+
+
+#: Relative standard deviation (a fraction of the hop's length) that every axis of a
+#: hop's covariance has at least: what a model calls exact (the published sensor's
+#: direction, a stochastic table's zero scatter) still gets a finite weight in a fit.
+COVARIANCE_FLOOR = 1e-5
+
+
+def unbiased_vectors(sensor: Sensor, vectors: FloatArray, tracking: ArrayLike) -> FloatArray:
+    """Measured hop vectors (M, 3), cm, with a stochastic sensor's known bias taken out.
+
+    A calibrated table's mean error e(t) is known: ``t e(t)`` comes off each
+    vector's length, ``tracking`` (M,) being the pair's tracking distance, cm.
+    The published quadratic is treated as unknown, as the paper does: other
+    sensors' vectors come back as they are.
+    """
+    if sensor.noise is None:
+        return vectors
+    tracking = np.asarray(tracking, dtype=np.float64)
+    length = np.linalg.norm(vectors, axis=1)
+    corrected = length - tracking * sensor.relative_error(tracking)
+    return np.asarray(vectors * (corrected / length)[:, None], dtype=np.float64)
+
+
+def hop_covariance(
+    sensor: Sensor,
+    tracking: ArrayLike,
+    directions: FloatArray,
+    radius: float,
+    inverse: bool = False,
+) -> FloatArray:
+    """Covariance (M, 3, 3), cm^2, of the error of hops of tracking distance ``tracking`` (M,), cm.
+
+    :func:`hop_error`'s two deviations, along the hop (unit ``directions``
+    (M, 3)) and across it: ``along^2 u u^T + across^2 (I - u u^T)``; every
+    axis at least ``COVARIANCE_FLOOR`` of the hop's length. Taken at the
+    pair's tracking distance, as every expected error of the engine is.
+    With ``inverse``, the information matrix (its inverse, cm^-2), from the
+    same two axes: exact where a numerical inverse of a matrix whose axes
+    differ by 1e10 is not.
+    """
+    tracking = np.asarray(tracking, dtype=np.float64)
+    along, across = _hop_deviations(sensor, tracking, radius)
+    floor = (COVARIANCE_FLOOR * (tracking + 2.0 * radius)) ** 2
+    along_var, across_var = along**2 + floor, across**2 + floor
+    if inverse:
+        along_var, across_var = 1.0 / along_var, 1.0 / across_var
+    outer = directions[:, :, None] * directions[:, None, :]
+    return np.asarray(
+        (along_var - across_var)[:, None, None] * outer + across_var[:, None, None] * np.eye(3),
+        dtype=np.float64,
+    )
 
 
 #: Points per cm at which :func:`smallest_hop_error` samples the camera's ranges.

@@ -1,0 +1,412 @@
+"""Least-squares localization: every FLS's position from all the swarm's measurements at once.
+
+A path's estimate sums the measured vectors of one chain of hops and
+carries every error of that chain. The swarm measures far more: every
+visible sweet pair, from both ends. A weighted least-squares fit over that
+measurement graph (Barooah and Hespanha, "Estimation on graphs from
+relative measurements", 2007) finds the positions x that best explain
+every measured vector v_ij ~ x_j - x_i, each weighted by the inverse of its
+covariance (:func:`~.sensor.hop_covariance`); a source's estimate of a blind
+neighbour is then x_target - x_source, with a covariance from the fit.
+docs/core.md ("The least-squares fit") derives the weights, the gauge, how
+decaying hops join the sweet parts and the robust loss.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .draws import standard_normals, uniforms
+from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, summarise
+from .metrics import describe, pose_errors
+from .sensor import (
+    DECAYING,
+    SWEET,
+    hop_covariance,
+    measured_vectors,
+    unbiased_vectors,
+)
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: The estimators of a pair's pose: the paper's sum along the policy's path, or the fit.
+PATH, LEAST_SQUARES = "path", "least-squares"
+ESTIMATORS = (PATH, LEAST_SQUARES)
+#: Huber's threshold on a measurement's Mahalanobis residual: the 99th percentile of a
+#: chi distribution with 3 degrees of freedom, so a clean measurement is rarely down-weighted.
+HUBER_THRESHOLD = 3.368
+#: Reweighting rounds of the robust fit, at most; it stops earlier once no
+#: position moves by more than ``CONVERGED_CM``.
+ROBUST_ROUNDS = 30
+CONVERGED_CM = 1e-6
+#: The chi-square bound that 95 % of 3-D errors fall under, when the covariance is right.
+CHI2_95_3DOF = 7.8147
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """M measured hop vectors, each taken by FLS ``first`` of FLS ``second``."""
+
+    first: IntArray  # (M,), the measuring FLS (swarm index)
+    second: IntArray  # (M,), the measured FLS
+    vectors: FloatArray  # (M, 3), cm, first -> second; a stochastic sensor's bias removed
+    covariance: FloatArray  # (M, 3, 3), cm^2
+    information: FloatArray  # (M, 3, 3), cm^-2: the covariance's inverse
+
+    def __len__(self) -> int:
+        return len(self.first)
+
+
+@dataclass(frozen=True)
+class Fit:
+    """Positions of N FLSs from a least-squares fit, one gauge per connected part."""
+
+    positions: FloatArray  # (N, 3), cm, relative to the anchor of the FLS's part; nan if alone
+    part: IntArray  # (N,), connected part of the measurement graph; -1 for an FLS alone
+    covariance: list[FloatArray]  # per part, (3K, 3K) cm^2 over its K FLSs (anchor rows zero)
+    slot: IntArray  # (N,), the FLS's place among its part's FLSs
+    downweighted: int  # measurements the robust loss weighed below one in the end
+    rounds: int  # reweighting rounds run
+
+    def relative(self, source: IntArray, target: IntArray) -> tuple[FloatArray, FloatArray]:
+        """x_target - x_source (M, 3), cm, and its covariance (M, 3, 3), cm^2; nan across parts."""
+        same = (self.part[source] == self.part[target]) & (self.part[source] >= 0)
+        estimate = np.full((len(source), 3), np.nan)
+        estimate[same] = self.positions[target[same]] - self.positions[source[same]]
+        covariance = np.full((len(source), 3, 3), np.nan)
+        axes = np.arange(3)
+        for part in np.unique(self.part[source[same]]):
+            rows = np.flatnonzero(same & (self.part[source] == part))
+            matrix = self.covariance[part]
+            a = 3 * self.slot[source[rows]][:, None] + axes  # (R, 3)
+            c = 3 * self.slot[target[rows]][:, None] + axes
+            block = (
+                matrix[c[:, :, None], c[:, None, :]]
+                + matrix[a[:, :, None], a[:, None, :]]
+                - matrix[a[:, :, None], c[:, None, :]]
+                - matrix[c[:, :, None], a[:, None, :]]
+            )
+            covariance[rows] = block
+        return estimate, covariance
+
+
+def fit_pairs(hood: Neighbourhood, links: bool = True) -> IntArray:
+    """Indices into ``hood.pairs`` of the measured pairs a fit uses, ascending.
+
+    Every visible sweet pair; with ``links``, also every visible decaying
+    pair that joins two parts of S_vis (docs/core.md, "The least-squares
+    fit": which decaying hops join, and why no other does).
+    """
+    pairs = hood.pairs
+    sweet = np.flatnonzero((pairs.range_class == SWEET) & hood.visible & hood.usable)
+    if not links:
+        return sweet
+    decaying = np.flatnonzero((pairs.range_class == DECAYING) & hood.visible & hood.usable)
+    part = hood.sweet_visible.components()
+    joining = decaying[part[pairs.first[decaying]] != part[pairs.second[decaying]]]
+    return np.sort(np.concatenate([sweet, joining]))
+
+
+def measurements(hood: Neighbourhood, index: IntArray) -> Measurements:
+    """Both measurements of each pair of ``hood.pairs`` at ``index`` (P,): (2P,), bias removed."""
+    swarm, sensor = hood.swarm, hood.sensor
+    low, high = hood.pairs.first[index], hood.pairs.second[index]
+    first = np.concatenate([low, high])
+    second = np.concatenate([high, low])
+    raw = measured_vectors(sensor, swarm.points, swarm.radius, first, second)
+    tracking = np.tile(hood.pairs.tracking[index], 2)
+    directions = raw / np.linalg.norm(raw, axis=1, keepdims=True)
+    covariance = hop_covariance(sensor, tracking, directions, swarm.radius)
+    information = hop_covariance(sensor, tracking, directions, swarm.radius, inverse=True)
+    vectors = unbiased_vectors(sensor, raw, tracking)
+    return Measurements(first, second, vectors, covariance, information)
+
+
+def with_outliers(
+    measured: Measurements, fraction: float, angle_deg: float, seed: int = 0
+) -> Measurements:
+    """``measured`` with a ``fraction`` of its vectors turned by ``angle_deg`` about a random axis.
+
+    A stand-in for a camera's gross errors, such as IPPE's mirrored pose: a
+    wrong pose puts the FLS's centre, which lies behind the marker, off to
+    one side. Which vectors turn and about which axis (normal to the vector)
+    is drawn from ``seed`` and the pair, so a run repeats.
+    """
+    pick = uniforms(seed, [measured.first, measured.second], 1)[:, 0] < fraction
+    vectors = measured.vectors.copy()
+    chosen = vectors[pick]
+    length = np.linalg.norm(chosen, axis=1, keepdims=True)
+    unit = chosen / length
+    z = standard_normals(seed + 1, [measured.first[pick], measured.second[pick]], 3)
+    axis = np.cross(unit, z)
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    turn = np.radians(angle_deg)
+    # Rodrigues' rotation of a vector about an axis normal to it.
+    vectors[pick] = chosen * np.cos(turn) + np.cross(axis, chosen) * np.sin(turn)
+    return replace(measured, vectors=vectors)
+
+
+def _information(
+    size: int, measured: Measurements, information: FloatArray
+) -> tuple[Any, FloatArray]:
+    """Normal equations H x = b: H sparse (3N, 3N), cm^-2, and b (3N,), cm^-1.
+
+    ``information`` (M, 3, 3) is each measurement's weight matrix, the
+    inverse of its covariance scaled by the robust loss's weight.
+    """
+    from scipy.sparse import coo_matrix
+
+    axes = np.arange(3)
+    i = 3 * measured.first[:, None] + axes
+    j = 3 * measured.second[:, None] + axes
+    rows, cols, values = [], [], []
+    for left, right, sign in ((i, i, 1.0), (j, j, 1.0), (i, j, -1.0), (j, i, -1.0)):
+        rows.append(np.broadcast_to(left[:, :, None], information.shape).ravel())
+        cols.append(np.broadcast_to(right[:, None, :], information.shape).ravel())
+        values.append(sign * information.ravel())
+    matrix = coo_matrix(
+        (np.concatenate(values), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(3 * size, 3 * size),
+    ).tocsc()
+    return matrix, _scatter(size, measured, np.einsum("mab,mb->ma", information, measured.vectors))
+
+
+def _scatter(size: int, measured: Measurements, flow: FloatArray) -> FloatArray:
+    """A^T of per-measurement vectors (M, 3): +flow at the measured FLS, -flow at the measuring."""
+    total = np.zeros((size, 3))
+    np.add.at(total, measured.second, flow)
+    np.add.at(total, measured.first, -flow)
+    return total.ravel()
+
+
+def _parts(size: int, measured: Measurements) -> IntArray:
+    """Connected part of each FLS in the measurement graph (N,); -1: an FLS in no measurement."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    graph = coo_matrix(
+        (np.ones(len(measured)), (measured.first, measured.second)), shape=(size, size)
+    )
+    _, labels = connected_components(graph, directed=False)
+    touched = np.zeros(size, dtype=bool)
+    touched[measured.first] = touched[measured.second] = True
+    _, part = np.unique(np.where(touched, labels, -1), return_inverse=True)
+    part = part.astype(np.int64) - (0 if touched.all() else 1)
+    return np.asarray(part, dtype=np.int64)
+
+
+def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
+    """The weighted least-squares positions of ``size`` FLSs from ``measured``; see the module.
+
+    The gauge: in each connected part, the FLS of the smallest index is the
+    origin. With ``robust``, iteratively reweighted least squares with
+    Huber's loss on each measurement's Mahalanobis residual
+    (``HUBER_THRESHOLD``): a gross error's pull stops growing with its size.
+    Each reweighted system is solved by conjugate gradients preconditioned
+    with the first one's sparse LU (few weights change). The covariance is
+    the inverse of the final normal matrix, per part.
+    """
+    from scipy.sparse.linalg import LinearOperator, cg, splu
+
+    part = _parts(size, measured)
+    parts = int(part.max()) + 1 if len(part) else 0
+    # Each part's FLSs in index order; the first is its anchor, the origin of the gauge.
+    order = np.lexsort((np.arange(size), part))
+    order = order[part[order] >= 0]
+    anchors = order[np.searchsorted(part[order], np.arange(parts))]
+    unknown = part >= 0
+    unknown[anchors] = False
+    free = np.repeat(unknown, 3)
+    inverse_cov = measured.information
+    matrix, rhs = _information(size, measured, inverse_cov)
+    first = splu(matrix[free][:, free])
+    positions = np.zeros(3 * size)
+    positions[free] = first.solve(rhs[free])
+    weights = np.ones(len(measured))
+    rounds = 0
+    while robust and rounds < ROBUST_ROUNDS:
+        points = positions.reshape(size, 3)
+        residual = points[measured.second] - points[measured.first] - measured.vectors
+        distance = np.sqrt(np.einsum("ma,mab,mb->m", residual, inverse_cov, residual))
+        updated = np.minimum(1.0, HUBER_THRESHOLD / np.maximum(distance, 1e-300))
+        if np.array_equal(updated, weights):
+            break
+        weights = updated
+        rounds += 1
+        information = inverse_cov * weights[:, None, None]
+
+        def normal(x: FloatArray, information: FloatArray = information) -> FloatArray:
+            full = np.zeros(3 * size)
+            full[free] = x
+            at = full.reshape(size, 3)
+            flow = np.einsum("mab,mb->ma", information, at[measured.second] - at[measured.first])
+            return _scatter(size, measured, flow)[free]
+
+        count = int(free.sum())
+        operator = LinearOperator((count, count), matvec=normal, dtype=np.float64)
+        preconditioner = LinearOperator((count, count), matvec=first.solve, dtype=np.float64)
+        target = _scatter(size, measured, np.einsum("mab,mb->ma", information, measured.vectors))
+        solution, _ = cg(
+            operator, target[free], x0=positions[free], rtol=1e-13, atol=0.0,
+            M=preconditioner, maxiter=200,
+        )  # fmt: skip
+        moved = float(np.abs(solution - positions[free]).max()) if count else 0.0
+        positions[free] = solution
+        if moved <= CONVERGED_CM:
+            break
+    if rounds:
+        matrix, _ = _information(size, measured, inverse_cov * weights[:, None, None])
+    slot = np.zeros(size, dtype=np.int64)
+    covariance = [
+        _part_covariance(matrix, members, free, slot)
+        for members in np.split(order, np.searchsorted(part[order], np.arange(1, parts)))
+    ]
+    points = positions.reshape(size, 3).copy()
+    points[part < 0] = np.nan
+    return Fit(points, part, covariance, slot, int((weights < 1.0).sum()), rounds)
+
+
+def _part_covariance(
+    matrix: Any, members: IntArray, free: NDArray[np.bool_], slot: IntArray
+) -> FloatArray:
+    """The inverse (3K, 3K), cm^2, of normal matrix ``matrix`` over one part's K FLSs.
+
+    Dense: the pairs' blocks of the inverse are wanted, and a connected
+    part's inverse is dense anyway (LAPACK's Cholesky and its inverse). The
+    anchor's rows and columns are zero. ``slot`` gets each member's place.
+    """
+    from scipy.linalg import cho_factor
+    from scipy.linalg.lapack import dpotri
+
+    slot[members] = np.arange(len(members))
+    axes = (3 * members[:, None] + np.arange(3)).ravel()
+    keep = free[axes]
+    full = np.zeros((len(axes), len(axes)))
+    if keep.any():
+        block = matrix[axes[keep]][:, axes[keep]].toarray(order="F")
+        factor, _ = cho_factor(block, lower=True, overwrite_a=True, check_finite=False)
+        inverse, info = dpotri(factor, lower=1, overwrite_c=1)
+        if info != 0:
+            raise np.linalg.LinAlgError(f"the fit's normal matrix is singular ({info})")
+        full[np.ix_(keep, keep)] = np.tril(inverse) + np.tril(inverse, -1).T
+    return full
+
+
+Corruption = Callable[[Measurements], Measurements]
+
+
+@dataclass(frozen=True)
+class PairFit:
+    """The fit's estimates of M ordered pairs and what it took."""
+
+    estimate: FloatArray  # (M, 3), cm, target - source; nan where no fit joins the two
+    covariance: FloatArray  # (M, 3, 3), cm^2
+    measurements: int  # measurements in the fits
+    downweighted: int  # of them, those the robust loss weighed below one
+    seconds: float
+
+
+def fit_pairs_estimates(
+    hood: Neighbourhood,
+    source: IntArray,
+    target: IntArray,
+    sweet: NDArray[np.bool_],
+    robust: bool = True,
+    corrupt: Corruption | None = None,
+) -> PairFit:
+    """Least-squares estimates of the pairs (source[m], target[m]); ``sweet`` marks sweet pairs.
+
+    Under a stochastic sensor one fit serves every pair: its bias is removed
+    and its scatter known, so every joining decaying hop only adds what it
+    knows. Under a deterministic one (the published quadratic, its bias
+    unknown and alike on every hop) a pair with a sweet path is estimated
+    from the sweet hops alone, and only the pairs that need a decaying hop
+    from a fit with the joining decaying hops. ``corrupt`` alters the
+    measurements before the fit (a test's or a benchmark's outliers).
+    """
+    began = time.perf_counter()
+    size = hood.swarm.size
+    estimate = np.full((len(source), 3), np.nan)
+    covariance = np.full((len(source), 3, 3), np.nan)
+    groups = [(np.ones(len(source), dtype=bool), True)]
+    if hood.sensor.noise is None:
+        groups = [(sweet, False), (~sweet, True)]
+    used = downweighted = 0
+    for rows, links in groups:
+        if not rows.any():
+            continue
+        measured = measurements(hood, fit_pairs(hood, links))
+        if corrupt is not None:
+            measured = corrupt(measured)
+        fit = solve(size, measured, robust)
+        estimate[rows], covariance[rows] = fit.relative(source[rows], target[rows])
+        used += len(measured)
+        downweighted += fit.downweighted
+    return PairFit(estimate, covariance, used, downweighted, time.perf_counter() - began)
+
+
+def normalized_errors(error: FloatArray, covariance: FloatArray) -> FloatArray:
+    """Normalized estimation error squared e^T C^-1 e: errors (M, 3), cm; covariances (M, 3, 3)."""
+    known = np.isfinite(error).all(axis=1) & np.isfinite(covariance).all(axis=(1, 2))
+    out = np.full(len(error), np.nan)
+    if known.any():
+        solved = np.linalg.solve(covariance[known], error[known][:, :, None])[:, :, 0]
+        out[known] = np.einsum("ma,ma->m", error[known], solved)
+    return out
+
+
+def refine(
+    evaluation: Evaluation, robust: bool = True, corrupt: Corruption | None = None
+) -> Evaluation:
+    """``evaluation`` with every estimate from the least-squares fit, and its covariance.
+
+    Statuses, reasons and the reported paths stay the policy's (which pairs
+    a sweet or a decaying hop joins); estimates, errors and predicted errors
+    (the square root of the covariance's trace) are the fit's. The summary
+    gains ``estimator`` and ``fit``: the measurements, the down-weighted ones,
+    the normalized estimation error squared (NEES) and how often it is
+    within the chi-square bound that 95 % of errors fall under.
+    """
+    pairs = evaluation.pairs
+    has_path = pairs.status != NO_PATH
+    result = fit_pairs_estimates(
+        evaluation.hood, pairs.source, pairs.target, pairs.status == SWEET_PATH, robust, corrupt
+    )
+    estimate = np.where(has_path[:, None], result.estimate, np.nan)
+    covariance = np.where(has_path[:, None, None], result.covariance, np.nan)
+    predicted = np.sqrt(np.trace(covariance, axis1=1, axis2=2))
+    distance_error, alpha, theta, phi = pose_errors(estimate, pairs.truth)
+    updated = replace(
+        pairs,
+        estimate=estimate,
+        distance_error=distance_error,
+        alpha=alpha,
+        theta=theta,
+        phi=phi,
+        predicted_error=predicted,
+        covariance=covariance,
+    )
+    summary = summarise(evaluation.hood, evaluation.policy, updated)
+    summary["seconds"] = (evaluation.summary.get("seconds") or 0.0) + result.seconds
+    nees = normalized_errors(estimate - pairs.truth, covariance)
+    known = np.isfinite(nees)
+    summary["estimator"] = LEAST_SQUARES
+    summary["fit"] = {
+        "robust": robust,
+        "measurements": result.measurements,
+        "downweighted": result.downweighted,
+        "nees": describe(nees[known]),
+        "within_chi2_95_pct": float(100.0 * (nees[known] <= CHI2_95_3DOF).mean())
+        if known.any()
+        else float("nan"),
+        "seconds": result.seconds,
+    }
+    summary["parameters"]["estimator"] = LEAST_SQUARES
+    return replace(evaluation, pairs=updated, summary=summary)
