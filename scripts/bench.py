@@ -1714,6 +1714,120 @@ def hosts_figures(records: list[dict], folder: Path) -> None:
         atomic_write(folder / name, lambda tmp, f=figure: f.savefig(tmp, format="png", dpi=110))
 
 
+FIT_BETAS = (0.3, 0.4, 0.5)
+FIT_SENSORS = {
+    "published": REPO / "config" / "sensor.yaml",
+    "wide, calibrated": REPO / "config" / "cameras" / "sensor-wide-calibrated.yaml",
+}
+
+
+def least_squares_section(args: argparse.Namespace) -> list[str]:
+    """The least-squares fit beside Shortest-Length's paths: accuracy, NEES, outliers, cost."""
+    rows = []
+    for shape in SHAPES:
+        for sensor_name, sensor in FIT_SENSORS.items():
+            for beta in FIT_BETAS:
+                outliers = sensor_name != "published" and beta == 0.5
+                extra = ["--outliers"] if outliers else []
+                command = [sys.executable, str(REPO / "scripts" / "bench_fit.py"),
+                           str(DATASETS / f"{shape}.xyz"), "--beta", str(beta),
+                           "--sensor", str(sensor), *extra]  # fmt: skip
+                print(f"least squares: {shape} {sensor_name} beta {beta}", file=sys.stderr)
+                _, memory, code, output = run_output(command)
+                if code != 0:
+                    raise SystemExit(f"bench_fit failed on {shape} {sensor_name} beta {beta}")
+                result = json.loads(output)
+                result.update(shape=shape, sensor=sensor_name, beta=beta, peak_mb=memory)
+                rows.append(result)
+    (SECTIONS_DIR / "least-squares.json").write_text(json.dumps(rows, indent=1))
+    least_squares_figure(rows, REPO / "docs" / "figures")
+
+    def cell(stats: dict[str, float], key: str) -> str:
+        value = stats[key]
+        return "-" if value is None or value != value else f"{value:.2f}"
+
+    lines = [
+        "## Least-squares localization: `swazure evaluate --estimator least-squares`",
+        "",
+        "Shortest-Length's path sums (SL) beside the least-squares fit over every visible",
+        "sweet measurement and the decaying hops that join sweet parts (LS; docs/core.md).",
+        "Distance errors in %, mean / p95, on the pairs with a sweet path and on those that",
+        "need a decaying hop; one sweet hop: the mean error of a single visible sweet",
+        "measurement. NEES: the normalized estimation error squared (3 degrees of freedom),",
+        "its mean and the share under the chi-square 95 % bound 7.81. Seconds: the engine's",
+        "evaluation and the fit after it, in one process (scripts/bench_fit.py).",
+        "",
+        "| shape | sensor | beta | one sweet hop | sweet SL | sweet LS | decaying SL | "
+        "decaying LS | NEES mean | under 7.81 % | engine s | fit s | fit / engine |",
+        "| --- | --- | ---: | ---: | --- | --- | --- | --- | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for row in rows:
+        sweet, decaying = row["sweet"], row["decaying"]
+        lines.append(
+            f"| {row['shape']} | {row['sensor']} | {row['beta']} | "
+            f"{row['one_sweet_hop_pct']:.2f} | "
+            f"{cell(sweet['path'], 'mean')} / {cell(sweet['path'], 'p95')} | "
+            f"{cell(sweet['fit'], 'mean')} / {cell(sweet['fit'], 'p95')} | "
+            f"{cell(decaying['path'], 'mean')} / {cell(decaying['path'], 'p95')} | "
+            f"{cell(decaying['fit'], 'mean')} / {cell(decaying['fit'], 'p95')} | "
+            f"{row['nees_mean']:.2f} | {row['within_chi2_95_pct']:.1f} | "
+            f"{row['engine_s']:.1f} | {row['fit_s']:.1f} | {row['fit_s'] / row['engine_s']:.2f} |"
+        )
+    lines += [
+        "",
+        "Outliers, wide calibrated sensor at beta 0.5: 10 % of the measurements turned by",
+        "20 degrees about a random axis (`core.fit.with_outliers`), every pair with a path.",
+        "",
+        "| shape | clean mean / p95 % | turned mean / p95 % | turned / clean (mean) | "
+        "down-weighted |",
+        "| --- | --- | --- | ---: | ---: |",
+    ]
+    for row in rows:
+        if "outliers" in row:
+            clean, turned = row["outliers"]["clean"], row["outliers"]["turned"]
+            lines.append(
+                f"| {row['shape']} | {cell(clean, 'mean')} / {cell(clean, 'p95')} | "
+                f"{cell(turned, 'mean')} / {cell(turned, 'p95')} | "
+                f"{turned['mean'] / clean['mean']:.2f} | {row['outliers']['downweighted']:,} |"
+            )
+    lines += ["", "![least squares](docs/figures/least-squares.png)"]
+    return lines
+
+
+def least_squares_figure(rows: list[dict], folder: Path) -> None:
+    """Mean errors of SL and LS per shape at beta 0.5, sweet and decaying pairs, per sensor."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from swazure_ros.core.results import atomic_write
+
+    figure, axes = plt.subplots(2, 2, figsize=(12, 8), constrained_layout=True)
+    for column, sensor in enumerate(FIT_SENSORS):
+        chosen = [row for row in rows if row["sensor"] == sensor and row["beta"] == 0.5]
+        names = [row["shape"] for row in chosen]
+        x = list(range(len(chosen)))
+        for line, kind in enumerate(("sweet", "decaying")):
+            ax = axes[line][column]
+            for offset, (estimator, label) in enumerate((("path", "Shortest-Length"),
+                                                         ("fit", "least squares"))):  # fmt: skip
+                values = [row[kind][estimator]["mean"] or 0.0 for row in chosen]
+                ax.bar([v + 0.4 * offset - 0.2 for v in x], values, 0.4, label=label)
+            if kind == "sweet":
+                ax.plot(x, [row["one_sweet_hop_pct"] for row in chosen], "k_", markersize=18,
+                        label="one sweet hop")  # fmt: skip
+            ax.set_yscale("log")
+            ax.set_xticks(x, names, rotation=20)
+            ax.set_ylabel("mean distance error, %")
+            ax.set_title(f"{sensor} sensor, beta 0.5: pairs with a {kind} path")
+            ax.grid(True, axis="y", alpha=0.3)
+            ax.legend(fontsize=8)
+    folder.mkdir(parents=True, exist_ok=True)
+    atomic_write(folder / "least-squares.png",
+                 lambda tmp: figure.savefig(tmp, format="png", dpi=100))  # fmt: skip
+
+
 SECTIONS = {
     "engine": engine_section,
     "policies": policies_section,
@@ -1729,6 +1843,7 @@ SECTIONS = {
     "hostile": hostile_section,
     "fls_process": fls_process_section,
     "hosts": hosts_section,
+    "least_squares": least_squares_section,
 }
 
 

@@ -42,6 +42,11 @@ ESTIMATORS = (PATH, LEAST_SQUARES)
 #: Huber's threshold on a measurement's Mahalanobis residual: the 99th percentile of a
 #: chi distribution with 3 degrees of freedom, so a clean measurement is rarely down-weighted.
 HUBER_THRESHOLD = 3.368
+#: Then, from Huber's solution, a measurement beyond this Mahalanobis residual (the 99.9th
+#: percentile) is rejected: weighed by REJECTED_WEIGHT, so far out of the fit that it
+#: cannot bend it, while an FLS that nothing else measures keeps a position.
+OUTLIER_THRESHOLD = 4.033
+REJECTED_WEIGHT = 1e-6
 #: Reweighting rounds of the robust fit, at most; it stops earlier once no
 #: position moves by more than ``CONVERGED_CM``.
 ROBUST_ROUNDS = 30
@@ -208,7 +213,10 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
     The gauge: in each connected part, the FLS of the smallest index is the
     origin. With ``robust``, iteratively reweighted least squares with
     Huber's loss on each measurement's Mahalanobis residual
-    (``HUBER_THRESHOLD``): a gross error's pull stops growing with its size.
+    (``HUBER_THRESHOLD``): a gross error's pull stops growing with its size;
+    once that has settled, the measurements beyond ``OUTLIER_THRESHOLD`` are
+    rejected (a convex start, then a redescending step), until the rejected
+    set repeats.
     Each reweighted system is solved by conjugate gradients preconditioned
     with the first one's sparse LU (few weights change). The covariance is
     the inverse of the final normal matrix, per part.
@@ -231,13 +239,20 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
     positions[free] = first.solve(rhs[free])
     weights = np.ones(len(measured))
     rounds = 0
+    rejecting = False
     while robust and rounds < ROBUST_ROUNDS:
         points = positions.reshape(size, 3)
         residual = points[measured.second] - points[measured.first] - measured.vectors
         distance = np.sqrt(np.einsum("ma,mab,mb->m", residual, inverse_cov, residual))
-        updated = np.minimum(1.0, HUBER_THRESHOLD / np.maximum(distance, 1e-300))
+        if rejecting:
+            updated = np.where(distance <= OUTLIER_THRESHOLD, 1.0, REJECTED_WEIGHT)
+        else:
+            updated = np.minimum(1.0, HUBER_THRESHOLD / np.maximum(distance, 1e-300))
         if np.array_equal(updated, weights):
-            break
+            if rejecting:
+                break
+            rejecting = True
+            continue
         weights = updated
         rounds += 1
         information = inverse_cov * weights[:, None, None]
@@ -260,7 +275,8 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
         moved = float(np.abs(solution - positions[free]).max()) if count else 0.0
         positions[free] = solution
         if moved <= CONVERGED_CM:
-            break
+            # Huber's loss has settled: from here on, measurements far out are rejected.
+            rejecting = True
     if rounds:
         matrix, _ = _information(size, measured, inverse_cov * weights[:, None, None])
     slot = np.zeros(size, dtype=np.int64)
