@@ -300,6 +300,78 @@ def sensor_from_sweep(
     )
 
 
+#: How closely :func:`search_ranges` places each range boundary, mm.
+BOUNDARY_TOLERANCE_MM = 1.0
+
+
+def search_ranges(
+    camera: Camera,
+    result: Sweep,
+    sensor: Sensor,
+    criteria: Criteria = Criteria(),
+    seed: int = 0,
+    markers: Sequence[int] = (),
+    tolerance_mm: float = BOUNDARY_TOLERANCE_MM,
+) -> tuple[Sensor, int]:
+    """``sensor`` with sweet_min, sweet_max and decaying_max placed by their criteria to 1 mm.
+
+    :func:`sensor_from_sweep` puts a boundary at a point of the sweep's grid
+    (1.2 cm apart by default). Each boundary lies between two grid points
+    where its criterion flips; bisection between them, rendering head-on
+    frames (``result.frames``) at each midpoint, narrows that to
+    ``tolerance_mm`` and takes the middle. Returns the sensor and the number
+    of distances rendered.
+    """
+    distances = result.distances_mm
+    renders = 0
+
+    def head_on(distance: float) -> tuple[float, float]:
+        nonlocal renders
+        renders += 1
+        one = sweep(camera, (distance,), (0.0,), result.frames, seed, markers=markers)
+        return float(one.detection[0, 0]), float(one.mean_error[0, 0])
+
+    def sweet(distance: float) -> bool:
+        detection, error = head_on(distance)
+        return detection >= criteria.sweet_detection and abs(error) <= criteria.sweet_error
+
+    def measured(distance: float) -> bool:
+        detection, error = head_on(distance)
+        return detection >= criteria.detection and not abs(error) > criteria.decaying_error
+
+    def bracket(boundary_mm: float) -> tuple[float, float] | None:
+        """The grid points below and at (or above) a boundary; None at the grid's ends."""
+        above = int(np.searchsorted(distances, boundary_mm - 1e-6))
+        if above == 0 or above >= len(distances):
+            return None
+        return float(distances[above - 1]), float(distances[above])
+
+    def search(boundary_cm: float, inside_below: bool, holds: Callable[[float], bool]) -> float:
+        limits = bracket(10.0 * boundary_cm)
+        if limits is None:
+            return boundary_cm
+        inside, outside = limits if inside_below else limits[::-1]
+        while abs(outside - inside) > tolerance_mm:
+            middle = (inside + outside) / 2.0
+            if holds(middle):
+                inside = middle
+            else:
+                outside = middle
+        return round((inside + outside) / 20.0, 2)
+
+    sweet_min = search(sensor.sweet_min, False, sweet)
+    sweet_max = search(sensor.sweet_max, True, sweet)
+    decaying_max = max(search(sensor.decaying_max, True, measured), sweet_max + 0.01)
+    searched = replace(
+        sensor,
+        sweet_min=min(sweet_min, sweet_max - 0.01),
+        sweet_max=sweet_max,
+        decaying_min=sweet_max,
+        decaying_max=decaying_max,
+    )
+    return searched, renders
+
+
 @dataclass(frozen=True)
 class Measured:
     """A measured camera's table: per distance, error of the mean distance and detection rate."""

@@ -171,3 +171,28 @@ def test_threshold_must_be_positive():
     )
     assert run.returncode == 2
     assert "argument --threshold: 0: must be 1 to 1000 steps of r" in run.stderr
+
+
+def test_evaluate_with_the_least_squares_estimator_writes_covariances(tmp_path):
+    sensor = "config/cameras/sensor-wide-calibrated.yaml"
+    run = swazure(
+        "evaluate", "--cloud", "torus:200", "--scale", "1.6", "--beta", "0.3",
+        "--sensor", sensor, "--estimator", "least-squares", "--out", str(tmp_path), "--quiet",
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    assert "least-squares" in run.stdout.splitlines()[0]
+    assert "NEES mean; within chi2 95 %" in run.stdout
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["estimator"] == "least-squares"
+    assert summary["fit"]["measurements"] > 0 and summary["fit"]["nees"]["count"] > 0
+    header = (tmp_path / "pairs.csv").read_text().splitlines()[0]
+    assert header.endswith('"covariance_yy","covariance_yz","covariance_zz"')
+
+
+def test_the_least_squares_estimator_refuses_fusion_in_one_line():
+    run = swazure(
+        "evaluate", "--cloud", "sphere:150", "--beta", "0.4",
+        "--estimator", "least-squares", "--fuse", "2", "--quiet",
+    )  # fmt: skip
+    assert run.returncode != 0
+    assert run.stderr.strip().count("\n") == 0 and "drop --fuse" in run.stderr

@@ -14,6 +14,7 @@ from swazure_ros.core.calibration import (
     crossing,
     load_measured,
     marker_sweep,
+    search_ranges,
     sensor_from_sweep,
     sweep,
 )
@@ -180,3 +181,40 @@ def test_decaying_range_ends_where_the_mean_error_runs_wild():
     sensor = sensor_from_sweep(wild, Criteria(decaying_error=1.0))
     assert sensor.decaying_max == 12.0
     assert sensor.relative_error(12.0) == pytest.approx(0.08)
+
+
+def test_each_range_boundary_is_searched_to_a_millimetre_between_the_sweep_s_points():
+    camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
+    grid = tuple(np.arange(30.0, 270.0, 12.0))
+    result = sweep(camera, grid, (0.0,), frames=20)
+    criteria = Criteria()
+    on_grid = sensor_from_sweep(result, criteria)
+    searched, renders = search_ranges(camera, result, on_grid, criteria)
+    assert renders > 0
+
+    def head_on(distance_mm):
+        one = sweep(camera, (distance_mm,), (0.0,), frames=20)
+        return float(one.detection[0, 0]), float(one.mean_error[0, 0])
+
+    def sweet(distance_mm):
+        detection, error = head_on(distance_mm)
+        return detection >= criteria.sweet_detection and abs(error) <= criteria.sweet_error
+
+    def measured(distance_mm):
+        detection, error = head_on(distance_mm)
+        return detection >= criteria.detection and abs(error) <= criteria.decaying_error
+
+    # Each boundary moved off the grid, by less than one grid step, to where its criterion
+    # holds half a millimetre on one side and fails half a millimetre on the other.
+    for name, holds, inside_below in (
+        ("sweet_min", sweet, False),
+        ("sweet_max", sweet, True),
+        ("decaying_max", measured, True),
+    ):
+        boundary = 10.0 * getattr(searched, name)
+        grid_boundary = 10.0 * getattr(on_grid, name)
+        assert 0 < abs(boundary - grid_boundary) < 12.0, name
+        below, above = boundary - 0.5, boundary + 0.5
+        assert holds(below) == inside_below and holds(above) != inside_below, name
+    assert searched.decaying_min == searched.sweet_max
+    assert searched.noise == on_grid.noise
