@@ -328,7 +328,7 @@ def _preconditioned(
     blocks: list[IntArray],
     start: FloatArray,
 ) -> FloatArray:
-    """``normal`` x = ``rhs`` by conjugate gradients from ``start``, ``factors`` preconditioning."""
+    """``normal`` x = ``rhs`` by conjugate gradients from ``start``; ``factors`` precondition."""
     from scipy.sparse.linalg import LinearOperator, cg
 
     count = normal.shape[0]
