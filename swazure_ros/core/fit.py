@@ -79,7 +79,9 @@ class Fit:
 
     positions: FloatArray  # (N, 3), cm, relative to the anchor of the FLS's part; nan if alone
     part: IntArray  # (N,), connected part of the measurement graph; -1 for an FLS alone
-    covariance: list[FloatArray]  # per part, (3K, 3K) cm^2 over its K FLSs (anchor rows zero)
+    # Per part of K FLSs, the covariance (3K - 3, 3K - 3), cm^2, of all but its anchor
+    # (whose position is the origin, exactly); only the lower triangle is filled.
+    covariance: list[FloatArray]
     slot: IntArray  # (N,), the FLS's place among its part's FLSs
     downweighted: int  # measurements the robust loss weighed below one in the end
     rounds: int  # reweighting rounds run
@@ -90,19 +92,22 @@ class Fit:
         estimate = np.full((len(source), 3), np.nan)
         estimate[same] = self.positions[target[same]] - self.positions[source[same]]
         covariance = np.full((len(source), 3, 3), np.nan)
-        axes = np.arange(3)
         for part in np.unique(self.part[source[same]]):
             rows = np.flatnonzero(same & (self.part[source] == part))
-            matrix = self.covariance[part]
-            a = 3 * self.slot[source[rows]][:, None] + axes  # (R, 3)
-            c = 3 * self.slot[target[rows]][:, None] + axes
-            block = (
-                matrix[c[:, :, None], c[:, None, :]]
-                + matrix[a[:, :, None], a[:, None, :]]
-                - matrix[a[:, :, None], c[:, None, :]]
-                - matrix[c[:, :, None], a[:, None, :]]
-            )
-            covariance[rows] = block
+            lower = self.covariance[part]
+            a, c = self.slot[source[rows]], self.slot[target[rows]]
+
+            def block(first: IntArray, second: IntArray, lower: FloatArray = lower) -> FloatArray:
+                """Covariance blocks (R, 3, 3) at slots ``first``, ``second``; 0 at the anchor."""
+                row = 3 * (first[:, None, None] - 1) + np.arange(3)[None, :, None]
+                column = 3 * (second[:, None, None] - 1) + np.arange(3)[None, None, :]
+                anchor = (first == 0) | (second == 0)
+                row, column = np.broadcast_arrays(row, column)
+                values = lower[np.maximum(row, column), np.minimum(row, column)]
+                values[anchor] = 0.0
+                return values
+
+            covariance[rows] = block(c, c) + block(a, a) - block(a, c) - block(c, a)
         return estimate, covariance
 
 
@@ -283,7 +288,7 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
     covariance = []
     for group, factor in zip(members, factors, strict=True):
         slot[group] = np.arange(len(group))
-        covariance.append(_part_covariance(factor, len(group)))
+        covariance.append(_part_covariance(factor))
     points = positions.reshape(size, 3)
     points[part < 0] = np.nan
     return Fit(points, part, covariance, slot, int((weights < 1.0).sum()), rounds)
@@ -339,20 +344,21 @@ def _preconditioned(
     return np.asarray(solution, dtype=np.float64)
 
 
-def _part_covariance(factor: FloatArray, flss: int) -> FloatArray:
-    """The covariance (3K, 3K), cm^2, of a part's K FLSs from its normal matrix's factor.
+def _part_covariance(factor: FloatArray) -> FloatArray:
+    """The covariance of a part's unknowns, cm^2, from its normal matrix's Cholesky factor.
 
-    LAPACK's inverse from the Cholesky factor; the anchor's rows and columns are zero.
+    LAPACK's inverse, in place of the factor; only its lower triangle is
+    filled (:meth:`Fit.relative` reads that one), which saves a copy of a
+    matrix of a gigabyte on the race car.
     """
     from scipy.linalg.lapack import dpotri
 
-    full = np.zeros((3 * flss, 3 * flss))
-    if flss > 1:
-        inverse, info = dpotri(factor, lower=1, overwrite_c=1)
-        if info != 0:
-            raise np.linalg.LinAlgError(f"the fit's normal matrix is singular ({info})")
-        full[3:, 3:] = np.tril(inverse) + np.tril(inverse, -1).T
-    return full
+    if factor.size == 0:
+        return factor
+    inverse, info = dpotri(factor, lower=1, overwrite_c=1)
+    if info != 0:
+        raise np.linalg.LinAlgError(f"the fit's normal matrix is singular ({info})")
+    return np.asarray(inverse, dtype=np.float64)
 
 
 Corruption = Callable[[Measurements], Measurements]
