@@ -105,7 +105,7 @@ class Fit:
                 row, column = np.broadcast_arrays(row, column)
                 values = lower[np.maximum(row, column), np.minimum(row, column)]
                 values[anchor] = 0.0
-                return values
+                return np.asarray(values, dtype=np.float64)
 
             covariance[rows] = block(c, c) + block(a, a) - block(a, c) - block(c, a)
         return estimate, covariance
