@@ -16,6 +16,7 @@ from typing import Any
 
 from ..core.clouds import BUILTIN_SHAPES, Cloud, cloud_files, load_cloud, published_dataset_dir
 from ..core.errors import CloudError, SwazureError
+from ..core.fit import ESTIMATORS, LEAST_SQUARES, PATH
 from ..core.heuristics import COMPAT_MODES
 from ..core.paths import POLICIES
 from ..core.results import COMPACT_PAIRS, PAIR_COLUMNS
@@ -78,6 +79,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="also fuse every sweet pair's estimate from up to K node-disjoint paths "
         "(--heuristic-policy, every beta), beside the policies in the error figures "
         "(default 1: no fused runs)",
+    )
+    parser.add_argument(
+        "--estimator",
+        choices=ESTIMATORS,
+        default=PATH,
+        help="least-squares: also estimate every pair by the least-squares fit over the "
+        "measurement graph (--heuristic-policy's pairs, every beta), beside the path sums "
+        "in the error figures and table, with an error-by-hops figure (default: path only)",
     )
     parser.add_argument(
         "--compat",
@@ -190,6 +199,7 @@ def plan_from_args(args: argparse.Namespace) -> StudyPlan:
         pairs=args.pairs,
         compat=tuple(dict.fromkeys(("text", args.compat))),
         fuse=args.fuse,
+        least_squares=args.estimator == LEAST_SQUARES,
     )
 
 

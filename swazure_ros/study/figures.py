@@ -16,7 +16,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from ..core.results import PAIRS_PARQUET_FILE, atomic_write
-from .sweep import PLAIN_TECHNIQUE, StudyPlan, SweepResult, Technique
+from .sweep import FIT, PLAIN_TECHNIQUE, StudyPlan, SweepResult, Technique
 
 POLICY_TITLES = {
     "fewest-hops": "Fewest-Hops",
@@ -42,12 +42,14 @@ def save(figure: Figure, path: Path) -> Path:
 
 
 def _panels(plan: StudyPlan, fused: bool = False) -> list[tuple[str, str, Technique]]:
-    """(title, policy, technique) of each panel: plain Swazure per policy, then fused."""
+    """(title, policy, technique) of each panel: plain Swazure per policy, then the
+    study's other estimators (fused, least squares) when ``fused``."""
     panels = [(POLICY_TITLES.get(p, p), p, PLAIN_TECHNIQUE) for p in plan.policies]
-    if fused and plan.fused is not None:
+    if fused:
         policy = plan.heuristic_policy
-        title = f"{POLICY_TITLES.get(policy, policy)}, {plan.fused.title}"
-        panels.append((title, policy, plan.fused))
+        for estimator in plan.estimators:
+            title = f"{POLICY_TITLES.get(policy, policy)}, {estimator.title}"
+            panels.append((title, policy, estimator))
     return panels
 
 
@@ -216,6 +218,56 @@ def obstructing_boxplot(plan: StudyPlan, result: SweepResult) -> Figure:
     return figure
 
 
+def error_by_hops(plan: StudyPlan, result: SweepResult, out: Path) -> Figure | None:
+    """Mean and 95th-percentile distance error by the policy path's hops: path sums, fit.
+
+    One shape (that of the histogram) at the largest beta; None when the
+    study has no least-squares runs. A path's estimate gathers an error per
+    hop; the fit's does not grow with the path the policy would take.
+    """
+    import pyarrow.parquet as pq
+
+    fitted = [estimator for estimator in plan.estimators if estimator.name == FIT]
+    if not fitted:
+        return None
+    shape = histogram_shape(plan)
+    beta = max(plan.betas)
+    policy = plan.heuristic_policy
+    columns: dict[str, Any] = {}
+    for label, technique in (("path", PLAIN_TECHNIQUE), ("fit", fitted[0])):
+        spec = result.spec(shape, beta, policy, technique)
+        if spec is None:
+            return None
+        table = pq.read_table(out / spec.folder / PAIRS_PARQUET_FILE)
+        columns[label] = table.column("distance_error_pct").to_numpy(zero_copy_only=False)
+        if label == "path":
+            paths = table.column("path").to_pylist()
+            columns["hops"] = np.array([max(len(path) - 1, 0) for path in paths])
+    hops = columns["hops"]
+    figure = Figure(figsize=(8.5, 4.8), layout="constrained")
+    ax = figure.subplots()
+    title = POLICY_TITLES.get(policy, policy)
+    figure.suptitle(f"Distance error by the {title} path's hops: {shape}, β={beta:g}")
+    counts = np.bincount(hops)
+    steps = [h for h in range(1, len(counts)) if counts[h] > 0]
+    for label, name, colour in (
+        ("path", f"{title}: the path's measured hops summed", "tab:blue"),
+        ("fit", "least-squares fit over every measurement", "tab:orange"),
+    ):
+        values = np.asarray(columns[label], dtype=np.float64)
+        means = [float(np.nanmean(values[hops == h])) for h in steps]
+        p95 = [float(np.nanpercentile(values[hops == h], 95)) for h in steps]
+        ax.plot(steps, means, "-o", color=colour, label=f"{name}: mean")
+        ax.plot(steps, p95, ":x", color=colour, label=f"{name}: 95th percentile")
+    ax.set_yscale("log")
+    ax.set_xlabel("hops of the policy's path (pairs)")
+    ax.set_ylabel("distance error (%, log scale)")
+    ax.set_xticks(steps, [f"{h}\n({counts[h]:,})" for h in steps])
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    return figure
+
+
 def study_figures(plan: StudyPlan, result: SweepResult, out: Path) -> dict[str, Path]:
     """Draw and write every figure of the study into ``out/figures``; return name -> path."""
     folder = out / "figures"
@@ -259,6 +311,9 @@ def study_figures(plan: StudyPlan, result: SweepResult, out: Path) -> dict[str, 
         "obstructing_flss": obstructing_boxplot(plan, result),
         "distance_error_histogram": error_histogram(plan, result, out),
     }
+    by_hops = error_by_hops(plan, result, out)
+    if by_hops is not None:
+        figures["distance_error_by_hops"] = by_hops
     return {name: save(figure, folder / f"{name}.png") for name, figure in figures.items()}
 
 

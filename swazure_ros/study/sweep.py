@@ -30,6 +30,7 @@ from .. import __version__
 from ..core.clouds import Cloud
 from ..core.errors import SwazureError
 from ..core.evaluate import evaluate
+from ..core.fit import LEAST_SQUARES, refine
 from ..core.fusion import fuse
 from ..core.geometry import make_swarm
 from ..core.heuristics import COMPAT_MODES, MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN, run_technique
@@ -50,6 +51,8 @@ PUBLISHED_BETAS = (0.01, 0.1, 0.2, 0.3, 0.4, 0.5)
 PUBLISHED_HEURISTIC_BETAS = (0.3, 0.4, 0.5)
 #: Plain Swazure with each sweet pair's estimate fused from up to ``threshold`` paths.
 FUSED = "fused"
+#: Plain Swazure's pairs estimated by the least-squares fit (core.fit).
+FIT = LEAST_SQUARES
 RUNS_DIR = "runs"
 
 
@@ -70,6 +73,8 @@ class Technique:
         """Folder and column name: ``plain``, ``move-source-T10``, ``...-published``."""
         if self.name == FUSED:
             return f"{FUSED}-K{self.threshold}"
+        if self.name == FIT:
+            return FIT
         label = self.name if self.threshold is None else f"{self.name}-T{self.threshold}"
         return label if self.compat == "text" else f"{label}-{self.compat}"
 
@@ -79,6 +84,8 @@ class Technique:
         names = {PLAIN: "plain Swazure", MOVE_OBSTRUCTING: "Move Obstructing"}
         if self.name == FUSED:
             return f"fused from up to {self.threshold} disjoint paths"
+        if self.name == FIT:
+            return "least-squares fit"
         if self.name == MOVE_SOURCE:
             title = f"Move Source (T = {self.threshold})"
         else:
@@ -149,6 +156,9 @@ class StudyPlan:
     #: Above 1: plain Swazure of the heuristic policy also with every sweet pair's estimate
     #: fused from up to this many node-disjoint paths, at every beta.
     fuse: int = 1
+    #: Plain Swazure of the heuristic policy also with every pair estimated by the
+    #: least-squares fit over the measurement graph, at every beta.
+    least_squares: bool = False
 
     def __post_init__(self) -> None:
         if self.pairs not in PAIR_COLUMNS:
@@ -201,10 +211,10 @@ class StudyPlan:
             for beta, policy in moved:
                 for technique in self.techniques:
                     runs.append(self._spec(cloud.name, digest, beta, policy, technique))
-            if self.fused is not None:
+            for estimator in self.estimators:
                 for beta in self.betas:
                     runs.append(
-                        self._spec(cloud.name, digest, beta, self.heuristic_policy, self.fused)
+                        self._spec(cloud.name, digest, beta, self.heuristic_policy, estimator)
                     )
         return runs
 
@@ -212,6 +222,12 @@ class StudyPlan:
     def fused(self) -> Technique | None:
         """The fused runs' technique, or None when the study fuses nothing."""
         return Technique(FUSED, self.fuse) if self.fuse > 1 else None
+
+    @property
+    def estimators(self) -> tuple[Technique, ...]:
+        """The other estimates of plain Swazure's pairs the study runs: fused, fitted."""
+        fitted = (Technique(FIT),) if self.least_squares else ()
+        return (*((self.fused,) if self.fused is not None else ()), *fitted)
 
     def _spec(
         self, cloud: str, digest: str, beta: float, policy: str, technique: Technique
@@ -290,6 +306,8 @@ def run_task(task: Task) -> list[tuple[RunSpec, float]]:
         technique = spec.technique
         if technique.name == FUSED:
             result, heuristic = fuse(plain, technique.threshold or 1), None
+        elif technique.name == FIT:
+            result, heuristic = refine(plain), None
         else:
             result, heuristic = run_technique(
                 plain, technique.name, technique.threshold or 10, COMPAT_MODES[technique.compat]

@@ -180,9 +180,9 @@ def errors_table(plan: StudyPlan, result: SweepResult) -> Table:
     ]
     rows, display_rows = [], []
     variants = [(policy, policy, PLAIN_TECHNIQUE) for policy in plan.policies]
-    if plan.fused is not None:
-        label = f"{plan.heuristic_policy}, {plan.fused.label}"
-        variants.append((label, plan.heuristic_policy, plan.fused))
+    for estimator in plan.estimators:
+        label = f"{plan.heuristic_policy}, {estimator.label}"
+        variants.append((label, plan.heuristic_policy, estimator))
     for cloud in plan.clouds:
         for label, policy, technique in variants:
             for beta in plan.betas:

@@ -168,6 +168,30 @@ def test_fuse_adds_fused_runs_at_every_beta_to_the_error_table_and_figures(tmp_p
     assert png.startswith(b"\x89PNG")
 
 
+def test_the_least_squares_estimator_adds_fitted_runs_a_table_row_and_figures(tmp_path):
+    run = swazure("study", "--quiet", "--clouds", "helix", "torus:200", "--betas", "0.3",
+                  "--policies", "shortest-length", "--heuristic-betas", "0.3", "--techniques",
+                  "move-obstructing", "--estimator", "least-squares",
+                  "--out", str(tmp_path))  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    with open(tmp_path / "tables" / "errors.csv") as handle:
+        rows = [row for row in csv.DictReader(handle) if "least-squares" in row["policy"]]
+    assert {(row["shape"], row["policy"]) for row in rows} == {
+        ("helix", "shortest-length, least-squares"),
+        ("torus_200", "shortest-length, least-squares"),
+    }
+    for row in rows:
+        fitted = summary_of(tmp_path, row["shape"], row["beta"], "least-squares")
+        plain = summary_of(tmp_path, row["shape"], row["beta"], "plain")
+        assert fitted["estimator"] == "least-squares"
+        assert float(row["distance_error_mean_pct"]) == fitted["distance_error_pct"]["mean"]
+        # The same pairs, estimated otherwise.
+        assert fitted["blind_pairs"] == plain["blind_pairs"] and fitted["fit"]["measurements"]
+        assert fitted["sweet_pct"] == plain["sweet_pct"]
+    for figure in ("distance_error_mean", "distance_error_by_hops"):
+        assert (tmp_path / "figures" / f"{figure}.png").read_bytes().startswith(b"\x89PNG")
+
+
 def test_killed_study_resumes_with_only_the_unfinished_runs(tmp_path):
     args = ["study", "--quick", "--quiet", "--jobs", "1", "--out", str(tmp_path)]
     args += ["--clouds", "torus", "helix"]
