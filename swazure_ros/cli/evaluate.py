@@ -16,7 +16,7 @@ from typing import Any
 from ..core.clouds import load_cloud
 from ..core.errors import CloudError, SwazureError
 from ..core.evaluate import Progress, evaluate
-from ..core.fit import ESTIMATORS, LEAST_SQUARES, PATH, refine
+from ..core.fit import ESTIMATORS, LOCAL_LEAST_SQUARES, PATH, refine
 from ..core.fusion import fuse
 from ..core.geometry import make_swarm
 from ..core.heuristics import COMPAT_MODES, PLAIN, TECHNIQUES, HeuristicResult, run_technique
@@ -135,8 +135,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=ESTIMATORS,
         default=PATH,
         help="how a pair's pose is estimated: the sum of the measured hops along the "
-        "policy's path, as the paper does (default), or a least-squares fit over every "
-        "measurement of the swarm, with a covariance per estimate (docs/core.md)",
+        "policy's path, as the paper does (default); a least-squares fit over every "
+        "measurement of the swarm; or each source's own fit over the measurements it hears "
+        "by radio (local-least-squares); the fits give a covariance per estimate "
+        "(docs/core.md)",
     )
     parser.add_argument(
         "--out",
@@ -299,7 +301,7 @@ def main(args: argparse.Namespace) -> int:
         raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
     if args.estimator != PATH and (args.fuse > 1 or args.technique != PLAIN):
         raise SwazureError(
-            "--estimator least-squares estimates plain Swazure's pairs; "
+            f"--estimator {args.estimator} estimates plain Swazure's pairs; "
             "drop --fuse and --technique"
         )
     if args.compat != "text" and args.technique == PLAIN:
@@ -317,10 +319,10 @@ def main(args: argparse.Namespace) -> int:
             evaluation.summary["seconds"] += time.perf_counter() - began
         if args.fuse > 1:
             evaluation = fuse(evaluation, args.fuse)
-        if args.estimator == LEAST_SQUARES:
+        if args.estimator != PATH:
             if progress is not None:
-                progress.start("least-squares fit", 1)
-            evaluation = refine(evaluation)
+                progress.start(args.estimator, 1)
+            evaluation = refine(evaluation, local=args.estimator == LOCAL_LEAST_SQUARES)
     finally:
         if isinstance(progress, TqdmProgress):
             progress.close()

@@ -16,7 +16,7 @@ from typing import Any
 
 from ..core.clouds import BUILTIN_SHAPES, Cloud, cloud_files, load_cloud, published_dataset_dir
 from ..core.errors import CloudError, SwazureError
-from ..core.fit import ESTIMATORS, LEAST_SQUARES, PATH
+from ..core.fit import LEAST_SQUARES, PATH
 from ..core.heuristics import COMPAT_MODES
 from ..core.paths import POLICIES
 from ..core.results import COMPACT_PAIRS, PAIR_COLUMNS
@@ -82,7 +82,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--estimator",
-        choices=ESTIMATORS,
+        choices=(PATH, LEAST_SQUARES),
         default=PATH,
         help="least-squares: also estimate every pair by the least-squares fit over the "
         "measurement graph (--heuristic-policy's pairs, every beta), beside the path sums "

@@ -23,8 +23,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .draws import standard_normals, uniforms
-from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, summarise
+from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, PairResults, summarise
+from .geometry import tracking_distance
 from .metrics import describe, pose_errors
+from .paths import Paths, path_hops
 from .sensor import (
     DECAYING,
     SWEET,
@@ -36,9 +38,10 @@ from .sensor import (
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-#: The estimators of a pair's pose: the paper's sum along the policy's path, or the fit.
-PATH, LEAST_SQUARES = "path", "least-squares"
-ESTIMATORS = (PATH, LEAST_SQUARES)
+#: The estimators of a pair's pose: the paper's sum along the policy's path; the fit over
+#: the whole swarm's measurements; each source's own fit over what it hears by radio.
+PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES = "path", "least-squares", "local-least-squares"
+ESTIMATORS = (PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES)
 #: Huber's threshold on a measurement's Mahalanobis residual: the 99th percentile of a
 #: chi distribution with 3 degrees of freedom, so a clean measurement is rarely down-weighted.
 HUBER_THRESHOLD = 3.368
@@ -414,6 +417,133 @@ def fit_pairs_estimates(
     return PairFit(estimate, covariance, used, downweighted, time.perf_counter() - began)
 
 
+@dataclass(frozen=True)
+class Hearing:
+    """What the FLSs can hear: every measurement the swarm takes, and who hears whom."""
+
+    measured: Measurements  # every visible sweet or decaying pair, both directions
+    sweet: NDArray[np.bool_]  # (M,), the measurement's pair is sweet (else decaying)
+    radio_offsets: IntArray  # (N + 1,): FLS i hears radio_ids[offsets[i]:offsets[i + 1]]
+    radio_ids: IntArray  # the FLSs within radio range (blind or sweet range), ascending
+
+
+def hearing(hood: Neighbourhood) -> Hearing:
+    """Every FLS's radio neighbours and the measurements they publish (spec, section 4)."""
+    from .sensor import BLIND
+
+    pairs = hood.pairs
+    eligible = hood.visible & hood.usable
+    sweet = np.flatnonzero((pairs.range_class == SWEET) & eligible)
+    decaying = np.flatnonzero((pairs.range_class == DECAYING) & eligible)
+    index = np.concatenate([sweet, decaying])
+    measured = measurements(hood, index)
+    is_sweet = np.tile(np.arange(len(index)) < len(sweet), 2)
+    radio = (pairs.range_class == BLIND) | (pairs.range_class == SWEET)
+    first = np.concatenate([pairs.first[radio], pairs.second[radio]])
+    second = np.concatenate([pairs.second[radio], pairs.first[radio]])
+    order = np.lexsort((second, first))
+    counts = np.bincount(first, minlength=hood.swarm.size)
+    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    return Hearing(measured, is_sweet, offsets, second[order])
+
+
+def window(heard: Hearing, source: int) -> IntArray:
+    """The FLSs whose measurements ``source`` hears: itself first, then its radio neighbours."""
+    others = heard.radio_ids[heard.radio_offsets[source] : heard.radio_offsets[source + 1]]
+    return np.concatenate([[source], others]).astype(np.int64)
+
+
+def _select(measured: Measurements, rows: NDArray[np.bool_], local: IntArray) -> Measurements:
+    """The measurements at ``rows``, their FLSs renumbered by ``local`` (N,)."""
+    return Measurements(
+        local[measured.first[rows]],
+        local[measured.second[rows]],
+        measured.vectors[rows],
+        measured.covariance[rows],
+        measured.information[rows],
+    )
+
+
+def local_fit(
+    heard: Hearing,
+    size: int,
+    source: int,
+    targets: IntArray,
+    sweet: NDArray[np.bool_],
+    deterministic: bool,
+    robust: bool = True,
+) -> tuple[FloatArray, FloatArray, int, int]:
+    """``source``'s own fit of ``targets`` (K,) from what it hears (docs/core.md, "Local").
+
+    The measurements of its window (:func:`window`) between FLSs of the
+    window, chosen as :func:`fit_pairs` chooses them over the window's own
+    sweet graph, and the same two fits for a deterministic sensor as
+    :func:`fit_pairs_estimates`. The source is the window's origin. Returns
+    the estimates (K, 3), cm, their covariances (K, 3, 3), cm^2, the
+    window's FLSs and its measurements.
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    members = window(heard, source)
+    local = np.full(size, -1, dtype=np.int64)
+    local[members] = np.arange(len(members))
+    measured = heard.measured
+    inside = (local[measured.first] >= 0) & (local[measured.second] >= 0)
+    sweet_rows = inside & heard.sweet
+    graph = coo_matrix(
+        (np.ones(int(sweet_rows.sum())),
+         (local[measured.first[sweet_rows]], local[measured.second[sweet_rows]])),
+        shape=(len(members),) * 2,
+    )  # fmt: skip
+    _, part = connected_components(graph, directed=False)
+    joining = inside & ~heard.sweet
+    joining[joining] = (
+        part[local[measured.first[joining]]] != part[local[measured.second[joining]]]
+    )
+    estimate = np.full((len(targets), 3), np.nan)
+    covariance = np.full((len(targets), 3, 3), np.nan)
+    groups = [(np.ones(len(targets), dtype=bool), sweet_rows | joining)]
+    if deterministic:
+        groups = [(sweet, sweet_rows), (~sweet, sweet_rows | joining)]
+    used = 0
+    for rows, chosen in groups:
+        if not rows.any() or not chosen.any():
+            continue
+        fit = solve(len(members), _select(measured, chosen, local), robust)
+        origin = np.zeros(int(rows.sum()), dtype=np.int64)
+        estimate[rows], covariance[rows] = fit.relative(origin, local[targets[rows]])
+        used = max(used, int(chosen.sum()))
+    return estimate, covariance, len(members), used
+
+
+def path_estimates(hood: Neighbourhood, pairs: PairResults) -> tuple[FloatArray, FloatArray]:
+    """Each pair's path sum with the bias removed (M, 3), cm, and its covariance (M, 3, 3), cm^2.
+
+    What a source whose window does not reach its target falls back on: the
+    measured hops of the policy's path, each without the sensor's known bias
+    (:func:`~.sensor.unbiased_vectors`), and the sum of their covariances
+    (independent hops). Nan without a path.
+    """
+    swarm, sensor = hood.swarm, hood.sensor
+    paths = Paths(pairs.status != NO_PATH, pairs.hops, pairs.path_length, pairs.offsets,
+                  pairs.nodes)  # fmt: skip
+    owner, start, end = path_hops(paths)
+    raw = measured_vectors(sensor, swarm.points, swarm.radius, start, end)
+    tracking = tracking_distance(swarm.points, swarm.radius, start, end)
+    directions = raw / np.linalg.norm(raw, axis=1, keepdims=True)
+    vectors = unbiased_vectors(sensor, raw, tracking)
+    hop_cov = hop_covariance(sensor, tracking, directions, swarm.radius)
+    count = len(pairs)
+    estimate = np.zeros((count, 3))
+    covariance = np.zeros((count, 3, 3))
+    np.add.at(estimate, owner, vectors)
+    np.add.at(covariance, owner, hop_cov)
+    estimate[~paths.found] = np.nan
+    covariance[~paths.found] = np.nan
+    return estimate, covariance
+
+
 def normalized_errors(error: FloatArray, covariance: FloatArray) -> FloatArray:
     """Normalized estimation error squared e^T C^-1 e: errors (M, 3), cm; covariances (M, 3, 3)."""
     known = np.isfinite(error).all(axis=1) & np.isfinite(covariance).all(axis=(1, 2))
@@ -424,8 +554,46 @@ def normalized_errors(error: FloatArray, covariance: FloatArray) -> FloatArray:
     return out
 
 
+def local_estimates(
+    hood: Neighbourhood,
+    source: IntArray,
+    target: IntArray,
+    sweet: NDArray[np.bool_],
+    robust: bool = True,
+    corrupt: Corruption | None = None,
+) -> tuple[PairFit, FloatArray, IntArray]:
+    """Every pair's estimate from its source's :func:`local_fit`; and per source the
+    seconds of its fit and the FLSs of its window (in the order of ``np.unique(source)``)."""
+    began = time.perf_counter()
+    heard = hearing(hood)
+    if corrupt is not None:
+        heard = replace(heard, measured=corrupt(heard.measured))
+    estimate = np.full((len(source), 3), np.nan)
+    covariance = np.full((len(source), 3, 3), np.nan)
+    sources, counts = np.unique(source, return_counts=True)
+    order = np.argsort(source, kind="stable")
+    ends = np.cumsum(counts)
+    seconds = np.zeros(len(sources))
+    sizes = np.zeros(len(sources), dtype=np.int64)
+    used = 0
+    deterministic = hood.sensor.noise is None
+    for slot, one in enumerate(sources):
+        rows = order[ends[slot] - counts[slot] : ends[slot]]
+        tick = time.perf_counter()
+        estimate[rows], covariance[rows], sizes[slot], measured = local_fit(
+            heard, hood.swarm.size, int(one), target[rows], sweet[rows], deterministic, robust
+        )
+        seconds[slot] = time.perf_counter() - tick
+        used = max(used, measured)
+    fit = PairFit(estimate, covariance, used, 0, time.perf_counter() - began)
+    return fit, seconds, sizes
+
+
 def refine(
-    evaluation: Evaluation, robust: bool = True, corrupt: Corruption | None = None
+    evaluation: Evaluation,
+    robust: bool = True,
+    corrupt: Corruption | None = None,
+    local: bool = False,
 ) -> Evaluation:
     """``evaluation`` with every estimate from the least-squares fit, and its covariance.
 
@@ -438,9 +606,23 @@ def refine(
     """
     pairs = evaluation.pairs
     has_path = pairs.status != NO_PATH
-    result = fit_pairs_estimates(
-        evaluation.hood, pairs.source, pairs.target, pairs.status == SWEET_PATH, robust, corrupt
-    )
+    arguments = (evaluation.hood, pairs.source, pairs.target, pairs.status == SWEET_PATH)
+    window_facts: dict[str, Any] = {}
+    if local:
+        result, seconds, sizes = local_estimates(*arguments, robust, corrupt)
+        # A target the window does not join to its source gets its path's sum.
+        beyond = has_path & np.isnan(result.estimate).any(axis=1)
+        if beyond.any():
+            fallback, fallback_cov = path_estimates(evaluation.hood, pairs)
+            result.estimate[beyond] = fallback[beyond]
+            result.covariance[beyond] = fallback_cov[beyond]
+        window_facts = {
+            "window_flss": describe(sizes.astype(np.float64)),
+            "window_ms": describe(1000.0 * seconds),
+            "path_fallback_pairs": int(beyond.sum()),
+        }
+    else:
+        result = fit_pairs_estimates(*arguments, robust, corrupt)
     estimate = np.where(has_path[:, None], result.estimate, np.nan)
     covariance = np.where(has_path[:, None, None], result.covariance, np.nan)
     predicted = np.sqrt(np.trace(covariance, axis1=1, axis2=2))
@@ -459,8 +641,10 @@ def refine(
     summary["seconds"] = (evaluation.summary.get("seconds") or 0.0) + result.seconds
     nees = normalized_errors(estimate - pairs.truth, covariance)
     known = np.isfinite(nees)
-    summary["estimator"] = LEAST_SQUARES
+    estimator = LOCAL_LEAST_SQUARES if local else LEAST_SQUARES
+    summary["estimator"] = estimator
     summary["fit"] = {
+        **window_facts,
         "robust": robust,
         "measurements": result.measurements,
         "downweighted": result.downweighted,
@@ -470,5 +654,5 @@ def refine(
         else float("nan"),
         "seconds": result.seconds,
     }
-    summary["parameters"]["estimator"] = LEAST_SQUARES
+    summary["parameters"]["estimator"] = estimator
     return replace(evaluation, pairs=updated, summary=summary)
