@@ -14,12 +14,21 @@ import json
 import sys
 import time
 from functools import partial
+from typing import Any
 
 import numpy as np
 
 from swazure_ros.core.clouds import load_cloud
-from swazure_ros.core.evaluate import DECAYING_PATH, SWEET_PATH, evaluate
-from swazure_ros.core.fit import CHI2_95_3DOF, normalized_errors, refine, with_outliers
+from swazure_ros.core.evaluate import DECAYING_PATH, NO_PATH, SWEET_PATH, evaluate
+from swazure_ros.core.fit import (
+    CHI2_95_3DOF,
+    fit_pairs_estimates,
+    local_estimates,
+    normalized_errors,
+    path_estimates,
+    refine,
+    with_outliers,
+)
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.sensor import SWEET, load_sensor, measured_vectors
 
@@ -37,18 +46,68 @@ def errors(values: np.ndarray) -> dict[str, float]:
     }
 
 
+def local_run(plain: Any, count: int) -> dict[str, object]:
+    """K sources' own fits: per-source ms and window size; errors beside the global fit's."""
+    pairs = plain.pairs
+    rng = np.random.default_rng(0)
+    sources = np.sort(rng.choice(np.unique(pairs.source), size=count, replace=False))
+    rows = np.flatnonzero(np.isin(pairs.source, sources) & (pairs.status != NO_PATH))
+    sweet = pairs.status[rows] == SWEET_PATH
+    arguments = (plain.hood, pairs.source[rows], pairs.target[rows], sweet)
+    local, seconds, sizes = local_estimates(*arguments)
+    whole = fit_pairs_estimates(*arguments)
+    truth = pairs.truth[rows]
+    beyond = np.isnan(local.estimate).any(axis=1)
+    local_estimate = local.estimate.copy()
+    fallback, _ = path_estimates(plain.hood, pairs)
+    local_estimate[beyond] = fallback[rows][beyond]
+
+    def pct(estimate: np.ndarray) -> np.ndarray:
+        return 100 * np.linalg.norm(estimate - truth, axis=1) / np.linalg.norm(truth, axis=1)
+
+    result: dict[str, object] = {
+        "sources": count,
+        "window_flss": {"mean": float(sizes.mean()), "max": int(sizes.max())},
+        "ms": {
+            "mean": float(1000 * seconds.mean()),
+            "p95": float(1000 * np.percentile(seconds, 95)),
+            "max": float(1000 * seconds.max()),
+        },
+        "beyond_window": int(beyond.sum()),
+    }
+    for name, chosen in (("sweet", sweet), ("decaying", ~sweet)):
+        result[name] = {
+            "path": errors(pairs.distance_error[rows][chosen]),
+            "global": errors(pct(whole.estimate)[chosen]),
+            "local": errors(pct(local_estimate)[chosen]),
+        }
+    return result
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("cloud")
     parser.add_argument("--beta", type=float, required=True)
     parser.add_argument("--sensor", required=True)
     parser.add_argument("--outliers", action="store_true")
+    parser.add_argument(
+        "--local",
+        type=int,
+        default=0,
+        metavar="K",
+        help="only each of K sources' own fit (seeded choice), timed per source, beside "
+        "the global fit on the same pairs; run it with one BLAS thread, as an FLS would",
+    )
     args = parser.parse_args()
     sensor = load_sensor(args.sensor)
     swarm = make_swarm(load_cloud(args.cloud).points, beta=args.beta)
     began = time.perf_counter()
     plain = evaluate(swarm, sensor, "shortest-length")
     engine = time.perf_counter() - began
+    if args.local:
+        json.dump(local_run(plain, args.local), sys.stdout)
+        print()
+        return 0
     began = time.perf_counter()
     fitted = refine(plain)
     fit_seconds = time.perf_counter() - began
