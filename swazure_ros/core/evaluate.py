@@ -9,7 +9,7 @@ to the run's metrics (section 6); :func:`evaluate` does all three.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -244,6 +244,19 @@ class PairResults:
     def path(self, pair: int) -> list[int]:
         """Swarm indices of the path of pair ``pair``; [] when it has none."""
         return [int(node) for node in self.nodes[self.offsets[pair] : self.offsets[pair + 1]]]
+
+    def with_estimates(self, estimate: FloatArray, **changes: Any) -> PairResults:
+        """These pairs with other estimates (M, 3), cm, and the errors that follow from them."""
+        distance_error, alpha, theta, phi = pose_errors(estimate, self.truth)
+        return replace(
+            self,
+            estimate=estimate,
+            distance_error=distance_error,
+            alpha=alpha,
+            theta=theta,
+            phi=phi,
+            **changes,
+        )
 
 
 @dataclass(frozen=True)

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from .draws import standard_normals, uniforms
 from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, PairResults, summarise
 from .geometry import tracking_distance
-from .metrics import describe, pose_errors
+from .metrics import describe
 from .paths import Paths, path_hops
 from .sensor import (
     DECAYING,
@@ -626,17 +626,7 @@ def refine(
     estimate = np.where(has_path[:, None], result.estimate, np.nan)
     covariance = np.where(has_path[:, None, None], result.covariance, np.nan)
     predicted = np.sqrt(np.trace(covariance, axis1=1, axis2=2))
-    distance_error, alpha, theta, phi = pose_errors(estimate, pairs.truth)
-    updated = replace(
-        pairs,
-        estimate=estimate,
-        distance_error=distance_error,
-        alpha=alpha,
-        theta=theta,
-        phi=phi,
-        predicted_error=predicted,
-        covariance=covariance,
-    )
+    updated = pairs.with_estimates(estimate, predicted_error=predicted, covariance=covariance)
     summary = summarise(evaluation.hood, evaluation.policy, updated)
     summary["seconds"] = (evaluation.summary.get("seconds") or 0.0) + result.seconds
     nees = normalized_errors(estimate - pairs.truth, covariance)

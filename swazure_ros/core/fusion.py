@@ -24,7 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .evaluate import SWEET_PATH, Evaluation, estimates, summarise, summed_hop_errors
-from .metrics import describe, pose_errors
+from .metrics import describe
 from .paths import Paths, avoiding_paths
 from .sensor import Sensor
 
@@ -126,16 +126,8 @@ def fuse(evaluation: Evaluation, count: int) -> Evaluation:
     predicted_error[sweet] = predicted
     fused_paths = pairs.fused_paths.copy()
     fused_paths[sweet] = used
-    metrics = pose_errors(estimate, pairs.truth)
-    updated = replace(
-        pairs,
-        estimate=estimate,
-        distance_error=metrics[0],
-        alpha=metrics[1],
-        theta=metrics[2],
-        phi=metrics[3],
-        predicted_error=predicted_error,
-        fused_paths=fused_paths,
+    updated = pairs.with_estimates(
+        estimate, predicted_error=predicted_error, fused_paths=fused_paths
     )
     several = fused_paths >= 2
     summary = summarise(hood, evaluation.policy, updated)
@@ -145,7 +137,7 @@ def fuse(evaluation: Evaluation, count: int) -> Evaluation:
         "pairs_fused": int(several.sum()),
         "paths_per_pair": np.bincount(fused_paths[sweet], minlength=count + 1).tolist(),
         "distance_error_pct_one_path": describe(pairs.distance_error[several]),
-        "distance_error_pct_fused": describe(metrics[0][several]),
+        "distance_error_pct_fused": describe(updated.distance_error[several]),
         "seconds": time.perf_counter() - began,
     }
     summary["parameters"]["fuse"] = count
