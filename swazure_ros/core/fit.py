@@ -238,7 +238,7 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
     # Each part's FLSs in index order; the first is its anchor, the origin of the gauge.
     order = np.lexsort((np.arange(size), part))
     order = order[part[order] >= 0]
-    members = np.split(order, np.searchsorted(part[order], np.arange(1, parts)))
+    members = np.split(order, np.searchsorted(part[order], np.arange(1, parts))) if parts else []
     unknown = part >= 0
     unknown[[group[0] for group in members]] = False
     free = np.repeat(unknown, 3)

@@ -203,3 +203,13 @@ def test_a_pair_beyond_its_source_s_window_gets_its_path_sum_without_the_bias():
     assert error[has_path].mean() < 0.75 * biased[has_path].mean()
     nees = normalized_errors(estimate - plain.pairs.truth, covariance)
     assert 2.5 <= np.nanmean(nees) <= 3.5
+
+
+def test_a_swarm_with_nothing_to_fit_gets_no_estimates_and_no_error():
+    nothing = exact(np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 3)))
+    fit = solve(3, nothing)
+    assert fit.part.tolist() == [-1, -1, -1] and np.isnan(fit.positions).all()
+    sparse_swarm = make_swarm(load_cloud("sphere:20").points, beta=0.01)
+    for local in (False, True):
+        fitted = refine(evaluate(sparse_swarm, stochastic_sensor(), "shortest-length"), local=local)
+        assert fitted.summary["fit"]["nees"]["count"] == 0
