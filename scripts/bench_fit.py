@@ -22,8 +22,10 @@ from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.evaluate import DECAYING_PATH, NO_PATH, SWEET_PATH, evaluate
 from swazure_ros.core.fit import (
     CHI2_95_3DOF,
+    fit_pairs,
     fit_pairs_estimates,
     local_estimates,
+    measurements,
     normalized_errors,
     path_estimates,
     refine,
@@ -142,10 +144,16 @@ def main() -> int:
     if args.outliers:
         corrupt = partial(with_outliers, fraction=OUTLIER_FRACTION, angle_deg=OUTLIER_DEG, seed=1)
         turned = refine(plain, corrupt=corrupt)
-        has_path = pairs.status != 2
+        has_path = pairs.status != NO_PATH
+        # An FLS in one measured pair only has two vectors and nothing to tell a wrong one by.
+        measured = measurements(hood, fit_pairs(hood))
+        pairs_of = np.bincount(measured.first, minlength=swarm.size)
+        redundant = has_path & (pairs_of[pairs.source] >= 2) & (pairs_of[pairs.target] >= 2)
         result["outliers"] = {
             "clean": errors(fitted.pairs.distance_error[has_path]),
             "turned": errors(turned.pairs.distance_error[has_path]),
+            "clean_redundant": errors(fitted.pairs.distance_error[redundant]),
+            "turned_redundant": errors(turned.pairs.distance_error[redundant]),
             "downweighted": turned.summary["fit"]["downweighted"],
         }
     json.dump(result, sys.stdout)
