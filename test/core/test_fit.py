@@ -211,5 +211,6 @@ def test_a_swarm_with_nothing_to_fit_gets_no_estimates_and_no_error():
     assert fit.part.tolist() == [-1, -1, -1] and np.isnan(fit.positions).all()
     sparse_swarm = make_swarm(load_cloud("sphere:20").points, beta=0.01)
     for local in (False, True):
-        fitted = refine(evaluate(sparse_swarm, stochastic_sensor(), "shortest-length"), local=local)
+        plain = evaluate(sparse_swarm, stochastic_sensor(), "shortest-length")
+        fitted = refine(plain, local=local)
         assert fitted.summary["fit"]["nees"]["count"] == 0
