@@ -26,10 +26,13 @@ from .draws import standard_normals, uniforms
 from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, PairResults, summarise
 from .geometry import tracking_distance
 from .metrics import describe
+from .observe import Observations
 from .paths import Paths, path_hops
 from .sensor import (
+    BLIND,
     DECAYING,
     SWEET,
+    Sensor,
     hop_covariance,
     measured_vectors,
     unbiased_vectors,
@@ -418,103 +421,122 @@ def fit_pairs_estimates(
 
 
 @dataclass(frozen=True)
-class Hearing:
-    """What the FLSs can hear: every measurement the swarm takes, and who hears whom."""
+class Heard:
+    """What one source hears: the readings its window's FLSs publish, one row per reading.
 
-    measured: Measurements  # every visible sweet or decaying pair, both directions
-    sweet: NDArray[np.bool_]  # (M,), the measurement's pair is sweet (else decaying)
-    radio_offsets: IntArray  # (N + 1,): FLS i hears radio_ids[offsets[i]:offsets[i + 1]]
-    radio_ids: IntArray  # the FLSs within radio range (blind or sweet range), ascending
+    The rows an FLS gets from its radio neighbours' measurements (and its
+    own): who measured whom, the range class and tracking distance of the
+    pair (ranging by radio, cm) and the measured vector (cm). FLS ids, not
+    swarm indices: the same table whether the engine lays it out or a node
+    gathers it from messages.
+    """
 
-
-def hearing(hood: Neighbourhood) -> Hearing:
-    """Every FLS's radio neighbours and the measurements they publish (spec, section 4)."""
-    from .sensor import BLIND
-
-    pairs = hood.pairs
-    eligible = hood.visible & hood.usable
-    sweet = np.flatnonzero((pairs.range_class == SWEET) & eligible)
-    decaying = np.flatnonzero((pairs.range_class == DECAYING) & eligible)
-    index = np.concatenate([sweet, decaying])
-    measured = measurements(hood, index)
-    is_sweet = np.tile(np.arange(len(index)) < len(sweet), 2)
-    radio = (pairs.range_class == BLIND) | (pairs.range_class == SWEET)
-    first = np.concatenate([pairs.first[radio], pairs.second[radio]])
-    second = np.concatenate([pairs.second[radio], pairs.first[radio]])
-    order = np.lexsort((second, first))
-    counts = np.bincount(first, minlength=hood.swarm.size)
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    return Hearing(measured, is_sweet, offsets, second[order])
+    owner: IntArray  # (R,), the measuring FLS
+    other: IntArray  # (R,), the measured FLS
+    range_class: NDArray[np.int8]  # (R,), SWEET or DECAYING
+    tracking: FloatArray  # (R,), the pair's tracking distance, cm
+    vector: FloatArray  # (R, 3), measured vector owner -> other, cm
 
 
-def window(heard: Hearing, source: int) -> IntArray:
-    """The FLSs whose measurements ``source`` hears: itself first, then its radio neighbours."""
-    others = heard.radio_ids[heard.radio_offsets[source] : heard.radio_offsets[source + 1]]
-    return np.concatenate([[source], others]).astype(np.int64)
+def heard_in_window(seen: Observations, ids: IntArray, source: int) -> tuple[IntArray, Heard]:
+    """The window of the FLS at swarm index ``source`` and the readings it hears there.
 
-
-def _select(measured: Measurements, rows: NDArray[np.bool_], local: IntArray) -> Measurements:
-    """The measurements at ``rows``, their FLSs renumbered by ``local`` (N,)."""
-    return Measurements(
-        local[measured.first[rows]],
-        local[measured.second[rows]],
-        measured.vectors[rows],
-        measured.covariance[rows],
-        measured.information[rows],
+    The window is the source and the FLSs within its radio range (its blind
+    and sweet neighbours; spec, section 4), as FLS ids, the source first;
+    the readings are those of window FLSs of other window FLSs.
+    """
+    mine = seen.rows(source)
+    radio = np.isin(seen.range_class[mine], (BLIND, SWEET))
+    members = np.concatenate([[source], seen.other[mine][radio]]).astype(np.int64)
+    starts, ends = seen.indptr[members], seen.indptr[members + 1]
+    counts = ends - starts
+    # Each member's rows, one after the other: starts[k] .. ends[k] for every k.
+    rows = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+    owner = np.repeat(members, ends - starts)
+    inside = np.zeros(len(ids), dtype=bool)
+    inside[members] = True
+    keep = seen.measured[rows] & inside[seen.other[rows]]
+    rows, owner = rows[keep], owner[keep]
+    heard = Heard(
+        ids[owner],
+        ids[seen.other[rows]],
+        seen.range_class[rows],
+        seen.distance[rows],
+        seen.vector[rows],
     )
+    return ids[members], heard
 
 
-def local_fit(
-    heard: Hearing,
-    size: int,
-    source: int,
+def window_fit(
+    sensor: Sensor,
+    radius: float,
+    window: IntArray,
+    heard: Heard,
     targets: IntArray,
     sweet: NDArray[np.bool_],
-    deterministic: bool,
     robust: bool = True,
-) -> tuple[FloatArray, FloatArray, int, int]:
-    """``source``'s own fit of ``targets`` (K,) from what it hears (docs/core.md, "Local").
+) -> tuple[FloatArray, FloatArray, int]:
+    """A source's own fit of ``targets`` (K,) from what it hears (docs/core.md, "Own fit").
 
-    The measurements of its window (:func:`window`) between FLSs of the
-    window, chosen as :func:`fit_pairs` chooses them over the window's own
-    sweet graph, and the same two fits for a deterministic sensor as
-    :func:`fit_pairs_estimates`. The source is the window's origin. Returns
-    the estimates (K, 3), cm, their covariances (K, 3, 3), cm^2, the
-    window's FLSs and its measurements.
+    ``window`` (W,) are FLS ids, the source first; ``heard`` the readings
+    between them. The rows are chosen as :func:`fit_pairs` chooses them,
+    over the window's own sweet graph, and a deterministic sensor gets the
+    same two fits as :func:`fit_pairs_estimates`; ``sweet`` (K,) marks the
+    targets with a sweet path. The source is the origin. Rows are taken in
+    (owner, other) order, so that a node and the engine sum in one order.
+    Returns the estimates (K, 3), cm, their covariances (K, 3, 3), cm^2,
+    nan where the window does not join a target to the source, and the rows used.
     """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
-    members = window(heard, source)
-    local = np.full(size, -1, dtype=np.int64)
-    local[members] = np.arange(len(members))
-    measured = heard.measured
-    inside = (local[measured.first] >= 0) & (local[measured.second] >= 0)
-    sweet_rows = inside & heard.sweet
-    graph = coo_matrix(
-        (np.ones(int(sweet_rows.sum())),
-         (local[measured.first[sweet_rows]], local[measured.second[sweet_rows]])),
-        shape=(len(members),) * 2,
-    )  # fmt: skip
-    _, part = connected_components(graph, directed=False)
-    joining = inside & ~heard.sweet
-    joining[joining] = (
-        part[local[measured.first[joining]]] != part[local[measured.second[joining]]]
+    order = np.lexsort((heard.other, heard.owner))
+    lookup = {int(fls): slot for slot, fls in enumerate(window.tolist())}
+    first = np.array([lookup[int(f)] for f in heard.owner[order]], dtype=np.int64)
+    second = np.array([lookup[int(f)] for f in heard.other[order]], dtype=np.int64)
+    tracking, raw = heard.tracking[order], heard.vector[order]
+    directions = raw / np.linalg.norm(raw, axis=1, keepdims=True)
+    measured = Measurements(
+        first,
+        second,
+        unbiased_vectors(sensor, raw, tracking),
+        hop_covariance(sensor, tracking, directions, radius),
+        hop_covariance(sensor, tracking, directions, radius, inverse=True),
     )
+    is_sweet = heard.range_class[order] == SWEET
+    size = len(window)
+    graph = coo_matrix(
+        (np.ones(int(is_sweet.sum())), (first[is_sweet], second[is_sweet])), shape=(size, size)
+    )
+    _, part = connected_components(graph, directed=False)
+    joining = ~is_sweet & (part[first] != part[second])
     estimate = np.full((len(targets), 3), np.nan)
     covariance = np.full((len(targets), 3, 3), np.nan)
-    groups = [(np.ones(len(targets), dtype=bool), sweet_rows | joining)]
-    if deterministic:
-        groups = [(sweet, sweet_rows), (~sweet, sweet_rows | joining)]
+    groups = [(np.ones(len(targets), dtype=bool), is_sweet | joining)]
+    if sensor.noise is None:
+        groups = [(sweet, is_sweet), (~sweet, is_sweet | joining)]
     used = 0
+    slots = np.array([lookup.get(int(t), -1) for t in targets], dtype=np.int64)
     for rows, chosen in groups:
-        if not rows.any() or not chosen.any():
+        wanted = rows & (slots >= 0)
+        if not wanted.any() or not chosen.any():
             continue
-        fit = solve(len(members), _select(measured, chosen, local), robust)
-        origin = np.zeros(int(rows.sum()), dtype=np.int64)
-        estimate[rows], covariance[rows] = fit.relative(origin, local[targets[rows]])
+        fit = solve(size, _select(measured, chosen), robust)
+        origin = np.zeros(int(wanted.sum()), dtype=np.int64)
+        estimate[wanted], covariance[wanted] = fit.relative(origin, slots[wanted])
         used = max(used, int(chosen.sum()))
-    return estimate, covariance, len(members), used
+    return estimate, covariance, used
+
+
+def _select(measured: Measurements, rows: NDArray[np.bool_]) -> Measurements:
+    """The measurements at ``rows``."""
+    return Measurements(
+        measured.first[rows],
+        measured.second[rows],
+        measured.vectors[rows],
+        measured.covariance[rows],
+        measured.information[rows],
+    )
 
 
 def path_estimates(hood: Neighbourhood, pairs: PairResults) -> tuple[FloatArray, FloatArray]:
@@ -562,12 +584,26 @@ def local_estimates(
     robust: bool = True,
     corrupt: Corruption | None = None,
 ) -> tuple[PairFit, FloatArray, IntArray]:
-    """Every pair's estimate from its source's :func:`local_fit`; and per source the
-    seconds of its fit and the FLSs of its window (in the order of ``np.unique(source)``)."""
+    """Every pair's estimate from its source's :func:`window_fit`; and per source (in the
+    order of ``np.unique(source)``) the seconds of its fit and the FLSs of its window.
+
+    The windows are laid out from :func:`~.observe.observations`, what every
+    FLS's senses give its node; swarm indices serve as FLS ids. ``corrupt``
+    alters every reading first (outliers).
+    """
+    from .observe import observations
+
     began = time.perf_counter()
-    heard = hearing(hood)
+    seen = observations(hood)
     if corrupt is not None:
-        heard = replace(heard, measured=corrupt(heard.measured))
+        rows = np.flatnonzero(seen.measured)
+        owner = np.repeat(np.arange(hood.swarm.size), np.diff(seen.indptr))[rows]
+        unused = np.zeros((len(rows), 3, 3))
+        readings = Measurements(owner, seen.other[rows], seen.vector[rows], unused, unused)
+        vector = seen.vector.copy()
+        vector[rows] = corrupt(readings).vectors
+        seen = replace(seen, vector=vector)
+    ids = np.arange(hood.swarm.size, dtype=np.int64)
     estimate = np.full((len(source), 3), np.nan)
     covariance = np.full((len(source), 3, 3), np.nan)
     sources, counts = np.unique(source, return_counts=True)
@@ -576,14 +612,15 @@ def local_estimates(
     seconds = np.zeros(len(sources))
     sizes = np.zeros(len(sources), dtype=np.int64)
     used = 0
-    deterministic = hood.sensor.noise is None
     for slot, one in enumerate(sources):
         rows = order[ends[slot] - counts[slot] : ends[slot]]
         tick = time.perf_counter()
-        estimate[rows], covariance[rows], sizes[slot], measured = local_fit(
-            heard, hood.swarm.size, int(one), target[rows], sweet[rows], deterministic, robust
+        members, heard = heard_in_window(seen, ids, int(one))
+        estimate[rows], covariance[rows], measured = window_fit(
+            hood.sensor, hood.swarm.radius, members, heard, target[rows], sweet[rows], robust
         )
         seconds[slot] = time.perf_counter() - tick
+        sizes[slot] = len(members)
         used = max(used, measured)
     fit = PairFit(estimate, covariance, used, 0, time.perf_counter() - began)
     return fit, seconds, sizes

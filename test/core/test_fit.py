@@ -13,18 +13,18 @@ from swazure_ros.core.fit import (
     LOCAL_LEAST_SQUARES,
     Measurements,
     fit_pairs,
-    hearing,
+    heard_in_window,
     measurements,
     normalized_errors,
     path_estimates,
     refine,
     solve,
-    window,
     with_outliers,
 )
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.neighbours import ordered_blind_pairs
-from swazure_ros.core.sensor import BLIND, SWEET, Sensor, SensorNoise
+from swazure_ros.core.observe import observations
+from swazure_ros.core.sensor import BLIND, DECAYING, SWEET, Sensor, SensorNoise
 
 
 def stochastic_sensor(mean_error=0.0, sd=0.01, direction_deg=0.2):
@@ -160,15 +160,26 @@ def test_with_outliers_repeats_and_turns_by_the_angle_asked():
     np.testing.assert_allclose(cosine, np.cos(np.radians(30.0)))
 
 
-def test_a_source_s_window_is_itself_and_the_flss_within_its_radio_range():
+def test_a_source_hears_its_radio_neighbours_readings_of_each_other():
     hood = neighbourhood(torus_swarm(0.3, "torus:200"), Sensor(6.0, 8.0, 8.0, 30.0))
-    heard = hearing(hood)
+    seen = observations(hood)
+    ids = np.arange(hood.swarm.size) + 1000  # FLS ids, not swarm indices
     pairs = hood.pairs
     for source in (0, 57, 199):
         mine = (pairs.first == source) | (pairs.second == source)
         radio = mine & np.isin(pairs.range_class, [BLIND, SWEET])
         others = np.where(pairs.first[radio] == source, pairs.second[radio], pairs.first[radio])
-        assert window(heard, source).tolist() == [source, *sorted(others.tolist())]
+        window, heard = heard_in_window(seen, ids, source)
+        assert window.tolist() == [1000 + source, *(1000 + np.sort(others)).tolist()]
+        # Every reading is between window FLSs, a visible sweet or decaying pair, in both
+        # directions where both FLSs are in the window.
+        assert np.isin(heard.owner, window).all() and np.isin(heard.other, window).all()
+        index = hood.pair_index(heard.owner - 1000, heard.other - 1000)
+        assert (index >= 0).all() and hood.visible[index].all()
+        np.testing.assert_array_equal(heard.tracking, pairs.tracking[index])
+        inside = np.isin(pairs.first, window - 1000) & np.isin(pairs.second, window - 1000)
+        measured = inside & hood.visible & np.isin(pairs.range_class, [SWEET, DECAYING])
+        assert len(heard.owner) == 2 * measured.sum()
 
 
 def test_each_source_s_own_fit_is_exact_on_exact_data_and_honest_on_noisy_data():
