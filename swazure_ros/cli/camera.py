@@ -182,7 +182,8 @@ def main(args: argparse.Namespace) -> int:
     )
     criteria = Criteria()
     on_grid = sensor_from_sweep(result, criteria, name=f"{camera.name}-calibrated", seed=args.seed)
-    sensor, renders = search_ranges(camera, result, on_grid, criteria, args.seed, markers)
+    searched = search_ranges(camera, result, on_grid, criteria, args.seed, markers)
+    sensor, renders = searched.sensor, searched.renders
     shown = (
         f"the {len(markers)} markers of {camera.marker_dictionary} in turn"
         if markers

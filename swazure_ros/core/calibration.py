@@ -304,6 +304,16 @@ def sensor_from_sweep(
 BOUNDARY_TOLERANCE_MM = 1.0
 
 
+@dataclass(frozen=True)
+class RangeSearch:
+    """The sensor with its boundaries searched, and how: per boundary the last two
+    distances rendered, mm (where its criterion held, where it did not)."""
+
+    sensor: Sensor
+    renders: int  # distances rendered besides the sweep
+    brackets: dict[str, tuple[float, float]]  # sweet_min, sweet_max, decaying_max
+
+
 def search_ranges(
     camera: Camera,
     result: Sweep,
@@ -312,15 +322,15 @@ def search_ranges(
     seed: int = 0,
     markers: Sequence[int] = (),
     tolerance_mm: float = BOUNDARY_TOLERANCE_MM,
-) -> tuple[Sensor, int]:
+) -> RangeSearch:
     """``sensor`` with sweet_min, sweet_max and decaying_max placed by their criteria to 1 mm.
 
     :func:`sensor_from_sweep` puts a boundary at a point of the sweep's grid
     (1.2 cm apart by default). Each boundary lies between two grid points
     where its criterion flips; bisection between them, rendering head-on
     frames (``result.frames``) at each midpoint, narrows that to
-    ``tolerance_mm`` and takes the middle. Returns the sensor and the number
-    of distances rendered.
+    ``tolerance_mm`` and takes the middle (to 0.1 mm). A boundary at the
+    grid's ends stays where it is.
     """
     distances = result.distances_mm
     renders = 0
@@ -346,7 +356,10 @@ def search_ranges(
             return None
         return float(distances[above - 1]), float(distances[above])
 
-    def search(boundary_cm: float, inside_below: bool, holds: Callable[[float], bool]) -> float:
+    brackets: dict[str, tuple[float, float]] = {}
+
+    def search(name: str, inside_below: bool, holds: Callable[[float], bool]) -> float:
+        boundary_cm = float(getattr(sensor, name))
         limits = bracket(10.0 * boundary_cm)
         if limits is None:
             return boundary_cm
@@ -357,11 +370,12 @@ def search_ranges(
                 inside = middle
             else:
                 outside = middle
+        brackets[name] = (inside, outside)
         return round((inside + outside) / 20.0, 2)
 
-    sweet_min = search(sensor.sweet_min, False, sweet)
-    sweet_max = search(sensor.sweet_max, True, sweet)
-    decaying_max = max(search(sensor.decaying_max, True, measured), sweet_max + 0.01)
+    sweet_min = search("sweet_min", False, sweet)
+    sweet_max = search("sweet_max", True, sweet)
+    decaying_max = max(search("decaying_max", True, measured), sweet_max + 0.01)
     searched = replace(
         sensor,
         sweet_min=min(sweet_min, sweet_max - 0.01),
@@ -369,7 +383,7 @@ def search_ranges(
         decaying_min=sweet_max,
         decaying_max=decaying_max,
     )
-    return searched, renders
+    return RangeSearch(searched, renders, brackets)
 
 
 @dataclass(frozen=True)

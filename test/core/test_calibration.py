@@ -189,8 +189,8 @@ def test_each_range_boundary_is_searched_to_a_millimetre_between_the_sweep_s_poi
     result = sweep(camera, grid, (0.0,), frames=20)
     criteria = Criteria()
     on_grid = sensor_from_sweep(result, criteria)
-    searched, renders = search_ranges(camera, result, on_grid, criteria)
-    assert renders > 0
+    search = search_ranges(camera, result, on_grid, criteria)
+    assert search.renders > 0
 
     def head_on(distance_mm):
         one = sweep(camera, (distance_mm,), (0.0,), frames=20)
@@ -204,17 +204,14 @@ def test_each_range_boundary_is_searched_to_a_millimetre_between_the_sweep_s_poi
         detection, error = head_on(distance_mm)
         return detection >= criteria.detection and abs(error) <= criteria.decaying_error
 
-    # Each boundary moved off the grid, by less than one grid step, to where its criterion
-    # holds half a millimetre on one side and fails half a millimetre on the other.
-    for name, holds, inside_below in (
-        ("sweet_min", sweet, False),
-        ("sweet_max", sweet, True),
-        ("decaying_max", measured, True),
-    ):
-        boundary = 10.0 * getattr(searched, name)
-        grid_boundary = 10.0 * getattr(on_grid, name)
-        assert 0 < abs(boundary - grid_boundary) < 12.0, name
-        below, above = boundary - 0.5, boundary + 0.5
-        assert holds(below) == inside_below and holds(above) != inside_below, name
-    assert searched.decaying_min == searched.sweet_max
-    assert searched.noise == on_grid.noise
+    # Each boundary moved off the grid, by less than one grid step, into a bracket under
+    # 1 mm wide whose two ends (rendered again here) hold and fail its criterion.
+    for name, holds in (("sweet_min", sweet), ("sweet_max", sweet), ("decaying_max", measured)):
+        boundary = 10.0 * getattr(search.sensor, name)
+        assert 0 < abs(boundary - 10.0 * getattr(on_grid, name)) < 12.0, name
+        inside, outside = search.brackets[name]
+        assert abs(outside - inside) <= 1.0, name
+        assert min(inside, outside) - 0.05 <= boundary <= max(inside, outside) + 0.05, name
+        assert holds(inside) and not holds(outside), name
+    assert search.sensor.decaying_min == search.sensor.sweet_max
+    assert search.sensor.noise == on_grid.noise
