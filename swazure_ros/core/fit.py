@@ -117,21 +117,39 @@ class Fit:
         return estimate, covariance
 
 
+def joining(
+    first: IntArray, second: IntArray, sweet: NDArray[np.bool_], size: int
+) -> NDArray[np.bool_]:
+    """Which of the hops first[m] - second[m] (M,) are decaying and join two sweet parts.
+
+    ``sweet`` (M,) marks the sweet hops; the parts are the connected
+    components of those over ``size`` FLSs. The one rule of which decaying
+    hops a fit takes (docs/core.md, "The least-squares fit").
+    """
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    graph = coo_matrix(
+        (np.ones(int(sweet.sum())), (first[sweet], second[sweet])), shape=(size, size)
+    )
+    _, part = connected_components(graph, directed=False)
+    return np.asarray(~sweet & (part[first] != part[second]), dtype=np.bool_)
+
+
 def fit_pairs(hood: Neighbourhood, links: bool = True) -> IntArray:
     """Indices into ``hood.pairs`` of the measured pairs a fit uses, ascending.
 
     Every visible sweet pair; with ``links``, also every visible decaying
-    pair that joins two parts of S_vis (docs/core.md, "The least-squares
-    fit": which decaying hops join, and why no other does).
+    pair that joins two parts of S_vis (:func:`joining`).
     """
     pairs = hood.pairs
-    sweet = np.flatnonzero((pairs.range_class == SWEET) & hood.visible & hood.usable)
-    if not links:
-        return sweet
-    decaying = np.flatnonzero((pairs.range_class == DECAYING) & hood.visible & hood.usable)
-    part = hood.sweet_visible.components()
-    joining = decaying[part[pairs.first[decaying]] != part[pairs.second[decaying]]]
-    return np.sort(np.concatenate([sweet, joining]))
+    measured = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)
+    index = np.flatnonzero(measured & hood.visible & hood.usable)
+    sweet = pairs.range_class[index] == SWEET
+    if links:
+        first, second = pairs.first[index], pairs.second[index]
+        sweet = sweet | joining(first, second, sweet, hood.swarm.size)
+    return np.asarray(index[sweet], dtype=np.int64)
 
 
 def measurements(hood: Neighbourhood, index: IntArray) -> Measurements:
@@ -487,9 +505,6 @@ def window_fit(
     Returns the estimates (K, 3), cm, their covariances (K, 3, 3), cm^2,
     nan where the window does not join a target to the source, and the rows used.
     """
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     order = np.lexsort((heard.other, heard.owner))
     lookup = {int(fls): slot for slot, fls in enumerate(window.tolist())}
     first = np.array([lookup[int(f)] for f in heard.owner[order]], dtype=np.int64)
@@ -505,16 +520,12 @@ def window_fit(
     )
     is_sweet = heard.range_class[order] == SWEET
     size = len(window)
-    graph = coo_matrix(
-        (np.ones(int(is_sweet.sum())), (first[is_sweet], second[is_sweet])), shape=(size, size)
-    )
-    _, part = connected_components(graph, directed=False)
-    joining = ~is_sweet & (part[first] != part[second])
+    links = joining(first, second, is_sweet, size)
     estimate = np.full((len(targets), 3), np.nan)
     covariance = np.full((len(targets), 3, 3), np.nan)
-    groups = [(np.ones(len(targets), dtype=bool), is_sweet | joining)]
+    groups = [(np.ones(len(targets), dtype=bool), is_sweet | links)]
     if sensor.noise is None:
-        groups = [(sweet, is_sweet), (~sweet, is_sweet | joining)]
+        groups = [(sweet, is_sweet), (~sweet, is_sweet | links)]
     used = 0
     slots = np.array([lookup.get(int(t), -1) for t in targets], dtype=np.int64)
     for rows, chosen in groups:
