@@ -189,6 +189,16 @@ def test_evaluate_with_the_least_squares_estimator_writes_covariances(tmp_path):
     assert header.endswith('"covariance_yy","covariance_yz","covariance_zz"')
 
 
+def test_the_nees_of_a_sensor_without_noise_is_not_shown():
+    run = swazure(
+        "evaluate", "--cloud", "torus:200", "--scale", "1.6", "--beta", "0.3",
+        "--estimator", "least-squares", "--quiet",
+    )  # fmt: skip
+    assert run.returncode == 0, run.stderr
+    row = next(line for line in run.stdout.splitlines() if line.startswith("NEES"))
+    assert row.endswith("- (no noise model)")
+
+
 def test_the_least_squares_estimator_refuses_fusion_in_one_line():
     run = swazure(
         "evaluate", "--cloud", "sphere:150", "--beta", "0.4",
