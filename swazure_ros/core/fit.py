@@ -421,16 +421,20 @@ def fit_pairs_estimates(
     size = hood.swarm.size
     estimate = np.full((len(source), 3), np.nan)
     covariance = np.full((len(source), 3, 3), np.nan)
-    groups = [(np.ones(len(source), dtype=bool), True)]
+    index = fit_pairs(hood)
+    # Measured once: the sweet-only fit takes its rows from the same table.
+    every = measurements(hood, index)
+    if corrupt is not None:
+        every = corrupt(every)
+    sweet_rows = np.tile(hood.pairs.range_class[index] == SWEET, 2)
+    groups = [(np.ones(len(source), dtype=bool), np.ones(len(every), dtype=bool))]
     if hood.sensor.noise is None:
-        groups = [(sweet, False), (~sweet, True)]
+        groups = [(sweet, sweet_rows), (~sweet, groups[0][1])]
     used = downweighted = 0
-    for rows, links in groups:
+    for rows, chosen in groups:
         if not rows.any():
             continue
-        measured = measurements(hood, fit_pairs(hood, links))
-        if corrupt is not None:
-            measured = corrupt(measured)
+        measured = _select(every, chosen)
         fit = solve(size, measured, robust)
         estimate[rows], covariance[rows] = fit.relative(source[rows], target[rows])
         used += len(measured)
