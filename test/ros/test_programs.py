@@ -117,12 +117,18 @@ def test_ros2_run_starts_one_fls_that_ros2_param_answers(ros2_tools, domain):
         wanted = {"/swarm/fls_1", "/swarm/world", "/swarm/cameras"}
         listed = until(nodes, lambda names: wanted <= set(names))
         assert wanted <= set(listed), listed
-        got = ros2("param", "get", "--no-daemon", "--spin-time", "2", "/swarm/fls_1",
-                   "publish_period")  # fmt: skip
+
+        # Each `ros2 --no-daemon` call discovers the graph anew within its spin time; on a
+        # loaded machine one may miss the node ("Node not found"), and a person asks again.
+        def param(name):
+            command = ["param", "get", "--no-daemon", "--spin-time", "2", "/swarm/fls_1", name]
+            return until(
+                lambda: ros2(*command), lambda result: "Node not found" not in result.stderr
+            )
+
+        got = param("publish_period")
         assert got.returncode == 0 and "Double value is: 0.25" in got.stdout, got
-        described = ros2(
-            "param", "get", "--no-daemon", "--spin-time", "2", "/swarm/fls_1", "cloud"
-        )
+        described = param("cloud")
         assert "trio.xyz" in described.stdout, described
     finally:
         for process in (fls, world):
