@@ -25,7 +25,7 @@ orders the phases.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -46,17 +46,22 @@ from ..core.evaluate import (
     pair_results,
     summarise,
 )
+from ..core.fit import LOCAL_LEAST_SQUARES, PATH, Heard, window_fit
 from ..core.neighbours import ordered_blind_pairs
 from ..core.observe import LocalView
 from ..core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy, paths_from_rows
 from ..core.sensor import (
+    BLIND,
     DECAYING,
     SWEET,
     Sensor,
     expected_error,
+    hop_covariance,
     hop_error,
     smallest_hop_error,
+    unbiased_vectors,
 )
+from .readings import ReadingsBook
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -67,6 +72,9 @@ PHASES = (SWEET_VISIBLE, SWEET_ALL, ANY_VISIBLE)
 PHASE_NAMES = ("S_vis", "S_all", "SD_vis")
 # The coordinator's commands; the values equal DiscoveryControl's COMMAND_*.
 START, ROUND, END = 0, 1, 2
+#: The estimators a swarm runs; the codes equal DiscoveryControl's ESTIMATOR_*. The swarm
+#: fits what each source hears, never the whole swarm at once.
+SWARM_ESTIMATORS = (PATH, LOCAL_LEAST_SQUARES)
 
 #: Rounds that one sweet hop may cost in a least-error run, at most: the calibrated
 #: sensors' cost 24 and 88; a sensor whose error crosses zero in its range, tens of thousands.
@@ -146,6 +154,10 @@ class Offer:
     path_ids: IntArray
     pending: bool = False
     finished: bool = False
+    # A fitting run's labels also sum their hops less the known bias and the hops'
+    # covariances (core.fit.path_estimates): a source's fallback beyond its window.
+    unbiased: FloatArray | None = None  # (L, 3), cm
+    covariances: FloatArray | None = None  # (L, 3, 3), cm^2
 
     def __len__(self) -> int:
         return len(self.source_ids)
@@ -172,6 +184,8 @@ class Found:
     length: float
     vector: FloatArray
     error: float = float("nan")  # the hops' expected errors summed (core.sensor.hop_error)
+    unbiased: FloatArray | None = None  # (3,), cm: the hops less their known bias, summed
+    covariance: FloatArray | None = None  # (3, 3), cm^2: the hops' covariances summed
 
     @property
     def hops(self) -> int:
@@ -198,6 +212,8 @@ class RoundOffers:
     vectors: FloatArray  # (L, 3), cm
     path_offsets: IntArray  # (L + 1,)
     path_ids: IntArray
+    unbiased: FloatArray  # (L, 3), cm; NaN where an offer carried none
+    covariances: FloatArray  # (L, 3, 3), cm^2; NaN where an offer carried none
 
     @classmethod
     def of(cls, heard: Sequence[tuple[int, Offer]]) -> RoundOffers:
@@ -213,6 +229,10 @@ class RoundOffers:
             return np.concatenate(arrays) if arrays else empty
 
         path_lengths = joined([np.diff(offer.path_offsets) for offer in offers], np.zeros(0, int))
+
+        def carried(offer: Offer, values: FloatArray | None, shape: tuple[int, ...]) -> FloatArray:
+            return values if values is not None else np.full((len(offer), *shape), np.nan)
+
         return cls(
             senders=unique,
             starts=np.append(starts[first], starts[-1]).astype(np.int64),
@@ -224,6 +244,13 @@ class RoundOffers:
             vectors=joined([offer.vectors for offer in offers], np.zeros((0, 3))),
             path_offsets=np.concatenate([[0], np.cumsum(path_lengths)]).astype(np.int64),
             path_ids=joined([offer.path_ids for offer in offers], np.zeros(0, np.int64)),
+            unbiased=joined(
+                [carried(offer, offer.unbiased, (3,)) for offer in offers], np.zeros((0, 3))
+            ),
+            covariances=joined(
+                [carried(offer, offer.covariances, (3, 3)) for offer in offers],
+                np.zeros((0, 3, 3)),
+            ),
         )
 
     def __len__(self) -> int:
@@ -358,6 +385,9 @@ class PathSearch:
     FLS a source that searches for them; ``departed`` FLSs are not relayed from.
     ``hop_errors`` (K,) is the expected error of the hop to each neighbour of
     ``view`` (core.sensor.hop_error), which labels sum as they sum lengths.
+    ``hop_fit`` ((K, 3) cm, (K, 3, 3) cm^2), given in a fitting run, is each
+    hop from a neighbour less its known bias, and its covariance: labels sum
+    them too.
     """
 
     def __init__(
@@ -370,6 +400,7 @@ class PathSearch:
         targets: IntArray | None = None,
         departed: frozenset[int] = frozenset(),
         hop_errors: FloatArray | None = None,
+        hop_fit: tuple[FloatArray, FloatArray] | None = None,
     ) -> None:
         self.fls_id = view.fls_id
         self.order = _COST_ORDER[check_policy(policy)]
@@ -383,6 +414,12 @@ class PathSearch:
         errors = np.zeros(len(view.other)) if hop_errors is None else hop_errors
         self.link_errors = np.asarray(errors[hop][order], dtype=np.float64)
         self.link_vectors = -np.asarray(view.vector[hop][order], dtype=np.float64)
+        self.fits = hop_fit is not None
+        if hop_fit is not None:
+            self.link_unbiased = hop_fit[0][hop][order]
+            self.link_covariance = hop_fit[1][hop][order]
+            self.unbiased = np.full((id_space, 3), np.nan)
+            self.covariance = np.full((id_space, 3, 3), np.nan)
         self.hops = np.full(id_space, np.inf)
         self.length = np.full(id_space, np.inf)
         self.error = np.full(id_space, np.inf)
@@ -405,6 +442,8 @@ class PathSearch:
             me = self.fls_id
             self.hops[me], self.length[me], self.error[me], self.pred[me] = 0.0, 0.0, 0.0, me
             self.vector[me] = 0.0
+            if self.fits:
+                self.unbiased[me], self.covariance[me] = 0.0, 0.0
 
     @property
     def finished(self) -> bool:
@@ -435,6 +474,8 @@ class PathSearch:
             path_ids=path_ids,
             pending=len(due) < len(labelled),
             finished=self.finished,
+            unbiased=self.unbiased[due] if self.fits else None,
+            covariances=self.covariance[due] if self.fits else None,
         )
 
     def _paths_of(self, sources: IntArray) -> tuple[IntArray, IntArray]:
@@ -483,6 +524,8 @@ class PathSearch:
                         float(heard.lengths[label]),
                         heard.vectors[label].copy(),
                         float(heard.errors[label]),
+                        heard.unbiased[label].copy() if self.fits else None,
+                        heard.covariances[label].copy() if self.fits else None,
                     )
         won_label = np.full(len(self.hops), -1, dtype=np.int64)
         won_link = np.zeros(len(self.hops), dtype=np.int64)
@@ -510,6 +553,9 @@ class PathSearch:
             return
         labels, links = won_label[changed], won_link[changed]
         self.vector[changed] = heard.vectors[labels] + self.link_vectors[links]
+        if self.fits:
+            self.unbiased[changed] = heard.unbiased[labels] + self.link_unbiased[links]
+            self.covariance[changed] = heard.covariances[labels] + self.link_covariance[links]
         key = self._heard_count
         self._heard_count += 1
         self._heard[key] = heard
@@ -536,6 +582,8 @@ class Estimate:
     vector: FloatArray = field(default_factory=lambda: np.full(3, np.nan))  # cm
     radio_path: tuple[int, ...] = ()  # the policy's S_all path (obstruction statistics)
     predicted_error: float = float("nan")  # cm (core.sensor.expected_error); nan without path
+    estimator: str = PATH  # what made ``vector``: one of SWARM_ESTIMATORS
+    covariance: FloatArray | None = None  # (3, 3), cm^2, of ``vector``: a fit's only
 
     @property
     def hops(self) -> int:
@@ -602,9 +650,12 @@ class FlsRun:
         id_space: int,
         targets: IntArray | None,
         hop_errors: FloatArray | None = None,
+        hop_fit: tuple[FloatArray, FloatArray] | None = None,
     ) -> None:
         self.view = view
         self.hop_errors = hop_errors
+        self.hop_fit = hop_fit
+        self.estimator = PATH if hop_fit is None else LOCAL_LEAST_SQUARES
         self.policy = policy
         self.width = width
         self.id_space = id_space
@@ -630,6 +681,7 @@ class FlsRun:
             targets,
             departed,
             self.hop_errors,
+            self.hop_fit,
         )
         self.results[phase] = self.search.results
         return self.search
@@ -644,6 +696,64 @@ class FlsRun:
             for target in self.targets.tolist()
             if target not in self.departed
         ]
+
+    def fitted(self, sensor: Sensor, radius: float, heard: Heard) -> list[Estimate]:
+        """The estimates with each pair's vector from this source's fit of ``heard``.
+
+        As the engine's ``--estimator local-least-squares`` makes them
+        (:func:`~swazure_ros.core.fit.window_fit`): the window is the source
+        and its radio neighbours; a target that the window does not join to
+        the source keeps its path, summed less the known bias.
+        """
+        estimates = self.estimates(sensor)
+        with_path = [one for one in estimates if one.status in (SWEET_PATH, DECAYING_PATH)]
+        if not with_path:
+            return estimates
+        targets = np.array([one.target for one in with_path], dtype=np.int64)
+        sweet = np.array([one.status == SWEET_PATH for one in with_path], dtype=bool)
+        vectors, covariances, _ = window_fit(
+            sensor, radius, radio_window(self.view), heard, targets, sweet
+        )
+        fits: dict[int, Estimate] = {}
+        for one, vector, covariance in zip(with_path, vectors, covariances, strict=True):
+            if np.isnan(vector).any():
+                phase = SWEET_VISIBLE if one.status == SWEET_PATH else ANY_VISIBLE
+                found = self.results[phase][one.target]
+                if found.unbiased is None or found.covariance is None:
+                    continue  # a label from a run that does not fit (forged): the path's own
+                vector, covariance = found.unbiased, found.covariance
+            fits[one.target] = replace(
+                one,
+                vector=vector,
+                covariance=covariance,
+                predicted_error=float(np.sqrt(np.trace(covariance))),
+                estimator=LOCAL_LEAST_SQUARES,
+            )
+        return [fits.get(one.target, one) for one in estimates]
+
+
+def radio_window(view: LocalView) -> IntArray:
+    """(W,) the FLSs an FLS hears: itself, then its radio neighbours (blind and sweet), ids."""
+    radio = np.isin(view.range_class, (BLIND, SWEET))
+    return np.concatenate([[view.fls_id], view.other[radio]]).astype(np.int64)
+
+
+def hop_fit(sensor: Sensor, radius: float, view: LocalView) -> tuple[FloatArray, FloatArray]:
+    """Each hop from a neighbour of ``view`` less its known bias (K, 3), cm, and its covariance.
+
+    The hop neighbour -> FLS, which the FLS's camera measures the other way
+    round; (K, 3, 3) cm^2, NaN without a reading. Labels sum both.
+    """
+    hop = -np.asarray(view.vector, dtype=np.float64)
+    read = np.isfinite(hop).all(axis=1)
+    unbiased = np.full_like(hop, np.nan)
+    covariance = np.full((len(hop), 3, 3), np.nan)
+    if read.any():
+        tracking = view.distance[read]
+        unbiased[read] = unbiased_vectors(sensor, hop[read], tracking)
+        directions = hop[read] / np.linalg.norm(hop[read], axis=1, keepdims=True)
+        covariance[read] = hop_covariance(sensor, tracking, directions, radius)
+    return unbiased, covariance
 
 
 @dataclass(frozen=True)
@@ -660,6 +770,7 @@ class Control:
     target_ids: tuple[int, ...] = ()  # START: the one target of each listed source
     finished_ids: tuple[int, ...] = ()  # ROUND: sources whose search ended since the last round
     departed_ids: tuple[int, ...] = ()  # FLSs declared gone: nobody relays through them
+    estimator: str = PATH  # START: one of SWARM_ESTIMATORS
 
 
 @dataclass(frozen=True)
@@ -687,7 +798,9 @@ class Participant:
 
     ``view()`` tells what the FLS knows of its neighbours when a run starts;
     ``sensor`` and ``radius`` (cm) what each hop may cost (bucket widths, hop
-    errors), and ``id_space`` bounds the FLS ids.
+    errors), and ``id_space`` bounds the FLS ids. ``readings`` holds what the
+    FLS has heard of other FLSs' cameras: a source of a fitting run reports
+    once it has heard its whole window (:meth:`waiting_reports`).
     """
 
     def __init__(
@@ -697,13 +810,17 @@ class Participant:
         sensor: Sensor,
         radius: float,
         id_space: int,
+        readings: ReadingsBook | None = None,
     ) -> None:
         self.fls_id = fls_id
         self._view = view
         self.sensor = sensor
         self.radius = radius
         self.id_space = id_space
+        self.readings = readings or ReadingsBook()
         self.runs: dict[int, FlsRun] = {}
+        # Fitting runs that ended while this source had not heard its whole window.
+        self.waiting: dict[int, FlsRun] = {}
         # Rounds count on across phases and restarts; buckets count from the phase's start.
         self._first_round: dict[int, int] = {}
 
@@ -743,8 +860,27 @@ class Participant:
             if run is not None and run.search is not None and heard is not None:
                 run.search.hear(heard)
             if run is not None and run.targets is not None:
-                return Report(run_id, self.fls_id, run.estimates(self.sensor))
+                if run.estimator == PATH:
+                    return Report(run_id, self.fls_id, run.estimates(self.sensor))
+                self.waiting[run_id] = run
+                reports = self.waiting_reports()
+                return reports[0] if reports else None
         return None
+
+    def waiting_reports(self, at_deadline: bool = False) -> list[Report]:
+        """The reports of fitting runs whose source has now heard its whole window.
+
+        ``at_deadline``: every waiting run reports, fitted to what was heard.
+        """
+        reports = []
+        for run_id, run in list(self.waiting.items()):
+            window = radio_window(run.view)
+            if not at_deadline and not self.readings.has(window):
+                continue
+            del self.waiting[run_id]
+            estimates = run.fitted(self.sensor, self.radius, self.readings.heard(window))
+            reports.append(Report(run_id, self.fls_id, estimates))
+        return reports
 
     def abandon(self) -> list[Report]:
         """Drop every run (their coordinator is gone); a source's targets are ABORTED."""
@@ -758,10 +894,11 @@ class Participant:
                     if target not in run.departed
                 ],
             )
-            for run_id, run in sorted(self.runs.items())
+            for run_id, run in sorted({**self.runs, **self.waiting}.items())
             if run.targets is not None and len(run.targets)
         ]
         self.runs.clear()
+        self.waiting.clear()
         self._first_round.clear()
         return reports
 
@@ -779,7 +916,10 @@ class Participant:
                 targets = asked[np.isin(asked, view.blind)]
         width = bucket_width(self.sensor, self.radius, control.policy)
         hop_errors = hop_error(self.sensor, view.distance, self.radius)
-        return FlsRun(view, control.policy, width, self.id_space, targets, hop_errors)
+        fits = None
+        if control.estimator == LOCAL_LEAST_SQUARES:
+            fits = hop_fit(self.sensor, self.radius, view)
+        return FlsRun(view, control.policy, width, self.id_space, targets, hop_errors, fits)
 
 
 def evaluation_of(
@@ -817,4 +957,11 @@ def evaluation_of(
     radio_rows = [indices(one.radio_path) for one in kept if one.radio_path]
     radio = paths_from_rows(len(radio_rows), dict(enumerate(radio_rows)))
     pairs = pair_results(hood, source, target, status, reason, paths, vectors, radio, connected)
+    fitted = np.array([one.covariance is not None for one in kept], dtype=bool)
+    if fitted.any():
+        # The fit's estimates carry their covariance and predicted error (core.fit.refine).
+        covariance = np.full((count, 3, 3), np.nan)
+        covariance[fitted] = [one.covariance for one in kept if one.covariance is not None]
+        predicted = np.array([one.predicted_error for one in kept], dtype=np.float64)
+        pairs = pairs.with_estimates(vectors, predicted_error=predicted, covariance=covariance)
     return Evaluation(hood, policy, pairs, summarise(hood, policy, pairs))

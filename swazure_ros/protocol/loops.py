@@ -33,8 +33,9 @@ from ..core.tracking import (
     moving_senses,
     nanoseconds,
 )
-from .discovery import Broadcast, Control, Participant, Report
+from .discovery import END, PATH, Broadcast, Control, Participant, Report
 from .radio import RadioHub
+from .readings import ReadingsBook, readings_of
 from .rounds import Outcome, RoundClock
 from .tracking import (
     RelayRequest,
@@ -62,19 +63,26 @@ def discover(
     stopped: Iterable[int] = (),
     sources: Iterable[int] = (),
     targets: Iterable[int] = (),
+    estimator: str = PATH,
 ) -> Outcome:
     """One discovery run over every FLS of ``seen`` (FLS ids ``ids``), with a perfect radio.
 
     ``stopped`` FLSs never answer: the clock declares them departed when a
     round times out, as it does over ROS. ``sensor`` and ``radius`` (cm) are the swarm's.
+    Every FLS that answers has heard every other's readings (a fitting ``estimator``).
     """
     ids = np.asarray(ids, dtype=np.int64)
     stopped = frozenset(int(fls) for fls in stopped)
     id_space = int(ids[-1]) + 1 if len(ids) else 0
+    book = ReadingsBook()
+    for row in range(len(ids)):
+        if int(ids[row]) not in stopped:
+            book.put(readings_of(local_view(seen, ids, row)))
 
     def view_of(row: int) -> Participant:
         fls_id = int(ids[row])
-        return Participant(fls_id, lambda: local_view(seen, ids, row), sensor, radius, id_space)
+        view = partial(local_view, seen, ids, row)
+        return Participant(fls_id, view, sensor, radius, id_space, book)
 
     participants = {
         int(ids[row]): view_of(row) for row in range(len(ids)) if int(ids[row]) not in stopped
@@ -82,7 +90,14 @@ def discover(
 
     hub = RadioHub(participants.keys())
     clock = RoundClock(
-        1, policy, ids.tolist(), 1, 1.0, sources=tuple(sources), targets=tuple(targets)
+        1,
+        policy,
+        ids.tolist(),
+        1,
+        1.0,
+        sources=tuple(sources),
+        targets=tuple(targets),
+        estimator=estimator,
     )
     controls: deque[Control] = deque(clock.start(0.0))
     while not clock.done:
@@ -99,6 +114,11 @@ def discover(
                 broadcasts.append(out)
             elif isinstance(out, Report):
                 controls.extend(clock.on_estimates(out.source, out.estimates, 0.0))
+        if control.command == END:
+            # A stopped FLS's readings never come: the sources that wait for them fit without.
+            for participant in participants.values():
+                for report in participant.waiting_reports(at_deadline=True):
+                    controls.extend(clock.on_estimates(report.source, report.estimates, 0.0))
         if ack is not None:
             controls.extend(clock.on_ack(ack.round, _HOST, 0.0))
         for sent in broadcasts:

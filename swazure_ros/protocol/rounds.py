@@ -19,7 +19,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from .discovery import END, PHASES, ROUND, START, Control, Estimate
+from .discovery import END, PATH, PHASES, ROUND, START, Control, Estimate
 
 #: Phases of one run a lossy radio may spoil (and restart) before the run ends incomplete.
 MAX_LOSS_RESTARTS = 10
@@ -137,7 +137,8 @@ class RoundClock:
 
     ``departed`` FLSs are gone from the start; ``sources`` (with ``targets``,
     one per source) restrict the run to those pairs, else every FLS searches
-    for every blind neighbour.
+    for every blind neighbour. ``estimator``: how sources make their
+    estimates (``discovery.SWARM_ESTIMATORS``).
     """
 
     def __init__(
@@ -151,9 +152,11 @@ class RoundClock:
         departed: Iterable[int] = (),
         sources: Iterable[int] = (),
         targets: Iterable[int] = (),
+        estimator: str = PATH,
     ) -> None:
         self.run_id = run_id
         self.policy = policy
+        self.estimator = estimator
         self.fls_ids = frozenset(fls_ids)
         self.hosts = hosts
         self.repairs = 0
@@ -275,6 +278,7 @@ class RoundClock:
             self.round,
             len(self.live),
             departed_ids=tuple(sorted(self.departed)),
+            estimator=self.estimator,
             **fields,  # type: ignore[arg-type]
         )
 

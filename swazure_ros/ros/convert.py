@@ -40,8 +40,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
 from ..core.frames import CM_PER_METRE, METRES_PER_CM, fls_frame, to_centimetres, to_metres
+from ..core.fit import PATH
 from ..core.observe import Measurement, NeighbourSets
-from ..core.sensor import Sensor
+from ..core.sensor import DECAYING, SWEET, Sensor
 from ..core.tracking import RELAY_MESSAGES, RELAY_OK, MotionEstimate, TrackState
 from ..protocol.discovery import (
     END,
@@ -57,6 +58,7 @@ from ..protocol.discovery import (
 )
 from ..protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
 from ..protocol.radio import Ack
+from ..protocol.readings import Readings
 from ..protocol.tracking import (
     START_RELAY,
     STOP_RELAY,
@@ -67,6 +69,8 @@ from ..protocol.tracking import (
 )
 from .guard import check, check_finite, check_ids, check_size
 from .names import (
+    ESTIMATOR_CODES,
+    ESTIMATOR_NAMES,
     POLICY_CODES,
     POLICY_NAMES,
     TRACK_MODEL_CODES,
@@ -83,16 +87,26 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 
-def measurements_message(fls_id: int, measurement: Measurement, stamp: Time) -> Measurements:
-    """One FLS's camera measurements as a Measurements message, in metres in the FLS's frame."""
+def measurements_message(
+    fls_id: int, measurement: Measurement, stamp: Time, radio_distance: FloatArray | None = None
+) -> Measurements:
+    """One FLS's camera measurements as a Measurements message, in metres in the FLS's frame.
+
+    ``radio_distance`` (K,), cm: each measured pair's distance by radio
+    ranging (NaN where not given).
+    """
     message = Measurements(source_id=fls_id)
     message.header.stamp = stamp
     message.header.frame_id = fls_frame(fls_id)
-    for target, range_class, vector, tracking in zip(
+    count = len(measurement.target_ids)
+    radio = np.full(count, np.nan) if radio_distance is None else radio_distance
+    for target, range_class, vector, tracking, ranged in zip(
         measurement.target_ids.tolist(),
         measurement.range_class.tolist(),
         to_metres(measurement.vector).tolist(),
         to_metres(measurement.tracking).tolist(),
+        to_metres(radio).tolist(),
+        strict=True,
     ):
         pose = RelativePose(
             source_id=fls_id,
@@ -101,10 +115,35 @@ def measurements_message(fls_id: int, measurement: Measurement, stamp: Time) -> 
             line_of_sight=True,
             vector=Vector3(x=vector[0], y=vector[1], z=vector[2]),
             tracking_distance=tracking,
+            radio_distance=ranged,
         )
         pose.header = message.header
         message.poses.append(pose)
     return message
+
+
+def readings_from_message(message: Measurements, swarm: IntArray) -> Readings:
+    """The camera readings (cm) of a Measurements message from an FLS of ``swarm`` (sorted ids).
+
+    MessageError unless every pose is the source's, of an FLS of the swarm
+    once, in sweet or decaying range, with a finite vector and radio
+    distance.
+    """
+    poses = message.poses
+    check_size(poses, len(swarm), "poses")
+    source = int(message.source_id)
+    check(all(pose.source_id == source for pose in poses), "a pose of another FLS")
+    other = check_ids([source] + [pose.target_id for pose in poses], swarm, "poses")[1:]
+    check(len(np.unique(other)) == len(other), "an FLS measured twice")
+    check(source not in other, "an FLS measures itself")
+    range_class = np.array([pose.range_class for pose in poses], dtype=np.int8)
+    check(bool(np.isin(range_class, (SWEET, DECAYING)).all()), "a reading out of camera range")
+    numbers = [(p.vector.x, p.vector.y, p.vector.z, p.radio_distance) for p in poses]
+    values = to_centimetres(check_finite(numbers, "poses").reshape(-1, 4))
+    order = np.argsort(other, kind="stable")
+    return Readings(
+        source, other[order], range_class[order], values[order, 3], values[order, :3].copy()
+    )
 
 
 #: Readings a Detections message may hold: a camera reads a few dozen markers at most.
@@ -226,6 +265,9 @@ def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:
     message.vectors = offer.vectors.astype(np.float64).ravel()
     message.path_offsets = offer.path_offsets.astype(np.uint32)
     message.path_ids = offer.path_ids.astype(np.uint32)
+    if offer.unbiased is not None and offer.covariances is not None:
+        message.unbiased_vectors = offer.unbiased.astype(np.float64).ravel()
+        message.covariances = offer.covariances.astype(np.float64).ravel()
     return message
 
 
@@ -245,6 +287,12 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
         "source_ids, hops, lengths and errors differ in length",
     )
     check(len(message.vectors) == 3 * count, "not 3 vector values per label")
+    fits = len(message.unbiased_vectors) > 0 or len(message.covariances) > 0
+    check(
+        not fits
+        or (len(message.unbiased_vectors) == 3 * count and len(message.covariances) == 9 * count),
+        "not 3 unbiased vector and 9 covariance values per label",
+    )
     check(len(message.path_offsets) == count + 1, "not one more path offset than labels")
     sources = np.asarray(message.source_ids, dtype=np.int64)
     # A sender offers its labels in source order, one a source (PathSearch.offer).
@@ -278,7 +326,15 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
         path_ids=path_ids,
         pending=message.pending,
         finished=message.finished,
+        unbiased=_fit_sums(message, "unbiased_vectors", (-1, 3)) if fits else None,
+        covariances=_fit_sums(message, "covariances", (-1, 3, 3)) if fits else None,
     )
+
+
+def _fit_sums(message: PathOffer, name: str, shape: tuple[int, ...]) -> FloatArray:
+    """A fitting offer's sums of field ``name``, shaped (NaN only where vectors may be)."""
+    values = check_finite(getattr(message, name), name, allow_nan=message.phase == SWEET_ALL)
+    return values.reshape(shape)
 
 
 def estimate_message(found: Estimate) -> PathEstimate:
@@ -297,7 +353,10 @@ def pose_estimate_message(source: int, found: Estimate, stamp: Time) -> PoseEsti
 def _estimate_fields(found: Estimate, unit: Callable[[Any], Any]) -> dict[str, Any]:
     """The fields PathEstimate and PoseEstimate share, lengths converted by ``unit``."""
     vector = unit(found.vector).tolist()
+    covariance = np.full(9, np.nan) if found.covariance is None else found.covariance.ravel()
     return {
+        "estimator": ESTIMATOR_CODES[found.estimator],
+        "covariance": unit(unit(covariance)),
         "target_id": found.target,
         "status": found.status,
         "reason": found.reason,
@@ -347,6 +406,8 @@ def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> list[Esti
     )
     numbers = [(one.vector.x, one.vector.y, one.vector.z, one.path_length) for one in estimates]
     check_finite(numbers, "vector", allow_nan=True)
+    check(all(one.estimator in ESTIMATOR_NAMES for one in estimates), "unknown estimator")
+    check_finite([list(one.covariance) for one in estimates], "covariance", allow_nan=True)
     return [estimate_from_message(one) for one in estimates]
 
 
@@ -363,6 +424,8 @@ def pose_estimate_from_message(message: PoseEstimate) -> Estimate:
 def _estimate(message: PathEstimate | PoseEstimate, cm_per_unit: float) -> Estimate:
     """An Estimate of either message; lengths times ``cm_per_unit`` (1: already in cm)."""
     vector = message.vector
+    covariance = np.asarray(message.covariance, dtype=np.float64).reshape(3, 3)
+    fitted = np.isfinite(covariance).all()
     return Estimate(
         target=int(message.target_id),
         status=int(message.status),
@@ -372,6 +435,8 @@ def _estimate(message: PathEstimate | PoseEstimate, cm_per_unit: float) -> Estim
         vector=np.array([vector.x, vector.y, vector.z]) * cm_per_unit,
         radio_path=tuple(int(fls) for fls in message.radio_path),
         predicted_error=float(message.predicted_error) * cm_per_unit,
+        estimator=ESTIMATOR_NAMES.get(message.estimator, PATH),
+        covariance=covariance * cm_per_unit**2 if fitted else None,
     )
 
 
@@ -508,6 +573,7 @@ def control_message(control: Control, stamp: Time) -> DiscoveryControl:
         target_ids=list(control.target_ids),
         finished_ids=list(control.finished_ids),
         departed_ids=list(control.departed_ids),
+        estimator=ESTIMATOR_CODES[control.estimator],
     )
     message.header.stamp = stamp
     return message
@@ -522,6 +588,7 @@ def control_from_message(message: DiscoveryControl, swarm: IntArray) -> Control:
     check(message.command in (START, ROUND, END), f"unknown command {message.command}")
     check(message.phase in PHASES, f"unknown phase {message.phase}")
     check(message.policy in POLICY_NAMES, f"unknown policy {message.policy}")
+    check(message.estimator in ESTIMATOR_NAMES, f"unknown estimator {message.estimator}")
     check(message.expected <= len(swarm), f"expects {message.expected} FLSs, more than the swarm")
     lists = {}
     for name in ("source_ids", "target_ids", "finished_ids", "departed_ids"):
@@ -539,6 +606,7 @@ def control_from_message(message: DiscoveryControl, swarm: IntArray) -> Control:
         policy=POLICY_NAMES[message.policy],
         round=int(message.round),
         expected=int(message.expected),
+        estimator=ESTIMATOR_NAMES[message.estimator],
         **lists,
     )
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from swazure_interfaces.msg import DiscoveryControl, TrackEstimate
 
+from ..core.fit import LOCAL_LEAST_SQUARES, PATH
 from ..core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
 from ..core.tracking import (
     CONSTANT_ACCELERATION,
@@ -113,6 +114,13 @@ POLICY_NAMES = {
     DiscoveryControl.POLICY_LEAST_ERROR: LEAST_ERROR,
 }
 POLICY_CODES = {name: code for code, name in POLICY_NAMES.items()}
+
+#: DiscoveryControl.ESTIMATOR_* (and ComputePose's, PoseEstimate's) -> the core's estimators.
+ESTIMATOR_NAMES = {
+    DiscoveryControl.ESTIMATOR_PATH: PATH,
+    DiscoveryControl.ESTIMATOR_LOCAL_LEAST_SQUARES: LOCAL_LEAST_SQUARES,
+}
+ESTIMATOR_CODES = {name: code for code, name in ESTIMATOR_NAMES.items()}
 
 #: TrackEstimate.MODEL_* (and TrackTarget's) -> the core's filter models.
 TRACK_MODEL_NAMES = {

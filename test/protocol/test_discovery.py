@@ -18,6 +18,7 @@ from swazure_ros.core.evaluate import (
     neighbourhood,
     without,
 )
+from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.core.observe import observations
 from swazure_ros.core.paths import POLICIES
 from swazure_ros.core.sensor import config_dir, hop_error, load_sensor
@@ -26,6 +27,7 @@ from swazure_ros.protocol.loops import discover
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import A, B, C, D, K, scene
+from ..core.test_fit import stochastic_sensor
 
 
 def run(hood, policy, **options):
@@ -152,3 +154,30 @@ def test_on_demand_a_source_answers_for_its_one_target():
     found, _outcome = run(world.hood, "fewest-hops", sources=[source], targets=[target])
     assert list(found) == [(source, target)]
     assert found[(source, target)].path == tuple(int(world.ids[k]) for k in engine.path(pair))
+
+
+@pytest.mark.parametrize("noisy", [False, True], ids=["published", "stochastic"])
+def test_each_source_s_own_fit_equals_the_engine_s_window_fit(noisy):
+    # torus:120 at beta 0.3 has sweet and decaying pairs, and pairs beyond a window.
+    world = WorldSpec("torus:120", scale=1.6, beta=0.3).build()
+    sensor = stochastic_sensor(mean_error=0.03) if noisy else world.sensor
+    policy = "shortest-length"
+    engine = refine(evaluate(world.swarm, sensor, policy), local=True)
+    hood = engine.hood
+    found, _ = run(hood, policy, estimator=LOCAL_LEAST_SQUARES)
+    assert engine.summary["fit"]["path_fallback_pairs"] > 0
+    pairs, ids = engine.pairs, world.ids
+    assert len(found) == len(pairs)
+    for pair in range(len(pairs)):
+        one = found[(int(ids[pairs.source[pair]]), int(ids[pairs.target[pair]]))]
+        assert one.status == pairs.status[pair]
+        if one.status == NO_PATH:
+            assert one.covariance is None
+            continue
+        assert one.estimator == LOCAL_LEAST_SQUARES
+        np.testing.assert_allclose(one.vector, pairs.estimate[pair], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(one.covariance, pairs.covariance[pair], rtol=1e-9, atol=1e-12)
+    _, outcome = run(hood, policy, estimator=LOCAL_LEAST_SQUARES)
+    distributed = evaluation_of(hood, policy, outcome.estimates)
+    np.testing.assert_allclose(distributed.pairs.covariance, pairs.covariance, rtol=1e-9)
+    np.testing.assert_allclose(distributed.pairs.predicted_error, pairs.predicted_error, rtol=1e-9)
