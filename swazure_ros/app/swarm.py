@@ -34,6 +34,7 @@ from rclpy.task import Future
 
 from ..core.errors import SwazureError
 from ..core.evaluate import Evaluation, evaluate
+from ..core.fit import LOCAL_LEAST_SQUARES, PATH, refine
 from ..core.heuristics import PLAIN, HeuristicResult, run_technique
 from ..protocol.discovery import evaluation_of
 from ..ros import runtime
@@ -489,9 +490,10 @@ class RunningSwarm:
         policy: str,
         timeout: float | None = None,
         on_progress: Callable[[str], None] | None = None,
+        estimator: str = PATH,
     ) -> DiscoveryResult:
-        """Run discovery for every FLS and blind neighbour."""
-        run = self._coordinator.discover(policy)
+        """Run discovery for every FLS and blind neighbour; sources estimate by ``estimator``."""
+        run = self._coordinator.discover(policy, estimator=estimator)
         result: DiscoveryResult = self.run(run, timeout, on_progress=on_progress)
         return result
 
@@ -608,15 +610,20 @@ def compute_all(
     threshold: int = 10,
     on_discovered: Callable[[DiscoveryResult], None] | None = None,
     on_progress: Callable[[str], None] | None = None,
+    estimator: str = PATH,
 ) -> SwarmComputation:
     """Every FLS's pose relative to every blind neighbour, by the swarm, and by the engine.
 
     With a ``technique`` other than plain, the swarm then makes that heuristic's
     moves. ``on_discovered`` hears the discovery run's result as soon as it is in;
-    ``on_progress`` how far each run is, every PROGRESS_PERIOD s.
+    ``on_progress`` how far each run is, every PROGRESS_PERIOD s. With the
+    ``estimator`` local-least-squares each source fits what it hears, and the
+    engine does the same (``core.fit.refine(..., local=True)``).
     """
+    if estimator != PATH and technique != PLAIN:
+        raise ValueError(f"the {estimator} estimator estimates plain Swazure's pairs only")
     world: World = swarm.world
-    result = swarm.discover(policy, on_progress=on_progress)
+    result = swarm.discover(policy, on_progress=on_progress, estimator=estimator)
     if on_discovered is not None:
         on_discovered(result)
     evaluation = evaluation_of(world.hood, policy, result.estimates)
@@ -639,6 +646,8 @@ def compute_all(
     began = time.perf_counter()
     engine = evaluate(world.swarm, world.sensor, policy)
     engine, _ = run_technique(engine, technique, threshold)
+    if estimator == LOCAL_LEAST_SQUARES:
+        engine = refine(engine, local=True)
     engine_seconds = time.perf_counter() - began
     return SwarmComputation(
         evaluation,
@@ -660,6 +669,11 @@ def same_results(ours: Evaluation, engine: Evaluation) -> str:
     paths = not np.array_equal(mine.nodes, theirs.nodes)
     with np.errstate(invalid="ignore"):
         far = int((np.abs(mine.estimate - theirs.estimate) > 1e-9).any(axis=1).sum())
+        if mine.covariance is not None and theirs.covariance is not None:
+            # A fit's covariance too, relative to its largest entry (cm^2 of any size).
+            scale = np.abs(theirs.covariance).max(axis=(1, 2))
+            apart = np.abs(mine.covariance - theirs.covariance).max(axis=(1, 2))
+            far += int((apart > 1e-9 * scale).sum())
     if status or paths or far:
         return f"no: {status} statuses, {far} estimates differ; paths differ: {paths}"
     return "yes"

@@ -16,7 +16,7 @@ from typing import Any
 from ..core.clouds import load_cloud
 from ..core.errors import CloudError, SwazureError
 from ..core.evaluate import Progress, evaluate
-from ..core.fit import ESTIMATORS, LOCAL_LEAST_SQUARES, PATH, refine
+from ..core.fit import ESTIMATORS, LOCAL_LEAST_SQUARES, PATH, SWARM_ESTIMATORS, refine
 from ..core.fusion import fuse
 from ..core.geometry import make_swarm
 from ..core.heuristics import COMPAT_MODES, PLAIN, TECHNIQUES, HeuristicResult, run_technique
@@ -75,6 +75,18 @@ def add_domain_argument(parser: argparse.ArgumentParser) -> None:
         type=domain_id,
         default=None,
         help=f"ROS domain id, 0..{MAX_DOMAIN_ID} (default: $ROS_DOMAIN_ID)",
+    )
+
+
+def add_swarm_estimator_argument(parser: argparse.ArgumentParser, context: str = "") -> None:
+    """``--estimator`` as a swarm runs it: the path sum, or each source's own fit."""
+    parser.add_argument(
+        "--estimator",
+        choices=SWARM_ESTIMATORS,
+        default=PATH,
+        help=f"{context}how each source estimates a pose: the sum of the measured hops along "
+        "the policy's path, as the paper does (default), or a least-squares fit of the "
+        "measurements it hears by radio, with a covariance (docs/core.md)",
     )
 
 

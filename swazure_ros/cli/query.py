@@ -2,7 +2,8 @@
 
 Calls /NAMESPACE/coordinator/compute_pose (swazure_interfaces/ComputePose):
 the coordinator clocks one discovery run in which labels travel from FLS to
-FLS (docs/protocol.md). Prints the status, the path and the summed vector.
+FLS (docs/protocol.md). Prints the status, the path and the estimated vector; with
+``--estimator local-least-squares``, the source's fit and its standard deviations.
 """
 
 from __future__ import annotations
@@ -12,11 +13,13 @@ import math
 import time
 from typing import Any
 
+import numpy as np
+
 from ..core.errors import SwazureError
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
 from ..protocol.discovery import Estimate
 from .arguments import fls_id, ros_namespace, seconds
-from .evaluate import add_domain_argument, add_policy_argument
+from .evaluate import add_domain_argument, add_policy_argument, add_swarm_estimator_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -24,6 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--source", type=fls_id, required=True, metavar="I", help="source FLS id")
     parser.add_argument("--target", type=fls_id, required=True, metavar="J", help="target FLS id")
     add_policy_argument(parser)
+    add_swarm_estimator_argument(parser)
     parser.add_argument(
         "--namespace", type=ros_namespace, default="swarm", help="namespace of the swarm"
     )
@@ -48,6 +52,13 @@ def describe(source: int, found: Estimate) -> str:
         norm = math.sqrt(x * x + y * y + z * z)
         lines.append(f"vector: ({x:.6f}, {y:.6f}, {z:.6f}) cm, |v| = {norm:.6f} cm")
         lines.append(f"path length: {found.length:.6f} cm")
+        if found.covariance is not None:
+            sigma = np.sqrt(np.diag(found.covariance))
+            lines.append(
+                f"{found.estimator}: standard deviation (x, y, z) "
+                f"({sigma[0]:.6f}, {sigma[1]:.6f}, {sigma[2]:.6f}) cm, "
+                f"sqrt(trace) {found.predicted_error:.6f} cm"
+            )
     return "\n".join(lines)
 
 
@@ -57,7 +68,7 @@ def main(args: argparse.Namespace) -> int:
     from swazure_interfaces.srv import ComputePose
 
     from ..ros.convert import pose_estimate_from_message
-    from ..ros.names import COMPUTE_POSE_SERVICE, COORDINATOR, policy_code
+    from ..ros.names import COMPUTE_POSE_SERVICE, COORDINATOR, ESTIMATOR_CODES, policy_code
     from ..ros.runtime import SwarmNode, init_context
 
     namespace = args.namespace.strip("/") or "swarm"
@@ -77,7 +88,10 @@ def main(args: argparse.Namespace) -> int:
                 )
             executor.spin_once(timeout_sec=0.1)
         request = ComputePose.Request(
-            source_id=args.source, target_id=args.target, policy=policy_code(args.policy)
+            source_id=args.source,
+            target_id=args.target,
+            policy=policy_code(args.policy),
+            estimator=ESTIMATOR_CODES[args.estimator],
         )
         future: Any = client.call_async(request)
         while not future.done():

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import SwazureError
+from ..core.fit import PATH
 from ..core.heuristics import PLAIN, TECHNIQUES
 from ..core.sensor import config_dir
 from ..ros.keys import KEY_FILE_VARIABLE
@@ -50,6 +51,7 @@ from .evaluate import (
     add_domain_argument,
     add_policy_argument,
     add_swarm_arguments,
+    add_swarm_estimator_argument,
     add_threshold_argument,
 )
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
@@ -110,6 +112,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "with the moves made by the swarm (default: plain)",
     )
     add_threshold_argument(parser)
+    add_swarm_estimator_argument(parser, "with --compute-all: ")
     parser.add_argument(
         "--out",
         type=output_folder,
@@ -239,8 +242,14 @@ def config_from_args(args: argparse.Namespace) -> Any:
 
     if args.beta is None and args.radius is None:
         raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
-    if not args.compute_all and (args.out is not None or args.technique != PLAIN):
-        raise SwazureError("--out and --technique go with --compute-all")
+    if not args.compute_all and (
+        args.out is not None or args.technique != PLAIN or args.estimator != PATH
+    ):
+        raise SwazureError("--out, --technique and --estimator go with --compute-all")
+    if args.estimator != PATH and args.technique != PLAIN:
+        raise SwazureError(
+            f"--estimator {args.estimator} estimates plain Swazure's pairs: leave out --technique"
+        )
     if args.processes < 1:
         raise SwazureError(f"--processes must be at least 1, got {args.processes}")
     if args.no_key and args.key_file is not None:
@@ -319,7 +328,9 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
             print(f"  {time.monotonic() - began:.0f} s: {text}", file=sys.stderr, flush=True)
 
     print(f"discovery: every FLS for every blind neighbour, {args.policy}", flush=True)
-    computed = run(swarm, args.policy, args.technique, args.threshold, discovered, progress)
+    computed = run(
+        swarm, args.policy, args.technique, args.threshold, discovered, progress, args.estimator
+    )
     if computed.moves is not None:
         moved = computed.moves
         print(
@@ -335,7 +346,9 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     table = summary_table(summary, ("engine", computed.engine.summary))
     print(table.replace("this run", "distributed"))
     print(
-        f"pairs identical to the engine's (status, path, estimate to 1e-9): {computed.identical}"
+        "pairs identical to the engine's (status, path, estimate to 1e-9"
+        + (", covariance" if args.estimator != PATH else "")
+        + f"): {computed.identical}"
     )
     if args.out is not None:
         try:

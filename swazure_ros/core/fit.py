@@ -45,6 +45,8 @@ IntArray = NDArray[np.int64]
 #: the whole swarm's measurements; each source's own fit over what it hears by radio.
 PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES = "path", "least-squares", "local-least-squares"
 ESTIMATORS = (PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES)
+#: What a swarm's sources run: a source fits what it hears, never the whole swarm at once.
+SWARM_ESTIMATORS = (PATH, LOCAL_LEAST_SQUARES)
 #: Huber's threshold on a measurement's Mahalanobis residual: the 99th percentile of a
 #: chi distribution with 3 degrees of freedom, so a clean measurement is rarely down-weighted.
 HUBER_THRESHOLD = 3.368
@@ -593,6 +595,20 @@ def normalized_errors(error: FloatArray, covariance: FloatArray) -> FloatArray:
     return out
 
 
+def consistency(pairs: PairResults) -> dict[str, Any]:
+    """How honest ``pairs``' covariances are: their NEES, and how often it is within chi2 95 %."""
+    if pairs.covariance is None:
+        raise ValueError("these pairs' estimator gives no covariance")
+    nees = normalized_errors(pairs.estimate - pairs.truth, pairs.covariance)
+    known = np.isfinite(nees)
+    return {
+        "nees": describe(nees[known]),
+        "within_chi2_95_pct": float(100.0 * (nees[known] <= CHI2_95_3DOF).mean())
+        if known.any()
+        else float("nan"),
+    }
+
+
 def local_estimates(
     hood: Neighbourhood,
     source: IntArray,
@@ -683,8 +699,6 @@ def refine(
     updated = pairs.with_estimates(estimate, predicted_error=predicted, covariance=covariance)
     summary = summarise(evaluation.hood, evaluation.policy, updated)
     summary["seconds"] = (evaluation.summary.get("seconds") or 0.0) + result.seconds
-    nees = normalized_errors(estimate - pairs.truth, covariance)
-    known = np.isfinite(nees)
     estimator = LOCAL_LEAST_SQUARES if local else LEAST_SQUARES
     summary["estimator"] = estimator
     summary["fit"] = {
@@ -692,10 +706,7 @@ def refine(
         "robust": robust,
         "measurements": result.measurements,
         "downweighted": result.downweighted,
-        "nees": describe(nees[known]),
-        "within_chi2_95_pct": float(100.0 * (nees[known] <= CHI2_95_3DOF).mean())
-        if known.any()
-        else float("nan"),
+        **consistency(updated),
         "seconds": result.seconds,
     }
     summary["parameters"]["estimator"] = estimator

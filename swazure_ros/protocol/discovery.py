@@ -46,7 +46,7 @@ from ..core.evaluate import (
     pair_results,
     summarise,
 )
-from ..core.fit import LOCAL_LEAST_SQUARES, PATH, Heard, window_fit
+from ..core.fit import LOCAL_LEAST_SQUARES, PATH, Heard, consistency, window_fit
 from ..core.neighbours import ordered_blind_pairs
 from ..core.observe import LocalView
 from ..core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy, paths_from_rows
@@ -72,9 +72,6 @@ PHASES = (SWEET_VISIBLE, SWEET_ALL, ANY_VISIBLE)
 PHASE_NAMES = ("S_vis", "S_all", "SD_vis")
 # The coordinator's commands; the values equal DiscoveryControl's COMMAND_*.
 START, ROUND, END = 0, 1, 2
-#: The estimators a swarm runs; the codes equal DiscoveryControl's ESTIMATOR_*. The swarm
-#: fits what each source hears, never the whole swarm at once.
-SWARM_ESTIMATORS = (PATH, LOCAL_LEAST_SQUARES)
 
 #: Rounds that one sweet hop may cost in a least-error run, at most: the calibrated
 #: sensors' cost 24 and 88; a sensor whose error crosses zero in its range, tens of thousands.
@@ -582,7 +579,7 @@ class Estimate:
     vector: FloatArray = field(default_factory=lambda: np.full(3, np.nan))  # cm
     radio_path: tuple[int, ...] = ()  # the policy's S_all path (obstruction statistics)
     predicted_error: float = float("nan")  # cm (core.sensor.expected_error); nan without path
-    estimator: str = PATH  # what made ``vector``: one of SWARM_ESTIMATORS
+    estimator: str = PATH  # what made ``vector``: one of core.fit.SWARM_ESTIMATORS
     covariance: FloatArray | None = None  # (3, 3), cm^2, of ``vector``: a fit's only
 
     @property
@@ -770,7 +767,7 @@ class Control:
     target_ids: tuple[int, ...] = ()  # START: the one target of each listed source
     finished_ids: tuple[int, ...] = ()  # ROUND: sources whose search ended since the last round
     departed_ids: tuple[int, ...] = ()  # FLSs declared gone: nobody relays through them
-    estimator: str = PATH  # START: one of SWARM_ESTIMATORS
+    estimator: str = PATH  # START: one of core.fit.SWARM_ESTIMATORS
 
 
 @dataclass(frozen=True)
@@ -817,7 +814,7 @@ class Participant:
         self.sensor = sensor
         self.radius = radius
         self.id_space = id_space
-        self.readings = readings or ReadingsBook()
+        self.readings = ReadingsBook() if readings is None else readings
         self.runs: dict[int, FlsRun] = {}
         # Fitting runs that ended while this source had not heard its whole window.
         self.waiting: dict[int, FlsRun] = {}
@@ -964,4 +961,8 @@ def evaluation_of(
         covariance[fitted] = [one.covariance for one in kept if one.covariance is not None]
         predicted = np.array([one.predicted_error for one in kept], dtype=np.float64)
         pairs = pairs.with_estimates(vectors, predicted_error=predicted, covariance=covariance)
-    return Evaluation(hood, policy, pairs, summarise(hood, policy, pairs))
+    summary = summarise(hood, policy, pairs)
+    if fitted.any():
+        summary["estimator"] = summary["parameters"]["estimator"] = LOCAL_LEAST_SQUARES
+        summary["fit"] = consistency(pairs)
+    return Evaluation(hood, policy, pairs, summary)

@@ -20,6 +20,7 @@ from functools import partial
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.fit import PATH
 from ..core.motion import Motion
 from ..core.observe import Observations, local_view
 from ..core.sensor import Sensor
@@ -33,7 +34,7 @@ from ..core.tracking import (
     moving_senses,
     nanoseconds,
 )
-from .discovery import END, PATH, Broadcast, Control, Participant, Report
+from .discovery import END, Broadcast, Control, Participant, Report
 from .radio import RadioHub
 from .readings import ReadingsBook, readings_of
 from .rounds import Outcome, RoundClock

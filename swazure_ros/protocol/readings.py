@@ -10,6 +10,7 @@ rows from it.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -69,7 +70,7 @@ class ReadingsBook:
         held = [self._by_owner.get(int(fls)) for fls in members.tolist()]
         rows = [(one, np.isin(one.other, members)) for one in held if one is not None]
 
-        def joined(name: str, empty: NDArray[np.generic]) -> NDArray[np.generic]:
+        def joined(name: str, empty: NDArray[Any]) -> NDArray[Any]:
             return np.concatenate([getattr(one, name)[keep] for one, keep in rows] + [empty])
 
         owner = [np.full(int(keep.sum()), one.owner, dtype=np.int64) for one, keep in rows]

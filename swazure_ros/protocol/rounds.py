@@ -19,7 +19,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 
-from .discovery import END, PATH, PHASES, ROUND, START, Control, Estimate
+from ..core.fit import PATH
+from .discovery import END, PHASES, ROUND, START, Control, Estimate
 
 #: Phases of one run a lossy radio may spoil (and restart) before the run ends incomplete.
 MAX_LOSS_RESTARTS = 10
@@ -138,7 +139,7 @@ class RoundClock:
     ``departed`` FLSs are gone from the start; ``sources`` (with ``targets``,
     one per source) restrict the run to those pairs, else every FLS searches
     for every blind neighbour. ``estimator``: how sources make their
-    estimates (``discovery.SWARM_ESTIMATORS``).
+    estimates (``core.fit.SWARM_ESTIMATORS``).
     """
 
     def __init__(

@@ -39,8 +39,8 @@ from swazure_interfaces.msg import (
 from visualization_msgs.msg import Marker, MarkerArray
 
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
-from ..core.frames import CM_PER_METRE, METRES_PER_CM, fls_frame, to_centimetres, to_metres
 from ..core.fit import PATH
+from ..core.frames import CM_PER_METRE, METRES_PER_CM, fls_frame, to_centimetres, to_metres
 from ..core.observe import Measurement, NeighbourSets
 from ..core.sensor import DECAYING, SWEET, Sensor
 from ..core.tracking import RELAY_MESSAGES, RELAY_OK, MotionEstimate, TrackState

@@ -41,7 +41,7 @@ from swazure_interfaces.srv import ComputePose
 from ..core.evaluate import Evaluation, Neighbourhood, neighbourhood
 from ..core.heuristics import HeuristicResult
 from ..core.paths import check_policy
-from ..protocol.discovery import Control, Estimate, Offer, bucket_width, evaluation_of
+from ..protocol.discovery import PATH, Control, Estimate, Offer, bucket_width, evaluation_of
 from ..protocol.moves import Move, MoveRun, Walk
 from ..protocol.plausible import implausible
 from ..protocol.rounds import Absences, RoundClock, StallClock
@@ -65,6 +65,7 @@ from .names import (
     DEPARTED_QOS,
     DEPARTED_TOPIC,
     ESTIMATES_TOPIC,
+    ESTIMATOR_NAMES,
     LIVENESS_GRACE,
     MOVE_QOS,
     MOVE_TOPIC,
@@ -301,9 +302,11 @@ class Coordinator(SwarmNode):
         policy: str,
         sources: list[int] | None = None,
         targets: list[int] | None = None,
+        estimator: str = PATH,
     ) -> Future:
         """Run discovery: every FLS for every blind neighbour, or sources[k] for targets[k].
 
+        ``estimator``: how sources estimate (``core.fit.SWARM_ESTIMATORS``).
         Returns a future of the :class:`DiscoveryResult`. ValueError for a
         policy that this swarm's sensor cannot run (least-error without error).
         """
@@ -319,6 +322,7 @@ class Coordinator(SwarmNode):
                 departed=self.departed,
                 sources=sources or (),
                 targets=targets or (),
+                estimator=estimator,
             )
 
         return self._enqueue(begin)
@@ -554,6 +558,10 @@ class Coordinator(SwarmNode):
         problem = None
         if request.policy not in POLICY_NAMES:
             problem = f"unknown policy {request.policy}: expected one of {sorted(POLICY_NAMES)}"
+        elif request.estimator not in ESTIMATOR_NAMES:
+            problem = (
+                f"unknown estimator {request.estimator}: expected one of {sorted(ESTIMATOR_NAMES)}"
+            )
         elif (unusable := self._unusable(POLICY_NAMES[request.policy])) is not None:
             problem = unusable
         elif source == target:
@@ -569,7 +577,8 @@ class Coordinator(SwarmNode):
         if problem is not None:
             reply(ComputePose.Response(success=False, message=problem))
             return
-        run = self.discover(POLICY_NAMES[request.policy], [source], [target])
+        estimator = ESTIMATOR_NAMES[request.estimator]
+        run = self.discover(POLICY_NAMES[request.policy], [source], [target], estimator)
         run.add_done_callback(lambda done: reply(self._pose_answer(done.result(), source, target)))
 
     def _unusable(self, policy: str) -> str | None:

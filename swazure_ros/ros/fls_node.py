@@ -91,6 +91,7 @@ from ..protocol.moves import (
     step_walk,
     walk_estimate,
 )
+from ..protocol.readings import ReadingsBook
 from ..protocol.senses import DetectedSenses, Senses
 from ..protocol.tracking import (
     STOP_RELAY,
@@ -233,6 +234,7 @@ class FlsNode(SwarmNode):
         parameter_services: bool = False,
         detections: DetectedSenses | None = None,
         key: SwarmKey | None = None,
+        readings: ReadingsBook | None = None,
     ) -> None:
         super().__init__(
             node_name(fls_id),
@@ -271,8 +273,14 @@ class FlsNode(SwarmNode):
         self._sensed: tuple[int, Measurement, NeighbourSets] | None = None
         self._published: Measurement | None = None  # the last measurement sent
         self._published_at = 0  # ns on the node's clock
+        # What its process's radio heard of other FLSs' cameras (a fitting run's window).
         self.discovery = Participant(
-            fls_id, lambda: senses.view(fls_id), senses.sensor, senses.radius, senses.id_space
+            fls_id,
+            lambda: senses.view(fls_id),
+            senses.sensor,
+            senses.radius,
+            senses.id_space,
+            readings,
         )
         self.relay = RelayStreams(fls_id, self._sense_for_relay, self.track_config)
         self.tracker = TrackSource(
@@ -435,6 +443,10 @@ class FlsNode(SwarmNode):
     def _on_reader_matched(self, info: QoSPublisherMatchedInfo) -> None:
         if info.current_count_change > 0:
             self._wake_frames()
+            if self._published is None:
+                # A first reader (a radio about to fit) gets what the camera sees now,
+                # not a frame period later: the latched message serves later readers.
+                self._on_frame()
 
     def _sense(self) -> tuple[Measurement, NeighbourSets]:
         # Lazily, once per revision: while a heuristic moves FLSs, revisions come
@@ -474,7 +486,11 @@ class FlsNode(SwarmNode):
         self._published = self.measurement
         self._published_at = self.get_clock().now().nanoseconds
         self.measurements_sent += 1
-        self._publisher.publish(measurements_message(self.fls_id, self._published, stamp))
+        # Each reading's radio distance: what a source's fit weighs the reading by.
+        view = self._senses.view(self.fls_id)
+        rows = np.searchsorted(view.other, self._published.target_ids)
+        message = measurements_message(self.fls_id, self._published, stamp, view.distance[rows])
+        self._publisher.publish(self.transmitter.key.serialize(message))
 
     def _elsewhere(self, fls_id: int, service: str, does: str = "answers for itself") -> str:
         """Where FLS ``fls_id`` answers ``service`` for itself."""
@@ -505,6 +521,12 @@ class FlsNode(SwarmNode):
         out = self.discovery.on_control(control, heard)
         if out is not None:
             self._publish_discovery(out)
+
+    def report_waiting(self, at_deadline: bool = False) -> bool:
+        """Report the fits whose windows are heard (all ``at_deadline``); True when none wait."""
+        for report in self.discovery.waiting_reports(at_deadline):
+            self._publish_discovery(report)
+        return not self.discovery.waiting
 
     def on_walk(self, walk: Walk) -> Walk | None:
         """Take a path walk addressed to this FLS; return the walk to send on, if any."""
@@ -712,7 +734,14 @@ def build_fls(context: Context) -> list[Node]:
         # than there are: its radio is made then, and listens once heard (listen_when_heard).
         nonlocal radio_up
         if node.radio is None:
-            node.radio = Radio(node, senses, {fls_id: node}, guard=node.guard, listen=False)
+            node.radio = Radio(
+                node,
+                senses,
+                {fls_id: node},
+                guard=node.guard,
+                listen=False,
+                readings=node.discovery.readings,
+            )
             radio_up = time.monotonic()
             node.get_logger().info("radio on: its camera's first frame is in")
 

@@ -27,6 +27,7 @@ from swazure_interfaces.msg import (
 
 from ..core.motion import Motion
 from ..protocol.radio import RadioLoss
+from ..protocol.readings import ReadingsBook
 from ..protocol.rounds import Absences
 from ..sim.replica import WorldReplica
 from ..sim.world import World
@@ -105,8 +106,17 @@ class SwarmHost:
         self.replica.on_revision.append(self._sense_anew)
         # A process of no FLS (the simulator beside FLSs that run one to a process)
         # has nothing to relay: no radio, so that the coordinator counts no host here.
+        # What the radio hears of the FLSs' cameras, for its FLSs' fits: one book a process.
+        self.readings = ReadingsBook()
         self.radio = (
-            Radio(self.host_node, self.replica, self.fls_by_id, self._radio_loss(), self.guard)
+            Radio(
+                self.host_node,
+                self.replica,
+                self.fls_by_id,
+                self._radio_loss(),
+                self.guard,
+                readings=self.readings,
+            )
             if self.fls_ids
             else None
         )
@@ -208,6 +218,7 @@ class SwarmHost:
                 relay_senses=lambda: self.replica.relay_senses,
                 eyes=partial(self.replica.camera_image, fls_id),
                 parameter_services=self.parameter_services,
+                readings=self.readings,
             )
             self.fls_nodes.append(node)
             self.fls_by_id[fls_id] = node

@@ -85,6 +85,14 @@ def host_name(index: int) -> str:
 MEASUREMENTS_QOS = QoSProfile(
     depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
 )
+# A radio hears every FLS's latched measurements at once (a fitting run's windows):
+# it keeps them all until its callbacks have taken them.
+READINGS_QOS = QoSProfile(
+    depth=1,
+    history=HistoryPolicy.KEEP_ALL,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
 # A camera's last frame of detections is what the FLS sees until the next one: an
 # FLS that starts later must get it at once (latched, like measurements).
 DETECTIONS_QOS = MEASUREMENTS_QOS

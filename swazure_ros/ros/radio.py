@@ -14,8 +14,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from rclpy.timer import Timer
 from swazure_interfaces.msg import (
     DiscoveryControl,
+    Measurements,
     PathOffer,
     PathWalk,
     RoundAck,
@@ -23,14 +26,17 @@ from swazure_interfaces.msg import (
     TrackSample,
 )
 
+from ..protocol.discovery import END, PATH, START
 from ..protocol.moves import Walk
 from ..protocol.plausible import round_labels_check
 from ..protocol.radio import Ack, RadioHub, RadioLoss
+from ..protocol.readings import ReadingsBook
 from ..protocol.senses import Senses
 from .convert import (
     ack_message,
     control_from_message,
     offer_from_message,
+    readings_from_message,
     relay_request_from_message,
     sample_from_message,
     walk_from_message,
@@ -40,7 +46,9 @@ from .guard import Guard
 from .names import (
     ACK_TOPIC,
     CONTROL_TOPIC,
+    MEASUREMENTS_TOPIC,
     RADIO_TOPIC,
+    READINGS_QOS,
     ROUND_QOS,
     TRACK_REQUESTS_TOPIC,
     TRACK_SAMPLES_TOPIC,
@@ -53,6 +61,10 @@ if TYPE_CHECKING:
 #: Path walks a process keeps while they wait for a newer world revision (a heuristic
 #: walks a few paths per group of moves).
 EARLY_WALKS = 4096
+#: Seconds a source of a fitting run waits, after the END, for the readings of its
+#: window before it fits what it heard. The readings are asked for at the run's START
+#: and are in long before its END; this must stay below the coordinator's round timeout.
+READINGS_WAIT = 1.0
 IntArray = NDArray[np.int64]
 
 
@@ -65,7 +77,9 @@ class Radio:
     every offer of a round, it acknowledges the round on ``round_acks``. Path
     walks on ``path_walks`` go to the FLS they are addressed to, once this
     process has the world revision they must be measured in; track requests
-    go to their relay and track samples to their source.
+    go to their relay and track samples to their source. From the first
+    fitting run on, it hears every FLS's ``measurements`` into ``readings``,
+    the book its FLSs' fits take their windows from.
     """
 
     def __init__(
@@ -76,8 +90,12 @@ class Radio:
         loss: RadioLoss | None = None,
         guard: Guard | None = None,
         listen: bool = True,
+        readings: ReadingsBook | None = None,
     ) -> None:
         self._node = node
+        self.readings = ReadingsBook() if readings is None else readings
+        self._hears_readings = False
+        self._waiting: set[int] = set()  # local sources whose fit waits for readings
         self._senses = senses
         self._fls = fls_nodes
         self._hub = RadioHub(
@@ -114,8 +132,10 @@ class Radio:
         """Readers matched to this radio's acknowledgements (the coordinator's)."""
         return self._acks.get_subscription_count()
 
-    def _subscribe(self, kind: type, topic: str, callback: Callable[[Any], None]) -> None:
-        self.guard.subscribe(kind, topic, callback, ROUND_QOS)
+    def _subscribe(
+        self, kind: type, topic: str, callback: Callable[[Any], None], qos: QoSProfile = ROUND_QOS
+    ) -> None:
+        self.guard.subscribe(kind, topic, callback, qos)
 
     @property
     def _swarm(self) -> IntArray:
@@ -145,13 +165,39 @@ class Radio:
         control = control_from_message(message, self._swarm)
         self.controls_heard += 1
         self.last_control_at = time.monotonic()
+        if control.command == START and control.estimator != PATH:
+            self._hear_readings()
         recipients, ack, heard = self._hub.on_control(control)
         for sender, why in self._hub.rejected:
             self.guard.drop(RADIO_TOPIC, f"implausible: {why}", f"FLS {sender}'s offer: {why}")
         self._hub.rejected.clear()
         for fls_id in recipients:
             self._fls[fls_id].on_control(control, heard)
+            if control.command == END and self._fls[fls_id].discovery.waiting:
+                self._waiting.add(fls_id)
+        if control.command == END and self._waiting:
+            timer = self._node.create_timer(READINGS_WAIT, lambda: self._report_waiting(timer))
         self._acknowledge(ack)
+
+    def _hear_readings(self) -> None:
+        # Only once a run fits: thousands of measurements are work nobody else needs.
+        if not self._hears_readings:
+            self._hears_readings = True
+            self._subscribe(Measurements, MEASUREMENTS_TOPIC, self._on_measurements, READINGS_QOS)
+
+    def _on_measurements(self, message: Measurements) -> None:
+        self.readings.put(readings_from_message(message, self._swarm))
+        if self._waiting:
+            self._report_waiting()
+
+    def _report_waiting(self, deadline: Timer | None = None) -> None:
+        """Local sources report the fits whose windows are heard; all of them at a ``deadline``."""
+        if deadline is not None:
+            self._node.destroy_timer(deadline)
+        for fls_id in list(self._waiting):
+            node = self._fls.get(fls_id)
+            if node is None or node.report_waiting(at_deadline=deadline is not None):
+                self._waiting.discard(fls_id)
 
     def _on_offer(self, message: PathOffer) -> None:
         # Its labels' meaning is checked once a round, with every offer heard (_implausible).

@@ -15,11 +15,13 @@ from swazure_interfaces.srv import ComputePose
 
 from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
 from swazure_ros.core.evaluate import NO_PATH, evaluate, evaluate_pairs, without
+from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.core.frames import fls_frame, to_metres
 from swazure_ros.core.heuristics import MOVE_OBSTRUCTING, MOVE_SOURCE, run_technique
+from swazure_ros.core.sensor import config_dir
 from swazure_ros.protocol.discovery import Estimate
 from swazure_ros.ros.convert import pose_estimate_from_message
-from swazure_ros.ros.names import policy_code
+from swazure_ros.ros.names import ESTIMATOR_CODES, policy_code
 from swazure_ros.sim.world import WorldSpec
 
 from .conftest import make_context
@@ -29,6 +31,8 @@ SHAPE = ("torus:120", 1.6)
 POLICIES = ("fewest-hops", "shortest-length")
 # Least-error's labels carry their summed hop errors over DDS (PathOffer.errors).
 DISCOVERY_POLICIES = (*POLICIES, "least-error")
+CALIBRATED = str(config_dir() / "cameras" / "sensor-wide-calibrated.yaml")
+LOCAL_LEAST_SQUARES_CODE = ESTIMATOR_CODES[LOCAL_LEAST_SQUARES]
 
 
 @pytest.fixture
@@ -330,7 +334,7 @@ class Client:
         self.executor.add_node(self.node)
         self.clients = {}
 
-    def call(self, source, target, policy=0, timeout=60.0, service=None):
+    def call(self, source, target, policy=0, estimator=0, timeout=60.0, service=None):
         """Ask the coordinator's service, or ``service`` (e.g. an FLS node's)."""
         service = service or "/swarm/coordinator/compute_pose"
         if service not in self.clients:
@@ -342,7 +346,9 @@ class Client:
             self.executor.spin_once(timeout_sec=0.02)
             self.swarm.spin(0.02)
         future = client.call_async(
-            ComputePose.Request(source_id=source, target_id=target, policy=policy)
+            ComputePose.Request(
+                source_id=source, target_id=target, policy=policy, estimator=estimator
+            )
         )
         while not future.done():
             assert time.monotonic() < deadline, "no answer"
@@ -508,3 +514,45 @@ def test_an_error_free_swarm_refuses_least_error_and_answers_the_others(domain, 
             )
         finally:
             client.close()
+
+
+def test_each_source_s_own_fit_by_the_swarm_equals_the_engine(domain, params, context):
+    # A calibrated stochastic sensor: bias removed, every reading scattered. Torus:120 at
+    # 2 x has sweet and decaying pairs, and 90 pairs whose path leaves the source's window
+    # (the labels' sums serve them).
+    world = WorldSpec(SHAPE[0], scale=2.0, beta=0.5, sensor_file=CALIBRATED)
+    config = SwarmConfig(world, domain_id=domain, params_file=str(params))
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        built = swarm.world
+        policy = "shortest-length"
+        result = swarm.discover(policy, timeout=300, estimator=LOCAL_LEAST_SQUARES)
+        engine = refine(evaluate(built.swarm, built.sensor, policy), local=True)
+        assert engine.summary["fit"]["path_fallback_pairs"] > 0
+        assert result.departed == frozenset() and result.restarts == 0
+        found, pairs, ids = by_pair(result.estimates), engine.pairs, built.ids
+        assert len(found) == len(pairs)
+        fitted = 0
+        for pair in np.flatnonzero(pairs.status != NO_PATH):
+            one = found[(int(ids[pairs.source[pair]]), int(ids[pairs.target[pair]]))]
+            assert one.estimator == LOCAL_LEAST_SQUARES
+            np.testing.assert_allclose(one.vector, pairs.estimate[pair], rtol=0, atol=1e-9)
+            np.testing.assert_allclose(
+                one.covariance, pairs.covariance[pair], rtol=0, atol=1e-9 * one.covariance.max()
+            )
+            fitted += 1
+        assert fitted > 1000
+        # One pair on demand: its PoseEstimate carries the covariance in m^2.
+        pair = int(np.flatnonzero(pairs.status != NO_PATH)[0])
+        source, target = int(ids[pairs.source[pair]]), int(ids[pairs.target[pair]])
+        client = Client(swarm, context)
+        try:
+            response = client.call(source, target, policy_code(policy), LOCAL_LEAST_SQUARES_CODE)
+        finally:
+            client.close()
+        assert response.success, response.message
+        assert response.estimate.estimator == LOCAL_LEAST_SQUARES_CODE
+        covariance = np.asarray(response.estimate.covariance).reshape(3, 3)
+        np.testing.assert_allclose(covariance * 1e4, pairs.covariance[pair], rtol=1e-9)
+        answered = pose_estimate_from_message(response.estimate)
+        np.testing.assert_allclose(answered.vector, pairs.estimate[pair], rtol=0, atol=1e-9)
