@@ -68,6 +68,20 @@ def test_a_swarm_of_one_process_per_fls_computes_what_the_engine_computes(domain
     assert fls_processes(logs) == []
 
 
+def test_each_fls_process_fits_what_it_hears_as_the_engine_does(domain, tmp_path):
+    # Each process hears the others' signed measurements over DDS: its own radio's book.
+    spawn = swazure("spawn", str(GRID), "--per-fls", "--log-dir", str(tmp_path / "logs"),
+                    "--quiet", "--discovery-timeout", "120", "--compute-all",
+                    "--estimator", "local-least-squares",
+                    "--out", str(tmp_path / "d"))  # fmt: skip
+    out, err = spawn.communicate(timeout=600)
+    assert spawn.returncode == 0, err
+    identical = "pairs identical to the engine's (status, path, estimate to 1e-9, covariance): yes"
+    assert identical in out, out
+    header = (tmp_path / "d" / "pairs.csv").read_text().splitlines()[0]
+    assert "covariance_xx" in header and "covariance_zz" in header
+
+
 def test_move_source_made_by_fls_processes_is_the_engines(domain, tmp_path):
     # Each FLS follows the commanded moves (its own and its neighbours') and measures a
     # path walk in the frame of the world revision the walk names.

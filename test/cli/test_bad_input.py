@@ -62,6 +62,13 @@ BAD_INPUTS = [
     (["spawn", *TORUS, "--compute-all", "--out", "afile"], "afile exists and is not a folder"),
     (["spawn", *TORUS, "--domain-id", "-1"], "outside 0..232"),
     (["spawn", *TORUS, "--out", "results"], "--compute-all"),
+    (["spawn", *TORUS, "--estimator", "local-least-squares"], "go with --compute-all"),
+    (["spawn", *TORUS, "--estimator", "least-squares"], "invalid choice: 'least-squares'"),
+    (
+        ["spawn", *TORUS, "--compute-all", "--estimator", "local-least-squares",
+         "--technique", "move-source"],
+        "estimates plain Swazure's pairs: leave out --technique",
+    ),  # fmt: skip
     (["spawn", *TORUS, "--record", "run.bag"], "written as MCAP"),
     (["spawn", *TORUS, "--record", "afolder"], "afolder is a folder"),
     (["spawn", "afile"], "a swarm file is a mapping with one key, swarm:"),

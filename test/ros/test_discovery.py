@@ -376,6 +376,7 @@ def test_compute_pose_answers_bad_requests_with_errors_and_keeps_working(domain,
                 ((5000, target), "no source FLS 5000"),
                 ((source, source), f"source and target are both FLS {source}"),
                 ((source, target, 7), "unknown policy 7"),
+                ((source, target, 0, 9), "unknown estimator 9"),
                 ((source, not_blind), "not a blind neighbour"),
             ]:
                 response = client.call(*request)
@@ -486,6 +487,21 @@ def test_swazure_query_prints_the_path_and_vector(domain, params):
         assert f"path: {path} ({engine.hops[pair]} hops)" in out, out
         x, y, z = engine.estimate[pair]
         assert f"vector: ({x:.6f}, {y:.6f}, {z:.6f}) cm" in out, out
+        # The source's own fit: its vector and standard deviations, cm.
+        fitted = refine(evaluate(world.swarm, world.sensor, "shortest-length"), local=True)
+        query = swazure("query", "--source", str(source), "--target", str(target),
+                        "--estimator", "local-least-squares")  # fmt: skip
+        out, err = query.communicate(timeout=120)
+        assert query.returncode == 0, err
+        pair = int(np.flatnonzero((fitted.pairs.source == engine.source[pair])
+                                  & (fitted.pairs.target == engine.target[pair]))[0])  # fmt: skip
+        x, y, z = fitted.pairs.estimate[pair]
+        assert f"vector: ({x:.6f}, {y:.6f}, {z:.6f}) cm" in out, out
+        sx, sy, sz = np.sqrt(np.diag(fitted.pairs.covariance[pair]))
+        assert (
+            f"local-least-squares: standard deviation (x, y, z) ({sx:.6f}, {sy:.6f}, {sz:.6f}) cm"
+            in out
+        ), out
         query = swazure("query", "--source", str(source), "--target", "5000")
         _, err = query.communicate(timeout=120)
         assert query.returncode == 2 and len(err.strip().splitlines()) == 1, err
