@@ -20,6 +20,7 @@ TRIO = str(config_dir() / "track" / "trio.xyz")
 TRACK = ["track", "--cloud", TRIO, "--scale", "1", "--radius", "0.5", "--engine"]
 TORUS = ["--cloud", "torus:60", "--beta", "0.5"]
 
+SPAWN_FIT = ["spawn", *TORUS, "--compute-all", "--estimator", "local-least-squares"]
 BAD_INPUTS = [
     # evaluate
     (["evaluate", "--cloud", "nosuch.xyz", "--beta", "0.5"], "nosuch.xyz"),
@@ -65,10 +66,9 @@ BAD_INPUTS = [
     (["spawn", *TORUS, "--estimator", "local-least-squares"], "go with --compute-all"),
     (["spawn", *TORUS, "--estimator", "least-squares"], "invalid choice: 'least-squares'"),
     (
-        ["spawn", *TORUS, "--compute-all", "--estimator", "local-least-squares",
-         "--technique", "move-source"],
+        [*SPAWN_FIT, "--technique", "move-source"],
         "estimates plain Swazure's pairs: leave out --technique",
-    ),  # fmt: skip
+    ),
     (["spawn", *TORUS, "--record", "run.bag"], "written as MCAP"),
     (["spawn", *TORUS, "--record", "afolder"], "afolder is a folder"),
     (["spawn", "afile"], "a swarm file is a mapping with one key, swarm:"),

@@ -1,4 +1,4 @@
-"""A hostile peer on the swarm's ROS domain: its forged offers change no answer.
+"""A hostile peer on the swarm's ROS domain: its forged offers and readings change no answer.
 
 The peer hears the coordinator's controls (anyone on the domain can) and,
 in every round, offers the source a label of its own over a blind pair with
@@ -15,14 +15,22 @@ import time
 import numpy as np
 import pytest
 from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import Vector3
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from swazure_interfaces.msg import DiscoveryControl, PathOffer
+from swazure_interfaces.msg import DiscoveryControl, Measurements, PathOffer, RelativePose
 
 from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
-from swazure_ros.core.evaluate import SWEET_PATH, evaluate_pairs
+from swazure_ros.core.evaluate import SWEET_PATH, evaluate, evaluate_pairs
+from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.ros.auth import SwarmKey, new_key
-from swazure_ros.ros.names import CONTROL_TOPIC, RADIO_TOPIC, ROUND_QOS
+from swazure_ros.ros.names import (
+    CONTROL_TOPIC,
+    MEASUREMENTS_QOS,
+    MEASUREMENTS_TOPIC,
+    RADIO_TOPIC,
+    ROUND_QOS,
+)
 from swazure_ros.sim.world import WorldSpec
 
 from .conftest import make_context
@@ -134,3 +142,49 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
         assert dropped >= 1, swarm.host.guard.dropped
         # The coordinator did not count the forger's offers either.
         assert swarm.coordinator.guard.dropped[(RADIO_TOPIC, dropped_because)] >= 1
+
+
+@pytest.mark.parametrize(
+    "forger_key", [SwarmKey(), SwarmKey(new_key())], ids=["unsigned", "signed-with-another-key"]
+)
+def test_forged_measurements_change_no_fit(domain, forger_key):
+    # A peer claims, as the source's radio neighbour, readings of the issue's vector:
+    # latched, so that the source's radio hears them the moment it subscribes.
+    world_spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
+    with RunningSwarm(SwarmConfig(world_spec, domain_id=domain)) as swarm:
+        swarm.wait_until_ready()
+        world = swarm.world
+        source, target, _, _ = blind_pair_with_a_sweet_path(world)
+        neighbour = int(world.neighbours(source).sweet[0])
+        context = make_context(domain)
+        node = Node("forger", namespace="swarm", context=context)
+        try:
+            publisher = node.create_publisher(Measurements, MEASUREMENTS_TOPIC, MEASUREMENTS_QOS)
+            forged = Measurements(source_id=neighbour)
+            forged.poses = [
+                RelativePose(
+                    source_id=neighbour,
+                    target_id=other,
+                    range_class=RelativePose.RANGE_SWEET,
+                    line_of_sight=True,
+                    vector=Vector3(x=1.23, y=4.56, z=7.89),
+                    radio_distance=0.07,
+                )
+                for other in (source, target)
+            ]
+            publisher.publish(forger_key.serialize(forged))
+            run = swarm.coordinator.discover(POLICY, [source], [target], LOCAL_LEAST_SQUARES)
+            result = swarm.run(run, timeout=120)
+            dropped = swarm.host.guard.dropped[
+                (MEASUREMENTS_TOPIC, "not signed with the swarm's key")
+            ]
+        finally:
+            node.destroy_node()
+            context.try_shutdown()
+        assert dropped >= 1, swarm.host.guard.dropped
+        engine = refine(evaluate(world.swarm, world.sensor, POLICY), local=True).pairs
+        row = int(np.flatnonzero((world.ids[engine.source] == source)
+                                 & (world.ids[engine.target] == target))[0])  # fmt: skip
+        (answer,) = result.estimates[source]
+        assert answer.estimator == LOCAL_LEAST_SQUARES
+        np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)
