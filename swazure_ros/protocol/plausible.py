@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 
 from ..core.sensor import DECAYING, SWEET, Sensor, hop_error
 from .discovery import ANY_VISIBLE, Offer, RoundOffers
+from .readings import Readings
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -133,6 +134,36 @@ def implausible(
         radius,
     )
     return REASONS[int(why.max())] if why.any() else None
+
+
+def implausible_readings(
+    readings: Readings,
+    positions: Callable[[IntArray], FloatArray],
+    sensor: Sensor,
+    radius: float,
+) -> str | None:
+    """Why an FLS's camera readings cannot all be true, or None when every one may be.
+
+    By the shape, as a label's hops: each pair's radio distance is its
+    tracking distance, its range class that distance's, and its vector
+    within the sensor's error bounds of the displacement.
+    """
+    if not len(readings.other):
+        return None
+    points = positions(np.append(readings.other, readings.owner))
+    offset = points[:-1] - points[-1]
+    tracking = np.sqrt(np.einsum("...k,...k->...", offset, offset)) - 2.0 * radius
+    if not _close(readings.distance, tracking).all():
+        return "a radio distance is not the pair's"
+    if not np.array_equal(sensor.classify(tracking), readings.range_class):
+        return "a range class is not the pair's"
+    exact = sensor.noise is None and sensor.camera is None
+    bound = hop_error(sensor, tracking, radius) if exact else hop_bound(sensor, tracking, radius)
+    miss = readings.vector - offset
+    off = np.sqrt(np.einsum("...k,...k->...", miss, miss))
+    if (off > bound * (1.0 + SUM_TOLERANCE) + SUM_TOLERANCE).any():
+        return "a vector is beyond the sensor's error bounds"
+    return None
 
 
 def round_labels_check(

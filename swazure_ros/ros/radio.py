@@ -28,7 +28,7 @@ from swazure_interfaces.msg import (
 
 from ..protocol.discovery import END, PATH, START
 from ..protocol.moves import Walk
-from ..protocol.plausible import round_labels_check
+from ..protocol.plausible import implausible_readings, round_labels_check
 from ..protocol.radio import Ack, RadioHub, RadioLoss
 from ..protocol.readings import ReadingsBook
 from ..protocol.senses import Senses
@@ -186,7 +186,13 @@ class Radio:
             self._subscribe(Measurements, MEASUREMENTS_TOPIC, self._on_measurements, READINGS_QOS)
 
     def _on_measurements(self, message: Measurements) -> None:
-        self.readings.put(readings_from_message(message, self._swarm))
+        readings = readings_from_message(message, self._swarm)
+        senses = self._senses
+        why = implausible_readings(readings, senses.positions, senses.sensor, senses.radius)
+        if why is not None:
+            self.guard.drop(MEASUREMENTS_TOPIC, f"implausible: {why}")
+            return
+        self.readings.put(readings)
         if self._waiting:
             self._report_waiting()
 

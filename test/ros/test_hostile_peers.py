@@ -145,13 +145,20 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
 
 
 @pytest.mark.parametrize(
-    "forger_key", [SwarmKey(), SwarmKey(new_key())], ids=["unsigned", "signed-with-another-key"]
+    ("authenticate", "forger_key", "dropped_because"),
+    [
+        (True, SwarmKey(), "not signed with the swarm's key"),
+        (True, SwarmKey(new_key()), "not signed with the swarm's key"),
+        (False, SwarmKey(), "implausible: a radio distance is not the pair's"),
+    ],
+    ids=["unsigned", "signed-with-another-key", "no-swarm-key-plausibility"],
 )
-def test_forged_measurements_change_no_fit(domain, forger_key):
+def test_forged_measurements_change_no_fit(domain, authenticate, forger_key, dropped_because):
     # A peer claims, as the source's radio neighbour, readings of the vector:
     # latched, so that the source's radio hears them the moment it subscribes.
     world_spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
-    with RunningSwarm(SwarmConfig(world_spec, domain_id=domain)) as swarm:
+    config = SwarmConfig(world_spec, domain_id=domain, authenticate=authenticate)
+    with RunningSwarm(config) as swarm:
         swarm.wait_until_ready()
         world = swarm.world
         source, target, _, _ = blind_pair_with_a_sweet_path(world)
@@ -175,9 +182,7 @@ def test_forged_measurements_change_no_fit(domain, forger_key):
             publisher.publish(forger_key.serialize(forged))
             run = swarm.coordinator.discover(POLICY, [source], [target], LOCAL_LEAST_SQUARES)
             result = swarm.run(run, timeout=120)
-            dropped = swarm.host.guard.dropped[
-                (MEASUREMENTS_TOPIC, "not signed with the swarm's key")
-            ]
+            dropped = swarm.host.guard.dropped[(MEASUREMENTS_TOPIC, dropped_because)]
         finally:
             node.destroy_node()
             context.try_shutdown()
