@@ -405,7 +405,13 @@ RUN_LIMIT = {"plain": 720.0, "move-obstructing": 1080.0, "move-source": 1080.0}
 
 
 def compute_all(
-    cloud: str, technique: str, domain: int, out: Path, processes: int, limit: float
+    cloud: str,
+    technique: str,
+    domain: int,
+    out: Path,
+    processes: int,
+    limit: float,
+    *options: str,
 ) -> dict[str, object]:
     """One `swazure spawn --compute-all` run; its timings, traffic and the engine check.
 
@@ -414,7 +420,7 @@ def compute_all(
     command = [
         *SWAZURE, "spawn", "--cloud", cloud, "--beta", "0.5", "--domain-id", str(domain),
         "--processes", str(processes), "--policy", "shortest-length", "--compute-all",
-        "--technique", technique, "--out", str(out),
+        "--technique", technique, "--out", str(out), *options,
     ]  # fmt: skip
     log = out / "stderr.log"
     began = time.perf_counter()
@@ -448,8 +454,58 @@ def compute_all(
         "messages": sum(distributed["messages"].values()) + sum(moved["messages"].values()),
         "bytes": sum(distributed["bytes"].values()) + sum(moved["bytes"].values()),
         "engine": float(output.split("engine: ")[1].split(" s")[0]),
-        "identical": output.split("(status, path, estimate to 1e-9): ")[1].splitlines()[0],
+        "identical": output.split("pairs identical to the engine's (")[1]
+        .split("): ")[1]
+        .splitlines()[0],
     }
+
+
+#: The shapes whose swarm fits in the bench: one process makes every source's fit in
+#: turn, where each FLS would make its own (kangaroo 200 s, skateboard 170 s and the
+#: race car 45 min of fits alone; BENCHMARKS.md, "Least-squares localization", times one).
+FIT_SHAPES = ("chess_408", "palm_725", "dragon_1147")
+
+
+def swarm_fit_section(args: argparse.Namespace) -> list[str]:
+    """Each source's own least-squares fit made by the swarm, beside a plain run."""
+    domain = 93
+    sensor = str(REPO / "config" / "cameras" / "sensor-wide-calibrated.yaml")
+    lines = [
+        "## The swarm's own fits: `spawn --compute-all --estimator local-least-squares`",
+        "",
+        "One process holds every FLS node (config/swarm.yaml), wide-lens calibrated",
+        "stochastic sensor, beta 0.5, Shortest-Length. Each source fits what its radio hears",
+        '(docs/protocol.md, "A fitting run"); the engine makes the same windows\' fits',
+        "(`evaluate --estimator local-least-squares`). Discovery s is the whole run: the",
+        "search and every source's fit, one after the other in this one process. Identical:",
+        "every estimate to 1e-9 cm and every covariance to 1e-9 of its largest entry.",
+        "",
+        "| shape | estimator | discovery s | rounds | messages | MB | engine s | identical "
+        "| peak MB |",
+        "| --- | --- | ---: | ---: | ---: | ---: | ---: | --- | ---: |",
+    ]
+    for name in FIT_SHAPES:
+        for estimator in ("path", "local-least-squares"):
+            with tempfile.TemporaryDirectory() as out:
+                row = compute_all(
+                    swarm_cloud(name), "plain", domain, Path(out), 1, RUN_LIMIT["plain"],
+                    "--sensor", sensor, "--estimator", estimator,
+                )  # fmt: skip
+            print(f"compute-all {name} {estimator}: {row}", flush=True)
+            if "failed" in row:
+                lines.append(f"| {name} | {estimator} | {row['failed']} |" + " |" * 6)
+                continue
+            lines.append(
+                f"| {name} | {estimator} | {row['discovery']:.1f} | {row['rounds']} "
+                f"| {row['messages']:,} | {row['bytes'] / 1e6:,.0f} | {row['engine']:.1f} "
+                f"| {row['identical']} | {row['peak']} |"
+            )
+    lines += [
+        "",
+        "Target (issue 33): the swarm's estimates equal the engine's to 1e-9.",
+        "",
+    ]
+    return lines
 
 
 def discovery_section(args: argparse.Namespace) -> list[str]:
@@ -1961,6 +2017,7 @@ SECTIONS = {
     "fls_process": fls_process_section,
     "hosts": hosts_section,
     "least_squares": least_squares_section,
+    "swarm_fit": swarm_fit_section,
 }
 
 

@@ -2,20 +2,29 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
 from rclpy.serialization import deserialize_message, serialize_message
-from swazure_interfaces.msg import MoveCommands, PoseEstimates, WorldState
+from swazure_interfaces.msg import Measurements, MoveCommands, PathOffer, PoseEstimates, WorldState
 
-from swazure_ros.protocol.discovery import Estimate, Report
+from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, PATH
+from swazure_ros.core.observe import Measurement
+from swazure_ros.core.sensor import DECAYING, SWEET
+from swazure_ros.protocol.discovery import Broadcast, Estimate, Offer, Report
 from swazure_ros.protocol.moves import RETURN, STEP_ASIDE, Move
 from swazure_ros.ros.convert import (
     estimates_from_message,
     estimates_message,
+    measurements_message,
     moves_message,
+    offer_from_message,
+    offer_message,
     pose_estimate_from_message,
     pose_estimate_message,
+    readings_from_message,
     world_message,
     world_positions,
 )
@@ -123,3 +132,68 @@ def test_a_pose_estimate_for_people_is_in_metres_in_the_sources_frame():
     back = pose_estimate_from_message(message)
     assert back.path == (3, 5, 9)
     np.testing.assert_allclose(back.vector, [7.3, -6.1, 0.25], rtol=1e-15)
+    assert back.estimator == PATH and back.covariance is None
+
+
+def test_a_fit_s_report_keeps_its_estimator_and_covariance():
+    covariance = np.array([[4.0, 0.5, 0.0], [0.5, 2.0, -0.25], [0.0, -0.25, 1.0]]) * 1e-3
+    fitted = replace(_found(), estimator=LOCAL_LEAST_SQUARES, covariance=covariance)
+    report = Report(run_id=4, source=3, estimates=[fitted])
+    message = deserialize_message(
+        serialize_message(estimates_message(report, Time(sec=1))), PoseEstimates
+    )
+    (back,) = estimates_from_message(message, np.array([3, 5, 9]))
+    assert back.estimator == LOCAL_LEAST_SQUARES
+    np.testing.assert_array_equal(back.covariance, covariance)
+    # For people: m^2, row-major.
+    pose = pose_estimate_message(3, fitted, Time(sec=1))
+    np.testing.assert_allclose(np.reshape(pose.covariance, (3, 3)), covariance * 1e-4, rtol=1e-15)
+    np.testing.assert_allclose(pose_estimate_from_message(pose).covariance, covariance, rtol=1e-15)
+
+
+def test_an_offer_of_a_fitting_run_carries_its_sums_and_one_without_carries_none():
+    offer = Offer(
+        source_ids=np.array([3]),
+        hops=np.array([2]),
+        lengths=np.array([13.4]),
+        errors=np.array([0.2]),
+        vectors=np.array([[7.3, -6.1, 0.25]]),
+        path_offsets=np.array([0, 3]),
+        path_ids=np.array([3, 5, 9]),
+        unbiased=np.array([[7.2, -6.0, 0.24]]),
+        covariances=np.arange(9.0).reshape(1, 3, 3),
+    )
+    swarm = np.array([3, 5, 9])
+    message = deserialize_message(
+        serialize_message(offer_message(Broadcast(1, 0, 2, 9, offer), Time())), PathOffer
+    )
+    back = offer_from_message(message, swarm)
+    np.testing.assert_array_equal(back.unbiased, offer.unbiased)
+    np.testing.assert_array_equal(back.covariances, offer.covariances)
+    plain = offer_message(
+        Broadcast(1, 0, 2, 9, replace(offer, unbiased=None, covariances=None)), Time()
+    )
+    assert offer_from_message(plain, swarm).covariances is None
+    message.covariances = message.covariances[:-1]
+    with pytest.raises(MessageError, match="9 covariance values per label"):
+        offer_from_message(message, swarm)
+
+
+def test_measurements_read_back_as_the_readings_a_fit_takes():
+    measurement = Measurement(
+        np.array([9, 5]),
+        np.array([SWEET, DECAYING], dtype=np.int8),
+        np.array([[7.3, -6.1, 0.25], [1.0, 2.0, 3.0]]),
+        np.array([6.5, 9.0]),
+    )
+    sent = measurements_message(3, measurement, Time(sec=1), np.array([6.4, 9.1]))
+    got = deserialize_message(serialize_message(sent), Measurements)
+    readings = readings_from_message(got, np.array([3, 5, 9]))
+    # Sorted by the measured FLS, in cm, as the engine lays a window's readings out.
+    np.testing.assert_array_equal(readings.other, [5, 9])
+    np.testing.assert_array_equal(readings.range_class, [DECAYING, SWEET])
+    np.testing.assert_allclose(readings.vector, [[1.0, 2.0, 3.0], [7.3, -6.1, 0.25]], rtol=1e-15)
+    np.testing.assert_allclose(readings.distance, [9.1, 6.4], rtol=1e-15)
+    got.poses[0].range_class = got.poses[0].RANGE_BLIND
+    with pytest.raises(MessageError, match="out of camera range"):
+        readings_from_message(got, np.array([3, 5, 9]))
