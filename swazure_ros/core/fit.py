@@ -562,15 +562,13 @@ def path_estimates(hood: Neighbourhood, pairs: PairResults) -> tuple[FloatArray,
     What a source whose window does not reach its target falls back on: the
     measured hops of the policy's path, each without the sensor's known bias
     (:func:`~.sensor.unbiased_vectors`), and the sum of their covariances
-    (independent hops). Each hop is the reading of the FLS at its far end,
-    reversed, as the swarm's labels sum it (docs/protocol.md): under a
-    stochastic sensor the two ends' readings differ. Nan without a path.
+    (independent hops). Nan without a path.
     """
     swarm, sensor = hood.swarm, hood.sensor
     paths = Paths(pairs.status != NO_PATH, pairs.hops, pairs.path_length, pairs.offsets,
                   pairs.nodes)  # fmt: skip
     owner, start, end = path_hops(paths)
-    raw = -measured_vectors(sensor, swarm.points, swarm.radius, end, start)
+    raw = measured_vectors(sensor, swarm.points, swarm.radius, start, end)
     tracking = tracking_distance(swarm.points, swarm.radius, start, end)
     directions = raw / np.linalg.norm(raw, axis=1, keepdims=True)
     vectors = unbiased_vectors(sensor, raw, tracking)

@@ -155,6 +155,10 @@ class Offer:
     # covariances (core.fit.path_estimates): a source's fallback beyond its window.
     unbiased: FloatArray | None = None  # (L, 3), cm
     covariances: FloatArray | None = None  # (L, 3, 3), cm^2
+    # In its first offer of a phase, where a pair's two ends read it differently, the
+    # sender's readings of its neighbours: each hop sender -> receiver is the sender's.
+    reading_ids: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # (K,)
+    reading_vectors: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))  # (K, 3), cm
 
     def __len__(self) -> int:
         return len(self.source_ids)
@@ -163,6 +167,15 @@ class Offer:
         """Path of label ``label``, FLS ids from its source to the sender."""
         start, stop = self.path_offsets[label], self.path_offsets[label + 1]
         return tuple(int(fls) for fls in self.path_ids[start:stop])
+
+
+def reads_both_ends(sensor: Sensor) -> bool:
+    """True when the two FLSs of a pair read its vector differently (noise, a camera).
+
+    The published model's reading of j from i is the reverse of i's from j,
+    to the bit: a receiver may take its own reading of the sender, reversed.
+    """
+    return sensor.noise is not None or sensor.camera is not None
 
 
 def ragged_indices(starts: IntArray, counts: IntArray) -> IntArray:
@@ -211,6 +224,10 @@ class RoundOffers:
     path_ids: IntArray
     unbiased: FloatArray  # (L, 3), cm; NaN where an offer carried none
     covariances: FloatArray  # (L, 3, 3), cm^2; NaN where an offer carried none
+    # Every reading the offers carried, sorted by the FLS read, then by the sender.
+    read_ids: IntArray  # (R,), the FLS read
+    read_by: IntArray  # (R,), the sender that read it
+    read_vectors: FloatArray  # (R, 3), cm, read_by -> read_ids
 
     @classmethod
     def of(cls, heard: Sequence[tuple[int, Offer]]) -> RoundOffers:
@@ -248,7 +265,13 @@ class RoundOffers:
                 [carried(offer, offer.covariances, (3, 3)) for offer in offers],
                 np.zeros((0, 3, 3)),
             ),
+            **_readings_table(heard),
         )
+
+    def readings_of(self, fls: int) -> tuple[IntArray, FloatArray]:
+        """The senders that read FLS ``fls`` (sorted) and their readings of it (cm)."""
+        low, high = np.searchsorted(self.read_ids, [fls, fls + 1])
+        return self.read_by[low:high], self.read_vectors[low:high]
 
     def __len__(self) -> int:
         return len(self.source_ids)
@@ -270,6 +293,19 @@ class RoundOffers:
         """Path of label ``label``, FLS ids from its source to the sender."""
         start, stop = self.path_offsets[label], self.path_offsets[label + 1]
         return tuple(self.path_ids[start:stop].tolist())
+
+
+def _readings_table(heard: Sequence[tuple[int, Offer]]) -> dict[str, NDArray[Any]]:
+    """The readings of the offers ``heard`` as RoundOffers holds them."""
+    counts = [len(offer.reading_ids) for _, offer in heard]
+    if not sum(counts):
+        empty = np.zeros(0, dtype=np.int64)
+        return {"read_ids": empty, "read_by": empty, "read_vectors": np.zeros((0, 3))}
+    read_ids = np.concatenate([offer.reading_ids for _, offer in heard]).astype(np.int64)
+    read_by = np.repeat([sender for sender, _ in heard], counts).astype(np.int64)
+    vectors = np.concatenate([offer.reading_vectors for _, offer in heard])
+    order = np.lexsort((read_by, read_ids))
+    return {"read_ids": read_ids[order], "read_by": read_by[order], "read_vectors": vectors[order]}
 
 
 @jit.kernel(cache=True, nogil=True)
@@ -382,9 +418,11 @@ class PathSearch:
     FLS a source that searches for them; ``departed`` FLSs are not relayed from.
     ``hop_errors`` (K,) is the expected error of the hop to each neighbour of
     ``view`` (core.sensor.hop_error), which labels sum as they sum lengths.
-    ``hop_fit`` ((K, 3) cm, (K, 3, 3) cm^2), given in a fitting run, is each
-    hop from a neighbour less its known bias, and its covariance: labels sum
-    them too.
+    ``fit`` (the sensor and the FLSs' radius, cm), given in a fitting run,
+    makes labels also sum each hop less its known bias, and its covariance.
+    With ``both_ends``, a hop sender -> this FLS is the sender's own reading,
+    which the sender's first offer of the phase carries
+    (:func:`reads_both_ends`); else this FLS's reading of the sender, reversed.
     """
 
     def __init__(
@@ -397,7 +435,8 @@ class PathSearch:
         targets: IntArray | None = None,
         departed: frozenset[int] = frozenset(),
         hop_errors: FloatArray | None = None,
-        hop_fit: tuple[FloatArray, FloatArray] | None = None,
+        fit: tuple[Sensor, float] | None = None,
+        both_ends: bool = False,
     ) -> None:
         self.fls_id = view.fls_id
         self.order = _COST_ORDER[check_policy(policy)]
@@ -410,11 +449,16 @@ class PathSearch:
         self.link_weights = np.asarray(view.distance[hop][order], dtype=np.float64)
         errors = np.zeros(len(view.other)) if hop_errors is None else hop_errors
         self.link_errors = np.asarray(errors[hop][order], dtype=np.float64)
-        self.link_vectors = -np.asarray(view.vector[hop][order], dtype=np.float64)
-        self.fits = hop_fit is not None
-        if hop_fit is not None:
-            self.link_unbiased = hop_fit[0][hop][order]
-            self.link_covariance = hop_fit[1][hop][order]
+        own = np.asarray(view.vector[hop][order], dtype=np.float64)
+        self.link_vectors = np.full_like(own, np.nan) if both_ends else -own
+        # This FLS's readings of the neighbours it relays to, sent once when both ends read.
+        read = np.isfinite(own).all(axis=1)
+        self._readings: tuple[IntArray, FloatArray] | None = (
+            (self.link_ids[read], own[read]) if both_ends else None
+        )
+        self.fit = fit
+        self.fits = fit is not None
+        if fit is not None:
             self.unbiased = np.full((id_space, 3), np.nan)
             self.covariance = np.full((id_space, 3, 3), np.nan)
         self.hops = np.full(id_space, np.inf)
@@ -473,7 +517,16 @@ class PathSearch:
             finished=self.finished,
             unbiased=self.unbiased[due] if self.fits else None,
             covariances=self.covariance[due] if self.fits else None,
+            **self._first_readings(),
         )
+
+    def _first_readings(self) -> dict[str, NDArray[Any]]:
+        """This FLS's readings, for its first offer of the phase only."""
+        if self._readings is None:
+            return {}
+        ids, vectors = self._readings
+        self._readings = None
+        return {"reading_ids": ids, "reading_vectors": vectors}
 
     def _paths_of(self, sources: IntArray) -> tuple[IntArray, IntArray]:
         """The paths of the labels of ``sources``, as (offsets (L + 1,), ids), FLS ids."""
@@ -524,6 +577,14 @@ class PathSearch:
                         heard.unbiased[label].copy() if self.fits else None,
                         heard.covariances[label].copy() if self.fits else None,
                     )
+        senders, readings = heard.readings_of(self.fls_id)
+        if len(senders):
+            # The senders' own readings of the hops to this FLS.
+            rows = np.searchsorted(self.link_ids, senders)
+            known = (rows < len(self.link_ids)) & (
+                self.link_ids[np.minimum(rows, len(self.link_ids) - 1)] == senders
+            )
+            self.link_vectors[rows[known]] = readings[known]
         won_label = np.full(len(self.hops), -1, dtype=np.int64)
         won_link = np.zeros(len(self.hops), dtype=np.int64)
         changed = _relax(
@@ -549,10 +610,13 @@ class PathSearch:
         if not len(changed):
             return
         labels, links = won_label[changed], won_link[changed]
-        self.vector[changed] = heard.vectors[labels] + self.link_vectors[links]
-        if self.fits:
-            self.unbiased[changed] = heard.unbiased[labels] + self.link_unbiased[links]
-            self.covariance[changed] = heard.covariances[labels] + self.link_covariance[links]
+        hop = self.link_vectors[links]
+        self.vector[changed] = heard.vectors[labels] + hop
+        if self.fit is not None:
+            sensor, radius = self.fit
+            unbiased, covariance = hop_fit(sensor, radius, hop, self.link_weights[links])
+            self.unbiased[changed] = heard.unbiased[labels] + unbiased
+            self.covariance[changed] = heard.covariances[labels] + covariance
         key = self._heard_count
         self._heard_count += 1
         self._heard[key] = heard
@@ -647,12 +711,14 @@ class FlsRun:
         id_space: int,
         targets: IntArray | None,
         hop_errors: FloatArray | None = None,
-        hop_fit: tuple[FloatArray, FloatArray] | None = None,
+        fit: tuple[Sensor, float] | None = None,
+        both_ends: bool = False,
     ) -> None:
         self.view = view
         self.hop_errors = hop_errors
-        self.hop_fit = hop_fit
-        self.estimator = PATH if hop_fit is None else LOCAL_LEAST_SQUARES
+        self.fit = fit
+        self.both_ends = both_ends
+        self.estimator = PATH if fit is None else LOCAL_LEAST_SQUARES
         self.policy = policy
         self.width = width
         self.id_space = id_space
@@ -678,7 +744,8 @@ class FlsRun:
             targets,
             departed,
             self.hop_errors,
-            self.hop_fit,
+            self.fit,
+            self.both_ends,
         )
         self.results[phase] = self.search.results
         return self.search
@@ -735,21 +802,18 @@ def radio_window(view: LocalView) -> IntArray:
     return np.concatenate([[view.fls_id], view.other[radio]]).astype(np.int64)
 
 
-def hop_fit(sensor: Sensor, radius: float, view: LocalView) -> tuple[FloatArray, FloatArray]:
-    """Each hop from a neighbour of ``view`` less its known bias (K, 3), cm, and its covariance.
-
-    The hop neighbour -> FLS, which the FLS's camera measures the other way
-    round; (K, 3, 3) cm^2, NaN without a reading. Labels sum both.
-    """
-    hop = -np.asarray(view.vector, dtype=np.float64)
+def hop_fit(
+    sensor: Sensor, radius: float, hop: FloatArray, tracking: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Hops (K, 3), cm, of tracking distance ``tracking`` (K,) less their known bias, and
+    their covariances (K, 3, 3), cm^2; NaN without a reading. Labels sum both."""
     read = np.isfinite(hop).all(axis=1)
     unbiased = np.full_like(hop, np.nan)
     covariance = np.full((len(hop), 3, 3), np.nan)
     if read.any():
-        tracking = view.distance[read]
-        unbiased[read] = unbiased_vectors(sensor, hop[read], tracking)
+        unbiased[read] = unbiased_vectors(sensor, hop[read], tracking[read])
         directions = hop[read] / np.linalg.norm(hop[read], axis=1, keepdims=True)
-        covariance[read] = hop_covariance(sensor, tracking, directions, radius)
+        covariance[read] = hop_covariance(sensor, tracking[read], directions, radius)
     return unbiased, covariance
 
 
@@ -913,10 +977,11 @@ class Participant:
                 targets = asked[np.isin(asked, view.blind)]
         width = bucket_width(self.sensor, self.radius, control.policy)
         hop_errors = hop_error(self.sensor, view.distance, self.radius)
-        fits = None
-        if control.estimator == LOCAL_LEAST_SQUARES:
-            fits = hop_fit(self.sensor, self.radius, view)
-        return FlsRun(view, control.policy, width, self.id_space, targets, hop_errors, fits)
+        fit = (self.sensor, self.radius) if control.estimator == LOCAL_LEAST_SQUARES else None
+        both_ends = reads_both_ends(self.sensor)
+        return FlsRun(
+            view, control.policy, width, self.id_space, targets, hop_errors, fit, both_ends
+        )
 
 
 def evaluation_of(

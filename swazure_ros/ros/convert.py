@@ -268,6 +268,8 @@ def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:
     if offer.unbiased is not None and offer.covariances is not None:
         message.unbiased_vectors = offer.unbiased.astype(np.float64).ravel()
         message.covariances = offer.covariances.astype(np.float64).ravel()
+    message.reading_ids = offer.reading_ids.astype(np.uint32)
+    message.reading_vectors = offer.reading_vectors.astype(np.float64).ravel()
     return message
 
 
@@ -288,6 +290,11 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
     )
     check(len(message.vectors) == 3 * count, "not 3 vector values per label")
     fits = len(message.unbiased_vectors) > 0 or len(message.covariances) > 0
+    check_size(message.reading_ids, len(swarm), "reading_ids")
+    check(len(message.reading_vectors) == 3 * len(message.reading_ids), "not 3 values a reading")
+    reading_ids = check_ids(message.reading_ids, swarm, "reading_ids")
+    check(len(np.unique(reading_ids)) == len(reading_ids), "an FLS read twice")
+    reading_vectors = check_finite(message.reading_vectors, "reading_vectors").reshape(-1, 3)
     check(
         not fits
         or (len(message.unbiased_vectors) == 3 * count and len(message.covariances) == 9 * count),
@@ -328,6 +335,8 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
         finished=message.finished,
         unbiased=_fit_sums(message, "unbiased_vectors", (-1, 3)) if fits else None,
         covariances=_fit_sums(message, "covariances", (-1, 3, 3)) if fits else None,
+        reading_ids=reading_ids,
+        reading_vectors=reading_vectors,
     )
 
 

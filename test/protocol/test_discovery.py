@@ -21,7 +21,7 @@ from swazure_ros.core.evaluate import (
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.core.observe import observations
 from swazure_ros.core.paths import POLICIES
-from swazure_ros.core.sensor import config_dir, hop_error, load_sensor
+from swazure_ros.core.sensor import config_dir, hop_error, load_sensor, measured_vectors
 from swazure_ros.protocol.discovery import Found, bucket_width, estimate, evaluation_of
 from swazure_ros.protocol.loops import discover
 from swazure_ros.sim.world import WorldSpec
@@ -108,6 +108,23 @@ def test_every_pair_matches_the_engine(policy, beta):
     found, outcome = run(world.hood, policy)
     assert outcome.restarts == 0 and outcome.departed == frozenset()
     assert_pairs_equal(found, engine, world.ids)
+
+
+@pytest.mark.parametrize("policy", POLICIES)
+def test_under_a_noisy_sensor_each_hop_is_the_near_end_s_reading_as_the_engine_sums_it(policy):
+    # The two FLSs of a pair read it with different draws: the swarm must sum the
+    # reading of the FLS a hop starts at (spec, section 5), as the engine does.
+    world = WorldSpec("torus:120", scale=2.0, beta=0.5).build()
+    engine = evaluate(world.swarm, stochastic_sensor(mean_error=0.03), policy)
+    found, outcome = run(engine.hood, policy)
+    assert outcome.restarts == 0
+    assert_pairs_equal(found, engine.pairs, world.ids)
+    # The far ends' readings, reversed, sum to other numbers: the check can tell.
+    swarm, sensor = engine.hood.swarm, engine.hood.sensor
+    pair = int(np.flatnonzero(engine.pairs.status == SWEET_PATH)[0])
+    path = np.asarray(engine.pairs.path(pair))
+    far = -measured_vectors(sensor, swarm.points, swarm.radius, path[1:], path[:-1]).sum(axis=0)
+    assert np.abs(far - engine.pairs.estimate[pair]).max() > 1e-6
 
 
 @pytest.mark.parametrize("policy", POLICIES)

@@ -558,6 +558,10 @@ def test_each_source_s_own_fit_by_the_swarm_equals_the_engine(domain, params, co
             )
             fitted += 1
         assert fitted > 1000
+        # The path sums too: each hop is the reading of the FLS it starts at, which its
+        # first offer carried (the two ends of a pair read it differently).
+        plain = swarm.discover(policy, timeout=300)
+        assert_matches_engine(built, by_pair(plain.estimates), evaluate_pairs(built.hood, policy))
         # One pair on demand: its PoseEstimate carries the covariance in m^2.
         pair = int(np.flatnonzero(pairs.status != NO_PATH)[0])
         source, target = int(ids[pairs.source[pair]]), int(ids[pairs.target[pair]])
