@@ -157,13 +157,39 @@ def implausible_readings(
         return "a radio distance is not the pair's"
     if not np.array_equal(sensor.classify(tracking), readings.range_class):
         return "a range class is not the pair's"
-    exact = sensor.noise is None and sensor.camera is None
-    bound = hop_error(sensor, tracking, radius) if exact else hop_bound(sensor, tracking, radius)
-    miss = readings.vector - offset
-    off = np.sqrt(np.einsum("...k,...k->...", miss, miss))
-    if (off > bound * (1.0 + SUM_TOLERANCE) + SUM_TOLERANCE).any():
+    if _beyond_bounds(readings.vector, offset, tracking, sensor, radius):
         return "a vector is beyond the sensor's error bounds"
     return None
+
+
+def offer_readings_check(
+    positions: Callable[[IntArray], FloatArray], sensor: Sensor, radius: float
+) -> Callable[[int, Offer], str | None]:
+    """A radio's check of the readings an offer carries (RadioHub's ``check_readings``)."""
+
+    def check(sender: int, offer: Offer) -> str | None:
+        points = positions(np.append(offer.reading_ids, sender))
+        offset = points[:-1] - points[-1]
+        tracking = np.sqrt(np.einsum("...k,...k->...", offset, offset)) - 2.0 * radius
+        classes = sensor.classify(tracking)
+        if not np.isin(classes, (SWEET, DECAYING)).all():
+            return "a reading is not in camera range"
+        if _beyond_bounds(offer.reading_vectors, offset, tracking, sensor, radius):
+            return "a reading is beyond the sensor's error bounds"
+        return None
+
+    return check
+
+
+def _beyond_bounds(
+    vectors: FloatArray, offset: FloatArray, tracking: FloatArray, sensor: Sensor, radius: float
+) -> bool:
+    """True when a measured vector (K, 3) is beyond the sensor's bounds of its displacement."""
+    exact = sensor.noise is None and sensor.camera is None
+    bound = hop_error(sensor, tracking, radius) if exact else hop_bound(sensor, tracking, radius)
+    miss = vectors - offset
+    off = np.sqrt(np.einsum("...k,...k->...", miss, miss))
+    return bool((off > bound * (1.0 + SUM_TOLERANCE) + SUM_TOLERANCE).any())
 
 
 def round_labels_check(

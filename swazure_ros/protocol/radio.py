@@ -139,6 +139,7 @@ class RadioHub:
         loss: RadioLoss | None = None,
         neighbours: Callable[[int], IntArray] | None = None,
         check: Callable[[RoundOffers, int], NDArray[np.int8]] | None = None,
+        check_readings: Callable[[int, Offer], str | None] | None = None,
     ) -> None:
         self._local = local
         self._loss = loss if loss is not None and loss.active else None
@@ -147,6 +148,8 @@ class RadioHub:
         # check(offers, phase): why each label heard cannot be true, a code of
         # plausible.REASONS (0: it may be), checked once a round over every offer heard.
         self._check = check
+        # check_readings(sender, offer): why the readings an offer carries cannot be true.
+        self._check_readings = check_readings
         #: (sender, why) of the offers dropped as implausible, for the caller to count.
         self.rejected: list[tuple[int, str]] = []
         self._pairs: dict[int, tuple[IntArray, IntArray]] = {}  # run -> (sender, receiver)
@@ -242,19 +245,23 @@ class RadioHub:
     def _implausible(
         self, entries: list[tuple[int, Offer]], heard: RoundOffers, phase: int
     ) -> dict[int, str]:
-        """{index into ``entries``: why} of the offers with a label that cannot be true."""
+        """{index into ``entries``: why} of the offers with a label or a reading that is false."""
+        bad: dict[int, str] = {}
+        if self._check_readings is not None:
+            for index, (sender, offer) in enumerate(entries):
+                if len(offer.reading_ids) and (why := self._check_readings(sender, offer)):
+                    bad[index] = why
         if self._check is None or not len(heard):
-            return {}
-        why = self._check(heard, phase)
-        if not why.any():
-            return {}
+            return bad
+        why_label = self._check(heard, phase)
+        if not why_label.any():
+            return bad
         # RoundOffers.of lays the offers out in a stable sort by sender.
         order = sorted(range(len(entries)), key=lambda index: entries[index][0])
         offer_of_label = np.repeat(order, [len(entries[index][1]) for index in order])
-        return {
-            int(offer_of_label[label]): REASONS[int(why[label])]
-            for label in np.flatnonzero(why)[::-1]
-        }
+        for label in np.flatnonzero(why_label)[::-1]:
+            bad.setdefault(int(offer_of_label[label]), REASONS[int(why_label[label])])
+        return bad
 
     def on_offer(self, run_id: int, round_: int, sender: int, offer: Offer) -> Ack | None:
         """Hear ``sender``'s offer of round ``round_``; the round's ack if now heard.

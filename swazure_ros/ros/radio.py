@@ -28,7 +28,11 @@ from swazure_interfaces.msg import (
 
 from ..protocol.discovery import END, PATH, START
 from ..protocol.moves import Walk
-from ..protocol.plausible import implausible_readings, round_labels_check
+from ..protocol.plausible import (
+    implausible_readings,
+    offer_readings_check,
+    round_labels_check,
+)
 from ..protocol.radio import Ack, RadioHub, RadioLoss
 from ..protocol.readings import ReadingsBook
 from ..protocol.senses import Senses
@@ -103,6 +107,7 @@ class Radio:
             loss,
             lambda fls_id: senses.view(fls_id).other.astype(np.int64),
             round_labels_check(senses.positions, senses.sensor, senses.radius),
+            offer_readings_check(senses.positions, senses.sensor, senses.radius),
         )
         self.controls_heard = 0  # a control is a sure sign that a coordinator is there
         self.last_control_at = float("-inf")  # monotonic s

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections import Counter
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -16,7 +17,7 @@ from swazure_ros.protocol.discovery import (
     Offer,
     Participant,
 )
-from swazure_ros.protocol.plausible import implausible
+from swazure_ros.protocol.plausible import implausible, offer_readings_check
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SCENE, A, B, C, D
@@ -96,6 +97,10 @@ def test_every_label_of_an_honest_run_is_plausible(monkeypatch, sensor_file, pol
     points = world.swarm.points
     phases = Counter()
     take = Participant.on_control
+    readings = offer_readings_check(
+        lambda ids: points[world.indices(ids)], world.sensor, world.swarm.radius
+    )
+    read = Counter()
 
     def checking(participant, control, heard=None):
         out = take(participant, control, heard)
@@ -109,8 +114,24 @@ def test_every_label_of_an_honest_run_is_plausible(monkeypatch, sensor_file, pol
             )
             assert why is None, (out.sender, out.phase, out.round, why)
             phases[out.phase] += len(out.offer)
+            if len(out.offer.reading_ids):
+                assert readings(out.sender, out.offer) is None, out.sender
+                read[out.phase] += len(out.offer.reading_ids)
         return out
 
     monkeypatch.setattr(Participant, "on_control", checking)
     run(world.hood, policy)
     assert all(phases[phase] > 100 for phase in (SWEET_VISIBLE, SWEET_ALL, ANY_VISIBLE)), phases
+    # Only where a pair's two ends read it differently do offers carry readings.
+    assert (sum(read.values()) > 1000) == (world.sensor.noise is not None), read
+
+
+def test_a_reading_beyond_the_sensor_s_bounds_or_out_of_camera_range_is_not(sensor):
+    check = offer_readings_check(positions, sensor, RADIUS)
+    true = SCENE[[B, D]] - SCENE[A]
+    honest = replace(label((A, B), sensor), reading_ids=np.array([B, D]), reading_vectors=true)
+    assert check(A, honest) is None
+    forged = replace(honest, reading_vectors=true + np.array([[0.0, 0.0, 0.5], [0.0, 0.0, 0.0]]))
+    assert check(A, forged) == "a reading is beyond the sensor's error bounds"
+    blind = replace(honest, reading_ids=np.array([C]), reading_vectors=SCENE[[C]] - SCENE[A])
+    assert check(A, blind) == "a reading is not in camera range"
