@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 
 from .draws import standard_normals, uniforms
 from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, PairResults, summarise
+from .frames import through_metres
 from .geometry import tracking_distance
 from .metrics import describe
 from .observe import Observations
@@ -619,13 +620,19 @@ def local_estimates(
     order of ``np.unique(source)``) the seconds of its fit and the FLSs of its window.
 
     The windows are laid out from :func:`~.observe.observations`, what every
-    FLS's senses give its node; swarm indices serve as FLS ids. ``corrupt``
-    alters every reading first (outliers).
+    FLS's senses give its node, as the ``measurements`` messages carry them
+    to a source (in metres: :func:`~.frames.through_metres`); swarm indices
+    serve as FLS ids. ``corrupt`` alters every reading first (outliers).
     """
     from .observe import observations
 
     began = time.perf_counter()
     seen = observations(hood)
+    # A fit weighs readings whose axes differ by 1e10: the last bit of a reading
+    # moves an estimate by up to 1e-9 cm, so the engine reads what the wire carries.
+    seen = replace(
+        seen, vector=through_metres(seen.vector), distance=through_metres(seen.distance)
+    )
     if corrupt is not None:
         rows = np.flatnonzero(seen.measured)
         owner = np.repeat(np.arange(hood.swarm.size), np.diff(seen.indptr))[rows]

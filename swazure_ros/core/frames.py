@@ -35,6 +35,16 @@ def to_centimetres(metres: Value) -> Value:
     return metres * CM_PER_METRE
 
 
+def through_metres(centimetres: Value) -> Value:
+    """Centimetres as they read back from a message in metres (REP-103): the same bits.
+
+    Not always the value sent: x / 100 * 100 may differ from x in its last
+    bit. What an FLS computes from its neighbours' messages, the engine
+    computes from these.
+    """
+    return to_centimetres(to_metres(centimetres))
+
+
 #: The fixed frame of a display: the frame its shape's points are given in.
 SWARM_FRAME = "swarm"
 

@@ -15,12 +15,14 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Iterable
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ..core.fit import PATH
+from ..core.frames import through_metres
 from ..core.motion import Motion
 from ..core.observe import Observations, local_view
 from ..core.sensor import Sensor
@@ -78,7 +80,15 @@ def discover(
     book = ReadingsBook()
     for row in range(len(ids)):
         if int(ids[row]) not in stopped:
-            book.put(readings_of(local_view(seen, ids, row)))
+            # As the measurements messages carry them: in metres.
+            read = readings_of(local_view(seen, ids, row))
+            book.put(
+                replace(
+                    read,
+                    vector=through_metres(read.vector),
+                    distance=through_metres(read.distance),
+                )
+            )
 
     def view_of(row: int) -> Participant:
         fls_id = int(ids[row])
