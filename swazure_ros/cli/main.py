@@ -3,27 +3,39 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import os
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from types import ModuleType
 
 from .. import __version__
 from ..core.errors import SwazureError
-from . import camera, echo, evaluate, key, query, replay, spawn, study, track
 
-#: Verb name -> module with ``add_arguments(parser)`` and ``main(args) -> int``.
-VERBS: dict[str, ModuleType] = {
-    "evaluate": evaluate,
-    "study": study,
-    "spawn": spawn,
-    "echo": echo,
-    "query": query,
-    "replay": replay,
-    "track": track,
-    "camera": camera,
-    "key": key,
+#: Verb name -> the first line of its module's docstring (a test keeps them equal). A
+#: verb's module, with ``add_arguments(parser)`` and ``main(args) -> int``, is imported
+#: only when the verb runs: `swazure --version` and `swazure --help` import none.
+VERBS: dict[str, str] = {
+    "evaluate": "Evaluate every ordered blind pair of a swarm with the core engine and "
+    "report the metrics.",
+    "study": "Run the published evaluation (spec section 10): every run, tables, figures "
+    "and a report.",
+    "spawn": "Bring up a swarm of FLS nodes (one rclpy node per FLS) and serve it until Ctrl-C.",
+    "echo": "Print the messages of a topic in the YAML layout of ``ros2 topic echo``.",
+    "query": "Ask a running swarm for one source FLS's pose relative to one blind neighbour.",
+    "replay": "Publish a recorded swarm run (``swazure spawn --record``) again, with its "
+    "original timing.",
+    "track": "Track a moving FLS out of sight through a relay: true and estimated velocity "
+    "and acceleration.",
+    "camera": "Calibrate a sensor from a rendering ArUco camera (render, detect, solve with "
+    "OpenCV).",
+    "key": "Make a swarm's key: every process of one swarm is started with the same key file.",
 }
+
+
+def verb_module(name: str) -> ModuleType:
+    """The module of verb ``name``."""
+    return importlib.import_module(f"{__package__}.{name}")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -32,8 +44,9 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The top-level parser with one subparser per verb."""
+def build_parser(loaded: Iterable[str] | None = None) -> argparse.ArgumentParser:
+    """The top-level parser with one subparser per verb; the ``loaded`` ones (all if None)
+    with their options."""
     parser = _Parser(
         prog="swazure",
         description=(
@@ -43,9 +56,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"swazure {__version__}")
     verbs = parser.add_subparsers(dest="verb", metavar="VERB", parser_class=_Parser)
-    for name, module in VERBS.items():
-        doc = (module.__doc__ or "").strip().splitlines()[0]
-        sub = verbs.add_parser(name, help=doc, description=module.__doc__)
+    wanted = set(VERBS if loaded is None else loaded)
+    for name, summary in VERBS.items():
+        if name not in wanted:
+            verbs.add_parser(name, help=summary)
+            continue
+        module = verb_module(name)
+        sub = verbs.add_parser(name, help=summary, description=module.__doc__)
         module.add_arguments(sub)
         sub.set_defaults(handler=module.main)
     return parser
@@ -53,8 +70,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run one verb; the project's errors become one line on stderr and exit code 2."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    given = list(sys.argv[1:] if argv is None else argv)
+    # Only the verb named is loaded (a verb is the first word that is not an option).
+    named = next((word for word in given if not word.startswith("-")), None)
+    parser = build_parser([named] if named in VERBS else [])
+    args = parser.parse_args(given)
     if args.verb is None:
         parser.print_help()
         return 2

@@ -1,0 +1,46 @@
+"""The verb dispatcher: a verb's module loads only when that verb runs."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from swazure_ros.cli.main import VERBS, verb_module
+
+
+@pytest.mark.parametrize("verb", list(VERBS))
+def test_each_verb_s_summary_is_its_module_s_first_line(verb):
+    doc = verb_module(verb).__doc__ or ""
+    assert " ".join(VERBS[verb].split()) == " ".join(doc.strip().splitlines()[0].split())
+
+
+def loaded_after(*argv: str) -> set[str]:
+    """The modules ``swazure argv`` has imported when it exits."""
+    probe = (
+        "import sys\n"
+        "from swazure_ros.cli.main import main\n"
+        "try:\n"
+        f"    main({list(argv)!r})\n"
+        "except SystemExit:\n"
+        "    pass\n"
+        "print(' '.join(sorted(sys.modules)))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, check=True
+    )
+    return set(done.stdout.split())
+
+
+def test_version_and_help_load_no_verb_and_no_numpy():
+    for argv in (["--version"], ["--help"]):
+        loaded = loaded_after(*argv)
+        assert "numpy" not in loaded, argv
+        assert not {f"swazure_ros.cli.{verb}" for verb in VERBS} & loaded, argv
+
+
+def test_a_verb_loads_its_own_module_and_no_other():
+    loaded = loaded_after("key", "--help")
+    assert "swazure_ros.cli.key" in loaded
+    assert not {f"swazure_ros.cli.{verb}" for verb in VERBS if verb != "key"} & loaded
