@@ -446,7 +446,8 @@ class FlsNode(SwarmNode):
             if self._published is None:
                 # A first reader (a radio about to fit) gets what the camera sees now,
                 # not a frame period later: the latched message serves later readers.
-                self._on_frame()
+                # Not through _on_frame: the reader may not count yet, and frames would stop.
+                self.publish_measurements()
 
     def _sense(self) -> tuple[Measurement, NeighbourSets]:
         # Lazily, once per revision: while a heuristic moves FLSs, revisions come
