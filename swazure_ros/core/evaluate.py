@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .. import __version__
-from . import jit
+from . import csr, jit
 from .geometry import Swarm, tracking_distance
 from .metrics import describe, pose_errors
 from .neighbours import (
@@ -282,7 +282,7 @@ def merge_paths(first: Paths, second: Paths, use_second: NDArray[np.bool_]) -> P
     hops[use_second] = second.hops
     length[use_second] = second.length
     counts = np.where(found, hops + 1, 0)
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    offsets = csr.offsets(counts)
     nodes = np.empty(offsets[-1], dtype=np.int64)
     owner = np.repeat(np.arange(size), counts)
     from_second = use_second[owner]
@@ -377,7 +377,7 @@ def path_obstruction(
     )
     hop_edge = np.full(len(pair), -1, dtype=np.int64)
     hop_edge[blocked] = edge_of_blocked_hop
-    hop_offsets = np.concatenate([[0], np.cumsum(np.bincount(pair, minlength=size))])
+    hop_offsets = csr.offsets(np.bincount(pair, minlength=size))
     distinct = _distinct_per_path(hop_offsets.astype(np.int64), hop_edge, offsets, ids)
     return has_obstruction, np.asarray(distinct)
 

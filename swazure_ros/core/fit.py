@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from . import csr
 from .draws import standard_normals, uniforms
 from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, PairResults, summarise
 from .frames import through_metres
@@ -474,9 +475,7 @@ def heard_in_window(seen: Observations, ids: IntArray, source: int) -> tuple[Int
     radio = np.isin(seen.range_class[mine], (BLIND, SWEET))
     members = np.concatenate([[source], seen.other[mine][radio]]).astype(np.int64)
     starts, ends = seen.indptr[members], seen.indptr[members + 1]
-    counts = ends - starts
-    # Each member's rows, one after the other: starts[k] .. ends[k] for every k.
-    rows = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+    rows = csr.ragged_indices(starts, ends - starts)  # each member's rows, one after another
     owner = np.repeat(members, ends - starts)
     inside = np.zeros(len(ids), dtype=bool)
     inside[members] = True
@@ -635,7 +634,7 @@ def local_estimates(
     )
     if corrupt is not None:
         rows = np.flatnonzero(seen.measured)
-        owner = np.repeat(np.arange(hood.swarm.size), np.diff(seen.indptr))[rows]
+        owner = csr.run_of(seen.indptr)[rows]
         unused = np.zeros((len(rows), 3, 3))
         readings = Measurements(owner, seen.other[rows], seen.vector[rows], unused, unused)
         vector = seen.vector.copy()

@@ -23,6 +23,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from . import csr
 from .evaluate import SWEET_PATH, Evaluation, estimates, summarise, summed_hop_errors
 from .metrics import describe
 from .paths import Paths, avoiding_paths
@@ -40,7 +41,7 @@ def inner_nodes(paths: Paths) -> tuple[IntArray, IntArray]:
     ends = counts > 0
     keep[paths.offsets[:-1][ends]] = False
     keep[paths.offsets[1:][ends] - 1] = False
-    offsets = np.concatenate([[0], np.cumsum(inner)]).astype(np.int64)
+    offsets = csr.offsets(inner)
     return offsets, paths.nodes[keep]
 
 
@@ -49,10 +50,8 @@ def _joined(
 ) -> tuple[IntArray, IntArray]:
     """Two ragged lists (offsets, values) of M rows joined row by row."""
     counts = np.diff(first[0]) + np.diff(second[0])
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    rows = np.concatenate(
-        [np.repeat(np.arange(len(counts)), np.diff(part[0])) for part in (first, second)]
-    )
+    offsets = csr.offsets(counts)
+    rows = np.concatenate([csr.run_of(part[0]) for part in (first, second)])
     values = np.concatenate([first[1], second[1]])
     order = np.argsort(rows, kind="stable")
     return offsets, values[order]
@@ -99,7 +98,7 @@ def fuse(evaluation: Evaluation, count: int) -> Evaluation:
         np.ones(len(sweet), dtype=bool),
         pairs.hops[sweet],
         pairs.path_length[sweet],
-        np.concatenate([[0], np.cumsum(counts[sweet])]).astype(np.int64),
+        csr.offsets(counts[sweet]),
         pairs.nodes[np.repeat(pairs.status == SWEET_PATH, counts)],
     )
     graph = hood.sweet_visible

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from . import jit
+from . import csr, jit
 from .evaluate import (
     NO_PATH,
     REASON_BLOCKED,
@@ -449,7 +449,7 @@ def _obstructing_result(
     result["truth"][resolved] = evaluation.pairs.truth[resolved]
     return HeuristicResult(
         paths=paths,
-        move_offsets=np.concatenate([[0], np.cumsum(move_counts)]).astype(np.int64),
+        move_offsets=csr.offsets(move_counts),
         move_fls=move_fls,
         move_from=move_from,
         move_to=move_to,
@@ -742,7 +742,7 @@ def _probe_kernel(
 
 def _nearest_first(points: FloatArray, indptr: IntArray, indices: IntArray) -> IntArray:
     """Each CSR row's column indices by distance from the row's point, then by index."""
-    rows = np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
+    rows = csr.run_of(indptr)
     distance = np.linalg.norm(points[indices] - points[rows], axis=1)
     return np.asarray(indices[np.lexsort((indices, distance, rows))], dtype=np.int64)
 
@@ -809,7 +809,7 @@ def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -
     move_counts[resolved_pairs] = 1
     return HeuristicResult(
         paths=paths_from_rows(size, rows),
-        move_offsets=np.concatenate([[0], np.cumsum(move_counts)]).astype(np.int64),
+        move_offsets=csr.offsets(move_counts),
         move_fls=pairs.source[resolved_pairs].astype(np.int64),
         move_from=swarm.points[pairs.source[resolved_pairs]].reshape(-1, 3),
         move_to=probe[success].reshape(-1, 3),
@@ -1067,7 +1067,7 @@ def heuristic_summary(heuristic: HeuristicResult) -> dict[str, Any]:
     """
     moved = heuristic.move_distance
     pairs = len(heuristic.resolved)
-    owner = np.repeat(np.arange(pairs), np.diff(heuristic.move_offsets))  # pair of each move
+    owner = csr.run_of(heuristic.move_offsets)  # pair of each move
     of_resolved = heuristic.resolved[owner]
     resolved = np.flatnonzero(heuristic.resolved)
     totals = np.bincount(owner, weights=moved, minlength=pairs)[resolved]

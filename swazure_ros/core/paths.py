@@ -26,7 +26,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import jit
+from . import csr, jit
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -127,7 +127,7 @@ def make_graph(
     tail = np.concatenate([first, second])
     head = np.concatenate([second, first])
     order = np.lexsort((head, tail))
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(tail, minlength=size))])
+    indptr = csr.offsets(np.bincount(tail, minlength=size))
     edge_costs = None
     if costs is not None:
         costs = np.asarray(costs, dtype=np.float64)
@@ -574,7 +574,7 @@ def avoiding_paths(
         max(1, min(len(sources), 4 * jit.get_num_threads())),
     )
     counts = np.where(found, hops + 1, 0)
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    offsets = csr.offsets(counts)
     nodes = buffer[np.arange(AVOIDING_WIDTH)[None, :] < counts[:, None]]
     paths = Paths(found, hops, np.full(len(found), np.nan), offsets, nodes)
     return replace(paths, length=path_sums(graph, paths, graph.weights))
@@ -658,7 +658,7 @@ def shortest_paths(
         if progress is not None:
             progress(int(hi - lo))
     counts = np.where(found, hops + 1, 0)
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    offsets = csr.offsets(counts)
     nodes = np.empty(offsets[-1], dtype=np.int64)
     short = counts <= _WIDTH
     columns = np.arange(_WIDTH)
@@ -671,7 +671,7 @@ def shortest_paths(
         long_hops = hops[rest[keep]]
         long_offsets = offsets[rest[keep]]
         scratch = np.empty(int((long_hops + 1).sum()) + 1, dtype=np.int64)
-        scratch_offsets = np.concatenate([[0], np.cumsum(long_hops + 1)])[:-1].astype(np.int64)
+        scratch_offsets = csr.offsets(long_hops + 1)[:-1]
         _long_paths(
             graph.indptr,
             graph.indices,
@@ -713,7 +713,7 @@ def paths_from_rows(
         found[pair], hops[pair], counts[pair] = True, len(nodes) - 1, len(nodes)
     for pair, value in (lengths or {}).items():
         length[pair] = value
-    offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    offsets = csr.offsets(counts)
     flat = np.empty(offsets[-1], dtype=np.int64)
     for pair, nodes in rows.items():
         flat[offsets[pair] : offsets[pair + 1]] = nodes

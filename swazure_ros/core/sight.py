@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import jit
+from . import csr, jit
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -52,7 +52,7 @@ def build_grid(points: FloatArray, radius: float) -> Grid:
     keys = (coords[:, 0] * shape[1] + coords[:, 1]) * shape[2] + coords[:, 2]
     members = np.argsort(keys, kind="stable").astype(np.int64)
     counts = np.bincount(keys, minlength=int(np.prod(shape)))
-    cell_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    cell_start = csr.offsets(counts)
     return Grid(lower, cell, shape, cell_start, members)
 
 

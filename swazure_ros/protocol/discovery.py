@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core import jit
+from ..core import csr, jit
 from ..core.evaluate import (
     ABORTED,
     DECAYING_PATH,
@@ -178,14 +178,6 @@ def reads_both_ends(sensor: Sensor) -> bool:
     return sensor.noise is not None or sensor.camera is not None
 
 
-def ragged_indices(starts: IntArray, counts: IntArray) -> IntArray:
-    """(sum(counts),) the indices starts[k] .. starts[k] + counts[k] - 1, run after run."""
-    before = np.cumsum(counts) - counts
-    return np.asarray(
-        np.repeat(starts - before, counts) + np.arange(int(counts.sum())), dtype=np.int64
-    )
-
-
 @dataclass(frozen=True)
 class Found:
     """A path from a source to one FLS: ids, hops, length (cm) and summed vector (3,), cm."""
@@ -237,7 +229,7 @@ class RoundOffers:
         counts = np.array([len(offer) for offer in offers], dtype=np.int64)
         senders = np.array([sender for sender, _ in heard], dtype=np.int64)
         unique, first = np.unique(senders, return_index=True)
-        starts = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        starts = csr.offsets(counts)
 
         def joined(arrays: list[NDArray[Any]], empty: NDArray[Any]) -> NDArray[Any]:
             return np.concatenate(arrays) if arrays else empty
@@ -256,7 +248,7 @@ class RoundOffers:
             lengths=joined([offer.lengths for offer in offers], np.zeros(0)),
             errors=joined([offer.errors for offer in offers], np.zeros(0)),
             vectors=joined([offer.vectors for offer in offers], np.zeros((0, 3))),
-            path_offsets=np.concatenate([[0], np.cumsum(path_lengths)]).astype(np.int64),
+            path_offsets=csr.offsets(path_lengths),
             path_ids=joined([offer.path_ids for offer in offers], np.zeros(0, np.int64)),
             unbiased=joined(
                 [carried(offer, offer.unbiased, (3,)) for offer in offers], np.zeros((0, 3))
@@ -285,9 +277,7 @@ class RoundOffers:
         """(M,) the labels offered by ``senders`` (sorted ids), sender by sender."""
         rows = self._rows(senders)
         low, high = self.starts[rows], self.starts[rows + 1]
-        counts = high - low
-        shift = np.repeat(low - np.concatenate([[0], np.cumsum(counts)[:-1]]), counts)
-        return np.asarray(shift + np.arange(int(counts.sum())), dtype=np.int64)
+        return csr.ragged_indices(low, high - low)
 
     def path(self, label: int) -> tuple[int, ...]:
         """Path of label ``label``, FLS ids from its source to the sender."""
@@ -539,13 +529,13 @@ class PathSearch:
             offsets = self._heard[key].path_offsets
             start[rows] = offsets[label[rows]]
             length[rows] = offsets[label[rows] + 1] - start[rows]
-        path_offsets = np.concatenate([[0], np.cumsum(length + 1)]).astype(np.int64)
+        path_offsets = csr.offsets(length + 1)
         path_ids = np.full(int(path_offsets[-1]), self.fls_id, dtype=np.int64)  # ends each
         for key in np.unique(via[via >= 0]).tolist():
             rows = via == key
-            path_ids[ragged_indices(path_offsets[:-1][rows], length[rows])] = self._heard[
+            path_ids[csr.ragged_indices(path_offsets[:-1][rows], length[rows])] = self._heard[
                 key
-            ].path_ids[ragged_indices(start[rows], length[rows])]
+            ].path_ids[csr.ragged_indices(start[rows], length[rows])]
         # Offers heard that no unsent label still comes through are done with
         # (looked for now and then: a few rounds' offers are kept anyway).
         if len(self._heard) > _HEARD_KEPT:

@@ -18,6 +18,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core import csr
 from ..core.sensor import DECAYING, SWEET, Sensor, hop_error
 from .discovery import ANY_VISIBLE, Offer, RoundOffers
 from .readings import Readings
@@ -87,7 +88,7 @@ def implausible_labels(
     real = np.ones(len(step), dtype=bool)
     real[path_offsets[1:-1] - 1] = False
     tracking = np.where(real, step - 2.0 * radius, 0.0)
-    label_of_hop = np.repeat(np.arange(count), np.diff(path_offsets))[:-1]
+    label_of_hop = csr.run_of(path_offsets)[:-1]
     classes = sensor.classify(tracking)
     in_range = (classes == SWEET) | ((classes == DECAYING) & (phase == ANY_VISIBLE))
     why[np.unique(label_of_hop[real & ~in_range])] = _HOP
