@@ -44,7 +44,7 @@ from ..core.paths import check_policy
 from ..protocol.discovery import PATH, Control, Estimate, Offer, bucket_width, evaluation_of
 from ..protocol.moves import Move, MoveRun, Walk
 from ..protocol.plausible import implausible
-from ..protocol.rounds import Absences, RoundClock, StallClock
+from ..protocol.rounds import RoundClock, StallClock
 from .auth import SwarmKey
 from .convert import (
     control_message,
@@ -57,6 +57,7 @@ from .convert import (
 from .deferred import Reply, create_deferred_service
 from .guard import Guard, check, check_ids
 from .keys import key_from
+from .liveness import FlsLiveness
 from .names import (
     ACK_TOPIC,
     COMPUTE_POSE_SERVICE,
@@ -75,7 +76,6 @@ from .names import (
     WALKS_TOPIC,
     WORLD_QOS,
     WORLD_TOPIC,
-    fls_id_of,
     node_name,
 )
 from .runtime import (
@@ -265,9 +265,8 @@ class Coordinator(SwarmNode):
             LIVENESS_GRACE,
             "seconds an FLS node must stay off the graph before it is gone",
         )
-        self._seen: set[int] = set()  # FLSs the graph has shown at least once
         self._radios: set[str] = set()  # node names of the processes' radios (acks' writers)
-        self._missing = Absences(self.liveness_grace)
+        self._liveness = FlsLiveness(self, self.get_namespace(), self.liveness_grace)
         self.gone: set[int] = set()
         self._gone_publisher = self.create_publisher(Departed, DEPARTED_TOPIC, DEPARTED_QOS)
         self.create_timer(self.liveness_period, self._on_liveness)
@@ -469,20 +468,12 @@ class Coordinator(SwarmNode):
             self._act(machine.on_tick(self._now()))
 
     def _on_liveness(self) -> None:
-        present = {
-            fls_id
-            for name, namespace in self.get_node_names_and_namespaces()
-            if namespace == self.get_namespace() and (fls_id := fls_id_of(name)) is not None
-        }
-        # Only an FLS once seen can go missing: a swarm's nodes join the graph over seconds.
-        self._seen |= present
+        newly = self._liveness.look(self.gone)
         if len(self._radios) < self.hosts:
             # The radios, by the names of their nodes, while they are on the graph: the
             # acks' writers (an FLS may die before its radio ever acknowledged a round).
             writers = self.get_publishers_info_by_topic(self._acks.topic_name)
             self._radios |= {info.node_name for info in writers}
-        missing = self._seen - present - self.gone
-        newly = self._missing.gone(missing, time.monotonic())
         if not newly:
             return
         self.gone |= newly

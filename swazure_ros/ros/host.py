@@ -37,6 +37,7 @@ from .convert import (
 )
 from .fls_node import FlsNode, Transmitter
 from .guard import Guard, check
+from .liveness import FlsLiveness
 from .names import (
     COORDINATOR,
     LIVENESS_GRACE,
@@ -45,7 +46,6 @@ from .names import (
     WORLD_QOS,
     WORLD_REACH,
     WORLD_TOPIC,
-    fls_id_of,
 )
 from .radio import Radio
 from .runtime import ParameterError, SwarmNode
@@ -124,8 +124,7 @@ class SwarmHost:
         self._coordinator_seen = False
         self.aborted = 0  # ABORTED estimates sent after the coordinator was lost
         # Only an FLS once seen can go missing: remote ones join the graph late.
-        self._seen_flss: set[int] = set()
-        self._absent = Absences(LIVENESS_GRACE)
+        self._liveness = FlsLiveness(self.host_node, self.namespace, LIVENESS_GRACE)
         self._coordinator_absent = Absences(LIVENESS_GRACE)
         self._controls_at_loss = 0
         self.host_node.create_timer(COORDINATOR_WATCH_PERIOD, self._watch_graph)
@@ -152,17 +151,10 @@ class SwarmHost:
 
     def _watch_graph(self) -> None:
         """Liveness from the graph: FLS nodes gone (replica.gone), and the coordinator."""
-        namespace = f"/{self.namespace}"
-        nodes = self.host_node.get_node_names_and_namespaces()
-        flss = {
-            fls_id
-            for name, where in nodes
-            if where == namespace and (fls_id := fls_id_of(name)) is not None
-        }
+        namespace = self._liveness.namespace
+        self.replica.gone |= self._liveness.look(self.replica.gone)
+        nodes = self._liveness.nodes
         now = time.monotonic()
-        self._seen_flss |= flss
-        missing = self._seen_flss - flss - self.replica.gone
-        self.replica.gone |= self._absent.gone(missing, now)
         if self.radio is None:
             return  # no FLS here to abort a run for
         # The coordinator as -1 among the absences: it must stay away as long.
@@ -222,7 +214,7 @@ class SwarmHost:
             )
             self.fls_nodes.append(node)
             self.fls_by_id[fls_id] = node
-            self._seen_flss.add(fls_id)  # on this participant's graph from now on
+            self._liveness.seen.add(fls_id)  # on this participant's graph from now on
             self._add(node)
             if on_created is not None and (count % chunk == 0 or count == len(self.fls_ids)):
                 on_created(count)
