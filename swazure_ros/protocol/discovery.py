@@ -913,9 +913,9 @@ class Participant:
             if run is not None and run.targets is not None:
                 if run.estimator == PATH:
                     return Report(run_id, self.fls_id, run.estimates(self.sensor))
-                self.waiting[run_id] = run
-                reports = self.waiting_reports()
-                return reports[0] if reports else None
+                if self.readings.has(radio_window(run.view)):
+                    return self._fitted(run_id, run)
+                self.waiting[run_id] = run  # its readings are still on their way
         return None
 
     def waiting_reports(self, at_deadline: bool = False) -> list[Report]:
@@ -925,13 +925,15 @@ class Participant:
         """
         reports = []
         for run_id, run in list(self.waiting.items()):
-            window = radio_window(run.view)
-            if not at_deadline and not self.readings.has(window):
-                continue
-            del self.waiting[run_id]
-            estimates = run.fitted(self.sensor, self.radius, self.readings.heard(window))
-            reports.append(Report(run_id, self.fls_id, estimates))
+            if at_deadline or self.readings.has(radio_window(run.view)):
+                del self.waiting[run_id]
+                reports.append(self._fitted(run_id, run))
         return reports
+
+    def _fitted(self, run_id: int, run: FlsRun) -> Report:
+        """Run ``run_id``'s report, fitted to what this FLS has heard of its window."""
+        heard = self.readings.heard(radio_window(run.view))
+        return Report(run_id, self.fls_id, run.fitted(self.sensor, self.radius, heard))
 
     def abandon(self) -> list[Report]:
         """Drop every run (their coordinator is gone); a source's targets are ABORTED."""
