@@ -122,8 +122,32 @@ def add_compat_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
+#: What the rows of a run's summary mean (spec, sections 2 and 6): ``evaluate --help``.
+SUMMARY_TERMS = """\
+the summary's rows:
+  kissing pairs           unordered pairs that touch: t within 1e-3 cm of 0 (one whose
+                          t is still above 0 counts as a blind pair too)
+  ordered blind pairs     (source, target) with 0 < t below the sweet range, both orders
+  blocked / no sweet path pairs with no sweet path in sight: the radio's sweet graph
+                          joins them (an FLS obstructs) / does not
+  obstructed sweet paths  of the pairs the radio's sweet graph joins, the share whose
+                          path there an FLS obstructs
+  predicted error         the estimates' mean expected error, cm; the share of pairs
+                          whose error is within theirs
+  NEES                    a fit's normalized estimation error squared (3 is honest)
+  distance error, %       | |estimate| - |truth| | / |truth|: 100 % is an estimate twice
+                          as long, or of length zero; a decaying hop can exceed that
+  alpha, deg              the angle between the estimated and the true vector
+  theta error, deg        the error of the inclination acos(z / |v|)
+  phi error, deg          the error of the azimuth atan2(y, x), at most 180: near the z
+                          axis a small error of the vector turns the azimuth a lot
+"""
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure evaluate``."""
+    parser.epilog = SUMMARY_TERMS
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
     add_swarm_arguments(parser)
     add_policy_argument(parser)
     parser.add_argument(
