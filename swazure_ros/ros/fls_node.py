@@ -71,6 +71,7 @@ from swazure_interfaces.srv import GetNeighbours, TrackTarget
 
 from ..core import jit
 from ..core.errors import SwazureError
+from ..core.fit import PATH
 from ..core.frames import camera_optical_frame
 from ..core.motion import parse_motion
 from ..core.observe import Measurement, NeighbourSets
@@ -82,7 +83,7 @@ from ..core.tracking import (
     TrackingError,
     moving_senses,
 )
-from ..protocol.discovery import Broadcast, Control, Participant, Report, RoundOffers
+from ..protocol.discovery import START, Broadcast, Control, Participant, Report, RoundOffers
 from ..protocol.moves import (
     WALKING,
     Walk,
@@ -443,11 +444,6 @@ class FlsNode(SwarmNode):
     def _on_reader_matched(self, info: QoSPublisherMatchedInfo) -> None:
         if info.current_count_change > 0:
             self._wake_frames()
-            if self._published is None:
-                # A first reader (a radio about to fit) gets what the camera sees now,
-                # not a frame period later: the latched message serves later readers.
-                # Not through _on_frame: the reader may not count yet, and frames would stop.
-                self.publish_measurements()
 
     def _sense(self) -> tuple[Measurement, NeighbourSets]:
         # Lazily, once per revision: while a heuristic moves FLSs, revisions come
@@ -519,6 +515,10 @@ class FlsNode(SwarmNode):
 
     def on_control(self, control: Control, heard: RoundOffers | None) -> None:
         """Follow the round clock, taking the offers heard since the last control."""
+        if control.command == START and control.estimator != PATH and self._published is None:
+            # The sources of a fitting run read this FLS's measurement (its radio has just
+            # subscribed): sent now, latched, not a frame period later.
+            self.publish_measurements()
         out = self.discovery.on_control(control, heard)
         if out is not None:
             self._publish_discovery(out)

@@ -180,9 +180,17 @@ def test_forged_measurements_change_no_fit(domain, authenticate, forger_key, dro
                 for other in (source, target)
             ]
             publisher.publish(forger_key.serialize(forged))
+            # A first fitting run makes the radio hear measurements; the forgery, latched,
+            # reaches it once matched. The run after it must fit as the engine does.
+            first = swarm.coordinator.discover(POLICY, [source], [target], LOCAL_LEAST_SQUARES)
+            swarm.run(first, timeout=120)
+            refused = (MEASUREMENTS_TOPIC, dropped_because)
+            deadline = time.monotonic() + 30
+            while time.monotonic() < deadline and not swarm.host.guard.dropped[refused]:
+                swarm.spin(0.05)
+            dropped = swarm.host.guard.dropped[refused]
             run = swarm.coordinator.discover(POLICY, [source], [target], LOCAL_LEAST_SQUARES)
             result = swarm.run(run, timeout=120)
-            dropped = swarm.host.guard.dropped[(MEASUREMENTS_TOPIC, dropped_because)]
         finally:
             node.destroy_node()
             context.try_shutdown()
