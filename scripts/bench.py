@@ -1222,7 +1222,7 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
     from swazure_interfaces.srv import ComputePose
 
     from swazure_ros.core.evaluate import evaluate_pairs
-    from swazure_ros.ros.convert import pose_estimate_from_message
+    from swazure_ros.ros.convert.discovery import pose_estimate_from_message
     from swazure_ros.ros.names import POLICY_CODES
     from swazure_ros.ros.runtime import SwarmNode, init_context
     from swazure_ros.sim.world import WorldSpec

@@ -1,7 +1,7 @@
 """One OS process per FLS: the standalone FLS program, started, watched and stopped.
 
 :class:`FlsProcesses` runs the program ``ros2 run swazure_ros fls`` runs
-(:func:`swazure_ros.ros.fls_node.main`) once per FLS, as each FLS of real
+(:func:`swazure_ros.ros.fls_program.main`) once per FLS, as each FLS of real
 hardware runs on its own computer. Every process reads the swarm's
 description, key and parameters from one parameter file, takes its id on the
 command line, and writes its output to a log file of its own
@@ -46,7 +46,7 @@ FLS_PROGRAM = (
     # SIGKILL, so that no FLS outlives the swarm it belonged to.
     "import ctypes, os, signal, sys; ctypes.CDLL(None).prctl(1, signal.SIGTERM); "
     f"os.nice({FLS_NICENESS}); "
-    "from swazure_ros.ros.fls_node import main; sys.exit(main())",
+    "from swazure_ros.ros.fls_program import main; sys.exit(main())",
 )
 #: The environment of an FLS process, unless the user's sets it: UDP only, as between
 #: FLSs on computers of their own. Over Fast DDS's shared memory, some of 25 FLS

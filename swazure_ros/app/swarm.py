@@ -29,20 +29,19 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from rclpy.context import Context
-from rclpy.task import Future
 
 from ..core.errors import SwazureError
 from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import LOCAL_LEAST_SQUARES, PATH, refine
 from ..core.heuristics import PLAIN, HeuristicResult, run_technique
-from ..protocol.discovery import evaluation_of
+from ..protocol.discovery.estimate import evaluation_of
 from ..ros import runtime
 from ..ros.auth import SwarmKey, new_key
 from ..ros.bag import Recorder
-from ..ros.coordinator import Coordinator, DiscoveryResult, MoveResult
+from ..ros.coordinator import Coordinator, DiscoveryResult, Future, MoveResult
 from ..ros.host import SwarmHost
 from ..ros.names import host_name
+from ..ros.runtime import Context
 from ..ros.view import ViewNode
 from ..ros.world_node import SimulatedCameras
 from ..sim.world import World, WorldSpec

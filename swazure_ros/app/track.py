@@ -20,47 +20,25 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from rclpy.context import Context
-from swazure_interfaces.msg import TrackEstimate, TrackProgress
-from swazure_interfaces.srv import TrackTarget
 
 from ..core.description import SwarmDescription
-from ..core.errors import SwazureError
 from ..core.frames import to_metres
 from ..core.motion import Motion
 from ..core.tracking import (
-    ENDED,
-    TIMED_OUT,
     TRACK_SETTINGS,
     TrackConfig,
-    TrackingError,
     TrackRun,
     arrival,
     nanoseconds,
 )
-from ..protocol.tracking import TrackProgressReport
 from ..ros.auth import SwarmKey
 from ..ros.clock import SimClock
-from ..ros.convert import motion_estimate, track_progress_from_message
 from ..ros.host import SwarmHost
-from ..ros.names import (
-    ROUND_QOS,
-    TRACK_ESTIMATES_TOPIC,
-    TRACK_MODEL_CODES,
-    TRACK_PROGRESS_TOPIC,
-    TRACK_REQUESTS_TOPIC,
-    TRACK_SERVICE,
-    TRACK_STATE_NAMES,
-    node_name,
-)
-from ..ros.runtime import SwarmNode, init_context
+from ..ros.runtime import Context, init_context
+from ..ros.track_client import SwarmStalledError, TrackClient
 from ..ros.world_node import SimulatedCameras
 from ..sim.world import World
 from .per_fls import FlsProcesses
-
-
-class SwarmStalledError(SwazureError):
-    """The nodes stopped answering within the wall-clock bound."""
 
 
 def track_parameters(config: TrackConfig) -> dict[str, object]:
@@ -137,7 +115,6 @@ class TrackSession:
             parameters=track_parameters(config),
             key=SwarmKey(per_fls.key if per_fls is not None else None),
         )
-        self.progress: dict[int, TrackProgressReport] = {}
         if per_fls is not None:
             # What the FLSs' cameras see, so that each joins the swarm's radio.
             self.host.add(
@@ -145,24 +122,17 @@ class TrackSession:
                     self.host.replica, self.fls_ids, namespace=self.namespace, context=context
                 )
             )
-            self._progress = self.host.guard.subscribe(
-                TrackProgress, TRACK_PROGRESS_TOPIC, self._on_progress, ROUND_QOS
-            )
         self.clock = SimClock(context=context)
         self.host.add(self.clock)
-        self.client = SwarmNode("track_client", namespace=self.namespace, context=context)
+        self.client = TrackClient(
+            namespace=self.namespace,
+            context=context,
+            ids=self.host.replica.world.ids,
+            guard=self.host.guard if per_fls is not None else None,
+        )
         self.host.add(self.client)
-        self.estimates: list[TrackEstimate] = []
         # What stopped nodes sent and heard: their messages still count as delivered.
         self._departed_traffic: Counter[str] = Counter()
-        self._estimates = self.client.create_subscription(
-            TrackEstimate, TRACK_ESTIMATES_TOPIC, self.estimates.append, ROUND_QOS
-        )
-
-    def _on_progress(self, message: TrackProgress) -> None:
-        # One publisher per FLS, reliable: its reports arrive in order, the last is current.
-        report = track_progress_from_message(message, self.host.replica.world.ids)
-        self.progress[report.fls_id] = report
 
     def start(self, discovery_timeout: float = 60.0) -> None:
         """Create the FLS nodes at simulated time 0 and wait until they are discovered."""
@@ -187,34 +157,14 @@ class TrackSession:
             return True
         # Each FLS's radio is up (at its camera's first frame) and its track publishers
         # are matched here: nothing they send is lost.
-        count = len(self.fls_ids)
-        requests = f"/{self.namespace}/{TRACK_REQUESTS_TOPIC}"
-        return (
-            self.client.count_subscribers(requests) >= count
-            and self._estimates.get_publisher_count() >= count
-            and self._progress.get_publisher_count() >= count
-        )
+        return self.client.hears(len(self.fls_ids))
 
     def track(self, source: int, target: int, model: str, timeout: float = 10.0) -> int:
         """Ask FLS ``source`` to track ``target``; return the relay, or raise TrackingError."""
-        client = self.client.create_client(TrackTarget, f"{node_name(source)}/{TRACK_SERVICE}")
-        try:
-            if not self.spin_until(client.service_is_ready, timeout):
-                raise TrackingError(f"FLS {source}'s {client.srv_name} is not reachable")
-            request = TrackTarget.Request(
-                source_id=source, target_id=target, model=TRACK_MODEL_CODES[model]
-            )
-            future = client.call_async(request)
-            if not self.spin_until(future.done, timeout):
-                raise SwarmStalledError(f"no answer from {client.srv_name} in {timeout} s")
-        finally:
-            self.client.destroy_client(client)
-        response = future.result()
-        if not response.success:
-            raise TrackingError(response.message)
+        relay = self.client.track(source, target, model, self.spin_until, timeout)
         if not self.spin_until(self.delivered, timeout):
-            raise SwarmStalledError(f"relay FLS {response.relay_id} did not start in {timeout} s")
-        return int(response.relay_id)
+            raise SwarmStalledError(f"relay FLS {relay} did not start in {timeout} s")
+        return relay
 
     def advance(self, nanoseconds: int, timeout: float = 10.0) -> None:
         """Set the clock to ``nanoseconds`` and spin until everything due is :meth:`delivered`."""
@@ -252,14 +202,14 @@ class TrackSession:
                 return False
         # FLSs in processes of their own, as they last reported: one that never
         # reported has neither tracked nor relayed yet.
-        for report in self.progress.values():
+        for report in self.client.progress.values():
             if report.time < now or report.due:
                 return False
             traffic.update(report.traffic)
         return (
             traffic["requests_sent"] == traffic["requests_heard"]
             and traffic["samples_sent"] == traffic["samples_heard"]
-            and traffic["estimates_sent"] == len(self.estimates)
+            and traffic["estimates_sent"] == len(self.client.estimate_messages)
         )
 
     def stop_fls(self, fls_id: int) -> None:
@@ -331,12 +281,9 @@ def run_track(
             session.advance(now)
             if on_progress is not None:
                 on_progress(now / 1e9)
-            if session.estimates and TRACK_STATE_NAMES[session.estimates[-1].status] in (
-                ENDED,
-                TIMED_OUT,
-            ):
+            if session.client.ended():
                 break
-        estimates = [motion_estimate(message) for message in session.estimates]
+        estimates = session.client.estimates()
         kept = [estimate for estimate in estimates if nanoseconds(estimate.time) <= horizon]
         return TrackRun(source, target, relay, kept)
     finally:

@@ -116,20 +116,16 @@ def count(text: str) -> int:
 
 def ros_namespace(text: str) -> str:
     """A ROS namespace without its leading slash, e.g. ``swarm`` or ``show/left``."""
-    from rclpy.exceptions import InvalidNamespaceException
-    from rclpy.validate_namespace import validate_namespace
+    from ..ros.names import namespace_problem
 
     name = text.strip("/")
     if not name:
         raise argparse.ArgumentTypeError("a namespace needs a name (e.g. swarm)")
-    try:
-        validate_namespace(f"/{name}")
-    except InvalidNamespaceException as err:
-        # rclpy's message spans lines and points with a caret; keep its reason.
-        reason = str(err).splitlines()[0].split(": ", 1)[-1].rstrip(":")
+    reason = namespace_problem(f"/{name}")
+    if reason is not None:
         raise argparse.ArgumentTypeError(
             f"{text!r} is not a ROS namespace ({reason}; use letters, digits, _ and /)"
-        ) from None
+        )
     return name
 
 
@@ -156,17 +152,14 @@ def discovery_servers(text: str) -> tuple[Any, ...]:
 
 def ros_topic(text: str) -> str:
     """A fully qualified ROS topic name (a leading slash is added when missing)."""
-    from rclpy.exceptions import InvalidTopicNameException
-    from rclpy.validate_full_topic_name import validate_full_topic_name
+    from ..ros.names import topic_problem
 
     name = text if text.startswith("/") else f"/{text}"
-    try:
-        validate_full_topic_name(name)
-    except InvalidTopicNameException as err:
-        reason = str(err).splitlines()[0].split(": ", 1)[-1].rstrip(":")
+    reason = topic_problem(name)
+    if reason is not None:
         raise argparse.ArgumentTypeError(
             f"{text!r} is not a ROS topic name ({reason}; use letters, digits, _ and /)"
-        ) from None
+        )
     return name
 
 

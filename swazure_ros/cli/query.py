@@ -10,14 +10,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import time
-from typing import Any
 
 import numpy as np
 
-from ..core.errors import SwazureError
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
-from ..protocol.discovery import Estimate
+from ..protocol.discovery.estimate import Estimate
 from .arguments import fls_id, ros_namespace, seconds
 from .evaluate import add_domain_argument, add_policy_argument, add_swarm_estimator_argument
 
@@ -64,46 +61,16 @@ def describe(source: int, found: Estimate) -> str:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure query``."""
-    from rclpy.executors import SingleThreadedExecutor
-    from swazure_interfaces.srv import ComputePose
+    from ..ros.query import compute_pose
 
-    from ..ros.convert import pose_estimate_from_message
-    from ..ros.names import COMPUTE_POSE_SERVICE, COORDINATOR, ESTIMATOR_CODES, policy_code
-    from ..ros.runtime import SwarmNode, init_context
-
-    namespace = args.namespace.strip("/") or "swarm"
-    service = f"/{namespace}/{COORDINATOR}/{COMPUTE_POSE_SERVICE}"
-    context = init_context(args.domain_id)
-    node = SwarmNode("swazure_query", context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    try:
-        client = node.create_client(ComputePose, service)
-        deadline = time.monotonic() + args.timeout
-        while not client.service_is_ready():
-            if time.monotonic() > deadline:
-                raise SwazureError(
-                    f"no service {service} within {args.timeout:g} s: is a swarm running "
-                    "(swazure spawn)?"
-                )
-            executor.spin_once(timeout_sec=0.1)
-        request = ComputePose.Request(
-            source_id=args.source,
-            target_id=args.target,
-            policy=policy_code(args.policy),
-            estimator=ESTIMATOR_CODES[args.estimator],
-        )
-        future: Any = client.call_async(request)
-        while not future.done():
-            if time.monotonic() > deadline:
-                raise SwazureError(f"{service}: no answer within {args.timeout:g} s")
-            executor.spin_once(timeout_sec=0.1)
-        response = future.result()
-        if not response.success:
-            raise SwazureError(f"{service}: {response.message}")
-        print(describe(args.source, pose_estimate_from_message(response.estimate)))
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        context.try_shutdown()
+    found = compute_pose(
+        args.namespace,
+        args.source,
+        args.target,
+        args.policy,
+        args.estimator,
+        args.timeout,
+        args.domain_id,
+    )
+    print(describe(args.source, found))
     return 0

@@ -75,7 +75,7 @@ def main(args: argparse.Namespace) -> int:
         # Reliable messages still in flight reach their readers before we leave.
         time.sleep(0.5)
     finally:
-        player.destroy_node()
+        player.destroy_node()  # type: ignore[no-untyped-call]
         context.try_shutdown()
     print(
         f"replayed {played} messages on {len(channels)} topics in "

@@ -29,9 +29,9 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import SwazureError
+from ..core.files import config_dir
 from ..core.fit import PATH
 from ..core.heuristics import PLAIN, TECHNIQUES
-from ..core.sensor import config_dir
 from ..ros.keys import KEY_FILE_VARIABLE
 from ..sim.world import WorldSpec
 from .arguments import (

@@ -30,7 +30,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import SensorError
-from .sensor import read_yaml
+from .files import read_yaml
 
 FloatArray = NDArray[np.float64]
 
@@ -242,7 +242,7 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
 def load_camera(path: str | Path) -> Camera:
     """Read a camera YAML file (``config/cameras/*.yaml``)."""
     path = Path(path)
-    return camera_from_dict(read_yaml(path, "camera"), str(path))
+    return camera_from_dict(read_yaml(path, "camera", SensorError), str(path))
 
 
 # ----------------------------------------------------------------------------- rendering

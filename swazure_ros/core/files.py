@@ -9,13 +9,15 @@ those with one line before any time or memory is spent.
 
 from __future__ import annotations
 
+import os
 import stat
+import sys
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from .errors import SwazureError
+from .errors import SensorError, SwazureError
 
 #: Bytes of a configuration file (sensor, camera, swarm, parameters), at most.
 CONFIG_BYTES = 4 * 2**20
@@ -115,3 +117,21 @@ def read_yaml(path: Path, kind: str, error: type[SwazureError]) -> Any:
         problem = getattr(err, "problem", None) or (str(err) if not mark else "")
         detail = f": {problem}" if problem else ""
         raise error(f"{path}: not valid YAML{where} for a {kind} file{detail}") from err
+
+
+def config_dir() -> Path:
+    """The folder of the project's YAML configuration (``config/``)."""
+    candidates = []
+    if "SWAZURE_CONFIG_DIR" in os.environ:
+        candidates.append(Path(os.environ["SWAZURE_CONFIG_DIR"]))
+    # A source checkout or editable install, then an installed share/ folder: the
+    # package's own install prefix (colcon's install space), then the interpreter's.
+    here = Path(__file__).resolve()
+    candidates.append(here.parents[2] / "config")
+    if len(here.parents) > 5:  # <prefix>/lib/pythonX.Y/site-packages/swazure_ros/core/
+        candidates.append(here.parents[5] / "share" / "swazure_ros" / "config")
+    candidates.append(Path(sys.prefix) / "share" / "swazure_ros" / "config")
+    for candidate in candidates:
+        if (candidate / "sensor.yaml").is_file():
+            return candidate
+    raise SensorError("cannot find the configuration folder with sensor.yaml")

@@ -8,8 +8,6 @@ bounds in cm and the polynomial of the relative error, and
 from __future__ import annotations
 
 import math
-import os
-import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -300,7 +298,7 @@ def sensor_from_dict(document: Any, where: str = "sensor", base: Path | None = N
         camera_seed = model.get("seed", 0)
         if isinstance(camera_seed, bool) or not isinstance(camera_seed, int):
             raise SensorError(f"{where}: sensor.error_model.seed must be an integer")
-        camera = load_camera((base if base is not None else config_dir()) / camera_file)
+        camera = load_camera((base if base is not None else files.config_dir()) / camera_file)
         markers = _markers_from(model.get("markers"), camera.dictionary_size, where)
     try:
         return Sensor(
@@ -360,38 +358,15 @@ def _noise_from_dict(model: Any, where: str) -> SensorNoise:
         raise SensorError(f"{where}: {err}") from err
 
 
-def read_yaml(path: Path, kind: str) -> Any:
-    """The parsed YAML document of a ``kind`` file (sensor, camera); one-line SensorErrors."""
-    return files.read_yaml(path, kind, SensorError)
-
-
 def load_sensor(path: str | Path | None = None) -> Sensor:
     """Read a sensor YAML file; ``None`` reads the default, ``config/sensor.yaml``."""
     path = Path(path) if path is not None else default_sensor_path()
-    return sensor_from_dict(read_yaml(path, "sensor"), str(path), path.parent)
-
-
-def config_dir() -> Path:
-    """The folder of the project's YAML configuration (``config/``)."""
-    candidates = []
-    if "SWAZURE_CONFIG_DIR" in os.environ:
-        candidates.append(Path(os.environ["SWAZURE_CONFIG_DIR"]))
-    # A source checkout or editable install, then an installed share/ folder: the
-    # package's own install prefix (colcon's install space), then the interpreter's.
-    here = Path(__file__).resolve()
-    candidates.append(here.parents[2] / "config")
-    if len(here.parents) > 5:  # <prefix>/lib/pythonX.Y/site-packages/swazure_ros/core/
-        candidates.append(here.parents[5] / "share" / "swazure_ros" / "config")
-    candidates.append(Path(sys.prefix) / "share" / "swazure_ros" / "config")
-    for candidate in candidates:
-        if (candidate / "sensor.yaml").is_file():
-            return candidate
-    raise SensorError("cannot find the configuration folder with sensor.yaml")
+    return sensor_from_dict(files.read_yaml(path, "sensor", SensorError), str(path), path.parent)
 
 
 def default_sensor_path() -> Path:
     """Path of the default sensor file, ``config/sensor.yaml``."""
-    return config_dir() / "sensor.yaml"
+    return files.config_dir() / "sensor.yaml"
 
 
 def _normal_plane(unit: FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -562,7 +537,7 @@ def smallest_hop_error(sensor: Sensor, radius: float) -> float:
     Sampled every 10 um and at the noise table's rows, then lowered by 1 %:
     both error models are smooth or piecewise linear between the samples, so
     no hop falls below it. Distributed least-error discovery sizes its cost
-    buckets by it (protocol.discovery.bucket_width).
+    buckets by it (protocol.discovery.search.bucket_width).
     """
     count = int((sensor.decaying_max - sensor.sweet_min) * _HOP_ERROR_SAMPLES_PER_CM) + 2
     samples = np.linspace(sensor.sweet_min, sensor.decaying_max, count)

@@ -1,7 +1,7 @@
 """The protocols run in one loop, in memory: the same state machines the nodes drive.
 
 :func:`discover` runs distributed discovery (every FLS a
-:class:`~.discovery.Participant`, one :class:`~.radio.RadioHub` as the radio
+:class:`~.discovery.participant.Participant`, one :class:`~.radio.RadioHub` as the radio
 of a single process, the coordinator's :class:`~.rounds.RoundClock`) with
 messages handed over in order instead of over DDS. :func:`simulate_track`
 runs a track (:class:`~.tracking.TrackSource` and the relays'
@@ -36,7 +36,8 @@ from ..core.tracking import (
     moving_senses,
     nanoseconds,
 )
-from .discovery import END, Broadcast, Control, Participant, Report
+from .discovery.messages import END, Broadcast, Control, Report
+from .discovery.participant import Participant
 from .radio import RadioHub
 from .readings import ReadingsBook, readings_of
 from .rounds import Outcome, RoundClock

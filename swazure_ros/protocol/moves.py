@@ -35,7 +35,7 @@ from ..core.heuristics import (
     walked,
 )
 from ..core.sensor import SWEET
-from .discovery import Estimate
+from .discovery.estimate import Estimate
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]

@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from ..core import csr
 from ..core.sensor import DECAYING, SWEET, Sensor, hop_error
-from .discovery import ANY_VISIBLE, Offer, RoundOffers
+from .discovery.messages import ANY_VISIBLE, Offer, RoundOffers
 from .readings import Readings
 
 FloatArray = NDArray[np.float64]

@@ -4,7 +4,7 @@ A radio broadcast reaches the FLSs within radio range of the sender (blind
 or sweet range, line of sight ignored; spec section 4). A process that hosts
 some of the swarm's FLSs hears every broadcast once (:meth:`RadioHub.on_offer`)
 and keeps the round's offers; at the coordinator's next control it hands
-them, in one :class:`~.discovery.RoundOffers`, to every local FLS that has
+them, in one :class:`~.discovery.messages.RoundOffers`, to every local FLS that has
 not departed (:meth:`RadioHub.on_control`). Each FLS takes from it only the
 labels of its own neighbours, every one of them within its radio range, so
 it hears exactly what a real radio would bring it. Once the process has
@@ -23,7 +23,8 @@ from numpy.typing import NDArray
 
 from ..core.draws import uniforms
 from ..core.errors import MessageError
-from .discovery import END, ROUND, RUNS_KEPT, START, Control, Offer, RoundOffers
+from .discovery.messages import END, ROUND, START, Control, Offer, RoundOffers
+from .discovery.participant import RUNS_KEPT
 from .plausible import REASONS
 
 IntArray = NDArray[np.int64]

@@ -20,7 +20,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from ..core.fit import PATH
-from .discovery import END, PHASES, ROUND, START, Control, Estimate
+from .discovery.estimate import Estimate
+from .discovery.messages import END, PHASES, ROUND, START, Control
 
 #: Phases of one run a lossy radio may spoil (and restart) before the run ends incomplete.
 MAX_LOSS_RESTARTS = 10

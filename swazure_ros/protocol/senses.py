@@ -14,7 +14,7 @@ detects. :class:`Senses` is that interface. Two kinds serve it:
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Protocol
 
 import numpy as np
@@ -62,7 +62,7 @@ class Senses(Protocol):
         """Counts changes of what the FLSs sense; walks wait for the revision they name."""
         ...
 
-    def measurement(self, fls_id: int, of: list[int] | None = None) -> Measurement:
+    def measurement(self, fls_id: int, of: Sequence[int] | None = None) -> Measurement:
         """What FLS ``fls_id``'s camera measures now (of FLSs ``of`` only)."""
         ...
 
@@ -251,7 +251,7 @@ class DetectedSenses:
     def _read(self) -> NDArray[np.bool_]:
         return np.asarray(np.isfinite(self._vector[:, 0]), dtype=np.bool_)
 
-    def measurement(self, fls_id: int, of: list[int] | None = None) -> Measurement:
+    def measurement(self, fls_id: int, of: Sequence[int] | None = None) -> Measurement:
         """What this FLS's camera read in its last frame (of FLSs ``of`` only)."""
         self._own(fls_id)
         read = self._read()

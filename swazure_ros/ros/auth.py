@@ -65,13 +65,13 @@ def _message_type(name: str) -> type:
 
 
 @functools.cache
-def _plan(kind: type) -> _Plan:
+def _plan(kind: Any) -> _Plan:
     """The :class:`_Plan` of message type ``kind``: nested messages flattened, auth left out."""
     codes: list[str] = []
     scalars: list[str] = []
     others: list[tuple[Callable[[Any], Any], str]] = []
 
-    def walk(kind: type, prefix: str) -> None:
+    def walk(kind: Any, prefix: str) -> None:
         for name, field in kind.get_fields_and_field_types().items():
             if not prefix and name == AUTH_FIELD:
                 continue
@@ -90,6 +90,7 @@ def _plan(kind: type) -> _Plan:
 
     walk(kind, "")
     # attrgetter of several names gives their tuple in one call; of one, the value itself.
+    values: Callable[[Any], tuple[Any, ...]]
     if len(scalars) > 1:
         values = operator.attrgetter(*scalars)
     elif scalars:
@@ -113,7 +114,7 @@ def content(message: Any) -> bytes:
 
 
 def _write(parts: list[bytes], message: Any) -> None:
-    plan = _plan(type(message))
+    plan = _plan(message.__class__)
     parts.append(plan.scalars.pack(*plan.scalar_values(message)))
     for get, code in plan.others:
         value = get(message)
@@ -183,7 +184,7 @@ class SwarmKey:
         the radio and the coordinator, both hear every offer.
         """
         try:
-            message = deserialize_message(data, kind)
+            message: T = deserialize_message(data, kind)
         except Exception as err:  # rclpy reports undecodable bytes with bare exceptions
             raise MessageError(f"not a {kind.__name__}") from err
         if self._key is None or not hasattr(kind, "auth"):

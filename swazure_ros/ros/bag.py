@@ -30,7 +30,7 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap.writer import Writer
 from rclpy.context import Context
-from rclpy.event_handler import SubscriptionEventCallbacks
+from rclpy.event_handler import QoSSubscriptionMatchedInfo, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -221,11 +221,11 @@ class Recorder(Node):
         )
         self.counts[topic] = 0
         self._matched[topic] = 0
-        events = SubscriptionEventCallbacks(
-            matched=lambda status, topic=topic: self._matched.__setitem__(
-                topic, status.current_count
-            )
-        )
+
+        def on_matched(status: QoSSubscriptionMatchedInfo, topic: str = topic) -> None:
+            self._matched[topic] = status.current_count
+
+        events = SubscriptionEventCallbacks(matched=on_matched)
         self.create_subscription(
             get_message(type_name),
             topic,
@@ -258,7 +258,7 @@ class Recorder(Node):
         if self.closed:
             return
         self.closed = True
-        self._writer.finish()
+        self._writer.finish()  # type: ignore[no-untyped-call]
         self._files.close()  # the stream, then the rename into place
 
 

@@ -17,14 +17,16 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.publisher import Publisher
-from rclpy.task import Future
+
+# What a run asked of the coordinator returns; app/ waits on it through this module.
+from rclpy.task import Future as Future
 from std_msgs.msg import Header
 from swazure_interfaces.msg import (
     Departed,
@@ -39,14 +41,17 @@ from swazure_interfaces.msg import (
 from swazure_interfaces.srv import ComputePose
 
 from ..core.evaluate import Evaluation, Neighbourhood, neighbourhood
+from ..core.fit import PATH
 from ..core.heuristics import HeuristicResult
 from ..core.paths import check_policy
-from ..protocol.discovery import PATH, Control, Estimate, Offer, bucket_width, evaluation_of
+from ..protocol.discovery.estimate import Estimate, evaluation_of
+from ..protocol.discovery.messages import Control, Offer
+from ..protocol.discovery.search import bucket_width
 from ..protocol.moves import Move, MoveRun, Walk
 from ..protocol.plausible import implausible
 from ..protocol.rounds import RoundClock, StallClock
 from .auth import SwarmKey
-from .convert import (
+from .convert.discovery import (
     control_message,
     estimates_from_message,
     moves_message,
@@ -203,7 +208,7 @@ class Coordinator(SwarmNode):
         fls_ids: Iterable[int],
         hosts: int,
         *,
-        shape: Neighbourhood | None = None,
+        shape: Neighbourhood,
         namespace: str = "swarm",
         context: Context | None = None,
         key: SwarmKey | None = None,
@@ -332,10 +337,7 @@ class Coordinator(SwarmNode):
         ``technique`` is Move Obstructing or Move Source (probing up to
         ``threshold`` steps of r). Returns a future of the :class:`MoveResult`.
         """
-        shape = self.shape
-        if shape is None:
-            raise ValueError("the coordinator plans moves on the shape it was given: none")
-        evaluation = evaluation_of(shape, plain.policy, plain.estimates)
+        evaluation = evaluation_of(self.shape, plain.policy, plain.estimates)
         # Planned now, so that a bad technique fails here and not inside a callback.
         planned = MoveRun(0, evaluation, technique, threshold, 0, self.round_timeout)
 
@@ -370,7 +372,7 @@ class Coordinator(SwarmNode):
             self._job = job
             self._act(job.machine.start(self._now()))
 
-    def _act(self, actions: list[Action]) -> None:
+    def _act(self, actions: Sequence[Action]) -> None:
         """Publish what the running machine asks for; finish its run when it is done."""
         stamp = self.get_clock().now().to_msg()
         groups: dict[int, list[Move]] = {}  # moves made together go in one message
@@ -388,7 +390,7 @@ class Coordinator(SwarmNode):
             return
         machine = job.machine
         for warning in machine.warnings:
-            self.get_logger().warning(warning)
+            self.get_logger().warning(warning)  # type: ignore[no-untyped-call]
         machine.warnings.clear()
         if machine.done:
             self._job = None
@@ -498,7 +500,7 @@ class Coordinator(SwarmNode):
         if isinstance(clock, RoundClock):
             # The clock counts offers, and the FLSs' radios check their labels. Without a
             # key the clock checks them too: a forged offer must not count.
-            if self.shape is not None and not self.key.active:
+            if not self.key.active:
                 plausible_offer(offer, self.shape)
             else:
                 check_ids([offer.sender_id], self._swarm, "sender_id")

@@ -29,7 +29,7 @@ from swazure_interfaces.msg import Detections, MarkerDetection
 
 from ..core.camera import Camera, Detector, load_camera
 from ..core.errors import SwazureError
-from ..core.sensor import config_dir
+from ..core.files import config_dir
 from .guard import Guard, check
 from .names import DETECTIONS_QOS
 from .runtime import ParameterError, SwarmNode, run_process

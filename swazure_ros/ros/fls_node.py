@@ -23,7 +23,7 @@ names and QoS in :mod:`.names`):
   simulated time with ``use_sim_time``.
 
 The algorithms are the protocol's state machines, one per idea: the node
-is a :class:`~swazure_ros.protocol.discovery.Participant` of discovery,
+is a :class:`~swazure_ros.protocol.discovery.participant.Participant` of discovery,
 a :class:`~swazure_ros.protocol.tracking.RelayStreams` for the streams it
 relays, and a :class:`~swazure_ros.protocol.tracking.TrackSource` for the
 targets it tracks. Each callback converts a message, makes one call into a
@@ -40,7 +40,6 @@ a thousand times.
 
 from __future__ import annotations
 
-import time
 from collections import Counter
 from collections.abc import Callable
 from typing import TYPE_CHECKING
@@ -69,11 +68,9 @@ from swazure_interfaces.msg import (
 )
 from swazure_interfaces.srv import GetNeighbours, TrackTarget
 
-from ..core import jit
 from ..core.errors import SwazureError
 from ..core.fit import PATH
 from ..core.frames import camera_optical_frame
-from ..core.motion import parse_motion
 from ..core.observe import Measurement, NeighbourSets
 from ..core.tracking import (
     TRACK_SETTINGS,
@@ -81,9 +78,9 @@ from ..core.tracking import (
     RelaySenses,
     TrackConfig,
     TrackingError,
-    moving_senses,
 )
-from ..protocol.discovery import START, Broadcast, Control, Participant, Report, RoundOffers
+from ..protocol.discovery.messages import START, Broadcast, Control, Report, RoundOffers
+from ..protocol.discovery.participant import Participant
 from ..protocol.moves import (
     WALKING,
     Walk,
@@ -104,21 +101,21 @@ from ..protocol.tracking import (
     TrackSource,
 )
 from .auth import SwarmKey
-from .convert import (
+from .convert.discovery import estimates_message, moves_from_message, offer_message
+from .convert.sensing import (
     camera_info_message,
     detections_from_message,
-    estimates_message,
     image_message,
     measurements_message,
-    moves_from_message,
     neighbour_fields,
-    offer_message,
+)
+from .convert.tracking import (
     relay_request_message,
     sample_message,
-    stamp_nanoseconds,
     track_estimate_message,
     track_progress_message,
 )
+from .convert.units import stamp_nanoseconds
 from .guard import Guard, check
 from .names import (
     CAMERA_IMAGE_TOPIC,
@@ -143,13 +140,8 @@ from .names import (
     node_name,
 )
 from .runtime import (
-    DESCRIPTION_PARAMETERS,
     ParameterError,
     SwarmNode,
-    declare_startup,
-    description_from,
-    run_process,
-    startup_parameters,
 )
 
 if TYPE_CHECKING:
@@ -205,8 +197,6 @@ class Transmitter:
         return len(data)
 
 
-#: Seconds between two looks of a standalone FLS at whether every FLS hears it yet.
-JOIN_POLL = 0.1
 #: What a simulated camera shows aimed at a neighbour: (neighbour id, frame number) ->
 #: the camera and its whole image (height, width), uint8.
 Eyes = Callable[[int, int], "tuple[Camera, NDArray[np.uint8]]"]
@@ -666,121 +656,3 @@ class FlsNode(SwarmNode):
         self.messages_sent += 1
         self.bytes_sent += len(data)
         publisher.publish(data)
-
-
-def build_fls(context: Context) -> list[Node]:
-    """One FLS in its own process: it senses by its camera's detections, radio of its own.
-
-    Parameters: ``fls_id``, the swarm's description (``cloud``, ``beta`` or
-    ``radius``, ``scale``, ``sensor``, ``seed``, ``accurate``),
-    ``namespace`` and ``key_file`` (the swarm's key; "" for none, and then
-    ``SWAZURE_SWARM_KEY_FILE`` if set), besides the FLS node's own.
-    """
-    from .keys import key_from
-    from .radio import Radio  # the radio hands this node what it hears: imported here
-
-    values = startup_parameters(
-        context,
-        {
-            "fls_id": -1,
-            "namespace": "swarm",
-            "key_file": "",
-            "track.motion": "",
-            **DESCRIPTION_PARAMETERS,
-        },
-    )
-    fls_id = values["fls_id"]
-    if isinstance(fls_id, bool) or not isinstance(fls_id, int) or fls_id < 0:
-        raise ParameterError(f"parameter fls_id: an FLS id (>= 0) is needed, got {fls_id!r}")
-    description = description_from(values)
-    assigned = description.assigned()
-    senses = DetectedSenses(
-        fls_id, assigned.cloud_index, assigned.points, description.sensor(), assigned.radius
-    )
-    key = SwarmKey(key_from(str(values["key_file"])))
-    relay_senses = None
-    if values["track.motion"]:
-        # A simulated track run's relay camera (swazure track --per-fls): the motion
-        # the run gives every FLS, as the packed swarm's replica senses it.
-        try:
-            motion = parse_motion(str(values["track.motion"]))
-        except SwazureError as err:
-            raise ParameterError(f"parameter track.motion: {err}") from err
-        moving = moving_senses(
-            senses.sensor, senses.radius, assigned.cloud_index, assigned.points, motion
-        )
-
-        def relay_senses() -> RelaySenses:
-            return moving
-
-    node = FlsNode(
-        fls_id,
-        senses,
-        relay_senses=relay_senses,
-        namespace=str(values["namespace"]),
-        context=context,
-        transmitter=None,
-        parameter_services=True,
-        detections=senses,
-        key=key,
-    )
-
-    swarm_size = len(senses.ids)
-    radio_up = float("nan")
-
-    def join_radio() -> None:
-        # The swarm's rounds count this FLS once it hears the controls
-        # (Coordinator.hosts_matched). Before its camera's first frame it would answer
-        # every round as an FLS that sees no one, and the swarm would find fewer paths
-        # than there are: its radio is made then, and listens once heard (listen_when_heard).
-        nonlocal radio_up
-        if node.radio is None:
-            node.radio = Radio(
-                node,
-                senses,
-                {fls_id: node},
-                guard=node.guard,
-                listen=False,
-                readings=node.discovery.readings,
-            )
-            radio_up = time.monotonic()
-            node.get_logger().info("radio on: its camera's first frame is in")
-
-    def listen_when_heard() -> None:
-        # Its offers must reach every FLS's radio and the coordinator, its acks and
-        # estimates the coordinator, before a round counts on it: a round sent to
-        # an FLS whose writers are not matched yet waits a round timeout for it. Only
-        # this FLS sees its own writers matched; the coordinator sees its readers.
-        if node.radio is None:
-            return
-        offers, estimates = node.transmitter.readers()
-        heard = offers >= swarm_size + 1 and estimates >= 1 and node.radio.ack_readers() >= 1
-        waited = time.monotonic() - radio_up
-        if heard or waited > join_timeout:
-            node.radio.listen()
-            how = (
-                "heard by every FLS and the coordinator"
-                if heard
-                else (f"after {waited:.0f} s, heard by {offers - 1} of {swarm_size} FLSs' radios")
-            )
-            node.get_logger().info(f"on the swarm's radio: {how}")
-            node.destroy_timer(poll)
-
-    node.radio = None
-    join_timeout = node.declare_seconds(
-        "join_timeout",
-        30.0,
-        "seconds after its first frame that an FLS waits to be heard "
-        "by every FLS before it takes part in rounds anyway",
-    )
-    poll = node.create_timer(JOIN_POLL, listen_when_heard)
-    senses.on_revision.insert(0, join_radio)
-    declare_startup(node, values)
-    return [node]
-
-
-def main(args: list[str] | None = None) -> int:
-    """``ros2 run swazure_ros fls --ros-args -p fls_id:=7 -p cloud:=torus:120 -p beta:=0.5``."""
-    # One FLS relaxes a few labels a round: numba would cost more than it saves.
-    jit.interpret()
-    return run_process(build_fls, args)

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 from rclpy.context import Context
 from rclpy.exceptions import ParameterException
-from rclpy.experimental import EventsExecutor
+from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from swazure_interfaces.msg import (
@@ -32,9 +32,7 @@ from ..protocol.rounds import Absences
 from ..sim.replica import WorldReplica
 from ..sim.world import World
 from .auth import SwarmKey
-from .convert import (
-    world_positions,
-)
+from .convert.sensing import world_positions
 from .fls_node import FlsNode, Transmitter
 from .guard import Guard, check
 from .liveness import FlsLiveness
@@ -227,7 +225,7 @@ class SwarmHost:
         self.fls_nodes.remove(node)
         self.nodes.remove(node)
         self.executor.remove_node(node)
-        node.destroy_node()
+        node.destroy_node()  # type: ignore[no-untyped-call]
 
     def discovered(self) -> tuple[int, int]:
         """(measurement publishers, neighbour services) of the swarm this process sees."""

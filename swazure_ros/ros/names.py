@@ -9,7 +9,10 @@ message constants, which the tests check.
 
 from __future__ import annotations
 
+from rclpy.exceptions import InvalidNamespaceException, InvalidTopicNameException
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.validate_full_topic_name import validate_full_topic_name
+from rclpy.validate_namespace import validate_namespace
 from swazure_interfaces.msg import DiscoveryControl, TrackEstimate
 
 from ..core.fit import LOCAL_LEAST_SQUARES, PATH
@@ -149,4 +152,28 @@ TRACK_STATE_CODES = {name: code for code, name in TRACK_STATE_NAMES.items()}
 
 def policy_code(policy: str) -> int:
     """The ComputePose / DiscoveryControl code of a policy name (ValueError if unknown)."""
-    return POLICY_CODES[check_policy(policy)]
+    code: int = POLICY_CODES[check_policy(policy)]
+    return code
+
+
+def namespace_problem(namespace: str) -> str | None:
+    """Why ``namespace`` (absolute) is not a ROS namespace, in rclpy's words; None if it is."""
+    try:
+        validate_namespace(namespace)
+    except InvalidNamespaceException as err:
+        return _reason(err)
+    return None
+
+
+def topic_problem(topic: str) -> str | None:
+    """Why ``topic`` is not a fully qualified ROS topic name, in rclpy's words; None if it is."""
+    try:
+        validate_full_topic_name(topic)
+    except InvalidTopicNameException as err:
+        return _reason(err)
+    return None
+
+
+def _reason(err: Exception) -> str:
+    """rclpy's reason, without the lines that point at the name with a caret."""
+    return str(err).splitlines()[0].split(": ", 1)[-1].rstrip(":")

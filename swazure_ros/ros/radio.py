@@ -1,7 +1,7 @@
 """One process's radio on ROS: what its FLSs hear, each message once, handed to those it reaches.
 
 A packed process (:mod:`.host`) hosts hundreds of FLSs behind one radio; an FLS
-in its own process (:func:`.fls_node.build_fls`) hosts itself behind one.
+in its own process (:func:`.fls_program.build_fls`) hosts itself behind one.
 """
 
 from __future__ import annotations
@@ -26,7 +26,8 @@ from swazure_interfaces.msg import (
     TrackSample,
 )
 
-from ..protocol.discovery import END, PATH, START
+from ..core.fit import PATH
+from ..protocol.discovery.messages import END, START
 from ..protocol.moves import Walk
 from ..protocol.plausible import (
     implausible_readings,
@@ -36,16 +37,15 @@ from ..protocol.plausible import (
 from ..protocol.radio import Ack, RadioHub, RadioLoss
 from ..protocol.readings import ReadingsBook
 from ..protocol.senses import Senses
-from .convert import (
+from .convert.discovery import (
     ack_message,
     control_from_message,
     offer_from_message,
-    readings_from_message,
-    relay_request_from_message,
-    sample_from_message,
     walk_from_message,
     walk_message,
 )
+from .convert.sensing import readings_from_message
+from .convert.tracking import relay_request_from_message, sample_from_message
 from .guard import Guard
 from .names import (
     ACK_TOPIC,

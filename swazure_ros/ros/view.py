@@ -15,7 +15,8 @@ from visualization_msgs.msg import MarkerArray
 from ..view.live import LiveView
 from ..view.scene import Scene, placed
 from .auth import SwarmKey
-from .convert import scene_markers, world_positions
+from .convert.markers import scene_markers
+from .convert.sensing import world_positions
 from .guard import Guard
 from .names import SCENE_QOS, SCENE_TOPIC, WORLD_QOS, WORLD_REACH, WORLD_TOPIC
 from .runtime import SwarmNode
@@ -73,4 +74,4 @@ class ViewNode(SwarmNode):
         if self.live is not None:
             self.live.close()
             self.live = None
-        super().destroy_node()
+        super().destroy_node()  # type: ignore[no-untyped-call]

@@ -22,7 +22,9 @@ from ..protocol.senses import carried_markers
 from ..sim.replica import WorldReplica
 from ..sim.world import WorldSpec
 from .auth import SwarmKey
-from .convert import detections_message, moves_from_message, stamp_nanoseconds, world_message
+from .convert.discovery import moves_from_message
+from .convert.sensing import detections_message, world_message
+from .convert.units import stamp_nanoseconds
 from .guard import Guard, check
 from .keys import key_from
 from .names import (

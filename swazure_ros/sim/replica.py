@@ -15,9 +15,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.files import config_dir
 from ..core.motion import Motion
 from ..core.observe import LocalView, Measurement, NeighbourSets
-from ..core.sensor import Sensor, config_dir
+from ..core.sensor import Sensor
 from ..core.tracking import RelaySenses, moving_senses
 from .world import World
 

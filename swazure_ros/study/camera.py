@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 from ..core.calibration import MarkerSweep, Measured, Sweep
 from ..core.camera import Camera, MarkerPose, render
 from ..core.sensor import Sensor
-from .figures import save
+from ..view.png import save
 
 
 def calibration_figure(

@@ -8,6 +8,7 @@ same in every figure (its position in the plan, in the tab10 palette).
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -15,7 +16,12 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from ..core.evaluate import evaluate
+from ..core.geometry import make_swarm
 from ..core.results import PAIRS_PARQUET_FILE, atomic_write
+from ..view.png import save
+from ..view.scene import evaluation_scene
+from ..view.snapshot import write_snapshot
 from .sweep import FIT, PLAIN_TECHNIQUE, StudyPlan, SweepResult, Technique
 
 POLICY_TITLES = {
@@ -24,7 +30,6 @@ POLICY_TITLES = {
     "least-error": "Least-Error",
 }
 BETA_LABEL = "β (FLS radius r = β · dmin)"
-DPI = 120
 
 
 def shape_colours(plan: StudyPlan) -> dict[str, Any]:
@@ -33,12 +38,6 @@ def shape_colours(plan: StudyPlan) -> dict[str, Any]:
 
     palette = colormaps["tab10"]
     return {cloud.name: palette(index % 10) for index, cloud in enumerate(plan.clouds)}
-
-
-def save(figure: Figure, path: Path) -> Path:
-    """Write ``figure`` as PNG to ``path`` atomically; return the path."""
-    atomic_write(path, lambda tmp: figure.savefig(tmp, format="png", dpi=DPI))
-    return path
 
 
 def _panels(plan: StudyPlan, fused: bool = False) -> list[tuple[str, str, Technique]]:
@@ -352,3 +351,47 @@ def track_figure(series: Any, title: str, path: Path) -> Path:
     handles, labels = axes[0][0].get_legend_handles_labels()
     figure.legend(handles, labels, loc="outside lower center", ncols=4)
     return save(figure, path)
+
+
+def study_snapshots(plan: StudyPlan, out: Path) -> dict[str, Path]:
+    """One snapshot per shape of the study, at its beta nearest 0.5: out/figures/snapshot_*.png.
+
+    The study's runs keep summaries, not swarms: each shape is evaluated once
+    more here (the plan's heuristic policy, plain Swazure). A snapshot is
+    drawn again only when its run's cache key changed (kept beside it as
+    ``snapshot_*.key``), so a study with nothing to compute draws none.
+    """
+    beta = min(plan.betas, key=lambda candidate: (abs(candidate - 0.5), candidate))
+    keys = {
+        spec.cloud: spec.key
+        for spec in plan.runs()
+        if spec.beta == beta
+        and spec.policy == plan.heuristic_policy
+        and spec.technique == PLAIN_TECHNIQUE
+    }
+    written = {}
+    for cloud in plan.clouds:
+        name = f"snapshot_{cloud.name}"
+        path = out / "figures" / f"{name}.png"
+        key_path = path.with_suffix(".key")
+        key = keys.get(cloud.name, "")
+        if key and path.is_file() and _read(key_path) == key:
+            written[name] = path
+            continue
+        swarm = make_swarm(cloud.points, beta=beta, seed=plan.seed)
+        evaluation = evaluate(swarm, plan.sensor, plan.heuristic_policy)
+        title = (
+            f"{cloud.name}, beta {beta:g}, {plan.heuristic_policy}: each FLS's share of blind "
+            "neighbours with a sweet path"
+        )
+        written[name] = write_snapshot(evaluation_scene(evaluation, title), path)
+        atomic_write(key_path, partial(Path.write_text, data=key))
+    return written
+
+
+def _read(path: Path) -> str | None:
+    """The text of ``path``; None when it cannot be read."""
+    try:
+        return path.read_text()
+    except OSError:
+        return None

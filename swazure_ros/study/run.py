@@ -5,8 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from ..view.snapshot import study_snapshots
-from .figures import study_figures
+from .figures import study_figures, study_snapshots
 from .report import write_report, write_tables
 from .sweep import StudyPlan, SweepProgress, SweepResult, sweep
 from .tables import Table, study_tables

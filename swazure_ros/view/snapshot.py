@@ -2,18 +2,13 @@
 
 from __future__ import annotations
 
-from functools import partial
 from pathlib import Path
 
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from ..core.evaluate import evaluate
-from ..core.geometry import make_swarm
-from ..core.results import atomic_write
-from ..study.figures import save
-from ..study.sweep import PLAIN_TECHNIQUE, StudyPlan
-from .scene import MOVE_COLOUR, Scene, evaluation_scene
+from .png import save
+from .scene import MOVE_COLOUR, Scene
 
 #: Views of a snapshot: (elevation, azimuth) in degrees.
 VIEWS = ((20.0, -60.0), (20.0, 30.0))
@@ -83,47 +78,3 @@ def snapshot_figure(scene: Scene, views: tuple[tuple[float, float], ...] = VIEWS
 def write_snapshot(scene: Scene, path: Path) -> Path:
     """Draw ``scene`` and write it as PNG to ``path``, atomically."""
     return save(snapshot_figure(scene), path)
-
-
-def study_snapshots(plan: StudyPlan, out: Path) -> dict[str, Path]:
-    """One snapshot per shape of the study, at its beta nearest 0.5: out/figures/snapshot_*.png.
-
-    The study's runs keep summaries, not swarms: each shape is evaluated once
-    more here (the plan's heuristic policy, plain Swazure). A snapshot is
-    drawn again only when its run's cache key changed (kept beside it as
-    ``snapshot_*.key``), so a study with nothing to compute draws none.
-    """
-    beta = min(plan.betas, key=lambda candidate: (abs(candidate - 0.5), candidate))
-    keys = {
-        spec.cloud: spec.key
-        for spec in plan.runs()
-        if spec.beta == beta
-        and spec.policy == plan.heuristic_policy
-        and spec.technique == PLAIN_TECHNIQUE
-    }
-    written = {}
-    for cloud in plan.clouds:
-        name = f"snapshot_{cloud.name}"
-        path = out / "figures" / f"{name}.png"
-        key_path = path.with_suffix(".key")
-        key = keys.get(cloud.name, "")
-        if key and path.is_file() and _read(key_path) == key:
-            written[name] = path
-            continue
-        swarm = make_swarm(cloud.points, beta=beta, seed=plan.seed)
-        evaluation = evaluate(swarm, plan.sensor, plan.heuristic_policy)
-        title = (
-            f"{cloud.name}, beta {beta:g}, {plan.heuristic_policy}: each FLS's share of blind "
-            "neighbours with a sweet path"
-        )
-        written[name] = write_snapshot(evaluation_scene(evaluation, title), path)
-        atomic_write(key_path, partial(Path.write_text, data=key))
-    return written
-
-
-def _read(path: Path) -> str | None:
-    """The text of ``path``; None when it cannot be read."""
-    try:
-        return path.read_text()
-    except OSError:
-        return None

@@ -3,7 +3,8 @@
 import subprocess
 import sys
 
-from swazure_ros.core.sensor import config_dir, load_sensor
+from swazure_ros.core.files import config_dir
+from swazure_ros.core.sensor import load_sensor
 
 WIDE = config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml"
 

@@ -11,7 +11,7 @@ import pytest
 from swazure_ros.cli.main import build_parser
 from swazure_ros.cli.swarm_file import apply_swarm_file, load_swarm_file
 from swazure_ros.core.errors import SwazureError
-from swazure_ros.core.sensor import config_dir
+from swazure_ros.core.files import config_dir
 
 SWARMS = config_dir() / "swarms"
 TORUS = SWARMS / "torus.yaml"

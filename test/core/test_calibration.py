@@ -20,7 +20,7 @@ from swazure_ros.core.calibration import (
 )
 from swazure_ros.core.camera import load_camera
 from swazure_ros.core.errors import SensorError
-from swazure_ros.core.sensor import config_dir
+from swazure_ros.core.files import config_dir
 
 from ..conftest import SHARED
 

@@ -18,7 +18,7 @@ from swazure_ros.core.camera import (
     true_centre,
 )
 from swazure_ros.core.errors import SensorError
-from swazure_ros.core.sensor import config_dir
+from swazure_ros.core.files import config_dir
 
 CAMERAS = config_dir() / "cameras"
 

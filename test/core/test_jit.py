@@ -11,7 +11,7 @@ import json, sys
 from swazure_ros.core import jit
 {setup}
 from swazure_ros.core.evaluate import evaluate
-from swazure_ros.protocol.discovery import evaluation_of
+from swazure_ros.protocol.discovery.estimate import evaluation_of
 from swazure_ros.protocol.loops import discover
 from swazure_ros.sim.world import WorldSpec
 

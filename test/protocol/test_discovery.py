@@ -18,11 +18,13 @@ from swazure_ros.core.evaluate import (
     neighbourhood,
     without,
 )
+from swazure_ros.core.files import config_dir
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.core.observe import observations
 from swazure_ros.core.paths import POLICIES
-from swazure_ros.core.sensor import config_dir, hop_error, load_sensor, measured_vectors
-from swazure_ros.protocol.discovery import Found, bucket_width, estimate, evaluation_of
+from swazure_ros.core.sensor import hop_error, load_sensor, measured_vectors
+from swazure_ros.protocol.discovery.estimate import Found, estimate, evaluation_of
+from swazure_ros.protocol.discovery.search import bucket_width
 from swazure_ros.protocol.loops import discover
 from swazure_ros.sim.world import WorldSpec
 

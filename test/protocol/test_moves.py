@@ -11,7 +11,7 @@ from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate
 from swazure_ros.core.heuristics import run_technique
 from swazure_ros.core.observe import Measurement
 from swazure_ros.core.sensor import DECAYING, SWEET
-from swazure_ros.protocol.discovery import evaluation_of
+from swazure_ros.protocol.discovery.estimate import evaluation_of
 from swazure_ros.protocol.loops import discover
 from swazure_ros.protocol.moves import (
     ARRIVED,

@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.sensor import hop_error
-from swazure_ros.protocol.discovery import (
+from swazure_ros.protocol.discovery.messages import (
     ANY_VISIBLE,
     SWEET_ALL,
     SWEET_VISIBLE,
     Broadcast,
     Offer,
-    Participant,
 )
+from swazure_ros.protocol.discovery.participant import Participant
 from swazure_ros.protocol.plausible import implausible, offer_readings_check
 from swazure_ros.sim.world import WorldSpec
 

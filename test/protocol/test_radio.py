@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from swazure_ros.protocol.discovery import END, ROUND, START, Control, Offer, RoundOffers
+from swazure_ros.protocol.discovery.messages import END, ROUND, START, Control, Offer, RoundOffers
 from swazure_ros.protocol.radio import Ack, Delivery, RadioHub, RadioLoss
 
 

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from swazure_ros.protocol.discovery import (
+from swazure_ros.protocol.discovery.estimate import Estimate
+from swazure_ros.protocol.discovery.messages import (
     ANY_VISIBLE,
     END,
     ROUND,
     START,
     SWEET_ALL,
     SWEET_VISIBLE,
-    Estimate,
 )
 from swazure_ros.protocol.rounds import RoundClock
 

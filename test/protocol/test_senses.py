@@ -43,7 +43,7 @@ def test_a_marker_reads_as_the_nearest_fls_that_carries_it(world):
     from dataclasses import replace
 
     from swazure_ros.core.camera import load_camera
-    from swazure_ros.core.sensor import config_dir
+    from swazure_ros.core.files import config_dir
 
     camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
     sensor = replace(world.sensor, camera=camera, camera_markers=(0, 1, 2))

@@ -13,17 +13,20 @@ from swazure_interfaces.msg import Measurements, MoveCommands, PathOffer, PoseEs
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, PATH
 from swazure_ros.core.observe import Measurement
 from swazure_ros.core.sensor import DECAYING, SWEET
-from swazure_ros.protocol.discovery import Broadcast, Estimate, Offer, Report
+from swazure_ros.protocol.discovery.estimate import Estimate
+from swazure_ros.protocol.discovery.messages import Broadcast, Offer, Report
 from swazure_ros.protocol.moves import RETURN, STEP_ASIDE, Move
-from swazure_ros.ros.convert import (
+from swazure_ros.ros.convert.discovery import (
     estimates_from_message,
     estimates_message,
-    measurements_message,
     moves_message,
     offer_from_message,
     offer_message,
     pose_estimate_from_message,
     pose_estimate_message,
+)
+from swazure_ros.ros.convert.sensing import (
+    measurements_message,
     readings_from_message,
     world_message,
     world_positions,
@@ -69,7 +72,7 @@ def test_detections_are_taken_in_the_flss_own_frame_only():
     from swazure_interfaces.msg import Detections, MarkerDetection
 
     from swazure_ros.core.errors import MessageError
-    from swazure_ros.ros.convert import detections_from_message
+    from swazure_ros.ros.convert.sensing import detections_from_message
 
     pose = PoseWithCovariance()
     pose.pose.position.x, pose.pose.position.y = 0.08, -0.01

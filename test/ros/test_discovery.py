@@ -15,12 +15,12 @@ from swazure_interfaces.srv import ComputePose
 
 from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
 from swazure_ros.core.evaluate import NO_PATH, evaluate, evaluate_pairs, without
+from swazure_ros.core.files import config_dir
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.core.frames import fls_frame, to_metres
 from swazure_ros.core.heuristics import MOVE_OBSTRUCTING, MOVE_SOURCE, run_technique
-from swazure_ros.core.sensor import config_dir
-from swazure_ros.protocol.discovery import Estimate
-from swazure_ros.ros.convert import pose_estimate_from_message
+from swazure_ros.protocol.discovery.estimate import Estimate
+from swazure_ros.ros.convert.discovery import pose_estimate_from_message
 from swazure_ros.ros.names import ESTIMATOR_CODES, policy_code
 from swazure_ros.sim.world import WorldSpec
 

@@ -28,8 +28,8 @@ def imported_by(module: str, then: str = "") -> set[str]:
 
 
 def test_the_fls_node_imports_nothing_of_the_simulator():
-    # Its program's radio too, which it imports when it builds itself.
-    loaded = imported_by("swazure_ros.ros.fls_node", "import swazure_ros.ros.radio")
+    # The whole `fls` program: the node, its radio and how it joins.
+    loaded = imported_by("swazure_ros.ros.fls_program")
     assert "swazure_ros.ros.fls_node" in loaded
     ours = sorted(name for name in loaded if name.startswith("swazure_ros."))
     assert not [name for name in ours if name.startswith("swazure_ros.sim")], ours
@@ -39,7 +39,7 @@ def test_the_fls_node_imports_nothing_of_the_simulator():
 def test_the_fls_node_imports_no_numerical_library_it_does_not_run():
     # numba (60 MB), scipy.stats through filterpy (0.4 s), OpenCV: an FLS alone
     # loads each only when it first calls what needs it (core.jit).
-    loaded = imported_by("swazure_ros.ros.fls_node", "import swazure_ros.ros.radio")
+    loaded = imported_by("swazure_ros.ros.fls_program")
     heavy = {"numba", "scipy", "cv2", "filterpy", "matplotlib"}
     assert not heavy & loaded, sorted(heavy & loaded)
 

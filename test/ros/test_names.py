@@ -17,8 +17,9 @@ from swazure_interfaces.srv import ComputePose
 
 from swazure_ros.core import tracking
 from swazure_ros.core.paths import POLICIES
-from swazure_ros.protocol import discovery, moves
+from swazure_ros.protocol import moves
 from swazure_ros.protocol import tracking as relay
+from swazure_ros.protocol.discovery import messages as discovery
 from swazure_ros.ros import names
 
 

@@ -25,9 +25,9 @@ from swazure_interfaces.msg import Detections
 
 from swazure_ros.core.camera import Detector, MarkerPose, full_image, load_camera, render
 from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.files import config_dir
 from swazure_ros.core.frames import to_metres
-from swazure_ros.core.sensor import config_dir
-from swazure_ros.ros.convert import camera_info_message, image_message
+from swazure_ros.ros.convert.sensing import camera_info_message, image_message
 from swazure_ros.ros.names import DETECTIONS_QOS
 from swazure_ros.ros.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec

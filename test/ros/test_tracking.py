@@ -23,7 +23,7 @@ from swazure_ros.core.tracking import (
     nanoseconds,
 )
 from swazure_ros.protocol.loops import simulate_track
-from swazure_ros.ros.convert import motion_estimate as estimate_from_message
+from swazure_ros.ros.convert.tracking import motion_estimate as estimate_from_message
 from swazure_ros.sim.world import make_world
 
 HOME = np.array([[0.0, 0.0, 0.0], [8.0, 0.0, 0.0], [2.5, 5.5, 0.0]])
@@ -73,13 +73,15 @@ def test_when_the_relay_stops_the_stream_times_out_and_ends(world, context):
         assert session.track(0, 2, CONSTANT_ACCELERATION) == 1
         step = nanoseconds(config.frame_period)
         tick_until(session, 1.0, step)
-        session.spin_until(lambda: len(session.estimates) >= 11, 10.0)
-        assert [message.status for message in session.estimates[:11]] == [1] * 11
+        session.spin_until(lambda: len(session.client.estimate_messages) >= 11, 10.0)
+        assert [message.status for message in session.client.estimate_messages[:11]] == [1] * 11
         session.stop_fls(1)
         for now in range(nanoseconds(1.0) + step, nanoseconds(3.0) + 1, step):
             session.advance(now)
         session.host.spin_for(0.2)
-        estimates = [estimate_from_message(message) for message in session.estimates]
+        estimates = [
+            estimate_from_message(message) for message in session.client.estimate_messages
+        ]
         statuses = [estimate.status for estimate in estimates]
         # One final word, then silence: no extrapolation for ever.
         assert statuses.count(TIMED_OUT) == 1
@@ -88,9 +90,9 @@ def test_when_the_relay_stops_the_stream_times_out_and_ends(world, context):
         assert last.kalman is None
         assert "no sample for" in last.message
         assert 1.5 < last.time <= 1.0 + config.timeout + 2 * config.frame_period
-        count = len(session.estimates)
+        count = len(session.client.estimate_messages)
         tick_until(session, 4.0, step)
-        assert len(session.estimates) == count
+        assert len(session.client.estimate_messages) == count
     finally:
         session.close()
 
@@ -203,7 +205,7 @@ def test_a_swarm_on_the_wall_clock_tracks_too(world, context):
 def test_an_estimate_survives_the_message_round_trip(world):
     from swazure_ros.core.tracking import KalmanTracker, Track
     from swazure_ros.protocol.tracking import TrackReport
-    from swazure_ros.ros.convert import track_estimate_message
+    from swazure_ros.ros.convert.tracking import track_estimate_message
 
     track = Track(KalmanTracker(), timeout=1.0, relay=1)
     waiting = track_estimate_message(TrackReport(0, 2, CONSTANT_ACCELERATION, track.estimate(0.0)))

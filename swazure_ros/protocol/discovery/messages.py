@@ -1,0 +1,222 @@
+"""What discovery's parties say: the coordinator's controls, an FLS's offers and reports.
+
+Each is the data of one message (docs/protocol.md): :class:`Control` of a
+DiscoveryControl, :class:`Offer` and :class:`Broadcast` of a PathOffer,
+:class:`Report` of a PoseEstimates. :class:`RoundOffers` is what one process
+heard in a round, grouped by sender, as the radio hands it to its FLSs.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...core import csr, jit
+from ...core.fit import PATH
+from ...core.paths import FEWEST_HOPS
+from .estimate import Estimate
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+# Phases; the values equal swazure_interfaces/DiscoveryControl's PHASE_*.
+SWEET_VISIBLE, SWEET_ALL, ANY_VISIBLE = 0, 1, 2
+
+
+PHASES = (SWEET_VISIBLE, SWEET_ALL, ANY_VISIBLE)
+
+
+PHASE_NAMES = ("S_vis", "S_all", "SD_vis")
+
+
+# The coordinator's commands; the values equal DiscoveryControl's COMMAND_*.
+START, ROUND, END = 0, 1, 2
+
+
+@dataclass
+class Offer:
+    """One FLS's labels of one round (L of them), as a PathOffer message carries them."""
+
+    source_ids: IntArray  # (L,)
+    hops: IntArray  # (L,)
+    lengths: FloatArray  # (L,), cm
+    errors: FloatArray  # (L,), expected error summed over the hops (core.sensor.hop_error)
+    vectors: FloatArray  # (L, 3), cm, summed from the source to the sender
+    path_offsets: IntArray  # (L + 1,)
+    path_ids: IntArray
+    pending: bool = False
+    finished: bool = False
+    # A fitting run's labels also sum their hops less the known bias and the hops'
+    # covariances (core.fit.path_estimates): a source's fallback beyond its window.
+    unbiased: FloatArray | None = None  # (L, 3), cm
+    covariances: FloatArray | None = None  # (L, 3, 3), cm^2
+    # In its first offer of a phase, where a pair's two ends read it differently, the
+    # sender's readings of its neighbours: each hop sender -> receiver is the sender's.
+    reading_ids: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # (K,)
+    reading_vectors: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))  # (K, 3), cm
+
+    def __len__(self) -> int:
+        return len(self.source_ids)
+
+    def path(self, label: int) -> tuple[int, ...]:
+        """Path of label ``label``, FLS ids from its source to the sender."""
+        start, stop = self.path_offsets[label], self.path_offsets[label + 1]
+        return tuple(int(fls) for fls in self.path_ids[start:stop])
+
+
+@dataclass(frozen=True)
+class RoundOffers:
+    """The offers one process heard in a round, L labels in all, grouped by sender.
+
+    Built once per round and process (:meth:`of`); each local FLS then reads
+    the labels of the senders it hears in one compiled pass (:func:`_relax`);
+    :meth:`labels_of` lists them.
+    """
+
+    senders: IntArray  # (S,) sorted sender ids
+    starts: IntArray  # (S + 1,) sender k's labels are starts[k]:starts[k + 1]
+    sender_ids: IntArray  # (L,)
+    source_ids: IntArray  # (L,)
+    hops: IntArray  # (L,)
+    lengths: FloatArray  # (L,), cm
+    errors: FloatArray  # (L,)
+    vectors: FloatArray  # (L, 3), cm
+    path_offsets: IntArray  # (L + 1,)
+    path_ids: IntArray
+    unbiased: FloatArray  # (L, 3), cm; NaN where an offer carried none
+    covariances: FloatArray  # (L, 3, 3), cm^2; NaN where an offer carried none
+    # Every reading the offers carried, sorted by the FLS read, then by the sender.
+    read_ids: IntArray  # (R,), the FLS read
+    read_by: IntArray  # (R,), the sender that read it
+    read_vectors: FloatArray  # (R, 3), cm, read_by -> read_ids
+
+    @classmethod
+    def of(cls, heard: Sequence[tuple[int, Offer]]) -> RoundOffers:
+        """The offers ``heard``, as (sender, offer), in one table."""
+        heard = sorted(heard, key=lambda entry: entry[0])
+        offers = [offer for _, offer in heard]
+        counts = np.array([len(offer) for offer in offers], dtype=np.int64)
+        senders = np.array([sender for sender, _ in heard], dtype=np.int64)
+        unique, first = np.unique(senders, return_index=True)
+        starts = csr.offsets(counts)
+
+        def joined(arrays: list[NDArray[Any]], empty: NDArray[Any]) -> NDArray[Any]:
+            return np.concatenate(arrays) if arrays else empty
+
+        path_lengths = joined([np.diff(offer.path_offsets) for offer in offers], np.zeros(0, int))
+
+        def carried(offer: Offer, values: FloatArray | None, shape: tuple[int, ...]) -> FloatArray:
+            return values if values is not None else np.full((len(offer), *shape), np.nan)
+
+        return cls(
+            senders=unique,
+            starts=np.append(starts[first], starts[-1]).astype(np.int64),
+            sender_ids=np.repeat(senders, counts),
+            source_ids=joined([offer.source_ids for offer in offers], np.zeros(0, np.int64)),
+            hops=joined([offer.hops for offer in offers], np.zeros(0, np.int64)),
+            lengths=joined([offer.lengths for offer in offers], np.zeros(0)),
+            errors=joined([offer.errors for offer in offers], np.zeros(0)),
+            vectors=joined([offer.vectors for offer in offers], np.zeros((0, 3))),
+            path_offsets=csr.offsets(path_lengths),
+            path_ids=joined([offer.path_ids for offer in offers], np.zeros(0, np.int64)),
+            unbiased=joined(
+                [carried(offer, offer.unbiased, (3,)) for offer in offers], np.zeros((0, 3))
+            ),
+            covariances=joined(
+                [carried(offer, offer.covariances, (3, 3)) for offer in offers],
+                np.zeros((0, 3, 3)),
+            ),
+            **_readings_table(heard),
+        )
+
+    def readings_of(self, fls: int) -> tuple[IntArray, FloatArray]:
+        """The senders that read FLS ``fls`` (sorted) and their readings of it (cm)."""
+        low, high = np.searchsorted(self.read_ids, [fls, fls + 1])
+        return self.read_by[low:high], self.read_vectors[low:high]
+
+    def __len__(self) -> int:
+        return len(self.source_ids)
+
+    def _rows(self, senders: IntArray) -> IntArray:
+        """Rows into :attr:`senders` of those of ``senders`` that offered."""
+        rows = sender_rows(np.asarray(senders, dtype=np.int64), self.senders)
+        return rows[rows >= 0]
+
+    def labels_of(self, senders: IntArray) -> IntArray:
+        """(M,) the labels offered by ``senders`` (sorted ids), sender by sender."""
+        rows = self._rows(senders)
+        low, high = self.starts[rows], self.starts[rows + 1]
+        return csr.ragged_indices(low, high - low)
+
+    def path(self, label: int) -> tuple[int, ...]:
+        """Path of label ``label``, FLS ids from its source to the sender."""
+        start, stop = self.path_offsets[label], self.path_offsets[label + 1]
+        return tuple(self.path_ids[start:stop].tolist())
+
+
+def _readings_table(heard: Sequence[tuple[int, Offer]]) -> dict[str, NDArray[Any]]:
+    """The readings of the offers ``heard`` as RoundOffers holds them."""
+    counts = [len(offer.reading_ids) for _, offer in heard]
+    if not sum(counts):
+        empty = np.zeros(0, dtype=np.int64)
+        return {"read_ids": empty, "read_by": empty, "read_vectors": np.zeros((0, 3))}
+    read_ids = np.concatenate([offer.reading_ids for _, offer in heard]).astype(np.int64)
+    read_by = np.repeat([sender for sender, _ in heard], counts).astype(np.int64)
+    vectors = np.concatenate([offer.reading_vectors for _, offer in heard])
+    order = np.lexsort((read_by, read_ids))
+    return {"read_ids": read_ids[order], "read_by": read_by[order], "read_vectors": vectors[order]}
+
+
+@dataclass(frozen=True)
+class Control:
+    """One tick of the coordinator's round clock (a DiscoveryControl message)."""
+
+    run_id: int
+    command: int  # START, ROUND or END
+    phase: int = SWEET_VISIBLE
+    policy: str = FEWEST_HOPS
+    round: int = 0
+    expected: int = 0  # FLSs that take part: each sends one offer per round
+    source_ids: tuple[int, ...] = ()  # START: the searching sources; empty: every FLS
+    target_ids: tuple[int, ...] = ()  # START: the one target of each listed source
+    finished_ids: tuple[int, ...] = ()  # ROUND: sources whose search ended since the last round
+    departed_ids: tuple[int, ...] = ()  # FLSs declared gone: nobody relays through them
+    estimator: str = PATH  # START: one of core.fit.SWARM_ESTIMATORS
+
+
+@dataclass(frozen=True)
+class Broadcast:
+    """An FLS's offer of one round, for the radio (a PathOffer message)."""
+
+    run_id: int
+    phase: int
+    round: int
+    sender: int
+    offer: Offer
+
+
+@dataclass(frozen=True)
+class Report:
+    """A source's estimates at the end of a run (a PoseEstimates message)."""
+
+    run_id: int
+    source: int
+    estimates: list[Estimate]
+
+
+@jit.kernel(cache=True, nogil=True)
+def sender_rows(wanted: IntArray, senders: IntArray) -> IntArray:
+    """(W,) the row of each id of ``wanted`` in ``senders``, -1 where absent; both sorted."""
+    rows = np.full(len(wanted), -1, dtype=np.int64)
+    row = 0
+    for k in range(len(wanted)):
+        while row < len(senders) and senders[row] < wanted[k]:
+            row += 1
+        if row < len(senders) and senders[row] == wanted[k]:
+            rows[k] = row
+    return rows

@@ -1,0 +1,285 @@
+"""One FLS's state machine over whole discovery runs.
+
+:class:`Participant` takes the coordinator's :class:`~.messages.Control`
+messages and the neighbours' offers, and returns broadcasts and reports. The
+FLS nodes and the in-memory loop (:mod:`..loops`) both drive it. A run
+(:class:`FlsRun`) goes phase after phase, one :class:`~.search.PathSearch`
+each, and ends in the source's estimates, fitted when the run fits.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...core.evaluate import (
+    ABORTED,
+    DECAYING_PATH,
+    REASON_COORDINATOR_LOST,
+    SWEET_PATH,
+)
+from ...core.fit import LOCAL_LEAST_SQUARES, PATH, Heard, window_fit
+from ...core.observe import LocalView
+from ...core.sensor import (
+    Sensor,
+    hop_error,
+)
+from ..readings import ReadingsBook
+from .estimate import Estimate, Found, estimate
+from .messages import (
+    ANY_VISIBLE,
+    END,
+    PHASES,
+    ROUND,
+    START,
+    SWEET_VISIBLE,
+    Broadcast,
+    Control,
+    Report,
+    RoundOffers,
+)
+from .search import PathSearch, bucket_width, phase_targets, radio_window, reads_both_ends
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+#: Discovery runs an FLS takes part in at once, at most: its coordinator runs one at a
+#: time, and a run id that a peer made up must not hold memory for ever.
+RUNS_KEPT = 4
+
+
+class FlsRun:
+    """One FLS's part of one discovery run, phase after phase.
+
+    ``targets`` are the FLS's targets as a source: its blind neighbours by
+    default, none when it is not a source of the run. ``hop_errors`` (K,) are
+    the expected errors of the hops to the view's neighbours.
+    """
+
+    def __init__(
+        self,
+        view: LocalView,
+        policy: str,
+        width: float,
+        id_space: int,
+        targets: IntArray | None,
+        hop_errors: FloatArray | None = None,
+        fit: tuple[Sensor, float] | None = None,
+        both_ends: bool = False,
+    ) -> None:
+        self.view = view
+        self.hop_errors = hop_errors
+        self.fit = fit
+        self.both_ends = both_ends
+        self.estimator = PATH if fit is None else LOCAL_LEAST_SQUARES
+        self.policy = policy
+        self.width = width
+        self.id_space = id_space
+        self.targets = targets
+        self.results: dict[int, dict[int, Found]] = {phase: {} for phase in PHASES}
+        self.search: PathSearch | None = None
+        self.departed: frozenset[int] = frozenset()
+
+    def start(self, phase: int, departed: frozenset[int]) -> PathSearch:
+        """Begin (or restart) ``phase``; its earlier results are dropped."""
+        self.departed = departed
+        targets = None
+        if self.targets is not None:
+            wanted = phase_targets(phase, self.targets, self.results[SWEET_VISIBLE])
+            wanted = wanted[~np.isin(wanted, list(departed))]
+            targets = wanted if len(wanted) else None
+        self.search = PathSearch(
+            self.view,
+            phase,
+            self.policy,
+            self.width,
+            self.id_space,
+            targets,
+            departed,
+            self.hop_errors,
+            self.fit,
+            self.both_ends,
+        )
+        self.results[phase] = self.search.results
+        return self.search
+
+    def estimates(self, sensor: Sensor | None = None) -> list[Estimate]:
+        """The estimate for every target that has not departed, in target order."""
+        if self.targets is None:
+            return []
+        sweet, radio, decaying = (self.results[phase] for phase in PHASES)
+        return [
+            estimate(target, sweet.get(target), radio.get(target), decaying.get(target), sensor)
+            for target in self.targets.tolist()
+            if target not in self.departed
+        ]
+
+    def fitted(self, sensor: Sensor, radius: float, heard: Heard) -> list[Estimate]:
+        """The estimates with each pair's vector from this source's fit of ``heard``.
+
+        As the engine's ``--estimator local-least-squares`` makes them
+        (:func:`~swazure_ros.core.fit.window_fit`): the window is the source
+        and its radio neighbours; a target that the window does not join to
+        the source keeps its path, summed less the known bias.
+        """
+        estimates = self.estimates(sensor)
+        with_path = [one for one in estimates if one.status in (SWEET_PATH, DECAYING_PATH)]
+        if not with_path:
+            return estimates
+        targets = np.array([one.target for one in with_path], dtype=np.int64)
+        sweet = np.array([one.status == SWEET_PATH for one in with_path], dtype=bool)
+        vectors, covariances, _ = window_fit(
+            sensor, radius, radio_window(self.view), heard, targets, sweet
+        )
+        fits: dict[int, Estimate] = {}
+        for one, vector, covariance in zip(with_path, vectors, covariances, strict=True):
+            if np.isnan(vector).any():
+                phase = SWEET_VISIBLE if one.status == SWEET_PATH else ANY_VISIBLE
+                found = self.results[phase][one.target]
+                if found.unbiased is None or found.covariance is None:
+                    continue  # a label from a run that does not fit (forged): the path's own
+                vector, covariance = found.unbiased, found.covariance
+            fits[one.target] = replace(
+                one,
+                vector=vector,
+                covariance=covariance,
+                predicted_error=float(np.sqrt(np.trace(covariance))),
+                estimator=LOCAL_LEAST_SQUARES,
+            )
+        return [fits.get(one.target, one) for one in estimates]
+
+
+class Participant:
+    """One FLS's part of every discovery run: controls and offers in, broadcasts and reports out.
+
+    ``view()`` tells what the FLS knows of its neighbours when a run starts;
+    ``sensor`` and ``radius`` (cm) what each hop may cost (bucket widths, hop
+    errors), and ``id_space`` bounds the FLS ids. ``readings`` holds what the
+    FLS has heard of other FLSs' cameras: a source of a fitting run reports
+    once it has heard its whole window (:meth:`waiting_reports`).
+    """
+
+    def __init__(
+        self,
+        fls_id: int,
+        view: Callable[[], LocalView],
+        sensor: Sensor,
+        radius: float,
+        id_space: int,
+        readings: ReadingsBook | None = None,
+    ) -> None:
+        self.fls_id = fls_id
+        self._view = view
+        self.sensor = sensor
+        self.radius = radius
+        self.id_space = id_space
+        self.readings = ReadingsBook() if readings is None else readings
+        self.runs: dict[int, FlsRun] = {}
+        # Fitting runs that ended while this source had not heard its whole window.
+        self.waiting: dict[int, FlsRun] = {}
+        # Rounds count on across phases and restarts; buckets count from the phase's start.
+        self._first_round: dict[int, int] = {}
+
+    def on_control(
+        self, control: Control, heard: RoundOffers | None = None
+    ) -> Broadcast | Report | None:
+        """Follow the round clock: START a phase, broadcast a ROUND's labels, report at END.
+
+        ``heard`` are the offers of the rounds since the last control, taken
+        first: a label of round k changes only buckets after k, which nobody
+        broadcasts before round k + 1.
+        """
+        run_id = control.run_id
+        if control.command == START:
+            run = self.runs.get(run_id)
+            if run is None:
+                while len(self.runs) >= RUNS_KEPT:  # the oldest run is over or forged
+                    oldest = next(iter(self.runs))
+                    del self.runs[oldest]
+                    self._first_round.pop(oldest, None)
+                run = self.runs[run_id] = self._new_run(control)
+            run.start(control.phase, frozenset(control.departed_ids))
+            self._first_round[run_id] = control.round
+            return None
+        if control.command == ROUND:
+            run = self.runs.get(run_id)
+            if run is None or run.search is None:
+                return None
+            if heard is not None:
+                run.search.hear(heard)
+            run.search.close(np.asarray(control.finished_ids, dtype=np.int64))
+            offer = run.search.offer(control.round - self._first_round.get(run_id, 0))
+            return Broadcast(run_id, control.phase, control.round, self.fls_id, offer)
+        if control.command == END:
+            run = self.runs.pop(run_id, None)
+            self._first_round.pop(run_id, None)
+            if run is not None and run.search is not None and heard is not None:
+                run.search.hear(heard)
+            if run is not None and run.targets is not None:
+                if run.estimator == PATH:
+                    return Report(run_id, self.fls_id, run.estimates(self.sensor))
+                if self.readings.has(radio_window(run.view)):
+                    return self._fitted(run_id, run)
+                self.waiting[run_id] = run  # its readings are still on their way
+        return None
+
+    def waiting_reports(self, at_deadline: bool = False) -> list[Report]:
+        """The reports of fitting runs whose source has now heard its whole window.
+
+        ``at_deadline``: every waiting run reports, fitted to what was heard.
+        """
+        reports = []
+        for run_id, run in list(self.waiting.items()):
+            if at_deadline or self.readings.has(radio_window(run.view)):
+                del self.waiting[run_id]
+                reports.append(self._fitted(run_id, run))
+        return reports
+
+    def _fitted(self, run_id: int, run: FlsRun) -> Report:
+        """Run ``run_id``'s report, fitted to what this FLS has heard of its window."""
+        heard = self.readings.heard(radio_window(run.view))
+        return Report(run_id, self.fls_id, run.fitted(self.sensor, self.radius, heard))
+
+    def abandon(self) -> list[Report]:
+        """Drop every run (their coordinator is gone); a source's targets are ABORTED."""
+        reports = [
+            Report(
+                run_id,
+                self.fls_id,
+                [
+                    Estimate(target, ABORTED, REASON_COORDINATOR_LOST)
+                    for target in run.targets.tolist()
+                    if target not in run.departed
+                ],
+            )
+            for run_id, run in sorted({**self.runs, **self.waiting}.items())
+            if run.targets is not None and len(run.targets)
+        ]
+        self.runs.clear()
+        self.waiting.clear()
+        self._first_round.clear()
+        return reports
+
+    def _new_run(self, control: Control) -> FlsRun:
+        view = self._view()
+        targets: IntArray | None = view.blind
+        if control.source_ids:
+            sources = np.asarray(control.source_ids, dtype=np.int64)
+            mine = sources == self.fls_id
+            if not mine.any():
+                targets = None
+            elif control.target_ids:
+                # On demand, a source answers for its blind neighbours only.
+                asked = np.asarray(control.target_ids, dtype=np.int64)[mine]
+                targets = asked[np.isin(asked, view.blind)]
+        width = bucket_width(self.sensor, self.radius, control.policy)
+        hop_errors = hop_error(self.sensor, view.distance, self.radius)
+        fit = (self.sensor, self.radius) if control.estimator == LOCAL_LEAST_SQUARES else None
+        both_ends = reads_both_ends(self.sensor)
+        return FlsRun(
+            view, control.policy, width, self.id_space, targets, hop_errors, fit, both_ends
+        )

@@ -1,0 +1,447 @@
+"""One FLS's path search in one phase: labels relaxed round by round, in buckets.
+
+Every FLS runs a :class:`PathSearch` per phase of a discovery run. It holds
+the FLS's best path label for each source: the path from the source to this
+FLS, its hop count and length, and the measured hop vectors summed from the
+source. In round k of a phase an FLS broadcasts the labels whose bucket is k
+(:func:`bucket_width`); its neighbours relax them through their own hop.
+
+Buckets make every broadcast label final. Every hop adds one hop, at least
+``sweet_min`` of length and at least the sensor's smallest hop error (the
+least-error policy's cost), so a label can only be improved by a label of a
+lower bucket, which was broadcast in an earlier round. Each FLS
+therefore broadcasts each source's label once, and keeps, among equal costs,
+the label whose sender has the smallest FLS id: the predecessor rule of
+:mod:`...core.paths`, so the distributed search picks the core engine's paths.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...core import csr, jit
+from ...core.observe import LocalView
+from ...core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
+from ...core.sensor import (
+    BLIND,
+    DECAYING,
+    SWEET,
+    Sensor,
+    hop_covariance,
+    hop_error,
+    smallest_hop_error,
+    unbiased_vectors,
+)
+from .estimate import Found
+from .messages import ANY_VISIBLE, SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers, sender_rows
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+#: Rounds that one sweet hop may cost in a least-error run, at most: the calibrated
+#: sensors' cost 24 and 88; a sensor whose error crosses zero in its range, tens of thousands.
+MAX_ROUNDS_PER_HOP = 1000
+
+
+#: Bucket widths sit this fraction below the shortest hop, so that rounding in
+#: a sum of lengths never puts a label in the bucket of the label it extends.
+_BUCKET_MARGIN = 1e-9
+
+
+#: How many rounds' offers a PathSearch keeps before it drops those no label needs.
+_HEARD_KEPT = 8
+
+
+#: The order of a label's costs in each policy: (primary, secondary), as _relax reads them.
+_HOPS_FIRST, _LENGTH_FIRST, _ERROR_FIRST = 0, 1, 2
+
+
+_COST_ORDER = {FEWEST_HOPS: _HOPS_FIRST, SHORTEST_LENGTH: _LENGTH_FIRST, LEAST_ERROR: _ERROR_FIRST}
+
+
+def bucket_width(sensor: Sensor, radius: float, policy: str) -> float:
+    """Cost per round: the smallest cost a hop can add under ``policy``, a little lowered.
+
+    One hop for fewest-hops; just under ``sweet_min`` cm for shortest-length;
+    :func:`~..core.sensor.smallest_hop_error` for least-error.
+    """
+    if check_policy(policy) == FEWEST_HOPS:
+        return 1.0
+    if policy == LEAST_ERROR:
+        smallest = smallest_hop_error(sensor, radius)
+        if not smallest > 0:
+            raise ValueError(
+                f"least-error needs a sensor whose every hop errs; {sensor.name} has hops "
+                "without error (an accurate sensor has no least-error path)"
+            )
+        # A sweet hop's cost in buckets is what one hop costs in rounds: where the
+        # error nearly vanishes inside the range, a run would take rounds without end.
+        sweet = np.linspace(sensor.sweet_min, sensor.sweet_max, 1001)
+        rounds = float(hop_error(sensor, sweet, radius).max() / smallest)
+        if rounds > MAX_ROUNDS_PER_HOP:
+            raise ValueError(
+                f"least-error over {sensor.name or 'this sensor'} would take about "
+                f"{rounds:,.0f} rounds a hop (its hop error falls to {smallest:.3g} inside the "
+                f"camera's range; at most {MAX_ROUNDS_PER_HOP:,} are allowed): use "
+                "shortest-length or fewest-hops"
+            )
+        return smallest
+    if not sensor.sweet_min > 0:
+        raise ValueError(f"sweet_min must be positive for shortest-length, got {sensor.sweet_min}")
+    return sensor.sweet_min * (1.0 - _BUCKET_MARGIN)
+
+
+def hop_mask(view: LocalView, phase: int) -> NDArray[np.bool_]:
+    """(K,) the neighbours of ``view`` that its FLS relays from in ``phase``."""
+    sweet = view.range_class == SWEET
+    if phase == SWEET_VISIBLE:
+        return np.asarray(sweet & view.visible)
+    if phase == SWEET_ALL:
+        return np.asarray(sweet)
+    if phase == ANY_VISIBLE:
+        return np.asarray((sweet | (view.range_class == DECAYING)) & view.visible)
+    raise ValueError(f"unknown discovery phase {phase}")
+
+
+def reads_both_ends(sensor: Sensor) -> bool:
+    """True when the two FLSs of a pair read its vector differently (noise, a camera).
+
+    The published model's reading of j from i is the reverse of i's from j,
+    to the bit: a receiver may take its own reading of the sender, reversed.
+    """
+    return sensor.noise is not None or sensor.camera is not None
+
+
+@jit.kernel(cache=True, nogil=True)
+def _labels_for(
+    source: int,
+    senders_wanted: IntArray,
+    senders: IntArray,
+    starts: IntArray,
+    source_ids: IntArray,
+) -> IntArray:
+    """The labels of ``source`` offered by ``senders_wanted`` (sorted ids), sender by sender.
+
+    ``senders``, ``starts`` and ``source_ids`` are a :class:`RoundOffers`'s;
+    a sender offers each source's label once in a phase (it is final when sent).
+    """
+    found = np.empty(len(senders_wanted), dtype=np.int64)
+    count = 0
+    for row in sender_rows(senders_wanted, senders):
+        if row < 0:
+            continue
+        for label in range(starts[row], starts[row + 1]):
+            if source_ids[label] == source:
+                found[count] = label
+                count += 1
+                break
+    return found[:count]
+
+
+@jit.kernel(cache=True, nogil=True)
+def _relax(
+    me: int,
+    link_ids: IntArray,
+    link_weights: FloatArray,
+    link_errors: FloatArray,
+    order: int,
+    senders: IntArray,
+    starts: IntArray,
+    source_ids: IntArray,
+    label_hops: IntArray,
+    label_lengths: FloatArray,
+    label_errors: FloatArray,
+    sent: NDArray[np.bool_],
+    hops: FloatArray,
+    length: FloatArray,
+    error: FloatArray,
+    pred: IntArray,
+    won_label: IntArray,
+    won_link: IntArray,
+) -> IntArray:
+    """Relax the labels (hops, length, error, pred: (id_space,)) through the hops of ``link_ids``.
+
+    Each candidate (a heard label plus the hop from its sender) replaces the
+    label of its source when it is better under the total order (primary
+    cost, secondary cost, sender id), so the outcome does not depend on the
+    order of hearing. The winning label and hop are left in ``won_label``
+    and ``won_link`` (given all -1); returns the changed sources.
+    """
+    changed = np.empty(len(hops), dtype=np.int64)
+    count = 0
+    rows = sender_rows(link_ids, senders)
+    for link in range(len(link_ids)):
+        row = rows[link]
+        if row < 0:
+            continue
+        sender = link_ids[link]
+        weight, link_error = link_weights[link], link_errors[link]
+        for label in range(starts[row], starts[row + 1]):
+            source = source_ids[label]
+            if sent[source] or source == me:
+                continue
+            # Sums in path order, as the engine sums them: cost so far plus this hop.
+            new_hops = label_hops[label] + 1.0
+            new_length = label_lengths[label] + weight
+            new_error = label_errors[label] + link_error
+            if order == _HOPS_FIRST:
+                new1, new2, old1, old2 = new_hops, new_length, hops[source], length[source]
+            elif order == _LENGTH_FIRST:
+                new1, new2, old1, old2 = new_length, new_hops, length[source], hops[source]
+            else:
+                new1, new2, old1, old2 = new_error, new_hops, error[source], hops[source]
+            if new1 < old1 or (
+                new1 == old1 and (new2 < old2 or (new2 == old2 and sender < pred[source]))
+            ):
+                if won_label[source] < 0:
+                    changed[count] = source
+                    count += 1
+                hops[source], length[source], error[source] = new_hops, new_length, new_error
+                pred[source] = sender
+                won_label[source], won_link[source] = label, link
+    return changed[:count]
+
+
+class PathSearch:
+    """One FLS's labels in one phase of a discovery run.
+
+    ``id_space`` bounds the FLS ids (ids are below it). ``targets`` makes this
+    FLS a source that searches for them; ``departed`` FLSs are not relayed from.
+    ``hop_errors`` (K,) is the expected error of the hop to each neighbour of
+    ``view`` (core.sensor.hop_error), which labels sum as they sum lengths.
+    ``fit`` (the sensor and the FLSs' radius, cm), given in a fitting run,
+    makes labels also sum each hop less its known bias, and its covariance.
+    With ``both_ends``, a hop sender -> this FLS is the sender's own reading,
+    which the sender's first offer of the phase carries
+    (:func:`reads_both_ends`); else this FLS's reading of the sender, reversed.
+    """
+
+    def __init__(
+        self,
+        view: LocalView,
+        phase: int,
+        policy: str,
+        width: float,
+        id_space: int,
+        targets: IntArray | None = None,
+        departed: frozenset[int] = frozenset(),
+        hop_errors: FloatArray | None = None,
+        fit: tuple[Sensor, float] | None = None,
+        both_ends: bool = False,
+    ) -> None:
+        self.fls_id = view.fls_id
+        self.order = _COST_ORDER[check_policy(policy)]
+        self.width = width
+        hop = hop_mask(view, phase) & ~np.isin(view.other, list(departed))
+        # The neighbours relayed from, sorted by id (a view lists them so), with the
+        # hop sender -> self, which this FLS's camera measures the other way round.
+        order = np.argsort(view.other[hop], kind="stable")
+        self.link_ids = np.asarray(view.other[hop][order], dtype=np.int64)
+        self.link_weights = np.asarray(view.distance[hop][order], dtype=np.float64)
+        errors = np.zeros(len(view.other)) if hop_errors is None else hop_errors
+        self.link_errors = np.asarray(errors[hop][order], dtype=np.float64)
+        own = np.asarray(view.vector[hop][order], dtype=np.float64)
+        self.link_vectors = np.full_like(own, np.nan) if both_ends else -own
+        # This FLS's readings of the neighbours it relays to, sent once when both ends read.
+        read = np.isfinite(own).all(axis=1)
+        self._readings: tuple[IntArray, FloatArray] | None = (
+            (self.link_ids[read], own[read]) if both_ends else None
+        )
+        self.fit = fit
+        self.fits = fit is not None
+        if fit is not None:
+            self.unbiased = np.full((id_space, 3), np.nan)
+            self.covariance = np.full((id_space, 3, 3), np.nan)
+        self.hops = np.full(id_space, np.inf)
+        self.length = np.full(id_space, np.inf)
+        self.error = np.full(id_space, np.inf)
+        self.pred = np.full(id_space, np.iinfo(np.int64).max, dtype=np.int64)
+        self.vector = np.full((id_space, 3), np.nan)
+        self.sent = np.zeros(id_space, dtype=bool)
+        self.closed = np.zeros(id_space, dtype=bool)  # sources whose search has ended
+        # A label's path is its sender's (label via_label of the offers heard as
+        # via_offers) plus this FLS; it is copied out only when the label is sent,
+        # since most labels are bettered before they are.
+        self.via_offers = np.full(id_space, -1, dtype=np.int64)  # -1: this FLS is the source
+        self.via_label = np.full(id_space, -1, dtype=np.int64)
+        self._heard: dict[int, RoundOffers] = {}
+        self._heard_count = 0
+        self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
+        self._wanted = np.array(sorted(self.targets), dtype=np.int64)
+        self._found = np.zeros(id_space, dtype=bool)
+        self.results: dict[int, Found] = {}
+        if targets is not None:
+            me = self.fls_id
+            self.hops[me], self.length[me], self.error[me], self.pred[me] = 0.0, 0.0, 0.0, me
+            self.vector[me] = 0.0
+            if self.fits:
+                self.unbiased[me], self.covariance[me] = 0.0, 0.0
+
+    @property
+    def finished(self) -> bool:
+        """True when this FLS, as a source, has a result for every target."""
+        return bool(self.targets) and len(self.results) == len(self.targets)
+
+    def _buckets(self, sources: IntArray) -> FloatArray:
+        primary = (self.hops, self.length, self.error)[self.order][sources]
+        return np.asarray(np.floor(primary / self.width))
+
+    def close(self, sources: IntArray) -> None:
+        """Stop relaying the labels of ``sources`` (their searches ended)."""
+        self.closed[np.asarray(sources, dtype=np.int64)] = True
+
+    def offer(self, round_: int) -> Offer:
+        """The labels due in round ``round_`` (each is final); they count as sent."""
+        labelled = np.flatnonzero(np.isfinite(self.hops) & ~self.sent & ~self.closed)
+        due = labelled[self._buckets(labelled) <= round_]
+        self.sent[due] = True
+        path_offsets, path_ids = self._paths_of(due)
+        return Offer(
+            source_ids=due.astype(np.int64),
+            hops=self.hops[due].astype(np.int64),
+            lengths=self.length[due],
+            errors=self.error[due],
+            vectors=self.vector[due],
+            path_offsets=path_offsets,
+            path_ids=path_ids,
+            pending=len(due) < len(labelled),
+            finished=self.finished,
+            unbiased=self.unbiased[due] if self.fits else None,
+            covariances=self.covariance[due] if self.fits else None,
+            **self._first_readings(),
+        )
+
+    def _first_readings(self) -> dict[str, NDArray[Any]]:
+        """This FLS's readings, for its first offer of the phase only."""
+        if self._readings is None:
+            return {}
+        ids, vectors = self._readings
+        self._readings = None
+        return {"reading_ids": ids, "reading_vectors": vectors}
+
+    def _paths_of(self, sources: IntArray) -> tuple[IntArray, IntArray]:
+        """The paths of the labels of ``sources``, as (offsets (L + 1,), ids), FLS ids."""
+        via, label = self.via_offers[sources], self.via_label[sources]
+        # Each label's sender path: where it starts in its offers and how long it is.
+        start = np.zeros(len(sources), dtype=np.int64)
+        length = np.zeros(len(sources), dtype=np.int64)
+        for key in np.unique(via[via >= 0]).tolist():
+            rows = via == key
+            offsets = self._heard[key].path_offsets
+            start[rows] = offsets[label[rows]]
+            length[rows] = offsets[label[rows] + 1] - start[rows]
+        path_offsets = csr.offsets(length + 1)
+        path_ids = np.full(int(path_offsets[-1]), self.fls_id, dtype=np.int64)  # ends each
+        for key in np.unique(via[via >= 0]).tolist():
+            rows = via == key
+            path_ids[csr.ragged_indices(path_offsets[:-1][rows], length[rows])] = self._heard[
+                key
+            ].path_ids[csr.ragged_indices(start[rows], length[rows])]
+        # Offers heard that no unsent label still comes through are done with
+        # (looked for now and then: a few rounds' offers are kept anyway).
+        if len(self._heard) > _HEARD_KEPT:
+            pending = self.via_offers[~self.sent & (self.via_offers >= 0)]
+            for key in set(self._heard) - set(np.unique(pending).tolist()):
+                del self._heard[key]
+        return path_offsets, path_ids
+
+    def hear(self, heard: RoundOffers) -> None:
+        """Take a round's offers at once: record results, relax labels through the hops.
+
+        Each source's label becomes the best of its own and every candidate
+        (a heard label plus the hop from its sender) under the order
+        (primary cost, secondary cost, sender id). That order is total, so the
+        outcome is the one of hearing the offers one by one, in any order.
+        """
+        missing = self._wanted[~self._found[self._wanted]]
+        if len(missing):
+            mine = _labels_for(self.fls_id, missing, heard.senders, heard.starts, heard.source_ids)
+            for label in mine.tolist():
+                sender = int(heard.sender_ids[label])
+                if sender not in self.results:
+                    self._found[sender] = True
+                    self.results[sender] = Found(
+                        heard.path(label),
+                        float(heard.lengths[label]),
+                        heard.vectors[label].copy(),
+                        float(heard.errors[label]),
+                        heard.unbiased[label].copy() if self.fits else None,
+                        heard.covariances[label].copy() if self.fits else None,
+                    )
+        senders, readings = heard.readings_of(self.fls_id)
+        if len(senders):
+            # The senders' own readings of the hops to this FLS.
+            rows = np.searchsorted(self.link_ids, senders)
+            known = (rows < len(self.link_ids)) & (
+                self.link_ids[np.minimum(rows, len(self.link_ids) - 1)] == senders
+            )
+            self.link_vectors[rows[known]] = readings[known]
+        won_label = np.full(len(self.hops), -1, dtype=np.int64)
+        won_link = np.zeros(len(self.hops), dtype=np.int64)
+        changed = _relax(
+            self.fls_id,
+            self.link_ids,
+            self.link_weights,
+            self.link_errors,
+            self.order,
+            heard.senders,
+            heard.starts,
+            heard.source_ids,
+            heard.hops,
+            heard.lengths,
+            heard.errors,
+            self.sent,
+            self.hops,
+            self.length,
+            self.error,
+            self.pred,
+            won_label,
+            won_link,
+        )
+        if not len(changed):
+            return
+        labels, links = won_label[changed], won_link[changed]
+        hop = self.link_vectors[links]
+        self.vector[changed] = heard.vectors[labels] + hop
+        if self.fit is not None:
+            sensor, radius = self.fit
+            unbiased, covariance = hop_fit(sensor, radius, hop, self.link_weights[links])
+            self.unbiased[changed] = heard.unbiased[labels] + unbiased
+            self.covariance[changed] = heard.covariances[labels] + covariance
+        key = self._heard_count
+        self._heard_count += 1
+        self._heard[key] = heard
+        self.via_offers[changed] = key
+        self.via_label[changed] = labels
+
+
+def phase_targets(phase: int, blind: IntArray, sweet_results: dict[int, Found]) -> IntArray:
+    """A source's targets in ``phase``: blind neighbours (in SD_vis: without S_vis path)."""
+    if phase == ANY_VISIBLE:
+        return np.array([t for t in blind.tolist() if t not in sweet_results], dtype=np.int64)
+    return np.asarray(blind, dtype=np.int64)
+
+
+def radio_window(view: LocalView) -> IntArray:
+    """(W,) the FLSs an FLS hears: itself, then its radio neighbours (blind and sweet), ids."""
+    radio = np.isin(view.range_class, (BLIND, SWEET))
+    return np.concatenate([[view.fls_id], view.other[radio]]).astype(np.int64)
+
+
+def hop_fit(
+    sensor: Sensor, radius: float, hop: FloatArray, tracking: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Hops (K, 3), cm, of tracking distance ``tracking`` (K,) less their known bias, and
+    their covariances (K, 3, 3), cm^2; NaN without a reading. Labels sum both."""
+    read = np.isfinite(hop).all(axis=1)
+    unbiased = np.full_like(hop, np.nan)
+    covariance = np.full((len(hop), 3, 3), np.nan)
+    if read.any():
+        unbiased[read] = unbiased_vectors(sensor, hop[read], tracking[read])
+        directions = hop[read] / np.linalg.norm(hop[read], axis=1, keepdims=True)
+        covariance[read] = hop_covariance(sensor, tracking[read], directions, radius)
+    return unbiased, covariance

@@ -1,0 +1,404 @@
+"""Discovery and moves as messages: controls, offers, estimates, acks, moves, path walks."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Vector3
+from numpy.typing import NDArray
+from swazure_interfaces.msg import (
+    DiscoveryControl,
+    MoveCommand,
+    MoveCommands,
+    PathEstimate,
+    PathOffer,
+    PathWalk,
+    PoseEstimate,
+    PoseEstimates,
+    RoundAck,
+)
+
+from ...core.evaluate import REASON_NAMES, STATUS_NAMES
+from ...core.fit import PATH
+from ...core.frames import CM_PER_METRE, fls_frame, to_metres
+from ...protocol.discovery.estimate import Estimate
+from ...protocol.discovery.messages import (
+    END,
+    PHASES,
+    ROUND,
+    START,
+    SWEET_ALL,
+    Broadcast,
+    Control,
+    Offer,
+    Report,
+)
+from ...protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
+from ...protocol.radio import Ack
+from ..guard import check, check_finite, check_ids, check_size
+from ..names import (
+    ESTIMATOR_CODES,
+    ESTIMATOR_NAMES,
+    POLICY_CODES,
+    POLICY_NAMES,
+    node_name,
+)
+from .units import array3, vector3
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:
+    """One FLS's labels of one round as a PathOffer message."""
+    offer, sender = sent.offer, sent.sender
+    message = PathOffer(
+        run_id=sent.run_id,
+        phase=sent.phase,
+        round=sent.round,
+        sender_id=sender,
+        pending=offer.pending,
+        finished=offer.finished,
+    )
+    message.header.stamp = stamp
+    message.header.frame_id = node_name(sender)
+    # Array fields take numpy arrays of the right dtype without a Python loop.
+    message.source_ids = offer.source_ids.astype(np.uint32)
+    message.hops = offer.hops.astype(np.uint32)
+    message.lengths = offer.lengths.astype(np.float64)
+    message.errors = offer.errors.astype(np.float64)
+    message.vectors = offer.vectors.astype(np.float64).ravel()
+    message.path_offsets = offer.path_offsets.astype(np.uint32)
+    message.path_ids = offer.path_ids.astype(np.uint32)
+    if offer.unbiased is not None and offer.covariances is not None:
+        message.unbiased_vectors = offer.unbiased.astype(np.float64).ravel()
+        message.covariances = offer.covariances.astype(np.float64).ravel()
+    message.reading_ids = offer.reading_ids.astype(np.uint32)
+    message.reading_vectors = offer.reading_vectors.astype(np.float64).ravel()
+    return message
+
+
+def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
+    """The labels of a PathOffer message from an FLS of ``swarm`` (sorted ids).
+
+    MessageError unless its arrays agree in length, every id is in the swarm,
+    every path runs from its label's source to the sender with ``hops`` hops,
+    and costs are finite and not negative (vectors may be NaN only in the
+    S_all phase, whose hops need no camera reading).
+    """
+    check(message.phase in PHASES, f"unknown phase {message.phase}")
+    count = len(message.source_ids)
+    check_size(message.source_ids, len(swarm), "source_ids")
+    check(
+        len(message.hops) == count == len(message.lengths) == len(message.errors),
+        "source_ids, hops, lengths and errors differ in length",
+    )
+    check(len(message.vectors) == 3 * count, "not 3 vector values per label")
+    fits = len(message.unbiased_vectors) > 0 or len(message.covariances) > 0
+    check_size(message.reading_ids, len(swarm), "reading_ids")
+    check(len(message.reading_vectors) == 3 * len(message.reading_ids), "not 3 values a reading")
+    reading_ids = check_ids(message.reading_ids, swarm, "reading_ids")
+    check(len(np.unique(reading_ids)) == len(reading_ids), "an FLS read twice")
+    reading_vectors = check_finite(message.reading_vectors, "reading_vectors").reshape(-1, 3)
+    check(
+        not fits
+        or (len(message.unbiased_vectors) == 3 * count and len(message.covariances) == 9 * count),
+        "not 3 unbiased vector and 9 covariance values per label",
+    )
+    check(len(message.path_offsets) == count + 1, "not one more path offset than labels")
+    sources = np.asarray(message.source_ids, dtype=np.int64)
+    # A sender offers its labels in source order, one a source (PathSearch.offer).
+    check(bool(np.all(np.diff(sources) > 0)), "sources not in increasing order, once each")
+    hops = np.asarray(message.hops, dtype=np.int64)
+    lengths = check_finite(message.lengths, "lengths")
+    errors = check_finite(message.errors, "errors")
+    check(bool(np.all(lengths >= 0) and np.all(errors >= 0)), "a negative cost")
+    vectors = check_finite(message.vectors, "vectors", allow_nan=message.phase == SWEET_ALL)
+    offsets = np.asarray(message.path_offsets, dtype=np.int64)
+    check_size(message.path_ids, count * len(swarm), "path_ids")
+    check(
+        offsets[0] == 0 and offsets[-1] == len(message.path_ids),
+        "path offsets do not span path_ids",
+    )
+    check(bool(np.all(np.diff(offsets) == hops + 1)), "a path is not hops + 1 FLSs long")
+    path_ids = np.asarray(message.path_ids, dtype=np.int64)
+    # One look-up for every id: the sender's, and those of the paths (sources included).
+    check_ids(np.append(path_ids, message.sender_id), swarm, "offer")
+    if count:
+        starts, ends = path_ids[offsets[:-1]], path_ids[offsets[1:] - 1]
+        check(bool(np.all(starts == sources)), "a path does not start at its source")
+        check(bool(np.all(ends == message.sender_id)), "a path does not end at the sender")
+    return Offer(
+        source_ids=sources,
+        hops=hops,
+        lengths=lengths,
+        errors=errors,
+        vectors=vectors.reshape(-1, 3),
+        path_offsets=offsets,
+        path_ids=path_ids,
+        pending=message.pending,
+        finished=message.finished,
+        unbiased=_fit_sums(message, "unbiased_vectors", (-1, 3)) if fits else None,
+        covariances=_fit_sums(message, "covariances", (-1, 3, 3)) if fits else None,
+        reading_ids=reading_ids,
+        reading_vectors=reading_vectors,
+    )
+
+
+def _fit_sums(message: PathOffer, name: str, shape: tuple[int, ...]) -> FloatArray:
+    """A fitting offer's sums of field ``name``, shaped (NaN only where vectors may be)."""
+    values = check_finite(getattr(message, name), name, allow_nan=message.phase == SWEET_ALL)
+    return values.reshape(shape)
+
+
+def estimate_message(found: Estimate) -> PathEstimate:
+    """One pair's estimate as the protocol reports it (cm; NaN vector without a path)."""
+    return PathEstimate(**_estimate_fields(found, lambda centimetres: centimetres))
+
+
+def pose_estimate_message(source: int, found: Estimate, stamp: Time) -> PoseEstimate:
+    """One pair's estimate for people and other software: metres, in ``fls_<source>``."""
+    message = PoseEstimate(source_id=source, **_estimate_fields(found, to_metres))
+    message.header.stamp = stamp
+    message.header.frame_id = fls_frame(source)
+    return message
+
+
+def _estimate_fields(found: Estimate, unit: Callable[[Any], Any]) -> dict[str, Any]:
+    """The fields PathEstimate and PoseEstimate share, lengths converted by ``unit``."""
+    vector = unit(found.vector).tolist()
+    covariance = np.full(9, np.nan) if found.covariance is None else found.covariance.ravel()
+    return {
+        "estimator": ESTIMATOR_CODES[found.estimator],
+        "covariance": unit(unit(covariance)),
+        "target_id": found.target,
+        "status": found.status,
+        "reason": found.reason,
+        "path": list(found.path),
+        "hops": found.hops,
+        "radio_path": list(found.radio_path),
+        "vector": Vector3(x=vector[0], y=vector[1], z=vector[2]),
+        "path_length": unit(found.length),
+        "predicted_error": unit(found.predicted_error),
+    }
+
+
+def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
+    """Every estimate of one source as a PoseEstimates message."""
+    source, found = report.source, report.estimates
+    message = PoseEstimates(run_id=report.run_id, source_id=source)
+    message.header.stamp = stamp
+    message.header.frame_id = node_name(source)
+    message.estimates = [estimate_message(one) for one in found]
+    return message
+
+
+def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> list[Estimate]:
+    """The core's Estimates of a source's report, checked against ``swarm`` (sorted ids).
+
+    MessageError unless the source and every target and path FLS are the
+    swarm's, codes are known, paths are no longer than the swarm and numbers
+    are finite or NaN (no path).
+    """
+    estimates = message.estimates
+    check_size(estimates, len(swarm), "estimates")
+    ids = [message.source_id]
+    for one in estimates:
+        check(
+            len(one.path) <= len(swarm) and len(one.radio_path) <= len(swarm),
+            "a path longer than the swarm",
+        )
+        ids.append(one.target_id)
+        ids.extend(one.path)
+        ids.extend(one.radio_path)
+    check_ids(ids, swarm, "estimates")
+    check(
+        all(
+            one.status < len(STATUS_NAMES) and one.reason < len(REASON_NAMES) for one in estimates
+        ),
+        "unknown status or reason",
+    )
+    numbers = [(one.vector.x, one.vector.y, one.vector.z, one.path_length) for one in estimates]
+    check_finite(numbers, "vector", allow_nan=True)
+    check(all(one.estimator in ESTIMATOR_NAMES for one in estimates), "unknown estimator")
+    check_finite([list(one.covariance) for one in estimates], "covariance", allow_nan=True)
+    return [estimate_from_message(one) for one in estimates]
+
+
+def estimate_from_message(message: PathEstimate) -> Estimate:
+    """The core's Estimate of a reported PathEstimate (unchecked: see estimates_from_message)."""
+    return _estimate(message, 1.0)
+
+
+def pose_estimate_from_message(message: PoseEstimate) -> Estimate:
+    """The core's Estimate (cm) of a PoseEstimate (m), for people: not the protocol's bits."""
+    return _estimate(message, CM_PER_METRE)
+
+
+def _estimate(message: PathEstimate | PoseEstimate, cm_per_unit: float) -> Estimate:
+    """An Estimate of either message; lengths times ``cm_per_unit`` (1: already in cm)."""
+    vector = message.vector
+    covariance = np.asarray(message.covariance, dtype=np.float64).reshape(3, 3)
+    fitted = np.isfinite(covariance).all()
+    return Estimate(
+        target=int(message.target_id),
+        status=int(message.status),
+        reason=int(message.reason),
+        path=tuple(int(fls) for fls in message.path),
+        length=float(message.path_length) * cm_per_unit,
+        vector=np.array([vector.x, vector.y, vector.z]) * cm_per_unit,
+        radio_path=tuple(int(fls) for fls in message.radio_path),
+        predicted_error=float(message.predicted_error) * cm_per_unit,
+        estimator=ESTIMATOR_NAMES.get(message.estimator, PATH),
+        covariance=covariance * cm_per_unit**2 if fitted else None,
+    )
+
+
+def control_message(control: Control, stamp: Time) -> DiscoveryControl:
+    """A tick of the round clock as a DiscoveryControl message."""
+    message = DiscoveryControl(
+        run_id=control.run_id,
+        command=control.command,
+        phase=control.phase,
+        policy=POLICY_CODES[control.policy],
+        round=control.round,
+        expected=control.expected,
+        source_ids=list(control.source_ids),
+        target_ids=list(control.target_ids),
+        finished_ids=list(control.finished_ids),
+        departed_ids=list(control.departed_ids),
+        estimator=ESTIMATOR_CODES[control.estimator],
+    )
+    message.header.stamp = stamp
+    return message
+
+
+def control_from_message(message: DiscoveryControl, swarm: IntArray) -> Control:
+    """The round clock's tick of a DiscoveryControl message to the FLSs of ``swarm`` (sorted ids).
+
+    MessageError for an unknown command, phase or policy, an id not in the swarm,
+    or targets that do not pair with the sources.
+    """
+    check(message.command in (START, ROUND, END), f"unknown command {message.command}")
+    check(message.phase in PHASES, f"unknown phase {message.phase}")
+    check(message.policy in POLICY_NAMES, f"unknown policy {message.policy}")
+    check(message.estimator in ESTIMATOR_NAMES, f"unknown estimator {message.estimator}")
+    check(message.expected <= len(swarm), f"expects {message.expected} FLSs, more than the swarm")
+    lists = {}
+    for name in ("source_ids", "target_ids", "finished_ids", "departed_ids"):
+        values = getattr(message, name)
+        check_size(values, len(swarm), name)
+        lists[name] = tuple(check_ids(values, swarm, name).tolist())
+    check(
+        not lists["target_ids"] or len(lists["target_ids"]) == len(lists["source_ids"]),
+        "target_ids do not pair with source_ids",
+    )
+    return Control(
+        run_id=int(message.run_id),
+        command=int(message.command),
+        phase=int(message.phase),
+        policy=POLICY_NAMES[message.policy],
+        round=int(message.round),
+        expected=int(message.expected),
+        estimator=ESTIMATOR_NAMES[message.estimator],
+        **lists,
+    )
+
+
+def ack_message(ack: Ack, host: str, stamp: Time) -> RoundAck:
+    """A process's acknowledgement of a round as a RoundAck message."""
+    message = RoundAck(
+        run_id=ack.run_id,
+        phase=ack.phase,
+        round=ack.round,
+        heard=ack.heard,
+        repairs=ack.repairs,
+        lost=ack.lost,
+    )
+    message.host = host
+    message.header.stamp = stamp
+    return message
+
+
+def moves_message(moves: Sequence[Move], stamp: Time) -> MoveCommands:
+    """Moves made together (one group) as one MoveCommands message."""
+    commands = []
+    for move in moves:
+        command = MoveCommand(
+            fls_id=move.fls_id,
+            kind=move.kind,
+            source_id=move.source_id,
+            target_id=move.target_id,
+        )
+        if move.displacement is not None:
+            command.displacement = vector3(move.displacement)
+        commands.append(command)
+    message = MoveCommands(commands=commands)
+    message.header.stamp = stamp
+    return message
+
+
+def moves_from_message(
+    message: MoveCommands, swarm: IntArray, reach: float
+) -> tuple[IntArray, IntArray, FloatArray]:
+    """(FLS ids (K,), kinds (K,), displacements (K, 3), cm) of a MoveCommands message.
+
+    MessageError unless every FLS is one of ``swarm``'s (sorted ids), once, every
+    kind is known and every displacement is finite and within ``reach`` cm:
+    the batch is made together, so it is taken whole or not at all.
+    """
+    commands = message.commands
+    check_size(commands, len(swarm), "commands")
+    ids = check_ids([command.fls_id for command in commands], swarm, "commands")
+    check(len(np.unique(ids)) == len(ids), "an FLS is commanded twice")
+    kinds = np.array([command.kind for command in commands], dtype=np.int64)
+    known = (MoveCommand.KIND_STEP_ASIDE, MoveCommand.KIND_PROBE, MoveCommand.KIND_RETURN)
+    check(bool(np.isin(kinds, known).all()), "unknown kind")
+    displacement = check_finite(
+        [array3(command.displacement) for command in commands], "displacement"
+    ).reshape(-1, 3)
+    check(bool(np.all(np.abs(displacement) <= reach)), f"a displacement beyond {reach:g} cm")
+    return ids, kinds, displacement
+
+
+def walk_message(walk: Walk, stamp: Time) -> PathWalk:
+    """A path walk as a PathWalk message."""
+    message = PathWalk(
+        run_id=walk.run_id,
+        revision=walk.revision,
+        source_id=walk.source_id,
+        target_id=walk.target_id,
+        path=list(walk.path),
+        hop=walk.hop,
+        state=walk.state,
+        vector=vector3(walk.vector),
+    )
+    message.header.stamp = stamp
+    return message
+
+
+def walk_from_message(message: PathWalk, swarm: IntArray) -> Walk:
+    """The path walk of a PathWalk message along FLSs of ``swarm`` (sorted ids).
+
+    MessageError unless the path has two or more distinct FLSs of the swarm, the
+    hop is on it, the state is known and a walk under way sums finite vectors.
+    """
+    check(message.state in (WALKING, ARRIVED, FAILED), f"unknown state {message.state}")
+    check(2 <= len(message.path) <= len(swarm), "a path of fewer than 2 or more than N FLSs")
+    path = check_ids(message.path, swarm, "path")
+    check(len(np.unique(path)) == len(path), "a path visits an FLS twice")
+    check(message.hop < len(path), f"hop {message.hop} is past the path's end")
+    vector = array3(message.vector)
+    if message.state != FAILED:
+        check_finite(vector, "vector")
+    return Walk(
+        run_id=int(message.run_id),
+        revision=int(message.revision),
+        path=tuple(path.tolist()),
+        hop=int(message.hop),
+        state=int(message.state),
+        vector=vector,
+    )

@@ -1,0 +1,220 @@
+"""What an FLS senses, as messages: measurements, detections, camera images, world revisions."""
+
+from __future__ import annotations
+
+import array
+from typing import TYPE_CHECKING
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import Point, PoseWithCovariance, Vector3
+from numpy.typing import NDArray
+from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import Header
+from swazure_interfaces.msg import (
+    Detections,
+    MarkerDetection,
+    Measurements,
+    RelativePose,
+    WorldState,
+)
+
+from ...core.frames import fls_frame, to_centimetres, to_metres
+from ...core.observe import Measurement, NeighbourSets
+from ...core.sensor import DECAYING, SWEET, Sensor
+from ...protocol.readings import Readings
+from ..guard import check, check_finite, check_ids, check_size
+
+if TYPE_CHECKING:
+    from ...core.camera import Camera
+
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+def measurements_message(
+    fls_id: int, measurement: Measurement, stamp: Time, radio_distance: FloatArray | None = None
+) -> Measurements:
+    """One FLS's camera measurements as a Measurements message, in metres in the FLS's frame.
+
+    ``radio_distance`` (K,), cm: each measured pair's distance by radio
+    ranging (NaN where not given).
+    """
+    message = Measurements(source_id=fls_id)
+    message.header.stamp = stamp
+    message.header.frame_id = fls_frame(fls_id)
+    count = len(measurement.target_ids)
+    radio = np.full(count, np.nan) if radio_distance is None else radio_distance
+    for target, range_class, vector, tracking, ranged in zip(
+        measurement.target_ids.tolist(),
+        measurement.range_class.tolist(),
+        to_metres(measurement.vector).tolist(),
+        to_metres(measurement.tracking).tolist(),
+        to_metres(radio).tolist(),
+        strict=True,
+    ):
+        pose = RelativePose(
+            source_id=fls_id,
+            target_id=target,
+            range_class=range_class,
+            line_of_sight=True,
+            vector=Vector3(x=vector[0], y=vector[1], z=vector[2]),
+            tracking_distance=tracking,
+            radio_distance=ranged,
+        )
+        pose.header = message.header
+        message.poses.append(pose)
+    return message
+
+
+def readings_from_message(message: Measurements, swarm: IntArray) -> Readings:
+    """The camera readings (cm) of a Measurements message from an FLS of ``swarm`` (sorted ids).
+
+    MessageError unless every pose is the source's, of an FLS of the swarm
+    once, in sweet or decaying range, with a finite vector and radio
+    distance.
+    """
+    poses = message.poses
+    check_size(poses, len(swarm), "poses")
+    source = int(message.source_id)
+    check(all(pose.source_id == source for pose in poses), "a pose of another FLS")
+    other = check_ids([source] + [pose.target_id for pose in poses], swarm, "poses")[1:]
+    check(len(np.unique(other)) == len(other), "an FLS measured twice")
+    check(source not in other, "an FLS measures itself")
+    range_class = np.array([pose.range_class for pose in poses], dtype=np.int8)
+    check(bool(np.isin(range_class, (SWEET, DECAYING)).all()), "a reading out of camera range")
+    numbers = [(p.vector.x, p.vector.y, p.vector.z, p.radio_distance) for p in poses]
+    values = to_centimetres(check_finite(numbers, "poses").reshape(-1, 4))
+    order = np.argsort(other, kind="stable")
+    return Readings(
+        source, other[order], range_class[order], values[order, 3], values[order, :3].copy()
+    )
+
+
+#: Readings a Detections message may hold: a camera reads a few dozen markers at most.
+MAX_DETECTIONS = 4096
+
+
+def detections_message(
+    fls_id: int,
+    measurement: Measurement,
+    markers: IntArray,
+    sensor: Sensor,
+    stamp: Time,
+    revision: int = 0,
+) -> Detections:
+    """What FLS ``fls_id``'s simulated camera reads in world ``revision``, as a camera would.
+
+    ``markers`` (K,) are the markers of the measured FLSs; each pose is centre
+    to centre in metres in the FLS's frame, its position variance the
+    sensor's length error at that distance, squared, on each axis; its
+    rotation unknown (variance -1).
+    """
+    message = Detections(revision=revision)
+    message.header.stamp = stamp
+    message.header.frame_id = fls_frame(fls_id)
+    error = np.abs(sensor.relative_error(measurement.tracking) * measurement.tracking)
+    for marker, vector, sigma in zip(
+        markers.tolist(),
+        to_metres(measurement.vector).tolist(),
+        to_metres(error).tolist(),
+        strict=True,
+    ):
+        pose = PoseWithCovariance()
+        pose.pose.position = Point(x=vector[0], y=vector[1], z=vector[2])
+        pose.pose.orientation.w = 1.0
+        covariance = np.zeros((6, 6))
+        covariance[[0, 1, 2], [0, 1, 2]] = sigma * sigma
+        covariance[[3, 4, 5], [3, 4, 5]] = -1.0
+        pose.covariance = covariance.ravel().tolist()
+        message.detections.append(MarkerDetection(marker_id=marker, pose=pose))
+    return message
+
+
+def detections_from_message(message: Detections, fls_id: int) -> tuple[IntArray, FloatArray]:
+    """Markers (K,) and centre-to-centre vectors (K, 3), cm, of FLS ``fls_id``'s detections.
+
+    MessageError unless the poses are in the FLS's own frame (a detector's
+    optical-frame poses must be moved there by the camera's mount first),
+    finite and at most MAX_DETECTIONS.
+    """
+    check(
+        message.header.frame_id == fls_frame(fls_id),
+        f"detections in frame {message.header.frame_id[:40]!r}, not {fls_frame(fls_id)}",
+    )
+    check_size(message.detections, MAX_DETECTIONS, "detections")
+    markers = np.array([one.marker_id for one in message.detections], dtype=np.int64)
+    positions = [one.pose.pose.position for one in message.detections]
+    vectors = np.array([[p.x, p.y, p.z] for p in positions], dtype=np.float64).reshape(-1, 3)
+    check_finite(vectors, "detection positions")
+    return markers, to_centimetres(vectors)
+
+
+def neighbour_fields(sets: NeighbourSets) -> dict[str, list[int]]:
+    """GetNeighbours response fields from neighbour sets of FLS ids."""
+    return {
+        "blind_ids": sets.blind.tolist(),
+        "sweet_ids": sets.sweet.tolist(),
+        "visible_sweet_ids": sets.visible_sweet.tolist(),
+        "decaying_ids": sets.visible_decaying.tolist(),
+    }
+
+
+def world_message(
+    revision: int, ids: NDArray[np.int64], points: FloatArray, stamp: Time
+) -> WorldState:
+    """Every FLS's position as a WorldState message."""
+    message = WorldState(revision=revision)
+    message.fls_ids = array.array("I", np.asarray(ids, dtype=np.uint32).tobytes())
+    message.positions = array.array("d", np.asarray(points, dtype=np.float64).tobytes())
+    message.header.stamp = stamp
+    message.header.frame_id = "world"
+    return message
+
+
+def world_positions(
+    message: WorldState, swarm: IntArray, reach: float
+) -> tuple[NDArray[np.int64], FloatArray]:
+    """FLS ids (N,) and their positions (N, 3), cm, from a WorldState message.
+
+    MessageError unless every id is one of ``swarm``'s (sorted ids), once, and
+    every position is finite and within ``reach`` cm of the origin.
+    """
+    check_size(message.fls_ids, len(swarm), "fls_ids")
+    check(len(message.positions) == 3 * len(message.fls_ids), "not 3 positions per FLS")
+    ids = check_ids(np.frombuffer(message.fls_ids, dtype=np.uint32), swarm, "fls_ids")
+    check(len(np.unique(ids)) == len(ids), "an FLS is listed twice")
+    points = check_finite(np.frombuffer(message.positions, dtype=np.float64), "positions")
+    check(bool(np.all(np.abs(points) <= reach)), f"a position beyond {reach:g} cm")
+    return ids, points.reshape(-1, 3).copy()
+
+
+def image_message(image: NDArray[np.uint8], stamp: Time, frame_id: str) -> Image:
+    """A grey (H, W) image as sensor_msgs/Image, mono8."""
+    rows, columns = image.shape
+    return Image(
+        header=Header(stamp=stamp, frame_id=frame_id),
+        height=rows,
+        width=columns,
+        encoding="mono8",
+        is_bigendian=0,
+        step=columns,
+        data=np.ascontiguousarray(image).tobytes(),
+    )
+
+
+def camera_info_message(camera: Camera, stamp: Time, frame_id: str) -> CameraInfo:
+    """The camera's intrinsics as sensor_msgs/CameraInfo (no distortion: the renderer has none)."""
+    matrix = camera.matrix
+    projection = np.hstack([matrix, np.zeros((3, 1))])
+    return CameraInfo(
+        header=Header(stamp=stamp, frame_id=frame_id),
+        height=camera.height,
+        width=camera.width,
+        distortion_model="plumb_bob",
+        d=[0.0] * 5,
+        k=matrix.ravel().tolist(),
+        r=np.eye(3).ravel().tolist(),
+        p=projection.ravel().tolist(),
+    )

@@ -1,0 +1,147 @@
+"""A topic's messages printed as ``ros2 topic echo`` prints them, for ``swazure echo``.
+
+For machines that have only the ROS 2 wheels and no ``ros2`` command. The
+message type is found on the graph, or given as pkg/msg/Type.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+import yaml
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from ..core.errors import SwazureError
+from .runtime import SwarmNode, init_context
+
+
+def message_class(type_name: str) -> Any:
+    """The Python class of ``pkg/msg/Type``."""
+    parts = type_name.split("/")
+    if len(parts) == 2:
+        parts.insert(1, "msg")
+    if len(parts) != 3 or not all(parts):
+        raise SwazureError(f"message type must be pkg/msg/Type, got {type_name!r}")
+    package, kind, name = parts
+    try:
+        return getattr(importlib.import_module(f"{package}.{kind}"), name)
+    except (ImportError, AttributeError) as err:
+        raise SwazureError(f"unknown message type {type_name!r}") from err
+
+
+def message_to_dict(message: Any) -> Any:
+    """A message as nested dicts and lists, fields in declaration order."""
+    if hasattr(message, "get_fields_and_field_types"):
+        return {
+            field: message_to_dict(getattr(message, field))
+            for field in message.get_fields_and_field_types()
+        }
+    if isinstance(message, (list, tuple)) or type(message).__name__ in ("array", "ndarray"):
+        return [message_to_dict(item) for item in message]
+    if isinstance(message, bytes):
+        return list(message)
+    return message.item() if hasattr(message, "item") else message
+
+
+class _Dumper(yaml.SafeDumper):
+    """Keep field order, as ros2 topic echo does."""
+
+
+_Dumper.add_representer(dict, lambda dumper, data: dumper.represent_dict(data.items()))
+
+
+def message_to_yaml(message: Any) -> str:
+    """A message as the YAML block ``ros2 topic echo`` prints (without the ``---``)."""
+    return yaml.dump(
+        message_to_dict(message), Dumper=_Dumper, default_flow_style=False, width=sys.maxsize
+    )
+
+
+ECHO_DEPTH = 10_000
+
+
+def echo_qos(node: Node, topic: str) -> QoSProfile:
+    """A reader's QoS that gets what ``topic``'s publishers offer, as ``ros2 topic echo`` does.
+
+    Transient local when every publisher latches (a late reader then gets each
+    one's last message), best effort when any publisher is best effort. Deep
+    enough for a burst of a round (hundreds of messages at once) while the
+    printing catches up; a depth of 10 dropped most of a heuristic's moves.
+    """
+    offered = node.get_publishers_info_by_topic(topic)
+    latched = bool(offered) and all(
+        info.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for info in offered
+    )
+    best_effort = any(
+        info.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT for info in offered
+    )
+    return QoSProfile(
+        depth=ECHO_DEPTH,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+        reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
+    )
+
+
+def echo(
+    topic: str,
+    type_name: str | None,
+    limit: int | None,
+    timeout: float | None,
+    domain_id: int | None,
+    write: Callable[[str], object],
+) -> int:
+    """Write each message of ``topic`` as YAML and ``---`` until ``limit``; the exit status.
+
+    Waits for a publisher when ``type_name`` is None; 1 when no message came
+    within ``timeout`` seconds.
+    """
+    context = init_context(domain_id)
+    node = SwarmNode("swazure_echo", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    printed = 0
+    began = time.monotonic()
+    try:
+        while type_name is None:
+            types = dict(node.get_topic_names_and_types()).get(topic)
+            if types:
+                type_name = types[0]
+                break
+            if timeout is not None and time.monotonic() - began > timeout:
+                raise SwazureError(f"{topic}: no publisher found within {timeout:g} s")
+            executor.spin_once(timeout_sec=0.1)
+        cls = message_class(type_name)
+        wanted = f"{cls.__module__.split('.')[0]}/msg/{cls.__name__}"
+
+        def on_message(message: Any) -> None:
+            nonlocal printed
+            if limit is None or printed < limit:
+                write(message_to_yaml(message) + "---\n")
+                printed += 1
+
+        node.create_subscription(cls, topic, on_message, echo_qos(node, topic))
+        while limit is None or printed < limit:
+            offered = sorted(
+                {info.topic_type for info in node.get_publishers_info_by_topic(topic)}
+            )
+            if offered and wanted not in offered:
+                # A subscription of another type never matches: say so instead of waiting.
+                raise SwazureError(f"{topic} carries {', '.join(offered)}, not {wanted}")
+            if timeout is not None and not printed and time.monotonic() - began > timeout:
+                print(
+                    f"swazure echo: no message on {topic} within {timeout:g} s",
+                    file=sys.stderr,
+                )
+                return 1
+            executor.spin_once(timeout_sec=0.1)
+    finally:
+        executor.shutdown()
+        node.destroy_node()  # type: ignore[no-untyped-call]
+        context.try_shutdown()
+    return 0

@@ -1,0 +1,166 @@
+"""The ``fls`` program: one FLS in its own process, as on FLS hardware.
+
+``ros2 run swazure_ros fls --ros-args -p fls_id:=7 -p cloud:=torus:120 -p beta:=0.5``
+
+The FLS senses by its camera's detections (``fls_<id>/camera/detections``)
+and has a radio of its own (:class:`.radio.Radio`). It joins the swarm's rounds
+only once every FLS and the coordinator hear it (:class:`RadioJoin`).
+"""
+
+from __future__ import annotations
+
+import time
+
+from rclpy.context import Context
+from rclpy.node import Node
+from rclpy.timer import Timer
+
+from ..core import jit
+from ..core.errors import SwazureError
+from ..core.motion import parse_motion
+from ..core.tracking import RelaySenses, moving_senses
+from ..protocol.senses import DetectedSenses
+from .auth import SwarmKey
+from .fls_node import FlsNode
+from .keys import key_from
+from .radio import Radio
+from .runtime import (
+    DESCRIPTION_PARAMETERS,
+    ParameterError,
+    declare_startup,
+    description_from,
+    run_process,
+    startup_parameters,
+)
+
+#: Seconds between two looks of a standalone FLS at whether every FLS hears it yet.
+JOIN_POLL = 0.1
+
+
+class RadioJoin:
+    """A standalone FLS's radio: made at its camera's first frame, listening once heard.
+
+    The swarm's rounds count an FLS once it hears the controls
+    (``Coordinator.hosts_matched``). Before its camera's first frame it would
+    answer every round as an FLS that sees no one, and the swarm would find
+    fewer paths than there are: the radio is made then. Its offers must reach
+    every FLS's radio and the coordinator, its acks and estimates the
+    coordinator, before a round counts on it: a round sent to an FLS whose
+    writers are not matched yet waits a round timeout for it. Only this FLS
+    sees its own writers matched, so it listens once they are, or after
+    ``join_timeout`` seconds.
+    """
+
+    def __init__(self, node: FlsNode, senses: DetectedSenses) -> None:
+        self.node = node
+        self.senses = senses
+        self.radio: Radio | None = None
+        self.made_at = float("nan")
+        self.join_timeout = node.declare_seconds(
+            "join_timeout",
+            30.0,
+            "seconds after its first frame that an FLS waits to be heard "
+            "by every FLS before it takes part in rounds anyway",
+        )
+        self.poll: Timer = node.create_timer(JOIN_POLL, self.listen_when_heard)
+        senses.on_revision.insert(0, self.make_radio)
+
+    def make_radio(self) -> None:
+        """Make the radio at the camera's first frame (later frames find it made)."""
+        if self.radio is not None:
+            return
+        node = self.node
+        self.radio = Radio(
+            node,
+            self.senses,
+            {node.fls_id: node},
+            guard=node.guard,
+            listen=False,
+            readings=node.discovery.readings,
+        )
+        self.made_at = time.monotonic()
+        node.get_logger().info("radio on: its camera's first frame is in")  # type: ignore[no-untyped-call]
+
+    def listen_when_heard(self) -> None:
+        """Listen once every FLS's radio and the coordinator hear this FLS, or at the timeout."""
+        if self.radio is None:
+            return
+        swarm_size = len(self.senses.ids)
+        offers, estimates = self.node.transmitter.readers()
+        heard = offers >= swarm_size + 1 and estimates >= 1 and self.radio.ack_readers() >= 1
+        waited = time.monotonic() - self.made_at
+        if heard or waited > self.join_timeout:
+            self.radio.listen()
+            how = (
+                "heard by every FLS and the coordinator"
+                if heard
+                else (f"after {waited:.0f} s, heard by {offers - 1} of {swarm_size} FLSs' radios")
+            )
+            self.node.get_logger().info(f"on the swarm's radio: {how}")  # type: ignore[no-untyped-call]
+            self.node.destroy_timer(self.poll)
+
+
+def build_fls(context: Context) -> list[Node]:
+    """One FLS in its own process: it senses by its camera's detections, radio of its own.
+
+    Parameters: ``fls_id``, the swarm's description (``cloud``, ``beta`` or
+    ``radius``, ``scale``, ``sensor``, ``seed``, ``accurate``),
+    ``namespace`` and ``key_file`` (the swarm's key; "" for none, and then
+    ``SWAZURE_SWARM_KEY_FILE`` if set), besides the FLS node's own.
+    """
+    values = startup_parameters(
+        context,
+        {
+            "fls_id": -1,
+            "namespace": "swarm",
+            "key_file": "",
+            "track.motion": "",
+            **DESCRIPTION_PARAMETERS,
+        },
+    )
+    fls_id = values["fls_id"]
+    if isinstance(fls_id, bool) or not isinstance(fls_id, int) or fls_id < 0:
+        raise ParameterError(f"parameter fls_id: an FLS id (>= 0) is needed, got {fls_id!r}")
+    description = description_from(values)
+    assigned = description.assigned()
+    senses = DetectedSenses(
+        fls_id, assigned.cloud_index, assigned.points, description.sensor(), assigned.radius
+    )
+    key = SwarmKey(key_from(str(values["key_file"])))
+    relay_senses = None
+    if values["track.motion"]:
+        # A simulated track run's relay camera (swazure track --per-fls): the motion
+        # the run gives every FLS, as the packed swarm's replica senses it.
+        try:
+            motion = parse_motion(str(values["track.motion"]))
+        except SwazureError as err:
+            raise ParameterError(f"parameter track.motion: {err}") from err
+        moving = moving_senses(
+            senses.sensor, senses.radius, assigned.cloud_index, assigned.points, motion
+        )
+
+        def relay_senses() -> RelaySenses:
+            return moving
+
+    node = FlsNode(
+        fls_id,
+        senses,
+        relay_senses=relay_senses,
+        namespace=str(values["namespace"]),
+        context=context,
+        transmitter=None,
+        parameter_services=True,
+        detections=senses,
+        key=key,
+    )
+
+    RadioJoin(node, senses)
+    declare_startup(node, values)
+    return [node]
+
+
+def main(args: list[str] | None = None) -> int:
+    """``ros2 run swazure_ros fls --ros-args -p fls_id:=7 -p cloud:=torus:120 -p beta:=0.5``."""
+    # One FLS relaxes a few labels a round: numba would cost more than it saves.
+    jit.interpret()
+    return run_process(build_fls, args)

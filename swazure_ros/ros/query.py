@@ -1,0 +1,66 @@
+"""Ask a running swarm's coordinator for one source FLS's pose relative to a target."""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+from rclpy.executors import SingleThreadedExecutor
+from swazure_interfaces.srv import ComputePose
+
+from ..core.errors import SwazureError
+from ..protocol.discovery.estimate import Estimate
+from .convert.discovery import pose_estimate_from_message
+from .names import COMPUTE_POSE_SERVICE, COORDINATOR, ESTIMATOR_CODES, policy_code
+from .runtime import SwarmNode, init_context
+
+
+def compute_pose(
+    namespace: str,
+    source: int,
+    target: int,
+    policy: str,
+    estimator: str,
+    timeout: float,
+    domain_id: int | None = None,
+) -> Estimate:
+    """The coordinator's answer to ComputePose, within ``timeout`` s; SwazureError otherwise.
+
+    ``namespace`` is the swarm's ("" reads "swarm"); ``policy`` and ``estimator``
+    are the names ``swazure query`` takes.
+    """
+    namespace = namespace.strip("/") or "swarm"
+    service = f"/{namespace}/{COORDINATOR}/{COMPUTE_POSE_SERVICE}"
+    context = init_context(domain_id)
+    node = SwarmNode("swazure_query", context=context)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    try:
+        client = node.create_client(ComputePose, service)
+        deadline = time.monotonic() + timeout
+        while not client.service_is_ready():
+            if time.monotonic() > deadline:
+                raise SwazureError(
+                    f"no service {service} within {timeout:g} s: is a swarm running "
+                    "(swazure spawn)?"
+                )
+            executor.spin_once(timeout_sec=0.1)
+        request = ComputePose.Request(
+            source_id=source,
+            target_id=target,
+            policy=policy_code(policy),
+            estimator=ESTIMATOR_CODES[estimator],
+        )
+        future: Any = client.call_async(request)
+        while not future.done():
+            if time.monotonic() > deadline:
+                raise SwazureError(f"{service}: no answer within {timeout:g} s")
+            executor.spin_once(timeout_sec=0.1)
+        response = future.result()
+        if not response.success:
+            raise SwazureError(f"{service}: {response.message}")
+        return pose_estimate_from_message(response.estimate)
+    finally:
+        executor.shutdown()
+        node.destroy_node()  # type: ignore[no-untyped-call]
+        context.try_shutdown()

@@ -1,0 +1,158 @@
+"""The layer contract (docs/architecture.md), read from every module's imports.
+
+Each folder of the package may import only the folders below it; rclpy and the
+ROS interface packages are imported only inside ``ros/``; no two modules import
+each other, directly or around a loop. Imports inside functions count: a cycle
+hidden in a function is still a cycle.
+"""
+
+from __future__ import annotations
+
+import ast
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.sparse import csr_array
+from scipy.sparse.csgraph import connected_components
+
+PACKAGE = "swazure_ros"
+ROOT = Path(__file__).resolve().parents[1] / PACKAGE
+
+#: What each layer may import of the package, besides itself and the package's root.
+ALLOWED: dict[str, frozenset[str]] = {
+    "core": frozenset(),
+    "protocol": frozenset({"core"}),
+    "sim": frozenset({"core"}),
+    "view": frozenset({"core"}),
+    "study": frozenset({"core", "view"}),
+    "ros": frozenset({"core", "protocol", "sim", "view"}),
+    "app": frozenset({"core", "protocol", "sim", "ros", "study", "view"}),
+    "cli": frozenset({"core", "protocol", "sim", "ros", "study", "view", "app"}),
+}
+#: Distributions that only ``ros/`` may import: rclpy and the ROS 2 interface packages.
+ROS_ONLY = ("rclpy", "rosidl_", "rcl_interfaces", "builtin_interfaces", "swazure_interfaces")
+
+
+def module_name(path: Path) -> str:
+    """The dotted name of the package module at ``path``."""
+    parts = path.relative_to(ROOT.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def imports_of(path: Path) -> set[str]:
+    """Every module ``path`` imports, at any depth, as absolute dotted names."""
+    name = module_name(path)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = package.split(".")
+            if node.level:
+                base = base[: len(base) - node.level + 1]
+                stem = ".".join([*base, node.module] if node.module else base)
+            else:
+                stem = node.module or ""
+            # "from . import x" may name a module x: count both readings.
+            found.add(stem)
+            found.update(f"{stem}.{alias.name}" for alias in node.names)
+    return found
+
+
+def package_imports() -> dict[str, set[str]]:
+    """Module name -> the package's modules and third-party names it imports."""
+    paths = sorted(ROOT.rglob("*.py"))
+    modules = {module_name(path) for path in paths}
+    graph = {}
+    for path in paths:
+        names = imports_of(path)
+        ours = {n for n in names if n in modules}
+        # Third-party modules by the name imported from: "rclpy.node", not each name in it.
+        theirs = {
+            n for n in names if not n.startswith(PACKAGE) and n.rpartition(".")[0] not in names
+        }
+        graph[module_name(path)] = ours | theirs
+    return graph
+
+
+def layer(module: str) -> str | None:
+    """The layer (first folder) of a package module, None for the package's root."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 2 or (len(parts) == 2 and parts[1] in ALLOWED) else None
+
+
+def is_ros(name: str) -> bool:
+    """Whether ``name`` is rclpy or a ROS 2 interface package."""
+    return name.startswith(ROS_ONLY) or name.split(".")[0].endswith("_msgs")
+
+
+def upward_imports(graph: Mapping[str, Iterable[str]]) -> list[str]:
+    """Every import of a layer that the layer may not make, as "module -> imported"."""
+    wrong = []
+    for module, names in graph.items():
+        own = layer(module)
+        for name in names:
+            if name.startswith(PACKAGE + "."):
+                target = layer(name)
+                if own is None or target is None or target == own:
+                    continue
+                if target not in ALLOWED[own]:
+                    wrong.append(f"{module} -> {name}")
+            elif own != "ros" and is_ros(name):
+                wrong.append(f"{module} -> {name}")
+    return sorted(wrong)
+
+
+def cycles(graph: Mapping[str, Iterable[str]]) -> list[list[str]]:
+    """The package's import cycles: each strongly connected set of two or more modules."""
+    modules = sorted(graph)
+    index = {module: i for i, module in enumerate(modules)}
+    edges = [(index[m], index[n]) for m in modules for n in graph[m] if n in index and n != m]
+    rows, cols = np.array(edges, dtype=np.int64).reshape(-1, 2).T
+    adjacency = csr_array((np.ones(len(rows)), (rows, cols)), shape=(len(modules),) * 2)
+    _, labels = connected_components(adjacency, directed=True, connection="strong")
+    members: dict[int, list[str]] = {}
+    for module, label in zip(modules, labels, strict=True):
+        members.setdefault(int(label), []).append(module)
+    loops = [m for m in members.values() if len(m) > 1]
+    return sorted(loops)
+
+
+@pytest.fixture(scope="module")
+def graph() -> dict[str, set[str]]:
+    return package_imports()
+
+
+def test_every_folder_of_the_package_is_a_layer(graph: dict[str, set[str]]) -> None:
+    folders = {p.name for p in ROOT.iterdir() if (p / "__init__.py").is_file()}
+    assert folders == set(ALLOWED)
+
+
+def test_no_layer_imports_a_layer_above_it(graph: dict[str, set[str]]) -> None:
+    assert upward_imports(graph) == []
+
+
+def test_no_import_cycle_in_the_package(graph: dict[str, set[str]]) -> None:
+    assert cycles(graph) == []
+
+
+def test_an_added_upward_import_is_caught(graph: dict[str, set[str]]) -> None:
+    """The check fails on a broken build: core importing the app, or cli importing rclpy."""
+    broken = {module: set(names) for module, names in graph.items()}
+    broken["swazure_ros.core.paths"].add("swazure_ros.app.swarm")
+    broken["swazure_ros.cli.main"].add("rclpy.node")
+    assert upward_imports(broken) == [
+        "swazure_ros.cli.main -> rclpy.node",
+        "swazure_ros.core.paths -> swazure_ros.app.swarm",
+    ]
+
+
+def test_an_added_cycle_is_caught(graph: dict[str, set[str]]) -> None:
+    # core.csr imports nothing of ours, and core.paths imports it: one import back is a loop.
+    assert "swazure_ros.core.csr" in graph["swazure_ros.core.paths"]
+    broken = {module: set(names) for module, names in graph.items()}
+    broken["swazure_ros.core.csr"].add("swazure_ros.core.paths")
+    assert ["swazure_ros.core.csr", "swazure_ros.core.paths"] in cycles(broken)
