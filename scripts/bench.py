@@ -873,7 +873,8 @@ def faults_section(args: argparse.Namespace) -> list[str]:
     """The dragon's distributed discovery under a lossy radio, killed FLSs, a lost coordinator."""
     import numpy as np
 
-    from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
+    from swazure_ros.app.config import SwarmConfig
+    from swazure_ros.app.swarm import RunningSwarm
     from swazure_ros.core.evaluate import ABORTED, evaluate_pairs, without
     from swazure_ros.ros.coordinator import Coordinator
     from swazure_ros.sim.world import WorldSpec

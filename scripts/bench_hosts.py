@@ -208,8 +208,10 @@ def main() -> int:
     parser.add_argument("--timeout", type=float, default=420.0, help="bring-up deadline, s")
     args = parser.parse_args()
 
+    from swazure_ros.app.compute import compute_all
+    from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.discovery_server import parse_servers
-    from swazure_ros.app.swarm import RunningSwarm, SwarmConfig, compute_all
+    from swazure_ros.app.swarm import RunningSwarm
     from swazure_ros.ros.keys import new_key, write_key
     from swazure_ros.sim.world import WorldSpec
 

@@ -9,17 +9,14 @@ created, discovery complete (with its peak memory), or one error line. The
 swarm is up when every process sees every FLS node's endpoints.
 
 :meth:`RunningSwarm.discover` and :meth:`RunningSwarm.make_moves` run the
-coordinator's protocols over the swarm; :func:`compute_all` runs the whole
-swarm's discovery (and a heuristic) and sets it beside the core engine's
-evaluation of the same work, pair by pair.
+coordinator's protocols over the swarm (:mod:`.compute` sets a whole swarm's
+run beside the engine's).
 """
 
 from __future__ import annotations
 
 import multiprocessing
-import os
 import queue
-import resource
 import signal
 import tempfile
 import time
@@ -28,83 +25,24 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from ..core.errors import SwazureError
-from ..core.evaluate import Evaluation, evaluate
-from ..core.fit import LOCAL_LEAST_SQUARES, PATH, refine
-from ..core.heuristics import PLAIN, HeuristicResult, run_technique
-from ..protocol.discovery.estimate import evaluation_of
-from ..ros import runtime
+from ..core.evaluate import evaluate
+from ..core.fit import PATH
+from ..protocol.runs import DiscoveryResult, MoveResult
 from ..ros.auth import SwarmKey, new_key
 from ..ros.bag import Recorder
-from ..ros.coordinator import Coordinator, DiscoveryResult, Future, MoveResult
+from ..ros.coordinator import Coordinator, Future
 from ..ros.host import SwarmHost
 from ..ros.names import host_name
 from ..ros.runtime import Context
 from ..ros.view import ViewNode
 from ..ros.world_node import SimulatedCameras
-from ..sim.world import World, WorldSpec
+from ..sim.world import World
 from ..view.scene import Scene, evaluation_scene, ranges_scene
-from .discovery_server import DiscoveryServers, ServerAddress, client_environment
+from .config import SwarmConfig, ViewConfig
+from .discovery_server import DiscoveryServers
 from .per_fls import Ended, FlsProcesses
-
-CREATED, READY, FAILED = "created", "ready", "failed"
-
-
-@dataclass(frozen=True)
-class SwarmConfig:
-    """How to bring a swarm up."""
-
-    world: WorldSpec
-    processes: int = 1
-    namespace: str = "swarm"
-    params_file: str | None = None
-    domain_id: int | None = None
-    discovery_timeout: float = 600.0
-    #: This process hosts share ``share`` of ``hosts`` (one per machine of a swarm
-    #: across hosts, each started by hand); share 0 also runs the world node and
-    #: the coordinator. hosts = 1: the whole swarm from here (``processes``).
-    share: int = 0
-    hosts: int = 1
-    #: ROS parameters of every FLS node, and of single FLSs (id -> name -> value),
-    #: over the parameter file's.
-    parameters: dict[str, object] = field(default_factory=dict)
-    fls_parameters: dict[int, dict[str, object]] = field(default_factory=dict)
-    #: Record every topic of the swarm to this MCAP file (share 0's process).
-    record: str | None = None
-    #: Show the swarm (RViz markers; Foxglove on view.port), from share 0's process.
-    view: ViewConfig | None = None
-    #: The swarm's key (ros.auth): every protocol message is signed with it and checked.
-    #: None: a fresh one for a swarm whose every process starts here; across hosts,
-    #: each share must be given the same key, or the swarm runs without one.
-    key: bytes | None = field(default=None, repr=False)
-    #: False: no key at all; any peer on the domain may then speak for the swarm, and
-    #: only what the FLSs can check of a message protects them (docs/security.md).
-    authenticate: bool = True
-    #: Every FLS node offers parameter services (``ros2 param``): six more services a
-    #: node, which a packed swarm of thousands pays for in bring-up (BENCHMARKS.md).
-    parameter_services: bool = False
-    #: One OS process per FLS (the standalone FLS program, app.per_fls), beside this
-    #: process's simulator and coordinator: the topology of real FLS hardware.
-    per_fls: bool = False
-    #: per_fls: where each FLS process's output goes (fls_<id>.log); None: a new
-    #: temporary folder.
-    log_dir: str | None = None
-    #: Discover through these Fast DDS Discovery Servers instead of simple discovery
-    #: (app.discovery_server); those whose address is this host's are started here.
-    discovery_servers: tuple[ServerAddress, ...] = ()
-
-
-@dataclass(frozen=True)
-class ViewConfig:
-    """What the view shows first, and where Foxglove finds it."""
-
-    port: int = 8765
-    colour_by: str = "ranges"  # or "status": each FLS's share of sweet paths (the engine's)
-    fls: int | None = None  # colour_by ranges: seen from this FLS (default the first)
-    policy: str = "shortest-length"  # colour_by status and pairs: the paths' policy
-    pairs: tuple[tuple[int, int], ...] = ()  # ordered blind pairs whose paths to draw
+from .share import CREATED, FAILED, READY, host_share, init_context, peak_rss_mb, shares
 
 
 @dataclass
@@ -124,77 +62,6 @@ class BringUp:
 
 #: Seconds between two progress reports of a long run.
 PROGRESS_PERIOD = 10.0
-
-
-def peak_rss_mb() -> float:
-    """This process's peak resident memory, MB."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
-def init_context(config: SwarmConfig) -> Context:
-    """A fresh rclpy context with the swarm's parameter file, domain and discovery."""
-    if config.discovery_servers:
-        # Read by Fast DDS when the context's participant is made, and by nothing else;
-        # a super client, as this process waits until it sees every FLS.
-        os.environ.update(client_environment(config.discovery_servers, super_client=True))
-    return runtime.init_context(config.domain_id, config.params_file)
-
-
-def shares(fls_ids: np.ndarray, processes: int) -> list[list[int]]:
-    """Split FLS ids into ``processes`` contiguous shares of near-equal size."""
-    return [part.tolist() for part in np.array_split(np.asarray(fls_ids), processes)]
-
-
-def _host_share(
-    config: SwarmConfig,
-    key: bytes | None,
-    index: int,
-    fls_ids: list[int],
-    swarm_size: int,
-    reports: Any,
-    stop: Any,
-) -> None:
-    """Entry point of a further process: host one share until told to stop."""
-    # Ctrl-C reaches the whole process group; the launcher decides when we stop.
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    context = host = None
-    code = 1
-    try:
-        world = config.world.build(hosted_ids=fls_ids)
-        context = init_context(config)
-        host = SwarmHost(
-            world,
-            fls_ids,
-            context=context,
-            namespace=config.namespace,
-            swarm_size=swarm_size,
-            with_world_node=False,
-            name=host_name(index),
-            parameters=config.parameters,
-            fls_parameters=config.fls_parameters,
-            key=SwarmKey(key),
-            parameter_services=config.parameter_services,
-        )
-        host.create_fls_nodes(lambda count: reports.put((CREATED, index, count)))
-        if not host.spin_until_discovered(config.discovery_timeout):
-            published, services = host.discovered()
-            raise SwazureError(
-                f"process {index}: discovery incomplete after {config.discovery_timeout:g} s "
-                f"({published} of {swarm_size} FLS publishers, {services} services)"
-            )
-        reports.put((READY, index, peak_rss_mb()))
-        while not stop.is_set():
-            host.spin_for(0.1)
-        code = 0
-    except SwazureError as err:
-        reports.put((FAILED, index, str(err)))
-    except Exception as err:
-        reports.put((FAILED, index, f"process {index}: {type(err).__name__}: {err}"))
-    finally:
-        # Every report reaches the launcher before the process ends.
-        reports.close()
-        reports.join_thread()
-        runtime.exit_process(code)
 
 
 class RunningSwarm:
@@ -281,7 +148,7 @@ class RunningSwarm:
         self._stop = mp.Event()
         self._children = [
             mp.Process(
-                target=_host_share,
+                target=host_share,
                 args=(config, key, index, share, self.size, self._reports, self._stop),
                 name=f"swazure-host-{index}",
                 daemon=True,
@@ -562,117 +429,3 @@ def first_scene(world: World, view: ViewConfig) -> Scene:
     return replace(
         scene, title=f"{name}: range classes seen from FLS {scene.ids[scene.highlight]}"
     )
-
-
-@dataclass(frozen=True)
-class SwarmComputation:
-    """The whole swarm's computation beside the engine's evaluation of the same work."""
-
-    evaluation: Evaluation  # what the swarm computed
-    heuristic: HeuristicResult | None  # the moves made, with a technique
-    discovery: DiscoveryResult
-    moves: MoveResult | None
-    engine: Evaluation  # the core engine's, for the same work
-    engine_seconds: float
-    identical: str  # "yes", or "no: " and what differs
-
-    @property
-    def distributed(self) -> dict[str, Any]:
-        """What the distributed run took: time, rounds, messages and bytes per topic."""
-        result, traffic = self.discovery, self.discovery.traffic
-        summary: dict[str, Any] = {
-            "seconds": result.seconds,
-            "rounds": result.rounds,
-            "restarts": result.restarts,
-            "departed": sorted(result.departed),
-            "messages": traffic.messages,
-            "bytes": traffic.bytes,
-        }
-        if self.moves is not None:
-            moved = self.moves
-            summary["moves"] = {
-                "seconds": moved.seconds,
-                "batches": moved.batches,
-                "move_commands": moved.moved,
-                "path_walks": moved.walks,
-                "timeouts": moved.timeouts,
-                "messages": moved.traffic.messages,
-                "bytes": moved.traffic.bytes,
-            }
-        return summary
-
-
-def compute_all(
-    swarm: RunningSwarm,
-    policy: str,
-    technique: str = PLAIN,
-    threshold: int = 10,
-    on_discovered: Callable[[DiscoveryResult], None] | None = None,
-    on_progress: Callable[[str], None] | None = None,
-    estimator: str = PATH,
-) -> SwarmComputation:
-    """Every FLS's pose relative to every blind neighbour, by the swarm, and by the engine.
-
-    With a ``technique`` other than plain, the swarm then makes that heuristic's
-    moves. ``on_discovered`` hears the discovery run's result as soon as it is in;
-    ``on_progress`` how far each run is, every PROGRESS_PERIOD s. With the
-    ``estimator`` local-least-squares each source fits what it hears, and the
-    engine does the same (``core.fit.refine(..., local=True)``).
-    """
-    if estimator != PATH and technique != PLAIN:
-        raise ValueError(f"the {estimator} estimator estimates plain Swazure's pairs only")
-    world: World = swarm.world
-    result = swarm.discover(policy, on_progress=on_progress, estimator=estimator)
-    if on_discovered is not None:
-        on_discovered(result)
-    evaluation = evaluation_of(world.hood, policy, result.estimates)
-    evaluation.summary["seconds"] = result.seconds
-    if swarm.view is not None:
-        title = f"{world.cloud.name}, {policy}: poses found by the swarm"
-        pairs = swarm.config.view.pairs if swarm.config.view else ()
-        swarm.view.show(evaluation_scene(evaluation, title, pairs=pairs))
-    heuristic, moved = None, None
-    if technique != PLAIN:
-        if on_progress is not None:
-            on_progress(f"planning {technique}")
-        moved = swarm.make_moves(result, technique, threshold, on_progress=on_progress)
-        evaluation, heuristic = moved.evaluation, moved.heuristic
-        evaluation.summary["seconds"] = result.seconds + moved.seconds
-        if swarm.view is not None:
-            title = f"{world.cloud.name}, {policy}, {technique}: after the swarm's moves"
-            scene = evaluation_scene(evaluation, title, heuristic=heuristic, pairs=pairs)
-            swarm.view.show(scene)
-    began = time.perf_counter()
-    engine = evaluate(world.swarm, world.sensor, policy)
-    engine, _ = run_technique(engine, technique, threshold)
-    if estimator == LOCAL_LEAST_SQUARES:
-        engine = refine(engine, local=True)
-    engine_seconds = time.perf_counter() - began
-    return SwarmComputation(
-        evaluation,
-        heuristic,
-        result,
-        moved,
-        engine,
-        engine_seconds,
-        same_results(evaluation, engine),
-    )
-
-
-def same_results(ours: Evaluation, engine: Evaluation) -> str:
-    """ "yes" when every pair has the engine's status, path and estimate (to 1e-9 cm)."""
-    mine, theirs = ours.pairs, engine.pairs
-    if len(mine) != len(theirs):
-        return f"no: {len(mine)} pairs reported, the engine has {len(theirs)}"
-    status = int((mine.status != theirs.status).sum())
-    paths = not np.array_equal(mine.nodes, theirs.nodes)
-    with np.errstate(invalid="ignore"):
-        far = int((np.abs(mine.estimate - theirs.estimate) > 1e-9).any(axis=1).sum())
-        if mine.covariance is not None and theirs.covariance is not None:
-            # A fit's covariance too, relative to its largest entry (cm^2 of any size).
-            scale = np.abs(theirs.covariance).max(axis=(1, 2))
-            apart = np.abs(mine.covariance - theirs.covariance).max(axis=(1, 2))
-            far += int((apart > 1e-9 * scale).sum())
-    if status or paths or far:
-        return f"no: {status} statuses, {far} estimates differ; paths differ: {paths}"
-    return "yes"

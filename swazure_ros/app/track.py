@@ -197,8 +197,8 @@ class TrackSession:
         for node in self.host.fls_nodes:
             if node.get_clock().now().nanoseconds < now:
                 return False  # its relay frames and timeouts for this tick have not run
-            traffic.update(node.track_traffic)
-            if node.relay.due(now):
+            traffic.update(node.tracking.traffic)
+            if node.tracking.relay.due(now):
                 return False
         # FLSs in processes of their own, as they last reported: one that never
         # reported has neither tracked nor relayed yet.
@@ -214,7 +214,7 @@ class TrackSession:
 
     def stop_fls(self, fls_id: int) -> None:
         """Stop FLS ``fls_id``'s node, as if its software stopped (see SwarmHost.stop_fls)."""
-        self._departed_traffic.update(self.host.fls_by_id[fls_id].track_traffic)
+        self._departed_traffic.update(self.host.fls_by_id[fls_id].tracking.traffic)
         self.host.stop_fls(fls_id)
 
     def spin_until(self, condition: Callable[[], bool], timeout: float) -> bool:

@@ -238,7 +238,7 @@ def swarm_key(path: Path | None) -> bytes | None:
 
 def config_from_args(args: argparse.Namespace) -> Any:
     """The swarm the options describe, as a :class:`~swazure_ros.launcher.SwarmConfig`."""
-    from ..app.swarm import SwarmConfig, ViewConfig
+    from ..app.config import SwarmConfig, ViewConfig
 
     if args.beta is None and args.radius is None:
         raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
@@ -301,7 +301,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
 
 def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     """Run discovery over the whole swarm, report it beside the engine, write --out."""
-    from ..app.swarm import compute_all as run
+    from ..app.compute import compute_all as run
     from ..core.results import describe_source, write_evaluation
     from .evaluate import summary_table
 

@@ -21,16 +21,16 @@ from ..core.heuristics import COMPAT_MODES
 from ..core.paths import POLICIES
 from ..core.results import COMPACT_PAIRS, PAIR_COLUMNS
 from ..core.sensor import load_sensor
-from ..study.run import run_study
-from ..study.sweep import (
+from ..study.plan import (
     PUBLISHED_BETAS,
     PUBLISHED_HEURISTIC_BETAS,
     PUBLISHED_TECHNIQUES,
     RunSpec,
     StudyPlan,
-    SweepProgress,
     Technique,
 )
+from ..study.run import run_study
+from ..study.sweep import SweepProgress
 from .arguments import count, input_file, output_folder, seed
 
 QUICK_BETAS = (0.4, 0.5)

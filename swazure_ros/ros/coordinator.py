@@ -8,7 +8,7 @@ the running machine and publishes what the machine answers; a timer gives
 the machines the time, so that every wait ends by its deadline. Runs asked
 for while one is under way wait their turn, in order.
 
-Its service ``coordinator/compute_pose`` (swazure_interfaces/ComputePose)
+Its service ``coordinator/compute_pose`` (:class:`~.pose_service.PoseService`)
 runs one source's search for one target on demand. The coordinator only
 clocks; labels travel from FLS to FLS, and only FLSs sum vectors.
 """
@@ -22,7 +22,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from rclpy.context import Context
-from rclpy.node import Node
 from rclpy.publisher import Publisher
 
 # What a run asked of the coordinator returns; app/ waits on it through this module.
@@ -38,44 +37,36 @@ from swazure_interfaces.msg import (
     RoundAck,
     WorldState,
 )
-from swazure_interfaces.srv import ComputePose
 
-from ..core.evaluate import Evaluation, Neighbourhood, neighbourhood
+from ..core.evaluate import Neighbourhood
 from ..core.fit import PATH
-from ..core.heuristics import HeuristicResult
 from ..core.paths import check_policy
-from ..protocol.discovery.estimate import Estimate, evaluation_of
-from ..protocol.discovery.messages import Control, Offer
+from ..protocol.discovery.estimate import evaluation_of
+from ..protocol.discovery.messages import Control
 from ..protocol.discovery.search import bucket_width
 from ..protocol.moves import Move, MoveRun, Walk
-from ..protocol.plausible import implausible
 from ..protocol.rounds import RoundClock, StallClock
+from ..protocol.runs import DiscoveryResult, MoveResult, Traffic, discovery_result, move_result
 from .auth import SwarmKey
 from .convert.discovery import (
     control_message,
     estimates_from_message,
     moves_message,
-    offer_from_message,
-    pose_estimate_message,
+    plausible_offer,
     walk_message,
 )
-from .deferred import Reply, create_deferred_service
 from .guard import Guard, check, check_ids
-from .keys import key_from
 from .liveness import FlsLiveness
 from .names import (
     ACK_TOPIC,
-    COMPUTE_POSE_SERVICE,
     CONTROL_TOPIC,
     COORDINATOR,
     DEPARTED_QOS,
     DEPARTED_TOPIC,
     ESTIMATES_TOPIC,
-    ESTIMATOR_NAMES,
     LIVENESS_GRACE,
     MOVE_QOS,
     MOVE_TOPIC,
-    POLICY_NAMES,
     RADIO_TOPIC,
     ROUND_QOS,
     WALKS_TOPIC,
@@ -83,99 +74,10 @@ from .names import (
     WORLD_TOPIC,
     node_name,
 )
+from .pose_service import PoseService
 from .runtime import (
-    DESCRIPTION_PARAMETERS,
     SwarmNode,
-    declare_startup,
-    description_from,
-    run_process,
-    startup_parameters,
 )
-
-
-def plausible_offer(message: PathOffer, shape: Neighbourhood) -> Offer:
-    """The labels of ``message`` if every one may be true of ``shape``; MessageError if not.
-
-    :func:`offer_from_message`, then :func:`~..protocol.plausible.implausible`
-    by where ``shape`` (the FLSs at their assigned points) puts every FLS.
-    """
-    ids = shape.swarm.cloud_index
-    offer = offer_from_message(message, ids)
-    why = implausible(
-        offer,
-        message.phase,
-        lambda wanted: shape.swarm.points[np.searchsorted(ids, wanted)],
-        shape.sensor,
-        shape.swarm.radius,
-    )
-    check(why is None, f"implausible: {why}")
-    return offer
-
-
-@dataclass
-class Traffic:
-    """Messages and bytes sent during discovery, per topic."""
-
-    messages: dict[str, int] = field(default_factory=dict)
-    bytes: dict[str, int] = field(default_factory=dict)
-
-    def count(self, topic: str, size: int) -> None:
-        """Count one message of ``size`` bytes on ``topic``."""
-        self.messages[topic] = self.messages.get(topic, 0) + 1
-        self.bytes[topic] = self.bytes.get(topic, 0) + size
-
-    def since(self, earlier: Traffic) -> Traffic:
-        """What was counted after ``earlier`` (a copy taken then)."""
-        return Traffic(
-            {k: v - earlier.messages.get(k, 0) for k, v in self.messages.items()},
-            {k: v - earlier.bytes.get(k, 0) for k, v in self.bytes.items()},
-        )
-
-    def copy(self) -> Traffic:
-        """A snapshot."""
-        return Traffic(dict(self.messages), dict(self.bytes))
-
-    @property
-    def total_messages(self) -> int:
-        """Messages on every topic."""
-        return sum(self.messages.values())
-
-    @property
-    def total_bytes(self) -> int:
-        """Bytes on every topic (serialised payloads)."""
-        return sum(self.bytes.values())
-
-
-@dataclass
-class DiscoveryResult:
-    """One discovery run: every source's estimates and what it took."""
-
-    run_id: int
-    policy: str
-    estimates: dict[int, list[Estimate]]  # source id -> estimates
-    departed: frozenset[int]
-    rounds: int
-    restarts: int
-    seconds: float
-    traffic: Traffic
-    repairs: int = 0  # a lossy radio's repair requests and resends
-    incomplete: bool = False  # deliveries kept being lost: no estimates, not wrong ones
-
-
-@dataclass
-class MoveResult:
-    """A heuristic made by the swarm: the evaluation after it and what it took."""
-
-    run_id: int
-    evaluation: Evaluation  # the plain run with the resolved pairs made SWEET
-    heuristic: HeuristicResult  # the engine's plan, resolved where the walk arrived
-    batches: int
-    moved: int  # move commands sent, returns included
-    walks: int
-    seconds: float
-    traffic: Traffic
-    timeouts: int = 0  # waits that ended at their deadline (each cost round_timeout s)
-
 
 #: Characters in a host node's name, at most (ROS names are far shorter).
 MAX_NAME = 255
@@ -254,9 +156,9 @@ class Coordinator(SwarmNode):
         )
         self.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS, raw=True)
         self.guard.subscribe(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
-        # The answer waits for a whole run; meanwhile the coordinator keeps clocking.
-        create_deferred_service(
-            self, ComputePose, f"~/{COMPUTE_POSE_SERVICE}", self._on_compute_pose
+        # One source's search for one target, on demand (swazure query).
+        self.pose_service = PoseService(
+            self, shape, self.fls_ids, lambda: frozenset(self.departed), self.discover
         )
         self.create_timer(TICK, self._on_tick)
         # Liveness: an FLS whose node leaves the graph is gone at once, not after a round's
@@ -404,32 +306,11 @@ class Coordinator(SwarmNode):
             outcome = machine.outcome
             assert outcome is not None
             self.departed = set(outcome.departed)
-            return DiscoveryResult(
-                machine.run_id,
-                machine.policy,
-                outcome.estimates,
-                outcome.departed,
-                outcome.rounds,
-                outcome.restarts,
-                seconds,
-                traffic,
-                outcome.repairs,
-                outcome.incomplete,
-            )
+            return discovery_result(machine.run_id, machine.policy, outcome, seconds, traffic)
         moved = machine.outcome
         assert moved is not None
         self._asked_revision = machine.asked_revision
-        return MoveResult(
-            machine.run_id,
-            moved.evaluation,
-            moved.heuristic,
-            moved.batches,
-            moved.moved,
-            moved.walks,
-            seconds,
-            traffic,
-            moved.timeouts,
-        )
+        return move_result(machine.run_id, moved, seconds, traffic)
 
     def progress(self) -> str:
         """How far the running job is ("" when idle), for a person watching."""
@@ -545,90 +426,3 @@ class Coordinator(SwarmNode):
 
     def _on_walk(self, data: bytes) -> None:
         self.traffic.count(WALKS_TOPIC, len(data))
-
-    def _on_compute_pose(self, request: ComputePose.Request, reply: Reply) -> None:
-        source, target = int(request.source_id), int(request.target_id)
-        problem = None
-        if request.policy not in POLICY_NAMES:
-            problem = f"unknown policy {request.policy}: expected one of {sorted(POLICY_NAMES)}"
-        elif request.estimator not in ESTIMATOR_NAMES:
-            problem = (
-                f"unknown estimator {request.estimator}: expected one of {sorted(ESTIMATOR_NAMES)}"
-            )
-        elif (unusable := self._unusable(POLICY_NAMES[request.policy])) is not None:
-            problem = unusable
-        elif source == target:
-            problem = f"source and target are both FLS {source}"
-        else:
-            for role, fls_id in (("source", source), ("target", target)):
-                if fls_id not in self.fls_ids:
-                    problem = f"no {role} FLS {fls_id} in this swarm of {len(self.fls_ids)} FLSs"
-                    break
-                if fls_id in self.departed:
-                    problem = f"{role} FLS {fls_id} has departed"
-                    break
-        if problem is not None:
-            reply(ComputePose.Response(success=False, message=problem))
-            return
-        estimator = ESTIMATOR_NAMES[request.estimator]
-        run = self.discover(POLICY_NAMES[request.policy], [source], [target], estimator)
-        run.add_done_callback(lambda done: reply(self._pose_answer(done.result(), source, target)))
-
-    def _unusable(self, policy: str) -> str | None:
-        """Why this swarm's FLSs cannot search by ``policy``; None when they can."""
-        try:
-            bucket_width(self.shape.sensor, self.shape.swarm.radius, policy)
-        except ValueError as err:
-            return str(err)
-        return None
-
-    def _pose_answer(
-        self, result: DiscoveryResult, source: int, target: int
-    ) -> ComputePose.Response:
-        found = [one for one in result.estimates.get(source, []) if one.target == target]
-        if not found:
-            message = (
-                f"FLS {target} is not a blind neighbour of FLS {source}: "
-                "Swazure computes poses of blind neighbours only"
-                if source in result.estimates
-                else f"no answer from source FLS {source}"
-            )
-            return ComputePose.Response(success=False, message=message)
-        stamp = self.get_clock().now().to_msg()
-        return ComputePose.Response(
-            success=True, estimate=pose_estimate_message(source, found[0], stamp)
-        )
-
-
-def build_coordinator(context: Context) -> list[Node]:
-    """The coordinator's process, for a swarm whose FLSs run one to a process.
-
-    Parameters: the swarm's description (``cloud``, ``beta`` or ``radius``,
-    ...), ``namespace``, ``key_file``, and ``hosts``: the radios that
-    acknowledge each round (0: one per FLS, each FLS in its own process).
-    It plans heuristics' moves on the description's shape, as the packed one does.
-    """
-    values = startup_parameters(
-        context,
-        {"namespace": "swarm", "key_file": "", "hosts": 0, **DESCRIPTION_PARAMETERS},
-    )
-    description = description_from(values)
-    shape = neighbourhood(description.assigned(), description.sensor())
-    ids = shape.swarm.cloud_index
-    hosts = int(values["hosts"]) or len(ids)
-    coordinator = Coordinator(
-        ids.tolist(),
-        hosts,
-        shape=shape,
-        namespace=str(values["namespace"]),
-        context=context,
-        key=SwarmKey(key_from(str(values["key_file"]))),
-        parameter_services=True,
-    )
-    declare_startup(coordinator, values)
-    return [coordinator]
-
-
-def main(args: list[str] | None = None) -> int:
-    """``ros2 run swazure_ros coordinator --ros-args -p cloud:=torus:120 -p beta:=0.5``."""
-    return run_process(build_coordinator, args)

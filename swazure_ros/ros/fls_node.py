@@ -23,37 +23,31 @@ names and QoS in :mod:`.names`):
   simulated time with ``use_sim_time``.
 
 The algorithms are the protocol's state machines, one per idea: the node
-is a :class:`~swazure_ros.protocol.discovery.participant.Participant` of discovery,
-a :class:`~swazure_ros.protocol.tracking.RelayStreams` for the streams it
-relays, and a :class:`~swazure_ros.protocol.tracking.TrackSource` for the
-targets it tracks. Each callback converts a message, makes one call into a
-machine, and publishes what comes out.
+is a :class:`~swazure_ros.protocol.discovery.participant.Participant` of
+discovery, and tracks and relays through :class:`~.fls_tracking.FlsTracking`.
+Each callback converts a message, makes one call into a machine, and
+publishes what comes out.
 
 The node subscribes to none of the shared topics itself: its process's
 :class:`~.host.Radio` hears each of them once and hands a message to the FLS
 nodes it reaches (:meth:`FlsNode.on_control` with the round's offers,
-:meth:`~FlsNode.on_walk`, :meth:`~FlsNode.on_track_request`,
-:meth:`~FlsNode.on_track_sample`), as a radio would. A thousand
-subscriptions per topic would cost discovery time and deliver every message
-a thousand times.
+:meth:`~FlsNode.on_walk`, and its :class:`~.fls_tracking.FlsTracking`'s
+``on_request`` and ``on_sample``), as a radio would. A thousand subscriptions
+per topic would cost discovery time and deliver every message a thousand times.
 """
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from rclpy.clock import JumpHandle, JumpThreshold
 from rclpy.context import Context
-from rclpy.duration import Duration
 from rclpy.event_handler import PublisherEventCallbacks, QoSPublisherMatchedInfo
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
-from rclpy.timer import Timer
 from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import (
     Detections,
@@ -61,23 +55,14 @@ from swazure_interfaces.msg import (
     MoveCommands,
     PathOffer,
     PoseEstimates,
-    TrackEstimate,
-    TrackProgress,
-    TrackRequest,
-    TrackSample,
 )
-from swazure_interfaces.srv import GetNeighbours, TrackTarget
+from swazure_interfaces.srv import GetNeighbours
 
-from ..core.errors import SwazureError
 from ..core.fit import PATH
 from ..core.frames import camera_optical_frame
 from ..core.observe import Measurement, NeighbourSets
 from ..core.tracking import (
-    TRACK_SETTINGS,
-    FloatArray,
     RelaySenses,
-    TrackConfig,
-    TrackingError,
 )
 from ..protocol.discovery.messages import START, Broadcast, Control, Report, RoundOffers
 from ..protocol.discovery.participant import Participant
@@ -91,15 +76,6 @@ from ..protocol.moves import (
 )
 from ..protocol.readings import ReadingsBook
 from ..protocol.senses import DetectedSenses, Senses
-from ..protocol.tracking import (
-    STOP_RELAY,
-    RelayRequest,
-    RelayStreams,
-    Sample,
-    TrackProgressReport,
-    TrackReport,
-    TrackSource,
-)
 from .auth import SwarmKey
 from .convert.discovery import estimates_message, moves_from_message, offer_message
 from .convert.sensing import (
@@ -109,13 +85,8 @@ from .convert.sensing import (
     measurements_message,
     neighbour_fields,
 )
-from .convert.tracking import (
-    relay_request_message,
-    sample_message,
-    track_estimate_message,
-    track_progress_message,
-)
 from .convert.units import stamp_nanoseconds
+from .fls_tracking import FlsTracking
 from .guard import Guard, check
 from .names import (
     CAMERA_IMAGE_TOPIC,
@@ -130,12 +101,6 @@ from .names import (
     NEIGHBOURS_SERVICE,
     RADIO_TOPIC,
     ROUND_QOS,
-    TRACK_ESTIMATES_TOPIC,
-    TRACK_MODEL_NAMES,
-    TRACK_PROGRESS_TOPIC,
-    TRACK_REQUESTS_TOPIC,
-    TRACK_SAMPLES_TOPIC,
-    TRACK_SERVICE,
     WORLD_REACH,
     node_name,
 )
@@ -148,21 +113,6 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from ..core.camera import Camera
-
-
-#: The topics a track run publishes on, and their message types.
-TRACK_TOPICS: dict[str, type] = {
-    TRACK_REQUESTS_TOPIC: TrackRequest,
-    TRACK_SAMPLES_TOPIC: TrackSample,
-    TRACK_ESTIMATES_TOPIC: TrackEstimate,
-    TRACK_PROGRESS_TOPIC: TrackProgress,
-}
-
-
-def _no_relay_senses() -> RelaySenses:
-    raise TrackingError(
-        "this FLS cannot choose relays: tracking needs the simulated world (swazure spawn)"
-    )
 
 
 class Transmitter:
@@ -236,7 +186,6 @@ class FlsNode(SwarmNode):
         )
         self.fls_id = fls_id
         self._senses = senses
-        self._relay_senses = relay_senses or _no_relay_senses
         self._render = eyes
         self.publish_period = self.declare_seconds(
             "publish_period", 1.0, "seconds between camera frames: a changed measurement is sent"
@@ -247,18 +196,8 @@ class FlsNode(SwarmNode):
             "seconds after which an unchanged measurement is sent again; 0: never",
             allow_zero=True,
         )
-        self.track_config = self._declare_track_config()
-        # Off unless asked: a swarm's services are what its bring-up time grows
-        # with, as the square of their number in a process (docs/swarm.md).
-        self.track_service = self.declare_flag(
-            "track.service", False, "offer ~/track: this FLS follows a moving target on request"
-        )
-        self.report_progress = self.declare_flag(
-            "track.report_progress",
-            False,
-            "publish track_progress after each track event: for a driver of a simulated "
-            "clock across processes (swazure track --per-fls)",
-        )
+        # Its track service, the streams it relays and the targets it tracks.
+        self.tracking = FlsTracking(self, fls_id, relay_senses, self.publish, self.elsewhere)
         self.camera_view = self._declare_camera_view()
         # (world revision, what the FLS senses in it)
         self._sensed: tuple[int, Measurement, NeighbourSets] | None = None
@@ -272,15 +211,6 @@ class FlsNode(SwarmNode):
             senses.radius,
             senses.id_space,
             readings,
-        )
-        self.relay = RelayStreams(fls_id, self._sense_for_relay, self.track_config)
-        self.tracker = TrackSource(
-            fls_id,
-            self.track_config,
-            lambda target, seconds: self._relay_senses().choose_relay(fls_id, target, seconds),
-            lambda target, relay, seconds: self._relay_senses().next_relay(
-                fls_id, target, relay, seconds
-            ),
         )
         self._publisher = self.create_publisher(
             Measurements,
@@ -313,21 +243,6 @@ class FlsNode(SwarmNode):
             self._moves_stamp = 0
         # Alone (no process hosting it), an FLS transmits with publishers of its own.
         self.transmitter = transmitter or Transmitter(self, key)
-        if self.track_service:
-            self.create_service(TrackTarget, f"~/{TRACK_SERVICE}", self._on_track)
-        # Created at the first track: most FLSs never relay nor track, and
-        # every endpoint costs discovery time. Under a driver of the clock in another
-        # process, at once: a message sent before its readers have matched is lost.
-        self._track_publishers: dict[str, Publisher] = {}
-        if self.report_progress:
-            for topic, kind in TRACK_TOPICS.items():
-                self._track_publishers[topic] = self.create_publisher(kind, topic, ROUND_QOS)
-        # Relay frames and track timeouts run on the node's clock. On simulated
-        # time they follow /clock itself: the EventsExecutor's timers do not
-        # support a simulated clock (ros2/rclcpp#2457) and skip periods.
-        self._track_ticks: JumpHandle | Timer | None = None
-        # Sent and heard, so that whoever drives a simulated clock knows when all is delivered.
-        self.track_traffic: Counter[str] = Counter()
         self.messages_sent = 0
         self.measurements_sent = 0  # Measurements messages published
         self.frames_taken = 0  # frame timer callbacks run
@@ -371,18 +286,6 @@ class FlsNode(SwarmNode):
         frame_id = camera_optical_frame(self.fls_id)
         images.publish(image_message(image, stamp, frame_id))
         infos.publish(camera_info_message(camera, stamp, frame_id))
-
-    def _declare_track_config(self) -> TrackConfig:
-        defaults = TrackConfig()
-        # track.<name>, defaulting to TrackConfig's.
-        values = {
-            name: self.declare_value(f"track.{name}", getattr(defaults, name), description)
-            for name, description in TRACK_SETTINGS.items()
-        }
-        try:
-            return TrackConfig(**values)
-        except TrackingError as err:
-            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
 
     # Camera and radio --------------------------------------------------------
 
@@ -479,7 +382,7 @@ class FlsNode(SwarmNode):
         message = measurements_message(self.fls_id, self._published, stamp, view.distance[rows])
         self._publisher.publish(self.transmitter.key.serialize(message))
 
-    def _elsewhere(self, fls_id: int, service: str, does: str = "answers for itself") -> str:
+    def elsewhere(self, fls_id: int, service: str, does: str = "answers for itself") -> str:
         """Where FLS ``fls_id`` answers ``service`` for itself."""
         return (
             f"this is FLS {self.fls_id}; FLS {fls_id} {does} at "
@@ -491,7 +394,7 @@ class FlsNode(SwarmNode):
     ) -> GetNeighbours.Response:
         if request.fls_id != self.fls_id:
             response.success = False
-            response.message = self._elsewhere(request.fls_id, NEIGHBOURS_SERVICE)
+            response.message = self.elsewhere(request.fls_id, NEIGHBOURS_SERVICE)
             return response
         known = self.known_neighbours
         for name, ids in neighbour_fields(known).items():
@@ -538,119 +441,8 @@ class FlsNode(SwarmNode):
         self.bytes_sent += self.transmitter.send(out)
         self.messages_sent += 1
 
-    # Tracking ----------------------------------------------------------------
-
-    def _now(self) -> int:
-        return self.get_clock().now().nanoseconds
-
-    def _sense_for_relay(self, source: int, target: int, seconds: float) -> tuple[int, FloatArray]:
-        return self._relay_senses().track_sample(source, self.fls_id, target, seconds)
-
-    def _on_track(
-        self, request: TrackTarget.Request, response: TrackTarget.Response
-    ) -> TrackTarget.Response:
-        response.success = False
-        if request.source_id != self.fls_id:
-            response.message = self._elsewhere(request.source_id, TRACK_SERVICE, "tracks")
-            return response
-        model = TRACK_MODEL_NAMES.get(request.model)
-        if model is None:
-            response.message = f"unknown model {request.model}: use TrackTarget.MODEL_*"
-            return response
-        target = int(request.target_id)
-        try:
-            requests = self.tracker.begin(target, model, self._now())
-        except SwazureError as err:
-            response.message = str(err)
-            return response
-        for one in requests:
-            self._publish_track(one)
-        self._start_track_ticks()
-        self._report_progress()
-        relay = self.tracker.relay(target)
-        response.success, response.relay_id = True, relay
-        response.message = f"tracking FLS {target} through FLS {relay}"
-        return response
-
-    def on_track_request(self, request: RelayRequest) -> None:
-        """Start or stop relaying a target to a source (the host hands requests to the relay).
-
-        MessageError when its first frame is more than a track's timeout away
-        from now: its source would have timed out (a zero stamp, as
-        ``ros2 topic pub`` sends, would otherwise replay every frame since 1970).
-        """
-        now, timeout = self._now(), round(self.track_config.timeout * 1e9)
-        check(
-            request.command == STOP_RELAY or abs(request.start - now) <= timeout,
-            f"first frame {(request.start - now) / 1e9:+.3g} s from now, beyond the timeout",
-        )
-        self.track_traffic["requests_heard"] += 1
-        self.relay.on_request(request)
-        self._start_track_ticks()
-        self._relay_frames()
-        self._report_progress()
-
-    def on_track_sample(self, sample: Sample) -> None:
-        """Take a relayed sample of a tracked target; publish the estimate of the present."""
-        self.track_traffic["samples_heard"] += 1
-        for out in self.tracker.on_sample(sample):
-            self._publish_track(out)
-        self._report_progress()
-
-    def _start_track_ticks(self) -> None:
-        if self._track_ticks is not None:
-            return
-        if self.get_parameter("use_sim_time").value:
-            self._track_ticks = self.get_clock().create_jump_callback(
-                JumpThreshold(min_forward=Duration(nanoseconds=1), min_backward=None),
-                post_callback=lambda jump: self._on_track_tick(),
-            )
-        else:
-            self._track_ticks = self.create_timer(
-                self.track_config.frame_period, self._on_track_tick
-            )
-
-    def _on_track_tick(self) -> None:
-        self._relay_frames()
-        for report in self.tracker.tick(self._now()):
-            self._publish_track(report)
-        self._report_progress()
-
-    def _report_progress(self) -> None:
-        if self.report_progress:
-            now = self.get_clock().now()
-            progress = TrackProgressReport(
-                self.fls_id,
-                now.nanoseconds,
-                Counter(self.track_traffic),
-                self.relay.due(now.nanoseconds),
-            )
-            self._publish_track(track_progress_message(progress))
-
-    def _relay_frames(self) -> None:
-        for sample in self.relay.tick(self._now()):
-            self._publish_track(sample)
-
-    def _publish_track(self, out: RelayRequest | Sample | TrackReport | TrackProgress) -> None:
-        if isinstance(out, TrackProgress):
-            message: object = out
-            topic, counter = TRACK_PROGRESS_TOPIC, "progress_sent"
-        elif isinstance(out, RelayRequest):
-            message = relay_request_message(out)
-            topic, counter = TRACK_REQUESTS_TOPIC, "requests_sent"
-        elif isinstance(out, Sample):
-            message = sample_message(out)
-            topic, counter = TRACK_SAMPLES_TOPIC, "samples_sent"
-        else:
-            message = track_estimate_message(out)
-            topic, counter = TRACK_ESTIMATES_TOPIC, "estimates_sent"
-        if topic not in self._track_publishers:
-            kind = TRACK_TOPICS[topic]
-            self._track_publishers[topic] = self.create_publisher(kind, topic, ROUND_QOS)
-        self._publish(self._track_publishers[topic], message)
-        self.track_traffic[counter] += 1
-
-    def _publish(self, publisher: Publisher, message: object) -> None:
+    def publish(self, publisher: Publisher, message: object) -> None:
+        """Sign, serialise and publish ``message``, counting the bytes sent."""
         # Serialised once here, so that the bytes on the wire are counted exactly.
         data = self.transmitter.key.serialize(message)
         self.messages_sent += 1

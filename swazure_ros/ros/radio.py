@@ -158,13 +158,13 @@ class Radio:
         request = relay_request_from_message(message, self._swarm)
         node = self._fls.get(request.relay)
         if node is not None:
-            node.on_track_request(request)
+            node.tracking.on_request(request)
 
     def _on_track_sample(self, message: TrackSample) -> None:
         sample = sample_from_message(message, self._swarm)
         node = self._fls.get(sample.source)
         if node is not None:
-            node.on_track_sample(sample)
+            node.tracking.on_sample(sample)
 
     def _on_control(self, message: DiscoveryControl) -> None:
         control = control_from_message(message, self._swarm)

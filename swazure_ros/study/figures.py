@@ -22,7 +22,8 @@ from ..core.results import PAIRS_PARQUET_FILE, atomic_write
 from ..view.png import save
 from ..view.scene import evaluation_scene
 from ..view.snapshot import write_snapshot
-from .sweep import FIT, PLAIN_TECHNIQUE, StudyPlan, SweepResult, Technique
+from .plan import FIT, PLAIN_TECHNIQUE, StudyPlan, Technique
+from .sweep import SweepResult
 
 POLICY_TITLES = {
     "fewest-hops": "Fewest-Hops",

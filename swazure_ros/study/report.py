@@ -11,7 +11,8 @@ from pathlib import Path
 
 from ..core.heuristics import PUBLISHED, Compat
 from ..core.results import atomic_write
-from .sweep import StudyPlan, SweepResult
+from .plan import StudyPlan
+from .sweep import SweepResult
 from .tables import Table
 
 TABLES_FILE = "tables.md"

@@ -6,8 +6,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .figures import study_figures, study_snapshots
+from .plan import StudyPlan
 from .report import write_report, write_tables
-from .sweep import StudyPlan, SweepProgress, SweepResult, sweep
+from .sweep import SweepProgress, SweepResult, sweep
 from .tables import Table, study_tables
 
 

@@ -15,7 +15,8 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from ..core.heuristics import MOVE_SOURCE
-from .sweep import PLAIN_TECHNIQUE, StudyPlan, SweepResult, Technique
+from .plan import PLAIN_TECHNIQUE, StudyPlan, Technique
+from .sweep import SweepResult
 
 #: The betas of the published no-path and decaying-path columns (spec, section 10).
 NO_PATH_BETAS = (0.4, 0.5)

@@ -149,7 +149,8 @@ def test_an_fls_process_that_fails_is_named_in_one_line(domain, tmp_path):
 def test_an_fls_process_killed_mid_run_departs_and_the_living_get_the_engines_pairs(
     domain, tmp_path
 ):
-    from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
+    from swazure_ros.app.config import SwarmConfig
+    from swazure_ros.app.swarm import RunningSwarm
     from swazure_ros.core.evaluate import evaluate_pairs, without
     from swazure_ros.sim.world import WorldSpec
 

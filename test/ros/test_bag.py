@@ -17,7 +17,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from rclpy.serialization import deserialize_message, serialize_message
 from swazure_interfaces.msg import Measurements, PathOffer, RelativePose
 
-from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
+from swazure_ros.app.config import SwarmConfig
+from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.ros.bag import message_definition, read_recording, recorded_channels
 from swazure_ros.ros.names import ROUND_QOS
 from swazure_ros.ros.runtime import SwarmNode

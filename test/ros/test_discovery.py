@@ -13,7 +13,8 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from swazure_interfaces.srv import ComputePose
 
-from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
+from swazure_ros.app.config import SwarmConfig
+from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import NO_PATH, evaluate, evaluate_pairs, without
 from swazure_ros.core.files import config_dir
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine

@@ -28,7 +28,8 @@ from swazure_interfaces.msg import (
     WorldState,
 )
 
-from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
+from swazure_ros.app.config import SwarmConfig
+from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import evaluate_pairs
 from swazure_ros.ros.guard import INTERNAL
 from swazure_ros.ros.names import (

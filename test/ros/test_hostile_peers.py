@@ -20,7 +20,8 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from swazure_interfaces.msg import DiscoveryControl, Measurements, PathOffer, RelativePose
 
-from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
+from swazure_ros.app.config import SwarmConfig
+from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import SWEET_PATH, evaluate, evaluate_pairs
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.ros.auth import SwarmKey, new_key

@@ -17,7 +17,8 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from swazure_interfaces.msg import Measurements, MoveCommand, MoveCommands
 
-from swazure_ros.app.swarm import RunningSwarm, SwarmConfig
+from swazure_ros.app.config import SwarmConfig
+from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.cli.main import build_parser
 from swazure_ros.cli.spawn import config_from_args
 from swazure_ros.cli.swarm_file import apply_swarm_file
@@ -137,9 +138,9 @@ def test_a_swarm_from_a_swarm_file_gives_every_fls_and_one_fls_their_parameters(
         assert 0 in nodes  # the first share, here
         first, other = nodes[0], nodes[max(nodes)]
         assert first.get_parameter("publish_period").value == 0.1
-        assert first.track_service is True
+        assert first.tracking.service is True
         assert other.get_parameter("publish_period").value == 0.5  # every FLS's, from the file
-        assert other.track_service is False  # config/swarm.yaml's
+        assert other.tracking.service is False  # config/swarm.yaml's
         services = dict(swarm.host.host_node.get_service_names_and_types())
         assert "/swarm/fls_0/track" in services
         assert f"/swarm/fls_{max(nodes)}/track" not in services

@@ -14,7 +14,8 @@ from swazure_interfaces.msg import MoveCommand, MoveCommands
 from visualization_msgs.msg import Marker, MarkerArray
 from websockets.sync.client import connect
 
-from swazure_ros.app.swarm import RunningSwarm, SwarmConfig, ViewConfig
+from swazure_ros.app.config import SwarmConfig, ViewConfig
+from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.frames import METRES_PER_CM
 from swazure_ros.ros.names import MOVE_QOS, SCENE_QOS
 from swazure_ros.ros.runtime import SwarmNode

@@ -8,14 +8,8 @@ import pytest
 from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.core.results import PAIRS_PARQUET_FILE, SUMMARY_FILE
-from swazure_ros.study.sweep import (
-    PLAIN_TECHNIQUE,
-    StudyPlan,
-    SweepProgress,
-    Technique,
-    read_summary,
-    sweep,
-)
+from swazure_ros.study.plan import PLAIN_TECHNIQUE, StudyPlan, Technique
+from swazure_ros.study.sweep import SweepProgress, read_summary, sweep
 
 
 def small_plan(sensor, **options):

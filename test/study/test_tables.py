@@ -8,7 +8,8 @@ import pytest
 
 from swazure_ros.core.clouds import Cloud
 from swazure_ros.study.figures import box_stats
-from swazure_ros.study.sweep import PLAIN_TECHNIQUE, StudyPlan, SweepResult, Technique
+from swazure_ros.study.plan import PLAIN_TECHNIQUE, StudyPlan, Technique
+from swazure_ros.study.sweep import SweepResult
 from swazure_ros.study.tables import errors_table, moved_table, paths_table, study_tables
 
 MO = Technique("move-obstructing")

@@ -21,7 +21,7 @@ from swazure_interfaces.msg import (
     RoundAck,
 )
 
-from ...core.evaluate import REASON_NAMES, STATUS_NAMES
+from ...core.evaluate import REASON_NAMES, STATUS_NAMES, Neighbourhood
 from ...core.fit import PATH
 from ...core.frames import CM_PER_METRE, fls_frame, to_metres
 from ...protocol.discovery.estimate import Estimate
@@ -37,6 +37,7 @@ from ...protocol.discovery.messages import (
     Report,
 )
 from ...protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
+from ...protocol.plausible import implausible
 from ...protocol.radio import Ack
 from ..guard import check, check_finite, check_ids, check_size
 from ..names import (
@@ -402,3 +403,22 @@ def walk_from_message(message: PathWalk, swarm: IntArray) -> Walk:
         state=int(message.state),
         vector=vector,
     )
+
+
+def plausible_offer(message: PathOffer, shape: Neighbourhood) -> Offer:
+    """The labels of ``message`` if every one may be true of ``shape``; MessageError if not.
+
+    :func:`offer_from_message`, then :func:`~...protocol.plausible.implausible`
+    by where ``shape`` (the FLSs at their assigned points) puts every FLS.
+    """
+    ids = shape.swarm.cloud_index
+    offer = offer_from_message(message, ids)
+    why = implausible(
+        offer,
+        message.phase,
+        lambda wanted: shape.swarm.points[np.searchsorted(ids, wanted)],
+        shape.sensor,
+        shape.swarm.radius,
+    )
+    check(why is None, f"implausible: {why}")
+    return offer

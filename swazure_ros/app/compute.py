@@ -1,0 +1,138 @@
+"""The whole swarm's computation beside the core engine's evaluation of the same work.
+
+:func:`compute_all` runs the whole swarm's discovery (and a heuristic) over a
+:class:`~.swarm.RunningSwarm` and sets it beside the engine's evaluation of
+the same work, pair by pair (:func:`same_results`).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..core.evaluate import Evaluation, evaluate
+from ..core.fit import LOCAL_LEAST_SQUARES, PATH, refine
+from ..core.heuristics import PLAIN, HeuristicResult, run_technique
+from ..protocol.discovery.estimate import evaluation_of
+from ..protocol.runs import DiscoveryResult, MoveResult
+from ..sim.world import World
+from ..view.scene import evaluation_scene
+from .swarm import RunningSwarm
+
+
+@dataclass(frozen=True)
+class SwarmComputation:
+    """The whole swarm's computation beside the engine's evaluation of the same work."""
+
+    evaluation: Evaluation  # what the swarm computed
+    heuristic: HeuristicResult | None  # the moves made, with a technique
+    discovery: DiscoveryResult
+    moves: MoveResult | None
+    engine: Evaluation  # the core engine's, for the same work
+    engine_seconds: float
+    identical: str  # "yes", or "no: " and what differs
+
+    @property
+    def distributed(self) -> dict[str, Any]:
+        """What the distributed run took: time, rounds, messages and bytes per topic."""
+        result, traffic = self.discovery, self.discovery.traffic
+        summary: dict[str, Any] = {
+            "seconds": result.seconds,
+            "rounds": result.rounds,
+            "restarts": result.restarts,
+            "departed": sorted(result.departed),
+            "messages": traffic.messages,
+            "bytes": traffic.bytes,
+        }
+        if self.moves is not None:
+            moved = self.moves
+            summary["moves"] = {
+                "seconds": moved.seconds,
+                "batches": moved.batches,
+                "move_commands": moved.moved,
+                "path_walks": moved.walks,
+                "timeouts": moved.timeouts,
+                "messages": moved.traffic.messages,
+                "bytes": moved.traffic.bytes,
+            }
+        return summary
+
+
+def compute_all(
+    swarm: RunningSwarm,
+    policy: str,
+    technique: str = PLAIN,
+    threshold: int = 10,
+    on_discovered: Callable[[DiscoveryResult], None] | None = None,
+    on_progress: Callable[[str], None] | None = None,
+    estimator: str = PATH,
+) -> SwarmComputation:
+    """Every FLS's pose relative to every blind neighbour, by the swarm, and by the engine.
+
+    With a ``technique`` other than plain, the swarm then makes that heuristic's
+    moves. ``on_discovered`` hears the discovery run's result as soon as it is in;
+    ``on_progress`` how far each run is, every PROGRESS_PERIOD s. With the
+    ``estimator`` local-least-squares each source fits what it hears, and the
+    engine does the same (``core.fit.refine(..., local=True)``).
+    """
+    if estimator != PATH and technique != PLAIN:
+        raise ValueError(f"the {estimator} estimator estimates plain Swazure's pairs only")
+    world: World = swarm.world
+    result = swarm.discover(policy, on_progress=on_progress, estimator=estimator)
+    if on_discovered is not None:
+        on_discovered(result)
+    evaluation = evaluation_of(world.hood, policy, result.estimates)
+    evaluation.summary["seconds"] = result.seconds
+    if swarm.view is not None:
+        title = f"{world.cloud.name}, {policy}: poses found by the swarm"
+        pairs = swarm.config.view.pairs if swarm.config.view else ()
+        swarm.view.show(evaluation_scene(evaluation, title, pairs=pairs))
+    heuristic, moved = None, None
+    if technique != PLAIN:
+        if on_progress is not None:
+            on_progress(f"planning {technique}")
+        moved = swarm.make_moves(result, technique, threshold, on_progress=on_progress)
+        evaluation, heuristic = moved.evaluation, moved.heuristic
+        evaluation.summary["seconds"] = result.seconds + moved.seconds
+        if swarm.view is not None:
+            title = f"{world.cloud.name}, {policy}, {technique}: after the swarm's moves"
+            scene = evaluation_scene(evaluation, title, heuristic=heuristic, pairs=pairs)
+            swarm.view.show(scene)
+    began = time.perf_counter()
+    engine = evaluate(world.swarm, world.sensor, policy)
+    engine, _ = run_technique(engine, technique, threshold)
+    if estimator == LOCAL_LEAST_SQUARES:
+        engine = refine(engine, local=True)
+    engine_seconds = time.perf_counter() - began
+    return SwarmComputation(
+        evaluation,
+        heuristic,
+        result,
+        moved,
+        engine,
+        engine_seconds,
+        same_results(evaluation, engine),
+    )
+
+
+def same_results(ours: Evaluation, engine: Evaluation) -> str:
+    """ "yes" when every pair has the engine's status, path and estimate (to 1e-9 cm)."""
+    mine, theirs = ours.pairs, engine.pairs
+    if len(mine) != len(theirs):
+        return f"no: {len(mine)} pairs reported, the engine has {len(theirs)}"
+    status = int((mine.status != theirs.status).sum())
+    paths = not np.array_equal(mine.nodes, theirs.nodes)
+    with np.errstate(invalid="ignore"):
+        far = int((np.abs(mine.estimate - theirs.estimate) > 1e-9).any(axis=1).sum())
+        if mine.covariance is not None and theirs.covariance is not None:
+            # A fit's covariance too, relative to its largest entry (cm^2 of any size).
+            scale = np.abs(theirs.covariance).max(axis=(1, 2))
+            apart = np.abs(mine.covariance - theirs.covariance).max(axis=(1, 2))
+            far += int((apart > 1e-9 * scale).sum())
+    if status or paths or far:
+        return f"no: {status} statuses, {far} estimates differ; paths differ: {paths}"
+    return "yes"

@@ -1,0 +1,98 @@
+"""One process's share of a swarm: the entry point of each further process of the launcher.
+
+A further process builds the same world from the swarm's :class:`~.config.SwarmConfig`,
+hosts its share of FLS nodes, and reports to the launcher over a queue: nodes
+created (CREATED), discovery complete with its peak memory (READY), or one
+error line (FAILED).
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+import signal
+from typing import Any
+
+import numpy as np
+
+from ..core.errors import SwazureError
+from ..ros import runtime
+from ..ros.auth import SwarmKey
+from ..ros.host import SwarmHost
+from ..ros.names import host_name
+from ..ros.runtime import Context
+from .config import SwarmConfig
+from .discovery_server import client_environment
+
+CREATED, READY, FAILED = "created", "ready", "failed"
+
+
+def peak_rss_mb() -> float:
+    """This process's peak resident memory, MB."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+
+
+def init_context(config: SwarmConfig) -> Context:
+    """A fresh rclpy context with the swarm's parameter file, domain and discovery."""
+    if config.discovery_servers:
+        # Read by Fast DDS when the context's participant is made, and by nothing else;
+        # a super client, as this process waits until it sees every FLS.
+        os.environ.update(client_environment(config.discovery_servers, super_client=True))
+    return runtime.init_context(config.domain_id, config.params_file)
+
+
+def shares(fls_ids: np.ndarray, processes: int) -> list[list[int]]:
+    """Split FLS ids into ``processes`` contiguous shares of near-equal size."""
+    return [part.tolist() for part in np.array_split(np.asarray(fls_ids), processes)]
+
+
+def host_share(
+    config: SwarmConfig,
+    key: bytes | None,
+    index: int,
+    fls_ids: list[int],
+    swarm_size: int,
+    reports: Any,
+    stop: Any,
+) -> None:
+    """Entry point of a further process: host one share until told to stop."""
+    # Ctrl-C reaches the whole process group; the launcher decides when we stop.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    context = host = None
+    code = 1
+    try:
+        world = config.world.build(hosted_ids=fls_ids)
+        context = init_context(config)
+        host = SwarmHost(
+            world,
+            fls_ids,
+            context=context,
+            namespace=config.namespace,
+            swarm_size=swarm_size,
+            with_world_node=False,
+            name=host_name(index),
+            parameters=config.parameters,
+            fls_parameters=config.fls_parameters,
+            key=SwarmKey(key),
+            parameter_services=config.parameter_services,
+        )
+        host.create_fls_nodes(lambda count: reports.put((CREATED, index, count)))
+        if not host.spin_until_discovered(config.discovery_timeout):
+            published, services = host.discovered()
+            raise SwazureError(
+                f"process {index}: discovery incomplete after {config.discovery_timeout:g} s "
+                f"({published} of {swarm_size} FLS publishers, {services} services)"
+            )
+        reports.put((READY, index, peak_rss_mb()))
+        while not stop.is_set():
+            host.spin_for(0.1)
+        code = 0
+    except SwazureError as err:
+        reports.put((FAILED, index, str(err)))
+    except Exception as err:
+        reports.put((FAILED, index, f"process {index}: {type(err).__name__}: {err}"))
+    finally:
+        # Every report reaches the launcher before the process ends.
+        reports.close()
+        reports.join_thread()
+        runtime.exit_process(code)
