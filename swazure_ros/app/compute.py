@@ -16,7 +16,8 @@ import numpy as np
 
 from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import LOCAL_LEAST_SQUARES, PATH, refine
-from ..core.heuristics import PLAIN, HeuristicResult, run_technique
+from ..core.heuristics.folding import run_technique
+from ..core.heuristics.result import PLAIN, HeuristicResult
 from ..protocol.discovery.estimate import evaluation_of
 from ..protocol.runs import DiscoveryResult, MoveResult
 from ..sim.world import World

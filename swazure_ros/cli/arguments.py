@@ -45,7 +45,7 @@ def seed(text: str) -> int:
 
 def threshold(text: str) -> int:
     """Move Source's threshold T: 1 to MAX_THRESHOLD steps of r."""
-    from ..core.heuristics import MAX_THRESHOLD
+    from ..core.heuristics.result import MAX_THRESHOLD
 
     value = whole_number(text)
     if not 1 <= value <= MAX_THRESHOLD:

@@ -19,7 +19,9 @@ from ..core.evaluate import Progress, evaluate
 from ..core.fit import ESTIMATORS, LOCAL_LEAST_SQUARES, PATH, SWARM_ESTIMATORS, refine
 from ..core.fusion import fuse
 from ..core.geometry import make_swarm
-from ..core.heuristics import COMPAT_MODES, PLAIN, TECHNIQUES, HeuristicResult, run_technique
+from ..core.heuristics.compat import COMPAT_MODES
+from ..core.heuristics.folding import run_technique
+from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
 from ..core.paths import POLICIES
 from ..core.results import describe_source, write_evaluation
 from ..core.sensor import load_sensor

@@ -31,7 +31,7 @@ from typing import Any
 from ..core.errors import SwazureError
 from ..core.files import config_dir
 from ..core.fit import PATH
-from ..core.heuristics import PLAIN, TECHNIQUES
+from ..core.heuristics.result import PLAIN, TECHNIQUES
 from ..ros.keys import KEY_FILE_VARIABLE
 from ..sim.world import WorldSpec
 from .arguments import (

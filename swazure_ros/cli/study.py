@@ -17,7 +17,7 @@ from typing import Any
 from ..core.clouds import BUILTIN_SHAPES, Cloud, cloud_files, load_cloud, published_dataset_dir
 from ..core.errors import CloudError, SwazureError
 from ..core.fit import LEAST_SQUARES, PATH
-from ..core.heuristics import COMPAT_MODES
+from ..core.heuristics.compat import COMPAT_MODES
 from ..core.paths import POLICIES
 from ..core.results import COMPACT_PAIRS, PAIR_COLUMNS
 from ..core.sensor import load_sensor

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import jit
 from .clouds import validate_points
 from .errors import CloudError
 
@@ -165,3 +166,169 @@ def make_swarm(
         cloud_index=kept,
         removed=len(points) - len(kept),
     )
+
+
+def free_circle_point(
+    centre: FloatArray,
+    normal: FloatArray,
+    toward: FloatArray,
+    radius: float,
+    blockers: FloatArray,
+    block_radius: float,
+) -> FloatArray | None:
+    """The point of a circle nearest ``toward`` that is not strictly inside any blocking sphere.
+
+    The circle has centre ``centre``, radius ``radius`` and lies in the plane
+    through ``centre`` perpendicular to ``normal``; each row of ``blockers``
+    (B, 3) is the centre of a sphere of radius ``block_radius`` whose interior
+    is removed. Exact: each sphere removes one open arc, computed in closed
+    form. Returns None when nothing of the circle remains. Units: cm.
+    """
+    point: FloatArray = _free_circle_kernel(
+        np.asarray(centre, dtype=np.float64),
+        np.asarray(normal, dtype=np.float64),
+        np.asarray(toward, dtype=np.float64),
+        float(radius),
+        np.ascontiguousarray(blockers, dtype=np.float64).reshape(-1, 3),
+        float(block_radius),
+    )
+    return None if np.isnan(point[0]) else point
+
+
+@jit.kernel(cache=True)
+def _wrap(angle: float) -> float:
+    return (angle + np.pi) % (2 * np.pi) - np.pi
+
+
+@jit.kernel(cache=True)
+def _free_circle_kernel(
+    centre: FloatArray,
+    normal: FloatArray,
+    toward: FloatArray,
+    radius: float,
+    blockers: FloatArray,
+    block_radius: float,
+) -> FloatArray:
+    """free_circle_point's work; a nan point means nothing of the circle is free."""
+    normal = normal / np.sqrt(normal @ normal)
+    offset = toward - centre
+    offset = offset - (offset @ normal) * normal
+    if np.sqrt(offset @ offset) < 1e-12 * max(radius, 1.0):
+        # Exactly on the line: any direction is nearest; take a fixed one.
+        axis = np.zeros(3)
+        axis[np.argmin(np.abs(normal))] = 1.0
+        offset = np.cross(normal, axis)
+    first = offset / np.sqrt(offset @ offset)
+    second = np.cross(normal, first)
+    # |q(θ) - s|² < R²  <=>  A cos θ + B sin θ < m, with q(θ) = c + r (cos θ e1 + sin θ e2).
+    phases = np.empty(len(blockers))
+    halves = np.empty(len(blockers))
+    arcs = 0
+    for k in range(len(blockers)):
+        relative = centre - blockers[k]
+        a, b = relative @ first, relative @ second
+        m = -(relative @ relative + radius**2 - block_radius**2) / (2 * radius)
+        rho = np.hypot(a, b)
+        if (rho == 0 and m > 0) or (rho > 0 and m > rho):
+            return np.full(3, np.nan)  # this sphere covers the whole circle
+        if rho > 0 and m > -rho:
+            phases[arcs] = np.arctan2(b, a) + np.pi  # centre of the removed arc
+            halves[arcs] = np.pi - np.arccos(min(max(m / rho, -1.0), 1.0))
+            arcs += 1
+    # Candidates: θ = 0 (the ideal move) and every arc end; nearest = smallest |θ|, then +θ.
+    best = np.nan
+    for candidate in range(2 * arcs + 1):
+        if candidate == 0:
+            theta = 0.0
+        elif candidate <= arcs:
+            theta = _wrap(phases[candidate - 1] - halves[candidate - 1])
+        else:
+            theta = _wrap(phases[candidate - 1 - arcs] + halves[candidate - 1 - arcs])
+        free = True
+        for k in range(arcs):
+            if abs(_wrap(theta - phases[k])) < halves[k] - 1e-12:
+                free = False
+                break
+        if free and (
+            np.isnan(best) or abs(theta) < abs(best) or (abs(theta) == abs(best) and theta > best)
+        ):
+            best = theta
+    if np.isnan(best):
+        return np.full(3, np.nan)
+    point: FloatArray = centre + radius * (np.cos(best) * first + np.sin(best) * second)
+    return point
+
+
+def circle_sphere_crossings(
+    centre: FloatArray,
+    normal: FloatArray,
+    radius: float,
+    sphere: FloatArray,
+    sphere_radius: float,
+) -> FloatArray:
+    """Points (0 to 2, 3) where a circle meets a sphere's surface, cm.
+
+    The circle has centre ``centre`` (3,), radius ``radius`` and lies in the
+    plane through ``centre`` perpendicular to ``normal`` (3,); the sphere has
+    centre ``sphere`` (3,) and radius ``sphere_radius``. A tangent circle gives
+    its one point twice.
+    """
+    normal = normal / np.linalg.norm(normal)
+    axis = np.zeros(3)
+    axis[np.argmin(np.abs(normal))] = 1.0
+    first = np.cross(normal, axis)
+    first /= np.linalg.norm(first)
+    second = np.cross(normal, first)
+    # |c + r (cos θ e1 + sin θ e2) - s|² = R²  <=>  a cos θ + b sin θ = m.
+    relative = centre - sphere
+    a, b = float(relative @ first), float(relative @ second)
+    m = (sphere_radius**2 - relative @ relative - radius**2) / (2.0 * radius)
+    rho = float(np.hypot(a, b))
+    if rho == 0.0 or abs(m) > rho:
+        return np.zeros((0, 3))
+    phase, half = np.arctan2(b, a), np.arccos(m / rho)
+    theta = np.array([phase - half, phase + half])
+    return np.asarray(
+        centre + radius * (np.cos(theta)[:, None] * first + np.sin(theta)[:, None] * second)
+    )
+
+
+def closest_on_segment(start: FloatArray, end: FloatArray, point: FloatArray) -> FloatArray:
+    direction = end - start
+    along = float((point - start) @ direction / (direction @ direction))
+    return np.asarray(start + min(max(along, 0.0), 1.0) * direction)
+
+
+@jit.kernel(cache=True, nogil=True, error_model="numpy")
+def segment_gap(point: FloatArray, start: FloatArray, end: FloatArray) -> float:
+    """Distance of ``point`` (3,) to the segment start-end (3,)-(3,), cm."""
+    dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
+    ox, oy, oz = point[0] - start[0], point[1] - start[1], point[2] - start[2]
+    along = min(max((ox * dx + oy * dy + oz * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0)
+    gx = point[0] - (start[0] + along * dx)
+    gy = point[1] - (start[1] + along * dy)
+    gz = point[2] - (start[2] + along * dz)
+    return float(np.sqrt(gx * gx + gy * gy + gz * gz))
+
+
+@jit.kernel(cache=True, nogil=True)
+def near_any_segment(
+    points: FloatArray, starts: FloatArray, ends: FloatArray, reach: float
+) -> bool:
+    """True when a point (K, 3) is closer than ``reach`` to a segment (S, 3)-(S, 3), cm."""
+    for s in range(len(starts)):
+        for k in range(len(points)):
+            if segment_gap(points[k], starts[s], ends[s]) < reach:
+                return True
+    return False
+
+
+@jit.kernel(cache=True, nogil=True)
+def near_segment(
+    points: FloatArray, start: FloatArray, end: FloatArray, reach: float
+) -> NDArray[np.bool_]:
+    """(K,) whether each point (K, 3) is closer than ``reach`` to the segment start-end, cm."""
+    near = np.zeros(len(points), dtype=np.bool_)
+    for k in range(len(points)):
+        near[k] = segment_gap(points[k], start, end) < reach
+    return near

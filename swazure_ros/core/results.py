@@ -23,7 +23,7 @@ import numpy as np
 from .clouds import Cloud
 from .errors import OutputError
 from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation
-from .heuristics import HeuristicResult
+from .heuristics.result import HeuristicResult
 
 PAIRS_FILE = "pairs.csv"
 PAIRS_PARQUET_FILE = "pairs.parquet"

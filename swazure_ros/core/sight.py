@@ -10,7 +10,7 @@ stopping at the first obstructer when only a yes or no is wanted.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -24,9 +24,11 @@ IntArray = NDArray[np.int64]
 MAX_CELLS = 1 << 22
 
 
-@dataclass(frozen=True)
-class Grid:
-    """Points bucketed into a dense uniform grid of cubic cells (a CSR over cells)."""
+class Grid(NamedTuple):
+    """Points bucketed into a dense uniform grid of cubic cells (a CSR over cells).
+
+    A named tuple, so that every kernel takes the grid as one argument.
+    """
 
     origin: FloatArray  # (3,), cm
     cell: float  # edge of a cell, cm
@@ -57,21 +59,17 @@ def build_grid(points: FloatArray, radius: float) -> Grid:
 
 
 @jit.kernel(cache=True, nogil=True)
-def _scan_segment(
+def scan_segment(
     points: FloatArray,
     radius: float,
     a: int,
     b: int,
-    origin: FloatArray,
-    cell: float,
-    shape: IntArray,
-    cell_start: IntArray,
-    members: IntArray,
+    grid: Grid,
     found: IntArray,
     stop_at_first: bool,
 ) -> int:
     """Write the obstructers of segment a-b into ``found``; return how many (at most 1 if stop)."""
-    return _scan_between(
+    return scan_between(
         points,
         radius,
         points[a, 0],
@@ -82,18 +80,14 @@ def _scan_segment(
         points[b, 2],
         a,
         b,
-        origin,
-        cell,
-        shape,
-        cell_start,
-        members,
+        grid,
         found,
         stop_at_first,
     )
 
 
 @jit.kernel(cache=True, nogil=True)
-def _scan_between(
+def scan_between(
     points: FloatArray,
     radius: float,
     ax: float,
@@ -104,15 +98,12 @@ def _scan_between(
     bz: float,
     a: int,
     b: int,
-    origin: FloatArray,
-    cell: float,
-    shape: IntArray,
-    cell_start: IntArray,
-    members: IntArray,
+    grid: Grid,
     found: IntArray,
     stop_at_first: bool,
 ) -> int:
     """Obstructers of the segment from (ax, ay, az) to (bx, by, bz), skipping FLSs a and b."""
+    origin, cell, shape, cell_start, members = grid
     dx, dy, dz = bx - ax, by - ay, bz - az
     length = np.sqrt(dx * dx + dy * dy + dz * dz)
     if length == 0.0:
@@ -166,18 +157,14 @@ def _scan_between(
 
 
 @jit.kernel(cache=True, nogil=True)
-def _any_within(
+def any_within(
     points: FloatArray,
     x: float,
     y: float,
     z: float,
     distance: float,
     skip: int,
-    origin: FloatArray,
-    cell: float,
-    shape: IntArray,
-    cell_start: IntArray,
-    members: IntArray,
+    grid: Grid,
     around: FloatArray,
     reach: float,
 ) -> bool:
@@ -185,6 +172,7 @@ def _any_within(
 
     Only points within ``reach`` of ``around`` (3,) count; ``reach`` inf: every point.
     """
+    origin, cell, shape, cell_start, members = grid
     lo0 = max(int(np.floor((x - distance - origin[0]) / cell)), 0)
     lo1 = max(int(np.floor((y - distance - origin[1]) / cell)), 0)
     lo2 = max(int(np.floor((z - distance - origin[2]) / cell)), 0)
@@ -217,11 +205,7 @@ def _obstructed_segments(
     radius: float,
     first: IntArray,
     second: IntArray,
-    origin: FloatArray,
-    cell: float,
-    shape: IntArray,
-    cell_start: IntArray,
-    members: IntArray,
+    grid: Grid,
 ) -> NDArray[np.bool_]:
     out = np.zeros(len(first), dtype=np.bool_)
     chunks = 64
@@ -229,16 +213,12 @@ def _obstructed_segments(
     for chunk in jit.prange(chunks):
         found = np.empty(1, dtype=np.int64)
         for pair in range(chunk * size, min((chunk + 1) * size, len(first))):
-            hits = _scan_segment(
+            hits = scan_segment(
                 points,
                 radius,
                 first[pair],
                 second[pair],
-                origin,
-                cell,
-                shape,
-                cell_start,
-                members,
+                grid,
                 found,
                 True,
             )
@@ -262,27 +242,19 @@ def _obstructers_kernel(
     radius: float,
     first: IntArray,
     second: IntArray,
-    origin: FloatArray,
-    cell: float,
-    shape: IntArray,
-    cell_start: IntArray,
-    members: IntArray,
+    grid: Grid,
 ) -> tuple[IntArray, IntArray]:
     found = np.empty(len(points), dtype=np.int64)
     offsets = np.zeros(len(first) + 1, dtype=np.int64)
     capacity = max(16, 4 * len(first))
     ids = np.empty(capacity, dtype=np.int64)
     for pair in range(len(first)):
-        hits = _scan_segment(
+        hits = scan_segment(
             points,
             radius,
             first[pair],
             second[pair],
-            origin,
-            cell,
-            shape,
-            cell_start,
-            members,
+            grid,
             found,
             False,
         )
@@ -335,7 +307,7 @@ def obstructed(
         A grid from :func:`build_grid` for the same points and radius.
     """
     points, first, second = _coerce_pairs(points, first, second)
-    grid = grid or build_grid(points, radius)
+    grid = grid if grid is not None else build_grid(points, radius)
     if len(first) == 0:
         return np.zeros(0, dtype=bool)
     kernel = _obstructed_serial if len(first) < SERIAL_SEGMENTS else _obstructed_kernel
@@ -345,11 +317,7 @@ def obstructed(
             float(radius),
             first,
             second,
-            grid.origin,
-            grid.cell,
-            grid.shape,
-            grid.cell_start,
-            grid.members,
+            grid,
         )
     )
 
@@ -366,17 +334,13 @@ def obstructers(
     The obstructers of segment ``m`` are ``ids[offsets[m]:offsets[m + 1]]``.
     """
     points, first, second = _coerce_pairs(points, first, second)
-    grid = grid or build_grid(points, radius)
+    grid = grid if grid is not None else build_grid(points, radius)
     offsets, ids = _obstructers_kernel(
         points,
         float(radius),
         first,
         second,
-        grid.origin,
-        grid.cell,
-        grid.shape,
-        grid.cell_start,
-        grid.members,
+        grid,
     )
     return np.asarray(offsets), np.asarray(ids)
 

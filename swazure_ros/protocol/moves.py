@@ -4,7 +4,7 @@ After a whole-swarm discovery run, :class:`MoveRun` applies Move Obstructing
 or Move Source to every BLOCKED pair: the core engine plans the moves from
 the original shape (which obstructers step aside and where, or where a
 source probes), and the run makes them batch by batch
-(:func:`~swazure_ros.core.heuristics.move_batches`). For each batch it asks
+(:func:`~.schedule.move_batches`). For each batch it asks
 for the batch's moves in one world revision, sends a path walk to the source
 of every pair of the batch once that revision is seen (the FLSs of the path
 measure their hops again and sum them: :func:`step_walk`), waits for the
@@ -24,18 +24,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.evaluate import NO_PATH, REASON_BLOCKED, SWEET_PATH, Evaluation
-from ..core.heuristics import (
-    MOVE_OBSTRUCTING,
-    MOVE_SOURCE,
-    HeuristicResult,
-    apply,
-    move_batches,
-    move_obstructing,
-    move_source,
-    walked,
-)
+from ..core.heuristics.folding import apply
+from ..core.heuristics.obstructing import move_obstructing
+from ..core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE, HeuristicResult
+from ..core.heuristics.source import move_source
 from ..core.sensor import SWEET
 from .discovery.estimate import Estimate
+from .schedule import move_batches, walked
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from ..core.evaluate import Evaluation
-from ..core.heuristics import HeuristicResult
+from ..core.heuristics.result import HeuristicResult
 from .discovery.estimate import Estimate
 from .moves import MoveOutcome
 from .rounds import Outcome

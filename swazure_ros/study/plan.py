@@ -17,7 +17,8 @@ from .. import __version__
 from ..core.clouds import Cloud
 from ..core.errors import SwazureError
 from ..core.fit import LEAST_SQUARES
-from ..core.heuristics import COMPAT_MODES, MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN
+from ..core.heuristics.compat import COMPAT_MODES
+from ..core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN
 from ..core.paths import POLICIES
 from ..core.results import COMPACT_PAIRS, PAIR_COLUMNS
 from ..core.sensor import Sensor

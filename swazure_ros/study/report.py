@@ -9,7 +9,7 @@ import platform
 import sys
 from pathlib import Path
 
-from ..core.heuristics import PUBLISHED, Compat
+from ..core.heuristics.compat import PUBLISHED, Compat
 from ..core.results import atomic_write
 from .plan import StudyPlan
 from .sweep import SweepResult

@@ -29,7 +29,8 @@ from ..core.evaluate import evaluate
 from ..core.fit import refine
 from ..core.fusion import fuse
 from ..core.geometry import make_swarm
-from ..core.heuristics import COMPAT_MODES, run_technique
+from ..core.heuristics.compat import COMPAT_MODES
+from ..core.heuristics.folding import run_technique
 from ..core.results import (
     FULL_PAIRS,
     PAIRS_PARQUET_FILE,

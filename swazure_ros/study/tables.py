@@ -14,7 +14,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
-from ..core.heuristics import MOVE_SOURCE
+from ..core.heuristics.result import MOVE_SOURCE
 from .plan import PLAIN_TECHNIQUE, StudyPlan, Technique
 from .sweep import SweepResult
 

@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from ..core.errors import SwazureError, UnknownFlsError
 from ..core.evaluate import SWEET_PATH, Evaluation, Neighbourhood
 from ..core.frames import SWARM_FRAME
-from ..core.heuristics import HeuristicResult
+from ..core.heuristics.result import HeuristicResult
 from ..core.sensor import BLIND, DECAYING, SWEET
 
 FloatArray = NDArray[np.float64]

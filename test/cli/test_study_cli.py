@@ -6,11 +6,11 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 
 from ..conftest import DATASETS
+from ..waits import wait_until
 
 FIGURES = (
     "alpha_mean",
@@ -200,9 +200,7 @@ def test_killed_study_resumes_with_only_the_unfinished_runs(tmp_path):
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
-    deadline = time.monotonic() + 300
-    while not list(tmp_path.glob("runs/**/summary.json")) and time.monotonic() < deadline:
-        time.sleep(0.05)
+    wait_until(lambda: list(tmp_path.glob("runs/**/summary.json")), 300)
     os.kill(process.pid, signal.SIGKILL)
     process.wait()
     finished = list(tmp_path.glob("runs/**/summary.json"))

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate
-from swazure_ros.core.heuristics import run_technique
+from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.observe import Measurement
 from swazure_ros.core.sensor import DECAYING, SWEET
 from swazure_ros.protocol.discovery.estimate import evaluation_of

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from swazure_ros.core.evaluate import neighbourhood
 from swazure_ros.core.frames import to_centimetres
 from swazure_ros.core.sensor import BLIND, DECAYING, SWEET, measured_vectors
+
+from ..waits import wait_until
 
 
 def engine_expectations(world):
@@ -43,12 +43,7 @@ def engine_expectations(world):
 
 def spin_until(executor, condition, timeout=60.0):
     """Spin ``executor`` until ``condition()`` holds; return whether it did."""
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if condition():
-            return True
-        executor.spin_once(timeout_sec=0.05)
-    return condition()
+    return wait_until(condition, timeout, lambda: executor.spin_once(timeout_sec=0.05))
 
 
 def received_vectors(message):
@@ -67,7 +62,16 @@ LATCHED = QoSProfile(
 
 def matches(message, expected_vectors):
     """True when a Measurements message holds exactly ``expected_vectors`` ({id: (3,)})."""
+    try:
+        assert_matches(message, expected_vectors)
+    except AssertionError:
+        return False
+    return True
+
+
+def assert_matches(message, expected_vectors):
+    """Fail unless a Measurements message holds exactly ``expected_vectors``, to 1e-12 cm."""
     got = received_vectors(message)
-    return set(got) == set(expected_vectors) and all(
-        np.allclose(got[t], expected_vectors[t], rtol=0, atol=1e-12) for t in got
-    )
+    assert set(got) == set(expected_vectors), (message.source_id, sorted(got))
+    for target, vector in got.items():
+        np.testing.assert_allclose(vector, expected_vectors[target], rtol=0, atol=1e-12)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import subprocess
 import sys
-import time
 from collections import defaultdict
 from functools import partial
 
@@ -23,6 +22,8 @@ from swazure_ros.ros.bag import message_definition, read_recording, recorded_cha
 from swazure_ros.ros.names import ROUND_QOS
 from swazure_ros.ros.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec
+
+from ..waits import wait_until
 
 WORLD = WorldSpec("helix:60", beta=0.5)
 KEEP_ALL_LATCHED = QoSProfile(
@@ -89,9 +90,9 @@ def recorded_run(domain, tmp_path):
         probe = Probe(swarm.context, [("/swarm/radio", PathOffer, ROUND_QOS)])
         swarm.host.add(probe.node)
         swarm.wait_until_ready()
-        deadline = time.monotonic() + 30
-        while probe.node.count_publishers("/swarm/radio") < 1 and time.monotonic() < deadline:
-            swarm.spin(0.05)
+        assert wait_until(
+            lambda: probe.node.count_publishers("/swarm/radio") >= 1, 30, lambda: swarm.spin(0.05)
+        )
         swarm.spin(0.5)  # the probe's reader matched, as the recorder's is
         result = swarm.discover("shortest-length", timeout=120)
         swarm.spin(1.0)  # the run's last messages reach every reader
@@ -150,9 +151,9 @@ def test_replay_publishes_the_recording_again(recorded_run, domain, context):
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:
-        deadline = time.monotonic() + 120
-        while replay.poll() is None and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
+        wait_until(
+            lambda: replay.poll() is not None, 120, lambda: executor.spin_once(timeout_sec=0.05)
+        )
         for _ in range(200):  # what is still queued here
             executor.spin_once(timeout_sec=0.01)
         _, err = replay.communicate(timeout=10)

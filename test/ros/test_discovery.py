@@ -19,12 +19,14 @@ from swazure_ros.core.evaluate import NO_PATH, evaluate, evaluate_pairs, without
 from swazure_ros.core.files import config_dir
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.core.frames import fls_frame, to_metres
-from swazure_ros.core.heuristics import MOVE_OBSTRUCTING, MOVE_SOURCE, run_technique
+from swazure_ros.core.heuristics.folding import run_technique
+from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
 from swazure_ros.protocol.discovery.estimate import Estimate
 from swazure_ros.ros.convert.discovery import pose_estimate_from_message
 from swazure_ros.ros.names import ESTIMATOR_CODES, policy_code
 from swazure_ros.sim.world import WorldSpec
 
+from ..waits import wait_until
 from .conftest import make_context
 
 # torus:120 at 1.6 x has sweet, blocked and unreachable pairs at both betas.
@@ -231,9 +233,11 @@ def test_nodes_stopped_mid_run_are_known_gone_at_once_not_after_a_round_timeout(
             return future.result()
 
         # The host keeps its own clock of absences: a look or two after the coordinator's.
-        deadline = time.monotonic() + 10
-        while not (answer := ask()).gone_ids and time.monotonic() < deadline:
-            swarm.spin(0.5)
+        answers = [ask()]
+        wait_until(
+            lambda: answers[-1].gone_ids, 10, lambda: (swarm.spin(0.5), answers.append(ask()))
+        )
+        answer = answers[-1]
         known = {*answer.blind_ids, *answer.sweet_ids, *answer.decaying_ids}
         assert set(answer.gone_ids) == stopped & known and answer.gone_ids
 
@@ -342,21 +346,18 @@ class Client:
         if service not in self.clients:
             self.clients[service] = self.node.create_client(ComputePose, service)
         client = self.clients[service]
-        deadline = time.monotonic() + timeout
-        while not client.service_is_ready():
-            assert time.monotonic() < deadline, f"no {service} service"
-            self.executor.spin_once(timeout_sec=0.02)
-            self.swarm.spin(0.02)
+        assert wait_until(client.service_is_ready, timeout, self._spin), f"no {service} service"
         future = client.call_async(
             ComputePose.Request(
                 source_id=source, target_id=target, policy=policy, estimator=estimator
             )
         )
-        while not future.done():
-            assert time.monotonic() < deadline, "no answer"
-            self.executor.spin_once(timeout_sec=0.02)
-            self.swarm.spin(0.02)
+        assert wait_until(future.done, timeout, self._spin), "no answer"
         return future.result()
+
+    def _spin(self):
+        self.executor.spin_once(timeout_sec=0.02)
+        self.swarm.spin(0.02)
 
     def close(self):
         self.executor.shutdown()
@@ -423,12 +424,10 @@ def watching_topic(domain, topic, process, timeout=60.0):
     ctx = make_context(domain)
     probe = Node("watch_probe", context=ctx, start_parameter_services=False, enable_rosout=False)
     try:
-        deadline = time.monotonic() + timeout
-        while time.monotonic() < deadline and process.poll() is None:
-            if probe.count_subscribers(topic) > 0:
-                return True
-            time.sleep(0.1)
-        return False
+        seen = wait_until(
+            lambda: probe.count_subscribers(topic) > 0 or process.poll() is not None, timeout
+        )
+        return seen and probe.count_subscribers(topic) > 0
     finally:
         probe.destroy_node()
         ctx.try_shutdown()

@@ -17,7 +17,13 @@ from swazure_ros.sim.replica import WorldReplica
 from swazure_ros.sim.world import WorldSpec
 
 from .conftest import make_context
-from .helpers import LATCHED, engine_expectations, matches, received_vectors, spin_until
+from .helpers import (
+    LATCHED,
+    assert_matches,
+    engine_expectations,
+    matches,
+    spin_until,
+)
 
 WORLD = WorldSpec("helix:100", beta=0.5)
 TRACK_SERVICE_ON = Parameter("track.service", value=True)
@@ -77,10 +83,7 @@ def test_every_node_publishes_the_engines_measured_vectors(swarm):
     latest = collect_measurements(host, probe, expected)
     assert set(latest) == set(world.ids.tolist())
     for fls_id, message in latest.items():
-        got = received_vectors(message)
-        assert set(got) == set(expected[fls_id]), fls_id
-        for target, vector in got.items():
-            np.testing.assert_allclose(vector, expected[fls_id][target], rtol=0, atol=1e-12)
+        assert_matches(message, expected[fls_id])
         assert all(pose.source_id == fls_id and pose.line_of_sight for pose in message.poses)
         assert message.header.frame_id == f"fls_{fls_id}"
 
@@ -125,10 +128,7 @@ def test_a_move_command_changes_what_the_nodes_measure(swarm):
     assert spin_until(host.executor, lambda: host.replica.world.revision == 1)
     latest = collect_measurements(host, probe, expected)
     for fls_id, message in latest.items():
-        got = received_vectors(message)
-        assert set(got) == set(expected[fls_id]), fls_id
-        for target, vector in got.items():
-            np.testing.assert_allclose(vector, expected[fls_id][target], rtol=0, atol=1e-12)
+        assert_matches(message, expected[fls_id])
     back = MoveCommand(fls_id=mover, kind=MoveCommand.KIND_RETURN)
     publisher.publish(MoveCommands(commands=[back]))
     assert spin_until(host.executor, lambda: host.replica.world.revision == 2)

@@ -10,7 +10,6 @@ the same label is implausible (its hop is not in range).
 from __future__ import annotations
 
 import threading
-import time
 
 import numpy as np
 import pytest
@@ -34,6 +33,7 @@ from swazure_ros.ros.names import (
 )
 from swazure_ros.sim.world import WorldSpec
 
+from ..waits import wait_until
 from .conftest import make_context
 
 POLICY = "shortest-length"
@@ -119,20 +119,22 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
         with Forger(domain, source, target, forger_key) as forger:
             # The forger hears the coordinator's controls (matched, not only in the graph)
             # and the swarm knows the forger's radio before the run.
-            deadline = time.monotonic() + 30
-            while time.monotonic() < deadline and not (
-                swarm.host.host_node.count_publishers(f"/swarm/{RADIO_TOPIC}") >= 2
-                and forger.controls.get_publisher_count() >= 1
-            ):
-                swarm.spin(0.05)
+            wait_until(
+                lambda: (
+                    swarm.host.host_node.count_publishers(f"/swarm/{RADIO_TOPIC}") >= 2
+                    and forger.controls.get_publisher_count() >= 1
+                ),
+                30,
+                lambda: swarm.spin(0.05),
+            )
             result = swarm.run(swarm.coordinator.discover(POLICY, [source], [target]), timeout=120)
             # The drops are on /diagnostics within a second or two.
             counter = f"dropped {RADIO_TOPIC}: {dropped_because}"
-            deadline = time.monotonic() + 10
-            while time.monotonic() < deadline and counter not in forger.diagnostics.get(
-                "/swarm/host_0", {}
-            ):
-                swarm.spin(0.05)
+            wait_until(
+                lambda: counter in forger.diagnostics.get("/swarm/host_0", {}),
+                10,
+                lambda: swarm.spin(0.05),
+            )
             assert int(forger.diagnostics["/swarm/host_0"][counter]) >= 1, forger.diagnostics
         assert forger.sent >= 1 and result.rounds > 0
         (answer,) = result.estimates[source]
@@ -186,9 +188,7 @@ def test_forged_measurements_change_no_fit(domain, authenticate, forger_key, dro
             first = swarm.coordinator.discover(POLICY, [source], [target], LOCAL_LEAST_SQUARES)
             swarm.run(first, timeout=120)
             refused = (MEASUREMENTS_TOPIC, dropped_because)
-            deadline = time.monotonic() + 30
-            while time.monotonic() < deadline and not swarm.host.guard.dropped[refused]:
-                swarm.spin(0.05)
+            wait_until(lambda: swarm.host.guard.dropped[refused], 30, lambda: swarm.spin(0.05))
             dropped = swarm.host.guard.dropped[refused]
             run = swarm.coordinator.discover(POLICY, [source], [target], LOCAL_LEAST_SQUARES)
             result = swarm.run(run, timeout=120)

@@ -7,7 +7,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +25,8 @@ from swazure_ros.core.files import config_dir
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SHARED
-from .helpers import LATCHED, engine_expectations, received_vectors
+from ..waits import wait_until
+from .helpers import LATCHED, assert_matches, engine_expectations, matches
 
 WORLD = WorldSpec("helix:100", beta=0.5)
 ROS2 = Path(sys.executable).parent / "ros2"
@@ -71,21 +71,18 @@ def test_swarm_split_over_two_processes_gives_the_same_measurements(context, dom
             assert bring_up.processes == 2 and len(bring_up.peak_rss_mb) == 2
             world = swarm.world
 
+            def spin_both():
+                swarm.spin(0.02)
+                for _ in range(500):  # one callback per spin_once: drain the backlog
+                    executor.spin_once(timeout_sec=0.0)
+
             def until(condition):
-                deadline = time.monotonic() + 60
-                while time.monotonic() < deadline and not condition():
-                    swarm.spin(0.02)
-                    for _ in range(500):  # one callback per spin_once: drain the backlog
-                        executor.spin_once(timeout_sec=0.0)
-                return condition()
+                return wait_until(condition, 60, spin_both)
 
             assert until(lambda: len(latest) == len(world.ids)), (len(latest), len(world.ids))
             expected, _ = engine_expectations(world)
             for fls_id, message in latest.items():
-                got = received_vectors(message)
-                assert set(got) == set(expected[fls_id]), fls_id
-                for target, vector in got.items():
-                    np.testing.assert_allclose(vector, expected[fls_id][target], atol=1e-12)
+                assert_matches(message, expected[fls_id])
 
             # A move made by the world node in the first process reaches the second.
             remote = max(
@@ -105,13 +102,7 @@ def test_swarm_split_over_two_processes_gives_the_same_measurements(context, dom
 
             def remote_sees_move():
                 message = latest.get(remote)
-                if message is None:
-                    return False
-                got = received_vectors(message)
-                want = moved_expected[remote]
-                return set(got) == set(want) and all(
-                    np.allclose(got[t], want[t], rtol=0, atol=1e-12) for t in got
-                )
+                return message is not None and matches(message, moved_expected[remote])
 
             assert until(remote_sees_move)
     finally:
@@ -339,10 +330,7 @@ def test_a_stopped_swarm_leaves_every_process_nodes_off_the_graph_at_once(contex
         return sum(1 for name, namespace in names if namespace == "/swarm" and "fls_" in name)
 
     def spin_until(done, seconds):
-        deadline = time.monotonic() + seconds
-        while not done() and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.1)
-        return done()
+        return wait_until(done, seconds, lambda: executor.spin_once(timeout_sec=0.1))
 
     try:
         line = spawn.stdout.readline()

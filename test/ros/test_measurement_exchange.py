@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 from rclpy.executors import SingleThreadedExecutor
@@ -13,6 +11,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from swazure_ros.core.sensor import SWEET, measured_vectors
 
 from ..conftest import A, B, scene
+from ..waits import wait_until
 
 msgs = pytest.importorskip("swazure_interfaces.msg", reason="msg_defs is not built")
 
@@ -39,11 +38,12 @@ def test_measurement_message_arrives_with_its_content(context, sensor):
         message.line_of_sight = True
         message.vector.x, message.vector.y, message.vector.z = map(float, vector)
         message.tracking_distance = float(np.linalg.norm(vector) - 2 * swarm.radius)
-        deadline = time.monotonic() + 20.0
-        while not received and time.monotonic() < deadline:
+
+        def publish_and_spin():
             publisher.publish(message)  # again until the subscription has matched
             executor.spin_once(timeout_sec=0.1)
-        assert received, "no message arrived within 20 s"
+
+        assert wait_until(lambda: received, 20.0, publish_and_spin), "no message within 20 s"
         got = received[0]
         assert (got.source_id, got.target_id) == (A, B)
         assert got.range_class == msgs.RelativePose.RANGE_SWEET

@@ -13,7 +13,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +32,7 @@ from swazure_ros.ros.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import REPO, SHARED
+from ..waits import wait_until
 
 VENV = Path(sys.executable).parents[1]
 ROS2 = VENV / "bin" / "ros2"
@@ -94,13 +94,10 @@ def stop(process: subprocess.Popen[str]) -> str:
 
 
 def until(command, accept, timeout: float = 60):
-    """Run ``command()`` until ``accept`` holds of its result, or the time is up."""
-    deadline = time.monotonic() + timeout
-    while True:
-        result = command()
-        if accept(result) or time.monotonic() > deadline:
-            return result
-        time.sleep(0.5)
+    """Run ``command()`` until ``accept`` holds of its result, or the time is up; the last."""
+    results = []
+    wait_until(lambda: results and accept(results[-1]), timeout, lambda: results.append(command()))
+    return results[-1] if results else command()
 
 
 def nodes() -> list[str]:
@@ -269,13 +266,16 @@ def test_ros2_run_aruco_detector_reads_rendered_images_as_the_camera_does(ros2_t
             pixels = full_image(camera, frame)
             stamp = probe.get_clock().now().to_msg()
             key = (stamp.sec, stamp.nanosec)
-            deadline = time.monotonic() + 60
-            while key not in received and time.monotonic() < deadline:
+
+            def publish_and_spin(stamp=stamp, pixels=pixels):
                 # Again until the detector has matched both topics.
                 infos.publish(camera_info_message(camera, stamp, "fls_0_camera_optical"))
                 images.publish(image_message(pixels, stamp, "fls_0_camera_optical"))
                 executor.spin_once(timeout_sec=0.2)
-            assert key in received, f"no detections of the frame at {distance} mm"
+
+            assert wait_until(lambda key=key: key in received, 60, publish_and_spin), (
+                f"no detections of the frame at {distance} mm"
+            )
             message = received[key]
             assert message.header.frame_id == "fls_0_camera_optical"
             [(marker, corners)] = in_process.markers(pixels)

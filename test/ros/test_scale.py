@@ -6,8 +6,6 @@ The whole swarm's discovery at this size (291,372 ordered blind pairs, about
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 from rclpy.executors import SingleThreadedExecutor
@@ -19,6 +17,7 @@ from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.sim.world import WorldSpec
 
+from ..waits import wait_until
 from .helpers import LATCHED
 
 # A thousand FLSs at the published density; every one its own rclpy node.
@@ -49,12 +48,12 @@ def test_a_thousand_node_swarm_comes_up_latches_and_computes_the_engines_poses(
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(probe)
 
-        deadline = time.monotonic() + 120
-        while len(heard) < len(world.ids) and time.monotonic() < deadline:
+        def spin_both():
             swarm.spin(0.01)
             for _ in range(200):  # one callback per spin_once: drain the backlog
                 executor.spin_once(timeout_sec=0.0)
-        assert len(heard) == len(world.ids)
+
+        assert wait_until(lambda: len(heard) == len(world.ids), 120, spin_both), len(heard)
         executor.shutdown()
         probe.destroy_node()
         engine = evaluate(world.swarm, world.sensor, "shortest-length").pairs

@@ -22,6 +22,8 @@ from swazure_ros.ros.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec
 from swazure_ros.view.scene import MOVE_COLOUR
 
+from ..waits import wait_until
+
 WORLD = WorldSpec("helix:60", beta=0.5)
 #: The Foxglove SDK's WebSocket subprotocol; binary frames of op 1 carry message data.
 SUBPROTOCOL = "foxglove.sdk.v1"
@@ -70,10 +72,7 @@ def test_a_viewed_swarm_shows_its_flss_in_rviz_and_foxglove_and_follows_a_move(d
         world, scene = swarm.world, swarm.view.scene
 
         def until(condition, seconds=30.0):
-            deadline = time.monotonic() + seconds
-            while not condition() and time.monotonic() < deadline:
-                swarm.spin(0.05)
-            return condition()
+            return wait_until(condition, seconds, lambda: swarm.spin(0.05))
 
         # RViz: the latched scene, one sphere per FLS where the world has it, in metres.
         assert until(lambda: len(received) > 0)

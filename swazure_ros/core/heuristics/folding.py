@@ -1,0 +1,128 @@
+"""A heuristic's result folded into the plain run: the evaluation after it, and its summary."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .. import csr
+from ..evaluate import (
+    NO_PATH,
+    SWEET_PATH,
+    Evaluation,
+    merge_paths,
+    summarise,
+)
+from ..metrics import describe, pose_errors
+from ..paths import Paths
+from .compat import TEXT, Compat
+from .obstructing import move_obstructing
+from .result import MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN, HeuristicResult, check_technique
+from .source import move_source
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
+    """The plain evaluation with the heuristic's resolved pairs made SWEET; summary extended."""
+    pairs = evaluation.pairs
+    resolved = heuristic.resolved
+    status = pairs.status.copy()
+    status[resolved] = SWEET_PATH
+    plain = Paths(
+        pairs.status != NO_PATH, pairs.hops, pairs.path_length, pairs.offsets, pairs.nodes
+    )
+    moved = heuristic.paths
+    # A pair may keep its planned path without being resolved (its walk failed: walked()).
+    resolved_nodes = moved.nodes[np.repeat(resolved, np.diff(moved.offsets))]
+    paths = merge_paths(
+        plain,
+        Paths(
+            moved.found[resolved],
+            moved.hops[resolved],
+            moved.length[resolved],
+            moved.offsets,
+            resolved_nodes,
+        ),
+        resolved,
+    )
+    hops = np.where(paths.found, paths.hops, 0)
+    estimate = np.where(resolved[:, None], heuristic.estimate, pairs.estimate)
+    truth = np.where(resolved[:, None], heuristic.truth, pairs.truth)
+    sweet_hops = np.where(resolved, hops, pairs.sweet_hops)
+    decaying_hops = np.where(resolved, 0, pairs.decaying_hops)
+    length = pairs.path_length.copy()
+    length[resolved] = np.nan
+    errors = pose_errors(estimate, truth)
+    updated = replace(
+        pairs,
+        status=status,
+        hops=hops,
+        sweet_hops=sweet_hops,
+        decaying_hops=decaying_hops,
+        path_length=length,
+        offsets=paths.offsets,
+        nodes=paths.nodes,
+        estimate=estimate,
+        truth=truth,
+        distance_error=errors[0],
+        alpha=errors[1],
+        theta=errors[2],
+        phi=errors[3],
+        # A resolved pair's path was measured in a moved swarm: no prediction of its error.
+        predicted_error=np.where(resolved, np.nan, pairs.predicted_error),
+        fused_paths=np.where(paths.found, 1, 0).astype(np.int64),
+    )
+    summary = summarise(evaluation.hood, evaluation.policy, updated)
+    summary["seconds"] = evaluation.summary.get("seconds")
+    summary.update(heuristic_summary(heuristic))
+    summary["parameters"]["technique"] = heuristic.technique
+    summary["parameters"]["threshold"] = heuristic.threshold
+    return replace(evaluation, pairs=updated, summary=summary)
+
+
+def run_technique(
+    evaluation: Evaluation, technique: str, threshold: int = 10, compat: Compat = TEXT
+) -> tuple[Evaluation, HeuristicResult | None]:
+    """Apply ``technique`` to a plain evaluation; plain returns it unchanged, with no result."""
+    if check_technique(technique) == PLAIN:
+        return evaluation, None
+    if technique == MOVE_OBSTRUCTING:
+        heuristic = move_obstructing(evaluation, compat)
+    else:
+        heuristic = move_source(evaluation, threshold, compat)
+    return apply(evaluation, heuristic), heuristic
+
+
+def heuristic_summary(heuristic: HeuristicResult) -> dict[str, Any]:
+    """The summary fields of a heuristic (section 6): tried, resolved and move distances.
+
+    ``moved_distance`` is per move, of the resolved pairs only; the moves of
+    pairs that were tried and still failed are ``failed_moved_distance``.
+    ``moved_per_resolved_pair`` is what each resolved pair moved in all (the
+    published Table 3's metric), cm.
+    """
+    moved = heuristic.move_distance
+    pairs = len(heuristic.resolved)
+    owner = csr.run_of(heuristic.move_offsets)  # pair of each move
+    of_resolved = heuristic.resolved[owner]
+    resolved = np.flatnonzero(heuristic.resolved)
+    totals = np.bincount(owner, weights=moved, minlength=pairs)[resolved]
+    fields: dict[str, Any] = {
+        "technique": heuristic.technique,
+        "threshold": heuristic.threshold,
+        "tried_pairs": int(heuristic.tried.sum()),
+        "resolved_pairs": len(resolved),
+        "moved_distance": describe(moved[of_resolved]),
+        "failed_moved_distance": describe(moved[~of_resolved]),
+        "moved_per_resolved_pair": describe(totals),
+        "compat": heuristic.compat.switches_on(),
+    }
+    if heuristic.technique == MOVE_SOURCE:
+        fields["flown_distance"] = describe(heuristic.flown[heuristic.tried])
+        fields["displacement"] = describe(moved[of_resolved])
+    return fields

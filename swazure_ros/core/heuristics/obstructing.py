@@ -1,0 +1,318 @@
+"""Move Obstructing (spec, section 7): the FLSs that block a hop step aside.
+
+Two behaviours, chosen by :class:`~.compat.Compat`: :func:`obstructing_text`
+moves a pair's obstructers in sequence, each collision check seeing the
+earlier moves, and checks every hop after them; :func:`obstructing_published`
+finds each obstructer's destination in the original shape, as the published
+code does. :func:`move_obstructing` runs the one the switches ask for.
+
+Conventions beyond the spec:
+
+- An FLS steps aside onto the obstruction-free circle enlarged by a relative
+  1e-9 (``_ASIDE``): plain line of sight counts a centre at exactly r as
+  obstructing, and a swarm that makes the move for real (the coordinator's
+  Move Obstructing) must then see the hop clear when it measures again.
+- Obstructers of a hop are taken in the current configuration when the hop is
+  processed, in path order and by increasing FLS index; so an FLS moved into
+  a later hop moves again, and one moved into an earlier hop fails the pair at
+  the final check.
+- An FLS of the path itself cannot step aside: if it obstructs a hop, Move
+  Obstructing fails for the pair.
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import TYPE_CHECKING
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .. import csr
+from ..evaluate import (
+    Evaluation,
+    estimates,
+)
+from ..paths import Paths, path_hops, paths_from_rows, shortest_paths
+from ..sight import obstructers
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
+
+from ..geometry import (
+    circle_sphere_crossings,
+    closest_on_segment,
+    free_circle_point,
+    near_any_segment,
+    near_segment,
+    segment_gap,
+)
+from .compat import TEXT, Compat
+from .result import MOVE_OBSTRUCTING, HeuristicResult, blocked_pairs, empty_result
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+#: Slack when deciding that an FLS on the obstruction-free circle clears a line of sight, cm.
+TOUCH = 1e-9
+
+
+#: An FLS steps aside this fraction of r beyond the obstruction-free circle.
+_ASIDE = 1e-9
+
+
+def _published_destination(
+    points: FloatArray,
+    radius: float,
+    tree: cKDTree,
+    fls: int,
+    start: FloatArray,
+    end: FloatArray,
+    compat: Compat,
+) -> FloatArray | None:
+    """Where obstructer ``fls`` goes to clear the hop start-end in the original shape, or None."""
+    position = points[fls]
+    centre = closest_on_segment(start, end, position)
+    offset = position - centre
+    ideal = position + (radius / np.linalg.norm(offset) - 1.0) * offset
+    # The reference looks for a collision of the ideal move among the FLSs whose
+    # tracking distance from `fls` is at most |fls - ideal|, with the FLS's index
+    # standing for its position; reproduced so that its tables are.
+    reach = float(np.linalg.norm(fls - ideal)) + 2.0 * radius
+    near = [k for k in tree.query_ball_point(ideal, 2.0 * radius) if k != fls]
+    collides = any(
+        np.linalg.norm(points[k] - ideal) < 2.0 * radius
+        and np.linalg.norm(points[k] - position) <= reach
+        for k in near
+    )
+    if not collides:
+        return np.asarray(ideal)
+    # Every FLS within 4r (tracking distance 2r) can stand within 2r of the circle.
+    proximity = [k for k in tree.query_ball_point(position, 4.0 * radius) if k != fls]
+    proximity.sort(key=lambda k: (float(np.linalg.norm(points[k] - position)), k))
+    spheres = proximity[-1:] if compat.last_neighbour_circle else proximity
+    crossings = [
+        circle_sphere_crossings(centre, end - start, radius, points[k], 2.0 * radius)
+        for k in spheres
+    ]
+    candidates = np.concatenate([np.zeros((0, 3)), *crossings])
+    if len(candidates) == 0:
+        return None
+    gaps = np.linalg.norm(candidates[:, None, :] - points[proximity][None, :, :], axis=2)
+    clear = gaps >= 2.0 * radius * (1.0 - 1e-12)  # a crossing lies on its own sphere
+    usable = clear.any(axis=1) if compat.clear_of_any_one else clear.all(axis=1)
+    if not usable.any():
+        return None
+    candidates = candidates[usable]
+    return np.asarray(candidates[np.argmin(np.linalg.norm(candidates - position, axis=1))])
+
+
+def _blocked_hops(
+    evaluation: Evaluation,
+) -> tuple[IntArray, Paths, IntArray, IntArray, IntArray, IntArray]:
+    """The BLOCKED pairs, their S_all paths, and the obstructers of each hop's edge.
+
+    Returns (blocked pairs (B,), their paths, the edge label of every hop
+    (H,), the distinct labels (E,), and the obstructers in the original shape
+    as a CSR over those labels: offsets (E + 1,), swarm indices).
+    """
+    hood, pairs = evaluation.hood, evaluation.pairs
+    blocked = blocked_pairs(evaluation)
+    sweet_paths = shortest_paths(
+        hood.sweet_all, pairs.source[blocked], pairs.target[blocked], evaluation.policy
+    )
+    _, start, end = path_hops(sweet_paths)
+    edge = hood.sweet_all.edge_labels(start, end)
+    edges = np.unique(edge)
+    offsets, ids = obstructers(
+        hood.swarm.points,
+        hood.swarm.radius,
+        hood.pairs.first[edges],
+        hood.pairs.second[edges],
+        hood.grid,
+    )
+    return blocked, sweet_paths, edge, edges, offsets, ids
+
+
+def _obstructing_result(
+    evaluation: Evaluation,
+    blocked: IntArray,
+    new_paths: dict[int, list[int]],
+    move_counts: IntArray,
+    move_fls: IntArray,
+    move_from: FloatArray,
+    move_to: FloatArray,
+    compat: Compat,
+) -> HeuristicResult:
+    """Move Obstructing's outcome: the pairs ``new_paths`` resolved, the moves as a CSR."""
+    size = len(evaluation.pairs)
+    result = empty_result(MOVE_OBSTRUCTING, None, size)
+    result["tried"][blocked] = True
+    resolved = np.zeros(size, dtype=bool)
+    resolved[list(new_paths)] = True
+    result["resolved"] = resolved
+    paths = paths_from_rows(size, new_paths)
+    estimate, _, _ = estimates(evaluation.hood, paths)
+    result["estimate"][resolved] = estimate[resolved]
+    result["truth"][resolved] = evaluation.pairs.truth[resolved]
+    return HeuristicResult(
+        paths=paths,
+        move_offsets=csr.offsets(move_counts),
+        move_fls=move_fls,
+        move_from=move_from,
+        move_to=move_to,
+        compat=compat,
+        **result,
+    )
+
+
+def move_obstructing(evaluation: Evaluation, compat: Compat = TEXT) -> HeuristicResult:
+    """Move Obstructing (section 7) on every BLOCKED pair of a plain evaluation.
+
+    As the text (:func:`obstructing_text`) unless ``compat`` moves obstructers
+    independently, as published (:func:`obstructing_published`).
+    """
+    if compat.independent_moves:
+        return obstructing_published(evaluation, compat)
+    return obstructing_text(evaluation)
+
+
+def obstructing_text(evaluation: Evaluation) -> HeuristicResult:
+    """Move Obstructing as the text has it: a pair's obstructers move in sequence, each
+    collision check seeing the earlier moves, and every hop is checked after them."""
+    points, radius = evaluation.hood.swarm.points, evaluation.hood.swarm.radius
+    size = len(evaluation.pairs)
+    blocked, sweet_paths, edge, edges, offsets, ids = _blocked_hops(evaluation)
+    original = {
+        int(e): ids[offsets[k] : offsets[k + 1]].tolist() for k, e in enumerate(edges.tolist())
+    }
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
+    tree = cKDTree(points)
+    new_paths: dict[int, list[int]] = {}
+    move_counts = np.zeros(size, dtype=np.int64)
+    move_fls: list[int] = []
+    move_from: list[FloatArray] = []
+    move_to: list[FloatArray] = []
+    for slot, pair in enumerate(blocked.tolist()):
+        path = sweet_paths.path(slot)
+        moved: dict[int, FloatArray] = {}
+        moves: list[tuple[int, FloatArray, FloatArray]] = []
+        ok = True
+        # Every blocked pair has an S_all path, so path `slot` has hops from here on.
+        first_hop = int(sweet_paths.offsets[slot]) - slot
+        for hop, (a, b) in enumerate(itertools.pairwise(path)):
+            here = original[int(edge[first_hop + hop])]
+            current = [o for o in here if o not in moved]
+            if moved:
+                where = np.array(list(moved.values())).reshape(-1, 3)
+                near = near_segment(where, points[a], points[b], radius - TOUCH)
+                current += [o for o, close in zip(moved, near.tolist(), strict=True) if close]
+            for o in sorted(set(current)):
+                if o in path:
+                    ok = False
+                    break
+                position = moved.get(o, points[o])
+                centre = closest_on_segment(points[a], points[b], position)
+                near = tree.query_ball_point(centre, 5.0 * radius)
+                others = [k for k in near if k != o and k not in moved]
+                blockers = np.concatenate(
+                    [
+                        points[others].reshape(-1, 3),
+                        np.array([p for k, p in moved.items() if k != o]).reshape(-1, 3),
+                    ]
+                )
+                target = free_circle_point(
+                    centre,
+                    points[b] - points[a],
+                    position,
+                    radius * (1.0 + _ASIDE),
+                    blockers,
+                    2.0 * radius,
+                )
+                if target is None:
+                    ok = False
+                    break
+                moves.append((o, position, target))
+                moved[o] = target
+            if not ok:
+                break
+        if ok and moved:
+            hops = points[np.asarray(path, dtype=np.int64)]
+            where = np.array(list(moved.values())).reshape(-1, 3)
+            ok = not near_any_segment(where, hops[:-1], hops[1:], radius - TOUCH)
+        for o, old, new in moves:
+            move_fls.append(o)
+            move_from.append(old)
+            move_to.append(new)
+        move_counts[pair] = len(moves)
+        if ok:
+            new_paths[pair] = path
+    return _obstructing_result(
+        evaluation,
+        blocked,
+        new_paths,
+        move_counts,
+        np.array(move_fls, dtype=np.int64),
+        np.array(move_from, dtype=float).reshape(-1, 3),
+        np.array(move_to, dtype=float).reshape(-1, 3),
+        TEXT,
+    )
+
+
+def obstructing_published(evaluation: Evaluation, compat: Compat) -> HeuristicResult:
+    """Move Obstructing as the reference code does it: each obstructer's destination found
+    in the original shape, under ``compat``'s published switches (``independent_moves``)."""
+    hood = evaluation.hood
+    points, radius = hood.swarm.points, hood.swarm.radius
+    size = len(evaluation.pairs)
+    blocked, sweet_paths, edge, edges, offsets, ids = _blocked_hops(evaluation)
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
+    tree = cKDTree(points)
+    # Every move is made in the original shape: one destination per hop and obstructer.
+    moves_of: dict[int, tuple[list[tuple[int, FloatArray]], bool]] = {}
+    for k, label in enumerate(edges.tolist()):
+        a, b = int(hood.pairs.first[label]), int(hood.pairs.second[label])
+        hop_moves: list[tuple[int, FloatArray]] = []
+        cleared = True
+        for o in ids[offsets[k] : offsets[k + 1]].tolist():
+            # A centre at exactly r obstructs, but the reference moves only those closer.
+            if segment_gap(points[o], points[a], points[b]) >= radius:
+                continue
+            target = _published_destination(points, radius, tree, o, points[a], points[b], compat)
+            if target is None:
+                cleared = False
+            else:
+                hop_moves.append((o, target))
+        moves_of[label] = (hop_moves, cleared)
+    new_paths: dict[int, list[int]] = {}
+    move_counts = np.zeros(size, dtype=np.int64)
+    move_fls: list[int] = []
+    move_to: list[FloatArray] = []
+    for slot, pair in enumerate(blocked.tolist()):
+        first_hop = int(sweet_paths.offsets[slot]) - slot
+        hops = sweet_paths.hops[slot]
+        ok = True
+        for label in edge[first_hop : first_hop + hops].tolist():
+            hop_moves, cleared = moves_of[label]
+            if not hop_moves and cleared:
+                continue  # a hop in sight, or touched only at r
+            ok = cleared if compat.last_hop_decides else ok and cleared
+            move_fls.extend(o for o, _ in hop_moves)
+            move_to.extend(target for _, target in hop_moves)
+            move_counts[pair] += len(hop_moves)
+        if ok:
+            new_paths[pair] = sweet_paths.path(slot)
+    fls = np.array(move_fls, dtype=np.int64)
+    return _obstructing_result(
+        evaluation,
+        blocked,
+        new_paths,
+        move_counts,
+        fls,
+        points[fls].reshape(-1, 3),
+        np.array(move_to, dtype=float).reshape(-1, 3),
+        compat,
+    )

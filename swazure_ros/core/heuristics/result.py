@@ -1,0 +1,92 @@
+"""What a heuristic returns: per pair, whether it was tried and resolved, its new path and
+estimate, and every individual move (:class:`HeuristicResult`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..evaluate import (
+    REASON_BLOCKED,
+    SWEET_PATH,
+    Evaluation,
+)
+from ..paths import Paths
+from .compat import TEXT, Compat
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+PLAIN = "plain"
+
+
+MOVE_OBSTRUCTING = "move-obstructing"
+
+
+MOVE_SOURCE = "move-source"
+
+
+TECHNIQUES = (PLAIN, MOVE_OBSTRUCTING, MOVE_SOURCE)
+
+
+#: Move Source's threshold T, at most: 26 probes a step, and the published study's
+#: largest T is 10; beyond this the source would fly a thousand radii from its point.
+MAX_THRESHOLD = 1000
+
+
+@dataclass(frozen=True)
+class HeuristicResult:
+    """Outcome of a heuristic for M ordered blind pairs; moves as a CSR over pairs."""
+
+    technique: str
+    threshold: int | None
+    tried: NDArray[np.bool_]  # (M,)
+    resolved: NDArray[np.bool_]  # (M,)
+    paths: Paths  # the resolved pairs' sweet paths (not found elsewhere)
+    estimate: FloatArray  # (M, 3), cm; nan where not resolved
+    truth: FloatArray  # (M, 3), cm: p_j - p_i, or p_j - q for Move Source
+    move_offsets: IntArray  # (M + 1,)
+    move_fls: IntArray  # (K,), swarm index of the FLS that moved
+    move_from: FloatArray  # (K, 3), cm
+    move_to: FloatArray  # (K, 3), cm
+    flown: FloatArray = field(default_factory=lambda: np.zeros(0))  # (M,), Move Source
+    compat: Compat = TEXT
+
+    def moves(self, pair: int) -> list[tuple[int, FloatArray, FloatArray]]:
+        """The moves made for pair ``pair``: (fls, from, to), in order."""
+        span = range(self.move_offsets[pair], self.move_offsets[pair + 1])
+        return [(int(self.move_fls[k]), self.move_from[k], self.move_to[k]) for k in span]
+
+    @property
+    def move_distance(self) -> FloatArray:
+        """Length of every individual move, cm: (K,)."""
+        return np.asarray(np.linalg.norm(self.move_to - self.move_from, axis=1))
+
+
+def check_technique(technique: str) -> str:
+    """Return ``technique`` if valid, else raise ValueError listing the valid ones."""
+    if technique not in TECHNIQUES:
+        raise ValueError(
+            f"unknown technique {technique!r}; expected one of {', '.join(TECHNIQUES)}"
+        )
+    return technique
+
+
+def blocked_pairs(evaluation: Evaluation) -> IntArray:
+    pairs = evaluation.pairs
+    return np.flatnonzero((pairs.reason == REASON_BLOCKED) & (pairs.status != SWEET_PATH))
+
+
+def empty_result(technique: str, threshold: int | None, size: int) -> dict[str, Any]:
+    return {
+        "technique": technique,
+        "threshold": threshold,
+        "tried": np.zeros(size, dtype=bool),
+        "resolved": np.zeros(size, dtype=bool),
+        "estimate": np.full((size, 3), np.nan),
+        "truth": np.full((size, 3), np.nan),
+    }

@@ -1,0 +1,260 @@
+"""Move Source (spec, section 8): the source probes around itself for a common sweet neighbour.
+
+Move Source probes the 26 directions in the lexicographic order of their
+grid offsets (-1, -1, -1), (-1, -1, 0), ..., (1, 1, 1); among the target's
+visible sweet neighbours that succeed at one probe it takes the one with the
+smallest path length t(q, h) + t(h, j), then the smallest index. The text's
+and the published behaviours differ in the rules of one probe
+(:class:`ProbeRules`, from :class:`~.compat.Compat`).
+"""
+
+from __future__ import annotations
+
+import itertools
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .. import csr, jit
+from ..evaluate import (
+    Evaluation,
+)
+from ..paths import paths_from_rows
+from ..sensor import measured_vectors
+from ..sight import Grid, any_within, scan_between
+from .compat import TEXT, Compat
+from .result import MAX_THRESHOLD, MOVE_SOURCE, HeuristicResult, blocked_pairs, empty_result
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+#: The 26 probe directions of Move Source, unit vectors in lexicographic offset order.
+DIRECTIONS = np.array(
+    [offset for offset in itertools.product((-1, 0, 1), repeat=3) if any(offset)], dtype=float
+)
+
+
+#: The same offsets unnormalised: the published code's steps (``Compat.grid_steps``).
+GRID_STEPS = DIRECTIONS.copy()
+
+
+DIRECTIONS /= np.linalg.norm(DIRECTIONS, axis=1)[:, None]
+
+
+class ProbeRules(NamedTuple):
+    """The rules of one probe, the text's or the published code's: one kernel argument."""
+
+    collision_reach: float  # cm from the source's origin; inf: collisions count everywhere
+    occlusion_near_origin: bool  # Compat.occlusion_near_origin
+    sweet_max_inclusive: bool  # Compat.sweet_max_inclusive
+    first_helper: bool  # Compat.first_helper
+    published_flown: bool  # Compat.published_flown
+
+
+def probe_rules(compat: Compat, collision_reach: float) -> ProbeRules:
+    """The probe rules of ``compat``'s Move Source switches."""
+    return ProbeRules(
+        collision_reach,
+        compat.occlusion_near_origin,
+        compat.sweet_max_inclusive,
+        compat.first_helper,
+        compat.published_flown,
+    )
+
+
+@jit.kernel(cache=True, parallel=True)
+def _probe_kernel(
+    points: FloatArray,
+    radius: float,
+    sweet_min: float,
+    sweet_max: float,
+    sources: IntArray,
+    targets: IntArray,
+    visible_indptr: IntArray,
+    visible_indices: IntArray,
+    directions: FloatArray,
+    threshold: int,
+    grid: Grid,
+    rules: ProbeRules,
+) -> tuple[IntArray, FloatArray, FloatArray]:
+    """Per pair: the sweet neighbour reached (-1 if none), probe position, distance flown."""
+    collision_reach, occlusion_near_origin, sweet_max_inclusive, first_helper, published_flown = (
+        rules
+    )
+    pairs = len(sources)
+    helper = np.full(pairs, -1, dtype=np.int64)
+    probe = np.full((pairs, 3), np.nan)
+    flown = np.zeros(pairs)
+    for pair in jit.prange(pairs):
+        i, j = sources[pair], targets[pair]
+        found = np.empty(len(points) if occlusion_near_origin else 1, dtype=np.int64)
+        alive = np.ones(len(directions), dtype=np.bool_)
+        x, y, z = points[i, 0], points[i, 1], points[i, 2]
+        for delta in range(1, threshold + 1):
+            for d in range(len(directions)):
+                if not alive[d]:
+                    continue
+                step = delta * radius
+                qx = points[i, 0] + step * directions[d, 0]
+                qy = points[i, 1] + step * directions[d, 1]
+                qz = points[i, 2] + step * directions[d, 2]
+                if published_flown:
+                    # |(q_prev - p) + delta u|, before the collision check, as published.
+                    fx = x - points[i, 0] + qx - points[i, 0]
+                    fy = y - points[i, 1] + qy - points[i, 1]
+                    fz = z - points[i, 2] + qz - points[i, 2]
+                    flown[pair] += np.sqrt(fx * fx + fy * fy + fz * fz)
+                    x, y, z = qx, qy, qz
+                # Collision: any other FLS centre closer than 2r to q.
+                collides = any_within(
+                    points,
+                    qx,
+                    qy,
+                    qz,
+                    2.0 * radius,
+                    i,
+                    grid,
+                    points[i],
+                    collision_reach,
+                )
+                if collides:
+                    alive[d] = False
+                    continue
+                if not published_flown:
+                    flown[pair] += np.sqrt((qx - x) ** 2 + (qy - y) ** 2 + (qz - z) ** 2)
+                    x, y, z = qx, qy, qz
+                best, best_length = -1, np.inf
+                for slot in range(visible_indptr[j], visible_indptr[j + 1]):
+                    h = visible_indices[slot]
+                    if h == i:
+                        continue
+                    hx, hy, hz = points[h, 0], points[h, 1], points[h, 2]
+                    tracking = np.sqrt((hx - qx) ** 2 + (hy - qy) ** 2 + (hz - qz) ** 2)
+                    tracking -= 2.0 * radius
+                    if tracking < sweet_min or tracking > sweet_max:
+                        continue
+                    if tracking == sweet_max and not sweet_max_inclusive:
+                        continue
+                    hop = (
+                        np.sqrt(
+                            (hx - points[j, 0]) ** 2
+                            + (hy - points[j, 1]) ** 2
+                            + (hz - points[j, 2]) ** 2
+                        )
+                        - 2.0 * radius
+                    )
+                    total = (0.0 + tracking) + hop
+                    if total >= best_length:
+                        continue
+                    hits = scan_between(
+                        points,
+                        radius,
+                        qx,
+                        qy,
+                        qz,
+                        hx,
+                        hy,
+                        hz,
+                        i,
+                        h,
+                        grid,
+                        found,
+                        not occlusion_near_origin,
+                    )
+                    if occlusion_near_origin:
+                        # As published: only FLSs within |q - p_h| + 2r of the source's origin.
+                        reach = np.sqrt((hx - qx) ** 2 + (hy - qy) ** 2 + (hz - qz) ** 2)
+                        reach += 2.0 * radius
+                        near = 0
+                        for slot_found in range(hits):
+                            k = found[slot_found]
+                            ex = points[k, 0] - points[i, 0]
+                            ey = points[k, 1] - points[i, 1]
+                            ez = points[k, 2] - points[i, 2]
+                            if np.sqrt(ex * ex + ey * ey + ez * ez) <= reach:
+                                near += 1
+                        hits = near
+                    if hits == 0:
+                        best, best_length = h, total
+                        if first_helper:
+                            break
+                if best >= 0:
+                    helper[pair] = best
+                    probe[pair, 0], probe[pair, 1], probe[pair, 2] = qx, qy, qz
+                    break
+            if helper[pair] >= 0:
+                break
+    return helper, probe, flown
+
+
+def _nearest_first(points: FloatArray, indptr: IntArray, indices: IntArray) -> IntArray:
+    """Each CSR row's column indices by distance from the row's point, then by index."""
+    rows = csr.run_of(indptr)
+    distance = np.linalg.norm(points[indices] - points[rows], axis=1)
+    return np.asarray(indices[np.lexsort((indices, distance, rows))], dtype=np.int64)
+
+
+def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -> HeuristicResult:
+    """Move Source (section 8) with probe steps delta = 1..``threshold`` on every BLOCKED pair."""
+    if not 1 <= threshold <= MAX_THRESHOLD:
+        raise ValueError(f"threshold must be 1 to {MAX_THRESHOLD} steps, got {threshold}")
+    hood, pairs = evaluation.hood, evaluation.pairs
+    swarm, sensor, grid = hood.swarm, hood.sensor, hood.grid
+    size = len(pairs)
+    result = empty_result(MOVE_SOURCE, threshold, size)
+    blocked = blocked_pairs(evaluation)
+    result["tried"][blocked] = True
+    visible = hood.sweet_visible
+    helpers = visible.indices.astype(np.int64)
+    if compat.first_helper:
+        helpers = _nearest_first(swarm.points, visible.indptr, helpers)
+    reach = (threshold + 2) * swarm.radius if compat.collisions_near_origin else np.inf
+    helper, probe, flown_blocked = _probe_kernel(
+        swarm.points,
+        swarm.radius,
+        sensor.sweet_min,
+        sensor.sweet_max,
+        pairs.source[blocked],
+        pairs.target[blocked],
+        visible.indptr,
+        helpers,
+        GRID_STEPS if compat.grid_steps else DIRECTIONS,
+        int(threshold),
+        grid,
+        probe_rules(compat, float(reach)),
+    )
+    success = helper >= 0
+    resolved_pairs = blocked[success]
+    resolved = np.zeros(size, dtype=bool)
+    resolved[resolved_pairs] = True
+    flown = np.zeros(size)
+    flown[blocked] = flown_blocked
+    # Hops q -> h -> j, measured with the source at its probe position q.
+    extended = np.vstack([swarm.points, probe[success]])
+    moved_source = swarm.size + np.arange(len(resolved_pairs))
+    middle = helper[success]
+    first_hop = measured_vectors(sensor, extended, swarm.radius, moved_source, middle)
+    second_hop = measured_vectors(
+        sensor, extended, swarm.radius, middle, pairs.target[resolved_pairs]
+    )
+    result["resolved"] = resolved
+    result["estimate"][resolved_pairs] = first_hop + second_hop
+    result["truth"][resolved_pairs] = swarm.points[pairs.target[resolved_pairs]] - probe[success]
+    rows = {
+        int(pair): [int(pairs.source[pair]), int(h), int(pairs.target[pair])]
+        for pair, h in zip(resolved_pairs, middle)
+    }
+    move_counts = np.zeros(size, dtype=np.int64)
+    move_counts[resolved_pairs] = 1
+    return HeuristicResult(
+        paths=paths_from_rows(size, rows),
+        move_offsets=csr.offsets(move_counts),
+        move_fls=pairs.source[resolved_pairs].astype(np.int64),
+        move_from=swarm.points[pairs.source[resolved_pairs]].reshape(-1, 3),
+        move_to=probe[success].reshape(-1, 3),
+        flown=flown,
+        compat=compat,
+        **result,
+    )

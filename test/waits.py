@@ -1,0 +1,28 @@
+"""The one way a test waits: until a condition holds, with a deadline of its own."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+
+def wait_until(
+    condition: Callable[[], object],
+    timeout: float,
+    step: Callable[[], object] | None = None,
+) -> bool:
+    """Call ``step()`` until ``condition()`` holds or ``timeout`` s pass; whether it holds.
+
+    ``step`` is what makes progress meanwhile (spin an executor, publish again);
+    without one the test sleeps 0.05 s between looks. The condition is looked at
+    once more after the deadline, so a wait never fails on what just arrived.
+    """
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        if step is None:
+            time.sleep(0.05)
+        else:
+            step()
+    return bool(condition())
