@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import replace
 
 import numpy as np
@@ -10,26 +11,77 @@ from builtin_interfaces.msg import Time
 from rclpy.serialization import deserialize_message, serialize_message
 from swazure_interfaces.msg import Measurements, MoveCommands, PathOffer, PoseEstimates, WorldState
 
+from swazure_ros.core.evaluate import neighbourhood
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, PATH
 from swazure_ros.core.observe import Measurement
-from swazure_ros.core.sensor import DECAYING, SWEET
+from swazure_ros.core.sensor import DECAYING, SWEET, load_sensor
+from swazure_ros.core.tracking import RELAY_OK, TRACKING, MotionEstimate, TrackState
 from swazure_ros.protocol.discovery.estimate import Estimate
-from swazure_ros.protocol.discovery.messages import Broadcast, Offer, Report
-from swazure_ros.protocol.moves import RETURN, STEP_ASIDE, Move
+from swazure_ros.protocol.discovery.messages import (
+    START,
+    SWEET_ALL,
+    Broadcast,
+    Control,
+    Offer,
+    Report,
+)
+from swazure_ros.protocol.moves import RETURN, STEP_ASIDE, WALKING, Move, Walk
+from swazure_ros.protocol.radio import Ack
+from swazure_ros.protocol.tracking import (
+    START_RELAY,
+    RelayRequest,
+    Sample,
+    TrackProgressReport,
+    TrackReport,
+)
 from swazure_ros.ros.convert.discovery import (
+    ack_message,
+    control_from_message,
+    control_message,
+    estimate_from_message,
+    estimate_message,
     estimates_from_message,
     estimates_message,
+    moves_from_message,
     moves_message,
     offer_from_message,
     offer_message,
     pose_estimate_from_message,
     pose_estimate_message,
+    walk_from_message,
+    walk_message,
 )
+from swazure_ros.ros.convert.markers import scene_markers
 from swazure_ros.ros.convert.sensing import (
+    camera_info_message,
+    detections_from_message,
+    detections_message,
+    image_message,
     measurements_message,
+    neighbour_fields,
     readings_from_message,
     world_message,
     world_positions,
+)
+from swazure_ros.ros.convert.tracking import (
+    PROGRESS_COUNTERS,
+    motion_estimate,
+    relay_request_from_message,
+    relay_request_message,
+    sample_from_message,
+    sample_message,
+    track_estimate_message,
+    track_progress_from_message,
+    track_progress_message,
+)
+from swazure_ros.ros.convert.units import (
+    array3,
+    centimetres,
+    nanoseconds_stamp,
+    stamp_nanoseconds,
+    to_seconds,
+    to_stamp,
+    vector3,
 )
 from swazure_ros.ros.guard import MessageError
 
@@ -200,3 +252,163 @@ def test_measurements_read_back_as_the_readings_a_fit_takes():
     got.poses[0].range_class = got.poses[0].RANGE_BLIND
     with pytest.raises(MessageError, match="out of camera range"):
         readings_from_message(got, np.array([3, 5, 9]))
+
+
+# Every other converter, both ways through the wire: sent, serialised, read back.
+
+SWARM = np.array([1, 3, 5, 9], dtype=np.int64)
+
+
+def wire(message):
+    """``message`` serialised and read back, as a subscriber gets it."""
+    return deserialize_message(serialize_message(message), type(message))
+
+
+def test_a_control_reads_back_as_it_was_sent():
+    control = Control(
+        run_id=7,
+        command=START,
+        phase=SWEET_ALL,
+        policy="least-error",
+        round=3,
+        expected=4,
+        source_ids=(1, 3),
+        target_ids=(9, 5),
+        finished_ids=(1,),
+        departed_ids=(5,),
+        estimator=LOCAL_LEAST_SQUARES,
+    )
+    assert control_from_message(wire(control_message(control, Time(sec=2))), SWARM) == control
+
+
+def test_a_round_ack_carries_its_host_and_counts():
+    ack = Ack(run_id=7, phase=SWEET_ALL, round=3, heard=12, repairs=2, lost=1, latency=0.5)
+    got = wire(ack_message(ack, "host_1", Time(sec=2)))
+    assert (got.run_id, got.phase, got.round, got.heard) == (7, SWEET_ALL, 3, 12)
+    assert (got.repairs, got.lost, got.host, got.header.stamp.sec) == (2, 1, "host_1", 2)
+
+
+def test_moves_read_back_as_commanded_kinds_and_displacements():
+    moves = [
+        Move(5, STEP_ASIDE, 1, 9, 7, 2, np.array([0.5, 0.0, -0.25])),
+        Move(3, RETURN, 1, 9, 7, 2, None),
+    ]
+    ids, kinds, displacement = moves_from_message(wire(moves_message(moves, Time())), SWARM, 10.0)
+    assert ids.tolist() == [5, 3] and kinds.tolist() == [STEP_ASIDE, RETURN]
+    np.testing.assert_array_equal(displacement[0], [0.5, 0.0, -0.25])
+
+
+def test_a_walk_reads_back_at_its_hop_with_its_sum():
+    walk = Walk(7, 4, (1, 3, 9), hop=1, state=WALKING, vector=np.array([7.3, -6.1, 0.25]))
+    back = walk_from_message(wire(walk_message(walk, Time())), SWARM)
+    assert (back.run_id, back.revision, back.path, back.hop, back.state) == (7, 4, (1, 3, 9), 1, 0)
+    np.testing.assert_array_equal(back.vector, walk.vector)
+
+
+def test_one_path_estimate_keeps_its_centimetres():
+    back = estimate_from_message(wire(estimate_message(_found())))
+    assert (back.target, back.path, back.length) == (9, (3, 5, 9), 13.4)
+    np.testing.assert_array_equal(back.vector, _found().vector)
+
+
+def test_detections_read_back_as_the_vectors_the_camera_measured():
+    measurement = Measurement(
+        np.array([9, 5]),
+        np.array([SWEET, DECAYING], dtype=np.int8),
+        np.array([[7.3, -6.1, 0.25], [1.0, 2.0, 3.0]]),
+        np.array([6.5, 9.0]),
+    )
+    sensor = load_sensor()
+    sent = detections_message(3, measurement, np.array([42, 17]), sensor, Time(sec=1), revision=4)
+    got = wire(sent)
+    markers, vectors = detections_from_message(got, 3)
+    assert markers.tolist() == [42, 17] and got.revision == 4
+    np.testing.assert_allclose(vectors, measurement.vector, rtol=1e-15)
+
+
+def test_a_relay_request_and_a_sample_read_back_to_the_nanosecond():
+    request = RelayRequest(START_RELAY, source=1, relay=3, target=9, start=1_500_000_001)
+    assert relay_request_from_message(wire(relay_request_message(request)), SWARM) == request
+    sample = Sample(1, 3, 9, RELAY_OK, np.array([7.3, -6.1, 0.25]), 2_000_000_003)
+    back = sample_from_message(wire(sample_message(sample)), SWARM)
+    assert (back.source, back.relay, back.target, back.status, back.sensed) == (
+        1, 3, 9, RELAY_OK, 2_000_000_003
+    )  # fmt: skip
+    np.testing.assert_allclose(back.position, sample.position, rtol=1e-15)
+
+
+def test_track_progress_reads_back_with_every_counter():
+    traffic = Counter({name: index + 1 for index, name in enumerate(PROGRESS_COUNTERS)})
+    report = TrackProgressReport(3, 2_000_000_003, traffic, True)
+    assert track_progress_from_message(wire(track_progress_message(report)), SWARM) == report
+
+
+def test_a_track_estimate_reads_back_as_the_sources_estimate():
+    state = TrackState(2.0, np.array([1.0, 2.0, 3.0]), np.array([0.5, 0, 0]), np.zeros(3))
+    filtered = TrackState(1.75, np.array([0.9, 2.0, 3.0]), np.array([0.5, 0, 0]), np.zeros(3))
+    estimate = MotionEstimate(
+        TRACKING, 2.0, 1.75, np.array([0.9, 2.0, 3.1]), state, filtered,
+        np.array([0.4, 0, 0]), np.zeros(3), "", relay=3,
+    )  # fmt: skip
+    back = motion_estimate(
+        wire(track_estimate_message(TrackReport(1, 9, "constant-velocity", estimate)))
+    )
+    assert (back.status, back.time, back.sample_time, back.relay) == (TRACKING, 2.0, 1.75, 3)
+    for ours, theirs in ((back.kalman, state), (back.filtered, filtered)):
+        assert ours is not None and ours.time == theirs.time
+        np.testing.assert_allclose(ours.position, theirs.position, rtol=1e-15)
+        np.testing.assert_allclose(ours.velocity, theirs.velocity, rtol=1e-15)
+    np.testing.assert_allclose(back.raw, estimate.raw, rtol=1e-15)
+
+
+def test_stamps_and_vectors_convert_both_ways():
+    assert stamp_nanoseconds(wire(nanoseconds_stamp(2_000_000_003))) == 2_000_000_003
+    assert to_seconds(wire(to_stamp(1.25))) == 1.25
+    vector = np.array([0.073, -0.061, 0.0025])
+    np.testing.assert_array_equal(array3(wire(vector3(vector))), vector)
+    np.testing.assert_allclose(centimetres(vector3(vector)), vector * 100, rtol=1e-15)
+    assert np.isnan(array3(vector3(None))).all()
+
+
+def test_a_camera_image_and_its_calibration_read_back():
+    from swazure_ros.core.camera import load_camera
+    from swazure_ros.core.files import config_dir
+
+    camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
+    image = np.arange(12, dtype=np.uint8).reshape(3, 4)
+    got = wire(image_message(image, Time(sec=1), "fls_3_camera_optical"))
+    assert (got.height, got.width, got.encoding, got.header.frame_id) == (
+        3, 4, "mono8", "fls_3_camera_optical"
+    )  # fmt: skip
+    np.testing.assert_array_equal(np.frombuffer(bytes(got.data), np.uint8).reshape(3, 4), image)
+    info = wire(camera_info_message(camera, Time(sec=1), "fls_3_camera_optical"))
+    assert (info.width, info.height) == (camera.width, camera.height)
+    assert info.header.frame_id == "fls_3_camera_optical"
+    np.testing.assert_array_equal(np.reshape(info.k, (3, 3)), camera.matrix)
+
+
+def test_neighbour_sets_fill_the_get_neighbours_answer():
+    from swazure_interfaces.srv import GetNeighbours
+
+    from swazure_ros.core.observe import NeighbourSets
+
+    sets = NeighbourSets(np.array([1]), np.array([3, 5]), np.array([3]), np.array([9]))
+    response = GetNeighbours.Response(**neighbour_fields(sets))
+    got = wire(response)
+    assert (got.blind_ids.tolist(), got.sweet_ids.tolist()) == ([1], [3, 5])
+    assert (got.visible_sweet_ids.tolist(), got.decaying_ids.tolist()) == ([3], [9])
+
+
+def test_a_scene_becomes_markers_in_metres_in_the_swarm_frame():
+    from visualization_msgs.msg import MarkerArray
+
+    from swazure_ros.core.geometry import make_swarm
+    from swazure_ros.view.scene import ranges_scene
+
+    swarm = make_swarm(np.array([[0.0, 0, 0], [7.0, 0, 0], [0, 7.0, 0]]), radius=0.5)
+    hood = neighbourhood(swarm, load_sensor())
+    got = wire(scene_markers(ranges_scene(hood, "three FLSs", 0), Time(sec=1)))
+    assert isinstance(got, MarkerArray)
+    flss = next(marker for marker in got.markers if marker.ns == "flss")
+    points = np.array([[p.x, p.y, p.z] for p in flss.points])
+    np.testing.assert_allclose(points, swarm.points / 100)
