@@ -58,6 +58,6 @@ class ViewConfig:
 
     port: int = 8765
     colour_by: str = "ranges"  # or "status": each FLS's share of sweet paths (the engine's)
-    fls: int | None = None  # colour_by ranges: seen from this FLS (default the first)
+    seen_from: int | None = None  # colour_by ranges: seen from this FLS (default the first)
     policy: str = "shortest-length"  # colour_by status and pairs: the paths' policy
     pairs: tuple[tuple[int, int], ...] = ()  # ordered blind pairs whose paths to draw

@@ -423,9 +423,9 @@ def first_scene(world: World, view: ViewConfig) -> Scene:
         title = f"{name}: each FLS's share of blind neighbours with a sweet path"
         if view.colour_by == "status":
             return evaluation_scene(evaluation, title, pairs=view.pairs)
-        scene = evaluation_scene(evaluation, name, "ranges", view.fls, pairs=view.pairs)
+        scene = evaluation_scene(evaluation, name, "ranges", view.seen_from, pairs=view.pairs)
     else:
-        scene = ranges_scene(world.hood, f"{name}: range classes", view.fls)
+        scene = ranges_scene(world.hood, f"{name}: range classes", view.seen_from)
     return replace(
         scene, title=f"{name}: range classes seen from FLS {scene.ids[scene.highlight]}"
     )

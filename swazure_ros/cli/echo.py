@@ -10,7 +10,7 @@ import argparse
 import sys
 
 from .arguments import count, ros_topic, seconds
-from .evaluate import add_domain_argument
+from .options import add_domain_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -16,7 +16,7 @@ import numpy as np
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES
 from ..protocol.discovery.estimate import Estimate
 from .arguments import fls_id, ros_namespace, seconds
-from .evaluate import add_domain_argument, add_policy_argument, add_swarm_estimator_argument
+from .options import add_domain_argument, add_policy_argument, add_swarm_estimator_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -13,7 +13,7 @@ import time
 
 from ..core.errors import SwazureError
 from .arguments import input_file, number, seconds
-from .evaluate import add_domain_argument
+from .options import add_domain_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -37,7 +37,6 @@ from ..sim.world import WorldSpec
 from .arguments import (
     count,
     discovery_servers,
-    fls_id,
     fls_pairs,
     input_file,
     mcap_file,
@@ -47,7 +46,8 @@ from .arguments import (
     seconds,
     share,
 )
-from .evaluate import (
+from .options import (
+    add_colour_arguments,
     add_domain_argument,
     add_policy_argument,
     add_swarm_arguments,
@@ -137,20 +137,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--view-port", type=port, default=8765, metavar="P", help="Foxglove port (default 8765)"
     )
-    parser.add_argument(
-        "--view-colour",
-        choices=("ranges", "status"),
-        default="ranges",
-        help="colour FLSs by range class seen from --view-fls, or by their share of blind "
-        "neighbours with a sweet path (after --compute-all, the swarm's own)",
-    )
-    parser.add_argument(
-        "--view-fls",
-        type=fls_id,
-        default=None,
-        metavar="I",
-        help="--view-colour ranges: from FLS I",
-    )
+    add_colour_arguments(parser, "ranges", "--view colours (after --compute-all, the swarm's own)")
     parser.add_argument(
         "--view-pairs",
         type=fls_pairs,
@@ -292,7 +279,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         log_dir=None if args.log_dir is None else str(args.log_dir),
         discovery_servers=args.discovery_server,
         view=ViewConfig(
-            args.view_port, args.view_colour, args.view_fls, args.policy, args.view_pairs
+            args.view_port, args.colour_by, args.seen_from, args.policy, args.view_pairs
         )
         if args.view
         else None,
@@ -303,7 +290,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     """Run discovery over the whole swarm, report it beside the engine, write --out."""
     from ..app.compute import compute_all as run
     from ..core.results import describe_source, write_evaluation
-    from .evaluate import summary_table
+    from .summary import summary_table
 
     world = swarm.world
 

@@ -36,7 +36,7 @@ from ..core.tracking import (
 from ..protocol.loops import simulate_track
 from ..sim.world import World, WorldSpec
 from .arguments import fls_id, output_file, png_file, seconds
-from .evaluate import add_domain_argument, add_swarm_arguments
+from .options import add_domain_argument, add_swarm_arguments
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

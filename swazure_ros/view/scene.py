@@ -179,7 +179,7 @@ def evaluation_scene(
     evaluation: Evaluation,
     title: str,
     colour_by: str = "status",
-    chosen_fls: int | None = None,
+    seen_from: int | None = None,
     paths: int = 3,
     heuristic: HeuristicResult | None = None,
     pairs: Sequence[tuple[int, int]] = (),
@@ -188,7 +188,7 @@ def evaluation_scene(
 
     "status": each FLS by the share of its blind neighbours it has by a sweet
     path, with example paths of the swarm; "ranges": each FLS by its range
-    class seen from FLS ``chosen_fls`` (an id; default the first), with
+    class seen from FLS ``seen_from`` (an id; default the first), with
     example paths from it. With ``heuristic``, the moves of a few resolved pairs.
     With ``pairs`` (source id, target id), those pairs' paths instead of examples.
     """
@@ -207,7 +207,7 @@ def evaluation_scene(
         )
     if colour_by != "ranges":
         raise SwazureError(f"unknown colouring {colour_by!r}: status or ranges")
-    scene = ranges_scene(evaluation.hood, title, chosen_fls)
+    scene = ranges_scene(evaluation.hood, title, seen_from)
     return replace(
         scene,
         paths=pair_paths(evaluation, pairs)
@@ -217,11 +217,11 @@ def evaluation_scene(
     )
 
 
-def ranges_scene(hood: Neighbourhood, title: str, chosen_fls: int | None = None) -> Scene:
-    """Every FLS coloured by its range class seen from FLS ``chosen_fls`` (default the first)."""
+def ranges_scene(hood: Neighbourhood, title: str, seen_from: int | None = None) -> Scene:
+    """Every FLS coloured by its range class seen from FLS ``seen_from`` (default the first)."""
     swarm = hood.swarm
     ids = swarm.cloud_index
-    chosen = int(ids[0]) if chosen_fls is None else chosen_fls
+    chosen = int(ids[0]) if seen_from is None else seen_from
     index = int(np.searchsorted(ids, chosen))
     if index >= len(ids) or ids[index] != chosen:
         raise UnknownFlsError(f"no FLS {chosen} in this swarm of {len(ids)} FLSs")

@@ -47,7 +47,7 @@ def test_a_verb_loads_its_own_module_and_no_other():
 
 
 def test_evaluate_help_explains_every_row_of_the_summary():
-    from swazure_ros.cli.evaluate import SUMMARY_TERMS, summary_rows
+    from swazure_ros.cli.summary import SUMMARY_TERMS, summary_rows
     from swazure_ros.core.clouds import load_cloud
     from swazure_ros.core.evaluate import evaluate
     from swazure_ros.core.geometry import make_swarm

@@ -62,7 +62,7 @@ def foxglove_scene(port, topic, timeout=20.0):
 
 
 def test_a_viewed_swarm_shows_its_flss_in_rviz_and_foxglove_and_follows_a_move(domain):
-    config = SwarmConfig(WORLD, domain_id=domain, view=ViewConfig(port=0, fls=5))
+    config = SwarmConfig(WORLD, domain_id=domain, view=ViewConfig(port=0, seen_from=5))
     received = []
     with RunningSwarm(config) as swarm:
         probe = SwarmNode("probe", context=swarm.context)

@@ -61,9 +61,9 @@ def test_example_paths_are_sweet_paths_of_the_evaluation_from_few_to_many_hops(e
     assert len(hops) >= 2 and hops == sorted(hops) and len(set(hops)) == len(hops)
 
 
-def test_range_colours_are_the_range_classes_seen_from_the_chosen_fls(evaluation):
+def test_range_colours_are_the_range_classes_seen_from_the_seen_from(evaluation):
     chosen = 7
-    scene = evaluation_scene(evaluation, "torus", colour_by="ranges", chosen_fls=chosen)
+    scene = evaluation_scene(evaluation, "torus", colour_by="ranges", seen_from=chosen)
     hood = evaluation.hood
     assert scene.highlight == chosen  # the torus keeps every point: index = id
     np.testing.assert_array_equal(scene.colours[chosen], CHOSEN[1])
@@ -77,7 +77,7 @@ def test_range_colours_are_the_range_classes_seen_from_the_chosen_fls(evaluation
     for path in scene.paths:
         assert path.label.startswith(f"FLS {chosen} -> ")
     with pytest.raises(UnknownFlsError, match="no FLS 5000"):
-        evaluation_scene(evaluation, "torus", colour_by="ranges", chosen_fls=5000)
+        evaluation_scene(evaluation, "torus", colour_by="ranges", seen_from=5000)
 
 
 def test_a_heuristics_moves_are_the_scenes_arrows(tmp_path):

@@ -1,0 +1,139 @@
+"""Options that several verbs share: the swarm's description, the ROS domain, the path
+policy, the estimator, the heuristics' threshold and mode, and what a picture is coloured by."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ..core.clouds import load_cloud
+from ..core.errors import CloudError
+from ..core.fit import PATH, SWARM_ESTIMATORS
+from ..core.geometry import make_swarm
+from ..core.heuristics.compat import COMPAT_MODES
+from ..core.paths import POLICIES
+from ..core.sensor import load_sensor
+from .arguments import (
+    MAX_DOMAIN_ID,
+    domain_id,
+    fls_id,
+    input_file,
+    seed,
+    threshold,
+)
+
+
+def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options that describe a swarm: cloud, scale, beta or radius, sensor, seed."""
+    parser.add_argument(
+        "--cloud",
+        default="torus",
+        metavar="NAME|PATH",
+        help="a point cloud file (.xyz .csv .npy .ply) or a built-in shape "
+        "(sphere, torus, helix, cube; NAME:COUNT for another size); default: torus",
+    )
+    parser.add_argument(
+        "--scale",
+        type=float,
+        default=None,
+        help="multiply file coordinates by this to get cm (default: the published "
+        "scale for the six published files, else 1)",
+    )
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument("--beta", type=float, default=None, help="FLS radius r = beta * dmin")
+    size.add_argument("--radius", type=float, default=None, help="FLS radius r in cm")
+    parser.add_argument(
+        "--sensor",
+        type=input_file,
+        default=None,
+        metavar="FILE",
+        help="sensor YAML (ranges, error model); default: config/sensor.yaml",
+    )
+    parser.add_argument("--accurate", action="store_true", help="measure without error")
+    parser.add_argument(
+        "--seed", type=seed, default=0, help="seed of the choice of colliding FLSs to remove"
+    )
+
+
+def add_domain_argument(parser: argparse.ArgumentParser) -> None:
+    """The ROS domain option of the verbs that join a swarm."""
+    parser.add_argument(
+        "--domain-id",
+        type=domain_id,
+        default=None,
+        help=f"ROS domain id, 0..{MAX_DOMAIN_ID} (default: $ROS_DOMAIN_ID)",
+    )
+
+
+def add_swarm_estimator_argument(parser: argparse.ArgumentParser, context: str = "") -> None:
+    """``--estimator`` as a swarm runs it: the path sum, or each source's own fit."""
+    parser.add_argument(
+        "--estimator",
+        choices=SWARM_ESTIMATORS,
+        default=PATH,
+        help=f"{context}how each source estimates a pose: the sum of the measured hops along "
+        "the policy's path, as the paper does (default), or a least-squares fit of the "
+        "measurements it hears by radio, with a covariance (docs/core.md)",
+    )
+
+
+def add_policy_argument(parser: argparse.ArgumentParser) -> None:
+    """The path policy option, shared by the verbs that compute poses."""
+    parser.add_argument(
+        "--policy",
+        choices=POLICIES,
+        default="shortest-length",
+        help="path policy (default: shortest-length)",
+    )
+
+
+def add_threshold_argument(parser: argparse.ArgumentParser) -> None:
+    """Move Source's probe threshold, shared by the verbs that run the heuristics."""
+    parser.add_argument(
+        "--threshold",
+        type=threshold,
+        default=10,
+        metavar="T",
+        help="Move Source: probe up to T steps of r per direction (default 10)",
+    )
+
+
+def add_compat_argument(parser: argparse.ArgumentParser) -> None:
+    """The heuristics' mode, shared by the verbs that run them."""
+    parser.add_argument(
+        "--compat",
+        choices=tuple(COMPAT_MODES),
+        default="text",
+        help="the heuristics as the paper's text describes them (default), or as its "
+        "published code runs them, which computed its Tables 2-4 (docs/core.md)",
+    )
+
+
+def swarm_from_args(args: argparse.Namespace) -> tuple[Any, Any, Any]:
+    """The cloud, swarm and sensor that the swarm options describe."""
+    if args.beta is None and args.radius is None:
+        raise CloudError("give --beta (r = beta * dmin) or --radius (cm)")
+    sensor = load_sensor(args.sensor)
+    if args.accurate:
+        sensor = sensor.error_free()
+    cloud = load_cloud(args.cloud, args.scale)
+    swarm = make_swarm(cloud.points, beta=args.beta, radius=args.radius, seed=args.seed)
+    return cloud, swarm, sensor
+
+
+def add_colour_arguments(parser: argparse.ArgumentParser, default: str, what: str) -> None:
+    """How a picture of the swarm colours its FLSs: ``--colour-by`` and ``--seen-from``."""
+    parser.add_argument(
+        "--colour-by",
+        choices=("status", "ranges"),
+        default=default,
+        help=f"{what}: each FLS's share of blind neighbours with a sweet path (status), or "
+        f"range classes seen from FLS --seen-from (ranges); default {default}",
+    )
+    parser.add_argument(
+        "--seen-from",
+        type=fls_id,
+        default=None,
+        metavar="I",
+        help="--colour-by ranges: seen from FLS I (default: the first FLS)",
+    )

@@ -1,0 +1,116 @@
+"""A run's summary as people read it: a table of rows, and what each row means."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+#: What the rows of a run's summary mean (spec, sections 2 and 6): ``evaluate --help``.
+SUMMARY_TERMS = """\
+the summary's rows:
+  kissing pairs           unordered pairs that touch: t within 1e-3 cm of 0 (one whose
+                          t is still above 0 counts as a blind pair too)
+  ordered blind pairs     (source, target) with 0 < t below the sweet range, both orders
+  blocked / no sweet path pairs with no sweet path in sight: the radio's sweet graph
+                          joins them (an FLS obstructs) / does not
+  obstructed sweet paths  of the pairs the radio's sweet graph joins, the share whose
+                          path there an FLS obstructs
+  predicted error         the estimates' mean expected error, cm; the share of pairs
+                          whose error is within theirs
+  NEES                    a fit's normalized estimation error squared (3 is honest)
+  distance error, %       | |estimate| - |truth| | / |truth|: 100 % is an estimate twice
+                          as long, or of length zero; a decaying hop can exceed that
+  alpha, deg              the angle between the estimated and the true vector
+  theta error, deg        the error of the inclination acos(z / |v|)
+  phi error, deg          the error of the azimuth atan2(y, x), at most 180: near the z
+                          axis a small error of the vector turns the azimuth a lot
+"""
+
+
+def cell(value: Any) -> str:
+    if isinstance(value, float):
+        return "-" if math.isnan(value) else f"{value:.4g}"
+    return "-" if value is None else str(value)
+
+
+def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
+    """(label, value) rows of a run's summary, as :func:`summary_table` prints them."""
+    rows = [
+        ("FLSs (removed)", f"{summary['flss']} ({summary['removed']})"),
+        ("radius r / dmin, cm", f"{summary['radius']:.4g} / {summary['dmin']:.4g}"),
+        ("kissing pairs", cell(summary["kissing_pairs"])),
+        ("ordered blind pairs", cell(summary["blind_pairs"])),
+        ("sweet path", f"{summary['sweet_pct']:.3f} %"),
+        ("decaying path", f"{summary['decaying_pct']:.3f} %"),
+        ("no path", f"{summary['no_path_pct']:.3f} %"),
+        (
+            "blocked / no sweet path",
+            f"{summary['blocked_pairs']} / {summary['no_sweet_path_pairs']}",
+        ),
+        ("obstructed sweet paths", f"{summary['obstructed_path_pct']:.2f} %"),
+        (
+            "predicted error cm; within it",
+            f"{cell(summary['predicted_error_cm']['mean'])}; "
+            f"{summary['within_predicted_pct']:.1f} %",
+        ),
+    ]
+    if "fit" in summary:
+        fit = summary["fit"]
+        kind = summary["parameters"]["sensor"]["error_model"]["kind"]
+        nees = f"{cell(fit['nees']['mean'])}; {cell(fit['within_chi2_95_pct'])} %"
+        if kind != "stochastic":
+            # The published model's error is one bias, not a spread (docs/core.md).
+            nees = "- (no noise model)"
+        rows.append(("NEES mean; within chi2 95 %", nees))
+    if "fusion" in summary:
+        fusion = summary["fusion"]
+        one, fused = fusion["distance_error_pct_one_path"], fusion["distance_error_pct_fused"]
+        rows.append(
+            (
+                f"fused ({fusion['paths']} paths): pairs",
+                f"{fusion['pairs_fused']}, error {cell(one['mean'])} -> {cell(fused['mean'])}",
+            )
+        )
+    if "technique" in summary:
+        moved = summary["moved_distance"]
+        rows.append(
+            ("tried / resolved pairs", f"{summary['tried_pairs']} / {summary['resolved_pairs']}")
+        )
+        per_pair, failed = summary["moved_per_resolved_pair"], summary["failed_moved_distance"]
+        rows += [
+            (
+                "moves: count, mean, max cm",
+                f"{moved['count']}, {cell(moved['mean'])}, {cell(moved['max'])}",
+            ),
+            (
+                "per resolved pair: mean, max",
+                f"{cell(per_pair['mean'])}, {cell(per_pair['max'])}",
+            ),
+            (
+                "failed pairs' moves: n, mean",
+                f"{failed['count']}, {cell(failed['mean'])}",
+            ),
+        ]
+    for key, label in [
+        ("distance_error_pct", "distance error, %"),
+        ("alpha_deg", "alpha, deg"),
+        ("theta_deg", "theta error, deg"),
+        ("phi_deg", "phi error, deg"),
+        ("hops", "hops"),
+    ]:
+        stats = summary[key]
+        rows.append((f"{label}: mean / max", f"{cell(stats['mean'])} / {cell(stats['max'])}"))
+    return rows
+
+
+def summary_table(summary: dict[str, Any], *others: tuple[str, dict[str, Any]]) -> str:
+    """A readable text table of a run's summary; ``others`` add (heading, summary) columns."""
+    columns = [summary_rows(summary)] + [summary_rows(other) for _, other in others]
+    width = max(len(value) for column in columns for _, value in column) + 2
+    lines = []
+    if others:
+        headings = ["this run"] + [heading for heading, _ in others]
+        lines.append(f"{'':<30}" + "".join(f"{heading:>{width}}" for heading in headings))
+    for row, (label, _) in enumerate(columns[0]):
+        lines.append(f"{label:<30}" + "".join(f"{column[row][1]:>{width}}" for column in columns))
+    return "\n".join(lines)
