@@ -427,7 +427,7 @@ def compute_all(
     with log.open("w") as stderr:
         process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=stderr, text=True)
         try:
-            output, _ = process.communicate(timeout=limit)
+            process.communicate(timeout=limit)
         except subprocess.TimeoutExpired:
             process.terminate()
             process.communicate(timeout=900)
@@ -439,24 +439,25 @@ def compute_all(
     if process.returncode != 0:
         tail = log.read_text().strip().splitlines()[-1:]
         return {"failed": f"exit {process.returncode}: {' '.join(tail)}"}
-    distributed = json.loads((out / "summary.json").read_text())["distributed"]
-    moved = distributed.get("moves", {"seconds": 0.0, "messages": {}, "bytes": {}})
-    line = next(x for x in output.splitlines() if x.startswith("swarm up:"))
+    from swazure_ros.core.results import RECORD_FILE, read_record
+
+    record = read_record(out / RECORD_FILE)
+    distributed, bring_up = record.distributed, record.bring_up
+    assert distributed is not None and bring_up is not None
+    moved = distributed.moves
     return {
         "wall": seconds,
-        "peak": line.split("peak memory ")[1].split(" MB")[0],
-        "bring_up": float(line.split("discovered in ")[1].split(" s;")[0]),
-        "discovery": distributed["seconds"],
-        "rounds": distributed["rounds"],
-        "moving": moved["seconds"],
-        "timeouts": moved.get("timeouts", 0),
-        "batches": moved.get("batches", 0),
-        "messages": sum(distributed["messages"].values()) + sum(moved["messages"].values()),
-        "bytes": sum(distributed["bytes"].values()) + sum(moved["bytes"].values()),
-        "engine": float(output.split("engine: ")[1].split(" s")[0]),
-        "identical": output.split("pairs identical to the engine's (")[1]
-        .split("): ")[1]
-        .splitlines()[0],
+        "peak": f"{bring_up.total_peak_mb:.0f}",
+        "bring_up": bring_up.seconds,
+        "discovery": distributed.seconds,
+        "rounds": distributed.rounds,
+        "moving": moved.seconds if moved is not None else 0.0,
+        "timeouts": moved.timeouts if moved is not None else 0,
+        "batches": moved.batches if moved is not None else 0,
+        "messages": distributed.total_messages,
+        "bytes": distributed.total_bytes,
+        "engine": record.engine_seconds,
+        "identical": record.identical,
     }
 
 

@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import Any
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -18,6 +17,7 @@ from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import LOCAL_LEAST_SQUARES, PATH, refine
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, HeuristicResult
+from ..core.results import Distributed, MovesMade, RunRecord, with_source
 from ..protocol.discovery.estimate import evaluation_of
 from ..protocol.runs import DiscoveryResult, MoveResult
 from ..sim.world import World
@@ -25,42 +25,40 @@ from ..view.scene import evaluation_scene
 from .swarm import RunningSwarm
 
 
+def distributed(discovery: DiscoveryResult, moves: MoveResult | None) -> Distributed:
+    """What the swarm's runs took: time, rounds, messages and bytes per topic."""
+    made = None
+    if moves is not None:
+        made = MovesMade(
+            moves.seconds,
+            moves.batches,
+            moves.moved,
+            moves.walks,
+            moves.timeouts,
+            dict(moves.traffic.messages),
+            dict(moves.traffic.bytes),
+        )
+    return Distributed(
+        discovery.seconds,
+        discovery.rounds,
+        discovery.restarts,
+        sorted(discovery.departed),
+        dict(discovery.traffic.messages),
+        dict(discovery.traffic.bytes),
+        discovery.repairs,
+        discovery.incomplete,
+        made,
+    )
+
+
 @dataclass(frozen=True)
 class SwarmComputation:
     """The whole swarm's computation beside the engine's evaluation of the same work."""
 
-    evaluation: Evaluation  # what the swarm computed
+    evaluation: Evaluation  # what the swarm computed (its summary is the record's)
     heuristic: HeuristicResult | None  # the moves made, with a technique
-    discovery: DiscoveryResult
-    moves: MoveResult | None
     engine: Evaluation  # the core engine's, for the same work
-    engine_seconds: float
-    identical: str  # "yes", or "no: " and what differs
-
-    @property
-    def distributed(self) -> dict[str, Any]:
-        """What the distributed run took: time, rounds, messages and bytes per topic."""
-        result, traffic = self.discovery, self.discovery.traffic
-        summary: dict[str, Any] = {
-            "seconds": result.seconds,
-            "rounds": result.rounds,
-            "restarts": result.restarts,
-            "departed": sorted(result.departed),
-            "messages": traffic.messages,
-            "bytes": traffic.bytes,
-        }
-        if self.moves is not None:
-            moved = self.moves
-            summary["moves"] = {
-                "seconds": moved.seconds,
-                "batches": moved.batches,
-                "move_commands": moved.moved,
-                "path_walks": moved.walks,
-                "timeouts": moved.timeouts,
-                "messages": moved.traffic.messages,
-                "bytes": moved.traffic.bytes,
-            }
-        return summary
+    record: RunRecord  # the run as data: summary, traffic, the engine's, identity
 
 
 def compute_all(
@@ -87,7 +85,6 @@ def compute_all(
     if on_discovered is not None:
         on_discovered(result)
     evaluation = evaluation_of(world.hood, policy, result.estimates)
-    evaluation.summary["seconds"] = result.seconds
     if swarm.view is not None:
         title = f"{world.cloud.name}, {policy}: poses found by the swarm"
         pairs = swarm.config.view.pairs if swarm.config.view else ()
@@ -98,7 +95,6 @@ def compute_all(
             on_progress(f"planning {technique}")
         moved = swarm.make_moves(result, technique, threshold, on_progress=on_progress)
         evaluation, heuristic = moved.evaluation, moved.heuristic
-        evaluation.summary["seconds"] = result.seconds + moved.seconds
         if swarm.view is not None:
             title = f"{world.cloud.name}, {policy}, {technique}: after the swarm's moves"
             scene = evaluation_scene(evaluation, title, heuristic=heuristic, pairs=pairs)
@@ -109,15 +105,24 @@ def compute_all(
     if estimator == LOCAL_LEAST_SQUARES:
         engine = refine(engine, local=True)
     engine_seconds = time.perf_counter() - began
-    return SwarmComputation(
-        evaluation,
-        heuristic,
-        result,
-        moved,
-        engine,
-        engine_seconds,
-        same_results(evaluation, engine),
+    seconds = result.seconds + (moved.seconds if moved is not None else 0.0)
+    spec = swarm.config.world
+    summary = {
+        **with_source(evaluation.summary, world.cloud, spec.seed, spec.sensor_file),
+        "seconds": seconds,
+    }
+    evaluation = replace(evaluation, summary=summary)
+    record = RunRecord(
+        "spawn",
+        seconds,
+        summary,
+        engine=engine.summary,
+        engine_seconds=engine_seconds,
+        identical=same_results(evaluation, engine),
+        bring_up=swarm.bring_up,
+        distributed=distributed(result, moved),
     )
+    return SwarmComputation(evaluation, heuristic, engine, record)
 
 
 def same_results(ours: Evaluation, engine: Evaluation) -> str:

@@ -21,13 +21,14 @@ import signal
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from ..core.errors import SwazureError
 from ..core.evaluate import evaluate
 from ..core.fit import PATH
+from ..core.results import BringUp
 from ..protocol.runs import DiscoveryResult, MoveResult
 from ..ros.auth import SwarmKey, new_key
 from ..ros.bag import Recorder
@@ -43,22 +44,6 @@ from .config import SwarmConfig, ViewConfig
 from .discovery_server import DiscoveryServers
 from .per_fls import Ended, FlsProcesses
 from .share import CREATED, FAILED, READY, host_share, init_context, peak_rss_mb, shares
-
-
-@dataclass
-class BringUp:
-    """What bringing the swarm up took."""
-
-    flss: int
-    processes: int
-    seconds: float  # launcher start to every process discovered
-    peak_rss_mb: list[float] = field(default_factory=list)  # per process
-
-    @property
-    def total_peak_mb(self) -> float:
-        """Sum of the processes' peak resident memory, MB."""
-        return float(sum(self.peak_rss_mb))
-
 
 #: Seconds between two progress reports of a long run.
 PROGRESS_PERIOD = 10.0
@@ -163,6 +148,7 @@ class RunningSwarm:
         self.coordinator: Coordinator | None = None
         self.recorder: Recorder | None = None
         self.view: ViewNode | None = None
+        self.bring_up: BringUp | None = None  # once every process is ready
 
     def __enter__(self) -> RunningSwarm:
         try:
@@ -298,7 +284,8 @@ class RunningSwarm:
                 if self.fls_processes is not None:
                     peaks += self.fls_processes.peak_rss_mb()
                 self.ready = True
-                return BringUp(self.size, len(peaks), seconds, peaks)
+                self.bring_up = BringUp(self.size, len(peaks), seconds, peaks)
+                return self.bring_up
             self._host.spin_for(0.05)
         publishers, services = self._host.discovered()
         raise SwazureError(

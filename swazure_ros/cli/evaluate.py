@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from dataclasses import replace
 from typing import Any
 
 from ..core.errors import SwazureError
@@ -19,7 +20,7 @@ from ..core.fusion import fuse
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
-from ..core.results import describe_source, write_evaluation
+from ..core.results import RunRecord, with_source, write_evaluation, write_record
 from .arguments import (
     count,
     output_folder,
@@ -134,7 +135,8 @@ def main(args: argparse.Namespace) -> int:
             evaluation, heuristic = run_technique(
                 evaluation, args.technique, args.threshold, COMPAT_MODES[args.compat]
             )
-            evaluation.summary["seconds"] += time.perf_counter() - began
+            seconds = evaluation.summary["seconds"] + time.perf_counter() - began
+            evaluation = replace(evaluation, summary={**evaluation.summary, "seconds": seconds})
         if args.fuse > 1:
             evaluation = fuse(evaluation, args.fuse)
         if args.estimator != PATH:
@@ -144,24 +146,26 @@ def main(args: argparse.Namespace) -> int:
     finally:
         if isinstance(progress, TqdmProgress):
             progress.close()
-    summary = evaluation.summary
-    describe_source(summary, cloud, args.seed, args.sensor)
+    summary = with_source(evaluation.summary, cloud, args.seed, args.sensor)
+    evaluation = replace(evaluation, summary=summary)
+    record = RunRecord("evaluate", summary["seconds"], summary)
     technique = args.technique if args.compat == "text" else f"{args.technique} ({args.compat})"
     print(
         f"{cloud.name}: beta {cell(swarm.beta)}, {args.policy}, {technique}, "
         f"{'' if args.estimator == PATH else args.estimator + ', '}"
         f"sensor {sensor.name}, "
-        f"{summary['seconds']:.2f} s"
+        f"{record.seconds:.2f} s"
     )
-    print(summary_table(summary))
+    print(summary_table(record.summary))
     if args.out is not None:
         try:
             summary_path, pairs_path = write_evaluation(args.out, evaluation, heuristic)
+            record_path = write_record(args.out, record)
         except OSError as err:
             raise SwazureError(
                 f"{args.out}: cannot write results ({err.strerror or err})"
             ) from err
-        print(f"wrote {summary_path} and {pairs_path}")
+        print(f"wrote {summary_path}, {pairs_path} and {record_path}")
     if args.snapshot is not None:
         from ..view.scene import evaluation_scene
         from ..view.snapshot import write_snapshot

@@ -289,7 +289,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
 def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     """Run discovery over the whole swarm, report it beside the engine, write --out."""
     from ..app.compute import compute_all as run
-    from ..core.results import describe_source, write_evaluation
+    from ..core.results import write_evaluation, write_record
     from .summary import summary_table
 
     world = swarm.world
@@ -318,33 +318,32 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     computed = run(
         swarm, args.policy, args.technique, args.threshold, discovered, progress, args.estimator
     )
-    if computed.moves is not None:
-        moved = computed.moves
+    record = computed.record
+    moved = record.distributed.moves if record.distributed is not None else None
+    if moved is not None:
         print(
             f"{args.technique}: {moved.seconds:.2f} s, {moved.batches} batches, "
-            f"{moved.moved} move commands, {moved.walks} path walks, "
-            f"{moved.traffic.total_messages} messages, {moved.traffic.total_bytes / 1e6:.1f} MB"
+            f"{moved.move_commands} move commands, {moved.path_walks} path walks, "
+            f"{sum(moved.messages.values())} messages, {sum(moved.bytes.values()) / 1e6:.1f} MB"
             + (f", {moved.timeouts} waits timed out" if moved.timeouts else "")
         )
-    summary = computed.evaluation.summary
-    summary["distributed"] = computed.distributed
-    describe_source(summary, world.cloud, args.seed, args.sensor)
-    print(f"engine: {computed.engine_seconds:.2f} s for the same work")
-    table = summary_table(summary, ("engine", computed.engine.summary))
-    print(table.replace("this run", "distributed"))
+    assert record.engine is not None and record.engine_seconds is not None
+    print(f"engine: {record.engine_seconds:.2f} s for the same work")
+    print(summary_table(record.summary, ("engine", record.engine), heading="distributed"))
     print(
         "pairs identical to the engine's (status, path, estimate to 1e-9"
         + (", covariance" if args.estimator != PATH else "")
-        + f"): {computed.identical}"
+        + f"): {record.identical}"
     )
     if args.out is not None:
         try:
             paths = write_evaluation(args.out, computed.evaluation, computed.heuristic)
+            written = write_record(args.out, record)
         except OSError as err:
             raise SwazureError(
                 f"{args.out}: cannot write results ({err.strerror or err})"
             ) from err
-        print(f"wrote {paths[0]} and {paths[1]}")
+        print(f"wrote {paths[0]}, {paths[1]} and {written}")
     return 0
 
 

@@ -103,14 +103,17 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
     return rows
 
 
-def summary_table(summary: dict[str, Any], *others: tuple[str, dict[str, Any]]) -> str:
-    """A readable text table of a run's summary; ``others`` add (heading, summary) columns."""
+def summary_table(
+    summary: dict[str, Any], *others: tuple[str, dict[str, Any]], heading: str = "this run"
+) -> str:
+    """A readable text table of a run's summary (``heading`` over its column, when there are
+    ``others``); ``others`` add (heading, summary) columns."""
     columns = [summary_rows(summary)] + [summary_rows(other) for _, other in others]
     width = max(len(value) for column in columns for _, value in column) + 2
     lines = []
     if others:
-        headings = ["this run"] + [heading for heading, _ in others]
-        lines.append(f"{'':<30}" + "".join(f"{heading:>{width}}" for heading in headings))
+        headings = [heading] + [other for other, _ in others]
+        lines.append(f"{'':<30}" + "".join(f"{title:>{width}}" for title in headings))
     for row, (label, _) in enumerate(columns[0]):
         lines.append(f"{label:<30}" + "".join(f"{column[row][1]:>{width}}" for column in columns))
     return "\n".join(lines)

@@ -1,7 +1,13 @@
-"""Writing an evaluation to disk: ``summary.json`` and ``pairs.csv``, atomically.
+"""Writing a run to disk: ``summary.json``, ``pairs.csv`` and ``record.json``, atomically.
 
 Every file is written to a temporary name in the same folder and renamed into
 place, so a killed run never leaves a half-written result.
+
+:class:`RunRecord` is one run as typed data: the evaluation's summary and the
+run's own facts (its seconds, a swarm's bring-up and traffic, the engine's
+time and summary for the same work, whether the two agree). It is built once
+where the run happens; the command line only renders it, and scripts and
+tests read its ``record.json`` (with a ``fileversion``), never printed text.
 """
 
 from __future__ import annotations
@@ -15,19 +21,23 @@ import shutil
 import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .clouds import Cloud
-from .errors import OutputError
+from .errors import OutputError, SwazureError
 from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation
 from .heuristics.result import HeuristicResult
 
 PAIRS_FILE = "pairs.csv"
 PAIRS_PARQUET_FILE = "pairs.parquet"
 SUMMARY_FILE = "summary.json"
+RECORD_FILE = "record.json"
+#: The version of record.json's layout: raised whenever a field changes meaning or goes.
+RECORD_VERSION = 1
 PAIRS_FORMATS = ("csv", "parquet")
 #: Per-pair columns: every one, or only those that nothing else reproduces.
 FULL_PAIRS, COMPACT_PAIRS = "full", "compact"
@@ -286,16 +296,115 @@ def write_evaluation(
     return summary_path, pairs_path
 
 
-def describe_source(
+def with_source(
     summary: dict[str, Any], cloud: Cloud, seed: int, sensor_file: str | Path | None
-) -> None:
-    """Record where a run's swarm came from in ``summary["parameters"]``."""
-    summary["parameters"].update(
-        {
-            "cloud": cloud.name,
-            "cloud_source": cloud.source,
-            "scale": cloud.scale,
-            "seed": seed,
-            "sensor_file": str(sensor_file or "config/sensor.yaml"),
-        }
+) -> dict[str, Any]:
+    """``summary`` with where the run's swarm came from in its ``parameters``: a new dict."""
+    parameters = {
+        **summary["parameters"],
+        "cloud": cloud.name,
+        "cloud_source": cloud.source,
+        "scale": cloud.scale,
+        "seed": seed,
+        "sensor_file": str(sensor_file or "config/sensor.yaml"),
+    }
+    return {**summary, "parameters": parameters}
+
+
+@dataclass(frozen=True)
+class BringUp:
+    """What bringing a swarm up took."""
+
+    flss: int
+    processes: int
+    seconds: float  # launcher start to every process discovered
+    peak_rss_mb: list[float] = field(default_factory=list)  # per process
+
+    @property
+    def total_peak_mb(self) -> float:
+        """Sum of the processes' peak resident memory, MB."""
+        return float(sum(self.peak_rss_mb))
+
+
+@dataclass(frozen=True)
+class MovesMade:
+    """A heuristic's moves made by the swarm: time, batches, commands and traffic."""
+
+    seconds: float
+    batches: int
+    move_commands: int  # returns included
+    path_walks: int
+    timeouts: int  # waits that ended at their deadline
+    messages: dict[str, int]  # per topic
+    bytes: dict[str, int]  # per topic, serialised payloads
+
+
+@dataclass(frozen=True)
+class Distributed:
+    """A discovery run made by the swarm, and the moves after it, if any."""
+
+    seconds: float
+    rounds: int
+    restarts: int
+    departed: list[int]
+    messages: dict[str, int]  # per topic
+    bytes: dict[str, int]  # per topic
+    repairs: int = 0  # a lossy radio's repair requests and resends
+    incomplete: bool = False  # deliveries lost for good: no estimates
+    moves: MovesMade | None = None
+
+    @property
+    def total_messages(self) -> int:
+        """Messages on every topic, discovery's and the moves'."""
+        moved = sum(self.moves.messages.values()) if self.moves is not None else 0
+        return sum(self.messages.values()) + moved
+
+    @property
+    def total_bytes(self) -> int:
+        """Bytes on every topic, discovery's and the moves'."""
+        moved = sum(self.moves.bytes.values()) if self.moves is not None else 0
+        return sum(self.bytes.values()) + moved
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """One run: its evaluation's summary and the run's facts (``record.json``)."""
+
+    command: str  # the swazure verb that ran: "evaluate" or "spawn"
+    seconds: float  # the run's computation, s (a swarm's: discovery and moves)
+    summary: dict[str, Any]  # the evaluation's summary, as summary.json holds it
+    engine: dict[str, Any] | None = None  # the core engine's summary of the same work
+    engine_seconds: float | None = None
+    identical: str | None = None  # "yes", or "no: " and what differs from the engine
+    bring_up: BringUp | None = None
+    distributed: Distributed | None = None
+    fileversion: int = RECORD_VERSION
+
+
+def write_record(directory: Path, record: RunRecord) -> Path:
+    """Write ``record`` as ``directory/record.json``, atomically; return its path."""
+    path = directory / RECORD_FILE
+    write_json(path, asdict(record))
+    return path
+
+
+def read_record(path: Path) -> RunRecord:
+    """The run record in ``path``; SwazureError if it is not one of this version."""
+    try:
+        document = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        raise SwazureError(f"{path}: not a run record ({err})") from err
+    version = document.get("fileversion") if isinstance(document, dict) else None
+    if version != RECORD_VERSION:
+        raise SwazureError(f"{path}: record fileversion {version}, this is {RECORD_VERSION}")
+    bring_up, distributed = document.pop("bring_up"), document.pop("distributed")
+    if distributed is not None:
+        moves = distributed.pop("moves")
+        distributed = Distributed(
+            **distributed, moves=None if moves is None else MovesMade(**moves)
+        )
+    return RunRecord(
+        **document,
+        bring_up=None if bring_up is None else BringUp(**bring_up),
+        distributed=distributed,
     )

@@ -19,7 +19,7 @@ import os
 import signal
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -35,7 +35,7 @@ from ..core.results import (
     FULL_PAIRS,
     PAIRS_PARQUET_FILE,
     SUMMARY_FILE,
-    describe_source,
+    with_source,
     write_evaluation,
 )
 from ..core.sensor import Sensor
@@ -99,10 +99,12 @@ def run_task(task: Task) -> list[tuple[RunSpec, float]]:
                 plain, technique.name, technique.threshold or 10, COMPAT_MODES[technique.compat]
             )
         seconds = plain_seconds + time.perf_counter() - began
-        summary = result.summary
-        summary["seconds"] = seconds
-        describe_source(summary, task.cloud, task.seed, task.sensor_file)
-        summary["study"] = {"key": spec.key, "run": spec.folder.as_posix(), "pairs": task.pairs}
+        summary = {
+            **with_source(result.summary, task.cloud, task.seed, task.sensor_file),
+            "seconds": seconds,
+            "study": {"key": spec.key, "run": spec.folder.as_posix(), "pairs": task.pairs},
+        }
+        result = replace(result, summary=summary)
         write_evaluation(
             task.out / spec.folder, result, heuristic, pairs_format="parquet", columns=task.pairs
         )

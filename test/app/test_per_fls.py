@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from swazure_ros.core.results import RECORD_FILE, read_record
+
 from ..conftest import REPO
 
 GRID = REPO / "config" / "swarms" / "grid25.yaml"
@@ -50,7 +52,7 @@ def test_a_swarm_of_one_process_per_fls_computes_what_the_engine_computes(domain
     out, err = spawn.communicate(timeout=600)
     assert spawn.returncode == 0, err
     assert "25 FLS nodes in 25 processes of one FLS each" in out, out
-    assert "pairs identical to the engine's (status, path, estimate to 1e-9): yes" in out, out
+    assert read_record(tmp_path / "d" / RECORD_FILE).identical == "yes", out
     evaluate = subprocess.run(
         [sys.executable, "-m", "swazure_ros.cli.main", "evaluate",
          "--cloud", str(GRID.with_suffix(".xyz")), "--scale", "1", "--radius", "0.5",
@@ -76,8 +78,9 @@ def test_each_fls_process_fits_what_it_hears_as_the_engine_does(domain, tmp_path
                     "--out", str(tmp_path / "d"))  # fmt: skip
     out, err = spawn.communicate(timeout=600)
     assert spawn.returncode == 0, err
-    identical = "pairs identical to the engine's (status, path, estimate to 1e-9, covariance): yes"
-    assert identical in out, out
+    record = read_record(tmp_path / "d" / RECORD_FILE)
+    assert record.identical == "yes", out
+    assert record.summary["estimator"] == "local-least-squares"
     header = (tmp_path / "d" / "pairs.csv").read_text().splitlines()[0]
     assert "covariance_xx" in header and "covariance_zz" in header
 
@@ -88,12 +91,14 @@ def test_move_source_made_by_fls_processes_is_the_engines(domain, tmp_path):
     shape = ["--cloud", str(BLOCKED), "--scale", "1", "--radius", "0.5", "--quiet",
              "--discovery-timeout", "120"]  # fmt: skip
     spawn = swazure("spawn", *shape, "--per-fls", "--log-dir", str(tmp_path / "logs"),
-                    "--compute-all", "--technique", "move-source")  # fmt: skip
+                    "--compute-all", "--technique", "move-source",
+                    "--out", str(tmp_path / "d"))  # fmt: skip
     out, err = spawn.communicate(timeout=600)
     assert spawn.returncode == 0, err
-    assert "move-source: " in out and "7 path walks" in out, out
+    record = read_record(tmp_path / "d" / RECORD_FILE)
+    assert record.distributed.moves is not None and record.distributed.moves.path_walks == 7
     # The detections carry metres (REP-103), so estimates are the engine's to 1e-9 cm.
-    assert "pairs identical to the engine's (status, path, estimate to 1e-9): yes" in out, out
+    assert record.identical == "yes", out
     assert "25 FLS processes stopped, every one cleanly (exit code 0)" in err, err
 
 

@@ -6,6 +6,8 @@ import sys
 
 import pytest
 
+from swazure_ros.core.results import RECORD_FILE, RECORD_VERSION, read_record
+
 
 def swazure(*args, cwd=None):
     return subprocess.run(
@@ -58,6 +60,11 @@ def test_evaluate_writes_summary_and_pairs(tmp_path):
         assert key in summary
     for key in ("distance_error_pct", "alpha_deg", "theta_deg", "phi_deg", "hops"):
         assert set(summary[key]) >= {"mean", "max"}
+    # The run as typed data: the same summary, the run's seconds, the file's version.
+    record = read_record(tmp_path / RECORD_FILE)
+    assert (record.command, record.fileversion) == ("evaluate", RECORD_VERSION)
+    assert record.summary == summary and record.seconds == summary["seconds"]
+    assert record.engine is None and record.distributed is None
     rows = (tmp_path / "pairs.csv").read_text().splitlines()
     assert len(rows) == summary["blind_pairs"] + 1
     assert summary["parameters"]["policy"] == "fewest-hops"

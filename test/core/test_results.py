@@ -9,7 +9,16 @@ import textwrap
 import pytest
 
 from swazure_ros.core.errors import OutputError, SwazureError
-from swazure_ros.core.results import atomic_write
+from swazure_ros.core.results import (
+    RECORD_FILE,
+    BringUp,
+    Distributed,
+    MovesMade,
+    RunRecord,
+    atomic_write,
+    read_record,
+    write_record,
+)
 
 
 def test_written_file_appears_whole_with_the_mode_of_a_plain_file(tmp_path):
@@ -73,3 +82,36 @@ def test_output_error_is_one_line_from_the_project():
     with pytest.raises(OutputError, match="cannot write") as caught:
         atomic_write(__import__("pathlib").Path("/proc/no/such/result.txt"), lambda p: None)
     assert isinstance(caught.value, SwazureError) and isinstance(caught.value, OSError)
+
+
+def test_a_run_record_reads_back_as_it_was_written(tmp_path):
+    moves = MovesMade(1.5, 3, 12, 4, 0, {"move_commands": 3}, {"move_commands": 900})
+    record = RunRecord(
+        "spawn",
+        4.25,
+        {"blind_pairs": 10, "seconds": 4.25, "alpha_deg": {"mean": float("nan")}},
+        engine={"blind_pairs": 10},
+        engine_seconds=0.5,
+        identical="yes",
+        bring_up=BringUp(120, 2, 3.5, [300.0, 250.0]),
+        distributed=Distributed(2.75, 9, 0, [7], {"radio": 40}, {"radio": 4000}, moves=moves),
+    )
+    path = write_record(tmp_path, record)
+    assert path == tmp_path / RECORD_FILE
+    back = read_record(path)
+    # NaN is written as null (JSON has no NaN): everything else comes back as it was.
+    assert back.summary["alpha_deg"]["mean"] is None
+    assert back == RunRecord(**{**record.__dict__, "summary": back.summary})
+    assert back.distributed.total_messages == 43 and back.bring_up.total_peak_mb == 550.0
+
+
+def test_a_record_of_another_version_or_no_record_is_refused_in_one_line(tmp_path):
+    path = write_record(tmp_path, RunRecord("evaluate", 1.0, {}))
+    path.write_text(path.read_text().replace('"fileversion": 1', '"fileversion": 99'))
+    with pytest.raises(SwazureError, match="fileversion 99"):
+        read_record(path)
+    (tmp_path / "other.json").write_text("[1, 2]")
+    with pytest.raises(SwazureError, match="fileversion None"):
+        read_record(tmp_path / "other.json")
+    with pytest.raises(SwazureError, match="not a run record"):
+        read_record(tmp_path / "missing.json")
