@@ -93,7 +93,7 @@ def compute_all(
     if technique != PLAIN:
         if on_progress is not None:
             on_progress(f"planning {technique}")
-        moved = swarm.make_moves(result, technique, threshold, on_progress=on_progress)
+        moved = swarm.make_moves(evaluation, technique, threshold, on_progress=on_progress)
         evaluation, heuristic = moved.evaluation, moved.heuristic
         if swarm.view is not None:
             title = f"{world.cloud.name}, {policy}, {technique}: after the swarm's moves"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..core.errors import SwazureError
 from ..sim.world import WorldSpec
 from .discovery_server import ServerAddress
 
@@ -50,6 +51,18 @@ class SwarmConfig:
     #: Discover through these Fast DDS Discovery Servers instead of simple discovery
     #: (app.discovery_server); those whose address is this host's are started here.
     discovery_servers: tuple[ServerAddress, ...] = ()
+
+    def __post_init__(self) -> None:
+        # The one check of how a swarm's processes are laid out: the command line
+        # builds this config, and a program that builds one gets the same words.
+        if self.processes < 1:
+            raise SwazureError(f"--processes must be at least 1, got {self.processes}")
+        if self.hosts > 1 and self.processes > 1:
+            raise SwazureError("--share runs one process per host: leave out --processes")
+        if not 0 <= self.share < self.hosts:
+            raise SwazureError(f"--share {self.share}/{self.hosts}: no such share")
+        if self.per_fls and self.processes > 1:
+            raise SwazureError("--per-fls runs one process per FLS: leave out --processes")
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import SwazureError
-from ..core.evaluate import evaluate
+from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import PATH
 from ..core.results import BringUp
 from ..protocol.runs import DiscoveryResult, MoveResult
@@ -63,16 +63,6 @@ class RunningSwarm:
         leave_nodes: bool = False,
         on_lost: Callable[[Ended], None] | None = None,
     ) -> None:
-        if config.processes < 1:
-            raise SwazureError(f"processes must be at least 1, got {config.processes}")
-        if config.hosts > 1 and config.processes > 1:
-            raise SwazureError(
-                "a share of a swarm across hosts runs in one process (--processes 1)"
-            )
-        if not 0 <= config.share < config.hosts:
-            raise SwazureError(f"share {config.share} of {config.hosts}: no such share")
-        if config.per_fls and config.processes > 1:
-            raise SwazureError("one process per FLS: leave out --processes")
         self.config = config
         # A process that ends right after the swarm leaves its own nodes to
         # runtime.exit_process: far faster than destroying them one by one.
@@ -352,13 +342,14 @@ class RunningSwarm:
 
     def make_moves(
         self,
-        plain: DiscoveryResult,
+        plain: Evaluation,
         technique: str = "move-obstructing",
         threshold: int = 10,
         timeout: float | None = None,
         on_progress: Callable[[str], None] | None = None,
     ) -> MoveResult:
-        """A heuristic on the BLOCKED pairs of a whole-swarm run, its moves made by the swarm."""
+        """A heuristic on the BLOCKED pairs of a whole-swarm run (``plain``, the evaluation of
+        its estimates), its moves made by the swarm."""
         moves = self._coordinator.make_moves(plain, technique, threshold)
         result: MoveResult = self.run(moves, timeout, on_progress=on_progress)
         return result

@@ -20,7 +20,6 @@ beside the core engine's, writes --out like `swazure evaluate`, and exits.
 from __future__ import annotations
 
 import argparse
-import os
 import signal
 import sys
 import time
@@ -215,17 +214,10 @@ class CreationBar:
             self._bar.close()
 
 
-def swarm_key(path: Path | None) -> bytes | None:
-    """The key in ``path``, or in the file $SWAZURE_SWARM_KEY_FILE names; None for neither."""
-    from ..ros.keys import read_key
-
-    named = path or os.environ.get(KEY_FILE_VARIABLE)
-    return None if not named else read_key(named)
-
-
 def config_from_args(args: argparse.Namespace) -> Any:
     """The swarm the options describe, as a :class:`~swazure_ros.launcher.SwarmConfig`."""
     from ..app.config import SwarmConfig, ViewConfig
+    from ..ros.keys import key_from
 
     if args.beta is None and args.radius is None:
         raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
@@ -237,17 +229,11 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise SwazureError(
             f"--estimator {args.estimator} estimates plain Swazure's pairs: leave out --technique"
         )
-    if args.processes < 1:
-        raise SwazureError(f"--processes must be at least 1, got {args.processes}")
     if args.no_key and args.key_file is not None:
         raise SwazureError("--no-key and --key-file: choose one")
     index, hosts = args.share
-    if hosts > 1 and args.processes > 1:
-        raise SwazureError("--share runs one process per host: leave out --processes")
     if index > 0 and args.compute_all:
         raise SwazureError("--compute-all runs on share 0, the host with the coordinator")
-    if args.per_fls and args.processes > 1:
-        raise SwazureError("--per-fls runs one process per FLS: leave out --processes")
     if args.log_dir is not None and not (args.per_fls or args.discovery_server):
         raise SwazureError("--log-dir goes with --per-fls or --discovery-server")
     params = args.params if args.params is not None else config_dir() / "swarm.yaml"
@@ -272,7 +258,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         parameters=args.parameters,
         fls_parameters=args.fls_parameters,
         record=None if args.record is None else str(args.record),
-        key=swarm_key(args.key_file),
+        key=key_from(str(args.key_file or "")),
         authenticate=not args.no_key,
         parameter_services=args.parameter_services,
         per_fls=args.per_fls,

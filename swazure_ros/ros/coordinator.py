@@ -38,10 +38,9 @@ from swazure_interfaces.msg import (
     WorldState,
 )
 
-from ..core.evaluate import Neighbourhood
+from ..core.evaluate import Evaluation, Neighbourhood
 from ..core.fit import PATH
 from ..core.paths import check_policy
-from ..protocol.discovery.estimate import evaluation_of
 from ..protocol.discovery.messages import Control
 from ..protocol.discovery.search import bucket_width
 from ..protocol.moves import Move, MoveRun, Walk
@@ -233,13 +232,13 @@ class Coordinator(SwarmNode):
 
         return self._enqueue(begin)
 
-    def make_moves(self, plain: DiscoveryResult, technique: str, threshold: int = 10) -> Future:
+    def make_moves(self, evaluation: Evaluation, technique: str, threshold: int = 10) -> Future:
         """A heuristic on every BLOCKED pair of a whole-swarm run, its moves made for real.
 
+        ``evaluation`` is the run's (``protocol.discovery.estimate.evaluation_of``);
         ``technique`` is Move Obstructing or Move Source (probing up to
         ``threshold`` steps of r). Returns a future of the :class:`MoveResult`.
         """
-        evaluation = evaluation_of(self.shape, plain.policy, plain.estimates)
         # Planned now, so that a bad technique fails here and not inside a callback.
         planned = MoveRun(0, evaluation, technique, threshold, 0, self.round_timeout)
 

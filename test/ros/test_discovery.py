@@ -22,7 +22,7 @@ from swazure_ros.core.frames import fls_frame, to_metres
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
 from swazure_ros.core.results import RECORD_FILE, read_record
-from swazure_ros.protocol.discovery.estimate import Estimate
+from swazure_ros.protocol.discovery.estimate import Estimate, evaluation_of
 from swazure_ros.ros.convert.discovery import pose_estimate_from_message
 from swazure_ros.ros.names import ESTIMATOR_CODES, policy_code
 from swazure_ros.sim.world import WorldSpec
@@ -102,7 +102,8 @@ def test_moves_made_by_the_swarm_equal_the_engine(domain, params, technique, bet
         world = swarm.world
         for policy in POLICIES:
             plain = swarm.discover(policy, timeout=300)
-            moved = swarm.make_moves(plain, technique, threshold=10, timeout=300)
+            found = evaluation_of(world.hood, policy, plain.estimates)
+            moved = swarm.make_moves(found, technique, threshold=10, timeout=300)
             engine, plan = run_technique(
                 evaluate(world.swarm, world.sensor, policy), technique, threshold=10
             )
