@@ -20,7 +20,7 @@ from ..core.fusion import fuse
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
-from ..core.results import RunRecord, with_source, write_evaluation, write_record
+from ..core.results import RunRecord, with_source, write_run
 from .arguments import (
     count,
     output_folder,
@@ -158,13 +158,7 @@ def main(args: argparse.Namespace) -> int:
     )
     print(summary_table(record.summary))
     if args.out is not None:
-        try:
-            summary_path, pairs_path = write_evaluation(args.out, evaluation, heuristic)
-            record_path = write_record(args.out, record)
-        except OSError as err:
-            raise SwazureError(
-                f"{args.out}: cannot write results ({err.strerror or err})"
-            ) from err
+        summary_path, pairs_path, record_path = write_run(args.out, evaluation, record, heuristic)
         print(f"wrote {summary_path}, {pairs_path} and {record_path}")
     if args.snapshot is not None:
         from ..view.scene import evaluation_scene

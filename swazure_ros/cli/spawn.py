@@ -275,7 +275,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
 def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     """Run discovery over the whole swarm, report it beside the engine, write --out."""
     from ..app.compute import compute_all as run
-    from ..core.results import write_evaluation, write_record
+    from ..core.results import write_run
     from .summary import summary_table
 
     world = swarm.world
@@ -322,14 +322,8 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
         + f"): {record.identical}"
     )
     if args.out is not None:
-        try:
-            paths = write_evaluation(args.out, computed.evaluation, computed.heuristic)
-            written = write_record(args.out, record)
-        except OSError as err:
-            raise SwazureError(
-                f"{args.out}: cannot write results ({err.strerror or err})"
-            ) from err
-        print(f"wrote {paths[0]}, {paths[1]} and {written}")
+        paths = write_run(args.out, computed.evaluation, record, computed.heuristic)
+        print(f"wrote {', '.join(map(str, paths[:2]))} and {paths[2]}")
     return 0
 
 

@@ -388,6 +388,25 @@ def write_record(directory: Path, record: RunRecord) -> Path:
     return path
 
 
+def write_run(
+    directory: Path,
+    evaluation: Evaluation,
+    record: RunRecord,
+    heuristic: HeuristicResult | None = None,
+) -> tuple[Path, Path, Path]:
+    """Write a run's ``summary.json``, ``pairs.csv`` and ``record.json`` into ``directory``.
+
+    Returns their paths; one-line OutputError when the folder cannot take them.
+    """
+    try:
+        summary, pairs = write_evaluation(directory, evaluation, heuristic)
+        return summary, pairs, write_record(directory, record)
+    except OutputError:
+        raise
+    except OSError as err:
+        raise OutputError(f"{directory}: cannot write results ({err.strerror or err})") from err
+
+
 def read_record(path: Path) -> RunRecord:
     """The run record in ``path``; SwazureError if it is not one of this version."""
     try:

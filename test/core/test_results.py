@@ -6,6 +6,7 @@ import subprocess
 import sys
 import textwrap
 
+import numpy as np
 import pytest
 
 from swazure_ros.core.errors import OutputError, SwazureError
@@ -19,6 +20,8 @@ from swazure_ros.core.results import (
     read_record,
     write_record,
 )
+
+from ..conftest import SCENE
 
 
 def test_written_file_appears_whole_with_the_mode_of_a_plain_file(tmp_path):
@@ -115,3 +118,18 @@ def test_a_record_of_another_version_or_no_record_is_refused_in_one_line(tmp_pat
         read_record(tmp_path / "other.json")
     with pytest.raises(SwazureError, match="not a run record"):
         read_record(tmp_path / "missing.json")
+
+
+def test_a_run_that_cannot_be_written_is_one_line_and_leaves_nothing(tmp_path, sensor):
+    from swazure_ros.core.evaluate import evaluate
+    from swazure_ros.core.geometry import make_swarm
+    from swazure_ros.core.results import write_run
+
+    evaluation = evaluate(make_swarm(np.array(SCENE), radius=0.5), sensor, "shortest-length")
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a folder")
+    with pytest.raises(OutputError) as raised:
+        write_run(blocker, evaluation, RunRecord("evaluate", 0.1, evaluation.summary))
+    assert "\n" not in str(raised.value)
+    assert blocker.read_text() == "not a folder"
+    assert sorted(path.name for path in tmp_path.iterdir()) == ["a-file"]
