@@ -4,7 +4,7 @@ policy, the estimator, the heuristics' threshold and mode, and what a picture is
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..core.clouds import load_cloud
 from ..core.errors import CloudError
@@ -21,6 +21,9 @@ from .arguments import (
     seed,
     threshold,
 )
+
+if TYPE_CHECKING:
+    from ..sim.world import WorldSpec
 
 
 def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
@@ -136,4 +139,19 @@ def add_colour_arguments(parser: argparse.ArgumentParser, default: str, what: st
         default=None,
         metavar="I",
         help="--colour-by ranges: seen from FLS I (default: the first FLS)",
+    )
+
+
+def world_from_args(args: argparse.Namespace) -> WorldSpec:
+    """The swarm's description that the swarm options give (add_swarm_arguments)."""
+    from ..sim.world import WorldSpec  # here: --help loads no world
+
+    return WorldSpec(
+        cloud=args.cloud,
+        scale=args.scale,
+        beta=args.beta,
+        radius=args.radius,
+        sensor_file=None if args.sensor is None else str(args.sensor),
+        accurate=args.accurate,
+        seed=args.seed,
     )

@@ -32,7 +32,6 @@ from ..core.files import config_dir
 from ..core.fit import PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
 from ..ros.keys import KEY_FILE_VARIABLE
-from ..sim.world import WorldSpec
 from .arguments import (
     count,
     discovery_servers,
@@ -52,6 +51,7 @@ from .options import (
     add_swarm_arguments,
     add_swarm_estimator_argument,
     add_threshold_argument,
+    world_from_args,
 )
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
 
@@ -237,15 +237,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
     if args.log_dir is not None and not (args.per_fls or args.discovery_server):
         raise SwazureError("--log-dir goes with --per-fls or --discovery-server")
     params = args.params if args.params is not None else config_dir() / "swarm.yaml"
-    world = WorldSpec(
-        cloud=args.cloud,
-        scale=args.scale,
-        beta=args.beta,
-        radius=args.radius,
-        sensor_file=None if args.sensor is None else str(args.sensor),
-        accurate=args.accurate,
-        seed=args.seed,
-    )
+    world = world_from_args(args)
     return SwarmConfig(
         world,
         processes=args.processes,

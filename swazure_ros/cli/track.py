@@ -34,9 +34,9 @@ from ..core.tracking import (
     track_series,
 )
 from ..protocol.loops import simulate_track
-from ..sim.world import World, WorldSpec
+from ..sim.world import World
 from .arguments import fls_id, output_file, png_file, seconds
-from .options import add_domain_argument, add_swarm_arguments
+from .options import add_domain_argument, add_swarm_arguments, world_from_args
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -158,15 +158,7 @@ def _write_csv(path: Path, series: TrackSeries) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run one track and report it."""
-    spec = WorldSpec(
-        args.cloud,
-        args.scale,
-        args.beta,
-        args.radius,
-        str(args.sensor) if args.sensor else None,
-        args.accurate,
-        args.seed,
-    )
+    spec = world_from_args(args)
     if args.per_fls and args.engine:
         raise SwazureError("--per-fls runs the FLSs over ROS; --engine runs the core's loop alone")
     world = spec.build()
