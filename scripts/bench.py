@@ -297,7 +297,8 @@ def served(cloud: str, processes: int, domain: int, window: float = 20.0) -> dic
     The CPU is every process of `swazure spawn` over ``window`` s once up (from
     /proc); teardown is from SIGTERM until the launcher has exited.
     """
-    command = spawn_command(cloud, domain, "--processes", str(processes))
+    out = Path(tempfile.mkdtemp(prefix="bench-served-"))
+    command = spawn_command(cloud, domain, "--processes", str(processes), "--out", str(out))
     began = time.monotonic()
     process = subprocess.Popen(command, stdout=subprocess.PIPE, text=True)
     ticks = os.sysconf("SC_CLK_TCK")
@@ -322,10 +323,13 @@ def served(cloud: str, processes: int, domain: int, window: float = 20.0) -> dic
             )
             return row
         row["wall_up"] = time.monotonic() - began
-        # "swarm up: N FLS nodes in P process(es) under /swarm, discovered in X s; peak
-        # memory T MB (a + b)"
-        row["discovered"] = float(line.split("discovered in ")[1].split(" s;")[0])
-        row["memory"] = line.split("peak memory ")[1].strip()
+        from swazure_ros.core.results import RECORD_FILE, read_record
+
+        bring_up = read_record(out / RECORD_FILE).bring_up
+        assert bring_up is not None
+        row["discovered"] = bring_up.seconds
+        peaks = " + ".join(f"{mb:.0f}" for mb in bring_up.peak_rss_mb)
+        row["memory"] = f"{bring_up.total_peak_mb:.0f} MB ({peaks})"
         time.sleep(5.0)
         before, sampled = cpu_seconds(), time.monotonic()
         time.sleep(window)

@@ -117,7 +117,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=output_folder,
         default=None,
         metavar="DIR",
-        help="with --compute-all: write summary.json and pairs.csv here, as swazure evaluate does",
+        help="write record.json here (the bring-up; with --compute-all also the run, with "
+        "summary.json and pairs.csv as swazure evaluate writes them)",
     )
     parser.add_argument(
         "--record",
@@ -221,10 +222,8 @@ def config_from_args(args: argparse.Namespace) -> Any:
 
     if args.beta is None and args.radius is None:
         raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
-    if not args.compute_all and (
-        args.out is not None or args.technique != PLAIN or args.estimator != PATH
-    ):
-        raise SwazureError("--out, --technique and --estimator go with --compute-all")
+    if not args.compute_all and (args.technique != PLAIN or args.estimator != PATH):
+        raise SwazureError("--technique and --estimator go with --compute-all")
     if args.estimator != PATH and args.technique != PLAIN:
         raise SwazureError(
             f"--estimator {args.estimator} estimates plain Swazure's pairs: leave out --technique"
@@ -371,6 +370,11 @@ def main(args: argparse.Namespace) -> int:
             signal.signal(signum, _stopper(swarm))
         with swarm:
             bring_up = swarm.wait_until_ready()
+            if args.out is not None and not args.compute_all:
+                # A served swarm's run is its bring-up: what a script reads of it.
+                from ..core.results import RunRecord, write_record
+
+                write_record(args.out, RunRecord("spawn", bring_up.seconds, {}, bring_up=bring_up))
             ready = True
             bar.close()
             peaks = " + ".join(f"{mb:.0f}" for mb in bring_up.peak_rss_mb)

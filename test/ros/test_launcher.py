@@ -22,6 +22,7 @@ from swazure_ros.cli.main import build_parser
 from swazure_ros.cli.spawn import config_from_args
 from swazure_ros.cli.swarm_file import apply_swarm_file
 from swazure_ros.core.files import config_dir
+from swazure_ros.core.results import RECORD_FILE, read_record
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SHARED
@@ -110,12 +111,20 @@ def test_swarm_split_over_two_processes_gives_the_same_measurements(context, dom
         probe.destroy_node()
 
 
-def test_spawn_until_ready_prints_bring_up_and_exits_0(domain):
-    run = swazure("spawn", "--cloud", "helix:60", "--beta", "0.5", "--until-ready", "--quiet")
+def test_spawn_until_ready_prints_bring_up_writes_its_record_and_exits_0(domain, tmp_path):
+    run = swazure(
+        "spawn", "--cloud", "helix:60", "--beta", "0.5", "--until-ready", "--quiet",
+        "--out", str(tmp_path),
+    )  # fmt: skip
     out, err = run.communicate(timeout=120)
     assert run.returncode == 0, err
     assert "swarm up: 60 FLS nodes in 1 process(es)" in out
     assert "peak memory" in out
+    # What a script reads of a served swarm: its bring-up, as data.
+    record = read_record(tmp_path / RECORD_FILE)
+    assert record.command == "spawn" and record.summary == {}
+    assert record.bring_up.flss == 60 and record.bring_up.processes == 1
+    assert record.bring_up.seconds > 0 and len(record.bring_up.peak_rss_mb) == 1
 
 
 def test_a_swarm_from_a_swarm_file_gives_every_fls_and_one_fls_their_parameters(domain):
