@@ -62,7 +62,7 @@ BAD_INPUTS = [
     (["spawn", *TORUS, "--processes", "0"], "must be at least 1"),
     (["spawn", *TORUS, "--compute-all", "--out", "afile"], "afile exists and is not a folder"),
     (["spawn", *TORUS, "--domain-id", "-1"], "outside 0..232"),
-    (["spawn", *TORUS, "--out", "results"], "--compute-all"),
+    (["spawn", *TORUS, "--technique", "move-source"], "go with --compute-all"),
     (["spawn", *TORUS, "--estimator", "local-least-squares"], "go with --compute-all"),
     (["spawn", *TORUS, "--estimator", "least-squares"], "invalid choice: 'least-squares'"),
     (
