@@ -9,6 +9,8 @@ import pytest
 
 from swazure_ros.cli.main import VERBS, verb_module
 
+from ..conftest import REPO
+
 
 @pytest.mark.parametrize("verb", list(VERBS))
 def test_each_verb_s_summary_is_its_module_s_first_line(verb):
@@ -58,6 +60,8 @@ def test_evaluate_help_explains_every_row_of_the_summary():
         capture_output=True, text=True, timeout=120, check=True,
     )  # fmt: skip
     assert SUMMARY_TERMS.splitlines()[1] in done.stdout
+    # The documentation says the same, word for word (docs/core.md, "The summary's rows").
+    assert SUMMARY_TERMS.rstrip() in (REPO / "docs" / "core.md").read_text()
     run = evaluate(
         make_swarm(load_cloud("torus:60").points, beta=0.5), load_sensor(), "fewest-hops"
     )
