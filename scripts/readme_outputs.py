@@ -167,7 +167,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     )
     args = parser.parse_args(argv)
     chosen = [block for block in BLOCKS if args.only is None or block.name in args.only]
-    text = args.readme.read_text()
+    try:
+        text = args.readme.read_text()
+    except OSError as err:
+        raise SystemExit(f"readme_outputs: {args.readme}: {err.strerror or err}") from None
     spans = blocks_in(text)
     missing = [block.name for block in chosen if block.name not in spans]
     if missing:
