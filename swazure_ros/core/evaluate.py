@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from .. import __version__
 from . import csr, jit
-from .geometry import Swarm, tracking_distance
+from .geometry import Swarm
 from .metrics import describe, pose_errors
 from .neighbours import (
     NeighbourPairs,
@@ -102,16 +102,6 @@ class Neighbourhood:
         """SD_vis: sweet or decaying pairs in line of sight."""
         reach = (self.pairs.range_class == SWEET) | (self.pairs.range_class == DECAYING)
         return self._graph(reach & self.visible)
-
-    def pair_index(self, first: IntArray, second: IntArray) -> IntArray:
-        """Index into ``pairs`` of each unordered pair {first[m], second[m]}; -1 if absent."""
-        low, high = np.minimum(first, second), np.maximum(first, second)
-        size = self.swarm.size
-        keys = self.pairs.first * size + self.pairs.second
-        wanted = low * size + high
-        position = np.searchsorted(keys, wanted)
-        position = np.minimum(position, len(keys) - 1)
-        return np.where(keys[position] == wanted, position, -1)
 
 
 def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None) -> Neighbourhood:
@@ -291,41 +281,82 @@ def merge_paths(first: Paths, second: Paths, use_second: NDArray[np.bool_]) -> P
     return Paths(found, hops, length, offsets, nodes)
 
 
-def estimates(hood: Neighbourhood, paths: Paths) -> tuple[FloatArray, IntArray, IntArray]:
-    """Summed measured hop vectors of each path (M, 3), cm, and its sweet and decaying hops."""
+@dataclass(frozen=True)
+class HopTable:
+    """Every hop of M paths, in path order: which path, its ends, and the pair it crosses."""
+
+    size: int  # M, the number of paths
+    path: IntArray  # (H,), the path of each hop
+    start: IntArray  # (H,), FLS the hop leaves
+    end: IntArray  # (H,), FLS the hop reaches
+    pair: IntArray  # (H,), index of the hop's pair in the neighbourhood's ``pairs``
+
+    def sums(self, values: FloatArray) -> FloatArray:
+        """Sum over each path's hops of ``values`` (H,): (M,), summed from the source outwards."""
+        # bincount adds in array order, and the hops of a path are listed in order.
+        return np.bincount(self.path, weights=values, minlength=self.size).astype(np.float64)
+
+
+def hop_table(hood: Neighbourhood, paths: Paths) -> HopTable:
+    """The hops of ``paths``, each with its pair in ``hood.pairs``."""
+    path, start, end = path_hops(paths)
+    pair = hood.pairs.index(start, end)
+    if np.any(pair < 0):
+        raise ValueError("a path hops between FLSs out of each other's reach")
+    return HopTable(len(paths.found), path, start, end, pair)
+
+
+def hop_vectors(hood: Neighbourhood, hops: HopTable) -> FloatArray:
+    """Measured vector of each hop (H, 3), cm, each directed hop measured once."""
+    # A pair's two directions are two measurements (a noisy sensor draws per direction).
+    key = 2 * hops.pair + (hops.start > hops.end)
+    measured = np.zeros(2 * len(hood.pairs), dtype=bool)
+    measured[key] = True
+    keys = np.flatnonzero(measured)
+    row = np.zeros(len(measured), dtype=np.int64)
+    row[keys] = np.arange(len(keys))
+    pairs = hood.pairs
+    leaves = np.where(keys % 2 == 1, pairs.second[keys // 2], pairs.first[keys // 2])
+    reaches = np.where(keys % 2 == 1, pairs.first[keys // 2], pairs.second[keys // 2])
     swarm = hood.swarm
-    pair, start, end = path_hops(paths)
-    vectors = measured_vectors(hood.sensor, swarm.points, swarm.radius, start, end)
-    size = len(paths.found)
-    # bincount adds in array order: each pair's hops are summed from the source outwards.
-    estimate = np.column_stack(
-        [np.bincount(pair, weights=vectors[:, axis], minlength=size) for axis in range(3)]
-    ).astype(np.float64)  # bincount of nothing is an integer array
+    vectors = measured_vectors(hood.sensor, swarm.points, swarm.radius, leaves, reaches)
+    return vectors[row[key]]
+
+
+def estimates(
+    hood: Neighbourhood, paths: Paths, hops: HopTable | None = None
+) -> tuple[FloatArray, IntArray, IntArray]:
+    """Summed measured hop vectors of each path (M, 3), cm, and its sweet and decaying hops.
+
+    ``hops``: ``hop_table(hood, paths)``, when the caller has it.
+    """
+    hops = hops or hop_table(hood, paths)
+    vectors = hop_vectors(hood, hops)
+    estimate = np.column_stack([hops.sums(vectors[:, axis]) for axis in range(3)])
     estimate[~paths.found] = np.nan
-    sweet_hops, decaying_hops = hop_classes(hood, paths)
+    sweet_hops, decaying_hops = hop_classes(hood, paths, hops)
     return estimate, sweet_hops, decaying_hops
 
 
-def summed_hop_errors(hood: Neighbourhood, paths: Paths) -> FloatArray:
+def summed_hop_errors(
+    hood: Neighbourhood, paths: Paths, hops: HopTable | None = None
+) -> FloatArray:
     """Sum of :func:`~.sensor.hop_error` over each path's hops: (M,); nan without a path."""
-    swarm = hood.swarm
-    pair, start, end = path_hops(paths)
-    tracking = tracking_distance(swarm.points, swarm.radius, start, end)
-    costs = hop_error(hood.sensor, tracking, swarm.radius)
-    summed = np.bincount(pair, weights=costs, minlength=len(paths.found))
-    return np.where(paths.found, summed, np.nan)
+    hops = hops or hop_table(hood, paths)
+    costs = hop_error(hood.sensor, hood.pairs.tracking[hops.pair], hood.swarm.radius)
+    return np.where(paths.found, hops.sums(costs), np.nan)
 
 
-def hop_classes(hood: Neighbourhood, paths: Paths) -> tuple[IntArray, IntArray]:
+def hop_classes(
+    hood: Neighbourhood, paths: Paths, hops: HopTable | None = None
+) -> tuple[IntArray, IntArray]:
     """Sweet and decaying hops of each path: (M,) each."""
-    swarm = hood.swarm
-    pair, start, end = path_hops(paths)
+    hops = hops or hop_table(hood, paths)
     size = len(paths.found)
-    # Classified from the hop's own tracking distance: the same numbers as its pair's.
-    hop_class = hood.sensor.classify(tracking_distance(swarm.points, swarm.radius, start, end))
-    sweet_hops = np.bincount(pair, weights=hop_class == SWEET, minlength=size).astype(np.int64)
-    decaying_hops = np.bincount(pair, weights=hop_class == DECAYING, minlength=size)
-    return sweet_hops, decaying_hops.astype(np.int64)
+    hop_class = hood.pairs.range_class[hops.pair]
+    sweet_hops = np.bincount(hops.path[hop_class == SWEET], minlength=size)
+    decaying_hops = np.bincount(hops.path[hop_class == DECAYING], minlength=size)
+    return sweet_hops.astype(np.int64), decaying_hops.astype(np.int64)
 
 
 @jit.kernel(cache=True, parallel=True)
@@ -408,7 +439,8 @@ def evaluate_pairs(
     reason[fallback & connected] = REASON_BLOCKED
     reason[fallback & ~connected] = REASON_NO_SWEET_PATH
 
-    estimate, _, _ = estimates(hood, paths)
+    hops = hop_table(hood, paths)
+    estimate, _, _ = estimates(hood, paths, hops)
     progress.start("obstruction of sweet paths", int(connected.sum()))
     radio = shortest_paths(
         hood.sweet_all,
@@ -418,7 +450,9 @@ def evaluate_pairs(
         components=sweet_labels,
         progress=progress.advance,
     )
-    return pair_results(hood, source, target, status, reason, paths, estimate, radio, connected)
+    return pair_results(
+        hood, source, target, status, reason, paths, estimate, radio, connected, hops
+    )
 
 
 def pair_results(
@@ -431,14 +465,17 @@ def pair_results(
     estimate: FloatArray,
     radio: Paths,
     connected: NDArray[np.bool_],
+    hops: HopTable | None = None,
 ) -> PairResults:
     """Per-pair results from statuses, paths (M pairs) and estimates (M, 3), cm.
 
     ``radio`` holds the policy's S_all path of each ``connected`` pair, in
     order; the errors, hop classes and obstruction follow from the geometry.
+    ``hops``: ``hop_table(hood, paths)``, when the caller has it.
     """
     swarm = hood.swarm
-    sweet_hops, decaying_hops = hop_classes(hood, paths)
+    hops = hops or hop_table(hood, paths)
+    sweet_hops, decaying_hops = hop_classes(hood, paths, hops)
     truth = swarm.points[target] - swarm.points[source]
     errors = pose_errors(estimate, truth)
     count = len(source)
@@ -450,7 +487,7 @@ def pair_results(
 
     distance_error, alpha, theta, phi = errors
     return PairResults(
-        predicted_error=expected_error(hood.sensor, summed_hop_errors(hood, paths)),
+        predicted_error=expected_error(hood.sensor, summed_hop_errors(hood, paths, hops)),
         fused_paths=np.where(paths.found, 1, 0).astype(np.int64),
         source=source,
         target=target,

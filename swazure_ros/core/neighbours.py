@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
+from . import csr, jit
 from .geometry import KISSING_TOLERANCE, Swarm, centre_distance
 from .sensor import BLIND, Sensor
 
@@ -48,6 +50,32 @@ class NeighbourPairs:
     def kissing(self) -> int:
         """Number of unordered pairs whose tracking distance is within 1e-3 cm of 0."""
         return int(np.count_nonzero(np.abs(self.tracking) <= KISSING_TOLERANCE))
+
+    @cached_property
+    def _rows(self) -> IntArray:
+        """Start of each FLS's pairs as ``first``: (N + 1,), N the largest index + 1."""
+        size = int(self.second.max()) + 1 if len(self.second) else 0
+        return csr.offsets(np.bincount(self.first, minlength=size)).astype(np.int64)
+
+    def index(self, one: ArrayLike, other: ArrayLike) -> IntArray:
+        """Index of the pair {one[m], other[m]} for each m, either order: (M,); -1 if absent."""
+        one = np.asarray(one, dtype=np.int64)
+        other = np.asarray(other, dtype=np.int64)
+        return np.asarray(_pair_index(self._rows, self.second, one, other))
+
+
+@jit.kernel(cache=True, parallel=True)
+def _pair_index(rows: IntArray, second: IntArray, one: IntArray, other: IntArray) -> IntArray:
+    out = np.full(len(one), -1, dtype=np.int64)
+    for m in jit.prange(len(one)):
+        low, high = min(one[m], other[m]), max(one[m], other[m])
+        if low == high or low + 1 >= len(rows):
+            continue
+        start, stop = rows[low], rows[low + 1]
+        position = start + np.searchsorted(second[start:stop], high)
+        if position < stop and second[position] == high:
+            out[m] = position
+    return out
 
 
 def neighbour_pairs(swarm: Swarm, sensor: Sensor) -> NeighbourPairs:

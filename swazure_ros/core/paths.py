@@ -211,7 +211,9 @@ def _walk_back(pred: IntArray, target: int, steps: int, out: IntArray) -> None:
 @jit.kernel(cache=True, nogil=True)
 def _scratch(
     size: int,
-) -> tuple[FloatArray, FloatArray, IntArray, NDArray[np.bool_], NDArray[np.bool_], IntArray]:
+) -> tuple[
+    FloatArray, FloatArray, IntArray, NDArray[np.bool_], NDArray[np.bool_], IntArray, IntArray
+]:
     """Unset labels of a search over ``size`` nodes: primary, secondary, pred, settled, ..."""
     return (
         np.full(size, np.inf),
@@ -219,6 +221,7 @@ def _scratch(
         np.full(size, -1, dtype=np.int64),
         np.zeros(size, dtype=np.bool_),
         np.zeros(size, dtype=np.bool_),
+        np.empty(size, dtype=np.int64),
         np.empty(size, dtype=np.int64),
     )
 
@@ -246,6 +249,154 @@ def _search_one(
     targets: IntArray,
     component: IntArray,
     fewest_hops: bool,
+    bucket_width: float,
+    slots: int,
+    primary: FloatArray,
+    secondary: FloatArray,
+    pred: IntArray,
+    settled: NDArray[np.bool_],
+    wanted: NDArray[np.bool_],
+    touched: IntArray,
+    order: IntArray,
+) -> int:
+    """Search from ``source`` until every reachable target is settled; return nodes touched.
+
+    With ``slots`` > 0, Dinitz's buckets (see :func:`_buckets`); else a heap.
+    Leaves cost labels in ``primary``/``secondary`` and predecessors in
+    ``pred`` for the touched nodes; the caller resets them.
+    """
+    if slots > 0:
+        return _search_buckets(
+            indptr, indices, weights, source, targets, component, fewest_hops, bucket_width, slots,
+            primary, secondary, pred, settled, wanted, touched, order,
+        )  # fmt: skip
+    return _search_heap(
+        indptr, indices, weights, source, targets, component, fewest_hops,
+        primary, secondary, pred, settled, wanted, touched,
+    )  # fmt: skip
+
+
+@jit.kernel(cache=True, nogil=True)
+def _mark_targets(
+    source: int, targets: IntArray, component: IntArray, wanted: NDArray[np.bool_]
+) -> int:
+    """Mark the targets in the source's component as wanted; return how many were marked."""
+    remaining = 0
+    for target in targets:
+        if component[target] == component[source] and not wanted[target]:
+            wanted[target] = True
+            remaining += 1
+    return remaining
+
+
+@jit.kernel(cache=True, nogil=True)
+def _search_buckets(
+    indptr: IntArray,
+    indices: IntArray,
+    weights: FloatArray,
+    source: int,
+    targets: IntArray,
+    component: IntArray,
+    fewest_hops: bool,
+    bucket_width: float,
+    slots: int,
+    primary: FloatArray,
+    secondary: FloatArray,
+    pred: IntArray,
+    settled: NDArray[np.bool_],
+    wanted: NDArray[np.bool_],
+    touched: IntArray,
+    order: IntArray,
+) -> int:
+    """Dinitz's algorithm: settle a whole bucket of labels at once, then relax its edges.
+
+    Bucket k holds the labels in [k * bucket_width, (k + 1) * bucket_width), and the width is
+    at most the smallest edge: no label of bucket k can be improved through
+    a node of bucket k or later, so all of bucket k is final once the
+    buckets before it have relaxed their edges. Every node through which a
+    label is reached at its cost lies in an earlier bucket, so the
+    predecessor rule sees them all. The search stops as soon as the last
+    target's bucket is reached, without relaxing it.
+    """
+    remaining = _mark_targets(source, targets, component, wanted)
+    capacity = 1024
+    entry_node = np.empty(capacity, dtype=np.int64)
+    entry_next = np.empty(capacity, dtype=np.int64)
+    head = np.full(slots, -1, dtype=np.int64)
+    primary[source] = 0.0
+    secondary[source] = 0.0
+    pred[source] = source
+    touched[0] = source
+    count = 1
+    entry_node[0], entry_next[0], head[0] = source, -1, 0
+    used, pending, bucket, done = 1, 1, 0, 0
+    while pending > 0 and remaining > 0:
+        slot = bucket % slots
+        entry = head[slot]
+        head[slot] = -1
+        first = done
+        while entry >= 0:
+            pending -= 1
+            node = entry_node[entry]
+            entry = entry_next[entry]
+            # A node listed twice (its label improved within the bucket) settles once.
+            if not settled[node]:
+                settled[node] = True
+                order[done] = node
+                done += 1
+                if wanted[node]:
+                    remaining -= 1
+        bucket += 1
+        if remaining == 0:
+            break
+        for position in range(first, done):
+            node = order[position]
+            k1, k2 = primary[node], secondary[node]
+            for edge in range(indptr[node], indptr[node + 1]):
+                neighbour = indices[edge]
+                if settled[neighbour]:
+                    continue
+                if fewest_hops:
+                    n1, n2 = k1 + 1.0, k2 + weights[edge]
+                else:
+                    n1, n2 = k1 + weights[edge], k2 + 1.0
+                p1, p2 = primary[neighbour], secondary[neighbour]
+                if p1 == np.inf:
+                    touched[count] = neighbour
+                    count += 1
+                if n1 < p1 or (n1 == p1 and n2 < p2):
+                    primary[neighbour] = n1
+                    secondary[neighbour] = n2
+                    pred[neighbour] = node
+                    # The next bucket at least: a label never returns to a bucket relaxed.
+                    target_bucket = max(int(n1 / bucket_width), bucket)
+                    if p1 < np.inf and target_bucket == max(int(p1 / bucket_width), bucket):
+                        continue  # listed in that bucket already
+                    if used == capacity:
+                        capacity *= 2
+                        grown_node = np.empty(capacity, dtype=np.int64)
+                        grown_next = np.empty(capacity, dtype=np.int64)
+                        grown_node[:used], grown_next[:used] = entry_node, entry_next
+                        entry_node, entry_next = grown_node, grown_next
+                    target_slot = target_bucket % slots
+                    entry_node[used], entry_next[used] = neighbour, head[target_slot]
+                    head[target_slot] = used
+                    used += 1
+                    pending += 1
+                elif n1 == p1 and n2 == p2 and node < pred[neighbour]:
+                    pred[neighbour] = node
+    return count
+
+
+@jit.kernel(cache=True, nogil=True)
+def _search_heap(
+    indptr: IntArray,
+    indices: IntArray,
+    weights: FloatArray,
+    source: int,
+    targets: IntArray,
+    component: IntArray,
+    fewest_hops: bool,
     primary: FloatArray,
     secondary: FloatArray,
     pred: IntArray,
@@ -253,16 +404,8 @@ def _search_one(
     wanted: NDArray[np.bool_],
     touched: IntArray,
 ) -> int:
-    """Dijkstra from ``source`` until every reachable target is settled; return nodes touched.
-
-    Leaves cost labels in ``primary``/``secondary`` and predecessors in ``pred``
-    for the touched nodes; the caller resets them.
-    """
-    remaining = 0
-    for target in targets:
-        if component[target] == component[source] and not wanted[target]:
-            wanted[target] = True
-            remaining += 1
+    """Dijkstra with a binary heap, for edges too unequal for buckets; see :func:`_search_one`."""
+    remaining = _mark_targets(source, targets, component, wanted)
     capacity = 64
     heap1 = np.empty(capacity)
     heap2 = np.empty(capacity)
@@ -315,57 +458,6 @@ def _search_one(
 
 
 @jit.kernel(cache=True, parallel=True)
-def _two_hop_kernel(
-    indptr: IntArray,
-    indices: IntArray,
-    weights: FloatArray,
-    sources: IntArray,
-    targets: IntArray,
-    bound: float,
-) -> tuple[NDArray[np.bool_], IntArray, FloatArray]:
-    """Cheapest common neighbour of each pair, where a 2-hop path is provably the policy's.
-
-    A pair is resolved when it is not itself an edge, has a common neighbour,
-    and its best 2-hop length is at most ``bound`` (inf for fewest-hops,
-    3 * the smallest edge length for shortest-length: no path of 3 or more
-    hops can then be shorter). Lengths are summed as Dijkstra sums them, and
-    ties go to the smallest middle node, as the predecessor rule says.
-    """
-    pairs = len(sources)
-    resolved = np.zeros(pairs, dtype=np.bool_)
-    middle = np.full(pairs, -1, dtype=np.int64)
-    length = np.full(pairs, np.inf)
-    for pair in jit.prange(pairs):
-        source, target = sources[pair], targets[pair]
-        a, a_end = indptr[source], indptr[source + 1]
-        b, b_end = indptr[target], indptr[target + 1]
-        best, best_middle, adjacent = np.inf, -1, False
-        while a < a_end and b < b_end:
-            left, right = indices[a], indices[b]
-            if left == target:
-                adjacent = True
-            if left < right:
-                a += 1
-            elif right < left:
-                b += 1
-            else:
-                total = (0.0 + weights[a]) + weights[b]
-                if total < best:
-                    best, best_middle = total, left
-                a += 1
-                b += 1
-        while a < a_end:
-            if indices[a] == target:
-                adjacent = True
-            a += 1
-        if best_middle >= 0 and not adjacent and best <= bound:
-            resolved[pair] = True
-            middle[pair] = best_middle
-            length[pair] = best
-    return resolved, middle, length
-
-
-@jit.kernel(cache=True, parallel=True)
 def _search_kernel(
     indptr: IntArray,
     indices: IntArray,
@@ -375,6 +467,8 @@ def _search_kernel(
     targets: IntArray,
     component: IntArray,
     fewest_hops: bool,
+    bucket_width: float,
+    slots: int,
     width: int,
     chunks: int,
 ) -> tuple[NDArray[np.bool_], IntArray, FloatArray, IntArray]:
@@ -385,7 +479,7 @@ def _search_kernel(
     length = np.full(pairs, np.nan)
     buffer = np.full((pairs, width), -1, dtype=np.int64)
     for chunk in jit.prange(chunks):
-        primary, secondary, pred, settled, wanted, touched = _scratch(size)
+        primary, secondary, pred, settled, wanted, touched, order = _scratch(size)
         for position in range(chunk, len(sources), chunks):
             source = sources[position]
             mine = targets[target_ptr[position] : target_ptr[position + 1]]
@@ -397,12 +491,15 @@ def _search_kernel(
                 mine,
                 component,
                 fewest_hops,
+                bucket_width,
+                slots,
                 primary,
                 secondary,
                 pred,
                 settled,
                 wanted,
                 touched,
+                order,
             )
             for offset in range(len(mine)):
                 pair = target_ptr[position] + offset
@@ -430,6 +527,8 @@ def _long_paths(
     targets: IntArray,
     component: IntArray,
     fewest_hops: bool,
+    bucket_width: float,
+    slots: int,
     hops: IntArray,
     width: int,
     offsets: IntArray,
@@ -437,7 +536,7 @@ def _long_paths(
 ) -> None:
     """Write the paths longer than ``width`` nodes into ``nodes`` at ``offsets``."""
     size = len(indptr) - 1
-    primary, secondary, pred, settled, wanted, touched = _scratch(size)
+    primary, secondary, pred, settled, wanted, touched, order = _scratch(size)
     for position in range(len(sources)):
         start, stop = target_ptr[position], target_ptr[position + 1]
         if np.all(hops[start:stop] + 1 <= width):
@@ -450,12 +549,15 @@ def _long_paths(
             targets[start:stop],
             component,
             fewest_hops,
+            bucket_width,
+            slots,
             primary,
             secondary,
             pred,
             settled,
             wanted,
             touched,
+            order,
         )
         for pair in range(start, stop):
             if hops[pair] + 1 > width:
@@ -481,6 +583,29 @@ def _policy_weights(graph: Graph, policy: str) -> tuple[FloatArray, bool]:
     return graph.weights, policy == FEWEST_HOPS
 
 
+#: Most buckets a search keeps in turn; edges more unequal than this are searched with a heap.
+_MOST_BUCKETS = 4096
+
+
+def _buckets(weights: FloatArray, fewest_hops: bool) -> tuple[float, int]:
+    """Bucket width and bucket count of a search summing ``weights`` (2E,); (0, 0) for a heap.
+
+    The width is the smallest edge's, less a margin far above rounding, so
+    that an edge always leads to a later bucket (see :func:`_search_buckets`).
+    """
+    if fewest_hops:  # the hop count comes first and grows by exactly 1
+        smallest = largest = 1.0
+    elif len(weights):
+        smallest, largest = float(weights.min()), float(weights.max())
+    else:
+        return 0.0, 0
+    if not smallest > 0:
+        return 0.0, 0
+    width = smallest * (1.0 - 1e-9)
+    slots = int(largest / width) + 2
+    return (width, slots) if slots <= _MOST_BUCKETS else (0.0, 0)
+
+
 @jit.kernel(cache=True, parallel=True)
 def _avoiding_kernel(
     indptr: IntArray,
@@ -488,6 +613,8 @@ def _avoiding_kernel(
     weights: FloatArray,
     component: IntArray,
     fewest_hops: bool,
+    bucket_width: float,
+    slots: int,
     sources: IntArray,
     targets: IntArray,
     avoid_offsets: IntArray,
@@ -501,7 +628,7 @@ def _avoiding_kernel(
     hops = np.zeros(pairs, dtype=np.int64)
     buffer = np.full((pairs, width), -1, dtype=np.int64)
     for chunk in jit.prange(chunks):
-        primary, secondary, pred, settled, wanted, touched = _scratch(size)
+        primary, secondary, pred, settled, wanted, touched, order = _scratch(size)
         one = np.empty(1, dtype=np.int64)
         for pair in range(chunk, pairs, chunks):
             source, target = sources[pair], targets[pair]
@@ -517,12 +644,15 @@ def _avoiding_kernel(
                 one,
                 component,
                 fewest_hops,
+                bucket_width,
+                slots,
                 primary,
                 secondary,
                 pred,
                 settled,
                 wanted,
                 touched,
+                order,
             )
             if target != source and primary[target] < np.inf and settled[target]:
                 steps = int(primary[target] if fewest_hops else secondary[target])
@@ -566,6 +696,7 @@ def avoiding_paths(
         weights,
         components,
         fewest_hops,
+        *_buckets(weights, fewest_hops),
         sources,
         targets,
         np.asarray(avoid_offsets, dtype=np.int64),
@@ -621,22 +752,9 @@ def shortest_paths(
     length = np.full(pairs, np.nan)
     buffer = np.full((pairs, _WIDTH), -1, dtype=np.int64)
 
-    # Most blind pairs are joined by a common neighbour: settle those by a join.
-    smallest = float(weights.min()) if len(weights) else 0.0
-    # The margin keeps a float sum of three edges from rounding below 3 * smallest.
-    bound = np.inf if fewest_hops else (3.0 * smallest * (1 - 1e-12) if smallest > 0 else -np.inf)
-    joined, middle, joined_length = _two_hop_kernel(
-        graph.indptr, graph.indices, weights, sources, targets, bound
-    )
-    found[joined], hops[joined], length[joined] = True, 2, joined_length[joined]
-    buffer[joined, :3] = np.column_stack([sources[joined], middle[joined], targets[joined]])
-    if progress is not None:
-        progress(int(joined.sum()))
-
-    rest = np.flatnonzero(~joined)
-    rest_sources, rest_targets = sources[rest], targets[rest]
-    unique, starts = np.unique(rest_sources, return_index=True)
-    target_ptr = np.append(starts, len(rest)).astype(np.int64)
+    buckets = _buckets(weights, fewest_hops)
+    unique, starts = np.unique(sources, return_index=True)
+    target_ptr = np.append(starts, pairs).astype(np.int64)
     for begin in range(0, len(unique), batch):
         end = min(begin + batch, len(unique))
         lo, hi = target_ptr[begin], target_ptr[end]
@@ -646,15 +764,15 @@ def shortest_paths(
             weights,
             unique[begin:end],
             target_ptr[begin : end + 1] - lo,
-            rest_targets[lo:hi],
+            targets[lo:hi],
             components,
             fewest_hops,
+            *buckets,
             _WIDTH,
             min(end - begin, 4 * jit.get_num_threads()),
         )
-        where = rest[lo:hi]
-        found[where], hops[where], length[where] = part_found, part_hops, part_length
-        buffer[where] = part_buffer
+        found[lo:hi], hops[lo:hi], length[lo:hi] = part_found, part_hops, part_length
+        buffer[lo:hi] = part_buffer
         if progress is not None:
             progress(int(hi - lo))
     counts = np.where(found, hops + 1, 0)
@@ -665,33 +783,31 @@ def shortest_paths(
     keep = (columns[None, :] < counts[:, None]) & short[:, None]
     nodes[np.repeat(short, counts)] = buffer[keep]
     if not short.all():
+        # A second search from each source with a long path, writing whole paths this time.
         long_sources = np.unique(sources[~short])
-        keep = np.isin(rest_sources, long_sources)
-        _, starts = np.unique(rest_sources[keep], return_index=True)
-        long_hops = hops[rest[keep]]
-        long_offsets = offsets[rest[keep]]
-        scratch = np.empty(int((long_hops + 1).sum()) + 1, dtype=np.int64)
-        scratch_offsets = csr.offsets(long_hops + 1)[:-1]
+        again = np.flatnonzero(np.isin(sources, long_sources))
+        _, starts = np.unique(sources[again], return_index=True)
+        scratch = np.empty(int((hops[again] + 1).sum()) + 1, dtype=np.int64)
+        scratch_offsets = csr.offsets(hops[again] + 1)[:-1]
         _long_paths(
             graph.indptr,
             graph.indices,
             weights,
             long_sources,
-            np.append(starts, keep.sum()).astype(np.int64),
-            rest_targets[keep],
+            np.append(starts, len(again)).astype(np.int64),
+            targets[again],
             components,
             fewest_hops,
-            long_hops,
+            *buckets,
+            hops[again],
             _WIDTH,
             scratch_offsets,
             scratch,
         )
-        for slot, pair in enumerate(rest[keep]):
+        for slot, pair in enumerate(again):
             if hops[pair] + 1 > _WIDTH:
                 start = scratch_offsets[slot]
-                nodes[long_offsets[slot] : long_offsets[slot] + hops[pair] + 1] = scratch[
-                    start : start + hops[pair] + 1
-                ]
+                nodes[offsets[pair] : offsets[pair + 1]] = scratch[start : start + hops[pair] + 1]
     paths = Paths(found, hops, length, offsets, nodes)
     if policy == LEAST_ERROR:
         return replace(paths, length=path_sums(graph, paths, graph.weights))
