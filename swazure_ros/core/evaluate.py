@@ -274,11 +274,33 @@ def merge_paths(first: Paths, second: Paths, use_second: NDArray[np.bool_]) -> P
     counts = np.where(found, hops + 1, 0)
     offsets = csr.offsets(counts)
     nodes = np.empty(offsets[-1], dtype=np.int64)
-    owner = np.repeat(np.arange(size), counts)
-    from_second = use_second[owner]
-    nodes[~from_second] = first.nodes[np.repeat(first.found & ~use_second, np.diff(first.offsets))]
-    nodes[from_second] = second.nodes
+    row_in_second = np.cumsum(use_second) - 1
+    _merge_nodes(
+        first.offsets, first.nodes, second.offsets, second.nodes, use_second, row_in_second,
+        offsets, nodes,
+    )  # fmt: skip
     return Paths(found, hops, length, offsets, nodes)
+
+
+@jit.kernel(cache=True, parallel=True)
+def _merge_nodes(
+    first_offsets: IntArray,
+    first_nodes: IntArray,
+    second_offsets: IntArray,
+    second_nodes: IntArray,
+    use_second: NDArray[np.bool_],
+    row_in_second: IntArray,
+    offsets: IntArray,
+    nodes: IntArray,
+) -> None:
+    for pair in jit.prange(len(use_second)):
+        if use_second[pair]:
+            row = row_in_second[pair]
+            begin, source = second_offsets[row], second_nodes
+        else:
+            begin, source = first_offsets[pair], first_nodes
+        for slot in range(offsets[pair + 1] - offsets[pair]):
+            nodes[offsets[pair] + slot] = source[begin + slot]
 
 
 @dataclass(frozen=True)
@@ -290,6 +312,7 @@ class HopTable:
     start: IntArray  # (H,), FLS the hop leaves
     end: IntArray  # (H,), FLS the hop reaches
     pair: IntArray  # (H,), index of the hop's pair in the neighbourhood's ``pairs``
+    slot: IntArray  # (H,), the hop's edge start -> end in SD_vis (CSR position); -1 if none
 
     def sums(self, values: FloatArray) -> FloatArray:
         """Sum over each path's hops of ``values`` (H,): (M,), summed from the source outwards."""
@@ -300,27 +323,40 @@ class HopTable:
 def hop_table(hood: Neighbourhood, paths: Paths) -> HopTable:
     """The hops of ``paths``, each with its pair in ``hood.pairs``."""
     path, start, end = path_hops(paths)
-    pair = hood.pairs.index(start, end)
+    # Nearly every hop is an edge of SD_vis, whose rows are shorter than those of all pairs.
+    graph = hood.any_visible
+    slot = graph.edge_positions(start, end)
+    pair = np.full(len(slot), -1, dtype=np.int64)
+    pair[slot >= 0] = graph.labels[slot[slot >= 0]]
+    elsewhere = slot < 0
+    if elsewhere.any():
+        pair[elsewhere] = hood.pairs.index(start[elsewhere], end[elsewhere])
     if np.any(pair < 0):
         raise ValueError("a path hops between FLSs out of each other's reach")
-    return HopTable(len(paths.found), path, start, end, pair)
+    return HopTable(len(paths.found), path, start, end, pair, slot)
 
 
 def hop_vectors(hood: Neighbourhood, hops: HopTable) -> FloatArray:
-    """Measured vector of each hop (H, 3), cm, each directed hop measured once."""
+    """Measured vector of each hop (H, 3), cm; each directed edge of SD_vis measured once."""
+    swarm, sensor, graph = hood.swarm, hood.sensor, hood.any_visible
+    on_graph = hops.slot >= 0
     # A pair's two directions are two measurements (a noisy sensor draws per direction).
-    key = 2 * hops.pair + (hops.start > hops.end)
-    measured = np.zeros(2 * len(hood.pairs), dtype=bool)
-    measured[key] = True
-    keys = np.flatnonzero(measured)
+    measured = np.zeros(len(graph.indices), dtype=bool)
+    measured[hops.slot[on_graph]] = True
+    slots = np.flatnonzero(measured)
     row = np.zeros(len(measured), dtype=np.int64)
-    row[keys] = np.arange(len(keys))
-    pairs = hood.pairs
-    leaves = np.where(keys % 2 == 1, pairs.second[keys // 2], pairs.first[keys // 2])
-    reaches = np.where(keys % 2 == 1, pairs.first[keys // 2], pairs.second[keys // 2])
-    swarm = hood.swarm
-    vectors = measured_vectors(hood.sensor, swarm.points, swarm.radius, leaves, reaches)
-    return vectors[row[key]]
+    row[slots] = np.arange(len(slots))
+    leaves = csr.run_of(graph.indptr)[slots]
+    once = measured_vectors(sensor, swarm.points, swarm.radius, leaves, graph.indices[slots])
+    if on_graph.all():
+        return np.asarray(once[row[hops.slot]])
+    vectors = np.empty((len(hops.path), 3))
+    vectors[on_graph] = once[row[hops.slot[on_graph]]]
+    off = ~on_graph
+    vectors[off] = measured_vectors(
+        sensor, swarm.points, swarm.radius, hops.start[off], hops.end[off]
+    )
+    return vectors
 
 
 def estimates(
@@ -401,7 +437,13 @@ def path_obstruction(
     hop_pair = graph.edge_labels(start, end)
     blocked = ~hood.visible[hop_pair]
     has_obstruction = np.bincount(pair[blocked], minlength=size) > 0
-    edges, edge_of_blocked_hop = np.unique(hop_pair[blocked], return_inverse=True)
+    # Each blocked pair's obstructers are found once, however many paths cross it.
+    crossed = np.zeros(len(hood.pairs), dtype=bool)
+    crossed[hop_pair[blocked]] = True
+    edges = np.flatnonzero(crossed)
+    edge_number = np.zeros(len(crossed), dtype=np.int64)
+    edge_number[edges] = np.arange(len(edges))
+    edge_of_blocked_hop = edge_number[hop_pair[blocked]]
     swarm = hood.swarm
     offsets, ids = obstructers(
         swarm.points, swarm.radius, hood.pairs.first[edges], hood.pairs.second[edges], hood.grid

@@ -706,7 +706,8 @@ def avoiding_paths(
     )
     counts = np.where(found, hops + 1, 0)
     offsets = csr.offsets(counts)
-    nodes = buffer[np.arange(AVOIDING_WIDTH)[None, :] < counts[:, None]]
+    nodes = np.empty(offsets[-1], dtype=np.int64)
+    _compress(buffer, counts, offsets, nodes)
     paths = Paths(found, hops, np.full(len(found), np.nan), offsets, nodes)
     return replace(paths, length=path_sums(graph, paths, graph.weights))
 
@@ -778,10 +779,8 @@ def shortest_paths(
     counts = np.where(found, hops + 1, 0)
     offsets = csr.offsets(counts)
     nodes = np.empty(offsets[-1], dtype=np.int64)
+    _compress(buffer, counts, offsets, nodes)  # long paths' rows are rewritten below
     short = counts <= _WIDTH
-    columns = np.arange(_WIDTH)
-    keep = (columns[None, :] < counts[:, None]) & short[:, None]
-    nodes[np.repeat(short, counts)] = buffer[keep]
     if not short.all():
         # A second search from each source with a long path, writing whole paths this time.
         long_sources = np.unique(sources[~short])
@@ -852,9 +851,30 @@ def path_sums(graph: Graph, paths: Paths, values: FloatArray) -> FloatArray:
 
 def path_hops(paths: Paths) -> tuple[IntArray, IntArray, IntArray]:
     """Every hop of every path: (pair, from, to), each (H,), in path order."""
-    counts = np.diff(paths.offsets)
-    pair_of_node = np.repeat(np.arange(len(counts)), counts)
-    not_last = np.ones(len(paths.nodes), dtype=bool)
-    not_last[paths.offsets[1:][counts > 0] - 1] = False
-    position = np.flatnonzero(not_last)
-    return pair_of_node[position], paths.nodes[position], paths.nodes[position + 1]
+    offsets = np.asarray(paths.offsets, dtype=np.int64)
+    hop_offsets = csr.offsets(np.maximum(np.diff(offsets) - 1, 0))
+    return _path_hops(offsets, np.asarray(paths.nodes, dtype=np.int64), hop_offsets)
+
+
+@jit.kernel(cache=True, parallel=True)
+def _path_hops(
+    offsets: IntArray, nodes: IntArray, hop_offsets: IntArray
+) -> tuple[IntArray, IntArray, IntArray]:
+    hops = hop_offsets[-1]
+    pair = np.empty(hops, dtype=np.int64)
+    start = np.empty(hops, dtype=np.int64)
+    end = np.empty(hops, dtype=np.int64)
+    for path in jit.prange(len(offsets) - 1):
+        first = offsets[path]
+        for hop in range(hop_offsets[path], hop_offsets[path + 1]):
+            at = first + hop - hop_offsets[path]
+            pair[hop], start[hop], end[hop] = path, nodes[at], nodes[at + 1]
+    return pair, start, end
+
+
+@jit.kernel(cache=True, parallel=True)
+def _compress(buffer: IntArray, counts: IntArray, offsets: IntArray, nodes: IntArray) -> None:
+    """Copy the first counts[m] nodes of row m of ``buffer`` (M, W) to nodes[offsets[m]:]."""
+    for row in jit.prange(len(counts)):
+        for column in range(min(counts[row], buffer.shape[1])):
+            nodes[offsets[row] + column] = buffer[row, column]

@@ -39,7 +39,6 @@ class Grid(NamedTuple):
 
 def build_grid(points: FloatArray, radius: float) -> Grid:
     """Bucket ``points`` (N, 3) into cells of about the point spacing, cm, and at least r."""
-    lower = points.min(axis=0)
     extent = np.ptp(points, axis=0)
     from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
 
@@ -47,6 +46,14 @@ def build_grid(points: FloatArray, radius: float) -> Grid:
     # Cells near the point spacing keep few points per cell and few cells per
     # segment, whatever r is.
     cell = max(float(np.median(spacing[:, 1])), radius, float(extent.max()) * 1e-9, 1e-12)
+    return grid_of(points, cell)
+
+
+def grid_of(points: FloatArray, cell: float) -> Grid:
+    """Bucket ``points`` (N, 3) into cubic cells of at least ``cell`` cm (coarser if too many)."""
+    lower = points.min(axis=0)
+    extent = np.ptp(points, axis=0)
+    cell = max(cell, float(extent.max()) * 1e-9, 1e-12)
     while np.prod(np.floor(extent / cell) + 1) > MAX_CELLS:
         cell *= 1.5
     shape = (np.floor(extent / cell) + 1).astype(np.int64)
@@ -236,7 +243,7 @@ _obstructed_kernel = jit.kernel("_obstructed_kernel", cache=True, parallel=True)
 _obstructed_serial = jit.kernel("_obstructed_serial", cache=True, nogil=True)(_obstructed_segments)
 
 
-@jit.kernel(cache=True)
+@jit.kernel(cache=True, nogil=True)
 def _obstructers_kernel(
     points: FloatArray,
     radius: float,
@@ -335,14 +342,23 @@ def obstructers(
     """
     points, first, second = _coerce_pairs(points, first, second)
     grid = grid if grid is not None else build_grid(points, radius)
-    offsets, ids = _obstructers_kernel(
-        points,
-        float(radius),
-        first,
-        second,
-        grid,
-    )
-    return np.asarray(offsets), np.asarray(ids)
+    # The kernel grows its output as it goes, so parts run on threads of their own.
+    parts = max(1, min(jit.get_num_threads(), len(first) // SERIAL_SEGMENTS))
+    bounds = np.linspace(0, len(first), parts + 1).astype(np.int64)
+
+    def part(index: int) -> tuple[IntArray, IntArray]:
+        lo, hi = bounds[index], bounds[index + 1]
+        return _obstructers_kernel(points, float(radius), first[lo:hi], second[lo:hi], grid)
+
+    if parts == 1:
+        offsets, ids = part(0)
+        return np.asarray(offsets), np.asarray(ids)
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(parts) as pool:
+        results = list(pool.map(part, range(parts)))
+    counts = np.concatenate([np.diff(offsets) for offsets, _ in results])
+    return csr.offsets(counts), np.concatenate([ids for _, ids in results])
 
 
 @jit.kernel(cache=True, parallel=True)
