@@ -264,7 +264,6 @@ def merge_paths(first: Paths, second: Paths, use_second: NDArray[np.bool_]) -> P
 
     ``second`` holds only the pairs where ``use_second`` holds, in order.
     """
-    size = len(first.found)
     found = first.found.copy()
     hops = first.hops.copy()
     length = first.length.copy()

@@ -148,19 +148,36 @@ def scan_between(
                         k = members[slot]
                         if k == a or k == b:  # noqa: SIM109 (numba: plain compares)
                             continue
-                        wx, wy, wz = points[k, 0] - ax, points[k, 1] - ay, points[k, 2] - az
-                        projection = wx * ux + wy * uy + wz * uz
-                        projection = min(max(projection, 0.0), length)
-                        ox = wx - projection * ux
-                        oy = wy - projection * uy
-                        oz = wz - projection * uz
-                        if ox * ox + oy * oy + oz * oz <= radius2:
+                        if blocks(points, k, ax, ay, az, ux, uy, uz, length, radius2):
                             found[count] = k
                             count += 1
                             if stop_at_first:
                                 return count
         plo0, plo1, plo2, phi0, phi1, phi2 = lo0, lo1, lo2, hi0, hi1, hi2
     return count
+
+
+@jit.kernel(cache=True, nogil=True)
+def blocks(
+    points: FloatArray,
+    k: int,
+    ax: float,
+    ay: float,
+    az: float,
+    ux: float,
+    uy: float,
+    uz: float,
+    length: float,
+    radius2: float,
+) -> bool:
+    """Whether point k is within r (radius2 = r^2) of the segment from a along unit u, cm."""
+    wx, wy, wz = points[k, 0] - ax, points[k, 1] - ay, points[k, 2] - az
+    projection = wx * ux + wy * uy + wz * uz
+    projection = min(max(projection, 0.0), length)
+    ox = wx - projection * ux
+    oy = wy - projection * uy
+    oz = wz - projection * uz
+    return bool(ox * ox + oy * oy + oz * oz <= radius2)
 
 
 @jit.kernel(cache=True, nogil=True)
@@ -220,15 +237,7 @@ def _obstructed_segments(
     for chunk in jit.prange(chunks):
         found = np.empty(1, dtype=np.int64)
         for pair in range(chunk * size, min((chunk + 1) * size, len(first))):
-            hits = scan_segment(
-                points,
-                radius,
-                first[pair],
-                second[pair],
-                grid,
-                found,
-                True,
-            )
+            hits = scan_segment(points, radius, first[pair], second[pair], grid, found, True)
             out[pair] = hits > 0
     return out
 

@@ -174,7 +174,7 @@ def test_a_source_hears_its_radio_neighbours_readings_of_each_other():
         # Every reading is between window FLSs, a visible sweet or decaying pair, in both
         # directions where both FLSs are in the window.
         assert np.isin(heard.owner, window).all() and np.isin(heard.other, window).all()
-        index = hood.pair_index(heard.owner - 1000, heard.other - 1000)
+        index = hood.pairs.index(heard.owner - 1000, heard.other - 1000)
         assert (index >= 0).all() and hood.visible[index].all()
         np.testing.assert_array_equal(heard.tracking, pairs.tracking[index])
         inside = np.isin(pairs.first, window - 1000) & np.isin(pairs.second, window - 1000)

@@ -120,3 +120,45 @@ def test_matches_scipy_dijkstra_on_a_random_graph():
         got = paths.length if policy == "shortest-length" else paths.hops.astype(float)
         np.testing.assert_allclose(got[paths.found], expected[paths.found], rtol=1e-12)
         assert (paths.found == np.isfinite(expected)).all()
+
+
+@pytest.mark.parametrize("policy", ["fewest-hops", "shortest-length", "least-error"])
+def test_buckets_and_a_heap_pick_the_same_paths_ties_included(monkeypatch, policy):
+    import swazure_ros.core.paths as paths_module
+
+    rng = np.random.default_rng(7)
+    size = 150
+    first, second = rng.integers(0, size, size=(2, 900))
+    keep = first < second
+    pairs = np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
+    # Whole numbers from 2 to 5: many paths of equal cost, so the predecessor rule decides.
+    weight = rng.integers(2, 6, size=len(pairs)).astype(float)
+    cost = rng.integers(1, 4, size=len(pairs)).astype(float)
+    g = make_graph(size, pairs[:, 0], pairs[:, 1], weight, costs=cost)
+    sources = np.repeat(np.arange(size), 6)
+    targets = rng.integers(0, size, size=len(sources))
+    assert paths_module._buckets(g.weights, policy == "fewest-hops")[1] > 0
+    buckets = shortest_paths(g, sources, targets, policy)
+    monkeypatch.setattr(paths_module, "_MOST_BUCKETS", 0)  # every search takes the heap
+    heap = shortest_paths(g, sources, targets, policy)
+    assert buckets.found.sum() > 0.8 * len(sources)
+    for field in ("found", "hops", "offsets", "nodes"):
+        np.testing.assert_array_equal(getattr(buckets, field), getattr(heap, field))
+    np.testing.assert_array_equal(buckets.length, heap.length)
+
+
+def test_zero_cost_edges_are_searched_with_a_heap():
+    from swazure_ros.core.paths import _buckets
+
+    edges = [
+        (0, 1, 6.0, 0.0),
+        (1, 3, 6.0, 0.0),
+        (0, 2, 7.0, 0.0),
+        (2, 4, 7.0, 0.0),
+        (4, 3, 7.0, 0.0),
+    ]
+    first, second, weight, cost = zip(*edges)
+    free = make_graph(5, first, second, weight, costs=cost)
+    assert _buckets(free.costs, False) == (0.0, 0)
+    # Every path costs nothing: the fewest hops decide.
+    assert shortest_paths(free, [0], [3], "least-error").path(0) == [0, 1, 3]

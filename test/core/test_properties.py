@@ -62,7 +62,7 @@ def test_paths_are_connected_and_of_the_right_kind(swarm, policy):
         if not path:
             continue
         assert path[0] == pairs.source[m] and path[-1] == pairs.target[m]
-        hops = hood.pair_index(np.array(path[:-1]), np.array(path[1:]))
+        hops = hood.pairs.index(np.array(path[:-1]), np.array(path[1:]))
         assert (hops >= 0).all()
         assert hood.visible[hops].all()
         kinds = hood.pairs.range_class[hops]

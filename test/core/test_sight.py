@@ -54,3 +54,15 @@ def test_grid_search_matches_brute_force_on_random_swarms():
         distance = np.linalg.norm(offset - along[:, None] * direction / length, axis=1)
         distance[[a, b]] = np.inf
         assert got == bool((distance <= radius).any())
+
+
+def test_every_pair_of_a_dense_cloud_is_judged_as_its_obstructers_say():
+    # All pairs sorted by their first FLS: segments from one FLS share obstructers,
+    # which the yes-or-no judgement tries first.
+    rng = np.random.default_rng(12)
+    points = rng.uniform(0, 6, size=(250, 3))
+    first, second = np.triu_indices(len(points), k=1)
+    judged = obstructed(points, 0.3, first, second)
+    offsets, _ = obstructers(points, 0.3, first, second)
+    np.testing.assert_array_equal(judged, np.diff(offsets) > 0)
+    assert 0.2 < judged.mean() < 0.95
