@@ -264,6 +264,8 @@ def merge_paths(first: Paths, second: Paths, use_second: NDArray[np.bool_]) -> P
 
     ``second`` holds only the pairs where ``use_second`` holds, in order.
     """
+    if len(second.found) != int(use_second.sum()) or len(second.offsets) != len(second.found) + 1:
+        raise ValueError("`second` must hold exactly the pairs where `use_second` holds")
     found = first.found.copy()
     hops = first.hops.copy()
     length = first.length.copy()

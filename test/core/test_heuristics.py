@@ -450,3 +450,15 @@ def test_occlusion_near_origin_ignores_obstructers_far_from_the_source_on_the_ch
         assert (np.linalg.norm(swarm.points[ids] - origin, axis=1) > reach).all()
         checked += 1
     assert checked > 0
+
+
+@pytest.mark.parametrize("technique", [MOVE_OBSTRUCTING, MOVE_SOURCE])
+def test_a_folded_run_keeps_each_resolved_pairs_path_and_the_others_plain(technique):
+    swarm = make_swarm(load_cloud("torus:300").points, beta=0.5)
+    evaluation = evaluate(swarm, load_sensor(), "shortest-length")
+    folded, heuristic = run_technique(evaluation, technique, 10)
+    resolved = heuristic.resolved
+    assert resolved.any() and not resolved.all()
+    for m in range(len(resolved)):
+        expected = heuristic.paths.path(m) if resolved[m] else evaluation.pairs.path(m)
+        assert folded.pairs.path(m) == expected

@@ -38,14 +38,15 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
     )
     moved = heuristic.paths
     # A pair may keep its planned path without being resolved (its walk failed: walked()).
-    resolved_nodes = moved.nodes[np.repeat(resolved, np.diff(moved.offsets))]
+    counts = np.diff(moved.offsets)
+    resolved_nodes = moved.nodes[np.repeat(resolved, counts)]
     paths = merge_paths(
         plain,
         Paths(
             moved.found[resolved],
             moved.hops[resolved],
             moved.length[resolved],
-            moved.offsets,
+            csr.offsets(counts[resolved]),
             resolved_nodes,
         ),
         resolved,
