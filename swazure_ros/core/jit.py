@@ -84,10 +84,12 @@ def compile_module(module: str) -> None:
 def __getattr__(name: str) -> Any:
     """numba's own names (prange, get_num_threads, ...), importing numba at first use.
 
-    Interpreted, ``prange`` is ``range``.
+    Interpreted, ``prange`` is ``range`` and ``get_num_threads()`` is 1.
     """
     if name.startswith("__"):
         raise AttributeError(name)
     if _settings["interpret"] and name == "prange":
         return range
+    if _settings["interpret"] and name == "get_num_threads":
+        return lambda: 1
     return getattr(importlib.import_module("numba"), name)

@@ -354,17 +354,17 @@ def _search_buckets(
             k1, k2 = primary[node], secondary[node]
             for edge in range(indptr[node], indptr[node + 1]):
                 neighbour = indices[edge]
-                if settled[neighbour]:
+                n1 = k1 + 1.0 if fewest_hops else k1 + weights[edge]
+                p1 = primary[neighbour]
+                # Most edges of a dense graph lead nowhere better: decide on the first key.
+                if n1 > p1 or settled[neighbour]:
                     continue
-                if fewest_hops:
-                    n1, n2 = k1 + 1.0, k2 + weights[edge]
-                else:
-                    n1, n2 = k1 + weights[edge], k2 + 1.0
-                p1, p2 = primary[neighbour], secondary[neighbour]
+                n2 = k2 + weights[edge] if fewest_hops else k2 + 1.0
+                p2 = secondary[neighbour]
                 if p1 == np.inf:
                     touched[count] = neighbour
                     count += 1
-                if n1 < p1 or (n1 == p1 and n2 < p2):
+                if n1 < p1 or n2 < p2:
                     primary[neighbour] = n1
                     secondary[neighbour] = n2
                     pred[neighbour] = node
@@ -383,7 +383,7 @@ def _search_buckets(
                     head[target_slot] = used
                     used += 1
                     pending += 1
-                elif n1 == p1 and n2 == p2 and node < pred[neighbour]:
+                elif n2 == p2 and node < pred[neighbour]:
                     pred[neighbour] = node
     return count
 
@@ -469,15 +469,19 @@ def _search_kernel(
     fewest_hops: bool,
     bucket_width: float,
     slots: int,
-    width: int,
     chunks: int,
-) -> tuple[NDArray[np.bool_], IntArray, FloatArray, IntArray]:
+    found: NDArray[np.bool_],
+    hops: IntArray,
+    length: FloatArray,
+    buffer: IntArray,
+) -> None:
+    """Search from each source; write each pair's result into ``found`` .. ``buffer`` (M, W).
+
+    The outputs come in unset (False, 0, NaN); a found path's first nodes,
+    up to W, go into its row of ``buffer``.
+    """
     size = len(indptr) - 1
-    pairs = len(targets)
-    found = np.zeros(pairs, dtype=np.bool_)
-    hops = np.zeros(pairs, dtype=np.int64)
-    length = np.full(pairs, np.nan)
-    buffer = np.full((pairs, width), -1, dtype=np.int64)
+    width = buffer.shape[1]
     for chunk in jit.prange(chunks):
         primary, secondary, pred, settled, wanted, touched, order = _scratch(size)
         for position in range(chunk, len(sources), chunks):
@@ -514,7 +518,6 @@ def _search_kernel(
                     _walk_back(pred, target, steps, buffer[pair])
             _reset(touched[:count], primary, secondary, pred, settled)
             wanted[mine] = False
-    return found, hops, length, buffer
 
 
 @jit.kernel(cache=True)
@@ -751,7 +754,7 @@ def shortest_paths(
     found = np.zeros(pairs, dtype=bool)
     hops = np.zeros(pairs, dtype=np.int64)
     length = np.full(pairs, np.nan)
-    buffer = np.full((pairs, _WIDTH), -1, dtype=np.int64)
+    buffer = np.empty((pairs, _WIDTH), dtype=np.int64)
 
     buckets = _buckets(weights, fewest_hops)
     unique, starts = np.unique(sources, return_index=True)
@@ -759,7 +762,7 @@ def shortest_paths(
     for begin in range(0, len(unique), batch):
         end = min(begin + batch, len(unique))
         lo, hi = target_ptr[begin], target_ptr[end]
-        part_found, part_hops, part_length, part_buffer = _search_kernel(
+        _search_kernel(
             graph.indptr,
             graph.indices,
             weights,
@@ -769,11 +772,13 @@ def shortest_paths(
             components,
             fewest_hops,
             *buckets,
-            _WIDTH,
-            min(end - begin, 4 * jit.get_num_threads()),
+            # Many chunks: the threads share sources of unequal cost evenly.
+            min(end - begin, 16 * jit.get_num_threads()),
+            found[lo:hi],
+            hops[lo:hi],
+            length[lo:hi],
+            buffer[lo:hi],
         )
-        found[lo:hi], hops[lo:hi], length[lo:hi] = part_found, part_hops, part_length
-        buffer[lo:hi] = part_buffer
         if progress is not None:
             progress(int(hi - lo))
     counts = np.where(found, hops + 1, 0)
