@@ -337,27 +337,43 @@ def hop_table(hood: Neighbourhood, paths: Paths) -> HopTable:
     return HopTable(len(paths.found), path, start, end, pair, slot)
 
 
-def hop_vectors(hood: Neighbourhood, hops: HopTable) -> FloatArray:
-    """Measured vector of each hop (H, 3), cm; each directed edge of SD_vis measured once."""
+def hop_vectors(hood: Neighbourhood, hops: HopTable) -> tuple[FloatArray, IntArray]:
+    """Measured vectors (K, 3), cm, and the row of each hop (H,) among them.
+
+    Each directed edge of SD_vis is measured once, however many paths cross it.
+    """
     swarm, sensor, graph = hood.swarm, hood.sensor, hood.any_visible
     on_graph = hops.slot >= 0
     # A pair's two directions are two measurements (a noisy sensor draws per direction).
     measured = np.zeros(len(graph.indices), dtype=bool)
     measured[hops.slot[on_graph]] = True
     slots = np.flatnonzero(measured)
-    row = np.zeros(len(measured), dtype=np.int64)
-    row[slots] = np.arange(len(slots))
+    row_of_slot = np.zeros(len(measured), dtype=np.int64)
+    row_of_slot[slots] = np.arange(len(slots))
     leaves = csr.run_of(graph.indptr)[slots]
     once = measured_vectors(sensor, swarm.points, swarm.radius, leaves, graph.indices[slots])
     if on_graph.all():
-        return np.asarray(once[row[hops.slot]])
-    vectors = np.empty((len(hops.path), 3))
-    vectors[on_graph] = once[row[hops.slot[on_graph]]]
-    off = ~on_graph
-    vectors[off] = measured_vectors(
-        sensor, swarm.points, swarm.radius, hops.start[off], hops.end[off]
-    )
-    return vectors
+        return once, row_of_slot[hops.slot]
+    off = np.flatnonzero(~on_graph)
+    rows = np.empty(len(hops.slot), dtype=np.int64)
+    rows[on_graph] = row_of_slot[hops.slot[on_graph]]
+    rows[off] = len(once) + np.arange(len(off))
+    others = measured_vectors(sensor, swarm.points, swarm.radius, hops.start[off], hops.end[off])
+    return np.concatenate([once, others]), rows
+
+
+@jit.kernel(cache=True, parallel=True)
+def _path_vector_sums(hop_offsets: IntArray, rows: IntArray, vectors: FloatArray) -> FloatArray:
+    """Sum of vectors[rows[h]] over the hops h of each path, from the source outwards: (M, 3)."""
+    out = np.zeros((len(hop_offsets) - 1, 3))
+    for path in jit.prange(len(hop_offsets) - 1):
+        x, y, z = 0.0, 0.0, 0.0
+        for hop in range(hop_offsets[path], hop_offsets[path + 1]):
+            x += vectors[rows[hop], 0]
+            y += vectors[rows[hop], 1]
+            z += vectors[rows[hop], 2]
+        out[path, 0], out[path, 1], out[path, 2] = x, y, z
+    return out
 
 
 def estimates(
@@ -368,8 +384,9 @@ def estimates(
     ``hops``: ``hop_table(hood, paths)``, when the caller has it.
     """
     hops = hops or hop_table(hood, paths)
-    vectors = hop_vectors(hood, hops)
-    estimate = np.column_stack([hops.sums(vectors[:, axis]) for axis in range(3)])
+    vectors, rows = hop_vectors(hood, hops)
+    hop_offsets = csr.offsets(np.bincount(hops.path, minlength=hops.size))
+    estimate = np.asarray(_path_vector_sums(hop_offsets, rows, vectors))
     estimate[~paths.found] = np.nan
     sweet_hops, decaying_hops = hop_classes(hood, paths, hops)
     return estimate, sweet_hops, decaying_hops

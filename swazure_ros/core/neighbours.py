@@ -187,8 +187,10 @@ def pairs_between(swarm: Swarm, sensor: Sensor, one: IntArray, other: IntArray) 
 
 def ordered_blind_pairs(pairs: NeighbourPairs) -> tuple[IntArray, IntArray]:
     """Every ordered blind pair (source, target), sorted by source then target."""
+    from .paths import make_graph  # the graph's rows are the ordered pairs, sorted
+
     blind = pairs.range_class == BLIND
-    source = np.concatenate([pairs.first[blind], pairs.second[blind]])
-    target = np.concatenate([pairs.second[blind], pairs.first[blind]])
-    order = np.lexsort((target, source))
-    return source[order], target[order]
+    size = int(pairs.second.max()) + 1 if len(pairs) else 0
+    first, second = pairs.first[blind], pairs.second[blind]
+    graph = make_graph(size, first, second, np.zeros(len(first)))
+    return csr.run_of(graph.indptr), graph.indices

@@ -124,23 +124,51 @@ def make_graph(
         raise ValueError("`first`, `second`, `weights` and `labels` must have one length")
     if np.any(first == second):
         raise ValueError("a graph edge cannot join a node to itself")
-    tail = np.concatenate([first, second])
-    head = np.concatenate([second, first])
-    order = np.lexsort((head, tail))
-    indptr = csr.offsets(np.bincount(tail, minlength=size))
+    keys = np.minimum(first, second) * size + np.maximum(first, second)
+    if np.all(first < second) and np.all(keys[1:] > keys[:-1]):
+        # Edges listed as neighbour pairs are: (first, second) sorted, first < second.
+        indptr, indices, edge = _symmetric_rows(size, first, second)
+    else:
+        tail = np.concatenate([first, second])
+        head = np.concatenate([second, first])
+        order = np.lexsort((head, tail))
+        indptr = csr.offsets(np.bincount(tail, minlength=size))
+        indices, edge = head[order], order % max(len(first), 1)
     edge_costs = None
     if costs is not None:
         costs = np.asarray(costs, dtype=np.float64)
         if costs.shape != weights.shape:
             raise ValueError("`costs` must have one value per edge")
-        edge_costs = np.concatenate([costs, costs])[order]
-    return Graph(
-        indptr.astype(np.int64),
-        head[order],
-        np.concatenate([weights, weights])[order],
-        np.concatenate([labels, labels])[order],
-        edge_costs,
-    )
+        edge_costs = costs[edge]
+    return Graph(indptr.astype(np.int64), indices, weights[edge], labels[edge], edge_costs)
+
+
+@jit.kernel(cache=True, nogil=True)
+def _symmetric_rows(
+    size: int, first: IntArray, second: IntArray
+) -> tuple[IntArray, IntArray, IntArray]:
+    """CSR rows (sorted) of the undirected edges first[e] < second[e], given sorted by
+    (first, second): indptr, indices, and the edge e of each entry."""
+    indptr = np.zeros(size + 1, dtype=np.int64)
+    for e in range(len(first)):
+        indptr[first[e] + 1] += 1
+        indptr[second[e] + 1] += 1
+    for node in range(size):
+        indptr[node + 1] += indptr[node]
+    cursor = indptr[:-1].copy()
+    indices = np.empty(2 * len(first), dtype=np.int64)
+    edge = np.empty(2 * len(first), dtype=np.int64)
+    # Row v holds its smaller neighbours (edges where v is second, in order of first),
+    # then its larger ones (where v is first, already in order of second).
+    for e in range(len(first)):
+        slot = cursor[second[e]]
+        indices[slot], edge[slot] = first[e], e
+        cursor[second[e]] += 1
+    for e in range(len(first)):
+        slot = cursor[first[e]]
+        indices[slot], edge[slot] = second[e], e
+        cursor[first[e]] += 1
+    return indptr, indices, edge
 
 
 @jit.kernel(cache=True, parallel=True)

@@ -162,3 +162,20 @@ def test_zero_cost_edges_are_searched_with_a_heap():
     assert _buckets(free.costs, False) == (0.0, 0)
     # Every path costs nothing: the fewest hops decide.
     assert shortest_paths(free, [0], [3], "least-error").path(0) == [0, 1, 3]
+
+
+def test_a_graph_is_the_same_from_sorted_pairs_and_from_edges_in_any_order():
+    rng = np.random.default_rng(3)
+    first, second = rng.integers(0, 60, size=(2, 400))
+    keep = first < second
+    pairs = np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
+    weight = rng.uniform(1, 2, size=len(pairs))
+    cost = rng.uniform(0, 1, size=len(pairs))
+    ordered = make_graph(60, pairs[:, 0], pairs[:, 1], weight, costs=cost)
+    shuffle = rng.permutation(len(pairs))
+    flipped = rng.random(len(pairs)) < 0.5
+    one = np.where(flipped, pairs[:, 1], pairs[:, 0])[shuffle]
+    other = np.where(flipped, pairs[:, 0], pairs[:, 1])[shuffle]
+    anyhow = make_graph(60, one, other, weight[shuffle], shuffle, cost[shuffle])
+    for field in ("indptr", "indices", "weights", "labels", "costs"):
+        np.testing.assert_array_equal(getattr(ordered, field), getattr(anyhow, field))
