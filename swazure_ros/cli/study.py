@@ -29,7 +29,6 @@ from ..study.plan import (
     StudyPlan,
     Technique,
 )
-from ..study.run import run_study
 from ..study.sweep import SweepProgress
 from .arguments import count, input_file, output_folder, seed
 
@@ -207,6 +206,8 @@ def main(args: argparse.Namespace) -> int:
     """Run ``swazure study``."""
     plan = plan_from_args(args)
     try:
+        from ..study.run import run_study  # here: its figures import matplotlib (0.3 s)
+
         outputs = run_study(plan, args.out, args.jobs, None if args.quiet else SweepBar())
     except OSError as err:
         raise SwazureError(f"{args.out}: cannot write results ({err.strerror or err})") from err

@@ -17,6 +17,7 @@ import io
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -33,10 +34,11 @@ from ..core.tracking import (
     track_errors,
     track_series,
 )
-from ..protocol.loops import simulate_track
-from ..sim.world import World
 from .arguments import fls_id, output_file, png_file, seconds
 from .options import add_domain_argument, add_swarm_arguments, world_from_args
+
+if TYPE_CHECKING:
+    from ..sim.world import World
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -92,6 +94,8 @@ def _config(args: argparse.Namespace) -> TrackConfig:
 
 
 def _simulate(world: World, motion: Motion, args: argparse.Namespace) -> TrackRun:
+    from ..protocol.loops import simulate_track  # here: --help need not import the world
+
     return simulate_track(
         world.sensor,
         world.swarm.points,

@@ -12,10 +12,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial import cKDTree
 
 from ..core.clouds import Cloud, load_cloud
 from ..core.description import SwarmDescription
@@ -39,6 +39,9 @@ from ..core.observe import (
 )
 from ..core.sensor import Sensor
 from ..core.sight import Grid, build_grid
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -94,6 +97,8 @@ class World:
 
     @cached_property
     def _tree(self) -> cKDTree:
+        from scipy.spatial import cKDTree  # here: a verb's --help need not import scipy
+
         return cKDTree(self.swarm.points)
 
     @cached_property
