@@ -180,6 +180,45 @@ def blocks(
     return bool(ox * ox + oy * oy + oz * oz <= radius2)
 
 
+@jit.kernel(cache=True, parallel=True)
+def _close_points(points: FloatArray, grid: Grid, distance: float) -> tuple[IntArray, IntArray]:
+    """Each point's other points within ``distance``, as CSR."""
+    origin, cell, shape, cell_start, members = grid
+    around = int(np.ceil(distance / cell))
+    size = len(points)
+    counts = np.zeros(size, dtype=np.int64)
+    offsets = np.zeros(size + 1, dtype=np.int64)
+    ids = np.empty(0, dtype=np.int64)
+    limit = distance * distance
+    for fill in (False, True):
+        if fill:
+            offsets[1:] = np.cumsum(counts)
+            ids = np.empty(offsets[-1], dtype=np.int64)
+        for node in jit.prange(size):
+            x, y, z = points[node, 0], points[node, 1], points[node, 2]
+            c0 = min(int((x - origin[0]) / cell), shape[0] - 1)
+            c1 = min(int((y - origin[1]) / cell), shape[1] - 1)
+            c2 = min(int((z - origin[2]) / cell), shape[2] - 1)
+            count = 0
+            for i0 in range(max(c0 - around, 0), min(c0 + around + 1, shape[0])):
+                for i1 in range(max(c1 - around, 0), min(c1 + around + 1, shape[1])):
+                    for i2 in range(max(c2 - around, 0), min(c2 + around + 1, shape[2])):
+                        key = (i0 * shape[1] + i1) * shape[2] + i2
+                        for slot in range(cell_start[key], cell_start[key + 1]):
+                            other = members[slot]
+                            if other == node:
+                                continue
+                            dx = points[other, 0] - x
+                            dy = points[other, 1] - y
+                            dz = points[other, 2] - z
+                            if dx * dx + dy * dy + dz * dz <= limit:
+                                if fill:
+                                    ids[offsets[node] + count] = other
+                                count += 1
+            counts[node] = count
+    return offsets, ids
+
+
 @jit.kernel(cache=True, nogil=True)
 def any_within(
     points: FloatArray,
@@ -230,17 +269,43 @@ def _obstructed_segments(
     first: IntArray,
     second: IntArray,
     grid: Grid,
+    close_offsets: IntArray,
+    close_ids: IntArray,
 ) -> NDArray[np.bool_]:
     out = np.zeros(len(first), dtype=np.bool_)
     chunks = 64
     size = (len(first) + chunks - 1) // chunks
+    radius2 = radius * radius
     for chunk in jit.prange(chunks):
         found = np.empty(1, dtype=np.int64)
         for pair in range(chunk * size, min((chunk + 1) * size, len(first))):
-            hits = scan_segment(points, radius, first[pair], second[pair], grid, found, True)
-            out[pair] = hits > 0
+            a, b = first[pair], second[pair]
+            ax, ay, az = points[a, 0], points[a, 1], points[a, 2]
+            dx, dy, dz = points[b, 0] - ax, points[b, 1] - ay, points[b, 2] - az
+            length = np.sqrt(dx * dx + dy * dy + dz * dz)
+            hit = False
+            if length > 0.0:
+                # The FLSs close to either end block most directions out of it: try
+                # them first with the scan's own test, and scan only if none blocks.
+                ux, uy, uz = dx / length, dy / length, dz / length
+                for end in (a, b):
+                    for slot in range(close_offsets[end], close_offsets[end + 1]):
+                        k = close_ids[slot]
+                        if k == a or k == b:  # noqa: SIM109 (numba: plain compares)
+                            continue
+                        if blocks(points, k, ax, ay, az, ux, uy, uz, length, radius2):
+                            hit = True
+                            break
+                    if hit:
+                        break
+            if not hit:
+                hit = scan_segment(points, radius, a, b, grid, found, True) > 0
+            out[pair] = hit
     return out
 
+
+#: :func:`obstructed` first tries the FLSs within this many r of a segment's ends.
+CLOSE = 4.0
 
 #: Below this many segments :func:`obstructed` judges them on the calling thread:
 #: waking the parallel kernel's threads costs about a millisecond (measured), a
@@ -326,16 +391,14 @@ def obstructed(
     grid = grid if grid is not None else build_grid(points, radius)
     if len(first) == 0:
         return np.zeros(0, dtype=bool)
-    kernel = _obstructed_serial if len(first) < SERIAL_SEGMENTS else _obstructed_kernel
-    return np.asarray(
-        kernel(
-            points,
-            float(radius),
-            first,
-            second,
-            grid,
+    if len(first) < SERIAL_SEGMENTS:  # too few segments to pay for lists of close FLSs
+        no_offsets, none = np.zeros(len(points) + 1, dtype=np.int64), np.zeros(0, np.int64)
+        return np.asarray(
+            _obstructed_serial(points, float(radius), first, second, grid, no_offsets, none)
         )
-    )
+    # An FLS at distance d from an end blocks the directions within asin(r / d) of its own.
+    offsets, ids = _close_points(points, grid, CLOSE * radius)
+    return np.asarray(_obstructed_kernel(points, float(radius), first, second, grid, offsets, ids))
 
 
 def obstructers(
