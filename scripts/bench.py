@@ -2143,11 +2143,19 @@ def merged(existing: str, fresh: list[list[str]]) -> str:
     header = ["# Benchmarks", "", "Regenerate with `make bench` (writes this file).", ""]
     if chunks and not chunks[0][0].startswith("## "):
         header = chunks.pop(0)
-    by_heading = {chunk[0]: chunk for chunk in fresh}
+    # A section may hold several headings (the engine's holds the heuristics'): each
+    # replaces its own, so that a section run again is never left twice in the file.
+    pieces: list[list[str]] = []
+    for section in fresh:
+        for line in section:
+            if line.startswith("## ") or not pieces:
+                pieces.append([])
+            pieces[-1].append(line)
+    by_heading = {chunk[0]: chunk for chunk in pieces}
     out = []
     for chunk in chunks:
         out.append(by_heading.pop(chunk[0], chunk))
-    out += [chunk for chunk in fresh if chunk[0] in by_heading]
+    out += [chunk for chunk in pieces if chunk[0] in by_heading]
     body = [line for chunk in out for line in (chunk if chunk[-1] == "" else [*chunk, ""])]
     return "\n".join([*header, *body]).rstrip("\n") + "\n"
 
