@@ -173,6 +173,7 @@ class FlsNode(SwarmNode):
         relay_senses: Callable[[], RelaySenses] | None = None,
         eyes: Eyes | None = None,
         parameter_services: bool = False,
+        parameter_events: Publisher | None = None,
         detections: DetectedSenses | None = None,
         key: SwarmKey | None = None,
         readings: ReadingsBook | None = None,
@@ -183,6 +184,7 @@ class FlsNode(SwarmNode):
             context=context,
             parameter_overrides=parameter_overrides,
             parameter_services=parameter_services,
+            parameter_events=parameter_events,
         )
         self.fls_id = fls_id
         self._senses = senses

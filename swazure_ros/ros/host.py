@@ -127,6 +127,8 @@ class SwarmHost:
         self._controls_at_loss = 0
         self.host_node.create_timer(COORDINATOR_WATCH_PERIOD, self._watch_graph)
         self.transmitter = Transmitter(self.host_node, self.guard.key)
+        # One /parameter_events writer for the process's FLS nodes (SwarmNode).
+        self._parameter_events = self.host_node.create_parameter_events_publisher()
         self._add(self.host_node)
         if with_world_node:
             self._add(WorldNode(self.replica, namespace=self.namespace, context=context, key=key))
@@ -208,6 +210,7 @@ class SwarmHost:
                 relay_senses=lambda: self.replica.relay_senses,
                 eyes=partial(self.replica.camera_image, fls_id),
                 parameter_services=self.parameter_services,
+                parameter_events=self._parameter_events,
                 readings=self.readings,
             )
             self.fls_nodes.append(node)

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.msg import ParameterDescriptor, ParameterEvent
 
 # The context every process owns; app/ names it through this module, not through rclpy.
 from rclpy.context import Context as Context
@@ -31,6 +31,8 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.publisher import Publisher
+from rclpy.qos import qos_profile_parameter_events
 from rclpy.signals import SignalHandlerOptions
 
 from ..core.description import SwarmDescription
@@ -53,6 +55,10 @@ NO_TYPE_DESCRIPTION_SERVICE = Parameter("start_type_description_service", value=
 MAX_SECONDS = 86400.0
 
 
+#: Where rclpy's nodes publish their parameter changes.
+PARAMETER_EVENTS_TOPIC = "/parameter_events"
+
+
 class SwarmNode(Node):
     """A node of a swarm: no rosout, no type description service, parameter services if asked.
 
@@ -70,7 +76,10 @@ class SwarmNode(Node):
         context: Context | None = None,
         parameter_overrides: list[Parameter] | None = None,
         parameter_services: bool = False,
+        parameter_events: Publisher | None = None,
     ) -> None:
+        # Set before Node's constructor, which makes the events publisher (create_publisher).
+        self._shared_parameter_events = parameter_events
         super().__init__(
             name,
             namespace=namespace,
@@ -78,6 +87,25 @@ class SwarmNode(Node):
             parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE, *(parameter_overrides or [])],
             enable_rosout=False,
             start_parameter_services=parameter_services,
+        )
+
+    def create_publisher(self, msg_type: Any, topic: str, *args: Any, **kwargs: Any) -> Publisher:
+        """Node's, but a node given ``parameter_events`` publishes its parameter events there.
+
+        Every endpoint of a process makes rmw_fastrtps republish the process's
+        whole entity list (docs/swarm.md): a packed process of thousands of FLS
+        nodes shares its host's one /parameter_events writer instead of making
+        one per node. The events say which node they are from, as before.
+        """
+        if topic == PARAMETER_EVENTS_TOPIC and self._shared_parameter_events is not None:
+            return self._shared_parameter_events
+        publisher: Publisher = super().create_publisher(msg_type, topic, *args, **kwargs)
+        return publisher
+
+    def create_parameter_events_publisher(self) -> Publisher:
+        """A /parameter_events writer that packed nodes can share (``parameter_events``)."""
+        return self.create_publisher(
+            ParameterEvent, PARAMETER_EVENTS_TOPIC, qos_profile_parameter_events
         )
 
     def declare_value(self, name: str, default: Any, description: str) -> Any:
