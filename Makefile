@@ -12,6 +12,8 @@ PKG_STAMP := $(VENV)/.stamp-package
 INTERFACE_FILES := msg_defs/CMakeLists.txt msg_defs/package.xml \
 	$(wildcard msg_defs/msg/*.msg) $(wildcard msg_defs/srv/*.srv)
 PYTEST_ARGS ?=
+# Two workers (pytest-xdist) on this 2-core machine: much of a ROS test is waiting.
+PYTEST_WORKERS ?= 2
 # The real `ros2` command line exists only as wheels beside the repo (../shared);
 # tests that drive it skip where it is absent.
 ROS2CLI_WHEELS := $(wildcard ../shared/wheels/ros2cli-jazzy/*.whl)
@@ -74,7 +76,7 @@ lint: setup
 	$(VENV)/bin/mypy
 
 test: lint
-	$(VENV)/bin/pytest $(PYTEST_ARGS)
+	$(VENV)/bin/pytest -n $(PYTEST_WORKERS) --dist worksteal $(PYTEST_ARGS)
 
 demo: setup
 	$(VENV)/bin/swazure evaluate --cloud torus --beta 0.5 --policy shortest-length

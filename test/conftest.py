@@ -5,7 +5,6 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -41,26 +40,31 @@ SCENE = np.array(
 )
 
 
-def ros2_daemons() -> set[int]:
-    """Process ids of the ros2 CLI's daemons running on this machine."""
+def ros2_daemons(domain: int) -> set[int]:
+    """Process ids of the ros2 CLI's daemons on this machine that serve ROS domain ``domain``."""
     found = set()
+    wanted = f"ROS_DOMAIN_ID={domain}".encode()
     for entry in Path("/proc").iterdir():
         if entry.name.isdigit():
             try:
                 command = (entry / "cmdline").read_bytes()
+                if b"ros2cli.daemon.daemonize" not in command:
+                    continue
+                environment = (entry / "environ").read_bytes().split(b"\0")
             except OSError:
                 continue
-            if b"ros2cli.daemon.daemonize" in command:
+            if wanted in environment:
                 found.add(int(entry.name))
     return found
 
 
-@pytest.fixture(scope="session", autouse=True)
-def stop_ros2_daemons() -> Iterator[None]:
-    """Stop every ros2 daemon the tests' ros2 commands started (one per domain), at the end."""
-    before = ros2_daemons()
-    yield
-    for pid in ros2_daemons() - before:
+def stop_ros2_daemons(domain: int) -> None:
+    """Stop the daemons that the ros2 commands of a test on ``domain`` started.
+
+    By domain, not at the end of the session: with tests on two workers
+    (pytest-xdist), another worker's test may be using its own daemon.
+    """
+    for pid in ros2_daemons(domain):
         with contextlib.suppress(ProcessLookupError):
             os.kill(pid, signal.SIGTERM)
 

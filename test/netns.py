@@ -21,10 +21,12 @@ def hosts_unavailable() -> str | None:
         return "network namespaces need root"
     if shutil.which("ip") is None:
         return "the ip command (iproute2) is not installed"
-    probe = subprocess.run(["ip", "netns", "add", "swzprobe"], capture_output=True, text=True)
+    # A name of this process's own: tests on two workers probe at the same time.
+    name = f"swzprobe{os.getpid()}"
+    probe = subprocess.run(["ip", "netns", "add", name], capture_output=True, text=True)
     if probe.returncode != 0:
         return f"cannot make a network namespace here: {probe.stderr.strip()}"
-    subprocess.run(["ip", "netns", "delete", "swzprobe"], capture_output=True)
+    subprocess.run(["ip", "netns", "delete", name], capture_output=True)
     return None
 
 

@@ -180,6 +180,10 @@ def init_context(domain_id: int | None = None, params_file: str | None = None) -
 
 #: Seconds a process's teardown may take before its watchdog ends it (exit code 1).
 TEARDOWN_LIMIT = 30.0
+#: Seconds a process of one FLS may take to end once asked before its watchdog ends it
+#: (exit code 1, every thread's stack in its log); under the launcher's grace
+#: (app.per_fls.STOP_GRACE), which would kill it without a word.
+STOP_LIMIT = 15.0
 
 
 def exit_process(code: int) -> NoReturn:
@@ -310,8 +314,15 @@ def run_process(build: Callable[[Context], list[Node]], args: list[str] | None =
     context = Context()
     rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
     stop: list[int] = []
+
+    def on_stop(number: int, frame: object) -> None:
+        stop.append(number)
+        # A process that has not ended this long after being asked prints every
+        # thread's stack (to its log) and exits 1: a stop that hangs says where.
+        faulthandler.dump_traceback_later(STOP_LIMIT, exit=True)
+
     for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda number, frame: stop.append(number))
+        signal.signal(signum, on_stop)
     nodes: list[Node] = []
     try:
         nodes = build(context)

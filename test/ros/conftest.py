@@ -7,6 +7,8 @@ from collections.abc import Iterator
 
 import pytest
 
+from ..conftest import stop_ros2_daemons
+
 rclpy = pytest.importorskip("rclpy", reason="rclpy (ROS 2 Jazzy wheels) is not installed")
 
 
@@ -25,6 +27,7 @@ def domain() -> Iterator[int]:
         try:
             yield reserved
         finally:
+            stop_ros2_daemons(reserved)
             for key, value in saved.items():
                 if value is None:
                     os.environ.pop(key, None)
