@@ -52,6 +52,10 @@ $(PKG_STAMP): $(DEPS_STAMP) setup.py package.xml scripts/ament_venv.py $(wildcar
 	$(PY) -m pip install --disable-pip-version-check --quiet --no-deps \
 		--no-build-isolation -e .
 	$(PY) scripts/ament_venv.py $(VENV)
+	# pip compiles what it installs, but not an editable package: without this, a shell
+	# with PYTHONDONTWRITEBYTECODE set compiles every module at every start (0.08 s of
+	# each FLS process's, measured). An edited module is compiled afresh, as ever.
+	$(PY) -m compileall -q swazure_ros
 	@touch $@
 
 $(ROS2CLI_STAMP): $(DEPS_STAMP) $(ROS2CLI_WHEELS)
