@@ -1,0 +1,45 @@
+"""How a process of the swarm (``ros.runtime.run_process``) ends when it is asked to."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+
+#: A process whose one node is stuck in a callback: it cannot end when asked.
+STUCK = """
+import sys, time
+from swazure_ros.ros import runtime
+
+runtime.STOP_LIMIT = 2.0  # the watchdog's limit, short for the test
+
+
+def build(context):
+    node = runtime.SwarmNode("stuck", context=context)
+
+    def stuck_in_a_callback():
+        print("stuck", flush=True)
+        time.sleep(3600)
+
+    node.create_timer(0.1, stuck_in_a_callback)
+    return [node]
+
+
+sys.exit(runtime.run_process(build, []))
+"""
+
+
+def test_a_process_that_hangs_when_asked_to_stop_prints_where_and_exits_1(domain):
+    process = subprocess.Popen(
+        [sys.executable, "-c", STUCK], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        assert process.stdout is not None
+        assert process.stdout.readline().strip() == "stuck"
+        process.send_signal(signal.SIGINT)
+        _, err = process.communicate(timeout=30)
+    finally:
+        process.kill()
+    assert process.returncode == 1, err
+    # faulthandler's dump: every thread's stack, the stuck callback among the frames.
+    assert "Timeout" in err and "stuck_in_a_callback" in err, err
