@@ -27,7 +27,7 @@ from rcl_interfaces.msg import ParameterDescriptor, ParameterEvent
 # The context every process owns; app/ names it through this module, not through rclpy.
 from rclpy.context import Context as Context
 from rclpy.exceptions import ParameterException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import Executor, ExternalShutdownException
 from rclpy.experimental.events_executor import EventsExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
@@ -324,6 +324,7 @@ def run_process(build: Callable[[Context], list[Node]], args: list[str] | None =
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, on_stop)
     nodes: list[Node] = []
+    executor: Executor | None = None
     try:
         nodes = build(context)
         executor = EventsExecutor(context=context)
@@ -341,7 +342,13 @@ def run_process(build: Callable[[Context], list[Node]], args: list[str] | None =
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        # Out of the executor before destroyed, as SwarmHost.close does: the
+        # EventsExecutor's own thread must not hold a node that is going.
         for node in nodes:
+            if executor is not None:
+                executor.remove_node(node)
             node.destroy_node()
+        if executor is not None:
+            executor.shutdown()
         context.try_shutdown()
     return 0
