@@ -180,9 +180,9 @@ def init_context(domain_id: int | None = None, params_file: str | None = None) -
 
 #: Seconds a process's teardown may take before its watchdog ends it (exit code 1).
 TEARDOWN_LIMIT = 30.0
-#: Seconds a process of one FLS may take to end once asked before its watchdog ends it
-#: (exit code 1, every thread's stack in its log); under the launcher's grace
-#: (app.per_fls.STOP_GRACE), which would kill it without a word.
+#: Seconds a :func:`run_process` program (fls, world, coordinator) may take to end once
+#: asked before its watchdog ends it (exit code 1, every thread's stack in its log);
+#: under the launcher's grace (app.per_fls.STOP_GRACE), which would kill it without a word.
 STOP_LIMIT = 15.0
 
 
