@@ -1164,7 +1164,7 @@ def signing_costs() -> list[str]:
     import timeit
 
     from rclpy.serialization import deserialize_message, serialize_message
-    from swazure_interfaces.msg import PathEstimate, PathOffer, PoseEstimates
+    from swazure_interfaces.msg import PathOffer, PoseEstimates
 
     from swazure_ros.ros.auth import SwarmKey, new_key
     from swazure_ros.sim.world import WorldSpec
@@ -1178,11 +1178,21 @@ def signing_costs() -> list[str]:
             path_offsets=list(range(0, 3 * labels + 1, 3)), path_ids=[7] * (3 * labels),
         )  # fmt: skip
 
+    def estimates(count: int) -> PoseEstimates:
+        return PoseEstimates(
+            target_ids=list(range(count)), statuses=[0] * count, reasons=[0] * count,
+            estimators=[0] * count, path_offsets=list(range(0, 3 * count + 1, 3)),
+            path_ids=[7] * (3 * count), radio_path_offsets=list(range(0, 3 * count + 1, 3)),
+            radio_path_ids=[7] * (3 * count), vectors=[1.5] * (3 * count),
+            path_lengths=[13.0] * count, predicted_errors=[0.1] * count,
+            covariances=[float("nan")] * (9 * count),
+        )  # fmt: skip
+
     cases = [
         ("PathOffer, 1 label", offer(1)),
         ("PathOffer, 30 labels", offer(30)),
         ("PathOffer, 300 labels", offer(300)),
-        ("PoseEstimates, 30 estimates", PoseEstimates(estimates=[PathEstimate()] * 30)),
+        ("PoseEstimates, 30 estimates", estimates(30)),
     ]
     lines = [
         "| message | bytes | serialise us | sign + serialise us | deserialise us "

@@ -6,9 +6,11 @@ import os
 import stat
 
 import pytest
+from geometry_msgs.msg import Vector3
 from hypothesis import given, settings
+from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
-from swazure_interfaces.msg import PathEstimate, PathOffer, PoseEstimates
+from swazure_interfaces.msg import MoveCommand, MoveCommands, PathOffer, PoseEstimates
 
 from swazure_ros.core.errors import MessageError, SwazureError
 from swazure_ros.ros.auth import SwarmKey, content, new_key
@@ -66,23 +68,28 @@ def test_garbage_bytes_are_one_message_error():
         KEY.deserialize(b"\x00\x01\x00\x00garbage", PathOffer)
 
 
+@pytest.mark.parametrize("kind", [PoseEstimates, MoveCommands])
 @settings(FUZZ, max_examples=200)
-@given(first=message(PoseEstimates, IDS), second=message(PoseEstimates, IDS))
-def test_content_differs_whenever_the_messages_do(first, second):
-    """Two messages write the same content exactly when every field but auth is equal."""
+@given(data=st.data())
+def test_content_differs_whenever_the_messages_do(kind, data):
+    """Two messages write the same content exactly when every field but auth is equal.
+
+    PoseEstimates is arrays; MoveCommands nests messages in a sequence.
+    """
+    first, second = data.draw(message(kind, IDS)), data.draw(message(kind, IDS))
     first.auth, second.auth = [], []
     # What crosses the wire is what the tag covers (a string ends at its first NUL).
-    first = deserialize_message(serialize_message(first), PoseEstimates)
-    second = deserialize_message(serialize_message(second), PoseEstimates)
-    assert content(first) == content(deserialize_message(serialize_message(first), PoseEstimates))
+    first = deserialize_message(serialize_message(first), kind)
+    second = deserialize_message(serialize_message(second), kind)
+    assert content(first) == content(deserialize_message(serialize_message(first), kind))
     # repr tells NaN from NaN and -0.0 from 0.0 as the bits do.
     assert (content(first) == content(second)) == (repr(first) == repr(second))
 
 
-def test_nested_estimates_are_covered():
-    report = PoseEstimates(run_id=1, source_id=0, estimates=[PathEstimate(target_id=2)])
-    signed = deserialize_message(KEY.serialize(report), PoseEstimates)
-    signed.estimates[0].vector.x = 123.0
+def test_nested_messages_are_covered():
+    moves = MoveCommands(commands=[MoveCommand(fls_id=2, displacement=Vector3(x=1.0))])
+    signed = deserialize_message(KEY.serialize(moves), MoveCommands)
+    signed.commands[0].displacement.x = 123.0
     with pytest.raises(MessageError):
         KEY.verify(signed)
 

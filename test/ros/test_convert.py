@@ -38,8 +38,6 @@ from swazure_ros.ros.convert.discovery import (
     ack_message,
     control_from_message,
     control_message,
-    estimate_from_message,
-    estimate_message,
     estimates_from_message,
     estimates_message,
     moves_from_message,
@@ -176,7 +174,74 @@ def test_the_swarms_report_keeps_the_protocols_centimetres_to_the_bit():
     )
     (back,) = estimates_from_message(message, np.array([3, 5, 9]))
     assert (back.target, back.path, back.radio_path, back.length) == (9, (3, 5, 9), (3, 9), 13.4)
+    assert (back.hops, back.predicted_error, back.estimator) == (2, 0.12, PATH)
     np.testing.assert_array_equal(back.vector, found.vector)
+    assert back.covariance is None
+
+
+def _report() -> Report:
+    # Source 3: a sweet path to 9, a blocked pair with only a radio path to 7,
+    # and 8 with no path at all.
+    blocked = Estimate(target=7, status=2, reason=1, radio_path=(3, 5, 7))
+    alone = Estimate(target=8, status=2, reason=2)
+    return Report(run_id=4, source=3, estimates=[_found(), blocked, alone])
+
+
+def test_a_report_is_one_array_entry_per_target():
+    message = estimates_message(_report(), Time(sec=1))
+    assert list(message.target_ids) == [9, 7, 8]
+    assert list(message.path_offsets) == [0, 3, 3, 3]
+    assert list(message.radio_path_offsets) == [0, 2, 5, 5]
+    assert list(message.radio_path_ids) == [3, 9, 3, 5, 7]
+    assert len(message.vectors) == 9 and len(message.covariances) == 27
+
+
+def test_every_estimate_of_a_report_reads_back_in_order():
+    report = _report()
+    message = wire(estimates_message(report, Time(sec=1)))
+    back = estimates_from_message(message, np.array([3, 5, 7, 8, 9]))
+    assert [one.target for one in back] == [9, 7, 8]
+    assert [(one.status, one.reason) for one in back] == [(0, 0), (2, 1), (2, 2)]
+    assert [one.path for one in back] == [(3, 5, 9), (), ()]
+    assert [one.radio_path for one in back] == [(3, 9), (3, 5, 7), ()]
+    assert [one.hops for one in back] == [2, 0, 0]
+    assert np.isnan(back[1].vector).all() and np.isnan(back[2].length)
+
+
+def test_an_empty_report_reads_back_empty():
+    message = wire(estimates_message(Report(run_id=4, source=3, estimates=[]), Time(sec=1)))
+    assert estimates_from_message(message, np.array([3])) == []
+    assert list(message.path_offsets) == [0] == list(message.radio_path_offsets)
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "reason"),
+    [
+        ("statuses", [0, 2], "differ in length"),
+        ("vectors", [0.0] * 8, "not 3 vector values"),
+        ("covariances", [0.0] * 26, "not 9 covariance values"),
+        ("path_offsets", [0, 3, 3], "one more path offset"),
+        ("path_offsets", [0, 3, 3, 2], "do not span"),
+        ("path_offsets", [0, 3, 1, 3], "decrease"),
+        ("radio_path_ids", [3, 9, 3, 5, 6], "no FLS 6"),
+        ("target_ids", [9, 7, 6], "no FLS 6"),
+        ("statuses", [0, 2, 9], "unknown status"),
+        ("estimators", [0, 0, 200], "unknown estimator"),
+        ("path_lengths", [13.4, float("inf"), float("nan")], "not a finite number"),
+        ("predicted_errors", [float("-inf"), 0.0, 0.0], "not a finite number"),
+    ],
+)
+def test_a_malformed_report_is_one_message_error(field, value, reason):
+    message = wire(estimates_message(_report(), Time(sec=1)))
+    setattr(message, field, value)
+    with pytest.raises(MessageError, match=reason):
+        estimates_from_message(message, np.array([3, 5, 7, 8, 9]))
+
+
+def test_a_report_longer_than_the_swarm_is_refused():
+    message = wire(estimates_message(_report(), Time(sec=1)))
+    with pytest.raises(MessageError, match="more than 2"):
+        estimates_from_message(message, np.array([3, 9]))
 
 
 def test_a_pose_estimate_for_people_is_in_metres_in_the_sources_frame():
@@ -303,12 +368,6 @@ def test_a_walk_reads_back_at_its_hop_with_its_sum():
     back = walk_from_message(wire(walk_message(walk, Time())), SWARM)
     assert (back.run_id, back.revision, back.path, back.hop, back.state) == (7, 4, (1, 3, 9), 1, 0)
     np.testing.assert_array_equal(back.vector, walk.vector)
-
-
-def test_one_path_estimate_keeps_its_centimetres():
-    back = estimate_from_message(wire(estimate_message(_found())))
-    assert (back.target, back.path, back.length) == (9, (3, 5, 9), 13.4)
-    np.testing.assert_array_equal(back.vector, _found().vector)
 
 
 def test_detections_read_back_as_the_vectors_the_camera_measured():

@@ -260,10 +260,12 @@ def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain,
         probe = Node("estimates_probe", context=swarm.context, start_parameter_services=False)
 
         def on_estimates(message):
-            for one in message.estimates:
-                if one.status == ABORTED:
-                    assert one.reason == REASON_COORDINATOR_LOST
-                    aborted[(message.source_id, one.target_id)] = message.run_id
+            for target, status, reason in zip(
+                message.target_ids, message.statuses, message.reasons, strict=True
+            ):
+                if status == ABORTED:
+                    assert reason == REASON_COORDINATOR_LOST
+                    aborted[(message.source_id, int(target))] = message.run_id
 
         probe.create_subscription(PoseEstimates, "/swarm/estimates", on_estimates, ROUND_QOS)
         swarm.host.add(probe)

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from typing import Any
+import itertools
+from collections.abc import Sequence
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -13,7 +13,6 @@ from swazure_interfaces.msg import (
     DiscoveryControl,
     MoveCommand,
     MoveCommands,
-    PathEstimate,
     PathOffer,
     PathWalk,
     PoseEstimate,
@@ -155,92 +154,137 @@ def _fit_sums(message: PathOffer, name: str, shape: tuple[int, ...]) -> FloatArr
     return values.reshape(shape)
 
 
-def estimate_message(found: Estimate) -> PathEstimate:
-    """One pair's estimate as the protocol reports it (cm; NaN vector without a path)."""
-    return PathEstimate(**_estimate_fields(found, lambda centimetres: centimetres))
-
-
 def pose_estimate_message(source: int, found: Estimate, stamp: Time) -> PoseEstimate:
     """One pair's estimate for people and other software: metres, in ``fls_<source>``."""
-    message = PoseEstimate(source_id=source, **_estimate_fields(found, to_metres))
+    vector = to_metres(found.vector).tolist()
+    covariance = np.full(9, np.nan) if found.covariance is None else found.covariance.ravel()
+    message = PoseEstimate(
+        source_id=source,
+        target_id=found.target,
+        status=found.status,
+        reason=found.reason,
+        path=list(found.path),
+        hops=found.hops,
+        radio_path=list(found.radio_path),
+        vector=Vector3(x=vector[0], y=vector[1], z=vector[2]),
+        path_length=to_metres(found.length),
+        predicted_error=to_metres(found.predicted_error),
+        estimator=ESTIMATOR_CODES[found.estimator],
+        covariance=to_metres(to_metres(covariance)),
+    )
     message.header.stamp = stamp
     message.header.frame_id = fls_frame(source)
     return message
 
 
-def _estimate_fields(found: Estimate, unit: Callable[[Any], Any]) -> dict[str, Any]:
-    """The fields PathEstimate and PoseEstimate share, lengths converted by ``unit``."""
-    vector = unit(found.vector).tolist()
-    covariance = np.full(9, np.nan) if found.covariance is None else found.covariance.ravel()
-    return {
-        "estimator": ESTIMATOR_CODES[found.estimator],
-        "covariance": unit(unit(covariance)),
-        "target_id": found.target,
-        "status": found.status,
-        "reason": found.reason,
-        "path": list(found.path),
-        "hops": found.hops,
-        "radio_path": list(found.radio_path),
-        "vector": Vector3(x=vector[0], y=vector[1], z=vector[2]),
-        "path_length": unit(found.length),
-        "predicted_error": unit(found.predicted_error),
-    }
-
-
 def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
-    """Every estimate of one source as a PoseEstimates message."""
+    """Every estimate of one source as a PoseEstimates message: one array entry per target."""
     source, found = report.source, report.estimates
     message = PoseEstimates(run_id=report.run_id, source_id=source)
     message.header.stamp = stamp
     message.header.frame_id = node_name(source)
-    message.estimates = [estimate_message(one) for one in found]
+    count = len(found)
+    message.target_ids = np.array([one.target for one in found], dtype=np.uint32)
+    message.statuses = np.array([one.status for one in found], dtype=np.uint8)
+    message.reasons = np.array([one.reason for one in found], dtype=np.uint8)
+    message.estimators = np.array(
+        [ESTIMATOR_CODES[one.estimator] for one in found], dtype=np.uint8
+    )
+    message.path_offsets, message.path_ids = _ragged([one.path for one in found])
+    message.radio_path_offsets, message.radio_path_ids = _ragged([one.radio_path for one in found])
+    vectors = np.array([one.vector for one in found], dtype=np.float64).reshape(count, 3)
+    message.vectors = vectors.ravel()
+    message.path_lengths = np.array([one.length for one in found], dtype=np.float64)
+    message.predicted_errors = np.array([one.predicted_error for one in found], dtype=np.float64)
+    covariances = np.full((count, 9), np.nan)
+    for row, one in enumerate(found):
+        if one.covariance is not None:
+            covariances[row] = one.covariance.ravel()
+    message.covariances = covariances.ravel()
     return message
+
+
+def _ragged(paths: Sequence[tuple[int, ...]]) -> tuple[NDArray[np.uint32], NDArray[np.uint32]]:
+    """Paths as (offsets, ids): path k is ids[offsets[k]:offsets[k + 1]]."""
+    offsets = np.zeros(len(paths) + 1, dtype=np.uint32)
+    offsets[1:] = np.cumsum([len(path) for path in paths])
+    ids = np.fromiter(
+        itertools.chain.from_iterable(paths), dtype=np.uint32, count=int(offsets[-1])
+    )
+    return offsets, ids
 
 
 def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> list[Estimate]:
     """The core's Estimates of a source's report, checked against ``swarm`` (sorted ids).
 
-    MessageError unless the source and every target and path FLS are the
-    swarm's, codes are known, paths are no longer than the swarm and numbers
-    are finite or NaN (no path).
+    MessageError unless the arrays agree in length, the source and every
+    target and path FLS are the swarm's, codes are known, paths are no
+    longer than the swarm and numbers are finite or NaN (no path).
     """
-    estimates = message.estimates
-    check_size(estimates, len(swarm), "estimates")
-    ids = [message.source_id]
-    for one in estimates:
-        check(
-            len(one.path) <= len(swarm) and len(one.radio_path) <= len(swarm),
-            "a path longer than the swarm",
-        )
-        ids.append(one.target_id)
-        ids.extend(one.path)
-        ids.extend(one.radio_path)
-    check_ids(ids, swarm, "estimates")
+    count = len(message.target_ids)
+    check_size(message.target_ids, len(swarm), "estimates")
     check(
-        all(
-            one.status < len(STATUS_NAMES) and one.reason < len(REASON_NAMES) for one in estimates
-        ),
+        len(message.statuses) == len(message.reasons) == len(message.estimators) == count
+        and len(message.path_lengths) == len(message.predicted_errors) == count,
+        "target_ids, statuses, reasons, estimators, path_lengths and predicted_errors "
+        "differ in length",
+    )
+    check(len(message.vectors) == 3 * count, "not 3 vector values per estimate")
+    check(len(message.covariances) == 9 * count, "not 9 covariance values per estimate")
+    paths = _ragged_from_message(message.path_offsets, message.path_ids, count, swarm, "path")
+    radio_paths = _ragged_from_message(
+        message.radio_path_offsets, message.radio_path_ids, count, swarm, "radio_path"
+    )
+    check_ids(message.target_ids, swarm, "estimates")
+    check_ids([message.source_id], swarm, "estimates")
+    statuses, reasons = np.asarray(message.statuses), np.asarray(message.reasons)
+    check(
+        bool(np.all(statuses < len(STATUS_NAMES)) and np.all(reasons < len(REASON_NAMES))),
         "unknown status or reason",
     )
-    numbers = [(one.vector.x, one.vector.y, one.vector.z, one.path_length) for one in estimates]
-    check_finite(numbers, "vector", allow_nan=True)
-    check(all(one.estimator in ESTIMATOR_NAMES for one in estimates), "unknown estimator")
-    check_finite([list(one.covariance) for one in estimates], "covariance", allow_nan=True)
-    return [estimate_from_message(one) for one in estimates]
+    estimators = np.asarray(message.estimators).tolist()
+    check(all(code in ESTIMATOR_NAMES for code in estimators), "unknown estimator")
+    vectors = check_finite(message.vectors, "vector", allow_nan=True).reshape(count, 3)
+    lengths = check_finite(message.path_lengths, "path_lengths", allow_nan=True)
+    predicted = check_finite(message.predicted_errors, "predicted_errors", allow_nan=True)
+    covariances = check_finite(message.covariances, "covariance", allow_nan=True)
+    covariances = covariances.reshape(count, 3, 3)
+    fitted = np.all(np.isfinite(covariances), axis=(1, 2)).tolist()
+    # Estimate's fields, in their order: one Python call per estimate and no more.
+    columns = zip(
+        np.asarray(message.target_ids).tolist(),
+        statuses.tolist(),
+        reasons.tolist(),
+        paths,
+        lengths.tolist(),
+        list(vectors),
+        radio_paths,
+        predicted.tolist(),
+        [ESTIMATOR_NAMES[code] for code in estimators],
+        [matrix if whole else None for matrix, whole in zip(covariances, fitted, strict=True)],
+        strict=True,
+    )
+    return [Estimate(*fields) for fields in columns]
 
 
-def estimate_from_message(message: PathEstimate) -> Estimate:
-    """The core's Estimate of a reported PathEstimate (unchecked: see estimates_from_message)."""
-    return _estimate(message, 1.0)
+def _ragged_from_message(
+    offsets: Sequence[int], ids: Sequence[int], count: int, swarm: IntArray, what: str
+) -> list[tuple[int, ...]]:
+    """The ``count`` paths of a ragged (offsets, ids) pair, checked against ``swarm``."""
+    check(len(offsets) == count + 1, f"not one more {what} offset than estimates")
+    check_size(ids, count * len(swarm), f"{what}_ids")
+    bounds = np.asarray(offsets, dtype=np.int64)
+    check(bounds[0] == 0 and bounds[-1] == len(ids), f"{what} offsets do not span {what}_ids")
+    lengths = np.diff(bounds)
+    check(bool(np.all(lengths >= 0)), f"{what} offsets decrease")
+    check(bool(np.all(lengths <= len(swarm))), "a path longer than the swarm")
+    flat = check_ids(ids, swarm, f"estimates' {what}s").tolist()
+    starts = bounds.tolist()
+    return [tuple(flat[a:b]) for a, b in itertools.pairwise(starts)]
 
 
 def pose_estimate_from_message(message: PoseEstimate) -> Estimate:
     """The core's Estimate (cm) of a PoseEstimate (m), for people: not the protocol's bits."""
-    return _estimate(message, CM_PER_METRE)
-
-
-def _estimate(message: PathEstimate | PoseEstimate, cm_per_unit: float) -> Estimate:
-    """An Estimate of either message; lengths times ``cm_per_unit`` (1: already in cm)."""
     vector = message.vector
     covariance = np.asarray(message.covariance, dtype=np.float64).reshape(3, 3)
     fitted = np.isfinite(covariance).all()
@@ -249,12 +293,12 @@ def _estimate(message: PathEstimate | PoseEstimate, cm_per_unit: float) -> Estim
         status=int(message.status),
         reason=int(message.reason),
         path=tuple(int(fls) for fls in message.path),
-        length=float(message.path_length) * cm_per_unit,
-        vector=np.array([vector.x, vector.y, vector.z]) * cm_per_unit,
+        length=float(message.path_length) * CM_PER_METRE,
+        vector=np.array([vector.x, vector.y, vector.z]) * CM_PER_METRE,
         radio_path=tuple(int(fls) for fls in message.radio_path),
-        predicted_error=float(message.predicted_error) * cm_per_unit,
+        predicted_error=float(message.predicted_error) * CM_PER_METRE,
         estimator=ESTIMATOR_NAMES.get(message.estimator, PATH),
-        covariance=covariance * cm_per_unit**2 if fitted else None,
+        covariance=covariance * CM_PER_METRE**2 if fitted else None,
     )
 
 
