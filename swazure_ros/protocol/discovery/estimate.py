@@ -138,8 +138,10 @@ def evaluation_of(
     kept = [one for one in reported if one is not None]
     count = len(kept)
 
+    row_of = {fls: row for row, fls in enumerate(ids.tolist())}
+
     def indices(path: tuple[int, ...]) -> list[int]:
-        return np.searchsorted(ids, path).tolist() if path else []
+        return [row_of[fls] for fls in path]
 
     status = np.array([one.status for one in kept], dtype=np.int8)
     reason = np.array([one.reason for one in kept], dtype=np.int8)
