@@ -24,7 +24,7 @@ import operator
 import struct
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any, TypeVar, cast
 
 from rclpy.serialization import deserialize_message, serialize_message
 
@@ -37,6 +37,10 @@ T = TypeVar("T")
 
 #: Messages whose bytes a key remembers as checked (a round of the largest shape).
 CHECKED_KEPT = 8192
+#: Messages a key hands out again, the very object, when their bytes come back soon:
+#: the radio and the coordinator of one process both hear every offer, one just after
+#: the other. Receivers read what they are handed and never change it.
+SHARED_KEPT = 64
 #: The field that carries the tag.
 AUTH_FIELD = "auth"
 
@@ -145,6 +149,8 @@ class SwarmKey:
         self._key = key
         # Digests of the bytes of messages whose tag was good, oldest first.
         self._checked: dict[bytes, None] = {}
+        # The newest messages checked, by their bytes' digest and type.
+        self._shared: dict[tuple[bytes, type], Any] = {}
 
     def __repr__(self) -> str:
         return f"SwarmKey({'active' if self.active else 'none'})"  # never the key itself
@@ -181,21 +187,34 @@ class SwarmKey:
         """The message of type ``kind`` in ``data``; MessageError if not one, or not signed.
 
         Bytes checked once are not checked again: in a process that hosts
-        the radio and the coordinator, both hear every offer.
+        the radio and the coordinator, both hear every offer. When the same
+        bytes come back soon after, the message read then is handed out
+        again (``SHARED_KEPT``), so a second receiver does not read it again.
         """
-        try:
-            message: T = deserialize_message(data, kind)
-        except Exception as err:  # rclpy reports undecodable bytes with bare exceptions
-            raise MessageError(f"not a {kind.__name__}") from err
         if self._key is None or not hasattr(kind, "auth"):
             # A type without a tag (a camera's Detections) is not the swarm's to sign:
             # what it says is checked for what it is (ros.convert).
-            return message
+            return _deserialize(data, kind)
         digest = hashlib.blake2b(data, digest_size=16).digest()
-        if digest in self._checked:
-            return message
-        self.verify(message)
-        self._checked[digest] = None
-        if len(self._checked) > CHECKED_KEPT:
-            del self._checked[next(iter(self._checked))]
+        shared = self._shared.get((digest, kind))
+        if shared is not None:
+            return cast(T, shared)
+        message = _deserialize(data, kind)
+        if digest not in self._checked:
+            self.verify(message)
+            self._checked[digest] = None
+            if len(self._checked) > CHECKED_KEPT:
+                del self._checked[next(iter(self._checked))]
+        self._shared[(digest, kind)] = message
+        if len(self._shared) > SHARED_KEPT:
+            del self._shared[next(iter(self._shared))]
         return message
+
+
+def _deserialize(data: bytes, kind: type[T]) -> T:
+    """The message of type ``kind`` in ``data``; MessageError if the bytes are not one."""
+    try:
+        message: T = deserialize_message(data, kind)
+    except Exception as err:  # rclpy reports undecodable bytes with bare exceptions
+        raise MessageError(f"not a {kind.__name__}") from err
+    return message
