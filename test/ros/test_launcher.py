@@ -316,7 +316,7 @@ def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(
                 continue
         out, err = echo.communicate(timeout=60)
         assert echo.returncode == 0, err
-        assert f"source_id: {source}" in out and f"target_id: {target}" in out, out
+        assert f"source_id: {source}" in out and f"target_ids:\n- {target}\n" in out, out
     finally:
         if echo.poll() is None:
             echo.kill()
