@@ -17,7 +17,9 @@ import faulthandler
 import os
 import signal
 import sys
-from collections.abc import Callable
+import threading
+import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -178,15 +180,20 @@ def init_context(domain_id: int | None = None, params_file: str | None = None) -
     return context
 
 
-#: Seconds a process's teardown may take before its watchdog ends it (exit code 1).
+#: Seconds a process's DDS teardown (:func:`exit_process`) may take before the process
+#: leaves without it (its exit code unchanged, a line and every thread's stack in its log).
 TEARDOWN_LIMIT = 30.0
-#: Seconds a :func:`run_process` program (fls, world, coordinator) may take to end once
-#: asked before its watchdog ends it (exit code 1, every thread's stack in its log);
-#: under the launcher's grace (app.per_fls.STOP_GRACE), which would kill it without a word.
-STOP_LIMIT = 15.0
+#: The same for a :func:`run_process` program: one FLS, the world or the coordinator,
+#: whose teardown takes about a second.
+PROGRAM_TEARDOWN_LIMIT = 5.0
+#: Seconds a :func:`run_process` program may take to reach its teardown once asked to
+#: end before its watchdog ends it (exit code 1, every thread's stack in its log); with
+#: the teardown's limit, under the launcher's grace (app.per_fls.STOP_GRACE), which
+#: would kill it without a word.
+STOP_LIMIT = 12.0
 
 
-def exit_process(code: int) -> NoReturn:
+def exit_process(code: int, limit: float = TEARDOWN_LIMIT) -> NoReturn:
     """End the process now, leaving its nodes to DDS's own teardown; never returns.
 
     Destroying nodes one by one costs in proportion to the square of a
@@ -196,22 +203,43 @@ def exit_process(code: int) -> NoReturn:
     deletes the participant whole and tells its peers so at once; Python's
     finalizers, which would destroy each node, do not run (its exit handlers do). Call it last,
     when every output is written.
+
+    Fast DDS 2.14's teardown can deadlock (eProsima/Fast-DDS#6502: its event
+    and receive threads, while peers leave at the same time; docs/swarm.md,
+    "Stopping"). A teardown still going after ``limit`` s is abandoned: the
+    process says so in one line, prints every thread's stack and exits with
+    ``code`` all the same; its peers drop it when its DDS lease runs out.
     """
-    # A share process's teardown was once seen to hang inside a network namespace
-    # (not reproduced since). Python's handlers do not run in the C library's exit:
-    # a second SIGTERM must end the process then, and so does a watchdog thread,
-    # which prints every thread's stack first.
+    # Python's handlers do not run in the C library's exit: a second SIGINT or
+    # SIGTERM must end the process then.
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, signal.SIG_DFL)
-    faulthandler.dump_traceback_later(TEARDOWN_LIMIT, exit=True)
     # Python's exit handlers still run: multiprocessing's releases its semaphores.
     atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         # A reader gone or a stream closed: nothing is left to save.
         with contextlib.suppress(OSError, ValueError):
             stream.flush()
+    # ctypes lets the GIL go for the call, so this thread can run while exit() hangs.
+    threading.Thread(target=_abandon_teardown, args=(code, limit), daemon=True).start()
+    # The last resort, should even that thread not run.
+    faulthandler.dump_traceback_later(2 * limit, exit=True)
     ctypes.CDLL(None).exit(code)
     raise AssertionError("exit returned")  # pragma: no cover
+
+
+def _abandon_teardown(code: int, limit: float) -> None:
+    """After ``limit`` s, end the process with ``code``, its teardown unfinished."""
+    time.sleep(limit)
+    with contextlib.suppress(OSError, ValueError):
+        print(
+            f"the DDS teardown did not end in {limit:g} s (a known Fast DDS deadlock): "
+            "leaving without it",
+            file=sys.stderr,
+            flush=True,
+        )
+        faulthandler.dump_traceback(all_threads=True)
+    os._exit(code)
 
 
 #: The parameters that describe a swarm (core.description.SwarmDescription), as every
@@ -227,12 +255,18 @@ DESCRIPTION_PARAMETERS: dict[str, Any] = {
 }
 
 
-def startup_parameters(context: Context, defaults: dict[str, Any]) -> dict[str, Any]:
+@contextlib.contextmanager
+def startup_parameters(context: Context, defaults: dict[str, Any]) -> Iterator[dict[str, Any]]:
     """The values of parameters a process needs before it can name or build its node.
 
     They come from the command line's ``-p`` and the ``/**`` section of a
     parameter file, read by a short-lived node; ParameterError when one has
-    the wrong type.
+    the wrong type. The node lives until the block ends: build the process's
+    nodes inside it. It holds the context's DDS participant, which they then
+    share; were it destroyed first, the participant would be deleted while
+    it discovers its peers, and Fast DDS 2.14 can deadlock there
+    (``DomainParticipant::set_listener`` waiting on a discovery callback that
+    waits on a lock the deletion holds; docs/swarm.md).
     """
     reader = Node(
         "swazure_startup",
@@ -248,7 +282,7 @@ def startup_parameters(context: Context, defaults: dict[str, Any]) -> dict[str, 
                 values[name] = reader.declare_parameter(name, default).value
             except (ParameterException, TypeError) as err:
                 raise ParameterError(f"parameter {name}: {err}") from err
-        return values
+        yield values
     finally:
         reader.destroy_node()
 
@@ -306,10 +340,12 @@ def seconds_since_start() -> float:
     return float(Path("/proc/uptime").read_text().split()[0]) - started
 
 
-def run_process(build: Callable[[Context], list[Node]], args: list[str] | None = None) -> int:
-    """Start rclpy, build a process's nodes and spin them until SIGINT or SIGTERM.
+def run_process(build: Callable[[Context], list[Node]], args: list[str] | None = None) -> NoReturn:
+    """Start rclpy, build a process's nodes and spin them until SIGINT or SIGTERM; then exit.
 
     Errors in building give one line and exit code 2, never a traceback.
+    The process ends with :func:`exit_process`: its DDS participant is
+    deleted whole, not endpoint by endpoint (docs/swarm.md, "Stopping").
     """
     context = Context()
     rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
@@ -323,8 +359,8 @@ def run_process(build: Callable[[Context], list[Node]], args: list[str] | None =
 
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, on_stop)
-    nodes: list[Node] = []
     executor: Executor | None = None
+    code = 0
     try:
         nodes = build(context)
         executor = EventsExecutor(context=context)
@@ -338,17 +374,13 @@ def run_process(build: Callable[[Context], list[Node]], args: list[str] | None =
             executor.spin_once(timeout_sec=0.5)
     except SwazureError as err:
         print(f"error: {err}", file=sys.stderr)
-        return 2
+        code = 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    finally:
-        # Out of the executor before destroyed, as SwarmHost.close does: the
-        # EventsExecutor's own thread must not hold a node that is going.
-        for node in nodes:
-            if executor is not None:
-                executor.remove_node(node)
-            node.destroy_node()
-        if executor is not None:
-            executor.shutdown()
-        context.try_shutdown()
-    return 0
+    # The executor first: its shutdown unregisters the callbacks of every
+    # subscription, service and timer it tracks, which must be alive then.
+    if executor is not None:
+        executor.shutdown()
+    # Not node by node: each endpoint destroyed makes every peer remove it, and
+    # Fast DDS 2.14 can deadlock a peer doing so (eProsima/Fast-DDS#6502).
+    exit_process(code, limit=PROGRAM_TEARDOWN_LIMIT)

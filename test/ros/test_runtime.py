@@ -5,6 +5,7 @@ from __future__ import annotations
 import signal
 import subprocess
 import sys
+import time
 
 #: A process whose one node is stuck in a callback: it cannot end when asked.
 STUCK = """
@@ -43,3 +44,28 @@ def test_a_process_that_hangs_when_asked_to_stop_prints_where_and_exits_1(domain
     assert process.returncode == 1, err
     # faulthandler's dump: every thread's stack, the stuck callback among the frames.
     assert "Timeout" in err and "stuck_in_a_callback" in err, err
+
+
+#: A process whose teardown hangs: a C exit handler that never returns, as Fast DDS's
+#: did in a deadlock of its own threads (eProsima/Fast-DDS#6502).
+HANGING_TEARDOWN = """
+import ctypes, sys, time
+from swazure_ros.ros import runtime
+
+HANDLER = ctypes.CFUNCTYPE(None, ctypes.c_int, ctypes.c_void_p)(lambda *_: time.sleep(3600))
+ctypes.CDLL(None).on_exit(HANDLER, None)
+print("exiting", flush=True)
+runtime.exit_process(3, limit=1.0)
+"""
+
+
+def test_a_teardown_that_hangs_is_left_with_the_processs_own_code():
+    began = time.monotonic()
+    process = subprocess.run(
+        [sys.executable, "-c", HANGING_TEARDOWN], capture_output=True, text=True, timeout=30
+    )
+    assert process.stdout.strip() == "exiting"
+    assert process.returncode == 3, process.stderr
+    assert "the DDS teardown did not end in 1 s" in process.stderr, process.stderr
+    # Within the limit and its stack dump, long before the hanging handler would return.
+    assert time.monotonic() - began < 20
