@@ -19,7 +19,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -255,18 +255,12 @@ DESCRIPTION_PARAMETERS: dict[str, Any] = {
 }
 
 
-@contextlib.contextmanager
-def startup_parameters(context: Context, defaults: dict[str, Any]) -> Iterator[dict[str, Any]]:
+def startup_parameters(context: Context, defaults: dict[str, Any]) -> dict[str, Any]:
     """The values of parameters a process needs before it can name or build its node.
 
     They come from the command line's ``-p`` and the ``/**`` section of a
     parameter file, read by a short-lived node; ParameterError when one has
-    the wrong type. The node lives until the block ends: build the process's
-    nodes inside it. It holds the context's DDS participant, which they then
-    share; were it destroyed first, the participant would be deleted while
-    it discovers its peers, and Fast DDS 2.14 can deadlock there
-    (``DomainParticipant::set_listener`` waiting on a discovery callback that
-    waits on a lock the deletion holds; docs/swarm.md).
+    the wrong type.
     """
     reader = Node(
         "swazure_startup",
@@ -282,7 +276,7 @@ def startup_parameters(context: Context, defaults: dict[str, Any]) -> Iterator[d
                 values[name] = reader.declare_parameter(name, default).value
             except (ParameterException, TypeError) as err:
                 raise ParameterError(f"parameter {name}: {err}") from err
-        yield values
+        return values
     finally:
         reader.destroy_node()
 
