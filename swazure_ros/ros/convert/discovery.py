@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import array
 import itertools
 from collections.abc import Sequence
 
@@ -46,7 +47,7 @@ from ..names import (
     POLICY_NAMES,
     node_name,
 )
-from .units import array3, vector3
+from .units import array3, packed, vector3
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -65,19 +66,18 @@ def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:
     )
     message.header.stamp = stamp
     message.header.frame_id = node_name(sender)
-    # Array fields take numpy arrays of the right dtype without a Python loop.
-    message.source_ids = offer.source_ids.astype(np.uint32)
-    message.hops = offer.hops.astype(np.uint32)
-    message.lengths = offer.lengths.astype(np.float64)
-    message.errors = offer.errors.astype(np.float64)
-    message.vectors = offer.vectors.astype(np.float64).ravel()
-    message.path_offsets = offer.path_offsets.astype(np.uint32)
-    message.path_ids = offer.path_ids.astype(np.uint32)
+    message.source_ids = packed(offer.source_ids, np.uint32)
+    message.hops = packed(offer.hops, np.uint32)
+    message.lengths = packed(offer.lengths, np.float64)
+    message.errors = packed(offer.errors, np.float64)
+    message.vectors = packed(offer.vectors, np.float64)
+    message.path_offsets = packed(offer.path_offsets, np.uint32)
+    message.path_ids = packed(offer.path_ids, np.uint32)
     if offer.unbiased is not None and offer.covariances is not None:
-        message.unbiased_vectors = offer.unbiased.astype(np.float64).ravel()
-        message.covariances = offer.covariances.astype(np.float64).ravel()
-    message.reading_ids = offer.reading_ids.astype(np.uint32)
-    message.reading_vectors = offer.reading_vectors.astype(np.float64).ravel()
+        message.unbiased_vectors = packed(offer.unbiased, np.float64)
+        message.covariances = packed(offer.covariances, np.float64)
+    message.reading_ids = packed(offer.reading_ids, np.uint32)
+    message.reading_vectors = packed(offer.reading_vectors, np.float64)
     return message
 
 
@@ -184,34 +184,32 @@ def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
     message.header.stamp = stamp
     message.header.frame_id = node_name(source)
     count = len(found)
-    message.target_ids = np.array([one.target for one in found], dtype=np.uint32)
-    message.statuses = np.array([one.status for one in found], dtype=np.uint8)
-    message.reasons = np.array([one.reason for one in found], dtype=np.uint8)
-    message.estimators = np.array(
-        [ESTIMATOR_CODES[one.estimator] for one in found], dtype=np.uint8
-    )
+    message.target_ids = packed([one.target for one in found], np.uint32)
+    message.statuses = packed([one.status for one in found], np.uint8)
+    message.reasons = packed([one.reason for one in found], np.uint8)
+    message.estimators = packed([ESTIMATOR_CODES[one.estimator] for one in found], np.uint8)
     message.path_offsets, message.path_ids = _ragged([one.path for one in found])
     message.radio_path_offsets, message.radio_path_ids = _ragged([one.radio_path for one in found])
     vectors = np.array([one.vector for one in found], dtype=np.float64).reshape(count, 3)
-    message.vectors = vectors.ravel()
-    message.path_lengths = np.array([one.length for one in found], dtype=np.float64)
-    message.predicted_errors = np.array([one.predicted_error for one in found], dtype=np.float64)
+    message.vectors = packed(vectors, np.float64)
+    message.path_lengths = packed([one.length for one in found], np.float64)
+    message.predicted_errors = packed([one.predicted_error for one in found], np.float64)
     covariances = np.full((count, 9), np.nan)
     for row, one in enumerate(found):
         if one.covariance is not None:
             covariances[row] = one.covariance.ravel()
-    message.covariances = covariances.ravel()
+    message.covariances = packed(covariances, np.float64)
     return message
 
 
-def _ragged(paths: Sequence[tuple[int, ...]]) -> tuple[NDArray[np.uint32], NDArray[np.uint32]]:
-    """Paths as (offsets, ids): path k is ids[offsets[k]:offsets[k + 1]]."""
+def _ragged(paths: Sequence[tuple[int, ...]]) -> tuple[array.array, array.array]:  # type: ignore[type-arg]
+    """Paths as (offsets, ids) sequences: path k is ids[offsets[k]:offsets[k + 1]]."""
     offsets = np.zeros(len(paths) + 1, dtype=np.uint32)
     offsets[1:] = np.cumsum([len(path) for path in paths])
     ids = np.fromiter(
         itertools.chain.from_iterable(paths), dtype=np.uint32, count=int(offsets[-1])
     )
-    return offsets, ids
+    return packed(offsets, np.uint32), packed(ids, np.uint32)
 
 
 def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> list[Estimate]:
