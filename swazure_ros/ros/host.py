@@ -291,17 +291,14 @@ class SwarmHost:
             self.spin_once(min(0.05, max(0.0, deadline - time.monotonic())))
 
     def close(self) -> None:
-        """Shut the executor down, then destroy every node.
-
-        In that order: the EventsExecutor's shutdown unregisters the callbacks
-        of every entity it tracks, which must still be alive then.
-        """
-        self.executor.shutdown()
+        """Destroy every node and the executor."""
         for node in self.nodes:
+            self.executor.remove_node(node)
             node.destroy_node()
         self.nodes.clear()
         self.fls_nodes.clear()
         self.fls_by_id.clear()
+        self.executor.shutdown()
 
     def __enter__(self) -> SwarmHost:
         return self
