@@ -133,3 +133,32 @@ def test_a_run_that_cannot_be_written_is_one_line_and_leaves_nothing(tmp_path, s
     assert "\n" not in str(raised.value)
     assert blocker.read_text() == "not a folder"
     assert sorted(path.name for path in tmp_path.iterdir()) == ["a-file"]
+
+
+@pytest.mark.parametrize("rows", [0, 1, 7, 30])
+@pytest.mark.parametrize("threads", [1, 3])
+def test_csv_written_slice_by_slice_on_threads_is_pyarrows_own_bytes(
+    tmp_path, monkeypatch, rows, threads
+):
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    from swazure_ros.core import results
+
+    # Slices of 4 rows: 30 rows are 8 slices, more than the threads keep in flight.
+    monkeypatch.setattr(results, "CSV_ROWS", 4)
+    values = np.random.default_rng(0).normal(size=rows)
+    table = pa.table(
+        {
+            "source": np.arange(rows),
+            "status": pa.array(["SWEET", "NO_PATH"]).take(np.arange(rows) % 2),
+            "path": [" ".join(map(str, range(row % 4))) for row in range(rows)],
+            "estimate_x": values,
+            "obstructed": values > 0,
+        }
+    )
+    pacsv.write_csv(table, str(tmp_path / "whole.csv"))
+    results.write_csv(table, tmp_path / "sliced.csv", threads)
+    expected = (tmp_path / "whole.csv").read_bytes()
+    assert (tmp_path / "sliced.csv").read_bytes() == expected
+    assert expected.count(b"\n") == rows + 1
