@@ -43,10 +43,34 @@ class Swarm:
         return len(self.points)
 
 
+#: Pairs from which :func:`centre_distance` runs compiled on every core: numpy's
+#: gathers take 0.7 s for the race car's 6.8 M candidate neighbour pairs.
+COMPILED_PAIRS = 1 << 20
+
+
 def centre_distance(points: FloatArray, first: ArrayLike, second: ArrayLike) -> FloatArray:
     """Centre-to-centre distances |p_second - p_first|, cm, for index arrays of one shape."""
-    offset = points[np.asarray(second)] - points[np.asarray(first)]
-    return np.asarray(np.sqrt(np.einsum("...k,...k->...", offset, offset)), dtype=np.float64)
+    first, second = np.asarray(first), np.asarray(second)
+    if first.ndim == 1 and first.shape == second.shape and len(first) >= COMPILED_PAIRS:
+        points = np.ascontiguousarray(points, dtype=np.float64)
+        return _centre_distance(points, first.astype(np.int64), second.astype(np.int64))
+    offset = np.asarray(points, dtype=np.float64)[second] - points[first]
+    dx, dy, dz = offset[..., 0], offset[..., 1], offset[..., 2]
+    # Summed as (x² + z²) + y²: the order numpy's einsum took where every published
+    # result of this project was recorded; written out, it is the same on any CPU.
+    return np.asarray(np.sqrt((dx * dx + dz * dz) + dy * dy), dtype=np.float64)
+
+
+@jit.kernel(cache=True, parallel=True)
+def _centre_distance(points: FloatArray, first: IntArray, second: IntArray) -> FloatArray:
+    # numpy's operations in numpy's order, so that both give the same bits.
+    distance = np.empty(len(first))
+    for m in jit.prange(len(first)):
+        dx = points[second[m], 0] - points[first[m], 0]
+        dy = points[second[m], 1] - points[first[m], 1]
+        dz = points[second[m], 2] - points[first[m], 2]
+        distance[m] = np.sqrt((dx * dx + dz * dz) + dy * dy)
+    return distance
 
 
 def tracking_distance(
