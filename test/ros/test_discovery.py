@@ -118,12 +118,10 @@ def test_moves_made_by_the_swarm_equal_the_engine(domain, params, technique, bet
             np.testing.assert_array_equal(moved.heuristic.resolved, plan.resolved)
             # Every FLS is back at its point: the next run is the plain run again.
             assert (swarm.host.replica.world.swarm.points == world.swarm.points).all()
-            again = swarm.discover(policy, timeout=300)
-            assert by_pair(again.estimates).keys() == by_pair(plain.estimates).keys()
-            assert all(
-                one.path == by_pair(plain.estimates)[key].path
-                for key, one in by_pair(again.estimates).items()
-            )
+            before = by_pair(plain.estimates)
+            again = by_pair(swarm.discover(policy, timeout=300).estimates)
+            assert again.keys() == before.keys()
+            assert all(one.path == before[key].path for key, one in again.items())
 
 
 def test_a_node_stopped_mid_run_departs_and_paths_avoid_it(domain, params):
