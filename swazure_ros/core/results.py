@@ -315,8 +315,6 @@ def write_evaluation(
     fraction of the size); ``columns`` as :func:`pairs_table`. The summary is
     written last, so its presence means the run is complete.
     """
-    import pyarrow.parquet as pq
-
     if pairs_format not in PAIRS_FORMATS:
         raise ValueError(f"pairs_format must be one of {PAIRS_FORMATS}, got {pairs_format!r}")
     table = pairs_table(evaluation, heuristic, pairs_format == "csv", columns)
@@ -324,6 +322,8 @@ def write_evaluation(
         pairs_path = directory / PAIRS_FILE
         atomic_write(pairs_path, lambda tmp: write_csv(table, tmp))
     else:
+        import pyarrow.parquet as pq
+
         pairs_path = directory / PAIRS_PARQUET_FILE
         atomic_write(pairs_path, lambda tmp: pq.write_table(table, str(tmp), compression="zstd"))
     summary_path = directory / SUMMARY_FILE
