@@ -2154,8 +2154,13 @@ def main() -> int:
             file=sys.stderr,
         )
         return 2
-    # Warm numba's compilation cache so that no run pays for compiling.
-    run([*SWAZURE, "evaluate", "--cloud", "sphere:200", "--beta", "0.5", "--quiet"])
+    # Warm numba's compilation cache so that no run pays for compiling: the engine's
+    # kernels, the heuristics' and the swarm's (a fresh clone has none cached).
+    for technique in ("plain", "move-obstructing", "move-source"):
+        run([*SWAZURE, "evaluate", "--cloud", "sphere:200", "--beta", "0.5", "--quiet",
+             "--technique", technique])  # fmt: skip
+        with tempfile.TemporaryDirectory() as out:
+            compute_all("torus:120", technique, 91, Path(out), 1, 600, "--scale", "1.6")
     SECTIONS_DIR.mkdir(parents=True, exist_ok=True)
     stamp = f"Measured {datetime.date.today().isoformat()} on {machine()}."
     for name in args.sections:
