@@ -100,27 +100,19 @@ def _pair_blocks(count: int) -> Iterator[tuple[IntArray, IntArray]]:
 
 def min_distance(points: ArrayLike) -> float:
     """dmin: the smallest centre-to-centre distance between two points, cm."""
-    return float(nearest_distance(points).min())
-
-
-def nearest_distance(points: ArrayLike) -> FloatArray:
-    """Each point's centre distance to its nearest other point, cm: (N,).
-
-    Of two neighbours equally near to within an ulp, a large cloud's k-d tree
-    may measure the other.
-    """
     points = validate_points(points)
     if len(points) <= SMALL_CLOUD:
-        nearest = np.full(len(points), np.inf)
-        for first, second in _pair_blocks(len(points)):
-            distance = centre_distance(points, first, second)
-            np.minimum.at(nearest, first, distance)
-            np.minimum.at(nearest, second, distance)
-        return nearest
+        return float(
+            min(
+                centre_distance(points, first, second).min()
+                for first, second in _pair_blocks(len(points))
+                if len(first)
+            )
+        )
     from scipy.spatial import cKDTree  # here: a small cloud needs no tree (SMALL_CLOUD)
 
-    _, nearest_index = cKDTree(points).query(points, k=2)
-    return centre_distance(points, np.arange(len(points)), nearest_index[:, 1])
+    _, nearest = cKDTree(points).query(points, k=2)
+    return float(centre_distance(points, np.arange(len(points)), nearest[:, 1]).min())
 
 
 def colliding_pairs(points: FloatArray, radius: float) -> IntArray:

@@ -16,7 +16,6 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import csr, jit
-from .geometry import nearest_distance
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -41,10 +40,12 @@ class Grid(NamedTuple):
 def build_grid(points: FloatArray, radius: float) -> Grid:
     """Bucket ``points`` (N, 3) into cells of about the point spacing, cm, and at least r."""
     extent = np.ptp(points, axis=0)
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
+    spacing, _ = cKDTree(points).query(points, k=2)
     # Cells near the point spacing keep few points per cell and few cells per
     # segment, whatever r is.
-    spacing = float(np.median(nearest_distance(points)))
-    cell = max(spacing, radius, float(extent.max()) * 1e-9, 1e-12)
+    cell = max(float(np.median(spacing[:, 1])), radius, float(extent.max()) * 1e-9, 1e-12)
     return grid_of(points, cell)
 
 

@@ -61,13 +61,6 @@ def test_min_distance():
     assert min_distance([[0, 0, 0], [3, 4, 0], [10, 0, 0]]) == 5.0
 
 
-def test_nearest_distance_is_each_points_distance_to_its_nearest_other():
-    from swazure_ros.core.geometry import nearest_distance
-
-    points = [[0, 0, 0], [3, 4, 0], [10, 0, 0], [10, 0, 2]]
-    np.testing.assert_array_equal(nearest_distance(points), [5.0, 5.0, 2.0, 2.0])
-
-
 def test_chess_piece_check_values(sensor):
     from swazure_ros.core.clouds import load_cloud
 
@@ -86,13 +79,10 @@ def test_a_small_cloud_searched_pair_by_pair_gives_the_trees_answers(shape, monk
     points = load_cloud(shape).points
     assert len(points) <= geometry.SMALL_CLOUD
     by_pairs = geometry.min_distance(points)
-    nearest = geometry.nearest_distance(points)
     radius = 0.6 * by_pairs  # some points collide
     pairs = {tuple(pair) for pair in geometry.colliding_pairs(points, radius).tolist()}
     monkeypatch.setattr(geometry, "SMALL_CLOUD", 0)  # the k-d tree's search
     assert geometry.min_distance(points) == by_pairs
-    # Of two neighbours equally near to within an ulp, the tree may keep the other.
-    np.testing.assert_allclose(geometry.nearest_distance(points), nearest, rtol=1e-15, atol=0)
     assert {tuple(pair) for pair in geometry.colliding_pairs(points, radius).tolist()} == pairs
     assert pairs
 
