@@ -108,7 +108,6 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
         or (len(message.unbiased_vectors) == 3 * count and len(message.covariances) == 9 * count),
         "not 3 unbiased vector and 9 covariance values per label",
     )
-    check(len(message.path_offsets) == count + 1, "not one more path offset than labels")
     sources = np.asarray(message.source_ids, dtype=np.int64)
     # A sender offers its labels in source order, one a source (PathSearch.offer).
     check(bool(np.all(np.diff(sources) > 0)), "sources not in increasing order, once each")
@@ -117,11 +116,8 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
     errors = check_finite(message.errors, "errors")
     check(bool(np.all(lengths >= 0) and np.all(errors >= 0)), "a negative cost")
     vectors = check_finite(message.vectors, "vectors", allow_nan=message.phase == SWEET_ALL)
-    offsets = np.asarray(message.path_offsets, dtype=np.int64)
-    check_size(message.path_ids, count * len(swarm), "path_ids")
-    check(
-        offsets[0] == 0 and offsets[-1] == len(message.path_ids),
-        "path offsets do not span path_ids",
+    offsets = _checked_offsets(
+        message.path_offsets, message.path_ids, count, len(swarm), "path", "labels"
     )
     check(bool(np.all(np.diff(offsets) == hops + 1)), "a path is not hops + 1 FLSs long")
     path_ids = np.asarray(message.path_ids, dtype=np.int64)
@@ -265,17 +261,28 @@ def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> list[Esti
     return [Estimate(*fields) for fields in columns]
 
 
+def _checked_offsets(
+    offsets: Sequence[int], ids: Sequence[int], count: int, longest: int, what: str, of: str
+) -> IntArray:
+    """The offsets (count + 1,) of ``count`` paths of at most ``longest`` FLSs into ``ids``.
+
+    MessageError unless there is one more offset than paths, they run from 0
+    to the number of ids without decreasing, and ``ids`` could be that many paths.
+    """
+    check(len(offsets) == count + 1, f"not one more {what} offset than {of}")
+    check_size(ids, count * longest, f"{what}_ids")
+    bounds = np.asarray(offsets, dtype=np.int64)
+    check(bounds[0] == 0 and bounds[-1] == len(ids), f"{what} offsets do not span {what}_ids")
+    check(bool(np.all(np.diff(bounds) >= 0)), f"{what} offsets decrease")
+    return bounds
+
+
 def _ragged_from_message(
     offsets: Sequence[int], ids: Sequence[int], count: int, swarm: IntArray, what: str
 ) -> list[tuple[int, ...]]:
     """The ``count`` paths of a ragged (offsets, ids) pair, checked against ``swarm``."""
-    check(len(offsets) == count + 1, f"not one more {what} offset than estimates")
-    check_size(ids, count * len(swarm), f"{what}_ids")
-    bounds = np.asarray(offsets, dtype=np.int64)
-    check(bounds[0] == 0 and bounds[-1] == len(ids), f"{what} offsets do not span {what}_ids")
-    lengths = np.diff(bounds)
-    check(bool(np.all(lengths >= 0)), f"{what} offsets decrease")
-    check(bool(np.all(lengths <= len(swarm))), "a path longer than the swarm")
+    bounds = _checked_offsets(offsets, ids, count, len(swarm), what, "estimates")
+    check(bool(np.all(np.diff(bounds) <= len(swarm))), "a path longer than the swarm")
     flat = check_ids(ids, swarm, f"estimates' {what}s").tolist()
     starts = bounds.tolist()
     return [tuple(flat[a:b]) for a, b in itertools.pairwise(starts)]
