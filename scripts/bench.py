@@ -2069,7 +2069,7 @@ def speed_section(args: argparse.Namespace) -> list[str]:
         "",
         "Wall time of the whole installed `swazure` command, timed from outside, process",
         "start included; the median of several runs (range beside it). `evaluate` here",
-        "writes no files (with `--out` the race car's 2.07 M-row pairs.csv adds about 4 s:",
+        "writes no files (with `--out` the race car's 2.07 M-row pairs.csv adds 2-3 s:",
         "the engine table). The packed swarm's bring-up is in the `swazure spawn` section,",
         "and the distributed runs beside the engine in the `--compute-all` section.",
         "",

@@ -53,7 +53,8 @@ def centre_distance(points: FloatArray, first: ArrayLike, second: ArrayLike) -> 
     first, second = np.asarray(first), np.asarray(second)
     if first.ndim == 1 and first.shape == second.shape and len(first) >= COMPILED_PAIRS:
         points = np.ascontiguousarray(points, dtype=np.float64)
-        return _centre_distance(points, first.astype(np.int64), second.astype(np.int64))
+        first, second = first.astype(np.int64, copy=False), second.astype(np.int64, copy=False)
+        return _centre_distance(points, first, second)
     offset = np.asarray(points, dtype=np.float64)[second] - points[first]
     dx, dy, dz = offset[..., 0], offset[..., 1], offset[..., 2]
     # Summed as (x² + z²) + y²: the order numpy's einsum took where every published

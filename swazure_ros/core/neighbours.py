@@ -140,7 +140,12 @@ def neighbour_pairs(swarm: Swarm, sensor: Sensor) -> NeighbourPairs:
     distance = centre_distance(swarm.points, first, second)
     tracking = distance - 2.0 * swarm.radius
     keep = tracking < sensor.decaying_max
-    first, second, distance, tracking = first[keep], second[keep], distance[keep], tracking[keep]
+    # Candidates come from the sensor's reach plus a rounding margin, so nearly always
+    # every one is kept: copying four arrays of 6.8 M pairs for nothing took 0.25 s.
+    if not keep.all():
+        first, second, distance, tracking = (
+            first[keep], second[keep], distance[keep], tracking[keep]
+        )  # fmt: skip
     return NeighbourPairs(first, second, distance, tracking, sensor.classify(tracking))
 
 
