@@ -147,6 +147,7 @@ def test_csv_written_slice_by_slice_on_threads_is_pyarrows_own_bytes(
 
     # Slices of 4 rows: 30 rows are 8 slices, more than the threads keep in flight.
     monkeypatch.setattr(results, "CSV_ROWS", 4)
+    monkeypatch.setattr(results, "THREADED_CSV_ROWS", 0)
     values = np.random.default_rng(0).normal(size=rows)
     table = pa.table(
         {
