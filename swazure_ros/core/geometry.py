@@ -50,12 +50,12 @@ COMPILED_PAIRS = 1 << 20
 
 def centre_distance(points: FloatArray, first: ArrayLike, second: ArrayLike) -> FloatArray:
     """Centre-to-centre distances |p_second - p_first|, cm, for index arrays of one shape."""
+    points = np.asarray(points, dtype=np.float64)
     first, second = np.asarray(first), np.asarray(second)
     if first.ndim == 1 and first.shape == second.shape and len(first) >= COMPILED_PAIRS:
-        points = np.ascontiguousarray(points, dtype=np.float64)
         first, second = first.astype(np.int64, copy=False), second.astype(np.int64, copy=False)
-        return _centre_distance(points, first, second)
-    offset = np.asarray(points, dtype=np.float64)[second] - points[first]
+        return _centre_distance(np.ascontiguousarray(points), first, second)
+    offset = points[second] - points[first]
     dx, dy, dz = offset[..., 0], offset[..., 1], offset[..., 2]
     # Summed as (x² + z²) + y²: the order numpy's einsum took where every published
     # result of this project was recorded; written out, it is the same on any CPU.
