@@ -29,25 +29,25 @@ def build_coordinator(context: Context) -> list[Node]:
     acknowledge each round (0: one per FLS, each FLS in its own process).
     It plans heuristics' moves on the description's shape, as the packed one does.
     """
-    with startup_parameters(
+    values = startup_parameters(
         context,
         {"namespace": "swarm", "key_file": "", "hosts": 0, **DESCRIPTION_PARAMETERS},
-    ) as values:
-        description = description_from(values)
-        shape = neighbourhood(description.assigned(), description.sensor())
-        ids = shape.swarm.cloud_index
-        hosts = int(values["hosts"]) or len(ids)
-        coordinator = Coordinator(
-            ids.tolist(),
-            hosts,
-            shape=shape,
-            namespace=str(values["namespace"]),
-            context=context,
-            key=SwarmKey(key_from(str(values["key_file"]))),
-            parameter_services=True,
-        )
-        declare_startup(coordinator, values)
-        return [coordinator]
+    )
+    description = description_from(values)
+    shape = neighbourhood(description.assigned(), description.sensor())
+    ids = shape.swarm.cloud_index
+    hosts = int(values["hosts"]) or len(ids)
+    coordinator = Coordinator(
+        ids.tolist(),
+        hosts,
+        shape=shape,
+        namespace=str(values["namespace"]),
+        context=context,
+        key=SwarmKey(key_from(str(values["key_file"]))),
+        parameter_services=True,
+    )
+    declare_startup(coordinator, values)
+    return [coordinator]
 
 
 def main(args: list[str] | None = None) -> int:

@@ -108,7 +108,7 @@ def build_fls(context: Context) -> list[Node]:
     ``namespace`` and ``key_file`` (the swarm's key; "" for none, and then
     ``SWAZURE_SWARM_KEY_FILE`` if set), besides the FLS node's own.
     """
-    with startup_parameters(
+    values = startup_parameters(
         context,
         {
             "fls_id": -1,
@@ -117,46 +117,46 @@ def build_fls(context: Context) -> list[Node]:
             "track.motion": "",
             **DESCRIPTION_PARAMETERS,
         },
-    ) as values:
-        fls_id = values["fls_id"]
-        if isinstance(fls_id, bool) or not isinstance(fls_id, int) or fls_id < 0:
-            raise ParameterError(f"parameter fls_id: an FLS id (>= 0) is needed, got {fls_id!r}")
-        description = description_from(values)
-        assigned = description.assigned()
-        senses = DetectedSenses(
-            fls_id, assigned.cloud_index, assigned.points, description.sensor(), assigned.radius
-        )
-        key = SwarmKey(key_from(str(values["key_file"])))
-        relay_senses = None
-        if values["track.motion"]:
-            # A simulated track run's relay camera (swazure track --per-fls): the motion
-            # the run gives every FLS, as the packed swarm's replica senses it.
-            try:
-                motion = parse_motion(str(values["track.motion"]))
-            except SwazureError as err:
-                raise ParameterError(f"parameter track.motion: {err}") from err
-            moving = moving_senses(
-                senses.sensor, senses.radius, assigned.cloud_index, assigned.points, motion
-            )
-
-            def relay_senses() -> RelaySenses:
-                return moving
-
-        node = FlsNode(
-            fls_id,
-            senses,
-            relay_senses=relay_senses,
-            namespace=str(values["namespace"]),
-            context=context,
-            transmitter=None,
-            parameter_services=True,
-            detections=senses,
-            key=key,
+    )
+    fls_id = values["fls_id"]
+    if isinstance(fls_id, bool) or not isinstance(fls_id, int) or fls_id < 0:
+        raise ParameterError(f"parameter fls_id: an FLS id (>= 0) is needed, got {fls_id!r}")
+    description = description_from(values)
+    assigned = description.assigned()
+    senses = DetectedSenses(
+        fls_id, assigned.cloud_index, assigned.points, description.sensor(), assigned.radius
+    )
+    key = SwarmKey(key_from(str(values["key_file"])))
+    relay_senses = None
+    if values["track.motion"]:
+        # A simulated track run's relay camera (swazure track --per-fls): the motion
+        # the run gives every FLS, as the packed swarm's replica senses it.
+        try:
+            motion = parse_motion(str(values["track.motion"]))
+        except SwazureError as err:
+            raise ParameterError(f"parameter track.motion: {err}") from err
+        moving = moving_senses(
+            senses.sensor, senses.radius, assigned.cloud_index, assigned.points, motion
         )
 
-        RadioJoin(node, senses)
-        declare_startup(node, values)
-        return [node]
+        def relay_senses() -> RelaySenses:
+            return moving
+
+    node = FlsNode(
+        fls_id,
+        senses,
+        relay_senses=relay_senses,
+        namespace=str(values["namespace"]),
+        context=context,
+        transmitter=None,
+        parameter_services=True,
+        detections=senses,
+        key=key,
+    )
+
+    RadioJoin(node, senses)
+    declare_startup(node, values)
+    return [node]
 
 
 def main(args: list[str] | None = None) -> int:

@@ -19,7 +19,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -40,6 +40,7 @@ from rclpy.signals import SignalHandlerOptions
 from ..core.description import SwarmDescription
 from ..core.errors import SwazureError
 from ..core.files import read_yaml
+from .overrides import node_overrides
 
 
 class ParameterError(SwazureError):
@@ -251,37 +252,33 @@ DESCRIPTION_PARAMETERS: dict[str, Any] = {
 }
 
 
-@contextlib.contextmanager
-def startup_parameters(context: Context, defaults: dict[str, Any]) -> Iterator[dict[str, Any]]:
+#: The name the startup parameters are read as: the sections of a parameter file for
+#: ``/**`` and for this node, as renamed by ``-r __node:=`` (as ``ros2 launch`` names it).
+STARTUP_NODE = "swazure_startup"
+
+
+def startup_parameters(context: Context, defaults: dict[str, Any]) -> dict[str, Any]:
     """The values of parameters a process needs before it can name or build its node.
 
-    They come from the command line's ``-p`` and the ``/**`` section of a
-    parameter file, read by a short-lived node; ParameterError when one has
-    the wrong type. Build the process's nodes inside the ``with`` block: the
-    reader goes at its end, once they hold the context's DDS participant. The
-    last node to go takes the participant with it, and Fast DDS 2.14 can
-    deadlock destroying a participant while discovery traffic comes in (the
-    main thread waits in ``DomainParticipant::set_listener`` for a discovery
-    callback blocked on a lock). With the reader gone first, one FLS process
-    hung at its start in 3 of 100 bring-ups of 25 (gdb, 2026-11-27).
+    They come from the command line's ``-p`` and the sections of parameter
+    files for every node or this one (STARTUP_NODE, remapped), read from
+    rcl's arguments as a node would, but without one (a node would
+    create the DDS participant only to delete it: ros.overrides);
+    ParameterError when one has another type than its default, as rclpy's
+    ``declare_parameter`` would say.
     """
-    reader = Node(
-        "swazure_startup",
-        context=context,
-        enable_rosout=False,
-        start_parameter_services=False,
-        parameter_overrides=[NO_TYPE_DESCRIPTION_SERVICE],
-    )
-    try:
-        values = {}
-        for name, default in defaults.items():
-            try:
-                values[name] = reader.declare_parameter(name, default).value
-            except (ParameterException, TypeError) as err:
-                raise ParameterError(f"parameter {name}: {err}") from err
-        yield values
-    finally:
-        reader.destroy_node()
+    overrides = node_overrides(context, STARTUP_NODE)
+    values = {}
+    for name, default in defaults.items():
+        value = overrides.get(name, default)
+        expected = Parameter.Type.from_parameter_value(default)
+        given = Parameter.Type.from_parameter_value(value)
+        if given != expected:
+            raise ParameterError(
+                f"parameter {name}: {value!r} is of type {given.name}, {expected.name} is needed"
+            )
+        values[name] = value
+    return values
 
 
 def declare_startup(node: Node, values: dict[str, Any]) -> None:

@@ -145,26 +145,22 @@ def build_world(context: Context) -> list[Node]:
     ...), ``namespace``, ``key_file``, and ``cameras`` (true: publish every
     FLS's detections, for FLSs that run one to a process).
     """
-    with startup_parameters(
+    values = startup_parameters(
         context,
         {"namespace": "swarm", "key_file": "", "cameras": True, **DESCRIPTION_PARAMETERS},
-    ) as values:
-        spec = WorldSpec(**vars(description_from(values)))
-        replica = WorldReplica(spec.build())
-        namespace, key = str(values["namespace"]), SwarmKey(key_from(str(values["key_file"])))
-        nodes: list[Node] = [
-            WorldNode(
-                replica, namespace=namespace, context=context, key=key, parameter_services=True
-            )
-        ]
-        declare_startup(nodes[0], values)
-        if values["cameras"]:
-            nodes.append(
-                SimulatedCameras(
-                    replica, replica.ids.tolist(), namespace=namespace, context=context
-                )
-            )
-        return nodes
+    )
+    spec = WorldSpec(**vars(description_from(values)))
+    replica = WorldReplica(spec.build())
+    namespace, key = str(values["namespace"]), SwarmKey(key_from(str(values["key_file"])))
+    nodes: list[Node] = [
+        WorldNode(replica, namespace=namespace, context=context, key=key, parameter_services=True)
+    ]
+    declare_startup(nodes[0], values)
+    if values["cameras"]:
+        nodes.append(
+            SimulatedCameras(replica, replica.ids.tolist(), namespace=namespace, context=context)
+        )
+    return nodes
 
 
 def main(args: list[str] | None = None) -> int:
