@@ -3,14 +3,14 @@
 rcl parses a process's ``--ros-args`` (``-p name:=value``, ``--params-file``)
 once, into its context's global arguments; every node of the process takes
 its overrides from there: the sections of parameter files whose name
-(``/**``, ``/swarm/coordinator``, ``/**/fls_*``) matches the node's name, as
+(``/**``, ``/swarm/coordinator``, ``/*/coordinator``) matches the node's name, as
 remapped by ``-r __node:=`` and ``-r __ns:=``, and every ``-p``.
 :func:`node_overrides` reads them from the same place
 (``rcl_arguments_get_param_overrides``, ``rcl_remap_node_name``, by ctypes),
 so that a program can learn its FLS id and its swarm before it makes its
 first node. A node made only to read them would create the process's DDS
 participant, and deleting it while peers are being discovered can deadlock
-Fast DDS 2.14 (docs/swarm.md, "Stopping").
+Fast DDS 2.14 (docs/swarm.md, "One process per FLS").
 """
 
 from __future__ import annotations
