@@ -1515,10 +1515,12 @@ def fls_process_section(args: argparse.Namespace) -> list[str]:
     executor.add_node(probe)
 
     def ready(fls_id: int) -> bool:
-        # In the graph with its radio listening for the coordinator's round clock.
+        # In the graph with its radio, made at its camera's first frame. Not yet listening
+        # to the round clock: that waits until every FLS of the trio and the coordinator
+        # hear it (fls_program.RadioJoin), and they start one after the other.
         return any(
             info.node_name == f"fls_{fls_id}"
-            for info in probe.get_subscriptions_info_by_topic("/swarm/discovery")
+            for info in probe.get_publishers_info_by_topic("/swarm/round_acks")
         )
 
     processes = [start("world")]
@@ -1549,8 +1551,8 @@ def fls_process_section(args: argparse.Namespace) -> list[str]:
                        "-p", "namespace:=camera_swarm")  # fmt: skip
         processes.append(camera)
         while time.monotonic() - began < 60:
-            listening = probe.get_subscriptions_info_by_topic("/camera_swarm/discovery")
-            if any(info.node_name == "fls_1" for info in listening):
+            # No simulator in its namespace gives it a frame: its node in the graph.
+            if ("fls_1", "/camera_swarm") in probe.get_node_names_and_namespaces():
                 break
             executor.spin_once(timeout_sec=0.01)
         camera_seconds = time.monotonic() - began
@@ -1570,7 +1572,7 @@ def fls_process_section(args: argparse.Namespace) -> list[str]:
         "`ros2 run swazure_ros fls` on the trio (config/swarms/trio.yaml), the world",
         "program already up. Ready: the process has built its node and radio and spins",
         "(its own log line, interpreter start included); seen: a peer's graph shows its",
-        "radio listening for the coordinator's round clock (DDS discovery added).",
+        "radio, made at its camera's first frame (DDS discovery added).",
         "Memory: resident, 2 s after ready, then after its first discovery run",
         "(compute_pose 0 -> 2 through the coordinator; the FLS runs its kernels as",
         "Python, core.jit.interpret).",
@@ -1588,8 +1590,8 @@ def fls_process_section(args: argparse.Namespace) -> list[str]:
         "",
         f"The pose query took {pose_seconds:.2f} s. A camera-kind FLS (sensor "
         f"`{camera_sensor.relative_to(REPO)}`, which loads OpenCV): {own_ready(camera.pid):.2f} s "
-        f"to ready by its log ({camera_seconds:.2f} s until seen), {camera_mb:.0f} MB "
-        "resident. Targets (issue 31): at most 80 MB and "
+        f"to ready by its log ({camera_seconds:.2f} s until a peer sees its node), "
+        f"{camera_mb:.0f} MB resident. Targets (issue 31): at most 80 MB and "
         "under 1 s for a published-model FLS.",
     ]
     return lines
