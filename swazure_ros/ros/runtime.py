@@ -184,10 +184,14 @@ def init_context(domain_id: int | None = None, params_file: str | None = None) -
 #: Seconds a process's DDS teardown (:func:`exit_process`) may take before the process
 #: leaves without it (its exit code unchanged, a line and every thread's stack in its log).
 TEARDOWN_LIMIT = 30.0
-#: Seconds a :func:`run_process` program (fls, world, coordinator) may take to end once
-#: asked before its watchdog ends it (exit code 1, every thread's stack in its log);
-#: under the launcher's grace (app.per_fls.STOP_GRACE), which would kill it without a word.
-STOP_LIMIT = 15.0
+#: The same for a :func:`run_process` program: one FLS, the world or the coordinator,
+#: whose teardown takes about a second.
+PROGRAM_TEARDOWN_LIMIT = 5.0
+#: Seconds a :func:`run_process` program may take to reach its teardown once asked to
+#: end before its watchdog ends it (exit code 1, every thread's stack in its log); with
+#: the teardown's limit, under the launcher's grace (app.per_fls.STOP_GRACE), which
+#: would kill it without a word.
+STOP_LIMIT = 12.0
 
 
 def exit_process(code: int, limit: float = TEARDOWN_LIMIT) -> NoReturn:
@@ -334,10 +338,12 @@ def seconds_since_start() -> float:
     return float(Path("/proc/uptime").read_text().split()[0]) - started
 
 
-def run_process(build: Callable[[Context], list[Node]], args: list[str] | None = None) -> int:
-    """Start rclpy, build a process's nodes and spin them until SIGINT or SIGTERM.
+def run_process(build: Callable[[Context], list[Node]], args: list[str] | None = None) -> NoReturn:
+    """Start rclpy, build a process's nodes and spin them until SIGINT or SIGTERM; then exit.
 
     Errors in building give one line and exit code 2, never a traceback.
+    The process ends with :func:`exit_process`: its DDS participant is
+    deleted whole, not endpoint by endpoint (docs/swarm.md, "Stopping").
     """
     context = Context()
     rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
@@ -351,8 +357,8 @@ def run_process(build: Callable[[Context], list[Node]], args: list[str] | None =
 
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, on_stop)
-    nodes: list[Node] = []
     executor: Executor | None = None
+    code = 0
     try:
         nodes = build(context)
         executor = EventsExecutor(context=context)
@@ -366,17 +372,13 @@ def run_process(build: Callable[[Context], list[Node]], args: list[str] | None =
             executor.spin_once(timeout_sec=0.5)
     except SwazureError as err:
         print(f"error: {err}", file=sys.stderr)
-        return 2
+        code = 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
-    finally:
-        # Out of the executor before destroyed, as SwarmHost.close does: the
-        # EventsExecutor's own thread must not hold a node that is going.
-        for node in nodes:
-            if executor is not None:
-                executor.remove_node(node)
-            node.destroy_node()
-        if executor is not None:
-            executor.shutdown()
-        context.try_shutdown()
-    return 0
+    # The executor first: its shutdown unregisters the callbacks of every
+    # subscription, service and timer it tracks, which must be alive then.
+    if executor is not None:
+        executor.shutdown()
+    # Not node by node: each endpoint destroyed makes every peer remove it, and
+    # Fast DDS 2.14 can deadlock a peer doing so (eProsima/Fast-DDS#6502).
+    exit_process(code, limit=PROGRAM_TEARDOWN_LIMIT)
