@@ -91,7 +91,7 @@ demo: setup
 		--communication-delay 0.3 --every 1
 
 bench: setup
-	$(PY) scripts/bench.py
+	$(PY) scripts/bench.py $(if $(SECTIONS),--sections $(SECTIONS))
 
 study: setup
 	$(VENV)/bin/swazure study --out study

@@ -51,6 +51,21 @@ def machine() -> str:
     )
 
 
+def measured_commit() -> str:
+    """The commit measured, marked when the code or configuration differs from it."""
+
+    def git(*arguments: str) -> str:
+        result = subprocess.run(["git", "-C", str(REPO), *arguments], capture_output=True,
+                                text=True)  # fmt: skip
+        return result.stdout.strip() if result.returncode == 0 else ""
+
+    commit = git("rev-parse", "--short", "HEAD") or "unknown"
+    # The bench rewrites BENCHMARKS.md and docs/figures; only what runs counts as a change.
+    changed = git("status", "--porcelain", "--", "swazure_ros", "msg_defs", "config",
+                  "scripts", "setup.py", "requirements.lock")  # fmt: skip
+    return f"{commit} with local changes" if changed else commit
+
+
 def run(arguments: list[str]) -> tuple[float, float, int]:
     """Run a command; return wall seconds, peak RSS in MB, exit code."""
     seconds, memory, code, _ = run_output(arguments)
@@ -2164,9 +2179,19 @@ def main() -> int:
         with tempfile.TemporaryDirectory() as out:
             compute_all("torus:120", technique, 91, Path(out), 1, 600, "--scale", "1.6")
     SECTIONS_DIR.mkdir(parents=True, exist_ok=True)
-    stamp = f"Measured {datetime.date.today().isoformat()} on {machine()}."
+    commit = measured_commit()
     for name in args.sections:
+        print(f"bench: section {name}", flush=True)
+        started = time.perf_counter()
         body = SECTIONS[name](args)
+        minutes = (time.perf_counter() - started) / 60
+        print(f"bench: section {name} took {minutes:.1f} min", flush=True)
+        # The stamp of each section: when, where, on what code and for how long, so that
+        # sections run at different times can be told apart (a whole run takes hours).
+        stamp = (
+            f"Measured {datetime.date.today().isoformat()} on {machine()}; "
+            f"commit {commit}; the section took {minutes:.0f} min."
+        )
         (SECTIONS_DIR / f"{name}.md").write_text("\n".join([stamp, "", *body]))
     fresh = []
     for name in SECTIONS:
