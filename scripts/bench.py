@@ -987,10 +987,7 @@ def faults_section(args: argparse.Namespace) -> list[str]:
         relay = running.host.fls_nodes[0]
         while relay.messages_sent < 3:
             running.host.spin_once(0.02)
-        lost = running.coordinator
-        running.host.executor.remove_node(lost)
-        running.host.nodes.remove(lost)
-        lost.destroy_node()
+        running.host.remove(running.coordinator)
         began = time.monotonic()
         while running.host.aborted < pairs and time.monotonic() - began < 60:
             running.host.spin_once(0.02)

@@ -226,9 +226,19 @@ class SwarmHost:
         """Destroy FLS ``fls_id``'s node, as if its software stopped; its body stays."""
         node = self.fls_by_id.pop(fls_id)
         self.fls_nodes.remove(node)
+        self.remove(node)
+
+    def remove(self, node: Node) -> None:
+        """Stop spinning ``node`` and destroy it at the executor's next turn, mid-run or not.
+
+        The EventsExecutor runs what a removed node's timers and subscriptions queued
+        before the removal: destroyed at once, the node would meet its own callbacks
+        afterwards and fail them with InvalidHandle (the faults bench lost its
+        coordinator so). Destroyed by a task queued behind them, it runs them first.
+        """
         self.nodes.remove(node)
         self.executor.remove_node(node)
-        node.destroy_node()  # type: ignore[no-untyped-call]
+        self.executor.create_task(node.destroy_node)
 
     def discovered(self) -> tuple[int, int]:
         """(measurement publishers, neighbour services) of the swarm this process sees."""
