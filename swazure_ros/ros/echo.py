@@ -98,8 +98,8 @@ def echo(
 ) -> int:
     """Write each message of ``topic`` as YAML and ``---`` until ``limit``; the exit status.
 
-    Waits for a publisher when ``type_name`` is None; 1 when no message came
-    within ``timeout`` seconds.
+    Waits for a publisher first (the reader takes its QoS, and its type when
+    ``type_name`` is None); 1 when no message came within ``timeout`` seconds.
     """
     context = init_context(domain_id)
     node = SwarmNode("swazure_echo", context=context)
@@ -108,14 +108,15 @@ def echo(
     printed = 0
     began = time.monotonic()
     try:
-        while type_name is None:
-            types = dict(node.get_topic_names_and_types()).get(topic)
-            if types:
-                type_name = types[0]
-                break
+        # The reader's QoS follows its publishers' (echo_qos), so it is chosen once one is
+        # known, type given or not: a reader made volatile before discovery would skip a
+        # latched message sent before it matched, and a swarm at rest sends no other.
+        while not (publishers := node.get_publishers_info_by_topic(topic)):
             if timeout is not None and time.monotonic() - began > timeout:
                 raise SwazureError(f"{topic}: no publisher found within {timeout:g} s")
             executor.spin_once(timeout_sec=0.1)
+        if type_name is None:
+            type_name = publishers[0].topic_type
         cls = message_class(type_name)
         wanted = f"{cls.__module__.split('.')[0]}/msg/{cls.__name__}"
 

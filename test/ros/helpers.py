@@ -58,6 +58,11 @@ def received_vectors(message):
 LATCHED = QoSProfile(
     depth=1000, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
 )
+#: The same reader asked of `ros2 topic echo`. The measurements are sent once while
+#: unchanged; left to itself, echo takes the durability of the publishers it found within
+#: its spin time and, finding none yet, reads volatile: a volatile reader skips what was
+#: sent before it matched the publisher, and then waits for ever (1 CI run in about 12).
+ECHO_LATCHED = ["--qos-reliability", "reliable", "--qos-durability", "transient_local"]
 
 
 def matches(message, expected_vectors):

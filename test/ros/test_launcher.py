@@ -27,7 +27,7 @@ from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SHARED
 from ..waits import wait_until
-from .helpers import LATCHED, assert_matches, engine_expectations, matches
+from .helpers import ECHO_LATCHED, LATCHED, assert_matches, engine_expectations, matches
 
 WORLD = WorldSpec("helix:100", beta=0.5)
 ROS2 = Path(sys.executable).parent / "ros2"
@@ -239,6 +239,7 @@ def test_real_ros2_cli_sees_nodes_topic_and_service(ros2_cli, running_swarm):
     echo = ros2(
         "topic",
         "echo",
+        *ECHO_LATCHED,
         "--once",
         "--filter",
         "len(m.poses) > 0",

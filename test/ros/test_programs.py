@@ -33,6 +33,7 @@ from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import REPO, SHARED
 from ..waits import wait_until
+from .helpers import ECHO_LATCHED
 
 VENV = Path(sys.executable).parents[1]
 ROS2 = VENV / "bin" / "ros2"
@@ -195,7 +196,8 @@ def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(
         listed = until(nodes, lambda names: wanted <= set(names))
         assert wanted <= set(listed), listed
         # A measurement in metres, in the measuring FLS's frame: FLS 1 is 8 cm from FLS 0.
-        echo = ros2("topic", "echo", "--once", "--filter", "m.source_id == 0 and len(m.poses) > 0",
+        echo = ros2("topic", "echo", *ECHO_LATCHED, "--once",
+                    "--filter", "m.source_id == 0 and len(m.poses) > 0",
                     "/swarm/measurements", "swazure_interfaces/msg/Measurements")  # fmt: skip
         assert echo.returncode == 0, echo
         assert "frame_id: fls_0" in echo.stdout and "x: 0.08" in echo.stdout, echo.stdout
