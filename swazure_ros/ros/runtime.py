@@ -19,6 +19,7 @@ import signal
 import sys
 import threading
 import time
+import traceback
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn
@@ -341,7 +342,8 @@ def seconds_since_start() -> float:
 def run_process(build: Callable[[Context], list[Node]], args: list[str] | None = None) -> NoReturn:
     """Start rclpy, build a process's nodes and spin them until SIGINT or SIGTERM; then exit.
 
-    Errors in building give one line and exit code 2, never a traceback.
+    Errors in building give one line and exit code 2, never a traceback; any
+    other exception (a bug) one line, its stack and exit code 1.
     The process ends with :func:`exit_process`: its DDS participant is
     deleted whole, not endpoint by endpoint (docs/swarm.md, "Stopping").
     """
@@ -375,6 +377,13 @@ def run_process(build: Callable[[Context], list[Node]], args: list[str] | None =
         code = 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
+    except Exception as err:
+        # A bug, not bad input: the stack is what a report needs. The process still
+        # ends by exit_process, as any other: left to Python's teardown, its nodes
+        # would be destroyed endpoint by endpoint (and can deadlock; see below).
+        print(f"error: {type(err).__name__}: {err} (a bug; its stack follows)", file=sys.stderr)
+        traceback.print_exc()
+        code = 1
     # The executor first: its shutdown unregisters the callbacks of every
     # subscription, service and timer it tracks, which must be alive then.
     if executor is not None:

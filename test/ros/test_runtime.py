@@ -69,3 +69,36 @@ def test_a_teardown_that_hangs_is_left_with_the_processs_own_code():
     assert "the DDS teardown did not end in 1 s" in process.stderr, process.stderr
     # Within the limit and its stack dump, long before the hanging handler would return.
     assert time.monotonic() - began < 20
+
+
+#: A process whose one node fails in a callback: a bug, not bad input.
+FAILING = """
+import sys
+from swazure_ros.ros import runtime
+
+
+def build(context):
+    node = runtime.SwarmNode("failing", context=context)
+
+    def fail():
+        raise ZeroDivisionError("the callback's own bug")
+
+    node.create_timer(0.1, fail)
+    return [node]
+
+
+sys.exit(runtime.run_process(build, []))
+"""
+
+
+def test_a_callback_that_fails_ends_the_process_with_one_line_its_stack_and_code_1(domain):
+    process = subprocess.run(
+        [sys.executable, "-c", FAILING], capture_output=True, text=True, timeout=60
+    )
+    assert process.returncode == 1, process.stderr
+    lines = process.stderr.splitlines()
+    said = [line for line in lines if line.startswith("error: ")]
+    wanted = "error: ZeroDivisionError: the callback's own bug (a bug; its stack follows)"
+    assert said == [wanted], process.stderr
+    # The stack after the line, down to the failing callback.
+    assert "Traceback" in process.stderr.split(said[0])[1] and "in fail" in process.stderr
