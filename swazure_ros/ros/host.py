@@ -95,6 +95,8 @@ class SwarmHost:
         self._spinning = False
         self._stop_requested = False
         self.nodes: list[Node] = []
+        # Removed and waiting for the executor's turn that destroys them (remove).
+        self._leaving: list[Node] = []
         self.fls_nodes: list[FlsNode] = []
         self.fls_by_id: dict[int, FlsNode] = {}
         self.host_node = SwarmNode(name, namespace=self.namespace, context=context)
@@ -238,7 +240,13 @@ class SwarmHost:
         """
         self.nodes.remove(node)
         self.executor.remove_node(node)
-        self.executor.create_task(node.destroy_node)
+        self._leaving.append(node)
+
+        def destroy() -> None:
+            self._leaving.remove(node)
+            node.destroy_node()
+
+        self.executor.create_task(destroy)
 
     def discovered(self) -> tuple[int, int]:
         """(measurement publishers, neighbour services) of the swarm this process sees."""
@@ -301,10 +309,14 @@ class SwarmHost:
             self.spin_once(min(0.05, max(0.0, deadline - time.monotonic())))
 
     def close(self) -> None:
-        """Destroy every node and the executor."""
+        """Destroy every node, those removed but not yet destroyed too, and the executor."""
         for node in self.nodes:
             self.executor.remove_node(node)
             node.destroy_node()
+        # Nothing spins after this: a removed node's destroying task would never run.
+        for node in self._leaving:
+            node.destroy_node()
+        self._leaving.clear()
         self.nodes.clear()
         self.fls_nodes.clear()
         self.fls_by_id.clear()

@@ -38,3 +38,19 @@ def test_a_node_removed_while_its_timer_events_wait_runs_them_alive_then_leaves_
         assert removed not in host.nodes
         # The events queued before the removal ran while the node was alive, none after.
         assert all(seen >= 1 for _, seen in calls)
+
+
+def test_a_node_removed_just_before_the_host_closes_leaves_the_graph(context):
+    world = WorldSpec("helix:10", beta=0.5).build()
+    observer = Node("observer", context=context, start_parameter_services=False)
+    try:
+        with SwarmHost(world, world.ids, context=context) as host:
+            node = Node("removed_last", context=context, start_parameter_services=False)
+            host.add(node)
+            host.remove(node)  # nothing spins after: closing must destroy it
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and "removed_last" in observer.get_node_names():
+            time.sleep(0.05)
+        assert "removed_last" not in observer.get_node_names()
+    finally:
+        observer.destroy_node()
