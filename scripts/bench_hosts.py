@@ -24,12 +24,16 @@ from pathlib import Path
 
 import numpy as np
 
+from swazure_ros.app.per_fls import FLS_PROGRAM
+
 REPO = Path(__file__).resolve().parents[1]
 SCRIPT = REPO / "scripts" / "netns_hosts.sh"
 SWAZURE = [sys.executable, "-m", "swazure_ros.cli.main"]
 POLICY = "shortest-length"
 #: The shape: the built-in torus of N FLSs, spaced as test/ros/test_hosts.py's.
 SCALE, BETA = 1.6, 0.5
+#: What tells an FLS process by its command line: the program the launcher starts.
+FLS_MARKER = FLS_PROGRAM[-1].encode()
 #: Memory one FLS process takes of the machine (Pss 43-60 MB measured), with room to spare.
 FLS_MB = 70.0
 
@@ -67,7 +71,7 @@ def swarm_pids(root: Path) -> dict[str, list[int]]:
             cmdline = (entry / "cmdline").read_bytes()
         except OSError:
             continue
-        if marker in cmdline and b"fls_node" in cmdline:
+        if marker in cmdline and FLS_MARKER in cmdline:
             found["fls"].append(int(entry.name))
         elif marker in cmdline and b"swazure_ros.cli.main" in cmdline and b"ip\0" not in cmdline:
             found["launchers"].append(int(entry.name))
@@ -312,12 +316,14 @@ def main() -> int:
                   f"{record['bring_up_s']:.1f} s", file=sys.stderr, flush=True)  # fmt: skip
             if args.compute_all:
                 computed = compute_all(swarm, POLICY)
-                record["discovery_s"] = computed.discovery.seconds
-                record["rounds"] = computed.discovery.rounds
-                record["restarts"] = computed.discovery.restarts
-                record["engine_s"] = computed.engine_seconds
+                distributed = computed.record.distributed
+                assert distributed is not None  # a run of the swarm's
+                record["discovery_s"] = distributed.seconds
+                record["rounds"] = distributed.rounds
+                record["restarts"] = distributed.restarts
+                record["engine_s"] = computed.record.engine_seconds
                 record["pairs"] = len(computed.engine.pairs)
-                record["identical"] = computed.identical
+                record["identical"] = computed.record.identical
             if args.faults:
                 rng = np.random.default_rng(5)
                 count = math.ceil(0.05 * args.flss)
