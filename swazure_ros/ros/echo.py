@@ -98,8 +98,9 @@ def echo(
 ) -> int:
     """Write each message of ``topic`` as YAML and ``---`` until ``limit``; the exit status.
 
-    Waits for a publisher first (the reader takes its QoS, and its type when
-    ``type_name`` is None); 1 when no message came within ``timeout`` seconds.
+    Waits for a publisher when ``type_name`` is None; the reader takes the
+    publishers' QoS (echo_qos) once they show; 1 when no message came within
+    ``timeout`` seconds.
     """
     context = init_context(domain_id)
     node = SwarmNode("swazure_echo", context=context)
@@ -108,15 +109,14 @@ def echo(
     printed = 0
     began = time.monotonic()
     try:
-        # The reader's QoS follows its publishers' (echo_qos), so it is chosen once one is
-        # known, type given or not: a reader made volatile before discovery would skip a
-        # latched message sent before it matched, and a swarm at rest sends no other.
-        while not (publishers := node.get_publishers_info_by_topic(topic)):
+        while type_name is None:
+            types = dict(node.get_topic_names_and_types()).get(topic)
+            if types:
+                type_name = types[0]
+                break
             if timeout is not None and time.monotonic() - began > timeout:
                 raise SwazureError(f"{topic}: no publisher found within {timeout:g} s")
             executor.spin_once(timeout_sec=0.1)
-        if type_name is None:
-            type_name = publishers[0].topic_type
         cls = message_class(type_name)
         wanted = f"{cls.__module__.split('.')[0]}/msg/{cls.__name__}"
 
@@ -126,14 +126,27 @@ def echo(
                 write(message_to_yaml(message) + "---\n")
                 printed += 1
 
-        node.create_subscription(cls, topic, on_message, echo_qos(node, topic))
+        # With the type given, the reader is there at once, as a person watching a topic
+        # before its publishers start expects; its QoS is then a guess (volatile when
+        # no publisher is known yet), made again once publishers show.
+        qos = echo_qos(node, topic)
+        subscription = node.create_subscription(cls, topic, on_message, qos)
+        guessed = not node.get_publishers_info_by_topic(topic)
         while limit is None or printed < limit:
-            offered = sorted(
-                {info.topic_type for info in node.get_publishers_info_by_topic(topic)}
-            )
+            publishers = node.get_publishers_info_by_topic(topic)
+            offered = sorted({info.topic_type for info in publishers})
             if offered and wanted not in offered:
                 # A subscription of another type never matches: say so instead of waiting.
                 raise SwazureError(f"{topic} carries {', '.join(offered)}, not {wanted}")
+            if guessed and publishers:
+                guessed = False
+                found = echo_qos(node, topic)
+                if not printed and found != qos:
+                    # Latched publishers: a volatile reader would skip what they sent
+                    # before it matched them, and a swarm at rest sends nothing more.
+                    node.destroy_subscription(subscription)
+                    qos = found
+                    subscription = node.create_subscription(cls, topic, on_message, qos)
             if timeout is not None and not printed and time.monotonic() - began > timeout:
                 print(
                     f"swazure echo: no message on {topic} within {timeout:g} s",
