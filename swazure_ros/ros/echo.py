@@ -129,9 +129,11 @@ def echo(
         # With the type given, the reader is there at once, as a person watching a topic
         # before its publishers start expects; its QoS is then a guess (volatile when
         # no publisher is known yet), made again once publishers show.
+        # Asked before the QoS is chosen: publishers that show in between are then
+        # looked at again, never missed.
+        guessed = not node.get_publishers_info_by_topic(topic)
         qos = echo_qos(node, topic)
         subscription = node.create_subscription(cls, topic, on_message, qos)
-        guessed = not node.get_publishers_info_by_topic(topic)
         while limit is None or printed < limit:
             publishers = node.get_publishers_info_by_topic(topic)
             offered = sorted({info.topic_type for info in publishers})
