@@ -19,7 +19,6 @@ from __future__ import annotations
 import functools
 import hashlib
 import hmac
-import importlib
 import operator
 import struct
 from collections.abc import Callable
@@ -29,6 +28,7 @@ from typing import Any, TypeVar, cast
 from rclpy.serialization import deserialize_message, serialize_message
 
 from ..core.errors import MessageError, SwazureError
+from .interfaces import message_class
 from .keys import KEY_BYTES, new_key, read_key
 
 __all__ = ["SwarmKey", "content", "new_key", "read_key"]
@@ -62,12 +62,6 @@ class _Plan:
     others: tuple[tuple[Callable[[Any], Any], str], ...]  # (getter, "s" | "a" | "m" | "l")
 
 
-def _message_type(name: str) -> type:
-    """The class of ROS message type ``name`` (``pkg/msg/Type`` or ``pkg/Type``)."""
-    package, *_, kind = name.split("/")
-    return getattr(importlib.import_module(f"{package}.msg"), kind)  # type: ignore[no-any-return]
-
-
 @functools.cache
 def _plan(kind: Any) -> _Plan:
     """The :class:`_Plan` of message type ``kind``: nested messages flattened, auth left out."""
@@ -90,7 +84,7 @@ def _plan(kind: Any) -> _Plan:
                 code = "a" if inner in _PRIMITIVES else ("m" if "/" in inner else "l")
                 others.append((operator.attrgetter(path), code))
             else:  # a nested message: its fields, flattened
-                walk(_message_type(field), f"{path}.")
+                walk(message_class(field), f"{path}.")
 
     walk(kind, "")
     # attrgetter of several names gives their tuple in one call; of one, the value itself.

@@ -34,10 +34,10 @@ from rclpy.event_handler import QoSSubscriptionMatchedInfo, SubscriptionEventCal
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
-from rosidl_runtime_py.utilities import get_message
 
 from ..core.errors import SwazureError
 from ..core.results import atomic_output
+from .interfaces import message_class
 
 #: Seconds between looks at the graph for new topics to record.
 GRAPH_LOOK_PERIOD = 0.2
@@ -227,7 +227,7 @@ class Recorder(Node):
 
         events = SubscriptionEventCallbacks(matched=on_matched)
         self.create_subscription(
-            get_message(type_name),
+            message_class(type_name),
             topic,
             partial(self._on_message, topic),
             qos,
@@ -322,11 +322,9 @@ class Player(Node):
         self._by_topic: dict[str, Publisher] = {}
         for channel in channels:
             try:
-                kind: Any = get_message(channel.type_name)
-            except (AttributeError, ModuleNotFoundError, ValueError) as err:
-                raise SwazureError(
-                    f"{channel.topic}: message type {channel.type_name} is not installed here"
-                ) from err
+                kind: Any = message_class(channel.type_name)
+            except SwazureError as err:
+                raise SwazureError(f"{channel.topic}: {err}") from err
             self._by_topic[channel.topic] = self.create_publisher(
                 kind, channel.topic, _qos_of(channel.metadata)
             )

@@ -6,7 +6,6 @@ message type is found on the graph, or given as pkg/msg/Type.
 
 from __future__ import annotations
 
-import importlib
 import sys
 import time
 from collections.abc import Callable
@@ -18,21 +17,8 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from ..core.errors import SwazureError
+from .interfaces import message_class
 from .runtime import SwarmNode, init_context
-
-
-def message_class(type_name: str) -> Any:
-    """The Python class of ``pkg/msg/Type``."""
-    parts = type_name.split("/")
-    if len(parts) == 2:
-        parts.insert(1, "msg")
-    if len(parts) != 3 or not all(parts):
-        raise SwazureError(f"message type must be pkg/msg/Type, got {type_name!r}")
-    package, kind, name = parts
-    try:
-        return getattr(importlib.import_module(f"{package}.{kind}"), name)
-    except (ImportError, AttributeError) as err:
-        raise SwazureError(f"unknown message type {type_name!r}") from err
 
 
 def message_to_dict(message: Any) -> Any:

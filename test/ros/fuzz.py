@@ -10,7 +10,8 @@ from __future__ import annotations
 from typing import Any
 
 from hypothesis import strategies as st
-from rosidl_runtime_py.utilities import get_message
+
+from swazure_ros.ros.interfaces import message_class
 
 UNSIGNED = {"uint8": 8, "uint16": 16, "uint32": 32, "uint64": 64, "octet": 8, "char": 8}
 SIGNED = {"int8": 8, "int16": 16, "int32": 32, "int64": 64}
@@ -44,7 +45,7 @@ def field(kind: str, ids: list[int]) -> st.SearchStrategy[Any]:
         return st.booleans()
     if kind.startswith("string"):
         return st.text(max_size=30)
-    return message(get_message(kind), ids)
+    return message(message_class(kind), ids)
 
 
 def message(cls: type, ids: list[int]) -> st.SearchStrategy[Any]:
