@@ -1,10 +1,8 @@
 """The programs a ROS 2 user starts: `ros2 run swazure_ros ...` and `ros2 launch swazure_ros ...`.
 
-Each test drives the real `ros2` tools (wheels from ../shared) against our
-programs in processes of their own, and skips where they are absent. The
-wheels have no `ros2 run` verb (ros2run is not among them): a program is
-found as `ros2 run` finds it, by ros2pkg's lookup in the ament prefix
-(`ros2 pkg executables --full-path`), and started with the same arguments.
+Each test drives the real `ros2` tools (wheels from ../shared: `ros2 run`,
+`ros2 launch`, `ros2 param`, `ros2 topic`, `ros2 service`) against our programs
+in processes of their own, and skips where they are absent.
 """
 
 from __future__ import annotations
@@ -66,19 +64,10 @@ def ros2(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
     )
 
 
-def program(name: str) -> str:
-    """The path `ros2 run swazure_ros NAME` runs: ros2pkg's lookup, as ros2run's."""
-    listed = ros2("pkg", "executables", "swazure_ros", "--full-path").stdout.split()
-    found = [path for path in listed if Path(path).name == name]
-    assert found, f"ros2 pkg executables does not list {name}: {listed}"
-    return found[0]
-
-
 def start(*args: str) -> subprocess.Popen[str]:
-    """Start a long-running command: ``run PROGRAM ARGS`` as ros2 run would, or ros2 ARGS."""
-    command = [program(args[2]), *args[3:]] if args[0] == "run" else [str(ROS2), *args]
+    """Start a long-running ros2 command (``run``, ``launch``) in a process group of its own."""
     return subprocess.Popen(
-        command,
+        [str(ROS2), *args],
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
@@ -105,14 +94,29 @@ def nodes() -> list[str]:
     return ros2("node", "list", "--no-daemon", "--spin-time", "2").stdout.split()
 
 
-def test_ros2_run_starts_one_fls_that_ros2_param_answers(ros2_tools, domain):
-    world = start("run", "swazure_ros", "world", "--ros-args", *TRIO_ARGS)
-    fls = start(
-        "run", "swazure_ros", "fls", "--ros-args", *TRIO_ARGS, "-p", "fls_id:=1",
-        "-p", "publish_period:=0.25",
-    )  # fmt: skip
+def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2_tools, domain):
+    # As a person starts real FLS hardware: the simulator, the coordinator, an FLS each.
+    programs = [
+        start("run", "swazure_ros", "world", "--ros-args", *TRIO_ARGS),
+        start("run", "swazure_ros", "coordinator", "--ros-args", *TRIO_ARGS),
+    ]
+    programs += [
+        start(
+            "run",
+            "swazure_ros",
+            "fls",
+            "--ros-args",
+            *TRIO_ARGS,
+            "-p",
+            f"fls_id:={fls_id}",
+            "-p",
+            "publish_period:=0.25",
+        )
+        for fls_id in range(3)
+    ]
     try:
-        wanted = {"/swarm/fls_1", "/swarm/world", "/swarm/cameras"}
+        wanted = {"/swarm/fls_0", "/swarm/fls_1", "/swarm/fls_2", "/swarm/world",
+                  "/swarm/cameras", "/swarm/coordinator"}  # fmt: skip
         listed = until(nodes, lambda names: wanted <= set(names))
         assert wanted <= set(listed), listed
 
@@ -128,10 +132,23 @@ def test_ros2_run_starts_one_fls_that_ros2_param_answers(ros2_tools, domain):
         assert got.returncode == 0 and "Double value is: 0.25" in got.stdout, got
         described = param("cloud")
         assert "trio.xyz" in described.stdout, described
+        # FLS 0 is blind to FLS 2 and reaches it through its sweet neighbour FLS 1.
+        call = until(
+            lambda: ros2(
+                "service",
+                "call",
+                "/swarm/coordinator/compute_pose",
+                "swazure_interfaces/srv/ComputePose",
+                "{source_id: 0, target_id: 2, policy: 1}",
+            ),
+            lambda result: "success=True" in result.stdout,
+        )
+        assert "success=True" in call.stdout and "path=[0, 1, 2]" in call.stdout, call
     finally:
-        for process in (fls, world):
-            stop(process)
-    assert fls.returncode == 0 and world.returncode == 0
+        outs = [stop(process) for process in programs]
+    for process, out in zip(programs, outs):
+        # ros2run hands on its program's exit code: each ended by itself on Ctrl-C.
+        assert process.returncode == 0, (process.args, out)
 
 
 def test_ros2_as_a_super_client_sees_fls_processes_that_discover_through_a_server(
@@ -171,12 +188,12 @@ def test_ros2_as_a_super_client_sees_fls_processes_that_discover_through_a_serve
 
 
 def test_an_fls_without_an_id_says_so_in_one_line(ros2_tools, domain):
-    run = subprocess.run(
-        [program("fls"), "--ros-args", *TRIO_ARGS],
-        capture_output=True, text=True, timeout=60, env=environment(),
-    )  # fmt: skip
-    assert run.returncode == 2
+    run = ros2("run", "swazure_ros", "fls", "--ros-args", *TRIO_ARGS)
+    # ros2run passes the program's exit code on, and says so on its own line.
+    assert run.returncode == 2, run
     assert "fls_id" in run.stderr and "Traceback" not in run.stderr, run.stderr
+    assert run.stderr.count("\n") == 1, run.stderr
+    assert "Process exited with failure 2" in run.stdout, run.stdout
 
 
 @pytest.mark.parametrize("discovery", ["simple", "server"])
