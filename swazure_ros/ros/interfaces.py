@@ -22,7 +22,7 @@ def message_class(type_name: str) -> Any:
     if len(parts) == 2:
         parts.insert(1, "msg")
     if len(parts) != 3 or parts[1] not in KINDS or not all(p.isidentifier() for p in parts):
-        raise SwazureError(f"a message type is pkg/msg/Type, got {type_name!r}")
+        raise SwazureError(f"message type must be pkg/msg/Type, got {type_name!r}")
     package, kind, name = parts
     try:
         module = importlib.import_module(f"{package}.{kind}")
