@@ -1,12 +1,14 @@
 """Bring up a swarm from a swarm file, as `swazure spawn FILE` does.
 
-    ros2 launch swazure_ros swarm.launch.py swarm:=config/swarms/torus.yaml
-    ros2 launch swazure_ros swarm.launch.py swarm:=config/swarms/trio.yaml mode:=per_fls
-    ros2 launch swazure_ros swarm.launch.py swarm:=... discovery_server:=127.0.0.1:11811
+    ros2 launch swazure_ros swarm.launch.py                  # the example torus, packed
+    ros2 launch swazure_ros swarm.launch.py swarm:=trio mode:=per_fls
+    ros2 launch swazure_ros swarm.launch.py swarm:=my/swarm.yaml discovery_server:=127.0.0.1:11811
 
 Arguments:
 
-- ``swarm``: a swarm file (config/swarms/*.yaml; docs/swarm.md);
+- ``swarm``: a swarm file (docs/swarm.md), or the name of an installed example
+  (``torus``, the default; ``trio``, ``grid25``, ``dragon``, ``racecar``: the
+  package's config/swarms/), found from any folder;
 - ``mode``: ``packed`` (the default) runs ``swazure spawn`` on the file, its
   FLS nodes many to a process, each with parameter services (``ros2 param``);
   ``per_fls`` runs every FLS in a process of its own (``ros2 run swazure_ros
@@ -19,6 +21,7 @@ Arguments:
 The swarm's processes share a fresh key (docs/security.md) made here.
 """
 
+import argparse
 import os
 import sys
 import tempfile
@@ -37,7 +40,7 @@ from swazure_ros.app.discovery_server import (
     server_environment,
 )
 from swazure_ros.app.per_fls import FLS_ENVIRONMENT
-from swazure_ros.cli.swarm_file import load_swarm_file
+from swazure_ros.cli.swarm_file import example_swarms, load_swarm_file, swarm_file
 from swazure_ros.core.description import SwarmDescription
 from swazure_ros.ros.keys import new_key, write_key
 from swazure_ros.ros.runtime import description_parameters
@@ -103,6 +106,9 @@ def _per_fls(path: Path, servers: tuple) -> list:
         Node(
             package=PACKAGE,
             executable="world",
+            # The output's label: the node's name (launch appends its process count), so
+            # that [fls_7-9] is FLS 7, not the ninth process named fls.
+            exec_name="world",
             namespace=namespace,
             parameters=[shared],
             additional_env=clients,
@@ -111,6 +117,7 @@ def _per_fls(path: Path, servers: tuple) -> list:
         Node(
             package=PACKAGE,
             executable="coordinator",
+            exec_name="coordinator",
             name="coordinator",
             namespace=namespace,
             parameters=[{**shared, "hosts": len(ids)}],
@@ -122,6 +129,7 @@ def _per_fls(path: Path, servers: tuple) -> list:
         Node(
             package=PACKAGE,
             executable="fls",
+            exec_name=f"fls_{fls_id}",
             namespace=namespace,
             parameters=[{**shared, **every_fls, **own.get(fls_id, {}), "fls_id": fls_id}],
             # As swazure spawn --per-fls starts them; the user's environment wins.
@@ -137,7 +145,10 @@ def _per_fls(path: Path, servers: tuple) -> list:
 
 
 def _swarm(context):
-    path = Path(LaunchConfiguration("swarm").perform(context)).expanduser().resolve()
+    try:
+        path = swarm_file(LaunchConfiguration("swarm").perform(context)).resolve()
+    except argparse.ArgumentTypeError as err:
+        raise RuntimeError(f"swarm:={err}") from None
     named = LaunchConfiguration("discovery_server").perform(context)
     servers = parse_servers(named) if named else ()
     if LaunchConfiguration("mode").perform(context) == "per_fls":
@@ -148,7 +159,12 @@ def _swarm(context):
 def generate_launch_description():
     return LaunchDescription(
         [
-            DeclareLaunchArgument("swarm", description="a swarm file (config/swarms/*.yaml)"),
+            DeclareLaunchArgument(
+                "swarm",
+                default_value="torus",
+                description="a swarm file, or an installed example's name: "
+                + ", ".join(example_swarms()),
+            ),
             DeclareLaunchArgument(
                 "mode",
                 default_value="packed",

@@ -2,7 +2,7 @@
 # repo's packages, as a colcon workspace's install/setup.bash would be sourced:
 #
 #     source scripts/env.sh
-#     ros2 launch swazure_ros swarm.launch.py swarm:=config/swarms/torus.yaml
+#     ros2 launch swazure_ros swarm.launch.py swarm:=torus
 #
 # It puts the venv first on PATH and names it on AMENT_PREFIX_PATH, where
 # `ros2 interface`, `ros2 pkg`, `ros2 launch` and launch_ros find

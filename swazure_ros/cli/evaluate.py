@@ -1,6 +1,7 @@
 """Evaluate every ordered blind pair of a swarm with the core engine and report the metrics.
 
-Prints a summary table; with --out DIR also writes DIR/summary.json and one
+The swarm comes from the options or a swarm file (config/swarms/*.yaml), as
+for swazure spawn. Prints a summary table; with --out DIR also writes DIR/summary.json and one
 row per ordered blind pair to DIR/pairs.csv. A progress bar appears on
 stderr for runs longer than two seconds.
 """
@@ -35,6 +36,7 @@ from .options import (
     swarm_from_args,
 )
 from .summary import SUMMARY_TERMS, cell, summary_table
+from .swarm_file import add_swarm_file_argument, apply_swarm_file
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -86,6 +88,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_colour_arguments(parser, "status", "snapshot colours")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_swarm_file_argument(
+        parser,
+        "a swarm file, or an example's name (config/swarms/), as swazure spawn takes it: its "
+        "cloud, scale, "
+        "beta or radius, sensor, accurate, seed and policy; a flag given here overrides the file",
+    )
 
 
 class TqdmProgress:
@@ -114,6 +122,7 @@ class TqdmProgress:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure evaluate``."""
+    args = apply_swarm_file(args)
     cloud, swarm, sensor = swarm_from_args(args)
     progress: Progress | None = None if args.quiet else TqdmProgress()
     if args.fuse > 1 and args.technique != PLAIN:

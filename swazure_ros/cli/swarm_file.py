@@ -25,7 +25,7 @@ from typing import Any
 
 from ..core.clouds import is_cloud_path
 from ..core.errors import SwazureError
-from ..core.files import read_yaml
+from ..core.files import config_dir, read_yaml
 from ..core.paths import POLICIES
 from . import arguments
 
@@ -159,16 +159,44 @@ def _fls_parameters(path: Path, value: Any) -> dict[int, dict[str, Any]]:
     return flss
 
 
-def add_swarm_file_argument(parser: argparse.ArgumentParser) -> None:
-    """The optional swarm file of ``swazure spawn``; call after every option is added."""
+def example_swarms() -> list[str]:
+    """The names of the example swarm files installed with the package (config/swarms/)."""
+    return sorted(path.stem for path in (config_dir() / "swarms").glob("*.yaml"))
+
+
+def swarm_file(text: str) -> Path:
+    """A swarm file: a path, or the bare name of an example (``torus``, ``trio.yaml``).
+
+    A path that exists wins; a bare name is looked up in the installed
+    config/swarms/, so that it works from any folder, as ``ros2 launch`` is run.
+    """
+    given = Path(text).expanduser()
+    if not given.exists() and given.name == text:
+        stem = given.name.removesuffix(".yaml")
+        example = config_dir() / "swarms" / f"{stem}.yaml"
+        if example.is_file():
+            return example
+        if not given.suffix:
+            raise argparse.ArgumentTypeError(
+                f"{text}: no such file, nor an example swarm ({', '.join(example_swarms())})"
+            )
+    return arguments.input_file(str(given))
+
+
+def add_swarm_file_argument(
+    parser: argparse.ArgumentParser,
+    help: str = "a swarm file, or an example's name (config/swarms/: torus, trio, grid25, ...): "
+    "these options as YAML, with every FLS's and one FLS's ROS parameters; a flag given here "
+    "overrides the file",
+) -> None:
+    """The optional swarm file of a verb; call after every option is added."""
     parser.add_argument(
         "swarm_file",
         nargs="?",
-        type=arguments.input_file,
+        type=swarm_file,
         default=None,
         metavar="SWARM_FILE",
-        help="a swarm file (config/swarms/*.yaml): these options as YAML, with every FLS's "
-        "and one FLS's ROS parameters; a flag given here overrides the file",
+        help=help,
     )
     # A flag left out takes the file's value, then the flag's own default.
     defaults = {key: parser.get_default(key) for key in CHECKS}

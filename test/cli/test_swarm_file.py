@@ -9,8 +9,11 @@ from pathlib import Path
 import pytest
 
 from swazure_ros.cli.main import build_parser
+from swazure_ros.cli.options import swarm_from_args
 from swazure_ros.cli.swarm_file import apply_swarm_file, load_swarm_file
+from swazure_ros.core.clouds import is_cloud_path
 from swazure_ros.core.errors import SwazureError
+from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.files import config_dir
 
 SWARMS = config_dir() / "swarms"
@@ -35,6 +38,7 @@ def test_every_example_swarm_file_loads(name):
 def test_a_swarm_file_sets_the_options_and_every_and_one_flss_parameters():
     args = spawn_args(str(TORUS))
     assert (args.cloud, args.beta, args.radius, args.processes) == ("torus:120", 0.5, None, 1)
+    assert args.scale == 5
     assert args.namespace == "swarm" and args.policy == "shortest-length"
     assert args.discovery_timeout == 600.0 and args.seed == 0 and args.accurate is False
     assert args.parameters == {"publish_period": 0.5}
@@ -132,3 +136,31 @@ def test_spawn_with_a_bad_swarm_file_says_so_in_one_line_and_writes_nothing(
     assert message in run.stderr and len(run.stderr.strip().splitlines()) == 1, run.stderr
     assert "Traceback" not in run.stdout + run.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["swarm.yaml"]
+
+
+def evaluate_args(*argv: str):
+    """``swazure evaluate ARGV`` parsed, with the swarm file applied."""
+    return apply_swarm_file(build_parser().parse_args(["evaluate", *argv]))
+
+
+@pytest.mark.parametrize("path", sorted(SWARMS.glob("*.yaml")), ids=lambda path: path.stem)
+def test_every_example_swarm_has_blind_pairs_with_sweet_paths(path):
+    # A user's first swarm must be one whose FLSs see each other.
+    options = load_swarm_file(path)
+    if is_cloud_path(options["cloud"]) and not Path(options["cloud"]).exists():
+        pytest.skip(f"{options['cloud']} is absent (../shared is not beside the repo)")
+    _, swarm, sensor = swarm_from_args(evaluate_args(str(path)))
+    summary = evaluate(swarm, sensor, options["policy"]).summary
+    assert summary["blind_pairs"] > 0 and summary["sweet_pairs"] > 0, (path.name, summary)
+
+
+def test_evaluate_takes_a_swarm_file_and_a_flag_beside_it_wins():
+    args = evaluate_args(str(TORUS))
+    assert (args.cloud, args.scale, args.beta, args.policy) == (
+        "torus:120",
+        5,
+        0.5,
+        "shortest-length",
+    )
+    args = evaluate_args(str(TORUS), "--scale", "1", "--policy", "fewest-hops")
+    assert (args.scale, args.policy) == (1, "fewest-hops")

@@ -62,7 +62,11 @@ LATCHED = QoSProfile(
 #: unchanged; left to itself, echo takes the durability of the publishers it found within
 #: its spin time and, finding none yet, reads volatile: a volatile reader skips what was
 #: sent before it matched the publisher, and then waits for ever (1 CI run in about 12).
-ECHO_LATCHED = ["--qos-reliability", "reliable", "--qos-durability", "transient_local"]
+ECHO_LATCHED = [
+    "--qos-reliability", "reliable", "--qos-durability", "transient_local",
+    # Keep every latched message a late reader is sent: a depth cuts a big swarm's short.
+    "--qos-history", "keep_all",
+]  # fmt: skip
 
 
 def matches(message, expected_vectors):

@@ -21,7 +21,7 @@ from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import Detections
 
 from swazure_ros.core.camera import Detector, MarkerPose, full_image, load_camera, render
-from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluate import SWEET_PATH, evaluate
 from swazure_ros.core.files import config_dir
 from swazure_ros.core.frames import to_metres
 from swazure_ros.ros.convert.sensing import camera_info_message, image_message
@@ -64,10 +64,11 @@ def ros2(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
     )
 
 
-def start(*args: str) -> subprocess.Popen[str]:
+def start(*args: str, cwd: Path | None = None) -> subprocess.Popen[str]:
     """Start a long-running ros2 command (``run``, ``launch``) in a process group of its own."""
     return subprocess.Popen(
         [str(ROS2), *args],
+        cwd=cwd,
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,
@@ -88,6 +89,14 @@ def until(command, accept, timeout: float = 60):
     results = []
     wait_until(lambda: results and accept(results[-1]), timeout, lambda: results.append(command()))
     return results[-1] if results else command()
+
+
+def compute_pose(source: int, target: int, timeout: float = 60):
+    """`ros2 service call` of the coordinator's compute_pose, again until it succeeds."""
+    request = f"{{source_id: {source}, target_id: {target}, policy: 1}}"
+    command = ("service", "call", "/swarm/coordinator/compute_pose",
+               "swazure_interfaces/srv/ComputePose", request)  # fmt: skip
+    return until(lambda: ros2(*command), lambda result: "success=True" in result.stdout, timeout)
 
 
 def nodes() -> list[str]:
@@ -133,16 +142,7 @@ def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2
         described = param("cloud")
         assert "trio.xyz" in described.stdout, described
         # FLS 0 is blind to FLS 2 and reaches it through its sweet neighbour FLS 1.
-        call = until(
-            lambda: ros2(
-                "service",
-                "call",
-                "/swarm/coordinator/compute_pose",
-                "swazure_interfaces/srv/ComputePose",
-                "{source_id: 0, target_id: 2, policy: 1}",
-            ),
-            lambda result: "success=True" in result.stdout,
-        )
+        call = compute_pose(0, 2)
         assert "success=True" in call.stdout and "path=[0, 1, 2]" in call.stdout, call
     finally:
         outs = [stop(process) for process in programs]
@@ -198,12 +198,13 @@ def test_an_fls_without_an_id_says_so_in_one_line(ros2_tools, domain):
 
 @pytest.mark.parametrize("discovery", ["simple", "server"])
 def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(
-    ros2_tools, domain, discovery, monkeypatch
+    ros2_tools, domain, discovery, monkeypatch, tmp_path
 ):
     server = f"127.0.0.1:{11811 + domain}"
     through = [f"discovery_server:={server}"] if discovery == "server" else []
-    launch = start("launch", "swazure_ros", "swarm.launch.py", f"swarm:={TRIO}", "mode:=per_fls",
-                   *through)  # fmt: skip
+    # The example by its bare name, found in the installed share folder from any folder.
+    launch = start("launch", "swazure_ros", "swarm.launch.py", "swarm:=trio", "mode:=per_fls",
+                   *through, cwd=tmp_path)  # fmt: skip
     if through:  # ros2 then sees the graph as a super client of the launch's server
         monkeypatch.setenv("ROS_DISCOVERY_SERVER", server)
         monkeypatch.setenv("ROS_SUPER_CLIENT", "TRUE")
@@ -219,16 +220,7 @@ def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(
         assert echo.returncode == 0, echo
         assert "frame_id: fls_0" in echo.stdout and "x: 0.08" in echo.stdout, echo.stdout
         # Discovery by messages between three processes, each an FLS alone.
-        call = until(
-            lambda: ros2(
-                "service",
-                "call",
-                "/swarm/coordinator/compute_pose",
-                "swazure_interfaces/srv/ComputePose",
-                "{source_id: 0, target_id: 2, policy: 1}",
-            ),
-            lambda result: "success=True" in result.stdout,
-        )
+        call = compute_pose(0, 2)
         assert "success=True" in call.stdout, call
         assert "path=[0, 1, 2]" in call.stdout, call.stdout
         spec = WorldSpec(str(REPO / "config/track/trio.xyz"), scale=1.0, radius=0.5)
@@ -245,13 +237,23 @@ def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(
     finally:
         out = stop(launch)
     assert launch.returncode == 0, out
+    # Each process's output is labelled with its node's name (launch appends its own count).
+    assert "[fls_0-" in out and "[fls_2-" in out and "[coordinator-" in out, out
+    assert "[fls-" not in out, out
 
 
-def test_ros2_launch_packed_swarm_answers_ros2_param(ros2_tools, domain):
-    launch = start(
-        "launch", "swazure_ros", "swarm.launch.py",
-        f"swarm:={REPO / 'config/swarms/torus.yaml'}",
-    )  # fmt: skip
+def echoed(*args: str, seconds: float) -> str:
+    """What ``ros2 topic echo ARGS`` prints in ``seconds``, as a person watching it would see."""
+    try:
+        ros2("topic", "echo", *args, timeout=seconds)
+    except subprocess.TimeoutExpired as watched:
+        return (watched.stdout or b"").decode()  # type: ignore[union-attr]
+    raise AssertionError("ros2 topic echo ended by itself")
+
+
+def test_ros2_launch_of_the_default_example_swarm_sees_and_answers(ros2_tools, domain, tmp_path):
+    # A person's first launch: no swarm given, from a folder of their own.
+    launch = start("launch", "swazure_ros", "swarm.launch.py", cwd=tmp_path)
     try:
         listed = until(nodes, lambda names: "/swarm/fls_119" in names, timeout=120)
         assert {"/swarm/fls_0", "/swarm/fls_119", "/swarm/coordinator"} <= set(listed), listed
@@ -259,6 +261,19 @@ def test_ros2_launch_packed_swarm_answers_ros2_param(ros2_tools, domain):
                    "publish_period")  # fmt: skip
         # The swarm file's parameters: every FLS 0.5 s, FLS 0 0.1 s.
         assert "Double value is: 0.5" in got.stdout, got
+        # The README's echo: every FLS's latched measurement, each seeing its neighbours.
+        out = echoed(*ECHO_LATCHED, "--field", "source_id", "/swarm/measurements",
+                     "swazure_interfaces/msg/Measurements", seconds=20)  # fmt: skip
+        sources = {int(line) for line in out.split() if line.isdigit()}
+        assert sources == set(range(120)), sorted(set(range(120)) - sources)
+        # A blind pair that the engine reaches by a sweet path: the swarm answers it so.
+        spec = WorldSpec("torus:120", scale=5.0, beta=0.5)
+        pairs = evaluate(spec.build().swarm, spec.sensor(), policy="shortest-length").pairs
+        row = np.flatnonzero((pairs.source == 0) & (pairs.status == SWEET_PATH))[0]
+        target, path = int(pairs.target[row]), [int(fls) for fls in pairs.path(row)]
+        call = compute_pose(0, target, timeout=120)
+        assert "success=True" in call.stdout and "status=0" in call.stdout, call.stdout
+        assert f"path={path}" in call.stdout, (path, call.stdout)
     finally:
         out = stop(launch)
     assert launch.returncode == 0, out
