@@ -394,9 +394,13 @@ class FlsNode(SwarmNode):
     def _on_get_neighbours(
         self, request: GetNeighbours.Request, response: GetNeighbours.Response
     ) -> GetNeighbours.Response:
-        if request.fls_id != self.fls_id:
+        if request.fls_id not in (GetNeighbours.Request.THIS_FLS, self.fls_id):
             response.success = False
-            response.message = self.elsewhere(request.fls_id, NEIGHBOURS_SERVICE)
+            response.message = (
+                self.elsewhere(request.fls_id, NEIGHBOURS_SERVICE)
+                if request.fls_id >= 0
+                else f"fls_id {request.fls_id}: an FLS id, or THIS_FLS (-1, the default)"
+            )
             return response
         known = self.known_neighbours
         for name, ids in neighbour_fields(known).items():

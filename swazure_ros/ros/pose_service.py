@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from rclpy.task import Future
+from swazure_interfaces.msg import PoseEstimate
 from swazure_interfaces.srv import ComputePose
 
 from ..core.evaluate import Neighbourhood
@@ -22,6 +23,13 @@ from .runtime import SwarmNode
 
 #: discover(policy, sources, targets, estimator): a future of the run's DiscoveryResult.
 Discover = Callable[[str, list[int], list[int], str], Future]
+
+
+def refused(message: str) -> ComputePose.Response:
+    """A failed answer: ``message`` says why, and the estimate's status says there is none."""
+    response = ComputePose.Response(success=False, message=message)
+    response.estimate.status = PoseEstimate.STATUS_NONE
+    return response
 
 
 class PoseService:
@@ -68,7 +76,7 @@ class PoseService:
                     problem = f"{role} FLS {fls_id} has departed"
                     break
         if problem is not None:
-            reply(ComputePose.Response(success=False, message=problem))
+            reply(refused(problem))
             return
         estimator = ESTIMATOR_NAMES[request.estimator]
         run = self.discover(POLICY_NAMES[request.policy], [source], [target], estimator)
@@ -93,7 +101,7 @@ class PoseService:
                 if source in result.estimates
                 else f"no answer from source FLS {source}"
             )
-            return ComputePose.Response(success=False, message=message)
+            return refused(message)
         stamp = self.node.get_clock().now().to_msg()
         return ComputePose.Response(
             success=True, estimate=pose_estimate_message(source, found[0], stamp)

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+from swazure_interfaces.msg import PoseEstimate
 from swazure_interfaces.srv import ComputePose
 
 from swazure_ros.app.config import SwarmConfig
@@ -386,6 +387,8 @@ def test_compute_pose_answers_bad_requests_with_errors_and_keeps_working(domain,
             ]:
                 response = client.call(*request)
                 assert not response.success and message in response.message, response.message
+                # A refusal carries no estimate, and its status says so (0 is SWEET).
+                assert response.estimate.status == PoseEstimate.STATUS_NONE
             response = client.call(source, target, policy_code("fewest-hops"))
             assert response.success, response.message
             one = pose_estimate_from_message(response.estimate)

@@ -69,7 +69,9 @@ def collect_measurements(host, probe, expected):
 def call(host, probe, fls_id, asked=None):
     client = probe.create_client(GetNeighbours, f"/swarm/fls_{fls_id}/get_neighbours")
     assert spin_until(host.executor, lambda: client.service_is_ready(), timeout=30)
-    future = client.call_async(GetNeighbours.Request(fls_id=fls_id if asked is None else asked))
+    # No id asks the FLS about itself.
+    request = GetNeighbours.Request() if asked is None else GetNeighbours.Request(fls_id=asked)
+    future = client.call_async(request)
     assert spin_until(host.executor, future.done, timeout=30)
     probe.destroy_client(client)
     return future.result()
@@ -111,7 +113,11 @@ def test_request_for_a_missing_fls_is_an_error_response_and_the_node_keeps_servi
     assert not response.success
     assert "99999" in response.message and str(fls_id) in response.message
     assert list(response.blind_ids) == []
+    refused = call(host, probe, fls_id, asked=-7)
+    assert not refused.success and "fls_id -7" in refused.message, refused.message
     assert call(host, probe, fls_id).success
+    # Its own id, given, is the same question as no id.
+    assert call(host, probe, fls_id, asked=fls_id) == call(host, probe, fls_id)
 
 
 def test_a_move_command_changes_what_the_nodes_measure(swarm):
