@@ -100,6 +100,14 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
     ]:
         stats = summary[key]
         rows.append((f"{label}: mean / max", f"{cell(stats['mean'])} / {cell(stats['max'])}"))
+        if key == "distance_error_pct" and "distance_error_pct_sweet_paths" in summary:
+            rows += [
+                (f"  {kind} paths: mean / max", f"{cell(part['mean'])} / {cell(part['max'])}")
+                for kind, part in (
+                    ("sweet", summary["distance_error_pct_sweet_paths"]),
+                    ("decaying", summary["distance_error_pct_decaying_paths"]),
+                )
+            ]
     return rows
 
 

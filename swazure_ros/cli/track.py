@@ -144,17 +144,21 @@ def _print_errors(errors: dict[str, dict[str, tuple[float, float]]], settle: flo
         print(f"  {estimator}: {meaning}")
 
 
+#: The unit of each quantity of the CSV, as its columns' names end (time in seconds).
+CSV_UNITS = {"position": "cm", "velocity": "cm_s", "acceleration": "cm_s2"}
+
+
 def _write_csv(path: Path, series: TrackSeries) -> None:
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
-    columns = ["time", "sample_time"]
+    columns = ["time_s", "sample_time_s"]
     blocks = [series.time[:, None], series.sample_time[:, None]]
-    for quantity in ("position", "velocity", "acceleration"):
+    for quantity, unit in CSV_UNITS.items():
         blocks.append(getattr(series, f"truth_{quantity}"))
-        columns += [f"true_{quantity}_{axis}" for axis in "xyz"]
+        columns += [f"true_{quantity}_{axis}_{unit}" for axis in "xyz"]
         for estimator, values in getattr(series, quantity).items():
             blocks.append(values)
-            columns += [f"{estimator}_{quantity}_{axis}" for axis in "xyz"]
+            columns += [f"{estimator}_{quantity}_{axis}_{unit}" for axis in "xyz"]
     writer.writerow(columns)
     writer.writerows(np.hstack(blocks).tolist())
     atomic_write(path, lambda tmp: tmp.write_text(buffer.getvalue()))

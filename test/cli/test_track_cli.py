@@ -41,8 +41,12 @@ def test_track_prints_estimates_errors_csv_and_figure(trio, tmp_path):
     assert figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     rows = list(csv.DictReader(table.read_text().splitlines()))
     assert len(rows) == 41
-    assert float(rows[-1]["time"]) == pytest.approx(4.2)
-    assert float(rows[-1]["time"]) - float(rows[-1]["sample_time"]) == pytest.approx(0.2)
+    # Every column names its unit.
+    assert {"true_position_x_cm", "filtered_velocity_y_cm_s", "raw_acceleration_z_cm_s2"} <= set(
+        rows[0]
+    )
+    assert float(rows[-1]["time_s"]) == pytest.approx(4.2)
+    assert float(rows[-1]["time_s"]) - float(rows[-1]["sample_time_s"]) == pytest.approx(0.2)
 
 
 @pytest.mark.parametrize(
