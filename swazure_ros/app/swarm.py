@@ -200,6 +200,8 @@ class RunningSwarm:
                 namespace=self.config.namespace,
                 context=self.context,
                 key=self.key,
+                # One node: ros2 param reaches it in every mode, at six services' cost.
+                parameter_services=True,
             )
             self.host.add(self.coordinator)
             if self.config.view is not None:

@@ -19,6 +19,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 from rclpy.context import Context
@@ -73,6 +74,7 @@ from .names import (
     WORLD_TOPIC,
     node_name,
 )
+from .parameters import ParameterSpec, seconds
 from .pose_service import PoseService
 from .runtime import (
     SwarmNode,
@@ -101,6 +103,26 @@ class _Job:
     traffic: Traffic = field(default_factory=Traffic)
 
 
+ROUND_TIMEOUT = ParameterSpec(
+    "round_timeout",
+    10.0,
+    "s without progress after which silent FLSs have departed (set while running too: the "
+    "next run takes it)",
+    seconds(),
+)
+LIVENESS_PERIOD = ParameterSpec(
+    "liveness_period", 0.5, "s between looks at the graph for FLS nodes gone", seconds()
+)
+LIVENESS_GRACE_SPEC = ParameterSpec(
+    "liveness_grace",
+    LIVENESS_GRACE,
+    "s an FLS node must stay off the graph before it is gone",
+    seconds(allow_zero=True),
+)
+#: The parameters the coordinator declares.
+PARAMETERS = (ROUND_TIMEOUT, LIVENESS_PERIOD, LIVENESS_GRACE_SPEC)
+
+
 class Coordinator(SwarmNode):
     """Clocks discovery runs and makes heuristics' moves over the FLS nodes of a swarm."""
 
@@ -121,11 +143,8 @@ class Coordinator(SwarmNode):
             context=context,
             parameter_services=parameter_services,
         )
-        self.round_timeout = self.declare_seconds(
-            "round_timeout",
-            10.0,
-            "seconds without progress after which silent FLSs have departed",
-        )
+        # The next run takes a new value (ros2 param set); a run under way keeps its own.
+        self.round_timeout = self.declare(ROUND_TIMEOUT, partial(setattr, self, "round_timeout"))
         # The display's shape, every FLS at its assigned point: what the swarm knows
         # (the points and the sensor are common knowledge), and what moves are planned on.
         self.shape = shape
@@ -163,14 +182,8 @@ class Coordinator(SwarmNode):
         # Liveness: an FLS whose node leaves the graph is gone at once, not after a round's
         # timeout. The graph is DDS's own liveliness: a stopped node is removed at once, a
         # killed process's nodes when its participant's lease runs out.
-        self.liveness_period = self.declare_seconds(
-            "liveness_period", 0.5, "seconds between looks at the graph for FLS nodes gone"
-        )
-        self.liveness_grace = self.declare_seconds(
-            "liveness_grace",
-            LIVENESS_GRACE,
-            "seconds an FLS node must stay off the graph before it is gone",
-        )
+        self.liveness_period = self.declare(LIVENESS_PERIOD)
+        self.liveness_grace = self.declare(LIVENESS_GRACE_SPEC)
         self._radios: set[str] = set()  # node names of the processes' radios (acks' writers)
         self._liveness = FlsLiveness(self, self.get_namespace(), self.liveness_grace)
         self.gone: set[int] = set()

@@ -1,6 +1,6 @@
 """The ``coordinator`` program: the coordinator of a swarm whose FLSs run one to a process.
 
-``ros2 run swazure_ros coordinator --ros-args -p cloud:=torus:120 -p beta:=0.5``
+``ros2 run swazure_ros coordinator --ros-args -p cloud:=torus:120 -p scale:=5 -p beta:=0.5``
 """
 
 from __future__ import annotations
@@ -9,15 +9,39 @@ from rclpy.context import Context
 from rclpy.node import Node
 
 from ..core.evaluate import neighbourhood
+from . import coordinator
 from .auth import SwarmKey
 from .coordinator import Coordinator
 from .keys import key_from
+from .parameters import ParameterSpec, at_least
 from .runtime import (
     DESCRIPTION_PARAMETERS,
+    KEY_FILE,
+    NAMESPACE,
     declare_startup,
     description_from,
+    program_help,
     run_process,
     startup_parameters,
+)
+
+HOSTS = ParameterSpec(
+    "hosts",
+    0,
+    "the radios that acknowledge each round; 0: one per FLS, each FLS in its own process",
+    at_least(0),
+)
+#: What the program reads before it builds its node.
+STARTUP = (NAMESPACE, KEY_FILE, HOSTS, *DESCRIPTION_PARAMETERS)
+USAGE = program_help(
+    "coordinator",
+    """The swarm's coordinator, for FLSs that run one to a process: it keeps the round
+clock of the swarm's discovery runs, answers ~/compute_pose and plans the
+heuristics' moves on the swarm's shape. Give it the swarm's description, as every
+FLS has it.
+
+  ros2 run swazure_ros coordinator --ros-args -p cloud:=torus:120 -p scale:=5 -p beta:=0.5""",
+    [*STARTUP, *coordinator.PARAMETERS],
 )
 
 
@@ -29,15 +53,12 @@ def build_coordinator(context: Context) -> list[Node]:
     acknowledge each round (0: one per FLS, each FLS in its own process).
     It plans heuristics' moves on the description's shape, as the packed one does.
     """
-    values = startup_parameters(
-        context,
-        {"namespace": "swarm", "key_file": "", "hosts": 0, **DESCRIPTION_PARAMETERS},
-    )
+    values = startup_parameters(context, STARTUP)
     description = description_from(values)
     shape = neighbourhood(description.assigned(), description.sensor())
     ids = shape.swarm.cloud_index
     hosts = int(values["hosts"]) or len(ids)
-    coordinator = Coordinator(
+    node = Coordinator(
         ids.tolist(),
         hosts,
         shape=shape,
@@ -46,10 +67,10 @@ def build_coordinator(context: Context) -> list[Node]:
         key=SwarmKey(key_from(str(values["key_file"]))),
         parameter_services=True,
     )
-    declare_startup(coordinator, values)
-    return [coordinator]
+    declare_startup(node, values)
+    return [node]
 
 
 def main(args: list[str] | None = None) -> int:
     """``ros2 run swazure_ros coordinator --ros-args -p cloud:=torus:120 -p beta:=0.5``."""
-    return run_process(build_coordinator, args)
+    return run_process(build_coordinator, args, usage=USAGE)

@@ -32,7 +32,8 @@ from ..core.errors import SwazureError
 from ..core.files import config_dir
 from .guard import Guard, check
 from .names import DETECTIONS_QOS
-from .runtime import ParameterError, SwarmNode, run_process
+from .parameters import ParameterSpec
+from .runtime import ParameterError, SwarmNode, program_help, run_process
 
 #: The camera the published model's sensor was measured with.
 DEFAULT_CAMERA = "cameras/rpi-camera-module-3-wide.yaml"
@@ -64,6 +65,15 @@ def grey_image(message: Image) -> np.ndarray:
     return np.asarray(cv2.cvtColor(pixels.reshape(message.height, message.width, 3), code))
 
 
+def camera_file() -> ParameterSpec:
+    """The detector's camera file parameter, defaulting to the installed wide lens's."""
+    return ParameterSpec(
+        "camera_file",
+        str(config_dir() / DEFAULT_CAMERA),
+        "camera file (docs/camera.md): the markers' dictionary and side (mm), the corner window",
+    )
+
+
 class ArucoDetectorNode(SwarmNode):
     """Reads ArUco markers in a camera's images and publishes where they are."""
 
@@ -71,11 +81,7 @@ class ArucoDetectorNode(SwarmNode):
         super().__init__(
             "aruco_detector", namespace=namespace, context=context, parameter_services=True
         )
-        path = self.declare_value(
-            "camera_file",
-            str(config_dir() / DEFAULT_CAMERA),
-            "camera file (docs/camera.md): the markers' dictionary and side, the corner window",
-        )
+        path = self.declare(camera_file())
         try:
             self.camera: Camera = load_camera(path)
         except SwazureError as err:
@@ -126,4 +132,14 @@ def build_detector(context: Context) -> list[Node]:
 
 def main(args: list[str] | None = None) -> int:
     """``ros2 run swazure_ros aruco_detector --ros-args -r image_raw:=/camera/image_raw``."""
-    return run_process(build_detector, args)
+    usage = program_help(
+        "aruco_detector",
+        """ArUco detections from any camera driver: it reads image_raw and camera_info
+(sensor data QoS) and publishes detections (swazure_interfaces/Detections: each
+marker's centre in the camera's optical frame, m), as an FLS's camera feeds the FLS.
+
+  ros2 run swazure_ros aruco_detector --ros-args -r image_raw:=/camera/image_raw \\
+      -r camera_info:=/camera/camera_info -r detections:=/swarm/fls_7/camera/detections""",
+        [camera_file()],
+    )
+    return run_process(build_detector, args, usage=usage)

@@ -39,6 +39,7 @@ per topic would cost discovery time and deliver every message a thousand times.
 from __future__ import annotations
 
 from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -104,6 +105,7 @@ from .names import (
     WORLD_REACH,
     node_name,
 )
+from .parameters import ParameterSpec, at_least, seconds
 from .runtime import (
     ParameterError,
     SwarmNode,
@@ -152,6 +154,29 @@ class Transmitter:
 Eyes = Callable[[int, int], "tuple[Camera, NDArray[np.uint8]]"]
 
 
+PUBLISH_PERIOD = ParameterSpec(
+    "publish_period",
+    1.0,
+    "s between camera frames: a changed measurement is sent (> 0; set while running too)",
+    seconds(),
+)
+REPUBLISH_PERIOD = ParameterSpec(
+    "republish_period",
+    0.0,
+    "s after which an unchanged measurement is sent again; 0: never (set while running too)",
+    seconds(allow_zero=True),
+)
+CAMERA_VIEW = ParameterSpec(
+    "camera_view",
+    -1,
+    "id of a neighbour: publish what this FLS's camera sees aimed at its marker on "
+    "~/camera/image_raw and ~/camera/camera_info; -1: none",
+    at_least(-1),
+)
+#: The parameters every FLS node declares, besides its tracking's (FlsTracking's).
+PARAMETERS = (PUBLISH_PERIOD, REPUBLISH_PERIOD, CAMERA_VIEW)
+
+
 class FlsNode(SwarmNode):
     """One Flying Light Speck.
 
@@ -189,14 +214,9 @@ class FlsNode(SwarmNode):
         self.fls_id = fls_id
         self._senses = senses
         self._render = eyes
-        self.publish_period = self.declare_seconds(
-            "publish_period", 1.0, "seconds between camera frames: a changed measurement is sent"
-        )
-        self.republish_period = self.declare_seconds(
-            "republish_period",
-            0.0,
-            "seconds after which an unchanged measurement is sent again; 0: never",
-            allow_zero=True,
+        self.publish_period = self.declare(PUBLISH_PERIOD, self._set_publish_period)
+        self.republish_period = self.declare(
+            REPUBLISH_PERIOD, partial(setattr, self, "republish_period")
         )
         # Its track service, the streams it relays and the targets it tracks.
         self.tracking = FlsTracking(self, fls_id, relay_senses, self.publish, self.elsewhere)
@@ -232,7 +252,7 @@ class FlsNode(SwarmNode):
                 self.create_publisher(CameraInfo, f"~/{CAMERA_INFO_TOPIC}", 1),
             )
             self.frames_shown = 0
-            self.create_timer(self.publish_period, self._on_camera_frame)
+            self._camera_frames = self.create_timer(self.publish_period, self._on_camera_frame)
         # Its own camera's readings, when it senses by them (an FLS in its own process).
         self._detected = detections
         if detections is not None:
@@ -250,18 +270,15 @@ class FlsNode(SwarmNode):
         self.frames_taken = 0  # frame timer callbacks run
         self.bytes_sent = 0
 
+    def _set_publish_period(self, seconds: float) -> None:
+        """Take a new frame period at once (``ros2 param set``)."""
+        self.publish_period = seconds
+        self._frames.timer_period_ns = round(seconds * 1e9)
+        if self._eyes is not None:
+            self._camera_frames.timer_period_ns = round(seconds * 1e9)
+
     def _declare_camera_view(self) -> int:
-        value = self.declare_value(
-            "camera_view",
-            -1,
-            "id of a neighbour: publish what this FLS's camera sees aimed "
-            "at its marker on ~/camera/image_raw and ~/camera/camera_info; -1: none",
-        )
-        if isinstance(value, bool) or not isinstance(value, int) or value < -1:
-            raise ParameterError(
-                f"{self.get_fully_qualified_name()}: camera_view must be an FLS id or -1, "
-                f"got {value!r}"
-            )
+        value: int = self.declare(CAMERA_VIEW)
         if value == self.fls_id:
             raise ParameterError(
                 f"{self.get_fully_qualified_name()}: camera_view names this FLS itself"

@@ -20,21 +20,54 @@ from ..core.errors import SwazureError
 from ..core.motion import parse_motion
 from ..core.tracking import RelaySenses, moving_senses
 from ..protocol.senses import DetectedSenses
+from . import fls_node, fls_tracking
 from .auth import SwarmKey
 from .fls_node import FlsNode
 from .keys import key_from
+from .names import DETECTIONS_TOPIC
+from .parameters import ParameterSpec, seconds
 from .radio import Radio
 from .runtime import (
     DESCRIPTION_PARAMETERS,
+    KEY_FILE,
+    NAMESPACE,
     ParameterError,
     declare_startup,
     description_from,
+    program_help,
     run_process,
     startup_parameters,
 )
 
 #: Seconds between two looks of a standalone FLS at whether every FLS hears it yet.
 JOIN_POLL = 0.1
+#: Seconds between two lines of a standalone FLS that still waits to be heard.
+WAITING_SAID_EVERY = 5.0
+
+
+FLS_ID = ParameterSpec("fls_id", -1, "this FLS's id: its row in the swarm's point cloud; required")
+TRACK_MOTION = ParameterSpec(
+    "track.motion", "", "a simulated track run's motion of every FLS (swazure track --per-fls)"
+)
+JOIN_TIMEOUT = ParameterSpec(
+    "join_timeout",
+    30.0,
+    "s after its first frame that an FLS waits to be heard by every FLS before it takes part "
+    "in rounds anyway",
+    seconds(),
+)
+#: What the program reads before it builds its node.
+STARTUP = (FLS_ID, NAMESPACE, KEY_FILE, TRACK_MOTION, *DESCRIPTION_PARAMETERS)
+USAGE = program_help(
+    "fls",
+    """One FLS in its own process, as on FLS hardware. It senses by its camera's detections
+(~/camera/detections: from `ros2 run swazure_ros world`, the simulator, or an
+aruco_detector on a real camera) and takes part in the swarm's discovery runs once
+the coordinator (`ros2 run swazure_ros coordinator`) and every FLS hear it.
+
+  ros2 run swazure_ros fls --ros-args -p fls_id:=7 -p cloud:=torus:120 -p scale:=5 -p beta:=0.5""",
+    [*STARTUP, *fls_node.PARAMETERS, *fls_tracking.PARAMETERS, JOIN_TIMEOUT],
+)
 
 
 class RadioJoin:
@@ -56,14 +89,16 @@ class RadioJoin:
         self.senses = senses
         self.radio: Radio | None = None
         self.made_at = float("nan")
-        self.join_timeout = node.declare_seconds(
-            "join_timeout",
-            30.0,
-            "seconds after its first frame that an FLS waits to be heard "
-            "by every FLS before it takes part in rounds anyway",
-        )
+        self.join_timeout = node.declare(JOIN_TIMEOUT)
         self.poll: Timer = node.create_timer(JOIN_POLL, self.listen_when_heard)
         senses.on_revision.insert(0, self.make_radio)
+        self._said_at = time.monotonic()
+        # A person who started one FLS by hand sees what it waits for.
+        detections = f"{node.get_fully_qualified_name()}/{DETECTIONS_TOPIC}"
+        node.get_logger().info(  # type: ignore[no-untyped-call]
+            f"waiting for its camera's first frame on {detections} (from the simulator, "
+            "`ros2 run swazure_ros world`, or an aruco_detector on a camera)"
+        )
 
     def make_radio(self) -> None:
         """Make the radio at the camera's first frame (later frames find it made)."""
@@ -79,7 +114,10 @@ class RadioJoin:
             readings=node.discovery.readings,
         )
         self.made_at = time.monotonic()
-        node.get_logger().info("radio on: its camera's first frame is in")  # type: ignore[no-untyped-call]
+        node.get_logger().info(  # type: ignore[no-untyped-call]
+            "radio on: its camera's first frame is in; waiting to be heard by every FLS and "
+            "the coordinator (`ros2 run swazure_ros coordinator`)"
+        )
 
     def listen_when_heard(self) -> None:
         """Listen once every FLS's radio and the coordinator hear this FLS, or at the timeout."""
@@ -88,7 +126,14 @@ class RadioJoin:
         swarm_size = len(self.senses.ids)
         offers, estimates = self.node.transmitter.readers()
         heard = offers >= swarm_size + 1 and estimates >= 1 and self.radio.ack_readers() >= 1
-        waited = time.monotonic() - self.made_at
+        now = time.monotonic()
+        waited = now - self.made_at
+        if not heard and now - self._said_at >= WAITING_SAID_EVERY:
+            self._said_at = now
+            self.node.get_logger().info(  # type: ignore[no-untyped-call]
+                f"still waiting to be heard: by {max(offers - 1, 0)} of {swarm_size} FLSs' "
+                f"radios, coordinator {'yes' if estimates >= 1 else 'not yet'}"
+            )
         if heard or waited > self.join_timeout:
             self.radio.listen()
             how = (
@@ -108,16 +153,7 @@ def build_fls(context: Context) -> list[Node]:
     ``namespace`` and ``key_file`` (the swarm's key; "" for none, and then
     ``SWAZURE_SWARM_KEY_FILE`` if set), besides the FLS node's own.
     """
-    values = startup_parameters(
-        context,
-        {
-            "fls_id": -1,
-            "namespace": "swarm",
-            "key_file": "",
-            "track.motion": "",
-            **DESCRIPTION_PARAMETERS,
-        },
-    )
+    values = startup_parameters(context, STARTUP)
     fls_id = values["fls_id"]
     if isinstance(fls_id, bool) or not isinstance(fls_id, int) or fls_id < 0:
         raise ParameterError(f"parameter fls_id: an FLS id (>= 0) is needed, got {fls_id!r}")
@@ -163,4 +199,4 @@ def main(args: list[str] | None = None) -> int:
     """``ros2 run swazure_ros fls --ros-args -p fls_id:=7 -p cloud:=torus:120 -p beta:=0.5``."""
     # One FLS relaxes a few labels a round: numba would cost more than it saves.
     jit.interpret()
-    return run_process(build_fls, args)
+    return run_process(build_fls, args, usage=USAGE)

@@ -46,6 +46,7 @@ from .names import (
     TRACK_SAMPLES_TOPIC,
     TRACK_SERVICE,
 )
+from .parameters import ParameterSpec
 from .runtime import ParameterError, SwarmNode
 
 #: The topics a track run publishes on, and their message types.
@@ -61,6 +62,24 @@ def _no_relay_senses() -> RelaySenses:
     raise TrackingError(
         "this FLS cannot choose relays: tracking needs the simulated world (swazure spawn)"
     )
+
+
+TRACK_SERVICE_FLAG = ParameterSpec(
+    "track.service", False, "offer ~/track: this FLS follows a moving target on request"
+)
+REPORT_PROGRESS = ParameterSpec(
+    "track.report_progress",
+    False,
+    "publish track_progress after each track event: for a driver of a simulated clock "
+    "across processes (swazure track --per-fls)",
+)
+#: track.<name>, defaulting to TrackConfig's (TrackConfig checks them together).
+SETTINGS = tuple(
+    ParameterSpec(f"track.{name}", getattr(TrackConfig(), name), description)
+    for name, description in TRACK_SETTINGS.items()
+)
+#: The parameters an FLS node's tracking declares.
+PARAMETERS = (TRACK_SERVICE_FLAG, REPORT_PROGRESS, *SETTINGS)
 
 
 class FlsTracking:
@@ -88,15 +107,8 @@ class FlsTracking:
         self.config = self._declare_config()
         # Off unless asked: a swarm's services are what its bring-up time grows
         # with, as the square of their number in a process (docs/swarm.md).
-        self.service = node.declare_flag(
-            "track.service", False, "offer ~/track: this FLS follows a moving target on request"
-        )
-        self.report_progress = node.declare_flag(
-            "track.report_progress",
-            False,
-            "publish track_progress after each track event: for a driver of a simulated "
-            "clock across processes (swazure track --per-fls)",
-        )
+        self.service = node.declare(TRACK_SERVICE_FLAG)
+        self.report_progress = node.declare(REPORT_PROGRESS)
         self.relay = RelayStreams(fls_id, self._sense_for_relay, self.config)
         self.tracker = TrackSource(
             fls_id,
@@ -123,12 +135,7 @@ class FlsTracking:
         self.traffic: Counter[str] = Counter()
 
     def _declare_config(self) -> TrackConfig:
-        defaults = TrackConfig()
-        # track.<name>, defaulting to TrackConfig's.
-        values = {
-            name: self.node.declare_value(f"track.{name}", getattr(defaults, name), description)
-            for name, description in TRACK_SETTINGS.items()
-        }
+        values = {spec.name.removeprefix("track."): self.node.declare(spec) for spec in SETTINGS}
         try:
             return TrackConfig(**values)
         except TrackingError as err:

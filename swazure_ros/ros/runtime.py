@@ -20,12 +20,17 @@ import sys
 import threading
 import time
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor, ParameterEvent
+from rcl_interfaces.msg import (
+    ParameterDescriptor,
+    ParameterEvent,
+    ParameterType,
+    SetParametersResult,
+)
 
 # The context every process owns; app/ names it through this module, not through rclpy.
 from rclpy.context import Context as Context
@@ -37,11 +42,13 @@ from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.qos import qos_profile_parameter_events
 from rclpy.signals import SignalHandlerOptions
+from rclpy.utilities import remove_ros_args
 
 from ..core.description import SwarmDescription
 from ..core.errors import SwazureError
 from ..core.files import read_yaml
 from .overrides import node_overrides
+from .parameters import ParameterSpec, at_least, help_text
 
 
 class ParameterError(SwazureError):
@@ -52,11 +59,6 @@ class ParameterError(SwazureError):
 #: more endpoints per node, and endpoints cost discovery time (docs/swarm.md).
 #: Tools that need a type find it from the interface package instead.
 NO_TYPE_DESCRIPTION_SERVICE = Parameter("start_type_description_service", value=False)
-
-
-#: Seconds a period or timeout parameter may be, at most (a day): longer is a typo, and
-#: timers of non-finite periods do not exist.
-MAX_SECONDS = 86400.0
 
 
 #: Where rclpy's nodes publish their parameter changes.
@@ -84,6 +86,8 @@ class SwarmNode(Node):
     ) -> None:
         # Set before Node's constructor, which makes the events publisher (create_publisher).
         self._shared_parameter_events = parameter_events
+        # Parameters a running node takes new values of: their specs and what applies them.
+        self._live: dict[str, tuple[ParameterSpec, Callable[[Any], None]]] = {}
         super().__init__(
             name,
             namespace=namespace,
@@ -112,39 +116,55 @@ class SwarmNode(Node):
             ParameterEvent, PARAMETER_EVENTS_TOPIC, qos_profile_parameter_events
         )
 
-    def declare_value(self, name: str, default: Any, description: str) -> Any:
-        """Declare parameter ``name`` and return its value; ParameterError if it cannot be."""
+    def declare(self, spec: ParameterSpec, apply: Callable[[Any], None] | None = None) -> Any:
+        """Declare ``spec``'s parameter and return its value; ParameterError if it is refused.
+
+        With ``apply``, a value set while the node runs (``ros2 param set``) is
+        checked by the spec's rule, refused with its reason, or handed to
+        ``apply``; without, the parameter is read-only once declared.
+        """
+        descriptor = ParameterDescriptor(
+            description=spec.description, read_only=apply is None, type=_TYPES[type(spec.default)]
+        )
         try:
-            return self.declare_parameter(
-                name, default, ParameterDescriptor(description=description)
-            ).value
+            value = self.declare_parameter(spec.name, spec.default, descriptor).value
         except ParameterException as err:
             raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
-
-    def declare_seconds(
-        self, name: str, default: float, description: str, allow_zero: bool = False
-    ) -> float:
-        """Declare parameter ``name``: seconds > 0 (or 0 if allowed); ParameterError if not."""
-        value = self.declare_value(name, default, description)
-        if not isinstance(value, float) or not (
-            (0 < value < MAX_SECONDS) or (allow_zero and value == 0)
-        ):
-            kind = "0 or a positive" if allow_zero else "a positive"
+        reason = spec.refuses(value)
+        if reason is not None:
             raise ParameterError(
-                f"{self.get_fully_qualified_name()}: parameter {name} must be "
-                f"{kind} number of seconds below {MAX_SECONDS:g}, got {value!r}"
+                f"{self.get_fully_qualified_name()}: parameter {spec.name} {reason}"
             )
+        if apply is not None:
+            if not self._live:
+                self.add_on_set_parameters_callback(self._check_set)
+                self.add_post_set_parameters_callback(self._apply_set)
+            self._live[spec.name] = (spec, apply)
         return value
 
-    def declare_flag(self, name: str, default: bool, description: str) -> bool:
-        """Declare parameter ``name``: true or false; ParameterError if not."""
-        value = self.declare_value(name, default, description)
-        if not isinstance(value, bool):
-            raise ParameterError(
-                f"{self.get_fully_qualified_name()}: parameter {name} must be true or false, "
-                f"got {value!r}"
-            )
-        return value
+    def _check_set(self, parameters: list[Parameter]) -> SetParametersResult:
+        """Refuse a value set while the node runs that its spec's rule refuses, saying why."""
+        for parameter in parameters:
+            live = self._live.get(parameter.name)
+            reason = live[0].refuses(parameter.value) if live is not None else None
+            if reason is not None:
+                return SetParametersResult(successful=False, reason=f"{parameter.name} {reason}")
+        return SetParametersResult(successful=True)
+
+    def _apply_set(self, parameters: list[Parameter]) -> None:
+        for parameter in parameters:
+            live = self._live.get(parameter.name)
+            if live is not None:
+                live[1](parameter.value)
+
+
+#: The descriptor's type of a parameter, by its default's Python type.
+_TYPES = {
+    bool: ParameterType.PARAMETER_BOOL,
+    int: ParameterType.PARAMETER_INTEGER,
+    float: ParameterType.PARAMETER_DOUBLE,
+    str: ParameterType.PARAMETER_STRING,
+}
 
 
 def check_params_file(path: Path) -> None:
@@ -246,15 +266,30 @@ def _abandon_teardown(code: int, limit: float) -> None:
 
 #: The parameters that describe a swarm (core.description.SwarmDescription), as every
 #: process of a swarm in processes of its own takes them; 0 or "" means not given.
-DESCRIPTION_PARAMETERS: dict[str, Any] = {
-    "cloud": "",
-    "scale": 0.0,
-    "beta": 0.0,
-    "radius": 0.0,
-    "sensor": "",
-    "accurate": False,
-    "seed": 0,
-}
+DESCRIPTION_PARAMETERS = (
+    ParameterSpec(
+        "cloud",
+        "",
+        "the swarm's point cloud: a file (.xyz .csv .npy .ply, cm after scale) "
+        "or a built-in shape (torus:120); required",
+    ),
+    ParameterSpec(
+        "scale",
+        0.0,
+        "multiply the cloud's coordinates by this to get cm; 0: the published "
+        "scale of a published file, else 1",
+    ),
+    ParameterSpec("beta", 0.0, "FLS radius r = beta * dmin; 0: give radius instead"),
+    ParameterSpec("radius", 0.0, "FLS radius r, cm; 0: give beta instead"),
+    ParameterSpec("sensor", "", "sensor file (ranges, error model); '': config/sensor.yaml"),
+    ParameterSpec("accurate", False, "measure without error"),
+    ParameterSpec("seed", 0, "seed of the choice of colliding FLSs to remove", at_least(0)),
+)
+#: The swarm's namespace and key, as every program of a swarm takes them.
+NAMESPACE = ParameterSpec("namespace", "swarm", "the swarm's namespace: nodes are /NAMESPACE/...")
+KEY_FILE = ParameterSpec(
+    "key_file", "", "the swarm's key (docs/security.md); '': $SWAZURE_SWARM_KEY_FILE, or none"
+)
 
 
 #: The name the startup parameters are read as: the sections of a parameter file for
@@ -262,7 +297,7 @@ DESCRIPTION_PARAMETERS: dict[str, Any] = {
 STARTUP_NODE = "swazure_startup"
 
 
-def startup_parameters(context: Context, defaults: dict[str, Any]) -> dict[str, Any]:
+def startup_parameters(context: Context, specs: Sequence[ParameterSpec]) -> dict[str, Any]:
     """The values of parameters a process needs before it can name or build its node.
 
     They come from the command line's ``-p`` and the sections of parameter
@@ -270,19 +305,23 @@ def startup_parameters(context: Context, defaults: dict[str, Any]) -> dict[str, 
     rcl's arguments as a node would, but without one (a node would
     create the DDS participant only to delete it: ros.overrides);
     ParameterError when one has another type than its default, as rclpy's
-    ``declare_parameter`` would say.
+    ``declare_parameter`` would say, or a value its rule refuses.
     """
     overrides = node_overrides(context, STARTUP_NODE)
     values = {}
-    for name, default in defaults.items():
-        value = overrides.get(name, default)
-        expected = Parameter.Type.from_parameter_value(default)
+    for spec in specs:
+        value = overrides.get(spec.name, spec.default)
+        expected = Parameter.Type.from_parameter_value(spec.default)
         given = Parameter.Type.from_parameter_value(value)
         if given != expected:
             raise ParameterError(
-                f"parameter {name}: {value!r} is of type {given.name}, {expected.name} is needed"
+                f"parameter {spec.name}: {value!r} is of type {given.name}, "
+                f"{expected.name} is needed"
             )
-        values[name] = value
+        reason = spec.refuses(value)
+        if reason is not None:
+            raise ParameterError(f"parameter {spec.name} {reason}")
+        values[spec.name] = value
     return values
 
 
@@ -339,14 +378,40 @@ def seconds_since_start() -> float:
     return float(Path("/proc/uptime").read_text().split()[0]) - started
 
 
-def run_process(build: Callable[[Context], list[Node]], args: list[str] | None = None) -> NoReturn:
+def program_arguments(args: list[str] | None, usage: str) -> None:
+    """Answer ``--help`` with ``usage`` (exit 0) and refuse any other argument before
+    ``--ros-args`` (exit 2): a program takes its settings as ROS parameters."""
+    given = remove_ros_args(sys.argv if args is None else args)[1:]
+    if given in (["-h"], ["--help"]):
+        print(usage)
+        sys.exit(0)
+    if given:
+        print(
+            f"error: unknown argument {given[0]!r}: settings are ROS parameters, "
+            "--ros-args -p NAME:=VALUE (--help lists them)",
+            file=sys.stderr,
+        )
+        sys.exit(2)
+
+
+def program_help(program: str, about: str, specs: Sequence[ParameterSpec]) -> str:
+    """The ``--help`` of ``ros2 run swazure_ros PROGRAM``."""
+    usage = f"ros2 run swazure_ros {program} [--help] --ros-args -p NAME:=VALUE ..."
+    return help_text(usage, about, specs)
+
+
+def run_process(
+    build: Callable[[Context], list[Node]], args: list[str] | None = None, *, usage: str = ""
+) -> NoReturn:
     """Start rclpy, build a process's nodes and spin them until SIGINT or SIGTERM; then exit.
 
-    Errors in building give one line and exit code 2, never a traceback; any
-    other exception (a bug) one line, its stack and exit code 1.
-    The process ends with :func:`exit_process`: its DDS participant is
-    deleted whole, not endpoint by endpoint (docs/swarm.md, "Stopping").
+    ``--help`` prints ``usage`` and exits 0 without a node. Errors in building
+    give one line and exit code 2, never a traceback; any other exception (a
+    bug) one line, its stack and exit code 1. The process ends with
+    :func:`exit_process`: its DDS participant is deleted whole, not endpoint
+    by endpoint (docs/swarm.md, "Stopping").
     """
+    program_arguments(args, usage)
     context = Context()
     rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
     stop: list[int] = []

@@ -39,11 +39,15 @@ from .names import (
     WORLD_TOPIC,
     node_name,
 )
+from .parameters import ParameterSpec
 from .runtime import (
     DESCRIPTION_PARAMETERS,
+    KEY_FILE,
+    NAMESPACE,
     SwarmNode,
     declare_startup,
     description_from,
+    program_help,
     run_process,
     startup_parameters,
 )
@@ -138,6 +142,22 @@ class SimulatedCameras(SwarmNode):
             )
 
 
+CAMERAS_FLAG = ParameterSpec(
+    "cameras", True, "publish every FLS's detections, for FLSs that run one to a process"
+)
+#: What the program reads before it builds its nodes.
+STARTUP = (NAMESPACE, KEY_FILE, CAMERAS_FLAG, *DESCRIPTION_PARAMETERS)
+USAGE = program_help(
+    "world",
+    """The simulator of a swarm whose FLSs run one to a process: the world node (where
+every FLS is; it applies the heuristics' moves) and every FLS's simulated camera,
+which publishes the FLS's ArUco detections on /NAMESPACE/fls_<id>/camera/detections.
+
+  ros2 run swazure_ros world --ros-args -p cloud:=torus:120 -p scale:=5 -p beta:=0.5""",
+    STARTUP,
+)
+
+
 def build_world(context: Context) -> list[Node]:
     """The simulator's process: the world node, and the cameras of FLSs in their own processes.
 
@@ -145,10 +165,7 @@ def build_world(context: Context) -> list[Node]:
     ...), ``namespace``, ``key_file``, and ``cameras`` (true: publish every
     FLS's detections, for FLSs that run one to a process).
     """
-    values = startup_parameters(
-        context,
-        {"namespace": "swarm", "key_file": "", "cameras": True, **DESCRIPTION_PARAMETERS},
-    )
+    values = startup_parameters(context, STARTUP)
     spec = WorldSpec(**vars(description_from(values)))
     replica = WorldReplica(spec.build())
     namespace, key = str(values["namespace"]), SwarmKey(key_from(str(values["key_file"])))
@@ -165,4 +182,4 @@ def build_world(context: Context) -> list[Node]:
 
 def main(args: list[str] | None = None) -> int:
     """``ros2 run swazure_ros world --ros-args -p cloud:=torus:120 -p beta:=0.5``."""
-    return run_process(build_world, args)
+    return run_process(build_world, args, usage=USAGE)

@@ -12,7 +12,8 @@ from rclpy.context import Context
 from rclpy.node import Node
 
 from swazure_ros.ros.overrides import node_overrides
-from swazure_ros.ros.runtime import ParameterError, startup_parameters
+from swazure_ros.ros.parameters import ParameterSpec
+from swazure_ros.ros.runtime import DESCRIPTION_PARAMETERS, ParameterError, startup_parameters
 
 PARAMETER_FILE = """\
 /**:
@@ -87,10 +88,20 @@ def test_a_process_started_without_parameters_has_no_overrides(domain):
     context = started_with(domain)
     try:
         assert node_overrides(context, "swazure_startup") == {}
-        assert startup_parameters(context, {"fls_id": -1, "cloud": ""}) == {
-            "fls_id": -1,
-            "cloud": "",
-        }
+        specs = [ParameterSpec("fls_id", -1, "id"), ParameterSpec("cloud", "", "cloud")]
+        assert startup_parameters(context, specs) == {"fls_id": -1, "cloud": ""}
+    finally:
+        context.try_shutdown()
+
+
+BETA = ParameterSpec("beta", 0.0, "beta")
+
+
+def test_a_startup_parameter_its_rule_refuses_is_one_clear_error(domain):
+    context = started_with(domain, "-p", "seed:=-3")
+    try:
+        with pytest.raises(ParameterError, match="parameter seed must be a whole number >= 0"):
+            startup_parameters(context, DESCRIPTION_PARAMETERS)
     finally:
         context.try_shutdown()
 
@@ -99,8 +110,8 @@ def test_a_startup_parameter_of_another_type_is_one_clear_error(domain):
     context = started_with(domain, "-p", "fls_id:=seven", "-p", "beta:=0.5")
     try:
         with pytest.raises(ParameterError, match="parameter fls_id: 'seven' is of type STRING"):
-            startup_parameters(context, {"fls_id": -1, "beta": 0.0})
-        assert startup_parameters(context, {"beta": 0.0}) == {"beta": 0.5}
+            startup_parameters(context, [ParameterSpec("fls_id", -1, "id"), BETA])
+        assert startup_parameters(context, [BETA]) == {"beta": 0.5}
     finally:
         context.try_shutdown()
 

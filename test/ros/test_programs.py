@@ -131,16 +131,40 @@ def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2
 
         # Each `ros2 --no-daemon` call discovers the graph anew within its spin time; on a
         # loaded machine one may miss the node ("Node not found"), and a person asks again.
-        def param(name):
-            command = ["param", "get", "--no-daemon", "--spin-time", "2", "/swarm/fls_1", name]
+        def param(name, verb="get", *value):
+            command = ["param", verb, "--no-daemon", "--spin-time", "2", "/swarm/fls_1", name]
             return until(
-                lambda: ros2(*command), lambda result: "Node not found" not in result.stderr
+                lambda: ros2(*command, *value),
+                lambda result: "Node not found" not in result.stderr,
             )
 
         got = param("publish_period")
         assert got.returncode == 0 and "Double value is: 0.25" in got.stdout, got
         described = param("cloud")
         assert "trio.xyz" in described.stdout, described
+        # A bad value is refused with its reason and the node keeps its own; a good one
+        # is taken; what was set at the start cannot be changed.
+        for bad in ("0.0", ".nan"):  # YAML: .nan is NaN
+            refused = param("publish_period", "set", bad)
+            said = refused.stdout + refused.stderr
+            assert "Setting parameter failed" in said, refused
+            assert "must be a positive number of seconds" in said, refused
+        assert "Double value is: 0.25" in param("publish_period").stdout
+        taken = param("publish_period", "set", "0.5")
+        assert "Set parameter successful" in taken.stdout, taken
+        assert "Double value is: 0.5" in param("publish_period").stdout
+        fixed = param("cloud", "set", "torus")
+        said = fixed.stdout + fixed.stderr
+        assert "Setting parameter failed" in said and "read-only" in said, fixed
+        # Each program's --help lists every parameter its node answers ros2 param for.
+        for program, node in (("fls", "/swarm/fls_1"), ("coordinator", "/swarm/coordinator"),
+                              ("world", "/swarm/world")):  # fmt: skip
+            helped = ros2("run", "swazure_ros", program, "--help")
+            assert helped.returncode == 0, helped
+            listing = ("param", "list", "--no-daemon", "--spin-time", "2", node)
+            listed = until(lambda: ros2(*listing).stdout.split(), bool)  # noqa: B023
+            ours = set(listed) - {"use_sim_time", "start_type_description_service"}
+            assert ours and all(f"  {name} (" in helped.stdout for name in ours), (ours, helped)
         # FLS 0 is blind to FLS 2 and reaches it through its sweet neighbour FLS 1.
         call = compute_pose(0, 2)
         assert "success=True" in call.stdout and "path=[0, 1, 2]" in call.stdout, call

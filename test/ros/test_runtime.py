@@ -102,3 +102,52 @@ def test_a_callback_that_fails_ends_the_process_with_one_line_its_stack_and_code
     assert said == [wanted], process.stderr
     # The stack after the line, down to the failing callback.
     assert "Traceback" in process.stderr.split(said[0])[1] and "in fail" in process.stderr
+
+
+def test_a_value_set_while_running_is_checked_by_the_declared_rule_and_applied(context):
+    from rclpy.parameter import Parameter
+
+    from swazure_ros.ros.parameters import ParameterSpec, seconds
+    from swazure_ros.ros.runtime import SwarmNode
+
+    node = SwarmNode("settable", context=context)
+    applied = []
+    try:
+        period = ParameterSpec("period", 1.0, "s", seconds())
+        assert node.declare(period, applied.append) == 1.0
+        assert node.declare(ParameterSpec("shape", "torus", "fixed")) == "torus"
+        for bad in (-1.0, 0.0, float("nan"), float("inf")):
+            [result] = node.set_parameters([Parameter("period", value=bad)])
+            assert not result.successful and "period must be a positive number" in result.reason
+        assert node.get_parameter("period").value == 1.0 and applied == []
+        [result] = node.set_parameters([Parameter("period", value=0.25)])
+        assert result.successful and applied == [0.25]
+        assert node.get_parameter("period").value == 0.25
+        # Declared without a way to apply a new value: read-only once running.
+        [result] = node.set_parameters([Parameter("shape", value="cube")])
+        assert not result.successful and "read-only" in result.reason
+    finally:
+        node.destroy_node()
+
+
+def test_a_program_answers_help_with_its_parameters_and_starts_no_node():
+    from swazure_ros.ros import fls_node, fls_program
+
+    run = subprocess.run(
+        [sys.executable, "-c", "import sys; from swazure_ros.ros.fls_program import main; "
+         "sys.exit(main(sys.argv))", "--help"],
+        capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert run.returncode == 0 and run.stderr == "", run
+    assert run.stdout.startswith("usage: ros2 run swazure_ros fls")
+    for spec in (*fls_program.STARTUP, *fls_node.PARAMETERS, fls_program.JOIN_TIMEOUT):
+        assert f"  {spec.name} ({spec.type_name}, " in run.stdout, spec.name
+    assert "publish_period (double, 1.0)" in run.stdout
+    assert "ready" not in run.stdout + run.stderr  # no node was made
+    other = subprocess.run(
+        [sys.executable, "-c", "import sys; from swazure_ros.ros.coordinator_program import "
+         "main; sys.exit(main(sys.argv))", "--bogus"],
+        capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert other.returncode == 2 and "unknown argument '--bogus'" in other.stderr
+    assert other.stderr.count("\n") == 1
