@@ -9,6 +9,8 @@ PY := $(VENV)/bin/python
 DEPS_STAMP := $(VENV)/.stamp-deps
 MSGS_STAMP := $(VENV)/.stamp-interfaces
 PKG_STAMP := $(VENV)/.stamp-package
+KERNELS_STAMP := $(VENV)/.stamp-kernels
+KERNEL_MODULES := $(shell grep -rl --include=*.py "jit.kernel" swazure_ros)
 INTERFACE_FILES := msg_defs/CMakeLists.txt msg_defs/package.xml \
 	$(wildcard msg_defs/msg/*.msg) $(wildcard msg_defs/srv/*.srv)
 PYTEST_ARGS ?=
@@ -58,6 +60,12 @@ $(PKG_STAMP): $(DEPS_STAMP) setup.py package.xml scripts/ament_venv.py $(wildcar
 	$(PY) -m compileall -q swazure_ros
 	@touch $@
 
+# numba compiles a kernel at its first call and caches it beside its module: compiled
+# here, once, a person's first `swazure evaluate` takes a second, not a silent minute.
+$(KERNELS_STAMP): $(PKG_STAMP) $(KERNEL_MODULES)
+	$(PY) -m swazure_ros.app.warm
+	@touch $@
+
 $(ROS2CLI_STAMP): $(DEPS_STAMP) $(ROS2CLI_WHEELS)
 ifneq ($(ROS2CLI_WHEELS),)
 	$(PY) -m pip install --disable-pip-version-check --quiet --no-deps \
@@ -72,7 +80,7 @@ ifneq ($(LAUNCH_WHEELS),)
 endif
 	@touch $@
 
-setup: $(MSGS_STAMP) $(PKG_STAMP) $(ROS2CLI_STAMP) $(LAUNCH_STAMP)
+setup: $(MSGS_STAMP) $(PKG_STAMP) $(KERNELS_STAMP) $(ROS2CLI_STAMP) $(LAUNCH_STAMP)
 
 lint: setup
 	$(VENV)/bin/ruff check .

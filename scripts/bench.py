@@ -2169,10 +2169,12 @@ def main() -> int:
         )
         return 2
     # Warm numba's compilation cache so that no run pays for compiling: the engine's
-    # kernels, the heuristics' and the swarm's (a fresh clone has none cached).
+    # kernels, the heuristics' and the swarm's (make setup compiled them; a swarm's
+    # processes run them once more here, in case).
+    from swazure_ros.app.warm import warm_kernels
+
+    warm_kernels()
     for technique in ("plain", "move-obstructing", "move-source"):
-        run([*SWAZURE, "evaluate", "--cloud", "sphere:200", "--beta", "0.5", "--quiet",
-             "--technique", technique])  # fmt: skip
         with tempfile.TemporaryDirectory() as out:
             compute_all("torus:120", technique, 91, Path(out), 1, 600, "--scale", "1.6")
     SECTIONS_DIR.mkdir(parents=True, exist_ok=True)

@@ -14,6 +14,19 @@ from .convert.discovery import pose_estimate_from_message
 from .names import COMPUTE_POSE_SERVICE, COORDINATOR, ESTIMATOR_CODES, policy_code
 from .runtime import SwarmNode, init_context
 
+#: Seconds after which a query that sees no node of the swarm at all gives up, whatever
+#: its timeout: a swarm that is coming up shows its nodes long before its coordinator.
+NOTHING_THERE = 3.0
+
+
+def _swarm_nodes(node: SwarmNode, namespace: str) -> list[str]:
+    """The names of the nodes under ``/namespace`` that ``node`` sees on the graph."""
+    return [
+        name
+        for name, node_namespace in node.get_node_names_and_namespaces()
+        if node_namespace.strip("/") == namespace
+    ]
+
 
 def compute_pose(
     namespace: str,
@@ -37,12 +50,17 @@ def compute_pose(
     executor.add_node(node)
     try:
         client = node.create_client(ComputePose, service)
-        deadline = time.monotonic() + timeout
+        began = time.monotonic()
+        deadline = began + timeout
         while not client.service_is_ready():
-            if time.monotonic() > deadline:
+            now = time.monotonic()
+            if now > deadline or (
+                now > began + min(timeout, NOTHING_THERE) and not _swarm_nodes(node, namespace)
+            ):
                 raise SwazureError(
-                    f"no service {service} within {timeout:g} s: is a swarm running "
-                    "(swazure spawn)?"
+                    f"no coordinator on domain {context.get_domain_id()}, namespace "
+                    f"/{namespace} (no {service} in {now - began:.0f} s): is a swarm up? "
+                    "(swazure spawn, or ros2 launch swazure_ros swarm.launch.py)"
                 )
             executor.spin_once(timeout_sec=0.1)
         request = ComputePose.Request(

@@ -482,6 +482,18 @@ def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path,
         assert watched == ""
 
 
+def test_swazure_query_with_no_swarm_says_so_within_seconds(domain):
+    began = time.monotonic()
+    query = swazure("query", "--source", "0", "--target", "2", "--timeout", "60")
+    _, err = query.communicate(timeout=60)
+    waited = time.monotonic() - began
+    assert query.returncode == 2 and len(err.strip().splitlines()) == 1, err
+    assert f"no coordinator on domain {domain}, namespace /swarm" in err, err
+    assert "is a swarm up?" in err
+    # Not the whole 60 s of its timeout: nothing of a swarm is on the graph.
+    assert waited < 30, waited
+
+
 def test_swazure_query_prints_the_path_and_vector(domain, params):
     world = WorldSpec(SHAPE[0], scale=SHAPE[1], beta=0.5).build()
     engine = evaluate_pairs(world.hood, "shortest-length")
