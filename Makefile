@@ -11,8 +11,9 @@ MSGS_STAMP := $(VENV)/.stamp-interfaces
 PKG_STAMP := $(VENV)/.stamp-package
 KERNELS_STAMP := $(VENV)/.stamp-kernels
 KERNEL_MODULES := $(shell grep -rl --include=*.py "jit.kernel" swazure_ros)
-INTERFACE_FILES := msg_defs/CMakeLists.txt msg_defs/package.xml \
-	$(wildcard msg_defs/msg/*.msg) $(wildcard msg_defs/srv/*.srv)
+INTERFACE_FILES := msg_defs/CMakeLists.txt msg_defs/package.xml msg_defs/drop-missing-includes.cmake \
+	$(wildcard msg_defs/msg/*.msg) $(wildcard msg_defs/srv/*.srv) \
+	$(wildcard msg_defs/tf2_msgs/*.* msg_defs/tf2_msgs/msg/*.msg)
 PYTEST_ARGS ?=
 # Two workers (pytest-xdist) on this 2-core machine: much of a ROS test is waiting.
 PYTEST_WORKERS ?= 2
@@ -45,8 +46,10 @@ $(DEPS_STAMP): requirements.lock | $(PY)
 	$(PY) -m pip install --disable-pip-version-check --quiet -r requirements.lock
 	@touch $@
 
+# swazure_interfaces, and tf2_msgs (/tf's TFMessage), which PyPI has no wheel of.
 $(MSGS_STAMP): $(DEPS_STAMP) $(INTERFACE_FILES) scripts/build_interfaces.sh
 	scripts/build_interfaces.sh $(VENV)
+	scripts/build_interfaces.sh $(VENV) msg_defs/tf2_msgs tf2_msgs
 	@touch $@
 
 # pip compiles what it installs, but not an editable package (compileall below): without

@@ -20,8 +20,9 @@ from .conftest import REPO
 
 LOCK = REPO / "requirements.lock"
 PROGRAMS = REPO / "scripts" / "nodes"
-#: The project's own import packages: the Python package and the interfaces msg_defs builds.
-OWN = ("swazure_ros", "swazure_interfaces")
+#: The project's own import packages: the Python package and the interfaces msg_defs builds
+#: (swazure_interfaces, and tf2_msgs, which PyPI has no wheel of).
+OWN = ("swazure_ros", "swazure_interfaces", "tf2_msgs")
 
 #: Run in a child process: block every import outside the allowed distributions, then import
 #: every module of the package and print the failures as JSON.

@@ -44,6 +44,9 @@ TRACK_PROGRESS_TOPIC = "track_progress"
 DEPARTED_TOPIC = "departed"
 #: The swarm as RViz markers (view node), and the Foxglove channel of the same scene.
 SCENE_TOPIC = "scene"
+#: tf2's topic of fixed frames, global by convention (not under the swarm's namespace):
+#: ``swarm`` -> ``fls_<id>``, republished at each world revision.
+TF_STATIC_TOPIC = "/tf_static"
 #: cm from the origin beyond which no FLS position or move is taken from the network:
 #: a display is metres across, and far-off coordinates overflow the geometry.
 WORLD_REACH = 1e6
@@ -108,6 +111,10 @@ ROUND_QOS = QoSProfile(
 MOVE_QOS = ROUND_QOS
 # The world's newest revision is state: a process that joins late must get it.
 WORLD_QOS = QoSProfile(
+    depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+)
+# tf2's static frames, as tf2_ros's StaticTransformBroadcaster offers them: latched.
+TF_STATIC_QOS = QoSProfile(
     depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
 )
 # Who is gone is state, like the world: a reader that comes later gets the list.

@@ -16,6 +16,7 @@ from collections.abc import Sequence
 from rclpy.context import Context
 from rclpy.node import Node
 from swazure_interfaces.msg import Detections, MoveCommands, WorldState
+from tf2_msgs.msg import TFMessage
 
 from ..protocol.moves import commanded_points
 from ..protocol.senses import carried_markers
@@ -23,7 +24,7 @@ from ..sim.replica import WorldReplica
 from ..sim.world import WorldSpec
 from .auth import SwarmKey
 from .convert.discovery import moves_from_message
-from .convert.sensing import detections_message, world_message
+from .convert.sensing import detections_message, frames_message, world_message
 from .convert.units import stamp_nanoseconds
 from .guard import Guard, check
 from .keys import key_from
@@ -33,6 +34,8 @@ from .names import (
     DETECTIONS_TOPIC,
     MOVE_QOS,
     MOVE_TOPIC,
+    TF_STATIC_QOS,
+    TF_STATIC_TOPIC,
     WORLD,
     WORLD_QOS,
     WORLD_REACH,
@@ -70,6 +73,8 @@ class WorldNode(SwarmNode):
         )
         self._replica = replica
         self._publisher = self.create_publisher(WorldState, WORLD_TOPIC, WORLD_QOS)
+        # Where every FLS is, for RViz, Foxglove and tf2 listeners: a frame per FLS.
+        self._frames = self.create_publisher(TFMessage, TF_STATIC_TOPIC, TF_STATIC_QOS)
         self.guard = Guard(self, key)
         self._last_stamp = 0  # ns, of the newest batch of moves taken
         self.guard.subscribe(MoveCommands, MOVE_TOPIC, self._on_moves, MOVE_QOS)
@@ -81,6 +86,7 @@ class WorldNode(SwarmNode):
         stamp = self.get_clock().now().to_msg()
         message = world_message(world.revision, world.ids, world.swarm.points, stamp)
         self._publisher.publish(self.guard.key.serialize(message))
+        self._frames.publish(frames_message(world.ids, world.swarm.points, stamp))
 
     def _on_moves(self, message: MoveCommands) -> None:
         world = self._replica.world

@@ -8,11 +8,13 @@ from geometry_msgs.msg import Vector3
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from swazure_interfaces.msg import Measurements, MoveCommand, MoveCommands
+from swazure_interfaces.msg import Measurements, MoveCommand, MoveCommands, RelativePose
 from swazure_interfaces.srv import GetNeighbours
+from tf2_msgs.msg import TFMessage
 
 from swazure_ros.ros.fls_node import FlsNode, ParameterError
 from swazure_ros.ros.host import SwarmHost
+from swazure_ros.ros.names import TF_STATIC_QOS
 from swazure_ros.sim.replica import WorldReplica
 from swazure_ros.sim.world import WorldSpec
 
@@ -236,3 +238,42 @@ def test_republish_period_sends_unchanged_measurements_again(domain):
         # (frames every 0.2 s), so at least two more per FLS.
         assert count_measurements(host, probe, 2.0) >= 3 * len(world.ids)
     ctx.try_shutdown()
+
+
+def test_tf_places_every_fls_and_a_measurement_lands_on_its_target(swarm):
+    world, host, probe = swarm
+    frames = {}
+
+    def take(message):
+        for one in message.transforms:
+            frames[one.child_frame_id] = one
+
+    probe.create_subscription(TFMessage, "/tf_static", take, TF_STATIC_QOS)
+    names = {f"fls_{fls_id}" for fls_id in world.ids.tolist()}
+    assert spin_until(host.executor, lambda: names <= set(frames), timeout=60), len(frames)
+    positions = {}
+    for fls_id, point in zip(world.ids.tolist(), world.swarm.points, strict=True):
+        frame = frames[f"fls_{fls_id}"]
+        assert frame.header.frame_id == "swarm"  # the one fixed frame: the display's
+        t, r = frame.transform.translation, frame.transform.rotation
+        positions[fls_id] = np.array([t.x, t.y, t.z])
+        # Metres (REP-103), where the FLS is; its axes are the swarm's.
+        assert np.allclose(positions[fls_id], point / 100, rtol=0, atol=1e-12)
+        assert (r.x, r.y, r.z, r.w) == (0.0, 0.0, 0.0, 1.0)
+    expected, _ = engine_expectations(world)
+    placed = 0
+    for fls_id, message in collect_measurements(host, probe, expected).items():
+        # A measurement's frame exists on /tf_static; placed there, it lands on its target.
+        assert message.header.frame_id in frames
+        for pose in message.poses:
+            if pose.range_class != RelativePose.RANGE_SWEET:
+                continue
+            v = pose.vector
+            landed = positions[fls_id] + np.array([v.x, v.y, v.z])
+            truth = positions[pose.target_id] - positions[fls_id]
+            # Within the sensor's sweet-range error: a few % of the distance.
+            assert np.linalg.norm(landed - positions[pose.target_id]) < 0.05 * np.linalg.norm(
+                truth
+            )
+            placed += 1
+    assert placed > 100

@@ -290,6 +290,12 @@ def test_ros2_launch_of_the_default_example_swarm_sees_and_answers(ros2_tools, d
                      "swazure_interfaces/msg/Measurements", seconds=20)  # fmt: skip
         sources = {int(line) for line in out.split() if line.isdigit()}
         assert sources == set(range(120)), sorted(set(range(120)) - sources)
+        # tf2's frames: one per FLS in the swarm's fixed frame, metres.
+        frames = ros2("topic", "echo", *ECHO_LATCHED, "--once", "/tf_static",
+                      "tf2_msgs/msg/TFMessage")  # fmt: skip
+        assert frames.returncode == 0, frames
+        assert frames.stdout.count("child_frame_id: fls_") == 120, frames.stdout[:2000]
+        assert "frame_id: swarm" in frames.stdout
         # A blind pair that the engine reaches by a sweet path: the swarm answers it so.
         spec = WorldSpec("torus:120", scale=5.0, beta=0.5)
         pairs = evaluate(spec.build().swarm, spec.sensor(), policy="shortest-length").pairs

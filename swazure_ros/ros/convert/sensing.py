@@ -1,4 +1,5 @@
-"""What an FLS senses, as messages: measurements, detections, camera images, world revisions."""
+"""What an FLS senses, as messages: measurements, detections, camera images, world revisions
+and the FLSs' frames (tf2)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Point, PoseWithCovariance, Vector3
+from geometry_msgs.msg import Point, PoseWithCovariance, TransformStamped, Vector3
 from numpy.typing import NDArray
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Header
@@ -18,8 +19,9 @@ from swazure_interfaces.msg import (
     RelativePose,
     WorldState,
 )
+from tf2_msgs.msg import TFMessage
 
-from ...core.frames import fls_frame, to_centimetres, to_metres
+from ...core.frames import SWARM_FRAME, fls_frame, to_centimetres, to_metres
 from ...core.observe import Measurement, NeighbourSets
 from ...core.sensor import DECAYING, SWEET, Sensor
 from ...protocol.readings import Readings
@@ -169,7 +171,22 @@ def world_message(
     message.fls_ids = array.array("I", np.asarray(ids, dtype=np.uint32).tobytes())
     message.positions = array.array("d", np.asarray(points, dtype=np.float64).tobytes())
     message.header.stamp = stamp
-    message.header.frame_id = "world"
+    message.header.frame_id = SWARM_FRAME  # positions in cm, as the protocol's (docs/frames.md)
+    return message
+
+
+def frames_message(ids: NDArray[np.int64], points: FloatArray, stamp: Time) -> TFMessage:
+    """Each FLS's frame ``fls_<id>`` in the swarm frame, m, as tf2 reads it (points: cm)."""
+    metres = to_metres(np.asarray(points, dtype=np.float64)).tolist()
+    message = TFMessage()
+    for fls_id, (x, y, z) in zip(np.asarray(ids).tolist(), metres, strict=True):
+        frame = TransformStamped(child_frame_id=fls_frame(fls_id))
+        frame.header.stamp = stamp
+        frame.header.frame_id = SWARM_FRAME
+        frame.transform.translation.x, frame.transform.translation.y = x, y
+        frame.transform.translation.z = z
+        frame.transform.rotation.w = 1.0  # an FLS's axes are the swarm's
+        message.transforms.append(frame)
     return message
 
 
