@@ -113,8 +113,10 @@ colcon: setup
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .mypy_cache .ruff_cache .hypothesis
 
-# Regenerate requirements.lock from requirements.in (see scripts/lock.py).
+# Regenerate requirements.lock from requirements.in (see scripts/lock.py), keeping the
+# versions it pins today (a new dependency moves nothing else); UPGRADE=1 moves them all.
 lock: | $(PY)
 	$(PY) -m pip install --disable-pip-version-check --quiet --dry-run --ignore-installed \
-		--report build/pip-report.json -r requirements.in
+		--report build/pip-report.json -r requirements.in \
+		$(if $(UPGRADE),,$(if $(wildcard requirements.lock),-c requirements.lock))
 	$(PY) scripts/lock.py build/pip-report.json > requirements.lock

@@ -211,12 +211,26 @@ def png_file(text: str) -> Path:
     return path
 
 
-def mcap_file(text: str) -> Path:
-    """An MCAP recording to write."""
-    path = output_file(text)
-    if path.suffix.lower() != ".mcap":
-        raise argparse.ArgumentTypeError(f"{path}: recordings are written as MCAP (name it .mcap)")
+def bag_folder(text: str) -> Path:
+    """A rosbag2 bag folder to write: a new one, as ``ros2 bag record -o`` makes."""
+    path = Path(text)
+    if path.suffix.lower() == ".mcap":
+        raise argparse.ArgumentTypeError(
+            f"{path}: a recording is a bag folder (metadata.yaml and its MCAP file): "
+            "name the folder, without .mcap"
+        )
+    if path.exists():
+        raise argparse.ArgumentTypeError(f"{path} exists: a recording makes a new bag folder")
+    _writable_folder_for(path)
     return path
+
+
+def recording(text: str) -> Path:
+    """A recording to read: a bag folder (with metadata.yaml), or an MCAP file."""
+    path = Path(text)
+    if path.is_dir() and not (path / "metadata.yaml").is_file():
+        raise argparse.ArgumentTypeError(f"{path}: a folder without metadata.yaml is not a bag")
+    return path if path.is_dir() else input_file(text)
 
 
 def input_file(text: str) -> Path:

@@ -12,13 +12,19 @@ import sys
 import time
 
 from ..core.errors import SwazureError
-from .arguments import input_file, number, seconds
+from .arguments import number, recording, seconds
 from .options import add_domain_argument
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure replay``."""
-    parser.add_argument("recording", type=input_file, metavar="FILE.mcap", help="a recording")
+    parser.add_argument(
+        "recording",
+        type=recording,
+        metavar="BAG",
+        help="a recording: a bag folder (swazure spawn --record, ros2 bag record -s mcap) or "
+        "an MCAP file",
+    )
     parser.add_argument(
         "--rate", type=rate, default=1.0, help="play this many times faster (default 1)"
     )
@@ -33,6 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_domain_argument(parser)
 
 
+#: Seconds the replay waits, at its end, for reliable readers to acknowledge what it sent.
+ACK_WAIT = 10.0
 #: Playback rates, slowest and fastest: a thousandth plays a second's recording in
 #: 17 minutes; faster than a thousand times, messages would only queue up.
 RATES = (1e-3, 1e3)
@@ -72,14 +80,20 @@ def main(args: argparse.Namespace) -> int:
                 time.sleep(wait)
             player.play(message)
             played += 1
-        # Reliable messages still in flight reach their readers before we leave.
-        time.sleep(0.5)
+        # Every reliable reader has every message before we leave, or we say which not.
+        unacknowledged = player.unacknowledged(ACK_WAIT)
     finally:
         player.destroy_node()  # type: ignore[no-untyped-call]
         context.try_shutdown()
     print(
         f"replayed {played} messages on {len(channels)} topics in "
-        f"{time.monotonic() - began:.1f} s",
+        f"{time.monotonic() - began:.1f} s; "
+        + (
+            "every reliable reader acknowledged every message"
+            if not unacknowledged
+            else f"not acknowledged by every reliable reader within {ACK_WAIT:g} s: "
+            + ", ".join(unacknowledged)
+        ),
         file=sys.stderr,
     )
     return 0

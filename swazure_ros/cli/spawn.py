@@ -33,11 +33,11 @@ from ..core.fit import PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
 from ..ros.keys import KEY_FILE_VARIABLE
 from .arguments import (
+    bag_folder,
     count,
     discovery_servers,
     fls_pairs,
     input_file,
-    mcap_file,
     output_folder,
     port,
     ros_namespace,
@@ -122,11 +122,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--record",
-        type=mcap_file,
+        type=bag_folder,
         default=None,
-        metavar="FILE.mcap",
-        help="record every topic of the swarm to this MCAP file (ROS 2 CDR, as ros2 bag "
-        "records; Foxglove reads it); written whole when the swarm stops",
+        metavar="DIR",
+        help="record every topic of the swarm to this new bag folder, as ros2 bag record "
+        "-s mcap writes one (ros2 bag info and play, rosbags and Foxglove read it); written "
+        "whole when the swarm stops",
     )
     parser.add_argument(
         "--view",

@@ -74,6 +74,30 @@ def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
 
 
 @contextmanager
+def atomic_folder(path: Path) -> Iterator[Path]:
+    """A hidden folder beside ``path`` to fill; it becomes ``path`` when the block ends well.
+
+    ``path`` must not exist (as ``ros2 bag record -o`` refuses one); nothing is
+    left there when the block raises, and a process that dies leaves only the
+    hidden folder.
+    """
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        folder = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
+    except OSError as err:
+        raise OutputError(f"{path}: cannot write ({err.strerror or err})") from err
+    try:
+        yield folder
+        os.rename(folder, path)
+    except OSError as err:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise OutputError(f"{path}: cannot write ({err.strerror or err})") from err
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+
+
+@contextmanager
 def atomic_output(path: Path) -> Iterator[Path]:
     """A path to write ``path``'s content to; it becomes ``path`` when the block ends well.
 

@@ -1,10 +1,16 @@
-"""Recording a swarm's topics to MCAP, and playing a recording back, as ROS 2 CDR.
+"""Recording a swarm's topics as a rosbag2 bag, and playing a recording back, as ROS 2 CDR.
 
 A raw subscription hands rclpy's callback the CDR bytes DDS carried, and a
 publisher sends such bytes as they are, so a recording holds the wire's own
-bytes: nothing is deserialised to record it or serialised to play it. The
-file is MCAP with the ``ros2msg`` schemas and ``cdr`` encoding that
-rosbag2's MCAP storage writes, so Foxglove and ``ros2 bag`` read it.
+bytes: nothing is deserialised to record it or serialised to play it.
+
+A recording is a bag folder as ``ros2 bag record -s mcap`` writes it (Jazzy,
+metadata version 9): ``metadata.yaml`` and one MCAP file with the ``ros2``
+profile's ``ros2msg`` schemas and ``cdr`` messages, each channel with its
+publishers' ``offered_qos_profiles`` and its ``topic_type_hash``, rosbag2's
+``rosbag2`` metadata record and MCAP's statistics. ``ros2 bag info`` and
+``play``, rosbags and Foxglove read it. A single ``.mcap`` file (our first
+recordings) is read as well.
 
 :class:`Recorder` subscribes to every topic under the swarm's namespace as
 it appears on the graph (as ``ros2 bag record`` does), with the QoS its
@@ -14,6 +20,7 @@ timing.
 
 from __future__ import annotations
 
+import json
 import struct
 import sys
 import time
@@ -21,7 +28,7 @@ from collections.abc import Iterator
 from contextlib import ExitStack
 from dataclasses import dataclass
 from functools import partial
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any
 
 import yaml
@@ -30,13 +37,15 @@ from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap.writer import Writer
 from rclpy.context import Context
+from rclpy.duration import Duration
 from rclpy.event_handler import QoSSubscriptionMatchedInfo, SubscriptionEventCallbacks
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from ..core.errors import SwazureError
-from ..core.results import atomic_output
+from ..core.files import read_yaml
+from ..core.results import atomic_folder
 from .interfaces import message_class
 
 #: Seconds between looks at the graph for new topics to record.
@@ -73,13 +82,18 @@ def message_definition(type_name: str) -> str:
     return "\n".join(texts)
 
 
-def _msg_text(package: str, name: str) -> str:
+def _share(package: str) -> Path:
+    """The share/ folder of an interface package."""
     try:
-        share = Path(get_package_share_directory(package))
+        return Path(get_package_share_directory(package))
     except (PackageNotFoundError, ValueError, OSError):  # OSError: no AMENT_PREFIX_PATH
         # Installed from PyPI, the venv is an ament prefix that AMENT_PREFIX_PATH
         # need not name.
-        share = Path(sys.prefix) / "share" / package
+        return Path(sys.prefix) / "share" / package
+
+
+def _msg_text(package: str, name: str) -> str:
+    share = _share(package)
     try:
         return (share / "msg" / f"{name}.msg").read_text()
     except OSError as err:
@@ -167,8 +181,77 @@ def _qos_metadata(qos: QoSProfile, offers: list[QoSProfile]) -> dict[str, str]:
     }
 
 
+#: rosbag2's metadata version that Jazzy writes (offered QoS profiles as YAML lists).
+BAG_VERSION = 9
+#: The bag folder's description file.
+METADATA_FILE = "metadata.yaml"
+
+
+def type_hash(type_name: str) -> str:
+    """The RIHS01 type hash of ``pkg/msg/Type``, from its installed type description."""
+    package, _, name = type_name.split("/")
+    path = _share(package) / "msg" / f"{name}.json"
+    try:
+        hashes = json.loads(path.read_text())["type_hashes"]
+        return str(next(h["hash_string"] for h in hashes if h["type_name"] == type_name))
+    except (OSError, ValueError, KeyError, TypeError, StopIteration) as err:
+        raise SwazureError(f"no type description for {type_name} ({path})") from err
+
+
+@dataclass
+class TopicRecord:
+    """What a bag says of one recorded topic: its type, hash, publishers' QoS and count."""
+
+    type_name: str
+    type_hash: str
+    offers: list[QoSProfile]
+    count: int = 0
+
+
+def bag_metadata(
+    storage: str, topics: dict[str, TopicRecord], first: int, last: int
+) -> dict[str, Any]:
+    """rosbag2's bag metadata (version 9) of one MCAP file ``storage``; times in ns."""
+    count = sum(topic.count for topic in topics.values())
+    duration = {"nanoseconds": max(last - first, 0) if count else 0}
+    starting = {"nanoseconds_since_epoch": first if count else 0}
+    return {
+        "version": BAG_VERSION,
+        "storage_identifier": "mcap",
+        "duration": duration,
+        "starting_time": starting,
+        "message_count": count,
+        "topics_with_message_count": [
+            {
+                "topic_metadata": {
+                    "name": name,
+                    "type": topic.type_name,
+                    "serialization_format": "cdr",
+                    "offered_qos_profiles": yaml.safe_load(offered_qos_profiles(topic.offers)),
+                    "type_description_hash": topic.type_hash,
+                },
+                "message_count": topic.count,
+            }
+            for name, topic in topics.items()
+        ],
+        "compression_format": "",
+        "compression_mode": "",
+        "relative_file_paths": [storage],
+        "files": [
+            {
+                "path": storage,
+                "starting_time": starting,
+                "duration": duration,
+                "message_count": count,
+            }
+        ],
+        "custom_data": None,
+        "ros_distro": "jazzy",
+    }
+
+
 class Recorder(Node):
-    """Records every topic under ``/NAMESPACE`` to an MCAP file, written atomically on close."""
+    """Records every topic under ``/NAMESPACE`` to a bag folder, written atomically on close."""
 
     def __init__(self, path: Path, namespace: str = "swarm", *, context: Context) -> None:
         super().__init__(
@@ -180,22 +263,28 @@ class Recorder(Node):
         )
         self.path = path
         self._prefix = f"/{namespace.strip('/')}/"
-        # The file and its atomic rename stay open until close(): a recording is
+        # The folder and its atomic rename stay open until close(): a recording is
         # as long as the swarm runs.
         self._files = ExitStack()
-        temporary = self._files.enter_context(atomic_output(path))
-        self._writer = Writer(self._files.enter_context(temporary.open("wb")))
+        self._folder = self._files.enter_context(atomic_folder(path))
+        self._storage = f"{path.name}_0.mcap"
+        self._writer = Writer(self._files.enter_context((self._folder / self._storage).open("wb")))
         self._writer.start(profile="ros2", library="swazure")
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._matched: dict[str, int] = {}
-        #: Messages recorded per topic.
-        self.counts: dict[str, int] = {}
+        self._topics: dict[str, TopicRecord] = {}
+        self._first, self._last = 0, 0  # ns, of the first and the last message
         self.bytes = 0
-        #: The file is finished and at its path.
+        #: The bag is finished and at its path.
         self.closed = False
         self._look()
         self.create_timer(GRAPH_LOOK_PERIOD, self._look)
+
+    @property
+    def counts(self) -> dict[str, int]:
+        """Messages recorded per topic."""
+        return {topic: record.count for topic, record in self._topics.items()}
 
     def _look(self) -> None:
         """Subscribe to the topics under the namespace that appeared since the last look."""
@@ -211,15 +300,17 @@ class Recorder(Node):
             self._schemas[type_name] = self._writer.register_schema(
                 name=type_name, encoding="ros2msg", data=definition.encode()
             )
+        offers = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)] or [qos]
+        self._topics[topic] = TopicRecord(type_name, type_hash(type_name), offers)
         self._channels[topic] = self._writer.register_channel(
             topic=topic,
             message_encoding="cdr",
             schema_id=self._schemas[type_name],
-            metadata=_qos_metadata(
-                qos, [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
-            ),
+            metadata={
+                **_qos_metadata(qos, offers),
+                "topic_type_hash": self._topics[topic].type_hash,
+            },
         )
-        self.counts[topic] = 0
         self._matched[topic] = 0
 
         def on_matched(status: QoSSubscriptionMatchedInfo, topic: str = topic) -> None:
@@ -239,11 +330,14 @@ class Recorder(Node):
         if self.closed:
             return
         now = time.time_ns()
-        self.counts[topic] += 1
+        record = self._topics[topic]
+        record.count += 1
+        self._first = self._first or now
+        self._last = now
         self.bytes += len(data)
         self._writer.add_message(
             self._channels[topic], log_time=now, data=data, publish_time=now,
-            sequence=self.counts[topic],
+            sequence=record.count,
         )  # fmt: skip
 
     def caught_up(self) -> bool:
@@ -254,12 +348,19 @@ class Recorder(Node):
         )
 
     def close(self) -> None:
-        """Finish the file and put it at its path (once)."""
+        """Finish the bag and put it at its path (once)."""
         if self.closed:
             return
         self.closed = True
+        metadata = bag_metadata(self._storage, self._topics, self._first, self._last)
+        # rosbag2's MCAP storage keeps the bag's metadata in the file too.
+        self._writer.add_metadata(
+            "rosbag2", {"serialized_metadata": yaml.safe_dump(metadata, sort_keys=False)}
+        )
         self._writer.finish()  # type: ignore[no-untyped-call]
-        self._files.close()  # the stream, then the rename into place
+        described = {"rosbag2_bagfile_information": metadata}
+        (self._folder / METADATA_FILE).write_text(yaml.safe_dump(described, sort_keys=False))
+        self._files.close()  # the stream, then the folder's rename into place
 
 
 @dataclass(frozen=True)
@@ -280,36 +381,57 @@ class Recorded:
     log_time: int
 
 
-def recorded_channels(path: Path) -> list[Channel]:
-    """The ROS 2 (cdr) topics of an MCAP recording; SwazureError if it is not one."""
+def storage_files(path: Path) -> list[Path]:
+    """The MCAP files of a recording: a bag folder's (its metadata.yaml says), or ``path``."""
+    if not path.is_dir():
+        return [path]
+    described = read_yaml(path / METADATA_FILE, "bag metadata", SwazureError)
     try:
-        with path.open("rb") as stream:
-            summary = make_reader(stream).get_summary()
-    except OSError as err:
-        raise SwazureError(f"{path}: cannot read ({err.strerror or err})") from err
-    except (McapError, ValueError, EOFError, struct.error) as err:
-        raise SwazureError(f"{path}: not an MCAP recording ({err})") from err
-    if summary is None:
-        raise SwazureError(f"{path}: not a finished MCAP recording (no summary)")
-    return [
-        Channel(channel.topic, summary.schemas[channel.schema_id].name, dict(channel.metadata))
-        for channel in summary.channels.values()
-        if channel.message_encoding == "cdr" and channel.schema_id in summary.schemas
-    ]
+        metadata = described["rosbag2_bagfile_information"]
+        if metadata["storage_identifier"] != "mcap":
+            raise SwazureError(
+                f"{path}: a bag of {metadata['storage_identifier']!r} storage; "
+                "recordings here are MCAP"
+            )
+        # A bag's files are beside its metadata, by name (as rosbag2 reads them).
+        return [path / PurePath(str(name)).name for name in metadata["relative_file_paths"]]
+    except (KeyError, TypeError) as err:
+        raise SwazureError(f"{path}: not a rosbag2 bag ({METADATA_FILE} lacks {err})") from err
+
+
+def recorded_channels(path: Path) -> list[Channel]:
+    """The ROS 2 (cdr) topics of a recording; SwazureError if it is not one."""
+    channels: dict[str, Channel] = {}
+    for storage in storage_files(path):
+        try:
+            with storage.open("rb") as stream:
+                summary = make_reader(stream).get_summary()
+        except OSError as err:
+            raise SwazureError(f"{storage}: cannot read ({err.strerror or err})") from err
+        except (McapError, ValueError, EOFError, struct.error) as err:
+            raise SwazureError(f"{storage}: not an MCAP recording ({err})") from err
+        if summary is None:
+            raise SwazureError(f"{storage}: not a finished MCAP recording (no summary)")
+        for channel in summary.channels.values():
+            if channel.message_encoding == "cdr" and channel.schema_id in summary.schemas:
+                schema = summary.schemas[channel.schema_id].name
+                channels[channel.topic] = Channel(channel.topic, schema, dict(channel.metadata))
+    return list(channels.values())
 
 
 def read_recording(path: Path) -> Iterator[Recorded]:
-    """The ROS 2 messages of an MCAP recording, in log time order."""
-    try:
-        with path.open("rb") as stream:
-            messages = make_reader(stream).iter_messages(log_time_order=True)
-            for schema, channel, message in messages:
-                if schema is not None and channel.message_encoding == "cdr":
-                    yield Recorded(channel.topic, message.data, message.log_time)
-    except OSError as err:
-        raise SwazureError(f"{path}: cannot read ({err.strerror or err})") from err
-    except (McapError, ValueError, EOFError, struct.error) as err:
-        raise SwazureError(f"{path}: not an MCAP recording ({err})") from err
+    """The ROS 2 messages of a recording, file by file, in log time order."""
+    for storage in storage_files(path):
+        try:
+            with storage.open("rb") as stream:
+                messages = make_reader(stream).iter_messages(log_time_order=True)
+                for schema, channel, message in messages:
+                    if schema is not None and channel.message_encoding == "cdr":
+                        yield Recorded(channel.topic, message.data, message.log_time)
+        except OSError as err:
+            raise SwazureError(f"{storage}: cannot read ({err.strerror or err})") from err
+        except (McapError, ValueError, EOFError, struct.error) as err:
+            raise SwazureError(f"{storage}: not an MCAP recording ({err})") from err
 
 
 class Player(Node):
@@ -332,6 +454,18 @@ class Player(Node):
     def play(self, message: Recorded) -> None:
         """Publish ``message``'s bytes as they were recorded."""
         self._by_topic[message.topic].publish(message.data)
+
+    def unacknowledged(self, timeout: float) -> list[str]:
+        """The topics whose reliable readers have not acknowledged every message within
+        ``timeout`` s (all of them waited for at once)."""
+        deadline = time.monotonic() + timeout
+        return [
+            topic
+            for topic, publisher in self._by_topic.items()
+            if not publisher.wait_for_all_acked(
+                Duration(seconds=max(deadline - time.monotonic(), 0.0))
+            )
+        ]
 
 
 def _qos_of(metadata: dict[str, str]) -> QoSProfile:

@@ -69,15 +69,15 @@ BAD_INPUTS = [
         [*SPAWN_FIT, "--technique", "move-source"],
         "estimates plain Swazure's pairs: leave out --technique",
     ),
-    (["spawn", *TORUS, "--record", "run.bag"], "written as MCAP"),
-    (["spawn", *TORUS, "--record", "afolder"], "afolder is a folder"),
+    (["spawn", *TORUS, "--record", "run.mcap"], "a recording is a bag folder"),
+    (["spawn", *TORUS, "--record", "afolder"], "afolder exists: a recording makes a new bag"),
     (["spawn", "afile"], "a swarm file is a mapping with one key, swarm:"),
     (["spawn", *TORUS, "--view", "--view-pairs", "3-17"], "expected SOURCE:TARGET"),
     (["spawn", *TORUS, "--view", "--view-port", "70000"], "outside 0..65535"),
     (["spawn", "missing.yaml"], "missing.yaml: no such file"),
     # replay
     (["replay", "missing.mcap"], "missing.mcap: no such file"),
-    (["replay", "afolder"], "afolder is a folder"),
+    (["replay", "afolder"], "afolder: a folder without metadata.yaml is not a bag"),
     (["replay", "afile"], "not an MCAP recording"),
     (["replay", "afile", "--rate", "0"], "a rate must be above 0"),
     # query

@@ -68,6 +68,10 @@ FILES = {
     "nested-parameters.yaml": "swarm:\n  cloud: torus\n  beta: 0.5\n  parameters:\n"
     "    period: [[1, 2], [3]]\n",
     "short.mcap": "x",
+    # Bag folders whose metadata says too little, or names a file that is not there.
+    "bag/metadata.yaml": "rosbag2_bagfile_information: {version: 9}\n",
+    "lost/metadata.yaml": "rosbag2_bagfile_information:\n  version: 9\n"
+    "  storage_identifier: mcap\n  relative_file_paths: [../../etc/lost_0.mcap]\n",
 }
 ROWS = [
     (["evaluate", "--cloud", "big.xyz", "--beta", "0.5"], "beyond 1e+06 cm"),
@@ -90,6 +94,9 @@ ROWS = [
     (["spawn", *TORUS, "--key-file", "big.xyz"], "64 hexadecimal digits"),
     (["replay", "short.mcap"], "not an MCAP recording"),
     (["replay", "short.mcap", "--rate", "1e-300"], "a rate must be from 0.001"),
+    (["replay", "bag"], "not a rosbag2 bag (metadata.yaml lacks 'storage_identifier')"),
+    # A bag's files are read beside its metadata, by name, wherever the metadata points.
+    (["replay", "lost"], "lost/lost_0.mcap: cannot read (No such file or directory)"),
     (["camera", "calibrate", "--camera", "string-fx.yaml"], "fx must be a finite number"),
     (["camera", "calibrate", "--camera", "null-id.yaml"], "id must be a finite number"),
     (["camera", "calibrate", "--camera", "huge-window.yaml"], "corner_window_px must be"),
@@ -103,6 +110,7 @@ ROWS = [
 
 def _inputs(folder: Path) -> list[str]:
     for name, text in FILES.items():
+        (folder / name).parent.mkdir(exist_ok=True)
         (folder / name).write_text(text)
     np.save(folder / "complex.npy", np.array([[1 + 2j, 0, 0], [0, 1, 0], [0, 0, 1]]))
     os.mkfifo(folder / "fifo.xyz")
