@@ -206,6 +206,9 @@ def test_swazure_echo_shows_a_measurement_of_a_running_swarm(running_swarm):
     assert echo.returncode == 0, err
     assert out.endswith("---\n") and out.count("---\n") == 100
     assert "source_id:" in out and "poses:" in out and "tracking_distance:" in out
+    # Every FLS's latched message, once: a late reader is sent all of them at once.
+    sources = {line.split(":")[1] for line in out.splitlines() if line.startswith("source_id:")}
+    assert len(sources) == 100, sorted(sources)
     code, _, err = stop(running_swarm)
     assert code == 0, err
     # A stop is not a failure: no callback reports an exception on the way out.
