@@ -14,9 +14,12 @@ suite runs it (test/test_readme.py), so the README cannot go stale unseen.
 from __future__ import annotations
 
 import argparse
+import os
 import re
+import signal
 import subprocess
 import sys
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,9 +27,15 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 README = REPO / "README.md"
 MARKER = re.compile(r"^<!-- output: (?P<name>[\w-]+) -->$")
-#: Figures that differ from run to run on one machine: times, sizes, memory, and the rounds
-#: and messages of a discovery whose round restarted under load.
-VOLATILE = re.compile(r"\d+(?:\.\d+)? (?:s|MB|rounds|messages)\b|\(\d+(?: \+ \d+)*\)")
+#: Figures that differ from run to run on one machine: times, sizes, memory, the rounds
+#: and messages of a discovery whose round restarted under load, and a message's stamp.
+VOLATILE = re.compile(
+    r"\d+(?:\.\d+)? (?:s|MB|rounds|messages)\b|\(\d+(?: \+ \d+)*\)|sec=\d+, nanosec=\d+"
+)
+#: The real ros2 command line, where ../shared's wheels were installed (make setup).
+ROS2 = Path(sys.executable).parent / "ros2"
+#: Seconds the example swarm may take to come up and answer.
+ROS_WAIT = 180.0
 
 
 @dataclass(frozen=True)
@@ -109,6 +118,81 @@ BLOCKS = (
 )
 
 
+@dataclass(frozen=True)
+class RosSession:
+    """The README's first ROS example: ros2 commands against the launched example swarm.
+
+    Each command runs again until it answers (the swarm takes a while to come
+    up); the block shows each command after ``$`` and the lines it printed that
+    start with one of ``kept``.
+    """
+
+    name: str
+    launch: tuple[str, ...]
+    commands: tuple[tuple[str, ...], ...]
+    kept: tuple[str, ...]
+
+
+SESSIONS = (
+    RosSession(
+        "ros2-first",
+        ("launch", "swazure_ros", "swarm.launch.py"),
+        (
+            ("param", "get", "/swarm/fls_1", "publish_period"),
+            (
+                "service",
+                "call",
+                "/swarm/coordinator/compute_pose",
+                "swazure_interfaces/srv/ComputePose",
+                "{source_id: 0, target_id: 2, policy: 1}",
+            ),
+        ),
+        ("Double value", "response:", "swazure_interfaces.srv.ComputePose_Response"),
+    ),
+)
+
+
+def run_session(session: RosSession) -> list[str]:
+    """Launch the example swarm, run the session's commands against it; the block's lines."""
+    if not ROS2.exists():
+        raise SystemExit(f"readme_outputs: {session.name} needs {ROS2} (../shared's wheels)")
+    environment = dict(os.environ, AMENT_PREFIX_PATH=str(ROS2.parents[1]))
+    launch = subprocess.Popen(
+        [str(ROS2), *session.launch],
+        env=environment,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+    lines = [f"$ ros2 {shown(session.launch)}"]
+    try:
+        deadline = time.monotonic() + ROS_WAIT
+        for command in session.commands:
+            while True:
+                done = subprocess.run(
+                    [str(ROS2), *command], env=environment, capture_output=True, text=True,
+                    timeout=ROS_WAIT,
+                )  # fmt: skip
+                if done.returncode == 0 and "success=False" not in done.stdout:
+                    break
+                if time.monotonic() > deadline:
+                    raise SystemExit(f"readme_outputs: ros2 {shown(command)}: no answer")
+                time.sleep(1.0)
+            lines.append(f"$ ros2 {shown(command)}")
+            lines += [
+                line.rstrip() for line in done.stdout.splitlines() if line.startswith(session.kept)
+            ]
+    finally:
+        os.killpg(launch.pid, signal.SIGINT)
+        launch.wait(timeout=60)
+    return lines
+
+
+def shown(command: Sequence[str]) -> str:
+    """A command as a person types it: an argument with spaces in double quotes."""
+    return " ".join(f'"{word}"' if " " in word else word for word in command)
+
+
 def excerpt(printed: str, kept: Sequence[str]) -> list[str]:
     """The lines of ``printed`` that start with one of ``kept``, ``...`` where lines were cut."""
     lines, skipped = [], False
@@ -162,11 +246,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true", help="exit 1 if a block is stale")
     parser.add_argument("--readme", type=Path, default=README, help="the README (default ours)")
+    names = [one.name for one in (*BLOCKS, *SESSIONS)]
+    parser.add_argument("--only", nargs="+", choices=names, help="these blocks only")
     parser.add_argument(
-        "--only", nargs="+", choices=[block.name for block in BLOCKS], help="these blocks only"
+        "--skip-ros", action="store_true", help="leave out the blocks that need the ros2 tools"
     )
     args = parser.parse_args(argv)
-    chosen = [block for block in BLOCKS if args.only is None or block.name in args.only]
+    every: list[Block | RosSession] = [*BLOCKS, *([] if args.skip_ros else SESSIONS)]
+    chosen = [one for one in every if args.only is None or one.name in args.only]
     try:
         text = args.readme.read_text()
     except OSError as err:
@@ -180,7 +267,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # From the last block up, so that earlier spans keep their line numbers.
     for block in sorted(chosen, key=lambda one: spans[one.name][0], reverse=True):
         first, end = spans[block.name]
-        fresh = run(block)
+        fresh = run(block) if isinstance(block, Block) else run_session(block)
         if masked(lines[first:end]) != masked(fresh):
             stale.append(block.name)
         lines[first:end] = fresh
