@@ -9,6 +9,7 @@ suite runs it (test/test_readme.py), so the README cannot go stale unseen.
 
     .venv/bin/python scripts/readme_outputs.py           # rewrite README.md's blocks
     .venv/bin/python scripts/readme_outputs.py --check   # exit 1 if they are stale
+    .venv/bin/python scripts/readme_outputs.py --times   # time a fresh clone's setup (minutes)
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import re
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -193,6 +195,32 @@ def shown(command: Sequence[str]) -> str:
     return " ".join(f'"{word}"' if " " in word else word for word in command)
 
 
+#: What --times measures in a fresh clone with no ../shared beside it, as a user's is.
+TIMED = (
+    ("make setup", "from nothing: venv, pinned wheels, interfaces, numba kernels"),
+    ("make demo", "set up: evaluate, the same by the swarm, a track"),
+    ("make colcon", "both packages built with colcon over the venv"),
+)
+
+
+def fresh_clone_times() -> list[str]:
+    """Time TIMED's steps in a fresh clone of this repository, as README's times block."""
+    lines = [f"measured {time.strftime('%Y-%m-%d')} by scripts/readme_outputs.py --times, "
+             f"{os.cpu_count()} cores, a clone with no ../shared beside it:"]  # fmt: skip
+    with tempfile.TemporaryDirectory() as folder:
+        clone = Path(folder) / "swazure"
+        subprocess.run(["git", "clone", "--quiet", str(REPO), str(clone)], check=True)
+        for step, what in TIMED:
+            print(f"readme_outputs: {step} in {clone} ...", file=sys.stderr, flush=True)
+            began = time.perf_counter()
+            done = subprocess.run(step.split(), cwd=clone, capture_output=True, text=True)
+            if done.returncode != 0:
+                tail = (done.stderr.strip().splitlines() or ["no output"])[-1]
+                raise SystemExit(f"readme_outputs: {step} failed in the clone: {tail}")
+            lines.append(f"{step:<12} {time.perf_counter() - began:6.0f} s   {what}")
+    return lines
+
+
 def excerpt(printed: str, kept: Sequence[str]) -> list[str]:
     """The lines of ``printed`` that start with one of ``kept``, ``...`` where lines were cut."""
     lines, skipped = [], False
@@ -251,7 +279,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument(
         "--skip-ros", action="store_true", help="leave out the blocks that need the ros2 tools"
     )
+    parser.add_argument(
+        "--times",
+        action="store_true",
+        help="measure the README's times in a fresh clone (make setup, demo, colcon: minutes) "
+        "and rewrite its times block, nothing else",
+    )
     args = parser.parse_args(argv)
+    if args.times:
+        return write_times(args.readme)
     every: list[Block | RosSession] = [*BLOCKS, *([] if args.skip_ros else SESSIONS)]
     chosen = [one for one in every if args.only is None or one.name in args.only]
     try:
@@ -284,6 +320,28 @@ def main(argv: Sequence[str] | None = None) -> int:
     atomic_write(args.readme, lambda tmp: tmp.write_text(new))
     print(f"README.md: {len(chosen)} outputs regenerated ({len(stale)} had changed)")
     return 0
+
+
+def write_times(readme: Path) -> int:
+    """Rewrite README's fresh-clone times block from a new measurement."""
+    text = readme.read_text()
+    spans = blocks_in(text)
+    if TIMES_BLOCK not in spans:
+        raise SystemExit(f"readme_outputs: no marker for {TIMES_BLOCK} in {readme}")
+    lines = text.splitlines()
+    first, end = spans[TIMES_BLOCK]
+    lines[first:end] = fresh_clone_times()
+    sys.path.insert(0, str(REPO))
+    from swazure_ros.core.results import atomic_write
+
+    new = "\n".join(lines) + "\n"
+    atomic_write(readme, lambda tmp: tmp.write_text(new))
+    print("\n".join(lines[first:end]))
+    return 0
+
+
+#: The README's block of fresh-clone times (written by --times, never checked: they vary).
+TIMES_BLOCK = "fresh-clone-times"
 
 
 if __name__ == "__main__":
