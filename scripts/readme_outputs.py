@@ -330,13 +330,14 @@ def write_times(readme: Path) -> int:
         raise SystemExit(f"readme_outputs: no marker for {TIMES_BLOCK} in {readme}")
     lines = text.splitlines()
     first, end = spans[TIMES_BLOCK]
-    lines[first:end] = fresh_clone_times()
+    measured = fresh_clone_times()
+    lines[first:end] = measured
     sys.path.insert(0, str(REPO))
     from swazure_ros.core.results import atomic_write
 
     new = "\n".join(lines) + "\n"
     atomic_write(readme, lambda tmp: tmp.write_text(new))
-    print("\n".join(lines[first:end]))
+    print("\n".join(measured))
     return 0
 
 
