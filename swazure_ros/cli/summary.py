@@ -20,6 +20,8 @@ the summary's rows:
   NEES                    a fit's normalized estimation error squared (3 is honest)
   distance error, %       | |estimate| - |truth| | / |truth|: 100 % is an estimate twice
                           as long, or of length zero; a decaying hop can exceed that
+  sweet error, %          the distance error of the pairs with a sweet path alone
+  decaying error, %       the distance error of the pairs with a decaying path alone
   alpha, deg              the angle between the estimated and the true vector
   theta error, deg        the error of the inclination acos(z / |v|)
   phi error, deg          the error of the azimuth atan2(y, x), at most 180: near the z
@@ -102,7 +104,7 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
         rows.append((f"{label}: mean / max", f"{cell(stats['mean'])} / {cell(stats['max'])}"))
         if key == "distance_error_pct" and "distance_error_pct_sweet_paths" in summary:
             rows += [
-                (f"  {kind} paths: mean / max", f"{cell(part['mean'])} / {cell(part['max'])}")
+                (f"{kind} error, %: mean / max", f"{cell(part['mean'])} / {cell(part['max'])}")
                 for kind, part in (
                     ("sweet", summary["distance_error_pct_sweet_paths"]),
                     ("decaying", summary["distance_error_pct_decaying_paths"]),

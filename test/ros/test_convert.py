@@ -90,7 +90,7 @@ def test_a_world_state_reads_back_every_id_and_position_bit_for_bit():
     sent = world_message(12, ids, points, Time(sec=1))
     got = deserialize_message(serialize_message(sent), WorldState)
     read_ids, read_points = world_positions(got, ids, 1e6)
-    assert got.revision == 12 and got.header.frame_id == "world"
+    assert got.revision == 12 and got.header.frame_id == "swarm"
     np.testing.assert_array_equal(read_ids, ids)
     np.testing.assert_array_equal(read_points, points)
     read_points[0, 0] = 99.0  # the caller's own array, not the message's buffer
