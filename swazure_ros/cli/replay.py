@@ -72,14 +72,18 @@ def main(args: argparse.Namespace) -> int:
     try:
         time.sleep(args.delay)
         began, first = time.monotonic(), None
-        for message in read_recording(args.recording):
-            first = message.log_time if first is None else first
-            due = began + (message.log_time - first) / 1e9 / args.rate
-            wait = due - time.monotonic()
-            if wait > 0:
-                time.sleep(wait)
-            player.play(message)
-            played += 1
+        try:
+            for message in read_recording(args.recording):
+                first = message.log_time if first is None else first
+                due = began + (message.log_time - first) / 1e9 / args.rate
+                wait = due - time.monotonic()
+                if wait > 0:
+                    time.sleep(wait)
+                player.play(message)
+                played += 1
+        except SwazureError as err:
+            # What came before the damage was played; the one line says so.
+            raise SwazureError(f"{err}; replayed the {played} messages before it") from err
         # Every reliable reader has every message before we leave, or we say which not.
         unacknowledged = player.unacknowledged(ACK_WAIT)
     finally:

@@ -219,8 +219,17 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
         marker_id=_whole(marker, "id", f"{where}: camera.marker", 0),
         degradations=Degradations(**values),
     )
-    if min(width, height, fx, camera.focal_length_mm, camera.f_number, camera.marker_side_mm) <= 0:
-        raise SensorError(f"{where}: sizes, focal lengths and the f-number must be positive")
+    sizes = (width, height, fx, camera.fy, camera.focal_length_mm, camera.f_number)
+    if min(*sizes, camera.marker_side_mm, camera.focus_min_mm) <= 0:
+        # Each is divided by, or is a scale of the projection.
+        raise SensorError(
+            f"{where}: sizes, focal lengths (fx, fy, focal_length_mm), the f-number and "
+            "focus_min_mm must be positive"
+        )
+    degradations = camera.degradations
+    noise = (degradations.residual_blur_px, degradations.read_noise, degradations.shot_noise_gain)
+    if min(noise) < 0:
+        raise SensorError(f"{where}: camera.degradations' blur and noise must be 0 or more")
     if max(width, height) > MAX_IMAGE_PX:
         raise SensorError(
             f"{where}: a {width}x{height} image is more than {MAX_IMAGE_PX} px a side"

@@ -410,6 +410,10 @@ def recorded_channels(path: Path) -> list[Channel]:
             raise SwazureError(f"{storage}: cannot read ({err.strerror or err})") from err
         except (McapError, ValueError, EOFError, struct.error) as err:
             raise SwazureError(f"{storage}: not an MCAP recording ({err})") from err
+        except Exception as err:  # a corrupted summary: the decoders raise what they raise
+            raise SwazureError(
+                f"{storage}: a corrupted MCAP summary ({type(err).__name__}: {err})"
+            ) from err
         if summary is None:
             raise SwazureError(f"{storage}: not a finished MCAP recording (no summary)")
         for channel in summary.channels.values():
@@ -420,18 +424,28 @@ def recorded_channels(path: Path) -> list[Channel]:
 
 
 def read_recording(path: Path) -> Iterator[Recorded]:
-    """The ROS 2 messages of a recording, file by file, in log time order."""
+    """The ROS 2 messages of a recording, file by file, in log time order.
+
+    A file corrupted on the way stops the messages at its last good chunk:
+    SwazureError then says after how many and why.
+    """
+    read = 0
     for storage in storage_files(path):
         try:
             with storage.open("rb") as stream:
-                messages = make_reader(stream).iter_messages(log_time_order=True)
+                # Checked chunk by chunk: damaged bytes end the messages, not change them.
+                reader = make_reader(stream, validate_crcs=True)
+                messages = reader.iter_messages(log_time_order=True)
                 for schema, channel, message in messages:
                     if schema is not None and channel.message_encoding == "cdr":
                         yield Recorded(channel.topic, message.data, message.log_time)
+                        read += 1
         except OSError as err:
             raise SwazureError(f"{storage}: cannot read ({err.strerror or err})") from err
-        except (McapError, ValueError, EOFError, struct.error) as err:
-            raise SwazureError(f"{storage}: not an MCAP recording ({err})") from err
+        except Exception as err:  # a corrupted chunk: CRC, decompression, indexes
+            raise SwazureError(
+                f"{storage}: corrupted after message {read} ({type(err).__name__}: {err})"
+            ) from err
 
 
 class Player(Node):
@@ -475,7 +489,10 @@ def _qos_of(metadata: dict[str, str]) -> QoSProfile:
     recordings' own keys where there are no profiles (reliable, volatile when
     not said).
     """
-    offers = yaml.safe_load(metadata.get("offered_qos_profiles", "")) or []
+    try:
+        offers = yaml.safe_load(metadata.get("offered_qos_profiles", "")) or []
+    except yaml.YAMLError:
+        offers = None  # a corrupted record: the keys below, or reliable and volatile
     if isinstance(offers, list) and offers and all(isinstance(o, dict) for o in offers):
         reliable = all(o.get("reliability") in ("reliable", 1) for o in offers)
         latched = all(o.get("durability") in ("transient_local", 1) for o in offers)

@@ -198,6 +198,8 @@ def init_context(domain_id: int | None = None, params_file: str | None = None) -
             signal_handler_options=SignalHandlerOptions.NO,
         )
     except Exception as err:  # rclpy reports a bad parameter file as a bare RCLError
+        if params_file is None:
+            raise SwazureError(f"cannot start ROS 2 here: {err}") from err
         raise SwazureError(f"{params_file}: not a valid ROS 2 parameter file") from err
     return context
 

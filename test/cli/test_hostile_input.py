@@ -62,6 +62,8 @@ FILES = {
     "far-reach.yaml": sensor_with("decaying_max: 30.0", "decaying_max: 1.0e+9"),
     "typo-sensor.yaml": sensor_with("  ranges:", "  colour: red\n  ranges:"),
     "string-fx.yaml": camera_with("fx: 836.8", 'fx: "abc"'),
+    "zero-fy.yaml": camera_with("fx: 836.8", "fy: 0\n    fx: 836.8"),
+    "negative-noise.yaml": camera_with("read_noise: 2.0", "read_noise: -1.0"),
     "null-id.yaml": camera_with("    id: 0", "    id: null"),
     "huge-window.yaml": camera_with("corner_window_px: 11", "corner_window_px: 1000000"),
     "huge-image.yaml": camera_with("width: 1280", "width: 100000000"),
@@ -98,6 +100,9 @@ ROWS = [
     # A bag's files are read beside its metadata, by name, wherever the metadata points.
     (["replay", "lost"], "lost/lost_0.mcap: cannot read (No such file or directory)"),
     (["camera", "calibrate", "--camera", "string-fx.yaml"], "fx must be a finite number"),
+    # Divided by in the projection: a ZeroDivisionError's traceback before (issue 36).
+    (["camera", "calibrate", "--camera", "zero-fy.yaml"], "(fx, fy, focal_length_mm)"),
+    (["camera", "calibrate", "--camera", "negative-noise.yaml"], "blur and noise must be 0"),
     (["camera", "calibrate", "--camera", "null-id.yaml"], "id must be a finite number"),
     (["camera", "calibrate", "--camera", "huge-window.yaml"], "corner_window_px must be"),
     (["camera", "calibrate", "--camera", "huge-image.yaml"], "more than 8192 px"),

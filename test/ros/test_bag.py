@@ -11,6 +11,7 @@ import pytest
 import yaml
 from geometry_msgs.msg import Vector3
 from mcap.reader import make_reader
+from mcap.writer import Writer
 from mcap_ros2.decoder import generate_dynamic
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -233,3 +234,36 @@ def test_replay_of_a_file_that_is_not_a_recording_says_so_in_one_line(tmp_path, 
     )  # fmt: skip
     assert run.returncode == 2 and message in run.stderr, run.stderr
     assert len(run.stderr.strip().splitlines()) == 1 and "Traceback" not in run.stderr
+
+
+def test_a_recording_corrupted_in_the_middle_is_played_to_its_last_good_chunk(tmp_path, domain):
+    path = tmp_path / "run.mcap"
+    with path.open("wb") as stream:
+        writer = Writer(stream, chunk_size=2048)  # many chunks, each checked by its CRC
+        writer.start(profile="ros2", library="test")
+        schema = writer.register_schema(
+            "geometry_msgs/msg/Vector3", "ros2msg", message_definition(
+                "geometry_msgs/msg/Vector3").encode()
+        )  # fmt: skip
+        channel = writer.register_channel("/swarm/v", "cdr", schema)
+        for number in range(400):
+            data = serialize_message(Vector3(x=float(number)))
+            writer.add_message(channel, log_time=number, data=data, publish_time=number)
+        writer.finish()
+    with path.open("rb") as stream:
+        chunks = make_reader(stream).get_summary().chunk_indexes
+    middle = chunks[len(chunks) // 2]  # damage the records of a chunk in the middle
+    data = bytearray(path.read_bytes())
+    at = middle.chunk_start_offset + middle.chunk_length // 2
+    data[at : at + 32] = b"\x5a" * 32
+    path.write_bytes(bytes(data))
+    run = subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", "replay", str(path), "--delay", "0.01",
+         "--rate", "1000", "--domain-id", str(domain)],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert run.returncode == 2 and "Traceback" not in run.stderr, run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1, run.stderr
+    said = run.stderr.split("corrupted after message ")[1]
+    played = int(said.split(" ")[0])
+    assert 0 < played < 400 and f"replayed the {played} messages before it" in said, said
