@@ -238,6 +238,13 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise SwazureError("--log-dir goes with --per-fls or --discovery-server")
     params = args.params if args.params is not None else config_dir() / "swarm.yaml"
     world = world_from_args(args)
+    if args.compute_all:
+        # Before any node comes up, not after: the swarm could not search this way.
+        from ..protocol.discovery.search import refusal
+
+        refused = refusal(world.sensor(), world.assigned().radius, args.policy)
+        if refused is not None:
+            raise SwazureError(f"--policy {args.policy}: {refused}")
     return SwarmConfig(
         world,
         processes=args.processes,

@@ -14,7 +14,7 @@ from swazure_interfaces.msg import PoseEstimate
 from swazure_interfaces.srv import ComputePose
 
 from ..core.evaluate import Neighbourhood
-from ..protocol.discovery.search import bucket_width
+from ..protocol.discovery.search import refusal
 from ..protocol.runs import DiscoveryResult
 from .convert.discovery import pose_estimate_message
 from .deferred import Reply, create_deferred_service
@@ -84,11 +84,7 @@ class PoseService:
 
     def _unusable(self, policy: str) -> str | None:
         """Why this swarm's FLSs cannot search by ``policy``; None when they can."""
-        try:
-            bucket_width(self.shape.sensor, self.shape.swarm.radius, policy)
-        except ValueError as err:
-            return str(err)
-        return None
+        return refusal(self.shape.sensor, self.shape.swarm.radius, policy)
 
     def _pose_answer(
         self, result: DiscoveryResult, source: int, target: int

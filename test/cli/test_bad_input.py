@@ -70,6 +70,11 @@ BAD_INPUTS = [
         "estimates plain Swazure's pairs: leave out --technique",
     ),
     (["spawn", *TORUS, "--record", "run.mcap"], "a recording is a bag folder"),
+    # Refused before bring-up (it was a traceback after it, issue 55).
+    (
+        ["spawn", *TORUS, "--accurate", "--policy", "least-error", "--compute-all"],
+        "--policy least-error: least-error needs a sensor whose every hop errs",
+    ),
     (["spawn", *TORUS, "--record", "afolder"], "afolder exists: a recording makes a new bag"),
     (["spawn", "afile"], "a swarm file is a mapping with one key, swarm:"),
     (["spawn", *TORUS, "--view", "--view-pairs", "3-17"], "expected SOURCE:TARGET"),

@@ -63,6 +63,15 @@ _HOPS_FIRST, _LENGTH_FIRST, _ERROR_FIRST = 0, 1, 2
 _COST_ORDER = {FEWEST_HOPS: _HOPS_FIRST, SHORTEST_LENGTH: _LENGTH_FIRST, LEAST_ERROR: _ERROR_FIRST}
 
 
+def refusal(sensor: Sensor, radius: float, policy: str) -> str | None:
+    """Why FLSs with ``sensor`` and ``radius`` (cm) cannot search by ``policy``; None if they can."""
+    try:
+        bucket_width(sensor, radius, policy)
+    except ValueError as err:
+        return str(err)
+    return None
+
+
 def bucket_width(sensor: Sensor, radius: float, policy: str) -> float:
     """Cost per round: the smallest cost a hop can add under ``policy``, a little lowered.
 
