@@ -64,7 +64,7 @@ _COST_ORDER = {FEWEST_HOPS: _HOPS_FIRST, SHORTEST_LENGTH: _LENGTH_FIRST, LEAST_E
 
 
 def refusal(sensor: Sensor, radius: float, policy: str) -> str | None:
-    """Why FLSs with ``sensor`` and ``radius`` (cm) cannot search by ``policy``; None if they can."""
+    """Why FLSs with ``sensor`` and ``radius`` (cm) cannot search by ``policy``; or None."""
     try:
         bucket_width(sensor, radius, policy)
     except ValueError as err:
