@@ -5,6 +5,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.evaluate import (
     DECAYING_PATH,
     NO_PATH,
@@ -15,6 +16,7 @@ from swazure_ros.core.evaluate import (
     evaluate,
     neighbourhood,
 )
+from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.sensor import measured_vectors
 
 from ..conftest import A, B, C, D, K, scene
@@ -91,6 +93,25 @@ def test_summary_counts_of_the_full_scene(sensor):
     assert summary["kissing_pairs"] == 0
     for key in ("flss", "removed", "radius", "dmin", "seconds", "sweet_pct", "no_path_pct"):
         assert key in summary
+
+
+def test_summary_gives_the_distance_error_of_each_class_of_pair_apart(sensor):
+    # The hand-built scene: every blind pair's path is decaying, none is sweet.
+    summary = evaluate(scene(A, B, C, K, D), sensor, "fewest-hops").summary
+    assert summary["distance_error_pct_sweet_paths"]["count"] == 0
+    decaying = summary["distance_error_pct_decaying_paths"]
+    assert decaying["count"] == 8 and decaying["mean"] == summary["distance_error_pct"]["mean"]
+    # A torus whose pairs are both: each class's mean is over its own pairs alone.
+    evaluation = evaluate(
+        make_swarm(load_cloud("torus:120", 6.0).points, beta=0.5), sensor, "shortest-length"
+    )
+    pairs, summary = evaluation.pairs, evaluation.summary
+    for status, key in ((SWEET_PATH, "sweet"), (DECAYING_PATH, "decaying")):
+        errors = pairs.distance_error[pairs.status == status]
+        assert len(errors) > 100
+        assert summary[f"distance_error_pct_{key}_paths"]["mean"] == pytest.approx(errors.mean())
+    sweet = summary["distance_error_pct_sweet_paths"]["mean"]
+    assert sweet < summary["distance_error_pct"]["mean"]
 
 
 def test_without_a_stopped_fls_paths_avoid_it_and_its_body_still_blocks(sensor):

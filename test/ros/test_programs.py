@@ -144,7 +144,7 @@ def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2
         assert "trio.xyz" in described.stdout, described
         # A bad value is refused with its reason and the node keeps its own; a good one
         # is taken; what was set at the start cannot be changed.
-        for bad in ("0.0", ".nan"):  # YAML: .nan is NaN
+        for bad in ("-1.0", "0.0", ".nan"):  # YAML: .nan is NaN
             refused = param("publish_period", "set", bad)
             said = refused.stdout + refused.stderr
             assert "Setting parameter failed" in said, refused
@@ -173,6 +173,9 @@ def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2
     for process, out in zip(programs, outs):
         # ros2run hands on its program's exit code: each ended by itself on Ctrl-C.
         assert process.returncode == 0, (process.args, out)
+    # A standalone FLS says what it waits for, and when it has it.
+    assert "waiting for its camera's first frame on /swarm/fls_1/camera/detections" in outs[3]
+    assert "on the swarm's radio: " in outs[3]
 
 
 def test_ros2_as_a_super_client_sees_fls_processes_that_discover_through_a_server(
@@ -285,6 +288,12 @@ def test_ros2_launch_of_the_default_example_swarm_sees_and_answers(ros2_tools, d
                    "publish_period")  # fmt: skip
         # The swarm file's parameters: every FLS 0.5 s, FLS 0 0.1 s.
         assert "Double value is: 0.5" in got.stdout, got
+        # The packed coordinator answers ros2 param too.
+        got = ros2("param", "get", "--no-daemon", "--spin-time", "3", "/swarm/coordinator",
+                   "round_timeout")  # fmt: skip
+        assert "Double value is: 10.0" in got.stdout, got
+        helped = ros2("run", "swazure_ros", "aruco_detector", "--help")
+        assert helped.returncode == 0 and "camera_file (string, " in helped.stdout, helped
         # The README's echo: every FLS's latched measurement, each seeing its neighbours.
         out = echoed(*ECHO_LATCHED, "--field", "source_id", "/swarm/measurements",
                      "swazure_interfaces/msg/Measurements", seconds=20)  # fmt: skip
