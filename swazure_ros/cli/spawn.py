@@ -217,7 +217,7 @@ class CreationBar:
 
 
 def config_from_args(args: argparse.Namespace) -> Any:
-    """The swarm the options describe, as a :class:`~swazure_ros.launcher.SwarmConfig`."""
+    """The swarm the options describe, as a :class:`~swazure_ros.app.config.SwarmConfig`."""
     from ..app.config import SwarmConfig, ViewConfig
     from ..ros.keys import key_from
 

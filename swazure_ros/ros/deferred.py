@@ -3,10 +3,10 @@
 rclpy 7.1's EventsExecutor, which spins a process's FLS nodes, calls a
 service callback and sends what it returns at once; an ``async`` callback is
 never awaited (ros2/rclpy#1473, fixed upstream in #1478, after the Jazzy
-wheels this project pins). An FLS that answers "my pose relative to FLS j"
-must wait for a whole discovery run, so its service answers later: the
-executor hands the request header to ``send_response``, and that is where we
-keep it until the answer is ready.
+wheels this project pins). The coordinator's ``compute_pose`` (one source's
+pose relative to a target) must wait for a whole discovery run of the swarm,
+so the service answers later: the executor hands the request header to
+``send_response``, and that is where we keep it until the answer is ready.
 """
 
 from __future__ import annotations
