@@ -195,6 +195,8 @@ def shown(command: Sequence[str]) -> str:
     return " ".join(f'"{word}"' if " " in word else word for word in command)
 
 
+#: The README's block of fresh-clone times (written by --times, never checked: they vary).
+TIMES_BLOCK = "fresh-clone-times"
 #: What --times measures in a fresh clone with no ../shared beside it, as a user's is.
 TIMED = (
     ("make setup", "from nothing: venv, pinned wheels, interfaces, numba kernels"),
@@ -339,10 +341,6 @@ def write_times(readme: Path) -> int:
     atomic_write(readme, lambda tmp: tmp.write_text(new))
     print("\n".join(measured))
     return 0
-
-
-#: The README's block of fresh-clone times (written by --times, never checked: they vary).
-TIMES_BLOCK = "fresh-clone-times"
 
 
 if __name__ == "__main__":

@@ -141,13 +141,13 @@ def offered_qos(node: Node, topic: str) -> QoSProfile:
 _INFINITE = {"sec": 9223372036, "nsec": 854775807}
 
 
-def offered_qos_profiles(offers: list[QoSProfile]) -> str:
-    """rosbag2's channel metadata ``offered_qos_profiles``: the publishers' QoS, YAML.
+def qos_profiles(offers: list[QoSProfile]) -> list[dict[str, Any]]:
+    """The publishers' QoS as rosbag2 describes them: Jazzy's layout, policies by name.
 
-    As Jazzy's rosbag2 writes it (policies by name), so that ``ros2 bag
-    play`` offers a latched topic latched again.
+    So that ``ros2 bag play`` offers a latched topic latched again. A bag's
+    metadata.yaml holds the list; an MCAP channel's metadata, its YAML text.
     """
-    profiles = [
+    return [
         {
             "history": "keep_all" if qos.history == HistoryPolicy.KEEP_ALL else "keep_last",
             "depth": int(qos.depth),
@@ -165,12 +165,11 @@ def offered_qos_profiles(offers: list[QoSProfile]) -> str:
         }
         for qos in offers
     ]
-    return yaml.safe_dump(profiles, sort_keys=False)
 
 
 def _qos_metadata(qos: QoSProfile, offers: list[QoSProfile]) -> dict[str, str]:
     return {
-        "offered_qos_profiles": offered_qos_profiles(offers or [qos]),
+        "offered_qos_profiles": yaml.safe_dump(qos_profiles(offers), sort_keys=False),
         # Our first recordings' keys, kept for the readers of those.
         "reliability": "reliable"
         if qos.reliability == ReliabilityPolicy.RELIABLE
@@ -227,7 +226,7 @@ def bag_metadata(
                     "name": name,
                     "type": topic.type_name,
                     "serialization_format": "cdr",
-                    "offered_qos_profiles": yaml.safe_load(offered_qos_profiles(topic.offers)),
+                    "offered_qos_profiles": qos_profiles(topic.offers),
                     "type_description_hash": topic.type_hash,
                 },
                 "message_count": topic.count,

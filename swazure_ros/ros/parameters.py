@@ -8,7 +8,6 @@ same rule as a value given at the start.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -50,13 +49,6 @@ def at_least(lowest: int) -> Rule:
         return f"must be a whole number >= {lowest}, got {value!r}"
 
     return rule
-
-
-def non_negative(value: Value) -> str | None:
-    """A finite number >= 0."""
-    if isinstance(value, float) and math.isfinite(value) and value >= 0:
-        return None
-    return f"must be a finite number >= 0, got {value!r}"
 
 
 @dataclass(frozen=True)
