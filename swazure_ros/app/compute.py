@@ -125,6 +125,21 @@ def compute_all(
     return SwarmComputation(evaluation, heuristic, engine, record)
 
 
+def run_failure(record: RunRecord) -> str | None:
+    """Why a swarm's run is not the engine's work, in one line; None when it is."""
+    reasons = []
+    distributed = record.distributed
+    if distributed is not None and distributed.departed:
+        gone = distributed.departed
+        shown = ", ".join(map(str, gone[:10])) + (", ..." if len(gone) > 10 else "")
+        reasons.append(f"{len(gone)} FLSs did not take part to the end ({shown})")
+    if distributed is not None and distributed.incomplete:
+        reasons.append("radio deliveries were lost for good")
+    if record.identical is not None and record.identical != "yes":
+        reasons.append(f"the pairs are not the engine's ({record.identical})")
+    return "; ".join(reasons) or None
+
+
 def same_results(ours: Evaluation, engine: Evaluation) -> str:
     """ "yes" when every pair has the engine's status, path and estimate (to 1e-9 cm)."""
     mine, theirs = ours.pairs, engine.pairs

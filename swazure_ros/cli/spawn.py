@@ -101,7 +101,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--compute-all",
         action="store_true",
         help="once the swarm is up, run path discovery for every FLS and blind neighbour "
-        "(docs/protocol.md), print its summary next to the core engine's, and exit",
+        "(docs/protocol.md), print its summary next to the core engine's, and exit: "
+        "1 when its pairs differ from the engine's or FLSs did not take part",
     )
     parser.add_argument(
         "--technique",
@@ -274,6 +275,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
 def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     """Run discovery over the whole swarm, report it beside the engine, write --out."""
     from ..app.compute import compute_all as run
+    from ..app.compute import run_failure
     from ..core.results import write_run
     from .summary import summary_table
 
@@ -323,6 +325,11 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     if args.out is not None:
         paths = write_run(args.out, computed.evaluation, record, computed.heuristic)
         print(f"wrote {', '.join(map(str, paths[:2]))} and {paths[2]}")
+    # The outputs stay written (they show what went wrong); the exit code says it.
+    failure = run_failure(record)
+    if failure is not None:
+        print(f"swazure spawn: error: {failure}", file=sys.stderr)
+        return 1
     return 0
 
 
