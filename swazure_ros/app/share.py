@@ -22,6 +22,8 @@ from ..ros.host import SwarmHost
 from ..ros.names import host_name
 from ..ros.runtime import Context
 from .config import SwarmConfig
+from ..core.geometry import Swarm
+from ..core.partition import kd_split
 from .discovery_server import client_environment
 
 CREATED, READY, FAILED = "created", "ready", "failed"
@@ -41,9 +43,14 @@ def init_context(config: SwarmConfig) -> Context:
     return runtime.init_context(config.domain_id, config.params_file)
 
 
-def shares(fls_ids: np.ndarray, processes: int) -> list[list[int]]:
-    """Split FLS ids into ``processes`` contiguous shares of near-equal size."""
-    return [part.tolist() for part in np.array_split(np.asarray(fls_ids), processes)]
+def shares(swarm: Swarm, processes: int) -> list[list[int]]:
+    """The FLS ids of ``swarm`` in ``processes`` compact regions of near-equal size.
+
+    Regions (``core.partition.kd_split``), not runs of ids: most of an FLS's
+    neighbours are then in its own process, and a process hears the radio
+    cells around its region only (``protocol.cells``).
+    """
+    return [swarm.cloud_index[rows].tolist() for rows in kd_split(swarm.points, processes)]
 
 
 def host_share(

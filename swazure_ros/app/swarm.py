@@ -73,7 +73,8 @@ class RunningSwarm:
         self.ready = False
         self.lost: list[Ended] = []
         self._began = time.perf_counter()
-        fls_ids = config.world.fls_ids()
+        assigned = config.world.assigned()
+        fls_ids = assigned.cloud_index
         self.size = len(fls_ids)
         parts = max(config.processes, config.hosts)
         if parts > self.size:
@@ -84,7 +85,7 @@ class RunningSwarm:
                 f"parameters for FLS {strangers[0]}: no such FLS in this swarm of {self.size} "
                 f"(ids {fls_ids[0]}..{fls_ids[-1]})"
             )
-        self._shares = shares(fls_ids, parts)
+        self._shares = shares(assigned, parts)
         if config.hosts > 1:
             # Only this host's share here; the others run on their own hosts.
             self._shares = [self._shares[config.share]]

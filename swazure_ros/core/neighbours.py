@@ -125,15 +125,19 @@ def _pairs_within(points: FloatArray, reach: float, grid: Grid) -> tuple[IntArra
     return rows, second
 
 
+def sensor_reach(sensor: Sensor, radius: float) -> float:
+    """The centre distance (cm) below which two FLSs of ``radius`` cm may be neighbours."""
+    reach = sensor.decaying_max + 2.0 * radius
+    return max(reach, 2.0 * radius + 2 * KISSING_TOLERANCE)
+
+
 def neighbour_pairs(swarm: Swarm, sensor: Sensor) -> NeighbourPairs:
     """Every unordered pair with tracking distance below ``sensor.decaying_max``, classified.
 
     Pairs are sorted by (first, second).
     """
-    reach = sensor.decaying_max + 2.0 * swarm.radius
-    reach = max(reach, 2.0 * swarm.radius + 2 * KISSING_TOLERANCE)
     # Candidates by a slightly longer reach; the distances that decide are centre_distance's.
-    reach *= 1.0 + 1e-9
+    reach = sensor_reach(sensor, swarm.radius) * (1.0 + 1e-9)
     points = np.ascontiguousarray(swarm.points, dtype=np.float64)
     rows, second = _pairs_within(points, reach, grid_of(points, reach))
     first = np.repeat(np.arange(swarm.size, dtype=np.int64), np.diff(rows))
@@ -158,8 +162,7 @@ def pairs_of(
     the ``flss`` alone. ``tree`` is a cKDTree of the swarm's points, when the
     caller keeps one.
     """
-    reach = sensor.decaying_max + 2.0 * swarm.radius
-    reach = max(reach, 2.0 * swarm.radius + 2 * KISSING_TOLERANCE)
+    reach = sensor_reach(sensor, swarm.radius)
     from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
 
     tree = tree if tree is not None else cKDTree(swarm.points)

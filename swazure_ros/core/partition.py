@@ -1,0 +1,40 @@
+"""Compact regions of a swarm: a k-d split of its points into parts of near-equal size."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+IntArray = NDArray[np.int64]
+FloatArray = NDArray[np.float64]
+
+
+def kd_split(points: FloatArray, parts: int) -> list[IntArray]:
+    """Rows of ``points`` (N, 3), cm, in ``parts`` compact regions whose sizes differ by at most one.
+
+    Each split cuts the widest axis of a region's bounding box at the point
+    that gives its two halves sizes in the ratio of the parts they hold
+    (``parts // 2`` and the rest). Ties on the axis keep the rows' order
+    (a stable sort), so the split is the same on every machine. Each region's
+    rows come sorted; the regions in k-d order.
+    """
+    if parts < 1:
+        raise ValueError(f"parts must be at least 1, got {parts}")
+    if parts > len(points) > 0:
+        raise ValueError(f"{parts} parts for {len(points)} points: too many")
+    rows = np.arange(len(points), dtype=np.int64)
+    return [np.sort(part) for part in _split(np.asarray(points, dtype=np.float64), rows, parts)]
+
+
+def _split(points: FloatArray, rows: IntArray, parts: int) -> list[IntArray]:
+    if parts == 1:
+        return [rows]
+    first = parts // 2
+    # Sizes of the parts when N points are spread as np.array_split spreads them.
+    cut = len(rows) * first // parts
+    here = points[rows]
+    axis = int(np.argmax(np.ptp(here, axis=0))) if len(rows) else 0
+    order = np.argsort(here[:, axis], kind="stable")
+    return _split(points, rows[order[:cut]], first) + _split(
+        points, rows[order[cut:]], parts - first
+    )

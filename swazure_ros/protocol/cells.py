@@ -1,0 +1,66 @@
+"""Radio cells: the swarm's space cut into cubes no smaller than the radio's reach.
+
+An FLS broadcasts on the topic of the cell that holds it and hears its own
+cell and the 26 around it. Every FLS within radio reach of it lies in one of
+those 27 cells (two points closer than a cell's edge differ by at most one
+cell along each axis), so it hears every broadcast a real radio would bring
+it, and a process hears nothing of the FLSs far from its own. The cells are
+fixed in space (the origin is every axis's zero), so that every process, the
+coordinator and a person echoing a topic agree on them without asking.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.neighbours import sensor_reach
+from ..core.sensor import Sensor
+
+IntArray = NDArray[np.int64]
+FloatArray = NDArray[np.float64]
+
+#: The 27 offsets (27, 3) from a cell to the cells around it, itself included.
+AROUND = np.array(
+    [(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1)], dtype=np.int64
+)
+#: A cell's edge is the radio's reach times this: a reach computed in another order of
+#: floating-point operations must not straddle two cells apart.
+MARGIN = 1.0 + 1e-9
+
+
+@dataclass(frozen=True)
+class Cells:
+    """Cubic cells of edge ``size`` cm, cell (i, j, k) holding [i, i + 1) * size along x, ..."""
+
+    size: float
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.size < float("inf"):
+            raise ValueError(f"a cell's edge must be a number of cm > 0, got {self.size}")
+
+    def of(self, points: FloatArray) -> IntArray:
+        """(N, 3) the cell of each point of ``points`` (N, 3), cm."""
+        return np.floor(np.asarray(points, dtype=np.float64) / self.size).astype(np.int64)
+
+    def around(self, cells: IntArray) -> IntArray:
+        """(M, 3) the cells within one step of any of ``cells`` (K, 3), each once, sorted."""
+        near = (np.asarray(cells, dtype=np.int64).reshape(-1, 1, 3) + AROUND).reshape(-1, 3)
+        return np.unique(near, axis=0)
+
+    def heard_by(self, listeners: FloatArray, points: FloatArray) -> NDArray[np.bool_]:
+        """(N,) which of ``points`` (N, 3) lie in the cells that ``listeners`` (K, 3) hear."""
+        heard = {tuple(cell) for cell in self.around(self.of(listeners)).tolist()}
+        return np.array([tuple(cell) in heard for cell in self.of(points).tolist()], dtype=bool)
+
+
+def radio_cells(sensor: Sensor, radius: float) -> Cells:
+    """The cells of a swarm of FLSs of ``radius`` cm that measure with ``sensor``."""
+    return Cells(sensor_reach(sensor, radius) * MARGIN)
+
+
+def cell_name(cell: tuple[int, int, int] | IntArray) -> str:
+    """A cell as a name token: (3, -1, 0) -> ``c3_m1_0`` (no sign, no leading digit)."""
+    return "c" + "_".join(f"m{-int(i)}" if i < 0 else str(int(i)) for i in cell)
