@@ -13,17 +13,15 @@ import resource
 import signal
 from typing import Any
 
-import numpy as np
-
 from ..core.errors import SwazureError
+from ..core.geometry import Swarm
+from ..core.partition import kd_split
 from ..ros import runtime
 from ..ros.auth import SwarmKey
 from ..ros.host import SwarmHost
 from ..ros.names import host_name
 from ..ros.runtime import Context
 from .config import SwarmConfig
-from ..core.geometry import Swarm
-from ..core.partition import kd_split
 from .discovery_server import client_environment
 
 CREATED, READY, FAILED = "created", "ready", "failed"

@@ -10,7 +10,7 @@ FloatArray = NDArray[np.float64]
 
 
 def kd_split(points: FloatArray, parts: int) -> list[IntArray]:
-    """Rows of ``points`` (N, 3), cm, in ``parts`` compact regions whose sizes differ by at most one.
+    """Rows of ``points`` (N, 3), cm, in ``parts`` compact regions, sizes apart by one at most.
 
     Each split cuts the widest axis of a region's bounding box at the point
     that gives its two halves sizes in the ratio of the parts they hold

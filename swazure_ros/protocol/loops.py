@@ -36,7 +36,7 @@ from ..core.tracking import (
     moving_senses,
     nanoseconds,
 )
-from .discovery.messages import END, Broadcast, Control, Report
+from .discovery.messages import END, ROUND, Broadcast, Control, Report
 from .discovery.participant import Participant
 from .radio import RadioHub
 from .readings import ReadingsBook, readings_of
@@ -133,14 +133,15 @@ def discover(
                     controls.extend(clock.on_estimates(report.source, report.estimates, 0.0))
         if ack is not None:
             controls.extend(clock.on_ack(ack.round, _HOST, 0.0))
-        for sent in broadcasts:
-            offer = sent.offer
-            ack = hub.on_offer(sent.run_id, sent.round, sent.sender, offer)
-            controls.extend(
-                clock.on_offer(
-                    sent.round, sent.sender, len(offer), offer.pending, offer.finished, 0.0
-                )
-            )
+        # As on ROS: the process tells the clock who of its FLSs spoke (the clock hears
+        # no offer itself), then its radio hears them.
+        for out in broadcasts:
+            hub.sent(out.run_id, out.round, out.sender, out.offer)
+        if control.command == ROUND:
+            sent = hub.take_sent(control.run_id, control.round)
+            controls.extend(clock.on_sent(control.round, sent, 0.0))
+        for out in broadcasts:
+            ack = hub.on_offer(out.run_id, out.round, out.sender, out.offer)
             if ack is not None:
                 controls.extend(clock.on_ack(ack.round, _HOST, 0.0))
     assert clock.outcome is not None

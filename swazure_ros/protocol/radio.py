@@ -115,8 +115,19 @@ class RadioLoss:
 
 
 @dataclass(frozen=True)
+class Sent:
+    """What a process's own FLSs broadcast in one round, for the coordinator's tally."""
+
+    senders: tuple[int, ...] = ()  # FLS ids, ascending
+    labels: int = 0  # labels in their offers, summed
+    pending: tuple[int, ...] = ()  # those that hold labels due in a later round
+    finished: tuple[int, ...] = ()  # those whose search, as a source, has ended
+    bytes: int = 0  # the size of their offers on the wire, summed
+
+
+@dataclass(frozen=True)
 class Ack:
-    """A process heard every offer of one round (a RoundAck message)."""
+    """A process heard every offer of one round (a RoundAck message), and what it sent."""
 
     run_id: int
     phase: int
@@ -141,8 +152,12 @@ class RadioHub:
         neighbours: Callable[[int], IntArray] | None = None,
         check: Callable[[RoundOffers, int], NDArray[np.int8]] | None = None,
         check_readings: Callable[[int, Offer], str | None] | None = None,
+        audible: Callable[[], IntArray] | None = None,
     ) -> None:
         self._local = local
+        # audible(): the ids of the FLSs whose broadcasts this process hears (its radio
+        # cells'); None: every FLS's, as many as a round's control expects.
+        self._audible = audible
         self._loss = loss if loss is not None and loss.active else None
         # neighbours(fls): the FLSs whose offers that FLS takes (its view's).
         self._neighbours = neighbours
@@ -156,7 +171,11 @@ class RadioHub:
         self._pairs: dict[int, tuple[IntArray, IntArray]] = {}  # run -> (sender, receiver)
         self._departed: dict[int, frozenset[int]] = {}
         self._first_round: dict[int, int] = {}
-        self._rounds: dict[tuple[int, int], Control] = {}  # (run, round) -> its ROUND
+        # (run, round) -> its ROUND, and the offers it brings this process.
+        self._rounds: dict[tuple[int, int], tuple[Control, int]] = {}
+        # (run, round) -> what the local FLSs broadcast: sender -> (labels, pending,
+        # finished, bytes)
+        self._sent: dict[tuple[int, int], dict[int, tuple[int, bool, bool, int]]] = {}
         self._heard: dict[tuple[int, int], int] = {}
         self._senders: dict[tuple[int, int], Counter[int]] = {}
         #: run -> (round, command) of its last control, for the newest CONTROLS_KEPT runs.
@@ -174,6 +193,7 @@ class RadioHub:
         self._heard.clear()
         self._senders.clear()
         self._offers.clear()
+        self._sent.clear()
         self._early.clear()
 
     def departed(self, run_id: int) -> frozenset[int]:
@@ -234,7 +254,7 @@ class RadioHub:
         recipients = [fls_id for fls_id in self._local if fls_id not in departed]
         ack = None
         if control.command == ROUND:
-            self._rounds[(run, control.round)] = control
+            self._rounds[(run, control.round)] = (control, self._expected(control, departed))
             ack = self._acknowledge(run, control.round)
         elif control.command == END:
             self._departed.pop(run, None)
@@ -242,6 +262,41 @@ class RadioHub:
             self._first_round.pop(run, None)
             self._forget(run, rounds=True)
         return recipients, ack, heard
+
+    def _expected(self, control: Control, departed: frozenset[int]) -> int:
+        """The offers of ``control``'s round this process will hear: one per live FLS it hears."""
+        if self._audible is None:
+            return control.expected
+        audible = self._audible()
+        if not departed:
+            return int(audible.size)
+        gone = np.fromiter(departed, dtype=np.int64, count=len(departed))
+        return int(audible.size - np.isin(audible, gone).sum())
+
+    def sent(self, run_id: int, round_: int, sender: int, offer: Offer, size: int = 0) -> None:
+        """Local FLS ``sender`` broadcast ``offer`` (``size`` bytes) in round ``round_``.
+
+        See :meth:`take_sent`.
+        """
+        sent = self._sent.setdefault((run_id, round_), {})
+        sent.setdefault(sender, (len(offer), bool(offer.pending), bool(offer.finished), size))
+
+    def take_sent(self, run_id: int, round_: int) -> Sent:
+        """What the local FLSs broadcast in round ``round_``, for the coordinator's tally.
+
+        Taken once the round's control has reached every local FLS, and told
+        to the coordinator at once, before this process has heard the round:
+        an FLS silent elsewhere must not hide who spoke here.
+        """
+        sent = self._sent.pop((run_id, round_), {})
+        senders = tuple(sorted(sent))
+        return Sent(
+            senders,
+            sum(sent[sender][0] for sender in senders),
+            tuple(sender for sender in senders if sent[sender][1]),
+            tuple(sender for sender in senders if sent[sender][2]),
+            sum(sent[sender][3] for sender in senders),
+        )
 
     def _implausible(
         self, entries: list[tuple[int, Offer]], heard: RoundOffers, phase: int
@@ -299,10 +354,11 @@ class RadioHub:
                 self.on_offer(*entry)
 
     def _acknowledge(self, run_id: int, round_: int) -> Ack | None:
-        control = self._rounds.get((run_id, round_))
+        clocked = self._rounds.get((run_id, round_))
         heard = self._heard.get((run_id, round_), 0)
-        if control is None or heard < control.expected:
+        if clocked is None or heard < clocked[1]:
             return None
+        control = clocked[0]
         del self._rounds[(run_id, round_)]
         delivery = self._deliver(run_id, round_)
         return Ack(
@@ -344,5 +400,6 @@ class RadioHub:
         self._heard = {key: n for key, n in self._heard.items() if key[0] != run_id}
         self._senders = {key: n for key, n in self._senders.items() if key[0] != run_id}
         self._offers = {key: o for key, o in self._offers.items() if key[0] != run_id}
+        self._sent = {key: o for key, o in self._sent.items() if key[0] != run_id}
         if rounds:
             self._rounds = {key: c for key, c in self._rounds.items() if key[0] != run_id}

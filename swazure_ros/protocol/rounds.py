@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 from ..core.fit import PATH
 from .discovery.estimate import Estimate
 from .discovery.messages import END, PHASES, ROUND, START, Control
+from .radio import Sent
 
 #: Phases of one run a lossy radio may spoil (and restart) before the run ends incomplete.
 MAX_LOSS_RESTARTS = 10
@@ -206,6 +207,24 @@ class RoundClock:
         if tally is None or round_ != self.round:
             return []
         tally.hear(sender, labels, pending, finished)
+        self._deadline = now + self.round_timeout
+        return self._close_round(now, timed_out=False) if tally.complete else []
+
+    def on_sent(self, round_: int, sent: Sent, now: float) -> list[Control]:
+        """A process's FLSs broadcast ``sent`` in round ``round_``: as if each offer were heard.
+
+        So the coordinator need not hear the swarm's every offer: each process
+        tells it who of its own FLSs spoke (:meth:`on_offer` is the same for one FLS).
+        """
+        tally = self._tally
+        if tally is None or round_ != self.round:
+            return []
+        pending, finished = set(sent.pending), set(sent.finished)
+        new = [sender for sender in sent.senders if sender not in tally.senders]
+        for sender in new:
+            tally.hear(sender, 0, sender in pending, sender in finished)
+        if new:
+            tally.labels += sent.labels
         self._deadline = now + self.round_timeout
         return self._close_round(now, timed_out=False) if tally.complete else []
 

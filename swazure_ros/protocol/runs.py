@@ -19,9 +19,9 @@ class Traffic:
     messages: dict[str, int] = field(default_factory=dict)
     bytes: dict[str, int] = field(default_factory=dict)
 
-    def count(self, topic: str, size: int) -> None:
-        """Count one message of ``size`` bytes on ``topic``."""
-        self.messages[topic] = self.messages.get(topic, 0) + 1
+    def count(self, topic: str, size: int, messages: int = 1) -> None:
+        """Count ``messages`` messages of ``size`` bytes in all on ``topic``."""
+        self.messages[topic] = self.messages.get(topic, 0) + messages
         self.bytes[topic] = self.bytes.get(topic, 0) + size
 
     def since(self, earlier: Traffic) -> Traffic:

@@ -32,7 +32,6 @@ from swazure_interfaces.msg import (
     Departed,
     DiscoveryControl,
     MoveCommands,
-    PathOffer,
     PathWalk,
     PoseEstimates,
     RoundAck,
@@ -52,10 +51,10 @@ from .convert.discovery import (
     control_message,
     estimates_from_message,
     moves_message,
-    plausible_offer,
+    sent_from_message,
     walk_message,
 )
-from .guard import Guard, check, check_ids
+from .guard import Guard, check
 from .liveness import FlsLiveness
 from .names import (
     ACK_TOPIC,
@@ -159,9 +158,6 @@ class Coordinator(SwarmNode):
         self.guard = Guard(self, key)
         self.key = self.guard.key
         guard = self.guard.wrap
-        self._offers = self.create_subscription(
-            PathOffer, RADIO_TOPIC, guard(RADIO_TOPIC, self._on_offer), ROUND_QOS, raw=True
-        )
         self._acks = self.create_subscription(
             RoundAck, ACK_TOPIC, guard(ACK_TOPIC, self._on_ack), ROUND_QOS, raw=True
         )
@@ -200,7 +196,7 @@ class Coordinator(SwarmNode):
         self._job: _Job | None = None
 
     def hosts_matched(self) -> bool:
-        """Every host's radio hears the controls; the coordinator hears its offers and acks.
+        """Every host's radio hears the controls; the coordinator hears its acks.
 
         Matched endpoints, not names in the graph: a message sent to a reader
         not matched yet is lost. Whether the hosts' radios have matched each
@@ -209,7 +205,6 @@ class Coordinator(SwarmNode):
         """
         return (
             self._control.get_subscription_count() >= self.hosts
-            and self._offers.get_publisher_count() >= self.hosts
             and self._acks.get_publisher_count() >= self.hosts
         )
 
@@ -384,36 +379,18 @@ class Coordinator(SwarmNode):
         departed = Departed(header=header, fls_ids=sorted(self.gone))
         self._gone_publisher.publish(self.key.serialize(departed))
 
-    def _on_offer(self, data: bytes) -> None:
-        self.traffic.count(RADIO_TOPIC, len(data))
-        if not isinstance(self._running(), RoundClock):
-            return
-        offer = self.key.deserialize(data, PathOffer)
-        clock = self._running(offer.run_id)
-        if isinstance(clock, RoundClock):
-            # The clock counts offers, and the FLSs' radios check their labels. Without a
-            # key the clock checks them too: a forged offer must not count.
-            if not self.key.active:
-                plausible_offer(offer, self.shape)
-            else:
-                check_ids([offer.sender_id], self._swarm, "sender_id")
-            self._act(
-                clock.on_offer(
-                    int(offer.round),
-                    int(offer.sender_id),
-                    len(offer.source_ids),
-                    offer.pending,
-                    offer.finished,
-                    self._now(),
-                )
-            )
-
     def _on_ack(self, data: bytes) -> None:
         self.traffic.count(ACK_TOPIC, len(data))
         ack = self.key.deserialize(data, RoundAck)
         clock = self._running(ack.run_id)
         if isinstance(clock, RoundClock):
             check(0 < len(ack.host) <= MAX_NAME, "a host name of no or too many characters")
+            if not ack.delivered:
+                # Who spoke: the coordinator hears no offer itself (docs/protocol.md).
+                sent = sent_from_message(ack, self._swarm)
+                self.traffic.count(RADIO_TOPIC, sent.bytes, len(sent.senders))
+                self._act(clock.on_sent(int(ack.round), sent, self._now()))
+                return
             self._act(
                 clock.on_ack(
                     int(ack.round), ack.host, self._now(), int(ack.repairs), int(ack.lost)

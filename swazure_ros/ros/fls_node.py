@@ -54,7 +54,6 @@ from swazure_interfaces.msg import (
     Detections,
     Measurements,
     MoveCommands,
-    PathOffer,
     PoseEstimates,
 )
 from swazure_interfaces.srv import GetNeighbours
@@ -78,7 +77,7 @@ from ..protocol.moves import (
 from ..protocol.readings import ReadingsBook
 from ..protocol.senses import DetectedSenses, Senses
 from .auth import SwarmKey
-from .convert.discovery import estimates_message, moves_from_message, offer_message
+from .convert.discovery import estimates_message, moves_from_message
 from .convert.sensing import (
     camera_info_message,
     detections_from_message,
@@ -100,7 +99,6 @@ from .names import (
     MOVE_QOS,
     MOVE_TOPIC,
     NEIGHBOURS_SERVICE,
-    RADIO_TOPIC,
     ROUND_QOS,
     WORLD_REACH,
     node_name,
@@ -115,37 +113,39 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from ..core.camera import Camera
+    from .radio import Radio
 
 
 class Transmitter:
-    """The radio transmitter of a process's FLSs: one publisher per shared discovery topic.
+    """The transmitter of a process's FLSs: their offers go out by its radio, their reports here.
 
     Every FLS sends its offers and estimates through its process's
-    transmitter, as it hears through its process's radio (:class:`~.host.Radio`):
-    a thousand FLS nodes then add two publishers, not two thousand, to the
-    swarm's graph. Messages are serialised here once, so that the bytes on the
-    wire are counted exactly.
+    transmitter, as it hears through its process's radio (:class:`~.radio.Radio`,
+    which sends the offers on its FLSs' radio cells): a thousand FLS nodes then
+    add a few publishers, not thousands, to the swarm's graph. Messages are
+    serialised once, so that the bytes on the wire are counted exactly.
     """
 
     def __init__(self, node: Node, key: SwarmKey | None = None) -> None:
         self._node = node
         self.key = key or SwarmKey()
-        self._radio = node.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
+        #: The process's radio, once it has one: it sends the offers.
+        self.radio: Radio | None = None
         self._estimates = node.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
 
-    def readers(self) -> tuple[int, int]:
-        """Readers matched to (the offers, the estimates): who would hear a message sent now."""
-        return self._radio.get_subscription_count(), self._estimates.get_subscription_count()
+    def readers(self) -> int:
+        """Readers matched to the estimates (the coordinator's): who would hear a report now."""
+        return self._estimates.get_subscription_count()
 
     def send(self, out: Broadcast | Report) -> int:
-        """Send an offer on ``radio`` or a report on ``estimates``; the bytes sent."""
-        stamp = self._node.get_clock().now().to_msg()
+        """Send an offer on its radio cell or a report on ``estimates``; the bytes sent."""
         if isinstance(out, Broadcast):
-            publisher, message = self._radio, offer_message(out, stamp)
-        else:
-            publisher, message = self._estimates, estimates_message(out, stamp)
-        data = self.key.serialize(message)
-        publisher.publish(data)
+            if self.radio is None:
+                raise RuntimeError("an offer to send before this process has a radio")
+            return self.radio.broadcast(out)
+        stamp = self._node.get_clock().now().to_msg()
+        data = self.key.serialize(estimates_message(out, stamp))
+        self._estimates.publish(data)
         return len(data)
 
 

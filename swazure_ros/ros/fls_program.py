@@ -113,6 +113,7 @@ class RadioJoin:
             listen=False,
             readings=node.discovery.readings,
         )
+        node.transmitter.radio = self.radio
         self.made_at = time.monotonic()
         node.get_logger().info(  # type: ignore[no-untyped-call]
             "radio on: its camera's first frame is in; waiting to be heard by every FLS and "
@@ -123,23 +124,27 @@ class RadioJoin:
         """Listen once every FLS's radio and the coordinator hear this FLS, or at the timeout."""
         if self.radio is None:
             return
-        swarm_size = len(self.senses.ids)
-        offers, estimates = self.node.transmitter.readers()
-        heard = offers >= swarm_size + 1 and estimates >= 1 and self.radio.ack_readers() >= 1
+        # Every FLS within one radio cell of this one (itself included) hears its cell.
+        offers, near = self.radio.offer_readers()
+        estimates = self.node.transmitter.readers()
+        heard = offers >= near and estimates >= 1 and self.radio.ack_readers() >= 1
         now = time.monotonic()
         waited = now - self.made_at
         if not heard and now - self._said_at >= WAITING_SAID_EVERY:
             self._said_at = now
             self.node.get_logger().info(  # type: ignore[no-untyped-call]
-                f"still waiting to be heard: by {max(offers - 1, 0)} of {swarm_size} FLSs' "
-                f"radios, coordinator {'yes' if estimates >= 1 else 'not yet'}"
+                f"still waiting to be heard: by {max(offers - 1, 0)} of the {near - 1} FLSs' "
+                f"radios in its radio cells, coordinator {'yes' if estimates >= 1 else 'not yet'}"
             )
         if heard or waited > self.join_timeout:
             self.radio.listen()
             how = (
-                "heard by every FLS and the coordinator"
+                "heard by every FLS in its radio cells and the coordinator"
                 if heard
-                else (f"after {waited:.0f} s, heard by {offers - 1} of {swarm_size} FLSs' radios")
+                else (
+                    f"after {waited:.0f} s, heard by {offers - 1} of the {near - 1} FLSs' "
+                    "radios in its radio cells"
+                )
             )
             self.node.get_logger().info(f"on the swarm's radio: {how}")  # type: ignore[no-untyped-call]
             self.node.destroy_timer(self.poll)

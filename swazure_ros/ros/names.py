@@ -25,11 +25,13 @@ from ..core.tracking import (
     TRACKING,
     WAITING,
 )
+from ..protocol.cells import IntArray, cell_name
 
 # Topics, shared by every FLS: a reader filters on the FLS id in the message.
 # Per-FLS topics would buy nothing, and every endpoint costs discovery time
 # in a swarm of thousands (docs/swarm.md).
 MEASUREMENTS_TOPIC = "measurements"
+#: The offers' topics are per radio cell (radio_topic): ``radio/c<i>_<j>_<k>``.
 RADIO_TOPIC = "radio"
 ESTIMATES_TOPIC = "estimates"
 CONTROL_TOPIC = "discovery"
@@ -67,6 +69,11 @@ COORDINATOR = "coordinator"
 WORLD = "world"
 #: The simulated cameras of FLSs that run one to a process (ros.world_node).
 CAMERAS = "cameras"
+
+
+def radio_topic(cell: tuple[int, int, int] | IntArray) -> str:
+    """The topic of the offers broadcast in radio cell ``cell`` (``protocol.cells``)."""
+    return f"{RADIO_TOPIC}/{cell_name(cell)}"
 
 
 def node_name(fls_id: int) -> str:

@@ -8,13 +8,15 @@ from __future__ import annotations
 
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile
+from rclpy.subscription import Subscription
 from rclpy.timer import Timer
 from swazure_interfaces.msg import (
     DiscoveryControl,
@@ -27,7 +29,8 @@ from swazure_interfaces.msg import (
 )
 
 from ..core.fit import PATH
-from ..protocol.discovery.messages import END, START
+from ..protocol.cells import radio_cells
+from ..protocol.discovery.messages import END, ROUND, START, Broadcast
 from ..protocol.moves import Walk
 from ..protocol.plausible import (
     implausible_readings,
@@ -41,6 +44,8 @@ from .convert.discovery import (
     ack_message,
     control_from_message,
     offer_from_message,
+    offer_message,
+    sent_message,
     walk_from_message,
     walk_message,
 )
@@ -57,6 +62,7 @@ from .names import (
     TRACK_REQUESTS_TOPIC,
     TRACK_SAMPLES_TOPIC,
     WALKS_TOPIC,
+    radio_topic,
 )
 
 if TYPE_CHECKING:
@@ -70,15 +76,19 @@ EARLY_WALKS = 4096
 #: and are in long before its END; this must stay below the coordinator's round timeout.
 READINGS_WAIT = 1.0
 IntArray = NDArray[np.int64]
+Cell = tuple[int, ...]
 
 
 class Radio:
     """The radio medium of one process (:class:`~swazure_ros.protocol.radio.RadioHub`) on ROS.
 
-    It hears every broadcast on ``radio`` once and hands it to the local FLS
-    nodes within radio range of the sender, as a real radio would; it hands
+    It hears every broadcast in the radio cells around its FLSs
+    (``radio/c<i>_<j>_<k>``, :mod:`~swazure_ros.protocol.cells`) once, and hands
+    it to the local FLS nodes within radio range of the sender, as a real radio
+    would; it sends its FLSs' offers on their own cells' topics; it hands
     the coordinator's controls to every local FLS; and once it has delivered
-    every offer of a round, it acknowledges the round on ``round_acks``. Path
+    every offer of a round, it acknowledges the round on ``round_acks``, where it
+    has also told the coordinator which of its FLSs spoke in that round. Path
     walks on ``path_walks`` go to the FLS they are addressed to, once this
     process has the world revision they must be measured in; track requests
     go to their relay and track samples to their source. From the first
@@ -95,8 +105,15 @@ class Radio:
         guard: Guard | None = None,
         listen: bool = True,
         readings: ReadingsBook | None = None,
+        local: Sequence[int] | None = None,
     ) -> None:
         self._node = node
+        #: The FLSs this process hosts (those of ``fls_nodes`` when None), for its cells.
+        self._local = np.array(sorted(fls_nodes if local is None else local), dtype=np.int64)
+        self._cells = radio_cells(senses.sensor, senses.radius)
+        self._listening: dict[Cell, Subscription] = {}  # the radio cells heard
+        self._sending: dict[Cell, Publisher] = {}  # the radio cells of this process's FLSs
+        self._audible = np.zeros(0, dtype=np.int64)  # the FLSs in the cells heard
         self.readings = ReadingsBook() if readings is None else readings
         self._hears_readings = False
         self._waiting: set[int] = set()  # local sources whose fit waits for readings
@@ -108,6 +125,7 @@ class Radio:
             lambda fls_id: senses.view(fls_id).other.astype(np.int64),
             round_labels_check(senses.positions, senses.sensor, senses.radius),
             offer_readings_check(senses.positions, senses.sensor, senses.radius),
+            audible=lambda: self._audible,
         )
         self.controls_heard = 0  # a control is a sure sign that a coordinator is there
         self.last_control_at = float("-inf")  # monotonic s
@@ -116,7 +134,8 @@ class Radio:
         self.listening = False
         if listen:
             self.listen()
-        self._subscribe(PathOffer, RADIO_TOPIC, self._on_offer)
+        self.tune()
+        senses.on_revision.append(self.tune)
         # One walk publisher per process, not per FLS: a thousand more endpoints
         # would slow the swarm's discovery for a message few FLSs ever send.
         self._walks = node.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
@@ -126,6 +145,59 @@ class Radio:
         senses.on_revision.append(self._take_early_walks)
         self._subscribe(TrackRequest, TRACK_REQUESTS_TOPIC, self._on_track_request)
         self._subscribe(TrackSample, TRACK_SAMPLES_TOPIC, self._on_track_sample)
+
+    def tune(self) -> None:
+        """Hear the radio cells around this process's FLSs where they are now; send on theirs.
+
+        Called at each world revision: an FLS a heuristic moved into another
+        cell is heard there from then on. Publishers are made here, ahead of
+        the runs that use them, so that they have matched their readers by then.
+        """
+        senses, cells = self._senses, self._cells
+        own = cells.of(senses.positions(self._local)) if len(self._local) else np.zeros((0, 3))
+        mine = {tuple(cell) for cell in own.astype(np.int64).tolist()}
+        heard = {tuple(cell) for cell in cells.around(own).tolist()} if mine else set()
+        for cell in sorted(set(self._listening) - heard):
+            self._node.destroy_subscription(self._listening.pop(cell))
+        for cell in sorted(heard - set(self._listening)):
+            self._listening[cell] = self.guard.subscribe(
+                PathOffer, radio_topic(cell), self._on_offer, ROUND_QOS
+            )
+        for cell in sorted(set(self._sending) - mine):
+            self._node.destroy_publisher(self._sending.pop(cell))
+        for cell in sorted(mine - set(self._sending)):
+            self._sending[cell] = self._node.create_publisher(
+                PathOffer, radio_topic(cell), ROUND_QOS
+            )
+        everyone = cells.of(senses.positions(senses.ids)).tolist()
+        self._audible = senses.ids[[tuple(cell) in heard for cell in everyone]]
+
+    @property
+    def cells_heard(self) -> list[Cell]:
+        """The radio cells this process hears, sorted."""
+        return sorted(self._listening)
+
+    def offer_readers(self) -> tuple[int, int]:
+        """(readers matched to the fewest-read of this process's cells, the FLSs that hear it).
+
+        One process per FLS: every FLS within one cell of this one's hears it,
+        so the first number reaches the second once all of them listen.
+        """
+        readers = min((p.get_subscription_count() for p in self._sending.values()), default=0)
+        return readers, int(self._audible.size)
+
+    def broadcast(self, out: Broadcast) -> int:
+        """Send local FLS ``out.sender``'s offer on its radio cell's topic; the bytes sent."""
+        cell = tuple(self._cells.of(self._senses.positions(np.array([out.sender])))[0].tolist())
+        publisher = self._sending.get(cell)
+        if publisher is None:  # an FLS not hosted here at the start: made on demand
+            publisher = self._node.create_publisher(PathOffer, radio_topic(cell), ROUND_QOS)
+            self._sending[cell] = publisher
+        stamp = self._node.get_clock().now().to_msg()
+        data = self.guard.key.serialize(offer_message(out, stamp))
+        self._hub.sent(out.run_id, out.round, out.sender, out.offer, len(data))
+        publisher.publish(data)
+        return len(data)
 
     def listen(self) -> None:
         """Hear the coordinator's controls: from now on the swarm's rounds count on this radio."""
@@ -180,6 +252,13 @@ class Radio:
             self._fls[fls_id].on_control(control, heard)
             if control.command == END and self._fls[fls_id].discovery.waiting:
                 self._waiting.add(fls_id)
+        if control.command == ROUND:
+            # Who of this process's FLSs spoke, at once: the coordinator hears no offer.
+            sent = self._hub.take_sent(control.run_id, control.round)
+            if sent.senders:
+                stamp = self._node.get_clock().now().to_msg()
+                message = sent_message(control, sent, self._node.get_name(), stamp)
+                self._acks.publish(self.guard.key.serialize(message))
         if control.command == END and self._waiting:
             timer = self._node.create_timer(READINGS_WAIT, lambda: self._report_waiting(timer))
         self._acknowledge(ack)

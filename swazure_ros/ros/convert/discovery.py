@@ -21,7 +21,7 @@ from swazure_interfaces.msg import (
     RoundAck,
 )
 
-from ...core.evaluate import REASON_NAMES, STATUS_NAMES, Neighbourhood
+from ...core.evaluate import REASON_NAMES, STATUS_NAMES
 from ...core.fit import PATH
 from ...core.frames import CM_PER_METRE, fls_frame, to_metres
 from ...protocol.discovery.estimate import Estimate
@@ -37,8 +37,7 @@ from ...protocol.discovery.messages import (
     Report,
 )
 from ...protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
-from ...protocol.plausible import implausible
-from ...protocol.radio import Ack
+from ...protocol.radio import Ack, Sent
 from ..guard import check, check_finite, check_ids, check_size
 from ..names import (
     ESTIMATOR_CODES,
@@ -359,11 +358,12 @@ def control_from_message(message: DiscoveryControl, swarm: IntArray) -> Control:
 
 
 def ack_message(ack: Ack, host: str, stamp: Time) -> RoundAck:
-    """A process's acknowledgement of a round as a RoundAck message."""
+    """A process's acknowledgement that it delivered a round, as a RoundAck message."""
     message = RoundAck(
         run_id=ack.run_id,
         phase=ack.phase,
         round=ack.round,
+        delivered=True,
         heard=ack.heard,
         repairs=ack.repairs,
         lost=ack.lost,
@@ -371,6 +371,45 @@ def ack_message(ack: Ack, host: str, stamp: Time) -> RoundAck:
     message.host = host
     message.header.stamp = stamp
     return message
+
+
+def sent_message(control: Control, sent: Sent, host: str, stamp: Time) -> RoundAck:
+    """What a process's FLSs broadcast in ``control``'s round, as a RoundAck message."""
+    message = RoundAck(
+        run_id=control.run_id,
+        phase=control.phase,
+        round=control.round,
+        delivered=False,
+        sender_ids=list(sent.senders),
+        labels=sent.labels,
+        pending_ids=list(sent.pending),
+        finished_ids=list(sent.finished),
+        offer_bytes=sent.bytes,
+    )
+    message.host = host
+    message.header.stamp = stamp
+    return message
+
+
+def sent_from_message(message: RoundAck, swarm: IntArray) -> Sent:
+    """What a RoundAck says FLSs of ``swarm`` (sorted ids) sent; MessageError if it cannot be."""
+    lists = {}
+    for name in ("sender_ids", "pending_ids", "finished_ids"):
+        values = getattr(message, name)
+        check_size(values, len(swarm), name)
+        lists[name] = tuple(check_ids(values, swarm, name).tolist())
+    senders = set(lists["sender_ids"])
+    check(
+        set(lists["pending_ids"]) <= senders and set(lists["finished_ids"]) <= senders,
+        "pending or finished FLSs that did not send",
+    )
+    return Sent(
+        lists["sender_ids"],
+        int(message.labels),
+        lists["pending_ids"],
+        lists["finished_ids"],
+        int(message.offer_bytes),
+    )
 
 
 def moves_message(moves: Sequence[Move], stamp: Time) -> MoveCommands:
@@ -452,22 +491,3 @@ def walk_from_message(message: PathWalk, swarm: IntArray) -> Walk:
         state=int(message.state),
         vector=vector,
     )
-
-
-def plausible_offer(message: PathOffer, shape: Neighbourhood) -> Offer:
-    """The labels of ``message`` if every one may be true of ``shape``; MessageError if not.
-
-    :func:`offer_from_message`, then :func:`~...protocol.plausible.implausible`
-    by where ``shape`` (the FLSs at their assigned points) puts every FLS.
-    """
-    ids = shape.swarm.cloud_index
-    offer = offer_from_message(message, ids)
-    why = implausible(
-        offer,
-        message.phase,
-        lambda wanted: shape.swarm.points[np.searchsorted(ids, wanted)],
-        shape.sensor,
-        shape.swarm.radius,
-    )
-    check(why is None, f"implausible: {why}")
-    return offer
