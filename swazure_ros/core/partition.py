@@ -30,8 +30,8 @@ def _split(points: FloatArray, rows: IntArray, parts: int) -> list[IntArray]:
     if parts == 1:
         return [rows]
     first = parts // 2
-    # Sizes of the parts when N points are spread as np.array_split spreads them.
-    cut = len(rows) * first // parts
+    # The larger parts first, as np.array_split spreads N points.
+    cut = -(-len(rows) * first // parts)
     here = points[rows]
     axis = int(np.argmax(np.ptp(here, axis=0))) if len(rows) else 0
     order = np.argsort(here[:, axis], kind="stable")

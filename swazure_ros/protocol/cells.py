@@ -7,10 +7,17 @@ cell along each axis), so it hears every broadcast a real radio would bring
 it, and a process hears nothing of the FLSs far from its own. The cells are
 fixed in space (the origin is every axis's zero), so that every process, the
 coordinator and a person echoing a topic agree on them without asking.
+
+Two bands of cells: in the sweet phases (S_vis, S_all) an FLS relays from
+its sweet neighbours only, within the sweet range, so those offers travel in
+``sweet`` cells of the sweet reach; the SD_vis phase's relay from decaying
+neighbours too, in ``decaying`` cells of the sensor's whole reach. With the
+published sensor the first are 3.5 times smaller along each axis.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,6 +25,7 @@ from numpy.typing import NDArray
 
 from ..core.neighbours import sensor_reach
 from ..core.sensor import Sensor
+from .discovery.messages import ANY_VISIBLE
 
 IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
@@ -56,11 +64,23 @@ class Cells:
         return np.array([tuple(cell) in heard for cell in self.of(points).tolist()], dtype=bool)
 
 
-def radio_cells(sensor: Sensor, radius: float) -> Cells:
-    """The cells of a swarm of FLSs of ``radius`` cm that measure with ``sensor``."""
-    return Cells(sensor_reach(sensor, radius) * MARGIN)
+#: The bands of cells: the sweet phases' offers, and the SD_vis phase's.
+SWEET_BAND, DECAYING_BAND = "sweet", "decaying"
+BANDS = (SWEET_BAND, DECAYING_BAND)
 
 
-def cell_name(cell: tuple[int, int, int] | IntArray) -> str:
+def band_of(phase: int) -> str:
+    """The band of cells that carries the offers of discovery phase ``phase``."""
+    return DECAYING_BAND if phase == ANY_VISIBLE else SWEET_BAND
+
+
+def radio_cells(sensor: Sensor, radius: float) -> dict[str, Cells]:
+    """Per band, the cells of a swarm of FLSs of ``radius`` cm that measure with ``sensor``."""
+    reach = sensor_reach(sensor, radius)
+    sweet = min(max(sensor.sweet_max + 2.0 * radius, 2.0 * radius), reach)
+    return {SWEET_BAND: Cells(sweet * MARGIN), DECAYING_BAND: Cells(reach * MARGIN)}
+
+
+def cell_name(cell: Sequence[int] | IntArray) -> str:
     """A cell as a name token: (3, -1, 0) -> ``c3_m1_0`` (no sign, no leading digit)."""
     return "c" + "_".join(f"m{-int(i)}" if i < 0 else str(int(i)) for i in cell)

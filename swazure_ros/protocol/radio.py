@@ -152,11 +152,11 @@ class RadioHub:
         neighbours: Callable[[int], IntArray] | None = None,
         check: Callable[[RoundOffers, int], NDArray[np.int8]] | None = None,
         check_readings: Callable[[int, Offer], str | None] | None = None,
-        audible: Callable[[], IntArray] | None = None,
+        audible: Callable[[int], IntArray] | None = None,
     ) -> None:
         self._local = local
-        # audible(): the ids of the FLSs whose broadcasts this process hears (its radio
-        # cells'); None: every FLS's, as many as a round's control expects.
+        # audible(phase): the ids of the FLSs whose broadcasts of ``phase`` this process
+        # hears (its radio cells'); None: every FLS's, as many as a control expects.
         self._audible = audible
         self._loss = loss if loss is not None and loss.active else None
         # neighbours(fls): the FLSs whose offers that FLS takes (its view's).
@@ -267,7 +267,7 @@ class RadioHub:
         """The offers of ``control``'s round this process will hear: one per live FLS it hears."""
         if self._audible is None:
             return control.expected
-        audible = self._audible()
+        audible = self._audible(control.phase)
         if not departed:
             return int(audible.size)
         gone = np.fromiter(departed, dtype=np.int64, count=len(departed))

@@ -9,6 +9,8 @@ message constants, which the tests check.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from rclpy.exceptions import InvalidNamespaceException, InvalidTopicNameException
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.validate_full_topic_name import validate_full_topic_name
@@ -31,7 +33,7 @@ from ..protocol.cells import IntArray, cell_name
 # Per-FLS topics would buy nothing, and every endpoint costs discovery time
 # in a swarm of thousands (docs/swarm.md).
 MEASUREMENTS_TOPIC = "measurements"
-#: The offers' topics are per radio cell (radio_topic): ``radio/c<i>_<j>_<k>``.
+#: The offers' topics are per band and radio cell (radio_topic): ``radio/sweet/c<i>_<j>_<k>``.
 RADIO_TOPIC = "radio"
 ESTIMATES_TOPIC = "estimates"
 CONTROL_TOPIC = "discovery"
@@ -71,9 +73,9 @@ WORLD = "world"
 CAMERAS = "cameras"
 
 
-def radio_topic(cell: tuple[int, int, int] | IntArray) -> str:
-    """The topic of the offers broadcast in radio cell ``cell`` (``protocol.cells``)."""
-    return f"{RADIO_TOPIC}/{cell_name(cell)}"
+def radio_topic(band: str, cell: Sequence[int] | IntArray) -> str:
+    """The topic of the offers sent in radio cell ``cell`` of ``band`` (``protocol.cells``)."""
+    return f"{RADIO_TOPIC}/{band}/{cell_name(cell)}"
 
 
 def node_name(fls_id: int) -> str:

@@ -29,7 +29,7 @@ from swazure_interfaces.msg import (
 )
 
 from ..core.fit import PATH
-from ..protocol.cells import radio_cells
+from ..protocol.cells import BANDS, band_of, radio_cells
 from ..protocol.discovery.messages import END, ROUND, START, Broadcast
 from ..protocol.moves import Walk
 from ..protocol.plausible import (
@@ -76,7 +76,8 @@ EARLY_WALKS = 4096
 #: and are in long before its END; this must stay below the coordinator's round timeout.
 READINGS_WAIT = 1.0
 IntArray = NDArray[np.int64]
-Cell = tuple[int, ...]
+#: A radio cell: its band, then its three indices.
+Cell = tuple[str | int, ...]
 
 
 class Radio:
@@ -111,9 +112,10 @@ class Radio:
         #: The FLSs this process hosts (those of ``fls_nodes`` when None), for its cells.
         self._local = np.array(sorted(fls_nodes if local is None else local), dtype=np.int64)
         self._cells = radio_cells(senses.sensor, senses.radius)
-        self._listening: dict[Cell, Subscription] = {}  # the radio cells heard
+        self._listening: dict[Cell, Subscription] = {}  # the radio cells heard, per band
         self._sending: dict[Cell, Publisher] = {}  # the radio cells of this process's FLSs
-        self._audible = np.zeros(0, dtype=np.int64)  # the FLSs in the cells heard
+        # Per band: the FLSs in the cells heard, and of each cell sent on, its readers.
+        self._audible = {band: np.zeros(0, dtype=np.int64) for band in BANDS}
         self.readings = ReadingsBook() if readings is None else readings
         self._hears_readings = False
         self._waiting: set[int] = set()  # local sources whose fit waits for readings
@@ -125,7 +127,7 @@ class Radio:
             lambda fls_id: senses.view(fls_id).other.astype(np.int64),
             round_labels_check(senses.positions, senses.sensor, senses.radius),
             offer_readings_check(senses.positions, senses.sensor, senses.radius),
-            audible=lambda: self._audible,
+            audible=lambda phase: self._audible[band_of(phase)],
         )
         self.controls_heard = 0  # a control is a sure sign that a coordinator is there
         self.last_control_at = float("-inf")  # monotonic s
@@ -153,45 +155,62 @@ class Radio:
         cell is heard there from then on. Publishers are made here, ahead of
         the runs that use them, so that they have matched their readers by then.
         """
-        senses, cells = self._senses, self._cells
-        own = cells.of(senses.positions(self._local)) if len(self._local) else np.zeros((0, 3))
-        mine = {tuple(cell) for cell in own.astype(np.int64).tolist()}
-        heard = {tuple(cell) for cell in cells.around(own).tolist()} if mine else set()
+        senses = self._senses
+        points = senses.positions(self._local) if len(self._local) else np.zeros((0, 3))
+        everyone = senses.positions(senses.ids)
+        mine: set[Cell] = set()
+        heard: set[Cell] = set()
+        for band, cells in self._cells.items():
+            own = cells.of(points)
+            mine |= {(band, *cell) for cell in own.tolist()}
+            around = {(band, *cell) for cell in cells.around(own).tolist()} if len(own) else set()
+            heard |= around
+            all_cells = [(band, *cell) for cell in cells.of(everyone).tolist()]
+            self._audible[band] = senses.ids[[cell in around for cell in all_cells]]
         for cell in sorted(set(self._listening) - heard):
             self._node.destroy_subscription(self._listening.pop(cell))
         for cell in sorted(heard - set(self._listening)):
             self._listening[cell] = self.guard.subscribe(
-                PathOffer, radio_topic(cell), self._on_offer, ROUND_QOS
+                PathOffer, self._topic(cell), self._on_offer, ROUND_QOS
             )
         for cell in sorted(set(self._sending) - mine):
             self._node.destroy_publisher(self._sending.pop(cell))
         for cell in sorted(mine - set(self._sending)):
             self._sending[cell] = self._node.create_publisher(
-                PathOffer, radio_topic(cell), ROUND_QOS
+                PathOffer, self._topic(cell), ROUND_QOS
             )
-        everyone = cells.of(senses.positions(senses.ids)).tolist()
-        self._audible = senses.ids[[tuple(cell) in heard for cell in everyone]]
+
+    @staticmethod
+    def _topic(cell: Cell) -> str:
+        return radio_topic(str(cell[0]), [int(index) for index in cell[1:]])
 
     @property
     def cells_heard(self) -> list[Cell]:
-        """The radio cells this process hears, sorted."""
+        """The radio cells this process hears, as (band, i, j, k), sorted."""
         return sorted(self._listening)
 
     def offer_readers(self) -> tuple[int, int]:
-        """(readers matched to the fewest-read of this process's cells, the FLSs that hear it).
+        """(readers matched to this process's cells, the FLSs that hear them), summed over cells.
 
-        One process per FLS: every FLS within one cell of this one's hears it,
-        so the first number reaches the second once all of them listen.
+        One process per FLS: every FLS within one cell of this one's (of each
+        band) hears it, so the first number reaches the second once all of them listen.
         """
-        readers = min((p.get_subscription_count() for p in self._sending.values()), default=0)
-        return readers, int(self._audible.size)
+        readers = needed = 0
+        for cell, publisher in self._sending.items():
+            band = str(cell[0])
+            want = int(self._audible[band].size)
+            readers += min(publisher.get_subscription_count(), want)
+            needed += want
+        return readers, needed
 
     def broadcast(self, out: Broadcast) -> int:
         """Send local FLS ``out.sender``'s offer on its radio cell's topic; the bytes sent."""
-        cell = tuple(self._cells.of(self._senses.positions(np.array([out.sender])))[0].tolist())
+        band = band_of(out.phase)
+        where = self._cells[band].of(self._senses.positions(np.array([out.sender])))[0]
+        cell: Cell = (band, *where.tolist())
         publisher = self._sending.get(cell)
         if publisher is None:  # an FLS not hosted here at the start: made on demand
-            publisher = self._node.create_publisher(PathOffer, radio_topic(cell), ROUND_QOS)
+            publisher = self._node.create_publisher(PathOffer, self._topic(cell), ROUND_QOS)
             self._sending[cell] = publisher
         stamp = self._node.get_clock().now().to_msg()
         data = self.guard.key.serialize(offer_message(out, stamp))

@@ -14,8 +14,10 @@ import sys
 
 import pytest
 
+from swazure_ros.app.share import shares
 from swazure_ros.core.results import RECORD_FILE, read_record
 from swazure_ros.ros.keys import new_key, write_key
+from swazure_ros.sim.world import WorldSpec
 
 from ..netns import address, hosts_unavailable, netns_hosts, on_host
 from .test_per_fls import GRID
@@ -71,8 +73,10 @@ def test_fls_processes_on_two_hosts_through_a_discovery_server_compute_the_engin
     assert not (tmp_path / "h1" / "discovery_server_0.log").exists()
     assert "13 FLS processes stopped, every one cleanly (exit code 0)" in leader.stderr
     assert "12 FLS processes stopped, every one cleanly (exit code 0)" in err, err
+    # Host 1 ran the second region of the grid's k-d split.
+    grid = WorldSpec(str(GRID.with_suffix(".xyz")), scale=1, radius=0.5).assigned()
     assert sorted(path.name for path in (tmp_path / "h1").glob("fls_*.log")) == sorted(
-        f"fls_{fls_id}.log" for fls_id in range(13, 25)
+        f"fls_{fls_id}.log" for fls_id in shares(grid, 2)[1]
     )
 
 

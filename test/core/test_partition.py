@@ -13,7 +13,7 @@ def line(n: int) -> np.ndarray:
 
 
 def test_a_line_splits_into_consecutive_runs():
-    assert [part.tolist() for part in kd_split(line(7), 3)] == [[0, 1], [2, 3], [4, 5, 6]]
+    assert [part.tolist() for part in kd_split(line(7), 3)] == [[0, 1, 2], [3, 4], [5, 6]]
 
 
 def test_the_widest_axis_is_cut_first():

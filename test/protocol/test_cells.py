@@ -7,7 +7,16 @@ import pytest
 
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.neighbours import neighbour_pairs
-from swazure_ros.protocol.cells import Cells, cell_name, radio_cells
+from swazure_ros.core.sensor import SWEET
+from swazure_ros.protocol.cells import (
+    DECAYING_BAND,
+    SWEET_BAND,
+    Cells,
+    band_of,
+    cell_name,
+    radio_cells,
+)
+from swazure_ros.protocol.discovery.messages import PHASES
 
 
 def test_a_cell_holds_its_lower_faces_not_its_upper_ones():
@@ -40,9 +49,25 @@ def test_every_neighbour_pair_is_heard_through_the_cells(sensor):
     swarm = make_swarm(np.random.default_rng(5).uniform(0, 150, (300, 3)), radius=0.5)
     pairs = neighbour_pairs(swarm, sensor)
     assert len(pairs) > 100
-    cells = radio_cells(sensor, swarm.radius)
+    cells = radio_cells(sensor, swarm.radius)[DECAYING_BAND]
     # Cells no larger than needed: the shape spans several of them.
     assert len(np.unique(cells.of(swarm.points), axis=0)) > 8
     for first, second in zip(pairs.first[:200], pairs.second[:200]):
         one, other = swarm.points[[first]], swarm.points[[second]]
         assert cells.heard_by(one, other)[0] and cells.heard_by(other, one)[0]
+
+
+def test_every_sweet_pair_is_heard_through_the_sweet_cells(sensor):
+    swarm = make_swarm(np.random.default_rng(6).uniform(0, 60, (400, 3)), radius=0.5)
+    pairs = neighbour_pairs(swarm, sensor)
+    sweet = pairs.select(pairs.range_class == SWEET)
+    assert len(sweet) > 50
+    cells = radio_cells(sensor, swarm.radius)[SWEET_BAND]
+    assert cells.size < radio_cells(sensor, swarm.radius)[DECAYING_BAND].size / 3
+    for first, second in zip(sweet.first, sweet.second):
+        one, other = swarm.points[[first]], swarm.points[[second]]
+        assert cells.heard_by(one, other)[0] and cells.heard_by(other, one)[0]
+
+
+def test_the_sweet_phases_travel_in_sweet_cells_the_last_in_decaying_ones():
+    assert [band_of(phase) for phase in PHASES] == [SWEET_BAND, SWEET_BAND, DECAYING_BAND]

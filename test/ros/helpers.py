@@ -84,3 +84,22 @@ def assert_matches(message, expected_vectors):
     assert set(got) == set(expected_vectors), (message.source_id, sorted(got))
     for target, vector in got.items():
         np.testing.assert_allclose(vector, expected_vectors[target], rtol=0, atol=1e-12)
+
+
+def radio_topics(world_spec) -> list[str]:
+    """The radio cells' topics the FLSs of ``world_spec`` send their offers on, both bands."""
+    from swazure_ros.protocol.cells import BANDS, radio_cells
+    from swazure_ros.ros.names import radio_topic
+
+    assigned = world_spec.assigned()
+    grids = radio_cells(world_spec.sensor(), assigned.radius)
+    return sorted(
+        f"/swarm/{radio_topic(band, cell)}"
+        for band in BANDS
+        for cell in np.unique(grids[band].of(assigned.points), axis=0)
+    )
+
+
+def joined(by_topic, topics) -> list:
+    """The messages of ``topics`` in ``by_topic`` (topic -> list), in one list."""
+    return [message for topic in topics for message in by_topic.get(topic, [])]

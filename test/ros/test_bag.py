@@ -27,6 +27,7 @@ from swazure_ros.ros.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec
 
 from ..waits import wait_until
+from .helpers import joined, radio_topics
 
 WORLD = WorldSpec("helix:60", beta=0.5)
 KEEP_ALL_LATCHED = QoSProfile(
@@ -36,7 +37,8 @@ KEEP_ALL_LATCHED = QoSProfile(
     durability=DurabilityPolicy.TRANSIENT_LOCAL,
 )
 #: The protocol's topics of a discovery run, as the coordinator counts them.
-RUN_TOPICS = ("radio", "estimates", "round_acks", "discovery")
+RUN_TOPICS = ("estimates", "round_acks", "discovery")
+RADIO = radio_topics(WORLD)
 
 
 def test_a_message_definition_holds_every_type_used_once_and_decodes_without_an_install():
@@ -90,11 +92,13 @@ def recorded_run(domain, tmp_path):
     path = tmp_path / "run"
     config = SwarmConfig(WORLD, domain_id=domain, record=str(path))
     with RunningSwarm(config) as swarm:
-        probe = Probe(swarm.context, [("/swarm/radio", PathOffer, ROUND_QOS)])
+        probe = Probe(swarm.context, [(topic, PathOffer, ROUND_QOS) for topic in RADIO])
         swarm.host.add(probe.node)
         swarm.wait_until_ready()
         assert wait_until(
-            lambda: probe.node.count_publishers("/swarm/radio") >= 1, 30, lambda: swarm.spin(0.05)
+            lambda: all(probe.node.count_publishers(topic) >= 1 for topic in RADIO),
+            30,
+            lambda: swarm.spin(0.05),
         )
         swarm.spin(0.5)  # the probe's reader matched, as the recorder's is
         result = swarm.discover("shortest-length", timeout=120)
@@ -113,7 +117,9 @@ def test_a_recorded_discovery_reads_back_every_message_the_run_sent(recorded_run
     recorded = recorded_messages(path)
     for topic in RUN_TOPICS:
         assert len(recorded[f"/swarm/{topic}"]) == result.traffic.messages[topic] > 0, topic
-    assert sorted(recorded["/swarm/radio"]) == sorted(heard["/swarm/radio"])
+    offers = joined(recorded, RADIO)
+    assert len(offers) == result.traffic.messages["radio"] > 0
+    assert sorted(offers) == sorted(joined(heard, RADIO))
     # Every FLS's latched measurement, as the QoS it was offered with.
     sources = {
         deserialize_message(data, Measurements).source_id
@@ -128,9 +134,10 @@ def test_a_recorded_discovery_reads_back_every_message_the_run_sent(recorded_run
     assert {(o["reliability"], o["durability"]) for o in offers} == {
         ("reliable", "transient_local")
     }
-    radio = yaml.safe_load(channels["/swarm/radio"].metadata["offered_qos_profiles"])
-    assert {(o["reliability"], o["durability"]) for o in radio} == {("reliable", "volatile")}
-    assert channels["/swarm/radio"].type_name == "swazure_interfaces/msg/PathOffer"
+    for topic in RADIO:
+        radio = yaml.safe_load(channels[topic].metadata["offered_qos_profiles"])
+        assert {(o["reliability"], o["durability"]) for o in radio} == {("reliable", "volatile")}
+        assert channels[topic].type_name == "swazure_interfaces/msg/PathOffer"
 
 
 def test_a_recording_is_a_bag_that_an_independent_rosbag2_reader_opens(recorded_run):
@@ -149,10 +156,11 @@ def test_a_recording_is_a_bag_that_an_independent_rosbag2_reader_opens(recorded_
             assert connection.digest.startswith("RIHS01_")
             assert connection.ext.serialization_format == "cdr"
             assert connection.ext.offered_qos_profiles, topic
-        radio = connections["/swarm/radio"].ext.offered_qos_profiles
-        assert {(qos.reliability.name, qos.durability.name) for qos in radio} == {
-            ("RELIABLE", "VOLATILE")
-        }
+        for topic in RADIO:
+            radio = connections[topic].ext.offered_qos_profiles
+            assert {(qos.reliability.name, qos.durability.name) for qos in radio} == {
+                ("RELIABLE", "VOLATILE")
+            }
         latched = connections["/swarm/measurements"].ext.offered_qos_profiles
         assert len(latched) == len(world.ids)
         assert {qos.durability.name for qos in latched} == {"TRANSIENT_LOCAL"}
@@ -161,15 +169,16 @@ def test_a_recording_is_a_bag_that_an_independent_rosbag2_reader_opens(recorded_
         # The bytes as recorded, and decoded by rosbags from the bag's own schemas. (Not the
         # radio's offers: rmw_fastrtps's serialize_message pads some of them past their CDR
         # end with stray bytes, which rosbags refuses and every ROS 2 reader ignores.)
-        offers = [data for _, _, data in bag.messages(connections=[connections["/swarm/radio"]])]
-        assert sorted(offers) == sorted(recorded["/swarm/radio"])
+        cells = [connections[topic] for topic in RADIO]
+        offers = [data for _, _, data in bag.messages(connections=cells)]
+        assert sorted(offers) == sorted(joined(recorded, RADIO))
         reports = bag.messages(connections=[connections["/swarm/estimates"]])
         sources = {
             bag.deserialize(data, "swazure_interfaces/msg/PoseEstimates").source_id
             for _, _, data in reports
         }
         assert sources == set(world.ids.tolist())
-    assert len(recorded["/swarm/radio"]) == result.traffic.messages["radio"]
+    assert len(joined(recorded, RADIO)) == result.traffic.messages["radio"]
     # The MCAP file alone is a recording too, with the same messages (our first form).
     assert recorded_messages(path / "run_0.mcap") == recorded
     with (path / "run_0.mcap").open("rb") as stream:
@@ -186,7 +195,7 @@ def test_replay_publishes_the_recording_again(recorded_run, domain, context):
     probe = Probe(
         context,
         [
-            ("/swarm/radio", PathOffer, ROUND_QOS),
+            *((topic, PathOffer, ROUND_QOS) for topic in RADIO),
             # Every message, not the newest per reader: the replay sends them in a burst.
             ("/swarm/measurements", Measurements, KEEP_ALL_LATCHED),
         ],
@@ -216,8 +225,9 @@ def test_replay_publishes_the_recording_again(recorded_run, domain, context):
     assert replay.returncode == 0, err
     assert f"replayed {sum(len(v) for v in recorded.values())} messages" in err
     assert "every reliable reader acknowledged every message" in err, err
-    assert sorted(probe.received["/swarm/radio"]) == sorted(recorded["/swarm/radio"])
-    assert len(probe.received["/swarm/radio"]) == result.traffic.messages["radio"]
+    replayed = joined(probe.received, RADIO)
+    assert sorted(replayed) == sorted(joined(recorded, RADIO))
+    assert len(replayed) == result.traffic.messages["radio"]
     assert sorted(probe.received["/swarm/measurements"]) == sorted(recorded["/swarm/measurements"])
 
 

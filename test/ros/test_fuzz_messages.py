@@ -79,7 +79,6 @@ def test_generated_messages_stop_nothing_and_change_no_later_answer(domain, tmp_
         def raw(handler):
             return lambda generated: handler(bytes(serialize_message(generated)))
 
-        counted_offer = raw(coordinator._on_offer)
         targets = [
             (CONTROL_TOPIC, message(DiscoveryControl, ids_and_runs), radio._on_control, host),
             (RADIO_TOPIC, message(PathOffer, ids_and_runs), radio._on_offer, host),
@@ -87,18 +86,6 @@ def test_generated_messages_stop_nothing_and_change_no_later_answer(domain, tmp_
             (WALKS_TOPIC, message(PathWalk, ids_and_runs), radio._on_walk, host),
             (TRACK_REQUESTS_TOPIC, message(TrackRequest, ids), radio._on_track_request, host),
             (TRACK_SAMPLES_TOPIC, message(TrackSample, ids), radio._on_track_sample, host),
-            (
-                RADIO_TOPIC,
-                message(PathOffer, ids_and_runs),
-                counted_offer,
-                coordinator,
-            ),
-            (
-                RADIO_TOPIC,
-                well_formed_offer(PathOffer, ids),
-                counted_offer,
-                coordinator,
-            ),
             (ACK_TOPIC, message(RoundAck, ids_and_runs), raw(coordinator._on_ack), coordinator),
             (
                 ESTIMATES_TOPIC,

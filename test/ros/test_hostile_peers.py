@@ -23,6 +23,7 @@ from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import SWEET_PATH, evaluate, evaluate_pairs
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
+from swazure_ros.protocol.cells import BANDS, band_of, radio_cells
 from swazure_ros.ros.auth import SwarmKey, new_key
 from swazure_ros.ros.names import (
     CONTROL_TOPIC,
@@ -30,6 +31,7 @@ from swazure_ros.ros.names import (
     MEASUREMENTS_TOPIC,
     RADIO_TOPIC,
     ROUND_QOS,
+    radio_topic,
 )
 from swazure_ros.sim.world import WorldSpec
 
@@ -42,13 +44,21 @@ POLICY = "shortest-length"
 class Forger:
     """A peer that answers every round of every run with forged offers for one blind pair."""
 
-    def __init__(self, domain: int, source: int, target: int, key: SwarmKey) -> None:
+    def __init__(self, domain: int, world, source: int, target: int, key: SwarmKey) -> None:
         self.context = make_context(domain)
         self.node = Node("forger", namespace="swarm", context=self.context)
         self.key = key
         self.sent = 0
         self.source, self.target = source, target
-        self._offers = self.node.create_publisher(PathOffer, RADIO_TOPIC, ROUND_QOS)
+        # As the target would: on its radio cell's topic of each band.
+        grids = radio_cells(world.sensor, world.swarm.radius)
+        where = world.position(target).reshape(1, 3)
+        self.offers = {
+            band: self.node.create_publisher(
+                PathOffer, radio_topic(band, grids[band].of(where)[0]), ROUND_QOS
+            )
+            for band in BANDS
+        }
         self.controls = self.node.create_subscription(
             DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS
         )
@@ -79,7 +89,7 @@ class Forger:
             path_offsets=[0, 2],
             path_ids=[self.source, self.target],
         )
-        self._offers.publish(self.key.serialize(forged))
+        self.offers[band_of(control.phase)].publish(self.key.serialize(forged))
         self.sent += 1
 
     def __enter__(self) -> Forger:
@@ -116,35 +126,48 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
     with RunningSwarm(config) as swarm:
         swarm.wait_until_ready()
         source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world)
-        with Forger(domain, source, target, forger_key) as forger:
+        with Forger(domain, swarm.world, source, target, forger_key) as forger:
             # The forger hears the coordinator's controls (matched, not only in the graph)
-            # and the swarm knows the forger's radio before the run.
+            # and the swarm's radio hears the forger before the run.
             wait_until(
                 lambda: (
-                    swarm.host.host_node.count_publishers(f"/swarm/{RADIO_TOPIC}") >= 2
+                    all(p.get_subscription_count() >= 1 for p in forger.offers.values())
                     and forger.controls.get_publisher_count() >= 1
                 ),
                 30,
                 lambda: swarm.spin(0.05),
             )
             result = swarm.run(swarm.coordinator.discover(POLICY, [source], [target]), timeout=120)
+
             # The drops are on /diagnostics within a second or two.
-            counter = f"dropped {RADIO_TOPIC}: {dropped_because}"
-            wait_until(
-                lambda: counter in forger.diagnostics.get("/swarm/host_0", {}),
-                10,
-                lambda: swarm.spin(0.05),
-            )
-            assert int(forger.diagnostics["/swarm/host_0"][counter]) >= 1, forger.diagnostics
+            # Counted against the radio cell the forger sent on (or the radio's check).
+            def counted() -> int:
+                return sum(
+                    int(value)
+                    for key, value in forger.diagnostics.get("/swarm/host_0", {}).items()
+                    if key.startswith(f"dropped {RADIO_TOPIC}")
+                    and key.endswith(f": {dropped_because}")
+                )
+
+            wait_until(lambda: counted() >= 1, 10, lambda: swarm.spin(0.05))
+            assert counted() >= 1, forger.diagnostics
         assert forger.sent >= 1 and result.rounds > 0
         (answer,) = result.estimates[source]
         assert answer.status == SWEET_PATH
         assert answer.path == tuple(int(swarm.world.ids[k]) for k in engine.path(row))
         np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)
-        dropped = swarm.host.guard.dropped[(RADIO_TOPIC, dropped_because)]
+        dropped = sum(
+            count
+            for (topic, why), count in swarm.host.guard.dropped.items()
+            if topic.startswith(RADIO_TOPIC) and why == dropped_because
+        )
         assert dropped >= 1, swarm.host.guard.dropped
-        # The coordinator did not count the forger's offers either.
-        assert swarm.coordinator.guard.dropped[(RADIO_TOPIC, dropped_because)] >= 1
+        # The coordinator hears no offer, forged or not: it counts what the processes
+        # say their own FLSs sent.
+        names = swarm.coordinator.get_topic_names_and_types()
+        for topic in (name for name, _ in names if name.startswith(f"/swarm/{RADIO_TOPIC}/")):
+            readers = swarm.coordinator.get_subscriptions_info_by_topic(topic)
+            assert "coordinator" not in {reader.node_name for reader in readers}, topic
 
 
 @pytest.mark.parametrize(

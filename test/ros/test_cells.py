@@ -1,0 +1,76 @@
+"""Radio cells over real DDS: two packed processes hear only the cells around their FLSs."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from swazure_ros.app.config import SwarmConfig
+from swazure_ros.app.share import shares
+from swazure_ros.app.swarm import RunningSwarm
+from swazure_ros.core.evaluate import evaluate_pairs
+from swazure_ros.protocol.cells import BANDS, radio_cells
+from swazure_ros.ros.names import RADIO_TOPIC, host_name, radio_topic
+from swazure_ros.sim.world import WorldSpec
+
+from .test_discovery import assert_matches_engine, by_pair, params  # noqa: F401
+
+# 396 FLSs on a torus 120 cm across: eight sweet cells along a diameter.
+WORLD = WorldSpec("torus:400", scale=12, beta=0.3)
+POLICY = "shortest-length"
+
+
+def expected_topics(world_spec: WorldSpec, parts: int) -> tuple[list[set[str]], set[str]]:
+    """Per share, the radio topics it must hear; and every topic some FLS sends on."""
+    assigned = world_spec.assigned()
+    row = {int(fls): index for index, fls in enumerate(assigned.cloud_index)}
+    grids = radio_cells(world_spec.sensor(), assigned.radius)
+    heard: list[set[str]] = []
+    for share in shares(assigned, parts):
+        points = assigned.points[[row[fls] for fls in share]]
+        heard.append(
+            {
+                f"/swarm/{radio_topic(band, cell)}"
+                for band in BANDS
+                for cell in grids[band].around(grids[band].of(points))
+            }
+        )
+    sent = {
+        f"/swarm/{radio_topic(band, cell)}"
+        for band in BANDS
+        for cell in np.unique(grids[band].of(assigned.points), axis=0)
+    }
+    return heard, sent
+
+
+def test_two_processes_hear_only_their_cells_offers_yet_equal_the_engine(domain, params):  # noqa: F811
+    heard, sent = expected_topics(WORLD, 2)
+    # The shape is wide enough that neither share hears every cell that carries offers.
+    assert all(sent - topics for topics in heard)
+    config = SwarmConfig(WORLD, processes=2, domain_id=domain, params_file=str(params))
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        result = swarm.discover(POLICY)
+        world = swarm.world
+        engine = evaluate_pairs(world.hood, POLICY)
+        assert_matches_engine(world, by_pair(result.estimates), engine)
+
+        # What any observer of the graph sees: who reads each radio topic.
+        node = swarm.host.host_node
+        radio = [
+            name for name, _ in node.get_topic_names_and_types()
+            if name.startswith(f"/swarm/{RADIO_TOPIC}/")
+        ]  # fmt: skip
+        readers: dict[str, set[str]] = {}
+        for topic in radio:
+            for endpoint in node.get_subscriptions_info_by_topic(topic):
+                readers.setdefault(endpoint.node_name, set()).add(topic)
+        for index in range(2):
+            assert readers[host_name(index)] == heard[index], index
+        assert set(radio) >= sent
+
+        # The first process heard (and checked, and handed on) fewer offers than were sent.
+        offers_heard = sum(
+            count for topic, count in swarm.host.guard.accepted.items()
+            if topic.startswith(f"{RADIO_TOPIC}/")
+        )  # fmt: skip
+        assert 0 < offers_heard < result.traffic.messages[RADIO_TOPIC]
