@@ -113,7 +113,6 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from ..core.camera import Camera
-    from .radio import Radio
 
 
 class Transmitter:
@@ -129,8 +128,8 @@ class Transmitter:
     def __init__(self, node: Node, key: SwarmKey | None = None) -> None:
         self._node = node
         self.key = key or SwarmKey()
-        #: The process's radio, once it has one: it sends the offers.
-        self.radio: Radio | None = None
+        #: The process's radio's broadcast, once it has one: it sends the offers.
+        self.broadcast: Callable[[Broadcast], int] | None = None
         self._estimates = node.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
 
     def readers(self) -> int:
@@ -140,9 +139,9 @@ class Transmitter:
     def send(self, out: Broadcast | Report) -> int:
         """Send an offer on its radio cell or a report on ``estimates``; the bytes sent."""
         if isinstance(out, Broadcast):
-            if self.radio is None:
+            if self.broadcast is None:
                 raise RuntimeError("an offer to send before this process has a radio")
-            return self.radio.broadcast(out)
+            return self.broadcast(out)
         stamp = self._node.get_clock().now().to_msg()
         data = self.key.serialize(estimates_message(out, stamp))
         self._estimates.publish(data)

@@ -113,7 +113,7 @@ class RadioJoin:
             listen=False,
             readings=node.discovery.readings,
         )
-        node.transmitter.radio = self.radio
+        node.transmitter.broadcast = self.radio.broadcast
         self.made_at = time.monotonic()
         node.get_logger().info(  # type: ignore[no-untyped-call]
             "radio on: its camera's first frame is in; waiting to be heard by every FLS and "

@@ -112,14 +112,18 @@ class Guard:
         callback: Callable[[T], Any],
         qos: QoSProfile,
         node: Node | None = None,
+        echoes: Callable[[bytes], bool] | None = None,
     ) -> Subscription:
         """Subscribe ``node`` (the guard's own by default) to ``topic``, guarded and key-checked.
 
         The callback gets each message of type ``kind`` that the swarm's key
-        signs; every other is dropped and counted.
+        signs; every other is dropped and counted. ``echoes(data)``: the
+        process's own message come back, passed over uncounted.
         """
 
         def take(data: bytes) -> None:
+            if echoes is not None and echoes(data):
+                return
             self.call(topic, lambda: callback(self.key.deserialize(data, kind)))
 
         return (node or self._node).create_subscription(kind, topic, take, qos, raw=True)

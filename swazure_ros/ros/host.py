@@ -130,7 +130,8 @@ class SwarmHost:
         self._controls_at_loss = 0
         self.host_node.create_timer(COORDINATOR_WATCH_PERIOD, self._watch_graph)
         self.transmitter = Transmitter(self.host_node, self.guard.key)
-        self.transmitter.radio = self.radio
+        if self.radio is not None:
+            self.transmitter.broadcast = self.radio.broadcast
         # One /parameter_events writer for the process's FLS nodes (SwarmNode).
         self._parameter_events = self.host_node.create_parameter_events_publisher()
         self._add(self.host_node)

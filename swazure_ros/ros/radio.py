@@ -7,7 +7,7 @@ in its own process (:func:`.fls_program.build_fls`) hosts itself behind one.
 from __future__ import annotations
 
 import time
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -51,7 +51,7 @@ from .convert.discovery import (
 )
 from .convert.sensing import readings_from_message
 from .convert.tracking import relay_request_from_message, sample_from_message
-from .guard import Guard
+from .guard import Guard, check
 from .names import (
     ACK_TOPIC,
     CONTROL_TOPIC,
@@ -71,6 +71,8 @@ if TYPE_CHECKING:
 #: Path walks a process keeps while they wait for a newer world revision (a heuristic
 #: walks a few paths per group of moves).
 EARLY_WALKS = 4096
+#: Offers per local FLS whose bytes a process keeps to know their echoes: a few rounds'.
+ECHOES_PER_FLS = 8
 #: Seconds a source of a fitting run waits, after the END, for the readings of its
 #: window before it fits what it heard. The readings are asked for at the run's START
 #: and are in long before its END; this must stay below the coordinator's round timeout.
@@ -78,6 +80,29 @@ READINGS_WAIT = 1.0
 IntArray = NDArray[np.int64]
 #: A radio cell: its band, then its three indices.
 Cell = tuple[str | int, ...]
+
+
+class Echoes:
+    """The last ``size`` messages sent, by their bytes: DDS brings a process its own back."""
+
+    def __init__(self, size: int) -> None:
+        self._order: deque[bytes] = deque()
+        self._held: Counter[bytes] = Counter()
+        self._size = size
+
+    def add(self, data: bytes) -> None:
+        """Remember ``data``, forgetting the oldest beyond the size."""
+        self._order.append(data)
+        self._held[data] += 1
+        while len(self._order) > self._size:
+            old = self._order.popleft()
+            self._held[old] -= 1
+            if not self._held[old]:
+                del self._held[old]
+
+    def __call__(self, data: bytes) -> bool:
+        """True if ``data`` is one of the messages sent lately."""
+        return data in self._held
 
 
 class Radio:
@@ -116,6 +141,12 @@ class Radio:
         self._sending: dict[Cell, Publisher] = {}  # the radio cells of this process's FLSs
         # Per band: the FLSs in the cells heard, and of each cell sent on, its readers.
         self._audible = {band: np.zeros(0, dtype=np.int64) for band in BANDS}
+        self._local_set = frozenset(self._local.tolist())
+        # The offers sent lately, to know them when a shared cell brings them back.
+        self._echoes = Echoes(ECHOES_PER_FLS * max(len(self._local), 1))
+        #: Offers heard: from this process's own FLSs, and from other processes' over DDS.
+        self.offers_here = 0
+        self.offers_heard = 0
         self.readings = ReadingsBook() if readings is None else readings
         self._hears_readings = False
         self._waiting: set[int] = set()  # local sources whose fit waits for readings
@@ -158,20 +189,24 @@ class Radio:
         senses = self._senses
         points = senses.positions(self._local) if len(self._local) else np.zeros((0, 3))
         everyone = senses.positions(senses.ids)
+        elsewhere = ~np.isin(senses.ids, self._local)  # FLSs of other processes
         mine: set[Cell] = set()
         heard: set[Cell] = set()
         for band, cells in self._cells.items():
             own = cells.of(points)
             mine |= {(band, *cell) for cell in own.tolist()}
             around = {(band, *cell) for cell in cells.around(own).tolist()} if len(own) else set()
-            heard |= around
             all_cells = [(band, *cell) for cell in cells.of(everyone).tolist()]
             self._audible[band] = senses.ids[[cell in around for cell in all_cells]]
+            # Offers between this process's FLSs never cross DDS (broadcast): a cell
+            # that holds none of another process's FLSs needs no subscription.
+            remote = {cell for cell, other in zip(all_cells, elsewhere.tolist()) if other}
+            heard |= around & remote
         for cell in sorted(set(self._listening) - heard):
             self._node.destroy_subscription(self._listening.pop(cell))
         for cell in sorted(heard - set(self._listening)):
             self._listening[cell] = self.guard.subscribe(
-                PathOffer, self._topic(cell), self._on_offer, ROUND_QOS
+                PathOffer, self._topic(cell), self._on_offer, ROUND_QOS, echoes=self._echoes
             )
         for cell in sorted(set(self._sending) - mine):
             self._node.destroy_publisher(self._sending.pop(cell))
@@ -192,19 +227,25 @@ class Radio:
     def offer_readers(self) -> tuple[int, int]:
         """(readers matched to this process's cells, the FLSs that hear them), summed over cells.
 
-        One process per FLS: every FLS within one cell of this one's (of each
-        band) hears it, so the first number reaches the second once all of them listen.
+        One process per FLS: every other FLS within one cell of this one's (of
+        each band) hears it, so the first number reaches the second once all of
+        them listen.
         """
         readers = needed = 0
         for cell, publisher in self._sending.items():
-            band = str(cell[0])
-            want = int(self._audible[band].size)
+            audible = self._audible[str(cell[0])]
+            want = int(np.count_nonzero(~np.isin(audible, self._local)))
             readers += min(publisher.get_subscription_count(), want)
             needed += want
         return readers, needed
 
     def broadcast(self, out: Broadcast) -> int:
-        """Send local FLS ``out.sender``'s offer on its radio cell's topic; the bytes sent."""
+        """Local FLS ``out.sender``'s offer: heard here at once, and sent on its cell's topic.
+
+        It crosses DDS only when someone else reads that cell (another
+        process, a recorder, ``ros2 topic echo``): the bytes sent, 0 when no
+        one does.
+        """
         band = band_of(out.phase)
         where = self._cells[band].of(self._senses.positions(np.array([out.sender])))[0]
         cell: Cell = (band, *where.tolist())
@@ -212,11 +253,17 @@ class Radio:
         if publisher is None:  # an FLS not hosted here at the start: made on demand
             publisher = self._node.create_publisher(PathOffer, self._topic(cell), ROUND_QOS)
             self._sending[cell] = publisher
-        stamp = self._node.get_clock().now().to_msg()
-        data = self.guard.key.serialize(offer_message(out, stamp))
-        self._hub.sent(out.run_id, out.round, out.sender, out.offer, len(data))
-        publisher.publish(data)
-        return len(data)
+        size = 0
+        if publisher.get_subscription_count():
+            stamp = self._node.get_clock().now().to_msg()
+            data = self.guard.key.serialize(offer_message(out, stamp))
+            self._echoes.add(data)
+            publisher.publish(data)
+            size = len(data)
+        self._hub.sent(out.run_id, out.round, out.sender, out.offer, size)
+        self.offers_here += 1
+        self._acknowledge(self._hub.on_offer(out.run_id, out.round, out.sender, out.offer))
+        return size
 
     def listen(self) -> None:
         """Hear the coordinator's controls: from now on the swarm's rounds count on this radio."""
@@ -309,6 +356,10 @@ class Radio:
                 self._waiting.discard(fls_id)
 
     def _on_offer(self, message: PathOffer) -> None:
+        # This process's own offers are heard when sent (broadcast), and their echoes
+        # from a shared cell never get here (_echoes): this one is someone else's.
+        check(message.sender_id not in self._local_set, "names an FLS of this process")
+        self.offers_heard += 1
         # Its labels' meaning is checked once a round, with every offer heard (_implausible).
         offer = offer_from_message(message, self._swarm)
         self._acknowledge(

@@ -103,11 +103,17 @@ class Forger:
         self.context.try_shutdown()
 
 
-def blind_pair_with_a_sweet_path(world):
-    """(source, target) ids and the engine's pair row: blind, with a sweet path of 2+ hops."""
+def blind_pair_with_a_sweet_path(world, sources=None):
+    """(source, target) ids and the engine's pair row: blind, with a sweet path of 2+ hops.
+
+    With ``sources`` (ids), a pair whose source is one of them and target is not.
+    """
     engine = evaluate_pairs(world.hood, POLICY)
-    row = int(np.flatnonzero((engine.status == SWEET_PATH) & (engine.hops >= 2))[0])
     ids = world.ids
+    wanted = (engine.status == SWEET_PATH) & (engine.hops >= 2)
+    if sources is not None:
+        wanted &= np.isin(ids[engine.source], sources) & ~np.isin(ids[engine.target], sources)
+    row = int(np.flatnonzero(wanted)[0])
     return int(ids[engine.source[row]]), int(ids[engine.target[row]]), engine, row
 
 
@@ -122,10 +128,14 @@ def blind_pair_with_a_sweet_path(world):
 )
 def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, dropped_because):
     world_spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
-    config = SwarmConfig(world_spec, domain_id=domain, authenticate=authenticate)
+    # Two processes: the source's hears the target's radio cell (where the forger sends),
+    # as offers between FLSs of one process never cross DDS.
+    config = SwarmConfig(world_spec, domain_id=domain, authenticate=authenticate, processes=2)
     with RunningSwarm(config) as swarm:
         swarm.wait_until_ready()
-        source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world)
+        source, target, engine, row = blind_pair_with_a_sweet_path(
+            swarm.world, swarm.host.fls_ids
+        )
         with Forger(domain, swarm.world, source, target, forger_key) as forger:
             # The forger hears the coordinator's controls (matched, not only in the graph)
             # and the swarm's radio hears the forger before the run.
