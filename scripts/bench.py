@@ -455,10 +455,12 @@ def compute_all(
             where = said[-1].split(": ", 1)[1] if said else "bringing the swarm up"
             return {"failed": f"stopped after {limit / 60:.0f} min at {where}"}
     seconds = time.perf_counter() - began
-    if process.returncode != 0:
+    from swazure_ros.core.results import RECORD_FILE, read_record
+
+    # Exit 1 with a record: the run finished but is not the engine's (its row says how).
+    if process.returncode != 0 and not (process.returncode == 1 and (out / RECORD_FILE).exists()):
         tail = log.read_text().strip().splitlines()[-1:]
         return {"failed": f"exit {process.returncode}: {' '.join(tail)}"}
-    from swazure_ros.core.results import RECORD_FILE, read_record
 
     record = read_record(out / RECORD_FILE)
     distributed, bring_up = record.distributed, record.bring_up

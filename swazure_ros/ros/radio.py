@@ -141,6 +141,7 @@ class Radio:
         self._sending: dict[Cell, Publisher] = {}  # the radio cells of this process's FLSs
         # Per band: the FLSs in the cells heard, and of each cell sent on, its readers.
         self._audible = {band: np.zeros(0, dtype=np.int64) for band in BANDS}
+        self._cell_of: dict[tuple[str, int], Cell] = {}  # (band, local FLS) -> its cell
         self._local_set = frozenset(self._local.tolist())
         # The offers sent lately, to know them when a shared cell brings them back.
         self._echoes = Echoes(ECHOES_PER_FLS * max(len(self._local), 1))
@@ -192,9 +193,14 @@ class Radio:
         elsewhere = ~np.isin(senses.ids, self._local)  # FLSs of other processes
         mine: set[Cell] = set()
         heard: set[Cell] = set()
+        self._cell_of.clear()
         for band, cells in self._cells.items():
             own = cells.of(points)
             mine |= {(band, *cell) for cell in own.tolist()}
+            self._cell_of.update(
+                ((band, fls), (band, *cell))
+                for fls, cell in zip(self._local.tolist(), own.tolist(), strict=True)
+            )
             around = {(band, *cell) for cell in cells.around(own).tolist()} if len(own) else set()
             all_cells = [(band, *cell) for cell in cells.of(everyone).tolist()]
             self._audible[band] = senses.ids[[cell in around for cell in all_cells]]
@@ -247,8 +253,10 @@ class Radio:
         one does.
         """
         band = band_of(out.phase)
-        where = self._cells[band].of(self._senses.positions(np.array([out.sender])))[0]
-        cell: Cell = (band, *where.tolist())
+        cell = self._cell_of.get((band, out.sender))
+        if cell is None:  # an FLS not hosted here at the start
+            where = self._cells[band].of(self._senses.positions(np.array([out.sender])))[0]
+            cell = (band, *where.tolist())
         publisher = self._sending.get(cell)
         if publisher is None:  # an FLS not hosted here at the start: made on demand
             publisher = self._node.create_publisher(PathOffer, self._topic(cell), ROUND_QOS)
