@@ -1802,6 +1802,125 @@ def hosts_figures(records: list[dict], folder: Path) -> None:
         atomic_write(folder / name, lambda tmp, f=figure: f.savefig(tmp, format="png", dpi=110))
 
 
+#: (shape, processes) of the cells section: the built-in torus at the paper's density and
+#: the race car, packed over 1, 2 and 4 processes.
+CELL_RUNS = [
+    (shape, processes)
+    for shape in ("torus:400", "torus:1000", "torus:3720", "racecar_3720", "torus:10000")
+    for processes in (1, 2, 4)
+]
+#: The longest a cells run may take, s: its row then says it was stopped.
+CELL_LIMIT = 1800
+
+
+def cells_section(args: argparse.Namespace) -> list[str]:
+    """Radio cells: per packed process and FLS, what one discovery run hears and spends."""
+    records = []
+    for shape, processes in CELL_RUNS:
+        cloud = shape if shape.startswith("torus") else swarm_cloud(shape)
+        out = SECTIONS_DIR / f"cells-{shape.replace(':', '')}-{processes}.json"
+        print(f"bench: cells, {shape} over {processes} process(es)", flush=True)
+        command = [sys.executable, str(REPO / "scripts" / "bench_cells.py"), "--cloud", cloud,
+                   "--processes", str(processes), "--beta", str(args.beta),
+                   "--out", str(out)]  # fmt: skip
+        try:
+            done = subprocess.run(command, timeout=CELL_LIMIT, capture_output=True, text=True)
+            if done.returncode != 0:
+                tail = done.stderr.strip().splitlines()[-1:]
+                raise OSError(f"exit {done.returncode}: {' '.join(tail)}")
+            records.append({"shape": shape, **json.loads(out.read_text())})
+        except (subprocess.TimeoutExpired, OSError, ValueError) as err:
+            records.append({"shape": shape, "processes": processes, "stopped": str(err)[:120]})
+    cells_figure(records, REPO / "docs" / "figures" / "cells-per-fls.png")
+    return cells_lines(records)
+
+
+def cells_lines(records: list[dict]) -> list[str]:
+    """The cells section's table from the bench_cells records."""
+    lines = [
+        "## Radio cells: what each packed process hears and spends in one discovery",
+        "",
+        "`scripts/bench_cells.py`: one `spawn --compute-all`-like run (beta 0.5,",
+        "Shortest-Length) of the built-in torus at the paper's density and of the race",
+        "car, packed over 1, 2 and 4 processes (k-d regions). Per process: the FLSs it",
+        "hosts, the radio cells it subscribes to (ROS graph), the offers it heard over DDS",
+        "(its /diagnostics counts; offers between its own FLSs never cross DDS) and its",
+        "CPU during discovery (/proc). Per FLS and round: those offers and that CPU over",
+        "the process's FLSs and the run's rounds (the busiest process). The coordinator",
+        "hears no offer. Figure: docs/figures/cells-per-fls.png.",
+        "",
+        "| shape | FLSs | processes | bring-up s | peak MB | discovery s | engine s | x engine "
+        "| rounds | radio topics | cells heard per process | offers over DDS per process "
+        "| DDS offers per FLS-round | CPU ms per FLS-round | radio MB | identical |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | --- "
+        "| ---: | ---: | ---: | --- |",
+    ]
+    for record in records:
+        if "stopped" in record:
+            lines.append(
+                f"| {record['shape']} | - | {record['processes']} | stopped: "
+                f"{record['stopped']} |  |  |  |  |  |  |  |  |  |  |  |  |"
+            )
+            continue
+        per = record["per_process"]
+        rounds = max(record["rounds"], 1)
+        busiest = max(per, key=lambda one: one["cpu_s"])
+        dds = max(one["offers_over_dds"] / max(one["flss"], 1) / rounds for one in per)
+        cpu_ms = 1e3 * busiest["cpu_s"] / max(busiest["flss"], 1) / rounds
+        lines.append(
+            f"| {record['shape']} | {record['flss']:,} | {record['processes']} "
+            f"| {record['bring_up_s']:.1f} | {record['peak_mb']:.0f} "
+            f"| {record['discovery_s']:.1f} | {record['engine_s']:.1f} "
+            f"| {record['discovery_s'] / record['engine_s']:.1f} | {record['rounds']} "
+            f"| {record['radio_topics']} | {' / '.join(str(one['cells']) for one in per)} "
+            f"| {' / '.join(format(one['offers_over_dds'], ',') for one in per)} "
+            f"| {dds:.2f} | {cpu_ms:.2f} | {record['radio_bytes'] / 1e6:.0f} "
+            f"| {record['identical']} |"
+        )
+    return lines
+
+
+def cells_figure(records: list[dict], path: Path) -> None:
+    """Per FLS and round, DDS offers heard and CPU, against the swarm's FLSs, per process count."""
+    from matplotlib.figure import Figure
+
+    from swazure_ros.core.results import atomic_write
+
+    figure = Figure(figsize=(9.6, 4.0), layout="constrained")
+    heard_axes, cpu_axes = figure.subplots(1, 2)
+    for processes, marker in ((1, "o"), (2, "s"), (4, "^")):
+        done = sorted(
+            (r for r in records if r.get("processes") == processes and "stopped" not in r),
+            key=lambda r: r["flss"],
+        )
+        if not done:
+            continue
+        flss = [r["flss"] for r in done]
+        heard = [
+            max(one["offers_over_dds"] / max(one["flss"], 1) for one in r["per_process"])
+            / max(r["rounds"], 1)
+            for r in done
+        ]
+        cpu = [
+            1e3
+            * max(one["cpu_s"] / max(one["flss"], 1) for one in r["per_process"])
+            / max(r["rounds"], 1)
+            for r in done
+        ]
+        label = f"{processes} process{'es' if processes > 1 else ''}"
+        heard_axes.plot(flss, heard, marker=marker, label=label)
+        cpu_axes.plot(flss, cpu, marker=marker, label=label)
+    for axes, what in ((heard_axes, "offers heard over DDS"), (cpu_axes, "CPU, ms")):
+        axes.set_xscale("log")
+        axes.set_xlabel("FLSs in the swarm")
+        axes.set_ylabel(f"{what} per FLS and round")
+        axes.set_ylim(bottom=0)
+        axes.grid(True, alpha=0.3)
+        axes.legend()
+    figure.suptitle("Packed discovery with radio cells (busiest process)")
+    atomic_write(path, lambda tmp: figure.savefig(tmp, format="png", dpi=110))
+
+
 FIT_BETAS = (0.3, 0.4, 0.5)
 #: Sources whose own fits the least-squares section times, per shape.
 LOCAL_SOURCES = 100
@@ -2149,6 +2268,7 @@ SECTIONS = {
     "hosts": hosts_section,
     "least_squares": least_squares_section,
     "swarm_fit": swarm_fit_section,
+    "cells": cells_section,
 }
 
 

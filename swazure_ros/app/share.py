@@ -41,6 +41,15 @@ def init_context(config: SwarmConfig) -> Context:
     return runtime.init_context(config.domain_id, config.params_file)
 
 
+def unreached_text(unreached: list[int], shown: int = 10) -> str:
+    """``; FLSs not reached: 3, 17, ... (N)`` for a bring-up's message, or nothing."""
+    if not unreached:
+        return ""
+    more = ", ..." if len(unreached) > shown else ""
+    listed = ", ".join(map(str, unreached[:shown]))
+    return f"; FLSs not reached: {listed}{more} ({len(unreached)} in all)"
+
+
 def shares(swarm: Swarm, processes: int) -> list[list[int]]:
     """The FLS ids of ``swarm`` in ``processes`` compact regions of near-equal size.
 
@@ -87,6 +96,7 @@ def host_share(
             raise SwazureError(
                 f"process {index}: discovery incomplete after {config.discovery_timeout:g} s "
                 f"({published} of {swarm_size} FLS publishers, {services} services)"
+                + unreached_text(host.unreached())
             )
         reports.put((READY, index, peak_rss_mb()))
         while not stop.is_set():

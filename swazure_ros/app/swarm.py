@@ -16,6 +16,7 @@ run beside the engine's).
 from __future__ import annotations
 
 import multiprocessing
+import os
 import queue
 import signal
 import tempfile
@@ -43,7 +44,16 @@ from ..view.scene import Scene, evaluation_scene, ranges_scene
 from .config import SwarmConfig, ViewConfig
 from .discovery_server import DiscoveryServers
 from .per_fls import Ended, FlsProcesses
-from .share import CREATED, FAILED, READY, host_share, init_context, peak_rss_mb, shares
+from .share import (
+    CREATED,
+    FAILED,
+    READY,
+    host_share,
+    init_context,
+    peak_rss_mb,
+    shares,
+    unreached_text,
+)
 
 #: Seconds between two progress reports of a long run.
 PROGRESS_PERIOD = 10.0
@@ -216,6 +226,11 @@ class RunningSwarm:
                 self.host.add(self.view)
 
     @property
+    def process_ids(self) -> list[int]:
+        """The pids of this swarm's packed processes: this one, then each further share's."""
+        return [os.getpid(), *(child.pid for child in self._children if child.pid is not None)]
+
+    @property
     def _hosts(self) -> int:
         """Processes whose radios take part in a run: one per share, or per FLS."""
         if self.config.per_fls:
@@ -284,6 +299,7 @@ class RunningSwarm:
         raise SwazureError(
             f"swarm not discovered after {self.config.discovery_timeout:g} s: "
             f"{publishers} of {self.size} FLS publishers and {services} services visible"
+            + unreached_text(self._host.unreached())
         )
 
     @property

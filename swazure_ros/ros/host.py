@@ -44,6 +44,7 @@ from .names import (
     WORLD_QOS,
     WORLD_REACH,
     WORLD_TOPIC,
+    fls_id_of,
 )
 from .radio import Radio
 from .runtime import ParameterError, SwarmNode
@@ -250,6 +251,16 @@ class SwarmHost:
             node.destroy_node()
 
         self.executor.create_task(destroy)
+
+    def unreached(self) -> list[int]:
+        """The FLSs of the swarm whose neighbour service this process does not see, by id."""
+        seen = {
+            fls_id
+            for name, _ in self.host_node.get_service_names_and_types()
+            if self._service_pattern.match(name)
+            and (fls_id := fls_id_of(name.rsplit("/", 2)[-2])) is not None
+        }
+        return [int(fls_id) for fls_id in self.replica.ids.tolist() if fls_id not in seen]
 
     def discovered(self) -> tuple[int, int]:
         """(measurement publishers, neighbour services) of the swarm this process sees."""

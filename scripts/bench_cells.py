@@ -1,0 +1,122 @@
+"""Radio cells: what each packed process of a swarm hears, spends and matches in one discovery.
+
+Runs one swarm (``--cloud``, ``--processes``) in this process and its further
+shares (app.swarm.RunningSwarm), as ``swazure spawn --compute-all`` does, and
+writes one JSON record (--out): per process, the FLSs it hosts, the radio
+cells it subscribes to (from the ROS graph, as anyone sees them), the offers
+it heard over DDS (its guard's counts on /diagnostics), its CPU seconds
+during discovery (/proc), and the swarm's discovery time, the engine's time
+for the same work and whether the pairs are the engine's. scripts/bench.py's
+``cells`` section runs it for each shape and process count.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.node import Node
+
+from swazure_ros.app.compute import compute_all
+from swazure_ros.app.config import SwarmConfig
+from swazure_ros.app.share import shares
+from swazure_ros.app.swarm import RunningSwarm
+from swazure_ros.ros.names import RADIO_TOPIC, host_name
+from swazure_ros.sim.world import WorldSpec
+
+POLICY = "shortest-length"
+TICKS = os.sysconf("SC_CLK_TCK")
+
+
+def cpu_seconds(pid: int) -> float:
+    """User and system CPU seconds process ``pid`` has spent so far."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / TICKS
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cloud", required=True)
+    parser.add_argument("--beta", type=float, default=0.5)
+    parser.add_argument("--processes", type=int, default=1)
+    parser.add_argument("--domain-id", type=int, default=93)
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args()
+    spec = WorldSpec(args.cloud, beta=args.beta)
+    config = SwarmConfig(spec, processes=args.processes, domain_id=args.domain_id)
+    began = time.perf_counter()
+    with RunningSwarm(config) as swarm:
+        bring_up = swarm.wait_until_ready()
+        up = time.perf_counter() - began
+        heard: dict[str, dict[str, int]] = {}
+
+        def on_diagnostics(array: DiagnosticArray) -> None:
+            for status in array.status:
+                offers = sum(
+                    int(value.value)
+                    for value in status.values
+                    if value.key.startswith(f"accepted {RADIO_TOPIC}/")
+                )
+                heard[status.hardware_id.rsplit("/", 1)[-1]] = {"offers": offers}
+
+        probe = Node("bench_cells", context=swarm.context, enable_rosout=False)
+        probe.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 100)
+        swarm.host.add(probe)
+        pids = swarm.process_ids
+        cpu_before = [cpu_seconds(pid) for pid in pids]
+        computed = compute_all(swarm, POLICY)
+        cpu = [cpu_seconds(pid) - before for pid, before in zip(pids, cpu_before, strict=True)]
+        swarm.spin(2.5)  # every process's counts reach /diagnostics
+        node = swarm.host.host_node
+        cells: dict[str, int] = {}
+        for topic, _ in node.get_topic_names_and_types():
+            if topic.startswith(f"/{config.namespace}/{RADIO_TOPIC}/"):
+                for reader in node.get_subscriptions_info_by_topic(topic):
+                    cells[reader.node_name] = cells.get(reader.node_name, 0) + 1
+        topics = sum(
+            1
+            for topic, _ in node.get_topic_names_and_types()
+            if topic.startswith(f"/{config.namespace}/{RADIO_TOPIC}/")
+        )
+        record = computed.record
+        distributed = record.distributed
+        assert distributed is not None
+        sizes = [len(share) for share in shares(spec.assigned(), args.processes)]
+        out = {
+            "cloud": args.cloud,
+            "flss": swarm.size,
+            "processes": args.processes,
+            "bring_up_s": up,
+            "peak_mb": bring_up.total_peak_mb,
+            "discovery_s": distributed.seconds,
+            "rounds": distributed.rounds,
+            "engine_s": record.engine_seconds,
+            "identical": record.identical,
+            "radio_messages": distributed.messages.get(RADIO_TOPIC, 0),
+            "radio_bytes": distributed.bytes.get(RADIO_TOPIC, 0),
+            "radio_topics": topics,
+            "per_process": [
+                {
+                    "flss": sizes[index],
+                    "cells": cells.get(host_name(index), 0),
+                    "offers_over_dds": heard.get(host_name(index), {}).get("offers", 0),
+                    "cpu_s": cpu[index],
+                }
+                for index in range(args.processes)
+            ],
+        }
+        assert swarm.host.radio is not None
+        out["per_process"][0]["offers_here"] = swarm.host.radio.offers_here
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps(out, indent=1))
+    print(json.dumps(out))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
