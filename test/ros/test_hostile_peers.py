@@ -133,9 +133,7 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
     config = SwarmConfig(world_spec, domain_id=domain, authenticate=authenticate, processes=2)
     with RunningSwarm(config) as swarm:
         swarm.wait_until_ready()
-        source, target, engine, row = blind_pair_with_a_sweet_path(
-            swarm.world, swarm.host.fls_ids
-        )
+        source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world, swarm.host.fls_ids)
         with Forger(domain, swarm.world, source, target, forger_key) as forger:
             # The forger hears the coordinator's controls (matched, not only in the graph)
             # and the swarm's radio hears the forger before the run.
