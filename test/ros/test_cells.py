@@ -8,11 +8,13 @@ from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.share import shares
 from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import evaluate_pairs
-from swazure_ros.protocol.cells import BANDS, radio_cells
+from swazure_ros.protocol.cells import BANDS, SWEET_BAND, radio_cells
 from swazure_ros.ros.names import RADIO_TOPIC, host_name, radio_topic
 from swazure_ros.sim.world import WorldSpec
 
+from ..waits import wait_until
 from .test_discovery import assert_matches_engine, by_pair, params  # noqa: F401
+from .test_programs import ros2_tools, start, stop  # noqa: F401
 
 # 396 FLSs on a torus 120 cm across: eight sweet cells along a diameter.
 WORLD = WorldSpec("torus:400", scale=12, beta=0.3)
@@ -79,3 +81,34 @@ def test_two_processes_hear_only_their_cells_offers_yet_equal_the_engine(domain,
         sent = result.traffic.messages[RADIO_TOPIC]
         assert 0 < radio.offers_here < sent
         assert 0 < radio.offers_heard < sent - radio.offers_here
+
+
+def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, params):  # noqa: F811
+    spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
+    assigned = spec.assigned()
+    cells = radio_cells(spec.sensor(), assigned.radius)[SWEET_BAND]
+    where = cells.of(assigned.points)
+    cell = where[0]
+    inside = set(assigned.cloud_index[(where == cell).all(axis=1)].tolist())
+    assert 0 < len(inside) < len(assigned.cloud_index)
+    topic = f"/swarm/{radio_topic(SWEET_BAND, cell)}"
+    config = SwarmConfig(spec, domain_id=domain, params_file=str(params), authenticate=False)
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        # A person watching one cell: its offers cross DDS because someone now reads them.
+        echo = start("topic", "echo", topic, "swazure_interfaces/msg/PathOffer",
+                     "--field", "sender_id")  # fmt: skip
+        try:
+            node = swarm.host.host_node
+            assert wait_until(
+                lambda: node.count_subscribers(topic) >= 1, 60, lambda: swarm.spin(0.1)
+            )
+            swarm.spin(1.0)  # the echo's reader matched to our writer, not only seen
+            result = swarm.discover(POLICY)
+            swarm.spin(1.0)
+        finally:
+            out = stop(echo)
+    senders = [int(line) for line in out.split() if line.isdigit()]
+    assert senders, out
+    assert set(senders) == inside
+    assert len(senders) <= result.traffic.messages[RADIO_TOPIC]
