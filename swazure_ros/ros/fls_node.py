@@ -10,9 +10,10 @@ names and QoS in :mod:`.names`):
   latched for readers who come later;
 - ``fls_<id>/get_neighbours`` (swazure_interfaces/GetNeighbours): its blind,
   sweet and decaying neighbours as it knows them;
-- ``radio`` and ``estimates``, shared: its path labels, one broadcast per
-  round of a discovery run, and its estimates when a run ends or a path walk
-  comes back (docs/protocol.md);
+- ``radio/<band>/c<i>_<j>_<k>`` (its radio cell's, through its process's
+  radio) and ``estimates``, shared: its path labels, one broadcast per round
+  of a discovery run, and its estimates when a run ends or a path walk comes
+  back (docs/protocol.md);
 - ``fls_<id>/camera/image_raw`` and ``fls_<id>/camera/camera_info``
   (sensor_msgs/Image, CameraInfo), only when the ``camera_view`` parameter
   names a neighbour: each frame, what the FLS's rendering camera sees aimed
