@@ -1847,19 +1847,22 @@ def cells_lines(records: list[dict]) -> list[str]:
         "(its /diagnostics counts; offers between its own FLSs never cross DDS) and its",
         "CPU during discovery (/proc). Per FLS and round: those offers and that CPU over",
         "the process's FLSs and the run's rounds (the busiest process). The coordinator",
-        "hears no offer. Figure: docs/figures/cells-per-fls.png.",
+        "hears no offer. Peak MB: at bring-up (all processes); per process, the peak",
+        "of the whole run (VmHWM; process 0's includes the engine's comparison).",
+        "Figure: docs/figures/cells-per-fls.png.",
         "",
         "| shape | FLSs | processes | bring-up s | peak MB | discovery s | engine s | x engine "
         "| rounds | radio topics | cells heard per process | offers over DDS per process "
-        "| DDS offers per FLS-round | CPU ms per FLS-round | radio MB | identical |",
+        "| share of the others' offers heard | DDS offers per FLS-round | CPU ms per FLS-round "
+        "| radio MB | peak MB per process | identical |",
         "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | --- "
-        "| ---: | ---: | ---: | --- |",
+        "| --- | ---: | ---: | ---: | --- | --- |",
     ]
     for record in records:
         if "stopped" in record:
             lines.append(
                 f"| {record['shape']} | - | {record['processes']} | stopped: "
-                f"{record['stopped']} |  |  |  |  |  |  |  |  |  |  |  |  |"
+                f"{record['stopped']} |  |  |  |  |  |  |  |  |  |  |  |  |  |  |"
             )
             continue
         per = record["per_process"]
@@ -1867,6 +1870,10 @@ def cells_lines(records: list[dict]) -> list[str]:
         busiest = max(per, key=lambda one: one["cpu_s"])
         dds = max(one["offers_over_dds"] / max(one["flss"], 1) / rounds for one in per)
         cpu_ms = 1e3 * busiest["cpu_s"] / max(busiest["flss"], 1) / rounds
+        # Every live FLS sends an offer each round: what the others sent, heard.
+        shares = [
+            one["offers_over_dds"] / max((record["flss"] - one["flss"]) * rounds, 1) for one in per
+        ]
         lines.append(
             f"| {record['shape']} | {record['flss']:,} | {record['processes']} "
             f"| {record['bring_up_s']:.1f} | {record['peak_mb']:.0f} "
@@ -1874,50 +1881,68 @@ def cells_lines(records: list[dict]) -> list[str]:
             f"| {record['discovery_s'] / record['engine_s']:.1f} | {record['rounds']} "
             f"| {record['radio_topics']} | {' / '.join(str(one['cells']) for one in per)} "
             f"| {' / '.join(format(one['offers_over_dds'], ',') for one in per)} "
+            f"| {' / '.join(f'{share:.0%}' for share in shares) if len(per) > 1 else '-'} "
             f"| {dds:.2f} | {cpu_ms:.2f} | {record['radio_bytes'] / 1e6:.0f} "
+            f"| {' / '.join(_cell(one, 'peak_mb', '.0f') for one in per)} "
             f"| {record['identical']} |"
         )
+    lines += [
+        "",
+        "At the paper's density the sensor's reach (30.6 cm) spans most of these shapes,",
+        "so a process still hears most of the other processes' offers; what each FLS",
+        "costs per round grows with the swarm and with the processes sharing two cores.",
+        "What breaks first beyond them is memory during discovery (docs/swarm.md,",
+        '"Locality").',
+    ]
     return lines
 
 
 def cells_figure(records: list[dict], path: Path) -> None:
-    """Per FLS and round, DDS offers heard and CPU, against the swarm's FLSs, per process count."""
+    """Share of the other processes' offers heard, and CPU per FLS and round, against FLSs."""
     from matplotlib.figure import Figure
 
     from swazure_ros.core.results import atomic_write
 
+    def heard(record: dict) -> float:
+        rounds = max(record["rounds"], 1)
+        return 100 * max(
+            one["offers_over_dds"] / max((record["flss"] - one["flss"]) * rounds, 1)
+            for one in record["per_process"]
+        )
+
+    def cpu(record: dict) -> float:
+        per = record["per_process"]
+        return 1e3 * max(one["cpu_s"] / max(one["flss"], 1) for one in per) / record["rounds"]
+
     figure = Figure(figsize=(9.6, 4.0), layout="constrained")
     heard_axes, cpu_axes = figure.subplots(1, 2)
-    for processes, marker in ((1, "o"), (2, "s"), (4, "^")):
-        done = sorted(
-            (r for r in records if r.get("processes") == processes and "stopped" not in r),
-            key=lambda r: r["flss"],
-        )
-        if not done:
-            continue
-        flss = [r["flss"] for r in done]
-        heard = [
-            max(one["offers_over_dds"] / max(one["flss"], 1) for one in r["per_process"])
-            / max(r["rounds"], 1)
-            for r in done
-        ]
-        cpu = [
-            1e3
-            * max(one["cpu_s"] / max(one["flss"], 1) for one in r["per_process"])
-            / max(r["rounds"], 1)
-            for r in done
-        ]
+    for processes, marker, colour in ((1, "o", "C0"), (2, "s", "C1"), (4, "^", "C2")):
+        done = [r for r in records if r.get("processes") == processes and "stopped" not in r]
         label = f"{processes} process{'es' if processes > 1 else ''}"
-        heard_axes.plot(flss, heard, marker=marker, label=label)
-        cpu_axes.plot(flss, cpu, marker=marker, label=label)
-    for axes, what in ((heard_axes, "offers heard over DDS"), (cpu_axes, "CPU, ms")):
+        for shapes, style in (("torus", "-"), ("racecar", "none")):
+            mine = sorted(
+                (r for r in done if r["shape"].startswith(shapes)), key=lambda r: r["flss"]
+            )
+            if not mine:
+                continue
+            flss = [r["flss"] for r in mine]
+            face = colour if shapes == "torus" else "none"
+            name = label if shapes == "torus" else f"race car, {label}"
+            if processes > 1:
+                heard_axes.plot(flss, [heard(r) for r in mine], marker=marker, color=colour,
+                                linestyle=style, markerfacecolor=face, label=name)  # fmt: skip
+            cpu_axes.plot(flss, [cpu(r) for r in mine], marker=marker, color=colour,
+                          linestyle=style, markerfacecolor=face, label=name)  # fmt: skip
+    heard_axes.set_ylabel("of the other processes' offers, % heard (busiest)")
+    heard_axes.set_ylim(0, 105)
+    cpu_axes.set_ylabel("CPU per FLS and round, ms (busiest process)")
+    cpu_axes.set_ylim(bottom=0)
+    for axes, corner in ((heard_axes, "lower left"), (cpu_axes, "upper left")):
         axes.set_xscale("log")
-        axes.set_xlabel("FLSs in the swarm")
-        axes.set_ylabel(f"{what} per FLS and round")
-        axes.set_ylim(bottom=0)
+        axes.set_xlabel("FLSs in the swarm (torus at the paper's density; race car hollow)")
         axes.grid(True, alpha=0.3)
-        axes.legend()
-    figure.suptitle("Packed discovery with radio cells (busiest process)")
+        axes.legend(fontsize=8, loc=corner)
+    figure.suptitle("Packed discovery with radio cells, 2 cores (torus:10,000: out of memory)")
     atomic_write(path, lambda tmp: figure.savefig(tmp, format="png", dpi=110))
 
 

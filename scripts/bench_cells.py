@@ -39,6 +39,14 @@ def cpu_seconds(pid: int) -> float:
     return (int(fields[11]) + int(fields[12])) / TICKS
 
 
+def peak_mb(pid: int) -> float:
+    """The peak resident memory of process ``pid`` so far, MB (VmHWM)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    return float("nan")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cloud", required=True)
@@ -71,6 +79,7 @@ def main() -> int:
         cpu_before = [cpu_seconds(pid) for pid in pids]
         computed = compute_all(swarm, POLICY)
         cpu = [cpu_seconds(pid) - before for pid, before in zip(pids, cpu_before, strict=True)]
+        peaks = [peak_mb(pid) for pid in pids]
         swarm.spin(2.5)  # every process's counts reach /diagnostics
         node = swarm.host.host_node
         cells: dict[str, int] = {}
@@ -106,6 +115,7 @@ def main() -> int:
                     "cells": cells.get(host_name(index), 0),
                     "offers_over_dds": heard.get(host_name(index), {}).get("offers", 0),
                     "cpu_s": cpu[index],
+                    "peak_mb": peaks[index],
                 }
                 for index in range(args.processes)
             ],
