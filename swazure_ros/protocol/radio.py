@@ -8,8 +8,10 @@ them, in one :class:`~.discovery.messages.RoundOffers`, to every local FLS that 
 not departed (:meth:`RadioHub.on_control`). Each FLS takes from it only the
 labels of its own neighbours, every one of them within its radio range, so
 it hears exactly what a real radio would bring it. Once the process has
-every offer of a round, it acknowledges the round (:class:`Ack`), so that
-the coordinator can open the next one.
+every offer of a round that reaches it (one per live FLS in the radio cells
+it hears, ``audible``; protocol.cells), it acknowledges the round
+(:class:`Ack`), so that the coordinator can open the next one; before that,
+it tells the coordinator which of its own FLSs spoke (:class:`Sent`).
 """
 
 from __future__ import annotations
@@ -127,7 +129,7 @@ class Sent:
 
 @dataclass(frozen=True)
 class Ack:
-    """A process heard every offer of one round (a RoundAck message), and what it sent."""
+    """A process heard every offer of one round that it hears (a RoundAck message)."""
 
     run_id: int
     phase: int

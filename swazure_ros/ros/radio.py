@@ -225,11 +225,6 @@ class Radio:
     def _topic(cell: Cell) -> str:
         return radio_topic(str(cell[0]), [int(index) for index in cell[1:]])
 
-    @property
-    def cells_heard(self) -> list[Cell]:
-        """The radio cells this process hears, as (band, i, j, k), sorted."""
-        return sorted(self._listening)
-
     def offer_readers(self) -> tuple[int, int]:
         """(readers matched to this process's cells, the FLSs that hear them), summed over cells.
 
