@@ -82,16 +82,15 @@ def main() -> int:
         peaks = [peak_mb(pid) for pid in pids]
         swarm.spin(2.5)  # every process's counts reach /diagnostics
         node = swarm.host.host_node
-        cells: dict[str, int] = {}
-        for topic, _ in node.get_topic_names_and_types():
-            if topic.startswith(f"/{config.namespace}/{RADIO_TOPIC}/"):
-                for reader in node.get_subscriptions_info_by_topic(topic):
-                    cells[reader.node_name] = cells.get(reader.node_name, 0) + 1
-        topics = sum(
-            1
+        radio = [
+            topic
             for topic, _ in node.get_topic_names_and_types()
             if topic.startswith(f"/{config.namespace}/{RADIO_TOPIC}/")
-        )
+        ]
+        cells: dict[str, int] = {}
+        for topic in radio:
+            for reader in node.get_subscriptions_info_by_topic(topic):
+                cells[reader.node_name] = cells.get(reader.node_name, 0) + 1
         record = computed.record
         distributed = record.distributed
         assert distributed is not None
@@ -108,7 +107,7 @@ def main() -> int:
             "identical": record.identical,
             "radio_messages": distributed.messages.get(RADIO_TOPIC, 0),
             "radio_bytes": distributed.bytes.get(RADIO_TOPIC, 0),
-            "radio_topics": topics,
+            "radio_topics": len(radio),
             "per_process": [
                 {
                     "flss": sizes[index],

@@ -7,7 +7,7 @@ estimates. Every wait has a deadline: ``round_timeout`` seconds without
 progress. The FLSs still silent then have departed, and the phase restarts
 without them; a source that never reports at the END has departed too.
 
-The clock only counts. Events go in (:meth:`RoundClock.on_offer`,
+The clock only counts. Events go in (:meth:`RoundClock.on_sent`,
 :meth:`~RoundClock.on_ack`, :meth:`~RoundClock.on_estimates`,
 :meth:`~RoundClock.on_tick`, each with the time ``now`` in seconds) and the
 controls to send come out; the coordinator node and the in-memory loop
@@ -199,28 +199,18 @@ class RoundClock:
         """Begin the run: START the first phase and open its first round."""
         return self._start_phase(now)
 
-    def on_offer(
-        self, round_: int, sender: int, labels: int, pending: bool, finished: bool, now: float
-    ) -> list[Control]:
-        """An FLS broadcast ``labels`` labels in round ``round_``."""
-        tally = self._tally
-        if tally is None or round_ != self.round:
-            return []
-        tally.hear(sender, labels, pending, finished)
-        self._deadline = now + self.round_timeout
-        return self._close_round(now, timed_out=False) if tally.complete else []
-
     def on_sent(self, round_: int, sent: Sent, now: float) -> list[Control]:
         """A process's FLSs broadcast ``sent`` in round ``round_``: as if each offer were heard.
 
         So the coordinator need not hear the swarm's every offer: each process
-        tells it who of its own FLSs spoke (:meth:`on_offer` is the same for one FLS).
+        tells it who of its own FLSs spoke.
         """
         tally = self._tally
         if tally is None or round_ != self.round:
             return []
         pending, finished = set(sent.pending), set(sent.finished)
-        new = [sender for sender in sent.senders if sender not in tally.senders]
+        # Only FLSs the round expects, once each: a late or repeated report adds nothing.
+        new = [s for s in sent.senders if s in tally.expected and s not in tally.senders]
         for sender in new:
             tally.hear(sender, 0, sender in pending, sender in finished)
         if new:

@@ -11,6 +11,7 @@ from swazure_ros.protocol.discovery.messages import (
     SWEET_ALL,
     SWEET_VISIBLE,
 )
+from swazure_ros.protocol.radio import Sent
 from swazure_ros.protocol.rounds import RoundClock
 
 FLSS = (0, 1, 2)
@@ -25,7 +26,8 @@ def every_offer(clock_, round_, labels=0, now=0.0, senders=FLSS, finished=()):
     """Every sender broadcasts in ``round_``; the controls that come out."""
     out = []
     for sender in senders:
-        out += clock_.on_offer(round_, sender, labels, False, sender in finished, now)
+        ended = (sender,) if sender in finished else ()
+        out += clock_.on_sent(round_, Sent((sender,), labels, (), ended), now)
     return out
 
 
@@ -77,7 +79,7 @@ def test_an_fls_silent_past_the_deadline_departs_and_the_phase_restarts_without_
     assert (first.command, first.expected, first.departed_ids) == (ROUND, 2, (1,))
     assert run.restarts == 1 and run.warnings and "FLS [1]" in run.warnings[0]
     # The late offer of the departed FLS no longer counts.
-    assert run.on_offer(start.round, 1, 5, True, False, 12.0) == []
+    assert run.on_sent(start.round, Sent((1,), 5, (1,), ()), 12.0) == []
 
 
 def test_a_source_that_never_reports_departs_at_the_end():
