@@ -125,16 +125,16 @@ class RadioJoin:
         if self.radio is None:
             return
         # Every FLS within one radio cell of this one (itself included) hears its cell.
-        offers, near = self.radio.offer_readers()
+        readers, wanted = self.radio.cell_readers()
         estimates = self.node.transmitter.readers()
-        heard = offers >= near and estimates >= 1 and self.radio.ack_readers() >= 1
+        heard = readers >= wanted and estimates >= 1 and self.radio.ack_readers() >= 1
         now = time.monotonic()
         waited = now - self.made_at
         if not heard and now - self._said_at >= WAITING_SAID_EVERY:
             self._said_at = now
             self.node.get_logger().info(  # type: ignore[no-untyped-call]
-                f"still waiting to be heard: by {max(offers - 1, 0)} of the {near - 1} FLSs' "
-                f"radios in its radio cells, coordinator {'yes' if estimates >= 1 else 'not yet'}"
+                f"still waiting to be heard: {readers} of the {wanted} readers its radio cells "
+                f"want, coordinator {'yes' if estimates >= 1 else 'not yet'}"
             )
         if heard or waited > self.join_timeout:
             self.radio.listen()
@@ -142,8 +142,8 @@ class RadioJoin:
                 "heard by every FLS in its radio cells and the coordinator"
                 if heard
                 else (
-                    f"after {waited:.0f} s, heard by {offers - 1} of the {near - 1} FLSs' "
-                    "radios in its radio cells"
+                    f"after {waited:.0f} s, heard by {readers} of the {wanted} readers its "
+                    "radio cells want"
                 )
             )
             self.node.get_logger().info(f"on the swarm's radio: {how}")  # type: ignore[no-untyped-call]

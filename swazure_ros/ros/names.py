@@ -78,6 +78,11 @@ def radio_topic(band: str, cell: Sequence[int] | IntArray) -> str:
     return f"{RADIO_TOPIC}/{band}/{cell_name(cell)}"
 
 
+def walks_topic(cell: Sequence[int] | IntArray) -> str:
+    """The topic of the path walks FLSs in cell ``cell`` of the decaying band send on."""
+    return f"{WALKS_TOPIC}/{cell_name(cell)}"
+
+
 def node_name(fls_id: int) -> str:
     """The node name of FLS ``fls_id``."""
     return f"fls_{fls_id}"

@@ -29,7 +29,7 @@ from swazure_interfaces.msg import (
 )
 
 from ..core.fit import PATH
-from ..protocol.cells import BANDS, band_of, radio_cells
+from ..protocol.cells import BANDS, DECAYING_BAND, band_of, radio_cells
 from ..protocol.discovery.messages import END, ROUND, START, Broadcast
 from ..protocol.moves import Walk
 from ..protocol.plausible import (
@@ -63,6 +63,7 @@ from .names import (
     TRACK_SAMPLES_TOPIC,
     WALKS_TOPIC,
     radio_topic,
+    walks_topic,
 )
 
 if TYPE_CHECKING:
@@ -115,8 +116,11 @@ class Radio:
     the coordinator's controls to every local FLS; and once it has delivered
     every offer of a round, it acknowledges the round on ``round_acks``, where it
     has also told the coordinator which of its FLSs spoke in that round. Path
-    walks on ``path_walks`` go to the FLS they are addressed to, once this
-    process has the world revision they must be measured in; track requests
+    walks go to the FLS they are addressed to, once this process has the world
+    revision they must be measured in: the coordinator's first hops on
+    ``path_walks``, an FLS's next hop at once when it is local, else on the
+    sender's ``path_walks/c<i>_<j>_<k>`` (a cell of the ``decaying`` band,
+    which holds every FLS the sender can measure); track requests
     go to their relay and track samples to their source. From the first
     fitting run on, it hears every FLS's ``measurements`` into ``readings``,
     the book its FLSs' fits take their windows from.
@@ -139,6 +143,9 @@ class Radio:
         self._cells = radio_cells(senses.sensor, senses.radius)
         self._listening: dict[Cell, Subscription] = {}  # the radio cells heard, per band
         self._sending: dict[Cell, Publisher] = {}  # the radio cells of this process's FLSs
+        # The path walks' cells (of the decaying band): heard, and sent on.
+        self._walks_heard: dict[Cell, Subscription] = {}
+        self._walks_sent: dict[Cell, Publisher] = {}
         # Per band: the FLSs in the cells heard, and of each cell sent on, its readers.
         self._audible = {band: np.zeros(0, dtype=np.int64) for band in BANDS}
         self._cell_of: dict[tuple[str, int], Cell] = {}  # (band, local FLS) -> its cell
@@ -148,6 +155,9 @@ class Radio:
         #: Offers heard: from this process's own FLSs, and from other processes' over DDS.
         self.offers_here = 0
         self.offers_heard = 0
+        #: Path walks handed from one FLS of this process to another, and sent over DDS.
+        self.walks_here = 0
+        self.walks_sent = 0
         self.readings = ReadingsBook() if readings is None else readings
         self._hears_readings = False
         self._waiting: set[int] = set()  # local sources whose fit waits for readings
@@ -166,15 +176,13 @@ class Radio:
         self.guard = guard or Guard(node)
         self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
         self.listening = False
+        # Walks that must wait for a newer world revision, the oldest dropped first.
+        self._early_walks: deque[Walk] = deque(maxlen=EARLY_WALKS)
         if listen:
             self.listen()
         self.tune()
         senses.on_revision.append(self.tune)
-        # One walk publisher per process, not per FLS: a thousand more endpoints
-        # would slow the swarm's discovery for a message few FLSs ever send.
-        self._walks = node.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
-        # Walks that must wait for a newer world revision, the oldest dropped first.
-        self._early_walks: deque[Walk] = deque(maxlen=EARLY_WALKS)
+        # The coordinator's walks: one writer, every process a reader.
         self._subscribe(PathWalk, WALKS_TOPIC, self._on_walk)
         senses.on_revision.append(self._take_early_walks)
         self._subscribe(TrackRequest, TRACK_REQUESTS_TOPIC, self._on_track_request)
@@ -208,37 +216,66 @@ class Radio:
             # that holds none of another process's FLSs needs no subscription.
             remote = {cell for cell, other in zip(all_cells, elsewhere.tolist()) if other}
             heard |= around & remote
-        for cell in sorted(set(self._listening) - heard):
-            self._node.destroy_subscription(self._listening.pop(cell))
-        for cell in sorted(heard - set(self._listening)):
-            self._listening[cell] = self.guard.subscribe(
-                PathOffer, self._topic(cell), self._on_offer, ROUND_QOS, echoes=self._echoes
-            )
-        for cell in sorted(set(self._sending) - mine):
-            self._node.destroy_publisher(self._sending.pop(cell))
-        for cell in sorted(mine - set(self._sending)):
-            self._sending[cell] = self._node.create_publisher(
-                PathOffer, self._topic(cell), ROUND_QOS
-            )
+        self._retune(
+            self._listening, heard, lambda cell: self._hear(PathOffer, cell, self._on_offer)
+        )
+        self._retune(self._sending, mine, lambda cell: self._send_on(PathOffer, cell))
+        # A walk crosses DDS only to another process's FLS, in the cell of its sender.
+        walking = {cell for cell in heard if cell[0] == DECAYING_BAND}
+        self._retune(
+            self._walks_heard, walking, lambda cell: self._hear(PathWalk, cell, self._on_walk)
+        )
+        sending = {cell for cell in mine if cell[0] == DECAYING_BAND}
+        self._retune(self._walks_sent, sending, lambda cell: self._send_on(PathWalk, cell))
+
+    def _retune(
+        self, current: dict[Cell, Any], wanted: set[Cell], make: Callable[[Cell], Any]
+    ) -> None:
+        """Destroy the endpoints of ``current`` not ``wanted``; ``make`` those missing."""
+        for cell in sorted(set(current) - wanted):
+            endpoint = current.pop(cell)
+            if isinstance(endpoint, Publisher):
+                self._node.destroy_publisher(endpoint)
+            else:
+                self._node.destroy_subscription(endpoint)
+        for cell in sorted(wanted - set(current)):
+            current[cell] = make(cell)
+
+    def _hear(self, kind: type, cell: Cell, callback: Callable[[Any], None]) -> Subscription:
+        return self.guard.subscribe(
+            kind, self._topic(kind, cell), callback, ROUND_QOS, echoes=self._echoes
+        )
+
+    def _send_on(self, kind: type, cell: Cell) -> Publisher:
+        return self._node.create_publisher(kind, self._topic(kind, cell), ROUND_QOS)
 
     @staticmethod
-    def _topic(cell: Cell) -> str:
-        return radio_topic(str(cell[0]), [int(index) for index in cell[1:]])
+    def _topic(kind: type, cell: Cell) -> str:
+        indices = [int(index) for index in cell[1:]]
+        return walks_topic(indices) if kind is PathWalk else radio_topic(str(cell[0]), indices)
 
-    def offer_readers(self) -> tuple[int, int]:
-        """(readers matched to this process's cells, the FLSs that hear them), summed over cells.
+    def cell_readers(self) -> tuple[int, int]:
+        """(readers matched to this process's cells' offers and walks, those wanted), summed.
 
         One process per FLS: every other FLS within one cell of this one's (of
-        each band) hears it, so the first number reaches the second once all of
-        them listen.
+        each band) hears its offers, and those of the decaying band its walks,
+        so the first number reaches the second once all of them listen.
         """
-        readers = needed = 0
-        for cell, publisher in self._sending.items():
+        readers = wanted = 0
+        for cell, publisher in [*self._sending.items(), *self._walks_sent.items()]:
             audible = self._audible[str(cell[0])]
             want = int(np.count_nonzero(~np.isin(audible, self._local)))
             readers += min(publisher.get_subscription_count(), want)
-            needed += want
-        return readers, needed
+            wanted += want
+        return readers, wanted
+
+    def _cell(self, band: str, fls_id: int) -> Cell:
+        """The cell of ``band`` that holds local FLS ``fls_id`` now."""
+        cell = self._cell_of.get((band, fls_id))
+        if cell is None:  # an FLS not hosted here at the start
+            where = self._cells[band].of(self._senses.positions(np.array([fls_id])))[0]
+            cell = (band, *where.tolist())
+        return cell
 
     def broadcast(self, out: Broadcast) -> int:
         """Local FLS ``out.sender``'s offer: heard here at once, and sent on its cell's topic.
@@ -247,15 +284,10 @@ class Radio:
         process, a recorder, ``ros2 topic echo``): the bytes sent, 0 when no
         one does.
         """
-        band = band_of(out.phase)
-        cell = self._cell_of.get((band, out.sender))
-        if cell is None:  # an FLS not hosted here at the start
-            where = self._cells[band].of(self._senses.positions(np.array([out.sender])))[0]
-            cell = (band, *where.tolist())
+        cell = self._cell(band_of(out.phase), out.sender)
         publisher = self._sending.get(cell)
         if publisher is None:  # an FLS not hosted here at the start: made on demand
-            publisher = self._node.create_publisher(PathOffer, self._topic(cell), ROUND_QOS)
-            self._sending[cell] = publisher
+            publisher = self._sending[cell] = self._send_on(PathOffer, cell)
         size = 0
         if publisher.get_subscription_count():
             stamp = self._node.get_clock().now().to_msg()
@@ -393,16 +425,33 @@ class Radio:
         self._take_walk(walk_from_message(message, self._swarm))
 
     def _take_walk(self, walk: Walk) -> None:
-        node = self._fls.get(walk.at)
-        if node is None:
-            return  # another process's FLS, or a stopped one
-        if walk.revision > self._senses.revision:
-            self._early_walks.append(walk)
-            return
-        onward = node.on_walk(walk)
-        if onward is not None:
-            stamp = self._node.get_clock().now().to_msg()
-            self._walks.publish(self.guard.key.serialize(walk_message(onward, stamp)))
+        while walk.at in self._local_set:
+            node = self._fls.get(walk.at)
+            if node is None:
+                return  # a stopped FLS
+            if walk.revision > self._senses.revision:
+                self._early_walks.append(walk)
+                return
+            onward = node.on_walk(walk)
+            if onward is None:
+                return
+            if onward.at not in self._local_set:
+                self._send_walk(onward, sender=walk.at)
+                return
+            self.walks_here += 1  # to another FLS of this process: no need to cross DDS
+            walk = onward
+
+    def _send_walk(self, walk: Walk, sender: int) -> None:
+        """Send ``walk`` on the walks topic of local FLS ``sender``'s cell."""
+        cell = self._cell(DECAYING_BAND, sender)
+        publisher = self._walks_sent.get(cell)
+        if publisher is None:
+            publisher = self._walks_sent[cell] = self._send_on(PathWalk, cell)
+        stamp = self._node.get_clock().now().to_msg()
+        data = self.guard.key.serialize(walk_message(walk, stamp))
+        self._echoes.add(data)
+        publisher.publish(data)
+        self.walks_sent += 1
 
     def _take_early_walks(self) -> None:
         early = list(self._early_walks)

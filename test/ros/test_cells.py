@@ -3,17 +3,26 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.share import shares
 from swazure_ros.app.swarm import RunningSwarm
-from swazure_ros.core.evaluate import evaluate_pairs
-from swazure_ros.protocol.cells import BANDS, SWEET_BAND, radio_cells
-from swazure_ros.ros.names import RADIO_TOPIC, host_name, radio_topic
+from swazure_ros.core.evaluate import evaluate, evaluate_pairs
+from swazure_ros.core.heuristics.folding import run_technique
+from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
+from swazure_ros.protocol.cells import BANDS, DECAYING_BAND, SWEET_BAND, radio_cells
+from swazure_ros.protocol.discovery.estimate import evaluation_of
+from swazure_ros.ros.names import RADIO_TOPIC, WALKS_TOPIC, host_name, radio_topic
 from swazure_ros.sim.world import WorldSpec
 
 from ..waits import wait_until
-from .test_discovery import assert_matches_engine, by_pair, params  # noqa: F401
+from .test_discovery import (  # noqa: F401
+    assert_matches_engine,
+    assert_moves_match_engine,
+    by_pair,
+    params,
+)
 from .test_programs import ros2_tools, start, stop  # noqa: F401
 
 # 396 FLSs on a torus 120 cm across: eight sweet cells along a diameter.
@@ -25,11 +34,21 @@ def topics(band: str, cells) -> set[str]:
     return {f"/swarm/{radio_topic(band, cell)}" for cell in np.asarray(cells).reshape(-1, 3)}
 
 
+def walk_topics(radio: set[str]) -> set[str]:
+    """The path walks' topics of the decaying band's cells among ``radio``'s topics."""
+    prefix = f"/swarm/{RADIO_TOPIC}/{DECAYING_BAND}/"
+    return {
+        f"/swarm/{WALKS_TOPIC}/{topic.removeprefix(prefix)}"
+        for topic in radio
+        if topic.startswith(prefix)
+    }
+
+
 def expected_topics(world_spec: WorldSpec, parts: int) -> tuple[list[set[str]], set[str]]:
     """Per share, the radio topics it must hear; and every topic some FLS sends on.
 
     A share hears the cells around its FLSs' that hold an FLS of another share:
-    offers between its own FLSs never cross DDS.
+    offers (and path walks) between its own FLSs never cross DDS.
     """
     assigned = world_spec.assigned()
     grids = radio_cells(world_spec.sensor(), assigned.radius)
@@ -49,6 +68,20 @@ def expected_topics(world_spec: WorldSpec, parts: int) -> tuple[list[set[str]], 
     return heard, sent
 
 
+def cell_readers(swarm: RunningSwarm, kind: str) -> tuple[list[str], dict[str, set[str]]]:
+    """The cells' topics under ``/swarm/<kind>/``, and per node, those it reads."""
+    node = swarm.host.host_node
+    cells = [
+        name for name, _ in node.get_topic_names_and_types()
+        if name.startswith(f"/swarm/{kind}/")
+    ]  # fmt: skip
+    readers: dict[str, set[str]] = {}
+    for topic in cells:
+        for endpoint in node.get_subscriptions_info_by_topic(topic):
+            readers.setdefault(endpoint.node_name, set()).add(topic)
+    return cells, readers
+
+
 def test_two_processes_hear_only_their_cells_offers_yet_equal_the_engine(domain, params):  # noqa: F811
     heard, sent = expected_topics(WORLD, 2)
     # The shape is wide enough that neither share hears every cell that carries offers.
@@ -61,19 +94,14 @@ def test_two_processes_hear_only_their_cells_offers_yet_equal_the_engine(domain,
         engine = evaluate_pairs(world.hood, POLICY)
         assert_matches_engine(world, by_pair(result.estimates), engine)
 
-        # What any observer of the graph sees: who reads each radio topic.
-        node = swarm.host.host_node
-        radio = [
-            name for name, _ in node.get_topic_names_and_types()
-            if name.startswith(f"/swarm/{RADIO_TOPIC}/")
-        ]  # fmt: skip
-        readers: dict[str, set[str]] = {}
-        for topic in radio:
-            for endpoint in node.get_subscriptions_info_by_topic(topic):
-                readers.setdefault(endpoint.node_name, set()).add(topic)
+        # What any observer of the graph sees: who reads each radio and walks topic.
+        radio, readers = cell_readers(swarm, RADIO_TOPIC)
+        walks, walk_readers = cell_readers(swarm, WALKS_TOPIC)
         for index in range(2):
             assert readers[host_name(index)] == heard[index], index
+            assert walk_readers[host_name(index)] == walk_topics(heard[index]), index
         assert set(radio) >= sent
+        assert set(walks) == walk_topics(sent)
 
         # The first process heard its own FLSs' offers as they were sent, and over DDS
         # some of the other process's, not all.
@@ -112,3 +140,24 @@ def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, 
     assert senders, out
     assert set(senders) == inside
     assert len(senders) <= result.traffic.messages[RADIO_TOPIC]
+
+
+@pytest.mark.parametrize("technique", [MOVE_OBSTRUCTING, MOVE_SOURCE])
+def test_moves_that_cross_cells_made_by_two_processes_equal_the_engine(domain, params, technique):  # noqa: F811
+    world_spec = WorldSpec("torus:400", scale=12, beta=0.5)
+    world = world_spec.build()
+    engine, plan = run_technique(evaluate(world.swarm, world.sensor, POLICY), technique, 10)
+    # Some moves take an FLS into another cell of each band, where it is heard from then on.
+    for cells in radio_cells(world.sensor, world.swarm.radius).values():
+        assert (cells.of(plan.move_from) != cells.of(plan.move_to)).any(axis=1).sum() > 50
+    config = SwarmConfig(world_spec, processes=2, domain_id=domain, params_file=str(params))
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        plain = swarm.discover(POLICY)
+        found = evaluation_of(swarm.world.hood, POLICY, plain.estimates)
+        moved = swarm.make_moves(found, technique, threshold=10, timeout=300)
+        assert moved.walks == plan.resolved.sum() > 100
+        assert_moves_match_engine(moved, engine, plan)
+        # Walks went on from FLS to FLS of the first process, and to the other's over DDS.
+        radio = swarm.host.radio
+        assert radio.walks_here > 0 and radio.walks_sent > 0, (radio.walks_here, radio.walks_sent)

@@ -77,6 +77,17 @@ def assert_matches_engine(world, found, engine):
             np.testing.assert_allclose(one.vector, engine.estimate[pair], rtol=0, atol=1e-9)
 
 
+def assert_moves_match_engine(moved, engine, plan):
+    """The swarm's moves resolved the engine's pairs, with its paths and estimates."""
+    ours, theirs = moved.evaluation.pairs, engine.pairs
+    np.testing.assert_array_equal(ours.status, theirs.status)
+    np.testing.assert_array_equal(ours.hops, theirs.hops)
+    np.testing.assert_array_equal(ours.offsets, theirs.offsets)
+    np.testing.assert_array_equal(ours.nodes, theirs.nodes)
+    np.testing.assert_allclose(ours.estimate, theirs.estimate, rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(moved.heuristic.resolved, plan.resolved)
+
+
 @pytest.mark.parametrize("beta", [0.3, 0.5])
 def test_whole_swarm_discovery_equals_the_engine(domain, params, beta):
     with swarm_of(domain, params, beta) as swarm:
@@ -110,13 +121,7 @@ def test_moves_made_by_the_swarm_equal_the_engine(domain, params, technique, bet
             )
             assert plan.resolved.sum() > 500
             assert moved.walks == plan.resolved.sum() and moved.batches < moved.walks / 5
-            ours, theirs = moved.evaluation.pairs, engine.pairs
-            np.testing.assert_array_equal(ours.status, theirs.status)
-            np.testing.assert_array_equal(ours.hops, theirs.hops)
-            np.testing.assert_array_equal(ours.offsets, theirs.offsets)
-            np.testing.assert_array_equal(ours.nodes, theirs.nodes)
-            np.testing.assert_allclose(ours.estimate, theirs.estimate, rtol=0, atol=1e-9)
-            np.testing.assert_array_equal(moved.heuristic.resolved, plan.resolved)
+            assert_moves_match_engine(moved, engine, plan)
             # Every FLS is back at its point: the next run is the plain run again.
             assert (swarm.host.replica.world.swarm.points == world.swarm.points).all()
             before = by_pair(plain.estimates)
