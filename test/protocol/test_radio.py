@@ -51,6 +51,8 @@ def test_the_next_control_hands_over_the_earlier_rounds_offers_only():
     _, _, heard = radio.on_control(Control(1, ROUND, round=1, expected=3))
     assert heard.senders.tolist() == [2, 3] and heard.source_ids.tolist() == [7, 5, 6]
     assert heard.labels_of(np.array([3])).tolist() == [1, 2] and heard.path(2) == (6, 9)
+    assert heard.paths(np.array([2, 0, 1])) == [(6, 9), (7, 9), (5, 9)]
+    assert heard.paths(np.zeros(0, dtype=np.int64)) == []
     _, _, later = radio.on_control(Control(1, END, round=2))
     assert later.senders.tolist() == [4]
 

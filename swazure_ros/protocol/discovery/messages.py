@@ -8,6 +8,7 @@ heard in a round, grouped by sender, as the radio hands it to its FLSs.
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -155,8 +156,14 @@ class RoundOffers:
 
     def path(self, label: int) -> tuple[int, ...]:
         """Path of label ``label``, FLS ids from its source to the sender."""
-        start, stop = self.path_offsets[label], self.path_offsets[label + 1]
-        return tuple(self.path_ids[start:stop].tolist())
+        return self.paths(np.array([label], dtype=np.int64))[0]
+
+    def paths(self, labels: IntArray) -> list[tuple[int, ...]]:
+        """Paths of ``labels`` (M,), each FLS ids from its source to the sender."""
+        start, stop = self.path_offsets[labels], self.path_offsets[labels + 1]
+        ids = self.path_ids[csr.ragged_indices(start, stop - start)].tolist()
+        bounds = csr.offsets(stop - start).tolist()
+        return [tuple(ids[low:high]) for low, high in itertools.pairwise(bounds)]
 
 
 def _readings_table(heard: Sequence[tuple[int, Offer]]) -> dict[str, NDArray[Any]]:

@@ -358,6 +358,27 @@ class PathSearch:
                 del self._heard[key]
         return path_offsets, path_ids
 
+    def _take_results(self, heard: RoundOffers, labels: IntArray) -> None:
+        """Record the results that ``labels`` of ``heard`` (this source's, from targets) bring."""
+        if not len(labels):
+            return
+        targets = heard.sender_ids[labels]
+        self._found[targets] = True
+        paths = heard.paths(labels)
+        lengths, errors = heard.lengths[labels].tolist(), heard.errors[labels].tolist()
+        vectors = heard.vectors[labels]
+        unbiased = heard.unbiased[labels] if self.fits else None
+        covariances = heard.covariances[labels] if self.fits else None
+        for row, target in enumerate(targets.tolist()):
+            self.results[target] = Found(
+                paths[row],
+                lengths[row],
+                vectors[row],
+                errors[row],
+                None if unbiased is None else unbiased[row],
+                None if covariances is None else covariances[row],
+            )
+
     def hear(self, heard: RoundOffers) -> None:
         """Take a round's offers at once: record results, relax labels through the hops.
 
@@ -368,19 +389,9 @@ class PathSearch:
         """
         missing = self._wanted[~self._found[self._wanted]]
         if len(missing):
+            # A target's label of this source: its result (a sender offers a label once).
             mine = _labels_for(self.fls_id, missing, heard.senders, heard.starts, heard.source_ids)
-            for label in mine.tolist():
-                sender = int(heard.sender_ids[label])
-                if sender not in self.results:
-                    self._found[sender] = True
-                    self.results[sender] = Found(
-                        heard.path(label),
-                        float(heard.lengths[label]),
-                        heard.vectors[label].copy(),
-                        float(heard.errors[label]),
-                        heard.unbiased[label].copy() if self.fits else None,
-                        heard.covariances[label].copy() if self.fits else None,
-                    )
+            self._take_results(heard, mine)
         senders, readings = heard.readings_of(self.fls_id)
         if len(senders):
             # The senders' own readings of the hops to this FLS.
