@@ -164,55 +164,25 @@ def _relax(
     label_hops: IntArray,
     label_lengths: FloatArray,
     label_errors: FloatArray,
-    closed: NDArray[np.bool_],
-    slot_of: NDArray[np.int32],
-    used: int,
-    slot_source: IntArray,
     sent: NDArray[np.bool_],
     hops: FloatArray,
     length: FloatArray,
     error: FloatArray,
     pred: IntArray,
-) -> tuple[IntArray, int, IntArray, IntArray]:
-    """Relax the labels (slots of hops, length, error, pred) through the hops of ``link_ids``.
+    won_label: IntArray,
+    won_link: IntArray,
+) -> IntArray:
+    """Relax the labels (hops, length, error, pred: (id_space,)) through the hops of ``link_ids``.
 
     Each candidate (a heard label plus the hop from its sender) replaces the
     label of its source when it is better under the total order (primary
     cost, secondary cost, sender id), so the outcome does not depend on the
-    order of hearing. A source's first label takes the next free slot
-    (``slot_of``, -1 where none). Returns the changed slots, the slots used,
-    and the winning label and hop of each changed slot; when the new sources
-    need more slots than there are, nothing changes and the second value is
-    the slots needed.
+    order of hearing. The winning label and hop are left in ``won_label``
+    and ``won_link`` (given all -1); returns the changed sources.
     """
-    rows = sender_rows(link_ids, senders)
-    # The sources heard for the first time, each once (marked -2 while counted).
-    new = 0
-    for link in range(len(link_ids)):
-        row = rows[link]
-        if row < 0:
-            continue
-        for label in range(starts[row], starts[row + 1]):
-            source = source_ids[label]
-            if source != me and not closed[source] and slot_of[source] == -1:
-                slot_of[source] = -2
-                new += 1
-    if new:
-        for link in range(len(link_ids)):
-            row = rows[link]
-            if row < 0:
-                continue
-            for label in range(starts[row], starts[row + 1]):
-                if slot_of[source_ids[label]] == -2:
-                    slot_of[source_ids[label]] = -1
-    empty = np.empty(0, dtype=np.int64)
-    if used + new > len(slot_source):
-        return empty, used + new, empty, empty
-    capacity = len(slot_source)
-    changed = np.empty(capacity, dtype=np.int64)
-    won_label = np.full(capacity, -1, dtype=np.int64)
-    won_link = np.zeros(capacity, dtype=np.int64)
+    changed = np.empty(len(hops), dtype=np.int64)
     count = 0
+    rows = sender_rows(link_ids, senders)
     for link in range(len(link_ids)):
         row = rows[link]
         if row < 0:
@@ -221,44 +191,28 @@ def _relax(
         weight, link_error = link_weights[link], link_errors[link]
         for label in range(starts[row], starts[row + 1]):
             source = source_ids[label]
-            # A closed source's labels are never sent again: they need no slot.
-            if source == me or closed[source]:
+            if sent[source] or source == me:
                 continue
-            slot = slot_of[source]
-            if slot >= 0 and sent[slot]:
-                continue
-            if slot < 0:
-                slot = used
-                used += 1
-                slot_of[source] = slot
-                slot_source[slot] = source
-                hops[slot], length[slot], error[slot] = np.inf, np.inf, np.inf
-                pred[slot], sent[slot] = np.iinfo(np.int64).max, False
             # Sums in path order, as the engine sums them: cost so far plus this hop.
             new_hops = label_hops[label] + 1.0
             new_length = label_lengths[label] + weight
             new_error = label_errors[label] + link_error
             if order == _HOPS_FIRST:
-                new1, new2, old1, old2 = new_hops, new_length, hops[slot], length[slot]
+                new1, new2, old1, old2 = new_hops, new_length, hops[source], length[source]
             elif order == _LENGTH_FIRST:
-                new1, new2, old1, old2 = new_length, new_hops, length[slot], hops[slot]
+                new1, new2, old1, old2 = new_length, new_hops, length[source], hops[source]
             else:
-                new1, new2, old1, old2 = new_error, new_hops, error[slot], hops[slot]
+                new1, new2, old1, old2 = new_error, new_hops, error[source], hops[source]
             if new1 < old1 or (
-                new1 == old1 and (new2 < old2 or (new2 == old2 and sender < pred[slot]))
+                new1 == old1 and (new2 < old2 or (new2 == old2 and sender < pred[source]))
             ):
-                if won_label[slot] < 0:
-                    changed[count] = slot
+                if won_label[source] < 0:
+                    changed[count] = source
                     count += 1
-                hops[slot], length[slot], error[slot] = new_hops, new_length, new_error
-                pred[slot] = sender
-                won_label[slot], won_link[slot] = label, link
-    changed = changed[:count]
-    return changed, used, won_label[changed], won_link[changed]
-
-
-#: Label slots a search starts with; it doubles them as sources reach it.
-_FIRST_SLOTS = 16
+                hops[source], length[source], error[source] = new_hops, new_length, new_error
+                pred[source] = sender
+                won_label[source], won_link[source] = label, link
+    return changed[:count]
 
 
 class PathSearch:
@@ -274,20 +228,6 @@ class PathSearch:
     which the sender's first offer of the phase carries
     (:func:`reads_both_ends`); else this FLS's reading of the sender, reversed.
     """
-
-    # The labels, one slot each (:meth:`_allot`): the source, its costs, the
-    # predecessor, the summed vector, whether it was sent, and where its path is.
-    source: IntArray
-    hops: FloatArray
-    length: FloatArray
-    error: FloatArray
-    pred: IntArray
-    vector: FloatArray
-    sent: NDArray[np.bool_]
-    via_offers: IntArray
-    via_label: IntArray
-    unbiased: FloatArray
-    covariance: FloatArray
 
     def __init__(
         self,
@@ -322,13 +262,21 @@ class PathSearch:
         )
         self.fit = fit
         self.fits = fit is not None
-        # Labels live in slots, one per source that reached this FLS (slot_of, -1 for
-        # none), not in arrays of the whole id space: a display's FLS hears from a
-        # neighbourhood, not from the swarm.
-        self.slot_of = np.full(id_space, -1, dtype=np.int32)
-        self.used = 0
-        self._allot(_FIRST_SLOTS)
+        if fit is not None:
+            self.unbiased = np.full((id_space, 3), np.nan)
+            self.covariance = np.full((id_space, 3, 3), np.nan)
+        self.hops = np.full(id_space, np.inf)
+        self.length = np.full(id_space, np.inf)
+        self.error = np.full(id_space, np.inf)
+        self.pred = np.full(id_space, np.iinfo(np.int64).max, dtype=np.int64)
+        self.vector = np.full((id_space, 3), np.nan)
+        self.sent = np.zeros(id_space, dtype=bool)
         self.closed = np.zeros(id_space, dtype=bool)  # sources whose search has ended
+        # A label's path is its sender's (label via_label of the offers heard as
+        # via_offers) plus this FLS; it is copied out only when the label is sent,
+        # since most labels are bettered before they are.
+        self.via_offers = np.full(id_space, -1, dtype=np.int64)  # -1: this FLS is the source
+        self.via_label = np.full(id_space, -1, dtype=np.int64)
         self._heard: dict[int, RoundOffers] = {}
         self._heard_count = 0
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
@@ -336,49 +284,19 @@ class PathSearch:
         self._found = np.zeros(id_space, dtype=bool)
         self.results: dict[int, Found] = {}
         if targets is not None:
-            me = self.used
-            self.slot_of[self.fls_id] = me
-            self.used += 1
-            self.source[me] = self.fls_id
-            self.hops[me], self.length[me], self.error[me] = 0.0, 0.0, 0.0
-            self.pred[me] = self.fls_id
+            me = self.fls_id
+            self.hops[me], self.length[me], self.error[me], self.pred[me] = 0.0, 0.0, 0.0, me
             self.vector[me] = 0.0
             if self.fits:
                 self.unbiased[me], self.covariance[me] = 0.0, 0.0
-
-    def _allot(self, slots: int) -> None:
-        """Make room for ``slots`` labels, the labels held so far kept."""
-
-        def grown(name: str, fill: float, dtype: type, shape: tuple[int, ...] = ()) -> None:
-            new: NDArray[Any] = np.full((slots, *shape), fill, dtype=dtype)
-            old = getattr(self, name, None)
-            if old is not None:
-                new[: self.used] = old[: self.used]
-            setattr(self, name, new)
-
-        grown("source", -1, np.int64)
-        grown("hops", np.inf, np.float64)
-        grown("length", np.inf, np.float64)
-        grown("error", np.inf, np.float64)
-        grown("pred", -1, np.int64)
-        grown("vector", np.nan, np.float64, (3,))
-        grown("sent", False, np.bool_)
-        # A label's path is its sender's (label via_label of the offers heard as
-        # via_offers) plus this FLS; it is copied out only when the label is sent,
-        # since most labels are bettered before they are.
-        grown("via_offers", -1, np.int64)  # -1: this FLS is the source
-        grown("via_label", -1, np.int64)
-        if self.fits:
-            grown("unbiased", np.nan, np.float64, (3,))
-            grown("covariance", np.nan, np.float64, (3, 3))
 
     @property
     def finished(self) -> bool:
         """True when this FLS, as a source, has a result for every target."""
         return bool(self.targets) and len(self.results) == len(self.targets)
 
-    def _buckets(self, slots: IntArray) -> FloatArray:
-        primary = (self.hops, self.length, self.error)[self.order][slots]
+    def _buckets(self, sources: IntArray) -> FloatArray:
+        primary = (self.hops, self.length, self.error)[self.order][sources]
         return np.asarray(np.floor(primary / self.width))
 
     def close(self, sources: IntArray) -> None:
@@ -387,14 +305,12 @@ class PathSearch:
 
     def offer(self, round_: int) -> Offer:
         """The labels due in round ``round_`` (each is final); they count as sent."""
-        used = self.used
-        labelled = np.flatnonzero(~self.sent[:used] & ~self.closed[self.source[:used]])
+        labelled = np.flatnonzero(np.isfinite(self.hops) & ~self.sent & ~self.closed)
         due = labelled[self._buckets(labelled) <= round_]
-        due = due[np.argsort(self.source[due], kind="stable")]  # by source id, as sent
         self.sent[due] = True
         path_offsets, path_ids = self._paths_of(due)
         return Offer(
-            source_ids=self.source[due],
+            source_ids=due.astype(np.int64),
             hops=self.hops[due].astype(np.int64),
             lengths=self.length[due],
             errors=self.error[due],
@@ -416,12 +332,12 @@ class PathSearch:
         self._readings = None
         return {"reading_ids": ids, "reading_vectors": vectors}
 
-    def _paths_of(self, slots: IntArray) -> tuple[IntArray, IntArray]:
-        """The paths of the labels in ``slots``, as (offsets (L + 1,), ids), FLS ids."""
-        via, label = self.via_offers[slots], self.via_label[slots]
+    def _paths_of(self, sources: IntArray) -> tuple[IntArray, IntArray]:
+        """The paths of the labels of ``sources``, as (offsets (L + 1,), ids), FLS ids."""
+        via, label = self.via_offers[sources], self.via_label[sources]
         # Each label's sender path: where it starts in its offers and how long it is.
-        start = np.zeros(len(slots), dtype=np.int64)
-        length = np.zeros(len(slots), dtype=np.int64)
+        start = np.zeros(len(sources), dtype=np.int64)
+        length = np.zeros(len(sources), dtype=np.int64)
         for key in np.unique(via[via >= 0]).tolist():
             rows = via == key
             offsets = self._heard[key].path_offsets
@@ -437,8 +353,7 @@ class PathSearch:
         # Offers heard that no unsent label still comes through are done with
         # (looked for now and then: a few rounds' offers are kept anyway).
         if len(self._heard) > _HEARD_KEPT:
-            via_offers = self.via_offers[: self.used]
-            pending = via_offers[~self.sent[: self.used] & (via_offers >= 0)]
+            pending = self.via_offers[~self.sent & (self.via_offers >= 0)]
             for key in set(self._heard) - set(np.unique(pending).tolist()):
                 del self._heard[key]
         return path_offsets, path_ids
@@ -485,35 +400,31 @@ class PathSearch:
                 self.link_ids[np.minimum(rows, len(self.link_ids) - 1)] == senders
             )
             self.link_vectors[rows[known]] = readings[known]
-        while True:
-            changed, used, labels, links = _relax(
-                self.fls_id,
-                self.link_ids,
-                self.link_weights,
-                self.link_errors,
-                self.order,
-                heard.senders,
-                heard.starts,
-                heard.source_ids,
-                heard.hops,
-                heard.lengths,
-                heard.errors,
-                self.closed,
-                self.slot_of,
-                self.used,
-                self.source,
-                self.sent,
-                self.hops,
-                self.length,
-                self.error,
-                self.pred,
-            )
-            if used <= len(self.source):
-                break
-            self._allot(max(used, 2 * len(self.source)))  # new sources: more slots
-        self.used = used
+        won_label = np.full(len(self.hops), -1, dtype=np.int64)
+        won_link = np.zeros(len(self.hops), dtype=np.int64)
+        changed = _relax(
+            self.fls_id,
+            self.link_ids,
+            self.link_weights,
+            self.link_errors,
+            self.order,
+            heard.senders,
+            heard.starts,
+            heard.source_ids,
+            heard.hops,
+            heard.lengths,
+            heard.errors,
+            self.sent,
+            self.hops,
+            self.length,
+            self.error,
+            self.pred,
+            won_label,
+            won_link,
+        )
         if not len(changed):
             return
+        labels, links = won_label[changed], won_link[changed]
         hop = self.link_vectors[links]
         self.vector[changed] = heard.vectors[labels] + hop
         if self.fit is not None:
