@@ -24,3 +24,31 @@ def test_a_section_with_two_headings_replaces_both_and_stays_once_when_run_again
     assert once.index("## Core engine") < once.index("## Heuristics") < once.index("## Swarm")
     assert "kept" in once
     assert bench().merged(once, fresh) == once
+
+
+def test_the_tags_section_times_each_offer_keyed_and_plain_and_the_tag_is_32_bytes():
+    module = bench()
+    module.TAG_LABELS, module.TAG_REPEATS = (0, 10), 3
+    lines = module.tags_section(None)
+    rows = [line.split("|")[1:-1] for line in lines if line.startswith("| 0 ") or
+            line.startswith("| 10 ")]  # fmt: skip
+    assert [int(row[0]) for row in rows] == [0, 10]
+    for row in rows:
+        keyed, plain = int(row[1]), int(row[2])
+        assert keyed == plain + 32  # HMAC-SHA256
+        assert all(float(cell) > 0 for cell in row[3:7])
+
+
+def test_the_hosts_section_gives_cpu_per_fls_process_and_draws_three_figures(tmp_path):
+    module = bench()
+    up = {"flss": 25, "discovery": "server", "fls_processes": 24, "bring_up_s": 9.0,
+          "bring_up_cpu_s": 18.0, "bring_up_packets": 10, "bring_up_bytes": 2e6}  # fmt: skip
+    stopped = {"flss": 200, "discovery": "server", "fls_processes": 200, "cpu_s": 900.0,
+               "stopped": "bring-up: swarm not discovered after 420 s: 68 of 200",
+               "stopped_packets": 5, "stopped_bytes": 1e9}  # fmt: skip
+    lines = module.hosts_lines([up, stopped])
+    row = next(line for line in lines if line.startswith("| 24 | server"))
+    assert row.split("|")[5].strip() == "0.75"  # 18 CPU s over 24 FLS processes
+    module.hosts_figures([up, stopped], tmp_path)
+    names = ("hosts-bringup.png", "hosts-traffic.png", "hosts-cpu.png")
+    assert all((tmp_path / name).read_bytes().startswith(b"\x89PNG") for name in names)
