@@ -303,19 +303,31 @@ class RadioHub:
     def _implausible(
         self, entries: list[tuple[int, Offer]], heard: RoundOffers, phase: int
     ) -> dict[int, str]:
-        """{index into ``entries``: why} of the offers with a label or a reading that is false."""
+        """{index into ``entries``: why} of the offers with a label or a reading that is false.
+
+        Only offers from other processes are checked: a local FLS's offer is
+        this process's own work, made from labels it checked when it heard them.
+        """
+        remote = [index for index, (sender, _) in enumerate(entries) if sender not in self._local]
         bad: dict[int, str] = {}
+        if not remote:
+            return bad
         if self._check_readings is not None:
-            for index, (sender, offer) in enumerate(entries):
+            for index in remote:
+                sender, offer = entries[index]
                 if len(offer.reading_ids) and (why := self._check_readings(sender, offer)):
                     bad[index] = why
-        if self._check is None or not len(heard):
+        if self._check is None:
+            return bad
+        if len(remote) < len(entries):
+            heard = RoundOffers.of([entries[index] for index in remote])
+        if not len(heard):
             return bad
         why_label = self._check(heard, phase)
         if not why_label.any():
             return bad
         # RoundOffers.of lays the offers out in a stable sort by sender.
-        order = sorted(range(len(entries)), key=lambda index: entries[index][0])
+        order = sorted(remote, key=lambda index: entries[index][0])
         offer_of_label = np.repeat(order, [len(entries[index][1]) for index in order])
         for label in np.flatnonzero(why_label)[::-1]:
             bad.setdefault(int(offer_of_label[label]), REASONS[int(why_label[label])])

@@ -119,3 +119,19 @@ def test_radio_loss_settings_are_checked():
         RadioLoss(0.1, delay=-1.0)
     with pytest.raises(ValueError, match="attempts"):
         RadioLoss(0.1, attempts=0)
+
+
+def test_only_offers_from_other_processes_are_checked_for_plausibility():
+    checked = []
+
+    def nothing_is_true(heard, phase):
+        checked.append(heard.senders.tolist())
+        return np.ones(len(heard), dtype=np.int8)
+
+    radio = RadioHub({0, 1}, check=nothing_is_true)
+    radio.on_control(Control(1, START, expected=3))
+    radio.on_offer(1, 0, 0, offer(5))  # this process's own FLS
+    radio.on_offer(1, 0, 3, offer(7))  # another process's
+    _, _, heard = radio.on_control(Control(1, ROUND, round=1, expected=3))
+    assert checked == [[3]]
+    assert heard.senders.tolist() == [0] and [sender for sender, _ in radio.rejected] == [3]
