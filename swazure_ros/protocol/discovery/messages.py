@@ -111,8 +111,18 @@ class RoundOffers:
 
         path_lengths = joined([np.diff(offer.path_offsets) for offer in offers], np.zeros(0, int))
 
-        def carried(offer: Offer, values: FloatArray | None, shape: tuple[int, ...]) -> FloatArray:
-            return values if values is not None else np.full((len(offer), *shape), np.nan)
+        def carried(name: str, shape: tuple[int, ...]) -> FloatArray:
+            """A fitting run's sums, NaN where an offer had none (read-only if none had)."""
+            values = [getattr(offer, name) for offer in offers]
+            if all(value is None for value in values):
+                return np.broadcast_to(np.nan, (int(counts.sum()), *shape))
+            return joined(
+                [
+                    np.full((len(offer), *shape), np.nan) if value is None else value
+                    for offer, value in zip(offers, values, strict=True)
+                ],
+                np.zeros((0, *shape)),
+            )
 
         return cls(
             senders=unique,
@@ -125,13 +135,8 @@ class RoundOffers:
             vectors=joined([offer.vectors for offer in offers], np.zeros((0, 3))),
             path_offsets=csr.offsets(path_lengths),
             path_ids=joined([offer.path_ids for offer in offers], np.zeros(0, np.int64)),
-            unbiased=joined(
-                [carried(offer, offer.unbiased, (3,)) for offer in offers], np.zeros((0, 3))
-            ),
-            covariances=joined(
-                [carried(offer, offer.covariances, (3, 3)) for offer in offers],
-                np.zeros((0, 3, 3)),
-            ),
+            unbiased=carried("unbiased", (3,)),
+            covariances=carried("covariances", (3, 3)),
             **_readings_table(heard),
         )
 
