@@ -136,18 +136,19 @@ def _labels_for(
     """The labels of ``source`` offered by ``senders_wanted`` (sorted ids), sender by sender.
 
     ``senders``, ``starts`` and ``source_ids`` are a :class:`RoundOffers`'s;
-    a sender offers each source's label once in a phase (it is final when sent).
+    a sender offers each source's label once in a phase (it is final when
+    sent), in increasing source order (``offer_from_message`` checks it).
     """
     found = np.empty(len(senders_wanted), dtype=np.int64)
     count = 0
     for row in sender_rows(senders_wanted, senders):
         if row < 0:
             continue
-        for label in range(starts[row], starts[row + 1]):
-            if source_ids[label] == source:
-                found[count] = label
-                count += 1
-                break
+        low, high = starts[row], starts[row + 1]
+        label = low + np.searchsorted(source_ids[low:high], source)
+        if label < high and source_ids[label] == source:
+            found[count] = label
+            count += 1
     return found[:count]
 
 
