@@ -223,12 +223,15 @@ class Report:
 
 @jit.kernel(cache=True, nogil=True)
 def sender_rows(wanted: IntArray, senders: IntArray) -> IntArray:
-    """(W,) the row of each id of ``wanted`` in ``senders``, -1 where absent; both sorted."""
+    """(W,) the row of each id of ``wanted`` in ``senders``, -1 where absent; both sorted.
+
+    By binary search: an FLS wants its few neighbours among a round's senders,
+    which are the whole swarm in a packed process.
+    """
     rows = np.full(len(wanted), -1, dtype=np.int64)
-    row = 0
+    found = np.searchsorted(senders, wanted)
     for k in range(len(wanted)):
-        while row < len(senders) and senders[row] < wanted[k]:
-            row += 1
+        row = found[k]
         if row < len(senders) and senders[row] == wanted[k]:
             rows[k] = row
     return rows
