@@ -69,6 +69,7 @@ def compute_all(
     on_discovered: Callable[[DiscoveryResult], None] | None = None,
     on_progress: Callable[[str], None] | None = None,
     estimator: str = PATH,
+    per_run: int | None = None,
 ) -> SwarmComputation:
     """Every FLS's pose relative to every blind neighbour, by the swarm, and by the engine.
 
@@ -76,12 +77,13 @@ def compute_all(
     moves. ``on_discovered`` hears the discovery run's result as soon as it is in;
     ``on_progress`` how far each run is, every PROGRESS_PERIOD s. With the
     ``estimator`` local-least-squares each source fits what it hears, and the
-    engine does the same (``core.fit.refine(..., local=True)``).
+    engine does the same (``core.fit.refine(..., local=True)``). ``per_run``: the
+    most sources one discovery run searches for (``RunningSwarm.discover``).
     """
     if estimator != PATH and technique != PLAIN:
         raise ValueError(f"the {estimator} estimator estimates plain Swazure's pairs only")
     world: World = swarm.world
-    result = swarm.discover(policy, on_progress=on_progress, estimator=estimator)
+    result = swarm.discover(policy, on_progress=on_progress, estimator=estimator, per_run=per_run)
     if on_discovered is not None:
         on_discovered(result)
     evaluation = evaluation_of(world.hood, policy, result.estimates)

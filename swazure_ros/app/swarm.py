@@ -30,7 +30,7 @@ from ..core.errors import SwazureError
 from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import PATH
 from ..core.results import BringUp
-from ..protocol.runs import DiscoveryResult, MoveResult
+from ..protocol.runs import DiscoveryResult, MoveResult, merged, source_blocks, sources_per_run
 from ..ros.auth import SwarmKey, new_key
 from ..ros.bag import Recorder
 from ..ros.coordinator import Coordinator, Future
@@ -353,11 +353,33 @@ class RunningSwarm:
         timeout: float | None = None,
         on_progress: Callable[[str], None] | None = None,
         estimator: str = PATH,
+        per_run: int | None = None,
     ) -> DiscoveryResult:
-        """Run discovery for every FLS and blind neighbour; sources estimate by ``estimator``."""
-        run = self._coordinator.discover(policy, estimator=estimator)
-        result: DiscoveryResult = self.run(run, timeout, on_progress=on_progress)
-        return result
+        """Run discovery for every FLS and blind neighbour; sources estimate by ``estimator``.
+
+        The sources search in runs of ``per_run`` at most (default: as many as
+        the labels' memory allows, ``protocol.runs.sources_per_run``); the
+        result is theirs together.
+        """
+        coordinator = self._coordinator
+        blocks = self.source_blocks(per_run)
+        deadline = None if timeout is None else time.monotonic() + timeout
+        results: list[DiscoveryResult] = []
+        for number, block in enumerate(blocks, 1):
+            sources = list(block) if len(blocks) > 1 else None
+            told = on_progress
+            if on_progress is not None and len(blocks) > 1:
+                told = _block_progress(on_progress, number, len(blocks))
+            left = None if deadline is None else max(deadline - time.monotonic(), 0.0)
+            run = coordinator.discover(policy, sources, estimator=estimator)
+            results.append(self.run(run, left, on_progress=told))
+        return merged(results)
+
+    def source_blocks(self, per_run: int | None = None) -> list[tuple[int, ...]]:
+        """The live FLSs in the blocks that :meth:`discover` runs one after the other."""
+        coordinator = self._coordinator
+        live = coordinator.fls_ids - coordinator.departed
+        return source_blocks(live, per_run or sources_per_run(len(coordinator.fls_ids)))
 
     def make_moves(
         self,
@@ -409,6 +431,13 @@ class RunningSwarm:
         if self.context is not None and not self._leave_nodes:
             self.context.try_shutdown()
             self.context = None
+
+
+def _block_progress(
+    tell: Callable[[str], None], number: int, blocks: int
+) -> Callable[[str], None]:
+    """``tell``, with which block of sources the run is on."""
+    return lambda progress: tell(f"sources block {number}/{blocks}: {progress}")
 
 
 def first_scene(world: World, view: ViewConfig) -> Scene:

@@ -114,6 +114,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_threshold_argument(parser)
     add_swarm_estimator_argument(parser, "with --compute-all: ")
     parser.add_argument(
+        "--sources-per-run",
+        type=count,
+        default=None,
+        metavar="N",
+        help="with --compute-all: search for at most N sources' targets in one discovery run, "
+        "in runs one after the other; each FLS keeps labels for a run's sources only "
+        "(default: as many as 2 GiB of labels hold, all of a published shape's)",
+    )
+    parser.add_argument(
         "--out",
         type=output_folder,
         default=None,
@@ -224,8 +233,10 @@ def config_from_args(args: argparse.Namespace) -> Any:
 
     if args.beta is None and args.radius is None:
         raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
-    if not args.compute_all and (args.technique != PLAIN or args.estimator != PATH):
-        raise SwazureError("--technique and --estimator go with --compute-all")
+    if not args.compute_all and (
+        args.technique != PLAIN or args.estimator != PATH or args.sources_per_run is not None
+    ):
+        raise SwazureError("--technique, --estimator and --sources-per-run go with --compute-all")
     if args.estimator != PATH and args.technique != PLAIN:
         raise SwazureError(
             f"--estimator {args.estimator} estimates plain Swazure's pairs: leave out --technique"
@@ -301,9 +312,18 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"  {time.monotonic() - began:.0f} s: {text}", file=sys.stderr, flush=True)
 
-    print(f"discovery: every FLS for every blind neighbour, {args.policy}", flush=True)
+    blocks = swarm.source_blocks(args.sources_per_run)
+    runs = f", in {len(blocks)} runs of {len(blocks[-1])} sources" if len(blocks) > 1 else ""
+    print(f"discovery: every FLS for every blind neighbour, {args.policy}{runs}", flush=True)
     computed = run(
-        swarm, args.policy, args.technique, args.threshold, discovered, progress, args.estimator
+        swarm,
+        args.policy,
+        args.technique,
+        args.threshold,
+        discovered,
+        progress,
+        args.estimator,
+        args.sources_per_run,
     )
     record = computed.record
     moved = record.distributed.moves if record.distributed is not None else None

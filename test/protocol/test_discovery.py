@@ -20,12 +20,15 @@ from swazure_ros.core.evaluate import (
 )
 from swazure_ros.core.files import config_dir
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
-from swazure_ros.core.observe import observations
+from swazure_ros.core.observe import local_view, observations
 from swazure_ros.core.paths import POLICIES
 from swazure_ros.core.sensor import hop_error, load_sensor, measured_vectors
 from swazure_ros.protocol.discovery.estimate import Found, estimate, evaluation_of
-from swazure_ros.protocol.discovery.search import bucket_width
+from swazure_ros.protocol.discovery.messages import SWEET_VISIBLE
+from swazure_ros.protocol.discovery.participant import source_range
+from swazure_ros.protocol.discovery.search import PathSearch, bucket_width
 from swazure_ros.protocol.loops import discover
+from swazure_ros.protocol.runs import source_blocks
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import A, B, C, D, K, scene
@@ -173,6 +176,34 @@ def test_on_demand_a_source_answers_for_its_one_target():
     found, _outcome = run(world.hood, "fewest-hops", sources=[source], targets=[target])
     assert list(found) == [(source, target)]
     assert found[(source, target)].path == tuple(int(world.ids[k]) for k in engine.path(pair))
+
+
+@pytest.mark.parametrize("policy", POLICIES)
+def test_runs_of_source_blocks_together_equal_the_engine(policy):
+    # Every source's search is its own: three runs of a third of the sources each
+    # give the one run's pairs, and each FLS keeps labels for its run's block only.
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    engine = evaluate_pairs(world.hood, policy)
+    blocks = source_blocks(world.ids.tolist(), per_run=45)
+    assert [len(block) for block in blocks] == [40, 40, 40]
+    found = {}
+    for block in blocks:
+        part, outcome = run(world.hood, policy, sources=block)
+        assert {source for source, _ in part} <= set(block) and outcome.restarts == 0
+        found.update(part)
+    assert_pairs_equal(found, engine, world.ids)
+
+
+def test_an_fls_keeps_labels_for_the_run_s_sources_only():
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    ids = world.ids
+    view = local_view(observations(world.hood), ids, 5)
+    first, end = source_range((int(ids[10]), int(ids[19])), int(ids[-1]) + 1)
+    assert (first, end) == (int(ids[10]), int(ids[19]) + 1)
+    search = PathSearch(view, SWEET_VISIBLE, "shortest-length", 1.0, int(ids[-1]) + 1,
+                        sources=(first, end))  # fmt: skip
+    assert len(search.hops) == end - first
+    assert source_range((), 120) == (0, 120)
 
 
 @pytest.mark.parametrize("noisy", [False, True], ids=["published", "stochastic"])

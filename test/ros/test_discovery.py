@@ -443,8 +443,13 @@ def watching_topic(domain, topic, process, timeout=60.0):
         ctx.try_shutdown()
 
 
-@pytest.mark.parametrize("technique", ["plain", "move-obstructing", "move-source"])
-def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path, technique):
+@pytest.mark.parametrize(
+    ("technique", "runs"),
+    [("plain", []), ("plain", ["--sources-per-run", "40"]), ("move-obstructing", []),
+     ("move-source", [])],
+    ids=["plain", "plain-in-source-blocks", "move-obstructing", "move-source"],
+)  # fmt: skip
+def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path, technique, runs):
     shape = ["--cloud", SHAPE[0], "--scale", str(SHAPE[1]), "--beta", "0.5", "--quiet"]
     shape += ["--technique", technique]
     # A person watches the move commands while the swarm computes: the watch is
@@ -452,8 +457,9 @@ def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path,
     watch = swazure("echo", "/swarm/move_commands", "swazure_interfaces/msg/MoveCommands")
     assert watching_topic(domain, "/swarm/move_commands", watch), watch.stderr.read()
     spawn = swazure(
-        "spawn", *shape, "--params", str(params), "--compute-all", "--out", str(tmp_path / "d")
-    )
+        "spawn", *shape, *runs, "--params", str(params), "--compute-all",
+        "--out", str(tmp_path / "d"),
+    )  # fmt: skip
     evaluate = swazure("evaluate", *shape, "--out", str(tmp_path / "e"))
     try:
         out, err = spawn.communicate(timeout=300)
@@ -466,6 +472,8 @@ def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path,
             and record.engine["blind_pairs"] == record.summary["blind_pairs"]
         )
         assert "distributed" in out and "engine" in out  # the table's two columns
+        # Searched for in runs of 40 sources at most, one after the other.
+        assert ("runs of 40 sources" in out) == bool(runs), out
         _, err = evaluate.communicate(timeout=300)
         assert evaluate.returncode == 0, err
         distributed = (tmp_path / "d" / "pairs.csv").read_bytes()

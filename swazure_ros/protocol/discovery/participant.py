@@ -9,7 +9,7 @@ each, and ends in the source's estimates, fitted when the run fits.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -70,8 +70,10 @@ class FlsRun:
         hop_errors: FloatArray | None = None,
         fit: tuple[Sensor, float] | None = None,
         both_ends: bool = False,
+        sources: tuple[int, int] | None = None,
     ) -> None:
         self.view = view
+        self.sources = sources
         self.hop_errors = hop_errors
         self.fit = fit
         self.both_ends = both_ends
@@ -103,6 +105,7 @@ class FlsRun:
             self.hop_errors,
             self.fit,
             self.both_ends,
+            self.sources,
         )
         self.results[phase] = self.search.results
         return self.search
@@ -281,5 +284,24 @@ class Participant:
         fit = (self.sensor, self.radius) if control.estimator == LOCAL_LEAST_SQUARES else None
         both_ends = reads_both_ends(self.sensor)
         return FlsRun(
-            view, control.policy, width, self.id_space, targets, hop_errors, fit, both_ends
+            view,
+            control.policy,
+            width,
+            self.id_space,
+            targets,
+            hop_errors,
+            fit,
+            both_ends,
+            source_range(control.source_ids, self.id_space),
         )
+
+
+def source_range(source_ids: Sequence[int], id_space: int) -> tuple[int, int]:
+    """(first, end): the ids that an FLS keeps labels for in a run of ``source_ids``.
+
+    Every id when the run names no source; else the span of the named ones, so
+    that a run of a block of sources costs each FLS memory for that block only.
+    """
+    if not source_ids:
+        return 0, id_space
+    return max(min(source_ids), 0), min(max(source_ids) + 1, id_space)

@@ -165,6 +165,7 @@ def _relax(
     label_hops: IntArray,
     label_lengths: FloatArray,
     label_errors: FloatArray,
+    first: int,
     sent: NDArray[np.bool_],
     hops: FloatArray,
     length: FloatArray,
@@ -173,13 +174,14 @@ def _relax(
     won_label: IntArray,
     won_link: IntArray,
 ) -> IntArray:
-    """Relax the labels (hops, length, error, pred: (id_space,)) through the hops of ``link_ids``.
+    """Relax the labels (hops, length, error, pred: (S,)) through the hops of ``link_ids``.
 
     Each candidate (a heard label plus the hop from its sender) replaces the
     label of its source when it is better under the total order (primary
     cost, secondary cost, sender id), so the outcome does not depend on the
     order of hearing. The winning label and hop are left in ``won_label``
-    and ``won_link`` (given all -1); returns the changed sources.
+    and ``won_link`` (given all -1); returns the changed slots. Source ``s``'s label
+    is in slot ``s - first``; sources outside the S slots are not this run's.
     """
     changed = np.empty(len(hops), dtype=np.int64)
     count = 0
@@ -191,36 +193,39 @@ def _relax(
         sender = link_ids[link]
         weight, link_error = link_weights[link], link_errors[link]
         for label in range(starts[row], starts[row + 1]):
-            source = source_ids[label]
-            if sent[source] or source == me:
+            slot = source_ids[label] - first
+            if slot < 0 or slot >= len(sent) or sent[slot] or source_ids[label] == me:
                 continue
             # Sums in path order, as the engine sums them: cost so far plus this hop.
             new_hops = label_hops[label] + 1.0
             new_length = label_lengths[label] + weight
             new_error = label_errors[label] + link_error
             if order == _HOPS_FIRST:
-                new1, new2, old1, old2 = new_hops, new_length, hops[source], length[source]
+                new1, new2, old1, old2 = new_hops, new_length, hops[slot], length[slot]
             elif order == _LENGTH_FIRST:
-                new1, new2, old1, old2 = new_length, new_hops, length[source], hops[source]
+                new1, new2, old1, old2 = new_length, new_hops, length[slot], hops[slot]
             else:
-                new1, new2, old1, old2 = new_error, new_hops, error[source], hops[source]
+                new1, new2, old1, old2 = new_error, new_hops, error[slot], hops[slot]
             if new1 < old1 or (
-                new1 == old1 and (new2 < old2 or (new2 == old2 and sender < pred[source]))
+                new1 == old1 and (new2 < old2 or (new2 == old2 and sender < pred[slot]))
             ):
-                if won_label[source] < 0:
-                    changed[count] = source
+                if won_label[slot] < 0:
+                    changed[count] = slot
                     count += 1
-                hops[source], length[source], error[source] = new_hops, new_length, new_error
-                pred[source] = sender
-                won_label[source], won_link[source] = label, link
+                hops[slot], length[slot], error[slot] = new_hops, new_length, new_error
+                pred[slot] = sender
+                won_label[slot], won_link[slot] = label, link
     return changed[:count]
 
 
 class PathSearch:
     """One FLS's labels in one phase of a discovery run.
 
-    ``id_space`` bounds the FLS ids (ids are below it). ``targets`` makes this
-    FLS a source that searches for them; ``departed`` FLSs are not relayed from.
+    ``id_space`` bounds the FLS ids (ids are below it); ``sources`` (first, end)
+    the ids of the run's sources, whose labels this FLS keeps, one slot each
+    (all ids by default: a run of a few sources needs no more memory).
+    ``targets`` makes this FLS a source that searches for them; ``departed``
+    FLSs are not relayed from.
     ``hop_errors`` (K,) is the expected error of the hop to each neighbour of
     ``view`` (core.sensor.hop_error), which labels sum as they sum lengths.
     ``fit`` (the sensor and the FLSs' radius, cm), given in a fitting run,
@@ -242,8 +247,12 @@ class PathSearch:
         hop_errors: FloatArray | None = None,
         fit: tuple[Sensor, float] | None = None,
         both_ends: bool = False,
+        sources: tuple[int, int] | None = None,
     ) -> None:
         self.fls_id = view.fls_id
+        first, end = (0, id_space) if sources is None else sources
+        self.first_source = first
+        slots = max(end - first, 0)
         self.order = _COST_ORDER[check_policy(policy)]
         self.width = width
         hop = hop_mask(view, phase) & ~np.isin(view.other, list(departed))
@@ -264,20 +273,21 @@ class PathSearch:
         self.fit = fit
         self.fits = fit is not None
         if fit is not None:
-            self.unbiased = np.full((id_space, 3), np.nan)
-            self.covariance = np.full((id_space, 3, 3), np.nan)
-        self.hops = np.full(id_space, np.inf)
-        self.length = np.full(id_space, np.inf)
-        self.error = np.full(id_space, np.inf)
-        self.pred = np.full(id_space, np.iinfo(np.int64).max, dtype=np.int64)
-        self.vector = np.full((id_space, 3), np.nan)
-        self.sent = np.zeros(id_space, dtype=bool)
-        self.closed = np.zeros(id_space, dtype=bool)  # sources whose search has ended
+            self.unbiased = np.full((slots, 3), np.nan)
+            self.covariance = np.full((slots, 3, 3), np.nan)
+        # Labels by slot: source id - first_source.
+        self.hops = np.full(slots, np.inf)
+        self.length = np.full(slots, np.inf)
+        self.error = np.full(slots, np.inf)
+        self.pred = np.full(slots, np.iinfo(np.int64).max, dtype=np.int64)
+        self.vector = np.full((slots, 3), np.nan)
+        self.sent = np.zeros(slots, dtype=bool)
+        self.closed = np.zeros(slots, dtype=bool)  # sources whose search has ended
         # A label's path is its sender's (label via_label of the offers heard as
         # via_offers) plus this FLS; it is copied out only when the label is sent,
         # since most labels are bettered before they are.
-        self.via_offers = np.full(id_space, -1, dtype=np.int64)  # -1: this FLS is the source
-        self.via_label = np.full(id_space, -1, dtype=np.int64)
+        self.via_offers = np.full(slots, -1, dtype=np.int64)  # -1: this FLS is the source
+        self.via_label = np.full(slots, -1, dtype=np.int64)
         self._heard: dict[int, RoundOffers] = {}
         self._heard_count = 0
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
@@ -285,8 +295,11 @@ class PathSearch:
         self._found = np.zeros(id_space, dtype=bool)
         self.results: dict[int, Found] = {}
         if targets is not None:
-            me = self.fls_id
-            self.hops[me], self.length[me], self.error[me], self.pred[me] = 0.0, 0.0, 0.0, me
+            me = self.fls_id - first
+            if not 0 <= me < slots:
+                raise ValueError(f"FLS {self.fls_id} is a source outside the run's {sources}")
+            self.hops[me], self.length[me], self.error[me] = 0.0, 0.0, 0.0
+            self.pred[me] = self.fls_id
             self.vector[me] = 0.0
             if self.fits:
                 self.unbiased[me], self.covariance[me] = 0.0, 0.0
@@ -296,13 +309,14 @@ class PathSearch:
         """True when this FLS, as a source, has a result for every target."""
         return bool(self.targets) and len(self.results) == len(self.targets)
 
-    def _buckets(self, sources: IntArray) -> FloatArray:
-        primary = (self.hops, self.length, self.error)[self.order][sources]
+    def _buckets(self, slots: IntArray) -> FloatArray:
+        primary = (self.hops, self.length, self.error)[self.order][slots]
         return np.asarray(np.floor(primary / self.width))
 
     def close(self, sources: IntArray) -> None:
         """Stop relaying the labels of ``sources`` (their searches ended)."""
-        self.closed[np.asarray(sources, dtype=np.int64)] = True
+        slots = np.asarray(sources, dtype=np.int64) - self.first_source
+        self.closed[slots[(slots >= 0) & (slots < len(self.closed))]] = True
 
     def offer(self, round_: int) -> Offer:
         """The labels due in round ``round_`` (each is final); they count as sent."""
@@ -311,7 +325,7 @@ class PathSearch:
         self.sent[due] = True
         path_offsets, path_ids = self._paths_of(due)
         return Offer(
-            source_ids=due.astype(np.int64),
+            source_ids=due.astype(np.int64) + self.first_source,
             hops=self.hops[due].astype(np.int64),
             lengths=self.length[due],
             errors=self.error[due],
@@ -333,12 +347,12 @@ class PathSearch:
         self._readings = None
         return {"reading_ids": ids, "reading_vectors": vectors}
 
-    def _paths_of(self, sources: IntArray) -> tuple[IntArray, IntArray]:
-        """The paths of the labels of ``sources``, as (offsets (L + 1,), ids), FLS ids."""
-        via, label = self.via_offers[sources], self.via_label[sources]
+    def _paths_of(self, slots: IntArray) -> tuple[IntArray, IntArray]:
+        """The paths of the labels in ``slots``, as (offsets (L + 1,), ids), FLS ids."""
+        via, label = self.via_offers[slots], self.via_label[slots]
         # Each label's sender path: where it starts in its offers and how long it is.
-        start = np.zeros(len(sources), dtype=np.int64)
-        length = np.zeros(len(sources), dtype=np.int64)
+        start = np.zeros(len(slots), dtype=np.int64)
+        length = np.zeros(len(slots), dtype=np.int64)
         for key in np.unique(via[via >= 0]).tolist():
             rows = via == key
             offsets = self._heard[key].path_offsets
@@ -415,6 +429,7 @@ class PathSearch:
             heard.hops,
             heard.lengths,
             heard.errors,
+            self.first_source,
             self.sent,
             self.hops,
             self.length,
