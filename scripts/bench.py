@@ -15,6 +15,7 @@ import platform
 import re
 import select
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -1819,13 +1820,14 @@ def hosts_figures(records: list[dict], folder: Path) -> None:
 
 
 #: (shape, processes) of the cells section: the built-in torus at the paper's density and
-#: the race car, packed over 1, 2 and 4 processes; torus:10000 over two only, where it ran
-#: out of this machine's 24 GB during discovery (one process needed more, 2026-11-27).
+#: the race car, packed over 1, 2 and 4 processes; torus:10000 over two (each process holds
+#: the whole world: four would need about 28 GB, this machine has 24), and torus:30000
+#: over two, to see what breaks first.
 CELL_RUNS = [
     (shape, processes)
     for shape in ("torus:400", "torus:1000", "torus:3720", "racecar_3720")
     for processes in (1, 2, 4)
-] + [("torus:10000", 2)]
+] + [("torus:10000", 2), ("torus:30000", 2)]
 #: The longest a cells run may take, s: its row then says it was stopped.
 CELL_LIMIT = 1800
 
@@ -1843,8 +1845,14 @@ def cells_section(args: argparse.Namespace) -> list[str]:
         try:
             done = subprocess.run(command, timeout=CELL_LIMIT, capture_output=True, text=True)
             if done.returncode != 0:
-                tail = done.stderr.strip().splitlines()[-1:]
-                raise OSError(f"exit {done.returncode}: {' '.join(tail)}")
+                said = [line for line in done.stderr.splitlines() if "bench_cells:" in line]
+                where = said[-1].split("bench_cells: ", 1)[-1] if said else "before bring-up"
+                why = (
+                    "killed by the kernel (out of memory)"
+                    if done.returncode == -signal.SIGKILL
+                    else f"exit {done.returncode}: {done.stderr.strip().splitlines()[-1:]}"
+                )
+                raise OSError(f"{why}; its last step: {where}")
             records.append({"shape": shape, **json.loads(out.read_text())})
         except (subprocess.TimeoutExpired, OSError, ValueError) as err:
             records.append({"shape": shape, "processes": processes, "stopped": str(err)[:120]})
@@ -1944,20 +1952,23 @@ def cells_lines(records: list[dict]) -> list[str]:
         "the process's FLSs and the run's rounds (the busiest process). The coordinator",
         "hears no offer. Peak MB: at bring-up (all processes); per process, the peak",
         "of the whole run (VmHWM; process 0's includes the engine's comparison).",
+        "Source runs: the blocks of sources searched one run after the other, so that the",
+        'labels fit (docs/protocol.md, "Two ways in"); rounds are all runs\' together.',
         "Figure: docs/figures/cells-per-fls.png.",
         "",
         "| shape | FLSs | processes | bring-up s | peak MB | discovery s | engine s | x engine "
-        "| rounds | radio topics | cells heard per process | offers over DDS per process "
-        "| share of the others' offers heard | DDS offers per FLS-round | CPU ms per FLS-round "
+        "| rounds | source runs | radio topics | cells heard per process "
+        "| offers over DDS per process | share of the others' offers heard "
+        "| DDS offers per FLS-round | CPU ms per FLS-round "
         "| radio MB | peak MB per process | identical |",
-        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | --- "
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | --- "
         "| --- | ---: | ---: | ---: | --- | --- |",
     ]
     for record in records:
         if "stopped" in record:
             lines.append(
                 f"| {record['shape']} | - | {record['processes']} | stopped: "
-                f"{record['stopped']} |  |  |  |  |  |  |  |  |  |  |  |  |  |  |"
+                f"{record['stopped']} |  |  |  |  |  |  |  |  |  |  |  |  |  |  |  |"
             )
             continue
         per = record["per_process"]
@@ -1974,6 +1985,7 @@ def cells_lines(records: list[dict]) -> list[str]:
             f"| {record['bring_up_s']:.1f} | {record['peak_mb']:.0f} "
             f"| {record['discovery_s']:.1f} | {record['engine_s']:.1f} "
             f"| {record['discovery_s'] / record['engine_s']:.1f} | {record['rounds']} "
+            f"| {record.get('source_runs', 1)} "
             f"| {record['radio_topics']} | {' / '.join(str(one['cells']) for one in per)} "
             f"| {' / '.join(format(one['offers_over_dds'], ',') for one in per)} "
             f"| {' / '.join(f'{share:.0%}' for share in shares) if len(per) > 1 else '-'} "
@@ -1986,8 +1998,8 @@ def cells_lines(records: list[dict]) -> list[str]:
         "At the paper's density the sensor's reach (30.6 cm) spans most of these shapes,",
         "so a process still hears most of the other processes' offers; what each FLS",
         "costs per round grows with the swarm and with the processes sharing two cores.",
-        "What breaks first beyond them is memory during discovery (docs/swarm.md,",
-        '"Locality").',
+        "Beyond them, memory is the wall: every process holds the whole world's",
+        'observations, so a run\'s row says where it stopped (docs/swarm.md, "Locality").',
     ]
     return lines
 
@@ -2037,7 +2049,10 @@ def cells_figure(records: list[dict], path: Path) -> None:
         axes.set_xlabel("FLSs in the swarm (torus at the paper's density; race car hollow)")
         axes.grid(True, alpha=0.3)
         axes.legend(fontsize=8, loc=corner)
-    figure.suptitle("Packed discovery with radio cells, 2 cores (torus:10,000: out of memory)")
+    stopped = ", ".join(f"{r['shape']} stopped" for r in records if "stopped" in r)
+    figure.suptitle(
+        "Packed discovery with radio cells, 2 cores" + (f" ({stopped})" if stopped else "")
+    )
     atomic_write(path, lambda tmp: figure.savefig(tmp, format="png", dpi=110))
 
 

@@ -58,9 +58,15 @@ def main() -> int:
     spec = WorldSpec(args.cloud, beta=args.beta)
     config = SwarmConfig(spec, processes=args.processes, domain_id=args.domain_id)
     began = time.perf_counter()
+    print(
+        f"bench_cells: bringing up {args.cloud} over {args.processes}", file=sys.stderr, flush=True
+    )
     with RunningSwarm(config) as swarm:
         bring_up = swarm.wait_until_ready()
         up = time.perf_counter() - began
+        blocks = swarm.source_blocks()
+        print(f"bench_cells: up in {up:.0f} s; discovering in {len(blocks)} run(s)",
+              file=sys.stderr, flush=True)  # fmt: skip
         heard: dict[str, dict[str, int]] = {}
 
         def on_diagnostics(array: DiagnosticArray) -> None:
@@ -103,6 +109,7 @@ def main() -> int:
             "peak_mb": bring_up.total_peak_mb,
             "discovery_s": distributed.seconds,
             "rounds": distributed.rounds,
+            "source_runs": len(blocks),
             "engine_s": record.engine_seconds,
             "identical": record.identical,
             "radio_messages": distributed.messages.get(RADIO_TOPIC, 0),
