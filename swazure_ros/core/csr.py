@@ -6,6 +6,8 @@ functions are the only place the layout's arithmetic is written.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -31,3 +33,24 @@ def run_of(offsets: ArrayLike) -> IntArray:
     """(offsets[-1],) the run each item belongs to, for runs laid out by ``offsets`` (N + 1,)."""
     offsets = np.asarray(offsets, dtype=np.int64)
     return np.asarray(np.repeat(np.arange(len(offsets) - 1), np.diff(offsets)), dtype=np.int64)
+
+
+def take(
+    bounds: ArrayLike, values: NDArray[Any], runs: ArrayLike
+) -> tuple[IntArray, NDArray[Any]]:
+    """Runs ``runs`` (M,) of the table (``bounds`` (N + 1,), ``values``), in that order:
+    their (offsets (M + 1,), values)."""
+    bounds = np.asarray(bounds, dtype=np.int64)
+    runs = np.asarray(runs, dtype=np.int64)
+    starts, counts = bounds[runs], bounds[runs + 1] - bounds[runs]
+    return offsets(counts), values[ragged_indices(starts, counts)]
+
+
+def join(
+    tables: list[tuple[IntArray, NDArray[Any]]], empty: NDArray[Any]
+) -> tuple[IntArray, NDArray[Any]]:
+    """Ragged tables (offsets, values), one after the other, as one; ``empty`` if none."""
+    if not tables:
+        return np.zeros(1, dtype=np.int64), empty
+    counts = np.concatenate([np.diff(bounds) for bounds, _ in tables])
+    return offsets(counts), np.concatenate([values for _, values in tables])

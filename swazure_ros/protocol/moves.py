@@ -17,6 +17,7 @@ that times out is logged and the run goes on, so a lost walk costs its pair
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
@@ -218,7 +219,7 @@ class MoveRun:
         return self._advance(now)
 
     def on_estimates(
-        self, source: int, estimates: list[Estimate], now: float
+        self, source: int, estimates: Sequence[Estimate], now: float
     ) -> list[Move | Walk]:
         """Source ``source`` reported walk results."""
         if self._stage != _WALKING or self.done:

@@ -16,7 +16,7 @@ controls to send come out; the coordinator node and the in-memory loop
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
 from ..core.fit import PATH
@@ -126,7 +126,7 @@ class Absences:
 class Outcome:
     """How a run ended: every source's estimates, the departed FLSs, rounds and restarts."""
 
-    estimates: dict[int, list[Estimate]]  # source id -> its estimates
+    estimates: dict[int, Sequence[Estimate]]  # source id -> its estimates
     departed: frozenset[int]  # every FLS known gone at the end, earlier runs' included
     rounds: int
     restarts: int
@@ -177,7 +177,7 @@ class RoundClock:
         self._tally: RoundTally | None = None
         self._finished: set[int] = set()
         self._collecting: frozenset[int] = frozenset()
-        self._collected: dict[int, list[Estimate]] = {}
+        self._collected: dict[int, Sequence[Estimate]] = {}
         self._deadline = float("inf")
 
     @property
@@ -231,7 +231,9 @@ class RoundClock:
         self._deadline = now + self.round_timeout
         return self._close_round(now, timed_out=False) if tally.complete else []
 
-    def on_estimates(self, source: int, estimates: list[Estimate], now: float) -> list[Control]:
+    def on_estimates(
+        self, source: int, estimates: Sequence[Estimate], now: float
+    ) -> list[Control]:
         """Source ``source`` reported at the END."""
         if source not in self._collecting or self.done:
             return []

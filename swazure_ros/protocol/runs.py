@@ -61,7 +61,7 @@ class DiscoveryResult:
 
     run_id: int
     policy: str
-    estimates: dict[int, list[Estimate]]  # source id -> estimates
+    estimates: dict[int, Sequence[Estimate]]  # source id -> estimates
     departed: frozenset[int]
     rounds: int
     restarts: int
@@ -136,7 +136,7 @@ def source_blocks(fls_ids: Iterable[int], per_run: int) -> list[tuple[int, ...]]
 def merged(results: Sequence[DiscoveryResult]) -> DiscoveryResult:
     """The runs of one discovery's source blocks as one run (the first's id)."""
     first, last = results[0], results[-1]
-    estimates: dict[int, list[Estimate]] = {}
+    estimates: dict[int, Sequence[Estimate]] = {}
     traffic = Traffic()
     for result in results:
         estimates.update(result.estimates)

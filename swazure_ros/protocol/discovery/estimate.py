@@ -8,11 +8,14 @@ evaluation, so that the swarm's results compare with the engine's.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any, overload
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ...core import csr
 from ...core.evaluate import (
     DECAYING_PATH,
     NO_PATH,
@@ -25,9 +28,9 @@ from ...core.evaluate import (
     pair_results,
     summarise,
 )
-from ...core.fit import LOCAL_LEAST_SQUARES, PATH, consistency
+from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_ESTIMATORS, consistency
 from ...core.neighbours import ordered_blind_pairs
-from ...core.paths import paths_from_rows
+from ...core.paths import Paths
 from ...core.sensor import (
     Sensor,
     expected_error,
@@ -75,6 +78,308 @@ class Estimate:
         return max(len(self.path) - 1, 0)
 
 
+class Results:
+    """A source's results of one phase, as arrays: per target found, its label's sums and path.
+
+    A search adds the labels of each round (:meth:`add`); reading them joins
+    the rounds into one table sorted by target (a target is found once).
+    """
+
+    def __init__(self) -> None:
+        self._rounds: list[dict[str, NDArray[Any]]] = []
+        self._count = 0
+        self._table: dict[str, NDArray[Any]] | None = None
+        self._ids: set[int] = set()
+
+    def add(
+        self,
+        targets: IntArray,
+        lengths: FloatArray,
+        errors: FloatArray,
+        vectors: FloatArray,
+        paths: tuple[IntArray, IntArray],
+        unbiased: FloatArray | None = None,
+        covariances: FloatArray | None = None,
+    ) -> None:
+        """Targets (K,) found, with their paths' lengths (K,), cm, summed hop errors (K,),
+        vectors (K, 3), cm, paths (offsets (K + 1,), FLS ids), and a fitting run's sums."""
+        if not len(targets):
+            return
+        count = len(targets)
+        self._rounds.append(
+            {
+                "targets": np.asarray(targets, dtype=np.int64),
+                "lengths": np.asarray(lengths, dtype=np.float64),
+                "errors": np.asarray(errors, dtype=np.float64),
+                "vectors": np.asarray(vectors, dtype=np.float64).reshape(count, 3),
+                "path_offsets": np.asarray(paths[0], dtype=np.int64),
+                "path_ids": np.asarray(paths[1], dtype=np.int64),
+                "unbiased": np.full((count, 3), np.nan) if unbiased is None else unbiased,
+                "covariances": (
+                    np.full((count, 3, 3), np.nan) if covariances is None else covariances
+                ),
+            }
+        )
+        self._count += count
+        self._ids.update(np.asarray(targets).tolist())
+        self._table = None
+
+    def __len__(self) -> int:
+        return self._count
+
+    def __contains__(self, target: object) -> bool:
+        return target in self._ids
+
+    @property
+    def table(self) -> dict[str, NDArray[Any]]:
+        """Every result, sorted by target: the arrays :meth:`add` takes, joined."""
+        if self._table is None:
+            rounds = self._rounds
+            joined: dict[str, NDArray[Any]] = {
+                name: np.concatenate([one[name] for one in rounds]) if rounds else empty
+                for name, empty in (
+                    ("targets", np.zeros(0, np.int64)),
+                    ("lengths", np.zeros(0)),
+                    ("errors", np.zeros(0)),
+                    ("vectors", np.zeros((0, 3))),
+                    ("unbiased", np.zeros((0, 3))),
+                    ("covariances", np.zeros((0, 3, 3))),
+                )
+            }
+            bounds, ids = csr.join(
+                [(one["path_offsets"], one["path_ids"]) for one in rounds], np.zeros(0, np.int64)
+            )
+            order = np.argsort(joined["targets"], kind="stable")
+            table = {name: values[order] for name, values in joined.items()}
+            table["path_offsets"], table["path_ids"] = csr.take(bounds, ids, order)
+            self._rounds = [] if not rounds else [table]
+            self._table = table
+        return self._table
+
+    def rows(self, targets: IntArray) -> IntArray:
+        """(T,) the row of each of ``targets`` in :attr:`table`; -1 where not found."""
+        found = self.table["targets"]
+        wanted = np.asarray(targets, dtype=np.int64)
+        if not len(found):
+            return np.full(len(wanted), -1, dtype=np.int64)
+        rows = np.minimum(np.searchsorted(found, wanted), len(found) - 1)
+        return np.where(found[rows] == wanted, rows, -1).astype(np.int64)
+
+    def get(self, target: int) -> Found | None:
+        """Target ``target``'s result; None when it was not found."""
+        row = int(self.rows(np.array([target]))[0])
+        if row < 0:
+            return None
+        table = self.table
+        path = table["path_ids"][table["path_offsets"][row] : table["path_offsets"][row + 1]]
+        unbiased, covariance = table["unbiased"][row], table["covariances"][row]
+        return Found(
+            tuple(path.tolist()),
+            float(table["lengths"][row]),
+            table["vectors"][row],
+            float(table["errors"][row]),
+            None if np.isnan(unbiased).any() else unbiased,
+            None if np.isnan(covariance).any() else covariance,
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class Estimates(Sequence[Estimate]):
+    """One source's estimates as arrays (T targets); each an :class:`Estimate` when read."""
+
+    targets: IntArray  # (T,)
+    status: NDArray[np.int8]  # (T,) SWEET_PATH, DECAYING_PATH, NO_PATH or ABORTED
+    reason: NDArray[np.int8]  # (T,)
+    path_offsets: IntArray  # (T + 1,)
+    path_ids: IntArray  # FLS ids, source to target; none without a path
+    length: FloatArray  # (T,), cm; NaN without a path
+    vector: FloatArray  # (T, 3), cm; NaN without a path
+    radio_offsets: IntArray  # (T + 1,): the S_all paths
+    radio_ids: IntArray
+    predicted_error: FloatArray  # (T,), cm
+    estimator: NDArray[np.int8]  # (T,) index into core.fit.SWARM_ESTIMATORS
+    covariance: FloatArray  # (T, 3, 3), cm^2; NaN where the estimate has none
+
+    def __len__(self) -> int:
+        return len(self.targets)
+
+    @overload
+    def __getitem__(self, index: int) -> Estimate: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> Sequence[Estimate]: ...
+
+    def __getitem__(self, index: int | slice) -> Estimate | Sequence[Estimate]:
+        if isinstance(index, slice):
+            return [self[k] for k in range(len(self))[index]]
+        k = range(len(self))[index]
+        path = self.path_ids[self.path_offsets[k] : self.path_offsets[k + 1]]
+        radio = self.radio_ids[self.radio_offsets[k] : self.radio_offsets[k + 1]]
+        covariance = self.covariance[k]
+        return Estimate(
+            int(self.targets[k]),
+            int(self.status[k]),
+            int(self.reason[k]),
+            tuple(path.tolist()),
+            float(self.length[k]),
+            self.vector[k],
+            tuple(radio.tolist()),
+            float(self.predicted_error[k]),
+            SWARM_ESTIMATORS[int(self.estimator[k])],
+            None if np.isnan(covariance).any() else covariance,
+        )
+
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, Sequence):
+            return NotImplemented
+        return len(self) == len(other) and all(
+            _same(one, two) for one, two in zip(self, other, strict=True)
+        )
+
+    __hash__ = None  # type: ignore[assignment]
+
+    @classmethod
+    def joined(cls, tables: Sequence[Estimates]) -> Estimates:
+        """``tables`` one after the other, as one."""
+        path_offsets, path_ids = csr.join(
+            [(t.path_offsets, t.path_ids) for t in tables], np.zeros(0, np.int64)
+        )
+        radio_offsets, radio_ids = csr.join(
+            [(t.radio_offsets, t.radio_ids) for t in tables], np.zeros(0, np.int64)
+        )
+
+        def column(name: str, empty: NDArray[Any]) -> NDArray[Any]:
+            values = [getattr(t, name) for t in tables]
+            return np.concatenate(values) if values else empty
+
+        return cls(
+            column("targets", np.zeros(0, np.int64)),
+            column("status", np.zeros(0, np.int8)),
+            column("reason", np.zeros(0, np.int8)),
+            path_offsets,
+            path_ids,
+            column("length", np.zeros(0)),
+            column("vector", np.zeros((0, 3))),
+            radio_offsets,
+            radio_ids,
+            column("predicted_error", np.zeros(0)),
+            column("estimator", np.zeros(0, np.int8)),
+            column("covariance", np.zeros((0, 3, 3))),
+        )
+
+    @classmethod
+    def of(cls, estimates: Sequence[Estimate]) -> Estimates:
+        """``estimates`` as one table (an Estimates is returned as it is)."""
+        if isinstance(estimates, Estimates):
+            return estimates
+        count = len(estimates)
+        paths = csr.offsets([len(one.path) for one in estimates])
+        radio = csr.offsets([len(one.radio_path) for one in estimates])
+        covariance = np.full((count, 3, 3), np.nan)
+        for row, one in enumerate(estimates):
+            if one.covariance is not None:
+                covariance[row] = one.covariance
+        return cls(
+            np.array([one.target for one in estimates], dtype=np.int64),
+            np.array([one.status for one in estimates], dtype=np.int8),
+            np.array([one.reason for one in estimates], dtype=np.int8),
+            paths,
+            np.array([fls for one in estimates for fls in one.path], dtype=np.int64),
+            np.array([one.length for one in estimates], dtype=np.float64),
+            np.array([one.vector for one in estimates], dtype=np.float64).reshape(count, 3),
+            radio,
+            np.array([fls for one in estimates for fls in one.radio_path], dtype=np.int64),
+            np.array([one.predicted_error for one in estimates], dtype=np.float64),
+            np.array([SWARM_ESTIMATORS.index(one.estimator) for one in estimates], dtype=np.int8),
+            covariance,
+        )
+
+
+def _same(one: Estimate, two: Estimate) -> bool:
+    """Two estimates alike, arrays compared by value (NaN equal to NaN)."""
+    if (one.target, one.status, one.reason, one.path, one.radio_path, one.estimator) != (
+        two.target, two.status, two.reason, two.path, two.radio_path, two.estimator
+    ):  # fmt: skip
+        return False
+    numbers = [(one.length, two.length), (one.predicted_error, two.predicted_error)]
+    if not all(a == b or (np.isnan(a) and np.isnan(b)) for a, b in numbers):
+        return False
+    if one.covariance is None or two.covariance is None:
+        if (one.covariance is None) != (two.covariance is None):
+            return False
+    elif not np.array_equal(one.covariance, two.covariance, equal_nan=True):
+        return False
+    return bool(np.array_equal(one.vector, two.vector, equal_nan=True))
+
+
+def estimates_of(
+    targets: IntArray,
+    sweet: Results,
+    radio: Results,
+    decaying: Results,
+    sensor: Sensor | None = None,
+) -> Estimates:
+    """Section 5 of the spec for ``targets`` (T,) at once, from their phases' results.
+
+    As :func:`estimate` decides each target, pair by pair, and to the bit.
+    """
+    targets = np.asarray(targets, dtype=np.int64)
+    sweet_rows, radio_rows, decaying_rows = (
+        results.rows(targets) for results in (sweet, radio, decaying)
+    )
+    is_sweet, is_decaying = sweet_rows >= 0, (sweet_rows < 0) & (decaying_rows >= 0)
+    status = np.full(len(targets), NO_PATH, dtype=np.int8)
+    status[is_decaying], status[is_sweet] = DECAYING_PATH, SWEET_PATH
+    reason = np.where(radio_rows >= 0, REASON_BLOCKED, REASON_NO_SWEET_PATH).astype(np.int8)
+    reason[is_sweet] = REASON_NONE
+    count = len(targets)
+    length, error = np.full(count, np.nan), np.full(count, np.nan)
+    vector = np.full((count, 3), np.nan)
+    paths: list[tuple[IntArray, IntArray]] = []
+    where = np.empty(0, dtype=np.int64)
+    phases = ((is_sweet, sweet, sweet_rows), (is_decaying, decaying, decaying_rows))
+    for chosen, results, rows in phases:
+        table = results.table
+        picked = rows[chosen]
+        length[chosen] = table["lengths"][picked]
+        error[chosen] = table["errors"][picked]
+        vector[chosen] = table["vectors"][picked]
+        paths.append(csr.take(table["path_offsets"], table["path_ids"], picked))
+        where = np.concatenate([where, np.flatnonzero(chosen)])
+    # The two phases' paths, put back in target order (a target has one or none).
+    bounds, ids = csr.join(paths, np.zeros(0, np.int64))
+    counts = np.zeros(count, dtype=np.int64)
+    counts[where] = np.diff(bounds)
+    order = np.argsort(where, kind="stable")
+    path_offsets = csr.offsets(counts)
+    path_ids = csr.take(bounds, ids, order)[1]
+    has_radio = radio_rows >= 0
+    radio_table = radio.table
+    radio_bounds, radio_ids = csr.take(
+        radio_table["path_offsets"], radio_table["path_ids"], radio_rows[has_radio]
+    )
+    radio_counts = np.zeros(count, dtype=np.int64)
+    radio_counts[has_radio] = np.diff(radio_bounds)
+    predicted = np.full(count, np.nan)
+    if sensor is not None:
+        found = is_sweet | is_decaying
+        predicted[found] = expected_error(sensor, error[found])
+    return Estimates(
+        targets,
+        status,
+        reason,
+        path_offsets,
+        path_ids,
+        length,
+        vector,
+        csr.offsets(radio_counts),
+        radio_ids,
+        predicted,
+        np.zeros(count, dtype=np.int8),
+        np.full((count, 3, 3), np.nan),
+    )
+
+
 def estimate(
     target: int,
     sweet: Found | None,
@@ -119,51 +424,82 @@ def estimate(
 
 
 def evaluation_of(
-    hood: Neighbourhood, policy: str, found: dict[int, list[Estimate]]
+    hood: Neighbourhood, policy: str, found: Mapping[int, Sequence[Estimate]]
 ) -> Evaluation:
     """The evaluation that sources' estimates ({source id: estimates}) make, in engine pair order.
 
     Only the pairs that were reported count (a departed FLS reports none and
     is nobody's target); errors and obstruction follow from the geometry.
+    A pair reported twice counts as its last report.
     """
-    ids = hood.swarm.cloud_index
-    by_pair = {
-        (source, one.target): one for source, estimates in found.items() for one in estimates
-    }
-    source, target = ordered_blind_pairs(hood.pairs)
-    keys = zip(ids[source].tolist(), ids[target].tolist(), strict=True)
-    reported = [by_pair.get(key) for key in keys]
-    keep = np.array([one is not None for one in reported], dtype=bool)
-    source, target = source[keep], target[keep]
-    kept = [one for one in reported if one is not None]
-    count = len(kept)
-
-    row_of = {fls: row for row, fls in enumerate(ids.tolist())}
-
-    def indices(path: tuple[int, ...]) -> list[int]:
-        return [row_of[fls] for fls in path]
-
-    status = np.array([one.status for one in kept], dtype=np.int8)
-    reason = np.array([one.reason for one in kept], dtype=np.int8)
-    paths = paths_from_rows(
-        count,
-        {m: indices(one.path) for m, one in enumerate(kept) if one.status != NO_PATH},
-        {m: one.length for m, one in enumerate(kept) if one.status != NO_PATH},
+    ids = np.asarray(hood.swarm.cloud_index, dtype=np.int64)
+    tables = [Estimates.of(estimates) for estimates in found.values()]
+    everyone = Estimates.joined(tables)
+    reporters = np.repeat(
+        np.fromiter(found, dtype=np.int64, count=len(found)), [len(t) for t in tables]
     )
-    vectors = np.array([one.vector for one in kept], dtype=np.float64).reshape(count, 3)
-    connected = np.array([bool(one.radio_path) for one in kept], dtype=bool)
-    radio_rows = [indices(one.radio_path) for one in kept if one.radio_path]
-    radio = paths_from_rows(len(radio_rows), dict(enumerate(radio_rows)))
+    rows_of = _rows_of(ids)
+    size = len(ids)
+    keys = rows_of(reporters) * size + rows_of(everyone.targets)
+    order = np.argsort(keys, kind="stable")
+    sorted_keys = keys[order]
+    source, target = ordered_blind_pairs(hood.pairs)
+    wanted = source.astype(np.int64) * size + target
+    at = np.searchsorted(sorted_keys, wanted, side="right") - 1
+    keep = (at >= 0) & (sorted_keys[np.maximum(at, 0)] == wanted)
+    source, target = source[keep], target[keep]
+    kept = order[at[keep]]
+
+    status = everyone.status[kept]
+    reason = everyone.reason[kept]
+    has_path = status != NO_PATH
+    bounds, nodes = csr.take(everyone.path_offsets, everyone.path_ids, kept)
+    counts = np.diff(bounds)
+    counts[~has_path] = 0
+    offsets = csr.offsets(counts)
+    nodes = rows_of(nodes[csr.ragged_indices(bounds[:-1][has_path], counts[has_path])])
+    paths = Paths(
+        has_path,
+        np.where(has_path, counts - 1, 0).astype(np.int64),
+        np.where(has_path, everyone.length[kept], np.nan),
+        offsets,
+        nodes,
+    )
+    vectors = everyone.vector[kept]
+    radio_bounds, radio_nodes = csr.take(everyone.radio_offsets, everyone.radio_ids, kept)
+    radio_counts = np.diff(radio_bounds)
+    connected = radio_counts > 0
+    radio = Paths(
+        np.ones(int(connected.sum()), dtype=bool),
+        radio_counts[connected] - 1,
+        np.full(int(connected.sum()), np.nan),
+        csr.offsets(radio_counts[connected]),
+        rows_of(radio_nodes),
+    )
     pairs = pair_results(hood, source, target, status, reason, paths, vectors, radio, connected)
-    fitted = np.array([one.covariance is not None for one in kept], dtype=bool)
+    covariance = everyone.covariance[kept]
+    fitted = ~np.isnan(covariance).any(axis=(1, 2))
     if fitted.any():
         # The fit's estimates carry their covariance and predicted error (core.fit.refine).
-        covariance = np.full((count, 3, 3), np.nan)
-        covariance[fitted] = [one.covariance for one in kept if one.covariance is not None]
-        predicted = np.array([one.predicted_error for one in kept], dtype=np.float64)
+        predicted = everyone.predicted_error[kept]
         pairs = pairs.with_estimates(vectors, predicted_error=predicted, covariance=covariance)
     summary = summarise(hood, policy, pairs)
     if fitted.any():
         summary["estimator"] = summary["parameters"]["estimator"] = LOCAL_LEAST_SQUARES
         summary["fit"] = consistency(pairs)
     return Evaluation(hood, policy, pairs, summary)
+
+
+def _rows_of(ids: IntArray) -> Callable[[IntArray], IntArray]:
+    """The row of each FLS id in ``ids`` (N,), as a function of ids (any shape)."""
+    order = np.argsort(ids, kind="stable")
+    ordered = ids[order]
+
+    def rows(fls_ids: IntArray) -> IntArray:
+        wanted = np.asarray(fls_ids, dtype=np.int64)
+        at = np.minimum(np.searchsorted(ordered, wanted), max(len(ordered) - 1, 0))
+        if len(wanted) and not np.array_equal(ordered[at], wanted):
+            raise KeyError(int(wanted[ordered[at] != wanted][0]))
+        return np.asarray(order[at], dtype=np.int64)
+
+    return rows

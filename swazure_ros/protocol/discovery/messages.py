@@ -218,7 +218,7 @@ class Report:
 
     run_id: int
     source: int
-    estimates: list[Estimate]
+    estimates: Sequence[Estimate]  # an Estimates table where the protocol made them
 
 
 @jit.kernel(cache=True, nogil=True)

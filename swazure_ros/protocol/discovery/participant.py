@@ -28,7 +28,7 @@ from ...core.sensor import (
     hop_error,
 )
 from ..readings import ReadingsBook
-from .estimate import Estimate, Found, estimate
+from .estimate import Estimate, Estimates, Results, estimates_of
 from .messages import (
     ANY_VISIBLE,
     END,
@@ -82,7 +82,7 @@ class FlsRun:
         self.width = width
         self.id_space = id_space
         self.targets = targets
-        self.results: dict[int, dict[int, Found]] = {phase: {} for phase in PHASES}
+        self.results: dict[int, Results] = {phase: Results() for phase in PHASES}
         self.search: PathSearch | None = None
         self.departed: frozenset[int] = frozenset()
 
@@ -110,18 +110,14 @@ class FlsRun:
         self.results[phase] = self.search.results
         return self.search
 
-    def estimates(self, sensor: Sensor | None = None) -> list[Estimate]:
+    def estimates(self, sensor: Sensor | None = None) -> Estimates:
         """The estimate for every target that has not departed, in target order."""
-        if self.targets is None:
-            return []
+        targets = np.zeros(0, dtype=np.int64) if self.targets is None else self.targets
+        targets = targets[~np.isin(targets, list(self.departed))]
         sweet, radio, decaying = (self.results[phase] for phase in PHASES)
-        return [
-            estimate(target, sweet.get(target), radio.get(target), decaying.get(target), sensor)
-            for target in self.targets.tolist()
-            if target not in self.departed
-        ]
+        return estimates_of(targets, sweet, radio, decaying, sensor)
 
-    def fitted(self, sensor: Sensor, radius: float, heard: Heard) -> list[Estimate]:
+    def fitted(self, sensor: Sensor, radius: float, heard: Heard) -> Estimates:
         """The estimates with each pair's vector from this source's fit of ``heard``.
 
         As the engine's ``--estimator local-least-squares`` makes them
@@ -129,10 +125,10 @@ class FlsRun:
         and its radio neighbours; a target that the window does not join to
         the source keeps its path, summed less the known bias.
         """
-        estimates = self.estimates(sensor)
+        estimates = list(self.estimates(sensor))
         with_path = [one for one in estimates if one.status in (SWEET_PATH, DECAYING_PATH)]
         if not with_path:
-            return estimates
+            return Estimates.of(estimates)
         targets = np.array([one.target for one in with_path], dtype=np.int64)
         sweet = np.array([one.status == SWEET_PATH for one in with_path], dtype=bool)
         vectors, covariances, _ = window_fit(
@@ -142,8 +138,8 @@ class FlsRun:
         for one, vector, covariance in zip(with_path, vectors, covariances, strict=True):
             if np.isnan(vector).any():
                 phase = SWEET_VISIBLE if one.status == SWEET_PATH else ANY_VISIBLE
-                found = self.results[phase][one.target]
-                if found.unbiased is None or found.covariance is None:
+                found = self.results[phase].get(one.target)
+                if found is None or found.unbiased is None or found.covariance is None:
                     continue  # a label from a run that does not fit (forged): the path's own
                 vector, covariance = found.unbiased, found.covariance
             fits[one.target] = replace(
@@ -153,7 +149,7 @@ class FlsRun:
                 predicted_error=float(np.sqrt(np.trace(covariance))),
                 estimator=LOCAL_LEAST_SQUARES,
             )
-        return [fits.get(one.target, one) for one in estimates]
+        return Estimates.of([fits.get(one.target, one) for one in estimates])
 
 
 class Participant:
@@ -253,11 +249,13 @@ class Participant:
             Report(
                 run_id,
                 self.fls_id,
-                [
-                    Estimate(target, ABORTED, REASON_COORDINATOR_LOST)
-                    for target in run.targets.tolist()
-                    if target not in run.departed
-                ],
+                Estimates.of(
+                    [
+                        Estimate(target, ABORTED, REASON_COORDINATOR_LOST)
+                        for target in run.targets.tolist()
+                        if target not in run.departed
+                    ]
+                ),
             )
             for run_id, run in sorted({**self.runs, **self.waiting}.items())
             if run.targets is not None and len(run.targets)

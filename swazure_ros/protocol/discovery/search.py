@@ -35,7 +35,7 @@ from ...core.sensor import (
     smallest_hop_error,
     unbiased_vectors,
 )
-from .estimate import Found
+from .estimate import Results
 from .messages import ANY_VISIBLE, SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers, sender_rows
 
 FloatArray = NDArray[np.float64]
@@ -293,7 +293,7 @@ class PathSearch:
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
         self._wanted = np.array(sorted(self.targets), dtype=np.int64)
         self._found = np.zeros(id_space, dtype=bool)
-        self.results: dict[int, Found] = {}
+        self.results = Results()
         if targets is not None:
             me = self.fls_id - first
             if not 0 <= me < slots:
@@ -379,20 +379,15 @@ class PathSearch:
             return
         targets = heard.sender_ids[labels]
         self._found[targets] = True
-        paths = heard.paths(labels)
-        lengths, errors = heard.lengths[labels].tolist(), heard.errors[labels].tolist()
-        vectors = heard.vectors[labels]
-        unbiased = heard.unbiased[labels] if self.fits else None
-        covariances = heard.covariances[labels] if self.fits else None
-        for row, target in enumerate(targets.tolist()):
-            self.results[target] = Found(
-                paths[row],
-                lengths[row],
-                vectors[row],
-                errors[row],
-                None if unbiased is None else unbiased[row],
-                None if covariances is None else covariances[row],
-            )
+        self.results.add(
+            targets,
+            heard.lengths[labels],
+            heard.errors[labels],
+            heard.vectors[labels],
+            csr.take(heard.path_offsets, heard.path_ids, labels),
+            heard.unbiased[labels] if self.fits else None,
+            heard.covariances[labels] if self.fits else None,
+        )
 
     def hear(self, heard: RoundOffers) -> None:
         """Take a round's offers at once: record results, relax labels through the hops.
@@ -455,11 +450,12 @@ class PathSearch:
         self.via_label[changed] = labels
 
 
-def phase_targets(phase: int, blind: IntArray, sweet_results: dict[int, Found]) -> IntArray:
+def phase_targets(phase: int, blind: IntArray, sweet_results: Results) -> IntArray:
     """A source's targets in ``phase``: blind neighbours (in SD_vis: without S_vis path)."""
+    blind = np.asarray(blind, dtype=np.int64)
     if phase == ANY_VISIBLE:
-        return np.array([t for t in blind.tolist() if t not in sweet_results], dtype=np.int64)
-    return np.asarray(blind, dtype=np.int64)
+        return blind[sweet_results.rows(blind) < 0]
+    return blind
 
 
 def radio_window(view: LocalView) -> IntArray:

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import array
-import itertools
 from collections.abc import Sequence
 
 import numpy as np
@@ -22,9 +20,9 @@ from swazure_interfaces.msg import (
 )
 
 from ...core.evaluate import REASON_NAMES, STATUS_NAMES
-from ...core.fit import PATH
+from ...core.fit import PATH, SWARM_ESTIMATORS
 from ...core.frames import CM_PER_METRE, fls_frame, to_metres
-from ...protocol.discovery.estimate import Estimate
+from ...protocol.discovery.estimate import Estimate, Estimates
 from ...protocol.discovery.messages import (
     END,
     PHASES,
@@ -174,40 +172,32 @@ def pose_estimate_message(source: int, found: Estimate, stamp: Time) -> PoseEsti
 
 def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
     """Every estimate of one source as a PoseEstimates message: one array entry per target."""
-    source, found = report.source, report.estimates
+    source, found = report.source, Estimates.of(report.estimates)
     message = PoseEstimates(run_id=report.run_id, source_id=source)
     message.header.stamp = stamp
     message.header.frame_id = node_name(source)
-    count = len(found)
-    message.target_ids = packed([one.target for one in found], np.uint32)
-    message.statuses = packed([one.status for one in found], np.uint8)
-    message.reasons = packed([one.reason for one in found], np.uint8)
-    message.estimators = packed([ESTIMATOR_CODES[one.estimator] for one in found], np.uint8)
-    message.path_offsets, message.path_ids = _ragged([one.path for one in found])
-    message.radio_path_offsets, message.radio_path_ids = _ragged([one.radio_path for one in found])
-    vectors = np.array([one.vector for one in found], dtype=np.float64).reshape(count, 3)
-    message.vectors = packed(vectors, np.float64)
-    message.path_lengths = packed([one.length for one in found], np.float64)
-    message.predicted_errors = packed([one.predicted_error for one in found], np.float64)
-    covariances = np.full((count, 9), np.nan)
-    for row, one in enumerate(found):
-        if one.covariance is not None:
-            covariances[row] = one.covariance.ravel()
-    message.covariances = packed(covariances, np.float64)
+    message.target_ids = packed(found.targets, np.uint32)
+    message.statuses = packed(found.status, np.uint8)
+    message.reasons = packed(found.reason, np.uint8)
+    message.estimators = packed(_ESTIMATOR_WIRE[found.estimator], np.uint8)
+    message.path_offsets = packed(found.path_offsets, np.uint32)
+    message.path_ids = packed(found.path_ids, np.uint32)
+    message.radio_path_offsets = packed(found.radio_offsets, np.uint32)
+    message.radio_path_ids = packed(found.radio_ids, np.uint32)
+    message.vectors = packed(found.vector, np.float64)
+    message.path_lengths = packed(found.length, np.float64)
+    message.predicted_errors = packed(found.predicted_error, np.float64)
+    message.covariances = packed(found.covariance, np.float64)
     return message
 
 
-def _ragged(paths: Sequence[tuple[int, ...]]) -> tuple[array.array, array.array]:  # type: ignore[type-arg]
-    """Paths as (offsets, ids) sequences: path k is ids[offsets[k]:offsets[k + 1]]."""
-    offsets = np.zeros(len(paths) + 1, dtype=np.uint32)
-    offsets[1:] = np.cumsum([len(path) for path in paths])
-    ids = np.fromiter(
-        itertools.chain.from_iterable(paths), dtype=np.uint32, count=int(offsets[-1])
-    )
-    return packed(offsets, np.uint32), packed(ids, np.uint32)
+#: core.fit.SWARM_ESTIMATORS index -> DiscoveryControl.ESTIMATOR_*, and back.
+_ESTIMATOR_WIRE = np.array([ESTIMATOR_CODES[name] for name in SWARM_ESTIMATORS], dtype=np.uint8)
+_ESTIMATOR_INDEX = np.full(256, -1, dtype=np.int8)
+_ESTIMATOR_INDEX[_ESTIMATOR_WIRE] = np.arange(len(SWARM_ESTIMATORS))
 
 
-def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> list[Estimate]:
+def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> Estimates:
     """The core's Estimates of a source's report, checked against ``swarm`` (sorted ids).
 
     MessageError unless the arrays agree in length, the source and every
@@ -235,29 +225,30 @@ def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> list[Esti
         bool(np.all(statuses < len(STATUS_NAMES)) and np.all(reasons < len(REASON_NAMES))),
         "unknown status or reason",
     )
-    estimators = np.asarray(message.estimators).tolist()
-    check(all(code in ESTIMATOR_NAMES for code in estimators), "unknown estimator")
+    estimators = _ESTIMATOR_INDEX[np.asarray(message.estimators, dtype=np.uint8)]
+    check(bool(np.all(estimators >= 0)), "unknown estimator")
     vectors = check_finite(message.vectors, "vector", allow_nan=True).reshape(count, 3)
     lengths = check_finite(message.path_lengths, "path_lengths", allow_nan=True)
     predicted = check_finite(message.predicted_errors, "predicted_errors", allow_nan=True)
     covariances = check_finite(message.covariances, "covariance", allow_nan=True)
     covariances = covariances.reshape(count, 3, 3)
-    fitted = np.all(np.isfinite(covariances), axis=(1, 2)).tolist()
-    # Estimate's fields, in their order: one Python call per estimate and no more.
-    columns = zip(
-        np.asarray(message.target_ids).tolist(),
-        statuses.tolist(),
-        reasons.tolist(),
-        paths,
-        lengths.tolist(),
-        list(vectors),
-        radio_paths,
-        predicted.tolist(),
-        [ESTIMATOR_NAMES[code] for code in estimators],
-        [matrix if whole else None for matrix, whole in zip(covariances, fitted, strict=True)],
-        strict=True,
+    # A fit's covariance is whole or absent: NaN stands for none.
+    partial = np.asarray(np.isnan(covariances).any(axis=(1, 2)), dtype=bool)
+    covariances = np.where(partial[:, None, None], np.nan, covariances)
+    return Estimates(
+        np.asarray(message.target_ids, dtype=np.int64),
+        statuses.astype(np.int8),
+        reasons.astype(np.int8),
+        paths[0],
+        paths[1],
+        lengths,
+        vectors,
+        radio_paths[0],
+        radio_paths[1],
+        predicted,
+        estimators,
+        covariances,
     )
-    return [Estimate(*fields) for fields in columns]
 
 
 def _checked_offsets(
@@ -278,13 +269,11 @@ def _checked_offsets(
 
 def _ragged_from_message(
     offsets: Sequence[int], ids: Sequence[int], count: int, swarm: IntArray, what: str
-) -> list[tuple[int, ...]]:
+) -> tuple[IntArray, IntArray]:
     """The ``count`` paths of a ragged (offsets, ids) pair, checked against ``swarm``."""
     bounds = _checked_offsets(offsets, ids, count, len(swarm), what, "estimates")
     check(bool(np.all(np.diff(bounds) <= len(swarm))), "a path longer than the swarm")
-    flat = check_ids(ids, swarm, f"estimates' {what}s").tolist()
-    starts = bounds.tolist()
-    return [tuple(flat[a:b]) for a, b in itertools.pairwise(starts)]
+    return bounds, check_ids(ids, swarm, f"estimates' {what}s")
 
 
 def pose_estimate_from_message(message: PoseEstimate) -> Estimate:
