@@ -1820,14 +1820,20 @@ def hosts_figures(records: list[dict], folder: Path) -> None:
 
 
 #: (shape, processes) of the cells section: the built-in torus at the paper's density and
-#: the race car, packed over 1, 2 and 4 processes; torus:10000 over two (each process holds
-#: the whole world: four would need about 28 GB, this machine has 24), and torus:30000
-#: over two, to see what breaks first.
-CELL_RUNS = [
-    (shape, processes)
-    for shape in ("torus:400", "torus:1000", "torus:3720", "racecar_3720")
-    for processes in (1, 2, 4)
-] + [("torus:10000", 2), ("torus:30000", 2)]
+#: the race car, packed over 1, 2 and 4 processes; the other published shapes in one process
+#: (discovery against the engine on every published shape); torus:10000 over two (each
+#: process holds the whole world: four would need about 28 GB, this machine has 24), and
+#: torus:30000 over two, to see what breaks first.
+CELL_RUNS = (
+    [(shape, 1) for shape in ("chess_408", "palm_725", "kangaroo_972", "dragon_1147")]
+    + [("skateboard_1372", 1)]
+    + [
+        (shape, processes)
+        for shape in ("torus:400", "torus:1000", "torus:3720", "racecar_3720")
+        for processes in (1, 2, 4)
+    ]
+    + [("torus:10000", 2), ("torus:30000", 2)]
+)
 #: The longest a cells run may take, s: its row then says it was stopped.
 CELL_LIMIT = 1800
 
@@ -1944,8 +1950,9 @@ def cells_lines(records: list[dict]) -> list[str]:
         "## Radio cells: what each packed process hears and spends in one discovery",
         "",
         "`scripts/bench_cells.py`: one `spawn --compute-all`-like run (beta 0.5,",
-        "Shortest-Length) of the built-in torus at the paper's density and of the race",
-        "car, packed over 1, 2 and 4 processes (k-d regions). Per process: the FLSs it",
+        "Shortest-Length) of every published shape in one process, and of the built-in",
+        "torus at the paper's density and the race car packed over 1, 2 and 4 processes",
+        "(k-d regions). Per process: the FLSs it",
         "hosts, the radio cells it subscribes to (ROS graph), the offers it heard over DDS",
         "(its /diagnostics counts; offers between its own FLSs never cross DDS) and its",
         "CPU during discovery (/proc). Per FLS and round: those offers and that CPU over",

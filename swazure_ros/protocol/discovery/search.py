@@ -353,18 +353,20 @@ class PathSearch:
         # Each label's sender path: where it starts in its offers and how long it is.
         start = np.zeros(len(slots), dtype=np.int64)
         length = np.zeros(len(slots), dtype=np.int64)
+        groups = []
         for key in np.unique(via[via >= 0]).tolist():
-            rows = via == key
+            rows = np.flatnonzero(via == key)
             offsets = self._heard[key].path_offsets
             start[rows] = offsets[label[rows]]
             length[rows] = offsets[label[rows] + 1] - start[rows]
+            groups.append((self._heard[key].path_ids, rows))
         path_offsets = csr.offsets(length + 1)
         path_ids = np.full(int(path_offsets[-1]), self.fls_id, dtype=np.int64)  # ends each
-        for key in np.unique(via[via >= 0]).tolist():
-            rows = via == key
-            path_ids[csr.ragged_indices(path_offsets[:-1][rows], length[rows])] = self._heard[
-                key
-            ].path_ids[csr.ragged_indices(start[rows], length[rows])]
+        for heard_ids, rows in groups:
+            counts = length[rows]
+            path_ids[csr.ragged_indices(path_offsets[rows], counts)] = heard_ids[
+                csr.ragged_indices(start[rows], counts)
+            ]
         # Offers heard that no unsent label still comes through are done with
         # (looked for now and then: a few rounds' offers are kept anyway).
         if len(self._heard) > _HEARD_KEPT:
