@@ -20,6 +20,7 @@ import sys
 import threading
 import time
 import traceback
+from collections import Counter
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
@@ -41,7 +42,9 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
 from rclpy.qos import qos_profile_parameter_events
+from rclpy.service import Service
 from rclpy.signals import SignalHandlerOptions
+from rclpy.timer import Timer
 from rclpy.utilities import remove_ros_args
 
 from ..core.description import SwarmDescription
@@ -63,6 +66,10 @@ NO_TYPE_DESCRIPTION_SERVICE = Parameter("start_type_description_service", value=
 
 #: Where rclpy's nodes publish their parameter changes.
 PARAMETER_EVENTS_TOPIC = "/parameter_events"
+
+
+#: Seconds between two log lines of a callback that keeps failing.
+FAILURE_LOG_EVERY = 5.0
 
 
 class SwarmNode(Node):
@@ -88,6 +95,8 @@ class SwarmNode(Node):
         self._shared_parameter_events = parameter_events
         # Parameters a running node takes new values of: their specs and what applies them.
         self._live: dict[str, tuple[ParameterSpec, Callable[[Any], None]]] = {}
+        #: Timer and service callbacks that raised, by where: counted, logged, never raised.
+        self.failures: Counter[str] = Counter()
         super().__init__(
             name,
             namespace=namespace,
@@ -109,6 +118,50 @@ class SwarmNode(Node):
             return self._shared_parameter_events
         publisher: Publisher = super().create_publisher(msg_type, topic, *args, **kwargs)
         return publisher
+
+    def create_timer(
+        self, timer_period_sec: float, callback: Callable[[], Any], *args: Any, **kwargs: Any
+    ) -> Timer:
+        """Node's, with ``callback`` guarded: what it raises (a publish that DDS refuses, a
+        defect of ours) is counted in :attr:`failures` and logged, never raised into the
+        executor, which would end the process with every node in it."""
+        name = getattr(callback, "__name__", "timer")
+
+        def guarded() -> None:
+            try:
+                callback()
+            except Exception as err:
+                self._failed(f"timer {name}", err)
+
+        timer: Timer = super().create_timer(timer_period_sec, guarded, *args, **kwargs)
+        return timer
+
+    def create_service(
+        self, srv_type: Any, srv_name: str, callback: Callable[[Any, Any], Any], **kwargs: Any
+    ) -> Service:
+        """Node's, with ``callback`` guarded: a request it fails on is answered with
+        ``success: false`` and a one-line ``message`` (where the service has them),
+        counted in :attr:`failures`; the node keeps serving."""
+
+        def guarded(request: Any, response: Any) -> Any:
+            try:
+                return callback(request, response)
+            except Exception as err:
+                self._failed(f"service {srv_name}", err)
+                if hasattr(response, "success") and hasattr(response, "message"):
+                    response.success = False
+                    response.message = f"internal error: {type(err).__name__}: {err}"
+                return response
+
+        service: Service = super().create_service(srv_type, srv_name, guarded, **kwargs)
+        return service
+
+    def _failed(self, where: str, err: Exception) -> None:
+        self.failures[where] += 1
+        self.get_logger().error(  # type: ignore[no-untyped-call]
+            f"{where} failed ({self.failures[where]} so far): {type(err).__name__}: {err}",
+            throttle_duration_sec=FAILURE_LOG_EVERY,
+        )
 
     def create_parameter_events_publisher(self) -> Publisher:
         """A /parameter_events writer that packed nodes can share (``parameter_events``)."""
