@@ -1821,9 +1821,9 @@ def hosts_figures(records: list[dict], folder: Path) -> None:
 
 #: (shape, processes) of the cells section: the built-in torus at the paper's density and
 #: the race car, packed over 1, 2 and 4 processes; the other published shapes in one process
-#: (discovery against the engine on every published shape); torus:10000 over two (each
-#: process holds the whole world: four would need about 28 GB, this machine has 24), and
-#: torus:30000 over two, to see what breaks first.
+#: (discovery against the engine on every published shape); torus:10000 over one and two
+#: (each process holds the whole world: four would need about 28 GB, this machine has 24),
+#: and torus:30000 over two, to see what breaks first.
 CELL_RUNS = (
     [(shape, 1) for shape in ("chess_408", "palm_725", "kangaroo_972", "dragon_1147")]
     + [("skateboard_1372", 1)]
@@ -1832,7 +1832,7 @@ CELL_RUNS = (
         for shape in ("torus:400", "torus:1000", "torus:3720", "racecar_3720")
         for processes in (1, 2, 4)
     ]
-    + [("torus:10000", 2), ("torus:30000", 2)]
+    + [("torus:10000", 1), ("torus:10000", 2), ("torus:30000", 2)]
 )
 #: The longest a cells run may take, s: its row then says it was stopped.
 CELL_LIMIT = 1800
