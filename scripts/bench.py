@@ -1840,30 +1840,43 @@ CELL_LIMIT = 1800
 
 def cells_section(args: argparse.Namespace) -> list[str]:
     """Radio cells: per packed process and FLS, what one discovery run hears and spends."""
-    records = []
-    for shape, processes in CELL_RUNS:
-        cloud = shape if shape.startswith("torus") else swarm_cloud(shape)
-        out = SECTIONS_DIR / f"cells-{shape.replace(':', '')}-{processes}.json"
-        print(f"bench: cells, {shape} over {processes} process(es)", flush=True)
-        command = [sys.executable, str(REPO / "scripts" / "bench_cells.py"), "--cloud", cloud,
-                   "--processes", str(processes), "--beta", str(args.beta),
-                   "--out", str(out)]  # fmt: skip
-        try:
-            done = subprocess.run(command, timeout=CELL_LIMIT, capture_output=True, text=True)
-            if done.returncode != 0:
-                said = [line for line in done.stderr.splitlines() if "bench_cells:" in line]
-                where = said[-1].split("bench_cells: ", 1)[-1] if said else "before bring-up"
-                why = (
-                    "killed by the kernel (out of memory)"
-                    if done.returncode == -signal.SIGKILL
-                    else f"exit {done.returncode}: {done.stderr.strip().splitlines()[-1:]}"
-                )
-                raise OSError(f"{why}; its last step: {where}")
-            records.append({"shape": shape, **json.loads(out.read_text())})
-        except (subprocess.TimeoutExpired, OSError, ValueError) as err:
-            records.append({"shape": shape, "processes": processes, "stopped": str(err)[:120]})
+    records = [cell_record(shape, processes, args.beta) for shape, processes in CELL_RUNS]
     cells_figure(records, REPO / "docs" / "figures" / "cells-per-fls.png")
     return cells_lines(records)
+
+
+def cell_record(shape: str, processes: int, beta: float) -> dict:
+    """One bench_cells run of ``shape`` over ``processes``: its record, or why it stopped."""
+    cloud = shape if shape.startswith("torus") else swarm_cloud(shape)
+    out = SECTIONS_DIR / f"cells-{shape.replace(':', '')}-{processes}.json"
+    print(f"bench: cells, {shape} over {processes} process(es)", flush=True)
+    command = [sys.executable, str(REPO / "scripts" / "bench_cells.py"), "--cloud", cloud,
+               "--processes", str(processes), "--beta", str(beta),
+               "--out", str(out)]  # fmt: skip
+    try:
+        done = subprocess.run(command, timeout=CELL_LIMIT, capture_output=True, text=True)
+        if done.returncode != 0:
+            said = [line for line in done.stderr.splitlines() if "bench_cells:" in line]
+            where = said[-1].split("bench_cells: ", 1)[-1] if said else "before bring-up"
+            killed = done.returncode == -signal.SIGKILL or "code -9" in done.stderr
+            last = (done.stderr.strip().splitlines() or [""])[-1]
+            why = f"{oom_kill()} during: {where}" if killed else f"exit {done.returncode}: {last}"
+            raise OSError(why)
+        return {"shape": shape, **json.loads(out.read_text())}
+    except (subprocess.TimeoutExpired, OSError, ValueError) as err:
+        return {"shape": shape, "processes": processes, "stopped": str(err)[:160]}
+
+
+def oom_kill() -> str:
+    """What the kernel's log says of the last process it killed for memory, in a few words."""
+    try:
+        log = subprocess.run(["dmesg"], capture_output=True, text=True, timeout=10).stdout
+    except (OSError, subprocess.TimeoutExpired):
+        log = ""
+    kills = re.findall(r"Out of memory: Killed process \d+ .*?anon-rss:(\d+)kB", log)
+    if not kills:
+        return "killed (SIGKILL: out of memory?)"
+    return f"a process killed by the kernel at {int(kills[-1]) / 1024**2:.1f} GB (out of memory)"
 
 
 #: The tags section: labels per offer measured, and how many times each message is timed.

@@ -349,6 +349,9 @@ class PathSearch:
 
     def _paths_of(self, slots: IntArray) -> tuple[IntArray, IntArray]:
         """The paths of the labels in ``slots``, as (offsets (L + 1,), ids), FLS ids."""
+        if not len(slots):  # nothing due this round
+            self._forget_heard()
+            return np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
         via, label = self.via_offers[slots], self.via_label[slots]
         # Each label's sender path: where it starts in its offers and how long it is.
         start = np.zeros(len(slots), dtype=np.int64)
@@ -367,13 +370,19 @@ class PathSearch:
             path_ids[csr.ragged_indices(path_offsets[rows], counts)] = heard_ids[
                 csr.ragged_indices(start[rows], counts)
             ]
-        # Offers heard that no unsent label still comes through are done with
-        # (looked for now and then: a few rounds' offers are kept anyway).
+        # Only now: the labels just sent count as sent, and their offers may go.
+        self._forget_heard()
+        return path_offsets, path_ids
+
+    def _forget_heard(self) -> None:
+        """Drop the offers heard that no unsent label still comes through.
+
+        Looked for only once more than a few rounds' offers are kept.
+        """
         if len(self._heard) > _HEARD_KEPT:
             pending = self.via_offers[~self.sent & (self.via_offers >= 0)]
             for key in set(self._heard) - set(np.unique(pending).tolist()):
                 del self._heard[key]
-        return path_offsets, path_ids
 
     def _take_results(self, heard: RoundOffers, labels: IntArray) -> None:
         """Record the results that ``labels`` of ``heard`` (this source's, from targets) bring."""
