@@ -118,6 +118,8 @@ class Results:
                 "covariances": (
                     np.full((count, 3, 3), np.nan) if covariances is None else covariances
                 ),
+                # Whether the sums came with the labels (a fitting run's), NaN or not.
+                "carried": np.full(count, unbiased is not None and covariances is not None),
             }
         )
         self._count += count
@@ -144,6 +146,7 @@ class Results:
                     ("vectors", np.zeros((0, 3))),
                     ("unbiased", np.zeros((0, 3))),
                     ("covariances", np.zeros((0, 3, 3))),
+                    ("carried", np.zeros(0, dtype=bool)),
                 )
             }
             bounds, ids = csr.join(
@@ -172,14 +175,14 @@ class Results:
             return None
         table = self.table
         path = table["path_ids"][table["path_offsets"][row] : table["path_offsets"][row + 1]]
-        unbiased, covariance = table["unbiased"][row], table["covariances"][row]
+        carried = bool(table["carried"][row])
         return Found(
             tuple(path.tolist()),
             float(table["lengths"][row]),
             table["vectors"][row],
             float(table["errors"][row]),
-            None if np.isnan(unbiased).any() else unbiased,
-            None if np.isnan(covariance).any() else covariance,
+            table["unbiased"][row] if carried else None,
+            table["covariances"][row] if carried else None,
         )
 
 
