@@ -40,6 +40,11 @@ from ..ros.world_node import SimulatedCameras
 from ..sim.world import World
 from .per_fls import FlsProcesses
 
+#: Wall seconds the swarm has to answer one step of a session (a track's start, a
+#: frame of the simulated clock) before it counts as stalled. A step takes
+#: milliseconds; an FLS process of its own on a busy 2-core machine has taken over 10 s.
+ANSWER_TIMEOUT = 30.0
+
 
 def track_parameters(config: TrackConfig) -> dict[str, object]:
     """The FLS node parameters of ``config``, on the simulated clock."""
@@ -159,14 +164,14 @@ class TrackSession:
         # are matched here: nothing they send is lost.
         return self.client.hears(len(self.fls_ids))
 
-    def track(self, source: int, target: int, model: str, timeout: float = 10.0) -> int:
+    def track(self, source: int, target: int, model: str, timeout: float = ANSWER_TIMEOUT) -> int:
         """Ask FLS ``source`` to track ``target``; return the relay, or raise TrackingError."""
         relay = self.client.track(source, target, model, self.spin_until, timeout)
         if not self.spin_until(self.delivered, timeout):
             raise SwarmStalledError(f"relay FLS {relay} did not start in {timeout} s")
         return relay
 
-    def advance(self, nanoseconds: int, timeout: float = 10.0) -> None:
+    def advance(self, nanoseconds: int, timeout: float = ANSWER_TIMEOUT) -> None:
         """Set the clock to ``nanoseconds`` and spin until everything due is :meth:`delivered`."""
         self.clock.set(nanoseconds)
         deadline = time.monotonic() + timeout
