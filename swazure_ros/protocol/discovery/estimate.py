@@ -89,7 +89,6 @@ class Results:
         self._rounds: list[dict[str, NDArray[Any]]] = []
         self._count = 0
         self._table: dict[str, NDArray[Any]] | None = None
-        self._ids: set[int] = set()
 
     def add(
         self,
@@ -123,14 +122,10 @@ class Results:
             }
         )
         self._count += count
-        self._ids.update(np.asarray(targets).tolist())
         self._table = None
 
     def __len__(self) -> int:
         return self._count
-
-    def __contains__(self, target: object) -> bool:
-        return target in self._ids
 
     @property
     def table(self) -> dict[str, NDArray[Any]]:
