@@ -65,6 +65,8 @@ BAD_INPUTS = [
     (["spawn", *TORUS, "--technique", "move-source"], "go with --compute-all"),
     (["spawn", *TORUS, "--estimator", "local-least-squares"], "go with --compute-all"),
     (["spawn", *TORUS, "--estimator", "least-squares"], "invalid choice: 'least-squares'"),
+    (["spawn", *TORUS, "--compute-all", "--sources-per-run", "0"], "0: must be at least 1"),
+    (["spawn", *TORUS, "--sources-per-run", "40"], "go with --compute-all"),
     (
         [*SPAWN_FIT, "--technique", "move-source"],
         "estimates plain Swazure's pairs: leave out --technique",
