@@ -27,6 +27,7 @@ import yaml
 
 from ..core.description import SwarmDescription
 from ..core.results import atomic_write
+from ..ros.auth import SwarmKey
 from ..ros.keys import write_key
 from ..ros.names import node_name
 from ..ros.runtime import description_parameters
@@ -107,6 +108,7 @@ def parameter_file(
     description: SwarmDescription,
     namespace: str,
     key_file: Path | None,
+    instance: bytes,
     parameters: dict[str, object],
     fls_parameters: dict[int, dict[str, object]],
 ) -> dict[str, object]:
@@ -115,6 +117,7 @@ def parameter_file(
         **description_parameters(description),
         "namespace": namespace,
         "key_file": "" if key_file is None else str(key_file),
+        "swarm_instance": instance.hex() if key_file is not None else "",
         **parameters,
     }
     content: dict[str, object] = {"/**": {"ros__parameters": every}}
@@ -133,7 +136,7 @@ class FlsProcesses:
         log_dir: Path,
         *,
         namespace: str = "swarm",
-        key: bytes | None = None,
+        key: SwarmKey | None = None,
         parameters: dict[str, object] | None = None,
         fls_parameters: dict[int, dict[str, object]] | None = None,
         params_file: str | None = None,
@@ -143,13 +146,15 @@ class FlsProcesses:
         self.fls_ids = [int(fls_id) for fls_id in fls_ids]
         self.log_dir = log_dir
         log_dir.mkdir(parents=True, exist_ok=True)
-        key_file = None
-        if key is not None:
+        key_file, instance = None, b""
+        if key is not None and key.active:
+            secret, instance = key.material
+            assert secret is not None
             key_file = log_dir / "swarm.key"
-            write_key(key_file, key)
+            write_key(key_file, secret)
         self.parameters_path = log_dir / "parameters.yaml"
         content = parameter_file(
-            description, namespace, key_file, parameters or {}, fls_parameters or {}
+            description, namespace, key_file, instance, parameters or {}, fls_parameters or {}
         )
         atomic_write(
             self.parameters_path,

@@ -19,6 +19,7 @@ from ..core.partition import kd_split
 from ..ros import runtime
 from ..ros.auth import SwarmKey
 from ..ros.host import SwarmHost
+from ..ros.instance import await_instance
 from ..ros.names import host_name
 from ..ros.runtime import Context
 from .config import SwarmConfig
@@ -60,9 +61,18 @@ def shares(swarm: Swarm, processes: int) -> list[list[int]]:
     return [swarm.cloud_index[rows].tolist() for rows in kd_split(swarm.points, processes)]
 
 
+def announced_instance(config: SwarmConfig, key: bytes) -> bytes:
+    """The instance the swarm's world node announces (on the host of share 0)."""
+    context = init_context(config)
+    try:
+        return await_instance(context, config.namespace, key, config.discovery_timeout)
+    finally:
+        context.try_shutdown()
+
+
 def host_share(
     config: SwarmConfig,
-    key: bytes | None,
+    key: tuple[bytes | None, bytes],
     index: int,
     fls_ids: list[int],
     swarm_size: int,
@@ -87,7 +97,7 @@ def host_share(
             name=host_name(index),
             parameters=config.parameters,
             fls_parameters=config.fls_parameters,
-            key=SwarmKey(key),
+            key=SwarmKey(*key),
             parameter_services=config.parameter_services,
         )
         host.create_fls_nodes(lambda count: reports.put((CREATED, index, count)))

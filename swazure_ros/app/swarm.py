@@ -48,6 +48,7 @@ from .share import (
     CREATED,
     FAILED,
     READY,
+    announced_instance,
     host_share,
     init_context,
     peak_rss_mb,
@@ -102,7 +103,11 @@ class RunningSwarm:
         key = config.key if config.authenticate else None
         if key is None and config.authenticate and config.hosts == 1:
             key = new_key()
-        self.key = SwarmKey(key)
+        instance = None  # a fresh one: this swarm's life
+        if key is not None and config.share != 0:
+            # A further host of a swarm that shares a key file: the world node's.
+            instance = announced_instance(config, key)
+        self.key = SwarmKey(key, instance)
         self.fls_processes: FlsProcesses | None = None
         # A folder for the logs of the processes started here, if any are.
         started = config.per_fls or bool(config.discovery_servers)
@@ -115,7 +120,7 @@ class RunningSwarm:
                 self._shares[0],
                 log_dir,
                 namespace=config.namespace,
-                key=key,
+                key=self.key,
                 parameters=config.parameters,
                 fls_parameters=config.fls_parameters,
                 params_file=config.params_file,
@@ -132,10 +137,11 @@ class RunningSwarm:
         mp = multiprocessing.get_context("spawn")
         self._reports = mp.Queue()
         self._stop = mp.Event()
+        material = self.key.material  # each further process signs as a sender of its own
         self._children = [
             mp.Process(
                 target=host_share,
-                args=(config, key, index, share, self.size, self._reports, self._stop),
+                args=(config, material, index, share, self.size, self._reports, self._stop),
                 name=f"swazure-host-{index}",
                 daemon=True,
             )
@@ -201,6 +207,7 @@ class RunningSwarm:
                 self.world.ids.tolist(),
                 namespace=self.config.namespace,
                 context=self.context,
+                key=self.key,
             )
             self.host.add(cameras)
         if leader:

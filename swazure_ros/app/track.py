@@ -95,13 +95,14 @@ class TrackSession:
         self.namespace = namespace.strip("/")
         self.fls_ids = [int(fls_id) for fls_id in fls_ids]
         self.processes: FlsProcesses | None = None
+        key = SwarmKey(per_fls.key if per_fls is not None else None)
         if per_fls is not None:
             self.processes = FlsProcesses(
                 per_fls.description,
                 self.fls_ids,
                 per_fls.log_dir or Path(tempfile.mkdtemp(prefix="swazure-track-")),
                 namespace=self.namespace,
-                key=per_fls.key,
+                key=key,
                 domain_id=context.get_domain_id(),
                 parameters={
                     **track_parameters(config),
@@ -118,13 +119,17 @@ class TrackSession:
             with_world_node=False,
             motion=motion,
             parameters=track_parameters(config),
-            key=SwarmKey(per_fls.key if per_fls is not None else None),
+            key=key,
         )
         if per_fls is not None:
             # What the FLSs' cameras see, so that each joins the swarm's radio.
             self.host.add(
                 SimulatedCameras(
-                    self.host.replica, self.fls_ids, namespace=self.namespace, context=context
+                    self.host.replica,
+                    self.fls_ids,
+                    namespace=self.namespace,
+                    context=context,
+                    key=key,
                 )
             )
         self.clock = SimClock(context=context)

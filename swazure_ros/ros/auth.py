@@ -12,6 +12,15 @@ The tag covers the fields' values, not the serialised bytes: CDR leaves its
 alignment padding uninitialised, so one message serialises to different
 bytes each time. :func:`content` writes each field in order, with its type and
 length, into the MAC.
+
+A tag is bound to one life of the swarm: the MAC also covers the swarm
+instance, 16 random bytes made when the swarm starts and never sent, so a
+message recorded from an earlier swarm started with the same key file fails
+the check. And it is bound to its place in its sender's stream: ``auth`` is
+the sender's random id and a counter (nanoseconds of the wall clock, made
+strictly increasing) before the MAC, and each receiver keeps a
+:class:`Freshness` that refuses a counter it took before or one older than
+its window.
 """
 
 from __future__ import annotations
@@ -20,7 +29,10 @@ import functools
 import hashlib
 import hmac
 import operator
+import secrets
 import struct
+import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
@@ -31,7 +43,7 @@ from ..core.errors import MessageError, SwazureError
 from .interfaces import message_class
 from .keys import KEY_BYTES, new_key, read_key
 
-__all__ = ["SwarmKey", "content", "new_key", "read_key"]
+__all__ = ["Freshness", "SwarmKey", "content", "new_key", "read_key"]
 
 T = TypeVar("T")
 
@@ -43,6 +55,20 @@ CHECKED_KEPT = 8192
 SHARED_KEPT = 64
 #: The field that carries the tag.
 AUTH_FIELD = "auth"
+#: Bytes of a swarm instance's id, made at random when the swarm starts.
+INSTANCE_BYTES = 16
+#: The instance an announcement of the instance is signed under: a constant, known to all.
+ANNOUNCEMENT = b"swazure:instance"
+#: ``auth``: the sender's id (8 random bytes a process), its counter, then the MAC.
+_HEADER = struct.Struct("<8sQ")
+#: Bytes of the MAC (HMAC-SHA256), and of the whole ``auth`` field.
+MAC_BYTES = 32
+AUTH_BYTES = _HEADER.size + MAC_BYTES
+#: How far behind its sender's newest, in the counter's nanoseconds, a message may still
+#: arrive: DDS keeps order per writer only, and one process has several writers a topic.
+REORDER_WINDOW_NS = 10_000_000_000
+#: Senders a receiver keeps the counters of; the one heard from least recently goes first.
+SENDERS_KEPT = 4096
 
 
 #: struct codes of the fixed-size primitive field types (floats as doubles: exact).
@@ -135,12 +161,25 @@ def _write(parts: list[bytes], message: Any) -> None:
 
 
 class SwarmKey:
-    """Signs what a process sends and checks what it hears; without a key, does neither."""
+    """Signs what a process sends and checks what it hears; without a key, does neither.
 
-    def __init__(self, key: bytes | None = None) -> None:
+    ``instance``: the swarm instance's id (INSTANCE_BYTES), inside every tag;
+    None makes a fresh one, for the process that starts a swarm. Each
+    SwarmKey is a sender of its own (a random id and its counter): a
+    process makes its own, never a copy of another's.
+    """
+
+    def __init__(self, key: bytes | None = None, instance: bytes | None = None) -> None:
         if key is not None and len(key) != KEY_BYTES:
             raise SwazureError(f"a swarm key is {KEY_BYTES} bytes, got {len(key)}")
+        if instance is None:
+            instance = secrets.token_bytes(INSTANCE_BYTES)
+        if len(instance) != INSTANCE_BYTES:
+            raise SwazureError(f"a swarm instance is {INSTANCE_BYTES} bytes, got {len(instance)}")
         self._key = key
+        self.instance = instance
+        self.sender = secrets.token_bytes(_HEADER.size - 8)
+        self._counter = 0
         # Digests of the bytes of messages whose tag was good, oldest first.
         self._checked: dict[bytes, None] = {}
         # The newest messages checked, by their bytes' digest and type.
@@ -154,23 +193,39 @@ class SwarmKey:
         """True when messages are signed and checked."""
         return self._key is not None
 
-    def tag(self, message: Any) -> bytes:
-        """The tag of ``message``: HMAC-SHA256 of every field but ``auth`` (:func:`content`)."""
+    @property
+    def material(self) -> tuple[bytes | None, bytes]:
+        """(key, instance): what another process of this swarm makes its own SwarmKey of."""
+        return self._key, self.instance
+
+    def for_instance(self, instance: bytes) -> SwarmKey:
+        """A SwarmKey of the same key for ``instance`` (a sender of its own)."""
+        return SwarmKey(self._key, instance)
+
+    def tag(self, message: Any, header: bytes) -> bytes:
+        """HMAC-SHA256 of the instance, ``header`` (sender, counter) and :func:`content`."""
         assert self._key is not None
-        return hmac.digest(self._key, content(message), "sha256")
+        return hmac.digest(self._key, self.instance + header + content(message), "sha256")
 
     def sign(self, message: T) -> T:
-        """``message`` with its ``auth`` set to its tag (left empty without a key)."""
+        """``message`` with ``auth`` set: sender, next counter, tag (empty without a key)."""
         if self._key is not None:
-            setattr(message, AUTH_FIELD, self.tag(message))
+            # Wall-clock nanoseconds, so that a receiver's window is a span of time.
+            self._counter = max(self._counter + 1, time.time_ns())
+            header = _HEADER.pack(self.sender, self._counter)
+            setattr(message, AUTH_FIELD, header + self.tag(message, header))
         return message
 
     def verify(self, message: T) -> T:
-        """``message`` if the swarm's key signed it (or there is no key); MessageError if not."""
-        if self._key is not None and not hmac.compare_digest(
-            bytes(getattr(message, AUTH_FIELD)), self.tag(message)
+        """``message`` if this swarm signed it (or there is no key); MessageError if not."""
+        if self._key is None:
+            return message
+        auth = bytes(getattr(message, AUTH_FIELD))
+        header = auth[: _HEADER.size]
+        if len(auth) != AUTH_BYTES or not hmac.compare_digest(
+            auth[_HEADER.size :], self.tag(message, header)
         ):
-            raise MessageError("not signed with the swarm's key")
+            raise MessageError("not signed with this swarm's key and instance")
         return message
 
     def serialize(self, message: Any) -> bytes:
@@ -186,7 +241,7 @@ class SwarmKey:
         again (``SHARED_KEPT``), so a second receiver does not read it again.
         """
         if self._key is None or not hasattr(kind, "auth"):
-            # A type without a tag (a camera's Detections) is not the swarm's to sign:
+            # A type without a tag (a camera driver's image) is not the swarm's to sign:
             # what it says is checked for what it is (ros.convert).
             return _deserialize(data, kind)
         digest = hashlib.blake2b(data, digest_size=16).digest()
@@ -203,6 +258,52 @@ class SwarmKey:
         if len(self._shared) > SHARED_KEPT:
             del self._shared[next(iter(self._shared))]
         return message
+
+
+def signed_at(message: Any) -> int:
+    """The counter of ``message``'s ``auth``: wall-clock ns when signed; 0 if unsigned."""
+    auth = bytes(getattr(message, AUTH_FIELD, b""))
+    return int(_HEADER.unpack_from(auth)[1]) if len(auth) == AUTH_BYTES else 0
+
+
+class Freshness:
+    """What one receiver took from each sender: a message taken before, or too old, is refused.
+
+    A counter more than ``window`` below its sender's newest is refused, and
+    so is one already taken; within the window, messages may come in any
+    order (DDS keeps order per writer only). Without a key, nothing is refused.
+    """
+
+    def __init__(self, window: int = REORDER_WINDOW_NS, senders: int = SENDERS_KEPT) -> None:
+        self.window = window
+        self._senders = senders
+        # sender -> (newest counter, counters taken within the window, in arrival order)
+        self._taken: dict[bytes, tuple[list[int], set[int], deque[int]]] = {}
+
+    def take(self, message: Any) -> None:
+        """Take ``message``'s counter; MessageError if taken before or older than the window."""
+        auth = bytes(getattr(message, AUTH_FIELD, b""))
+        if len(auth) != AUTH_BYTES:
+            return  # a keyless swarm's message: nothing to order it by
+        sender, counter = _HEADER.unpack_from(auth)
+        state = self._taken.pop(sender, None)
+        if state is None:
+            state = ([counter], set(), deque())
+            if len(self._taken) >= self._senders:
+                del self._taken[next(iter(self._taken))]
+        self._taken[sender] = state  # the most recently heard last
+        newest, seen, order = state
+        if counter <= newest[0] - self.window:
+            raise MessageError("older than its sender's window: a replay")
+        if counter in seen:
+            raise MessageError("taken before: a replay")
+        seen.add(counter)
+        order.append(counter)
+        if counter > newest[0]:
+            newest[0] = counter
+            floor = counter - self.window
+            while order and order[0] <= floor:
+                seen.discard(order.popleft())
 
 
 def _deserialize(data: bytes, kind: type[T]) -> T:

@@ -46,7 +46,7 @@ from ..protocol.discovery.search import bucket_width
 from ..protocol.moves import Move, MoveRun, Walk
 from ..protocol.rounds import RoundClock, StallClock
 from ..protocol.runs import DiscoveryResult, MoveResult, Traffic, discovery_result, move_result
-from .auth import SwarmKey
+from .auth import SwarmKey, signed_at
 from .convert.discovery import (
     control_message,
     estimates_from_message,
@@ -71,6 +71,7 @@ from .names import (
     WALKS_TOPIC,
     WORLD_QOS,
     WORLD_TOPIC,
+    fls_id_of,
     node_name,
 )
 from .parameters import ParameterSpec, seconds
@@ -157,6 +158,8 @@ class Coordinator(SwarmNode):
         self._swarm = np.array(sorted(self.fls_ids), dtype=np.int64)
         self.guard = Guard(self, key)
         self.key = self.guard.key
+        self._read_ack = self.guard.reader(RoundAck)
+        self._read_estimates = self.guard.reader(PoseEstimates)
         guard = self.guard.wrap
         self._acks = self.create_subscription(
             RoundAck, ACK_TOPIC, guard(ACK_TOPIC, self._on_ack), ROUND_QOS, raw=True
@@ -181,6 +184,12 @@ class Coordinator(SwarmNode):
         self.liveness_period = self.declare(LIVENESS_PERIOD)
         self.liveness_grace = self.declare(LIVENESS_GRACE_SPEC)
         self._radios: set[str] = set()  # node names of the processes' radios (acks' writers)
+        self._radios_gone: set[str] = set()  # of departed FLSs that were their own radio
+        # Who speaks through each radio (its acks' senders), and when each departed FLS
+        # was known gone (wall-clock ns): a signed ack made later says it is back.
+        self._voices: dict[str, set[int]] = {}
+        self._departed_at: dict[int, int] = {}
+        self._back_in_run: set[int] = set()
         self._liveness = FlsLiveness(self, self.get_namespace(), self.liveness_grace)
         self.gone: set[int] = set()
         self._gone_publisher = self.create_publisher(Departed, DEPARTED_TOPIC, DEPARTED_QOS)
@@ -312,7 +321,9 @@ class Coordinator(SwarmNode):
         if isinstance(machine, RoundClock):
             outcome = machine.outcome
             assert outcome is not None
-            self.departed = set(outcome.departed)
+            self._note_departed(set(outcome.departed) - self.departed - self._back_in_run)
+            self.departed = set(outcome.departed) - self._back_in_run
+            self._back_in_run.clear()
             return discovery_result(machine.run_id, machine.policy, outcome, seconds, traffic)
         moved = machine.outcome
         assert moved is not None
@@ -359,6 +370,8 @@ class Coordinator(SwarmNode):
 
     def _on_liveness(self) -> None:
         newly = self._liveness.look(self.gone)
+        if self._liveness.back:
+            self._take_back(self._liveness.back, "on the graph again")
         if len(self._radios) < self.hosts:
             # The radios, by the names of their nodes, while they are on the graph: the
             # acks' writers (an FLS may die before its radio ever acknowledged a round).
@@ -367,10 +380,12 @@ class Coordinator(SwarmNode):
         if not newly:
             return
         self.gone |= newly
+        self._note_departed(newly)
         self.departed |= newly
         # An FLS in a process of its own was its own radio (named as its node): gone too.
         radios = {node_name(fls_id) for fls_id in newly} & self._radios
         self._radios -= radios
+        self._radios_gone |= radios
         self.hosts -= len(radios)
         machine = self._running()
         if isinstance(machine, RoundClock):
@@ -379,15 +394,61 @@ class Coordinator(SwarmNode):
         departed = Departed(header=header, fls_ids=sorted(self.gone))
         self._gone_publisher.publish(self.key.serialize(departed))
 
+    def _note_departed(self, newly: set[int]) -> None:
+        now = time.time_ns()
+        self._departed_at.update(dict.fromkeys(newly, now))
+
+    def _heard_from(self, ack: RoundAck) -> None:
+        """A signed ack of radio ``ack.host``: its departed FLSs that it signed after are back."""
+        voices = self._voices.get(ack.host, set())
+        own = fls_id_of(ack.host)
+        if own is not None:
+            voices = voices | {own}
+        signed = signed_at(ack)
+        back = {
+            fls_id
+            for fls_id in (voices & self.departed) - self.gone
+            if self._departed_at.get(fls_id, signed) < signed
+        }
+        if back:
+            self._take_back(back, "speaking again")
+
+    def _take_back(self, back: set[int], how: str) -> None:
+        """FLSs departed and back: they take part again from the next run on.
+
+        A run under way keeps its departed (its rounds and labels were made
+        without them); the next starts with them, and every pair of theirs is
+        searched again.
+        """
+        self.gone -= back
+        self.departed -= back
+        if self._running() is not None:
+            self._back_in_run |= back
+        for fls_id in back:
+            self._departed_at.pop(fls_id, None)
+        # An FLS in a process of its own is its own radio: one host more to hear.
+        radios = {node_name(fls_id) for fls_id in back} & self._radios_gone
+        self._radios_gone -= radios
+        self.hosts += len(radios)
+        listed = ", ".join(map(str, sorted(back)))
+        logger = self.get_logger()  # type: ignore[no-untyped-call]
+        logger.info(f"FLS {listed} back ({how}): taking part again")
+        header = Header(stamp=self.get_clock().now().to_msg())
+        departed = Departed(header=header, fls_ids=sorted(self.gone))
+        self._gone_publisher.publish(self.key.serialize(departed))
+
     def _on_ack(self, data: bytes) -> None:
         self.traffic.count(ACK_TOPIC, len(data))
-        ack = self.key.deserialize(data, RoundAck)
+        ack = self._read_ack(data)
+        check(0 < len(ack.host) <= MAX_NAME, "a host name of no or too many characters")
+        if self.departed:
+            self._heard_from(ack)
         clock = self._running(ack.run_id)
         if isinstance(clock, RoundClock):
-            check(0 < len(ack.host) <= MAX_NAME, "a host name of no or too many characters")
             if not ack.delivered:
                 # Who spoke: the coordinator hears no offer itself (docs/protocol.md).
                 sent = sent_from_message(ack, self._swarm)
+                self._voices.setdefault(ack.host, set()).update(sent.senders)
                 self.traffic.count(RADIO_TOPIC, sent.bytes, len(sent.senders))
                 self._act(clock.on_sent(int(ack.round), sent, self._now()))
                 return
@@ -399,7 +460,7 @@ class Coordinator(SwarmNode):
 
     def _on_estimates(self, data: bytes) -> None:
         self.traffic.count(ESTIMATES_TOPIC, len(data))
-        message = self.key.deserialize(data, PoseEstimates)
+        message = self._read_estimates(data)
         machine = self._running(message.run_id)
         if machine is not None:
             estimates = estimates_from_message(message, self._swarm)

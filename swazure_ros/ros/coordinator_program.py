@@ -10,14 +10,14 @@ from rclpy.node import Node
 
 from ..core.evaluate import neighbourhood
 from . import coordinator
-from .auth import SwarmKey
 from .coordinator import Coordinator
-from .keys import key_from
+from .instance import program_key
 from .parameters import ParameterSpec, at_least
 from .runtime import (
     DESCRIPTION_PARAMETERS,
     KEY_FILE,
     NAMESPACE,
+    SWARM_INSTANCE,
     declare_startup,
     description_from,
     program_help,
@@ -32,7 +32,7 @@ HOSTS = ParameterSpec(
     at_least(0),
 )
 #: What the program reads before it builds its node.
-STARTUP = (NAMESPACE, KEY_FILE, HOSTS, *DESCRIPTION_PARAMETERS)
+STARTUP = (NAMESPACE, KEY_FILE, SWARM_INSTANCE, HOSTS, *DESCRIPTION_PARAMETERS)
 USAGE = program_help(
     "coordinator",
     """The swarm's coordinator, for FLSs that run one to a process: it keeps the round
@@ -64,7 +64,7 @@ def build_coordinator(context: Context) -> list[Node]:
         shape=shape,
         namespace=str(values["namespace"]),
         context=context,
-        key=SwarmKey(key_from(str(values["key_file"]))),
+        key=program_key(context, values),
         parameter_services=True,
     )
     declare_startup(node, values)

@@ -13,6 +13,11 @@ Remap the three names onto a camera driver's topics, e.g.
 The intrinsics are the camera_info's K; an image that comes before any
 camera_info is dropped. The camera file (``camera_file``) gives the
 dictionary, the marker's side and the corner window.
+
+With the swarm's key (``key_file``), the detections are signed like the
+swarm's messages: an FLS takes no detection that no process of its swarm
+made (docs/security.md). The camera driver's images stay unsigned: run the
+detector on the FLS's own host, beside its driver.
 """
 
 from __future__ import annotations
@@ -30,10 +35,21 @@ from swazure_interfaces.msg import Detections, MarkerDetection
 from ..core.camera import Camera, Detector, load_camera
 from ..core.errors import SwazureError
 from ..core.files import config_dir
+from .auth import SwarmKey
 from .guard import Guard, check
+from .instance import program_key
 from .names import DETECTIONS_QOS
 from .parameters import ParameterSpec
-from .runtime import ParameterError, SwarmNode, program_help, run_process
+from .runtime import (
+    KEY_FILE,
+    NAMESPACE,
+    SWARM_INSTANCE,
+    ParameterError,
+    SwarmNode,
+    program_help,
+    run_process,
+    startup_parameters,
+)
 
 #: The camera the published model's sensor was measured with.
 DEFAULT_CAMERA = "cameras/rpi-camera-module-3-wide.yaml"
@@ -77,7 +93,9 @@ def camera_file() -> ParameterSpec:
 class ArucoDetectorNode(SwarmNode):
     """Reads ArUco markers in a camera's images and publishes where they are."""
 
-    def __init__(self, *, context: Context | None = None, namespace: str = "") -> None:
+    def __init__(
+        self, *, context: Context | None = None, namespace: str = "", key: SwarmKey | None = None
+    ) -> None:
         super().__init__(
             "aruco_detector", namespace=namespace, context=context, parameter_services=True
         )
@@ -88,7 +106,7 @@ class ArucoDetectorNode(SwarmNode):
             raise ParameterError(f"{self.get_fully_qualified_name()}: camera_file: {err}") from err
         self._detector: Detector | None = None
         self._intrinsics: tuple[float, float, float, float] | None = None
-        self.guard = Guard(self)
+        self.guard = Guard(self, key)
         self._detections = self.create_publisher(Detections, "detections", DETECTIONS_QOS)
         self.guard.subscribe(CameraInfo, "camera_info", self._on_info, qos_profile_sensor_data)
         self.guard.subscribe(Image, "image_raw", self._on_image, qos_profile_sensor_data)
@@ -122,12 +140,17 @@ class ArucoDetectorNode(SwarmNode):
             pose.covariance = covariance.ravel().tolist()
             message.detections.append(MarkerDetection(marker_id=marker, pose=pose))
         self.images_read += 1
-        self._detections.publish(message)
+        self._detections.publish(self.guard.key.serialize(message))
 
 
 def build_detector(context: Context) -> list[Node]:
     """The detector's process: one node."""
-    return [ArucoDetectorNode(context=context)]
+    values = startup_parameters(context, STARTUP)
+    return [ArucoDetectorNode(context=context, key=program_key(context, values))]
+
+
+#: What the program reads before it builds its node: the swarm's key, to sign with.
+STARTUP = (NAMESPACE, KEY_FILE, SWARM_INSTANCE)
 
 
 def main(args: list[str] | None = None) -> int:
@@ -140,6 +163,6 @@ marker's centre in the camera's optical frame, m), as an FLS's camera feeds the 
 
   ros2 run swazure_ros aruco_detector --ros-args -r image_raw:=/camera/image_raw \\
       -r camera_info:=/camera/camera_info -r detections:=/swarm/fls_7/camera/detections""",
-        [camera_file()],
+        [camera_file(), *STARTUP],
     )
     return run_process(build_detector, args, usage=usage)

@@ -21,9 +21,8 @@ from ..core.motion import parse_motion
 from ..core.tracking import RelaySenses, moving_senses
 from ..protocol.senses import DetectedSenses
 from . import fls_node, fls_tracking
-from .auth import SwarmKey
 from .fls_node import FlsNode
-from .keys import key_from
+from .instance import program_key
 from .names import DETECTIONS_TOPIC
 from .parameters import ParameterSpec, seconds
 from .radio import Radio
@@ -31,6 +30,7 @@ from .runtime import (
     DESCRIPTION_PARAMETERS,
     KEY_FILE,
     NAMESPACE,
+    SWARM_INSTANCE,
     ParameterError,
     declare_startup,
     description_from,
@@ -57,7 +57,7 @@ JOIN_TIMEOUT = ParameterSpec(
     seconds(),
 )
 #: What the program reads before it builds its node.
-STARTUP = (FLS_ID, NAMESPACE, KEY_FILE, TRACK_MOTION, *DESCRIPTION_PARAMETERS)
+STARTUP = (FLS_ID, NAMESPACE, KEY_FILE, SWARM_INSTANCE, TRACK_MOTION, *DESCRIPTION_PARAMETERS)
 USAGE = program_help(
     "fls",
     """One FLS in its own process, as on FLS hardware. It senses by its camera's detections
@@ -167,7 +167,7 @@ def build_fls(context: Context) -> list[Node]:
     senses = DetectedSenses(
         fls_id, assigned.cloud_index, assigned.points, description.sensor(), assigned.radius
     )
-    key = SwarmKey(key_from(str(values["key_file"])))
+    key = program_key(context, values)
     relay_senses = None
     if values["track.motion"]:
         # A simulated track run's relay camera (swazure track --per-fls): the motion

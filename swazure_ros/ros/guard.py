@@ -28,7 +28,7 @@ from rclpy.qos import QoSProfile
 from rclpy.subscription import Subscription
 
 from ..core.errors import MessageError
-from .auth import SwarmKey
+from .auth import Freshness, SwarmKey
 
 #: Seconds between a guard's reports on /diagnostics (sent only when its counts changed).
 DIAGNOSTICS_PERIOD = 1.0
@@ -121,12 +121,30 @@ class Guard:
         process's own message come back, passed over uncounted.
         """
 
+        read = self.reader(kind)
+
         def take(data: bytes) -> None:
             if echoes is not None and echoes(data):
                 return
-            self.call(topic, lambda: callback(self.key.deserialize(data, kind)))
+            self.call(topic, lambda: callback(read(data)))
 
         return (node or self._node).create_subscription(kind, topic, take, qos, raw=True)
+
+    def reader(self, kind: type[T]) -> Callable[[bytes], T]:
+        """A function of one subscription's bytes: the message, if signed and fresh.
+
+        Each subscription has its own :class:`Freshness`: DDS hands it each
+        message once, so a counter it took before is a replay.
+        """
+        freshness = Freshness()
+
+        def read(data: bytes) -> T:
+            message = self.key.deserialize(data, kind)
+            if self.key.active:
+                freshness.take(message)
+            return message
+
+        return read
 
     def call(self, topic: str, callback: Callable[..., T], *args: Any) -> T | None:
         """``callback(*args)``; None when it rejected its message or failed (counted)."""

@@ -159,6 +159,7 @@ class SwarmHost:
         """Liveness from the graph: FLS nodes gone (replica.gone), and the coordinator."""
         namespace = self._liveness.namespace
         self.replica.gone |= self._liveness.look(self.replica.gone)
+        self.replica.gone -= self._liveness.back
         nodes = self._liveness.nodes
         now = time.monotonic()
         if self.radio is None:

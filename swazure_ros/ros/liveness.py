@@ -16,6 +16,9 @@ class FlsLiveness:
     Only an FLS once seen can go missing: a swarm's nodes join the graph over
     seconds, remote ones later still. A participant whose lease lapses under
     load drops off the graph for a moment (:class:`~..protocol.rounds.Absences`).
+    An FLS gone that the graph shows again for ``grace`` s without a break is
+    back (:attr:`back`): a process stopped for a while (``kill -STOP``) and
+    resumed, or a link down and up again.
     """
 
     def __init__(self, node: Node, namespace: str, grace: float) -> None:
@@ -23,10 +26,16 @@ class FlsLiveness:
         self.namespace = namespace if namespace.startswith("/") else f"/{namespace}"
         self.seen: set[int] = set()  # FLSs the graph has shown at least once
         self._absent = Absences(grace)
+        self._present = Absences(grace)  # the gone that the graph shows again
+        #: The FLSs of ``gone`` back on the graph for ``grace`` s, at the last look.
+        self.back: set[int] = set()
         self.nodes: list[tuple[str, str]] = []  # the graph's (name, namespace) at the last look
 
     def look(self, gone: set[int]) -> set[int]:
-        """The FLSs newly gone (not already in ``gone``), from the graph as it is now."""
+        """The FLSs newly gone (not already in ``gone``), from the graph as it is now.
+
+        Sets :attr:`back`: the FLSs of ``gone`` that have been on it again for ``grace`` s.
+        """
         self.nodes = self._node.get_node_names_and_namespaces()
         present = {
             fls_id
@@ -34,4 +43,6 @@ class FlsLiveness:
             if where == self.namespace and (fls_id := fls_id_of(name)) is not None
         }
         self.seen |= present
-        return self._absent.gone(self.seen - present - gone, time.monotonic())
+        now = time.monotonic()
+        self.back = self._present.gone(present & gone, now)
+        return self._absent.gone(self.seen - present - gone, now)

@@ -46,6 +46,8 @@ TRACK_SAMPLES_TOPIC = "track_samples"
 TRACK_ESTIMATES_TOPIC = "track_estimates"
 TRACK_PROGRESS_TOPIC = "track_progress"
 DEPARTED_TOPIC = "departed"
+#: The swarm instance, announced by the world node (swazure_interfaces/SwarmInstance).
+INSTANCE_TOPIC = "swarm_instance"
 #: The swarm as RViz markers (view node), and the Foxglove channel of the same scene.
 SCENE_TOPIC = "scene"
 #: tf2's topic of fixed frames, global by convention (not under the swarm's namespace):
@@ -133,6 +135,7 @@ TF_STATIC_QOS = QoSProfile(
 )
 # Who is gone is state, like the world: a reader that comes later gets the list.
 DEPARTED_QOS = WORLD_QOS
+INSTANCE_QOS = WORLD_QOS
 # So is the scene: RViz started later draws the current one.
 SCENE_QOS = WORLD_QOS
 # The simulated clock is driven tick by tick and re-published while a tick is

@@ -345,6 +345,12 @@ NAMESPACE = ParameterSpec("namespace", "swarm", "the swarm's namespace: nodes ar
 KEY_FILE = ParameterSpec(
     "key_file", "", "the swarm's key (docs/security.md); '': $SWAZURE_SWARM_KEY_FILE, or none"
 )
+SWARM_INSTANCE = ParameterSpec(
+    "swarm_instance",
+    "",
+    "the swarm instance inside every tag (32 hexadecimal digits; docs/security.md); '': the "
+    "one the world node announces (the world program: a fresh one)",
+)
 
 
 #: The name the startup parameters are read as: the sections of a parameter file for

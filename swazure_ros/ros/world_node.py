@@ -27,7 +27,7 @@ from .convert.discovery import moves_from_message
 from .convert.sensing import detections_message, frames_message, world_message
 from .convert.units import stamp_nanoseconds
 from .guard import Guard, check
-from .keys import key_from
+from .instance import Announcer, program_key
 from .names import (
     CAMERAS,
     DETECTIONS_QOS,
@@ -47,6 +47,7 @@ from .runtime import (
     DESCRIPTION_PARAMETERS,
     KEY_FILE,
     NAMESPACE,
+    SWARM_INSTANCE,
     SwarmNode,
     declare_startup,
     description_from,
@@ -78,6 +79,9 @@ class WorldNode(SwarmNode):
         self.guard = Guard(self, key)
         self._last_stamp = 0  # ns, of the newest batch of moves taken
         self.guard.subscribe(MoveCommands, MOVE_TOPIC, self._on_moves, MOVE_QOS)
+        if self.guard.key.active:
+            # Hosts that share a key file take the swarm's instance from here.
+            self.announcer = Announcer(self, self.guard.key)
         self.publish_world()
 
     def publish_world(self) -> None:
@@ -119,9 +123,12 @@ class SimulatedCameras(SwarmNode):
         namespace: str = "swarm",
         context: Context | None = None,
         frame_period: float = 1.0,
+        key: SwarmKey | None = None,
     ) -> None:
         super().__init__(CAMERAS, namespace=namespace, context=context)
         self._replica = replica
+        # Signed: a detection no process of the swarm made never enters an FLS's view.
+        self._key = key or SwarmKey()
         self._detections = {
             int(fls_id): self.create_publisher(
                 Detections, f"{node_name(int(fls_id))}/{DETECTIONS_TOPIC}", DETECTIONS_QOS
@@ -143,16 +150,17 @@ class SimulatedCameras(SwarmNode):
         for fls_id, publisher in self._detections.items():
             seen = self._replica.measurement(fls_id)
             markers_seen = markers[world.indices(seen.target_ids)]
-            publisher.publish(
-                detections_message(fls_id, seen, markers_seen, world.sensor, stamp, world.revision)
+            message = detections_message(
+                fls_id, seen, markers_seen, world.sensor, stamp, world.revision
             )
+            publisher.publish(self._key.serialize(message))
 
 
 CAMERAS_FLAG = ParameterSpec(
     "cameras", True, "publish every FLS's detections, for FLSs that run one to a process"
 )
 #: What the program reads before it builds its nodes.
-STARTUP = (NAMESPACE, KEY_FILE, CAMERAS_FLAG, *DESCRIPTION_PARAMETERS)
+STARTUP = (NAMESPACE, KEY_FILE, SWARM_INSTANCE, CAMERAS_FLAG, *DESCRIPTION_PARAMETERS)
 USAGE = program_help(
     "world",
     """The simulator of a swarm whose FLSs run one to a process: the world node (where
@@ -174,14 +182,16 @@ def build_world(context: Context) -> list[Node]:
     values = startup_parameters(context, STARTUP)
     spec = WorldSpec(**vars(description_from(values)))
     replica = WorldReplica(spec.build())
-    namespace, key = str(values["namespace"]), SwarmKey(key_from(str(values["key_file"])))
+    namespace, key = str(values["namespace"]), program_key(context, values, world=True)
     nodes: list[Node] = [
         WorldNode(replica, namespace=namespace, context=context, key=key, parameter_services=True)
     ]
     declare_startup(nodes[0], values)
     if values["cameras"]:
         nodes.append(
-            SimulatedCameras(replica, replica.ids.tolist(), namespace=namespace, context=context)
+            SimulatedCameras(
+                replica, replica.ids.tolist(), namespace=namespace, context=context, key=key
+            )
         )
     return nodes
 

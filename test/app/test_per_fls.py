@@ -185,3 +185,68 @@ def test_an_fls_process_killed_mid_run_departs_and_the_living_get_the_engines_pa
         # The next run needs no restart: no round waits for the dead FLS's radio.
         again = swarm.discover(policy, timeout=60)
         assert again.restarts == 0 and again.departed == frozenset({12})
+
+
+#: Seconds an FLS process is stopped: longer than a round's timeout, shorter than a
+#: DDS lease (a participant whose lease lapsed is not matched again: docs/security.md).
+STOPPED_FOR = 8.0
+
+
+def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_speaks_again(
+    domain, tmp_path
+):
+    """kill -STOP, kill -CONT: the FLS departs from the run it missed, and comes back.
+
+    It comes back by its own signed messages (its radio's acks, signed after it
+    was known departed) or by the graph showing it again; its pairs are then
+    the engine's once more.
+    """
+    from swazure_ros.app.config import SwarmConfig
+    from swazure_ros.app.swarm import RunningSwarm
+    from swazure_ros.core.evaluate import evaluate_pairs
+    from swazure_ros.sim.world import WorldSpec
+
+    policy = "shortest-length"
+    spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
+    config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=120)
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        swarm.coordinator.round_timeout = 3.0  # silent for 3 s: departed
+        pid = swarm.fls_processes.processes[12].pid
+        os.kill(pid, signal.SIGSTOP)
+        stopped, resumed = time.monotonic(), []
+
+        def resume_after_a_while() -> None:
+            if not resumed and time.monotonic() > stopped + STOPPED_FOR:
+                os.kill(pid, signal.SIGCONT)
+                resumed.append(time.monotonic())
+
+        try:
+            missed = swarm.run(
+                swarm.coordinator.discover(policy), timeout=120, step=resume_after_a_while
+            )
+        finally:
+            if not resumed:
+                os.kill(pid, signal.SIGCONT)
+                resumed.append(time.monotonic())
+        resumed = resumed[0]
+        assert 12 in missed.departed
+        runs = []
+        while not runs or (runs[-1].departed and time.monotonic() < resumed + 90):
+            swarm.spin(1.0)
+            runs.append(swarm.discover(policy, timeout=120))
+        recovered = time.monotonic()
+        print(
+            f"stopped {STOPPED_FOR:g} s, departed by a run of {missed.seconds:.1f} s; back "
+            f"and every pair the engine's {recovered - resumed:.1f} s after it resumed, in {len(runs)} runs"
+        )
+        assert runs[-1].departed == frozenset(), [run.departed for run in runs]
+        expected = evaluate_pairs(swarm.world.hood, policy)
+        found = {(s, one.target): one for s, some in runs[-1].estimates.items() for one in some}
+        assert len(found) == len(expected)
+        for pair in range(len(expected)):
+            one = found[(int(expected.source[pair]), int(expected.target[pair]))]
+            assert (one.status, one.reason) == (expected.status[pair], expected.reason[pair])
+            assert one.path == tuple(expected.path(pair))
+        # Queries to it are answered again.
+        assert 12 not in swarm.coordinator.departed_so_far()

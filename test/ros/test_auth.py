@@ -13,7 +13,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from swazure_interfaces.msg import MoveCommand, MoveCommands, PathOffer, PoseEstimates
 
 from swazure_ros.core.errors import MessageError, SwazureError
-from swazure_ros.ros.auth import SwarmKey, content, new_key
+from swazure_ros.ros.auth import Freshness, SwarmKey, content, new_key
 from swazure_ros.ros.keys import read_key, write_key
 
 from ..conftest import FUZZ
@@ -30,10 +30,46 @@ def offer() -> PathOffer:
     )  # fmt: skip
 
 
-def test_a_signed_message_is_taken_after_the_wire_and_its_tag_is_32_bytes():
+def test_a_signed_message_is_taken_after_the_wire_and_its_auth_is_sender_counter_and_tag():
     data = KEY.serialize(offer())
     back = KEY.deserialize(data, PathOffer)
-    assert len(back.auth) == 32 and list(back.path_ids) == [0, 1, 2]
+    assert len(back.auth) == 8 + 8 + 32 and list(back.path_ids) == [0, 1, 2]
+    assert bytes(back.auth[:8]) == KEY.sender
+
+
+def test_a_message_of_another_instance_of_the_swarm_is_refused():
+    """Same key file, a later start: what the earlier swarm signed fails the tag."""
+    secret = new_key()
+    earlier, later = SwarmKey(secret), SwarmKey(secret)
+    assert earlier.instance != later.instance
+    with pytest.raises(MessageError, match="not signed with this swarm's key and instance"):
+        later.deserialize(earlier.serialize(offer()), PathOffer)
+    # Another process of the later swarm: same key and instance, a sender of its own.
+    peer = later.for_instance(later.instance)
+    assert peer.sender != later.sender
+    assert peer.deserialize(later.serialize(offer()), PathOffer).run_id == 7
+
+
+def test_counters_of_one_sender_increase_and_a_receiver_refuses_a_replay_or_a_stale_one():
+    signed = [deserialize_message(KEY.serialize(offer()), PathOffer) for _ in range(4)]
+    counters = [int.from_bytes(bytes(one.auth[8:16]), "little") for one in signed]
+    assert counters == sorted(set(counters))
+    freshness = Freshness(window=10**12)  # 1,000 s
+    # Out of order within the window: taken.
+    for one in (signed[1], signed[0], signed[3]):
+        freshness.take(one)
+    with pytest.raises(MessageError, match="taken before: a replay"):
+        freshness.take(signed[1])
+    old = deserialize_message(KEY.serialize(offer()), PathOffer)
+    auth = bytes(old.auth)
+    old.auth = auth[:8] + (counters[3] - 10**12).to_bytes(8, "little") + auth[16:]
+    with pytest.raises(MessageError, match="older than its sender's window"):
+        freshness.take(old)
+    freshness.take(signed[2])  # still within the window of the newest
+    # Each sender has its own counters; a keyless message is not ordered.
+    freshness.take(deserialize_message(SwarmKey(new_key()).serialize(offer()), PathOffer))
+    freshness.take(offer())
+    freshness.take(offer())
 
 
 @pytest.mark.parametrize(
@@ -51,8 +87,9 @@ def test_a_signed_message_is_taken_after_the_wire_and_its_tag_is_32_bytes():
 def test_a_changed_field_breaks_the_tag(field, value):
     signed = deserialize_message(KEY.serialize(offer()), PathOffer)
     setattr(signed, field, value)
-    with pytest.raises(MessageError, match="not signed with the swarm's key"):
+    with pytest.raises(MessageError, match="not signed with this swarm's key"):
         KEY.verify(signed)
+    assert KEY.verify(deserialize_message(KEY.serialize(offer()), PathOffer)).run_id == 7
 
 
 def test_another_key_and_no_key_are_refused_and_a_keyless_swarm_takes_anything():

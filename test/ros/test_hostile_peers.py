@@ -117,14 +117,24 @@ def blind_pair_with_a_sweet_path(world, sources=None):
     return int(ids[engine.source[row]]), int(ids[engine.target[row]]), engine, row
 
 
+#: Why a message that this swarm did not sign is dropped.
+SIGNED = "not signed with this swarm's key and instance"
+
+
 @pytest.mark.parametrize(
     ("authenticate", "forger_key", "dropped_because"),
     [
-        (True, SwarmKey(), "not signed with the swarm's key"),
-        (True, SwarmKey(new_key()), "not signed with the swarm's key"),
+        (True, SwarmKey(), SIGNED),
+        (True, SwarmKey(new_key()), SIGNED),
+        (True, None, SIGNED),
         (False, SwarmKey(), "implausible: a hop of a path is not in range"),
     ],
-    ids=["unsigned", "signed-with-another-key", "no-swarm-key-plausibility"],
+    ids=[
+        "unsigned",
+        "signed-with-another-key",
+        "swarm-key-another-instance",
+        "no-key-plausibility",
+    ],
 )
 def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, dropped_because):
     world_spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
@@ -134,6 +144,8 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
     with RunningSwarm(config) as swarm:
         swarm.wait_until_ready()
         source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world, swarm.host.fls_ids)
+        if forger_key is None:  # the swarm's own key, as an earlier swarm of one key file had
+            forger_key = SwarmKey(swarm.key.material[0])
         with Forger(domain, swarm.world, source, target, forger_key) as forger:
             # The forger hears the coordinator's controls (matched, not only in the graph)
             # and the swarm's radio hears the forger before the run.
@@ -181,8 +193,8 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
 @pytest.mark.parametrize(
     ("authenticate", "forger_key", "dropped_because"),
     [
-        (True, SwarmKey(), "not signed with the swarm's key"),
-        (True, SwarmKey(new_key()), "not signed with the swarm's key"),
+        (True, SwarmKey(), SIGNED),
+        (True, SwarmKey(new_key()), SIGNED),
         (False, SwarmKey(), "implausible: a radio distance is not the pair's"),
     ],
     ids=["unsigned", "signed-with-another-key", "no-swarm-key-plausibility"],
