@@ -136,8 +136,13 @@ class SwarmHost:
         # One /parameter_events writer for the process's FLS nodes (SwarmNode).
         self._parameter_events = self.host_node.create_parameter_events_publisher()
         self._add(self.host_node)
+        #: The world node, on the host that holds the world.
+        self.world_node: WorldNode | None = None
         if with_world_node:
-            self._add(WorldNode(self.replica, namespace=self.namespace, context=context, key=key))
+            self.world_node = WorldNode(
+                self.replica, namespace=self.namespace, context=context, key=key
+            )
+            self._add(self.world_node)
         self._measurements_topic = f"/{self.namespace}/{MEASUREMENTS_TOPIC}"
         self._service_pattern = re.compile(
             rf"^/{re.escape(self.namespace)}/fls_\d+/{NEIGHBOURS_SERVICE}$"

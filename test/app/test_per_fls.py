@@ -238,7 +238,8 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
         recovered = time.monotonic()
         print(
             f"stopped {STOPPED_FOR:g} s, departed by a run of {missed.seconds:.1f} s; back "
-            f"and every pair the engine's {recovered - resumed:.1f} s after it resumed, in {len(runs)} runs"
+            f"and every pair the engine's {recovered - resumed:.1f} s after it resumed, "
+            f"in {len(runs)} runs"
         )
         assert runs[-1].departed == frozenset(), [run.departed for run in runs]
         expected = evaluate_pairs(swarm.world.hood, policy)
@@ -250,3 +251,72 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
             assert one.path == tuple(expected.path(pair))
         # Queries to it are answered again.
         assert 12 not in swarm.coordinator.departed_so_far()
+
+
+def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_topic(
+    domain, tmp_path
+):
+    """A peer publishes FLS 12's camera readings: none (its paths would detour), and readings
+    signed with another key. FLS 12's guard drops both; 1 -> 5 still goes 1 12 5."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+    from swazure_interfaces.msg import Detections
+
+    from swazure_ros.app.config import SwarmConfig
+    from swazure_ros.app.swarm import RunningSwarm
+    from swazure_ros.core.evaluate import evaluate_pairs
+    from swazure_ros.ros.auth import SwarmKey, new_key
+    from swazure_ros.ros.names import DETECTIONS_QOS, DETECTIONS_TOPIC
+    from swazure_ros.sim.world import WorldSpec
+
+    from ..ros.conftest import make_context
+    from ..waits import wait_until
+
+    policy = "shortest-length"
+    spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
+    config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=120)
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        context = make_context(domain)
+        node = Node("forger", namespace="swarm", context=context)
+        counts: dict[str, int] = {}
+
+        def on_diagnostics(array: DiagnosticArray) -> None:
+            for status in array.status:
+                if status.hardware_id == "/swarm/fls_12":
+                    counts.update({one.key: int(one.value) for one in status.values})
+
+        node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
+        forged = node.create_publisher(Detections, f"fls_12/{DETECTIONS_TOPIC}", DETECTIONS_QOS)
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        keys = [SwarmKey(), SwarmKey(new_key())]
+
+        def forge() -> None:
+            for key in keys:
+                message = Detections(revision=swarm.world.revision)
+                message.header.frame_id = "fls_12"
+                forged.publish(key.serialize(message))
+            executor.spin_once(timeout_sec=0.01)
+
+        def refused() -> int:
+            return sum(
+                value
+                for name, value in counts.items()
+                if name.startswith(f"dropped ~/{DETECTIONS_TOPIC}: not signed")
+            )
+
+        try:
+            wait_until(lambda: forged.get_subscription_count() >= 1, 30, lambda: swarm.spin(0.05))
+            result = swarm.run(swarm.coordinator.discover(policy, [1], [5]), 120, step=forge)
+            wait_until(lambda: refused() >= 2, 30, lambda: (swarm.spin(0.1), forge()))
+        finally:
+            executor.shutdown()
+            node.destroy_node()
+            context.try_shutdown()
+        assert refused() >= 2, counts
+        expected = evaluate_pairs(swarm.world.hood, policy)
+        row = int(np.flatnonzero((expected.source == 1) & (expected.target == 5))[0])
+        (answer,) = result.estimates[1]
+        assert answer.path == tuple(expected.path(row)) == (1, 12, 5)

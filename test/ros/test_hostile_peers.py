@@ -17,7 +17,14 @@ from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Vector3
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
-from swazure_interfaces.msg import DiscoveryControl, Measurements, PathOffer, RelativePose
+from swazure_interfaces.msg import (
+    DiscoveryControl,
+    Measurements,
+    MoveCommand,
+    MoveCommands,
+    PathOffer,
+    RelativePose,
+)
 
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
@@ -29,6 +36,8 @@ from swazure_ros.ros.names import (
     CONTROL_TOPIC,
     MEASUREMENTS_QOS,
     MEASUREMENTS_TOPIC,
+    MOVE_QOS,
+    MOVE_TOPIC,
     RADIO_TOPIC,
     ROUND_QOS,
     radio_topic,
@@ -245,3 +254,72 @@ def test_forged_measurements_change_no_fit(domain, authenticate, forger_key, dro
         (answer,) = result.estimates[source]
         assert answer.estimator == LOCAL_LEAST_SQUARES
         np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)
+
+
+def test_an_earlier_swarms_messages_and_replayed_controls_change_nothing(domain):
+    """Same key file, a later swarm: the earlier instance's moves are refused, and so are
+    the live swarm's own controls played back after their run."""
+    key = new_key()
+    # What a swarm started earlier with this key file signs: the key, its own instance.
+    earlier = SwarmKey(key)
+    world_spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
+    config = SwarmConfig(world_spec, domain_id=domain, key=key, processes=2)
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        assert swarm.key.instance != earlier.instance
+        world = swarm.host.replica.world
+        revision, before = world.revision, world.swarm.points.copy()
+        source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world, swarm.host.fls_ids)
+        context = make_context(domain)
+        node = Node("replayer", namespace="swarm", context=context)
+        heard: list[bytes] = []
+        node.create_subscription(
+            DiscoveryControl, CONTROL_TOPIC, heard.append, ROUND_QOS, raw=True
+        )
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        try:
+            moves = node.create_publisher(MoveCommands, MOVE_TOPIC, MOVE_QOS)
+            controls = node.create_publisher(DiscoveryControl, CONTROL_TOPIC, ROUND_QOS)
+            wait_until(
+                lambda: (
+                    moves.get_subscription_count() >= 1 and controls.get_subscription_count() >= 2
+                ),
+                30,
+                lambda: (swarm.spin(0.05), executor.spin_once(timeout_sec=0.01)),
+            )
+            batch = MoveCommands(
+                commands=[MoveCommand(fls_id=source, kind=MoveCommand.KIND_PROBE,
+                                      displacement=Vector3(x=50.0))]
+            )  # fmt: skip
+            batch.header.stamp = node.get_clock().now().to_msg()
+            moves.publish(earlier.serialize(batch))
+            first = swarm.run(
+                swarm.coordinator.discover(POLICY, [source], [target]),
+                timeout=120,
+                step=lambda: executor.spin_once(timeout_sec=0.01),
+            )
+            for _ in range(20):
+                executor.spin_once(timeout_sec=0.05)
+            # The first run's controls, played back into the live swarm, then a run.
+            assert heard
+            for data in heard:
+                controls.publish(data)
+            second = swarm.run(swarm.coordinator.discover(POLICY, [source], [target]), 120)
+            swarm.spin(1.5)  # the counts reach /diagnostics' guard
+        finally:
+            executor.shutdown()
+            node.destroy_node()
+            context.try_shutdown()
+        assert world.revision == revision
+        np.testing.assert_array_equal(swarm.host.replica.world.swarm.points, before)
+        assert swarm.host.world_node is not None
+        moves_dropped = swarm.host.world_node.guard.dropped
+        assert moves_dropped[(MOVE_TOPIC, SIGNED)] >= 1, moves_dropped
+        dropped = swarm.host.guard.dropped
+        assert dropped[(CONTROL_TOPIC, "taken before: a replay")] >= 1, dropped
+        for result in (first, second):
+            (answer,) = result.estimates[source]
+            assert answer.path == tuple(int(swarm.world.ids[k]) for k in engine.path(row))
+            np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)
+        assert second.restarts == 0
