@@ -226,9 +226,13 @@ def bag_folder(text: str) -> Path:
 
 
 def recording(text: str) -> Path:
-    """A recording to read: a bag folder (with metadata.yaml), or an MCAP file."""
+    """A recording to read: a bag folder (with metadata.yaml), or an MCAP file.
+
+    A folder of MCAP files without metadata.yaml is a recording that a full
+    disk cut short (``ros.bag.Recorder``): read as far as it was written.
+    """
     path = Path(text)
-    if path.is_dir() and not (path / "metadata.yaml").is_file():
+    if path.is_dir() and not (path / "metadata.yaml").is_file() and not any(path.glob("*.mcap")):
         raise argparse.ArgumentTypeError(f"{path}: a folder without metadata.yaml is not a bag")
     return path if path.is_dir() else input_file(text)
 

@@ -460,9 +460,14 @@ def main(args: argparse.Namespace) -> int:
             report_ended(swarm.ended)
         if swarm is not None and swarm.recorder is not None and swarm.recorder.closed:
             recorder = swarm.recorder
-            print(
-                f"recorded {sum(recorder.counts.values())} messages on {len(recorder.counts)} "
-                f"topics ({recorder.bytes / 1e6:.1f} MB of messages) to {recorder.path}",
-                file=sys.stderr,
-            )
+            if recorder.stopped is not None:
+                # The run's results stand; its recording is what was written before.
+                print(f"swazure spawn: warning: {recorder.stopped}", file=sys.stderr)
+            else:
+                print(
+                    f"recorded {sum(recorder.counts.values())} messages on "
+                    f"{len(recorder.counts)} topics ({recorder.bytes / 1e6:.1f} MB of messages) "
+                    f"to {recorder.path}",
+                    file=sys.stderr,
+                )
     return 0

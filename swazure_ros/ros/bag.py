@@ -20,6 +20,7 @@ timing.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import struct
 import sys
@@ -33,8 +34,11 @@ from typing import Any
 
 import yaml
 from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
+from mcap.exceptions import EndOfFile, McapError
+from mcap.reader import NonSeekingReader, make_reader
+from mcap.records import Channel as McapChannel
+from mcap.records import Schema
+from mcap.stream_reader import StreamReader
 from mcap.writer import Writer
 from rclpy.context import Context
 from rclpy.duration import Duration
@@ -267,7 +271,8 @@ class Recorder(Node):
         self._files = ExitStack()
         self._folder = self._files.enter_context(atomic_folder(path))
         self._storage = f"{path.name}_0.mcap"
-        self._writer = Writer(self._files.enter_context((self._folder / self._storage).open("wb")))
+        self._stream = self._files.enter_context((self._folder / self._storage).open("wb"))
+        self._writer = Writer(self._stream)
         self._writer.start(profile="ros2", library="swazure")
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
@@ -277,6 +282,8 @@ class Recorder(Node):
         self.bytes = 0
         #: The bag is finished and at its path.
         self.closed = False
+        #: Why recording stopped before the end (a full disk), in one line; None if it did not.
+        self.stopped: str | None = None
         self._look()
         self.create_timer(GRAPH_LOOK_PERIOD, self._look)
 
@@ -326,7 +333,7 @@ class Recorder(Node):
         )
 
     def _on_message(self, topic: str, data: bytes) -> None:
-        if self.closed:
+        if self.closed or self.stopped is not None:
             return
         now = time.time_ns()
         record = self._topics[topic]
@@ -334,10 +341,23 @@ class Recorder(Node):
         self._first = self._first or now
         self._last = now
         self.bytes += len(data)
-        self._writer.add_message(
-            self._channels[topic], log_time=now, data=data, publish_time=now,
-            sequence=record.count,
-        )  # fmt: skip
+        try:
+            self._writer.add_message(
+                self._channels[topic], log_time=now, data=data, publish_time=now,
+                sequence=record.count,
+            )  # fmt: skip
+        except OSError as err:
+            record.count -= 1
+            self._stop(err)
+
+    def _stop(self, err: OSError) -> None:
+        """Stop recording (a full disk): what was written stays, and the swarm runs on."""
+        recorded = sum(self.counts.values())
+        self.stopped = (
+            f"{self.path}: recording stopped after {recorded} messages "
+            f"({err.strerror or err}); the chunks written before are kept"
+        )
+        self.get_logger().error(self.stopped)
 
     def caught_up(self) -> bool:
         """Whether every topic under the namespace is recorded from each of its publishers."""
@@ -352,14 +372,23 @@ class Recorder(Node):
             return
         self.closed = True
         metadata = bag_metadata(self._storage, self._topics, self._first, self._last)
-        # rosbag2's MCAP storage keeps the bag's metadata in the file too.
-        self._writer.add_metadata(
-            "rosbag2", {"serialized_metadata": yaml.safe_dump(metadata, sort_keys=False)}
-        )
-        self._writer.finish()  # type: ignore[no-untyped-call]
         described = {"rosbag2_bagfile_information": metadata}
-        (self._folder / METADATA_FILE).write_text(yaml.safe_dump(described, sort_keys=False))
-        self._files.close()  # the stream, then the folder's rename into place
+        try:
+            # rosbag2's MCAP storage keeps the bag's metadata in the file too.
+            self._writer.add_metadata(
+                "rosbag2", {"serialized_metadata": yaml.safe_dump(metadata, sort_keys=False)}
+            )
+            self._writer.finish()  # type: ignore[no-untyped-call]
+            self._stream.close()
+            (self._folder / METADATA_FILE).write_text(yaml.safe_dump(described, sort_keys=False))
+        except OSError as err:
+            if self.stopped is None:
+                self._stop(err)
+            # Kept as far as it was written: a reader takes it to its last whole chunk.
+            # The buffer's tail is lost; the file is closed all the same.
+            with contextlib.suppress(OSError):
+                self._stream.close()
+        self._files.close()  # the folder's rename into place
 
 
 @dataclass(frozen=True)
@@ -384,6 +413,11 @@ def storage_files(path: Path) -> list[Path]:
     """The MCAP files of a recording: a bag folder's (its metadata.yaml says), or ``path``."""
     if not path.is_dir():
         return [path]
+    if not (path / METADATA_FILE).exists():
+        # A recording stopped by a full disk: its file, as far as it was written.
+        partial = sorted(path.glob("*.mcap"))
+        if partial:
+            return partial
     described = read_yaml(path / METADATA_FILE, "bag metadata", SwazureError)
     try:
         metadata = described["rosbag2_bagfile_information"]
@@ -407,19 +441,44 @@ def recorded_channels(path: Path) -> list[Channel]:
                 summary = make_reader(stream).get_summary()
         except OSError as err:
             raise SwazureError(f"{storage}: cannot read ({err.strerror or err})") from err
-        except (McapError, ValueError, EOFError, struct.error) as err:
-            raise SwazureError(f"{storage}: not an MCAP recording ({err})") from err
         except Exception as err:  # a corrupted summary: the decoders raise what they raise
-            raise SwazureError(
-                f"{storage}: a corrupted MCAP summary ({type(err).__name__}: {err})"
-            ) from err
-        if summary is None:
-            raise SwazureError(f"{storage}: not a finished MCAP recording (no summary)")
-        for channel in summary.channels.values():
-            if channel.message_encoding == "cdr" and channel.schema_id in summary.schemas:
-                schema = summary.schemas[channel.schema_id].name
+            # Cut short (a full disk): its schemas and channels as far as it was written.
+            schemas, found = _written_channels(storage)
+            if not found:
+                plain = isinstance(err, (McapError, ValueError, EOFError, struct.error))
+                raise SwazureError(
+                    f"{storage}: not an MCAP recording ({err})"
+                    if plain
+                    else f"{storage}: a corrupted MCAP summary ({type(err).__name__}: {err})"
+                ) from err
+        else:
+            if summary is None:
+                schemas, found = _written_channels(storage)
+                if not found:
+                    raise SwazureError(f"{storage}: not a finished MCAP recording (no summary)")
+            else:
+                schemas, found = summary.schemas, list(summary.channels.values())
+        for channel in found:
+            if channel.message_encoding == "cdr" and channel.schema_id in schemas:
+                schema = schemas[channel.schema_id].name
                 channels[channel.topic] = Channel(channel.topic, schema, dict(channel.metadata))
     return list(channels.values())
+
+
+def _written_channels(storage: Path) -> tuple[dict[int, Any], list[Any]]:
+    """The schemas (by id) and channels an MCAP file without a summary holds, read in order."""
+    schemas: dict[int, Any] = {}
+    channels: list[Any] = []
+    with storage.open("rb") as stream:
+        try:
+            for record in StreamReader(stream, skip_magic=False, validate_crcs=True).records:
+                if isinstance(record, Schema):
+                    schemas[record.id] = record
+                elif isinstance(record, McapChannel):
+                    channels.append(record)
+        except Exception:  # the end of what was written: the decoders raise what they raise
+            pass
+    return schemas, channels
 
 
 def read_recording(path: Path) -> Iterator[Recorded]:
@@ -434,17 +493,33 @@ def read_recording(path: Path) -> Iterator[Recorded]:
             with storage.open("rb") as stream:
                 # Checked chunk by chunk: damaged bytes end the messages, not change them.
                 reader = make_reader(stream, validate_crcs=True)
-                messages = reader.iter_messages(log_time_order=True)
+                # A file cut short (a full disk) has no summary to order its chunks by:
+                # it is read as written, which is in log time order.
+                ordered = _has_summary(reader)
+                stream.seek(0)
+                if not ordered:
+                    reader = NonSeekingReader(stream, validate_crcs=True)
+                messages = reader.iter_messages(log_time_order=ordered)
                 for schema, channel, message in messages:
                     if schema is not None and channel.message_encoding == "cdr":
                         yield Recorded(channel.topic, message.data, message.log_time)
                         read += 1
         except OSError as err:
             raise SwazureError(f"{storage}: cannot read ({err.strerror or err})") from err
+        except EndOfFile as err:  # written until it could not be (a full disk)
+            raise SwazureError(f"{storage}: cut short after message {read}") from err
         except Exception as err:  # a corrupted chunk: CRC, decompression, indexes
             raise SwazureError(
                 f"{storage}: corrupted after message {read} ({type(err).__name__}: {err})"
             ) from err
+
+
+def _has_summary(reader: Any) -> bool:
+    """Whether an MCAP reader's file ends with a readable summary."""
+    try:
+        return reader.get_summary() is not None
+    except Exception:  # a footer or summary cut short: the decoders raise what they raise
+        return False
 
 
 class Player(Node):

@@ -7,10 +7,13 @@ import secrets
 from pathlib import Path
 
 from ..core.errors import SwazureError
+from ..core.files import read_bytes
 from ..core.results import atomic_write
 
 #: Bytes of a key.
 KEY_BYTES = 32
+#: Bytes a key file may hold: its digits, a line end, some blanks.
+KEY_FILE_BYTES = 1024
 #: The environment variable that names a swarm's key file (beside --key-file, key_file).
 KEY_FILE_VARIABLE = "SWAZURE_SWARM_KEY_FILE"
 
@@ -23,11 +26,12 @@ def new_key() -> bytes:
 def read_key(path: str | Path) -> bytes:
     """The key in file ``path``; SwazureError in one line if it holds none."""
     path = Path(path)
+    # Regular and small: a FIFO or /dev/zero named as a key file would block or fill memory.
+    data = read_bytes(path, "swarm key", KEY_FILE_BYTES, SwazureError)
     try:
-        text = path.read_bytes()[: 4 * KEY_BYTES].decode("ascii").strip()
-    except (OSError, UnicodeDecodeError) as err:
-        reason = getattr(err, "strerror", None) or "not text"
-        raise SwazureError(f"{path}: cannot read the swarm key ({reason})") from err
+        text = data.decode("ascii").strip()
+    except UnicodeDecodeError as err:
+        raise SwazureError(f"{path}: cannot read the swarm key (not text)") from err
     try:
         key = bytes.fromhex(text)
     except ValueError:

@@ -140,3 +140,17 @@ def test_a_key_file_is_private_and_reads_back(tmp_path):
     (tmp_path / "short.key").write_text("abcd\n")
     with pytest.raises(SwazureError, match="64 hexadecimal digits"):
         read_key(tmp_path / "short.key")
+
+
+@pytest.mark.parametrize("special", ["fifo", "/dev/zero", "folder"])
+def test_a_key_file_that_is_not_a_small_regular_file_is_refused_in_one_line(tmp_path, special):
+    if special == "fifo":
+        path = tmp_path / "swarm.key"
+        os.mkfifo(path)  # reading it would block for ever
+    elif special == "folder":
+        path = tmp_path
+    else:
+        path = special  # reading it whole would fill memory
+    with pytest.raises(SwazureError, match="expected a swarm key file") as refused:
+        read_key(path)
+    assert "\n" not in str(refused.value)

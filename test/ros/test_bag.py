@@ -277,3 +277,49 @@ def test_a_recording_corrupted_in_the_middle_is_played_to_its_last_good_chunk(tm
     said = run.stderr.split("corrupted after message ")[1]
     played = int(said.split(" ")[0])
     assert 0 < played < 400 and f"replayed the {played} messages before it" in said, said
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 300 KiB file system (tmpfs), full long before a run's recording is done."""
+    where = tmp_path / "disk"
+    where.mkdir()
+    mounted = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=300k", "tmpfs", str(where)],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    if mounted.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here ({mounted.stderr.strip()}): needs root")
+    try:
+        yield where
+    finally:
+        subprocess.run(["umount", str(where)], check=False)
+
+
+def test_a_full_disk_while_recording_keeps_the_results_and_what_was_written(
+    small_disk, tmp_path, domain
+):
+    bag = small_disk / "bag"
+    run = subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", "spawn", "--cloud", "torus:120",
+         "--scale", "1.6", "--beta", "0.5", "--quiet", "--domain-id", str(domain),
+         "--record", str(bag), "--compute-all", "--out", str(tmp_path / "d")],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert run.returncode == 0 and "Traceback" not in run.stderr, run.stderr
+    # The run's results, on another disk, are whole.
+    assert "pairs identical to the engine's (status, path, estimate to 1e-9): yes" in run.stdout
+    assert (tmp_path / "d" / "summary.json").is_file()
+    # One line says where the recording stopped.
+    (said,) = [line for line in run.stderr.splitlines() if line.startswith("swazure spawn:")]
+    assert "recording stopped after" in said and "No space left on device" in said, said
+    kept = int(said.split("recording stopped after ")[1].split(" ")[0])
+    # What was written is at the bag's path, and replays to where it was cut.
+    replay = subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", "replay", str(bag), "--delay", "0.01",
+         "--rate", "1000", "--domain-id", str(domain)],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert "Traceback" not in replay.stderr, replay.stderr
+    played = int(replay.stderr.split("cut short after message ")[1].split(";")[0])
+    assert 0 < played <= kept, (played, kept)
