@@ -357,7 +357,7 @@ class Recorder(Node):
             f"{self.path}: recording stopped after {recorded} messages "
             f"({err.strerror or err}); the chunks written before are kept"
         )
-        self.get_logger().error(self.stopped)
+        self.get_logger().error(self.stopped)  # type: ignore[no-untyped-call]
 
     def caught_up(self) -> bool:
         """Whether every topic under the namespace is recorded from each of its publishers."""
