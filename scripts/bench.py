@@ -1254,8 +1254,6 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
     from swazure_interfaces.srv import ComputePose
 
     from swazure_ros.core.evaluate import evaluate_pairs
-    from swazure_ros.ros.convert.discovery import pose_estimate_from_message
-    from swazure_ros.ros.names import POLICY_CODES
     from swazure_ros.ros.runtime import SwarmNode, init_context
     from swazure_ros.sim.world import WorldSpec
 
@@ -1264,8 +1262,6 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
     engine = evaluate_pairs(world.hood, policy)
     rng = np.random.default_rng(0)
     swarm = subprocess.Popen(spawn_command(cloud, domain), stdout=subprocess.PIPE, text=True)
-    samples: list[tuple[float, float]] = []
-    right = wrong = unanswered = 0
     diagnostics: dict[str, dict[str, str]] = {}
     peer_report: dict[str, int] = {}
     try:
@@ -1291,33 +1287,9 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
             stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
         )  # fmt: skip
 
-        began = time.monotonic()
-        samples.append((0.0, resident_mb(swarm.pid)))
-        next_sample = 30.0
-        while time.monotonic() - began < HOSTILE_SECONDS:
-            row = int(rng.integers(len(engine)))
-            source, target = int(world.ids[engine.source[row]]), int(world.ids[engine.target[row]])
-            request = ComputePose.Request(
-                source_id=source, target_id=target, policy=POLICY_CODES[policy]
-            )
-            asked = time.monotonic()
-            future = client.call_async(request)
-            while not future.done() and time.monotonic() - asked < 120:
-                executor.spin_once(timeout_sec=0.05)
-            if not future.done() or not future.result().success:
-                unanswered += 1
-            else:
-                got = pose_estimate_from_message(future.result().estimate)
-                path = tuple(int(world.ids[k]) for k in engine.path(row))
-                same = (got.status, got.path) == (engine.status[row], path) and (
-                    got.status == 2
-                    or np.allclose(got.vector, engine.estimate[row], rtol=0, atol=1e-9)
-                )
-                right, wrong = right + same, wrong + (not same)
-            if time.monotonic() - began >= next_sample:
-                samples.append(((time.monotonic() - began) / 60, resident_mb(swarm.pid)))
-                next_sample += 30.0
-        samples.append(((time.monotonic() - began) / 60, resident_mb(swarm.pid)))
+        right, wrong, unanswered, samples = ask_random_pairs(
+            client, executor, world, engine, policy, HOSTILE_SECONDS, swarm.pid, rng
+        )
         out, _ = peer.communicate(timeout=120)
         peer_report = json.loads(out.strip().splitlines()[-1]) if out.strip() else {}
         for _ in range(40):  # the latest counts (published every second when they change)
@@ -1362,8 +1334,185 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
     return lines
 
 
-def hostile_figure(samples: list[tuple[float, float]], path: Path) -> None:
-    """The swarm's memory over the hostile soak, as a PNG."""
+def ask_random_pairs(
+    client: Any,
+    executor: Any,
+    world: Any,
+    engine: Any,
+    policy: str,
+    seconds: float,
+    pid: int,
+    rng: Any,
+) -> tuple[int, int, int, list[tuple[float, float]]]:
+    """Ask compute_pose for random blind pairs one after another for ``seconds``.
+
+    Each answer is compared with the engine's (status, path, vector to 1e-9).
+    Returns (right, wrong, unanswered within 120 s, [(minute, resident MB of
+    ``pid``)] every 30 s).
+    """
+    import numpy as np
+    from swazure_interfaces.srv import ComputePose
+
+    from swazure_ros.ros.convert.discovery import pose_estimate_from_message
+    from swazure_ros.ros.names import POLICY_CODES
+
+    right = wrong = unanswered = 0
+    began = time.monotonic()
+    samples = [(0.0, resident_mb(pid))]
+    next_sample = 30.0
+    while time.monotonic() - began < seconds:
+        row = int(rng.integers(len(engine)))
+        source, target = int(world.ids[engine.source[row]]), int(world.ids[engine.target[row]])
+        request = ComputePose.Request(
+            source_id=source, target_id=target, policy=POLICY_CODES[policy]
+        )
+        asked = time.monotonic()
+        future = client.call_async(request)
+        while not future.done() and time.monotonic() - asked < 120:
+            executor.spin_once(timeout_sec=0.05)
+        if not future.done() or not future.result().success:
+            unanswered += 1
+        else:
+            got = pose_estimate_from_message(future.result().estimate)
+            path = tuple(int(world.ids[k]) for k in engine.path(row))
+            same = (got.status, got.path) == (engine.status[row], path) and (
+                got.status == 2 or np.allclose(got.vector, engine.estimate[row], rtol=0, atol=1e-9)
+            )
+            right, wrong = right + same, wrong + (not same)
+        if time.monotonic() - began >= next_sample:
+            samples.append(((time.monotonic() - began) / 60, resident_mb(pid)))
+            next_sample += 30.0
+    samples.append(((time.monotonic() - began) / 60, resident_mb(pid)))
+    return right, wrong, unanswered, samples
+
+
+#: How long the replay soak runs, s; SWAZURE_REPLAY_SECONDS for a shorter try.
+REPLAY_SECONDS = float(os.environ.get("SWAZURE_REPLAY_SECONDS", 600))
+
+
+def replay_section(args: argparse.Namespace) -> list[str]:
+    """A swarm under valid queries while a peer replays an earlier swarm of the same key file."""
+    import threading
+
+    import numpy as np
+    import rclpy.executors
+    from diagnostic_msgs.msg import DiagnosticArray
+    from swazure_interfaces.srv import ComputePose
+
+    from swazure_ros.core.evaluate import evaluate_pairs
+    from swazure_ros.ros.keys import new_key, write_key
+    from swazure_ros.ros.runtime import SwarmNode, init_context
+    from swazure_ros.sim.world import WorldSpec
+
+    domain, cloud, policy = 94, swarm_cloud("chess_408"), "shortest-length"
+    world = WorldSpec(cloud, beta=args.beta).build()
+    engine = evaluate_pairs(world.hood, policy)
+    rng = np.random.default_rng(0)
+    folder = Path(tempfile.mkdtemp(prefix="swazure-replay-soak-"))
+    key = folder / "swarm.key"
+    write_key(key, new_key())
+    # The earlier swarm: a whole discovery and Move Obstructing's moves, recorded.
+    bag = folder / "earlier"
+    earlier = subprocess.run(
+        spawn_command(cloud, domain, "--key-file", str(key), "--record", str(bag),
+                      "--compute-all", "--technique", "move-obstructing", "--out",
+                      str(folder / "earlier-out")),
+        capture_output=True, text=True, timeout=1800,
+    )  # fmt: skip
+    if earlier.returncode != 0:
+        return ["## Replay of an earlier swarm", "", f"the earlier swarm failed: {earlier.stderr}"]
+    recorded = earlier.stderr.split("recorded ")[-1].split(" messages")[0]
+    swarm = subprocess.Popen(
+        spawn_command(cloud, domain, "--key-file", str(key)), stdout=subprocess.PIPE, text=True
+    )
+    diagnostics: dict[str, dict[str, str]] = {}
+    replays: list[str] = []
+    stop = threading.Event()
+
+    def replay_again_and_again() -> None:
+        while not stop.is_set():
+            done = subprocess.run(
+                [*SWAZURE, "replay", str(bag), "--domain-id", str(domain), "--rate", "4"],
+                capture_output=True, text=True, timeout=1800,
+            )  # fmt: skip
+            replays.append(done.stdout.strip() or done.stderr.strip())
+
+    try:
+        assert swarm.stdout is not None
+        if not swarm.stdout.readline().startswith("swarm up:"):
+            return ["## Replay of an earlier swarm", "", "the chess swarm did not come up"]
+        context = init_context(domain)
+        node = SwarmNode("bench_replay", context=context)
+        executor = rclpy.executors.SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+
+        def on_diagnostics(array: DiagnosticArray) -> None:
+            for status in array.status:
+                diagnostics[status.name] = {value.key: value.value for value in status.values}
+
+        node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
+        client = node.create_client(ComputePose, "/swarm/coordinator/compute_pose")
+        while not client.service_is_ready():
+            executor.spin_once(timeout_sec=0.1)
+        peer = threading.Thread(target=replay_again_and_again, daemon=True)
+        peer.start()
+        right, wrong, unanswered, samples = ask_random_pairs(
+            client, executor, world, engine, policy, REPLAY_SECONDS, swarm.pid, rng
+        )
+        stop.set()
+        peer.join(timeout=1800)
+        for _ in range(40):  # the latest counts (published every second when they change)
+            executor.spin_once(timeout_sec=0.05)
+        executor.shutdown()
+        node.destroy_node()
+        context.try_shutdown()
+    finally:
+        stop.set()
+        swarm.terminate()
+        swarm.wait(timeout=300)
+    hostile_figure(
+        samples,
+        REPO / "docs" / "figures" / "replay-soak.png",
+        "chess_408 swarm under queries, an earlier swarm replayed into it",
+    )
+    lines = [
+        f"## Replay of an earlier swarm: valid queries for {REPLAY_SECONDS / 60:.0f} minutes "
+        "while a peer plays back a recording of an earlier swarm of the same key file",
+        "",
+        "One key file (`swazure key`). The earlier swarm: `swazure spawn` of chess_408 (beta",
+        "0.5, one process) with `--compute-all --technique move-obstructing --record`, so that",
+        "its recording holds a whole discovery's controls, offers and reports and the",
+        f"heuristic's moves and world revisions ({recorded} messages). The later swarm: the",
+        "same command without the run, served; a client asks `/swarm/coordinator/compute_pose`",
+        "for random blind pairs (seeded) one after another and compares each answer with the",
+        "engine's (status, path, vector to 1e-9), while `swazure replay` of the earlier recording",
+        '(4x its speed) runs again and again on the same domain. docs/security.md, "Replays',
+        "bound to one swarm's life\", says why none of it is taken.",
+        "",
+        f"Valid queries: {right + wrong + unanswered}: {right} right, {wrong} wrong, "
+        f"{unanswered} unanswered within 120 s.",
+        f"Replays of the earlier swarm: {len(replays)} ({replays[-1] if replays else '-'}).",
+        f"Swarm memory: {samples[0][1]:.0f} MB at the start, {samples[-1][1]:.0f} MB at the end "
+        f"(max {max(m for _, m in samples):.0f} MB); figure docs/figures/replay-soak.png.",
+        "",
+        "The swarm's counts on /diagnostics at the end (messages dropped, by reason):",
+        "",
+        "| node | counter | messages |",
+        "| --- | --- | ---: |",
+    ]
+    for name, values in sorted(diagnostics.items()):
+        for counter, value in sorted(values.items()):
+            if counter.startswith("dropped"):
+                lines.append(f"| {name.split(': ')[-1].split(' ')[0]} | {counter} | {value} |")
+    return [*lines, ""]
+
+
+def hostile_figure(
+    samples: list[tuple[float, float]],
+    path: Path,
+    title: str = "chess_408 swarm under queries and a hostile peer's flood",
+) -> None:
+    """The swarm's memory over a soak, as a PNG."""
     from matplotlib.figure import Figure
 
     from swazure_ros.core.results import atomic_write
@@ -1375,7 +1524,7 @@ def hostile_figure(samples: list[tuple[float, float]], path: Path) -> None:
     axes.set_ylabel("resident memory of the swarm (MB)")
     axes.set_ylim(bottom=0)
     axes.grid(True, alpha=0.3)
-    axes.set_title("chess_408 swarm under queries and a hostile peer's flood")
+    axes.set_title(title)
     atomic_write(path, lambda tmp: figure.savefig(tmp, format="png", dpi=110))
 
 
@@ -1939,8 +2088,10 @@ def tags_section(args: argparse.Namespace) -> list[str]:
         "One PathOffer of L labels (3 hops each), signed and serialised (`SwarmKey.serialize`)",
         "and deserialised and checked (`SwarmKey.deserialize`; each message a new round, so",
         "that no check is remembered), with the swarm's key and with `--no-key`; the mean",
-        f"of {TAG_REPEATS} in one process. The tag is an HMAC-SHA256 of the fields' values",
-        "(ros/auth.py). Per round, a process pays the receive cost once per offer it hears",
+        f"of {TAG_REPEATS} in one process. The auth field is the sender's id and counter (16",
+        "bytes) and an HMAC-SHA256 of the instance, them and the fields' values (ros/auth.py).",
+        "The receive cost is the key's check; a subscription's replay check (`Freshness`)",
+        "is not in it. Per round, a process pays the receive cost once per offer it hears",
         "over DDS (the cells section's offers per process, divided by its rounds) and the",
         "send cost once per offer of its own that someone else reads.",
         "",
@@ -2419,6 +2570,7 @@ SECTIONS = {
     "soak": soak_section,
     "faults": faults_section,
     "hostile": hostile_section,
+    "replay": replay_section,
     "fls_process": fls_process_section,
     "hosts": hosts_section,
     "least_squares": least_squares_section,

@@ -26,7 +26,7 @@ def test_a_section_with_two_headings_replaces_both_and_stays_once_when_run_again
     assert bench().merged(once, fresh) == once
 
 
-def test_the_tags_section_times_each_offer_keyed_and_plain_and_the_tag_is_32_bytes():
+def test_the_tags_section_times_each_offer_keyed_and_plain_and_the_auth_is_48_bytes():
     module = bench()
     module.TAG_LABELS, module.TAG_REPEATS = (0, 10), 3
     lines = module.tags_section(None)
@@ -35,7 +35,7 @@ def test_the_tags_section_times_each_offer_keyed_and_plain_and_the_tag_is_32_byt
     assert [int(row[0]) for row in rows] == [0, 10]
     for row in rows:
         keyed, plain = int(row[1]), int(row[2])
-        assert keyed == plain + 32  # HMAC-SHA256
+        assert keyed == plain + 48  # sender, counter, HMAC-SHA256
         assert all(float(cell) > 0 for cell in row[3:7])
 
 

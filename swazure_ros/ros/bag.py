@@ -275,7 +275,8 @@ class Recorder(Node):
         self._writer = Writer(self._stream)
         self._writer.start(profile="ros2", library="swazure")
         self._schemas: dict[str, int] = {}
-        self._channels: dict[str, int] = {}
+        self._channels: dict[str, int] = {}  # made at a topic's first message
+        self._qos: dict[str, QoSProfile] = {}  # the recorder's own, per topic
         self._matched: dict[str, int] = {}
         self._topics: dict[str, TopicRecord] = {}
         self._first, self._last = 0, 0  # ns, of the first and the last message
@@ -295,7 +296,7 @@ class Recorder(Node):
     def _look(self) -> None:
         """Subscribe to the topics under the namespace that appeared since the last look."""
         for topic, types in self.get_topic_names_and_types():
-            if not topic.startswith(self._prefix) or topic in self._channels or len(types) != 1:
+            if not topic.startswith(self._prefix) or topic in self._topics or len(types) != 1:
                 continue
             self._record(topic, types[0])
 
@@ -306,17 +307,9 @@ class Recorder(Node):
             self._schemas[type_name] = self._writer.register_schema(
                 name=type_name, encoding="ros2msg", data=definition.encode()
             )
-        offers = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)] or [qos]
+        offers = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
         self._topics[topic] = TopicRecord(type_name, type_hash(type_name), offers)
-        self._channels[topic] = self._writer.register_channel(
-            topic=topic,
-            message_encoding="cdr",
-            schema_id=self._schemas[type_name],
-            metadata={
-                **_qos_metadata(qos, offers),
-                "topic_type_hash": self._topics[topic].type_hash,
-            },
-        )
+        self._qos[topic] = qos
         self._matched[topic] = 0
 
         def on_matched(status: QoSSubscriptionMatchedInfo, topic: str = topic) -> None:
@@ -343,7 +336,7 @@ class Recorder(Node):
         self.bytes += len(data)
         try:
             self._writer.add_message(
-                self._channels[topic], log_time=now, data=data, publish_time=now,
+                self._channel(topic), log_time=now, data=data, publish_time=now,
                 sequence=record.count,
             )  # fmt: skip
         except OSError as err:
@@ -359,21 +352,46 @@ class Recorder(Node):
         )
         self.get_logger().error(self.stopped)  # type: ignore[no-untyped-call]
 
+    def _channel(self, topic: str) -> int:
+        """The MCAP channel of ``topic``, made at its first message with its publishers' QoS.
+
+        Not earlier: a topic can show on the graph before its publishers' QoS
+        does (a reader seen first), and a bag must offer what they offered.
+        """
+        channel = self._channels.get(topic)
+        if channel is None:
+            record, qos = self._topics[topic], self._qos[topic]
+            if not record.offers:
+                publishers = self.get_publishers_info_by_topic(topic)
+                record.offers = [info.qos_profile for info in publishers] or [qos]
+            channel = self._channels[topic] = self._writer.register_channel(
+                topic=topic,
+                message_encoding="cdr",
+                schema_id=self._schemas[record.type_name],
+                metadata={
+                    **_qos_metadata(qos, record.offers),
+                    "topic_type_hash": record.type_hash,
+                },
+            )
+        return channel
+
     def caught_up(self) -> bool:
         """Whether every topic under the namespace is recorded from each of its publishers."""
         self._look()
-        return all(
-            self._matched[topic] >= self.count_publishers(topic) for topic in self._channels
-        )
+        return all(self._matched[topic] >= self.count_publishers(topic) for topic in self._topics)
 
     def close(self) -> None:
         """Finish the bag and put it at its path (once)."""
         if self.closed:
             return
         self.closed = True
+        for topic, record in self._topics.items():
+            record.offers = record.offers or [self._qos[topic]]  # no publisher ever seen
         metadata = bag_metadata(self._storage, self._topics, self._first, self._last)
         described = {"rosbag2_bagfile_information": metadata}
         try:
+            for topic in self._topics:  # a topic that sent nothing is in the bag all the same
+                self._channel(topic)
             # rosbag2's MCAP storage keeps the bag's metadata in the file too.
             self._writer.add_metadata(
                 "rosbag2", {"serialized_metadata": yaml.safe_dump(metadata, sort_keys=False)}

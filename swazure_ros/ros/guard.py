@@ -16,8 +16,10 @@ from __future__ import annotations
 
 import math
 import re
+import time
 from collections import Counter
 from collections.abc import Callable, Sized
+from dataclasses import dataclass
 from typing import Any, TypeVar
 
 import numpy as np
@@ -28,7 +30,7 @@ from rclpy.qos import QoSProfile
 from rclpy.subscription import Subscription
 
 from ..core.errors import MessageError
-from .auth import Freshness, SwarmKey
+from .auth import AUTH_BYTES, SENDERS_KEPT, Freshness, SwarmKey
 
 #: Seconds between a guard's reports on /diagnostics (sent only when its counts changed).
 DIAGNOSTICS_PERIOD = 1.0
@@ -75,6 +77,35 @@ def check_finite(values: ArrayLike, what: str, allow_nan: bool = False) -> Float
     return array
 
 
+@dataclass(frozen=True)
+class RateLimit:
+    """At most ``per_second`` messages a second from one sender, ``burst`` at once."""
+
+    per_second: float
+    burst: float
+
+
+class Buckets:
+    """A token bucket per sender (its id in ``auth``; every unsigned sender shares one)."""
+
+    def __init__(self, limit: RateLimit, senders: int = SENDERS_KEPT) -> None:
+        self.limit = limit
+        self._senders = senders
+        self._tokens: dict[bytes, tuple[float, float]] = {}  # sender -> (tokens, at s)
+
+    def allow(self, message: Any, now: float) -> bool:
+        """Whether ``message``'s sender may cause work now (and take a token if so)."""
+        auth = bytes(getattr(message, "auth", b""))
+        sender = auth[:8] if len(auth) == AUTH_BYTES else b""
+        tokens, at = self._tokens.pop(sender, (self.limit.burst, now))
+        if len(self._tokens) >= self._senders:
+            del self._tokens[next(iter(self._tokens))]
+        tokens = min(self.limit.burst, tokens + (now - at) * self.limit.per_second)
+        allowed = tokens >= 1.0
+        self._tokens[sender] = (tokens - 1.0 if allowed else tokens, now)
+        return allowed
+
+
 class Guard:
     """Counts and reports the messages a process drops; wraps its callbacks.
 
@@ -113,20 +144,29 @@ class Guard:
         qos: QoSProfile,
         node: Node | None = None,
         echoes: Callable[[bytes], bool] | None = None,
+        rate: RateLimit | None = None,
     ) -> Subscription:
         """Subscribe ``node`` (the guard's own by default) to ``topic``, guarded and key-checked.
 
         The callback gets each message of type ``kind`` that the swarm's key
         signs; every other is dropped and counted. ``echoes(data)``: the
-        process's own message come back, passed over uncounted.
+        process's own message come back, passed over uncounted. ``rate``: a
+        sender's messages beyond it are dropped and counted, before any work.
         """
-
         read = self.reader(kind)
+        buckets = Buckets(rate) if rate is not None else None
+
+        def limited(message: T) -> T:
+            if buckets is not None and not buckets.allow(message, time.monotonic()):
+                raise MessageError(
+                    f"over {buckets.limit.per_second:g} a second from one sender (rate limit)"
+                )
+            return message
 
         def take(data: bytes) -> None:
             if echoes is not None and echoes(data):
                 return
-            self.call(topic, lambda: callback(read(data)))
+            self.call(topic, lambda: callback(limited(read(data))))
 
         return (node or self._node).create_subscription(kind, topic, take, qos, raw=True)
 

@@ -51,7 +51,7 @@ from .convert.discovery import (
 )
 from .convert.sensing import readings_from_message
 from .convert.tracking import relay_request_from_message, sample_from_message
-from .guard import Guard, check
+from .guard import Guard, RateLimit, check
 from .names import (
     ACK_TOPIC,
     CONTROL_TOPIC,
@@ -72,6 +72,9 @@ if TYPE_CHECKING:
 #: Path walks a process keeps while they wait for a newer world revision (a heuristic
 #: walks a few paths per group of moves).
 EARLY_WALKS = 4096
+#: Track requests a process takes from one sender: each starts a relay's stream of frames.
+#: A track starts with one request a relay; a few dozen tracks at once are a burst.
+TRACK_REQUEST_RATE = RateLimit(per_second=20.0, burst=200.0)
 #: Offers per local FLS whose bytes a process keeps to know their echoes: a few rounds'.
 ECHOES_PER_FLS = 8
 #: Seconds a source of a fitting run waits, after the END, for the readings of its
@@ -185,7 +188,14 @@ class Radio:
         # The coordinator's walks: one writer, every process a reader.
         self._subscribe(PathWalk, WALKS_TOPIC, self._on_walk)
         senses.on_revision.append(self._take_early_walks)
-        self._subscribe(TrackRequest, TRACK_REQUESTS_TOPIC, self._on_track_request)
+        # Each request starts a relay's stream of frames: a flood of them must not.
+        self.guard.subscribe(
+            TrackRequest,
+            TRACK_REQUESTS_TOPIC,
+            self._on_track_request,
+            ROUND_QOS,
+            rate=TRACK_REQUEST_RATE,
+        )
         self._subscribe(TrackSample, TRACK_SAMPLES_TOPIC, self._on_track_sample)
 
     def tune(self) -> None:
