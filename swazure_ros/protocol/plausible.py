@@ -19,7 +19,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core import csr
+from ..core.fit import PATH, SWARM_ESTIMATORS
 from ..core.sensor import DECAYING, SWEET, Sensor, hop_error
+from .discovery.estimate import Estimates
 from .discovery.messages import ANY_VISIBLE, Offer, RoundOffers
 from .readings import Readings
 
@@ -59,8 +61,8 @@ _HOP, _LENGTH, _ERROR, _VECTOR = 1, 2, 3, 4
 
 
 def implausible_labels(
-    lengths: FloatArray,
-    errors: FloatArray,
+    lengths: FloatArray | None,
+    errors: FloatArray | None,
     vectors: FloatArray,
     path_offsets: IntArray,
     path_ids: IntArray,
@@ -75,8 +77,9 @@ def implausible_labels(
     (L, 3), cm, paths as offsets (L + 1,) into ``path_ids``), whose arrays
     are known to agree (:func:`..ros.convert.offer_from_message`).
     ``positions(ids)`` gives where FLSs ``ids`` (M,) are, (M, 3), cm.
+    Without ``lengths`` or ``errors`` (a report's), those sums are not checked.
     """
-    count = len(lengths)
+    count = len(path_offsets) - 1
     why = np.zeros(count, dtype=np.int8)
     if not count:
         return why
@@ -101,9 +104,11 @@ def implausible_labels(
     def mark(wrong: NDArray[np.bool_], code: int) -> None:
         why[(why == 0) & wrong] = code
 
-    mark(~_close(lengths, per_label(tracking)), _LENGTH)
+    if lengths is not None:
+        mark(~_close(lengths, per_label(tracking)), _LENGTH)
     hop_errors = hop_error(sensor, tracking, radius)
-    mark(~_close(errors, per_label(hop_errors)), _ERROR)
+    if errors is not None:
+        mark(~_close(errors, per_label(hop_errors)), _ERROR)
     # The published sensor's bound is its hop error itself (|t e(t)|).
     exact = sensor.noise is None and sensor.camera is None
     bound = per_label(hop_errors if exact else hop_bound(sensor, tracking, radius))
@@ -130,6 +135,44 @@ def implausible(
         offer.path_offsets,
         offer.path_ids,
         phase,
+        positions,
+        sensor,
+        radius,
+    )
+    return REASONS[int(why.max())] if why.any() else None
+
+
+def implausible_estimates(
+    estimates: Estimates,
+    source: int,
+    positions: Callable[[IntArray], FloatArray],
+    sensor: Sensor,
+    radius: float,
+) -> str | None:
+    """Why a source's report cannot be true, or None when every estimate of it may be.
+
+    Each path must run from the source to its target; a path estimate's
+    (a vector summed along its path) hops must be in range (sweet or
+    decaying) and its vector within the sensor's error bounds of the true
+    displacement, as an offer's label's. A fit's vector is not a path's sum:
+    only its path is checked.
+    """
+    has_path = np.diff(estimates.path_offsets) > 0
+    if not has_path.any():
+        return None
+    firsts = estimates.path_ids[estimates.path_offsets[:-1][has_path]]
+    lasts = estimates.path_ids[estimates.path_offsets[1:][has_path] - 1]
+    if (firsts != source).any() or (lasts != estimates.targets[has_path]).any():
+        return "a path does not run from its source to its target"
+    summed = np.flatnonzero(has_path & (estimates.estimator == SWARM_ESTIMATORS.index(PATH)))
+    offsets, path_ids = csr.take(estimates.path_offsets, estimates.path_ids, summed)
+    why = implausible_labels(
+        None,
+        None,
+        estimates.vector[summed],
+        offsets,
+        path_ids,
+        ANY_VISIBLE,
         positions,
         sensor,
         radius,

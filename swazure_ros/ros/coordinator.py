@@ -44,6 +44,7 @@ from ..core.paths import check_policy
 from ..protocol.discovery.messages import Control
 from ..protocol.discovery.search import bucket_width
 from ..protocol.moves import Move, MoveRun, Walk
+from ..protocol.plausible import implausible_estimates
 from ..protocol.rounds import RoundClock, StallClock
 from ..protocol.runs import DiscoveryResult, MoveResult, Traffic, discovery_result, move_result
 from .auth import SwarmKey, signed_at
@@ -54,7 +55,8 @@ from .convert.discovery import (
     sent_from_message,
     walk_message,
 )
-from .guard import Guard, check
+from .convert.sensing import world_positions
+from .guard import FloatArray, Guard, IntArray, check
 from .liveness import FlsLiveness
 from .names import (
     ACK_TOPIC,
@@ -70,6 +72,7 @@ from .names import (
     ROUND_QOS,
     WALKS_TOPIC,
     WORLD_QOS,
+    WORLD_REACH,
     WORLD_TOPIC,
     fls_id_of,
     node_name,
@@ -156,6 +159,10 @@ class Coordinator(SwarmNode):
         self._moves = self.create_publisher(MoveCommands, MOVE_TOPIC, MOVE_QOS)
         self._walks = self.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
         self._swarm = np.array(sorted(self.fls_ids), dtype=np.int64)
+        # Where each FLS is (rows of _swarm): its assigned point, then the world's
+        # revisions. Under --no-key, what a report is checked against.
+        order = np.argsort(shape.swarm.cloud_index)
+        self._positions = np.array(shape.swarm.points[order], dtype=np.float64)
         self.guard = Guard(self, key)
         self.key = self.guard.key
         self._read_ack = self.guard.reader(RoundAck)
@@ -465,10 +472,23 @@ class Coordinator(SwarmNode):
         if machine is not None:
             estimates = estimates_from_message(message, self._swarm)
             source = int(message.source_id)
+            if not self.key.active:  # signed, it is the swarm's own; unsigned, it may be anyone's
+                shape = self.shape
+                why = implausible_estimates(
+                    estimates, source, self._where, shape.sensor, shape.swarm.radius
+                )
+                check(why is None, f"implausible: {why}")
             self._act(machine.on_estimates(source, estimates, self._now()))
+
+    def _where(self, ids: IntArray) -> FloatArray:
+        """Where FLSs ``ids`` (M,) are, (M, 3), cm, by the newest world revision heard."""
+        return np.asarray(self._positions[np.searchsorted(self._swarm, ids)])
 
     def _on_world(self, state: WorldState) -> None:
         check(state.revision < 2**63, f"revision {state.revision} out of range")
+        if state.revision >= self._revision:
+            ids, points = world_positions(state, self._swarm, WORLD_REACH)
+            self._positions[np.searchsorted(self._swarm, ids)] = points
         self._revision = max(self._revision, int(state.revision))
         machine = self._running()
         if isinstance(machine, MoveRun):

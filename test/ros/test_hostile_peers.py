@@ -23,6 +23,8 @@ from swazure_interfaces.msg import (
     MoveCommand,
     MoveCommands,
     PathOffer,
+    PoseEstimate,
+    PoseEstimates,
     RelativePose,
 )
 
@@ -34,6 +36,7 @@ from swazure_ros.protocol.cells import BANDS, band_of, radio_cells
 from swazure_ros.ros.auth import SwarmKey, new_key
 from swazure_ros.ros.names import (
     CONTROL_TOPIC,
+    ESTIMATES_TOPIC,
     MEASUREMENTS_QOS,
     MEASUREMENTS_TOPIC,
     MOVE_QOS,
@@ -53,7 +56,9 @@ POLICY = "shortest-length"
 class Forger:
     """A peer that answers every round of every run with forged offers for one blind pair."""
 
-    def __init__(self, domain: int, world, source: int, target: int, key: SwarmKey) -> None:
+    def __init__(
+        self, domain: int, world, source: int, target: int, key: SwarmKey, forge_reports=False
+    ) -> None:
         self.context = make_context(domain)
         self.node = Node("forger", namespace="swarm", context=self.context)
         self.key = key
@@ -68,6 +73,9 @@ class Forger:
             )
             for band in BANDS
         }
+        self.reports = None
+        if forge_reports:
+            self.reports = self.node.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
         self.controls = self.node.create_subscription(
             DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS
         )
@@ -83,6 +91,18 @@ class Forger:
             self.diagnostics[status.hardware_id] = {one.key: one.value for one in status.values}
 
     def _on_control(self, control: DiscoveryControl) -> None:
+        if control.command == DiscoveryControl.COMMAND_END and self.reports is not None:
+            # The source's report, forged: its path straight over the blind pair.
+            forged_report = PoseEstimates(
+                run_id=control.run_id, source_id=self.source, target_ids=[self.target],
+                statuses=[PoseEstimate.STATUS_SWEET], reasons=[PoseEstimate.REASON_NONE],
+                estimators=[DiscoveryControl.ESTIMATOR_PATH], path_offsets=[0, 2],
+                path_ids=[self.source, self.target], radio_path_offsets=[0, 0],
+                vectors=[123.0, 456.0, 789.0], path_lengths=[7.0], predicted_errors=[0.1],
+                covariances=[float("nan")] * 9,
+            )  # fmt: skip
+            self.reports.publish(self.key.serialize(forged_report))
+            self.sent += 1
         if control.command != DiscoveryControl.COMMAND_ROUND:
             return
         forged = PathOffer(
@@ -323,3 +343,30 @@ def test_an_earlier_swarms_messages_and_replayed_controls_change_nothing(domain)
             assert answer.path == tuple(int(swarm.world.ids[k]) for k in engine.path(row))
             np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)
         assert second.restarts == 0
+
+
+def test_without_a_key_a_forged_report_is_implausible_and_changes_no_answer(domain):
+    world_spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
+    config = SwarmConfig(world_spec, domain_id=domain, authenticate=False)
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world)
+        with Forger(domain, swarm.world, source, target, SwarmKey(), forge_reports=True) as forger:
+            wait_until(
+                lambda: (
+                    forger.reports.get_subscription_count() >= 1
+                    and forger.controls.get_publisher_count() >= 1
+                ),
+                30,
+                lambda: swarm.spin(0.05),
+            )
+            result = swarm.run(swarm.coordinator.discover(POLICY, [source], [target]), 120)
+            refused = (ESTIMATES_TOPIC, "implausible: a hop of a path is not in range")
+            wait_until(
+                lambda: swarm.coordinator.guard.dropped[refused] >= 1, 10, lambda: swarm.spin(0.05)
+            )
+        assert forger.sent >= 1
+        assert swarm.coordinator.guard.dropped[refused] >= 1, swarm.coordinator.guard.dropped
+        (answer,) = result.estimates[source]
+        assert answer.path == tuple(int(swarm.world.ids[k]) for k in engine.path(row))
+        np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)
