@@ -230,6 +230,42 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
     noise = (degradations.residual_blur_px, degradations.read_noise, degradations.shot_noise_gain)
     if min(noise) < 0:
         raise SensorError(f"{where}: camera.degradations' blur and noise must be 0 or more")
+    # Sizes that scale the rendering's kernels and images: a blur or a defocus of
+    # millions of px would ask for gigabytes; a marker of kilometres overflows.
+    bounded = {
+        "camera.marker.side_mm": (camera.marker_side_mm, 0.1, 1000.0),
+        "camera.lens.focal_length_mm": (camera.focal_length_mm, 0.1, 1000.0),
+        "camera.lens.f_number": (camera.f_number, 0.5, 64.0),
+        "camera.lens.focus_min_mm": (camera.focus_min_mm, 1.0, 100_000.0),
+        "camera.degradations.residual_blur_px": (degradations.residual_blur_px, 0.0, 50.0),
+        "camera.degradations.read_noise": (degradations.read_noise, 0.0, 255.0),
+        "camera.degradations.shot_noise_gain": (degradations.shot_noise_gain, 0.0, 255.0),
+    }
+    for name, (value, low, high) in bounded.items():
+        if not low <= value <= high:
+            raise SensorError(f"{where}: {name} must be {low:g} to {high:g}, got {value:g}")
+    # Derived sizes: a pixel of a real sensor (0.5 to 50 um), and the marker at the
+    # closest focus no larger than the image (frames are rendered at that scale).
+    pitch_um = 1000.0 * camera.focal_length_mm / camera.fx
+    if not 0.5 <= pitch_um <= 50.0:
+        raise SensorError(
+            f"{where}: focal_length_mm / fx is a pixel of {pitch_um:.3g} um: a sensor's are "
+            "0.5 to 50 um"
+        )
+    marker_px = camera.fx * camera.marker_side_mm / camera.focus_min_mm
+    if marker_px > max(width, height):
+        raise SensorError(
+            f"{where}: the marker at the closest focus is {marker_px:.3g} px across, more than "
+            f"the {width}x{height} image"
+        )
+    levels = (degradations.white_level, degradations.black_level, degradations.background_level)
+    if not all(0.0 <= level <= 255.0 for level in levels):
+        # Grey levels of an 8-bit frame: the transfer curve takes powers of them.
+        raise SensorError(
+            f"{where}: camera.degradations' white, black and background levels must be 0 to 255"
+        )
+    if not 0.1 <= degradations.tone_gamma <= 10.0:
+        raise SensorError(f"{where}: camera.degradations.tone_gamma must be 0.1 to 10")
     if max(width, height) > MAX_IMAGE_PX:
         raise SensorError(
             f"{where}: a {width}x{height} image is more than {MAX_IMAGE_PX} px a side"

@@ -3,8 +3,14 @@
 import subprocess
 import sys
 
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from swazure_ros.core.files import config_dir
 from swazure_ros.core.sensor import load_sensor
+
+from ..conftest import FUZZ
 
 WIDE = config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml"
 
@@ -129,3 +135,69 @@ def test_calibrate_for_a_swarm_carrying_every_marker(tmp_path):
     # The decaying error belongs to the patterns: the two sensors' error curves differ.
     mixed, own = load_sensor(out), load_sensor(tmp_path / "plain.yaml")
     assert mixed.noise.mean_error != own.noise.mean_error
+
+
+@settings(FUZZ, max_examples=60)
+@given(data=st.data())
+def test_a_generated_camera_file_is_calibrated_or_refused_in_one_line(tmp_path_factory, data):
+    """The shipped wide lens's file with one value swapped, through `camera calibrate`:
+    a sensor file, or one line and exit 2; never a traceback (issue 55: fy 0 divided)."""
+    import contextlib
+    import io
+
+    import yaml
+
+    from swazure_ros.cli.main import main
+    from swazure_ros.core.files import config_dir
+
+    from ..core.test_hostile_files import leaves, swapped, values
+
+    original = config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml"
+    document = yaml.safe_load(original.read_text())
+    where = data.draw(st.sampled_from(leaves(document)))
+    folder = tmp_path_factory.mktemp("camera")
+    path = folder / "camera.yaml"
+    path.write_text(yaml.safe_dump(swapped(document, where, data.draw(values))))
+    errors = io.StringIO()
+    arguments = ["camera", "calibrate", "--camera", str(path), "--frames", "1", "--angles", "0"]
+    with contextlib.redirect_stderr(errors):
+        code = main([*arguments, "--quiet", "--out", str(folder / "sensor.yaml")])
+    said = errors.getvalue().strip().splitlines()
+    if code == 0:
+        assert (folder / "sensor.yaml").is_file()
+    else:
+        assert code == 2 and len(said) == 1 and said[0].startswith("swazure camera: error:"), said
+        assert not (folder / "sensor.yaml").exists()
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        (("camera", "degradations", "white_level"), -5, "levels must be 0 to 255"),
+        (("camera", "degradations", "tone_gamma"), 50.0, "tone_gamma must be 0.1 to 10"),
+        (("camera", "marker", "side_mm"), 1e300, "side_mm must be 0.1 to 1000"),
+        (("camera", "marker", "side_mm"), 1000.0, "the marker at the closest focus is"),
+        (("camera", "image", "fx"), 1e-3, "a sensor's are 0.5 to 50 um"),
+        (("camera", "image", "fx"), 1e6, "a sensor's are 0.5 to 50 um"),
+        (("camera", "lens", "focus_min_mm"), 3.0, "the marker at the closest focus is"),
+        (("camera", "degradations", "residual_blur_px"), 1e6, "residual_blur_px must be"),
+    ],
+)
+def test_camera_values_that_rendering_would_choke_on_are_refused_in_one_line(
+    tmp_path, field, value, message
+):
+    """Each of these once ended in a traceback, a NaN frame or an allocation of gigabytes."""
+    import yaml
+
+    from ..core.test_hostile_files import swapped
+
+    original = config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml"
+    path = tmp_path / "camera.yaml"
+    path.write_text(yaml.safe_dump(swapped(yaml.safe_load(original.read_text()), field, value)))
+    run = subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", "camera", "calibrate", "--camera",
+         str(path), "--frames", "1", "--angles", "0", "--quiet"],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert run.returncode == 2 and message in run.stderr, run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1, run.stderr
