@@ -101,8 +101,8 @@ def await_instance(
         if not found:
             raise SwazureError(
                 f"no world node announced the swarm's instance on /{namespace}/{INSTANCE_TOPIC} "
-                f"in {timeout:g} s: start the host that holds the world (--share 0/N) too, with "
-                "the same key file and a clock within "
+                f"in {timeout:g} s: start the world too (`swazure spawn --share 0/N`, or `ros2 "
+                "run swazure_ros world`), with the same key file and a clock within "
                 f"{ANNOUNCEMENT_FRESH:g} s of this one's"
             )
     finally:
