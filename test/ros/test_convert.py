@@ -8,6 +8,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from builtin_interfaces.msg import Time
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
 from swazure_interfaces.msg import Measurements, MoveCommands, PathOffer, PoseEstimates, WorldState
 
@@ -82,6 +84,9 @@ from swazure_ros.ros.convert.units import (
     vector3,
 )
 from swazure_ros.ros.guard import MessageError
+
+from ..conftest import FUZZ
+from .fuzz import message
 
 
 def test_a_world_state_reads_back_every_id_and_position_bit_for_bit():
@@ -471,3 +476,24 @@ def test_a_scene_becomes_markers_in_metres_in_the_swarm_frame():
     flss = next(marker for marker in got.markers if marker.ns == "flss")
     points = np.array([[p.x, p.y, p.z] for p in flss.points])
     np.testing.assert_allclose(points, swarm.points / 100)
+
+
+@settings(FUZZ, max_examples=300)
+@given(data=st.data())
+def test_generated_detections_are_taken_or_refused_and_nothing_else(data):
+    """Any Detections a peer could publish (header, markers, poses, revision): the FLS's
+    conversion gives markers and finite vectors, or one MessageError; never another error."""
+    from swazure_interfaces.msg import Detections
+
+    from swazure_ros.core.errors import MessageError
+    from swazure_ros.ros.convert.sensing import detections_from_message
+
+    generated = data.draw(message(Detections, [0, 1, 2, 3]))
+    if data.draw(st.booleans()):
+        generated.header.frame_id = "fls_3"  # past the frame check, to the readings
+    try:
+        markers, vectors = detections_from_message(generated, 3)
+    except MessageError:
+        return
+    assert len(markers) == len(vectors) == len(generated.detections)
+    assert np.isfinite(vectors).all()
