@@ -138,6 +138,9 @@ def test_detections_are_taken_in_the_flss_own_frame_only():
     assert vectors.tolist() == [[8.0, -1.0, 0.0]]  # cm
     with pytest.raises(MessageError, match="not fls_4"):
         detections_from_message(message, 4)  # another FLS's, or a camera's optical frame
+    pose.pose.position.z = 1e307  # finite in metres, infinite in centimetres
+    with pytest.raises(MessageError, match="beyond 10 km"):
+        detections_from_message(message, 3)
     pose.pose.position.z = float("nan")
     with pytest.raises(MessageError, match="finite"):
         detections_from_message(message, 3)

@@ -26,6 +26,7 @@ from ...core.observe import Measurement, NeighbourSets
 from ...core.sensor import DECAYING, SWEET, Sensor
 from ...protocol.readings import Readings
 from ..guard import check, check_finite, check_ids, check_size
+from ..names import WORLD_REACH
 
 if TYPE_CHECKING:
     from ...core.camera import Camera
@@ -139,7 +140,7 @@ def detections_from_message(message: Detections, fls_id: int) -> tuple[IntArray,
 
     MessageError unless the poses are in the FLS's own frame (a detector's
     optical-frame poses must be moved there by the camera's mount first),
-    finite and at most MAX_DETECTIONS.
+    finite, within 10 km and at most MAX_DETECTIONS.
     """
     check(
         message.header.frame_id == fls_frame(fls_id),
@@ -150,6 +151,8 @@ def detections_from_message(message: Detections, fls_id: int) -> tuple[IntArray,
     positions = [one.pose.pose.position for one in message.detections]
     vectors = np.array([[p.x, p.y, p.z] for p in positions], dtype=np.float64).reshape(-1, 3)
     check_finite(vectors, "detection positions")
+    # A camera reads metres at most; far-off ones overflow once in centimetres.
+    check(bool(np.all(np.abs(vectors) <= WORLD_REACH / 100.0)), "a detection beyond 10 km")
     return markers, to_centimetres(vectors)
 
 
