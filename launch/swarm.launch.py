@@ -18,11 +18,12 @@ Arguments:
   Discovery Servers (those at an address of this machine are started here),
   as ``swazure spawn --discovery-server`` does (docs/swarm.md).
 
-The swarm's processes share a fresh key (docs/security.md) made here.
+The swarm's processes share a fresh key and swarm instance (docs/security.md) made here.
 """
 
 import argparse
 import os
+import secrets
 import sys
 import tempfile
 from pathlib import Path
@@ -42,6 +43,7 @@ from swazure_ros.app.discovery_server import (
 from swazure_ros.app.per_fls import FLS_ENVIRONMENT
 from swazure_ros.cli.swarm_file import example_swarms, load_swarm_file, swarm_file
 from swazure_ros.core.description import SwarmDescription
+from swazure_ros.ros.auth import INSTANCE_BYTES
 from swazure_ros.ros.keys import new_key, write_key
 from swazure_ros.ros.runtime import description_parameters
 
@@ -93,6 +95,8 @@ def _per_fls(path: Path, servers: tuple) -> list:
         **description_parameters(description),
         "namespace": namespace,
         "key_file": str(key_file),
+        # This swarm's life, inside every tag: given here, no process waits for the world's.
+        "swarm_instance": secrets.token_hex(INSTANCE_BYTES),
     }
     ids = description.fls_ids().tolist()
     # Plain clients of the servers: the coordinator counts matched endpoints, and the
