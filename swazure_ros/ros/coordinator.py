@@ -468,16 +468,20 @@ class Coordinator(SwarmNode):
     def _on_estimates(self, data: bytes) -> None:
         self.traffic.count(ESTIMATES_TOPIC, len(data))
         message = self._read_estimates(data)
+        source = int(message.source_id)
         machine = self._running(message.run_id)
+        if machine is None and self.key.active:
+            return  # the swarm's own report of a run that is over
+        estimates = estimates_from_message(message, self._swarm)
+        if not self.key.active:
+            # Signed, a report is the swarm's own; unsigned, it may be anyone's: checked
+            # whether or not its run is still on, so that a forgery is seen whenever it comes.
+            shape = self.shape
+            why = implausible_estimates(
+                estimates, source, self._where, shape.sensor, shape.swarm.radius
+            )
+            check(why is None, f"implausible: {why}")
         if machine is not None:
-            estimates = estimates_from_message(message, self._swarm)
-            source = int(message.source_id)
-            if not self.key.active:  # signed, it is the swarm's own; unsigned, it may be anyone's
-                shape = self.shape
-                why = implausible_estimates(
-                    estimates, source, self._where, shape.sensor, shape.swarm.radius
-                )
-                check(why is None, f"implausible: {why}")
             self._act(machine.on_estimates(source, estimates, self._now()))
 
     def _where(self, ids: IntArray) -> FloatArray:
