@@ -1249,12 +1249,8 @@ def signing_costs() -> list[str]:
 def hostile_section(args: argparse.Namespace) -> list[str]:
     """A swarm under valid queries while scripts/hostile_peer.py floods every topic."""
     import numpy as np
-    import rclpy.executors
-    from diagnostic_msgs.msg import DiagnosticArray
-    from swazure_interfaces.srv import ComputePose
 
     from swazure_ros.core.evaluate import evaluate_pairs
-    from swazure_ros.ros.runtime import SwarmNode, init_context
     from swazure_ros.sim.world import WorldSpec
 
     domain, cloud, policy = 93, swarm_cloud("chess_408"), "shortest-length"
@@ -1268,19 +1264,7 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
         assert swarm.stdout is not None
         if not swarm.stdout.readline().startswith("swarm up:"):
             return ["## Hostile peers", "", "the chess swarm did not come up", ""]
-        context = init_context(domain)
-        node = SwarmNode("bench_hostile", context=context)
-        executor = rclpy.executors.SingleThreadedExecutor(context=context)
-        executor.add_node(node)
-
-        def on_diagnostics(array: DiagnosticArray) -> None:
-            for status in array.status:
-                diagnostics[status.name] = {value.key: value.value for value in status.values}
-
-        node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
-        client = node.create_client(ComputePose, "/swarm/coordinator/compute_pose")
-        while not client.service_is_ready():
-            executor.spin_once(timeout_sec=0.1)
+        context, node, executor, client = pose_client(domain, "bench_hostile", diagnostics)
         peer = subprocess.Popen(
             [sys.executable, str(REPO / "scripts" / "hostile_peer.py"), str(domain),
              str(HOSTILE_SECONDS)],
@@ -1292,11 +1276,7 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
         )
         out, _ = peer.communicate(timeout=120)
         peer_report = json.loads(out.strip().splitlines()[-1]) if out.strip() else {}
-        for _ in range(40):  # the latest counts (published every second when they change)
-            executor.spin_once(timeout_sec=0.05)
-        executor.shutdown()
-        node.destroy_node()
-        context.try_shutdown()
+        close_client(context, node, executor)
     finally:
         swarm.terminate()
         swarm.wait(timeout=300)
@@ -1332,6 +1312,44 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
             lines.append(f"| {name.split(': ')[-1].split(' ')[0]} | {counter} | {value} |")
     lines += ["", "### What the key costs", "", *signing_costs(), ""]
     return lines
+
+
+def pose_client(
+    domain: int, name: str, diagnostics: dict[str, dict[str, str]]
+) -> tuple[Any, Any, Any, Any]:
+    """A node on ``domain`` with a ready compute_pose client; /diagnostics fill ``diagnostics``.
+
+    Returns (context, node, executor, client); :func:`close_client` ends them.
+    """
+    import rclpy.executors
+    from diagnostic_msgs.msg import DiagnosticArray
+    from swazure_interfaces.srv import ComputePose
+
+    from swazure_ros.ros.runtime import SwarmNode, init_context
+
+    context = init_context(domain)
+    node = SwarmNode(name, context=context)
+    executor = rclpy.executors.SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+
+    def on_diagnostics(array: DiagnosticArray) -> None:
+        for status in array.status:
+            diagnostics[status.name] = {value.key: value.value for value in status.values}
+
+    node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
+    client = node.create_client(ComputePose, "/swarm/coordinator/compute_pose")
+    while not client.service_is_ready():
+        executor.spin_once(timeout_sec=0.1)
+    return context, node, executor, client
+
+
+def close_client(context: Any, node: Any, executor: Any) -> None:
+    """Hear the latest counts (sent every second when they change), then end the node."""
+    for _ in range(40):
+        executor.spin_once(timeout_sec=0.05)
+    executor.shutdown()
+    node.destroy_node()
+    context.try_shutdown()
 
 
 def ask_random_pairs(
@@ -1395,13 +1413,9 @@ def replay_section(args: argparse.Namespace) -> list[str]:
     import threading
 
     import numpy as np
-    import rclpy.executors
-    from diagnostic_msgs.msg import DiagnosticArray
-    from swazure_interfaces.srv import ComputePose
 
     from swazure_ros.core.evaluate import evaluate_pairs
     from swazure_ros.ros.keys import new_key, write_key
-    from swazure_ros.ros.runtime import SwarmNode, init_context
     from swazure_ros.sim.world import WorldSpec
 
     domain, cloud, policy = 94, swarm_cloud("chess_408"), "shortest-length"
@@ -1441,19 +1455,7 @@ def replay_section(args: argparse.Namespace) -> list[str]:
         assert swarm.stdout is not None
         if not swarm.stdout.readline().startswith("swarm up:"):
             return ["## Replay of an earlier swarm", "", "the chess swarm did not come up"]
-        context = init_context(domain)
-        node = SwarmNode("bench_replay", context=context)
-        executor = rclpy.executors.SingleThreadedExecutor(context=context)
-        executor.add_node(node)
-
-        def on_diagnostics(array: DiagnosticArray) -> None:
-            for status in array.status:
-                diagnostics[status.name] = {value.key: value.value for value in status.values}
-
-        node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
-        client = node.create_client(ComputePose, "/swarm/coordinator/compute_pose")
-        while not client.service_is_ready():
-            executor.spin_once(timeout_sec=0.1)
+        context, node, executor, client = pose_client(domain, "bench_replay", diagnostics)
         peer = threading.Thread(target=replay_again_and_again, daemon=True)
         peer.start()
         right, wrong, unanswered, samples = ask_random_pairs(
@@ -1461,11 +1463,7 @@ def replay_section(args: argparse.Namespace) -> list[str]:
         )
         stop.set()
         peer.join(timeout=1800)
-        for _ in range(40):  # the latest counts (published every second when they change)
-            executor.spin_once(timeout_sec=0.05)
-        executor.shutdown()
-        node.destroy_node()
-        context.try_shutdown()
+        close_client(context, node, executor)
     finally:
         stop.set()
         swarm.terminate()
