@@ -1299,17 +1299,8 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
         f"Hostile messages sent: {sent:,} ("
         + ", ".join(f"{topic} {count:,}" for topic, count in sorted(peer_report.items()))
         + ").",
-        f"Swarm memory: {samples[0][1]:.0f} MB at the start, {samples[-1][1]:.0f} MB at the end "
-        f"(max {max(m for _, m in samples):.0f} MB); figure docs/figures/hostile-soak.png.",
-        "",
-        "The swarm's counts on /diagnostics at the end (messages dropped, by reason):",
-        "",
-        "| node | counter | messages |",
-        "| --- | --- | ---: |",
+        *soak_counts(samples, "hostile-soak.png", diagnostics),
     ]
-    for name, values in sorted(diagnostics.items()):
-        for counter, value in sorted(values.items()):
-            lines.append(f"| {name.split(': ')[-1].split(' ')[0]} | {counter} | {value} |")
     lines += ["", "### What the key costs", "", *signing_costs(), ""]
     return lines
 
@@ -1350,6 +1341,29 @@ def close_client(context: Any, node: Any, executor: Any) -> None:
     executor.shutdown()
     node.destroy_node()
     context.try_shutdown()
+
+
+def soak_counts(
+    samples: list[tuple[float, float]],
+    figure: str,
+    diagnostics: dict[str, dict[str, str]],
+    dropped_only: bool = False,
+) -> list[str]:
+    """A soak's memory line and the swarm's /diagnostics counts (all, or the drops), as lines."""
+    lines = [
+        f"Swarm memory: {samples[0][1]:.0f} MB at the start, {samples[-1][1]:.0f} MB at the end "
+        f"(max {max(m for _, m in samples):.0f} MB); figure docs/figures/{figure}.",
+        "",
+        "The swarm's counts on /diagnostics at the end (messages dropped, by reason):",
+        "",
+        "| node | counter | messages |",
+        "| --- | --- | ---: |",
+    ]
+    for name, values in sorted(diagnostics.items()):
+        for counter, value in sorted(values.items()):
+            if not dropped_only or counter.startswith("dropped"):
+                lines.append(f"| {name.split(': ')[-1].split(' ')[0]} | {counter} | {value} |")
+    return lines
 
 
 def ask_random_pairs(
@@ -1490,18 +1504,8 @@ def replay_section(args: argparse.Namespace) -> list[str]:
         f"Valid queries: {right + wrong + unanswered}: {right} right, {wrong} wrong, "
         f"{unanswered} unanswered within 120 s.",
         f"Replays of the earlier swarm: {len(replays)} ({replays[-1] if replays else '-'}).",
-        f"Swarm memory: {samples[0][1]:.0f} MB at the start, {samples[-1][1]:.0f} MB at the end "
-        f"(max {max(m for _, m in samples):.0f} MB); figure docs/figures/replay-soak.png.",
-        "",
-        "The swarm's counts on /diagnostics at the end (messages dropped, by reason):",
-        "",
-        "| node | counter | messages |",
-        "| --- | --- | ---: |",
+        *soak_counts(samples, "replay-soak.png", diagnostics, dropped_only=True),
     ]
-    for name, values in sorted(diagnostics.items()):
-        for counter, value in sorted(values.items()):
-            if counter.startswith("dropped"):
-                lines.append(f"| {name.split(': ')[-1].split(' ')[0]} | {counter} | {value} |")
     return [*lines, ""]
 
 
