@@ -57,8 +57,8 @@ def test_the_hosts_section_gives_cpu_per_fls_process_and_draws_three_figures(tmp
 def test_a_soaks_counts_give_memory_and_every_counter_or_only_the_drops():
     module = bench()
     samples = [(0.0, 300.0), (5.0, 320.0), (10.0, 310.0)]
-    counts = {"swazure: /swarm/host_0 inbound messages": {"accepted world": "3",
-                                                          "dropped world: forged": "7"}}  # fmt: skip
+    values = {"accepted world": "3", "dropped world: forged": "7"}
+    counts = {"swazure: /swarm/host_0 inbound messages": values}
     every = module.soak_counts(samples, "soak.png", counts)
     assert "300 MB at the start, 310 MB at the end (max 320 MB)" in every[0]
     assert "| /swarm/host_0 | accepted world | 3 |" in every
