@@ -397,6 +397,10 @@ class Coordinator(SwarmNode):
         machine = self._running()
         if isinstance(machine, RoundClock):
             self._act(machine.on_gone(newly, self._now(), radios=len(radios)))
+        self._publish_gone()
+
+    def _publish_gone(self) -> None:
+        """The list of the gone, latched on /swarm/departed, as it is now."""
         header = Header(stamp=self.get_clock().now().to_msg())
         departed = Departed(header=header, fls_ids=sorted(self.gone))
         self._gone_publisher.publish(self.key.serialize(departed))
@@ -440,9 +444,7 @@ class Coordinator(SwarmNode):
         listed = ", ".join(map(str, sorted(back)))
         logger = self.get_logger()  # type: ignore[no-untyped-call]
         logger.info(f"FLS {listed} back ({how}): taking part again")
-        header = Header(stamp=self.get_clock().now().to_msg())
-        departed = Departed(header=header, fls_ids=sorted(self.gone))
-        self._gone_publisher.publish(self.key.serialize(departed))
+        self._publish_gone()
 
     def _on_ack(self, data: bytes) -> None:
         self.traffic.count(ACK_TOPIC, len(data))
