@@ -360,10 +360,7 @@ class Recorder(Node):
         """
         channel = self._channels.get(topic)
         if channel is None:
-            record, qos = self._topics[topic], self._qos[topic]
-            if not record.offers:
-                publishers = self.get_publishers_info_by_topic(topic)
-                record.offers = [info.qos_profile for info in publishers] or [qos]
+            record, qos = self._offered(topic), self._qos[topic]
             channel = self._channels[topic] = self._writer.register_channel(
                 topic=topic,
                 message_encoding="cdr",
@@ -375,6 +372,14 @@ class Recorder(Node):
             )
         return channel
 
+    def _offered(self, topic: str) -> TopicRecord:
+        """``topic``'s record, its publishers' QoS filled in (the recorder's own if none)."""
+        record = self._topics[topic]
+        if not record.offers:
+            publishers = self.get_publishers_info_by_topic(topic)
+            record.offers = [info.qos_profile for info in publishers] or [self._qos[topic]]
+        return record
+
     def caught_up(self) -> bool:
         """Whether every topic under the namespace is recorded from each of its publishers."""
         self._look()
@@ -385,8 +390,8 @@ class Recorder(Node):
         if self.closed:
             return
         self.closed = True
-        for topic, record in self._topics.items():
-            record.offers = record.offers or [self._qos[topic]]  # no publisher ever seen
+        for topic in self._topics:  # a topic that sent nothing: its publishers' QoS now
+            self._offered(topic)
         metadata = bag_metadata(self._storage, self._topics, self._first, self._last)
         described = {"rosbag2_bagfile_information": metadata}
         try:
