@@ -77,7 +77,7 @@ def compute_all(
     moves. ``on_discovered`` hears the discovery run's result as soon as it is in;
     ``on_progress`` how far each run is, every PROGRESS_PERIOD s. With the
     ``estimator`` local-least-squares each source fits what it hears, and the
-    engine does the same (``core.fit.refine(..., local=True)``). ``per_run``: the
+    engine does the same (``core.fit.refine(..., LOCAL_LEAST_SQUARES)``). ``per_run``: the
     most sources one discovery run searches for (``RunningSwarm.discover``).
     """
     if estimator != PATH and technique != PLAIN:
@@ -105,7 +105,7 @@ def compute_all(
     engine = evaluate(world.swarm, world.sensor, policy)
     engine, _ = run_technique(engine, technique, threshold)
     if estimator == LOCAL_LEAST_SQUARES:
-        engine = refine(engine, local=True)
+        engine = refine(engine, LOCAL_LEAST_SQUARES)
     engine_seconds = time.perf_counter() - began
     seconds = result.seconds + (moved.seconds if moved is not None else 0.0)
     spec = swarm.config.world

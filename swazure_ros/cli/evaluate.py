@@ -16,7 +16,7 @@ from typing import Any
 
 from ..core.errors import SwazureError
 from ..core.evaluate import Progress, evaluate
-from ..core.fit import ESTIMATORS, LOCAL_LEAST_SQUARES, PATH, refine
+from ..core.fit import ESTIMATORS, PATH, refine
 from ..core.fusion import fuse
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.folding import run_technique
@@ -67,9 +67,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=PATH,
         help="how a pair's pose is estimated: the sum of the measured hops along the "
         "policy's path, as the paper does (default); a least-squares fit over every "
-        "measurement of the swarm; or each source's own fit over the measurements it hears "
-        "by radio (local-least-squares); the fits give a covariance per estimate "
-        "(docs/core.md)",
+        "measurement of the swarm; each source's own fit over the measurements it hears "
+        "by radio (local-least-squares); or the first fit as the swarm solves it, by "
+        "messages between measured neighbours (swarm-fit); the fits give a covariance "
+        "per estimate (docs/core.md)",
     )
     parser.add_argument(
         "--out",
@@ -151,7 +152,7 @@ def main(args: argparse.Namespace) -> int:
         if args.estimator != PATH:
             if progress is not None:
                 progress.start(args.estimator, 1)
-            evaluation = refine(evaluation, local=args.estimator == LOCAL_LEAST_SQUARES)
+            evaluation = refine(evaluation, args.estimator)
     finally:
         if isinstance(progress, TqdmProgress):
             progress.close()

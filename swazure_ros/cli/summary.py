@@ -18,6 +18,9 @@ the summary's rows:
   predicted error         the estimates' mean expected error, cm; the share of pairs
                           whose error is within theirs
   NEES                    a fit's normalized estimation error squared (3 is honest)
+  swarm's iterations      swarm-fit: the iterations of its solves, each one message per
+                          FLS to its measured neighbours; the solves: the fit, its
+                          reweightings, and the covariance's samples
   distance error, %       | |estimate| - |truth| | / |truth|: 100 % is an estimate twice
                           as long, or of length zero; a decaying hop can exceed that
   sweet error, %          the distance error of the pairs with a sweet path alone
@@ -27,6 +30,10 @@ the summary's rows:
   phi error, deg          the error of the azimuth atan2(y, x), at most 180: near the z
                           axis a small error of the vector turns the azimuth a lot
 """
+
+
+def _share(value: float) -> str:
+    return "-" if math.isnan(value) else f"{value:.1f}"
 
 
 def cell(value: Any) -> str:
@@ -53,7 +60,7 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
         (
             "predicted error cm; within it",
             f"{cell(summary['predicted_error_cm']['mean'])}; "
-            f"{summary['within_predicted_pct']:.1f} %",
+            f"{_share(summary['within_predicted_pct'])} %",
         ),
     ]
     if "fit" in summary:
@@ -64,6 +71,9 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
             # The published model's error is one bias, not a spread (docs/core.md).
             nees = "- (no noise model)"
         rows.append(("NEES mean; within chi2 95 %", nees))
+        if "iterations" in fit:
+            solves = f"{sum(fit['iterations'])} ({fit['solves']})"
+            rows.append(("swarm's iterations (solves)", solves))
     if "fusion" in summary:
         fusion = summary["fusion"]
         one, fused = fusion["distance_error_pct_one_path"], fusion["distance_error_pct_fused"]

@@ -641,6 +641,8 @@ def summarise(hood: Neighbourhood, policy: str, pairs: PairResults) -> dict[str,
 def _within_predicted_pct(pairs: PairResults) -> float:
     """% of the pairs with a predicted error whose estimate's error (cm) is within it."""
     known = np.isfinite(pairs.predicted_error) & (pairs.status != NO_PATH)
+    if not known.any():
+        return float("nan")
     error = np.linalg.norm(pairs.estimate[known] - pairs.truth[known], axis=1)
     return _pct(int((error <= pairs.predicted_error[known]).sum()), int(known.sum()))
 

@@ -27,6 +27,13 @@ from .draws import standard_normals, uniforms
 from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, PairResults, summarise
 from .frames import through_metres
 from .geometry import tracking_distance
+from .measurement_graph import (
+    CONVERGED_CM,
+    ROBUST_ROUNDS,
+    Measurements,
+    parts_of,
+    robust_weights,
+)
 from .metrics import describe
 from .observe import Observations
 from .paths import Paths, path_hops
@@ -39,48 +46,25 @@ from .sensor import (
     measured_vectors,
     unbiased_vectors,
 )
+from .swarm_fit import swarm_solve
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 #: The estimators of a pair's pose: the paper's sum along the policy's path; the fit over
-#: the whole swarm's measurements; each source's own fit over what it hears by radio.
+#: the whole swarm's measurements; each source's own fit over what it hears by radio; the
+#: same fit as the first, solved by the swarm's messages with measured neighbours only.
 PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES = "path", "least-squares", "local-least-squares"
-ESTIMATORS = (PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES)
+SWARM_FIT = "swarm-fit"
+ESTIMATORS = (PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES, SWARM_FIT)
 #: What a swarm's sources run: a source fits what it hears, never the whole swarm at once.
 SWARM_ESTIMATORS = (PATH, LOCAL_LEAST_SQUARES)
-#: Huber's threshold on a measurement's Mahalanobis residual: the 99th percentile of a
-#: chi distribution with 3 degrees of freedom, so a clean measurement is rarely down-weighted.
-HUBER_THRESHOLD = 3.368
-#: Then, from Huber's solution, a measurement beyond this Mahalanobis residual (the 99.9th
-#: percentile) is rejected: weighed by REJECTED_WEIGHT, so far out of the fit that it
-#: cannot bend it, while an FLS that nothing else measures keeps a position.
-OUTLIER_THRESHOLD = 4.033
-REJECTED_WEIGHT = 1e-6
-#: Reweighting rounds of the robust fit, at most; it stops earlier once no
-#: position moves by more than ``CONVERGED_CM``.
-ROBUST_ROUNDS = 60
-CONVERGED_CM = 1e-3
 #: A round factors its normal matrix anew when more than this share of the weights
 #: differ from those of the last factors; otherwise conjugate gradients, preconditioned
 #: by those factors, solve it in a few steps (a clean run changes a few weights only).
 REFACTOR_SHARE = 0.01
 #: The chi-square bound that 95 % of 3-D errors fall under, when the covariance is right.
 CHI2_95_3DOF = 7.8147
-
-
-@dataclass(frozen=True)
-class Measurements:
-    """M measured hop vectors, each taken by FLS ``first`` of FLS ``second``."""
-
-    first: IntArray  # (M,), the measuring FLS (swarm index)
-    second: IntArray  # (M,), the measured FLS
-    vectors: FloatArray  # (M, 3), cm, first -> second; a stochastic sensor's bias removed
-    covariance: FloatArray  # (M, 3, 3), cm^2
-    information: FloatArray  # (M, 3, 3), cm^-2: the covariance's inverse
-
-    def __len__(self) -> int:
-        return len(self.first)
 
 
 @dataclass(frozen=True)
@@ -228,22 +212,6 @@ def _scatter(size: int, measured: Measurements, flow: FloatArray) -> FloatArray:
     return total.ravel()
 
 
-def _parts(size: int, measured: Measurements) -> IntArray:
-    """Connected part of each FLS in the measurement graph (N,); -1: an FLS in no measurement."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
-    graph = coo_matrix(
-        (np.ones(len(measured)), (measured.first, measured.second)), shape=(size, size)
-    )
-    _, labels = connected_components(graph, directed=False)
-    touched = np.zeros(size, dtype=bool)
-    touched[measured.first] = touched[measured.second] = True
-    _, part = np.unique(np.where(touched, labels, -1), return_inverse=True)
-    part = part.astype(np.int64) - (0 if touched.all() else 1)
-    return np.asarray(part, dtype=np.int64)
-
-
 def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
     """The weighted least-squares positions of ``size`` FLSs from ``measured``; see the module.
 
@@ -258,7 +226,7 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
     preconditioned with the last factors; the final one exactly, by its own.
     The covariance is the inverse of the final normal matrix, per part.
     """
-    part = _parts(size, measured)
+    part = parts_of(size, measured)
     parts = int(part.max()) + 1 if len(part) else 0
     # Each part's FLSs in index order; the first is its anchor, the origin of the gauge.
     order = np.lexsort((np.arange(size), part))
@@ -282,12 +250,7 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
         positions = np.zeros(3 * size)
         positions[free] = solution
         points = positions.reshape(size, 3)
-        residual = points[measured.second] - points[measured.first] - measured.vectors
-        distance = np.sqrt(np.einsum("ma,mab,mb->m", residual, information, residual))
-        if rejecting:
-            updated = np.where(distance <= OUTLIER_THRESHOLD, 1.0, REJECTED_WEIGHT)
-        else:
-            updated = np.minimum(1.0, HUBER_THRESHOLD / np.maximum(distance, 1e-300))
+        updated = robust_weights(measured, points, rejecting)
         if np.array_equal(updated, weights):
             if rejecting:
                 break
@@ -401,6 +364,7 @@ class PairFit:
     measurements: int  # measurements in the fits
     downweighted: int  # of them, those the robust loss weighed below one
     seconds: float
+    iterations: tuple[int, ...] = ()  # the swarm's fit: iterations of each solve
 
 
 def fit_pairs_estimates(
@@ -410,6 +374,7 @@ def fit_pairs_estimates(
     sweet: NDArray[np.bool_],
     robust: bool = True,
     corrupt: Corruption | None = None,
+    swarm: bool = False,
 ) -> PairFit:
     """Least-squares estimates of the pairs (source[m], target[m]); ``sweet`` marks sweet pairs.
 
@@ -419,7 +384,9 @@ def fit_pairs_estimates(
     unknown and alike on every hop) a pair with a sweet path is estimated
     from the sweet hops alone, and only the pairs that need a decaying hop
     from a fit with the joining decaying hops. ``corrupt`` alters the
-    measurements before the fit (a test's or a benchmark's outliers).
+    measurements before the fit (a test's or a benchmark's outliers). With
+    ``swarm``, each fit is solved as the swarm solves it (:mod:`.swarm_fit`):
+    the same estimates, and a covariance sampled by the swarm.
     """
     began = time.perf_counter()
     size = hood.swarm.size
@@ -435,15 +402,22 @@ def fit_pairs_estimates(
     if hood.sensor.noise is None:
         groups = [(sweet, sweet_rows), (~sweet, groups[0][1])]
     used = downweighted = 0
+    iterations: list[int] = []
     for rows, chosen in groups:
         if not rows.any():
             continue
         measured = _select(every, chosen)
-        fit = solve(size, measured, robust)
-        estimate[rows], covariance[rows] = fit.relative(source[rows], target[rows])
+        if swarm:
+            solved = swarm_solve(size, measured, robust)
+            estimate[rows], covariance[rows] = solved.relative(source[rows], target[rows])
+            iterations += solved.iterations
+        else:
+            fit = solve(size, measured, robust)
+            estimate[rows], covariance[rows] = fit.relative(source[rows], target[rows])
         used += len(measured)
-        downweighted += fit.downweighted
-    return PairFit(estimate, covariance, used, downweighted, time.perf_counter() - began)
+        downweighted += solved.downweighted if swarm else fit.downweighted
+    seconds = time.perf_counter() - began
+    return PairFit(estimate, covariance, used, downweighted, seconds, tuple(iterations))
 
 
 @dataclass(frozen=True)
@@ -665,19 +639,23 @@ def local_estimates(
 
 def refine(
     evaluation: Evaluation,
+    estimator: str = LEAST_SQUARES,
     robust: bool = True,
     corrupt: Corruption | None = None,
-    local: bool = False,
 ) -> Evaluation:
-    """``evaluation`` with every estimate from the least-squares fit, and its covariance.
+    """``evaluation`` with every estimate from a least-squares ``estimator``, and its covariance.
 
     Statuses, reasons and the reported paths stay the policy's (which pairs
     a sweet or a decaying hop joins); estimates, errors and predicted errors
     (the square root of the covariance's trace) are the fit's. The summary
     gains ``estimator`` and ``fit``: the measurements, the down-weighted ones,
     the normalized estimation error squared (NEES) and how often it is
-    within the chi-square bound that 95 % of errors fall under.
+    within the chi-square bound that 95 % of errors fall under; the swarm's
+    fit its iterations too.
     """
+    if estimator not in (LEAST_SQUARES, LOCAL_LEAST_SQUARES, SWARM_FIT):
+        raise ValueError(f"{estimator!r} is not a least-squares estimator")
+    local = estimator == LOCAL_LEAST_SQUARES
     pairs = evaluation.pairs
     has_path = pairs.status != NO_PATH
     arguments = (evaluation.hood, pairs.source, pairs.target, pairs.status == SWEET_PATH)
@@ -696,14 +674,15 @@ def refine(
             "path_fallback_pairs": int(beyond.sum()),
         }
     else:
-        result = fit_pairs_estimates(*arguments, robust, corrupt)
+        result = fit_pairs_estimates(*arguments, robust, corrupt, swarm=estimator == SWARM_FIT)
     estimate = np.where(has_path[:, None], result.estimate, np.nan)
     covariance = np.where(has_path[:, None, None], result.covariance, np.nan)
     predicted = np.sqrt(np.trace(covariance, axis1=1, axis2=2))
     updated = pairs.with_estimates(estimate, predicted_error=predicted, covariance=covariance)
+    if estimator == SWARM_FIT:
+        window_facts = {"iterations": list(result.iterations), "solves": len(result.iterations)}
     summary = summarise(evaluation.hood, evaluation.policy, updated)
     summary["seconds"] = (evaluation.summary.get("seconds") or 0.0) + result.seconds
-    estimator = LOCAL_LEAST_SQUARES if local else LEAST_SQUARES
     summary["estimator"] = estimator
     summary["fit"] = {
         **window_facts,

@@ -184,7 +184,9 @@ def test_a_source_hears_its_radio_neighbours_readings_of_each_other():
 
 def test_each_source_s_own_fit_is_exact_on_exact_data_and_honest_on_noisy_data():
     swarm = torus_swarm(0.3, "torus:200")
-    exact_run = refine(evaluate(swarm, Sensor(6.0, 8.0, 8.0, 30.0), "shortest-length"), local=True)
+    exact_run = refine(
+        evaluate(swarm, Sensor(6.0, 8.0, 8.0, 30.0), "shortest-length"), LOCAL_LEAST_SQUARES
+    )
     has_path = exact_run.pairs.status != NO_PATH
     np.testing.assert_allclose(
         exact_run.pairs.estimate[has_path], exact_run.pairs.truth[has_path], atol=1e-7
@@ -192,7 +194,7 @@ def test_each_source_s_own_fit_is_exact_on_exact_data_and_honest_on_noisy_data()
     assert exact_run.summary["estimator"] == LOCAL_LEAST_SQUARES
     assert exact_run.summary["fit"]["window_flss"]["max"] < swarm.size
     plain = evaluate(swarm, stochastic_sensor(mean_error=0.03), "shortest-length")
-    local, whole = refine(plain, local=True), refine(plain)
+    local, whole = refine(plain, LOCAL_LEAST_SQUARES), refine(plain)
     sweet = plain.pairs.status == SWEET_PATH
     # What a source hears is less than the whole swarm measures, and far more than one path.
     assert (
@@ -221,7 +223,7 @@ def test_a_swarm_with_nothing_to_fit_gets_no_estimates_and_no_error():
     fit = solve(3, nothing)
     assert fit.part.tolist() == [-1, -1, -1] and np.isnan(fit.positions).all()
     sparse_swarm = make_swarm(load_cloud("sphere:20").points, beta=0.01)
-    for local in (False, True):
+    for estimator in (LEAST_SQUARES, LOCAL_LEAST_SQUARES):
         plain = evaluate(sparse_swarm, stochastic_sensor(), "shortest-length")
-        fitted = refine(plain, local=local)
+        fitted = refine(plain, estimator)
         assert fitted.summary["fit"]["nees"]["count"] == 0

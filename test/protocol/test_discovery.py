@@ -212,7 +212,7 @@ def test_each_source_s_own_fit_equals_the_engine_s_window_fit(noisy):
     world = WorldSpec("torus:120", scale=1.6, beta=0.3).build()
     sensor = stochastic_sensor(mean_error=0.03) if noisy else world.sensor
     policy = "shortest-length"
-    engine = refine(evaluate(world.swarm, sensor, policy), local=True)
+    engine = refine(evaluate(world.swarm, sensor, policy), LOCAL_LEAST_SQUARES)
     hood = engine.hood
     found, _ = run(hood, policy, estimator=LOCAL_LEAST_SQUARES)
     assert engine.summary["fit"]["path_fallback_pairs"] > 0

@@ -525,7 +525,9 @@ def test_swazure_query_prints_the_path_and_vector(domain, params):
         x, y, z = engine.estimate[pair]
         assert f"vector: ({x:.6f}, {y:.6f}, {z:.6f}) cm" in out, out
         # The source's own fit: its vector and standard deviations, cm.
-        fitted = refine(evaluate(world.swarm, world.sensor, "shortest-length"), local=True)
+        fitted = refine(
+            evaluate(world.swarm, world.sensor, "shortest-length"), LOCAL_LEAST_SQUARES
+        )
         query = swazure("query", "--source", str(source), "--target", str(target),
                         "--estimator", "local-least-squares")  # fmt: skip
         out, err = query.communicate(timeout=120)
@@ -580,7 +582,7 @@ def test_each_source_s_own_fit_by_the_swarm_equals_the_engine(domain, params, co
         built = swarm.world
         policy = "shortest-length"
         result = swarm.discover(policy, timeout=300, estimator=LOCAL_LEAST_SQUARES)
-        engine = refine(evaluate(built.swarm, built.sensor, policy), local=True)
+        engine = refine(evaluate(built.swarm, built.sensor, policy), LOCAL_LEAST_SQUARES)
         assert engine.summary["fit"]["path_fallback_pairs"] > 0
         assert result.departed == frozenset() and result.restarts == 0
         found, pairs, ids = by_pair(result.estimates), engine.pairs, built.ids

@@ -268,7 +268,7 @@ def test_forged_measurements_change_no_fit(domain, authenticate, forger_key, dro
             node.destroy_node()
             context.try_shutdown()
         assert dropped >= 1, swarm.host.guard.dropped
-        engine = refine(evaluate(world.swarm, world.sensor, POLICY), local=True).pairs
+        engine = refine(evaluate(world.swarm, world.sensor, POLICY), LOCAL_LEAST_SQUARES).pairs
         row = int(np.flatnonzero((world.ids[engine.source] == source)
                                  & (world.ids[engine.target] == target))[0])  # fmt: skip
         (answer,) = result.estimates[source]

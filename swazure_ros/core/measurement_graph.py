@@ -1,0 +1,73 @@
+"""The measurement graph a fit solves: measured vectors with their weights, and the robust loss.
+
+The central fit (:mod:`.fit`) and the swarm's own (:mod:`.swarm_fit`) solve
+the same weighted least-squares problem; what they share lives here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: Huber's threshold on a measurement's Mahalanobis residual: the 99th percentile of a
+#: chi distribution with 3 degrees of freedom, so a clean measurement is rarely down-weighted.
+HUBER_THRESHOLD = 3.368
+#: Then, from Huber's solution, a measurement beyond this Mahalanobis residual (the 99.9th
+#: percentile) is rejected: weighed by REJECTED_WEIGHT, so far out of the fit that it
+#: cannot bend it, while an FLS that nothing else measures keeps a position.
+OUTLIER_THRESHOLD = 4.033
+REJECTED_WEIGHT = 1e-6
+#: Reweighting rounds of the robust fit, at most; it stops earlier once no
+#: position moves by more than ``CONVERGED_CM``.
+ROBUST_ROUNDS = 60
+CONVERGED_CM = 1e-3
+
+
+@dataclass(frozen=True)
+class Measurements:
+    """M measured hop vectors, each taken by FLS ``first`` of FLS ``second``."""
+
+    first: IntArray  # (M,), the measuring FLS (swarm index)
+    second: IntArray  # (M,), the measured FLS
+    vectors: FloatArray  # (M, 3), cm, first -> second; a stochastic sensor's bias removed
+    covariance: FloatArray  # (M, 3, 3), cm^2
+    information: FloatArray  # (M, 3, 3), cm^-2: the covariance's inverse
+
+    def __len__(self) -> int:
+        return len(self.first)
+
+
+def parts_of(size: int, measured: Measurements) -> IntArray:
+    """Connected part of each FLS in the measurement graph (N,); -1: an FLS in no measurement."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    graph = coo_matrix(
+        (np.ones(len(measured)), (measured.first, measured.second)), shape=(size, size)
+    )
+    _, labels = connected_components(graph, directed=False)
+    touched = np.zeros(size, dtype=bool)
+    touched[measured.first] = touched[measured.second] = True
+    _, part = np.unique(np.where(touched, labels, -1), return_inverse=True)
+    part = part.astype(np.int64) - (0 if touched.all() else 1)
+    return np.asarray(part, dtype=np.int64)
+
+
+def robust_weights(measured: Measurements, positions: FloatArray, rejecting: bool) -> FloatArray:
+    """The robust loss's weight (M,) of each measurement at ``positions`` (N, 3), cm.
+
+    Huber's loss on the Mahalanobis residual (``HUBER_THRESHOLD``); once
+    ``rejecting``, one or ``REJECTED_WEIGHT`` beyond ``OUTLIER_THRESHOLD``.
+    """
+    residual = positions[measured.second] - positions[measured.first] - measured.vectors
+    distance = np.sqrt(np.einsum("ma,mab,mb->m", residual, measured.information, residual))
+    if rejecting:
+        weights = np.where(distance <= OUTLIER_THRESHOLD, 1.0, REJECTED_WEIGHT)
+    else:
+        weights = np.minimum(1.0, HUBER_THRESHOLD / np.maximum(distance, 1e-300))
+    return np.asarray(weights, dtype=np.float64)

@@ -1,0 +1,115 @@
+"""The swarm's own fit: the central fit's positions from neighbour messages, honest covariances."""
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate, neighbourhood
+from swazure_ros.core.fit import (
+    LEAST_SQUARES,
+    SWARM_FIT,
+    fit_pairs,
+    measurements,
+    refine,
+    solve,
+    with_outliers,
+)
+from swazure_ros.core.neighbours import ordered_blind_pairs
+from swazure_ros.core.swarm_fit import (
+    edges_of,
+    partial_dot,
+    swarm_solve,
+    swarm_sum,
+)
+
+from .test_fit import exact, stochastic_sensor, torus_swarm
+
+
+def test_a_consistent_triangle_is_solved_to_the_central_fit_s_positions():
+    points = np.array([[0.0, 0, 0], [7, 0, 0], [0, 7, 0]])
+    first, second = [0, 1, 2, 1, 0, 2], [1, 2, 0, 0, 2, 1]
+    measured = exact(first, second, points[second] - points[first])
+    swarm = swarm_solve(3, measured)
+    np.testing.assert_allclose(swarm.positions, points, atol=1e-9)
+    np.testing.assert_allclose(swarm.positions, solve(3, measured).positions, atol=1e-9)
+
+
+def test_two_measurements_of_one_vector_average_and_their_samples_give_the_variance():
+    measured = exact([0, 1], [1, 0], [[7.0, 0, 0], [-7.2, 0, 0]], variance=0.5)
+    swarm = swarm_solve(2, measured, samples=4000)
+    estimate, covariance = swarm.relative(np.array([0]), np.array([1]))
+    np.testing.assert_allclose(estimate, [[7.1, 0, 0]], atol=1e-9)
+    # The central fit's covariance is 0.25 I; 4,000 draws find it to a few per cent.
+    np.testing.assert_allclose(covariance[0], np.eye(3) * 0.25, atol=0.02)
+
+
+def test_each_connected_part_has_the_central_fit_s_gauge_and_no_estimate_crosses_parts():
+    # Parts {0, 1} and {2, 3}; FLS 4 is in no measurement.
+    measured = exact([0, 1, 2, 3], [1, 0, 3, 2], [[7.0, 0, 0], [-7, 0, 0], [0, 7, 0], [0, -7, 0]])
+    swarm = swarm_solve(5, measured)
+    assert swarm.part.tolist() == [0, 0, 1, 1, -1]
+    np.testing.assert_allclose(swarm.positions[:4], solve(5, measured).positions[:4], atol=1e-9)
+    assert np.isnan(swarm.positions[4]).all()
+    estimate, covariance = swarm.relative(np.array([0, 0, 2]), np.array([1, 2, 3]))
+    np.testing.assert_allclose(estimate[[0, 2]], [[7, 0, 0], [0, 7, 0]], atol=1e-9)
+    assert np.isnan(estimate[1]).all() and np.isnan(covariance[1]).all()
+
+
+def test_a_pair_measured_from_one_end_only_is_refused():
+    with pytest.raises(ValueError, match="both ends"):
+        edges_of(2, exact([0], [1], [[7.0, 0, 0]]))
+
+
+def test_the_swarm_s_sums_are_the_same_in_any_order():
+    rng = np.random.default_rng(4)
+    one, other = rng.normal(size=(500, 3, 2)) * 1e6, rng.normal(size=(500, 3, 2))
+    shares = partial_dot(one, other)
+    shuffled = shares[rng.permutation(500)]
+    assert swarm_sum(shares).tolist() == swarm_sum(shuffled).tolist()
+
+
+def test_the_swarm_s_fit_of_a_torus_is_the_central_fit_s_and_its_covariance_is_honest():
+    swarm = torus_swarm(0.3, "torus:200")
+    plain = evaluate(swarm, stochastic_sensor(mean_error=0.03), "shortest-length")
+    central, swarm_fit = refine(plain, LEAST_SQUARES), refine(plain, SWARM_FIT)
+    has_path = plain.pairs.status != NO_PATH
+    assert has_path.sum() > 1000
+    np.testing.assert_allclose(
+        swarm_fit.pairs.estimate[has_path], central.pairs.estimate[has_path], atol=1e-6
+    )
+    assert swarm_fit.summary["estimator"] == SWARM_FIT
+    facts = swarm_fit.summary["fit"]
+    assert facts["downweighted"] == central.summary["fit"]["downweighted"]
+    assert facts["solves"] == len(facts["iterations"]) >= 2 and min(facts["iterations"]) >= 1
+    # Its covariance is sampled, not inverted: each pair's within sampling error of the
+    # central one, and a NEES as honest.
+    trace = np.trace(swarm_fit.pairs.covariance[has_path], axis1=1, axis2=2)
+    central_trace = np.trace(central.pairs.covariance[has_path], axis1=1, axis2=2)
+    assert 0.85 <= np.median(trace / central_trace) <= 1.15
+    assert 2.5 <= facts["nees"]["mean"] <= 3.7
+    sweet = plain.pairs.status == SWEET_PATH
+    assert (
+        swarm_fit.pairs.distance_error[sweet].mean()
+        < 0.5 * plain.pairs.distance_error[sweet].mean()
+    )
+
+
+def test_the_swarm_s_robust_fit_rejects_what_the_central_one_rejects():
+    hood = neighbourhood(torus_swarm(0.3), stochastic_sensor())
+    flipped = with_outliers(measurements(hood, fit_pairs(hood)), 0.10, 20.0, seed=1)
+    size = hood.swarm.size
+    central, swarm = solve(size, flipped), swarm_solve(size, flipped, samples=0)
+    assert swarm.downweighted == central.downweighted > 0
+    source, target = ordered_blind_pairs(hood.pairs)
+    estimate, _ = swarm.relative(source, target)
+    central_estimate, _ = central.relative(source, target)
+    np.testing.assert_allclose(estimate, central_estimate, atol=1e-6)
+
+
+def test_a_warm_start_from_the_last_fit_settles_in_fewer_iterations():
+    hood = neighbourhood(torus_swarm(0.3, "torus:200"), stochastic_sensor())
+    measured = measurements(hood, fit_pairs(hood))
+    size = hood.swarm.size
+    cold = swarm_solve(size, measured, robust=False, samples=0)
+    warm = swarm_solve(size, measured, robust=False, samples=0, start=cold.positions)
+    assert warm.iterations[0] < cold.iterations[0] // 2
+    np.testing.assert_allclose(warm.positions, cold.positions, atol=1e-6)
