@@ -72,8 +72,8 @@ def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
             nees = "- (no noise model)"
         rows.append(("NEES mean; within chi2 95 %", nees))
         if "iterations" in fit:
-            solves = f"{sum(fit['iterations'])} ({fit['solves']})"
-            rows.append(("swarm's iterations (solves)", solves))
+            solves = [count for one in fit["iterations"] for count in one]
+            rows.append(("swarm's iterations (solves)", f"{sum(solves)} ({len(solves)})"))
     if "fusion" in summary:
         fusion = summary["fusion"]
         one, fused = fusion["distance_error_pct_one_path"], fusion["distance_error_pct_fused"]

@@ -364,7 +364,9 @@ class PairFit:
     measurements: int  # measurements in the fits
     downweighted: int  # of them, those the robust loss weighed below one
     seconds: float
-    iterations: tuple[int, ...] = ()  # the swarm's fit: iterations of each solve
+    # The swarm's fit: per fit (two under a deterministic sensor), the iterations of each
+    # solve, the covariance's last.
+    iterations: tuple[tuple[int, ...], ...] = ()
 
 
 def fit_pairs_estimates(
@@ -402,7 +404,7 @@ def fit_pairs_estimates(
     if hood.sensor.noise is None:
         groups = [(sweet, sweet_rows), (~sweet, groups[0][1])]
     used = downweighted = 0
-    iterations: list[int] = []
+    iterations: list[tuple[int, ...]] = []
     for rows, chosen in groups:
         if not rows.any():
             continue
@@ -410,7 +412,7 @@ def fit_pairs_estimates(
         if swarm:
             solved = swarm_solve(size, measured, robust)
             estimate[rows], covariance[rows] = solved.relative(source[rows], target[rows])
-            iterations += solved.iterations
+            iterations.append(tuple(solved.iterations))
         else:
             fit = solve(size, measured, robust)
             estimate[rows], covariance[rows] = fit.relative(source[rows], target[rows])
@@ -680,7 +682,7 @@ def refine(
     predicted = np.sqrt(np.trace(covariance, axis1=1, axis2=2))
     updated = pairs.with_estimates(estimate, predicted_error=predicted, covariance=covariance)
     if estimator == SWARM_FIT:
-        window_facts = {"iterations": list(result.iterations), "solves": len(result.iterations)}
+        window_facts = {"iterations": [list(one) for one in result.iterations]}
     summary = summarise(evaluation.hood, evaluation.policy, updated)
     summary["seconds"] = (evaluation.summary.get("seconds") or 0.0) + result.seconds
     summary["estimator"] = estimator

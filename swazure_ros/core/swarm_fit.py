@@ -39,10 +39,12 @@ from .measurement_graph import (
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-#: A solve has settled when no FLS's position moved by more than this in an iteration, cm.
-#: Far below the central fit's 1e-3 cm between reweightings: iterations are cheap, and
-#: a source's answer is the difference of two positions, which must not carry the rest.
-SETTLED_CM = 1e-6
+#: A solve has settled when each column's residual, in the preconditioner's norm, is this
+#: small against its right side's: (r, M r) <= SETTLED^2 (b, M b). Both are sums the
+#: swarm makes anyway. Not a step's size: on the published sensor's ill-conditioned system
+#: (exact directions, weights whose axes differ by 1e6) steps shrink long before the
+#: error does, and a solve stopped at steps of 1e-6 cm was 1e-3 cm off.
+SETTLED = 1e-10
 #: Iterations of one solve, at most (the race car needs a few hundred; docs/core.md).
 MAX_ITERATIONS = 5000
 #: Right sides of the covariance's solve: each a draw of every measurement's noise. The
@@ -228,21 +230,18 @@ def advance(
     gamma: FloatArray,
     alpha: FloatArray,
     beta: FloatArray,
-) -> tuple[Iterate, FloatArray]:
-    """One iteration at every FLS from its U, W and the swarm's scalars; the new iterate and
-    each FLS's step (N,), cm, the largest change of any of its coordinates."""
+) -> Iterate:
+    """One iteration at every FLS from its U, W and the swarm's scalars."""
     search = scaled + beta * iterate.search
     product_image = image + beta * iterate.image
-    step = alpha * search
-    iterate = Iterate(
-        iterate.position + step,
+    return Iterate(
+        iterate.position + alpha * search,
         iterate.residual - alpha * product_image,
         search,
         product_image,
         gamma,
         alpha,
     )
-    return iterate, np.abs(step).max(axis=(1, 2), initial=0.0)
 
 
 def start_iterate(system: System, position: FloatArray) -> Iterate:
@@ -256,16 +255,25 @@ def start_iterate(system: System, position: FloatArray) -> Iterate:
 def solved(
     system: System, position: FloatArray, limit: int = MAX_ITERATIONS
 ) -> tuple[FloatArray, int]:
-    """``H X = B`` by the swarm's iterations from ``position`` (N, 3, K); X and the iterations."""
+    """``H X = B`` by the swarm's iterations from ``position`` (N, 3, K); X and the iterations.
+
+    The first exchange also sums (B, M B), the scale the residuals settle against.
+    """
     iterate = start_iterate(system, position)
+    scale = swarm_sum(partial_dot(system.right, preconditioned(system, system.right)))
     for iteration in range(1, limit + 1):
         scaled, image, partial = shares(system, iterate.residual)
         gamma, delta = swarm_sum(partial[:, 0]), swarm_sum(partial[:, 1])
+        if settled(gamma, scale):
+            return iterate.position, iteration - 1
         alpha, beta = scalars(iterate, gamma, delta)
-        iterate, steps = advance(iterate, scaled, image, gamma, alpha, beta)
-        if steps.max(initial=0.0) <= SETTLED_CM:
-            return iterate.position, iteration
+        iterate = advance(iterate, scaled, image, gamma, alpha, beta)
     return iterate.position, limit
+
+
+def settled(gamma: FloatArray, scale: FloatArray) -> bool:
+    """Whether every column's residual (gamma, K) is small against its right side's (scale)."""
+    return bool((gamma <= SETTLED**2 * scale).all())
 
 
 @dataclass(frozen=True)

@@ -79,7 +79,9 @@ def test_the_swarm_s_fit_of_a_torus_is_the_central_fit_s_and_its_covariance_is_h
     assert swarm_fit.summary["estimator"] == SWARM_FIT
     facts = swarm_fit.summary["fit"]
     assert facts["downweighted"] == central.summary["fit"]["downweighted"]
-    assert facts["solves"] == len(facts["iterations"]) >= 2 and min(facts["iterations"]) >= 1
+    # One fit under a stochastic sensor: its solves, then the covariance's.
+    assert len(facts["iterations"]) == 1 and len(facts["iterations"][0]) >= 2
+    assert min(facts["iterations"][0]) >= 1
     # Its covariance is sampled, not inverted: each pair's within sampling error of the
     # central one, and a NEES as honest.
     trace = np.trace(swarm_fit.pairs.covariance[has_path], axis1=1, axis2=2)
