@@ -124,6 +124,16 @@ def joining(
     return np.asarray(~sweet & (part[first] != part[second]), dtype=np.bool_)
 
 
+def fit_layers(sensor: Sensor) -> tuple[bool, ...]:
+    """The fits a sensor's pairs take, each with or without the joining decaying hops.
+
+    A stochastic sensor: one fit with them, for every pair. A deterministic
+    one (its bias unknown and alike on every hop): the sweet hops alone for
+    the pairs with a sweet path, then a fit with the joining hops for the rest.
+    """
+    return (True,) if sensor.noise is not None else (False, True)
+
+
 def fit_pairs(hood: Neighbourhood, links: bool = True) -> IntArray:
     """Indices into ``hood.pairs`` of the measured pairs a fit uses, ascending.
 
@@ -400,9 +410,10 @@ def fit_pairs_estimates(
     if corrupt is not None:
         every = corrupt(every)
     sweet_rows = np.tile(hood.pairs.range_class[index] == SWEET, 2)
-    groups = [(np.ones(len(source), dtype=bool), np.ones(len(every), dtype=bool))]
-    if hood.sensor.noise is None:
-        groups = [(sweet, sweet_rows), (~sweet, groups[0][1])]
+    rows_of = {False: sweet_rows, True: np.ones(len(every), dtype=bool)}
+    pairs_of = {(True,): [np.ones(len(source), dtype=bool)], (False, True): [sweet, ~sweet]}
+    links = fit_layers(hood.sensor)
+    groups = [(rows, rows_of[layer]) for rows, layer in zip(pairs_of[links], links, strict=True)]
     used = downweighted = 0
     iterations: list[tuple[int, ...]] = []
     for rows, chosen in groups:
@@ -505,9 +516,10 @@ def window_fit(
     links = joining(first, second, is_sweet, size)
     estimate = np.full((len(targets), 3), np.nan)
     covariance = np.full((len(targets), 3, 3), np.nan)
-    groups = [(np.ones(len(targets), dtype=bool), is_sweet | links)]
-    if sensor.noise is None:
-        groups = [(sweet, is_sweet), (~sweet, is_sweet | links)]
+    rows_of = {False: is_sweet, True: is_sweet | links}
+    pairs_of = {(True,): [np.ones(len(targets), dtype=bool)], (False, True): [sweet, ~sweet]}
+    layers = fit_layers(sensor)
+    groups = [(rows, rows_of[layer]) for rows, layer in zip(pairs_of[layers], layers, strict=True)]
     used = 0
     slots = np.array([lookup.get(int(t), -1) for t in targets], dtype=np.int64)
     for rows, chosen in groups:

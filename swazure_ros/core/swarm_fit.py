@@ -304,40 +304,77 @@ class SwarmFit:
         return estimate, covariance
 
 
+#: How a solve weighs the measurements: all alike, by Huber's loss, or rejecting those far out.
+UNIT, HUBER, REJECTING = 0, 1, 2
+
+
+def weights_for(measured: Measurements, positions: FloatArray, mode: int) -> FloatArray:
+    """The weight (M,) of each measurement under ``mode`` at ``positions`` (N, 3), cm."""
+    if mode == UNIT:
+        return np.ones(len(measured))
+    return robust_weights(measured, positions, rejecting=mode == REJECTING)
+
+
+def robust_decision(
+    rejecting: bool, huber_same: bool, rejecting_same: bool, solves: int
+) -> int | None:
+    """The weights of the next solve (HUBER or REJECTING), or None: the fit is done.
+
+    :func:`~.fit.solve`'s schedule: Huber's weights until they repeat, then
+    rejection until the rejected set repeats, at most ``ROBUST_ROUNDS``
+    reweightings. ``*_same``: whether each mode's weights at the last
+    solution equal the weights it was solved with (over the swarm, every FLS's
+    say). The engine and the coordinator both decide here.
+    """
+    if solves > ROBUST_ROUNDS:
+        return None
+    if not rejecting:
+        if not huber_same:
+            return HUBER
+        rejecting = True
+    return None if rejecting_same else REJECTING
+
+
 def swarm_solve(
     size: int,
     measured: Measurements,
     robust: bool = True,
     start: FloatArray | None = None,
     samples: int = COVARIANCE_SAMPLES,
+    ids: IntArray | None = None,
 ) -> SwarmFit:
     """The fit of ``size`` FLSs from ``measured`` by the swarm's iterations; see the module.
 
-    The robust loss follows :func:`~.fit.solve`'s schedule: Huber's weights
-    until they repeat, then rejection beyond ``OUTLIER_THRESHOLD`` until the
-    rejected set repeats, each solve from the last one's positions. ``start``
-    (N, 3), cm: where the first solve starts (a swarm that moved starts from
-    its last fit, a warm start); zero by default. Then one more solve with
-    ``samples`` right sides, each a draw of every measurement's noise at its
-    final weight, whose solutions' spread is the fit's covariance
-    (:func:`noise_flows`).
+    The robust loss follows :func:`robust_decision`, each solve from the last
+    one's positions. ``start`` (N, 3), cm: where the first solve starts (a
+    swarm that moved starts from its last fit, a warm start); zero by
+    default. Then one more solve with ``samples`` right sides, each a draw of
+    every measurement's noise at its final weight, whose solutions' spread is
+    the fit's covariance (:func:`noise_flows`; ``ids`` (N,), the FLS ids its
+    draws are keyed by, the indices by default).
     """
+    ids = np.arange(size, dtype=np.int64) if ids is None else ids
     edges = edges_of(size, measured)
     position = np.zeros((size, 3, 1))
     if start is not None:
         position[:, :, 0] = np.nan_to_num(start)
     position, spent = solved(system_of(edges), position)
     iterations = [spent]
-    weights = np.ones(len(measured))
+    weights = weights_for(measured, position[:, :, 0], UNIT)
     rejecting = False
-    while robust and len(iterations) <= ROBUST_ROUNDS:
-        updated = robust_weights(measured, position[:, :, 0], rejecting)
-        if np.array_equal(updated, weights):
-            if rejecting:
-                break
-            rejecting = True
-            continue
-        weights = updated
+    while robust:
+        at = position[:, :, 0]
+        candidates = {mode: weights_for(measured, at, mode) for mode in (HUBER, REJECTING)}
+        mode = robust_decision(
+            rejecting,
+            np.array_equal(candidates[HUBER], weights),
+            np.array_equal(candidates[REJECTING], weights),
+            len(iterations),
+        )
+        if mode is None:
+            break
+        rejecting = mode == REJECTING
+        weights = candidates[mode]
         before = position
         position, spent = solved(system_of(weighted(edges, measured, weights)), position)
         iterations.append(spent)
@@ -349,25 +386,27 @@ def swarm_solve(
     drawn = np.zeros((size, 3, 0))
     if samples:
         final = weighted(edges, measured, weights)
-        system = system_of(final, noise_flows(final, measured, weights, samples))
+        system = system_of(final, noise_flows(final, measured, weights, samples, ids))
         drawn, spent = solved(system, np.zeros((size, 3, samples)))
         iterations.append(spent)
     return SwarmFit(positions, part, iterations, int((weights < 1.0).sum()), drawn)
 
 
 def noise_flows(
-    edges: Edges, measured: Measurements, weights: FloatArray, samples: int
+    edges: Edges, measured: Measurements, weights: FloatArray, samples: int, ids: IntArray
 ) -> FloatArray:
     """Edge flows (2E, 3, K) of K draws of every measurement's noise, N(0, C_m / w_m).
 
     The fit's solution is linear in the measurements, so the solutions of
     these right sides spread as the fit's errors do: their sample covariance
     estimates H^-1 without forming it. Each measurement's draws are fixed by
-    ``SAMPLE_SEED`` and its two FLS ids, so an FLS draws its neighbour's too.
+    ``SAMPLE_SEED`` and its two FLS ids (``ids`` (N,) of the indices), so an
+    FLS draws its neighbour's too.
     """
     values, axes = np.linalg.eigh(measured.covariance)
     root = np.matmul(axes * np.sqrt(np.maximum(values, 0.0))[:, None, :], np.swapaxes(axes, 1, 2))
-    normals = standard_normals(SAMPLE_SEED, [measured.first, measured.second], 3 * samples)
+    keys = [ids[measured.first], ids[measured.second]]
+    normals = standard_normals(SAMPLE_SEED, keys, 3 * samples)
     noise = np.matmul(root, normals.reshape(-1, 3, samples)) / np.sqrt(weights)[:, None, None]
     information = measured.information[edges.rows] * weights[edges.rows][:, :, None, None]
     return flows(edges, measured, information, noise)
