@@ -58,7 +58,7 @@ PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES = "path", "least-squares", "local-least
 SWARM_FIT = "swarm-fit"
 ESTIMATORS = (PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES, SWARM_FIT)
 #: What a swarm's sources run: a source fits what it hears, never the whole swarm at once.
-SWARM_ESTIMATORS = (PATH, LOCAL_LEAST_SQUARES)
+SWARM_ESTIMATORS = (PATH, LOCAL_LEAST_SQUARES, SWARM_FIT)
 #: A round factors its normal matrix anew when more than this share of the weights
 #: differ from those of the last factors; otherwise conjugate gradients, preconditioned
 #: by those factors, solve it in a few steps (a clean run changes a few weights only).
@@ -417,11 +417,12 @@ def fit_pairs_estimates(
     used = downweighted = 0
     iterations: list[tuple[int, ...]] = []
     for rows, chosen in groups:
-        if not rows.any():
+        # The swarm solves every fit: no FLS knows that no pair of the swarm needs one.
+        if not rows.any() and not swarm:
             continue
         measured = _select(every, chosen)
         if swarm:
-            solved = swarm_solve(size, measured, robust)
+            solved = swarm_solve(size, measured, robust, ids=hood.swarm.cloud_index)
             estimate[rows], covariance[rows] = solved.relative(source[rows], target[rows])
             iterations.append(tuple(solved.iterations))
         else:

@@ -47,6 +47,8 @@ IntArray = NDArray[np.int64]
 SETTLED = 1e-10
 #: Iterations of one solve, at most (the race car needs a few hundred; docs/core.md).
 MAX_ITERATIONS = 5000
+#: Iterations without any column's residual halving after which a solve has stalled.
+STALL_ITERATIONS = 500
 #: Right sides of the covariance's solve: each a draw of every measurement's noise. The
 #: sample covariance of K solutions is the fit's covariance to about sqrt(2 / K); a NEES
 #: taken with it averages 3 K / (K - 4), the inverse of a sample covariance being biased.
@@ -83,7 +85,7 @@ def edges_of(size: int, measured: Measurements) -> Edges:
     high = np.maximum(measured.first, measured.second)
     order = np.lexsort((measured.second, measured.first, high, low))
     key = low[order] * size + high[order]
-    first_of = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    first_of = np.flatnonzero(np.r_[True, key[1:] != key[:-1]]) if len(key) else order
     if (np.diff(np.r_[first_of, len(order)]) != 2).any():
         raise ValueError("every measured pair must be measured from both ends")
     pair_rows = order[first_of[:, None] + np.arange(2)]
@@ -112,7 +114,7 @@ def flows(
 
     ``information`` (2E, 2, 3, 3) holds each edge's two rows' weights.
     """
-    pulled = np.einsum("kmab,kmbc->kmac", information, vectors[edges.rows])
+    pulled = blocks_times(information, vectors[edges.rows])
     # A row measures first -> second; an edge's flow runs sender -> receiver.
     along = np.where(measured.first[edges.rows] == edges.sender[:, None], 1.0, -1.0)
     return np.asarray(
@@ -176,7 +178,23 @@ def product(system: System, vector: FloatArray) -> FloatArray:
 
 def preconditioned(system: System, residual: FloatArray) -> FloatArray:
     """Each FLS's residual (N, 3, K), cm^-1, through its own block's inverse: cm."""
-    return np.asarray(np.einsum("nab,nbc->nac", system.preconditioner, residual), dtype=np.float64)
+    return blocks_times(system.preconditioner, residual)
+
+
+def blocks_times(blocks: FloatArray, vectors: FloatArray) -> FloatArray:
+    """Each 3 x 3 block (..., 3, 3) times its vectors (..., 3, K).
+
+    Written out term by term: numpy's matmul and einsum pick their loops by
+    the size of the stack, so an FLS multiplying its one block and the
+    engine multiplying every FLS's would differ in the last bit, and an
+    ill-conditioned solve would take a different number of iterations.
+    """
+    return np.asarray(
+        blocks[..., :, 0, None] * vectors[..., 0, None, :]
+        + blocks[..., :, 1, None] * vectors[..., 1, None, :]
+        + blocks[..., :, 2, None] * vectors[..., 2, None, :],
+        dtype=np.float64,
+    )
 
 
 def partial_dot(one: FloatArray, other: FloatArray) -> FloatArray:
@@ -257,18 +275,52 @@ def solved(
 ) -> tuple[FloatArray, int]:
     """``H X = B`` by the swarm's iterations from ``position`` (N, 3, K); X and the iterations.
 
-    The first exchange also sums (B, M B), the scale the residuals settle against.
+    The first exchange also sums (B, M B), the scale the residuals settle
+    against. A solve that stalls (:class:`Floor`) ends at its best iterate.
     """
     iterate = start_iterate(system, position)
     scale = swarm_sum(partial_dot(system.right, preconditioned(system, system.right)))
+    floor = Floor.start(position)
     for iteration in range(1, limit + 1):
         scaled, image, partial = shares(system, iterate.residual)
         gamma, delta = swarm_sum(partial[:, 0]), swarm_sum(partial[:, 1])
         if settled(gamma, scale):
             return iterate.position, iteration - 1
+        floor = floor.after(gamma, iterate.position)
+        if floor.stalled:
+            return floor.position, iteration - 1
         alpha, beta = scalars(iterate, gamma, delta)
         iterate = advance(iterate, scaled, image, gamma, alpha, beta)
     return iterate.position, limit
+
+
+@dataclass(frozen=True)
+class Floor:
+    """Each column's lowest residual so far, the position that had it, and the iterations since
+    any column's last halved: a solve whose residual stops falling has reached the floor
+    that rounding puts under an ill-conditioned system (the published sensor's, whose weights'
+    axes differ by up to 1e10), where (r, M r) wanders while the positions no longer move."""
+
+    gamma: FloatArray  # (K,), the lowest (r, M r) of each column
+    position: FloatArray  # (N, 3, K) or one FLS's (1, 3, K), cm, where each column had it
+    since: int = 0
+
+    @classmethod
+    def start(cls, position: FloatArray) -> Floor:
+        return cls(np.full(position.shape[2], np.inf), position.copy())
+
+    @property
+    def stalled(self) -> bool:
+        return self.since >= STALL_ITERATIONS
+
+    def after(self, gamma: FloatArray, position: FloatArray) -> Floor:
+        """The floor once an iteration at ``position`` has had residuals ``gamma`` (K,)."""
+        halved = gamma <= 0.5 * self.gamma
+        if not halved.any():
+            return replace(self, since=self.since + 1)
+        best = self.position.copy()
+        best[:, :, halved] = position[:, :, halved]
+        return Floor(np.where(halved, gamma, self.gamma), best, 0)
 
 
 def settled(gamma: FloatArray, scale: FloatArray) -> bool:
@@ -404,10 +456,12 @@ def noise_flows(
     FLS draws its neighbour's too.
     """
     values, axes = np.linalg.eigh(measured.covariance)
-    root = np.matmul(axes * np.sqrt(np.maximum(values, 0.0))[:, None, :], np.swapaxes(axes, 1, 2))
+    root = blocks_times(
+        axes * np.sqrt(np.maximum(values, 0.0))[:, None, :], np.swapaxes(axes, 1, 2)
+    )
     keys = [ids[measured.first], ids[measured.second]]
     normals = standard_normals(SAMPLE_SEED, keys, 3 * samples)
-    noise = np.matmul(root, normals.reshape(-1, 3, samples)) / np.sqrt(weights)[:, None, None]
+    noise = blocks_times(root, normals.reshape(-1, 3, samples)) / np.sqrt(weights)[:, None, None]
     information = measured.information[edges.rows] * weights[edges.rows][:, :, None, None]
     return flows(edges, measured, information, noise)
 

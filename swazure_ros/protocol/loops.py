@@ -21,7 +21,7 @@ from functools import partial
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.fit import PATH
+from ..core.fit import PATH, fit_layers
 from ..core.frames import through_metres
 from ..core.motion import Motion
 from ..core.observe import Observations, local_view
@@ -68,12 +68,16 @@ def discover(
     sources: Iterable[int] = (),
     targets: Iterable[int] = (),
     estimator: str = PATH,
+    run_id: int = 1,
+    kept: dict[int, Participant] | None = None,
 ) -> Outcome:
     """One discovery run over every FLS of ``seen`` (FLS ids ``ids``), with a perfect radio.
 
     ``stopped`` FLSs never answer: the clock declares them departed when a
     round times out, as it does over ROS. ``sensor`` and ``radius`` (cm) are the swarm's.
     Every FLS that answers has heard every other's readings (a fitting ``estimator``).
+    ``kept``: the FLSs' machines to run (those of an earlier run, which remember
+    it: a warm start), and where this run's are left; new ones by default.
     """
     ids = np.asarray(ids, dtype=np.int64)
     stopped = frozenset(int(fls) for fls in stopped)
@@ -96,13 +100,15 @@ def discover(
         view = partial(local_view, seen, ids, row)
         return Participant(fls_id, view, sensor, radius, id_space, book)
 
-    participants = {
+    participants = kept if kept else {
         int(ids[row]): view_of(row) for row in range(len(ids)) if int(ids[row]) not in stopped
-    }
+    }  # fmt: skip
+    if kept is not None:
+        kept.update(participants)
 
     hub = RadioHub(participants.keys())
     clock = RoundClock(
-        1,
+        run_id,
         policy,
         ids.tolist(),
         1,
@@ -110,6 +116,7 @@ def discover(
         sources=tuple(sources),
         targets=tuple(targets),
         estimator=estimator,
+        fit_layers=fit_layers(sensor),
     )
     controls: deque[Control] = deque(clock.start(0.0))
     while not clock.done:

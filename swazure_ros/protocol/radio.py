@@ -25,9 +25,10 @@ from numpy.typing import NDArray
 
 from ..core.draws import uniforms
 from ..core.errors import MessageError
-from .discovery.messages import END, ROUND, START, Control, Offer, RoundOffers
+from .discovery.messages import END, ROUND, START, Control, FitOffer, Offer, RoundOffers
 from .discovery.participant import RUNS_KEPT
 from .plausible import REASONS
+from .swarm_fit import process_sums
 
 IntArray = NDArray[np.int64]
 
@@ -125,6 +126,11 @@ class Sent:
     pending: tuple[int, ...] = ()  # those that hold labels due in a later round
     finished: tuple[int, ...] = ()  # those whose search, as a source, has ended
     bytes: int = 0  # the size of their offers on the wire, summed
+    # The FIT phase (protocol.swarm_fit): their shares of the swarm's sums, summed exactly
+    # per column; the largest move; whether Huber's and the rejecting weights stayed.
+    fit_sums: tuple[float, ...] = ()
+    fit_moved: float = 0.0
+    fit_same: tuple[bool, bool] = (True, True)
 
 
 @dataclass(frozen=True)
@@ -178,6 +184,8 @@ class RadioHub:
         # (run, round) -> what the local FLSs broadcast: sender -> (labels, pending,
         # finished, bytes)
         self._sent: dict[tuple[int, int], dict[int, tuple[int, bool, bool, int]]] = {}
+        # (run, round) -> what the local FLSs said to the coordinator in the FIT phase.
+        self._fit_sent: dict[tuple[int, int], dict[int, FitOffer]] = {}
         self._heard: dict[tuple[int, int], int] = {}
         self._senders: dict[tuple[int, int], Counter[int]] = {}
         #: run -> (round, command) of its last control, for the newest CONTROLS_KEPT runs.
@@ -196,6 +204,7 @@ class RadioHub:
         self._senders.clear()
         self._offers.clear()
         self._sent.clear()
+        self._fit_sent.clear()
         self._early.clear()
 
     def departed(self, run_id: int) -> frozenset[int]:
@@ -282,6 +291,8 @@ class RadioHub:
         """
         sent = self._sent.setdefault((run_id, round_), {})
         sent.setdefault(sender, (len(offer), bool(offer.pending), bool(offer.finished), size))
+        if offer.fit is not None:
+            self._fit_sent.setdefault((run_id, round_), {}).setdefault(sender, offer.fit)
 
     def take_sent(self, run_id: int, round_: int) -> Sent:
         """What the local FLSs broadcast in round ``round_``, for the coordinator's tally.
@@ -292,12 +303,17 @@ class RadioHub:
         """
         sent = self._sent.pop((run_id, round_), {})
         senders = tuple(sorted(sent))
+        fits = self._fit_sent.pop((run_id, round_), {})
+        said = [fits[sender] for sender in senders if sender in fits]
         return Sent(
             senders,
             sum(sent[sender][0] for sender in senders),
             tuple(sender for sender in senders if sent[sender][1]),
             tuple(sender for sender in senders if sent[sender][2]),
             sum(sent[sender][3] for sender in senders),
+            process_sums([one.partials for one in said if len(one.partials)]),
+            max((one.moved for one in said), default=0.0),
+            (all(one.same[0] for one in said), all(one.same[1] for one in said)),
         )
 
     def _implausible(
@@ -415,5 +431,6 @@ class RadioHub:
         self._senders = {key: n for key, n in self._senders.items() if key[0] != run_id}
         self._offers = {key: o for key, o in self._offers.items() if key[0] != run_id}
         self._sent = {key: o for key, o in self._sent.items() if key[0] != run_id}
+        self._fit_sent = {key: o for key, o in self._fit_sent.items() if key[0] != run_id}
         if rounds:
             self._rounds = {key: c for key, c in self._rounds.items() if key[0] != run_id}

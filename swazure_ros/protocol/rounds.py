@@ -19,10 +19,11 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from ..core.fit import PATH
+from ..core.fit import PATH, SWARM_FIT
 from .discovery.estimate import Estimate
-from .discovery.messages import END, PHASES, ROUND, START, Control
+from .discovery.messages import END, FIT, PHASES, ROUND, START, Control, FitStep
 from .radio import Sent
+from .swarm_fit import FitSchedule, FitTally
 
 #: Phases of one run a lossy radio may spoil (and restart) before the run ends incomplete.
 MAX_LOSS_RESTARTS = 10
@@ -40,6 +41,7 @@ class RoundTally:
     finished: set[int] = field(default_factory=set)
     acks: set[str] = field(default_factory=set)
     lost: int = 0  # deliveries lost for good, as the processes acknowledged
+    fit: FitTally = field(default_factory=FitTally)  # the FIT phase's sums and say
 
     def hear(self, sender: int, labels: int, pending: bool, finished: bool) -> None:
         """Count one FLS's broadcast of this round."""
@@ -133,6 +135,8 @@ class Outcome:
     warnings: tuple[str, ...] = ()
     repairs: int = 0  # a lossy radio's repair requests and resends
     incomplete: bool = False  # deliveries kept being lost; the estimates are left out
+    # A swarm-fit run: per fit, the iterations of each solve, the covariance's last.
+    fit_iterations: tuple[tuple[int, ...], ...] = ()
 
 
 class RoundClock:
@@ -141,7 +145,9 @@ class RoundClock:
     ``departed`` FLSs are gone from the start; ``sources`` (with ``targets``,
     one per source) restrict the run to those pairs, else every FLS searches
     for every blind neighbour. ``estimator``: how sources make their
-    estimates (``core.fit.SWARM_ESTIMATORS``).
+    estimates (``core.fit.SWARM_ESTIMATORS``); a swarm-fit run solves its
+    ``fit_layers`` (``core.fit.fit_layers`` of the swarm's sensor) in the FIT
+    phase after discovery's.
     """
 
     def __init__(
@@ -156,6 +162,7 @@ class RoundClock:
         sources: Iterable[int] = (),
         targets: Iterable[int] = (),
         estimator: str = PATH,
+        fit_layers: tuple[bool, ...] = (True,),
     ) -> None:
         self.run_id = run_id
         self.policy = policy
@@ -173,7 +180,9 @@ class RoundClock:
         self.restarts = 0
         self.warnings: list[str] = []
         self.outcome: Outcome | None = None
-        self._phase = 0  # index into PHASES; len(PHASES) while collecting estimates
+        self._phases = PHASES + ((FIT,) if estimator == SWARM_FIT else ())
+        self._fit = FitSchedule(fit_layers) if estimator == SWARM_FIT else None
+        self._phase = 0  # index into _phases; len(_phases) while collecting estimates
         self._tally: RoundTally | None = None
         self._finished: set[int] = set()
         self._collecting: frozenset[int] = frozenset()
@@ -215,6 +224,7 @@ class RoundClock:
             tally.hear(sender, 0, sender in pending, sender in finished)
         if new:
             tally.labels += sent.labels
+            tally.fit.add(sent.fit_sums, sent.fit_moved, sent.fit_same)
         self._deadline = now + self.round_timeout
         return self._close_round(now, timed_out=False) if tally.complete else []
 
@@ -282,7 +292,8 @@ class RoundClock:
 
     def _control(self, command: int, now: float, **fields: object) -> Control:
         self._deadline = now + self.round_timeout
-        phase = PHASES[self._phase] if self._phase < len(PHASES) else 0
+        phase = self._phases[self._phase] if self._phase < len(self._phases) else 0
+        fit = self._fit.step if phase == FIT and self._fit is not None else FitStep()
         return Control(
             self.run_id,
             command,
@@ -292,11 +303,14 @@ class RoundClock:
             len(self.live),
             departed_ids=tuple(sorted(self.departed)),
             estimator=self.estimator,
+            fit=fit,
             **fields,  # type: ignore[arg-type]
         )
 
     def _start_phase(self, now: float) -> list[Control]:
         self._finished = set()
+        if self._fit is not None and self._phases[self._phase] == FIT:
+            self._fit.first()
         start = self._control(START, now, source_ids=self.sources, target_ids=self.targets)
         return [start, self._open_round(now, finished=())]
 
@@ -314,7 +328,7 @@ class RoundClock:
             self.restarts += 1
             self.warnings.append(
                 f"run {self.run_id}: FLS {sorted(tally.silent)} silent for "
-                f"{self.round_timeout:g} s, departed; phase {PHASES[self._phase]} restarts"
+                f"{self.round_timeout:g} s, departed; phase {self._phases[self._phase]} restarts"
             )
             return self._start_phase(now)
         # A process that never acknowledged may have missed offers (a radio that had
@@ -341,15 +355,18 @@ class RoundClock:
             )
             self.warnings.append(
                 f"run {self.run_id}: {what} in round {self.round - 1}; "
-                f"phase {PHASES[self._phase]} restarts"
+                f"phase {self._phases[self._phase]} restarts"
             )
             return self._start_phase(now)
         newly = tuple(sorted(tally.finished - self._finished))
         self._finished |= tally.finished
-        if not tally.quiet:
+        if self._fit is not None and self._phases[self._phase] == FIT:
+            if self._fit.after(tally.fit, tally.quiet) is not None:
+                return [self._open_round(now, newly)]
+        elif not tally.quiet:
             return [self._open_round(now, newly)]
         self._phase += 1
-        if self._phase < len(PHASES):
+        if self._phase < len(self._phases):
             return self._start_phase(now)
         live = self.live
         self._collecting = frozenset(self.sources) & live if self.sources else live
@@ -369,4 +386,5 @@ class RoundClock:
             tuple(self.warnings),
             self.repairs,
             self.incomplete,
+            tuple(tuple(one) for one in self._fit.iterations) if self._fit is not None else (),
         )

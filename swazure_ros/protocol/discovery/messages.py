@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from ...core import csr, jit
 from ...core.fit import PATH
 from ...core.paths import FEWEST_HOPS
+from ...core.swarm_fit import UNIT
 from .estimate import Estimate
 
 FloatArray = NDArray[np.float64]
@@ -35,8 +36,46 @@ PHASES = (SWEET_VISIBLE, SWEET_ALL, ANY_VISIBLE)
 PHASE_NAMES = ("S_vis", "S_all", "SD_vis")
 
 
+#: After discovery's phases, a run of the swarm's fit solves it (protocol.swarm_fit).
+FIT = 3
+
+
 # The coordinator's commands; the values equal DiscoveryControl's COMMAND_*.
 START, ROUND, END = 0, 1, 2
+
+# Stages of the FIT phase; the values equal swazure_interfaces/DiscoveryControl's FIT_*.
+LABELS, POSITIONS, WEIGH, RESIDUAL, SUMS, STEP, SHARE = range(7)
+STAGE_NAMES = ("labels", "positions", "weigh", "residual", "sums", "step", "share")
+#: The mode of a RESIDUAL that starts the covariance's solve, beside core.swarm_fit's
+#: UNIT, HUBER and REJECTING weights.
+SAMPLES = 3
+#: How a solve ended, told in the round after it (FitStep.ended).
+SETTLED, STALLED = 1, 2
+
+
+@dataclass(frozen=True)
+class FitStep:
+    """What a control of the FIT phase tells the FLSs: the stage, the fit, how, the sums."""
+
+    stage: int = LABELS
+    layer: int = 0  # which of core.fit.fit_layers
+    mode: int = UNIT  # RESIDUAL: the weights (UNIT, HUBER, REJECTING) or SAMPLES
+    sums: tuple[float, ...] = ()  # STEP: the swarm's sums, (r, u) then (H u, u), per column
+    ended: int = 0  # the round after a solve: SETTLED, or STALLED (each FLS takes its best)
+
+
+@dataclass(frozen=True)
+class FitOffer:
+    """One FLS's say in a round of the FIT phase: to its neighbours, and to the coordinator."""
+
+    label: int = -1  # LABELS: the smallest id of its sweet part heard of
+    values: FloatArray = field(default_factory=lambda: np.zeros(0))  # the stage's vector, flat
+    partials: FloatArray = field(default_factory=lambda: np.zeros(0))  # its shares (P,)
+    moved: float = 0.0  # WEIGH: cm over the last solve
+    same: tuple[bool, bool] = (True, True)  # WEIGH: Huber's, the rejecting weights unchanged
+    changed: bool = False  # LABELS: its label changed
+    # LABELS, its first round: its readings of the FLSs it measures, ids (R,) and cm (R, 3).
+    readings: tuple[IntArray, FloatArray] | None = None
 
 
 @dataclass
@@ -60,6 +99,8 @@ class Offer:
     # sender's readings of its neighbours: each hop sender -> receiver is the sender's.
     reading_ids: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))  # (K,)
     reading_vectors: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))  # (K, 3), cm
+    # A round of the FIT phase: what the sender says to its neighbours and the coordinator.
+    fit: FitOffer | None = None
 
     def __len__(self) -> int:
         return len(self.source_ids)
@@ -95,6 +136,10 @@ class RoundOffers:
     read_ids: IntArray  # (R,), the FLS read
     read_by: IntArray  # (R,), the sender that read it
     read_vectors: FloatArray  # (R, 3), cm, read_by -> read_ids
+    # The FIT phase's offers, one per sender of ``senders``: its label (-1: none) and vector.
+    fit_labels: IntArray  # (S,)
+    fit_offsets: IntArray  # (S + 1,)
+    fit_values: FloatArray  # flat
 
     @classmethod
     def of(cls, heard: Sequence[tuple[int, Offer]]) -> RoundOffers:
@@ -138,7 +183,22 @@ class RoundOffers:
             unbiased=carried("unbiased", (3,)),
             covariances=carried("covariances", (3, 3)),
             **_readings_table(heard),
+            **_fit_table([offers[index] for index in first.tolist()]),
         )
+
+    def fit_of(self, wanted: IntArray) -> tuple[IntArray, IntArray, FloatArray]:
+        """The FIT phase's offers of ``wanted`` (W,) sorted ids: labels (W,), -1 where none;
+        offsets (W + 1,) into the vectors, flat."""
+        rows = sender_rows(np.asarray(wanted, dtype=np.int64), self.senders)
+        found = rows >= 0
+        labels = np.full(len(rows), -1, dtype=np.int64)
+        labels[found] = self.fit_labels[rows[found]]
+        low = np.zeros(len(rows), dtype=np.int64)
+        high = np.zeros(len(rows), dtype=np.int64)
+        low[found] = self.fit_offsets[rows[found]]
+        high[found] = self.fit_offsets[rows[found] + 1]
+        values = self.fit_values[csr.ragged_indices(low, high - low)]
+        return labels, csr.offsets(high - low), values
 
     def readings_of(self, fls: int) -> tuple[IntArray, FloatArray]:
         """The senders that read FLS ``fls`` (sorted) and their readings of it (cm)."""
@@ -171,6 +231,16 @@ class RoundOffers:
         return [tuple(ids[low:high]) for low, high in itertools.pairwise(bounds)]
 
 
+def _fit_table(offers: Sequence[Offer]) -> dict[str, NDArray[Any]]:
+    """The FIT phase's part of ``offers`` (one per sender, in sender order)."""
+    fits = [offer.fit for offer in offers]
+    labels = np.array([-1 if fit is None else fit.label for fit in fits], dtype=np.int64)
+    values = [np.zeros(0) if fit is None else fit.values for fit in fits]
+    counts = np.array([len(value) for value in values], dtype=np.int64)
+    flat = np.concatenate(values) if values else np.zeros(0)
+    return {"fit_labels": labels, "fit_offsets": csr.offsets(counts), "fit_values": flat}
+
+
 def _readings_table(heard: Sequence[tuple[int, Offer]]) -> dict[str, NDArray[Any]]:
     """The readings of the offers ``heard`` as RoundOffers holds them."""
     counts = [len(offer.reading_ids) for _, offer in heard]
@@ -199,6 +269,7 @@ class Control:
     finished_ids: tuple[int, ...] = ()  # ROUND: sources whose search ended since the last round
     departed_ids: tuple[int, ...] = ()  # FLSs declared gone: nobody relays through them
     estimator: str = PATH  # START: one of core.fit.SWARM_ESTIMATORS
+    fit: FitStep = field(default_factory=lambda: FitStep())  # the FIT phase's ROUND
 
 
 @dataclass(frozen=True)

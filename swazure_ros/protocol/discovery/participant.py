@@ -21,23 +21,27 @@ from ...core.evaluate import (
     REASON_COORDINATOR_LOST,
     SWEET_PATH,
 )
-from ...core.fit import LOCAL_LEAST_SQUARES, PATH, Heard, window_fit
+from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, Heard, fit_layers, window_fit
 from ...core.observe import LocalView
 from ...core.sensor import (
     Sensor,
     hop_error,
 )
 from ..readings import ReadingsBook
+from ..swarm_fit import FitPart
 from .estimate import Estimate, Estimates, Results, estimates_of
 from .messages import (
     ANY_VISIBLE,
     END,
+    FIT,
     PHASES,
     ROUND,
     START,
     SWEET_VISIBLE,
     Broadcast,
     Control,
+    FitOffer,
+    Offer,
     Report,
     RoundOffers,
 )
@@ -71,13 +75,16 @@ class FlsRun:
         fit: tuple[Sensor, float] | None = None,
         both_ends: bool = False,
         sources: tuple[int, int] | None = None,
+        estimator: str | None = None,
     ) -> None:
         self.view = view
         self.sources = sources
         self.hop_errors = hop_errors
         self.fit = fit
         self.both_ends = both_ends
-        self.estimator = PATH if fit is None else LOCAL_LEAST_SQUARES
+        self.estimator = estimator or (PATH if fit is None else LOCAL_LEAST_SQUARES)
+        # The swarm's fit (a run whose estimator is swarm-fit), from its FIT phase on.
+        self.fit_part: FitPart | None = None
         self.policy = policy
         self.width = width
         self.id_space = id_space
@@ -85,6 +92,63 @@ class FlsRun:
         self.results: dict[int, Results] = {phase: Results() for phase in PHASES}
         self.search: PathSearch | None = None
         self.departed: frozenset[int] = frozenset()
+
+    def start_fit(
+        self, sensor: Sensor, radius: float, departed: frozenset[int], warm: Sequence[FloatArray]
+    ) -> FitPart:
+        """Begin (or restart) the FIT phase, from ``warm`` positions (per fit) if any."""
+        self.departed = departed
+        self.search = None
+        before = self.fit_part
+        if before is not None:  # a restart: from where the solves had come
+            warm = [layer.position[:, 0] for layer in before.layers if layer is not None]
+        self.fit_part = FitPart(self.view, sensor, radius, departed, warm or None)
+        return self.fit_part
+
+    def swarm_fitted(self, sensor: Sensor, heard: RoundOffers | None) -> Estimates:
+        """The estimates with each pair's vector from the swarm's fit (its SHARE round).
+
+        As the engine's ``--estimator swarm-fit`` makes them: the target's
+        settled position less this source's, and the covariance of the
+        difference of their samples; under a deterministic sensor a pair
+        with a sweet path from the fit of the sweet hops alone. A target
+        whose share was not heard keeps its path.
+        """
+        estimates = list(self.estimates(sensor))
+        part = self.fit_part
+        if part is None or heard is None:
+            return Estimates.of(estimates)
+        targets = np.array(sorted(one.target for one in estimates), dtype=np.int64)
+        _, offsets, values = heard.fit_of(targets)
+        shares = {
+            int(target): values[low:high]
+            for target, low, high in zip(targets, offsets[:-1], offsets[1:], strict=True)
+            if high > low
+        }
+        own = part.shared()
+        layers = len(fit_layers(sensor))
+        out = []
+        for one in estimates:
+            share = shares.get(one.target)
+            if one.status not in (SWEET_PATH, DECAYING_PATH) or share is None:
+                out.append(one)
+                continue
+            layer = 0 if layers == 1 or one.status == SWEET_PATH else 1
+            position, samples = _shared_at(share, layer, layers)
+            own_position, own_samples = _shared_at(own, layer, layers)
+            spread = (samples - own_samples)[None]
+            count = spread.shape[2]
+            covariance = (np.matmul(spread, np.swapaxes(spread, 1, 2)) / max(count, 1))[0]
+            out.append(
+                replace(
+                    one,
+                    vector=position - own_position,
+                    covariance=covariance,
+                    predicted_error=float(np.sqrt(np.trace(covariance))),
+                    estimator=SWARM_FIT,
+                )
+            )
+        return Estimates.of(out)
 
     def start(self, phase: int, departed: frozenset[int]) -> PathSearch:
         """Begin (or restart) ``phase``; its earlier results are dropped."""
@@ -182,6 +246,8 @@ class Participant:
         self.waiting: dict[int, FlsRun] = {}
         # Rounds count on across phases and restarts; buckets count from the phase's start.
         self._first_round: dict[int, int] = {}
+        # Per fit, this FLS's position from the last run of the swarm's fit (a warm start).
+        self.fit_positions: list[FloatArray] = []
 
     def on_control(
         self, control: Control, heard: RoundOffers | None = None
@@ -201,11 +267,20 @@ class Participant:
                     del self.runs[oldest]
                     self._first_round.pop(oldest, None)
                 run = self.runs[run_id] = self._new_run(control)
-            run.start(control.phase, frozenset(control.departed_ids))
+            departed = frozenset(control.departed_ids)
+            if control.phase == FIT:
+                run.start_fit(self.sensor, self.radius, departed, self.fit_positions)
+            else:
+                run.start(control.phase, departed)
             self._first_round[run_id] = control.round
             return None
         if control.command == ROUND:
             run = self.runs.get(run_id)
+            if run is not None and control.phase == FIT and run.fit_part is not None:
+                said = run.fit_part.on_round(control.fit, heard)
+                return Broadcast(
+                    run_id, control.phase, control.round, self.fls_id, fit_offer(said)
+                )
             if run is None or run.search is None:
                 return None
             if heard is not None:
@@ -218,7 +293,14 @@ class Participant:
             self._first_round.pop(run_id, None)
             if run is not None and run.search is not None and heard is not None:
                 run.search.hear(heard)
+            if run is not None and run.fit_part is not None:
+                # The next run starts its solves from this one's positions.
+                self.fit_positions = [
+                    layer.position[:, 0] for layer in run.fit_part.layers if layer is not None
+                ]
             if run is not None and run.targets is not None:
+                if run.estimator == SWARM_FIT:
+                    return Report(run_id, self.fls_id, run.swarm_fitted(self.sensor, heard))
                 if run.estimator == PATH:
                     return Report(run_id, self.fls_id, run.estimates(self.sensor))
                 if self.readings.has(radio_window(run.view)):
@@ -291,6 +373,7 @@ class Participant:
             fit,
             both_ends,
             source_range(control.source_ids, self.id_space),
+            control.estimator,
         )
 
 
@@ -303,3 +386,29 @@ def source_range(source_ids: Sequence[int], id_space: int) -> tuple[int, int]:
     if not source_ids:
         return 0, id_space
     return max(min(source_ids), 0), min(max(source_ids) + 1, id_space)
+
+
+def fit_offer(said: FitOffer) -> Offer:
+    """The offer of a round of the FIT phase: no label; its readings in its first."""
+    ids, vectors = said.readings or (np.zeros(0, dtype=np.int64), np.zeros((0, 3)))
+    no_label = np.zeros(0, dtype=np.int64)
+    return Offer(
+        no_label,
+        no_label,
+        np.zeros(0),
+        np.zeros(0),
+        np.zeros((0, 3)),
+        np.zeros(1, dtype=np.int64),
+        no_label,
+        pending=said.changed,
+        reading_ids=ids,
+        reading_vectors=vectors,
+        fit=said,
+    )
+
+
+def _shared_at(values: FloatArray, layer: int, layers: int) -> tuple[FloatArray, FloatArray]:
+    """Fit ``layer``'s position (3,) and samples (3, K) in an FLS's SHARE (of ``layers`` fits)."""
+    per_layer = len(values) // layers
+    piece = values[layer * per_layer : (layer + 1) * per_layer]
+    return piece[:3], piece[3:].reshape(3, -1)

@@ -17,8 +17,6 @@ the label whose sender has the smallest FLS id: the predecessor rule of
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 from numpy.typing import NDArray
 
@@ -324,6 +322,7 @@ class PathSearch:
         due = labelled[self._buckets(labelled) <= round_]
         self.sent[due] = True
         path_offsets, path_ids = self._paths_of(due)
+        reading_ids, reading_vectors = self._first_readings()
         return Offer(
             source_ids=due.astype(np.int64) + self.first_source,
             hops=self.hops[due].astype(np.int64),
@@ -336,16 +335,17 @@ class PathSearch:
             finished=self.finished,
             unbiased=self.unbiased[due] if self.fits else None,
             covariances=self.covariance[due] if self.fits else None,
-            **self._first_readings(),
+            reading_ids=reading_ids,
+            reading_vectors=reading_vectors,
         )
 
-    def _first_readings(self) -> dict[str, NDArray[Any]]:
-        """This FLS's readings, for its first offer of the phase only."""
+    def _first_readings(self) -> tuple[IntArray, FloatArray]:
+        """This FLS's readings, for its first offer of the phase only; none after."""
         if self._readings is None:
-            return {}
+            return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
         ids, vectors = self._readings
         self._readings = None
-        return {"reading_ids": ids, "reading_vectors": vectors}
+        return ids, vectors
 
     def _paths_of(self, slots: IntArray) -> tuple[IntArray, IntArray]:
         """The paths of the labels in ``slots``, as (offsets (L + 1,), ids), FLS ids."""

@@ -341,8 +341,11 @@ def control_from_message(message: DiscoveryControl, swarm: IntArray) -> Control:
         policy=POLICY_NAMES[message.policy],
         round=int(message.round),
         expected=int(message.expected),
+        source_ids=lists["source_ids"],
+        target_ids=lists["target_ids"],
+        finished_ids=lists["finished_ids"],
+        departed_ids=lists["departed_ids"],
         estimator=ESTIMATOR_NAMES[message.estimator],
-        **lists,
     )
 
 

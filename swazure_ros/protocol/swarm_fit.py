@@ -1,0 +1,486 @@
+"""The swarm's own least-squares fit as rounds of a discovery run (docs/protocol.md).
+
+A run whose estimator is ``swarm-fit`` goes on after discovery's phases with
+the FIT phase: the solves of :mod:`~swazure_ros.core.swarm_fit`, round by
+round. Each round every FLS sends one offer, heard by the FLSs it measures;
+besides, each process tells the coordinator its FLSs' shares of the swarm's
+sums (:class:`FitTally`), and the coordinator's next control carries the
+sums back. :class:`FitSchedule` is the coordinator's part (which stage comes
+next), :class:`FitPart` one FLS's. Their arithmetic is the engine's
+(``core.swarm_fit``), so a run gives the engine's estimates.
+
+Stages, each one round:
+
+- LABELS: each FLS passes on the smallest id of its sweet part that it has
+  heard of, until none changes (the parts decide which decaying hops join
+  the fit; ``core.fit.joining``); the first round also carries its readings
+  of the FLSs it measures, so that both ends of a pair hold both rows.
+- POSITIONS: each FLS sends its position (before a solve, and after one,
+  for the robust loss).
+- WEIGH: each FLS weighs its pairs' rows at its neighbours' positions and
+  says whether Huber's and the rejecting weights changed, and how far it moved.
+- RESIDUAL: each FLS sets its weights (or draws the covariance's right
+  sides), forms its residual and sends its preconditioned residual u.
+- SUMS: each FLS forms its row of H u and its shares of (r, u) and (H u, u).
+- STEP: with the swarm's sums, each FLS takes one step of conjugate
+  gradients and sends its next u. SUMS and STEP alternate until the sums
+  say the solve has settled.
+- SHARE: each FLS sends its settled position and samples of every fit, for
+  its radio neighbours that are sources.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.fit import fit_layers
+from ..core.measurement_graph import CONVERGED_CM, Measurements
+from ..core.observe import LocalView
+from ..core.sensor import DECAYING, SWEET, Sensor, hop_covariance, unbiased_vectors
+from ..core.swarm_fit import (
+    COVARIANCE_SAMPLES,
+    HUBER,
+    REJECTING,
+    UNIT,
+    Floor,
+    Iterate,
+    System,
+    advance,
+    blocks_times,
+    edges_of,
+    noise_flows,
+    partial_dot,
+    robust_decision,
+    scalars,
+    settled,
+    system_of,
+    weighted,
+    weights_for,
+)
+from .discovery.messages import (
+    LABELS,
+    POSITIONS,
+    RESIDUAL,
+    SAMPLES,
+    SETTLED,
+    SHARE,
+    STALLED,
+    STEP,
+    SUMS,
+    WEIGH,
+    FitOffer,
+    FitStep,
+    RoundOffers,
+)
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+@dataclass
+class FitTally:
+    """What a round's FLSs told the coordinator: shares of the sums, the robust loss's say."""
+
+    sums: list[tuple[float, ...]] = field(default_factory=list)  # per process, per column
+    moved: float = 0.0  # cm, the largest move of any FLS over the last solve
+    huber_same: bool = True
+    rejecting_same: bool = True
+
+    def add(self, sums: Sequence[float], moved: float, same: tuple[bool, bool]) -> None:
+        """Count one process's report."""
+        if sums:
+            self.sums.append(tuple(sums))
+        self.moved = max(self.moved, moved)
+        self.huber_same &= same[0]
+        self.rejecting_same &= same[1]
+
+    def totals(self) -> FloatArray:
+        """The swarm's sums, each exact over the processes' (:func:`math.fsum`)."""
+        if not self.sums:
+            return np.zeros(0)
+        return np.array([math.fsum(column) for column in zip(*self.sums, strict=True)])
+
+
+def process_sums(partials: Sequence[FloatArray]) -> tuple[float, ...]:
+    """One process's sums of its FLSs' shares (each (P,)), exact per column."""
+    if not partials:
+        return ()
+    stacked = np.stack(partials)
+    return tuple(math.fsum(column) for column in stacked.T.tolist())
+
+
+class FitSchedule:
+    """The coordinator's part of the FIT phase: which stage follows which, from the sums.
+
+    As :func:`~swazure_ros.core.swarm_fit.swarm_solve` goes, per fit of
+    ``layers`` (``core.fit.fit_layers``): a solve with unit weights, the
+    robust loss's reweighted solves (:func:`~swazure_ros.core.swarm_fit.robust_decision`),
+    then the covariance's solve with ``samples`` right sides; SHARE last.
+    """
+
+    def __init__(self, layers: tuple[bool, ...], samples: int = COVARIANCE_SAMPLES) -> None:
+        self.layers = layers
+        self.samples = samples
+        self.step = FitStep()
+        self.iterations: list[list[int]] = [[] for _ in layers]
+        self._scale = np.zeros(0)
+        self._floor = Floor.start(np.zeros((1, 1, 0)))
+        self._solving = UNIT  # the mode of the solve under way
+        self._rejecting = False
+        self._after_solve = False  # the next POSITIONS is followed by WEIGH
+
+    @property
+    def done(self) -> bool:
+        return self.step.stage == SHARE
+
+    def first(self) -> FitStep:
+        """The phase's first round (again, after a restart: the positions stay the FLSs')."""
+        self.step = FitStep()
+        self.iterations = [[] for _ in self.layers]
+        self._rejecting = self._after_solve = False
+        return self.step
+
+    def after(self, tally: FitTally, quiet: bool) -> FitStep | None:
+        """The next round's step once a round has closed; None: the phase is over.
+
+        ``quiet``: no FLS's label changed (the LABELS rounds' end).
+        """
+        step, layer = self.step, self.step.layer
+        if step.stage == SHARE:
+            return None
+        if step.stage == LABELS:
+            nxt = step if not quiet else FitStep(POSITIONS, 0)
+        elif step.stage == POSITIONS:
+            nxt = FitStep(WEIGH if self._after_solve else RESIDUAL, layer, self._solving)
+        elif step.stage == WEIGH:
+            nxt = self._weighed(tally, layer)
+        elif step.stage == RESIDUAL:
+            self._scale = tally.totals()
+            self._floor = Floor.start(np.zeros((1, 1, len(self._scale))))
+            nxt = FitStep(SUMS, layer, step.mode)
+        elif step.stage == STEP:
+            nxt = FitStep(SUMS, layer, step.mode)
+        else:  # SUMS
+            sums = tally.totals()
+            count = len(sums) // 2
+            self._floor = self._floor.after(sums[:count], self._floor.position)
+            if settled(sums[:count], self._scale):
+                nxt = replace(self._solved(layer), ended=SETTLED)
+            elif self._floor.stalled:
+                nxt = replace(self._solved(layer), ended=STALLED)
+            else:
+                self.iterations[layer][-1] += 1
+                nxt = FitStep(STEP, layer, step.mode, tuple(sums.tolist()))
+        if nxt.stage == RESIDUAL:
+            self.iterations[nxt.layer].append(0)
+        self.step = nxt
+        return nxt
+
+    def _solved(self, layer: int) -> FitStep:
+        if self._solving == SAMPLES:
+            return self._next_layer(layer)
+        self._after_solve = True
+        return FitStep(POSITIONS, layer)
+
+    def _weighed(self, tally: FitTally, layer: int) -> FitStep:
+        solves = len(self.iterations[layer])
+        if self._solving != UNIT and tally.moved <= CONVERGED_CM:
+            # Huber's loss has settled: from here on, measurements far out are rejected.
+            self._rejecting = True
+        mode = robust_decision(self._rejecting, tally.huber_same, tally.rejecting_same, solves)
+        if mode is None:
+            if not self.samples:
+                return self._next_layer(layer)
+            self._solving = SAMPLES
+            return FitStep(RESIDUAL, layer, SAMPLES)
+        self._rejecting = mode == REJECTING
+        self._solving = mode
+        return FitStep(RESIDUAL, layer, mode)
+
+    def _next_layer(self, layer: int) -> FitStep:
+        self._solving, self._rejecting, self._after_solve = UNIT, False, False
+        if layer + 1 < len(self.layers):
+            return FitStep(POSITIONS, layer + 1)
+        return FitStep(SHARE, layer)
+
+
+@dataclass
+class _Layer:
+    """One FLS's rows of one fit: its pairs' measurements over its local ids, and its solve."""
+
+    ids: IntArray  # (L,), itself and the FLSs it measures in this fit, ascending
+    slot: int  # its own place among them
+    measured: Measurements  # both rows of each of its pairs, over local indices
+    weights: FloatArray  # (2 x pairs,), the weights its last solve had
+    position: FloatArray  # (3, 1), cm, its own x
+    samples: FloatArray  # (3, K), cm, its own covariance samples
+    sampling: bool = False  # the solve under way is the covariance's
+    system: System | None = None
+    rows: Any = None  # its three rows of H (scipy.sparse CSR over the local columns)
+    iterate: Iterate | None = None
+    scaled: FloatArray = field(default_factory=lambda: np.zeros((3, 1)))  # u, its own
+    image: FloatArray = field(default_factory=lambda: np.zeros((3, 1)))  # its row of H u
+    floor: Floor | None = None  # the solve's lowest residuals, and its own x at them
+    before: FloatArray = field(default_factory=lambda: np.zeros((3, 1)))  # x before the solve
+    candidates: dict[int, FloatArray] = field(default_factory=dict)
+
+
+class FitPart:
+    """One FLS's part of the FIT phase: controls and heard offers in, its offers out.
+
+    ``view``: what it measures (its camera readings, its neighbours' range
+    classes and tracking distances); ``departed``: FLSs that take no part;
+    ``start``: per fit, its position from an earlier run (a warm start).
+    """
+
+    def __init__(
+        self,
+        view: LocalView,
+        sensor: Sensor,
+        radius: float,
+        departed: frozenset[int],
+        start: Sequence[FloatArray] | None = None,
+        samples: int = COVARIANCE_SAMPLES,
+    ) -> None:
+        self.view = view
+        self.fls_id = view.fls_id
+        self.sensor = sensor
+        self.radius = radius
+        self.samples_count = samples
+        self.layers_links = fit_layers(sensor)
+        measured = (
+            view.visible
+            & ((view.range_class == SWEET) | (view.range_class == DECAYING))
+            & np.isfinite(view.vector).all(axis=1)
+            & ~np.isin(view.other, list(departed))
+        )
+        self._measured = np.flatnonzero(measured)  # rows of the view: whom it measures
+        self._sweet = self._measured[view.range_class[self._measured] == SWEET]
+        self.label = self.fls_id
+        self._labels: dict[int, int] = {}
+        self._their_readings: dict[int, FloatArray] = {}  # neighbour -> its reading of me
+        # Neighbour -> the vector it sent last (its position, or its u), flat.
+        self._heard_vectors: dict[int, FloatArray] = {}
+        self._start = start
+        self.layers: list[_Layer | None] = [None] * len(self.layers_links)
+        self._first = True
+        self._solving: _Layer | None = None  # the layer whose solve is under way
+
+    # -- rounds -------------------------------------------------------------------------
+
+    def on_round(self, step: FitStep, heard: RoundOffers | None) -> FitOffer:
+        """This FLS's offer in the round of ``step``, after taking ``heard`` (a RoundOffers)."""
+        self._take(heard)
+        if step.ended == STALLED and self._solving is not None:
+            # The solve stalled at rounding's floor: every FLS takes its best iterate.
+            self._take_best(self._solving)
+        if step.stage == LABELS:
+            return self._labels_round()
+        layer = self._layer(step.layer)
+        if step.stage == POSITIONS:
+            return FitOffer(values=layer.position.ravel().copy())
+        if step.stage == WEIGH:
+            return self._weigh(layer)
+        if step.stage == RESIDUAL:
+            return self._residual(layer, step.mode)
+        if step.stage == SUMS:
+            return self._sums(layer)
+        if step.stage == STEP:
+            return self._step(layer, np.asarray(step.sums, dtype=np.float64))
+        return FitOffer(values=self.shared())
+
+    def shared(self) -> FloatArray:
+        """Per fit: its settled position (3,) and its samples (3, K), flat."""
+        pieces = []
+        for index in range(len(self.layers)):
+            layer = self._layer(index)
+            pieces += [layer.position.ravel(), layer.samples.ravel()]
+        return np.concatenate(pieces)
+
+    def _take(self, heard: RoundOffers | None) -> None:
+        """Keep what ``heard`` says of the FLSs this one measures: labels, readings, vectors."""
+        if heard is None:
+            return
+        wanted = self.view.other[self._measured]
+        labels, offsets, values = heard.fit_of(wanted)
+        for fls, label, low, high in zip(
+            wanted.tolist(), labels.tolist(), offsets[:-1].tolist(), offsets[1:].tolist(),
+            strict=True,
+        ):  # fmt: skip
+            if label >= 0:
+                self._labels[fls] = label
+            if high > low:
+                self._heard_vectors[fls] = values[low:high]
+        readers, vectors = heard.readings_of(self.fls_id)
+        for reader, vector in zip(readers.tolist(), vectors, strict=True):
+            self._their_readings[reader] = vector
+
+    def _labels_round(self) -> FitOffer:
+        sweet = self.view.other[self._sweet]
+        heard = [self._labels[fls] for fls in sweet.tolist() if fls in self._labels]
+        label = min([self.label, *heard])
+        changed = label != self.label or self._first
+        self.label = label
+        readings = None
+        if self._first:
+            self._first = False
+            own = self.view.other[self._measured].astype(np.int64)
+            readings = (own, self.view.vector[self._measured])
+        return FitOffer(label=label, changed=changed, readings=readings)
+
+    # -- one fit --------------------------------------------------------------------------
+
+    def _layer(self, index: int) -> _Layer:
+        layer = self.layers[index]
+        if layer is None:
+            layer = self.layers[index] = self._build(index)
+        return layer
+
+    def _build(self, index: int) -> _Layer:
+        """This FLS's rows of fit ``index``: its pairs, both rows each, in local indices."""
+        view, rows = self.view, self._measured
+        chosen = view.range_class[rows] == SWEET
+        if self.layers_links[index]:
+            # A decaying hop joins the fit where it joins two sweet parts.
+            other_labels = np.array(
+                [self._labels.get(int(fls), -1) for fls in view.other[rows]], dtype=np.int64
+            )
+            chosen |= (view.range_class[rows] == DECAYING) & (other_labels != self.label)
+        # Both rows of a pair: only where the neighbour's reading of this FLS was heard.
+        heard = np.array(
+            [int(fls) in self._their_readings for fls in view.other[rows]], dtype=bool
+        )
+        rows = rows[chosen & heard]
+        others = view.other[rows].astype(np.int64)
+        ids = np.sort(np.append(others, self.fls_id))
+        slot = int(np.searchsorted(ids, self.fls_id))
+        local = np.searchsorted(ids, others)
+        count = len(rows)
+        mine = np.full(count, slot, dtype=np.int64)
+        theirs = np.array([self._their_readings[int(fls)] for fls in others]).reshape(count, 3)
+        first = np.concatenate([mine, local])
+        second = np.concatenate([local, mine])
+        raw = np.concatenate([view.vector[rows], theirs])
+        tracking = np.tile(view.distance[rows], 2)
+        directions = raw / np.linalg.norm(raw, axis=1, keepdims=True)
+        sensor, radius = self.sensor, self.radius
+        measured = Measurements(
+            first,
+            second,
+            unbiased_vectors(sensor, raw, tracking),
+            hop_covariance(sensor, tracking, directions, radius),
+            hop_covariance(sensor, tracking, directions, radius, inverse=True),
+        )
+        position = np.zeros((3, 1))
+        if self._start is not None and index < len(self._start):
+            position[:, 0] = np.nan_to_num(self._start[index])
+        return _Layer(ids, slot, measured, np.ones(2 * count), position, np.zeros((3, 0)))
+
+    def _local(self, layer: _Layer, own: FloatArray) -> FloatArray:
+        """The vector (L, 3, K) over the local ids: its own ``own`` (3, K), the heard ones."""
+        columns = own.shape[1]
+        local = np.zeros((len(layer.ids), 3, columns))
+        for at, fls in enumerate(layer.ids.tolist()):
+            if at == layer.slot:
+                local[at] = own
+            elif fls in self._heard_vectors:
+                local[at] = self._heard_vectors[fls].reshape(3, columns)
+        return local
+
+    def _weigh(self, layer: _Layer) -> FitOffer:
+        positions = self._local(layer, layer.position)[:, :, 0]
+        layer.candidates = {
+            mode: weights_for(layer.measured, positions, mode) for mode in (HUBER, REJECTING)
+        }
+        same = (
+            bool(np.array_equal(layer.candidates[HUBER], layer.weights)),
+            bool(np.array_equal(layer.candidates[REJECTING], layer.weights)),
+        )
+        moved = float(np.abs(layer.position - layer.before).max(initial=0.0))
+        return FitOffer(moved=moved, same=same)
+
+    def _residual(self, layer: _Layer, mode: int) -> FitOffer:
+        count = len(layer.ids)
+        edges = edges_of(count, layer.measured)
+        if mode in (HUBER, REJECTING):
+            layer.weights = layer.candidates[mode]
+        final = weighted(edges, layer.measured, layer.weights)
+        layer.sampling = mode == SAMPLES
+        if layer.sampling:
+            flows = noise_flows(
+                final, layer.measured, layer.weights, self.samples_count, layer.ids
+            )
+            system = system_of(final, flows)
+            start = layer.samples = np.zeros((3, self.samples_count))
+        else:
+            system = system_of(final)
+            start = layer.position
+        layer.system = system
+        layer.rows = system.matrix[3 * layer.slot : 3 * layer.slot + 3]
+        layer.before = start.copy()
+        layer.floor = Floor.start(start[None])
+        self._solving = layer
+        right = system.right[layer.slot]
+        # Every FLS starts the covariance's solve at zero: its residual is its right side.
+        residual = right.copy() if layer.sampling else (
+            right - self._own_product(layer, self._local(layer, start))
+        )  # fmt: skip
+        columns = start.shape[1]
+        zeros = np.zeros((1, 3, columns))
+        layer.iterate = Iterate(start[None].copy(), residual[None], zeros, zeros,
+                                np.zeros(columns), np.zeros(columns))  # fmt: skip
+        scale = partial_dot(
+            right[None], blocks_times(system.preconditioner[layer.slot], right)[None]
+        )
+        return self._send_scaled(layer, partials=scale[0])
+
+    def _own_product(self, layer: _Layer, local: FloatArray) -> FloatArray:
+        """Its three rows of H times the local vector (L, 3, K): (3, K)."""
+        count, _, columns = local.shape
+        return np.asarray(layer.rows @ local.reshape(3 * count, columns), dtype=np.float64)
+
+    def _send_scaled(self, layer: _Layer, partials: FloatArray) -> FitOffer:
+        assert layer.system is not None and layer.iterate is not None
+        block = layer.system.preconditioner[layer.slot]
+        layer.scaled = blocks_times(block, layer.iterate.residual[0])
+        return FitOffer(values=layer.scaled.ravel().copy(), partials=partials)
+
+    def _take_best(self, layer: _Layer) -> None:
+        assert layer.floor is not None
+        best = layer.floor.position[0]
+        if layer.sampling:
+            layer.samples = best
+        else:
+            layer.position = best
+
+    def _sums(self, layer: _Layer) -> FitOffer:
+        assert layer.iterate is not None
+        image = self._own_product(layer, self._local(layer, layer.scaled))
+        layer.image = image
+        residual, scaled = layer.iterate.residual, layer.scaled[None]
+        shares = np.concatenate(
+            [partial_dot(residual, scaled)[0], partial_dot(image[None], scaled)[0]]
+        )
+        return FitOffer(partials=shares)
+
+    def _step(self, layer: _Layer, sums: FloatArray) -> FitOffer:
+        assert layer.iterate is not None
+        count = len(sums) // 2
+        gamma, delta = sums[:count], sums[count:]
+        assert layer.floor is not None
+        layer.floor = layer.floor.after(gamma, layer.iterate.position)
+        alpha, beta = scalars(layer.iterate, gamma, delta)
+        layer.iterate = advance(
+            layer.iterate, layer.scaled[None], layer.image[None], gamma, alpha, beta
+        )
+        if layer.sampling:
+            layer.samples = layer.iterate.position[0]
+        else:
+            layer.position = layer.iterate.position[0]
+        return self._send_scaled(layer, partials=np.zeros(0))

@@ -1,0 +1,136 @@
+"""The swarm's own fit, run by the protocol's machines in memory, against the engine's."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.evaluate import NO_PATH, evaluate
+from swazure_ros.core.fit import SWARM_FIT, refine
+from swazure_ros.core.observe import observations
+from swazure_ros.core.swarm_fit import HUBER, REJECTING
+from swazure_ros.protocol.discovery.messages import (
+    LABELS,
+    POSITIONS,
+    RESIDUAL,
+    SAMPLES,
+    SHARE,
+    STEP,
+    SUMS,
+    WEIGH,
+)
+from swazure_ros.protocol.loops import discover
+from swazure_ros.protocol.swarm_fit import FitSchedule, FitTally, process_sums
+from swazure_ros.sim.world import WorldSpec
+
+from ..core.test_fit import stochastic_sensor
+
+
+def run(hood, **options):
+    """One in-memory swarm-fit run over ``hood``: {(source, target): Estimate}, the outcome."""
+    outcome = discover(observations(hood), hood.swarm.cloud_index, hood.sensor,
+                       hood.swarm.radius, "shortest-length", estimator=SWARM_FIT,
+                       **options)  # fmt: skip
+    found = {(s, one.target): one for s, ones in outcome.estimates.items() for one in ones}
+    return found, outcome
+
+
+@pytest.mark.parametrize(
+    ("shape", "noisy"),
+    [("torus:120", True), ("torus:120", False), ("helix", True), ("helix", False)],
+    ids=["torus-stochastic", "torus-published", "helix-stochastic", "helix-published"],
+)
+def test_the_swarm_s_fit_by_messages_equals_the_engine_s(shape, noisy):
+    # torus:120 at beta 0.3 has sweet and decaying pairs; the helix's decaying hops join
+    # sweet parts, so that the published sensor's two fits differ.
+    world = WorldSpec(shape, scale=1.6, beta=0.3).build()
+    sensor = stochastic_sensor(mean_error=0.03) if noisy else world.sensor
+    engine = refine(evaluate(world.swarm, sensor, "shortest-length"), SWARM_FIT)
+    found, outcome = run(engine.hood)
+    assert outcome.restarts == 0
+    # The same solves, iteration for iteration.
+    assert [list(one) for one in outcome.fit_iterations] == engine.summary["fit"]["iterations"]
+    pairs, ids = engine.pairs, world.ids
+    assert len(found) == len(pairs)
+    with_path = 0
+    for pair in range(len(pairs)):
+        one = found[(int(ids[pairs.source[pair]]), int(ids[pairs.target[pair]]))]
+        assert one.status == pairs.status[pair]
+        if one.status == NO_PATH:
+            continue
+        with_path += 1
+        assert one.estimator == SWARM_FIT
+        np.testing.assert_allclose(one.vector, pairs.estimate[pair], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(one.covariance, pairs.covariance[pair], rtol=1e-9, atol=1e-15)
+    assert with_path > 1000
+
+
+def test_a_second_run_starts_from_the_first_run_s_positions_and_settles_sooner():
+    world = WorldSpec("torus:120", scale=1.6, beta=0.3).build()
+    engine = refine(evaluate(world.swarm, stochastic_sensor(), "shortest-length"), SWARM_FIT)
+    machines = {}
+    _, first = run(engine.hood, kept=machines)
+    found, second = run(engine.hood, kept=machines, run_id=2)
+    # Its first solve (unit weights) starts at the last run's robust solution, not at zero.
+    assert second.fit_iterations[0][0] < first.fit_iterations[0][0]
+    assert second.restarts == 0
+    pairs, ids = engine.pairs, world.ids
+    for pair in np.flatnonzero(pairs.status != NO_PATH)[::50]:
+        one = found[(int(ids[pairs.source[pair]]), int(ids[pairs.target[pair]]))]
+        np.testing.assert_allclose(one.vector, pairs.estimate[pair], rtol=0, atol=1e-6)
+
+
+def test_process_sums_are_exact_so_any_grouping_gives_the_engine_s_sum():
+    rng = np.random.default_rng(2)
+    shares = [rng.normal(size=3) * 10.0 ** rng.integers(-8, 8) for _ in range(60)]
+    whole = process_sums(shares)
+    tally = FitTally()
+    for group in (shares[:7], shares[7:31], shares[31:]):
+        tally.add(process_sums(group), 0.0, (True, True))
+    # Each process's sum is rounded once, so a grouping may differ from the whole by an ulp.
+    np.testing.assert_allclose(tally.totals(), whole, rtol=1e-15)
+    single = FitTally()
+    single.add(whole, 0.0, (True, True))
+    assert single.totals().tolist() == list(whole)
+
+
+def test_the_schedule_goes_labels_solve_weigh_reweigh_samples_share():
+    schedule = FitSchedule((True,), samples=2)
+    assert schedule.first().stage == LABELS
+    quiet, busy = FitTally(), FitTally()
+    assert schedule.after(busy, quiet=False).stage == LABELS  # a label still changed
+    assert schedule.after(quiet, quiet=True).stage == POSITIONS
+    assert schedule.after(quiet, quiet=True).stage == RESIDUAL
+    scale = FitTally()
+    scale.add((4.0,), 0.0, (True, True))
+    assert schedule.after(scale, quiet=True).stage == SUMS
+    unsettled = FitTally()
+    unsettled.add((1.0, 2.0), 0.0, (True, True))
+    step = schedule.after(unsettled, quiet=True)
+    assert step.stage == STEP and step.sums == (1.0, 2.0)
+    assert schedule.after(quiet, quiet=True).stage == SUMS
+    settled = FitTally()
+    settled.add((0.0, 1.0), 0.0, (True, True))
+    assert schedule.after(settled, quiet=True).stage == POSITIONS
+    assert schedule.after(quiet, quiet=True).stage == WEIGH
+    changed = FitTally()
+    changed.add((), 1.0, (False, False))
+    step = schedule.after(changed, quiet=True)
+    assert (step.stage, step.mode) == (RESIDUAL, HUBER)
+    schedule.after(scale, quiet=True)
+    assert schedule.after(settled, quiet=True).stage == POSITIONS
+    schedule.after(quiet, quiet=True)
+    # Huber's weights repeat: the rejecting ones do not, so they get a solve.
+    repeat = FitTally()
+    repeat.add((), 1.0, (True, False))
+    step = schedule.after(repeat, quiet=True)
+    assert (step.stage, step.mode) == (RESIDUAL, REJECTING)
+    schedule.after(scale, quiet=True)
+    schedule.after(settled, quiet=True)
+    schedule.after(quiet, quiet=True)
+    step = schedule.after(quiet, quiet=True)  # nothing changed: the covariance's solve
+    assert (step.stage, step.mode) == (RESIDUAL, SAMPLES)
+    schedule.after(scale, quiet=True)
+    assert schedule.after(settled, quiet=True).stage == SHARE
+    assert schedule.after(quiet, quiet=True) is None
+    assert schedule.iterations == [[1, 0, 0, 0]]
