@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core.evaluate import Evaluation, evaluate
-from ..core.fit import LOCAL_LEAST_SQUARES, PATH, refine
+from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, refine
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, HeuristicResult
 from ..core.results import Distributed, MovesMade, RunRecord, with_source
@@ -76,8 +76,9 @@ def compute_all(
     With a ``technique`` other than plain, the swarm then makes that heuristic's
     moves. ``on_discovered`` hears the discovery run's result as soon as it is in;
     ``on_progress`` how far each run is, every PROGRESS_PERIOD s. With the
-    ``estimator`` local-least-squares each source fits what it hears, and the
-    engine does the same (``core.fit.refine(..., LOCAL_LEAST_SQUARES)``). ``per_run``: the
+    ``estimator`` local-least-squares each source fits what it hears, with
+    swarm-fit the swarm solves its fit, and the engine does the same
+    (``core.fit.refine(..., estimator)``). ``per_run``: the
     most sources one discovery run searches for (``RunningSwarm.discover``).
     """
     if estimator != PATH and technique != PLAIN:
@@ -104,8 +105,8 @@ def compute_all(
     began = time.perf_counter()
     engine = evaluate(world.swarm, world.sensor, policy)
     engine, _ = run_technique(engine, technique, threshold)
-    if estimator == LOCAL_LEAST_SQUARES:
-        engine = refine(engine, LOCAL_LEAST_SQUARES)
+    if estimator in (LOCAL_LEAST_SQUARES, SWARM_FIT):
+        engine = refine(engine, estimator)
     engine_seconds = time.perf_counter() - began
     seconds = result.seconds + (moved.seconds if moved is not None else 0.0)
     spec = swarm.config.world

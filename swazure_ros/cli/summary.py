@@ -134,6 +134,12 @@ def summary_table(
     if others:
         headings = [heading] + [other for other, _ in others]
         lines.append(f"{'':<30}" + "".join(f"{title:>{width}}" for title in headings))
-    for row, (label, _) in enumerate(columns[0]):
-        lines.append(f"{label:<30}" + "".join(f"{column[row][1]:>{width}}" for column in columns))
+    # Rows by label, in order of first appearance: a column may have a row the others lack
+    # (the engine's swarm fit counts its iterations), which shows "-" elsewhere.
+    labels = list(dict.fromkeys(label for column in columns for label, _ in column))
+    values = [dict(column) for column in columns]
+    for label in labels:
+        lines.append(
+            f"{label:<30}" + "".join(f"{column.get(label, '-'):>{width}}" for column in values)
+        )
     return "\n".join(lines)

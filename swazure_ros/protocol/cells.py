@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 
 from ..core.neighbours import sensor_reach
 from ..core.sensor import Sensor
-from .discovery.messages import ANY_VISIBLE
+from .discovery.messages import ANY_VISIBLE, FIT
 
 IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
@@ -71,7 +71,8 @@ BANDS = (SWEET_BAND, DECAYING_BAND)
 
 def band_of(phase: int) -> str:
     """The band of cells that carries the offers of discovery phase ``phase``."""
-    return DECAYING_BAND if phase == ANY_VISIBLE else SWEET_BAND
+    # The swarm's fit is heard by every FLS an FLS measures, decaying hops' ends included.
+    return DECAYING_BAND if phase in (ANY_VISIBLE, FIT) else SWEET_BAND
 
 
 def radio_cells(sensor: Sensor, radius: float) -> dict[str, Cells]:

@@ -39,7 +39,7 @@ from swazure_interfaces.msg import (
 )
 
 from ..core.evaluate import Evaluation, Neighbourhood
-from ..core.fit import PATH
+from ..core.fit import PATH, fit_layers
 from ..core.paths import check_policy
 from ..protocol.discovery.messages import Control
 from ..protocol.discovery.search import bucket_width
@@ -252,6 +252,7 @@ class Coordinator(SwarmNode):
                 sources=sources or (),
                 targets=targets or (),
                 estimator=estimator,
+                fit_layers=fit_layers(self.shape.sensor),
             )
 
         return self._enqueue(begin)

@@ -17,7 +17,7 @@ from rclpy.validate_full_topic_name import validate_full_topic_name
 from rclpy.validate_namespace import validate_namespace
 from swazure_interfaces.msg import DiscoveryControl, TrackEstimate
 
-from ..core.fit import LOCAL_LEAST_SQUARES, PATH
+from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
 from ..core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
 from ..core.tracking import (
     CONSTANT_ACCELERATION,
@@ -154,6 +154,7 @@ POLICY_CODES = {name: code for code, name in POLICY_NAMES.items()}
 ESTIMATOR_NAMES = {
     DiscoveryControl.ESTIMATOR_PATH: PATH,
     DiscoveryControl.ESTIMATOR_LOCAL_LEAST_SQUARES: LOCAL_LEAST_SQUARES,
+    DiscoveryControl.ESTIMATOR_SWARM_FIT: SWARM_FIT,
 }
 ESTIMATOR_CODES = {name: code for code, name in ESTIMATOR_NAMES.items()}
 

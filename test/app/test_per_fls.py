@@ -70,6 +70,20 @@ def test_a_swarm_of_one_process_per_fls_computes_what_the_engine_computes(domain
     assert fls_processes(logs) == []
 
 
+def test_a_swarm_of_one_process_per_fls_solves_its_fit_as_the_engine_does(domain, tmp_path):
+    # The grid under the published sensor: two fits (the sweet hops alone, and with the
+    # joining decaying hops), each solved by the 25 processes' messages.
+    spawn = swazure("spawn", str(GRID), "--per-fls", "--log-dir", str(tmp_path / "logs"),
+                    "--quiet", "--discovery-timeout", "120", "--compute-all",
+                    "--estimator", "swarm-fit", "--out", str(tmp_path / "d"))  # fmt: skip
+    out, err = spawn.communicate(timeout=600)
+    assert spawn.returncode == 0, err
+    record = read_record(tmp_path / "d" / RECORD_FILE)
+    assert record.identical == "yes", out
+    assert record.summary["estimator"] == "swarm-fit"
+    assert "25 FLS processes stopped, every one cleanly (exit code 0)" in err, err
+
+
 def test_each_fls_process_fits_what_it_hears_as_the_engine_does(domain, tmp_path):
     # Each process hears the others' signed measurements over DDS: its own radio's book.
     spawn = swazure("spawn", str(GRID), "--per-fls", "--log-dir", str(tmp_path / "logs"),

@@ -28,7 +28,7 @@ from ...core.evaluate import (
     pair_results,
     summarise,
 )
-from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_ESTIMATORS, consistency
+from ...core.fit import PATH, SWARM_ESTIMATORS, consistency
 from ...core.neighbours import ordered_blind_pairs
 from ...core.paths import Paths
 from ...core.sensor import (
@@ -483,7 +483,10 @@ def evaluation_of(
         pairs = pairs.with_estimates(vectors, predicted_error=predicted, covariance=covariance)
     summary = summarise(hood, policy, pairs)
     if fitted.any():
-        summary["estimator"] = summary["parameters"]["estimator"] = LOCAL_LEAST_SQUARES
+        # What made the fitted estimates: each source's own fit, or the swarm's.
+        made = everyone.estimator[kept][fitted]
+        estimator = SWARM_ESTIMATORS[int(made.max())]
+        summary["estimator"] = summary["parameters"]["estimator"] = estimator
         summary["fit"] = consistency(pairs)
     return Evaluation(hood, policy, pairs, summary)
 

@@ -25,12 +25,18 @@ from ...core.frames import CM_PER_METRE, fls_frame, to_metres
 from ...protocol.discovery.estimate import Estimate, Estimates
 from ...protocol.discovery.messages import (
     END,
+    FIT,
     PHASES,
     ROUND,
+    SAMPLES,
+    STAGE_NAMES,
+    STALLED,
     START,
     SWEET_ALL,
     Broadcast,
     Control,
+    FitOffer,
+    FitStep,
     Offer,
     Report,
 )
@@ -48,6 +54,12 @@ from .units import array3, packed, vector3
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
+#: Every phase a run may have: discovery's, then the swarm's fit.
+RUN_PHASES = (*PHASES, FIT)
+#: Values of the FIT phase's vectors and sums one message may carry: per fit (two at
+#: most), a position and the covariance's samples, 3 each (core.swarm_fit's 64, with room).
+FIT_VALUES = 2 * 3 * (1 + 1024)
 
 
 def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:
@@ -75,6 +87,9 @@ def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:
         message.covariances = packed(offer.covariances, np.float64)
     message.reading_ids = packed(offer.reading_ids, np.uint32)
     message.reading_vectors = packed(offer.reading_vectors, np.float64)
+    message.fit_label = -1 if offer.fit is None else offer.fit.label
+    if offer.fit is not None:
+        message.fit_values = packed(offer.fit.values, np.float64)
     return message
 
 
@@ -86,7 +101,7 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
     and costs are finite and not negative (vectors may be NaN only in the
     S_all phase, whose hops need no camera reading).
     """
-    check(message.phase in PHASES, f"unknown phase {message.phase}")
+    check(message.phase in RUN_PHASES, f"unknown phase {message.phase}")
     count = len(message.source_ids)
     check_size(message.source_ids, len(swarm), "source_ids")
     check(
@@ -138,7 +153,18 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
         covariances=_fit_sums(message, "covariances", (-1, 3, 3)) if fits else None,
         reading_ids=reading_ids,
         reading_vectors=reading_vectors,
+        fit=_fit_from_message(message, swarm) if message.phase == FIT else None,
     )
+
+
+def _fit_from_message(message: PathOffer, swarm: IntArray) -> FitOffer:
+    """The FIT phase's part of a PathOffer: a label of the swarm (or -1) and finite values."""
+    label = int(message.fit_label)
+    if label != -1:
+        check_ids([label], swarm, "fit_label")
+    check_size(message.fit_values, FIT_VALUES, "fit_values")
+    check(len(message.fit_values) % 3 == 0, "not 3 fit values a column")
+    return FitOffer(label=label, values=check_finite(message.fit_values, "fit_values"))
 
 
 def _fit_sums(message: PathOffer, name: str, shape: tuple[int, ...]) -> FloatArray:
@@ -309,7 +335,12 @@ def control_message(control: Control, stamp: Time) -> DiscoveryControl:
         finished_ids=list(control.finished_ids),
         departed_ids=list(control.departed_ids),
         estimator=ESTIMATOR_CODES[control.estimator],
+        fit_stage=control.fit.stage,
+        fit_layer=control.fit.layer,
+        fit_mode=control.fit.mode,
+        fit_ended=control.fit.ended,
     )
+    message.fit_sums = packed(np.asarray(control.fit.sums, dtype=np.float64), np.float64)
     message.header.stamp = stamp
     return message
 
@@ -321,7 +352,7 @@ def control_from_message(message: DiscoveryControl, swarm: IntArray) -> Control:
     or targets that do not pair with the sources.
     """
     check(message.command in (START, ROUND, END), f"unknown command {message.command}")
-    check(message.phase in PHASES, f"unknown phase {message.phase}")
+    check(message.phase in RUN_PHASES, f"unknown phase {message.phase}")
     check(message.policy in POLICY_NAMES, f"unknown policy {message.policy}")
     check(message.estimator in ESTIMATOR_NAMES, f"unknown estimator {message.estimator}")
     check(message.expected <= len(swarm), f"expects {message.expected} FLSs, more than the swarm")
@@ -346,6 +377,23 @@ def control_from_message(message: DiscoveryControl, swarm: IntArray) -> Control:
         finished_ids=lists["finished_ids"],
         departed_ids=lists["departed_ids"],
         estimator=ESTIMATOR_NAMES[message.estimator],
+        fit=_fit_step(message),
+    )
+
+
+def _fit_step(message: DiscoveryControl) -> FitStep:
+    """The FIT phase's step of a DiscoveryControl; MessageError for unknown codes."""
+    check(message.fit_stage < len(STAGE_NAMES), f"unknown fit stage {message.fit_stage}")
+    check(message.fit_mode <= SAMPLES, f"unknown fit mode {message.fit_mode}")
+    check(message.fit_ended <= STALLED, f"unknown fit ending {message.fit_ended}")
+    check_size(message.fit_sums, FIT_VALUES, "fit_sums")
+    sums = check_finite(message.fit_sums, "fit_sums")
+    return FitStep(
+        int(message.fit_stage),
+        int(message.fit_layer),
+        int(message.fit_mode),
+        tuple(sums.tolist()),
+        int(message.fit_ended),
     )
 
 
@@ -377,7 +425,11 @@ def sent_message(control: Control, sent: Sent, host: str, stamp: Time) -> RoundA
         pending_ids=list(sent.pending),
         finished_ids=list(sent.finished),
         offer_bytes=sent.bytes,
+        fit_moved=sent.fit_moved,
+        fit_huber_same=sent.fit_same[0],
+        fit_rejecting_same=sent.fit_same[1],
     )
+    message.fit_sums = packed(np.asarray(sent.fit_sums, dtype=np.float64), np.float64)
     message.host = host
     message.header.stamp = stamp
     return message
@@ -395,12 +447,18 @@ def sent_from_message(message: RoundAck, swarm: IntArray) -> Sent:
         set(lists["pending_ids"]) <= senders and set(lists["finished_ids"]) <= senders,
         "pending or finished FLSs that did not send",
     )
+    check_size(message.fit_sums, FIT_VALUES, "fit_sums")
+    moved = float(check_finite([message.fit_moved], "fit_moved")[0])
+    check(moved >= 0.0, "a negative move")
     return Sent(
         lists["sender_ids"],
         int(message.labels),
         lists["pending_ids"],
         lists["finished_ids"],
         int(message.offer_bytes),
+        tuple(check_finite(message.fit_sums, "fit_sums").tolist()),
+        moved,
+        (bool(message.fit_huber_same), bool(message.fit_rejecting_same)),
     )
 
 

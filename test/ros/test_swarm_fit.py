@@ -1,0 +1,55 @@
+"""The swarm's own fit over real DDS: a packed swarm's estimates are the engine's."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from swazure_ros.app.config import SwarmConfig
+from swazure_ros.app.swarm import RunningSwarm
+from swazure_ros.core.evaluate import NO_PATH, evaluate
+from swazure_ros.core.files import config_dir
+from swazure_ros.core.fit import SWARM_FIT, refine
+from swazure_ros.protocol.discovery.estimate import evaluation_of
+from swazure_ros.sim.world import WorldSpec
+
+CALIBRATED = str(config_dir() / "cameras" / "sensor-wide-calibrated.yaml")
+
+
+@pytest.fixture
+def params(tmp_path):
+    """Slow measurement messages (a run does not need them)."""
+    path = tmp_path / "swarm.yaml"
+    path.write_text("/**:\n  ros__parameters:\n    publish_period: 5.0\n")
+    return path
+
+
+def test_a_swarm_solves_its_fit_by_messages_as_the_engine_does(domain, params):
+    # The calibrated stochastic sensor: one fit with the joining decaying hops, reweighted
+    # by the robust loss, then the covariance's 64 sampled right sides.
+    world = WorldSpec("torus:120", scale=2.0, beta=0.5, sensor_file=CALIBRATED)
+    config = SwarmConfig(world, domain_id=domain, params_file=str(params))
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        built = swarm.world
+        result = swarm.discover("shortest-length", timeout=300, estimator=SWARM_FIT)
+    engine = refine(evaluate(built.swarm, built.sensor, "shortest-length"), SWARM_FIT)
+    assert result.departed == frozenset() and result.restarts == 0
+    found = {(s, one.target): one for s, ones in result.estimates.items() for one in ones}
+    pairs, ids = engine.pairs, built.ids
+    assert len(found) == len(pairs)
+    fitted = 0
+    for pair in np.flatnonzero(pairs.status != NO_PATH):
+        one = found[(int(ids[pairs.source[pair]]), int(ids[pairs.target[pair]]))]
+        assert one.estimator == SWARM_FIT
+        np.testing.assert_allclose(one.vector, pairs.estimate[pair], rtol=0, atol=1e-9)
+        np.testing.assert_allclose(
+            one.covariance, pairs.covariance[pair], rtol=0, atol=1e-9 * one.covariance.max()
+        )
+        fitted += 1
+    assert fitted > 1000
+    # The run's evaluation says what made its estimates, and its NEES is the engine's.
+    distributed = evaluation_of(built.hood, "shortest-length", result.estimates)
+    assert distributed.summary["estimator"] == SWARM_FIT
+    nees = distributed.summary["fit"]["nees"]["mean"]
+    assert nees == pytest.approx(engine.summary["fit"]["nees"]["mean"], rel=1e-9)
