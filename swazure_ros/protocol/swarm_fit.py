@@ -265,8 +265,10 @@ class FitPart:
         self.label = self.fls_id
         self._labels: dict[int, int] = {}
         self._their_readings: dict[int, FloatArray] = {}  # neighbour -> its reading of me
-        # Neighbour -> the vector it sent last (its position, or its u), flat.
-        self._heard_vectors: dict[int, FloatArray] = {}
+        # The FLSs it measures that sent a vector in the last round that had any (their
+        # positions, or their u), sorted, and those vectors (S, 3, K).
+        self._heard_ids = np.zeros(0, dtype=np.int64)
+        self._heard_block = np.zeros((0, 3, 1))
         self._start = start
         self.layers: list[_Layer | None] = [None] * len(self.layers_links)
         self._first = True
@@ -307,19 +309,24 @@ class FitPart:
         """Keep what ``heard`` says of the FLSs this one measures: labels, readings, vectors."""
         if heard is None:
             return
+        if len(heard.read_ids):
+            readers, vectors = heard.readings_of(self.fls_id)
+            for reader, vector in zip(readers.tolist(), vectors, strict=True):
+                self._their_readings[reader] = vector
+        labelled = bool((heard.fit_labels >= 0).any())
+        if not labelled and not len(heard.fit_values):
+            return  # a round whose offers say nothing to neighbours (WEIGH, SUMS)
         wanted = self.view.other[self._measured]
         labels, offsets, values = heard.fit_of(wanted)
-        for fls, label, low, high in zip(
-            wanted.tolist(), labels.tolist(), offsets[:-1].tolist(), offsets[1:].tolist(),
-            strict=True,
-        ):  # fmt: skip
-            if label >= 0:
-                self._labels[fls] = label
-            if high > low:
-                self._heard_vectors[fls] = values[low:high]
-        readers, vectors = heard.readings_of(self.fls_id)
-        for reader, vector in zip(readers.tolist(), vectors, strict=True):
-            self._their_readings[reader] = vector
+        if labelled:
+            for fls, label in zip(wanted.tolist(), labels.tolist(), strict=True):
+                if label >= 0:
+                    self._labels[fls] = label
+        sent = np.diff(offsets) > 0
+        if sent.any():
+            # Every sender of a round sends as many values: one (3, K) block each.
+            self._heard_ids = wanted[sent]
+            self._heard_block = values.reshape(int(sent.sum()), 3, -1)
 
     def _labels_round(self) -> FitOffer:
         sweet = self.view.other[self._sweet]
@@ -386,11 +393,12 @@ class FitPart:
         """The vector (L, 3, K) over the local ids: its own ``own`` (3, K), the heard ones."""
         columns = own.shape[1]
         local = np.zeros((len(layer.ids), 3, columns))
-        for at, fls in enumerate(layer.ids.tolist()):
-            if at == layer.slot:
-                local[at] = own
-            elif fls in self._heard_vectors:
-                local[at] = self._heard_vectors[fls].reshape(3, columns)
+        heard_ids, block = self._heard_ids, self._heard_block
+        if len(heard_ids) and block.shape[2] == columns:
+            rows = np.minimum(np.searchsorted(heard_ids, layer.ids), len(heard_ids) - 1)
+            found = heard_ids[rows] == layer.ids
+            local[found] = block[rows[found]]
+        local[layer.slot] = own
         return local
 
     def _weigh(self, layer: _Layer) -> FitOffer:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from swazure_ros.core.evaluate import NO_PATH, evaluate
+from swazure_ros.core.evaluate import NO_PATH, Evaluation, evaluate, evaluate_pairs, without
 from swazure_ros.core.fit import SWARM_FIT, refine
 from swazure_ros.core.observe import observations
 from swazure_ros.core.swarm_fit import HUBER, REJECTING
@@ -78,6 +78,24 @@ def test_a_second_run_starts_from_the_first_run_s_positions_and_settles_sooner()
     for pair in np.flatnonzero(pairs.status != NO_PATH)[::50]:
         one = found[(int(ids[pairs.source[pair]]), int(ids[pairs.target[pair]]))]
         np.testing.assert_allclose(one.vector, pairs.estimate[pair], rtol=0, atol=1e-6)
+
+
+def test_a_silent_fls_departs_and_the_fit_equals_the_engine_s_without_it():
+    world = WorldSpec("torus:120", scale=1.6, beta=0.3).build()
+    hood = evaluate(world.swarm, stochastic_sensor(), "shortest-length").hood
+    silent_index = 17
+    silent = int(world.ids[silent_index])
+    found, outcome = run(hood, stopped=[silent])
+    assert outcome.departed == frozenset({silent})
+    gone = without(hood, np.array([silent_index]))
+    engine = refine(Evaluation(gone, "shortest-length", evaluate_pairs(gone, "shortest-length"),
+                               {}), SWARM_FIT)  # fmt: skip
+    assert [list(one) for one in outcome.fit_iterations] == engine.summary["fit"]["iterations"]
+    pairs, ids = engine.pairs, world.ids
+    keep = (pairs.source != silent_index) & (pairs.target != silent_index)
+    for pair in np.flatnonzero(keep & (pairs.status != NO_PATH)).tolist():
+        one = found[(int(ids[pairs.source[pair]]), int(ids[pairs.target[pair]]))]
+        np.testing.assert_allclose(one.vector, pairs.estimate[pair], rtol=0, atol=1e-9)
 
 
 def test_process_sums_are_exact_so_any_grouping_gives_the_engine_s_sum():
