@@ -14,21 +14,28 @@ from rclpy.serialization import deserialize_message, serialize_message
 from swazure_interfaces.msg import Measurements, MoveCommands, PathOffer, PoseEstimates, WorldState
 
 from swazure_ros.core.evaluate import neighbourhood
-from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, PATH
+from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
 from swazure_ros.core.observe import Measurement
 from swazure_ros.core.sensor import DECAYING, SWEET, load_sensor
 from swazure_ros.core.tracking import RELAY_OK, TRACKING, MotionEstimate, TrackState
 from swazure_ros.protocol.discovery.estimate import Estimate
 from swazure_ros.protocol.discovery.messages import (
+    FIT,
+    ROUND,
+    SAMPLES,
+    STALLED,
     START,
+    STEP,
     SWEET_ALL,
     Broadcast,
     Control,
+    FitOffer,
+    FitStep,
     Offer,
     Report,
 )
 from swazure_ros.protocol.moves import RETURN, STEP_ASIDE, WALKING, Move, Walk
-from swazure_ros.protocol.radio import Ack
+from swazure_ros.protocol.radio import Ack, Sent
 from swazure_ros.protocol.tracking import (
     START_RELAY,
     RelayRequest,
@@ -48,6 +55,8 @@ from swazure_ros.ros.convert.discovery import (
     offer_message,
     pose_estimate_from_message,
     pose_estimate_message,
+    sent_from_message,
+    sent_message,
     walk_from_message,
     walk_message,
 )
@@ -500,3 +509,34 @@ def test_generated_detections_are_taken_or_refused_and_nothing_else(data):
         return
     assert len(markers) == len(vectors) == len(generated.detections)
     assert np.isfinite(vectors).all()
+
+
+def test_the_fit_phase_s_control_offer_and_sums_read_back_and_bad_ones_are_refused():
+    step = FitStep(STEP, 1, SAMPLES, (0.25, -1.5e-12, 3.0, 4.0), STALLED)
+    control = Control(7, ROUND, FIT, "shortest-length", 9, 4, estimator=SWARM_FIT, fit=step)
+    message = wire(control_message(control, Time()))
+    assert control_from_message(message, SWARM) == control
+    message.fit_stage = 7
+    with pytest.raises(MessageError, match="unknown fit stage"):
+        control_from_message(message, SWARM)
+    said = FitOffer(label=3, values=np.array([1.0, -2.0, 0.5, 4.0, 5.0, 6.0]))
+    empty = np.zeros(0, dtype=np.int64)
+    offer = Offer(empty, empty, np.zeros(0), np.zeros(0), np.zeros((0, 3)),
+                  np.zeros(1, dtype=np.int64), empty, pending=True, fit=said)  # fmt: skip
+    back = offer_from_message(wire(offer_message(Broadcast(7, FIT, 9, 5, offer), Time())), SWARM)
+    assert back.fit is not None and back.fit.label == 3
+    np.testing.assert_array_equal(back.fit.values, said.values)
+    for field, value, reason in (
+        ("fit_label", 4, "no FLS 4 in this swarm"),
+        ("fit_values", [1.0, 2.0], "not 3 fit values a column"),
+        ("fit_values", [1.0, float("inf"), 0.0], "finite"),
+    ):
+        bad = wire(offer_message(Broadcast(7, FIT, 9, 5, offer), Time()))
+        setattr(bad, field, value)
+        with pytest.raises(MessageError, match=reason):
+            offer_from_message(bad, SWARM)
+    sent = Sent((3, 5), 0, (3,), (), 120, (1.5, -2.25), 0.125, (True, False))
+    assert sent_from_message(wire(sent_message(control, sent, "host_1", Time())), SWARM) == sent
+    negative = wire(sent_message(control, replace(sent, fit_moved=-1.0), "host_1", Time()))
+    with pytest.raises(MessageError, match="negative move"):
+        sent_from_message(negative, SWARM)
