@@ -2809,7 +2809,7 @@ def swarm_solve_figure(rows: list[dict], path: Path) -> None:
         for beta, marker in zip(FIT_BETAS, "o^sD", strict=False):
             at = [row for row in chosen if row["beta"] == beta]
             diameter = [row["diameter_hops"] for row in at]
-            # The last fit's (with the joining hops): the first solve and the covariance's.
+            # The last fit's (with the joining hops): its first solve and the covariance's.
             axis.scatter(diameter, [row["iterations"][-1][0] for row in at], marker=marker,
                          color="tab:blue", label=f"fit, beta {beta}")  # fmt: skip
             axis.scatter(diameter, [row["iterations"][-1][-1] for row in at], marker=marker,
@@ -2818,7 +2818,7 @@ def swarm_solve_figure(rows: list[dict], path: Path) -> None:
                 axis.annotate(row["shape"].split("_")[0], (row["diameter_hops"],
                               row["iterations"][-1][0]), fontsize=7)  # fmt: skip
         axis.set_xlabel("diameter of the fit graph, hops")
-        axis.set_ylabel("iterations to settle (1e-6 cm)")
+        axis.set_ylabel("iterations to settle (residual 1e-10 of the right side's)")
         axis.set_title(f"{sensor} sensor")
         axis.grid(alpha=0.3)
         axis.legend(fontsize=7)
