@@ -31,6 +31,7 @@ from .measurement_graph import (
     CONVERGED_CM,
     ROBUST_ROUNDS,
     Measurements,
+    measured_rows,
     parts_of,
     robust_weights,
 )
@@ -158,11 +159,7 @@ def measurements(hood: Neighbourhood, index: IntArray) -> Measurements:
     second = np.concatenate([high, low])
     raw = measured_vectors(sensor, swarm.points, swarm.radius, first, second)
     tracking = np.tile(hood.pairs.tracking[index], 2)
-    directions = raw / np.linalg.norm(raw, axis=1, keepdims=True)
-    covariance = hop_covariance(sensor, tracking, directions, swarm.radius)
-    information = hop_covariance(sensor, tracking, directions, swarm.radius, inverse=True)
-    vectors = unbiased_vectors(sensor, raw, tracking)
-    return Measurements(first, second, vectors, covariance, information)
+    return measured_rows(sensor, swarm.radius, first, second, raw, tracking)
 
 
 def with_outliers(
@@ -503,14 +500,8 @@ def window_fit(
     lookup = {int(fls): slot for slot, fls in enumerate(window.tolist())}
     first = np.array([lookup[int(f)] for f in heard.owner[order]], dtype=np.int64)
     second = np.array([lookup[int(f)] for f in heard.other[order]], dtype=np.int64)
-    tracking, raw = heard.tracking[order], heard.vector[order]
-    directions = raw / np.linalg.norm(raw, axis=1, keepdims=True)
-    measured = Measurements(
-        first,
-        second,
-        unbiased_vectors(sensor, raw, tracking),
-        hop_covariance(sensor, tracking, directions, radius),
-        hop_covariance(sensor, tracking, directions, radius, inverse=True),
+    measured = measured_rows(
+        sensor, radius, first, second, heard.vector[order], heard.tracking[order]
     )
     is_sweet = heard.range_class[order] == SWEET
     size = len(window)

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .sensor import Sensor, hop_covariance, unbiased_vectors
+
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
@@ -71,3 +73,28 @@ def robust_weights(measured: Measurements, positions: FloatArray, rejecting: boo
     else:
         weights = np.minimum(1.0, HUBER_THRESHOLD / np.maximum(distance, 1e-300))
     return np.asarray(weights, dtype=np.float64)
+
+
+def measured_rows(
+    sensor: Sensor,
+    radius: float,
+    first: IntArray,
+    second: IntArray,
+    raw: FloatArray,
+    tracking: FloatArray,
+) -> Measurements:
+    """Measurements (M,) of the readings ``raw`` (M, 3), cm, of ``first`` of ``second``.
+
+    The known bias comes off each vector and each gets its covariance and
+    information at the pair's tracking distance ``tracking`` (M,), cm, along
+    its measured direction (docs/core.md, "The least-squares fit"). FLSs of
+    ``radius`` cm.
+    """
+    directions = raw / np.linalg.norm(raw, axis=1, keepdims=True)
+    return Measurements(
+        first,
+        second,
+        unbiased_vectors(sensor, raw, tracking),
+        hop_covariance(sensor, tracking, directions, radius),
+        hop_covariance(sensor, tracking, directions, radius, inverse=True),
+    )

@@ -40,9 +40,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.fit import fit_layers
-from ..core.measurement_graph import CONVERGED_CM, Measurements
+from ..core.measurement_graph import CONVERGED_CM, Measurements, measured_rows
 from ..core.observe import LocalView
-from ..core.sensor import DECAYING, SWEET, Sensor, hop_covariance, unbiased_vectors
+from ..core.sensor import DECAYING, SWEET, Sensor
 from ..core.swarm_fit import (
     COVARIANCE_SAMPLES,
     HUBER,
@@ -375,15 +375,7 @@ class FitPart:
         second = np.concatenate([local, mine])
         raw = np.concatenate([view.vector[rows], theirs])
         tracking = np.tile(view.distance[rows], 2)
-        directions = raw / np.linalg.norm(raw, axis=1, keepdims=True)
-        sensor, radius = self.sensor, self.radius
-        measured = Measurements(
-            first,
-            second,
-            unbiased_vectors(sensor, raw, tracking),
-            hop_covariance(sensor, tracking, directions, radius),
-            hop_covariance(sensor, tracking, directions, radius, inverse=True),
-        )
+        measured = measured_rows(self.sensor, self.radius, first, second, raw, tracking)
         position = np.zeros((3, 1))
         if self._start is not None and index < len(self._start):
             position[:, 0] = np.nan_to_num(self._start[index])
