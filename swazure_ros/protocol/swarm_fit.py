@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core import csr
 from ..core.fit import fit_layers
 from ..core.measurement_graph import CONVERGED_CM, Measurements, measured_rows
 from ..core.observe import LocalView
@@ -322,11 +323,15 @@ class FitPart:
             for fls, label in zip(wanted.tolist(), labels.tolist(), strict=True):
                 if label >= 0:
                     self._labels[fls] = label
-        sent = np.diff(offsets) > 0
-        if sent.any():
-            # Every sender of a round sends as many values: one (3, K) block each.
+        counts = np.diff(offsets)
+        if (counts > 0).any():
+            # Every sender of a round sends as many values, one (3, K) block each; a sender
+            # that sent another number (a forgery the key let through) is not heard.
+            size = int(np.bincount(counts[counts > 0]).argmax())
+            sent = counts == size
+            rows = csr.ragged_indices(offsets[:-1][sent], counts[sent])
             self._heard_ids = wanted[sent]
-            self._heard_block = values.reshape(int(sent.sum()), 3, -1)
+            self._heard_block = values[rows].reshape(int(sent.sum()), 3, size // 3)
 
     def _labels_round(self) -> FitOffer:
         sweet = self.view.other[self._sweet]

@@ -152,3 +152,23 @@ def test_the_schedule_goes_labels_solve_weigh_reweigh_samples_share():
     assert schedule.after(settled, quiet=True).stage == SHARE
     assert schedule.after(quiet, quiet=True) is None
     assert schedule.iterations == [[1, 0, 0, 0]]
+
+
+def test_a_neighbour_s_vector_of_another_length_is_not_heard():
+    from swazure_ros.core.observe import local_view
+    from swazure_ros.protocol.discovery.messages import FitOffer, RoundOffers
+    from swazure_ros.protocol.discovery.participant import fit_offer
+    from swazure_ros.protocol.swarm_fit import FitPart
+
+    world = WorldSpec("torus:120", scale=1.6, beta=0.3).build()
+    hood = evaluate(world.swarm, stochastic_sensor(), "shortest-length").hood
+    view = local_view(observations(hood), world.ids, 0)
+    part = FitPart(view, hood.sensor, hood.swarm.radius, frozenset())
+    neighbours = part.view.other[part._measured][:3].tolist()
+    good = [(fls, fit_offer(FitOffer(values=np.full(3, float(fls))))) for fls in neighbours[:2]]
+    forged = (neighbours[2], fit_offer(FitOffer(values=np.zeros(5 * 3))))
+    part._take(RoundOffers.of([*good, forged]))
+    assert part._heard_ids.tolist() == sorted(neighbours[:2])
+    np.testing.assert_array_equal(
+        part._heard_block[:, :, 0], [[f] * 3 for f in sorted(neighbours[:2])]
+    )
