@@ -136,10 +136,6 @@ class FitSchedule:
         self._rejecting = False
         self._after_solve = False  # the next POSITIONS is followed by WEIGH
 
-    @property
-    def done(self) -> bool:
-        return self.step.stage == SHARE
-
     def first(self) -> FitStep:
         """The phase's first round (again, after a restart: the positions stay the FLSs')."""
         self.step = FitStep()
