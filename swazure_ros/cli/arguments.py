@@ -35,6 +35,26 @@ def number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
 
 
+#: Units of a memory size: bytes per unit (binary: K is 1024 bytes).
+_SIZE_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
+
+
+def memory_size(text: str) -> int:
+    """A memory size such as 512M or 4G (binary units), at least 64M: bytes."""
+    stripped = text.strip().upper().removesuffix("IB").removesuffix("B")
+    unit = stripped[-1:] if stripped[-1:] in _SIZE_UNITS else ""
+    try:
+        value = float(stripped[: len(stripped) - len(unit)])
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a memory size such as 512M or 4G"
+        ) from None
+    size = value * _SIZE_UNITS[unit]
+    if not math.isfinite(size) or size < 64 * 2**20:
+        raise argparse.ArgumentTypeError(f"{text!r}: give at least 64M")
+    return int(size)
+
+
 def seed(text: str) -> int:
     """A random seed: a whole number from 0 to 2**63 - 1 (numpy's seeds are not negative)."""
     value = whole_number(text)

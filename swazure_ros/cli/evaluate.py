@@ -9,21 +9,32 @@ stderr for runs longer than two seconds.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from dataclasses import replace
 from typing import Any
 
+from ..core.blocks import DEFAULT_MEMORY, Budget, evaluate_blocked, whole_swarm_bytes
 from ..core.errors import SwazureError
-from ..core.evaluate import Progress, evaluate
+from ..core.evaluate import SILENT, Progress, evaluate
 from ..core.fit import ESTIMATORS, PATH, refine
 from ..core.fusion import fuse
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
-from ..core.results import RunRecord, with_source, write_run
+from ..core.results import (
+    SUMMARY_FILE,
+    RunRecord,
+    with_source,
+    write_json,
+    write_pair_blocks,
+    write_record,
+    write_run,
+)
 from .arguments import (
     count,
+    memory_size,
     output_folder,
     png_file,
 )
@@ -88,6 +99,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "heuristic's moves",
     )
     add_colour_arguments(parser, "status", "snapshot colours")
+    parser.add_argument(
+        "--memory",
+        type=memory_size,
+        default=DEFAULT_MEMORY,
+        metavar="SIZE",
+        help="memory a block of plain Swazure's pairs may hold, such as 512M or 4G "
+        f"(default {DEFAULT_MEMORY // 2**30}G): a swarm's pairs are evaluated and written "
+        "a block at a time, so a display of 65,536 FLSs fits; the swarm's lean "
+        "neighbourhood is held whole besides (docs/core.md, 'The engine at display scale')",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_swarm_file_argument(
         parser,
@@ -135,37 +156,91 @@ def main(args: argparse.Namespace) -> int:
         )
     if args.compat != "text" and args.technique == PLAIN:
         raise SwazureError(f"--compat {args.compat} changes the heuristics; add --technique")
-    heuristic: HeuristicResult | None = None
+    blocked = (
+        args.technique == PLAIN
+        and args.fuse == 1
+        and args.estimator == PATH
+        and args.snapshot is None
+    )
     try:
-        evaluation = evaluate(swarm, sensor, args.policy, progress)
-        if args.technique != PLAIN:
-            began = time.perf_counter()
-            if progress is not None:
-                progress.start(args.technique, 1)
-            evaluation, heuristic = run_technique(
-                evaluation, args.technique, args.threshold, COMPAT_MODES[args.compat]
-            )
-            seconds = evaluation.summary["seconds"] + time.perf_counter() - began
-            evaluation = replace(evaluation, summary={**evaluation.summary, "seconds": seconds})
-        if args.fuse > 1:
-            evaluation = fuse(evaluation, args.fuse)
-        if args.estimator != PATH:
-            if progress is not None:
-                progress.start(args.estimator, 1)
-            evaluation = refine(evaluation, args.estimator)
+        if blocked:
+            return _evaluate_in_blocks(args, cloud, swarm, sensor, progress)
+        return _evaluate_whole(args, cloud, swarm, sensor, progress)
     finally:
         if isinstance(progress, TqdmProgress):
             progress.close()
-    summary = with_source(evaluation.summary, cloud, args.seed, args.sensor)
-    evaluation = replace(evaluation, summary=summary)
-    record = RunRecord("evaluate", summary["seconds"], summary)
+
+
+def _headline(
+    args: argparse.Namespace, cloud: Any, swarm: Any, sensor: Any, seconds: float
+) -> str:
     technique = args.technique if args.compat == "text" else f"{args.technique} ({args.compat})"
-    print(
+    return (
         f"{cloud.name}: beta {cell(swarm.beta)}, {args.policy}, {technique}, "
         f"{'' if args.estimator == PATH else args.estimator + ', '}"
         f"sensor {sensor.name}, "
-        f"{record.seconds:.2f} s"
+        f"{seconds:.2f} s"
     )
+
+
+def _evaluate_in_blocks(
+    args: argparse.Namespace, cloud: Any, swarm: Any, sensor: Any, progress: Progress | None
+) -> int:
+    """Plain Swazure a block of pairs at a time: pairs written as they are made."""
+    progress = progress or SILENT
+    run = evaluate_blocked(swarm, sensor, args.policy, Budget(args.memory), progress)
+    pairs_path = None
+    if args.out is not None:
+        pairs_path = write_pair_blocks(args.out, run.hood, args.policy, run.blocks(progress))
+    else:
+        for _ in run.blocks(progress):
+            pass
+    summary = with_source(run.summary(), cloud, args.seed, args.sensor)
+    record = RunRecord("evaluate", summary["seconds"], summary)
+    print(_headline(args, cloud, swarm, sensor, record.seconds))
+    print(summary_table(record.summary))
+    if args.out is not None:
+        summary_path = args.out / SUMMARY_FILE
+        write_json(summary_path, summary)
+        record_path = write_record(args.out, record)
+        print(f"wrote {summary_path}, {pairs_path} and {record_path}")
+    return 0
+
+
+def _evaluate_whole(
+    args: argparse.Namespace, cloud: Any, swarm: Any, sensor: Any, progress: Progress | None
+) -> int:
+    """A heuristic, fusion, a fit or a snapshot: every pair of the swarm held at once."""
+    need, have = whole_swarm_bytes(swarm, sensor), _available_bytes()
+    if need > have:
+        raise SwazureError(
+            f"{cloud.name}: --technique, --fuse, --estimator and --snapshot hold every pair "
+            f"of the swarm at once, about {need / 2**30:.1f} GB for {swarm.size} FLSs; this "
+            f"machine has {have / 2**30:.1f} GB free (plain Swazure runs in blocks)"
+        )
+    heuristic: HeuristicResult | None = None
+    evaluation = evaluate(swarm, sensor, args.policy, progress)
+    if args.technique != PLAIN:
+        began = time.perf_counter()
+        if progress is not None:
+            progress.start(args.technique, 1)
+        evaluation, heuristic = run_technique(
+            evaluation, args.technique, args.threshold, COMPAT_MODES[args.compat]
+        )
+        seconds = evaluation.summary["seconds"] + time.perf_counter() - began
+        evaluation = replace(evaluation, summary={**evaluation.summary, "seconds": seconds})
+    if args.fuse > 1:
+        evaluation = fuse(evaluation, args.fuse)
+    if args.estimator != PATH:
+        if progress is not None:
+            progress.start(args.estimator, 1)
+        evaluation = refine(evaluation, args.estimator)
+    if isinstance(progress, TqdmProgress):
+        progress.close()
+    summary = with_source(evaluation.summary, cloud, args.seed, args.sensor)
+    evaluation = replace(evaluation, summary=summary)
+    record = RunRecord("evaluate", summary["seconds"], summary)
+    print(_headline(args, cloud, swarm, sensor, record.seconds))
     print(summary_table(record.summary))
     if args.out is not None:
         summary_path, pairs_path, record_path = write_run(args.out, evaluation, record, heuristic)
@@ -180,3 +255,15 @@ def main(args: argparse.Namespace) -> int:
         )
         print(f"wrote {write_snapshot(scene, args.snapshot)}")
     return 0
+
+
+def _available_bytes() -> int:
+    """Memory this machine has free for a run, bytes (MemAvailable)."""
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")

@@ -9,7 +9,7 @@ to the run's metrics (section 6); :func:`evaluate` does all three.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -21,6 +21,7 @@ from . import csr, jit
 from .geometry import Swarm
 from .metrics import describe, pose_errors
 from .neighbours import (
+    NeighbourCounts,
     NeighbourPairs,
     neighbour_pairs,
     ordered_blind_pairs,
@@ -29,6 +30,7 @@ from .neighbours import (
 from .paths import Graph, Paths, check_policy, make_graph, path_hops, shortest_paths
 from .sensor import DECAYING, SWEET, Sensor, expected_error, hop_error, measured_vectors
 from .sight import Grid, build_grid, obstructed, obstructers, segments_near
+from .tally import SKETCH_RELATIVE_ERROR, IntegerTally, RealTally
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
@@ -63,6 +65,10 @@ class _Silent:
         pass
 
 
+#: Progress that shows nothing.
+SILENT: Progress = _Silent()
+
+
 @dataclass(frozen=True)
 class Neighbourhood:
     """What every pair evaluation of one swarm shares: pairs, line of sight, graphs.
@@ -77,6 +83,18 @@ class Neighbourhood:
     visible: NDArray[np.bool_]  # (len(pairs),), line of sight (False for blind pairs)
     grid: Grid
     usable: NDArray[np.bool_]  # (len(pairs),), pairs the graphs may hold (see without())
+    # The whole swarm's counts when ``pairs`` holds only the pairs paths may use (core.blocks).
+    kept_counts: NeighbourCounts | None = None
+
+    @property
+    def counts(self) -> NeighbourCounts:
+        """How many neighbour pairs of each kind the swarm has."""
+        return self.kept_counts or NeighbourCounts.of(self.pairs)
+
+    @cached_property
+    def sweet_components(self) -> IntArray:
+        """Connected-component label of every FLS in S_all: (N,)."""
+        return self.sweet_all.components()
 
     def _graph(self, mask: NDArray[np.bool_]) -> Graph:
         index = np.flatnonzero(mask & self.usable)
@@ -106,7 +124,7 @@ class Neighbourhood:
 
 def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None) -> Neighbourhood:
     """Neighbour pairs, their line of sight, and the graphs S_all, S_vis and SD_vis."""
-    progress = progress or _Silent()
+    progress = progress or SILENT
     pairs = neighbour_pairs(swarm, sensor)
     edge = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)
     grid = build_grid(swarm.points, swarm.radius)
@@ -196,7 +214,7 @@ def without(hood: Neighbourhood, gone: IntArray) -> Neighbourhood:
     """
     pairs = hood.pairs
     usable = ~(np.isin(pairs.first, gone) | np.isin(pairs.second, gone))
-    return Neighbourhood(hood.swarm, hood.sensor, pairs, hood.visible, hood.grid, usable)
+    return replace(hood, usable=usable)
 
 
 @dataclass(frozen=True)
@@ -474,17 +492,24 @@ def path_obstruction(
 
 
 def evaluate_pairs(
-    hood: Neighbourhood, policy: str, progress: Progress | None = None
+    hood: Neighbourhood,
+    policy: str,
+    progress: Progress | None = None,
+    blind: tuple[IntArray, IntArray] | None = None,
 ) -> PairResults:
-    """Status, path, estimate and errors of every ordered blind pair (spec, section 5)."""
+    """Status, path, estimate and errors of every ordered blind pair (spec, section 5).
+
+    ``blind``: the ordered blind pairs (source, target) (M,) to evaluate, sorted
+    by source, when not all of ``hood``'s (a block of them, core.blocks).
+    """
     check_policy(policy)
-    progress = progress or _Silent()
-    source, target = ordered_blind_pairs(hood.pairs)
+    progress = progress or SILENT
+    source, target = blind if blind is not None else ordered_blind_pairs(hood.pairs)
     count = len(source)
 
     progress.start("sweet paths", count)
     sweet = shortest_paths(hood.sweet_visible, source, target, policy, progress=progress.advance)
-    sweet_labels = hood.sweet_all.components()
+    sweet_labels = hood.sweet_components
     connected = sweet_labels[source] == sweet_labels[target]
     fallback = ~sweet.found
     progress.start("decaying paths", int(fallback.sum()))
@@ -575,17 +600,130 @@ def _pct(part: int, whole: int) -> float:
     return 100.0 * part / whole if whole else 0.0
 
 
-def summarise(hood: Neighbourhood, policy: str, pairs: PairResults) -> dict[str, Any]:
-    """The run's metrics (spec, section 6) as a JSON-ready dict."""
+#: Real values a tally keeps for exact quantiles by default: the published shapes'
+#: pairs (2.07 M at most) and more; a bounded run sets its own (core.blocks).
+EXACT_VALUES = 50_000_000
+
+
+@dataclass
+class PairTally:
+    """The summary's per-pair statistics, gathered from one block of pairs at a time."""
+
+    exact_values: int = EXACT_VALUES
+    pairs: int = 0
+    counts: dict[str, int] = field(default_factory=dict)
+    reals: dict[str, RealTally] = field(default_factory=dict)
+    integers: dict[str, IntegerTally] = field(default_factory=dict)
+    known_predictions: int = 0  # pairs with a path and a predicted error
+    within_predicted: int = 0  # of those, the pairs whose error is within it
+
+    def _count(self, name: str, mask: NDArray[np.bool_]) -> None:
+        self.counts[name] = self.counts.get(name, 0) + int(np.count_nonzero(mask))
+
+    def _real(self, name: str, values: FloatArray) -> None:
+        self.reals.setdefault(name, RealTally(self.exact_values)).add(values)
+
+    def _integer(self, name: str, values: IntArray) -> None:
+        self.integers.setdefault(name, IntegerTally()).add(values)
+
+    def add(self, pairs: PairResults) -> None:
+        """Gather the statistics of ``pairs``, a block of the run's."""
+        self.pairs += len(pairs)
+        has_path = pairs.status != NO_PATH
+        sweet, decaying = pairs.status == SWEET_PATH, pairs.status == DECAYING_PATH
+        obstructed_paths = pairs.sweet_obstructed & pairs.sweet_connected
+        for name, mask in (
+            ("sweet", sweet),
+            ("decaying", decaying),
+            ("no_path", ~has_path),
+            ("blocked", pairs.reason == REASON_BLOCKED),
+            ("no_sweet_path", pairs.reason == REASON_NO_SWEET_PATH),
+            ("sweet_connected", pairs.sweet_connected),
+            ("obstructed", obstructed_paths),
+        ):
+            self._count(name, mask)
+        for name, values in (
+            ("distance_error_pct", pairs.distance_error[has_path]),
+            ("distance_error_pct_sweet_paths", pairs.distance_error[sweet]),
+            ("distance_error_pct_decaying_paths", pairs.distance_error[decaying]),
+            ("alpha_deg", pairs.alpha[has_path]),
+            ("theta_deg", pairs.theta[has_path]),
+            ("phi_deg", pairs.phi[has_path]),
+            ("predicted_error_cm", pairs.predicted_error[has_path]),
+        ):
+            self._real(name, values)
+        for name, integers in (
+            ("hops", pairs.hops[has_path]),
+            ("hops_sweet_paths", pairs.hops[sweet]),
+            ("hops_decaying_paths", pairs.hops[decaying]),
+            ("obstructing_flss_per_path", pairs.obstructing_flss[obstructed_paths]),
+        ):
+            self._integer(name, integers)
+        known = np.isfinite(pairs.predicted_error) & has_path
+        error = np.linalg.norm(pairs.estimate[known] - pairs.truth[known], axis=1)
+        self.known_predictions += int(known.sum())
+        self.within_predicted += int((error <= pairs.predicted_error[known]).sum())
+
+    def fields(self) -> dict[str, Any]:
+        """The summary's per-pair fields (spec, section 6)."""
+        total, count = self.pairs, self.counts.get
+        described = {name: tally.describe() for name, tally in self.reals.items()}
+        described |= {name: tally.describe() for name, tally in self.integers.items()}
+        empty = describe([])
+        obstructing = self.integers.get("obstructing_flss_per_path", IntegerTally()).counts
+        return {
+            "blind_pairs": total,
+            "sweet_pairs": count("sweet", 0),
+            "decaying_pairs": count("decaying", 0),
+            "no_path_pairs": count("no_path", 0),
+            "sweet_pct": _pct(count("sweet", 0), total),
+            "decaying_pct": _pct(count("decaying", 0), total),
+            "no_path_pct": _pct(count("no_path", 0), total),
+            "blocked_pairs": count("blocked", 0),
+            "no_sweet_path_pairs": count("no_sweet_path", 0),
+            "distance_error_pct": described.get("distance_error_pct", empty),
+            # By class of pair: a decaying hop's error is far larger, and a mean over both
+            # hides the sweet pairs' (a fit's 1.2 % mean could be 0.01 % and 3.9 %).
+            "distance_error_pct_sweet_paths": described.get(
+                "distance_error_pct_sweet_paths", empty
+            ),
+            "distance_error_pct_decaying_paths": described.get(
+                "distance_error_pct_decaying_paths", empty
+            ),
+            "alpha_deg": described.get("alpha_deg", empty),
+            "theta_deg": described.get("theta_deg", empty),
+            "phi_deg": described.get("phi_deg", empty),
+            "hops": described.get("hops", empty),
+            "hops_sweet_paths": described.get("hops_sweet_paths", empty),
+            "hops_decaying_paths": described.get("hops_decaying_paths", empty),
+            "sweet_connected_pairs": count("sweet_connected", 0),
+            "obstructed_path_pct": _pct(count("obstructed", 0), count("sweet_connected", 0)),
+            "obstructing_flss_per_path": described.get("obstructing_flss_per_path", empty),
+            "predicted_error_cm": described.get("predicted_error_cm", empty),
+            # How often the estimate's error is within its predicted error (section "Fusion").
+            "within_predicted_pct": (
+                _pct(self.within_predicted, self.known_predictions)
+                if self.known_predictions
+                else float("nan")
+            ),
+            # Counts of obstructed paths by their number of obstructing FLSs (index = number),
+            # so that box plots and quantiles can be drawn without the per-pair file.
+            "obstructing_flss_histogram": obstructing.tolist(),
+            # Exact, or sketched past the tally's bound (core.tally).
+            "quantiles": "exact"
+            if all(tally.exact for tally in self.reals.values())
+            else f"sketched, relative error {SKETCH_RELATIVE_ERROR:g}",
+        }
+
+
+def summarise(hood: Neighbourhood, policy: str, pairs: PairResults | PairTally) -> dict[str, Any]:
+    """The run's metrics (spec, section 6) as a JSON-ready dict, from its pairs or their tally."""
+    if isinstance(pairs, PairResults):
+        tally = PairTally()
+        tally.add(pairs)
+        pairs = tally
     swarm, sensor = hood.swarm, hood.sensor
-    total = len(pairs)
-    has_path = pairs.status != NO_PATH
-    sweet, decaying = pairs.status == SWEET_PATH, pairs.status == DECAYING_PATH
-    obstructed_paths = pairs.sweet_obstructed & pairs.sweet_connected
-
-    def stat(values: FloatArray) -> dict[str, Any]:
-        return describe(values[has_path])
-
+    neighbours = hood.counts
     return {
         "flss": swarm.size,
         "cloud_points": swarm.size + swarm.removed,
@@ -593,40 +731,10 @@ def summarise(hood: Neighbourhood, policy: str, pairs: PairResults) -> dict[str,
         "radius": swarm.radius,
         "dmin": swarm.dmin,
         "beta": swarm.beta,
-        "kissing_pairs": hood.pairs.kissing(),
-        "sweet_neighbour_pairs": hood.pairs.count(SWEET),
-        "decaying_neighbour_pairs": hood.pairs.count(DECAYING),
-        "blind_pairs": total,
-        "sweet_pairs": int(sweet.sum()),
-        "decaying_pairs": int(decaying.sum()),
-        "no_path_pairs": int((~has_path).sum()),
-        "sweet_pct": _pct(int(sweet.sum()), total),
-        "decaying_pct": _pct(int(decaying.sum()), total),
-        "no_path_pct": _pct(int((~has_path).sum()), total),
-        "blocked_pairs": int((pairs.reason == REASON_BLOCKED).sum()),
-        "no_sweet_path_pairs": int((pairs.reason == REASON_NO_SWEET_PATH).sum()),
-        "distance_error_pct": stat(pairs.distance_error),
-        # By class of pair: a decaying hop's error is far larger, and a mean over both
-        # hides the sweet pairs' (a fit's 1.2 % mean could be 0.01 % and 3.9 %).
-        "distance_error_pct_sweet_paths": describe(pairs.distance_error[sweet]),
-        "distance_error_pct_decaying_paths": describe(pairs.distance_error[decaying]),
-        "alpha_deg": stat(pairs.alpha),
-        "theta_deg": stat(pairs.theta),
-        "phi_deg": stat(pairs.phi),
-        "hops": describe(pairs.hops[has_path]),
-        "hops_sweet_paths": describe(pairs.hops[sweet]),
-        "hops_decaying_paths": describe(pairs.hops[decaying]),
-        "sweet_connected_pairs": int(pairs.sweet_connected.sum()),
-        "obstructed_path_pct": _pct(int(obstructed_paths.sum()), int(pairs.sweet_connected.sum())),
-        "obstructing_flss_per_path": describe(pairs.obstructing_flss[obstructed_paths]),
-        "predicted_error_cm": stat(pairs.predicted_error),
-        # How often the estimate's error is within its predicted error (section "Fusion").
-        "within_predicted_pct": _within_predicted_pct(pairs),
-        # Counts of obstructed paths by their number of obstructing FLSs (index = number),
-        # so that box plots and quantiles can be drawn without the per-pair file.
-        "obstructing_flss_histogram": np.bincount(
-            pairs.obstructing_flss[obstructed_paths].astype(np.int64)
-        ).tolist(),
+        "kissing_pairs": neighbours.kissing,
+        "sweet_neighbour_pairs": neighbours.sweet,
+        "decaying_neighbour_pairs": neighbours.decaying,
+        **pairs.fields(),
         "parameters": {
             "policy": policy,
             "beta": swarm.beta,
@@ -636,15 +744,6 @@ def summarise(hood: Neighbourhood, policy: str, pairs: PairResults) -> dict[str,
         },
         "version": __version__,
     }
-
-
-def _within_predicted_pct(pairs: PairResults) -> float:
-    """% of the pairs with a predicted error whose estimate's error (cm) is within it."""
-    known = np.isfinite(pairs.predicted_error) & (pairs.status != NO_PATH)
-    if not known.any():
-        return float("nan")
-    error = np.linalg.norm(pairs.estimate[known] - pairs.truth[known], axis=1)
-    return _pct(int((error <= pairs.predicted_error[known]).sum()), int(known.sum()))
 
 
 def evaluate(

@@ -11,7 +11,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import csr, jit
 from .geometry import KISSING_TOLERANCE, Swarm, centre_distance
-from .sensor import BLIND, Sensor
+from .sensor import BLIND, DECAYING, SWEET, Sensor
 from .sight import Grid, grid_of
 
 if TYPE_CHECKING:
@@ -65,6 +65,25 @@ class NeighbourPairs:
         return np.asarray(_pair_index(self._rows, self.second, one, other))
 
 
+@dataclass(frozen=True)
+class NeighbourCounts:
+    """How many unordered pairs a swarm has of each kind the summary reports."""
+
+    kissing: int  # tracking distance within 1e-3 cm of 0
+    sweet: int
+    decaying: int
+
+    @classmethod
+    def of(cls, pairs: NeighbourPairs) -> NeighbourCounts:
+        """The counts of ``pairs``."""
+        return cls(pairs.kissing(), pairs.count(SWEET), pairs.count(DECAYING))
+
+    def __add__(self, other: NeighbourCounts) -> NeighbourCounts:
+        return NeighbourCounts(
+            self.kissing + other.kissing, self.sweet + other.sweet, self.decaying + other.decaying
+        )
+
+
 @jit.kernel(cache=True, parallel=True)
 def _pair_index(rows: IntArray, second: IntArray, one: IntArray, other: IntArray) -> IntArray:
     out = np.full(len(one), -1, dtype=np.int64)
@@ -108,20 +127,22 @@ def _within(points: FloatArray, node: int, reach: float, grid: Grid, out: IntArr
 
 
 @jit.kernel(cache=True, parallel=True)
-def _pairs_within(points: FloatArray, reach: float, grid: Grid) -> tuple[IntArray, IntArray]:
-    """Every pair i < j within ``reach`` as CSR: row i is second[rows[i]:rows[i + 1]], sorted."""
-    size = len(points)
+def _pairs_within(
+    points: FloatArray, reach: float, grid: Grid, start: int, stop: int
+) -> tuple[IntArray, IntArray]:
+    """Pairs i < j within ``reach``, i in [start, stop), as CSR: row i - start, sorted."""
+    size = stop - start
     counts = np.zeros(size, dtype=np.int64)
     nothing = np.empty(0, dtype=np.int64)
-    for node in jit.prange(size):
-        counts[node] = _within(points, node, reach, grid, nothing)
+    for row in jit.prange(size):
+        counts[row] = _within(points, start + row, reach, grid, nothing)
     rows = np.zeros(size + 1, dtype=np.int64)
     rows[1:] = np.cumsum(counts)
     second = np.empty(rows[-1], dtype=np.int64)
-    for node in jit.prange(size):
-        row = second[rows[node] : rows[node + 1]]
-        _within(points, node, reach, grid, row)
-        row.sort()
+    for row in jit.prange(size):
+        out = second[rows[row] : rows[row + 1]]
+        _within(points, start + row, reach, grid, out)
+        out.sort()
     return rows, second
 
 
@@ -131,16 +152,32 @@ def sensor_reach(sensor: Sensor, radius: float) -> float:
     return max(reach, 2.0 * radius + 2 * KISSING_TOLERANCE)
 
 
-def neighbour_pairs(swarm: Swarm, sensor: Sensor) -> NeighbourPairs:
+def candidate_reach(sensor: Sensor, radius: float) -> float:
+    """The reach of candidate pairs, cm: a rounding margin over :func:`sensor_reach`."""
+    # The distances that decide are centre_distance's, not the grid search's.
+    return sensor_reach(sensor, radius) * (1.0 + 1e-9)
+
+
+def neighbour_pairs(
+    swarm: Swarm,
+    sensor: Sensor,
+    start: int = 0,
+    stop: int | None = None,
+    grid: Grid | None = None,
+) -> NeighbourPairs:
     """Every unordered pair with tracking distance below ``sensor.decaying_max``, classified.
 
-    Pairs are sorted by (first, second).
+    Pairs are sorted by (first, second). With ``start`` and ``stop``, only
+    the pairs whose ``first`` is in [start, stop): a block of the whole
+    swarm's list, found in a block's memory. ``grid``: ``grid_of`` the points
+    at :func:`candidate_reach`, when the caller keeps it.
     """
-    # Candidates by a slightly longer reach; the distances that decide are centre_distance's.
-    reach = sensor_reach(sensor, swarm.radius) * (1.0 + 1e-9)
+    stop = swarm.size if stop is None else stop
+    reach = candidate_reach(sensor, swarm.radius)
     points = np.ascontiguousarray(swarm.points, dtype=np.float64)
-    rows, second = _pairs_within(points, reach, grid_of(points, reach))
-    first = np.repeat(np.arange(swarm.size, dtype=np.int64), np.diff(rows))
+    grid = grid if grid is not None else grid_of(points, reach)
+    rows, second = _pairs_within(points, reach, grid, start, stop)
+    first = np.repeat(np.arange(start, stop, dtype=np.int64), np.diff(rows))
     distance = centre_distance(swarm.points, first, second)
     tracking = distance - 2.0 * swarm.radius
     keep = tracking < sensor.decaying_max
@@ -151,6 +188,23 @@ def neighbour_pairs(swarm: Swarm, sensor: Sensor) -> NeighbourPairs:
             first[keep], second[keep], distance[keep], tracking[keep]
         )  # fmt: skip
     return NeighbourPairs(first, second, distance, tracking, sensor.classify(tracking))
+
+
+def pair_counts(swarm: Swarm, sensor: Sensor, grid: Grid | None = None) -> IntArray:
+    """Candidate pairs of each FLS as ``first`` (:func:`neighbour_pairs`'s, a few more): (N,)."""
+    reach = candidate_reach(sensor, swarm.radius)
+    points = np.ascontiguousarray(swarm.points, dtype=np.float64)
+    grid = grid if grid is not None else grid_of(points, reach)
+    return np.asarray(_pair_counts(points, reach, grid))
+
+
+@jit.kernel(cache=True, parallel=True)
+def _pair_counts(points: FloatArray, reach: float, grid: Grid) -> IntArray:
+    counts = np.zeros(len(points), dtype=np.int64)
+    nothing = np.empty(0, dtype=np.int64)
+    for node in jit.prange(len(points)):
+        counts[node] = _within(points, node, reach, grid, nothing)
+    return counts
 
 
 def pairs_of(
@@ -195,10 +249,15 @@ def pairs_between(swarm: Swarm, sensor: Sensor, one: IntArray, other: IntArray) 
 
 def ordered_blind_pairs(pairs: NeighbourPairs) -> tuple[IntArray, IntArray]:
     """Every ordered blind pair (source, target), sorted by source then target."""
-    from .paths import make_graph  # the graph's rows are the ordered pairs, sorted
-
     blind = pairs.range_class == BLIND
     size = int(pairs.second.max()) + 1 if len(pairs) else 0
-    first, second = pairs.first[blind], pairs.second[blind]
+    rows, targets = ordered_rows(size, pairs.first[blind], pairs.second[blind])
+    return csr.run_of(rows), targets
+
+
+def ordered_rows(size: int, first: IntArray, second: IntArray) -> tuple[IntArray, IntArray]:
+    """Unordered pairs (M,) as both orders, CSR over ``size`` FLSs: rows (size + 1,), targets."""
+    from .paths import make_graph  # the graph's rows are the ordered pairs, sorted
+
     graph = make_graph(size, first, second, np.zeros(len(first)))
-    return csr.run_of(graph.indptr), graph.indices
+    return graph.indptr, graph.indices

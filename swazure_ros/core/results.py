@@ -20,18 +20,18 @@ import os
 import shutil
 import tempfile
 from collections import deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
 from .clouds import Cloud
 from .errors import OutputError, SwazureError
-from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation
+from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation, Neighbourhood, PairResults
 from .heuristics.result import HeuristicResult
 
 PAIRS_FILE = "pairs.csv"
@@ -300,29 +300,38 @@ CSV_ROWS = 10_000
 THREADED_CSV_ROWS = 1_000_000
 
 
-def write_csv(table: Any, path: Path, threads: int | None = None) -> None:
-    """Write a pyarrow Table as CSV to ``path``, the same bytes as ``pyarrow.csv.write_csv``.
+def write_csv(
+    table: Any, out: Path | BinaryIO, threads: int | None = None, header: bool = True
+) -> None:
+    """Write a pyarrow Table as CSV to ``out``, the same bytes as ``pyarrow.csv.write_csv``.
 
-    Numbers to text is most of a large file's time and pyarrow does it on one
-    core: from THREADED_CSV_ROWS rows, slices of CSV_ROWS rows are formatted
-    on ``threads`` threads (the cores this process may use) and written in row
+    ``out``: a path, or a binary file open for writing (a block of a longer
+    file, ``header`` False but for the first). Numbers to text is most of a
+    large file's time and pyarrow does it on one core: from
+    THREADED_CSV_ROWS rows, slices of CSV_ROWS rows are formatted on
+    ``threads`` threads (the cores this process may use) and written in row
     order, at most one slice per thread ahead of the file, so that memory
     stays bounded.
     """
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
+    if isinstance(out, Path):
+        with open(out, "wb") as file:
+            write_csv(table, file, threads, header)
+        return
+
     def text(start: int) -> Any:
         sink = pa.BufferOutputStream()
-        options = pacsv.WriteOptions(include_header=start == 0)
+        options = pacsv.WriteOptions(include_header=header and start == 0)
         pacsv.write_csv(table.slice(start, CSV_ROWS), sink, options)
         return sink.getvalue()
 
     threads = threads or len(os.sched_getaffinity(0))
     if table.num_rows < THREADED_CSV_ROWS or threads == 1:
-        pacsv.write_csv(table, str(path))
+        pacsv.write_csv(table, out, pacsv.WriteOptions(include_header=header))
         return
-    with ThreadPoolExecutor(threads) as pool, open(path, "wb") as out:
+    with ThreadPoolExecutor(threads) as pool:
         pending: deque[Future[Any]] = deque()
         # An empty table still has its header.
         for start in range(0, max(table.num_rows, 1), CSV_ROWS):
@@ -361,6 +370,44 @@ def write_evaluation(
     summary_path = directory / SUMMARY_FILE
     write_json(summary_path, evaluation.summary)
     return summary_path, pairs_path
+
+
+def write_pair_blocks(
+    directory: Path,
+    hood: Neighbourhood,
+    policy: str,
+    blocks: Iterable[PairResults],
+    pairs_format: str = "csv",
+    columns: str = FULL_PAIRS,
+) -> Path:
+    """Write the per-pair file of a run made block by block (core.blocks), as blocks come.
+
+    The same bytes as :func:`write_evaluation` gives for the pairs of all
+    blocks at once; only one block's table is held at a time. Returns its path.
+    """
+    import pyarrow.parquet as pq
+
+    if pairs_format not in PAIRS_FORMATS:
+        raise ValueError(f"pairs_format must be one of {PAIRS_FORMATS}, got {pairs_format!r}")
+    name = PAIRS_FILE if pairs_format == "csv" else PAIRS_PARQUET_FILE
+    path = directory / name
+    with atomic_output(path) as temporary:
+        writer: Any = None
+        try:
+            for number, pairs in enumerate(blocks):
+                evaluation = Evaluation(hood, policy, pairs, {})
+                table = pairs_table(evaluation, None, pairs_format == "csv", columns)
+                if pairs_format == "csv":
+                    with open(temporary, "ab" if number else "wb") as out:
+                        write_csv(table, out, header=number == 0)
+                    continue
+                if writer is None:
+                    writer = pq.ParquetWriter(str(temporary), table.schema, compression="zstd")
+                writer.write_table(table)
+        finally:
+            if writer is not None:
+                writer.close()
+    return path
 
 
 def with_source(
