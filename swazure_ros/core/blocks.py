@@ -24,12 +24,20 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .evaluate import Neighbourhood, PairResults, PairTally, Progress, evaluate_pairs, summarise
+from .evaluate import (
+    SWEET_PATH,
+    Neighbourhood,
+    PairResults,
+    PairTally,
+    Progress,
+    evaluate_pairs,
+    summarise,
+)
 from .geometry import Swarm
 from .neighbours import (
     NeighbourCounts,
@@ -55,6 +63,10 @@ REAL_STATISTICS = 7
 #: Bytes :func:`.evaluate.evaluate` holds per candidate neighbour pair at its peak,
 #: written results included (the race car: 6.8 M pairs, 1.6 GB; torus:10000: 31 M, 4.0 GB).
 WHOLE_PAIR_BYTES = 250
+#: Bytes a lean neighbourhood holds per pair it keeps (pair record, sight, three graphs):
+#: a swarm whose candidate pairs all fit the budget at this price keeps its decaying
+#: pairs in sight from the start.
+LEAN_PAIR_BYTES = 100
 #: A block's memory unless the user gives one: pairs of a few million at a time.
 DEFAULT_MEMORY = 2 * 2**30
 
@@ -119,101 +131,164 @@ class BlindRows:
         return sources, self.targets[self.rows[start] : self.rows[stop]]
 
 
-def _kept(
-    swarm: Swarm, pairs: NeighbourPairs, grid: Grid
+def _in_sight(
+    swarm: Swarm, pairs: NeighbourPairs, range_class: int, grid: Grid
 ) -> tuple[NeighbourPairs, NDArray[np.bool_]]:
-    """The pairs paths may use (sweet, and decaying in sight) and their line of sight."""
-    sweet = pairs.range_class == SWEET
-    edge = sweet | (pairs.range_class == DECAYING)
-    visible = np.zeros(len(pairs), dtype=bool)
-    visible[edge] = ~obstructed(
-        swarm.points, swarm.radius, pairs.first[edge], pairs.second[edge], grid
+    """The pairs of one range class, and whether each is in line of sight."""
+    chosen = pairs.select(pairs.range_class == range_class)
+    visible = ~obstructed(swarm.points, swarm.radius, chosen.first, chosen.second, grid)
+    return chosen, visible
+
+
+def _joined(parts: list[NeighbourPairs]) -> NeighbourPairs:
+    """Pair lists as one, in the order given (blocks in order give a sorted list)."""
+    return NeighbourPairs(
+        *(np.concatenate([getattr(part, name) for part in parts]) for name in _PAIR_FIELDS)
     )
-    keep = sweet | visible
-    return pairs.select(keep), visible[keep]
+
+
+_PAIR_FIELDS = ("first", "second", "distance", "tracking", "range_class")
+
+
+@dataclass(frozen=True)
+class LeanNeighbourhood:
+    """A swarm's neighbourhood as its paths use it, found and kept a block of FLSs at a time.
+
+    ``sweet`` holds the sweet pairs only: enough for every pair whose sweet
+    path is in sight (on a surface such as a torus or a sphere, every pair).
+    ``whole`` adds the decaying pairs in sight, which the pairs without such
+    a path search; it is built at once when the swarm's candidate pairs fit
+    the budget, else by :func:`with_decaying` when a block first needs it
+    (their line of sight, 9 in 10 of the work, is then judged only if used).
+    Both hold the whole swarm's counts.
+    """
+
+    swarm: Swarm
+    sensor: Sensor
+    budget: Budget
+    blocks: list[tuple[int, int]]  # ranges of FLSs [start, stop) whose pairs a block finds
+    sweet: Neighbourhood
+    blind: BlindRows
+    whole: Neighbourhood | None
 
 
 def lean_neighbourhood(
     swarm: Swarm, sensor: Sensor, budget: Budget, progress: Progress
-) -> tuple[Neighbourhood, BlindRows]:
-    """The swarm's neighbourhood as paths use it, and its ordered blind pairs, block by block.
-
-    The neighbourhood's ``pairs`` hold the sweet pairs and the decaying pairs
-    in line of sight, in :func:`.neighbours.neighbour_pairs`'s order; its
-    ``counts`` are the whole swarm's.
-    """
+) -> LeanNeighbourhood:
+    """The swarm's :class:`LeanNeighbourhood` and its ordered blind pairs, block by block."""
     reach_grid = grid_of(np.ascontiguousarray(swarm.points), candidate_reach(sensor, swarm.radius))
     sight_grid = build_grid(swarm.points, swarm.radius)
     candidates = pair_counts(swarm, sensor, reach_grid)
+    blocks = ranges(candidates, budget.block_candidates)
+    at_once = int(candidates.sum()) * LEAN_PAIR_BYTES <= budget.memory
     progress.start("neighbours and line of sight", swarm.size)
-    parts: list[NeighbourPairs] = []
-    visible: list[NDArray[np.bool_]] = []
+    sweet: list[NeighbourPairs] = []
+    sweet_sight: list[NDArray[np.bool_]] = []
+    seen: list[NeighbourPairs] = []
     blind_first: list[IntArray] = []
     blind_second: list[IntArray] = []
     counts = NeighbourCounts(0, 0, 0)
-    for start, stop in ranges(candidates, budget.block_candidates):
+    for start, stop in blocks:
         pairs = neighbour_pairs(swarm, sensor, start, stop, reach_grid)
         counts = counts + NeighbourCounts.of(pairs)
         blind = pairs.range_class == BLIND
         blind_first.append(pairs.first[blind])
         blind_second.append(pairs.second[blind])
-        kept, seen = _kept(swarm, pairs, sight_grid)
-        parts.append(kept)
-        visible.append(seen)
+        part, visible = _in_sight(swarm, pairs, SWEET, sight_grid)
+        sweet.append(part)
+        sweet_sight.append(visible)
+        if at_once:
+            part, visible = _in_sight(swarm, pairs, DECAYING, sight_grid)
+            seen.append(part.select(visible))
         progress.advance(stop - start)
-    pairs = NeighbourPairs(
-        *(np.concatenate([getattr(part, name) for part in parts]) for name in _PAIR_FIELDS)
-    )
     rows, targets = ordered_rows(
         swarm.size, np.concatenate(blind_first), np.concatenate(blind_second)
     )
-    hood = Neighbourhood(
-        swarm,
-        sensor,
-        pairs,
-        np.concatenate(visible),
-        sight_grid,
-        np.ones(len(pairs), dtype=bool),
-        kept_counts=counts,
+    sweet_pairs = _joined(sweet)
+    sweet_hood = Neighbourhood(
+        swarm, sensor, sweet_pairs, np.concatenate(sweet_sight), sight_grid,
+        np.ones(len(sweet_pairs), dtype=bool), kept_counts=counts,
+    )  # fmt: skip
+    lean = LeanNeighbourhood(
+        swarm, sensor, budget, blocks, sweet_hood, BlindRows(rows, targets), None
     )
-    return hood, BlindRows(rows, targets)
+    return replace(lean, whole=_whole(lean, _joined(seen))) if at_once else lean
 
 
-_PAIR_FIELDS = ("first", "second", "distance", "tracking", "range_class")
+def _whole(lean: LeanNeighbourhood, seen: NeighbourPairs) -> Neighbourhood:
+    """``lean.sweet`` with the decaying pairs in sight ``seen`` joined to its pairs, in order."""
+    sweet, size = lean.sweet, lean.swarm.size
+    joined = _joined([sweet.pairs, seen])
+    order = np.argsort(joined.first * size + joined.second)  # unique keys
+    visible = np.concatenate([sweet.visible, np.ones(len(seen), dtype=bool)])
+    return replace(
+        sweet,
+        pairs=joined.select(order),
+        visible=visible[order],
+        usable=np.ones(len(joined), dtype=bool),
+    )
+
+
+def with_decaying(lean: LeanNeighbourhood, progress: Progress) -> LeanNeighbourhood:
+    """``lean`` with its ``whole`` neighbourhood: the decaying pairs in sight, block by block."""
+    if lean.whole is not None:
+        return lean
+    swarm, sensor = lean.swarm, lean.sensor
+    reach_grid = grid_of(np.ascontiguousarray(swarm.points), candidate_reach(sensor, swarm.radius))
+    progress.start("decaying pairs in line of sight", swarm.size)
+    seen = []
+    for start, stop in lean.blocks:
+        pairs = neighbour_pairs(swarm, sensor, start, stop, reach_grid)
+        part, visible = _in_sight(swarm, pairs, DECAYING, lean.sweet.grid)
+        seen.append(part.select(visible))
+        progress.advance(stop - start)
+    return replace(lean, whole=_whole(lean, _joined(seen)))
 
 
 @dataclass
 class BlockedEvaluation:
     """A run evaluated block by block: iterate :meth:`blocks`, then read :meth:`summary`."""
 
-    hood: Neighbourhood
+    lean: LeanNeighbourhood
     policy: str
-    blind: BlindRows
-    budget: Budget = field(default_factory=Budget)
-    tally: PairTally = field(init=False)
     seconds: float = 0.0  # computing so far: the neighbourhood's and the blocks'
+    tally: PairTally = field(init=False)
 
     def __post_init__(self) -> None:
-        self.tally = PairTally(self.budget.exact_values)
+        self.tally = PairTally(self.lean.budget.exact_values)
+
+    @property
+    def hood(self) -> Neighbourhood:
+        """The neighbourhood the blocks search now (its swarm, sensor and counts are the run's)."""
+        return self.lean.whole or self.lean.sweet
 
     def sources(self) -> list[tuple[int, int]]:
         """The blocks: ranges of sources [start, stop), each within the budget's pairs."""
-        return ranges(np.diff(self.blind.rows), self.budget.block_pairs)
+        return ranges(np.diff(self.lean.blind.rows), self.lean.budget.block_pairs)
 
     def blocks(self, progress: Progress) -> Iterator[PairResults]:
         """Each block's pair results in order, tallied for the summary as they are made."""
-        progress.start("pairs", len(self.blind))
+        total, done = len(self.lean.blind), 0
+        progress.start("pairs", total)
         for start, stop in self.sources():
             began = time.perf_counter()
-            pairs = evaluate_pairs(self.hood, self.policy, blind=self.blind.block(start, stop))
+            blind = self.lean.blind.block(start, stop)
+            pairs = evaluate_pairs(self.hood, self.policy, blind=blind)
+            if self.lean.whole is None and np.any(pairs.status != SWEET_PATH):
+                # A pair without a sweet path in sight searches the decaying pairs too.
+                self.lean = with_decaying(self.lean, progress)
+                pairs = evaluate_pairs(self.hood, self.policy, blind=blind)
+                progress.start("pairs", total)
+                progress.advance(done)
             self.tally.add(pairs)
             self.seconds += time.perf_counter() - began
+            done += len(pairs)
             progress.advance(len(pairs))
             yield pairs
 
     def summary(self) -> dict[str, object]:
         """The run's summary, once every block has been made."""
-        if self.tally.pairs != len(self.blind):
+        if self.tally.pairs != len(self.lean.blind):
             raise RuntimeError("the summary of a blocked evaluation needs every block made first")
         return {**summarise(self.hood, self.policy, self.tally), "seconds": self.seconds}
 
@@ -224,8 +299,8 @@ def evaluate_blocked(
     """The lean neighbourhood of ``swarm``, ready to evaluate its pairs block by block."""
     check_policy(policy)
     began = time.perf_counter()
-    hood, blind = lean_neighbourhood(swarm, sensor, budget, progress)
-    return BlockedEvaluation(hood, policy, blind, budget, seconds=time.perf_counter() - began)
+    lean = lean_neighbourhood(swarm, sensor, budget, progress)
+    return BlockedEvaluation(lean, policy, seconds=time.perf_counter() - began)
 
 
 def whole_swarm_bytes(swarm: Swarm, sensor: Sensor) -> int:
