@@ -181,7 +181,7 @@ def lean_neighbourhood(
     candidates = pair_counts(swarm, sensor, reach_grid)
     blocks = ranges(candidates, budget.block_candidates)
     at_once = int(candidates.sum()) * LEAN_PAIR_BYTES <= budget.memory
-    progress.start("neighbours and line of sight", swarm.size)
+    progress.start("neighbours and line of sight", int(candidates.sum()))
     sweet: list[NeighbourPairs] = []
     sweet_sight: list[NDArray[np.bool_]] = []
     seen: list[NeighbourPairs] = []
@@ -200,7 +200,7 @@ def lean_neighbourhood(
         if at_once:
             part, visible = _in_sight(swarm, pairs, DECAYING, sight_grid)
             seen.append(part.select(visible))
-        progress.advance(stop - start)
+        progress.advance(int(candidates[start:stop].sum()))
     rows, targets = ordered_rows(
         swarm.size, np.concatenate(blind_first), np.concatenate(blind_second)
     )
@@ -235,13 +235,13 @@ def with_decaying(lean: LeanNeighbourhood, progress: Progress) -> LeanNeighbourh
         return lean
     swarm, sensor = lean.swarm, lean.sensor
     reach_grid = grid_of(np.ascontiguousarray(swarm.points), candidate_reach(sensor, swarm.radius))
-    progress.start("decaying pairs in line of sight", swarm.size)
+    progress.start("decaying pairs in line of sight", lean.sweet.counts.decaying)
     seen = []
     for start, stop in lean.blocks:
         pairs = neighbour_pairs(swarm, sensor, start, stop, reach_grid)
         part, visible = _in_sight(swarm, pairs, DECAYING, lean.sweet.grid)
         seen.append(part.select(visible))
-        progress.advance(stop - start)
+        progress.advance(len(part))
     return replace(lean, whole=_whole(lean, _joined(seen)))
 
 

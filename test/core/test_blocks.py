@@ -1,0 +1,126 @@
+"""A swarm evaluated block by block gives the pairs and the summary of the whole evaluation."""
+
+import json
+from dataclasses import fields, replace
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.blocks import (
+    BlockedEvaluation,
+    Budget,
+    evaluate_blocked,
+    lean_neighbourhood,
+    ranges,
+    with_decaying,
+)
+from swazure_ros.core.clouds import load_cloud
+from swazure_ros.core.evaluate import SILENT, PairResults, PairTally, evaluate
+from swazure_ros.core.geometry import make_swarm
+
+from ..conftest import A, B, C, D, K, scene
+
+#: The smallest budget: blocks of a few hundred pairs, so that small swarms have many.
+SMALL = Budget(2**20)
+
+
+def shape(name):
+    return make_swarm(load_cloud(name).points, beta=0.5)
+
+
+def joined(blocks):
+    """The blocks' pair results as one, path offsets rebased."""
+    joined = {}
+    for field in fields(PairResults):
+        parts = [getattr(block, field.name) for block in blocks]
+        if field.name == "offsets":
+            base = np.cumsum([0] + [part[-1] for part in parts[:-1]])
+            parts = [parts[0]] + [part[1:] + shift for part, shift in zip(parts[1:], base[1:])]
+        joined[field.name] = None if parts[0] is None else np.concatenate(parts)
+    return PairResults(**joined)
+
+
+def assert_same_pairs(got, want):
+    for field in fields(PairResults):
+        a, b = getattr(got, field.name), getattr(want, field.name)
+        if b is None:
+            assert a is None, field.name
+        else:
+            np.testing.assert_array_equal(a, b, err_msg=field.name)
+
+
+def deferred(run):
+    """``run`` with its decaying pairs left out until a block needs them."""
+    return BlockedEvaluation(replace(run.lean, whole=None), run.policy)
+
+
+def at_once(run):
+    """``run`` with its decaying pairs in sight from the start."""
+    return BlockedEvaluation(with_decaying(run.lean, SILENT), run.policy)
+
+
+@pytest.mark.parametrize("defer", [False, True], ids=["decaying-at-once", "decaying-deferred"])
+@pytest.mark.parametrize("cloud", ["torus:300", "helix:200", "cube:125"])
+def test_blocks_give_the_pairs_and_summary_of_the_whole_evaluation(sensor, cloud, defer):
+    swarm = shape(cloud)
+    whole = evaluate(swarm, sensor, "fewest-hops")
+    run = evaluate_blocked(swarm, sensor, "fewest-hops", SMALL, SILENT)
+    run = deferred(run) if defer else at_once(run)
+    run.tally = PairTally()  # exact quantiles, whatever the budget
+    blocks = list(run.blocks(SILENT))
+    assert len(blocks) > 1
+    assert_same_pairs(joined(blocks), whole.pairs)
+    summary = run.summary()
+    assert summary["quantiles"] == "exact"
+    summary.pop("seconds")
+    expected = {key: value for key, value in whole.summary.items() if key != "seconds"}
+    assert json.dumps(summary) == json.dumps(expected)  # NaN as NaN
+
+
+def test_a_blocked_pair_falls_back_to_its_decaying_path_as_the_whole_evaluation_does(sensor):
+    swarm = scene(A, B, C, K, D)
+    whole = evaluate(swarm, sensor, "fewest-hops")
+    run = deferred(evaluate_blocked(swarm, sensor, "fewest-hops", SMALL, SILENT))
+    assert_same_pairs(joined(list(run.blocks(SILENT))), whole.pairs)
+    assert run.lean.whole is not None  # the blocked pair (A, C) searched the decaying pairs
+
+
+def test_a_swarm_whose_sweet_paths_are_all_in_sight_never_judges_its_decaying_pairs(sensor):
+    swarm = shape("helix:200")
+    run = deferred(evaluate_blocked(swarm, sensor, "fewest-hops", SMALL, SILENT))
+    for _ in run.blocks(SILENT):
+        pass
+    assert run.lean.whole is None
+    assert run.summary()["sweet_pct"] == 100.0
+
+
+def test_the_lean_neighbourhood_keeps_sweet_pairs_and_decaying_pairs_in_sight(sensor):
+    swarm = shape("helix:200")
+    whole = evaluate(swarm, sensor, "fewest-hops").hood
+    lean = with_decaying(lean_neighbourhood(swarm, sensor, SMALL, SILENT), SILENT)
+    assert len(lean.blocks) > 1
+    kept = (whole.pairs.range_class == 2) | ((whole.pairs.range_class == 3) & whole.visible)
+    for name in ("first", "second", "distance", "tracking", "range_class"):
+        np.testing.assert_array_equal(
+            getattr(lean.whole.pairs, name), getattr(whole.pairs, name)[kept]
+        )
+    np.testing.assert_array_equal(lean.whole.visible, whole.visible[kept])
+    assert lean.whole.counts == whole.counts
+
+
+def test_the_summary_waits_for_every_block(sensor):
+    run = evaluate_blocked(shape("torus:300"), sensor, "fewest-hops", SMALL, SILENT)
+    next(iter(run.blocks(SILENT)))
+    with pytest.raises(RuntimeError, match="every block"):
+        run.summary()
+
+
+def test_ranges_cut_weights_into_runs_within_the_limit():
+    assert ranges(np.array([3, 3, 3, 3]), 6) == [(0, 2), (2, 4)]
+    assert ranges(np.array([10, 1, 1]), 5) == [(0, 1), (1, 3)]  # a heavy item alone
+    assert ranges(np.array([0, 0]), 5) == [(0, 2)]
+
+
+def test_a_budget_below_one_mebibyte_is_refused():
+    with pytest.raises(ValueError, match="at least 1 MiB"):
+        Budget(1000)
