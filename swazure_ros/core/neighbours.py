@@ -34,8 +34,8 @@ class NeighbourPairs:
     def __len__(self) -> int:
         return len(self.first)
 
-    def select(self, mask: NDArray[np.bool_]) -> NeighbourPairs:
-        """The pairs where ``mask`` holds."""
+    def select(self, mask: NDArray[np.bool_] | IntArray) -> NeighbourPairs:
+        """The pairs where ``mask`` holds, or at the indices it lists, in its order."""
         return NeighbourPairs(
             self.first[mask],
             self.second[mask],

@@ -109,6 +109,8 @@ SENSOR_NEGATIVE = SENSOR_OUT_OF_ORDER.replace(
         (["--cloud", "torus", "--beta", "0.5", "--sensor", "{tmp}/broken.yaml"], "not valid YAML"),
         (["--cloud", "dodecahedron", "--beta", "0.5"], "unknown shape 'dodecahedron'"),
         (["--cloud", "torus", "--beta", "0.5", "--policy", "widest"], "invalid choice"),
+        (["--cloud", "torus", "--beta", "0.5", "--memory", "lots"], "not a memory size"),
+        (["--cloud", "torus", "--beta", "0.5", "--memory", "1M"], "give at least 64M"),
     ],
 )
 def test_bad_input_gives_one_line_and_exit_code_2(tmp_path, arguments, message):
@@ -125,6 +127,31 @@ def test_bad_input_gives_one_line_and_exit_code_2(tmp_path, arguments, message):
     assert message in run.stderr
     assert "Traceback" not in run.stderr
     assert len(run.stderr.strip().splitlines()) == 1, run.stderr
+
+
+def test_a_run_in_small_blocks_writes_the_files_of_a_run_in_one_block(tmp_path):
+    runs = {}
+    for memory in ("64M", "4G"):
+        out = tmp_path / memory
+        run = swazure(
+            "evaluate", "--cloud", "torus:2000", "--beta", "0.5", "--memory", memory,
+            "--out", str(out), "--quiet",
+        )  # fmt: skip
+        assert run.returncode == 0, run.stderr
+        summary = json.loads((out / "summary.json").read_text())
+        runs[memory] = (out / "pairs.csv").read_bytes(), summary
+    (small, small_summary), (large, large_summary) = runs["64M"], runs["4G"]
+    assert small == large
+    # 800,000 pairs: past 64M's exact values, quantiles are sketched; counts and means stay.
+    assert small_summary["quantiles"].startswith("sketched")
+    assert large_summary["quantiles"] == "exact"
+    for key in ("blind_pairs", "sweet_pairs", "decaying_pairs", "sweet_neighbour_pairs"):
+        assert small_summary[key] == large_summary[key]
+    small_error, large_error = (
+        run["distance_error_pct"] for run in (small_summary, large_summary)
+    )
+    assert small_error["max"] == large_error["max"]
+    assert small_error["p50"] == pytest.approx(large_error["p50"], rel=1e-3)
 
 
 def test_colliding_flss_are_removed_and_reported(tmp_path):

@@ -163,3 +163,29 @@ def test_csv_written_slice_by_slice_on_threads_is_pyarrows_own_bytes(
     expected = (tmp_path / "whole.csv").read_bytes()
     assert (tmp_path / "sliced.csv").read_bytes() == expected
     assert expected.count(b"\n") == rows + 1
+
+
+@pytest.mark.parametrize("pairs_format", ["csv", "parquet"])
+def test_pairs_written_block_by_block_are_the_bytes_of_the_pairs_written_at_once(
+    tmp_path, monkeypatch, sensor, pairs_format
+):
+    from swazure_ros.core import results
+    from swazure_ros.core.blocks import Budget, evaluate_blocked
+    from swazure_ros.core.clouds import load_cloud
+    from swazure_ros.core.evaluate import SILENT, evaluate
+    from swazure_ros.core.geometry import make_swarm
+    from swazure_ros.core.results import write_evaluation, write_pair_blocks
+
+    # Row groups of 1,000 pairs: the blocks' boundaries fall inside them.
+    monkeypatch.setattr(results, "PARQUET_ROWS", 1000)
+    swarm = make_swarm(load_cloud("helix:200").points, beta=0.5)
+    whole, blocked = tmp_path / "whole", tmp_path / "blocked"
+    whole.mkdir(), blocked.mkdir()
+    _, expected = write_evaluation(
+        whole, evaluate(swarm, sensor, "fewest-hops"), None, pairs_format
+    )
+    run = evaluate_blocked(swarm, sensor, "fewest-hops", Budget(2**20), SILENT)
+    assert len(run.sources()) > 1
+    got = write_pair_blocks(blocked, run.hood, run.policy, run.blocks(SILENT), pairs_format)
+    assert got.read_bytes() == expected.read_bytes()
+    assert not list(blocked.glob(".*"))  # no temporary file left behind
