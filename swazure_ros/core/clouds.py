@@ -17,10 +17,14 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from . import jit
 from .errors import CloudError
 from .files import regular_file
+from .sight import Grid, grid_of
 
 FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
 
 #: Mean nearest-neighbour distance of the published shapes, cm (spec, section 10).
 PUBLISHED_DENSITY = 0.65
@@ -214,10 +218,79 @@ def read_points(path: str | Path, scale: float = 1.0) -> FloatArray:
 
 def _at_density(points: FloatArray, density: float) -> FloatArray:
     """Rescale ``points`` so that their mean nearest-neighbour distance is ``density`` cm."""
+    return points * (density / mean_spacing(points))
+
+
+def mean_spacing(points: FloatArray) -> float:
+    """Mean distance of each point of ``points`` (N, 3) to its nearest other point, cm."""
     from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
 
     distances, _ = cKDTree(points).query(points, k=2)
-    return points * (density / float(distances[:, 1].mean()))
+    return float(distances[:, 1].mean())
+
+
+def resample(points: FloatArray, count: int, seed: int = 0) -> FloatArray:
+    """``count`` points over the shape of ``points`` (N, 3), at its mean spacing: (count, 3), cm.
+
+    A display-size version of a cloud: the shape grows so that its points
+    keep their spacing. The shape is filled in by midpoints of each point's
+    six nearest neighbours (chords of a surface stay near it) until it has
+    four times ``count`` points, thinned in a seeded order to points at
+    least a spacing apart (Poisson-disk sampling, the spacing bisected to
+    the largest that keeps ``count``), ``count`` of those chosen, and the
+    whole scaled to the mean spacing of ``points``. Deterministic per seed.
+    """
+    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+
+    original = np.asarray(points, dtype=np.float64)
+    dense = original
+    while len(dense) < 4 * count:
+        _, near = cKDTree(dense).query(dense, k=7)
+        one, other = np.repeat(np.arange(len(dense)), 6), near[:, 1:].ravel()
+        edges = np.unique(
+            np.column_stack([np.minimum(one, other), np.maximum(one, other)]), axis=0
+        )
+        dense = np.concatenate([dense, (dense[edges[:, 0]] + dense[edges[:, 1]]) / 2.0])
+    order = np.random.default_rng(seed).permutation(len(dense))
+    low, high = 0.0, mean_spacing(original)
+    kept = np.ones(len(dense), dtype=bool)
+    for _ in range(24):  # the spacing to 1 part in 10^7
+        spacing = (low + high) / 2.0
+        thinned = _apart(dense, order, spacing, grid_of(dense, spacing))
+        if thinned.sum() >= count:
+            low, kept = spacing, thinned
+        else:
+            high = spacing
+    candidates = np.flatnonzero(kept)
+    chosen = np.sort(np.random.default_rng(seed).choice(candidates, count, replace=False))
+    return dense[chosen] * (mean_spacing(original) / mean_spacing(dense[chosen]))
+
+
+@jit.kernel(cache=True)
+def _apart(points: FloatArray, order: IntArray, spacing: float, grid: Grid) -> BoolArray:
+    """Points kept in ``order`` when no point kept before is within ``spacing``: (N,) mask."""
+    origin, cell, shape, cell_start, members = grid
+    kept = np.zeros(len(points), dtype=np.bool_)
+    limit = spacing * spacing
+    for node in order:
+        cx = min(int((points[node, 0] - origin[0]) / cell), shape[0] - 1)
+        cy = min(int((points[node, 1] - origin[1]) / cell), shape[1] - 1)
+        cz = min(int((points[node, 2] - origin[2]) / cell), shape[2] - 1)
+        clear = True
+        for ix in range(max(cx - 1, 0), min(cx + 2, shape[0])):
+            for iy in range(max(cy - 1, 0), min(cy + 2, shape[1])):
+                for iz in range(max(cz - 1, 0), min(cz + 2, shape[2])):
+                    key = (ix * shape[1] + iy) * shape[2] + iz
+                    for slot in range(cell_start[key], cell_start[key + 1]):
+                        other = members[slot]
+                        if kept[other]:
+                            dx = points[other, 0] - points[node, 0]
+                            dy = points[other, 1] - points[node, 1]
+                            dz = points[other, 2] - points[node, 2]
+                            if dx * dx + dy * dy + dz * dz < limit:
+                                clear = False
+        kept[node] = clear
+    return kept
 
 
 def sphere_shell(count: int) -> FloatArray:
@@ -264,6 +337,7 @@ def cube_lattice(count: int) -> FloatArray:
 #: Built-in shapes: name -> (generator, default count).
 BUILTIN_SHAPES: dict[str, tuple[Callable[[int], FloatArray], int]] = {
     "sphere": (sphere_shell, 500),
+    "sphere_shell": (sphere_shell, 500),  # the name display studies use for the same shell
     "torus": (torus, 400),
     "helix": (helix, 300),
     "cube": (cube_lattice, 512),

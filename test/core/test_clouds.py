@@ -64,3 +64,27 @@ def test_missing_file_and_unknown_shape(tmp_path):
         read_points(tmp_path / "absent.xyz")
     with pytest.raises(CloudError, match="unknown shape 'dodecahedron'"):
         load_cloud("dodecahedron")
+
+
+def test_a_resampled_cloud_has_the_count_and_spacing_asked_for_and_is_the_same_each_time():
+
+    from swazure_ros.core.clouds import mean_spacing, resample
+
+    points = load_cloud("sphere:200").points
+    grown = resample(points, 1000, seed=3)
+    assert grown.shape == (1000, 3)
+    assert mean_spacing(grown) == pytest.approx(mean_spacing(points), rel=1e-12)
+    # Poisson-disk thinning: no two points much closer than the original's spacing allows.
+    nearest, _ = cKDTree(grown).query(grown, k=2)
+    assert nearest[:, 1].min() > 0.6 * mean_spacing(points)
+    # The shape grew: a larger sphere, its points still on one shell around the centre.
+    radii = np.linalg.norm(grown - grown.mean(axis=0), axis=1)
+    assert radii.mean() > 2 * np.linalg.norm(points - points.mean(axis=0), axis=1).mean()
+    assert radii.std() < 0.05 * radii.mean()
+    np.testing.assert_array_equal(resample(points, 1000, seed=3), grown)
+
+
+def test_sphere_shell_is_the_sphere_by_the_name_display_studies_use():
+    np.testing.assert_array_equal(
+        load_cloud("sphere_shell:300").points, load_cloud("sphere:300").points
+    )
