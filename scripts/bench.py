@@ -2968,13 +2968,15 @@ def scale_targets(rows: list[dict]) -> list[str]:
                                                          "torus:65536")]  # fmt: skip
     per_pair = [row["wall"] / row["pairs"] for row in (car, torus)]
     met = torus["wall"] < 300 and torus["peak"] < 8192
+    car_display = by[("racecar_65536", "default")]
+    car_met = car_display["wall"] < 300 and car_display["peak"] < 8192
     return [
         "Targets:",
         "",
         f"- torus:65536 in under 5 minutes and 8 GB: {torus['wall']:.0f} s, "
         f"{torus['peak'] / 1024:.2f} GB: {'met' if met else 'not met'}.",
-        f"- racecar_65536: {by[('racecar_65536', 'default')]['wall']:.0f} s, "
-        f"{by[('racecar_65536', 'default')]['peak'] / 1024:.2f} GB.",
+        f"- racecar_65536 in under 5 minutes and 8 GB: {car_display['wall']:.0f} s, "
+        f"{car_display['peak'] / 1024:.2f} GB: {'met' if car_met else 'not met'}.",
         f"- Per pair at 65,536 FLSs within 1.5x of the race car's: "
         f"{per_pair[1] * 1e6:.2f} against {per_pair[0] * 1e6:.2f} s per million pairs "
         f"({per_pair[1] / per_pair[0]:.2f}x).",

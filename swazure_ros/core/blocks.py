@@ -1,23 +1,23 @@
 """The engine at display scale: a swarm's pairs evaluated in blocks, in bounded memory.
 
-:func:`evaluate` in :mod:`.evaluate` holds every neighbour pair and every
-ordered blind pair's result at once: about 400 kB per FLS at the published
-density, 26 GB for a display of 65,536 FLSs. Here the same evaluation runs
-in two passes, each a block of FLSs at a time:
+:func:`.evaluate.evaluate` holds every neighbour pair and every ordered blind
+pair's result at once: 1.6 GB for the race car, about 26 GB for a display of
+65,536 FLSs. Here the same evaluation runs a block at a time:
 
-1. :func:`lean_neighbourhood`: the neighbour pairs of a block of FLSs (by
-   index), their line of sight, then only what paths may use is kept: the
-   sweet pairs and the visible decaying pairs (at the published density
-   about 1 neighbour pair in 8). The obstructed decaying pairs are counted
-   and let go; the blind pairs are kept as ordered rows.
-2. :meth:`BlockedEvaluation.blocks`: the ordered blind pairs of a block of
+1. :func:`lean_neighbourhood`: the neighbour pairs of a run of FLSs (by
+   index), counted for the summary; the blind pairs kept as ordered rows,
+   the sweet pairs with their line of sight; the rest let go. The decaying
+   pairs in sight join at once when the swarm's pairs fit the budget, else
+   only when a pair without a sweet path in sight needs them
+   (:func:`with_decaying`).
+2. :meth:`BlockedEvaluation.blocks`: the ordered blind pairs of a run of
    sources, evaluated by :func:`.evaluate.evaluate_pairs` on the whole
    swarm's graphs, so each pair's path, estimate and errors are the ones
-   :func:`.evaluate.evaluate` gives, and the blocks come in its order.
+   :func:`.evaluate.evaluate` gives, and the blocks come in its order; the
+   summary is tallied block by block (:class:`.evaluate.PairTally`).
 
-A block's memory is bounded by a :class:`Budget`; the lean neighbourhood
-and the blind rows are held whole (about 5 kB and 16 bytes per blind pair,
-measured in BENCHMARKS.md, "The engine at display scale").
+A block's memory is bounded by a :class:`Budget`; the lean neighbourhood is
+held whole (docs/core.md, "The engine at display scale").
 """
 
 from __future__ import annotations
