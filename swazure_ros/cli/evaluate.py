@@ -9,13 +9,18 @@ stderr for runs longer than two seconds.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from dataclasses import replace
 from typing import Any
 
-from ..core.blocks import DEFAULT_MEMORY, Budget, evaluate_blocked, whole_swarm_bytes
+from ..core.blocks import (
+    DEFAULT_MEMORY,
+    Budget,
+    available_memory,
+    evaluate_blocked,
+    whole_swarm_bytes,
+)
 from ..core.errors import SwazureError
 from ..core.evaluate import SILENT, Progress, evaluate
 from ..core.fit import ESTIMATORS, PATH, refine
@@ -211,7 +216,7 @@ def _evaluate_whole(
     args: argparse.Namespace, cloud: Any, swarm: Any, sensor: Any, progress: Progress | None
 ) -> int:
     """A heuristic, fusion, a fit or a snapshot: every pair of the swarm held at once."""
-    need, have = whole_swarm_bytes(swarm, sensor), _available_bytes()
+    need, have = whole_swarm_bytes(swarm, sensor), available_memory()
     if need > have:
         raise SwazureError(
             f"{cloud.name}: --technique, --fuse, --estimator and --snapshot hold every pair "
@@ -255,15 +260,3 @@ def _evaluate_whole(
         )
         print(f"wrote {write_snapshot(scene, args.snapshot)}")
     return 0
-
-
-def _available_bytes() -> int:
-    """Memory this machine has free for a run, bytes (MemAvailable)."""
-    try:
-        with open("/proc/meminfo") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")

@@ -263,7 +263,8 @@ def resample(points: FloatArray, count: int, seed: int = 0) -> FloatArray:
             high = spacing
     candidates = np.flatnonzero(kept)
     chosen = np.sort(np.random.default_rng(seed).choice(candidates, count, replace=False))
-    return dense[chosen] * (mean_spacing(original) / mean_spacing(dense[chosen]))
+    grown: FloatArray = dense[chosen] * (mean_spacing(original) / mean_spacing(dense[chosen]))
+    return grown
 
 
 @jit.kernel(cache=True)

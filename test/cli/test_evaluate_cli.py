@@ -240,3 +240,17 @@ def test_the_least_squares_estimator_refuses_fusion_in_one_line():
     )  # fmt: skip
     assert run.returncode != 0
     assert run.stderr.strip().count("\n") == 0 and "drop --fuse" in run.stderr
+
+
+def test_a_heuristic_on_a_display_that_cannot_fit_says_what_it_needs_in_one_line():
+    # torus:65536 holds about 62 GB of pairs at once (250 bytes a candidate pair).
+    from swazure_ros.core.blocks import available_memory
+
+    if available_memory() > 50 * 2**30:
+        pytest.skip("this machine has room for the display's every pair")
+    run = swazure("evaluate", "--cloud", "torus:65536", "--beta", "0.5", "--technique",
+                  "move-source")  # fmt: skip
+    assert run.returncode == 2
+    assert "hold every pair of the swarm at once, about" in run.stderr
+    assert "plain Swazure runs in blocks" in run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1, run.stderr
