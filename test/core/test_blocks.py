@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.blocks import (
+    PAIR_BYTES,
     BlockedEvaluation,
     Budget,
     evaluate_blocked,
@@ -22,6 +23,11 @@ from ..conftest import A, B, C, D, K, scene
 
 #: The smallest budget: blocks of a few hundred pairs, so that small swarms have many.
 SMALL = Budget(2**20)
+
+
+def about_blocks(pairs, blocks):
+    """A budget that cuts ``pairs`` ordered blind pairs into about ``blocks`` blocks."""
+    return Budget(max(2**20, 2 * PAIR_BYTES * pairs // blocks))
 
 
 def shape(name):
@@ -64,11 +70,11 @@ def at_once(run):
 def test_blocks_give_the_pairs_and_summary_of_the_whole_evaluation(sensor, cloud, defer):
     swarm = shape(cloud)
     whole = evaluate(swarm, sensor, "fewest-hops")
-    run = evaluate_blocked(swarm, sensor, "fewest-hops", SMALL, SILENT)
+    run = evaluate_blocked(swarm, sensor, "fewest-hops", about_blocks(len(whole.pairs), 6), SILENT)
     run = deferred(run) if defer else at_once(run)
     run.tally = PairTally()  # exact quantiles, whatever the budget
     blocks = list(run.blocks(SILENT))
-    assert len(blocks) > 1
+    assert 4 <= len(blocks) <= 8
     assert_same_pairs(joined(blocks), whole.pairs)
     summary = run.summary()
     assert summary["quantiles"] == "exact"
