@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -236,14 +237,46 @@ def _walk_back(pred: IntArray, target: int, steps: int, out: IntArray) -> None:
         node = pred[node]
 
 
+class Search(NamedTuple):
+    """A graph and a policy's weights as the search kernels take them: one argument.
+
+    A named tuple, so that numba passes it whole (as :class:`~.sight.Grid`).
+    """
+
+    indptr: IntArray  # (N + 1,)
+    indices: IntArray  # (2E,)
+    weights: FloatArray  # (2E,), the weights the policy sums
+    component: IntArray  # (N,), connected-component label of each node
+    fewest_hops: bool  # hops are the primary cost, weights the secondary
+    bucket_width: float  # width of a bucket of Dinitz's search (see _buckets)
+    slots: int  # buckets kept in turn; 0 for a heap search
+
+
+class Labels(NamedTuple):
+    """The labels of one search over N nodes, reused search after search (see :func:`_reset`)."""
+
+    primary: FloatArray  # (N,), primary cost; inf where unreached
+    secondary: FloatArray  # (N,), secondary cost; inf where unreached
+    pred: IntArray  # (N,), predecessor; -1 where unreached
+    settled: NDArray[np.bool_]  # (N,)
+    wanted: NDArray[np.bool_]  # (N,), the search's targets
+    touched: IntArray  # (N,), the nodes labelled, in order
+    order: IntArray  # (N,), the nodes settled, in order (bucket search)
+
+
+class PairResults(NamedTuple):
+    """The result of each of M pairs, written by :func:`_search_kernel`."""
+
+    found: NDArray[np.bool_]  # (M,)
+    hops: IntArray  # (M,)
+    length: FloatArray  # (M,), cm
+    buffer: IntArray  # (M, W), a found path's first nodes, up to W
+
+
 @jit.kernel(cache=True, nogil=True)
-def _scratch(
-    size: int,
-) -> tuple[
-    FloatArray, FloatArray, IntArray, NDArray[np.bool_], NDArray[np.bool_], IntArray, IntArray
-]:
-    """Unset labels of a search over ``size`` nodes: primary, secondary, pred, settled, ..."""
-    return (
+def _scratch(size: int) -> Labels:
+    """Unset labels of a search over ``size`` nodes."""
+    return Labels(
         np.full(size, np.inf),
         np.full(size, np.inf),
         np.full(size, -1, dtype=np.int64),
@@ -255,53 +288,25 @@ def _scratch(
 
 
 @jit.kernel(cache=True, nogil=True)
-def _reset(
-    touched: IntArray,
-    primary: FloatArray,
-    secondary: FloatArray,
-    pred: IntArray,
-    settled: NDArray[np.bool_],
-) -> None:
-    """Unset the labels of the ``touched`` nodes after a search, for the next one."""
-    for node in touched:
+def _reset(labels: Labels, count: int) -> None:
+    """Unset the labels of the first ``count`` touched nodes after a search, for the next one."""
+    primary, secondary, pred, settled, _, touched, _ = labels
+    for node in touched[:count]:
         primary[node], secondary[node], pred[node] = np.inf, np.inf, -1
         settled[node] = False
 
 
 @jit.kernel(cache=True, nogil=True)
-def _search_one(
-    indptr: IntArray,
-    indices: IntArray,
-    weights: FloatArray,
-    source: int,
-    targets: IntArray,
-    component: IntArray,
-    fewest_hops: bool,
-    bucket_width: float,
-    slots: int,
-    primary: FloatArray,
-    secondary: FloatArray,
-    pred: IntArray,
-    settled: NDArray[np.bool_],
-    wanted: NDArray[np.bool_],
-    touched: IntArray,
-    order: IntArray,
-) -> int:
+def _search_one(search: Search, source: int, targets: IntArray, labels: Labels) -> int:
     """Search from ``source`` until every reachable target is settled; return nodes touched.
 
-    With ``slots`` > 0, Dinitz's buckets (see :func:`_buckets`); else a heap.
-    Leaves cost labels in ``primary``/``secondary`` and predecessors in
-    ``pred`` for the touched nodes; the caller resets them.
+    With ``search.slots`` > 0, Dinitz's buckets (see :func:`_buckets`); else a
+    heap. Leaves cost labels in ``labels.primary``/``secondary`` and
+    predecessors in ``labels.pred`` for the touched nodes; the caller resets them.
     """
-    if slots > 0:
-        return _search_buckets(
-            indptr, indices, weights, source, targets, component, fewest_hops, bucket_width, slots,
-            primary, secondary, pred, settled, wanted, touched, order,
-        )  # fmt: skip
-    return _search_heap(
-        indptr, indices, weights, source, targets, component, fewest_hops,
-        primary, secondary, pred, settled, wanted, touched,
-    )  # fmt: skip
+    if search.slots > 0:
+        return _search_buckets(search, source, targets, labels)
+    return _search_heap(search, source, targets, labels)
 
 
 @jit.kernel(cache=True, nogil=True)
@@ -318,24 +323,45 @@ def _mark_targets(
 
 
 @jit.kernel(cache=True, nogil=True)
-def _search_buckets(
-    indptr: IntArray,
-    indices: IntArray,
-    weights: FloatArray,
-    source: int,
-    targets: IntArray,
-    component: IntArray,
-    fewest_hops: bool,
-    bucket_width: float,
-    slots: int,
-    primary: FloatArray,
-    secondary: FloatArray,
-    pred: IntArray,
-    settled: NDArray[np.bool_],
-    wanted: NDArray[np.bool_],
-    touched: IntArray,
-    order: IntArray,
-) -> int:
+def _start(source: int, labels: Labels) -> None:
+    """Label ``source`` as reached at cost (0, 0), the first node touched."""
+    labels.primary[source] = 0.0
+    labels.secondary[source] = 0.0
+    labels.pred[source] = source
+    labels.touched[0] = source
+
+
+@jit.kernel(cache=True, nogil=True)
+def _settle_bucket(
+    labels: Labels, entry: int, entry_node: IntArray, entry_next: IntArray, done: int
+) -> tuple[int, int, int]:
+    """Settle the nodes of the bucket list from ``entry``, appending them to ``labels.order``
+    at ``done``; return the new ``done``, the entries listed and the wanted nodes settled."""
+    listed = reached = 0
+    while entry >= 0:
+        listed += 1
+        node = entry_node[entry]
+        entry = entry_next[entry]
+        # A node listed twice (its label improved within the bucket) settles once.
+        if not labels.settled[node]:
+            labels.settled[node] = True
+            labels.order[done] = node
+            done += 1
+            if labels.wanted[node]:
+                reached += 1
+    return done, listed, reached
+
+
+@jit.kernel(cache=True, nogil=True)
+def _doubled(array: IntArray, used: int) -> IntArray:
+    """A copy of ``array`` twice as long, of which the first ``used`` entries are set."""
+    grown = np.empty(2 * len(array), dtype=np.int64)
+    grown[:used] = array[:used]
+    return grown
+
+
+@jit.kernel(cache=True, nogil=True)
+def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labels) -> int:
     """Dinitz's algorithm: settle a whole bucket of labels at once, then relax its edges.
 
     Bucket k holds the labels in [k * bucket_width, (k + 1) * bucket_width), and the width is
@@ -346,34 +372,23 @@ def _search_buckets(
     predecessor rule sees them all. The search stops as soon as the last
     target's bucket is reached, without relaxing it.
     """
+    indptr, indices, weights, component, fewest_hops, bucket_width, slots = search
+    primary, secondary, pred, settled, wanted, touched, order = labels
     remaining = _mark_targets(source, targets, component, wanted)
-    capacity = 1024
-    entry_node = np.empty(capacity, dtype=np.int64)
-    entry_next = np.empty(capacity, dtype=np.int64)
+    entry_node = np.empty(1024, dtype=np.int64)
+    entry_next = np.empty(1024, dtype=np.int64)
     head = np.full(slots, -1, dtype=np.int64)
-    primary[source] = 0.0
-    secondary[source] = 0.0
-    pred[source] = source
-    touched[0] = source
+    _start(source, labels)
     count = 1
     entry_node[0], entry_next[0], head[0] = source, -1, 0
     used, pending, bucket, done = 1, 1, 0, 0
     while pending > 0 and remaining > 0:
         slot = bucket % slots
-        entry = head[slot]
-        head[slot] = -1
         first = done
-        while entry >= 0:
-            pending -= 1
-            node = entry_node[entry]
-            entry = entry_next[entry]
-            # A node listed twice (its label improved within the bucket) settles once.
-            if not settled[node]:
-                settled[node] = True
-                order[done] = node
-                done += 1
-                if wanted[node]:
-                    remaining -= 1
+        done, listed, reached = _settle_bucket(labels, head[slot], entry_node, entry_next, done)
+        head[slot] = -1
+        pending -= listed
+        remaining -= reached
         bucket += 1
         if remaining == 0:
             break
@@ -400,12 +415,9 @@ def _search_buckets(
                     target_bucket = max(int(n1 / bucket_width), bucket)
                     if p1 < np.inf and target_bucket == max(int(p1 / bucket_width), bucket):
                         continue  # listed in that bucket already
-                    if used == capacity:
-                        capacity *= 2
-                        grown_node = np.empty(capacity, dtype=np.int64)
-                        grown_next = np.empty(capacity, dtype=np.int64)
-                        grown_node[:used], grown_next[:used] = entry_node, entry_next
-                        entry_node, entry_next = grown_node, grown_next
+                    if used == len(entry_node):
+                        entry_node = _doubled(entry_node, used)
+                        entry_next = _doubled(entry_next, used)
                     target_slot = target_bucket % slots
                     entry_node[used], entry_next[used] = neighbour, head[target_slot]
                     head[target_slot] = used
@@ -417,31 +429,16 @@ def _search_buckets(
 
 
 @jit.kernel(cache=True, nogil=True)
-def _search_heap(
-    indptr: IntArray,
-    indices: IntArray,
-    weights: FloatArray,
-    source: int,
-    targets: IntArray,
-    component: IntArray,
-    fewest_hops: bool,
-    primary: FloatArray,
-    secondary: FloatArray,
-    pred: IntArray,
-    settled: NDArray[np.bool_],
-    wanted: NDArray[np.bool_],
-    touched: IntArray,
-) -> int:
+def _search_heap(search: Search, source: int, targets: IntArray, labels: Labels) -> int:
     """Dijkstra with a binary heap, for edges too unequal for buckets; see :func:`_search_one`."""
+    indptr, indices, weights, component, fewest_hops, _, _ = search
+    primary, secondary, pred, settled, wanted, touched, _ = labels
     remaining = _mark_targets(source, targets, component, wanted)
     capacity = 64
     heap1 = np.empty(capacity)
     heap2 = np.empty(capacity)
     heap_item = np.empty(capacity, dtype=np.int64)
-    primary[source] = 0.0
-    secondary[source] = 0.0
-    pred[source] = source
-    touched[0] = source
+    _start(source, labels)
     count = 1
     size = _heap_push(heap1, heap2, heap_item, 0, 0.0, 0.0, source)
     while size > 0 and remaining > 0:
@@ -487,52 +484,29 @@ def _search_heap(
 
 @jit.kernel(cache=True, parallel=True)
 def _search_kernel(
-    indptr: IntArray,
-    indices: IntArray,
-    weights: FloatArray,
+    search: Search,
     sources: IntArray,
     target_ptr: IntArray,
     targets: IntArray,
-    component: IntArray,
-    fewest_hops: bool,
-    bucket_width: float,
-    slots: int,
     chunks: int,
-    found: NDArray[np.bool_],
-    hops: IntArray,
-    length: FloatArray,
-    buffer: IntArray,
+    results: PairResults,
 ) -> None:
-    """Search from each source; write each pair's result into ``found`` .. ``buffer`` (M, W).
+    """Search from each source; write each pair's result into ``results``.
 
-    The outputs come in unset (False, 0, NaN); a found path's first nodes,
-    up to W, go into its row of ``buffer``.
+    The results come in unset (False, 0, NaN); a found path's first nodes,
+    up to W, go into its row of ``results.buffer``.
     """
-    size = len(indptr) - 1
+    found, hops, length, buffer = results
+    fewest_hops = search.fewest_hops
+    size = len(search.indptr) - 1
     width = buffer.shape[1]
     for chunk in jit.prange(chunks):
-        primary, secondary, pred, settled, wanted, touched, order = _scratch(size)
+        labels = _scratch(size)
+        primary, secondary, pred, settled, wanted, _, _ = labels
         for position in range(chunk, len(sources), chunks):
             source = sources[position]
             mine = targets[target_ptr[position] : target_ptr[position + 1]]
-            count = _search_one(
-                indptr,
-                indices,
-                weights,
-                source,
-                mine,
-                component,
-                fewest_hops,
-                bucket_width,
-                slots,
-                primary,
-                secondary,
-                pred,
-                settled,
-                wanted,
-                touched,
-                order,
-            )
+            count = _search_one(search, source, mine, labels)
             for offset in range(len(mine)):
                 pair = target_ptr[position] + offset
                 target = mine[offset]
@@ -544,57 +518,33 @@ def _search_kernel(
                 length[pair] = secondary[target] if fewest_hops else primary[target]
                 if steps + 1 <= width:
                     _walk_back(pred, target, steps, buffer[pair])
-            _reset(touched[:count], primary, secondary, pred, settled)
+            _reset(labels, count)
             wanted[mine] = False
 
 
 @jit.kernel(cache=True)
 def _long_paths(
-    indptr: IntArray,
-    indices: IntArray,
-    weights: FloatArray,
+    search: Search,
     sources: IntArray,
     target_ptr: IntArray,
     targets: IntArray,
-    component: IntArray,
-    fewest_hops: bool,
-    bucket_width: float,
-    slots: int,
     hops: IntArray,
     width: int,
     offsets: IntArray,
     nodes: IntArray,
 ) -> None:
     """Write the paths longer than ``width`` nodes into ``nodes`` at ``offsets``."""
-    size = len(indptr) - 1
-    primary, secondary, pred, settled, wanted, touched, order = _scratch(size)
+    labels = _scratch(len(search.indptr) - 1)
     for position in range(len(sources)):
         start, stop = target_ptr[position], target_ptr[position + 1]
         if np.all(hops[start:stop] + 1 <= width):
             continue
-        count = _search_one(
-            indptr,
-            indices,
-            weights,
-            sources[position],
-            targets[start:stop],
-            component,
-            fewest_hops,
-            bucket_width,
-            slots,
-            primary,
-            secondary,
-            pred,
-            settled,
-            wanted,
-            touched,
-            order,
-        )
+        count = _search_one(search, sources[position], targets[start:stop], labels)
         for pair in range(start, stop):
             if hops[pair] + 1 > width:
-                _walk_back(pred, targets[pair], hops[pair], nodes[offsets[pair] :])
-        _reset(touched[:count], primary, secondary, pred, settled)
-        wanted[targets[start:stop]] = False
+                _walk_back(labels.pred, targets[pair], hops[pair], nodes[offsets[pair] :])
+        _reset(labels, count)
+        labels.wanted[targets[start:stop]] = False
 
 
 def check_policy(policy: str) -> str:
@@ -639,13 +589,7 @@ def _buckets(weights: FloatArray, fewest_hops: bool) -> tuple[float, int]:
 
 @jit.kernel(cache=True, parallel=True)
 def _avoiding_kernel(
-    indptr: IntArray,
-    indices: IntArray,
-    weights: FloatArray,
-    component: IntArray,
-    fewest_hops: bool,
-    bucket_width: float,
-    slots: int,
+    search: Search,
     sources: IntArray,
     targets: IntArray,
     avoid_offsets: IntArray,
@@ -653,13 +597,15 @@ def _avoiding_kernel(
     width: int,
     chunks: int,
 ) -> tuple[NDArray[np.bool_], IntArray, IntArray]:
-    size = len(indptr) - 1
+    fewest_hops = search.fewest_hops
+    size = len(search.indptr) - 1
     pairs = len(targets)
     found = np.zeros(pairs, dtype=np.bool_)
     hops = np.zeros(pairs, dtype=np.int64)
     buffer = np.full((pairs, width), -1, dtype=np.int64)
     for chunk in jit.prange(chunks):
-        primary, secondary, pred, settled, wanted, touched, order = _scratch(size)
+        labels = _scratch(size)
+        primary, secondary, pred, settled, wanted, _, _ = labels
         one = np.empty(1, dtype=np.int64)
         for pair in range(chunk, pairs, chunks):
             source, target = sources[pair], targets[pair]
@@ -667,31 +613,14 @@ def _avoiding_kernel(
             blocked = avoid[avoid_offsets[pair] : avoid_offsets[pair + 1]]
             settled[blocked] = True
             one[0] = target
-            count = _search_one(
-                indptr,
-                indices,
-                weights,
-                source,
-                one,
-                component,
-                fewest_hops,
-                bucket_width,
-                slots,
-                primary,
-                secondary,
-                pred,
-                settled,
-                wanted,
-                touched,
-                order,
-            )
+            count = _search_one(search, source, one, labels)
             if target != source and primary[target] < np.inf and settled[target]:
                 steps = int(primary[target] if fewest_hops else secondary[target])
                 if steps + 1 <= width:
                     found[pair] = True
                     hops[pair] = steps
                     _walk_back(pred, target, steps, buffer[pair])
-            _reset(touched[:count], primary, secondary, pred, settled)
+            _reset(labels, count)
             settled[blocked] = False
             wanted[target] = False
     return found, hops, buffer
@@ -699,6 +628,21 @@ def _avoiding_kernel(
 
 #: Longest path, in nodes, that :func:`avoiding_paths` returns.
 AVOIDING_WIDTH = 64
+
+
+def _search_of(graph: Graph, policy: str, components: IntArray | None) -> Search:
+    """The record the search kernels take for ``policy`` on ``graph``."""
+    weights, fewest_hops = _policy_weights(graph, policy)
+    if components is None:
+        components = graph.components()
+    return Search(
+        graph.indptr,
+        graph.indices,
+        weights,
+        components,
+        fewest_hops,
+        *_buckets(weights, fewest_hops),
+    )
 
 
 def avoiding_paths(
@@ -716,18 +660,11 @@ def avoiding_paths(
     Pairs in any order; one search per pair. A path longer than
     AVOIDING_WIDTH nodes counts as not found. Lengths are tracking distances.
     """
-    weights, fewest_hops = _policy_weights(graph, policy)
+    search = _search_of(graph, policy, components)
     sources = np.asarray(sources, dtype=np.int64)
     targets = np.asarray(targets, dtype=np.int64)
-    if components is None:
-        components = graph.components()
     found, hops, buffer = _avoiding_kernel(
-        graph.indptr,
-        graph.indices,
-        weights,
-        components,
-        fewest_hops,
-        *_buckets(weights, fewest_hops),
+        search,
         sources,
         targets,
         np.asarray(avoid_offsets, dtype=np.int64),
@@ -767,83 +704,98 @@ def shortest_paths(
     progress : callable, optional
         Called with the number of pairs done after each batch of sources.
     """
-    weights, fewest_hops = _policy_weights(graph, policy)
+    _policy_weights(graph, policy)  # an unknown policy fails before the pairs are checked
     sources = np.asarray(sources, dtype=np.int64)
     targets = np.asarray(targets, dtype=np.int64)
+    _check_pairs(graph, sources, targets)
+    search = _search_of(graph, policy, components)
+    found, hops, length, buffer = _search_batches(search, sources, targets, progress, batch)
+    counts = np.where(found, hops + 1, 0)
+    offsets = csr.offsets(counts)
+    nodes = np.empty(offsets[-1], dtype=np.int64)
+    _compress(buffer, counts, offsets, nodes)  # long paths' rows are rewritten below
+    if not (counts <= _WIDTH).all():
+        _write_long_paths(search, sources, targets, hops, offsets, nodes)
+    paths = Paths(found, hops, length, offsets, nodes)
+    if policy == LEAST_ERROR:
+        return replace(paths, length=path_sums(graph, paths, graph.weights))
+    return paths
+
+
+def _check_pairs(graph: Graph, sources: IntArray, targets: IntArray) -> None:
+    """Raise ValueError unless the pairs (M,) are nodes of ``graph``, sorted by source."""
     if sources.shape != targets.shape:
         raise ValueError("`sources` and `targets` must have one length")
     if len(sources) and (sources.min() < 0 or max(sources.max(), targets.max()) >= graph.size):
         raise ValueError("`sources` and `targets` must be nodes of the graph")
     if len(sources) > 1 and np.any(sources[1:] < sources[:-1]):
         raise ValueError("pairs must be sorted by source")
-    if components is None:
-        components = graph.components()
+
+
+def _search_batches(
+    search: Search,
+    sources: IntArray,
+    targets: IntArray,
+    progress: Callable[[int], None] | None,
+    batch: int,
+) -> PairResults:
+    """Each pair's result, searching from ``batch`` sources at a time; paths up to _WIDTH nodes."""
     pairs = len(sources)
     found = np.zeros(pairs, dtype=bool)
     hops = np.zeros(pairs, dtype=np.int64)
     length = np.full(pairs, np.nan)
     buffer = np.empty((pairs, _WIDTH), dtype=np.int64)
-
-    buckets = _buckets(weights, fewest_hops)
     unique, starts = np.unique(sources, return_index=True)
     target_ptr = np.append(starts, pairs).astype(np.int64)
     for begin in range(0, len(unique), batch):
         end = min(begin + batch, len(unique))
         lo, hi = target_ptr[begin], target_ptr[end]
         _search_kernel(
-            graph.indptr,
-            graph.indices,
-            weights,
+            search,
             unique[begin:end],
             target_ptr[begin : end + 1] - lo,
             targets[lo:hi],
-            components,
-            fewest_hops,
-            *buckets,
             # Many chunks: the threads share sources of unequal cost evenly.
             min(end - begin, 16 * jit.get_num_threads()),
-            found[lo:hi],
-            hops[lo:hi],
-            length[lo:hi],
-            buffer[lo:hi],
+            PairResults(found[lo:hi], hops[lo:hi], length[lo:hi], buffer[lo:hi]),
         )
         if progress is not None:
             progress(int(hi - lo))
-    counts = np.where(found, hops + 1, 0)
-    offsets = csr.offsets(counts)
-    nodes = np.empty(offsets[-1], dtype=np.int64)
-    _compress(buffer, counts, offsets, nodes)  # long paths' rows are rewritten below
-    short = counts <= _WIDTH
-    if not short.all():
-        # A second search from each source with a long path, writing whole paths this time.
-        long_sources = np.unique(sources[~short])
-        again = np.flatnonzero(np.isin(sources, long_sources))
-        _, starts = np.unique(sources[again], return_index=True)
-        scratch = np.empty(int((hops[again] + 1).sum()) + 1, dtype=np.int64)
-        scratch_offsets = csr.offsets(hops[again] + 1)[:-1]
-        _long_paths(
-            graph.indptr,
-            graph.indices,
-            weights,
-            long_sources,
-            np.append(starts, len(again)).astype(np.int64),
-            targets[again],
-            components,
-            fewest_hops,
-            *buckets,
-            hops[again],
-            _WIDTH,
-            scratch_offsets,
-            scratch,
-        )
-        for slot, pair in enumerate(again):
-            if hops[pair] + 1 > _WIDTH:
-                start = scratch_offsets[slot]
-                nodes[offsets[pair] : offsets[pair + 1]] = scratch[start : start + hops[pair] + 1]
-    paths = Paths(found, hops, length, offsets, nodes)
-    if policy == LEAST_ERROR:
-        return replace(paths, length=path_sums(graph, paths, graph.weights))
-    return paths
+    return PairResults(found, hops, length, buffer)
+
+
+def _write_long_paths(
+    search: Search,
+    sources: IntArray,
+    targets: IntArray,
+    hops: IntArray,
+    offsets: IntArray,
+    nodes: IntArray,
+) -> None:
+    """Write the paths longer than _WIDTH nodes into ``nodes`` at ``offsets``.
+
+    A second search from each source with a long path, writing whole paths this time.
+    """
+    counts = np.diff(offsets)
+    long_sources = np.unique(sources[counts > _WIDTH])
+    again = np.flatnonzero(np.isin(sources, long_sources))
+    _, starts = np.unique(sources[again], return_index=True)
+    scratch = np.empty(int((hops[again] + 1).sum()) + 1, dtype=np.int64)
+    scratch_offsets = csr.offsets(hops[again] + 1)[:-1]
+    _long_paths(
+        search,
+        long_sources,
+        np.append(starts, len(again)).astype(np.int64),
+        targets[again],
+        hops[again],
+        _WIDTH,
+        scratch_offsets,
+        scratch,
+    )
+    for slot, pair in enumerate(again):
+        if hops[pair] + 1 > _WIDTH:
+            start = scratch_offsets[slot]
+            nodes[offsets[pair] : offsets[pair + 1]] = scratch[start : start + hops[pair] + 1]
 
 
 def paths_from_rows(
