@@ -19,6 +19,8 @@ from . import csr, jit
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+#: A position (x, y, z), cm, as a kernel takes it: three floats, no array.
+Point = tuple[float, float, float]
 
 #: Largest number of cells of the dense grid; coarser cells beyond it.
 MAX_CELLS = 1 << 22
@@ -76,41 +78,27 @@ def scan_segment(
     stop_at_first: bool,
 ) -> int:
     """Write the obstructers of segment a-b into ``found``; return how many (at most 1 if stop)."""
-    return scan_between(
-        points,
-        radius,
-        points[a, 0],
-        points[a, 1],
-        points[a, 2],
-        points[b, 0],
-        points[b, 1],
-        points[b, 2],
-        a,
-        b,
-        grid,
-        found,
-        stop_at_first,
-    )
+    start = (points[a, 0], points[a, 1], points[a, 2])
+    end = (points[b, 0], points[b, 1], points[b, 2])
+    return scan_between(points, radius, start, end, a, b, grid, found, stop_at_first)
 
 
 @jit.kernel(cache=True, nogil=True)
 def scan_between(
     points: FloatArray,
     radius: float,
-    ax: float,
-    ay: float,
-    az: float,
-    bx: float,
-    by: float,
-    bz: float,
+    start: Point,
+    end: Point,
     a: int,
     b: int,
     grid: Grid,
     found: IntArray,
     stop_at_first: bool,
 ) -> int:
-    """Obstructers of the segment from (ax, ay, az) to (bx, by, bz), skipping FLSs a and b."""
+    """Obstructers of the segment ``start``-``end`` (x, y, z, cm), skipping FLSs a and b."""
     origin, cell, shape, cell_start, members = grid
+    ax, ay, az = start
+    bx, by, bz = end
     dx, dy, dz = bx - ax, by - ay, bz - az
     length = np.sqrt(dx * dx + dy * dy + dz * dz)
     if length == 0.0:

@@ -64,25 +64,35 @@ def probe_rules(compat: Compat, collision_reach: float) -> ProbeRules:
     )
 
 
+class ProbeScene(NamedTuple):
+    """The swarm as a probe sees it, but for its grid: one kernel argument.
+
+    The grid travels beside it: numba's parallel loops take no nested tuple.
+    """
+
+    points: FloatArray  # (N, 3), cm
+    radius: float  # FLS radius r, cm
+    sweet_min: float  # sweet tracking distances, cm
+    sweet_max: float
+    visible_indptr: IntArray  # (N + 1,), CSR of each FLS's visible sweet neighbours
+    visible_indices: IntArray
+
+
 @jit.kernel(cache=True, parallel=True)
 def _probe_kernel(
-    points: FloatArray,
-    radius: float,
-    sweet_min: float,
-    sweet_max: float,
+    scene: ProbeScene,
+    grid: Grid,
     sources: IntArray,
     targets: IntArray,
-    visible_indptr: IntArray,
-    visible_indices: IntArray,
     directions: FloatArray,
     threshold: int,
-    grid: Grid,
     rules: ProbeRules,
 ) -> tuple[IntArray, FloatArray, FloatArray]:
     """Per pair: the sweet neighbour reached (-1 if none), probe position, distance flown."""
-    collision_reach, occlusion_near_origin, sweet_max_inclusive, first_helper, published_flown = (
-        rules
-    )
+    points = scene.points
+    radius = scene.radius
+    occlusion_near_origin = rules.occlusion_near_origin
+    published_flown = rules.published_flown
     pairs = len(sources)
     helper = np.full(pairs, -1, dtype=np.int64)
     probe = np.full((pairs, 3), np.nan)
@@ -117,7 +127,7 @@ def _probe_kernel(
                     i,
                     grid,
                     points[i],
-                    collision_reach,
+                    rules.collision_reach,
                 )
                 if collides:
                     alive[d] = False
@@ -125,61 +135,7 @@ def _probe_kernel(
                 if not published_flown:
                     flown[pair] += np.sqrt((qx - x) ** 2 + (qy - y) ** 2 + (qz - z) ** 2)
                     x, y, z = qx, qy, qz
-                best, best_length = -1, np.inf
-                for slot in range(visible_indptr[j], visible_indptr[j + 1]):
-                    h = visible_indices[slot]
-                    if h == i:
-                        continue
-                    hx, hy, hz = points[h, 0], points[h, 1], points[h, 2]
-                    tracking = np.sqrt((hx - qx) ** 2 + (hy - qy) ** 2 + (hz - qz) ** 2)
-                    tracking -= 2.0 * radius
-                    if tracking < sweet_min or tracking > sweet_max:
-                        continue
-                    if tracking == sweet_max and not sweet_max_inclusive:
-                        continue
-                    hop = (
-                        np.sqrt(
-                            (hx - points[j, 0]) ** 2
-                            + (hy - points[j, 1]) ** 2
-                            + (hz - points[j, 2]) ** 2
-                        )
-                        - 2.0 * radius
-                    )
-                    total = (0.0 + tracking) + hop
-                    if total >= best_length:
-                        continue
-                    hits = scan_between(
-                        points,
-                        radius,
-                        qx,
-                        qy,
-                        qz,
-                        hx,
-                        hy,
-                        hz,
-                        i,
-                        h,
-                        grid,
-                        found,
-                        not occlusion_near_origin,
-                    )
-                    if occlusion_near_origin:
-                        # As published: only FLSs within |q - p_h| + 2r of the source's origin.
-                        reach = np.sqrt((hx - qx) ** 2 + (hy - qy) ** 2 + (hz - qz) ** 2)
-                        reach += 2.0 * radius
-                        near = 0
-                        for slot_found in range(hits):
-                            k = found[slot_found]
-                            ex = points[k, 0] - points[i, 0]
-                            ey = points[k, 1] - points[i, 1]
-                            ez = points[k, 2] - points[i, 2]
-                            if np.sqrt(ex * ex + ey * ey + ez * ez) <= reach:
-                                near += 1
-                        hits = near
-                    if hits == 0:
-                        best, best_length = h, total
-                        if first_helper:
-                            break
+                best = _best_helper(scene, grid, rules, i, j, qx, qy, qz, found)
                 if best >= 0:
                     helper[pair] = best
                     probe[pair, 0], probe[pair, 1], probe[pair, 2] = qx, qy, qz
@@ -187,6 +143,70 @@ def _probe_kernel(
             if helper[pair] >= 0:
                 break
     return helper, probe, flown
+
+
+@jit.kernel(cache=True, nogil=True)
+def _best_helper(
+    scene: ProbeScene,
+    grid: Grid,
+    rules: ProbeRules,
+    i: int,
+    j: int,
+    qx: float,
+    qy: float,
+    qz: float,
+    found: IntArray,
+) -> int:
+    """The sweet neighbour of j that source i at probe position q, cm, reaches; -1 if none.
+
+    ``found`` is scratch for the obstructers of one segment.
+    """
+    points, radius, sweet_min, sweet_max, visible_indptr, visible_indices = scene
+    best, best_length = -1, np.inf
+    for slot in range(visible_indptr[j], visible_indptr[j + 1]):
+        h = visible_indices[slot]
+        if h == i:
+            continue
+        hx, hy, hz = points[h, 0], points[h, 1], points[h, 2]
+        tracking = np.sqrt((hx - qx) ** 2 + (hy - qy) ** 2 + (hz - qz) ** 2)
+        tracking -= 2.0 * radius
+        if tracking < sweet_min or tracking > sweet_max:
+            continue
+        if tracking == sweet_max and not rules.sweet_max_inclusive:
+            continue
+        hop = (
+            np.sqrt((hx - points[j, 0]) ** 2 + (hy - points[j, 1]) ** 2 + (hz - points[j, 2]) ** 2)
+            - 2.0 * radius
+        )
+        total = (0.0 + tracking) + hop
+        if total >= best_length:
+            continue
+        near_origin = rules.occlusion_near_origin
+        at, to = (qx, qy, qz), (hx, hy, hz)
+        hits = scan_between(points, radius, at, to, i, h, grid, found, not near_origin)
+        if near_origin:
+            # As published: only FLSs within |q - p_h| + 2r of the source's origin.
+            reach = np.sqrt((hx - qx) ** 2 + (hy - qy) ** 2 + (hz - qz) ** 2)
+            reach += 2.0 * radius
+            hits = _count_within(points, found[:hits], i, reach)
+        if hits == 0:
+            best, best_length = h, total
+            if rules.first_helper:
+                break
+    return best
+
+
+@jit.kernel(cache=True, nogil=True)
+def _count_within(points: FloatArray, members: IntArray, centre: int, reach: float) -> int:
+    """How many of the points ``members`` lie within ``reach`` of point ``centre``, cm."""
+    near = 0
+    for k in members:
+        ex = points[k, 0] - points[centre, 0]
+        ey = points[k, 1] - points[centre, 1]
+        ez = points[k, 2] - points[centre, 2]
+        if np.sqrt(ex * ex + ey * ey + ez * ez) <= reach:
+            near += 1
+    return near
 
 
 def _nearest_first(points: FloatArray, indptr: IntArray, indices: IntArray) -> IntArray:
@@ -211,18 +231,21 @@ def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -
     if compat.first_helper:
         helpers = _nearest_first(swarm.points, visible.indptr, helpers)
     reach = (threshold + 2) * swarm.radius if compat.collisions_near_origin else np.inf
-    helper, probe, flown_blocked = _probe_kernel(
+    scene = ProbeScene(
         swarm.points,
         swarm.radius,
         sensor.sweet_min,
         sensor.sweet_max,
-        pairs.source[blocked],
-        pairs.target[blocked],
         visible.indptr,
         helpers,
+    )
+    helper, probe, flown_blocked = _probe_kernel(
+        scene,
+        grid,
+        pairs.source[blocked],
+        pairs.target[blocked],
         GRID_STEPS if compat.grid_steps else DIRECTIONS,
         int(threshold),
-        grid,
         probe_rules(compat, float(reach)),
     )
     success = helper >= 0
