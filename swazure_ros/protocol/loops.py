@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from collections.abc import Iterable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
@@ -57,43 +57,38 @@ IntArray = NDArray[np.int64]
 _HOST = "memory"
 
 
+@dataclass(frozen=True)
+class RunOptions:
+    """Which FLSs an in-memory discovery run asks, and how (see :func:`discover`)."""
+
+    stopped: Iterable[int] = ()  # FLSs that never answer
+    sources: Iterable[int] = ()  # the run's sources; every FLS by default
+    targets: Iterable[int] = ()  # the sources' targets; their blind neighbours by default
+    estimator: str = PATH
+    run_id: int = 1
+
+
 def discover(
     seen: Observations,
     ids: IntArray,
     sensor: Sensor,
     radius: float,
     policy: str,
-    *,
-    stopped: Iterable[int] = (),
-    sources: Iterable[int] = (),
-    targets: Iterable[int] = (),
-    estimator: str = PATH,
-    run_id: int = 1,
+    options: RunOptions = RunOptions(),
     kept: dict[int, Participant] | None = None,
 ) -> Outcome:
     """One discovery run over every FLS of ``seen`` (FLS ids ``ids``), with a perfect radio.
 
-    ``stopped`` FLSs never answer: the clock declares them departed when a
+    ``options.stopped`` FLSs never answer: the clock declares them departed when a
     round times out, as it does over ROS. ``sensor`` and ``radius`` (cm) are the swarm's.
     Every FLS that answers has heard every other's readings (a fitting ``estimator``).
     ``kept``: the FLSs' machines to run (those of an earlier run, which remember
     it: a warm start), and where this run's are left; new ones by default.
     """
     ids = np.asarray(ids, dtype=np.int64)
-    stopped = frozenset(int(fls) for fls in stopped)
+    stopped = frozenset(int(fls) for fls in options.stopped)
     id_space = int(ids[-1]) + 1 if len(ids) else 0
-    book = ReadingsBook()
-    for row in range(len(ids)):
-        if int(ids[row]) not in stopped:
-            # As the measurements messages carry them: in metres.
-            read = readings_of(local_view(seen, ids, row))
-            book.put(
-                replace(
-                    read,
-                    vector=through_metres(read.vector),
-                    distance=through_metres(read.distance),
-                )
-            )
+    book = _readings_book(seen, ids, stopped)
 
     def view_of(row: int) -> Participant:
         fls_id = int(ids[row])
@@ -105,19 +100,38 @@ def discover(
     }  # fmt: skip
     if kept is not None:
         kept.update(participants)
-
-    hub = RadioHub(participants.keys())
     clock = RoundClock(
-        run_id,
+        options.run_id,
         policy,
         ids.tolist(),
         1,
         1.0,
-        sources=tuple(sources),
-        targets=tuple(targets),
-        estimator=estimator,
+        sources=tuple(options.sources),
+        targets=tuple(options.targets),
+        estimator=options.estimator,
         fit_layers=fit_layers(sensor),
     )
+    return _run_rounds(clock, RadioHub(participants.keys()), participants)
+
+
+def _readings_book(seen: Observations, ids: IntArray, stopped: frozenset[int]) -> ReadingsBook:
+    """Every answering FLS's readings, as the measurements messages carry them: in metres."""
+    book = ReadingsBook()
+    for row in range(len(ids)):
+        if int(ids[row]) not in stopped:
+            read = readings_of(local_view(seen, ids, row))
+            book.put(
+                replace(
+                    read,
+                    vector=through_metres(read.vector),
+                    distance=through_metres(read.distance),
+                )
+            )
+    return book
+
+
+def _run_rounds(clock: RoundClock, hub: RadioHub, participants: dict[int, Participant]) -> Outcome:
+    """Pass the clock's controls and the FLSs' offers and reports round by round, to the end."""
     controls: deque[Control] = deque(clock.start(0.0))
     while not clock.done:
         if not controls:

@@ -26,8 +26,8 @@ from swazure_ros.core.sensor import hop_error, load_sensor, measured_vectors
 from swazure_ros.protocol.discovery.estimate import Found, estimate, evaluation_of
 from swazure_ros.protocol.discovery.messages import SWEET_VISIBLE
 from swazure_ros.protocol.discovery.participant import source_range
-from swazure_ros.protocol.discovery.search import PathSearch, bucket_width
-from swazure_ros.protocol.loops import discover
+from swazure_ros.protocol.discovery.search import PathSearch, SearchOptions, bucket_width
+from swazure_ros.protocol.loops import RunOptions, discover
 from swazure_ros.protocol.runs import source_blocks
 from swazure_ros.sim.world import WorldSpec
 
@@ -43,7 +43,7 @@ def run(hood, policy, **options):
         hood.sensor,
         hood.swarm.radius,
         policy,
-        **options,
+        RunOptions(**options),
     )
     found = {(s, one.target): one for s, ones in outcome.estimates.items() for one in ones}
     return found, outcome
@@ -200,8 +200,8 @@ def test_an_fls_keeps_labels_for_the_run_s_sources_only():
     view = local_view(observations(world.hood), ids, 5)
     first, end = source_range((int(ids[10]), int(ids[19])), int(ids[-1]) + 1)
     assert (first, end) == (int(ids[10]), int(ids[19]) + 1)
-    search = PathSearch(view, SWEET_VISIBLE, "shortest-length", 1.0, int(ids[-1]) + 1,
-                        sources=(first, end))  # fmt: skip
+    options = SearchOptions("shortest-length", 1.0, int(ids[-1]) + 1, sources=(first, end))
+    search = PathSearch(view, SWEET_VISIBLE, options)
     assert len(search.hops) == end - first
     assert source_range((), 120) == (0, 120)
 

@@ -19,18 +19,18 @@ from swazure_ros.protocol.discovery.messages import (
     SUMS,
     WEIGH,
 )
-from swazure_ros.protocol.loops import discover
+from swazure_ros.protocol.loops import RunOptions, discover
 from swazure_ros.protocol.swarm_fit import FitSchedule, FitTally, process_sums
 from swazure_ros.sim.world import WorldSpec
 
 from ..core.test_fit import stochastic_sensor
 
 
-def run(hood, **options):
+def run(hood, kept=None, **options):
     """One in-memory swarm-fit run over ``hood``: {(source, target): Estimate}, the outcome."""
     outcome = discover(observations(hood), hood.swarm.cloud_index, hood.sensor,
-                       hood.swarm.radius, "shortest-length", estimator=SWARM_FIT,
-                       **options)  # fmt: skip
+                       hood.swarm.radius, "shortest-length",
+                       RunOptions(estimator=SWARM_FIT, **options), kept)  # fmt: skip
     found = {(s, one.target): one for s, ones in outcome.estimates.items() for one in ones}
     return found, outcome
 

@@ -45,7 +45,14 @@ from .messages import (
     Report,
     RoundOffers,
 )
-from .search import PathSearch, bucket_width, phase_targets, radio_window, reads_both_ends
+from .search import (
+    PathSearch,
+    SearchOptions,
+    bucket_width,
+    phase_targets,
+    radio_window,
+    reads_both_ends,
+)
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -158,19 +165,16 @@ class FlsRun:
             wanted = phase_targets(phase, self.targets, self.results[SWEET_VISIBLE])
             wanted = wanted[~np.isin(wanted, list(departed))]
             targets = wanted if len(wanted) else None
-        self.search = PathSearch(
-            self.view,
-            phase,
+        options = SearchOptions(
             self.policy,
             self.width,
             self.id_space,
-            targets,
-            departed,
             self.hop_errors,
             self.fit,
             self.both_ends,
             self.sources,
         )
+        self.search = PathSearch(self.view, phase, options, targets, departed)
         self.results[phase] = self.search.results
         return self.search
 

@@ -17,6 +17,9 @@ the label whose sender has the smallest FLS id: the predecessor rule of
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import NamedTuple
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -150,29 +153,47 @@ def _labels_for(
     return found[:count]
 
 
+class Links(NamedTuple):
+    """The hops an FLS relays from, sorted by sender id: one kernel argument."""
+
+    ids: IntArray  # (K,), the senders
+    weights: FloatArray  # (K,), tracking distance of each hop, cm
+    errors: FloatArray  # (K,), expected error of each hop
+
+
+class HeardLabels(NamedTuple):
+    """The labels of a :class:`RoundOffers`, L in all, grouped by sender: one kernel argument."""
+
+    senders: IntArray  # (S,) sorted sender ids
+    starts: IntArray  # (S + 1,) sender k's labels are starts[k]:starts[k + 1]
+    source_ids: IntArray  # (L,)
+    hops: IntArray  # (L,)
+    lengths: FloatArray  # (L,), cm
+    errors: FloatArray  # (L,)
+
+
+class SlotLabels(NamedTuple):
+    """An FLS's own labels, one slot per source: one kernel argument."""
+
+    sent: NDArray[np.bool_]  # (S,)
+    hops: FloatArray  # (S,)
+    length: FloatArray  # (S,), cm
+    error: FloatArray  # (S,)
+    pred: IntArray  # (S,), the sender of each label
+
+
 @jit.kernel(cache=True, nogil=True)
 def _relax(
     me: int,
-    link_ids: IntArray,
-    link_weights: FloatArray,
-    link_errors: FloatArray,
     order: int,
-    senders: IntArray,
-    starts: IntArray,
-    source_ids: IntArray,
-    label_hops: IntArray,
-    label_lengths: FloatArray,
-    label_errors: FloatArray,
     first: int,
-    sent: NDArray[np.bool_],
-    hops: FloatArray,
-    length: FloatArray,
-    error: FloatArray,
-    pred: IntArray,
+    links: Links,
+    heard: HeardLabels,
+    labels: SlotLabels,
     won_label: IntArray,
     won_link: IntArray,
 ) -> IntArray:
-    """Relax the labels (hops, length, error, pred: (S,)) through the hops of ``link_ids``.
+    """Relax the ``labels`` through the hops ``links`` from the senders of ``heard``.
 
     Each candidate (a heard label plus the hop from its sender) replaces the
     label of its source when it is better under the total order (primary
@@ -181,6 +202,9 @@ def _relax(
     and ``won_link`` (given all -1); returns the changed slots. Source ``s``'s label
     is in slot ``s - first``; sources outside the S slots are not this run's.
     """
+    link_ids, link_weights, link_errors = links
+    senders, starts, source_ids, label_hops, label_lengths, label_errors = heard
+    sent, hops, length, error, pred = labels
     changed = np.empty(len(hops), dtype=np.int64)
     count = 0
     rows = sender_rows(link_ids, senders)
@@ -216,19 +240,33 @@ def _relax(
     return changed[:count]
 
 
+@dataclass(frozen=True)
+class SearchOptions:
+    """How one FLS searches in each phase of a discovery run (see :class:`PathSearch`)."""
+
+    policy: str
+    width: float  # cost per round (bucket_width)
+    id_space: int  # FLS ids are below it
+    hop_errors: FloatArray | None = None  # (K,), expected error of the hop to each neighbour
+    fit: tuple[Sensor, float] | None = None  # the sensor and the FLSs' radius, cm
+    both_ends: bool = False
+    sources: tuple[int, int] | None = None  # (first, end) ids of the run's sources
+
+
 class PathSearch:
     """One FLS's labels in one phase of a discovery run.
 
-    ``id_space`` bounds the FLS ids (ids are below it); ``sources`` (first, end)
-    the ids of the run's sources, whose labels this FLS keeps, one slot each
-    (all ids by default: a run of a few sources needs no more memory).
+    ``options.id_space`` bounds the FLS ids (ids are below it);
+    ``options.sources`` (first, end) the ids of the run's sources, whose
+    labels this FLS keeps, one slot each (all ids by default: a run of a few
+    sources needs no more memory).
     ``targets`` makes this FLS a source that searches for them; ``departed``
     FLSs are not relayed from.
-    ``hop_errors`` (K,) is the expected error of the hop to each neighbour of
+    ``options.hop_errors`` (K,) is the expected error of the hop to each neighbour of
     ``view`` (core.sensor.hop_error), which labels sum as they sum lengths.
-    ``fit`` (the sensor and the FLSs' radius, cm), given in a fitting run,
+    ``options.fit`` (the sensor and the FLSs' radius, cm), given in a fitting run,
     makes labels also sum each hop less its known bias, and its covariance.
-    With ``both_ends``, a hop sender -> this FLS is the sender's own reading,
+    With ``options.both_ends``, a hop sender -> this FLS is the sender's own reading,
     which the sender's first offer of the phase carries
     (:func:`reads_both_ends`); else this FLS's reading of the sender, reversed.
     """
@@ -237,40 +275,20 @@ class PathSearch:
         self,
         view: LocalView,
         phase: int,
-        policy: str,
-        width: float,
-        id_space: int,
+        options: SearchOptions,
         targets: IntArray | None = None,
         departed: frozenset[int] = frozenset(),
-        hop_errors: FloatArray | None = None,
-        fit: tuple[Sensor, float] | None = None,
-        both_ends: bool = False,
-        sources: tuple[int, int] | None = None,
     ) -> None:
         self.fls_id = view.fls_id
-        first, end = (0, id_space) if sources is None else sources
+        first, end = (0, options.id_space) if options.sources is None else options.sources
         self.first_source = first
         slots = max(end - first, 0)
-        self.order = _COST_ORDER[check_policy(policy)]
-        self.width = width
-        hop = hop_mask(view, phase) & ~np.isin(view.other, list(departed))
-        # The neighbours relayed from, sorted by id (a view lists them so), with the
-        # hop sender -> self, which this FLS's camera measures the other way round.
-        order = np.argsort(view.other[hop], kind="stable")
-        self.link_ids = np.asarray(view.other[hop][order], dtype=np.int64)
-        self.link_weights = np.asarray(view.distance[hop][order], dtype=np.float64)
-        errors = np.zeros(len(view.other)) if hop_errors is None else hop_errors
-        self.link_errors = np.asarray(errors[hop][order], dtype=np.float64)
-        own = np.asarray(view.vector[hop][order], dtype=np.float64)
-        self.link_vectors = np.full_like(own, np.nan) if both_ends else -own
-        # This FLS's readings of the neighbours it relays to, sent once when both ends read.
-        read = np.isfinite(own).all(axis=1)
-        self._readings: tuple[IntArray, FloatArray] | None = (
-            (self.link_ids[read], own[read]) if both_ends else None
-        )
-        self.fit = fit
-        self.fits = fit is not None
-        if fit is not None:
+        self.order = _COST_ORDER[check_policy(options.policy)]
+        self.width = options.width
+        self._relay_from(view, phase, departed, options)
+        self.fit = options.fit
+        self.fits = options.fit is not None
+        if options.fit is not None:
             self.unbiased = np.full((slots, 3), np.nan)
             self.covariance = np.full((slots, 3, 3), np.nan)
         # Labels by slot: source id - first_source.
@@ -290,17 +308,42 @@ class PathSearch:
         self._heard_count = 0
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
         self._wanted = np.array(sorted(self.targets), dtype=np.int64)
-        self._found = np.zeros(id_space, dtype=bool)
+        self._found = np.zeros(options.id_space, dtype=bool)
         self.results = Results()
         if targets is not None:
-            me = self.fls_id - first
-            if not 0 <= me < slots:
-                raise ValueError(f"FLS {self.fls_id} is a source outside the run's {sources}")
-            self.hops[me], self.length[me], self.error[me] = 0.0, 0.0, 0.0
-            self.pred[me] = self.fls_id
-            self.vector[me] = 0.0
-            if self.fits:
-                self.unbiased[me], self.covariance[me] = 0.0, 0.0
+            self._label_self(options.sources)
+
+    def _relay_from(
+        self, view: LocalView, phase: int, departed: frozenset[int], options: SearchOptions
+    ) -> None:
+        """Set the hops this FLS relays from in ``phase`` (its links) and its readings of them."""
+        hop = hop_mask(view, phase) & ~np.isin(view.other, list(departed))
+        # The neighbours relayed from, sorted by id (a view lists them so), with the
+        # hop sender -> self, which this FLS's camera measures the other way round.
+        order = np.argsort(view.other[hop], kind="stable")
+        self.link_ids = np.asarray(view.other[hop][order], dtype=np.int64)
+        self.link_weights = np.asarray(view.distance[hop][order], dtype=np.float64)
+        hop_errors = options.hop_errors
+        errors = np.zeros(len(view.other)) if hop_errors is None else hop_errors
+        self.link_errors = np.asarray(errors[hop][order], dtype=np.float64)
+        own = np.asarray(view.vector[hop][order], dtype=np.float64)
+        self.link_vectors = np.full_like(own, np.nan) if options.both_ends else -own
+        # This FLS's readings of the neighbours it relays to, sent once when both ends read.
+        read = np.isfinite(own).all(axis=1)
+        self._readings: tuple[IntArray, FloatArray] | None = (
+            (self.link_ids[read], own[read]) if options.both_ends else None
+        )
+
+    def _label_self(self, sources: tuple[int, int] | None) -> None:
+        """Label this FLS, a source, as reached from itself at no cost."""
+        me = self.fls_id - self.first_source
+        if not 0 <= me < len(self.hops):
+            raise ValueError(f"FLS {self.fls_id} is a source outside the run's {sources}")
+        self.hops[me], self.length[me], self.error[me] = 0.0, 0.0, 0.0
+        self.pred[me] = self.fls_id
+        self.vector[me] = 0.0
+        if self.fits:
+            self.unbiased[me], self.covariance[me] = 0.0, 0.0
 
     @property
     def finished(self) -> bool:
@@ -425,22 +468,18 @@ class PathSearch:
         won_link = np.zeros(len(self.hops), dtype=np.int64)
         changed = _relax(
             self.fls_id,
-            self.link_ids,
-            self.link_weights,
-            self.link_errors,
             self.order,
-            heard.senders,
-            heard.starts,
-            heard.source_ids,
-            heard.hops,
-            heard.lengths,
-            heard.errors,
             self.first_source,
-            self.sent,
-            self.hops,
-            self.length,
-            self.error,
-            self.pred,
+            Links(self.link_ids, self.link_weights, self.link_errors),
+            HeardLabels(
+                heard.senders,
+                heard.starts,
+                heard.source_ids,
+                heard.hops,
+                heard.lengths,
+                heard.errors,
+            ),
+            SlotLabels(self.sent, self.hops, self.length, self.error, self.pred),
             won_label,
             won_link,
         )
