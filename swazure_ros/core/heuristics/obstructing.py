@@ -214,23 +214,7 @@ def obstructing_text(evaluation: Evaluation) -> HeuristicResult:
                     ok = False
                     break
                 position = moved.get(o, points[o])
-                centre = closest_on_segment(points[a], points[b], position)
-                near = tree.query_ball_point(centre, 5.0 * radius)
-                others = [k for k in near if k != o and k not in moved]
-                blockers = np.concatenate(
-                    [
-                        points[others].reshape(-1, 3),
-                        np.array([p for k, p in moved.items() if k != o]).reshape(-1, 3),
-                    ]
-                )
-                target = free_circle_point(
-                    centre,
-                    points[b] - points[a],
-                    position,
-                    radius * (1.0 + _ASIDE),
-                    blockers,
-                    2.0 * radius,
-                )
+                target = _aside(points, radius, tree, moved, o, a, b)
                 if target is None:
                     ok = False
                     break
@@ -258,6 +242,37 @@ def obstructing_text(evaluation: Evaluation) -> HeuristicResult:
         np.array(move_from, dtype=float).reshape(-1, 3),
         np.array(move_to, dtype=float).reshape(-1, 3),
         TEXT,
+    )
+
+
+def _aside(
+    points: FloatArray,
+    radius: float,
+    tree: cKDTree,
+    moved: dict[int, FloatArray],
+    o: int,
+    a: int,
+    b: int,
+) -> FloatArray | None:
+    """Where obstructer o goes, off the hop a-b, from where it is now (``moved`` or its point);
+    None where no place is free of the others (as they are after the ``moved``), cm."""
+    position = moved.get(o, points[o])
+    centre = closest_on_segment(points[a], points[b], position)
+    near = tree.query_ball_point(centre, 5.0 * radius)
+    others = [k for k in near if k != o and k not in moved]
+    blockers = np.concatenate(
+        [
+            points[others].reshape(-1, 3),
+            np.array([p for k, p in moved.items() if k != o]).reshape(-1, 3),
+        ]
+    )
+    return free_circle_point(
+        centre,
+        points[b] - points[a],
+        position,
+        radius * (1.0 + _ASIDE),
+        blockers,
+        2.0 * radius,
     )
 
 
