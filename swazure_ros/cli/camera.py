@@ -40,7 +40,7 @@ from ..core.calibration import (
 from ..core.camera import Camera, load_camera
 from ..core.errors import SensorError
 from ..core.results import atomic_write
-from ..core.sensor import SENSOR_FILE_VERSION
+from ..core.sensor import SENSOR_FILE_VERSION, Sensor
 from .arguments import (
     count,
     distance_mm,
@@ -230,30 +230,46 @@ def main(args: argparse.Namespace) -> int:
         )
         _print_fit(compare(at_measured, measured), measured, result, column)
     if args.out:
-        document = {"fileversion": SENSOR_FILE_VERSION, "sensor": sensor.to_dict()}
-        header = (
-            f"# Written by `swazure camera calibrate --camera {args.camera} "
-            f"--frames {args.frames} "
-            + ("--all-markers " if markers else "")
-            + f"--seed {args.seed}`.\n# Stochastic sensor: ranges by docs/camera.md's criteria; "
-            "per tracking "
-            "distance (cm) the mean error, detection and scatter.\n"
-        )
-        text = header + yaml.safe_dump(document, sort_keys=False, width=100)
-        _written(args.out, lambda: atomic_write(args.out, lambda tmp: tmp.write_text(text)))
-        print(f"wrote {args.out}")
+        _write_sensor(args, sensor, markers)
     if args.plot or args.sheet:
-        from ..study.camera import calibration_figure, contact_sheet, save_figure
-
-        if args.plot:
-            figure = calibration_figure(result, sensor, camera, measured)
-            _written(args.plot, lambda: save_figure(figure, args.plot))
-            print(f"wrote {args.plot}")
-        if args.sheet:
-            sheet = contact_sheet(camera, sheet_distances(camera), (0, 45))
-            _written(args.sheet, lambda: save_figure(sheet, args.sheet))
-            print(f"wrote {args.sheet}")
+        _draw_figures(args, camera, result, sensor, measured)
     return 0
+
+
+def _write_sensor(args: argparse.Namespace, sensor: Sensor, markers: tuple[int, ...]) -> None:
+    """Write the calibrated ``sensor`` to --out, with the command that made it."""
+    document = {"fileversion": SENSOR_FILE_VERSION, "sensor": sensor.to_dict()}
+    header = (
+        f"# Written by `swazure camera calibrate --camera {args.camera} "
+        f"--frames {args.frames} "
+        + ("--all-markers " if markers else "")
+        + f"--seed {args.seed}`.\n# Stochastic sensor: ranges by docs/camera.md's criteria; "
+        "per tracking "
+        "distance (cm) the mean error, detection and scatter.\n"
+    )
+    text = header + yaml.safe_dump(document, sort_keys=False, width=100)
+    _written(args.out, lambda: atomic_write(args.out, lambda tmp: tmp.write_text(text)))
+    print(f"wrote {args.out}")
+
+
+def _draw_figures(
+    args: argparse.Namespace,
+    camera: Camera,
+    result: Sweep,
+    sensor: Sensor,
+    measured: Measured | None,
+) -> None:
+    """Draw the calibration figure (--plot) and the contact sheet (--sheet)."""
+    from ..study.camera import calibration_figure, contact_sheet, save_figure
+
+    if args.plot:
+        figure = calibration_figure(result, sensor, camera, measured)
+        _written(args.plot, lambda: save_figure(figure, args.plot))
+        print(f"wrote {args.plot}")
+    if args.sheet:
+        sheet = contact_sheet(camera, sheet_distances(camera), (0, 45))
+        _written(args.sheet, lambda: save_figure(sheet, args.sheet))
+        print(f"wrote {args.sheet}")
 
 
 def _print_fit(rows: list[FitRow], measured: Measured, result: Sweep, column: int) -> None:

@@ -37,6 +37,13 @@ QUICK_BETAS = (0.4, 0.5)
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure study``."""
+    _add_sweep_arguments(parser)
+    _add_run_arguments(parser)
+    _add_output_arguments(parser)
+
+
+def _add_sweep_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of what the study sweeps: clouds, betas, policies, techniques."""
     parser.add_argument(
         "--clouds",
         nargs="+",
@@ -63,6 +70,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="B",
         help="betas of the heuristics and tables (default: 0.3 0.4 0.5)",
     )
+
+
+def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of what each run keeps and computes beside plain Swazure."""
     parser.add_argument(
         "--pairs",
         choices=PAIR_COLUMNS,
@@ -100,6 +111,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="shortest-length",
         help="path policy of the heuristics and tables (default: shortest-length)",
     )
+
+
+def _add_output_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of the sensor, the seed, where the study goes and how it runs."""
     parser.add_argument(
         "--sensor",
         type=input_file,
