@@ -25,7 +25,7 @@ import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..core.errors import SwazureError
 from ..core.files import config_dir
@@ -55,6 +55,11 @@ from .options import (
 )
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
 
+if TYPE_CHECKING:
+    from ..app.config import SwarmConfig
+    from ..app.swarm import RunningSwarm
+    from ..core.results import BringUp
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure spawn``."""
@@ -62,6 +67,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.set_defaults(exit_process=True)
     add_swarm_arguments(parser)
     add_policy_argument(parser)
+    _add_process_arguments(parser)
+    _add_bring_up_arguments(parser)
+    _add_compute_arguments(parser)
+    _add_view_arguments(parser)
+    _add_key_arguments(parser)
+    _add_fls_process_arguments(parser)
+    parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_swarm_file_argument(parser)
+
+
+def _add_process_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of how the swarm's nodes are split: processes, parameters, namespace, hosts."""
     parser.add_argument(
         "--processes", type=count, default=1, metavar="P", help="split the nodes over P processes"
     )
@@ -84,6 +101,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "(share 0 runs the world node and the coordinator; README: across hosts)",
     )
     add_domain_argument(parser)
+
+
+def _add_bring_up_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of waiting for the swarm to come up."""
     parser.add_argument(
         "--until-ready",
         action="store_true",
@@ -97,6 +118,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="give up when the swarm is not discovered after S seconds (default 600)",
     )
+
+
+def _add_compute_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``--compute-all`` and of what a run writes."""
     parser.add_argument(
         "--compute-all",
         action="store_true",
@@ -139,6 +164,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "-s mcap writes one (ros2 bag info and play, rosbags and Foxglove read it); written "
         "whole when the swarm stops",
     )
+
+
+def _add_view_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``--view``."""
     parser.add_argument(
         "--view",
         action="store_true",
@@ -156,6 +185,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="I:J,...",
         help="draw the paths of these ordered blind pairs (source:target ids) instead of examples",
     )
+
+
+def _add_key_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of the swarm's key (docs/security.md)."""
     parser.add_argument(
         "--key-file",
         type=input_file,
@@ -171,6 +204,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="run without a key: any peer on the ROS domain may then speak for the swarm "
         "(for tools that publish into it, such as ros2 topic pub; docs/security.md)",
     )
+
+
+def _add_fls_process_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of the FLS nodes and processes, and of DDS discovery."""
     parser.add_argument(
         "--parameter-services",
         action="store_true",
@@ -201,8 +238,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "two or more for redundancy) instead of simple discovery: a server whose address "
         "is this host's is started here; give every host the same list (docs/swarm.md)",
     )
-    parser.add_argument("--quiet", action="store_true", help="no progress bar")
-    add_swarm_file_argument(parser)
 
 
 class CreationBar:
@@ -412,34 +447,7 @@ def main(args: argparse.Namespace) -> int:
                 write_record(args.out, RunRecord("spawn", bring_up.seconds, {}, bring_up=bring_up))
             ready = True
             bar.close()
-            peaks = " + ".join(f"{mb:.0f}" for mb in bring_up.peak_rss_mb)
-            where = (
-                f"{bring_up.processes} process(es)"
-                if config.hosts == 1
-                else f"{config.hosts} hosts (this is share {config.share})"
-            )
-            if swarm.fls_processes is not None:
-                share = "" if config.hosts == 1 else f", share {config.share} of {config.hosts}"
-                where = (
-                    f"{len(swarm.fls_processes.fls_ids)} processes of one FLS each{share} "
-                    f"(logs in {swarm.fls_processes.log_dir}) and this one"
-                )
-                here, *each = bring_up.peak_rss_mb
-                mean = sum(each) / len(each)
-                peaks = f"{here:.0f} here, {mean:.0f} per FLS, {max(each):.0f} at most"
-            print(
-                f"swarm up: {bring_up.flss} FLS nodes in {where} "
-                f"under /{config.namespace}, discovered in {bring_up.seconds:.1f} s; "
-                f"peak memory {bring_up.total_peak_mb:.0f} MB ({peaks})",
-                flush=True,
-            )
-            if swarm.view is not None:
-                live = swarm.view.live
-                print(
-                    f"view: RViz MarkerArray on /{config.namespace}/scene (fixed frame swarm); "
-                    f"Foxglove ws://127.0.0.1:{live.port if live else '-'}",
-                    flush=True,
-                )
+            _print_up(swarm, config, bring_up)
             if args.until_ready:
                 return 0
             if args.compute_all:
@@ -458,16 +466,55 @@ def main(args: argparse.Namespace) -> int:
         bar.close()
         if swarm is not None and swarm.fls_processes is not None:
             report_ended(swarm.ended)
-        if swarm is not None and swarm.recorder is not None and swarm.recorder.closed:
-            recorder = swarm.recorder
-            if recorder.stopped is not None:
-                # The run's results stand; its recording is what was written before.
-                print(f"swazure spawn: warning: {recorder.stopped}", file=sys.stderr)
-            else:
-                print(
-                    f"recorded {sum(recorder.counts.values())} messages on "
-                    f"{len(recorder.counts)} topics ({recorder.bytes / 1e6:.1f} MB of messages) "
-                    f"to {recorder.path}",
-                    file=sys.stderr,
-                )
+        if swarm is not None:
+            _report_recording(swarm)
     return 0
+
+
+def _print_up(swarm: RunningSwarm, config: SwarmConfig, bring_up: BringUp) -> None:
+    """Say that the swarm is up: where, how fast, its peak memory; and where its view is."""
+    peaks = " + ".join(f"{mb:.0f}" for mb in bring_up.peak_rss_mb)
+    where = (
+        f"{bring_up.processes} process(es)"
+        if config.hosts == 1
+        else f"{config.hosts} hosts (this is share {config.share})"
+    )
+    if swarm.fls_processes is not None:
+        share = "" if config.hosts == 1 else f", share {config.share} of {config.hosts}"
+        where = (
+            f"{len(swarm.fls_processes.fls_ids)} processes of one FLS each{share} "
+            f"(logs in {swarm.fls_processes.log_dir}) and this one"
+        )
+        here, *each = bring_up.peak_rss_mb
+        mean = sum(each) / len(each)
+        peaks = f"{here:.0f} here, {mean:.0f} per FLS, {max(each):.0f} at most"
+    print(
+        f"swarm up: {bring_up.flss} FLS nodes in {where} "
+        f"under /{config.namespace}, discovered in {bring_up.seconds:.1f} s; "
+        f"peak memory {bring_up.total_peak_mb:.0f} MB ({peaks})",
+        flush=True,
+    )
+    if swarm.view is not None:
+        live = swarm.view.live
+        print(
+            f"view: RViz MarkerArray on /{config.namespace}/scene (fixed frame swarm); "
+            f"Foxglove ws://127.0.0.1:{live.port if live else '-'}",
+            flush=True,
+        )
+
+
+def _report_recording(swarm: RunningSwarm) -> None:
+    """Say where the swarm's recording went, once it is written; or why it stopped."""
+    recorder = swarm.recorder
+    if recorder is None or not recorder.closed:
+        return
+    if recorder.stopped is not None:
+        # The run's results stand; its recording is what was written before.
+        print(f"swazure spawn: warning: {recorder.stopped}", file=sys.stderr)
+    else:
+        print(
+            f"recorded {sum(recorder.counts.values())} messages on "
+            f"{len(recorder.counts)} topics ({recorder.bytes / 1e6:.1f} MB of messages) "
+            f"to {recorder.path}",
+            file=sys.stderr,
+        )
