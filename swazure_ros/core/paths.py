@@ -704,11 +704,10 @@ def shortest_paths(
     progress : callable, optional
         Called with the number of pairs done after each batch of sources.
     """
-    _policy_weights(graph, policy)  # an unknown policy fails before the pairs are checked
     sources = np.asarray(sources, dtype=np.int64)
     targets = np.asarray(targets, dtype=np.int64)
-    _check_pairs(graph, sources, targets)
     search = _search_of(graph, policy, components)
+    _check_pairs(graph, sources, targets)
     found, hops, length, buffer = _search_batches(search, sources, targets, progress, batch)
     counts = np.where(found, hops + 1, 0)
     offsets = csr.offsets(counts)
