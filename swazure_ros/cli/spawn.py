@@ -388,6 +388,7 @@ def _stopper(swarm: Any) -> Callable[[int, object], None]:
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure spawn``."""
     # rclpy loads only for the verbs that use it: `swazure evaluate` starts faster.
+    from ..app.processes import ProcessPerFls
     from ..app.swarm import RunningSwarm
 
     # Stop cleanly on Ctrl-C and on SIGTERM (a supervisor, a test), also when a shell
@@ -418,11 +419,12 @@ def main(args: argparse.Namespace) -> int:
                 if config.hosts == 1
                 else f"{config.hosts} hosts (this is share {config.share})"
             )
-            if swarm.fls_processes is not None:
+            if isinstance(swarm.processes, ProcessPerFls):
+                fls = swarm.processes.fls
                 share = "" if config.hosts == 1 else f", share {config.share} of {config.hosts}"
                 where = (
-                    f"{len(swarm.fls_processes.fls_ids)} processes of one FLS each{share} "
-                    f"(logs in {swarm.fls_processes.log_dir}) and this one"
+                    f"{len(fls.fls_ids)} processes of one FLS each{share} "
+                    f"(logs in {fls.log_dir}) and this one"
                 )
                 here, *each = bring_up.peak_rss_mb
                 mean = sum(each) / len(each)
@@ -456,8 +458,8 @@ def main(args: argparse.Namespace) -> int:
         print("stopping the swarm", file=sys.stderr, flush=True)
     finally:
         bar.close()
-        if swarm is not None and swarm.fls_processes is not None:
-            report_ended(swarm.ended)
+        if swarm is not None and isinstance(swarm.processes, ProcessPerFls):
+            report_ended(swarm.processes.ended)
         if swarm is not None and swarm.recorder is not None and swarm.recorder.closed:
             recorder = swarm.recorder
             if recorder.stopped is not None:
