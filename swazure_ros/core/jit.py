@@ -54,7 +54,10 @@ class Kernel(Generic[Params, Result]):
         return self._compiled
 
     def __call__(self, *args: Params.args, **kwargs: Params.kwargs) -> Result:
-        return self.compiled()(*args, **kwargs)
+        compiled = self._compiled
+        if compiled is None:
+            compiled = self.compiled()
+        return compiled(*args, **kwargs)
 
 
 def kernel(
