@@ -143,6 +143,7 @@ class RunningSwarm:
         def created(count: int) -> None:
             self._own_created = count
             self._watch()
+            self._tell_created()
 
         if leader and self.config.record is not None:
             # Before the nodes: it hears every topic from its first publisher on.
@@ -188,8 +189,11 @@ class RunningSwarm:
         return [os.getpid(), *self.processes.process_ids()]
 
     def _watch(self) -> None:
-        """Take the other processes' news (a failure raises), and tell how far creation is."""
+        """Take the other processes' news; SwazureError for one that failed."""
         self.processes.watch(self.ready)
+
+    def _tell_created(self) -> None:
+        """Tell ``on_created`` how many FLS nodes are up, while the swarm comes up."""
         if self.host is not None and not self.ready:
             self._on_created(self.processes.created(self._own_created, self.host), self.size)
 
@@ -199,6 +203,7 @@ class RunningSwarm:
         discovered = False
         while time.monotonic() < deadline:
             self._watch()
+            self._tell_created()
             if not discovered:
                 discovered = self._host.is_discovered()
             # Seeing every node is not enough: a host whose radio has not matched the
