@@ -1742,7 +1742,7 @@ def fls_process_section(args: argparse.Namespace) -> list[str]:
         "radio, made at its camera's first frame (DDS discovery added).",
         "Memory: resident, 2 s after ready, then after its first discovery run",
         "(compute_pose 0 -> 2 through the coordinator; the FLS runs its kernels as",
-        "Python, core.jit.interpret).",
+        "Python, NUMBA_DISABLE_JIT=1: core.jit).",
         "",
         "| FLS | start to ready s (its log) | until a peer sees its radio s "
         "| resident at ready MB | after a discovery run MB |",

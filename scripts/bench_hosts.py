@@ -334,7 +334,7 @@ def main() -> int:
                     # Whether the living stay in each other's graph with the server gone.
                     swarm.spin(30.0)
                     record["gone_30s_after_server"] = sorted(
-                        swarm.coordinator.gone - set(record["fault_fls"]["killed"])
+                        swarm.coordinator.membership.gone - set(record["fault_fls"]["killed"])
                     )
     except Exception as err:
         record.setdefault("stopped", f"{type(err).__name__}: {err}")

@@ -54,7 +54,9 @@ FLS_PROGRAM = (
 #: processes on one host missed their first, latched camera frame in about half of
 #: the bring-ups, over UDP in 1 of 19 (measured 2026-11-26; the simulated cameras
 #: now stream, ros.world_node.SimulatedCameras); UDP also keeps 6 MB less resident.
-FLS_ENVIRONMENT = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
+#: NUMBA_DISABLE_JIT: one FLS relaxes a few labels a round, where numba would cost more
+#: than it saves (core.jit).
+FLS_ENVIRONMENT = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4", "NUMBA_DISABLE_JIT": "1"}
 #: Seconds between two FLS processes' starts. Started at once, 25 FLS processes on
 #: this host left one or two of them deaf to the simulator's participant (no camera
 #: frame, no node names; their endpoints still discovered) in 4 of 12 bring-ups;

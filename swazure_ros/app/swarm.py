@@ -1,11 +1,10 @@
 """Running a swarm: bring it up over one or more processes, and compute with it.
 
 The launcher's process hosts the world node and the first share of FLS nodes;
-each further process (multiprocessing, spawn start method) hosts one more
-share. Every process builds the same world from one :class:`WorldSpec`, so
-none needs the others' data, and lays out what its own share senses (the
-race car's whole swarm's observations are 650 MB), and reports to the launcher over a queue: nodes
-created, discovery complete (with its peak memory), or one error line. The
+the other FLSs run in further processes, packed in shares or one per FLS
+(:mod:`.processes`). Every process builds the same world from one
+:class:`WorldSpec`, so none needs the others' data, and lays out what its own
+share senses (the race car's whole swarm's observations are 650 MB). The
 swarm is up when every process sees every FLS node's endpoints.
 
 :meth:`RunningSwarm.discover` and :meth:`RunningSwarm.make_moves` run the
@@ -15,9 +14,7 @@ run beside the engine's).
 
 from __future__ import annotations
 
-import multiprocessing
 import os
-import queue
 import signal
 import tempfile
 import time
@@ -43,18 +40,9 @@ from ..sim.world import World
 from ..view.scene import Scene, evaluation_scene, ranges_scene
 from .config import SwarmConfig, ViewConfig
 from .discovery_server import DiscoveryServers
-from .per_fls import Ended, FlsProcesses
-from .share import (
-    CREATED,
-    FAILED,
-    READY,
-    announced_instance,
-    host_share,
-    init_context,
-    peak_rss_mb,
-    shares,
-    unreached_text,
-)
+from .per_fls import Ended
+from .processes import PackedShares, ProcessPerFls, SwarmProcesses
+from .share import announced_instance, init_context, peak_rss_mb, shares, unreached_text
 
 #: Seconds between two progress reports of a long run.
 PROGRESS_PERIOD = 10.0
@@ -79,10 +67,8 @@ class RunningSwarm:
         # runtime.exit_process: far faster than destroying them one by one.
         self._leave_nodes = leave_nodes
         self._on_created = on_created or (lambda created, total: None)
-        self._on_lost = on_lost or (lambda ended: None)
-        #: Up and discovered (wait_until_ready); per_fls: the FLS processes that ended since.
+        #: Up and discovered (wait_until_ready).
         self.ready = False
-        self.lost: list[Ended] = []
         self._began = time.perf_counter()
         assigned = config.world.assigned()
         fls_ids = assigned.cloud_index
@@ -96,61 +82,28 @@ class RunningSwarm:
                 f"parameters for FLS {strangers[0]}: no such FLS in this swarm of {self.size} "
                 f"(ids {fls_ids[0]}..{fls_ids[-1]})"
             )
-        self._shares = shares(assigned, parts)
+        own_shares = shares(assigned, parts)
         if config.hosts > 1:
             # Only this host's share here; the others run on their own hosts.
-            self._shares = [self._shares[config.share]]
-        key = config.key if config.authenticate else None
-        if key is None and config.authenticate and config.hosts == 1:
-            key = new_key()
-        instance = None  # a fresh one: this swarm's life
-        if key is not None and config.share != 0:
-            # A further host of a swarm that shares a key file: the world node's.
-            instance = announced_instance(config, key)
-        self.key = SwarmKey(key, instance)
-        self.fls_processes: FlsProcesses | None = None
+            own_shares = [own_shares[config.share]]
+        self.key = SwarmKey(*_swarm_key(config))
         # A folder for the logs of the processes started here, if any are.
         started = config.per_fls or bool(config.discovery_servers)
         log_dir = Path(config.log_dir or (tempfile.mkdtemp(prefix="swazure-") if started else "."))
         self.discovery_servers = DiscoveryServers(config.discovery_servers, log_dir)
+        self.processes: SwarmProcesses
         if config.per_fls:
             # This host's FLS processes; share 0 also simulates every FLS's camera.
-            self.fls_processes = FlsProcesses(
-                config.world,
-                self._shares[0],
-                log_dir,
-                namespace=config.namespace,
-                key=self.key,
-                parameters=config.parameters,
-                fls_parameters=config.fls_parameters,
-                params_file=config.params_file,
-                domain_id=config.domain_id,
-                discovery_servers=config.discovery_servers,
+            self.processes = ProcessPerFls(
+                config, self.key, own_shares[0], self.size, log_dir, on_lost or _ignore
             )
-            self._shares = [[]]
+        else:
+            self.processes = PackedShares(config, self.key, own_shares)
         # Each process lays out what its own FLSs sense; the coordinator's
         # planning and the engine's comparison need the neighbourhood, not that.
-        hosted = None if config.per_fls else self._shares[0]
-        self.world = config.world.build(hosted_ids=hosted)
-        self._created = [0] * config.processes
-        self._peaks: dict[int, float] = {}
-        mp = multiprocessing.get_context("spawn")
-        self._reports = mp.Queue()
-        self._stop = mp.Event()
-        material = self.key.material  # each further process signs as a sender of its own
-        self._children = [
-            mp.Process(
-                target=host_share,
-                args=(config, material, index, share, self.size, self._reports, self._stop),
-                name=f"swazure-host-{index}",
-                daemon=True,
-            )
-            for index, share in enumerate(self._shares)
-            if index > 0
-        ]
+        self.world = config.world.build(hosted_ids=self.processes.laid_out)
+        self._own_created = 0
         self.context: Context | None = None
-        #: per_fls: how every FLS process ended, once the swarm is closed.
-        self.ended: list[Ended] = []
         self.host: SwarmHost | None = None
         self.coordinator: Coordinator | None = None
         self.recorder: Recorder | None = None
@@ -170,15 +123,12 @@ class RunningSwarm:
 
     def _start(self) -> None:
         self.discovery_servers.start()
-        for child in self._children:
-            child.start()
-        if self.fls_processes is not None:
-            self.fls_processes.start()
+        self.processes.start()
         self.context = init_context(self.config)
         leader = self.config.share == 0
         self.host = SwarmHost(
             self.world,
-            self._shares[0],
+            self.processes.own_share,
             context=self.context,
             namespace=self.config.namespace,
             swarm_size=self.size,
@@ -191,8 +141,9 @@ class RunningSwarm:
         )
 
         def created(count: int) -> None:
-            self._created[0] = count
-            self._drain()
+            self._own_created = count
+            self._watch()
+            self._tell_created()
 
         if leader and self.config.record is not None:
             # Before the nodes: it hears every topic from its first publisher on.
@@ -201,7 +152,7 @@ class RunningSwarm:
             )
             self.host.add(self.recorder)
         self.host.create_fls_nodes(created)
-        if self.fls_processes is not None and leader:
+        if self.processes.simulates_cameras and leader:
             cameras = SimulatedCameras(
                 self.host.replica,
                 self.world.ids.tolist(),
@@ -213,7 +164,7 @@ class RunningSwarm:
         if leader:
             self.coordinator = Coordinator(
                 self.world.ids.tolist(),
-                hosts=self._hosts,
+                hosts=self.processes.radios,
                 shape=self.world.home_hood,
                 namespace=self.config.namespace,
                 context=self.context,
@@ -235,56 +186,24 @@ class RunningSwarm:
     @property
     def process_ids(self) -> list[int]:
         """The pids of this swarm's packed processes: this one, then each further share's."""
-        return [os.getpid(), *(child.pid for child in self._children if child.pid is not None)]
+        return [os.getpid(), *self.processes.process_ids()]
 
-    @property
-    def _hosts(self) -> int:
-        """Processes whose radios take part in a run: one per share, or per FLS."""
-        if self.config.per_fls:
-            return self.size
-        return max(self.config.processes, self.config.hosts)
+    def _watch(self) -> None:
+        """Take the other processes' news; SwazureError for one that failed."""
+        self.processes.watch(self.ready)
 
-    def _drain(self) -> None:
-        """Take every pending report from the further processes."""
-        if self.fls_processes is not None:
-            known = {one.fls_id for one in self.lost}
-            ended = [one for one in self.fls_processes.ended() if one.fls_id not in known]
-            if ended and not self.ready:
-                # While it comes up, an FLS that ends has a fault to fix: stop and say which.
-                raise SwazureError(
-                    f"{ended[0].describe()} (log: {self.fls_processes.log(ended[0].fls_id)})"
-                )
-            # Once up, an FLS that ends is an FLS lost, as in flight: the swarm's rounds
-            # find it silent and go on without it (docs/protocol.md, departures).
-            for one in ended:
-                self.lost.append(one)
-                self._on_lost(one)
-            if self.host is not None and not self.ready:
-                self._on_created(min(self.host.discovered()[0], self.size), self.size)
-            return
-        while True:
-            try:
-                kind, index, value = self._reports.get_nowait()
-            except queue.Empty:
-                break
-            if kind == FAILED:
-                raise SwazureError(value)
-            if kind == CREATED:
-                self._created[index] = value
-            elif kind == READY:
-                self._created[index] = len(self._shares[index])
-                self._peaks[index] = value
-        self._on_created(sum(self._created), self.size)
-        for child in self._children:
-            if child.exitcode is not None and child.exitcode != 0:
-                raise SwazureError(f"{child.name} exited with code {child.exitcode}")
+    def _tell_created(self) -> None:
+        """Tell ``on_created`` how many FLS nodes are up, while the swarm comes up."""
+        if self.host is not None and not self.ready:
+            self._on_created(self.processes.created(self._own_created, self.host), self.size)
 
     def wait_until_ready(self) -> BringUp:
         """Spin until every process has discovered the whole swarm; return the bring-up."""
         deadline = time.monotonic() + self.config.discovery_timeout
         discovered = False
         while time.monotonic() < deadline:
-            self._drain()
+            self._watch()
+            self._tell_created()
             if not discovered:
                 discovered = self._host.is_discovered()
             # Seeing every node is not enough: a host whose radio has not matched the
@@ -292,12 +211,9 @@ class RunningSwarm:
             matched = self.coordinator is None or self.coordinator.hosts_matched()
             # A recording starts with everything the run publishes.
             matched = matched and (self.recorder is None or self.recorder.caught_up())
-            if discovered and matched and len(self._peaks) == len(self._children):
-                self._peaks[0] = peak_rss_mb()
+            if discovered and matched and self.processes.ready():
                 seconds = time.perf_counter() - self._began
-                peaks = [self._peaks[index] for index in range(self.config.processes)]
-                if self.fls_processes is not None:
-                    peaks += self.fls_processes.peak_rss_mb()
+                peaks = [peak_rss_mb(), *self.processes.peak_rss_mb()]
                 self.ready = True
                 self.bring_up = BringUp(self.size, len(peaks), seconds, peaks)
                 return self.bring_up
@@ -349,7 +265,7 @@ class RunningSwarm:
             # The other processes' reports (a failure) need no more than a few looks a
             # second; a look polls a pipe, and a spin can take just microseconds.
             if now - watched > 0.25:
-                self._drain()
+                self._watch()
                 watched = now
             self._host.spin_once(0.02)
         return run.result()
@@ -385,7 +301,7 @@ class RunningSwarm:
     def source_blocks(self, per_run: int | None = None) -> list[tuple[int, ...]]:
         """The live FLSs in the blocks that :meth:`discover` runs one after the other."""
         coordinator = self._coordinator
-        live = coordinator.fls_ids - coordinator.departed
+        live = coordinator.fls_ids - coordinator.membership.departed
         return source_blocks(live, per_run or sources_per_run(len(coordinator.fls_ids)))
 
     def make_moves(
@@ -406,7 +322,7 @@ class RunningSwarm:
         """Serve the swarm for ``seconds`` (for ever when None), watching the processes."""
         deadline = None if seconds is None else time.monotonic() + seconds
         while deadline is None or time.monotonic() < deadline:
-            self._drain()
+            self._watch()
             self._host.spin_for(0.1)
 
     def close(self) -> None:
@@ -422,22 +338,30 @@ class RunningSwarm:
         self.coordinator = None  # its host destroys it
         if self.recorder is not None:
             self.recorder.close()
-        self._stop.set()
-        if self.fls_processes is not None:
-            self.ended = self.fls_processes.stop()
+        self.processes.stop()
         self.discovery_servers.stop()
-        for child in self._children:
-            if child.pid is not None:
-                child.join(timeout=30)
-                if child.is_alive():
-                    child.terminate()
-                    child.join(timeout=5)
         if self.host is not None and not self._leave_nodes:
             self.host.close()
             self.host = None
         if self.context is not None and not self._leave_nodes:
             self.context.try_shutdown()
             self.context = None
+
+
+def _swarm_key(config: SwarmConfig) -> tuple[bytes | None, bytes | None]:
+    """The swarm's secret (None: unsigned) and instance (None: a fresh one, this swarm's life)."""
+    key = config.key if config.authenticate else None
+    if key is None and config.authenticate and config.hosts == 1:
+        key = new_key()
+    instance = None
+    if key is not None and config.share != 0:
+        # A further host of a swarm that shares a key file: the world node's.
+        instance = announced_instance(config, key)
+    return key, instance
+
+
+def _ignore(ended: Ended) -> None:
+    """No one to tell of an FLS lost."""
 
 
 def _block_progress(

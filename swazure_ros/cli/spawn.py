@@ -423,6 +423,7 @@ def _stopper(swarm: Any) -> Callable[[int, object], None]:
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure spawn``."""
     # rclpy loads only for the verbs that use it: `swazure evaluate` starts faster.
+    from ..app.processes import ProcessPerFls
     from ..app.swarm import RunningSwarm
 
     # Stop cleanly on Ctrl-C and on SIGTERM (a supervisor, a test), also when a shell
@@ -464,8 +465,8 @@ def main(args: argparse.Namespace) -> int:
         print("stopping the swarm", file=sys.stderr, flush=True)
     finally:
         bar.close()
-        if swarm is not None and swarm.fls_processes is not None:
-            report_ended(swarm.ended)
+        if swarm is not None and isinstance(swarm.processes, ProcessPerFls):
+            report_ended(swarm.processes.ended)
         if swarm is not None:
             _report_recording(swarm)
     return 0
@@ -473,17 +474,20 @@ def main(args: argparse.Namespace) -> int:
 
 def _print_up(swarm: RunningSwarm, config: SwarmConfig, bring_up: BringUp) -> None:
     """Say that the swarm is up: where, how fast, its peak memory; and where its view is."""
+    from ..app.processes import ProcessPerFls
+
     peaks = " + ".join(f"{mb:.0f}" for mb in bring_up.peak_rss_mb)
     where = (
         f"{bring_up.processes} process(es)"
         if config.hosts == 1
         else f"{config.hosts} hosts (this is share {config.share})"
     )
-    if swarm.fls_processes is not None:
+    if isinstance(swarm.processes, ProcessPerFls):
+        fls = swarm.processes.fls
         share = "" if config.hosts == 1 else f", share {config.share} of {config.hosts}"
         where = (
-            f"{len(swarm.fls_processes.fls_ids)} processes of one FLS each{share} "
-            f"(logs in {swarm.fls_processes.log_dir}) and this one"
+            f"{len(fls.fls_ids)} processes of one FLS each{share} "
+            f"(logs in {fls.log_dir}) and this one"
         )
         here, *each = bring_up.peak_rss_mb
         mean = sum(each) / len(each)

@@ -2,83 +2,111 @@
 
 An FLS in a process of its own imports the core's models but runs few of its
 kernels, and numba alone is 60 MB and 0.2 s of a process (BENCHMARKS.md).
-:func:`kernel` marks a function for ``numba.njit``; the first call of any
-kernel of a module compiles every kernel of that module (from numba's cache
-on disk after the first run) and puts the compiled ones in the module in
-place of the markers, so a kernel that calls another calls it compiled.
+:func:`kernel` wraps a function in a :class:`Kernel`, which compiles it with
+``numba.njit`` at its first call (from numba's cache on disk after the first
+run) and keeps the compiled function on itself; a kernel that calls another
+is compiled against the other's compiled function, so it calls it compiled.
 Kernel bodies and callers reach numba's own names through this module
 (``jit.prange``, ``jit.get_num_threads()``), which imports numba when one
 is first used.
+
+A process started with ``NUMBA_DISABLE_JIT=1`` in its environment (numba's
+own switch, read once here, at import) runs its kernels as plain Python and
+never imports numba: the ``fls`` program does (scripts/nodes/fls,
+app/per_fls.py), as an FLS relaxes a few labels a round, where numba's import
+and compiled code cost 100 MB (BENCHMARKS.md).
 """
 
 from __future__ import annotations
 
 import functools
 import importlib
-import sys
+import os
+import types
 from collections.abc import Callable
-from typing import Any, TypeVar
+from typing import Any, Generic, ParamSpec, TypeVar
 
-Function = TypeVar("Function", bound=Callable[..., Any])
+Params = ParamSpec("Params")
+Result = TypeVar("Result")
 
-#: Module name -> its kernels not compiled yet: (name, function, njit options).
-_pending: dict[str, list[tuple[str, Callable[..., Any], dict[str, Any]]]] = {}
-#: The process's choice (:func:`interpret`): run kernels as Python, never import numba.
-_settings = {"interpret": False}
+#: Whether this process runs its kernels as Python (NUMBA_DISABLE_JIT, as numba reads it).
+INTERPRET = os.environ.get("NUMBA_DISABLE_JIT", "0").strip() not in ("", "0")
 
 
-def interpret() -> None:
-    """Run this process's kernels as plain Python from now on; numba is never imported.
+class Kernel(Generic[Params, Result]):
+    """A function that ``numba.njit(**options)`` compiles at its first call."""
 
-    For a process whose kernels see little data: an FLS in its own process
-    relaxes a few labels a round, where numba's import and compiled code cost
-    100 MB (BENCHMARKS.md). Kernels compiled before the call stay compiled.
+    def __init__(self, function: Callable[Params, Result], options: dict[str, Any]) -> None:
+        functools.update_wrapper(self, function)
+        self.function = function
+        self.options = options
+        self._compiled: Callable[Params, Result] | None = None
+
+    def compiled(self) -> Callable[Params, Result]:
+        """The compiled function (the plain one, interpreted), made at the first ask."""
+        if self._compiled is None:
+            resolved = _with_kernels_resolved(self.function, self)
+            if INTERPRET:
+                self._compiled = resolved
+            else:
+                numba = importlib.import_module("numba")
+                self._compiled = numba.njit(**self.options)(resolved)
+        return self._compiled
+
+    def __call__(self, *args: Params.args, **kwargs: Params.kwargs) -> Result:
+        compiled = self._compiled
+        if compiled is None:
+            compiled = self.compiled()
+        return compiled(*args, **kwargs)
+
+
+def kernel(
+    **options: Any,
+) -> Callable[[Callable[Params, Result]], Kernel[Params, Result]]:
+    """``numba.njit(**options)``, applied at the kernel's first call.
+
+    One source may make several kernels with different options:
+    ``kernel(parallel=True)(function)``.
     """
-    _settings["interpret"] = True
 
-
-def kernel(name: str | None = None, **options: Any) -> Callable[[Function], Function]:
-    """``numba.njit(**options)``, applied at the first call of a kernel of the module.
-
-    ``name``: the module attribute the kernel is bound to, when not the
-    function's own name (one source compiled twice, with different options).
-    """
-
-    def decorate(function: Function) -> Function:
-        module, bound = function.__module__, name or function.__name__
-        _pending.setdefault(module, []).append((bound, function, options))
-
-        @functools.wraps(function)
-        def first_call(*args: Any) -> Any:
-            compile_module(module)
-            return getattr(sys.modules[module], bound)(*args)
-
-        first_call.lazy_module = module  # type: ignore[attr-defined]
-        first_call.lazy_name = bound  # type: ignore[attr-defined]
-        return first_call  # type: ignore[return-value]
+    def decorate(function: Callable[Params, Result]) -> Kernel[Params, Result]:
+        return Kernel(function, options)
 
     return decorate
 
 
-def compile_module(module: str) -> None:
-    """Compile every pending kernel of ``module`` and of the modules whose kernels it calls."""
-    kernels = _pending.pop(module, [])
-    if not kernels:
-        return
-    namespace = sys.modules[module].__dict__
-    if _settings["interpret"]:
-        for name, function, _ in kernels:
-            namespace[name] = function
-        return
-    numba = importlib.import_module("numba")
-    for _, function, _ in kernels:
-        for name, value in list(function.__globals__.items()):
-            other = getattr(value, "lazy_module", None)
-            if other is not None and other != module:
-                compile_module(other)
-                namespace[name] = getattr(sys.modules[other], value.lazy_name)
-    for name, function, options in kernels:
-        namespace[name] = numba.njit(**options)(function)
+def _with_kernels_resolved(function: Callable[..., Any], own: Kernel[Any, Any]) -> Any:
+    """``function`` over a copy of its globals in which each other kernel is its compiled one.
+
+    numba reads a kernel's callees from its globals at compilation; the
+    module's own globals stay as they are. The code object is the same, so
+    numba's cache on disk (keyed by file, line and bytecode) finds it.
+    """
+    namespace = dict(function.__globals__)
+    for name in _names_read(function.__code__):
+        value = namespace.get(name)
+        if isinstance(value, Kernel) and value is not own:
+            namespace[name] = value.compiled()
+    copy = types.FunctionType(
+        function.__code__,
+        namespace,
+        function.__name__,
+        function.__defaults__,
+        function.__closure__,
+    )
+    copy.__kwdefaults__ = function.__kwdefaults__
+    copy.__qualname__ = function.__qualname__
+    copy.__doc__ = function.__doc__
+    return copy
+
+
+def _names_read(code: types.CodeType) -> set[str]:
+    """The global names that ``code`` and the functions defined in it read."""
+    names = set(code.co_names)
+    for constant in code.co_consts:
+        if isinstance(constant, types.CodeType):
+            names |= _names_read(constant)
+    return names
 
 
 def __getattr__(name: str) -> Any:
@@ -88,8 +116,8 @@ def __getattr__(name: str) -> Any:
     """
     if name.startswith("__"):
         raise AttributeError(name)
-    if _settings["interpret"] and name == "prange":
+    if INTERPRET and name == "prange":
         return range
-    if _settings["interpret"] and name == "get_num_threads":
+    if INTERPRET and name == "get_num_threads":
         return lambda: 1
     return getattr(importlib.import_module("numba"), name)

@@ -299,10 +299,8 @@ CLOSE = 4.0
 #: waking the parallel kernel's threads costs about a millisecond (measured), a
 #: thousand segments' work. One source, compiled twice (prange runs as range).
 SERIAL_SEGMENTS = 1024
-_obstructed_kernel = jit.kernel("_obstructed_kernel", cache=True, parallel=True)(
-    _obstructed_segments
-)
-_obstructed_serial = jit.kernel("_obstructed_serial", cache=True, nogil=True)(_obstructed_segments)
+_obstructed_kernel = jit.kernel(cache=True, parallel=True)(_obstructed_segments)
+_obstructed_serial = jit.kernel(cache=True, nogil=True)(_obstructed_segments)
 
 
 @jit.kernel(cache=True, nogil=True)

@@ -15,7 +15,6 @@ from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.timer import Timer
 
-from ..core import jit
 from ..core.errors import SwazureError
 from ..core.motion import parse_motion
 from ..core.tracking import RelaySenses, moving_senses
@@ -202,6 +201,4 @@ def build_fls(context: Context) -> list[Node]:
 
 def main(args: list[str] | None = None) -> int:
     """``ros2 run swazure_ros fls --ros-args -p fls_id:=7 -p cloud:=torus:120 -p beta:=0.5``."""
-    # One FLS relaxes a few labels a round: numba would cost more than it saves.
-    jit.interpret()
     return run_process(build_fls, args, usage=USAGE)

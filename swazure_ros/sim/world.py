@@ -10,8 +10,7 @@ FLSs' row numbers in the point cloud, the ids of ``pairs.csv``.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
-from functools import cached_property
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -47,6 +46,22 @@ FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 
+@dataclass
+class WorkedOut:
+    """What a :class:`World` worked out of its revision so far; None: not yet.
+
+    The world stays one frozen revision; this is its honest scratchpad, which
+    ``dataclasses.replace`` leaves behind (a new revision starts empty).
+    """
+
+    hood: Neighbourhood | None = None
+    seen: Observations | None = None
+    laid_out: NDArray[np.bool_] | None = None
+    grid: Grid | None = None
+    tree: cKDTree | None = None
+    one_seen: dict[int, Observations] = field(default_factory=dict)
+
+
 @dataclass(frozen=True)
 class World:
     """Ground truth of one swarm at one revision, with every FLS's observations.
@@ -73,56 +88,67 @@ class World:
     # FLS. A process hosting a share holds its FLSs' rows, asked of others on demand.
     hosted: IntArray | None = None
 
-    @cached_property
+    # Worked out on demand, per revision: `replace` gives the next revision an empty one.
+    _worked: WorkedOut = field(default_factory=WorkedOut, init=False, repr=False, compare=False)
+
+    @property
     def hood(self) -> Neighbourhood:
         """Every pair within sensor reach, with line of sight."""
-        return moved_neighbourhood(self.known, self.swarm, self.moved_since)
+        if self._worked.hood is None:
+            self._worked.hood = moved_neighbourhood(self.known, self.swarm, self.moved_since)
+        return self._worked.hood
 
-    @cached_property
+    @property
     def seen(self) -> Observations:
         """Every hosted FLS's observations (every FLS's when ``hosted`` is None)."""
-        hood = self.hood
-        return self.home_seen if hood is self.home_hood else observations(hood, self.hosted)
+        if self._worked.seen is None:
+            hood = self.hood
+            self._worked.seen = (
+                self.home_seen if hood is self.home_hood else observations(hood, self.hosted)
+            )
+        return self._worked.seen
 
-    @cached_property
+    @property
     def _laid_out(self) -> NDArray[np.bool_]:
         """(N,) whether :attr:`seen` holds each FLS's rows."""
-        laid_out = np.zeros(self.swarm.size, dtype=bool)
-        laid_out[slice(None) if self.hosted is None else self.hosted] = True
-        return laid_out
+        if self._worked.laid_out is None:
+            laid_out = np.zeros(self.swarm.size, dtype=bool)
+            laid_out[slice(None) if self.hosted is None else self.hosted] = True
+            self._worked.laid_out = laid_out
+        return self._worked.laid_out
 
-    @cached_property
+    @property
     def _grid(self) -> Grid:
-        return build_grid(self.swarm.points, self.swarm.radius)
+        if self._worked.grid is None:
+            self._worked.grid = build_grid(self.swarm.points, self.swarm.radius)
+        return self._worked.grid
 
-    @cached_property
+    @property
     def _tree(self) -> cKDTree:
-        from scipy.spatial import cKDTree  # here: a verb's --help need not import scipy
+        if self._worked.tree is None:
+            from scipy.spatial import cKDTree  # here: a verb's --help need not import scipy
 
-        return cKDTree(self.swarm.points)
-
-    @cached_property
-    def _one_seen(self) -> dict[int, Observations]:
-        return {}
+            self._worked.tree = cKDTree(self.swarm.points)
+        return self._worked.tree
 
     @property
     def _seen_at_hand(self) -> bool:
         """Whether the whole swarm's observations of this revision cost nothing to ask."""
-        return "seen" in self.__dict__ or not len(self.moved_since)
+        return self._worked.seen is not None or not len(self.moved_since)
 
     def _worked_out(self, index: int) -> bool:
         """Whether FLS ``index``'s observations of this revision are at hand."""
-        return (self._seen_at_hand and self._laid_out[index]) or index in self._one_seen
+        return (self._seen_at_hand and self._laid_out[index]) or index in self._worked.one_seen
 
     def _observed(self, index: int) -> Observations:
         """Observations that hold FLS ``index``'s rows (the hosted FLSs', or its own)."""
         if self._seen_at_hand and self._laid_out[index]:
             return self.seen
-        one = self._one_seen.get(index)
+        one = self._worked.one_seen.get(index)
         if one is not None:
             return one
         hood = neighbourhood_of(self.swarm, self.sensor, np.array([index]), self._grid, self._tree)
-        one = self._one_seen[index] = observations(hood)
+        one = self._worked.one_seen[index] = observations(hood)
         return one
 
     @property
@@ -214,7 +240,7 @@ class World:
                 moved_since=np.zeros(0, dtype=np.int64),
             )
         # From the newest neighbourhood worked out: only what moved since is sensed anew.
-        known = self.__dict__.get("hood", self.known)
+        known = self.known if self._worked.hood is None else self._worked.hood
         moved_since = np.flatnonzero((points != known.swarm.points).any(axis=1))
         return replace(
             self,

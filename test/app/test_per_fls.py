@@ -180,7 +180,7 @@ def test_an_fls_process_killed_mid_run_departs_and_the_living_get_the_engines_pa
     with RunningSwarm(config, on_lost=lost.append) as swarm:
         swarm.wait_until_ready()
         # FLS 12, the grid's centre, relays many paths: killed (no goodbye) as the run starts.
-        swarm.fls_processes.processes[12].kill()
+        swarm.processes.fls.processes[12].kill()
         result = swarm.discover(policy, timeout=120)
         assert result.departed == frozenset({12})
         assert [(one.fls_id, one.code) for one in lost] == [(12, -9)]
@@ -226,7 +226,7 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
     with RunningSwarm(config) as swarm:
         swarm.wait_until_ready()
         swarm.coordinator.round_timeout = 3.0  # silent for 3 s: departed
-        pid = swarm.fls_processes.processes[12].pid
+        pid = swarm.processes.fls.processes[12].pid
         os.kill(pid, signal.SIGSTOP)
         stopped, resumed = time.monotonic(), []
 

@@ -1,15 +1,14 @@
-"""Kernels compiled at their first call, or run as Python in a process that asks."""
+"""Kernels compiled at their first call, or run as Python in a process started so."""
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
 #: A discovery in memory on the helix, then what the process imported.
 RUN = """
 import json, sys
-from swazure_ros.core import jit
-{setup}
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.protocol.discovery.estimate import evaluation_of
 from swazure_ros.protocol.loops import discover
@@ -19,25 +18,38 @@ world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
 found = discover(world.seen, world.ids, world.sensor, world.swarm.radius, "shortest-length")
 ours = evaluation_of(world.hood, "shortest-length", found.estimates)
 assert (ours.pairs.hops > 1).sum() > 100  # paths of several hops were found
-print(json.dumps({{"numba": "numba" in sys.modules,
+print(json.dumps({"numba": "numba" in sys.modules,
                   "estimate": ours.pairs.estimate.tolist(),
-                  "nodes": ours.pairs.nodes.tolist()}}))
+                  "nodes": ours.pairs.nodes.tolist()}))
 """
 
 
-def run(setup: str) -> dict:
+def run(disable_jit: str) -> dict:
     import json
 
+    environment = {**os.environ, "NUMBA_DISABLE_JIT": disable_jit}
     out = subprocess.run(
-        [sys.executable, "-c", RUN.format(setup=setup)],
-        capture_output=True, text=True, timeout=300, check=True,
+        [sys.executable, "-c", RUN],
+        capture_output=True, text=True, timeout=300, check=True, env=environment,
     ).stdout  # fmt: skip
     return json.loads(out)
 
 
 def test_interpreted_kernels_give_the_compiled_kernels_results_without_numba():
-    compiled = run("")
-    interpreted = run("jit.interpret()")
+    compiled = run("0")
+    interpreted = run("1")
     assert compiled["numba"] and not interpreted["numba"]
     assert interpreted["nodes"] == compiled["nodes"]
     assert interpreted["estimate"] == compiled["estimate"]
+
+
+def test_a_kernel_keeps_its_compiled_function_and_leaves_its_module_alone():
+    from swazure_ros.core import geometry, jit
+
+    kernels = {
+        name: value for name, value in vars(geometry).items() if isinstance(value, jit.Kernel)
+    }
+    assert kernels
+    name, one = next(iter(kernels.items()))
+    assert one.compiled() is one.compiled()
+    assert getattr(geometry, name) is one

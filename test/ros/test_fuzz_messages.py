@@ -73,7 +73,7 @@ def test_generated_messages_stop_nothing_and_change_no_later_answer(domain, tmp_
         radio, ids = host.radio, fls_ids(swarm.world)
         # A run under way, so that messages naming it reach the coordinator's clock.
         under_way = coordinator.discover(POLICY)
-        live = coordinator._job.machine.run_id
+        live = coordinator.runs.running().run_id
         ids_and_runs = [*ids, live]
 
         def raw(handler):
