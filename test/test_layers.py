@@ -23,13 +23,17 @@ ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 #: What each layer may import of the package, besides itself and the package's root.
 ALLOWED: dict[str, frozenset[str]] = {
     "core": frozenset(),
+    "camera": frozenset({"core"}),
+    "files": frozenset({"core", "camera"}),
     "protocol": frozenset({"core"}),
-    "sim": frozenset({"core"}),
-    "view": frozenset({"core"}),
-    "study": frozenset({"core", "view"}),
-    "ros": frozenset({"core", "protocol", "sim", "view"}),
-    "app": frozenset({"core", "protocol", "sim", "ros", "study", "view"}),
-    "cli": frozenset({"core", "protocol", "sim", "ros", "study", "view", "app"}),
+    "sim": frozenset({"core", "camera", "files"}),
+    "view": frozenset({"core", "files"}),
+    "study": frozenset({"core", "camera", "files", "view"}),
+    "ros": frozenset({"core", "camera", "files", "protocol", "sim", "view"}),
+    "app": frozenset({"core", "files", "protocol", "sim", "ros", "study", "view"}),
+    "cli": frozenset(
+        {"core", "camera", "files", "protocol", "sim", "ros", "study", "view", "app"}
+    ),
 }
 #: Distributions that only ``ros/`` may import: rclpy and the ROS 2 interface packages.
 ROS_ONLY = ("rclpy", "rosidl_", "rcl_interfaces", "builtin_interfaces", "swazure_interfaces")

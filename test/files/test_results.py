@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.errors import OutputError, SwazureError
-from swazure_ros.core.results import (
+from swazure_ros.files.results import (
     RECORD_FILE,
     BringUp,
     Distributed,
@@ -123,7 +123,7 @@ def test_a_record_of_another_version_or_no_record_is_refused_in_one_line(tmp_pat
 def test_a_run_that_cannot_be_written_is_one_line_and_leaves_nothing(tmp_path, sensor):
     from swazure_ros.core.evaluate import evaluate
     from swazure_ros.core.geometry import make_swarm
-    from swazure_ros.core.results import write_run
+    from swazure_ros.files.results import write_run
 
     evaluation = evaluate(make_swarm(np.array(SCENE), radius=0.5), sensor, "shortest-length")
     blocker = tmp_path / "a-file"
@@ -171,10 +171,10 @@ def test_pairs_written_block_by_block_are_the_bytes_of_the_pairs_written_at_once
 ):
     from swazure_ros.core import results
     from swazure_ros.core.blocks import Budget, evaluate_blocked
-    from swazure_ros.core.clouds import load_cloud
     from swazure_ros.core.evaluate import SILENT, evaluate
     from swazure_ros.core.geometry import make_swarm
-    from swazure_ros.core.results import write_evaluation, write_pair_blocks
+    from swazure_ros.files.cloud_files import load_cloud
+    from swazure_ros.files.results import write_evaluation, write_pair_blocks
 
     # Row groups of 1,000 pairs: the blocks' boundaries fall inside them.
     monkeypatch.setattr(results, "PARQUET_ROWS", 1000)

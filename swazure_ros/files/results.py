@@ -30,10 +30,10 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from .clouds import Cloud
-from .errors import OutputError, SwazureError
-from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation, Neighbourhood, PairResults
-from .heuristics.result import HeuristicResult
+from ..core.clouds import Cloud
+from ..core.errors import OutputError, SwazureError
+from ..core.evaluate import REASON_NAMES, STATUS_NAMES, Evaluation, Neighbourhood, PairResults
+from ..core.heuristics.result import HeuristicResult
 
 PAIRS_FILE = "pairs.csv"
 PAIRS_PARQUET_FILE = "pairs.parquet"
