@@ -12,10 +12,13 @@ import os
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import NDArray
 
-from ..core.clouds import PUBLISHED_SCALES, Cloud, FloatArray, builtin_points, validate_points
+from ..core.clouds import PUBLISHED_SCALES, Cloud, builtin_points, validate_points
 from ..core.errors import CloudError
 from .reading import regular_file
+
+FloatArray = NDArray[np.float64]
 
 SUFFIXES = (".xyz", ".txt", ".csv", ".npy", ".ply")
 #: Bytes of a point cloud file, at most (MAX_POINTS points take a few MB as text).

@@ -247,6 +247,16 @@ def test_each_fls_carries_its_own_marker_in_a_camera_sensor(tmp_path):
             sensor_from_dict(document, "sensor.yaml", cameras=cameras)
 
 
+def test_a_camera_sensor_without_a_reader_for_its_camera_file_is_refused():
+    document = yaml.safe_load(
+        (
+            Path(__file__).resolve().parents[2] / "config" / "cameras" / "sensor-wide-camera.yaml"
+        ).read_text()
+    )
+    with pytest.raises(SensorError, match="no reader for its camera file"):
+        sensor_from_dict(document, "sensor.yaml")
+
+
 def sensor_document(sensor):
     return {"fileversion": 1, "sensor": sensor.to_dict()}
 
