@@ -42,7 +42,7 @@ from swazure_ros.app.discovery_server import (
 )
 from swazure_ros.app.per_fls import FLS_ENVIRONMENT
 from swazure_ros.cli.swarm_file import example_swarms, load_swarm_file, swarm_file
-from swazure_ros.core.description import SwarmDescription
+from swazure_ros.files.description import SwarmDescription
 from swazure_ros.ros.auth import INSTANCE_BYTES
 from swazure_ros.ros.keys import new_key, write_key
 from swazure_ros.ros.runtime import description_parameters

@@ -340,7 +340,7 @@ def served(cloud: str, processes: int, domain: int, window: float = 20.0) -> dic
             )
             return row
         row["wall_up"] = time.monotonic() - began
-        from swazure_ros.core.results import RECORD_FILE, read_record
+        from swazure_ros.files.results import RECORD_FILE, read_record
 
         bring_up = read_record(out / RECORD_FILE).bring_up
         assert bring_up is not None
@@ -457,7 +457,7 @@ def compute_all(
             where = said[-1].split(": ", 1)[1] if said else "bringing the swarm up"
             return {"failed": f"stopped after {limit / 60:.0f} min at {where}"}
     seconds = time.perf_counter() - began
-    from swazure_ros.core.results import RECORD_FILE, read_record
+    from swazure_ros.files.results import RECORD_FILE, read_record
 
     # Exit 1 with a record: the run finished but is not the engine's (its row says how).
     if process.returncode != 0 and not (process.returncode == 1 and (out / RECORD_FILE).exists()):
@@ -619,10 +619,10 @@ TRACK_SCENARIOS = [
 
 def track_errors_row(trajectory: str, accurate: bool, delay: float, model: str) -> list[str]:
     """One core track of the trio swarm (10 s); its errors as table cells, mean (max)."""
-    from swazure_ros.core.clouds import load_cloud
     from swazure_ros.core.motion import Motion, parse_trajectory
-    from swazure_ros.core.sensor import load_sensor
     from swazure_ros.core.tracking import TrackConfig, track_errors, track_series
+    from swazure_ros.files.cloud_files import load_cloud
+    from swazure_ros.files.sensors import load_sensor
     from swazure_ros.protocol.loops import simulate_track
     from swazure_ros.sim.world import make_world
 
@@ -722,7 +722,8 @@ def camera_section(args: argparse.Namespace) -> list[str]:
     sys.path.insert(0, str(REPO))
     import numpy as np
 
-    from swazure_ros.core.camera import Detector, MarkerPose, load_camera, render
+    from swazure_ros.camera.aruco import Detector, MarkerPose, render
+    from swazure_ros.files.sensors import load_camera
 
     cameras = REPO / "config" / "cameras"
     measured = SHARED / "datasets" / "aruco-measured" / "rpi-camera-module-3-wide.csv"
@@ -1151,7 +1152,7 @@ def soak_figure(samples: list[dict[str, float]], path: Path) -> None:
     """Memory and answered queries over the soak, as a PNG."""
     from matplotlib.figure import Figure
 
-    from swazure_ros.core.results import atomic_write
+    from swazure_ros.files.results import atomic_write
 
     minutes = [row["minute"] for row in samples]
     figure = Figure(figsize=(9.0, 3.8), layout="constrained")
@@ -1517,7 +1518,7 @@ def hostile_figure(
     """The swarm's memory over a soak, as a PNG."""
     from matplotlib.figure import Figure
 
-    from swazure_ros.core.results import atomic_write
+    from swazure_ros.files.results import atomic_write
 
     figure = Figure(figsize=(6.5, 3.6), layout="constrained")
     axes = figure.subplots()
@@ -1915,7 +1916,7 @@ def hosts_figures(records: list[dict], folder: Path) -> None:
     """
     from matplotlib.figure import Figure
 
-    from swazure_ros.core.results import atomic_write
+    from swazure_ros.files.results import atomic_write
 
     def deadline(record: dict) -> float | None:
         found = re.search(r"after ([0-9.]+) s", record.get("stopped", ""))
@@ -2181,7 +2182,7 @@ def cells_figure(records: list[dict], path: Path) -> None:
     """Share of the other processes' offers heard, and CPU per FLS and round, against FLSs."""
     from matplotlib.figure import Figure
 
-    from swazure_ros.core.results import atomic_write
+    from swazure_ros.files.results import atomic_write
 
     def heard(record: dict) -> float:
         rounds = max(record["rounds"], 1)
@@ -2431,7 +2432,7 @@ def least_squares_figure(rows: list[dict], folder: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from swazure_ros.core.results import atomic_write
+    from swazure_ros.files.results import atomic_write
 
     figure, axes = plt.subplots(2, 2, figsize=(12, 8), constrained_layout=True)
     for column, sensor in enumerate(FIT_SENSORS):
@@ -2801,7 +2802,7 @@ def swarm_solve_figure(rows: list[dict], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from swazure_ros.core.results import atomic_write
+    from swazure_ros.files.results import atomic_write
 
     figure, axes = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
     for axis, sensor in zip(axes, FIT_SENSORS, strict=True):
@@ -2841,7 +2842,8 @@ def scale_cloud(name: str) -> str:
     if ":" in name:
         return name
     if name == "racecar_65536":
-        from swazure_ros.core.clouds import load_cloud, resample
+        from swazure_ros.core.clouds import resample
+        from swazure_ros.files.cloud_files import load_cloud
 
         path = SECTIONS_DIR / "racecar_65536.xyz"
         if not path.exists():
@@ -2877,11 +2879,11 @@ def scale_run(name: str, memory: str | None) -> dict:
 def scale_identity() -> list[tuple[str, bool, bool]]:
     """Each published shape: pairs.csv (and .parquet) in blocks, byte for byte the whole path's."""
     from swazure_ros.core.blocks import Budget, evaluate_blocked
-    from swazure_ros.core.clouds import load_cloud
     from swazure_ros.core.evaluate import SILENT, evaluate
     from swazure_ros.core.geometry import make_swarm
-    from swazure_ros.core.results import write_evaluation, write_pair_blocks
-    from swazure_ros.core.sensor import load_sensor
+    from swazure_ros.files.cloud_files import load_cloud
+    from swazure_ros.files.results import write_evaluation, write_pair_blocks
+    from swazure_ros.files.sensors import load_sensor
 
     sensor, found = load_sensor(), []
     for shape in SHAPES:
@@ -2995,7 +2997,7 @@ def scale_figure(rows: list[dict], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from swazure_ros.core.results import atomic_write
+    from swazure_ros.files.results import atomic_write
 
     figure, axes = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
     for memory, style in (("default", "-o"), (SCALE_FIXED_MEMORY, "--s")):

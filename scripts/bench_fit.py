@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 
-from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.evaluate import DECAYING_PATH, NO_PATH, SWEET_PATH, evaluate
 from swazure_ros.core.fit import (
     CHI2_95_3DOF,
@@ -32,7 +31,9 @@ from swazure_ros.core.fit import (
     with_outliers,
 )
 from swazure_ros.core.geometry import make_swarm
-from swazure_ros.core.sensor import SWEET, load_sensor, measured_vectors
+from swazure_ros.core.sensor import SWEET, measured_vectors
+from swazure_ros.files.cloud_files import load_cloud
+from swazure_ros.files.sensors import load_sensor
 
 OUTLIER_FRACTION, OUTLIER_DEG = 0.10, 20.0
 

@@ -20,7 +20,6 @@ from typing import Any
 
 import numpy as np
 
-from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate
 from swazure_ros.core.fit import (
     LEAST_SQUARES,
@@ -32,13 +31,14 @@ from swazure_ros.core.fit import (
 )
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.measurement_graph import Measurements
-from swazure_ros.core.sensor import load_sensor
 from swazure_ros.core.swarm_fit import (
     COVARIANCE_SAMPLES,
     edges_of,
     swarm_solve,
     system_of,
 )
+from swazure_ros.files.cloud_files import load_cloud
+from swazure_ros.files.sensors import load_sensor
 
 OUTLIER_FRACTION, OUTLIER_DEG = 0.10, 20.0
 #: FLSs whose one iteration's work is timed, and how often each.

@@ -34,7 +34,7 @@ from pathlib import Path
 
 import swazure_interfaces.msg
 import swazure_ros
-from swazure_ros.core.files import config_dir
+from swazure_ros.files.reading import config_dir
 
 install = Path(sys.argv[1])
 for module in (swazure_ros, swazure_interfaces.msg):

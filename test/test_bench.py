@@ -72,7 +72,7 @@ def test_the_swarm_solve_section_measures_a_small_torus_and_renders_its_rows(tmp
     import subprocess
     import sys
 
-    from swazure_ros.core.files import config_dir
+    from swazure_ros.files.reading import config_dir
 
     sensor = config_dir() / "cameras" / "sensor-wide-calibrated.yaml"
     done = subprocess.run(

@@ -1,9 +1,10 @@
 """The layer contract (docs/architecture.md), read from every module's imports.
 
 Each folder of the package may import only the folders below it; rclpy and the
-ROS interface packages are imported only inside ``ros/``; no two modules import
-each other, directly or around a loop. Imports inside functions count: a cycle
-hidden in a function is still a cycle.
+ROS interface packages are imported only inside ``ros/``; the model (``core/``)
+imports no OpenCV, YAML, ctypes or rclpy; no two modules import each other,
+directly or around a loop. Imports inside functions count: a cycle hidden in a
+function is still a cycle.
 """
 
 from __future__ import annotations
@@ -23,16 +24,23 @@ ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 #: What each layer may import of the package, besides itself and the package's root.
 ALLOWED: dict[str, frozenset[str]] = {
     "core": frozenset(),
+    "camera": frozenset({"core"}),
+    "files": frozenset({"core", "camera"}),
     "protocol": frozenset({"core"}),
-    "sim": frozenset({"core"}),
-    "view": frozenset({"core"}),
-    "study": frozenset({"core", "view"}),
-    "ros": frozenset({"core", "protocol", "sim", "view"}),
-    "app": frozenset({"core", "protocol", "sim", "ros", "study", "view"}),
-    "cli": frozenset({"core", "protocol", "sim", "ros", "study", "view", "app"}),
+    "sim": frozenset({"core", "camera", "files"}),
+    "view": frozenset({"core", "files"}),
+    "study": frozenset({"core", "camera", "files", "view"}),
+    "ros": frozenset({"core", "camera", "files", "protocol", "sim", "view"}),
+    "app": frozenset({"core", "files", "protocol", "sim", "ros", "study", "view"}),
+    "cli": frozenset(
+        {"core", "camera", "files", "protocol", "sim", "ros", "study", "view", "app"}
+    ),
 }
 #: Distributions that only ``ros/`` may import: rclpy and the ROS 2 interface packages.
 ROS_ONLY = ("rclpy", "rosidl_", "rcl_interfaces", "builtin_interfaces", "swazure_interfaces")
+#: What the model never imports: it renders, reads, writes and talks to ROS through the
+#: layers above it (camera/, files/, ros/).
+NOT_IN_CORE = ("cv2", "yaml", "ctypes", "rclpy")
 
 
 def module_name(path: Path) -> str:
@@ -106,6 +114,17 @@ def upward_imports(graph: Mapping[str, Iterable[str]]) -> list[str]:
     return sorted(wrong)
 
 
+def outside_the_model(graph: Mapping[str, Iterable[str]]) -> list[str]:
+    """Every import of :data:`NOT_IN_CORE` by a module of ``core/``, as "module -> imported"."""
+    return sorted(
+        f"{module} -> {name}"
+        for module, names in graph.items()
+        if layer(module) == "core"
+        for name in names
+        if name.split(".")[0] in NOT_IN_CORE
+    )
+
+
 def cycles(graph: Mapping[str, Iterable[str]]) -> list[list[str]]:
     """The package's import cycles: each strongly connected set of two or more modules."""
     modules = sorted(graph)
@@ -147,6 +166,26 @@ def test_an_added_upward_import_is_caught(graph: dict[str, set[str]]) -> None:
     assert upward_imports(broken) == [
         "swazure_ros.cli.main -> rclpy.node",
         "swazure_ros.core.paths -> swazure_ros.app.swarm",
+    ]
+
+
+def test_the_model_imports_no_opencv_yaml_ctypes_or_rclpy(graph: dict[str, set[str]]) -> None:
+    assert outside_the_model(graph) == []
+
+
+def test_an_added_import_outside_the_model_is_caught(graph: dict[str, set[str]]) -> None:
+    broken = {module: set(names) for module, names in graph.items()}
+    broken["swazure_ros.core.sensor"].add("cv2")
+    broken["swazure_ros.core.clouds"].add("yaml")
+    broken["swazure_ros.core.geometry"].add("ctypes")
+    broken["swazure_ros.core.paths"].add("rclpy.node")
+    # The layers above may: camera/ renders with OpenCV.
+    broken["swazure_ros.camera.aruco"].add("yaml")
+    assert outside_the_model(broken) == [
+        "swazure_ros.core.clouds -> yaml",
+        "swazure_ros.core.geometry -> ctypes",
+        "swazure_ros.core.paths -> rclpy.node",
+        "swazure_ros.core.sensor -> cv2",
     ]
 
 

@@ -17,7 +17,7 @@ from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, refine
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, HeuristicResult
-from ..core.results import Distributed, MovesMade, RunRecord, with_source
+from ..files.results import Distributed, MovesMade, RunRecord, with_source
 from ..protocol.discovery.estimate import evaluation_of
 from ..protocol.runs import DiscoveryResult, MoveResult
 from ..sim.world import World

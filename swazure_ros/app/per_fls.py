@@ -25,8 +25,8 @@ from typing import IO
 
 import yaml
 
-from ..core.description import SwarmDescription
-from ..core.results import atomic_write
+from ..files.description import SwarmDescription
+from ..files.results import atomic_write
 from ..ros.auth import SwarmKey
 from ..ros.keys import write_key
 from ..ros.names import node_name

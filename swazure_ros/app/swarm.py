@@ -26,7 +26,7 @@ from typing import Any
 from ..core.errors import SwazureError
 from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import PATH
-from ..core.results import BringUp
+from ..files.results import BringUp
 from ..protocol.runs import DiscoveryResult, MoveResult, merged, source_blocks, sources_per_run
 from ..ros.auth import SwarmKey, new_key
 from ..ros.bag import Recorder

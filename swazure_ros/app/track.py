@@ -21,7 +21,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.description import SwarmDescription
 from ..core.frames import to_metres
 from ..core.motion import Motion
 from ..core.tracking import (
@@ -31,6 +30,7 @@ from ..core.tracking import (
     arrival,
     nanoseconds,
 )
+from ..files.description import SwarmDescription
 from ..ros.auth import SwarmKey
 from ..ros.clock import SimClock
 from ..ros.host import SwarmHost

@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..core.calibration import (
+from ..camera.aruco import Camera
+from ..camera.calibration import (
     BOUNDARY_TOLERANCE_MM,
     DEFAULT_ANGLES_DEG,
     SMALLEST_MARKER_PX,
@@ -30,17 +31,16 @@ from ..core.calibration import (
     blind_limit_mm,
     compare,
     fit_degradations,
-    load_measured,
     marker_sweep,
     pattern_distances,
     search_ranges,
     sensor_from_sweep,
     sweep,
 )
-from ..core.camera import Camera, load_camera
 from ..core.errors import SensorError
-from ..core.results import atomic_write
 from ..core.sensor import SENSOR_FILE_VERSION, Sensor
+from ..files.results import atomic_write
+from ..files.sensors import load_camera, load_measured
 from .arguments import (
     count,
     distance_mm,

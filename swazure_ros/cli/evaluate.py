@@ -28,7 +28,7 @@ from ..core.fusion import fuse
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
-from ..core.results import (
+from ..files.results import (
     SUMMARY_FILE,
     RunRecord,
     with_source,

@@ -6,13 +6,13 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING, Any
 
-from ..core.clouds import load_cloud
 from ..core.errors import CloudError
 from ..core.fit import PATH, SWARM_ESTIMATORS
 from ..core.geometry import make_swarm
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.paths import POLICIES
-from ..core.sensor import load_sensor
+from ..files.cloud_files import load_cloud
+from ..files.sensors import load_sensor
 from .arguments import (
     MAX_DOMAIN_ID,
     domain_id,

@@ -28,9 +28,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..core.errors import SwazureError
-from ..core.files import config_dir
 from ..core.fit import PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
+from ..files.reading import config_dir
 from ..ros.keys import KEY_FILE_VARIABLE
 from .arguments import (
     bag_folder,
@@ -58,7 +58,7 @@ from .swarm_file import add_swarm_file_argument, apply_swarm_file
 if TYPE_CHECKING:
     from ..app.config import SwarmConfig
     from ..app.swarm import RunningSwarm
-    from ..core.results import BringUp
+    from ..files.results import BringUp
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -322,7 +322,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     """Run discovery over the whole swarm, report it beside the engine, write --out."""
     from ..app.compute import compute_all as run
     from ..app.compute import run_failure
-    from ..core.results import write_run
+    from ..files.results import write_run
     from .summary import summary_table
 
     world = swarm.world
@@ -443,7 +443,7 @@ def main(args: argparse.Namespace) -> int:
             bring_up = swarm.wait_until_ready()
             if args.out is not None and not args.compute_all:
                 # A served swarm's run is its bring-up: what a script reads of it.
-                from ..core.results import RunRecord, write_record
+                from ..files.results import RunRecord, write_record
 
                 write_record(args.out, RunRecord("spawn", bring_up.seconds, {}, bring_up=bring_up))
             ready = True

@@ -14,13 +14,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ..core.clouds import BUILTIN_SHAPES, Cloud, cloud_files, load_cloud, published_dataset_dir
+from ..core.clouds import BUILTIN_SHAPES, Cloud
 from ..core.errors import CloudError, SwazureError
 from ..core.fit import LEAST_SQUARES, PATH
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.paths import POLICIES
-from ..core.results import COMPACT_PAIRS, PAIR_COLUMNS
-from ..core.sensor import load_sensor
+from ..files.cloud_files import cloud_files, load_cloud, published_dataset_dir
+from ..files.results import COMPACT_PAIRS, PAIR_COLUMNS
+from ..files.sensors import load_sensor
 from ..study.plan import (
     PUBLISHED_BETAS,
     PUBLISHED_HEURISTIC_BETAS,

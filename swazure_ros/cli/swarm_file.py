@@ -23,10 +23,10 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-from ..core.clouds import is_cloud_path
 from ..core.errors import SwazureError
-from ..core.files import config_dir, read_yaml
 from ..core.paths import POLICIES
+from ..files.cloud_files import is_cloud_path
+from ..files.reading import config_dir, read_yaml
 from . import arguments
 
 #: Parameter values a node can take from the file (ROS 2 parameter types).

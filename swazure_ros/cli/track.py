@@ -23,7 +23,6 @@ import numpy as np
 
 from ..core.errors import SwazureError
 from ..core.motion import Motion, Trajectory, TrajectoryError, parse_move, parse_trajectory
-from ..core.results import atomic_write
 from ..core.tracking import (
     ESTIMATORS,
     MODELS,
@@ -34,6 +33,7 @@ from ..core.tracking import (
     track_errors,
     track_series,
 )
+from ..files.results import atomic_write
 from .arguments import fls_id, output_file, png_file, seconds
 from .options import add_domain_argument, add_swarm_arguments, world_from_args
 

@@ -1,11 +1,9 @@
-"""The Swazure model as a numpy/scipy library, with no ROS dependency.
+"""The Swazure model as a numpy/scipy/numba library: no ROS, no OpenCV, no files.
 
 Modules, each holding one idea of ``docs`` / the spec:
 
-- :mod:`.clouds`: point clouds from files and built-in shapes;
+- :mod:`.clouds`: built-in shapes, validating and resampling point clouds;
 - :mod:`.sensor`: sensor ranges and error model;
-- :mod:`.camera`: a rendering ArUco camera (OpenCV), and :mod:`.calibration`,
-  the sensor derived from it;
 - :mod:`.draws`: counter-based random draws;
 - :mod:`.geometry`: radius, dmin, collision removal, tracking distance;
 - :mod:`.neighbours`: neighbour pairs and their range classes;

@@ -2,26 +2,23 @@
 
 A sensor is data (spec, section 3): :class:`Sensor` holds the four range
 bounds in cm and the polynomial of the relative error, and
-:func:`load_sensor` reads it from a YAML file such as ``config/sensor.yaml``.
+:func:`sensor_from_dict` builds it from the mapping of a sensor file
+(:func:`swazure_ros.files.sensors.load_sensor` reads ``config/sensor.yaml``).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import files
 from .draws import standard_normals
 from .errors import SensorError
 from .geometry import centre_distance
-
-if TYPE_CHECKING:
-    from .camera import Camera
 
 FloatArray = NDArray[np.float64]
 
@@ -41,6 +38,31 @@ MAX_REACH = 1000.0
 MAX_RELATIVE_ERROR = 10.0
 #: Points at which a sensor's relative error is checked across its camera ranges.
 _ERROR_CHECK_SAMPLES = 1001
+
+
+class PairCamera(Protocol):
+    """A camera that measures pairs of FLSs (:class:`swazure_ros.camera.aruco.Camera`)."""
+
+    @property
+    def marker_id(self) -> int:
+        """The marker every FLS carries when a sensor names none."""
+        ...
+
+    @property
+    def dictionary_size(self) -> int:
+        """Markers in the camera's ArUco dictionary."""
+        ...
+
+    def measure_pairs(
+        self,
+        distances_mm: FloatArray,
+        seed: int,
+        first: NDArray[np.int64],
+        second: NDArray[np.int64],
+        markers: Sequence[int] = (),
+    ) -> FloatArray:
+        """Marker centres (M, 3) mm in each measuring camera's frame; NaN rows: not seen."""
+        ...
 
 
 @dataclass(frozen=True)
@@ -107,7 +129,7 @@ class Sensor:
     #: Random part of a stochastic sensor; None: deterministic (the published model).
     noise: SensorNoise | None = None
     #: A rendering camera that measures every pair (small swarms); None: a model.
-    camera: Camera | None = None
+    camera: PairCamera | None = None
     #: The camera's file as the sensor file names it, and the seed of its frames.
     camera_file: str = ""
     camera_seed: int = 0
@@ -240,11 +262,16 @@ _MODEL_KEYS = {
 }
 
 
-def sensor_from_dict(document: Any, where: str = "sensor", base: Path | None = None) -> Sensor:
+def sensor_from_dict(
+    document: Any,
+    where: str = "sensor",
+    cameras: Callable[[str], PairCamera] | None = None,
+) -> Sensor:
     """Build a :class:`Sensor` from a parsed sensor YAML document; errors name the key.
 
-    ``base`` is the folder a ``camera`` kind's camera file is relative to
-    (the sensor file's own folder; default: the configuration folder).
+    ``cameras`` reads a ``camera`` kind's camera file by the name the sensor
+    gives it (:func:`swazure_ros.files.sensors.load_sensor` reads it beside
+    the sensor file); without it a camera sensor is refused.
     """
     if not isinstance(document, dict):
         raise SensorError(f"{where}: expected a mapping with 'fileversion' and 'sensor'")
@@ -292,13 +319,13 @@ def sensor_from_dict(document: Any, where: str = "sensor", base: Path | None = N
     camera, camera_file, camera_seed = None, "", 0
     markers: tuple[int, ...] = ()
     if kind == "camera":
-        from .camera import load_camera
-
         camera_file = str(_require(model, "camera", f"{where}: sensor.error_model"))
         camera_seed = model.get("seed", 0)
         if isinstance(camera_seed, bool) or not isinstance(camera_seed, int):
             raise SensorError(f"{where}: sensor.error_model.seed must be an integer")
-        camera = load_camera((base if base is not None else files.config_dir()) / camera_file)
+        if cameras is None:
+            raise SensorError(f"{where}: sensor.error_model: no reader for its camera file")
+        camera = cameras(camera_file)
         markers = _markers_from(model.get("markers"), camera.dictionary_size, where)
     try:
         return Sensor(
@@ -358,17 +385,6 @@ def _noise_from_dict(model: Any, where: str) -> SensorNoise:
         raise SensorError(f"{where}: {err}") from err
 
 
-def load_sensor(path: str | Path | None = None) -> Sensor:
-    """Read a sensor YAML file; ``None`` reads the default, ``config/sensor.yaml``."""
-    path = Path(path) if path is not None else default_sensor_path()
-    return sensor_from_dict(files.read_yaml(path, "sensor", SensorError), str(path), path.parent)
-
-
-def default_sensor_path() -> Path:
-    """Path of the default sensor file, ``config/sensor.yaml``."""
-    return files.config_dir() / "sensor.yaml"
-
-
 def _normal_plane(unit: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Two unit vectors (M, 3) each, normal to ``unit`` (M, 3) and to each other."""
     helper = np.where(np.abs(unit[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
@@ -403,11 +419,8 @@ def measured_vectors(
     if sensor.camera is not None:
         # The rendering camera on i's surface aims at j; its frame's x, y, z are
         # (across, other, unit), and it measures the marker's centre on j's surface.
-        from .camera import measure_pairs
-
         across, other = _normal_plane(unit)
-        centres = measure_pairs(
-            sensor.camera,
+        centres = sensor.camera.measure_pairs(
             10.0 * tracking,
             sensor.camera_seed,
             first,

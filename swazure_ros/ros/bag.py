@@ -48,8 +48,8 @@ from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from ..core.errors import SwazureError
-from ..core.files import read_yaml
-from ..core.results import atomic_folder
+from ..files.reading import read_yaml
+from ..files.results import atomic_folder
 from .interfaces import message_class
 
 #: Seconds between looks at the graph for new topics to record.

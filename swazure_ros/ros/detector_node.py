@@ -3,7 +3,7 @@
 It subscribes to ``image_raw`` (sensor_msgs/Image: mono8, or bgr8/rgb8
 turned grey) and ``camera_info`` (sensor_msgs/CameraInfo), reads every marker
 of the camera file's dictionary in each image, refines and solves each with
-the rendering camera's own code (:class:`~swazure_ros.core.camera.Detector`:
+the rendering camera's own code (:class:`~swazure_ros.camera.aruco.Detector`:
 cornerSubPix, IPPE_SQUARE and its choice between the two poses), and
 publishes the marker centres on ``detections`` (swazure_interfaces/
 Detections) in the image's frame, the camera's optical frame, in metres.
@@ -32,9 +32,10 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import Detections, MarkerDetection
 
-from ..core.camera import Camera, Detector, load_camera
+from ..camera.aruco import Camera, Detector
 from ..core.errors import SwazureError
-from ..core.files import config_dir
+from ..files.reading import config_dir
+from ..files.sensors import load_camera
 from .auth import SwarmKey
 from .guard import Guard, check
 from .instance import program_key

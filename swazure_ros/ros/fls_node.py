@@ -113,7 +113,7 @@ from .runtime import (
 if TYPE_CHECKING:
     from numpy.typing import NDArray
 
-    from ..core.camera import Camera
+    from ..camera.aruco import Camera
 
 
 class Transmitter:

@@ -7,8 +7,8 @@ import secrets
 from pathlib import Path
 
 from ..core.errors import SwazureError
-from ..core.files import read_bytes
-from ..core.results import atomic_write
+from ..files.reading import read_bytes
+from ..files.results import atomic_write
 
 #: Bytes of a key.
 KEY_BYTES = 32

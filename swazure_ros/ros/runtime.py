@@ -47,9 +47,9 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.timer import Timer
 from rclpy.utilities import remove_ros_args
 
-from ..core.description import SwarmDescription
 from ..core.errors import SwazureError
-from ..core.files import read_yaml
+from ..files.description import SwarmDescription
+from ..files.reading import read_yaml
 from .overrides import node_overrides
 from .parameters import ParameterSpec, at_least, help_text
 
@@ -319,7 +319,7 @@ def _abandon_teardown(code: int, limit: float) -> None:
     os._exit(code)
 
 
-#: The parameters that describe a swarm (core.description.SwarmDescription), as every
+#: The parameters that describe a swarm (files.description.SwarmDescription), as every
 #: process of a swarm in processes of its own takes them; 0 or "" means not given.
 DESCRIPTION_PARAMETERS = (
     ParameterSpec(

@@ -15,15 +15,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.files import config_dir
 from ..core.motion import Motion
 from ..core.observe import LocalView, Measurement, NeighbourSets
 from ..core.sensor import Sensor
 from ..core.tracking import RelaySenses, moving_senses
+from ..files.reading import config_dir
 from .world import World
 
 if TYPE_CHECKING:
-    from ..core.camera import Camera
+    from ..camera.aruco import Camera
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -97,11 +97,15 @@ class WorldReplica:
         model describes; frame ``frame`` of a stream seeded by the pair, so
         that the same swarm shows the same frames.
         """
-        from ..core.camera import MarkerPose, camera_seeing, full_image, load_camera, render
+        from ..camera.aruco import Camera, MarkerPose, camera_seeing, full_image, render
+        from ..files.sensors import load_camera
 
         world = self.world
-        camera = world.sensor.camera or load_camera(
-            config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml"
+        sensed = world.sensor.camera
+        camera = (
+            sensed
+            if isinstance(sensed, Camera)
+            else load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
         )
         offset = world.position(neighbour) - world.position(fls_id)
         tracking_mm = 10.0 * (float(np.linalg.norm(offset)) - 2.0 * world.swarm.radius)

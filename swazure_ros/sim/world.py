@@ -16,8 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.clouds import Cloud, load_cloud
-from ..core.description import SwarmDescription
+from ..core.clouds import Cloud
 from ..core.errors import UnknownFlsError
 from ..core.evaluate import (
     Neighbourhood,
@@ -38,6 +37,8 @@ from ..core.observe import (
 )
 from ..core.sensor import Sensor
 from ..core.sight import Grid, build_grid
+from ..files.cloud_files import load_cloud
+from ..files.description import SwarmDescription
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree

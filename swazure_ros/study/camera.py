@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..core.calibration import MarkerSweep, Measured, Sweep
-from ..core.camera import Camera, MarkerPose, render
+from ..camera.aruco import Camera, MarkerPose, render
+from ..camera.calibration import MarkerSweep, Measured, Sweep
 from ..core.sensor import Sensor
 from ..view.png import save
 

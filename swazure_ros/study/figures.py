@@ -18,7 +18,7 @@ from matplotlib.figure import Figure
 
 from ..core.evaluate import evaluate
 from ..core.geometry import make_swarm
-from ..core.results import PAIRS_PARQUET_FILE, atomic_write
+from ..files.results import PAIRS_PARQUET_FILE, atomic_write
 from ..view.png import save
 from ..view.scene import evaluation_scene
 from ..view.snapshot import write_snapshot

@@ -20,8 +20,8 @@ from ..core.fit import LEAST_SQUARES
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN
 from ..core.paths import POLICIES
-from ..core.results import COMPACT_PAIRS, PAIR_COLUMNS
 from ..core.sensor import Sensor
+from ..files.results import COMPACT_PAIRS, PAIR_COLUMNS
 
 #: The published sweep (spec, section 10).
 PUBLISHED_BETAS = (0.01, 0.1, 0.2, 0.3, 0.4, 0.5)

@@ -2,7 +2,7 @@
 
 A run is one (shape, beta, policy, technique). Its results live in a folder
 of their own, ``runs/<shape>/beta-<beta>/<policy>/<technique>/``, holding
-``pairs.parquet`` (compact or full, core.results.PAIR_COLUMNS) and then
+``pairs.parquet`` (compact or full, files.results.PAIR_COLUMNS) and then
 ``summary.json``, each written atomically. The
 summary records the run's cache key, a hash of everything its numbers depend
 on: the points, beta, policy, technique, threshold, sensor, seed and the
@@ -31,14 +31,14 @@ from ..core.fusion import fuse
 from ..core.geometry import make_swarm
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.folding import run_technique
-from ..core.results import (
+from ..core.sensor import Sensor
+from ..files.results import (
     FULL_PAIRS,
     PAIRS_PARQUET_FILE,
     SUMMARY_FILE,
     with_source,
     write_evaluation,
 )
-from ..core.sensor import Sensor
 from .plan import FIT, FUSED, PLAIN_TECHNIQUE, RUNS_DIR, RunSpec, StudyPlan, Technique
 
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
-from ..core.results import atomic_write
+from ..files.results import atomic_write
 
 #: Dots per inch of every PNG the project writes.
 DPI = 120

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from swazure_ros.core.results import RECORD_FILE, read_record
+from swazure_ros.files.results import RECORD_FILE, read_record
 
 from ..conftest import REPO
 

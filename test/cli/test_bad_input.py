@@ -13,7 +13,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import pytest
 
-from swazure_ros.core.files import config_dir
+from swazure_ros.files.reading import config_dir
 
 WIDE = str(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
 TRIO = str(config_dir() / "track" / "trio.xyz")

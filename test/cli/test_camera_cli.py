@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from swazure_ros.core.files import config_dir
-from swazure_ros.core.sensor import load_sensor
+from swazure_ros.files.reading import config_dir
+from swazure_ros.files.sensors import load_sensor
 
 from ..conftest import FUZZ
 
@@ -82,8 +82,8 @@ def test_output_that_cannot_be_written_is_one_line_and_exit_2(tmp_path):
 
 
 def test_calibrate_compares_at_the_measured_distances_themselves(tmp_path):
-    from swazure_ros.core.calibration import sweep
-    from swazure_ros.core.camera import load_camera
+    from swazure_ros.camera.calibration import sweep
+    from swazure_ros.files.sensors import load_camera
 
     measured = tmp_path / "measured.csv"
     measured.write_text("distance_mm,error_pct,detect_pct\n61,1.0,100\n133,9.0,100\n")
@@ -148,9 +148,9 @@ def test_a_generated_camera_file_is_calibrated_or_refused_in_one_line(tmp_path_f
     import yaml
 
     from swazure_ros.cli.main import main
-    from swazure_ros.core.files import config_dir
+    from swazure_ros.files.reading import config_dir
 
-    from ..core.test_hostile_files import leaves, swapped, values
+    from ..files.test_hostile_files import leaves, swapped, values
 
     original = config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml"
     document = yaml.safe_load(original.read_text())
@@ -189,7 +189,7 @@ def test_camera_values_that_rendering_would_choke_on_are_refused_in_one_line(
     """Each of these once ended in a traceback, a NaN frame or an allocation of gigabytes."""
     import yaml
 
-    from ..core.test_hostile_files import swapped
+    from ..files.test_hostile_files import swapped
 
     original = config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml"
     path = tmp_path / "camera.yaml"

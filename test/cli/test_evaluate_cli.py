@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from swazure_ros.core.results import RECORD_FILE, RECORD_VERSION, read_record
+from swazure_ros.files.results import RECORD_FILE, RECORD_VERSION, read_record
 
 
 def swazure(*args, cwd=None):

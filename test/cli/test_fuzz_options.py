@@ -13,7 +13,7 @@ from hypothesis import event, given, settings
 from hypothesis import strategies as st
 
 from swazure_ros.cli.main import main
-from swazure_ros.core.files import config_dir
+from swazure_ros.files.reading import config_dir
 
 from ..conftest import FUZZ
 

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from swazure_ros.core.files import config_dir
+from swazure_ros.files.reading import config_dir
 
 CONFIG = config_dir()
 TORUS = ["--cloud", "torus:60", "--beta", "0.5"]

@@ -50,10 +50,10 @@ def test_a_verb_loads_its_own_module_and_no_other():
 
 def test_evaluate_help_explains_every_row_of_the_summary():
     from swazure_ros.cli.summary import SUMMARY_TERMS, summary_rows
-    from swazure_ros.core.clouds import load_cloud
     from swazure_ros.core.evaluate import evaluate
     from swazure_ros.core.geometry import make_swarm
-    from swazure_ros.core.sensor import load_sensor
+    from swazure_ros.files.cloud_files import load_cloud
+    from swazure_ros.files.sensors import load_sensor
 
     done = subprocess.run(
         [sys.executable, "-m", "swazure_ros.cli.main", "evaluate", "--help"],

@@ -11,10 +11,10 @@ import pytest
 from swazure_ros.cli.main import build_parser
 from swazure_ros.cli.options import swarm_from_args
 from swazure_ros.cli.swarm_file import apply_swarm_file, load_swarm_file
-from swazure_ros.core.clouds import is_cloud_path
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.core.evaluate import evaluate
-from swazure_ros.core.files import config_dir
+from swazure_ros.files.cloud_files import is_cloud_path
+from swazure_ros.files.reading import config_dir
 
 SWARMS = config_dir() / "swarms"
 TORUS = SWARMS / "torus.yaml"

@@ -15,9 +15,9 @@ from swazure_ros.core.blocks import (
     ranges,
     with_decaying,
 )
-from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.evaluate import SILENT, PairResults, PairTally, evaluate
 from swazure_ros.core.geometry import make_swarm
+from swazure_ros.files.cloud_files import load_cloud
 
 from ..conftest import A, B, C, D, K, scene
 

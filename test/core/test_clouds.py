@@ -2,8 +2,9 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from swazure_ros.core.clouds import BUILTIN_SHAPES, PUBLISHED_DENSITY, load_cloud, read_points
+from swazure_ros.core.clouds import BUILTIN_SHAPES, PUBLISHED_DENSITY
 from swazure_ros.core.errors import CloudError
+from swazure_ros.files.cloud_files import load_cloud, read_points
 
 from ..conftest import dataset
 

@@ -5,7 +5,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.evaluate import (
     DECAYING_PATH,
     NO_PATH,
@@ -18,6 +17,7 @@ from swazure_ros.core.evaluate import (
 )
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.sensor import measured_vectors
+from swazure_ros.files.cloud_files import load_cloud
 
 from ..conftest import A, B, C, D, K, scene
 

@@ -5,7 +5,6 @@ from functools import partial
 import numpy as np
 import pytest
 
-from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate, neighbourhood
 from swazure_ros.core.fit import (
     CHI2_95_3DOF,
@@ -25,6 +24,7 @@ from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.neighbours import ordered_blind_pairs
 from swazure_ros.core.observe import observations
 from swazure_ros.core.sensor import BLIND, DECAYING, SWEET, Sensor, SensorNoise
+from swazure_ros.files.cloud_files import load_cloud
 
 
 def stochastic_sensor(mean_error=0.0, sd=0.01, direction_deg=0.2):

@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.evaluate import SWEET_PATH, evaluate
 from swazure_ros.core.fusion import combine, fuse, inner_nodes
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.paths import avoiding_paths, make_graph, paths_from_rows
 from swazure_ros.core.sensor import Sensor, SensorNoise
+from swazure_ros.files.cloud_files import load_cloud
 
 
 def stochastic_sensor(sd=0.02, direction_deg=1.0):

@@ -62,7 +62,7 @@ def test_min_distance():
 
 
 def test_chess_piece_check_values(sensor):
-    from swazure_ros.core.clouds import load_cloud
+    from swazure_ros.files.cloud_files import load_cloud
 
     swarm = make_swarm(load_cloud(dataset("chess_408.xyz")).points, beta=0.5)
     pairs = neighbour_pairs(swarm, sensor)
@@ -74,7 +74,7 @@ def test_chess_piece_check_values(sensor):
 @pytest.mark.parametrize("shape", ["torus", "helix:300", "sphere:200"])
 def test_a_small_cloud_searched_pair_by_pair_gives_the_trees_answers(shape, monkeypatch):
     from swazure_ros.core import geometry
-    from swazure_ros.core.clouds import load_cloud
+    from swazure_ros.files.cloud_files import load_cloud
 
     points = load_cloud(shape).points
     assert len(points) <= geometry.SMALL_CLOUD

@@ -6,7 +6,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.evaluate import NO_PATH, REASON_BLOCKED, SWEET_PATH, evaluate
 from swazure_ros.core.geometry import circle_sphere_crossings, free_circle_point, make_swarm
 from swazure_ros.core.heuristics.compat import PUBLISHED, Compat
@@ -14,7 +13,9 @@ from swazure_ros.core.heuristics.folding import apply, heuristic_summary, run_te
 from swazure_ros.core.heuristics.obstructing import move_obstructing
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
 from swazure_ros.core.heuristics.source import DIRECTIONS, move_source
-from swazure_ros.core.sensor import load_sensor, measured_vectors
+from swazure_ros.core.sensor import measured_vectors
+from swazure_ros.files.cloud_files import load_cloud
+from swazure_ros.files.sensors import load_sensor
 
 from ..conftest import dataset
 

@@ -13,11 +13,11 @@ from swazure_ros.core.sensor import (
     SWEET,
     Sensor,
     hop_error,
-    load_sensor,
     measured_vectors,
     sensor_from_dict,
     smallest_hop_error,
 )
+from swazure_ros.files.sensors import load_sensor
 
 
 def test_default_sensor_file_is_the_published_sensor(sensor):
@@ -216,15 +216,20 @@ def test_camera_sensor_renders_each_pair_the_same_way_every_time():
 def test_each_fls_carries_its_own_marker_in_a_camera_sensor(tmp_path):
     from dataclasses import replace
 
-    from swazure_ros.core.camera import measure_pairs
+    from swazure_ros.camera.aruco import measure_pairs
+    from swazure_ros.files.sensors import load_camera
 
     folder = Path(__file__).resolve().parents[2] / "config" / "cameras"
+
+    def cameras(name):
+        return load_camera(folder / name)
+
     document = yaml.safe_load((folder / "sensor-wide-camera.yaml").read_text())
     assert document["sensor"]["error_model"]["markers"] == "all"
     document["sensor"]["error_model"]["markers"] = [5, 22]
-    sensor = sensor_from_dict(document, "sensor.yaml", base=folder)
+    sensor = sensor_from_dict(document, "sensor.yaml", cameras=cameras)
     assert sensor.camera_markers == (5, 22)
-    assert sensor_from_dict(sensor_document(sensor), "again", base=folder) == sensor
+    assert sensor_from_dict(sensor_document(sensor), "again", cameras=cameras) == sensor
     camera = sensor.camera
     # At 100 mm the window reaches the bits, so the pattern shows in the measurement.
     distances, first, second = np.full(2, 100.0), np.array([0, 0]), np.array([2, 3])
@@ -239,7 +244,17 @@ def test_each_fls_carries_its_own_marker_in_a_camera_sensor(tmp_path):
     for markers in ([100], [], "some", [True]):
         document["sensor"]["error_model"]["markers"] = markers
         with pytest.raises(SensorError, match="markers must be 'all' or a list of marker ids"):
-            sensor_from_dict(document, "sensor.yaml", base=folder)
+            sensor_from_dict(document, "sensor.yaml", cameras=cameras)
+
+
+def test_a_camera_sensor_without_a_reader_for_its_camera_file_is_refused():
+    document = yaml.safe_load(
+        (
+            Path(__file__).resolve().parents[2] / "config" / "cameras" / "sensor-wide-camera.yaml"
+        ).read_text()
+    )
+    with pytest.raises(SensorError, match="no reader for its camera file"):
+        sensor_from_dict(document, "sensor.yaml")
 
 
 def sensor_document(sensor):

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.motion import Motion, parse_trajectory
-from swazure_ros.core.sensor import load_sensor, measured_vectors
+from swazure_ros.core.sensor import measured_vectors
 from swazure_ros.core.tracking import (
     CONSTANT_ACCELERATION,
     CONSTANT_VELOCITY,
@@ -25,6 +25,7 @@ from swazure_ros.core.tracking import (
     choose_relay,
     relay_sample,
 )
+from swazure_ros.files.sensors import load_sensor
 from swazure_ros.protocol.loops import simulate_track
 
 RADIUS = 0.5

@@ -18,11 +18,12 @@ from swazure_ros.core.evaluate import (
     neighbourhood,
     without,
 )
-from swazure_ros.core.files import config_dir
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.core.observe import local_view, observations
 from swazure_ros.core.paths import POLICIES
-from swazure_ros.core.sensor import hop_error, load_sensor, measured_vectors
+from swazure_ros.core.sensor import hop_error, measured_vectors
+from swazure_ros.files.reading import config_dir
+from swazure_ros.files.sensors import load_sensor
 from swazure_ros.protocol.discovery.estimate import Found, estimate, evaluation_of
 from swazure_ros.protocol.discovery.messages import SWEET_VISIBLE
 from swazure_ros.protocol.discovery.participant import source_range

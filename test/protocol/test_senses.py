@@ -42,8 +42,8 @@ def test_a_marker_reads_as_the_nearest_fls_that_carries_it(world):
     # Three markers for the whole swarm: FLS k carries k mod 3, as a small dictionary would.
     from dataclasses import replace
 
-    from swazure_ros.core.camera import load_camera
-    from swazure_ros.core.files import config_dir
+    from swazure_ros.files.reading import config_dir
+    from swazure_ros.files.sensors import load_camera
 
     camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
     sensor = replace(world.sensor, camera=camera, camera_markers=(0, 1, 2))

@@ -16,8 +16,9 @@ from swazure_interfaces.msg import Measurements, MoveCommands, PathOffer, PoseEs
 from swazure_ros.core.evaluate import neighbourhood
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
 from swazure_ros.core.observe import Measurement
-from swazure_ros.core.sensor import DECAYING, SWEET, load_sensor
+from swazure_ros.core.sensor import DECAYING, SWEET
 from swazure_ros.core.tracking import RELAY_OK, TRACKING, MotionEstimate, TrackState
+from swazure_ros.files.sensors import load_sensor
 from swazure_ros.protocol.discovery.estimate import Estimate
 from swazure_ros.protocol.discovery.messages import (
     FIT,
@@ -447,8 +448,8 @@ def test_stamps_and_vectors_convert_both_ways():
 
 
 def test_a_camera_image_and_its_calibration_read_back():
-    from swazure_ros.core.camera import load_camera
-    from swazure_ros.core.files import config_dir
+    from swazure_ros.files.reading import config_dir
+    from swazure_ros.files.sensors import load_camera
 
     camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
     image = np.arange(12, dtype=np.uint8).reshape(3, 4)

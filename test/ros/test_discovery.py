@@ -17,12 +17,12 @@ from swazure_interfaces.srv import ComputePose
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import NO_PATH, evaluate, evaluate_pairs, without
-from swazure_ros.core.files import config_dir
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.core.frames import fls_frame, to_metres
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
-from swazure_ros.core.results import RECORD_FILE, read_record
+from swazure_ros.files.reading import config_dir
+from swazure_ros.files.results import RECORD_FILE, read_record
 from swazure_ros.protocol.discovery.estimate import Estimate, evaluation_of
 from swazure_ros.ros.convert.discovery import pose_estimate_from_message
 from swazure_ros.ros.names import ESTIMATOR_CODES, policy_code

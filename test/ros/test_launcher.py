@@ -21,8 +21,8 @@ from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.cli.main import build_parser
 from swazure_ros.cli.spawn import config_from_args
 from swazure_ros.cli.swarm_file import apply_swarm_file
-from swazure_ros.core.files import config_dir
-from swazure_ros.core.results import RECORD_FILE, read_record
+from swazure_ros.files.reading import config_dir
+from swazure_ros.files.results import RECORD_FILE, read_record
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SHARED

@@ -20,10 +20,11 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import Detections
 
-from swazure_ros.core.camera import Detector, MarkerPose, full_image, load_camera, render
+from swazure_ros.camera.aruco import Detector, MarkerPose, full_image, render
 from swazure_ros.core.evaluate import SWEET_PATH, evaluate
-from swazure_ros.core.files import config_dir
 from swazure_ros.core.frames import to_metres
+from swazure_ros.files.reading import config_dir
+from swazure_ros.files.sensors import load_camera
 from swazure_ros.ros.convert.sensing import camera_info_message, image_message
 from swazure_ros.ros.names import DETECTIONS_QOS
 from swazure_ros.ros.runtime import SwarmNode

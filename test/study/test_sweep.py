@@ -5,9 +5,9 @@ from dataclasses import replace
 
 import pytest
 
-from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.errors import SwazureError
-from swazure_ros.core.results import PAIRS_PARQUET_FILE, SUMMARY_FILE
+from swazure_ros.files.cloud_files import load_cloud
+from swazure_ros.files.results import PAIRS_PARQUET_FILE, SUMMARY_FILE
 from swazure_ros.study.plan import PLAIN_TECHNIQUE, StudyPlan, Technique
 from swazure_ros.study.sweep import SweepProgress, read_summary, sweep
 
@@ -153,7 +153,7 @@ def test_compact_pairs_keep_integer_paths_and_what_nothing_else_reproduces(senso
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from swazure_ros.core.results import DERIVED_COLUMNS
+    from swazure_ros.files.results import DERIVED_COLUMNS
 
     compact = sweep(small_plan(sensor), tmp_path / "compact")
     full = sweep(small_plan(sensor, pairs="full"), tmp_path / "full")

@@ -5,12 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.errors import SwazureError, UnknownFlsError
 from swazure_ros.core.evaluate import SWEET_PATH, evaluate
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.heuristics.folding import run_technique
-from swazure_ros.core.sensor import load_sensor
+from swazure_ros.files.cloud_files import load_cloud
+from swazure_ros.files.sensors import load_sensor
 from swazure_ros.view.scene import (
     CHOSEN,
     NO_BLIND,

@@ -29,7 +29,7 @@ from ..guard import check, check_finite, check_ids, check_size
 from ..names import WORLD_REACH
 
 if TYPE_CHECKING:
-    from ...core.camera import Camera
+    from ...camera.aruco import Camera
 
 
 FloatArray = NDArray[np.float64]

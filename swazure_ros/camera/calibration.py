@@ -1,8 +1,8 @@
 """Calibrating a sensor from a rendering camera: sweep, ranges, error curve, noise.
 
 :func:`sweep` renders, detects and solves many frames per distance and
-viewing angle with :mod:`.camera`; :func:`sensor_from_sweep` turns the
-head-on part of the sweep into the sensor abstraction of :mod:`.sensor`
+viewing angle with :mod:`.aruco`; :func:`sensor_from_sweep` turns the
+head-on part of the sweep into the sensor abstraction of :mod:`swazure_ros.core.sensor`
 (ranges, the error polynomial, and the stochastic noise tables), by the
 criteria of :class:`Criteria`. :func:`compare` sets a sweep beside a measured
 camera's table (``datasets/aruco-measured``); :func:`marker_sweep` repeats
@@ -15,19 +15,17 @@ distance is the tracking distance).
 
 from __future__ import annotations
 
-import csv
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .camera import Camera, Detector, MarkerPose, measure, true_centre
-from .errors import SensorError
-from .sensor import Sensor, SensorNoise
+from ..core.errors import SensorError
+from ..core.sensor import Sensor, SensorNoise
+from .aruco import Camera, Detector, MarkerPose, measure, true_centre
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -393,33 +391,6 @@ class Measured:
     distances_mm: FloatArray
     error_pct: FloatArray  # nan where too few detections to measure
     detect_pct: FloatArray
-
-
-def load_measured(path: str | Path) -> Measured:
-    """Read ``distance_mm,error_pct,detect_pct`` rows (``#`` comments) from a CSV file."""
-    path = Path(path)
-    try:
-        lines = [
-            line for line in path.read_text().splitlines() if line and not line.startswith("#")
-        ]
-    except OSError as err:
-        raise SensorError(f"{path}: cannot read ({err.strerror or err})") from err
-    rows = list(csv.DictReader(lines))
-    try:
-        table = [
-            (
-                float(r["distance_mm"]),
-                float(r["error_pct"]) if r["error_pct"] else math.nan,
-                float(r["detect_pct"]),
-            )
-            for r in rows
-        ]
-    except (KeyError, TypeError, ValueError) as err:
-        raise SensorError(f"{path}: expected columns distance_mm,error_pct,detect_pct") from err
-    if not table:
-        raise SensorError(f"{path}: no rows")
-    values = np.asarray(table, dtype=np.float64)
-    return Measured(values[:, 0], values[:, 1], values[:, 2])
 
 
 @dataclass(frozen=True)

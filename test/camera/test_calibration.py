@@ -5,22 +5,21 @@ import math
 import numpy as np
 import pytest
 
-from swazure_ros.core.calibration import (
+from swazure_ros.camera.calibration import (
     Criteria,
     MarkerSweep,
     Sweep,
     blind_limit_mm,
     compare,
     crossing,
-    load_measured,
     marker_sweep,
     search_ranges,
     sensor_from_sweep,
     sweep,
 )
-from swazure_ros.core.camera import load_camera
 from swazure_ros.core.errors import SensorError
-from swazure_ros.core.files import config_dir
+from swazure_ros.files.reading import config_dir
+from swazure_ros.files.sensors import load_camera, load_measured
 
 from ..conftest import SHARED
 

@@ -15,9 +15,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from .clouds import load_cloud
-from .geometry import Swarm, make_swarm
-from .sensor import Sensor, load_sensor
+from ..core.geometry import Swarm, make_swarm
+from ..core.sensor import Sensor
+from .cloud_files import load_cloud
+from .sensors import load_sensor
 
 
 @dataclass(frozen=True)

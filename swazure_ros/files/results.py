@@ -12,7 +12,6 @@ tests read its ``record.json`` (with a ``fileversion``), never printed text.
 
 from __future__ import annotations
 
-import ctypes
 import glob
 import itertools
 import json
@@ -30,10 +29,10 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from .clouds import Cloud
-from .errors import OutputError, SwazureError
-from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation, Neighbourhood, PairResults
-from .heuristics.result import HeuristicResult
+from ..core.clouds import Cloud
+from ..core.errors import OutputError, SwazureError
+from ..core.evaluate import REASON_NAMES, STATUS_NAMES, Evaluation, Neighbourhood, PairResults
+from ..core.heuristics.result import HeuristicResult
 
 PAIRS_FILE = "pairs.csv"
 PAIRS_PARQUET_FILE = "pairs.parquet"
@@ -65,10 +64,9 @@ COVARIANCE_ENTRIES = {
 def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
     """Call ``write(temporary_path)`` and put the result at ``path`` in one rename.
 
-    The temporary file is unnamed (``O_TMPFILE``) while it is written, so a
-    process killed at any moment leaves nothing behind; it gets a name only
-    for the final rename. Where the file system has no unnamed files, a
-    hidden named one is used. Any failure is an :class:`OutputError`.
+    The temporary file is hidden beside ``path`` and stamped with the writer's
+    pid; one left by a killed writer is removed by the next write of ``path``.
+    Any failure is an :class:`OutputError`.
     """
     with atomic_output(path) as temporary:
         write(temporary)
@@ -103,27 +101,24 @@ def atomic_output(path: Path) -> Iterator[Path]:
     """A path to write ``path``'s content to; it becomes ``path`` when the block ends well.
 
     :func:`atomic_write` for a writer that runs as long as the block (a
-    recording): the same unnamed temporary file, named and renamed at the end;
-    nothing is left at ``path`` when the block raises or the process dies.
+    recording): nothing is left at ``path`` when the block raises, and what a
+    killed writer leaves is removed by the next write of ``path``.
     """
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            unnamed = os.open(path.parent, os.O_TMPFILE | os.O_WRONLY, 0o666)
-        except (AttributeError, OSError):
-            with _named_atomic_output(path) as temporary:
-                yield temporary
-            return
-        temporary = path.parent / f".{path.name}.{os.getpid()}.tmp"
         _remove_stale(path)
+        # In the target's folder, so that the rename stays on one file system.
+        handle, name = tempfile.mkstemp(
+            prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent
+        )
+        os.close(handle)
+        temporary = Path(name)
         try:
-            # Writers open a path; this one is the unnamed file itself.
-            yield Path(f"/proc/self/fd/{unnamed}")
-            temporary.unlink(missing_ok=True)
-            _name_unnamed(unnamed, temporary)
-        finally:
-            os.close(unnamed)
-        try:
+            yield temporary
+            # mkstemp makes the file private; give it the mode a plain open() would.
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(temporary, 0o666 & ~umask)
             os.replace(temporary, path)
         except BaseException:
             temporary.unlink(missing_ok=True)
@@ -133,9 +128,9 @@ def atomic_output(path: Path) -> Iterator[Path]:
 
 
 def _remove_stale(path: Path) -> None:
-    """Remove temporaries of ``path`` left by writers that were killed between link and rename."""
+    """Remove the temporaries of ``path`` whose writers were killed (their pid is gone)."""
     for stale in path.parent.glob(f".{glob.escape(path.name)}.*.tmp"):
-        pid = stale.name[len(path.name) + 2 : -len(".tmp")]
+        pid = stale.name[len(path.name) + 2 :].partition(".")[0]
         if pid.isdigit() and not _alive(int(pid)):
             stale.unlink(missing_ok=True)
 
@@ -148,46 +143,6 @@ def _alive(pid: int) -> bool:
     except PermissionError:
         return True
     return True
-
-
-def _name_unnamed(descriptor: int, name: Path) -> None:
-    """Give the O_TMPFILE file ``descriptor`` the name ``name`` (same folder)."""
-    # linkat(fd, "", AT_FDCWD, name, AT_EMPTY_PATH) needs CAP_DAC_READ_SEARCH; the
-    # /proc/self/fd link needs a kernel that follows it across mounts; a copy always works.
-    libc = ctypes.CDLL(None, use_errno=True)
-    if libc.linkat(descriptor, b"", _AT_FDCWD, os.fsencode(name), _AT_EMPTY_PATH) == 0:
-        return
-    try:
-        os.link(f"/proc/self/fd/{descriptor}", name, follow_symlinks=True)
-        return
-    except OSError:
-        pass
-    try:
-        with open(f"/proc/self/fd/{descriptor}", "rb") as source, open(name, "xb") as copy:
-            shutil.copyfileobj(source, copy)
-    except BaseException:
-        name.unlink(missing_ok=True)
-        raise
-
-
-_AT_FDCWD = -100
-_AT_EMPTY_PATH = 0x1000
-
-
-@contextmanager
-def _named_atomic_output(path: Path) -> Iterator[Path]:
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    os.close(handle)
-    try:
-        yield Path(temporary)
-        # mkstemp makes the file private; give it the mode a plain open() would.
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
 
 
 def finite_json(value: Any) -> Any:

@@ -21,12 +21,11 @@ from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
 from swazure_ros.cli.swarm_file import load_swarm_file
-from swazure_ros.core.camera import load_camera
-from swazure_ros.core.clouds import load_cloud
 from swazure_ros.core.errors import SwazureError
-from swazure_ros.core.files import config_dir
 from swazure_ros.core.geometry import make_swarm
-from swazure_ros.core.sensor import load_sensor
+from swazure_ros.files.cloud_files import load_cloud
+from swazure_ros.files.reading import config_dir
+from swazure_ros.files.sensors import load_camera, load_sensor
 
 from ..conftest import FUZZ as BASE_FUZZ
 

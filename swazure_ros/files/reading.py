@@ -17,7 +17,7 @@ from typing import Any
 
 import yaml
 
-from .errors import SensorError, SwazureError
+from ..core.errors import SensorError, SwazureError
 
 #: Bytes of a configuration file (sensor, camera, swarm, parameters), at most.
 CONFIG_BYTES = 4 * 2**20

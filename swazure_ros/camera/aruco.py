@@ -1,6 +1,6 @@
 """A rendering ArUco camera: render a neighbour's marker, detect it, solve its pose.
 
-The published sensor model (:mod:`.sensor`) is a fitted curve; this module
+The published sensor model (:mod:`swazure_ros.core.sensor`) is a fitted curve; this module
 simulates the measurement the curve was fitted to. A :class:`Camera` is a
 pinhole camera with a thin lens (focal length, f-number, focus range) on a
 pixel sensor; it looks at an ArUco marker of a given side and renders what the
@@ -29,8 +29,7 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from .errors import SensorError
-from .files import read_yaml
+from ..core.errors import SensorError
 
 FloatArray = NDArray[np.float64]
 
@@ -137,12 +136,23 @@ class Camera:
         dictionary = cv2.aruco.getPredefinedDictionary(getattr(cv2.aruco, self.marker_dictionary))
         return int(dictionary.bytesList.shape[0])
 
+    def measure_pairs(
+        self,
+        distances_mm: FloatArray,
+        seed: int,
+        first: NDArray[np.int64],
+        second: NDArray[np.int64],
+        markers: Sequence[int] = (),
+    ) -> FloatArray:
+        """Marker centres (M, 3) mm of pairs seen head-on, by :func:`measure_pairs`."""
+        return measure_pairs(self, distances_mm, seed, first, second, markers=markers)
+
     def diffraction_px(self) -> float:
         """Sigma of a Gaussian close to the Airy disk of the lens, px."""
         return 0.42 * WAVELENGTH_MM * self.f_number / self.pixel_pitch_mm
 
 
-# ----------------------------------------------------------------------------- files
+# ----------------------------------------------------------------------------- parsing
 
 
 def _number(mapping: dict[str, Any], key: str, where: str, default: float | None = None) -> float:
@@ -282,12 +292,6 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
             f"(0 to {camera.dictionary_size - 1})"
         )
     return camera
-
-
-def load_camera(path: str | Path) -> Camera:
-    """Read a camera YAML file (``config/cameras/*.yaml``)."""
-    path = Path(path)
-    return camera_from_dict(read_yaml(path, "camera", SensorError), str(path))
 
 
 # ----------------------------------------------------------------------------- rendering

@@ -7,18 +7,18 @@ import numpy as np
 import pytest
 import yaml
 
-from swazure_ros.core.camera import (
+from swazure_ros.camera.aruco import (
     Detector,
     MarkerPose,
     camera_from_dict,
     full_image,
-    load_camera,
     measure,
     render,
     true_centre,
 )
 from swazure_ros.core.errors import SensorError
-from swazure_ros.core.files import config_dir
+from swazure_ros.files.reading import config_dir
+from swazure_ros.files.sensors import load_camera
 
 CAMERAS = config_dir() / "cameras"
 

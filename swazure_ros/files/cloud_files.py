@@ -1,0 +1,162 @@
+"""Point clouds from files (.xyz, .csv, .npy, .ply) or built-in shapes, by name.
+
+Every loader returns an ``(N, 3)`` float array in centimetres (file
+coordinates times ``scale``) and raises :class:`CloudError` with a one-line
+message naming the file when the input cannot be used.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.clouds import PUBLISHED_SCALES, Cloud, builtin_points, validate_points
+from ..core.errors import CloudError
+from .reading import regular_file
+
+FloatArray = NDArray[np.float64]
+
+SUFFIXES = (".xyz", ".txt", ".csv", ".npy", ".ply")
+#: Bytes of a point cloud file, at most (MAX_POINTS points take a few MB as text).
+MAX_CLOUD_BYTES = 256 * 2**20
+
+
+def published_dataset_dir() -> Path | None:
+    """The folder of the six published clouds, or None when this machine has none.
+
+    ``$SWAZURE_DATASETS`` wins; otherwise ``../shared/datasets/swazure-paper``
+    beside the source checkout, then beside the working directory.
+    """
+    candidates = []
+    if "SWAZURE_DATASETS" in os.environ:
+        candidates.append(Path(os.environ["SWAZURE_DATASETS"]))
+    relative = Path("shared", "datasets", "swazure-paper")
+    candidates.append(Path(__file__).resolve().parents[3] / relative)
+    candidates.append(Path.cwd().parent / relative)
+    for candidate in candidates:
+        if candidate.is_dir() and any(candidate.glob("*.xyz")):
+            return candidate
+    return None
+
+
+def cloud_files(directory: Path) -> list[Path]:
+    """Point cloud files in ``directory``, sorted by name."""
+    return sorted(p for p in directory.iterdir() if p.is_file() and p.suffix.lower() in SUFFIXES)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _read_text(path: Path, delimiter: str | None) -> FloatArray:
+    lines = [
+        (number, line.strip())
+        for number, line in enumerate(path.read_text().splitlines(), start=1)
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not lines:
+        raise CloudError(f"{path}: no points in file")
+    header: list[str] | None = None
+    first = lines[0][1].split(delimiter)
+    if not any(_is_number(field) for field in first):
+        header = [field.strip().lower() for field in first]
+        lines = lines[1:]
+        if not lines:
+            raise CloudError(f"{path}: no points in file")
+    columns = [0, 1, 2]
+    if header is not None:
+        if all(name in header for name in "xyz"):
+            columns = [header.index(name) for name in "xyz"]
+        elif len(header) != 3:
+            raise CloudError(f"{path}: header has no x, y, z columns: {','.join(header)}")
+    width = len(header) if header is not None else len(lines[0][1].split(delimiter))
+    if header is None and width != 3:
+        raise CloudError(f"{path}: line {lines[0][0]} has {width} columns, expected 3 (x y z)")
+    rows = np.empty((len(lines), 3))
+    for row, (number, line) in enumerate(lines):
+        fields = line.split(delimiter)
+        if len(fields) != width:
+            raise CloudError(f"{path}: line {number} has {len(fields)} columns, expected {width}")
+        try:
+            rows[row] = [float(fields[column]) for column in columns]
+        except ValueError as err:
+            raise CloudError(f"{path}: line {number}: {err}") from err
+    return rows
+
+
+def _read_ply(path: Path) -> FloatArray:
+    from plyfile import PlyData  # local: only PLY users pay for the import
+
+    try:
+        ply = PlyData.read(str(path))
+        vertex = ply["vertex"]
+        return np.column_stack([vertex[axis] for axis in "xyz"]).astype(np.float64)
+    except KeyError as err:
+        raise CloudError(f"{path}: PLY file has no vertex element with x, y, z") from err
+    except Exception as err:  # plyfile raises several kinds for a broken file
+        raise CloudError(f"{path}: not a readable PLY file ({err})") from err
+
+
+def read_points(path: str | Path, scale: float = 1.0) -> FloatArray:
+    """Read an (N, 3) point cloud from a file and multiply it by ``scale`` (to cm)."""
+    path = Path(path)
+    if not math.isfinite(scale) or scale <= 0:
+        raise CloudError(f"scale must be a positive number, got {scale}")
+    if not path.exists():
+        raise CloudError(f"{path}: no such file")
+    if path.is_dir():
+        raise CloudError(f"{path}: is a folder, expected a point cloud file")
+    regular_file(path, "point cloud", MAX_CLOUD_BYTES, CloudError)
+    suffix = path.suffix.lower()
+    try:
+        if suffix == ".npy":
+            try:
+                raw: FloatArray = np.load(path, allow_pickle=False)
+            except ValueError as err:
+                raise CloudError(f"{path}: not a readable .npy array ({err})") from err
+        elif suffix == ".ply":
+            raw = _read_ply(path)
+        elif suffix == ".csv":
+            raw = _read_text(path, ",")
+        elif suffix in (".xyz", ".txt"):
+            raw = _read_text(path, None)
+        else:
+            raise CloudError(f"{path}: unknown file type {suffix!r}; use one of {SUFFIXES}")
+    except OSError as err:
+        raise CloudError(f"{path}: cannot read ({err.strerror or err})") from err
+    except UnicodeDecodeError as err:
+        raise CloudError(f"{path}: not a text file") from err
+    return validate_points(validate_points(raw, str(path)) * scale, f"{path} at scale {scale:g}")
+
+
+def is_cloud_path(spec: str) -> bool:
+    """True when ``spec`` names a file rather than a built-in shape."""
+    return "/" in spec or Path(spec).suffix.lower() in SUFFIXES or Path(spec).exists()
+
+
+def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
+    """Resolve ``spec`` (a file path or a built-in shape name) into a :class:`Cloud`.
+
+    ``scale`` defaults to the published scale for the six published files
+    (by file stem) and to 1 otherwise. Built-in shapes are already in cm.
+    """
+    text = str(spec)
+    if isinstance(spec, Path) or is_cloud_path(text):
+        path = Path(text)
+        if scale is None:
+            scale = PUBLISHED_SCALES.get(path.stem, 1.0)
+        return Cloud(path.stem, read_points(path, scale), scale, str(path))
+    points = builtin_points(text)
+    if scale is not None:
+        if not math.isfinite(scale) or scale <= 0:
+            raise CloudError(f"scale must be a positive number, got {scale}")
+        points = validate_points(points * scale, f"{text} at scale {scale:g}")
+    return Cloud(text.replace(":", "_"), points, 1.0 if scale is None else scale, "builtin")
