@@ -179,6 +179,24 @@ def _whole(mapping: dict[str, Any], key: str, where: str, default: int | None = 
 MAX_IMAGE_PX = 8192
 
 
+def _degradations_from(section: dict[str, Any], where: str) -> Degradations:
+    """The ``camera.degradations`` mapping as :class:`Degradations`; errors name the key."""
+    values: dict[str, Any] = {
+        key: _number(section, key, f"{where}: camera.degradations")
+        for key in Degradations.__dataclass_fields__
+        if key != "tone_gamma"
+    }
+    if "tone_gamma" in section:
+        gamma = _number(section, "tone_gamma", f"{where}: camera.degradations")
+        if gamma <= 0:
+            raise SensorError(f"{where}: camera.degradations.tone_gamma must be positive")
+        values["tone_gamma"] = gamma
+    values["corner_window_px"] = _whole(
+        section, "corner_window_px", f"{where}: camera.degradations"
+    )
+    return Degradations(**values)
+
+
 def camera_from_dict(document: Any, where: str = "camera") -> Camera:
     """Build a :class:`Camera` from a parsed camera YAML document; errors name the key."""
     if not isinstance(document, dict) or document.get("fileversion") != CAMERA_FILE_VERSION:
@@ -195,19 +213,7 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
     width = _whole(image, "width", f"{where}: camera.image")
     height = _whole(image, "height", f"{where}: camera.image")
     fx = _number(image, "fx", f"{where}: camera.image")
-    values: dict[str, Any] = {
-        key: _number(sections["degradations"], key, f"{where}: camera.degradations")
-        for key in Degradations.__dataclass_fields__
-        if key != "tone_gamma"
-    }
-    if "tone_gamma" in sections["degradations"]:
-        gamma = _number(sections["degradations"], "tone_gamma", f"{where}: camera.degradations")
-        if gamma <= 0:
-            raise SensorError(f"{where}: camera.degradations.tone_gamma must be positive")
-        values["tone_gamma"] = gamma
-    values["corner_window_px"] = _whole(
-        sections["degradations"], "corner_window_px", f"{where}: camera.degradations"
-    )
+    degradations = _degradations_from(sections["degradations"], where)
     dictionary = str(marker.get("dictionary", "DICT_4X4_100"))
     if not dictionary.startswith("DICT_") or not hasattr(cv2.aruco, dictionary):
         raise SensorError(
@@ -227,8 +233,15 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
         marker_dictionary=dictionary,
         marker_side_mm=_number(marker, "side_mm", f"{where}: camera.marker"),
         marker_id=_whole(marker, "id", f"{where}: camera.marker", 0),
-        degradations=Degradations(**values),
+        degradations=degradations,
     )
+    _check_camera(camera, where)
+    return camera
+
+
+def _check_camera(camera: Camera, where: str) -> None:
+    """Refuse, in one line naming the key, a camera whose sizes no real camera has."""
+    width, height, fx = camera.width, camera.height, camera.fx
     sizes = (width, height, fx, camera.fy, camera.focal_length_mm, camera.f_number)
     if min(*sizes, camera.marker_side_mm, camera.focus_min_mm) <= 0:
         # Each is divided by, or is a scale of the projection.
@@ -288,10 +301,9 @@ def camera_from_dict(document: Any, where: str = "camera") -> Camera:
         )
     if not 0 <= camera.marker_id < camera.dictionary_size:
         raise SensorError(
-            f"{where}: camera.marker.id {camera.marker_id} is not in {dictionary} "
+            f"{where}: camera.marker.id {camera.marker_id} is not in {camera.marker_dictionary} "
             f"(0 to {camera.dictionary_size - 1})"
         )
-    return camera
 
 
 # ----------------------------------------------------------------------------- rendering
