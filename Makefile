@@ -102,7 +102,7 @@ demo: setup
 		--communication-delay 0.3 --every 1
 
 bench: setup
-	$(PY) scripts/bench.py $(if $(SECTIONS),--sections $(SECTIONS))
+	$(PY) -m bench $(if $(SECTIONS),--sections $(SECTIONS))
 
 study: setup
 	$(VENV)/bin/swazure study --out study

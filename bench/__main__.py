@@ -1788,7 +1788,7 @@ def hosts_section(args: argparse.Namespace) -> list[str]:
                 extra = ["--compute-all", "--faults"] if flss == CHECKED_SIZE else []
                 print(f"bench: hosts, {flss} FLS processes, {discovery} discovery", flush=True)
                 command = [str(script), "exec", "0", sys.executable,
-                           str(REPO / "scripts" / "bench_hosts.py"), "--flss", str(flss),
+                           "-m", "bench.measure_hosts", "--flss", str(flss),
                            "--hosts", str(HOSTS), "--discovery", discovery,
                            "--out", str(out), *extra]  # fmt: skip
                 try:
@@ -2001,7 +2001,7 @@ def cell_record(shape: str, processes: int, beta: float) -> dict:
     cloud = shape if shape.startswith("torus") else swarm_cloud(shape)
     out = SECTIONS_DIR / f"cells-{shape.replace(':', '')}-{processes}.json"
     print(f"bench: cells, {shape} over {processes} process(es)", flush=True)
-    command = [sys.executable, str(REPO / "scripts" / "bench_cells.py"), "--cloud", cloud,
+    command = [sys.executable, "-m", "bench.measure_cells", "--cloud", cloud,
                "--processes", str(processes), "--beta", str(beta),
                "--out", str(out)]  # fmt: skip
     try:
@@ -2246,7 +2246,7 @@ def least_squares_section(args: argparse.Namespace) -> list[str]:
             for beta in FIT_BETAS:
                 outliers = sensor_name != "published" and beta == 0.5
                 extra = ["--outliers"] if outliers else []
-                command = [sys.executable, str(REPO / "scripts" / "bench_fit.py"),
+                command = [sys.executable, "-m", "bench.measure_fit",
                            str(DATASETS / f"{shape}.xyz"), "--beta", str(beta),
                            "--sensor", str(sensor), *extra]  # fmt: skip
                 print(f"least squares: {shape} {sensor_name} beta {beta}", file=sys.stderr)
@@ -2260,7 +2260,7 @@ def least_squares_section(args: argparse.Namespace) -> list[str]:
     for shape in SHAPES:
         # One BLAS thread: an FLS solves on its own small processor.
         command = ["env", "OPENBLAS_NUM_THREADS=1", sys.executable,
-                   str(REPO / "scripts" / "bench_fit.py"), str(DATASETS / f"{shape}.xyz"),
+                   "-m", "bench.measure_fit", str(DATASETS / f"{shape}.xyz"),
                    "--beta", "0.5", "--sensor", str(FIT_SENSORS["wide, calibrated"]),
                    "--local", str(LOCAL_SOURCES)]  # fmt: skip
         print(f"least squares: {shape}, {LOCAL_SOURCES} sources' own fits", file=sys.stderr)
@@ -2573,7 +2573,7 @@ def swarm_solve_section(args: argparse.Namespace) -> list[str]:
                 extra = []
                 if sensor_name != "published" and beta == 0.5:
                     extra = ["--outliers", "--warm"]
-                command = [sys.executable, str(REPO / "scripts" / "bench_swarm_solve.py"),
+                command = [sys.executable, "-m", "bench.measure_swarm_solve",
                            str(DATASETS / f"{shape}.xyz"), "--beta", str(beta),
                            "--sensor", str(sensor), *extra]  # fmt: skip
                 print(f"swarm solve: {shape} {sensor_name} beta {beta}", file=sys.stderr)
@@ -2584,7 +2584,7 @@ def swarm_solve_section(args: argparse.Namespace) -> list[str]:
                 result.update(shape=shape, sensor=sensor_name, beta=beta, peak_mb=memory)
                 rows.append(result)
     for shape in SWARM_SOLVE_LARGE:
-        command = [sys.executable, str(REPO / "scripts" / "bench_swarm_solve.py"), shape,
+        command = [sys.executable, "-m", "bench.measure_swarm_solve", shape,
                    "--beta", "0.5", "--sensor", str(FIT_SENSORS["wide, calibrated"]),
                    "--no-central", "--warm"]  # fmt: skip
         print(f"swarm solve: {shape}, the swarm's solve alone", file=sys.stderr)

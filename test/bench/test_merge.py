@@ -3,7 +3,7 @@
 import importlib.util
 from pathlib import Path
 
-SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "bench.py"
+SCRIPT = Path(__file__).resolve().parents[2] / "bench" / "__main__.py"
 
 
 def bench():
@@ -76,7 +76,7 @@ def test_the_swarm_solve_section_measures_a_small_torus_and_renders_its_rows(tmp
 
     sensor = config_dir() / "cameras" / "sensor-wide-calibrated.yaml"
     done = subprocess.run(
-        [sys.executable, str(SCRIPT.parent / "bench_swarm_solve.py"), "torus:150", "--beta",
+        [sys.executable, "-m", "bench.measure_swarm_solve", "torus:150", "--beta",
          "0.5", "--sensor", str(sensor), "--outliers", "--warm"],
         capture_output=True, text=True, timeout=300, check=True,
     )  # fmt: skip
