@@ -8,55 +8,60 @@ from __future__ import annotations
 import argparse
 import json
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
-from bench.common import DATASETS, HEURISTICS, POLICIES, SHAPES, SWAZURE, run
+from bench.common import HEURISTICS, POLICIES, SHAPES, SWAZURE, run, swarm_cloud
 
 
-def engine_section(args: argparse.Namespace) -> list[str]:
+def engine_section(
+    args: argparse.Namespace,
+    shapes: Sequence[str] = SHAPES,
+    policies: Sequence[str] = POLICIES,
+    heuristics: Sequence[tuple[str, int | None]] = HEURISTICS,
+) -> list[str]:
     """Core engine and heuristics on the six shapes."""
-    swazure = SWAZURE
     rows = []
     heuristic_rows = []
     with tempfile.TemporaryDirectory() as scratch:
-
-        def evaluate(shape: str, *options: str) -> tuple[dict, float, float]:
-            out = Path(scratch) / "-".join([shape, *options]).replace("--", "")
-            seconds, memory, code = run(
-                [
-                    *swazure,
-                    "evaluate",
-                    "--cloud",
-                    str(DATASETS / f"{shape}.xyz"),
-                    "--beta",
-                    str(args.beta),
-                    "--quiet",
-                    "--out",
-                    str(out),
-                    *options,
-                ]
-            )
-            if code != 0:
-                raise SystemExit(f"bench: {shape} {options} failed with exit code {code}")
-            summary = json.loads((out / "summary.json").read_text())
-            print(
-                f"{shape:16} {' '.join(options):45} {seconds:7.2f} s {memory:7.0f} MB", flush=True
-            )
-            return summary, seconds, memory
-
-        for shape in SHAPES:
-            for policy in POLICIES:
-                summary, seconds, memory = evaluate(shape, "--policy", policy)
+        for shape in shapes:
+            for policy in policies:
+                summary, seconds, memory = timed_evaluate(
+                    Path(scratch), shape, args.beta, "--policy", policy
+                )
                 rows.append((shape, policy, summary, seconds, memory))
-        for shape in SHAPES:
-            for technique, threshold in HEURISTICS:
+        for shape in shapes:
+            for technique, threshold in heuristics:
                 options = ["--policy", "shortest-length", "--technique", technique]
                 if threshold is not None:
                     options += ["--threshold", str(threshold)]
-                summary, seconds, memory = evaluate(shape, *options)
+                summary, seconds, memory = timed_evaluate(
+                    Path(scratch), shape, args.beta, *options
+                )
                 heuristic_rows.append((shape, technique, threshold, summary, seconds, memory))
+    return engine_lines(args.beta, rows, heuristic_rows)
+
+
+def timed_evaluate(
+    scratch: Path, shape: str, beta: float, *options: str
+) -> tuple[dict, float, float]:
+    """One `swazure evaluate` of ``shape``: its summary.json, wall s and peak MB."""
+    out = scratch / "-".join([shape, *options]).replace("--", "").replace(":", "")
+    seconds, memory, code = run(
+        [*SWAZURE, "evaluate", "--cloud", swarm_cloud(shape), "--beta", str(beta), "--quiet",
+         "--out", str(out), *options]
+    )  # fmt: skip
+    if code != 0:
+        raise SystemExit(f"bench: {shape} {options} failed with exit code {code}")
+    summary = json.loads((out / "summary.json").read_text())
+    print(f"{shape:16} {' '.join(options):45} {seconds:7.2f} s {memory:7.0f} MB", flush=True)
+    return summary, seconds, memory
+
+
+def engine_lines(beta: float, rows: list[tuple], heuristic_rows: list[tuple]) -> list[str]:
+    """The engine's and the heuristics' tables from their runs."""
     lines = [
-        f"## Core engine: `swazure evaluate`, every ordered blind pair, beta {args.beta}",
+        f"## Core engine: `swazure evaluate`, every ordered blind pair, beta {beta}",
         "",
         "Wall time of the whole process (start-up, reading, evaluating, writing summary.json",
         "and pairs.csv), its peak resident memory, and the engine's own time (summary.json",
@@ -75,7 +80,7 @@ def engine_section(args: argparse.Namespace) -> list[str]:
         )
     lines += [
         "",
-        f"## Heuristics: Move Obstructing and Move Source, Shortest-Length, beta {args.beta}",
+        f"## Heuristics: Move Obstructing and Move Source, Shortest-Length, beta {beta}",
         "",
         "Wall time includes the plain evaluation the heuristic starts from. Tried pairs are",
         "the BLOCKED pairs without a sweet path; % of all ordered blind pairs after the",
