@@ -10,6 +10,7 @@ import os
 import subprocess
 import time
 from pathlib import Path
+from typing import Any
 
 from bench.common import REPO, resident_mb, spawn_command, swarm_cloud
 
@@ -17,85 +18,135 @@ from bench.common import REPO, resident_mb, spawn_command, swarm_cloud
 SOAK_SECONDS = float(os.environ.get("SWAZURE_SOAK_SECONDS", 1800))
 
 
-def soak_section(args: argparse.Namespace) -> list[str]:
+def soak_section(
+    args: argparse.Namespace,
+    shape: str = "chess_408",
+    domain: int = 94,
+    seconds: float = SOAK_SECONDS,
+    figures: Path = REPO / "docs" / "figures",
+) -> list[str]:
     """A chess swarm answering pose queries without pause: memory and endpoints over time."""
+    run = soak_run(swarm_cloud(shape), args.beta, domain, seconds)
+    if run is None:
+        return ["## Soak", "", "the chess swarm did not come up", ""]
+    samples, latencies, failures = run
+    soak_figure(samples, figures / "soak.png")
+    return soak_lines(samples, latencies, failures, seconds)
+
+
+def soak_run(
+    cloud: str, beta: float, domain: int, seconds: float
+) -> tuple[list[dict[str, float]], list[float], list[str]] | None:
+    """Random blind pairs asked of a spawned swarm for ``seconds``: samples, latencies, failures.
+
+    A sample a minute (and one at each end) of the swarm's memory and the ROS graph's counts;
+    None when the swarm does not come up.
+    """
     import numpy as np
-    import rclpy.executors
-    from swazure_interfaces.srv import ComputePose
 
     from swazure_ros.core.evaluate import neighbourhood
     from swazure_ros.core.sensor import BLIND
-    from swazure_ros.ros.names import POLICY_CODES
-    from swazure_ros.ros.runtime import SwarmNode, init_context
     from swazure_ros.sim.world import WorldSpec
 
-    domain, cloud = 94, swarm_cloud("chess_408")
-    world = WorldSpec(cloud, beta=args.beta).build()
+    world = WorldSpec(cloud, beta=beta).build()
     pairs = neighbourhood(world.swarm, world.sensor).pairs
     blind = np.flatnonzero(pairs.range_class == BLIND)
     rng = np.random.default_rng(0)
-    process = subprocess.Popen(spawn_command(cloud, domain), stdout=subprocess.PIPE, text=True)
     samples: list[dict[str, float]] = []
     latencies: list[float] = []
     failures: list[str] = []
-    try:
-        assert process.stdout is not None
-        if not process.stdout.readline().startswith("swarm up:"):
-            return ["## Soak", "", "the chess swarm did not come up", ""]
-        context = init_context(domain)
-        node = SwarmNode("bench_soak", context=context)
-        executor = rclpy.executors.SingleThreadedExecutor(context=context)
-        executor.add_node(node)
-        client = node.create_client(ComputePose, "/swarm/coordinator/compute_pose")
-        while not client.service_is_ready():
-            executor.spin_once(timeout_sec=0.1)
+    # The with closes the swarm's pipe once it has stopped.
+    with subprocess.Popen(
+        spawn_command(cloud, domain), stdout=subprocess.PIPE, text=True
+    ) as process:
+        try:
+            assert process.stdout is not None
+            if not process.stdout.readline().startswith("swarm up:"):
+                return None
+            context, node, executor, client = soak_client(domain)
 
-        def sample(elapsed: float) -> None:
-            rss = resident_mb(process.pid)
-            topics = node.get_topic_names_and_types()
-            samples.append({
-                "minute": elapsed / 60, "rss": rss, "answered": len(latencies),
-                "failed": len(failures), "nodes": len(node.get_node_names()),
-                "publishers": sum(node.count_publishers(t) for t, _ in topics),
-                "subscriptions": sum(node.count_subscribers(t) for t, _ in topics),
-                "services": len(node.get_service_names_and_types()),
-            })  # fmt: skip
+            def sample(elapsed: float) -> None:
+                rss = resident_mb(process.pid)
+                topics = node.get_topic_names_and_types()
+                samples.append({
+                    "minute": elapsed / 60, "rss": rss, "answered": len(latencies),
+                    "failed": len(failures), "nodes": len(node.get_node_names()),
+                    "publishers": sum(node.count_publishers(t) for t, _ in topics),
+                    "subscriptions": sum(node.count_subscribers(t) for t, _ in topics),
+                    "services": len(node.get_service_names_and_types()),
+                })  # fmt: skip
 
-        began = time.monotonic()
-        sample(0.0)
-        next_sample = 60.0
-        while time.monotonic() - began < SOAK_SECONDS:
-            pair = int(rng.choice(blind))
-            source, target = (
-                int(world.ids[pairs.first[pair]]),
-                int(world.ids[pairs.second[pair]]),
-            )
-            request = ComputePose.Request(
-                source_id=source, target_id=target, policy=POLICY_CODES["shortest-length"]
-            )
-            asked = time.monotonic()
-            future = client.call_async(request)
-            while not future.done() and time.monotonic() - asked < 60:
-                executor.spin_once(timeout_sec=0.05)
-            if future.done() and future.result().success:
-                latencies.append(time.monotonic() - asked)
-            else:
-                failures.append(f"{source}->{target}")
-            if time.monotonic() - began >= next_sample:
-                sample(time.monotonic() - began)
-                next_sample += 60.0
-        sample(time.monotonic() - began)
-        executor.shutdown()
-        node.destroy_node()
-        context.try_shutdown()
-    finally:
-        process.terminate()
-        process.wait(timeout=300)
-    figure_path = REPO / "docs" / "figures" / "soak.png"
-    soak_figure(samples, figure_path)
+            began = time.monotonic()
+            sample(0.0)
+            next_sample = 60.0
+            while time.monotonic() - began < seconds:
+                pair = int(rng.choice(blind))
+                source, target = (
+                    int(world.ids[pairs.first[pair]]),
+                    int(world.ids[pairs.second[pair]]),
+                )
+                latency = asked_pose(client, executor, source, target)
+                if latency is not None:
+                    latencies.append(latency)
+                else:
+                    failures.append(f"{source}->{target}")
+                if time.monotonic() - began >= next_sample:
+                    sample(time.monotonic() - began)
+                    next_sample += 60.0
+            sample(time.monotonic() - began)
+            executor.shutdown()
+            node.destroy_node()
+            context.try_shutdown()
+        finally:
+            process.terminate()
+            process.wait(timeout=300)
+    return samples, latencies, failures
+
+
+def soak_client(domain: int) -> tuple[Any, Any, Any, Any]:
+    """A client node of the coordinator's compute_pose on ``domain``, once the service is up."""
+    import rclpy.executors
+    from swazure_interfaces.srv import ComputePose
+
+    from swazure_ros.ros.runtime import SwarmNode, init_context
+
+    context = init_context(domain)
+    node = SwarmNode("bench_soak", context=context)
+    executor = rclpy.executors.SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    client = node.create_client(ComputePose, "/swarm/coordinator/compute_pose")
+    while not client.service_is_ready():
+        executor.spin_once(timeout_sec=0.1)
+    return context, node, executor, client
+
+
+def asked_pose(client: Any, executor: Any, source: int, target: int) -> float | None:
+    """The latency of one compute_pose of ``source`` -> ``target``, s; None if not answered."""
+    from swazure_interfaces.srv import ComputePose
+
+    from swazure_ros.ros.names import POLICY_CODES
+
+    request = ComputePose.Request(
+        source_id=source, target_id=target, policy=POLICY_CODES["shortest-length"]
+    )
+    asked = time.monotonic()
+    future = client.call_async(request)
+    while not future.done() and time.monotonic() - asked < 60:
+        executor.spin_once(timeout_sec=0.05)
+    if future.done() and future.result().success:
+        return time.monotonic() - asked
+    return None
+
+
+def soak_lines(
+    samples: list[dict[str, float]], latencies: list[float], failures: list[str], seconds: float
+) -> list[str]:
+    """The soak's section from its samples, latencies (s) and failed pairs."""
+    import numpy as np
+
     first, last = samples[0], samples[-1]
     lines = [
-        f"## Soak: a chess swarm answering queries for {SOAK_SECONDS / 60:.0f} minutes",
+        f"## Soak: a chess swarm answering queries for {seconds / 60:.0f} minutes",
         "",
         "`swazure spawn` of chess_408 (beta 0.5, one process); a client asks",
         "`/swarm/coordinator/compute_pose` for random blind pairs (seeded), one after another,",
