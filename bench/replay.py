@@ -18,20 +18,17 @@ from bench.common import REPO, SWAZURE, spawn_command, swarm_cloud
 REPLAY_SECONDS = float(os.environ.get("SWAZURE_REPLAY_SECONDS", 600))
 
 
-def replay_section(args: argparse.Namespace) -> list[str]:
+def replay_section(
+    args: argparse.Namespace,
+    shape: str = "chess_408",
+    domain: int = 94,
+    seconds: float = REPLAY_SECONDS,
+    figures: Path = REPO / "docs" / "figures",
+) -> list[str]:
     """A swarm under valid queries while a peer replays an earlier swarm of the same key file."""
-    import threading
-
-    import numpy as np
-
-    from swazure_ros.core.evaluate import evaluate_pairs
     from swazure_ros.ros.keys import new_key, write_key
-    from swazure_ros.sim.world import WorldSpec
 
-    domain, cloud, policy = 94, swarm_cloud("chess_408"), "shortest-length"
-    world = WorldSpec(cloud, beta=args.beta).build()
-    engine = evaluate_pairs(world.hood, policy)
-    rng = np.random.default_rng(0)
+    cloud = swarm_cloud(shape)
     folder = Path(tempfile.mkdtemp(prefix="swazure-replay-soak-"))
     key = folder / "swarm.key"
     write_key(key, new_key())
@@ -46,9 +43,37 @@ def replay_section(args: argparse.Namespace) -> list[str]:
     if earlier.returncode != 0:
         return ["## Replay of an earlier swarm", "", f"the earlier swarm failed: {earlier.stderr}"]
     recorded = earlier.stderr.split("recorded ")[-1].split(" messages")[0]
-    swarm = subprocess.Popen(
-        spawn_command(cloud, domain, "--key-file", str(key)), stdout=subprocess.PIPE, text=True
+    soak = replayed_soak(cloud, args.beta, domain, key, bag, seconds)
+    if soak is None:
+        return ["## Replay of an earlier swarm", "", "the chess swarm did not come up"]
+    answers, samples, diagnostics, replays = soak
+    hostile_figure(
+        samples,
+        figures / "replay-soak.png",
+        "chess_408 swarm under queries, an earlier swarm replayed into it",
     )
+    return replay_lines(seconds, recorded, answers, replays, samples, diagnostics)
+
+
+def replayed_soak(
+    cloud: str, beta: float, domain: int, key: Path, bag: Path, seconds: float
+) -> tuple[tuple[int, int, int], list[tuple[float, float]], dict, list[str]] | None:
+    """Queries of a swarm of ``key`` for ``seconds`` while ``bag`` is replayed again and again.
+
+    Right, wrong and unanswered queries, the memory samples, the swarm's diagnostics and
+    each replay's report; None when the swarm does not come up.
+    """
+    import threading
+
+    import numpy as np
+
+    from swazure_ros.core.evaluate import evaluate_pairs
+    from swazure_ros.sim.world import WorldSpec
+
+    policy = "shortest-length"
+    world = WorldSpec(cloud, beta=beta).build()
+    engine = evaluate_pairs(world.hood, policy)
+    rng = np.random.default_rng(0)
     diagnostics: dict[str, dict[str, str]] = {}
     replays: list[str] = []
     stop = threading.Event()
@@ -61,30 +86,42 @@ def replay_section(args: argparse.Namespace) -> list[str]:
             )  # fmt: skip
             replays.append(done.stdout.strip() or done.stderr.strip())
 
-    try:
-        assert swarm.stdout is not None
-        if not swarm.stdout.readline().startswith("swarm up:"):
-            return ["## Replay of an earlier swarm", "", "the chess swarm did not come up"]
-        context, node, executor, client = pose_client(domain, "bench_replay", diagnostics)
-        peer = threading.Thread(target=replay_again_and_again, daemon=True)
-        peer.start()
-        right, wrong, unanswered, samples = ask_random_pairs(
-            client, executor, world, engine, policy, REPLAY_SECONDS, swarm.pid, rng
-        )
-        stop.set()
-        peer.join(timeout=1800)
-        close_client(context, node, executor)
-    finally:
-        stop.set()
-        swarm.terminate()
-        swarm.wait(timeout=300)
-    hostile_figure(
-        samples,
-        REPO / "docs" / "figures" / "replay-soak.png",
-        "chess_408 swarm under queries, an earlier swarm replayed into it",
-    )
+    # The with closes the swarm's pipe once it has stopped.
+    with subprocess.Popen(
+        spawn_command(cloud, domain, "--key-file", str(key)), stdout=subprocess.PIPE, text=True
+    ) as swarm:
+        try:
+            assert swarm.stdout is not None
+            if not swarm.stdout.readline().startswith("swarm up:"):
+                return None
+            context, node, executor, client = pose_client(domain, "bench_replay", diagnostics)
+            peer = threading.Thread(target=replay_again_and_again, daemon=True)
+            peer.start()
+            right, wrong, unanswered, samples = ask_random_pairs(
+                client, executor, world, engine, policy, seconds, swarm.pid, rng
+            )
+            stop.set()
+            peer.join(timeout=1800)
+            close_client(context, node, executor)
+        finally:
+            stop.set()
+            swarm.terminate()
+            swarm.wait(timeout=300)
+    return (right, wrong, unanswered), samples, diagnostics, replays
+
+
+def replay_lines(
+    seconds: float,
+    recorded: str,
+    answers: tuple[int, int, int],
+    replays: list[str],
+    samples: list[tuple[float, float]],
+    diagnostics: dict[str, dict[str, str]],
+) -> list[str]:
+    """The replay section from the soak's right, wrong and unanswered queries and counters."""
+    right, wrong, unanswered = answers
     lines = [
-        f"## Replay of an earlier swarm: valid queries for {REPLAY_SECONDS / 60:.0f} minutes "
+        f"## Replay of an earlier swarm: valid queries for {seconds / 60:.0f} minutes "
         "while a peer plays back a recording of an earlier swarm of the same key file",
         "",
         "One key file (`swazure key`). The earlier swarm: `swazure spawn` of chess_408 (beta",
