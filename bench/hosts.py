@@ -27,34 +27,42 @@ HOST_SIZES = (25, 50, 100, 200)
 CHECKED_SIZE = 100
 
 
-def hosts_section(args: argparse.Namespace) -> list[str]:
+def hosts_section(
+    args: argparse.Namespace,
+    sizes: tuple[int, ...] = HOST_SIZES,
+    hosts: int = HOSTS,
+    discoveries: tuple[str, ...] = ("server", "simple"),
+    figures: Path = REPO / "docs" / "figures",
+    records_dir: Path = SECTIONS_DIR,
+    prefix: str = "swzbench",
+) -> list[str]:
     """One process per FLS over 4 network-namespace hosts: simple discovery beside the server."""
     title = "## One process per FLS across hosts"
     script = REPO / "scripts" / "netns_hosts.sh"
     if os.geteuid() != 0 or shutil.which("ip") is None:
         return [title, "", "Skipped: network namespaces need root and iproute2."]
-    env = dict(os.environ, SWAZURE_NETNS_PREFIX="swzbench")
+    env = dict(os.environ, SWAZURE_NETNS_PREFIX=prefix)
     env.pop("ROS_AUTOMATIC_DISCOVERY_RANGE", None)
-    subprocess.run([str(script), "up", str(HOSTS)], env=env, check=True, capture_output=True)
+    subprocess.run([str(script), "up", str(hosts)], env=env, check=True, capture_output=True)
     records: list[dict] = []
     try:
-        for flss in HOST_SIZES:
-            for discovery in ("server", "simple"):
-                out = SECTIONS_DIR / f"hosts-{flss}-{discovery}.json"
+        for flss in sizes:
+            for discovery in discoveries:
+                out = records_dir / f"hosts-{flss}-{discovery}.json"
                 extra = ["--compute-all", "--faults"] if flss == CHECKED_SIZE else []
                 print(f"bench: hosts, {flss} FLS processes, {discovery} discovery", flush=True)
                 command = [str(script), "exec", "0", sys.executable,
                            "-m", "bench.measure_hosts", "--flss", str(flss),
-                           "--hosts", str(HOSTS), "--discovery", discovery,
+                           "--hosts", str(hosts), "--discovery", discovery,
                            "--out", str(out), *extra]  # fmt: skip
                 try:
-                    subprocess.run(command, env=env, timeout=1800, capture_output=True)
+                    subprocess.run(command, env=env, timeout=1800, capture_output=True, cwd=REPO)
                     records.append(json.loads(out.read_text()))
                 except (subprocess.TimeoutExpired, OSError, ValueError) as err:
                     records.append({"flss": flss, "discovery": discovery, "stopped": str(err)})
     finally:
         subprocess.run([str(script), "down"], env=env, capture_output=True)
-    hosts_figures(records, REPO / "docs" / "figures")
+    hosts_figures(records, figures)
     return hosts_lines(records)
 
 
@@ -82,34 +90,56 @@ def hosts_lines(records: list[dict]) -> list[str]:
         "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: "
         "| --- |",
     ]
-    for record in records:
-        count = record.get("fls_processes", record["flss"])
-        if "bring_up_s" not in record:
-            stopped = record.get("stopped", "?").replace("|", "/")
-            # Memory and CPU at the stop count only if every FLS process was still there.
-            whole = record.get("fls_processes") == record["flss"]
-            lines.append(
-                f"| {record['flss']} | {record['discovery']} | {stopped} "
-                f"| {table_cell(record, 'cpu_s', '.0f') if whole else '-'} | - | - "
-                f"| {table_cell(record, 'total_pss_mb', '.2f', 1e-3) if whole else '-'} | - "
-                f"| {record.get('stopped_packets', '-')} "
-                f"| {table_cell(record, 'stopped_bytes', '.1f', 1e-6)} | - | - | - |"
-            )
-            continue
-        identical = record.get("identical", "-")
-        if "pairs" in record:
-            identical = f"{identical} ({record['pairs']} pairs, {record['discovery_s']:.1f} s)"
-        lines.append(
-            f"| {count} | {record['discovery']} | {record['bring_up_s']:.1f} "
-            f"| {table_cell(record, 'bring_up_cpu_s', '.0f')} "
-            f"| {table_cell(record, 'bring_up_cpu_s', '.2f', 1 / count)} "
-            f"| {table_cell(record, 'fls_rss_mb_mean', '.0f')} "
-            f"| {table_cell(record, 'total_pss_mb', '.2f', 1e-3)} "
-            f"| {table_cell(record, 'idle_cpu_cores', '.2f')} "
-            f"| {record['bring_up_packets']} | {record['bring_up_bytes'] / 1e6:.1f} "
-            f"| {table_cell(record, 'idle_packets_per_s', '.0f')} "
-            f"| {table_cell(record, 'idle_bytes_per_s', '.1f', 1e-3)} | {identical} |"
+    lines += [hosts_row(record) for record in records]
+    lines += hosts_faults_lines(records)
+    lines += [
+        "",
+        "Targets (issue 56): 200 FLS processes up and matched in under 90 s through the "
+        "server, with bring-up CPU per FLS process flat from 25 to 200. On this machine "
+        "bring-up is bound by its two cores (bring-up CPU s above): every FLS process costs "
+        "seconds of CPU to start and discover, where a real FLS has a computer of its own; "
+        "and on a shape inside the sensor's reach every FLS hears every other, so each "
+        "process still matches every other's radio endpoints. docs/swarm.md reads the table.",
+        "",
+        "Figures: docs/figures/hosts-bringup.png, docs/figures/hosts-traffic.png, "
+        "docs/figures/hosts-cpu.png.",
+    ]
+    return lines
+
+
+def hosts_row(record: dict) -> str:
+    """One row of the hosts table: a swarm up, or where its bring-up stopped."""
+    count = record.get("fls_processes", record["flss"])
+    if "bring_up_s" not in record:
+        stopped = record.get("stopped", "?").replace("|", "/")
+        # Memory and CPU at the stop count only if every FLS process was still there.
+        whole = record.get("fls_processes") == record["flss"]
+        return (
+            f"| {record['flss']} | {record['discovery']} | {stopped} "
+            f"| {table_cell(record, 'cpu_s', '.0f') if whole else '-'} | - | - "
+            f"| {table_cell(record, 'total_pss_mb', '.2f', 1e-3) if whole else '-'} | - "
+            f"| {record.get('stopped_packets', '-')} "
+            f"| {table_cell(record, 'stopped_bytes', '.1f', 1e-6)} | - | - | - |"
         )
+    identical = record.get("identical", "-")
+    if "pairs" in record:
+        identical = f"{identical} ({record['pairs']} pairs, {record['discovery_s']:.1f} s)"
+    return (
+        f"| {count} | {record['discovery']} | {record['bring_up_s']:.1f} "
+        f"| {table_cell(record, 'bring_up_cpu_s', '.0f')} "
+        f"| {table_cell(record, 'bring_up_cpu_s', '.2f', 1 / count)} "
+        f"| {table_cell(record, 'fls_rss_mb_mean', '.0f')} "
+        f"| {table_cell(record, 'total_pss_mb', '.2f', 1e-3)} "
+        f"| {table_cell(record, 'idle_cpu_cores', '.2f')} "
+        f"| {record['bring_up_packets']} | {record['bring_up_bytes'] / 1e6:.1f} "
+        f"| {table_cell(record, 'idle_packets_per_s', '.0f')} "
+        f"| {table_cell(record, 'idle_bytes_per_s', '.1f', 1e-3)} | {identical} |"
+    )
+
+
+def hosts_faults_lines(records: list[dict]) -> list[str]:
+    """The faults table of the records that ran them; none when none did."""
+    lines: list[str] = []
     faults = [
         (record, kind) for record in records for kind in ("fault_fls", "fault_server")
         if kind in record
@@ -143,18 +173,6 @@ def hosts_lines(records: list[dict]) -> list[str]:
         if after:
             lines += ["", f"FLSs the coordinator took for gone in the 30 s after the server "
                       f"was killed: {after[0] or 'none'}."]  # fmt: skip
-    lines += [
-        "",
-        "Targets (issue 56): 200 FLS processes up and matched in under 90 s through the "
-        "server, with bring-up CPU per FLS process flat from 25 to 200. On this machine "
-        "bring-up is bound by its two cores (bring-up CPU s above): every FLS process costs "
-        "seconds of CPU to start and discover, where a real FLS has a computer of its own; "
-        "and on a shape inside the sensor's reach every FLS hears every other, so each "
-        "process still matches every other's radio endpoints. docs/swarm.md reads the table.",
-        "",
-        "Figures: docs/figures/hosts-bringup.png, docs/figures/hosts-traffic.png, "
-        "docs/figures/hosts-cpu.png.",
-    ]
     return lines
 
 
