@@ -9,10 +9,10 @@ import argparse
 import json
 import sys
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 from bench.common import (
-    DATASETS,
     REPO,
     RUN_LIMIT,
     SECTIONS_DIR,
@@ -32,17 +32,26 @@ SWARM_SOLVE_LARGE = ("torus:10000",)
 SWARM_SOLVE_PACKED = ("chess_408", "dragon_1147", "racecar_3720")
 
 
-def swarm_solve_section(args: argparse.Namespace) -> list[str]:
+def swarm_solve_section(
+    args: argparse.Namespace,
+    shapes: Sequence[str] = SHAPES,
+    sensors: dict[str, Path] = FIT_SENSORS,
+    betas: Sequence[float] = FIT_BETAS,
+    large: Sequence[str] = SWARM_SOLVE_LARGE,
+    packed_shapes: Sequence[str] = SWARM_SOLVE_PACKED,
+    figures: Path = REPO / "docs" / "figures",
+    records_dir: Path = SECTIONS_DIR,
+) -> list[str]:
     """The swarm's own solve of the least-squares fit beside the central one, on every shape."""
     rows = []
-    for shape in SHAPES:
-        for sensor_name, sensor in FIT_SENSORS.items():
-            for beta in FIT_BETAS:
+    for shape in shapes:
+        for sensor_name, sensor in sensors.items():
+            for beta in betas:
                 extra = []
                 if sensor_name != "published" and beta == 0.5:
                     extra = ["--outliers", "--warm"]
                 command = [sys.executable, "-m", "bench.measure_swarm_solve",
-                           str(DATASETS / f"{shape}.xyz"), "--beta", str(beta),
+                           swarm_cloud(shape), "--beta", str(beta),
                            "--sensor", str(sensor), *extra]  # fmt: skip
                 print(f"swarm solve: {shape} {sensor_name} beta {beta}", file=sys.stderr)
                 _, memory, code, output = run_output(command)
@@ -51,7 +60,7 @@ def swarm_solve_section(args: argparse.Namespace) -> list[str]:
                 result = json.loads(output)
                 result.update(shape=shape, sensor=sensor_name, beta=beta, peak_mb=memory)
                 rows.append(result)
-    for shape in SWARM_SOLVE_LARGE:
+    for shape in large:
         command = [sys.executable, "-m", "bench.measure_swarm_solve", shape,
                    "--beta", "0.5", "--sensor", str(FIT_SENSORS["wide, calibrated"]),
                    "--no-central", "--warm"]  # fmt: skip
@@ -62,19 +71,19 @@ def swarm_solve_section(args: argparse.Namespace) -> list[str]:
         result = json.loads(output)
         result.update(shape=shape, sensor="wide, calibrated", beta=0.5, peak_mb=memory)
         rows.append(result)
-    packed = swarm_solve_packed()
-    (SECTIONS_DIR / "swarm-solve.json").write_text(
+    packed = swarm_solve_packed(packed_shapes)
+    (records_dir / "swarm-solve.json").write_text(
         json.dumps({"rows": rows, "packed": packed}, indent=1)
     )
-    swarm_solve_figure(rows, REPO / "docs" / "figures" / "swarm-solve.png")
+    swarm_solve_figure(rows, figures / "swarm-solve.png")
     return swarm_solve_lines(rows, packed)
 
 
-def swarm_solve_packed() -> list[dict]:
+def swarm_solve_packed(shapes: Sequence[str] = SWARM_SOLVE_PACKED) -> list[dict]:
     """`spawn --compute-all` of a few shapes in one process: plain paths, then the swarm's fit."""
     sensor = str(FIT_SENSORS["wide, calibrated"])
     rows = []
-    for name in SWARM_SOLVE_PACKED:
+    for name in shapes:
         for estimator in ("path", "swarm-fit"):
             with tempfile.TemporaryDirectory() as out:
                 row = compute_all(
@@ -86,18 +95,22 @@ def swarm_solve_packed() -> list[dict]:
     return rows
 
 
+def mean_cell(fit: dict | None, part: str) -> str:
+    """A fit's mean error on ``part`` (sweet or decaying pairs), 3 digits; "-" when none."""
+    if fit is None or not fit[part]["count"]:
+        return "-"
+    return f"{fit[part]['mean']:.3g}"
+
+
+def swarm_over_central(row: dict, part: str) -> float:
+    """The swarm's mean error on ``part`` over the central fit's; NaN when not measured."""
+    if "central" not in row or not row["central"][part]["count"]:
+        return float("nan")
+    return row["swarm"][part]["mean"] / row["central"][part]["mean"]
+
+
 def swarm_solve_lines(rows: list[dict], packed: list[dict]) -> list[str]:
     """The swarm solve's section of BENCHMARKS.md from bench_swarm_solve.py's results."""
-
-    def mean(fit: dict | None, part: str) -> str:
-        if fit is None or not fit[part]["count"]:
-            return "-"
-        return f"{fit[part]['mean']:.3g}"
-
-    def ratio(row: dict, part: str) -> float:
-        if "central" not in row or not row["central"][part]["count"]:
-            return float("nan")
-        return row["swarm"][part]["mean"] / row["central"][part]["mean"]
 
     lines = [
         "## The swarm's own least-squares fit: `--estimator swarm-fit`",
@@ -122,26 +135,43 @@ def swarm_solve_lines(rows: list[dict], packed: list[dict]) -> list[str]:
         "| NEES LS / SW | iterations | diameter | FLS us | engine s | LS s | SW s |",
         "| --- | --- | ---: | --- | --- | --- | --- | --- | ---: | --- | ---: | ---: | ---: |",
     ]
-    for row in rows:
-        central, swarm = row.get("central"), row["swarm"]
-        solves = " ; ".join(
-            f"{'+'.join(map(str, one[:-1]))} + {one[-1]}" for one in row["iterations"]
-        )
-        nees = " / ".join(
-            "-" if fit is None else f"{fit['nees_mean']:.2f}" for fit in (central, swarm)
-        )
-        central_s = "-" if row["central_s"] is None else f"{row['central_s']:.1f}"
-        lines.append(
-            f"| {row['shape']} | {row['sensor']} | {row['beta']} | "
-            f"{mean(central, 'sweet')} / {mean(swarm, 'sweet')} | "
-            f"{mean(central, 'decaying')} / {mean(swarm, 'decaying')} | "
-            f"{ratio(row, 'sweet'):.4f}, {ratio(row, 'decaying'):.4f} | {nees} | "
-            f"{solves} | "
-            f"{row['diameter_hops']} | {row['fls_work_us']['mean']:.0f} / "
-            f"{row['fls_work_us']['max']:.0f} | {row['engine_s']:.1f} | {central_s} | "
-            f"{row['swarm_s']:.1f} |"
-        )
+    lines += [swarm_solve_row(row) for row in rows]
+    lines += swarm_solve_warm(rows)
+    lines += swarm_solve_outliers(rows)
+    lines += swarm_solve_packed_lines(packed)
     lines += [
+        "",
+        *swarm_solve_targets(rows, packed),
+        "",
+        "![swarm solve](docs/figures/swarm-solve.png)",
+    ]
+    return lines
+
+
+def swarm_solve_row(row: dict) -> str:
+    """One row of the main table: a shape, sensor and beta's fits, their costs."""
+    central, swarm = row.get("central"), row["swarm"]
+    solves = " ; ".join(f"{'+'.join(map(str, one[:-1]))} + {one[-1]}" for one in row["iterations"])
+    nees = " / ".join(
+        "-" if fit is None else f"{fit['nees_mean']:.2f}" for fit in (central, swarm)
+    )
+    central_s = "-" if row["central_s"] is None else f"{row['central_s']:.1f}"
+    return (
+        f"| {row['shape']} | {row['sensor']} | {row['beta']} | "
+        f"{mean_cell(central, 'sweet')} / {mean_cell(swarm, 'sweet')} | "
+        f"{mean_cell(central, 'decaying')} / {mean_cell(swarm, 'decaying')} | "
+        f"{swarm_over_central(row, 'sweet'):.4f}, "
+        f"{swarm_over_central(row, 'decaying'):.4f} | {nees} | "
+        f"{solves} | "
+        f"{row['diameter_hops']} | {row['fls_work_us']['mean']:.0f} / "
+        f"{row['fls_work_us']['max']:.0f} | {row['engine_s']:.1f} | {central_s} | "
+        f"{row['swarm_s']:.1f} |"
+    )
+
+
+def swarm_solve_warm(rows: list[dict]) -> list[str]:
+    """The warm-start table: iterations cold and warm after FLSs depart or move."""
+    lines = [
         "",
         "Moving and failing FLSs, wide calibrated sensor at beta 0.5: iterations of the first",
         "solve from nothing, and from the last fit's positions (a warm start) after 1 % of the",
@@ -157,7 +187,12 @@ def swarm_solve_lines(rows: list[dict], packed: list[dict]) -> list[str]:
                 f"| {row['shape']} | {row['flss']:,} | {warm['cold']} | "
                 f"{warm['departed_cold']} / {warm['departed_warm']} | {warm['moved_warm']} |"
             )
-    lines += [
+    return lines
+
+
+def swarm_solve_outliers(rows: list[dict]) -> list[str]:
+    """The outliers table: each fit's error clean and with 10 % of measurements turned."""
+    lines = [
         "",
         "Outliers, wide calibrated sensor at beta 0.5: 10 % of the measurements turned by 20",
         "degrees (`core.fit.with_outliers`, seed 1); mean distance error, %, of every pair with",
@@ -178,7 +213,12 @@ def swarm_solve_lines(rows: list[dict], packed: list[dict]) -> list[str]:
                 f"{swarm['turned_redundant']['mean']:.3g} ({redundant:.2f}x) | "
                 f"{central['downweighted']:,} / {swarm['downweighted']:,} |"
             )
-    lines += [
+    return lines
+
+
+def swarm_solve_packed_lines(packed: list[dict]) -> list[str]:
+    """The table of the swarm of FLS nodes solving the fit, beside its plain run."""
+    lines = [
         "",
         "The swarm of FLS nodes solving it, one process (`spawn --compute-all --estimator",
         "swarm-fit`, wide calibrated sensor, beta 0.5), beside the same swarm's plain run:",
@@ -197,12 +237,6 @@ def swarm_solve_lines(rows: list[dict], packed: list[dict]) -> list[str]:
             f"| {row['shape']} | {row['estimator']} | {row['discovery']:.1f} | {row['rounds']} "
             f"| {row['messages']:,} | {row['engine']:.1f} | {row['identical']} | {row['peak']} |"
         )
-    lines += [
-        "",
-        *swarm_solve_targets(rows, packed),
-        "",
-        "![swarm solve](docs/figures/swarm-solve.png)",
-    ]
     return lines
 
 
