@@ -11,6 +11,7 @@ import re
 import signal
 import subprocess
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 from bench.common import REPO, SECTIONS_DIR, swarm_cloud, table_cell
@@ -36,21 +37,31 @@ CELL_RUNS = (
 CELL_LIMIT = 1800
 
 
-def cells_section(args: argparse.Namespace) -> list[str]:
+def cells_section(
+    args: argparse.Namespace,
+    runs: Sequence[tuple[str, int]] = CELL_RUNS,
+    domain: int = 93,
+    figures: Path = REPO / "docs" / "figures",
+    records_dir: Path = SECTIONS_DIR,
+) -> list[str]:
     """Radio cells: per packed process and FLS, what one discovery run hears and spends."""
-    records = [cell_record(shape, processes, args.beta) for shape, processes in CELL_RUNS]
-    cells_figure(records, REPO / "docs" / "figures" / "cells-per-fls.png")
+    records = [
+        cell_record(shape, processes, args.beta, domain, records_dir) for shape, processes in runs
+    ]
+    cells_figure(records, figures / "cells-per-fls.png")
     return cells_lines(records)
 
 
-def cell_record(shape: str, processes: int, beta: float) -> dict:
+def cell_record(
+    shape: str, processes: int, beta: float, domain: int = 93, records_dir: Path = SECTIONS_DIR
+) -> dict:
     """One bench_cells run of ``shape`` over ``processes``: its record, or why it stopped."""
-    cloud = shape if shape.startswith("torus") else swarm_cloud(shape)
-    out = SECTIONS_DIR / f"cells-{shape.replace(':', '')}-{processes}.json"
+    cloud = swarm_cloud(shape)
+    out = records_dir / f"cells-{shape.replace(':', '')}-{processes}.json"
     print(f"bench: cells, {shape} over {processes} process(es)", flush=True)
     command = [sys.executable, "-m", "bench.measure_cells", "--cloud", cloud,
                "--processes", str(processes), "--beta", str(beta),
-               "--out", str(out)]  # fmt: skip
+               "--domain-id", str(domain), "--out", str(out)]  # fmt: skip
     try:
         done = subprocess.run(command, timeout=CELL_LIMIT, capture_output=True, text=True)
         if done.returncode != 0:
