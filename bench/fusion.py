@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 from bench.common import SHAPES
@@ -17,7 +18,13 @@ from bench.policies import POLICY_SENSORS, evaluated
 FUSION_SHAPES = SHAPES[:3]
 
 
-def fusion_section(args: argparse.Namespace) -> list[str]:
+def fusion_section(
+    args: argparse.Namespace,
+    shapes: Sequence[str] = FUSION_SHAPES,
+    sensors: dict[str, Path] = POLICY_SENSORS,
+    policies: Sequence[str] = ("shortest-length", "least-error"),
+    fused: Sequence[int] = (1, 2, 3),
+) -> list[str]:
     """Multi-path fusion and predicted errors per shape, sensor and policy (issue 19)."""
     lines = [
         "## Multi-path fusion: `swazure evaluate --fuse K`, beta 0.5",
@@ -33,31 +40,35 @@ def fusion_section(args: argparse.Namespace) -> list[str]:
         "| --- | --- | --- | ---: | ---: | --- | ---: | ---: | ---: | ---: |",
     ]
     with tempfile.TemporaryDirectory() as scratch:
-        for shape in FUSION_SHAPES:
-            for sensor_name, sensor in POLICY_SENSORS.items():
-                for policy in ("shortest-length", "least-error"):
-                    for paths in (1, 2, 3):
+        for shape in shapes:
+            for sensor_name, sensor in sensors.items():
+                for policy in policies:
+                    for paths in fused:
                         out = Path(scratch) / f"{shape}-{len(lines)}"
                         summary = evaluated(
                             out, shape, args.beta, sensor, "--policy", policy, "--fuse", str(paths)
                         )
-                        within = summary["within_predicted_pct"]
-                        fusion = summary.get("fusion")
-                        if fusion is None:
-                            cells = ["-", "-", "-"]
-                            seconds = "-"
-                        else:
-                            one = fusion["distance_error_pct_one_path"]["mean"]
-                            fused = fusion["distance_error_pct_fused"]["mean"]
-                            cut = 100 * (1 - fused / one) if one else float("nan")
-                            cells = [f"{fusion['pairs_fused']:,}", f"{one:.3f} -> {fused:.3f}",
-                                     f"{cut:.1f}"]  # fmt: skip
-                            seconds = f"{fusion['seconds']:.1f}"
-                        row = (
-                            f"| {shape} | {sensor_name} | {policy} | {paths} | "
-                            f"{' | '.join(cells)} | {within:.1f} | {summary['seconds']:.2f} | "
-                            f"{seconds} |"
-                        )
+                        row = fusion_row(shape, sensor_name, policy, paths, summary)
                         print(row, flush=True)
                         lines.append(row)
     return lines
+
+
+def fusion_row(shape: str, sensor_name: str, policy: str, paths: int, summary: dict) -> str:
+    """One row: the fusion of up to ``paths`` paths from its summary.json."""
+    within = summary["within_predicted_pct"]
+    fusion = summary.get("fusion")
+    if fusion is None:
+        cells = ["-", "-", "-"]
+        seconds = "-"
+    else:
+        one = fusion["distance_error_pct_one_path"]["mean"]
+        fused = fusion["distance_error_pct_fused"]["mean"]
+        cut = 100 * (1 - fused / one) if one else float("nan")
+        cells = [f"{fusion['pairs_fused']:,}", f"{one:.3f} -> {fused:.3f}", f"{cut:.1f}"]
+        seconds = f"{fusion['seconds']:.1f}"
+    return (
+        f"| {shape} | {sensor_name} | {policy} | {paths} | "
+        f"{' | '.join(cells)} | {within:.1f} | {summary['seconds']:.2f} | "
+        f"{seconds} |"
+    )
