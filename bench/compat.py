@@ -7,20 +7,30 @@ from __future__ import annotations
 
 import argparse
 import shutil
+from collections.abc import Sequence
+from pathlib import Path
 
 from bench.common import REPO, SECTIONS_DIR, SWAZURE, run_output
 
 
-def compat_section(args: argparse.Namespace) -> list[str]:
-    """The heuristics as the text describes them beside the published code, every shape."""
+def compat_section(
+    args: argparse.Namespace,
+    betas: Sequence[str] = ("0.3", "0.4", "0.5"),
+    options: Sequence[str] = (),
+    records_dir: Path = SECTIONS_DIR,
+) -> list[str]:
+    """The heuristics as the text describes them beside the published code, every shape.
+
+    ``options`` narrow the study (a smoke test's: its clouds and heuristics).
+    """
     import csv
 
-    out = SECTIONS_DIR / "compat-study"
+    out = records_dir / "compat-study"
     if out.exists():
         shutil.rmtree(out)
-    command = [*SWAZURE, "study", "--betas", "0.3", "0.4", "0.5", "--policies",
+    command = [*SWAZURE, "study", "--betas", *betas, "--policies",
                "shortest-length", "--compat", "published", "--out", str(out),
-               "--quiet"]  # fmt: skip
+               "--quiet", *options]  # fmt: skip
     seconds, memory, code, _ = run_output(command)
     lines = [
         "## The published code beside the text: `swazure study --compat published`",

@@ -8,13 +8,23 @@ from __future__ import annotations
 import argparse
 import json
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 from bench.common import SWAZURE, du_mb, run
 
 
-def study_section(args: argparse.Namespace) -> list[str]:
-    """The full default study, cold and with nothing changed."""
+def study_section(
+    args: argparse.Namespace,
+    options: Sequence[str] = (),
+    shape: str = "chess_408",
+    runs: int = 162,
+) -> list[str]:
+    """The full default study, cold and with nothing changed.
+
+    ``options`` narrow the study (a smoke test's); ``shape`` is one of its shapes and
+    ``runs`` how many runs it computes cold.
+    """
     lines = [
         "## The published study: `swazure study --jobs 2`",
         "",
@@ -30,7 +40,7 @@ def study_section(args: argparse.Namespace) -> list[str]:
     with tempfile.TemporaryDirectory() as scratch:
         out = Path(scratch) / "study"
         for case in ("cold", "cached"):
-            command = [*SWAZURE, "study", "--out", str(out), "--jobs", "2", "--quiet"]
+            command = [*SWAZURE, "study", "--out", str(out), "--jobs", "2", "--quiet", *options]
             seconds, memory, code = run(command)
             if code != 0:
                 raise SystemExit(f"bench: study ({case}) failed with exit code {code}")
@@ -38,13 +48,13 @@ def study_section(args: argparse.Namespace) -> list[str]:
                 (
                     out
                     / "runs"
-                    / "chess_408"
+                    / shape
                     / "beta-0.5"
                     / "shortest-length"
                     / "plain"
                     / "summary.json"
                 ).read_text()
-            )["study"]["key"] and (162 if case == "cold" else 0)
+            )["study"]["key"] and (runs if case == "cold" else 0)
             print(f"study {case}: {seconds:.1f} s, {memory:.0f} MB", flush=True)
             lines.append(
                 f"| {case} | {computed} | {seconds:.1f} | {memory:.0f} | {du_mb(out):,.0f} |"
