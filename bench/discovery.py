@@ -7,14 +7,20 @@ from __future__ import annotations
 
 import argparse
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from bench.common import RUN_LIMIT, SHAPE_SIZES, compute_all, swarm_cloud
 
 
-def discovery_section(args: argparse.Namespace) -> list[str]:
+def discovery_section(
+    args: argparse.Namespace,
+    sizes: dict[str, int] = SHAPE_SIZES,
+    techniques: Sequence[str] = ("plain", "move-obstructing", "move-source"),
+    domain: int = 92,
+) -> list[str]:
     """The whole-swarm computation made by the FLS nodes, next to the core engine."""
-    domain = 92
     lines = [
         "## Distributed Swazure: `swazure spawn --compute-all`, beta 0.5, Shortest-Length",
         "",
@@ -35,10 +41,10 @@ def discovery_section(args: argparse.Namespace) -> list[str]:
         "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: "
         "| ---: | --- | ---: |",
     ]
-    for name, flss in SHAPE_SIZES.items():
+    for name, flss in sizes.items():
         processes = 2 if flss > 2000 else 1
         plain_failed = ""
-        for technique in ("plain", "move-obstructing", "move-source"):
+        for technique in techniques:
             if plain_failed:
                 # A heuristic starts from the whole-swarm plain run.
                 blank = " |" * 11
@@ -58,20 +64,7 @@ def discovery_section(args: argparse.Namespace) -> list[str]:
                 blank = " |" * 11
                 lines.append(f"| {name} | {technique} | {processes} | {row['failed']} |{blank}")
                 continue
-            moving = f"{row['moving']:.1f}" if technique != "plain" else "-"
-            if row.get("timeouts"):
-                # Each wait that ended at its deadline cost round_timeout seconds.
-                moving += f" ({row['timeouts']} timed out)"
-            batches = f"{row['batches']:,}" if technique != "plain" else "-"
-            # The swarm's computation (discovery and moves) over the engine's for the same work.
-            times_engine = (row["discovery"] + row["moving"]) / max(row["engine"], 1e-9)
-            lines.append(
-                f"| {name} | {technique} | {processes} | {row['bring_up']:.1f} "
-                f"| {row['discovery']:.1f} | {row['rounds']} | {moving} | {batches} "
-                f"| {row['messages']:,} | {row['bytes'] / 1e6:,.0f} | {row['wall']:.1f} "
-                f"| {row['engine']:.1f} | {times_engine:.1f} | {row['identical']} "
-                f"| {row['peak']} |"
-            )
+            lines.append(discovery_row(name, technique, processes, row))
     lines += [
         "",
         "Move Source made by the swarm differs from the engine where the source, at its probe",
@@ -86,3 +79,21 @@ def discovery_section(args: argparse.Namespace) -> list[str]:
         "",
     ]
     return lines
+
+
+def discovery_row(name: str, technique: str, processes: int, row: dict[str, Any]) -> str:
+    """One --compute-all run's row: its phases, traffic and time beside the engine's."""
+    moving = f"{row['moving']:.1f}" if technique != "plain" else "-"
+    if row.get("timeouts"):
+        # Each wait that ended at its deadline cost round_timeout seconds.
+        moving += f" ({row['timeouts']} timed out)"
+    batches = f"{row['batches']:,}" if technique != "plain" else "-"
+    # The swarm's computation (discovery and moves) over the engine's for the same work.
+    times_engine = (row["discovery"] + row["moving"]) / max(row["engine"], 1e-9)
+    return (
+        f"| {name} | {technique} | {processes} | {row['bring_up']:.1f} "
+        f"| {row['discovery']:.1f} | {row['rounds']} | {moving} | {batches} "
+        f"| {row['messages']:,} | {row['bytes'] / 1e6:,.0f} | {row['wall']:.1f} "
+        f"| {row['engine']:.1f} | {times_engine:.1f} | {row['identical']} "
+        f"| {row['peak']} |"
+    )

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
 
 from bench.common import DATASETS, REPO, SECTIONS_DIR, SHAPES, SWAZURE, run_output
@@ -20,6 +21,8 @@ SCALE_CLOUDS = ["racecar_3720", "torus:10000", "torus:30000", "torus:65536",
 
 #: The budget at which memory should stay flat as the swarm grows.
 SCALE_FIXED_MEMORY = "512M"
+#: The clouds the section also evaluates at SCALE_FIXED_MEMORY.
+SCALE_FIXED_CLOUDS = ("racecar_3720", "torus:10000", "torus:30000", "torus:65536")
 
 
 #: The published race car's time before blocks (BENCHMARKS.md, "Core engine").
@@ -44,9 +47,9 @@ def scale_cloud(name: str) -> str:
     return str(DATASETS / f"{name}.xyz")
 
 
-def scale_run(name: str, memory: str | None) -> dict:
+def scale_run(name: str, memory: str | None, scratch_dir: Path = SECTIONS_DIR) -> dict:
     """``swazure evaluate`` of one scale cloud at beta 0.5: wall, peak, summary, pairs.csv size."""
-    with tempfile.TemporaryDirectory(dir=SECTIONS_DIR) as scratch:
+    with tempfile.TemporaryDirectory(dir=scratch_dir) as scratch:
         options = [] if memory is None else ["--memory", memory]
         wall, peak, code, _ = run_output(
             [*SWAZURE, "evaluate", "--cloud", scale_cloud(name), "--beta", "0.5", "--quiet",
@@ -64,7 +67,9 @@ def scale_run(name: str, memory: str | None) -> dict:
     return row
 
 
-def scale_identity() -> list[tuple[str, bool, bool]]:
+def scale_identity(
+    shapes: Sequence[str] = SHAPES, scratch_dir: Path = SECTIONS_DIR
+) -> list[tuple[str, bool, bool]]:
     """Each published shape: pairs.csv (and .parquet) in blocks, byte for byte the whole path's."""
     from swazure_ros.core.blocks import Budget, evaluate_blocked
     from swazure_ros.core.clouds import load_cloud
@@ -74,12 +79,12 @@ def scale_identity() -> list[tuple[str, bool, bool]]:
     from swazure_ros.core.sensor import load_sensor
 
     sensor, found = load_sensor(), []
-    for shape in SHAPES:
-        swarm = make_swarm(load_cloud(DATASETS / f"{shape}.xyz").points, beta=0.5)
+    for shape in shapes:
+        swarm = make_swarm(load_cloud(scale_cloud(shape)).points, beta=0.5)
         whole = evaluate(swarm, sensor, "shortest-length")
         same = []
         for pairs_format in ("csv", "parquet"):
-            with tempfile.TemporaryDirectory(dir=SECTIONS_DIR) as scratch:
+            with tempfile.TemporaryDirectory(dir=scratch_dir) as scratch:
                 at_once, blocked = Path(scratch) / "whole", Path(scratch) / "blocks"
                 at_once.mkdir(), blocked.mkdir()
                 _, expected = write_evaluation(at_once, whole, None, pairs_format)
@@ -95,15 +100,21 @@ def scale_identity() -> list[tuple[str, bool, bool]]:
     return found
 
 
-def scale_section(args: argparse.Namespace) -> list[str]:
+def scale_section(
+    args: argparse.Namespace,
+    clouds: Sequence[str] = SCALE_CLOUDS,
+    fixed_clouds: Sequence[str] = SCALE_FIXED_CLOUDS,
+    identity_shapes: Sequence[str] = SHAPES,
+    figures: Path = REPO / "docs" / "figures",
+    records_dir: Path = SECTIONS_DIR,
+) -> list[str]:
     """The engine at display scale: time and memory from 3,720 to 65,536 FLSs."""
-    rows = [scale_run(name, None) for name in SCALE_CLOUDS]
-    rows += [scale_run(name, SCALE_FIXED_MEMORY) for name in
-             ("racecar_3720", "torus:10000", "torus:30000", "torus:65536")]  # fmt: skip
-    identity = scale_identity()
-    (SECTIONS_DIR / "scale.json").write_text(json.dumps({"rows": rows, "identity": identity},
-                                                        indent=1))  # fmt: skip
-    scale_figure(rows, REPO / "docs" / "figures" / "engine-scale.png")
+    rows = [scale_run(name, None, records_dir) for name in clouds]
+    rows += [scale_run(name, SCALE_FIXED_MEMORY, records_dir) for name in fixed_clouds]
+    identity = scale_identity(identity_shapes, records_dir)
+    (records_dir / "scale.json").write_text(json.dumps({"rows": rows, "identity": identity},
+                                                       indent=1))  # fmt: skip
+    scale_figure(rows, figures / "engine-scale.png")
     return scale_lines(rows, identity)
 
 

@@ -11,7 +11,9 @@ import select
 import subprocess
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from bench.common import BRING_UP_LIMIT, SHAPE_SIZES, children, spawn_command, swarm_cloud
 
@@ -67,6 +69,8 @@ def message_rate(
     finally:
         process.terminate()
         process.wait(timeout=120)
+        if process.stdout is not None:
+            process.stdout.close()
         params.unlink()
 
 
@@ -117,13 +121,23 @@ def served(cloud: str, processes: int, domain: int, window: float = 20.0) -> dic
         stopped = time.monotonic()
         process.terminate()
         process.wait(timeout=900)
+        if process.stdout is not None:
+            process.stdout.close()
         row["teardown"] = time.monotonic() - stopped
     return row
 
 
-def swarm_section(args: argparse.Namespace) -> list[str]:
-    """Every published shape's swarm: bring-up, rest, message rate, teardown."""
-    domain = 91
+def swarm_section(
+    args: argparse.Namespace,
+    sizes: dict[str, int] = SHAPE_SIZES,
+    domain: int = 91,
+    processes: Sequence[int] = (1, 2),
+    window: float = 20.0,
+) -> list[str]:
+    """Every published shape's swarm: bring-up, rest, message rate, teardown.
+
+    ``window``: seconds of the idle CPU's sampling (the message rate's, half of it).
+    """
     lines = [
         "## The swarm on ROS 2: `swazure spawn`, one node per FLS, beta 0.5",
         "",
@@ -137,20 +151,11 @@ def swarm_section(args: argparse.Namespace) -> list[str]:
         "| idle CPU % | teardown s |",
         "| --- | ---: | ---: | ---: | --- | ---: | ---: |",
     ]
-    for name, flss in SHAPE_SIZES.items():
-        for processes in (1, 2):
-            row = served(swarm_cloud(name), processes, domain)
-            print(f"served {name} x{processes}: {row}", flush=True)
-            if "failed" in row:
-                lines.append(
-                    f"| {name} | {flss} | {processes} | {row['failed']} | | "
-                    f"| {row['teardown']:.1f} |"
-                )
-                continue
-            lines.append(
-                f"| {name} | {flss} | {processes} | {row['discovered']:.1f} | {row['memory']} "
-                f"| {row['idle']:.1f} | {row['teardown']:.1f} |"
-            )
+    for name, flss in sizes.items():
+        for count in processes:
+            row = served(swarm_cloud(name), count, domain, window)
+            print(f"served {name} x{count}: {row}", flush=True)
+            lines.append(served_row(name, flss, count, row))
     lines += [
         "",
         "Messages delivered once up: every FLS is set to publish its Measurements every 0.1 s",
@@ -161,11 +166,11 @@ def swarm_section(args: argparse.Namespace) -> list[str]:
         "| shape | FLS nodes | processes | asked per s (heartbeat) | received per s |",
         "| --- | ---: | ---: | ---: | ---: |",
     ]
-    for name, flss in SHAPE_SIZES.items():
-        processes = 2 if flss > 2000 else 1
-        rate = message_rate(swarm_cloud(name), domain, processes=processes)
+    for name, flss in sizes.items():
+        count = 2 if flss > 2000 else 1
+        rate = message_rate(swarm_cloud(name), domain, window=window / 2, processes=count)
         print(f"rate {name}: {rate:.0f} msg/s", flush=True)
-        lines.append(f"| {name} | {flss} | {processes} | {flss / 0.1:,.0f} | {rate:,.0f} |")
+        lines.append(f"| {name} | {flss} | {count} | {flss / 0.1:,.0f} | {rate:,.0f} |")
     lines += [
         "",
         "Targets (issue 16): the race car's 3720 nodes up in under 60 s, under 4 GB; the",
@@ -173,3 +178,13 @@ def swarm_section(args: argparse.Namespace) -> list[str]:
         "",
     ]
     return lines
+
+
+def served_row(name: str, flss: int, processes: int, row: dict[str, Any]) -> str:
+    """One served swarm's row: bring-up, memory, idle CPU and teardown, or why it failed."""
+    if "failed" in row:
+        return f"| {name} | {flss} | {processes} | {row['failed']} | | | {row['teardown']:.1f} |"
+    return (
+        f"| {name} | {flss} | {processes} | {row['discovered']:.1f} | {row['memory']} "
+        f"| {row['idle']:.1f} | {row['teardown']:.1f} |"
+    )

@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import argparse
 import tempfile
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from bench.common import REPO, RUN_LIMIT, compute_all, swarm_cloud
 
@@ -17,9 +19,13 @@ from bench.common import REPO, RUN_LIMIT, compute_all, swarm_cloud
 FIT_SHAPES = ("chess_408", "palm_725", "dragon_1147")
 
 
-def swarm_fit_section(args: argparse.Namespace) -> list[str]:
+def swarm_fit_section(
+    args: argparse.Namespace,
+    shapes: Sequence[str] = FIT_SHAPES,
+    estimators: Sequence[str] = ("path", "local-least-squares"),
+    domain: int = 93,
+) -> list[str]:
     """Each source's own least-squares fit made by the swarm, beside a plain run."""
-    domain = 93
     sensor = str(REPO / "config" / "cameras" / "sensor-wide-calibrated.yaml")
     lines = [
         "## The swarm's own fits: `spawn --compute-all --estimator local-least-squares`",
@@ -35,25 +41,29 @@ def swarm_fit_section(args: argparse.Namespace) -> list[str]:
         "| peak MB |",
         "| --- | --- | ---: | ---: | ---: | ---: | ---: | --- | ---: |",
     ]
-    for name in FIT_SHAPES:
-        for estimator in ("path", "local-least-squares"):
+    for name in shapes:
+        for estimator in estimators:
             with tempfile.TemporaryDirectory() as out:
                 row = compute_all(
                     swarm_cloud(name), "plain", domain, Path(out), 1, RUN_LIMIT["plain"],
                     "--sensor", sensor, "--estimator", estimator,
                 )  # fmt: skip
             print(f"compute-all {name} {estimator}: {row}", flush=True)
-            if "failed" in row:
-                lines.append(f"| {name} | {estimator} | {row['failed']} |" + " |" * 6)
-                continue
-            lines.append(
-                f"| {name} | {estimator} | {row['discovery']:.1f} | {row['rounds']} "
-                f"| {row['messages']:,} | {row['bytes'] / 1e6:,.0f} | {row['engine']:.1f} "
-                f"| {row['identical']} | {row['peak']} |"
-            )
+            lines.append(swarm_fit_row(name, estimator, row))
     lines += [
         "",
         "Target (issue 33): the swarm's estimates equal the engine's to 1e-9.",
         "",
     ]
     return lines
+
+
+def swarm_fit_row(name: str, estimator: str, row: dict[str, Any]) -> str:
+    """One --compute-all run's row: its time, traffic and identity, or why it failed."""
+    if "failed" in row:
+        return f"| {name} | {estimator} | {row['failed']} |" + " |" * 6
+    return (
+        f"| {name} | {estimator} | {row['discovery']:.1f} | {row['rounds']} "
+        f"| {row['messages']:,} | {row['bytes'] / 1e6:,.0f} | {row['engine']:.1f} "
+        f"| {row['identical']} | {row['peak']} |"
+    )
