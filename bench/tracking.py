@@ -6,6 +6,7 @@ The `tracking` section of BENCHMARKS.md (`python -m bench --sections tracking`).
 from __future__ import annotations
 
 import argparse
+from collections.abc import Sequence
 
 from bench.common import DATASETS, REPO, SWAZURE, run_output
 
@@ -20,6 +21,24 @@ TRACK_SCENARIOS = [
     ("circle", "circle:0.5,4,-1,1,0"),
     ("waypoints", str(TRACK_DIR / "zigzag.csv")),
 ]
+
+
+#: The `swazure track` runs over ROS 2: (cloud options, source and target, trajectory, label).
+TRACK_RUNS = (
+    (TRACK_CLOUD, ["--source", "0", "--target", "2"], "circle:0.5,4,-1,1,0", "trio"),
+    (
+        ["--cloud", str(DATASETS / "chess_408.xyz"), "--beta", "0.3"],
+        ["--source", "0", "--target", "1"],
+        "linear:0,0,0.02",
+        "chess_408, beta 0.3",
+    ),
+    (
+        ["--cloud", "torus", "--beta", "0.5"],
+        ["--source", "0", "--target", "1"],
+        "circle:0.3,4",
+        "torus, beta 0.5",
+    ),
+)
 
 
 def track_errors_row(trajectory: str, accurate: bool, delay: float, model: str) -> list[str]:
@@ -50,7 +69,12 @@ def track_errors_row(trajectory: str, accurate: bool, delay: float, model: str) 
     return cells
 
 
-def tracking_section(args: argparse.Namespace) -> list[str]:
+def tracking_section(
+    args: argparse.Namespace,
+    scenarios: Sequence[tuple[str, str]] = TRACK_SCENARIOS,
+    runs: Sequence[tuple[list[str], list[str], str, str]] = TRACK_RUNS,
+    domain: int = 93,
+) -> list[str]:
     """Estimation errors of a tracked target, with and without delay compensation."""
     lines = [
         "## Tracking a moving FLS out of sight (`swazure track`), errors per scenario",
@@ -69,7 +93,7 @@ def tracking_section(args: argparse.Namespace) -> list[str]:
         "| accel. predicted |",
         "| --- | --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
-    for label, trajectory in TRACK_SCENARIOS:
+    for label, trajectory in scenarios:
         for accurate in (True, False):
             for delay in (0.0, 0.3):
                 for model in ("constant-velocity", "constant-acceleration"):
@@ -87,32 +111,8 @@ def tracking_section(args: argparse.Namespace) -> list[str]:
         "| swarm | trajectory | nodes | handovers | wall s | peak MB | identical to the core |",
         "| --- | --- | ---: | ---: | ---: | ---: | --- |",
     ]
-    for cloud, options, trajectory, label in (
-        (TRACK_CLOUD, ["--source", "0", "--target", "2"], "circle:0.5,4,-1,1,0", "trio"),
-        (
-            ["--cloud", str(DATASETS / "chess_408.xyz"), "--beta", "0.3"],
-            ["--source", "0", "--target", "1"],
-            "linear:0,0,0.02",
-            "chess_408, beta 0.3",
-        ),
-        (
-            ["--cloud", "torus", "--beta", "0.5"],
-            ["--source", "0", "--target", "1"],
-            "circle:0.3,4",
-            "torus, beta 0.5",
-        ),
-    ):
-        wall, peak, code, output = run_output(
-            [*SWAZURE, "track", *cloud, *options, "--trajectory", trajectory,
-             "--communication-delay", "0.3", "--domain-id", "93"]
-        )  # fmt: skip
-        identical = "yes" if "identical to the core's loop: yes" in output else f"no (exit {code})"
-        nodes = "3" if label == "trio" else "source, target, sweet neighbours"
-        handovers = output.count("handed over from relay")
-        lines.append(
-            f"| {label} | {trajectory} | {nodes} | {handovers} | {wall:.1f} | {peak:.0f} "
-            f"| {identical} |"
-        )
+    for cloud, options, trajectory, label in runs:
+        lines.append(track_run_row(cloud, options, trajectory, label, domain))
     lines += [
         "",
         "On the published shapes neighbours are a few millimetres apart: a moving target soon",
@@ -120,3 +120,20 @@ def tracking_section(args: argparse.Namespace) -> list[str]:
         "another relay that sees it (docs/tracking.md).",
     ]
     return [*lines, ""]
+
+
+def track_run_row(
+    cloud: list[str], options: list[str], trajectory: str, label: str, domain: int = 93
+) -> str:
+    """One `swazure track` over ROS 2 (delay 0.3 s): its handovers, wall, peak and identity."""
+    wall, peak, code, output = run_output(
+        [*SWAZURE, "track", *cloud, *options, "--trajectory", trajectory,
+         "--communication-delay", "0.3", "--domain-id", str(domain)]
+    )  # fmt: skip
+    identical = "yes" if "identical to the core's loop: yes" in output else f"no (exit {code})"
+    nodes = "3" if label == "trio" else "source, target, sweet neighbours"
+    handovers = output.count("handed over from relay")
+    return (
+        f"| {label} | {trajectory} | {nodes} | {handovers} | {wall:.1f} | {peak:.0f} "
+        f"| {identical} |"
+    )
