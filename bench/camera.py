@@ -9,19 +9,32 @@ import argparse
 import shutil
 import sys
 import time
+from collections.abc import Sequence
+from pathlib import Path
 
 from bench.common import REPO, SECTIONS_DIR, SHARED, SWAZURE, run_output
 
+CAMERAS = REPO / "config" / "cameras"
+MEASURED = SHARED / "datasets" / "aruco-measured" / "rpi-camera-module-3-wide.csv"
+#: The distances (mm) of each camera's render-detect-solve timing.
+CAMERA_DISTANCES = {"wide": (40, 75, 150, 250), "standard": (80, 150, 300, 450)}
 
-def camera_section(args: argparse.Namespace) -> list[str]:
-    """The rendering camera: one render-detect-solve by distance, and the calibration sweeps."""
+
+def camera_section(
+    args: argparse.Namespace,
+    distances: dict[str, Sequence[int]] = CAMERA_DISTANCES,
+    frames: int = 200,
+    tool_options: Sequence[str] = (),
+    study_sensors: dict[str, Path] | None = None,
+    study_options: Sequence[str] = (),
+    records_dir: Path = SECTIONS_DIR,
+) -> list[str]:
+    """The rendering camera: one render-detect-solve by distance, and the calibration sweeps.
+
+    ``tool_options`` narrow `camera calibrate` and `camera patterns`, ``study_options`` the
+    studies on the sensors (a smoke test's).
+    """
     sys.path.insert(0, str(REPO))
-    import numpy as np
-
-    from swazure_ros.core.camera import Detector, MarkerPose, load_camera, render
-
-    cameras = REPO / "config" / "cameras"
-    measured = SHARED / "datasets" / "aruco-measured" / "rpi-camera-module-3-wide.csv"
     lines = [
         "## The rendering camera: `swazure camera calibrate`",
         "",
@@ -32,43 +45,60 @@ def camera_section(args: argparse.Namespace) -> list[str]:
         "| total (ms) |",
         "| --- | ---: | ---: | ---: | ---: | ---: |",
     ]
-    for name, distances in (("wide", (40, 75, 150, 250)), ("standard", (80, 150, 300, 450))):
-        camera = load_camera(cameras / f"rpi-camera-module-3-{name}.yaml")
-        detector = Detector(camera)
-        for distance in distances:
-            rng = np.random.default_rng(0)
-            rendering, solving, size = [], [], 0
-            for _ in range(200):
-                pose = MarkerPose(float(distance), roll_deg=float(rng.uniform(0, 360)))
-                started = time.perf_counter()
-                frame = render(camera, pose, rng)
-                middle = time.perf_counter()
-                corners = detector.corners(frame)
-                if corners is not None:
-                    detector.solve(corners)
-                rendering.append(middle - started)
-                solving.append(time.perf_counter() - middle)
-                size = frame.image.shape[0]
-            render_ms, solve_ms = 1000 * np.median(rendering), 1000 * np.median(solving)
-            lines.append(
-                f"| {name} | {distance} | {size} | {render_ms:.2f} | {solve_ms:.2f} "
-                f"| {render_ms + solve_ms:.2f} |"
-            )
+    for name, some in distances.items():
+        lines += [camera_timing_row(name, distance, frames) for distance in some]
     lines += ["", "Calibration sweeps (60 distances x 3 angles x 100 frames, one process):", ""]
+    lines += camera_tool_lines(tool_options)
+    sensors = CAMERA_STUDY_SENSORS if study_sensors is None else study_sensors
+    return [*lines, *camera_study_lines(sensors, study_options, records_dir)]
+
+
+def camera_timing_row(name: str, distance: int, frames: int) -> str:
+    """Median render and detect + solve ms of ``frames`` frames of camera ``name``, one row."""
+    import numpy as np
+
+    from swazure_ros.core.camera import Detector, MarkerPose, load_camera, render
+
+    camera = load_camera(CAMERAS / f"rpi-camera-module-3-{name}.yaml")
+    detector = Detector(camera)
+    rng = np.random.default_rng(0)
+    rendering, solving, size = [], [], 0
+    for _ in range(frames):
+        pose = MarkerPose(float(distance), roll_deg=float(rng.uniform(0, 360)))
+        started = time.perf_counter()
+        frame = render(camera, pose, rng)
+        middle = time.perf_counter()
+        corners = detector.corners(frame)
+        if corners is not None:
+            detector.solve(corners)
+        rendering.append(middle - started)
+        solving.append(time.perf_counter() - middle)
+        size = frame.image.shape[0]
+    render_ms, solve_ms = 1000 * np.median(rendering), 1000 * np.median(solving)
+    return (
+        f"| {name} | {distance} | {size} | {render_ms:.2f} | {solve_ms:.2f} "
+        f"| {render_ms + solve_ms:.2f} |"
+    )
+
+
+def camera_tool_lines(tool_options: Sequence[str] = ()) -> list[str]:
+    """`swazure camera calibrate` of both cameras and `camera patterns`: their outputs."""
+    lines = []
     for name in ("wide", "standard"):
-        options = ["--measured", str(measured)] if name == "wide" and measured.exists() else []
+        options = ["--measured", str(MEASURED)] if name == "wide" and MEASURED.exists() else []
         wall, peak, code, output = run_output(
             [*SWAZURE, "camera", "calibrate", "--camera",
-             str(cameras / f"rpi-camera-module-3-{name}.yaml"), "--quiet", *options]
+             str(CAMERAS / f"rpi-camera-module-3-{name}.yaml"), "--quiet", *options,
+             *tool_options]
         )  # fmt: skip
         lines += [f"`{name}`: {wall:.1f} s wall, {peak:.0f} MB peak, exit {code}", "", "```"]
         lines += [line for line in output.splitlines() if line.strip()]
         lines += ["```", ""]
-    if measured.exists():
+    if MEASURED.exists():
         wall, peak, code, output = run_output(
             [*SWAZURE, "camera", "patterns", "--camera",
-             str(cameras / "rpi-camera-module-3-wide.yaml"), "--measured", str(measured),
-             "--quiet"]
+             str(CAMERAS / "rpi-camera-module-3-wide.yaml"), "--measured", str(MEASURED),
+             "--quiet", *tool_options]
         )  # fmt: skip
         lines += [
             "The error by marker pattern (`swazure camera patterns`, the dictionary's 100",
@@ -80,7 +110,7 @@ def camera_section(args: argparse.Namespace) -> list[str]:
             "```",
             "",
         ]
-    return [*lines, *camera_study_lines()]
+    return lines
 
 
 CAMERA_STUDY_SENSORS = {
@@ -90,7 +120,11 @@ CAMERA_STUDY_SENSORS = {
 }
 
 
-def camera_study_lines() -> list[str]:
+def camera_study_lines(
+    sensors: dict[str, Path] = CAMERA_STUDY_SENSORS,
+    options: Sequence[str] = (),
+    records_dir: Path = SECTIONS_DIR,
+) -> list[str]:
     """The study on each sensor: plain Swazure's accuracy and the heuristics, beta 0.5."""
     import csv
 
@@ -108,14 +142,14 @@ def camera_study_lines() -> list[str]:
         "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     walls = {}
-    for name, sensor in CAMERA_STUDY_SENSORS.items():
-        out = SECTIONS_DIR / f"camera-study-{name.split(',')[0]}"
+    for name, sensor in sensors.items():
+        out = records_dir / f"camera-study-{name.split(',')[0]}"
         if out.exists():
             shutil.rmtree(out)
         walls[name], _, code, _ = run_output(
             [*SWAZURE, "study", "--sensor", str(sensor), "--betas", "0.5", "--policies",
              "shortest-length", "--heuristic-betas", "0.5", "--techniques", "move-obstructing",
-             "move-source:10", "--out", str(out), "--quiet"]
+             "move-source:10", "--out", str(out), "--quiet", *options]
         )  # fmt: skip
         if code != 0:
             lines.append(f"| - | {name} | study failed (exit {code}) | | | | | | | | |")
