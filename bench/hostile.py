@@ -12,6 +12,7 @@ import subprocess
 import sys
 from collections.abc import Callable
 from functools import partial
+from pathlib import Path
 
 from bench.clients import ask_random_pairs, close_client, hostile_figure, pose_client, soak_counts
 from bench.common import REPO, spawn_command, swarm_cloud
@@ -20,8 +21,11 @@ from bench.common import REPO, spawn_command, swarm_cloud
 HOSTILE_SECONDS = float(os.environ.get("SWAZURE_HOSTILE_SECONDS", 600))
 
 
-def signing_costs() -> list[str]:
-    """What the swarm's key costs per message: sign and check beside plain (de)serialisation."""
+def signing_costs(shape: str = "dragon_1147", count: int = 2000) -> list[str]:
+    """What the swarm's key costs per message: sign and check beside plain (de)serialisation.
+
+    Each message timed ``count`` times; a round's cost for the swarm of ``shape``.
+    """
     import timeit
 
     from rclpy.serialization import deserialize_message, serialize_message
@@ -60,7 +64,6 @@ def signing_costs() -> list[str]:
         "| deserialise + check us |",
         "| --- | ---: | ---: | ---: | ---: | ---: |",
     ]
-    count = 2000
 
     def per_call(call: Callable[[], object]) -> float:
         return timeit.timeit(call, number=count) / count * 1e6
@@ -76,7 +79,7 @@ def signing_costs() -> list[str]:
             f"| {name} | {len(data):,} | {plain:.1f} | {signed:.1f} | {read:.1f} | {checked:.1f} |"
         )
     # Per round of the dragon: every FLS sends one offer, every process checks every one.
-    dragon = WorldSpec(swarm_cloud("dragon_1147"), beta=0.5).build()
+    dragon = WorldSpec(swarm_cloud(shape), beta=0.5).build()
     flss = len(dragon.ids)
     one_label = offer(1)
     check = timeit.timeit(
@@ -91,45 +94,83 @@ def signing_costs() -> list[str]:
     return lines
 
 
-def hostile_section(args: argparse.Namespace) -> list[str]:
+def hostile_section(
+    args: argparse.Namespace,
+    shape: str = "chess_408",
+    domain: int = 93,
+    seconds: float = HOSTILE_SECONDS,
+    figures: Path = REPO / "docs" / "figures",
+    cost_shape: str = "dragon_1147",
+) -> list[str]:
     """A swarm under valid queries while scripts/hostile_peer.py floods every topic."""
+    soak = hostile_soak(swarm_cloud(shape), args.beta, domain, seconds)
+    if soak is None:
+        return ["## Hostile peers", "", "the chess swarm did not come up", ""]
+    answers, samples, diagnostics, peer_report = soak
+    hostile_figure(samples, figures / "hostile-soak.png")
+    lines = hostile_lines(seconds, answers, peer_report, samples, diagnostics)
+    return [*lines, "", "### What the key costs", "", *signing_costs(cost_shape), ""]
+
+
+def hostile_soak(
+    cloud: str, beta: float, domain: int, seconds: float
+) -> tuple[tuple[int, int, int], list[tuple[float, float]], dict, dict[str, int]] | None:
+    """Queries of a spawned swarm for ``seconds`` while a hostile peer floods its topics.
+
+    Right, wrong and unanswered queries, the memory samples, the swarm's diagnostics and
+    what the peer sent by topic; None when the swarm does not come up.
+    """
     import numpy as np
 
     from swazure_ros.core.evaluate import evaluate_pairs
     from swazure_ros.sim.world import WorldSpec
 
-    domain, cloud, policy = 93, swarm_cloud("chess_408"), "shortest-length"
-    world = WorldSpec(cloud, beta=args.beta).build()
+    policy = "shortest-length"
+    world = WorldSpec(cloud, beta=beta).build()
     engine = evaluate_pairs(world.hood, policy)
     rng = np.random.default_rng(0)
-    swarm = subprocess.Popen(spawn_command(cloud, domain), stdout=subprocess.PIPE, text=True)
     diagnostics: dict[str, dict[str, str]] = {}
     peer_report: dict[str, int] = {}
-    try:
-        assert swarm.stdout is not None
-        if not swarm.stdout.readline().startswith("swarm up:"):
-            return ["## Hostile peers", "", "the chess swarm did not come up", ""]
-        context, node, executor, client = pose_client(domain, "bench_hostile", diagnostics)
-        peer = subprocess.Popen(
-            [sys.executable, str(REPO / "scripts" / "hostile_peer.py"), str(domain),
-             str(HOSTILE_SECONDS)],
-            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
-        )  # fmt: skip
+    # The with closes the swarm's pipe once it has stopped.
+    with subprocess.Popen(
+        spawn_command(cloud, domain), stdout=subprocess.PIPE, text=True
+    ) as swarm:
+        try:
+            assert swarm.stdout is not None
+            if not swarm.stdout.readline().startswith("swarm up:"):
+                return None
+            context, node, executor, client = pose_client(domain, "bench_hostile", diagnostics)
+            peer = subprocess.Popen(
+                [sys.executable, str(REPO / "scripts" / "hostile_peer.py"), str(domain),
+                 str(seconds)],
+                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+            )  # fmt: skip
 
-        right, wrong, unanswered, samples = ask_random_pairs(
-            client, executor, world, engine, policy, HOSTILE_SECONDS, swarm.pid, rng
-        )
-        out, _ = peer.communicate(timeout=120)
-        peer_report = json.loads(out.strip().splitlines()[-1]) if out.strip() else {}
-        close_client(context, node, executor)
-    finally:
-        swarm.terminate()
-        swarm.wait(timeout=300)
-    hostile_figure(samples, REPO / "docs" / "figures" / "hostile-soak.png")
+            right, wrong, unanswered, samples = ask_random_pairs(
+                client, executor, world, engine, policy, seconds, swarm.pid, rng
+            )
+            out, _ = peer.communicate(timeout=120)
+            peer_report = json.loads(out.strip().splitlines()[-1]) if out.strip() else {}
+            close_client(context, node, executor)
+        finally:
+            swarm.terminate()
+            swarm.wait(timeout=300)
+    return (right, wrong, unanswered), samples, diagnostics, peer_report
+
+
+def hostile_lines(
+    seconds: float,
+    answers: tuple[int, int, int],
+    peer_report: dict[str, int],
+    samples: list[tuple[float, float]],
+    diagnostics: dict[str, dict[str, str]],
+) -> list[str]:
+    """The hostile soak's section (but the key's costs) from its queries and counters."""
+    right, wrong, unanswered = answers
     sent = sum(peer_report.values())
     lines = [
         f"## Hostile peers: a swarm under valid queries and a flood of forged and malformed "
-        f"messages for {HOSTILE_SECONDS / 60:.0f} minutes",
+        f"messages for {seconds / 60:.0f} minutes",
         "",
         "`swazure spawn` of chess_408 (beta 0.5, one process, a fresh swarm key); a client asks",
         "`/swarm/coordinator/compute_pose` for random blind pairs (seeded) one after another and",
@@ -146,5 +187,4 @@ def hostile_section(args: argparse.Namespace) -> list[str]:
         + ").",
         *soak_counts(samples, "hostile-soak.png", diagnostics),
     ]
-    lines += ["", "### What the key costs", "", *signing_costs(), ""]
     return lines
