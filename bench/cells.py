@@ -13,6 +13,7 @@ import subprocess
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from bench.common import REPO, SECTIONS_DIR, swarm_cloud, table_cell
 
@@ -54,8 +55,8 @@ def cells_section(
 
 def cell_record(
     shape: str, processes: int, beta: float, domain: int = 93, records_dir: Path = SECTIONS_DIR
-) -> dict:
-    """One bench_cells run of ``shape`` over ``processes``: its record, or why it stopped."""
+) -> dict[str, Any]:
+    """One measure_cells run of ``shape`` over ``processes``: its record, or why it stopped."""
     cloud = swarm_cloud(shape)
     out = records_dir / f"cells-{shape.replace(':', '')}-{processes}.json"
     print(f"bench: cells, {shape} over {processes} process(es)", flush=True)
@@ -88,12 +89,12 @@ def oom_kill() -> str:
     return f"a process killed by the kernel at {int(kills[-1]) / 1024**2:.1f} GB (out of memory)"
 
 
-def cells_lines(records: list[dict]) -> list[str]:
-    """The cells section's table from the bench_cells records."""
+def cells_lines(records: list[dict[str, Any]]) -> list[str]:
+    """The cells section's table from the bench.measure_cells records."""
     lines = [
         "## Radio cells: what each packed process hears and spends in one discovery",
         "",
-        "`scripts/bench_cells.py`: one `spawn --compute-all`-like run (beta 0.5,",
+        "`bench/measure_cells.py`: one `spawn --compute-all`-like run (beta 0.5,",
         "Shortest-Length) of every published shape in one process, and of the built-in",
         "torus at the paper's density and the race car packed over 1, 2 and 4 processes",
         "(k-d regions). Per process: the FLSs it",
@@ -155,20 +156,20 @@ def cells_lines(records: list[dict]) -> list[str]:
     return lines
 
 
-def cells_figure(records: list[dict], path: Path) -> None:
+def cells_figure(records: list[dict[str, Any]], path: Path) -> None:
     """Share of the other processes' offers heard, and CPU per FLS and round, against FLSs."""
     from matplotlib.figure import Figure
 
     from swazure_ros.core.results import atomic_write
 
-    def heard(record: dict) -> float:
+    def heard(record: dict[str, Any]) -> float:
         rounds = max(record["rounds"], 1)
         return 100 * max(
             one["offers_over_dds"] / max((record["flss"] - one["flss"]) * rounds, 1)
             for one in record["per_process"]
         )
 
-    def cpu(record: dict) -> float:
+    def cpu(record: dict[str, Any]) -> float:
         per = record["per_process"]
         return 1e3 * max(one["cpu_s"] / max(one["flss"], 1) for one in per) / record["rounds"]
 

@@ -11,6 +11,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -202,7 +203,7 @@ def resident_mb(pid: int) -> float:
     return pages * os.sysconf("SC_PAGE_SIZE") / 1e6
 
 
-def table_cell(record: dict, key: str, form: str, scale: float = 1.0) -> str:
+def table_cell(record: dict[str, Any], key: str, form: str, scale: float = 1.0) -> str:
     """A Markdown table cell: ``record[key]`` times ``scale`` in ``form``, "-" when absent."""
     value = record.get(key)
     return "-" if value is None else format(value * scale, form)

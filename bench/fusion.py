@@ -9,6 +9,7 @@ import argparse
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from bench.common import SHAPES
 from bench.policies import POLICY_SENSORS, evaluated
@@ -54,7 +55,9 @@ def fusion_section(
     return lines
 
 
-def fusion_row(shape: str, sensor_name: str, policy: str, paths: int, summary: dict) -> str:
+def fusion_row(
+    shape: str, sensor_name: str, policy: str, paths: int, summary: dict[str, Any]
+) -> str:
     """One row: the fusion of up to ``paths`` paths from its summary.json."""
     within = summary["within_predicted_pct"]
     fusion = summary.get("fusion")

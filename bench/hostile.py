@@ -13,6 +13,7 @@ import sys
 from collections.abc import Callable
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 from bench.clients import ask_random_pairs, close_client, hostile_figure, pose_client, soak_counts
 from bench.common import REPO, spawn_command, swarm_cloud
@@ -114,7 +115,7 @@ def hostile_section(
 
 def hostile_soak(
     cloud: str, beta: float, domain: int, seconds: float
-) -> tuple[tuple[int, int, int], list[tuple[float, float]], dict, dict[str, int]] | None:
+) -> tuple[tuple[int, int, int], list[tuple[float, float]], dict[str, Any], dict[str, int]] | None:
     """Queries of a spawned swarm for ``seconds`` while a hostile peer floods its topics.
 
     Right, wrong and unanswered queries, the memory samples, the swarm's diagnostics and

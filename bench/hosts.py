@@ -13,6 +13,7 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 from bench.common import REPO, SECTIONS_DIR, table_cell
 
@@ -44,7 +45,7 @@ def hosts_section(
     env = dict(os.environ, SWAZURE_NETNS_PREFIX=prefix)
     env.pop("ROS_AUTOMATIC_DISCOVERY_RANGE", None)
     subprocess.run([str(script), "up", str(hosts)], env=env, check=True, capture_output=True)
-    records: list[dict] = []
+    records: list[dict[str, Any]] = []
     try:
         for flss in sizes:
             for discovery in discoveries:
@@ -66,13 +67,13 @@ def hosts_section(
     return hosts_lines(records)
 
 
-def hosts_lines(records: list[dict]) -> list[str]:
-    """The hosts section's tables from the bench_hosts records."""
+def hosts_lines(records: list[dict[str, Any]]) -> list[str]:
+    """The hosts section's tables from the bench.measure_hosts records."""
     lines = [
         "## One process per FLS across hosts",
         "",
         f"`swazure spawn --per-fls --share K/{HOSTS}` on each of {HOSTS} network-namespace",
-        "hosts (scripts/netns_hosts.sh; run by scripts/bench_hosts.py): the built-in torus",
+        "hosts (scripts/netns_hosts.sh; run by bench/measure_hosts.py): the built-in torus",
         "of N FLSs (`torus:N`, which makes 24, 48, 102 and 200 FLSs for N = 25, 50, 100,",
         "200; scale 1.6, beta 0.5: 11 cm across, inside the sensor's reach of 30.6 cm, so",
         "every FLS's radio cells hold every other FLS), every FLS a process of its own,",
@@ -107,7 +108,7 @@ def hosts_lines(records: list[dict]) -> list[str]:
     return lines
 
 
-def hosts_row(record: dict) -> str:
+def hosts_row(record: dict[str, Any]) -> str:
     """One row of the hosts table: a swarm up, or where its bring-up stopped."""
     count = record.get("fls_processes", record["flss"])
     if "bring_up_s" not in record:
@@ -137,7 +138,7 @@ def hosts_row(record: dict) -> str:
     )
 
 
-def hosts_faults_lines(records: list[dict]) -> list[str]:
+def hosts_faults_lines(records: list[dict[str, Any]]) -> list[str]:
     """The faults table of the records that ran them; none when none did."""
     lines: list[str] = []
     faults = [
@@ -176,7 +177,7 @@ def hosts_faults_lines(records: list[dict]) -> list[str]:
     return lines
 
 
-def hosts_figures(records: list[dict], folder: Path) -> None:
+def hosts_figures(records: list[dict[str, Any]], folder: Path) -> None:
     """Bring-up time and bring-up traffic against the number of FLS processes, as PNGs.
 
     A bring-up that did not end by its deadline is drawn hollow: at the deadline
@@ -186,7 +187,7 @@ def hosts_figures(records: list[dict], folder: Path) -> None:
 
     from swazure_ros.core.results import atomic_write
 
-    def deadline(record: dict) -> float | None:
+    def deadline(record: dict[str, Any]) -> float | None:
         found = re.search(r"after ([0-9.]+) s", record.get("stopped", ""))
         return float(found[1]) if found else None
 

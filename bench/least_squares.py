@@ -10,6 +10,7 @@ import json
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from bench.common import REPO, SECTIONS_DIR, SHAPES, run_output, swarm_cloud
 
@@ -48,7 +49,7 @@ def least_squares_section(
                 print(f"least squares: {shape} {sensor_name} beta {beta}", file=sys.stderr)
                 _, memory, code, output = run_output(command)
                 if code != 0:
-                    raise SystemExit(f"bench_fit failed on {shape} {sensor_name} beta {beta}")
+                    raise SystemExit(f"measure_fit failed on {shape} {sensor_name} beta {beta}")
                 result = json.loads(output)
                 result.update(shape=shape, sensor=sensor_name, beta=beta, peak_mb=memory)
                 rows.append(result)
@@ -62,7 +63,7 @@ def least_squares_section(
         print(f"least squares: {shape}, {local_sources} sources' own fits", file=sys.stderr)
         _, _, code, output = run_output(command)
         if code != 0:
-            raise SystemExit(f"bench_fit --local failed on {shape}")
+            raise SystemExit(f"measure_fit --local failed on {shape}")
         local_rows.append({"shape": shape, **json.loads(output)})
     (records_dir / "least-squares.json").write_text(
         json.dumps({"global": rows, "local": local_rows}, indent=1)
@@ -71,7 +72,9 @@ def least_squares_section(
     return least_squares_lines(rows, local_rows)
 
 
-def least_squares_targets(rows: list[dict], local_rows: list[dict]) -> list[str]:
+def least_squares_targets(
+    rows: list[dict[str, Any]], local_rows: list[dict[str, Any]]
+) -> list[str]:
     """Issue 33's targets, each against every measured cell: met in how many, the worst."""
 
     def worst(cells: list[tuple[str, float, float]], what: str) -> str:
@@ -83,7 +86,7 @@ def least_squares_targets(rows: list[dict], local_rows: list[dict]) -> list[str]
         return (f"{sum(met)} of {len(met)} | worst: {where}, {value:.3g} against "
                 f"{what} {limit:.3g}")  # fmt: skip
 
-    def name(row: dict) -> str:
+    def name(row: dict[str, Any]) -> str:
         return f"{row['shape']} {row['sensor']} {row['beta']}"
 
     stochastic = [row for row in rows if row["sensor"] != "published"]
@@ -140,13 +143,13 @@ def stat_cell(stats: dict[str, float], key: str) -> str:
     return "-" if value is None or value != value else f"{value:.2f}"
 
 
-def trio(part: dict) -> str:
+def trio(part: dict[str, Any]) -> str:
     """The mean errors by the path sums, the global fit and the source's own, as one cell."""
     return " / ".join(stat_cell(part[key], "mean") for key in ("path", "global", "local"))
 
 
-def least_squares_lines(rows: list[dict], local_rows: list[dict]) -> list[str]:
-    """The least-squares section of BENCHMARKS.md from bench_fit.py's results."""
+def least_squares_lines(rows: list[dict[str, Any]], local_rows: list[dict[str, Any]]) -> list[str]:
+    """The least-squares section of BENCHMARKS.md from bench.measure_fit's results."""
 
     lines = [
         "## Least-squares localization: `swazure evaluate --estimator least-squares`",
@@ -157,7 +160,7 @@ def least_squares_lines(rows: list[dict], local_rows: list[dict]) -> list[str]:
         "need a decaying hop; one sweet hop: the mean error of a single visible sweet",
         "measurement. NEES: the normalized estimation error squared (3 degrees of freedom),",
         "its mean and the share under the chi-square 95 % bound 7.81. Seconds: the engine's",
-        "evaluation and the fit after it, in one process (scripts/bench_fit.py).",
+        "evaluation and the fit after it, in one process (bench/measure_fit.py).",
         "",
         "| shape | sensor | beta | one sweet hop | sweet SL | sweet LS | decaying SL | "
         "decaying LS | NEES mean | under 7.81 % | engine s | fit s | fit / engine |",
@@ -182,7 +185,7 @@ def least_squares_lines(rows: list[dict], local_rows: list[dict]) -> list[str]:
     return lines
 
 
-def least_squares_outliers(rows: list[dict]) -> list[str]:
+def least_squares_outliers(rows: list[dict[str, Any]]) -> list[str]:
     """The outliers table: each shape's errors clean and with 10 % of measurements turned."""
     lines = [
         "",
@@ -212,7 +215,7 @@ def least_squares_outliers(rows: list[dict]) -> list[str]:
     return lines
 
 
-def least_squares_local(local_rows: list[dict]) -> list[str]:
+def least_squares_local(local_rows: list[dict[str, Any]]) -> list[str]:
     """The table of each source's own fit: its window, its time and its errors."""
     lines = [
         "",
@@ -238,7 +241,7 @@ def least_squares_local(local_rows: list[dict]) -> list[str]:
     return lines
 
 
-def least_squares_figure(rows: list[dict], folder: Path) -> None:
+def least_squares_figure(rows: list[dict[str, Any]], folder: Path) -> None:
     """Mean errors of SL and LS per shape at beta 0.5, sweet and decaying pairs, per sensor."""
     import matplotlib
 

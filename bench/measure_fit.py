@@ -3,7 +3,7 @@
 Prints one JSON object: one sweet hop's mean error, both estimators' errors
 on the pairs with a sweet path and on those that need a decaying hop, the
 fit's NEES, the engine's and the fit's seconds, and with --outliers the fit
-on measurements of which 10 % are turned by 20 degrees. Run by bench.py's
+on measurements of which 10 % are turned by 20 degrees. Run by the bench's
 "least_squares" section.
 """
 

@@ -10,6 +10,7 @@ import json
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from bench.common import REPO, SHAPES, SWAZURE, run, swarm_cloud
 
@@ -22,7 +23,7 @@ POLICY_SENSORS = {
 POLICY_BETAS = (0.3, 0.4, 0.5)
 
 
-def evaluated(out: Path, shape: str, beta: float, sensor: Path, *options: str) -> dict:
+def evaluated(out: Path, shape: str, beta: float, sensor: Path, *options: str) -> dict[str, Any]:
     """summary.json of `swazure evaluate` of a published shape into ``out``; exits on failure."""
     code = run(
         [*SWAZURE, "evaluate", "--cloud", swarm_cloud(shape), "--beta", str(beta),

@@ -10,6 +10,7 @@ import os
 import subprocess
 import tempfile
 from pathlib import Path
+from typing import Any
 
 from bench.clients import ask_random_pairs, close_client, hostile_figure, pose_client, soak_counts
 from bench.common import REPO, SWAZURE, spawn_command, swarm_cloud
@@ -57,7 +58,7 @@ def replay_section(
 
 def replayed_soak(
     cloud: str, beta: float, domain: int, key: Path, bag: Path, seconds: float
-) -> tuple[tuple[int, int, int], list[tuple[float, float]], dict, list[str]] | None:
+) -> tuple[tuple[int, int, int], list[tuple[float, float]], dict[str, Any], list[str]] | None:
     """Queries of a swarm of ``key`` for ``seconds`` while ``bag`` is replayed again and again.
 
     Right, wrong and unanswered queries, the memory samples, the swarm's diagnostics and

@@ -10,6 +10,7 @@ import json
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from bench.common import DATASETS, REPO, SECTIONS_DIR, SHAPES, SWAZURE, run_output
 
@@ -47,7 +48,7 @@ def scale_cloud(name: str) -> str:
     return str(DATASETS / f"{name}.xyz")
 
 
-def scale_run(name: str, memory: str | None, scratch_dir: Path = SECTIONS_DIR) -> dict:
+def scale_run(name: str, memory: str | None, scratch_dir: Path = SECTIONS_DIR) -> dict[str, Any]:
     """``swazure evaluate`` of one scale cloud at beta 0.5: wall, peak, summary, pairs.csv size."""
     with tempfile.TemporaryDirectory(dir=scratch_dir) as scratch:
         options = [] if memory is None else ["--memory", memory]
@@ -118,7 +119,7 @@ def scale_section(
     return scale_lines(rows, identity)
 
 
-def scale_lines(rows: list[dict], identity: list[tuple[str, bool, bool]]) -> list[str]:
+def scale_lines(rows: list[dict[str, Any]], identity: list[tuple[str, bool, bool]]) -> list[str]:
     """The scale section of BENCHMARKS.md."""
     lines = [
         "## The engine at display scale: `swazure evaluate` from 3,720 to 65,536 FLSs",
@@ -161,7 +162,7 @@ def scale_lines(rows: list[dict], identity: list[tuple[str, bool, bool]]) -> lis
     return lines
 
 
-def scale_targets(rows: list[dict]) -> list[str]:
+def scale_targets(rows: list[dict[str, Any]]) -> list[str]:
     """Issue 51's targets, met or not, from the rows."""
     by = {(row["cloud"], row["memory"]): row for row in rows}
     torus, car = by[("torus:65536", "default")], by[("racecar_3720", "default")]
@@ -189,7 +190,7 @@ def scale_targets(rows: list[dict]) -> list[str]:
     ]
 
 
-def scale_figure(rows: list[dict], path: Path) -> None:
+def scale_figure(rows: list[dict[str, Any]], path: Path) -> None:
     """Wall time and peak memory against FLSs, at the default budget and at a fixed one."""
     import matplotlib
 

@@ -11,6 +11,7 @@ import sys
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from bench.common import (
     REPO,
@@ -56,7 +57,7 @@ def swarm_solve_section(
                 print(f"swarm solve: {shape} {sensor_name} beta {beta}", file=sys.stderr)
                 _, memory, code, output = run_output(command)
                 if code != 0:
-                    raise SystemExit(f"bench_swarm_solve failed on {shape} {sensor_name} {beta}")
+                    raise SystemExit(f"measure_swarm_solve failed on {shape} {sensor_name} {beta}")
                 result = json.loads(output)
                 result.update(shape=shape, sensor=sensor_name, beta=beta, peak_mb=memory)
                 rows.append(result)
@@ -67,7 +68,7 @@ def swarm_solve_section(
         print(f"swarm solve: {shape}, the swarm's solve alone", file=sys.stderr)
         _, memory, code, output = run_output(command)
         if code != 0:
-            raise SystemExit(f"bench_swarm_solve failed on {shape}")
+            raise SystemExit(f"measure_swarm_solve failed on {shape}")
         result = json.loads(output)
         result.update(shape=shape, sensor="wide, calibrated", beta=0.5, peak_mb=memory)
         rows.append(result)
@@ -79,7 +80,7 @@ def swarm_solve_section(
     return swarm_solve_lines(rows, packed)
 
 
-def swarm_solve_packed(shapes: Sequence[str] = SWARM_SOLVE_PACKED) -> list[dict]:
+def swarm_solve_packed(shapes: Sequence[str] = SWARM_SOLVE_PACKED) -> list[dict[str, Any]]:
     """`spawn --compute-all` of a few shapes in one process: plain paths, then the swarm's fit."""
     sensor = str(FIT_SENSORS["wide, calibrated"])
     rows = []
@@ -95,22 +96,22 @@ def swarm_solve_packed(shapes: Sequence[str] = SWARM_SOLVE_PACKED) -> list[dict]
     return rows
 
 
-def mean_cell(fit: dict | None, part: str) -> str:
+def mean_cell(fit: dict[str, Any] | None, part: str) -> str:
     """A fit's mean error on ``part`` (sweet or decaying pairs), 3 digits; "-" when none."""
     if fit is None or not fit[part]["count"]:
         return "-"
     return f"{fit[part]['mean']:.3g}"
 
 
-def swarm_over_central(row: dict, part: str) -> float:
+def swarm_over_central(row: dict[str, Any], part: str) -> float:
     """The swarm's mean error on ``part`` over the central fit's; NaN when not measured."""
     if "central" not in row or not row["central"][part]["count"]:
         return float("nan")
     return row["swarm"][part]["mean"] / row["central"][part]["mean"]
 
 
-def swarm_solve_lines(rows: list[dict], packed: list[dict]) -> list[str]:
-    """The swarm solve's section of BENCHMARKS.md from bench_swarm_solve.py's results."""
+def swarm_solve_lines(rows: list[dict[str, Any]], packed: list[dict[str, Any]]) -> list[str]:
+    """The swarm solve's section of BENCHMARKS.md from bench.measure_swarm_solve's results."""
 
     lines = [
         "## The swarm's own least-squares fit: `--estimator swarm-fit`",
@@ -129,7 +130,7 @@ def swarm_solve_lines(rows: list[dict], packed: list[dict]) -> list[str]:
         "covariance's solve (its three rows of H times 64 columns, and its block), mean / max",
         "over 200 FLSs. Engine s: the",
         "plain evaluation; SW s: the engine's run of the swarm's solve after it, one process",
-        "(scripts/bench_swarm_solve.py).",
+        "(bench/measure_swarm_solve.py).",
         "",
         "| shape | sensor | beta | sweet LS / SW | decaying LS / SW | SW / LS (sweet, decaying) "
         "| NEES LS / SW | iterations | diameter | FLS us | engine s | LS s | SW s |",
@@ -148,7 +149,7 @@ def swarm_solve_lines(rows: list[dict], packed: list[dict]) -> list[str]:
     return lines
 
 
-def swarm_solve_row(row: dict) -> str:
+def swarm_solve_row(row: dict[str, Any]) -> str:
     """One row of the main table: a shape, sensor and beta's fits, their costs."""
     central, swarm = row.get("central"), row["swarm"]
     solves = " ; ".join(f"{'+'.join(map(str, one[:-1]))} + {one[-1]}" for one in row["iterations"])
@@ -169,7 +170,7 @@ def swarm_solve_row(row: dict) -> str:
     )
 
 
-def swarm_solve_warm(rows: list[dict]) -> list[str]:
+def swarm_solve_warm(rows: list[dict[str, Any]]) -> list[str]:
     """The warm-start table: iterations cold and warm after FLSs depart or move."""
     lines = [
         "",
@@ -190,7 +191,7 @@ def swarm_solve_warm(rows: list[dict]) -> list[str]:
     return lines
 
 
-def swarm_solve_outliers(rows: list[dict]) -> list[str]:
+def swarm_solve_outliers(rows: list[dict[str, Any]]) -> list[str]:
     """The outliers table: each fit's error clean and with 10 % of measurements turned."""
     lines = [
         "",
@@ -216,7 +217,7 @@ def swarm_solve_outliers(rows: list[dict]) -> list[str]:
     return lines
 
 
-def swarm_solve_packed_lines(packed: list[dict]) -> list[str]:
+def swarm_solve_packed_lines(packed: list[dict[str, Any]]) -> list[str]:
     """The table of the swarm of FLS nodes solving the fit, beside its plain run."""
     lines = [
         "",
@@ -240,7 +241,7 @@ def swarm_solve_packed_lines(packed: list[dict]) -> list[str]:
     return lines
 
 
-def swarm_solve_targets(rows: list[dict], packed: list[dict]) -> list[str]:
+def swarm_solve_targets(rows: list[dict[str, Any]], packed: list[dict[str, Any]]) -> list[str]:
     """Issue 54's targets that the engine's run measures, each over every row."""
 
     def verdict(values: list[tuple[str, float]], limit: float, below: bool = True) -> str:
@@ -248,7 +249,7 @@ def swarm_solve_targets(rows: list[dict], packed: list[dict]) -> list[str]:
         worst = max(values, key=lambda item: item[1] if below else -item[1])
         return f"{sum(met)} of {len(met)} | {worst[0]}: {worst[1]:.4g} |"
 
-    def name(row: dict) -> str:
+    def name(row: dict[str, Any]) -> str:
         return f"{row['shape']} {row['sensor']} {row['beta']}"
 
     central = [row for row in rows if "central" in row]
@@ -287,7 +288,7 @@ def swarm_solve_targets(rows: list[dict], packed: list[dict]) -> list[str]:
     ]
 
 
-def _packed_fit_share(packed: list[dict], shape: str) -> str:
+def _packed_fit_share(packed: list[dict[str, Any]], shape: str) -> str:
     """met or not, and the seconds of the FIT phase: swarm-fit's discovery less the path's."""
     runs = {row["estimator"]: row for row in packed if row["shape"] == shape}
     if any("failed" in row for row in runs.values()) or len(runs) < 2:
@@ -296,7 +297,7 @@ def _packed_fit_share(packed: list[dict], shape: str) -> str:
     return f"{'1 of 1' if share < 60 else '0 of 1'} | {shape}: {share:.1f} |"
 
 
-def swarm_solve_figure(rows: list[dict], path: Path) -> None:
+def swarm_solve_figure(rows: list[dict[str, Any]], path: Path) -> None:
     """Iterations of the swarm's first solve and of its covariance's against the diameter."""
     import matplotlib
 
