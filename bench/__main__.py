@@ -12,6 +12,7 @@ import datetime
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from bench.camera import camera_section
@@ -47,7 +48,7 @@ from bench.tags import tags_section
 from bench.test_suite import test_suite_section
 from bench.tracking import tracking_section
 
-SECTIONS = {
+SECTIONS: dict[str, Callable[..., list[str]]] = {
     "engine": engine_section,
     "speed": speed_section,
     "test_suite": test_suite_section,

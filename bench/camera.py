@@ -9,7 +9,7 @@ import argparse
 import shutil
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 from bench.common import REPO, SECTIONS_DIR, SHARED, SWAZURE, run_output
@@ -22,7 +22,7 @@ CAMERA_DISTANCES = {"wide": (40, 75, 150, 250), "standard": (80, 150, 300, 450)}
 
 def camera_section(
     args: argparse.Namespace,
-    distances: dict[str, Sequence[int]] = CAMERA_DISTANCES,
+    distances: Mapping[str, Sequence[int]] = CAMERA_DISTANCES,
     frames: int = 200,
     tool_options: Sequence[str] = (),
     study_sensors: dict[str, Path] | None = None,
@@ -155,9 +155,9 @@ def camera_study_lines(
             lines.append(f"| - | {name} | study failed (exit {code}) | | | | | | | | |")
             continue
         tables[name] = {}
-        for table in ("errors", "paths_move-obstructing", "paths_move-source-T10"):
-            with (out / "tables" / f"{table}.csv").open() as handle:
-                tables[name][table] = {row["shape"]: row for row in csv.DictReader(handle)}
+        for kind in ("errors", "paths_move-obstructing", "paths_move-source-T10"):
+            with (out / "tables" / f"{kind}.csv").open() as handle:
+                tables[name][kind] = {row["shape"]: row for row in csv.DictReader(handle)}
     shapes = next(iter(tables.values()))["errors"] if tables else {}
     for shape in shapes:
         for name, table in tables.items():

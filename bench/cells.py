@@ -164,14 +164,17 @@ def cells_figure(records: list[dict[str, Any]], path: Path) -> None:
 
     def heard(record: dict[str, Any]) -> float:
         rounds = max(record["rounds"], 1)
-        return 100 * max(
-            one["offers_over_dds"] / max((record["flss"] - one["flss"]) * rounds, 1)
-            for one in record["per_process"]
+        return 100 * float(
+            max(
+                one["offers_over_dds"] / max((record["flss"] - one["flss"]) * rounds, 1)
+                for one in record["per_process"]
+            )
         )
 
     def cpu(record: dict[str, Any]) -> float:
         per = record["per_process"]
-        return 1e3 * max(one["cpu_s"] / max(one["flss"], 1) for one in per) / record["rounds"]
+        busiest = float(max(one["cpu_s"] / max(one["flss"], 1) for one in per))
+        return 1e3 * busiest / int(record["rounds"])
 
     figure = Figure(figsize=(9.6, 4.0), layout="constrained")
     heard_axes, cpu_axes = figure.subplots(1, 2)

@@ -10,6 +10,7 @@ import json
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from bench.common import HEURISTICS, POLICIES, SHAPES, SWAZURE, run, swarm_cloud
 
@@ -44,7 +45,7 @@ def engine_section(
 
 def timed_evaluate(
     scratch: Path, shape: str, beta: float, *options: str
-) -> tuple[dict, float, float]:
+) -> tuple[dict[str, Any], float, float]:
     """One `swazure evaluate` of ``shape``: its summary.json, wall s and peak MB."""
     out = scratch / "-".join([shape, *options]).replace("--", "").replace(":", "")
     seconds, memory, code = run(
@@ -58,7 +59,9 @@ def timed_evaluate(
     return summary, seconds, memory
 
 
-def engine_lines(beta: float, rows: list[tuple], heuristic_rows: list[tuple]) -> list[str]:
+def engine_lines(
+    beta: float, rows: list[tuple[Any, ...]], heuristic_rows: list[tuple[Any, ...]]
+) -> list[str]:
     """The engine's and the heuristics' tables from their runs."""
     lines = [
         f"## Core engine: `swazure evaluate`, every ordered blind pair, beta {beta}",

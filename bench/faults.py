@@ -111,7 +111,7 @@ def stopped_row(running: Any) -> str:
     )
     gone = [int(world.ids[k]) for k in gone_index]
     watched = running.host.fls_by_id[gone[0]]
-    stopped_at = []
+    stopped_at: list[float] = []
 
     def stop() -> None:
         if not stopped_at and watched.messages_sent >= 3:

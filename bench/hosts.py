@@ -12,6 +12,7 @@ import re
 import shutil
 import subprocess
 import sys
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -237,4 +238,4 @@ def hosts_figures(records: list[dict[str, Any]], folder: Path) -> None:
         axes.grid(True, alpha=0.3)
         axes.legend(loc="upper left")
         figure.suptitle(f"One process per FLS: {label.split(' (')[0]}; hollow: stopped")
-        atomic_write(folder / name, lambda tmp, f=figure: f.savefig(tmp, format="png", dpi=110))
+        atomic_write(folder / name, partial(figure.savefig, format="png", dpi=110))

@@ -117,7 +117,7 @@ def main() -> int:
                 for index in range(args.processes)
             ],
         }
-        assert swarm.host.radio is not None
+        assert swarm.host is not None and swarm.host.radio is not None
         out["per_process"][0]["offers_here"] = swarm.host.radio.offers_here
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(out, indent=1))
@@ -138,6 +138,7 @@ def heard_offers(swarm: RunningSwarm) -> dict[str, dict[str, int]]:
             )
             heard[status.hardware_id.rsplit("/", 1)[-1]] = {"offers": offers}
 
+    assert swarm.host is not None
     probe = Node("bench_cells", context=swarm.context, enable_rosout=False)
     probe.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 100)
     swarm.host.add(probe)
@@ -146,6 +147,7 @@ def heard_offers(swarm: RunningSwarm) -> dict[str, dict[str, int]]:
 
 def radio_cells(swarm: RunningSwarm, namespace: str) -> tuple[list[str], dict[str, int]]:
     """The radio cells' topics, and how many of them each process reads."""
+    assert swarm.host is not None
     node = swarm.host.host_node
     radio = [
         topic

@@ -127,7 +127,7 @@ def available_mb() -> float:
     return float("nan")
 
 
-def compare_without(world, result, gone_ids: set[int]) -> dict[str, object]:
+def compare_without(world: Any, result: Any, gone_ids: set[int]) -> dict[str, object]:
     """The swarm's estimates beside the engine's on the shape without ``gone_ids``."""
     from swazure_ros.core.evaluate import NO_PATH, evaluate_pairs, without
 
@@ -159,7 +159,7 @@ def compare_without(world, result, gone_ids: set[int]) -> dict[str, object]:
     }
 
 
-def fault_run(swarm, root: Path, victims: list[int], kill_server: bool) -> dict[str, object]:
+def fault_run(swarm: Any, root: Path, victims: list[int], kill_server: bool) -> dict[str, object]:
     """A discovery run in which ``victims``' processes (and the server) are killed mid-run."""
     coordinator = swarm.coordinator
     began = time.monotonic()
@@ -298,7 +298,9 @@ def stop_followers(followers: list[subprocess.Popen[bytes]]) -> None:
             follower.kill()
 
 
-def leader_config(args: argparse.Namespace, root: Path, key: bytes, servers: tuple) -> Any:
+def leader_config(
+    args: argparse.Namespace, root: Path, key: bytes, servers: tuple[Any, ...]
+) -> Any:
     """Host 0's share of the torus: the simulator, the coordinator and its FLS processes."""
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.sim.world import WorldSpec

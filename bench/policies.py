@@ -31,7 +31,8 @@ def evaluated(out: Path, shape: str, beta: float, sensor: Path, *options: str) -
     )[2]  # fmt: skip
     if code != 0:
         raise SystemExit(f"bench: evaluate {shape} {beta} {' '.join(options)} failed ({code})")
-    return json.loads((out / "summary.json").read_text())
+    summary: dict[str, Any] = json.loads((out / "summary.json").read_text())
+    return summary
 
 
 def policies_section(
@@ -57,7 +58,7 @@ def policies_section(
         for shape in shapes:
             for beta in betas:
                 for sensor_name, sensor in sensors.items():
-                    found = {}
+                    found: dict[str, dict[str, Any]] = {}
                     for policy in ("fewest-hops", "shortest-length", "least-error"):
                         out = Path(scratch) / f"{shape}-{beta}-{policy}-{len(found)}"
                         found[policy] = evaluated(out, shape, beta, sensor, "--policy", policy)
@@ -67,7 +68,9 @@ def policies_section(
     return lines
 
 
-def policies_row(shape: str, beta: float, sensor_name: str, found: dict[str, dict]) -> str:
+def policies_row(
+    shape: str, beta: float, sensor_name: str, found: dict[str, dict[str, Any]]
+) -> str:
     """One row: the three policies' errors and engine times from their summary.json."""
     error = {p: one["distance_error_pct"]["mean"] for p, one in found.items()}
     alpha = {p: one["alpha_deg"]["mean"] for p, one in found.items()}

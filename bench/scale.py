@@ -79,7 +79,7 @@ def scale_identity(
     from swazure_ros.core.results import write_evaluation, write_pair_blocks
     from swazure_ros.core.sensor import load_sensor
 
-    sensor, found = load_sensor(), []
+    sensor, found = load_sensor(), list[tuple[str, bool, bool]]()
     for shape in shapes:
         swarm = make_swarm(load_cloud(scale_cloud(shape)).points, beta=0.5)
         whole = evaluate(swarm, sensor, "shortest-length")
@@ -87,7 +87,8 @@ def scale_identity(
         for pairs_format in ("csv", "parquet"):
             with tempfile.TemporaryDirectory(dir=scratch_dir) as scratch:
                 at_once, blocked = Path(scratch) / "whole", Path(scratch) / "blocks"
-                at_once.mkdir(), blocked.mkdir()
+                at_once.mkdir()
+                blocked.mkdir()
                 _, expected = write_evaluation(at_once, whole, None, pairs_format)
                 # 64 MiB: the race car's pairs in about 80 blocks.
                 run = evaluate_blocked(
@@ -96,7 +97,7 @@ def scale_identity(
                 got = write_pair_blocks(blocked, run.hood, run.policy, run.blocks(SILENT),
                                         pairs_format)  # fmt: skip
                 same.append(got.read_bytes() == expected.read_bytes())
-        found.append((shape, *same))
+        found.append((shape, same[0], same[1]))
         print(f"bench: scale identity {shape}: {same}", flush=True)
     return found
 

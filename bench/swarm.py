@@ -39,7 +39,7 @@ def message_rate(
         assert process.stdout is not None
         process.stdout.readline()  # "swarm up ..."
         context = init_context(domain)
-        node = SwarmNode("bench_probe", context=context)
+        node: Any = SwarmNode("bench_probe", context=context)
         count = 0
 
         def on_message(message: object) -> None:

@@ -107,7 +107,7 @@ def swarm_over_central(row: dict[str, Any], part: str) -> float:
     """The swarm's mean error on ``part`` over the central fit's; NaN when not measured."""
     if "central" not in row or not row["central"][part]["count"]:
         return float("nan")
-    return row["swarm"][part]["mean"] / row["central"][part]["mean"]
+    return float(row["swarm"][part]["mean"] / row["central"][part]["mean"])
 
 
 def swarm_solve_lines(rows: list[dict[str, Any]], packed: list[dict[str, Any]]) -> list[str]:
