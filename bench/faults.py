@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import os
 import time
+from pathlib import Path
 from typing import Any
 
 from bench.common import SECTIONS_DIR, swarm_cloud
@@ -26,7 +27,10 @@ RADIO_CASES = (
 
 
 def faults_section(
-    args: argparse.Namespace, shape: str = "dragon_1147", domain: int = 95
+    args: argparse.Namespace,
+    shape: str = "dragon_1147",
+    domain: int = 95,
+    records_dir: Path = SECTIONS_DIR,
 ) -> list[str]:
     """The dragon's distributed discovery under a lossy radio, killed FLSs, a lost coordinator."""
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -40,24 +44,26 @@ def faults_section(
         "| --- | ---: | ---: | ---: | ---: | ---: | --- |",
     ]
     for label, extra in RADIO_CASES:
-        with faulty_swarm(cloud, args.beta, domain, BASE_PARAMS + extra) as running:
+        with faulty_swarm(cloud, args.beta, domain, BASE_PARAMS + extra, records_dir) as running:
             lines.append(radio_row(running, label))
     # 5 % of the FLS nodes stopped once the run is under way, under a long round timeout.
     params = BASE_PARAMS + "/**/coordinator:\n  ros__parameters:\n    round_timeout: 600.0\n"
-    with faulty_swarm(cloud, args.beta, domain, params) as running:
+    with faulty_swarm(cloud, args.beta, domain, params, records_dir) as running:
         lines.append(stopped_row(running))
-    with faulty_swarm(cloud, args.beta, domain, BASE_PARAMS) as running:
+    with faulty_swarm(cloud, args.beta, domain, BASE_PARAMS, records_dir) as running:
         lines.append(lost_coordinator_row(running))
     return [*lines, ""]
 
 
-def faulty_swarm(cloud: str, beta: float, domain: int, params: str) -> Any:
+def faulty_swarm(
+    cloud: str, beta: float, domain: int, params: str, folder: Path = SECTIONS_DIR
+) -> Any:
     """A RunningSwarm of ``cloud`` in this process under the parameters ``params`` (YAML)."""
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.swarm import RunningSwarm
     from swazure_ros.sim.world import WorldSpec
 
-    path = SECTIONS_DIR / "faults.yaml"
+    path = folder / "faults.yaml"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(params)
     world = WorldSpec(cloud, beta=beta)

@@ -8,9 +8,11 @@ from .tables import check_shape
 
 
 def test_the_faults_section_gives_a_row_per_case_and_the_perfect_radio_matches_the_engine(
-    domain,
+    domain, tmp_path
 ):
-    lines = faults_section(Namespace(beta=0.5), shape="torus:60", domain=domain)
+    lines = faults_section(
+        Namespace(beta=0.5), shape="torus:60", domain=domain, records_dir=tmp_path
+    )
     [(header, rows)] = check_shape(lines)
     assert header[:2] == ["case", "wall s"]
     assert [row[0] for row in rows] == [
