@@ -35,7 +35,7 @@ help:
 	@echo "make study  regenerate the published tables, figures and report into study/"
 	@echo "make bench  run the benchmarks and rewrite BENCHMARKS.md (long)"
 	@echo "make colcon build both packages with colcon over the venv, run the CLI from install/"
-	@echo "make lint   ruff (lint and format check) and mypy strict over the package"
+	@echo "make lint   ruff (lint and format check) and mypy strict over the package and bench/"
 	@echo "make setup  create .venv with the pinned ROS 2 Jazzy wheels and build msg_defs"
 	@echo "make clean  remove .venv, build/ and caches"
 
@@ -102,7 +102,7 @@ demo: setup
 		--communication-delay 0.3 --every 1
 
 bench: setup
-	$(PY) scripts/bench.py $(if $(SECTIONS),--sections $(SECTIONS))
+	$(PY) -m bench $(if $(SECTIONS),--sections $(SECTIONS))
 
 study: setup
 	$(VENV)/bin/swazure study --out study

@@ -1,4 +1,4 @@
-"""A hostile peer on a swarm's ROS domain, for the hostile-peer soak (scripts/bench.py).
+"""A hostile peer on a swarm's ROS domain, for the hostile-peer soak (bench/hostile.py).
 
 For SECONDS seconds it publishes, on every topic of the swarm, messages
 generated from each type's field list (test/ros/fuzz.py) and forged offers

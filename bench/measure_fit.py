@@ -3,7 +3,7 @@
 Prints one JSON object: one sweet hop's mean error, both estimators' errors
 on the pairs with a sweet path and on those that need a decaying hop, the
 fit's NEES, the engine's and the fit's seconds, and with --outliers the fit
-on measurements of which 10 % are turned by 20 degrees. Run by bench.py's
+on measurements of which 10 % are turned by 20 degrees. Run by the bench's
 "least_squares" section.
 """
 
@@ -66,7 +66,10 @@ def local_run(plain: Any, count: int) -> dict[str, object]:
     local_estimate[beyond] = fallback[rows][beyond]
 
     def pct(estimate: np.ndarray) -> np.ndarray:
-        return 100 * np.linalg.norm(estimate - truth, axis=1) / np.linalg.norm(truth, axis=1)
+        error: np.ndarray = (
+            100 * np.linalg.norm(estimate - truth, axis=1) / np.linalg.norm(truth, axis=1)
+        )
+        return error
 
     result: dict[str, object] = {
         "sources": count,
@@ -138,6 +141,7 @@ def main() -> int:
             "alpha_path": float(np.mean(pairs.alpha[rows])) if rows.any() else float("nan"),
             "alpha_fit": float(np.mean(fitted.pairs.alpha[rows])) if rows.any() else float("nan"),
         }
+    assert fitted.pairs.covariance is not None  # the fit's estimates come with theirs
     nees = normalized_errors(fitted.pairs.estimate - pairs.truth, fitted.pairs.covariance)
     known = np.isfinite(nees)
     result["nees_mean"] = float(nees[known].mean())
@@ -147,8 +151,8 @@ def main() -> int:
         turned = refine(plain, corrupt=corrupt)
         has_path = pairs.status != NO_PATH
         # An FLS in one measured pair only has two vectors and nothing to tell a wrong one by.
-        measured = measurements(hood, fit_pairs(hood))
-        pairs_of = np.bincount(measured.first, minlength=swarm.size)
+        graph = measurements(hood, fit_pairs(hood))
+        pairs_of = np.bincount(graph.first, minlength=swarm.size)
         redundant = has_path & (pairs_of[pairs.source] >= 2) & (pairs_of[pairs.target] >= 2)
         result["outliers"] = {
             "clean": errors(fitted.pairs.distance_error[has_path]),

@@ -7,7 +7,7 @@ engine's evaluation and of each fit, one FLS's work per iteration, the
 bytes one FLS sends per iteration, and with --outliers both fits on
 measurements of which 10 % are turned by 20 degrees, and with --warm the
 iterations a warm start needs after 1 % of the FLSs depart or move. Run by
-bench.py's "swarm_solve" section.
+the bench's "swarm_solve" section.
 """
 
 from __future__ import annotations

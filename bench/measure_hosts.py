@@ -1,7 +1,7 @@
 """One process per FLS across hosts: bring-up, memory, idle CPU, traffic, identity and faults.
 
-Runs on host 0 of scripts/netns_hosts.sh (``netns_hosts.sh exec 0 python
-scripts/bench_hosts.py ...``, as scripts/bench.py's ``hosts`` section does):
+Runs on host 0 of scripts/netns_hosts.sh (``netns_hosts.sh exec 0 python -m
+bench.measure_hosts ...``, as the bench's ``hosts`` section does):
 this process is the leader (simulator, coordinator and host 0's share of FLS
 processes, app.swarm.RunningSwarm); it starts hosts 1..H-1's shares with the
 command a person would run on each (``swazure spawn --per-fls --share K/H``),
@@ -21,6 +21,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -126,7 +127,7 @@ def available_mb() -> float:
     return float("nan")
 
 
-def compare_without(world, result, gone_ids: set[int]) -> dict[str, object]:
+def compare_without(world: Any, result: Any, gone_ids: set[int]) -> dict[str, object]:
     """The swarm's estimates beside the engine's on the shape without ``gone_ids``."""
     from swazure_ros.core.evaluate import NO_PATH, evaluate_pairs, without
 
@@ -158,7 +159,7 @@ def compare_without(world, result, gone_ids: set[int]) -> dict[str, object]:
     }
 
 
-def fault_run(swarm, root: Path, victims: list[int], kill_server: bool) -> dict[str, object]:
+def fault_run(swarm: Any, root: Path, victims: list[int], kill_server: bool) -> dict[str, object]:
     """A discovery run in which ``victims``' processes (and the server) are killed mid-run."""
     coordinator = swarm.coordinator
     began = time.monotonic()
@@ -200,7 +201,8 @@ def fault_run(swarm, root: Path, victims: list[int], kill_server: bool) -> dict[
     return record
 
 
-def main() -> int:
+def arguments() -> argparse.Namespace:
+    """The command line: the swarm's size, hosts and discovery, the record's file, what to run."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--flss", type=int, required=True)
     parser.add_argument("--hosts", type=int, default=4)
@@ -210,15 +212,15 @@ def main() -> int:
     parser.add_argument("--faults", action="store_true")
     parser.add_argument("--idle", type=float, default=10.0, help="seconds of idle sampling")
     parser.add_argument("--timeout", type=float, default=420.0, help="bring-up deadline, s")
-    args = parser.parse_args()
+    return parser.parse_args()
 
-    from swazure_ros.app.compute import compute_all
-    from swazure_ros.app.config import SwarmConfig
+
+def main() -> int:
     from swazure_ros.app.discovery_server import parse_servers
     from swazure_ros.app.swarm import RunningSwarm
     from swazure_ros.ros.keys import new_key, write_key
-    from swazure_ros.sim.world import WorldSpec
 
+    args = arguments()
     record: dict[str, object] = {
         "flss": args.flss, "hosts": args.hosts, "discovery": args.discovery,
     }  # fmt: skip
@@ -232,24 +234,79 @@ def main() -> int:
     key = new_key()
     write_key(key_file, key)
     servers = parse_servers(address(0)) if args.discovery == "server" else ()
-    cloud = f"torus:{args.flss}"
+    sent_before = sent(args.hosts)
+    began = time.monotonic()
+    followers = start_followers(args, root, key_file, bool(servers))
+    try:
+        with RunningSwarm(leader_config(args, root, key, servers)) as swarm:
+            try:
+                bring_up = swarm.wait_until_ready()
+            except Exception as err:  # the record says where it stopped
+                record["stopped"] = f"bring-up: {err}"
+                record.update(stopped_record(swarm, root, args.hosts, sent_before))
+                raise
+            record["bring_up_s"] = time.monotonic() - began
+            record.update(up_record(swarm, root, args, sent_before, bring_up.peak_rss_mb[0]))
+            print(f"bench_hosts: {args.flss} FLSs, {args.discovery}: up in "
+                  f"{record['bring_up_s']:.1f} s", file=sys.stderr, flush=True)  # fmt: skip
+            if args.compute_all:
+                record.update(computed_record(swarm))
+            if args.faults:
+                record.update(faults_record(swarm, root, args.flss, bool(servers)))
+    except Exception as err:
+        record.setdefault("stopped", f"{type(err).__name__}: {err}")
+    finally:
+        stop_followers(followers)
+        args.out.write_text(json.dumps(record, indent=1))
+    return 0
+
+
+def spawn_arguments(args: argparse.Namespace, key_file: Path, server: bool) -> list[str]:
+    """`swazure spawn`'s arguments for a host's share of the torus (without the share)."""
     # The other hosts wait longer than host 0: the leader's view decides, and their FLS
     # processes are still there when it gives up and measures.
-    common = ["spawn", "--cloud", cloud, "--scale", str(SCALE), "--beta", str(BETA),
-              "--per-fls", "--key-file", str(key_file), "--quiet",
+    common = ["spawn", "--cloud", f"torus:{args.flss}", "--scale", str(SCALE), "--beta",
+              str(BETA), "--per-fls", "--key-file", str(key_file), "--quiet",
               "--discovery-timeout", str(args.timeout + 300)]  # fmt: skip
-    if servers:
+    if server:
         common += ["--discovery-server", address(0)]
-    packets0, bytes0 = sent(args.hosts)
-    began = time.monotonic()
+    return common
+
+
+def start_followers(
+    args: argparse.Namespace, root: Path, key_file: Path, server: bool
+) -> list[subprocess.Popen[bytes]]:
+    """Hosts 1..H-1's shares, each started on its host as a person would start it."""
     followers = []
     for index in range(1, args.hosts):
         share = ["--share", f"{index}/{args.hosts}", "--log-dir", str(root / f"h{index}")]
         with (root / f"launcher{index}.log").open("w") as log:
-            command = [str(SCRIPT), "exec", str(index), *SWAZURE, *common, *share]
+            command = [str(SCRIPT), "exec", str(index), *SWAZURE,
+                       *spawn_arguments(args, key_file, server), *share]  # fmt: skip
             followers.append(subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=log))
-    config = SwarmConfig(
-        WorldSpec(cloud=cloud, scale=SCALE, beta=BETA),
+    return followers
+
+
+def stop_followers(followers: list[subprocess.Popen[bytes]]) -> None:
+    """Stop the other hosts' launchers as Ctrl-C would, killing any that does not stop."""
+    for follower in followers:
+        follower.send_signal(signal.SIGINT)
+    for follower in followers:
+        try:
+            follower.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            follower.kill()
+
+
+def leader_config(
+    args: argparse.Namespace, root: Path, key: bytes, servers: tuple[Any, ...]
+) -> Any:
+    """Host 0's share of the torus: the simulator, the coordinator and its FLS processes."""
+    from swazure_ros.app.config import SwarmConfig
+    from swazure_ros.sim.world import WorldSpec
+
+    return SwarmConfig(
+        WorldSpec(cloud=f"torus:{args.flss}", scale=SCALE, beta=BETA),
         share=0,
         hosts=args.hosts,
         per_fls=True,
@@ -258,96 +315,105 @@ def main() -> int:
         log_dir=str(root / "h0"),
         discovery_timeout=args.timeout,
     )
-    try:
-        with RunningSwarm(config) as swarm:
-            try:
-                bring_up = swarm.wait_until_ready()
-            except Exception as err:  # the record says where it stopped
-                record["stopped"] = f"bring-up: {err}"
-                seen = {name for name, _ in swarm.host.host_node.get_node_names_and_namespaces()}
-                record["unseen"] = [
-                    int(fls_id) for fls_id in swarm.world.ids if f"fls_{fls_id}" not in seen
-                ]
-                # What it had taken by then: memory, and traffic since the start.
-                pids = swarm_pids(root)
-                servers_pids = [p.pid for p in swarm.discovery_servers.processes.values()]
-                everyone = [os.getpid(), *pids["launchers"], *pids["fls"], *servers_pids]
-                record["fls_processes"] = len(pids["fls"])
-                record["total_pss_mb"] = sum(resident_mb(pid, "Pss:") for pid in everyone)
-                record["cpu_s"] = cpu_seconds(everyone)
-                packets1, bytes1 = sent(args.hosts)
-                record["stopped_packets"] = packets1 - packets0
-                record["stopped_bytes"] = bytes1 - bytes0
-                raise
-            record["bring_up_s"] = time.monotonic() - began
-            started = swarm_pids(root)
-            servers_started = [p.pid for p in swarm.discovery_servers.processes.values()]
-            record["bring_up_cpu_s"] = cpu_seconds(
-                [os.getpid(), *started["launchers"], *started["fls"], *servers_started]
-            )
-            packets1, bytes1 = sent(args.hosts)
-            record["bring_up_packets"] = packets1 - packets0
-            record["bring_up_bytes"] = bytes1 - bytes0
-            pids = swarm_pids(root)
-            servers_pids = [p.pid for p in swarm.discovery_servers.processes.values()]
-            everyone = [os.getpid(), *pids["launchers"], *pids["fls"], *servers_pids]
-            cpu0, t0 = cpu_seconds(everyone), time.monotonic()
-            swarm.spin(args.idle)
-            cpu1, t1 = cpu_seconds(everyone), time.monotonic()
-            packets2, bytes2 = sent(args.hosts)
-            record["idle_cpu_cores"] = (cpu1 - cpu0) / (t1 - t0)
-            record["idle_packets_per_s"] = (packets2 - packets1) / (t1 - t0)
-            record["idle_bytes_per_s"] = (bytes2 - bytes1) / (t1 - t0)
-            fls_mb = [resident_mb(pid) for pid in pids["fls"]]
-            record["fls_processes"] = len(fls_mb)
-            record["fls_rss_mb_mean"] = float(np.mean(fls_mb)) if fls_mb else None
-            record["fls_rss_mb_max"] = float(np.max(fls_mb)) if fls_mb else None
-            launchers = [os.getpid(), *pids["launchers"]]
-            record["launchers_rss_mb"] = [resident_mb(pid) for pid in launchers]
-            record["servers_rss_mb"] = [resident_mb(pid) for pid in servers_pids]
-            record["total_rss_mb"] = float(
-                sum(fls_mb) + sum(record["launchers_rss_mb"]) + sum(record["servers_rss_mb"])
-            )
-            record["total_pss_mb"] = sum(
-                resident_mb(pid, "Pss:") for pid in [*launchers, *pids["fls"], *servers_pids]
-            )
-            record["launcher_peak_mb"] = bring_up.peak_rss_mb[0]
-            print(f"bench_hosts: {args.flss} FLSs, {args.discovery}: up in "
-                  f"{record['bring_up_s']:.1f} s", file=sys.stderr, flush=True)  # fmt: skip
-            if args.compute_all:
-                computed = compute_all(swarm, POLICY)
-                distributed = computed.record.distributed
-                assert distributed is not None  # a run of the swarm's
-                record["discovery_s"] = distributed.seconds
-                record["rounds"] = distributed.rounds
-                record["restarts"] = distributed.restarts
-                record["engine_s"] = computed.record.engine_seconds
-                record["pairs"] = len(computed.engine.pairs)
-                record["identical"] = computed.record.identical
-            if args.faults:
-                rng = np.random.default_rng(5)
-                count = math.ceil(0.05 * args.flss)
-                victims = sorted(int(v) for v in rng.choice(swarm.world.ids, count, replace=False))
-                record["fault_fls"] = fault_run(swarm, root, victims, kill_server=False)
-                if servers:
-                    record["fault_server"] = fault_run(swarm, root, [], kill_server=True)
-                    # Whether the living stay in each other's graph with the server gone.
-                    swarm.spin(30.0)
-                    record["gone_30s_after_server"] = sorted(
-                        swarm.coordinator.membership.gone - set(record["fault_fls"]["killed"])
-                    )
-    except Exception as err:
-        record.setdefault("stopped", f"{type(err).__name__}: {err}")
-    finally:
-        for follower in followers:
-            follower.send_signal(signal.SIGINT)
-        for follower in followers:
-            try:
-                follower.wait(timeout=60)
-            except subprocess.TimeoutExpired:
-                follower.kill()
-        args.out.write_text(json.dumps(record, indent=1))
-    return 0
+
+
+def everyone(swarm: Any, pids: dict[str, list[int]]) -> list[int]:
+    """Every process of the swarm: this one, the launchers, the FLS processes, the servers."""
+    servers = [p.pid for p in swarm.discovery_servers.processes.values()]
+    return [os.getpid(), *pids["launchers"], *pids["fls"], *servers]
+
+
+def stopped_record(
+    swarm: Any, root: Path, hosts: int, sent_before: tuple[int, int]
+) -> dict[str, object]:
+    """A bring-up that did not end: who was unseen, what it had taken by then."""
+    seen = {name for name, _ in swarm.host.host_node.get_node_names_and_namespaces()}
+    pids = swarm_pids(root)
+    packets1, bytes1 = sent(hosts)
+    return {
+        "unseen": [int(fls_id) for fls_id in swarm.world.ids if f"fls_{fls_id}" not in seen],
+        "fls_processes": len(pids["fls"]),
+        "total_pss_mb": sum(resident_mb(pid, "Pss:") for pid in everyone(swarm, pids)),
+        "cpu_s": cpu_seconds(everyone(swarm, pids)),
+        "stopped_packets": packets1 - sent_before[0],
+        "stopped_bytes": bytes1 - sent_before[1],
+    }
+
+
+def up_record(
+    swarm: Any,
+    root: Path,
+    args: argparse.Namespace,
+    sent_before: tuple[int, int],
+    launcher_peak_mb: float,
+) -> dict[str, object]:
+    """A swarm up: its bring-up CPU and traffic, then idle CPU, traffic and memory."""
+    record: dict[str, object] = {"bring_up_cpu_s": cpu_seconds(everyone(swarm, swarm_pids(root)))}
+    packets1, bytes1 = sent(args.hosts)
+    record["bring_up_packets"] = packets1 - sent_before[0]
+    record["bring_up_bytes"] = bytes1 - sent_before[1]
+    pids = swarm_pids(root)
+    cpu0, t0 = cpu_seconds(everyone(swarm, pids)), time.monotonic()
+    swarm.spin(args.idle)
+    cpu1, t1 = cpu_seconds(everyone(swarm, pids)), time.monotonic()
+    packets2, bytes2 = sent(args.hosts)
+    record["idle_cpu_cores"] = (cpu1 - cpu0) / (t1 - t0)
+    record["idle_packets_per_s"] = (packets2 - packets1) / (t1 - t0)
+    record["idle_bytes_per_s"] = (bytes2 - bytes1) / (t1 - t0)
+    record.update(memory_record(swarm, pids))
+    record["launcher_peak_mb"] = launcher_peak_mb
+    return record
+
+
+def memory_record(swarm: Any, pids: dict[str, list[int]]) -> dict[str, object]:
+    """Resident memory of the FLS processes, launchers and servers; the total Pss of them all."""
+    servers_pids = [p.pid for p in swarm.discovery_servers.processes.values()]
+    fls_mb = [resident_mb(pid) for pid in pids["fls"]]
+    launchers = [os.getpid(), *pids["launchers"]]
+    launchers_mb = [resident_mb(pid) for pid in launchers]
+    servers_mb = [resident_mb(pid) for pid in servers_pids]
+    return {
+        "fls_processes": len(fls_mb),
+        "fls_rss_mb_mean": float(np.mean(fls_mb)) if fls_mb else None,
+        "fls_rss_mb_max": float(np.max(fls_mb)) if fls_mb else None,
+        "launchers_rss_mb": launchers_mb,
+        "servers_rss_mb": servers_mb,
+        "total_rss_mb": float(sum(fls_mb) + sum(launchers_mb) + sum(servers_mb)),
+        "total_pss_mb": sum(
+            resident_mb(pid, "Pss:") for pid in [*launchers, *pids["fls"], *servers_pids]
+        ),
+    }
+
+
+def computed_record(swarm: Any) -> dict[str, object]:
+    """Every blind pair computed by the swarm beside the engine: timings and identity."""
+    from swazure_ros.app.compute import compute_all
+
+    computed = compute_all(swarm, POLICY)
+    distributed = computed.record.distributed
+    assert distributed is not None  # a run of the swarm's
+    return {
+        "discovery_s": distributed.seconds,
+        "rounds": distributed.rounds,
+        "restarts": distributed.restarts,
+        "engine_s": computed.record.engine_seconds,
+        "pairs": len(computed.engine.pairs),
+        "identical": computed.record.identical,
+    }
+
+
+def faults_record(swarm: Any, root: Path, flss: int, server: bool) -> dict[str, object]:
+    """5 % of the FLS processes killed mid-run; then the server, and who is gone after it."""
+    rng = np.random.default_rng(5)
+    count = math.ceil(0.05 * flss)
+    victims = sorted(int(v) for v in rng.choice(swarm.world.ids, count, replace=False))
+    record: dict[str, object] = {"fault_fls": fault_run(swarm, root, victims, kill_server=False)}
+    if server:
+        record["fault_server"] = fault_run(swarm, root, [], kill_server=True)
+        # Whether the living stay in each other's graph with the server gone.
+        swarm.spin(30.0)
+        record["gone_30s_after_server"] = sorted(swarm.coordinator.membership.gone - set(victims))
+    return record
 
 
 if __name__ == "__main__":

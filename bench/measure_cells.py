@@ -6,7 +6,7 @@ writes one JSON record (--out): per process, the FLSs it hosts, the radio
 cells it subscribes to (from the ROS graph, as anyone sees them), the offers
 it heard over DDS (its guard's counts on /diagnostics), its CPU seconds
 during discovery (/proc), and the swarm's discovery time, the engine's time
-for the same work and whether the pairs are the engine's. scripts/bench.py's
+for the same work and whether the pairs are the engine's. The bench's
 ``cells`` section runs it for each shape and process count.
 """
 
@@ -50,14 +50,19 @@ def peak_mb(pid: int) -> float:
     return float("nan")
 
 
-def main() -> int:
+def arguments() -> argparse.Namespace:
+    """The command line: the cloud, beta, processes, domain and the record's file."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cloud", required=True)
     parser.add_argument("--beta", type=float, default=0.5)
     parser.add_argument("--processes", type=int, default=1)
     parser.add_argument("--domain-id", type=int, default=93)
     parser.add_argument("--out", type=Path, required=True)
-    args = parser.parse_args()
+    return parser.parse_args()
+
+
+def main() -> int:
+    args = arguments()
     spec = WorldSpec(args.cloud, beta=args.beta)
     config = SwarmConfig(spec, processes=args.processes, domain_id=args.domain_id)
     # The engine's and the search's compiled kernels loaded (compiled, after a change of
@@ -75,36 +80,14 @@ def main() -> int:
         blocks = swarm.source_blocks()
         print(f"bench_cells: up in {up:.0f} s; discovering in {len(blocks)} run(s)",
               file=sys.stderr, flush=True)  # fmt: skip
-        heard: dict[str, dict[str, int]] = {}
-
-        def on_diagnostics(array: DiagnosticArray) -> None:
-            for status in array.status:
-                offers = sum(
-                    int(value.value)
-                    for value in status.values
-                    if value.key.startswith(f"accepted {RADIO_TOPIC}/")
-                )
-                heard[status.hardware_id.rsplit("/", 1)[-1]] = {"offers": offers}
-
-        probe = Node("bench_cells", context=swarm.context, enable_rosout=False)
-        probe.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 100)
-        swarm.host.add(probe)
+        heard = heard_offers(swarm)
         pids = swarm.process_ids
         cpu_before = [cpu_seconds(pid) for pid in pids]
         computed = compute_all(swarm, POLICY)
         cpu = [cpu_seconds(pid) - before for pid, before in zip(pids, cpu_before, strict=True)]
         peaks = [peak_mb(pid) for pid in pids]
         swarm.spin(2.5)  # every process's counts reach /diagnostics
-        node = swarm.host.host_node
-        radio = [
-            topic
-            for topic, _ in node.get_topic_names_and_types()
-            if topic.startswith(f"/{config.namespace}/{RADIO_TOPIC}/")
-        ]
-        cells: dict[str, int] = {}
-        for topic in radio:
-            for reader in node.get_subscriptions_info_by_topic(topic):
-                cells[reader.node_name] = cells.get(reader.node_name, 0) + 1
+        radio, cells = radio_cells(swarm, config.namespace)
         record = computed.record
         distributed = record.distributed
         assert distributed is not None
@@ -134,12 +117,48 @@ def main() -> int:
                 for index in range(args.processes)
             ],
         }
-        assert swarm.host.radio is not None
+        assert swarm.host is not None and swarm.host.radio is not None
         out["per_process"][0]["offers_here"] = swarm.host.radio.offers_here
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(out, indent=1))
     print(json.dumps(out))
     return 0
+
+
+def heard_offers(swarm: RunningSwarm) -> dict[str, dict[str, int]]:
+    """Offers each process accepted over DDS, by host name, kept up to date from /diagnostics."""
+    heard: dict[str, dict[str, int]] = {}
+
+    def on_diagnostics(array: DiagnosticArray) -> None:
+        for status in array.status:
+            offers = sum(
+                int(value.value)
+                for value in status.values
+                if value.key.startswith(f"accepted {RADIO_TOPIC}/")
+            )
+            heard[status.hardware_id.rsplit("/", 1)[-1]] = {"offers": offers}
+
+    assert swarm.host is not None
+    probe = Node("bench_cells", context=swarm.context, enable_rosout=False)
+    probe.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 100)
+    swarm.host.add(probe)
+    return heard
+
+
+def radio_cells(swarm: RunningSwarm, namespace: str) -> tuple[list[str], dict[str, int]]:
+    """The radio cells' topics, and how many of them each process reads."""
+    assert swarm.host is not None
+    node = swarm.host.host_node
+    radio = [
+        topic
+        for topic, _ in node.get_topic_names_and_types()
+        if topic.startswith(f"/{namespace}/{RADIO_TOPIC}/")
+    ]
+    cells: dict[str, int] = {}
+    for topic in radio:
+        for reader in node.get_subscriptions_info_by_topic(topic):
+            cells[reader.node_name] = cells.get(reader.node_name, 0) + 1
+    return radio, cells
 
 
 if __name__ == "__main__":
