@@ -43,9 +43,10 @@ from swazure_ros.app.discovery_server import (
 from swazure_ros.app.per_fls import FLS_ENVIRONMENT
 from swazure_ros.cli.swarm_file import example_swarms, load_swarm_file, swarm_file
 from swazure_ros.core.description import SwarmDescription
+from swazure_ros.ros import coordinator_program, fls_program, world_node
 from swazure_ros.ros.auth import INSTANCE_BYTES
 from swazure_ros.ros.keys import new_key, write_key
-from swazure_ros.ros.runtime import description_parameters
+from swazure_ros.ros.runtime import description_parameters, startup_arguments
 
 PACKAGE = "swazure_ros"
 
@@ -114,7 +115,7 @@ def _per_fls(path: Path, servers: tuple) -> list:
             # that [fls_7-9] is FLS 7, not the ninth process named fls.
             exec_name="world",
             namespace=namespace,
-            parameters=[shared],
+            arguments=startup_arguments(shared, world_node.STARTUP),
             additional_env=clients,
             output="screen",
         ),
@@ -124,7 +125,9 @@ def _per_fls(path: Path, servers: tuple) -> list:
             exec_name="coordinator",
             name="coordinator",
             namespace=namespace,
-            parameters=[{**shared, "hosts": len(ids)}],
+            arguments=startup_arguments(
+                {**shared, "hosts": len(ids)}, coordinator_program.STARTUP
+            ),
             additional_env=clients,
             output="screen",
         ),
@@ -135,7 +138,8 @@ def _per_fls(path: Path, servers: tuple) -> list:
             executable="fls",
             exec_name=f"fls_{fls_id}",
             namespace=namespace,
-            parameters=[{**shared, **every_fls, **own.get(fls_id, {}), "fls_id": fls_id}],
+            arguments=startup_arguments({**shared, "fls_id": fls_id}, fls_program.STARTUP),
+            parameters=[{**every_fls, **own.get(fls_id, {})}],
             # As swazure spawn --per-fls starts them; the user's environment wins.
             additional_env={
                 **{k: v for k, v in FLS_ENVIRONMENT.items() if k not in os.environ},

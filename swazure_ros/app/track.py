@@ -104,11 +104,8 @@ class TrackSession:
                 namespace=self.namespace,
                 key=key,
                 domain_id=context.get_domain_id(),
-                parameters={
-                    **track_parameters(config),
-                    "track.motion": per_fls.motion,
-                    "track.report_progress": True,
-                },
+                parameters={**track_parameters(config), "track.report_progress": True},
+                motion=per_fls.motion,
             )
         self.host = SwarmHost(
             world,

@@ -1,9 +1,11 @@
 """The ``coordinator`` program: the coordinator of a swarm whose FLSs run one to a process.
 
-``ros2 run swazure_ros coordinator --ros-args -p cloud:=torus:120 -p scale:=5 -p beta:=0.5``
+``ros2 run swazure_ros coordinator --cloud torus:120 --scale 5 --beta 0.5``
 """
 
 from __future__ import annotations
+
+from typing import Any
 
 from rclpy.context import Context
 from rclpy.node import Node
@@ -22,7 +24,6 @@ from .runtime import (
     description_from,
     program_help,
     run_process,
-    startup_parameters,
 )
 
 HOSTS = ParameterSpec(
@@ -31,7 +32,7 @@ HOSTS = ParameterSpec(
     "the radios that acknowledge each round; 0: one per FLS, each FLS in its own process",
     at_least(0),
 )
-#: What the program reads before it builds its node.
+#: What the program takes as arguments, before it builds its node.
 STARTUP = (NAMESPACE, KEY_FILE, SWARM_INSTANCE, HOSTS, *DESCRIPTION_PARAMETERS)
 USAGE = program_help(
     "coordinator",
@@ -40,20 +41,20 @@ clock of the swarm's discovery runs, answers ~/compute_pose and plans the
 heuristics' moves on the swarm's shape. Give it the swarm's description, as every
 FLS has it.
 
-  ros2 run swazure_ros coordinator --ros-args -p cloud:=torus:120 -p scale:=5 -p beta:=0.5""",
-    [*STARTUP, *coordinator.PARAMETERS],
+  ros2 run swazure_ros coordinator --cloud torus:120 --scale 5 --beta 0.5""",
+    STARTUP,
+    coordinator.PARAMETERS,
 )
 
 
-def build_coordinator(context: Context) -> list[Node]:
+def build_coordinator(context: Context, values: dict[str, Any]) -> list[Node]:
     """The coordinator's process, for a swarm whose FLSs run one to a process.
 
-    Parameters: the swarm's description (``cloud``, ``beta`` or ``radius``,
+    ``values`` (STARTUP): the swarm's description (``cloud``, ``beta`` or ``radius``,
     ...), ``namespace``, ``key_file``, and ``hosts``: the radios that
     acknowledge each round (0: one per FLS, each FLS in its own process).
     It plans heuristics' moves on the description's shape, as the packed one does.
     """
-    values = startup_parameters(context, STARTUP)
     description = description_from(values)
     shape = neighbourhood(description.assigned(), description.sensor())
     ids = shape.swarm.cloud_index
@@ -72,5 +73,5 @@ def build_coordinator(context: Context) -> list[Node]:
 
 
 def main(args: list[str] | None = None) -> int:
-    """``ros2 run swazure_ros coordinator --ros-args -p cloud:=torus:120 -p beta:=0.5``."""
-    return run_process(build_coordinator, args, usage=USAGE)
+    """``ros2 run swazure_ros coordinator --cloud torus:120 --beta 0.5``."""
+    return run_process(build_coordinator, args, usage=USAGE, startup=STARTUP)

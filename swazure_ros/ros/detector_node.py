@@ -23,6 +23,7 @@ detector on the FLS's own host, beside its driver.
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import PoseWithCovariance
@@ -48,7 +49,6 @@ from .runtime import (
     SwarmNode,
     program_help,
     run_process,
-    startup_parameters,
 )
 
 #: The camera the published model's sensor was measured with.
@@ -143,13 +143,12 @@ class ArucoDetectorNode(SwarmNode):
         self._detections.publish(self.guard.key.serialize(message))
 
 
-def build_detector(context: Context) -> list[Node]:
-    """The detector's process: one node."""
-    values = startup_parameters(context, STARTUP)
+def build_detector(context: Context, values: dict[str, Any]) -> list[Node]:
+    """The detector's process: one node; ``values``: STARTUP's."""
     return [ArucoDetectorNode(context=context, key=program_key(context, values))]
 
 
-#: What the program reads before it builds its node: the swarm's key, to sign with.
+#: What the program takes as arguments: the swarm's key, to sign with.
 STARTUP = (NAMESPACE, KEY_FILE, SWARM_INSTANCE)
 
 
@@ -163,6 +162,7 @@ marker's centre in the camera's optical frame, m), as an FLS's camera feeds the 
 
   ros2 run swazure_ros aruco_detector --ros-args -r image_raw:=/camera/image_raw \\
       -r camera_info:=/camera/camera_info -r detections:=/swarm/fls_7/camera/detections""",
-        [camera_file(), *STARTUP],
+        STARTUP,
+        [camera_file()],
     )
-    return run_process(build_detector, args, usage=usage)
+    return run_process(build_detector, args, usage=usage, startup=STARTUP)

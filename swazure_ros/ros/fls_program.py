@@ -1,6 +1,6 @@
 """The ``fls`` program: one FLS in its own process, as on FLS hardware.
 
-``ros2 run swazure_ros fls --ros-args -p fls_id:=7 -p cloud:=torus:120 -p beta:=0.5``
+``ros2 run swazure_ros fls --fls-id 7 --cloud torus:120 --beta 0.5``
 
 The FLS senses by its camera's detections (``fls_<id>/camera/detections``)
 and has a radio of its own (:class:`.radio.Radio`). It joins the swarm's rounds
@@ -10,6 +10,7 @@ only once every FLS and the coordinator hear it (:class:`RadioJoin`).
 from __future__ import annotations
 
 import time
+from typing import Any
 
 from rclpy.context import Context
 from rclpy.node import Node
@@ -36,7 +37,6 @@ from .runtime import (
     description_from,
     program_help,
     run_process,
-    startup_parameters,
 )
 
 #: Seconds between two looks of a standalone FLS at whether every FLS hears it yet.
@@ -56,7 +56,7 @@ JOIN_TIMEOUT = ParameterSpec(
     "in rounds anyway",
     seconds(),
 )
-#: What the program reads before it builds its node.
+#: What the program takes as arguments, before it builds its node.
 STARTUP = (FLS_ID, NAMESPACE, KEY_FILE, SWARM_INSTANCE, TRACK_MOTION, *DESCRIPTION_PARAMETERS)
 USAGE = program_help(
     "fls",
@@ -65,8 +65,9 @@ USAGE = program_help(
 aruco_detector on a real camera) and takes part in the swarm's discovery runs once
 the coordinator (`ros2 run swazure_ros coordinator`) and every FLS hear it.
 
-  ros2 run swazure_ros fls --ros-args -p fls_id:=7 -p cloud:=torus:120 -p scale:=5 -p beta:=0.5""",
-    [*STARTUP, *fls_node.PARAMETERS, *fls_tracking.PARAMETERS, JOIN_TIMEOUT],
+  ros2 run swazure_ros fls --fls-id 7 --cloud torus:120 --scale 5 --beta 0.5""",
+    STARTUP,
+    [*fls_node.PARAMETERS, *fls_tracking.PARAMETERS, JOIN_TIMEOUT],
 )
 
 
@@ -150,18 +151,17 @@ class RadioJoin:
             self.node.destroy_timer(self.poll)
 
 
-def build_fls(context: Context) -> list[Node]:
+def build_fls(context: Context, values: dict[str, Any]) -> list[Node]:
     """One FLS in its own process: it senses by its camera's detections, radio of its own.
 
-    Parameters: ``fls_id``, the swarm's description (``cloud``, ``beta`` or
-    ``radius``, ``scale``, ``sensor``, ``seed``, ``accurate``),
+    ``values`` (STARTUP): ``fls_id``, the swarm's description (``cloud``,
+    ``beta`` or ``radius``, ``scale``, ``sensor``, ``seed``, ``accurate``),
     ``namespace`` and ``key_file`` (the swarm's key; "" for none, and then
-    ``SWAZURE_SWARM_KEY_FILE`` if set), besides the FLS node's own.
+    ``SWAZURE_SWARM_KEY_FILE`` if set); the FLS node's own are parameters.
     """
-    values = startup_parameters(context, STARTUP)
     fls_id = values["fls_id"]
     if isinstance(fls_id, bool) or not isinstance(fls_id, int) or fls_id < 0:
-        raise ParameterError(f"parameter fls_id: an FLS id (>= 0) is needed, got {fls_id!r}")
+        raise ParameterError(f"argument --fls-id: an FLS id (>= 0) is needed, got {fls_id!r}")
     description = description_from(values)
     assigned = description.assigned()
     senses = DetectedSenses(
@@ -175,7 +175,7 @@ def build_fls(context: Context) -> list[Node]:
         try:
             motion = parse_motion(str(values["track.motion"]))
         except SwazureError as err:
-            raise ParameterError(f"parameter track.motion: {err}") from err
+            raise ParameterError(f"argument --track-motion: {err}") from err
         moving = moving_senses(
             senses.sensor, senses.radius, assigned.cloud_index, assigned.points, motion
         )
@@ -201,7 +201,7 @@ def build_fls(context: Context) -> list[Node]:
 
 
 def main(args: list[str] | None = None) -> int:
-    """``ros2 run swazure_ros fls --ros-args -p fls_id:=7 -p cloud:=torus:120 -p beta:=0.5``."""
+    """``ros2 run swazure_ros fls --fls-id 7 --cloud torus:120 --beta 0.5``."""
     # One FLS relaxes a few labels a round: numba would cost more than it saves.
     jit.interpret()
-    return run_process(build_fls, args, usage=USAGE)
+    return run_process(build_fls, args, usage=USAGE, startup=STARTUP)

@@ -64,6 +64,11 @@ class ParameterSpec:
     rule: Rule = field(default=any_value, compare=False)
 
     @property
+    def option(self) -> str:
+        """The program argument that gives it at start: ``fls_id`` is ``--fls-id``."""
+        return "--" + self.name.replace("_", "-").replace(".", "-")
+
+    @property
     def type_name(self) -> str:
         """The parameter's ROS 2 type: bool, int, double or string."""
         return TYPE_NAMES[type(self.default)]
@@ -73,11 +78,32 @@ class ParameterSpec:
         return self.rule(value)
 
 
-def help_text(usage: str, about: str, specs: Sequence[ParameterSpec]) -> str:
-    """A program's ``--help``: usage, what it does, and every parameter with its default."""
-    lines = [f"usage: {usage}", "", about.strip(), "", "parameters (-p NAME:=VALUE; default):"]
-    for spec in specs:
-        default = repr(spec.default) if isinstance(spec.default, str) else str(spec.default)
-        lines.append(f"  {spec.name} ({spec.type_name}, {default})")
-        lines.append(f"      {spec.description}")
+def help_text(
+    usage: str,
+    about: str,
+    specs: Sequence[ParameterSpec],
+    arguments: Sequence[ParameterSpec] = (),
+) -> str:
+    """A program's ``--help``: usage, what it does, its startup ``arguments`` and every
+    parameter, each with its default."""
+    lines = [f"usage: {usage}", "", about.strip()]
+    for title, listed, name in (
+        ("arguments, before --ros-args (--NAME VALUE; default):", arguments, _option_of),
+        ("parameters (-p NAME:=VALUE; default):", specs, _name_of),
+    ):
+        if not listed:
+            continue
+        lines += ["", title]
+        for spec in listed:
+            default = repr(spec.default) if isinstance(spec.default, str) else str(spec.default)
+            lines.append(f"  {name(spec)} ({spec.type_name}, {default})")
+            lines.append(f"      {spec.description}")
     return "\n".join(lines)
+
+
+def _option_of(spec: ParameterSpec) -> str:
+    return spec.option
+
+
+def _name_of(spec: ParameterSpec) -> str:
+    return spec.name

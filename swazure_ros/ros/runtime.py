@@ -50,7 +50,6 @@ from rclpy.utilities import remove_ros_args
 from ..core.description import SwarmDescription
 from ..core.errors import SwazureError
 from ..core.files import read_yaml
-from .overrides import node_overrides
 from .parameters import ParameterSpec, at_least, help_text
 
 
@@ -353,36 +352,57 @@ SWARM_INSTANCE = ParameterSpec(
 )
 
 
-#: The name the startup parameters are read as: the sections of a parameter file for
-#: ``/**`` and for this node, as renamed by ``-r __node:=`` (as ``ros2 launch`` names it).
-STARTUP_NODE = "swazure_startup"
+def startup_arguments(values: dict[str, Any], specs: Sequence[ParameterSpec]) -> list[str]:
+    """The program arguments that give ``specs``' parameters ``values``; a default is left out."""
+    given = [spec for spec in specs if values.get(spec.name, spec.default) != spec.default]
+    return [part for spec in given for part in (spec.option, str(values[spec.name]))]
 
 
-def startup_parameters(context: Context, specs: Sequence[ParameterSpec]) -> dict[str, Any]:
+def _startup_value(spec: ParameterSpec, text: str) -> Any:
+    """``text`` as a value of ``spec``'s type; ParameterError if it is not one, or is refused."""
+    option = spec.option
+    kind = type(spec.default)
+    try:
+        if kind is bool:
+            if text.lower() not in ("true", "false"):
+                raise ValueError(text)
+            value: Any = text.lower() == "true"
+        else:
+            value = kind(text)
+    except ValueError:
+        raise ParameterError(f"argument {option}: {text!r} is not a {spec.type_name}") from None
+    reason = spec.refuses(value)
+    if reason is not None:
+        raise ParameterError(f"argument {option} {reason}")
+    return value
+
+
+def startup_parameters(given: Sequence[str], specs: Sequence[ParameterSpec]) -> dict[str, Any]:
     """The values of parameters a process needs before it can name or build its node.
 
-    They come from the command line's ``-p`` and the sections of parameter
-    files for every node or this one (STARTUP_NODE, remapped), read from
-    rcl's arguments as a node would, but without one (a node would
-    create the DDS participant only to delete it: ros.overrides);
-    ParameterError when one has another type than its default, as rclpy's
-    ``declare_parameter`` would say, or a value its rule refuses.
+    They are program arguments, before ``--ros-args`` (``--fls-id 7 --cloud
+    torus:120``: ParameterSpec.option), so that no node, and no DDS
+    participant, is made to read them (docs/swarm.md, "One process per FLS");
+    the node built declares them read-only (:func:`declare_startup`).
+    ParameterError for an unknown argument, a value of another type than its
+    default's, or one its rule refuses.
     """
-    overrides = node_overrides(context, STARTUP_NODE)
-    values = {}
-    for spec in specs:
-        value = overrides.get(spec.name, spec.default)
-        expected = Parameter.Type.from_parameter_value(spec.default)
-        given = Parameter.Type.from_parameter_value(value)
-        if given != expected:
+    by_option = {spec.option: spec for spec in specs}
+    values = {spec.name: spec.default for spec in specs}
+    words = list(given)
+    while words:
+        option, has_value, text = words.pop(0).partition("=")
+        spec = by_option.get(option)
+        if spec is None:
             raise ParameterError(
-                f"parameter {spec.name}: {value!r} is of type {given.name}, "
-                f"{expected.name} is needed"
+                f"unknown argument {option!r}: give the startup arguments before --ros-args, "
+                "the node's parameters after it as -p NAME:=VALUE (--help lists them)"
             )
-        reason = spec.refuses(value)
-        if reason is not None:
-            raise ParameterError(f"parameter {spec.name} {reason}")
-        values[spec.name] = value
+        if not has_value:
+            if not words:
+                raise ParameterError(f"argument {option}: a value is needed")
+            text = words.pop(0)
+        values[spec.name] = _startup_value(spec, text)
     return values
 
 
@@ -398,6 +418,8 @@ def declare_startup(node: Node, values: dict[str, Any]) -> None:
                 name,
                 value,
                 ParameterDescriptor(description="set at start (read-only)", read_only=True),
+                # What the node was built from, whatever a parameter file says of the name.
+                ignore_override=True,
             )
 
 
@@ -439,40 +461,55 @@ def seconds_since_start() -> float:
     return float(Path("/proc/uptime").read_text().split()[0]) - started
 
 
-def program_arguments(args: list[str] | None, usage: str) -> None:
-    """Answer ``--help`` with ``usage`` (exit 0) and refuse any other argument before
-    ``--ros-args`` (exit 2): a program takes its settings as ROS parameters."""
+def program_startup(
+    args: list[str] | None, usage: str, specs: Sequence[ParameterSpec]
+) -> dict[str, Any]:
+    """A program's startup values from its arguments before ``--ros-args``
+    (:func:`startup_parameters`); ``--help`` prints ``usage`` (exit 0), a bad
+    argument one line (exit 2)."""
     given = remove_ros_args(sys.argv if args is None else args)[1:]
     if given in (["-h"], ["--help"]):
         print(usage)
         sys.exit(0)
-    if given:
-        print(
-            f"error: unknown argument {given[0]!r}: settings are ROS parameters, "
-            "--ros-args -p NAME:=VALUE (--help lists them)",
-            file=sys.stderr,
-        )
+    try:
+        return startup_parameters(given, specs)
+    except ParameterError as err:
+        print(f"error: {err}", file=sys.stderr)
         sys.exit(2)
 
 
-def program_help(program: str, about: str, specs: Sequence[ParameterSpec]) -> str:
+def program_help(
+    program: str,
+    about: str,
+    startup: Sequence[ParameterSpec],
+    parameters: Sequence[ParameterSpec] = (),
+) -> str:
     """The ``--help`` of ``ros2 run swazure_ros PROGRAM``."""
-    usage = f"ros2 run swazure_ros {program} [--help] --ros-args -p NAME:=VALUE ..."
-    return help_text(usage, about, specs)
+    usage = (
+        f"ros2 run swazure_ros {program} [--help] [--NAME VALUE ...] "
+        "[--ros-args -p NAME:=VALUE ...]"
+    )
+    return help_text(usage, about, parameters, startup)
 
 
 def run_process(
-    build: Callable[[Context], list[Node]], args: list[str] | None = None, *, usage: str = ""
+    build: Callable[[Context, dict[str, Any]], list[Node]],
+    args: list[str] | None = None,
+    *,
+    usage: str = "",
+    startup: Sequence[ParameterSpec] = (),
 ) -> NoReturn:
     """Start rclpy, build a process's nodes and spin them until SIGINT or SIGTERM; then exit.
 
-    ``--help`` prints ``usage`` and exits 0 without a node. Errors in building
+    ``build`` takes the context and the ``startup`` parameters' values, given
+    as program arguments (:func:`program_startup`). ``--help`` prints
+    ``usage`` and exits 0 without a node. Errors in building
     give one line and exit code 2, never a traceback; any other exception (a
     bug) one line, its stack and exit code 1. The process ends with
     :func:`exit_process`: its DDS participant is deleted whole, not endpoint
     by endpoint (docs/swarm.md, "Stopping").
     """
-    program_arguments(args, usage)
+    values = program_startup(args, usage, startup)
     context = Context()
     rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
     stop: list[int] = []
@@ -488,7 +525,7 @@ def run_process(
     executor: Executor | None = None
     code = 0
     try:
-        nodes = build(context)
+        nodes = build(context, values)
         executor = EventsExecutor(context=context)
         for node in nodes:
             executor.add_node(node)

@@ -12,6 +12,7 @@ One world node runs per swarm, in the launcher's process.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 from rclpy.context import Context
 from rclpy.node import Node
@@ -53,7 +54,6 @@ from .runtime import (
     description_from,
     program_help,
     run_process,
-    startup_parameters,
 )
 
 
@@ -159,7 +159,7 @@ class SimulatedCameras(SwarmNode):
 CAMERAS_FLAG = ParameterSpec(
     "cameras", True, "publish every FLS's detections, for FLSs that run one to a process"
 )
-#: What the program reads before it builds its nodes.
+#: What the program takes as arguments, before it builds its nodes.
 STARTUP = (NAMESPACE, KEY_FILE, SWARM_INSTANCE, CAMERAS_FLAG, *DESCRIPTION_PARAMETERS)
 USAGE = program_help(
     "world",
@@ -167,19 +167,18 @@ USAGE = program_help(
 every FLS is; it applies the heuristics' moves) and every FLS's simulated camera,
 which publishes the FLS's ArUco detections on /NAMESPACE/fls_<id>/camera/detections.
 
-  ros2 run swazure_ros world --ros-args -p cloud:=torus:120 -p scale:=5 -p beta:=0.5""",
+  ros2 run swazure_ros world --cloud torus:120 --scale 5 --beta 0.5""",
     STARTUP,
 )
 
 
-def build_world(context: Context) -> list[Node]:
+def build_world(context: Context, values: dict[str, Any]) -> list[Node]:
     """The simulator's process: the world node, and the cameras of FLSs in their own processes.
 
-    Parameters: the swarm's description (``cloud``, ``beta`` or ``radius``,
+    ``values`` (STARTUP): the swarm's description (``cloud``, ``beta`` or ``radius``,
     ...), ``namespace``, ``key_file``, and ``cameras`` (true: publish every
     FLS's detections, for FLSs that run one to a process).
     """
-    values = startup_parameters(context, STARTUP)
     spec = WorldSpec(**vars(description_from(values)))
     replica = WorldReplica(spec.build())
     namespace, key = str(values["namespace"]), program_key(context, values, world=True)
@@ -197,5 +196,5 @@ def build_world(context: Context) -> list[Node]:
 
 
 def main(args: list[str] | None = None) -> int:
-    """``ros2 run swazure_ros world --ros-args -p cloud:=torus:120 -p beta:=0.5``."""
-    return run_process(build_world, args, usage=USAGE)
+    """``ros2 run swazure_ros world --cloud torus:120 --beta 0.5``."""
+    return run_process(build_world, args, usage=USAGE, startup=STARTUP)

@@ -36,7 +36,7 @@ from .helpers import ECHO_LATCHED
 VENV = Path(sys.executable).parents[1]
 ROS2 = VENV / "bin" / "ros2"
 TRIO = REPO / "config" / "swarms" / "trio.yaml"
-TRIO_ARGS = ["-p", f"cloud:={REPO / 'config/track/trio.xyz'}", "-p", "radius:=0.5"]
+TRIO_ARGS = ["--cloud", str(REPO / "config/track/trio.xyz"), "--radius", "0.5"]
 
 
 @pytest.fixture
@@ -106,18 +106,18 @@ def nodes() -> list[str]:
 def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2_tools, domain):
     # As a person starts real FLS hardware: the simulator, the coordinator, an FLS each.
     programs = [
-        start("run", "swazure_ros", "world", "--ros-args", *TRIO_ARGS),
-        start("run", "swazure_ros", "coordinator", "--ros-args", *TRIO_ARGS),
+        start("run", "swazure_ros", "world", *TRIO_ARGS),
+        start("run", "swazure_ros", "coordinator", *TRIO_ARGS),
     ]
     programs += [
         start(
             "run",
             "swazure_ros",
             "fls",
-            "--ros-args",
             *TRIO_ARGS,
-            "-p",
-            f"fls_id:={fls_id}",
+            "--fls-id",
+            str(fls_id),
+            "--ros-args",
             "-p",
             "publish_period:=0.25",
         )
@@ -156,7 +156,8 @@ def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2
         fixed = param("cloud", "set", "torus")
         said = fixed.stdout + fixed.stderr
         assert "Setting parameter failed" in said and "read-only" in said, fixed
-        # Each program's --help lists every parameter its node answers ros2 param for.
+        # Each program's --help lists every parameter its node answers ros2 param for:
+        # a startup one as its argument (--fls-id), the others by name.
         for program, node in (("fls", "/swarm/fls_1"), ("coordinator", "/swarm/coordinator"),
                               ("world", "/swarm/world")):  # fmt: skip
             helped = ros2("run", "swazure_ros", program, "--help")
@@ -164,7 +165,11 @@ def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2
             listing = ("param", "list", "--no-daemon", "--spin-time", "2", node)
             listed = until(lambda: ros2(*listing).stdout.split(), bool)  # noqa: B023
             ours = set(listed) - {"use_sim_time", "start_type_description_service"}
-            assert ours and all(f"  {name} (" in helped.stdout for name in ours), (ours, helped)
+            arguments = {name: "--" + name.replace("_", "-").replace(".", "-") for name in ours}
+            assert ours and all(
+                f"  {name} (" in helped.stdout or f"  {arguments[name]} (" in helped.stdout
+                for name in ours
+            ), (ours, helped)
         # FLS 0 is blind to FLS 2 and reaches it through its sweet neighbour FLS 1.
         call = compute_pose(0, 2)
         assert "success=True" in call.stdout and "path=[0, 1, 2]" in call.stdout, call
@@ -215,10 +220,10 @@ def test_ros2_as_a_super_client_sees_fls_processes_that_discover_through_a_serve
 
 
 def test_an_fls_without_an_id_says_so_in_one_line(ros2_tools, domain):
-    run = ros2("run", "swazure_ros", "fls", "--ros-args", *TRIO_ARGS)
+    run = ros2("run", "swazure_ros", "fls", *TRIO_ARGS)
     # ros2run passes the program's exit code on, and says so on its own line.
     assert run.returncode == 2, run
-    assert "fls_id" in run.stderr and "Traceback" not in run.stderr, run.stderr
+    assert "--fls-id" in run.stderr and "Traceback" not in run.stderr, run.stderr
     assert run.stderr.count("\n") == 1, run.stderr
     assert "Process exited with failure 2" in run.stdout, run.stdout
 

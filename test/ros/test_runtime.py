@@ -15,7 +15,7 @@ from swazure_ros.ros import runtime
 runtime.STOP_LIMIT = 2.0  # the watchdog's limit, short for the test
 
 
-def build(context):
+def build(context, values):
     node = runtime.SwarmNode("stuck", context=context)
 
     def stuck_in_a_callback():
@@ -77,7 +77,7 @@ import os, signal, sys
 from swazure_ros.ros import runtime
 
 
-def build(context):
+def build(context, values):
     node = runtime.SwarmNode("failing", context=context)
     ticks = []
 
@@ -187,7 +187,9 @@ def test_a_program_answers_help_with_its_parameters_and_starts_no_node():
     )  # fmt: skip
     assert run.returncode == 0 and run.stderr == "", run
     assert run.stdout.startswith("usage: ros2 run swazure_ros fls")
-    for spec in (*fls_program.STARTUP, *fls_node.PARAMETERS, fls_program.JOIN_TIMEOUT):
+    for spec in fls_program.STARTUP:
+        assert f"  {spec.option} ({spec.type_name}, " in run.stdout, spec.name
+    for spec in (*fls_node.PARAMETERS, fls_program.JOIN_TIMEOUT):
         assert f"  {spec.name} ({spec.type_name}, " in run.stdout, spec.name
     assert "publish_period (double, 1.0)" in run.stdout
     assert "ready" not in run.stdout + run.stderr  # no node was made
