@@ -10,15 +10,14 @@ time in a swarm of thousands of nodes.
 
 from __future__ import annotations
 
-import atexit
 import contextlib
-import ctypes
 import faulthandler
+import gc
 import os
 import signal
+import subprocess
 import sys
 import threading
-import time
 import traceback
 from collections import Counter
 from collections.abc import Callable, Sequence
@@ -256,8 +255,8 @@ def init_context(domain_id: int | None = None, params_file: str | None = None) -
     return context
 
 
-#: Seconds a process's DDS teardown (:func:`exit_process`) may take before the process
-#: leaves without it (its exit code unchanged, a line and every thread's stack in its log).
+#: Seconds a process's DDS teardown (:func:`exit_process`) may take before its watchdog
+#: ends it (SIGKILL, a line in its log).
 TEARDOWN_LIMIT = 30.0
 #: The same for a :func:`run_process` program: one FLS, the world or the coordinator,
 #: whose teardown takes about a second.
@@ -269,53 +268,64 @@ PROGRAM_TEARDOWN_LIMIT = 5.0
 STOP_LIMIT = 12.0
 
 
+#: The watchdog of a process's teardown (:func:`exit_process`), a process of its own: it
+#: waits ``limit`` s for the end of file of a pipe that only the ending process holds
+#: open, and ends that process if it is still there.
+TEARDOWN_WATCH = """
+import os, select, signal, sys
+pipe, pid, limit = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
+if not select.select([pipe], [], [], limit)[0]:
+    print(f"the DDS teardown did not end in {limit:g} s (a known Fast DDS deadlock): "
+          "leaving without it", file=sys.stderr, flush=True)
+    os.kill(pid, signal.SIGKILL)
+"""
+
+
 def exit_process(code: int, limit: float = TEARDOWN_LIMIT) -> NoReturn:
     """End the process now, leaving its nodes to DDS's own teardown; never returns.
 
     Destroying nodes one by one costs in proportion to the square of a
     process's endpoints: rmw_fastrtps republishes the participant's whole
     entity list after every endpoint it removes (docs/swarm.md, teardown).
-    The C library's exit runs Fast DDS's static teardown instead, which
-    deletes the participant whole and tells its peers so at once; Python's
-    finalizers, which would destroy each node, do not run (its exit handlers do). Call it last,
-    when every output is written.
+    Python's own exit ends in the C library's exit, whose static teardown of
+    Fast DDS deletes the participant whole and tells its peers so at once;
+    Python's exit handlers run, but its finalizers, which would destroy each
+    node, do not: every object alive now is held by a thread that never
+    ends, whose references Python's exit leaves as they are. Call it last,
+    when every output is written; it raises SystemExit(``code``).
 
     Fast DDS 2.14's teardown can deadlock (eProsima/Fast-DDS#6502: its event
     and receive threads, while peers leave at the same time; docs/swarm.md,
-    "Stopping"). A teardown still going after ``limit`` s is abandoned: the
-    process says so in one line, prints every thread's stack and exits with
-    ``code`` all the same; its peers drop it when its DDS lease runs out.
+    "Stopping"). A process still there ``limit`` s later is ended by its
+    watchdog (TEARDOWN_WATCH: one line, then SIGKILL); its peers drop it when
+    its DDS lease runs out.
     """
-    # Python's handlers do not run in the C library's exit: a second SIGINT or
+    # Python's handlers do not run once its exit has begun: a second SIGINT or
     # SIGTERM must end the process then.
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, signal.SIG_DFL)
-    # Python's exit handlers still run: multiprocessing's releases its semaphores.
-    atexit._run_exitfuncs()
     for stream in (sys.stdout, sys.stderr):
         # A reader gone or a stream closed: nothing is left to save.
         with contextlib.suppress(OSError, ValueError):
             stream.flush()
-    # ctypes lets the GIL go for the call, so this thread can run while exit() hangs.
-    threading.Thread(target=_abandon_teardown, args=(code, limit), daemon=True).start()
-    # The last resort, should even that thread not run.
-    faulthandler.dump_traceback_later(2 * limit, exit=True)
-    ctypes.CDLL(None).exit(code)
-    raise AssertionError("exit returned")  # pragma: no cover
+    # Only this process holds the writing end, open to its death: the watchdog's end of file.
+    watched, _ = os.pipe()
+    subprocess.Popen(
+        [sys.executable, "-I", "-S", "-c", TEARDOWN_WATCH, str(watched), str(os.getpid()),
+         str(limit)],
+        pass_fds=(watched,),
+        stdin=subprocess.DEVNULL,
+    )  # fmt: skip
+    os.close(watched)
+    alive = gc.get_objects()
+    threading.Thread(target=_hold, args=(alive,), daemon=True).start()
+    del alive
+    raise SystemExit(code)
 
 
-def _abandon_teardown(code: int, limit: float) -> None:
-    """After ``limit`` s, end the process with ``code``, its teardown unfinished."""
-    time.sleep(limit)
-    with contextlib.suppress(OSError, ValueError):
-        print(
-            f"the DDS teardown did not end in {limit:g} s (a known Fast DDS deadlock): "
-            "leaving without it",
-            file=sys.stderr,
-            flush=True,
-        )
-        faulthandler.dump_traceback(all_threads=True)
-    os._exit(code)
+def _hold(alive: list[object]) -> None:
+    """Hold ``alive`` until the process ends."""
+    threading.Event().wait()
 
 
 #: The parameters that describe a swarm (core.description.SwarmDescription), as every

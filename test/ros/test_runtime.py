@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+import os
 import signal
 import subprocess
 import sys
 import time
+
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+
+from ..waits import wait_until
 
 #: A process whose one node is stuck in a callback: it cannot end when asked.
 STUCK = """
@@ -49,26 +55,78 @@ def test_a_process_that_hangs_when_asked_to_stop_prints_where_and_exits_1(domain
 #: A process whose teardown hangs: a C exit handler that never returns, as Fast DDS's
 #: did in a deadlock of its own threads (eProsima/Fast-DDS#6502).
 HANGING_TEARDOWN = """
-import ctypes, sys, time
+import ctypes
 from swazure_ros.ros import runtime
 
-HANDLER = ctypes.CFUNCTYPE(None, ctypes.c_int, ctypes.c_void_p)(lambda *_: time.sleep(3600))
-ctypes.CDLL(None).on_exit(HANDLER, None)
+libc = ctypes.CDLL(None)
+# pause(): a C exit handler that never returns (Python has ended by then).
+libc["__cxa_atexit"](ctypes.cast(libc.pause, ctypes.c_void_p), None, None)
 print("exiting", flush=True)
 runtime.exit_process(3, limit=1.0)
 """
 
 
-def test_a_teardown_that_hangs_is_left_with_the_processs_own_code():
+def test_a_teardown_that_hangs_is_ended_by_its_watchdog_saying_so():
     began = time.monotonic()
     process = subprocess.run(
         [sys.executable, "-c", HANGING_TEARDOWN], capture_output=True, text=True, timeout=30
     )
     assert process.stdout.strip() == "exiting"
-    assert process.returncode == 3, process.stderr
+    assert process.returncode == -signal.SIGKILL, process.stderr
     assert "the DDS teardown did not end in 1 s" in process.stderr, process.stderr
-    # Within the limit and its stack dump, long before the hanging handler would return.
+    # Within the limit, long before the hanging handler would return.
     assert time.monotonic() - began < 20
+
+
+#: A process of many nodes that ends by exit_process, with its exit handlers.
+ENDING = """
+import atexit, sys, time
+from swazure_ros.ros import runtime
+from std_msgs.msg import String
+
+context = runtime.init_context()
+nodes = [runtime.SwarmNode(f"ending_{index}", context=context) for index in range(200)]
+for node in nodes:
+    for topic in range(5):
+        node.create_publisher(String, f"topic_{topic}", 10)
+atexit.register(lambda: print("exit handler ran", flush=True))
+print("up", flush=True)
+sys.stdin.readline()
+runtime.exit_process(3)
+"""
+
+
+def test_a_process_ended_by_exit_process_leaves_the_graph_at_once_with_its_code(context):
+    # Its nodes are not destroyed one by one: Fast DDS's teardown deletes its participant
+    # whole and tells its peers (the probe here), long before its lease (20 s) would.
+    ending = subprocess.Popen(
+        [sys.executable, "-c", ENDING], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+        text=True, env=dict(os.environ, ROS_DOMAIN_ID=str(context.get_domain_id())),
+    )  # fmt: skip
+    probe = Node("probe", context=context, start_parameter_services=False, enable_rosout=False)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(probe)
+
+    def ours() -> int:
+        return sum(name.startswith("ending_") for name, _ in probe.get_node_names_and_namespaces())
+
+    try:
+        assert ending.stdout.readline().strip() == "up"
+        wait_until(lambda: ours() == 200, 60, lambda: executor.spin_once(timeout_sec=0.1))
+        assert ours() == 200
+        asked = time.monotonic()
+        out, _ = ending.communicate("stop\n", timeout=30)
+        ended = time.monotonic() - asked
+        wait_until(lambda: ours() == 0, 15, lambda: executor.spin_once(timeout_sec=0.1))
+        gone, left = time.monotonic() - asked, ours()
+    finally:
+        if ending.poll() is None:
+            ending.kill()
+        executor.shutdown()
+        probe.destroy_node()
+    assert ending.returncode == 3 and "exit handler ran" in out, out
+    assert ended < 10, ended
+    assert left == 0 and gone < 10, (left, gone)
 
 
 #: A process whose node fails in a timer callback, again and again, while another serves.
