@@ -43,10 +43,11 @@ from swazure_ros.app.discovery_server import (
 from swazure_ros.app.per_fls import FLS_ENVIRONMENT
 from swazure_ros.cli.swarm_file import example_swarms, load_swarm_file, swarm_file
 from swazure_ros.core.description import SwarmDescription
-from swazure_ros.ros import coordinator_program, fls_program, world_node
-from swazure_ros.ros.auth import INSTANCE_BYTES
-from swazure_ros.ros.keys import new_key, write_key
-from swazure_ros.ros.runtime import description_parameters, startup_arguments
+from swazure_ros.ros.nodes import world_node
+from swazure_ros.ros.plumbing.runtime import description_parameters, startup_arguments
+from swazure_ros.ros.programs import coordinator_program, fls_program
+from swazure_ros.ros.security.auth import INSTANCE_BYTES
+from swazure_ros.ros.security.keys import new_key, write_key
 
 PACKAGE = "swazure_ros"
 

@@ -262,7 +262,7 @@ def message_rate(
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from swazure_interfaces.msg import Measurements
 
-    from swazure_ros.ros.runtime import SwarmNode, init_context
+    from swazure_ros.ros.plumbing.runtime import SwarmNode, init_context
 
     params = Path(tempfile.mkstemp(suffix=".yaml")[1])
     # A swarm at rest sends nothing: the heartbeat makes every FLS send every period.
@@ -900,7 +900,7 @@ def faults_section(args: argparse.Namespace) -> list[str]:
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.swarm import RunningSwarm
     from swazure_ros.core.evaluate import ABORTED, evaluate_pairs, without
-    from swazure_ros.ros.coordinator import Coordinator
+    from swazure_ros.ros.nodes.coordinator import Coordinator
     from swazure_ros.sim.world import WorldSpec
 
     os.environ.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
@@ -1036,8 +1036,8 @@ def soak_section(args: argparse.Namespace) -> list[str]:
 
     from swazure_ros.core.evaluate import neighbourhood
     from swazure_ros.core.sensor import BLIND
-    from swazure_ros.ros.names import POLICY_CODES
-    from swazure_ros.ros.runtime import SwarmNode, init_context
+    from swazure_ros.ros.plumbing.names import POLICY_CODES
+    from swazure_ros.ros.plumbing.runtime import SwarmNode, init_context
     from swazure_ros.sim.world import WorldSpec
 
     domain, cloud = 94, swarm_cloud("chess_408")
@@ -1182,7 +1182,7 @@ def signing_costs() -> list[str]:
     from rclpy.serialization import deserialize_message, serialize_message
     from swazure_interfaces.msg import PathOffer, PoseEstimates
 
-    from swazure_ros.ros.auth import SwarmKey, new_key
+    from swazure_ros.ros.security.auth import SwarmKey, new_key
     from swazure_ros.sim.world import WorldSpec
 
     key = SwarmKey(new_key())
@@ -1316,7 +1316,7 @@ def pose_client(
     from diagnostic_msgs.msg import DiagnosticArray
     from swazure_interfaces.srv import ComputePose
 
-    from swazure_ros.ros.runtime import SwarmNode, init_context
+    from swazure_ros.ros.plumbing.runtime import SwarmNode, init_context
 
     context = init_context(domain)
     node = SwarmNode(name, context=context)
@@ -1386,7 +1386,7 @@ def ask_random_pairs(
     from swazure_interfaces.srv import ComputePose
 
     from swazure_ros.ros.convert.discovery import pose_estimate_from_message
-    from swazure_ros.ros.names import POLICY_CODES
+    from swazure_ros.ros.plumbing.names import POLICY_CODES
 
     right = wrong = unanswered = 0
     began = time.monotonic()
@@ -1429,7 +1429,7 @@ def replay_section(args: argparse.Namespace) -> list[str]:
     import numpy as np
 
     from swazure_ros.core.evaluate import evaluate_pairs
-    from swazure_ros.ros.keys import new_key, write_key
+    from swazure_ros.ros.security.keys import new_key, write_key
     from swazure_ros.sim.world import WorldSpec
 
     domain, cloud, policy = 94, swarm_cloud("chess_408"), "shortest-length"
@@ -2061,8 +2061,8 @@ def offer_of(labels: int, hops: int = 3) -> Any:
 
 def tags_section(args: argparse.Namespace) -> list[str]:
     """The swarm key's cost: signing and checking one offer, beside the same bytes unsigned."""
-    from swazure_ros.ros.auth import SwarmKey
-    from swazure_ros.ros.interfaces import message_class
+    from swazure_ros.ros.plumbing.interfaces import message_class
+    from swazure_ros.ros.security.auth import SwarmKey
 
     kind = message_class("swazure_interfaces/msg/PathOffer")
     keyed, plain = SwarmKey(bytes(range(32))), SwarmKey(None)
@@ -2091,7 +2091,8 @@ def tags_section(args: argparse.Namespace) -> list[str]:
         "and deserialised and checked (`SwarmKey.deserialize`; each message a new round, so",
         "that no check is remembered), with the swarm's key and with `--no-key`; the mean",
         f"of {TAG_REPEATS} in one process. The auth field is the sender's id and counter (16",
-        "bytes) and an HMAC-SHA256 of the instance, them and the fields' values (ros/auth.py).",
+        "bytes) and an HMAC-SHA256 of the instance, them and the fields' values",
+        "(ros/security/auth.py).",
         "The receive cost is the key's check; a subscription's replay check (`Freshness`)",
         "is not in it. Per round, a process pays the receive cost once per offer it hears",
         "over DDS (the cells section's offers per process, divided by its rounds) and the",

@@ -216,7 +216,7 @@ def main() -> int:
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.discovery_server import parse_servers
     from swazure_ros.app.swarm import RunningSwarm
-    from swazure_ros.ros.keys import new_key, write_key
+    from swazure_ros.ros.security.keys import new_key, write_key
     from swazure_ros.sim.world import WorldSpec
 
     record: dict[str, object] = {

@@ -1,7 +1,7 @@
 """One OS process per FLS: the standalone FLS program, started, watched and stopped.
 
 :class:`FlsProcesses` runs the program ``ros2 run swazure_ros fls`` runs
-(:func:`swazure_ros.ros.fls_program.main`) once per FLS, as each FLS of real
+(:func:`swazure_ros.ros.programs.fls_program.main`) once per FLS, as each FLS of real
 hardware runs on its own computer. Every process takes its id, the swarm's
 description and key as program arguments, its node's parameters from one
 parameter file, and writes its output to a log file of its own
@@ -28,11 +28,11 @@ import yaml
 
 from ..core.description import SwarmDescription
 from ..core.results import atomic_write
-from ..ros import fls_program
-from ..ros.auth import SwarmKey
-from ..ros.keys import write_key
-from ..ros.names import node_name
-from ..ros.runtime import description_parameters, startup_arguments
+from ..ros.plumbing.names import node_name
+from ..ros.plumbing.runtime import description_parameters, startup_arguments
+from ..ros.programs import fls_program
+from ..ros.security.auth import SwarmKey
+from ..ros.security.keys import write_key
 from .discovery_server import ServerAddress, client_environment
 
 #: How much lower than the launcher's the FLS processes' CPU priority is (nice). A real
@@ -52,13 +52,13 @@ FLS_PROGRAM = (
     "threading.Thread(target=lambda: (os.read(pipe, 1), os.kill(os.getpid(), signal.SIGTERM)), "
     "daemon=True).start(); "
     f"os.nice({FLS_NICENESS}); "
-    "from swazure_ros.ros.fls_program import main; sys.exit(main())",
+    "from swazure_ros.ros.programs.fls_program import main; sys.exit(main())",
 )
 #: The environment of an FLS process, unless the user's sets it: UDP only, as between
 #: FLSs on computers of their own. Over Fast DDS's shared memory, some of 25 FLS
 #: processes on one host missed their first, latched camera frame in about half of
 #: the bring-ups, over UDP in 1 of 19 (measured 2026-11-26; the simulated cameras
-#: now stream, ros.world_node.SimulatedCameras); UDP also keeps 6 MB less resident.
+#: now stream, ros.nodes.world_node.SimulatedCameras); UDP also keeps 6 MB less resident.
 FLS_ENVIRONMENT = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
 #: Seconds between two FLS processes' starts. Started at once, 25 FLS processes on
 #: this host left one or two of them deaf to the simulator's participant (no camera

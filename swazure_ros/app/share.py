@@ -16,12 +16,12 @@ from typing import Any
 from ..core.errors import SwazureError
 from ..core.geometry import Swarm
 from ..core.partition import kd_split
-from ..ros import runtime
-from ..ros.auth import SwarmKey
-from ..ros.host import SwarmHost
-from ..ros.instance import await_instance
-from ..ros.names import host_name
-from ..ros.runtime import Context
+from ..ros.nodes.instance import await_instance
+from ..ros.plumbing import runtime
+from ..ros.plumbing.names import host_name
+from ..ros.plumbing.runtime import Context
+from ..ros.programs.host import SwarmHost
+from ..ros.security.auth import SwarmKey
 from .config import SwarmConfig
 from .discovery_server import client_environment
 

@@ -31,14 +31,14 @@ from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import PATH
 from ..core.results import BringUp
 from ..protocol.runs import DiscoveryResult, MoveResult, merged, source_blocks, sources_per_run
-from ..ros.auth import SwarmKey, new_key
-from ..ros.bag import Recorder
-from ..ros.coordinator import Coordinator, Future
-from ..ros.host import SwarmHost
-from ..ros.names import host_name
-from ..ros.runtime import Context
-from ..ros.view import ViewNode
-from ..ros.world_node import SimulatedCameras
+from ..ros.nodes.coordinator import Coordinator, Future
+from ..ros.nodes.view import ViewNode
+from ..ros.nodes.world_node import SimulatedCameras
+from ..ros.plumbing.names import host_name
+from ..ros.plumbing.runtime import Context
+from ..ros.programs.host import SwarmHost
+from ..ros.recording.bag import Recorder
+from ..ros.security.auth import SwarmKey, new_key
 from ..sim.world import World
 from ..view.scene import Scene, evaluation_scene, ranges_scene
 from .config import SwarmConfig, ViewConfig

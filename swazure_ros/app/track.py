@@ -31,12 +31,12 @@ from ..core.tracking import (
     arrival,
     nanoseconds,
 )
-from ..ros.auth import SwarmKey
-from ..ros.clock import SimClock
-from ..ros.host import SwarmHost
-from ..ros.runtime import Context, init_context
-from ..ros.track_client import SwarmStalledError, TrackClient
-from ..ros.world_node import SimulatedCameras
+from ..ros.clients.track_client import SwarmStalledError, TrackClient
+from ..ros.nodes.clock import SimClock
+from ..ros.nodes.world_node import SimulatedCameras
+from ..ros.plumbing.runtime import Context, init_context
+from ..ros.programs.host import SwarmHost
+from ..ros.security.auth import SwarmKey
 from ..sim.world import World
 from .per_fls import FlsProcesses
 

@@ -302,8 +302,8 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.swarm import RunningSwarm
     from swazure_ros.core.evaluate import evaluate_pairs
-    from swazure_ros.ros.auth import SwarmKey, new_key
-    from swazure_ros.ros.names import DETECTIONS_QOS, DETECTIONS_TOPIC
+    from swazure_ros.ros.plumbing.names import DETECTIONS_QOS, DETECTIONS_TOPIC
+    from swazure_ros.ros.security.auth import SwarmKey, new_key
     from swazure_ros.sim.world import WorldSpec
 
     from ..ros.conftest import make_context

@@ -13,8 +13,8 @@ from rclpy.serialization import deserialize_message, serialize_message
 from swazure_interfaces.msg import MoveCommand, MoveCommands, PathOffer, PoseEstimates
 
 from swazure_ros.core.errors import MessageError, SwazureError
-from swazure_ros.ros.auth import Freshness, SwarmKey, content, new_key
-from swazure_ros.ros.keys import read_key, write_key
+from swazure_ros.ros.security.auth import Freshness, SwarmKey, content, new_key
+from swazure_ros.ros.security.keys import read_key, write_key
 
 from ..conftest import FUZZ
 from .fuzz import message

@@ -21,9 +21,14 @@ from swazure_interfaces.msg import Measurements, PathOffer, RelativePose
 
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
-from swazure_ros.ros.bag import message_definition, read_recording, recorded_channels, type_hash
-from swazure_ros.ros.names import ROUND_QOS
-from swazure_ros.ros.runtime import SwarmNode
+from swazure_ros.ros.plumbing.names import ROUND_QOS
+from swazure_ros.ros.plumbing.runtime import SwarmNode
+from swazure_ros.ros.recording.bag import (
+    message_definition,
+    read_recording,
+    recorded_channels,
+    type_hash,
+)
 from swazure_ros.sim.world import WorldSpec
 
 from ..waits import wait_until

@@ -9,8 +9,8 @@ from rclpy.node import Node
 from sensor_msgs.msg import CameraInfo, Image
 
 from swazure_ros.core.files import config_dir
-from swazure_ros.ros.fls_node import FlsNode, ParameterError
-from swazure_ros.ros.host import SwarmHost
+from swazure_ros.ros.nodes.fls_node import FlsNode, ParameterError
+from swazure_ros.ros.programs.host import SwarmHost
 from swazure_ros.sim.world import WorldSpec
 
 from .conftest import make_context

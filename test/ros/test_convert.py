@@ -92,7 +92,7 @@ from swazure_ros.ros.convert.units import (
     to_stamp,
     vector3,
 )
-from swazure_ros.ros.guard import MessageError
+from swazure_ros.ros.security.guard import MessageError
 
 from ..conftest import FUZZ
 from .fuzz import message
@@ -159,7 +159,7 @@ def test_an_image_the_detector_cannot_read_is_refused_in_one_line():
     from sensor_msgs.msg import Image
 
     from swazure_ros.core.errors import MessageError
-    from swazure_ros.ros.detector_node import grey_image
+    from swazure_ros.ros.nodes.detector_node import grey_image
 
     with pytest.raises(MessageError, match="encoding"):
         grey_image(Image(encoding="16UC1", width=2, height=2, step=4, data=[0] * 8))

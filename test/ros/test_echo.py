@@ -1,4 +1,4 @@
-"""`swazure echo` (swazure_ros.ros.echo) against real publishers."""
+"""`swazure echo` (swazure_ros.ros.clients.echo) against real publishers."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import sys
 
 from std_msgs.msg import String
 
-from swazure_ros.ros.names import MEASUREMENTS_QOS
-from swazure_ros.ros.runtime import SwarmNode
+from swazure_ros.ros.plumbing.names import MEASUREMENTS_QOS
+from swazure_ros.ros.plumbing.runtime import SwarmNode
 
 
 def test_echo_with_a_type_given_gets_a_latched_message_sent_before_it_started(context):

@@ -12,9 +12,9 @@ from swazure_interfaces.msg import Measurements, MoveCommand, MoveCommands, Rela
 from swazure_interfaces.srv import GetNeighbours
 from tf2_msgs.msg import TFMessage
 
-from swazure_ros.ros.fls_node import FlsNode, ParameterError
-from swazure_ros.ros.host import SwarmHost
-from swazure_ros.ros.names import TF_STATIC_QOS
+from swazure_ros.ros.nodes.fls_node import FlsNode, ParameterError
+from swazure_ros.ros.plumbing.names import TF_STATIC_QOS
+from swazure_ros.ros.programs.host import SwarmHost
 from swazure_ros.sim.replica import WorldReplica
 from swazure_ros.sim.world import WorldSpec
 

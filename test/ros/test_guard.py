@@ -14,10 +14,10 @@ from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.errors import MessageError
 from swazure_ros.core.evaluate import evaluate_pairs
-from swazure_ros.ros.auth import Freshness, SwarmKey, new_key
-from swazure_ros.ros.guard import Buckets, RateLimit
-from swazure_ros.ros.names import ROUND_QOS, TRACK_REQUESTS_TOPIC
-from swazure_ros.ros.radio import TRACK_REQUEST_RATE
+from swazure_ros.ros.nodes.radio import TRACK_REQUEST_RATE
+from swazure_ros.ros.plumbing.names import ROUND_QOS, TRACK_REQUESTS_TOPIC
+from swazure_ros.ros.security.auth import Freshness, SwarmKey, new_key
+from swazure_ros.ros.security.guard import Buckets, RateLimit
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import FUZZ

@@ -6,7 +6,7 @@ import time
 
 from rclpy.node import Node
 
-from swazure_ros.ros.host import SwarmHost
+from swazure_ros.ros.programs.host import SwarmHost
 from swazure_ros.sim.world import WorldSpec
 
 

@@ -9,8 +9,8 @@ from rclpy.serialization import deserialize_message, serialize_message
 from swazure_interfaces.msg import SwarmInstance
 
 from swazure_ros.core.errors import MessageError
-from swazure_ros.ros.auth import SwarmKey, new_key
-from swazure_ros.ros.instance import ANNOUNCEMENT_FRESH, announced, announcement
+from swazure_ros.ros.nodes.instance import ANNOUNCEMENT_FRESH, announced, announcement
+from swazure_ros.ros.security.auth import SwarmKey, new_key
 
 
 def wire(message: SwarmInstance) -> SwarmInstance:

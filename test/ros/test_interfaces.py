@@ -8,7 +8,7 @@ from swazure_interfaces.msg import Measurements
 from swazure_interfaces.srv import ComputePose
 
 from swazure_ros.core.errors import SwazureError
-from swazure_ros.ros.interfaces import message_class
+from swazure_ros.ros.plumbing.interfaces import message_class
 
 
 def test_a_type_name_gives_its_class_in_each_spelling():

@@ -20,7 +20,7 @@ from swazure_ros.core.paths import POLICIES
 from swazure_ros.protocol import moves
 from swazure_ros.protocol import tracking as relay
 from swazure_ros.protocol.discovery import messages as discovery
-from swazure_ros.ros import names
+from swazure_ros.ros.plumbing import names
 
 
 @pytest.mark.parametrize(

@@ -25,8 +25,8 @@ from swazure_ros.core.evaluate import SWEET_PATH, evaluate
 from swazure_ros.core.files import config_dir
 from swazure_ros.core.frames import to_metres
 from swazure_ros.ros.convert.sensing import camera_info_message, image_message
-from swazure_ros.ros.names import DETECTIONS_QOS
-from swazure_ros.ros.runtime import SwarmNode
+from swazure_ros.ros.plumbing.names import DETECTIONS_QOS
+from swazure_ros.ros.plumbing.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import REPO, SHARED

@@ -1,4 +1,4 @@
-"""How a process of the swarm (``ros.runtime.run_process``) ends when it is asked to."""
+"""How a process of the swarm (``ros.plumbing.runtime.run_process``) ends when it is asked to."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from ..waits import wait_until
 #: A process whose one node is stuck in a callback: it cannot end when asked.
 STUCK = """
 import sys, time
-from swazure_ros.ros import runtime
+from swazure_ros.ros.plumbing import runtime
 
 runtime.STOP_LIMIT = 2.0  # the watchdog's limit, short for the test
 
@@ -56,7 +56,7 @@ def test_a_process_that_hangs_when_asked_to_stop_prints_where_and_exits_1(domain
 #: did in a deadlock of its own threads (eProsima/Fast-DDS#6502).
 HANGING_TEARDOWN = """
 import ctypes
-from swazure_ros.ros import runtime
+from swazure_ros.ros.plumbing import runtime
 
 libc = ctypes.CDLL(None)
 # pause(): a C exit handler that never returns (Python has ended by then).
@@ -81,7 +81,7 @@ def test_a_teardown_that_hangs_is_ended_by_its_watchdog_saying_so():
 #: A process of many nodes that ends by exit_process, with its exit handlers.
 ENDING = """
 import atexit, sys, time
-from swazure_ros.ros import runtime
+from swazure_ros.ros.plumbing import runtime
 from std_msgs.msg import String
 
 context = runtime.init_context()
@@ -132,7 +132,7 @@ def test_a_process_ended_by_exit_process_leaves_the_graph_at_once_with_its_code(
 #: A process whose node fails in a timer callback, again and again, while another serves.
 FAILING = """
 import os, signal, sys
-from swazure_ros.ros import runtime
+from swazure_ros.ros.plumbing import runtime
 
 
 def build(context, values):
@@ -176,7 +176,7 @@ def test_a_service_handler_that_fails_answers_why_and_the_node_serves_on(context
     from rclpy.executors import SingleThreadedExecutor
     from swazure_interfaces.srv import GetNeighbours
 
-    from swazure_ros.ros.runtime import SwarmNode
+    from swazure_ros.ros.plumbing.runtime import SwarmNode
 
     node = SwarmNode("serving", context=context)
     calls = []
@@ -212,8 +212,8 @@ def test_a_service_handler_that_fails_answers_why_and_the_node_serves_on(context
 def test_a_value_set_while_running_is_checked_by_the_declared_rule_and_applied(context):
     from rclpy.parameter import Parameter
 
-    from swazure_ros.ros.parameters import ParameterSpec, seconds
-    from swazure_ros.ros.runtime import SwarmNode
+    from swazure_ros.ros.plumbing.parameters import ParameterSpec, seconds
+    from swazure_ros.ros.plumbing.runtime import SwarmNode
 
     node = SwarmNode("settable", context=context)
     applied = []
@@ -236,11 +236,12 @@ def test_a_value_set_while_running_is_checked_by_the_declared_rule_and_applied(c
 
 
 def test_a_program_answers_help_with_its_parameters_and_starts_no_node():
-    from swazure_ros.ros import fls_node, fls_program
+    from swazure_ros.ros.nodes import fls_node
+    from swazure_ros.ros.programs import fls_program
 
     run = subprocess.run(
-        [sys.executable, "-c", "import sys; from swazure_ros.ros.fls_program import main; "
-         "sys.exit(main(sys.argv))", "--help"],
+        [sys.executable, "-c", "import sys; from swazure_ros.ros.programs.fls_program import "
+         "main; sys.exit(main(sys.argv))", "--help"],
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert run.returncode == 0 and run.stderr == "", run
@@ -252,8 +253,8 @@ def test_a_program_answers_help_with_its_parameters_and_starts_no_node():
     assert "publish_period (double, 1.0)" in run.stdout
     assert "ready" not in run.stdout + run.stderr  # no node was made
     other = subprocess.run(
-        [sys.executable, "-c", "import sys; from swazure_ros.ros.coordinator_program import "
-         "main; sys.exit(main(sys.argv))", "--bogus"],
+        [sys.executable, "-c", "import sys; from swazure_ros.ros.programs."
+         "coordinator_program import main; sys.exit(main(sys.argv))", "--bogus"],
         capture_output=True, text=True, timeout=60,
     )  # fmt: skip
     assert other.returncode == 2 and "unknown argument '--bogus'" in other.stderr

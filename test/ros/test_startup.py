@@ -8,9 +8,8 @@ from rclpy.context import Context
 from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
-from swazure_ros.ros import fls_program
-from swazure_ros.ros.parameters import ParameterSpec
-from swazure_ros.ros.runtime import (
+from swazure_ros.ros.plumbing.parameters import ParameterSpec
+from swazure_ros.ros.plumbing.runtime import (
     DESCRIPTION_PARAMETERS,
     ParameterError,
     SwarmNode,
@@ -18,6 +17,7 @@ from swazure_ros.ros.runtime import (
     startup_arguments,
     startup_parameters,
 )
+from swazure_ros.ros.programs import fls_program
 
 FLS_ID = ParameterSpec("fls_id", -1, "id")
 BETA = ParameterSpec("beta", 0.0, "beta")

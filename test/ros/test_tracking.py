@@ -167,7 +167,7 @@ def test_a_swarm_on_the_wall_clock_tracks_too(world, context):
     from rclpy.node import Node
     from swazure_interfaces.msg import TrackEstimate
 
-    from swazure_ros.ros.host import SwarmHost
+    from swazure_ros.ros.programs.host import SwarmHost
 
     with SwarmHost(
         world,

@@ -16,9 +16,9 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from ..core.errors import SwazureError
-from .interfaces import message_class
-from .runtime import SwarmNode, init_context
+from ...core.errors import SwazureError
+from ..plumbing.interfaces import message_class
+from ..plumbing.runtime import SwarmNode, init_context
 
 
 def message_to_dict(message: Any) -> Any:

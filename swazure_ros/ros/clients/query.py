@@ -8,11 +8,11 @@ from typing import Any
 from rclpy.executors import SingleThreadedExecutor
 from swazure_interfaces.srv import ComputePose
 
-from ..core.errors import SwazureError
-from ..protocol.discovery.estimate import Estimate
-from .convert.discovery import pose_estimate_from_message
-from .names import COMPUTE_POSE_SERVICE, COORDINATOR, ESTIMATOR_CODES, policy_code
-from .runtime import SwarmNode, init_context
+from ...core.errors import SwazureError
+from ...protocol.discovery.estimate import Estimate
+from ..convert.discovery import pose_estimate_from_message
+from ..plumbing.names import COMPUTE_POSE_SERVICE, COORDINATOR, ESTIMATOR_CODES, policy_code
+from ..plumbing.runtime import SwarmNode, init_context
 
 #: Seconds after which a query that sees no node of the swarm at all gives up, whatever
 #: its timeout: a swarm that is coming up shows its nodes long before its coordinator.

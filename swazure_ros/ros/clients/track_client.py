@@ -8,13 +8,12 @@ from rclpy.context import Context
 from swazure_interfaces.msg import TrackEstimate, TrackProgress
 from swazure_interfaces.srv import TrackTarget
 
-from ..core.errors import SwazureError
-from ..core.neighbours import IntArray
-from ..core.tracking import ENDED, TIMED_OUT, MotionEstimate, TrackingError
-from ..protocol.tracking import TrackProgressReport
-from .convert.tracking import motion_estimate, track_progress_from_message
-from .guard import Guard
-from .names import (
+from ...core.errors import SwazureError
+from ...core.neighbours import IntArray
+from ...core.tracking import ENDED, TIMED_OUT, MotionEstimate, TrackingError
+from ...protocol.tracking import TrackProgressReport
+from ..convert.tracking import motion_estimate, track_progress_from_message
+from ..plumbing.names import (
     ROUND_QOS,
     TRACK_ESTIMATES_TOPIC,
     TRACK_MODEL_CODES,
@@ -24,7 +23,8 @@ from .names import (
     TRACK_STATE_NAMES,
     node_name,
 )
-from .runtime import SwarmNode
+from ..plumbing.runtime import SwarmNode
+from ..security.guard import Guard
 
 #: Spins until a condition holds or a timeout in wall seconds passes; whether it holds.
 SpinUntil = Callable[[Callable[[], bool], float], bool]

@@ -11,8 +11,8 @@ from rclpy.context import Context
 from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 
-from .names import CLOCK_QOS, CLOCK_TOPIC
-from .runtime import SwarmNode
+from ..plumbing.names import CLOCK_QOS, CLOCK_TOPIC
+from ..plumbing.runtime import SwarmNode
 
 
 class SimClock(SwarmNode):

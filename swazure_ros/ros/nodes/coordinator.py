@@ -38,27 +38,25 @@ from swazure_interfaces.msg import (
     WorldState,
 )
 
-from ..core.evaluate import Evaluation, Neighbourhood
-from ..core.fit import PATH, fit_layers
-from ..core.paths import check_policy
-from ..protocol.discovery.messages import Control
-from ..protocol.discovery.search import bucket_width
-from ..protocol.moves import Move, MoveRun, Walk
-from ..protocol.plausible import implausible_estimates
-from ..protocol.rounds import RoundClock, StallClock
-from ..protocol.runs import DiscoveryResult, MoveResult, Traffic, discovery_result, move_result
-from .auth import SwarmKey, signed_at
-from .convert.discovery import (
+from ...core.evaluate import Evaluation, Neighbourhood
+from ...core.fit import PATH, fit_layers
+from ...core.paths import check_policy
+from ...protocol.discovery.messages import Control
+from ...protocol.discovery.search import bucket_width
+from ...protocol.moves import Move, MoveRun, Walk
+from ...protocol.plausible import implausible_estimates
+from ...protocol.rounds import RoundClock, StallClock
+from ...protocol.runs import DiscoveryResult, MoveResult, Traffic, discovery_result, move_result
+from ..convert.discovery import (
     control_message,
     estimates_from_message,
     moves_message,
     sent_from_message,
     walk_message,
 )
-from .convert.sensing import world_positions
-from .guard import FloatArray, Guard, IntArray, check
-from .liveness import FlsLiveness
-from .names import (
+from ..convert.sensing import world_positions
+from ..plumbing.liveness import FlsLiveness
+from ..plumbing.names import (
     ACK_TOPIC,
     CONTROL_TOPIC,
     COORDINATOR,
@@ -77,11 +75,13 @@ from .names import (
     fls_id_of,
     node_name,
 )
-from .parameters import ParameterSpec, seconds
-from .pose_service import PoseService
-from .runtime import (
+from ..plumbing.parameters import ParameterSpec, seconds
+from ..plumbing.runtime import (
     SwarmNode,
 )
+from ..security.auth import SwarmKey, signed_at
+from ..security.guard import FloatArray, Guard, IntArray, check
+from .pose_service import PoseService
 
 #: Characters in a host node's name, at most (ROS names are far shorter).
 MAX_NAME = 255

@@ -33,15 +33,12 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import Detections, MarkerDetection
 
-from ..core.camera import Camera, Detector, load_camera
-from ..core.errors import SwazureError
-from ..core.files import config_dir
-from .auth import SwarmKey
-from .guard import Guard, check
-from .instance import program_key
-from .names import DETECTIONS_QOS
-from .parameters import ParameterSpec
-from .runtime import (
+from ...core.camera import Camera, Detector, load_camera
+from ...core.errors import SwazureError
+from ...core.files import config_dir
+from ..plumbing.names import DETECTIONS_QOS
+from ..plumbing.parameters import ParameterSpec
+from ..plumbing.runtime import (
     KEY_FILE,
     NAMESPACE,
     SWARM_INSTANCE,
@@ -50,6 +47,9 @@ from .runtime import (
     program_help,
     run_process,
 )
+from ..security.auth import SwarmKey
+from ..security.guard import Guard, check
+from .instance import program_key
 
 #: The camera the published model's sensor was measured with.
 DEFAULT_CAMERA = "cameras/rpi-camera-module-3-wide.yaml"

@@ -59,15 +59,15 @@ from swazure_interfaces.msg import (
 )
 from swazure_interfaces.srv import GetNeighbours
 
-from ..core.fit import PATH
-from ..core.frames import camera_optical_frame
-from ..core.observe import Measurement, NeighbourSets
-from ..core.tracking import (
+from ...core.fit import PATH
+from ...core.frames import camera_optical_frame
+from ...core.observe import Measurement, NeighbourSets
+from ...core.tracking import (
     RelaySenses,
 )
-from ..protocol.discovery.messages import START, Broadcast, Control, Report, RoundOffers
-from ..protocol.discovery.participant import Participant
-from ..protocol.moves import (
+from ...protocol.discovery.messages import START, Broadcast, Control, Report, RoundOffers
+from ...protocol.discovery.participant import Participant
+from ...protocol.moves import (
     WALKING,
     Walk,
     commanded_points,
@@ -75,21 +75,18 @@ from ..protocol.moves import (
     step_walk,
     walk_estimate,
 )
-from ..protocol.readings import ReadingsBook
-from ..protocol.senses import DetectedSenses, Senses
-from .auth import SwarmKey
-from .convert.discovery import estimates_message, moves_from_message
-from .convert.sensing import (
+from ...protocol.readings import ReadingsBook
+from ...protocol.senses import DetectedSenses, Senses
+from ..convert.discovery import estimates_message, moves_from_message
+from ..convert.sensing import (
     camera_info_message,
     detections_from_message,
     image_message,
     measurements_message,
     neighbour_fields,
 )
-from .convert.units import stamp_nanoseconds
-from .fls_tracking import FlsTracking
-from .guard import Guard, check
-from .names import (
+from ..convert.units import stamp_nanoseconds
+from ..plumbing.names import (
     CAMERA_IMAGE_TOPIC,
     CAMERA_INFO_TOPIC,
     DETECTIONS_QOS,
@@ -104,16 +101,19 @@ from .names import (
     WORLD_REACH,
     node_name,
 )
-from .parameters import ParameterSpec, at_least, seconds
-from .runtime import (
+from ..plumbing.parameters import ParameterSpec, at_least, seconds
+from ..plumbing.runtime import (
     ParameterError,
     SwarmNode,
 )
+from ..security.auth import SwarmKey
+from ..security.guard import Guard, check
+from .fls_tracking import FlsTracking
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
 
-    from ..core.camera import Camera
+    from ...core.camera import Camera
 
 
 class Transmitter:

@@ -19,9 +19,9 @@ from rclpy.timer import Timer
 from swazure_interfaces.msg import TrackEstimate, TrackProgress, TrackRequest, TrackSample
 from swazure_interfaces.srv import TrackTarget
 
-from ..core.errors import SwazureError
-from ..core.tracking import TRACK_SETTINGS, FloatArray, RelaySenses, TrackConfig, TrackingError
-from ..protocol.tracking import (
+from ...core.errors import SwazureError
+from ...core.tracking import TRACK_SETTINGS, FloatArray, RelaySenses, TrackConfig, TrackingError
+from ...protocol.tracking import (
     STOP_RELAY,
     RelayRequest,
     RelayStreams,
@@ -30,14 +30,13 @@ from ..protocol.tracking import (
     TrackReport,
     TrackSource,
 )
-from .convert.tracking import (
+from ..convert.tracking import (
     relay_request_message,
     sample_message,
     track_estimate_message,
     track_progress_message,
 )
-from .guard import check
-from .names import (
+from ..plumbing.names import (
     ROUND_QOS,
     TRACK_ESTIMATES_TOPIC,
     TRACK_MODEL_NAMES,
@@ -46,8 +45,9 @@ from .names import (
     TRACK_SAMPLES_TOPIC,
     TRACK_SERVICE,
 )
-from .parameters import ParameterSpec
-from .runtime import ParameterError, SwarmNode
+from ..plumbing.parameters import ParameterSpec
+from ..plumbing.runtime import ParameterError, SwarmNode
+from ..security.guard import check
 
 #: The topics a track run publishes on, and their message types.
 TRACK_TOPICS: dict[str, type] = {

@@ -19,12 +19,12 @@ from rclpy.node import Node
 from std_msgs.msg import Header
 from swazure_interfaces.msg import SwarmInstance
 
-from ..core.errors import MessageError, SwazureError
-from .auth import ANNOUNCEMENT, INSTANCE_BYTES, Freshness, SwarmKey
-from .convert.units import stamp_nanoseconds
-from .keys import key_from
-from .names import INSTANCE_QOS, INSTANCE_TOPIC
-from .runtime import Context, ParameterError
+from ...core.errors import MessageError, SwazureError
+from ..convert.units import stamp_nanoseconds
+from ..plumbing.names import INSTANCE_QOS, INSTANCE_TOPIC
+from ..plumbing.runtime import Context, ParameterError
+from ..security.auth import ANNOUNCEMENT, INSTANCE_BYTES, Freshness, SwarmKey
+from ..security.keys import key_from
 
 #: Seconds between two announcements of the instance.
 ANNOUNCEMENT_PERIOD = 1.0

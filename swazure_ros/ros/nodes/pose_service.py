@@ -13,13 +13,13 @@ from rclpy.task import Future
 from swazure_interfaces.msg import PoseEstimate
 from swazure_interfaces.srv import ComputePose
 
-from ..core.evaluate import Neighbourhood
-from ..protocol.discovery.search import refusal
-from ..protocol.runs import DiscoveryResult
-from .convert.discovery import pose_estimate_message
-from .deferred import Reply, create_deferred_service
-from .names import COMPUTE_POSE_SERVICE, ESTIMATOR_NAMES, POLICY_NAMES
-from .runtime import SwarmNode
+from ...core.evaluate import Neighbourhood
+from ...protocol.discovery.search import refusal
+from ...protocol.runs import DiscoveryResult
+from ..convert.discovery import pose_estimate_message
+from ..plumbing.deferred import Reply, create_deferred_service
+from ..plumbing.names import COMPUTE_POSE_SERVICE, ESTIMATOR_NAMES, POLICY_NAMES
+from ..plumbing.runtime import SwarmNode
 
 #: discover(policy, sources, targets, estimator): a future of the run's DiscoveryResult.
 Discover = Callable[[str, list[int], list[int], str], Future]

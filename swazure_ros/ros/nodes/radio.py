@@ -28,19 +28,19 @@ from swazure_interfaces.msg import (
     TrackSample,
 )
 
-from ..core.fit import PATH
-from ..protocol.cells import BANDS, DECAYING_BAND, band_of, radio_cells
-from ..protocol.discovery.messages import END, ROUND, START, Broadcast
-from ..protocol.moves import Walk
-from ..protocol.plausible import (
+from ...core.fit import PATH
+from ...protocol.cells import BANDS, DECAYING_BAND, band_of, radio_cells
+from ...protocol.discovery.messages import END, ROUND, START, Broadcast
+from ...protocol.moves import Walk
+from ...protocol.plausible import (
     implausible_readings,
     offer_readings_check,
     round_labels_check,
 )
-from ..protocol.radio import Ack, RadioHub, RadioLoss
-from ..protocol.readings import ReadingsBook
-from ..protocol.senses import Senses
-from .convert.discovery import (
+from ...protocol.radio import Ack, RadioHub, RadioLoss
+from ...protocol.readings import ReadingsBook
+from ...protocol.senses import Senses
+from ..convert.discovery import (
     ack_message,
     control_from_message,
     offer_from_message,
@@ -49,10 +49,9 @@ from .convert.discovery import (
     walk_from_message,
     walk_message,
 )
-from .convert.sensing import readings_from_message
-from .convert.tracking import relay_request_from_message, sample_from_message
-from .guard import Guard, RateLimit, check
-from .names import (
+from ..convert.sensing import readings_from_message
+from ..convert.tracking import relay_request_from_message, sample_from_message
+from ..plumbing.names import (
     ACK_TOPIC,
     CONTROL_TOPIC,
     MEASUREMENTS_TOPIC,
@@ -65,6 +64,7 @@ from .names import (
     radio_topic,
     walks_topic,
 )
+from ..security.guard import Guard, RateLimit, check
 
 if TYPE_CHECKING:
     from .fls_node import FlsNode

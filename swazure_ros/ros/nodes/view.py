@@ -12,14 +12,14 @@ from rclpy.context import Context
 from swazure_interfaces.msg import WorldState
 from visualization_msgs.msg import MarkerArray
 
-from ..view.live import LiveView
-from ..view.scene import Scene, placed
-from .auth import SwarmKey
-from .convert.markers import scene_markers
-from .convert.sensing import world_positions
-from .guard import Guard
-from .names import SCENE_QOS, SCENE_TOPIC, WORLD_QOS, WORLD_REACH, WORLD_TOPIC
-from .runtime import SwarmNode
+from ...view.live import LiveView
+from ...view.scene import Scene, placed
+from ..convert.markers import scene_markers
+from ..convert.sensing import world_positions
+from ..plumbing.names import SCENE_QOS, SCENE_TOPIC, WORLD_QOS, WORLD_REACH, WORLD_TOPIC
+from ..plumbing.runtime import SwarmNode
+from ..security.auth import SwarmKey
+from ..security.guard import Guard
 
 #: Seconds between redraws while the world moves: a viewer needs no more.
 REDRAW_PERIOD = 0.2

@@ -19,17 +19,14 @@ from rclpy.node import Node
 from swazure_interfaces.msg import Detections, MoveCommands, WorldState
 from tf2_msgs.msg import TFMessage
 
-from ..protocol.moves import commanded_points
-from ..protocol.senses import carried_markers
-from ..sim.replica import WorldReplica
-from ..sim.world import WorldSpec
-from .auth import SwarmKey
-from .convert.discovery import moves_from_message
-from .convert.sensing import detections_message, frames_message, world_message
-from .convert.units import stamp_nanoseconds
-from .guard import Guard, check
-from .instance import Announcer, program_key
-from .names import (
+from ...protocol.moves import commanded_points
+from ...protocol.senses import carried_markers
+from ...sim.replica import WorldReplica
+from ...sim.world import WorldSpec
+from ..convert.discovery import moves_from_message
+from ..convert.sensing import detections_message, frames_message, world_message
+from ..convert.units import stamp_nanoseconds
+from ..plumbing.names import (
     CAMERAS,
     DETECTIONS_QOS,
     DETECTIONS_TOPIC,
@@ -43,8 +40,8 @@ from .names import (
     WORLD_TOPIC,
     node_name,
 )
-from .parameters import ParameterSpec
-from .runtime import (
+from ..plumbing.parameters import ParameterSpec
+from ..plumbing.runtime import (
     DESCRIPTION_PARAMETERS,
     KEY_FILE,
     NAMESPACE,
@@ -55,6 +52,9 @@ from .runtime import (
     program_help,
     run_process,
 )
+from ..security.auth import SwarmKey
+from ..security.guard import Guard, check
+from .instance import Announcer, program_key
 
 
 class WorldNode(SwarmNode):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from ..core.errors import SwazureError
+from ...core.errors import SwazureError
 
 #: The kinds of interface a type name may name, as rosidl lays out their modules.
 KINDS = ("msg", "srv", "action")

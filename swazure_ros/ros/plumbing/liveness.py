@@ -6,7 +6,7 @@ import time
 
 from rclpy.node import Node
 
-from ..protocol.rounds import Absences
+from ...protocol.rounds import Absences
 from .names import fls_id_of
 
 

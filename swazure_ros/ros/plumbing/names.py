@@ -17,9 +17,9 @@ from rclpy.validate_full_topic_name import validate_full_topic_name
 from rclpy.validate_namespace import validate_namespace
 from swazure_interfaces.msg import DiscoveryControl, TrackEstimate
 
-from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
-from ..core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
-from ..core.tracking import (
+from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
+from ...core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
+from ...core.tracking import (
     CONSTANT_ACCELERATION,
     CONSTANT_VELOCITY,
     ENDED,
@@ -27,7 +27,7 @@ from ..core.tracking import (
     TRACKING,
     WAITING,
 )
-from ..protocol.cells import IntArray, cell_name
+from ...protocol.cells import IntArray, cell_name
 
 # Topics, shared by every FLS: a reader filters on the FLS id in the message.
 # Per-FLS topics would buy nothing, and every endpoint costs discovery time
@@ -71,7 +71,7 @@ COMPUTE_POSE_SERVICE = "compute_pose"
 TRACK_SERVICE = "track"
 COORDINATOR = "coordinator"
 WORLD = "world"
-#: The simulated cameras of FLSs that run one to a process (ros.world_node).
+#: The simulated cameras of FLSs that run one to a process (ros.nodes.world_node).
 CAMERAS = "cameras"
 
 

@@ -46,9 +46,9 @@ from rclpy.signals import SignalHandlerOptions
 from rclpy.timer import Timer
 from rclpy.utilities import remove_ros_args
 
-from ..core.description import SwarmDescription
-from ..core.errors import SwazureError
-from ..core.files import read_yaml
+from ...core.description import SwarmDescription
+from ...core.errors import SwazureError
+from ...core.files import read_yaml
 from .parameters import ParameterSpec, at_least, help_text
 
 

@@ -10,12 +10,12 @@ from typing import Any
 from rclpy.context import Context
 from rclpy.node import Node
 
-from ..core.evaluate import neighbourhood
-from . import coordinator
-from .coordinator import Coordinator
-from .instance import program_key
-from .parameters import ParameterSpec, at_least
-from .runtime import (
+from ...core.evaluate import neighbourhood
+from ..nodes import coordinator
+from ..nodes.coordinator import Coordinator
+from ..nodes.instance import program_key
+from ..plumbing.parameters import ParameterSpec, at_least
+from ..plumbing.runtime import (
     DESCRIPTION_PARAMETERS,
     KEY_FILE,
     NAMESPACE,

@@ -16,18 +16,18 @@ from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.timer import Timer
 
-from ..core import jit
-from ..core.errors import SwazureError
-from ..core.motion import parse_motion
-from ..core.tracking import RelaySenses, moving_senses
-from ..protocol.senses import DetectedSenses
-from . import fls_node, fls_tracking
-from .fls_node import FlsNode
-from .instance import program_key
-from .names import DETECTIONS_TOPIC
-from .parameters import ParameterSpec, seconds
-from .radio import Radio
-from .runtime import (
+from ...core import jit
+from ...core.errors import SwazureError
+from ...core.motion import parse_motion
+from ...core.tracking import RelaySenses, moving_senses
+from ...protocol.senses import DetectedSenses
+from ..nodes import fls_node, fls_tracking
+from ..nodes.fls_node import FlsNode
+from ..nodes.instance import program_key
+from ..nodes.radio import Radio
+from ..plumbing.names import DETECTIONS_TOPIC
+from ..plumbing.parameters import ParameterSpec, seconds
+from ..plumbing.runtime import (
     DESCRIPTION_PARAMETERS,
     KEY_FILE,
     NAMESPACE,

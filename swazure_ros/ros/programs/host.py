@@ -25,18 +25,18 @@ from swazure_interfaces.msg import (
     WorldState,
 )
 
-from ..core.motion import Motion
-from ..protocol.radio import RadioLoss
-from ..protocol.readings import ReadingsBook
-from ..protocol.rounds import Absences
-from ..sim.replica import WorldReplica
-from ..sim.world import World
-from .auth import SwarmKey
-from .convert.sensing import world_positions
-from .fls_node import FlsNode, Transmitter
-from .guard import Guard, check
-from .liveness import FlsLiveness
-from .names import (
+from ...core.motion import Motion
+from ...protocol.radio import RadioLoss
+from ...protocol.readings import ReadingsBook
+from ...protocol.rounds import Absences
+from ...sim.replica import WorldReplica
+from ...sim.world import World
+from ..convert.sensing import world_positions
+from ..nodes.fls_node import FlsNode, Transmitter
+from ..nodes.radio import Radio
+from ..nodes.world_node import WorldNode
+from ..plumbing.liveness import FlsLiveness
+from ..plumbing.names import (
     COORDINATOR,
     LIVENESS_GRACE,
     MEASUREMENTS_TOPIC,
@@ -46,9 +46,9 @@ from .names import (
     WORLD_TOPIC,
     fls_id_of,
 )
-from .radio import Radio
-from .runtime import ParameterError, SwarmNode
-from .world_node import WorldNode
+from ..plumbing.runtime import ParameterError, SwarmNode
+from ..security.auth import SwarmKey
+from ..security.guard import Guard, check
 
 #: Seconds between a host's looks at the graph for its coordinator.
 COORDINATOR_WATCH_PERIOD = 0.5

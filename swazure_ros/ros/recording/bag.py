@@ -47,10 +47,10 @@ from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from ..core.errors import SwazureError
-from ..core.files import read_yaml
-from ..core.results import atomic_folder
-from .interfaces import message_class
+from ...core.errors import SwazureError
+from ...core.files import read_yaml
+from ...core.results import atomic_folder
+from ..plumbing.interfaces import message_class
 
 #: Seconds between looks at the graph for new topics to record.
 GRAPH_LOOK_PERIOD = 0.2

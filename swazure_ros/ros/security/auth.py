@@ -39,8 +39,8 @@ from typing import Any, TypeVar, cast
 
 from rclpy.serialization import deserialize_message, serialize_message
 
-from ..core.errors import MessageError, SwazureError
-from .interfaces import message_class
+from ...core.errors import MessageError, SwazureError
+from ..plumbing.interfaces import message_class
 from .keys import KEY_BYTES, new_key, read_key
 
 __all__ = ["Freshness", "SwarmKey", "content", "new_key", "read_key"]

@@ -29,7 +29,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.subscription import Subscription
 
-from ..core.errors import MessageError
+from ...core.errors import MessageError
 from .auth import AUTH_BYTES, SENDERS_KEPT, Freshness, SwarmKey
 
 #: Seconds between a guard's reports on /diagnostics (sent only when its counts changed).

@@ -6,9 +6,9 @@ import os
 import secrets
 from pathlib import Path
 
-from ..core.errors import SwazureError
-from ..core.files import read_bytes
-from ..core.results import atomic_write
+from ...core.errors import SwazureError
+from ...core.files import read_bytes
+from ...core.results import atomic_write
 
 #: Bytes of a key.
 KEY_BYTES = 32
