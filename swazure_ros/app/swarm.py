@@ -34,7 +34,6 @@ from ..protocol.runs import DiscoveryResult, MoveResult, merged, source_blocks, 
 from ..ros.nodes.coordinator import Coordinator, Future
 from ..ros.nodes.view import ViewNode
 from ..ros.nodes.world_node import SimulatedCameras
-from ..ros.plumbing.names import host_name
 from ..ros.plumbing.runtime import Context
 from ..ros.programs.host import SwarmHost
 from ..ros.recording.bag import Recorder
@@ -49,6 +48,7 @@ from .share import (
     FAILED,
     READY,
     announced_instance,
+    host_config,
     host_share,
     init_context,
     peak_rss_mb,
@@ -176,19 +176,10 @@ class RunningSwarm:
             self.fls_processes.start()
         self.context = init_context(self.config)
         leader = self.config.share == 0
-        self.host = SwarmHost(
-            self.world,
-            self._shares[0],
-            context=self.context,
-            namespace=self.config.namespace,
-            swarm_size=self.size,
-            with_world_node=leader,
-            name=host_name(self.config.share),
-            parameters=self.config.parameters,
-            fls_parameters=self.config.fls_parameters,
-            key=self.key,
-            parameter_services=self.config.parameter_services,
+        own = host_config(
+            self.config, self._shares[0], self.config.share, self.size, self.key, leader
         )
+        self.host = SwarmHost(self.world, own, context=self.context)
 
         def created(count: int) -> None:
             self._created[0] = count

@@ -10,7 +10,7 @@ from sensor_msgs.msg import CameraInfo, Image
 
 from swazure_ros.core.files import config_dir
 from swazure_ros.ros.nodes.fls_node import FlsNode, ParameterError
-from swazure_ros.ros.programs.host import SwarmHost
+from swazure_ros.ros.programs.host import HostConfig, SwarmHost
 from swazure_ros.sim.world import WorldSpec
 
 from .conftest import make_context
@@ -26,9 +26,8 @@ FAST = ["--ros-args", "-p", "publish_period:=0.2"]
 def hosted(domain, fls_ids=None, parameters=None):
     ctx = make_context(domain, FAST)
     world = WORLD.build()
-    host = SwarmHost(
-        world, world.ids if fls_ids is None else fls_ids, context=ctx, parameters=parameters
-    )
+    ids = tuple(world.ids if fls_ids is None else fls_ids)
+    host = SwarmHost(world, HostConfig(ids, parameters=parameters or {}), context=ctx)
     probe = Node("probe", context=ctx, start_parameter_services=False, enable_rosout=False)
     host.executor.add_node(probe)
     return ctx, world, host, probe

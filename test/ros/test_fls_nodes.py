@@ -14,7 +14,7 @@ from tf2_msgs.msg import TFMessage
 
 from swazure_ros.ros.nodes.fls_node import FlsNode, ParameterError
 from swazure_ros.ros.plumbing.names import TF_STATIC_QOS
-from swazure_ros.ros.programs.host import SwarmHost
+from swazure_ros.ros.programs.host import HostConfig, SwarmHost
 from swazure_ros.sim.replica import WorldReplica
 from swazure_ros.sim.world import WorldSpec
 
@@ -37,7 +37,7 @@ def swarm(domain):
     """A 100-FLS helix, every FLS its own node, and a probe node, in one process."""
     ctx = make_context(domain, FAST)
     world = WORLD.build()
-    host = SwarmHost(world, world.ids, context=ctx)
+    host = SwarmHost(world, HostConfig(tuple(world.ids)), context=ctx)
     probe = Node("probe", context=ctx, start_parameter_services=False, enable_rosout=False)
     host.executor.add_node(probe)
     try:
@@ -229,7 +229,7 @@ def test_nodes_build_no_measurement_while_nobody_reads_and_a_reader_gets_the_cur
 def test_republish_period_sends_unchanged_measurements_again(domain):
     ctx = make_context(domain, [*FAST, "-p", "republish_period:=0.4"])
     world = WORLD.build()
-    with SwarmHost(world, world.ids, context=ctx) as host:
+    with SwarmHost(world, HostConfig(tuple(world.ids)), context=ctx) as host:
         probe = Node("probe", context=ctx, start_parameter_services=False, enable_rosout=False)
         host.add(probe)
         host.create_fls_nodes()

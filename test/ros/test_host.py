@@ -6,14 +6,14 @@ import time
 
 from rclpy.node import Node
 
-from swazure_ros.ros.programs.host import SwarmHost
+from swazure_ros.ros.programs.host import HostConfig, SwarmHost
 from swazure_ros.sim.world import WorldSpec
 
 
 def test_a_node_removed_while_its_timer_events_wait_runs_them_alive_then_leaves_the_graph(context):
     world = WorldSpec("helix:10", beta=0.5).build()
     calls: list[tuple[str, int]] = []
-    with SwarmHost(world, world.ids, context=context) as host:
+    with SwarmHost(world, HostConfig(tuple(world.ids)), context=context) as host:
         nodes = []
         for name in ("first", "second", "third"):
             node = Node(name, context=context, start_parameter_services=False)
@@ -44,7 +44,7 @@ def test_a_node_removed_just_before_the_host_closes_leaves_the_graph(context):
     world = WorldSpec("helix:10", beta=0.5).build()
     observer = Node("observer", context=context, start_parameter_services=False)
     try:
-        with SwarmHost(world, world.ids, context=context) as host:
+        with SwarmHost(world, HostConfig(tuple(world.ids)), context=context) as host:
             node = Node("removed_last", context=context, start_parameter_services=False)
             host.add(node)
             host.remove(node)  # nothing spins after: closing must destroy it

@@ -167,14 +167,10 @@ def test_a_swarm_on_the_wall_clock_tracks_too(world, context):
     from rclpy.node import Node
     from swazure_interfaces.msg import TrackEstimate
 
-    from swazure_ros.ros.programs.host import SwarmHost
+    from swazure_ros.ros.programs.host import HostConfig, SwarmHost
 
-    with SwarmHost(
-        world,
-        [0, 1, 2],
-        context=context,
-        parameters={"track.frame_period": 0.05, "track.service": True},
-    ) as host:
+    track = {"track.frame_period": 0.05, "track.service": True}
+    with SwarmHost(world, HostConfig((0, 1, 2), parameters=track), context=context) as host:
         host.create_fls_nodes()
         client = Node("probe", namespace="swarm", context=context)
         host.add(client)

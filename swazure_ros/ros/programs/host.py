@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import re
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from functools import partial
 
 import numpy as np
@@ -56,41 +57,53 @@ IntArray = NDArray[np.int64]
 FloatArray = NDArray[np.float64]
 
 
+@dataclass(frozen=True)
+class HostConfig:
+    """What one process of a swarm hosts: its share of FLS ids, names, parameters and key.
+
+    ``swarm_size`` None: the world's FLSs. ``parameters`` go to every FLS node
+    over any parameter file (use_sim_time for a simulated clock, a track run's
+    track.* settings); ``fls_parameters`` to one FLS, over those. With
+    ``parameter_services`` every FLS node answers ``ros2 param``: six services
+    more a node.
+    """
+
+    fls_ids: tuple[int, ...]
+    namespace: str = "swarm"
+    swarm_size: int | None = None
+    with_world_node: bool = True
+    name: str = "host_0"
+    parameters: Mapping[str, object] = field(default_factory=dict)
+    fls_parameters: Mapping[int, Mapping[str, object]] = field(default_factory=dict)
+    key: SwarmKey | None = None
+    parameter_services: bool = False
+
+
 class SwarmHost:
     """The nodes of one process of a swarm, spun by one EventsExecutor."""
 
     def __init__(
         self,
         world: World,
-        fls_ids: Sequence[int],
+        config: HostConfig,
         *,
         context: Context,
-        namespace: str = "swarm",
-        swarm_size: int | None = None,
-        with_world_node: bool = True,
-        name: str = "host_0",
         motion: Motion | None = None,
-        parameters: dict[str, object] | None = None,
-        fls_parameters: dict[int, dict[str, object]] | None = None,
-        key: SwarmKey | None = None,
-        parameter_services: bool = False,
     ) -> None:
         self.context = context
-        self.namespace = namespace.strip("/")
-        #: Every FLS node answers ``ros2 param``: six services more a node.
-        self.parameter_services = parameter_services
-        self.fls_ids = [int(fls_id) for fls_id in fls_ids]
-        self.swarm_size = len(world.ids) if swarm_size is None else swarm_size
+        self.config = config
+        self.namespace = config.namespace.strip("/")
+        self.parameter_services = config.parameter_services
+        self.fls_ids = [int(fls_id) for fls_id in config.fls_ids]
+        self.swarm_size = len(world.ids) if config.swarm_size is None else config.swarm_size
         self.replica = WorldReplica(world, motion)
-        # Given to every FLS node over any parameter file, e.g. use_sim_time for a
-        # simulated clock (nodes.clock) or a track run's track.* settings.
         self._overrides = [
-            Parameter(name, value=value) for name, value in (parameters or {}).items()
+            Parameter(name, value=value) for name, value in config.parameters.items()
         ]
         # One FLS's own parameters, after (so over) every FLS's.
         self._fls_overrides = {
             int(fls_id): [Parameter(name, value=value) for name, value in own.items()]
-            for fls_id, own in (fls_parameters or {}).items()
+            for fls_id, own in config.fls_parameters.items()
         }
         self.executor = EventsExecutor(context=context)
         self._spinning = False
@@ -100,28 +113,14 @@ class SwarmHost:
         self._leaving: list[Node] = []
         self.fls_nodes: list[FlsNode] = []
         self.fls_by_id: dict[int, FlsNode] = {}
-        self.host_node = SwarmNode(name, namespace=self.namespace, context=context)
-        self.guard = Guard(self.host_node, key)
+        self.host_node = SwarmNode(config.name, namespace=self.namespace, context=context)
+        self.guard = Guard(self.host_node, config.key)
         self.guard.subscribe(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
         # Before the radio's hook: walks that waited for a revision measure it afresh.
         self.replica.on_revision.append(self._sense_anew)
-        # A process of no FLS (the simulator beside FLSs that run one to a process)
-        # has nothing to relay: no radio, so that the coordinator counts no host here.
         # What the radio hears of the FLSs' cameras, for its FLSs' fits: one book a process.
         self.readings = ReadingsBook()
-        self.radio = (
-            Radio(
-                self.host_node,
-                self.replica,
-                self.fls_by_id,
-                self._radio_loss(),
-                self.guard,
-                readings=self.readings,
-                local=self.fls_ids,
-            )
-            if self.fls_ids
-            else None
-        )
+        self.radio = self._make_radio()
         # The coordinator's liveness, from the graph like the FLSs' (Coordinator._on_liveness).
         self._coordinator_seen = False
         self.aborted = 0  # ABORTED estimates sent after the coordinator was lost
@@ -138,14 +137,29 @@ class SwarmHost:
         self._add(self.host_node)
         #: The world node, on the host that holds the world.
         self.world_node: WorldNode | None = None
-        if with_world_node:
+        if config.with_world_node:
             self.world_node = WorldNode(
-                self.replica, namespace=self.namespace, context=context, key=key
+                self.replica, namespace=self.namespace, context=context, key=config.key
             )
             self._add(self.world_node)
         self._measurements_topic = f"/{self.namespace}/{MEASUREMENTS_TOPIC}"
         self._service_pattern = re.compile(
             rf"^/{re.escape(self.namespace)}/fls_\d+/{NEIGHBOURS_SERVICE}$"
+        )
+
+    def _make_radio(self) -> Radio | None:
+        """The process's radio; none in a process of no FLS (the simulator beside FLSs that
+        run one to a process): it relays nothing, and the coordinator counts no host here."""
+        if not self.fls_ids:
+            return None
+        return Radio(
+            self.host_node,
+            self.replica,
+            self.fls_by_id,
+            self._radio_loss(),
+            self.guard,
+            readings=self.readings,
+            local=self.fls_ids,
         )
 
     def _radio_loss(self) -> RadioLoss | None:
