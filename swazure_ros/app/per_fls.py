@@ -114,15 +114,16 @@ def fls_arguments(
     namespace: str,
     key_file: Path | None,
     instance: bytes,
-    motion: str = "",
+    startup: dict[str, object],
 ) -> list[str]:
-    """The startup arguments every FLS's program takes: the swarm's description and key."""
+    """The startup arguments every FLS's program takes: the swarm's description and key,
+    and ``startup``'s values of its other startup parameters (``track.motion``)."""
     values = {
+        **startup,
         **description_parameters(description),
         "namespace": namespace,
         "key_file": "" if key_file is None else str(key_file),
         "swarm_instance": instance.hex() if key_file is not None else "",
-        "track.motion": motion,
     }
     return startup_arguments(values, fls_program.STARTUP)
 
@@ -153,7 +154,6 @@ class FlsProcesses:
         params_file: str | None = None,
         domain_id: int | None = None,
         discovery_servers: tuple[ServerAddress, ...] = (),
-        motion: str = "",
     ) -> None:
         self.fls_ids = [int(fls_id) for fls_id in fls_ids]
         self.log_dir = log_dir
@@ -165,8 +165,13 @@ class FlsProcesses:
             key_file = log_dir / "swarm.key"
             write_key(key_file, secret)
         self.parameters_path = log_dir / "parameters.yaml"
-        self._arguments = fls_arguments(description, namespace, key_file, instance, motion)
-        content = parameter_file(namespace, parameters or {}, fls_parameters or {})
+        # The program's startup parameters among ``parameters`` are its arguments.
+        given = parameters or {}
+        startup = {spec.name for spec in fls_program.STARTUP}
+        at_start = {name: value for name, value in given.items() if name in startup}
+        self._arguments = fls_arguments(description, namespace, key_file, instance, at_start)
+        node_parameters = {name: value for name, value in given.items() if name not in startup}
+        content = parameter_file(namespace, node_parameters, fls_parameters or {})
         atomic_write(
             self.parameters_path,
             lambda path: path.write_text(yaml.safe_dump(content, sort_keys=False)),

@@ -104,8 +104,11 @@ class TrackSession:
                 namespace=self.namespace,
                 key=key,
                 domain_id=context.get_domain_id(),
-                parameters={**track_parameters(config), "track.report_progress": True},
-                motion=per_fls.motion,
+                parameters={
+                    **track_parameters(config),
+                    "track.motion": per_fls.motion,
+                    "track.report_progress": True,
+                },
             )
         own = HostConfig(
             fls_ids=() if per_fls is not None else tuple(self.fls_ids),
