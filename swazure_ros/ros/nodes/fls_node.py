@@ -30,7 +30,7 @@ Each callback converts a message, makes one call into a machine, and
 publishes what comes out.
 
 The node subscribes to none of the shared topics itself: its process's
-:class:`~.host.Radio` hears each of them once and hands a message to the FLS
+:class:`~.radio.Radio` hears each of them once and hands a message to the FLS
 nodes it reaches (:meth:`FlsNode.on_control` with the round's offers,
 :meth:`~FlsNode.on_walk`, and its :class:`~.fls_tracking.FlsTracking`'s
 ``on_request`` and ``on_sample``), as a radio would. A thousand subscriptions
@@ -40,8 +40,8 @@ per topic would cost discovery time and deliver every message a thousand times.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from functools import partial
-from typing import TYPE_CHECKING
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -50,70 +50,32 @@ from rclpy.event_handler import PublisherEventCallbacks, QoSPublisherMatchedInfo
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
-from sensor_msgs.msg import CameraInfo, Image
-from swazure_interfaces.msg import (
-    Detections,
-    Measurements,
-    MoveCommands,
-    PoseEstimates,
-)
+from swazure_interfaces.msg import Measurements, PoseEstimates
 from swazure_interfaces.srv import GetNeighbours
 
 from ...core.fit import PATH
-from ...core.frames import camera_optical_frame
 from ...core.observe import Measurement, NeighbourSets
-from ...core.tracking import (
-    RelaySenses,
-)
+from ...core.tracking import RelaySenses
 from ...protocol.discovery.messages import START, Broadcast, Control, Report, RoundOffers
 from ...protocol.discovery.participant import Participant
-from ...protocol.moves import (
-    WALKING,
-    Walk,
-    commanded_points,
-    next_hop,
-    step_walk,
-    walk_estimate,
-)
+from ...protocol.moves import WALKING, Walk, next_hop, step_walk, walk_estimate
 from ...protocol.readings import ReadingsBook
 from ...protocol.senses import DetectedSenses, Senses
-from ..convert.discovery import estimates_message, moves_from_message
-from ..convert.sensing import (
-    camera_info_message,
-    detections_from_message,
-    image_message,
-    measurements_message,
-    neighbour_fields,
-)
-from ..convert.units import stamp_nanoseconds
+from ..convert.discovery import estimates_message
+from ..convert.sensing import measurements_message, neighbour_fields
 from ..plumbing.names import (
-    CAMERA_IMAGE_TOPIC,
-    CAMERA_INFO_TOPIC,
-    DETECTIONS_QOS,
-    DETECTIONS_TOPIC,
     ESTIMATES_TOPIC,
     MEASUREMENTS_QOS,
     MEASUREMENTS_TOPIC,
-    MOVE_QOS,
-    MOVE_TOPIC,
     NEIGHBOURS_SERVICE,
     ROUND_QOS,
-    WORLD_REACH,
     node_name,
 )
 from ..plumbing.parameters import ParameterSpec, at_least, seconds
-from ..plumbing.runtime import (
-    ParameterError,
-    SwarmNode,
-)
+from ..plumbing.runtime import ParameterError, SwarmNode
 from ..security.auth import SwarmKey
-from ..security.guard import Guard, check
+from .fls_camera import CameraView, DetectedSensing, Eyes
 from .fls_tracking import FlsTracking
-
-if TYPE_CHECKING:
-    from numpy.typing import NDArray
-
-    from ...core.camera import Camera
 
 
 class Transmitter:
@@ -149,9 +111,14 @@ class Transmitter:
         return len(data)
 
 
-#: What a simulated camera shows aimed at a neighbour: (neighbour id, frame number) ->
-#: the camera and its whole image (height, width), uint8.
-Eyes = Callable[[int, int], "tuple[Camera, NDArray[np.uint8]]"]
+@dataclass(frozen=True)
+class RadioLink:
+    """How an FLS node reaches the swarm's radio: its process's transmitter, and the book of
+    what that radio heard of the FLSs' cameras; None: its own (signing with ``key``)."""
+
+    transmitter: Transmitter | None = None
+    readings: ReadingsBook | None = None
+    key: SwarmKey | None = None
 
 
 PUBLISH_PERIOD = ParameterSpec(
@@ -181,9 +148,13 @@ class FlsNode(SwarmNode):
     """One Flying Light Speck.
 
     It knows the world only through ``senses`` (:class:`~..protocol.senses.Senses`):
-    the simulator's in packed mode, or its own camera's detections. ``relay_senses``
-    chooses relays and takes relayed samples for tracking, where the senses can
-    (the simulator); ``eyes`` render what its camera sees, for ``camera_view``.
+    the simulator's in packed mode, or its own camera's detections. Its parts:
+    its camera's (``camera``: :class:`~.fls_camera.CameraView` of simulated
+    ``Eyes``, for ``camera_view``; or :class:`~.fls_camera.DetectedSensing` of
+    ``DetectedSenses``), its radio's (:class:`Transmitter` and discovery's
+    :class:`~..protocol.discovery.participant.Participant`, through ``link``)
+    and its tracking's (:class:`~.fls_tracking.FlsTracking`: ``relay_senses``
+    chooses relays and takes relayed samples, where the senses can).
     """
 
     def __init__(
@@ -193,15 +164,12 @@ class FlsNode(SwarmNode):
         *,
         namespace: str = "swarm",
         context: Context | None = None,
-        transmitter: Transmitter | None = None,
-        parameter_overrides: list[Parameter] | None = None,
+        link: RadioLink | None = None,
+        camera: Eyes | DetectedSenses | None = None,
         relay_senses: Callable[[], RelaySenses] | None = None,
-        eyes: Eyes | None = None,
+        parameter_overrides: list[Parameter] | None = None,
         parameter_services: bool = False,
         parameter_events: Publisher | None = None,
-        detections: DetectedSenses | None = None,
-        key: SwarmKey | None = None,
-        readings: ReadingsBook | None = None,
     ) -> None:
         super().__init__(
             node_name(fls_id),
@@ -213,14 +181,15 @@ class FlsNode(SwarmNode):
         )
         self.fls_id = fls_id
         self._senses = senses
-        self._render = eyes
+        link = link or RadioLink()
         self.publish_period = self.declare(PUBLISH_PERIOD, self._set_publish_period)
         self.republish_period = self.declare(
             REPUBLISH_PERIOD, partial(setattr, self, "republish_period")
         )
         # Its track service, the streams it relays and the targets it tracks.
         self.tracking = FlsTracking(self, fls_id, relay_senses, self.publish, self.elsewhere)
-        self.camera_view = self._declare_camera_view()
+        #: What its camera shows a person (camera_view), if anything.
+        self.view = self._camera_view(camera)
         # (world revision, what the FLS senses in it)
         self._sensed: tuple[int, Measurement, NeighbourSets] | None = None
         self._published: Measurement | None = None  # the last measurement sent
@@ -232,7 +201,7 @@ class FlsNode(SwarmNode):
             senses.sensor,
             senses.radius,
             senses.id_space,
-            readings,
+            link.readings,
         )
         self._publisher = self.create_publisher(
             Measurements,
@@ -245,26 +214,14 @@ class FlsNode(SwarmNode):
         # of FLSs would otherwise wake a process thousands of times a second.
         self._frames = self.create_timer(self.publish_period, self._on_frame)
         self._frames_stopped = False
-        self._eyes: tuple[Publisher, Publisher] | None = None
-        if self.camera_view >= 0:
-            self._eyes = (
-                self.create_publisher(Image, f"~/{CAMERA_IMAGE_TOPIC}", 1),
-                self.create_publisher(CameraInfo, f"~/{CAMERA_INFO_TOPIC}", 1),
-            )
-            self.frames_shown = 0
-            self._camera_frames = self.create_timer(self.publish_period, self._on_camera_frame)
-        # Its own camera's readings, when it senses by them (an FLS in its own process).
-        self._detected = detections
-        if detections is not None:
-            self.guard = Guard(self, key)  # the process's one guard: its radio's too
-            self.guard.subscribe(
-                Detections, f"~/{DETECTIONS_TOPIC}", self._on_detections, DETECTIONS_QOS
-            )
-            # Where the heuristics send FLSs: every FLS hears every command.
-            self.guard.subscribe(MoveCommands, MOVE_TOPIC, self._on_moves, MOVE_QOS)
-            self._moves_stamp = 0
+        #: Its own camera's readings and move commands, when it senses by them.
+        self.detected = (
+            DetectedSensing(self, fls_id, camera, link.key, self._sensed_anew)
+            if isinstance(camera, DetectedSenses)
+            else None
+        )
         # Alone (no process hosting it), an FLS transmits with publishers of its own.
-        self.transmitter = transmitter or Transmitter(self, key)
+        self.transmitter = link.transmitter or Transmitter(self, link.key)
         self.messages_sent = 0
         self.measurements_sent = 0  # Measurements messages published
         self.frames_taken = 0  # frame timer callbacks run
@@ -274,37 +231,34 @@ class FlsNode(SwarmNode):
         """Take a new frame period at once (``ros2 param set``)."""
         self.publish_period = seconds
         self._frames.timer_period_ns = round(seconds * 1e9)
-        if self._eyes is not None:
-            self._camera_frames.timer_period_ns = round(seconds * 1e9)
+        if self.view is not None:
+            self.view.set_period(seconds)
 
-    def _declare_camera_view(self) -> int:
+    def _camera_view(self, camera: Eyes | DetectedSenses | None) -> CameraView | None:
+        """The camera_view part: declared here, made if the parameter names a neighbour."""
         value: int = self.declare(CAMERA_VIEW)
+        if value < 0:
+            return None
         if value == self.fls_id:
             raise ParameterError(
                 f"{self.get_fully_qualified_name()}: camera_view names this FLS itself"
             )
-        if value >= 0:
-            if self._render is None:
-                raise ParameterError(
-                    f"{self.get_fully_qualified_name()}: camera_view needs the simulated "
-                    "camera (an FLS of `swazure spawn`); this FLS's senses cannot render"
-                )
-            if value not in self._senses.ids:
-                raise ParameterError(
-                    f"{self.get_fully_qualified_name()}: camera_view: no FLS {value} "
-                    f"in this swarm of {len(self._senses.ids)} FLSs"
-                )
-        return int(value)
+        if camera is None or isinstance(camera, DetectedSenses):
+            raise ParameterError(
+                f"{self.get_fully_qualified_name()}: camera_view needs the simulated "
+                "camera (an FLS of `swazure spawn`); this FLS's senses cannot render"
+            )
+        if value not in self._senses.ids:
+            raise ParameterError(
+                f"{self.get_fully_qualified_name()}: camera_view: no FLS {value} "
+                f"in this swarm of {len(self._senses.ids)} FLSs"
+            )
+        return CameraView(self, self.fls_id, camera, int(value), self.publish_period)
 
-    def _on_camera_frame(self) -> None:
-        assert self._eyes is not None and self._render is not None
-        images, infos = self._eyes
-        camera, image = self._render(self.camera_view, self.frames_shown)
-        self.frames_shown += 1
-        stamp = self.get_clock().now().to_msg()
-        frame_id = camera_optical_frame(self.fls_id)
-        images.publish(image_message(image, stamp, frame_id))
-        infos.publish(camera_info_message(camera, stamp, frame_id))
+    def _sensed_anew(self) -> None:
+        """What it senses changed (its camera's detections, a move): take a frame soon."""
+        self._sensed = None
+        self.sense()
 
     # Camera and radio --------------------------------------------------------
 
@@ -330,28 +284,6 @@ class FlsNode(SwarmNode):
     def _stop_frames(self) -> None:
         self._frames_stopped = True
         self._frames.cancel()
-
-    def _on_detections(self, message: Detections) -> None:
-        assert self._detected is not None
-        markers, vectors = detections_from_message(message, self.fls_id)
-        check(message.revision < 2**63, f"revision {message.revision} out of range")
-        self._sensed = None
-        self._detected.detect(markers, vectors, int(message.revision))
-        self.sense()
-
-    def _on_moves(self, message: MoveCommands) -> None:
-        assert self._detected is not None
-        senses = self._detected
-        ids, kinds, displacement = moves_from_message(message, senses.ids, WORLD_REACH)
-        # As the world node takes them (WorldNode._on_moves): in order, a batch a revision.
-        stamp = stamp_nanoseconds(message.header.stamp)
-        check(stamp >= self._moves_stamp, "older than the last batch of moves (a replay?)")
-        self._moves_stamp = stamp
-        if len(ids):
-            home = senses.home(ids)
-            self._sensed = None
-            senses.move(ids, commanded_points(home, kinds, displacement))
-            self.sense()
 
     def _on_reader_matched(self, info: QoSPublisherMatchedInfo) -> None:
         if info.current_count_change > 0:

@@ -22,7 +22,8 @@ from ...core.motion import parse_motion
 from ...core.tracking import RelaySenses, moving_senses
 from ...protocol.senses import DetectedSenses
 from ..nodes import fls_node, fls_tracking
-from ..nodes.fls_node import FlsNode
+from ..nodes.fls_camera import DetectedSensing
+from ..nodes.fls_node import FlsNode, RadioLink
 from ..nodes.instance import program_key
 from ..nodes.radio import Radio
 from ..plumbing.names import DETECTIONS_TOPIC
@@ -85,14 +86,15 @@ class RadioJoin:
     ``join_timeout`` seconds.
     """
 
-    def __init__(self, node: FlsNode, senses: DetectedSenses) -> None:
+    def __init__(self, node: FlsNode, sensing: DetectedSensing) -> None:
         self.node = node
-        self.senses = senses
+        self.sensing = sensing
+        self.senses = sensing.senses
         self.radio: Radio | None = None
         self.made_at = float("nan")
         self.join_timeout = node.declare(JOIN_TIMEOUT)
         self.poll: Timer = node.create_timer(JOIN_POLL, self.listen_when_heard)
-        senses.on_revision.insert(0, self.make_radio)
+        self.senses.on_revision.insert(0, self.make_radio)
         self._said_at = time.monotonic()
         # A person who started one FLS by hand sees what it waits for.
         detections = f"{node.get_fully_qualified_name()}/{DETECTIONS_TOPIC}"
@@ -110,7 +112,7 @@ class RadioJoin:
             node,
             self.senses,
             {node.fls_id: node},
-            guard=node.guard,
+            guard=self.sensing.guard,
             listen=False,
             readings=node.discovery.readings,
         )
@@ -186,16 +188,15 @@ def build_fls(context: Context, values: dict[str, Any]) -> list[Node]:
     node = FlsNode(
         fls_id,
         senses,
-        relay_senses=relay_senses,
         namespace=str(values["namespace"]),
         context=context,
-        transmitter=None,
+        link=RadioLink(key=key),
+        camera=senses,
+        relay_senses=relay_senses,
         parameter_services=True,
-        detections=senses,
-        key=key,
     )
-
-    RadioJoin(node, senses)
+    assert node.detected is not None  # it senses by its camera's detections
+    RadioJoin(node, node.detected)
     declare_startup(node, values)
     return [node]
 

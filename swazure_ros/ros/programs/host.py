@@ -33,7 +33,7 @@ from ...protocol.rounds import Absences
 from ...sim.replica import WorldReplica
 from ...sim.world import World
 from ..convert.sensing import world_positions
-from ..nodes.fls_node import FlsNode, Transmitter
+from ..nodes.fls_node import FlsNode, RadioLink, Transmitter
 from ..nodes.radio import Radio
 from ..nodes.world_node import WorldNode
 from ..plumbing.liveness import FlsLiveness
@@ -132,6 +132,8 @@ class SwarmHost:
         self.transmitter = Transmitter(self.host_node, self.guard.key)
         if self.radio is not None:
             self.transmitter.broadcast = self.radio.broadcast
+        # What every FLS node here sends by and hears through: the process's radio.
+        self._link = RadioLink(self.transmitter, self.readings, self.guard.key)
         # One /parameter_events writer for the process's FLS nodes (SwarmNode).
         self._parameter_events = self.host_node.create_parameter_events_publisher()
         self._add(self.host_node)
@@ -231,13 +233,12 @@ class SwarmHost:
                 self.replica,
                 namespace=self.namespace,
                 context=self.context,
-                transmitter=self.transmitter,
-                parameter_overrides=[*self._overrides, *self._fls_overrides.get(fls_id, [])],
+                link=self._link,
+                camera=partial(self.replica.camera_image, fls_id),
                 relay_senses=lambda: self.replica.relay_senses,
-                eyes=partial(self.replica.camera_image, fls_id),
+                parameter_overrides=[*self._overrides, *self._fls_overrides.get(fls_id, [])],
                 parameter_services=self.parameter_services,
                 parameter_events=self._parameter_events,
-                readings=self.readings,
             )
             self.fls_nodes.append(node)
             self.fls_by_id[fls_id] = node
