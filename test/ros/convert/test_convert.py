@@ -94,8 +94,8 @@ from swazure_ros.ros.convert.units import (
 )
 from swazure_ros.ros.security.guard import MessageError
 
-from ..conftest import FUZZ
-from .fuzz import message
+from ...conftest import FUZZ
+from ..fuzz import message
 
 
 def test_a_world_state_reads_back_every_id_and_position_bit_for_bit():

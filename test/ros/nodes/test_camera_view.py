@@ -13,8 +13,8 @@ from swazure_ros.ros.nodes.fls_node import FlsNode, ParameterError
 from swazure_ros.ros.programs.host import HostConfig, SwarmHost
 from swazure_ros.sim.world import WorldSpec
 
-from .conftest import make_context
-from .helpers import assert_matches, engine_expectations, spin_until
+from ..conftest import make_context
+from ..helpers import assert_matches, engine_expectations, spin_until
 from .test_fls_nodes import collect_measurements
 
 CAMERA_SENSOR = str(config_dir() / "cameras" / "sensor-wide-camera.yaml")

@@ -18,8 +18,8 @@ from swazure_ros.ros.programs.host import HostConfig, SwarmHost
 from swazure_ros.sim.replica import WorldReplica
 from swazure_ros.sim.world import WorldSpec
 
-from .conftest import make_context
-from .helpers import (
+from ..conftest import make_context
+from ..helpers import (
     LATCHED,
     assert_matches,
     engine_expectations,

@@ -22,7 +22,7 @@ from swazure_ros.ros.plumbing.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec
 from swazure_ros.view.scene import MOVE_COLOUR
 
-from ..waits import wait_until
+from ...waits import wait_until
 
 WORLD = WorldSpec("helix:60", beta=0.5)
 #: The Foxglove SDK's WebSocket subprotocol; binary frames of op 1 carry message data.

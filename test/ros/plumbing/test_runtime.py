@@ -11,7 +11,7 @@ import time
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from ..waits import wait_until
+from ...waits import wait_until
 
 #: A process whose one node is stuck in a callback: it cannot end when asked.
 STUCK = """

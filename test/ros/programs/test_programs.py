@@ -29,9 +29,9 @@ from swazure_ros.ros.plumbing.names import DETECTIONS_QOS
 from swazure_ros.ros.plumbing.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec
 
-from ..conftest import REPO, SHARED
-from ..waits import wait_until
-from .helpers import ECHO_LATCHED
+from ...conftest import REPO, SHARED
+from ...waits import wait_until
+from ..helpers import ECHO_LATCHED
 
 VENV = Path(sys.executable).parents[1]
 ROS2 = VENV / "bin" / "ros2"

@@ -31,8 +31,8 @@ from swazure_ros.ros.recording.bag import (
 )
 from swazure_ros.sim.world import WorldSpec
 
-from ..waits import wait_until
-from .helpers import joined, radio_topics
+from ...waits import wait_until
+from ..helpers import joined, radio_topics
 
 WORLD = WorldSpec("helix:60", beta=0.5)
 KEEP_ALL_LATCHED = QoSProfile(

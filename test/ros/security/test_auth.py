@@ -16,8 +16,8 @@ from swazure_ros.core.errors import MessageError, SwazureError
 from swazure_ros.ros.security.auth import Freshness, SwarmKey, content, new_key
 from swazure_ros.ros.security.keys import read_key, write_key
 
-from ..conftest import FUZZ
-from .fuzz import message
+from ...conftest import FUZZ
+from ..fuzz import message
 
 KEY = SwarmKey(new_key())
 IDS = [0, 1, 2, 407]

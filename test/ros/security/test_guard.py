@@ -20,10 +20,10 @@ from swazure_ros.ros.security.auth import Freshness, SwarmKey, new_key
 from swazure_ros.ros.security.guard import Buckets, RateLimit
 from swazure_ros.sim.world import WorldSpec
 
-from ..conftest import FUZZ
-from ..waits import wait_until
-from .conftest import make_context
-from .test_discovery import assert_matches_engine, by_pair
+from ...conftest import FUZZ
+from ...waits import wait_until
+from ..conftest import make_context
+from ..test_discovery import assert_matches_engine, by_pair
 
 
 def signed(key: SwarmKey) -> PathOffer:
