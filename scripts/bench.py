@@ -1652,7 +1652,7 @@ def fls_process_section(args: argparse.Namespace) -> list[str]:
         return ["## One FLS per process", "", "Skipped: `make setup` makes the programs."]
     domain = 151
     env = dict(os.environ, ROS_DOMAIN_ID=str(domain), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-    trio = ["-p", f"cloud:={REPO / 'config/track/trio.xyz'}", "-p", "radius:=0.5"]
+    trio = ["--cloud", str(REPO / "config/track/trio.xyz"), "--radius", "0.5"]
     camera_sensor = REPO / "config" / "cameras" / "sensor-wide-camera.yaml"
 
     logs = Path(tempfile.mkdtemp(prefix="swazure-bench-"))
@@ -1662,7 +1662,7 @@ def fls_process_section(args: argparse.Namespace) -> list[str]:
         path = logs / f"{program}-{len(log_of)}.log"
         with path.open("w") as log:
             process = subprocess.Popen(
-                [str(programs / program), "--ros-args", *trio, *extra],
+                [str(programs / program), *trio, *extra],
                 env=env,
                 stdout=log,
                 stderr=subprocess.STDOUT,
@@ -1696,7 +1696,7 @@ def fls_process_section(args: argparse.Namespace) -> list[str]:
         time.sleep(3.0)  # the simulator first, as a swarm's launch would have it
         for fls_id, extra in ((0, ()), (1, ()), (2, ())):
             began = time.monotonic()
-            process = start("fls", "-p", f"fls_id:={fls_id}", *extra)
+            process = start("fls", "--fls-id", str(fls_id), *extra)
             processes.append(process)
             while not ready(fls_id) and time.monotonic() - began < 60:
                 executor.spin_once(timeout_sec=0.01)
@@ -1714,8 +1714,8 @@ def fls_process_section(args: argparse.Namespace) -> list[str]:
         after = [resident_mb(pid) for _, _, pid in rows]
         # A camera-kind FLS: its sensor loads OpenCV.
         began = time.monotonic()
-        camera = start("fls", "-p", "fls_id:=1", "-p", f"sensor:={camera_sensor}",
-                       "-p", "namespace:=camera_swarm")  # fmt: skip
+        camera = start("fls", "--fls-id", "1", "--sensor", str(camera_sensor),
+                       "--namespace", "camera_swarm")  # fmt: skip
         processes.append(camera)
         while time.monotonic() - began < 60:
             # No simulator in its namespace gives it a frame: its node in the graph.

@@ -80,7 +80,7 @@ def swarm_pids(root: Path) -> dict[str, list[int]]:
 
 def fls_pid(root: Path, fls_id: int) -> int | None:
     """The process id of FLS ``fls_id``'s process under ``root``."""
-    wanted = f"fls_id:={fls_id}\0".encode()
+    wanted = f"--fls-id\0{fls_id}\0".encode()
     for pid in swarm_pids(root)["fls"]:
         try:
             if wanted in Path(f"/proc/{pid}/cmdline").read_bytes():
