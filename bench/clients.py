@@ -20,7 +20,7 @@ def pose_client(
     from diagnostic_msgs.msg import DiagnosticArray
     from swazure_interfaces.srv import ComputePose
 
-    from swazure_ros.ros.runtime import SwarmNode, init_context
+    from swazure_ros.ros.plumbing.runtime import SwarmNode, init_context
 
     context = init_context(domain)
     node = SwarmNode(name, context=context)
@@ -90,7 +90,7 @@ def ask_random_pairs(
     from swazure_interfaces.srv import ComputePose
 
     from swazure_ros.ros.convert.discovery import pose_estimate_from_message
-    from swazure_ros.ros.names import POLICY_CODES
+    from swazure_ros.ros.plumbing.names import POLICY_CODES
 
     right = wrong = unanswered = 0
     began = time.monotonic()

@@ -140,7 +140,7 @@ def stopped_row(running: Any) -> str:
 def lost_coordinator_row(running: Any) -> str:
     """The coordinator lost mid-run: how long until every source has a status; its row."""
     from swazure_ros.core.evaluate import ABORTED, evaluate_pairs
-    from swazure_ros.ros.coordinator import Coordinator
+    from swazure_ros.ros.nodes.coordinator import Coordinator
 
     running.wait_until_ready()
     world = running.world

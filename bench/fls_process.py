@@ -33,11 +33,11 @@ class Programs:
 
     def start(self, program: str, *extra: str) -> subprocess.Popen[bytes]:
         """``program`` on the trio with the ROS arguments ``extra``, its output to its log."""
-        trio = ["-p", f"cloud:={REPO / 'config/track/trio.xyz'}", "-p", "radius:=0.5"]
+        trio = ["--cloud", str(REPO / "config/track/trio.xyz"), "--radius", "0.5"]
         path = self.logs / f"{program}-{len(self.log_of)}.log"
         with path.open("w") as log:
             process = subprocess.Popen(
-                [str(self.folder / program), "--ros-args", *trio, *extra],
+                [str(self.folder / program), *trio, *extra],
                 env=self.env,
                 stdout=log,
                 stderr=subprocess.STDOUT,
@@ -109,7 +109,7 @@ def started_trio(
     rows = []
     for fls_id in (0, 1, 2):
         began = time.monotonic()
-        process = programs.start("fls", "-p", f"fls_id:={fls_id}")
+        process = programs.start("fls", "--fls-id", str(fls_id))
         processes.append(process)
         while not ready(fls_id) and time.monotonic() - began < 60:
             executor.spin_once(timeout_sec=0.01)
@@ -135,8 +135,8 @@ def camera_fls(
 ) -> tuple[float, float, float]:
     """A camera-kind FLS (its sensor loads OpenCV): s to ready by its log, until seen, MB."""
     began = time.monotonic()
-    camera = programs.start("fls", "-p", "fls_id:=1", "-p", f"sensor:={CAMERA_SENSOR}",
-                            "-p", "namespace:=camera_swarm")  # fmt: skip
+    camera = programs.start("fls", "--fls-id", "1", "--sensor", str(CAMERA_SENSOR),
+                            "--namespace", "camera_swarm")  # fmt: skip
     processes.append(camera)
     while time.monotonic() - began < 60:
         # No simulator in its namespace gives it a frame: its node in the graph.

@@ -32,7 +32,7 @@ def signing_costs(shape: str = "dragon_1147", count: int = 2000) -> list[str]:
     from rclpy.serialization import deserialize_message, serialize_message
     from swazure_interfaces.msg import PathOffer, PoseEstimates
 
-    from swazure_ros.ros.auth import SwarmKey, new_key
+    from swazure_ros.ros.security.auth import SwarmKey, new_key
     from swazure_ros.sim.world import WorldSpec
 
     key = SwarmKey(new_key())

@@ -29,7 +29,7 @@ from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.observe import observations
 from swazure_ros.protocol.loops import discover
-from swazure_ros.ros.names import RADIO_TOPIC, host_name
+from swazure_ros.ros.plumbing.names import RADIO_TOPIC, host_name
 from swazure_ros.sim.world import WorldSpec
 
 POLICY = "shortest-length"

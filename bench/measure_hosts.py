@@ -81,7 +81,7 @@ def swarm_pids(root: Path) -> dict[str, list[int]]:
 
 def fls_pid(root: Path, fls_id: int) -> int | None:
     """The process id of FLS ``fls_id``'s process under ``root``."""
-    wanted = f"fls_id:={fls_id}\0".encode()
+    wanted = f"--fls-id\0{fls_id}\0".encode()
     for pid in swarm_pids(root)["fls"]:
         try:
             if wanted in Path(f"/proc/{pid}/cmdline").read_bytes():
@@ -218,7 +218,7 @@ def arguments() -> argparse.Namespace:
 def main() -> int:
     from swazure_ros.app.discovery_server import parse_servers
     from swazure_ros.app.swarm import RunningSwarm
-    from swazure_ros.ros.keys import new_key, write_key
+    from swazure_ros.ros.security.keys import new_key, write_key
 
     args = arguments()
     record: dict[str, object] = {

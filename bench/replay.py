@@ -27,7 +27,7 @@ def replay_section(
     figures: Path = REPO / "docs" / "figures",
 ) -> list[str]:
     """A swarm under valid queries while a peer replays an earlier swarm of the same key file."""
-    from swazure_ros.ros.keys import new_key, write_key
+    from swazure_ros.ros.security.keys import new_key, write_key
 
     cloud = swarm_cloud(shape)
     folder = Path(tempfile.mkdtemp(prefix="swazure-replay-soak-"))

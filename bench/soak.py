@@ -108,7 +108,7 @@ def soak_client(domain: int) -> tuple[Any, Any, Any, Any]:
     import rclpy.executors
     from swazure_interfaces.srv import ComputePose
 
-    from swazure_ros.ros.runtime import SwarmNode, init_context
+    from swazure_ros.ros.plumbing.runtime import SwarmNode, init_context
 
     context = init_context(domain)
     node = SwarmNode("bench_soak", context=context)
@@ -124,7 +124,7 @@ def asked_pose(client: Any, executor: Any, source: int, target: int) -> float | 
     """The latency of one compute_pose of ``source`` -> ``target``, s; None if not answered."""
     from swazure_interfaces.srv import ComputePose
 
-    from swazure_ros.ros.names import POLICY_CODES
+    from swazure_ros.ros.plumbing.names import POLICY_CODES
 
     request = ComputePose.Request(
         source_id=source, target_id=target, policy=POLICY_CODES["shortest-length"]

@@ -42,8 +42,8 @@ def offer_of(labels: int, hops: int = 3) -> Any:
 
 def tags_section(args: argparse.Namespace) -> list[str]:
     """The swarm key's cost: signing and checking one offer, beside the same bytes unsigned."""
-    from swazure_ros.ros.auth import SwarmKey
-    from swazure_ros.ros.interfaces import message_class
+    from swazure_ros.ros.plumbing.interfaces import message_class
+    from swazure_ros.ros.security.auth import SwarmKey
 
     kind = message_class("swazure_interfaces/msg/PathOffer")
     keyed, plain = SwarmKey(bytes(range(32))), SwarmKey(None)
@@ -72,7 +72,8 @@ def tags_section(args: argparse.Namespace) -> list[str]:
         "and deserialised and checked (`SwarmKey.deserialize`; each message a new round, so",
         "that no check is remembered), with the swarm's key and with `--no-key`; the mean",
         f"of {TAG_REPEATS} in one process. The auth field is the sender's id and counter (16",
-        "bytes) and an HMAC-SHA256 of the instance, them and the fields' values (ros/auth.py).",
+        "bytes) and an HMAC-SHA256 of the instance, them and the fields' values",
+        "(ros/security/auth.py).",
         "The receive cost is the key's check; a subscription's replay check (`Freshness`)",
         "is not in it. Per round, a process pays the receive cost once per offer it hears",
         "over DDS (the cells section's offers per process, divided by its rounds) and the",

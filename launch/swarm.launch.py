@@ -43,9 +43,11 @@ from swazure_ros.app.discovery_server import (
 from swazure_ros.app.per_fls import FLS_ENVIRONMENT
 from swazure_ros.cli.swarm_file import example_swarms, load_swarm_file, swarm_file
 from swazure_ros.files.description import SwarmDescription
-from swazure_ros.ros.auth import INSTANCE_BYTES
-from swazure_ros.ros.keys import new_key, write_key
-from swazure_ros.ros.runtime import description_parameters
+from swazure_ros.ros.nodes import world_node
+from swazure_ros.ros.plumbing.runtime import description_parameters, startup_arguments
+from swazure_ros.ros.programs import coordinator_program, fls_program
+from swazure_ros.ros.security.auth import INSTANCE_BYTES
+from swazure_ros.ros.security.keys import new_key, write_key
 
 PACKAGE = "swazure_ros"
 
@@ -114,7 +116,7 @@ def _per_fls(path: Path, servers: tuple) -> list:
             # that [fls_7-9] is FLS 7, not the ninth process named fls.
             exec_name="world",
             namespace=namespace,
-            parameters=[shared],
+            arguments=startup_arguments(shared, world_node.STARTUP),
             additional_env=clients,
             output="screen",
         ),
@@ -124,7 +126,9 @@ def _per_fls(path: Path, servers: tuple) -> list:
             exec_name="coordinator",
             name="coordinator",
             namespace=namespace,
-            parameters=[{**shared, "hosts": len(ids)}],
+            arguments=startup_arguments(
+                {**shared, "hosts": len(ids)}, coordinator_program.STARTUP
+            ),
             additional_env=clients,
             output="screen",
         ),
@@ -135,7 +139,8 @@ def _per_fls(path: Path, servers: tuple) -> list:
             executable="fls",
             exec_name=f"fls_{fls_id}",
             namespace=namespace,
-            parameters=[{**shared, **every_fls, **own.get(fls_id, {}), "fls_id": fls_id}],
+            arguments=startup_arguments({**shared, "fls_id": fls_id}, fls_program.STARTUP),
+            parameters=[{**every_fls, **own.get(fls_id, {})}],
             # As swazure spawn --per-fls starts them; the user's environment wins.
             additional_env={
                 **{k: v for k, v in FLS_ENVIRONMENT.items() if k not in os.environ},

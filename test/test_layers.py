@@ -36,6 +36,18 @@ ALLOWED: dict[str, frozenset[str]] = {
         {"core", "camera", "files", "protocol", "sim", "ros", "study", "view", "app"}
     ),
 }
+#: What each room of ``ros/`` may import of ``ros/``, besides itself (docs/architecture.md):
+#: programs run nodes; nodes, clients and conversion stand on the swarm's security and
+#: the plumbing every process shares; a client never reaches into a node.
+ROS_ALLOWED: dict[str, frozenset[str]] = {
+    "plumbing": frozenset(),
+    "security": frozenset({"plumbing"}),
+    "convert": frozenset({"plumbing", "security"}),
+    "recording": frozenset({"plumbing"}),
+    "nodes": frozenset({"plumbing", "security", "convert"}),
+    "clients": frozenset({"plumbing", "security", "convert"}),
+    "programs": frozenset({"plumbing", "security", "convert", "nodes"}),
+}
 #: Distributions that only ``ros/`` may import: rclpy and the ROS 2 interface packages.
 ROS_ONLY = ("rclpy", "rosidl_", "rcl_interfaces", "builtin_interfaces", "swazure_interfaces")
 #: What the model never imports: it renders, reads, writes and talks to ROS through the
@@ -90,6 +102,26 @@ def layer(module: str) -> str | None:
     """The layer (first folder) of a package module, None for the package's root."""
     parts = module.split(".")
     return parts[1] if len(parts) > 2 or (len(parts) == 2 and parts[1] in ALLOWED) else None
+
+
+def ros_room(module: str) -> str | None:
+    """The room (folder of ``ros/``) of a package module, None outside one."""
+    parts = module.split(".")
+    return parts[2] if len(parts) > 3 and parts[1] == "ros" else None
+
+
+def ros_room_imports(graph: Mapping[str, Iterable[str]]) -> list[str]:
+    """Every import between rooms of ``ros/`` that ROS_ALLOWED does not allow."""
+    wrong = []
+    for module, names in graph.items():
+        own = ros_room(module)
+        if own is None:
+            continue
+        for name in names:
+            target = ros_room(name)
+            if target is not None and target != own and target not in ROS_ALLOWED[own]:
+                wrong.append(f"{module} -> {name}")
+    return sorted(wrong)
 
 
 def is_ros(name: str) -> bool:
@@ -152,6 +184,28 @@ def test_every_folder_of_the_package_is_a_layer(graph: dict[str, set[str]]) -> N
 
 def test_no_layer_imports_a_layer_above_it(graph: dict[str, set[str]]) -> None:
     assert upward_imports(graph) == []
+
+
+def test_every_module_of_ros_is_in_a_room(graph: dict[str, set[str]]) -> None:
+    rooms = {p.name for p in (ROOT / "ros").iterdir() if (p / "__init__.py").is_file()}
+    assert rooms == set(ROS_ALLOWED)
+    loose = [p.name for p in (ROOT / "ros").glob("*.py") if p.name != "__init__.py"]
+    assert loose == []
+
+
+def test_no_room_of_ros_imports_a_room_it_may_not(graph: dict[str, set[str]]) -> None:
+    assert ros_room_imports(graph) == []
+
+
+def test_an_added_import_between_rooms_of_ros_is_caught(graph: dict[str, set[str]]) -> None:
+    """A client reaching into a node, or the plumbing into a program, fails the check."""
+    broken = {module: set(names) for module, names in graph.items()}
+    broken["swazure_ros.ros.clients.query"].add("swazure_ros.ros.nodes.coordinator")
+    broken["swazure_ros.ros.plumbing.runtime"].add("swazure_ros.ros.programs.host")
+    assert ros_room_imports(broken) == [
+        "swazure_ros.ros.clients.query -> swazure_ros.ros.nodes.coordinator",
+        "swazure_ros.ros.plumbing.runtime -> swazure_ros.ros.programs.host",
+    ]
 
 
 def test_no_import_cycle_in_the_package(graph: dict[str, set[str]]) -> None:

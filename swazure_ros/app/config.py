@@ -32,7 +32,7 @@ class SwarmConfig:
     record: str | None = None
     #: Show the swarm (RViz markers; Foxglove on view.port), from share 0's process.
     view: ViewConfig | None = None
-    #: The swarm's key (ros.auth): every protocol message is signed with it and checked.
+    #: The swarm's key (ros.security.auth): every protocol message is signed with it and checked.
     #: None: a fresh one for a swarm whose every process starts here; across hosts,
     #: each share must be given the same key, or the swarm runs without one.
     key: bytes | None = field(default=None, repr=False)

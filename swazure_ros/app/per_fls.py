@@ -1,10 +1,10 @@
 """One OS process per FLS: the standalone FLS program, started, watched and stopped.
 
 :class:`FlsProcesses` runs the program ``ros2 run swazure_ros fls`` runs
-(:func:`swazure_ros.ros.fls_program.main`) once per FLS, as each FLS of real
-hardware runs on its own computer. Every process reads the swarm's
-description, key and parameters from one parameter file, takes its id on the
-command line, and writes its output to a log file of its own
+(:func:`swazure_ros.ros.programs.fls_program.main`) once per FLS, as each FLS of real
+hardware runs on its own computer. Every process takes its id, the swarm's
+description and key as program arguments, its node's parameters from one
+parameter file, and writes its output to a log file of its own
 (``fls_<id>.log``). A process that ends early is reported with its exit code
 and the last line it wrote; :meth:`FlsProcesses.stop` asks every process to
 stop (SIGINT, as Ctrl-C would) and kills (SIGKILL) what has not ended by the
@@ -13,6 +13,7 @@ deadline, so that nothing is left running.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import subprocess
@@ -27,10 +28,11 @@ import yaml
 
 from ..files.description import SwarmDescription
 from ..files.results import atomic_write
-from ..ros.auth import SwarmKey
-from ..ros.keys import write_key
-from ..ros.names import node_name
-from ..ros.runtime import description_parameters
+from ..ros.plumbing.names import node_name
+from ..ros.plumbing.runtime import description_parameters, startup_arguments
+from ..ros.programs import fls_program
+from ..ros.security.auth import SwarmKey
+from ..ros.security.keys import write_key
 from .discovery_server import ServerAddress, client_environment
 
 #: How much lower than the launcher's the FLS processes' CPU priority is (nice). A real
@@ -43,17 +45,20 @@ FLS_NICENESS = 10
 FLS_PROGRAM = (
     sys.executable,
     "-c",
-    # PR_SET_PDEATHSIG (1): the FLS gets SIGTERM when the launcher dies, even by
-    # SIGKILL, so that no FLS outlives the swarm it belonged to.
-    "import ctypes, os, signal, sys; ctypes.CDLL(None).prctl(1, signal.SIGTERM); "
+    # The launcher's pipe (LAUNCHER_PIPE): its end of file, when the launcher dies even by
+    # SIGKILL, sends the FLS SIGTERM, so that no FLS outlives the swarm it belonged to.
+    "import os, signal, sys, threading; "
+    "pipe = int(sys.argv.pop(1)); "
+    "threading.Thread(target=lambda: (os.read(pipe, 1), os.kill(os.getpid(), signal.SIGTERM)), "
+    "daemon=True).start(); "
     f"os.nice({FLS_NICENESS}); "
-    "from swazure_ros.ros.fls_program import main; sys.exit(main())",
+    "from swazure_ros.ros.programs.fls_program import main; sys.exit(main())",
 )
 #: The environment of an FLS process, unless the user's sets it: UDP only, as between
 #: FLSs on computers of their own. Over Fast DDS's shared memory, some of 25 FLS
 #: processes on one host missed their first, latched camera frame in about half of
 #: the bring-ups, over UDP in 1 of 19 (measured 2026-11-26; the simulated cameras
-#: now stream, ros.world_node.SimulatedCameras); UDP also keeps 6 MB less resident.
+#: now stream, ros.nodes.world_node.SimulatedCameras); UDP also keeps 6 MB less resident.
 #: NUMBA_DISABLE_JIT: one FLS relaxes a few labels a round, where numba would cost more
 #: than it saves (core.jit).
 FLS_ENVIRONMENT = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4", "NUMBA_DISABLE_JIT": "1"}
@@ -106,23 +111,30 @@ def peak_rss_mb(pid: int) -> float:
     return float("nan")
 
 
-def parameter_file(
+def fls_arguments(
     description: SwarmDescription,
     namespace: str,
     key_file: Path | None,
     instance: bytes,
-    parameters: dict[str, object],
-    fls_parameters: dict[int, dict[str, object]],
-) -> dict[str, object]:
-    """The parameter file's content: the description and settings of every FLS, then each's own."""
-    every = {
+    startup: dict[str, object],
+) -> list[str]:
+    """The startup arguments every FLS's program takes: the swarm's description and key,
+    and ``startup``'s values of its other startup parameters (``track.motion``)."""
+    values = {
+        **startup,
         **description_parameters(description),
         "namespace": namespace,
         "key_file": "" if key_file is None else str(key_file),
         "swarm_instance": instance.hex() if key_file is not None else "",
-        **parameters,
     }
-    content: dict[str, object] = {"/**": {"ros__parameters": every}}
+    return startup_arguments(values, fls_program.STARTUP)
+
+
+def parameter_file(
+    namespace: str, parameters: dict[str, object], fls_parameters: dict[int, dict[str, object]]
+) -> dict[str, object]:
+    """The parameter file's content: the node parameters of every FLS, then each's own."""
+    content: dict[str, object] = {"/**": {"ros__parameters": dict(parameters)}}
     for fls_id, own in sorted(fls_parameters.items()):
         content[f"/{namespace}/{node_name(fls_id)}"] = {"ros__parameters": dict(own)}
     return content
@@ -155,14 +167,18 @@ class FlsProcesses:
             key_file = log_dir / "swarm.key"
             write_key(key_file, secret)
         self.parameters_path = log_dir / "parameters.yaml"
-        content = parameter_file(
-            description, namespace, key_file, instance, parameters or {}, fls_parameters or {}
-        )
+        # The program's startup parameters among ``parameters`` are its arguments.
+        given = parameters or {}
+        startup = {spec.name for spec in fls_program.STARTUP}
+        at_start = {name: value for name, value in given.items() if name in startup}
+        self._arguments = fls_arguments(description, namespace, key_file, instance, at_start)
+        node_parameters = {name: value for name, value in given.items() if name not in startup}
+        content = parameter_file(namespace, node_parameters, fls_parameters or {})
         atomic_write(
             self.parameters_path,
             lambda path: path.write_text(yaml.safe_dump(content, sort_keys=False)),
         )
-        # A user's parameter file first: the swarm's description must win over it.
+        # A user's parameter file first: the launcher's own settings win over it.
         files = [params_file] if params_file else []
         self._files = [*files, str(self.parameters_path)]
         self._environment = {**FLS_ENVIRONMENT, **os.environ}
@@ -174,6 +190,9 @@ class FlsProcesses:
             self._environment.update(client_environment(discovery_servers, super_client=False))
         self.processes: dict[int, subprocess.Popen[bytes]] = {}
         self._logs: dict[int, IO[bytes]] = {}
+        # Every FLS reads the end of this pipe; only the launcher holds its writing end, so
+        # that its death, even by SIGKILL, is every FLS's end of file (FLS_PROGRAM).
+        self._pipe = os.pipe()
 
     def log(self, fls_id: int) -> Path:
         """The log file of FLS ``fls_id``'s process."""
@@ -182,7 +201,8 @@ class FlsProcesses:
     def command(self, fls_id: int) -> list[str]:
         """The command line of FLS ``fls_id``'s process."""
         files = [part for path in self._files for part in ("--params-file", path)]
-        return [*FLS_PROGRAM, "--ros-args", "-p", f"fls_id:={fls_id}", *files]
+        startup = ["--fls-id", str(fls_id), *self._arguments]
+        return [*FLS_PROGRAM, str(self._pipe[0]), *startup, "--ros-args", *files]
 
     def start(self, interval: float = START_INTERVAL) -> None:
         """Start every FLS's process, in id order, ``interval`` s apart."""
@@ -200,6 +220,7 @@ class FlsProcesses:
                 # Its own process group: a Ctrl-C at the terminal reaches the launcher
                 # alone, which then stops every FLS in order (stop).
                 start_new_session=True,
+                pass_fds=(self._pipe[0],),
             )
 
     def ended(self) -> list[Ended]:
@@ -228,4 +249,7 @@ class FlsProcesses:
                 process.wait()
         for log in self._logs.values():
             log.close()
+        for end in self._pipe:
+            with contextlib.suppress(OSError):
+                os.close(end)
         return self.ended()

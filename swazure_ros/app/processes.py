@@ -18,8 +18,8 @@ from pathlib import Path
 from typing import Protocol
 
 from ..core.errors import SwazureError
-from ..ros.auth import SwarmKey
-from ..ros.host import SwarmHost
+from ..ros.programs.host import SwarmHost
+from ..ros.security.auth import SwarmKey
 from .config import SwarmConfig
 from .per_fls import Ended, FlsProcesses
 from .share import CREATED, FAILED, READY, host_share

@@ -11,17 +11,18 @@ from __future__ import annotations
 import os
 import resource
 import signal
+from collections.abc import Sequence
 from typing import Any
 
 from ..core.errors import SwazureError
 from ..core.geometry import Swarm
 from ..core.partition import kd_split
-from ..ros import runtime
-from ..ros.auth import SwarmKey
-from ..ros.host import SwarmHost
-from ..ros.instance import await_instance
-from ..ros.names import host_name
-from ..ros.runtime import Context
+from ..ros.nodes.instance import await_instance
+from ..ros.plumbing import runtime
+from ..ros.plumbing.names import host_name
+from ..ros.plumbing.runtime import Context
+from ..ros.programs.host import HostConfig, SwarmHost
+from ..ros.security.auth import SwarmKey
 from .config import SwarmConfig
 from .discovery_server import client_environment
 
@@ -70,6 +71,28 @@ def announced_instance(config: SwarmConfig, key: bytes) -> bytes:
         context.try_shutdown()
 
 
+def host_config(
+    config: SwarmConfig,
+    fls_ids: Sequence[int],
+    index: int,
+    swarm_size: int,
+    key: SwarmKey,
+    world_node: bool = False,
+) -> HostConfig:
+    """What process ``index`` of a swarm hosts: ``fls_ids`` of its ``swarm_size`` FLSs."""
+    return HostConfig(
+        fls_ids=tuple(int(fls_id) for fls_id in fls_ids),
+        namespace=config.namespace,
+        swarm_size=swarm_size,
+        with_world_node=world_node,
+        name=host_name(index),
+        parameters=config.parameters,
+        fls_parameters=config.fls_parameters,
+        key=key,
+        parameter_services=config.parameter_services,
+    )
+
+
 def host_share(
     config: SwarmConfig,
     key: tuple[bytes | None, bytes],
@@ -87,19 +110,8 @@ def host_share(
     try:
         world = config.world.build(hosted_ids=fls_ids)
         context = init_context(config)
-        host = SwarmHost(
-            world,
-            fls_ids,
-            context=context,
-            namespace=config.namespace,
-            swarm_size=swarm_size,
-            with_world_node=False,
-            name=host_name(index),
-            parameters=config.parameters,
-            fls_parameters=config.fls_parameters,
-            key=SwarmKey(*key),
-            parameter_services=config.parameter_services,
-        )
+        own = host_config(config, fls_ids, index, swarm_size, SwarmKey(*key))
+        host = SwarmHost(world, own, context=context)
         host.create_fls_nodes(lambda count: reports.put((CREATED, index, count)))
         if not host.spin_until_discovered(config.discovery_timeout):
             published, services = host.discovered()

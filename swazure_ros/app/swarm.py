@@ -28,21 +28,27 @@ from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import PATH
 from ..files.results import BringUp
 from ..protocol.runs import DiscoveryResult, MoveResult, merged, source_blocks, sources_per_run
-from ..ros.auth import SwarmKey, new_key
-from ..ros.bag import Recorder
-from ..ros.coordinator import Coordinator, Future
-from ..ros.host import SwarmHost
-from ..ros.names import host_name
-from ..ros.runtime import Context
-from ..ros.view import ViewNode
-from ..ros.world_node import SimulatedCameras
+from ..ros.nodes.coordinator import Coordinator, Future
+from ..ros.nodes.view import ViewNode
+from ..ros.nodes.world_node import SimulatedCameras
+from ..ros.plumbing.runtime import Context
+from ..ros.programs.host import SwarmHost
+from ..ros.recording.bag import Recorder
+from ..ros.security.auth import SwarmKey, new_key
 from ..sim.world import World
 from ..view.scene import Scene, evaluation_scene, ranges_scene
 from .config import SwarmConfig, ViewConfig
 from .discovery_server import DiscoveryServers
 from .per_fls import Ended
 from .processes import PackedShares, ProcessPerFls, SwarmProcesses
-from .share import announced_instance, init_context, peak_rss_mb, shares, unreached_text
+from .share import (
+    announced_instance,
+    host_config,
+    init_context,
+    peak_rss_mb,
+    shares,
+    unreached_text,
+)
 
 #: Seconds between two progress reports of a long run.
 PROGRESS_PERIOD = 10.0
@@ -126,19 +132,10 @@ class RunningSwarm:
         self.processes.start()
         self.context = init_context(self.config)
         leader = self.config.share == 0
-        self.host = SwarmHost(
-            self.world,
-            self.processes.own_share,
-            context=self.context,
-            namespace=self.config.namespace,
-            swarm_size=self.size,
-            with_world_node=leader,
-            name=host_name(self.config.share),
-            parameters=self.config.parameters,
-            fls_parameters=self.config.fls_parameters,
-            key=self.key,
-            parameter_services=self.config.parameter_services,
+        own = host_config(
+            self.config, self.processes.own_share, self.config.share, self.size, self.key, leader
         )
+        self.host = SwarmHost(self.world, own, context=self.context)
 
         def created(count: int) -> None:
             self._own_created = count

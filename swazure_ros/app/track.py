@@ -31,12 +31,12 @@ from ..core.tracking import (
     nanoseconds,
 )
 from ..files.description import SwarmDescription
-from ..ros.auth import SwarmKey
-from ..ros.clock import SimClock
-from ..ros.host import SwarmHost
-from ..ros.runtime import Context, init_context
-from ..ros.track_client import SwarmStalledError, TrackClient
-from ..ros.world_node import SimulatedCameras
+from ..ros.clients.track_client import SwarmStalledError, TrackClient
+from ..ros.nodes.clock import SimClock
+from ..ros.nodes.world_node import SimulatedCameras
+from ..ros.plumbing.runtime import Context, init_context
+from ..ros.programs.host import HostConfig, SwarmHost
+from ..ros.security.auth import SwarmKey
 from ..sim.world import World
 from .per_fls import FlsProcesses
 
@@ -110,17 +110,15 @@ class TrackSession:
                     "track.report_progress": True,
                 },
             )
-        self.host = SwarmHost(
-            world,
-            [] if per_fls is not None else self.fls_ids,
-            context=context,
+        own = HostConfig(
+            fls_ids=() if per_fls is not None else tuple(self.fls_ids),
             namespace=self.namespace,
             swarm_size=len(self.fls_ids),
             with_world_node=False,
-            motion=motion,
             parameters=track_parameters(config),
             key=key,
         )
+        self.host = SwarmHost(world, own, context=context, motion=motion)
         if per_fls is not None:
             # What the FLSs' cameras see, so that each joins the swarm's radio.
             self.host.add(

@@ -136,7 +136,7 @@ def count(text: str) -> int:
 
 def ros_namespace(text: str) -> str:
     """A ROS namespace without its leading slash, e.g. ``swarm`` or ``show/left``."""
-    from ..ros.names import namespace_problem
+    from ..ros.plumbing.names import namespace_problem
 
     name = text.strip("/")
     if not name:
@@ -172,7 +172,7 @@ def discovery_servers(text: str) -> tuple[Any, ...]:
 
 def ros_topic(text: str) -> str:
     """A fully qualified ROS topic name (a leading slash is added when missing)."""
-    from ..ros.names import topic_problem
+    from ..ros.plumbing.names import topic_problem
 
     name = text if text.startswith("/") else f"/{text}"
     reason = topic_problem(name)
@@ -249,7 +249,7 @@ def recording(text: str) -> Path:
     """A recording to read: a bag folder (with metadata.yaml), or an MCAP file.
 
     A folder of MCAP files without metadata.yaml is a recording that a full
-    disk cut short (``ros.bag.Recorder``): read as far as it was written.
+    disk cut short (``ros.recording.bag.Recorder``): read as far as it was written.
     """
     path = Path(text)
     if path.is_dir() and not (path / "metadata.yaml").is_file() and not any(path.glob("*.mcap")):

@@ -33,7 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure echo``."""
-    from ..ros.echo import echo
+    from ..ros.clients.echo import echo
 
     def write(text: str) -> None:
         sys.stdout.write(text)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 
 from ..core.errors import SwazureError
-from ..ros.keys import new_key, write_key
+from ..ros.security.keys import new_key, write_key
 from .arguments import output_file
 
 

@@ -61,7 +61,7 @@ def describe(source: int, found: Estimate) -> str:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure query``."""
-    from ..ros.query import compute_pose
+    from ..ros.clients.query import compute_pose
 
     found = compute_pose(
         args.namespace,

@@ -60,8 +60,8 @@ def rate(text: str) -> float:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure replay``."""
-    from ..ros.bag import Player, read_recording, recorded_channels
-    from ..ros.runtime import init_context
+    from ..ros.plumbing.runtime import init_context
+    from ..ros.recording.bag import Player, read_recording, recorded_channels
 
     channels = recorded_channels(args.recording)
     if not channels:

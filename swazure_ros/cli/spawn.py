@@ -31,7 +31,7 @@ from ..core.errors import SwazureError
 from ..core.fit import PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
 from ..files.reading import config_dir
-from ..ros.keys import KEY_FILE_VARIABLE
+from ..ros.security.keys import KEY_FILE_VARIABLE
 from .arguments import (
     bag_folder,
     count,
@@ -63,7 +63,7 @@ if TYPE_CHECKING:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure spawn``."""
-    # The launcher leaves its nodes to the process's end (ros.runtime.exit_process).
+    # The launcher leaves its nodes to the process's end (ros.plumbing.runtime.exit_process).
     parser.set_defaults(exit_process=True)
     add_swarm_arguments(parser)
     add_policy_argument(parser)
@@ -264,7 +264,7 @@ class CreationBar:
 def config_from_args(args: argparse.Namespace) -> Any:
     """The swarm the options describe, as a :class:`~swazure_ros.app.config.SwarmConfig`."""
     from ..app.config import SwarmConfig, ViewConfig
-    from ..ros.keys import key_from
+    from ..ros.security.keys import key_from
 
     if args.beta is None and args.radius is None:
         raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")

@@ -8,7 +8,7 @@ vector must lie within the sensor's error bounds of the true displacement
 from the source to the sender. A label that fails is a forgery or a defect;
 either way it must not reach an answer (docs/security.md). What cannot be
 checked this way, a vector forged within the bounds, needs the swarm's key
-(:mod:`swazure_ros.ros.auth`).
+(:mod:`swazure_ros.ros.security.auth`).
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ import pytest
 
 from swazure_ros.app.share import shares
 from swazure_ros.files.results import RECORD_FILE, read_record
-from swazure_ros.ros.keys import new_key, write_key
+from swazure_ros.ros.security.keys import new_key, write_key
 from swazure_ros.sim.world import WorldSpec
 
 from ..netns import address, hosts_unavailable, netns_hosts, on_host

@@ -139,6 +139,28 @@ def test_sigterm_stops_every_fls_process_within_seconds(domain, tmp_path):
     assert [pid for pid in running if Path(f"/proc/{pid}").exists()] == []
 
 
+def test_a_launcher_killed_outright_leaves_no_fls_process_behind(domain, tmp_path):
+    # SIGKILL gives the launcher no time to stop anyone: its FLSs learn of its death from
+    # the pipe it alone held open (app.per_fls.FLS_PROGRAM), and end by themselves.
+    spawn = swazure("spawn", str(TRIO), "--per-fls", "--log-dir", str(tmp_path), "--quiet")
+    try:
+        line = spawn.stdout.readline()
+        assert "swarm up: 3 FLS nodes in 3 processes" in line, line + spawn.stderr.read()
+        running = fls_processes(tmp_path)
+        assert len(running) == 3, running
+        spawn.kill()
+        spawn.communicate(timeout=60)
+        deadline = time.monotonic() + 30
+        while fls_processes(tmp_path) and time.monotonic() < deadline:
+            time.sleep(0.2)
+    finally:
+        if spawn.poll() is None:
+            spawn.kill()
+    assert fls_processes(tmp_path) == []
+    for fls_id in range(3):
+        assert "Traceback" not in (tmp_path / f"fls_{fls_id}.log").read_text()
+
+
 def test_an_fls_process_that_fails_is_named_in_one_line(domain, tmp_path):
     # FLS 1 is told to aim its camera at itself: its program refuses to start.
     swarm = tmp_path / "trio.yaml"
@@ -280,8 +302,8 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.swarm import RunningSwarm
     from swazure_ros.core.evaluate import evaluate_pairs
-    from swazure_ros.ros.auth import SwarmKey, new_key
-    from swazure_ros.ros.names import DETECTIONS_QOS, DETECTIONS_TOPIC
+    from swazure_ros.ros.plumbing.names import DETECTIONS_QOS, DETECTIONS_TOPIC
+    from swazure_ros.ros.security.auth import SwarmKey, new_key
     from swazure_ros.sim.world import WorldSpec
 
     from ..ros.conftest import make_context

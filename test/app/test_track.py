@@ -2,7 +2,7 @@
 
 The swarm: source 0 at the origin, relay 1 in its sweet range, target 2 blind
 to the source and in the relay's sweet range (config/track/trio.xyz, r = 0.5
-cm), as in test/ros/test_tracking.py, which runs the same nodes in one process.
+cm), as in test/ros/nodes/test_tracking.py, which runs the same nodes in one process.
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ from typing import Any
 
 from hypothesis import strategies as st
 
-from swazure_ros.ros.interfaces import message_class
+from swazure_ros.ros.plumbing.interfaces import message_class
 
 UNSIGNED = {"uint8": 8, "uint16": 16, "uint32": 32, "uint64": 64, "octet": 8, "char": 8}
 SIGNED = {"int8": 8, "int16": 16, "int32": 32, "int64": 64}

@@ -89,7 +89,7 @@ def assert_matches(message, expected_vectors):
 def radio_topics(world_spec) -> list[str]:
     """The radio cells' topics the FLSs of ``world_spec`` send their offers on, both bands."""
     from swazure_ros.protocol.cells import BANDS, radio_cells
-    from swazure_ros.ros.names import radio_topic
+    from swazure_ros.ros.plumbing.names import radio_topic
 
     assigned = world_spec.assigned()
     grids = radio_cells(world_spec.sensor(), assigned.radius)

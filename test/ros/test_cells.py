@@ -13,17 +13,17 @@ from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
 from swazure_ros.protocol.cells import BANDS, DECAYING_BAND, SWEET_BAND, radio_cells
 from swazure_ros.protocol.discovery.estimate import evaluation_of
-from swazure_ros.ros.names import RADIO_TOPIC, WALKS_TOPIC, host_name, radio_topic
+from swazure_ros.ros.plumbing.names import RADIO_TOPIC, WALKS_TOPIC, host_name, radio_topic
 from swazure_ros.sim.world import WorldSpec
 
 from ..waits import wait_until
+from .programs.test_programs import ros2_tools, start, stop  # noqa: F401
 from .test_discovery import (  # noqa: F401
     assert_matches_engine,
     assert_moves_match_engine,
     by_pair,
     params,
 )
-from .test_programs import ros2_tools, start, stop  # noqa: F401
 
 # 396 FLSs on a torus 120 cm across: eight sweet cells along a diameter.
 WORLD = WorldSpec("torus:400", scale=12, beta=0.3)

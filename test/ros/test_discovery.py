@@ -25,7 +25,7 @@ from swazure_ros.files.reading import config_dir
 from swazure_ros.files.results import RECORD_FILE, read_record
 from swazure_ros.protocol.discovery.estimate import Estimate, evaluation_of
 from swazure_ros.ros.convert.discovery import pose_estimate_from_message
-from swazure_ros.ros.names import ESTIMATOR_CODES, policy_code
+from swazure_ros.ros.plumbing.names import ESTIMATOR_CODES, policy_code
 from swazure_ros.sim.world import WorldSpec
 
 from ..waits import wait_until
@@ -194,7 +194,7 @@ def test_nodes_stopped_mid_run_are_known_gone_at_once_not_after_a_round_timeout(
         probe = Node("departed_probe", context=swarm.context, start_parameter_services=False)
         from swazure_interfaces.msg import Departed
 
-        from swazure_ros.ros.names import DEPARTED_QOS
+        from swazure_ros.ros.plumbing.names import DEPARTED_QOS
 
         probe.create_subscription(Departed, "/swarm/departed", heard.append, DEPARTED_QOS)
         swarm.host.add(probe)
@@ -252,8 +252,8 @@ def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain,
     from swazure_interfaces.msg import PoseEstimates
 
     from swazure_ros.core.evaluate import ABORTED, REASON_COORDINATOR_LOST
-    from swazure_ros.ros.coordinator import Coordinator
-    from swazure_ros.ros.names import ROUND_QOS
+    from swazure_ros.ros.nodes.coordinator import Coordinator
+    from swazure_ros.ros.plumbing.names import ROUND_QOS
 
     policy = "shortest-length"
     with swarm_of(domain, params) as swarm:

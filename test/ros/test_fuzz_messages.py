@@ -31,8 +31,7 @@ from swazure_interfaces.msg import (
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import evaluate_pairs
-from swazure_ros.ros.guard import INTERNAL
-from swazure_ros.ros.names import (
+from swazure_ros.ros.plumbing.names import (
     ACK_TOPIC,
     CONTROL_TOPIC,
     ESTIMATES_TOPIC,
@@ -43,6 +42,7 @@ from swazure_ros.ros.names import (
     WALKS_TOPIC,
     WORLD_TOPIC,
 )
+from swazure_ros.ros.security.guard import INTERNAL
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import FUZZ

@@ -33,8 +33,7 @@ from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import SWEET_PATH, evaluate, evaluate_pairs
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.protocol.cells import BANDS, band_of, radio_cells
-from swazure_ros.ros.auth import SwarmKey, new_key
-from swazure_ros.ros.names import (
+from swazure_ros.ros.plumbing.names import (
     CONTROL_TOPIC,
     ESTIMATES_TOPIC,
     MEASUREMENTS_QOS,
@@ -45,6 +44,7 @@ from swazure_ros.ros.names import (
     ROUND_QOS,
     radio_topic,
 )
+from swazure_ros.ros.security.auth import SwarmKey, new_key
 from swazure_ros.sim.world import WorldSpec
 
 from ..waits import wait_until

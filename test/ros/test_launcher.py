@@ -328,7 +328,7 @@ def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(
 
 
 def test_a_stopped_swarm_leaves_every_process_nodes_off_the_graph_at_once(context, fast_params):
-    # Each process deletes its DDS participant as it exits (ros.runtime.exit_process), so
+    # Each process deletes its DDS participant as it exits (ros.plumbing.runtime.exit_process), so
     # a peer drops its nodes then, not when the participant's lease (20 s) runs out.
     spawn = swazure(
         "spawn", "--cloud", "helix:100", "--beta", "0.5", "--processes", "2",

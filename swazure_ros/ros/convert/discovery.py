@@ -42,14 +42,14 @@ from ...protocol.discovery.messages import (
 )
 from ...protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
 from ...protocol.radio import Ack, Sent
-from ..guard import check, check_finite, check_ids, check_size
-from ..names import (
+from ..plumbing.names import (
     ESTIMATOR_CODES,
     ESTIMATOR_NAMES,
     POLICY_CODES,
     POLICY_NAMES,
     node_name,
 )
+from ..security.guard import check, check_finite, check_ids, check_size
 from .units import array3, packed, vector3
 
 FloatArray = NDArray[np.float64]

@@ -25,8 +25,8 @@ from ...core.frames import SWARM_FRAME, fls_frame, to_centimetres, to_metres
 from ...core.observe import Measurement, NeighbourSets
 from ...core.sensor import DECAYING, SWEET, Sensor
 from ...protocol.readings import Readings
-from ..guard import check, check_finite, check_ids, check_size
-from ..names import WORLD_REACH
+from ..plumbing.names import WORLD_REACH
+from ..security.guard import check, check_finite, check_ids, check_size
 
 if TYPE_CHECKING:
     from ...camera.aruco import Camera

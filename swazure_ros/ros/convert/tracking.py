@@ -24,13 +24,13 @@ from ...protocol.tracking import (
     TrackProgressReport,
     TrackReport,
 )
-from ..guard import check, check_finite, check_ids
-from ..names import (
+from ..plumbing.names import (
     TRACK_MODEL_CODES,
     TRACK_STATE_CODES,
     TRACK_STATE_NAMES,
     node_name,
 )
+from ..security.guard import check, check_finite, check_ids
 from .units import (
     array3,
     centimetres,

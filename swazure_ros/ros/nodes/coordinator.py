@@ -1,0 +1,592 @@
+"""The coordinator node: the round clock of path discovery, and the heuristics' mover.
+
+It carries two of the protocol's state machines over ROS: the
+:class:`~swazure_ros.protocol.rounds.RoundClock` of a discovery run
+(docs/protocol.md) and the :class:`~swazure_ros.protocol.moves.MoveRun` of a
+heuristic made by the swarm. Each callback turns a message into one event of
+the running machine and publishes what the machine answers; a timer gives
+the machines the time, so that every wait ends by its deadline. Runs asked
+for while one is under way wait their turn, in order.
+
+Its service ``coordinator/compute_pose`` (:class:`~.pose_service.PoseService`)
+runs one source's search for one target on demand. The coordinator only
+clocks; labels travel from FLS to FLS, and only FLSs sum vectors.
+
+The node wires parts of one job each: :class:`RunQueue` (runs wait their
+turn), :class:`Outbox` (what it publishes, counted), :class:`Membership`
+(who takes part: departed, gone, back, and the radios to hear) and
+:class:`Positions` (where each FLS is, by the world's revisions).
+"""
+
+from __future__ import annotations
+
+import time
+from collections import deque
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field
+from functools import partial
+
+import numpy as np
+from builtin_interfaces.msg import Time
+from rclpy.context import Context
+from rclpy.publisher import Publisher
+
+# What a run asked of the coordinator returns; app/ waits on it through this module.
+from rclpy.task import Future as Future
+from std_msgs.msg import Header
+from swazure_interfaces.msg import (
+    Departed,
+    DiscoveryControl,
+    MoveCommands,
+    PathWalk,
+    PoseEstimates,
+    RoundAck,
+    WorldState,
+)
+
+from ...core.evaluate import Evaluation, Neighbourhood
+from ...core.fit import PATH, fit_layers
+from ...core.paths import check_policy
+from ...protocol.discovery.messages import Control
+from ...protocol.discovery.search import bucket_width
+from ...protocol.moves import Move, MoveRun, Walk
+from ...protocol.plausible import implausible_estimates
+from ...protocol.rounds import RoundClock, StallClock
+from ...protocol.runs import DiscoveryResult, MoveResult, Traffic, discovery_result, move_result
+from ..convert.discovery import (
+    control_message,
+    estimates_from_message,
+    moves_message,
+    sent_from_message,
+    walk_message,
+)
+from ..convert.sensing import world_positions
+from ..plumbing.liveness import FlsLiveness
+from ..plumbing.names import (
+    ACK_TOPIC,
+    CONTROL_TOPIC,
+    COORDINATOR,
+    DEPARTED_QOS,
+    DEPARTED_TOPIC,
+    ESTIMATES_TOPIC,
+    LIVENESS_GRACE,
+    MOVE_QOS,
+    MOVE_TOPIC,
+    RADIO_TOPIC,
+    ROUND_QOS,
+    WALKS_TOPIC,
+    WORLD_QOS,
+    WORLD_REACH,
+    WORLD_TOPIC,
+    fls_id_of,
+    node_name,
+)
+from ..plumbing.parameters import ParameterSpec, seconds
+from ..plumbing.runtime import (
+    SwarmNode,
+)
+from ..security.auth import SwarmKey, signed_at
+from ..security.guard import FloatArray, Guard, IntArray, check
+from .pose_service import PoseService
+
+#: Characters in a host node's name, at most (ROS names are far shorter).
+MAX_NAME = 255
+#: Seconds between the coordinator's looks at its deadlines.
+TICK = 0.05
+#: A tick this much later than due means the process was busy, not that FLSs were silent.
+STALL = 0.5
+
+Machine = RoundClock | MoveRun
+Action = Control | Move | Walk
+
+
+ROUND_TIMEOUT = ParameterSpec(
+    "round_timeout",
+    10.0,
+    "s without progress after which silent FLSs have departed (set while running too: the "
+    "next run takes it)",
+    seconds(),
+)
+LIVENESS_PERIOD = ParameterSpec(
+    "liveness_period", 0.5, "s between looks at the graph for FLS nodes gone", seconds()
+)
+LIVENESS_GRACE_SPEC = ParameterSpec(
+    "liveness_grace",
+    LIVENESS_GRACE,
+    "s an FLS node must stay off the graph before it is gone",
+    seconds(allow_zero=True),
+)
+#: The parameters the coordinator declares.
+PARAMETERS = (ROUND_TIMEOUT, LIVENESS_PERIOD, LIVENESS_GRACE_SPEC)
+
+
+@dataclass
+class _Job:
+    """A run waiting for its turn, then running: how to start it and who waits for it."""
+
+    begin: Callable[[int], Machine]  # run id -> the run's machine
+    future: Future
+    queued: float = field(default_factory=time.monotonic)  # monotonic s
+    machine: Machine | None = None
+    began: float = 0.0
+    traffic: Traffic = field(default_factory=Traffic)
+
+
+class RunQueue:
+    """The runs asked of the coordinator: they wait their turn, in order, and one runs."""
+
+    def __init__(self) -> None:
+        self._waiting: deque[_Job] = deque()
+        self.job: _Job | None = None  # the running one
+        # Run ids differ from a coordinator that ran before this one (a restart): its
+        # runs' leftovers can never be taken for ours. Milliseconds, in uint32.
+        self._next_run = (time.time_ns() // 1_000_000) % 2**31 + 1
+
+    def add(self, begin: Callable[[int], Machine]) -> Future:
+        """A run that ``begin(run_id)`` starts, queued; the future of its result."""
+        job = _Job(begin, Future())
+        self._waiting.append(job)
+        return job.future
+
+    def next_waited(self) -> float | None:
+        """Seconds the next run has waited while none runs; None: none is to start."""
+        if self.job is not None or not self._waiting:
+            return None
+        return time.monotonic() - self._waiting[0].queued
+
+    def begin_next(self, traffic: Traffic) -> Machine:
+        """Start the next run (with ``traffic`` as it is now); its machine."""
+        job = self._waiting.popleft()
+        job.machine = job.begin(self._next_run)
+        self._next_run += 1
+        job.began, job.traffic = time.perf_counter(), traffic.copy()
+        self.job = job
+        return job.machine
+
+    def running(self, run_id: int | None = None) -> Machine | None:
+        """The running machine (of run ``run_id``, if given)."""
+        machine = self.job.machine if self.job is not None else None
+        if machine is None or (run_id is not None and machine.run_id != run_id):
+            return None
+        return machine
+
+    def finish(self) -> _Job:
+        """The running run, done: none runs now."""
+        job = self.job
+        assert job is not None
+        self.job = None
+        return job
+
+
+class Outbox:
+    """What the coordinator publishes, serialized by the swarm's key and counted."""
+
+    def __init__(self, node: SwarmNode, key: SwarmKey, traffic: Traffic) -> None:
+        self.key = key
+        self.traffic = traffic
+        self.control = node.create_publisher(DiscoveryControl, CONTROL_TOPIC, ROUND_QOS)
+        self._moves = node.create_publisher(MoveCommands, MOVE_TOPIC, MOVE_QOS)
+        self._walks = node.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
+        self._gone = node.create_publisher(Departed, DEPARTED_TOPIC, DEPARTED_QOS)
+
+    def send(self, actions: Sequence[Action], stamp: Time) -> None:
+        """Publish what a run's machine asks for."""
+        groups: dict[int, list[Move]] = {}  # moves made together go in one message
+        for action in actions:
+            if isinstance(action, Control):
+                self._publish(self.control, CONTROL_TOPIC, control_message(action, stamp))
+            elif isinstance(action, Move):
+                groups.setdefault(action.group, []).append(action)
+            else:
+                self._publish(self._walks, WALKS_TOPIC, walk_message(action, stamp))
+        for moves in groups.values():
+            self._publish(self._moves, MOVE_TOPIC, moves_message(moves, stamp))
+
+    def send_gone(self, gone: set[int], stamp: Time) -> None:
+        """The list of the gone, latched on /swarm/departed, as it is now."""
+        departed = Departed(header=Header(stamp=stamp), fls_ids=sorted(gone))
+        self._gone.publish(self.key.serialize(departed))
+
+    def _publish(self, publisher: Publisher, topic: str, message: object) -> None:
+        data = self.key.serialize(message)
+        self.traffic.count(topic, len(data))
+        publisher.publish(data)
+
+
+class Membership:
+    """Who takes part in the next run: the FLSs departed or gone, and the radios to hear.
+
+    ``departed``: FLSs the runs go on without; ``gone``: those of them whose
+    nodes left the graph. An FLS in a process of its own is its own radio
+    (named as its node): its leaving and coming back change ``hosts``.
+    """
+
+    def __init__(self, hosts: int) -> None:
+        self.hosts = hosts
+        self.departed: set[int] = set()
+        self.gone: set[int] = set()
+        self.radios: set[str] = set()  # node names of the processes' radios (acks' writers)
+        self._radios_gone: set[str] = set()  # of departed FLSs that were their own radio
+        # Who speaks through each radio (its acks' senders), and when each departed FLS
+        # was known gone (wall-clock ns): a signed ack made later says it is back.
+        self._voices: dict[str, set[int]] = {}
+        self._departed_at: dict[int, int] = {}
+        self._back_in_run: set[int] = set()
+
+    def lose(self, newly: set[int]) -> int:
+        """FLSs ``newly`` gone from the graph: departed. How many radios went with them."""
+        self.gone |= newly
+        self._note_departed(newly)
+        self.departed |= newly
+        radios = {node_name(fls_id) for fls_id in newly} & self.radios
+        self.radios -= radios
+        self._radios_gone |= radios
+        self.hosts -= len(radios)
+        return len(radios)
+
+    def settle(self, departed: Iterable[int]) -> None:
+        """A discovery run's departed, at its end: the swarm's, but for those back meanwhile."""
+        departed = set(departed)
+        self._note_departed(departed - self.departed - self._back_in_run)
+        self.departed = departed - self._back_in_run
+        self._back_in_run.clear()
+
+    def hear(self, host: str, senders: Iterable[int]) -> None:
+        """FLSs ``senders`` spoke through radio ``host``."""
+        self._voices.setdefault(host, set()).update(senders)
+
+    def back_by(self, ack: RoundAck) -> set[int]:
+        """Departed FLSs of radio ``ack.host`` that its signed ack says are back."""
+        voices = self._voices.get(ack.host, set())
+        own = fls_id_of(ack.host)
+        if own is not None:
+            voices = voices | {own}
+        signed = signed_at(ack)
+        return {
+            fls_id
+            for fls_id in (voices & self.departed) - self.gone
+            if self._departed_at.get(fls_id, signed) < signed
+        }
+
+    def take_back(self, back: set[int], in_run: bool) -> None:
+        """FLSs departed and back: they take part again from the next run on.
+
+        A run under way (``in_run``) keeps its departed (its rounds and labels
+        were made without them); the next starts with them, and every pair of
+        theirs is searched again.
+        """
+        self.gone -= back
+        self.departed -= back
+        if in_run:
+            self._back_in_run |= back
+        for fls_id in back:
+            self._departed_at.pop(fls_id, None)
+        radios = {node_name(fls_id) for fls_id in back} & self._radios_gone
+        self._radios_gone -= radios
+        self.hosts += len(radios)
+
+    def _note_departed(self, newly: set[int]) -> None:
+        now = time.time_ns()
+        self._departed_at.update(dict.fromkeys(newly, now))
+
+
+class Positions:
+    """Where each FLS is: its assigned point, then the world's revisions as heard.
+
+    Under --no-key, what a report is checked against.
+    """
+
+    def __init__(self, shape: Neighbourhood, fls_ids: Iterable[int]) -> None:
+        self.ids = np.array(sorted(fls_ids), dtype=np.int64)
+        order = np.argsort(shape.swarm.cloud_index)
+        self._points = np.array(shape.swarm.points[order], dtype=np.float64)
+        self.revision = 0  # the newest world revision seen
+        self.asked_revision = 0  # the revision our last group of moves makes
+
+    def hear(self, state: WorldState) -> None:
+        """A world revision: its positions, when it is the newest."""
+        check(state.revision < 2**63, f"revision {state.revision} out of range")
+        if state.revision >= self.revision:
+            ids, points = world_positions(state, self.ids, WORLD_REACH)
+            self._points[np.searchsorted(self.ids, ids)] = points
+        self.revision = max(self.revision, int(state.revision))
+
+    def where(self, ids: IntArray) -> FloatArray:
+        """Where FLSs ``ids`` (M,) are, (M, 3), cm, by the newest world revision heard."""
+        return np.asarray(self._points[np.searchsorted(self.ids, ids)])
+
+
+class Coordinator(SwarmNode):
+    """Clocks discovery runs and makes heuristics' moves over the FLS nodes of a swarm."""
+
+    def __init__(
+        self,
+        fls_ids: Iterable[int],
+        hosts: int,
+        *,
+        shape: Neighbourhood,
+        namespace: str = "swarm",
+        context: Context | None = None,
+        key: SwarmKey | None = None,
+        parameter_services: bool = False,
+    ) -> None:
+        super().__init__(
+            COORDINATOR,
+            namespace=namespace,
+            context=context,
+            parameter_services=parameter_services,
+        )
+        # The next run takes a new value (ros2 param set); a run under way keeps its own.
+        self.round_timeout = self.declare(ROUND_TIMEOUT, partial(setattr, self, "round_timeout"))
+        self.liveness_period = self.declare(LIVENESS_PERIOD)
+        self.liveness_grace = self.declare(LIVENESS_GRACE_SPEC)
+        # The display's shape, every FLS at its assigned point: what the swarm knows
+        # (the points and the sensor are common knowledge), and what moves are planned on.
+        self.shape = shape
+        self.fls_ids = frozenset(int(fls_id) for fls_id in fls_ids)
+        self.guard = Guard(self, key)
+        self.key = self.guard.key
+        self.traffic = Traffic()
+        self.outbox = Outbox(self, self.key, self.traffic)
+        self.membership = Membership(hosts)
+        self.positions = Positions(shape, self.fls_ids)
+        self.runs = RunQueue()
+        # Deadlines stand still while this process is too busy to hear anything.
+        self._deadlines = StallClock(TICK, STALL, time.monotonic())
+        self._read_ack = self.guard.reader(RoundAck)
+        self._read_estimates = self.guard.reader(PoseEstimates)
+        guard = self.guard.wrap
+        self._acks = self.create_subscription(
+            RoundAck, ACK_TOPIC, guard(ACK_TOPIC, self._on_ack), ROUND_QOS, raw=True
+        )
+        self.create_subscription(
+            PoseEstimates,
+            ESTIMATES_TOPIC,
+            guard(ESTIMATES_TOPIC, self._on_estimates),
+            ROUND_QOS,
+            raw=True,
+        )
+        self.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS, raw=True)
+        self.guard.subscribe(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
+        # One source's search for one target, on demand (swazure query).
+        self.pose_service = PoseService(
+            self, shape, self.fls_ids, lambda: frozenset(self.membership.departed), self.discover
+        )
+        # Liveness: an FLS whose node leaves the graph is gone at once, not after a round's
+        # timeout. The graph is DDS's own liveliness: a stopped node is removed at once, a
+        # killed process's nodes when its participant's lease runs out.
+        self._liveness = FlsLiveness(self, self.get_namespace(), self.liveness_grace)
+        self.create_timer(TICK, self._on_tick)
+        self.create_timer(self.liveness_period, self._on_liveness)
+
+    def hosts_matched(self) -> bool:
+        """Every host's radio hears the controls; the coordinator hears its acks.
+
+        Matched endpoints, not names in the graph: a message sent to a reader
+        not matched yet is lost. Whether the hosts' radios have matched each
+        other's transmitters no one host can see: a round that a host never
+        acknowledges restarts its phase (:class:`~swazure_ros.protocol.rounds.RoundClock`).
+        """
+        hosts = self.membership.hosts
+        return (
+            self.outbox.control.get_subscription_count() >= hosts
+            and self._acks.get_publisher_count() >= hosts
+        )
+
+    # Runs ------------------------------------------------------------------
+
+    def discover(
+        self,
+        policy: str,
+        sources: list[int] | None = None,
+        targets: list[int] | None = None,
+        estimator: str = PATH,
+    ) -> Future:
+        """Run discovery: every FLS for every blind neighbour, or sources[k] for targets[k].
+
+        ``estimator``: how sources estimate (``core.fit.SWARM_ESTIMATORS``).
+        Returns a future of the :class:`DiscoveryResult`. ValueError for a
+        policy that this swarm's sensor cannot run (least-error without error).
+        """
+        bucket_width(self.shape.sensor, self.shape.swarm.radius, check_policy(policy))
+
+        def begin(run_id: int) -> Machine:
+            return RoundClock(
+                run_id,
+                policy,
+                self.fls_ids,
+                self.membership.hosts,
+                self.round_timeout,
+                departed=self.membership.departed,
+                sources=sources or (),
+                targets=targets or (),
+                estimator=estimator,
+                fit_layers=fit_layers(self.shape.sensor),
+            )
+
+        return self._enqueue(begin)
+
+    def make_moves(self, evaluation: Evaluation, technique: str, threshold: int = 10) -> Future:
+        """A heuristic on every BLOCKED pair of a whole-swarm run, its moves made for real.
+
+        ``evaluation`` is the run's (``protocol.discovery.estimate.evaluation_of``);
+        ``technique`` is Move Obstructing or Move Source (probing up to
+        ``threshold`` steps of r). Returns a future of the :class:`MoveResult`.
+        """
+        # Planned now, so that a bad technique fails here and not inside a callback.
+        planned = MoveRun(0, evaluation, technique, threshold, 0, self.round_timeout)
+
+        def begin(run_id: int) -> Machine:
+            planned.run_id = run_id
+            planned.revision = self.positions.revision
+            planned.asked_revision = self.positions.asked_revision
+            return planned
+
+        return self._enqueue(begin)
+
+    def _enqueue(self, begin: Callable[[int], Machine]) -> Future:
+        future = self.runs.add(begin)
+        self._start_next()
+        return future
+
+    def _start_next(self) -> None:
+        while (waited := self.runs.next_waited()) is not None:
+            # A control sent before every radio has matched is lost, and the round would
+            # wait out its timeout: a coordinator started with its swarm (one process per
+            # FLS) waits for the radios first, for a round timeout at most.
+            if not self.hosts_matched() and waited < self.round_timeout:
+                return  # the tick tries again
+            # A run starts from what the graph shows now, not at the last look.
+            self._on_liveness()
+            machine = self.runs.begin_next(self.traffic)
+            self._act(machine.start(self._now()))
+
+    def _act(self, actions: Sequence[Action]) -> None:
+        """Publish what the running machine asks for; finish its run when it is done."""
+        self.outbox.send(actions, self.get_clock().now().to_msg())
+        machine = self.runs.running()
+        if machine is None:
+            return
+        for warning in machine.warnings:
+            self.get_logger().warning(warning)  # type: ignore[no-untyped-call]
+        machine.warnings.clear()
+        if machine.done:
+            job = self.runs.finish()
+            job.future.set_result(self._result(job, machine))
+            self._start_next()
+
+    def _result(self, job: _Job, machine: Machine) -> DiscoveryResult | MoveResult:
+        seconds = time.perf_counter() - job.began
+        traffic = self.traffic.since(job.traffic)
+        if isinstance(machine, RoundClock):
+            outcome = machine.outcome
+            assert outcome is not None
+            self.membership.settle(outcome.departed)
+            return discovery_result(machine.run_id, machine.policy, outcome, seconds, traffic)
+        moved = machine.outcome
+        assert moved is not None
+        self.positions.asked_revision = machine.asked_revision
+        return move_result(machine.run_id, moved, seconds, traffic)
+
+    def progress(self) -> str:
+        """How far the running job is ("" when idle), for a person watching."""
+        machine = self.runs.running()
+        return machine.progress if machine is not None else ""
+
+    def departed_so_far(self) -> frozenset[int]:
+        """The FLSs known departed: earlier runs' and, so far, the running discovery's."""
+        machine = self.runs.running()
+        running = machine.departed if isinstance(machine, RoundClock) else set()
+        return frozenset(self.membership.departed | running)
+
+    # Callbacks: one message -> one event of the running machine -------------
+
+    def _now(self) -> float:
+        """Seconds on the deadlines' clock: monotonic time less this process's stalls."""
+        return self._deadlines(time.monotonic())
+
+    def _on_tick(self) -> None:
+        if not self._deadlines.tick(time.monotonic()):
+            return  # whatever arrived meanwhile waits behind this tick: hear it first
+        self._start_next()
+        machine = self.runs.running()
+        if machine is not None:
+            self._act(machine.on_tick(self._now()))
+
+    def _on_liveness(self) -> None:
+        membership = self.membership
+        newly = self._liveness.look(membership.gone)
+        if self._liveness.back:
+            self._take_back(self._liveness.back, "on the graph again")
+        if len(membership.radios) < membership.hosts:
+            # The radios, by the names of their nodes, while they are on the graph: the
+            # acks' writers (an FLS may die before its radio ever acknowledged a round).
+            writers = self.get_publishers_info_by_topic(self._acks.topic_name)
+            membership.radios |= {info.node_name for info in writers}
+        if not newly:
+            return
+        radios = membership.lose(newly)
+        machine = self.runs.running()
+        if isinstance(machine, RoundClock):
+            self._act(machine.on_gone(newly, self._now(), radios=radios))
+        self._publish_gone()
+
+    def _publish_gone(self) -> None:
+        self.outbox.send_gone(self.membership.gone, self.get_clock().now().to_msg())
+
+    def _take_back(self, back: set[int], how: str) -> None:
+        """FLSs departed and back take part again (:meth:`Membership.take_back`)."""
+        self.membership.take_back(back, in_run=self.runs.running() is not None)
+        listed = ", ".join(map(str, sorted(back)))
+        logger = self.get_logger()  # type: ignore[no-untyped-call]
+        logger.info(f"FLS {listed} back ({how}): taking part again")
+        self._publish_gone()
+
+    def _on_ack(self, data: bytes) -> None:
+        self.traffic.count(ACK_TOPIC, len(data))
+        ack = self._read_ack(data)
+        check(0 < len(ack.host) <= MAX_NAME, "a host name of no or too many characters")
+        if self.membership.departed and (back := self.membership.back_by(ack)):
+            self._take_back(back, "speaking again")
+        clock = self.runs.running(ack.run_id)
+        if isinstance(clock, RoundClock):
+            if not ack.delivered:
+                # Who spoke: the coordinator hears no offer itself (docs/protocol.md).
+                sent = sent_from_message(ack, self.positions.ids)
+                self.membership.hear(ack.host, sent.senders)
+                self.traffic.count(RADIO_TOPIC, sent.bytes, len(sent.senders))
+                self._act(clock.on_sent(int(ack.round), sent, self._now()))
+                return
+            self._act(
+                clock.on_ack(
+                    int(ack.round), ack.host, self._now(), int(ack.repairs), int(ack.lost)
+                )
+            )
+
+    def _on_estimates(self, data: bytes) -> None:
+        self.traffic.count(ESTIMATES_TOPIC, len(data))
+        message = self._read_estimates(data)
+        source = int(message.source_id)
+        machine = self.runs.running(message.run_id)
+        if machine is None and self.key.active:
+            return  # the swarm's own report of a run that is over
+        estimates = estimates_from_message(message, self.positions.ids)
+        if not self.key.active:
+            # Signed, a report is the swarm's own; unsigned, it may be anyone's: checked
+            # whether or not its run is still on, so that a forgery is seen whenever it comes.
+            shape = self.shape
+            why = implausible_estimates(
+                estimates, source, self.positions.where, shape.sensor, shape.swarm.radius
+            )
+            check(why is None, f"implausible: {why}")
+        if machine is not None:
+            self._act(machine.on_estimates(source, estimates, self._now()))
+
+    def _on_world(self, state: WorldState) -> None:
+        self.positions.hear(state)
+        machine = self.runs.running()
+        if isinstance(machine, MoveRun):
+            self._act(machine.on_revision(self.positions.revision, self._now()))
+
+    def _on_walk(self, data: bytes) -> None:
+        self.traffic.count(WALKS_TOPIC, len(data))

@@ -1,0 +1,472 @@
+"""One process's radio on ROS: what its FLSs hear, each message once, handed to those it reaches.
+
+A packed process (:mod:`.host`) hosts hundreds of FLSs behind one radio; an FLS
+in its own process (:func:`.fls_program.build_fls`) hosts itself behind one.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import Counter, deque
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+from rclpy.node import Node
+from rclpy.publisher import Publisher
+from rclpy.qos import QoSProfile
+from rclpy.subscription import Subscription
+from rclpy.timer import Timer
+from swazure_interfaces.msg import (
+    DiscoveryControl,
+    Measurements,
+    PathOffer,
+    PathWalk,
+    RoundAck,
+    TrackRequest,
+    TrackSample,
+)
+
+from ...core.fit import PATH
+from ...protocol.cells import BANDS, DECAYING_BAND, band_of, radio_cells
+from ...protocol.discovery.messages import END, ROUND, START, Broadcast
+from ...protocol.moves import Walk
+from ...protocol.plausible import (
+    implausible_readings,
+    offer_readings_check,
+    round_labels_check,
+)
+from ...protocol.radio import Ack, RadioHub, RadioLoss
+from ...protocol.readings import ReadingsBook
+from ...protocol.senses import Senses
+from ..convert.discovery import (
+    ack_message,
+    control_from_message,
+    offer_from_message,
+    offer_message,
+    sent_message,
+    walk_from_message,
+    walk_message,
+)
+from ..convert.sensing import readings_from_message
+from ..convert.tracking import relay_request_from_message, sample_from_message
+from ..plumbing.names import (
+    ACK_TOPIC,
+    CONTROL_TOPIC,
+    MEASUREMENTS_TOPIC,
+    RADIO_TOPIC,
+    READINGS_QOS,
+    ROUND_QOS,
+    TRACK_REQUESTS_TOPIC,
+    TRACK_SAMPLES_TOPIC,
+    WALKS_TOPIC,
+    radio_topic,
+    walks_topic,
+)
+from ..security.guard import Guard, RateLimit, check
+
+if TYPE_CHECKING:
+    from .fls_node import FlsNode
+
+#: Path walks a process keeps while they wait for a newer world revision (a heuristic
+#: walks a few paths per group of moves).
+EARLY_WALKS = 4096
+#: Track requests a process takes from one sender: each starts a relay's stream of frames.
+#: A track starts with one request a relay; a few dozen tracks at once are a burst.
+TRACK_REQUEST_RATE = RateLimit(per_second=20.0, burst=200.0)
+#: Offers per local FLS whose bytes a process keeps to know their echoes: a few rounds'.
+ECHOES_PER_FLS = 8
+#: Seconds a source of a fitting run waits, after the END, for the readings of its
+#: window before it fits what it heard. The readings are asked for at the run's START
+#: and are in long before its END; this must stay below the coordinator's round timeout.
+#: Only a window still missing a reading waits: 1 s was too short for 25 FLS processes
+#: on a loaded 2-core machine (CI: a fit of what was heard, 5 estimates not the engine's).
+READINGS_WAIT = 3.0
+IntArray = NDArray[np.int64]
+#: A radio cell: its band, then its three indices.
+Cell = tuple[str | int, ...]
+
+
+class Echoes:
+    """The last ``size`` messages sent, by their bytes: DDS brings a process its own back."""
+
+    def __init__(self, size: int) -> None:
+        self._order: deque[bytes] = deque()
+        self._held: Counter[bytes] = Counter()
+        self._size = size
+
+    def add(self, data: bytes) -> None:
+        """Remember ``data``, forgetting the oldest beyond the size."""
+        self._order.append(data)
+        self._held[data] += 1
+        while len(self._order) > self._size:
+            old = self._order.popleft()
+            self._held[old] -= 1
+            if not self._held[old]:
+                del self._held[old]
+
+    def __call__(self, data: bytes) -> bool:
+        """True if ``data`` is one of the messages sent lately."""
+        return data in self._held
+
+
+class Radio:
+    """The radio medium of one process (:class:`~swazure_ros.protocol.radio.RadioHub`) on ROS.
+
+    It hears every broadcast in the radio cells around its FLSs
+    (``radio/c<i>_<j>_<k>``, :mod:`~swazure_ros.protocol.cells`) once, and hands
+    it to the local FLS nodes within radio range of the sender, as a real radio
+    would; it sends its FLSs' offers on their own cells' topics; it hands
+    the coordinator's controls to every local FLS; and once it has delivered
+    every offer of a round, it acknowledges the round on ``round_acks``, where it
+    has also told the coordinator which of its FLSs spoke in that round. Path
+    walks go to the FLS they are addressed to, once this process has the world
+    revision they must be measured in: the coordinator's first hops on
+    ``path_walks``, an FLS's next hop at once when it is local, else on the
+    sender's ``path_walks/c<i>_<j>_<k>`` (a cell of the ``decaying`` band,
+    which holds every FLS the sender can measure); track requests
+    go to their relay and track samples to their source. From the first
+    fitting run on, it hears every FLS's ``measurements`` into ``readings``,
+    the book its FLSs' fits take their windows from.
+    """
+
+    def __init__(
+        self,
+        node: Node,
+        senses: Senses,
+        fls_nodes: dict[int, FlsNode],
+        loss: RadioLoss | None = None,
+        guard: Guard | None = None,
+        listen: bool = True,
+        readings: ReadingsBook | None = None,
+        local: Sequence[int] | None = None,
+    ) -> None:
+        self._node = node
+        #: The FLSs this process hosts (those of ``fls_nodes`` when None), for its cells.
+        self._local = np.array(sorted(fls_nodes if local is None else local), dtype=np.int64)
+        self._cells = radio_cells(senses.sensor, senses.radius)
+        self._listening: dict[Cell, Subscription] = {}  # the radio cells heard, per band
+        self._sending: dict[Cell, Publisher] = {}  # the radio cells of this process's FLSs
+        # The path walks' cells (of the decaying band): heard, and sent on.
+        self._walks_heard: dict[Cell, Subscription] = {}
+        self._walks_sent: dict[Cell, Publisher] = {}
+        # Per band: the FLSs in the cells heard, and of each cell sent on, its readers.
+        self._audible = {band: np.zeros(0, dtype=np.int64) for band in BANDS}
+        self._cell_of: dict[tuple[str, int], Cell] = {}  # (band, local FLS) -> its cell
+        self._local_set = frozenset(self._local.tolist())
+        # The offers sent lately, to know them when a shared cell brings them back.
+        self._echoes = Echoes(ECHOES_PER_FLS * max(len(self._local), 1))
+        #: Offers heard: from this process's own FLSs, and from other processes' over DDS.
+        self.offers_here = 0
+        self.offers_heard = 0
+        #: Path walks handed from one FLS of this process to another, and sent over DDS.
+        self.walks_here = 0
+        self.walks_sent = 0
+        self.readings = ReadingsBook() if readings is None else readings
+        self._hears_readings = False
+        self._waiting: set[int] = set()  # local sources whose fit waits for readings
+        self._senses = senses
+        self._fls = fls_nodes
+        self._hub = RadioHub(
+            fls_nodes.keys(),
+            loss,
+            lambda fls_id: senses.view(fls_id).other.astype(np.int64),
+            round_labels_check(senses.positions, senses.sensor, senses.radius),
+            offer_readings_check(senses.positions, senses.sensor, senses.radius),
+            audible=lambda phase: self._audible[band_of(phase)],
+        )
+        self.controls_heard = 0  # a control is a sure sign that a coordinator is there
+        self.last_control_at = float("-inf")  # monotonic s
+        self.guard = guard or Guard(node)
+        self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
+        self.listening = False
+        # Walks that must wait for a newer world revision, the oldest dropped first.
+        self._early_walks: deque[Walk] = deque(maxlen=EARLY_WALKS)
+        if listen:
+            self.listen()
+        self.tune()
+        senses.on_revision.append(self.tune)
+        # The coordinator's walks: one writer, every process a reader.
+        self._subscribe(PathWalk, WALKS_TOPIC, self._on_walk)
+        senses.on_revision.append(self._take_early_walks)
+        # Each request starts a relay's stream of frames: a flood of them must not.
+        self.guard.subscribe(
+            TrackRequest,
+            TRACK_REQUESTS_TOPIC,
+            self._on_track_request,
+            ROUND_QOS,
+            rate=TRACK_REQUEST_RATE,
+        )
+        self._subscribe(TrackSample, TRACK_SAMPLES_TOPIC, self._on_track_sample)
+
+    def tune(self) -> None:
+        """Hear the radio cells around this process's FLSs where they are now; send on theirs.
+
+        Called at each world revision: an FLS a heuristic moved into another
+        cell is heard there from then on. Publishers are made here, ahead of
+        the runs that use them, so that they have matched their readers by then.
+        """
+        senses = self._senses
+        points = senses.positions(self._local) if len(self._local) else np.zeros((0, 3))
+        everyone = senses.positions(senses.ids)
+        elsewhere = ~np.isin(senses.ids, self._local)  # FLSs of other processes
+        mine: set[Cell] = set()
+        heard: set[Cell] = set()
+        self._cell_of.clear()
+        for band, cells in self._cells.items():
+            own = cells.of(points)
+            mine |= {(band, *cell) for cell in own.tolist()}
+            self._cell_of.update(
+                ((band, fls), (band, *cell))
+                for fls, cell in zip(self._local.tolist(), own.tolist(), strict=True)
+            )
+            around = {(band, *cell) for cell in cells.around(own).tolist()} if len(own) else set()
+            all_cells = [(band, *cell) for cell in cells.of(everyone).tolist()]
+            self._audible[band] = senses.ids[[cell in around for cell in all_cells]]
+            # Offers between this process's FLSs never cross DDS (broadcast): a cell
+            # that holds none of another process's FLSs needs no subscription.
+            remote = {cell for cell, other in zip(all_cells, elsewhere.tolist()) if other}
+            heard |= around & remote
+        self._retune(
+            self._listening, heard, lambda cell: self._hear(PathOffer, cell, self._on_offer)
+        )
+        self._retune(self._sending, mine, lambda cell: self._send_on(PathOffer, cell))
+        # A walk crosses DDS only to another process's FLS, in the cell of its sender.
+        walking = {cell for cell in heard if cell[0] == DECAYING_BAND}
+        self._retune(
+            self._walks_heard, walking, lambda cell: self._hear(PathWalk, cell, self._on_walk)
+        )
+        sending = {cell for cell in mine if cell[0] == DECAYING_BAND}
+        self._retune(self._walks_sent, sending, lambda cell: self._send_on(PathWalk, cell))
+
+    def _retune(
+        self, current: dict[Cell, Any], wanted: set[Cell], make: Callable[[Cell], Any]
+    ) -> None:
+        """Destroy the endpoints of ``current`` not ``wanted``; ``make`` those missing."""
+        for cell in sorted(set(current) - wanted):
+            endpoint = current.pop(cell)
+            if isinstance(endpoint, Publisher):
+                self._node.destroy_publisher(endpoint)
+            else:
+                self._node.destroy_subscription(endpoint)
+        for cell in sorted(wanted - set(current)):
+            current[cell] = make(cell)
+
+    def _hear(self, kind: type, cell: Cell, callback: Callable[[Any], None]) -> Subscription:
+        return self.guard.subscribe(
+            kind, self._topic(kind, cell), callback, ROUND_QOS, echoes=self._echoes
+        )
+
+    def _send_on(self, kind: type, cell: Cell) -> Publisher:
+        return self._node.create_publisher(kind, self._topic(kind, cell), ROUND_QOS)
+
+    @staticmethod
+    def _topic(kind: type, cell: Cell) -> str:
+        indices = [int(index) for index in cell[1:]]
+        return walks_topic(indices) if kind is PathWalk else radio_topic(str(cell[0]), indices)
+
+    def cell_readers(self) -> tuple[int, int]:
+        """(readers matched to this process's cells' offers and walks, those wanted), summed.
+
+        One process per FLS: every other FLS within one cell of this one's (of
+        each band) hears its offers, and those of the decaying band its walks,
+        so the first number reaches the second once all of them listen.
+        """
+        readers = wanted = 0
+        for cell, publisher in [*self._sending.items(), *self._walks_sent.items()]:
+            audible = self._audible[str(cell[0])]
+            want = int(np.count_nonzero(~np.isin(audible, self._local)))
+            readers += min(publisher.get_subscription_count(), want)
+            wanted += want
+        return readers, wanted
+
+    def _cell(self, band: str, fls_id: int) -> Cell:
+        """The cell of ``band`` that holds local FLS ``fls_id`` now."""
+        cell = self._cell_of.get((band, fls_id))
+        if cell is None:  # an FLS not hosted here at the start
+            where = self._cells[band].of(self._senses.positions(np.array([fls_id])))[0]
+            cell = (band, *where.tolist())
+        return cell
+
+    def broadcast(self, out: Broadcast) -> int:
+        """Local FLS ``out.sender``'s offer: heard here at once, and sent on its cell's topic.
+
+        It crosses DDS only when someone else reads that cell (another
+        process, a recorder, ``ros2 topic echo``): the bytes sent, 0 when no
+        one does.
+        """
+        cell = self._cell(band_of(out.phase), out.sender)
+        publisher = self._sending.get(cell)
+        if publisher is None:  # an FLS not hosted here at the start: made on demand
+            publisher = self._sending[cell] = self._send_on(PathOffer, cell)
+        size = 0
+        if publisher.get_subscription_count():
+            stamp = self._node.get_clock().now().to_msg()
+            data = self.guard.key.serialize(offer_message(out, stamp))
+            self._echoes.add(data)
+            publisher.publish(data)
+            size = len(data)
+        self._hub.sent(out.run_id, out.round, out.sender, out.offer, size)
+        self.offers_here += 1
+        self._acknowledge(self._hub.on_offer(out.run_id, out.round, out.sender, out.offer))
+        return size
+
+    def listen(self) -> None:
+        """Hear the coordinator's controls: from now on the swarm's rounds count on this radio."""
+        if not self.listening:
+            self._subscribe(DiscoveryControl, CONTROL_TOPIC, self._on_control)
+            self.listening = True
+
+    def ack_readers(self) -> int:
+        """Readers matched to this radio's acknowledgements (the coordinator's)."""
+        return self._acks.get_subscription_count()
+
+    def _subscribe(
+        self, kind: type, topic: str, callback: Callable[[Any], None], qos: QoSProfile = ROUND_QOS
+    ) -> None:
+        self.guard.subscribe(kind, topic, callback, qos)
+
+    @property
+    def _swarm(self) -> IntArray:
+        return self._senses.ids
+
+    def coordinator_lost(self) -> int:
+        """The coordinator left mid-run: every local FLS drops its runs, sources report ABORTED.
+
+        Returns the number of ABORTED estimates sent.
+        """
+        self._hub.abandon()
+        return sum(node.abandon_runs() for node in self._fls.values())
+
+    def _on_track_request(self, message: TrackRequest) -> None:
+        request = relay_request_from_message(message, self._swarm)
+        node = self._fls.get(request.relay)
+        if node is not None:
+            node.tracking.on_request(request)
+
+    def _on_track_sample(self, message: TrackSample) -> None:
+        sample = sample_from_message(message, self._swarm)
+        node = self._fls.get(sample.source)
+        if node is not None:
+            node.tracking.on_sample(sample)
+
+    def _on_control(self, message: DiscoveryControl) -> None:
+        control = control_from_message(message, self._swarm)
+        self.controls_heard += 1
+        self.last_control_at = time.monotonic()
+        if control.command == START and control.estimator != PATH:
+            self._hear_readings()
+        recipients, ack, heard = self._hub.on_control(control)
+        for sender, why in self._hub.rejected:
+            self.guard.drop(RADIO_TOPIC, f"implausible: {why}", f"FLS {sender}'s offer: {why}")
+        self._hub.rejected.clear()
+        for fls_id in recipients:
+            self._fls[fls_id].on_control(control, heard)
+            if control.command == END and self._fls[fls_id].discovery.waiting:
+                self._waiting.add(fls_id)
+        if control.command == ROUND:
+            # Who of this process's FLSs spoke, at once: the coordinator hears no offer.
+            sent = self._hub.take_sent(control.run_id, control.round)
+            if sent.senders:
+                stamp = self._node.get_clock().now().to_msg()
+                message = sent_message(control, sent, self._node.get_name(), stamp)
+                self._acks.publish(self.guard.key.serialize(message))
+        if control.command == END and self._waiting:
+            timer = self._node.create_timer(READINGS_WAIT, lambda: self._report_waiting(timer))
+        self._acknowledge(ack)
+
+    def _hear_readings(self) -> None:
+        # Only once a run fits: thousands of measurements are work nobody else needs.
+        if not self._hears_readings:
+            self._hears_readings = True
+            self._subscribe(Measurements, MEASUREMENTS_TOPIC, self._on_measurements, READINGS_QOS)
+
+    def _on_measurements(self, message: Measurements) -> None:
+        readings = readings_from_message(message, self._swarm)
+        senses = self._senses
+        why = implausible_readings(readings, senses.positions, senses.sensor, senses.radius)
+        if why is not None:
+            self.guard.drop(MEASUREMENTS_TOPIC, f"implausible: {why}")
+            return
+        self.readings.put(readings)
+        if self._waiting:
+            self._report_waiting()
+
+    def _report_waiting(self, deadline: Timer | None = None) -> None:
+        """Local sources report the fits whose windows are heard; all of them at a ``deadline``."""
+        if deadline is not None:
+            self._node.destroy_timer(deadline)
+        for fls_id in list(self._waiting):
+            node = self._fls.get(fls_id)
+            if node is None or node.report_waiting(at_deadline=deadline is not None):
+                self._waiting.discard(fls_id)
+
+    def _on_offer(self, message: PathOffer) -> None:
+        # This process's own offers are heard when sent (broadcast), and their echoes
+        # from a shared cell never get here (_echoes): this one is someone else's.
+        check(message.sender_id not in self._local_set, "names an FLS of this process")
+        self.offers_heard += 1
+        # Its labels' meaning is checked once a round, with every offer heard (_implausible).
+        offer = offer_from_message(message, self._swarm)
+        self._acknowledge(
+            self._hub.on_offer(int(message.run_id), int(message.round), message.sender_id, offer)
+        )
+
+    def _acknowledge(self, ack: Ack | None) -> None:
+        if ack is None:
+            return
+        if ack.latency <= 0:
+            self._send_ack(ack)
+            return
+
+        # A slow radio's last delivery of the round arrives this late: so does the ack.
+        def send_once() -> None:
+            self._node.destroy_timer(timer)
+            self._send_ack(ack)
+
+        timer = self._node.create_timer(ack.latency, send_once)
+
+    def _send_ack(self, ack: Ack) -> None:
+        stamp = self._node.get_clock().now().to_msg()
+        self._acks.publish(
+            self.guard.key.serialize(ack_message(ack, self._node.get_name(), stamp))
+        )
+
+    def _on_walk(self, message: PathWalk) -> None:
+        self._take_walk(walk_from_message(message, self._swarm))
+
+    def _take_walk(self, walk: Walk) -> None:
+        while walk.at in self._local_set:
+            node = self._fls.get(walk.at)
+            if node is None:
+                return  # a stopped FLS
+            if walk.revision > self._senses.revision:
+                self._early_walks.append(walk)
+                return
+            onward = node.on_walk(walk)
+            if onward is None:
+                return
+            if onward.at not in self._local_set:
+                self._send_walk(onward, sender=walk.at)
+                return
+            self.walks_here += 1  # to another FLS of this process: no need to cross DDS
+            walk = onward
+
+    def _send_walk(self, walk: Walk, sender: int) -> None:
+        """Send ``walk`` on the walks topic of local FLS ``sender``'s cell."""
+        cell = self._cell(DECAYING_BAND, sender)
+        publisher = self._walks_sent.get(cell)
+        if publisher is None:
+            publisher = self._walks_sent[cell] = self._send_on(PathWalk, cell)
+        stamp = self._node.get_clock().now().to_msg()
+        data = self.guard.key.serialize(walk_message(walk, stamp))
+        self._echoes.add(data)
+        publisher.publish(data)
+        self.walks_sent += 1
+
+    def _take_early_walks(self) -> None:
+        early = list(self._early_walks)
+        self._early_walks.clear()
+        for walk in early:
+            self.guard.call(WALKS_TOPIC, self._take_walk, walk)

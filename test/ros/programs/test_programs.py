@@ -1,0 +1,373 @@
+"""The programs a ROS 2 user starts: `ros2 run swazure_ros ...` and `ros2 launch swazure_ros ...`.
+
+Each test drives the real `ros2` tools (wheels from ../shared: `ros2 run`,
+`ros2 launch`, `ros2 param`, `ros2 topic`, `ros2 service`) against our programs
+in processes of their own, and skips where they are absent.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import CameraInfo, Image
+from swazure_interfaces.msg import Detections
+
+from swazure_ros.camera.aruco import Detector, MarkerPose, full_image, render
+from swazure_ros.core.evaluate import SWEET_PATH, evaluate
+from swazure_ros.core.frames import to_metres
+from swazure_ros.files.reading import config_dir
+from swazure_ros.files.sensors import load_camera
+from swazure_ros.ros.convert.sensing import camera_info_message, image_message
+from swazure_ros.ros.plumbing.names import DETECTIONS_QOS
+from swazure_ros.ros.plumbing.runtime import SwarmNode
+from swazure_ros.sim.world import WorldSpec
+
+from ...conftest import REPO, SHARED
+from ...waits import wait_until
+from ..helpers import ECHO_LATCHED
+
+VENV = Path(sys.executable).parents[1]
+ROS2 = VENV / "bin" / "ros2"
+TRIO = REPO / "config" / "swarms" / "trio.yaml"
+TRIO_ARGS = ["--cloud", str(REPO / "config/track/trio.xyz"), "--radius", "0.5"]
+
+
+@pytest.fixture
+def ros2_tools():
+    """Skip where the real ros2 run and ros2 launch are absent."""
+    if not SHARED.is_dir():
+        pytest.skip(
+            "the ros2 CLI and launch wheels live in ../shared, which is not beside the repo"
+        )
+    if not ROS2.exists():
+        pytest.skip(f"{ROS2} is not installed (make setup installs it from ../shared)")
+    if not (VENV / "lib" / "swazure_ros" / "fls").exists():
+        pytest.skip("the venv is not an ament prefix for swazure_ros (make setup makes it one)")
+
+
+def environment() -> dict[str, str]:
+    """The test's domain (set by the domain fixture), with the venv as the ament prefix."""
+    return dict(os.environ, AMENT_PREFIX_PATH=str(VENV), PYTHONUNBUFFERED="1")
+
+
+def ros2(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
+    """Run a ros2 command to its end."""
+    return subprocess.run(
+        [str(ROS2), *args], capture_output=True, text=True, timeout=timeout, env=environment()
+    )
+
+
+def start(*args: str, cwd: Path | None = None) -> subprocess.Popen[str]:
+    """Start a long-running ros2 command (``run``, ``launch``) in a process group of its own."""
+    return subprocess.Popen(
+        [str(ROS2), *args],
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=environment(),
+        start_new_session=True,
+    )
+
+
+def stop(process: subprocess.Popen[str]) -> str:
+    """SIGINT, as Ctrl-C would send; what the process printed. It must end by itself."""
+    os.killpg(process.pid, signal.SIGINT)
+    out, _ = process.communicate(timeout=60)
+    return out
+
+
+def until(command, accept, timeout: float = 60):
+    """Run ``command()`` until ``accept`` holds of its result, or the time is up; the last."""
+    results = []
+    wait_until(lambda: results and accept(results[-1]), timeout, lambda: results.append(command()))
+    return results[-1] if results else command()
+
+
+def compute_pose(source: int, target: int, timeout: float = 60):
+    """`ros2 service call` of the coordinator's compute_pose, again until it succeeds."""
+    request = f"{{source_id: {source}, target_id: {target}, policy: 1}}"
+    command = ("service", "call", "/swarm/coordinator/compute_pose",
+               "swazure_interfaces/srv/ComputePose", request)  # fmt: skip
+    return until(lambda: ros2(*command), lambda result: "success=True" in result.stdout, timeout)
+
+
+def nodes() -> list[str]:
+    return ros2("node", "list", "--no-daemon", "--spin-time", "2").stdout.split()
+
+
+def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2_tools, domain):
+    # As a person starts real FLS hardware: the simulator, the coordinator, an FLS each.
+    programs = [
+        start("run", "swazure_ros", "world", *TRIO_ARGS),
+        start("run", "swazure_ros", "coordinator", *TRIO_ARGS),
+    ]
+    programs += [
+        start(
+            "run",
+            "swazure_ros",
+            "fls",
+            *TRIO_ARGS,
+            "--fls-id",
+            str(fls_id),
+            "--ros-args",
+            "-p",
+            "publish_period:=0.25",
+        )
+        for fls_id in range(3)
+    ]
+    try:
+        wanted = {"/swarm/fls_0", "/swarm/fls_1", "/swarm/fls_2", "/swarm/world",
+                  "/swarm/cameras", "/swarm/coordinator"}  # fmt: skip
+        listed = until(nodes, lambda names: wanted <= set(names))
+        assert wanted <= set(listed), listed
+
+        # Each `ros2 --no-daemon` call discovers the graph anew within its spin time; on a
+        # loaded machine one may miss the node ("Node not found"), and a person asks again.
+        def param(name, verb="get", *value):
+            command = ["param", verb, "--no-daemon", "--spin-time", "2", "/swarm/fls_1", name]
+            return until(
+                lambda: ros2(*command, *value),
+                lambda result: "Node not found" not in result.stderr,
+            )
+
+        got = param("publish_period")
+        assert got.returncode == 0 and "Double value is: 0.25" in got.stdout, got
+        described = param("cloud")
+        assert "trio.xyz" in described.stdout, described
+        # A bad value is refused with its reason and the node keeps its own; a good one
+        # is taken; what was set at the start cannot be changed.
+        for bad in ("-1.0", "0.0", ".nan"):  # YAML: .nan is NaN
+            refused = param("publish_period", "set", bad)
+            said = refused.stdout + refused.stderr
+            assert "Setting parameter failed" in said, refused
+            assert "must be a positive number of seconds" in said, refused
+        assert "Double value is: 0.25" in param("publish_period").stdout
+        taken = param("publish_period", "set", "0.5")
+        assert "Set parameter successful" in taken.stdout, taken
+        assert "Double value is: 0.5" in param("publish_period").stdout
+        fixed = param("cloud", "set", "torus")
+        said = fixed.stdout + fixed.stderr
+        assert "Setting parameter failed" in said and "read-only" in said, fixed
+        # Each program's --help lists every parameter its node answers ros2 param for:
+        # a startup one as its argument (--fls-id), the others by name.
+        for program, node in (("fls", "/swarm/fls_1"), ("coordinator", "/swarm/coordinator"),
+                              ("world", "/swarm/world")):  # fmt: skip
+            helped = ros2("run", "swazure_ros", program, "--help")
+            assert helped.returncode == 0, helped
+            listing = ("param", "list", "--no-daemon", "--spin-time", "2", node)
+            listed = until(lambda: ros2(*listing).stdout.split(), bool)  # noqa: B023
+            ours = set(listed) - {"use_sim_time", "start_type_description_service"}
+            arguments = {name: "--" + name.replace("_", "-").replace(".", "-") for name in ours}
+            assert ours and all(
+                f"  {name} (" in helped.stdout or f"  {arguments[name]} (" in helped.stdout
+                for name in ours
+            ), (ours, helped)
+        # FLS 0 is blind to FLS 2 and reaches it through its sweet neighbour FLS 1.
+        call = compute_pose(0, 2)
+        assert "success=True" in call.stdout and "path=[0, 1, 2]" in call.stdout, call
+    finally:
+        outs = [stop(process) for process in programs]
+    for process, out in zip(programs, outs):
+        # ros2run hands on its program's exit code: each ended by itself on Ctrl-C.
+        assert process.returncode == 0, (process.args, out)
+    # A standalone FLS says what it waits for, and when it has it.
+    assert "waiting for its camera's first frame on /swarm/fls_1/camera/detections" in outs[3]
+    assert "on the swarm's radio: " in outs[3]
+
+
+def test_ros2_as_a_super_client_sees_fls_processes_that_discover_through_a_server(
+    ros2_tools, domain, tmp_path, monkeypatch
+):
+    server = f"127.0.0.1:{11811 + domain}"  # a port of this test's own
+    spawn = subprocess.Popen(
+        [sys.executable, "-m", "swazure_ros.cli.main", "spawn", str(TRIO), "--per-fls",
+         "--discovery-server", server, "--log-dir", str(tmp_path), "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=environment(),
+        start_new_session=True,
+    )  # fmt: skip
+    try:
+        # As the Discovery Server tutorials set up ros2 (a super client hears every endpoint).
+        monkeypatch.setenv("ROS_DISCOVERY_SERVER", server)
+        monkeypatch.setenv("ROS_SUPER_CLIENT", "TRUE")
+        wanted = {"/swarm/fls_0", "/swarm/fls_1", "/swarm/fls_2", "/swarm/coordinator"}
+        listed = until(nodes, lambda names: wanted <= set(names))
+        assert wanted <= set(listed), listed
+
+        def publishers() -> str:
+            info = ("topic", "info", "--no-daemon", "--spin-time", "2", "/swarm/measurements")
+            return ros2(*info).stdout
+
+        info = until(publishers, lambda out: "Publisher count: 3" in out)
+        assert "Publisher count: 3" in info, info
+        got = ros2("param", "get", "--no-daemon", "--spin-time", "2", "/swarm/fls_2", "fls_id")
+        assert "Integer value is: 2" in got.stdout, got
+        # Simple discovery finds nothing of a swarm that discovers through a server.
+        monkeypatch.delenv("ROS_DISCOVERY_SERVER")
+        monkeypatch.delenv("ROS_SUPER_CLIENT")
+        assert not wanted & set(nodes())
+    finally:
+        out = stop(spawn)
+    assert spawn.returncode == 0, out
+    assert "Server is running" in (tmp_path / "discovery_server_0.log").read_text()
+
+
+def test_an_fls_without_an_id_says_so_in_one_line(ros2_tools, domain):
+    run = ros2("run", "swazure_ros", "fls", *TRIO_ARGS)
+    # ros2run passes the program's exit code on, and says so on its own line.
+    assert run.returncode == 2, run
+    assert "--fls-id" in run.stderr and "Traceback" not in run.stderr, run.stderr
+    assert run.stderr.count("\n") == 1, run.stderr
+    assert "Process exited with failure 2" in run.stdout, run.stdout
+
+
+@pytest.mark.parametrize("discovery", ["simple", "server"])
+def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(
+    ros2_tools, domain, discovery, monkeypatch, tmp_path
+):
+    server = f"127.0.0.1:{11811 + domain}"
+    through = [f"discovery_server:={server}"] if discovery == "server" else []
+    # The example by its bare name, found in the installed share folder from any folder.
+    launch = start("launch", "swazure_ros", "swarm.launch.py", "swarm:=trio", "mode:=per_fls",
+                   *through, cwd=tmp_path)  # fmt: skip
+    if through:  # ros2 then sees the graph as a super client of the launch's server
+        monkeypatch.setenv("ROS_DISCOVERY_SERVER", server)
+        monkeypatch.setenv("ROS_SUPER_CLIENT", "TRUE")
+    try:
+        wanted = {"/swarm/fls_0", "/swarm/fls_1", "/swarm/fls_2", "/swarm/world",
+                  "/swarm/cameras", "/swarm/coordinator"}  # fmt: skip
+        listed = until(nodes, lambda names: wanted <= set(names))
+        assert wanted <= set(listed), listed
+        # A measurement in metres, in the measuring FLS's frame: FLS 1 is 8 cm from FLS 0.
+        echo = ros2("topic", "echo", *ECHO_LATCHED, "--once",
+                    "--filter", "m.source_id == 0 and len(m.poses) > 0",
+                    "/swarm/measurements", "swazure_interfaces/msg/Measurements")  # fmt: skip
+        assert echo.returncode == 0, echo
+        assert "frame_id: fls_0" in echo.stdout and "x: 0.08" in echo.stdout, echo.stdout
+        # Discovery by messages between three processes, each an FLS alone.
+        call = compute_pose(0, 2)
+        assert "success=True" in call.stdout, call
+        assert "path=[0, 1, 2]" in call.stdout, call.stdout
+        spec = WorldSpec(str(REPO / "config/track/trio.xyz"), scale=1.0, radius=0.5)
+        engine = evaluate(spec.build().swarm, spec.sensor(), policy="shortest-length")
+        pairs = engine.pairs  # FLS ids are the trio's swarm indices
+        row = np.flatnonzero((pairs.source == 0) & (pairs.target == 2))[0]
+        # The detections carry metres, so each hop is the engine's but for the metres'
+        # last bit: the answer, in metres in the source's frame, is the engine's to 1e-12.
+        assert "frame_id='fls_0'" in call.stdout, call.stdout
+        text = call.stdout.split("vector=geometry_msgs.msg.Vector3(")[1].split(")")[0]
+        vector = [float(part.split("=")[1]) for part in text.split(", ")]
+        wanted = to_metres(pairs.estimate[row])
+        assert np.allclose(vector, wanted, rtol=1e-12, atol=0), (vector, wanted)
+    finally:
+        out = stop(launch)
+    assert launch.returncode == 0, out
+    # Each process's output is labelled with its node's name (launch appends its own count).
+    assert "[fls_0-" in out and "[fls_2-" in out and "[coordinator-" in out, out
+    assert "[fls-" not in out, out
+
+
+def echoed(*args: str, seconds: float) -> str:
+    """What ``ros2 topic echo ARGS`` prints in ``seconds``, as a person watching it would see."""
+    try:
+        ros2("topic", "echo", *args, timeout=seconds)
+    except subprocess.TimeoutExpired as watched:
+        return (watched.stdout or b"").decode()  # type: ignore[union-attr]
+    raise AssertionError("ros2 topic echo ended by itself")
+
+
+def test_ros2_launch_of_the_default_example_swarm_sees_and_answers(ros2_tools, domain, tmp_path):
+    # A person's first launch: no swarm given, from a folder of their own.
+    launch = start("launch", "swazure_ros", "swarm.launch.py", cwd=tmp_path)
+    try:
+        listed = until(nodes, lambda names: "/swarm/fls_119" in names, timeout=120)
+        assert {"/swarm/fls_0", "/swarm/fls_119", "/swarm/coordinator"} <= set(listed), listed
+        got = ros2("param", "get", "--no-daemon", "--spin-time", "3", "/swarm/fls_7",
+                   "publish_period")  # fmt: skip
+        # The swarm file's parameters: every FLS 0.5 s, FLS 0 0.1 s.
+        assert "Double value is: 0.5" in got.stdout, got
+        # The packed coordinator answers ros2 param too.
+        got = ros2("param", "get", "--no-daemon", "--spin-time", "3", "/swarm/coordinator",
+                   "round_timeout")  # fmt: skip
+        assert "Double value is: 10.0" in got.stdout, got
+        helped = ros2("run", "swazure_ros", "aruco_detector", "--help")
+        assert helped.returncode == 0 and "camera_file (string, " in helped.stdout, helped
+        # The README's echo: every FLS's latched measurement, each seeing its neighbours.
+        out = echoed(*ECHO_LATCHED, "--field", "source_id", "/swarm/measurements",
+                     "swazure_interfaces/msg/Measurements", seconds=20)  # fmt: skip
+        sources = {int(line) for line in out.split() if line.isdigit()}
+        assert sources == set(range(120)), sorted(set(range(120)) - sources)
+        # tf2's frames: one per FLS in the swarm's fixed frame, metres.
+        frames = ros2("topic", "echo", *ECHO_LATCHED, "--once", "/tf_static",
+                      "tf2_msgs/msg/TFMessage")  # fmt: skip
+        assert frames.returncode == 0, frames
+        assert frames.stdout.count("child_frame_id: fls_") == 120, frames.stdout[:2000]
+        assert "frame_id: swarm" in frames.stdout
+        # A blind pair that the engine reaches by a sweet path: the swarm answers it so.
+        spec = WorldSpec("torus:120", scale=5.0, beta=0.5)
+        pairs = evaluate(spec.build().swarm, spec.sensor(), policy="shortest-length").pairs
+        row = np.flatnonzero((pairs.source == 0) & (pairs.status == SWEET_PATH))[0]
+        target, path = int(pairs.target[row]), [int(fls) for fls in pairs.path(row)]
+        call = compute_pose(0, target, timeout=120)
+        assert "success=True" in call.stdout and "status=0" in call.stdout, call.stdout
+        assert f"path={path}" in call.stdout, (path, call.stdout)
+    finally:
+        out = stop(launch)
+    assert launch.returncode == 0, out
+
+
+def test_ros2_run_aruco_detector_reads_rendered_images_as_the_camera_does(ros2_tools, context):
+    detector = start("run", "swazure_ros", "aruco_detector")
+    camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
+    probe = SwarmNode("camera_driver", context=context)
+    images = probe.create_publisher(Image, "image_raw", qos_profile_sensor_data)
+    infos = probe.create_publisher(CameraInfo, "camera_info", qos_profile_sensor_data)
+    received: dict[tuple[int, int], Detections] = {}
+
+    def take(message: Detections) -> None:
+        received[(message.header.stamp.sec, message.header.stamp.nanosec)] = message
+
+    probe.create_subscription(Detections, "detections", take, DETECTIONS_QOS)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(probe)
+    in_process = Detector(camera)
+    try:
+        for number, distance in enumerate((55.0, 65.0, 75.0)):  # mm: the sweet range
+            frame = render(camera, MarkerPose(distance), np.random.default_rng(number))
+            pixels = full_image(camera, frame)
+            stamp = probe.get_clock().now().to_msg()
+            key = (stamp.sec, stamp.nanosec)
+
+            def publish_and_spin(stamp=stamp, pixels=pixels):
+                # Again until the detector has matched both topics.
+                infos.publish(camera_info_message(camera, stamp, "fls_0_camera_optical"))
+                images.publish(image_message(pixels, stamp, "fls_0_camera_optical"))
+                executor.spin_once(timeout_sec=0.2)
+
+            assert wait_until(lambda key=key: key in received, 60, publish_and_spin), (
+                f"no detections of the frame at {distance} mm"
+            )
+            message = received[key]
+            assert message.header.frame_id == "fls_0_camera_optical"
+            [(marker, corners)] = in_process.markers(pixels)
+            [detection] = message.detections
+            position = detection.pose.pose.position
+            assert detection.marker_id == marker == camera.marker_id
+            # The camera's own solve, to the bit: mm in the camera, m on the wire.
+            assert [position.x, position.y, position.z] == (
+                in_process.solve(corners) / 1000.0
+            ).tolist()
+            assert abs(position.z - distance / 1000.0) < 0.05 * distance / 1000.0
+    finally:
+        executor.shutdown()
+        probe.destroy_node()
+        out = stop(detector)
+    assert detector.returncode == 0, out
