@@ -1,8 +1,10 @@
-"""House rules read from the package's source: no long functions, no long argument lists.
+"""House rules read from the source: no long functions, no long argument lists, no ctypes.
 
-No function of ``swazure_ros`` is longer than 80 lines, and none takes more
-than 10 parameters (``self`` and ``cls`` aside) unless it is a numba kernel
-(decorated ``@jit.kernel``), whose arrays numba takes one by one.
+No function of ``swazure_ros`` or ``bench`` is longer than 80 lines, and none
+takes more than 10 parameters (``self`` and ``cls`` aside) unless it is a numba
+kernel (decorated ``@jit.kernel``), whose arrays numba takes one by one. No
+module of ``swazure_ros`` uses ctypes: a mirror of a C library's structs breaks
+silently when the library changes (issue 53).
 """
 
 from __future__ import annotations
@@ -11,20 +13,13 @@ import ast
 from collections.abc import Iterator
 from pathlib import Path
 
+REPO = Path(__file__).resolve().parents[1]
 PACKAGE = "swazure_ros"
-ROOT = Path(__file__).resolve().parents[1] / PACKAGE
+ROOT = REPO / PACKAGE
+#: The folders the rules hold in: the product and its benchmarks.
+SCANNED = (ROOT, REPO / "bench")
 MOST_LINES = 80
 MOST_PARAMETERS = 10
-
-#: Functions still too long or with too many parameters, by "file:qualified name", that
-#: other branches of issue 53 shorten (issue 53, other branches); removed when they land.
-PENDING = {
-    "app/swarm.py:RunningSwarm.__init__",  # parts
-    "core/camera.py:camera_from_dict",  # layers
-    "ros/coordinator.py:Coordinator.__init__",  # parts
-    "ros/fls_node.py:FlsNode.__init__",  # ros
-    "ros/host.py:SwarmHost.__init__",  # ros
-}
 
 Function = ast.FunctionDef | ast.AsyncFunctionDef
 
@@ -56,24 +51,32 @@ def is_kernel(function: Function) -> bool:
     return any(ast.unparse(d).startswith("jit.kernel") for d in function.decorator_list)
 
 
-def offenders() -> list[str]:
+def offenders(roots: tuple[Path, ...] = SCANNED) -> list[str]:
     """Each function over the limits, as "file:line: name: why"."""
     found = []
-    for path in sorted(ROOT.rglob("*.py")):
-        relative = path.relative_to(ROOT).as_posix()
-        for name, function in functions(ast.parse(path.read_text(), str(path))):
-            if f"{relative}:{name}" in PENDING:
-                continue
-            lines = (function.end_lineno or function.lineno) - function.lineno + 1
-            count = parameters(function)
-            why = []
-            if lines > MOST_LINES:
-                why.append(f"{lines} lines")
-            if count > MOST_PARAMETERS and not is_kernel(function):
-                why.append(f"{count} parameters")
-            if why:
-                found.append(f"{PACKAGE}/{relative}:{function.lineno}: {name}: {', '.join(why)}")
+    for root in roots:
+        for path in sorted(root.rglob("*.py")):
+            for name, function in functions(ast.parse(path.read_text(), str(path))):
+                lines = (function.end_lineno or function.lineno) - function.lineno + 1
+                count = parameters(function)
+                why = []
+                if lines > MOST_LINES:
+                    why.append(f"{lines} lines")
+                if count > MOST_PARAMETERS and not is_kernel(function):
+                    why.append(f"{count} parameters")
+                if why:
+                    where = path.relative_to(root.parent).as_posix()
+                    found.append(f"{where}:{function.lineno}: {name}: {', '.join(why)}")
     return found
+
+
+def ctypes_users(root: Path = ROOT) -> list[str]:
+    """Each module under ``root`` that names ctypes, in an import or in code it runs."""
+    return sorted(
+        path.relative_to(root.parent).as_posix()
+        for path in root.rglob("*.py")
+        if "ctypes" in path.read_text()
+    )
 
 
 def test_no_function_is_over_80_lines_or_10_parameters_outside_kernels():
@@ -89,3 +92,19 @@ def test_the_scan_sees_long_functions_and_kernels():
     assert parameters(named["f"]) == 11 and parameters(named["C.g"]) == 11
     assert not is_kernel(named["f"]) and is_kernel(named["C.g"])
     assert named["f"].end_lineno - named["f"].lineno + 1 == 81
+
+
+def test_the_scan_reports_a_long_function_by_file_and_line(tmp_path: Path) -> None:
+    (tmp_path / "long.py").write_text("x = 1\n\n\ndef f():\n" + "    pass\n" * 80)
+    (tmp_path / "short.py").write_text("def g():\n" + "    pass\n" * 79)
+    assert offenders((tmp_path,)) == [f"{tmp_path.name}/long.py:4: f: 81 lines"]
+
+
+def test_no_module_of_the_package_uses_ctypes() -> None:
+    assert ctypes_users() == []
+
+
+def test_the_ctypes_scan_sees_a_module_that_loads_libc(tmp_path: Path) -> None:
+    (tmp_path / "exit.py").write_text("import ctypes\nctypes.CDLL(None).exit(0)\n")
+    (tmp_path / "clean.py").write_text("import os\n")
+    assert ctypes_users(tmp_path) == [f"{tmp_path.name}/exit.py"]
