@@ -12,6 +12,7 @@ tests read its ``record.json`` (with a ``fileversion``), never printed text.
 
 from __future__ import annotations
 
+import contextlib
 import glob
 import itertools
 import json
@@ -111,20 +112,30 @@ def atomic_output(path: Path) -> Iterator[Path]:
         handle, name = tempfile.mkstemp(
             prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent
         )
-        os.close(handle)
         temporary = Path(name)
         try:
+            # mkstemp makes the file private; give it the mode a plain open() would,
+            # before the writer, which may make it private again (a key file).
+            try:
+                os.fchmod(handle, 0o666 & ~_umask())
+            finally:
+                os.close(handle)
             yield temporary
-            # mkstemp makes the file private; give it the mode a plain open() would.
-            umask = os.umask(0)
-            os.umask(umask)
-            os.chmod(temporary, 0o666 & ~umask)
             os.replace(temporary, path)
         except BaseException:
             temporary.unlink(missing_ok=True)
             raise
     except OSError as err:
         raise OutputError(f"{path}: cannot write ({err.strerror or err})") from err
+
+
+def _umask() -> int:
+    """The process's umask, read without setting it (``os.umask`` sets it, for every thread)."""
+    with contextlib.suppress(OSError):
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    return 0o022
 
 
 def _remove_stale(path: Path) -> None:

@@ -35,6 +35,13 @@ def test_written_file_appears_whole_with_the_mode_of_a_plain_file(tmp_path):
     assert sorted(p.name for p in target.parent.iterdir()) == ["result.txt"]
 
 
+def test_a_writer_that_makes_its_file_private_keeps_it_private(tmp_path):
+    """A key file: the writer's own mode stands, the plain file's is only the default."""
+    target = tmp_path / "swarm.key"
+    atomic_write(target, lambda path: (path.write_text("secret"), path.chmod(0o600)))
+    assert target.stat().st_mode & 0o777 == 0o600
+
+
 def test_a_writer_that_fails_leaves_the_old_result_and_nothing_else(tmp_path):
     target = tmp_path / "result.txt"
     target.write_text("old")
@@ -50,7 +57,7 @@ def test_a_writer_that_fails_leaves_the_old_result_and_nothing_else(tmp_path):
 
 
 @pytest.mark.parametrize("when", ["while writing", "after writing"])
-def test_a_writer_killed_outright_leaves_nothing_behind(tmp_path, when):
+def test_a_writer_killed_outright_leaves_a_hidden_temporary_the_next_write_removes(tmp_path, when):
     script = textwrap.dedent(
         f"""
         import os, signal
