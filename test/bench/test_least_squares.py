@@ -20,7 +20,8 @@ def test_the_least_squares_section_measures_a_small_torus_globally_and_locally(t
     assert fits[0][:3] == ["shape", "sensor", "beta"]
     [fit] = fits[1]
     assert fit[:3] == ["torus:150", "wide, calibrated", "0.5"]
-    assert float(fit[9]) > 0 and float(fit[10]) > 0 and float(fit[11]) > 0  # NEES %, s, s
+    # NEES %, then two times in s, shown to 0.1 s: on a small torus one may show as 0.0.
+    assert float(fit[9]) > 0 and float(fit[10]) >= 0 and float(fit[11]) >= 0
     [outlier] = outliers[1]
     assert outlier[0] == "torus:150" and int(outlier[-1].replace(",", "")) > 0  # down-weighted
     [own] = local[1]
