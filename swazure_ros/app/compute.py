@@ -17,7 +17,8 @@ from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, refine
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, HeuristicResult
-from ..core.results import Distributed, MovesMade, RunRecord, with_source
+from ..core.results import Distributed, MovesMade, RunRecord
+from ..core.summary import with_source
 from ..protocol.discovery.estimate import evaluation_of
 from ..protocol.runs import DiscoveryResult, MoveResult
 from ..sim.world import World
@@ -110,10 +111,8 @@ def compute_all(
     engine_seconds = time.perf_counter() - began
     seconds = result.seconds + (moved.seconds if moved is not None else 0.0)
     spec = swarm.config.world
-    summary = {
-        **with_source(evaluation.summary, world.cloud, spec.seed, spec.sensor_file),
-        "seconds": seconds,
-    }
+    found = replace(evaluation.summary, seconds=seconds)
+    summary = with_source(found, world.cloud, spec.seed, spec.sensor_file)
     evaluation = replace(evaluation, summary=summary)
     record = RunRecord(
         "spawn",

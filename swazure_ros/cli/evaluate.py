@@ -31,12 +31,12 @@ from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
 from ..core.results import (
     SUMMARY_FILE,
     RunRecord,
-    with_source,
     write_json,
     write_pair_blocks,
     write_record,
     write_run,
 )
+from ..core.summary import with_source
 from .arguments import (
     count,
     memory_size,
@@ -201,12 +201,12 @@ def _evaluate_in_blocks(
         for _ in run.blocks(progress):
             pass
     summary = with_source(run.summary(), cloud, args.seed, args.sensor)
-    record = RunRecord("evaluate", summary["seconds"], summary)
+    record = RunRecord("evaluate", run.seconds, summary)
     print(_headline(args, cloud, swarm, sensor, record.seconds))
-    print(summary_table(record.summary))
+    print(summary_table(summary))
     if args.out is not None:
         summary_path = args.out / SUMMARY_FILE
-        write_json(summary_path, summary)
+        write_json(summary_path, summary.as_document())
         record_path = write_record(args.out, record)
         print(f"wrote {summary_path}, {pairs_path} and {record_path}")
     return 0
@@ -232,8 +232,8 @@ def _evaluate_whole(
         evaluation, heuristic = run_technique(
             evaluation, args.technique, args.threshold, COMPAT_MODES[args.compat]
         )
-        seconds = evaluation.summary["seconds"] + time.perf_counter() - began
-        evaluation = replace(evaluation, summary={**evaluation.summary, "seconds": seconds})
+        seconds = (evaluation.summary.seconds or 0.0) + time.perf_counter() - began
+        evaluation = replace(evaluation, summary=replace(evaluation.summary, seconds=seconds))
     if args.fuse > 1:
         evaluation = fuse(evaluation, args.fuse)
     if args.estimator != PATH:
@@ -244,9 +244,9 @@ def _evaluate_whole(
         progress.close()
     summary = with_source(evaluation.summary, cloud, args.seed, args.sensor)
     evaluation = replace(evaluation, summary=summary)
-    record = RunRecord("evaluate", summary["seconds"], summary)
+    record = RunRecord("evaluate", summary.seconds or 0.0, summary)
     print(_headline(args, cloud, swarm, sensor, record.seconds))
-    print(summary_table(record.summary))
+    print(summary_table(summary))
     if args.out is not None:
         summary_path, pairs_path, record_path = write_run(args.out, evaluation, record, heuristic)
         print(f"wrote {summary_path}, {pairs_path} and {record_path}")

@@ -334,7 +334,8 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
             f"{sum(moved.messages.values())} messages, {sum(moved.bytes.values()) / 1e6:.1f} MB"
             + (f", {moved.timeouts} waits timed out" if moved.timeouts else "")
         )
-    assert record.engine is not None and record.engine_seconds is not None
+    assert record.summary is not None and record.engine is not None
+    assert record.engine_seconds is not None
     print(f"engine: {record.engine_seconds:.2f} s for the same work")
     print(summary_table(record.summary, ("engine", record.engine), heading="distributed"))
     print(
@@ -409,7 +410,9 @@ def main(args: argparse.Namespace) -> int:
                 # A served swarm's run is its bring-up: what a script reads of it.
                 from ..core.results import RunRecord, write_record
 
-                write_record(args.out, RunRecord("spawn", bring_up.seconds, {}, bring_up=bring_up))
+                write_record(
+                    args.out, RunRecord("spawn", bring_up.seconds, None, bring_up=bring_up)
+                )
             ready = True
             bar.close()
             peaks = " + ".join(f"{mb:.0f}" for mb in bring_up.peak_rss_mb)

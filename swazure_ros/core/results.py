@@ -24,16 +24,16 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any, BinaryIO
 
 import numpy as np
 
-from .clouds import Cloud
 from .errors import OutputError, SwazureError
 from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation, Neighbourhood, PairResults
 from .heuristics.result import HeuristicResult
+from .summary import Document, Summary
 
 PAIRS_FILE = "pairs.csv"
 PAIRS_PARQUET_FILE = "pairs.parquet"
@@ -201,7 +201,7 @@ def finite_json(value: Any) -> Any:
     return value
 
 
-def write_json(path: Path, document: dict[str, Any]) -> None:
+def write_json(path: Path, document: Document) -> None:
     """Write ``document`` as indented JSON (non-finite numbers as null), atomically."""
     text = json.dumps(finite_json(document), indent=2, allow_nan=False) + "\n"
     atomic_write(path, lambda tmp: tmp.write_text(text))
@@ -220,7 +220,8 @@ def _id_lists(offsets: Any, ids: Any, as_text: bool) -> Any:
 
 
 def pairs_table(
-    evaluation: Evaluation,
+    hood: Neighbourhood,
+    pairs: PairResults,
     heuristic: HeuristicResult | None = None,
     as_text: bool = True,
     columns: str = FULL_PAIRS,
@@ -237,8 +238,7 @@ def pairs_table(
 
     if columns not in PAIR_COLUMNS:
         raise ValueError(f"columns must be one of {PAIR_COLUMNS}, got {columns!r}")
-    pairs = evaluation.pairs
-    ids = evaluation.hood.swarm.cloud_index
+    ids = hood.swarm.cloud_index
     table = {
         "source": ids[pairs.source],
         "target": ids[pairs.target],
@@ -361,7 +361,9 @@ def write_evaluation(
     """
     if pairs_format not in PAIRS_FORMATS:
         raise ValueError(f"pairs_format must be one of {PAIRS_FORMATS}, got {pairs_format!r}")
-    table = pairs_table(evaluation, heuristic, pairs_format == "csv", columns)
+    table = pairs_table(
+        evaluation.hood, evaluation.pairs, heuristic, pairs_format == "csv", columns
+    )
     if pairs_format == "csv":
         pairs_path = directory / PAIRS_FILE
         atomic_write(pairs_path, lambda tmp: write_csv(table, tmp))
@@ -376,7 +378,7 @@ def write_evaluation(
             ),
         )
     summary_path = directory / SUMMARY_FILE
-    write_json(summary_path, evaluation.summary)
+    write_json(summary_path, evaluation.summary.as_document())
     return summary_path, pairs_path
 
 
@@ -403,13 +405,10 @@ def write_pair_blocks(
         if pairs_format == "csv":
             with open(temporary, "wb") as out:
                 for number, pairs in enumerate(blocks):
-                    table = pairs_table(Evaluation(hood, policy, pairs, {}), None, True, columns)
+                    table = pairs_table(hood, pairs, None, True, columns)
                     write_csv(table, out, header=number == 0)
             return path
-        tables = (
-            pairs_table(Evaluation(hood, policy, pairs, {}), None, False, columns)
-            for pairs in blocks
-        )
+        tables = (pairs_table(hood, pairs, None, False, columns) for pairs in blocks)
         first = next(tables)
         with pq.ParquetWriter(str(temporary), first.schema, compression="zstd") as writer:
             for group in _row_groups(itertools.chain([first], tables), PARQUET_ROWS):
@@ -437,21 +436,6 @@ def _row_groups(tables: Iterator[Any], rows: int) -> Iterator[Any]:
             pending, held = [joined.slice(rows)], held - rows
     if held or not written:
         yield pa.concat_tables(pending).combine_chunks()
-
-
-def with_source(
-    summary: dict[str, Any], cloud: Cloud, seed: int, sensor_file: str | Path | None
-) -> dict[str, Any]:
-    """``summary`` with where the run's swarm came from in its ``parameters``: a new dict."""
-    parameters = {
-        **summary["parameters"],
-        "cloud": cloud.name,
-        "cloud_source": cloud.source,
-        "scale": cloud.scale,
-        "seed": seed,
-        "sensor_file": str(sensor_file or "config/sensor.yaml"),
-    }
-    return {**summary, "parameters": parameters}
 
 
 @dataclass(frozen=True)
@@ -515,19 +499,30 @@ class RunRecord:
 
     command: str  # the swazure verb that ran: "evaluate" or "spawn"
     seconds: float  # the run's computation, s (a swarm's: discovery and moves)
-    summary: dict[str, Any]  # the evaluation's summary, as summary.json holds it
-    engine: dict[str, Any] | None = None  # the core engine's summary of the same work
+    summary: Summary | None  # the evaluation's (None: a swarm brought up, no run)
+    engine: Summary | None = None  # the core engine's summary of the same work
     engine_seconds: float | None = None
     identical: str | None = None  # "yes", or "no: " and what differs from the engine
     bring_up: BringUp | None = None
     distributed: Distributed | None = None
     fileversion: int = RECORD_VERSION
 
+    def as_document(self) -> Document:
+        """What record.json holds: each summary as summary.json holds it."""
+        document: Document = {one.name: getattr(self, one.name) for one in fields(self)}
+        # A swarm only brought up has no run: its record's summary is empty.
+        document["summary"] = {} if self.summary is None else self.summary.as_document()
+        document["engine"] = None if self.engine is None else self.engine.as_document()
+        for name in ("bring_up", "distributed"):
+            if document[name] is not None:
+                document[name] = asdict(document[name])
+        return document
+
 
 def write_record(directory: Path, record: RunRecord) -> Path:
     """Write ``record`` as ``directory/record.json``, atomically; return its path."""
     path = directory / RECORD_FILE
-    write_json(path, asdict(record))
+    write_json(path, record.as_document())
     return path
 
 
@@ -560,6 +555,7 @@ def read_record(path: Path) -> RunRecord:
     if version != RECORD_VERSION:
         raise SwazureError(f"{path}: record fileversion {version}, this is {RECORD_VERSION}")
     bring_up, distributed = document.pop("bring_up"), document.pop("distributed")
+    summary, engine = document.pop("summary"), document.pop("engine")
     if distributed is not None:
         moves = distributed.pop("moves")
         distributed = Distributed(
@@ -567,6 +563,8 @@ def read_record(path: Path) -> RunRecord:
         )
     return RunRecord(
         **document,
+        summary=Summary.from_document(summary) if summary else None,
+        engine=None if engine is None else Summary.from_document(engine),
         bring_up=None if bring_up is None else BringUp(**bring_up),
         distributed=distributed,
     )

@@ -35,10 +35,10 @@ from ..core.results import (
     FULL_PAIRS,
     PAIRS_PARQUET_FILE,
     SUMMARY_FILE,
-    with_source,
     write_evaluation,
 )
 from ..core.sensor import Sensor
+from ..core.summary import StudyRun, with_source
 from .plan import FIT, FUSED, PLAIN_TECHNIQUE, RUNS_DIR, RunSpec, StudyPlan, Technique
 
 
@@ -99,11 +99,9 @@ def run_task(task: Task) -> list[tuple[RunSpec, float]]:
                 plain, technique.name, technique.threshold or 10, COMPAT_MODES[technique.compat]
             )
         seconds = plain_seconds + time.perf_counter() - began
-        summary = {
-            **with_source(result.summary, task.cloud, task.seed, task.sensor_file),
-            "seconds": seconds,
-            "study": {"key": spec.key, "run": spec.folder.as_posix(), "pairs": task.pairs},
-        }
+        study = StudyRun(spec.key, spec.folder.as_posix(), task.pairs)
+        timed = replace(result.summary, seconds=seconds, study=study)
+        summary = with_source(timed, task.cloud, task.seed, task.sensor_file)
         result = replace(result, summary=summary)
         write_evaluation(
             task.out / spec.folder, result, heuristic, pairs_format="parquet", columns=task.pairs

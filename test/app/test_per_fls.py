@@ -80,7 +80,7 @@ def test_a_swarm_of_one_process_per_fls_solves_its_fit_as_the_engine_does(domain
     assert spawn.returncode == 0, err
     record = read_record(tmp_path / "d" / RECORD_FILE)
     assert record.identical == "yes", out
-    assert record.summary["estimator"] == "swarm-fit"
+    assert record.summary.fit.estimator == "swarm-fit"
     assert "25 FLS processes stopped, every one cleanly (exit code 0)" in err, err
 
 
@@ -94,7 +94,7 @@ def test_each_fls_process_fits_what_it_hears_as_the_engine_does(domain, tmp_path
     assert spawn.returncode == 0, err
     record = read_record(tmp_path / "d" / RECORD_FILE)
     assert record.identical == "yes", out
-    assert record.summary["estimator"] == "local-least-squares"
+    assert record.summary.fit.estimator == "local-least-squares"
     header = (tmp_path / "d" / "pairs.csv").read_text().splitlines()[0]
     assert "covariance_xx" in header and "covariance_zz" in header
 

@@ -63,7 +63,7 @@ def test_evaluate_writes_summary_and_pairs(tmp_path):
     # The run as typed data: the same summary, the run's seconds, the file's version.
     record = read_record(tmp_path / RECORD_FILE)
     assert (record.command, record.fileversion) == ("evaluate", RECORD_VERSION)
-    assert record.summary == summary and record.seconds == summary["seconds"]
+    assert record.summary.as_document() == summary and record.seconds == summary["seconds"]
     assert record.engine is None and record.distributed is None
     rows = (tmp_path / "pairs.csv").read_text().splitlines()
     assert len(rows) == summary["blind_pairs"] + 1

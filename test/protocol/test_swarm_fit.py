@@ -49,7 +49,7 @@ def test_the_swarm_s_fit_by_messages_equals_the_engine_s(shape, noisy):
     found, outcome = run(engine.hood)
     assert outcome.restarts == 0
     # The same solves, iteration for iteration.
-    assert [list(one) for one in outcome.fit_iterations] == engine.summary["fit"]["iterations"]
+    assert [tuple(one) for one in outcome.fit_iterations] == list(engine.summary.fit.iterations)
     pairs, ids = engine.pairs, world.ids
     assert len(found) == len(pairs)
     with_path = 0
@@ -90,7 +90,7 @@ def test_a_silent_fls_departs_and_the_fit_equals_the_engine_s_without_it():
     gone = without(hood, np.array([silent_index]))
     engine = refine(Evaluation(gone, "shortest-length", evaluate_pairs(gone, "shortest-length"),
                                {}), SWARM_FIT)  # fmt: skip
-    assert [list(one) for one in outcome.fit_iterations] == engine.summary["fit"]["iterations"]
+    assert [tuple(one) for one in outcome.fit_iterations] == list(engine.summary.fit.iterations)
     pairs, ids = engine.pairs, world.ids
     keep = (pairs.source != silent_index) & (pairs.target != silent_index)
     for pair in np.flatnonzero(keep & (pairs.status != NO_PATH)).tolist():

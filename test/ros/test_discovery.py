@@ -469,7 +469,7 @@ def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path,
         assert record.distributed is not None and record.distributed.rounds > 0
         assert (
             record.engine is not None
-            and record.engine["blind_pairs"] == record.summary["blind_pairs"]
+            and record.engine.pairs.blind_pairs == record.summary.pairs.blind_pairs
         )
         assert "distributed" in out and "engine" in out  # the table's two columns
         # Searched for in runs of 40 sources at most, one after the other.
@@ -583,7 +583,7 @@ def test_each_source_s_own_fit_by_the_swarm_equals_the_engine(domain, params, co
         policy = "shortest-length"
         result = swarm.discover(policy, timeout=300, estimator=LOCAL_LEAST_SQUARES)
         engine = refine(evaluate(built.swarm, built.sensor, policy), LOCAL_LEAST_SQUARES)
-        assert engine.summary["fit"]["path_fallback_pairs"] > 0
+        assert engine.summary.fit.path_fallback_pairs > 0
         assert result.departed == frozenset() and result.restarts == 0
         found, pairs, ids = by_pair(result.estimates), engine.pairs, built.ids
         assert len(found) == len(pairs)

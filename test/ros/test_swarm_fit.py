@@ -50,6 +50,6 @@ def test_a_swarm_solves_its_fit_by_messages_as_the_engine_does(domain, params):
     assert fitted > 1000
     # The run's evaluation says what made its estimates, and its NEES is the engine's.
     distributed = evaluation_of(built.hood, "shortest-length", result.estimates)
-    assert distributed.summary["estimator"] == SWARM_FIT
-    nees = distributed.summary["fit"]["nees"]["mean"]
-    assert nees == pytest.approx(engine.summary["fit"]["nees"]["mean"], rel=1e-9)
+    assert distributed.summary.fit.estimator == SWARM_FIT
+    nees = distributed.summary.fit.consistency.nees.mean
+    assert nees == pytest.approx(engine.summary.fit.consistency.nees.mean, rel=1e-9)
