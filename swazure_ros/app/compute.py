@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core.evaluate import Evaluation, evaluate
-from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, refine
+from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, check_plain_estimator, refine
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, HeuristicResult
 from ..core.results import Distributed, MovesMade, RunRecord
@@ -82,8 +82,7 @@ def compute_all(
     (``core.fit.refine(..., estimator)``). ``per_run``: the
     most sources one discovery run searches for (``RunningSwarm.discover``).
     """
-    if estimator != PATH and technique != PLAIN:
-        raise ValueError(f"the {estimator} estimator estimates plain Swazure's pairs only")
+    check_plain_estimator(estimator, technique)
     world: World = swarm.world
     result = swarm.discover(policy, on_progress=on_progress, estimator=estimator, per_run=per_run)
     if on_discovered is not None:

@@ -23,7 +23,7 @@ from ..core.blocks import (
 )
 from ..core.errors import SwazureError
 from ..core.evaluate import SILENT, Progress, evaluate
-from ..core.fit import ESTIMATORS, PATH, refine
+from ..core.fit import ESTIMATORS, PATH, check_plain_estimator, refine
 from ..core.fusion import fuse
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.folding import run_technique
@@ -154,11 +154,7 @@ def main(args: argparse.Namespace) -> int:
     progress: Progress | None = None if args.quiet else TqdmProgress()
     if args.fuse > 1 and args.technique != PLAIN:
         raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
-    if args.estimator != PATH and (args.fuse > 1 or args.technique != PLAIN):
-        raise SwazureError(
-            f"--estimator {args.estimator} estimates plain Swazure's pairs; "
-            "drop --fuse and --technique"
-        )
+    check_plain_estimator(args.estimator, args.technique, args.fuse)
     if args.compat != "text" and args.technique == PLAIN:
         raise SwazureError(f"--compat {args.compat} changes the heuristics; add --technique")
     blocked = (

@@ -29,11 +29,12 @@ from typing import Any
 
 from ..core.errors import SwazureError
 from ..core.files import config_dir
-from ..core.fit import PATH
+from ..core.fit import PATH, check_plain_estimator
 from ..core.heuristics.result import PLAIN, TECHNIQUES
 from ..ros.keys import KEY_FILE_VARIABLE
 from .arguments import (
     bag_folder,
+    check_beta_or_radius,
     count,
     discovery_servers,
     fls_pairs,
@@ -231,16 +232,12 @@ def config_from_args(args: argparse.Namespace) -> Any:
     from ..app.config import SwarmConfig, ViewConfig
     from ..ros.keys import key_from
 
-    if args.beta is None and args.radius is None:
-        raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
+    check_beta_or_radius(args.beta, args.radius)
     if not args.compute_all and (
         args.technique != PLAIN or args.estimator != PATH or args.sources_per_run is not None
     ):
         raise SwazureError("--technique, --estimator and --sources-per-run go with --compute-all")
-    if args.estimator != PATH and args.technique != PLAIN:
-        raise SwazureError(
-            f"--estimator {args.estimator} estimates plain Swazure's pairs: leave out --technique"
-        )
+    check_plain_estimator(args.estimator, args.technique)
     if args.no_key and args.key_file is not None:
         raise SwazureError("--no-key and --key-file: choose one")
     index, hosts = args.share

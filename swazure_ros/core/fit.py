@@ -24,9 +24,11 @@ from numpy.typing import NDArray
 
 from . import csr
 from .draws import standard_normals, uniforms
+from .errors import SwazureError
 from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, PairResults, summarise
 from .frames import through_metres
 from .geometry import tracking_distance
+from .heuristics.result import PLAIN
 from .measurement_graph import (
     CONVERGED_CM,
     ROBUST_ROUNDS,
@@ -59,6 +61,23 @@ IntArray = NDArray[np.int64]
 PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES = "path", "least-squares", "local-least-squares"
 SWARM_FIT = "swarm-fit"
 ESTIMATORS = (PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES, SWARM_FIT)
+
+
+def check_plain_estimator(estimator: str, technique: str = PLAIN, fuse: int = 1) -> None:
+    """A fit estimates plain Swazure's pairs alone: SwazureError naming the options
+    (``--fuse``, ``--technique``) that ask for fused paths or a heuristic's moves too."""
+    if estimator == PATH:
+        return
+    asked = [
+        name
+        for name, given in (("--fuse", fuse > 1), ("--technique", technique != PLAIN))
+        if given
+    ]
+    if asked:
+        raise SwazureError(
+            f"--estimator {estimator} estimates plain Swazure's pairs: "
+            f"leave out {' and '.join(asked)}"
+        )
 
 
 #: What a swarm's sources run: a source fits what it hears, never the whole swarm at once.

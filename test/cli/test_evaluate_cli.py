@@ -239,7 +239,7 @@ def test_the_least_squares_estimator_refuses_fusion_in_one_line():
         "--estimator", "least-squares", "--fuse", "2", "--quiet",
     )  # fmt: skip
     assert run.returncode != 0
-    assert run.stderr.strip().count("\n") == 0 and "drop --fuse" in run.stderr
+    assert run.stderr.strip().count("\n") == 0 and "leave out --fuse" in run.stderr
 
 
 def test_a_heuristic_on_a_display_that_cannot_fit_says_what_it_needs_in_one_line():
