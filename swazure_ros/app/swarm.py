@@ -26,7 +26,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from ..core.errors import SwazureError
+from ..core.errors import RunError, SwazureError
 from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import PATH
 from ..core.results import BringUp
@@ -251,7 +251,7 @@ class RunningSwarm:
             ended = [one for one in self.fls_processes.ended() if one.fls_id not in known]
             if ended and not self.ready:
                 # While it comes up, an FLS that ends has a fault to fix: stop and say which.
-                raise SwazureError(
+                raise RunError(
                     f"{ended[0].describe()} (log: {self.fls_processes.log(ended[0].fls_id)})"
                 )
             # Once up, an FLS that ends is an FLS lost, as in flight: the swarm's rounds
@@ -277,7 +277,7 @@ class RunningSwarm:
         self._on_created(sum(self._created), self.size)
         for child in self._children:
             if child.exitcode is not None and child.exitcode != 0:
-                raise SwazureError(f"{child.name} exited with code {child.exitcode}")
+                raise RunError(f"{child.name} exited with code {child.exitcode}")
 
     def wait_until_ready(self) -> BringUp:
         """Spin until every process has discovered the whole swarm; return the bring-up."""
@@ -303,7 +303,7 @@ class RunningSwarm:
                 return self.bring_up
             self._host.spin_for(0.05)
         publishers, services = self._host.discovered()
-        raise SwazureError(
+        raise RunError(
             f"swarm not discovered after {self.config.discovery_timeout:g} s: "
             f"{publishers} of {self.size} FLS publishers and {services} services visible"
             + unreached_text(self._host.unreached())
