@@ -328,7 +328,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
         print(
             f"{args.technique}: {moved.seconds:.2f} s, {moved.batches} batches, "
             f"{moved.move_commands} move commands, {moved.path_walks} path walks, "
-            f"{sum(moved.messages.values())} messages, {sum(moved.bytes.values()) / 1e6:.1f} MB"
+            f"{moved.total_messages} messages, {moved.total_bytes / 1e6:.1f} MB"
             + (f", {moved.timeouts} waits timed out" if moved.timeouts else "")
         )
     assert record.summary is not None and record.engine is not None

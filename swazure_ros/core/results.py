@@ -34,6 +34,7 @@ from .errors import OutputError, SwazureError
 from .evaluate import REASON_NAMES, STATUS_NAMES, Evaluation, Neighbourhood, PairResults
 from .heuristics.result import HeuristicResult
 from .summary import Document, Summary
+from .traffic import TopicCounts
 
 PAIRS_FILE = "pairs.csv"
 PAIRS_PARQUET_FILE = "pairs.parquet"
@@ -454,7 +455,7 @@ class BringUp:
 
 
 @dataclass(frozen=True)
-class MovesMade:
+class MovesMade(TopicCounts):
     """A heuristic's moves made by the swarm: time, batches, commands and traffic."""
 
     seconds: float
@@ -467,7 +468,7 @@ class MovesMade:
 
 
 @dataclass(frozen=True)
-class Distributed:
+class Distributed(TopicCounts):
     """A discovery run made by the swarm, and the moves after it, if any."""
 
     seconds: float
@@ -483,14 +484,14 @@ class Distributed:
     @property
     def total_messages(self) -> int:
         """Messages on every topic, discovery's and the moves'."""
-        moved = sum(self.moves.messages.values()) if self.moves is not None else 0
-        return sum(self.messages.values()) + moved
+        moved = self.moves.total_messages if self.moves is not None else 0
+        return super().total_messages + moved
 
     @property
     def total_bytes(self) -> int:
         """Bytes on every topic, discovery's and the moves'."""
-        moved = sum(self.moves.bytes.values()) if self.moves is not None else 0
-        return sum(self.bytes.values()) + moved
+        moved = self.moves.total_bytes if self.moves is not None else 0
+        return super().total_bytes + moved
 
 
 @dataclass(frozen=True)

@@ -9,13 +9,14 @@ from dataclasses import dataclass, field
 
 from ..core.evaluate import Evaluation
 from ..core.heuristics.result import HeuristicResult
+from ..core.traffic import TopicCounts
 from .discovery.estimate import Estimate
 from .moves import MoveOutcome
 from .rounds import Outcome
 
 
 @dataclass
-class Traffic:
+class Traffic(TopicCounts):
     """Messages and bytes sent during discovery, per topic."""
 
     messages: dict[str, int] = field(default_factory=dict)
@@ -43,16 +44,6 @@ class Traffic:
         for topic, messages in other.messages.items():
             total.count(topic, other.bytes.get(topic, 0), messages)
         return total
-
-    @property
-    def total_messages(self) -> int:
-        """Messages on every topic."""
-        return sum(self.messages.values())
-
-    @property
-    def total_bytes(self) -> int:
-        """Bytes on every topic (serialised payloads)."""
-        return sum(self.bytes.values())
 
 
 @dataclass
