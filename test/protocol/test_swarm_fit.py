@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from swazure_ros.core.evaluate import NO_PATH, Evaluation, evaluate, evaluate_pairs, without
+from swazure_ros.core.evaluate import (
+    NO_PATH,
+    Evaluation,
+    evaluate,
+    evaluate_pairs,
+    summarise,
+    without,
+)
 from swazure_ros.core.fit import SWARM_FIT, refine
 from swazure_ros.core.observe import observations
 from swazure_ros.core.swarm_fit import HUBER, REJECTING
@@ -88,8 +95,9 @@ def test_a_silent_fls_departs_and_the_fit_equals_the_engine_s_without_it():
     found, outcome = run(hood, stopped=[silent])
     assert outcome.departed == frozenset({silent})
     gone = without(hood, np.array([silent_index]))
-    engine = refine(Evaluation(gone, "shortest-length", evaluate_pairs(gone, "shortest-length"),
-                               {}), SWARM_FIT)  # fmt: skip
+    plain = evaluate_pairs(gone, "shortest-length")
+    summary = summarise(gone, "shortest-length", plain)
+    engine = refine(Evaluation(gone, "shortest-length", plain, summary), SWARM_FIT)
     assert [tuple(one) for one in outcome.fit_iterations] == list(engine.summary.fit.iterations)
     pairs, ids = engine.pairs, world.ids
     keep = (pairs.source != silent_index) & (pairs.target != silent_index)
