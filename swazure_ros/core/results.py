@@ -555,17 +555,21 @@ def read_record(path: Path) -> RunRecord:
     version = document.get("fileversion") if isinstance(document, dict) else None
     if version != RECORD_VERSION:
         raise SwazureError(f"{path}: record fileversion {version}, this is {RECORD_VERSION}")
-    bring_up, distributed = document.pop("bring_up"), document.pop("distributed")
-    summary, engine = document.pop("summary"), document.pop("engine")
-    if distributed is not None:
-        moves = distributed.pop("moves")
-        distributed = Distributed(
-            **distributed, moves=None if moves is None else MovesMade(**moves)
+    try:
+        bring_up, distributed = document.pop("bring_up"), document.pop("distributed")
+        summary, engine = document.pop("summary"), document.pop("engine")
+        if distributed is not None:
+            moves = distributed.pop("moves")
+            distributed = Distributed(
+                **distributed, moves=None if moves is None else MovesMade(**moves)
+            )
+        return RunRecord(
+            **document,
+            summary=Summary.from_document(summary) if summary else None,
+            engine=None if engine is None else Summary.from_document(engine),
+            bring_up=None if bring_up is None else BringUp(**bring_up),
+            distributed=distributed,
         )
-    return RunRecord(
-        **document,
-        summary=Summary.from_document(summary) if summary else None,
-        engine=None if engine is None else Summary.from_document(engine),
-        bring_up=None if bring_up is None else BringUp(**bring_up),
-        distributed=distributed,
-    )
+    except (AttributeError, KeyError, TypeError) as err:
+        # A field missing, unknown or of the wrong kind: the file is not what this reads.
+        raise SwazureError(f"{path}: not a run record ({type(err).__name__}: {err})") from err

@@ -125,6 +125,11 @@ def test_a_record_of_another_version_or_no_record_is_refused_in_one_line(tmp_pat
         read_record(tmp_path / "other.json")
     with pytest.raises(SwazureError, match="not a run record"):
         read_record(tmp_path / "missing.json")
+    # A record of this version whose summary is not one: one line, not a KeyError.
+    path = write_record(tmp_path, RunRecord("evaluate", 1.0, None))
+    path.write_text(path.read_text().replace('"summary": {}', '"summary": {"flss": 3}'))
+    with pytest.raises(SwazureError, match="not a run record"):
+        read_record(path)
 
 
 def test_a_run_that_cannot_be_written_is_one_line_and_leaves_nothing(tmp_path, sensor):
