@@ -922,7 +922,7 @@ def faults_section(args: argparse.Namespace) -> list[str]:
 
     def same(world, result, engine, gone_index=None) -> str:
         ids = world.ids
-        found = {(s, one.target): one for s, e in result.estimates.items() for one in e}
+        found = {(s, one.target): one for s, e in result.outcome.estimates.items() for one in e}
         keep = np.ones(len(engine), bool)
         if gone_index is not None:
             keep = ~np.isin(engine.source, gone_index) & ~np.isin(engine.target, gone_index)
@@ -948,11 +948,11 @@ def faults_section(args: argparse.Namespace) -> list[str]:
             engine = evaluate_pairs(running.world.hood, policy)
             began = time.monotonic()
             result = running.discover(policy, timeout=1800)
-            wall = time.monotonic() - began
+            wall, run = time.monotonic() - began, result.outcome
             lines.append(
-                f"| {label} | {wall:.1f} | {result.rounds} | {result.restarts} "
-                f"| {result.traffic.total_messages} | {result.repairs} "
-                f"| {'INCOMPLETE' if result.incomplete else same(running.world, result, engine)} |"
+                f"| {label} | {wall:.1f} | {run.rounds} | {run.restarts} "
+                f"| {result.traffic.total_messages} | {run.repairs} "
+                f"| {'INCOMPLETE' if run.incomplete else same(running.world, result, engine)} |"
             )
     # 5 % of the FLS nodes stopped once the run is under way, under a long round timeout.
     params = base + "/**/coordinator:\n  ros__parameters:\n    round_timeout: 600.0\n"
@@ -974,12 +974,12 @@ def faults_section(args: argparse.Namespace) -> list[str]:
 
         began = time.monotonic()
         result = running.run(running.coordinator.discover(policy), timeout=1800, step=stop)
-        wall = time.monotonic() - began
+        wall, run = time.monotonic() - began, result.outcome
         expected = evaluate_pairs(without(world.hood, gone_index), policy)
         lines.append(
-            f"| {len(gone)} FLS nodes (5 %) stopped mid-run | {wall:.1f} | {result.rounds} "
-            f"| {result.restarts} | {result.traffic.total_messages} | - "
-            f"| departed {len(result.departed)}; {same(world, result, expected, gone_index)} "
+            f"| {len(gone)} FLS nodes (5 %) stopped mid-run | {wall:.1f} | {run.rounds} "
+            f"| {run.restarts} | {result.traffic.total_messages} | - "
+            f"| departed {len(run.departed)}; {same(world, result, expected, gone_index)} "
             "(engine without them) |"
         )
     # The coordinator lost mid-run: how long until every source has a status.

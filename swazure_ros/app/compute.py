@@ -27,27 +27,30 @@ from .swarm import RunningSwarm
 
 
 def distributed(discovery: DiscoveryResult, moves: MoveResult | None) -> Distributed:
-    """What the swarm's runs took: time, rounds, messages and bytes per topic."""
+    """What the swarm's runs took, as the run record holds it: time, rounds, messages and
+    bytes per topic."""
     made = None
     if moves is not None:
+        moved = moves.outcome
         made = MovesMade(
             moves.seconds,
-            moves.batches,
-            moves.moved,
-            moves.walks,
-            moves.timeouts,
+            moved.batches,
+            moved.moved,
+            moved.walks,
+            moved.timeouts,
             dict(moves.traffic.messages),
             dict(moves.traffic.bytes),
         )
+    found = discovery.outcome
     return Distributed(
         discovery.seconds,
-        discovery.rounds,
-        discovery.restarts,
-        sorted(discovery.departed),
+        found.rounds,
+        found.restarts,
+        sorted(found.departed),
         dict(discovery.traffic.messages),
         dict(discovery.traffic.bytes),
-        discovery.repairs,
-        discovery.incomplete,
+        found.repairs,
+        found.incomplete,
         made,
     )
 
@@ -87,7 +90,7 @@ def compute_all(
     result = swarm.discover(policy, on_progress=on_progress, estimator=estimator, per_run=per_run)
     if on_discovered is not None:
         on_discovered(result)
-    evaluation = evaluation_of(world.hood, policy, result.estimates)
+    evaluation = evaluation_of(world.hood, policy, result.outcome.estimates)
     if swarm.view is not None:
         title = f"{world.cloud.name}, {policy}: poses found by the swarm"
         pairs = swarm.config.view.pairs if swarm.config.view else ()
@@ -97,7 +100,7 @@ def compute_all(
         if on_progress is not None:
             on_progress(f"planning {technique}")
         moved = swarm.make_moves(evaluation, technique, threshold, on_progress=on_progress)
-        evaluation, heuristic = moved.evaluation, moved.heuristic
+        evaluation, heuristic = moved.outcome.evaluation, moved.outcome.heuristic
         if swarm.view is not None:
             title = f"{world.cloud.name}, {policy}, {technique}: after the swarm's moves"
             scene = evaluation_scene(evaluation, title, heuristic=heuristic, pairs=pairs)

@@ -293,13 +293,13 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     size = f"radius {world.swarm.radius:.4g} cm" if beta is None else f"beta {beta:.4g}"
 
     def discovered(result: Any) -> None:
-        traffic = result.traffic
+        traffic, outcome = result.traffic, result.outcome
         print(
             f"{world.cloud.name}: {size}, {args.policy}: discovery "
-            f"{result.seconds:.2f} s, {result.rounds} rounds, {traffic.total_messages} "
+            f"{result.seconds:.2f} s, {outcome.rounds} rounds, {traffic.total_messages} "
             f"messages, {traffic.total_bytes / 1e6:.1f} MB"
-            + (f", {result.repairs} radio repairs" if result.repairs else "")
-            + (" - INCOMPLETE: radio deliveries lost for good" if result.incomplete else ""),
+            + (f", {outcome.repairs} radio repairs" if outcome.repairs else "")
+            + (" - INCOMPLETE: radio deliveries lost for good" if outcome.incomplete else ""),
             flush=True,
         )
 

@@ -46,7 +46,7 @@ from ..protocol.discovery.search import bucket_width
 from ..protocol.moves import Move, MoveRun, Walk
 from ..protocol.plausible import implausible_estimates
 from ..protocol.rounds import RoundClock, StallClock
-from ..protocol.runs import DiscoveryResult, MoveResult, Traffic, discovery_result, move_result
+from ..protocol.runs import DiscoveryResult, MoveResult, Traffic
 from .auth import SwarmKey, signed_at
 from .convert.discovery import (
     control_message,
@@ -332,11 +332,11 @@ class Coordinator(SwarmNode):
             self._note_departed(set(outcome.departed) - self.departed - self._back_in_run)
             self.departed = set(outcome.departed) - self._back_in_run
             self._back_in_run.clear()
-            return discovery_result(machine.run_id, machine.policy, outcome, seconds, traffic)
+            return DiscoveryResult(machine.run_id, machine.policy, outcome, seconds, traffic)
         moved = machine.outcome
         assert moved is not None
         self._asked_revision = machine.asked_revision
-        return move_result(machine.run_id, moved, seconds, traffic)
+        return MoveResult(machine.run_id, moved, seconds, traffic)
 
     def progress(self) -> str:
         """How far the running job is ("" when idle), for a person watching."""
