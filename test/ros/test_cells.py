@@ -154,7 +154,7 @@ def test_moves_that_cross_cells_made_by_two_processes_equal_the_engine(domain, p
     with RunningSwarm(config) as swarm:
         swarm.wait_until_ready()
         plain = swarm.discover(POLICY)
-        found = evaluation_of(swarm.world.hood, POLICY, plain.estimates)
+        found = evaluation_of(swarm.world.hood, POLICY, plain.outcome.estimates)
         moved = swarm.make_moves(found, technique, threshold=10, timeout=300)
         assert moved.outcome.walks == plan.resolved.sum() > 100
         assert_moves_match_engine(moved, engine, plan)
