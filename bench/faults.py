@@ -75,7 +75,7 @@ def same(world: Any, result: Any, engine: Any, gone_index: Any = None) -> str:
     import numpy as np
 
     ids = world.ids
-    found = {(s, one.target): one for s, e in result.estimates.items() for one in e}
+    found = {(s, one.target): one for s, e in result.outcome.estimates.items() for one in e}
     keep = np.ones(len(engine), bool)
     if gone_index is not None:
         keep = ~np.isin(engine.source, gone_index) & ~np.isin(engine.target, gone_index)
@@ -96,11 +96,11 @@ def radio_row(running: Any, label: str) -> str:
     engine = evaluate_pairs(running.world.hood, POLICY)
     began = time.monotonic()
     result = running.discover(POLICY, timeout=1800)
-    wall = time.monotonic() - began
+    wall, run = time.monotonic() - began, result.outcome
     return (
-        f"| {label} | {wall:.1f} | {result.rounds} | {result.restarts} "
-        f"| {result.traffic.total_messages} | {result.repairs} "
-        f"| {'INCOMPLETE' if result.incomplete else same(running.world, result, engine)} |"
+        f"| {label} | {wall:.1f} | {run.rounds} | {run.restarts} "
+        f"| {result.traffic.total_messages} | {run.repairs} "
+        f"| {'INCOMPLETE' if run.incomplete else same(running.world, result, engine)} |"
     )
 
 
@@ -127,12 +127,12 @@ def stopped_row(running: Any) -> str:
 
     began = time.monotonic()
     result = running.run(running.coordinator.discover(POLICY), timeout=1800, step=stop)
-    wall = time.monotonic() - began
+    wall, run = time.monotonic() - began, result.outcome
     expected = evaluate_pairs(without(world.hood, gone_index), POLICY)
     return (
-        f"| {len(gone)} FLS nodes (5 %) stopped mid-run | {wall:.1f} | {result.rounds} "
-        f"| {result.restarts} | {result.traffic.total_messages} | - "
-        f"| departed {len(result.departed)}; {same(world, result, expected, gone_index)} "
+        f"| {len(gone)} FLS nodes (5 %) stopped mid-run | {wall:.1f} | {run.rounds} "
+        f"| {run.restarts} | {result.traffic.total_messages} | - "
+        f"| departed {len(run.departed)}; {same(world, result, expected, gone_index)} "
         "(engine without them) |"
     )
 

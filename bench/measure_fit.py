@@ -130,8 +130,8 @@ def main() -> int:
         "one_sweet_hop_pct": float(hop_error.mean()),
         "engine_s": engine,
         "fit_s": fit_seconds,
-        "measurements": fitted.summary["fit"]["measurements"],
-        "downweighted": fitted.summary["fit"]["downweighted"],
+        "measurements": fitted.summary.fit.measurements,
+        "downweighted": fitted.summary.fit.downweighted,
     }
     for name, status in (("sweet", SWEET_PATH), ("decaying", DECAYING_PATH)):
         rows = pairs.status == status
@@ -159,7 +159,7 @@ def main() -> int:
             "turned": errors(turned.pairs.distance_error[has_path]),
             "clean_redundant": errors(fitted.pairs.distance_error[redundant]),
             "turned_redundant": errors(turned.pairs.distance_error[redundant]),
-            "downweighted": turned.summary["fit"]["downweighted"],
+            "downweighted": turned.summary.fit.downweighted,
         }
     json.dump(result, sys.stdout)
     print()

@@ -135,7 +135,9 @@ def compare_without(world: Any, result: Any, gone_ids: set[int]) -> dict[str, ob
     gone_index = np.flatnonzero(np.isin(ids, sorted(gone_ids)))
     expected = evaluate_pairs(without(world.hood, gone_index), POLICY)
     found = {
-        (source, one.target): one for source, some in result.estimates.items() for one in some
+        (source, one.target): one
+        for source, some in result.outcome.estimates.items()
+        for one in some
     }
     keep = ~np.isin(expected.source, gone_index) & ~np.isin(expected.target, gone_index)
     wrong = missing = 0
@@ -185,19 +187,21 @@ def fault_run(swarm: Any, root: Path, victims: list[int], kill_server: bool) -> 
             detected_at = time.monotonic()
 
     result = swarm.run(coordinator.discover(POLICY), timeout=600, step=step)
-    if detected_at is None and set(victims) <= set(result.departed):
+    if detected_at is None and set(victims) <= set(result.outcome.departed):
         detected_at = time.monotonic()
     record = {
         "killed": victims,
         "server_killed": kill_server,
         "seconds": result.seconds,
-        "restarts": result.restarts,
-        "departed": sorted(result.departed),
+        "restarts": result.outcome.restarts,
+        "departed": sorted(result.outcome.departed),
         "detection_s": None
         if detected_at is None or killed_at is None
         else detected_at - killed_at,
     }
-    record.update(compare_without(swarm.world, result, set(result.departed) | set(victims)))
+    record.update(
+        compare_without(swarm.world, result, set(result.outcome.departed) | set(victims))
+    )
     return record
 
 

@@ -14,10 +14,11 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..core.evaluate import Evaluation, evaluate
-from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, refine
+from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, check_plain_estimator, refine
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, HeuristicResult
-from ..files.results import Distributed, MovesMade, RunRecord, with_source
+from ..core.summary import with_source
+from ..files.results import Distributed, MovesMade, RunRecord
 from ..protocol.discovery.estimate import evaluation_of
 from ..protocol.runs import DiscoveryResult, MoveResult
 from ..sim.world import World
@@ -26,27 +27,30 @@ from .swarm import RunningSwarm
 
 
 def distributed(discovery: DiscoveryResult, moves: MoveResult | None) -> Distributed:
-    """What the swarm's runs took: time, rounds, messages and bytes per topic."""
+    """What the swarm's runs took, as the run record holds it: time, rounds, messages and
+    bytes per topic."""
     made = None
     if moves is not None:
+        moved = moves.outcome
         made = MovesMade(
             moves.seconds,
-            moves.batches,
-            moves.moved,
-            moves.walks,
-            moves.timeouts,
+            moved.batches,
+            moved.moved,
+            moved.walks,
+            moved.timeouts,
             dict(moves.traffic.messages),
             dict(moves.traffic.bytes),
         )
+    found = discovery.outcome
     return Distributed(
         discovery.seconds,
-        discovery.rounds,
-        discovery.restarts,
-        sorted(discovery.departed),
+        found.rounds,
+        found.restarts,
+        sorted(found.departed),
         dict(discovery.traffic.messages),
         dict(discovery.traffic.bytes),
-        discovery.repairs,
-        discovery.incomplete,
+        found.repairs,
+        found.incomplete,
         made,
     )
 
@@ -81,13 +85,12 @@ def compute_all(
     (``core.fit.refine(..., estimator)``). ``per_run``: the
     most sources one discovery run searches for (``RunningSwarm.discover``).
     """
-    if estimator != PATH and technique != PLAIN:
-        raise ValueError(f"the {estimator} estimator estimates plain Swazure's pairs only")
+    check_plain_estimator(estimator, technique)
     world: World = swarm.world
     result = swarm.discover(policy, on_progress=on_progress, estimator=estimator, per_run=per_run)
     if on_discovered is not None:
         on_discovered(result)
-    evaluation = evaluation_of(world.hood, policy, result.estimates)
+    evaluation = evaluation_of(world.hood, policy, result.outcome.estimates)
     if swarm.view is not None:
         title = f"{world.cloud.name}, {policy}: poses found by the swarm"
         pairs = swarm.config.view.pairs if swarm.config.view else ()
@@ -97,7 +100,7 @@ def compute_all(
         if on_progress is not None:
             on_progress(f"planning {technique}")
         moved = swarm.make_moves(evaluation, technique, threshold, on_progress=on_progress)
-        evaluation, heuristic = moved.evaluation, moved.heuristic
+        evaluation, heuristic = moved.outcome.evaluation, moved.outcome.heuristic
         if swarm.view is not None:
             title = f"{world.cloud.name}, {policy}, {technique}: after the swarm's moves"
             scene = evaluation_scene(evaluation, title, heuristic=heuristic, pairs=pairs)
@@ -110,10 +113,8 @@ def compute_all(
     engine_seconds = time.perf_counter() - began
     seconds = result.seconds + (moved.seconds if moved is not None else 0.0)
     spec = swarm.config.world
-    summary = {
-        **with_source(evaluation.summary, world.cloud, spec.seed, spec.sensor_file),
-        "seconds": seconds,
-    }
+    found = replace(evaluation.summary, seconds=seconds)
+    summary = with_source(found, world.cloud, spec.seed, spec.sensor_file)
     evaluation = replace(evaluation, summary=summary)
     record = RunRecord(
         "spawn",

@@ -17,7 +17,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Protocol
 
-from ..core.errors import SwazureError
+from ..core.errors import RunError, SwazureError
 from ..ros.programs.host import SwarmHost
 from ..ros.security.auth import SwarmKey
 from .config import SwarmConfig
@@ -107,7 +107,7 @@ class PackedShares:
                 self._peaks[index] = value
         for child in self._children:
             if child.exitcode is not None and child.exitcode != 0:
-                raise SwazureError(f"{child.name} exited with code {child.exitcode}")
+                raise RunError(f"{child.name} exited with code {child.exitcode}")
 
     def created(self, own: int, host: SwarmHost) -> int:
         return own + sum(self._created[1:])
@@ -179,7 +179,7 @@ class ProcessPerFls:
         ended = [one for one in self.fls.ended() if one.fls_id not in known]
         if ended and not up:
             # While it comes up, an FLS that ends has a fault to fix: stop and say which.
-            raise SwazureError(f"{ended[0].describe()} (log: {self.fls.log(ended[0].fls_id)})")
+            raise RunError(f"{ended[0].describe()} (log: {self.fls.log(ended[0].fls_id)})")
         for one in ended:
             self.lost.append(one)
             self._on_lost(one)

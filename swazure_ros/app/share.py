@@ -14,7 +14,7 @@ import signal
 from collections.abc import Sequence
 from typing import Any
 
-from ..core.errors import SwazureError
+from ..core.errors import RunError, SwazureError
 from ..core.geometry import Swarm
 from ..core.partition import kd_split
 from ..ros.nodes.instance import await_instance
@@ -115,7 +115,7 @@ def host_share(
         host.create_fls_nodes(lambda count: reports.put((CREATED, index, count)))
         if not host.spin_until_discovered(config.discovery_timeout):
             published, services = host.discovered()
-            raise SwazureError(
+            raise RunError(
                 f"process {index}: discovery incomplete after {config.discovery_timeout:g} s "
                 f"({published} of {swarm_size} FLS publishers, {services} services)"
                 + unreached_text(host.unreached())

@@ -23,7 +23,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from ..core.errors import SwazureError
+from ..core.errors import RunError, SwazureError
 from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import PATH
 from ..files.results import BringUp
@@ -216,7 +216,7 @@ class RunningSwarm:
                 return self.bring_up
             self._host.spin_for(0.05)
         publishers, services = self._host.discovered()
-        raise SwazureError(
+        raise RunError(
             f"swarm not discovered after {self.config.discovery_timeout:g} s: "
             f"{publishers} of {self.size} FLS publishers and {services} services visible"
             + unreached_text(self._host.unreached())

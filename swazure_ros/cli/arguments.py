@@ -13,6 +13,8 @@ import os
 from pathlib import Path
 from typing import Any
 
+from ..core.errors import CloudError
+
 #: The largest ROS domain id whose DDS ports fit (Linux; the ROS 2 "domain id" design note).
 MAX_DOMAIN_ID = 232
 #: FLS ids travel in uint32 message fields.
@@ -267,3 +269,16 @@ def input_file(text: str) -> Path:
     if not os.access(path, os.R_OK):
         raise argparse.ArgumentTypeError(f"{path}: cannot read")
     return path
+
+
+def check_beta_or_radius(beta: float | None, radius: float | None, where: str = "") -> None:
+    """One of beta or radius sizes the FLSs: CloudError when both are given, or when the
+    command line gives neither (a swarm file, named by ``where``, may leave both out)."""
+    if beta is not None and radius is not None:
+        raise CloudError(
+            f"{where}: give beta or radius, not both"
+            if where
+            else "give --beta or --radius, not both"
+        )
+    if not where and beta is None and radius is None:
+        raise CloudError("give --beta (r = beta * dmin) or --radius (cm)")

@@ -23,15 +23,15 @@ from ..core.blocks import (
 )
 from ..core.errors import SwazureError
 from ..core.evaluate import SILENT, Progress, evaluate
-from ..core.fit import ESTIMATORS, PATH, refine
+from ..core.fit import ESTIMATORS, PATH, check_plain_estimator, refine
 from ..core.fusion import fuse
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
+from ..core.summary import with_source
 from ..files.results import (
     SUMMARY_FILE,
     RunRecord,
-    with_source,
     write_json,
     write_pair_blocks,
     write_record,
@@ -154,11 +154,7 @@ def main(args: argparse.Namespace) -> int:
     progress: Progress | None = None if args.quiet else TqdmProgress()
     if args.fuse > 1 and args.technique != PLAIN:
         raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
-    if args.estimator != PATH and (args.fuse > 1 or args.technique != PLAIN):
-        raise SwazureError(
-            f"--estimator {args.estimator} estimates plain Swazure's pairs; "
-            "drop --fuse and --technique"
-        )
+    check_plain_estimator(args.estimator, args.technique, args.fuse)
     if args.compat != "text" and args.technique == PLAIN:
         raise SwazureError(f"--compat {args.compat} changes the heuristics; add --technique")
     blocked = (
@@ -201,12 +197,12 @@ def _evaluate_in_blocks(
         for _ in run.blocks(progress):
             pass
     summary = with_source(run.summary(), cloud, args.seed, args.sensor)
-    record = RunRecord("evaluate", summary["seconds"], summary)
+    record = RunRecord("evaluate", run.seconds, summary)
     print(_headline(args, cloud, swarm, sensor, record.seconds))
-    print(summary_table(record.summary))
+    print(summary_table(summary))
     if args.out is not None:
         summary_path = args.out / SUMMARY_FILE
-        write_json(summary_path, summary)
+        write_json(summary_path, summary.as_document())
         record_path = write_record(args.out, record)
         print(f"wrote {summary_path}, {pairs_path} and {record_path}")
     return 0
@@ -232,8 +228,8 @@ def _evaluate_whole(
         evaluation, heuristic = run_technique(
             evaluation, args.technique, args.threshold, COMPAT_MODES[args.compat]
         )
-        seconds = evaluation.summary["seconds"] + time.perf_counter() - began
-        evaluation = replace(evaluation, summary={**evaluation.summary, "seconds": seconds})
+        seconds = (evaluation.summary.seconds or 0.0) + time.perf_counter() - began
+        evaluation = replace(evaluation, summary=replace(evaluation.summary, seconds=seconds))
     if args.fuse > 1:
         evaluation = fuse(evaluation, args.fuse)
     if args.estimator != PATH:
@@ -244,9 +240,9 @@ def _evaluate_whole(
         progress.close()
     summary = with_source(evaluation.summary, cloud, args.seed, args.sensor)
     evaluation = replace(evaluation, summary=summary)
-    record = RunRecord("evaluate", summary["seconds"], summary)
+    record = RunRecord("evaluate", summary.seconds or 0.0, summary)
     print(_headline(args, cloud, swarm, sensor, record.seconds))
-    print(summary_table(record.summary))
+    print(summary_table(summary))
     if args.out is not None:
         summary_path, pairs_path, record_path = write_run(args.out, evaluation, record, heuristic)
         print(f"wrote {summary_path}, {pairs_path} and {record_path}")

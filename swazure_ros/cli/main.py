@@ -10,7 +10,20 @@ from collections.abc import Iterable, Sequence
 from types import ModuleType
 
 from .. import __version__
-from ..core.errors import SwazureError
+from ..core.errors import RunError, SwazureError
+
+#: Exit codes: a run that failed; the command line or its files unusable (argparse's).
+RUN_FAILED, USAGE = 1, 2
+EXIT_CODES = """\
+exit codes:
+  0    done
+  1    the run failed: a swarm stalled, a process died, no answer in time, or
+       (spawn --compute-all) the swarm's pairs are not the engine's
+  2    the command line or its files are unusable (options, clouds, sensors,
+       swarm and parameter files, an output folder)
+  130  interrupted
+  141  the reader of the output went away (a closed pipe)
+"""
 
 #: Verb name -> the first line of its module's docstring (a test keeps them equal). A
 #: verb's module, with ``add_arguments(parser)`` and ``main(args) -> int``, is imported
@@ -41,7 +54,7 @@ def verb_module(name: str) -> ModuleType:
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         """Usage errors: one line and exit code 2, like argparse, without the usage block."""
-        self.exit(2, f"{self.prog}: error: {message}\n")
+        self.exit(USAGE, f"{self.prog}: error: {message}\n")
 
 
 def build_parser(loaded: Iterable[str] | None = None) -> argparse.ArgumentParser:
@@ -49,6 +62,8 @@ def build_parser(loaded: Iterable[str] | None = None) -> argparse.ArgumentParser
     with their options."""
     parser = _Parser(
         prog="swazure",
+        epilog=EXIT_CODES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
         description=(
             "Swazure: Flying Light Specks compute their pose relative to neighbours "
             "too close for their own camera, through chains of sweet-range neighbours."
@@ -69,7 +84,8 @@ def build_parser(loaded: Iterable[str] | None = None) -> argparse.ArgumentParser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run one verb; the project's errors become one line on stderr and exit code 2."""
+    """Run one verb; the project's errors become one line on stderr and exit code 2, or 1
+    for a run that failed (:class:`~swazure_ros.core.errors.RunError`)."""
     given = list(sys.argv[1:] if argv is None else argv)
     # Only the verb named is loaded (a verb is the first word that is not an option).
     named = next((word for word in given if not word.startswith("-")), None)
@@ -77,7 +93,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(given)
     if args.verb is None:
         parser.print_help()
-        return 2
+        return USAGE
     code = _run(args)
     if getattr(args, "exit_process", False):
         # rclpy loads only for the verbs that use it: `swazure evaluate` starts faster.
@@ -93,7 +109,7 @@ def _run(args: argparse.Namespace) -> int:
         return int(args.handler(args))
     except SwazureError as err:
         print(f"swazure {args.verb}: error: {err}", file=sys.stderr)
-        return 2
+        return RUN_FAILED if isinstance(err, RunError) else USAGE
     except KeyboardInterrupt:
         print(f"swazure {args.verb}: interrupted", file=sys.stderr)
         return 130

@@ -6,7 +6,6 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING, Any
 
-from ..core.errors import CloudError
 from ..core.fit import PATH, SWARM_ESTIMATORS
 from ..core.geometry import make_swarm
 from ..core.heuristics.compat import COMPAT_MODES
@@ -15,6 +14,7 @@ from ..files.cloud_files import load_cloud
 from ..files.sensors import load_sensor
 from .arguments import (
     MAX_DOMAIN_ID,
+    check_beta_or_radius,
     domain_id,
     fls_id,
     input_file,
@@ -114,8 +114,7 @@ def add_compat_argument(parser: argparse.ArgumentParser) -> None:
 
 def swarm_from_args(args: argparse.Namespace) -> tuple[Any, Any, Any]:
     """The cloud, swarm and sensor that the swarm options describe."""
-    if args.beta is None and args.radius is None:
-        raise CloudError("give --beta (r = beta * dmin) or --radius (cm)")
+    check_beta_or_radius(args.beta, args.radius)
     sensor = load_sensor(args.sensor)
     if args.accurate:
         sensor = sensor.error_free()

@@ -28,12 +28,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..core.errors import SwazureError
-from ..core.fit import PATH
+from ..core.fit import PATH, check_plain_estimator
 from ..core.heuristics.result import PLAIN, TECHNIQUES
 from ..files.reading import config_dir
 from ..ros.security.keys import KEY_FILE_VARIABLE
 from .arguments import (
     bag_folder,
+    check_beta_or_radius,
     count,
     discovery_servers,
     fls_pairs,
@@ -266,16 +267,12 @@ def config_from_args(args: argparse.Namespace) -> Any:
     from ..app.config import SwarmConfig, ViewConfig
     from ..ros.security.keys import key_from
 
-    if args.beta is None and args.radius is None:
-        raise SwazureError("give --beta (r = beta * dmin) or --radius (cm)")
+    check_beta_or_radius(args.beta, args.radius)
     if not args.compute_all and (
         args.technique != PLAIN or args.estimator != PATH or args.sources_per_run is not None
     ):
         raise SwazureError("--technique, --estimator and --sources-per-run go with --compute-all")
-    if args.estimator != PATH and args.technique != PLAIN:
-        raise SwazureError(
-            f"--estimator {args.estimator} estimates plain Swazure's pairs: leave out --technique"
-        )
+    check_plain_estimator(args.estimator, args.technique)
     if args.no_key and args.key_file is not None:
         raise SwazureError("--no-key and --key-file: choose one")
     index, hosts = args.share
@@ -331,13 +328,13 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     size = f"radius {world.swarm.radius:.4g} cm" if beta is None else f"beta {beta:.4g}"
 
     def discovered(result: Any) -> None:
-        traffic = result.traffic
+        traffic, outcome = result.traffic, result.outcome
         print(
             f"{world.cloud.name}: {size}, {args.policy}: discovery "
-            f"{result.seconds:.2f} s, {result.rounds} rounds, {traffic.total_messages} "
+            f"{result.seconds:.2f} s, {outcome.rounds} rounds, {traffic.total_messages} "
             f"messages, {traffic.total_bytes / 1e6:.1f} MB"
-            + (f", {result.repairs} radio repairs" if result.repairs else "")
-            + (" - INCOMPLETE: radio deliveries lost for good" if result.incomplete else ""),
+            + (f", {outcome.repairs} radio repairs" if outcome.repairs else "")
+            + (" - INCOMPLETE: radio deliveries lost for good" if outcome.incomplete else ""),
             flush=True,
         )
 
@@ -366,10 +363,11 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
         print(
             f"{args.technique}: {moved.seconds:.2f} s, {moved.batches} batches, "
             f"{moved.move_commands} move commands, {moved.path_walks} path walks, "
-            f"{sum(moved.messages.values())} messages, {sum(moved.bytes.values()) / 1e6:.1f} MB"
+            f"{moved.total_messages} messages, {moved.total_bytes / 1e6:.1f} MB"
             + (f", {moved.timeouts} waits timed out" if moved.timeouts else "")
         )
-    assert record.engine is not None and record.engine_seconds is not None
+    assert record.summary is not None and record.engine is not None
+    assert record.engine_seconds is not None
     print(f"engine: {record.engine_seconds:.2f} s for the same work")
     print(summary_table(record.summary, ("engine", record.engine), heading="distributed"))
     print(
@@ -445,7 +443,9 @@ def main(args: argparse.Namespace) -> int:
                 # A served swarm's run is its bring-up: what a script reads of it.
                 from ..files.results import RunRecord, write_record
 
-                write_record(args.out, RunRecord("spawn", bring_up.seconds, {}, bring_up=bring_up))
+                write_record(
+                    args.out, RunRecord("spawn", bring_up.seconds, None, bring_up=bring_up)
+                )
             ready = True
             bar.close()
             _print_up(swarm, config, bring_up)

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import math
-from typing import Any
+
+from ..core.summary import FitFacts, HeuristicFacts, Summary
 
 #: What the rows of a run's summary mean (spec, sections 2 and 6): ``evaluate --help``.
 SUMMARY_TERMS = """\
@@ -36,95 +37,89 @@ def _share(value: float) -> str:
     return "-" if math.isnan(value) else f"{value:.1f}"
 
 
-def cell(value: Any) -> str:
+def cell(value: object) -> str:
     if isinstance(value, float):
         return "-" if math.isnan(value) else f"{value:.4g}"
     return "-" if value is None else str(value)
 
 
-def summary_rows(summary: dict[str, Any]) -> list[tuple[str, str]]:
+def summary_rows(summary: Summary) -> list[tuple[str, str]]:
     """(label, value) rows of a run's summary, as :func:`summary_table` prints them."""
+    pairs = summary.pairs
     rows = [
-        ("FLSs (removed)", f"{summary['flss']} ({summary['removed']})"),
-        ("radius r / dmin, cm", f"{summary['radius']:.4g} / {summary['dmin']:.4g}"),
-        ("kissing pairs", cell(summary["kissing_pairs"])),
-        ("ordered blind pairs", cell(summary["blind_pairs"])),
-        ("sweet path", f"{summary['sweet_pct']:.3f} %"),
-        ("decaying path", f"{summary['decaying_pct']:.3f} %"),
-        ("no path", f"{summary['no_path_pct']:.3f} %"),
-        (
-            "blocked / no sweet path",
-            f"{summary['blocked_pairs']} / {summary['no_sweet_path_pairs']}",
-        ),
-        ("obstructed sweet paths", f"{summary['obstructed_path_pct']:.2f} %"),
+        ("FLSs (removed)", f"{summary.flss} ({summary.removed})"),
+        ("radius r / dmin, cm", f"{summary.radius:.4g} / {summary.dmin:.4g}"),
+        ("kissing pairs", cell(summary.kissing_pairs)),
+        ("ordered blind pairs", cell(pairs.blind_pairs)),
+        ("sweet path", f"{pairs.sweet_pct:.3f} %"),
+        ("decaying path", f"{pairs.decaying_pct:.3f} %"),
+        ("no path", f"{pairs.no_path_pct:.3f} %"),
+        ("blocked / no sweet path", f"{pairs.blocked_pairs} / {pairs.no_sweet_path_pairs}"),
+        ("obstructed sweet paths", f"{pairs.obstructed_path_pct:.2f} %"),
         (
             "predicted error cm; within it",
-            f"{cell(summary['predicted_error_cm']['mean'])}; "
-            f"{_share(summary['within_predicted_pct'])} %",
+            f"{cell(pairs.predicted_error_cm.mean)}; {_share(pairs.within_predicted_pct)} %",
         ),
     ]
-    if "fit" in summary:
-        fit = summary["fit"]
-        kind = summary["parameters"]["sensor"]["error_model"]["kind"]
-        nees = f"{cell(fit['nees']['mean'])}; {cell(fit['within_chi2_95_pct'])} %"
-        if kind != "stochastic":
-            # The published model's error is one bias, not a spread (docs/core.md).
-            nees = "- (no noise model)"
-        rows.append(("NEES mean; within chi2 95 %", nees))
-        if "iterations" in fit:
-            solves = [count for one in fit["iterations"] for count in one]
-            rows.append(("swarm's iterations (solves)", f"{sum(solves)} ({len(solves)})"))
-    if "fusion" in summary:
-        fusion = summary["fusion"]
-        one, fused = fusion["distance_error_pct_one_path"], fusion["distance_error_pct_fused"]
+    if summary.fit is not None:
+        rows += _fit_rows(summary.fit, summary.parameters.sensor["error_model"]["kind"])
+    if summary.fusion is not None:
+        fusion = summary.fusion
+        one, fused = fusion.distance_error_pct_one_path, fusion.distance_error_pct_fused
         rows.append(
             (
-                f"fused ({fusion['paths']} paths): pairs",
-                f"{fusion['pairs_fused']}, error {cell(one['mean'])} -> {cell(fused['mean'])}",
+                f"fused ({fusion.paths} paths): pairs",
+                f"{fusion.pairs_fused}, error {cell(one.mean)} -> {cell(fused.mean)}",
             )
         )
-    if "technique" in summary:
-        moved = summary["moved_distance"]
-        rows.append(
-            ("tried / resolved pairs", f"{summary['tried_pairs']} / {summary['resolved_pairs']}")
-        )
-        per_pair, failed = summary["moved_per_resolved_pair"], summary["failed_moved_distance"]
-        rows += [
-            (
-                "moves: count, mean, max cm",
-                f"{moved['count']}, {cell(moved['mean'])}, {cell(moved['max'])}",
-            ),
-            (
-                "per resolved pair: mean, max",
-                f"{cell(per_pair['mean'])}, {cell(per_pair['max'])}",
-            ),
-            (
-                "failed pairs' moves: n, mean",
-                f"{failed['count']}, {cell(failed['mean'])}",
-            ),
-        ]
-    for key, label in [
-        ("distance_error_pct", "distance error, %"),
-        ("alpha_deg", "alpha, deg"),
-        ("theta_deg", "theta error, deg"),
-        ("phi_deg", "phi error, deg"),
-        ("hops", "hops"),
+    if summary.heuristic is not None:
+        rows += _heuristic_rows(summary.heuristic)
+    for stats, label in [
+        (pairs.distance_error_pct, "distance error, %"),
+        (pairs.alpha_deg, "alpha, deg"),
+        (pairs.theta_deg, "theta error, deg"),
+        (pairs.phi_deg, "phi error, deg"),
+        (pairs.hops, "hops"),
     ]:
-        stats = summary[key]
-        rows.append((f"{label}: mean / max", f"{cell(stats['mean'])} / {cell(stats['max'])}"))
-        if key == "distance_error_pct" and "distance_error_pct_sweet_paths" in summary:
+        rows.append((f"{label}: mean / max", f"{cell(stats.mean)} / {cell(stats.max)}"))
+        if label == "distance error, %":
             rows += [
-                (f"{kind} error, %: mean / max", f"{cell(part['mean'])} / {cell(part['max'])}")
+                (f"{kind} error, %: mean / max", f"{cell(part.mean)} / {cell(part.max)}")
                 for kind, part in (
-                    ("sweet", summary["distance_error_pct_sweet_paths"]),
-                    ("decaying", summary["distance_error_pct_decaying_paths"]),
+                    ("sweet", pairs.distance_error_pct_sweet_paths),
+                    ("decaying", pairs.distance_error_pct_decaying_paths),
                 )
             ]
     return rows
 
 
+def _fit_rows(fit: FitFacts, error_model: str) -> list[tuple[str, str]]:
+    """A fit's rows: its NEES, and the swarm's iterations for swarm-fit."""
+    nees = f"{cell(fit.consistency.nees.mean)}; {cell(fit.consistency.within_chi2_95_pct)} %"
+    if error_model != "stochastic":
+        # The published model's error is one bias, not a spread (docs/core.md).
+        nees = "- (no noise model)"
+    rows = [("NEES mean; within chi2 95 %", nees)]
+    if fit.iterations is not None:
+        solves = [count for one in fit.iterations for count in one]
+        rows.append(("swarm's iterations (solves)", f"{sum(solves)} ({len(solves)})"))
+    return rows
+
+
+def _heuristic_rows(heuristic: HeuristicFacts) -> list[tuple[str, str]]:
+    """A heuristic's rows: its pairs, moves, and the moves of the pairs it did not resolve."""
+    moved = heuristic.moved_distance
+    per_pair, failed = heuristic.moved_per_resolved_pair, heuristic.failed_moved_distance
+    return [
+        ("tried / resolved pairs", f"{heuristic.tried_pairs} / {heuristic.resolved_pairs}"),
+        ("moves: count, mean, max cm", f"{moved.count}, {cell(moved.mean)}, {cell(moved.max)}"),
+        ("per resolved pair: mean, max", f"{cell(per_pair.mean)}, {cell(per_pair.max)}"),
+        ("failed pairs' moves: n, mean", f"{failed.count}, {cell(failed.mean)}"),
+    ]
+
+
 def summary_table(
-    summary: dict[str, Any], *others: tuple[str, dict[str, Any]], heading: str = "this run"
+    summary: Summary, *others: tuple[str, Summary], heading: str = "this run"
 ) -> str:
     """A readable text table of a run's summary (``heading`` over its column, when there are
     ``others``); ``others`` add (heading, summary) columns."""

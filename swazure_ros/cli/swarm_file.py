@@ -84,8 +84,7 @@ def load_swarm_file(path: Path) -> dict[str, Any]:
     options: dict[str, Any] = {}
     for key, value in document["swarm"].items():
         options[key] = _checked(path, str(key), value)
-    if options.get("beta") is not None and options.get("radius") is not None:
-        raise SwazureError(f"{path}: give beta or radius, not both")
+    arguments.check_beta_or_radius(options.get("beta"), options.get("radius"), str(path))
     return options
 
 

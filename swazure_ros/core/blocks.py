@@ -51,6 +51,7 @@ from .neighbours import (
 from .paths import check_policy
 from .sensor import BLIND, DECAYING, SWEET, Sensor
 from .sight import Grid, build_grid, grid_of, obstructed
+from .summary import Summary
 
 IntArray = NDArray[np.int64]
 
@@ -287,11 +288,11 @@ class BlockedEvaluation:
             progress.advance(len(pairs))
             yield pairs
 
-    def summary(self) -> dict[str, object]:
+    def summary(self) -> Summary:
         """The run's summary, once every block has been made."""
         if self.tally.pairs != len(self.lean.blind):
             raise RuntimeError("the summary of a blocked evaluation needs every block made first")
-        return {**summarise(self.hood, self.policy, self.tally), "seconds": self.seconds}
+        return summarise(self.hood, self.policy, self.tally, self.seconds)
 
 
 def evaluate_blocked(

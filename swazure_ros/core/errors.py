@@ -5,6 +5,12 @@ class SwazureError(Exception):
     """Base of every error the Swazure core raises about its input."""
 
 
+class RunError(SwazureError):
+    """A run that started and could not finish: a swarm that stalled, a process that
+    died, no answer in time. The command line exits 1 for it, 2 for any other error
+    (the command line or its files are unusable)."""
+
+
 class CloudError(SwazureError, ValueError):
     """A point cloud that cannot be read or used (file, format, values)."""
 

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from .. import __version__
 from . import csr, jit
 from .geometry import Swarm
-from .metrics import describe, pose_errors
+from .metrics import NO_VALUES, Stats, pose_errors
 from .neighbours import (
     NeighbourCounts,
     NeighbourPairs,
@@ -30,7 +30,8 @@ from .neighbours import (
 from .paths import Graph, Paths, check_policy, make_graph, path_hops, shortest_paths
 from .sensor import DECAYING, SWEET, Sensor, expected_error, hop_error, measured_vectors
 from .sight import Grid, build_grid, obstructed, obstructers, segments_near
-from .tally import SKETCH_RELATIVE_ERROR, IntegerTally, RealTally
+from .summary import FitFacts, FusionFacts, HeuristicFacts, PairStatistics, Parameters, Summary
+from .tally import IntegerTally, RealTally
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
@@ -274,7 +275,7 @@ class Evaluation:
     hood: Neighbourhood
     policy: str
     pairs: PairResults
-    summary: dict[str, Any]
+    summary: Summary
 
 
 def merge_paths(first: Paths, second: Paths, use_second: NDArray[np.bool_]) -> Paths:
@@ -664,86 +665,84 @@ class PairTally:
         self.known_predictions += int(known.sum())
         self.within_predicted += int((error <= pairs.predicted_error[known]).sum())
 
-    def fields(self) -> dict[str, Any]:
+    def statistics(self) -> PairStatistics:
         """The summary's per-pair fields (spec, section 6)."""
         total, count = self.pairs, self.counts.get
         described = {name: tally.describe() for name, tally in self.reals.items()}
         described |= {name: tally.describe() for name, tally in self.integers.items()}
-        empty = describe([])
+
+        def stats(name: str) -> Stats:
+            return described.get(name, NO_VALUES)
+
         obstructing = self.integers.get("obstructing_flss_per_path", IntegerTally()).counts
-        return {
-            "blind_pairs": total,
-            "sweet_pairs": count("sweet", 0),
-            "decaying_pairs": count("decaying", 0),
-            "no_path_pairs": count("no_path", 0),
-            "sweet_pct": _pct(count("sweet", 0), total),
-            "decaying_pct": _pct(count("decaying", 0), total),
-            "no_path_pct": _pct(count("no_path", 0), total),
-            "blocked_pairs": count("blocked", 0),
-            "no_sweet_path_pairs": count("no_sweet_path", 0),
-            "distance_error_pct": described.get("distance_error_pct", empty),
-            # By class of pair: a decaying hop's error is far larger, and a mean over both
-            # hides the sweet pairs' (a fit's 1.2 % mean could be 0.01 % and 3.9 %).
-            "distance_error_pct_sweet_paths": described.get(
-                "distance_error_pct_sweet_paths", empty
-            ),
-            "distance_error_pct_decaying_paths": described.get(
-                "distance_error_pct_decaying_paths", empty
-            ),
-            "alpha_deg": described.get("alpha_deg", empty),
-            "theta_deg": described.get("theta_deg", empty),
-            "phi_deg": described.get("phi_deg", empty),
-            "hops": described.get("hops", empty),
-            "hops_sweet_paths": described.get("hops_sweet_paths", empty),
-            "hops_decaying_paths": described.get("hops_decaying_paths", empty),
-            "sweet_connected_pairs": count("sweet_connected", 0),
-            "obstructed_path_pct": _pct(count("obstructed", 0), count("sweet_connected", 0)),
-            "obstructing_flss_per_path": described.get("obstructing_flss_per_path", empty),
-            "predicted_error_cm": described.get("predicted_error_cm", empty),
-            # How often the estimate's error is within its predicted error (section "Fusion").
-            "within_predicted_pct": (
+        return PairStatistics(
+            blind_pairs=total,
+            sweet_pairs=count("sweet", 0),
+            decaying_pairs=count("decaying", 0),
+            no_path_pairs=count("no_path", 0),
+            sweet_pct=_pct(count("sweet", 0), total),
+            decaying_pct=_pct(count("decaying", 0), total),
+            no_path_pct=_pct(count("no_path", 0), total),
+            blocked_pairs=count("blocked", 0),
+            no_sweet_path_pairs=count("no_sweet_path", 0),
+            distance_error_pct=stats("distance_error_pct"),
+            distance_error_pct_sweet_paths=stats("distance_error_pct_sweet_paths"),
+            distance_error_pct_decaying_paths=stats("distance_error_pct_decaying_paths"),
+            alpha_deg=stats("alpha_deg"),
+            theta_deg=stats("theta_deg"),
+            phi_deg=stats("phi_deg"),
+            hops=stats("hops"),
+            hops_sweet_paths=stats("hops_sweet_paths"),
+            hops_decaying_paths=stats("hops_decaying_paths"),
+            sweet_connected_pairs=count("sweet_connected", 0),
+            obstructed_path_pct=_pct(count("obstructed", 0), count("sweet_connected", 0)),
+            obstructing_flss_per_path=stats("obstructing_flss_per_path"),
+            predicted_error_cm=stats("predicted_error_cm"),
+            within_predicted_pct=(
                 _pct(self.within_predicted, self.known_predictions)
                 if self.known_predictions
                 else float("nan")
             ),
-            # Counts of obstructed paths by their number of obstructing FLSs (index = number),
-            # so that box plots and quantiles can be drawn without the per-pair file.
-            "obstructing_flss_histogram": obstructing.tolist(),
-            # Exact, or sketched past the tally's bound (core.tally).
-            "quantiles": "exact"
-            if all(tally.exact for tally in self.reals.values())
-            else f"sketched, relative error {SKETCH_RELATIVE_ERROR:g}",
-        }
+            obstructing_flss_histogram=tuple(obstructing.tolist()),
+            quantiles="exact" if all(one.exact for one in self.reals.values()) else "sketched",
+        )
 
 
-def summarise(hood: Neighbourhood, policy: str, pairs: PairResults | PairTally) -> dict[str, Any]:
-    """The run's metrics (spec, section 6) as a JSON-ready dict, from its pairs or their tally."""
+def summarise(
+    hood: Neighbourhood,
+    policy: str,
+    pairs: PairResults | PairTally,
+    seconds: float | None = None,
+    heuristic: HeuristicFacts | None = None,
+    fusion: FusionFacts | None = None,
+    fit: FitFacts | None = None,
+) -> Summary:
+    """The run's metrics (spec, section 6), from its pairs or their tally; ``seconds``, s,
+    and a heuristic's, fusion's or fit's facts as the stage that made the pairs gives them."""
     if isinstance(pairs, PairResults):
         tally = PairTally()
         tally.add(pairs)
         pairs = tally
     swarm, sensor = hood.swarm, hood.sensor
     neighbours = hood.counts
-    return {
-        "flss": swarm.size,
-        "cloud_points": swarm.size + swarm.removed,
-        "removed": swarm.removed,
-        "radius": swarm.radius,
-        "dmin": swarm.dmin,
-        "beta": swarm.beta,
-        "kissing_pairs": neighbours.kissing,
-        "sweet_neighbour_pairs": neighbours.sweet,
-        "decaying_neighbour_pairs": neighbours.decaying,
-        **pairs.fields(),
-        "parameters": {
-            "policy": policy,
-            "beta": swarm.beta,
-            "radius": swarm.radius,
-            "sensor": sensor.to_dict(),
-            "accurate": sensor.accurate,
-        },
-        "version": __version__,
-    }
+    return Summary(
+        flss=swarm.size,
+        cloud_points=swarm.size + swarm.removed,
+        removed=swarm.removed,
+        radius=swarm.radius,
+        dmin=swarm.dmin,
+        beta=swarm.beta,
+        kissing_pairs=neighbours.kissing,
+        sweet_neighbour_pairs=neighbours.sweet,
+        decaying_neighbour_pairs=neighbours.decaying,
+        pairs=pairs.statistics(),
+        parameters=Parameters(policy, swarm.beta, swarm.radius, sensor.to_dict(), sensor.accurate),
+        version=__version__,
+        seconds=seconds,
+        heuristic=heuristic,
+        fusion=fusion,
+        fit=fit,
+    )
 
 
 def evaluate(
@@ -754,6 +753,6 @@ def evaluate(
     began = time.perf_counter()
     hood = neighbourhood(swarm, sensor, progress)
     pairs = evaluate_pairs(hood, policy, progress)
-    summary = summarise(hood, policy, pairs)
-    summary["seconds"] = time.perf_counter() - began
-    return Evaluation(hood, policy, pairs, summary)
+    return Evaluation(
+        hood, policy, pairs, summarise(hood, policy, pairs, time.perf_counter() - began)
+    )

@@ -24,9 +24,11 @@ from numpy.typing import NDArray
 
 from . import csr
 from .draws import standard_normals, uniforms
+from .errors import SwazureError
 from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, PairResults, summarise
 from .frames import through_metres
 from .geometry import tracking_distance
+from .heuristics.result import PLAIN
 from .measurement_graph import (
     CONVERGED_CM,
     ROBUST_ROUNDS,
@@ -47,6 +49,7 @@ from .sensor import (
     measured_vectors,
     unbiased_vectors,
 )
+from .summary import Consistency, FitFacts
 from .swarm_fit import swarm_solve
 
 FloatArray = NDArray[np.float64]
@@ -58,6 +61,25 @@ IntArray = NDArray[np.int64]
 PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES = "path", "least-squares", "local-least-squares"
 SWARM_FIT = "swarm-fit"
 ESTIMATORS = (PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES, SWARM_FIT)
+
+
+def check_plain_estimator(estimator: str, technique: str = PLAIN, fuse: int = 1) -> None:
+    """A fit estimates plain Swazure's pairs alone: SwazureError naming the options
+    (``--fuse``, ``--technique``) that ask for fused paths or a heuristic's moves too."""
+    if estimator == PATH:
+        return
+    asked = [
+        name
+        for name, given in (("--fuse", fuse > 1), ("--technique", technique != PLAIN))
+        if given
+    ]
+    if asked:
+        raise SwazureError(
+            f"--estimator {estimator} estimates plain Swazure's pairs: "
+            f"leave out {' and '.join(asked)}"
+        )
+
+
 #: What a swarm's sources run: a source fits what it hears, never the whole swarm at once.
 SWARM_ESTIMATORS = (PATH, LOCAL_LEAST_SQUARES, SWARM_FIT)
 #: A round factors its normal matrix anew when more than this share of the weights
@@ -573,18 +595,18 @@ def normalized_errors(error: FloatArray, covariance: FloatArray) -> FloatArray:
     return out
 
 
-def consistency(pairs: PairResults) -> dict[str, Any]:
+def consistency(pairs: PairResults) -> Consistency:
     """How honest ``pairs``' covariances are: their NEES, and how often it is within chi2 95 %."""
     if pairs.covariance is None:
         raise ValueError("these pairs' estimator gives no covariance")
     nees = normalized_errors(pairs.estimate - pairs.truth, pairs.covariance)
     known = np.isfinite(nees)
-    return {
-        "nees": describe(nees[known]),
-        "within_chi2_95_pct": float(100.0 * (nees[known] <= CHI2_95_3DOF).mean())
+    return Consistency(
+        nees=describe(nees[known]),
+        within_chi2_95_pct=float(100.0 * (nees[known] <= CHI2_95_3DOF).mean())
         if known.any()
         else float("nan"),
-    }
+    )
 
 
 def local_estimates(
@@ -665,7 +687,8 @@ def refine(
     pairs = evaluation.pairs
     has_path = pairs.status != NO_PATH
     arguments = (evaluation.hood, pairs.source, pairs.target, pairs.status == SWEET_PATH)
-    window_facts: dict[str, Any] = {}
+    window_flss = window_ms = None
+    fallback_pairs = None
     if local:
         result, seconds, sizes = local_estimates(*arguments, robust, corrupt)
         # A target the window does not join to its source gets its path's sum.
@@ -674,29 +697,26 @@ def refine(
             fallback, fallback_cov = path_estimates(evaluation.hood, pairs)
             result.estimate[beyond] = fallback[beyond]
             result.covariance[beyond] = fallback_cov[beyond]
-        window_facts = {
-            "window_flss": describe(sizes.astype(np.float64)),
-            "window_ms": describe(1000.0 * seconds),
-            "path_fallback_pairs": int(beyond.sum()),
-        }
+        window_flss, window_ms = describe(sizes.astype(np.float64)), describe(1000.0 * seconds)
+        fallback_pairs = int(beyond.sum())
     else:
         result = fit_pairs_estimates(*arguments, robust, corrupt, swarm=estimator == SWARM_FIT)
     estimate = np.where(has_path[:, None], result.estimate, np.nan)
     covariance = np.where(has_path[:, None, None], result.covariance, np.nan)
     predicted = np.sqrt(np.trace(covariance, axis1=1, axis2=2))
     updated = pairs.with_estimates(estimate, predicted_error=predicted, covariance=covariance)
-    if estimator == SWARM_FIT:
-        window_facts = {"iterations": [list(one) for one in result.iterations]}
-    summary = summarise(evaluation.hood, evaluation.policy, updated)
-    summary["seconds"] = (evaluation.summary.get("seconds") or 0.0) + result.seconds
-    summary["estimator"] = estimator
-    summary["fit"] = {
-        **window_facts,
-        "robust": robust,
-        "measurements": result.measurements,
-        "downweighted": result.downweighted,
-        **consistency(updated),
-        "seconds": result.seconds,
-    }
-    summary["parameters"]["estimator"] = estimator
+    fit = FitFacts(
+        estimator,
+        consistency(updated),
+        window_flss=window_flss,
+        window_ms=window_ms,
+        path_fallback_pairs=fallback_pairs,
+        iterations=tuple(result.iterations) if estimator == SWARM_FIT else None,
+        robust=robust,
+        measurements=result.measurements,
+        downweighted=result.downweighted,
+        seconds=result.seconds,
+    )
+    took = (evaluation.summary.seconds or 0.0) + result.seconds
+    summary = summarise(evaluation.hood, evaluation.policy, updated, took, fit=fit)
     return replace(evaluation, pairs=updated, summary=summary)

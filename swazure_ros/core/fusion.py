@@ -28,6 +28,7 @@ from .evaluate import SWEET_PATH, Evaluation, estimates, summarise, summed_hop_e
 from .metrics import describe
 from .paths import Paths, avoiding_paths
 from .sensor import Sensor
+from .summary import FusionFacts
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -129,15 +130,15 @@ def fuse(evaluation: Evaluation, count: int) -> Evaluation:
         estimate, predicted_error=predicted_error, fused_paths=fused_paths
     )
     several = fused_paths >= 2
-    summary = summarise(hood, evaluation.policy, updated)
-    summary["seconds"] = evaluation.summary.get("seconds")
-    summary["fusion"] = {
-        "paths": count,
-        "pairs_fused": int(several.sum()),
-        "paths_per_pair": np.bincount(fused_paths[sweet], minlength=count + 1).tolist(),
-        "distance_error_pct_one_path": describe(pairs.distance_error[several]),
-        "distance_error_pct_fused": describe(updated.distance_error[several]),
-        "seconds": time.perf_counter() - began,
-    }
-    summary["parameters"]["fuse"] = count
+    fusion = FusionFacts(
+        paths=count,
+        pairs_fused=int(several.sum()),
+        paths_per_pair=tuple(np.bincount(fused_paths[sweet], minlength=count + 1).tolist()),
+        distance_error_pct_one_path=describe(pairs.distance_error[several]),
+        distance_error_pct_fused=describe(updated.distance_error[several]),
+        seconds=time.perf_counter() - began,
+    )
+    summary = summarise(
+        hood, evaluation.policy, updated, evaluation.summary.seconds, fusion=fusion
+    )
     return replace(evaluation, pairs=updated, summary=summary)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import asdict, dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -72,17 +72,37 @@ def pose_errors(
         )
 
 
-def describe(values: ArrayLike) -> dict[str, Any]:
+@dataclass(frozen=True)
+class Stats:
+    """Mean, max and quantiles of some values, in their unit; None when there are none."""
+
+    mean: float | None
+    max: float | None
+    p50: float | None
+    p90: float | None
+    p99: float | None
+    count: int
+
+    def as_document(self) -> dict[str, float | None]:
+        """The JSON object summary.json holds for these statistics."""
+        return asdict(self)
+
+
+#: The statistics of no values.
+NO_VALUES = Stats(None, None, None, None, None, 0)
+
+
+def describe(values: ArrayLike) -> Stats:
     """Mean, max and quantiles of ``values`` as plain floats (None when empty)."""
     values = np.asarray(values, dtype=np.float64)
     if len(values) == 0:
-        return {"mean": None, "max": None, "p50": None, "p90": None, "p99": None, "count": 0}
+        return NO_VALUES
     p50, p90, p99 = np.percentile(values, [50, 90, 99])
-    return {
-        "mean": float(values.mean()),
-        "max": float(values.max()),
-        "p50": float(p50),
-        "p90": float(p90),
-        "p99": float(p99),
-        "count": len(values),
-    }
+    return Stats(
+        mean=float(values.mean()),
+        max=float(values.max()),
+        p50=float(p50),
+        p90=float(p90),
+        p99=float(p99),
+        count=len(values),
+    )

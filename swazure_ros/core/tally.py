@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .metrics import describe
+from .metrics import Stats, describe
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -67,7 +67,7 @@ class IntegerTally:
         else:
             self.counts[: len(found)] += found
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> Stats:
         """As :func:`.metrics.describe` of every value added."""
         count = int(self.counts.sum())
         if count == 0:
@@ -79,14 +79,14 @@ class IntegerTally:
             return float(values[np.searchsorted(ends, rank, side="right")])
 
         p50, p90, p99 = _from_order(order_statistic, count)
-        return {
-            "mean": float(np.dot(self.counts, values)) / count,
-            "max": float(np.flatnonzero(self.counts)[-1]),
-            "p50": p50,
-            "p90": p90,
-            "p99": p99,
-            "count": count,
-        }
+        return Stats(
+            mean=float(np.dot(self.counts, values)) / count,
+            max=float(np.flatnonzero(self.counts)[-1]),
+            p50=p50,
+            p90=p90,
+            p99=p99,
+            count=count,
+        )
 
 
 @dataclass
@@ -137,7 +137,7 @@ class RealTally:
         for key, number in zip(keys.tolist(), counts.tolist(), strict=True):
             self.buckets[key] = self.buckets.get(key, 0) + number
 
-    def describe(self) -> dict[str, Any]:
+    def describe(self) -> Stats:
         """As :func:`.metrics.describe` of every value added (quantiles sketched if not exact)."""
         if self.count == 0:
             return describe([])
@@ -145,14 +145,7 @@ class RealTally:
             return describe(np.concatenate(self.kept))
         if self.unknown:
             nan = float("nan")
-            return {
-                "mean": nan,
-                "max": nan,
-                "p50": nan,
-                "p90": nan,
-                "p99": nan,
-                "count": self.count,
-            }
+            return Stats(mean=nan, max=nan, p50=nan, p90=nan, p99=nan, count=self.count)
         keys = np.array(sorted(self.buckets), dtype=np.int64)
         ends = self.zeros + np.cumsum([self.buckets[key] for key in keys.tolist()])
         # The middle of bucket i, (gamma^(i-1), gamma^i], in relative terms.
@@ -164,11 +157,11 @@ class RealTally:
             return min(float(middles[np.searchsorted(ends, rank, side="right")]), self.largest)
 
         p50, p90, p99 = _from_order(order_statistic, self.count)
-        return {
-            "mean": math.fsum(self.sums) / self.count,
-            "max": self.largest,
-            "p50": p50,
-            "p90": p90,
-            "p99": p99,
-            "count": self.count,
-        }
+        return Stats(
+            mean=math.fsum(self.sums) / self.count,
+            max=self.largest,
+            p50=p50,
+            p90=p90,
+            p99=p99,
+            count=self.count,
+        )

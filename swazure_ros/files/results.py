@@ -24,16 +24,17 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any, BinaryIO
 
 import numpy as np
 
-from ..core.clouds import Cloud
 from ..core.errors import OutputError, SwazureError
 from ..core.evaluate import REASON_NAMES, STATUS_NAMES, Evaluation, Neighbourhood, PairResults
 from ..core.heuristics.result import HeuristicResult
+from ..core.summary import Document, Summary
+from ..core.traffic import TopicCounts
 
 PAIRS_FILE = "pairs.csv"
 PAIRS_PARQUET_FILE = "pairs.parquet"
@@ -167,7 +168,7 @@ def finite_json(value: Any) -> Any:
     return value
 
 
-def write_json(path: Path, document: dict[str, Any]) -> None:
+def write_json(path: Path, document: Document) -> None:
     """Write ``document`` as indented JSON (non-finite numbers as null), atomically."""
     text = json.dumps(finite_json(document), indent=2, allow_nan=False) + "\n"
     atomic_write(path, lambda tmp: tmp.write_text(text))
@@ -186,7 +187,8 @@ def _id_lists(offsets: Any, ids: Any, as_text: bool) -> Any:
 
 
 def pairs_table(
-    evaluation: Evaluation,
+    hood: Neighbourhood,
+    pairs: PairResults,
     heuristic: HeuristicResult | None = None,
     as_text: bool = True,
     columns: str = FULL_PAIRS,
@@ -203,8 +205,7 @@ def pairs_table(
 
     if columns not in PAIR_COLUMNS:
         raise ValueError(f"columns must be one of {PAIR_COLUMNS}, got {columns!r}")
-    pairs = evaluation.pairs
-    ids = evaluation.hood.swarm.cloud_index
+    ids = hood.swarm.cloud_index
     table = {
         "source": ids[pairs.source],
         "target": ids[pairs.target],
@@ -327,7 +328,9 @@ def write_evaluation(
     """
     if pairs_format not in PAIRS_FORMATS:
         raise ValueError(f"pairs_format must be one of {PAIRS_FORMATS}, got {pairs_format!r}")
-    table = pairs_table(evaluation, heuristic, pairs_format == "csv", columns)
+    table = pairs_table(
+        evaluation.hood, evaluation.pairs, heuristic, pairs_format == "csv", columns
+    )
     if pairs_format == "csv":
         pairs_path = directory / PAIRS_FILE
         atomic_write(pairs_path, lambda tmp: write_csv(table, tmp))
@@ -342,7 +345,7 @@ def write_evaluation(
             ),
         )
     summary_path = directory / SUMMARY_FILE
-    write_json(summary_path, evaluation.summary)
+    write_json(summary_path, evaluation.summary.as_document())
     return summary_path, pairs_path
 
 
@@ -369,13 +372,10 @@ def write_pair_blocks(
         if pairs_format == "csv":
             with open(temporary, "wb") as out:
                 for number, pairs in enumerate(blocks):
-                    table = pairs_table(Evaluation(hood, policy, pairs, {}), None, True, columns)
+                    table = pairs_table(hood, pairs, None, True, columns)
                     write_csv(table, out, header=number == 0)
             return path
-        tables = (
-            pairs_table(Evaluation(hood, policy, pairs, {}), None, False, columns)
-            for pairs in blocks
-        )
+        tables = (pairs_table(hood, pairs, None, False, columns) for pairs in blocks)
         first = next(tables)
         with pq.ParquetWriter(str(temporary), first.schema, compression="zstd") as writer:
             for group in _row_groups(itertools.chain([first], tables), PARQUET_ROWS):
@@ -405,21 +405,6 @@ def _row_groups(tables: Iterator[Any], rows: int) -> Iterator[Any]:
         yield pa.concat_tables(pending).combine_chunks()
 
 
-def with_source(
-    summary: dict[str, Any], cloud: Cloud, seed: int, sensor_file: str | Path | None
-) -> dict[str, Any]:
-    """``summary`` with where the run's swarm came from in its ``parameters``: a new dict."""
-    parameters = {
-        **summary["parameters"],
-        "cloud": cloud.name,
-        "cloud_source": cloud.source,
-        "scale": cloud.scale,
-        "seed": seed,
-        "sensor_file": str(sensor_file or "config/sensor.yaml"),
-    }
-    return {**summary, "parameters": parameters}
-
-
 @dataclass(frozen=True)
 class BringUp:
     """What bringing a swarm up took."""
@@ -436,7 +421,7 @@ class BringUp:
 
 
 @dataclass(frozen=True)
-class MovesMade:
+class MovesMade(TopicCounts):
     """A heuristic's moves made by the swarm: time, batches, commands and traffic."""
 
     seconds: float
@@ -449,7 +434,7 @@ class MovesMade:
 
 
 @dataclass(frozen=True)
-class Distributed:
+class Distributed(TopicCounts):
     """A discovery run made by the swarm, and the moves after it, if any."""
 
     seconds: float
@@ -465,14 +450,14 @@ class Distributed:
     @property
     def total_messages(self) -> int:
         """Messages on every topic, discovery's and the moves'."""
-        moved = sum(self.moves.messages.values()) if self.moves is not None else 0
-        return sum(self.messages.values()) + moved
+        moved = self.moves.total_messages if self.moves is not None else 0
+        return super().total_messages + moved
 
     @property
     def total_bytes(self) -> int:
         """Bytes on every topic, discovery's and the moves'."""
-        moved = sum(self.moves.bytes.values()) if self.moves is not None else 0
-        return sum(self.bytes.values()) + moved
+        moved = self.moves.total_bytes if self.moves is not None else 0
+        return super().total_bytes + moved
 
 
 @dataclass(frozen=True)
@@ -481,19 +466,30 @@ class RunRecord:
 
     command: str  # the swazure verb that ran: "evaluate" or "spawn"
     seconds: float  # the run's computation, s (a swarm's: discovery and moves)
-    summary: dict[str, Any]  # the evaluation's summary, as summary.json holds it
-    engine: dict[str, Any] | None = None  # the core engine's summary of the same work
+    summary: Summary | None  # the evaluation's (None: a swarm brought up, no run)
+    engine: Summary | None = None  # the core engine's summary of the same work
     engine_seconds: float | None = None
     identical: str | None = None  # "yes", or "no: " and what differs from the engine
     bring_up: BringUp | None = None
     distributed: Distributed | None = None
     fileversion: int = RECORD_VERSION
 
+    def as_document(self) -> Document:
+        """What record.json holds: each summary as summary.json holds it."""
+        document: Document = {one.name: getattr(self, one.name) for one in fields(self)}
+        # A swarm only brought up has no run: its record's summary is empty.
+        document["summary"] = {} if self.summary is None else self.summary.as_document()
+        document["engine"] = None if self.engine is None else self.engine.as_document()
+        for name in ("bring_up", "distributed"):
+            if document[name] is not None:
+                document[name] = asdict(document[name])
+        return document
+
 
 def write_record(directory: Path, record: RunRecord) -> Path:
     """Write ``record`` as ``directory/record.json``, atomically; return its path."""
     path = directory / RECORD_FILE
-    write_json(path, asdict(record))
+    write_json(path, record.as_document())
     return path
 
 
@@ -525,14 +521,21 @@ def read_record(path: Path) -> RunRecord:
     version = document.get("fileversion") if isinstance(document, dict) else None
     if version != RECORD_VERSION:
         raise SwazureError(f"{path}: record fileversion {version}, this is {RECORD_VERSION}")
-    bring_up, distributed = document.pop("bring_up"), document.pop("distributed")
-    if distributed is not None:
-        moves = distributed.pop("moves")
-        distributed = Distributed(
-            **distributed, moves=None if moves is None else MovesMade(**moves)
+    try:
+        bring_up, distributed = document.pop("bring_up"), document.pop("distributed")
+        summary, engine = document.pop("summary"), document.pop("engine")
+        if distributed is not None:
+            moves = distributed.pop("moves")
+            distributed = Distributed(
+                **distributed, moves=None if moves is None else MovesMade(**moves)
+            )
+        return RunRecord(
+            **document,
+            summary=Summary.from_document(summary) if summary else None,
+            engine=None if engine is None else Summary.from_document(engine),
+            bring_up=None if bring_up is None else BringUp(**bring_up),
+            distributed=distributed,
         )
-    return RunRecord(
-        **document,
-        bring_up=None if bring_up is None else BringUp(**bring_up),
-        distributed=distributed,
-    )
+    except (AttributeError, KeyError, TypeError) as err:
+        # A field missing, unknown or of the wrong kind: the file is not what this reads.
+        raise SwazureError(f"{path}: not a run record ({type(err).__name__}: {err})") from err

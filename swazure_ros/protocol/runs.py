@@ -7,15 +7,14 @@ import itertools
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from ..core.evaluate import Evaluation
-from ..core.heuristics.result import HeuristicResult
+from ..core.traffic import TopicCounts
 from .discovery.estimate import Estimate
 from .moves import MoveOutcome
 from .rounds import Outcome
 
 
 @dataclass
-class Traffic:
+class Traffic(TopicCounts):
     """Messages and bytes sent during discovery, per topic."""
 
     messages: dict[str, int] = field(default_factory=dict)
@@ -44,64 +43,28 @@ class Traffic:
             total.count(topic, other.bytes.get(topic, 0), messages)
         return total
 
-    @property
-    def total_messages(self) -> int:
-        """Messages on every topic."""
-        return sum(self.messages.values())
 
-    @property
-    def total_bytes(self) -> int:
-        """Bytes on every topic (serialised payloads)."""
-        return sum(self.bytes.values())
-
-
-@dataclass
+@dataclass(frozen=True)
 class DiscoveryResult:
-    """One discovery run: every source's estimates and what it took."""
+    """One discovery run: how its round clock ended (every source's estimates, rounds,
+    restarts, departures), and what it took."""
 
     run_id: int
     policy: str
-    estimates: dict[int, Sequence[Estimate]]  # source id -> estimates
-    departed: frozenset[int]
-    rounds: int
-    restarts: int
+    outcome: Outcome
     seconds: float
     traffic: Traffic
-    repairs: int = 0  # a lossy radio's repair requests and resends
-    incomplete: bool = False  # deliveries kept being lost: no estimates, not wrong ones
 
 
-@dataclass
+@dataclass(frozen=True)
 class MoveResult:
-    """A heuristic made by the swarm: the evaluation after it and what it took."""
+    """A heuristic made by the swarm: how its move run ended (the evaluation after it,
+    batches, commands), and what it took."""
 
     run_id: int
-    evaluation: Evaluation  # the plain run with the resolved pairs made SWEET
-    heuristic: HeuristicResult  # the engine's plan, resolved where the walk arrived
-    batches: int
-    moved: int  # move commands sent, returns included
-    walks: int
+    outcome: MoveOutcome
     seconds: float
     traffic: Traffic
-    timeouts: int = 0  # waits that ended at their deadline (each cost round_timeout s)
-
-
-def discovery_result(
-    run_id: int, policy: str, outcome: Outcome, seconds: float, traffic: Traffic
-) -> DiscoveryResult:
-    """The result of a round clock's run ``run_id`` that ended in ``outcome``."""
-    return DiscoveryResult(
-        run_id,
-        policy,
-        outcome.estimates,
-        outcome.departed,
-        outcome.rounds,
-        outcome.restarts,
-        seconds,
-        traffic,
-        outcome.repairs,
-        outcome.incomplete,
-    )
 
 
 #: What one label costs an FLS in a discovery run, bytes: its costs, vector, path
@@ -135,36 +98,22 @@ def source_blocks(fls_ids: Iterable[int], per_run: int) -> list[tuple[int, ...]]
 
 def merged(results: Sequence[DiscoveryResult]) -> DiscoveryResult:
     """The runs of one discovery's source blocks as one run (the first's id)."""
-    first, last = results[0], results[-1]
+    first = results[0]
+    outcomes = [result.outcome for result in results]
     estimates: dict[int, Sequence[Estimate]] = {}
     traffic = Traffic()
     for result in results:
-        estimates.update(result.estimates)
+        estimates.update(result.outcome.estimates)
         traffic = traffic.plus(result.traffic)
-    return DiscoveryResult(
-        first.run_id,
-        first.policy,
+    outcome = Outcome(
         estimates,  # an incomplete block's are none; the others' stand
-        last.departed,
-        sum(r.rounds for r in results),
-        sum(r.restarts for r in results),
-        sum(r.seconds for r in results),
-        traffic,
-        sum(r.repairs for r in results),
-        any(r.incomplete for r in results),
+        outcomes[-1].departed,
+        sum(one.rounds for one in outcomes),
+        sum(one.restarts for one in outcomes),
+        tuple(itertools.chain.from_iterable(one.warnings for one in outcomes)),
+        sum(one.repairs for one in outcomes),
+        any(one.incomplete for one in outcomes),
+        tuple(itertools.chain.from_iterable(one.fit_iterations for one in outcomes)),
     )
-
-
-def move_result(run_id: int, moved: MoveOutcome, seconds: float, traffic: Traffic) -> MoveResult:
-    """The result of a move run ``run_id`` that ended in ``moved``."""
-    return MoveResult(
-        run_id,
-        moved.evaluation,
-        moved.heuristic,
-        moved.batches,
-        moved.moved,
-        moved.walks,
-        seconds,
-        traffic,
-        moved.timeouts,
-    )
+    seconds = sum(result.seconds for result in results)
+    return DiscoveryResult(first.run_id, first.policy, outcome, seconds, traffic)

@@ -18,6 +18,7 @@ from matplotlib.figure import Figure
 
 from ..core.evaluate import evaluate
 from ..core.geometry import make_swarm
+from ..core.summary import Document
 from ..files.results import PAIRS_PARQUET_FILE, atomic_write
 from ..view.png import save
 from ..view.scene import evaluation_scene
@@ -74,7 +75,7 @@ def _legend(figure: Figure, axes: Sequence[Axes]) -> None:
 def metric_vs_beta(
     plan: StudyPlan,
     result: SweepResult,
-    value: Callable[[dict[str, Any]], float | None],
+    value: Callable[[Document], float | None],
     title: str,
     ylabel: str,
     log: bool = False,
@@ -272,7 +273,7 @@ def study_figures(plan: StudyPlan, result: SweepResult, out: Path) -> dict[str, 
     """Draw and write every figure of the study into ``out/figures``; return name -> path."""
     folder = out / "figures"
 
-    def stat(key: str, name: str) -> Callable[[dict[str, Any]], float | None]:
+    def stat(key: str, name: str) -> Callable[[Document], float | None]:
         return lambda summary: summary[key][name]
 
     figures = {

@@ -21,7 +21,6 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
 from ..core.clouds import Cloud
 from ..core.errors import SwazureError
@@ -32,24 +31,24 @@ from ..core.geometry import make_swarm
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.folding import run_technique
 from ..core.sensor import Sensor
+from ..core.summary import Document, StudyRun, with_source
 from ..files.results import (
     FULL_PAIRS,
     PAIRS_PARQUET_FILE,
     SUMMARY_FILE,
-    with_source,
     write_evaluation,
 )
 from .plan import FIT, FUSED, PLAIN_TECHNIQUE, RUNS_DIR, RunSpec, StudyPlan, Technique
 
 
-def read_summary(out: Path, spec: RunSpec, pairs: str) -> dict[str, Any] | None:
+def read_summary(out: Path, spec: RunSpec, pairs: str) -> Document | None:
     """The run's summary if its folder holds complete results under its key, else None.
 
     Results whose per-pair file keeps other columns than ``pairs`` asks are not done.
     """
     folder = out / spec.folder
     try:
-        summary: dict[str, Any] = json.loads((folder / SUMMARY_FILE).read_text())
+        summary: Document = json.loads((folder / SUMMARY_FILE).read_text())
     except (OSError, ValueError):
         return None
     study = summary.get("study", {})
@@ -99,11 +98,9 @@ def run_task(task: Task) -> list[tuple[RunSpec, float]]:
                 plain, technique.name, technique.threshold or 10, COMPAT_MODES[technique.compat]
             )
         seconds = plain_seconds + time.perf_counter() - began
-        summary = {
-            **with_source(result.summary, task.cloud, task.seed, task.sensor_file),
-            "seconds": seconds,
-            "study": {"key": spec.key, "run": spec.folder.as_posix(), "pairs": task.pairs},
-        }
+        study = StudyRun(spec.key, spec.folder.as_posix(), task.pairs)
+        timed = replace(result.summary, seconds=seconds, study=study)
+        summary = with_source(timed, task.cloud, task.seed, task.sensor_file)
         result = replace(result, summary=summary)
         write_evaluation(
             task.out / spec.folder, result, heuristic, pairs_format="parquet", columns=task.pairs
@@ -182,7 +179,7 @@ def execute(tasks: Sequence[Task], jobs: int, on_done: Callable[[RunSpec, float]
 class SweepResult:
     """Summaries of every run of a plan, and what this call had to compute."""
 
-    summaries: dict[RunSpec, dict[str, Any]]
+    summaries: dict[RunSpec, Document]
     computed: int
     cached: int
     compute_seconds: float
@@ -202,7 +199,7 @@ class SweepResult:
 
     def find(
         self, cloud: str, beta: float, policy: str, technique: Technique = PLAIN_TECHNIQUE
-    ) -> dict[str, Any] | None:
+    ) -> Document | None:
         """The summary of one run, or None when the plan has no such run."""
         spec = self.spec(cloud, beta, policy, technique)
         return None if spec is None else self.summaries[spec]
@@ -233,7 +230,7 @@ def sweep(
     progress = progress or SweepProgress()
     remove_partial_files(out)
     specs = plan.runs()
-    summaries: dict[RunSpec, dict[str, Any] | None] = {
+    summaries: dict[RunSpec, Document | None] = {
         spec: read_summary(out, spec, plan.pairs) for spec in specs
     }
     missing = [spec for spec, summary in summaries.items() if summary is None]
@@ -250,7 +247,7 @@ def sweep(
         execute(plan_tasks(plan, out, missing), jobs, on_done)
     finally:
         progress.close()
-    complete: dict[RunSpec, dict[str, Any]] = {}
+    complete: dict[RunSpec, Document] = {}
     for spec in specs:
         summary = summaries[spec] or read_summary(out, spec, plan.pairs)
         if summary is None:

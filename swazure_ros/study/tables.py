@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 from ..core.heuristics.result import MOVE_SOURCE
+from ..core.summary import Document
 from .plan import PLAIN_TECHNIQUE, StudyPlan, Technique
 from .sweep import SweepResult
 
@@ -232,7 +233,7 @@ def compat_table(plan: StudyPlan, result: SweepResult) -> Table:
     """Each heuristic as the text describes it beside the published code, per shape and beta."""
     policy = plan.heuristic_policy
     texts = [technique for technique in plan.techniques if technique.compat == "text"]
-    metrics: tuple[tuple[str, str, Callable[[dict[str, Any]], Any]], ...] = (
+    metrics: tuple[tuple[str, str, Callable[[Document], Any]], ...] = (
         ("no_path_pct", "no path %", lambda summary: summary.get("no_path_pct")),
         ("decaying_pct", "decaying %", lambda summary: summary.get("decaying_pct")),
         ("resolved", "resolved", lambda summary: summary.get("resolved_pairs")),

@@ -8,7 +8,7 @@ from swazure_ros.files.results import Distributed, RunRecord
 
 def record(identical: str, departed: list[int] | None = None, incomplete: bool = False):
     distributed = Distributed(1.0, 3, 0, departed or [], {}, {}, incomplete=incomplete)
-    return RunRecord("spawn", 1.0, {}, identical=identical, distributed=distributed)
+    return RunRecord("spawn", 1.0, None, identical=identical, distributed=distributed)
 
 
 def test_a_run_equal_to_the_engine_is_no_failure():

@@ -80,7 +80,7 @@ def test_a_swarm_of_one_process_per_fls_solves_its_fit_as_the_engine_does(domain
     assert spawn.returncode == 0, err
     record = read_record(tmp_path / "d" / RECORD_FILE)
     assert record.identical == "yes", out
-    assert record.summary["estimator"] == "swarm-fit"
+    assert record.summary.fit.estimator == "swarm-fit"
     assert "25 FLS processes stopped, every one cleanly (exit code 0)" in err, err
 
 
@@ -94,7 +94,7 @@ def test_each_fls_process_fits_what_it_hears_as_the_engine_does(domain, tmp_path
     assert spawn.returncode == 0, err
     record = read_record(tmp_path / "d" / RECORD_FILE)
     assert record.identical == "yes", out
-    assert record.summary["estimator"] == "local-least-squares"
+    assert record.summary.fit.estimator == "local-least-squares"
     header = (tmp_path / "d" / "pairs.csv").read_text().splitlines()[0]
     assert "covariance_xx" in header and "covariance_zz" in header
 
@@ -204,11 +204,13 @@ def test_an_fls_process_killed_mid_run_departs_and_the_living_get_the_engines_pa
         # FLS 12, the grid's centre, relays many paths: killed (no goodbye) as the run starts.
         swarm.processes.fls.processes[12].kill()
         result = swarm.discover(policy, timeout=120)
-        assert result.departed == frozenset({12})
+        assert result.outcome.departed == frozenset({12})
         assert [(one.fls_id, one.code) for one in lost] == [(12, -9)]
         world = swarm.world
         expected = evaluate_pairs(without(world.hood, np.array([12])), policy)
-        found = {(s, one.target): one for s, some in result.estimates.items() for one in some}
+        found = {
+            (s, one.target): one for s, some in result.outcome.estimates.items() for one in some
+        }
         keep = (expected.source != 12) & (expected.target != 12)
         assert len(found) == int(keep.sum())
         for pair in np.flatnonzero(keep).tolist():
@@ -220,7 +222,7 @@ def test_an_fls_process_killed_mid_run_departs_and_the_living_get_the_engines_pa
         assert any(12 in whole.path(pair) for pair in range(len(whole)))
         # The next run needs no restart: no round waits for the dead FLS's radio.
         again = swarm.discover(policy, timeout=60)
-        assert again.restarts == 0 and again.departed == frozenset({12})
+        assert again.outcome.restarts == 0 and again.outcome.departed == frozenset({12})
 
 
 #: Seconds an FLS process is stopped: longer than a round's timeout, shorter than a
@@ -266,9 +268,9 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
                 os.kill(pid, signal.SIGCONT)
                 resumed.append(time.monotonic())
         resumed = resumed[0]
-        assert 12 in missed.departed
+        assert 12 in missed.outcome.departed
         runs = []
-        while not runs or (runs[-1].departed and time.monotonic() < resumed + 90):
+        while not runs or (runs[-1].outcome.departed and time.monotonic() < resumed + 90):
             swarm.spin(1.0)
             runs.append(swarm.discover(policy, timeout=120))
         recovered = time.monotonic()
@@ -277,9 +279,11 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
             f"and every pair the engine's {recovered - resumed:.1f} s after it resumed, "
             f"in {len(runs)} runs"
         )
-        assert runs[-1].departed == frozenset(), [run.departed for run in runs]
+        assert runs[-1].outcome.departed == frozenset(), [run.outcome.departed for run in runs]
         expected = evaluate_pairs(swarm.world.hood, policy)
-        found = {(s, one.target): one for s, some in runs[-1].estimates.items() for one in some}
+        found = {
+            (s, one.target): one for s, some in runs[-1].outcome.estimates.items() for one in some
+        }
         assert len(found) == len(expected)
         for pair in range(len(expected)):
             one = found[(int(expected.source[pair]), int(expected.target[pair]))]
@@ -354,5 +358,5 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
         assert refused() >= 2, counts
         expected = evaluate_pairs(swarm.world.hood, policy)
         row = int(np.flatnonzero((expected.source == 1) & (expected.target == 5))[0])
-        (answer,) = result.estimates[1]
+        (answer,) = result.outcome.estimates[1]
         assert answer.path == tuple(expected.path(row)) == (1, 12, 5)

@@ -63,7 +63,7 @@ def test_evaluate_writes_summary_and_pairs(tmp_path):
     # The run as typed data: the same summary, the run's seconds, the file's version.
     record = read_record(tmp_path / RECORD_FILE)
     assert (record.command, record.fileversion) == ("evaluate", RECORD_VERSION)
-    assert record.summary == summary and record.seconds == summary["seconds"]
+    assert record.summary.as_document() == summary and record.seconds == summary["seconds"]
     assert record.engine is None and record.distributed is None
     rows = (tmp_path / "pairs.csv").read_text().splitlines()
     assert len(rows) == summary["blind_pairs"] + 1
@@ -239,7 +239,7 @@ def test_the_least_squares_estimator_refuses_fusion_in_one_line():
         "--estimator", "least-squares", "--fuse", "2", "--quiet",
     )  # fmt: skip
     assert run.returncode != 0
-    assert run.stderr.strip().count("\n") == 0 and "drop --fuse" in run.stderr
+    assert run.stderr.strip().count("\n") == 0 and "leave out --fuse" in run.stderr
 
 
 def test_a_heuristic_on_a_display_that_cannot_fit_says_what_it_needs_in_one_line():

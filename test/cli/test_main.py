@@ -2,12 +2,22 @@
 
 from __future__ import annotations
 
+import argparse
 import subprocess
 import sys
 
 import pytest
 
-from swazure_ros.cli.main import VERBS, verb_module
+from swazure_ros.cli.main import (
+    EXIT_CODES,
+    RUN_FAILED,
+    USAGE,
+    VERBS,
+    _run,
+    build_parser,
+    verb_module,
+)
+from swazure_ros.core.errors import CloudError, RunError, SwazureError
 
 from ..conftest import REPO
 
@@ -78,3 +88,23 @@ def test_evaluate_help_explains_every_row_of_the_summary():
     for label, _ in summary_rows(run.summary):
         if label not in plain:
             assert any(label.startswith(term) for term in explained), label
+
+
+@pytest.mark.parametrize(
+    ("error", "code"),
+    [
+        (SwazureError("unusable"), USAGE),
+        (CloudError("a bad cloud"), USAGE),
+        (RunError("no answer in time"), RUN_FAILED),
+    ],
+)
+def test_a_run_that_failed_exits_1_and_an_unusable_command_line_2(capsys, error, code):
+    def handler(args):
+        raise error
+
+    assert _run(argparse.Namespace(verb="evaluate", handler=handler)) == code
+    assert capsys.readouterr().err == f"swazure evaluate: error: {error}\n"
+
+
+def test_the_help_lists_the_exit_codes():
+    assert EXIT_CODES in build_parser([]).format_help()

@@ -150,8 +150,8 @@ def test_every_example_swarm_has_blind_pairs_with_sweet_paths(path):
     if is_cloud_path(options["cloud"]) and not Path(options["cloud"]).exists():
         pytest.skip(f"{options['cloud']} is absent (../shared is not beside the repo)")
     _, swarm, sensor = swarm_from_args(evaluate_args(str(path)))
-    summary = evaluate(swarm, sensor, options["policy"]).summary
-    assert summary["blind_pairs"] > 0 and summary["sweet_pairs"] > 0, (path.name, summary)
+    pairs = evaluate(swarm, sensor, options["policy"]).summary.pairs
+    assert pairs.blind_pairs > 0 and pairs.sweet_pairs > 0, (path.name, pairs)
 
 
 def test_evaluate_takes_a_swarm_file_and_a_flag_beside_it_wins():

@@ -77,10 +77,9 @@ def test_blocks_give_the_pairs_and_summary_of_the_whole_evaluation(sensor, cloud
     assert 4 <= len(blocks) <= 8
     assert_same_pairs(joined(blocks), whole.pairs)
     summary = run.summary()
-    assert summary["quantiles"] == "exact"
-    summary.pop("seconds")
-    expected = {key: value for key, value in whole.summary.items() if key != "seconds"}
-    assert json.dumps(summary) == json.dumps(expected)  # NaN as NaN
+    assert summary.pairs.quantiles == "exact"
+    summary, expected = replace(summary, seconds=None), replace(whole.summary, seconds=None)
+    assert json.dumps(summary.as_document()) == json.dumps(expected.as_document())  # NaN as NaN
 
 
 def test_a_blocked_pair_falls_back_to_its_decaying_path_as_the_whole_evaluation_does(sensor):
@@ -97,7 +96,7 @@ def test_a_swarm_whose_sweet_paths_are_all_in_sight_never_judges_its_decaying_pa
     for _ in run.blocks(SILENT):
         pass
     assert run.lean.whole is None
-    assert run.summary()["sweet_pct"] == 100.0
+    assert run.summary().pairs.sweet_pct == 100.0
 
 
 def test_the_lean_neighbourhood_keeps_sweet_pairs_and_decaying_pairs_in_sight(sensor):

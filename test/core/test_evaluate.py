@@ -84,23 +84,23 @@ def test_no_path_when_nothing_is_in_sight(sensor):
 def test_summary_counts_of_the_full_scene(sensor):
     summary = evaluate(scene(A, B, C, K, D), sensor, "fewest-hops").summary
     # Blind: A-C, A-K, B-K, C-K, both ways. Every one gets a decaying path via D.
-    assert summary["blind_pairs"] == 8
-    assert summary["decaying_pct"] == 100.0
-    assert summary["blocked_pairs"] == 2
-    assert summary["no_sweet_path_pairs"] == 6
-    assert summary["obstructed_path_pct"] == 100.0  # the one S_all path, both ways
-    assert summary["hops"]["mean"] == 2.0
-    assert summary["kissing_pairs"] == 0
+    assert summary.pairs.blind_pairs == 8
+    assert summary.pairs.decaying_pct == 100.0
+    assert summary.pairs.blocked_pairs == 2
+    assert summary.pairs.no_sweet_path_pairs == 6
+    assert summary.pairs.obstructed_path_pct == 100.0  # the one S_all path, both ways
+    assert summary.pairs.hops.mean == 2.0
+    assert summary.kissing_pairs == 0
     for key in ("flss", "removed", "radius", "dmin", "seconds", "sweet_pct", "no_path_pct"):
-        assert key in summary
+        assert key in summary.as_document()
 
 
 def test_summary_gives_the_distance_error_of_each_class_of_pair_apart(sensor):
     # The hand-built scene: every blind pair's path is decaying, none is sweet.
     summary = evaluate(scene(A, B, C, K, D), sensor, "fewest-hops").summary
-    assert summary["distance_error_pct_sweet_paths"]["count"] == 0
-    decaying = summary["distance_error_pct_decaying_paths"]
-    assert decaying["count"] == 8 and decaying["mean"] == summary["distance_error_pct"]["mean"]
+    assert summary.pairs.distance_error_pct_sweet_paths.count == 0
+    decaying = summary.pairs.distance_error_pct_decaying_paths
+    assert decaying.count == 8 and decaying.mean == summary.pairs.distance_error_pct.mean
     # A torus whose pairs are both: each class's mean is over its own pairs alone.
     evaluation = evaluate(
         make_swarm(load_cloud("torus:120", 6.0).points, beta=0.5), sensor, "shortest-length"
@@ -109,9 +109,10 @@ def test_summary_gives_the_distance_error_of_each_class_of_pair_apart(sensor):
     for status, key in ((SWEET_PATH, "sweet"), (DECAYING_PATH, "decaying")):
         errors = pairs.distance_error[pairs.status == status]
         assert len(errors) > 100
-        assert summary[f"distance_error_pct_{key}_paths"]["mean"] == pytest.approx(errors.mean())
-    sweet = summary["distance_error_pct_sweet_paths"]["mean"]
-    assert sweet < summary["distance_error_pct"]["mean"]
+        stats = getattr(summary.pairs, f"distance_error_pct_{key}_paths")
+        assert stats.mean == pytest.approx(errors.mean())
+    sweet = summary.pairs.distance_error_pct_sweet_paths.mean
+    assert sweet < summary.pairs.distance_error_pct.mean
 
 
 def test_without_a_stopped_fls_paths_avoid_it_and_its_body_still_blocks(sensor):

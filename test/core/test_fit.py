@@ -97,7 +97,7 @@ def test_an_error_free_sensor_s_fit_gives_every_pair_with_a_path_its_truth(shape
         fitted.pairs.estimate[has_path], plain.pairs.truth[has_path], atol=1e-7
     )
     assert np.isnan(fitted.pairs.estimate[~has_path]).all()
-    assert fitted.summary["estimator"] == LEAST_SQUARES
+    assert fitted.summary.fit.estimator == LEAST_SQUARES
     # Statuses and paths are still the policy's.
     np.testing.assert_array_equal(fitted.pairs.status, plain.pairs.status)
     np.testing.assert_array_equal(fitted.pairs.nodes, plain.pairs.nodes)
@@ -128,7 +128,7 @@ def test_a_stochastic_sensor_s_fit_beats_its_paths_and_its_covariance_is_honest(
     assert known.sum() == (plain.pairs.status != NO_PATH).sum()
     assert 2.5 <= nees[known].mean() <= 3.5
     assert (nees[known] <= CHI2_95_3DOF).mean() >= 0.93
-    assert fitted.summary["fit"]["nees"]["mean"] == pytest.approx(nees[known].mean())
+    assert fitted.summary.fit.consistency.nees.mean == pytest.approx(nees[known].mean())
 
 
 def test_the_robust_loss_keeps_turned_vectors_out_and_a_plain_fit_does_not():
@@ -191,8 +191,8 @@ def test_each_source_s_own_fit_is_exact_on_exact_data_and_honest_on_noisy_data()
     np.testing.assert_allclose(
         exact_run.pairs.estimate[has_path], exact_run.pairs.truth[has_path], atol=1e-7
     )
-    assert exact_run.summary["estimator"] == LOCAL_LEAST_SQUARES
-    assert exact_run.summary["fit"]["window_flss"]["max"] < swarm.size
+    assert exact_run.summary.fit.estimator == LOCAL_LEAST_SQUARES
+    assert exact_run.summary.fit.window_flss.max < swarm.size
     plain = evaluate(swarm, stochastic_sensor(mean_error=0.03), "shortest-length")
     local, whole = refine(plain, LOCAL_LEAST_SQUARES), refine(plain)
     sweet = plain.pairs.status == SWEET_PATH
@@ -202,8 +202,8 @@ def test_each_source_s_own_fit_is_exact_on_exact_data_and_honest_on_noisy_data()
         < local.pairs.distance_error[sweet].mean()
         < 0.5 * plain.pairs.distance_error[sweet].mean()
     )
-    assert 2.5 <= local.summary["fit"]["nees"]["mean"] <= 3.5
-    assert local.summary["fit"]["within_chi2_95_pct"] >= 93.0
+    assert 2.5 <= local.summary.fit.consistency.nees.mean <= 3.5
+    assert local.summary.fit.consistency.within_chi2_95_pct >= 93.0
 
 
 def test_a_pair_beyond_its_source_s_window_gets_its_path_sum_without_the_bias():
@@ -226,4 +226,4 @@ def test_a_swarm_with_nothing_to_fit_gets_no_estimates_and_no_error():
     for estimator in (LEAST_SQUARES, LOCAL_LEAST_SQUARES):
         plain = evaluate(sparse_swarm, stochastic_sensor(), "shortest-length")
         fitted = refine(plain, estimator)
-        assert fitted.summary["fit"]["nees"]["count"] == 0
+        assert fitted.summary.fit.consistency.nees.count == 0

@@ -72,7 +72,7 @@ def test_fusing_disjoint_sweet_paths_cuts_a_stochastic_sensor_s_error():
     before = plain.pairs.distance_error[several].mean()
     after = fused.pairs.distance_error[several].mean()
     assert after < 0.85 * before
-    assert fused.summary["fusion"]["pairs_fused"] == several.sum()
+    assert fused.summary.fusion.pairs_fused == several.sum()
     assert (fused.pairs.predicted_error[several] < plain.pairs.predicted_error[several]).all()
 
 

@@ -9,7 +9,7 @@ import pytest
 from swazure_ros.core.evaluate import NO_PATH, REASON_BLOCKED, SWEET_PATH, evaluate
 from swazure_ros.core.geometry import circle_sphere_crossings, free_circle_point, make_swarm
 from swazure_ros.core.heuristics.compat import PUBLISHED, Compat
-from swazure_ros.core.heuristics.folding import apply, heuristic_summary, run_technique
+from swazure_ros.core.heuristics.folding import apply, heuristic_facts, run_technique
 from swazure_ros.core.heuristics.obstructing import move_obstructing
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
 from swazure_ros.core.heuristics.source import DIRECTIONS, move_source
@@ -53,8 +53,8 @@ def test_one_obstructer_moves_exactly_r_minus_u(sensor):
     np.testing.assert_allclose(result.estimate[m], hops.sum(axis=0), atol=1e-12)
     after = apply(evaluation, result)
     assert after.pairs.status[m] == SWEET_PATH
-    assert after.summary["resolved_pairs"] == 2  # (A, C) and (C, A)
-    assert after.summary["moved_distance"]["max"] == pytest.approx(aside - u, abs=1e-12)
+    assert after.summary.heuristic.resolved_pairs == 2  # (A, C) and (C, A)
+    assert after.summary.heuristic.moved_distance.max == pytest.approx(aside - u, abs=1e-12)
 
 
 def test_nearest_free_point_blocked_by_a_neighbour_gives_the_sphere_boundary(sensor):
@@ -142,7 +142,7 @@ def test_move_source_first_success_direction_delta_and_distances(sensor):
     np.testing.assert_allclose(result.truth[m], SOURCE_SCENE[2] - end, atol=1e-12)
     after = apply(evaluation, result)
     assert after.pairs.status[m] == SWEET_PATH
-    assert after.summary["flown_distance"]["max"] >= flown - 1e-9
+    assert after.summary.heuristic.flown_distance.max >= flown - 1e-9
 
 
 def test_move_source_threshold_limits_the_search(sensor):
@@ -230,7 +230,7 @@ def test_moved_distance_counts_resolved_pairs_and_reports_failed_ones_and_totals
     swarm = make_swarm(load_cloud("torus:120", 1.6).points, beta=0.5)
     evaluation = evaluate(swarm, load_sensor(), "shortest-length")
     _, heuristic = run_technique(evaluation, technique, 10)
-    summary = heuristic_summary(heuristic)
+    facts = heuristic_facts(heuristic)
     offsets, distance = heuristic.move_offsets, heuristic.move_distance
     resolved_moves, failed_moves, totals = [], [], []
     for pair in range(len(heuristic.resolved)):
@@ -240,14 +240,14 @@ def test_moved_distance_counts_resolved_pairs_and_reports_failed_ones_and_totals
             totals.append(sum(mine))
         else:
             failed_moves += mine
-    assert summary["moved_distance"]["count"] == len(resolved_moves) > 0
-    assert summary["moved_distance"]["max"] == pytest.approx(max(resolved_moves))
-    assert summary["failed_moved_distance"]["count"] == len(failed_moves)
+    assert facts.moved_distance.count == len(resolved_moves) > 0
+    assert facts.moved_distance.max == pytest.approx(max(resolved_moves))
+    assert facts.failed_moved_distance.count == len(failed_moves)
     if technique == MOVE_OBSTRUCTING:
         assert failed_moves  # here obstructers stepped aside for pairs that still failed
-    assert summary["moved_per_resolved_pair"]["count"] == summary["resolved_pairs"]
-    assert summary["moved_per_resolved_pair"]["mean"] == pytest.approx(np.mean(totals))
-    assert summary["moved_per_resolved_pair"]["max"] == pytest.approx(max(totals))
+    assert facts.moved_per_resolved_pair.count == facts.resolved_pairs
+    assert facts.moved_per_resolved_pair.mean == pytest.approx(np.mean(totals))
+    assert facts.moved_per_resolved_pair.max == pytest.approx(max(totals))
 
 
 # --compat published: the published reference code's behaviours, switch by switch.
@@ -357,10 +357,10 @@ def test_published_mode_gives_the_papers_move_obstructing_no_path_on_the_chess_p
     evaluation = evaluate(swarm, load_sensor(), "shortest-length")
     text, _ = run_technique(evaluation, MOVE_OBSTRUCTING)
     published, heuristic = run_technique(evaluation, MOVE_OBSTRUCTING, compat=PUBLISHED)
-    assert round(published.summary["no_path_pct"], 2) == 21.43
-    assert round(text.summary["no_path_pct"], 2) == 6.02
+    assert round(published.summary.pairs.no_path_pct, 2) == 21.43
+    assert round(text.summary.pairs.no_path_pct, 2) == 6.02
     assert heuristic.compat == PUBLISHED
-    assert published.summary["compat"] == PUBLISHED.switches_on()
+    assert list(published.summary.heuristic.compat) == PUBLISHED.switches_on()
 
 
 def test_a_helper_at_exactly_the_sweet_maximum_counts_with_sweet_max_inclusive():

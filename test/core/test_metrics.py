@@ -37,6 +37,6 @@ def test_shape_is_checked():
 
 
 def test_describe_empty_and_values():
-    assert describe([])["mean"] is None
+    assert describe([]).mean is None
     stats = describe([1.0, 3.0])
-    assert (stats["mean"], stats["max"], stats["count"]) == (2.0, 3.0, 2)
+    assert (stats.mean, stats.max, stats.count) == (2.0, 3.0, 2)

@@ -76,18 +76,18 @@ def test_the_swarm_s_fit_of_a_torus_is_the_central_fit_s_and_its_covariance_is_h
     np.testing.assert_allclose(
         swarm_fit.pairs.estimate[has_path], central.pairs.estimate[has_path], atol=1e-6
     )
-    assert swarm_fit.summary["estimator"] == SWARM_FIT
-    facts = swarm_fit.summary["fit"]
-    assert facts["downweighted"] == central.summary["fit"]["downweighted"]
+    assert swarm_fit.summary.fit.estimator == SWARM_FIT
+    facts = swarm_fit.summary.fit
+    assert facts.downweighted == central.summary.fit.downweighted
     # One fit under a stochastic sensor: its solves, then the covariance's.
-    assert len(facts["iterations"]) == 1 and len(facts["iterations"][0]) >= 2
-    assert min(facts["iterations"][0]) >= 1
+    assert len(facts.iterations) == 1 and len(facts.iterations[0]) >= 2
+    assert min(facts.iterations[0]) >= 1
     # Its covariance is sampled, not inverted: each pair's within sampling error of the
     # central one, and a NEES as honest.
     trace = np.trace(swarm_fit.pairs.covariance[has_path], axis1=1, axis2=2)
     central_trace = np.trace(central.pairs.covariance[has_path], axis1=1, axis2=2)
     assert 0.85 <= np.median(trace / central_trace) <= 1.15
-    assert 2.5 <= facts["nees"]["mean"] <= 3.7
+    assert 2.5 <= facts.consistency.nees.mean <= 3.7
     sweet = plain.pairs.status == SWEET_PATH
     assert (
         swarm_fit.pairs.distance_error[sweet].mean()

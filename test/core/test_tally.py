@@ -47,20 +47,20 @@ def test_real_tally_past_its_bound_sketches_quantiles_within_the_relative_error(
         tally.add(block)
     assert not tally.exact
     got, want = tally.describe(), describe(values)
-    assert got["count"] == want["count"] and got["max"] == want["max"]
-    assert math.isclose(got["mean"], want["mean"], rel_tol=1e-12)
+    assert got.count == want.count and got.max == want.max
+    assert math.isclose(got.mean, want.mean, rel_tol=1e-12)
     ordered = np.sort(values)
     for name, quantile in (("p50", 0.5), ("p90", 0.9), ("p99", 0.99)):
         # Between the two order statistics numpy interpolates, each within the bound.
         position = quantile * (len(values) - 1)
         low, high = ordered[math.floor(position)], ordered[math.ceil(position)]
         bound = 2 * SKETCH_RELATIVE_ERROR
-        assert low * (1 - bound) <= got[name] <= high * (1 + bound), name
+        assert low * (1 - bound) <= getattr(got, name) <= high * (1 + bound), name
 
 
 def test_real_tally_with_an_unknown_value_reports_unknown_statistics():
     tally = RealTally(exact_values=1)
     tally.add(np.array([1.0, np.nan, 2.0]))
     got = tally.describe()
-    assert got["count"] == 3
-    assert all(math.isnan(got[name]) for name in ("mean", "max", "p50", "p90", "p99"))
+    assert got.count == 3
+    assert all(math.isnan(getattr(got, name)) for name in ("mean", "max", "p50", "p90", "p99"))

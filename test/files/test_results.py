@@ -5,6 +5,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -91,13 +92,19 @@ def test_output_error_is_one_line_from_the_project():
     assert isinstance(caught.value, SwazureError) and isinstance(caught.value, OSError)
 
 
-def test_a_run_record_reads_back_as_it_was_written(tmp_path):
+def test_a_run_record_reads_back_as_it_was_written(tmp_path, sensor):
+    from swazure_ros.core.evaluate import evaluate
+    from swazure_ros.core.geometry import make_swarm
+
+    evaluation = evaluate(make_swarm(np.array(SCENE), radius=0.5), sensor, "shortest-length")
+    engine = replace(evaluation.summary, seconds=4.25)
+    alpha = replace(engine.pairs.alpha_deg, mean=float("nan"))
     moves = MovesMade(1.5, 3, 12, 4, 0, {"move_commands": 3}, {"move_commands": 900})
     record = RunRecord(
         "spawn",
         4.25,
-        {"blind_pairs": 10, "seconds": 4.25, "alpha_deg": {"mean": float("nan")}},
-        engine={"blind_pairs": 10},
+        replace(engine, pairs=replace(engine.pairs, alpha_deg=alpha)),
+        engine=engine,
         engine_seconds=0.5,
         identical="yes",
         bring_up=BringUp(120, 2, 3.5, [300.0, 250.0]),
@@ -107,13 +114,13 @@ def test_a_run_record_reads_back_as_it_was_written(tmp_path):
     assert path == tmp_path / RECORD_FILE
     back = read_record(path)
     # NaN is written as null (JSON has no NaN): everything else comes back as it was.
-    assert back.summary["alpha_deg"]["mean"] is None
+    assert back.summary.pairs.alpha_deg.mean is None
     assert back == RunRecord(**{**record.__dict__, "summary": back.summary})
     assert back.distributed.total_messages == 43 and back.bring_up.total_peak_mb == 550.0
 
 
 def test_a_record_of_another_version_or_no_record_is_refused_in_one_line(tmp_path):
-    path = write_record(tmp_path, RunRecord("evaluate", 1.0, {}))
+    path = write_record(tmp_path, RunRecord("evaluate", 1.0, None))
     path.write_text(path.read_text().replace('"fileversion": 1', '"fileversion": 99'))
     with pytest.raises(SwazureError, match="fileversion 99"):
         read_record(path)
@@ -122,6 +129,11 @@ def test_a_record_of_another_version_or_no_record_is_refused_in_one_line(tmp_pat
         read_record(tmp_path / "other.json")
     with pytest.raises(SwazureError, match="not a run record"):
         read_record(tmp_path / "missing.json")
+    # A record of this version whose summary is not one: one line, not a KeyError.
+    path = write_record(tmp_path, RunRecord("evaluate", 1.0, None))
+    path.write_text(path.read_text().replace('"summary": {}', '"summary": {"flss": 3}'))
+    with pytest.raises(SwazureError, match="not a run record"):
+        read_record(path)
 
 
 def test_a_run_that_cannot_be_written_is_one_line_and_leaves_nothing(tmp_path, sensor):

@@ -1,5 +1,6 @@
 import pytest
 
+from swazure_ros.protocol.rounds import Outcome
 from swazure_ros.protocol.runs import (
     LABEL_BYTES,
     DiscoveryResult,
@@ -31,10 +32,8 @@ def test_sources_per_run_keeps_the_labels_within_the_memory_given():
 
 
 def _result(run_id, estimates, rounds, traffic, departed=(), incomplete=False):
-    return DiscoveryResult(
-        run_id, "shortest-length", estimates, frozenset(departed), rounds, 1, 2.0, traffic,
-        repairs=3, incomplete=incomplete,
-    )  # fmt: skip
+    outcome = Outcome(estimates, frozenset(departed), rounds, 1, repairs=3, incomplete=incomplete)
+    return DiscoveryResult(run_id, "shortest-length", outcome, 2.0, traffic)
 
 
 def test_merged_blocks_sum_what_each_took_and_keep_every_source_s_estimates():
@@ -42,8 +41,9 @@ def test_merged_blocks_sum_what_each_took_and_keep_every_source_s_estimates():
     traffic = Traffic({"discovery": 2, "radio": 1}, {"discovery": 9, "radio": 7})
     second = _result(5, {2: ["b"]}, 12, traffic, departed=[3], incomplete=True)
     one = merged([first, second])
-    assert one.run_id == 4 and one.estimates == {1: ["a"], 2: ["b"]}
-    assert (one.rounds, one.restarts, one.seconds, one.repairs) == (22, 2, 4.0, 6)
+    outcome = one.outcome
+    assert one.run_id == 4 and outcome.estimates == {1: ["a"], 2: ["b"]}
+    assert (outcome.rounds, outcome.restarts, one.seconds, outcome.repairs) == (22, 2, 4.0, 6)
     assert one.traffic.messages == {"discovery": 7, "radio": 1}
     assert one.traffic.bytes == {"discovery": 59, "radio": 7}
-    assert one.departed == frozenset({3}) and one.incomplete
+    assert outcome.departed == frozenset({3}) and outcome.incomplete

@@ -5,7 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from swazure_ros.core.evaluate import NO_PATH, Evaluation, evaluate, evaluate_pairs, without
+from swazure_ros.core.evaluate import (
+    NO_PATH,
+    Evaluation,
+    evaluate,
+    evaluate_pairs,
+    summarise,
+    without,
+)
 from swazure_ros.core.fit import SWARM_FIT, refine
 from swazure_ros.core.observe import observations
 from swazure_ros.core.swarm_fit import HUBER, REJECTING
@@ -49,7 +56,7 @@ def test_the_swarm_s_fit_by_messages_equals_the_engine_s(shape, noisy):
     found, outcome = run(engine.hood)
     assert outcome.restarts == 0
     # The same solves, iteration for iteration.
-    assert [list(one) for one in outcome.fit_iterations] == engine.summary["fit"]["iterations"]
+    assert [tuple(one) for one in outcome.fit_iterations] == list(engine.summary.fit.iterations)
     pairs, ids = engine.pairs, world.ids
     assert len(found) == len(pairs)
     with_path = 0
@@ -88,9 +95,10 @@ def test_a_silent_fls_departs_and_the_fit_equals_the_engine_s_without_it():
     found, outcome = run(hood, stopped=[silent])
     assert outcome.departed == frozenset({silent})
     gone = without(hood, np.array([silent_index]))
-    engine = refine(Evaluation(gone, "shortest-length", evaluate_pairs(gone, "shortest-length"),
-                               {}), SWARM_FIT)  # fmt: skip
-    assert [list(one) for one in outcome.fit_iterations] == engine.summary["fit"]["iterations"]
+    plain = evaluate_pairs(gone, "shortest-length")
+    summary = summarise(gone, "shortest-length", plain)
+    engine = refine(Evaluation(gone, "shortest-length", plain, summary), SWARM_FIT)
+    assert [tuple(one) for one in outcome.fit_iterations] == list(engine.summary.fit.iterations)
     pairs, ids = engine.pairs, world.ids
     keep = (pairs.source != silent_index) & (pairs.target != silent_index)
     for pair in np.flatnonzero(keep & (pairs.status != NO_PATH)).tolist():

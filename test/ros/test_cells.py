@@ -92,7 +92,7 @@ def test_two_processes_hear_only_their_cells_offers_yet_equal_the_engine(domain,
         result = swarm.discover(POLICY)
         world = swarm.world
         engine = evaluate_pairs(world.hood, POLICY)
-        assert_matches_engine(world, by_pair(result.estimates), engine)
+        assert_matches_engine(world, by_pair(result.outcome.estimates), engine)
 
         # What any observer of the graph sees: who reads each radio and walks topic.
         radio, readers = cell_readers(swarm, RADIO_TOPIC)
@@ -154,9 +154,9 @@ def test_moves_that_cross_cells_made_by_two_processes_equal_the_engine(domain, p
     with RunningSwarm(config) as swarm:
         swarm.wait_until_ready()
         plain = swarm.discover(POLICY)
-        found = evaluation_of(swarm.world.hood, POLICY, plain.estimates)
+        found = evaluation_of(swarm.world.hood, POLICY, plain.outcome.estimates)
         moved = swarm.make_moves(found, technique, threshold=10, timeout=300)
-        assert moved.walks == plan.resolved.sum() > 100
+        assert moved.outcome.walks == plan.resolved.sum() > 100
         assert_moves_match_engine(moved, engine, plan)
         # Walks went on from FLS to FLS of the first process, and to the other's over DDS.
         radio = swarm.host.radio

@@ -120,7 +120,9 @@ def test_generated_messages_stop_nothing_and_change_no_later_answer(domain, tmp_
         # The swarm still answers, and a new run gives the engine's answers.
         result = swarm.discover(POLICY, timeout=300)
         assert_matches_engine(
-            swarm.world, by_pair(result.estimates), evaluate_pairs(swarm.world.hood, POLICY)
+            swarm.world,
+            by_pair(result.outcome.estimates),
+            evaluate_pairs(swarm.world.hood, POLICY),
         )
 
 

@@ -200,8 +200,8 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
 
             wait_until(lambda: counted() >= 1, 10, lambda: swarm.spin(0.05))
             assert counted() >= 1, forger.diagnostics
-        assert forger.sent >= 1 and result.rounds > 0
-        (answer,) = result.estimates[source]
+        assert forger.sent >= 1 and result.outcome.rounds > 0
+        (answer,) = result.outcome.estimates[source]
         assert answer.status == SWEET_PATH
         assert answer.path == tuple(int(swarm.world.ids[k]) for k in engine.path(row))
         np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)
@@ -271,7 +271,7 @@ def test_forged_measurements_change_no_fit(domain, authenticate, forger_key, dro
         engine = refine(evaluate(world.swarm, world.sensor, POLICY), LOCAL_LEAST_SQUARES).pairs
         row = int(np.flatnonzero((world.ids[engine.source] == source)
                                  & (world.ids[engine.target] == target))[0])  # fmt: skip
-        (answer,) = result.estimates[source]
+        (answer,) = result.outcome.estimates[source]
         assert answer.estimator == LOCAL_LEAST_SQUARES
         np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)
 
@@ -339,10 +339,10 @@ def test_an_earlier_swarms_messages_and_replayed_controls_change_nothing(domain)
         dropped = swarm.host.guard.dropped
         assert dropped[(CONTROL_TOPIC, "taken before: a replay")] >= 1, dropped
         for result in (first, second):
-            (answer,) = result.estimates[source]
+            (answer,) = result.outcome.estimates[source]
             assert answer.path == tuple(int(swarm.world.ids[k]) for k in engine.path(row))
             np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)
-        assert second.restarts == 0
+        assert second.outcome.restarts == 0
 
 
 def test_without_a_key_a_forged_report_is_implausible_and_changes_no_answer(domain):
@@ -367,6 +367,6 @@ def test_without_a_key_a_forged_report_is_implausible_and_changes_no_answer(doma
             )
         assert forger.sent >= 1
         assert swarm.coordinator.guard.dropped[refused] >= 1, swarm.coordinator.guard.dropped
-        (answer,) = result.estimates[source]
+        (answer,) = result.outcome.estimates[source]
         assert answer.path == tuple(int(swarm.world.ids[k]) for k in engine.path(row))
         np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)

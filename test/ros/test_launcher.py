@@ -122,7 +122,7 @@ def test_spawn_until_ready_prints_bring_up_writes_its_record_and_exits_0(domain,
     assert "peak memory" in out
     # What a script reads of a served swarm: its bring-up, as data.
     record = read_record(tmp_path / RECORD_FILE)
-    assert record.command == "spawn" and record.summary == {}
+    assert record.command == "spawn" and record.summary is None
     assert record.bring_up.flss == 60 and record.bring_up.processes == 1
     assert record.bring_up.seconds > 0 and len(record.bring_up.peak_rss_mb) == 1
 

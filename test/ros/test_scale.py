@@ -64,8 +64,8 @@ def test_a_thousand_node_swarm_comes_up_latches_and_computes_the_engines_poses(
         targets = [int(ids[engine.target[pair]]) for pair in asked]
         run = swarm.coordinator.discover("shortest-length", sources, targets)
         result = swarm.run(run, timeout=300)
-        assert result.departed == frozenset() and len(asked) >= 5
+        assert result.outcome.departed == frozenset() and len(asked) >= 5
         for pair, source, target in zip(asked, sources, targets, strict=True):
-            (found,) = [one for one in result.estimates[source] if one.target == target]
+            (found,) = [one for one in result.outcome.estimates[source] if one.target == target]
             assert found.path == tuple(int(ids[k]) for k in engine.path(pair))
             np.testing.assert_allclose(found.vector, engine.estimate[pair], rtol=0, atol=1e-9)

@@ -34,8 +34,8 @@ def test_a_swarm_solves_its_fit_by_messages_as_the_engine_does(domain, params):
         built = swarm.world
         result = swarm.discover("shortest-length", timeout=300, estimator=SWARM_FIT)
     engine = refine(evaluate(built.swarm, built.sensor, "shortest-length"), SWARM_FIT)
-    assert result.departed == frozenset() and result.restarts == 0
-    found = {(s, one.target): one for s, ones in result.estimates.items() for one in ones}
+    assert result.outcome.departed == frozenset() and result.outcome.restarts == 0
+    found = {(s, one.target): one for s, ones in result.outcome.estimates.items() for one in ones}
     pairs, ids = engine.pairs, built.ids
     assert len(found) == len(pairs)
     fitted = 0
@@ -49,7 +49,7 @@ def test_a_swarm_solves_its_fit_by_messages_as_the_engine_does(domain, params):
         fitted += 1
     assert fitted > 1000
     # The run's evaluation says what made its estimates, and its NEES is the engine's.
-    distributed = evaluation_of(built.hood, "shortest-length", result.estimates)
-    assert distributed.summary["estimator"] == SWARM_FIT
-    nees = distributed.summary["fit"]["nees"]["mean"]
-    assert nees == pytest.approx(engine.summary["fit"]["nees"]["mean"], rel=1e-9)
+    distributed = evaluation_of(built.hood, "shortest-length", result.outcome.estimates)
+    assert distributed.summary.fit.estimator == SWARM_FIT
+    nees = distributed.summary.fit.consistency.nees.mean
+    assert nees == pytest.approx(engine.summary.fit.consistency.nees.mean, rel=1e-9)

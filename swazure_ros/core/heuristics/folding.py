@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,6 +17,7 @@ from ..evaluate import (
 )
 from ..metrics import describe, pose_errors
 from ..paths import Paths
+from ..summary import HeuristicFacts
 from .compat import TEXT, Compat
 from .obstructing import move_obstructing
 from .result import MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN, HeuristicResult, check_technique
@@ -78,11 +78,13 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
         predicted_error=np.where(resolved, np.nan, pairs.predicted_error),
         fused_paths=np.where(paths.found, 1, 0).astype(np.int64),
     )
-    summary = summarise(evaluation.hood, evaluation.policy, updated)
-    summary["seconds"] = evaluation.summary.get("seconds")
-    summary.update(heuristic_summary(heuristic))
-    summary["parameters"]["technique"] = heuristic.technique
-    summary["parameters"]["threshold"] = heuristic.threshold
+    summary = summarise(
+        evaluation.hood,
+        evaluation.policy,
+        updated,
+        evaluation.summary.seconds,
+        heuristic=heuristic_facts(heuristic),
+    )
     return replace(evaluation, pairs=updated, summary=summary)
 
 
@@ -99,31 +101,24 @@ def run_technique(
     return apply(evaluation, heuristic), heuristic
 
 
-def heuristic_summary(heuristic: HeuristicResult) -> dict[str, Any]:
-    """The summary fields of a heuristic (section 6): tried, resolved and move distances.
-
-    ``moved_distance`` is per move, of the resolved pairs only; the moves of
-    pairs that were tried and still failed are ``failed_moved_distance``.
-    ``moved_per_resolved_pair`` is what each resolved pair moved in all (the
-    published Table 3's metric), cm.
-    """
+def heuristic_facts(heuristic: HeuristicResult) -> HeuristicFacts:
+    """The summary's facts of a heuristic (section 6): tried, resolved and move distances."""
     moved = heuristic.move_distance
     pairs = len(heuristic.resolved)
     owner = csr.run_of(heuristic.move_offsets)  # pair of each move
     of_resolved = heuristic.resolved[owner]
     resolved = np.flatnonzero(heuristic.resolved)
     totals = np.bincount(owner, weights=moved, minlength=pairs)[resolved]
-    fields: dict[str, Any] = {
-        "technique": heuristic.technique,
-        "threshold": heuristic.threshold,
-        "tried_pairs": int(heuristic.tried.sum()),
-        "resolved_pairs": len(resolved),
-        "moved_distance": describe(moved[of_resolved]),
-        "failed_moved_distance": describe(moved[~of_resolved]),
-        "moved_per_resolved_pair": describe(totals),
-        "compat": heuristic.compat.switches_on(),
-    }
-    if heuristic.technique == MOVE_SOURCE:
-        fields["flown_distance"] = describe(heuristic.flown[heuristic.tried])
-        fields["displacement"] = describe(moved[of_resolved])
-    return fields
+    source = heuristic.technique == MOVE_SOURCE
+    return HeuristicFacts(
+        technique=heuristic.technique,
+        threshold=heuristic.threshold,
+        tried_pairs=int(heuristic.tried.sum()),
+        resolved_pairs=len(resolved),
+        moved_distance=describe(moved[of_resolved]),
+        failed_moved_distance=describe(moved[~of_resolved]),
+        moved_per_resolved_pair=describe(totals),
+        compat=tuple(heuristic.compat.switches_on()),
+        flown_distance=describe(heuristic.flown[heuristic.tried]) if source else None,
+        displacement=describe(moved[of_resolved]) if source else None,
+    )

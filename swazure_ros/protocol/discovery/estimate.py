@@ -35,6 +35,7 @@ from ...core.sensor import (
     Sensor,
     expected_error,
 )
+from ...core.summary import FitFacts
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -481,14 +482,12 @@ def evaluation_of(
         # The fit's estimates carry their covariance and predicted error (core.fit.refine).
         predicted = everyone.predicted_error[kept]
         pairs = pairs.with_estimates(vectors, predicted_error=predicted, covariance=covariance)
-    summary = summarise(hood, policy, pairs)
+    fit = None
     if fitted.any():
         # What made the fitted estimates: each source's own fit, or the swarm's.
         made = everyone.estimator[kept][fitted]
-        estimator = SWARM_ESTIMATORS[int(made.max())]
-        summary["estimator"] = summary["parameters"]["estimator"] = estimator
-        summary["fit"] = consistency(pairs)
-    return Evaluation(hood, policy, pairs, summary)
+        fit = FitFacts(SWARM_ESTIMATORS[int(made.max())], consistency(pairs))
+    return Evaluation(hood, policy, pairs, summarise(hood, policy, pairs, fit=fit))
 
 
 def _rows_of(ids: IntArray) -> Callable[[IntArray], IntArray]:

@@ -16,7 +16,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from ...core.errors import SwazureError
+from ...core.errors import RunError, SwazureError
 from ..plumbing.interfaces import message_class
 from ..plumbing.runtime import SwarmNode, init_context
 
@@ -105,7 +105,7 @@ def echo(
                 type_name = types[0]
                 break
             if timeout is not None and time.monotonic() - began > timeout:
-                raise SwazureError(f"{topic}: no publisher found within {timeout:g} s")
+                raise RunError(f"{topic}: no publisher found within {timeout:g} s")
             executor.spin_once(timeout_sec=0.1)
         cls = message_class(type_name)
         wanted = f"{cls.__module__.split('.')[0]}/msg/{cls.__name__}"

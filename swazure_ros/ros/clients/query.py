@@ -8,7 +8,7 @@ from typing import Any
 from rclpy.executors import SingleThreadedExecutor
 from swazure_interfaces.srv import ComputePose
 
-from ...core.errors import SwazureError
+from ...core.errors import RunError, SwazureError
 from ...protocol.discovery.estimate import Estimate
 from ..convert.discovery import pose_estimate_from_message
 from ..plumbing.names import COMPUTE_POSE_SERVICE, COORDINATOR, ESTIMATOR_CODES, policy_code
@@ -58,7 +58,7 @@ def compute_pose(
             if now > deadline or (
                 now > began + min(timeout, NOTHING_THERE) and not _swarm_nodes(node, namespace)
             ):
-                raise SwazureError(
+                raise RunError(
                     f"no coordinator on domain {context.get_domain_id()}, namespace "
                     f"/{namespace} (no {service} in {now - began:.0f} s): is a swarm up? "
                     "(swazure spawn, or ros2 launch swazure_ros swarm.launch.py)"
@@ -73,7 +73,7 @@ def compute_pose(
         future: Any = client.call_async(request)
         while not future.done():
             if time.monotonic() > deadline:
-                raise SwazureError(f"{service}: no answer within {timeout:g} s")
+                raise RunError(f"{service}: no answer within {timeout:g} s")
             executor.spin_once(timeout_sec=0.1)
         response = future.result()
         if not response.success:

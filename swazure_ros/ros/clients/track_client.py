@@ -8,7 +8,7 @@ from rclpy.context import Context
 from swazure_interfaces.msg import TrackEstimate, TrackProgress
 from swazure_interfaces.srv import TrackTarget
 
-from ...core.errors import SwazureError
+from ...core.errors import RunError
 from ...core.neighbours import IntArray
 from ...core.tracking import ENDED, TIMED_OUT, MotionEstimate, TrackingError
 from ...protocol.tracking import TrackProgressReport
@@ -30,7 +30,7 @@ from ..security.guard import Guard
 SpinUntil = Callable[[Callable[[], bool], float], bool]
 
 
-class SwarmStalledError(SwazureError):
+class SwarmStalledError(RunError):
     """The nodes stopped answering within the wall-clock bound."""
 
 

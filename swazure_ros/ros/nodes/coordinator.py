@@ -52,7 +52,7 @@ from ...protocol.discovery.search import bucket_width
 from ...protocol.moves import Move, MoveRun, Walk
 from ...protocol.plausible import implausible_estimates
 from ...protocol.rounds import RoundClock, StallClock
-from ...protocol.runs import DiscoveryResult, MoveResult, Traffic, discovery_result, move_result
+from ...protocol.runs import DiscoveryResult, MoveResult, Traffic
 from ..convert.discovery import (
     control_message,
     estimates_from_message,
@@ -482,11 +482,11 @@ class Coordinator(SwarmNode):
             outcome = machine.outcome
             assert outcome is not None
             self.membership.settle(outcome.departed)
-            return discovery_result(machine.run_id, machine.policy, outcome, seconds, traffic)
+            return DiscoveryResult(machine.run_id, machine.policy, outcome, seconds, traffic)
         moved = machine.outcome
         assert moved is not None
         self.positions.asked_revision = machine.asked_revision
-        return move_result(machine.run_id, moved, seconds, traffic)
+        return MoveResult(machine.run_id, moved, seconds, traffic)
 
     def progress(self) -> str:
         """How far the running job is ("" when idle), for a person watching."""

@@ -19,7 +19,7 @@ from rclpy.node import Node
 from std_msgs.msg import Header
 from swazure_interfaces.msg import SwarmInstance
 
-from ...core.errors import MessageError, SwazureError
+from ...core.errors import MessageError, RunError
 from ..convert.units import stamp_nanoseconds
 from ..plumbing.names import INSTANCE_QOS, INSTANCE_TOPIC
 from ..plumbing.runtime import Context, ParameterError
@@ -99,7 +99,7 @@ def await_instance(
         while not found and time.monotonic() < deadline:
             executor.spin_once(timeout_sec=0.1)
         if not found:
-            raise SwazureError(
+            raise RunError(
                 f"no world node announced the swarm's instance on /{namespace}/{INSTANCE_TOPIC} "
                 f"in {timeout:g} s: start the world too (`swazure spawn --share 0/N`, or `ros2 "
                 "run swazure_ros world`), with the same key file and a clock within "

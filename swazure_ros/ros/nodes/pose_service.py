@@ -89,12 +89,12 @@ class PoseService:
     def _pose_answer(
         self, result: DiscoveryResult, source: int, target: int
     ) -> ComputePose.Response:
-        found = [one for one in result.estimates.get(source, []) if one.target == target]
+        found = [one for one in result.outcome.estimates.get(source, []) if one.target == target]
         if not found:
             message = (
                 f"FLS {target} is not a blind neighbour of FLS {source}: "
                 "Swazure computes poses of blind neighbours only"
-                if source in result.estimates
+                if source in result.outcome.estimates
                 else f"no answer from source FLS {source}"
             )
             return refused(message)

@@ -112,4 +112,4 @@ def test_a_flood_of_track_requests_is_cut_to_the_rate_and_the_swarm_still_answer
         assert swarm.host.guard.dropped[reason] >= 1000 - allowed
         result = swarm.discover("shortest-length", timeout=120)
         engine = evaluate_pairs(swarm.world.hood, "shortest-length")
-        assert_matches_engine(swarm.world, by_pair(result.estimates), engine)
+        assert_matches_engine(swarm.world, by_pair(result.outcome.estimates), engine)
