@@ -11,7 +11,10 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from swazure_ros.core.summary import FitFacts, Summary
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -239,3 +242,10 @@ def merged(existing: str, fresh: list[list[str]]) -> str:
     out += [chunk for chunk in pieces if chunk[0] in by_heading]
     body = [line for chunk in out for line in (chunk if chunk[-1] == "" else [*chunk, ""])]
     return "\n".join([*header, *body]).rstrip("\n") + "\n"
+
+
+def fit_facts(summary: Summary) -> FitFacts:
+    """The fit's facts of a refined evaluation's summary; an error for a summary of no fit."""
+    if summary.fit is None:
+        raise ValueError("the summary is of no fit")
+    return summary.fit

@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from bench.common import fit_facts
 from swazure_ros.core.evaluate import DECAYING_PATH, NO_PATH, SWEET_PATH, evaluate
 from swazure_ros.core.fit import (
     CHI2_95_3DOF,
@@ -130,8 +131,8 @@ def main() -> int:
         "one_sweet_hop_pct": float(hop_error.mean()),
         "engine_s": engine,
         "fit_s": fit_seconds,
-        "measurements": fitted.summary.fit.measurements,
-        "downweighted": fitted.summary.fit.downweighted,
+        "measurements": fit_facts(fitted.summary).measurements,
+        "downweighted": fit_facts(fitted.summary).downweighted,
     }
     for name, status in (("sweet", SWEET_PATH), ("decaying", DECAYING_PATH)):
         rows = pairs.status == status
@@ -159,7 +160,7 @@ def main() -> int:
             "turned": errors(turned.pairs.distance_error[has_path]),
             "clean_redundant": errors(fitted.pairs.distance_error[redundant]),
             "turned_redundant": errors(turned.pairs.distance_error[redundant]),
-            "downweighted": turned.summary.fit.downweighted,
+            "downweighted": fit_facts(turned.summary).downweighted,
         }
     json.dump(result, sys.stdout)
     print()

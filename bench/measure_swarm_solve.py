@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from bench.common import fit_facts
 from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate
 from swazure_ros.core.fit import (
     LEAST_SQUARES,
@@ -147,9 +148,9 @@ def main() -> int:
         "measurements": len(measured),
         "diameter_hops": diameter(size, measured),
         "engine_s": engine_s,
-        "central_s": None if central is None else central.summary.fit.seconds,
-        "swarm_s": swarm_fit.summary.fit.seconds,
-        "iterations": swarm_fit.summary.fit.iterations,
+        "central_s": None if central is None else fit_facts(central.summary).seconds,
+        "swarm_s": fit_facts(swarm_fit.summary).seconds,
+        "iterations": fit_facts(swarm_fit.summary).iterations,
         "samples": COVARIANCE_SAMPLES,
         "fls_work_us": fls_work_us(size, measured, COVARIANCE_SAMPLES),
         # One exchange: the FLS's three values per column, float64; the sample solve's K
@@ -164,8 +165,8 @@ def main() -> int:
         result[name] = {
             "sweet": errors(error[sweet]),
             "decaying": errors(error[decaying]),
-            "nees_mean": fitted.summary.fit.consistency.nees.mean,
-            "within_chi2_95_pct": fitted.summary.fit.consistency.within_chi2_95_pct,
+            "nees_mean": fit_facts(fitted.summary).consistency.nees.mean,
+            "within_chi2_95_pct": fit_facts(fitted.summary).consistency.within_chi2_95_pct,
         }
     if central is not None:
         result["largest_difference_cm"] = float(
@@ -182,14 +183,14 @@ def main() -> int:
 
         result["outliers"] = {}
         for name, clean in fits:
-            turned = refine(plain, clean.summary.fit.estimator, corrupt=corrupt)
+            turned = refine(plain, fit_facts(clean.summary).estimator, corrupt=corrupt)
             clean_error, turned_error = clean.pairs.distance_error, turned.pairs.distance_error
             result["outliers"][name] = {
                 "clean": errors(clean_error[has_path]),
                 "turned": errors(turned_error[has_path]),
                 "clean_redundant": errors(clean_error[has_path & redundant]),
                 "turned_redundant": errors(turned_error[has_path & redundant]),
-                "downweighted": turned.summary.fit.downweighted,
+                "downweighted": fit_facts(turned.summary).downweighted,
             }
     if args.warm:
         result["warm"] = warm_costs(size, measured)
