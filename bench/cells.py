@@ -203,7 +203,8 @@ def cells_figure(records: list[dict[str, Any]], path: Path) -> None:
         axes.set_xscale("log")
         axes.set_xlabel("FLSs in the swarm (torus at the paper's density; race car hollow)")
         axes.grid(True, alpha=0.3)
-        axes.legend(fontsize=8, loc=corner)
+        if axes.get_legend_handles_labels()[0]:  # every run stopped: nothing to name
+            axes.legend(fontsize=8, loc=corner)
     stopped = ", ".join(f"{r['shape']} stopped" for r in records if "stopped" in r)
     figure.suptitle(
         "Packed discovery with radio cells, 2 cores" + (f" ({stopped})" if stopped else "")

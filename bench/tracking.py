@@ -43,10 +43,11 @@ TRACK_RUNS = (
 
 def track_errors_row(trajectory: str, accurate: bool, delay: float, model: str) -> list[str]:
     """One core track of the trio swarm (10 s); its errors as table cells, mean (max)."""
-    from swazure_ros.core.motion import Motion, parse_trajectory
+    from swazure_ros.core.motion import Motion
     from swazure_ros.core.tracking import TrackConfig, track_errors, track_series
     from swazure_ros.files.cloud_files import load_cloud
     from swazure_ros.files.sensors import load_sensor
+    from swazure_ros.files.trajectories import parse_trajectory
     from swazure_ros.protocol.loops import simulate_track
     from swazure_ros.sim.world import make_world
 

@@ -61,7 +61,7 @@ class PerFls:
     """A track run whose FLSs run one to a process: their swarm's description and motion.
 
     ``motion`` is the run's :class:`~swazure_ros.core.motion.Motion` as text
-    (``FLS=TRAJECTORY;...``, :func:`~swazure_ros.core.motion.parse_motion`):
+    (``FLS=TRAJECTORY;...``, :func:`~swazure_ros.files.trajectories.parse_motion`):
     each FLS process builds its simulated relay camera of it.
     """
 

@@ -17,7 +17,6 @@ from typing import Any
 from ..core.blocks import (
     DEFAULT_MEMORY,
     Budget,
-    available_memory,
     evaluate_blocked,
     whole_swarm_bytes,
 )
@@ -29,6 +28,7 @@ from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
 from ..core.summary import with_source
+from ..files.reading import available_memory
 from ..files.results import (
     SUMMARY_FILE,
     RunRecord,

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.errors import SwazureError
-from ..core.motion import Motion, Trajectory, TrajectoryError, parse_move, parse_trajectory
+from ..core.motion import Motion, Trajectory, TrajectoryError
 from ..core.tracking import (
     ESTIMATORS,
     MODELS,
@@ -34,6 +34,7 @@ from ..core.tracking import (
     track_series,
 )
 from ..files.results import atomic_write
+from ..files.trajectories import parse_move, parse_trajectory
 from .arguments import fls_id, output_file, png_file, seconds
 from .options import add_domain_argument, add_swarm_arguments, world_from_args
 

@@ -22,7 +22,6 @@ held whole (docs/core.md, "The engine at display scale").
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
@@ -308,15 +307,3 @@ def evaluate_blocked(
 def whole_swarm_bytes(swarm: Swarm, sensor: Sensor) -> int:
     """About how much memory :func:`.evaluate.evaluate` of ``swarm`` needs, bytes."""
     return int(pair_counts(swarm, sensor).sum()) * WHOLE_PAIR_BYTES
-
-
-def available_memory() -> int:
-    """Memory this machine has free for a run, bytes (MemAvailable, else all of it)."""
-    try:
-        with open("/proc/meminfo") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")

@@ -8,10 +8,8 @@ Before ``t = 0`` an FLS is at home.
 
 from __future__ import annotations
 
-import csv
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Protocol
 
 import numpy as np
@@ -195,7 +193,8 @@ class Motion:
         return position, target_state[1] - source_state[1], target_state[2] - source_state[2]
 
 
-def _numbers(text: str, what: str, counts: tuple[int, ...]) -> list[float]:
+def comma_numbers(text: str, what: str, counts: tuple[int, ...]) -> list[float]:
+    """The ``counts`` finite numbers of comma-separated ``text``; errors say ``what``."""
     try:
         numbers = [float(part) for part in text.split(",")] if text else []
     except ValueError:
@@ -213,36 +212,17 @@ def _perpendicular(axis: FloatArray) -> FloatArray:
     return np.asarray(perpendicular / np.linalg.norm(perpendicular), dtype=np.float64)
 
 
-def read_waypoints(path: str | Path) -> Waypoints:
-    """Read a waypoint CSV with header ``t,x,y,z`` (s, and cm from home)."""
-    path = Path(path)
-    try:
-        with path.open(newline="") as handle:
-            rows = list(csv.reader(handle))
-    except OSError as err:
-        raise TrajectoryError(f"cannot read waypoints {path}: {err.strerror}") from None
-    if not rows or [cell.strip() for cell in rows[0]] != ["t", "x", "y", "z"]:
-        raise TrajectoryError(f"{path}: the first line must be the header t,x,y,z")
-    values = []
-    for number, row in enumerate(rows[1:], start=2):
-        if not any(cell.strip() for cell in row):
-            continue
-        values.append(_numbers(",".join(row), f"{path}, line {number}", (4,)))
-    if len(values) < 2:
-        raise TrajectoryError(f"{path}: needs at least two waypoints")
-    table = np.array(values)
-    if np.any(np.diff(table[:, 0]) <= 0):
-        raise TrajectoryError(f"{path}: waypoint times must increase strictly")
-    return Waypoints(table[:, 0], table[:, 1:])
+#: The trajectories a spec names (``KIND:NUMBERS``); a waypoint file is read in files/.
+TRAJECTORY_KINDS = ("linear", "circle")
 
 
-def parse_trajectory(text: str) -> Trajectory:
-    """A trajectory from ``linear:VX,VY,VZ``, ``circle:RADIUS,PERIOD[,AX,AY,AZ]`` or a CSV path."""
+def trajectory_from_spec(text: str) -> Trajectory:
+    """A trajectory from ``linear:VX,VY,VZ`` or ``circle:RADIUS,PERIOD[,AX,AY,AZ]``."""
     kind, _, arguments = text.partition(":")
     if kind == "linear":
-        return ConstantVelocity(np.array(_numbers(arguments, "linear", (3,))))
+        return ConstantVelocity(np.array(comma_numbers(arguments, "linear", (3,))))
     if kind == "circle":
-        numbers = _numbers(arguments, "circle (RADIUS,PERIOD[,AX,AY,AZ])", (2, 5))
+        numbers = comma_numbers(arguments, "circle (RADIUS,PERIOD[,AX,AY,AZ])", (2, 5))
         radius, period = numbers[:2]
         if radius <= 0 or period <= 0:
             raise TrajectoryError(f"circle: radius and period must be positive, got {arguments!r}")
@@ -251,22 +231,7 @@ def parse_trajectory(text: str) -> Trajectory:
             raise TrajectoryError("circle: the axis must not be zero")
         axis = axis / np.linalg.norm(axis)
         return Circle(radius, period, axis, -_perpendicular(axis))
-    if Path(text).suffix.lower() == ".csv" or Path(text).exists():
-        return read_waypoints(text)
     raise TrajectoryError(
         f"unknown trajectory {text!r}: use linear:VX,VY,VZ, circle:RADIUS,PERIOD[,AX,AY,AZ] "
         "or a waypoint CSV file (t,x,y,z)"
     )
-
-
-def parse_move(text: str) -> tuple[int, Trajectory]:
-    """(FLS id, trajectory) of one ``FLS=TRAJECTORY``, e.g. ``0=linear:0,0,0.1``."""
-    fls, separator, trajectory = text.partition("=")
-    if not separator or not fls.strip().isdigit():
-        raise TrajectoryError(f"{text!r}: expected FLS=TRAJECTORY, e.g. 0=linear:0,0,0.1")
-    return int(fls), parse_trajectory(trajectory.strip())
-
-
-def parse_motion(text: str) -> Motion:
-    """The Motion of ``FLS=TRAJECTORY`` moves separated by ``;`` ("" : no FLS moves)."""
-    return Motion(dict(parse_move(move) for move in text.split(";") if move.strip()))

@@ -135,3 +135,15 @@ def config_dir() -> Path:
         if (candidate / "sensor.yaml").is_file():
             return candidate
     raise SensorError("cannot find the configuration folder with sensor.yaml")
+
+
+def available_memory() -> int:
+    """Memory this machine has free for a run, bytes (MemAvailable, else all of it)."""
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")

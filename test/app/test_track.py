@@ -8,8 +8,8 @@ cm), as in test/ros/nodes/test_tracking.py, which runs the same nodes in one pro
 from __future__ import annotations
 
 from swazure_ros.app.track import PerFls, run_track, same_run
-from swazure_ros.core.motion import parse_motion
 from swazure_ros.core.tracking import TRACKING, TrackConfig
+from swazure_ros.files.trajectories import parse_motion
 from swazure_ros.protocol.loops import simulate_track
 from swazure_ros.sim.world import WorldSpec
 

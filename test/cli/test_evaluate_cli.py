@@ -244,7 +244,7 @@ def test_the_least_squares_estimator_refuses_fusion_in_one_line():
 
 def test_a_heuristic_on_a_display_that_cannot_fit_says_what_it_needs_in_one_line():
     # torus:65536 holds about 62 GB of pairs at once (250 bytes a candidate pair).
-    from swazure_ros.core.blocks import available_memory
+    from swazure_ros.files.reading import available_memory
 
     if available_memory() > 50 * 2**30:
         pytest.skip("this machine has room for the display's every pair")

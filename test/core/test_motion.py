@@ -1,4 +1,4 @@
-"""Trajectories: analytic positions and derivatives, parsing, and the waypoint file."""
+"""Trajectories: analytic positions and derivatives, and the specs that name them."""
 
 import numpy as np
 import pytest
@@ -8,8 +8,7 @@ from swazure_ros.core.motion import (
     ConstantVelocity,
     Motion,
     TrajectoryError,
-    parse_trajectory,
-    read_waypoints,
+    trajectory_from_spec,
 )
 
 
@@ -21,7 +20,7 @@ def test_constant_velocity_moves_linearly_from_home_after_zero():
 
 
 def test_circle_starts_at_home_and_accelerates_towards_its_centre():
-    circle = parse_trajectory("circle:2,8")
+    circle = trajectory_from_spec("circle:2,8")
     assert isinstance(circle, Circle)
     assert np.allclose(circle.displacement(0.0), 0.0)
     assert np.allclose(circle.centre, [-2.0, 0.0, 0.0])
@@ -36,24 +35,10 @@ def test_circle_starts_at_home_and_accelerates_towards_its_centre():
 
 
 def test_circle_about_a_tilted_axis_stays_in_its_plane():
-    circle = parse_trajectory("circle:1,4,0,1,1")
+    circle = trajectory_from_spec("circle:1,4,0,1,1")
     axis = np.array([0.0, 1.0, 1.0]) / np.sqrt(2)
     times = np.linspace(0.0, 4.0, 9)
     assert np.allclose(circle.displacement(times) @ axis, 0.0)
-
-
-def test_waypoints_pass_through_their_points_at_rest_at_the_ends(tmp_path):
-    path = tmp_path / "path.csv"
-    path.write_text("t,x,y,z\n0,0,0,0\n1,1,0,0\n3,1,2,0\n")
-    waypoints = parse_trajectory(str(path))
-    assert np.allclose(
-        waypoints.displacement([0, 1, 3, 5]), [[0, 0, 0], [1, 0, 0], [1, 2, 0], [1, 2, 0]]
-    )
-    assert np.allclose(waypoints.velocity([0.0, 3.0, 4.0]), 0.0)
-    # The spline's derivative is the position's: a finite difference agrees.
-    step = 1e-5
-    slope = (waypoints.displacement(1.5 + step) - waypoints.displacement(1.5 - step)) / (2 * step)
-    assert np.allclose(slope, waypoints.velocity(1.5), atol=1e-6)
 
 
 @pytest.mark.parametrize(
@@ -64,29 +49,12 @@ def test_waypoints_pass_through_their_points_at_rest_at_the_ends(tmp_path):
         ("circle:-1,4", "must be positive"),
         ("circle:1,4,0,0,0", "axis must not be zero"),
         ("spiral:1", "unknown trajectory"),
-        ("missing.csv", "cannot read waypoints"),
     ],
 )
-def test_bad_trajectories_raise_one_line_errors(text, message):
+def test_bad_trajectory_specs_raise_one_line_errors(text, message):
     with pytest.raises(TrajectoryError, match=message) as caught:
-        parse_trajectory(text)
+        trajectory_from_spec(text)
     assert "\n" not in str(caught.value)
-
-
-@pytest.mark.parametrize(
-    ("content", "message"),
-    [
-        ("time,x,y,z\n0,0,0,0\n1,0,0,0\n", "header"),
-        ("t,x,y,z\n0,0,0,0\n", "at least two"),
-        ("t,x,y,z\n0,0,0,0\n0,1,0,0\n", "increase strictly"),
-        ("t,x,y,z\n0,0,0,0\n1,0,zero,0\n", "line 3"),
-    ],
-)
-def test_bad_waypoint_files_name_the_problem(tmp_path, content, message):
-    path = tmp_path / "bad.csv"
-    path.write_text(content)
-    with pytest.raises(TrajectoryError, match=message):
-        read_waypoints(path)
 
 
 def test_motion_moves_only_the_listed_flss_and_gives_relative_truth():

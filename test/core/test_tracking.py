@@ -8,7 +8,7 @@ range; r = 0.5 cm, so tracking distances are centre distances minus 1 cm.
 import numpy as np
 import pytest
 
-from swazure_ros.core.motion import Motion, parse_trajectory
+from swazure_ros.core.motion import Motion
 from swazure_ros.core.sensor import measured_vectors
 from swazure_ros.core.tracking import (
     CONSTANT_ACCELERATION,
@@ -26,6 +26,7 @@ from swazure_ros.core.tracking import (
     relay_sample,
 )
 from swazure_ros.files.sensors import load_sensor
+from swazure_ros.files.trajectories import parse_trajectory
 from swazure_ros.protocol.loops import simulate_track
 
 RADIUS = 0.5

@@ -48,7 +48,7 @@ from ..geometry import (
     segment_gap,
 )
 from .compat import TEXT, Compat
-from .result import MOVE_OBSTRUCTING, HeuristicResult, blocked_pairs, empty_result
+from .result import MOVE_OBSTRUCTING, HeuristicResult, PairFindings, blocked_pairs
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -147,23 +147,27 @@ def _obstructing_result(
 ) -> HeuristicResult:
     """Move Obstructing's outcome: the pairs ``new_paths`` resolved, the moves as a CSR."""
     size = len(evaluation.pairs)
-    result = empty_result(MOVE_OBSTRUCTING, None, size)
-    result["tried"][blocked] = True
-    resolved = np.zeros(size, dtype=bool)
+    found = PairFindings.nothing_yet(size)
+    found.tried[blocked] = True
+    resolved = found.resolved
     resolved[list(new_paths)] = True
-    result["resolved"] = resolved
     paths = paths_from_rows(size, new_paths)
     estimate, _, _ = estimates(evaluation.hood, paths)
-    result["estimate"][resolved] = estimate[resolved]
-    result["truth"][resolved] = evaluation.pairs.truth[resolved]
+    found.estimate[resolved] = estimate[resolved]
+    found.truth[resolved] = evaluation.pairs.truth[resolved]
     return HeuristicResult(
+        technique=MOVE_OBSTRUCTING,
+        threshold=None,
+        tried=found.tried,
+        resolved=found.resolved,
+        estimate=found.estimate,
+        truth=found.truth,
         paths=paths,
         move_offsets=csr.offsets(move_counts),
         move_fls=move_fls,
         move_from=move_from,
         move_to=move_to,
         compat=compat,
-        **result,
     )
 
 

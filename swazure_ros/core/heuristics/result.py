@@ -4,7 +4,6 @@ estimate, and every individual move (:class:`HeuristicResult`)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -81,12 +80,18 @@ def blocked_pairs(evaluation: Evaluation) -> IntArray:
     return np.flatnonzero((pairs.reason == REASON_BLOCKED) & (pairs.status != SWEET_PATH))
 
 
-def empty_result(technique: str, threshold: int | None, size: int) -> dict[str, Any]:
-    return {
-        "technique": technique,
-        "threshold": threshold,
-        "tried": np.zeros(size, dtype=bool),
-        "resolved": np.zeros(size, dtype=bool),
-        "estimate": np.full((size, 3), np.nan),
-        "truth": np.full((size, 3), np.nan),
-    }
+@dataclass(frozen=True)
+class PairFindings:
+    """A heuristic's findings per pair before its moves: which it tried and resolved,
+    (M,) each, and the estimate and truth of each resolved one, (M, 3), cm (nan elsewhere)."""
+
+    tried: NDArray[np.bool_]
+    resolved: NDArray[np.bool_]
+    estimate: FloatArray
+    truth: FloatArray
+
+    @classmethod
+    def nothing_yet(cls, size: int) -> PairFindings:
+        """Findings for ``size`` pairs, none tried: filled in place as the heuristic runs."""
+        unknown = np.full((size, 3), np.nan)
+        return cls(np.zeros(size, bool), np.zeros(size, bool), unknown, unknown.copy())

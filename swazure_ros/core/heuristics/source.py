@@ -24,7 +24,7 @@ from ..paths import paths_from_rows
 from ..sensor import measured_vectors
 from ..sight import Grid, any_within, scan_between
 from .compat import TEXT, Compat
-from .result import MAX_THRESHOLD, MOVE_SOURCE, HeuristicResult, blocked_pairs, empty_result
+from .result import MAX_THRESHOLD, MOVE_SOURCE, HeuristicResult, PairFindings, blocked_pairs
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -223,9 +223,9 @@ def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -
     hood, pairs = evaluation.hood, evaluation.pairs
     swarm, sensor, grid = hood.swarm, hood.sensor, hood.grid
     size = len(pairs)
-    result = empty_result(MOVE_SOURCE, threshold, size)
+    found = PairFindings.nothing_yet(size)
     blocked = blocked_pairs(evaluation)
-    result["tried"][blocked] = True
+    found.tried[blocked] = True
     visible = hood.sweet_visible
     helpers = visible.indices.astype(np.int64)
     if compat.first_helper:
@@ -250,8 +250,7 @@ def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -
     )
     success = helper >= 0
     resolved_pairs = blocked[success]
-    resolved = np.zeros(size, dtype=bool)
-    resolved[resolved_pairs] = True
+    found.resolved[resolved_pairs] = True
     flown = np.zeros(size)
     flown[blocked] = flown_blocked
     # Hops q -> h -> j, measured with the source at its probe position q.
@@ -262,9 +261,8 @@ def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -
     second_hop = measured_vectors(
         sensor, extended, swarm.radius, middle, pairs.target[resolved_pairs]
     )
-    result["resolved"] = resolved
-    result["estimate"][resolved_pairs] = first_hop + second_hop
-    result["truth"][resolved_pairs] = swarm.points[pairs.target[resolved_pairs]] - probe[success]
+    found.estimate[resolved_pairs] = first_hop + second_hop
+    found.truth[resolved_pairs] = swarm.points[pairs.target[resolved_pairs]] - probe[success]
     rows = {
         int(pair): [int(pairs.source[pair]), int(h), int(pairs.target[pair])]
         for pair, h in zip(resolved_pairs, middle)
@@ -272,6 +270,12 @@ def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -
     move_counts = np.zeros(size, dtype=np.int64)
     move_counts[resolved_pairs] = 1
     return HeuristicResult(
+        technique=MOVE_SOURCE,
+        threshold=threshold,
+        tried=found.tried,
+        resolved=found.resolved,
+        estimate=found.estimate,
+        truth=found.truth,
         paths=paths_from_rows(size, rows),
         move_offsets=csr.offsets(move_counts),
         move_fls=pairs.source[resolved_pairs].astype(np.int64),
@@ -279,5 +283,4 @@ def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -
         move_to=probe[success].reshape(-1, 3),
         flown=flown,
         compat=compat,
-        **result,
     )

@@ -17,8 +17,8 @@ from rclpy.node import Node
 from rclpy.timer import Timer
 
 from ...core.errors import SwazureError
-from ...core.motion import parse_motion
 from ...core.tracking import RelaySenses, moving_senses
+from ...files.trajectories import parse_motion
 from ...protocol.senses import DetectedSenses
 from ..nodes import fls_node, fls_tracking
 from ..nodes.fls_camera import DetectedSensing

@@ -12,7 +12,7 @@ from swazure_interfaces.srv import TrackTarget
 from swazure_ros.app.track import TrackSession, run_track, same_run
 from swazure_ros.core.clouds import Cloud
 from swazure_ros.core.frames import to_metres
-from swazure_ros.core.motion import Motion, parse_trajectory
+from swazure_ros.core.motion import Motion
 from swazure_ros.core.tracking import (
     CONSTANT_ACCELERATION,
     TIMED_OUT,
@@ -22,6 +22,7 @@ from swazure_ros.core.tracking import (
     nanoseconds,
 )
 from swazure_ros.files.sensors import load_sensor
+from swazure_ros.files.trajectories import parse_trajectory
 from swazure_ros.protocol.loops import simulate_track
 from swazure_ros.ros.convert.tracking import motion_estimate as estimate_from_message
 from swazure_ros.sim.world import make_world
