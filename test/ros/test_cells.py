@@ -131,7 +131,9 @@ def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, 
             assert wait_until(
                 lambda: node.count_subscribers(topic) >= 1, 60, lambda: swarm.spin(0.1)
             )
-            swarm.spin(1.0)  # the echo's reader matched to our writer, not only seen
+            # The echo's reader matched to every FLS's writer, not only seen: seconds on a
+            # loaded machine.
+            swarm.spin(3.0)
             result = swarm.discover(POLICY)
             swarm.spin(1.0)
         finally:
