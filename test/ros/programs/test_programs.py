@@ -288,8 +288,9 @@ def test_ros2_launch_of_the_default_example_swarm_sees_and_answers(ros2_tools, d
     # A person's first launch: no swarm given, from a folder of their own.
     launch = start("launch", "swazure_ros", "swarm.launch.py", cwd=tmp_path)
     try:
-        listed = until(nodes, lambda names: "/swarm/fls_119" in names, timeout=120)
-        assert {"/swarm/fls_0", "/swarm/fls_119", "/swarm/coordinator"} <= set(listed), listed
+        expected = {"/swarm/fls_0", "/swarm/fls_119", "/swarm/coordinator"}
+        listed = until(nodes, lambda names: expected <= set(names), timeout=120)
+        assert expected <= set(listed), listed
         got = ros2("param", "get", "--no-daemon", "--spin-time", "3", "/swarm/fls_7",
                    "publish_period")  # fmt: skip
         # The swarm file's parameters: every FLS 0.5 s, FLS 0 0.1 s.
