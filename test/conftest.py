@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -13,6 +14,8 @@ from hypothesis import HealthCheck, settings
 
 from swazure_ros.core.geometry import Swarm, make_swarm
 from swazure_ros.core.sensor import Sensor
+
+from .domains import configured_domains, held_domain
 
 #: The fuzz tests' hypothesis settings: the same inputs every run (seeded, no example
 #: database), no time limit per example; each test sets its own max_examples.
@@ -67,6 +70,46 @@ def stop_ros2_daemons(domain: int) -> None:
     for pid in ros2_daemons(domain):
         with contextlib.suppress(ProcessLookupError):
             os.kill(pid, signal.SIGTERM)
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """Refuse a malformed SWAZURE_TEST_DOMAINS at once; keep stray DDS traffic to itself.
+
+    A test that talks over DDS takes the ``domain`` fixture: a domain id of its
+    own, discovery on this machine only. Anything else that starts DDS (a test
+    that forgot the fixture) gets no discovery at all rather than domain 0's
+    traffic, so it fails here instead of meeting somebody else's swarm.
+    """
+    try:
+        configured_domains()
+    except ValueError as error:
+        raise pytest.UsageError(str(error)) from None
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
+    os.environ.pop("ROS_DOMAIN_ID", None)
+
+
+@pytest.fixture
+def domain() -> Iterator[int]:
+    """A ROS domain id that SWAZURE_TEST_DOMAINS allows and no other test holds now.
+
+    Set in the environment for the test's length (with discovery on this
+    machine only), so that the processes it starts share it.
+    """
+    saved = {
+        key: os.environ.get(key) for key in ("ROS_AUTOMATIC_DISCOVERY_RANGE", "ROS_DOMAIN_ID")
+    }
+    os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    with held_domain(configured_domains()) as reserved:
+        os.environ["ROS_DOMAIN_ID"] = str(reserved)
+        try:
+            yield reserved
+        finally:
+            stop_ros2_daemons(reserved)
+            for key, value in saved.items():
+                if value is None:
+                    os.environ.pop(key, None)
+                else:
+                    os.environ[key] = value
 
 
 @pytest.fixture

@@ -1,3 +1,3 @@
-"""The app runs swarms over ROS: the ROS fixtures (a domain of the test's own)."""
+"""The app runs swarms over ROS: the ROS fixtures (a domain of each test's own)."""
 
-from ..ros.conftest import context, domain  # noqa: F401  (fixtures)
+from ..ros.conftest import context  # noqa: F401  (a fixture)
