@@ -20,6 +20,7 @@ from swazure_ros.ros.security.keys import new_key, write_key
 from swazure_ros.sim.world import WorldSpec
 
 from ..netns import address, hosts_unavailable, netns_hosts, on_host
+from ..waits import PATIENCE
 from .test_per_fls import GRID
 
 SWAZURE = (sys.executable, "-m", "swazure_ros.cli.main")
@@ -41,7 +42,7 @@ def test_fls_processes_on_two_hosts_through_a_discovery_server_compute_the_engin
     key = tmp_path / "swarm.key"
     write_key(key, new_key())
     common = ["spawn", str(GRID), "--per-fls", "--key-file", str(key), "--quiet",
-              "--discovery-server", address(0), "--discovery-timeout", "120"]  # fmt: skip
+              "--discovery-server", address(0), "--discovery-timeout", str(PATIENCE)]  # fmt: skip
     follower = subprocess.Popen(
         on_host(1, *SWAZURE, *common, "--share", "1/2", "--log-dir", str(tmp_path / "h1")),
         env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -54,7 +55,7 @@ def test_fls_processes_on_two_hosts_through_a_discovery_server_compute_the_engin
         )  # fmt: skip
     finally:
         follower.send_signal(signal.SIGINT)
-        out, err = follower.communicate(timeout=60)
+        out, err = follower.communicate(timeout=PATIENCE)
     assert leader.returncode == 0, leader.stdout + leader.stderr
     assert "13 processes of one FLS each, share 0 of 2" in leader.stdout, leader.stdout
     assert "12 processes of one FLS each, share 1 of 2" in out, out + err
@@ -82,6 +83,7 @@ def test_fls_processes_on_two_hosts_through_a_discovery_server_compute_the_engin
 
 def test_a_bad_discovery_server_address_is_one_line(tmp_path):
     bad = subprocess.run([*SWAZURE, "spawn", str(GRID), "--per-fls", "--discovery-server",
-                          "10.77.0.300"], capture_output=True, text=True, timeout=60)  # fmt: skip
+                          "10.77.0.300"],
+                         capture_output=True, text=True, timeout=PATIENCE)  # fmt: skip
     assert bad.returncode == 2
     assert "not an IPv4 address" in bad.stderr and "Traceback" not in bad.stderr

@@ -11,6 +11,7 @@ from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_sensor
 
 from ..conftest import FUZZ
+from ..waits import PATIENCE
 
 WIDE = config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml"
 
@@ -197,7 +198,7 @@ def test_camera_values_that_rendering_would_choke_on_are_refused_in_one_line(
     run = subprocess.run(
         [sys.executable, "-m", "swazure_ros.cli.main", "camera", "calibrate", "--camera",
          str(path), "--frames", "1", "--angles", "0", "--quiet"],
-        capture_output=True, text=True, timeout=120,
+        capture_output=True, text=True, timeout=PATIENCE,
     )  # fmt: skip
     assert run.returncode == 2 and message in run.stderr, run.stderr
     assert len(run.stderr.strip().splitlines()) == 1, run.stderr

@@ -21,6 +21,8 @@ import pytest
 
 from swazure_ros.files.reading import config_dir
 
+from ..waits import PATIENCE
+
 CONFIG = config_dir()
 TORUS = ["--cloud", "torus:60", "--beta", "0.5"]
 TRIO = ["--cloud", str(CONFIG / "track" / "trio.xyz"), "--scale", "1", "--radius", "0.5"]
@@ -127,7 +129,7 @@ def _run(folder: Path, arguments: list[str]) -> subprocess.CompletedProcess[str]
         [sys.executable, "-m", "swazure_ros.cli.main", *arguments],
         capture_output=True,
         text=True,
-        timeout=120,  # a hang fails here
+        timeout=PATIENCE,  # a hang fails here
         cwd=folder,
     )
 

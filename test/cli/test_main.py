@@ -20,6 +20,7 @@ from swazure_ros.cli.main import (
 from swazure_ros.core.errors import CloudError, RunError, SwazureError
 
 from ..conftest import REPO
+from ..waits import PATIENCE
 
 
 @pytest.mark.parametrize("verb", list(VERBS))
@@ -40,7 +41,7 @@ def loaded_after(*argv: str) -> set[str]:
         "print(' '.join(sorted(sys.modules)))\n"
     )
     done = subprocess.run(
-        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, check=True
+        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=PATIENCE, check=True
     )
     return set(done.stdout.split())
 
@@ -67,7 +68,7 @@ def test_evaluate_help_explains_every_row_of_the_summary():
 
     done = subprocess.run(
         [sys.executable, "-m", "swazure_ros.cli.main", "evaluate", "--help"],
-        capture_output=True, text=True, timeout=120, check=True,
+        capture_output=True, text=True, timeout=PATIENCE, check=True,
     )  # fmt: skip
     assert SUMMARY_TERMS.splitlines()[1] in done.stdout
     # The documentation says the same, word for word (docs/core.md, "The summary's rows").

@@ -16,6 +16,8 @@ from swazure_ros.core.evaluate import evaluate
 from swazure_ros.files.cloud_files import is_cloud_path
 from swazure_ros.files.reading import config_dir
 
+from ..waits import PATIENCE
+
 SWARMS = config_dir() / "swarms"
 TORUS = SWARMS / "torus.yaml"
 
@@ -129,7 +131,7 @@ def test_spawn_with_a_bad_swarm_file_says_so_in_one_line_and_writes_nothing(
         [sys.executable, "-m", "swazure_ros.cli.main", "spawn", str(swarm), "--until-ready"],
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=PATIENCE,
         cwd=tmp_path,
     )
     assert run.returncode == 2, run.stderr

@@ -23,6 +23,7 @@ from swazure_ros.files.results import (
 )
 
 from ..conftest import SCENE
+from ..waits import PATIENCE
 
 
 def test_written_file_appears_whole_with_the_mode_of_a_plain_file(tmp_path):
@@ -76,7 +77,7 @@ def test_a_writer_killed_outright_leaves_a_hidden_temporary_the_next_write_remov
         results.atomic_write(Path({str(tmp_path / "result.bin")!r}), write)
         """
     )
-    run = subprocess.run([sys.executable, "-c", script], capture_output=True, timeout=60)
+    run = subprocess.run([sys.executable, "-c", script], capture_output=True, timeout=PATIENCE)
     assert run.returncode == -signal.SIGKILL
     # The killed writer's temporary, hidden and pid-stamped; the next write of
     # the same result removes it.

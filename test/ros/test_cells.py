@@ -16,7 +16,7 @@ from swazure_ros.protocol.discovery.estimate import evaluation_of
 from swazure_ros.ros.plumbing.names import RADIO_TOPIC, WALKS_TOPIC, host_name, radio_topic
 from swazure_ros.sim.world import WorldSpec
 
-from ..waits import wait_until
+from ..waits import PATIENCE, wait_until
 from .programs.test_programs import ros2_tools, start, stop  # noqa: F401
 from .test_discovery import (  # noqa: F401
     assert_matches_engine,
@@ -129,7 +129,7 @@ def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, 
         try:
             node = swarm.host.host_node
             assert wait_until(
-                lambda: node.count_subscribers(topic) >= 1, 60, lambda: swarm.spin(0.1)
+                lambda: node.count_subscribers(topic) >= 1, PATIENCE, lambda: swarm.spin(0.1)
             )
             # The echo's reader matched to every FLS's writer, not only seen: seconds on a
             # loaded machine.

@@ -28,7 +28,7 @@ from swazure_ros.ros.convert.discovery import pose_estimate_from_message
 from swazure_ros.ros.plumbing.names import ESTIMATOR_CODES, policy_code
 from swazure_ros.sim.world import WorldSpec
 
-from ..waits import wait_until
+from ..waits import PATIENCE, wait_until
 from .conftest import make_context
 
 # torus:120 at 1.6 x has sweet, blocked and unreachable pairs at both betas.
@@ -42,12 +42,14 @@ LOCAL_LEAST_SQUARES_CODE = ESTIMATOR_CODES[LOCAL_LEAST_SQUARES]
 
 @pytest.fixture
 def params(tmp_path):
-    """Slow measurement messages (discovery does not need them), a short departure bound."""
+    """Slow measurement messages (discovery does not need them).
+
+    The round timeout is the product's default: an FLS stopped in these tests leaves the
+    graph, and the graph, not silence, makes it depart. A short timeout would take a slow
+    FLS for a departed one on a busy machine, and the run's pairs for another swarm's.
+    """
     path = tmp_path / "swarm.yaml"
-    path.write_text(
-        "/**:\n  ros__parameters:\n    publish_period: 5.0\n"
-        "/**/coordinator:\n  ros__parameters:\n    round_timeout: 1.5\n"
-    )
+    path.write_text("/**:\n  ros__parameters:\n    publish_period: 5.0\n")
     return path
 
 
@@ -151,7 +153,7 @@ def test_a_node_stopped_mid_run_departs_and_paths_avoid_it(domain, params):
                 swarm.host.stop_fls(stopped)
 
         # A run that waited on the stopped FLS for ever would raise TimeoutError here.
-        result = swarm.run(swarm.coordinator.discover(policy), timeout=120, step=stop_mid_run)
+        result = swarm.run(swarm.coordinator.discover(policy), timeout=PATIENCE, step=stop_mid_run)
         assert stopped not in swarm.host.fls_by_id
         assert result.outcome.departed == frozenset({stopped}) and result.outcome.restarts >= 1
         assert stopped not in result.outcome.estimates
@@ -173,18 +175,19 @@ def test_a_node_stopped_mid_run_departs_and_paths_avoid_it(domain, params):
         assert changed > 0  # the stopped FLS mattered
 
         # The swarm goes on without it: the next run needs no restart.
-        again = swarm.discover(policy, timeout=120)
+        again = swarm.discover(policy, timeout=PATIENCE)
         assert (
             again.outcome.restarts == 0 and by_pair(again.outcome.estimates).keys() == found.keys()
         )
 
 
 def test_nodes_stopped_mid_run_are_known_gone_at_once_not_after_a_round_timeout(domain, tmp_path):
-    # A round timeout far longer than the run may take: only liveness can end it in time.
+    # A round timeout of an hour, far past the run's deadline below: if the run ends, the
+    # graph, not a round's timeout, made the stopped FLSs depart.
     params = tmp_path / "swarm.yaml"
     params.write_text(
         "/**:\n  ros__parameters:\n    publish_period: 5.0\n"
-        "/**/coordinator:\n  ros__parameters:\n    round_timeout: 120.0\n"
+        "/**/coordinator:\n  ros__parameters:\n    round_timeout: 3600.0\n"
         "    liveness_period: 0.2\n"
     )
     policy = "shortest-length"
@@ -209,11 +212,9 @@ def test_nodes_stopped_mid_run_are_known_gone_at_once_not_after_a_round_timeout(
                 for fls in stopped & set(swarm.host.fls_by_id):
                     swarm.host.stop_fls(fls)
 
-        began = time.monotonic()
-        result = swarm.run(swarm.coordinator.discover(policy), timeout=60, step=stop_mid_run)
-        took = time.monotonic() - began
+        run = swarm.coordinator.discover(policy)
+        result = swarm.run(run, timeout=PATIENCE, step=stop_mid_run)
         assert result.outcome.departed == frozenset(stopped) and result.outcome.restarts >= 1
-        assert took < 60  # the 120 s round timeout never fired
         expected = evaluate_pairs(without(world.hood, stopped_index), policy)
         found = by_pair(result.outcome.estimates)
         keep = ~np.isin(expected.source, stopped_index) & ~np.isin(expected.target, stopped_index)
@@ -246,7 +247,9 @@ def test_nodes_stopped_mid_run_are_known_gone_at_once_not_after_a_round_timeout(
         # The host keeps its own clock of absences: a look or two after the coordinator's.
         answers = [ask()]
         wait_until(
-            lambda: answers[-1].gone_ids, 10, lambda: (swarm.spin(0.5), answers.append(ask()))
+            lambda: answers[-1].gone_ids,
+            PATIENCE,
+            lambda: (swarm.spin(0.5), answers.append(ask())),
         )
         answer = answers[-1]
         known = {*answer.blind_ids, *answer.sweet_ids, *answer.decaying_ids}
@@ -286,9 +289,9 @@ def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain,
         swarm.host.executor.remove_node(lost)
         swarm.host.nodes.remove(lost)
         lost.destroy_node()  # as a crash: no END, no answer
-        began = time.monotonic()
-        while len(aborted) < len(engine) and time.monotonic() - began < 10:
-            swarm.host.spin_once(0.05)
+        wait_until(
+            lambda: len(aborted) >= len(engine), PATIENCE, lambda: swarm.host.spin_once(0.05)
+        )
         assert not run.done()
         # Every source's every target has a clear status, and nothing else does.
         ids = world.ids
@@ -306,7 +309,7 @@ def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain,
             key=swarm.key,
         )
         swarm.host.add(swarm.coordinator)
-        result = swarm.discover(policy, timeout=120)
+        result = swarm.discover(policy, timeout=PATIENCE)
         assert result.run_id != next(iter(aborted.values()))
         assert_matches_engine(world, by_pair(result.outcome.estimates), engine)
 
@@ -329,9 +332,10 @@ def test_a_lossy_radio_gives_the_engines_results_or_says_incomplete(
     with swarm_of(domain, params) as swarm:
         swarm.wait_until_ready()
         began = time.monotonic()
-        result = swarm.discover(policy, timeout=120)
+        result = swarm.discover(policy, timeout=PATIENCE)
         # Each round's ack waits for its last delivery (repaired ones past 0.1 s): a torus
-        # round takes well under 0.1 s on a perfect radio.
+        # round takes well under 0.1 s on a perfect radio. A lower bound only, which a busy
+        # machine can only make truer: the delay is applied, however slow the machine.
         assert delay == 0 or time.monotonic() - began > result.outcome.rounds * delay
         if complete:
             # Every lost delivery was asked for again: the same results as a perfect radio.
@@ -357,7 +361,7 @@ class Client:
         self.executor.add_node(self.node)
         self.clients = {}
 
-    def call(self, source, target, policy=0, estimator=0, timeout=60.0, service=None):
+    def call(self, source, target, policy=0, estimator=0, timeout=PATIENCE, service=None):
         """Ask the coordinator's service, or ``service`` (e.g. an FLS node's)."""
         service = service or "/swarm/coordinator/compute_pose"
         if service not in self.clients:
@@ -438,7 +442,7 @@ def swazure(*args):
     )
 
 
-def watching_topic(domain, topic, process, timeout=60.0):
+def watching_topic(domain, topic, process, timeout=PATIENCE):
     """Whether a subscription to ``topic`` shows in the graph while ``process`` runs."""
     ctx = make_context(domain)
     probe = Node("watch_probe", context=ctx, start_parameter_services=False, enable_rosout=False)
@@ -492,7 +496,7 @@ def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path,
         # Still watching when the run is over: it neither failed nor gave up.
         watching = watch.poll() is None
         watch.terminate()
-        watched, watch_err = watch.communicate(timeout=60)
+        watched, watch_err = watch.communicate(timeout=PATIENCE)
     assert watching and watch.returncode == -signal.SIGTERM, watch_err
     assert "Traceback" not in watch_err, watch_err
     if technique != "plain":
@@ -504,17 +508,14 @@ def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path,
         assert watched == ""
 
 
-def test_swazure_query_with_no_swarm_says_so_within_seconds(domain):
-    began = time.monotonic()
-    query = swazure("query", "--source", "0", "--target", "2", "--timeout", "60")
-    _, err = query.communicate(timeout=60)
-    waited = time.monotonic() - began
+def test_swazure_query_with_no_swarm_says_so_without_waiting_out_its_timeout(domain):
+    # An hour's timeout: an answer within the test's deadline came from seeing no swarm.
+    query = swazure("query", "--source", "0", "--target", "2", "--timeout", "3600")
+    _, err = query.communicate(timeout=PATIENCE)
     # No swarm answered: the run failed (1), the command line was fine.
     assert query.returncode == 1 and len(err.strip().splitlines()) == 1, err
     assert f"no coordinator on domain {domain}, namespace /swarm" in err, err
     assert "is a swarm up?" in err
-    # Not the whole 60 s of its timeout: nothing of a swarm is on the graph.
-    assert waited < 30, waited
 
 
 def test_swazure_query_prints_the_path_and_vector(domain, params):
@@ -528,7 +529,7 @@ def test_swazure_query_prints_the_path_and_vector(domain, params):
         line = spawn.stdout.readline()
         assert line.startswith("swarm up"), line + spawn.stderr.read()
         query = swazure("query", "--source", str(source), "--target", str(target))
-        out, err = query.communicate(timeout=120)
+        out, err = query.communicate(timeout=PATIENCE)
         assert query.returncode == 0, err
         path = " -> ".join(str(int(world.ids[k])) for k in engine.path(pair))
         assert f"path: {path} ({engine.hops[pair]} hops)" in out, out
@@ -540,7 +541,7 @@ def test_swazure_query_prints_the_path_and_vector(domain, params):
         )
         query = swazure("query", "--source", str(source), "--target", str(target),
                         "--estimator", "local-least-squares")  # fmt: skip
-        out, err = query.communicate(timeout=120)
+        out, err = query.communicate(timeout=PATIENCE)
         assert query.returncode == 0, err
         pair = int(np.flatnonzero((fitted.pairs.source == engine.source[pair])
                                   & (fitted.pairs.target == engine.target[pair]))[0])  # fmt: skip
@@ -552,12 +553,12 @@ def test_swazure_query_prints_the_path_and_vector(domain, params):
             in out
         ), out
         query = swazure("query", "--source", str(source), "--target", "5000")
-        _, err = query.communicate(timeout=120)
+        _, err = query.communicate(timeout=PATIENCE)
         assert query.returncode == 2 and len(err.strip().splitlines()) == 1, err
         assert "no target FLS 5000" in err and "Traceback" not in err
     finally:
         spawn.terminate()
-        spawn.communicate(timeout=60)
+        spawn.communicate(timeout=PATIENCE)
 
 
 def test_an_error_free_swarm_refuses_least_error_and_answers_the_others(domain, params, context):

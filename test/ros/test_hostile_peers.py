@@ -47,7 +47,7 @@ from swazure_ros.ros.plumbing.names import (
 from swazure_ros.ros.security.auth import SwarmKey, new_key
 from swazure_ros.sim.world import WorldSpec
 
-from ..waits import wait_until
+from ..waits import PATIENCE, wait_until
 from .conftest import make_context
 
 POLICY = "shortest-length"
@@ -127,7 +127,7 @@ class Forger:
 
     def __exit__(self, *exc_info: object) -> None:
         self.executor.shutdown()
-        self._thread.join(timeout=10)
+        self._thread.join(timeout=PATIENCE)
         self.node.destroy_node()
         self.context.try_shutdown()
 
@@ -186,7 +186,9 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
                 30,
                 lambda: swarm.spin(0.05),
             )
-            result = swarm.run(swarm.coordinator.discover(POLICY, [source], [target]), timeout=120)
+            result = swarm.run(
+                swarm.coordinator.discover(POLICY, [source], [target]), timeout=PATIENCE
+            )
 
             # The drops are on /diagnostics within a second or two.
             # Counted against the radio cell the forger sent on (or the radio's check).
@@ -198,7 +200,7 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
                     and key.endswith(f": {dropped_because}")
                 )
 
-            wait_until(lambda: counted() >= 1, 10, lambda: swarm.spin(0.05))
+            wait_until(lambda: counted() >= 1, PATIENCE, lambda: swarm.spin(0.05))
             assert counted() >= 1, forger.diagnostics
         assert forger.sent >= 1 and result.outcome.rounds > 0
         (answer,) = result.outcome.estimates[source]
@@ -258,12 +260,14 @@ def test_forged_measurements_change_no_fit(domain, authenticate, forger_key, dro
             # A first fitting run makes the radio hear measurements; the forgery, latched,
             # reaches it once matched. The run after it must fit as the engine does.
             first = swarm.coordinator.discover(POLICY, [source], [target], LOCAL_LEAST_SQUARES)
-            swarm.run(first, timeout=120)
+            swarm.run(first, timeout=PATIENCE)
             refused = (MEASUREMENTS_TOPIC, dropped_because)
-            wait_until(lambda: swarm.host.guard.dropped[refused], 30, lambda: swarm.spin(0.05))
+            wait_until(
+                lambda: swarm.host.guard.dropped[refused], PATIENCE, lambda: swarm.spin(0.05)
+            )
             dropped = swarm.host.guard.dropped[refused]
             run = swarm.coordinator.discover(POLICY, [source], [target], LOCAL_LEAST_SQUARES)
-            result = swarm.run(run, timeout=120)
+            result = swarm.run(run, timeout=PATIENCE)
         finally:
             node.destroy_node()
             context.try_shutdown()
@@ -316,7 +320,7 @@ def test_an_earlier_swarms_messages_and_replayed_controls_change_nothing(domain)
             moves.publish(earlier.serialize(batch))
             first = swarm.run(
                 swarm.coordinator.discover(POLICY, [source], [target]),
-                timeout=120,
+                timeout=PATIENCE,
                 step=lambda: executor.spin_once(timeout_sec=0.01),
             )
             for _ in range(20):
@@ -363,7 +367,9 @@ def test_without_a_key_a_forged_report_is_implausible_and_changes_no_answer(doma
             result = swarm.run(swarm.coordinator.discover(POLICY, [source], [target]), 120)
             refused = (ESTIMATES_TOPIC, "implausible: a hop of a path is not in range")
             wait_until(
-                lambda: swarm.coordinator.guard.dropped[refused] >= 1, 10, lambda: swarm.spin(0.05)
+                lambda: swarm.coordinator.guard.dropped[refused] >= 1,
+                PATIENCE,
+                lambda: swarm.spin(0.05),
             )
         assert forger.sent >= 1
         assert swarm.coordinator.guard.dropped[refused] >= 1, swarm.coordinator.guard.dropped

@@ -15,6 +15,7 @@ import pytest
 from swazure_ros.files.results import RECORD_FILE, read_record
 
 from ..netns import SCRIPT, hosts_unavailable, netns_hosts, on_host
+from ..waits import PATIENCE
 
 SWARM = ["--cloud", "torus:120", "--scale", "1.6", "--beta", "0.5", "--quiet"]
 
@@ -48,15 +49,14 @@ def test_three_hosts_discover_as_the_engine_does(hosts, tmp_path):
     ]  # fmt: skip
     try:
         leader = subprocess.run(
-            on_host_spawn(
-                env, 0, "--compute-all", "--discovery-timeout", "90", "--out", str(tmp_path / "d")
-            ),
-            env=env, capture_output=True, text=True, timeout=300,
+            on_host_spawn(env, 0, "--compute-all", "--discovery-timeout", str(PATIENCE),
+                          "--out", str(tmp_path / "d")),
+            env=env, capture_output=True, text=True, timeout=2 * PATIENCE,
         )  # fmt: skip
     finally:
         for process in served:
             process.terminate()
-        outputs = [process.communicate(timeout=60) for process in served]
+        outputs = [process.communicate(timeout=PATIENCE) for process in served]
     assert leader.returncode == 0, leader.stderr
     assert "120 FLS nodes in 3 hosts (this is share 0)" in leader.stdout
     record = read_record(tmp_path / "d" / RECORD_FILE)

@@ -11,7 +11,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from swazure_ros.core.sensor import SWEET, measured_vectors
 
 from ..conftest import A, B, scene
-from ..waits import wait_until
+from ..waits import PATIENCE, wait_until
 
 msgs = pytest.importorskip("swazure_interfaces.msg", reason="msg_defs is not built")
 
@@ -43,7 +43,7 @@ def test_measurement_message_arrives_with_its_content(context, sensor):
             publisher.publish(message)  # again until the subscription has matched
             executor.spin_once(timeout_sec=0.1)
 
-        assert wait_until(lambda: received, 20.0, publish_and_spin), "no message within 20 s"
+        assert wait_until(lambda: received, PATIENCE, publish_and_spin), "no message arrived"
         got = received[0]
         assert (got.source_id, got.target_id) == (A, B)
         assert got.range_class == msgs.RelativePose.RANGE_SWEET

@@ -17,7 +17,7 @@ from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.sim.world import WorldSpec
 
-from ..waits import wait_until
+from ..waits import PATIENCE, wait_until
 from .helpers import LATCHED
 
 # A thousand FLSs at the published density; every one its own rclpy node.
@@ -53,7 +53,7 @@ def test_a_thousand_node_swarm_comes_up_latches_and_computes_the_engines_poses(
             for _ in range(200):  # one callback per spin_once: drain the backlog
                 executor.spin_once(timeout_sec=0.0)
 
-        assert wait_until(lambda: len(heard) == len(world.ids), 120, spin_both), len(heard)
+        assert wait_until(lambda: len(heard) == len(world.ids), PATIENCE, spin_both), len(heard)
         executor.shutdown()
         probe.destroy_node()
         engine = evaluate(world.swarm, world.sensor, "shortest-length").pairs

@@ -10,6 +10,8 @@ from std_msgs.msg import String
 from swazure_ros.ros.plumbing.names import MEASUREMENTS_QOS
 from swazure_ros.ros.plumbing.runtime import SwarmNode
 
+from ...waits import PATIENCE
+
 
 def test_echo_with_a_type_given_gets_a_latched_message_sent_before_it_started(context):
     # A swarm at rest sent its measurements once, before the reader came. A reader made
@@ -20,8 +22,8 @@ def test_echo_with_a_type_given_gets_a_latched_message_sent_before_it_started(co
         talker.publish(String(data="sent before the reader came"))
         echo = subprocess.run(
             [sys.executable, "-m", "swazure_ros.cli.main", "echo", "/latched_chatter",
-             "std_msgs/msg/String", "--once", "--timeout", "30"],
-            capture_output=True, text=True, timeout=90,
+             "std_msgs/msg/String", "--once", "--timeout", str(PATIENCE)],
+            capture_output=True, text=True, timeout=PATIENCE + 60,
         )  # fmt: skip
     finally:
         node.destroy_node()

@@ -13,6 +13,7 @@ from swazure_ros.ros.nodes.fls_node import FlsNode, ParameterError
 from swazure_ros.ros.programs.host import HostConfig, SwarmHost
 from swazure_ros.sim.world import WorldSpec
 
+from ...waits import PATIENCE
 from ..conftest import make_context
 from ..helpers import assert_matches, engine_expectations, spin_until
 from .test_fls_nodes import collect_measurements
@@ -73,7 +74,7 @@ def test_an_fls_shows_what_its_camera_sees_aimed_at_a_neighbour(domain):
         images, infos = [], []
         probe.create_subscription(Image, "/swarm/fls_0/camera/image_raw", images.append, 1)
         probe.create_subscription(CameraInfo, "/swarm/fls_0/camera/camera_info", infos.append, 1)
-        assert spin_until(host.executor, lambda: images and infos, timeout=30)
+        assert spin_until(host.executor, lambda: images and infos, timeout=PATIENCE)
         image, info = images[-1], infos[-1]
         assert (image.width, image.height, image.encoding, image.step) == (
             1280,

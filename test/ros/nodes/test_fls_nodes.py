@@ -18,6 +18,7 @@ from swazure_ros.ros.programs.host import HostConfig, SwarmHost
 from swazure_ros.sim.replica import WorldReplica
 from swazure_ros.sim.world import WorldSpec
 
+from ...waits import PATIENCE
 from ..conftest import make_context
 from ..helpers import (
     LATCHED,
@@ -63,18 +64,18 @@ def collect_measurements(host, probe, expected):
             matches(latest[fls_id], vectors) for fls_id, vectors in expected.items()
         )
 
-    spin_until(host.executor, all_expected, timeout=60)
+    spin_until(host.executor, all_expected, timeout=PATIENCE)
     probe.destroy_subscription(subscription)
     return latest
 
 
 def call(host, probe, fls_id, asked=None):
     client = probe.create_client(GetNeighbours, f"/swarm/fls_{fls_id}/get_neighbours")
-    assert spin_until(host.executor, lambda: client.service_is_ready(), timeout=30)
+    assert spin_until(host.executor, lambda: client.service_is_ready(), timeout=PATIENCE)
     # No id asks the FLS about itself.
     request = GetNeighbours.Request() if asked is None else GetNeighbours.Request(fls_id=asked)
     future = client.call_async(request)
-    assert spin_until(host.executor, future.done, timeout=30)
+    assert spin_until(host.executor, future.done, timeout=PATIENCE)
     probe.destroy_client(client)
     return future.result()
 
@@ -182,7 +183,7 @@ def test_an_fls_offers_the_track_service_only_where_its_parameter_asks(context):
 
     try:
         want = {f"/swarm/fls_{plain}/get_neighbours", f"/swarm/fls_{tracker}/track"}
-        assert spin_until(executor, lambda: want <= services(), timeout=30)
+        assert spin_until(executor, lambda: want <= services(), timeout=PATIENCE)
         assert f"/swarm/fls_{plain}/track" not in services()
         assert nodes[0].get_parameter("track.service").value is True
         assert nodes[1].get_parameter("track.service").value is False
@@ -239,7 +240,7 @@ def test_republish_period_sends_unchanged_measurements_again(domain):
         received = []
         probe.create_subscription(Measurements, "/swarm/measurements", received.append, LATCHED)
         wanted = 3 * len(world.ids)
-        arrived = spin_until(host.executor, lambda: len(received) >= wanted, timeout=30)
+        arrived = spin_until(host.executor, lambda: len(received) >= wanted, timeout=PATIENCE)
         assert arrived, f"{len(received)} of {wanted}"
     ctx.try_shutdown()
 
@@ -254,7 +255,7 @@ def test_tf_places_every_fls_and_a_measurement_lands_on_its_target(swarm):
 
     probe.create_subscription(TFMessage, "/tf_static", take, TF_STATIC_QOS)
     names = {f"fls_{fls_id}" for fls_id in world.ids.tolist()}
-    assert spin_until(host.executor, lambda: names <= set(frames), timeout=60), len(frames)
+    assert spin_until(host.executor, lambda: names <= set(frames), timeout=PATIENCE), len(frames)
     positions = {}
     for fls_id, point in zip(world.ids.tolist(), world.swarm.points, strict=True):
         frame = frames[f"fls_{fls_id}"]

@@ -27,6 +27,8 @@ from swazure_ros.protocol.loops import simulate_track
 from swazure_ros.ros.convert.tracking import motion_estimate as estimate_from_message
 from swazure_ros.sim.world import make_world
 
+from ...waits import PATIENCE
+
 HOME = np.array([[0.0, 0.0, 0.0], [8.0, 0.0, 0.0], [2.5, 5.5, 0.0]])
 CIRCLE = Motion({2: parse_trajectory("circle:0.5,4,-1,1,0")})
 
@@ -74,15 +76,17 @@ def test_when_the_relay_stops_the_stream_times_out_and_ends(world, context):
         assert session.track(0, 2, CONSTANT_ACCELERATION) == 1
         step = nanoseconds(config.frame_period)
         tick_until(session, 1.0, step)
-        session.spin_until(lambda: len(session.client.estimate_messages) >= 11, 10.0)
+        session.spin_until(lambda: len(session.client.estimate_messages) >= 11, PATIENCE)
         assert [message.status for message in session.client.estimate_messages[:11]] == [1] * 11
         session.stop_fls(1)
         for now in range(nanoseconds(1.0) + step, nanoseconds(3.0) + 1, step):
             session.advance(now)
-        session.host.spin_for(0.2)
-        estimates = [
-            estimate_from_message(message) for message in session.client.estimate_messages
-        ]
+
+        def received() -> list:
+            return [estimate_from_message(one) for one in session.client.estimate_messages]
+
+        session.spin_until(lambda: TIMED_OUT in [one.status for one in received()], PATIENCE)
+        estimates = received()
         statuses = [estimate.status for estimate in estimates]
         # One final word, then silence: no extrapolation for ever.
         assert statuses.count(TIMED_OUT) == 1
@@ -112,7 +116,7 @@ def test_requests_it_cannot_serve_get_an_error_and_the_node_keeps_serving(world,
             (TrackTarget.Request(source_id=1, target_id=2, model=1), "this is FLS 0"),
         ):
             future = client.call_async(request)
-            assert session.spin_until(future.done, 10.0)
+            assert session.spin_until(future.done, PATIENCE)
             assert not future.result().success
             assert message in future.result().message
         assert session.track(0, 2, CONSTANT_ACCELERATION) == 1
@@ -178,7 +182,7 @@ def test_a_swarm_on_the_wall_clock_tracks_too(world, context):
         received = []
         client.create_subscription(TrackEstimate, "track_estimates", received.append, 100)
         service = client.create_client(TrackTarget, "fls_0/track")
-        assert host.spin_until_discovered(30.0)
+        assert host.spin_until_discovered(PATIENCE)
         future = service.call_async(TrackTarget.Request(source_id=0, target_id=2, model=1))
         deadline = 30.0
         while not future.done() and deadline > 0:

@@ -22,7 +22,7 @@ from swazure_ros.ros.plumbing.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec
 from swazure_ros.view.scene import MOVE_COLOUR
 
-from ...waits import wait_until
+from ...waits import PATIENCE, wait_until
 
 WORLD = WorldSpec("helix:60", beta=0.5)
 #: The Foxglove SDK's WebSocket subprotocol; binary frames of op 1 carry message data.
@@ -39,9 +39,11 @@ def protobuf_class(channel):
     return message_factory.GetMessageClass(pool.FindMessageTypeByName(channel["schemaName"]))
 
 
-def foxglove_scene(port, topic, timeout=20.0):
+def foxglove_scene(port, topic, timeout=PATIENCE):
     """Connect as Foxglove does, subscribe to ``topic`` and decode the first scene sent."""
-    with connect(f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL], open_timeout=10) as ws:
+    with connect(
+        f"ws://127.0.0.1:{port}", subprotocols=[SUBPROTOCOL], open_timeout=PATIENCE
+    ) as ws:
         deadline = time.monotonic() + timeout
         channel = None
         while channel is None:

@@ -6,12 +6,12 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from ...waits import wait_until
+from ...waits import PATIENCE, wait_until
+from ..helpers import long_lease_environment
 
 #: A process whose one node is stuck in a callback: it cannot end when asked.
 STUCK = """
@@ -44,7 +44,7 @@ def test_a_process_that_hangs_when_asked_to_stop_prints_where_and_exits_1(domain
         assert process.stdout is not None
         assert process.stdout.readline().strip() == "stuck"
         process.send_signal(signal.SIGINT)
-        _, err = process.communicate(timeout=30)
+        _, err = process.communicate(timeout=PATIENCE)
     finally:
         process.kill()
     assert process.returncode == 1, err
@@ -67,15 +67,13 @@ runtime.exit_process(3, limit=1.0)
 
 
 def test_a_teardown_that_hangs_is_ended_by_its_watchdog_saying_so():
-    began = time.monotonic()
+    # The hanging handler never returns: only the watchdog can end the process.
     process = subprocess.run(
-        [sys.executable, "-c", HANGING_TEARDOWN], capture_output=True, text=True, timeout=30
+        [sys.executable, "-c", HANGING_TEARDOWN], capture_output=True, text=True, timeout=PATIENCE
     )
     assert process.stdout.strip() == "exiting"
     assert process.returncode == -signal.SIGKILL, process.stderr
     assert "the DDS teardown did not end in 1 s" in process.stderr, process.stderr
-    # Within the limit, long before the hanging handler would return.
-    assert time.monotonic() - began < 20
 
 
 #: A process of many nodes that ends by exit_process, with its exit handlers.
@@ -96,12 +94,18 @@ runtime.exit_process(3)
 """
 
 
-def test_a_process_ended_by_exit_process_leaves_the_graph_at_once_with_its_code(context):
+def test_a_process_ended_by_exit_process_tells_its_peers_it_left_and_exits_with_its_code(
+    context, tmp_path
+):
     # Its nodes are not destroyed one by one: Fast DDS's teardown deletes its participant
-    # whole and tells its peers (the probe here), long before its lease (20 s) would.
+    # whole and tells its peers (the probe here). Its lease is an hour: a probe that waited
+    # for the lease would still see its nodes when the wait below gives up.
+    environment = long_lease_environment(
+        tmp_path, dict(os.environ, ROS_DOMAIN_ID=str(context.get_domain_id()))
+    )
     ending = subprocess.Popen(
         [sys.executable, "-c", ENDING], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-        text=True, env=dict(os.environ, ROS_DOMAIN_ID=str(context.get_domain_id())),
+        text=True, env=environment,
     )  # fmt: skip
     probe = Node("probe", context=context, start_parameter_services=False, enable_rosout=False)
     executor = SingleThreadedExecutor(context=context)
@@ -112,21 +116,18 @@ def test_a_process_ended_by_exit_process_leaves_the_graph_at_once_with_its_code(
 
     try:
         assert ending.stdout.readline().strip() == "up"
-        wait_until(lambda: ours() == 200, 60, lambda: executor.spin_once(timeout_sec=0.1))
+        wait_until(lambda: ours() == 200, PATIENCE, lambda: executor.spin_once(timeout_sec=0.1))
         assert ours() == 200
-        asked = time.monotonic()
-        out, _ = ending.communicate("stop\n", timeout=30)
-        ended = time.monotonic() - asked
-        wait_until(lambda: ours() == 0, 15, lambda: executor.spin_once(timeout_sec=0.1))
-        gone, left = time.monotonic() - asked, ours()
+        out, _ = ending.communicate("stop\n", timeout=PATIENCE)
+        wait_until(lambda: ours() == 0, PATIENCE, lambda: executor.spin_once(timeout_sec=0.1))
+        left = ours()
     finally:
         if ending.poll() is None:
             ending.kill()
         executor.shutdown()
         probe.destroy_node()
     assert ending.returncode == 3 and "exit handler ran" in out, out
-    assert ended < 10, ended
-    assert left == 0 and gone < 10, (left, gone)
+    assert left == 0, left
 
 
 #: A process whose node fails in a timer callback, again and again, while another serves.
@@ -161,7 +162,7 @@ def test_a_timer_callback_that_fails_is_counted_and_logged_and_the_process_serve
     # A publish that DDS refuses raises in a timer: it must not end a process of
     # hundreds of FLS nodes (docs/security.md).
     process = subprocess.run(
-        [sys.executable, "-c", FAILING], capture_output=True, text=True, timeout=60
+        [sys.executable, "-c", FAILING], capture_output=True, text=True, timeout=PATIENCE
     )
     assert process.returncode == 0, process.stderr
     served, failed = process.stdout.split("served ")[1].split(", failed ")
@@ -193,11 +194,11 @@ def test_a_service_handler_that_fails_answers_why_and_the_node_serves_on(context
     executor = SingleThreadedExecutor(context=context)
     executor.add_node(node)
     try:
-        assert client.wait_for_service(timeout_sec=10)
+        assert client.wait_for_service(timeout_sec=PATIENCE)
         answers = []
         for fls_id in (7, 3):
             future = client.call_async(GetNeighbours.Request(fls_id=fls_id))
-            executor.spin_until_future_complete(future, timeout_sec=10)
+            executor.spin_until_future_complete(future, timeout_sec=PATIENCE)
             answers.append(future.result())
         assert calls == [7, 3]
         assert not answers[0].success
@@ -242,7 +243,7 @@ def test_a_program_answers_help_with_its_parameters_and_starts_no_node():
     run = subprocess.run(
         [sys.executable, "-c", "import sys; from swazure_ros.ros.programs.fls_program import "
          "main; sys.exit(main(sys.argv))", "--help"],
-        capture_output=True, text=True, timeout=60,
+        capture_output=True, text=True, timeout=PATIENCE,
     )  # fmt: skip
     assert run.returncode == 0 and run.stderr == "", run
     assert run.stdout.startswith("usage: ros2 run swazure_ros fls")
@@ -255,7 +256,7 @@ def test_a_program_answers_help_with_its_parameters_and_starts_no_node():
     other = subprocess.run(
         [sys.executable, "-c", "import sys; from swazure_ros.ros.programs."
          "coordinator_program import main; sys.exit(main(sys.argv))", "--bogus"],
-        capture_output=True, text=True, timeout=60,
+        capture_output=True, text=True, timeout=PATIENCE,
     )  # fmt: skip
     assert other.returncode == 2 and "unknown argument '--bogus'" in other.stderr
     assert other.stderr.count("\n") == 1

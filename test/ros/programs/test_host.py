@@ -9,6 +9,8 @@ from rclpy.node import Node
 from swazure_ros.ros.programs.host import HostConfig, SwarmHost
 from swazure_ros.sim.world import WorldSpec
 
+from ...waits import wait_until
+
 
 def test_a_node_removed_while_its_timer_events_wait_runs_them_alive_then_leaves_the_graph(context):
     world = WorldSpec("helix:10", beta=0.5).build()
@@ -29,10 +31,10 @@ def test_a_node_removed_while_its_timer_events_wait_runs_them_alive_then_leaves_
         removed = next(node for node in nodes if node.get_name() not in ran)
         name = removed.get_name()
         host.remove(removed)
-        deadline = time.monotonic() + 10
         observer = next(node for node in nodes if node is not removed)
-        while time.monotonic() < deadline and name in observer.get_node_names():
-            host.spin_once(0.05)
+        wait_until(
+            lambda: name not in observer.get_node_names(), step=lambda: host.spin_once(0.05)
+        )
         assert name not in observer.get_node_names()
         host.spin_for(0.2)
         assert removed not in host.nodes
@@ -48,9 +50,7 @@ def test_a_node_removed_just_before_the_host_closes_leaves_the_graph(context):
             node = Node("removed_last", context=context, start_parameter_services=False)
             host.add(node)
             host.remove(node)  # nothing spins after: closing must destroy it
-        deadline = time.monotonic() + 10
-        while time.monotonic() < deadline and "removed_last" in observer.get_node_names():
-            time.sleep(0.05)
+        wait_until(lambda: "removed_last" not in observer.get_node_names())
         assert "removed_last" not in observer.get_node_names()
     finally:
         observer.destroy_node()

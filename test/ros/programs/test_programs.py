@@ -31,7 +31,7 @@ from swazure_ros.ros.plumbing.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec
 
 from ...conftest import REPO, SHARED
-from ...waits import wait_until
+from ...waits import PATIENCE, wait_until
 from ..helpers import ECHO_LATCHED
 
 VENV = Path(sys.executable).parents[1]
@@ -58,7 +58,7 @@ def environment() -> dict[str, str]:
     return dict(os.environ, AMENT_PREFIX_PATH=str(VENV), PYTHONUNBUFFERED="1")
 
 
-def ros2(*args: str, timeout: float = 60) -> subprocess.CompletedProcess[str]:
+def ros2(*args: str, timeout: float = PATIENCE) -> subprocess.CompletedProcess[str]:
     """Run a ros2 command to its end."""
     return subprocess.run(
         [str(ROS2), *args], capture_output=True, text=True, timeout=timeout, env=environment()
@@ -81,18 +81,18 @@ def start(*args: str, cwd: Path | None = None) -> subprocess.Popen[str]:
 def stop(process: subprocess.Popen[str]) -> str:
     """SIGINT, as Ctrl-C would send; what the process printed. It must end by itself."""
     os.killpg(process.pid, signal.SIGINT)
-    out, _ = process.communicate(timeout=60)
+    out, _ = process.communicate(timeout=PATIENCE)
     return out
 
 
-def until(command, accept, timeout: float = 60):
+def until(command, accept, timeout: float = PATIENCE):
     """Run ``command()`` until ``accept`` holds of its result, or the time is up; the last."""
     results = []
     wait_until(lambda: results and accept(results[-1]), timeout, lambda: results.append(command()))
     return results[-1] if results else command()
 
 
-def compute_pose(source: int, target: int, timeout: float = 60):
+def compute_pose(source: int, target: int, timeout: float = PATIENCE):
     """`ros2 service call` of the coordinator's compute_pose, again until it succeeds."""
     request = f"{{source_id: {source}, target_id: {target}, policy: 1}}"
     command = ("service", "call", "/swarm/coordinator/compute_pose",
@@ -289,7 +289,7 @@ def test_ros2_launch_of_the_default_example_swarm_sees_and_answers(ros2_tools, d
     launch = start("launch", "swazure_ros", "swarm.launch.py", cwd=tmp_path)
     try:
         expected = {"/swarm/fls_0", "/swarm/fls_119", "/swarm/coordinator"}
-        listed = until(nodes, lambda names: expected <= set(names), timeout=120)
+        listed = until(nodes, lambda names: expected <= set(names))
         assert expected <= set(listed), listed
         got = ros2("param", "get", "--no-daemon", "--spin-time", "3", "/swarm/fls_7",
                    "publish_period")  # fmt: skip
@@ -317,7 +317,7 @@ def test_ros2_launch_of_the_default_example_swarm_sees_and_answers(ros2_tools, d
         pairs = evaluate(spec.build().swarm, spec.sensor(), policy="shortest-length").pairs
         row = np.flatnonzero((pairs.source == 0) & (pairs.status == SWEET_PATH))[0]
         target, path = int(pairs.target[row]), [int(fls) for fls in pairs.path(row)]
-        call = compute_pose(0, target, timeout=120)
+        call = compute_pose(0, target)
         assert "success=True" in call.stdout and "status=0" in call.stdout, call.stdout
         assert f"path={path}" in call.stdout, (path, call.stdout)
     finally:
@@ -353,7 +353,7 @@ def test_ros2_run_aruco_detector_reads_rendered_images_as_the_camera_does(ros2_t
                 images.publish(image_message(pixels, stamp, "fls_0_camera_optical"))
                 executor.spin_once(timeout_sec=0.2)
 
-            assert wait_until(lambda key=key: key in received, 60, publish_and_spin), (
+            assert wait_until(lambda key=key: key in received, PATIENCE, publish_and_spin), (
                 f"no detections of the frame at {distance} mm"
             )
             message = received[key]

@@ -31,7 +31,7 @@ from swazure_ros.ros.recording.bag import (
 )
 from swazure_ros.sim.world import WorldSpec
 
-from ...waits import wait_until
+from ...waits import PATIENCE, wait_until
 from ..helpers import joined, radio_topics
 
 WORLD = WorldSpec("helix:60", beta=0.5)
@@ -77,8 +77,14 @@ class Probe:
     def __init__(self, context, topics):
         self.node = SwarmNode("probe", context=context)
         self.received = defaultdict(list)
-        for topic, kind, qos in topics:
+        self.subscriptions = [
             self.node.create_subscription(kind, topic, partial(self._on, topic), qos, raw=True)
+            for topic, kind, qos in topics
+        ]
+
+    def matched(self) -> bool:
+        """Every subscription is matched to a publisher: what is sent now reaches it."""
+        return all(one.get_publisher_count() >= 1 for one in self.subscriptions)
 
     def _on(self, topic, data):
         self.received[topic].append(data)
@@ -100,14 +106,14 @@ def recorded_run(domain, tmp_path):
         probe = Probe(swarm.context, [(topic, PathOffer, ROUND_QOS) for topic in RADIO])
         swarm.host.add(probe.node)
         swarm.wait_until_ready()
+        assert wait_until(probe.matched, PATIENCE, lambda: swarm.spin(0.05))
+        result = swarm.discover("shortest-length", timeout=PATIENCE)
+        # The run's last messages reach every reader (the recorder's in this process too).
         assert wait_until(
-            lambda: all(probe.node.count_publishers(topic) >= 1 for topic in RADIO),
-            30,
+            lambda: len(joined(probe.received, RADIO)) >= result.traffic.messages["radio"],
+            PATIENCE,
             lambda: swarm.spin(0.05),
         )
-        swarm.spin(0.5)  # the probe's reader matched, as the recorder's is
-        result = swarm.discover("shortest-length", timeout=120)
-        swarm.spin(1.0)  # the run's last messages reach every reader
         # Still recording: nothing is at the path until the swarm stops.
         assert not path.exists()
     return path, probe.received, result, swarm.world
@@ -209,19 +215,22 @@ def test_replay_publishes_the_recording_again(recorded_run, domain, context):
     executor.add_node(probe.node)
     # The radio's messages are volatile: the probe must have matched the replay's
     # publishers before the first one. Discovering a new participant was seen to take
-    # 2.5 s on a loaded 2-core machine (BENCHMARKS.md, one FLS per process): 6 s of delay.
+    # 2.5 s on a loaded 2-core machine (BENCHMARKS.md, one FLS per process), and longer
+    # with two suites side by side: 20 s of delay.
     replay = subprocess.Popen(
         [sys.executable, "-m", "swazure_ros.cli.main", "replay", str(path),
-         "--domain-id", str(domain), "--rate", "2", "--delay", "6"],
+         "--domain-id", str(domain), "--rate", "2", "--delay", "20"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     try:
         wait_until(
-            lambda: replay.poll() is not None, 120, lambda: executor.spin_once(timeout_sec=0.05)
+            lambda: replay.poll() is not None,
+            PATIENCE,
+            lambda: executor.spin_once(timeout_sec=0.05),
         )
         for _ in range(200):  # what is still queued here
             executor.spin_once(timeout_sec=0.01)
-        _, err = replay.communicate(timeout=10)
+        _, err = replay.communicate(timeout=PATIENCE)
     finally:
         if replay.poll() is None:
             replay.kill()
@@ -245,7 +254,7 @@ def test_replay_of_a_file_that_is_not_a_recording_says_so_in_one_line(tmp_path, 
     path.write_bytes(content)
     run = subprocess.run(
         [sys.executable, "-m", "swazure_ros.cli.main", "replay", str(path)],
-        capture_output=True, text=True, timeout=60,
+        capture_output=True, text=True, timeout=PATIENCE,
     )  # fmt: skip
     assert run.returncode == 2 and message in run.stderr, run.stderr
     assert len(run.stderr.strip().splitlines()) == 1 and "Traceback" not in run.stderr
@@ -275,7 +284,7 @@ def test_a_recording_corrupted_in_the_middle_is_played_to_its_last_good_chunk(tm
     run = subprocess.run(
         [sys.executable, "-m", "swazure_ros.cli.main", "replay", str(path), "--delay", "0.01",
          "--rate", "1000", "--domain-id", str(domain)],
-        capture_output=True, text=True, timeout=120,
+        capture_output=True, text=True, timeout=PATIENCE,
     )  # fmt: skip
     assert run.returncode == 2 and "Traceback" not in run.stderr, run.stderr
     assert len(run.stderr.strip().splitlines()) == 1, run.stderr

@@ -21,7 +21,7 @@ from swazure_ros.ros.security.guard import Buckets, RateLimit
 from swazure_ros.sim.world import WorldSpec
 
 from ...conftest import FUZZ
-from ...waits import wait_until
+from ...waits import PATIENCE, wait_until
 from ..conftest import make_context
 from ..test_discovery import assert_matches_engine, by_pair
 
@@ -83,7 +83,7 @@ def test_a_flood_of_track_requests_is_cut_to_the_rate_and_the_swarm_still_answer
         try:
             requests = node.create_publisher(TrackRequest, TRACK_REQUESTS_TOPIC, ROUND_QOS)
             wait_until(
-                lambda: requests.get_subscription_count() >= 1, 30, lambda: swarm.spin(0.05)
+                lambda: requests.get_subscription_count() >= 1, PATIENCE, lambda: swarm.spin(0.05)
             )
             relay = int(swarm.world.ids[1])
             began = time.monotonic()
@@ -99,7 +99,7 @@ def test_a_flood_of_track_requests_is_cut_to_the_rate_and_the_swarm_still_answer
                     + swarm.host.guard.accepted[TRACK_REQUESTS_TOPIC]
                     >= 1000
                 ),
-                30,
+                PATIENCE,
                 lambda: swarm.spin(0.05),
             )
             seconds = time.monotonic() - began
@@ -110,6 +110,6 @@ def test_a_flood_of_track_requests_is_cut_to_the_rate_and_the_swarm_still_answer
         allowed = TRACK_REQUEST_RATE.burst + TRACK_REQUEST_RATE.per_second * seconds
         assert taken <= allowed, (taken, seconds)
         assert swarm.host.guard.dropped[reason] >= 1000 - allowed
-        result = swarm.discover("shortest-length", timeout=120)
+        result = swarm.discover("shortest-length", timeout=PATIENCE)
         engine = evaluate_pairs(swarm.world.hood, "shortest-length")
         assert_matches_engine(swarm.world, by_pair(result.outcome.estimates), engine)
