@@ -40,7 +40,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 #: Seconds the replay waits, at its end, for reliable readers to acknowledge what it sent.
-ACK_WAIT = 10.0
+#: It ends as soon as they have: the wait is long for a reader on a busy machine, which
+#: acknowledges late, not never.
+ACK_WAIT = 60.0
 #: Playback rates, slowest and fastest: a thousandth plays a second's recording in
 #: 17 minutes; faster than a thousand times, messages would only queue up.
 RATES = (1e-3, 1e3)
