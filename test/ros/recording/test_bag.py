@@ -108,12 +108,21 @@ def recorded_run(domain, tmp_path):
         swarm.wait_until_ready()
         assert wait_until(probe.matched, PATIENCE, lambda: swarm.spin(0.05))
         result = swarm.discover("shortest-length", timeout=PATIENCE)
-        # The run's last messages reach every reader (the recorder's in this process too).
-        assert wait_until(
-            lambda: len(joined(probe.received, RADIO)) >= result.traffic.messages["radio"],
-            PATIENCE,
-            lambda: swarm.spin(0.05),
-        )
+        # The run's last messages reach every reader, and every FLS's latched measurement
+        # the recorder, however late its publisher matched.
+        recorder = swarm.recorder
+        assert recorder is not None
+
+        def everything_arrived() -> bool:
+            offers = result.traffic.messages["radio"]
+            recorded = sum(recorder.counts.get(topic, 0) for topic in RADIO)
+            return (
+                len(joined(probe.received, RADIO)) >= offers
+                and recorded >= offers
+                and recorder.counts.get("/swarm/measurements", 0) >= len(swarm.world.ids)
+            )
+
+        assert wait_until(everything_arrived, PATIENCE, lambda: swarm.spin(0.05))
         # Still recording: nothing is at the path until the swarm stops.
         assert not path.exists()
     return path, probe.received, result, swarm.world
