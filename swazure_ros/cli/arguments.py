@@ -13,7 +13,8 @@ import os
 from pathlib import Path
 from typing import Any
 
-from ..core.errors import CloudError
+from ..core.errors import CloudError, SwazureError
+from ..files.reading import regular_file
 
 #: The largest ROS domain id whose DDS ports fit (Linux; the ROS 2 "domain id" design note).
 MAX_DOMAIN_ID = 232
@@ -260,12 +261,15 @@ def recording(text: str) -> Path:
 
 
 def input_file(text: str) -> Path:
-    """A file to read: it exists and is not a folder."""
+    """A file to read: a regular file (not a folder, a FIFO or a device) this process can read."""
     path = Path(text)
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{path} is a folder, not a file")
-    if not path.exists():
-        raise argparse.ArgumentTypeError(f"{path}: no such file")
+    try:
+        # Its status only: a FIFO or /dev/zero is refused here, before a reader opens it.
+        regular_file(path, "", None, SwazureError)
+    except SwazureError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
     if not os.access(path, os.R_OK):
         raise argparse.ArgumentTypeError(f"{path}: cannot read")
     return path

@@ -74,7 +74,13 @@ FILES = {
     "bag/metadata.yaml": "rosbag2_bagfile_information: {version: 9}\n",
     "lost/metadata.yaml": "rosbag2_bagfile_information:\n  version: 9\n"
     "  storage_identifier: mcap\n  relative_file_paths: [../../etc/lost_0.mcap]\n",
+    # A bag whose metadata names its MCAP file, a FIFO (_inputs makes it).
+    "piped/metadata.yaml": "rosbag2_bagfile_information:\n  version: 9\n"
+    "  storage_identifier: mcap\n  relative_file_paths: [piped_0.mcap]\n",
 }
+#: FIFOs where a file belongs: a reader that opens one waits for a writer for ever.
+FIFOS = ("fifo.xyz", "fifobag/fifobag_0.mcap", "piped/piped_0.mcap")
+WIDE = str(CONFIG / "cameras" / "rpi-camera-module-3-wide.yaml")
 ROWS = [
     (["evaluate", "--cloud", "big.xyz", "--beta", "0.5"], "beyond 1e+06 cm"),
     (["evaluate", "--cloud", "complex.npy", "--beta", "0.5"], "must be real numbers"),
@@ -98,7 +104,7 @@ ROWS = [
     (["replay", "short.mcap", "--rate", "1e-300"], "a rate must be from 0.001"),
     (["replay", "bag"], "not a rosbag2 bag (metadata.yaml lacks 'storage_identifier')"),
     # A bag's files are read beside its metadata, by name, wherever the metadata points.
-    (["replay", "lost"], "lost/lost_0.mcap: cannot read (No such file or directory)"),
+    (["replay", "lost"], "lost/lost_0.mcap: no such recording file"),
     (["camera", "calibrate", "--camera", "string-fx.yaml"], "fx must be a finite number"),
     # Divided by in the projection: a ZeroDivisionError's traceback before (issue 36).
     (["camera", "calibrate", "--camera", "zero-fy.yaml"], "(fx, fy, focal_length_mm)"),
@@ -107,6 +113,13 @@ ROWS = [
     (["camera", "calibrate", "--camera", "huge-window.yaml"], "corner_window_px must be"),
     (["camera", "calibrate", "--camera", "huge-image.yaml"], "more than 8192 px"),
     (["camera", "calibrate", "--camera", "fifo.xyz"], "not a regular file"),
+    # Issue 66: each hung, or (/dev/zero) filled memory for 38 s to a MemoryError.
+    (["replay", "fifo.xyz"], "fifo.xyz: not a regular file"),
+    (["replay", "fifobag"], "fifobag_0.mcap: not a regular file"),
+    (["replay", "piped"], "piped_0.mcap: not a regular file"),
+    ([*TRACK[:-1], "fifo.xyz"], "fifo.xyz: not a regular file"),
+    (["camera", "calibrate", "--camera", WIDE, "--measured", "/dev/zero"], "not a regular file"),
+    (["camera", "calibrate", "--camera", WIDE, "--measured", "fifo.xyz"], "not a regular file"),
     ([*TRACK, "--frame-period", "1e-9"], "frame_period must be 0.001 to"),
     ([*TRACK, "--duration", "1e300"], "at most 86400 s"),
     ([*TRACK, "--timeout", "inf"], "timeout must be above 0"),
@@ -118,7 +131,9 @@ def _inputs(folder: Path) -> list[str]:
         (folder / name).parent.mkdir(exist_ok=True)
         (folder / name).write_text(text)
     np.save(folder / "complex.npy", np.array([[1 + 2j, 0, 0], [0, 1, 0], [0, 0, 1]]))
-    os.mkfifo(folder / "fifo.xyz")
+    for fifo in FIFOS:
+        (folder / fifo).parent.mkdir(exist_ok=True)
+        os.mkfifo(folder / fifo)
     return sorted(path.name for path in folder.iterdir())
 
 
