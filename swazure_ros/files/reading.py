@@ -150,13 +150,25 @@ def config_dir() -> Path:
     raise SensorError("cannot find the configuration folder with sensor.yaml")
 
 
-def available_memory() -> int:
-    """Memory this machine has free for a run, bytes (MemAvailable, else all of it)."""
+def _meminfo(field: str) -> int | None:
+    """A field of /proc/meminfo, bytes; None where there is none (not Linux)."""
     try:
         with open("/proc/meminfo") as meminfo:
             for line in meminfo:
-                if line.startswith("MemAvailable:"):
+                if line.startswith(f"{field}:"):
                     return int(line.split()[1]) * 1024
-    except OSError:
+    except (OSError, ValueError):
         pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    return None
+
+
+def total_memory() -> int:
+    """Memory this machine has, bytes (MemTotal)."""
+    total = _meminfo("MemTotal")
+    return total if total is not None else os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def available_memory() -> int:
+    """Memory this machine has free for a run, bytes (MemAvailable, else all of it)."""
+    available = _meminfo("MemAvailable")
+    return available if available is not None else total_memory()

@@ -111,6 +111,9 @@ SENSOR_NEGATIVE = SENSOR_OUT_OF_ORDER.replace(
         (["--cloud", "torus", "--beta", "0.5", "--policy", "widest"], "invalid choice"),
         (["--cloud", "torus", "--beta", "0.5", "--memory", "lots"], "not a memory size"),
         (["--cloud", "torus", "--beta", "0.5", "--memory", "1M"], "give at least 64M"),
+        # Issue 66: a budget of 1e99 bytes was taken without a word.
+        (["--cloud", "torus", "--beta", "0.5", "--memory", "1e99"], "more than this machine's"),
+        (["--cloud", "torus", "--beta", "0.5", "--memory", "100T"], "more than this machine's"),
     ],
 )
 def test_bad_input_gives_one_line_and_exit_code_2(tmp_path, arguments, message):
