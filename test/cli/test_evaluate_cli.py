@@ -104,7 +104,7 @@ SENSOR_NEGATIVE = SENSOR_OUT_OF_ORDER.replace(
         ),
         (
             ["--cloud", "torus", "--beta", "0.5", "--sensor", "{tmp}/negative.yaml"],
-            "sweet_min must be >= 0",
+            "sweet_min must be above 0",
         ),
         (["--cloud", "torus", "--beta", "0.5", "--sensor", "{tmp}/broken.yaml"], "not valid YAML"),
         (["--cloud", "dodecahedron", "--beta", "0.5"], "unknown shape 'dodecahedron'"),

@@ -60,6 +60,7 @@ FILES = {
     "huge-error.yaml": sensor_with(COEFFICIENTS, "coefficients: [1.0e+300, 0, 0]"),
     "negative-error.yaml": sensor_with(COEFFICIENTS, "coefficients: [0, 0, -3]"),
     "far-reach.yaml": sensor_with("decaying_max: 30.0", "decaying_max: 1.0e+9"),
+    "no-blind.yaml": sensor_with("sweet_min: 6.0", "sweet_min: 0"),
     "typo-sensor.yaml": sensor_with("  ranges:", "  colour: red\n  ranges:"),
     "string-fx.yaml": camera_with("fx: 836.8", 'fx: "abc"'),
     "zero-fy.yaml": camera_with("fx: 836.8", "fy: 0\n    fx: 836.8"),
@@ -81,6 +82,7 @@ FILES = {
 #: FIFOs where a file belongs: a reader that opens one waits for a writer for ever.
 FIFOS = ("fifo.xyz", "fifobag/fifobag_0.mcap", "piped/piped_0.mcap")
 WIDE = str(CONFIG / "cameras" / "rpi-camera-module-3-wide.yaml")
+NO_BLIND = "no-blind.yaml: sensor raspberry-pi-wide-aruco: sweet_min must be above 0"
 ROWS = [
     (["evaluate", "--cloud", "big.xyz", "--beta", "0.5"], "beyond 1e+06 cm"),
     (["evaluate", "--cloud", "complex.npy", "--beta", "0.5"], "must be real numbers"),
@@ -93,6 +95,11 @@ ROWS = [
     (["evaluate", *TORUS, "--sensor", "negative-error.yaml"], "must stay above -1"),
     (["evaluate", *TORUS, "--sensor", "far-reach.yaml"], "beyond 1000 cm"),
     (["evaluate", *TORUS, "--sensor", "typo-sensor.yaml"], "unknown key 'colour'"),
+    # Issue 66: evaluate took a sensor without a blind range that spawn refused; every
+    # verb that reads a sensor file now says the same line (spawn's: test/ros/test_launcher).
+    (["evaluate", *TORUS, "--sensor", "no-blind.yaml"], NO_BLIND),
+    ([*TRACK, "--sensor", "no-blind.yaml"], NO_BLIND),
+    (["study", "--sensor", "no-blind.yaml", "--out", "s"], NO_BLIND),
     (["evaluate", *TORUS, "--seed", "-1"], "outside 0..2**63-1"),
     (["evaluate", *TORUS, "--technique", "move-source", "--threshold", "100000000"], "1 to 1000"),
     (["spawn", "bomb-swarm.yaml"], "alias bomb"),

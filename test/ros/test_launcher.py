@@ -163,6 +163,24 @@ def test_spawn_bad_input_gives_one_line_and_exit_2(domain, args, message):
     assert "Traceback" not in err
 
 
+def test_spawn_and_evaluate_refuse_a_sensor_without_a_blind_range_in_the_same_line(
+    domain, tmp_path
+):
+    # Issue 66: evaluate took sweet_min 0, which spawn refused only with --compute-all.
+    sensor = tmp_path / "no-blind.yaml"
+    default = (config_dir() / "sensor.yaml").read_text()
+    sensor.write_text(default.replace("sweet_min: 6.0", "sweet_min: 0"))
+    said = []
+    for verb, more in (("spawn", ["--until-ready", "--quiet"]), ("evaluate", [])):
+        run = swazure(verb, "--cloud", "helix:60", "--beta", "0.5", "--sensor", str(sensor), *more)
+        _, err = run.communicate(timeout=120)
+        assert run.returncode == 2, err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+        said.append(err.removeprefix(f"swazure {verb}: error: "))
+    assert said[0] == said[1], said
+    assert "sweet_min must be above 0 (the blind range is 0 < t < sweet_min), got 0" in said[0]
+
+
 @pytest.mark.parametrize(
     ("content", "message"),
     [
