@@ -23,6 +23,7 @@ from swazure_ros.cli.spawn import config_from_args
 from swazure_ros.cli.swarm_file import apply_swarm_file
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.results import RECORD_FILE, read_record
+from swazure_ros.ros.security.keys import new_key
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SHARED
@@ -161,6 +162,23 @@ def test_spawn_bad_input_gives_one_line_and_exit_2(domain, args, message):
     assert run.returncode == 2, err
     assert message in err and len(err.strip().splitlines()) == 1, err
     assert "Traceback" not in err
+
+
+def test_spawn_with_a_key_file_others_can_read_warns_in_one_line_and_comes_up(domain, tmp_path):
+    # Issue 66: taken without a word before; legal but unwise, so taken with one.
+    key = tmp_path / "swarm.key"
+    key.write_text(new_key().hex() + "\n")
+    key.chmod(0o644)
+    run = swazure("spawn", "--cloud", "helix:20", "--beta", "0.5", "--key-file", str(key),
+                  "--until-ready", "--quiet")  # fmt: skip
+    out, err = run.communicate(timeout=300)
+    assert run.returncode == 0, err
+    assert out.startswith("swarm up"), out
+    warned = [line for line in err.splitlines() if "open to others than its owner" in line]
+    assert warned == [
+        f"warning: swarm key file {key} is open to others than its owner (mode 0644): whoever "
+        f"reads it can sign as the swarm; taken anyway (chmod 600 {key})"
+    ], err
 
 
 def test_spawn_and_evaluate_refuse_a_sensor_without_a_blind_range_in_the_same_line(
