@@ -219,6 +219,24 @@ def test_spawn_with_invalid_parameters_refuses_to_start(domain, tmp_path, conten
     assert message in err and len(err.strip().splitlines()) == 1, err
 
 
+@pytest.mark.parametrize("value", ["0.0", "-1.0", ".nan", ".inf"])
+def test_spawn_refuses_a_round_timeout_that_is_not_a_positive_number_of_seconds(
+    domain, tmp_path, value
+):
+    # Issue 66: a round timeout of 0 s, below, or not finite, as a ROS parameter.
+    params = tmp_path / "bad.yaml"
+    params.write_text(f"/**/coordinator:\n  ros__parameters:\n    round_timeout: {value}\n")
+    run = swazure("spawn", "--cloud", "helix:60", "--beta", "0.5", "--params", str(params),
+                  "--quiet")  # fmt: skip
+    _, err = run.communicate(timeout=120)
+    assert run.returncode == 2, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert err.startswith(
+        "swazure spawn: error: /swarm/coordinator: parameter round_timeout must be a positive "
+        "number of seconds below 86400, got "
+    ), err
+
+
 @pytest.fixture
 def running_swarm(domain, fast_params):
     """`swazure spawn` in its own process, serving until stopped."""
