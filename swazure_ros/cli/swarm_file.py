@@ -178,7 +178,7 @@ def _fls_node_parameters(path: Path, where: str, flat: dict[str, Any]) -> dict[s
     for name, value in flat.items():
         spec = specs.get(name)
         if spec is None:
-            known = [name for name in specs if not name.startswith("track.")] + ["track.*"]
+            known = [other for other in specs if not other.startswith("track.")] + ["track.*"]
             raise SwazureError(
                 f"{path}: swarm.{where}.{name}: no FLS node has this parameter (theirs: "
                 f"{', '.join(known)}); another node's, such as the coordinator's "
