@@ -271,9 +271,6 @@ def _check_camera(camera: Camera, where: str) -> None:
             f"{where}: sizes, focal lengths (fx, fy, focal_length_mm), the f-number and "
             "focus_min_mm must be positive"
         )
-    intrinsics = intrinsics_problem(camera.fx, camera.fy, camera.cx, camera.cy)
-    if intrinsics is not None:
-        raise SensorError(f"{where}: camera.image: {intrinsics}")
     degradations = camera.degradations
     noise = (degradations.residual_blur_px, degradations.read_noise, degradations.shot_noise_gain)
     if min(noise) < 0:
@@ -329,6 +326,11 @@ def _check_camera(camera: Camera, where: str) -> None:
             f"{where}: camera.marker.id {camera.marker_id} is not in {camera.marker_dictionary} "
             f"(0 to {camera.dictionary_size - 1})"
         )
+    # Last: the pixel size above bounds fx by the lens already; fy and the principal
+    # point only here.
+    intrinsics = intrinsics_problem(camera.fx, camera.fy, camera.cx, camera.cy)
+    if intrinsics is not None:
+        raise SensorError(f"{where}: camera.image: {intrinsics}")
 
 
 # ----------------------------------------------------------------------------- rendering
