@@ -177,6 +177,28 @@ def _whole(mapping: dict[str, Any], key: str, where: str, default: int | None = 
 
 #: Pixels of a camera image's side, at most (an 8K sensor's).
 MAX_IMAGE_PX = 8192
+#: Focal lengths of a camera's image, px: from a field of view of nearly 180 degrees
+#: (1 px across an image of MAX_IMAGE_PX) to a tenth of a degree (1e5 px across 200 px).
+#: Beyond, the pose's solve overflows or keeps no digit (fx = fy = 1e-300 gave NaN
+#: centres).
+FOCAL_PX = (1.0, 1e5)
+
+
+def intrinsics_problem(fx: float, fy: float, cx: float, cy: float) -> str | None:
+    """Why pinhole intrinsics (px) cannot be used, or None.
+
+    Focal lengths ``fx``, ``fy`` from FOCAL_PX[0] to FOCAL_PX[1]; the principal
+    point (``cx``, ``cy``) on an image of at most MAX_IMAGE_PX a side. One rule
+    for a camera file's and a camera driver's (``camera_info``).
+    """
+    low, high = FOCAL_PX
+    for name, value in (("fx", fx), ("fy", fy)):
+        if not low <= value <= high:  # NaN too
+            return f"{name} must be {low:g} to {high:g} px, got {value:g}"
+    for name, value in (("cx", cx), ("cy", cy)):
+        if not 0.0 <= value <= MAX_IMAGE_PX:
+            return f"{name} must be 0 to {MAX_IMAGE_PX} px (on the image), got {value:g}"
+    return None
 
 
 def _degradations_from(section: dict[str, Any], where: str) -> Degradations:
@@ -304,6 +326,11 @@ def _check_camera(camera: Camera, where: str) -> None:
             f"{where}: camera.marker.id {camera.marker_id} is not in {camera.marker_dictionary} "
             f"(0 to {camera.dictionary_size - 1})"
         )
+    # Last: the pixel size above bounds fx by the lens already; fy and the principal
+    # point only here.
+    intrinsics = intrinsics_problem(camera.fx, camera.fy, camera.cx, camera.cy)
+    if intrinsics is not None:
+        raise SensorError(f"{where}: camera.image: {intrinsics}")
 
 
 # ----------------------------------------------------------------------------- rendering
@@ -552,6 +579,8 @@ class Detector:
         if count == 0:
             # Refined corners that no square fits (they collapsed onto one another).
             return None
+        if not np.all(np.isfinite(translations)):
+            return None  # no pose fits either: never a non-finite centre
         best = 0
         if count > 1:
             errors = np.asarray(errors).ravel()

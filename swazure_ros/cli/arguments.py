@@ -13,7 +13,8 @@ import os
 from pathlib import Path
 from typing import Any
 
-from ..core.errors import CloudError
+from ..core.errors import CloudError, SwazureError
+from ..files.reading import regular_file, total_memory
 
 #: The largest ROS domain id whose DDS ports fit (Linux; the ROS 2 "domain id" design note).
 MAX_DOMAIN_ID = 232
@@ -42,7 +43,8 @@ _SIZE_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
 
 
 def memory_size(text: str) -> int:
-    """A memory size such as 512M or 4G (binary units), at least 64M: bytes."""
+    """A memory size such as 512M or 4G (binary units), at least 64M and at most the
+    machine's memory: bytes."""
     stripped = text.strip().upper().removesuffix("IB").removesuffix("B")
     unit = stripped[-1:] if stripped[-1:] in _SIZE_UNITS else ""
     try:
@@ -54,6 +56,12 @@ def memory_size(text: str) -> int:
     size = value * _SIZE_UNITS[unit]
     if not math.isfinite(size) or size < 64 * 2**20:
         raise argparse.ArgumentTypeError(f"{text!r}: give at least 64M")
+    machine = total_memory()
+    if size > machine:
+        # Blocks that large could never be held: the run would swap, or be killed, first.
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: more than this machine's {machine / 2**30:.1f}G of memory"
+        )
     return int(size)
 
 
@@ -260,12 +268,15 @@ def recording(text: str) -> Path:
 
 
 def input_file(text: str) -> Path:
-    """A file to read: it exists and is not a folder."""
+    """A file to read: a regular file (not a folder, a FIFO or a device) this process can read."""
     path = Path(text)
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{path} is a folder, not a file")
-    if not path.exists():
-        raise argparse.ArgumentTypeError(f"{path}: no such file")
+    try:
+        # Its status only: a FIFO or /dev/zero is refused here, before a reader opens it.
+        regular_file(path, "", None, SwazureError)
+    except SwazureError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
     if not os.access(path, os.R_OK):
         raise argparse.ArgumentTypeError(f"{path}: cannot read")
     return path

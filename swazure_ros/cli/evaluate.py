@@ -109,8 +109,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=memory_size,
         default=DEFAULT_MEMORY,
         metavar="SIZE",
-        help="memory a block of plain Swazure's pairs may hold, such as 512M or 4G "
-        f"(default {DEFAULT_MEMORY // 2**30}G): a swarm's pairs are evaluated and written "
+        help="memory a block of plain Swazure's pairs may hold, such as 512M or 4G, from 64M "
+        f"to the machine's memory (default {DEFAULT_MEMORY // 2**30}G): a swarm's pairs are "
+        "evaluated and written "
         "a block at a time, so a display of 65,536 FLSs fits; the swarm's lean "
         "neighbourhood is held whole besides (docs/core.md, 'The engine at display scale')",
     )

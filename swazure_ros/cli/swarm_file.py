@@ -13,7 +13,9 @@ Like Crazyswarm2's crazyflies.yaml, one file says which swarm to bring up::
 
 Keys are the long options of ``swazure spawn`` with ``_`` for ``-``; a flag
 given on the command line overrides the file. Every value is checked here, as
-the flag's would be, so a bad file gets one line naming the file and the key.
+the flag's would be, so a bad file gets one line naming the file and the key;
+``parameters`` and ``fls`` are an FLS node's own, each checked by its spec
+(``ros.nodes.fls_parameters``), since a name no FLS node has would be ignored.
 """
 
 from __future__ import annotations
@@ -25,8 +27,10 @@ from typing import Any
 
 from ..core.errors import SwazureError
 from ..core.paths import POLICIES
+from ..core.tracking import TRACK_SETTINGS, TrackConfig, TrackingError
 from ..files.cloud_files import is_cloud_path
 from ..files.reading import config_dir, read_yaml
+from ..ros.nodes import fls_parameters
 from . import arguments
 
 #: Parameter values a node can take from the file (ROS 2 parameter types).
@@ -62,6 +66,8 @@ CHECKS: dict[str, Callable[[str], Any]] = {
     "domain_id": arguments.domain_id,
     "discovery_timeout": arguments.seconds,
 }
+#: The FLS node's tracking parameters, checked together by TrackConfig.
+TRACK_SETTING_NAMES = frozenset(f"track.{name}" for name in TRACK_SETTINGS)
 #: Keys whose value is a path; a relative one is taken from the file's folder.
 PATHS = ("sensor", "params")
 #: The file's keys besides the options: ROS parameters of every FLS node, and of one.
@@ -91,7 +97,7 @@ def load_swarm_file(path: Path) -> dict[str, Any]:
 def _checked(path: Path, key: str, value: Any) -> Any:
     """``value`` of ``key`` as the option takes it; SwazureError when it cannot be."""
     if key == "parameters":
-        return _parameters(path, key, value)
+        return _fls_node_parameters(path, key, _parameters(path, key, value))
     if key == "fls":
         return _fls_parameters(path, value)
     check = CHECKS.get(key)
@@ -154,8 +160,50 @@ def _fls_parameters(path: Path, value: Any) -> dict[int, dict[str, Any]]:
             fls_id = arguments.fls_id(str(fls))
         except argparse.ArgumentTypeError as err:
             raise SwazureError(f"{path}: swarm.fls: {err}") from None
-        flss[fls_id] = _parameters(path, f"fls.{fls_id}", parameters)
+        where = f"fls.{fls_id}"
+        flss[fls_id] = _fls_node_parameters(path, where, _parameters(path, where, parameters))
     return flss
+
+
+def _fls_node_parameters(path: Path, where: str, flat: dict[str, Any]) -> dict[str, Any]:
+    """``flat``'s ROS parameters, each one an FLS node has, of its type, by its rule.
+
+    A name no FLS node declares would be ignored by every node without a word
+    (the coordinator's ``round_timeout`` among them): it is refused here. A
+    whole number where the parameter is a double is taken as that double, as
+    the flag would take it (rclpy refuses an integer for a double).
+    """
+    specs = {spec.name: spec for spec in (*fls_parameters.EVERY, fls_parameters.RCLPY_OWN)}
+    checked: dict[str, Any] = {}
+    for name, value in flat.items():
+        spec = specs.get(name)
+        if spec is None:
+            known = [other for other in specs if not other.startswith("track.")] + ["track.*"]
+            raise SwazureError(
+                f"{path}: swarm.{where}.{name}: no FLS node has this parameter (theirs: "
+                f"{', '.join(known)}); another node's, such as the coordinator's "
+                "round_timeout, goes in the ROS parameter file (params: FILE)"
+            )
+        if isinstance(spec.default, float) and type(value) is int:
+            value = float(value)
+        if type(value) is not type(spec.default):
+            raise SwazureError(
+                f"{path}: swarm.{where}.{name}: expected a {spec.type_name}, got {value!r}"
+            )
+        reason = spec.refuses(value)
+        if reason is not None:
+            raise SwazureError(f"{path}: swarm.{where}.{name} {reason}")
+        checked[name] = value
+    tracking = {
+        name.removeprefix("track."): value
+        for name, value in checked.items()
+        if name in TRACK_SETTING_NAMES
+    }
+    try:
+        TrackConfig(**tracking)  # checked together, as the node takes them
+    except TrackingError as err:
+        raise SwazureError(f"{path}: swarm.{where}.track: {err}") from None
+    return checked
 
 
 def example_swarms() -> list[str]:

@@ -141,8 +141,13 @@ class Sensor:
         bounds = (self.sweet_min, self.sweet_max, self.decaying_min, self.decaying_max)
         if not all(math.isfinite(bound) for bound in bounds):
             raise SensorError(f"sensor {self.name}: ranges must be finite numbers, got {bounds}")
-        if self.sweet_min < 0:
-            raise SensorError(f"sensor {self.name}: sweet_min must be >= 0, got {self.sweet_min}")
+        if not self.sweet_min > 0:
+            # Blind is 0 < t < sweet_min (spec section 3): a sensor without a blind range has
+            # no pair to compute, and the swarm's shortest-length rounds are sweet_min long.
+            raise SensorError(
+                f"sensor {self.name}: sweet_min must be above 0 (the blind range is "
+                f"0 < t < sweet_min), got {self.sweet_min:g}"
+            )
         if not self.sweet_min < self.sweet_max <= self.decaying_min < self.decaying_max:
             raise SensorError(
                 f"sensor {self.name}: ranges out of order, need "

@@ -2,9 +2,12 @@
 
 A path may name a FIFO, a device or a file of gigabytes, and a YAML file
 may hold an alias bomb (a few lines that expand to billions of nodes) or
-nesting deep enough to exhaust the parser's recursion. Every reader of the
-project goes through :func:`read_bytes` or :func:`read_yaml`, which refuse
-those with one line before any time or memory is spent.
+nesting deep enough to exhaust the parser's recursion. Every reader of a
+file a person names checks it with :func:`regular_file` before it opens it
+(opening a FIFO blocks until a writer comes; reading /dev/zero never ends),
+most through :func:`read_bytes` or :func:`read_yaml`, which refuse those
+with one line before any time or memory is spent. The command line's file
+arguments (``cli.arguments.input_file``) take the same check.
 """
 
 from __future__ import annotations
@@ -21,6 +24,9 @@ from ..core.errors import SensorError, SwazureError
 
 #: Bytes of a configuration file (sensor, camera, swarm, parameters), at most.
 CONFIG_BYTES = 4 * 2**20
+#: Bytes of a table people give (waypoints, a measured camera), at most: an hour's
+#: waypoints at 100 Hz are 15 MB.
+TABLE_BYTES = 64 * 2**20
 #: Nodes of one YAML document with every alias expanded, at most (a configuration
 #: file holds hundreds).
 YAML_NODES = 100_000
@@ -28,21 +34,24 @@ YAML_NODES = 100_000
 YAML_DEPTH = 50
 
 
-def regular_file(path: Path, kind: str, limit: int, error: type[SwazureError]) -> Path:
-    """``path`` if a regular file of at most ``limit`` bytes; ``error`` in one line if not."""
+def regular_file(path: Path, kind: str, limit: int | None, error: type[SwazureError]) -> Path:
+    """``path`` if a regular file of at most ``limit`` bytes (None: any size); ``error`` in one
+    line if not: absent, a folder, or a FIFO, a device or a socket, which are refused by
+    their status, before any open that could block or read without end."""
+    what = f"{kind} file" if kind else "file"
     try:
         status = path.stat()
     except FileNotFoundError as err:
-        raise error(f"{path}: no such {kind} file") from err
+        raise error(f"{path}: no such {what}") from err
     except OSError as err:
         raise error(f"{path}: cannot read ({err.strerror or err})") from err
     if stat.S_ISDIR(status.st_mode):
-        raise error(f"{path}: is a folder, expected a {kind} file")
+        raise error(f"{path}: is a folder, expected a {what}")
     if not stat.S_ISREG(status.st_mode):
-        raise error(f"{path}: not a regular file (a pipe or a device?), expected a {kind} file")
-    if status.st_size > limit:
+        raise error(f"{path}: not a regular file (a pipe or a device?), expected a {what}")
+    if limit is not None and status.st_size > limit:
         raise error(
-            f"{path}: {status.st_size / 2**20:.1f} MiB, more than a {kind} file may be "
+            f"{path}: {status.st_size / 2**20:.1f} MiB, more than a {what} may be "
             f"({limit / 2**20:.0f} MiB)"
         )
     return path
@@ -59,6 +68,14 @@ def read_bytes(path: Path, kind: str, limit: int, error: type[SwazureError]) -> 
     if len(data) > limit:
         raise error(f"{path}: more than a {kind} file may be ({limit / 2**20:.0f} MiB)")
     return data
+
+
+def read_text(path: Path, kind: str, limit: int, error: type[SwazureError]) -> str:
+    """The UTF-8 text of regular file ``path`` (at most ``limit`` bytes); ``error`` if not."""
+    try:
+        return read_bytes(path, kind, limit, error).decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise error(f"{path}: not a text file") from err
 
 
 class _BoundedLoader(yaml.SafeLoader):
@@ -104,11 +121,7 @@ class _BoundedLoader(yaml.SafeLoader):
 
 def read_yaml(path: Path, kind: str, error: type[SwazureError]) -> Any:
     """The parsed YAML document of a ``kind`` file; ``error`` in one line if it has none."""
-    data = read_bytes(path, kind, CONFIG_BYTES, error)
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as err:
-        raise error(f"{path}: not a text file") from err
+    text = read_text(path, kind, CONFIG_BYTES, error)
     try:
         return yaml.load(text, Loader=_BoundedLoader)
     except yaml.YAMLError as err:
@@ -137,13 +150,25 @@ def config_dir() -> Path:
     raise SensorError("cannot find the configuration folder with sensor.yaml")
 
 
-def available_memory() -> int:
-    """Memory this machine has free for a run, bytes (MemAvailable, else all of it)."""
+def _meminfo(field: str) -> int | None:
+    """A field of /proc/meminfo, bytes; None where there is none (not Linux)."""
     try:
         with open("/proc/meminfo") as meminfo:
             for line in meminfo:
-                if line.startswith("MemAvailable:"):
+                if line.startswith(f"{field}:"):
                     return int(line.split()[1]) * 1024
-    except OSError:
+    except (OSError, ValueError):
         pass
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    return None
+
+
+def total_memory() -> int:
+    """Memory this machine has, bytes (MemTotal)."""
+    total = _meminfo("MemTotal")
+    return total if total is not None else os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def available_memory() -> int:
+    """Memory this machine has free for a run, bytes (MemAvailable, else all of it)."""
+    available = _meminfo("MemAvailable")
+    return available if available is not None else total_memory()

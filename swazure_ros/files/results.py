@@ -35,6 +35,7 @@ from ..core.evaluate import REASON_NAMES, STATUS_NAMES, Evaluation, Neighbourhoo
 from ..core.heuristics.result import HeuristicResult
 from ..core.summary import Document, Summary
 from ..core.traffic import TopicCounts
+from .reading import CONFIG_BYTES, read_text
 
 PAIRS_FILE = "pairs.csv"
 PAIRS_PARQUET_FILE = "pairs.parquet"
@@ -514,9 +515,10 @@ def write_run(
 
 def read_record(path: Path) -> RunRecord:
     """The run record in ``path``; SwazureError if it is not one of this version."""
+    text = read_text(path, "run record", CONFIG_BYTES, SwazureError)
     try:
-        document = json.loads(path.read_text())
-    except (OSError, ValueError) as err:
+        document = json.loads(text)
+    except ValueError as err:
         raise SwazureError(f"{path}: not a run record ({err})") from err
     version = document.get("fileversion") if isinstance(document, dict) else None
     if version != RECORD_VERSION:

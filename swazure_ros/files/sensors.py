@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core.errors import SensorError
 from ..core.sensor import Sensor, sensor_from_dict
-from .reading import config_dir, read_yaml
+from .reading import TABLE_BYTES, config_dir, read_text, read_yaml
 
 if TYPE_CHECKING:
     from ..camera.aruco import Camera
@@ -50,12 +50,8 @@ def load_measured(path: str | Path) -> Measured:
     from ..camera.calibration import Measured
 
     path = Path(path)
-    try:
-        lines = [
-            line for line in path.read_text().splitlines() if line and not line.startswith("#")
-        ]
-    except OSError as err:
-        raise SensorError(f"{path}: cannot read ({err.strerror or err})") from err
+    text = read_text(path, "measured camera", TABLE_BYTES, SensorError)
+    lines = [line for line in text.splitlines() if line and not line.startswith("#")]
     rows = list(csv.DictReader(lines))
     try:
         table = [

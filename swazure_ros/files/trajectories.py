@@ -4,6 +4,7 @@ one FLS's (``FLS=TRAJECTORY``) or a swarm's (``;``-separated) (docs/tracking.md)
 from __future__ import annotations
 
 import csv
+import io
 from pathlib import Path
 
 import numpy as np
@@ -17,16 +18,14 @@ from ..core.motion import (
     comma_numbers,
     trajectory_from_spec,
 )
+from .reading import TABLE_BYTES, read_text
 
 
 def read_waypoints(path: str | Path) -> Waypoints:
     """Read a waypoint CSV with header ``t,x,y,z`` (s, and cm from home)."""
     path = Path(path)
-    try:
-        with path.open(newline="") as handle:
-            rows = list(csv.reader(handle))
-    except OSError as err:
-        raise TrajectoryError(f"cannot read waypoints {path}: {err.strerror}") from None
+    text = read_text(path, "waypoint", TABLE_BYTES, TrajectoryError)
+    rows = list(csv.reader(io.StringIO(text, newline="")))
     if not rows or [cell.strip() for cell in rows[0]] != ["t", "x", "y", "z"]:
         raise TrajectoryError(f"{path}: the first line must be the header t,x,y,z")
     values = []

@@ -16,9 +16,11 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
+from ..core.errors import SwazureError
 from ..core.evaluate import evaluate
 from ..core.geometry import make_swarm
 from ..core.summary import Document
+from ..files.reading import CONFIG_BYTES, read_text
 from ..files.results import PAIRS_PARQUET_FILE, atomic_write
 from ..view.png import save
 from ..view.scene import evaluation_scene
@@ -394,6 +396,6 @@ def study_snapshots(plan: StudyPlan, out: Path) -> dict[str, Path]:
 def _read(path: Path) -> str | None:
     """The text of ``path``; None when it cannot be read."""
     try:
-        return path.read_text()
-    except OSError:
+        return read_text(path, "key", CONFIG_BYTES, SwazureError)
+    except SwazureError:
         return None

@@ -32,6 +32,7 @@ from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.folding import run_technique
 from ..core.sensor import Sensor
 from ..core.summary import Document, StudyRun, with_source
+from ..files.reading import CONFIG_BYTES, read_text
 from ..files.results import (
     FULL_PAIRS,
     PAIRS_PARQUET_FILE,
@@ -48,8 +49,10 @@ def read_summary(out: Path, spec: RunSpec, pairs: str) -> Document | None:
     """
     folder = out / spec.folder
     try:
-        summary: Document = json.loads((folder / SUMMARY_FILE).read_text())
-    except (OSError, ValueError):
+        summary: Document = json.loads(
+            read_text(folder / SUMMARY_FILE, "summary", CONFIG_BYTES, SwazureError)
+        )
+    except (SwazureError, ValueError):
         return None
     study = summary.get("study", {})
     if study.get("key") != spec.key or study.get("pairs", FULL_PAIRS) != pairs:

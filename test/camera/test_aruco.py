@@ -179,6 +179,40 @@ def test_camera_file_errors_name_the_key(tmp_path):
         load_camera(tmp_path / "absent.yaml")
 
 
+@pytest.mark.parametrize(
+    ("key", "value", "message"),
+    [
+        # fx is bounded by the lens's focal length first: a sensor's pixel.
+        ("fx", 1e-300, "focal_length_mm / fx is a pixel of 2.75e+303 um"),
+        ("fy", 1e-300, "camera.image: fy must be 1 to 100000 px, got 1e-300"),
+        ("cx", 1e300, "camera.image: cx must be 0 to 8192 px (on the image), got 1e+300"),
+        ("cy", -5.0, "camera.image: cy must be 0 to 8192 px (on the image), got -5"),
+    ],
+)
+def test_a_camera_file_whose_intrinsics_give_no_finite_pose_is_refused(key, value, message):
+    # Issue 66: fx = fy = 1e-300 made the detector's centres NaN; cx = 1e300 did too.
+    document = yaml.safe_load((CAMERAS / "rpi-camera-module-3-wide.yaml").read_text())
+    document["camera"]["image"][key] = value
+    with pytest.raises(SensorError) as refused:
+        camera_from_dict(document, "intrinsics.yaml")
+    assert str(refused.value).startswith(f"intrinsics.yaml: {message}"), refused.value
+
+
+@pytest.mark.parametrize(
+    "intrinsics",
+    [{"fx": 1e-300, "fy": 1e-300}, {"cx": 1e300, "cy": 1e300}, {"fx": 1e-100}],
+    ids=["fx=fy=1e-300", "cx=cy=1e300", "fx=1e-100"],
+)
+def test_a_solve_that_is_not_finite_finds_no_pose(wide, intrinsics):
+    # Intrinsics that no camera file passes can still come from a camera driver's
+    # camera_info: the solve then says "no pose" rather than hand on a NaN centre.
+    frame = render(wide, MarkerPose(65.0), np.random.default_rng(0))
+    corners = Detector(wide).corners(frame)
+    assert corners is not None
+    assert np.all(np.isfinite(Detector(wide).solve(corners)))
+    assert Detector(replace(wide, **intrinsics)).solve(corners) is None
+
+
 def test_marker_too_close_to_the_lens_is_not_detected(wide):
     tiny = replace(wide, focus_min_mm=50.0)
     assert measure(tiny, MarkerPose(5.0), np.random.default_rng(0)) is None

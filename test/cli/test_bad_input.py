@@ -57,6 +57,8 @@ BAD_INPUTS = [
     (["spawn", *TORUS, "--namespace", "bad name!"], "is not a ROS namespace"),
     (["spawn", *TORUS, "--namespace", "/"], "a namespace needs a name"),
     (["spawn", *TORUS, "--discovery-timeout", "-1"], "a duration must be above 0"),
+    (["spawn", *TORUS, "--discovery-timeout", "0"], "a duration must be above 0"),
+    (["spawn", *TORUS, "--discovery-timeout", "inf"], "a duration must be above 0"),
     (["spawn", *TORUS, "--params", "afolder"], "afolder is a folder"),
     (["spawn", *TORUS, "--params", "missing.yaml"], "missing.yaml: no such file"),
     (["spawn", *TORUS, "--processes", "0"], "must be at least 1"),

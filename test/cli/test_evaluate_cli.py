@@ -104,13 +104,16 @@ SENSOR_NEGATIVE = SENSOR_OUT_OF_ORDER.replace(
         ),
         (
             ["--cloud", "torus", "--beta", "0.5", "--sensor", "{tmp}/negative.yaml"],
-            "sweet_min must be >= 0",
+            "sweet_min must be above 0",
         ),
         (["--cloud", "torus", "--beta", "0.5", "--sensor", "{tmp}/broken.yaml"], "not valid YAML"),
         (["--cloud", "dodecahedron", "--beta", "0.5"], "unknown shape 'dodecahedron'"),
         (["--cloud", "torus", "--beta", "0.5", "--policy", "widest"], "invalid choice"),
         (["--cloud", "torus", "--beta", "0.5", "--memory", "lots"], "not a memory size"),
         (["--cloud", "torus", "--beta", "0.5", "--memory", "1M"], "give at least 64M"),
+        # Issue 66: a budget of 1e99 bytes was taken without a word.
+        (["--cloud", "torus", "--beta", "0.5", "--memory", "1e99"], "more than this machine's"),
+        (["--cloud", "torus", "--beta", "0.5", "--memory", "100T"], "more than this machine's"),
     ],
 )
 def test_bad_input_gives_one_line_and_exit_code_2(tmp_path, arguments, message):

@@ -62,6 +62,7 @@ FILES = {
     "huge-error.yaml": sensor_with(COEFFICIENTS, "coefficients: [1.0e+300, 0, 0]"),
     "negative-error.yaml": sensor_with(COEFFICIENTS, "coefficients: [0, 0, -3]"),
     "far-reach.yaml": sensor_with("decaying_max: 30.0", "decaying_max: 1.0e+9"),
+    "no-blind.yaml": sensor_with("sweet_min: 6.0", "sweet_min: 0"),
     "typo-sensor.yaml": sensor_with("  ranges:", "  colour: red\n  ranges:"),
     "string-fx.yaml": camera_with("fx: 836.8", 'fx: "abc"'),
     "zero-fy.yaml": camera_with("fx: 836.8", "fy: 0\n    fx: 836.8"),
@@ -76,7 +77,14 @@ FILES = {
     "bag/metadata.yaml": "rosbag2_bagfile_information: {version: 9}\n",
     "lost/metadata.yaml": "rosbag2_bagfile_information:\n  version: 9\n"
     "  storage_identifier: mcap\n  relative_file_paths: [../../etc/lost_0.mcap]\n",
+    # A bag whose metadata names its MCAP file, a FIFO (_inputs makes it).
+    "piped/metadata.yaml": "rosbag2_bagfile_information:\n  version: 9\n"
+    "  storage_identifier: mcap\n  relative_file_paths: [piped_0.mcap]\n",
 }
+#: FIFOs where a file belongs: a reader that opens one waits for a writer for ever.
+FIFOS = ("fifo.xyz", "fifobag/fifobag_0.mcap", "piped/piped_0.mcap")
+WIDE = str(CONFIG / "cameras" / "rpi-camera-module-3-wide.yaml")
+NO_BLIND = "no-blind.yaml: sensor raspberry-pi-wide-aruco: sweet_min must be above 0"
 ROWS = [
     (["evaluate", "--cloud", "big.xyz", "--beta", "0.5"], "beyond 1e+06 cm"),
     (["evaluate", "--cloud", "complex.npy", "--beta", "0.5"], "must be real numbers"),
@@ -89,6 +97,11 @@ ROWS = [
     (["evaluate", *TORUS, "--sensor", "negative-error.yaml"], "must stay above -1"),
     (["evaluate", *TORUS, "--sensor", "far-reach.yaml"], "beyond 1000 cm"),
     (["evaluate", *TORUS, "--sensor", "typo-sensor.yaml"], "unknown key 'colour'"),
+    # Issue 66: evaluate took a sensor without a blind range that spawn refused; every
+    # verb that reads a sensor file now says the same line (spawn's: test/ros/test_launcher).
+    (["evaluate", *TORUS, "--sensor", "no-blind.yaml"], NO_BLIND),
+    ([*TRACK, "--sensor", "no-blind.yaml"], NO_BLIND),
+    (["study", "--sensor", "no-blind.yaml", "--out", "s"], NO_BLIND),
     (["evaluate", *TORUS, "--seed", "-1"], "outside 0..2**63-1"),
     (["evaluate", *TORUS, "--technique", "move-source", "--threshold", "100000000"], "1 to 1000"),
     (["spawn", "bomb-swarm.yaml"], "alias bomb"),
@@ -100,7 +113,7 @@ ROWS = [
     (["replay", "short.mcap", "--rate", "1e-300"], "a rate must be from 0.001"),
     (["replay", "bag"], "not a rosbag2 bag (metadata.yaml lacks 'storage_identifier')"),
     # A bag's files are read beside its metadata, by name, wherever the metadata points.
-    (["replay", "lost"], "lost/lost_0.mcap: cannot read (No such file or directory)"),
+    (["replay", "lost"], "lost/lost_0.mcap: no such recording file"),
     (["camera", "calibrate", "--camera", "string-fx.yaml"], "fx must be a finite number"),
     # Divided by in the projection: a ZeroDivisionError's traceback before (issue 36).
     (["camera", "calibrate", "--camera", "zero-fy.yaml"], "(fx, fy, focal_length_mm)"),
@@ -109,6 +122,13 @@ ROWS = [
     (["camera", "calibrate", "--camera", "huge-window.yaml"], "corner_window_px must be"),
     (["camera", "calibrate", "--camera", "huge-image.yaml"], "more than 8192 px"),
     (["camera", "calibrate", "--camera", "fifo.xyz"], "not a regular file"),
+    # Issue 66: each hung, or (/dev/zero) filled memory for 38 s to a MemoryError.
+    (["replay", "fifo.xyz"], "fifo.xyz: not a regular file"),
+    (["replay", "fifobag"], "fifobag_0.mcap: not a regular file"),
+    (["replay", "piped"], "piped_0.mcap: not a regular file"),
+    ([*TRACK[:-1], "fifo.xyz"], "fifo.xyz: not a regular file"),
+    (["camera", "calibrate", "--camera", WIDE, "--measured", "/dev/zero"], "not a regular file"),
+    (["camera", "calibrate", "--camera", WIDE, "--measured", "fifo.xyz"], "not a regular file"),
     ([*TRACK, "--frame-period", "1e-9"], "frame_period must be 0.001 to"),
     ([*TRACK, "--duration", "1e300"], "at most 86400 s"),
     ([*TRACK, "--timeout", "inf"], "timeout must be above 0"),
@@ -120,7 +140,9 @@ def _inputs(folder: Path) -> list[str]:
         (folder / name).parent.mkdir(exist_ok=True)
         (folder / name).write_text(text)
     np.save(folder / "complex.npy", np.array([[1 + 2j, 0, 0], [0, 1, 0], [0, 0, 1]]))
-    os.mkfifo(folder / "fifo.xyz")
+    for fifo in FIFOS:
+        (folder / fifo).parent.mkdir(exist_ok=True)
+        os.mkfifo(folder / fifo)
     return sorted(path.name for path in folder.iterdir())
 
 

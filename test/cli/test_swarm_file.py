@@ -47,6 +47,15 @@ def test_a_swarm_file_sets_the_options_and_every_and_one_flss_parameters():
     assert args.fls_parameters == {0: {"publish_period": 0.1, "track.service": True}}
 
 
+def test_a_whole_number_for_a_double_parameter_is_taken_as_that_double(tmp_path):
+    # rclpy refuses an integer for a double parameter; the file's 1 means 1.0.
+    swarm = tmp_path / "swarm.yaml"
+    swarm.write_text("swarm:\n  parameters:\n    publish_period: 2\n    camera_view: 3\n")
+    parameters = load_swarm_file(swarm)["parameters"]
+    assert parameters == {"publish_period": 2.0, "camera_view": 3}
+    assert type(parameters["publish_period"]) is float and type(parameters["camera_view"]) is int
+
+
 def test_flags_given_beside_the_file_override_it():
     args = spawn_args(str(TORUS), "--processes", "2", "--radius", "1.5", "--namespace", "show")
     assert args.processes == 2 and args.namespace == "show"
@@ -73,6 +82,9 @@ def test_paths_in_a_swarm_file_are_taken_from_its_folder(tmp_path):
     assert options["sensor"] == tmp_path / "my-sensor.yaml"
 
 
+NOT_AN_FLS_PARAMETER = (
+    "swarm.parameters.round_timeout: no FLS node has this parameter (theirs: publish_period, "
+)
 BAD_FILES = [
     ("swarm: [1, 2\n", "not valid YAML at line 2"),
     ("- just a list\n", "a mapping with one key, swarm:"),
@@ -94,6 +106,16 @@ BAD_FILES = [
     ("swarm:\n  parameters: 3\n", "swarm.parameters: expected a mapping of ROS parameters"),
     ("swarm:\n  parameters:\n    publish_period: {}\n", "swarm.parameters.publish_period"),
     ("swarm:\n  parameters:\n    mixed: [1, a]\n", "swarm.parameters.mixed: a ROS parameter"),
+    # Issue 66: a name no FLS node has was ignored by every node without a word.
+    ("swarm:\n  parameters:\n    round_timeout: 0.0\n", NOT_AN_FLS_PARAMETER),
+    ("swarm:\n  fls:\n    2: {round_timeout: 5.0}\n", "swarm.fls.2.round_timeout: no FLS node"),
+    ("swarm:\n  parameters:\n    publish_period: 0.0\n", "publish_period must be a positive"),
+    ("swarm:\n  parameters:\n    publish_period: -1\n", "publish_period must be a positive"),
+    ("swarm:\n  parameters:\n    publish_period: .nan\n", "publish_period must be a positive"),
+    ("swarm:\n  parameters:\n    publish_period: .inf\n", "publish_period must be a positive"),
+    ("swarm:\n  parameters:\n    publish_period: fast\n", "expected a double, got 'fast'"),
+    ("swarm:\n  parameters:\n    track: {timeout: 0.0}\n", "track: timeout must be above 0"),
+    ("swarm:\n  fls:\n    0: {join_timeout: -3.0}\n", "fls.0.join_timeout must be a positive"),
     ("swarm:\n  fls: [1]\n", "swarm.fls: expected FLS ids, each with its parameters"),
     ("swarm:\n  fls:\n    first: {publish_period: 1.0}\n", "swarm.fls: 'first' is not a whole"),
     ("swarm:\n  fls:\n    -3: {publish_period: 1.0}\n", "swarm.fls: FLS id -3 is outside"),
@@ -119,6 +141,11 @@ def test_a_bad_swarm_file_is_refused_with_the_file_and_key_named(tmp_path, conte
         (
             "swarm:\n  cloud: torus:60\n  beta: 0.5\n  fls:\n    999: {publish_period: 1.0}\n",
             "parameters for FLS 999: no such FLS in this swarm of 60",
+        ),
+        # Issue 66, as reported: the swarm came up and no node took the timeout.
+        (
+            "swarm:\n  cloud: torus:60\n  beta: 0.5\n  parameters:\n    round_timeout: 0.0\n",
+            NOT_AN_FLS_PARAMETER,
         ),
     ],
 )

@@ -80,7 +80,8 @@ def test_sensor_file_round_trip(tmp_path):
 @pytest.mark.parametrize(
     ("text", "message"),
     [
-        (GOOD.replace("sweet_min: 6", "sweet_min: -1"), "sweet_min must be >= 0"),
+        (GOOD.replace("sweet_min: 6", "sweet_min: -1"), "sweet_min must be above 0"),
+        (GOOD.replace("sweet_min: 6", "sweet_min: 0"), "sweet_min must be above 0"),
         (GOOD.replace("sweet_max: 8", "sweet_max: 5"), "ranges out of order"),
         (GOOD.replace("decaying_max: 30", "decaying_max: 7"), "ranges out of order"),
         (GOOD.replace("fileversion: 1", "fileversion: 9"), "fileversion 9"),

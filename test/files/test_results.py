@@ -128,7 +128,7 @@ def test_a_record_of_another_version_or_no_record_is_refused_in_one_line(tmp_pat
     (tmp_path / "other.json").write_text("[1, 2]")
     with pytest.raises(SwazureError, match="fileversion None"):
         read_record(tmp_path / "other.json")
-    with pytest.raises(SwazureError, match="not a run record"):
+    with pytest.raises(SwazureError, match="no such run record file"):
         read_record(tmp_path / "missing.json")
     # A record of this version whose summary is not one: one line, not a KeyError.
     path = write_record(tmp_path, RunRecord("evaluate", 1.0, None))

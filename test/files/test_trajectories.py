@@ -27,7 +27,7 @@ def test_waypoints_pass_through_their_points_at_rest_at_the_ends(tmp_path):
         # A spec's own errors are core's (test/core/test_motion.py); these are the dispatch's.
         ("linear:1,2", "expected 3 finite numbers"),
         ("spiral:1", "unknown trajectory"),
-        ("missing.csv", "cannot read waypoints"),
+        ("missing.csv", "missing.csv: no such waypoint file"),
     ],
 )
 def test_bad_trajectories_raise_one_line_errors(text, message):

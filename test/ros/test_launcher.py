@@ -24,6 +24,7 @@ from swazure_ros.cli.spawn import config_from_args
 from swazure_ros.cli.swarm_file import apply_swarm_file
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.results import RECORD_FILE, read_record
+from swazure_ros.ros.security.keys import new_key
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SHARED
@@ -171,6 +172,41 @@ def test_spawn_bad_input_gives_one_line_and_exit_2(domain, args, message):
     assert "Traceback" not in err
 
 
+def test_spawn_with_a_key_file_others_can_read_warns_in_one_line_and_comes_up(domain, tmp_path):
+    # Issue 66: taken without a word before; legal but unwise, so taken with one.
+    key = tmp_path / "swarm.key"
+    key.write_text(new_key().hex() + "\n")
+    key.chmod(0o644)
+    run = swazure("spawn", "--cloud", "helix:20", "--beta", "0.5", "--key-file", str(key),
+                  "--until-ready", "--quiet")  # fmt: skip
+    out, err = run.communicate(timeout=300)
+    assert run.returncode == 0, err
+    assert out.startswith("swarm up"), out
+    warned = [line for line in err.splitlines() if "open to others than its owner" in line]
+    assert warned == [
+        f"warning: swarm key file {key} is open to others than its owner (mode 0644): whoever "
+        f"reads it can sign as the swarm; taken anyway (chmod 600 {key})"
+    ], err
+
+
+def test_spawn_and_evaluate_refuse_a_sensor_without_a_blind_range_in_the_same_line(
+    domain, tmp_path
+):
+    # Issue 66: evaluate took sweet_min 0, which spawn refused only with --compute-all.
+    sensor = tmp_path / "no-blind.yaml"
+    default = (config_dir() / "sensor.yaml").read_text()
+    sensor.write_text(default.replace("sweet_min: 6.0", "sweet_min: 0"))
+    said = []
+    for verb, more in (("spawn", ["--until-ready", "--quiet"]), ("evaluate", [])):
+        run = swazure(verb, "--cloud", "helix:60", "--beta", "0.5", "--sensor", str(sensor), *more)
+        _, err = run.communicate(timeout=120)
+        assert run.returncode == 2, err
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+        said.append(err.removeprefix(f"swazure {verb}: error: "))
+    assert said[0] == said[1], said
+    assert "sweet_min must be above 0 (the blind range is 0 < t < sweet_min), got 0" in said[0]
+
+
 @pytest.mark.parametrize(
     ("content", "message"),
     [
@@ -189,6 +225,24 @@ def test_spawn_with_invalid_parameters_refuses_to_start(domain, tmp_path, conten
     _, err = run.communicate(timeout=PATIENCE)
     assert run.returncode == 2, err
     assert message in err and len(err.strip().splitlines()) == 1, err
+
+
+@pytest.mark.parametrize("value", ["0.0", "-1.0", ".nan", ".inf"])
+def test_spawn_refuses_a_round_timeout_that_is_not_a_positive_number_of_seconds(
+    domain, tmp_path, value
+):
+    # Issue 66: a round timeout of 0 s, below, or not finite, as a ROS parameter.
+    params = tmp_path / "bad.yaml"
+    params.write_text(f"/**/coordinator:\n  ros__parameters:\n    round_timeout: {value}\n")
+    run = swazure("spawn", "--cloud", "helix:60", "--beta", "0.5", "--params", str(params),
+                  "--quiet")  # fmt: skip
+    _, err = run.communicate(timeout=120)
+    assert run.returncode == 2, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert err.startswith(
+        "swazure spawn: error: /swarm/coordinator: parameter round_timeout must be a positive "
+        "number of seconds below 86400, got "
+    ), err
 
 
 @pytest.fixture

@@ -100,8 +100,7 @@ def bucket_width(sensor: Sensor, radius: float, policy: str) -> float:
                 "shortest-length or fewest-hops"
             )
         return smallest
-    if not sensor.sweet_min > 0:
-        raise ValueError(f"sweet_min must be positive for shortest-length, got {sensor.sweet_min}")
+    # A Sensor's sweet_min is above 0 (core.sensor.Sensor refuses any other).
     return sensor.sweet_min * (1.0 - _BUCKET_MARGIN)
 
 

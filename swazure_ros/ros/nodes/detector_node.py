@@ -33,7 +33,7 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import Detections, MarkerDetection
 
-from ...camera.aruco import Camera, Detector
+from ...camera.aruco import MAX_IMAGE_PX, Camera, Detector, intrinsics_problem
 from ...core.errors import SwazureError
 from ...files.reading import config_dir
 from ...files.sensors import load_camera
@@ -115,7 +115,13 @@ class ArucoDetectorNode(SwarmNode):
 
     def _on_info(self, info: CameraInfo) -> None:
         fx, _, cx, _, fy, cy = (float(value) for value in info.k[:6])
-        check(all(np.isfinite([fx, fy, cx, cy])) and fx > 0 and fy > 0, "K: no focal length")
+        # Dropped, and the last good intrinsics kept: a solve with them could give NaN.
+        problem = intrinsics_problem(fx, fy, cx, cy)
+        check(problem is None, f"K: {problem}")
+        check(
+            max(info.width, info.height) <= MAX_IMAGE_PX,
+            f"an image of more than {MAX_IMAGE_PX} px a side",
+        )
         if self._intrinsics != (fx, fy, cx, cy):
             self._intrinsics = (fx, fy, cx, cy)
             camera = replace(self.camera, fx=fx, fy=fy, cx=cx, cy=cy)

@@ -71,10 +71,11 @@ from ..plumbing.names import (
     ROUND_QOS,
     node_name,
 )
-from ..plumbing.parameters import ParameterSpec, at_least, seconds
 from ..plumbing.runtime import ParameterError, SwarmNode
 from ..security.auth import SwarmKey
+from . import fls_parameters
 from .fls_camera import CameraView, DetectedSensing, Eyes
+from .fls_parameters import CAMERA_VIEW, PUBLISH_PERIOD, REPUBLISH_PERIOD
 from .fls_tracking import FlsTracking
 
 
@@ -121,27 +122,8 @@ class RadioLink:
     key: SwarmKey | None = None
 
 
-PUBLISH_PERIOD = ParameterSpec(
-    "publish_period",
-    1.0,
-    "s between camera frames: a changed measurement is sent (> 0; set while running too)",
-    seconds(),
-)
-REPUBLISH_PERIOD = ParameterSpec(
-    "republish_period",
-    0.0,
-    "s after which an unchanged measurement is sent again; 0: never (set while running too)",
-    seconds(allow_zero=True),
-)
-CAMERA_VIEW = ParameterSpec(
-    "camera_view",
-    -1,
-    "id of a neighbour: publish what this FLS's camera sees aimed at its marker on "
-    "~/camera/image_raw and ~/camera/camera_info; -1: none",
-    at_least(-1),
-)
 #: The parameters every FLS node declares, besides its tracking's (FlsTracking's).
-PARAMETERS = (PUBLISH_PERIOD, REPUBLISH_PERIOD, CAMERA_VIEW)
+PARAMETERS = fls_parameters.NODE
 
 
 class FlsNode(SwarmNode):

@@ -20,7 +20,7 @@ from swazure_interfaces.msg import TrackEstimate, TrackProgress, TrackRequest, T
 from swazure_interfaces.srv import TrackTarget
 
 from ...core.errors import SwazureError
-from ...core.tracking import TRACK_SETTINGS, FloatArray, RelaySenses, TrackConfig, TrackingError
+from ...core.tracking import FloatArray, RelaySenses, TrackConfig, TrackingError
 from ...protocol.tracking import (
     STOP_RELAY,
     RelayRequest,
@@ -45,9 +45,10 @@ from ..plumbing.names import (
     TRACK_SAMPLES_TOPIC,
     TRACK_SERVICE,
 )
-from ..plumbing.parameters import ParameterSpec
 from ..plumbing.runtime import ParameterError, SwarmNode
 from ..security.guard import check
+from . import fls_parameters
+from .fls_parameters import REPORT_PROGRESS, TRACK_SERVICE_FLAG, TRACK_SETTINGS_SPECS
 
 #: The topics a track run publishes on, and their message types.
 TRACK_TOPICS: dict[str, type] = {
@@ -64,22 +65,8 @@ def _no_relay_senses() -> RelaySenses:
     )
 
 
-TRACK_SERVICE_FLAG = ParameterSpec(
-    "track.service", False, "offer ~/track: this FLS follows a moving target on request"
-)
-REPORT_PROGRESS = ParameterSpec(
-    "track.report_progress",
-    False,
-    "publish track_progress after each track event: for a driver of a simulated clock "
-    "across processes (swazure track --per-fls)",
-)
-#: track.<name>, defaulting to TrackConfig's (TrackConfig checks them together).
-SETTINGS = tuple(
-    ParameterSpec(f"track.{name}", getattr(TrackConfig(), name), description)
-    for name, description in TRACK_SETTINGS.items()
-)
 #: The parameters an FLS node's tracking declares.
-PARAMETERS = (TRACK_SERVICE_FLAG, REPORT_PROGRESS, *SETTINGS)
+PARAMETERS = fls_parameters.TRACKING
 
 
 class FlsTracking:
@@ -135,7 +122,10 @@ class FlsTracking:
         self.traffic: Counter[str] = Counter()
 
     def _declare_config(self) -> TrackConfig:
-        values = {spec.name.removeprefix("track."): self.node.declare(spec) for spec in SETTINGS}
+        values = {
+            spec.name.removeprefix("track."): self.node.declare(spec)
+            for spec in TRACK_SETTINGS_SPECS
+        }
         try:
             return TrackConfig(**values)
         except TrackingError as err:

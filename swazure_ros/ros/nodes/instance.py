@@ -22,7 +22,7 @@ from swazure_interfaces.msg import SwarmInstance
 from ...core.errors import MessageError, RunError
 from ..convert.units import stamp_nanoseconds
 from ..plumbing.names import INSTANCE_QOS, INSTANCE_TOPIC
-from ..plumbing.runtime import Context, ParameterError
+from ..plumbing.runtime import Context
 from ..security.auth import ANNOUNCEMENT, INSTANCE_BYTES, Freshness, SwarmKey
 from ..security.keys import key_from
 
@@ -121,14 +121,8 @@ def program_key(context: Context, values: dict[str, object], *, world: bool = Fa
     text = str(values["swarm_instance"])
     instance = None
     if text:
-        try:
-            instance = bytes.fromhex(text)
-        except ValueError:
-            instance = b""
-        if len(instance) != INSTANCE_BYTES:
-            raise ParameterError(
-                f"parameter swarm_instance: {2 * INSTANCE_BYTES} hexadecimal digits, got {text!r}"
-            )
+        # Read by runtime.SWARM_INSTANCE's rule: 2 * INSTANCE_BYTES hexadecimal digits.
+        instance = bytes.fromhex(text)
     elif key is not None and not world:
         instance = await_instance(context, str(values["namespace"]), key, PROGRAM_WAIT)
     return SwarmKey(key, instance)

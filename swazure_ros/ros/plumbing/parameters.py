@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from string import hexdigits
 
 #: A parameter's value, as ROS 2 parameters hold them here.
 Value = bool | int | float | str
@@ -47,6 +48,19 @@ def at_least(lowest: int) -> Rule:
         if isinstance(value, int) and not isinstance(value, bool) and value >= lowest:
             return None
         return f"must be a whole number >= {lowest}, got {value!r}"
+
+    return rule
+
+
+def hex_digits(digits: int) -> Rule:
+    """The rule of a string of ``digits`` hexadecimal digits, or '' (none given)."""
+
+    def rule(value: Value) -> str | None:
+        if isinstance(value, str) and (
+            value == "" or (len(value) == digits and all(c in hexdigits for c in value))
+        ):
+            return None
+        return f"must be {digits} hexadecimal digits (or '' for none), got {value!r}"
 
     return rule
 

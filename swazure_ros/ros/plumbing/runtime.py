@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import faulthandler
 import gc
+import itertools
 import os
 import signal
 import subprocess
@@ -49,7 +50,7 @@ from rclpy.utilities import remove_ros_args
 from ...core.errors import SwazureError
 from ...files.description import SwarmDescription
 from ...files.reading import read_yaml
-from .parameters import ParameterSpec, at_least, help_text
+from .parameters import ParameterSpec, at_least, help_text, hex_digits
 
 
 class ParameterError(SwazureError):
@@ -218,8 +219,9 @@ _TYPES = {
 }
 
 
-def check_params_file(path: Path) -> None:
-    """Raise SwazureError unless ``path`` holds ROS 2 parameters (node: ros__parameters: ...)."""
+def check_params_file(path: Path) -> dict[str, dict[str, Any]]:
+    """The sections of ROS 2 parameter file ``path`` (node: ros__parameters: ...), each
+    node's parameters; SwazureError unless it is one (a regular file, small: read_yaml)."""
     document = read_yaml(path, "ROS 2 parameter", SwazureError)
     if not isinstance(document, dict) or not all(
         isinstance(section, dict) and isinstance(section.get("ros__parameters"), dict)
@@ -228,6 +230,7 @@ def check_params_file(path: Path) -> None:
         raise SwazureError(
             f"{path}: not a ROS 2 parameter file: expect NODE: {{ros__parameters: {{...}}}}"
         )
+    return {str(node): section["ros__parameters"] for node, section in document.items()}
 
 
 def init_context(domain_id: int | None = None, params_file: str | None = None) -> Context:
@@ -359,6 +362,8 @@ SWARM_INSTANCE = ParameterSpec(
     "",
     "the swarm instance inside every tag (32 hexadecimal digits; docs/security.md); '': the "
     "one the world node announces (the world program: a fresh one)",
+    # security.auth.INSTANCE_BYTES (16) as hexadecimal digits.
+    hex_digits(32),
 )
 
 
@@ -414,6 +419,66 @@ def startup_parameters(given: Sequence[str], specs: Sequence[ParameterSpec]) -> 
             text = words.pop(0)
         values[spec.name] = _startup_value(spec, text)
     return values
+
+
+#: The ROS arguments (rcl's) that set one parameter, and that name a parameter file.
+PARAMETER_FLAGS = ("-p", "--param")
+PARAMETERS_FILE_FLAG = "--params-file"
+
+
+def ros_arguments(argv: Sequence[str]) -> list[str]:
+    """The words of ``argv``'s ``--ros-args`` blocks (each to a ``--`` or to the end)."""
+    words, inside = [], False
+    for word in argv:
+        if word == "--ros-args":
+            inside = True
+        elif inside and word == "--":
+            inside = False
+        elif inside:
+            words.append(word)
+    return words
+
+
+def _names(parameters: dict[str, Any], prefix: str = "") -> list[str]:
+    """The parameter names of a ``ros__parameters`` mapping, nested ones joined by dots."""
+    names = []
+    for name, value in parameters.items():
+        if isinstance(value, dict):
+            names += _names(value, f"{prefix}{name}.")
+        else:
+            names.append(f"{prefix}{name}")
+    return names
+
+
+def refuse_startup_as_parameter(argv: Sequence[str], specs: Sequence[ParameterSpec]) -> None:
+    """ParameterError if the ROS arguments of ``argv`` set a startup parameter of ``specs``.
+
+    rclpy would take ``-p swarm_instance:=...`` (or the name in a ``--params-file``)
+    as a parameter override that no node declares, and say nothing: the
+    program would run without it (issue 66: then wait 60 s for an instance).
+    Each parameter file is checked here too (check_params_file: a regular file
+    of ROS 2 parameters), before rcl reads it.
+    """
+    by_name = {spec.name: spec for spec in specs}
+    words = ros_arguments(argv)
+    for flag, word in itertools.pairwise(words):
+        if flag in PARAMETER_FLAGS:
+            # NAME:=VALUE, or NODE:NAME:=VALUE for one node.
+            target, _, value = word.partition(":=")
+            spec = by_name.get(target.rpartition(":")[2])
+            if spec is not None:
+                raise ParameterError(
+                    f"{flag} {word}: {spec.name} is not a node parameter but this program's "
+                    f"argument: give {spec.option} {value or 'VALUE'} before --ros-args"
+                )
+        elif flag == PARAMETERS_FILE_FLAG:
+            for node, parameters in check_params_file(Path(word)).items():
+                found = [by_name[name] for name in _names(parameters) if name in by_name]
+                if found:
+                    raise ParameterError(
+                        f"{word}: {node}: {found[0].name} is not a node parameter but this "
+                        f"program's argument: give {found[0].option} VALUE before --ros-args"
+                    )
 
 
 def declare_startup(node: Node, values: dict[str, Any]) -> None:
@@ -477,15 +542,20 @@ def program_startup(
     """A program's startup values from its arguments before ``--ros-args``
     (:func:`startup_parameters`); ``--help`` prints ``usage`` (exit 0), a bad
     argument one line (exit 2)."""
-    given = remove_ros_args(sys.argv if args is None else args)[1:]
-    if given in (["-h"], ["--help"]):
-        print(usage)
-        sys.exit(0)
+    argv = sys.argv if args is None else args
     try:
+        # Before rcl parses the arguments: it reads each parameter file as it does.
+        refuse_startup_as_parameter(argv, specs)
+        given = remove_ros_args(argv)[1:]
+        if given in (["-h"], ["--help"]):
+            print(usage)
+            sys.exit(0)
         return startup_parameters(given, specs)
-    except ParameterError as err:
+    except SwazureError as err:  # ParameterError, or a parameter file that is not one
         print(f"error: {err}", file=sys.stderr)
-        sys.exit(2)
+    except RuntimeError as err:  # rcl's RCLInvalidROSArgsError: one line, not its stack
+        print(f"error: the ROS arguments: {str(err).split(', at /')[0]}", file=sys.stderr)
+    sys.exit(2)
 
 
 def program_help(

@@ -20,13 +20,14 @@ from ...core.errors import SwazureError
 from ...core.tracking import RelaySenses, moving_senses
 from ...files.trajectories import parse_motion
 from ...protocol.senses import DetectedSenses
-from ..nodes import fls_node, fls_tracking
+from ..nodes import fls_parameters
 from ..nodes.fls_camera import DetectedSensing
 from ..nodes.fls_node import FlsNode, RadioLink
+from ..nodes.fls_parameters import JOIN_TIMEOUT
 from ..nodes.instance import program_key
 from ..nodes.radio import Radio
 from ..plumbing.names import DETECTIONS_TOPIC
-from ..plumbing.parameters import ParameterSpec, seconds
+from ..plumbing.parameters import ParameterSpec
 from ..plumbing.runtime import (
     DESCRIPTION_PARAMETERS,
     KEY_FILE,
@@ -49,13 +50,6 @@ FLS_ID = ParameterSpec("fls_id", -1, "this FLS's id: its row in the swarm's poin
 TRACK_MOTION = ParameterSpec(
     "track.motion", "", "a simulated track run's motion of every FLS (swazure track --per-fls)"
 )
-JOIN_TIMEOUT = ParameterSpec(
-    "join_timeout",
-    30.0,
-    "s after its first frame that an FLS waits to be heard by every FLS before it takes part "
-    "in rounds anyway",
-    seconds(),
-)
 #: What the program takes as arguments, before it builds its node.
 STARTUP = (FLS_ID, NAMESPACE, KEY_FILE, SWARM_INSTANCE, TRACK_MOTION, *DESCRIPTION_PARAMETERS)
 USAGE = program_help(
@@ -67,7 +61,7 @@ the coordinator (`ros2 run swazure_ros coordinator`) and every FLS hear it.
 
   ros2 run swazure_ros fls --fls-id 7 --cloud torus:120 --scale 5 --beta 0.5""",
     STARTUP,
-    [*fls_node.PARAMETERS, *fls_tracking.PARAMETERS, JOIN_TIMEOUT],
+    fls_parameters.EVERY,
 )
 
 

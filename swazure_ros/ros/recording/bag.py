@@ -48,7 +48,7 @@ from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from ...core.errors import SwazureError
-from ...files.reading import read_yaml
+from ...files.reading import read_yaml, regular_file
 from ...files.results import atomic_folder
 from ..plumbing.interfaces import message_class
 
@@ -433,7 +433,14 @@ class Recorded:
 
 
 def storage_files(path: Path) -> list[Path]:
-    """The MCAP files of a recording: a bag folder's (its metadata.yaml says), or ``path``."""
+    """The MCAP files of a recording: a bag folder's (its metadata.yaml says), or ``path``.
+
+    Each is a regular file, or SwazureError in one line: a FIFO would block its reader.
+    """
+    return [regular_file(storage, "recording", None, SwazureError) for storage in _storage(path)]
+
+
+def _storage(path: Path) -> list[Path]:
     if not path.is_dir():
         return [path]
     if not (path / METADATA_FILE).exists():

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import os
 import secrets
+import stat
+import sys
 from pathlib import Path
 
 from ...core.errors import SwazureError
@@ -24,7 +26,12 @@ def new_key() -> bytes:
 
 
 def read_key(path: str | Path) -> bytes:
-    """The key in file ``path``; SwazureError in one line if it holds none."""
+    """The key in file ``path``; SwazureError in one line if it holds none.
+
+    A key file that others than its owner may read or write is taken, with
+    one line of warning on stderr (:func:`unprotected`): legal, but whoever
+    reads it can sign as the swarm.
+    """
     path = Path(path)
     # Regular and small: a FIFO or /dev/zero named as a key file would block or fill memory.
     data = read_bytes(path, "swarm key", KEY_FILE_BYTES, SwazureError)
@@ -38,7 +45,25 @@ def read_key(path: str | Path) -> bytes:
         key = b""
     if len(key) != KEY_BYTES:
         raise SwazureError(f"{path}: a swarm key is {2 * KEY_BYTES} hexadecimal digits")
+    warning = unprotected(path)
+    if warning is not None:
+        print(warning, file=sys.stderr, flush=True)
     return key
+
+
+def unprotected(path: Path) -> str | None:
+    """The warning for key file ``path`` if others than its owner may read or write it
+    (any group or other permission, as ssh judges a private key file); None if not."""
+    try:
+        mode = stat.S_IMODE(path.stat().st_mode)
+    except OSError:
+        return None  # read a moment ago: gone since, nothing to warn of
+    if not mode & 0o077:
+        return None
+    return (
+        f"warning: swarm key file {path} is open to others than its owner (mode {mode:04o}): "
+        f"whoever reads it can sign as the swarm; taken anyway (chmod 600 {path})"
+    )
 
 
 def write_key(path: Path, key: bytes) -> None:

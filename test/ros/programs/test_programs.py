@@ -229,6 +229,80 @@ def test_an_fls_without_an_id_says_so_in_one_line(ros2_tools, domain):
     assert "Process exited with failure 2" in run.stdout, run.stdout
 
 
+#: Each program's main, as its script in lib/swazure_ros/ runs it (without ../shared).
+MAINS = {
+    "fls": "swazure_ros.ros.programs.fls_program",
+    "world": "swazure_ros.ros.nodes.world_node",
+    "coordinator": "swazure_ros.ros.programs.coordinator_program",
+    "aruco_detector": "swazure_ros.ros.nodes.detector_node",
+}
+
+
+def program(name: str, *args: str) -> subprocess.CompletedProcess[str]:
+    """Run program ``name`` to its end, as ``ros2 run swazure_ros NAME ARGS`` runs it."""
+    main = f"import sys; from {MAINS[name]} import main; sys.exit(main(sys.argv))"
+    return subprocess.run(
+        [sys.executable, "-c", main, *args], capture_output=True, text=True, timeout=120
+    )
+
+
+def swarm_key(folder: Path) -> Path:
+    """A key file of the swarm's, as `swazure key` writes it."""
+    from swazure_ros.ros.security.keys import new_key, write_key
+
+    path = folder / "swarm.key"
+    write_key(path, new_key())
+    return path
+
+
+@pytest.mark.parametrize("name", list(MAINS))
+def test_a_swarm_instance_given_as_a_ros_parameter_is_refused_at_once_in_one_line(
+    domain, tmp_path, name
+):
+    # Issue 66: `-p swarm_instance:=...` was ignored without a word; an FLS with a key
+    # file then waited 60 s for the world node's announcement and failed on that.
+    described = [] if name == "aruco_detector" else TRIO_ARGS
+    own = ["--fls-id", "0"] if name == "fls" else []
+    run = program(name, *described, *own, "--key-file", str(swarm_key(tmp_path)),
+                  "--ros-args", "-p", "swarm_instance:=zzz")  # fmt: skip
+    assert run.returncode == 2, run
+    assert run.stderr == (
+        "error: -p swarm_instance:=zzz: swarm_instance is not a node parameter but this "
+        "program's argument: give --swarm-instance zzz before --ros-args\n"
+    ), run.stderr
+    # The right form, with the same malformed instance: refused as it is read.
+    run = program(name, *described, *own, "--swarm-instance", "zzz")
+    assert run.returncode == 2, run
+    assert run.stderr == (
+        "error: argument --swarm-instance must be 32 hexadecimal digits (or '' for none), "
+        "got 'zzz'\n"
+    ), run.stderr
+
+
+def test_a_coordinator_round_timeout_that_is_not_a_positive_time_is_refused(domain):
+    # Issue 66: 0 s (or below, or not finite) on the command line, as a ROS parameter.
+    for value in ("0.0", "-1.0", ".nan", ".inf"):
+        run = program("coordinator", *TRIO_ARGS, "--ros-args", "-p", f"round_timeout:={value}")
+        assert run.returncode == 2, run
+        assert run.stderr.startswith(
+            "error: /swarm/coordinator: parameter round_timeout must be a positive number of "
+            "seconds below 86400, got "
+        ), run.stderr
+        assert run.stderr.count("\n") == 1, run.stderr
+
+
+def test_ros2_run_refuses_a_startup_parameter_given_with_p_naming_its_argument(
+    ros2_tools, domain, tmp_path
+):
+    # As the issue's user typed it.
+    key = swarm_key(tmp_path)
+    run = ros2("run", "swazure_ros", "fls", *TRIO_ARGS, "--fls-id", "0", "--key-file", str(key),
+               "--ros-args", "-p", "swarm_instance:=0123")  # fmt: skip
+    assert run.returncode == 2, run
+    assert run.stderr.count("\n") == 1 and "give --swarm-instance 0123 before" in run.stderr
+    assert "Process exited with failure 2" in run.stdout, run.stdout
+
+
 @pytest.mark.parametrize("discovery", ["simple", "server"])
 def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(
     ros2_tools, domain, discovery, monkeypatch, tmp_path

@@ -142,6 +142,24 @@ def test_a_key_file_is_private_and_reads_back(tmp_path):
         read_key(tmp_path / "short.key")
 
 
+@pytest.mark.parametrize("mode", [0o644, 0o640, 0o604, 0o660, 0o620, 0o777], ids=oct)
+def test_a_key_file_others_may_read_or_write_is_taken_with_one_line_of_warning(
+    tmp_path, capsys, mode
+):
+    # Issue 66: a key file readable by others was taken without a word.
+    path = tmp_path / "swarm.key"
+    key = new_key()
+    write_key(path, key)
+    assert read_key(path) == key
+    assert capsys.readouterr().err == ""  # its owner's alone: not a word
+    os.chmod(path, mode)
+    assert read_key(path) == key
+    said = capsys.readouterr().err
+    assert said.count("\n") == 1, said
+    assert said.startswith(f"warning: swarm key file {path} is open to others than its owner")
+    assert f"(mode {mode:04o})" in said and f"chmod 600 {path}" in said
+
+
 @pytest.mark.parametrize("special", ["fifo", "/dev/zero", "folder"])
 def test_a_key_file_that_is_not_a_small_regular_file_is_refused_in_one_line(tmp_path, special):
     if special == "fifo":

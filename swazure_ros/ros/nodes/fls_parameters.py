@@ -1,0 +1,64 @@
+"""The ROS parameters of an FLS node, as specs, without rclpy.
+
+The node declares them (:class:`~.fls_node.FlsNode`, :class:`~.fls_tracking.FlsTracking`,
+the ``fls`` program's radio join), the ``fls`` program's ``--help`` lists them, and a
+swarm file's ``parameters:`` and ``fls:`` are checked against them when the file is
+read (``cli.swarm_file``), by verbs that start no node and load no rclpy.
+"""
+
+from __future__ import annotations
+
+from ...core.tracking import TRACK_SETTINGS, TrackConfig
+from ..plumbing.parameters import ParameterSpec, at_least, seconds
+
+PUBLISH_PERIOD = ParameterSpec(
+    "publish_period",
+    1.0,
+    "s between camera frames: a changed measurement is sent (> 0; set while running too)",
+    seconds(),
+)
+REPUBLISH_PERIOD = ParameterSpec(
+    "republish_period",
+    0.0,
+    "s after which an unchanged measurement is sent again; 0: never (set while running too)",
+    seconds(allow_zero=True),
+)
+CAMERA_VIEW = ParameterSpec(
+    "camera_view",
+    -1,
+    "id of a neighbour: publish what this FLS's camera sees aimed at its marker on "
+    "~/camera/image_raw and ~/camera/camera_info; -1: none",
+    at_least(-1),
+)
+#: The parameters every FLS node declares, besides its tracking's.
+NODE = (PUBLISH_PERIOD, REPUBLISH_PERIOD, CAMERA_VIEW)
+
+TRACK_SERVICE_FLAG = ParameterSpec(
+    "track.service", False, "offer ~/track: this FLS follows a moving target on request"
+)
+REPORT_PROGRESS = ParameterSpec(
+    "track.report_progress",
+    False,
+    "publish track_progress after each track event: for a driver of a simulated clock "
+    "across processes (swazure track --per-fls)",
+)
+#: track.<name>, defaulting to TrackConfig's (TrackConfig checks them together).
+TRACK_SETTINGS_SPECS = tuple(
+    ParameterSpec(f"track.{name}", getattr(TrackConfig(), name), description)
+    for name, description in TRACK_SETTINGS.items()
+)
+#: The parameters an FLS node's tracking declares.
+TRACKING = (TRACK_SERVICE_FLAG, REPORT_PROGRESS, *TRACK_SETTINGS_SPECS)
+
+JOIN_TIMEOUT = ParameterSpec(
+    "join_timeout",
+    30.0,
+    "s after its first frame that an FLS waits to be heard by every FLS before it takes part "
+    "in rounds anyway",
+    seconds(),
+)
+#: Every parameter an FLS node may declare: JOIN_TIMEOUT is a standalone FLS's (the ``fls``
+#: program's, one FLS to a process).
+EVERY = (*NODE, *TRACKING, JOIN_TIMEOUT)
+#: What every rclpy node declares itself: the simulated clock's switch.
+RCLPY_OWN = ParameterSpec("use_sim_time", False, "run on /clock (a simulated clock)")
