@@ -309,7 +309,9 @@ class Radio:
             size = len(data)
         self._hub.sent(out.run_id, out.round, out.sender, out.offer, size)
         self.offers_here += 1
-        self._acknowledge(self._hub.on_offer(out.run_id, out.round, out.sender, out.offer))
+        hub = self._hub
+        self._acknowledge(hub.on_offer(out.run_id, out.round, out.sender, out.offer, out.phase))
+        self._count_rejected()
         return size
 
     def listen(self) -> None:
@@ -358,9 +360,7 @@ class Radio:
         if control.command == START and control.estimator != PATH:
             self._hear_readings()
         recipients, ack, heard = self._hub.on_control(control)
-        for sender, why in self._hub.rejected:
-            self.guard.drop(RADIO_TOPIC, f"implausible: {why}", f"FLS {sender}'s offer: {why}")
-        self._hub.rejected.clear()
+        self._count_rejected()
         for fls_id in recipients:
             self._fls[fls_id].on_control(control, heard)
             if control.command == END and self._fls[fls_id].discovery.waiting:
@@ -375,6 +375,12 @@ class Radio:
         if control.command == END and self._waiting:
             timer = self._node.create_timer(READINGS_WAIT, lambda: self._report_waiting(timer))
         self._acknowledge(ack)
+
+    def _count_rejected(self) -> None:
+        """Count the offers the hub found false since the last look (RadioHub.rejected)."""
+        for sender, why in self._hub.rejected:
+            self.guard.drop(RADIO_TOPIC, f"implausible: {why}", f"FLS {sender}'s offer: {why}")
+        self._hub.rejected.clear()
 
     def _hear_readings(self) -> None:
         # Only once a run fits: thousands of measurements are work nobody else needs.
@@ -407,11 +413,12 @@ class Radio:
         # from a shared cell never get here (_echoes): this one is someone else's.
         check(message.sender_id not in self._local_set, "names an FLS of this process")
         self.offers_heard += 1
-        # Its labels' meaning is checked once a round, with every offer heard (_implausible).
+        # Its labels' meaning is checked in one batch a round, before the ack they complete
+        # (RadioHub._settle): a false one counts for nobody.
         offer = offer_from_message(message, self._swarm)
-        self._acknowledge(
-            self._hub.on_offer(int(message.run_id), int(message.round), message.sender_id, offer)
-        )
+        run, round_, phase = int(message.run_id), int(message.round), int(message.phase)
+        self._acknowledge(self._hub.on_offer(run, round_, message.sender_id, offer, phase))
+        self._count_rejected()
 
     def _acknowledge(self, ack: Ack | None) -> None:
         if ack is None:
