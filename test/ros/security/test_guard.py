@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import secrets
 import time
 
 from hypothesis import given, settings
@@ -16,7 +17,7 @@ from swazure_ros.core.errors import MessageError
 from swazure_ros.core.evaluate import evaluate_pairs
 from swazure_ros.ros.nodes.radio import TRACK_REQUEST_RATE
 from swazure_ros.ros.plumbing.names import ROUND_QOS, TRACK_REQUESTS_TOPIC
-from swazure_ros.ros.security.auth import Freshness, SwarmKey, new_key
+from swazure_ros.ros.security.auth import AUTH_BYTES, Freshness, SwarmKey, new_key
 from swazure_ros.ros.security.guard import Buckets, RateLimit
 from swazure_ros.sim.world import WorldSpec
 
@@ -31,7 +32,7 @@ def signed(key: SwarmKey) -> PathOffer:
 
 
 def test_a_sender_gets_its_burst_then_its_rate_and_senders_have_buckets_of_their_own():
-    buckets = Buckets(RateLimit(per_second=2.0, burst=3.0))
+    buckets = Buckets(RateLimit(per_second=2.0, burst=3.0), keyed=True)
     first, second = signed(SwarmKey(new_key())), signed(SwarmKey(new_key()))
     assert [buckets.allow(first, 0.0) for _ in range(4)] == [True, True, True, False]
     assert buckets.allow(second, 0.0)  # another sender: its own bucket
@@ -39,8 +40,17 @@ def test_a_sender_gets_its_burst_then_its_rate_and_senders_have_buckets_of_their
     assert buckets.allow(first, 0.6) and not buckets.allow(first, 0.6)
     assert [buckets.allow(first, 100.0) for _ in range(4)] == [True, True, True, False]
     # Unsigned senders cannot be told apart: they share one bucket.
-    unsigned = Buckets(RateLimit(per_second=1.0, burst=1.0))
+    unsigned = Buckets(RateLimit(per_second=1.0, burst=1.0), keyed=True)
     assert unsigned.allow(PathOffer(), 0.0) and not unsigned.allow(PathOffer(), 0.0)
+
+
+def test_without_a_key_made_up_sender_ids_share_one_bucket():
+    # Without a key, auth is whatever a peer wrote there: 48 bytes of it name no sender.
+    buckets = Buckets(RateLimit(per_second=1.0, burst=2.0), keyed=False)
+    made_up = [PathOffer(auth=list(secrets.token_bytes(AUTH_BYTES))) for _ in range(3)]
+    assert [buckets.allow(message, 0.0) for message in made_up] == [True, True, False]
+    assert not buckets.allow(signed(SwarmKey(new_key())), 0.5)  # a real tag: no key to check it
+    assert buckets.allow(PathOffer(), 1.5)
 
 
 @settings(FUZZ, max_examples=100)
@@ -92,7 +102,8 @@ def test_a_flood_of_track_requests_is_cut_to_the_rate_and_the_swarm_still_answer
                     TrackRequest(source_id=int(swarm.world.ids[0]), target_id=relay,
                                  relay_id=relay, frame_period=0.001)
                 )  # fmt: skip
-            reason = (TRACK_REQUESTS_TOPIC, "over # a second from one sender (rate limit)")
+            limited = "over # a second from all senders, unsigned (rate limit)"
+            reason = (TRACK_REQUESTS_TOPIC, limited)
             wait_until(
                 lambda: (
                     swarm.host.guard.dropped[reason]
