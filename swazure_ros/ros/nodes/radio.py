@@ -40,6 +40,7 @@ from ...protocol.plausible import (
 from ...protocol.radio import Ack, RadioHub, RadioLoss
 from ...protocol.readings import ReadingsBook
 from ...protocol.senses import Senses
+from ...protocol.tracking import STOP_RELAY, Stream, StreamBound
 from ..convert.discovery import (
     ack_message,
     control_from_message,
@@ -72,8 +73,10 @@ if TYPE_CHECKING:
 #: Path walks a process keeps while they wait for a newer world revision (a heuristic
 #: walks a few paths per group of moves).
 EARLY_WALKS = 4096
-#: Track requests a process takes from one sender: each starts a relay's stream of frames.
-#: A track starts with one request a relay; a few dozen tracks at once are a burst.
+#: Track requests a process takes from one sender (without a key, from all senders
+#: together): each starts a relay's stream of frames. A track starts with one request a
+#: relay; a few dozen tracks at once are a burst. The streams are bounded too
+#: (protocol.tracking.RELAYED_STREAMS).
 TRACK_REQUEST_RATE = RateLimit(per_second=20.0, burst=200.0)
 #: Offers per local FLS whose bytes a process keeps to know their echoes: a few rounds'.
 ECHOES_PER_FLS = 8
@@ -190,7 +193,9 @@ class Radio:
         # The coordinator's walks: one writer, every process a reader.
         self._subscribe(PathWalk, WALKS_TOPIC, self._on_walk)
         senses.on_revision.append(self._take_early_walks)
-        # Each request starts a relay's stream of frames: a flood of them must not.
+        # Each request starts a relay's stream of frames: a flood of them must not, and
+        # what one leaves behind is bounded.
+        self.relayed = StreamBound()
         self.guard.subscribe(
             TrackRequest,
             TRACK_REQUESTS_TOPIC,
@@ -344,8 +349,24 @@ class Radio:
     def _on_track_request(self, message: TrackRequest) -> None:
         request = relay_request_from_message(message, self._swarm)
         node = self._fls.get(request.relay)
-        if node is not None:
-            node.tracking.on_request(request)
+        if node is None:
+            return
+        node.tracking.on_request(request)
+        stream = (request.relay, request.source, request.target)
+        if request.command == STOP_RELAY:
+            self.relayed.stopped(stream)
+            return
+        for relay, source, target in self.relayed.started(stream, self._relaying):
+            self._fls[relay].tracking.stop_relaying(source, target)
+            self.guard.drop(
+                TRACK_REQUESTS_TOPIC,
+                f"over {self.relayed.most} streams relayed at once: the oldest stopped",
+            )
+
+    def _relaying(self, stream: Stream) -> bool:
+        """Whether local relay ``stream[0]`` still relays ``stream``."""
+        node = self._fls.get(stream[0])
+        return node is not None and node.tracking.relay.relays(stream[1], stream[2])
 
     def _on_track_sample(self, message: TrackSample) -> None:
         sample = sample_from_message(message, self._swarm)
