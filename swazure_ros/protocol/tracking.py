@@ -46,7 +46,7 @@ START_RELAY, STOP_RELAY = 0, 1
 #: Streams one process relays at once, all its FLSs' together: each senses its target and
 #: sends a sample every frame for as long as the target stays in sight, so a request
 #: that anyone may send must not start work without end.
-RELAYED_STREAMS = 8
+RELAYED_STREAMS = 4
 #: A relayed stream: (relay, source, target) FLS ids.
 Stream = tuple[int, int, int]
 
