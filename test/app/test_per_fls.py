@@ -362,85 +362,66 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
         assert answer.path == tuple(expected.path(row)) == (1, 12, 5)
 
 
-class FalseOfferForger:
+def false_offer_forger(domain: int, world):
     """A peer that offers, for every FLS of a swarm without a key, a label no FLS takes.
 
     At each round it sends, for the round after it, each FLS's forged offer twice
     on that FLS's radio cell (a label from another FLS over one hop of 7 cm, the
     vector [123, 456, 789]): so the forgeries are always first, and fill a
-    sender's slots before its real offer comes.
+    sender's slots before its real offer comes. A context manager, as
+    test/ros/test_hostile_peers.py's Forger, whose node and counts it keeps.
     """
+    from swazure_interfaces.msg import DiscoveryControl, PathOffer
 
-    def __init__(self, domain: int, world) -> None:
-        from diagnostic_msgs.msg import DiagnosticArray
-        from rclpy.executors import SingleThreadedExecutor
-        from rclpy.node import Node
-        from swazure_interfaces.msg import DiscoveryControl, PathOffer
+    from swazure_ros.protocol.cells import BANDS, band_of, radio_cells
+    from swazure_ros.ros.plumbing.names import ROUND_QOS, radio_topic
+    from swazure_ros.ros.security.auth import SwarmKey
 
-        from swazure_ros.protocol.cells import BANDS, radio_cells
-        from swazure_ros.ros.plumbing.names import CONTROL_TOPIC, ROUND_QOS, radio_topic
+    from ..ros.test_hostile_peers import Forger
 
-        from ..ros.conftest import make_context
+    class FalseOfferForger(Forger):
+        def __init__(self) -> None:
+            self.ids = [int(fls_id) for fls_id in world.ids]
+            super().__init__(domain, world, self.ids[0], self.ids[1], SwarmKey())
+            grids = radio_cells(world.sensor, world.swarm.radius)
+            where = np.array([world.position(fls_id) for fls_id in self.ids])
+            self.cells = {}  # (band, FLS) -> its cell's publisher
+            by_topic = {}
+            for band in BANDS:
+                for fls_id, cell in zip(self.ids, grids[band].of(where).tolist(), strict=True):
+                    topic = radio_topic(band, cell)
+                    if topic not in by_topic:
+                        by_topic[topic] = self.node.create_publisher(PathOffer, topic, ROUND_QOS)
+                    self.cells[(band, fls_id)] = by_topic[topic]
+            self.publishers = list(by_topic.values())
 
-        self.context = make_context(domain)
-        self.node = Node("forger", namespace="swarm", context=self.context)
-        self.ids = [int(fls_id) for fls_id in world.ids]
-        grids = radio_cells(world.sensor, world.swarm.radius)
-        where = np.array([world.position(fls_id) for fls_id in self.ids])
-        self.cells: dict[tuple[str, int], object] = {}  # (band, FLS) -> its cell's publisher
-        by_topic: dict[str, object] = {}
-        for band in BANDS:
-            for fls_id, cell in zip(self.ids, grids[band].of(where).tolist(), strict=True):
-                topic = radio_topic(band, cell)
-                if topic not in by_topic:
-                    by_topic[topic] = self.node.create_publisher(PathOffer, topic, ROUND_QOS)
-                self.cells[(band, fls_id)] = by_topic[topic]
-        self.publishers = list(by_topic.values())
-        self.sent = 0
-        self._offer, self._round = PathOffer, DiscoveryControl.COMMAND_ROUND
-        self.controls = self.node.create_subscription(
-            DiscoveryControl, CONTROL_TOPIC, self._on_control, ROUND_QOS
-        )
-        self.diagnostics: dict[str, dict[str, str]] = {}
-        self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
+        def _on_control(self, control: DiscoveryControl) -> None:
+            if control.command != DiscoveryControl.COMMAND_ROUND:
+                return
+            band = band_of(control.phase)
+            for index, fls_id in enumerate(self.ids):
+                other = self.ids[(index + 7) % len(self.ids)]
+                forged = PathOffer(
+                    run_id=control.run_id, phase=control.phase, round=control.round + 1,
+                    sender_id=fls_id, source_ids=[other], hops=[1], lengths=[7.0],
+                    errors=[0.1], vectors=[123.0, 456.0, 789.0], path_offsets=[0, 2],
+                    path_ids=[other, fls_id],
+                )  # fmt: skip
+                for _ in range(2):
+                    self.cells[(band, fls_id)].publish(forged)
+                    self.sent += 1
 
-    def _on_diagnostics(self, array) -> None:
-        for status in array.status:
-            self.diagnostics[status.hardware_id] = {one.key: one.value for one in status.values}
+        def dropped_as_implausible(self) -> int:
+            """Offers the swarm's FLS processes reported dropped as implausible, summed."""
+            return sum(
+                int(value)
+                for where, counts in dict(self.diagnostics).items()
+                if where.startswith("/swarm/fls_")
+                for key, value in counts.items()
+                if key.startswith("dropped radio: implausible:")
+            )
 
-    def _on_control(self, control) -> None:
-        from swazure_ros.protocol.cells import band_of
-
-        if control.command != self._round:
-            return
-        band = band_of(control.phase)
-        for index, fls_id in enumerate(self.ids):
-            other = self.ids[(index + 7) % len(self.ids)]
-            forged = self._offer(
-                run_id=control.run_id, phase=control.phase, round=control.round + 1,
-                sender_id=fls_id, source_ids=[other], hops=[1], lengths=[7.0], errors=[0.1],
-                vectors=[123.0, 456.0, 789.0], path_offsets=[0, 2], path_ids=[other, fls_id],
-            )  # fmt: skip
-            for _ in range(2):
-                self.cells[(band, fls_id)].publish(forged)
-                self.sent += 1
-
-    def dropped_as_implausible(self) -> int:
-        """Offers the swarm's FLS processes reported dropped as implausible, summed."""
-        return sum(
-            int(value)
-            for where, counts in self.diagnostics.items()
-            if where.startswith("/swarm/fls_")
-            for key, value in counts.items()
-            if key.startswith("dropped radio: implausible:")
-        )
-
-    def close(self) -> None:
-        self.executor.shutdown()
-        self.node.destroy_node()
-        self.context.try_shutdown()
+    return FalseOfferForger()
 
 
 def test_offers_every_fls_drops_as_implausible_change_no_pair_of_a_swarm_without_a_key(
@@ -464,29 +445,17 @@ def test_offers_every_fls_drops_as_implausible_change_no_pair_of_a_swarm_without
                          authenticate=False)  # fmt: skip
     with RunningSwarm(config) as swarm:
         swarm.wait_until_ready()
-        forger = FalseOfferForger(domain, swarm.world)
-
-        def serve() -> None:
-            swarm.spin(0.02)
-            forger.executor.spin_once(timeout_sec=0.01)
-
-        try:
+        with false_offer_forger(domain, swarm.world) as forger:
             wait_until(
                 lambda: (
                     all(one.get_subscription_count() >= 1 for one in forger.publishers)
                     and forger.controls.get_publisher_count() >= 1
                 ),
                 60,
-                serve,
+                lambda: swarm.spin(0.05),
             )
-            result = swarm.run(
-                swarm.coordinator.discover(policy),
-                timeout=180,
-                step=lambda: forger.executor.spin_once(timeout_sec=0.005),
-            )
-            wait_until(lambda: forger.dropped_as_implausible() >= 1, 30, serve)
-        finally:
-            forger.close()
+            result = swarm.run(swarm.coordinator.discover(policy), timeout=180)
+            wait_until(lambda: forger.dropped_as_implausible() >= 1, 30, lambda: swarm.spin(0.05))
         assert forger.sent >= 2 * 25 and forger.dropped_as_implausible() >= 1, forger.diagnostics
         expected = evaluate_pairs(swarm.world.hood, policy)
         found = {
