@@ -298,7 +298,7 @@ class RunningSwarm:
     def source_blocks(self, per_run: int | None = None) -> list[tuple[int, ...]]:
         """The live FLSs in the blocks that :meth:`discover` runs one after the other."""
         coordinator = self._coordinator
-        live = coordinator.fls_ids - coordinator.membership.departed
+        live = coordinator.fls_ids - coordinator.departed_next()
         return source_blocks(live, per_run or sources_per_run(len(coordinator.fls_ids)))
 
     def make_moves(

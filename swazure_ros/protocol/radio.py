@@ -12,13 +12,19 @@ every offer of a round that reaches it (one per live FLS in the radio cells
 it hears, ``audible``; protocol.cells), it acknowledges the round
 (:class:`Ack`), so that the coordinator can open the next one; before that,
 it tells the coordinator which of its own FLSs spoke (:class:`Sent`).
+
+An offer found false (a forgery: protocol.plausible) counts for nobody. Offers
+are checked in one batch a round, just before the ack that they would
+complete, and whenever a sender's offers fill its slots: a forged offer can
+neither make a process acknowledge a round before the real sender's offer is
+in, nor take the place of that offer.
 """
 
 from __future__ import annotations
 
 from collections import Counter, deque
 from collections.abc import Callable, Collection
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -32,8 +38,8 @@ from .swarm_fit import process_sums
 
 IntArray = NDArray[np.int64]
 
-#: Offers of one sender in one round that a process keeps (the first counts; a second
-#: is kept in case the first is a forgery).
+#: Offers of one sender in one round that a process keeps, none of them known false (the
+#: first counts; a second is kept in case the first is a plausible forgery).
 OFFERS_PER_SENDER = 2
 #: Runs whose last control a process remembers, to know a replayed control for one.
 CONTROLS_KEPT = 64
@@ -146,6 +152,62 @@ class Ack:
     latency: float = 0.0  # s the round's deliveries took: the ack goes out that late
 
 
+@dataclass(eq=False)
+class _Kept:
+    """One offer a process keeps for a round, until the round's next control hands it over."""
+
+    sender: int
+    offer: Offer
+    phase: int | None  # the phase it says it is of (None: its round's)
+    trusted: bool  # a local FLS's own, or checked and found possibly true
+
+
+@dataclass
+class _RoundHeard:
+    """The offers of one round that a process keeps, and the senders they count for."""
+
+    kept: list[_Kept] = field(default_factory=list)
+    senders: Counter[int] = field(default_factory=Counter)  # sender -> offers kept
+    phase: int | None = None  # the round's, once its ROUND control came
+    # The senders whose offer completes the round here (None: any), once its ROUND came.
+    countable: frozenset[int] | None = None
+    counted: int = 0  # senders of ``countable`` with an offer kept
+
+    def counts(self, sender: int) -> bool:
+        """Whether ``sender``'s offer counts toward this round's ack here."""
+        return self.countable is None or sender in self.countable
+
+    def keep(self, entry: _Kept) -> None:
+        """Keep ``entry``; its sender counts from its first offer kept."""
+        self.kept.append(entry)
+        self.senders[entry.sender] += 1
+        if self.senders[entry.sender] == 1 and self.counts(entry.sender):
+            self.counted += 1
+
+    def discard(self, false: list[_Kept]) -> None:
+        """Forget the offers ``false``: their senders count only by offers still kept."""
+        gone = {id(entry) for entry in false}
+        self.kept = [entry for entry in self.kept if id(entry) not in gone]
+        for entry in false:
+            self.senders[entry.sender] -= 1
+            if not self.senders[entry.sender]:
+                del self.senders[entry.sender]
+                if self.counts(entry.sender):
+                    self.counted -= 1
+
+    def clock(self, phase: int, countable: frozenset[int] | None) -> None:
+        """The round's ROUND came: its phase, and who completes it here."""
+        self.phase, self.countable = phase, countable
+        self.counted = sum(1 for sender in self.senders if self.counts(sender))
+
+    def first_offers(self) -> list[tuple[int, Offer]]:
+        """(sender, offer) of each sender's first offer kept, in the order heard."""
+        first: dict[int, Offer] = {}
+        for entry in self.kept:
+            first.setdefault(entry.sender, entry.offer)
+        return list(first.items())
+
+
 class RadioHub:
     """A round's offers, the local FLSs that take them, and when a round is heard.
 
@@ -179,20 +241,20 @@ class RadioHub:
         self._pairs: dict[int, tuple[IntArray, IntArray]] = {}  # run -> (sender, receiver)
         self._departed: dict[int, frozenset[int]] = {}
         self._first_round: dict[int, int] = {}
-        # (run, round) -> its ROUND, and the offers it brings this process.
+        # (run, round) -> its ROUND, and the offers it brings this process, until acked.
         self._rounds: dict[tuple[int, int], tuple[Control, int]] = {}
         # (run, round) -> what the local FLSs broadcast: sender -> (labels, pending,
         # finished, bytes)
         self._sent: dict[tuple[int, int], dict[int, tuple[int, bool, bool, int]]] = {}
         # (run, round) -> what the local FLSs said to the coordinator in the FIT phase.
         self._fit_sent: dict[tuple[int, int], dict[int, FitOffer]] = {}
-        self._heard: dict[tuple[int, int], int] = {}
-        self._senders: dict[tuple[int, int], Counter[int]] = {}
+        # (run, round) -> the offers kept of that round, until a later control hands them over.
+        self._heard: dict[tuple[int, int], _RoundHeard] = {}
         #: run -> (round, command) of its last control, for the newest CONTROLS_KEPT runs.
         self._last_control: dict[int, tuple[int, int]] = {}
-        self._offers: dict[tuple[int, int], list[tuple[int, Offer]]] = {}
-        #: Offers of runs not started here yet, oldest dropped first.
-        self._early: deque[tuple[int, int, int, Offer]] = deque(maxlen=EARLY_OFFERS)
+        #: Offers of runs not started here yet (run, round, sender, offer, phase), oldest
+        #: dropped first.
+        self._early: deque[tuple[int, int, int, Offer, int | None]] = deque(maxlen=EARLY_OFFERS)
 
     def abandon(self) -> None:
         """Forget every run (their coordinator is gone)."""
@@ -201,8 +263,6 @@ class RadioHub:
         self._first_round.clear()
         self._rounds.clear()
         self._heard.clear()
-        self._senders.clear()
-        self._offers.clear()
         self._sent.clear()
         self._fit_sent.clear()
         self._early.clear()
@@ -248,24 +308,23 @@ class RadioHub:
             # A run this process never started (or ended): nothing to hand over or ack.
             return [], None, None
         else:
-            done = sorted(key for key in self._offers if key[0] == run and key[1] < control.round)
-            entries = [entry for key in done for entry in self._offers.pop(key)]
+            # Each sender's first offer of each round that may be true; normally all there are.
+            done = sorted(key for key in self._heard if key[0] == run and key[1] < control.round)
+            entries = []
+            for key in done:
+                round_heard = self._heard.pop(key)
+                self._settle(round_heard, control.phase)
+                entries += round_heard.first_offers()
             heard = RoundOffers.of(entries)
-            bad = self._implausible(entries, heard, control.phase)
-            # Each sender's first offer that may be true; normally all there are.
-            if bad or len({sender for sender, _ in entries}) < len(entries):
-                kept: dict[int, Offer] = {}
-                for index, (sender, offer) in enumerate(entries):
-                    if index in bad:
-                        self.rejected.append((sender, bad[index]))
-                    elif sender not in kept:
-                        kept[sender] = offer
-                heard = RoundOffers.of(list(kept.items()))
         departed = self.departed(run)
         recipients = [fls_id for fls_id in self._local if fls_id not in departed]
         ack = None
         if control.command == ROUND:
-            self._rounds[(run, control.round)] = (control, self._expected(control, departed))
+            expected, countable = self._expected(control, departed)
+            self._rounds[(run, control.round)] = (control, expected)
+            self._heard.setdefault((run, control.round), _RoundHeard()).clock(
+                control.phase, countable
+            )
             ack = self._acknowledge(run, control.round)
         elif control.command == END:
             self._departed.pop(run, None)
@@ -274,15 +333,18 @@ class RadioHub:
             self._forget(run, rounds=True)
         return recipients, ack, heard
 
-    def _expected(self, control: Control, departed: frozenset[int]) -> int:
-        """The offers of ``control``'s round this process will hear: one per live FLS it hears."""
+    def _expected(
+        self, control: Control, departed: frozenset[int]
+    ) -> tuple[int, frozenset[int] | None]:
+        """(the offers of ``control``'s round this process will hear, their senders).
+
+        One offer per live FLS it hears; without ``audible``, as many as the
+        control expects, from any FLS not departed (senders None).
+        """
         if self._audible is None:
-            return control.expected
-        audible = self._audible(control.phase)
-        if not departed:
-            return int(audible.size)
-        gone = np.fromiter(departed, dtype=np.int64, count=len(departed))
-        return int(audible.size - np.isin(audible, gone).sum())
+            return control.expected, None
+        countable = frozenset(self._audible(control.phase).tolist()) - departed
+        return len(countable), countable
 
     def sent(self, run_id: int, round_: int, sender: int, offer: Offer, size: int = 0) -> None:
         """Local FLS ``sender`` broadcast ``offer`` (``size`` bytes) in round ``round_``.
@@ -316,61 +378,83 @@ class RadioHub:
             (all(one.same[0] for one in said), all(one.same[1] for one in said)),
         )
 
-    def _implausible(
-        self, entries: list[tuple[int, Offer]], heard: RoundOffers, phase: int
-    ) -> dict[int, str]:
-        """{index into ``entries``: why} of the offers with a label or a reading that is false.
+    def _settle(self, heard: _RoundHeard, fallback: int | None = None) -> None:
+        """Check the offers of a round not checked yet; drop those found false (:attr:`rejected`).
 
-        Only offers from other processes are checked: a local FLS's offer is
-        this process's own work, made from labels it checked when it heard them.
+        Only offers from other processes are ever unchecked: a local FLS's
+        offer is this process's own work, made from labels it checked when it
+        heard them. Each is checked in the phase it says it is of; once the
+        round's ROUND has come, an offer that says another phase is false. One
+        whose phase is unknown (``fallback`` None) waits for a later look.
         """
-        remote = [index for index, (sender, _) in enumerate(entries) if sender not in self._local]
+        unchecked = [entry for entry in heard.kept if not entry.trusted]
+        if not unchecked:
+            return
+        false: dict[int, str] = {}  # index into unchecked -> why
+        by_phase: dict[int, list[int]] = {}
+        for index, entry in enumerate(unchecked):
+            if heard.phase is not None and entry.phase not in (None, heard.phase):
+                false[index] = "an offer of another phase than its round's"
+                continue
+            phase = next((p for p in (entry.phase, heard.phase, fallback) if p is not None), None)
+            if phase is not None:
+                by_phase.setdefault(phase, []).append(index)
+        for phase, indices in by_phase.items():
+            offers = [(unchecked[index].sender, unchecked[index].offer) for index in indices]
+            for found, why in self._implausible(offers, phase).items():
+                false[indices[found]] = why
+            for index in indices:
+                unchecked[index].trusted = index not in false
+        for index, why in sorted(false.items()):
+            self.rejected.append((unchecked[index].sender, why))
+        heard.discard([unchecked[index] for index in sorted(false)])
+
+    def _implausible(self, entries: list[tuple[int, Offer]], phase: int) -> dict[int, str]:
+        """{index into ``entries``: why} of the offers with a label or a reading that is false."""
         bad: dict[int, str] = {}
-        if not remote:
-            return bad
         if self._check_readings is not None:
-            for index in remote:
-                sender, offer = entries[index]
+            for index, (sender, offer) in enumerate(entries):
                 if len(offer.reading_ids) and (why := self._check_readings(sender, offer)):
                     bad[index] = why
         if self._check is None:
             return bad
-        if len(remote) < len(entries):
-            heard = RoundOffers.of([entries[index] for index in remote])
+        heard = RoundOffers.of(entries)
         if not len(heard):
             return bad
         why_label = self._check(heard, phase)
         if not why_label.any():
             return bad
         # RoundOffers.of lays the offers out in a stable sort by sender.
-        order = sorted(remote, key=lambda index: entries[index][0])
+        order = sorted(range(len(entries)), key=lambda index: entries[index][0])
         offer_of_label = np.repeat(order, [len(entries[index][1]) for index in order])
         for label in np.flatnonzero(why_label)[::-1]:
             bad.setdefault(int(offer_of_label[label]), REASONS[int(why_label[label])])
         return bad
 
-    def on_offer(self, run_id: int, round_: int, sender: int, offer: Offer) -> Ack | None:
-        """Hear ``sender``'s offer of round ``round_``; the round's ack if now heard.
+    def on_offer(
+        self, run_id: int, round_: int, sender: int, offer: Offer, phase: int | None = None
+    ) -> Ack | None:
+        """Hear ``sender``'s offer of round ``round_`` (of ``phase``, it says); the ack if heard.
 
-        A second offer of one sender in one round is ignored. Offers of a run
-        whose START has not come yet (another process was quicker) wait, at
-        most :data:`EARLY_OFFERS` of them: what a forged run id can hold is bounded.
+        A sender counts once a round, by its offers kept; of a sender whose
+        slots are full (:data:`OFFERS_PER_SENDER`), those found false first make
+        room, and a further offer is ignored. An offer of a departed FLS is
+        ignored. Offers of a run whose START has not come yet (another process
+        was quicker) wait, at most :data:`EARLY_OFFERS` of them: what a forged
+        run id can hold is bounded.
         """
         if run_id not in self._first_round:
-            self._early.append((run_id, round_, sender, offer))
+            self._early.append((run_id, round_, sender, offer, phase))
             return None
-        if round_ < self._first_round[run_id]:
-            return None  # from before a restart of the phase
-        key = (run_id, round_)
-        senders = self._senders.setdefault(key, Counter())
-        senders[sender] += 1
-        # A second offer of one sender in one round is kept (once) but not counted: one
-        # of the two may be a forgery that the round's check drops (on_control).
-        if senders[sender] <= OFFERS_PER_SENDER and sender not in self.departed(run_id):
-            self._offers.setdefault(key, []).append((sender, offer))
-        if senders[sender] > 1:
+        if round_ < self._first_round[run_id] or sender in self.departed(run_id):
+            return None  # from before a restart of the phase, or of an FLS gone
+        heard = self._heard.setdefault((run_id, round_), _RoundHeard())
+        local = sender in self._local
+        if heard.senders[sender] >= OFFERS_PER_SENDER and not local:
+            self._settle(heard)  # a forgery among them must not keep the real one out
+        if heard.senders[sender] >= OFFERS_PER_SENDER:
             return None
-        self._heard[key] = self._heard.get(key, 0) + 1
+        heard.keep(_Kept(sender, offer, phase, trusted=local))
         return self._acknowledge(run_id, round_)
 
     def _take_early(self, run_id: int) -> None:
@@ -384,9 +468,14 @@ class RadioHub:
                 self.on_offer(*entry)
 
     def _acknowledge(self, run_id: int, round_: int) -> Ack | None:
+        """The ack of round ``round_``, once an offer of every sender it expects may be true."""
         clocked = self._rounds.get((run_id, round_))
-        heard = self._heard.get((run_id, round_), 0)
-        if clocked is None or heard < clocked[1]:
+        heard = self._heard.get((run_id, round_))
+        if clocked is None or heard is None or heard.counted < clocked[1]:
+            return None
+        # Complete by its count: the offers not checked yet must hold, or it is not.
+        self._settle(heard)
+        if heard.counted < clocked[1]:
             return None
         control = clocked[0]
         del self._rounds[(run_id, round_)]
@@ -395,7 +484,7 @@ class RadioHub:
             run_id,
             control.phase,
             round_,
-            heard,
+            heard.counted,
             delivery.repairs,
             delivery.lost,
             delivery.latency,
@@ -418,18 +507,15 @@ class RadioHub:
         if self._loss is None or run_id not in self._pairs:
             return Delivery()
         senders, receivers = self._pairs[run_id]
-        sent = np.fromiter(
-            (sender for sender, _ in self._offers.get((run_id, round_), [])), dtype=np.int64
-        )
+        heard = self._heard.get((run_id, round_))
+        sent = np.fromiter(heard.senders if heard is not None else (), dtype=np.int64)
         departed = np.fromiter(self.departed(run_id), dtype=np.int64)
         mine = np.isin(senders, sent) & ~np.isin(receivers, departed)
         return self._loss.deliver(run_id, round_, senders[mine], receivers[mine])
 
     def _forget(self, run_id: int, rounds: bool) -> None:
         """Drop what was heard in run ``run_id`` (and its rounds' controls if ``rounds``)."""
-        self._heard = {key: n for key, n in self._heard.items() if key[0] != run_id}
-        self._senders = {key: n for key, n in self._senders.items() if key[0] != run_id}
-        self._offers = {key: o for key, o in self._offers.items() if key[0] != run_id}
+        self._heard = {key: heard for key, heard in self._heard.items() if key[0] != run_id}
         self._sent = {key: o for key, o in self._sent.items() if key[0] != run_id}
         self._fit_sent = {key: o for key, o in self._fit_sent.items() if key[0] != run_id}
         if rounds:

@@ -43,6 +43,12 @@ FloatArray = NDArray[np.float64]
 
 # Track request commands; the values equal TrackRequest's COMMAND_*.
 START_RELAY, STOP_RELAY = 0, 1
+#: Streams one process relays at once, all its FLSs' together: each senses its target and
+#: sends a sample every frame for as long as the target stays in sight, so a request
+#: that anyone may send must not start work without end.
+RELAYED_STREAMS = 4
+#: A relayed stream: (relay, source, target) FLS ids.
+Stream = tuple[int, int, int]
 
 #: sense(source, target, seconds) -> (RELAY_* status, (3,) cm): what the relay samples.
 Sense = Callable[[int, int, float], tuple[int, FloatArray]]
@@ -133,6 +139,10 @@ class RelayStreams:
     def __len__(self) -> int:
         return len(self._streams)
 
+    def relays(self, source: int, target: int) -> bool:
+        """Whether a stream of ``target`` to ``source`` is relayed now."""
+        return (source, target) in self._streams
+
     def on_request(self, request: RelayRequest) -> None:
         """Start a stream (its first frame at ``request.start`` ns) or stop one."""
         key = (request.source, request.target)
@@ -176,6 +186,43 @@ class RelayStreams:
             if stream.ended and not stream.outbox:
                 del self._streams[key]
         return released
+
+
+class StreamBound:
+    """The streams one process relays, oldest first: ``most`` at once, a new one stops the oldest.
+
+    A stream lasts while its target stays in sight, and a request to start one
+    may be anyone's (without the swarm's key, anyone can send it): past the
+    bound, the oldest stream stops, so that what a flood of requests leaves
+    behind is ``most`` streams at most, and a source whose stream was stopped
+    sees its track time out and may ask again.
+    """
+
+    def __init__(self, most: int = RELAYED_STREAMS) -> None:
+        self.most = most
+        self._order: dict[Stream, None] = {}  # oldest first
+
+    def started(self, stream: Stream, running: Callable[[Stream], bool]) -> list[Stream]:
+        """``stream`` started (or again): the streams to stop to keep within the bound.
+
+        ``running(stream)``: whether a stream is still relayed (one ends by
+        itself when its target leaves the relay's sight, or by its source's STOP).
+        """
+        self._order.pop(stream, None)
+        self._order[stream] = None
+        if len(self._order) <= self.most:
+            return []
+        self._order = {one: None for one in self._order if running(one)}
+        stop = []
+        while len(self._order) > self.most:
+            oldest = next(iter(self._order))
+            del self._order[oldest]
+            stop.append(oldest)
+        return stop
+
+    def stopped(self, stream: Stream) -> None:
+        """``stream`` stopped at its source's request."""
+        self._order.pop(stream, None)
 
 
 class TrackSource:

@@ -360,3 +360,109 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
         row = int(np.flatnonzero((expected.source == 1) & (expected.target == 5))[0])
         (answer,) = result.outcome.estimates[1]
         assert answer.path == tuple(expected.path(row)) == (1, 12, 5)
+
+
+def false_offer_forger(domain: int, world):
+    """A peer that offers, for every FLS of a swarm without a key, a label no FLS takes.
+
+    At each round it sends, for the round after it, each FLS's forged offer twice
+    on that FLS's radio cell (a label from another FLS over one hop of 7 cm, the
+    vector [123, 456, 789]): so the forgeries are always first, and fill a
+    sender's slots before its real offer comes. A context manager, as
+    test/ros/test_hostile_peers.py's Forger, whose node and counts it keeps.
+    """
+    from swazure_interfaces.msg import DiscoveryControl, PathOffer
+
+    from swazure_ros.protocol.cells import BANDS, band_of, radio_cells
+    from swazure_ros.ros.plumbing.names import ROUND_QOS, radio_topic
+    from swazure_ros.ros.security.auth import SwarmKey
+
+    from ..ros.test_hostile_peers import Forger
+
+    class FalseOfferForger(Forger):
+        def __init__(self) -> None:
+            self.ids = [int(fls_id) for fls_id in world.ids]
+            super().__init__(domain, world, self.ids[0], self.ids[1], SwarmKey())
+            grids = radio_cells(world.sensor, world.swarm.radius)
+            where = np.array([world.position(fls_id) for fls_id in self.ids])
+            self.cells = {}  # (band, FLS) -> its cell's publisher
+            by_topic = {}
+            for band in BANDS:
+                for fls_id, cell in zip(self.ids, grids[band].of(where).tolist(), strict=True):
+                    topic = radio_topic(band, cell)
+                    if topic not in by_topic:
+                        by_topic[topic] = self.node.create_publisher(PathOffer, topic, ROUND_QOS)
+                    self.cells[(band, fls_id)] = by_topic[topic]
+            self.publishers = list(by_topic.values())
+
+        def _on_control(self, control: DiscoveryControl) -> None:
+            if control.command != DiscoveryControl.COMMAND_ROUND:
+                return
+            band = band_of(control.phase)
+            for index, fls_id in enumerate(self.ids):
+                other = self.ids[(index + 7) % len(self.ids)]
+                forged = PathOffer(
+                    run_id=control.run_id, phase=control.phase, round=control.round + 1,
+                    sender_id=fls_id, source_ids=[other], hops=[1], lengths=[7.0],
+                    errors=[0.1], vectors=[123.0, 456.0, 789.0], path_offsets=[0, 2],
+                    path_ids=[other, fls_id],
+                )  # fmt: skip
+                for _ in range(2):
+                    self.cells[(band, fls_id)].publish(forged)
+                    self.sent += 1
+
+        def dropped_as_implausible(self) -> int:
+            """Offers the swarm's FLS processes reported dropped as implausible, summed."""
+            return sum(
+                int(value)
+                for where, counts in dict(self.diagnostics).items()
+                if where.startswith("/swarm/fls_")
+                for key, value in counts.items()
+                if key.startswith("dropped radio: implausible:")
+            )
+
+    return FalseOfferForger()
+
+
+def test_offers_every_fls_drops_as_implausible_change_no_pair_of_a_swarm_without_a_key(
+    domain, tmp_path
+):
+    """Per-FLS grid25 under --no-key: each FLS's offer forged, false, first, twice a round.
+
+    Before, a process counted a forged offer for its sender and acknowledged the
+    round without the real one, or kept the forgeries and ignored the real one:
+    1 -> 5 went from SWEET over 1 12 5 to a longer path, DECAYING or NO_PATH."""
+    from swazure_ros.app.config import SwarmConfig
+    from swazure_ros.app.swarm import RunningSwarm
+    from swazure_ros.core.evaluate import SWEET_PATH, evaluate_pairs
+    from swazure_ros.sim.world import WorldSpec
+
+    from ..waits import wait_until
+
+    policy = "shortest-length"
+    spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
+    config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=120,
+                         authenticate=False)  # fmt: skip
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        with false_offer_forger(domain, swarm.world) as forger:
+            wait_until(
+                lambda: (
+                    all(one.get_subscription_count() >= 1 for one in forger.publishers)
+                    and forger.controls.get_publisher_count() >= 1
+                ),
+                60,
+                lambda: swarm.spin(0.05),
+            )
+            result = swarm.run(swarm.coordinator.discover(policy), timeout=180)
+            wait_until(lambda: forger.dropped_as_implausible() >= 1, 30, lambda: swarm.spin(0.05))
+        assert forger.sent >= 2 * 25 and forger.dropped_as_implausible() >= 1, forger.diagnostics
+        expected = evaluate_pairs(swarm.world.hood, policy)
+        found = {
+            (s, one.target): one for s, some in result.outcome.estimates.items() for one in some
+        }
+        assert len(found) == len(expected) == 144
+        for pair in range(len(expected)):
+            one = found[(int(expected.source[pair]), int(expected.target[pair]))]
+            assert (one.status, one.path) == (expected.status[pair], tuple(expected.path(pair)))
+        assert (found[(1, 5)].status, found[(1, 5)].path) == (SWEET_PATH, (1, 12, 5))

@@ -5,7 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from swazure_ros.protocol.discovery.messages import END, ROUND, START, Control, Offer, RoundOffers
+from swazure_ros.protocol.discovery.messages import (
+    ANY_VISIBLE,
+    END,
+    ROUND,
+    START,
+    SWEET_VISIBLE,
+    Control,
+    Offer,
+    RoundOffers,
+)
 from swazure_ros.protocol.radio import Ack, Delivery, RadioHub, RadioLoss
 
 
@@ -135,3 +144,54 @@ def test_only_offers_from_other_processes_are_checked_for_plausibility():
     _, _, heard = radio.on_control(Control(1, ROUND, round=1, expected=3))
     assert checked == [[3]]
     assert heard.senders.tolist() == [0] and [sender for sender, _ in radio.rejected] == [3]
+
+
+def forged(*sources):
+    """An offer like :func:`offer`'s but for its vectors, [123, 456, 789]: false."""
+    made = offer(*sources)
+    made.vectors[:] = [123.0, 456.0, 789.0]
+    return made
+
+
+def vectors_checked(heard, phase):
+    """A check that finds the forged vector false (code 4, as plausible.REASONS)."""
+    return np.where(np.all(heard.vectors == [123.0, 456.0, 789.0], axis=1), 4, 0).astype(np.int8)
+
+
+def test_an_offer_found_false_counts_for_nobody_until_the_real_sender_speaks():
+    # A forgery of FLS 3's offer comes first: the round must still wait for FLS 3's own.
+    radio = RadioHub({0}, check=vectors_checked)
+    radio.on_control(Control(1, START, expected=3))
+    assert radio.on_offer(1, 0, 3, forged(5), SWEET_VISIBLE) is None
+    assert radio.on_control(Control(1, ROUND, round=0, expected=3))[1] is None
+    assert radio.on_offer(1, 0, 0, offer(6), SWEET_VISIBLE) is None
+    assert radio.on_offer(1, 0, 2, offer(7), SWEET_VISIBLE) is None  # 3 senders, but one forged
+    assert [sender for sender, _ in radio.rejected] == [3]
+    assert radio.on_offer(1, 0, 3, offer(5), SWEET_VISIBLE) == Ack(1, 0, 0, 3)
+    _, _, heard = radio.on_control(Control(1, ROUND, round=1, expected=3))
+    assert heard.senders.tolist() == [0, 2, 3]
+    assert not (heard.vectors == 123.0).any()
+
+
+def test_forgeries_that_fill_a_sender_s_slots_do_not_keep_its_real_offer_out():
+    radio = RadioHub({0}, check=vectors_checked)
+    radio.on_control(Control(1, START, expected=2))
+    radio.on_control(Control(1, ROUND, round=0, expected=2))
+    for _ in range(5):  # a flood of them, before the real one
+        assert radio.on_offer(1, 0, 3, forged(5), SWEET_VISIBLE) is None
+    assert radio.on_offer(1, 0, 3, offer(5), SWEET_VISIBLE) is None
+    assert radio.on_offer(1, 0, 0, offer(6), SWEET_VISIBLE) == Ack(1, 0, 0, 2)
+    _, _, heard = radio.on_control(Control(1, ROUND, round=1, expected=2))
+    assert heard.senders.tolist() == [0, 3] and heard.source_ids.tolist() == [6, 5]
+    assert not (heard.vectors == 123.0).any()
+
+
+def test_offers_of_departed_flss_or_of_another_phase_count_for_nobody():
+    radio = RadioHub({0}, check=vectors_checked)
+    radio.on_control(Control(1, START, expected=2, departed_ids=(4,)))
+    radio.on_control(Control(1, ROUND, round=0, phase=SWEET_VISIBLE, expected=2))
+    assert radio.on_offer(1, 0, 4, offer(5), SWEET_VISIBLE) is None  # departed
+    assert radio.on_offer(1, 0, 0, offer(6), SWEET_VISIBLE) is None
+    assert radio.on_offer(1, 0, 3, offer(5), ANY_VISIBLE) is None  # says another phase
+    assert radio.rejected == [(3, "an offer of another phase than its round's")]
+    assert radio.on_offer(1, 0, 3, offer(5), SWEET_VISIBLE) == Ack(1, SWEET_VISIBLE, 0, 2)

@@ -20,6 +20,7 @@ from swazure_ros.protocol.tracking import (
     RelayRequest,
     RelayStreams,
     Sample,
+    StreamBound,
     TrackReport,
     TrackSource,
 )
@@ -108,3 +109,32 @@ def test_a_track_needs_a_relay_and_a_second_track_stops_the_first():
     tracker.begin(2, "constant-velocity", 0)
     stop, start = tracker.begin(2, "constant-acceleration", 100 * MS)
     assert (stop.command, start.command, start.start) == (STOP_RELAY, START_RELAY, 100 * MS)
+
+
+def test_a_process_relays_a_bounded_number_of_streams_and_a_new_one_stops_the_oldest():
+    bound = StreamBound(most=3)
+    running = {(1, 0, 2), (1, 0, 3), (4, 5, 6)}
+    for stream in sorted(running):
+        assert bound.started(stream, running.__contains__) == []
+    # A fourth stream stops the oldest; one started again counts as new.
+    assert bound.started((1, 0, 2), running.__contains__) == []
+    running.add((7, 8, 9))
+    assert bound.started((7, 8, 9), running.__contains__) == [(1, 0, 3)]
+    running.discard((1, 0, 3))
+    # A stream that ended by itself (its target out of sight) or was stopped frees its place.
+    running.discard((4, 5, 6))
+    bound.stopped((1, 0, 2))
+    running.discard((1, 0, 2))
+    for stream in [(2, 0, 1), (3, 0, 1)]:
+        running.add(stream)
+        assert bound.started(stream, running.__contains__) == []
+    running.add((9, 9, 9))
+    assert bound.started((9, 9, 9), running.__contains__) == [(7, 8, 9)]
+
+
+def test_a_relay_tells_which_streams_it_relays():
+    relay = RelayStreams(1, moving, CONFIG)
+    relay.on_request(RelayRequest(START_RELAY, 0, 1, 2, start=50 * MS))
+    assert relay.relays(0, 2) and not relay.relays(2, 0)
+    relay.on_request(RelayRequest(STOP_RELAY, 0, 1, 2, start=0))
+    assert not relay.relays(0, 2) and len(relay) == 0

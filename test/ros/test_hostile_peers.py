@@ -9,7 +9,9 @@ the same label is implausible (its hop is not in range).
 
 from __future__ import annotations
 
+import secrets
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -26,6 +28,7 @@ from swazure_interfaces.msg import (
     PoseEstimate,
     PoseEstimates,
     RelativePose,
+    RoundAck,
 )
 
 from swazure_ros.app.config import SwarmConfig
@@ -33,7 +36,9 @@ from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import SWEET_PATH, evaluate, evaluate_pairs
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.protocol.cells import BANDS, band_of, radio_cells
+from swazure_ros.ros.convert.discovery import pose_estimate_from_message
 from swazure_ros.ros.plumbing.names import (
+    ACK_TOPIC,
     CONTROL_TOPIC,
     ESTIMATES_TOPIC,
     MEASUREMENTS_QOS,
@@ -42,6 +47,7 @@ from swazure_ros.ros.plumbing.names import (
     MOVE_TOPIC,
     RADIO_TOPIC,
     ROUND_QOS,
+    policy_code,
     radio_topic,
 )
 from swazure_ros.ros.security.auth import SwarmKey, new_key
@@ -49,6 +55,7 @@ from swazure_ros.sim.world import WorldSpec
 
 from ..waits import PATIENCE, wait_until
 from .conftest import make_context
+from .test_discovery import Client, assert_matches_engine, by_pair
 
 POLICY = "shortest-length"
 
@@ -376,3 +383,85 @@ def test_without_a_key_a_forged_report_is_implausible_and_changes_no_answer(doma
         (answer,) = result.outcome.estimates[source]
         assert answer.path == tuple(int(swarm.world.ids[k]) for k in engine.path(row))
         np.testing.assert_allclose(answer.vector, engine.estimate[row], rtol=0, atol=1e-9)
+
+
+def test_without_a_key_forged_starts_evict_nobody_for_good_and_forged_acks_restore_nobody(
+    domain, context
+):
+    """A 300-FLS helix under --no-key; in a run, a peer sends five STARTs of made-up runs.
+
+    They push the live run out of the radio's memory (it keeps 4 runs): every FLS falls
+    silent and the run departs all 300. Forged RoundAcks (a made-up 48-byte auth whose
+    counter is ahead) then take nobody back, as docs/security.md says; the next genuine
+    run asks every FLS the graph shows, and its answers are the engine's. Before, the
+    300 stayed departed for good (compute_pose refused every pair), and the forged acks
+    took them all back."""
+    world_spec = WorldSpec("helix", beta=0.5)
+    config = SwarmConfig(world_spec, domain_id=domain, authenticate=False)
+    with RunningSwarm(config) as swarm:
+        swarm.wait_until_ready()
+        coordinator, world = swarm.coordinator, swarm.world
+        assert len(world.ids) == 300
+        node = Node("forger", namespace="swarm", context=context)
+        controls = node.create_publisher(DiscoveryControl, CONTROL_TOPIC, ROUND_QOS)
+        acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
+        forged: dict[int, list[int]] = {}  # live run -> the made-up runs STARTed in it
+
+        def forge_starts() -> None:
+            """Once a run is under way: five STARTs of made-up runs."""
+            live = coordinator.runs.running()
+            if live is not None and live.run_id not in forged:
+                made_up = [5 * len(forged) + k for k in range(1, 6)]
+                for run_id in made_up:
+                    start = DiscoveryControl(run_id=run_id, command=DiscoveryControl.COMMAND_START)
+                    controls.publish(start)
+                forged[live.run_id] = made_up
+
+        def serve() -> None:
+            swarm.spin(0.05)
+
+        try:
+            wait_until(
+                lambda: (
+                    controls.get_subscription_count() >= 1 and acks.get_subscription_count() >= 1
+                ),
+                30,
+                serve,
+            )
+            # A run is over in half a second: one whose STARTs came too late is tried again.
+            spoiled: frozenset[int] = frozenset()
+            while not spoiled and len(forged) < 3:
+                run = swarm.run(coordinator.discover(POLICY), timeout=300, step=forge_starts)
+                spoiled = run.outcome.departed
+            # Every FLS fell silent (a peer on this domain that is no FLS may speak for some).
+            assert spoiled and spoiled <= frozenset(world.ids.tolist()), forged
+            print(f"five forged STARTs: {len(spoiled)} FLSs departed, tries {len(forged)}")
+            assert coordinator.membership.departed == spoiled
+            # Forged acks of every radio, "signed" later than the departures: no key checks them.
+            taken = coordinator.guard.accepted[ACK_TOPIC]
+            radios = sorted(coordinator.membership.radios | {"host_0"})
+            for host in radios:
+                auth = secrets.token_bytes(8) + (time.time_ns() + 10**9).to_bytes(8, "little")
+                acks.publish(RoundAck(run_id=1, host=host, delivered=True,
+                                      auth=list(auth + secrets.token_bytes(32))))  # fmt: skip
+            wait_until(
+                lambda: coordinator.guard.accepted[ACK_TOPIC] >= taken + len(radios), 30, serve
+            )
+            assert coordinator.guard.accepted[ACK_TOPIC] >= taken + len(radios)
+            assert coordinator.membership.departed == spoiled
+            # The next genuine run: a query, then the whole swarm, every FLS taking part.
+            engine = evaluate_pairs(world.hood, POLICY)
+            source, target, _, row = blind_pair_with_a_sweet_path(world)
+            client = Client(swarm, context)
+            try:
+                response = client.call(source, target, policy=policy_code(POLICY), timeout=120)
+            finally:
+                client.close()
+            assert response.success, response.message
+            answer = pose_estimate_from_message(response.estimate)
+            assert answer.path == tuple(int(world.ids[k]) for k in engine.path(row))
+            result = swarm.discover(POLICY, timeout=120)
+        finally:
+            node.destroy_node()
+        assert result.outcome.departed == frozenset()
+        assert_matches_engine(world, by_pair(result.outcome.estimates), engine)

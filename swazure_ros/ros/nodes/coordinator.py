@@ -370,7 +370,7 @@ class Coordinator(SwarmNode):
         self.guard.subscribe(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
         # One source's search for one target, on demand (swazure query).
         self.pose_service = PoseService(
-            self, shape, self.fls_ids, lambda: frozenset(self.membership.departed), self.discover
+            self, shape, self.fls_ids, self.departed_next, self.discover
         )
         # Liveness: an FLS whose node leaves the graph is gone at once, not after a round's
         # timeout. The graph is DDS's own liveliness: a stopped node is removed at once, a
@@ -458,6 +458,8 @@ class Coordinator(SwarmNode):
                 return  # the tick tries again
             # A run starts from what the graph shows now, not at the last look.
             self._on_liveness()
+            if not self.key.active:
+                self._retry_silent()
             machine = self.runs.begin_next(self.traffic)
             self._act(machine.start(self._now()))
 
@@ -492,6 +494,19 @@ class Coordinator(SwarmNode):
         """How far the running job is ("" when idle), for a person watching."""
         machine = self.runs.running()
         return machine.progress if machine is not None else ""
+
+    def departed_next(self) -> frozenset[int]:
+        """The FLSs the next run goes without (and queries naming them are refused).
+
+        The departed; under --no-key, those gone from the graph only: without a
+        key nothing an FLS says is its own, and a peer's forged controls can
+        silence any FLS for a run (docs/security.md), so a departure for
+        silence lasts for its run, and the next asks every FLS the graph shows.
+        """
+        membership = self.membership
+        if self.key.active:
+            return frozenset(membership.departed)
+        return frozenset(membership.departed & membership.gone)
 
     def departed_so_far(self) -> frozenset[int]:
         """The FLSs known departed: earlier runs' and, so far, the running discovery's."""
@@ -542,11 +557,19 @@ class Coordinator(SwarmNode):
         logger.info(f"FLS {listed} back ({how}): taking part again")
         self._publish_gone()
 
+    def _retry_silent(self) -> None:
+        """Under --no-key, as a run starts: FLSs departed for silence alone take part again."""
+        silent = self.membership.departed - self.membership.gone
+        if silent:
+            self._take_back(silent, "on the graph as a run starts, without a key")
+
     def _on_ack(self, data: bytes) -> None:
         self.traffic.count(ACK_TOPIC, len(data))
         ack = self._read_ack(data)
         check(0 < len(ack.host) <= MAX_NAME, "a host name of no or too many characters")
-        if self.membership.departed and (back := self.membership.back_by(ack)):
+        # Only a signed ack says who speaks: without a key, anyone could write it.
+        signed = self.key.active
+        if signed and self.membership.departed and (back := self.membership.back_by(ack)):
             self._take_back(back, "speaking again")
         clock = self.runs.running(ack.run_id)
         if isinstance(clock, RoundClock):

@@ -181,12 +181,21 @@ class FlsTracking:
         self._relay_frames()
         self._report_progress()
 
+    def stop_relaying(self, source: int, target: int) -> None:
+        """Stop relaying ``target`` to ``source`` (its process relays too many streams)."""
+        self.relay.on_request(RelayRequest(STOP_RELAY, source, self.fls_id, target, 0))
+
     def on_sample(self, sample: Sample) -> None:
         """Take a relayed sample of a tracked target; publish the estimate of the present."""
         self.traffic["samples_heard"] += 1
         for out in self.tracker.on_sample(sample):
             self._publish(out)
         self._report_progress()
+
+    @property
+    def ticking(self) -> bool:
+        """Whether this FLS's frames run (it relays or tracks, or did on a simulated clock)."""
+        return self._ticks is not None
 
     def _start_ticks(self) -> None:
         if self._ticks is not None:
@@ -205,6 +214,12 @@ class FlsTracking:
         for report in self.tracker.tick(self._now()):
             self._publish(report)
         self._report_progress()
+        # Nothing left to relay or track: the frames stop until the next request, so that
+        # every FLS a flood of requests once reached does not tick for ever.
+        idle = not len(self.relay) and not self.tracker.tracks and not self.report_progress
+        if idle and isinstance(self._ticks, Timer):
+            self.node.destroy_timer(self._ticks)
+            self._ticks = None
 
     def _report_progress(self) -> None:
         if self.report_progress:

@@ -40,6 +40,7 @@ from ...protocol.plausible import (
 from ...protocol.radio import Ack, RadioHub, RadioLoss
 from ...protocol.readings import ReadingsBook
 from ...protocol.senses import Senses
+from ...protocol.tracking import STOP_RELAY, Stream, StreamBound
 from ..convert.discovery import (
     ack_message,
     control_from_message,
@@ -72,8 +73,10 @@ if TYPE_CHECKING:
 #: Path walks a process keeps while they wait for a newer world revision (a heuristic
 #: walks a few paths per group of moves).
 EARLY_WALKS = 4096
-#: Track requests a process takes from one sender: each starts a relay's stream of frames.
-#: A track starts with one request a relay; a few dozen tracks at once are a burst.
+#: Track requests a process takes from one sender (without a key, from all senders
+#: together): each starts a relay's stream of frames. A track starts with one request a
+#: relay; a few dozen tracks at once are a burst. The streams are bounded too
+#: (protocol.tracking.RELAYED_STREAMS).
 TRACK_REQUEST_RATE = RateLimit(per_second=20.0, burst=200.0)
 #: Offers per local FLS whose bytes a process keeps to know their echoes: a few rounds'.
 ECHOES_PER_FLS = 8
@@ -190,7 +193,9 @@ class Radio:
         # The coordinator's walks: one writer, every process a reader.
         self._subscribe(PathWalk, WALKS_TOPIC, self._on_walk)
         senses.on_revision.append(self._take_early_walks)
-        # Each request starts a relay's stream of frames: a flood of them must not.
+        # Each request starts a relay's stream of frames: a flood of them must not, and
+        # what one leaves behind is bounded.
+        self.relayed = StreamBound()
         self.guard.subscribe(
             TrackRequest,
             TRACK_REQUESTS_TOPIC,
@@ -309,7 +314,9 @@ class Radio:
             size = len(data)
         self._hub.sent(out.run_id, out.round, out.sender, out.offer, size)
         self.offers_here += 1
-        self._acknowledge(self._hub.on_offer(out.run_id, out.round, out.sender, out.offer))
+        hub = self._hub
+        self._acknowledge(hub.on_offer(out.run_id, out.round, out.sender, out.offer, out.phase))
+        self._count_rejected()
         return size
 
     def listen(self) -> None:
@@ -342,8 +349,24 @@ class Radio:
     def _on_track_request(self, message: TrackRequest) -> None:
         request = relay_request_from_message(message, self._swarm)
         node = self._fls.get(request.relay)
-        if node is not None:
-            node.tracking.on_request(request)
+        if node is None:
+            return
+        node.tracking.on_request(request)
+        stream = (request.relay, request.source, request.target)
+        if request.command == STOP_RELAY:
+            self.relayed.stopped(stream)
+            return
+        for relay, source, target in self.relayed.started(stream, self._relaying):
+            self._fls[relay].tracking.stop_relaying(source, target)
+            self.guard.drop(
+                TRACK_REQUESTS_TOPIC,
+                f"over {self.relayed.most} streams relayed at once: the oldest stopped",
+            )
+
+    def _relaying(self, stream: Stream) -> bool:
+        """Whether local relay ``stream[0]`` still relays ``stream``."""
+        node = self._fls.get(stream[0])
+        return node is not None and node.tracking.relay.relays(stream[1], stream[2])
 
     def _on_track_sample(self, message: TrackSample) -> None:
         sample = sample_from_message(message, self._swarm)
@@ -358,9 +381,7 @@ class Radio:
         if control.command == START and control.estimator != PATH:
             self._hear_readings()
         recipients, ack, heard = self._hub.on_control(control)
-        for sender, why in self._hub.rejected:
-            self.guard.drop(RADIO_TOPIC, f"implausible: {why}", f"FLS {sender}'s offer: {why}")
-        self._hub.rejected.clear()
+        self._count_rejected()
         for fls_id in recipients:
             self._fls[fls_id].on_control(control, heard)
             if control.command == END and self._fls[fls_id].discovery.waiting:
@@ -375,6 +396,12 @@ class Radio:
         if control.command == END and self._waiting:
             timer = self._node.create_timer(READINGS_WAIT, lambda: self._report_waiting(timer))
         self._acknowledge(ack)
+
+    def _count_rejected(self) -> None:
+        """Count the offers the hub found false since the last look (RadioHub.rejected)."""
+        for sender, why in self._hub.rejected:
+            self.guard.drop(RADIO_TOPIC, f"implausible: {why}", f"FLS {sender}'s offer: {why}")
+        self._hub.rejected.clear()
 
     def _hear_readings(self) -> None:
         # Only once a run fits: thousands of measurements are work nobody else needs.
@@ -407,11 +434,12 @@ class Radio:
         # from a shared cell never get here (_echoes): this one is someone else's.
         check(message.sender_id not in self._local_set, "names an FLS of this process")
         self.offers_heard += 1
-        # Its labels' meaning is checked once a round, with every offer heard (_implausible).
+        # Its labels' meaning is checked in one batch a round, before the ack they complete
+        # (RadioHub._settle): a false one counts for nobody.
         offer = offer_from_message(message, self._swarm)
-        self._acknowledge(
-            self._hub.on_offer(int(message.run_id), int(message.round), message.sender_id, offer)
-        )
+        run, round_, phase = int(message.run_id), int(message.round), int(message.phase)
+        self._acknowledge(self._hub.on_offer(run, round_, message.sender_id, offer, phase))
+        self._count_rejected()
 
     def _acknowledge(self, ack: Ack | None) -> None:
         if ack is None:

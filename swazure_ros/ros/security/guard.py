@@ -79,23 +79,36 @@ def check_finite(values: ArrayLike, what: str, allow_nan: bool = False) -> Float
 
 @dataclass(frozen=True)
 class RateLimit:
-    """At most ``per_second`` messages a second from one sender, ``burst`` at once."""
+    """At most ``per_second`` messages a second from one sender, ``burst`` at once.
+
+    A sender is what the swarm's key proves; without a key, the whole topic
+    (:class:`Buckets`).
+    """
 
     per_second: float
     burst: float
 
 
 class Buckets:
-    """A token bucket per sender (its id in ``auth``; every unsigned sender shares one)."""
+    """A token bucket per sender: its id in ``auth`` when ``keyed``, else one for everyone.
 
-    def __init__(self, limit: RateLimit, senders: int = SENDERS_KEPT) -> None:
+    ``keyed``: the messages were checked under the swarm's key, so the sender
+    id in their ``auth`` is a swarm process's. Without a key, ``auth`` is
+    whatever a peer wrote there (a made-up id a message would get a bucket of
+    its own each), and rclpy 7.1 tells a subscriber nothing of a message's
+    writer (its MessageInfo has timestamps and sequence numbers, no publisher
+    GID): every sender of the topic shares one bucket.
+    """
+
+    def __init__(self, limit: RateLimit, keyed: bool, senders: int = SENDERS_KEPT) -> None:
         self.limit = limit
+        self.keyed = keyed
         self._senders = senders
         self._tokens: dict[bytes, tuple[float, float]] = {}  # sender -> (tokens, at s)
 
     def allow(self, message: Any, now: float) -> bool:
         """Whether ``message``'s sender may cause work now (and take a token if so)."""
-        auth = bytes(getattr(message, "auth", b""))
+        auth = bytes(getattr(message, "auth", b"")) if self.keyed else b""
         sender = auth[:8] if len(auth) == AUTH_BYTES else b""
         tokens, at = self._tokens.pop(sender, (self.limit.burst, now))
         if len(self._tokens) >= self._senders:
@@ -151,15 +164,17 @@ class Guard:
         The callback gets each message of type ``kind`` that the swarm's key
         signs; every other is dropped and counted. ``echoes(data)``: the
         process's own message come back, passed over uncounted. ``rate``: a
-        sender's messages beyond it are dropped and counted, before any work.
+        sender's messages beyond it are dropped and counted, before any work
+        (without a key, the topic's: :class:`Buckets`).
         """
         read = self.reader(kind)
-        buckets = Buckets(rate) if rate is not None else None
+        buckets = Buckets(rate, keyed=self.key.active) if rate is not None else None
 
         def limited(message: T) -> T:
             if buckets is not None and not buckets.allow(message, time.monotonic()):
+                who = "one sender" if buckets.keyed else "all senders, unsigned"
                 raise MessageError(
-                    f"over {buckets.limit.per_second:g} a second from one sender (rate limit)"
+                    f"over {buckets.limit.per_second:g} a second from {who} (rate limit)"
                 )
             return message
 

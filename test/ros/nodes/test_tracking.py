@@ -27,7 +27,7 @@ from swazure_ros.protocol.loops import simulate_track
 from swazure_ros.ros.convert.tracking import motion_estimate as estimate_from_message
 from swazure_ros.sim.world import make_world
 
-from ...waits import PATIENCE
+from ...waits import PATIENCE, wait_until
 
 HOME = np.array([[0.0, 0.0, 0.0], [8.0, 0.0, 0.0], [2.5, 5.5, 0.0]])
 CIRCLE = Motion({2: parse_trajectory("circle:0.5,4,-1,1,0")})
@@ -201,6 +201,39 @@ def test_a_swarm_on_the_wall_clock_tracks_too(world, context):
         last = estimate_from_message(received[-1])
         assert np.allclose(last.raw, HOME[2] - HOME[0], atol=0.1)
         assert np.linalg.norm(last.kalman.velocity) < 1e-6
+
+
+def test_on_the_wall_clock_an_fls_with_nothing_to_relay_or_track_stops_its_frames(world, context):
+    # A flood of requests reaches many relays: each must not tick for ever once its
+    # stream is stopped (here, by a STOP that anyone may send, and the track's timeout).
+    from rclpy.node import Node
+    from swazure_interfaces.msg import TrackRequest
+
+    from swazure_ros.ros.plumbing.names import ROUND_QOS, TRACK_REQUESTS_TOPIC
+    from swazure_ros.ros.programs.host import HostConfig, SwarmHost
+
+    track = {"track.frame_period": 0.05, "track.service": True, "track.timeout": 0.5}
+    with SwarmHost(world, HostConfig((0, 1, 2), parameters=track), context=context) as host:
+        host.create_fls_nodes()
+        client = Node("probe", namespace="swarm", context=context)
+        host.add(client)
+        service = client.create_client(TrackTarget, "fls_0/track")
+        requests = client.create_publisher(TrackRequest, TRACK_REQUESTS_TOPIC, ROUND_QOS)
+        assert host.spin_until_discovered(PATIENCE)
+        future = service.call_async(TrackTarget.Request(source_id=0, target_id=2, model=1))
+        source, relay = (next(n for n in host.fls_nodes if n.fls_id == k) for k in (0, 1))
+
+        def spin_until(condition) -> bool:
+            return wait_until(condition, PATIENCE, lambda: host.spin_once(0.05))
+
+        assert spin_until(future.done) and future.result().success
+        assert spin_until(lambda: requests.get_subscription_count() >= 1)
+        assert spin_until(lambda: len(relay.tracking.relay) == 1)
+        assert source.tracking.ticking and relay.tracking.ticking
+        requests.publish(TrackRequest(command=TrackRequest.COMMAND_STOP, source_id=0,
+                                      relay_id=1, target_id=2))  # fmt: skip
+        assert spin_until(lambda: not relay.tracking.ticking and not source.tracking.ticking)
+        assert len(relay.tracking.relay) == 0 and not source.tracking.tracker.tracks
 
 
 def test_an_estimate_survives_the_message_round_trip(world):
