@@ -186,6 +186,8 @@ def test_a_process_stopped_with_its_swarm_leaves_quietly_and_one_stopped_alone_t
         _, err = leaving.communicate(timeout=120)
         # Told, a peer drops it within seconds; not told, it lists it for the hour's lease.
         gone = wait_until(lambda: not listed(), 30)
+        # A swarm started again: its participants are new, and never hear of the old one.
+        afterwards = seen_by_a_new_participant(context.get_domain_id(), "leaving")
     finally:
         if leaving.poll() is None:
             leaving.kill()
@@ -193,6 +195,26 @@ def test_a_process_stopped_with_its_swarm_leaves_quietly_and_one_stopped_alone_t
     assert leaving.returncode == 0, err
     assert "did not end in" not in err and "Traceback" not in err, err
     assert gone == told
+    assert not afterwards
+
+
+def seen_by_a_new_participant(domain: int, name: str) -> bool:
+    """Whether a participant made now lists node ``name`` once it has heard of the living
+    (the test's probe) and for 10 s after."""
+    from ..conftest import make_context
+
+    context = make_context(domain)
+    node = Node("newcomer", context=context, start_parameter_services=False, enable_rosout=False)
+    try:
+
+        def listed(wanted: str) -> bool:
+            return (wanted, "/") in node.get_node_names_and_namespaces()
+
+        assert wait_until(lambda: listed("probe"), 120)
+        return wait_until(lambda: listed(name), 10)
+    finally:
+        node.destroy_node()
+        context.try_shutdown()
 
 
 #: A process whose node fails in a timer callback, again and again, while another serves.
