@@ -303,15 +303,16 @@ class Lines:
 
 
 def launched_trio(tmp_path: Path) -> tuple[Lines, dict[str, int], Path]:
-    """`ros2 launch ... swarm:=trio mode:=per_fls` up, every FLS on the swarm's radio: its
-    output, its processes' ids by name (fls_0, world, ...) and its key's folder."""
+    """`ros2 launch ... swarm:=trio mode:=per_fls` up, each of its five processes ready (its
+    node built): its output, its processes' ids by name (fls_0, world, ...) and its key's
+    folder."""
     lines = Lines(start("launch", "swazure_ros", "swarm.launch.py", "swarm:=trio",
                         "mode:=per_fls", cwd=tmp_path))  # fmt: skip
 
-    def joined() -> bool:
-        return sum("on the swarm's radio" in line for line in lines.lines) == 3
+    def ready() -> bool:
+        return sum("]: ready, " in line for line in lines.lines) == 5
 
-    if not wait_until(joined, 300):
+    if not wait_until(ready, 300):
         # Not left running on this domain, where the next test would meet it.
         raise AssertionError(lines.stop())
     # "[INFO] [fls_0-3]: process started with pid [1234]"
