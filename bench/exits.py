@@ -302,14 +302,19 @@ def lingering(
             return None
         stopped = time.monotonic()
         fresh_context, fresh = participant()
-        seen = 0
-        while time.monotonic() < stopped + 5:
-            seen = max(seen, swarm(fresh))
-            time.sleep(0.1)
+        seen, gone = 0, None
+        # The newcomer looks for 5 s; the observer until it lists none of the swarm's nodes.
+        while time.monotonic() < stopped + END_TIMEOUT and (
+            gone is None or time.monotonic() < stopped + 5
+        ):
+            if time.monotonic() < stopped + 5:
+                seen = max(seen, swarm(fresh))
+            if gone is None and swarm(alive) == 0:
+                gone = time.monotonic() - stopped
+            time.sleep(0.05)
         fresh.destroy_node()
         fresh_context.try_shutdown()
-        wait_for(lambda: swarm(alive) == 0, END_TIMEOUT)
-        return time.monotonic() - stopped, seen
+        return END_TIMEOUT if gone is None else gone, seen
     finally:
         alive.destroy_node()
         context.try_shutdown()
