@@ -33,6 +33,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+import yaml
 from launch.actions import DeclareLaunchArgument, ExecuteProcess, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
@@ -45,7 +46,7 @@ from swazure_ros.app.discovery_server import (
     server_command,
     server_environment,
 )
-from swazure_ros.app.per_fls import FLS_ENVIRONMENT, STOP_GRACE
+from swazure_ros.app.per_fls import FLS_ENVIRONMENT, STOP_GRACE, parameter_file
 from swazure_ros.cli.swarm_file import example_swarms, load_swarm_file, swarm_file
 from swazure_ros.files.description import SwarmDescription
 from swazure_ros.ros.nodes import world_node
@@ -123,8 +124,11 @@ def _per_fls(path: Path, servers: tuple) -> list:
     # ros2 launch would send SIGTERM after 5 s: a process given longer says where it hung
     # (runtime.STOP_LIMIT) rather than die of a signal, as under swazure spawn.
     stopping = {"sigterm_timeout": str(STOP_GRACE)}
-    every_fls = options.get("parameters") or {}
-    own = options.get("fls") or {}
+    # One parameter file for every FLS, in the launch's folder (removed with it): launch_ros
+    # would write one per FLS of a parameters dict into /tmp, and leave them there.
+    parameters = folder / "parameters.yaml"
+    content = parameter_file(namespace, options.get("parameters") or {}, options.get("fls") or {})
+    parameters.write_text(yaml.safe_dump(content, sort_keys=False))
     actions = [
         # No name= for a program that names its nodes itself: a node-name remap
         # would name every node of its process alike.
@@ -161,7 +165,7 @@ def _per_fls(path: Path, servers: tuple) -> list:
             exec_name=f"fls_{fls_id}",
             namespace=namespace,
             arguments=startup_arguments({**shared, "fls_id": fls_id}, fls_program.STARTUP),
-            parameters=[{**every_fls, **own.get(fls_id, {})}],
+            parameters=[str(parameters)],
             # As swazure spawn --per-fls starts them; the user's environment wins.
             additional_env={
                 **{k: v for k, v in FLS_ENVIRONMENT.items() if k not in os.environ},
