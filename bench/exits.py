@@ -2,10 +2,10 @@
 
 The `exits` section of BENCHMARKS.md (`python -m bench --sections exits`), a
 subsection of "Under load". Each run brings the trio (config/swarms/trio.yaml)
-up, once under `ros2 launch swazure_ros swarm.launch.py mode:=per_fls` and once
-under `swazure spawn --per-fls`, waits until every FLS is on the swarm's radio,
-sends Ctrl-C's SIGINT to the launcher's process group, as a terminal does, and
-records how each process ended: its exit code or signal, a watchdog's line in
+up, under `ros2 launch swazure_ros swarm.launch.py mode:=per_fls` (from a
+terminal, and without one) and under `swazure spawn --per-fls`, waits until
+every FLS is on the swarm's radio, sends Ctrl-C's SIGINT to the launcher's
+process group, as a terminal does, and records how each process ended: its exit code or signal, a watchdog's line in
 its output, the seconds from the Ctrl-C to its end, and what the run left
 behind (a key, a temporary folder). A few more runs keep a participant alive
 beside the swarm and time how long its graph still lists the stopped swarm's
@@ -43,6 +43,9 @@ VENV = Path(sys.executable).parents[1]
 ROS2 = VENV / "bin" / "ros2"
 #: The two launchers a person stops a per-FLS swarm under.
 LAUNCH = "ros2 launch"
+#: `ros2 launch` without a terminal (a script's, CI's): it sends each process a SIGINT of
+#: its own after the group's.
+LAUNCH_PIPED = "ros2 launch, no terminal"
 SPAWN = "swazure spawn --per-fls"
 #: Seconds a bring-up of the trio may take on a loaded machine before the run is given up.
 UP_TIMEOUT = 300.0
@@ -143,13 +146,17 @@ def watchdog_said(lines: Sequence[str]) -> bool:
 
 
 @contextlib.contextmanager
-def started(command: list[str], domain: int) -> Iterator[tuple[subprocess.Popen[str], Output]]:
-    """``command`` in a process group of its own, its stdin a terminal's (as a person's
-    `ros2 launch` has: interactive), its output merged and read; killed if still there."""
-    terminal, side = pty.openpty()
+def started(
+    command: list[str], domain: int, terminal: bool = True
+) -> Iterator[tuple[subprocess.Popen[str], Output]]:
+    """``command`` in a process group of its own, its stdin a terminal's if ``terminal`` (as a
+    person's `ros2 launch` has: interactive), else none; its output merged and read; killed
+    if still there."""
+    master, side = pty.openpty()
     process = subprocess.Popen(
-        command, stdin=side, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-        env=environment(domain), cwd=tempfile.gettempdir(), start_new_session=True,
+        command, stdin=side if terminal else subprocess.DEVNULL, stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT, text=True, env=environment(domain),
+        cwd=tempfile.gettempdir(), start_new_session=True,
     )  # fmt: skip
     os.close(side)
     assert process.stdout is not None
@@ -163,15 +170,30 @@ def started(command: list[str], domain: int) -> Iterator[tuple[subprocess.Popen[
             process.wait()
         output.close()
         process.stdout.close()
-        os.close(terminal)
+        os.close(master)
 
 
-def launch_run(domain: int, on_up: Callable[[], None] | None = None) -> Run | None:
-    """One `ros2 launch ... mode:=per_fls` of the trio stopped by Ctrl-C; None if it did
-    not come up. ``on_up`` is called once it is up, before the Ctrl-C."""
+def ctrl_c(
+    leader: int, others: list[int], on_up: Callable[[], None] | None
+) -> tuple[float, dict[int, float]]:
+    """Ctrl-C to the process group of ``leader`` (after ``on_up``, if any): when it was
+    sent, and the seconds from then to the end of ``leader`` and of each of ``others``."""
+    if on_up is not None:
+        on_up()
+    asked = time.monotonic()
+    os.killpg(leader, signal.SIGINT)
+    return asked, end_times([leader, *others], asked)
+
+
+def launch_run(
+    domain: int, on_up: Callable[[], None] | None = None, terminal: bool = True
+) -> Run | None:
+    """One `ros2 launch ... mode:=per_fls` of the trio stopped by Ctrl-C, from a terminal or
+    not; None if it did not come up. ``on_up`` is called once it is up, before the Ctrl-C."""
     command = [str(ROS2), "launch", "swazure_ros", "swarm.launch.py", f"swarm:={TRIO}",
                "mode:=per_fls"]  # fmt: skip
-    with started(command, domain) as (launch, output):
+    launcher = LAUNCH if terminal else LAUNCH_PIPED
+    with started(command, domain, terminal) as (launch, output):
         if not wait_for(lambda: sum(JOINED in x for x in output.text()) >= 3, UP_TIMEOUT):
             return None
         # "[INFO] [fls_0-3]: process started with pid [1234]"
@@ -179,16 +201,12 @@ def launch_run(domain: int, on_up: Callable[[], None] | None = None) -> Run | No
                  for x in output.text())  # fmt: skip
         pids = {int(hit[2]): hit[1] for hit in found if hit}
         keys = {part for pid in pids for part in _arguments(pid) if part.endswith("swarm.key")}
-        if on_up is not None:
-            on_up()
-        asked = time.monotonic()
-        os.killpg(launch.pid, signal.SIGINT)
-        times = end_times([launch.pid, *pids], asked)
+        asked, times = ctrl_c(launch.pid, list(pids), on_up)
     said = [line for at, line in output.lines if at >= asked]
-    ends = [End(LAUNCH, "launch", launch.returncode, False, times.get(launch.pid, END_TIMEOUT))]
+    ends = [End(launcher, "launch", launch.returncode, False, times.get(launch.pid, END_TIMEOUT))]
     for pid, label in pids.items():
         own = [line for line in said if line.startswith(f"[{label}-") or f"[{label}-" in line]
-        ends.append(End(LAUNCH, label.split("_")[0], _launch_code(pid, said),
+        ends.append(End(launcher, label.split("_")[0], _launch_code(pid, said),
                         watchdog_said(own), times.get(pid, END_TIMEOUT)))  # fmt: skip
     left = [str(Path(key).parent) for key in keys if Path(key).parent.exists()]
     return Run(ends, left, sum("process has died" in line for line in said))
@@ -213,6 +231,11 @@ def _launch_code(pid: int, lines: Sequence[str]) -> int | None:
     return None
 
 
+def piped_launch_run(domain: int, on_up: Callable[[], None] | None = None) -> Run | None:
+    """:func:`launch_run` without a terminal."""
+    return launch_run(domain, on_up, terminal=False)
+
+
 def spawn_run(domain: int, on_up: Callable[[], None] | None = None) -> Run | None:
     """One `swazure spawn --per-fls` of the trio stopped by Ctrl-C; None if it did not come
     up. ``on_up`` is called once it is up, before the Ctrl-C."""
@@ -231,11 +254,7 @@ def spawn_run(domain: int, on_up: Callable[[], None] | None = None) -> Run | Non
 
         if not wait_for(joined, UP_TIMEOUT):
             return None
-        if on_up is not None:
-            on_up()
-        asked = time.monotonic()
-        os.killpg(spawn.pid, signal.SIGINT)
-        times = end_times([spawn.pid, *fls], asked)
+        asked, times = ctrl_c(spawn.pid, fls, on_up)
     said = [line for at, line in output.lines if at >= asked]
     codes = _spawn_codes(said)
     ends = [End(SPAWN, "spawn", spawn.returncode, watchdog_said(said),
@@ -324,7 +343,7 @@ def launchers() -> list[tuple[str, Callable[[int, Callable[[], None] | None], Ru
     """The launchers to measure: `ros2 launch` where make setup installed it, and spawn."""
     found: list[tuple[str, Callable[[int, Callable[[], None] | None], Run | None]]] = []
     if ROS2.exists() and (VENV / "lib" / "swazure_ros" / "fls").exists():
-        found.append((LAUNCH, launch_run))
+        found += [(LAUNCH, launch_run), (LAUNCH_PIPED, piped_launch_run)]
     found.append((SPAWN, spawn_run))
     return found
 
@@ -410,7 +429,8 @@ def exits_lines(
         f"The trio (config/swarms/trio.yaml), one process per FLS, brought up {runs} times "
         "under each launcher and stopped by Ctrl-C once every FLS was on the swarm's radio:",
         "SIGINT to the launcher's process group, as a terminal sends it (`ros2 launch` with",
-        "a terminal for its stdin: interactive, so it sends no SIGINT of its own). Seconds",
+        "a terminal for its stdin: interactive, so it sends no SIGINT of its own; without",
+        "one, as in a script or CI, it sends each process its own SIGINT after). Seconds",
         "from the Ctrl-C to each process's end; a code or signal as its launcher reported",
         "it; a watchdog's line: the teardown's (SIGKILL) or a stop's (exit 1, stacks). "
         f"One-minute load average over the runs: median {statistics.median(loads or [0]):.1f}, "

@@ -3,7 +3,7 @@ how each process ended, and how long a live peer listed the stopped swarm's node
 
 from argparse import Namespace
 
-from bench.exits import KINDS, LAUNCH, SPAWN, exits_section, launchers
+from bench.exits import KINDS, LAUNCH, LAUNCH_PIPED, SPAWN, exits_section, launchers
 
 from .tables import check_shape
 
@@ -14,7 +14,8 @@ def test_the_exits_section_tables_how_every_process_of_each_launcher_ended(domai
     [(header, rows)] = check_shape(lines)
     assert header[:4] == ["launcher", "process", "ends", "exit 0"]
     measured = [launcher for launcher, _ in launchers()]
-    expected = {LAUNCH: ["launch", "world", "coordinator", "fls"], SPAWN: ["spawn", "fls"]}
+    launched = ["launch", "world", "coordinator", "fls"]
+    expected = {LAUNCH: launched, LAUNCH_PIPED: launched, SPAWN: ["spawn", "fls"]}
     assert [(row[0], row[1]) for row in rows] == [
         (launcher, KINDS[kind]) for launcher in measured for kind in expected[launcher]
     ]
