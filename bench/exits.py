@@ -5,11 +5,12 @@ subsection of "Under load". Each run brings the trio (config/swarms/trio.yaml)
 up, under `ros2 launch swazure_ros swarm.launch.py mode:=per_fls` (from a
 terminal, and without one) and under `swazure spawn --per-fls`, waits until
 every FLS is on the swarm's radio, sends Ctrl-C's SIGINT to the launcher's
-process group, as a terminal does, and records how each process ended: its exit code or signal, a watchdog's line in
-its output, the seconds from the Ctrl-C to its end, and what the run left
-behind (a key, a temporary folder). A few more runs keep a participant alive
-beside the swarm and time how long its graph still lists the stopped swarm's
-nodes, and whether a participant made after the stop lists any.
+process group, as a terminal does, and records how each process ended: its
+exit code or signal, a watchdog's line in its output, the seconds from the
+Ctrl-C to its end, and what the run left behind (a key, a temporary folder).
+A few more runs keep a participant alive beside the swarm and time how long
+its graph still lists the stopped swarm's nodes, and whether a participant
+made after the stop lists any.
 """
 
 from __future__ import annotations
