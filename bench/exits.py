@@ -317,8 +317,13 @@ def lingering(
 
     context, alive = participant()
     try:
-        seen_up: list[int] = []
-        if run(domain, lambda: seen_up.append(swarm(alive))) is None or not seen_up[0]:
+        seen_up: list[bool] = []
+
+        def heard() -> None:
+            # The observer has heard of the swarm (its three FLSs at least) before the Ctrl-C.
+            seen_up.append(wait_for(lambda: swarm(alive) >= 3, UP_TIMEOUT))
+
+        if run(domain, heard) is None or not seen_up[0]:
             return None
         stopped = time.monotonic()
         fresh_context, fresh = participant()
