@@ -25,10 +25,12 @@ from bench.common import (
     machine,
     measured_commit,
     merged,
+    stamped,
 )
 from bench.compat import compat_section
 from bench.discovery import discovery_section
 from bench.engine import engine_section
+from bench.exits import exits_section
 from bench.faults import faults_section
 from bench.fls_process import fls_process_section
 from bench.fusion import fusion_section
@@ -72,6 +74,7 @@ SECTIONS: dict[str, Callable[..., list[str]]] = {
     "cells": cells_section,
     "tags": tags_section,
     "scale": scale_section,
+    "exits": exits_section,
 }
 
 
@@ -122,7 +125,7 @@ def main() -> int:
         section = SECTIONS_DIR / f"{name}.md"
         if section.exists():
             text = section.read_text().split("\n")
-            fresh.append([*text[2:3], "", text[0], "", *text[3:]])
+            fresh.append(stamped(text[2:], text[0]))
     existing = args.output.read_text() if args.output.exists() else ""
     args.output.write_text(merged(existing, fresh))
     print(f"wrote {args.output}")

@@ -212,12 +212,52 @@ def table_cell(record: dict[str, Any], key: str, form: str, scale: float = 1.0) 
     return "-" if value is None else format(value * scale, form)
 
 
+def stamped(body: list[str], stamp: str) -> list[str]:
+    """A section's ``body`` with its ``stamp`` after its leading headings: a section
+    that is a subsection of a shared heading ("## Under load", "### Exits ...") has its
+    stamp in its subsection."""
+    last = 0
+    for k, line in enumerate(body):
+        if line.startswith("#"):
+            last = k
+        elif line:
+            break
+    return [*body[: last + 1], "", stamp, "", *body[last + 1 :]]
+
+
+def _split(lines: list[str], mark: str) -> list[list[str]]:
+    """``lines`` cut before each line that starts with ``mark``: a preamble, then parts."""
+    parts: list[list[str]] = [[]]
+    for line in lines:
+        if line.startswith(mark):
+            parts.append([])
+        parts[-1].append(line)
+    return parts
+
+
+def _replaced(old: list[str], new: list[str]) -> list[str]:
+    """Section ``old`` run again as ``new``. A ``new`` with nothing of its own before its
+    first "### " subsection adds to a heading that other sections share: each of its
+    subsections replaces its namesake in ``old``, the others stay; else ``new`` is all."""
+    preamble, *subsections = _split(new[1:], "### ")
+    if not subsections or any(line.strip() for line in preamble):
+        return new
+    kept_preamble, *kept = _split(old[1:], "### ")
+    fresh = {part[0]: part for part in subsections}
+    parts = [fresh.pop(part[0], part) for part in kept]
+    parts += [part for part in subsections if part[0] in fresh]
+    ending = [part if part[-1] == "" else [*part, ""] for part in parts]
+    return [old[0], *kept_preamble, *(line for part in ending for line in part)]
+
+
 def merged(existing: str, fresh: list[list[str]]) -> str:
     """The benchmarks file: ``existing``'s sections, each replaced by its fresh run if any.
 
     A section is a "## " heading and what follows it. Sections run again
     replace theirs in place; new ones go at the end; the others stay as they
-    were measured (a run of some sections must not drop the rest).
+    were measured (a run of some sections must not drop the rest). Sections
+    that share a heading, each a "### " subsection of it, replace only their
+    own subsection (:func:`_replaced`).
     """
     chunks: list[list[str]] = []
     for line in existing.split("\n"):
@@ -229,17 +269,16 @@ def merged(existing: str, fresh: list[list[str]]) -> str:
         header = chunks.pop(0)
     # A section may hold several headings (the engine's holds the heuristics'): each
     # replaces its own, so that a section run again is never left twice in the file.
-    pieces: list[list[str]] = []
+    by_heading: dict[str, list[str]] = {}
     for section in fresh:
-        for line in section:
-            if line.startswith("## ") or not pieces:
-                pieces.append([])
-            pieces[-1].append(line)
-    by_heading = {chunk[0]: chunk for chunk in pieces}
-    out = []
-    for chunk in chunks:
-        out.append(by_heading.pop(chunk[0], chunk))
-    out += [chunk for chunk in pieces if chunk[0] in by_heading]
+        for piece in _split(section, "## ")[1:]:
+            known = by_heading.get(piece[0])
+            by_heading[piece[0]] = piece if known is None else _replaced(known, piece)
+    out = [
+        _replaced(chunk, by_heading.pop(chunk[0])) if chunk[0] in by_heading else chunk
+        for chunk in chunks
+    ]
+    out += list(by_heading.values())
     body = [line for chunk in out for line in (chunk if chunk[-1] == "" else [*chunk, ""])]
     return "\n".join([*header, *body]).rstrip("\n") + "\n"
 

@@ -18,16 +18,22 @@ Arguments:
   Discovery Servers (those at an address of this machine are started here),
   as ``swazure spawn --discovery-server`` does (docs/swarm.md).
 
-The swarm's processes share a fresh key and swarm instance (docs/security.md) made here.
+The swarm's processes share a fresh key and swarm instance (docs/security.md) made here;
+the key's temporary folder is removed when the launch ends, however its processes ended.
+Ctrl-C stops the whole swarm: each process leaves without telling its peers, who leave too
+(docs/swarm.md, "Stopping").
 """
 
 import argparse
+import atexit
 import os
 import secrets
+import shutil
 import sys
 import tempfile
 from pathlib import Path
 
+import yaml
 from launch.actions import DeclareLaunchArgument, ExecuteProcess, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
@@ -40,11 +46,15 @@ from swazure_ros.app.discovery_server import (
     server_command,
     server_environment,
 )
-from swazure_ros.app.per_fls import FLS_ENVIRONMENT
+from swazure_ros.app.per_fls import FLS_ENVIRONMENT, STOP_GRACE, parameter_file
 from swazure_ros.cli.swarm_file import example_swarms, load_swarm_file, swarm_file
 from swazure_ros.files.description import SwarmDescription
 from swazure_ros.ros.nodes import world_node
-from swazure_ros.ros.plumbing.runtime import description_parameters, startup_arguments
+from swazure_ros.ros.plumbing.runtime import (
+    SWARM_STOP_VARIABLE,
+    description_parameters,
+    startup_arguments,
+)
 from swazure_ros.ros.programs import coordinator_program, fls_program
 from swazure_ros.ros.security.auth import INSTANCE_BYTES
 from swazure_ros.ros.security.keys import new_key, write_key
@@ -91,7 +101,11 @@ def _per_fls(path: Path, servers: tuple) -> list:
         seed=int(options.get("seed") or 0),
     )
     namespace = options.get("namespace") or "swarm"
-    key_file = Path(tempfile.mkdtemp(prefix="swazure-launch-")) / "swarm.key"
+    folder = Path(tempfile.mkdtemp(prefix="swazure-launch-"))
+    # When this launch ends (its last act, after every process has ended, whatever their
+    # codes): each process read the key at its start.
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    key_file = folder / "swarm.key"
     write_key(key_file, new_key())
     shared = {
         **description_parameters(description),
@@ -102,10 +116,19 @@ def _per_fls(path: Path, servers: tuple) -> list:
     }
     ids = description.fls_ids().tolist()
     # Plain clients of the servers: the coordinator counts matched endpoints, and the
-    # graph's node names reach every participant.
-    clients = client_environment(servers, super_client=False) if servers else {}
-    every_fls = options.get("parameters") or {}
-    own = options.get("fls") or {}
+    # graph's node names reach every participant. Ctrl-C's SIGINT stops the whole swarm.
+    swarm_env = {
+        **(client_environment(servers, super_client=False) if servers else {}),
+        SWARM_STOP_VARIABLE: "1",
+    }
+    # ros2 launch would send SIGTERM after 5 s: a process given longer says where it hung
+    # (runtime.STOP_LIMIT) rather than die of a signal, as under swazure spawn.
+    stopping = {"sigterm_timeout": str(STOP_GRACE)}
+    # One parameter file for every FLS, in the launch's folder (removed with it): launch_ros
+    # would write one per FLS of a parameters dict into /tmp, and leave them there.
+    parameters = folder / "parameters.yaml"
+    content = parameter_file(namespace, options.get("parameters") or {}, options.get("fls") or {})
+    parameters.write_text(yaml.safe_dump(content, sort_keys=False))
     actions = [
         # No name= for a program that names its nodes itself: a node-name remap
         # would name every node of its process alike.
@@ -117,8 +140,9 @@ def _per_fls(path: Path, servers: tuple) -> list:
             exec_name="world",
             namespace=namespace,
             arguments=startup_arguments(shared, world_node.STARTUP),
-            additional_env=clients,
+            additional_env=swarm_env,
             output="screen",
+            **stopping,
         ),
         Node(
             package=PACKAGE,
@@ -129,8 +153,9 @@ def _per_fls(path: Path, servers: tuple) -> list:
             arguments=startup_arguments(
                 {**shared, "hosts": len(ids)}, coordinator_program.STARTUP
             ),
-            additional_env=clients,
+            additional_env=swarm_env,
             output="screen",
+            **stopping,
         ),
     ]
     actions += [
@@ -140,13 +165,14 @@ def _per_fls(path: Path, servers: tuple) -> list:
             exec_name=f"fls_{fls_id}",
             namespace=namespace,
             arguments=startup_arguments({**shared, "fls_id": fls_id}, fls_program.STARTUP),
-            parameters=[{**every_fls, **own.get(fls_id, {})}],
+            parameters=[str(parameters)],
             # As swazure spawn --per-fls starts them; the user's environment wins.
             additional_env={
                 **{k: v for k, v in FLS_ENVIRONMENT.items() if k not in os.environ},
-                **clients,
+                **swarm_env,
             },
             output="screen",
+            **stopping,
         )
         for fls_id in ids
     ]

@@ -7,8 +7,10 @@ description and key as program arguments, its node's parameters from one
 parameter file, and writes its output to a log file of its own
 (``fls_<id>.log``). A process that ends early is reported with its exit code
 and the last line it wrote; :meth:`FlsProcesses.stop` asks every process to
-stop (SIGINT, as Ctrl-C would) and kills (SIGKILL) what has not ended by the
-deadline, so that nothing is left running.
+stop with the swarm (SIGINT: it leaves without telling its peers, as nobody is
+left to hear it; ``runtime.SWARM_STOP_VARIABLE``), kills (SIGKILL) what has
+not ended by the deadline, so that nothing is left running, and removes the
+swarm's key from the log folder.
 """
 
 from __future__ import annotations
@@ -29,7 +31,11 @@ import yaml
 from ..files.description import SwarmDescription
 from ..files.results import atomic_write
 from ..ros.plumbing.names import node_name
-from ..ros.plumbing.runtime import description_parameters, startup_arguments
+from ..ros.plumbing.runtime import (
+    SWARM_STOP_VARIABLE,
+    description_parameters,
+    startup_arguments,
+)
 from ..ros.programs import fls_program
 from ..ros.security.auth import SwarmKey
 from ..ros.security.keys import write_key
@@ -45,11 +51,12 @@ FLS_NICENESS = 10
 FLS_PROGRAM = (
     sys.executable,
     "-c",
-    # The launcher's pipe (LAUNCHER_PIPE): its end of file, when the launcher dies even by
-    # SIGKILL, sends the FLS SIGTERM, so that no FLS outlives the swarm it belonged to.
+    # The launcher's pipe (FlsProcesses._pipe): its end of file, when the launcher dies even
+    # by SIGKILL, sends the FLS SIGINT, so that no FLS outlives the swarm it belonged to; the
+    # swarm ends with its launcher, and the FLS leaves as in any stop of the whole swarm.
     "import os, signal, sys, threading; "
     "pipe = int(sys.argv.pop(1)); "
-    "threading.Thread(target=lambda: (os.read(pipe, 1), os.kill(os.getpid(), signal.SIGTERM)), "
+    "threading.Thread(target=lambda: (os.read(pipe, 1), os.kill(os.getpid(), signal.SIGINT)), "
     "daemon=True).start(); "
     f"os.nice({FLS_NICENESS}); "
     "from swazure_ros.ros.programs.fls_program import main; sys.exit(main())",
@@ -69,8 +76,10 @@ FLS_ENVIRONMENT = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4", "NUMBA_DISABLE_JIT": "
 #: are known to collide in Fast DDS (rmw_fastrtps#80: the same participant id, so the
 #: same unicast port).
 START_INTERVAL = 0.2
-#: Seconds a process has to end after SIGINT before it is killed. Every process tears
-#: its participant down at once: on 2 cores under a test run, one took more than 10 s.
+#: Seconds a process has to end after SIGINT before it is killed: beyond its own limits
+#: (runtime.STOP_LIMIT, then runtime.PROGRAM_TEARDOWN_LIMIT), so that one that hangs says
+#: where in its log. When every process tore its participant down at once, one took more
+#: than 10 s on 2 cores under a test run; stopped with the swarm, none tears it down now.
 STOP_GRACE = 20.0
 
 
@@ -160,18 +169,20 @@ class FlsProcesses:
         self.fls_ids = [int(fls_id) for fls_id in fls_ids]
         self.log_dir = log_dir
         log_dir.mkdir(parents=True, exist_ok=True)
-        key_file, instance = None, b""
+        #: The swarm's key, written for the FLS processes to read; removed when they stop.
+        self.key_file: Path | None = None
+        instance = b""
         if key is not None and key.active:
             secret, instance = key.material
             assert secret is not None
-            key_file = log_dir / "swarm.key"
-            write_key(key_file, secret)
+            self.key_file = log_dir / "swarm.key"
+            write_key(self.key_file, secret)
         self.parameters_path = log_dir / "parameters.yaml"
         # The program's startup parameters among ``parameters`` are its arguments.
         given = parameters or {}
         startup = {spec.name for spec in fls_program.STARTUP}
         at_start = {name: value for name, value in given.items() if name in startup}
-        self._arguments = fls_arguments(description, namespace, key_file, instance, at_start)
+        self._arguments = fls_arguments(description, namespace, self.key_file, instance, at_start)
         node_parameters = {name: value for name, value in given.items() if name not in startup}
         content = parameter_file(namespace, node_parameters, fls_parameters or {})
         atomic_write(
@@ -181,7 +192,8 @@ class FlsProcesses:
         # A user's parameter file first: the launcher's own settings win over it.
         files = [params_file] if params_file else []
         self._files = [*files, str(self.parameters_path)]
-        self._environment = {**FLS_ENVIRONMENT, **os.environ}
+        # A SIGINT from this launcher (stop) or from its end (FLS_PROGRAM) stops the swarm.
+        self._environment = {**FLS_ENVIRONMENT, **os.environ, SWARM_STOP_VARIABLE: "1"}
         if domain_id is not None:
             self._environment["ROS_DOMAIN_ID"] = str(domain_id)
         if discovery_servers:
@@ -236,7 +248,8 @@ class FlsProcesses:
         return [peak_rss_mb(process.pid) for process in self.processes.values()]
 
     def stop(self, grace: float = STOP_GRACE) -> list[Ended]:
-        """Stop every process (SIGINT, then SIGKILL after ``grace`` s); how each ended."""
+        """Stop every process with the swarm (SIGINT, then SIGKILL after ``grace`` s) and
+        remove the swarm's key; how each ended."""
         for process in self.processes.values():
             if process.poll() is None:
                 process.send_signal(signal.SIGINT)
@@ -252,4 +265,7 @@ class FlsProcesses:
         for end in self._pipe:
             with contextlib.suppress(OSError):
                 os.close(end)
+        if self.key_file is not None:
+            # Read by each process at its start; no secret outlives the swarm in a folder.
+            self.key_file.unlink(missing_ok=True)
         return self.ended()

@@ -15,6 +15,7 @@ run beside the engine's).
 from __future__ import annotations
 
 import os
+import shutil
 import signal
 import tempfile
 import time
@@ -58,7 +59,9 @@ class RunningSwarm:
     """A running swarm: the launcher's own share and the further processes.
 
     Use as a context manager; leaving it stops every process and destroys
-    every node.
+    every node. A log folder made here (no ``config.log_dir``) is removed when
+    the swarm is left without an error (Ctrl-C included) and every FLS process
+    ended with code 0; else it stays, for its logs to be read.
     """
 
     def __init__(
@@ -96,6 +99,8 @@ class RunningSwarm:
         # A folder for the logs of the processes started here, if any are.
         started = config.per_fls or bool(config.discovery_servers)
         log_dir = Path(config.log_dir or (tempfile.mkdtemp(prefix="swazure-") if started else "."))
+        #: The log folder, if made here: removed once the swarm has ended well (__exit__).
+        self.temporary_logs = log_dir if started and config.log_dir is None else None
         self.discovery_servers = DiscoveryServers(config.discovery_servers, log_dir)
         self.processes: SwarmProcesses
         if config.per_fls:
@@ -124,8 +129,18 @@ class RunningSwarm:
             raise
         return self
 
-    def __exit__(self, *exc_info: object) -> None:
+    def __exit__(self, kind: type[BaseException] | None, *exc_info: object) -> None:
         self.close()
+        # Ctrl-C (KeyboardInterrupt) is how a served swarm ends: not an error.
+        if kind is None or issubclass(kind, KeyboardInterrupt):
+            self._discard_logs()
+
+    def _discard_logs(self) -> None:
+        """Remove the log folder made here, unless an FLS process ended unclean."""
+        ended = self.processes.ended if isinstance(self.processes, ProcessPerFls) else []
+        if self.temporary_logs is not None and all(one.code == 0 for one in ended):
+            shutil.rmtree(self.temporary_logs, ignore_errors=True)
+            self.temporary_logs = None
 
     def _start(self) -> None:
         self.discovery_servers.start()

@@ -228,7 +228,8 @@ def _add_fls_process_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="DIR",
         help="--per-fls: write each FLS process's output to DIR/fls_<id>.log, and a "
         "discovery server's to DIR/discovery_server_<i>.log (default: a new temporary "
-        "folder, named when the swarm is up)",
+        "folder, named when the swarm is up, removed when it stops with every FLS process "
+        "ended cleanly)",
     )
     parser.add_argument(
         "--discovery-server",
@@ -391,8 +392,9 @@ def report_lost(ended: Any) -> None:
     print(f"{ended.describe()}; the swarm goes on without it", file=sys.stderr, flush=True)
 
 
-def report_ended(ended: list[Any]) -> None:
-    """One line on how the FLS processes ended: all cleanly, or which did not."""
+def report_ended(ended: list[Any], log_dir: Path) -> None:
+    """One line on how the FLS processes ended: all cleanly, or which did not and where
+    their logs are."""
     unclean = [one for one in ended if one.code != 0]
     print(
         f"{len(ended)} FLS processes stopped"
@@ -401,6 +403,8 @@ def report_ended(ended: list[Any]) -> None:
     )
     for one in unclean:
         print(f"  {one.describe()}", file=sys.stderr)
+    if unclean:
+        print(f"  their logs are in {log_dir}", file=sys.stderr)
 
 
 def _interrupt(signum: int, frame: object) -> None:
@@ -466,7 +470,7 @@ def main(args: argparse.Namespace) -> int:
     finally:
         bar.close()
         if swarm is not None and isinstance(swarm.processes, ProcessPerFls):
-            report_ended(swarm.processes.ended)
+            report_ended(swarm.processes.ended, swarm.processes.fls.log_dir)
         if swarm is not None:
             _report_recording(swarm)
     return 0

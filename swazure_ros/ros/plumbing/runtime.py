@@ -307,10 +307,7 @@ def exit_process(code: int, limit: float = TEARDOWN_LIMIT) -> NoReturn:
     # SIGTERM must end the process then.
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, signal.SIG_DFL)
-    for stream in (sys.stdout, sys.stderr):
-        # A reader gone or a stream closed: nothing is left to save.
-        with contextlib.suppress(OSError, ValueError):
-            stream.flush()
+    _flush()
     # Only this process holds the writing end, open to its death: the watchdog's end of file.
     watched, _ = os.pipe()
     subprocess.Popen(
@@ -326,9 +323,49 @@ def exit_process(code: int, limit: float = TEARDOWN_LIMIT) -> NoReturn:
     raise SystemExit(code)
 
 
+def _flush() -> None:
+    """Flush Python's standard streams before the process ends."""
+    for stream in (sys.stdout, sys.stderr):
+        # A reader gone or a stream closed: nothing is left to save.
+        with contextlib.suppress(OSError, ValueError):
+            stream.flush()
+
+
 def _hold(alive: list[object]) -> None:
     """Hold ``alive`` until the process ends."""
     threading.Event().wait()
+
+
+#: Set to "1" by a launcher that starts a whole swarm (``swazure spawn --per-fls``,
+#: ``ros2 launch swazure_ros swarm.launch.py mode:=per_fls``) in the environment of each
+#: process it starts: a SIGINT to such a process is the whole swarm stopping (the
+#: launcher's own, or a terminal's Ctrl-C, which reaches every process of the launch at
+#: once), and the process leaves without telling its peers (:func:`leave_quietly`). A
+#: SIGTERM stops it alone, and it tells them (:func:`exit_process`).
+SWARM_STOP_VARIABLE = "SWAZURE_SWARM_STOPS_ON_SIGINT"
+
+
+def stops_with_swarm(signum: int) -> bool:
+    """Whether signal ``signum`` stops this process with its whole swarm (SWARM_STOP_VARIABLE)."""
+    return signum == signal.SIGINT and os.environ.get(SWARM_STOP_VARIABLE) == "1"
+
+
+def leave_quietly(code: int) -> NoReturn:
+    """End the process now with ``code``, without DDS's teardown; never returns.
+
+    For a process whose whole swarm stops with it: no peer needs to hear that
+    it leaves, and telling them is what goes wrong. Fast DDS 2.14 deadlocks
+    in a process that hears peers leave while it deletes its own participant
+    (eProsima/Fast-DDS#6502), and its static teardown has crashed (SIGSEGV)
+    after a process's work was done; neither can happen in a process that
+    tears nothing down, and the process cannot hang. Participants that live on
+    (a `ros2` daemon, a recorder) list its nodes until its lease runs out
+    (20 s, docs/swarm.md, "Stopping"); a participant made later never hears of
+    them. Call it last, when every output is written: Python's exit handlers
+    do not run; its own streams are flushed.
+    """
+    _flush()
+    os._exit(code)
 
 
 #: The parameters that describe a swarm (files.description.SwarmDescription), as every
@@ -585,9 +622,11 @@ def run_process(
     as program arguments (:func:`program_startup`). ``--help`` prints
     ``usage`` and exits 0 without a node. Errors in building
     give one line and exit code 2, never a traceback; any other exception (a
-    bug) one line, its stack and exit code 1. The process ends with
-    :func:`exit_process`: its DDS participant is deleted whole, not endpoint
-    by endpoint (docs/swarm.md, "Stopping").
+    bug) one line, its stack and exit code 1. Stopped with its whole swarm (a
+    SIGINT where SWARM_STOP_VARIABLE is set), the process leaves without
+    telling its peers (:func:`leave_quietly`); else it ends with
+    :func:`exit_process`: its DDS participant is deleted whole, not endpoint by
+    endpoint, and its peers drop its nodes at once (docs/swarm.md, "Stopping").
     """
     values = program_startup(args, usage, startup)
     context = Context()
@@ -627,6 +666,9 @@ def run_process(
         print(f"error: {type(err).__name__}: {err} (a bug; its stack follows)", file=sys.stderr)
         traceback.print_exc()
         code = 1
+    if stop and stops_with_swarm(stop[0]):
+        # The whole swarm stops: nobody is left to tell (docs/swarm.md, "Stopping").
+        leave_quietly(code)
     # The executor first: its shutdown unregisters the callbacks of every
     # subscription, service and timer it tracks, which must be alive then.
     if executor is not None:

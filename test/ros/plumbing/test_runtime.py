@@ -7,8 +7,11 @@ import signal
 import subprocess
 import sys
 
+import pytest
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
+
+from swazure_ros.ros.plumbing.runtime import SWARM_STOP_VARIABLE
 
 from ...waits import PATIENCE, wait_until
 from ..helpers import long_lease_environment
@@ -128,6 +131,91 @@ def test_a_process_ended_by_exit_process_tells_its_peers_it_left_and_exits_with_
         probe.destroy_node()
     assert ending.returncode == 3 and "exit handler ran" in out, out
     assert left == 0, left
+
+
+#: A process of the swarm with one node, as the fls, world and coordinator programs are.
+LEAVING = """
+import sys
+from swazure_ros.ros.plumbing import runtime
+
+
+def build(context, values):
+    return [runtime.SwarmNode("leaving", context=context)]
+
+
+sys.exit(runtime.run_process(build, []))
+"""
+
+
+@pytest.mark.parametrize(
+    ("launched", "signals", "told"),
+    [
+        # Ctrl-C of `ros2 launch` without a terminal: the group's SIGINT, then launch's own.
+        (True, (signal.SIGINT, signal.SIGINT), False),
+        (True, (signal.SIGTERM,), True),  # one process of a launched swarm stopped alone
+        (False, (signal.SIGINT,), True),  # `ros2 run`'s Ctrl-C: this process alone
+    ],
+    ids=["launched-sigint", "launched-sigterm", "alone-sigint"],
+)
+def test_a_process_stopped_with_its_swarm_leaves_quietly_and_one_stopped_alone_tells_its_peers(
+    context, tmp_path, launched, signals, told
+):
+    # A SIGINT to a process its launcher started (SWARM_STOP_VARIABLE) stops the whole
+    # swarm: nobody is left to tell, and telling is what deadlocks Fast DDS. Its lease is an
+    # hour, so that a peer still listing it after its end was not told, and one listing it
+    # no more was.
+    environment = long_lease_environment(
+        tmp_path, dict(os.environ, ROS_DOMAIN_ID=str(context.get_domain_id()))
+    )
+    if launched:
+        environment[SWARM_STOP_VARIABLE] = "1"
+    leaving = subprocess.Popen(
+        [sys.executable, "-c", LEAVING], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, env=environment,
+    )  # fmt: skip
+    probe = Node("probe", context=context, start_parameter_services=False, enable_rosout=False)
+
+    def listed() -> bool:
+        return ("leaving", "/") in probe.get_node_names_and_namespaces()
+
+    try:
+        # Its handlers are in place before its node is made.
+        assert wait_until(listed, PATIENCE)
+        for signum in signals:
+            leaving.send_signal(signum)
+        _, err = leaving.communicate(timeout=PATIENCE)
+        # Told, a peer drops it within seconds, a minute on a busy machine; not told, it
+        # lists it for the hour's lease.
+        gone = wait_until(lambda: not listed(), 60)
+        # A swarm started again: its participants are new, and never hear of the old one.
+        afterwards = seen_by_a_new_participant(context.get_domain_id(), "leaving")
+    finally:
+        if leaving.poll() is None:
+            leaving.kill()
+        probe.destroy_node()
+    assert leaving.returncode == 0, err
+    assert "did not end in" not in err and "Traceback" not in err, err
+    assert gone == told
+    assert not afterwards
+
+
+def seen_by_a_new_participant(domain: int, name: str) -> bool:
+    """Whether a participant made now lists node ``name`` once it has heard of the living
+    (the test's probe) and for 10 s after."""
+    from ..conftest import make_context
+
+    context = make_context(domain)
+    node = Node("newcomer", context=context, start_parameter_services=False, enable_rosout=False)
+    try:
+
+        def listed(wanted: str) -> bool:
+            return (wanted, "/") in node.get_node_names_and_namespaces()
+
+        assert wait_until(lambda: listed("probe"), PATIENCE)
+        return wait_until(lambda: listed(name), 10)
+    finally:
+        node.destroy_node()
+        context.try_shutdown()
 
 
 #: A process whose node fails in a timer callback, again and again, while another serves.

@@ -8,9 +8,11 @@ in processes of their own, and skips where they are absent.
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +34,7 @@ from swazure_ros.sim.world import WorldSpec
 
 from ...conftest import REPO, SHARED
 from ...waits import PATIENCE, wait_until
-from ..helpers import ECHO_LATCHED
+from ..helpers import ECHO_LATCHED, long_lease_environment
 
 VENV = Path(sys.executable).parents[1]
 ROS2 = VENV / "bin" / "ros2"
@@ -344,9 +346,102 @@ def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(
     finally:
         out = stop(launch)
     assert launch.returncode == 0, out
+    assert "process has died" not in out, out
     # Each process's output is labelled with its node's name (launch appends its own count).
     assert "[fls_0-" in out and "[fls_2-" in out and "[coordinator-" in out, out
     assert "[fls-" not in out, out
+
+
+class Lines:
+    """A running process's output, line by line as it comes (a thread reads it)."""
+
+    def __init__(self, process: subprocess.Popen[str]) -> None:
+        self.process = process
+        self.lines: list[str] = []
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self) -> None:
+        assert self.process.stdout is not None
+        for line in self.process.stdout:
+            self.lines.append(line)
+
+    def stop(self) -> str:
+        """SIGINT to the process group, as Ctrl-C sends it; everything it printed."""
+        os.killpg(self.process.pid, signal.SIGINT)
+        self.process.wait(timeout=300)
+        self._reader.join(timeout=60)
+        assert self.process.stdout is not None
+        self.process.stdout.close()
+        return "".join(self.lines)
+
+
+def launched_trio(tmp_path: Path) -> tuple[Lines, dict[str, int], Path]:
+    """`ros2 launch ... swarm:=trio mode:=per_fls` up, each of its five processes ready (its
+    node built): its output, its processes' ids by name (fls_0, world, ...) and its key's
+    folder."""
+    lines = Lines(start("launch", "swazure_ros", "swarm.launch.py", "swarm:=trio",
+                        "mode:=per_fls", cwd=tmp_path))  # fmt: skip
+
+    def ready() -> bool:
+        return sum("]: ready, " in line for line in lines.lines) == 5
+
+    if not wait_until(ready, 300):
+        # Not left running on this domain, where the next test would meet it.
+        raise AssertionError(lines.stop())
+    # "[INFO] [fls_0-3]: process started with pid [1234]"
+    found = (re.search(r"\[(\w+)-\d+\]: process started with pid \[(\d+)\]", line)
+             for line in lines.lines)  # fmt: skip
+    pids = {hit[1]: int(hit[2]) for hit in found if hit}
+    arguments = Path(f"/proc/{pids['fls_0']}/cmdline").read_text().split("\0")
+    key = Path(arguments[arguments.index("--key-file") + 1])
+    assert key.name == "swarm.key" and key.parent.name.startswith("swazure-launch-"), key
+    return lines, pids, key.parent
+
+
+def test_ctrl_c_of_ros2_launch_per_fls_ends_every_process_cleanly_and_removes_its_key(
+    ros2_tools, context, tmp_path, monkeypatch
+):
+    # The launch's participants on an hour's lease: a peer that drops a node was told.
+    lease = long_lease_environment(tmp_path, {})
+    monkeypatch.setenv("FASTRTPS_DEFAULT_PROFILES_FILE", lease["FASTRTPS_DEFAULT_PROFILES_FILE"])
+    probe = SwarmNode("probe", context=context)
+
+    def listed() -> set[str]:
+        return {name for name, where in probe.get_node_names_and_namespaces() if where == "/swarm"}
+
+    lines, pids, folder = launched_trio(tmp_path)
+    try:
+        assert wait_until(lambda: {"fls_0", "fls_1", "fls_2", "world", "coordinator"} <= listed(),
+                          300)  # fmt: skip
+        out = lines.stop()
+        # Stopped with the whole swarm, no process told its peers (nobody was left to hear).
+        lingering = listed()
+    finally:
+        if lines.process.poll() is None:
+            os.killpg(lines.process.pid, signal.SIGKILL)
+        probe.destroy_node()
+    assert {"fls_0", "fls_1", "fls_2", "world", "coordinator"} <= lingering
+    assert lines.process.returncode == 0, out
+    assert out.count("process has finished cleanly") == len(pids) == 5, out
+    # ros2 launch says "process has died" of any exit code but 0; nothing escalated.
+    for word in ("process has died", "escalating", "did not end in", "Traceback"):
+        assert word not in out, out
+    assert not folder.exists()
+
+
+def test_ros2_launch_removes_its_key_when_a_process_of_it_has_died(ros2_tools, domain, tmp_path):
+    lines, pids, folder = launched_trio(tmp_path)
+    try:
+        os.kill(pids["fls_1"], signal.SIGKILL)
+        died = f"process has died [pid {pids['fls_1']}, exit code -9"
+        assert wait_until(lambda: any(died in line for line in lines.lines), 300)
+        out = lines.stop()
+    finally:
+        if lines.process.poll() is None:
+            os.killpg(lines.process.pid, signal.SIGKILL)
+    assert out.count("process has died") == 1 and out.count("finished cleanly") == 4, out
+    assert not folder.exists()
 
 
 def echoed(*args: str, seconds: float) -> str:
