@@ -271,12 +271,22 @@ class Radio:
 
         One process per FLS: every other FLS within one cell of this one's (of
         each band) hears its offers, and those of the decaying band its walks,
-        so the first number reaches the second once all of them listen.
+        so the first number reaches the second once all of them listen. This
+        process's own reader of a cell it also sends on is matched to its
+        writer too (DDS matches a participant's endpoints with each other) and
+        is wanted as well: counted as one of the others', it let an FLS take
+        part while one neighbour's reader was still unmatched, and two FLSs
+        missed each other's first offers (a round 0 waited out its whole
+        timeout in 5 of 16 loaded bring-ups of grid25, 2026-11-28).
         """
         readers = wanted = 0
-        for cell, publisher in [*self._sending.items(), *self._walks_sent.items()]:
+        sending = [(cell, publisher, self._listening) for cell, publisher in self._sending.items()]
+        sending += [
+            (cell, publisher, self._walks_heard) for cell, publisher in self._walks_sent.items()
+        ]
+        for cell, publisher, heard in sending:
             audible = self._audible[str(cell[0])]
-            want = int(np.count_nonzero(~np.isin(audible, self._local)))
+            want = int(np.count_nonzero(~np.isin(audible, self._local))) + int(cell in heard)
             readers += min(publisher.get_subscription_count(), want)
             wanted += want
         return readers, wanted
