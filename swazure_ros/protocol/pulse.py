@@ -71,3 +71,14 @@ class Pulse:
         late = since - self.period
         stalled = late > STALLED_AFTER and used < IDLE_SHARE * since
         return Beat(late if late > self.tolerance else 0.0, stalled)
+
+
+@dataclass(frozen=True)
+class Alive:
+    """A process's radio says it is alive (a Heartbeat message): what it hears, how late it is."""
+
+    host: str  # the radio's node name
+    hears_controls: bool  # its reader of the coordinator's controls is matched
+    run_id: int  # the newest run it has a control of (0: none yet)
+    round: int  # that control's round
+    late: float  # s its executor looked late; 0: on time

@@ -204,8 +204,9 @@ class RoundClock:
     for every blind neighbour. ``estimator``: how sources make their
     estimates (``core.fit.SWARM_ESTIMATORS``); a swarm-fit run solves its
     ``fit_layers`` (``core.fit.fit_layers`` of the swarm's sensor) in the FIT
-    phase after discovery's. ``times``: the swarm's round times measured so
-    far (every run of a coordinator shares one), which its deadlines follow.
+    phase after discovery's. :attr:`times`: the round times its deadlines
+    follow and it adds its own to (a coordinator sets its own, which every
+    one of its runs shares).
     """
 
     def __init__(
@@ -221,7 +222,6 @@ class RoundClock:
         targets: Iterable[int] = (),
         estimator: str = PATH,
         fit_layers: tuple[bool, ...] = (True,),
-        times: RoundTimes | None = None,
     ) -> None:
         self.run_id = run_id
         self.policy = policy
@@ -232,7 +232,7 @@ class RoundClock:
         self.loss_restarts = 0
         self.incomplete = False
         self.round_timeout = round_timeout
-        self.times = RoundTimes() if times is None else times
+        self.times = RoundTimes()
         self.departed = set(departed)
         self.sources = tuple(sources)
         self.targets = tuple(targets)

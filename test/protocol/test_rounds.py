@@ -236,12 +236,14 @@ def test_the_deadlines_follow_the_swarms_measured_round_times():
     times = RoundTimes()
     assert times.deadline(TIMEOUT) == TIMEOUT  # nothing measured: the round timeout
     # Quick rounds keep the floor; a loaded machine's slow ones stretch it.
-    fast = RoundClock(7, "fewest-hops", FLSS, 1, TIMEOUT, times=times)
+    fast = clock()
+    fast.times = times
     fast.start(0.0)
     every_offer(fast, 0, labels=1, now=0.1)
     fast.on_ack(0, "host_0", 0.15)
     assert times.slow == 0.15 and fast.patience == TIMEOUT
-    slow = RoundClock(8, "fewest-hops", FLSS, 1, TIMEOUT, times=times)
+    slow = clock()
+    slow.times = times
     slow.start(0.0)
     every_offer(slow, 0, labels=1, now=2.0)
     slow.on_ack(0, "host_0", 2.5)  # a round of 2.5 s: the next run waits 25 s

@@ -65,6 +65,7 @@ from ..plumbing.names import (
     walks_topic,
 )
 from ..security.guard import Guard, RateLimit, check
+from .heartbeats import Heartbeats
 
 if TYPE_CHECKING:
     from .fls_node import FlsNode
@@ -181,6 +182,10 @@ class Radio:
         self.guard = guard or Guard(node)
         self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
         self.listening = False
+        self._controls: Subscription | None = None
+        self._newest = (0, 0)  # (run, round) of the newest control heard
+        #: What this radio says of itself: alive, hearing the controls, or behind.
+        self.heartbeats = Heartbeats(node, self.guard.key, self.hears_controls, self.newest)
         # Walks that must wait for a newer world revision, the oldest dropped first.
         self._early_walks: deque[Walk] = deque(maxlen=EARLY_WALKS)
         if listen:
@@ -325,8 +330,21 @@ class Radio:
     def listen(self) -> None:
         """Hear the coordinator's controls: from now on the swarm's rounds count on this radio."""
         if not self.listening:
-            self._subscribe(DiscoveryControl, CONTROL_TOPIC, self._on_control)
+            self._controls = self._subscribe(DiscoveryControl, CONTROL_TOPIC, self._on_control)
             self.listening = True
+
+    def hears_controls(self) -> bool:
+        """Whether this radio listens and its reader of the controls has matched their writer.
+
+        Only the radio sees its own reader matched; the coordinator sees its
+        writer matched, which can be sooner, and a control sent to a reader
+        that has not matched yet is lost to it (its heartbeats say this).
+        """
+        return self._controls is not None and self._controls.get_publisher_count() > 0
+
+    def newest(self) -> tuple[int, int]:
+        """(run, round) of the newest control this radio heard; (0, 0) before any."""
+        return self._newest
 
     def ack_readers(self) -> int:
         """Readers matched to this radio's acknowledgements (the coordinator's)."""
@@ -334,8 +352,8 @@ class Radio:
 
     def _subscribe(
         self, kind: type, topic: str, callback: Callable[[Any], None], qos: QoSProfile = ROUND_QOS
-    ) -> None:
-        self.guard.subscribe(kind, topic, callback, qos)
+    ) -> Subscription:
+        return self.guard.subscribe(kind, topic, callback, qos)
 
     @property
     def _swarm(self) -> IntArray:
@@ -365,6 +383,7 @@ class Radio:
         control = control_from_message(message, self._swarm)
         self.controls_heard += 1
         self.last_control_at = time.monotonic()
+        self._newest = (control.run_id, control.round)
         if control.command == START and control.estimator != PATH:
             self._hear_readings()
         recipients, ack, heard = self._hub.on_control(control)
