@@ -376,7 +376,9 @@ class RoundClock:
         """Whether the open wait waits for process ``host`` or one of its FLSs ``fls_ids``."""
         tally = self._tally
         if tally is not None:
-            unacked = host not in tally.acks and len(tally.acks) < tally.hosts
+            # A radio that speaks for departed FLSs alone is waited for no more (on_gone).
+            theirs = not fls_ids or not fls_ids <= self.departed
+            unacked = theirs and host not in tally.acks and len(tally.acks) < tally.hosts
             return unacked or bool(fls_ids & tally.silent)
         return bool(fls_ids & (self._collecting - set(self._collected)))
 

@@ -337,3 +337,16 @@ def test_a_source_behind_at_the_end_is_waited_for_a_while():
     assert not run.done
     run.on_estimates(2, [], 12.0)
     assert run.done and not run.outcome.departed
+
+
+def test_a_departed_flss_own_radio_behind_holds_no_round():
+    # Three FLSs, each its own radio; FLS 1 departed in an earlier run, its radio gone.
+    run = RoundClock(7, "fewest-hops", FLSS, 2, TIMEOUT, departed={1})
+    run.start(0.0)
+    every_offer(run, 0, senders=(0, 2), labels=1, now=1.0)
+    run.on_ack(0, "fls_0", 1.0)
+    # FLS 1's process goes on after a long stop and says it was behind: nobody waits for it.
+    run.on_alive("fls_1", (1,), 9.0)
+    assert not run.warnings
+    run.on_tick(1.0 + TIMEOUT + 0.1)
+    assert run.restarts == 1 and "1 process(es) silent" in run.warnings[-1]
