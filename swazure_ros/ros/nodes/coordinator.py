@@ -107,8 +107,9 @@ Action = Control | Move | Walk
 ROUND_TIMEOUT = ParameterSpec(
     "round_timeout",
     10.0,
-    "s without progress after which silent FLSs have departed (set while running too: the "
-    "next run takes it)",
+    "s without progress after which silent FLSs have departed, at least: ten times the slow "
+    "end of the swarm's recent rounds when that is longer (set while running too: the next "
+    "run takes it)",
     seconds(),
 )
 LIVENESS_PERIOD = ParameterSpec(
