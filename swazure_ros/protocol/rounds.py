@@ -125,8 +125,9 @@ class RoundTimes:
     A wait's deadline is :data:`PATIENCE` times the slow end
     (:data:`SLOW_QUANTILE`) of the last ``kept`` rounds that completed, and
     never less than ``floor`` (the coordinator's ``round_timeout``). Rounds
-    of 0.15 s (grid25, one process per FLS, on a quiet machine) keep the
-    floor; rounds that take 1.5 s under a load of 30 stretch it to 15 s. A
+    of 0.15 s (grid25, one process per FLS, on a quiet machine; 0.2-1.5 s
+    under a load of 30) keep a floor of 10 s; rounds whose slow end takes
+    2 s stretch it to 20 s. A
     quantile and not the slowest: one round held up by a process behind
     (:meth:`RoundClock.on_alive`) must not make every later wait ten times
     its length; such a round is not measured at all, nor one that timed
