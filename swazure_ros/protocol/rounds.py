@@ -40,6 +40,9 @@ PATIENCE = 10.0
 ROUNDS_KEPT = 64
 #: Which of the rounds kept the deadlines follow: the slow end, past one held-up round.
 SLOW_QUANTILE = 0.9
+#: The longest deadline, in round timeouts: rounds held up for long (a forged heartbeat
+#: under --no-key holds one MAX_STRETCH deadlines) cannot make every wait longer for ever.
+MOST_PATIENCE = 10.0
 #: A wait that a process alive but behind keeps asking more time for lasts at most this
 #: many deadlines after the last progress (RoundClock.on_alive).
 MAX_STRETCH = 3.0
@@ -123,16 +126,18 @@ class RoundTimes:
     """How long the swarm's rounds took, measured: what the coordinator's deadlines follow.
 
     A wait's deadline is :data:`PATIENCE` times the slow end
-    (:data:`SLOW_QUANTILE`) of the last ``kept`` rounds that completed, and
-    never less than ``floor`` (the coordinator's ``round_timeout``). Rounds
+    (:data:`SLOW_QUANTILE`) of the last ``kept`` rounds that completed, never
+    less than ``floor`` (the coordinator's ``round_timeout``) and never more
+    than :data:`MOST_PATIENCE` times it. Rounds
     of 0.15 s (grid25, one process per FLS, on a quiet machine; 0.2-1.5 s
     under a load of 30) keep a floor of 10 s; rounds whose slow end takes
     2 s stretch it to 20 s. A
     quantile and not the slowest: one round held up by a process behind
     (:meth:`RoundClock.on_alive`) must not make every later wait ten times
-    its length; such a round is not measured at all, nor one that timed
-    out (its length is the deadline itself). Seconds, on the deadlines'
-    clock (:class:`StallClock`).
+    its length, while rounds that are all slow (a big packed process that
+    is behind in every round) do. A round that timed out is no measure: its
+    length is the deadline itself. Seconds, on the deadlines' clock
+    (:class:`StallClock`).
     """
 
     def __init__(self, kept: int = ROUNDS_KEPT, patience: float = PATIENCE) -> None:
@@ -158,7 +163,7 @@ class RoundTimes:
 
     def deadline(self, floor: float) -> float:
         """Seconds a wait may last without progress: ``floor``, or more after slow rounds."""
-        return max(floor, self.patience * self.slow)
+        return min(max(floor, self.patience * self.slow), MOST_PATIENCE * floor)
 
 
 class Absences:
@@ -435,8 +440,7 @@ class RoundClock:
         assert tally is not None
         self._tally = None
         self.round += 1
-        if not (timed_out or self._stretched):
-            # A round held up by a process behind was given its time (on_alive): no measure.
+        if not timed_out:
             self.times.add(now - self._opened_at)
         waited = f"{now - self._progress_at:.1f} s"
         if timed_out and tally.silent:

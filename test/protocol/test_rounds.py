@@ -259,7 +259,7 @@ def test_the_deadlines_follow_the_swarms_measured_round_times():
 def test_round_times_keep_the_last_rounds_and_refuse_what_is_no_time():
     import pytest
 
-    from swazure_ros.protocol.rounds import RoundTimes
+    from swazure_ros.protocol.rounds import MOST_PATIENCE, RoundTimes
 
     times = RoundTimes(kept=2, patience=4.0)
     for took in (3.0, float("nan"), -1.0, float("inf"), 0.5, 0.25):
@@ -270,6 +270,10 @@ def test_round_times_keep_the_last_rounds_and_refuse_what_is_no_time():
     for took in [0.2] * 20 + [30.0]:
         many.add(took)
     assert many.deadline(1.0) == 2.0
+    # Rounds all held up make the deadlines longer, up to MOST_PATIENCE round timeouts.
+    for took in [30.0] * 20:
+        many.add(took)
+    assert many.deadline(1.0) == MOST_PATIENCE * 1.0
     with pytest.raises(ValueError, match="kept"):
         RoundTimes(kept=0)
     with pytest.raises(ValueError, match="patience"):
@@ -295,15 +299,16 @@ def test_a_process_alive_but_behind_is_given_more_time_not_departed():
     assert next_round.round == 1 and not run.departed and run.restarts == 0
     assert "fls_1 is behind, alive" in run.warnings[-1]
     # One that says so and never answers is held MAX_STRETCH deadlines, no longer.
-    every_offer(run, 1, senders=(0, 2), labels=1, now=28.0)
-    now = 28.0
-    while not run.departed:
+    held = RoundClock(8, "fewest-hops", FLSS, 3, TIMEOUT)
+    held.start(0.0)
+    every_offer(held, 0, senders=(0, 2), labels=1, now=1.0)
+    now = 1.0
+    while not held.departed:
         now += 0.5
-        run.on_alive("fls_1", (1,), now)
-        run.on_tick(now)
-    assert (
-        run.departed == {1} and 28.0 + MAX_STRETCH * TIMEOUT <= now <= 28.5 + MAX_STRETCH * TIMEOUT
-    )
+        held.on_alive("fls_1", (1,), now)
+        held.on_tick(now)
+    assert held.departed == {1}
+    assert 1.0 + MAX_STRETCH * TIMEOUT <= now <= 1.5 + MAX_STRETCH * TIMEOUT
 
 
 def test_a_process_the_wait_does_not_wait_on_changes_no_deadline():
