@@ -4,8 +4,9 @@
 broadcast their labels, closes a round when every FLS has broadcast and
 every process has delivered, and ENDs the run to collect the sources'
 estimates. Every wait has a deadline: ``round_timeout`` seconds without
-progress. The FLSs still silent then have departed, and the phase restarts
-without them; a source that never reports at the END has departed too.
+progress, or more once the swarm's rounds are slow. The FLSs still silent
+then have departed, and the phase restarts without them; a source that
+never reports at the END has departed too.
 
 The deadlines follow the swarm's measured round times (:class:`RoundTimes`),
 and a process that says it is alive but behind is given more time
@@ -33,8 +34,8 @@ from .swarm_fit import FitSchedule, FitTally
 
 #: Phases of one run a lossy radio may spoil (and restart) before the run ends incomplete.
 MAX_LOSS_RESTARTS = 10
-#: A wait's deadline, in multiples of the slowest of the swarm's recent rounds: a round
-#: ten times slower than any of late is taken for silence, not for a busy machine.
+#: A wait's deadline, in multiples of the slow end of the swarm's recent rounds: a round
+#: ten times slower than those of late is taken for silence, not for a busy machine.
 PATIENCE = 10.0
 #: Rounds the deadlines follow: a few runs' worth (grid25's discovery has 13 rounds).
 ROUNDS_KEPT = 64
@@ -128,10 +129,9 @@ class RoundTimes:
     A wait's deadline is :data:`PATIENCE` times the slow end
     (:data:`SLOW_QUANTILE`) of the last ``kept`` rounds that completed, never
     less than ``floor`` (the coordinator's ``round_timeout``) and never more
-    than :data:`MOST_PATIENCE` times it. Rounds
-    of 0.15 s (grid25, one process per FLS, on a quiet machine; 0.2-1.5 s
-    under a load of 30) keep a floor of 10 s; rounds whose slow end takes
-    2 s stretch it to 20 s. A
+    than :data:`MOST_PATIENCE` times it. Rounds of 0.15 s (grid25, one
+    process per FLS, on a quiet machine; 0.2-1.5 s under a load of 30) keep
+    a floor of 10 s; rounds whose slow end takes 2 s make it 20 s. A
     quantile and not the slowest: one round held up by a process behind
     (:meth:`RoundClock.on_alive`) must not make every later wait ten times
     its length, while rounds that are all slow (a big packed process that

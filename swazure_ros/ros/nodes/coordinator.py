@@ -365,8 +365,10 @@ class Coordinator(SwarmNode):
         # follow how long the swarm's rounds take (every run's rounds measured).
         self._deadlines = StallClock(TICK, STALL, time.monotonic())
         self.round_times = RoundTimes()
-        # The radios whose last heartbeat said they hear the controls (their node names).
+        # The radios whose last heartbeat said they hear the controls (their node names):
+        # at most one per FLS and per process, whatever names a stranger makes up.
         self._hearing: set[str] = set()
+        self._radios_at_most = len(self.fls_ids) + hosts
         self._read_ack = self.guard.reader(RoundAck)
         self._read_estimates = self.guard.reader(PoseEstimates)
         guard = self.guard.wrap
@@ -598,6 +600,8 @@ class Coordinator(SwarmNode):
         alive = alive_from_message(message)
         check(0 < len(alive.host) <= MAX_NAME, "a host name of no or too many characters")
         if alive.hears_controls:
+            known = alive.host in self._hearing
+            check(known or len(self._hearing) < self._radios_at_most, "more radios than FLSs")
             self._hearing.add(alive.host)
         else:
             self._hearing.discard(alive.host)

@@ -12,6 +12,7 @@ from swazure_ros.ros.plumbing.names import (
     ROUND_QOS,
 )
 
+from ...conftest import REPO
 from ...waits import wait_until
 from ..conftest import make_context
 from .test_radio import fls_radio
@@ -71,3 +72,30 @@ def test_a_radio_beats_when_it_hears_the_controls_and_when_its_executor_stood_st
         coordinator.destroy_node()
         fls_context.try_shutdown()
         coordinator_context.try_shutdown()
+
+
+def test_the_coordinator_keeps_no_more_radios_than_the_swarm_can_have(context):
+    """Heartbeats under made-up radio names (anyone can send them under --no-key) fill the
+    coordinator's list of radios that hear the controls only up to one per FLS and process."""
+    from swazure_interfaces.msg import Heartbeat
+
+    from swazure_ros.ros.nodes.coordinator import Coordinator
+    from swazure_ros.ros.plumbing.names import HEARTBEAT_TOPIC
+    from swazure_ros.sim.world import WorldSpec
+
+    world = WorldSpec(cloud=str(REPO / "config/track/trio.xyz"), scale=1.0, radius=0.5).build()
+    coordinator = Coordinator(world.ids.tolist(), 3, shape=world.home_hood, context=context)
+    try:
+        for name in [f"made_up_{k}" for k in range(20)] + ["fls_0"]:
+            beat = Heartbeat(host=name, hears_controls=True)
+            coordinator.guard.call(HEARTBEAT_TOPIC, coordinator._on_heartbeat, beat)
+        assert len(coordinator._hearing) == 3 + 3
+        refused = coordinator.guard.dropped[(HEARTBEAT_TOPIC, "more radios than FLSs")]
+        assert refused == 20 + 1 - 6
+        # A radio it keeps may say it no longer hears; one it knows may say it hears again.
+        coordinator.guard.call(
+            HEARTBEAT_TOPIC, coordinator._on_heartbeat, Heartbeat(host="made_up_0")
+        )
+        assert "made_up_0" not in coordinator._hearing
+    finally:
+        coordinator.destroy_node()
