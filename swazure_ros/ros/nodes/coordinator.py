@@ -541,7 +541,8 @@ class Coordinator(SwarmNode):
 
     def _on_liveness(self) -> None:
         membership = self.membership
-        newly = self._liveness.look(membership.gone)
+        # On the deadlines' clock: an absence does not grow while this process stalls.
+        newly = self._liveness.look(membership.gone, self._now())
         if self._liveness.back:
             self._take_back(self._liveness.back, "on the graph again")
         if len(membership.radios) < membership.hosts:
