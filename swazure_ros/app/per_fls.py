@@ -52,7 +52,8 @@ FLS_PROGRAM = (
     "pipe = int(sys.argv.pop(1)); "
     "threading.Thread(target=lambda: (os.read(pipe, 1), os.kill(os.getpid(), signal.SIGTERM)), "
     "daemon=True).start(); "
-    f"os.nice({FLS_NICENESS}); "
+    # Once: a program that starts itself afresh (fls_program.start_afresh) is at it already.
+    f"os.environ.get({fls_program.STARTED_AFRESH!r}) or os.nice({FLS_NICENESS}); "
     "from swazure_ros.ros.programs.fls_program import main; sys.exit(main())",
 )
 #: The environment of an FLS process, unless the user's sets it: UDP only, as between

@@ -7,9 +7,10 @@ long swap) looks late by the whole stop, having used no CPU meanwhile. A
 between two looks, and the CPU time the process used in between. A look
 late by more than a whole period says the process is behind (its radio
 tells the coordinator, which then waits longer for it); a look late by
-more than :data:`STALLED_AFTER` with the process nearly idle meanwhile
-says that its DDS participant may have been silent past a peer's lease,
-so that peers may have dropped it (its radio announces itself again).
+more than a lease's silence (:meth:`Beat.stalled`) with the process nearly
+idle meanwhile says that its DDS participant was silent that long too, so
+that peers may have dropped it (the process then joins again: an FLS's
+program starts afresh, a packed process announces itself again).
 
 Times in seconds: ``now`` on any monotonic clock, ``cpu`` the process's
 CPU time (``time.process_time``: every thread's, DDS's own included).
@@ -35,15 +36,19 @@ IDLE_SHARE = 0.25
 class Beat:
     """What one look of a :class:`Pulse` found."""
 
-    late: float  # s the look came later than its period
-    stalled: (
-        bool  # late past STALLED_AFTER with the process nearly idle: peers may have dropped it
-    )
+    late: float  # s the look came later than its period (0 within the tolerance)
+    idle: bool  # the process used at most IDLE_SHARE of a core meanwhile
 
     @property
     def behind(self) -> bool:
         """Late by more than nothing: the executor did not look when it was due."""
         return self.late > 0.0
+
+    def stalled(self, after: float = STALLED_AFTER) -> bool:
+        """Late by more than ``after`` s with the process nearly idle: stopped or starved, its
+        DDS threads too, for long enough that a peer with a lease of ``after`` s plus one
+        announcement period may have dropped it."""
+        return self.idle and self.late > after
 
 
 class Pulse:
@@ -69,8 +74,7 @@ class Pulse:
         used = cpu - self._cpu
         self._now, self._cpu = now, cpu
         late = since - self.period
-        stalled = late > STALLED_AFTER and used < IDLE_SHARE * since
-        return Beat(late if late > self.tolerance else 0.0, stalled)
+        return Beat(late if late > self.tolerance else 0.0, used < IDLE_SHARE * since)
 
 
 @dataclass(frozen=True)

@@ -392,11 +392,12 @@ SHORT_LEASE = REPO / "config" / "fastdds.xml"
 STOPPED_PAST_LEASE = 12.0
 
 
-def test_an_fls_process_stopped_past_its_lease_announces_itself_again_and_is_taken_back(
+def test_an_fls_process_stopped_past_its_lease_starts_afresh_and_is_taken_back(
     domain, tmp_path, monkeypatch
 ):
     """kill -STOP past the lease: every peer drops the FLS's participant; kill -CONT: the
-    process finds it stood still that long, announces itself again, and is taken back."""
+    process finds it stood still that long, starts afresh in place (a new participant, the
+    same pid), and is taken back."""
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.swarm import RunningSwarm
     from swazure_ros.sim.world import WorldSpec
@@ -434,7 +435,9 @@ def test_an_fls_process_stopped_past_its_lease_announces_itself_again_and_is_tak
         )
         assert runs[-1].outcome.departed == frozenset(), [run.outcome.departed for run in runs]
         assert_every_pair_is_the_engines(swarm.world, runs[-1], policy)
-        assert "announced it again" in (tmp_path / "fls_12.log").read_text()
+        process = swarm.processes.fls.processes[12]
+        assert process.pid == pid and process.poll() is None
+        assert "starting afresh (1 so far)" in (tmp_path / "fls_12.log").read_text()
 
 
 def test_a_killed_fls_process_started_again_with_its_id_rejoins_with_the_engines_pairs(

@@ -15,7 +15,7 @@ from collections.abc import Callable
 from rclpy.node import Node
 from swazure_interfaces.msg import Heartbeat
 
-from ...protocol.pulse import Alive, Pulse
+from ...protocol.pulse import STALLED_AFTER, Alive, Pulse
 from ..convert.discovery import heartbeat_message
 from ..plumbing.names import HEARTBEAT_QOS, HEARTBEAT_TOPIC
 from ..security.auth import SwarmKey
@@ -36,8 +36,9 @@ class Heartbeats:
     when a look comes more than :data:`BEHIND_AFTER` late (the executor is
     behind: busy, starved of CPU or stopped; the coordinator waits longer for
     it), and after a stall long enough for peers to have dropped this
-    process's participant (:meth:`announce_again`). A healthy process in a
-    quiet swarm sends none. ``newest()``: the (run, round) of the newest
+    process's participant, when the process joins again (:meth:`announce_again`,
+    or what :meth:`when_stalled` says). A healthy process in a quiet swarm
+    sends none. ``newest()``: the (run, round) of the newest
     control the radio has, which each beat says.
     """
 
@@ -59,15 +60,24 @@ class Heartbeats:
         self.hears_controls = False  # as the last beat said
         self.beats = 0  # heartbeats sent
         self.announced_again = 0  # times the process announced itself again after a stall
+        self._stall_after = STALLED_AFTER
+        self._on_stall: Callable[[float], None] = self.announce_again
         node.create_timer(PULSE_PERIOD, self.look)
+
+    def when_stalled(self, after: float, act: Callable[[float], None]) -> None:
+        """After a stall of more than ``after`` s with the CPU idle, ``act(late)`` instead of
+        :meth:`announce_again` (an FLS's program starts afresh past its lease)."""
+        self._stall_after = after
+        self._on_stall = act
 
     def look(self) -> None:
         """The executor's regular look: beat if there is news."""
         beat = self._pulse.look(time.monotonic(), time.process_time())
-        if beat.stalled:
-            self.announce_again(beat.late)
+        stalled = beat.stalled(self._stall_after)
+        if stalled:
+            self._on_stall(beat.late)
         hears = self._hears()
-        if hears != self.hears_controls or beat.behind or beat.stalled:
+        if hears != self.hears_controls or beat.behind or stalled:
             self.hears_controls = hears
             self.beat(beat.late)
 
@@ -83,15 +93,18 @@ class Heartbeats:
         """Make the heartbeats' writer anew: peers that dropped this participant see it again.
 
         A process stopped or starved past its peers' lease is dropped by them
-        (docs/protocol.md). When it goes on, DDS matches its endpoints again,
-        but its peers' ROS graph does not show its nodes again: the list of a
-        participant's nodes (``ros_discovery_info``) is a sample its peers'
-        readers acknowledged before they dropped it, and a reader matched
-        again is not sent it again (eProsima/Fast-DDS#2065). rmw_fastrtps
-        publishes that list afresh whenever an endpoint is made: a new
-        writer makes the peers' graph, the coordinator's liveness included,
-        show this process's nodes again, and its first beat goes to a
-        coordinator that has never heard that writer, latched.
+        (docs/protocol.md, "Coming back"). When it goes on, DDS matches its
+        endpoints again, but its peers' ROS graph does not show its nodes
+        again: the list of a participant's nodes (``ros_discovery_info``) is
+        a sample its peers' readers acknowledged before they dropped it, and
+        a reader matched again is not sent it again (eProsima/Fast-DDS#2065).
+        rmw_fastrtps publishes that list afresh whenever an endpoint is made:
+        a new writer makes the peers' graph show this process's nodes again.
+        Not every endpoint is always matched again, though (an FLS process
+        taken back so was once not heard by one neighbour in any later
+        round), so an FLS's own program starts afresh instead
+        (``fls_program.start_afresh``); a packed process, whose FLSs the
+        launcher hosts, announces itself again.
         """
         self._node.destroy_publisher(self._writer)
         self._writer = self._node.create_publisher(Heartbeat, HEARTBEAT_TOPIC, HEARTBEAT_QOS)

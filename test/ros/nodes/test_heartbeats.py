@@ -65,6 +65,14 @@ def test_a_radio_beats_when_it_hears_the_controls_and_when_its_executor_stood_st
         assert wait_until(lambda: radio.heartbeats.announced_again == 1, 60, spin)
         assert wait_until(lambda: len(beats) > said, 60, spin), "no heartbeat after announcing"
         assert beats[-1].late > STALLED_AFTER
+        # Told what to do after a stall of its own length (an FLS's program: start afresh),
+        # it does that instead, and only past that length.
+        stalls: list[float] = []
+        radio.heartbeats.when_stalled(BEHIND_AFTER + 1.0, stalls.append)
+        stood = BEHIND_AFTER + 2.5
+        timer = node.create_timer(0.01, lambda: (node.destroy_timer(timer), time.sleep(stood)))
+        assert wait_until(lambda: stalls, 60, spin), "a stall past its length did nothing"
+        assert stalls[0] > BEHIND_AFTER + 1.0 and radio.heartbeats.announced_again == 1
     finally:
         for executor in executors:
             executor.shutdown()
