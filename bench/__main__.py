@@ -49,6 +49,7 @@ from bench.swarm_solve import swarm_solve_section
 from bench.tags import tags_section
 from bench.test_suite import test_suite_section
 from bench.tracking import tracking_section
+from bench.under_load import under_load_section
 
 SECTIONS: dict[str, Callable[..., list[str]]] = {
     "engine": engine_section,
@@ -75,6 +76,7 @@ SECTIONS: dict[str, Callable[..., list[str]]] = {
     "tags": tags_section,
     "scale": scale_section,
     "exits": exits_section,
+    "under_load": under_load_section,
 }
 
 

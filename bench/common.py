@@ -188,6 +188,8 @@ def compute_all(
         "bring_up": bring_up.seconds,
         "discovery": distributed.seconds,
         "rounds": distributed.rounds,
+        "restarts": distributed.restarts,
+        "departed": len(distributed.departed),
         "moving": moved.seconds if moved is not None else 0.0,
         "timeouts": moved.timeouts if moved is not None else 0,
         "batches": moved.batches if moved is not None else 0,

@@ -28,6 +28,7 @@ from typing import IO
 
 import yaml
 
+from ..core.errors import SwazureError
 from ..files.description import SwarmDescription
 from ..files.results import atomic_write
 from ..ros.plumbing.names import node_name
@@ -58,7 +59,8 @@ FLS_PROGRAM = (
     "pipe = int(sys.argv.pop(1)); "
     "threading.Thread(target=lambda: (os.read(pipe, 1), os.kill(os.getpid(), signal.SIGINT)), "
     "daemon=True).start(); "
-    f"os.nice({FLS_NICENESS}); "
+    # Once: a program that starts itself afresh (fls_program.start_afresh) is at it already.
+    f"os.environ.get({fls_program.STARTED_AFRESH!r}) or os.nice({FLS_NICENESS}); "
     "from swazure_ros.ros.programs.fls_program import main; sys.exit(main())",
 )
 #: The environment of an FLS process, unless the user's sets it: UDP only, as between
@@ -221,19 +223,39 @@ class FlsProcesses:
         for count, fls_id in enumerate(self.fls_ids):
             if count:
                 time.sleep(interval)
-            log = self.log(fls_id).open("wb")
-            self._logs[fls_id] = log
-            self.processes[fls_id] = subprocess.Popen(
-                self.command(fls_id),
-                stdin=subprocess.DEVNULL,
-                stdout=log,
-                stderr=subprocess.STDOUT,
-                env=self._environment,
-                # Its own process group: a Ctrl-C at the terminal reaches the launcher
-                # alone, which then stops every FLS in order (stop).
-                start_new_session=True,
-                pass_fds=(self._pipe[0],),
-            )
+            self._launch(fls_id, "wb")
+
+    def restart(self, fls_id: int) -> None:
+        """Start FLS ``fls_id``'s process again, as it was started, once it has ended.
+
+        As a person would start a crashed FLS again: the same id and
+        arguments, its log going on after its last life's. The swarm takes it
+        back once the graph shows its node again (docs/protocol.md, "Coming
+        back"). SwazureError for an FLS not started here, or still running.
+        """
+        process = self.processes.get(fls_id)
+        if process is None:
+            raise SwazureError(f"FLS {fls_id} has no process here to start again")
+        if process.poll() is None:
+            raise SwazureError(f"FLS {fls_id}'s process (pid {process.pid}) is still running")
+        self._logs.pop(fls_id).close()
+        self._launch(fls_id, "ab")
+
+    def _launch(self, fls_id: int, mode: str) -> None:
+        """Start FLS ``fls_id``'s process, its output to its log opened in ``mode``."""
+        log = self.log(fls_id).open(mode)
+        self._logs[fls_id] = log
+        self.processes[fls_id] = subprocess.Popen(
+            self.command(fls_id),
+            stdin=subprocess.DEVNULL,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            env=self._environment,
+            # Its own process group: a Ctrl-C at the terminal reaches the launcher
+            # alone, which then stops every FLS in order (stop).
+            start_new_session=True,
+            pass_fds=(self._pipe[0],),
+        )
 
     def ended(self) -> list[Ended]:
         """The processes that have ended so far, in id order."""

@@ -168,6 +168,7 @@ class ProcessPerFls:
         self._on_lost = on_lost
         #: The FLS processes that ended once the swarm was up.
         self.lost: list[Ended] = []
+        self._reported: set[int] = set()  # FLSs whose process's end was reported
         #: How every FLS process ended, once stopped.
         self.ended: list[Ended] = []
 
@@ -175,14 +176,19 @@ class ProcessPerFls:
         self.fls.start()
 
     def watch(self, up: bool) -> None:
-        known = {one.fls_id for one in self.lost}
-        ended = [one for one in self.fls.ended() if one.fls_id not in known]
+        ended = [one for one in self.fls.ended() if one.fls_id not in self._reported]
         if ended and not up:
             # While it comes up, an FLS that ends has a fault to fix: stop and say which.
             raise RunError(f"{ended[0].describe()} (log: {self.fls.log(ended[0].fls_id)})")
         for one in ended:
+            self._reported.add(one.fls_id)
             self.lost.append(one)
             self._on_lost(one)
+
+    def restart(self, fls_id: int) -> None:
+        """Start FLS ``fls_id``'s process again once it has ended (FlsProcesses.restart)."""
+        self.fls.restart(fls_id)
+        self._reported.discard(fls_id)
 
     def created(self, own: int, host: SwarmHost) -> int:
         return min(host.discovered()[0], self.radios)

@@ -4,8 +4,13 @@
 broadcast their labels, closes a round when every FLS has broadcast and
 every process has delivered, and ENDs the run to collect the sources'
 estimates. Every wait has a deadline: ``round_timeout`` seconds without
-progress. The FLSs still silent then have departed, and the phase restarts
-without them; a source that never reports at the END has departed too.
+progress, or more once the swarm's rounds are slow. The FLSs still silent
+then have departed, and the phase restarts without them; a source that
+never reports at the END has departed too.
+
+The deadlines follow the swarm's measured round times (:class:`RoundTimes`),
+and a process that says it is alive but behind is given more time
+(:meth:`RoundClock.on_alive`), within bounds: slow is not dead.
 
 The clock only counts. Events go in (:meth:`RoundClock.on_sent`,
 :meth:`~RoundClock.on_ack`, :meth:`~RoundClock.on_estimates`,
@@ -16,6 +21,8 @@ controls to send come out; the coordinator node and the in-memory loop
 
 from __future__ import annotations
 
+import math
+from collections import deque
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
@@ -27,6 +34,19 @@ from .swarm_fit import FitSchedule, FitTally
 
 #: Phases of one run a lossy radio may spoil (and restart) before the run ends incomplete.
 MAX_LOSS_RESTARTS = 10
+#: A wait's deadline, in multiples of the slow end of the swarm's recent rounds: a round
+#: ten times slower than those of late is taken for silence, not for a busy machine.
+PATIENCE = 10.0
+#: Rounds the deadlines follow: a few runs' worth (grid25's discovery has 13 rounds).
+ROUNDS_KEPT = 64
+#: Which of the rounds kept the deadlines follow: the slow end, past one held-up round.
+SLOW_QUANTILE = 0.9
+#: The longest deadline, in round timeouts: rounds held up for long (a forged heartbeat
+#: under --no-key holds one MAX_STRETCH deadlines) cannot make every wait longer for ever.
+MOST_PATIENCE = 10.0
+#: A wait that a process alive but behind keeps asking more time for lasts at most this
+#: many deadlines after the last progress (RoundClock.on_alive).
+MAX_STRETCH = 3.0
 
 
 @dataclass
@@ -103,6 +123,49 @@ class StallClock:
         return True
 
 
+class RoundTimes:
+    """How long the swarm's rounds took, measured: what the coordinator's deadlines follow.
+
+    A wait's deadline is :data:`PATIENCE` times the slow end
+    (:data:`SLOW_QUANTILE`) of the last ``kept`` rounds that completed, never
+    less than ``floor`` (the coordinator's ``round_timeout``) and never more
+    than :data:`MOST_PATIENCE` times it. Rounds of 0.15 s (grid25, one
+    process per FLS, on a quiet machine; 0.2-1.5 s under a load of 30) keep
+    a floor of 10 s; rounds whose slow end takes 2 s make it 20 s. A
+    quantile and not the slowest: one round held up by a process behind
+    (:meth:`RoundClock.on_alive`) must not make every later wait ten times
+    its length, while rounds that are all slow (a big packed process that
+    is behind in every round) do. A round that timed out is no measure: its
+    length is the deadline itself. Seconds, on the deadlines' clock
+    (:class:`StallClock`).
+    """
+
+    def __init__(self, kept: int = ROUNDS_KEPT, patience: float = PATIENCE) -> None:
+        if kept < 1:
+            raise ValueError(f"kept must be at least 1 round, got {kept}")
+        if not (math.isfinite(patience) and patience > 0.0):
+            raise ValueError(f"patience must be a positive number, got {patience}")
+        self.patience = patience
+        self._took: deque[float] = deque(maxlen=kept)
+
+    def add(self, seconds: float) -> None:
+        """A round that completed in ``seconds`` (a negative or not finite one is no measure)."""
+        if math.isfinite(seconds) and seconds >= 0.0:
+            self._took.append(seconds)
+
+    @property
+    def slow(self) -> float:
+        """How long the slow rounds kept took (their SLOW_QUANTILE), s; 0 before the first."""
+        if not self._took:
+            return 0.0
+        ordered = sorted(self._took)
+        return ordered[min(int(SLOW_QUANTILE * len(ordered)), len(ordered) - 1)]
+
+    def deadline(self, floor: float) -> float:
+        """Seconds a wait may last without progress: ``floor``, or more after slow rounds."""
+        return min(max(floor, self.patience * self.slow), MOST_PATIENCE * floor)
+
+
 class Absences:
     """Who has been off the graph for ``grace`` seconds without a break.
 
@@ -147,7 +210,9 @@ class RoundClock:
     for every blind neighbour. ``estimator``: how sources make their
     estimates (``core.fit.SWARM_ESTIMATORS``); a swarm-fit run solves its
     ``fit_layers`` (``core.fit.fit_layers`` of the swarm's sensor) in the FIT
-    phase after discovery's.
+    phase after discovery's. :attr:`times`: the round times its deadlines
+    follow and it adds its own to (a coordinator sets its own, which every
+    one of its runs shares).
     """
 
     def __init__(
@@ -173,6 +238,7 @@ class RoundClock:
         self.loss_restarts = 0
         self.incomplete = False
         self.round_timeout = round_timeout
+        self.times = RoundTimes()
         self.departed = set(departed)
         self.sources = tuple(sources)
         self.targets = tuple(targets)
@@ -188,6 +254,9 @@ class RoundClock:
         self._collecting: frozenset[int] = frozenset()
         self._collected: dict[int, Sequence[Estimate]] = {}
         self._deadline = float("inf")
+        self._progress_at = 0.0  # when the wait last moved on (deadlines' clock, s)
+        self._opened_at = 0.0  # when the open round opened
+        self._stretched: set[str] = set()  # processes given more time in this wait
 
     @property
     def done(self) -> bool:
@@ -198,6 +267,12 @@ class RoundClock:
     def progress(self) -> str:
         """How far the run is, for a person watching."""
         return f"discovery round {self.round}"
+
+    @property
+    def patience(self) -> float:
+        """Seconds a wait may last without progress: the round timeout, or more after slow
+        rounds (:class:`RoundTimes`)."""
+        return self.times.deadline(self.round_timeout)
 
     @property
     def live(self) -> frozenset[int]:
@@ -225,7 +300,7 @@ class RoundClock:
         if new:
             tally.labels += sent.labels
             tally.fit.add(sent.fit_sums, sent.fit_moved, sent.fit_same)
-        self._deadline = now + self.round_timeout
+        self._moved_on(now)
         return self._close_round(now, timed_out=False) if tally.complete else []
 
     def on_ack(
@@ -238,7 +313,7 @@ class RoundClock:
         tally.ack(host)
         self.repairs += repairs
         tally.lost += lost
-        self._deadline = now + self.round_timeout
+        self._moved_on(now)
         return self._close_round(now, timed_out=False) if tally.complete else []
 
     def on_estimates(
@@ -248,7 +323,7 @@ class RoundClock:
         if source not in self._collecting or self.done:
             return []
         self._collected[source] = estimates
-        self._deadline = now + self.round_timeout
+        self._moved_on(now)
         if self._collecting <= set(self._collected):
             self._finish()
         return []
@@ -278,6 +353,41 @@ class RoundClock:
                 self._finish()
         return []
 
+    def on_alive(self, host: str, fls_ids: Iterable[int], now: float) -> list[Control]:
+        """Process ``host`` (a radio, hosting ``fls_ids``) says it is alive but behind.
+
+        A wait for it (a round it has not acknowledged, or in which one of
+        its FLSs is silent; an END one of them has not answered) is given a
+        deadline from ``now``, but never past :data:`MAX_STRETCH` deadlines
+        after the wait last moved on: a process that keeps saying so and never
+        answers (a forgery, under --no-key) holds a wait that long and no
+        longer, and an FLS whose node leaves the graph departs at once
+        whatever its process says (:meth:`on_gone`). Nothing to send.
+        """
+        if self.done or not self._waits_on(host, frozenset(fls_ids)):
+            return []
+        patience = self.patience
+        limit = self._progress_at + MAX_STRETCH * patience
+        if self._deadline < limit:
+            self._deadline = min(max(self._deadline, now + patience), limit)
+            if host not in self._stretched:
+                self._stretched.add(host)
+                self.warnings.append(
+                    f"run {self.run_id}: {host} is behind, alive: round {self.round} waits "
+                    f"for it up to {self._deadline - self._progress_at:.3g} s"
+                )
+        return []
+
+    def _waits_on(self, host: str, fls_ids: frozenset[int]) -> bool:
+        """Whether the open wait waits for process ``host`` or one of its FLSs ``fls_ids``."""
+        tally = self._tally
+        if tally is not None:
+            # A radio that speaks for departed FLSs alone is waited for no more (on_gone).
+            theirs = not fls_ids or not fls_ids <= self.departed
+            unacked = theirs and host not in tally.acks and len(tally.acks) < tally.hosts
+            return unacked or bool(fls_ids & tally.silent)
+        return bool(fls_ids & (self._collecting - set(self._collected)))
+
     def on_tick(self, now: float) -> list[Control]:
         """The time is ``now``: end a wait whose deadline has passed."""
         if self.done or now <= self._deadline:
@@ -290,8 +400,14 @@ class RoundClock:
         self._finish()
         return []
 
+    def _moved_on(self, now: float) -> None:
+        """The wait moved on at ``now``: its deadline is a patience from now."""
+        self._progress_at = now
+        self._deadline = now + self.patience
+
     def _control(self, command: int, now: float, **fields: object) -> Control:
-        self._deadline = now + self.round_timeout
+        self._moved_on(now)
+        self._stretched.clear()
         phase = self._phases[self._phase] if self._phase < len(self._phases) else 0
         fit = self._fit.step if phase == FIT and self._fit is not None else FitStep()
         return Control(
@@ -316,6 +432,7 @@ class RoundClock:
 
     def _open_round(self, now: float, finished: tuple[int, ...]) -> Control:
         self._tally = RoundTally(self.live, self.hosts)
+        self._opened_at = now
         return self._control(ROUND, now, finished_ids=finished)
 
     def _close_round(self, now: float, timed_out: bool) -> list[Control]:
@@ -323,12 +440,15 @@ class RoundClock:
         assert tally is not None
         self._tally = None
         self.round += 1
+        if not timed_out:
+            self.times.add(now - self._opened_at)
+        waited = f"{now - self._progress_at:.1f} s"
         if timed_out and tally.silent:
             self.departed |= tally.silent
             self.restarts += 1
             self.warnings.append(
-                f"run {self.run_id}: FLS {sorted(tally.silent)} silent for "
-                f"{self.round_timeout:g} s, departed; phase {self._phases[self._phase]} restarts"
+                f"run {self.run_id}: FLS {sorted(tally.silent)} silent for {waited}, "
+                f"departed; phase {self._phases[self._phase]} restarts"
             )
             return self._start_phase(now)
         # A process that never acknowledged may have missed offers (a radio that had
@@ -351,7 +471,7 @@ class RoundClock:
             what = (
                 f"{tally.lost} deliveries lost for good"
                 if tally.lost
-                else f"{unheard} process(es) silent for {self.round_timeout:g} s"
+                else f"{unheard} process(es) silent for {waited}"
             )
             self.warnings.append(
                 f"run {self.run_id}: {what} in round {self.round - 1}; "

@@ -199,7 +199,7 @@ def test_a_round_that_a_process_never_acknowledged_restarts_the_phase():
     assert (start.command, start.phase, start.departed_ids) == (START, SWEET_VISIBLE, ())
     assert (first.command, first.expected) == (ROUND, 3)
     assert run.restarts == 1 and not run.departed
-    assert "1 process(es) silent for 10 s in round 0" in run.warnings[-1]
+    assert "1 process(es) silent for 10.1 s in round 0" in run.warnings[-1]
 
 
 def test_a_radio_that_keeps_losing_ends_the_run_incomplete_without_estimates():
@@ -228,3 +228,130 @@ def test_an_absence_counts_only_once_it_lasts_the_grace():
     assert absences.gone({1, 2}, 2.0) == {1}
     assert absences.gone({2}, 3.9) == set()
     assert absences.gone({2}, 4.0) == {2}
+
+
+def test_the_deadlines_follow_the_swarms_measured_round_times():
+    from swazure_ros.protocol.rounds import PATIENCE, RoundTimes
+
+    times = RoundTimes()
+    assert times.deadline(TIMEOUT) == TIMEOUT  # nothing measured: the round timeout
+    # Quick rounds keep the floor; a loaded machine's slow ones stretch it.
+    fast = clock()
+    fast.times = times
+    fast.start(0.0)
+    every_offer(fast, 0, labels=1, now=0.1)
+    fast.on_ack(0, "host_0", 0.15)
+    assert times.slow == 0.15 and fast.patience == TIMEOUT
+    slow = clock()
+    slow.times = times
+    slow.start(0.0)
+    every_offer(slow, 0, labels=1, now=2.0)
+    slow.on_ack(0, "host_0", 2.5)  # a round of 2.5 s: the next run waits 25 s
+    assert slow.patience == PATIENCE * 2.5
+    every_offer(slow, 1, senders=(0, 2), now=3.0)
+    assert slow.on_tick(3.0 + TIMEOUT + 1.0) == []  # past the round timeout: not silent yet
+    start, _ = slow.on_tick(3.0 + PATIENCE * 2.5 + 0.1)
+    assert start.departed_ids == (1,)
+    # A round that timed out is no measure of how long rounds take.
+    assert times.slow == 2.5
+
+
+def test_round_times_keep_the_last_rounds_and_refuse_what_is_no_time():
+    import pytest
+
+    from swazure_ros.protocol.rounds import MOST_PATIENCE, RoundTimes
+
+    times = RoundTimes(kept=2, patience=4.0)
+    for took in (3.0, float("nan"), -1.0, float("inf"), 0.5, 0.25):
+        times.add(took)
+    assert times.slow == 0.5 and times.deadline(1.0) == 2.0
+    # The slow end, not the slowest: one round held up for 30 s moves no deadline.
+    many = RoundTimes(patience=10.0)
+    for took in [0.2] * 20 + [30.0]:
+        many.add(took)
+    assert many.deadline(1.0) == 2.0
+    # Rounds all held up make the deadlines longer, up to MOST_PATIENCE round timeouts.
+    for took in [30.0] * 20:
+        many.add(took)
+    assert many.deadline(1.0) == MOST_PATIENCE * 1.0
+    with pytest.raises(ValueError, match="kept"):
+        RoundTimes(kept=0)
+    with pytest.raises(ValueError, match="patience"):
+        RoundTimes(patience=float("nan"))
+
+
+def test_a_process_alive_but_behind_is_given_more_time_not_departed():
+    from swazure_ros.protocol.rounds import MAX_STRETCH
+
+    run = RoundClock(7, "fewest-hops", FLSS, 3, TIMEOUT)
+    run.start(0.0)
+    every_offer(run, 0, senders=(0, 2), labels=1, now=1.0)
+    run.on_ack(0, "fls_0", 1.0)
+    run.on_ack(0, "fls_2", 1.0)
+    # FLS 1's process says it is behind, twice: each time the round waits on.
+    assert run.on_alive("fls_1", (1,), 9.0) == []
+    assert run.on_tick(1.0 + TIMEOUT + 1.0) == []
+    run.on_alive("fls_1", (1,), 18.0)
+    assert run.on_tick(27.0) == []
+    # It answers: the round closes as ever, no FLS departed.
+    every_offer(run, 0, senders=(1,), labels=1, now=27.5)
+    (next_round,) = run.on_ack(0, "fls_1", 27.5)
+    assert next_round.round == 1 and not run.departed and run.restarts == 0
+    assert "fls_1 is behind, alive" in run.warnings[-1]
+    # One that says so and never answers is held MAX_STRETCH deadlines, no longer.
+    held = RoundClock(8, "fewest-hops", FLSS, 3, TIMEOUT)
+    held.start(0.0)
+    every_offer(held, 0, senders=(0, 2), labels=1, now=1.0)
+    now = 1.0
+    while not held.departed:
+        now += 0.5
+        held.on_alive("fls_1", (1,), now)
+        held.on_tick(now)
+    assert held.departed == {1}
+    assert 1.0 + MAX_STRETCH * TIMEOUT <= now <= 1.5 + MAX_STRETCH * TIMEOUT
+
+
+def test_a_process_the_wait_does_not_wait_on_changes_no_deadline():
+    run = RoundClock(7, "fewest-hops", FLSS, 2, TIMEOUT)
+    run.start(0.0)
+    every_offer(run, 0, senders=(0, 1), labels=1, now=1.0)
+    run.on_ack(0, "host_0", 1.0)
+    # host_0 acknowledged and its FLSs spoke: its word holds no one's deadline.
+    run.on_alive("host_0", (0, 1), 9.0)
+    start, _ = run.on_tick(1.0 + TIMEOUT + 0.1)
+    assert start.departed_ids == (2,)
+    # A run that is over takes no word at all.
+    over = clock(sources=(0,), targets=(2,))
+    over.start(0.0)
+    for round_ in range(3):
+        every_offer(over, round_)
+        over.on_ack(round_, "host_0", 0.0)
+    over.on_estimates(0, [], 0.1)
+    assert over.done and over.on_alive("host_0", FLSS, 0.2) == []
+
+
+def test_a_source_behind_at_the_end_is_waited_for_a_while():
+    run = clock(sources=(0, 2), targets=(2, 0))
+    run.start(0.0)
+    for round_ in range(3):
+        every_offer(run, round_)
+        run.on_ack(round_, "host_0", 0.0)
+    run.on_estimates(0, [], 0.0)
+    run.on_alive("fls_2", (2,), 8.0)
+    run.on_tick(TIMEOUT + 1.0)
+    assert not run.done
+    run.on_estimates(2, [], 12.0)
+    assert run.done and not run.outcome.departed
+
+
+def test_a_departed_flss_own_radio_behind_holds_no_round():
+    # Three FLSs, each its own radio; FLS 1 departed in an earlier run, its radio gone.
+    run = RoundClock(7, "fewest-hops", FLSS, 2, TIMEOUT, departed={1})
+    run.start(0.0)
+    every_offer(run, 0, senders=(0, 2), labels=1, now=1.0)
+    run.on_ack(0, "fls_0", 1.0)
+    # FLS 1's process goes on after a long stop and says it was behind: nobody waits for it.
+    run.on_alive("fls_1", (1,), 9.0)
+    assert not run.warnings
+    run.on_tick(1.0 + TIMEOUT + 0.1)
+    assert run.restarts == 1 and "1 process(es) silent" in run.warnings[-1]

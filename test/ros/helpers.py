@@ -37,30 +37,6 @@ def long_lease_environment(folder: Path, environment: dict[str, str]) -> dict[st
     profile.write_text(LONG_LEASE)
     return dict(environment, FASTRTPS_DEFAULT_PROFILES_FILE=str(profile))
 
-#: A Fast DDS participant lease of an hour (announced every 5 s), far longer than any
-#: wait of a test: a peer that drops a process's nodes within a test's wait was told the
-#: process left; it did not wait for the lease to run out. (The swarm's own is 20 s, and a
-#: test that asserted "gone within 10 s" flaked at 10.2 s on a busy machine.)
-LONG_LEASE = """<?xml version="1.0" encoding="UTF-8"?>
-<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
-  <profiles>
-    <participant profile_name="long_lease" is_default_profile="true">
-      <rtps><builtin><discovery_config>
-        <leaseDuration><sec>3600</sec></leaseDuration>
-        <leaseAnnouncement><sec>5</sec></leaseAnnouncement>
-      </discovery_config></builtin></rtps>
-    </participant>
-  </profiles>
-</dds>
-"""
-
-
-def long_lease_environment(folder: Path, environment: dict[str, str]) -> dict[str, str]:
-    """``environment`` with every participant of its processes on an hour's lease."""
-    profile = folder / "long-lease.xml"
-    profile.write_text(LONG_LEASE)
-    return dict(environment, FASTRTPS_DEFAULT_PROFILES_FILE=str(profile))
-
 
 def engine_expectations(world):
     """Per FLS id: {target id: measured vector} and its neighbour id sets, from the engine."""

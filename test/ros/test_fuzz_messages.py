@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 from rclpy.serialization import serialize_message
 from swazure_interfaces.msg import (
     DiscoveryControl,
+    Heartbeat,
     MoveCommands,
     PathOffer,
     PathWalk,
@@ -35,6 +36,7 @@ from swazure_ros.ros.plumbing.names import (
     ACK_TOPIC,
     CONTROL_TOPIC,
     ESTIMATES_TOPIC,
+    HEARTBEAT_TOPIC,
     MOVE_TOPIC,
     RADIO_TOPIC,
     TRACK_REQUESTS_TOPIC,
@@ -87,6 +89,12 @@ def test_generated_messages_stop_nothing_and_change_no_later_answer(domain, tmp_
             (TRACK_REQUESTS_TOPIC, message(TrackRequest, ids), radio._on_track_request, host),
             (TRACK_SAMPLES_TOPIC, message(TrackSample, ids), radio._on_track_sample, host),
             (ACK_TOPIC, message(RoundAck, ids_and_runs), raw(coordinator._on_ack), coordinator),
+            (
+                HEARTBEAT_TOPIC,
+                message(Heartbeat, ids_and_runs),
+                coordinator._on_heartbeat,
+                coordinator,
+            ),
             (
                 ESTIMATES_TOPIC,
                 message(PoseEstimates, ids_and_runs),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -10,6 +11,7 @@ from geometry_msgs.msg import Vector3
 from numpy.typing import NDArray
 from swazure_interfaces.msg import (
     DiscoveryControl,
+    Heartbeat,
     MoveCommand,
     MoveCommands,
     PathOffer,
@@ -41,6 +43,7 @@ from ...protocol.discovery.messages import (
     Report,
 )
 from ...protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
+from ...protocol.pulse import Alive
 from ...protocol.radio import Ack, Sent
 from ..plumbing.names import (
     ESTIMATOR_CODES,
@@ -411,6 +414,32 @@ def ack_message(ack: Ack, host: str, stamp: Time) -> RoundAck:
     message.host = host
     message.header.stamp = stamp
     return message
+
+
+def heartbeat_message(alive: Alive, stamp: Time) -> Heartbeat:
+    """A radio's word that it is alive, as a Heartbeat message."""
+    message = Heartbeat(
+        hears_controls=alive.hears_controls,
+        run_id=alive.run_id,
+        round=alive.round,
+        late=alive.late,
+    )
+    message.host = alive.host
+    message.header.stamp = stamp
+    return message
+
+
+#: Seconds a heartbeat may say its executor looked late, at most: a day.
+MAX_LATE = 86400.0
+
+
+def alive_from_message(message: Heartbeat) -> Alive:
+    """What a Heartbeat says; MessageError for a lateness that is no time (NaN, < 0, > a day)."""
+    late = float(message.late)
+    check(math.isfinite(late) and 0.0 <= late <= MAX_LATE, f"late {late} is not 0..{MAX_LATE:g} s")
+    return Alive(
+        message.host, bool(message.hears_controls), int(message.run_id), int(message.round), late
+    )
 
 
 def sent_message(control: Control, sent: Sent, host: str, stamp: Time) -> RoundAck:

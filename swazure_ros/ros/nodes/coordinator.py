@@ -37,6 +37,7 @@ from std_msgs.msg import Header
 from swazure_interfaces.msg import (
     Departed,
     DiscoveryControl,
+    Heartbeat,
     MoveCommands,
     PathWalk,
     PoseEstimates,
@@ -51,9 +52,10 @@ from ...protocol.discovery.messages import Control
 from ...protocol.discovery.search import bucket_width
 from ...protocol.moves import Move, MoveRun, Walk
 from ...protocol.plausible import implausible_estimates
-from ...protocol.rounds import RoundClock, StallClock
+from ...protocol.rounds import RoundClock, RoundTimes, StallClock
 from ...protocol.runs import DiscoveryResult, MoveResult, Traffic
 from ..convert.discovery import (
+    alive_from_message,
     control_message,
     estimates_from_message,
     moves_message,
@@ -69,6 +71,8 @@ from ..plumbing.names import (
     DEPARTED_QOS,
     DEPARTED_TOPIC,
     ESTIMATES_TOPIC,
+    HEARTBEAT_TOPIC,
+    HEARTBEATS_READ_QOS,
     LIVENESS_GRACE,
     MOVE_QOS,
     MOVE_TOPIC,
@@ -103,8 +107,9 @@ Action = Control | Move | Walk
 ROUND_TIMEOUT = ParameterSpec(
     "round_timeout",
     10.0,
-    "s without progress after which silent FLSs have departed (set while running too: the "
-    "next run takes it)",
+    "s without progress after which silent FLSs have departed, at least: ten times the slow "
+    "end of the swarm's recent rounds when that is longer (set while running too: the next "
+    "run takes it)",
     seconds(),
 )
 LIVENESS_PERIOD = ParameterSpec(
@@ -255,6 +260,11 @@ class Membership:
         """FLSs ``senders`` spoke through radio ``host``."""
         self._voices.setdefault(host, set()).update(senders)
 
+    def voices(self, host: str) -> set[int]:
+        """The FLSs radio ``host`` speaks for: those heard through it, and the FLS it is."""
+        own = fls_id_of(host)
+        return self._voices.get(host, set()) | ({own} if own is not None else set())
+
     def back_by(self, ack: RoundAck) -> set[int]:
         """Departed FLSs of radio ``ack.host`` that its signed ack says are back."""
         voices = self._voices.get(ack.host, set())
@@ -351,8 +361,14 @@ class Coordinator(SwarmNode):
         self.membership = Membership(hosts)
         self.positions = Positions(shape, self.fls_ids)
         self.runs = RunQueue()
-        # Deadlines stand still while this process is too busy to hear anything.
+        # Deadlines stand still while this process is too busy to hear anything, and
+        # follow how long the swarm's rounds take (every run's rounds measured).
         self._deadlines = StallClock(TICK, STALL, time.monotonic())
+        self.round_times = RoundTimes()
+        # The radios whose last heartbeat said they hear the controls (their node names):
+        # at most one per FLS and per process, whatever names a stranger makes up.
+        self._hearing: set[str] = set()
+        self._radios_at_most = len(self.fls_ids) + hosts
         self._read_ack = self.guard.reader(RoundAck)
         self._read_estimates = self.guard.reader(PoseEstimates)
         guard = self.guard.wrap
@@ -368,6 +384,7 @@ class Coordinator(SwarmNode):
         )
         self.create_subscription(PathWalk, WALKS_TOPIC, self._on_walk, ROUND_QOS, raw=True)
         self.guard.subscribe(WorldState, WORLD_TOPIC, self._on_world, WORLD_QOS)
+        self.guard.subscribe(Heartbeat, HEARTBEAT_TOPIC, self._on_heartbeat, HEARTBEATS_READ_QOS)
         # One source's search for one target, on demand (swazure query).
         self.pose_service = PoseService(
             self, shape, self.fls_ids, self.departed_next, self.discover
@@ -383,14 +400,21 @@ class Coordinator(SwarmNode):
         """Every host's radio hears the controls; the coordinator hears its acks.
 
         Matched endpoints, not names in the graph: a message sent to a reader
-        not matched yet is lost. Whether the hosts' radios have matched each
-        other's transmitters no one host can see: a round that a host never
-        acknowledges restarts its phase (:class:`~swazure_ros.protocol.rounds.RoundClock`).
+        not matched yet is lost. Both ends must have matched: the coordinator
+        sees its control writer's readers and its ack reader's writers, and
+        each radio says in its heartbeat that its reader of the controls has
+        matched their writer (:class:`~.heartbeats.Heartbeats`). Whether the
+        hosts' radios have matched each other's transmitters no one host can
+        see: a round that a host never acknowledges restarts its phase
+        (:class:`~swazure_ros.protocol.rounds.RoundClock`).
         """
         hosts = self.membership.hosts
+        gone = self.membership.gone
+        hearing = [host for host in self._hearing if fls_id_of(host) not in gone]
         return (
             self.outbox.control.get_subscription_count() >= hosts
             and self._acks.get_publisher_count() >= hosts
+            and len(hearing) >= hosts
         )
 
     # Runs ------------------------------------------------------------------
@@ -411,7 +435,7 @@ class Coordinator(SwarmNode):
         bucket_width(self.shape.sensor, self.shape.swarm.radius, check_policy(policy))
 
         def begin(run_id: int) -> Machine:
-            return RoundClock(
+            clock = RoundClock(
                 run_id,
                 policy,
                 self.fls_ids,
@@ -423,6 +447,8 @@ class Coordinator(SwarmNode):
                 estimator=estimator,
                 fit_layers=fit_layers(self.shape.sensor),
             )
+            clock.times = self.round_times
+            return clock
 
         return self._enqueue(begin)
 
@@ -530,7 +556,8 @@ class Coordinator(SwarmNode):
 
     def _on_liveness(self) -> None:
         membership = self.membership
-        newly = self._liveness.look(membership.gone)
+        # On the deadlines' clock: an absence does not grow while this process stalls.
+        newly = self._liveness.look(membership.gone, self._now())
         if self._liveness.back:
             self._take_back(self._liveness.back, "on the graph again")
         if len(membership.radios) < membership.hosts:
@@ -585,6 +612,27 @@ class Coordinator(SwarmNode):
                     int(ack.round), ack.host, self._now(), int(ack.repairs), int(ack.lost)
                 )
             )
+
+    def _on_heartbeat(self, message: Heartbeat) -> None:
+        """A radio says it is alive: whether it hears the controls, and how late it is.
+
+        A radio behind whose wait the running round holds gets more time
+        (``RoundClock.on_alive``, bounded); nobody is taken back by a
+        heartbeat, and nobody is kept from departing when the graph shows
+        its node gone (docs/protocol.md, "Slow is not dead").
+        """
+        alive = alive_from_message(message)
+        check(0 < len(alive.host) <= MAX_NAME, "a host name of no or too many characters")
+        if alive.hears_controls:
+            known = alive.host in self._hearing
+            check(known or len(self._hearing) < self._radios_at_most, "more radios than FLSs")
+            self._hearing.add(alive.host)
+        else:
+            self._hearing.discard(alive.host)
+        clock = self.runs.running()
+        if alive.late > 0.0 and isinstance(clock, RoundClock):
+            voices = self.membership.voices(alive.host)
+            self._act(clock.on_alive(alive.host, voices, self._now()))
 
     def _on_estimates(self, data: bytes) -> None:
         self.traffic.count(ESTIMATES_TOPIC, len(data))

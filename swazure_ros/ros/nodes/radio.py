@@ -66,6 +66,7 @@ from ..plumbing.names import (
     walks_topic,
 )
 from ..security.guard import Guard, RateLimit, check
+from .heartbeats import Heartbeats
 
 if TYPE_CHECKING:
     from .fls_node import FlsNode
@@ -184,6 +185,10 @@ class Radio:
         self.guard = guard or Guard(node)
         self._acks = node.create_publisher(RoundAck, ACK_TOPIC, ROUND_QOS)
         self.listening = False
+        self._controls: Subscription | None = None
+        self._newest = (0, 0)  # (run, round) of the newest control heard
+        #: What this radio says of itself: alive, hearing the controls, or behind.
+        self.heartbeats = Heartbeats(node, self.guard.key, self.hears_controls, self.newest)
         # Walks that must wait for a newer world revision, the oldest dropped first.
         self._early_walks: deque[Walk] = deque(maxlen=EARLY_WALKS)
         if listen:
@@ -276,12 +281,22 @@ class Radio:
 
         One process per FLS: every other FLS within one cell of this one's (of
         each band) hears its offers, and those of the decaying band its walks,
-        so the first number reaches the second once all of them listen.
+        so the first number reaches the second once all of them listen. This
+        process's own reader of a cell it also sends on is matched to its
+        writer too (DDS matches a participant's endpoints with each other) and
+        is wanted as well: counted as one of the others', it let an FLS take
+        part while one neighbour's reader was still unmatched, and two FLSs
+        missed each other's first offers (a round 0 waited out its whole
+        timeout in 5 of 16 loaded bring-ups of grid25, 2026-11-28).
         """
         readers = wanted = 0
-        for cell, publisher in [*self._sending.items(), *self._walks_sent.items()]:
+        sending = [(cell, publisher, self._listening) for cell, publisher in self._sending.items()]
+        sending += [
+            (cell, publisher, self._walks_heard) for cell, publisher in self._walks_sent.items()
+        ]
+        for cell, publisher, heard in sending:
             audible = self._audible[str(cell[0])]
-            want = int(np.count_nonzero(~np.isin(audible, self._local)))
+            want = int(np.count_nonzero(~np.isin(audible, self._local))) + int(cell in heard)
             readers += min(publisher.get_subscription_count(), want)
             wanted += want
         return readers, wanted
@@ -322,8 +337,21 @@ class Radio:
     def listen(self) -> None:
         """Hear the coordinator's controls: from now on the swarm's rounds count on this radio."""
         if not self.listening:
-            self._subscribe(DiscoveryControl, CONTROL_TOPIC, self._on_control)
+            self._controls = self._subscribe(DiscoveryControl, CONTROL_TOPIC, self._on_control)
             self.listening = True
+
+    def hears_controls(self) -> bool:
+        """Whether this radio listens and its reader of the controls has matched their writer.
+
+        Only the radio sees its own reader matched; the coordinator sees its
+        writer matched, which can be sooner, and a control sent to a reader
+        that has not matched yet is lost to it (its heartbeats say this).
+        """
+        return self._controls is not None and self._controls.get_publisher_count() > 0
+
+    def newest(self) -> tuple[int, int]:
+        """(run, round) of the newest control this radio heard; (0, 0) before any."""
+        return self._newest
 
     def ack_readers(self) -> int:
         """Readers matched to this radio's acknowledgements (the coordinator's)."""
@@ -331,8 +359,8 @@ class Radio:
 
     def _subscribe(
         self, kind: type, topic: str, callback: Callable[[Any], None], qos: QoSProfile = ROUND_QOS
-    ) -> None:
-        self.guard.subscribe(kind, topic, callback, qos)
+    ) -> Subscription:
+        return self.guard.subscribe(kind, topic, callback, qos)
 
     @property
     def _swarm(self) -> IntArray:
@@ -378,6 +406,7 @@ class Radio:
         control = control_from_message(message, self._swarm)
         self.controls_heard += 1
         self.last_control_at = time.monotonic()
+        self._newest = (control.run_id, control.round)
         if control.command == START and control.estimator != PATH:
             self._hear_readings()
         recipients, ack, heard = self._hub.on_control(control)

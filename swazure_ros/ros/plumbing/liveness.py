@@ -31,10 +31,14 @@ class FlsLiveness:
         self.back: set[int] = set()
         self.nodes: list[tuple[str, str]] = []  # the graph's (name, namespace) at the last look
 
-    def look(self, gone: set[int]) -> set[int]:
+    def look(self, gone: set[int], now: float | None = None) -> set[int]:
         """The FLSs newly gone (not already in ``gone``), from the graph as it is now.
 
         Sets :attr:`back`: the FLSs of ``gone`` that have been on it again for ``grace`` s.
+        ``now``: the time the grace runs on, s (monotonic by default). A looker
+        whose process stalls gives a clock that leaves its stalls out (the
+        coordinator's ``StallClock``): an FLS is not counted absent while the
+        looker could not look.
         """
         self.nodes = self._node.get_node_names_and_namespaces()
         present = {
@@ -43,6 +47,6 @@ class FlsLiveness:
             if where == self.namespace and (fls_id := fls_id_of(name)) is not None
         }
         self.seen |= present
-        now = time.monotonic()
+        now = time.monotonic() if now is None else now
         self.back = self._present.gone(present & gone, now)
         return self._absent.gone(self.seen - present - gone, now)

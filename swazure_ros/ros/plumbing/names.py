@@ -46,6 +46,8 @@ TRACK_SAMPLES_TOPIC = "track_samples"
 TRACK_ESTIMATES_TOPIC = "track_estimates"
 TRACK_PROGRESS_TOPIC = "track_progress"
 DEPARTED_TOPIC = "departed"
+#: Each process's radio says it is alive (swazure_interfaces/Heartbeat; docs/protocol.md).
+HEARTBEAT_TOPIC = "heartbeats"
 #: The swarm instance, announced by the world node (swazure_interfaces/SwarmInstance).
 INSTANCE_TOPIC = "swarm_instance"
 #: The swarm as RViz markers (view node), and the Foxglove channel of the same scene.
@@ -135,6 +137,11 @@ TF_STATIC_QOS = QoSProfile(
 )
 # Who is gone is state, like the world: a reader that comes later gets the list.
 DEPARTED_QOS = WORLD_QOS
+# Whether a radio hears the controls is state too: each radio's last beat is latched, so
+# that a coordinator whose reader matches late (or a restarted one) gets it. The reader
+# keeps every beat until taken: a hundred radios' latched beats come at once.
+HEARTBEAT_QOS = MEASUREMENTS_QOS
+HEARTBEATS_READ_QOS = READINGS_QOS
 INSTANCE_QOS = WORLD_QOS
 # So is the scene: RViz started later draws the current one.
 SCENE_QOS = WORLD_QOS

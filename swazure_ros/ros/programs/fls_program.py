@@ -9,7 +9,12 @@ only once every FLS and the coordinator hear it (:class:`RadioJoin`).
 
 from __future__ import annotations
 
+import contextlib
+import os
+import stat
+import sys
 import time
+from functools import partial
 from typing import Any
 
 from rclpy.context import Context
@@ -26,6 +31,7 @@ from ..nodes.fls_node import FlsNode, RadioLink
 from ..nodes.fls_parameters import JOIN_TIMEOUT
 from ..nodes.instance import program_key
 from ..nodes.radio import Radio
+from ..plumbing.lease import participant_lease
 from ..plumbing.names import DETECTIONS_TOPIC
 from ..plumbing.parameters import ParameterSpec
 from ..plumbing.runtime import (
@@ -44,6 +50,8 @@ from ..plumbing.runtime import (
 JOIN_POLL = 0.1
 #: Seconds between two lines of a standalone FLS that still waits to be heard.
 WAITING_SAID_EVERY = 5.0
+#: In the environment of an FLS program that started itself afresh: how many times it has.
+STARTED_AFRESH = "SWAZURE_STARTED_AFRESH"
 
 
 FLS_ID = ParameterSpec("fls_id", -1, "this FLS's id: its row in the swarm's point cloud; required")
@@ -110,6 +118,9 @@ class RadioJoin:
             readings=node.discovery.readings,
         )
         node.transmitter.broadcast = self.radio.broadcast
+        # Stalled for longer than its peers wait for its announcements, it starts afresh.
+        silence = participant_lease().silence
+        self.radio.heartbeats.when_stalled(silence, partial(start_afresh, node))
         self.made_at = time.monotonic()
         node.get_logger().info(  # type: ignore[no-untyped-call]
             "radio on: its camera's first frame is in; waiting to be heard by every FLS and "
@@ -144,6 +155,47 @@ class RadioJoin:
             )
             self.node.get_logger().info(f"on the swarm's radio: {how}")  # type: ignore[no-untyped-call]
             self.node.destroy_timer(self.poll)
+
+
+def start_afresh(node: Node, late: float) -> None:
+    """Start this program again in this process: a new DDS participant, as if started anew.
+
+    Its executor stood still for ``late`` s, its CPU idle (stopped, or
+    starved): longer than its peers wait for its announcements, so they have
+    dropped its participant. Going on with it, its peers' graph would not show
+    its node again, and some of its endpoints would not be matched again
+    (docs/protocol.md, "Coming back"). A process started afresh is a new
+    participant (Fast DDS gives each a new random GUID prefix) that comes up
+    as at bring-up and is taken back as an FLS started again is. It keeps its
+    pid, its log and the launcher's pipe (``app.per_fls.FLS_PROGRAM``); the old
+    participant is not torn down, which its peers no longer hear anyway (and
+    a teardown while peers come and go is where Fast DDS deadlocks, #6502).
+    """
+    count = int(os.environ.get(STARTED_AFRESH, "0") or 0) + 1
+    node.get_logger().warning(
+        f"its executor stood still for {late:.1f} s, its CPU idle: its peers have dropped it; "
+        f"starting afresh ({count} so far)"
+    )
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):
+            stream.flush()
+    close_on_exec_all_but_pipes()
+    os.execve(sys.executable, sys.orig_argv, {**os.environ, STARTED_AFRESH: str(count)})
+
+
+def close_on_exec_all_but_pipes() -> None:
+    """Have an exec close every descriptor but the standard three and pipes.
+
+    Fast DDS opens its sockets and shared-memory locks without close-on-exec:
+    a program started afresh would hold the old participant's (8 sockets, its
+    ports). A pipe is what a launcher gave the process to keep
+    (``app.per_fls.FLS_PROGRAM``'s, whose end of file stops the FLS).
+    """
+    for name in os.listdir("/proc/self/fd"):
+        with contextlib.suppress(OSError):  # the listing's own, closed by now
+            fd = int(name)
+            if fd > 2 and not stat.S_ISFIFO(os.fstat(fd).st_mode):
+                os.set_inheritable(fd, False)
 
 
 def build_fls(context: Context, values: dict[str, Any]) -> list[Node]:

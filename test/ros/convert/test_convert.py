@@ -36,6 +36,7 @@ from swazure_ros.protocol.discovery.messages import (
     Report,
 )
 from swazure_ros.protocol.moves import RETURN, STEP_ASIDE, WALKING, Move, Walk
+from swazure_ros.protocol.pulse import Alive
 from swazure_ros.protocol.radio import Ack, Sent
 from swazure_ros.protocol.tracking import (
     START_RELAY,
@@ -46,10 +47,12 @@ from swazure_ros.protocol.tracking import (
 )
 from swazure_ros.ros.convert.discovery import (
     ack_message,
+    alive_from_message,
     control_from_message,
     control_message,
     estimates_from_message,
     estimates_message,
+    heartbeat_message,
     moves_from_message,
     moves_message,
     offer_from_message,
@@ -369,6 +372,20 @@ def test_a_round_ack_carries_its_host_and_counts():
     got = wire(ack_message(ack, "host_1", Time(sec=2)))
     assert (got.run_id, got.phase, got.round, got.heard) == (7, SWEET_ALL, 3, 12)
     assert (got.repairs, got.lost, got.host, got.header.stamp.sec) == (2, 1, "host_1", 2)
+
+
+def test_a_heartbeat_reads_back_what_its_radio_said():
+    alive = Alive("fls_12", True, 7, 3, 2.5)
+    got = wire(heartbeat_message(alive, Time(sec=2)))
+    assert alive_from_message(got) == alive and got.header.stamp.sec == 2
+
+
+@pytest.mark.parametrize("late", [float("nan"), -1.0, float("inf"), 1e7])
+def test_a_heartbeat_late_by_no_time_is_refused(late):
+    message = heartbeat_message(Alive("fls_1", False, 0, 0, 0.0), Time())
+    message.late = late
+    with pytest.raises(MessageError, match="late"):
+        alive_from_message(message)
 
 
 def test_moves_read_back_as_commanded_kinds_and_displacements():

@@ -1,0 +1,115 @@
+"""A process's radio says it is alive: its heartbeats (docs/protocol.md, "Slow is not dead").
+
+The coordinator hears a radio through its acknowledgements while rounds run.
+What it cannot hear is a radio that is alive but behind, or one that has not
+matched its controls yet: both look silent. :class:`Heartbeats` says so, from
+the process's own executor (a callback that a stopped or deadlocked
+executor never runs), on ``heartbeats`` (swazure_interfaces/Heartbeat).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+from rclpy.node import Node
+from swazure_interfaces.msg import Heartbeat
+
+from ...protocol.pulse import STALLED_AFTER, Alive, Pulse
+from ..convert.discovery import heartbeat_message
+from ..plumbing.names import HEARTBEAT_QOS, HEARTBEAT_TOPIC
+from ..security.auth import SwarmKey
+
+#: Seconds between two looks of a radio's executor at its own progress. A process at rest
+#: spends a few tens of microseconds a look; the first beat of a radio that hears the
+#: controls waits for the next look, and the swarm's bring-up with it.
+PULSE_PERIOD = 0.5
+#: Seconds a look may come late and still be on time: a whole second behind is news.
+BEHIND_AFTER = 1.0
+
+
+class Heartbeats:
+    """The heartbeats of one process's radio, beaten by its executor's regular looks.
+
+    A beat goes out when the radio's reader of the coordinator's controls
+    matches or unmatches (``hears``: a run can count on it from then on),
+    when a look comes more than :data:`BEHIND_AFTER` late (the executor is
+    behind: busy, starved of CPU or stopped; the coordinator waits longer for
+    it), and after a stall long enough for peers to have dropped this
+    process's participant, when the process joins again (:meth:`announce_again`,
+    or what :meth:`when_stalled` says). A healthy process in a quiet swarm
+    sends none. ``newest()``: the (run, round) of the newest
+    control the radio has, which each beat says.
+    """
+
+    def __init__(
+        self,
+        node: Node,
+        key: SwarmKey,
+        hears: Callable[[], bool],
+        newest: Callable[[], tuple[int, int]],
+    ) -> None:
+        self._node = node
+        self._key = key
+        self._hears = hears
+        self._newest = newest
+        self._writer = node.create_publisher(Heartbeat, HEARTBEAT_TOPIC, HEARTBEAT_QOS)
+        self._pulse = Pulse(
+            PULSE_PERIOD, time.monotonic(), time.process_time(), tolerance=BEHIND_AFTER
+        )
+        self.hears_controls = False  # as the last beat said
+        self.beats = 0  # heartbeats sent
+        self.announced_again = 0  # times the process announced itself again after a stall
+        self._stall_after = STALLED_AFTER
+        self._on_stall: Callable[[float], None] = self.announce_again
+        node.create_timer(PULSE_PERIOD, self.look)
+
+    def when_stalled(self, after: float, act: Callable[[float], None]) -> None:
+        """After a stall of more than ``after`` s with the CPU idle, ``act(late)`` instead of
+        :meth:`announce_again` (an FLS's program starts afresh past its lease)."""
+        self._stall_after = after
+        self._on_stall = act
+
+    def look(self) -> None:
+        """The executor's regular look: beat if there is news."""
+        beat = self._pulse.look(time.monotonic(), time.process_time())
+        stalled = beat.stalled(self._stall_after)
+        if stalled:
+            self._on_stall(beat.late)
+        hears = self._hears()
+        if hears != self.hears_controls or beat.behind or stalled:
+            self.hears_controls = hears
+            self.beat(beat.late)
+
+    def beat(self, late: float = 0.0) -> None:
+        """Say that this radio is alive, what it hears, and how ``late`` its executor looked."""
+        run_id, round_ = self._newest()
+        alive = Alive(self._node.get_name(), self.hears_controls, run_id, round_, late)
+        stamp = self._node.get_clock().now().to_msg()
+        self._writer.publish(self._key.serialize(heartbeat_message(alive, stamp)))
+        self.beats += 1
+
+    def announce_again(self, late: float) -> None:
+        """Make the heartbeats' writer anew: peers that dropped this participant see it again.
+
+        A process stopped or starved past its peers' lease is dropped by them
+        (docs/protocol.md, "Coming back"). When it goes on, DDS matches its
+        endpoints again, but its peers' ROS graph does not show its nodes
+        again: the list of a participant's nodes (``ros_discovery_info``) is
+        a sample its peers' readers acknowledged before they dropped it, and
+        a reader matched again is not sent it again (eProsima/Fast-DDS#2065).
+        rmw_fastrtps publishes that list afresh whenever an endpoint is made:
+        a new writer makes the peers' graph show this process's nodes again.
+        Not every endpoint is always matched again, though (an FLS process
+        taken back so was once not heard by one neighbour in any later
+        round), so an FLS's own program starts afresh instead
+        (``fls_program.start_afresh``); a packed process, whose FLSs the
+        launcher hosts, announces itself again.
+        """
+        self._node.destroy_publisher(self._writer)
+        self._writer = self._node.create_publisher(Heartbeat, HEARTBEAT_TOPIC, HEARTBEAT_QOS)
+        self.announced_again += 1
+        self._node.get_logger().info(
+            f"its executor stood still for {late:.1f} s, its CPU idle: peers may have dropped "
+            "this process; announced it again"
+        )
