@@ -122,7 +122,7 @@ def test_generated_messages_stop_nothing_and_change_no_later_answer(domain, tmp_
 
         # The run the messages were aimed at ends by its deadlines, whatever it made of them.
         try:
-            swarm.run(under_way, timeout=120)
+            swarm.run(under_way, timeout=300)
         except Exception as err:
             print(f"the run under fire: {type(err).__name__}: {err}")
         # The swarm still answers, and a new run gives the engine's answers.

@@ -454,13 +454,15 @@ def test_without_a_key_forged_starts_evict_nobody_for_good_and_forged_acks_resto
             source, target, _, row = blind_pair_with_a_sweet_path(world)
             client = Client(swarm, context)
             try:
-                response = client.call(source, target, policy=policy_code(POLICY), timeout=120)
+                response = client.call(
+                    source, target, policy=policy_code(POLICY), timeout=PATIENCE
+                )
             finally:
                 client.close()
             assert response.success, response.message
             answer = pose_estimate_from_message(response.estimate)
             assert answer.path == tuple(int(world.ids[k]) for k in engine.path(row))
-            result = swarm.discover(POLICY, timeout=120)
+            result = swarm.discover(POLICY, timeout=PATIENCE)
         finally:
             node.destroy_node()
         assert result.outcome.departed == frozenset()

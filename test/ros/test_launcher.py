@@ -199,7 +199,7 @@ def test_spawn_and_evaluate_refuse_a_sensor_without_a_blind_range_in_the_same_li
     said = []
     for verb, more in (("spawn", ["--until-ready", "--quiet"]), ("evaluate", [])):
         run = swazure(verb, "--cloud", "helix:60", "--beta", "0.5", "--sensor", str(sensor), *more)
-        _, err = run.communicate(timeout=120)
+        _, err = run.communicate(timeout=PATIENCE)
         assert run.returncode == 2, err
         assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
         said.append(err.removeprefix(f"swazure {verb}: error: "))
@@ -236,7 +236,7 @@ def test_spawn_refuses_a_round_timeout_that_is_not_a_positive_number_of_seconds(
     params.write_text(f"/**/coordinator:\n  ros__parameters:\n    round_timeout: {value}\n")
     run = swazure("spawn", "--cloud", "helix:60", "--beta", "0.5", "--params", str(params),
                   "--quiet")  # fmt: skip
-    _, err = run.communicate(timeout=120)
+    _, err = run.communicate(timeout=PATIENCE)
     assert run.returncode == 2, err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
     assert err.startswith(

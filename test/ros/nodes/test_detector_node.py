@@ -20,7 +20,7 @@ from swazure_ros.ros.nodes.detector_node import ArucoDetectorNode
 from swazure_ros.ros.plumbing.names import DETECTIONS_QOS
 from swazure_ros.ros.plumbing.runtime import SwarmNode
 
-from ...waits import wait_until
+from ...waits import PATIENCE, wait_until
 
 FRAME = "fls_0_camera_optical"
 
@@ -57,16 +57,18 @@ def test_intrinsics_that_give_no_finite_pose_are_dropped_and_nothing_non_finite_
     try:
         # Issue 66: a camera_info of fx = fy = 1e-300 made the detector publish NaN.
         bad = replace(camera, **intrinsics)
-        assert wait_until(lambda: dropped_infos() >= 5, 60, lambda: feed(bad)), "not dropped"
+        assert wait_until(lambda: dropped_infos() >= 5, PATIENCE, lambda: feed(bad)), "not dropped"
         assert detector.images_read == 0  # no intrinsics taken: no image read
         # The node keeps running: good intrinsics are taken, and bad ones after them are
         # dropped while the good ones stay.
-        assert wait_until(lambda: len(received) >= 3, 60, lambda: feed(camera)), "no detections"
+        assert wait_until(lambda: len(received) >= 3, PATIENCE, lambda: feed(camera)), (
+            "no detections"
+        )
         before = dropped_infos()
         taken = len(received)
         assert wait_until(
             lambda: dropped_infos() >= before + 5 and len(received) >= taken + 3,
-            60,
+            PATIENCE,
             lambda: feed(bad),
         ), "bad intrinsics after good ones"
     finally:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from swazure_ros.ros.plumbing.liveness import FlsLiveness
 
-from ...waits import wait_until
+from ...waits import PATIENCE, wait_until
 from ..conftest import make_context
 
 
@@ -18,7 +18,7 @@ def test_an_fls_node_off_the_graph_is_gone_after_the_grace_on_the_lookers_clock(
     fls = Node("fls_3", namespace="swarm", context=fls_context)
     liveness = FlsLiveness(looker, "swarm", grace=2.0)
     try:
-        assert wait_until(lambda: (liveness.look(set(), 0.0), 3 in liveness.seen)[1], 60)
+        assert wait_until(lambda: (liveness.look(set(), 0.0), 3 in liveness.seen)[1], PATIENCE)
         fls.destroy_node()
         fls_context.try_shutdown()
         assert wait_until(

@@ -21,7 +21,7 @@ def imported_by(module: str, then: str = "") -> set[str]:
         [sys.executable, "-c", PROBE.format(module=module, then=then)],
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=600,  # a fresh interpreter's imports, on a busy machine
         check=True,
     )
     return set(json.loads(run.stdout))

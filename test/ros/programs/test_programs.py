@@ -244,7 +244,7 @@ def program(name: str, *args: str) -> subprocess.CompletedProcess[str]:
     """Run program ``name`` to its end, as ``ros2 run swazure_ros NAME ARGS`` runs it."""
     main = f"import sys; from {MAINS[name]} import main; sys.exit(main(sys.argv))"
     return subprocess.run(
-        [sys.executable, "-c", main, *args], capture_output=True, text=True, timeout=120
+        [sys.executable, "-c", main, *args], capture_output=True, text=True, timeout=PATIENCE
     )
 
 
