@@ -8,7 +8,7 @@ from swazure_ros.ros.nodes.radio import Radio
 from swazure_ros.ros.plumbing.runtime import SwarmNode
 
 from ...conftest import REPO
-from ...waits import wait_until
+from ...waits import PATIENCE, wait_until
 from ..conftest import make_context
 
 # Three FLSs in one radio cell of each band: each hears the other two.
@@ -41,7 +41,7 @@ def test_an_fls_is_not_heard_by_every_neighbour_while_one_is_missing(domain):
         # It sends offers on its sweet and decaying cells and walks on its walks cell; each
         # has two readers now, its own and FLS 1's, and wants three.
         assert wait_until(
-            lambda: radio.cell_readers()[0] == 6, 60, lambda: executor.spin_once(0.1)
+            lambda: radio.cell_readers()[0] == 6, PATIENCE, lambda: executor.spin_once(0.1)
         )
         assert radio.cell_readers() == (6, 9)  # FLS 2's readers are missing
         for _ in range(10):
