@@ -226,8 +226,11 @@ def test_nodes_stopped_mid_run_are_known_gone_at_once_not_after_a_round_timeout(
             assert one.path == tuple(int(ids[k]) for k in expected.path(pair))
         assert len(found) == int(keep.sum())
         # Who is gone is on /swarm/departed for anyone to read.
-        swarm.spin(1.0)
-        assert heard and sorted(heard[-1].fls_ids) == sorted(stopped)
+        assert wait_until(
+            lambda: heard and sorted(heard[-1].fls_ids) == sorted(stopped),
+            PATIENCE,
+            lambda: swarm.spin(0.1),
+        ), heard[-1:]
         # And every FLS knows which of its own neighbours are gone.
         from swazure_interfaces.srv import GetNeighbours
 
