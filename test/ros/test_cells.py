@@ -131,9 +131,17 @@ def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, 
             assert wait_until(
                 lambda: node.count_subscribers(topic) >= 1, PATIENCE, lambda: swarm.spin(0.1)
             )
-            # The echo's reader matched to every FLS's writer, not only seen: seconds on a
-            # loaded machine.
-            swarm.spin(3.0)
+
+            # The echo's reader matched to the cell's writer, not only seen: seconds on a
+            # loaded machine. Matched, the writer counts every reader the graph shows.
+            def matched() -> bool:
+                writers = [one for one in node.publishers if one.topic_name == topic]
+                readers = node.count_subscribers(topic)
+                return bool(writers) and all(
+                    one.get_subscription_count() >= readers for one in writers
+                )
+
+            assert wait_until(matched, PATIENCE, lambda: swarm.spin(0.1))
             result = swarm.discover(POLICY)
             swarm.spin(1.0)
         finally:
