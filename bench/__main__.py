@@ -22,6 +22,7 @@ from bench.common import (
     REPO,
     SECTIONS_DIR,
     compute_all,
+    held_domains,
     machine,
     measured_commit,
     merged,
@@ -98,6 +99,14 @@ def main() -> int:
             file=sys.stderr,
         )
         return 2
+    # The sections' swarms run on fixed domain ids within the tests' range: held, so that
+    # a `make test` beside the bench never meets them.
+    with held_domains():
+        return measure(args)
+
+
+def measure(args: argparse.Namespace) -> int:
+    """Run ``args.sections`` and merge them into ``args.output``."""
     # Warm numba's compilation cache so that no run pays for compiling: the engine's
     # kernels, the heuristics' and the swarm's (make setup compiled them; a swarm's
     # processes run them once more here, in case).

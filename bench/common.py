@@ -5,11 +5,15 @@ And the merge of a run's sections into BENCHMARKS.md.
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import os
 import platform
+import socket
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -93,6 +97,50 @@ SWAZURE = [sys.executable, "-m", "swazure_ros.cli.main"]
 
 
 SECTIONS_DIR = REPO / "build" / "bench"
+
+#: The ROS domain ids the bench's sections run their swarms on, each section's
+#: default (bench.swarm 91, discovery 92, cells, hostile, swarm_fit and tracking 93,
+#: replay and soak 94, faults 95, under_load 96, fls_process 151). A section that
+#: takes another fixed id must add it here. bench.exits reserves a free one instead.
+BENCH_DOMAINS = (91, 92, 93, 94, 95, 96, 151)
+#: ROS 2's domain_coordinator holds domain id ``k`` by binding TCP port 32768 + k; the
+#: tests hold theirs so too (test/domains.py).
+DOMAIN_PORT_BASE = 32768
+
+
+@contextlib.contextmanager
+def held_domains(domains: tuple[int, ...] = BENCH_DOMAINS) -> Iterator[None]:
+    """Hold ``domains`` on this machine while the ``with`` block runs.
+
+    Held as the tests and launch_testing hold theirs, so that a `make test` or
+    another project's ROS tests beside the bench never take them while it runs
+    (those ids are in the tests' default range, 1-100). An id held by someone
+    else is waited for, saying so: the tests hold theirs for one test's length.
+    """
+    holders: list[socket.socket] = []
+    try:
+        for domain in domains:
+            said = False
+            while True:
+                holder = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+                try:
+                    holder.bind(("", DOMAIN_PORT_BASE + domain))
+                except OSError as error:
+                    holder.close()
+                    if error.errno != errno.EADDRINUSE:
+                        raise
+                    if not said:
+                        print(f"bench: waiting for ROS domain {domain}, held by another run",
+                              flush=True)  # fmt: skip
+                        said = True
+                    time.sleep(1.0)
+                    continue
+                holders.append(holder)
+                break
+        yield
+    finally:
+        for holder in holders:
+            holder.close()
 
 
 def spawn_command(cloud: str, domain: int, *options: str) -> list[str]:

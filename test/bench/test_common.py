@@ -1,6 +1,11 @@
 """bench.common: how a run of some sections is merged into BENCHMARKS.md."""
 
-from bench.common import merged, stamped
+import errno
+import socket
+
+import pytest
+
+from bench.common import BENCH_DOMAINS, DOMAIN_PORT_BASE, held_domains, merged, stamped
 
 
 def test_a_section_with_two_headings_replaces_both_and_stays_once_when_run_again():
@@ -43,3 +48,24 @@ def test_a_section_of_its_own_heading_is_replaced_whole_with_its_stamp_after_the
     once = merged("## Camera\n\nold text\n\n### Gone\n\nold\n", [stamped(body, "stamp")])
     assert "old" not in once and "### Gone" not in once
     assert once.split("\n")[4:8] == ["## Camera", "", "stamp", ""]
+
+
+def bound(port: int) -> socket.socket:
+    holder = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+    try:
+        holder.bind(("", port))
+    except OSError:
+        holder.close()
+        raise
+    return holder
+
+
+def test_the_bench_holds_its_domain_ids_as_the_tests_hold_theirs_while_it_runs():
+    # An id out of DDS's range (250) that no run holds: its port alone is what is held.
+    with held_domains((250,)):
+        with pytest.raises(OSError) as held:
+            bound(DOMAIN_PORT_BASE + 250)
+        assert held.value.errno == errno.EADDRINUSE
+    bound(DOMAIN_PORT_BASE + 250).close()  # let go after
+    # Its own ids are the tests' kind (within 1..232).
+    assert all(0 < domain <= 232 for domain in BENCH_DOMAINS)
