@@ -360,7 +360,6 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
     """
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.swarm import RunningSwarm
-    from swazure_ros.core.evaluate import evaluate_pairs
     from swazure_ros.sim.world import WorldSpec
 
     policy = "shortest-length"
@@ -388,10 +387,7 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
                 resumed.append(time.monotonic())
         resumed = resumed[0]
         assert 12 in missed.outcome.departed
-        runs = []
-        while not runs or (runs[-1].outcome.departed and time.monotonic() < resumed + PATIENCE):
-            swarm.spin(1.0)
-            runs.append(swarm.discover(policy, timeout=PATIENCE))
+        runs = runs_until_every_fls_is_back(swarm, policy, timeout=PATIENCE)
         recovered = time.monotonic()
         print(
             f"stopped {STOPPED_FOR:g} s, departed by a run of {missed.seconds:.1f} s; back "
@@ -399,15 +395,7 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
             f"in {len(runs)} runs"
         )
         assert runs[-1].outcome.departed == frozenset(), [run.outcome.departed for run in runs]
-        expected = evaluate_pairs(swarm.world.hood, policy)
-        found = {
-            (s, one.target): one for s, some in runs[-1].outcome.estimates.items() for one in some
-        }
-        assert len(found) == len(expected)
-        for pair in range(len(expected)):
-            one = found[(int(expected.source[pair]), int(expected.target[pair]))]
-            assert (one.status, one.reason) == (expected.status[pair], expected.reason[pair])
-            assert one.path == tuple(expected.path(pair))
+        assert_every_pair_is_the_engines(swarm.world, runs[-1], policy)
         # Queries to it are answered again.
         assert 12 not in swarm.coordinator.departed_so_far()
 

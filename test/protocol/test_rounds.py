@@ -31,6 +31,15 @@ def every_offer(clock_, round_, labels=0, now=0.0, senders=FLSS, finished=()):
     return out
 
 
+def through_every_round(clock_, estimates_at=0.0):
+    """The run's three rounds, each offered by every FLS and acknowledged by host_0, then
+    source 0's estimates at ``estimates_at`` s: only the other sources' are left."""
+    for round_ in range(3):
+        every_offer(clock_, round_)
+        clock_.on_ack(round_, "host_0", 0.0)
+    clock_.on_estimates(0, [], estimates_at)
+
+
 def test_a_run_starts_each_phase_opens_rounds_and_ends_with_the_estimates():
     run = clock()
     start, first = run.start(0.0)
@@ -86,10 +95,7 @@ def test_a_source_that_never_reports_departs_at_the_end():
     run = clock(sources=(0, 2), targets=(2, 0))
     start, _ = run.start(0.0)
     assert start.source_ids == (0, 2) and start.target_ids == (2, 0)
-    for round_ in range(3):
-        every_offer(run, round_)
-        run.on_ack(round_, "host_0", 0.0)
-    run.on_estimates(0, [], 0.0)
+    through_every_round(run)
     assert not run.done
     run.on_tick(2 * TIMEOUT)
     assert run.done and run.outcome.departed == frozenset({2})
@@ -168,10 +174,7 @@ def test_an_fls_gone_with_its_own_radio_is_no_longer_waited_for_in_any_round():
 def test_a_source_known_gone_at_the_end_is_not_waited_for():
     run = clock(sources=(0, 2), targets=(2, 0))
     run.start(0.0)
-    for round_ in range(3):
-        every_offer(run, round_)
-        run.on_ack(round_, "host_0", 0.0)
-    run.on_estimates(0, [], 0.0)
+    through_every_round(run)
     assert not run.done
     run.on_gone({2}, 0.1)
     assert run.done and run.outcome.departed == frozenset({2})
@@ -323,20 +326,14 @@ def test_a_process_the_wait_does_not_wait_on_changes_no_deadline():
     # A run that is over takes no word at all.
     over = clock(sources=(0,), targets=(2,))
     over.start(0.0)
-    for round_ in range(3):
-        every_offer(over, round_)
-        over.on_ack(round_, "host_0", 0.0)
-    over.on_estimates(0, [], 0.1)
+    through_every_round(over, estimates_at=0.1)
     assert over.done and over.on_alive("host_0", FLSS, 0.2) == []
 
 
 def test_a_source_behind_at_the_end_is_waited_for_a_while():
     run = clock(sources=(0, 2), targets=(2, 0))
     run.start(0.0)
-    for round_ in range(3):
-        every_offer(run, round_)
-        run.on_ack(round_, "host_0", 0.0)
-    run.on_estimates(0, [], 0.0)
+    through_every_round(run)
     run.on_alive("fls_2", (2,), 8.0)
     run.on_tick(TIMEOUT + 1.0)
     assert not run.done
