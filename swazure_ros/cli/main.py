@@ -43,6 +43,8 @@ VERBS: dict[str, str] = {
     "camera": "Calibrate a sensor from a rendering ArUco camera (render, detect, solve with "
     "OpenCV).",
     "key": "Make a swarm's key: every process of one swarm is started with the same key file.",
+    "compare": "Compare runs side by side: summaries, differences, error distributions, who did "
+    "better where.",
 }
 
 
