@@ -41,22 +41,30 @@ def panels(comparison: Comparison) -> list[int]:
     ]
 
 
+def grid(count: int) -> tuple[int, int]:
+    """Rows and columns of ``count`` panels: one row up to three, then two or three across
+    (four panels two by two, not four squat ones in a row)."""
+    columns = count if count <= 3 else 2 if count == 4 else 3
+    return -(-max(count, 1) // max(columns, 1)), max(columns, 1)
+
+
 def figure_size(comparison: Comparison) -> tuple[float, float]:
-    """The figure's size in inches: one panel per class drawn, and the legend's rows."""
+    """The figure's size in inches: its grid of panels, and the legend's rows below."""
+    rows, columns = grid(len(panels(comparison)))
     legend_rows = -(-len(comparison.runs) // LEGEND_COLUMNS)
-    return (
-        PANEL_WIDTH * max(len(panels(comparison)), 1),
-        PANEL_HEIGHT + LEGEND_HEIGHT * legend_rows,
-    )
+    return PANEL_WIDTH * columns, PANEL_HEIGHT * rows + LEGEND_HEIGHT * legend_rows
 
 
 def error_figure(comparison: Comparison, title: str = "") -> Figure:
     """The runs' error distributions by class of pairs, one panel per class."""
     codes = panels(comparison)
     figure = Figure(figsize=figure_size(comparison), layout="constrained")
-    axes = figure.subplots(1, max(len(codes), 1), sharey=True, squeeze=False)[0]
+    rows, columns = grid(len(codes))
+    axes = figure.subplots(rows, columns, sharey=True, squeeze=False).ravel()
+    for spare in axes[len(codes) :]:
+        spare.set_visible(False)
     unit = comparison.error_unit
-    name = "position error, cm" if unit == "cm" else "distance error, %"
+    name = "position error (cm)" if unit == "cm" else "distance error (%)"
     cloud = cloud_of(comparison.runs[0].summary)
     figure.suptitle(title or f"{cloud}: {name} by class of pairs")
     quantiles = [
@@ -74,6 +82,8 @@ def error_figure(comparison: Comparison, title: str = "") -> Figure:
             if run.classes is None:
                 continue
             result = run.classes[code]
+            if not result.cdf:
+                continue  # none of the class's pairs estimated: its coverage says so
             x = np.maximum(np.asarray(result.cdf), SMALLEST) if result.cdf else np.zeros(0)
             share = (result.coverage_pct or 0.0) * CDF_LEVELS[: len(x)]
             ax.plot(
@@ -85,13 +95,29 @@ def error_figure(comparison: Comparison, title: str = "") -> Figure:
                 linewidth=max(WIDEST - WIDTH_STEP * index, 1.0),
                 label=run.label if run.label == run.method else f"{run.label}: {run.method}",
             )
-        if span >= LOG_SPAN:
+        missing = [
+            run.label for run in comparison.runs if run.classes and not run.classes[code].cdf
+        ]
+        if ax.lines and missing:
+            # A run with no curve here estimates none of these pairs: say so, not only hide it.
+            note = "none estimated:\n" + "\n".join(missing)
+            ax.text(0.97, 0.03, note, ha="right", va="bottom", transform=ax.transAxes)
+        if not ax.lines:
+            ax.text(0.5, 0.5, "no run estimates any", ha="center", transform=ax.transAxes)
+            ax.set_xticks([])
+        elif span >= LOG_SPAN:
             ax.set_xscale("log")
         ax.set_xlabel(name + (", log scale" if span >= LOG_SPAN else ""))
         ax.set_ylim(0, 102)
         ax.grid(True, which="major", alpha=0.3)
-    axes[0].set_ylabel("pairs with at most this error, % of the class")
-    handles, labels = axes[0].get_legend_handles_labels()
+    for row in range(rows):
+        axes[row * columns].set_ylabel("pairs with at most this error, % of the class")
+    handles, labels = [], []
+    for ax in axes:  # every run once, from the panels it is drawn in
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            if label not in labels:
+                handles.append(handle)
+                labels.append(label)
     if handles:
         figure.legend(handles, labels, loc="outside lower center", ncols=LEGEND_COLUMNS)
     return figure

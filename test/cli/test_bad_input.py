@@ -181,6 +181,14 @@ BAD_INPUTS = [
     # key
     (["key", "afile"], "afile: exists; --force replaces it"),
     (["key", "afolder"], "afolder is a folder"),
+    # compare
+    (["compare"], "the following arguments are required: RUN"),
+    (["compare", "afolder"], "compare needs two or more runs, got 1"),
+    (["compare", "afolder", "./afolder"], "a run given twice: afolder"),
+    (["compare", "afolder", "nosuch"], "afolder: not a run folder: no summary.json"),
+    (["compare", "nosuch", "afolder"], "nosuch: not a run folder (no such folder)"),
+    (["compare", "afile", "afolder"], "afile: not a run folder (not a folder)"),
+    (["compare", "afolder", "nosuch", "--output", "afile"], "afile exists and is not a folder"),
     (["nosuchverb"], "invalid choice: 'nosuchverb'"),
 ]
 
