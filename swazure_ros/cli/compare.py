@@ -150,6 +150,9 @@ def main(args: argparse.Namespace) -> int:
         for verdict in comparison.verdicts:
             print(f"  {verdict.statement}")
     json_path, csv_path = write_comparison(output, comparison)
+    if len(skipped) == len(comparison.runs):
+        print(f"wrote {csv_path} and {json_path} (no figure: no run has a per-pair file)")
+        return 0
     figure = write_error_figure(comparison, output / FIGURE_FILE)
     print(f"wrote {csv_path}, {json_path} and {figure}")
     return 0

@@ -188,3 +188,10 @@ def test_help_says_what_each_part_means():
     text = swazure("compare", "--help").stdout
     for term in ("better (by)", "coverage, %", "median / mean error", "errors.png", "--output"):
         assert term in text
+
+
+def test_the_docs_page_holds_the_help_text():
+    from swazure_ros.cli.compare import COMPARE_TERMS
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "compare.md").read_text()
+    assert COMPARE_TERMS.rstrip("\n") in page

@@ -140,3 +140,19 @@ def test_the_comparison_is_written_as_json_and_csv(tmp_path, sensor):
     assert float(blind["fewest"]) == comparison.runs[0].summary.pairs.blind_pairs
     assert float(blind["delta shortest"]) == 0.0
     assert not list((tmp_path / "out").glob(".*"))  # no temporary file left behind
+
+
+def test_a_run_without_a_per_pair_file_is_compared_by_its_summary_alone(tmp_path, sensor):
+    folders = [tmp_path / "a", tmp_path / "b", tmp_path / "c"]
+    for folder in folders:
+        folder.mkdir()
+        write_evaluation(folder, evaluation_of(sensor))
+    (folders[1] / "pairs.csv").unlink()
+    comparison = compare_runs(folders)
+    assert [run.classes is None for run in comparison.runs] == [False, True, False]
+    blind = next(row for row in comparison.rows if row.label == "ordered blind pairs")
+    assert blind.values == (comparison.runs[0].summary.pairs.blind_pairs,) * 3
+    coverage = next(row for row in comparison.class_rows if row.label == "all pairs: coverage, %")
+    assert coverage.values[1] is None and coverage.values[0] == coverage.values[2]
+    (folders[2] / "pairs.csv").unlink()
+    assert compare_runs(folders).verdicts == ()  # one run with pairs: nothing to judge
