@@ -9,8 +9,6 @@ summary.json, and its verdicts against errors computed here from pairs.csv.
 import csv
 import json
 import struct
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +23,8 @@ from swazure_ros.view.compare import (
 )
 from swazure_ros.view.png import DPI
 
+from .test_evaluate_cli import swazure  # one home for running swazure in a process
+
 SHAPE = ["--cloud", "torus:200", "--beta", "0.5", "--quiet"]
 RUNS = {
     "plain": [],
@@ -32,16 +32,6 @@ RUNS = {
     "least-squares": ["--estimator", "least-squares"],
 }
 CLASS_OF_REASON = {"": "sweet path", "BLOCKED": "blocked", "NO_SWEET_PATH": "no sweet path"}
-
-
-def swazure(*args, cwd=None):
-    return subprocess.run(
-        [sys.executable, "-m", "swazure_ros.cli.main", *args],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        cwd=cwd,
-    )
 
 
 @pytest.fixture(scope="module")
