@@ -133,10 +133,18 @@ def _runs_text(comparison: Comparison) -> str:
     return "\n".join(lines)
 
 
+def default_output(first: Path) -> Path:
+    """The folder ``comparison`` beside the first run (beside it, never inside it: a run
+    named ``.`` or ``..`` is resolved first)."""
+    if first.name in ("", ".", ".."):
+        first = first.resolve()
+    return first.parent / DEFAULT_OUTPUT
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure compare``."""
     comparison = compare_runs(args.runs)
-    output = args.output or args.runs[0].parent / DEFAULT_OUTPUT
+    output = args.output or default_output(args.runs[0])
     source = comparison.runs[0].summary.parameters.source
     cloud = source.cloud if source is not None else "one cloud"
     print(f"runs of {cloud}:")
