@@ -85,12 +85,13 @@ def echo(
     timeout: float | None,
     domain_id: int | None,
     write: Callable[[str], object],
+    take: Callable[[Any], object] | None = None,
 ) -> int:
     """Write each message of ``topic`` as YAML and ``---`` until ``limit``; the exit status.
 
     Waits for a publisher when ``type_name`` is None; the reader takes the
     publishers' QoS (echo_qos) once they show; 1 when no message came within
-    ``timeout`` seconds.
+    ``timeout`` seconds. With ``take``, each message goes to it instead of ``write``.
     """
     context = init_context(domain_id)
     node = SwarmNode("swazure_echo", context=context)
@@ -113,7 +114,10 @@ def echo(
         def on_message(message: Any) -> None:
             nonlocal printed
             if limit is None or printed < limit:
-                write(message_to_yaml(message) + "---\n")
+                if take is None:
+                    write(message_to_yaml(message) + "---\n")
+                else:
+                    take(message)
                 printed += 1
 
         # With the type given, the reader is there at once, as a person watching a topic
