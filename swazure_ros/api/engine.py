@@ -429,9 +429,43 @@ def run_blocked(
 ) -> tuple[RunRecord, T]:
     """Plain Swazure a block of pairs at a time; ``take(hood, blocks)`` gets every block.
 
-    ``take`` must go through the blocks (write them, join them); what it
-    returns comes back beside the run's record. The workhorse of
-    :func:`evaluate` and ``swazure evaluate`` for plain Swazure.
+    The workhorse of :func:`evaluate` and ``swazure evaluate`` for plain Swazure.
+
+    Parameters
+    ----------
+    setup : SwarmSetup
+        From :func:`build_swarm`.
+    policy : str
+        The path policy, one of ``core.paths.POLICIES``.
+    memory : int
+        Bytes a block of pairs may hold (``core.blocks.Budget``).
+    progress : Progress
+        Told each stage's start and advance.
+    take : callable
+        ``take(hood, blocks)``: must go through ``blocks`` (write them, join
+        them); FLS ids are ``hood.swarm.cloud_index[...]`` of the pairs' indices.
+
+    Returns
+    -------
+    record : RunRecord
+        The run's record; its summary is the run's, with where the swarm came from.
+    taken : object
+        What ``take`` returned.
+
+    Raises
+    ------
+    RuntimeError
+        ``take`` left blocks unmade: the summary needs every pair tallied.
+
+    Examples
+    --------
+    >>> from swazure_ros import api
+    >>> from swazure_ros.core.evaluate import SILENT
+    >>> setup = api.build_swarm("torus:120", scale=5, beta=0.5)
+    >>> count = lambda hood, blocks: sum(len(pairs) for pairs in blocks)
+    >>> record, pairs = api.engine.run_blocked(setup, "fewest-hops", 2**30, SILENT, count)
+    >>> record.summary.pairs.blind_pairs == pairs
+    True
     """
     run = evaluate_blocked(setup.swarm, setup.sensor, policy, Budget(memory), progress)
     taken = take(run.hood, run.blocks(progress))
@@ -444,8 +478,41 @@ def run_whole(
 ) -> tuple[Evaluation, HeuristicResult | None, RunRecord]:
     """A heuristic, fusion or a fit: every pair of the swarm held at once.
 
-    SwazureError when this machine lacks the memory. The workhorse of
-    :func:`evaluate` and ``swazure evaluate`` for all but plain Swazure.
+    The workhorse of :func:`evaluate` and ``swazure evaluate`` for all but plain
+    Swazure.
+
+    Parameters
+    ----------
+    setup : SwarmSetup
+        From :func:`build_swarm`.
+    options : RunOptions
+        What to run, checked (:meth:`RunOptions.check`).
+    progress : Progress, optional
+        Told each stage's start and advance.
+
+    Returns
+    -------
+    evaluation : Evaluation
+        Every ordered blind pair (``core.evaluate.PairResults``, swarm
+        indices) and the summary, with where the swarm came from.
+    heuristic : HeuristicResult or None
+        The heuristic's moves, with a technique.
+    record : RunRecord
+        The run's record (``record.json``).
+
+    Raises
+    ------
+    SwazureError
+        This machine lacks the memory to hold every pair.
+
+    Examples
+    --------
+    >>> from swazure_ros import api
+    >>> setup = api.build_swarm("torus:120", scale=5, beta=0.5)
+    >>> options = api.RunOptions(estimator="least-squares")
+    >>> evaluation, _, record = api.engine.run_whole(setup, options, None)
+    >>> record.summary.fit.estimator
+    'least-squares'
     """
     swarm, sensor = setup.swarm, setup.sensor
     need, have = whole_swarm_bytes(swarm, sensor), available_memory()
