@@ -17,7 +17,7 @@ Importing this module loads no rclpy: the client loads it when it connects.
 
 from ..core.errors import CloudError, OptionError, RunError, SensorError, SwazureError
 from ..sim.world import WorldSpec
-from .client import SwarmClient, compute_all, connect
+from .client import SwarmClient, compute_all, connect, spawn
 from .engine import (
     Result,
     RunOptions,
@@ -47,4 +47,5 @@ __all__ = [
     "evaluate",
     "move_obstructing",
     "move_source",
+    "spawn",
 ]

@@ -7,12 +7,13 @@ source relative to a target, a topic's messages as records. The client owns
 its node and rclpy context, and is a context manager: leaving the ``with``
 block leaves nothing running.
 
-:func:`compute_all` is ``swazure spawn --compute-all`` as a function: it
-brings a swarm up in this process, has it find every FLS's pose relative to
-every blind neighbour by its messages, sets that beside the engine's, and
-stops it. The coordinator that runs a swarm's discovery belongs to the
-process that brought the swarm up (and signs the runs with the swarm's key),
-so a swarm found by :func:`connect` answers one pair at a time.
+:func:`spawn` brings a swarm up in this process, as ``swazure spawn`` does,
+and gives a client of it that serves it while it waits and stops it when it
+closes; such a client also runs :meth:`SwarmClient.compute_all`, ``swazure
+spawn --compute-all``: the coordinator that runs a discovery for every FLS at
+once belongs to the process that brought the swarm up (it signs the runs with
+the swarm's key), so a swarm found by :func:`connect` answers one pair at a
+time. :func:`compute_all` is spawn, compute_all and stop in one call.
 
 rclpy loads when a client connects or a swarm comes up, not when this module
 is imported.
@@ -23,7 +24,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
-from ..core.errors import OptionError, RunError
+from ..core.errors import OptionError, RunError, SwazureError
 from ..core.fit import PATH, SWARM_ESTIMATORS
 from ..core.heuristics.result import PLAIN, TECHNIQUES
 from ..core.paths import POLICIES, SHORTEST_LENGTH
@@ -31,6 +32,7 @@ from ..sim.world import WorldSpec
 
 if TYPE_CHECKING:
     from ..app.compute import SwarmComputation
+    from ..app.swarm import RunningSwarm
     from ..protocol.discovery.estimate import Estimate
     from ..ros.clients.query import Neighbours, SwarmQueries
 
@@ -38,7 +40,7 @@ if TYPE_CHECKING:
 #: records, arrays as lists (``ros2 topic echo``'s YAML, as Python values).
 Record = dict[str, Any]
 
-__all__ = ["SwarmClient", "compute_all", "connect"]
+__all__ = ["SwarmClient", "compute_all", "connect", "spawn"]
 
 
 class SwarmClient:
@@ -52,6 +54,9 @@ class SwarmClient:
         The ROS domain, 0 to 232. Default: ``$ROS_DOMAIN_ID``, else 0.
     timeout : float, default 60
         Seconds each question waits for its answer, at most.
+    swarm : RunningSwarm, optional
+        A swarm this process runs (:func:`spawn` passes it): served while the
+        client waits, stopped when it closes.
 
     Raises
     ------
@@ -63,7 +68,11 @@ class SwarmClient:
     """
 
     def __init__(
-        self, namespace: str = "swarm", domain_id: int | None = None, timeout: float = 60.0
+        self,
+        namespace: str = "swarm",
+        domain_id: int | None = None,
+        timeout: float = 60.0,
+        swarm: RunningSwarm | None = None,
     ) -> None:
         from ..ros.clients.query import SwarmQueries
         from ..ros.plumbing.names import namespace_problem
@@ -72,7 +81,13 @@ class SwarmClient:
         if problem is not None:
             raise OptionError(f"namespace {namespace!r}: {problem}")
         self.timeout = _seconds("timeout", timeout)
-        self._queries: SwarmQueries | None = SwarmQueries(namespace, domain_id)
+        #: A swarm this process runs (:func:`spawn`): served while the client waits,
+        #: stopped when the client closes. None: the swarm runs elsewhere.
+        self._swarm = swarm
+        serve = None if swarm is None else swarm.spin
+        self._queries: SwarmQueries | None = SwarmQueries(
+            namespace, domain_id, None if serve is None else lambda: serve(0.01)
+        )
 
     @property
     def namespace(self) -> str:
@@ -91,10 +106,14 @@ class SwarmClient:
         self.close()
 
     def close(self) -> None:
-        """Destroy the client's node and shut its context down; closing again does nothing."""
+        """Destroy the client's node and shut its context down, and stop a swarm it brought up
+        (:func:`spawn`); closing again does nothing."""
         if self._queries is not None:
             self._queries.close()
             self._queries = None
+        if self._swarm is not None:
+            swarm, self._swarm = self._swarm, None
+            swarm.__exit__(None, None, None)
 
     def _asking(self) -> SwarmQueries:
         if self._queries is None:
@@ -231,6 +250,8 @@ class SwarmClient:
         problem = topic_problem(name)
         if problem is not None:
             raise OptionError(f"topic {topic!r}: {problem}")
+        if count is None and on_message is None:
+            raise OptionError("count None listens for ever: give on_message to hear the records")
         if count is not None:
             _fls_id("count", count)
             if count < 1:
@@ -244,10 +265,76 @@ class SwarmClient:
                 on_message(record)
 
         domain = queries.context.get_domain_id()
-        ended = echo(name, message_type, count, self.timeout, domain, _nowhere, take)
+        ended = echo(name, message_type, count, self.timeout, domain, _nowhere, take, queries.step)
         if ended != 0:
             raise RunError(f"{name}: no message within {self.timeout:g} s")
         return received
+
+    def compute_all(
+        self,
+        policy: str = SHORTEST_LENGTH,
+        *,
+        technique: str = PLAIN,
+        threshold: int = 10,
+        estimator: str = PATH,
+    ) -> SwarmComputation:
+        """Every FLS's pose relative to every blind neighbour, found by the swarm's messages.
+
+        ``swazure spawn --compute-all`` on a swarm that :func:`spawn` brought up:
+        its coordinator runs discovery for every FLS at once (then a
+        heuristic's moves, with ``technique``), beside the engine's evaluation
+        of the same work.
+
+        Parameters
+        ----------
+        policy : {"shortest-length", "fewest-hops", "least-error"}
+            The path policy.
+        technique : {"plain", "move-obstructing", "move-source"}
+            Then a heuristic's moves, made by the swarm.
+        threshold : int, default 10
+            Move Source: steps of r probed per direction.
+        estimator : {"path", "local-least-squares", "swarm-fit"}
+            How each source estimates.
+
+        Returns
+        -------
+        SwarmComputation
+            ``evaluation`` (what the swarm found), ``engine`` (the engine's
+            evaluation of the same work), ``heuristic``, and ``record``
+            (``files.results.RunRecord``: summaries, traffic, and ``identical``,
+            "yes" when every pair is the engine's).
+
+        Raises
+        ------
+        SwazureError
+            A swarm found by :func:`connect`: its coordinator belongs to the
+            process that brought it up, which signs the runs with the swarm's key.
+        OptionError
+            An option that is none of its values.
+
+        Examples
+        --------
+        >>> with spawn(WorldSpec("torus:120", scale=2.5, beta=0.5)) as swarm:  # doctest: +SKIP
+        ...     swarm.compute_all().record.identical
+        'yes'
+        """
+        from ..app.compute import compute_all as run_all
+
+        for name, value, choices in (
+            ("policy", policy, POLICIES),
+            ("technique", technique, TECHNIQUES),
+            ("estimator", estimator, SWARM_ESTIMATORS),
+        ):
+            if value not in choices:
+                raise OptionError(f"{name} {value!r}: expected one of {', '.join(choices)}")
+        self._asking()
+        if self._swarm is None:
+            raise SwazureError(
+                "compute_all runs the coordinator of a swarm this process brought up "
+                "(api.spawn); a connected swarm's runs belong to the process that started it "
+                "(swazure spawn --compute-all there)"
+            )
+        return run_all(self._swarm, policy, technique, threshold, estimator=estimator)
 
 
 def _nowhere(text: str) -> None:
@@ -304,6 +391,74 @@ def connect(
     return SwarmClient(namespace, domain_id, timeout)
 
 
+def spawn(
+    world: WorldSpec,
+    namespace: str = "swarm",
+    domain_id: int | None = None,
+    timeout: float = 60.0,
+    bring_up_timeout: float = 600.0,
+) -> SwarmClient:
+    """A swarm brought up in this process, as ``swazure spawn`` does, and a client of it.
+
+    The swarm is served while the client waits for an answer; closing the client
+    (or leaving its ``with`` block) stops the swarm.
+
+    Parameters
+    ----------
+    world : WorldSpec
+        The swarm (``swazure_ros.sim.world.WorldSpec``: cloud name or file,
+        scale, beta or radius in cm, sensor file, accurate, seed).
+    namespace : str, default "swarm"
+        The swarm's ROS namespace.
+    domain_id : int, optional
+        The ROS domain. Default: ``$ROS_DOMAIN_ID``, else 0.
+    timeout : float, default 60
+        Seconds each question waits for its answer, at most.
+    bring_up_timeout : float, default 600
+        Seconds the swarm may take to come up.
+
+    Returns
+    -------
+    SwarmClient
+        With :meth:`SwarmClient.compute_all` too.
+
+    Raises
+    ------
+    OptionError
+        A world that is not a WorldSpec, a bad namespace or timeout.
+    RunError
+        The swarm did not come up in time, or a process of it failed.
+    CloudError
+        The cloud cannot be used.
+
+    Examples
+    --------
+    >>> from swazure_ros import api
+    >>> spec = api.WorldSpec("torus:120", scale=2.5, beta=0.5)
+    >>> with api.spawn(spec, domain_id=201) as swarm:  # doctest: +SKIP
+    ...     swarm.compute_pose(0, 1).path
+    (0, 35, 1)
+    """
+    from ..app.config import SwarmConfig
+    from ..app.swarm import RunningSwarm
+
+    if not isinstance(world, WorldSpec):
+        raise OptionError(f"world must be a WorldSpec, got {type(world).__name__}")
+    config = SwarmConfig(
+        world,
+        namespace=namespace.strip("/") or "swarm",
+        domain_id=domain_id,
+        discovery_timeout=_seconds("bring_up_timeout", bring_up_timeout),
+    )
+    running = RunningSwarm(config).__enter__()
+    try:
+        running.wait_until_ready()
+        return SwarmClient(config.namespace, domain_id, timeout, running)
+    except BaseException:
+        running.close()
+        raise
+
+
 def compute_all(
     world: WorldSpec,
     policy: str = SHORTEST_LENGTH,
@@ -316,6 +471,8 @@ def compute_all(
     timeout: float = 600.0,
 ) -> SwarmComputation:
     """``swazure spawn --compute-all``: a swarm brought up here finds every pose, then stops.
+
+    :func:`spawn`, :meth:`SwarmClient.compute_all`, and the swarm stopped.
 
     Parameters
     ----------
@@ -340,10 +497,7 @@ def compute_all(
     Returns
     -------
     SwarmComputation
-        ``evaluation`` (what the swarm found), ``engine`` (the engine's
-        evaluation of the same work), ``heuristic``, and ``record``
-        (``files.results.RunRecord``: summaries, traffic, and ``identical``,
-        "yes" when every pair is the engine's).
+        As :meth:`SwarmClient.compute_all`.
 
     Raises
     ------
@@ -362,25 +516,7 @@ def compute_all(
     >>> computed.record.identical  # doctest: +SKIP
     'yes'
     """
-    from ..app.compute import compute_all as run_all
-    from ..app.config import SwarmConfig
-    from ..app.swarm import RunningSwarm
-
-    if not isinstance(world, WorldSpec):
-        raise OptionError(f"world must be a WorldSpec, got {type(world).__name__}")
-    for name, value, choices in (
-        ("policy", policy, POLICIES),
-        ("technique", technique, TECHNIQUES),
-        ("estimator", estimator, SWARM_ESTIMATORS),
-    ):
-        if value not in choices:
-            raise OptionError(f"{name} {value!r}: expected one of {', '.join(choices)}")
-    config = SwarmConfig(
-        world,
-        namespace=namespace.strip("/") or "swarm",
-        domain_id=domain_id,
-        discovery_timeout=_seconds("timeout", timeout),
-    )
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
-        return run_all(swarm, policy, technique, threshold, estimator=estimator)
+    with spawn(world, namespace, domain_id, bring_up_timeout=timeout) as swarm:
+        return swarm.compute_all(
+            policy, technique=technique, threshold=threshold, estimator=estimator
+        )

@@ -199,7 +199,9 @@ def build_swarm(
         raise CloudError("give beta or radius, not both")
     if beta is None and radius is None:
         raise CloudError("give beta (r = beta * dmin) or radius (cm)")
-    sensor_file = None if isinstance(sensor, Sensor) else sensor
+    # The summary names the sensor's file; one built in Python has none (its values are
+    # in the summary's parameters either way).
+    sensor_file = "(a Sensor given in Python)" if isinstance(sensor, Sensor) else sensor
     found = sensor if isinstance(sensor, Sensor) else load_sensor(sensor)
     if accurate:
         found = found.error_free()

@@ -76,6 +76,11 @@ def test_a_client_asks_the_swarm_what_the_engine_computes(domain, spawned):
             swarm.compute_pose(source, 5000)
         with pytest.raises(OptionError, match="policy 'shortest'"):
             swarm.compute_pose(source, target, policy="shortest")
+        with pytest.raises(OptionError, match="give on_message"):
+            swarm.echo("measurements", count=None)
+        # A swarm run elsewhere: its whole runs belong to the process that started it.
+        with pytest.raises(SwazureError, match="swazure spawn --compute-all there"):
+            swarm.compute_all()
     assert len(records) == 3 and heard == records
     # Each record is one FLS's Measurements: poses of its own neighbours, fields by name.
     for record in records:
@@ -102,6 +107,29 @@ def test_a_client_of_no_swarm_says_so_within_its_timeout(domain):
 def test_a_client_refuses_a_namespace_that_is_not_one(domain):
     with pytest.raises(OptionError, match="namespace 'bad name!'"):
         api.connect("bad name!", domain_id=domain)
+
+
+def test_a_swarm_spawned_here_is_served_while_its_client_asks_and_stopped_when_it_closes(
+    domain,
+):
+    cloud, scale, beta = SHAPE
+    spec = api.WorldSpec(cloud, scale=scale, beta=beta)
+    world = spec.build()
+    engine = evaluate_pairs(world.hood, "fewest-hops")
+    pair = int(np.flatnonzero(engine.hops >= 2)[-1])
+    source, target = int(world.ids[engine.source[pair]]), int(world.ids[engine.target[pair]])
+    with api.spawn(spec, domain_id=domain, timeout=PATIENCE) as swarm:
+        running = swarm._swarm
+        assert swarm.neighbours(source).blind == tuple(world.neighbours(source).blind.tolist())
+        found = swarm.compute_pose(source, target, policy="fewest-hops")
+        assert found.path == tuple(int(world.ids[k]) for k in engine.path(pair))
+        np.testing.assert_allclose(found.vector, engine.estimate[pair], rtol=0, atol=1e-9)
+        assert len(swarm.echo("measurements", count=2)) == 2
+        computed = swarm.compute_all("fewest-hops")
+        assert computed.record.identical == "yes"
+        assert computed.record.summary.pairs.blind_pairs == len(engine)
+    # Closed: the swarm's nodes and context are gone with the client's.
+    assert running.host is None and running.context is None
 
 
 def test_compute_all_is_swazure_spawn_compute_all_and_equals_the_engine(domain):

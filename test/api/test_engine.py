@@ -152,3 +152,20 @@ def test_evaluate_refuses_options_with_the_error_of_the_house(keywords, kind, me
 def test_evaluate_asks_for_a_built_swarm_not_a_cloud():
     with pytest.raises(OptionError, match="build_swarm"):
         api.evaluate("torus:120")  # type: ignore[arg-type]
+
+
+def test_a_sensor_given_as_an_object_is_named_so_in_the_summary():
+    setup = api.build_swarm("torus:120", scale=1.6, beta=0.5)
+    given = api.build_swarm("torus:120", scale=1.6, beta=0.5, sensor=setup.sensor)
+    source = api.evaluate(given).summary.parameters.source
+    assert source is not None and source.sensor_file == "(a Sensor given in Python)"
+
+
+def test_importing_the_api_loads_no_ros():
+    # A notebook that only evaluates needs no ROS 2; the client loads rclpy when it connects.
+    check = subprocess.run(
+        [sys.executable, "-c", "import sys, swazure_ros.api; print('rclpy' in sys.modules)"],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert check.returncode == 0, check.stderr
+    assert check.stdout.strip() == "False"

@@ -86,12 +86,14 @@ def echo(
     domain_id: int | None,
     write: Callable[[str], object],
     take: Callable[[Any], object] | None = None,
+    step: Callable[[], object] | None = None,
 ) -> int:
     """Write each message of ``topic`` as YAML and ``---`` until ``limit``; the exit status.
 
     Waits for a publisher when ``type_name`` is None; the reader takes the
     publishers' QoS (echo_qos) once they show; 1 when no message came within
-    ``timeout`` seconds. With ``take``, each message goes to it instead of ``write``.
+    ``timeout`` seconds. With ``take``, each message goes to it instead of ``write``;
+    ``step`` is called between spins (what serves a swarm this process runs).
     """
     context = init_context(domain_id)
     node = SwarmNode("swazure_echo", context=context)
@@ -107,7 +109,9 @@ def echo(
                 break
             if timeout is not None and time.monotonic() - began > timeout:
                 raise RunError(f"{topic}: no publisher found within {timeout:g} s")
-            executor.spin_once(timeout_sec=0.1)
+            executor.spin_once(timeout_sec=0.1 if step is None else 0.01)
+            if step is not None:
+                step()
         cls = message_class(type_name)
         wanted = f"{cls.__module__.split('.')[0]}/msg/{cls.__name__}"
 
@@ -149,7 +153,9 @@ def echo(
                     file=sys.stderr,
                 )
                 return 1
-            executor.spin_once(timeout_sec=0.1)
+            executor.spin_once(timeout_sec=0.1 if step is None else 0.01)
+            if step is not None:
+                step()
     finally:
         executor.shutdown()
         node.destroy_node()  # type: ignore[no-untyped-call]

@@ -4,6 +4,7 @@ FLS for its neighbours."""
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,8 +59,16 @@ class SwarmQueries:
     destroys the node and shuts the context down.
     """
 
-    def __init__(self, namespace: str, domain_id: int | None = None) -> None:
+    def __init__(
+        self,
+        namespace: str,
+        domain_id: int | None = None,
+        step: Callable[[], object] | None = None,
+    ) -> None:
         self.namespace = namespace.strip("/") or "swarm"
+        #: Called between the client's spins while it waits: what serves a swarm that
+        #: this process runs itself (its own executor), so that it can answer.
+        self.step = step
         self.context = init_context(domain_id)
         self.node = SwarmNode("swazure_query", context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
@@ -100,13 +109,20 @@ class SwarmQueries:
                     f"/{self.namespace} (no {service} in {now - began:.0f} s): is a swarm up? "
                     "(swazure spawn, or ros2 launch swazure_ros swarm.launch.py)"
                 )
-            self.executor.spin_once(timeout_sec=0.1)
+            self._spin()
         future: Any = client.call_async(request)
         while not future.done():
             if time.monotonic() > deadline:
                 raise RunError(f"{service}: no answer within {timeout:g} s")
-            self.executor.spin_once(timeout_sec=0.1)
+            self._spin()
         return future.result()
+
+    def _spin(self) -> None:
+        if self.step is None:
+            self.executor.spin_once(timeout_sec=0.1)
+        else:
+            self.executor.spin_once(timeout_sec=0.01)
+            self.step()
 
     def compute_pose(
         self, source: int, target: int, policy: str, estimator: str, timeout: float
