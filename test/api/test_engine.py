@@ -22,11 +22,11 @@ from ..conftest import dataset
 SHAPE = ["--cloud", "torus:120", "--scale", "1.6", "--beta", "0.5"]
 
 
-def swazure_evaluate(tmp_path, *options):
-    """`swazure evaluate` of SHAPE with ``options``: its summary.json and pairs.csv bytes."""
+def swazure_evaluate(tmp_path, *options, shape=SHAPE):
+    """`swazure evaluate` of ``shape`` with ``options``: its summary.json and pairs.csv bytes."""
     out = tmp_path / "out"
     run = subprocess.run(
-        [sys.executable, "-m", "swazure_ros.cli.main", "evaluate", *SHAPE, *options,
+        [sys.executable, "-m", "swazure_ros.cli.main", "evaluate", *shape, *options,
          "--quiet", "--out", str(out)],
         capture_output=True, text=True, timeout=600,
     )  # fmt: skip
@@ -75,6 +75,18 @@ def test_evaluate_gives_the_summary_and_pairs_that_swazure_evaluate_writes(
     assert result.record.summary is result.summary
     assert result.pairs.num_rows == summary["blind_pairs"] > 1000
     assert csv_bytes(result.pairs) == pairs_csv
+
+
+def test_a_swarm_without_blind_pairs_gives_an_empty_table_with_every_column(tmp_path):
+    path = tmp_path / "far.npy"
+    np.save(path, [[0.0, 0.0, 0.0], [100.0, 0.0, 0.0], [0.0, 100.0, 0.0]])
+    summary, pairs_csv = swazure_evaluate(
+        tmp_path, shape=["--cloud", str(path), "--radius", "0.5"]
+    )
+    result = api.evaluate(api.build_swarm(path, radius=0.5))
+    assert result.pairs.num_rows == summary["blind_pairs"] == 0
+    assert without_seconds(result.summary.as_document()) == without_seconds(summary)
+    assert csv_bytes(result.pairs) == pairs_csv and pairs_csv.startswith(b'"source","target"')
 
 
 def test_the_heuristics_by_name_are_evaluate_with_their_technique():
