@@ -78,6 +78,13 @@ def echo_qos(node: Node, topic: str) -> QoSProfile:
     )
 
 
+def _spin(executor: SingleThreadedExecutor, step: Callable[[], object] | None) -> None:
+    """Spin once; then ``step()``, what serves a swarm that this process runs, if any."""
+    executor.spin_once(timeout_sec=0.1 if step is None else 0.01)
+    if step is not None:
+        step()
+
+
 def echo(
     topic: str,
     type_name: str | None,
@@ -109,9 +116,7 @@ def echo(
                 break
             if timeout is not None and time.monotonic() - began > timeout:
                 raise RunError(f"{topic}: no publisher found within {timeout:g} s")
-            executor.spin_once(timeout_sec=0.1 if step is None else 0.01)
-            if step is not None:
-                step()
+            _spin(executor, step)
         cls = message_class(type_name)
         wanted = f"{cls.__module__.split('.')[0]}/msg/{cls.__name__}"
 
@@ -153,9 +158,7 @@ def echo(
                     file=sys.stderr,
                 )
                 return 1
-            executor.spin_once(timeout_sec=0.1 if step is None else 0.01)
-            if step is not None:
-                step()
+            _spin(executor, step)
     finally:
         executor.shutdown()
         node.destroy_node()  # type: ignore[no-untyped-call]
