@@ -32,8 +32,10 @@ ALLOWED: dict[str, frozenset[str]] = {
     "study": frozenset({"core", "camera", "files", "view"}),
     "ros": frozenset({"core", "camera", "files", "protocol", "sim", "view"}),
     "app": frozenset({"core", "files", "protocol", "sim", "ros", "study", "view"}),
+    # The library for scripts and notebooks: the engine's functions and a swarm's client.
+    "api": frozenset({"core", "files", "protocol", "sim", "ros", "view", "app"}),
     "cli": frozenset(
-        {"core", "camera", "files", "protocol", "sim", "ros", "study", "view", "app"}
+        {"core", "camera", "files", "protocol", "sim", "ros", "study", "view", "app", "api"}
     ),
 }
 #: What each room of ``ros/`` may import of ``ros/``, besides itself (docs/architecture.md):

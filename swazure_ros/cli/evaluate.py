@@ -10,28 +10,17 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
-from dataclasses import replace
+from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
-from ..core.blocks import (
-    DEFAULT_MEMORY,
-    Budget,
-    evaluate_blocked,
-    whole_swarm_bytes,
-)
-from ..core.errors import SwazureError
-from ..core.evaluate import SILENT, Progress, evaluate
-from ..core.fit import ESTIMATORS, PATH, check_plain_estimator, refine
-from ..core.fusion import fuse
-from ..core.heuristics.compat import COMPAT_MODES
-from ..core.heuristics.folding import run_technique
-from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
-from ..core.summary import with_source
-from ..files.reading import available_memory
+from ..api.engine import RunOptions, SwarmSetup, run_blocked, run_whole
+from ..core.blocks import DEFAULT_MEMORY
+from ..core.evaluate import SILENT, Neighbourhood, PairResults, Progress
+from ..core.fit import ESTIMATORS, PATH
+from ..core.heuristics.result import PLAIN, TECHNIQUES
 from ..files.results import (
     SUMMARY_FILE,
-    RunRecord,
     write_json,
     write_pair_blocks,
     write_record,
@@ -49,7 +38,7 @@ from .options import (
     add_policy_argument,
     add_swarm_arguments,
     add_threshold_argument,
-    swarm_from_args,
+    swarm_setup_from_args,
 )
 from .summary import SUMMARY_TERMS, cell, summary_table
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
@@ -151,55 +140,47 @@ class TqdmProgress:
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure evaluate``."""
     args = apply_swarm_file(args)
-    cloud, swarm, sensor = swarm_from_args(args)
+    setup = swarm_setup_from_args(args)
     progress: Progress | None = None if args.quiet else TqdmProgress()
-    if args.fuse > 1 and args.technique != PLAIN:
-        raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
-    check_plain_estimator(args.estimator, args.technique, args.fuse)
-    if args.compat != "text" and args.technique == PLAIN:
-        raise SwazureError(f"--compat {args.compat} changes the heuristics; add --technique")
-    blocked = (
-        args.technique == PLAIN
-        and args.fuse == 1
-        and args.estimator == PATH
-        and args.snapshot is None
+    options = RunOptions(
+        args.policy, args.technique, args.threshold, args.compat, args.fuse, args.estimator
     )
+    options.check()
     try:
-        if blocked:
-            return _evaluate_in_blocks(args, cloud, swarm, sensor, progress)
-        return _evaluate_whole(args, cloud, swarm, sensor, progress)
+        if options.blocked and args.snapshot is None:
+            return _evaluate_in_blocks(args, setup, progress)
+        return _evaluate_whole(args, setup, options, progress)
     finally:
         if isinstance(progress, TqdmProgress):
             progress.close()
 
 
-def _headline(
-    args: argparse.Namespace, cloud: Any, swarm: Any, sensor: Any, seconds: float
-) -> str:
+def _headline(args: argparse.Namespace, setup: SwarmSetup, seconds: float) -> str:
     technique = args.technique if args.compat == "text" else f"{args.technique} ({args.compat})"
     return (
-        f"{cloud.name}: beta {cell(swarm.beta)}, {args.policy}, {technique}, "
+        f"{setup.cloud.name}: beta {cell(setup.swarm.beta)}, {args.policy}, {technique}, "
         f"{'' if args.estimator == PATH else args.estimator + ', '}"
-        f"sensor {sensor.name}, "
+        f"sensor {setup.sensor.name}, "
         f"{seconds:.2f} s"
     )
 
 
 def _evaluate_in_blocks(
-    args: argparse.Namespace, cloud: Any, swarm: Any, sensor: Any, progress: Progress | None
+    args: argparse.Namespace, setup: SwarmSetup, progress: Progress | None
 ) -> int:
     """Plain Swazure a block of pairs at a time: pairs written as they are made."""
-    progress = progress or SILENT
-    run = evaluate_blocked(swarm, sensor, args.policy, Budget(args.memory), progress)
-    pairs_path = None
-    if args.out is not None:
-        pairs_path = write_pair_blocks(args.out, run.hood, args.policy, run.blocks(progress))
-    else:
-        for _ in run.blocks(progress):
-            pass
-    summary = with_source(run.summary(), cloud, args.seed, args.sensor)
-    record = RunRecord("evaluate", run.seconds, summary)
-    print(_headline(args, cloud, swarm, sensor, record.seconds))
+
+    def take(hood: Neighbourhood, blocks: Iterator[PairResults]) -> Path | None:
+        if args.out is None:
+            for _ in blocks:
+                pass
+            return None
+        return write_pair_blocks(args.out, hood, args.policy, blocks)
+
+    record, pairs_path = run_blocked(setup, args.policy, args.memory, progress or SILENT, take)
+    summary = record.summary
+    assert summary is not None  # an evaluation's record has its summary
+    print(_headline(args, setup, record.seconds))
     print(summary_table(summary))
     if args.out is not None:
         summary_path = args.out / SUMMARY_FILE
@@ -210,40 +191,14 @@ def _evaluate_in_blocks(
 
 
 def _evaluate_whole(
-    args: argparse.Namespace, cloud: Any, swarm: Any, sensor: Any, progress: Progress | None
+    args: argparse.Namespace, setup: SwarmSetup, options: RunOptions, progress: Progress | None
 ) -> int:
     """A heuristic, fusion, a fit or a snapshot: every pair of the swarm held at once."""
-    need, have = whole_swarm_bytes(swarm, sensor), available_memory()
-    if need > have:
-        raise SwazureError(
-            f"{cloud.name}: --technique, --fuse, --estimator and --snapshot hold every pair "
-            f"of the swarm at once, about {need / 2**30:.1f} GB for {swarm.size} FLSs; this "
-            f"machine has {have / 2**30:.1f} GB free (plain Swazure runs in blocks)"
-        )
-    heuristic: HeuristicResult | None = None
-    evaluation = evaluate(swarm, sensor, args.policy, progress)
-    if args.technique != PLAIN:
-        began = time.perf_counter()
-        if progress is not None:
-            progress.start(args.technique, 1)
-        evaluation, heuristic = run_technique(
-            evaluation, args.technique, args.threshold, COMPAT_MODES[args.compat]
-        )
-        seconds = (evaluation.summary.seconds or 0.0) + time.perf_counter() - began
-        evaluation = replace(evaluation, summary=replace(evaluation.summary, seconds=seconds))
-    if args.fuse > 1:
-        evaluation = fuse(evaluation, args.fuse)
-    if args.estimator != PATH:
-        if progress is not None:
-            progress.start(args.estimator, 1)
-        evaluation = refine(evaluation, args.estimator)
+    evaluation, heuristic, record = run_whole(setup, options, progress)
     if isinstance(progress, TqdmProgress):
         progress.close()
-    summary = with_source(evaluation.summary, cloud, args.seed, args.sensor)
-    evaluation = replace(evaluation, summary=summary)
-    record = RunRecord("evaluate", summary.seconds or 0.0, summary)
-    print(_headline(args, cloud, swarm, sensor, record.seconds))
-    print(summary_table(summary))
+    print(_headline(args, setup, record.seconds))
+    print(summary_table(evaluation.summary))
     if args.out is not None:
         summary_path, pairs_path, record_path = write_run(args.out, evaluation, record, heuristic)
         print(f"wrote {summary_path}, {pairs_path} and {record_path}")
@@ -251,7 +206,8 @@ def _evaluate_whole(
         from ..view.scene import evaluation_scene
         from ..view.snapshot import write_snapshot
 
-        title = f"{cloud.name}, beta {cell(swarm.beta)}, {args.policy}, {args.technique}"
+        swarm = setup.swarm
+        title = f"{setup.cloud.name}, beta {cell(swarm.beta)}, {args.policy}, {args.technique}"
         scene = evaluation_scene(
             evaluation, title, args.colour_by, args.seen_from, heuristic=heuristic
         )

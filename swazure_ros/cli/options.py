@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING, Any
 
+from ..api.engine import SwarmSetup
 from ..core.fit import PATH, SWARM_ESTIMATORS
 from ..core.geometry import make_swarm
 from ..core.heuristics.compat import COMPAT_MODES
@@ -112,15 +113,21 @@ def add_compat_argument(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def swarm_from_args(args: argparse.Namespace) -> tuple[Any, Any, Any]:
-    """The cloud, swarm and sensor that the swarm options describe."""
+def swarm_setup_from_args(args: argparse.Namespace) -> SwarmSetup:
+    """The swarm that the swarm options describe: its cloud, FLSs and sensor."""
     check_beta_or_radius(args.beta, args.radius)
     sensor = load_sensor(args.sensor)
     if args.accurate:
         sensor = sensor.error_free()
     cloud = load_cloud(args.cloud, args.scale)
     swarm = make_swarm(cloud.points, beta=args.beta, radius=args.radius, seed=args.seed)
-    return cloud, swarm, sensor
+    return SwarmSetup(cloud, swarm, sensor, args.seed, args.sensor)
+
+
+def swarm_from_args(args: argparse.Namespace) -> tuple[Any, Any, Any]:
+    """The cloud, swarm and sensor that the swarm options describe."""
+    setup = swarm_setup_from_args(args)
+    return setup.cloud, setup.swarm, setup.sensor
 
 
 def add_colour_arguments(parser: argparse.ArgumentParser, default: str, what: str) -> None:

@@ -15,6 +15,10 @@ class CloudError(SwazureError, ValueError):
     """A point cloud that cannot be read or used (file, format, values)."""
 
 
+class OptionError(SwazureError, ValueError):
+    """A run's option that is none of its choices, out of its range, or of the wrong kind."""
+
+
 class SensorError(SwazureError, ValueError):
     """A sensor description that does not parse or is inconsistent."""
 

@@ -14,7 +14,13 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from ..core.clouds import PUBLISHED_SCALES, Cloud, builtin_points, validate_points
+from ..core.clouds import (
+    BUILTIN_SHAPES,
+    PUBLISHED_SCALES,
+    Cloud,
+    builtin_points,
+    validate_points,
+)
 from ..core.errors import CloudError
 from .reading import regular_file
 
@@ -160,3 +166,32 @@ def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
             raise CloudError(f"scale must be a positive number, got {scale}")
         points = validate_points(points * scale, f"{text} at scale {scale:g}")
     return Cloud(text.replace(":", "_"), points, 1.0 if scale is None else scale, "builtin")
+
+
+#: Where the six published clouds come from: the paper's reference implementation.
+PUBLISHED_CLOUDS_SOURCE = "https://github.com/flyinglightspeck/Swazure (src/assets/*.xyz)"
+
+
+def published_cloud(name: str) -> Path:
+    """The file of published cloud ``name``, by stem (``chess_408``) or first word (``chess``).
+
+    CloudError when ``name`` is neither a built-in shape nor a published cloud, or
+    when this machine lacks the file (:func:`published_dataset_dir`): it says where
+    to get it.
+    """
+    stems = [stem for stem in PUBLISHED_SCALES if name in (stem, stem.partition("_")[0])]
+    if not stems:
+        shapes, published = ", ".join(sorted(BUILTIN_SHAPES)), ", ".join(PUBLISHED_SCALES)
+        raise CloudError(
+            f"unknown shape {name!r}: use a file path, a built-in shape ({shapes}) or a "
+            f"published cloud ({published})"
+        )
+    folder = published_dataset_dir()
+    path = None if folder is None else folder / f"{stems[0]}.xyz"
+    if path is None or not path.is_file():
+        raise CloudError(
+            f"{name}: the published cloud {stems[0]}.xyz is not on this machine; get it from "
+            f"{PUBLISHED_CLOUDS_SOURCE} into ../shared/datasets/swazure-paper, or set "
+            "SWAZURE_DATASETS to its folder"
+        )
+    return path

@@ -78,6 +78,13 @@ def echo_qos(node: Node, topic: str) -> QoSProfile:
     )
 
 
+def _spin(executor: SingleThreadedExecutor, step: Callable[[], object] | None) -> None:
+    """Spin once; then ``step()``, what serves a swarm that this process runs, if any."""
+    executor.spin_once(timeout_sec=0.1 if step is None else 0.01)
+    if step is not None:
+        step()
+
+
 def echo(
     topic: str,
     type_name: str | None,
@@ -85,12 +92,15 @@ def echo(
     timeout: float | None,
     domain_id: int | None,
     write: Callable[[str], object],
+    take: Callable[[Any], object] | None = None,
+    step: Callable[[], object] | None = None,
 ) -> int:
     """Write each message of ``topic`` as YAML and ``---`` until ``limit``; the exit status.
 
     Waits for a publisher when ``type_name`` is None; the reader takes the
     publishers' QoS (echo_qos) once they show; 1 when no message came within
-    ``timeout`` seconds.
+    ``timeout`` seconds. With ``take``, each message goes to it instead of ``write``;
+    ``step`` is called between spins (what serves a swarm this process runs).
     """
     context = init_context(domain_id)
     node = SwarmNode("swazure_echo", context=context)
@@ -106,14 +116,17 @@ def echo(
                 break
             if timeout is not None and time.monotonic() - began > timeout:
                 raise RunError(f"{topic}: no publisher found within {timeout:g} s")
-            executor.spin_once(timeout_sec=0.1)
+            _spin(executor, step)
         cls = message_class(type_name)
         wanted = f"{cls.__module__.split('.')[0]}/msg/{cls.__name__}"
 
         def on_message(message: Any) -> None:
             nonlocal printed
             if limit is None or printed < limit:
-                write(message_to_yaml(message) + "---\n")
+                if take is None:
+                    write(message_to_yaml(message) + "---\n")
+                else:
+                    take(message)
                 printed += 1
 
         # With the type given, the reader is there at once, as a person watching a topic
@@ -145,7 +158,7 @@ def echo(
                     file=sys.stderr,
                 )
                 return 1
-            executor.spin_once(timeout_sec=0.1)
+            _spin(executor, step)
     finally:
         executor.shutdown()
         node.destroy_node()  # type: ignore[no-untyped-call]

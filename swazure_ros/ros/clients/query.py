@@ -1,17 +1,27 @@
-"""Ask a running swarm's coordinator for one source FLS's pose relative to a target."""
+"""Ask a running swarm: its coordinator for one source FLS's pose relative to a target, an
+FLS for its neighbours."""
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from rclpy.executors import SingleThreadedExecutor
-from swazure_interfaces.srv import ComputePose
+from swazure_interfaces.srv import ComputePose, GetNeighbours
 
 from ...core.errors import RunError, SwazureError
 from ...protocol.discovery.estimate import Estimate
 from ..convert.discovery import pose_estimate_from_message
-from ..plumbing.names import COMPUTE_POSE_SERVICE, COORDINATOR, ESTIMATOR_CODES, policy_code
+from ..plumbing.names import (
+    COMPUTE_POSE_SERVICE,
+    COORDINATOR,
+    ESTIMATOR_CODES,
+    NEIGHBOURS_SERVICE,
+    node_name,
+    policy_code,
+)
 from ..plumbing.runtime import SwarmNode, init_context
 
 #: Seconds after which a query that sees no node of the swarm at all gives up, whatever
@@ -29,6 +39,124 @@ def _swarm_nodes(node: SwarmNode, namespace: str) -> list[str]:
     ]
 
 
+@dataclass(frozen=True)
+class Neighbours:
+    """One FLS's neighbours as it knows them (GetNeighbours), as sorted FLS ids."""
+
+    fls_id: int
+    blind: tuple[int, ...]  # by radio
+    sweet: tuple[int, ...]  # sweet range, by radio (line of sight ignored)
+    visible_sweet: tuple[int, ...]  # sweet range with line of sight
+    decaying: tuple[int, ...]  # decaying range with line of sight
+    gone: tuple[int, ...]  # of those, the ones whose nodes left the ROS graph
+
+
+class SwarmQueries:
+    """A person's questions to a running swarm, over one node of its own context.
+
+    ComputePose of the coordinator and GetNeighbours of an FLS, each answer
+    waited for within a timeout. ``close`` (or leaving the ``with`` block)
+    destroys the node and shuts the context down.
+    """
+
+    def __init__(
+        self,
+        namespace: str,
+        domain_id: int | None = None,
+        step: Callable[[], object] | None = None,
+    ) -> None:
+        self.namespace = namespace.strip("/") or "swarm"
+        #: Called between the client's spins while it waits: what serves a swarm that
+        #: this process runs itself (its own executor), so that it can answer.
+        self.step = step
+        self.context = init_context(domain_id)
+        self.node = SwarmNode("swazure_query", context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._clients: dict[str, Any] = {}
+
+    def __enter__(self) -> SwarmQueries:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Destroy the node and shut its context down; nothing of it is left running."""
+        self.executor.shutdown()
+        self.node.destroy_node()  # type: ignore[no-untyped-call]
+        self.context.try_shutdown()
+
+    def _call(self, kind: Any, service: str, who: str, request: Any, timeout: float) -> Any:
+        """``request``'s response from ``service`` within ``timeout`` s; RunError otherwise.
+
+        Gives up early, whatever the timeout, when no node of the swarm shows at all
+        (NOTHING_THERE): ``who`` names what did not answer.
+        """
+        client = self._clients.get(service)
+        if client is None:
+            client = self._clients[service] = self.node.create_client(kind, service)
+        began = time.monotonic()
+        deadline = began + timeout
+        while not client.service_is_ready():
+            now = time.monotonic()
+            if now > deadline or (
+                now > began + min(timeout, NOTHING_THERE)
+                and not _swarm_nodes(self.node, self.namespace)
+            ):
+                raise RunError(
+                    f"no {who} on domain {self.context.get_domain_id()}, namespace "
+                    f"/{self.namespace} (no {service} in {now - began:.0f} s): is a swarm up? "
+                    "(swazure spawn, or ros2 launch swazure_ros swarm.launch.py)"
+                )
+            self._spin()
+        future: Any = client.call_async(request)
+        while not future.done():
+            if time.monotonic() > deadline:
+                raise RunError(f"{service}: no answer within {timeout:g} s")
+            self._spin()
+        return future.result()
+
+    def _spin(self) -> None:
+        if self.step is None:
+            self.executor.spin_once(timeout_sec=0.1)
+        else:
+            self.executor.spin_once(timeout_sec=0.01)
+            self.step()
+
+    def compute_pose(
+        self, source: int, target: int, policy: str, estimator: str, timeout: float
+    ) -> Estimate:
+        """The coordinator's answer to ComputePose, within ``timeout`` s; SwazureError otherwise.
+
+        ``policy`` and ``estimator`` are the names ``swazure query`` takes.
+        """
+        service = f"/{self.namespace}/{COORDINATOR}/{COMPUTE_POSE_SERVICE}"
+        request = ComputePose.Request(
+            source_id=source,
+            target_id=target,
+            policy=policy_code(policy),
+            estimator=ESTIMATOR_CODES[estimator],
+        )
+        response = self._call(ComputePose, service, COORDINATOR, request, timeout)
+        if not response.success:
+            raise SwazureError(f"{service}: {response.message}")
+        return pose_estimate_from_message(response.estimate)
+
+    def neighbours(self, fls_id: int, timeout: float) -> Neighbours:
+        """FLS ``fls_id``'s answer to GetNeighbours in ``timeout`` s; SwazureError otherwise."""
+        service = f"/{self.namespace}/{node_name(fls_id)}/{NEIGHBOURS_SERVICE}"
+        request = GetNeighbours.Request(fls_id=fls_id)
+        response = self._call(GetNeighbours, service, f"FLS {fls_id}", request, timeout)
+        if not response.success:
+            raise SwazureError(f"{service}: {response.message}")
+        ids = {
+            name: tuple(int(one) for one in getattr(response, f"{name}_ids"))
+            for name in ("blind", "sweet", "visible_sweet", "decaying", "gone")
+        }
+        return Neighbours(fls_id, **ids)
+
+
 def compute_pose(
     namespace: str,
     source: int,
@@ -43,43 +171,5 @@ def compute_pose(
     ``namespace`` is the swarm's ("" reads "swarm"); ``policy`` and ``estimator``
     are the names ``swazure query`` takes.
     """
-    namespace = namespace.strip("/") or "swarm"
-    service = f"/{namespace}/{COORDINATOR}/{COMPUTE_POSE_SERVICE}"
-    context = init_context(domain_id)
-    node = SwarmNode("swazure_query", context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    try:
-        client = node.create_client(ComputePose, service)
-        began = time.monotonic()
-        deadline = began + timeout
-        while not client.service_is_ready():
-            now = time.monotonic()
-            if now > deadline or (
-                now > began + min(timeout, NOTHING_THERE) and not _swarm_nodes(node, namespace)
-            ):
-                raise RunError(
-                    f"no coordinator on domain {context.get_domain_id()}, namespace "
-                    f"/{namespace} (no {service} in {now - began:.0f} s): is a swarm up? "
-                    "(swazure spawn, or ros2 launch swazure_ros swarm.launch.py)"
-                )
-            executor.spin_once(timeout_sec=0.1)
-        request = ComputePose.Request(
-            source_id=source,
-            target_id=target,
-            policy=policy_code(policy),
-            estimator=ESTIMATOR_CODES[estimator],
-        )
-        future: Any = client.call_async(request)
-        while not future.done():
-            if time.monotonic() > deadline:
-                raise RunError(f"{service}: no answer within {timeout:g} s")
-            executor.spin_once(timeout_sec=0.1)
-        response = future.result()
-        if not response.success:
-            raise SwazureError(f"{service}: {response.message}")
-        return pose_estimate_from_message(response.estimate)
-    finally:
-        executor.shutdown()
-        node.destroy_node()  # type: ignore[no-untyped-call]
-        context.try_shutdown()
+    with SwarmQueries(namespace, domain_id) as queries:
+        return queries.compute_pose(source, target, policy, estimator, timeout)

@@ -1,0 +1,546 @@
+"""The engine as library functions: a swarm from a cloud, evaluated as ``swazure evaluate`` does.
+
+:func:`build_swarm` makes a swarm from a point cloud (an array, a file, a
+built-in shape or a published cloud's name); :func:`evaluate` runs plain
+Swazure, a heuristic, fusion or a least-squares estimator over it and returns
+a :class:`Result`: the run's typed records (``core.summary.Summary``,
+``files.results.RunRecord``) and its pairs as a ``pyarrow.Table``.
+:func:`move_obstructing` and :func:`move_source` name the two heuristics.
+
+``swazure evaluate`` runs through the same two workhorses,
+:func:`run_blocked` (plain Swazure, a block of pairs at a time) and
+:func:`run_whole` (every pair held at once), so a script and the command line
+get the same numbers and the same pairs.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterable, Iterator
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..core.blocks import DEFAULT_MEMORY, Budget, evaluate_blocked, whole_swarm_bytes
+from ..core.clouds import BUILTIN_SHAPES, Cloud, validate_points
+from ..core.errors import CloudError, OptionError, SwazureError
+from ..core.evaluate import SILENT, Evaluation, Neighbourhood, PairResults, Progress
+from ..core.evaluate import evaluate as evaluate_swarm
+from ..core.fit import ESTIMATORS, PATH, check_plain_estimator, refine
+from ..core.fusion import fuse as fuse_paths
+from ..core.geometry import Swarm, make_swarm
+from ..core.heuristics.compat import COMPAT_MODES
+from ..core.heuristics.folding import run_technique
+from ..core.heuristics.result import (
+    MAX_THRESHOLD,
+    MOVE_OBSTRUCTING,
+    MOVE_SOURCE,
+    PLAIN,
+    TECHNIQUES,
+    HeuristicResult,
+)
+from ..core.paths import POLICIES, SHORTEST_LENGTH
+from ..core.sensor import Sensor
+from ..core.summary import Summary, with_source
+from ..files.cloud_files import is_cloud_path, load_cloud, published_cloud
+from ..files.reading import available_memory
+from ..files.results import RunRecord, pairs_table
+from ..files.sensors import load_sensor
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class SwarmSetup:
+    """A swarm ready to evaluate: its cloud, the FLSs kept, its sensor, and their sources.
+
+    ``swarm.points`` are the FLSs' centres, (N, 3), cm; ``swarm.cloud_index``
+    their rows in ``cloud.points``, which are the FLS ids of every result.
+    """
+
+    cloud: Cloud
+    swarm: Swarm
+    sensor: Sensor
+    seed: int  # of the choice of colliding FLSs removed
+    sensor_file: str | Path | None  # None: config/sensor.yaml
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """What a run is asked for: ``swazure evaluate``'s options of the same names."""
+
+    policy: str = SHORTEST_LENGTH
+    technique: str = PLAIN
+    threshold: int = 10  # Move Source: steps of r probed per direction
+    compat: str = "text"  # the heuristics as the paper's text ("text") or code ("published")
+    fuse: int = 1  # sweet paths fused per pair
+    estimator: str = PATH
+
+    def check(self) -> None:
+        """OptionError for a value that is none of its choices; SwazureError for options that
+        do not go together (the command line's messages)."""
+        for name, choices in (
+            ("policy", POLICIES),
+            ("technique", TECHNIQUES),
+            ("compat", tuple(COMPAT_MODES)),
+            ("estimator", ESTIMATORS),
+        ):
+            value = getattr(self, name)
+            if value not in choices:
+                raise OptionError(f"{name} {value!r}: expected one of {', '.join(choices)}")
+        _whole_number("threshold", self.threshold, 1, MAX_THRESHOLD)
+        _whole_number("fuse", self.fuse, 1, None)
+        if self.fuse > 1 and self.technique != PLAIN:
+            raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
+        check_plain_estimator(self.estimator, self.technique, self.fuse)
+        if self.compat != "text" and self.technique == PLAIN:
+            raise SwazureError(f"--compat {self.compat} changes the heuristics; add --technique")
+
+    @property
+    def blocked(self) -> bool:
+        """Whether the run is plain Swazure alone, which runs a block of pairs at a time."""
+        return self.technique == PLAIN and self.fuse == 1 and self.estimator == PATH
+
+
+def _whole_number(name: str, value: object, low: int, high: int | None) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer):
+        raise OptionError(f"{name} must be a whole number, got {value!r}")
+    if value < low or (high is not None and value > high):
+        top = f" to {high}" if high is not None else " or more"
+        raise OptionError(f"{name} {value}: must be {low}{top}")
+
+
+@dataclass(frozen=True)
+class Result:
+    """One evaluation: what was asked, its records, and every ordered blind pair.
+
+    ``pairs`` is a ``pyarrow.Table``, one row per ordered blind pair, the
+    columns of ``pairs.csv`` (docs/core.md) with paths and moved FLSs as lists
+    of FLS ids; ``pairs.to_pandas()`` gives a DataFrame where pandas is
+    installed. ``evaluation`` and ``heuristic`` are the core's own results of a
+    run that held every pair at once (a heuristic, fusion or a fit); a plain
+    run, made a block at a time, has None.
+    """
+
+    setup: SwarmSetup
+    options: RunOptions
+    record: RunRecord  # what record.json holds; its summary is summary.json's
+    pairs: Any  # pyarrow.Table
+    evaluation: Evaluation | None = None
+    heuristic: HeuristicResult | None = None
+
+    @property
+    def summary(self) -> Summary:
+        """The run's summary (spec, section 6), as ``summary.json`` holds it."""
+        summary = self.record.summary
+        if summary is None:  # an evaluation's record always has one
+            raise SwazureError("this run has no summary")
+        return summary
+
+
+def build_swarm(
+    cloud: ArrayLike | str | Path,
+    scale: float | None = None,
+    beta: float | None = None,
+    radius: float | None = None,
+    sensor: Sensor | str | Path | None = None,
+    accurate: bool = False,
+    seed: int = 0,
+) -> SwarmSetup:
+    """A swarm of FLSs at the points of ``cloud``, as ``swazure evaluate --cloud`` makes it.
+
+    Parameters
+    ----------
+    cloud : (N, 3) array_like, cm; or str or pathlib.Path
+        The points themselves; a point cloud file (.xyz .txt .csv .npy .ply); a
+        built-in shape (``"torus"``, ``"sphere:500"``, ``NAME:COUNT``); or a
+        published cloud by name (``"chess"`` or ``"chess_408"``), read from
+        ``../shared/datasets/swazure-paper`` or ``$SWAZURE_DATASETS``.
+    scale : float, optional
+        Multiplies the coordinates to give cm. Default: the published scale for
+        a published cloud, else 1.
+    beta : float, optional
+        FLS radius as a share of the least distance between points,
+        ``r = beta * dmin``, in (0, 1]. Give ``beta`` or ``radius``.
+    radius : float, optional
+        FLS radius r, cm.
+    sensor : Sensor or str or pathlib.Path, optional
+        The sensor, or its YAML file. Default: ``config/sensor.yaml``.
+    accurate : bool, default False
+        Measure without error.
+    seed : int, default 0
+        Seed of the choice of colliding FLSs to remove.
+
+    Returns
+    -------
+    SwarmSetup
+        The cloud (cm), the swarm kept after collision removal, the sensor.
+
+    Raises
+    ------
+    CloudError
+        ``cloud`` is no known shape or readable file, not of shape (N, 3),
+        not finite; both or neither of ``beta`` and ``radius``; a bad scale.
+    SensorError
+        The sensor file does not parse.
+
+    Examples
+    --------
+    >>> from swazure_ros import api
+    >>> setup = api.build_swarm("torus:120", scale=5, beta=0.5)
+    >>> setup.swarm.size
+    120
+    """
+    if beta is not None and radius is not None:
+        raise CloudError("give beta or radius, not both")
+    if beta is None and radius is None:
+        raise CloudError("give beta (r = beta * dmin) or radius (cm)")
+    # The summary names the sensor's file; one built in Python has none (its values are
+    # in the summary's parameters either way).
+    sensor_file = "(a Sensor given in Python)" if isinstance(sensor, Sensor) else sensor
+    found = sensor if isinstance(sensor, Sensor) else load_sensor(sensor)
+    if accurate:
+        found = found.error_free()
+    points = cloud_of(cloud, scale)
+    swarm = make_swarm(points.points, beta=beta, radius=radius, seed=seed)
+    return SwarmSetup(points, swarm, found, seed, sensor_file)
+
+
+def cloud_of(cloud: ArrayLike | str | Path, scale: float | None = None) -> Cloud:
+    """The :class:`~swazure_ros.core.clouds.Cloud` that ``cloud`` names or holds, in cm.
+
+    Parameters
+    ----------
+    cloud : (N, 3) array_like, cm; or str or pathlib.Path
+        As :func:`build_swarm` takes it.
+    scale : float, optional
+        Multiplies the coordinates to give cm (default: as :func:`build_swarm`).
+
+    Returns
+    -------
+    Cloud
+        Its name, points (N, 3) in cm, scale and source (a path, ``"builtin"``
+        or ``"array"``).
+
+    Raises
+    ------
+    CloudError
+        An unknown name, a file that cannot be read, an array not of shape
+        (N, 3) or not finite, a scale that is not a positive number.
+
+    Examples
+    --------
+    >>> from swazure_ros import api
+    >>> api.cloud_of([[0, 0, 0], [1, 0, 0]], scale=2.0).points[1]
+    array([2., 0., 0.])
+    """
+    if isinstance(cloud, str | Path):
+        return load_cloud(_named_file(cloud), scale)
+    points = validate_points(cloud, "cloud")
+    factor = 1.0 if scale is None else scale
+    if not isinstance(factor, int | float) or not math.isfinite(factor) or factor <= 0:
+        raise CloudError(f"scale must be a positive number, got {scale}")
+    points = validate_points(points * factor, f"points at scale {factor:g}")
+    return Cloud("points", points, float(factor), "array")
+
+
+def _named_file(spec: str | Path) -> str | Path:
+    """``spec``, or the file of the published cloud it names (``chess``)."""
+    text = str(spec)
+    if isinstance(spec, Path) or is_cloud_path(text):
+        return spec
+    if text.partition(":")[0] in BUILTIN_SHAPES:
+        return text
+    return published_cloud(text)
+
+
+def evaluate(
+    swarm: SwarmSetup,
+    policy: str = SHORTEST_LENGTH,
+    *,
+    technique: str = PLAIN,
+    threshold: int = 10,
+    compat: str = "text",
+    fuse: int = 1,
+    estimator: str = PATH,
+    memory: int = DEFAULT_MEMORY,
+    progress: Progress | None = None,
+) -> Result:
+    """Every ordered blind pair of ``swarm``, as ``swazure evaluate`` computes it.
+
+    Plain Swazure is evaluated a block of pairs at a time within ``memory``;
+    a heuristic, fusion or a fit holds every pair at once. The numbers and
+    pairs are those ``swazure evaluate --out`` writes for the same options.
+
+    Parameters
+    ----------
+    swarm : SwarmSetup
+        From :func:`build_swarm`.
+    policy : {"shortest-length", "fewest-hops", "least-error"}
+        The path policy.
+    technique : {"plain", "move-obstructing", "move-source"}
+        Plain Swazure, or a heuristic tried on the BLOCKED pairs.
+    threshold : int, default 10
+        Move Source: probe up to this many steps of r per direction, 1 to 1000.
+    compat : {"text", "published"}
+        The heuristics as the paper's text describes them, or as its code runs.
+    fuse : int, default 1
+        Fuse each sweet pair's estimate from up to this many node-disjoint
+        sweet paths (plain Swazure only).
+    estimator : {"path", "least-squares", "local-least-squares", "swarm-fit"}
+        The policy's path sum (the paper), or a least-squares fit with a
+        covariance per estimate (plain Swazure only).
+    memory : int, default 2 GiB
+        Bytes a block of plain Swazure's pairs may hold.
+    progress : Progress, optional
+        Told each stage's start and advance (``core.evaluate.Progress``).
+
+    Returns
+    -------
+    Result
+        ``summary`` (``core.summary.Summary``), ``record``
+        (``files.results.RunRecord``), ``pairs`` (a ``pyarrow.Table``, one row
+        per ordered blind pair; FLS ids are the cloud's row numbers; distances
+        cm, angles degrees, errors %).
+
+    Raises
+    ------
+    OptionError
+        An option that is none of its choices or out of range, or ``swarm``
+        not a SwarmSetup.
+    SwazureError
+        Options that do not go together (a heuristic with fusion or a fit), or a
+        swarm whose pairs would not fit in memory held at once.
+
+    Examples
+    --------
+    >>> from swazure_ros import api
+    >>> result = api.evaluate(api.build_swarm("torus:120", scale=5, beta=0.5))
+    >>> result.summary.pairs.blind_pairs == result.pairs.num_rows
+    True
+    """
+    if not isinstance(swarm, SwarmSetup):
+        kind = type(swarm).__name__
+        raise OptionError(f"swarm must be a SwarmSetup (build_swarm(cloud, beta=...)), got {kind}")
+    options = RunOptions(policy, technique, threshold, compat, fuse, estimator)
+    options.check()
+    if options.blocked:
+        record, tables = run_blocked(swarm, policy, memory, progress or SILENT, _tables)
+        return Result(swarm, options, record, tables)
+    evaluation, heuristic, record = run_whole(swarm, options, progress)
+    table = pairs_table(evaluation.hood, evaluation.pairs, heuristic, as_text=False)
+    return Result(swarm, options, record, table, evaluation, heuristic)
+
+
+def move_obstructing(
+    swarm: SwarmSetup, policy: str = SHORTEST_LENGTH, compat: str = "text"
+) -> Result:
+    """Move Obstructing on ``swarm``'s BLOCKED pairs: :func:`evaluate` with that technique.
+
+    Parameters
+    ----------
+    swarm : SwarmSetup
+        From :func:`build_swarm`.
+    policy : {"shortest-length", "fewest-hops", "least-error"}
+        The path policy.
+    compat : {"text", "published"}
+        The heuristic as the paper's text describes it, or as its code runs.
+
+    Returns
+    -------
+    Result
+        With ``summary.heuristic`` (tried, resolved, moves in cm) and the
+        pairs' ``tried``, ``resolved``, ``moves`` columns.
+
+    Raises
+    ------
+    OptionError
+        As :func:`evaluate`.
+
+    Examples
+    --------
+    >>> from swazure_ros import api
+    >>> moved = api.move_obstructing(api.build_swarm("torus:120", scale=1.6, beta=0.5))
+    >>> moved.summary.heuristic.technique
+    'move-obstructing'
+    """
+    return evaluate(swarm, policy, technique=MOVE_OBSTRUCTING, compat=compat)
+
+
+def move_source(
+    swarm: SwarmSetup, policy: str = SHORTEST_LENGTH, threshold: int = 10, compat: str = "text"
+) -> Result:
+    """Move Source on ``swarm``'s BLOCKED pairs: :func:`evaluate` with that technique.
+
+    Parameters
+    ----------
+    swarm : SwarmSetup
+        From :func:`build_swarm`.
+    policy : {"shortest-length", "fewest-hops", "least-error"}
+        The path policy.
+    threshold : int, default 10
+        Probe up to this many steps of r per direction, 1 to 1000.
+    compat : {"text", "published"}
+        The heuristic as the paper's text describes it, or as its code runs.
+
+    Returns
+    -------
+    Result
+        With ``summary.heuristic`` (its ``flown_distance`` and
+        ``displacement`` in cm too).
+
+    Raises
+    ------
+    OptionError
+        As :func:`evaluate`.
+
+    Examples
+    --------
+    >>> from swazure_ros import api
+    >>> moved = api.move_source(api.build_swarm("torus:120", scale=1.6, beta=0.5), threshold=5)
+    >>> moved.summary.heuristic.threshold
+    5
+    """
+    return evaluate(swarm, policy, technique=MOVE_SOURCE, threshold=threshold, compat=compat)
+
+
+def _tables(hood: Neighbourhood, blocks: Iterable[PairResults]) -> Any:
+    """Every block's pairs in one pyarrow Table (paths as lists of FLS ids)."""
+    import pyarrow as pa
+
+    tables = [pairs_table(hood, pairs, None, as_text=False) for pairs in blocks]
+    if not tables:  # no blind pair: the columns still
+        none = np.empty(0, dtype=np.int64)
+        from ..core.evaluate import evaluate_pairs
+
+        empty = evaluate_pairs(hood, SHORTEST_LENGTH, blind=(none, none))
+        tables = [pairs_table(hood, empty, None, as_text=False)]
+    return pa.concat_tables(tables)
+
+
+def run_blocked(
+    setup: SwarmSetup,
+    policy: str,
+    memory: int,
+    progress: Progress,
+    take: Callable[[Neighbourhood, Iterator[PairResults]], T],
+) -> tuple[RunRecord, T]:
+    """Plain Swazure a block of pairs at a time; ``take(hood, blocks)`` gets every block.
+
+    The workhorse of :func:`evaluate` and ``swazure evaluate`` for plain Swazure.
+
+    Parameters
+    ----------
+    setup : SwarmSetup
+        From :func:`build_swarm`.
+    policy : str
+        The path policy, one of ``core.paths.POLICIES``.
+    memory : int
+        Bytes a block of pairs may hold (``core.blocks.Budget``).
+    progress : Progress
+        Told each stage's start and advance.
+    take : callable
+        ``take(hood, blocks)``: must go through ``blocks`` (write them, join
+        them); FLS ids are ``hood.swarm.cloud_index[...]`` of the pairs' indices.
+
+    Returns
+    -------
+    record : RunRecord
+        The run's record; its summary is the run's, with where the swarm came from.
+    taken : object
+        What ``take`` returned.
+
+    Raises
+    ------
+    RuntimeError
+        ``take`` left blocks unmade: the summary needs every pair tallied.
+
+    Examples
+    --------
+    >>> from swazure_ros import api
+    >>> from swazure_ros.core.evaluate import SILENT
+    >>> setup = api.build_swarm("torus:120", scale=5, beta=0.5)
+    >>> count = lambda hood, blocks: sum(len(pairs) for pairs in blocks)
+    >>> record, pairs = api.engine.run_blocked(setup, "fewest-hops", 2**30, SILENT, count)
+    >>> record.summary.pairs.blind_pairs == pairs
+    True
+    """
+    run = evaluate_blocked(setup.swarm, setup.sensor, policy, Budget(memory), progress)
+    taken = take(run.hood, run.blocks(progress))
+    summary = with_source(run.summary(), setup.cloud, setup.seed, setup.sensor_file)
+    return RunRecord("evaluate", run.seconds, summary), taken
+
+
+def run_whole(
+    setup: SwarmSetup, options: RunOptions, progress: Progress | None
+) -> tuple[Evaluation, HeuristicResult | None, RunRecord]:
+    """A heuristic, fusion or a fit: every pair of the swarm held at once.
+
+    The workhorse of :func:`evaluate` and ``swazure evaluate`` for all but plain
+    Swazure.
+
+    Parameters
+    ----------
+    setup : SwarmSetup
+        From :func:`build_swarm`.
+    options : RunOptions
+        What to run, checked (:meth:`RunOptions.check`).
+    progress : Progress, optional
+        Told each stage's start and advance.
+
+    Returns
+    -------
+    evaluation : Evaluation
+        Every ordered blind pair (``core.evaluate.PairResults``, swarm
+        indices) and the summary, with where the swarm came from.
+    heuristic : HeuristicResult or None
+        The heuristic's moves, with a technique.
+    record : RunRecord
+        The run's record (``record.json``).
+
+    Raises
+    ------
+    SwazureError
+        This machine lacks the memory to hold every pair.
+
+    Examples
+    --------
+    >>> from swazure_ros import api
+    >>> setup = api.build_swarm("torus:120", scale=5, beta=0.5)
+    >>> options = api.RunOptions(estimator="least-squares")
+    >>> evaluation, _, record = api.engine.run_whole(setup, options, None)
+    >>> record.summary.fit.estimator
+    'least-squares'
+    """
+    swarm, sensor = setup.swarm, setup.sensor
+    need, have = whole_swarm_bytes(swarm, sensor), available_memory()
+    if need > have:
+        raise SwazureError(
+            f"{setup.cloud.name}: --technique, --fuse, --estimator and --snapshot hold every "
+            f"pair of the swarm at once, about {need / 2**30:.1f} GB for {swarm.size} FLSs; "
+            f"this machine has {have / 2**30:.1f} GB free (plain Swazure runs in blocks)"
+        )
+    heuristic: HeuristicResult | None = None
+    evaluation = evaluate_swarm(swarm, sensor, options.policy, progress)
+    if options.technique != PLAIN:
+        began = time.perf_counter()
+        if progress is not None:
+            progress.start(options.technique, 1)
+        evaluation, heuristic = run_technique(
+            evaluation, options.technique, options.threshold, COMPAT_MODES[options.compat]
+        )
+        seconds = (evaluation.summary.seconds or 0.0) + time.perf_counter() - began
+        evaluation = replace(evaluation, summary=replace(evaluation.summary, seconds=seconds))
+    if options.fuse > 1:
+        evaluation = fuse_paths(evaluation, options.fuse)
+    if options.estimator != PATH:
+        if progress is not None:
+            progress.start(options.estimator, 1)
+        evaluation = refine(evaluation, options.estimator)
+    summary = with_source(evaluation.summary, setup.cloud, setup.seed, setup.sensor_file)
+    evaluation = replace(evaluation, summary=summary)
+    return evaluation, heuristic, RunRecord("evaluate", summary.seconds or 0.0, summary)
