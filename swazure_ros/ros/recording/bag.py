@@ -681,16 +681,21 @@ def _mcap_info(path: Path, files: list[Path], size: int) -> BagInfo:
 
 
 def _offered_profiles(metadata: dict[str, str]) -> list[dict[str, Any]]:
-    """An MCAP channel's offered QoS profiles (rosbag2's YAML), or from our first keys."""
+    """A recorded channel's offered QoS profiles: rosbag2's YAML list, or one from our
+    first recordings' own keys (reliable, volatile when not said); [] without either."""
     try:
         offered = yaml.safe_load(metadata.get("offered_qos_profiles", "")) or []
     except yaml.YAMLError:
-        offered = []
-    if offered and isinstance(offered, list) and all(isinstance(p, dict) for p in offered):
+        offered = None  # a corrupted record: the keys below
+    if offered and isinstance(offered, list) and all(isinstance(o, dict) for o in offered):
         return offered
-    if "reliability" in metadata:
-        keys = ("reliability", "durability")
-        return [{key: metadata[key] for key in keys if key in metadata}]
+    if "reliability" in metadata or "durability" in metadata:
+        return [
+            {
+                "reliability": metadata.get("reliability", "reliable"),
+                "durability": metadata.get("durability", "volatile"),
+            }
+        ]
     return []
 
 
@@ -735,16 +740,9 @@ def _qos_of(metadata: dict[str, str]) -> QoSProfile:
     recordings' own keys where there are no profiles (reliable, volatile when
     not said).
     """
-    try:
-        offers = yaml.safe_load(metadata.get("offered_qos_profiles", "")) or []
-    except yaml.YAMLError:
-        offers = None  # a corrupted record: the keys below, or reliable and volatile
-    if isinstance(offers, list) and offers and all(isinstance(o, dict) for o in offers):
-        reliable = all(o.get("reliability") in ("reliable", 1) for o in offers)
-        latched = all(o.get("durability") in ("transient_local", 1) for o in offers)
-    else:
-        reliable = metadata.get("reliability", "reliable") == "reliable"
-        latched = metadata.get("durability") == "transient_local"
+    offers = _offered_profiles(metadata)  # none: reliable and volatile
+    reliable = all(o.get("reliability") in ("reliable", 1) for o in offers)
+    latched = bool(offers) and all(o.get("durability") in ("transient_local", 1) for o in offers)
     return QoSProfile(
         history=HistoryPolicy.KEEP_ALL,
         depth=1,
