@@ -15,7 +15,8 @@ recordings) is read as well.
 :class:`Recorder` subscribes to every topic under the swarm's namespace as
 it appears on the graph (as ``ros2 bag record`` does), with the QoS its
 publishers offer; :class:`Player` publishes a recording with its original
-timing.
+timing; :func:`bag_info` tells what a recording holds (``swazure replay
+--info``, as ``ros2 bag info``).
 """
 
 from __future__ import annotations
