@@ -17,6 +17,9 @@ setup(
         (f"share/{PACKAGE}/config/cameras", glob("config/cameras/*.yaml")),
         (f"share/{PACKAGE}/config/swarms", glob("config/swarms/*.yaml")),
         (f"share/{PACKAGE}/config/track", glob("config/track/*")),
+        # Viewers' files: `rviz2 -d .../config/rviz/swarm.rviz`, Foxglove's "Import layout".
+        (f"share/{PACKAGE}/config/rviz", glob("config/rviz/*.rviz")),
+        (f"share/{PACKAGE}/config/foxglove", glob("config/foxglove/*.json")),
         (f"share/{PACKAGE}/launch", glob("launch/*.launch.py")),
         # `ros2 run swazure_ros <program>` runs lib/swazure_ros/<program>.
         (f"lib/{PACKAGE}", glob("scripts/nodes/*")),

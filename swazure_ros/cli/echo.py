@@ -26,7 +26,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=seconds,
         default=None,
         metavar="S",
-        help="exit 1 when no message arrived within S seconds (default: wait)",
+        help="exit 1 when no message arrived within S seconds (default: wait, saying once on "
+        "stderr what it waits for)",
     )
     add_domain_argument(parser)
 

@@ -3,6 +3,9 @@
 Every message goes out on its recorded topic with the QoS it was recorded
 with, as the bytes that were recorded; ``ros2 topic echo``, ``swazure echo``
 and Foxglove see the run as it happened. With --rate 2 it plays twice as fast.
+With --info it publishes nothing and tells what the recording holds, as
+``ros2 bag info`` does: files, size, duration, start and end, and per topic its
+type, message count and its publishers' offered QoS.
 """
 
 from __future__ import annotations
@@ -10,10 +13,16 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from collections import Counter
+from datetime import datetime, timezone
+from typing import TYPE_CHECKING, Any
 
 from ..core.errors import SwazureError
 from .arguments import number, recording, seconds
 from .options import add_domain_argument
+
+if TYPE_CHECKING:
+    from ..ros.recording.bag import BagInfo
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -35,6 +44,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="wait S seconds between advertising the topics and the first message, so that "
         "subscribers can match (default 1)",
+    )
+    parser.add_argument(
+        "--info",
+        action="store_true",
+        help="publish nothing: print what the recording holds (files, size, duration, start "
+        "and end, and per topic its type, message count and offered QoS), as ros2 bag info",
     )
     add_domain_argument(parser)
 
@@ -63,8 +78,11 @@ def rate(text: str) -> float:
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure replay``."""
     from ..ros.plumbing.runtime import init_context
-    from ..ros.recording.bag import Player, read_recording, recorded_channels
+    from ..ros.recording.bag import Player, bag_info, read_recording, recorded_channels
 
+    if args.info:
+        sys.stdout.write(info_text(bag_info(args.recording)))
+        return 0
     channels = recorded_channels(args.recording)
     if not channels:
         raise SwazureError(f"{args.recording}: no ROS 2 messages recorded")
@@ -103,3 +121,59 @@ def main(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     return 0
+
+
+#: The width of info_text's labels, as ros2 bag info aligns them.
+_LABEL = 19
+
+
+def info_text(info: BagInfo) -> str:
+    """What a recording holds, laid out as ``ros2 bag info`` lays it out (times in UTC)."""
+    lines = [
+        ("Files:", ", ".join(str(path.name) for path in info.files)),
+        ("Bag size:", _size(info.size)),
+        ("Storage id:", info.storage),
+        ("ROS Distro:", info.ros_distro),
+        ("Duration:", f"{info.duration / 1e9:.9f}s"),
+        ("Start:", _time(info.start) if info.count else "-"),
+        ("End:", _time(info.end) if info.count else "-"),
+        ("Messages:", str(info.count)),
+    ]
+    if info.cut is not None:
+        lines.append(("Cut short:", info.cut))
+    topics = [
+        f"Topic: {topic.name} | Type: {topic.type_name} | Count: {topic.count} | "
+        f"Serialization Format: {topic.serialization_format} | "
+        f"Offered QoS: {offered_qos_text(topic.offered_qos)}"
+        for topic in sorted(info.topics, key=lambda topic: topic.name)
+    ]
+    lines.append(("Topic information:", topics[0] if topics else "-"))
+    lines += [("", line) for line in topics[1:]]
+    return "".join(f"{label:<{_LABEL}}{value}\n" for label, value in lines)
+
+
+def offered_qos_text(profiles: list[dict[str, Any]]) -> str:
+    """Publishers' QoS profiles in a few words: reliability and durability, with how many
+    publishers offer each (``reliable, transient_local x60``); "-" when none is recorded."""
+    offers = Counter(
+        f"{profile.get('reliability', '?')}, {profile.get('durability', '?')}"
+        for profile in profiles
+    )
+    return "; ".join(f"{offer} x{count}" for offer, count in offers.items()) or "-"
+
+
+def _size(count: int) -> str:
+    """Bytes as ros2 bag info says them (B, KiB, MiB, GiB)."""
+    size, unit = float(count), "B"
+    for larger in ("KiB", "MiB", "GiB"):
+        if size < 1024:
+            break
+        size, unit = size / 1024, larger
+    return f"{size:.1f} {unit}" if unit != "B" else f"{count} B"
+
+
+def _time(ns: int) -> str:
+    """A time in ns since the epoch, as a UTC date and the seconds (``ros2 bag info``'s)."""
+    seconds, rest = divmod(ns, 10**9)
+    when = datetime.fromtimestamp(seconds, tz=timezone.utc).strftime("%b %d %Y %H:%M:%S")
+    return f"{when}.{rest:09d} UTC ({seconds}.{rest:09d})"

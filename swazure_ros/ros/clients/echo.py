@@ -6,6 +6,7 @@ message type is found on the graph, or given as pkg/msg/Type.
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from collections.abc import Callable
@@ -50,6 +51,56 @@ def message_to_yaml(message: Any) -> str:
 
 
 ECHO_DEPTH = 10_000
+#: Seconds echo waits quietly before it says what it waits for: a publisher that is
+#: there shows on the graph within this on a quiet machine, and then nothing is said.
+WAIT_NOTICE_AFTER = 2.0
+
+
+class WaitNotice:
+    """Says once on stderr, when nothing came within ``grace`` s, what echo waits for.
+
+    A reader that waits in silence looks hung: the line names the topic, its
+    namespace, the ROS domain and discovery range it looks on, what the graph
+    shows there, and what ends the wait.
+    """
+
+    def __init__(
+        self, topic: str, timeout: float | None, grace: float = WAIT_NOTICE_AFTER
+    ) -> None:
+        self.topic, self.timeout = topic, timeout
+        self._due = time.monotonic() + grace
+        #: The line, once said.
+        self.said: str | None = None
+
+    def look(self, node: Node, printed: int) -> None:
+        """Say it now if its time came and nothing was printed (once)."""
+        if self.said is not None or printed or time.monotonic() < self._due:
+            return
+        self.said = waiting_text(node, self.topic, self.timeout)
+        print(self.said, file=sys.stderr, flush=True)
+
+
+def waiting_text(node: Node, topic: str, timeout: float | None) -> str:
+    """One line: what ``swazure echo`` waits for on ``node``'s domain, and what ends it."""
+    namespace = topic.rsplit("/", 1)[0] or "/"
+    publishers = node.count_publishers(topic)
+    waited = f"a message on {topic} ({publishers} publishers)" if publishers else (
+        f"a publisher of {topic}"
+    )  # fmt: skip
+    prefix = namespace.rstrip("/") + "/"
+    others = [name for name, _ in node.get_topic_names_and_types() if name.startswith(prefix)]
+    seen = f"{len(others)} topics under {namespace} seen" if others else (
+        f"no topic under {namespace} seen yet"
+    )  # fmt: skip
+    reach = os.environ.get("ROS_AUTOMATIC_DISCOVERY_RANGE", "SUBNET").lower()
+    ends = f"it ends after {timeout:g} s (--timeout)" if timeout is not None else (
+        "--timeout S ends the wait, Ctrl-C stops"
+    )  # fmt: skip
+    domain = node.context.get_domain_id()
+    return (
+        f"swazure echo: waiting for {waited} in namespace {namespace}, ROS domain {domain} "
+        f"(discovery: {reach}); {seen}; {ends}"
+    )
 
 
 def echo_qos(node: Node, topic: str) -> QoSProfile:
@@ -108,15 +159,10 @@ def echo(
     executor.add_node(node)
     printed = 0
     began = time.monotonic()
+    notice = WaitNotice(topic, timeout)
     try:
-        while type_name is None:
-            types = dict(node.get_topic_names_and_types()).get(topic)
-            if types:
-                type_name = types[0]
-                break
-            if timeout is not None and time.monotonic() - began > timeout:
-                raise RunError(f"{topic}: no publisher found within {timeout:g} s")
-            _spin(executor, step)
+        if type_name is None:
+            type_name = _published_type(node, executor, topic, timeout, notice, step)
         cls = message_class(type_name)
         wanted = f"{cls.__module__.split('.')[0]}/msg/{cls.__name__}"
 
@@ -158,9 +204,33 @@ def echo(
                     file=sys.stderr,
                 )
                 return 1
+            notice.look(node, printed)
             _spin(executor, step)
     finally:
         executor.shutdown()
         node.destroy_node()  # type: ignore[no-untyped-call]
         context.try_shutdown()
     return 0
+
+
+def _published_type(
+    node: Node,
+    executor: SingleThreadedExecutor,
+    topic: str,
+    timeout: float | None,
+    notice: WaitNotice,
+    step: Callable[[], object] | None,
+) -> str:
+    """The type of ``topic`` once a publisher shows; RunError after ``timeout`` s.
+
+    ``step`` serves a swarm this process runs between spins (see `echo`).
+    """
+    began = time.monotonic()
+    while True:
+        types = dict(node.get_topic_names_and_types()).get(topic)
+        if types:
+            return str(types[0])
+        if timeout is not None and time.monotonic() - began > timeout:
+            raise RunError(f"{topic}: no publisher found within {timeout:g} s")
+        notice.look(node, 0)
+        _spin(executor, step)

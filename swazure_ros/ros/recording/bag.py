@@ -15,7 +15,8 @@ recordings) is read as well.
 :class:`Recorder` subscribes to every topic under the swarm's namespace as
 it appears on the graph (as ``ros2 bag record`` does), with the QoS its
 publishers offer; :class:`Player` publishes a recording with its original
-timing.
+timing; :func:`bag_info` tells what a recording holds (``swazure replay
+--info``, as ``ros2 bag info``).
 """
 
 from __future__ import annotations
@@ -552,6 +553,153 @@ def _has_summary(reader: Any) -> bool:
         return False
 
 
+@dataclass(frozen=True)
+class TopicInfo:
+    """One recorded topic, as ``ros2 bag info`` lists it.
+
+    ``offered_qos`` is rosbag2's list of its publishers' QoS profiles, one per
+    publisher, policies by name (``reliability``, ``durability``, ...).
+    """
+
+    name: str
+    type_name: str
+    count: int
+    serialization_format: str
+    offered_qos: list[dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class BagInfo:
+    """What a recording holds, as ``ros2 bag info`` tells it; times in ns since the epoch.
+
+    From the bag's metadata.yaml, or for an MCAP file alone (or a bag cut short
+    before its metadata was written) from the file's statistics, or by reading it
+    where it has none; ``cut`` then says where its messages end.
+    """
+
+    path: Path
+    files: list[Path]
+    size: int  # bytes, of its storage files
+    storage: str
+    ros_distro: str
+    start: int
+    duration: int  # ns
+    count: int
+    topics: list[TopicInfo]
+    cut: str | None = None
+
+    @property
+    def end(self) -> int:
+        """When the last message was logged, ns since the epoch."""
+        return self.start + self.duration
+
+
+def bag_info(path: Path) -> BagInfo:
+    """What the recording at ``path`` holds; SwazureError in one line if it is not one.
+
+    A bag folder is described by its metadata.yaml, as ``ros2 bag info`` does;
+    its storage files must be there.
+    """
+    files = storage_files(path)
+    size = sum(storage.stat().st_size for storage in files)
+    if path.is_dir() and (path / METADATA_FILE).exists():
+        described = read_yaml(path / METADATA_FILE, "bag metadata", SwazureError)
+        try:
+            return _described_info(path, files, size, described["rosbag2_bagfile_information"])
+        except KeyError as err:
+            raise SwazureError(f"{path}: not a rosbag2 bag ({METADATA_FILE} lacks {err})") from err
+        except (TypeError, ValueError, AttributeError, yaml.YAMLError) as err:
+            raise SwazureError(f"{path}: not a rosbag2 bag ({METADATA_FILE}: {err})") from err
+    return _mcap_info(path, files, size)
+
+
+def _described_info(path: Path, files: list[Path], size: int, metadata: Any) -> BagInfo:
+    """A bag's info from rosbag2's metadata (version 9; older ones keep QoS as YAML text)."""
+    topics = []
+    for entry in metadata["topics_with_message_count"]:
+        topic = entry["topic_metadata"]
+        offered = topic.get("offered_qos_profiles") or []
+        if isinstance(offered, str):
+            offered = yaml.safe_load(offered) or []
+        topics.append(
+            TopicInfo(
+                str(topic["name"]), str(topic["type"]), int(entry["message_count"]),
+                str(topic.get("serialization_format", "cdr")), list(offered),
+            )
+        )  # fmt: skip
+    return BagInfo(
+        path=path,
+        files=files,
+        size=size,
+        storage=str(metadata["storage_identifier"]),
+        ros_distro=str(metadata.get("ros_distro") or "-"),
+        start=int(metadata["starting_time"]["nanoseconds_since_epoch"]),
+        duration=int(metadata["duration"]["nanoseconds"]),
+        count=int(metadata["message_count"]),
+        topics=topics,
+    )
+
+
+def _mcap_info(path: Path, files: list[Path], size: int) -> BagInfo:
+    """An MCAP recording's info from its statistics, or counted message by message."""
+    channels = recorded_channels(path)
+    counts = dict.fromkeys((channel.topic for channel in channels), 0)
+    times: list[int] = []
+    cut = None
+    for storage in files:
+        with storage.open("rb") as stream:
+            reader = make_reader(stream)
+            summary = reader.get_summary() if _has_summary(reader) else None
+        statistics = summary.statistics if summary is not None else None
+        if statistics is not None and summary is not None:
+            for channel_id, count in statistics.channel_message_counts.items():
+                channel = summary.channels.get(channel_id)
+                if channel is not None and channel.topic in counts:
+                    counts[channel.topic] += count
+            if statistics.message_count:
+                times += [statistics.message_start_time, statistics.message_end_time]
+            continue
+        try:  # no statistics (a file cut short): its messages, as far as they go
+            for message in read_recording(storage):
+                counts[message.topic] = counts.get(message.topic, 0) + 1
+                times.append(message.log_time)
+        except SwazureError as err:
+            cut = str(err)
+    by_topic = {channel.topic: channel for channel in channels}
+    topics = [
+        TopicInfo(
+            topic, by_topic[topic].type_name, count, "cdr",
+            _offered_profiles(by_topic[topic].metadata),
+        )
+        for topic, count in counts.items()
+    ]  # fmt: skip
+    start = min(times, default=0)
+    return BagInfo(
+        path=path, files=files, size=size, storage="mcap", ros_distro="-", start=start,
+        duration=max(times, default=0) - start, count=sum(counts.values()), topics=topics,
+        cut=cut,
+    )  # fmt: skip
+
+
+def _offered_profiles(metadata: dict[str, str]) -> list[dict[str, Any]]:
+    """A recorded channel's offered QoS profiles: rosbag2's YAML list, or one from our
+    first recordings' own keys (reliable, volatile when not said); [] without either."""
+    try:
+        offered = yaml.safe_load(metadata.get("offered_qos_profiles", "")) or []
+    except yaml.YAMLError:
+        offered = None  # a corrupted record: the keys below
+    if offered and isinstance(offered, list) and all(isinstance(o, dict) for o in offered):
+        return offered
+    if "reliability" in metadata or "durability" in metadata:
+        return [
+            {
+                "reliability": metadata.get("reliability", "reliable"),
+                "durability": metadata.get("durability", "volatile"),
+            }
+        ]
+    return []
+
+
 class Player(Node):
     """Publishes recorded messages on their topics, with the QoS they were recorded with."""
 
@@ -593,16 +741,9 @@ def _qos_of(metadata: dict[str, str]) -> QoSProfile:
     recordings' own keys where there are no profiles (reliable, volatile when
     not said).
     """
-    try:
-        offers = yaml.safe_load(metadata.get("offered_qos_profiles", "")) or []
-    except yaml.YAMLError:
-        offers = None  # a corrupted record: the keys below, or reliable and volatile
-    if isinstance(offers, list) and offers and all(isinstance(o, dict) for o in offers):
-        reliable = all(o.get("reliability") in ("reliable", 1) for o in offers)
-        latched = all(o.get("durability") in ("transient_local", 1) for o in offers)
-    else:
-        reliable = metadata.get("reliability", "reliable") == "reliable"
-        latched = metadata.get("durability") == "transient_local"
+    offers = _offered_profiles(metadata)  # none: reliable and volatile
+    reliable = all(o.get("reliability") in ("reliable", 1) for o in offers)
+    latched = bool(offers) and all(o.get("durability") in ("transient_local", 1) for o in offers)
     return QoSProfile(
         history=HistoryPolicy.KEEP_ALL,
         depth=1,
