@@ -91,6 +91,7 @@ def scale_identity(
                 at_once.mkdir()
                 blocked.mkdir()
                 _, expected = write_evaluation(at_once, whole, None, pairs_format)
+                assert expected is not None  # csv and parquet write a file
                 # 64 MiB: the race car's pairs in about 80 blocks.
                 run = evaluate_blocked(
                     swarm, sensor, "shortest-length", Budget(64 * 2**20), SILENT

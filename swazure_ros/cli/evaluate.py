@@ -1,9 +1,9 @@
 """Evaluate every ordered blind pair of a swarm with the core engine and report the metrics.
 
 The swarm comes from the options or a swarm file (config/swarms/*.yaml), as
-for swazure spawn. Prints a summary table; with --out DIR also writes DIR/summary.json and one
-row per ordered blind pair to DIR/pairs.csv. A progress bar appears on
-stderr for runs longer than two seconds.
+for swazure spawn. Prints a summary table; with --out DIR also writes DIR/summary.json,
+DIR/record.json and one row per ordered blind pair to DIR/pairs.csv (or pairs.parquet, or
+none: --pairs). A progress bar appears on stderr for runs longer than two seconds.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
 from ..core.summary import with_source
 from ..files.reading import available_memory
 from ..files.results import (
+    NO_PAIRS,
     SUMMARY_FILE,
     RunRecord,
     write_json,
@@ -46,10 +47,14 @@ from .arguments import (
 from .options import (
     add_colour_arguments,
     add_compat_argument,
+    add_pairs_argument,
     add_policy_argument,
     add_swarm_arguments,
     add_threshold_argument,
+    pairs_output,
     swarm_from_args,
+    warn_of_large_pairs,
+    wrote,
 )
 from .summary import SUMMARY_TERMS, cell, summary_table
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
@@ -93,8 +98,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=output_folder,
         default=None,
         metavar="DIR",
-        help="write summary.json and pairs.csv here",
+        help="write summary.json, record.json and pairs.csv (--pairs) here",
     )
+    add_pairs_argument(parser)
     parser.add_argument(
         "--snapshot",
         type=png_file,
@@ -151,6 +157,7 @@ class TqdmProgress:
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure evaluate``."""
     args = apply_swarm_file(args)
+    args.pairs = pairs_output(args, args.out is not None)
     cloud, swarm, sensor = swarm_from_args(args)
     progress: Progress | None = None if args.quiet else TqdmProgress()
     if args.fuse > 1 and args.technique != PLAIN:
@@ -192,20 +199,23 @@ def _evaluate_in_blocks(
     progress = progress or SILENT
     run = evaluate_blocked(swarm, sensor, args.policy, Budget(args.memory), progress)
     pairs_path = None
-    if args.out is not None:
-        pairs_path = write_pair_blocks(args.out, run.hood, args.policy, run.blocks(progress))
+    if args.out is not None and args.pairs != NO_PAIRS:
+        warn_of_large_pairs("evaluate", len(run.lean.blind), args.pairs)
+        pairs_path = write_pair_blocks(
+            args.out, run.hood, args.policy, run.blocks(progress), args.pairs
+        )
     else:
         for _ in run.blocks(progress):
             pass
     summary = with_source(run.summary(), cloud, args.seed, args.sensor)
-    record = RunRecord("evaluate", run.seconds, summary)
+    record = RunRecord("evaluate", run.seconds, summary, pairs=args.pairs)
     print(_headline(args, cloud, swarm, sensor, record.seconds))
     print(summary_table(summary))
     if args.out is not None:
         summary_path = args.out / SUMMARY_FILE
         write_json(summary_path, summary.as_document())
         record_path = write_record(args.out, record)
-        print(f"wrote {summary_path}, {pairs_path} and {record_path}")
+        print(wrote(summary_path, pairs_path, record_path))
     return 0
 
 
@@ -241,12 +251,12 @@ def _evaluate_whole(
         progress.close()
     summary = with_source(evaluation.summary, cloud, args.seed, args.sensor)
     evaluation = replace(evaluation, summary=summary)
-    record = RunRecord("evaluate", summary.seconds or 0.0, summary)
+    record = RunRecord("evaluate", summary.seconds or 0.0, summary, pairs=args.pairs)
     print(_headline(args, cloud, swarm, sensor, record.seconds))
     print(summary_table(summary))
     if args.out is not None:
-        summary_path, pairs_path, record_path = write_run(args.out, evaluation, record, heuristic)
-        print(f"wrote {summary_path}, {pairs_path} and {record_path}")
+        warn_of_large_pairs("evaluate", summary.pairs.blind_pairs, args.pairs)
+        print(wrote(*write_run(args.out, evaluation, record, heuristic)))
     if args.snapshot is not None:
         from ..view.scene import evaluation_scene
         from ..view.snapshot import write_snapshot
