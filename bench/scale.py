@@ -98,6 +98,7 @@ def scale_identity(
                 )
                 got = write_pair_blocks(blocked, run.hood, run.policy, run.blocks(SILENT),
                                         pairs_format)  # fmt: skip
+                assert got is not None
                 same.append(got.read_bytes() == expected.read_bytes())
         found.append((shape, same[0], same[1]))
         print(f"bench: scale identity {shape}: {same}", flush=True)

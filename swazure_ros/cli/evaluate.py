@@ -30,7 +30,6 @@ from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
 from ..core.summary import with_source
 from ..files.reading import available_memory
 from ..files.results import (
-    NO_PAIRS,
     SUMMARY_FILE,
     RunRecord,
     write_json,
@@ -199,7 +198,7 @@ def _evaluate_in_blocks(
     progress = progress or SILENT
     run = evaluate_blocked(swarm, sensor, args.policy, Budget(args.memory), progress)
     pairs_path = None
-    if args.out is not None and args.pairs != NO_PAIRS:
+    if args.out is not None:
         warn_of_large_pairs("evaluate", len(run.lean.blind), args.pairs)
         pairs_path = write_pair_blocks(
             args.out, run.hood, args.policy, run.blocks(progress), args.pairs

@@ -143,6 +143,8 @@ def pairs_output(args: argparse.Namespace, writes_pairs: bool, needs: str = "--o
     """
     if args.pairs is not None and not writes_pairs:
         raise SwazureError(f"--pairs chooses the per-pair file a run writes: add {needs}")
+    if writes_pairs:
+        large_pairs_limit()  # a bad $SWAZURE_LARGE_PAIRS_BYTES is refused before the run
     return str(args.pairs or "csv")
 
 

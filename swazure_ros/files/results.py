@@ -336,7 +336,8 @@ def write_evaluation(
     zstd-compressed ``pairs.parquet`` (typed, paths as integer lists, a
     fraction of the size), or with ``"none"`` no file (its path None);
     ``columns`` as :func:`pairs_table`. The summary is written last, so its
-    presence means the run is complete.
+    presence means the run is complete. A per-pair file of another output
+    left in ``directory`` by an earlier run is removed: it is not this run's.
     """
     _check_pairs_output(pairs_format)
     pairs_path = None
@@ -346,9 +347,22 @@ def write_evaluation(
         )
         pairs_path = directory / PAIRS_FILES[pairs_format]
         atomic_write(pairs_path, partial(_write_table, table, pairs_format))
+    _remove_other_pairs(directory, pairs_format)
     summary_path = directory / SUMMARY_FILE
     write_json(summary_path, evaluation.summary.as_document())
     return summary_path, pairs_path
+
+
+def _remove_other_pairs(directory: Path, pairs_format: str) -> None:
+    """Remove the per-pair files of the outputs other than ``pairs_format`` from ``directory``."""
+    for other, name in PAIRS_FILES.items():
+        if other != pairs_format:
+            try:
+                (directory / name).unlink(missing_ok=True)
+            except OSError as err:
+                raise OutputError(
+                    f"{directory / name}: cannot remove ({err.strerror or err})"
+                ) from err
 
 
 def _check_pairs_output(pairs_format: str) -> None:
@@ -373,18 +387,21 @@ def write_pair_blocks(
     blocks: Iterable[PairResults],
     pairs_format: str = "csv",
     columns: str = FULL_PAIRS,
-) -> Path:
+) -> Path | None:
     """Write the per-pair file of a run made block by block (core.blocks), as blocks come.
 
     The same bytes as :func:`write_evaluation` gives for the pairs of all
-    blocks at once; only one block's table is held at a time. Returns its path
-    (``pairs_format`` a file's, PAIRS_FORMATS: a run that writes none only
-    iterates its blocks).
+    blocks at once; only one block's table is held at a time. Returns its
+    path; with ``pairs_format="none"`` the blocks are only made, and None.
     """
     import pyarrow.parquet as pq
 
-    if pairs_format not in PAIRS_FORMATS:
-        raise ValueError(f"pairs_format must be one of {PAIRS_FORMATS}, got {pairs_format!r}")
+    _check_pairs_output(pairs_format)
+    if pairs_format == NO_PAIRS:
+        for _ in blocks:
+            pass
+        _remove_other_pairs(directory, pairs_format)
+        return None
     path = directory / PAIRS_FILES[pairs_format]
     with atomic_output(path) as temporary:
         if pairs_format == "csv":
@@ -392,12 +409,13 @@ def write_pair_blocks(
                 for number, pairs in enumerate(blocks):
                     table = pairs_table(hood, pairs, None, True, columns)
                     write_csv(table, out, header=number == 0)
-            return path
-        tables = (pairs_table(hood, pairs, None, False, columns) for pairs in blocks)
-        first = next(tables)
-        with pq.ParquetWriter(str(temporary), first.schema, compression="zstd") as writer:
-            for group in _row_groups(itertools.chain([first], tables), PARQUET_ROWS):
-                writer.write_table(group, row_group_size=PARQUET_ROWS)
+        else:
+            tables = (pairs_table(hood, pairs, None, False, columns) for pairs in blocks)
+            first = next(tables)
+            with pq.ParquetWriter(str(temporary), first.schema, compression="zstd") as writer:
+                for group in _row_groups(itertools.chain([first], tables), PARQUET_ROWS):
+                    writer.write_table(group, row_group_size=PARQUET_ROWS)
+    _remove_other_pairs(directory, pairs_format)
     return path
 
 
@@ -585,16 +603,25 @@ def pairs_size_warning(
     if size <= limit:
         return None
     smaller = [
-        f"--pairs {other} " + (f"about {pairs_bytes(pairs, other) / 1e9:.1f} GB"
-                               if other != NO_PAIRS else "no per-pair file")
+        f"--pairs {other} "
+        + (
+            f"about {_size(pairs_bytes(pairs, other))}"
+            if other != NO_PAIRS
+            else "no per-pair file"
+        )
         for other in PAIRS_OUTPUTS
         if pairs_bytes(pairs, other) < size
-    ]  # fmt: skip
+    ]
     return (
-        f"{PAIRS_FILES[pairs_format]} will take about {size / 1e9:.1f} GB "
+        f"{PAIRS_FILES[pairs_format]} will take about {_size(size)} "
         f"({pairs:,} pairs at about {PAIR_ROW_BYTES[pairs_format]} bytes each); "
         f"{' or '.join(smaller)}"
     )
+
+
+def _size(size: int) -> str:
+    """Bytes for people: GB with a decimal from 1 GB, whole MB below."""
+    return f"{size / 1e9:.1f} GB" if size >= 10**9 else f"{size / 1e6:.0f} MB"
 
 
 @dataclass(frozen=True)

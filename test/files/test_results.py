@@ -219,10 +219,14 @@ def _runs(sensor):
 
     plain = evaluate(make_swarm(load_cloud("torus:200").points, beta=0.5), sensor, "fewest-hops")
     moved, heuristic = run_technique(plain, "move-source", 2, COMPAT_MODES["text"])
-    return {"plain": (plain, None), "move-source": (moved, heuristic), "fit": (refine(plain), None)}
+    return {
+        "plain": (plain, None),
+        "move-source": (moved, heuristic),
+        "fit": (refine(plain), None),
+    }
 
 
-def _same_table(one, other):
+def same_table(one, other):
     """Two pyarrow tables alike column for column: names, types, values (NaN equal to NaN)."""
     assert one.schema == other.schema
     for name in one.column_names:
@@ -251,11 +255,11 @@ def test_pairs_read_back_from_csv_and_from_parquet_are_one_table(tmp_path, senso
     made = pairs_table(evaluation.hood, evaluation.pairs, heuristic, as_text=False)
     assert made.num_rows > 100 and pa.types.is_large_list(made.schema.field("path").type)
     assert np.isnan(made.column("distance_error_pct").to_numpy()).any()  # pairs without a path
-    _same_table(tables["csv"], made)
-    _same_table(tables["parquet"], made)
+    same_table(tables["csv"], made)
+    same_table(tables["parquet"], made)
     some = read_pairs(tmp_path / "csv", ["distance_error_pct", "path"])
     assert some.column_names == ["distance_error_pct", "path"]
-    _same_table(some, made.select(["distance_error_pct", "path"]))
+    same_table(some, made.select(["distance_error_pct", "path"]))
 
 
 def test_a_run_that_writes_no_pairs_writes_its_summary_and_says_why_there_are_none(
@@ -267,7 +271,7 @@ def test_a_run_that_writes_no_pairs_writes_its_summary_and_says_why_there_are_no
     summary, pairs = write_evaluation(tmp_path / "bare", evaluation, None, "none")
     assert pairs is None and summary.is_file()
     assert sorted(path.name for path in (tmp_path / "bare").iterdir()) == ["summary.json"]
-    with pytest.raises(SwazureError, match="no pairs.csv or pairs.parquet$"):
+    with pytest.raises(SwazureError, match=r"no pairs\.csv or pairs\.parquet$"):
         read_pairs(tmp_path / "bare")
     record = RunRecord("evaluate", 0.1, evaluation.summary, pairs="none")
     summary, pairs, written = write_run(tmp_path / "run", evaluation, record)
@@ -277,6 +281,20 @@ def test_a_run_that_writes_no_pairs_writes_its_summary_and_says_why_there_are_no
     ]  # fmt: skip
     with pytest.raises(SwazureError, match="made with --pairs none"):
         read_pairs(tmp_path / "run")
+
+
+@pytest.mark.parametrize(("before", "after"), [("csv", "none"), ("parquet", "csv")])
+def test_a_run_written_over_another_leaves_no_per_pair_file_of_the_other(
+    tmp_path, sensor, before, after
+):
+    """A folder holds one run: pairs of an earlier run in another output are not its."""
+    from swazure_ros.files.results import write_evaluation
+
+    evaluation, _ = _runs(sensor)["plain"]
+    write_evaluation(tmp_path, evaluation, None, before)
+    write_evaluation(tmp_path, evaluation, None, after)
+    left = sorted(path.name for path in tmp_path.iterdir())
+    assert left == sorted(["summary.json"] + ([] if after == "none" else [f"pairs.{after}"]))
 
 
 def test_the_size_of_a_per_pair_file_is_estimated_from_its_pairs_and_format():
