@@ -129,10 +129,9 @@ def add_pairs_argument(parser: argparse.ArgumentParser) -> None:
         choices=PAIRS_OUTPUTS,
         default=None,
         help="with --out: the per-pair file, pairs.csv (default), pairs.parquet (the same "
-        "columns typed, paths as id lists; 2.8x to 5.3x smaller, README) or none (summary.json "
-        "and "
-        "record.json only; record.json says none was written). A run says on stderr how "
-        "much it will write before a per-pair file of more than 1 GB",
+        "columns typed, paths as id lists; 2.8x to 5.3x smaller, README) or none "
+        "(summary.json and record.json only; record.json says none was written). A run says "
+        "on stderr how much it will write before a per-pair file of more than 1 GB",
     )
 
 
