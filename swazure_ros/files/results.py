@@ -542,9 +542,8 @@ def _id_list(text: Any) -> Any:
 
 #: Bytes a per-pair row takes, about, in each format: plain Swazure, every column, at the
 #: top of what was measured (beta 0.5; 2026-11-29): pairs.csv 281 bytes a pair for the race
-#: car, 286 for torus:10000 (304 for torus:65536, 6.05 GB, BENCHMARKS.md 2026-11-28);
-#: pairs.parquet (zstd) 99 for the race car, 54 for torus:10000. A heuristic's or a fit's
-#: columns add to them.
+#: car, 286 for torus:10000, 304 for torus:65536 (6.05 GB); pairs.parquet (zstd) 99, 54
+#: and 72 (1.43 GB). A heuristic's or a fit's columns add to them.
 PAIR_ROW_BYTES = {"csv": 310, "parquet": 100, NO_PAIRS: 0}
 #: A run says how much it will write before a per-pair file larger than this.
 LARGE_PAIRS_BYTES = 10**9
