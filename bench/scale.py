@@ -91,12 +91,14 @@ def scale_identity(
                 at_once.mkdir()
                 blocked.mkdir()
                 _, expected = write_evaluation(at_once, whole, None, pairs_format)
+                assert expected is not None  # csv and parquet write a file
                 # 64 MiB: the race car's pairs in about 80 blocks.
                 run = evaluate_blocked(
                     swarm, sensor, "shortest-length", Budget(64 * 2**20), SILENT
                 )
                 got = write_pair_blocks(blocked, run.hood, run.policy, run.blocks(SILENT),
                                         pairs_format)  # fmt: skip
+                assert got is not None
                 same.append(got.read_bytes() == expected.read_bytes())
         found.append((shape, same[0], same[1]))
         print(f"bench: scale identity {shape}: {same}", flush=True)

@@ -408,7 +408,7 @@ def move_source(
     return evaluate(swarm, policy, technique=MOVE_SOURCE, threshold=threshold, compat=compat)
 
 
-def _tables(hood: Neighbourhood, blocks: Iterable[PairResults]) -> Any:
+def _tables(hood: Neighbourhood, blocks: Iterable[PairResults], blind_pairs: int) -> Any:
     """Every block's pairs in one pyarrow Table (paths as lists of FLS ids)."""
     import pyarrow as pa
 
@@ -427,9 +427,9 @@ def run_blocked(
     policy: str,
     memory: int,
     progress: Progress,
-    take: Callable[[Neighbourhood, Iterator[PairResults]], T],
+    take: Callable[[Neighbourhood, Iterator[PairResults], int], T],
 ) -> tuple[RunRecord, T]:
-    """Plain Swazure a block of pairs at a time; ``take(hood, blocks)`` gets every block.
+    """Plain Swazure a block of pairs at a time: ``take`` gets every block.
 
     The workhorse of :func:`evaluate` and ``swazure evaluate`` for plain Swazure.
 
@@ -444,8 +444,10 @@ def run_blocked(
     progress : Progress
         Told each stage's start and advance.
     take : callable
-        ``take(hood, blocks)``: must go through ``blocks`` (write them, join
-        them); FLS ids are ``hood.swarm.cloud_index[...]`` of the pairs' indices.
+        ``take(hood, blocks, blind_pairs)``: must go through ``blocks`` (write
+        them, join them); FLS ids are ``hood.swarm.cloud_index[...]`` of the
+        pairs' indices; ``blind_pairs`` is how many pairs the blocks will hold
+        (known before the first block: a writer can say how much it will write).
 
     Returns
     -------
@@ -464,13 +466,13 @@ def run_blocked(
     >>> from swazure_ros import api
     >>> from swazure_ros.core.evaluate import SILENT
     >>> setup = api.build_swarm("torus:120", scale=5, beta=0.5)
-    >>> count = lambda hood, blocks: sum(len(pairs) for pairs in blocks)
+    >>> count = lambda hood, blocks, blind_pairs: sum(len(pairs) for pairs in blocks)
     >>> record, pairs = api.engine.run_blocked(setup, "fewest-hops", 2**30, SILENT, count)
     >>> record.summary.pairs.blind_pairs == pairs
     True
     """
     run = evaluate_blocked(setup.swarm, setup.sensor, policy, Budget(memory), progress)
-    taken = take(run.hood, run.blocks(progress))
+    taken = take(run.hood, run.blocks(progress), len(run.lean.blind))
     summary = with_source(run.summary(), setup.cloud, setup.seed, setup.sensor_file)
     return RunRecord("evaluate", run.seconds, summary), taken
 

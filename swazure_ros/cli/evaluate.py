@@ -1,9 +1,9 @@
 """Evaluate every ordered blind pair of a swarm with the core engine and report the metrics.
 
 The swarm comes from the options or a swarm file (config/swarms/*.yaml), as
-for swazure spawn. Prints a summary table; with --out DIR also writes DIR/summary.json and one
-row per ordered blind pair to DIR/pairs.csv. A progress bar appears on
-stderr for runs longer than two seconds.
+for swazure spawn. Prints a summary table; with --out DIR also writes DIR/summary.json,
+DIR/record.json and one row per ordered blind pair to DIR/pairs.csv (or pairs.parquet, or
+none: --pairs). A progress bar appears on stderr for runs longer than two seconds.
 """
 
 from __future__ import annotations
@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -35,10 +36,14 @@ from .arguments import (
 from .options import (
     add_colour_arguments,
     add_compat_argument,
+    add_pairs_argument,
     add_policy_argument,
     add_swarm_arguments,
     add_threshold_argument,
+    pairs_output,
     swarm_setup_from_args,
+    warn_of_large_pairs,
+    wrote,
 )
 from .summary import SUMMARY_TERMS, cell, summary_table
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
@@ -82,8 +87,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=output_folder,
         default=None,
         metavar="DIR",
-        help="write summary.json and pairs.csv here",
+        help="write summary.json, record.json and pairs.csv (--pairs) here",
     )
+    add_pairs_argument(parser)
     parser.add_argument(
         "--snapshot",
         type=png_file,
@@ -140,6 +146,7 @@ class TqdmProgress:
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure evaluate``."""
     args = apply_swarm_file(args)
+    args.pairs = pairs_output(args, args.out is not None)
     setup = swarm_setup_from_args(args)
     progress: Progress | None = None if args.quiet else TqdmProgress()
     options = RunOptions(
@@ -170,14 +177,16 @@ def _evaluate_in_blocks(
 ) -> int:
     """Plain Swazure a block of pairs at a time: pairs written as they are made."""
 
-    def take(hood: Neighbourhood, blocks: Iterator[PairResults]) -> Path | None:
+    def take(hood: Neighbourhood, blocks: Iterator[PairResults], blind_pairs: int) -> Path | None:
         if args.out is None:
             for _ in blocks:
                 pass
             return None
-        return write_pair_blocks(args.out, hood, args.policy, blocks)
+        warn_of_large_pairs("evaluate", blind_pairs, args.pairs)
+        return write_pair_blocks(args.out, hood, args.policy, blocks, args.pairs)
 
     record, pairs_path = run_blocked(setup, args.policy, args.memory, progress or SILENT, take)
+    record = replace(record, pairs=args.pairs)
     summary = record.summary
     assert summary is not None  # an evaluation's record has its summary
     print(_headline(args, setup, record.seconds))
@@ -186,7 +195,7 @@ def _evaluate_in_blocks(
         summary_path = args.out / SUMMARY_FILE
         write_json(summary_path, summary.as_document())
         record_path = write_record(args.out, record)
-        print(f"wrote {summary_path}, {pairs_path} and {record_path}")
+        print(wrote(summary_path, pairs_path, record_path))
     return 0
 
 
@@ -197,11 +206,12 @@ def _evaluate_whole(
     evaluation, heuristic, record = run_whole(setup, options, progress)
     if isinstance(progress, TqdmProgress):
         progress.close()
+    record = replace(record, pairs=args.pairs)
     print(_headline(args, setup, record.seconds))
     print(summary_table(evaluation.summary))
     if args.out is not None:
-        summary_path, pairs_path, record_path = write_run(args.out, evaluation, record, heuristic)
-        print(f"wrote {summary_path}, {pairs_path} and {record_path}")
+        warn_of_large_pairs("evaluate", evaluation.summary.pairs.blind_pairs, args.pairs)
+        print(wrote(*write_run(args.out, evaluation, record, heuristic)))
     if args.snapshot is not None:
         from ..view.scene import evaluation_scene
         from ..view.snapshot import write_snapshot

@@ -1,17 +1,27 @@
 """Options that several verbs share: the swarm's description, the ROS domain, the path
-policy, the estimator, the heuristics' threshold and mode, and what a picture is coloured by."""
+policy, the estimator, the heuristics' threshold and mode, what a picture is coloured by,
+and the per-pair output of a run that writes one."""
 
 from __future__ import annotations
 
 import argparse
+import sys
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ..api.engine import SwarmSetup
+from ..core.errors import SwazureError
 from ..core.fit import PATH, SWARM_ESTIMATORS
 from ..core.geometry import make_swarm
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.paths import POLICIES
 from ..files.cloud_files import load_cloud
+from ..files.results import (
+    NO_PAIRS,
+    PAIRS_OUTPUTS,
+    large_pairs_limit,
+    pairs_size_warning,
+)
 from ..files.sensors import load_sensor
 from .arguments import (
     MAX_DOMAIN_ID,
@@ -111,6 +121,46 @@ def add_compat_argument(parser: argparse.ArgumentParser) -> None:
         help="the heuristics as the paper's text describes them (default), or as its "
         "published code runs them, which computed its Tables 2-4 (docs/core.md)",
     )
+
+
+def add_pairs_argument(parser: argparse.ArgumentParser) -> None:
+    """The per-pair output of ``--out``, shared by the verbs that write a run's pairs."""
+    parser.add_argument(
+        "--pairs",
+        choices=PAIRS_OUTPUTS,
+        default=None,
+        help="with --out: the per-pair file, pairs.csv (default), pairs.parquet (the same "
+        "columns typed, paths as id lists; 2.8x to 5.3x smaller, README) or none "
+        "(summary.json and record.json only; record.json says none was written). A run says "
+        "on stderr how much it will write before a per-pair file of more than 1 GB",
+    )
+
+
+def pairs_output(args: argparse.Namespace, writes_pairs: bool, needs: str = "--out DIR") -> str:
+    """The run's per-pair output: ``--pairs``, or csv when not given.
+
+    SwazureError (exit 2) for ``--pairs`` given to a run that writes no pairs
+    (``writes_pairs`` False); ``needs`` names what would make it write them.
+    """
+    if args.pairs is not None and not writes_pairs:
+        raise SwazureError(f"--pairs chooses the per-pair file a run writes: add {needs}")
+    if writes_pairs:
+        large_pairs_limit()  # a bad $SWAZURE_LARGE_PAIRS_BYTES is refused before the run
+    return str(args.pairs or "csv")
+
+
+def warn_of_large_pairs(verb: str, pairs: int, pairs_format: str) -> None:
+    """One line on stderr before a per-pair file larger than the limit is written."""
+    warning = pairs_size_warning(pairs, pairs_format, large_pairs_limit())
+    if warning is not None:
+        print(f"swazure {verb}: {warning}", file=sys.stderr, flush=True)
+
+
+def wrote(summary: Path, pairs: Path | None, record: Path) -> str:
+    """The line that names a run's files, and says when it wrote no per-pair file."""
+    if pairs is None:
+        return f"wrote {summary} and {record} (no per-pair file: --pairs {NO_PAIRS})"
+    return f"wrote {summary}, {pairs} and {record}"
 
 
 def swarm_setup_from_args(args: argparse.Namespace) -> SwarmSetup:

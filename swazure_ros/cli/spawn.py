@@ -24,6 +24,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -48,11 +49,15 @@ from .arguments import (
 from .options import (
     add_colour_arguments,
     add_domain_argument,
+    add_pairs_argument,
     add_policy_argument,
     add_swarm_arguments,
     add_swarm_estimator_argument,
     add_threshold_argument,
+    pairs_output,
+    warn_of_large_pairs,
     world_from_args,
+    wrote,
 )
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
 
@@ -154,8 +159,9 @@ def _add_compute_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         metavar="DIR",
         help="write record.json here (the bring-up; with --compute-all also the run, with "
-        "summary.json and pairs.csv as swazure evaluate writes them)",
+        "summary.json and pairs.csv (--pairs) as swazure evaluate writes them)",
     )
+    add_pairs_argument(parser)
     parser.add_argument(
         "--record",
         type=bag_folder,
@@ -274,6 +280,9 @@ def config_from_args(args: argparse.Namespace) -> Any:
     ):
         raise SwazureError("--technique, --estimator and --sources-per-run go with --compute-all")
     check_plain_estimator(args.estimator, args.technique)
+    args.pairs = pairs_output(
+        args, args.compute_all and args.out is not None, "--compute-all and --out DIR"
+    )
     if args.no_key and args.key_file is not None:
         raise SwazureError("--no-key and --key-file: choose one")
     index, hosts = args.share
@@ -377,8 +386,9 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
         + f"): {record.identical}"
     )
     if args.out is not None:
-        paths = write_run(args.out, computed.evaluation, record, computed.heuristic)
-        print(f"wrote {', '.join(map(str, paths[:2]))} and {paths[2]}")
+        warn_of_large_pairs("spawn", record.summary.pairs.blind_pairs, args.pairs)
+        record = replace(record, pairs=args.pairs)
+        print(wrote(*write_run(args.out, computed.evaluation, record, computed.heuristic)))
     # The outputs stay written (they show what went wrong); the exit code says it.
     failure = run_failure(record)
     if failure is not None:

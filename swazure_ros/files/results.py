@@ -1,5 +1,10 @@
 """Writing a run to disk: ``summary.json``, ``pairs.csv`` and ``record.json``, atomically.
 
+The per-pair file is ``pairs.csv`` (the default), ``pairs.parquet`` (typed,
+a fraction of the size) or none at all (``--pairs csv|parquet|none``);
+:func:`read_pairs` reads either back as one table, and :func:`pairs_size_warning`
+says beforehand when one would be large.
+
 Every file is written to a temporary name in the same folder and renamed into
 place, so a killed run never leaves a half-written result.
 
@@ -25,6 +30,7 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass, field, fields
+from functools import partial
 from pathlib import Path
 from typing import Any, BinaryIO
 
@@ -35,7 +41,7 @@ from ..core.evaluate import REASON_NAMES, STATUS_NAMES, Evaluation, Neighbourhoo
 from ..core.heuristics.result import HeuristicResult
 from ..core.summary import Document, Summary
 from ..core.traffic import TopicCounts
-from .reading import CONFIG_BYTES, read_text
+from .reading import CONFIG_BYTES, read_text, regular_file
 
 PAIRS_FILE = "pairs.csv"
 PAIRS_PARQUET_FILE = "pairs.parquet"
@@ -44,6 +50,10 @@ RECORD_FILE = "record.json"
 #: The version of record.json's layout: raised whenever a field changes meaning or goes.
 RECORD_VERSION = 1
 PAIRS_FORMATS = ("csv", "parquet")
+#: The per-pair output a run may choose: a file of either format, or none.
+NO_PAIRS = "none"
+PAIRS_OUTPUTS = (*PAIRS_FORMATS, NO_PAIRS)
+PAIRS_FILES = {"csv": PAIRS_FILE, "parquet": PAIRS_PARQUET_FILE}
 #: Per-pair columns: every one, or only those that nothing else reproduces.
 FULL_PAIRS, COMPACT_PAIRS = "full", "compact"
 PAIR_COLUMNS = (FULL_PAIRS, COMPACT_PAIRS)
@@ -319,35 +329,55 @@ def write_evaluation(
     heuristic: HeuristicResult | None = None,
     pairs_format: str = "csv",
     columns: str = FULL_PAIRS,
-) -> tuple[Path, Path]:
+) -> tuple[Path, Path | None]:
     """Write ``summary.json`` and the per-pair file into ``directory``; return their paths.
 
     The per-pair file is ``pairs.csv``, or with ``pairs_format="parquet"`` a
     zstd-compressed ``pairs.parquet`` (typed, paths as integer lists, a
-    fraction of the size); ``columns`` as :func:`pairs_table`. The summary is
-    written last, so its presence means the run is complete.
+    fraction of the size), or with ``"none"`` no file (its path None);
+    ``columns`` as :func:`pairs_table`. The summary is written last, so its
+    presence means the run is complete. A per-pair file of another output
+    left in ``directory`` by an earlier run is removed: it is not this run's.
     """
-    if pairs_format not in PAIRS_FORMATS:
-        raise ValueError(f"pairs_format must be one of {PAIRS_FORMATS}, got {pairs_format!r}")
-    table = pairs_table(
-        evaluation.hood, evaluation.pairs, heuristic, pairs_format == "csv", columns
-    )
-    if pairs_format == "csv":
-        pairs_path = directory / PAIRS_FILE
-        atomic_write(pairs_path, lambda tmp: write_csv(table, tmp))
-    else:
-        import pyarrow.parquet as pq
-
-        pairs_path = directory / PAIRS_PARQUET_FILE
-        atomic_write(
-            pairs_path,
-            lambda tmp: pq.write_table(
-                table, str(tmp), compression="zstd", row_group_size=PARQUET_ROWS
-            ),
+    _check_pairs_output(pairs_format)
+    pairs_path = None
+    if pairs_format != NO_PAIRS:
+        table = pairs_table(
+            evaluation.hood, evaluation.pairs, heuristic, pairs_format == "csv", columns
         )
+        pairs_path = directory / PAIRS_FILES[pairs_format]
+        atomic_write(pairs_path, partial(_write_table, table, pairs_format))
+    _remove_other_pairs(directory, pairs_format)
     summary_path = directory / SUMMARY_FILE
     write_json(summary_path, evaluation.summary.as_document())
     return summary_path, pairs_path
+
+
+def _remove_other_pairs(directory: Path, pairs_format: str) -> None:
+    """Remove the per-pair files of the outputs other than ``pairs_format`` from ``directory``."""
+    for other, name in PAIRS_FILES.items():
+        if other != pairs_format:
+            try:
+                (directory / name).unlink(missing_ok=True)
+            except OSError as err:
+                raise OutputError(
+                    f"{directory / name}: cannot remove ({err.strerror or err})"
+                ) from err
+
+
+def _check_pairs_output(pairs_format: str) -> None:
+    if pairs_format not in PAIRS_OUTPUTS:
+        raise ValueError(f"pairs_format must be one of {PAIRS_OUTPUTS}, got {pairs_format!r}")
+
+
+def _write_table(table: Any, pairs_format: str, path: Path) -> None:
+    """Write a whole pairs table to ``path`` as CSV or Parquet."""
+    if pairs_format == "csv":
+        write_csv(table, path)
+        return
+    import pyarrow.parquet as pq
+
+    pq.write_table(table, str(path), compression="zstd", row_group_size=PARQUET_ROWS)
 
 
 def write_pair_blocks(
@@ -357,30 +387,35 @@ def write_pair_blocks(
     blocks: Iterable[PairResults],
     pairs_format: str = "csv",
     columns: str = FULL_PAIRS,
-) -> Path:
+) -> Path | None:
     """Write the per-pair file of a run made block by block (core.blocks), as blocks come.
 
     The same bytes as :func:`write_evaluation` gives for the pairs of all
-    blocks at once; only one block's table is held at a time. Returns its path.
+    blocks at once; only one block's table is held at a time. Returns its
+    path; with ``pairs_format="none"`` the blocks are only made, and None.
     """
     import pyarrow.parquet as pq
 
-    if pairs_format not in PAIRS_FORMATS:
-        raise ValueError(f"pairs_format must be one of {PAIRS_FORMATS}, got {pairs_format!r}")
-    name = PAIRS_FILE if pairs_format == "csv" else PAIRS_PARQUET_FILE
-    path = directory / name
+    _check_pairs_output(pairs_format)
+    if pairs_format == NO_PAIRS:
+        for _ in blocks:
+            pass
+        _remove_other_pairs(directory, pairs_format)
+        return None
+    path = directory / PAIRS_FILES[pairs_format]
     with atomic_output(path) as temporary:
         if pairs_format == "csv":
             with open(temporary, "wb") as out:
                 for number, pairs in enumerate(blocks):
                     table = pairs_table(hood, pairs, None, True, columns)
                     write_csv(table, out, header=number == 0)
-            return path
-        tables = (pairs_table(hood, pairs, None, False, columns) for pairs in blocks)
-        first = next(tables)
-        with pq.ParquetWriter(str(temporary), first.schema, compression="zstd") as writer:
-            for group in _row_groups(itertools.chain([first], tables), PARQUET_ROWS):
-                writer.write_table(group, row_group_size=PARQUET_ROWS)
+        else:
+            tables = (pairs_table(hood, pairs, None, False, columns) for pairs in blocks)
+            first = next(tables)
+            with pq.ParquetWriter(str(temporary), first.schema, compression="zstd") as writer:
+                for group in _row_groups(itertools.chain([first], tables), PARQUET_ROWS):
+                    writer.write_table(group, row_group_size=PARQUET_ROWS)
+    _remove_other_pairs(directory, pairs_format)
     return path
 
 
@@ -404,6 +439,189 @@ def _row_groups(tables: Iterator[Any], rows: int) -> Iterator[Any]:
             pending, held = [joined.slice(rows)], held - rows
     if held or not written:
         yield pa.concat_tables(pending).combine_chunks()
+
+
+#: Per-pair columns that are not float64 (every other one is a length, an error, an angle,
+#: a covariance: pairs_table). The id lists are text in CSV, uint32 lists in Parquet.
+_INTEGER_COLUMNS = ("source", "target", "hops", "sweet_hops", "decaying_hops",
+                    "obstructing_flss", "fused_paths", "moves")  # fmt: skip
+_TEXT_COLUMNS = ("status", "reason")
+_BOOLEAN_COLUMNS = ("sweet_path_obstructed", "tried", "resolved")
+ID_LIST_COLUMNS = ("path", "moved_flss")
+
+
+def read_pairs(directory: Path, columns: Iterable[str] | None = None) -> Any:
+    """The per-pair table of the run in ``directory``, from pairs.parquet or pairs.csv.
+
+    Either file gives the same pyarrow Table: the columns and types
+    :func:`pairs_table` makes for Parquet (id lists as uint32 lists), or only
+    ``columns``. Raises SwazureError in one line when the folder holds
+    neither file, saying so when the run chose to write none.
+    """
+    columns = None if columns is None else list(columns)
+    parquet, csv = directory / PAIRS_PARQUET_FILE, directory / PAIRS_FILE
+    if parquet.exists():
+        import pyarrow.parquet as pq
+
+        regular_file(parquet, "per-pair", None, SwazureError)
+        return pq.read_table(parquet, columns=columns)
+    if csv.exists():
+        return _read_pairs_csv(regular_file(csv, "per-pair", None, SwazureError), columns)
+    raise SwazureError(
+        f"{directory}: no {PAIRS_FILE} or {PAIRS_PARQUET_FILE}{_why_none(directory)}"
+    )
+
+
+def _why_none(directory: Path) -> str:
+    """Why a run's folder holds no per-pair file, when its record or summary says it chose so."""
+    for name, keys, reason in (
+        (RECORD_FILE, ("pairs",), "the run was made with --pairs none"),
+        (SUMMARY_FILE, ("study", "pairs"), "the study kept no pairs of this run "
+         "(swazure study --keep-pairs keeps every run's)"),
+    ):  # fmt: skip
+        try:
+            value: Any = json.loads(read_text(directory / name, "", CONFIG_BYTES, SwazureError))
+            for key in keys:
+                value = value.get(key) if isinstance(value, dict) else None
+        except (SwazureError, ValueError):
+            continue
+        if value == NO_PAIRS:
+            return f": {reason}"
+    return ""
+
+
+def _read_pairs_csv(path: Path, columns: list[str] | None) -> Any:
+    """A pairs.csv as the table its pairs.parquet would hold (no value is null in either)."""
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    with open(path, "rb") as file:
+        header = file.readline().decode("utf-8", "replace").strip()
+    names = [name.strip('"') for name in header.split(",")] if header else []
+    wanted = names if columns is None else columns
+    types = {name: _csv_type(name) for name in names}
+    options = pacsv.ConvertOptions(
+        column_types=types, include_columns=wanted, null_values=[], strings_can_be_null=False
+    )
+    try:
+        table = pacsv.read_csv(path, convert_options=options)
+    except (pa.ArrowInvalid, KeyError) as err:
+        raise SwazureError(f"{path}: not a per-pair file ({err})") from err
+    for name in ID_LIST_COLUMNS:
+        if name in table.column_names:
+            index = table.column_names.index(name)
+            table = table.set_column(index, name, _id_list(table.column(name)))
+    return table
+
+
+def _csv_type(name: str) -> Any:
+    import pyarrow as pa
+
+    if name in _INTEGER_COLUMNS:
+        return pa.int64()
+    if name in _BOOLEAN_COLUMNS:
+        return pa.bool_()
+    if name in _TEXT_COLUMNS or name in ID_LIST_COLUMNS:
+        return pa.string()
+    return pa.float64()
+
+
+def _id_list(text: Any) -> Any:
+    """FLS ids joined by spaces (CSV) as uint32 lists, an empty text an empty list."""
+    import pyarrow as pa
+    import pyarrow.compute as pc
+
+    text = text.combine_chunks()
+    lengths = np.asarray(pc.utf8_length(text), dtype=np.int64)
+    counts = np.where(lengths > 0, np.asarray(pc.count_substring(text, " ")) + 1, 0)
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    ids = pc.split_pattern(text, " ").flatten()
+    ids = ids.filter(pc.greater(pc.utf8_length(ids), 0))
+    return pa.LargeListArray.from_arrays(pa.array(offsets), pc.cast(ids, pa.uint32()))
+
+
+#: Bytes a per-pair row takes, about, in each format: plain Swazure, every column, at the
+#: top of what was measured (beta 0.5; 2026-11-29): pairs.csv 281 bytes a pair for the race
+#: car, 286 for torus:10000, 304 for torus:65536 (6.05 GB); pairs.parquet (zstd) 99, 54
+#: and 72 (1.43 GB). A heuristic's or a fit's columns add to them.
+PAIR_ROW_BYTES = {"csv": 310, "parquet": 100, NO_PAIRS: 0}
+#: A run says how much it will write before a per-pair file larger than this.
+LARGE_PAIRS_BYTES = 10**9
+#: The environment variable that sets another limit, bytes (a test's small one).
+LARGE_PAIRS_VARIABLE = "SWAZURE_LARGE_PAIRS_BYTES"
+
+
+def pairs_bytes(pairs: int, pairs_format: str) -> int:
+    """About how many bytes the per-pair file of ``pairs`` ordered blind pairs takes.
+
+    Parameters
+    ----------
+    pairs : int
+        Ordered blind pairs, one row each.
+    pairs_format : str
+        ``csv``, ``parquet`` or ``none`` (PAIRS_OUTPUTS).
+
+    Returns
+    -------
+    int
+        Bytes, from the measured bytes per row (PAIR_ROW_BYTES); 0 for none.
+
+    Examples
+    --------
+    >>> round(pairs_bytes(19_927_398, "csv") / 1e9, 1)  # torus:65536, 6.05 GB written
+    6.2
+    """
+    _check_pairs_output(pairs_format)
+    if pairs < 0:
+        raise ValueError(f"pairs must be at least 0, got {pairs}")
+    return pairs * PAIR_ROW_BYTES[pairs_format]
+
+
+def large_pairs_limit() -> int:
+    """LARGE_PAIRS_BYTES, or the bytes $SWAZURE_LARGE_PAIRS_BYTES gives (SwazureError if
+    it is not a whole number)."""
+    text = os.environ.get(LARGE_PAIRS_VARIABLE, "").strip()
+    if not text:
+        return LARGE_PAIRS_BYTES
+    try:
+        return int(text)
+    except ValueError as err:
+        raise SwazureError(
+            f"${LARGE_PAIRS_VARIABLE}: {text!r} is not a whole number of bytes"
+        ) from err
+
+
+def pairs_size_warning(
+    pairs: int, pairs_format: str, limit: int = LARGE_PAIRS_BYTES
+) -> str | None:
+    """One line saying how much the per-pair file will take, when more than ``limit`` bytes.
+
+    It names the smaller outputs (``--pairs parquet``, ``--pairs none``) and
+    what they take; None for a file within the limit.
+    """
+    size = pairs_bytes(pairs, pairs_format)
+    if size <= limit:
+        return None
+    smaller = [
+        f"--pairs {other} "
+        + (
+            f"about {_size(pairs_bytes(pairs, other))}"
+            if other != NO_PAIRS
+            else "no per-pair file"
+        )
+        for other in PAIRS_OUTPUTS
+        if pairs_bytes(pairs, other) < size
+    ]
+    return (
+        f"{PAIRS_FILES[pairs_format]} will take about {_size(size)} "
+        f"({pairs:,} pairs at about {PAIR_ROW_BYTES[pairs_format]} bytes each); "
+        f"{' or '.join(smaller)}"
+    )
+
+
+def _size(size: int) -> str:
+    """Bytes for people: GB with a decimal from 1 GB, whole MB below."""
+    return f"{size / 1e9:.1f} GB" if size >= 10**9 else f"{size / 1e6:.0f} MB"
 
 
 @dataclass(frozen=True)
@@ -473,6 +691,9 @@ class RunRecord:
     identical: str | None = None  # "yes", or "no: " and what differs from the engine
     bring_up: BringUp | None = None
     distributed: Distributed | None = None
+    # The per-pair output (PAIRS_OUTPUTS): "none" says no per-pair file was written;
+    # None for a swarm only brought up.
+    pairs: str | None = None
     fileversion: int = RECORD_VERSION
 
     def as_document(self) -> Document:
@@ -499,13 +720,15 @@ def write_run(
     evaluation: Evaluation,
     record: RunRecord,
     heuristic: HeuristicResult | None = None,
-) -> tuple[Path, Path, Path]:
-    """Write a run's ``summary.json``, ``pairs.csv`` and ``record.json`` into ``directory``.
+) -> tuple[Path, Path | None, Path]:
+    """Write a run's ``summary.json``, per-pair file and ``record.json`` into ``directory``.
 
-    Returns their paths; one-line OutputError when the folder cannot take them.
+    The per-pair file is the one ``record.pairs`` names (csv when it names
+    none, None when it is "none"). Returns the three paths; one-line
+    OutputError when the folder cannot take them.
     """
     try:
-        summary, pairs = write_evaluation(directory, evaluation, heuristic)
+        summary, pairs = write_evaluation(directory, evaluation, heuristic, record.pairs or "csv")
         return summary, pairs, write_record(directory, record)
     except OutputError:
         raise

@@ -21,7 +21,7 @@ from ..core.evaluate import evaluate
 from ..core.geometry import make_swarm
 from ..core.summary import Document
 from ..files.reading import CONFIG_BYTES, read_text
-from ..files.results import PAIRS_PARQUET_FILE, atomic_write
+from ..files.results import atomic_write, read_pairs
 from ..view.png import save
 from ..view.scene import evaluation_scene
 from ..view.snapshot import write_snapshot
@@ -108,28 +108,16 @@ def metric_vs_beta(
     return figure
 
 
-def histogram_shape(plan: StudyPlan) -> str:
-    """The shape of the error histogram: the dragon when the study has it, else the first."""
-    for cloud in plan.clouds:
-        if "dragon" in cloud.name:
-            return cloud.name
-    return plan.clouds[0].name
-
-
 def error_histogram(plan: StudyPlan, result: SweepResult, out: Path) -> Figure:
     """Histogram of per-pair distance errors of one shape at the largest beta, per policy."""
-    import pyarrow.parquet as pq
-
-    shape = histogram_shape(plan)
-    beta = 0.5 if 0.5 in plan.betas else max(plan.betas)
+    shape, beta = plan.histogram_shape, plan.histogram_beta
     colour = shape_colours(plan)[shape]
     errors = {}
     for policy in plan.policies:
         spec = result.spec(shape, beta, policy, PLAIN_TECHNIQUE)
         if spec is None:
             continue
-        pairs = out / spec.folder / PAIRS_PARQUET_FILE
-        table = pq.read_table(pairs, columns=["distance_error_pct"])
+        table = read_pairs(out / spec.folder, ["distance_error_pct"])
         values = table.column(0).to_numpy(zero_copy_only=False).astype(np.float64)
         errors[policy] = values[np.isfinite(values)]
     top = max((float(v.max()) for v in errors.values() if len(v)), default=1.0)
@@ -228,12 +216,10 @@ def error_by_hops(plan: StudyPlan, result: SweepResult, out: Path) -> Figure | N
     study has no least-squares runs. A path's estimate gathers an error per
     hop; the fit's does not grow with the path the policy would take.
     """
-    import pyarrow.parquet as pq
-
     fitted = [estimator for estimator in plan.estimators if estimator.name == FIT]
     if not fitted:
         return None
-    shape = histogram_shape(plan)
+    shape = plan.histogram_shape
     beta = max(plan.betas)
     policy = plan.heuristic_policy
     columns: dict[str, Any] = {}
@@ -241,7 +227,7 @@ def error_by_hops(plan: StudyPlan, result: SweepResult, out: Path) -> Figure | N
         spec = result.spec(shape, beta, policy, technique)
         if spec is None:
             return None
-        table = pq.read_table(out / spec.folder / PAIRS_PARQUET_FILE)
+        table = read_pairs(out / spec.folder, ["distance_error_pct", "path"])
         columns[label] = table.column("distance_error_pct").to_numpy(zero_copy_only=False)
         if label == "path":
             paths = table.column("path").to_pylist()

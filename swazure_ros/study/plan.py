@@ -21,7 +21,7 @@ from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN
 from ..core.paths import POLICIES
 from ..core.sensor import Sensor
-from ..files.results import COMPACT_PAIRS, PAIR_COLUMNS
+from ..files.results import COMPACT_PAIRS, NO_PAIRS, PAIR_COLUMNS
 
 #: The published sweep (spec, section 10).
 PUBLISHED_BETAS = (0.01, 0.1, 0.2, 0.3, 0.4, 0.5)
@@ -127,6 +127,8 @@ class StudyPlan:
     seed: int = 0
     #: Per-pair columns kept: "compact" (what nothing else reproduces) or "full".
     pairs: str = COMPACT_PAIRS
+    #: Keep every run's per-pair file; by default only those a figure reads (figure_runs).
+    keep_pairs: bool = False
     #: The heuristics' modes, each run for every technique: "text", and "published" too
     #: to put the published code's numbers beside the text's.
     compat: tuple[str, ...] = ("text",)
@@ -205,6 +207,41 @@ class StudyPlan:
         """The other estimates of plain Swazure's pairs the study runs: fused, fitted."""
         fitted = (Technique(FIT),) if self.least_squares else ()
         return (*((self.fused,) if self.fused is not None else ()), *fitted)
+
+    @property
+    def histogram_shape(self) -> str:
+        """The shape whose pairs the figures draw: the dragon when the study has it, else the
+        first (smallest)."""
+        for cloud in self.clouds:
+            if "dragon" in cloud.name:
+                return cloud.name
+        return self.clouds[0].name
+
+    @property
+    def histogram_beta(self) -> float:
+        """The beta of the error histogram: 0.5 when the study has it, else its largest."""
+        return 0.5 if 0.5 in self.betas else max(self.betas)
+
+    def figure_runs(self) -> set[tuple[str, float, str, Technique]]:
+        """(shape, beta, policy, technique) of the runs whose per-pair file a figure reads.
+
+        The error histogram: the histogram shape's plain runs at the histogram
+        beta, every policy; the error by hops: its plain and least-squares runs
+        of the heuristic policy at the largest beta. Every table and every
+        other figure is drawn from the summaries.
+        """
+        shape = self.histogram_shape
+        runs = {(shape, self.histogram_beta, policy, PLAIN_TECHNIQUE) for policy in self.policies}
+        fitted = [estimator for estimator in self.estimators if estimator.name == FIT]
+        if fitted:
+            beta, policy = max(self.betas), self.heuristic_policy
+            runs |= {(shape, beta, policy, one) for one in (PLAIN_TECHNIQUE, fitted[0])}
+        return runs
+
+    def pairs_kept(self, spec: RunSpec) -> str:
+        """The per-pair columns ``spec``'s run keeps (``pairs``), or "none" when it keeps none."""
+        wanted = (spec.cloud, spec.beta, spec.policy, spec.technique)
+        return self.pairs if self.keep_pairs or wanted in self.figure_runs() else NO_PAIRS
 
     def _spec(
         self, cloud: str, digest: str, beta: float, policy: str, technique: Technique

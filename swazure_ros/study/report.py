@@ -122,9 +122,9 @@ def report_markdown(
         "",
         "## Tables",
         "",
-        "Each table is also a CSV file in `tables/`; every run's `summary.json` and "
-        f"`pairs.parquet` ({plan.pairs} per-pair columns) are in "
-        "`runs/<shape>/beta-<β>/<policy>/<technique>/`.",
+        "Each table is also a CSV file in `tables/`; every run's `summary.json` is in "
+        "`runs/<shape>/beta-<β>/<policy>/<technique>/`, with its `pairs.parquet` "
+        f"({plan.pairs} per-pair columns) {_pairs_kept(plan)}.",
         "",
         tables_markdown(tables),
         *_compat_section(plan),
@@ -134,6 +134,17 @@ def report_markdown(
     for name, path in figures.items():
         lines += [f"![{name}]({path.relative_to(out).as_posix()})", ""]
     return "\n".join(lines)
+
+
+def _pairs_kept(plan: StudyPlan) -> str:
+    """Which runs kept their per-pair file, for the report's sentence."""
+    if plan.keep_pairs:
+        return "for every run (--keep-pairs)"
+    runs = len(plan.figure_runs())
+    return (
+        f"for the {runs} runs the figures read only: every other number of the tables and "
+        "figures comes from the summaries (`swazure study --keep-pairs` keeps every run's pairs)"
+    )
 
 
 def write_report(

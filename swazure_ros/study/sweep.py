@@ -2,7 +2,8 @@
 
 A run is one (shape, beta, policy, technique). Its results live in a folder
 of their own, ``runs/<shape>/beta-<beta>/<policy>/<technique>/``, holding
-``pairs.parquet`` (compact or full, files.results.PAIR_COLUMNS) and then
+``pairs.parquet`` (compact or full, files.results.PAIR_COLUMNS; only for the
+runs a figure reads, unless the plan keeps every run's) and then
 ``summary.json``, each written atomically. The
 summary records the run's cache key, a hash of everything its numbers depend
 on: the points, beta, policy, technique, threshold, sensor, seed and the
@@ -34,7 +35,9 @@ from ..core.sensor import Sensor
 from ..core.summary import Document, StudyRun, with_source
 from ..files.reading import CONFIG_BYTES, read_text
 from ..files.results import (
+    COMPACT_PAIRS,
     FULL_PAIRS,
+    NO_PAIRS,
     PAIRS_PARQUET_FILE,
     SUMMARY_FILE,
     write_evaluation,
@@ -45,7 +48,8 @@ from .plan import FIT, FUSED, PLAIN_TECHNIQUE, RUNS_DIR, RunSpec, StudyPlan, Tec
 def read_summary(out: Path, spec: RunSpec, pairs: str) -> Document | None:
     """The run's summary if its folder holds complete results under its key, else None.
 
-    Results whose per-pair file keeps other columns than ``pairs`` asks are not done.
+    Results whose per-pair file keeps other columns than ``pairs`` asks are not
+    done; a run that keeps none (``pairs`` "none") is done whatever it kept.
     """
     folder = out / spec.folder
     try:
@@ -55,9 +59,11 @@ def read_summary(out: Path, spec: RunSpec, pairs: str) -> Document | None:
     except (SwazureError, ValueError):
         return None
     study = summary.get("study", {})
-    if study.get("key") != spec.key or study.get("pairs", FULL_PAIRS) != pairs:
+    if study.get("key") != spec.key:
         return None
-    if not (folder / PAIRS_PARQUET_FILE).is_file():
+    if pairs == NO_PAIRS:
+        return summary
+    if study.get("pairs", FULL_PAIRS) != pairs or not (folder / PAIRS_PARQUET_FILE).is_file():
         return None
     return summary
 
@@ -74,7 +80,7 @@ class Task:
     sensor_file: str | None
     seed: int
     out: Path
-    pairs: str
+    pairs: dict[RunSpec, str]  # each run's per-pair columns kept, or "none"
 
     @property
     def weight(self) -> int:
@@ -101,12 +107,17 @@ def run_task(task: Task) -> list[tuple[RunSpec, float]]:
                 plain, technique.name, technique.threshold or 10, COMPAT_MODES[technique.compat]
             )
         seconds = plain_seconds + time.perf_counter() - began
-        study = StudyRun(spec.key, spec.folder.as_posix(), task.pairs)
+        kept = task.pairs[spec]
+        study = StudyRun(spec.key, spec.folder.as_posix(), kept)
         timed = replace(result.summary, seconds=seconds, study=study)
         summary = with_source(timed, task.cloud, task.seed, task.sensor_file)
         result = replace(result, summary=summary)
         write_evaluation(
-            task.out / spec.folder, result, heuristic, pairs_format="parquet", columns=task.pairs
+            task.out / spec.folder,
+            result,
+            heuristic,
+            pairs_format=NO_PAIRS if kept == NO_PAIRS else "parquet",
+            columns=FULL_PAIRS if kept == FULL_PAIRS else COMPACT_PAIRS,
         )
         done.append((spec, seconds))
     return done
@@ -128,7 +139,7 @@ def plan_tasks(plan: StudyPlan, out: Path, missing: Sequence[RunSpec]) -> list[T
             plan.sensor_file,
             plan.seed,
             out,
-            plan.pairs,
+            {spec: plan.pairs_kept(spec) for spec in runs},
         )
         for (name, beta, policy), runs in groups.items()
     ]
@@ -234,7 +245,7 @@ def sweep(
     remove_partial_files(out)
     specs = plan.runs()
     summaries: dict[RunSpec, Document | None] = {
-        spec: read_summary(out, spec, plan.pairs) for spec in specs
+        spec: read_summary(out, spec, plan.pairs_kept(spec)) for spec in specs
     }
     missing = [spec for spec, summary in summaries.items() if summary is None]
     cached = len(specs) - len(missing)
@@ -252,7 +263,7 @@ def sweep(
         progress.close()
     complete: dict[RunSpec, Document] = {}
     for spec in specs:
-        summary = summaries[spec] or read_summary(out, spec, plan.pairs)
+        summary = summaries[spec] or read_summary(out, spec, plan.pairs_kept(spec))
         if summary is None:
             raise SwazureError(f"{out / spec.folder}: the run left no complete results")
         complete[spec] = summary

@@ -45,9 +45,12 @@ BAD_INPUTS = [
     (["evaluate", *TORUS, "--compat", "paper"], "argument --compat: invalid choice"),
     (["evaluate", *TORUS, "--seed", "x"], "'x' is not a whole number"),
     (["evaluate", *TORUS, "--seed", "-1"], "seed -1 is outside 0..2**63-1"),
+    (["evaluate", *TORUS, "--pairs", "xml", "--out", "o"], "--pairs: invalid choice: 'xml'"),
+    (["evaluate", *TORUS, "--pairs", "parquet"], "per-pair file a run writes: add --out DIR"),
     # study
     (["study", "--jobs", "0"], "argument --jobs: 0: must be at least 1"),
-    (["study", "--pairs", "some", "--out", "s"], "argument --pairs: invalid choice: 'some'"),
+    (["study", "--pair-columns", "some", "--out", "s"], "--pair-columns: invalid choice: 'some'"),
+    (["study", "--pairs", "full", "--out", "s"], "unrecognized arguments: --pairs full"),
     (["study", "--betas", "-1", "--out", "s"], "beta must be in (0, 1]"),
     (["study", "--clouds", "nosuch", "--out", "s"], "unknown shape 'nosuch'"),
     (["study", "--techniques", "nope", "--out", "s"], "unknown technique 'nope'"),
@@ -69,6 +72,7 @@ BAD_INPUTS = [
     (["spawn", *TORUS, "--estimator", "least-squares"], "invalid choice: 'least-squares'"),
     (["spawn", *TORUS, "--compute-all", "--sources-per-run", "0"], "0: must be at least 1"),
     (["spawn", *TORUS, "--sources-per-run", "40"], "go with --compute-all"),
+    (["spawn", *TORUS, "--pairs", "none"], "add --compute-all and --out DIR"),
     (
         [*SPAWN_FIT, "--technique", "move-source"],
         "estimates plain Swazure's pairs: leave out --technique",

@@ -1,21 +1,32 @@
 """``swazure evaluate`` in a real process: outputs, and one clear line for each bad input."""
 
 import json
+import os
 import subprocess
 import sys
 
 import pytest
 
-from swazure_ros.files.results import RECORD_FILE, RECORD_VERSION, read_record
+from swazure_ros.core.errors import SwazureError
+from swazure_ros.files.results import (
+    RECORD_FILE,
+    RECORD_VERSION,
+    pairs_size_warning,
+    read_pairs,
+    read_record,
+)
+
+from ..files.test_results import same_table
 
 
-def swazure(*args, cwd=None):
+def swazure(*args, cwd=None, env=None):
     return subprocess.run(
         [sys.executable, "-m", "swazure_ros.cli.main", *args],
         capture_output=True,
         text=True,
         timeout=300,
         cwd=cwd,
+        env=None if env is None else {**os.environ, **env},
     )
 
 
@@ -257,3 +268,88 @@ def test_a_heuristic_on_a_display_that_cannot_fit_says_what_it_needs_in_one_line
     assert "hold every pair of the swarm at once, about" in run.stderr
     assert "plain Swazure runs in blocks" in run.stderr
     assert len(run.stderr.strip().splitlines()) == 1, run.stderr
+
+
+#: A small swarm at the spacing of the sensor: 3,378 ordered blind pairs, a heuristic in 2 s.
+SMALL = ("--cloud", "torus:120", "--scale", "5", "--beta", "0.5")
+
+
+@pytest.mark.parametrize(
+    ("technique", "outputs"),
+    [
+        # Plain Swazure is written block by block; a heuristic's pairs all at once.
+        ("plain", ("default", "csv", "parquet", "none")),
+        ("move-obstructing", ("default", "parquet", "none")),
+    ],
+)
+def test_pairs_csv_parquet_or_none_writes_the_per_pair_file_asked_for(
+    tmp_path, technique, outputs
+):
+    runs = {}
+    for output in outputs:
+        out = tmp_path / output
+        chosen = [] if output == "default" else ["--pairs", output]
+        run = swazure(
+            "evaluate", *SMALL, "--technique", technique, "--out", str(out), "--quiet", *chosen,
+        )  # fmt: skip
+        assert run.returncode == 0, run.stderr
+        assert "will take" not in run.stderr  # far under 1 GB: not a word
+        runs[output] = out, run.stdout
+    files = {
+        output: sorted(path.name for path in out.iterdir()) for output, (out, _) in runs.items()
+    }
+    assert files["default"] == ["pairs.csv", "record.json", "summary.json"]
+    assert files["parquet"] == ["pairs.parquet", "record.json", "summary.json"]
+    assert files["none"] == ["record.json", "summary.json"]
+    for output, (out, _) in runs.items():
+        assert read_record(out / RECORD_FILE).pairs == ("csv" if output == "default" else output)
+    # csv is the default, the same bytes; Parquet holds the same table.
+    default = runs["default"][0]
+    if "csv" in runs:
+        assert (runs["csv"][0] / "pairs.csv").read_bytes() == (default / "pairs.csv").read_bytes()
+    same_table(read_pairs(runs["parquet"][0]), read_pairs(default))
+    none, stdout = runs["none"]
+    assert "(no per-pair file: --pairs none)" in stdout.splitlines()[-1]
+    with pytest.raises(SwazureError, match="the run was made with --pairs none"):
+        read_pairs(none)
+    # The summary is the run's, whatever its pairs: the same but for the seconds.
+    untimed = [_untimed(json.loads((out / "summary.json").read_text())) for out in (none, default)]
+    assert untimed[0] == untimed[1] and untimed[0]["blind_pairs"] > 100
+
+
+def _untimed(document):
+    """A JSON document without its "seconds", at any depth."""
+    if isinstance(document, dict):
+        return {key: _untimed(value) for key, value in document.items() if key != "seconds"}
+    return document
+
+
+@pytest.mark.parametrize("technique", ["plain", "move-obstructing"])
+def test_a_run_says_how_much_it_will_write_before_a_large_per_pair_file(tmp_path, technique):
+    """The limit lowered to 10 kB ($SWAZURE_LARGE_PAIRS_BYTES): a small swarm's pairs pass it."""
+    small = {"SWAZURE_LARGE_PAIRS_BYTES": "10000"}
+    warned = {}
+    for output in ("csv", "parquet", "none"):
+        run = swazure(
+            "evaluate", *SMALL, "--technique", technique, "--out", str(tmp_path / output),
+            "--pairs", output, "--quiet", env=small,
+        )  # fmt: skip
+        assert run.returncode == 0, run.stderr
+        warned[output] = [line for line in run.stderr.splitlines() if "will take" in line]
+    pairs = json.loads((tmp_path / "csv" / "summary.json").read_text())["blind_pairs"]
+    for output in ("csv", "parquet"):
+        assert warned[output] == [f"swazure evaluate: {pairs_size_warning(pairs, output, 10000)}"]
+    assert (
+        f"pairs.csv will take about {pairs * 310 / 1e6:.0f} MB ({pairs:,} pairs"
+        in warned["csv"][0]
+    )
+    assert warned["parquet"][0].endswith("; --pairs none no per-pair file")
+    assert warned["none"] == []
+    bad = swazure(
+        "evaluate", *SMALL, "--technique", technique, "--out", str(tmp_path / "bad"), "--quiet",
+        env={"SWAZURE_LARGE_PAIRS_BYTES": "1G"},
+    )  # fmt: skip
+    assert bad.returncode == 2 and "Traceback" not in bad.stderr
+    assert bad.stderr.strip() == (
+        "swazure evaluate: error: $SWAZURE_LARGE_PAIRS_BYTES: '1G' is not a whole number of bytes"
+    )

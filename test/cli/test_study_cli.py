@@ -79,6 +79,15 @@ def test_quick_study_writes_every_table_figure_and_the_report(quick_study):
     report = (out / "report.md").read_text()
     assert tables_md in report
     assert "numpy" in report and "sensor" in report
+    # Only the runs the error histogram reads keep their pairs: one shape at beta 0.5,
+    # one run per policy; every other number comes from the summaries.
+    kept = [path.relative_to(out / "runs").parts for path in out.rglob("pairs.parquet")]
+    assert len(kept) == 3 and len({parts[0] for parts in kept}) == 1
+    assert {parts[1:] for parts in kept} == {
+        ("beta-0.5", policy, "plain", "pairs.parquet")
+        for policy in ("fewest-hops", "shortest-length", "least-error")
+    }
+    assert "for the 3 runs the figures read only" in report
 
 
 def test_table_values_equal_the_runs_own_summaries(quick_study):

@@ -206,3 +206,134 @@ def test_pairs_written_block_by_block_are_the_bytes_of_the_pairs_written_at_once
     got = write_pair_blocks(blocked, run.hood, run.policy, run.blocks(SILENT), pairs_format)
     assert got.read_bytes() == expected.read_bytes()
     assert not list(blocked.glob(".*"))  # no temporary file left behind
+
+
+def _runs(sensor):
+    """Plain Swazure, Move Source's moves and a least-squares fit of one small swarm."""
+    from swazure_ros.core.evaluate import evaluate
+    from swazure_ros.core.fit import refine
+    from swazure_ros.core.geometry import make_swarm
+    from swazure_ros.core.heuristics.compat import COMPAT_MODES
+    from swazure_ros.core.heuristics.folding import run_technique
+    from swazure_ros.files.cloud_files import load_cloud
+
+    plain = evaluate(make_swarm(load_cloud("torus:200").points, beta=0.5), sensor, "fewest-hops")
+    moved, heuristic = run_technique(plain, "move-source", 2, COMPAT_MODES["text"])
+    return {
+        "plain": (plain, None),
+        "move-source": (moved, heuristic),
+        "fit": (refine(plain), None),
+    }
+
+
+def same_table(one, other):
+    """Two pyarrow tables alike column for column: names, types, values (NaN equal to NaN)."""
+    assert one.schema == other.schema
+    for name in one.column_names:
+        left, right = one.column(name).to_pylist(), other.column(name).to_pylist()
+        if one.schema.field(name).type == "double":
+            np.testing.assert_array_equal(np.array(left), np.array(right), err_msg=name)
+        else:
+            assert left == right, name
+
+
+@pytest.mark.parametrize("run", ["plain", "move-source", "fit"])
+def test_pairs_read_back_from_csv_and_from_parquet_are_one_table(tmp_path, sensor, run):
+    import pyarrow as pa
+
+    from swazure_ros.files.results import pairs_table, read_pairs, write_evaluation
+
+    evaluation, heuristic = _runs(sensor)[run]
+    tables = {}
+    for pairs_format in ("csv", "parquet"):
+        folder = tmp_path / pairs_format
+        folder.mkdir()
+        _, path = write_evaluation(folder, evaluation, heuristic, pairs_format)
+        assert path.name == f"pairs.{pairs_format}"
+        tables[pairs_format] = read_pairs(folder)
+    # The table as made, with its id lists: what either file reads back as.
+    made = pairs_table(evaluation.hood, evaluation.pairs, heuristic, as_text=False)
+    assert made.num_rows > 100 and pa.types.is_large_list(made.schema.field("path").type)
+    assert np.isnan(made.column("distance_error_pct").to_numpy()).any()  # pairs without a path
+    same_table(tables["csv"], made)
+    same_table(tables["parquet"], made)
+    some = read_pairs(tmp_path / "csv", ["distance_error_pct", "path"])
+    assert some.column_names == ["distance_error_pct", "path"]
+    same_table(some, made.select(["distance_error_pct", "path"]))
+
+
+def test_a_run_that_writes_no_pairs_writes_its_summary_and_says_why_there_are_none(
+    tmp_path, sensor
+):
+    from swazure_ros.files.results import read_pairs, write_evaluation, write_run
+
+    evaluation, _ = _runs(sensor)["plain"]
+    summary, pairs = write_evaluation(tmp_path / "bare", evaluation, None, "none")
+    assert pairs is None and summary.is_file()
+    assert sorted(path.name for path in (tmp_path / "bare").iterdir()) == ["summary.json"]
+    with pytest.raises(SwazureError, match=r"no pairs\.csv or pairs\.parquet$"):
+        read_pairs(tmp_path / "bare")
+    record = RunRecord("evaluate", 0.1, evaluation.summary, pairs="none")
+    summary, pairs, written = write_run(tmp_path / "run", evaluation, record)
+    assert pairs is None and read_record(written).pairs == "none"
+    assert sorted(path.name for path in (tmp_path / "run").iterdir()) == [
+        "record.json", "summary.json",
+    ]  # fmt: skip
+    with pytest.raises(SwazureError, match="made with --pairs none"):
+        read_pairs(tmp_path / "run")
+
+
+@pytest.mark.parametrize(("before", "after"), [("csv", "none"), ("parquet", "csv")])
+def test_a_run_written_over_another_leaves_no_per_pair_file_of_the_other(
+    tmp_path, sensor, before, after
+):
+    """A folder holds one run: pairs of an earlier run in another output are not its."""
+    from swazure_ros.files.results import write_evaluation
+
+    evaluation, _ = _runs(sensor)["plain"]
+    write_evaluation(tmp_path, evaluation, None, before)
+    write_evaluation(tmp_path, evaluation, None, after)
+    left = sorted(path.name for path in tmp_path.iterdir())
+    assert left == sorted(["summary.json"] + ([] if after == "none" else [f"pairs.{after}"]))
+
+
+def test_the_size_of_a_per_pair_file_is_estimated_from_its_pairs_and_format():
+    from swazure_ros.files.results import pairs_bytes
+
+    # torus:65536 at beta 0.5 wrote 19,927,398 pairs in a 6.05 GB pairs.csv (BENCHMARKS.md).
+    assert pairs_bytes(19_927_398, "csv") == pytest.approx(6.05e9, rel=0.1)
+    # The race car's pairs.parquet: 205 MB for 2,070,164 pairs (2026-11-29).
+    assert pairs_bytes(2_070_164, "parquet") == pytest.approx(205e6, rel=0.1)
+    assert pairs_bytes(2_070_164, "none") == 0 and pairs_bytes(0, "csv") == 0
+    with pytest.raises(ValueError, match="pairs_format must be one of"):
+        pairs_bytes(10, "xml")
+    with pytest.raises(ValueError, match="at least 0"):
+        pairs_bytes(-1, "csv")
+
+
+def test_a_large_per_pair_file_is_announced_with_the_smaller_outputs(monkeypatch):
+    from swazure_ros.files.results import (
+        LARGE_PAIRS_BYTES,
+        large_pairs_limit,
+        pairs_size_warning,
+    )
+
+    assert LARGE_PAIRS_BYTES == 10**9
+    assert pairs_size_warning(3_000_000, "csv") is None  # 0.9 GB
+    assert pairs_size_warning(19_927_398, "none") is None
+    line = pairs_size_warning(19_927_398, "csv")
+    assert line.startswith("pairs.csv will take about 6.2 GB (19,927,398 pairs at about")
+    assert "--pairs parquet about 2.0 GB or --pairs none no per-pair file" in line
+    line = pairs_size_warning(19_927_398, "parquet")
+    assert line.startswith("pairs.parquet will take about 2.0 GB")
+    assert line.endswith("--pairs none no per-pair file") and "--pairs csv" not in line
+    assert pairs_size_warning(100, "csv", limit=1000).startswith("pairs.csv will take")
+    assert "\n" not in line
+    # The limit from the environment: a test's small one, or a clear error.
+    monkeypatch.setenv("SWAZURE_LARGE_PAIRS_BYTES", "1000")
+    assert large_pairs_limit() == 1000
+    monkeypatch.setenv("SWAZURE_LARGE_PAIRS_BYTES", "a lot")
+    with pytest.raises(SwazureError, match="not a whole number of bytes"):
+        large_pairs_limit()
+    monkeypatch.delenv("SWAZURE_LARGE_PAIRS_BYTES")
+    assert large_pairs_limit() == LARGE_PAIRS_BYTES

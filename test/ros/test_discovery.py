@@ -22,7 +22,7 @@ from swazure_ros.core.frames import fls_frame, to_metres
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
 from swazure_ros.files.reading import config_dir
-from swazure_ros.files.results import RECORD_FILE, read_record
+from swazure_ros.files.results import RECORD_FILE, read_pairs, read_record
 from swazure_ros.protocol.discovery.estimate import Estimate, evaluation_of
 from swazure_ros.ros.convert.discovery import pose_estimate_from_message
 from swazure_ros.ros.plumbing.names import ESTIMATOR_CODES, policy_code
@@ -460,14 +460,16 @@ def watching_topic(domain, topic, process, timeout=PATIENCE):
 
 
 @pytest.mark.parametrize(
-    ("technique", "runs"),
-    [("plain", []), ("plain", ["--sources-per-run", "40"]), ("move-obstructing", []),
-     ("move-source", [])],
-    ids=["plain", "plain-in-source-blocks", "move-obstructing", "move-source"],
+    ("technique", "runs", "pairs"),
+    [("plain", [], "csv"), ("plain", ["--sources-per-run", "40"], "parquet"),
+     ("move-obstructing", [], "csv"), ("move-source", [], "csv")],
+    ids=["plain", "plain-in-source-blocks-parquet", "move-obstructing", "move-source"],
 )  # fmt: skip
-def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path, technique, runs):
+def test_spawn_compute_all_writes_what_evaluate_writes(
+    domain, params, tmp_path, technique, runs, pairs
+):
     shape = ["--cloud", SHAPE[0], "--scale", str(SHAPE[1]), "--beta", "0.5", "--quiet"]
-    shape += ["--technique", technique]
+    shape += ["--technique", technique] + ([] if pairs == "csv" else ["--pairs", pairs])
     # A person watches the move commands while the swarm computes: the watch is
     # up (its subscription in the graph) before the swarm starts, as a person's is.
     watch = swazure("echo", "/swarm/move_commands", "swazure_interfaces/msg/MoveCommands")
@@ -492,9 +494,10 @@ def test_spawn_compute_all_writes_what_evaluate_writes(domain, params, tmp_path,
         assert ("runs of 40 sources" in out) == bool(runs), out
         _, err = evaluate.communicate(timeout=300)
         assert evaluate.returncode == 0, err
-        distributed = (tmp_path / "d" / "pairs.csv").read_bytes()
-        assert distributed == (tmp_path / "e" / "pairs.csv").read_bytes()
-        assert distributed.count(b"\n") > 10_000
+        assert record.pairs == pairs
+        distributed = (tmp_path / "d" / f"pairs.{pairs}").read_bytes()
+        assert distributed == (tmp_path / "e" / f"pairs.{pairs}").read_bytes()
+        assert read_pairs(tmp_path / "d").num_rows > 10_000
     finally:
         # Still watching when the run is over: it neither failed nor gave up.
         watching = watch.poll() is None

@@ -109,7 +109,7 @@ def test_second_sweep_computes_nothing_and_returns_the_same_summaries(sensor, tm
     assert recorder.total == 4 and len(recorder.done) == 4
     for spec in plan.runs():
         folder = tmp_path / spec.folder
-        assert (folder / PAIRS_PARQUET_FILE).stat().st_size > 0
+        assert (folder / PAIRS_PARQUET_FILE).is_file() == (plan.pairs_kept(spec) != "none")
         assert json.loads((folder / SUMMARY_FILE).read_text())["study"]["key"] == spec.key
     second = sweep(plan, tmp_path, progress=(recorder := Recorder()))
     assert (second.computed, second.cached) == (0, 4)
@@ -155,8 +155,8 @@ def test_compact_pairs_keep_integer_paths_and_what_nothing_else_reproduces(senso
 
     from swazure_ros.files.results import DERIVED_COLUMNS
 
-    compact = sweep(small_plan(sensor), tmp_path / "compact")
-    full = sweep(small_plan(sensor, pairs="full"), tmp_path / "full")
+    compact = sweep(small_plan(sensor, keep_pairs=True), tmp_path / "compact")
+    full = sweep(small_plan(sensor, pairs="full", keep_pairs=True), tmp_path / "full")
     for spec in small_plan(sensor).runs():
         kept = pq.read_table(tmp_path / "compact" / spec.folder / PAIRS_PARQUET_FILE)
         every = pq.read_table(tmp_path / "full" / spec.folder / PAIRS_PARQUET_FILE)
@@ -173,9 +173,39 @@ def test_compact_pairs_keep_integer_paths_and_what_nothing_else_reproduces(senso
 
 
 def test_a_run_kept_compact_is_computed_again_when_full_pairs_are_asked(sensor, tmp_path):
-    sweep(small_plan(sensor), tmp_path)
-    again = sweep(small_plan(sensor, pairs="full"), tmp_path)
+    sweep(small_plan(sensor, keep_pairs=True), tmp_path)
+    again = sweep(small_plan(sensor, pairs="full", keep_pairs=True), tmp_path)
     assert (again.computed, again.cached) == (4, 0)
-    assert sweep(small_plan(sensor, pairs="full"), tmp_path).cached == 4
+    assert sweep(small_plan(sensor, pairs="full", keep_pairs=True), tmp_path).cached == 4
     with pytest.raises(SwazureError, match="per-pair output"):
         small_plan(sensor, pairs="some")
+
+
+def test_by_default_only_the_runs_a_figure_reads_keep_their_pairs(sensor, tmp_path):
+    """The error histogram's shape (the smallest here) at beta 0.5 for each policy, and with
+    least squares its fitted and plain runs at the largest beta: nothing else is read."""
+    plan = small_plan(sensor, policies=("fewest-hops", "shortest-length"), least_squares=True)
+    helix = plan.histogram_shape
+    assert helix == "helix_60" and plan.histogram_beta == 0.5
+    fit = Technique("least-squares")
+    assert plan.figure_runs() == {
+        (helix, 0.5, "fewest-hops", PLAIN_TECHNIQUE),
+        (helix, 0.5, "shortest-length", PLAIN_TECHNIQUE),
+        (helix, 0.5, "shortest-length", fit),
+    }
+    result = sweep(plan, tmp_path)
+    kept = sorted(path.parent for path in tmp_path.rglob(PAIRS_PARQUET_FILE))
+    read = [("fewest-hops", "plain"), ("shortest-length", "plain"),
+            ("shortest-length", "least-squares")]  # fmt: skip
+    beta = tmp_path / "runs" / helix / "beta-0.5"
+    assert kept == sorted(beta / policy / technique for policy, technique in read)
+    assert len(result.summaries) == 8
+    for spec, summary in result.summaries.items():
+        assert summary["study"]["pairs"] == ("compact" if (tmp_path / spec.folder) in kept
+                                             else "none")  # fmt: skip
+    # Asked for, every run keeps its pairs: those that kept none are computed again.
+    again = sweep(replace(plan, keep_pairs=True), tmp_path)
+    assert (again.computed, again.cached) == (5, 3)
+    assert len(list(tmp_path.rglob(PAIRS_PARQUET_FILE))) == 8
+    # A study that needs fewer pairs takes the runs as they are.
+    assert sweep(plan, tmp_path).computed == 0
