@@ -51,7 +51,7 @@ from .options import (
     add_threshold_argument,
     swarm_from_args,
 )
-from .summary import SUMMARY_TERMS, cell, summary_table
+from .summary import SUMMARY_TERMS, cell, explain_run, summary_table
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
 
 
@@ -201,6 +201,7 @@ def _evaluate_in_blocks(
     record = RunRecord("evaluate", run.seconds, summary)
     print(_headline(args, cloud, swarm, sensor, record.seconds))
     print(summary_table(summary))
+    explain_run("evaluate", summary, swarm, sensor, cloud.scale)
     if args.out is not None:
         summary_path = args.out / SUMMARY_FILE
         write_json(summary_path, summary.as_document())
@@ -244,6 +245,7 @@ def _evaluate_whole(
     record = RunRecord("evaluate", summary.seconds or 0.0, summary)
     print(_headline(args, cloud, swarm, sensor, record.seconds))
     print(summary_table(summary))
+    explain_run("evaluate", summary, swarm, sensor, cloud.scale)
     if args.out is not None:
         summary_path, pairs_path, record_path = write_run(args.out, evaluation, record, heuristic)
         print(f"wrote {summary_path}, {pairs_path} and {record_path}")

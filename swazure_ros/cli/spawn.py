@@ -64,6 +64,11 @@ if TYPE_CHECKING:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure spawn``."""
+    from .summary import SUMMARY_TERMS
+
+    # --compute-all prints a summary: its rows are explained as evaluate's are.
+    parser.epilog = SUMMARY_TERMS
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
     # The launcher leaves its nodes to the process's end (ros.plumbing.runtime.exit_process).
     parser.set_defaults(exit_process=True)
     add_swarm_arguments(parser)
@@ -321,7 +326,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     from ..app.compute import compute_all as run
     from ..app.compute import run_failure
     from ..files.results import write_run
-    from .summary import summary_table
+    from .summary import explain_run, summary_table
 
     world = swarm.world
 
@@ -371,6 +376,8 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     assert record.engine_seconds is not None
     print(f"engine: {record.engine_seconds:.2f} s for the same work")
     print(summary_table(record.summary, ("engine", record.engine), heading="distributed"))
+    # Warned before the swarm came up (warn_spacing): here the line under the summary.
+    explain_run("spawn", record.engine, world.home, world.sensor, world.cloud.scale, warned=True)
     print(
         "pairs identical to the engine's (status, path, estimate to 1e-9"
         + (", covariance" if args.estimator != PATH else "")
@@ -385,6 +392,20 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
         print(f"swazure spawn: error: {failure}", file=sys.stderr)
         return 1
     return 0
+
+
+def warn_spacing(world: Any) -> None:
+    """Warn on stderr before the swarm comes up when no pair of its FLSs is a hop the sensor
+    measures (every blind pair would have no path), naming the --scale that would fit."""
+    from ..core.spacing import spacing_advice
+    from ..files.cloud_files import load_cloud
+    from .summary import warn
+
+    swarm = world.assigned()
+    advice = spacing_advice(swarm, world.sensor())
+    if advice is not None:
+        scale = world.scale if world.scale is not None else load_cloud(world.cloud).scale
+        warn("spawn", advice, scale)
 
 
 def report_lost(ended: Any) -> None:
@@ -434,6 +455,7 @@ def main(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, _interrupt)
     args = apply_swarm_file(args)
     config = config_from_args(args)
+    warn_spacing(config.world)
     bar = CreationBar(args.quiet)
     ready = False
     swarm = None

@@ -19,7 +19,7 @@ from ..core.errors import CloudError, SwazureError
 from ..core.fit import LEAST_SQUARES, PATH
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.paths import POLICIES
-from ..files.cloud_files import cloud_files, load_cloud, published_dataset_dir
+from ..files.cloud_files import cloud_files, download_hint, load_cloud, published_dataset_dir
 from ..files.results import COMPACT_PAIRS, PAIR_COLUMNS
 from ..files.sensors import load_sensor
 from ..study.plan import (
@@ -168,6 +168,15 @@ def study_clouds(specs: list[str] | None) -> list[Cloud]:
     """Clouds named on the command line, or the default set."""
     if not specs:
         published = published_dataset_dir()
+        if published is None:
+            # The published tables need the published clouds: say so before hours of work.
+            print(
+                f"swazure study: the six published clouds are not on this machine, so it "
+                f"studies the built-in shapes ({', '.join(BUILTIN_SHAPES)}) instead, whose "
+                f"numbers are not the paper's: {download_hint()}",
+                file=sys.stderr,
+                flush=True,
+            )
         specs = [str(published)] if published else list(BUILTIN_SHAPES)
     clouds = []
     for spec in specs:

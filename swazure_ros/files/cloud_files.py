@@ -25,22 +25,56 @@ SUFFIXES = (".xyz", ".txt", ".csv", ".npy", ".ply")
 MAX_CLOUD_BYTES = 256 * 2**20
 
 
+#: Where the six published clouds come from: the reference implementation's repository
+#: (README, "The published clouds").
+PUBLISHED_CLOUDS_URL = "https://github.com/flyinglightspeck/Swazure/tree/main/src/assets"
+#: The folder beside the source checkout where they are looked for, after $SWAZURE_DATASETS.
+_BESIDE_CHECKOUT = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "swazure-paper"
+
+
+def _dataset_candidates() -> list[Path]:
+    """The folders the published clouds are looked for in, in order."""
+    if "SWAZURE_DATASETS" in os.environ:
+        # Set, it is the one place: a study or a test can say "no published clouds".
+        return [Path(os.environ["SWAZURE_DATASETS"])]
+    relative = Path("shared", "datasets", "swazure-paper")
+    return [_BESIDE_CHECKOUT, Path.cwd().parent / relative]
+
+
 def published_dataset_dir() -> Path | None:
     """The folder of the six published clouds, or None when this machine has none.
 
-    ``$SWAZURE_DATASETS`` wins; otherwise ``../shared/datasets/swazure-paper``
-    beside the source checkout, then beside the working directory.
+    ``$SWAZURE_DATASETS`` when set (and only it); otherwise
+    ``../shared/datasets/swazure-paper`` beside the source checkout, then
+    beside the working directory.
     """
-    candidates = []
-    if "SWAZURE_DATASETS" in os.environ:
-        candidates.append(Path(os.environ["SWAZURE_DATASETS"]))
-    relative = Path("shared", "datasets", "swazure-paper")
-    candidates.append(Path(__file__).resolve().parents[3] / relative)
-    candidates.append(Path.cwd().parent / relative)
-    for candidate in candidates:
+    for candidate in _dataset_candidates():
         if candidate.is_dir() and any(candidate.glob("*.xyz")):
             return candidate
     return None
+
+
+def published_stem(name: str) -> str | None:
+    """The published cloud's file stem that ``name`` names (``dragon``, ``dragon_1147``,
+    ``dragon_1147.xyz``), or None."""
+    stem = Path(name).name.removesuffix(".xyz")
+    for published in PUBLISHED_SCALES:
+        if stem in (published, published.rsplit("_", 1)[0]):
+            return published
+    return None
+
+
+def download_hint(what: str = "them") -> str:
+    """Where to download the published clouds, and the folder to put them in."""
+    return (
+        f"download {what} from {PUBLISHED_CLOUDS_URL} into {_dataset_candidates()[0]} "
+        "(or set SWAZURE_DATASETS to their folder)"
+    )
+
+
+def where_to_get(stem: str) -> str:
+    """One line: a published cloud is not here; where to download it, and where to put it."""
+    return f"the published cloud {stem}.xyz is not on this machine: {download_hint('it')}"
 
 
 def cloud_files(directory: Path) -> list[Path]:
@@ -111,6 +145,9 @@ def read_points(path: str | Path, scale: float = 1.0) -> FloatArray:
     if not math.isfinite(scale) or scale <= 0:
         raise CloudError(f"scale must be a positive number, got {scale}")
     if not path.exists():
+        stem = published_stem(path.name)
+        if stem is not None and path.suffix.lower() == ".xyz":
+            raise CloudError(f"{path}: no such file; {where_to_get(stem)}")
         raise CloudError(f"{path}: no such file")
     if path.is_dir():
         raise CloudError(f"{path}: is a folder, expected a point cloud file")
@@ -143,9 +180,12 @@ def is_cloud_path(spec: str) -> bool:
 
 
 def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
-    """Resolve ``spec`` (a file path or a built-in shape name) into a :class:`Cloud`.
+    """Resolve ``spec`` (a file path, a published cloud's name, or a built-in shape's) into a
+    :class:`Cloud`.
 
-    ``scale`` defaults to the published scale for the six published files
+    A published cloud's name (``dragon`` or ``dragon_1147``) is read from
+    :func:`published_dataset_dir`; CloudError says where to get it when it
+    is not there. ``scale`` defaults to the published scale for the six published files
     (by file stem) and to 1 otherwise. Built-in shapes are already in cm.
     """
     text = str(spec)
@@ -154,6 +194,13 @@ def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
         if scale is None:
             scale = PUBLISHED_SCALES.get(path.stem, 1.0)
         return Cloud(path.stem, read_points(path, scale), scale, str(path))
+    stem = published_stem(text)
+    if stem is not None:
+        # A published cloud by name (--cloud dragon): from the folder that holds them.
+        folder = published_dataset_dir()
+        if folder is None or not (folder / f"{stem}.xyz").is_file():
+            raise CloudError(f"{text}: {where_to_get(stem)}")
+        return load_cloud(folder / f"{stem}.xyz", scale)
     points = builtin_points(text)
     if scale is not None:
         if not math.isfinite(scale) or scale <= 0:
