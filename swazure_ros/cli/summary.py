@@ -169,7 +169,7 @@ def _error_model(summary: Summary) -> str:
 
 def _obstructed(pairs: PairStatistics) -> str:
     if not pairs.sweet_connected_pairs:
-        return "- (the radio's sweet graph joins no blind pair)"
+        return "- (no pair in the sweet graph)"
     return f"{pairs.obstructed_path_pct:.2f} %"
 
 

@@ -1,9 +1,11 @@
 """``swazure evaluate`` in a real process: outputs, and one clear line for each bad input."""
 
 import json
+import re
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from swazure_ros.files.results import RECORD_FILE, RECORD_VERSION, read_record
@@ -257,3 +259,33 @@ def test_a_heuristic_on_a_display_that_cannot_fit_says_what_it_needs_in_one_line
     assert "hold every pair of the swarm at once, about" in run.stderr
     assert "plain Swazure runs in blocks" in run.stderr
     assert len(run.stderr.strip().splitlines()) == 1, run.stderr
+
+
+def test_a_cloud_written_in_metres_says_why_no_pair_has_a_path_and_names_the_scale(tmp_path):
+    # Issue 69: 2,000 points in metres where cm are expected, run without --scale.
+    from swazure_ros.core.clouds import builtin_points
+
+    cloud = tmp_path / "metres.xyz"
+    np.savetxt(cloud, builtin_points("sphere:2000") / 100.0)
+    run = swazure("evaluate", "--cloud", str(cloud), "--beta", "0.5", "--quiet")
+    # It completed: exit 0, and the summary and stderr say why and what to do.
+    assert run.returncode == 0, run.stderr
+    assert re.search(r"\nno path +100\.000 %\n", run.stdout)
+    why = run.stdout.splitlines()[-1]
+    assert why.startswith("why: no pair of FLSs is a hop the sensor measures")
+    assert why.endswith("--scale 100 would (is the cloud in metres?)")
+    assert run.stderr == f"swazure evaluate: warning: {why.removeprefix('why: ')}\n"
+
+
+def test_a_small_built_in_shape_names_the_scale_that_gives_its_pairs_a_path():
+    run = swazure("evaluate", "--cloud", "torus:120", "--beta", "0.5", "--quiet")
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.splitlines()[-1].endswith(
+        "the cloud's spacing does not fit the sensor: --scale 3.4 would"
+    )
+    assert "warning" in run.stderr and "--scale 3.4" in run.stderr
+    scaled = swazure(
+        "evaluate", "--cloud", "torus:120", "--beta", "0.5", "--scale", "3.4", "--quiet"
+    )
+    assert scaled.returncode == 0 and "why:" not in scaled.stdout and not scaled.stderr.strip()
+    assert re.search(r"\nno path +0\.000 %\n", scaled.stdout)
