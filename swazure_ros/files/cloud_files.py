@@ -27,7 +27,7 @@ MAX_CLOUD_BYTES = 256 * 2**20
 
 #: Where the six published clouds come from: the reference implementation's repository
 #: (README, "The published clouds").
-PUBLISHED_CLOUDS_URL = "https://github.com/flyinglightspeck/Swazure/tree/main/src/assets"
+PUBLISHED_CLOUDS_URL = "https://github.com/flyinglightspeck/Swazure/tree/HEAD/src/assets"
 #: The folder beside the source checkout where they are looked for, after $SWAZURE_DATASETS.
 _BESIDE_CHECKOUT = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "swazure-paper"
 
@@ -66,10 +66,12 @@ def published_stem(name: str) -> str | None:
 
 def download_hint(what: str = "them") -> str:
     """Where to download the published clouds, and the folder to put them in."""
+    chosen = "SWAZURE_DATASETS" in os.environ
     return (
         f"download {what} from {PUBLISHED_CLOUDS_URL} into {_dataset_candidates()[0]} "
-        "(or set SWAZURE_DATASETS to their folder)"
-    )
+        + ("(the folder SWAZURE_DATASETS names)" if chosen else "(or set SWAZURE_DATASETS "
+           "to another folder)")
+    )  # fmt: skip
 
 
 def where_to_get(stem: str) -> str:
@@ -147,7 +149,10 @@ def read_points(path: str | Path, scale: float = 1.0) -> FloatArray:
     if not path.exists():
         stem = published_stem(path.name)
         if stem is not None and path.suffix.lower() == ".xyz":
-            raise CloudError(f"{path}: no such file; {where_to_get(stem)}")
+            folder = published_dataset_dir()
+            found = folder is not None and (folder / f"{stem}.xyz").is_file()
+            hint = f"--cloud {stem} reads it from {folder}" if found else where_to_get(stem)
+            raise CloudError(f"{path}: no such file; {hint}")
         raise CloudError(f"{path}: no such file")
     if path.is_dir():
         raise CloudError(f"{path}: is a folder, expected a point cloud file")
@@ -183,18 +188,21 @@ def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
     """Resolve ``spec`` (a file path, a published cloud's name, or a built-in shape's) into a
     :class:`Cloud`.
 
-    A published cloud's name (``dragon`` or ``dragon_1147``) is read from
+    A published cloud's name (``dragon``, ``dragon_1147`` or ``dragon_1147.xyz``, where
+    no such file is in the working folder) is read from
     :func:`published_dataset_dir`; CloudError says where to get it when it
     is not there. ``scale`` defaults to the published scale for the six published files
     (by file stem) and to 1 otherwise. Built-in shapes are already in cm.
     """
     text = str(spec)
-    if isinstance(spec, Path) or is_cloud_path(text):
+    stem = published_stem(text)
+    # A bare name that is no file here (dragon, dragon_1147.xyz) is a published cloud's.
+    by_name = stem is not None and "/" not in text and not Path(text).exists()
+    if not by_name and (isinstance(spec, Path) or is_cloud_path(text)):
         path = Path(text)
         if scale is None:
             scale = PUBLISHED_SCALES.get(path.stem, 1.0)
         return Cloud(path.stem, read_points(path, scale), scale, str(path))
-    stem = published_stem(text)
     if stem is not None:
         # A published cloud by name (--cloud dragon): from the folder that holds them.
         folder = published_dataset_dir()

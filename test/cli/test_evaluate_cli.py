@@ -1,6 +1,7 @@
 """``swazure evaluate`` in a real process: outputs, and one clear line for each bad input."""
 
 import json
+import os
 import re
 import subprocess
 import sys
@@ -289,3 +290,25 @@ def test_a_small_built_in_shape_names_the_scale_that_gives_its_pairs_a_path():
     )
     assert scaled.returncode == 0 and "why:" not in scaled.stdout and not scaled.stderr.strip()
     assert re.search(r"\nno path +0\.000 %\n", scaled.stdout)
+
+
+@pytest.mark.parametrize(
+    "arguments",
+    [["dragon"], ["--cloud", "dragon", "--beta", "0.5"]],
+    ids=["the example swarm", "--cloud"],
+)
+def test_a_published_cloud_that_is_not_here_says_where_to_get_it(tmp_path, arguments):
+    # Issue 69: `swazure evaluate dragon` without the published clouds (the example swarm
+    # file config/swarms/dragon.yaml names the cloud dragon), and --cloud dragon.
+    run = subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", "evaluate", *arguments],
+        capture_output=True, text=True, timeout=300,
+        env=os.environ | {"SWAZURE_DATASETS": str(tmp_path)},
+    )  # fmt: skip
+    assert run.returncode == 2
+    assert run.stdout == ""
+    assert run.stderr == (
+        "swazure evaluate: error: dragon: the published cloud dragon_1147.xyz is not on this "
+        "machine: download it from https://github.com/flyinglightspeck/Swazure/tree/HEAD/src/"
+        f"assets into {tmp_path} (the folder SWAZURE_DATASETS names)\n"
+    )

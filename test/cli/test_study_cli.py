@@ -240,3 +240,29 @@ def test_out_that_is_a_file_is_refused(tmp_path):
     run = swazure("study", "--quick", "--quiet", "--clouds", "helix", "--out", str(target))
     assert run.returncode == 2 and "not a folder" in run.stderr
     assert target.read_text() == "keep me"
+
+
+def test_without_the_published_clouds_the_study_says_it_falls_back_and_why(
+    tmp_path, monkeypatch, capsys
+):
+    from swazure_ros.cli.study import study_clouds
+    from swazure_ros.core.clouds import BUILTIN_SHAPES
+
+    monkeypatch.setenv("SWAZURE_DATASETS", str(tmp_path))  # the one place looked, empty
+    clouds = study_clouds(None)
+    assert [cloud.name for cloud in clouds] == list(BUILTIN_SHAPES)
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("swazure study: the six published clouds")
+    assert "studies the built-in shapes" in err and "not the paper's" in err
+    assert f"flyinglightspeck/Swazure/tree/HEAD/src/assets into {tmp_path} " in err
+
+
+def test_with_the_published_clouds_the_study_studies_them_without_a_word(monkeypatch, capsys):
+    from swazure_ros.cli.study import study_clouds
+
+    if not DATASETS.is_dir():
+        pytest.skip(f"published data set {DATASETS} is absent (../shared is not beside the repo)")
+    monkeypatch.setenv("SWAZURE_DATASETS", str(DATASETS))
+    names = [cloud.name for cloud in study_clouds(None)]
+    assert names == sorted(path.stem for path in DATASETS.glob("*.xyz"))
+    assert capsys.readouterr().err == ""
