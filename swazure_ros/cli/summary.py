@@ -38,9 +38,9 @@ SUMMARY_ROWS: tuple[tuple[str, str], ...] = (
      "and a standard deviation under a stochastic sensor (about 61 %); of a fit's: the square "
      "root of its covariance's trace, for a stochastic sensor only: under the bias model the "
      "errors are one bias, not a spread, and the fit's covariance bounds nothing (its "
-     "0.0079 cm on the dragon held 9.5 % of errors averaging 0.049 cm), so the row says \"- (no noise "
-     "model)\". A heuristic's moved pairs have none: the mean and share are of the others, "
-     "the moved counted beside"),
+     "0.0079 cm on the dragon held 9.5 % of errors averaging 0.049 cm), so the row says "
+     "\"- (no noise model)\". A heuristic's moved pairs have none: the mean and share are "
+     "of the others, the moved counted beside"),
     ("NEES mean; within chi2 95 %", "a fit's normalized estimation error squared e^T C^-1 e "
      "(3 is honest) and its share under the chi-square 95 % bound, 7.81; \"- (no noise "
      "model)\" under the bias model, as above"),
@@ -232,17 +232,16 @@ def summary_table(
     """A readable text table of a run's summary (``heading`` over its column, when there are
     ``others``); ``others`` add (heading, summary) columns."""
     columns = [summary_rows(summary)] + [summary_rows(other) for _, other in others]
-    width = max(len(value) for column in columns for _, value in column) + 2
-    if others:
-        width = max(width, len(_ABSENT) + 2)
-    lines = []
-    if others:
-        headings = [heading] + [other for other, _ in others]
-        lines.append(f"{'':<30}" + "".join(f"{title:>{width}}" for title in headings))
     # Rows by label, in order of first appearance: a column may have a row the others lack
     # (the engine's swarm fit counts its iterations), which shows _ABSENT elsewhere.
     labels = list(dict.fromkeys(label for column in columns for label, _ in column))
     values = [dict(column) for column in columns]
+    shown = [column.get(label, _ABSENT) for column in values for label in labels]
+    width = max(len(value) for value in shown) + 2
+    lines = []
+    if others:
+        headings = [heading] + [other for other, _ in others]
+        lines.append(f"{'':<30}" + "".join(f"{title:>{width}}" for title in headings))
     for label in labels:
         lines.append(
             f"{label:<30}" + "".join(f"{column.get(label, _ABSENT):>{width}}" for column in values)
