@@ -376,7 +376,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     assert record.engine_seconds is not None
     print(f"engine: {record.engine_seconds:.2f} s for the same work")
     print(summary_table(record.summary, ("engine", record.engine), heading="distributed"))
-    # Warned before the swarm came up (warn_spacing): here the line under the summary.
+    # Warned as the swarm came up (warn_spacing): here the line under the summary.
     explain_run("spawn", record.engine, world.home, world.sensor, world.cloud.scale, warned=True)
     print(
         "pairs identical to the engine's (status, path, estimate to 1e-9"
@@ -395,17 +395,12 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
 
 
 def warn_spacing(world: Any) -> None:
-    """Warn on stderr before the swarm comes up when no pair of its FLSs is a hop the sensor
-    measures (every blind pair would have no path), naming the --scale that would fit."""
+    """Warn on stderr, once the swarm is up, when no pair of its FLSs is a hop the sensor
+    measures (every blind pair has no path), naming the --scale that would fit."""
     from ..core.spacing import spacing_advice
-    from ..files.cloud_files import load_cloud
     from .summary import warn
 
-    swarm = world.assigned()
-    advice = spacing_advice(swarm, world.sensor())
-    if advice is not None:
-        scale = world.scale if world.scale is not None else load_cloud(world.cloud).scale
-        warn("spawn", advice, scale)
+    warn("spawn", spacing_advice(world.home, world.sensor), world.cloud.scale)
 
 
 def report_lost(ended: Any) -> None:
@@ -455,7 +450,6 @@ def main(args: argparse.Namespace) -> int:
     signal.signal(signal.SIGTERM, _interrupt)
     args = apply_swarm_file(args)
     config = config_from_args(args)
-    warn_spacing(config.world)
     bar = CreationBar(args.quiet)
     ready = False
     swarm = None
@@ -474,6 +468,7 @@ def main(args: argparse.Namespace) -> int:
                 )
             ready = True
             bar.close()
+            warn_spacing(swarm.world)
             _print_up(swarm, config, bring_up)
             if args.until_ready:
                 return 0
