@@ -168,15 +168,6 @@ def study_clouds(specs: list[str] | None) -> list[Cloud]:
     """Clouds named on the command line, or the default set."""
     if not specs:
         published = published_dataset_dir()
-        if published is None:
-            # The published tables need the published clouds: say so before hours of work.
-            print(
-                f"swazure study: the six published clouds are not on this machine, so it "
-                f"studies the built-in shapes ({', '.join(BUILTIN_SHAPES)}) instead, whose "
-                f"numbers are not the paper's: {download_hint()}",
-                file=sys.stderr,
-                flush=True,
-            )
         specs = [str(published)] if published else list(BUILTIN_SHAPES)
     clouds = []
     for spec in specs:
@@ -189,6 +180,18 @@ def study_clouds(specs: list[str] | None) -> list[Cloud]:
         else:
             clouds.append(load_cloud(spec))
     return clouds
+
+
+def fallback_notice(specs: list[str] | None) -> str | None:
+    """Why the study studies the built-in shapes, when it is given no clouds and the six
+    published ones are not on this machine; None when it is not falling back."""
+    if specs or published_dataset_dir() is not None:
+        return None
+    return (
+        f"the six published clouds are not on this machine, so it studies the built-in "
+        f"shapes ({', '.join(BUILTIN_SHAPES)}) instead, whose numbers are not the paper's: "
+        f"{download_hint()}"
+    )
 
 
 def plan_from_args(args: argparse.Namespace) -> StudyPlan:
@@ -230,6 +233,10 @@ def plan_from_args(args: argparse.Namespace) -> StudyPlan:
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure study``."""
     plan = plan_from_args(args)
+    notice = fallback_notice(args.clouds)
+    if notice is not None:
+        # The published tables need the published clouds: said before hours of work.
+        print(f"swazure study: {notice}", file=sys.stderr, flush=True)
     try:
         from ..study.run import run_study  # here: its figures import matplotlib (0.3 s)
 
