@@ -40,7 +40,7 @@ SUMMARY_ROWS: tuple[tuple[str, str], ...] = (
      "errors are one bias, not a spread, and the fit's covariance bounds nothing (its "
      "0.0079 cm on the dragon held 9.5 % of errors averaging 0.049 cm), so the row says "
      "\"- (no noise model)\". A heuristic's moved pairs have none: the mean and share are "
-     "of the others, the moved counted beside"),
+     "of the others, the moved counted beside. \"0 (an error-free sensor)\" with --accurate"),
     ("NEES mean; within chi2 95 %", "a fit's normalized estimation error squared e^T C^-1 e "
      "(3 is honest) and its share under the chi-square 95 % bound, 7.81; \"- (no noise "
      "model)\" under the bias model, as above"),
@@ -176,6 +176,9 @@ def _obstructed(pairs: PairStatistics) -> str:
 def _predicted(summary: Summary) -> str:
     """The predicted-error row: the mean, the share within it, and the pairs without one."""
     pairs = summary.pairs
+    if _error_model(summary) == "none":
+        # Every error is rounding (1e-14 %), and whether it is within 0 says nothing.
+        return "0 (an error-free sensor)"
     if summary.fit is not None and _error_model(summary) != "stochastic":
         # The bias model's errors are one bias, not a spread: the fit's covariance is what its
         # weights say, and its errors are not within it (9.5 % on the dragon): docs/core.md.

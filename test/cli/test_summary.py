@@ -45,6 +45,7 @@ def summaries(sensor_module):
         "least-squares": refine(plain, LEAST_SQUARES).summary,
         "stochastic swarm-fit": refine(stochastic, SWARM_FIT).summary,
         "no path": evaluate(small, sensor_module, "fewest-hops").summary,
+        "accurate": evaluate(swarm, sensor_module.error_free(), "fewest-hops").summary,
     }
 
 
@@ -95,6 +96,11 @@ def test_a_fit_under_the_bias_model_predicts_no_error_and_says_why(summaries):
     # Under a stochastic sensor the fit's covariance is a spread: the row shows it.
     rows = dict(summary_rows(summaries["stochastic swarm-fit"]))
     assert re.fullmatch(r"[\d.e-]+; [\d.]+ %", rows["predicted error cm; within it"])
+
+
+def test_an_error_free_sensor_predicts_no_error_and_says_so(summaries):
+    value = dict(summary_rows(summaries["accurate"]))["predicted error cm; within it"]
+    assert value == "0 (an error-free sensor)"
 
 
 def test_a_heuristic_s_moved_pairs_leave_the_others_predicted_error_and_are_counted(summaries):
