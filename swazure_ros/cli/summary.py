@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import sys
+import textwrap
 
 from ..core.geometry import Swarm
 from ..core.metrics import Stats
@@ -74,19 +75,22 @@ SUMMARY_ROWS: tuple[tuple[str, str], ...] = (
 _ABSENT = "- (not in this run)"
 
 
+#: Columns of a meaning in ``--help``, indented under its row's label.
+_HELP_WIDTH = 84
+
+
 def _terms() -> str:
     """The rows and their meanings as ``--help`` prints them: label, then wrapped text."""
-    import textwrap
-
     lines = ["the summary's rows:"]
     for label, meaning in SUMMARY_ROWS:
-        wrapped = textwrap.wrap(meaning, 88 - 4)
+        wrapped = textwrap.wrap(meaning, _HELP_WIDTH)
         lines.append(f"  {label}")
         lines += [f"      {line}" for line in wrapped]
     return "\n".join(lines) + "\n"
 
 
-#: The summary's rows for the verbs' ``--help`` (an epilog): evaluate, spawn, study.
+#: The summary's rows for the ``--help`` (an epilog) of the verbs that print a summary:
+#: evaluate, and spawn (--compute-all).
 SUMMARY_TERMS = _terms()
 
 
