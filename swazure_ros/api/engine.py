@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..core.blocks import DEFAULT_MEMORY, Budget, evaluate_blocked, whole_swarm_bytes
-from ..core.clouds import BUILTIN_SHAPES, Cloud, validate_points
+from ..core.clouds import Cloud, validate_points
 from ..core.errors import CloudError, OptionError, SwazureError
 from ..core.evaluate import SILENT, Evaluation, Neighbourhood, PairResults, Progress
 from ..core.evaluate import evaluate as evaluate_swarm
@@ -46,7 +46,7 @@ from ..core.heuristics.result import (
 from ..core.paths import POLICIES, SHORTEST_LENGTH
 from ..core.sensor import Sensor
 from ..core.summary import Summary, with_source
-from ..files.cloud_files import is_cloud_path, load_cloud, published_cloud
+from ..files.cloud_files import load_cloud
 from ..files.reading import available_memory
 from ..files.results import RunRecord, pairs_table
 from ..files.sensors import load_sensor
@@ -239,23 +239,13 @@ def cloud_of(cloud: ArrayLike | str | Path, scale: float | None = None) -> Cloud
     array([2., 0., 0.])
     """
     if isinstance(cloud, str | Path):
-        return load_cloud(_named_file(cloud), scale)
+        return load_cloud(cloud, scale)
     points = validate_points(cloud, "cloud")
     factor = 1.0 if scale is None else scale
     if not isinstance(factor, int | float) or not math.isfinite(factor) or factor <= 0:
         raise CloudError(f"scale must be a positive number, got {scale}")
     points = validate_points(points * factor, f"points at scale {factor:g}")
     return Cloud("points", points, float(factor), "array")
-
-
-def _named_file(spec: str | Path) -> str | Path:
-    """``spec``, or the file of the published cloud it names (``chess``)."""
-    text = str(spec)
-    if isinstance(spec, Path) or is_cloud_path(text):
-        return spec
-    if text.partition(":")[0] in BUILTIN_SHAPES:
-        return text
-    return published_cloud(text)
 
 
 def evaluate(

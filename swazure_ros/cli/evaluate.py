@@ -45,7 +45,7 @@ from .options import (
     warn_of_large_pairs,
     wrote,
 )
-from .summary import SUMMARY_TERMS, cell, summary_table
+from .summary import SUMMARY_TERMS, cell, explain_run, summary_table
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
 
 
@@ -191,6 +191,7 @@ def _evaluate_in_blocks(
     assert summary is not None  # an evaluation's record has its summary
     print(_headline(args, setup, record.seconds))
     print(summary_table(summary))
+    explain_run("evaluate", summary, setup.swarm, setup.sensor, setup.cloud.scale)
     if args.out is not None:
         summary_path = args.out / SUMMARY_FILE
         write_json(summary_path, summary.as_document())
@@ -209,6 +210,7 @@ def _evaluate_whole(
     record = replace(record, pairs=args.pairs)
     print(_headline(args, setup, record.seconds))
     print(summary_table(evaluation.summary))
+    explain_run("evaluate", evaluation.summary, setup.swarm, setup.sensor, setup.cloud.scale)
     if args.out is not None:
         warn_of_large_pairs("evaluate", evaluation.summary.pairs.blind_pairs, args.pairs)
         print(wrote(*write_run(args.out, evaluation, record, heuristic)))

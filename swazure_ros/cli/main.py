@@ -16,7 +16,8 @@ from ..core.errors import RunError, SwazureError
 RUN_FAILED, USAGE = 1, 2
 EXIT_CODES = """\
 exit codes:
-  0    done
+  0    done; also a run that completed with a warning on stderr (every blind
+       pair with no path: the warning says why and names --scale)
   1    the run failed: a swarm stalled, a process died, no answer in time, or
        (spawn --compute-all) the swarm's pairs are not the engine's
   2    the command line or its files are unusable (options, clouds, sensors,

@@ -69,6 +69,11 @@ if TYPE_CHECKING:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``swazure spawn``."""
+    from .summary import SUMMARY_TERMS
+
+    # --compute-all prints a summary: its rows are explained as evaluate's are.
+    parser.epilog = SUMMARY_TERMS
+    parser.formatter_class = argparse.RawDescriptionHelpFormatter
     # The launcher leaves its nodes to the process's end (ros.plumbing.runtime.exit_process).
     parser.set_defaults(exit_process=True)
     add_swarm_arguments(parser)
@@ -330,7 +335,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     from ..app.compute import compute_all as run
     from ..app.compute import run_failure
     from ..files.results import write_run
-    from .summary import summary_table
+    from .summary import explain_run, summary_table
 
     world = swarm.world
 
@@ -380,6 +385,8 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     assert record.engine_seconds is not None
     print(f"engine: {record.engine_seconds:.2f} s for the same work")
     print(summary_table(record.summary, ("engine", record.engine), heading="distributed"))
+    # Warned as the swarm came up (warn_spacing): here the line under the summary.
+    explain_run("spawn", record.engine, world.home, world.sensor, world.cloud.scale, warned=True)
     print(
         "pairs identical to the engine's (status, path, estimate to 1e-9"
         + (", covariance" if args.estimator != PATH else "")
@@ -395,6 +402,15 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
         print(f"swazure spawn: error: {failure}", file=sys.stderr)
         return 1
     return 0
+
+
+def warn_spacing(world: Any) -> None:
+    """Warn on stderr, once the swarm is up, when no pair of its FLSs is a hop the sensor
+    measures (every blind pair has no path), naming the --scale that would fit."""
+    from ..core.spacing import spacing_advice
+    from .summary import warn
+
+    warn("spawn", spacing_advice(world.home, world.sensor), world.cloud.scale)
 
 
 def report_lost(ended: Any) -> None:
@@ -462,6 +478,7 @@ def main(args: argparse.Namespace) -> int:
                 )
             ready = True
             bar.close()
+            warn_spacing(swarm.world)
             _print_up(swarm, config, bring_up)
             if args.until_ready:
                 return 0

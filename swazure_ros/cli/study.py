@@ -20,7 +20,7 @@ from ..core.errors import CloudError, SwazureError
 from ..core.fit import LEAST_SQUARES, PATH
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.paths import POLICIES
-from ..files.cloud_files import cloud_files, load_cloud, published_dataset_dir
+from ..files.cloud_files import cloud_files, download_hint, load_cloud, published_dataset_dir
 from ..files.results import COMPACT_PAIRS, PAIR_COLUMNS
 from ..files.sensors import load_sensor
 from ..study.plan import (
@@ -191,6 +191,18 @@ def study_clouds(specs: list[str] | None) -> list[Cloud]:
     return clouds
 
 
+def fallback_notice(specs: list[str] | None) -> str | None:
+    """Why the study studies the built-in shapes, when it is given no clouds and the six
+    published ones are not on this machine; None when it is not falling back."""
+    if specs or published_dataset_dir() is not None:
+        return None
+    return (
+        f"the six published clouds are not on this machine, so it studies the built-in "
+        f"shapes ({', '.join(BUILTIN_SHAPES)}) instead, whose numbers are not the paper's: "
+        f"{download_hint()}"
+    )
+
+
 def plan_from_args(args: argparse.Namespace) -> StudyPlan:
     """The study that the options describe."""
     clouds = study_clouds(args.clouds)
@@ -231,6 +243,10 @@ def plan_from_args(args: argparse.Namespace) -> StudyPlan:
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure study``."""
     plan = plan_from_args(args)
+    notice = fallback_notice(args.clouds)
+    if notice is not None:
+        # The published tables need the published clouds: said before hours of work.
+        print(f"swazure study: {notice}", file=sys.stderr, flush=True)
     try:
         from ..study.run import run_study  # here: its figures import matplotlib (0.3 s)
 

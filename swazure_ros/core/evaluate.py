@@ -631,6 +631,8 @@ class PairTally:
         """Gather the statistics of ``pairs``, a block of the run's."""
         self.pairs += len(pairs)
         has_path = pairs.status != NO_PATH
+        # A pair a heuristic resolved has no predicted error: the mean is of those with one.
+        known = np.isfinite(pairs.predicted_error) & has_path
         sweet, decaying = pairs.status == SWEET_PATH, pairs.status == DECAYING_PATH
         obstructed_paths = pairs.sweet_obstructed & pairs.sweet_connected
         for name, mask in (
@@ -650,7 +652,7 @@ class PairTally:
             ("alpha_deg", pairs.alpha[has_path]),
             ("theta_deg", pairs.theta[has_path]),
             ("phi_deg", pairs.phi[has_path]),
-            ("predicted_error_cm", pairs.predicted_error[has_path]),
+            ("predicted_error_cm", pairs.predicted_error[known]),
         ):
             self._real(name, values)
         for name, integers in (
@@ -660,7 +662,6 @@ class PairTally:
             ("obstructing_flss_per_path", pairs.obstructing_flss[obstructed_paths]),
         ):
             self._integer(name, integers)
-        known = np.isfinite(pairs.predicted_error) & has_path
         error = np.linalg.norm(pairs.estimate[known] - pairs.truth[known], axis=1)
         self.known_predictions += int(known.sum())
         self.within_predicted += int((error <= pairs.predicted_error[known]).sum())

@@ -15,7 +15,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.clouds import (
-    BUILTIN_SHAPES,
     PUBLISHED_SCALES,
     Cloud,
     builtin_points,
@@ -31,22 +30,58 @@ SUFFIXES = (".xyz", ".txt", ".csv", ".npy", ".ply")
 MAX_CLOUD_BYTES = 256 * 2**20
 
 
+#: Where the six published clouds come from: the reference implementation's repository
+#: (README, "The published clouds").
+PUBLISHED_CLOUDS_URL = "https://github.com/flyinglightspeck/Swazure/tree/HEAD/src/assets"
+#: The folder beside the source checkout where they are looked for, after $SWAZURE_DATASETS.
+_BESIDE_CHECKOUT = Path(__file__).resolve().parents[3] / "shared" / "datasets" / "swazure-paper"
+
+
+def _dataset_candidates() -> list[Path]:
+    """The folders the published clouds are looked for in, in order."""
+    if "SWAZURE_DATASETS" in os.environ:
+        # Set, it is the one place: a study or a test can say "no published clouds".
+        return [Path(os.environ["SWAZURE_DATASETS"])]
+    relative = Path("shared", "datasets", "swazure-paper")
+    return [_BESIDE_CHECKOUT, Path.cwd().parent / relative]
+
+
 def published_dataset_dir() -> Path | None:
     """The folder of the six published clouds, or None when this machine has none.
 
-    ``$SWAZURE_DATASETS`` wins; otherwise ``../shared/datasets/swazure-paper``
-    beside the source checkout, then beside the working directory.
+    ``$SWAZURE_DATASETS`` when set (and only it); otherwise
+    ``../shared/datasets/swazure-paper`` beside the source checkout, then
+    beside the working directory.
     """
-    candidates = []
-    if "SWAZURE_DATASETS" in os.environ:
-        candidates.append(Path(os.environ["SWAZURE_DATASETS"]))
-    relative = Path("shared", "datasets", "swazure-paper")
-    candidates.append(Path(__file__).resolve().parents[3] / relative)
-    candidates.append(Path.cwd().parent / relative)
-    for candidate in candidates:
+    for candidate in _dataset_candidates():
         if candidate.is_dir() and any(candidate.glob("*.xyz")):
             return candidate
     return None
+
+
+def published_stem(name: str) -> str | None:
+    """The published cloud's file stem that ``name`` names (``dragon``, ``dragon_1147``,
+    ``dragon_1147.xyz``), or None."""
+    stem = Path(name).name.removesuffix(".xyz")
+    for published in PUBLISHED_SCALES:
+        if stem in (published, published.rsplit("_", 1)[0]):
+            return published
+    return None
+
+
+def download_hint(what: str = "them") -> str:
+    """Where to download the published clouds, and the folder to put them in."""
+    chosen = "SWAZURE_DATASETS" in os.environ
+    return (
+        f"download {what} from {PUBLISHED_CLOUDS_URL} into {_dataset_candidates()[0]} "
+        + ("(the folder SWAZURE_DATASETS names)" if chosen else "(or set SWAZURE_DATASETS "
+           "to another folder)")
+    )  # fmt: skip
+
+
+def where_to_get(stem: str) -> str:
+    """One line: a published cloud is not here; where to download it, and where to put it."""
+    return f"the published cloud {stem}.xyz is not on this machine: {download_hint('it')}"
 
 
 def cloud_files(directory: Path) -> list[Path]:
@@ -117,6 +152,12 @@ def read_points(path: str | Path, scale: float = 1.0) -> FloatArray:
     if not math.isfinite(scale) or scale <= 0:
         raise CloudError(f"scale must be a positive number, got {scale}")
     if not path.exists():
+        stem = published_stem(path.name)
+        if stem is not None and path.suffix.lower() == ".xyz":
+            folder = published_dataset_dir()
+            found = folder is not None and (folder / f"{stem}.xyz").is_file()
+            hint = f"--cloud {stem} reads it from {folder}" if found else where_to_get(stem)
+            raise CloudError(f"{path}: no such file; {hint}")
         raise CloudError(f"{path}: no such file")
     if path.is_dir():
         raise CloudError(f"{path}: is a folder, expected a point cloud file")
@@ -149,49 +190,33 @@ def is_cloud_path(spec: str) -> bool:
 
 
 def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
-    """Resolve ``spec`` (a file path or a built-in shape name) into a :class:`Cloud`.
+    """Resolve ``spec`` (a file path, a published cloud's name, or a built-in shape's) into a
+    :class:`Cloud`.
 
-    ``scale`` defaults to the published scale for the six published files
+    A published cloud's name (``dragon``, ``dragon_1147`` or ``dragon_1147.xyz``, where
+    no such file is in the working folder) is read from
+    :func:`published_dataset_dir`; CloudError says where to get it when it
+    is not there. ``scale`` defaults to the published scale for the six published files
     (by file stem) and to 1 otherwise. Built-in shapes are already in cm.
     """
     text = str(spec)
-    if isinstance(spec, Path) or is_cloud_path(text):
+    stem = published_stem(text)
+    # A bare name that is no file here (dragon, dragon_1147.xyz) is a published cloud's.
+    by_name = stem is not None and "/" not in text and not Path(text).exists()
+    if not by_name and (isinstance(spec, Path) or is_cloud_path(text)):
         path = Path(text)
         if scale is None:
             scale = PUBLISHED_SCALES.get(path.stem, 1.0)
         return Cloud(path.stem, read_points(path, scale), scale, str(path))
+    if stem is not None:
+        # A published cloud by name (--cloud dragon): from the folder that holds them.
+        folder = published_dataset_dir()
+        if folder is None or not (folder / f"{stem}.xyz").is_file():
+            raise CloudError(f"{text}: {where_to_get(stem)}")
+        return load_cloud(folder / f"{stem}.xyz", scale)
     points = builtin_points(text)
     if scale is not None:
         if not math.isfinite(scale) or scale <= 0:
             raise CloudError(f"scale must be a positive number, got {scale}")
         points = validate_points(points * scale, f"{text} at scale {scale:g}")
     return Cloud(text.replace(":", "_"), points, 1.0 if scale is None else scale, "builtin")
-
-
-#: Where the six published clouds come from: the paper's reference implementation.
-PUBLISHED_CLOUDS_SOURCE = "https://github.com/flyinglightspeck/Swazure (src/assets/*.xyz)"
-
-
-def published_cloud(name: str) -> Path:
-    """The file of published cloud ``name``, by stem (``chess_408``) or first word (``chess``).
-
-    CloudError when ``name`` is neither a built-in shape nor a published cloud, or
-    when this machine lacks the file (:func:`published_dataset_dir`): it says where
-    to get it.
-    """
-    stems = [stem for stem in PUBLISHED_SCALES if name in (stem, stem.partition("_")[0])]
-    if not stems:
-        shapes, published = ", ".join(sorted(BUILTIN_SHAPES)), ", ".join(PUBLISHED_SCALES)
-        raise CloudError(
-            f"unknown shape {name!r}: use a file path, a built-in shape ({shapes}) or a "
-            f"published cloud ({published})"
-        )
-    folder = published_dataset_dir()
-    path = None if folder is None else folder / f"{stems[0]}.xyz"
-    if path is None or not path.is_file():
-        raise CloudError(
-            f"{name}: the published cloud {stems[0]}.xyz is not on this machine; get it from "
-            f"{PUBLISHED_CLOUDS_SOURCE} into ../shared/datasets/swazure-paper, or set "
-            "SWAZURE_DATASETS to its folder"
-        )
-    return path

@@ -2,9 +2,11 @@
 
 import json
 import os
+import re
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from swazure_ros.core.errors import SwazureError
@@ -352,4 +354,56 @@ def test_a_run_says_how_much_it_will_write_before_a_large_per_pair_file(tmp_path
     assert bad.returncode == 2 and "Traceback" not in bad.stderr
     assert bad.stderr.strip() == (
         "swazure evaluate: error: $SWAZURE_LARGE_PAIRS_BYTES: '1G' is not a whole number of bytes"
+    )
+
+
+def test_a_cloud_written_in_metres_says_why_no_pair_has_a_path_and_names_the_scale(tmp_path):
+    # Issue 69: 2,000 points in metres where cm are expected, run without --scale.
+    from swazure_ros.core.clouds import builtin_points
+
+    cloud = tmp_path / "metres.xyz"
+    np.savetxt(cloud, builtin_points("sphere:2000") / 100.0)
+    run = swazure("evaluate", "--cloud", str(cloud), "--beta", "0.5", "--quiet")
+    # It completed: exit 0, and the summary and stderr say why and what to do.
+    assert run.returncode == 0, run.stderr
+    assert re.search(r"\nno path +100\.000 %\n", run.stdout)
+    why = run.stdout.splitlines()[-1]
+    assert why.startswith("why: no pair of FLSs is a hop the sensor measures")
+    assert why.endswith("--scale 100 would (is the cloud in metres?)")
+    assert run.stderr == f"swazure evaluate: warning: {why.removeprefix('why: ')}\n"
+
+
+def test_a_small_built_in_shape_names_the_scale_that_gives_its_pairs_a_path():
+    run = swazure("evaluate", "--cloud", "torus:120", "--beta", "0.5", "--quiet")
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.splitlines()[-1].endswith(
+        "the cloud's spacing does not fit the sensor: --scale 3.4 would"
+    )
+    assert "warning" in run.stderr and "--scale 3.4" in run.stderr
+    scaled = swazure(
+        "evaluate", "--cloud", "torus:120", "--beta", "0.5", "--scale", "3.4", "--quiet"
+    )
+    assert scaled.returncode == 0 and "why:" not in scaled.stdout and not scaled.stderr.strip()
+    assert re.search(r"\nno path +0\.000 %\n", scaled.stdout)
+
+
+@pytest.mark.parametrize(
+    "arguments",
+    [["dragon"], ["--cloud", "dragon", "--beta", "0.5"]],
+    ids=["the example swarm", "--cloud"],
+)
+def test_a_published_cloud_that_is_not_here_says_where_to_get_it(tmp_path, arguments):
+    # Issue 69: `swazure evaluate dragon` without the published clouds (the example swarm
+    # file config/swarms/dragon.yaml names the cloud dragon), and --cloud dragon.
+    run = subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", "evaluate", *arguments],
+        capture_output=True, text=True, timeout=300,
+        env=os.environ | {"SWAZURE_DATASETS": str(tmp_path)},
+    )  # fmt: skip
+    assert run.returncode == 2
+    assert run.stdout == ""
+    assert run.stderr == (
+        "swazure evaluate: error: dragon: the published cloud dragon_1147.xyz is not on this "
+        "machine: download it from https://github.com/flyinglightspeck/Swazure/tree/HEAD/src/"
+        f"assets into {tmp_path} (the folder SWAZURE_DATASETS names)\n"
     )

@@ -19,7 +19,6 @@ from swazure_ros.cli.main import (
 )
 from swazure_ros.core.errors import CloudError, RunError, SwazureError
 
-from ..conftest import REPO
 from ..waits import PATIENCE
 
 
@@ -57,38 +56,6 @@ def test_a_verb_loads_its_own_module_and_no_other():
     loaded = loaded_after("key", "--help")
     assert "swazure_ros.cli.key" in loaded
     assert not {f"swazure_ros.cli.{verb}" for verb in VERBS if verb != "key"} & loaded
-
-
-def test_evaluate_help_explains_every_row_of_the_summary():
-    from swazure_ros.cli.summary import SUMMARY_TERMS, summary_rows
-    from swazure_ros.core.evaluate import evaluate
-    from swazure_ros.core.geometry import make_swarm
-    from swazure_ros.files.cloud_files import load_cloud
-    from swazure_ros.files.sensors import load_sensor
-
-    done = subprocess.run(
-        [sys.executable, "-m", "swazure_ros.cli.main", "evaluate", "--help"],
-        capture_output=True, text=True, timeout=PATIENCE, check=True,
-    )  # fmt: skip
-    assert SUMMARY_TERMS.splitlines()[1] in done.stdout
-    # The documentation says the same, word for word (docs/core.md, "The summary's rows").
-    assert SUMMARY_TERMS.rstrip() in (REPO / "docs" / "core.md").read_text()
-    run = evaluate(
-        make_swarm(load_cloud("torus:60").points, beta=0.5), load_sensor(), "fewest-hops"
-    )
-    explained = {line[2:24].strip() for line in SUMMARY_TERMS.splitlines()[1:] if line[2] != " "}
-    # Each row a person reads, by its first words, bar the self-evident counts.
-    plain = {
-        "FLSs (removed)",
-        "radius r / dmin, cm",
-        "sweet path",
-        "decaying path",
-        "no path",
-        "hops: mean / max",
-    }
-    for label, _ in summary_rows(run.summary):
-        if label not in plain:
-            assert any(label.startswith(term) for term in explained), label
 
 
 @pytest.mark.parametrize(

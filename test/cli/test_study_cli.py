@@ -6,11 +6,12 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 
 import pytest
 
 from ..conftest import DATASETS
-from ..waits import wait_until
+from ..waits import PATIENCE, wait_until
 
 FIGURES = (
     "alpha_mean",
@@ -249,3 +250,48 @@ def test_out_that_is_a_file_is_refused(tmp_path):
     run = swazure("study", "--quick", "--quiet", "--clouds", "helix", "--out", str(target))
     assert run.returncode == 2 and "not a folder" in run.stderr
     assert target.read_text() == "keep me"
+
+
+def test_without_the_published_clouds_the_study_says_it_falls_back_and_why(tmp_path):
+    # `make study` (swazure study --out study) with no published clouds where it looks.
+    empty = tmp_path / "no-clouds"
+    empty.mkdir()
+    with subprocess.Popen(
+        [sys.executable, "-m", "swazure_ros.cli.main", "study", "--quiet", "--out",
+         str(tmp_path / "study")],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        env=os.environ | {"SWAZURE_DATASETS": str(empty)},
+    ) as process:  # fmt: skip
+        lines: list[str] = []
+        reader = threading.Thread(target=lambda: lines.extend(process.stderr), daemon=True)
+        reader.start()
+        # Its first line, before any run; then the study's work is stopped (Ctrl-C).
+        said = wait_until(lambda: lines, PATIENCE)
+        process.send_signal(signal.SIGINT)
+        process.wait(PATIENCE)
+        reader.join(PATIENCE)
+    assert said
+    first = lines[0]
+    assert first.startswith(
+        "swazure study: the six published clouds are not on this machine, so it studies the "
+        "built-in shapes (sphere, sphere_shell, torus, helix, cube) instead, whose numbers are "
+        "not the paper's: download them from https://github.com/flyinglightspeck/Swazure/tree/"
+        f"HEAD/src/assets into {empty} "
+    ), first
+
+
+def test_the_study_chooses_the_published_clouds_where_they_are_else_the_built_in_shapes(
+    tmp_path, monkeypatch
+):
+    from swazure_ros.cli.study import fallback_notice, study_clouds
+    from swazure_ros.core.clouds import BUILTIN_SHAPES
+
+    monkeypatch.setenv("SWAZURE_DATASETS", str(tmp_path))  # the one place looked, empty
+    assert [cloud.name for cloud in study_clouds(None)] == list(BUILTIN_SHAPES)
+    assert fallback_notice(None) is not None and fallback_notice(["helix"]) is None
+    if not DATASETS.is_dir():
+        pytest.skip(f"published data set {DATASETS} is absent (../shared is not beside the repo)")
+    monkeypatch.setenv("SWAZURE_DATASETS", str(DATASETS))
+    names = [cloud.name for cloud in study_clouds(None)]
+    assert names == sorted(path.stem for path in DATASETS.glob("*.xyz"))
+    assert fallback_notice(None) is None

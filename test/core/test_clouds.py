@@ -89,3 +89,12 @@ def test_sphere_shell_is_the_sphere_by_the_name_display_studies_use():
     np.testing.assert_array_equal(
         load_cloud("sphere_shell:300").points, load_cloud("sphere:300").points
     )
+
+
+def test_a_published_cloud_by_name_is_read_from_the_published_folder(monkeypatch):
+    path = dataset("dragon_1147.xyz")
+    monkeypatch.setenv("SWAZURE_DATASETS", str(path.parent))
+    for name in ("dragon", "dragon_1147", "dragon_1147.xyz"):
+        cloud = load_cloud(name)
+        assert (cloud.name, cloud.source, cloud.scale) == ("dragon_1147", str(path), 40.0)
+        np.testing.assert_array_equal(cloud.points, load_cloud(path).points)
