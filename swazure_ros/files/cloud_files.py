@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.clouds import (
+    BUILTIN_SHAPES,
     PUBLISHED_SCALES,
     Cloud,
     builtin_points,
@@ -214,6 +215,12 @@ def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
         if folder is None or not (folder / f"{stem}.xyz").is_file():
             raise CloudError(f"{text}: {where_to_get(stem)}")
         return load_cloud(folder / f"{stem}.xyz", scale)
+    if text.partition(":")[0] not in BUILTIN_SHAPES:
+        shapes, published = ", ".join(sorted(BUILTIN_SHAPES)), ", ".join(PUBLISHED_SCALES)
+        raise CloudError(
+            f"unknown shape {text!r}: use a file path, a built-in shape ({shapes}) or a "
+            f"published cloud ({published})"
+        )
     points = builtin_points(text)
     if scale is not None:
         if not math.isfinite(scale) or scale <= 0:
