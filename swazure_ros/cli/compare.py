@@ -28,8 +28,9 @@ what it prints:
                    heuristic, fused paths or an estimator), beta, policy, sensor
   the table        one column per run; the rows are the numbers of the runs'
                    summaries (swazure evaluate --help explains each); "-": the run
-                   has no such number (a heuristic's moves in a fit's run, a NEES
-                   without a noise model, a statistic of no pairs)
+                   has no such number, and the lines "-, why:" below the table say
+                   why (a heuristic's moves in a fit's run, a fit's predicted error
+                   or NEES without a noise model, a statistic of no pairs)
   *, better (by)   where a row has a better direction (lower: errors, moves,
                    seconds, no path; higher: sweet path, resolved pairs, coverage),
                    * marks the best run and "better" names it, with how far it is
@@ -120,6 +121,24 @@ def comparison_table(comparison: Comparison) -> str:
     return "\n".join(lines)
 
 
+def absent_text(comparison: Comparison) -> str:
+    """Why a run shows "-": one line per reason and its runs, naming the rows."""
+    labels = [run.label for run in comparison.runs]
+    rows_by_why: dict[tuple[str, tuple[str, ...]], list[str]] = {}
+    for row in (*comparison.rows, *comparison.class_rows):
+        runs_by_why: dict[str, list[str]] = {}
+        for label, why in zip(labels, row.why_none, strict=True):
+            if why is not None:
+                runs_by_why.setdefault(why, []).append(label)
+        for why, runs in runs_by_why.items():
+            rows_by_why.setdefault((why, tuple(runs)), []).append(row.label)
+    lines = [
+        f"  {', '.join(runs)}: {why} ({'; '.join(rows)})"
+        for (why, runs), rows in rows_by_why.items()
+    ]
+    return "\n".join(["-, why:", *lines]) if lines else ""
+
+
 def _runs_text(comparison: Comparison) -> str:
     lines = []
     width = max(len(run.label) for run in comparison.runs) + 2
@@ -150,6 +169,9 @@ def main(args: argparse.Namespace) -> int:
     print(f"runs of {cloud}:")
     print(_runs_text(comparison))
     print(comparison_table(comparison))
+    absent = absent_text(comparison)
+    if absent:
+        print(absent)
     skipped = [run.label for run in comparison.runs if run.classes is None]
     if skipped:
         print(f"no per-pair file, so not by class or in the figure: {', '.join(skipped)}")

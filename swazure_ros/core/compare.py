@@ -54,11 +54,14 @@ CDF_LEVELS = np.linspace(0.0, 1.0, 201)
 @dataclass(frozen=True)
 class Metric:
     """A number of a run's summary: its label (as the summary's rows name it), which way
-    is better, and how it is read from a :class:`Summary` (None when the run has none)."""
+    is better, how it is read from a :class:`Summary` (None when the run has none), and
+    why a run has none (the summary's rows say "-" only with a reason; so does a
+    comparison)."""
 
     label: str
     better: Better
     value: Callable[[Summary], float | None]
+    why_none: Callable[[Summary], str] = lambda summary: "no pair has a path"
 
 
 def _of(stats: Callable[[Summary], Stats | None], field: str) -> Callable[[Summary], float | None]:
@@ -79,11 +82,32 @@ def _heuristic(name: str) -> Callable[[Summary], Any]:
     return lambda summary: None if summary.heuristic is None else getattr(summary.heuristic, name)
 
 
+def _noise_model(summary: Summary) -> bool:
+    """Whether a fit's predicted errors are a spread: under the published model the error
+    is one bias, not a spread, so a fit's covariance and NEES mean nothing there (the
+    summary shows "- (no noise model)", docs/core.md)."""
+    return summary.fit is None or summary.parameters.sensor["error_model"]["kind"] == "stochastic"
+
+
+def _predicted(value: Callable[[Summary], float | None]) -> Callable[[Summary], float | None]:
+    """A predicted-error number, None for a fit without a noise model."""
+    return lambda summary: value(summary) if _noise_model(summary) else None
+
+
+def _why_no_prediction(summary: Summary) -> str:
+    return "no noise model" if not _noise_model(summary) else "no pair has a path"
+
+
 def _nees(summary: Summary) -> float | None:
-    # The published model's error is one bias, not a spread: a NEES means nothing there
-    # (the summary shows "- (no noise model)").
-    stochastic = summary.parameters.sensor["error_model"]["kind"] == "stochastic"
-    return summary.fit.consistency.nees.mean if summary.fit and stochastic else None
+    return summary.fit.consistency.nees.mean if summary.fit and _noise_model(summary) else None
+
+
+def _why_no_nees(summary: Summary) -> str:
+    return "no fit in this run" if summary.fit is None else "no noise model"
+
+
+def _why_no_heuristic(summary: Summary) -> str:
+    return "no heuristic in this run" if summary.heuristic is None else "no pair resolved"
 
 
 #: The summary's numbers a comparison puts side by side, in the order of the summary's rows.
@@ -96,15 +120,26 @@ METRICS: tuple[Metric, ...] = (
     Metric("blocked pairs", "neither", lambda s: s.pairs.blocked_pairs),
     Metric("no sweet path pairs", "neither", lambda s: s.pairs.no_sweet_path_pairs),
     Metric("obstructed sweet paths, %", "neither", lambda s: s.pairs.obstructed_path_pct),
-    Metric("predicted error, cm: mean", "neither", _pair_stat("predicted_error_cm", "mean")),
-    Metric("within predicted error, %", "neither", lambda s: s.pairs.within_predicted_pct),
-    Metric("NEES: mean", "neither", _nees),
-    Metric("tried pairs", "neither", _heuristic("tried_pairs")),
-    Metric("resolved pairs", "higher", _heuristic("resolved_pairs")),
+    Metric(
+        "predicted error, cm: mean",
+        "neither",
+        _predicted(_pair_stat("predicted_error_cm", "mean")),
+        _why_no_prediction,
+    ),
+    Metric(
+        "within predicted error, %",
+        "neither",
+        _predicted(lambda s: s.pairs.within_predicted_pct),
+        _why_no_prediction,
+    ),
+    Metric("NEES: mean", "neither", _nees, _why_no_nees),
+    Metric("tried pairs", "neither", _heuristic("tried_pairs"), _why_no_heuristic),
+    Metric("resolved pairs", "higher", _heuristic("resolved_pairs"), _why_no_heuristic),
     Metric(
         "moved per resolved pair, cm: mean",
         "lower",
         _of(_heuristic("moved_per_resolved_pair"), "mean"),
+        _why_no_heuristic,
     ),
     Metric("distance error, %: mean", "lower", _pair_stat("distance_error_pct", "mean")),
     Metric("distance error, %: median", "lower", _pair_stat("distance_error_pct", "p50")),
@@ -113,11 +148,13 @@ METRICS: tuple[Metric, ...] = (
         "sweet error, %: mean",
         "lower",
         _pair_stat("distance_error_pct_sweet_paths", "mean"),
+        lambda s: "no sweet path",
     ),
     Metric(
         "decaying error, %: mean",
         "lower",
         _pair_stat("distance_error_pct_decaying_paths", "mean"),
+        lambda s: "no decaying path",
     ),
     Metric("alpha, deg: mean", "lower", _pair_stat("alpha_deg", "mean")),
     Metric("theta error, deg: mean", "lower", _pair_stat("theta_deg", "mean")),
@@ -140,6 +177,8 @@ class MetricRow:
     deltas: tuple[float | None, ...]
     best: tuple[int, ...]
     margin: float | None
+    # Why each run has no value (None where it has one): a "-" is shown with its reason.
+    why_none: tuple[str | None, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -271,10 +310,17 @@ def rank(values: Sequence[float | None], better: Better) -> tuple[tuple[int, ...
 
 def metric_row(metric: Metric, summaries: Sequence[Summary]) -> MetricRow:
     """One :class:`MetricRow` of ``summaries`` (the first is the reference of the deltas)."""
-    return _row(metric.label, metric.better, [_number(metric.value(s)) for s in summaries])
+    values = [_number(metric.value(s)) for s in summaries]
+    why = [
+        None if value is not None else metric.why_none(s)
+        for value, s in zip(values, summaries, strict=True)
+    ]
+    return _row(metric.label, metric.better, values, why)
 
 
-def _row(label: str, better: Better, values: Sequence[float | None]) -> MetricRow:
+def _row(
+    label: str, better: Better, values: Sequence[float | None], why_none: Sequence[str | None]
+) -> MetricRow:
     """The row of ``values``: their deltas from the first, and the best if ``better`` says."""
     reference = values[0]
     deltas = tuple(
@@ -289,7 +335,7 @@ def _row(label: str, better: Better, values: Sequence[float | None]) -> MetricRo
             top, runner_up = values[best[0]], values[ranks[1][0]]
             assert top is not None and runner_up is not None  # ranked runs have values
             margin = top - runner_up
-    return MetricRow(label, better, tuple(values), deltas, best, margin)
+    return MetricRow(label, better, tuple(values), deltas, best, margin, tuple(why_none))
 
 
 def class_rows(runs: Sequence[ComparedRun], unit: ErrorUnit) -> tuple[MetricRow, ...]:
@@ -307,7 +353,13 @@ def class_rows(runs: Sequence[ComparedRun], unit: ErrorUnit) -> tuple[MetricRow,
             (f"mean error, {unit}", "lower", "mean"),
         ):
             values = [None if result is None else getattr(result, field) for result in results]
-            rows.append(_row(f"{name}: {label}", better, values))  # type: ignore[arg-type]
+            why = [
+                None
+                if value is not None
+                else ("no per-pair file" if result is None else "no pair of the class estimated")
+                for value, result in zip(values, results, strict=True)
+            ]
+            rows.append(_row(f"{name}: {label}", better, values, why))  # type: ignore[arg-type]
     return tuple(rows)
 
 

@@ -185,6 +185,7 @@ def _row_document(row: MetricRow, labels: Sequence[str]) -> dict[str, Any]:
         "deltas": dict(zip(labels, row.deltas, strict=True)),
         "best": [labels[i] for i in row.best],
         "margin": row.margin,
+        "why_none": dict(zip(labels, row.why_none, strict=True)),
     }
 
 

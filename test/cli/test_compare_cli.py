@@ -185,3 +185,33 @@ def test_the_docs_page_holds_the_help_text():
 
     page = (Path(__file__).resolve().parents[2] / "docs" / "compare.md").read_text()
     assert COMPARE_TERMS.rstrip("\n") in page
+
+
+def test_a_run_without_a_number_shows_a_dash_and_the_lines_below_say_why(runs):
+    """Issue 69: a row shows "-" only with its reason, in a comparison as in a summary."""
+    _, compared = runs
+    lines = compared.stdout.splitlines()
+    table = lines[lines.index(next(line for line in lines if "better (by)" in line)) :]
+    table = table[: table.index("-, why:")]
+    dashed = set()
+    for line in table[1:]:
+        if line.startswith("by class"):
+            continue
+        label = line.split("  ")[0]
+        cells = table_row(compared.stdout, label)[: len(RUNS)]
+        dashed |= {(label, run) for run, cell in zip(RUNS, cells, strict=True) if cell == "-"}
+    assert dashed, "the plain and least-squares runs have no heuristic's moves"
+    why = lines[lines.index("-, why:") + 1 :]
+    why = why[: next(i for i, line in enumerate(why) if not line.startswith("  "))]
+    explained = set()
+    for line in why:
+        runs_text, _, rest = line.strip().partition(": ")
+        reason, _, rows = rest.rpartition(" (")
+        assert reason, line
+        for label in rows.removesuffix(")").split("; "):
+            explained |= {(label, run) for run in runs_text.split(", ")}
+    assert dashed == explained
+    assert (
+        "  plain, least-squares: no heuristic in this run "
+        "(tried pairs; resolved pairs; moved per resolved pair, cm: mean)"
+    ) in why
