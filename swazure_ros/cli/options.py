@@ -7,22 +7,19 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from ..api.engine import SwarmSetup
+from ..api.engine import SwarmSetup, build_swarm
 from ..core.errors import SwazureError
 from ..core.fit import PATH, SWARM_ESTIMATORS
-from ..core.geometry import make_swarm
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.paths import POLICIES
-from ..files.cloud_files import load_cloud
 from ..files.results import (
     NO_PAIRS,
     PAIRS_OUTPUTS,
     large_pairs_limit,
     pairs_size_warning,
 )
-from ..files.sensors import load_sensor
 from .arguments import (
     MAX_DOMAIN_ID,
     check_beta_or_radius,
@@ -165,19 +162,10 @@ def wrote(summary: Path, pairs: Path | None, record: Path) -> str:
 
 def swarm_setup_from_args(args: argparse.Namespace) -> SwarmSetup:
     """The swarm that the swarm options describe: its cloud, FLSs and sensor."""
-    check_beta_or_radius(args.beta, args.radius)
-    sensor = load_sensor(args.sensor)
-    if args.accurate:
-        sensor = sensor.error_free()
-    cloud = load_cloud(args.cloud, args.scale)
-    swarm = make_swarm(cloud.points, beta=args.beta, radius=args.radius, seed=args.seed)
-    return SwarmSetup(cloud, swarm, sensor, args.seed, args.sensor)
-
-
-def swarm_from_args(args: argparse.Namespace) -> tuple[Any, Any, Any]:
-    """The cloud, swarm and sensor that the swarm options describe."""
-    setup = swarm_setup_from_args(args)
-    return setup.cloud, setup.swarm, setup.sensor
+    check_beta_or_radius(args.beta, args.radius)  # refused in the command line's words
+    return build_swarm(
+        args.cloud, args.scale, args.beta, args.radius, args.sensor, args.accurate, args.seed
+    )
 
 
 def add_colour_arguments(parser: argparse.ArgumentParser, default: str, what: str) -> None:
