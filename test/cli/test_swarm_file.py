@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from swazure_ros.cli.main import build_parser
-from swazure_ros.cli.options import swarm_from_args
+from swazure_ros.cli.options import swarm_setup_from_args
 from swazure_ros.cli.swarm_file import apply_swarm_file, load_swarm_file
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.core.evaluate import evaluate
@@ -177,7 +177,8 @@ def test_every_example_swarm_has_blind_pairs_with_sweet_paths(path):
     options = load_swarm_file(path)
     if is_cloud_path(options["cloud"]) and not Path(options["cloud"]).exists():
         pytest.skip(f"{options['cloud']} is absent (../shared is not beside the repo)")
-    _, swarm, sensor = swarm_from_args(evaluate_args(str(path)))
+    setup = swarm_setup_from_args(evaluate_args(str(path)))
+    swarm, sensor = setup.swarm, setup.sensor
     pairs = evaluate(swarm, sensor, options["policy"]).summary.pairs
     assert pairs.blind_pairs > 0 and pairs.sweet_pairs > 0, (path.name, pairs)
 
