@@ -7,6 +7,7 @@ message type is found on the graph, or given as pkg/msg/Type.
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 
 from .arguments import count, ros_topic, seconds
@@ -35,6 +36,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure echo``."""
     from ..ros.clients.echo import echo
+
+    # Ctrl-C stops the wait, as it says, also when a shell that started us in the
+    # background made us ignore SIGINT (as `swazure spawn` does).
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
     def write(text: str) -> None:
         sys.stdout.write(text)
