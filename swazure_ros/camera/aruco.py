@@ -29,9 +29,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.arrays import FloatArray
 from ..core.errors import SensorError
-
-FloatArray = NDArray[np.float64]
 
 CAMERA_FILE_VERSION = 1
 #: Wavelength used for the diffraction blur, mm (green, where the Bayer sensor has most pixels).

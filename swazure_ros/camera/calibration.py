@@ -21,14 +21,11 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ..core.arrays import FloatArray, IntArray
 from ..core.errors import SensorError
 from ..core.sensor import Sensor, SensorNoise
 from .aruco import Camera, Detector, MarkerPose, measure, true_centre
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 #: Default angles of a sweep: head-on and two slants, degrees.
 DEFAULT_ANGLES_DEG = (0.0, 30.0, 60.0)

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from .arrays import IntArray
 from .evaluate import (
     SWEET_PATH,
     Neighbourhood,
@@ -51,8 +52,6 @@ from .paths import check_policy
 from .sensor import BLIND, DECAYING, SWEET, Sensor
 from .sight import Grid, build_grid, grid_of, obstructed
 from .summary import Summary
-
-IntArray = NDArray[np.int64]
 
 #: Bytes a block holds per ordered blind pair at its peak: paths, hop tables,
 #: estimates, errors and the table written from them (measured: the race car).

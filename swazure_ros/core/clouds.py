@@ -13,15 +13,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from . import jit
+from .arrays import BoolArray, FloatArray, IntArray
 from .errors import CloudError
 from .sight import Grid, grid_of
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-BoolArray = NDArray[np.bool_]
 
 #: Mean nearest-neighbour distance of the published shapes, cm (spec, section 10).
 PUBLISHED_DENSITY = 0.65

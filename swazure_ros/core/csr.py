@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-IntArray = NDArray[np.int64]
+from .arrays import IntArray
 
 
 def offsets(counts: ArrayLike) -> IntArray:

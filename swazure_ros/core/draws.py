@@ -12,7 +12,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-FloatArray = NDArray[np.float64]
+from .arrays import FloatArray
 
 # Odd constants of splitmix64 and of the key mixing (from the golden ratio and friends).
 _MULTIPLIERS = (

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from .. import __version__
 from . import csr, jit
+from .arrays import FloatArray, IntArray
 from .geometry import Swarm
 from .metrics import NO_VALUES, Stats, pose_errors
 from .neighbours import (
@@ -36,8 +37,6 @@ from .tally import IntegerTally, RealTally
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 # Statuses and reasons; the values equal the constants of swazure_interfaces/PoseEstimate.
 SWEET_PATH, DECAYING_PATH, NO_PATH = 0, 1, 2

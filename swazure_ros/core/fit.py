@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import csr
+from .arrays import FloatArray, IntArray
 from .draws import standard_normals, uniforms
 from .errors import SwazureError
 from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, PairResults, summarise
@@ -51,9 +52,6 @@ from .sensor import (
 )
 from .summary import Consistency, FitFacts
 from .swarm_fit import swarm_solve
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 #: The estimators of a pair's pose: the paper's sum along the policy's path; the fit over
 #: the whole swarm's measurements; each source's own fit over what it hears by radio; the

@@ -21,17 +21,14 @@ import time
 from dataclasses import replace
 
 import numpy as np
-from numpy.typing import NDArray
 
 from . import csr
+from .arrays import FloatArray, IntArray
 from .evaluate import SWEET_PATH, Evaluation, estimates, summarise, summed_hop_errors
 from .metrics import describe
 from .paths import Paths, avoiding_paths
 from .sensor import Sensor
 from .summary import FusionFacts
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 def inner_nodes(paths: Paths) -> tuple[IntArray, IntArray]:

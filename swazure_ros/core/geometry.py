@@ -16,11 +16,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import jit
+from .arrays import FloatArray, IntArray
 from .clouds import validate_points
 from .errors import CloudError
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 #: Two FLSs touch (a kissing pair) when their tracking distance is within this, cm.
 KISSING_TOLERANCE = 1e-3

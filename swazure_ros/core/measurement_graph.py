@@ -9,12 +9,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from .arrays import FloatArray, IntArray
 from .sensor import Sensor, hop_covariance, unbiased_vectors
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 #: Huber's threshold on a measurement's Mahalanobis residual: the 99th percentile of a
 #: chi distribution with 3 degrees of freedom, so a clean measurement is rarely down-weighted.

@@ -10,15 +10,13 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import csr, jit
+from .arrays import FloatArray, IntArray
 from .geometry import KISSING_TOLERANCE, Swarm, centre_distance
 from .sensor import BLIND, DECAYING, SWEET, Sensor
 from .sight import Grid, grid_of
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 @dataclass(frozen=True)

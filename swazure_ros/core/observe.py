@@ -16,13 +16,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .arrays import FloatArray, IntArray
 from .evaluate import Neighbourhood
 from .geometry import Swarm, centre_distance
 from .sensor import BLIND, DECAYING, SWEET, Sensor, measured_vectors
 from .sight import Grid, obstructed
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 @dataclass(frozen=True)

@@ -28,9 +28,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import csr, jit
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
+from .arrays import FloatArray, IntArray
 
 FEWEST_HOPS = "fewest-hops"
 SHORTEST_LENGTH = "shortest-length"

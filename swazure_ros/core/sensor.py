@@ -16,11 +16,10 @@ from typing import Any, Protocol
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .arrays import FloatArray
 from .draws import standard_normals
 from .errors import SensorError
 from .geometry import centre_distance
-
-FloatArray = NDArray[np.float64]
 
 # Range classes of a pair of FLSs, by tracking distance t.
 CONTACT = 0  # t <= 0: touching, not a neighbour

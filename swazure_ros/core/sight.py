@@ -16,9 +16,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import csr, jit
+from .arrays import FloatArray, IntArray
 
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 #: A position (x, y, z), cm, as a kernel takes it: three floats, no array.
 Point = tuple[float, float, float]
 

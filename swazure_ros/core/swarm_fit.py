@@ -25,8 +25,8 @@ from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
+from .arrays import FloatArray, IntArray
 from .draws import standard_normals
 from .measurement_graph import (
     CONVERGED_CM,
@@ -35,9 +35,6 @@ from .measurement_graph import (
     parts_of,
     robust_weights,
 )
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 #: A solve has settled when each column's residual, in the preconditioner's norm, is this
 #: small against its right side's: (r, M r) <= SETTLED^2 (b, M b). Both are sums the

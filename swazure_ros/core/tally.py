@@ -17,12 +17,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from .arrays import FloatArray, IntArray
 from .metrics import Stats, describe
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 #: Largest relative error of a sketched quantile against the order statistic it stands for.
 SKETCH_RELATIVE_ERROR = 1e-4

@@ -27,13 +27,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .arrays import FloatArray
 from .errors import SwazureError, UnknownFlsError
 from .geometry import tracking_distance
 from .motion import Motion
 from .sensor import DECAYING, SWEET, Sensor, measured_vectors
 from .sight import obstructed
-
-FloatArray = NDArray[np.float64]
 
 CONSTANT_VELOCITY = "constant-velocity"
 CONSTANT_ACCELERATION = "constant-acceleration"

@@ -12,8 +12,8 @@ import os
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ..core.arrays import FloatArray
 from ..core.clouds import (
     BUILTIN_SHAPES,
     PUBLISHED_SCALES,
@@ -23,8 +23,6 @@ from ..core.clouds import (
 )
 from ..core.errors import CloudError
 from .reading import regular_file
-
-FloatArray = NDArray[np.float64]
 
 SUFFIXES = (".xyz", ".txt", ".csv", ".npy", ".ply")
 #: Bytes of a point cloud file, at most (MAX_POINTS points take a few MB as text).

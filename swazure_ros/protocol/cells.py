@@ -23,12 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.arrays import FloatArray, IntArray
 from ..core.neighbours import sensor_reach
 from ..core.sensor import Sensor
 from .discovery.messages import ANY_VISIBLE, FIT
-
-IntArray = NDArray[np.int64]
-FloatArray = NDArray[np.float64]
 
 #: The 27 offsets (27, 3) from a cell to the cells around it, itself included.
 AROUND = np.array(

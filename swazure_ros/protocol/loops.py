@@ -19,8 +19,8 @@ from dataclasses import dataclass, replace
 from functools import partial
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ..core.arrays import FloatArray, IntArray
 from ..core.fit import PATH, fit_layers
 from ..core.frames import through_metres
 from ..core.motion import Motion
@@ -50,9 +50,6 @@ from .tracking import (
     relay_sense,
     source_senses,
 )
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 _HOST = "memory"
 

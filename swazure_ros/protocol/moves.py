@@ -24,6 +24,7 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.arrays import FloatArray, IntArray
 from ..core.evaluate import NO_PATH, REASON_BLOCKED, SWEET_PATH, Evaluation
 from ..core.heuristics.folding import apply
 from ..core.heuristics.obstructing import move_obstructing
@@ -32,9 +33,6 @@ from ..core.heuristics.source import move_source
 from ..core.sensor import SWEET
 from .discovery.estimate import Estimate
 from .schedule import move_batches, walked
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 # Kinds of move; the values equal MoveCommand's KIND_*.
 STEP_ASIDE, PROBE, RETURN = 0, 1, 2

@@ -19,14 +19,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core import csr
+from ..core.arrays import FloatArray, IntArray
 from ..core.fit import PATH, SWARM_ESTIMATORS
 from ..core.sensor import DECAYING, SWEET, Sensor, hop_error
 from .discovery.estimate import Estimates
 from .discovery.messages import ANY_VISIBLE, Offer, RoundOffers
 from .readings import Readings
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 #: Standard deviations of a stochastic sensor's hop error that a plausible hop stays within.
 NOISE_BOUND_SD = 8.0

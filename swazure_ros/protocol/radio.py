@@ -29,14 +29,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.arrays import IntArray
 from ..core.draws import uniforms
 from ..core.errors import MessageError
 from .discovery.messages import END, ROUND, START, Control, FitOffer, Offer, RoundOffers
 from .discovery.participant import RUNS_KEPT
 from .plausible import REASONS
 from .swarm_fit import process_sums
-
-IntArray = NDArray[np.int64]
 
 #: Offers of one sender in one round that a process keeps, none of them known false (the
 #: first counts; a second is kept in case the first is a plausible forgery).

@@ -15,12 +15,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.arrays import FloatArray, IntArray
 from ..core.fit import Heard
 from ..core.observe import LocalView
 from ..core.sensor import DECAYING, SWEET
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 @dataclass(frozen=True)

@@ -11,16 +11,13 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numpy.typing import NDArray
 
 from ..core import jit
+from ..core.arrays import FloatArray, IntArray
 from ..core.evaluate import Evaluation
 from ..core.geometry import near_any_segment
 from ..core.heuristics.obstructing import TOUCH
 from ..core.heuristics.result import HeuristicResult
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 @jit.kernel(cache=True, nogil=True)

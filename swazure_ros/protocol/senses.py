@@ -20,13 +20,11 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.arrays import FloatArray, IntArray
 from ..core.errors import UnknownFlsError
 from ..core.geometry import tracking_distance
 from ..core.observe import LocalView, Measurement, NeighbourSets
 from ..core.sensor import BLIND, DECAYING, SWEET, Sensor
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 class Senses(Protocol):

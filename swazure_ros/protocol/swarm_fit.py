@@ -37,9 +37,9 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from ..core import csr
+from ..core.arrays import FloatArray, IntArray
 from ..core.fit import fit_layers
 from ..core.measurement_graph import CONVERGED_CM, Measurements, measured_rows
 from ..core.observe import LocalView
@@ -79,9 +79,6 @@ from .discovery.messages import (
     FitStep,
     RoundOffers,
 )
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 @dataclass

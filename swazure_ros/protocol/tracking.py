@@ -23,8 +23,8 @@ from dataclasses import dataclass, field, replace
 from functools import partial
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ..core.arrays import FloatArray
 from ..core.tracking import (
     ENDED,
     RELAY_MESSAGES,
@@ -38,8 +38,6 @@ from ..core.tracking import (
     arrival,
     nanoseconds,
 )
-
-FloatArray = NDArray[np.float64]
 
 # Track request commands; the values equal TrackRequest's COMMAND_*.
 START_RELAY, STOP_RELAY = 0, 1

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.arrays import FloatArray, IntArray
 from ..core.motion import Motion
 from ..core.observe import LocalView, Measurement, NeighbourSets
 from ..core.sensor import Sensor
@@ -24,9 +25,6 @@ from .world import World
 
 if TYPE_CHECKING:
     from ..camera.aruco import Camera
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 class WorldReplica:

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.arrays import FloatArray, IntArray
 from ..core.clouds import Cloud
 from ..core.errors import UnknownFlsError
 from ..core.evaluate import (
@@ -42,9 +43,6 @@ from ..files.description import SwarmDescription
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 @dataclass

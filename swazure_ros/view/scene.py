@@ -13,13 +13,13 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core.arrays import FloatArray
 from ..core.errors import SwazureError, UnknownFlsError
 from ..core.evaluate import SWEET_PATH, Evaluation, Neighbourhood
 from ..core.frames import SWARM_FRAME
 from ..core.heuristics.result import HeuristicResult
 from ..core.sensor import BLIND, DECAYING, SWEET
 
-FloatArray = NDArray[np.float64]
 #: The frame the viewers draw the scene in.
 SCENE_FRAME = SWARM_FRAME
 Colour = tuple[float, float, float, float]

@@ -10,12 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-from numpy.typing import NDArray
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-
 
 def _switch(doc: str) -> Any:
     """A :class:`Compat` switch, off by default, with what it changes in ``doc``."""

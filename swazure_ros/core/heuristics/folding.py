@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
-from numpy.typing import NDArray
 
 from .. import csr
 from ..evaluate import (
@@ -22,9 +21,6 @@ from .compat import TEXT, Compat
 from .obstructing import move_obstructing
 from .result import MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN, HeuristicResult, check_technique
 from .source import move_source
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:

@@ -26,7 +26,6 @@ import itertools
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
 
 from .. import csr
 from ..evaluate import (
@@ -39,6 +38,7 @@ from ..sight import obstructers
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
 
+from ...core.arrays import FloatArray, IntArray
 from ..geometry import (
     circle_sphere_crossings,
     closest_on_segment,
@@ -49,10 +49,6 @@ from ..geometry import (
 )
 from .compat import TEXT, Compat
 from .result import MOVE_OBSTRUCTING, HeuristicResult, PairFindings, blocked_pairs
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-
 
 #: Slack when deciding that an FLS on the obstruction-free circle clears a line of sight, cm.
 TOUCH = 1e-9

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
+from ...core.arrays import FloatArray, IntArray
 from ..evaluate import (
     REASON_BLOCKED,
     SWEET_PATH,
@@ -15,10 +16,6 @@ from ..evaluate import (
 )
 from ..paths import Paths
 from .compat import TEXT, Compat
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-
 
 PLAIN = "plain"
 

@@ -14,8 +14,8 @@ import itertools
 from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ...core.arrays import FloatArray, IntArray
 from .. import csr, jit
 from ..evaluate import (
     Evaluation,
@@ -25,10 +25,6 @@ from ..sensor import measured_vectors
 from ..sight import Grid, any_within, scan_between
 from .compat import TEXT, Compat
 from .result import MAX_THRESHOLD, MOVE_SOURCE, HeuristicResult, PairFindings, blocked_pairs
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-
 
 #: The 26 probe directions of Move Source, unit vectors in lexicographic offset order.
 DIRECTIONS = np.array(

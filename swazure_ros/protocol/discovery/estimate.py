@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...core import csr
+from ...core.arrays import FloatArray, IntArray
 from ...core.evaluate import (
     DECAYING_PATH,
     NO_PATH,
@@ -36,9 +37,6 @@ from ...core.sensor import (
     expected_error,
 )
 from ...core.summary import FitFacts
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 @dataclass(frozen=True)

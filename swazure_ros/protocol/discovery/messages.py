@@ -17,14 +17,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...core import csr, jit
+from ...core.arrays import FloatArray, IntArray
 from ...core.fit import PATH
 from ...core.paths import FEWEST_HOPS
 from ...core.swarm_fit import UNIT
 from .estimate import Estimate
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-
 
 # Phases; the values equal swazure_interfaces/DiscoveryControl's PHASE_*.
 SWEET_VISIBLE, SWEET_ALL, ANY_VISIBLE = 0, 1, 2

@@ -13,8 +13,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import replace
 
 import numpy as np
-from numpy.typing import NDArray
 
+from ...core.arrays import FloatArray, IntArray
 from ...core.evaluate import (
     ABORTED,
     DECAYING_PATH,
@@ -53,10 +53,6 @@ from .search import (
     radio_window,
     reads_both_ends,
 )
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-
 
 #: Discovery runs an FLS takes part in at once, at most: its coordinator runs one at a
 #: time, and a run id that a peer made up must not hold memory for ever.

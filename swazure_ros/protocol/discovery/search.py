@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...core import csr, jit
+from ...core.arrays import FloatArray, IntArray
 from ...core.observe import LocalView
 from ...core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
 from ...core.sensor import (
@@ -38,10 +39,6 @@ from ...core.sensor import (
 )
 from .estimate import Results
 from .messages import ANY_VISIBLE, SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers, sender_rows
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
-
 
 #: Rounds that one sweet hop may cost in a least-error run, at most: the calibrated
 #: sensors' cost 24 and 88; a sensor whose error crosses zero in its range, tens of thousands.

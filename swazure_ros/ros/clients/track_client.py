@@ -8,8 +8,8 @@ from rclpy.context import Context
 from swazure_interfaces.msg import TrackEstimate, TrackProgress
 from swazure_interfaces.srv import TrackTarget
 
+from ...core.arrays import IntArray
 from ...core.errors import RunError
-from ...core.neighbours import IntArray
 from ...core.tracking import ENDED, TIMED_OUT, MotionEstimate, TrackingError
 from ...protocol.tracking import TrackProgressReport
 from ..convert.tracking import motion_estimate, track_progress_from_message

@@ -8,7 +8,6 @@ from collections.abc import Sequence
 import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3
-from numpy.typing import NDArray
 from swazure_interfaces.msg import (
     DiscoveryControl,
     Heartbeat,
@@ -21,6 +20,7 @@ from swazure_interfaces.msg import (
     RoundAck,
 )
 
+from ...core.arrays import FloatArray, IntArray
 from ...core.evaluate import REASON_NAMES, STATUS_NAMES
 from ...core.fit import PATH, SWARM_ESTIMATORS
 from ...core.frames import CM_PER_METRE, fls_frame, to_metres
@@ -54,9 +54,6 @@ from ..plumbing.names import (
 )
 from ..security.guard import check, check_finite, check_ids, check_size
 from .units import array3, packed, vector3
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 #: Every phase a run may have: discovery's, then the swarm's fit.
 RUN_PHASES = (*PHASES, FIT)

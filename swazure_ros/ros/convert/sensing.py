@@ -21,6 +21,7 @@ from swazure_interfaces.msg import (
 )
 from tf2_msgs.msg import TFMessage
 
+from ...core.arrays import FloatArray, IntArray
 from ...core.frames import SWARM_FRAME, fls_frame, to_centimetres, to_metres
 from ...core.observe import Measurement, NeighbourSets
 from ...core.sensor import DECAYING, SWEET, Sensor
@@ -30,10 +31,6 @@ from ..security.guard import check, check_finite, check_ids, check_size
 
 if TYPE_CHECKING:
     from ...camera.aruco import Camera
-
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 def measurements_message(

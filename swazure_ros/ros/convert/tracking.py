@@ -6,7 +6,6 @@ from collections import Counter
 
 import numpy as np
 from geometry_msgs.msg import Vector3
-from numpy.typing import NDArray
 from swazure_interfaces.msg import (
     TrackEstimate,
     TrackProgress,
@@ -14,6 +13,7 @@ from swazure_interfaces.msg import (
     TrackSample,
 )
 
+from ...core.arrays import FloatArray, IntArray
 from ...core.frames import fls_frame, to_metres
 from ...core.tracking import RELAY_MESSAGES, RELAY_OK, MotionEstimate, TrackState
 from ...protocol.tracking import (
@@ -40,9 +40,6 @@ from .units import (
     to_stamp,
     vector3,
 )
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 def track_estimate_message(report: TrackReport) -> TrackEstimate:

@@ -7,12 +7,10 @@ import array
 import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from ...core.arrays import FloatArray
 from ...core.frames import to_centimetres
-
-FloatArray = NDArray[np.float64]
-IntArray = NDArray[np.int64]
 
 
 def vector3(values: FloatArray | None) -> Vector3:

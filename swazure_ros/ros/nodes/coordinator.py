@@ -45,6 +45,7 @@ from swazure_interfaces.msg import (
     WorldState,
 )
 
+from ...core.arrays import FloatArray, IntArray
 from ...core.evaluate import Evaluation, Neighbourhood
 from ...core.fit import PATH, fit_layers
 from ...core.paths import check_policy
@@ -90,7 +91,7 @@ from ..plumbing.runtime import (
     SwarmNode,
 )
 from ..security.auth import SwarmKey, signed_at
-from ..security.guard import FloatArray, Guard, IntArray, check
+from ..security.guard import Guard, check
 from .pose_service import PoseService
 
 #: Characters in a host node's name, at most (ROS names are far shorter).

@@ -19,8 +19,9 @@ from rclpy.timer import Timer
 from swazure_interfaces.msg import TrackEstimate, TrackProgress, TrackRequest, TrackSample
 from swazure_interfaces.srv import TrackTarget
 
+from ...core.arrays import FloatArray
 from ...core.errors import SwazureError
-from ...core.tracking import FloatArray, RelaySenses, TrackConfig, TrackingError
+from ...core.tracking import RelaySenses, TrackConfig, TrackingError
 from ...protocol.tracking import (
     STOP_RELAY,
     RelayRequest,

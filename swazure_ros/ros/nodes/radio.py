@@ -12,7 +12,6 @@ from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
 from rclpy.node import Node
 from rclpy.publisher import Publisher
 from rclpy.qos import QoSProfile
@@ -28,6 +27,7 @@ from swazure_interfaces.msg import (
     TrackSample,
 )
 
+from ...core.arrays import IntArray
 from ...core.fit import PATH
 from ...protocol.cells import BANDS, DECAYING_BAND, band_of, radio_cells
 from ...protocol.discovery.messages import END, ROUND, START, Broadcast
@@ -87,7 +87,6 @@ ECHOES_PER_FLS = 8
 #: Only a window still missing a reading waits: 1 s was too short for 25 FLS processes
 #: on a loaded 2-core machine (CI: a fit of what was heard, 5 estimates not the engine's).
 READINGS_WAIT = 3.0
-IntArray = NDArray[np.int64]
 #: A radio cell: its band, then its three indices.
 Cell = tuple[str | int, ...]
 

@@ -17,6 +17,7 @@ from rclpy.validate_full_topic_name import validate_full_topic_name
 from rclpy.validate_namespace import validate_namespace
 from swazure_interfaces.msg import DiscoveryControl, TrackEstimate
 
+from ...core.arrays import IntArray
 from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
 from ...core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
 from ...core.tracking import (
@@ -27,7 +28,7 @@ from ...core.tracking import (
     TRACKING,
     WAITING,
 )
-from ...protocol.cells import IntArray, cell_name
+from ...protocol.cells import cell_name
 
 # Topics, shared by every FLS: a reader filters on the FLS id in the message.
 # Per-FLS topics would buy nothing, and every endpoint costs discovery time

@@ -15,8 +15,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import partial
 
-import numpy as np
-from numpy.typing import NDArray
 from rclpy.context import Context
 from rclpy.exceptions import ParameterException
 from rclpy.experimental.events_executor import EventsExecutor
@@ -53,8 +51,6 @@ from ..security.guard import Guard, check
 
 #: Seconds between a host's looks at the graph for its coordinator.
 COORDINATOR_WATCH_PERIOD = 0.5
-IntArray = NDArray[np.int64]
-FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -24,11 +24,12 @@ from typing import Any, TypeVar
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from rclpy.subscription import Subscription
 
+from ...core.arrays import FloatArray, IntArray
 from ...core.errors import MessageError
 from .auth import AUTH_BYTES, SENDERS_KEPT, Freshness, SwarmKey
 
@@ -41,8 +42,6 @@ INTERNAL = "internal"
 
 T = TypeVar("T")
 _NUMBERS = re.compile(r"[-+]?\d[\d.e+-]*")
-IntArray = NDArray[np.int64]
-FloatArray = NDArray[np.float64]
 
 
 def check(condition: bool, reason: str) -> None:
