@@ -47,7 +47,32 @@ COMPILED_PAIRS = 1 << 20
 
 
 def centre_distance(points: FloatArray, first: ArrayLike, second: ArrayLike) -> FloatArray:
-    """Centre-to-centre distances |p_second - p_first|, cm, for index arrays of one shape."""
+    """Centre-to-centre distances |p_second - p_first|, cm, for index arrays of one shape.
+
+    The one place a centre distance is computed, so that a pair at exactly
+    ``2r`` has a tracking distance of exactly 0 wherever it is used. From
+    :data:`COMPILED_PAIRS` pairs it runs compiled on every core, summing in
+    the same order as numpy, so both give the same bits.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like of float, cm
+        FLS centres.
+    first, second : array_like of int
+        Indices into ``points``, of one shape (any shape, e.g. (M,)).
+
+    Returns
+    -------
+    array of float, cm
+        The distances, of the shape of ``first``.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.geometry import centre_distance
+    >>> points = [[0, 0, 0], [3, 4, 0], [0, 0, 2]]
+    >>> centre_distance(points, [0, 0], [1, 2])
+    array([5., 2.])
+    """
     points = np.asarray(points, dtype=np.float64)
     first, second = np.asarray(first), np.asarray(second)
     if first.ndim == 1 and first.shape == second.shape and len(first) >= COMPILED_PAIRS:
@@ -75,7 +100,32 @@ def _centre_distance(points: FloatArray, first: IntArray, second: IntArray) -> F
 def tracking_distance(
     points: FloatArray, radius: float, first: ArrayLike, second: ArrayLike
 ) -> FloatArray:
-    """Surface-to-surface distances |p_second - p_first| - 2r, cm."""
+    """Surface-to-surface (tracking) distances |p_second - p_first| - 2r, cm.
+
+    What the camera on one FLS's surface measures to the marker on the
+    other's; every range decision uses it (spec, section 2).
+
+    Parameters
+    ----------
+    points : (N, 3) array_like of float, cm
+        FLS centres.
+    radius : float, cm
+        The FLS radius r.
+    first, second : array_like of int
+        Indices into ``points``, of one shape.
+
+    Returns
+    -------
+    array of float, cm
+        The tracking distances, of the shape of ``first``; negative for
+        spheres that overlap.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.geometry import tracking_distance
+    >>> tracking_distance([[0, 0, 0], [10, 0, 0]], 1.0, [0], [1])
+    array([8.])
+    """
     return centre_distance(points, first, second) - 2.0 * radius
 
 
@@ -98,7 +148,32 @@ def _pair_blocks(count: int) -> Iterator[tuple[IntArray, IntArray]]:
 
 
 def min_distance(points: ArrayLike) -> float:
-    """dmin: the smallest centre-to-centre distance between two points, cm."""
+    """dmin: the smallest centre-to-centre distance between two points, cm.
+
+    Clouds up to :data:`SMALL_CLOUD` points are searched pair by pair (no
+    scipy import), larger ones with a k-d tree; both give the same distance.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like of float, cm
+        At least two finite points.
+
+    Returns
+    -------
+    float, cm
+        The smallest distance; 0 when two points coincide.
+
+    Raises
+    ------
+    CloudError
+        ``points`` is not an (N, 3) array of finite numbers with N >= 2.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.geometry import min_distance
+    >>> min_distance([[0, 0, 0], [2, 0, 0], [0, 5, 0]])
+    2.0
+    """
     points = validate_points(points)
     if len(points) <= SMALL_CLOUD:
         return float(
@@ -115,7 +190,27 @@ def min_distance(points: ArrayLike) -> float:
 
 
 def colliding_pairs(points: FloatArray, radius: float) -> IntArray:
-    """Unordered pairs (M, 2) of points closer than 2r (strictly)."""
+    """Unordered pairs of points whose spheres overlap: centres closer than 2r (strictly).
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+        Sphere centres.
+    radius : float, cm
+        The sphere radius r.
+
+    Returns
+    -------
+    (M, 2) array of int
+        Index pairs, the smaller index first; (0, 2) when nothing collides.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import colliding_pairs
+    >>> colliding_pairs(np.array([[0.0, 0, 0], [1, 0, 0], [5, 0, 0]]), 0.6)
+    array([[0, 1]])
+    """
     if len(points) <= SMALL_CLOUD:
         blocks = [
             np.stack([first, second], axis=1)[centre_distance(points, first, second) < 2 * radius]
@@ -137,6 +232,27 @@ def remove_collisions(points: FloatArray, radius: float, seed: int = 0) -> IntAr
     The points are visited in a random order drawn from ``seed``; a point is
     kept unless it collides with a point kept before it. So for every
     colliding pair exactly one side goes, and the same seed keeps the same set.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+        Sphere centres.
+    radius : float, cm
+        The sphere radius r; two points collide when closer than 2r.
+    seed : int, default 0
+        Seed of the visiting order (``numpy.random.default_rng``).
+
+    Returns
+    -------
+    (K,) array of int
+        The kept indices, increasing; every index when nothing collides.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import remove_collisions
+    >>> remove_collisions(np.array([[0.0, 0, 0], [1, 0, 0], [5, 0, 0]]), 0.6).tolist()
+    [0, 2]
     """
     pairs = colliding_pairs(points, radius)
     if len(pairs) == 0:
@@ -163,8 +279,42 @@ def make_swarm(
 ) -> Swarm:
     """Build a :class:`Swarm` from a cloud, with ``r = beta * dmin`` or an explicit ``radius``.
 
-    Raises CloudError for duplicate points (dmin = 0) and for a missing or
-    out-of-range beta or radius.
+    With beta > 0.5 some spheres collide, and one FLS of each colliding pair is
+    removed first (:func:`remove_collisions`, seeded); ``Swarm.cloud_index``
+    maps the FLSs kept back to the cloud's rows (spec, section 2).
+
+    Parameters
+    ----------
+    points : (N, 3) array_like of float, cm
+        The cloud, N >= 2, no duplicates.
+    beta : float, optional
+        The ratio r / dmin, in (0, 1]. Ignored when ``radius`` is given.
+    radius : float, optional, cm
+        An explicit FLS radius r > 0.
+    seed : int, default 0
+        Seed of the collision removal's visiting order.
+
+    Returns
+    -------
+    Swarm
+        The FLSs kept (cm), their radius, the cloud's dmin, beta, the kept
+        indices and how many were removed.
+
+    Raises
+    ------
+    CloudError
+        ``points`` is not an (N, 3) finite array with N >= 2, has duplicate
+        points (dmin = 0), neither beta nor radius is given, beta is outside
+        (0, 1], radius is not a positive number, or fewer than two FLSs remain.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> swarm = make_swarm([[0, 0, 0], [2, 0, 0], [0, 5, 0]], beta=0.25)
+    >>> swarm.dmin, swarm.radius, swarm.size, swarm.removed
+    (2.0, 0.5, 3, 0)
+    >>> make_swarm([[0, 0, 0], [1, 0, 0], [5, 0, 0]], radius=0.6).cloud_index.tolist()
+    [0, 2]
     """
     points = validate_points(points)
     dmin = min_distance(points)
@@ -205,7 +355,36 @@ def free_circle_point(
     through ``centre`` perpendicular to ``normal``; each row of ``blockers``
     (B, 3) is the centre of a sphere of radius ``block_radius`` whose interior
     is removed. Exact: each sphere removes one open arc, computed in closed
-    form. Returns None when nothing of the circle remains. Units: cm.
+    form. Move Obstructing's obstruction-free circle (spec, section 7).
+
+    Parameters
+    ----------
+    centre : (3,) array of float, cm
+        The circle's centre.
+    normal : (3,) array of float
+        The normal of the circle's plane; any non-zero length.
+    toward : (3,) array of float, cm
+        The point to be nearest to (the obstructing FLS's centre).
+    radius : float, cm
+        The circle's radius.
+    blockers : (B, 3) array of float, cm
+        Centres of the blocking spheres; B may be 0.
+    block_radius : float, cm
+        Their radius.
+
+    Returns
+    -------
+    (3,) array of float, cm, or None
+        The free point nearest ``toward`` (ties: the positive angle), or None
+        when nothing of the circle remains free.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import free_circle_point
+    >>> free_circle_point(np.zeros(3), np.array([0.0, 0, 1]), np.array([5.0, 0, 0]), 1.0,
+    ...                   np.empty((0, 3)), 1.0)
+    array([1., 0., 0.])
     """
     point: FloatArray = _free_circle_kernel(
         np.asarray(centre, dtype=np.float64),
@@ -291,10 +470,26 @@ def circle_sphere_crossings(
 ) -> FloatArray:
     """Points (0 to 2, 3) where a circle meets a sphere's surface, cm.
 
-    The circle has centre ``centre`` (3,), radius ``radius`` and lies in the
-    plane through ``centre`` perpendicular to ``normal`` (3,); the sphere has
-    centre ``sphere`` (3,) and radius ``sphere_radius``. A tangent circle gives
-    its one point twice.
+    A tangent circle gives its one point twice.
+
+    Parameters
+    ----------
+    centre : (3,) array of float, cm
+        The circle's centre.
+    normal : (3,) array of float
+        The normal of the circle's plane; any non-zero length.
+    radius : float, cm
+        The circle's radius, > 0.
+    sphere : (3,) array of float, cm
+        The sphere's centre.
+    sphere_radius : float, cm
+        The sphere's radius.
+
+    Returns
+    -------
+    (K, 3) array of float, cm
+        K = 2 crossings (equal when tangent), or K = 0 when the circle does not
+        meet the surface or the sphere's centre lies on the circle's axis.
     """
     normal = normal / np.linalg.norm(normal)
     axis = np.zeros(3)
@@ -317,6 +512,26 @@ def circle_sphere_crossings(
 
 
 def closest_on_segment(start: FloatArray, end: FloatArray, point: FloatArray) -> FloatArray:
+    """The point of the segment start-end nearest ``point``, cm.
+
+    Parameters
+    ----------
+    start, end : (3,) array of float, cm
+        The segment's ends, distinct.
+    point : (3,) array of float, cm
+
+    Returns
+    -------
+    (3,) array of float, cm
+        The projection of ``point`` onto the segment, clamped to its ends.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import closest_on_segment
+    >>> closest_on_segment(np.zeros(3), np.array([4.0, 0, 0]), np.array([1.0, 2, 0]))
+    array([1., 0., 0.])
+    """
     direction = end - start
     along = float((point - start) @ direction / (direction @ direction))
     return np.asarray(start + min(max(along, 0.0), 1.0) * direction)
@@ -324,7 +539,26 @@ def closest_on_segment(start: FloatArray, end: FloatArray, point: FloatArray) ->
 
 @jit.kernel(cache=True, nogil=True, error_model="numpy")
 def segment_gap(point: FloatArray, start: FloatArray, end: FloatArray) -> float:
-    """Distance of ``point`` (3,) to the segment start-end (3,)-(3,), cm."""
+    """Distance of ``point`` to the segment start-end, cm (compiled).
+
+    Parameters
+    ----------
+    point : (3,) array of float, cm
+    start, end : (3,) array of float, cm
+        The segment's ends, distinct.
+
+    Returns
+    -------
+    float, cm
+        The distance to the nearest point of the segment.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import segment_gap
+    >>> segment_gap(np.array([5.0, 3, 0]), np.zeros(3), np.array([4.0, 0, 0]))
+    3.1622776601683795
+    """
     dx, dy, dz = end[0] - start[0], end[1] - start[1], end[2] - start[2]
     ox, oy, oz = point[0] - start[0], point[1] - start[1], point[2] - start[2]
     along = min(max((ox * dx + oy * dy + oz * dz) / (dx * dx + dy * dy + dz * dz), 0.0), 1.0)
@@ -338,7 +572,21 @@ def segment_gap(point: FloatArray, start: FloatArray, end: FloatArray) -> float:
 def near_any_segment(
     points: FloatArray, starts: FloatArray, ends: FloatArray, reach: float
 ) -> bool:
-    """True when a point (K, 3) is closer than ``reach`` to a segment (S, 3)-(S, 3), cm."""
+    """Whether any point is closer than ``reach`` to any segment (compiled).
+
+    Parameters
+    ----------
+    points : (K, 3) array of float, cm
+    starts, ends : (S, 3) array of float, cm
+        Segment s runs from ``starts[s]`` to ``ends[s]``.
+    reach : float, cm
+        The distance a point must stay at, or beyond.
+
+    Returns
+    -------
+    bool
+        True at the first point strictly closer than ``reach`` to a segment.
+    """
     for s in range(len(starts)):
         for k in range(len(points)):
             if segment_gap(points[k], starts[s], ends[s]) < reach:
@@ -350,7 +598,20 @@ def near_any_segment(
 def near_segment(
     points: FloatArray, start: FloatArray, end: FloatArray, reach: float
 ) -> NDArray[np.bool_]:
-    """(K,) whether each point (K, 3) is closer than ``reach`` to the segment start-end, cm."""
+    """Whether each point is closer than ``reach`` to the segment start-end (compiled).
+
+    Parameters
+    ----------
+    points : (K, 3) array of float, cm
+    start, end : (3,) array of float, cm
+        The segment's ends.
+    reach : float, cm
+
+    Returns
+    -------
+    (K,) array of bool
+        True where the point is strictly closer than ``reach``.
+    """
     near = np.zeros(len(points), dtype=np.bool_)
     for k in range(len(points)):
         near[k] = segment_gap(points[k], start, end) < reach
