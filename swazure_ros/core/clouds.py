@@ -53,6 +53,35 @@ def validate_points(points: object, where: str = "points") -> FloatArray:
     """Coerce to an (N, 3) float array of finite values with N >= 2, or raise CloudError.
 
     At most :data:`MAX_POINTS` points, each within :data:`MAX_EXTENT` cm of the origin.
+    The core's boundary for every cloud: a file's, a built-in shape's, or an array.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like of real numbers, cm
+    where : str, default "points"
+        What the points are, to start the error's message with (a file name).
+
+    Returns
+    -------
+    (N, 3) array of float64, cm
+
+    Raises
+    ------
+    CloudError
+        Coordinates that are not real numbers, not 3 per point, NaN or
+        infinite, fewer than 2 or more than :data:`MAX_POINTS` points, or a
+        point beyond :data:`MAX_EXTENT`.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.clouds import validate_points
+    >>> validate_points([[0, 0, 0], [1, 2, 3]])
+    array([[0., 0., 0.],
+           [1., 2., 3.]])
+    >>> validate_points([[0, 0], [1, 1]], "cloud.xyz")
+    Traceback (most recent call last):
+    ...
+    swazure_ros.core.errors.CloudError: cloud.xyz: expected 3 coordinates per point, ...(2, 2)
     """
     kind = getattr(points, "dtype", np.dtype(np.float64)).kind
     if kind not in "fiub":
@@ -84,7 +113,21 @@ def validate_points(points: object, where: str = "points") -> FloatArray:
 
 
 def check_count(count: int, where: str) -> None:
-    """CloudError unless ``count`` FLSs are at most :data:`MAX_POINTS`; it says what more needs."""
+    """CloudError unless ``count`` FLSs are at most :data:`MAX_POINTS`; it says what more needs.
+
+    Parameters
+    ----------
+    count : int
+        FLSs in the swarm to be.
+    where : str
+        What they are, to start the error's message with.
+
+    Raises
+    ------
+    CloudError
+        ``count`` is over :data:`MAX_POINTS`; the message estimates the memory
+        a swarm that size would need (about 10 kB per FLS).
+    """
     if count > MAX_POINTS:
         # Neighbourhood, line of sight and paths hold ~10 kB per FLS at the published density.
         need = count * 10e3 / 2**30
@@ -100,7 +143,24 @@ def _at_density(points: FloatArray, density: float) -> FloatArray:
 
 
 def mean_spacing(points: FloatArray) -> float:
-    """Mean distance of each point of ``points`` (N, 3) to its nearest other point, cm."""
+    """Mean distance of each point to its nearest other point, cm.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+        N >= 2.
+
+    Returns
+    -------
+    float, cm
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.clouds import mean_spacing
+    >>> mean_spacing(np.array([[0.0, 0, 0], [1, 0, 0], [3, 0, 0]]))  # (1 + 1 + 2) / 3
+    1.3333333333333333
+    """
     from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
 
     distances, _ = cKDTree(points).query(points, k=2)
@@ -117,6 +177,27 @@ def resample(points: FloatArray, count: int, seed: int = 0) -> FloatArray:
     least a spacing apart (Poisson-disk sampling, the spacing bisected to
     the largest that keeps ``count``), ``count`` of those chosen, and the
     whole scaled to the mean spacing of ``points``. Deterministic per seed.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like of float, cm
+        The shape; N >= 7 (each point's six nearest neighbours).
+    count : int
+        Points wanted, > 0; usually more than N.
+    seed : int, default 0
+        Seed of the thinning order and of the choice of the ``count`` points.
+
+    Returns
+    -------
+    (count, 3) array of float, cm
+        Its mean nearest-neighbour distance is that of ``points``.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.clouds import builtin_points, mean_spacing, resample
+    >>> grown = resample(builtin_points("sphere:200"), 500)
+    >>> grown.shape, round(mean_spacing(grown), 2)
+    ((500, 3), 0.65)
     """
     from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
 
@@ -173,7 +254,18 @@ def _apart(points: FloatArray, order: IntArray, spacing: float, grid: Grid) -> B
 
 
 def sphere_shell(count: int) -> FloatArray:
-    """A Fibonacci lattice on a sphere: (count, 3), unit radius."""
+    """A Fibonacci lattice on a sphere of unit radius.
+
+    Parameters
+    ----------
+    count : int
+        Points, > 0.
+
+    Returns
+    -------
+    (count, 3) array of float
+        Unitless: :func:`builtin_points` scales it to cm.
+    """
     index = np.arange(count) + 0.5
     polar = np.arccos(1.0 - 2.0 * index / count)
     azimuth = np.pi * (1.0 + 5.0**0.5) * index
@@ -183,7 +275,22 @@ def sphere_shell(count: int) -> FloatArray:
 
 
 def torus(count: int, aspect: float = 3.0) -> FloatArray:
-    """Points on a torus surface, tube radius 1 and ring radius ``aspect``: (≈count, 3)."""
+    """Points on a torus surface, tube radius 1 and ring radius ``aspect``.
+
+    A staggered lattice: every other ring is turned by half a step.
+
+    Parameters
+    ----------
+    count : int
+        Points wanted, about; the lattice rounds it to rings times points per ring.
+    aspect : float, default 3.0
+        Ring radius over tube radius.
+
+    Returns
+    -------
+    (M, 3) array of float
+        M close to ``count`` (120 gives 120, 100 gives 102); unitless.
+    """
     around_tube = max(3, round(math.sqrt(count / aspect)))
     around_ring = max(3, round(count / around_tube))
     ring, tube = np.meshgrid(
@@ -201,13 +308,36 @@ def torus(count: int, aspect: float = 3.0) -> FloatArray:
 
 
 def helix(count: int, turns: float = 4.0) -> FloatArray:
-    """Points along a helix of unit radius and pitch 1 per turn: (count, 3)."""
+    """Points along a helix of unit radius and pitch 1 per turn, about the z axis.
+
+    Parameters
+    ----------
+    count : int
+        Points, >= 2, evenly spaced in angle from 0 to ``turns`` turns.
+    turns : float, default 4.0
+
+    Returns
+    -------
+    (count, 3) array of float
+        Unitless.
+    """
     angle = np.linspace(0, 2 * np.pi * turns, count)
     return np.column_stack([np.cos(angle), np.sin(angle), angle / (2 * np.pi)])
 
 
 def cube_lattice(count: int) -> FloatArray:
-    """A solid simple-cubic lattice of about ``count`` points with unit spacing: (M, 3)."""
+    """A solid simple-cubic lattice of about ``count`` points with unit spacing.
+
+    Parameters
+    ----------
+    count : int
+        Points wanted, about: the side is its cube root, rounded, at least 2.
+
+    Returns
+    -------
+    (M, 3) array of float
+        M = side**3 (512 for 512, 27 for 30); unitless.
+    """
     side = max(2, round(count ** (1 / 3)))
     axis = np.arange(side, dtype=np.float64)
     return np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 3)
@@ -226,7 +356,35 @@ _BUILTIN_PATTERN = re.compile(r"^(?P<name>[a-z_]+)(?::(?P<count>\d+))?$")
 
 
 def builtin_points(spec: str, density: float = PUBLISHED_DENSITY) -> FloatArray:
-    """Points of a built-in shape ``NAME`` or ``NAME:COUNT``, at ``density`` cm mean spacing."""
+    """Points of a built-in shape ``NAME`` or ``NAME:COUNT``, at ``density`` cm mean spacing.
+
+    Parameters
+    ----------
+    spec : str
+        A name of :data:`BUILTIN_SHAPES` (sphere, sphere_shell, torus, helix,
+        cube), with ``:COUNT`` for its points (default per shape).
+    density : float, default PUBLISHED_DENSITY (0.65), cm
+        The mean nearest-neighbour distance of the result: that of the
+        published shapes.
+
+    Returns
+    -------
+    (M, 3) array of float, cm
+        M = COUNT for the sphere and helix, about COUNT for the torus and cube.
+
+    Raises
+    ------
+    CloudError
+        An unknown name (the message lists the names), fewer than 8 points,
+        or more than :data:`MAX_POINTS`.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.clouds import builtin_points, mean_spacing
+    >>> points = builtin_points("torus:120")
+    >>> points.shape, round(mean_spacing(points), 2)
+    ((120, 3), 0.65)
+    """
     match = _BUILTIN_PATTERN.match(spec)
     if not match or match["name"] not in BUILTIN_SHAPES:
         names = ", ".join(sorted(BUILTIN_SHAPES))
