@@ -116,7 +116,23 @@ class SensorNoise:
 
 @dataclass(frozen=True)
 class Sensor:
-    """Ranges (cm, of the tracking distance) and relative error polynomial of a sensor."""
+    """Ranges (cm, of the tracking distance) and relative error polynomial of a sensor.
+
+    The whole of what the model knows about the hardware (spec, section 3):
+    blind ``0 < t < sweet_min``, sweet ``sweet_min <= t < sweet_max``, decaying
+    ``decaying_min <= t < decaying_max``, out of range beyond. The constructor
+    checks the ranges' order and that e(t) stays in (-1, 10] over them, and
+    raises :class:`~swazure_ros.core.errors.SensorError` otherwise.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> published.classify([0.0, 3.0, 7.0, 12.0, 30.0]).tolist()  # contact ... out
+    [0, 1, 2, 3, 4]
+    >>> published.error_free().accurate
+    True
+    """
 
     sweet_min: float
     sweet_max: float
@@ -183,7 +199,28 @@ class Sensor:
         )
 
     def relative_error(self, tracking: ArrayLike) -> FloatArray:
-        """Relative error e(t) (a fraction) of tracking distances ``tracking`` (cm)."""
+        """Relative error e(t) (a fraction) of tracking distances ``tracking`` (cm).
+
+        The polynomial's value, or a stochastic sensor's tabulated mean error
+        (its bias); zero for an error-free sensor.
+
+        Parameters
+        ----------
+        tracking : array_like of float, cm
+            Tracking distances, any shape.
+
+        Returns
+        -------
+        array of float
+            e(t), a fraction, of the shape of ``tracking``.
+
+        Examples
+        --------
+        >>> from swazure_ros.core.sensor import Sensor
+        >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+        >>> published.relative_error([6.0, 8.0]).round(4)  # spec: 1.54 %, 1.09 %
+        array([0.0154, 0.0109])
+        """
         tracking = np.asarray(tracking, dtype=np.float64)
         if self.noise is not None:
             return self.noise.at(self.noise.mean_error, tracking)
@@ -192,12 +229,37 @@ class Sensor:
         return np.asarray(np.polyval(self.error_coefficients, tracking), dtype=np.float64)
 
     def measured_tracking(self, tracking: ArrayLike) -> FloatArray:
-        """Measured tracking distances t (1 + e(t)), cm, for true distances ``tracking``."""
+        """Measured tracking distances t (1 + e(t)), cm, for true distances ``tracking``.
+
+        Parameters
+        ----------
+        tracking : array_like of float, cm
+            True tracking distances, any shape.
+
+        Returns
+        -------
+        array of float, cm
+            Of the shape of ``tracking``.
+        """
         tracking = np.asarray(tracking, dtype=np.float64)
         return tracking * (1.0 + self.relative_error(tracking))
 
     def classify(self, tracking: ArrayLike) -> NDArray[np.int8]:
-        """Range class (CONTACT, BLIND, SWEET, DECAYING, OUT_OF_RANGE) of each distance, cm."""
+        """Range class (CONTACT, BLIND, SWEET, DECAYING, OUT_OF_RANGE) of each distance, cm.
+
+        Plain comparisons with no tolerance (spec, section 3): ``t <= 0`` is
+        CONTACT, and a gap between sweet_max and decaying_min is OUT_OF_RANGE.
+
+        Parameters
+        ----------
+        tracking : array_like of float, cm
+            Tracking distances, any shape.
+
+        Returns
+        -------
+        array of int8
+            The class of each, of the shape of ``tracking``.
+        """
         tracking = np.asarray(tracking, dtype=np.float64)
         classes = np.full(tracking.shape, OUT_OF_RANGE, dtype=np.int8)
         # Plain comparisons, no tolerance (spec, section 3).
@@ -273,9 +335,44 @@ def sensor_from_dict(
 ) -> Sensor:
     """Build a :class:`Sensor` from a parsed sensor YAML document; errors name the key.
 
-    ``cameras`` reads a ``camera`` kind's camera file by the name the sensor
-    gives it (:func:`swazure_ros.files.sensors.load_sensor` reads it beside
-    the sensor file); without it a camera sensor is refused.
+    The layout is ``config/sensor.yaml``'s: ``fileversion`` (1) and ``sensor``
+    with ``name``, ``ranges`` (cm) and ``error_model`` (``kind`` none,
+    polynomial, stochastic or camera). An unknown key is an error, not ignored.
+
+    Parameters
+    ----------
+    document : mapping
+        The parsed YAML document.
+    where : str, default "sensor"
+        What the document is (its file name), to start each error's message with.
+    cameras : callable, optional
+        Reads a ``camera`` kind's camera file by the name the sensor gives it
+        (:func:`swazure_ros.files.sensors.load_sensor` reads it beside the
+        sensor file); without it a camera sensor is refused.
+
+    Returns
+    -------
+    Sensor
+
+    Raises
+    ------
+    SensorError
+        A missing or unknown key, another fileversion, a value of the wrong
+        kind, ranges out of order, or an error model out of bounds; the
+        message names the key.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.sensor import sensor_from_dict
+    >>> ranges = {"sweet_min": 6, "sweet_max": 8, "decaying_min": 8, "decaying_max": 30}
+    >>> document = {"fileversion": 1, "sensor": {"name": "camera", "ranges": ranges}}
+    >>> sensor_from_dict(document).accurate  # no error_model: error-free
+    True
+    >>> ranges["sweet_mn"] = 6
+    >>> sensor_from_dict(document, "my.yaml")
+    Traceback (most recent call last):
+    ...
+    swazure_ros.core.errors.SensorError: my.yaml: sensor.ranges: unknown key 'sweet_mn' (...)
     """
     if not isinstance(document, dict):
         raise SensorError(f"{where}: expected a mapping with 'fileversion' and 'sensor'")
@@ -402,17 +499,34 @@ def measured_vectors(
 ) -> FloatArray:
     """Measured vectors first -> second: true direction, length t' + 2r (spec, section 3).
 
+    A stochastic sensor adds the pair's own seeded draw to the length and the
+    direction (the same draw wherever the pair is measured); a rendering
+    camera measures the marker in a rendered frame.
+
     Parameters
     ----------
     sensor : Sensor
     points : (N, 3) array, cm
+        FLS centres.
     radius : float, cm
+        The FLS radius r.
     first, second : (M,) array_like of int
         The measuring FLS and the measured FLS.
 
     Returns
     -------
     (M, 3) array, cm
+        NaN rows where a camera did not see the marker.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.sensor import measured_vectors
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> points = np.array([[0.0, 0, 0], [10, 0, 0]])  # t = 8 cm at r = 1, e(8) = 1.09 %
+    >>> measured_vectors(published, points, 1.0, [0], [1]).round(4)
+    array([[10.0875,  0.    ,  0.    ]])
     """
     first = np.asarray(first, dtype=np.int64)
     second = np.asarray(second, dtype=np.int64)
@@ -482,6 +596,28 @@ def hop_error(sensor: Sensor, tracking: ArrayLike, radius: float) -> FloatArray:
 
     Zero for an error-free sensor. A rendering camera has no model of its
     error but the polynomial its sensor file may give.
+
+    Parameters
+    ----------
+    sensor : Sensor
+    tracking : (M,) array_like of float, cm
+        The hops' tracking distances.
+    radius : float, cm
+        The FLS radius r (the direction's error scales with t' + 2r).
+
+    Returns
+    -------
+    (M,) array of float
+        cm for a deterministic sensor, cm^2 for a stochastic one;
+        :func:`expected_error` turns sums of them into cm.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.sensor import hop_error
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> hop_error(published, [6.0, 7.19, 15.0], 1.0).round(3)  # a 7 cm hop is cheapest
+    array([0.092, 0.079, 1.641])
     """
     tracking = np.asarray(tracking, dtype=np.float64)
     along, across = _hop_deviations(sensor, tracking, radius)
@@ -500,9 +636,21 @@ def unbiased_vectors(sensor: Sensor, vectors: FloatArray, tracking: ArrayLike) -
     """Measured hop vectors (M, 3), cm, with a stochastic sensor's known bias taken out.
 
     A calibrated table's mean error e(t) is known: ``t e(t)`` comes off each
-    vector's length, ``tracking`` (M,) being the pair's tracking distance, cm.
-    The published quadratic is treated as unknown, as the paper does: other
-    sensors' vectors come back as they are.
+    vector's length. The published quadratic is treated as unknown, as the
+    paper does: other sensors' vectors come back as they are.
+
+    Parameters
+    ----------
+    sensor : Sensor
+    vectors : (M, 3) array of float, cm
+        Measured hop vectors (:func:`measured_vectors`).
+    tracking : (M,) array_like of float, cm
+        The pairs' true tracking distances, at which e(t) is taken.
+
+    Returns
+    -------
+    (M, 3) array of float, cm
+        ``vectors`` itself for a sensor without a noise table.
     """
     if sensor.noise is None:
         return vectors
@@ -519,15 +667,42 @@ def hop_covariance(
     radius: float,
     inverse: bool = False,
 ) -> FloatArray:
-    """Covariance (M, 3, 3), cm^2, of the error of hops of tracking distance ``tracking`` (M,), cm.
+    """Covariance, cm^2, of the error of hops of tracking distance ``tracking``.
 
-    :func:`hop_error`'s two deviations, along the hop (unit ``directions``
-    (M, 3)) and across it: ``along^2 u u^T + across^2 (I - u u^T)``; every
-    axis at least ``COVARIANCE_FLOOR`` of the hop's length. Taken at the
-    pair's tracking distance, as every expected error of the engine is.
-    With ``inverse``, the information matrix (its inverse, cm^-2), from the
-    same two axes: exact where a numerical inverse of a matrix whose axes
-    differ by 1e10 is not.
+    :func:`hop_error`'s two deviations, along the hop (unit ``directions``)
+    and across it: ``along^2 u u^T + across^2 (I - u u^T)``; every axis at
+    least ``COVARIANCE_FLOOR`` of the hop's length, so that what a model calls
+    exact keeps a finite weight in a fit. Taken at the pair's tracking
+    distance, as every expected error of the engine is.
+
+    Parameters
+    ----------
+    sensor : Sensor
+    tracking : (M,) array_like of float, cm
+        The hops' tracking distances.
+    directions : (M, 3) array of float
+        The hops' unit directions.
+    radius : float, cm
+        The FLS radius r.
+    inverse : bool, default False
+        Give the information matrix (the inverse, cm^-2) instead, built from
+        the same two axes: exact where a numerical inverse of a matrix whose
+        axes differ by 1e10 is not.
+
+    Returns
+    -------
+    (M, 3, 3) array of float
+        cm^2, or cm^-2 with ``inverse``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.sensor import hop_covariance
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> covariance = hop_covariance(published, [7.0], np.array([[1.0, 0, 0]]), 1.0)[0]
+    >>> bool(covariance[0, 0] > 1e5 * covariance[1, 1])  # the bias along, an exact direction
+    True
     """
     tracking = np.asarray(tracking, dtype=np.float64)
     along, across = _hop_deviations(sensor, tracking, radius)
@@ -555,6 +730,25 @@ def smallest_hop_error(sensor: Sensor, radius: float) -> float:
     both error models are smooth or piecewise linear between the samples, so
     no hop falls below it. Distributed least-error discovery sizes its cost
     buckets by it (protocol.discovery.search.bucket_width).
+
+    Parameters
+    ----------
+    sensor : Sensor
+    radius : float, cm
+        The FLS radius r.
+
+    Returns
+    -------
+    float
+        In :func:`hop_error`'s unit (cm or cm^2); 0 for an error-free sensor.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.sensor import smallest_hop_error
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> round(smallest_hop_error(published, 1.0), 4)  # 1 % under e's 0.079 cm at 7.19 cm
+    0.0783
     """
     count = int((sensor.decaying_max - sensor.sweet_min) * _HOP_ERROR_SAMPLES_PER_CM) + 2
     samples = np.linspace(sensor.sweet_min, sensor.decaying_max, count)
@@ -571,6 +765,17 @@ def expected_error(sensor: Sensor, summed: ArrayLike) -> FloatArray:
     Stochastic sensor: the standard deviation of the summed vector's error,
     ``sqrt(summed)`` (independent hops' variances add). Deterministic sensor:
     ``summed`` itself, which bounds the error (triangle inequality).
+
+    Parameters
+    ----------
+    sensor : Sensor
+    summed : (M,) array_like of float
+        Sums of :func:`hop_error` over each estimate's hops (cm, or cm^2 for a
+        stochastic sensor).
+
+    Returns
+    -------
+    (M,) array of float, cm
     """
     summed = np.asarray(summed, dtype=np.float64)
     return np.sqrt(summed) if sensor.noise is not None else summed
