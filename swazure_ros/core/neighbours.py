@@ -57,7 +57,18 @@ class NeighbourPairs:
         return csr.offsets(np.bincount(self.first, minlength=size)).astype(np.int64)
 
     def index(self, one: ArrayLike, other: ArrayLike) -> IntArray:
-        """Index of the pair {one[m], other[m]} for each m, either order: (M,); -1 if absent."""
+        """Index of the pair {one[m], other[m]} for each m, either order; -1 if absent.
+
+        Parameters
+        ----------
+        one, other : (M,) array_like of int
+            FLS indices.
+
+        Returns
+        -------
+        (M,) array of int
+            Positions in these pairs' arrays.
+        """
         one = np.asarray(one, dtype=np.int64)
         other = np.asarray(other, dtype=np.int64)
         return np.asarray(_pair_index(self._rows, self.second, one, other))
@@ -145,13 +156,48 @@ def _pairs_within(
 
 
 def sensor_reach(sensor: Sensor, radius: float) -> float:
-    """The centre distance (cm) below which two FLSs of ``radius`` cm may be neighbours."""
+    """The centre distance (cm) below which two FLSs of ``radius`` cm may be neighbours.
+
+    ``decaying_max + 2r``, and at least a kissing pair's distance.
+
+    Parameters
+    ----------
+    sensor : Sensor
+    radius : float, cm
+        The FLS radius r.
+
+    Returns
+    -------
+    float, cm
+
+    Examples
+    --------
+    >>> from swazure_ros.core.neighbours import sensor_reach
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor_reach(Sensor(6.0, 8.0, 8.0, 30.0), 0.5)
+    31.0
+    """
     reach = sensor.decaying_max + 2.0 * radius
     return max(reach, 2.0 * radius + 2 * KISSING_TOLERANCE)
 
 
 def candidate_reach(sensor: Sensor, radius: float) -> float:
-    """The reach of candidate pairs, cm: a rounding margin over :func:`sensor_reach`."""
+    """The reach of candidate pairs, cm: a rounding margin over :func:`sensor_reach`.
+
+    The grid search finds candidates a little beyond the reach, and
+    :func:`~swazure_ros.core.geometry.centre_distance` decides.
+
+    Parameters
+    ----------
+    sensor : Sensor
+    radius : float, cm
+        The FLS radius r.
+
+    Returns
+    -------
+    float, cm
+        :func:`sensor_reach` times (1 + 1e-9).
+    """
     # The distances that decide are centre_distance's, not the grid search's.
     return sensor_reach(sensor, radius) * (1.0 + 1e-9)
 
@@ -165,10 +211,38 @@ def neighbour_pairs(
 ) -> NeighbourPairs:
     """Every unordered pair with tracking distance below ``sensor.decaying_max``, classified.
 
-    Pairs are sorted by (first, second). With ``start`` and ``stop``, only
-    the pairs whose ``first`` is in [start, stop): a block of the whole
-    swarm's list, found in a block's memory. ``grid``: ``grid_of`` the points
-    at :func:`candidate_reach`, when the caller keeps it.
+    Pairs are sorted by (first, second), with their centre and tracking
+    distances and range class (spec, section 3). A compiled pass over a grid
+    of cells one reach wide, parallel over FLSs: no sort of the pairs.
+
+    Parameters
+    ----------
+    swarm : Swarm
+    sensor : Sensor
+    start, stop : int, optional
+        Only the pairs whose ``first`` is in [start, stop) (default: every
+        FLS): a block of the whole swarm's list, found in a block's memory.
+    grid : Grid, optional
+        ``sight.grid_of`` the swarm's points at :func:`candidate_reach`, when
+        the caller keeps it.
+
+    Returns
+    -------
+    NeighbourPairs
+        M pairs, first < second; contact pairs (t <= 0) included.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.neighbours import neighbour_pairs
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0)  # blind < 6 <= sweet < 8 <= decaying < 30 cm
+    >>> swarm = make_swarm([[0, 0, 0], [4, 0, 0], [11, 0, 0], [40, 0, 0]], radius=0.5)
+    >>> pairs = neighbour_pairs(swarm, sensor)
+    >>> pairs.first.tolist(), pairs.second.tolist(), pairs.tracking.tolist()
+    ([0, 0, 1, 2], [1, 2, 2, 3], [3.0, 10.0, 6.0, 28.0])
+    >>> pairs.range_class.tolist()  # BLIND, DECAYING, SWEET, DECAYING
+    [1, 3, 2, 3]
     """
     stop = swarm.size if stop is None else stop
     reach = candidate_reach(sensor, swarm.radius)
@@ -189,7 +263,33 @@ def neighbour_pairs(
 
 
 def pair_counts(swarm: Swarm, sensor: Sensor, grid: Grid | None = None) -> IntArray:
-    """Candidate pairs of each FLS as ``first`` (:func:`neighbour_pairs`'s, a few more): (N,)."""
+    """Candidate pairs of each FLS as ``first`` (:func:`neighbour_pairs`'s, a few more).
+
+    A counting pass of the neighbour kernel, storing no pair: the engine cuts
+    the swarm into blocks of FLSs whose pairs fit its memory with it.
+
+    Parameters
+    ----------
+    swarm : Swarm
+    sensor : Sensor
+    grid : Grid, optional
+        ``sight.grid_of`` the swarm's points at :func:`candidate_reach`.
+
+    Returns
+    -------
+    (N,) array of int
+        Per FLS, the candidate pairs with an FLS of a larger index.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.neighbours import pair_counts
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0)  # blind < 6 <= sweet < 8 <= decaying < 30 cm
+    >>> swarm = make_swarm([[0, 0, 0], [4, 0, 0], [11, 0, 0], [40, 0, 0]], radius=0.5)
+    >>> pair_counts(swarm, sensor).tolist()
+    [2, 1, 1, 0]
+    """
     reach = candidate_reach(sensor, swarm.radius)
     points = np.ascontiguousarray(swarm.points, dtype=np.float64)
     grid = grid if grid is not None else grid_of(points, reach)
@@ -211,8 +311,34 @@ def pairs_of(
     """The pairs of :func:`neighbour_pairs` that involve an FLS of ``flss`` (sorted indices).
 
     The same pairs, distances and classes as the whole swarm's, found from
-    the ``flss`` alone. ``tree`` is a cKDTree of the swarm's points, when the
-    caller keeps one.
+    the ``flss`` alone: the neighbourhood of a few FLSs, or of those that
+    moved (``evaluate.neighbourhood_of``, ``evaluate.moved_neighbourhood``).
+
+    Parameters
+    ----------
+    swarm : Swarm
+    sensor : Sensor
+    flss : (K,) array of int
+        FLS indices, sorted.
+    tree : scipy.spatial.cKDTree, optional
+        A tree of ``swarm.points``, when the caller keeps one.
+
+    Returns
+    -------
+    NeighbourPairs
+        Each pair once, sorted by (first, second).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.neighbours import pairs_of
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0)  # blind < 6 <= sweet < 8 <= decaying < 30 cm
+    >>> swarm = make_swarm([[0, 0, 0], [4, 0, 0], [11, 0, 0], [40, 0, 0]], radius=0.5)
+    >>> found = pairs_of(swarm, sensor, np.array([3]))
+    >>> found.first.tolist(), found.second.tolist()
+    ([2], [3])
     """
     reach = sensor_reach(sensor, swarm.radius)
     from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
@@ -230,9 +356,20 @@ def pairs_of(
 
 
 def pairs_between(swarm: Swarm, sensor: Sensor, one: IntArray, other: IntArray) -> NeighbourPairs:
-    """The pairs {one[m], other[m]} (M,) within sensor reach, as :func:`neighbour_pairs` has them.
+    """The pairs {one[m], other[m]} within sensor reach, as :func:`neighbour_pairs` has them.
 
-    Unordered, each once, sorted; a pair of an FLS with itself is left out.
+    Parameters
+    ----------
+    swarm : Swarm
+    sensor : Sensor
+    one, other : (M,) array of int
+        FLS indices; either order, repeats allowed.
+
+    Returns
+    -------
+    NeighbourPairs
+        Unordered, each once, sorted by (first, second); a pair of an FLS with
+        itself and pairs beyond reach are left out.
     """
     one, other = np.asarray(one, dtype=np.int64), np.asarray(other, dtype=np.int64)
     first, second = np.minimum(one, other), np.maximum(one, other)
@@ -246,7 +383,31 @@ def pairs_between(swarm: Swarm, sensor: Sensor, one: IntArray, other: IntArray) 
 
 
 def ordered_blind_pairs(pairs: NeighbourPairs) -> tuple[IntArray, IntArray]:
-    """Every ordered blind pair (source, target), sorted by source then target."""
+    """Every ordered blind pair (source, target), sorted by source then target.
+
+    Both orders of each unordered blind pair: the pairs the model computes a
+    relative pose for (spec, section 5).
+
+    Parameters
+    ----------
+    pairs : NeighbourPairs
+
+    Returns
+    -------
+    sources, targets : (B,) array of int
+        B = twice the blind unordered pairs.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.neighbours import neighbour_pairs, ordered_blind_pairs
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0)  # blind < 6 <= sweet < 8 <= decaying < 30 cm
+    >>> swarm = make_swarm([[0, 0, 0], [4, 0, 0], [11, 0, 0], [40, 0, 0]], radius=0.5)
+    >>> sources, targets = ordered_blind_pairs(neighbour_pairs(swarm, sensor))
+    >>> sources.tolist(), targets.tolist()
+    ([0, 1], [1, 0])
+    """
     blind = pairs.range_class == BLIND
     size = int(pairs.second.max()) + 1 if len(pairs) else 0
     rows, targets = ordered_rows(size, pairs.first[blind], pairs.second[blind])
@@ -254,7 +415,30 @@ def ordered_blind_pairs(pairs: NeighbourPairs) -> tuple[IntArray, IntArray]:
 
 
 def ordered_rows(size: int, first: IntArray, second: IntArray) -> tuple[IntArray, IntArray]:
-    """Unordered pairs (M,) as both orders, CSR over ``size`` FLSs: rows (size + 1,), targets."""
+    """Unordered pairs as both orders, in compressed sparse rows over ``size`` FLSs.
+
+    Parameters
+    ----------
+    size : int
+        FLSs, more than every index.
+    first, second : (M,) array of int
+        Unordered pairs, each once.
+
+    Returns
+    -------
+    rows : (size + 1,) array of int
+        Row i's targets are ``targets[rows[i]:rows[i + 1]]``.
+    targets : (2M,) array of int
+        Sorted within each row.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.neighbours import ordered_rows
+    >>> rows, targets = ordered_rows(4, np.array([0, 1]), np.array([1, 2]))
+    >>> rows.tolist(), targets.tolist()
+    ([0, 1, 3, 4, 4], [1, 0, 2, 1])
+    """
     from .paths import make_graph  # the graph's rows are the ordered pairs, sorted
 
     graph = make_graph(size, first, second, np.zeros(len(first)))
