@@ -39,7 +39,23 @@ class Grid(NamedTuple):
 
 
 def build_grid(points: FloatArray, radius: float) -> Grid:
-    """Bucket ``points`` (N, 3) into cells of about the point spacing, cm, and at least r."""
+    """Bucket ``points`` into cells of about the point spacing, and at least r.
+
+    Cells near the point spacing keep few points per cell and few cells per
+    segment, whatever r is: the grid line of sight scans.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+        N >= 2.
+    radius : float, cm
+        The FLS radius r: the smallest cell edge.
+
+    Returns
+    -------
+    Grid
+        Cell edge: the median nearest-neighbour distance, or r if larger.
+    """
     extent = np.ptp(points, axis=0)
     from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
 
@@ -51,7 +67,30 @@ def build_grid(points: FloatArray, radius: float) -> Grid:
 
 
 def grid_of(points: FloatArray, cell: float) -> Grid:
-    """Bucket ``points`` (N, 3) into cubic cells of at least ``cell`` cm (coarser if too many)."""
+    """Bucket ``points`` into cubic cells of at least ``cell`` cm (coarser if too many).
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+    cell : float, cm
+        The cell edge wanted; made 1.5 times coarser until the grid has at most
+        :data:`MAX_CELLS` cells.
+
+    Returns
+    -------
+    Grid
+        Its origin is the points' lower corner; ``members`` lists the points
+        cell by cell, each cell's in index order.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.sight import grid_of
+    >>> import numpy as np
+    >>> points = np.array([[0.0, 0, 0], [5, 0.4, 0], [10, 0, 0], [5, 3, 0]])  # cm
+    >>> grid = grid_of(points, 2.0)
+    >>> grid.cell, grid.shape.tolist(), grid.members.tolist()
+    (2.0, [6, 2, 1], [0, 1, 3, 2])
+    """
     lower = points.min(axis=0)
     extent = np.ptp(points, axis=0)
     cell = max(cell, float(extent.max()) * 1e-9, 1e-12)
@@ -76,7 +115,27 @@ def scan_segment(
     found: IntArray,
     stop_at_first: bool,
 ) -> int:
-    """Write the obstructers of segment a-b into ``found``; return how many (at most 1 if stop)."""
+    """Write the obstructers of segment a-b into ``found``; return how many (compiled).
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+    radius : float, cm
+        The FLS radius r.
+    a, b : int
+        The segment's ends, FLS indices; they obstruct nothing.
+    grid : Grid
+        The points' grid (:func:`build_grid` or :func:`grid_of`).
+    found : (N,) array of int
+        Filled from the start with the obstructers found, in scan order.
+    stop_at_first : bool
+        Stop at the first obstructer (a yes/no judgement).
+
+    Returns
+    -------
+    int
+        Obstructers written; at most 1 with ``stop_at_first``.
+    """
     start = (points[a, 0], points[a, 1], points[a, 2])
     end = (points[b, 0], points[b, 1], points[b, 2])
     return scan_between(points, radius, start, end, a, b, grid, found, stop_at_first)
@@ -94,7 +153,32 @@ def scan_between(
     found: IntArray,
     stop_at_first: bool,
 ) -> int:
-    """Obstructers of the segment ``start``-``end`` (x, y, z, cm), skipping FLSs a and b."""
+    """Obstructers of the segment ``start``-``end``, skipping FLSs a and b (compiled).
+
+    The segment is walked in steps of one cell; each step scans the cells of
+    a box holding every point within r of that stretch, each cell once.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+    radius : float, cm
+        The FLS radius r; a point within r (inclusive) obstructs.
+    start, end : tuple of 3 float, cm
+        The segment's ends, (x, y, z): a probe position need not be an FLS's.
+    a, b : int
+        FLS indices that never obstruct (the segment's own FLSs; -1 for none).
+    grid : Grid
+        The points' grid (:func:`build_grid` or :func:`grid_of`).
+    found : (N,) array of int
+        Filled from the start with the obstructers found, in scan order.
+    stop_at_first : bool
+        Stop at the first obstructer.
+
+    Returns
+    -------
+    int
+        Obstructers written; 0 for a segment of length 0.
+    """
     origin, cell, shape, cell_start, members = grid
     ax, ay, az = start
     bx, by, bz = end
@@ -157,7 +241,30 @@ def blocks(
     length: float,
     radius2: float,
 ) -> bool:
-    """Whether point k is within r (radius2 = r^2) of the segment from a along unit u, cm."""
+    """Whether point k is within r of the segment from a along unit u (compiled).
+
+    The one test of obstruction every scan uses, so that a shortcut that
+    tries a point with it finds what the scan would.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+    k : int
+        The point tried.
+    ax, ay, az : float, cm
+        The segment's start.
+    ux, uy, uz : float
+        Its unit direction.
+    length : float, cm
+        Its length.
+    radius2 : float, cm^2
+        r squared.
+
+    Returns
+    -------
+    bool
+        True when the point's distance to the segment is at most r.
+    """
     wx, wy, wz = points[k, 0] - ax, points[k, 1] - ay, points[k, 2] - az
     projection = wx * ux + wy * uy + wz * uz
     projection = min(max(projection, 0.0), length)
@@ -220,7 +327,27 @@ def any_within(
 ) -> bool:
     """Whether some point other than ``skip`` is strictly closer than ``distance`` to (x, y, z).
 
-    Only points within ``reach`` of ``around`` (3,) count; ``reach`` inf: every point.
+    A collision test for a probe position (compiled).
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+    x, y, z : float, cm
+        The position tested.
+    distance : float, cm
+        Closer than this (strictly) counts, e.g. 2r for a collision.
+    skip : int
+        An index that never counts (the FLS that moves there), or -1.
+    grid : Grid
+        The points' grid (:func:`build_grid` or :func:`grid_of`).
+    around : (3,) array of float, cm
+        Only points within ``reach`` of it count ...
+    reach : float, cm
+        ... or every point when ``reach`` is inf.
+
+    Returns
+    -------
+    bool
     """
     origin, cell, shape, cell_start, members = grid
     lo0 = max(int(np.floor((x - distance - origin[0]) / cell)), 0)
@@ -362,6 +489,12 @@ def obstructed(
 ) -> NDArray[np.bool_]:
     """Whether each segment first[m]-second[m] is obstructed: (M,) bool.
 
+    Line of sight (spec, section 4): an FLS other than the two ends
+    obstructs when its centre is within r (inclusive) of the segment.
+    Compiled, parallel over segments from :data:`SERIAL_SEGMENTS`; the FLSs
+    within ``CLOSE`` r of either end are tried before the scan, since they
+    settle most blocked segments.
+
     Parameters
     ----------
     points : (N, 3) array_like, cm
@@ -371,6 +504,25 @@ def obstructed(
         Indices of the segment ends.
     grid : Grid, optional
         A grid from :func:`build_grid` for the same points and radius.
+
+    Returns
+    -------
+    (M,) array of bool
+        True where some FLS obstructs the segment.
+
+    Raises
+    ------
+    ValueError
+        ``points`` is not (N, 3), ``first`` and ``second`` differ in length,
+        or an index is outside ``points``.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.sight import obstructed
+    >>> import numpy as np
+    >>> points = np.array([[0.0, 0, 0], [5, 0.4, 0], [10, 0, 0], [5, 3, 0]])  # cm
+    >>> obstructed(points, 0.5, [0, 0, 1], [2, 3, 3])  # FLS 1 is 0.4 cm off 0-2
+    array([ True, False, False])
     """
     points, first, second = _coerce_pairs(points, first, second)
     grid = grid if grid is not None else build_grid(points, radius)
@@ -393,9 +545,41 @@ def obstructers(
     second: ArrayLike,
     grid: Grid | None = None,
 ) -> tuple[IntArray, IntArray]:
-    """Every obstructing FLS of each segment, as CSR ``(offsets (M+1,), ids)``, ids sorted.
+    """Every obstructing FLS of each segment, as compressed sparse rows.
 
-    The obstructers of segment ``m`` are ``ids[offsets[m]:offsets[m + 1]]``.
+    The full lists (Move Obstructing moves each obstructer; the summary
+    counts them), where :func:`obstructed` stops at the first.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like, cm
+    radius : float, cm
+        FLS radius r.
+    first, second : (M,) array_like of int
+        Indices of the segment ends.
+    grid : Grid, optional
+        A grid from :func:`build_grid` for the same points and radius.
+
+    Returns
+    -------
+    offsets : (M + 1,) array of int
+    ids : array of int
+        The obstructers of segment m are ``ids[offsets[m]:offsets[m + 1]]``,
+        sorted.
+
+    Raises
+    ------
+    ValueError
+        As :func:`obstructed`.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.sight import obstructers
+    >>> import numpy as np
+    >>> points = np.array([[0.0, 0, 0], [5, 0.4, 0], [10, 0, 0], [5, 3, 0]])  # cm
+    >>> offsets, ids = obstructers(points, 0.5, [0, 0], [2, 3])
+    >>> offsets.tolist(), ids.tolist()
+    ([0, 1, 1], [1])
     """
     points, first, second = _coerce_pairs(points, first, second)
     grid = grid if grid is not None else build_grid(points, radius)
@@ -444,7 +628,38 @@ def _near_kernel(
 def segments_near(
     points: ArrayLike, first: ArrayLike, second: ArrayLike, probes: ArrayLike, reach: float
 ) -> NDArray[np.bool_]:
-    """(M,) whether segment first[m]-second[m] passes within ``reach`` cm of any probe (K, 3)."""
+    """Whether each segment first[m]-second[m] passes within ``reach`` of any probe.
+
+    What a move can change: a segment whose line of sight must be judged
+    again because an FLS left or reached a place near it.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like, cm
+    first, second : (M,) array_like of int
+        Indices of the segment ends.
+    probes : (K, 3) array_like, cm
+        Positions.
+    reach : float, cm
+        Within it (inclusive) counts.
+
+    Returns
+    -------
+    (M,) array of bool
+
+    Raises
+    ------
+    ValueError
+        As :func:`obstructed`.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.sight import segments_near
+    >>> import numpy as np
+    >>> points = np.array([[0.0, 0, 0], [5, 0.4, 0], [10, 0, 0], [5, 3, 0]])  # cm
+    >>> segments_near(points, [0, 0], [2, 3], [[5, 2, 0]], 1.0)
+    array([False,  True])
+    """
     points, first, second = _coerce_pairs(points, first, second)
     probes = np.ascontiguousarray(probes, dtype=np.float64).reshape(-1, 3)
     if len(first) == 0 or len(probes) == 0:
