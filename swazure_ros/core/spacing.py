@@ -67,6 +67,21 @@ def fitting_scale(swarm: Swarm, sensor: Sensor) -> float:
     float
         The factor, > 0: 100 for a published shape written in metres, 1 for
         one that fits.
+
+    Raises
+    ------
+    ValueError
+        The swarm has fewer than two FLSs.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.clouds import builtin_points
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> from swazure_ros.core.spacing import fitting_scale
+    >>> in_metres = make_swarm(builtin_points("torus:120") / 100, beta=0.5)
+    >>> fitting_scale(in_metres, Sensor(6.0, 8.0, 8.0, 30.0))
+    340.0
     """
     points = np.asarray(swarm.points, dtype=np.float64)
     if len(points) < 2:
@@ -111,8 +126,25 @@ _UNITS = {"metres": 100.0, "millimetres": 0.1}
 
 
 def likely_unit(factor: float) -> str | None:
-    """The unit a cloud that needs ``factor`` was likely written in (``metres`` for about
-    100, ``millimetres`` for about 0.1: within 3 times), or None."""
+    """The unit a cloud that needs ``factor`` was likely written in, or None.
+
+    Parameters
+    ----------
+    factor : float
+        A :func:`fitting_scale`.
+
+    Returns
+    -------
+    str or None
+        ``"metres"`` for a factor within 3 times of 100, ``"millimetres"``
+        within 3 times of 0.1, else None.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.spacing import likely_unit
+    >>> likely_unit(110), likely_unit(0.1), likely_unit(3.4)
+    ('metres', 'millimetres', None)
+    """
     for unit, to_cm in _UNITS.items():
         if to_cm / 3.0 <= factor <= to_cm * 3.0:
             return unit
@@ -120,11 +152,34 @@ def likely_unit(factor: float) -> str | None:
 
 
 def spacing_advice(swarm: Swarm, sensor: Sensor) -> Advice | None:
-    """Before a run: an :class:`Advice` when no pair of ``swarm`` is a hop the sensor
-    measures (every blind pair would have no path), else None.
+    """Before a run: an :class:`Advice` when no pair is a hop the sensor measures, else None.
+
+    Every blind pair would then have no path.
 
     Counts the pairs whose tracking distance is sweet or decaying with a
     k-d tree (time grows with the pairs within the sensor's reach).
+
+    Parameters
+    ----------
+    swarm : Swarm
+    sensor : Sensor
+
+    Returns
+    -------
+    Advice or None
+        The reason in one line and :func:`fitting_scale`; None when some pair
+        is a sweet or decaying hop.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.clouds import builtin_points
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> from swazure_ros.core.spacing import spacing_advice
+    >>> in_metres = make_swarm(builtin_points("torus:120") / 100, beta=0.5)
+    >>> advice = spacing_advice(in_metres, Sensor(6.0, 8.0, 8.0, 30.0))
+    >>> advice.reason[:50], advice.factor
+    ('no pair of FLSs is a hop the sensor measures: ever', 340.0)
     """
     from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
 
@@ -146,14 +201,28 @@ def spacing_advice(swarm: Swarm, sensor: Sensor) -> Advice | None:
 
 
 def run_advice(summary: Summary, swarm: Swarm, sensor: Sensor) -> Advice | None:
-    """After a run: an :class:`Advice` when every blind pair of ``summary`` has no path, or
-    there is no blind pair; None for a run that found paths.
+    """After a run: an :class:`Advice` when no blind pair has a path, or there is none.
+
+    None for a run that found paths.
 
     The reason is the first that holds: no pair is a hop the sensor measures
     (the spacing: the advice names the fitting scale); every blind pair is
     blocked (FLSs in the line of sight); no path of hops joins a blind pair.
     The last two name a scale only when :func:`fitting_scale` is below 1/2
     or above 2.
+
+    Parameters
+    ----------
+    summary : Summary
+        The run's summary: its pair counts and neighbour pair counts.
+    swarm : Swarm
+        The swarm it ran on.
+    sensor : Sensor
+        The sensor it ran with.
+
+    Returns
+    -------
+    Advice or None
     """
     pairs = summary.pairs
     if pairs.blind_pairs and pairs.no_path_pairs < pairs.blind_pairs:
