@@ -18,14 +18,66 @@ def _vectors(name: str, value: ArrayLike) -> FloatArray:
 
 
 def distance_error_pct(estimate: ArrayLike, truth: ArrayLike) -> FloatArray:
-    """| |estimate| - |truth| | / |truth| * 100 for (M, 3) vectors: (M,), percent."""
+    """Distance error | |estimate| - |truth| | / |truth| * 100, percent (spec, section 6).
+
+    100 % is an estimate twice as long as the truth, or of length zero.
+
+    Parameters
+    ----------
+    estimate : (M, 3) array_like of float, cm
+        Estimated relative positions (any unit, the truth's: the errors are
+        ratios and angles).
+    truth : (M, 3) array_like of float, cm
+        The true relative positions, non-zero.
+
+    Returns
+    -------
+    (M,) array of float, percent
+
+    Raises
+    ------
+    ValueError
+        An argument is not of shape (M, 3).
+
+    Examples
+    --------
+    >>> from swazure_ros.core.metrics import distance_error_pct
+    >>> distance_error_pct([[11.0, 0, 0], [0, 10, 0]], [[10.0, 0, 0], [10, 0, 0]])
+    array([10.,  0.])
+    """
     estimate, truth = _vectors("estimate", estimate), _vectors("truth", truth)
     size = np.linalg.norm(truth, axis=1)
     return np.asarray(np.abs(np.linalg.norm(estimate, axis=1) - size) / size * 100.0)
 
 
 def alpha_deg(estimate: ArrayLike, truth: ArrayLike) -> FloatArray:
-    """Angle between estimate and truth, atan2(|a x b|, a . b): (M,), degrees."""
+    """Alpha: the angle between estimate and truth, atan2(|a x b|, a . b), degrees.
+
+    atan2 rather than acos of the cosine: accurate for small angles too.
+
+    Parameters
+    ----------
+    estimate : (M, 3) array_like of float, cm
+        Estimated relative positions (any unit, the truth's: the errors are
+        ratios and angles).
+    truth : (M, 3) array_like of float, cm
+        The true relative positions, non-zero.
+
+    Returns
+    -------
+    (M,) array of float, degrees in [0, 180]
+
+    Raises
+    ------
+    ValueError
+        An argument is not of shape (M, 3).
+
+    Examples
+    --------
+    >>> from swazure_ros.core.metrics import alpha_deg
+    >>> alpha_deg([[11.0, 0, 0], [0, 10, 0]], [[10.0, 0, 0], [10, 0, 0]])
+    array([ 0., 90.])
+    """
     estimate, truth = _vectors("estimate", estimate), _vectors("truth", truth)
     cross = np.linalg.norm(np.cross(estimate, truth), axis=1)
     dot = np.einsum("ij,ij->i", estimate, truth)
@@ -33,25 +85,117 @@ def alpha_deg(estimate: ArrayLike, truth: ArrayLike) -> FloatArray:
 
 
 def inclination_deg(vectors: ArrayLike) -> FloatArray:
-    """theta = acos(z / |v|) of (M, 3) vectors: (M,), degrees in [0, 180]."""
+    """Inclination theta = acos(z / |v|) of each vector, degrees.
+
+    Parameters
+    ----------
+    vectors : (M, 3) array_like of float, cm
+        Non-zero.
+
+    Returns
+    -------
+    (M,) array of float, degrees in [0, 180]
+
+    Raises
+    ------
+    ValueError
+        ``vectors`` is not of shape (M, 3).
+
+    Examples
+    --------
+    >>> from swazure_ros.core.metrics import inclination_deg
+    >>> inclination_deg([[0, 0, 1], [1, 0, 0]])
+    array([ 0., 90.])
+    """
     vectors = _vectors("vectors", vectors)
     cosine = vectors[:, 2] / np.linalg.norm(vectors, axis=1)
     return np.asarray(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
 
 
 def azimuth_deg(vectors: ArrayLike) -> FloatArray:
-    """phi = atan2(y, x) of (M, 3) vectors: (M,), degrees in (-180, 180]."""
+    """Azimuth phi = atan2(y, x) of each vector, degrees.
+
+    Parameters
+    ----------
+    vectors : (M, 3) array_like of float, cm
+        Non-zero.
+
+    Returns
+    -------
+    (M,) array of float, degrees in (-180, 180]
+
+    Raises
+    ------
+    ValueError
+        ``vectors`` is not of shape (M, 3).
+
+    Examples
+    --------
+    >>> from swazure_ros.core.metrics import azimuth_deg
+    >>> azimuth_deg([[0, 1, 0], [-1, 0, 0]])
+    array([ 90., 180.])
+    """
     vectors = _vectors("vectors", vectors)
     return np.asarray(np.degrees(np.arctan2(vectors[:, 1], vectors[:, 0])))
 
 
 def theta_error_deg(estimate: ArrayLike, truth: ArrayLike) -> FloatArray:
-    """|theta_hat - theta|: (M,), degrees."""
+    """Theta error |theta_hat - theta|: the error of the inclination, degrees.
+
+    Parameters
+    ----------
+    estimate : (M, 3) array_like of float, cm
+        Estimated relative positions (any unit, the truth's: the errors are
+        ratios and angles).
+    truth : (M, 3) array_like of float, cm
+        The true relative positions, non-zero.
+
+    Returns
+    -------
+    (M,) array of float, degrees in [0, 180]
+
+    Raises
+    ------
+    ValueError
+        An argument is not of shape (M, 3).
+
+    Examples
+    --------
+    >>> from swazure_ros.core.metrics import theta_error_deg
+    >>> theta_error_deg([[1.0, 0, 1]], [[1.0, 0, 0]])
+    array([45.])
+    """
     return np.asarray(np.abs(inclination_deg(estimate) - inclination_deg(truth)))
 
 
 def phi_error_deg(estimate: ArrayLike, truth: ArrayLike) -> FloatArray:
-    """min(d, 360 - d) with d = |phi_hat - phi|: (M,), degrees in [0, 180]."""
+    """Phi error min(d, 360 - d) with d = |phi_hat - phi|: the azimuth's error, degrees.
+
+    Near the z axis a small error of the vector turns the azimuth a lot.
+
+    Parameters
+    ----------
+    estimate : (M, 3) array_like of float, cm
+        Estimated relative positions (any unit, the truth's: the errors are
+        ratios and angles).
+    truth : (M, 3) array_like of float, cm
+        The true relative positions, non-zero.
+
+    Returns
+    -------
+    (M,) array of float, degrees in [0, 180]
+
+    Raises
+    ------
+    ValueError
+        An argument is not of shape (M, 3).
+
+    Examples
+    --------
+    >>> from swazure_ros.core.metrics import phi_error_deg
+    >>> phi_error_deg([[-1.0, -0.01, 0]], [[-1.0, 0.01, 0]])  # across the -x axis
+    array([1.1458774])
+    """
     difference = np.abs(azimuth_deg(estimate) - azimuth_deg(truth))
     return np.asarray(np.minimum(difference, 360.0 - difference))
 
@@ -59,9 +203,36 @@ def phi_error_deg(estimate: ArrayLike, truth: ArrayLike) -> FloatArray:
 def pose_errors(
     estimate: ArrayLike, truth: ArrayLike
 ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """Distance error (%), alpha, theta and phi errors (deg) of each estimate: (M,) each.
+    """Distance error (%), alpha, theta and phi errors (deg) of each estimate.
 
-    NaN where an estimate is NaN (a pair without a path).
+    NaN where an estimate is NaN (a pair without a path), without a warning.
+
+    Parameters
+    ----------
+    estimate : (M, 3) array_like of float, cm
+        Estimated relative positions (any unit, the truth's: the errors are
+        ratios and angles).
+    truth : (M, 3) array_like of float, cm
+        The true relative positions, non-zero.
+
+    Returns
+    -------
+    distance_error : (M,) array of float, percent
+    alpha, theta, phi : (M,) array of float, degrees
+        :func:`alpha_deg`, :func:`theta_error_deg`, :func:`phi_error_deg`.
+
+    Raises
+    ------
+    ValueError
+        An argument is not of shape (M, 3).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.metrics import pose_errors
+    >>> distance, alpha, theta, phi = pose_errors([[np.nan] * 3, [11.0, 0, 0]], [[10.0, 0, 0]] * 2)
+    >>> distance
+    array([nan, 10.])
     """
     with np.errstate(invalid="ignore"):
         return (
@@ -93,7 +264,28 @@ NO_VALUES = Stats(None, None, None, None, None, 0)
 
 
 def describe(values: ArrayLike) -> Stats:
-    """Mean, max and quantiles of ``values`` as plain floats (None when empty)."""
+    """Mean, max and quantiles of ``values`` as plain floats (None when empty).
+
+    Parameters
+    ----------
+    values : (M,) array_like of float
+        In any unit; no NaN (leave out the pairs without a value first).
+
+    Returns
+    -------
+    Stats
+        Mean, max, the 50th, 90th and 99th percentiles (numpy's linear
+        interpolation) and the count; :data:`NO_VALUES` for no values.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.metrics import describe
+    >>> stats = describe([1.0, 2.0, 3.0, 4.0])
+    >>> stats.mean, stats.max, stats.p90, stats.count
+    (2.5, 4.0, 3.7, 4)
+    >>> describe([]).mean is None
+    True
+    """
     values = np.asarray(values, dtype=np.float64)
     if len(values) == 0:
         return NO_VALUES
