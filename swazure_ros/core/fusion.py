@@ -32,7 +32,20 @@ from .summary import FusionFacts
 
 
 def inner_nodes(paths: Paths) -> tuple[IntArray, IntArray]:
-    """Each path's nodes without its source and target: (offsets (M + 1,), nodes)."""
+    """Each path's nodes without its source and target: the FLSs a disjoint path avoids.
+
+    Parameters
+    ----------
+    paths : Paths
+        M paths as compressed rows of FLS indices.
+
+    Returns
+    -------
+    offsets : (M + 1,) array of int
+    nodes : array of int
+        Path m's inner FLSs are ``nodes[offsets[m]:offsets[m + 1]]``, in path
+        order; none for a path of one hop or none.
+    """
     counts = np.diff(paths.offsets)
     inner = np.maximum(counts - 2, 0)
     keep = np.ones(len(paths.nodes), dtype=bool)
@@ -58,9 +71,39 @@ def _joined(
 def combine(
     sensor: Sensor, vectors: FloatArray, summed: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
-    """Fuse K estimates of M pairs: vectors (K, M, 3) cm, summed hop errors (K, M), nan if none.
+    """Fuse K estimates of each of M pairs by inverse-variance weights.
 
-    Returns the fused estimates (M, 3) and their predicted errors (M,), cm.
+    Under a stochastic sensor each path's weight is 1 / V (V its summed hop
+    variances) and the fused error's deviation sqrt(1 / sum(1 / V)); under a
+    deterministic one 1 / B^2 (B its summed bound) and the fused bound
+    sum(B / B^2) / sum(1 / B^2). An exact path (V or B of 0) alone decides.
+
+    Parameters
+    ----------
+    sensor : Sensor
+        Says which of the two weightings.
+    vectors : (K, M, 3) array of float, cm
+        Each path's estimate of each pair.
+    summed : (K, M) array of float
+        Each path's summed :func:`~.sensor.hop_error` (cm^2 stochastic, cm
+        deterministic); NaN where the pair has no k-th path. Every pair has
+        at least one.
+
+    Returns
+    -------
+    fused : (M, 3) array of float, cm
+    predicted : (M,) array of float, cm
+        The fused estimates' predicted errors.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.fusion import combine
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> vectors = np.array([[[10.0, 0, 0]], [[12.0, 0, 0]]])  # two paths of one pair
+    >>> combine(published, vectors, np.array([[1.0], [2.0]]))  # bounds 1 and 2 cm
+    (array([[10.4,  0. ,  0. ]]), array([1.2]))
     """
     found = np.isfinite(summed)
     stochastic = sensor.noise is not None
@@ -82,9 +125,44 @@ def combine(
 def fuse(evaluation: Evaluation, count: int) -> Evaluation:
     """``evaluation`` with every sweet pair's estimate fused from up to ``count`` disjoint paths.
 
-    The reported path stays the policy's; ``fused_paths`` says how many were
-    combined. The summary gains ``fusion``: the pairs with two or more paths
-    and their distance errors before and after.
+    The paths are found greedily in ``S_vis``: the policy's path, then the
+    policy's path that avoids the inner FLSs of those before, and so on;
+    disjoint paths share no measurement, so their errors are independent
+    under a stochastic sensor (docs/core.md, "Predicted errors and
+    multi-path fusion"). The reported path stays the policy's;
+    ``fused_paths`` says how many were combined.
+
+    Parameters
+    ----------
+    evaluation : Evaluation
+        A plain evaluation (``evaluate.evaluate``).
+    count : int
+        Paths per pair, at most; >= 1 (1 leaves the estimates as they are).
+
+    Returns
+    -------
+    Evaluation
+        With the sweet pairs' estimates, predicted errors and ``fused_paths``
+        replaced, and a summary that gains ``fusion``: the pairs with two or
+        more paths and their distance errors before and after.
+
+    Raises
+    ------
+    ValueError
+        ``count`` is below 1.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.clouds import builtin_points
+    >>> from swazure_ros.core.evaluate import evaluate
+    >>> from swazure_ros.core.fusion import fuse
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(builtin_points("torus:120") * 5, beta=0.5)
+    >>> fused = fuse(evaluate(swarm, published, "shortest-length"), 3)
+    >>> fused.summary.fusion.paths_per_pair  # sweet pairs by paths fused: 0, 1, 2, 3
+    (0, 0, 0, 3378)
     """
     if count < 1:
         raise ValueError(f"fusion needs at least one path per pair, got {count}")
