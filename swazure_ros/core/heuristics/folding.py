@@ -24,7 +24,24 @@ from .source import move_source
 
 
 def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
-    """The plain evaluation with the heuristic's resolved pairs made SWEET; summary extended."""
+    """The plain evaluation with the heuristic's resolved pairs made SWEET; summary extended.
+
+    A resolved pair takes the heuristic's path, estimate and truth (Move
+    Source's truth is from the probe position); it was measured in a moved
+    swarm, so it has no predicted error (NaN) and no path length.
+
+    Parameters
+    ----------
+    evaluation : Evaluation
+        The plain run the heuristic was tried on.
+    heuristic : HeuristicResult
+        Its result over the same pairs.
+
+    Returns
+    -------
+    Evaluation
+        The pairs updated, the summary recomputed with :func:`heuristic_facts`.
+    """
     pairs = evaluation.pairs
     resolved = heuristic.resolved
     status = pairs.status.copy()
@@ -87,7 +104,52 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
 def run_technique(
     evaluation: Evaluation, technique: str, threshold: int = 10, compat: Compat = TEXT
 ) -> tuple[Evaluation, HeuristicResult | None]:
-    """Apply ``technique`` to a plain evaluation; plain returns it unchanged, with no result."""
+    """Apply ``technique`` to a plain evaluation; plain returns it unchanged, with no result.
+
+    Each heuristic is tried on every BLOCKED pair from the original shape
+    (moves are temporary), and the pairs it resolves become SWEET.
+
+    Parameters
+    ----------
+    evaluation : Evaluation
+        A plain run (``evaluate.evaluate``).
+    technique : {'plain', 'move-obstructing', 'move-source'}
+    threshold : int, default 10
+        Move Source's T: probe steps of 1 to T radii (the published settings
+        are 2 and 10); unused by the others.
+    compat : Compat, default TEXT
+        The text's behaviour or the published code's (:data:`~.compat.PUBLISHED`).
+
+    Returns
+    -------
+    evaluation : Evaluation
+        After the heuristic.
+    result : HeuristicResult or None
+        What it tried, resolved and moved; None for plain.
+
+    Raises
+    ------
+    ValueError
+        An unknown technique, or a threshold outside 1 to ``MAX_THRESHOLD``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.clouds import cube_lattice
+    >>> from swazure_ros.core.evaluate import evaluate
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> jitter = np.random.default_rng(0).normal(0.0, 0.1, (64, 3))
+    >>> swarm = make_swarm(cube_lattice(64) * 2.6 + jitter, radius=1.0)  # a 4x4x4 block, cm
+    >>> plain = evaluate(swarm, published, "shortest-length")
+    >>> from swazure_ros.core.heuristics.folding import run_technique
+    >>> plain.summary.pairs.blocked_pairs, plain.summary.pairs.no_path_pairs
+    (600, 600)
+    >>> after, result = run_technique(plain, "move-obstructing")
+    >>> int(result.tried.sum()), int(result.resolved.sum()), after.summary.pairs.no_path_pairs
+    (600, 500, 100)
+    """
     if check_technique(technique) == PLAIN:
         return evaluation, None
     if technique == MOVE_OBSTRUCTING:
@@ -98,7 +160,35 @@ def run_technique(
 
 
 def heuristic_facts(heuristic: HeuristicResult) -> HeuristicFacts:
-    """The summary's facts of a heuristic (section 6): tried, resolved and move distances."""
+    """The summary's facts of a heuristic (section 6): tried, resolved and move distances.
+
+    Parameters
+    ----------
+    heuristic : HeuristicResult
+
+    Returns
+    -------
+    HeuristicFacts
+        Distances in cm: each move of the resolved pairs, of the failed ones,
+        and each resolved pair's moves in all; Move Source's flown distance
+        and displacement too.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.clouds import cube_lattice
+    >>> from swazure_ros.core.evaluate import evaluate
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> jitter = np.random.default_rng(0).normal(0.0, 0.1, (64, 3))
+    >>> swarm = make_swarm(cube_lattice(64) * 2.6 + jitter, radius=1.0)  # a 4x4x4 block, cm
+    >>> plain = evaluate(swarm, published, "shortest-length")
+    >>> from swazure_ros.core.heuristics.folding import heuristic_facts, run_technique
+    >>> facts = heuristic_facts(run_technique(plain, "move-source", threshold=2)[1])
+    >>> facts.resolved_pairs, round(facts.moved_distance.max, 6)  # at most T r = 2 cm
+    (237, 2.0)
+    """
     moved = heuristic.move_distance
     pairs = len(heuristic.resolved)
     owner = csr.run_of(heuristic.move_offsets)  # pair of each move

@@ -171,7 +171,40 @@ def move_obstructing(evaluation: Evaluation, compat: Compat = TEXT) -> Heuristic
     """Move Obstructing (section 7) on every BLOCKED pair of a plain evaluation.
 
     As the text (:func:`obstructing_text`) unless ``compat`` moves obstructers
-    independently, as published (:func:`obstructing_published`).
+    independently, as published (:func:`obstructing_published`). For each
+    pair, the obstructers of its policy path in ``S_all`` step onto the
+    obstruction-free circle of their hop, at the free point nearest them;
+    the pair is resolved when every hop of that path is then in sight.
+
+    Parameters
+    ----------
+    evaluation : Evaluation
+        A plain run.
+    compat : Compat, default TEXT
+
+    Returns
+    -------
+    HeuristicResult
+        Per pair (M of ``evaluation.pairs``): tried, resolved, path, estimate
+        and truth; every move (FLS, from, to, cm), in order.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.clouds import cube_lattice
+    >>> from swazure_ros.core.evaluate import evaluate
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> jitter = np.random.default_rng(0).normal(0.0, 0.1, (64, 3))
+    >>> swarm = make_swarm(cube_lattice(64) * 2.6 + jitter, radius=1.0)  # a 4x4x4 block, cm
+    >>> plain = evaluate(swarm, published, "shortest-length")
+    >>> from swazure_ros.core.heuristics.obstructing import move_obstructing
+    >>> result = move_obstructing(plain)
+    >>> int(result.resolved.sum()), len(result.move_fls)  # pairs resolved; every move made
+    (500, 1882)
+    >>> bool(result.move_distance.max() <= swarm.radius * 1.2)  # a step aside of about r
+    True
     """
     if compat.independent_moves:
         return obstructing_published(evaluation, compat)
@@ -179,8 +212,22 @@ def move_obstructing(evaluation: Evaluation, compat: Compat = TEXT) -> Heuristic
 
 
 def obstructing_text(evaluation: Evaluation) -> HeuristicResult:
-    """Move Obstructing as the text has it: a pair's obstructers move in sequence, each
-    collision check seeing the earlier moves, and every hop is checked after them."""
+    """Move Obstructing as the text has it (spec, section 7).
+
+    A pair's obstructers move in sequence, each collision check seeing the
+    earlier moves, and every hop is checked after them. An FLS of the path
+    itself cannot step aside: the pair fails.
+
+    Parameters
+    ----------
+    evaluation : Evaluation
+        A plain run.
+
+    Returns
+    -------
+    HeuristicResult
+        With ``compat`` :data:`~.compat.TEXT`.
+    """
     points, radius = evaluation.hood.swarm.points, evaluation.hood.swarm.radius
     size = len(evaluation.pairs)
     blocked, sweet_paths, edge, edges, offsets, ids = _blocked_hops(evaluation)
@@ -277,8 +324,24 @@ def _aside(
 
 
 def obstructing_published(evaluation: Evaluation, compat: Compat) -> HeuristicResult:
-    """Move Obstructing as the reference code does it: each obstructer's destination found
-    in the original shape, under ``compat``'s published switches (``independent_moves``)."""
+    """Move Obstructing as the reference code does it, to reproduce the published tables.
+
+    Each obstructer's destination is found in the original shape, under
+    ``compat``'s published switches; no line of sight is checked after the
+    moves.
+
+    Parameters
+    ----------
+    evaluation : Evaluation
+        A plain run.
+    compat : Compat
+        With ``independent_moves`` on (:data:`~.compat.PUBLISHED`, or some of
+        its switches).
+
+    Returns
+    -------
+    HeuristicResult
+    """
     hood = evaluation.hood
     points, radius = hood.swarm.points, hood.swarm.radius
     size = len(evaluation.pairs)

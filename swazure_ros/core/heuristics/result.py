@@ -64,7 +64,30 @@ class HeuristicResult:
 
 
 def check_technique(technique: str) -> str:
-    """Return ``technique`` if valid, else raise ValueError listing the valid ones."""
+    """Return ``technique`` if valid, else raise ValueError listing the valid ones.
+
+    Parameters
+    ----------
+    technique : str
+
+    Returns
+    -------
+    str
+        ``technique``, one of :data:`TECHNIQUES`.
+
+    Raises
+    ------
+    ValueError
+        Any other name.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.heuristics.result import check_technique
+    >>> check_technique("move-sauce")
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown technique 'move-sauce'; expected one of plain, move-obstructing, ...
+    """
     if technique not in TECHNIQUES:
         raise ValueError(
             f"unknown technique {technique!r}; expected one of {', '.join(TECHNIQUES)}"
@@ -73,6 +96,33 @@ def check_technique(technique: str) -> str:
 
 
 def blocked_pairs(evaluation: Evaluation) -> IntArray:
+    """The pairs a heuristic tries: BLOCKED (``S_all`` joins them) and with no sweet path.
+
+    Parameters
+    ----------
+    evaluation : Evaluation
+        A plain run.
+
+    Returns
+    -------
+    (B,) array of int
+        Indices into ``evaluation.pairs``, increasing.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.clouds import cube_lattice
+    >>> from swazure_ros.core.evaluate import evaluate
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> jitter = np.random.default_rng(0).normal(0.0, 0.1, (64, 3))
+    >>> swarm = make_swarm(cube_lattice(64) * 2.6 + jitter, radius=1.0)  # a 4x4x4 block, cm
+    >>> plain = evaluate(swarm, published, "shortest-length")
+    >>> from swazure_ros.core.heuristics.result import blocked_pairs
+    >>> len(blocked_pairs(plain))
+    600
+    """
     pairs = evaluation.pairs
     return np.flatnonzero((pairs.reason == REASON_BLOCKED) & (pairs.status != SWEET_PATH))
 

@@ -50,7 +50,20 @@ class ProbeRules(NamedTuple):
 
 
 def probe_rules(compat: Compat, collision_reach: float) -> ProbeRules:
-    """The probe rules of ``compat``'s Move Source switches."""
+    """The probe rules of ``compat``'s Move Source switches.
+
+    Parameters
+    ----------
+    compat : Compat
+    collision_reach : float, cm
+        How far from the source's original position another FLS counts for a
+        probe's collision; inf for every FLS (the text).
+
+    Returns
+    -------
+    ProbeRules
+        One argument for the probe kernel.
+    """
     return ProbeRules(
         collision_reach,
         compat.occlusion_near_origin,
@@ -213,7 +226,48 @@ def _nearest_first(points: FloatArray, indptr: IntArray, indices: IntArray) -> I
 
 
 def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -> HeuristicResult:
-    """Move Source (section 8) with probe steps delta = 1..``threshold`` on every BLOCKED pair."""
+    """Move Source (section 8) with probe steps delta = 1..``threshold`` on every BLOCKED pair.
+
+    The source probes the 26 directions at ``delta * r`` for delta = 1 ..
+    T and stops at the first probe from which a visible sweet neighbour of
+    the target is a sweet neighbour in sight; a probe that collides drops
+    its direction. The path is (source at the probe, helper, target).
+
+    Parameters
+    ----------
+    evaluation : Evaluation
+        A plain run.
+    threshold : int
+        T, from 1 to ``MAX_THRESHOLD`` (the published settings are 2 and 10).
+    compat : Compat, default TEXT
+
+    Returns
+    -------
+    HeuristicResult
+        One move per resolved pair (the source to its probe, cm); ``flown``
+        the distance flown from probe to probe, cm; the truth ``p_j - q``.
+
+    Raises
+    ------
+    ValueError
+        ``threshold`` outside 1 to ``MAX_THRESHOLD``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.clouds import cube_lattice
+    >>> from swazure_ros.core.evaluate import evaluate
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> jitter = np.random.default_rng(0).normal(0.0, 0.1, (64, 3))
+    >>> swarm = make_swarm(cube_lattice(64) * 2.6 + jitter, radius=1.0)  # a 4x4x4 block, cm
+    >>> plain = evaluate(swarm, published, "shortest-length")
+    >>> from swazure_ros.core.heuristics.source import move_source
+    >>> result = move_source(plain, threshold=2)
+    >>> int(result.tried.sum()), int(result.resolved.sum())
+    (600, 237)
+    """
     if not 1 <= threshold <= MAX_THRESHOLD:
         raise ValueError(f"threshold must be 1 to {MAX_THRESHOLD} steps, got {threshold}")
     hood, pairs = evaluation.hood, evaluation.pairs
