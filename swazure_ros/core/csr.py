@@ -15,12 +15,45 @@ from .arrays import IntArray
 
 
 def offsets(counts: ArrayLike) -> IntArray:
-    """(N + 1,) where each of N runs of ``counts`` (N,) items starts, and where the last ends."""
+    """Where each of N runs of ``counts`` items starts, and where the last ends.
+
+    Parameters
+    ----------
+    counts : (N,) array_like of int
+        Items per run, >= 0.
+
+    Returns
+    -------
+    (N + 1,) array of int
+        0, then the running sums.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.csr import offsets
+    >>> offsets([2, 0, 3]).tolist()
+    [0, 2, 2, 5]
+    """
     return np.concatenate([[0], np.cumsum(np.asarray(counts, dtype=np.int64))]).astype(np.int64)
 
 
 def ragged_indices(starts: ArrayLike, counts: ArrayLike) -> IntArray:
-    """(sum(counts),) the indices starts[k] .. starts[k] + counts[k] - 1, run after run."""
+    """The indices starts[k] .. starts[k] + counts[k] - 1, run after run.
+
+    Parameters
+    ----------
+    starts, counts : (N,) array_like of int
+        Each run's first index and length (>= 0).
+
+    Returns
+    -------
+    (sum(counts),) array of int
+
+    Examples
+    --------
+    >>> from swazure_ros.core.csr import ragged_indices
+    >>> ragged_indices([10, 20], [2, 3]).tolist()
+    [10, 11, 20, 21, 22]
+    """
     starts = np.asarray(starts, dtype=np.int64)
     counts = np.asarray(counts, dtype=np.int64)
     before = np.cumsum(counts) - counts
@@ -30,7 +63,24 @@ def ragged_indices(starts: ArrayLike, counts: ArrayLike) -> IntArray:
 
 
 def run_of(offsets: ArrayLike) -> IntArray:
-    """(offsets[-1],) the run each item belongs to, for runs laid out by ``offsets`` (N + 1,)."""
+    """The run each item belongs to, for runs laid out by ``offsets``.
+
+    Parameters
+    ----------
+    offsets : (N + 1,) array_like of int
+        Non-decreasing, from 0 (:func:`offsets`).
+
+    Returns
+    -------
+    (offsets[-1],) array of int
+        Run numbers 0 .. N - 1; an empty run has no item.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.csr import run_of
+    >>> run_of([0, 2, 2, 5]).tolist()
+    [0, 0, 2, 2, 2]
+    """
     offsets = np.asarray(offsets, dtype=np.int64)
     return np.asarray(np.repeat(np.arange(len(offsets) - 1), np.diff(offsets)), dtype=np.int64)
 
@@ -38,8 +88,31 @@ def run_of(offsets: ArrayLike) -> IntArray:
 def take(
     bounds: ArrayLike, values: NDArray[Any], runs: ArrayLike
 ) -> tuple[IntArray, NDArray[Any]]:
-    """Runs ``runs`` (M,) of the table (``bounds`` (N + 1,), ``values``), in that order:
-    their (offsets (M + 1,), values)."""
+    """Some runs of a ragged table, in the order asked, as a ragged table of their own.
+
+    Parameters
+    ----------
+    bounds : (N + 1,) array_like of int
+        The table's offsets.
+    values : (bounds[-1], ...) array
+        The table's items.
+    runs : (M,) array_like of int
+        Runs to take, 0 .. N - 1, in any order, repeats allowed.
+
+    Returns
+    -------
+    offsets : (M + 1,) array of int
+    values : array
+        The runs' items, of ``values``' dtype.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.csr import take
+    >>> rows, items = take([0, 2, 2, 5], np.array([7, 8, 9, 10, 11]), [2, 0])
+    >>> rows.tolist(), items.tolist()
+    ([0, 3, 5], [9, 10, 11, 7, 8])
+    """
     bounds = np.asarray(bounds, dtype=np.int64)
     runs = np.asarray(runs, dtype=np.int64)
     starts, counts = bounds[runs], bounds[runs + 1] - bounds[runs]
@@ -49,7 +122,31 @@ def take(
 def join(
     tables: list[tuple[IntArray, NDArray[Any]]], empty: NDArray[Any]
 ) -> tuple[IntArray, NDArray[Any]]:
-    """Ragged tables (offsets, values), one after the other, as one; ``empty`` if none."""
+    """Ragged tables, one after the other, as one table.
+
+    Parameters
+    ----------
+    tables : list of (offsets, values)
+        Each table's (N_k + 1,) offsets and its items.
+    empty : array
+        The values of no table (its dtype and trailing shape), returned when
+        ``tables`` is empty.
+
+    Returns
+    -------
+    offsets : (sum(N_k) + 1,) array of int
+    values : array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.csr import join
+    >>> first = (np.array([0, 2]), np.array([1, 2]))  # one run of two items
+    >>> second = (np.array([0, 1]), np.array([3]))  # one run of one
+    >>> rows, items = join([first, second], np.zeros(0, dtype=np.int64))
+    >>> rows.tolist(), items.tolist()
+    ([0, 2, 3], [1, 2, 3])
+    """
     if not tables:
         return np.zeros(1, dtype=np.int64), empty
     counts = np.concatenate([np.diff(bounds) for bounds, _ in tables])

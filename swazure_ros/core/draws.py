@@ -29,8 +29,34 @@ _MULTIPLIERS = (
 def uniforms(seed: int, keys: Sequence[ArrayLike], count: int) -> FloatArray:
     """Uniform numbers in (0, 1), shape (M, count), fixed by ``seed`` and each row's keys.
 
-    ``keys`` are up to six integer arrays of M values (broadcast), e.g. the
-    measuring and the measured FLS.
+    The same seed and keys give the same numbers, whichever process draws
+    them and in whatever order (splitmix64 of the keys, not a stream).
+
+    Parameters
+    ----------
+    seed : int
+    keys : sequence of array_like of int
+        1 to 6 integer arrays of M values (broadcast), e.g. the measuring and
+        the measured FLS. Their order matters.
+    count : int
+        Numbers per row.
+
+    Returns
+    -------
+    (M, count) array of float
+        In the open interval (0, 1), 53 bits each.
+
+    Raises
+    ------
+    ValueError
+        No key, or more than six.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.draws import uniforms
+    >>> both = uniforms(7, [[0, 1], [1, 0]], 2)  # rows: the pairs (0, 1) and (1, 0)
+    >>> bool((both[1] == uniforms(7, [[1], [0]], 2)[0]).all())  # a row alone, the same
+    True
     """
     if not 1 <= len(keys) < len(_MULTIPLIERS):
         raise ValueError(f"uniforms takes 1 to {len(_MULTIPLIERS) - 1} keys, got {len(keys)}")
@@ -50,7 +76,25 @@ def uniforms(seed: int, keys: Sequence[ArrayLike], count: int) -> FloatArray:
 
 
 def standard_normals(seed: int, keys: Sequence[ArrayLike], count: int) -> FloatArray:
-    """Standard normal numbers (M, count) fixed by ``seed`` and each row's keys (Box-Muller)."""
+    """Standard normal numbers fixed by ``seed`` and each row's keys (Box-Muller).
+
+    Parameters
+    ----------
+    seed : int
+    keys : sequence of array_like of int
+        As :func:`uniforms`.
+    count : int
+        Numbers per row.
+
+    Returns
+    -------
+    (M, count) array of float
+
+    Raises
+    ------
+    ValueError
+        As :func:`uniforms`.
+    """
     pairs = (count + 1) // 2
     uniform = uniforms(seed, keys, 2 * pairs)
     radius = np.sqrt(-2.0 * np.log(uniform[:, 0::2]))

@@ -26,12 +26,38 @@ Value = TypeVar("Value", float, NDArray[np.float64])
 
 
 def to_metres(centimetres: Value) -> Value:
-    """Centimetres (a float or an array) in metres."""
+    """Centimetres in metres: divided by 100, correctly rounded.
+
+    Parameters
+    ----------
+    centimetres : float or array of float, cm
+
+    Returns
+    -------
+    float or array of float, m
+        Of the argument's kind.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.frames import to_metres
+    >>> to_metres(250.0)
+    2.5
+    """
     return centimetres / CM_PER_METRE
 
 
 def to_centimetres(metres: Value) -> Value:
-    """Metres (a float or an array) in centimetres."""
+    """Metres in centimetres.
+
+    Parameters
+    ----------
+    metres : float or array of float, m
+
+    Returns
+    -------
+    float or array of float, cm
+        Of the argument's kind.
+    """
     return metres * CM_PER_METRE
 
 
@@ -41,6 +67,20 @@ def through_metres(centimetres: Value) -> Value:
     Not always the value sent: x / 100 * 100 may differ from x in its last
     bit. What an FLS computes from its neighbours' messages, the engine
     computes from these.
+
+    Parameters
+    ----------
+    centimetres : float or array of float, cm
+
+    Returns
+    -------
+    float or array of float, cm
+
+    Examples
+    --------
+    >>> from swazure_ros.core.frames import through_metres
+    >>> through_metres(1.85)
+    1.8500000000000003
     """
     return to_centimetres(to_metres(centimetres))
 
@@ -50,10 +90,30 @@ SWARM_FRAME = "swarm"
 
 
 def fls_frame(fls_id: int) -> str:
-    """FLS ``fls_id``'s frame: origin at its centre, axes parallel to the swarm frame's."""
+    """FLS ``fls_id``'s frame: origin at its centre, axes parallel to the swarm frame's.
+
+    Parameters
+    ----------
+    fls_id : int
+
+    Returns
+    -------
+    str
+        ``fls_<id>``.
+    """
     return f"fls_{fls_id}"
 
 
 def camera_optical_frame(fls_id: int) -> str:
-    """The optical frame of FLS ``fls_id``'s camera: z along the view, x right, y down."""
+    """The optical frame of FLS ``fls_id``'s camera: z along the view, x right, y down.
+
+    Parameters
+    ----------
+    fls_id : int
+
+    Returns
+    -------
+    str
+        ``fls_<id>_camera_optical``.
+    """
     return f"fls_{fls_id}_camera_optical"

@@ -13,8 +13,32 @@ def kd_split(points: FloatArray, parts: int) -> list[IntArray]:
     Each split cuts the widest axis of a region's bounding box at the point
     that gives its two halves sizes in the ratio of the parts they hold
     (``parts // 2`` and the rest). Ties on the axis keep the rows' order
-    (a stable sort), so the split is the same on every machine. Each region's
-    rows come sorted; the regions in k-d order.
+    (a stable sort), so the split is the same on every machine.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+    parts : int
+        Regions, from 1 to N.
+
+    Returns
+    -------
+    list of (K,) array of int
+        ``parts`` arrays of rows of ``points``, each sorted, sizes apart by one
+        at most; the regions in k-d order.
+
+    Raises
+    ------
+    ValueError
+        ``parts`` below 1, or above N.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.partition import kd_split
+    >>> line = np.array([[0.0, 0, 0], [10, 0, 0], [1, 0, 0], [11, 0, 0], [5, 0, 0]])
+    >>> [part.tolist() for part in kd_split(line, 2)]
+    [[0, 2, 4], [1, 3]]
     """
     if parts < 1:
         raise ValueError(f"parts must be at least 1, got {parts}")
