@@ -42,7 +42,28 @@ class Measurements:
 
 
 def parts_of(size: int, measured: Measurements) -> IntArray:
-    """Connected part of each FLS in the measurement graph (N,); -1: an FLS in no measurement."""
+    """Connected part of each FLS in the measurement graph.
+
+    Parameters
+    ----------
+    size : int
+        FLSs, N.
+    measured : Measurements
+
+    Returns
+    -------
+    (N,) array of int
+        Parts numbered from 0; -1 for an FLS in no measurement.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.measurement_graph import Measurements, parts_of
+    >>> eye = np.broadcast_to(np.eye(3), (2, 3, 3))
+    >>> measured = Measurements(np.array([0, 2]), np.array([1, 3]), np.ones((2, 3)), eye, eye)
+    >>> parts_of(5, measured).tolist()
+    [0, 0, 1, 1, -1]
+    """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
 
@@ -62,6 +83,33 @@ def robust_weights(measured: Measurements, positions: FloatArray, rejecting: boo
 
     Huber's loss on the Mahalanobis residual (``HUBER_THRESHOLD``); once
     ``rejecting``, one or ``REJECTED_WEIGHT`` beyond ``OUTLIER_THRESHOLD``.
+
+    Parameters
+    ----------
+    measured : Measurements
+        M rows.
+    positions : (N, 3) array of float, cm
+        The fit's current positions.
+    rejecting : bool
+        Reject (the redescending step) instead of Huber's weights.
+
+    Returns
+    -------
+    (M,) array of float
+        In (0, 1].
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.measurement_graph import Measurements, robust_weights
+    >>> eye = np.broadcast_to(np.eye(3), (2, 3, 3))  # 1 cm^2 each way
+    >>> measured = Measurements(np.array([0, 0]), np.array([1, 2]),
+    ...                         np.array([[7.0, 0, 0], [0, 7, 0]]), eye, eye)
+    >>> positions = np.array([[0.0, 0, 0], [7, 0, 0], [0, 7, 5]])  # FLS 2 is 5 cm off
+    >>> robust_weights(measured, positions, rejecting=False).round(4)
+    array([1.    , 0.6736])
+    >>> robust_weights(measured, positions, rejecting=True)
+    array([1.e+00, 1.e-06])
     """
     residual = positions[measured.second] - positions[measured.first] - measured.vectors
     distance = np.sqrt(np.einsum("ma,mab,mb->m", residual, measured.information, residual))
@@ -84,8 +132,23 @@ def measured_rows(
 
     The known bias comes off each vector and each gets its covariance and
     information at the pair's tracking distance ``tracking`` (M,), cm, along
-    its measured direction (docs/core.md, "The least-squares fit"). FLSs of
-    ``radius`` cm.
+    its measured direction (docs/core.md, "The least-squares fit").
+
+    Parameters
+    ----------
+    sensor : Sensor
+    radius : float, cm
+        The FLS radius r.
+    first, second : (M,) array of int
+        The measuring and the measured FLS.
+    raw : (M, 3) array of float, cm
+        The readings, first -> second.
+    tracking : (M,) array of float, cm
+        The pairs' tracking distances.
+
+    Returns
+    -------
+    Measurements
     """
     directions = raw / np.linalg.norm(raw, axis=1, keepdims=True)
     return Measurements(

@@ -77,7 +77,41 @@ class Edges:
 
 
 def edges_of(size: int, measured: Measurements) -> Edges:
-    """The directed edges of ``measured``'s pairs over ``size`` FLSs; each pair measured twice."""
+    """The directed edges of ``measured``'s pairs over ``size`` FLSs; each pair measured twice.
+
+    Each measured pair gives two edges, one into each of its FLSs, carrying
+    both of its measurements at unit robust weight (:func:`weighted`).
+
+    Parameters
+    ----------
+    size : int
+        FLSs, N; more than every index of ``measured``.
+    measured : Measurements
+        M rows; every pair measured exactly twice, once from each end.
+
+    Returns
+    -------
+    Edges
+        2E = M edges, sorted by (receiver, sender).
+
+    Raises
+    ------
+    ValueError
+        A pair measured from one end only, or more than once from an end.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.measurement_graph import Measurements
+    >>> points = np.array([[0.0, 0, 0], [7, 0, 0], [0, 7, 0]])  # cm
+    >>> first, second = np.array([0, 1, 2, 1, 0, 2]), np.array([1, 2, 0, 0, 2, 1])
+    >>> eye = np.broadcast_to(np.eye(3), (6, 3, 3))  # each measurement's variance: 1 cm^2
+    >>> measured = Measurements(first, second, points[second] - points[first], eye, eye)
+    >>> from swazure_ros.core.swarm_fit import edges_of
+    >>> edges = edges_of(3, measured)
+    >>> edges.receiver.tolist(), edges.sender.tolist()
+    ([0, 0, 1, 1, 2, 2], [1, 2, 0, 2, 0, 1])
+    """
     low = np.minimum(measured.first, measured.second)
     high = np.maximum(measured.first, measured.second)
     order = np.lexsort((measured.second, measured.first, high, low))
@@ -98,7 +132,23 @@ def edges_of(size: int, measured: Measurements) -> Edges:
 
 
 def weighted(edges: Edges, measured: Measurements, weights: FloatArray) -> Edges:
-    """``edges`` with factors from ``measured`` (M rows) scaled by robust ``weights`` (M,)."""
+    """``edges`` with their factors from ``measured``, each row scaled by its robust weight.
+
+    Parameters
+    ----------
+    edges : Edges
+        :func:`edges_of` ``measured``.
+    measured : Measurements
+        M rows.
+    weights : (M,) array of float
+        Each row's robust weight, in (0, 1].
+
+    Returns
+    -------
+    Edges
+        The same edges; ``information`` (2E, 3, 3), cm^-2, the sum of the
+        pair's two weighted rows, and ``flow`` (2E, 3), cm^-1.
+    """
     information = measured.information[edges.rows] * weights[edges.rows][:, :, None, None]
     flow = flows(edges, measured, information, measured.vectors[:, :, None])[:, :, 0]
     return replace(edges, information=information[:, 0] + information[:, 1], flow=flow)
@@ -107,9 +157,24 @@ def weighted(edges: Edges, measured: Measurements, weights: FloatArray) -> Edges
 def flows(
     edges: Edges, measured: Measurements, information: FloatArray, vectors: FloatArray
 ) -> FloatArray:
-    """Each edge's flow (2E, 3, K), cm^-1, for K columns of measured ``vectors`` (M, 3, K).
+    """Each edge's flow, cm^-1: its two rows' information times their vectors, summed.
 
-    ``information`` (2E, 2, 3, 3) holds each edge's two rows' weights.
+    A row measures first -> second; an edge's flow runs sender -> receiver,
+    so a row measured the other way counts negatively.
+
+    Parameters
+    ----------
+    edges : Edges
+    measured : Measurements
+        M rows.
+    information : (2E, 2, 3, 3) array of float, cm^-2
+        Each edge's two rows' information, as weighted.
+    vectors : (M, 3, K) array of float, cm
+        K columns of measured vectors (or of noise draws).
+
+    Returns
+    -------
+    (2E, 3, K) array of float, cm^-1
     """
     pulled = blocks_times(information, vectors[edges.rows])
     # A row measures first -> second; an edge's flow runs sender -> receiver.
@@ -121,7 +186,20 @@ def flows(
 
 
 def sums_into(values: FloatArray, starts: IntArray) -> FloatArray:
-    """Per FLS, the sum of ``values`` (2E, ...) over the edges into it, in edge order."""
+    """Per FLS, the sum of ``values`` over the edges into it, in edge order.
+
+    Parameters
+    ----------
+    values : (2E, ...) array of float
+        One value per edge, edges sorted by receiver.
+    starts : (N + 1,) array of int
+        ``Edges.starts``: FLS i's edges at ``starts[i]:starts[i + 1]``.
+
+    Returns
+    -------
+    (N, ...) array of float
+        Zero for an FLS with no edge.
+    """
     total = np.zeros((len(starts) - 1, *values.shape[1:]))
     into = np.diff(starts) > 0
     if into.any():
@@ -140,9 +218,24 @@ class System:
 
 
 def system_of(edges: Edges, edge_flows: FloatArray | None = None) -> System:
-    """The normal equations' rows held by each FLS of ``edges``; right sides from
-    ``edge_flows`` (2E, 3, K), by default the measurements' own (K = 1). An FLS
-    in no pair keeps the identity for its block, so that its unknowns stay put."""
+    """The normal equations' rows held by each FLS of ``edges``.
+
+    An FLS in no pair keeps the identity for its block, so that its unknowns
+    stay put.
+
+    Parameters
+    ----------
+    edges : Edges
+        Weighted edges of N FLSs.
+    edge_flows : (2E, 3, K) array of float, optional, cm^-1
+        The right sides' flows; by default the measurements' own (K = 1).
+
+    Returns
+    -------
+    System
+        ``H`` (3N, 3N) sparse, cm^-2; each diagonal block's inverse, cm^2;
+        the right sides ``B`` (N, 3, K), cm^-1.
+    """
     from scipy.sparse import coo_matrix
 
     diagonal = sums_into(edges.information, edges.starts)
@@ -167,24 +260,60 @@ def system_of(edges: Edges, edge_flows: FloatArray | None = None) -> System:
 
 
 def product(system: System, vector: FloatArray) -> FloatArray:
-    """``H`` times ``vector`` (N, 3, K): each FLS's rows, from its and its neighbours' values."""
+    """``H`` times ``vector``: each FLS's rows, from its and its neighbours' values.
+
+    Parameters
+    ----------
+    system : System
+    vector : (N, 3, K) array of float, cm
+
+    Returns
+    -------
+    (N, 3, K) array of float, cm^-1
+    """
     size, _, count = vector.shape
     flat = system.matrix @ vector.reshape(3 * size, count)
     return np.asarray(flat, dtype=np.float64).reshape(size, 3, count)
 
 
 def preconditioned(system: System, residual: FloatArray) -> FloatArray:
-    """Each FLS's residual (N, 3, K), cm^-1, through its own block's inverse: cm."""
+    """Each FLS's residual through its own block's inverse (block Jacobi).
+
+    Parameters
+    ----------
+    system : System
+    residual : (N, 3, K) array of float, cm^-1
+
+    Returns
+    -------
+    (N, 3, K) array of float, cm
+    """
     return blocks_times(system.preconditioner, residual)
 
 
 def blocks_times(blocks: FloatArray, vectors: FloatArray) -> FloatArray:
-    """Each 3 x 3 block (..., 3, 3) times its vectors (..., 3, K).
+    """Each 3 x 3 block times its vectors, the same bits for one block as for a stack.
 
     Written out term by term: numpy's matmul and einsum pick their loops by
     the size of the stack, so an FLS multiplying its one block and the
     engine multiplying every FLS's would differ in the last bit, and an
     ill-conditioned solve would take a different number of iterations.
+
+    Parameters
+    ----------
+    blocks : (..., 3, 3) array of float
+    vectors : (..., 3, K) array of float
+
+    Returns
+    -------
+    (..., 3, K) array of float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.swarm_fit import blocks_times
+    >>> blocks_times(2.0 * np.eye(3)[None], np.ones((1, 3, 1)))[..., 0]
+    array([[2., 2., 2.]])
     """
     return np.asarray(
         blocks[..., :, 0, None] * vectors[..., 0, None, :]
@@ -195,12 +324,41 @@ def blocks_times(blocks: FloatArray, vectors: FloatArray) -> FloatArray:
 
 
 def partial_dot(one: FloatArray, other: FloatArray) -> FloatArray:
-    """Each FLS's share (N, K) of the K dot products of two (N, 3, K) vectors."""
+    """Each FLS's share of the K dot products of two vectors of the swarm.
+
+    Parameters
+    ----------
+    one, other : (N, 3, K) array of float
+
+    Returns
+    -------
+    (N, K) array of float
+        :func:`swarm_sum` adds them up.
+    """
     return np.asarray((one * other).sum(axis=1), dtype=np.float64)
 
 
 def swarm_sum(partials: FloatArray) -> FloatArray:
-    """The sums (K,) over the swarm of every FLS's shares (N, K): exact, so in any order."""
+    """The sums over the swarm of every FLS's shares: exact, so in any order.
+
+    ``math.fsum``, correctly rounded: a process's exact sum, rounded once,
+    is what the engine gets over every FLS at once.
+
+    Parameters
+    ----------
+    partials : (N, K) array of float
+
+    Returns
+    -------
+    (K,) array of float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.swarm_fit import swarm_sum
+    >>> swarm_sum(np.array([[1e16, 1.0], [1.0, 2.0], [-1e16, 3.0]]))  # no 1.0 lost
+    array([1., 6.])
+    """
     return np.array([math.fsum(column) for column in partials.T.tolist()], dtype=np.float64)
 
 
@@ -217,7 +375,26 @@ class Iterate:
 
 
 def shares(system: System, residual: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """U = M R, and W = H U (an exchange of U); every FLS's shares (N, 2, K) of (R, U), (W, U)."""
+    """U = M R and W = H U (an exchange of U), and every FLS's shares of (R, U) and (W, U).
+
+    The one exchange and the two sums of an iteration in Chronopoulos and
+    Gear's form.
+
+    Parameters
+    ----------
+    system : System
+    residual : (N, 3, K) array of float, cm^-1
+        R.
+
+    Returns
+    -------
+    scaled : (N, 3, K) array of float, cm
+        U.
+    image : (N, 3, K) array of float, cm^-1
+        W.
+    partial : (N, 2, K) array of float
+        Each FLS's shares of (R, U) and (W, U).
+    """
     scaled = preconditioned(system, residual)
     image = product(system, scaled)
     partial = np.stack([partial_dot(residual, scaled), partial_dot(image, scaled)], axis=1)
@@ -227,8 +404,21 @@ def shares(system: System, residual: FloatArray) -> tuple[FloatArray, FloatArray
 def scalars(
     iterate: Iterate, gamma: FloatArray, delta: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
-    """The steps alpha (K,) and conjugations beta (K,) from the swarm's sums (Chronopoulos and
-    Gear's conjugate gradients); a column already exact (gamma zero) stays where it is."""
+    """The steps alpha and conjugations beta from the swarm's sums (Chronopoulos and Gear).
+
+    A column already exact (gamma zero) stays where it is.
+
+    Parameters
+    ----------
+    iterate : Iterate
+        The last iteration's gamma and alpha.
+    gamma, delta : (K,) array of float
+        This iteration's sums (R, U) and (W, U).
+
+    Returns
+    -------
+    alpha, beta : (K,) array of float
+    """
     first = iterate.gamma == 0.0
     safe_gamma = np.where(first, 1.0, iterate.gamma)
     safe_alpha = np.where(iterate.alpha == 0.0, 1.0, iterate.alpha)
@@ -246,7 +436,22 @@ def advance(
     alpha: FloatArray,
     beta: FloatArray,
 ) -> Iterate:
-    """One iteration at every FLS from its U, W and the swarm's scalars."""
+    """One iteration at every FLS from its U, W and the swarm's scalars.
+
+    Parameters
+    ----------
+    iterate : Iterate
+    scaled : (N, 3, K) array of float, cm
+        U (:func:`shares`).
+    image : (N, 3, K) array of float, cm^-1
+        W.
+    gamma, alpha, beta : (K,) array of float
+        The swarm's sum (R, U) and :func:`scalars`.
+
+    Returns
+    -------
+    Iterate
+    """
     search = scaled + beta * iterate.search
     product_image = image + beta * iterate.image
     return Iterate(
@@ -260,7 +465,18 @@ def advance(
 
 
 def start_iterate(system: System, position: FloatArray) -> Iterate:
-    """The iterate at ``position`` (N, 3, K), after an exchange of positions."""
+    """The iterate at ``position``, after an exchange of positions.
+
+    Parameters
+    ----------
+    system : System
+    position : (N, 3, K) array of float, cm
+
+    Returns
+    -------
+    Iterate
+        Residual ``B - H X``; no search direction yet.
+    """
     zeros = np.zeros_like(position)
     columns = np.zeros(position.shape[2])
     return Iterate(position, system.right - product(system, position), zeros, zeros, columns,
@@ -274,6 +490,21 @@ def solved(
 
     The first exchange also sums (B, M B), the scale the residuals settle
     against. A solve that stalls (:class:`Floor`) ends at its best iterate.
+
+    Parameters
+    ----------
+    system : System
+    position : (N, 3, K) array of float, cm
+        Where the solve starts.
+    limit : int, default MAX_ITERATIONS
+        Iterations, at most.
+
+    Returns
+    -------
+    position : (N, 3, K) array of float, cm
+        X; not yet gauged (:func:`gauged`).
+    iterations : int
+        Each one exchange and one sum over the swarm.
     """
     iterate = start_iterate(system, position)
     scale = swarm_sum(partial_dot(system.right, preconditioned(system, system.right)))
@@ -321,7 +552,20 @@ class Floor:
 
 
 def settled(gamma: FloatArray, scale: FloatArray) -> bool:
-    """Whether every column's residual (gamma, K) is small against its right side's (scale)."""
+    """Whether every column's residual is small against its right side's.
+
+    Parameters
+    ----------
+    gamma : (K,) array of float
+        Each column's (r, M r).
+    scale : (K,) array of float
+        Each column's (b, M b).
+
+    Returns
+    -------
+    bool
+        ``gamma <= SETTLED**2 * scale`` for every column.
+    """
     return bool((gamma <= SETTLED**2 * scale).all())
 
 
@@ -358,7 +602,20 @@ UNIT, HUBER, REJECTING = 0, 1, 2
 
 
 def weights_for(measured: Measurements, positions: FloatArray, mode: int) -> FloatArray:
-    """The weight (M,) of each measurement under ``mode`` at ``positions`` (N, 3), cm."""
+    """The weight of each measurement under ``mode`` at ``positions``.
+
+    Parameters
+    ----------
+    measured : Measurements
+        M rows.
+    positions : (N, 3) array of float, cm
+    mode : {UNIT, HUBER, REJECTING}
+
+    Returns
+    -------
+    (M,) array of float
+        Ones for UNIT; :func:`~.measurement_graph.robust_weights` otherwise.
+    """
     if mode == UNIT:
         return np.ones(len(measured))
     return robust_weights(measured, positions, rejecting=mode == REJECTING)
@@ -374,6 +631,30 @@ def robust_decision(
     reweightings. ``*_same``: whether each mode's weights at the last
     solution equal the weights it was solved with (over the swarm, every FLS's
     say). The engine and the coordinator both decide here.
+
+    Parameters
+    ----------
+    rejecting : bool
+        Whether the last solve rejected (past Huber's loss).
+    huber_same, rejecting_same : bool
+        Whether each mode's weights repeat.
+    solves : int
+        Solves so far.
+
+    Returns
+    -------
+    int or None
+        HUBER or REJECTING, or None.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.swarm_fit import HUBER, REJECTING, robust_decision
+    >>> robust_decision(False, False, False, 1) == HUBER  # Huber's weights changed
+    True
+    >>> robust_decision(False, True, False, 2) == REJECTING  # they repeat: now reject
+    True
+    >>> robust_decision(True, True, True, 3) is None  # the rejected set repeats: done
+    True
     """
     if solves > ROBUST_ROUNDS:
         return None
@@ -399,8 +680,51 @@ def swarm_solve(
     swarm that moved starts from its last fit, a warm start); zero by
     default. Then one more solve with ``samples`` right sides, each a draw of
     every measurement's noise at its final weight, whose solutions' spread is
-    the fit's covariance (:func:`noise_flows`; ``ids`` (N,), the FLS ids its
-    draws are keyed by, the indices by default).
+    the fit's covariance (:func:`noise_flows`).
+
+    Parameters
+    ----------
+    size : int
+        FLSs, N.
+    measured : Measurements
+        M rows, each pair measured from both ends.
+    robust : bool, default True
+        Reweight by the robust loss; False: one solve at unit weights.
+    start : (N, 3) array of float, optional, cm
+        Where the first solve starts (NaN rows: 0).
+    samples : int, default COVARIANCE_SAMPLES (64)
+        Right sides of the covariance's solve; 0 for none.
+    ids : (N,) array of int, optional
+        The FLS ids the draws are keyed by; the indices by default.
+
+    Returns
+    -------
+    SwarmFit
+        Positions (N, 3), cm, each part's FLS of the smallest index at the
+        origin; the iterations of every solve; the samples.
+
+    Raises
+    ------
+    ValueError
+        A pair measured from one end only (:func:`edges_of`).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.measurement_graph import Measurements
+    >>> points = np.array([[0.0, 0, 0], [7, 0, 0], [0, 7, 0]])  # cm
+    >>> first, second = np.array([0, 1, 2, 1, 0, 2]), np.array([1, 2, 0, 0, 2, 1])
+    >>> eye = np.broadcast_to(np.eye(3), (6, 3, 3))  # each measurement's variance: 1 cm^2
+    >>> measured = Measurements(first, second, points[second] - points[first], eye, eye)
+    >>> from swazure_ros.core.swarm_fit import swarm_solve
+    >>> fit = swarm_solve(3, measured, samples=0)
+    >>> fit.positions.round(9)
+    array([[0., 0., 0.],
+           [7., 0., 0.],
+           [0., 7., 0.]])
+    >>> estimate, _ = fit.relative(np.array([1]), np.array([2]))
+    >>> estimate.round(9)
+    array([[-7.,  7.,  0.]])
     """
     ids = np.arange(size, dtype=np.int64) if ids is None else ids
     edges = edges_of(size, measured)
@@ -449,8 +773,23 @@ def noise_flows(
     The fit's solution is linear in the measurements, so the solutions of
     these right sides spread as the fit's errors do: their sample covariance
     estimates H^-1 without forming it. Each measurement's draws are fixed by
-    ``SAMPLE_SEED`` and its two FLS ids (``ids`` (N,) of the indices), so an
-    FLS draws its neighbour's too.
+    ``SAMPLE_SEED`` and its two FLS ids, so an FLS draws its neighbour's too.
+
+    Parameters
+    ----------
+    edges : Edges
+    measured : Measurements
+        M rows.
+    weights : (M,) array of float
+        The final robust weights.
+    samples : int
+        Draws, K.
+    ids : (N,) array of int
+        The FLS id of each index.
+
+    Returns
+    -------
+    (2E, 3, K) array of float, cm^-1
     """
     values, axes = np.linalg.eigh(measured.covariance)
     root = blocks_times(
@@ -464,7 +803,21 @@ def noise_flows(
 
 
 def gauged(position: FloatArray, part: IntArray) -> FloatArray:
-    """``position`` (N, 3) with each part's FLS of the smallest index at the origin; nan alone."""
+    """``position`` with each part's FLS of the smallest index at the origin.
+
+    Relative measurements fix positions only up to a translation per part.
+
+    Parameters
+    ----------
+    position : (N, 3) array of float, cm
+    part : (N,) array of int
+        Each FLS's connected part; -1 for an FLS in no measurement.
+
+    Returns
+    -------
+    (N, 3) array of float, cm
+        NaN for an FLS in no part.
+    """
     out = np.full_like(position, np.nan)
     for one in np.unique(part[part >= 0]):
         members = np.flatnonzero(part == one)
