@@ -192,7 +192,32 @@ class Motion:
 
 
 def comma_numbers(text: str, what: str, counts: tuple[int, ...]) -> list[float]:
-    """The ``counts`` finite numbers of comma-separated ``text``; errors say ``what``."""
+    """The ``counts`` finite numbers of comma-separated ``text``; errors say ``what``.
+
+    Parameters
+    ----------
+    text : str
+        E.g. ``"1,2.5,3"``.
+    what : str
+        What the numbers are, to start the error's message with.
+    counts : tuple of int
+        How many numbers may be given.
+
+    Returns
+    -------
+    list of float
+
+    Raises
+    ------
+    TrajectoryError
+        A part that is no number, a count not in ``counts``, NaN or inf.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.motion import comma_numbers
+    >>> comma_numbers("1,2.5,3", "velocity", (3,))
+    [1.0, 2.5, 3.0]
+    """
     try:
         numbers = [float(part) for part in text.split(",")] if text else []
     except ValueError:
@@ -215,7 +240,35 @@ TRAJECTORY_KINDS = ("linear", "circle")
 
 
 def trajectory_from_spec(text: str) -> Trajectory:
-    """A trajectory from ``linear:VX,VY,VZ`` or ``circle:RADIUS,PERIOD[,AX,AY,AZ]``."""
+    """A trajectory from ``linear:VX,VY,VZ`` or ``circle:RADIUS,PERIOD[,AX,AY,AZ]``.
+
+    Parameters
+    ----------
+    text : str
+        ``linear:VX,VY,VZ``, a velocity in cm/s; or ``circle:RADIUS,PERIOD``
+        in cm and s, about the z axis or the axis AX,AY,AZ (any length),
+        counterclockwise, starting at home.
+
+    Returns
+    -------
+    Trajectory
+        :class:`ConstantVelocity` or :class:`Circle`.
+
+    Raises
+    ------
+    TrajectoryError
+        An unknown kind, numbers that are not numbers or not as many as the
+        kind takes, a radius or period not above 0, or a zero axis.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.motion import trajectory_from_spec
+    >>> trajectory_from_spec("linear:1,0,0").displacement([2.0])  # cm after 2 s
+    array([[2., 0., 0.]])
+    >>> trajectory_from_spec("circle:2,4").displacement([1.0, 2.0]).round(9)  # a quarter, a half
+    array([[-2.,  2.,  0.],
+           [-4.,  0.,  0.]])
+    """
     kind, _, arguments = text.partition(":")
     if kind == "linear":
         return ConstantVelocity(np.array(comma_numbers(arguments, "linear", (3,))))

@@ -75,7 +75,34 @@ def choose_relay(
 
     Both hops need line of sight. Preferred: a target in the relay's sweet
     range over its decaying range, then the shortest two-hop tracking length
-    (to 1e-7 cm), then the lowest index.
+    (to 1e-7 cm, so that symmetric swarms tie whatever the rounding), then
+    the lowest index.
+
+    Parameters
+    ----------
+    sensor : Sensor
+    points : (N, 3) array of float, cm
+        Where every FLS is now.
+    radius : float, cm
+        The FLS radius r.
+    source, target : int
+        Indices into ``points``.
+
+    Returns
+    -------
+    int or None
+        The relay's index; None when no sweet neighbour of the source sees
+        the target.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> points = np.array([[0.0, 0, 0], [3, 0, 0], [0, 8, 0], [3, 8.2, 0]])  # cm, r = 0.5
+    >>> from swazure_ros.core.tracking import choose_relay
+    >>> choose_relay(published, points, 0.5, 0, 1)  # FLS 2: 7 cm from 0, 7.54 cm from 1
+    2
     """
     everyone = np.arange(len(points))
     tracking = tracking_distance(points, radius, np.full(len(points), source), everyone)
@@ -106,7 +133,24 @@ def choose_relay(
 def next_relay(
     sensor: Sensor, points: FloatArray, radius: float, source: int, target: int, relay: int
 ) -> int | None:
-    """Index of the relay to hand a stream over to when ``relay`` lost it, or None."""
+    """Index of the relay to hand a stream over to when ``relay`` lost it, or None.
+
+    Parameters
+    ----------
+    sensor : Sensor
+    points : (N, 3) array of float, cm
+        Where every FLS is now.
+    radius : float, cm
+        The FLS radius r.
+    source, target, relay : int
+        Indices into ``points``.
+
+    Returns
+    -------
+    int or None
+        :func:`choose_relay`'s choice, or None when it is ``relay`` again or
+        there is none.
+    """
     successor = choose_relay(sensor, points, radius, source, target)
     return None if successor is None or successor == relay else successor
 
@@ -114,10 +158,40 @@ def next_relay(
 def relay_sample(
     sensor: Sensor, points: FloatArray, radius: float, source: int, relay: int, target: int
 ) -> tuple[int, FloatArray]:
-    """(status, (3,) cm) of one relayed sample: the hop source -> relay plus relay -> target.
+    """One relayed sample: the hop source -> relay plus relay -> target, cm.
 
     The relay measures both with its own camera at one instant: the hop is
     minus its measurement of the source, as Swazure sums measured hop vectors.
+
+    Parameters
+    ----------
+    sensor : Sensor
+    points : (N, 3) array of float, cm
+        Where every FLS is now.
+    radius : float, cm
+        The FLS radius r.
+    source, relay, target : int
+        Indices into ``points``.
+
+    Returns
+    -------
+    status : int
+        RELAY_OK; RELAY_SOURCE_LOST when the source is no longer a sweet
+        neighbour in the relay's sight; RELAY_TARGET_LOST when the relay no
+        longer sees the target in its sweet or decaying range.
+    sample : (3,) array of float, cm
+        The target relative to the source; NaN unless RELAY_OK.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> points = np.array([[0.0, 0, 0], [3, 0, 0], [0, 8, 0], [3, 8.2, 0]])  # cm, r = 0.5
+    >>> from swazure_ros.core.tracking import relay_sample
+    >>> status, sample = relay_sample(published, points, 0.5, 0, 2, 1)
+    >>> status, sample.round(2)  # the truth is (3, 0, 0); each hop errs by about 1 %
+    (0, array([3.03, 0.  , 0.  ]))
     """
     to_source, to_target = _seen(sensor, points, radius, [relay, relay], [source, target])
     if to_source != SWEET:
@@ -181,7 +255,25 @@ class RelaySenses:
 def moving_senses(
     sensor: Sensor, radius: float, ids: NDArray[np.int64], home: FloatArray, motion: Motion
 ) -> RelaySenses:
-    """Relay senses of FLSs ``ids`` (N,) starting at ``home`` (N, 3) cm, moving by ``motion``."""
+    """Relay senses of FLSs that start at ``home`` and move by ``motion``.
+
+    Parameters
+    ----------
+    sensor : Sensor
+    radius : float, cm
+        The FLS radius r.
+    ids : (N,) array of int
+        The FLS ids of the rows of ``home``, sorted.
+    home : (N, 3) array of float, cm
+        Where each FLS is at t = 0.
+    motion : Motion
+        Which FLSs move and how; the others stay home.
+
+    Returns
+    -------
+    RelaySenses
+        Relay choice and relayed samples by FLS id, at any time in s.
+    """
     return RelaySenses(sensor, radius, ids, lambda seconds: motion.points(home, ids, seconds))
 
 
@@ -205,8 +297,31 @@ def _central(times: FloatArray, values: FloatArray) -> tuple[FloatArray, FloatAr
 def central_differences(times: FloatArray, positions: FloatArray) -> Differences:
     """Spec section 9: v(t_i) = (p_(i+1) - p_(i-1)) / (t_(i+1) - t_(i-1)), a likewise from v.
 
-    ``times`` (K,) s and ``positions`` (K, 3) cm; with evenly spaced samples
-    the span is the spec's 2 dt.
+    With evenly spaced samples the span is the spec's 2 dt. Each estimate
+    lags the last sample by one (velocity) or two (acceleration) intervals.
+
+    Parameters
+    ----------
+    times : (K,) array of float, s
+        Sensing times, increasing.
+    positions : (K, 3) array of float, cm
+        The samples.
+
+    Returns
+    -------
+    Differences
+        Velocity (K - 2, 3), cm/s, at times[1:-1]; acceleration (K - 4, 3),
+        cm/s^2, at times[2:-2]; empty arrays when K is too small.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.tracking import central_differences
+    >>> times = np.array([0.0, 0.1, 0.2, 0.3, 0.4])
+    >>> moving = np.column_stack([times**2, 0 * times, 0 * times])  # x = t^2
+    >>> found = central_differences(times, moving)
+    >>> found.velocity[:, 0].round(9), found.acceleration[:, 0].round(9)
+    (array([0.2, 0.4, 0.6]), array([2.]))
     """
     velocity_times, velocity = _central(times, positions)
     acceleration_times, acceleration = _central(velocity_times, velocity)
@@ -234,7 +349,32 @@ class TrackState:
 def check_filter(
     model: str, process_noise: float, measurement_noise: float, initial_speed: float = 10.0
 ) -> None:
-    """TrackingError unless a :class:`KalmanTracker` can be made of these settings."""
+    """TrackingError unless a :class:`KalmanTracker` can be made of these settings.
+
+    Parameters
+    ----------
+    model : {'constant-velocity', 'constant-acceleration'}
+    process_noise : float
+        cm/s^2 (constant velocity) or cm/s^3 (constant acceleration), > 0.
+    measurement_noise : float, cm
+        > 0.
+    initial_speed : float, default 10.0, cm/s
+        > 0.
+
+    Raises
+    ------
+    TrackingError
+        An unknown model (the message lists the models), or a setting not
+        above 0.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.tracking import check_filter
+    >>> check_filter("constant-jerk", 1.0, 0.05)
+    Traceback (most recent call last):
+    ...
+    swazure_ros.core.tracking.TrackingError: unknown model 'constant-jerk': use one of ...
+    """
     if model not in MODELS:
         raise TrackingError(f"unknown model {model!r}: use one of {', '.join(MODELS)}")
     if not (process_noise > 0 and measurement_noise > 0 and initial_speed > 0):
@@ -473,12 +613,41 @@ TRACK_SETTINGS = {
 
 
 def nanoseconds(seconds: float) -> int:
-    """``seconds`` on the ROS clock's integer nanoseconds."""
+    """``seconds`` on the ROS clock's integer nanoseconds.
+
+    Parameters
+    ----------
+    seconds : float, s
+
+    Returns
+    -------
+    int, ns
+        Rounded to the nearest.
+    """
     return round(seconds * 1e9)
 
 
 def arrival(sensed: float, config: TrackConfig) -> float:
-    """When a sample sensed at ``sensed`` s reaches the source, s: the present it is for."""
+    """When a sample sensed at ``sensed`` s reaches the source, s: the present it is for.
+
+    Added in whole nanoseconds, as the ROS clock adds them.
+
+    Parameters
+    ----------
+    sensed : float, s
+    config : TrackConfig
+        Its sensing and communication delays.
+
+    Returns
+    -------
+    float, s
+
+    Examples
+    --------
+    >>> from swazure_ros.core.tracking import TrackConfig, arrival
+    >>> arrival(0.1, TrackConfig(sensing_delay=0.02, communication_delay=0.03))
+    0.15
+    """
     # In whole nanoseconds, as the ROS clock adds them.
     return (nanoseconds(sensed) + nanoseconds(config.delay)) / 1e9
 
@@ -524,7 +693,23 @@ class TrackSeries:
 def track_series(
     run: TrackRun, motion: Motion, home_source: FloatArray, home_target: FloatArray
 ) -> TrackSeries:
-    """The TRACKING estimates of ``run`` as arrays, with the true relative motion at each."""
+    """The TRACKING estimates of ``run`` as arrays, with the true relative motion at each.
+
+    Parameters
+    ----------
+    run : TrackRun
+    motion : Motion
+        How the FLSs moved.
+    home_source, home_target : (3,) array of float, cm
+        The source's and the target's positions at t = 0.
+
+    Returns
+    -------
+    TrackSeries
+        K estimates: per estimator (raw, filtered, predicted) the position
+        (K, 3), cm, velocity, cm/s, and acceleration, cm/s^2, and the truth
+        at each present.
+    """
     tracking = [estimate for estimate in run.estimates if estimate.kalman is not None]
     time = np.array([estimate.time for estimate in tracking])
     truth = motion.relative(home_source, home_target, run.source, run.target, time)
@@ -561,6 +746,19 @@ def track_errors(series: TrackSeries, settle: float) -> dict[str, dict[str, tupl
 
     Only estimates after ``settle`` s count (the filter converging, the
     central differences filling their window); NaN when none does.
+
+    Parameters
+    ----------
+    series : TrackSeries
+    settle : float, s
+        Estimates at this time or before are left out.
+
+    Returns
+    -------
+    dict
+        ``errors[quantity][estimator] = (mean, max)``: quantity position
+        (cm), velocity (cm/s) or acceleration (cm/s^2); estimator as
+        :data:`ESTIMATORS`.
     """
     kept = series.time > settle
     errors: dict[str, dict[str, tuple[float, float]]] = {}
