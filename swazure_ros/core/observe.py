@@ -89,9 +89,25 @@ class NeighbourSets:
 def observations(hood: Neighbourhood, owners: IntArray | None = None) -> Observations:
     """Lay out the blind, sweet and decaying pairs of ``hood`` per FLS, both directions.
 
-    With ``owners`` (K,), swarm indices, only those FLSs' rows are laid out
-    (the others' are empty): a process that hosts a share of the swarm holds
-    what its own FLSs sense, not the whole swarm's.
+    What every FLS senses: its blind, sweet and decaying neighbours by radio
+    (the tracking distance t, line of sight ignored) and, for the sweet and
+    decaying ones in sight, its camera's reading.
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The swarm's pairs and their line of sight.
+    owners : (K,) array of int, optional
+        Swarm indices: only those FLSs' rows are laid out (the others' are
+        empty), so that a process hosting a share of the swarm holds what its
+        own FLSs sense, not the whole swarm's. Default: every FLS.
+
+    Returns
+    -------
+    Observations
+        E rows (each pair once from each owner's side), grouped by owner,
+        sorted by the other FLS; vectors and t' in cm, NaN where the camera
+        reads nothing.
     """
     pairs = hood.pairs
     keep = np.isin(pairs.range_class, (BLIND, SWEET, DECAYING))
@@ -142,6 +158,33 @@ def readings_of(
     The rows of ``observations`` for these pairs where ``measured`` holds,
     worked out for these pairs alone: a path walk's FLS measures its next hop,
     one pair, in a world revision that nobody has laid out whole.
+
+    Parameters
+    ----------
+    swarm : Swarm
+    sensor : Sensor
+    owner : int
+        The measuring FLS, a swarm index.
+    others : (K,) array_like of int
+        The FLSs it looks at; repeats and ``owner`` itself are dropped.
+    grid : Grid, optional
+        ``sight.build_grid`` of the swarm, when the caller keeps it.
+
+    Returns
+    -------
+    Readings
+        Only the FLSs the camera reads: sweet or decaying, in line of sight,
+        and detected; sorted.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.observe import readings_of
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> swarm = make_swarm([[0, 0, 0], [4, 0, 0], [11, 0, 0], [40, 0, 0]], radius=0.5)
+    >>> seen = readings_of(swarm, Sensor(6.0, 8.0, 8.0, 30.0), 1, [0, 2, 3])  # error-free
+    >>> seen.other.tolist(), seen.vector.tolist(), seen.tracking.tolist()  # 0 blind, 3 too far
+    ([2], [[7.0, 0.0, 0.0]], [6.0])
     """
     other = np.unique(np.asarray(others, dtype=np.int64))
     other = other[other != owner]
@@ -158,10 +201,26 @@ def readings_of(
 def camera_readings(
     swarm: Swarm, sensor: Sensor, owner: IntArray, other: IntArray, true_tracking: FloatArray
 ) -> tuple[FloatArray, FloatArray]:
-    """What ``owner`` (M,) reads of ``other`` (M,): vectors (M, 3) and tracking t' (M,), cm.
+    """What each ``owner`` reads of its ``other``: measured vectors and tracking t', cm.
 
-    ``true_tracking`` is each pair's tracking distance t; the pairs are in
-    camera range and line of sight.
+    Parameters
+    ----------
+    swarm : Swarm
+    sensor : Sensor
+    owner, other : (M,) array of int
+        The measuring and the measured FLS of each pair, in camera range and
+        line of sight.
+    true_tracking : (M,) array of float, cm
+        Each pair's tracking distance t.
+
+    Returns
+    -------
+    vector : (M, 3) array of float, cm
+        :func:`~.sensor.measured_vectors`; NaN where a rendering camera did
+        not detect the marker.
+    tracking : (M,) array of float, cm
+        The measured t': the error model's, or the vector's length less 2r
+        when the noise or the rendered frame is in the vector.
     """
     vector = measured_vectors(sensor, swarm.points, swarm.radius, owner, other)
     if sensor.noise is None and sensor.camera is None:
@@ -189,7 +248,23 @@ class LocalView:
 
 
 def local_view(seen: Observations, ids: IntArray, fls: int) -> LocalView:
-    """The view of the FLS at swarm index ``fls``, with neighbours as FLS ids ``ids``."""
+    """The view of the FLS at swarm index ``fls``, with neighbours as FLS ids.
+
+    Parameters
+    ----------
+    seen : Observations
+        With ``fls``'s rows laid out.
+    ids : (N,) array of int
+        The FLS id of each swarm index.
+    fls : int
+        A swarm index.
+
+    Returns
+    -------
+    LocalView
+        Its neighbours by id, with range class, line of sight, radio
+        distance (cm) and camera vector (cm, NaN without a reading).
+    """
     rows = seen.rows(fls)
     return LocalView(
         fls_id=int(ids[fls]),
@@ -202,7 +277,21 @@ def local_view(seen: Observations, ids: IntArray, fls: int) -> LocalView:
 
 
 def neighbour_sets(seen: Observations, fls: int) -> NeighbourSets:
-    """The neighbour sets of FLS ``fls`` (a swarm index)."""
+    """The neighbour sets of FLS ``fls`` (a swarm index).
+
+    Parameters
+    ----------
+    seen : Observations
+        With ``fls``'s rows laid out.
+    fls : int
+        A swarm index.
+
+    Returns
+    -------
+    NeighbourSets
+        Blind and sweet by radio; sweet and decaying in sight by camera; swarm
+        indices, sorted.
+    """
     rows = seen.rows(fls)
     other, kind, visible = seen.other[rows], seen.range_class[rows], seen.visible[rows]
     return NeighbourSets(

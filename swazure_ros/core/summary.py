@@ -354,7 +354,23 @@ _SWARM_FIELDS = (
 def with_source(
     summary: Summary, cloud: Cloud, seed: int, sensor_file: str | Path | None
 ) -> Summary:
-    """``summary`` with where the run's swarm came from in its parameters: a new summary."""
+    """``summary`` with where the run's swarm came from in its parameters: a new summary.
+
+    Parameters
+    ----------
+    summary : Summary
+    cloud : Cloud
+        The cloud the swarm was made of: its name, file and scale.
+    seed : int
+        The collision removal's seed.
+    sensor_file : str or Path, optional
+        The sensor's file; ``config/sensor.yaml`` when None or empty.
+
+    Returns
+    -------
+    Summary
+        A copy whose ``parameters.source`` says all that.
+    """
     source = Source(
         cloud.name, cloud.source, cloud.scale, seed, str(sensor_file or "config/sensor.yaml")
     )
