@@ -98,9 +98,29 @@ class Budget:
 
 
 def ranges(weights: IntArray, limit: int) -> list[tuple[int, int]]:
-    """Contiguous index ranges [start, stop) whose ``weights`` (N,) sum to at most ``limit``.
+    """Contiguous index ranges [start, stop) whose ``weights`` sum to at most ``limit``.
 
-    An item heavier than ``limit`` is a range of its own; no range is empty.
+    Greedy, in index order: the blocks of FLSs or sources a budget allows.
+
+    Parameters
+    ----------
+    weights : (N,) array of int
+        Each item's weight (its pairs), >= 0.
+    limit : int
+        A range's total weight, at most.
+
+    Returns
+    -------
+    list of (int, int)
+        The ranges, in order, covering 0 .. N; an item heavier than ``limit``
+        is a range of its own; no range is empty.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.blocks import ranges
+    >>> ranges(np.array([3, 1, 4, 1, 5]), 5)
+    [(0, 2), (2, 4), (4, 5)]
     """
     bounds, start, total = [], 0, 0
     for index, weight in enumerate(np.asarray(weights, dtype=np.int64).tolist()):
@@ -175,7 +195,24 @@ class LeanNeighbourhood:
 def lean_neighbourhood(
     swarm: Swarm, sensor: Sensor, budget: Budget, progress: Progress
 ) -> LeanNeighbourhood:
-    """The swarm's :class:`LeanNeighbourhood` and its ordered blind pairs, block by block."""
+    """The swarm's :class:`LeanNeighbourhood` and its ordered blind pairs, block by block.
+
+    Parameters
+    ----------
+    swarm : Swarm
+    sensor : Sensor
+    budget : Budget
+        Bytes a block may hold; also decides whether the decaying pairs in
+        sight are kept at once (the swarm's candidate pairs fit it).
+    progress : Progress
+        Told of the stage "neighbours and line of sight", in candidate pairs.
+
+    Returns
+    -------
+    LeanNeighbourhood
+        ``whole`` None when the decaying pairs are left for
+        :func:`with_decaying`.
+    """
     reach_grid = grid_of(np.ascontiguousarray(swarm.points), candidate_reach(sensor, swarm.radius))
     sight_grid = build_grid(swarm.points, swarm.radius)
     candidates = pair_counts(swarm, sensor, reach_grid)
@@ -230,7 +267,19 @@ def _whole(lean: LeanNeighbourhood, seen: NeighbourPairs) -> Neighbourhood:
 
 
 def with_decaying(lean: LeanNeighbourhood, progress: Progress) -> LeanNeighbourhood:
-    """``lean`` with its ``whole`` neighbourhood: the decaying pairs in sight, block by block."""
+    """``lean`` with its ``whole`` neighbourhood: the decaying pairs in sight, block by block.
+
+    Parameters
+    ----------
+    lean : LeanNeighbourhood
+    progress : Progress
+        Told of the stage "decaying pairs in line of sight".
+
+    Returns
+    -------
+    LeanNeighbourhood
+        ``lean`` itself when it has its ``whole`` already.
+    """
     if lean.whole is not None:
         return lean
     swarm, sensor = lean.swarm, lean.sensor
@@ -296,7 +345,44 @@ class BlockedEvaluation:
 def evaluate_blocked(
     swarm: Swarm, sensor: Sensor, policy: str, budget: Budget, progress: Progress
 ) -> BlockedEvaluation:
-    """The lean neighbourhood of ``swarm``, ready to evaluate its pairs block by block."""
+    """The lean neighbourhood of ``swarm``, ready to evaluate its pairs block by block.
+
+    Each block's pairs are those :func:`.evaluate.evaluate` gives, in its
+    order; the summary is tallied as the blocks are made.
+
+    Parameters
+    ----------
+    swarm : Swarm
+    sensor : Sensor
+    policy : {'fewest-hops', 'shortest-length', 'least-error'}
+    budget : Budget
+        Bytes a block may hold, at least 1 MiB.
+    progress : Progress
+        Told of each stage (``evaluate.SILENT`` shows nothing).
+
+    Returns
+    -------
+    BlockedEvaluation
+        Iterate its ``blocks(progress)``, then read its ``summary()``.
+
+    Raises
+    ------
+    ValueError
+        An unknown policy.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.blocks import Budget, evaluate_blocked
+    >>> from swazure_ros.core.clouds import builtin_points
+    >>> from swazure_ros.core.evaluate import SILENT
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(builtin_points("torus:120") * 5, beta=0.5)
+    >>> run = evaluate_blocked(swarm, published, "shortest-length", Budget(2**20), SILENT)
+    >>> sum(len(block) for block in run.blocks(SILENT)), run.summary().pairs.blind_pairs
+    (3378, 3378)
+    """
     check_policy(policy)
     began = time.perf_counter()
     lean = lean_neighbourhood(swarm, sensor, budget, progress)
@@ -304,5 +390,18 @@ def evaluate_blocked(
 
 
 def whole_swarm_bytes(swarm: Swarm, sensor: Sensor) -> int:
-    """About how much memory :func:`.evaluate.evaluate` of ``swarm`` needs, bytes."""
+    """About how much memory :func:`.evaluate.evaluate` of ``swarm`` needs, bytes.
+
+    A counting pass of the neighbour kernel: ``WHOLE_PAIR_BYTES`` per
+    candidate pair (measured on the race car and torus:10000).
+
+    Parameters
+    ----------
+    swarm : Swarm
+    sensor : Sensor
+
+    Returns
+    -------
+    int, bytes
+    """
     return int(pair_counts(swarm, sensor).sum()) * WHOLE_PAIR_BYTES
