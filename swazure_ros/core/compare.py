@@ -250,8 +250,18 @@ class Comparison:
 
 
 def method(summary: Summary) -> str:
-    """What a run ran, in a few words: plain, a heuristic (with Move Source's threshold),
-    fused paths or a fit's estimator."""
+    """What a run ran, in a few words.
+
+    Parameters
+    ----------
+    summary : Summary
+
+    Returns
+    -------
+    str
+        ``plain``, a heuristic (``move-source (T 10)`` with Move Source's
+        threshold), a fit's estimator, or ``fused (K paths)``.
+    """
     if summary.heuristic is not None:
         heuristic = summary.heuristic
         if heuristic.threshold is None:
@@ -265,8 +275,18 @@ def method(summary: Summary) -> str:
 
 
 def cloud_of(summary: Summary) -> str:
-    """The name of a run's cloud; without a source in its parameters (an older summary),
-    its points and FLSs."""
+    """The name of a run's cloud, or its points and FLSs when its summary names no source.
+
+    Parameters
+    ----------
+    summary : Summary
+
+    Returns
+    -------
+    str
+        The cloud's name; ``"N points, M FLSs"`` for a summary without a
+        source in its parameters (an older summary, or one made in Python).
+    """
     source = summary.parameters.source
     if source is not None:
         return source.cloud
@@ -290,6 +310,28 @@ def rank(values: Sequence[float | None], better: Better) -> tuple[tuple[int, ...
 
     Ties are grouped by their distance to the group's first value, so a group never
     drifts; a group lists its runs in their order.
+
+    Parameters
+    ----------
+    values : sequence of float or None
+        One per run; None for a run without the number.
+    better : {'lower', 'higher'}
+
+    Returns
+    -------
+    tuple of tuple of int
+        Groups of run indices, best group first; runs without a value left out.
+
+    Raises
+    ------
+    ValueError
+        ``better`` is ``'neither'``.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.compare import rank
+    >>> rank([0.5, None, 0.2, 0.20000001], "lower")  # runs 2 and 3 tie within TIE
+    ((2, 3), (0,))
     """
     if better == "neither":
         raise ValueError("better must be 'lower' or 'higher' to rank, got 'neither'")
@@ -309,7 +351,21 @@ def rank(values: Sequence[float | None], better: Better) -> tuple[tuple[int, ...
 
 
 def metric_row(metric: Metric, summaries: Sequence[Summary]) -> MetricRow:
-    """One :class:`MetricRow` of ``summaries`` (the first is the reference of the deltas)."""
+    """One :class:`MetricRow` of ``summaries`` (the first is the reference of the deltas).
+
+    Parameters
+    ----------
+    metric : Metric
+        One of :data:`METRICS`.
+    summaries : sequence of Summary
+        The runs, the reference first.
+
+    Returns
+    -------
+    MetricRow
+        Each run's value (None with its reason), its difference from the
+        first's, and the best runs where the metric has a direction.
+    """
     values = [_number(metric.value(s)) for s in summaries]
     why = [
         None if value is not None else metric.why_none(s)
@@ -339,9 +395,20 @@ def _row(
 
 
 def class_rows(runs: Sequence[ComparedRun], unit: ErrorUnit) -> tuple[MetricRow, ...]:
-    """Rows of the runs' results by class of pairs: each class's coverage, median and mean
-    error (classes no run has a pair of are left out; a run without a per-pair table
-    shows None)."""
+    """Rows of the runs' results by class of pairs: each class's coverage, median and mean error.
+
+    Parameters
+    ----------
+    runs : sequence of ComparedRun
+    unit : {'cm', '%'}
+        The errors' unit, for the rows' labels.
+
+    Returns
+    -------
+    tuple of MetricRow
+        Three rows per class that some run has pairs of; a run without a
+        per-pair table shows None, with its reason.
+    """
     rows = []
     for code, name in enumerate(PAIR_CLASSES):
         results = [None if run.classes is None else run.classes[code] for run in runs]
@@ -364,7 +431,34 @@ def class_rows(runs: Sequence[ComparedRun], unit: ErrorUnit) -> tuple[MetricRow,
 
 
 def class_results(errors: PairErrors) -> tuple[ClassResult, ...]:
-    """A run's :class:`ClassResult` for each of :data:`PAIR_CLASSES`, all pairs first."""
+    """A run's :class:`ClassResult` for each of :data:`PAIR_CLASSES`, all pairs first.
+
+    Parameters
+    ----------
+    errors : PairErrors
+        Each pair's class (its reason code) and error (NaN: no estimate).
+
+    Returns
+    -------
+    tuple of ClassResult
+        One per class, in :data:`PAIR_CLASSES` order: pairs, estimated
+        pairs, coverage (%), median and mean error (in ``errors.unit``) and
+        the error's quantiles.
+
+    Raises
+    ------
+    ValueError
+        ``pair_class`` and ``error`` are not of one shape (N,).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.compare import PairErrors, class_results
+    >>> errors = PairErrors(np.array([0, 0, 1, 1], dtype=np.uint8),
+    ...                     np.array([0.1, 0.3, np.nan, 2.0]), "cm")
+    >>> [(r.pair_class, r.pairs, r.coverage_pct, r.median) for r in class_results(errors)[:3]]
+    [('all pairs', 4, 75.0, 0.3), ('sweet path', 2, 100.0, 0.2), ('blocked', 2, 50.0, 2.0)]
+    """
     pair_class = np.asarray(errors.pair_class)
     error = np.asarray(errors.error, dtype=np.float64)
     if pair_class.shape != error.shape or error.ndim != 1:
@@ -414,8 +508,22 @@ def _ranking(
 def class_verdict(
     labels: Sequence[str], results: Sequence[ClassResult | None], unit: ErrorUnit
 ) -> ClassVerdict:
-    """Which of the runs did better on one class of pairs; ``results[i]`` is run i's
-    result on the class (None: run i has no per-pair table and is not judged)."""
+    """Which of the runs did better on one class of pairs: by median error and by coverage.
+
+    Parameters
+    ----------
+    labels : sequence of str
+        The runs' labels.
+    results : sequence of ClassResult or None
+        Run i's result on the class; None: run i has no per-pair table and is
+        not judged. At least one is not None.
+    unit : {'cm', '%'}
+
+    Returns
+    -------
+    ClassVerdict
+        The rankings and a one-line statement of them.
+    """
     name = next(result.pair_class for result in results if result is not None)
     medians = [None if r is None else r.median for r in results]
     coverages = [None if r is None else r.coverage_pct for r in results]
@@ -438,8 +546,22 @@ def class_verdict(
 
 
 def check_one_cloud(labels: Sequence[str], summaries: Sequence[Summary]) -> None:
-    """SwazureError in one line unless every run is of one cloud: the pairs of two clouds are
-    not the same pairs, and no row or class of theirs compares."""
+    """SwazureError in one line unless every run is of one cloud.
+
+    The pairs of two clouds are not the same pairs, and no row or class of
+    theirs compares.
+
+    Parameters
+    ----------
+    labels : sequence of str
+        The runs' labels, for the message.
+    summaries : sequence of Summary
+
+    Raises
+    ------
+    SwazureError
+        Runs of different clouds (:func:`cloud_of`), each named.
+    """
     clouds = [cloud_of(summary) for summary in summaries]
     if len(set(clouds)) > 1:
         runs = ", ".join(f"{label} ({cloud})" for label, cloud in zip(labels, clouds, strict=True))
@@ -447,8 +569,19 @@ def check_one_cloud(labels: Sequence[str], summaries: Sequence[Summary]) -> None
 
 
 def compare(runs: Sequence[tuple[str, Summary, PairErrors | None]]) -> Comparison:
-    """Two or more runs of one cloud side by side: (label, summary, its per-pair errors or
-    None) each, the first the reference of the deltas.
+    """Two or more runs of one cloud side by side, the first the reference of the deltas.
+
+    Parameters
+    ----------
+    runs : sequence of (str, Summary, PairErrors or None)
+        Each run's label, summary and per-pair errors (None without a
+        per-pair table: the run is then not judged by class of pairs).
+
+    Returns
+    -------
+    Comparison
+        The summaries' rows (those some run has), the rows and verdicts by
+        class of pairs, and the errors' unit.
 
     Raises
     ------
@@ -456,6 +589,21 @@ def compare(runs: Sequence[tuple[str, Summary, PairErrors | None]]) -> Compariso
         Fewer than two runs, two runs of one label, runs of different clouds.
     ValueError
         Per-pair errors in different units.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.clouds import builtin_points
+    >>> from swazure_ros.core.compare import compare
+    >>> from swazure_ros.core.evaluate import evaluate
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(builtin_points("torus:120") * 5, beta=0.5)
+    >>> runs = [(policy, evaluate(swarm, published, policy).summary, None)
+    ...         for policy in ("shortest-length", "fewest-hops")]
+    >>> row = next(row for row in compare(runs).rows if row.label == "hops: mean")
+    >>> row.deltas, row.best  # on this torus both policies take the same paths: a tie
+    ((0.0, 0.0), ())
     """
     labels = [label for label, _, _ in runs]
     summaries = [summary for _, summary, _ in runs]

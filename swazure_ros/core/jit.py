@@ -67,6 +67,16 @@ def kernel(
 
     One source may make several kernels with different options:
     ``kernel(parallel=True)(function)``.
+
+    Parameters
+    ----------
+    **options
+        ``numba.njit``'s options (``cache``, ``parallel``, ``nogil``, ...).
+
+    Returns
+    -------
+    callable
+        A decorator that wraps a function in a :class:`Kernel`.
     """
 
     def decorate(function: Callable[Params, Result]) -> Kernel[Params, Result]:
