@@ -288,7 +288,8 @@ def make_swarm(
     points : (N, 3) array_like of float, cm
         The cloud, N >= 2, no duplicates.
     beta : float, optional
-        The ratio r / dmin, in (0, 1]. Ignored when ``radius`` is given.
+        The ratio r / dmin, in (0, 1]; the radius comes from it unless
+        ``radius`` is given (it is kept in ``Swarm.beta`` either way).
     radius : float, optional, cm
         An explicit FLS radius r > 0.
     seed : int, default 0

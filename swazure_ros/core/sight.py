@@ -54,7 +54,8 @@ def build_grid(points: FloatArray, radius: float) -> Grid:
     Returns
     -------
     Grid
-        Cell edge: the median nearest-neighbour distance, or r if larger.
+        Cell edge: the median nearest-neighbour distance, or r if larger
+        (coarser past :data:`MAX_CELLS` cells).
     """
     extent = np.ptp(points, axis=0)
     from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
