@@ -33,7 +33,16 @@ class NeighbourPairs:
         return len(self.first)
 
     def select(self, mask: NDArray[np.bool_] | IntArray) -> NeighbourPairs:
-        """The pairs where ``mask`` holds, or at the indices it lists, in its order."""
+        """The pairs where ``mask`` holds, or at the indices it lists, in its order.
+
+        Parameters
+        ----------
+        mask : (M,) array of bool, or (K,) array of int
+
+        Returns
+        -------
+        NeighbourPairs
+        """
         return NeighbourPairs(
             self.first[mask],
             self.second[mask],
@@ -43,7 +52,17 @@ class NeighbourPairs:
         )
 
     def count(self, range_class: int) -> int:
-        """Number of unordered pairs of one range class."""
+        """Number of unordered pairs of one range class.
+
+        Parameters
+        ----------
+        range_class : int
+            ``sensor.CONTACT``, ``BLIND``, ``SWEET``, ``DECAYING`` or ``OUT_OF_RANGE``.
+
+        Returns
+        -------
+        int
+        """
         return int(np.count_nonzero(self.range_class == range_class))
 
     def kissing(self) -> int:

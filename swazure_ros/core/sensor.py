@@ -193,7 +193,13 @@ class Sensor:
         return not any(self.error_coefficients) and self.noise is None and self.camera is None
 
     def error_free(self) -> Sensor:
-        """The same ranges with no measurement error (the 'accurate' mode)."""
+        """The same ranges with no measurement error (the 'accurate' mode).
+
+        Returns
+        -------
+        Sensor
+            No polynomial, noise table or camera; its name ends "(accurate)".
+        """
         return replace(
             self, error_coefficients=(), noise=None, camera=None, name=f"{self.name} (accurate)"
         )

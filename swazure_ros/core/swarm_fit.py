@@ -584,8 +584,20 @@ class SwarmFit:
         return len(self.iterations)
 
     def relative(self, source: IntArray, target: IntArray) -> tuple[FloatArray, FloatArray]:
-        """x_target - x_source (M, 3), cm, and its sample covariance (M, 3, 3), cm^2; nan
-        across parts, and the covariance nan without samples."""
+        """Each target's position relative to its source, and its sample covariance.
+
+        Parameters
+        ----------
+        source, target : (M,) array of int
+            Swarm indices.
+
+        Returns
+        -------
+        estimate : (M, 3) array of float, cm
+            x_target - x_source; NaN across parts or for an FLS in none.
+        covariance : (M, 3, 3) array of float, cm^2
+            The sample covariance over the fit's samples; NaN without samples.
+        """
         same = (self.part[source] == self.part[target]) & (self.part[source] >= 0)
         estimate = np.full((len(source), 3), np.nan)
         estimate[same] = self.positions[target[same]] - self.positions[source[same]]

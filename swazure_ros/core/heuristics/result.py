@@ -53,7 +53,18 @@ class HeuristicResult:
     compat: Compat = TEXT
 
     def moves(self, pair: int) -> list[tuple[int, FloatArray, FloatArray]]:
-        """The moves made for pair ``pair``: (fls, from, to), in order."""
+        """The moves made for pair ``pair``, in order.
+
+        Parameters
+        ----------
+        pair : int
+            An index into the evaluation's pairs.
+
+        Returns
+        -------
+        list of (int, (3,) array, (3,) array)
+            The FLS that moved (a swarm index), from where and to where, cm.
+        """
         span = range(self.move_offsets[pair], self.move_offsets[pair + 1])
         return [(int(self.move_fls[k]), self.move_from[k], self.move_to[k]) for k in span]
 
