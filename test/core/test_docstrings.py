@@ -38,7 +38,7 @@ def public_functions() -> dict[str, object]:
 def expected_sections(function: object) -> list[str]:
     """Parameters when it takes any, Returns when it returns something (numpydoc's rule)."""
     plain = function.function if isinstance(function, jit.Kernel) else function
-    signature = inspect.signature(plain)  # type: ignore[arg-type]
+    signature = inspect.signature(plain)
     sections = ["Parameters"] if signature.parameters else []
     if signature.return_annotation not in ("None", None):
         sections.append("Returns")
