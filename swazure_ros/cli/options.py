@@ -20,8 +20,8 @@ from ..files.results import (
     large_pairs_limit,
     pairs_size_warning,
 )
+from ..files.values import MAX_DOMAIN_ID
 from .arguments import (
-    MAX_DOMAIN_ID,
     check_beta_or_radius,
     domain_id,
     fls_id,
