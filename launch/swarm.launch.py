@@ -24,7 +24,6 @@ Ctrl-C stops the whole swarm: each process leaves without telling its peers, who
 (docs/swarm.md, "Stopping").
 """
 
-import argparse
 import atexit
 import os
 import secrets
@@ -39,6 +38,7 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from launch import LaunchDescription
+from swazure_ros.app.config import config_from_file, load_swarm_file
 from swazure_ros.app.discovery_server import (
     client_environment,
     is_local,
@@ -47,8 +47,7 @@ from swazure_ros.app.discovery_server import (
     server_environment,
 )
 from swazure_ros.app.per_fls import FLS_ENVIRONMENT, STOP_GRACE, parameter_file
-from swazure_ros.cli.swarm_file import example_swarms, load_swarm_file, swarm_file
-from swazure_ros.files.description import SwarmDescription
+from swazure_ros.files.swarm_file import example_swarms, find_swarm_file
 from swazure_ros.ros.nodes import world_node
 from swazure_ros.ros.plumbing.runtime import (
     SWARM_STOP_VARIABLE,
@@ -90,17 +89,9 @@ def _packed(path: Path, servers: tuple) -> list:
 
 
 def _per_fls(path: Path, servers: tuple) -> list:
-    options = load_swarm_file(path)
-    description = SwarmDescription(
-        cloud=options["cloud"],
-        scale=options.get("scale"),
-        beta=options.get("beta"),
-        radius=options.get("radius"),
-        sensor_file=options.get("sensor"),
-        accurate=bool(options.get("accurate", False)),
-        seed=int(options.get("seed") or 0),
-    )
-    namespace = options.get("namespace") or "swarm"
+    # The swarm file's swarm, as swazure spawn FILE brings it up (app.config).
+    config = config_from_file(load_swarm_file(path))
+    description, namespace = config.world, config.namespace
     folder = Path(tempfile.mkdtemp(prefix="swazure-launch-"))
     # When this launch ends (its last act, after every process has ended, whatever their
     # codes): each process read the key at its start.
@@ -127,7 +118,7 @@ def _per_fls(path: Path, servers: tuple) -> list:
     # One parameter file for every FLS, in the launch's folder (removed with it): launch_ros
     # would write one per FLS of a parameters dict into /tmp, and leave them there.
     parameters = folder / "parameters.yaml"
-    content = parameter_file(namespace, options.get("parameters") or {}, options.get("fls") or {})
+    content = parameter_file(namespace, config.parameters, config.fls_parameters)
     parameters.write_text(yaml.safe_dump(content, sort_keys=False))
     actions = [
         # No name= for a program that names its nodes itself: a node-name remap
@@ -181,8 +172,8 @@ def _per_fls(path: Path, servers: tuple) -> list:
 
 def _swarm(context):
     try:
-        path = swarm_file(LaunchConfiguration("swarm").perform(context)).resolve()
-    except argparse.ArgumentTypeError as err:
+        path = find_swarm_file(LaunchConfiguration("swarm").perform(context)).resolve()
+    except ValueError as err:
         raise RuntimeError(f"swarm:={err}") from None
     named = LaunchConfiguration("discovery_server").perform(context)
     servers = parse_servers(named) if named else ()

@@ -227,14 +227,11 @@ def recording(text: str) -> Path:
     return path if path.is_dir() else input_file(text)
 
 
-def check_beta_or_radius(beta: float | None, radius: float | None, where: str = "") -> None:
-    """One of beta or radius sizes the FLSs: CloudError when both are given, or when the
-    command line gives neither (a swarm file, named by ``where``, may leave both out)."""
+def check_beta_or_radius(beta: float | None, radius: float | None) -> None:
+    """One of beta or radius sizes the FLSs: CloudError when the options, swarm file
+    included, give neither (argparse refuses both on the command line, the swarm file both
+    in the file, and a flag replaces the file's)."""
     if beta is not None and radius is not None:
-        raise CloudError(
-            f"{where}: give beta or radius, not both"
-            if where
-            else "give --beta or --radius, not both"
-        )
-    if not where and beta is None and radius is None:
+        raise CloudError("give --beta or --radius, not both")
+    if beta is None and radius is None:
         raise CloudError("give --beta (r = beta * dmin) or --radius (cm)")
