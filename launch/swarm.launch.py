@@ -112,6 +112,8 @@ def _per_fls(path: Path, servers: tuple) -> list:
         **(client_environment(servers, super_client=False) if servers else {}),
         SWARM_STOP_VARIABLE: "1",
     }
+    if config.domain_id is not None:  # the file's domain_id, as swazure spawn takes it
+        swarm_env["ROS_DOMAIN_ID"] = str(config.domain_id)
     # ros2 launch would send SIGTERM after 5 s: a process given longer says where it hung
     # (runtime.STOP_LIMIT) rather than die of a signal, as under swazure spawn.
     stopping = {"sigterm_timeout": str(STOP_GRACE)}
@@ -130,6 +132,8 @@ def _per_fls(path: Path, servers: tuple) -> list:
             # that [fls_7-9] is FLS 7, not the ninth process named fls.
             exec_name="world",
             namespace=namespace,
+            # The file's params: (else config/swarm.yaml) to every process, as swazure spawn.
+            parameters=[config.params_file],
             arguments=startup_arguments(shared, world_node.STARTUP),
             additional_env=swarm_env,
             output="screen",
@@ -141,6 +145,7 @@ def _per_fls(path: Path, servers: tuple) -> list:
             exec_name="coordinator",
             name="coordinator",
             namespace=namespace,
+            parameters=[config.params_file],  # its round_timeout
             arguments=startup_arguments(
                 {**shared, "hosts": len(ids)}, coordinator_program.STARTUP
             ),
@@ -156,7 +161,8 @@ def _per_fls(path: Path, servers: tuple) -> list:
             exec_name=f"fls_{fls_id}",
             namespace=namespace,
             arguments=startup_arguments({**shared, "fls_id": fls_id}, fls_program.STARTUP),
-            parameters=[str(parameters)],
+            # The ROS parameter file first: the swarm file's own parameters win over it.
+            parameters=[config.params_file, str(parameters)],
             # As swazure spawn --per-fls starts them; the user's environment wins.
             additional_env={
                 **{k: v for k, v in FLS_ENVIRONMENT.items() if k not in os.environ},
