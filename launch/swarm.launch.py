@@ -6,14 +6,16 @@
 
 Arguments:
 
-- ``swarm``: a swarm file (docs/swarm.md), or the name of an installed example
-  (``torus``, the default; ``trio``, ``grid25``, ``dragon``, ``racecar``: the
-  package's config/swarms/), found from any folder;
+- ``swarm``: a swarm file (docs/swarm.md, "A swarm in one file"), or the name of an
+  installed example (``torus``, the default; ``trio``, ``grid25``, ``dragon``,
+  ``racecar``: the package's config/swarms/), found from any folder; read by the
+  library (``app.config``), never by the command line's modules;
 - ``mode``: ``packed`` (the default) runs ``swazure spawn`` on the file, its
   FLS nodes many to a process, each with parameter services (``ros2 param``);
   ``per_fls`` runs every FLS in a process of its own (``ros2 run swazure_ros
   fls``), beside the simulator (``world``: the world node and the FLSs'
-  simulated cameras) and the ``coordinator``, as real FLS hardware would;
+  simulated cameras) and the ``coordinator``, as real FLS hardware would, each
+  with the file's ``params:`` (else config/swarm.yaml) and on its ``domain_id``;
 - ``discovery_server``: ``IP[:PORT],...``: discover through these Fast DDS
   Discovery Servers (those at an address of this machine are started here),
   as ``swazure spawn --discovery-server`` does (docs/swarm.md).
