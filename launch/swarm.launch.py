@@ -6,14 +6,16 @@
 
 Arguments:
 
-- ``swarm``: a swarm file (docs/swarm.md), or the name of an installed example
-  (``torus``, the default; ``trio``, ``grid25``, ``dragon``, ``racecar``: the
-  package's config/swarms/), found from any folder;
+- ``swarm``: a swarm file (docs/swarm.md, "A swarm in one file"), or the name of an
+  installed example (``torus``, the default; ``trio``, ``grid25``, ``dragon``,
+  ``racecar``: the package's config/swarms/), found from any folder; read by the
+  library (``app.config``), never by the command line's modules;
 - ``mode``: ``packed`` (the default) runs ``swazure spawn`` on the file, its
   FLS nodes many to a process, each with parameter services (``ros2 param``);
   ``per_fls`` runs every FLS in a process of its own (``ros2 run swazure_ros
   fls``), beside the simulator (``world``: the world node and the FLSs'
-  simulated cameras) and the ``coordinator``, as real FLS hardware would;
+  simulated cameras) and the ``coordinator``, as real FLS hardware would, each
+  with the file's ``params:`` (else config/swarm.yaml) and on its ``domain_id``;
 - ``discovery_server``: ``IP[:PORT],...``: discover through these Fast DDS
   Discovery Servers (those at an address of this machine are started here),
   as ``swazure spawn --discovery-server`` does (docs/swarm.md).
@@ -24,7 +26,6 @@ Ctrl-C stops the whole swarm: each process leaves without telling its peers, who
 (docs/swarm.md, "Stopping").
 """
 
-import argparse
 import atexit
 import os
 import secrets
@@ -39,6 +40,7 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
 from launch import LaunchDescription
+from swazure_ros.app.config import config_from_file, load_swarm_file
 from swazure_ros.app.discovery_server import (
     client_environment,
     is_local,
@@ -47,8 +49,7 @@ from swazure_ros.app.discovery_server import (
     server_environment,
 )
 from swazure_ros.app.per_fls import FLS_ENVIRONMENT, STOP_GRACE, parameter_file
-from swazure_ros.cli.swarm_file import example_swarms, load_swarm_file, swarm_file
-from swazure_ros.files.description import SwarmDescription
+from swazure_ros.files.swarm_file import example_swarms, find_swarm_file
 from swazure_ros.ros.nodes import world_node
 from swazure_ros.ros.plumbing.runtime import (
     SWARM_STOP_VARIABLE,
@@ -90,17 +91,9 @@ def _packed(path: Path, servers: tuple) -> list:
 
 
 def _per_fls(path: Path, servers: tuple) -> list:
-    options = load_swarm_file(path)
-    description = SwarmDescription(
-        cloud=options["cloud"],
-        scale=options.get("scale"),
-        beta=options.get("beta"),
-        radius=options.get("radius"),
-        sensor_file=options.get("sensor"),
-        accurate=bool(options.get("accurate", False)),
-        seed=int(options.get("seed") or 0),
-    )
-    namespace = options.get("namespace") or "swarm"
+    # The swarm file's swarm, as swazure spawn FILE brings it up (app.config).
+    config = config_from_file(load_swarm_file(path))
+    description, namespace = config.world, config.namespace
     folder = Path(tempfile.mkdtemp(prefix="swazure-launch-"))
     # When this launch ends (its last act, after every process has ended, whatever their
     # codes): each process read the key at its start.
@@ -121,13 +114,15 @@ def _per_fls(path: Path, servers: tuple) -> list:
         **(client_environment(servers, super_client=False) if servers else {}),
         SWARM_STOP_VARIABLE: "1",
     }
+    if config.domain_id is not None:  # the file's domain_id, as swazure spawn takes it
+        swarm_env["ROS_DOMAIN_ID"] = str(config.domain_id)
     # ros2 launch would send SIGTERM after 5 s: a process given longer says where it hung
     # (runtime.STOP_LIMIT) rather than die of a signal, as under swazure spawn.
     stopping = {"sigterm_timeout": str(STOP_GRACE)}
     # One parameter file for every FLS, in the launch's folder (removed with it): launch_ros
     # would write one per FLS of a parameters dict into /tmp, and leave them there.
     parameters = folder / "parameters.yaml"
-    content = parameter_file(namespace, options.get("parameters") or {}, options.get("fls") or {})
+    content = parameter_file(namespace, config.parameters, config.fls_parameters)
     parameters.write_text(yaml.safe_dump(content, sort_keys=False))
     actions = [
         # No name= for a program that names its nodes itself: a node-name remap
@@ -139,6 +134,8 @@ def _per_fls(path: Path, servers: tuple) -> list:
             # that [fls_7-9] is FLS 7, not the ninth process named fls.
             exec_name="world",
             namespace=namespace,
+            # The file's params: (else config/swarm.yaml) to every process, as swazure spawn.
+            parameters=[config.params_file],
             arguments=startup_arguments(shared, world_node.STARTUP),
             additional_env=swarm_env,
             output="screen",
@@ -150,6 +147,7 @@ def _per_fls(path: Path, servers: tuple) -> list:
             exec_name="coordinator",
             name="coordinator",
             namespace=namespace,
+            parameters=[config.params_file],  # its round_timeout
             arguments=startup_arguments(
                 {**shared, "hosts": len(ids)}, coordinator_program.STARTUP
             ),
@@ -165,7 +163,8 @@ def _per_fls(path: Path, servers: tuple) -> list:
             exec_name=f"fls_{fls_id}",
             namespace=namespace,
             arguments=startup_arguments({**shared, "fls_id": fls_id}, fls_program.STARTUP),
-            parameters=[str(parameters)],
+            # The ROS parameter file first: the swarm file's own parameters win over it.
+            parameters=[config.params_file, str(parameters)],
             # As swazure spawn --per-fls starts them; the user's environment wins.
             additional_env={
                 **{k: v for k, v in FLS_ENVIRONMENT.items() if k not in os.environ},
@@ -181,8 +180,8 @@ def _per_fls(path: Path, servers: tuple) -> list:
 
 def _swarm(context):
     try:
-        path = swarm_file(LaunchConfiguration("swarm").perform(context)).resolve()
-    except argparse.ArgumentTypeError as err:
+        path = find_swarm_file(LaunchConfiguration("swarm").perform(context)).resolve()
+    except ValueError as err:
         raise RuntimeError(f"swarm:={err}") from None
     named = LaunchConfiguration("discovery_server").perform(context)
     servers = parse_servers(named) if named else ()

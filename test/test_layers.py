@@ -251,3 +251,47 @@ def test_an_added_cycle_is_caught(graph: dict[str, set[str]]) -> None:
     broken = {module: set(names) for module, names in graph.items()}
     broken["swazure_ros.core.csr"].add("swazure_ros.core.paths")
     assert ["swazure_ros.core.csr", "swazure_ros.core.paths"] in cycles(broken)
+
+
+#: The launch files of the package (``ros2 launch swazure_ros ...``).
+LAUNCH_FILES = sorted((ROOT.parent / "launch").glob("*.launch.py"))
+
+
+def launch_imports(text: str) -> set[str]:
+    """Every module a launch file imports, at any depth (it has no relative imports)."""
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(text)):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module:
+            found.add(node.module)
+            found.update(f"{node.module}.{alias.name}" for alias in node.names)
+    return found
+
+
+def command_line_imports(names: Iterable[str]) -> list[str]:
+    """The package's command-line modules among ``names``: what no launch file imports."""
+    return sorted(
+        name for name in names if name.startswith(PACKAGE + ".") and layer(name) == "cli"
+    )
+
+
+def test_a_launch_file_imports_no_command_line_module() -> None:
+    """A launch file reads its swarm file as the library does (app, files), never through the
+    command line's parsing: the CLI is a client of the library, as a launch file is."""
+    assert [path.name for path in LAUNCH_FILES] == ["swarm.launch.py"]
+    for path in LAUNCH_FILES:
+        imported = launch_imports(path.read_text())
+        assert "swazure_ros.app.config" in imported  # what it reads the swarm file with
+        assert command_line_imports(imported) == [], path.name
+
+
+def test_an_added_command_line_import_in_a_launch_file_is_caught() -> None:
+    text = (ROOT.parent / "launch" / "swarm.launch.py").read_text()
+    for line in (
+        "from swazure_ros.cli.swarm_file import swarm_file\n",
+        "import swazure_ros.cli.main\n",
+        "from swazure_ros.cli import spawn\n",
+    ):
+        broken = launch_imports(text + f"\ndef later():\n    {line}")
+        assert command_line_imports(broken) != [], line

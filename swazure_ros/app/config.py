@@ -1,12 +1,27 @@
-"""What a swarm is brought up with: its world, processes, ROS settings, key and view."""
+"""What a swarm is brought up with: its world, processes, ROS settings, key and view.
+
+A swarm file (``files.swarm_file``) gives part of it: :func:`load_swarm_file` reads one
+and checks what ROS and the FLS node say of its values, and :func:`config_from_file`
+makes the :class:`SwarmConfig` it describes alone, as the launch file brings it up.
+``swazure spawn FILE`` makes one from the file with its flags over it
+(``cli.spawn.config_from_args``).
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TypeVar
 
-from ..core.errors import SwazureError
+from ..core.errors import CloudError, SwazureError
+from ..files.description import DEFAULT_CLOUD
+from ..files.reading import config_dir
+from ..files.swarm_file import NodeParameters, SwarmFile, read_swarm_file
+from ..ros.nodes.fls_parameters import checked_parameters
 from ..sim.world import WorldSpec
 from .discovery_server import ServerAddress
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -26,8 +41,8 @@ class SwarmConfig:
     hosts: int = 1
     #: ROS parameters of every FLS node, and of single FLSs (id -> name -> value),
     #: over the parameter file's.
-    parameters: dict[str, object] = field(default_factory=dict)
-    fls_parameters: dict[int, dict[str, object]] = field(default_factory=dict)
+    parameters: NodeParameters = field(default_factory=dict)
+    fls_parameters: dict[int, NodeParameters] = field(default_factory=dict)
     #: Record every topic of the swarm to this MCAP file (share 0's process).
     record: str | None = None
     #: Show the swarm (RViz markers; Foxglove on view.port), from share 0's process.
@@ -74,3 +89,99 @@ class ViewConfig:
     seen_from: int | None = None  # colour_by ranges: seen from this FLS (default the first)
     policy: str = "shortest-length"  # colour_by status and pairs: the paths' policy
     pairs: tuple[tuple[int, int], ...] = ()  # ordered blind pairs whose paths to draw
+
+
+def load_swarm_file(path: Path) -> SwarmFile:
+    """The swarm file at ``path``, read by its format and checked by what runs it.
+
+    Parameters
+    ----------
+    path : Path
+        A swarm file (``files.swarm_file``).
+
+    Returns
+    -------
+    SwarmFile
+        Its values, the namespace without its leading slash.
+
+    Raises
+    ------
+    SwazureError
+        In one line naming the file and the key: what ``files.swarm_file.read_swarm_file``
+        refuses, a namespace that is not a ROS namespace, and in ``parameters`` or ``fls``
+        a parameter that no FLS node has, or a value its rule refuses
+        (``ros.nodes.fls_parameters``).
+    """
+    swarm = read_swarm_file(path)
+    namespace = swarm.namespace
+    if namespace is not None:
+        # Here: rclpy loads only for a swarm file that names its namespace.
+        from ..ros.plumbing.names import checked_namespace
+
+        try:
+            namespace = checked_namespace(namespace)
+        except ValueError as err:
+            raise SwazureError(f"{path}: swarm.namespace: {err}") from None
+    return replace(
+        swarm,
+        namespace=namespace,
+        parameters=_fls_node_parameters(path, "parameters", swarm.parameters),
+        fls={
+            fls_id: _fls_node_parameters(path, f"fls.{fls_id}", own)
+            for fls_id, own in swarm.fls.items()
+        },
+    )
+
+
+def _fls_node_parameters(path: Path, where: str, given: NodeParameters) -> NodeParameters:
+    try:
+        return checked_parameters(given)
+    except ValueError as err:
+        # The reason begins with the parameter's name: swarm.fls.3.publish_period must be ...
+        raise SwazureError(f"{path}: swarm.{where}.{err}") from None
+
+
+def params_file(given: Path | None) -> str:
+    """The ROS parameter file of a swarm's nodes: the one ``given``, else config/swarm.yaml."""
+    return str(given if given is not None else config_dir() / "swarm.yaml")
+
+
+def config_from_file(swarm: SwarmFile) -> SwarmConfig:
+    """The swarm that ``swarm`` describes alone: every option it leaves out at its default.
+
+    The defaults are ``swazure spawn``'s: the cloud ``torus``, one process, the
+    namespace ``swarm``, config/swarm.yaml, 600 s to discover the swarm.
+
+    Raises
+    ------
+    CloudError
+        The file gives neither beta nor radius (a command line may give them beside it).
+    SwazureError
+        What :class:`SwarmConfig` refuses.
+    """
+    if swarm.beta is None and swarm.radius is None:
+        raise CloudError(f"{swarm.path}: give swarm.beta (r = beta * dmin) or swarm.radius (cm)")
+    world = WorldSpec(
+        cloud=_given(swarm.cloud, DEFAULT_CLOUD),
+        scale=swarm.scale,
+        beta=swarm.beta,
+        radius=swarm.radius,
+        sensor_file=None if swarm.sensor is None else str(swarm.sensor),
+        accurate=_given(swarm.accurate, WorldSpec.accurate),
+        seed=_given(swarm.seed, WorldSpec.seed),
+    )
+    return SwarmConfig(
+        world,
+        processes=_given(swarm.processes, SwarmConfig.processes),
+        namespace=_given(swarm.namespace, SwarmConfig.namespace),
+        params_file=params_file(swarm.params),
+        domain_id=swarm.domain_id,
+        discovery_timeout=_given(swarm.discovery_timeout, SwarmConfig.discovery_timeout),
+        parameters=swarm.parameters,
+        fls_parameters=swarm.fls,
+    )
+
+
+def _given(value: T | None, default: T) -> T:
+    """``value`` where the file gives it, else the record's own ``default``."""
+    return default if value is None else value

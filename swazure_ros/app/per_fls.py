@@ -21,7 +21,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO
@@ -142,7 +142,9 @@ def fls_arguments(
 
 
 def parameter_file(
-    namespace: str, parameters: dict[str, object], fls_parameters: dict[int, dict[str, object]]
+    namespace: str,
+    parameters: Mapping[str, object],
+    fls_parameters: Mapping[int, Mapping[str, object]],
 ) -> dict[str, object]:
     """The parameter file's content: the node parameters of every FLS, then each's own."""
     content: dict[str, object] = {"/**": {"ros__parameters": dict(parameters)}}
@@ -162,8 +164,8 @@ class FlsProcesses:
         *,
         namespace: str = "swarm",
         key: SwarmKey | None = None,
-        parameters: dict[str, object] | None = None,
-        fls_parameters: dict[int, dict[str, object]] | None = None,
+        parameters: Mapping[str, object] | None = None,
+        fls_parameters: Mapping[int, Mapping[str, object]] | None = None,
         params_file: str | None = None,
         domain_id: int | None = None,
         discovery_servers: tuple[ServerAddress, ...] = (),

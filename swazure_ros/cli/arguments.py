@@ -8,35 +8,42 @@ line (``swazure VERB: error: argument --x: reason``) with exit code 2.
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
-from ..core.errors import CloudError, SwazureError
-from ..files.reading import regular_file, total_memory
+from ..core.errors import CloudError
+from ..files import values
+from ..files.reading import total_memory
 
-#: The largest ROS domain id whose DDS ports fit (Linux; the ROS 2 "domain id" design note).
-MAX_DOMAIN_ID = 232
-#: FLS ids travel in uint32 message fields.
-MAX_FLS_ID = 2**32 - 1
+T = TypeVar("T")
 
 
-def whole_number(text: str) -> int:
-    """A whole number."""
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+def _option_type(rule: Callable[[str], T]) -> Callable[[str], T]:
+    """``rule`` (files.values: shared with the swarm file) as an argparse type: the
+    rule's ValueError becomes argparse's one line with exit code 2."""
+
+    @functools.wraps(rule)
+    def checked(text: str) -> T:
+        try:
+            return rule(text)
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+
+    return checked
 
 
-def number(text: str) -> float:
-    """A number."""
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-
+whole_number = _option_type(values.whole_number)
+number = _option_type(values.number)
+seed = _option_type(values.seed)
+count = _option_type(values.count)
+domain_id = _option_type(values.domain_id)
+fls_id = _option_type(values.fls_id)
+seconds = _option_type(values.seconds)
+input_file = _option_type(values.input_file)
 
 #: Units of a memory size: bytes per unit (binary: K is 1024 bytes).
 _SIZE_UNITS = {"": 1, "K": 2**10, "M": 2**20, "G": 2**30, "T": 2**40}
@@ -65,14 +72,6 @@ def memory_size(text: str) -> int:
     return int(size)
 
 
-def seed(text: str) -> int:
-    """A random seed: a whole number from 0 to 2**63 - 1 (numpy's seeds are not negative)."""
-    value = whole_number(text)
-    if not 0 <= value < 2**63:
-        raise argparse.ArgumentTypeError(f"seed {value} is outside 0..2**63-1")
-    return value
-
-
 def threshold(text: str) -> int:
     """Move Source's threshold T: 1 to MAX_THRESHOLD steps of r."""
     from ..core.heuristics.result import MAX_THRESHOLD
@@ -82,22 +81,6 @@ def threshold(text: str) -> int:
         raise argparse.ArgumentTypeError(
             f"{value}: must be 1 to {MAX_THRESHOLD} steps of r (each probes 26 directions)"
         )
-    return value
-
-
-def domain_id(text: str) -> int:
-    """A ROS domain id, 0 to MAX_DOMAIN_ID."""
-    value = whole_number(text)
-    if not 0 <= value <= MAX_DOMAIN_ID:
-        raise argparse.ArgumentTypeError(f"{value} is outside 0..{MAX_DOMAIN_ID}")
-    return value
-
-
-def fls_id(text: str) -> int:
-    """An FLS id: a whole number that fits the messages' uint32 fields."""
-    value = whole_number(text)
-    if not 0 <= value <= MAX_FLS_ID:
-        raise argparse.ArgumentTypeError(f"FLS id {value} is outside 0..{MAX_FLS_ID}")
     return value
 
 
@@ -120,14 +103,6 @@ def fls_pairs(text: str) -> tuple[tuple[int, int], ...]:
     return tuple(pairs)
 
 
-def seconds(text: str) -> float:
-    """A duration in seconds, finite and above 0."""
-    value = number(text)
-    if not (math.isfinite(value) and value > 0):
-        raise argparse.ArgumentTypeError(f"{text} s: a duration must be above 0")
-    return value
-
-
 def distance_mm(text: str) -> float:
     """A distance in millimetres, finite and above 0."""
     value = number(text)
@@ -136,27 +111,12 @@ def distance_mm(text: str) -> float:
     return value
 
 
-def count(text: str) -> int:
-    """A count of things, at least 1."""
-    value = whole_number(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value}: must be at least 1")
-    return value
-
-
 def ros_namespace(text: str) -> str:
     """A ROS namespace without its leading slash, e.g. ``swarm`` or ``show/left``."""
-    from ..ros.plumbing.names import namespace_problem
+    # Here: rclpy loads only for a verb given a namespace.
+    from ..ros.plumbing.names import checked_namespace
 
-    name = text.strip("/")
-    if not name:
-        raise argparse.ArgumentTypeError("a namespace needs a name (e.g. swarm)")
-    reason = namespace_problem(f"/{name}")
-    if reason is not None:
-        raise argparse.ArgumentTypeError(
-            f"{text!r} is not a ROS namespace ({reason}; use letters, digits, _ and /)"
-        )
-    return name
+    return _option_type(checked_namespace)(text)
 
 
 def share(text: str) -> tuple[int, int]:
@@ -267,29 +227,11 @@ def recording(text: str) -> Path:
     return path if path.is_dir() else input_file(text)
 
 
-def input_file(text: str) -> Path:
-    """A file to read: a regular file (not a folder, a FIFO or a device) this process can read."""
-    path = Path(text)
-    if path.is_dir():
-        raise argparse.ArgumentTypeError(f"{path} is a folder, not a file")
-    try:
-        # Its status only: a FIFO or /dev/zero is refused here, before a reader opens it.
-        regular_file(path, "", None, SwazureError)
-    except SwazureError as err:
-        raise argparse.ArgumentTypeError(str(err)) from None
-    if not os.access(path, os.R_OK):
-        raise argparse.ArgumentTypeError(f"{path}: cannot read")
-    return path
-
-
-def check_beta_or_radius(beta: float | None, radius: float | None, where: str = "") -> None:
-    """One of beta or radius sizes the FLSs: CloudError when both are given, or when the
-    command line gives neither (a swarm file, named by ``where``, may leave both out)."""
+def check_beta_or_radius(beta: float | None, radius: float | None) -> None:
+    """One of beta or radius sizes the FLSs: CloudError when the options, swarm file
+    included, give neither (argparse refuses both on the command line, the swarm file both
+    in the file, and a flag replaces the file's)."""
     if beta is not None and radius is not None:
-        raise CloudError(
-            f"{where}: give beta or radius, not both"
-            if where
-            else "give --beta or --radius, not both"
-        )
-    if not where and beta is None and radius is None:
+        raise CloudError("give --beta or --radius, not both")
+    if beta is None and radius is None:
         raise CloudError("give --beta (r = beta * dmin) or --radius (cm)")

@@ -14,14 +14,15 @@ from ..core.errors import SwazureError
 from ..core.fit import PATH, SWARM_ESTIMATORS
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.paths import POLICIES
+from ..files.description import DEFAULT_CLOUD
 from ..files.results import (
     NO_PAIRS,
     PAIRS_OUTPUTS,
     large_pairs_limit,
     pairs_size_warning,
 )
+from ..files.values import MAX_DOMAIN_ID
 from .arguments import (
-    MAX_DOMAIN_ID,
     check_beta_or_radius,
     domain_id,
     fls_id,
@@ -38,7 +39,7 @@ def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
     """Options that describe a swarm: cloud, scale, beta or radius, sensor, seed."""
     parser.add_argument(
         "--cloud",
-        default="torus",
+        default=DEFAULT_CLOUD,
         metavar="NAME|PATH",
         help="a point cloud file (.xyz .csv .npy .ply) or a built-in shape "
         "(sphere, torus, helix, cube; NAME:COUNT for another size); default: torus",

@@ -10,7 +10,7 @@ from a ROS 2 parameter file (--params, default config/swarm.yaml).
 
 A swarm file (``swazure spawn config/swarms/dragon.yaml``) gives these options
 in one YAML file, with every FLS's and single FLSs' parameters; flags given
-beside it override it (cli/swarm_file.py).
+beside it override it (cli/swarm_file.py; the file's format: files/swarm_file.py).
 
 With --compute-all the swarm computes every FLS's pose relative to every
 blind neighbour once (and, with --technique, a heuristic's moves), prints it
@@ -31,7 +31,6 @@ from typing import TYPE_CHECKING, Any
 from ..core.errors import SwazureError
 from ..core.fit import PATH, check_plain_estimator
 from ..core.heuristics.result import PLAIN, TECHNIQUES
-from ..files.reading import config_dir
 from ..ros.security.keys import KEY_FILE_VARIABLE
 from .arguments import (
     bag_folder,
@@ -274,9 +273,10 @@ class CreationBar:
             self._bar.close()
 
 
-def config_from_args(args: argparse.Namespace) -> Any:
-    """The swarm the options describe, as a :class:`~swazure_ros.app.config.SwarmConfig`."""
-    from ..app.config import SwarmConfig, ViewConfig
+def config_from_args(args: argparse.Namespace) -> SwarmConfig:
+    """The swarm the options describe (a swarm file's, with the flags given over them:
+    cli.swarm_file.apply_swarm_file), as a :class:`~swazure_ros.app.config.SwarmConfig`."""
+    from ..app.config import SwarmConfig, ViewConfig, params_file
     from ..ros.security.keys import key_from
 
     check_beta_or_radius(args.beta, args.radius)
@@ -295,7 +295,6 @@ def config_from_args(args: argparse.Namespace) -> Any:
         raise SwazureError("--compute-all runs on share 0, the host with the coordinator")
     if args.log_dir is not None and not (args.per_fls or args.discovery_server):
         raise SwazureError("--log-dir goes with --per-fls or --discovery-server")
-    params = args.params if args.params is not None else config_dir() / "swarm.yaml"
     world = world_from_args(args)
     if args.compute_all:
         # Before any node comes up, not after: the swarm could not search this way.
@@ -308,7 +307,7 @@ def config_from_args(args: argparse.Namespace) -> Any:
         world,
         processes=args.processes,
         namespace=args.namespace.strip("/") or "swarm",
-        params_file=str(params),
+        params_file=params_file(args.params),
         domain_id=args.domain_id,
         discovery_timeout=args.discovery_timeout,
         share=index,

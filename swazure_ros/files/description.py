@@ -20,6 +20,9 @@ from ..core.sensor import Sensor
 from .cloud_files import load_cloud
 from .sensors import load_sensor
 
+#: The cloud of a swarm whose options name none (``--cloud``'s default, a swarm file's).
+DEFAULT_CLOUD = "torus"
+
 
 @dataclass(frozen=True)
 class SwarmDescription:

@@ -7,7 +7,7 @@ file a person names checks it with :func:`regular_file` before it opens it
 (opening a FIFO blocks until a writer comes; reading /dev/zero never ends),
 most through :func:`read_bytes` or :func:`read_yaml`, which refuse those
 with one line before any time or memory is spent. The command line's file
-arguments (``cli.arguments.input_file``) take the same check.
+arguments and a swarm file's paths (``files.values.input_file``) take the same check.
 """
 
 from __future__ import annotations

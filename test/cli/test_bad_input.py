@@ -84,7 +84,7 @@ BAD_INPUTS = [
         "--policy least-error: least-error needs a sensor whose every hop errs",
     ),
     (["spawn", *TORUS, "--record", "afolder"], "afolder exists: a recording makes a new bag"),
-    (["spawn", "afile"], "a swarm file is a mapping with one key, swarm:"),
+    (["spawn", "afile"], "a swarm file is a mapping with the key swarm:"),
     (["spawn", *TORUS, "--view", "--view-pairs", "3-17"], "expected SOURCE:TARGET"),
     (["spawn", *TORUS, "--view", "--view-port", "70000"], "outside 0..65535"),
     (["spawn", "missing.yaml"], "missing.yaml: no such file"),

@@ -20,7 +20,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from swazure_ros.cli.swarm_file import load_swarm_file
+from swazure_ros.app.config import load_swarm_file
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.files.cloud_files import load_cloud

@@ -3,12 +3,17 @@
 The node declares them (:class:`~.fls_node.FlsNode`, :class:`~.fls_tracking.FlsTracking`,
 the ``fls`` program's radio join), the ``fls`` program's ``--help`` lists them, and a
 swarm file's ``parameters:`` and ``fls:`` are checked against them when the file is
-read (``cli.swarm_file``), by verbs that start no node and load no rclpy.
+read (:func:`checked_parameters`, from ``app.config.load_swarm_file``), by verbs that start
+no node and load no rclpy.
 """
 
 from __future__ import annotations
 
-from ...core.tracking import TRACK_SETTINGS, TrackConfig
+from collections.abc import Mapping
+from typing import Any, cast
+
+from ...core.tracking import TRACK_SETTINGS, TrackConfig, TrackingError
+from ...files.swarm_file import NodeParameters, ParameterValue
 from ..plumbing.parameters import ParameterSpec, at_least, seconds
 
 PUBLISH_PERIOD = ParameterSpec(
@@ -62,3 +67,51 @@ JOIN_TIMEOUT = ParameterSpec(
 EVERY = (*NODE, *TRACKING, JOIN_TIMEOUT)
 #: What every rclpy node declares itself: the simulated clock's switch.
 RCLPY_OWN = ParameterSpec("use_sim_time", False, "run on /clock (a simulated clock)")
+
+
+def checked_parameters(given: Mapping[str, ParameterValue]) -> NodeParameters:
+    """``given`` ROS parameters, each one an FLS node has, of its type, by its rule.
+
+    A name no FLS node declares would be ignored by every node without a word
+    (the coordinator's ``round_timeout`` among them): it is refused. A whole
+    number where the parameter is a double is taken as that double, as the flag
+    would take it (rclpy refuses an integer for a double). The ``track.*``
+    settings are checked together, as the node takes them (TrackConfig).
+
+    Raises
+    ------
+    ValueError
+        In one line that begins with the refused parameter's name (``publish_period
+        must be ...``), or with ``track:`` for settings refused together.
+    """
+    specs = {spec.name: spec for spec in (*EVERY, RCLPY_OWN)}
+    checked: NodeParameters = {}
+    for name, value in given.items():
+        spec = specs.get(name)
+        if spec is None:
+            known = [other for other in specs if not other.startswith("track.")] + ["track.*"]
+            raise ValueError(
+                f"{name}: no FLS node has this parameter (theirs: {', '.join(known)}); "
+                "another node's, such as the coordinator's round_timeout, goes in the ROS "
+                "parameter file (params: FILE)"
+            )
+        if isinstance(spec.default, float) and type(value) is int:
+            value = float(value)
+        # Every FLS parameter is a scalar, of its default's type.
+        if isinstance(value, list) or type(value) is not type(spec.default):
+            raise ValueError(f"{name}: expected a {spec.type_name}, got {value!r}")
+        reason = spec.refuses(value)
+        if reason is not None:
+            raise ValueError(f"{name} {reason}")
+        checked[name] = value
+    tracking = {
+        name.removeprefix("track."): value
+        for name, value in checked.items()
+        if name.startswith("track.") and name.removeprefix("track.") in TRACK_SETTINGS
+    }
+    try:
+        # Each of its spec's type, checked above: TrackConfig checks them together.
+        TrackConfig(**cast(Mapping[str, Any], tracking))
+    except TrackingError as err:
+        raise ValueError(f"track: {err}") from None
+    return checked

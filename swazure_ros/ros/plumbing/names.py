@@ -198,6 +198,20 @@ def namespace_problem(namespace: str) -> str | None:
     return None
 
 
+def checked_namespace(text: str) -> str:
+    """``text`` as a ROS namespace without its leading slash (``swarm``, ``show/left``);
+    ValueError in one line, the command line's and the swarm file's, when it is not one."""
+    name = text.strip("/")
+    if not name:
+        raise ValueError("a namespace needs a name (e.g. swarm)")
+    reason = namespace_problem(f"/{name}")
+    if reason is not None:
+        raise ValueError(
+            f"{text!r} is not a ROS namespace ({reason}; use letters, digits, _ and /)"
+        )
+    return name
+
+
 def topic_problem(topic: str) -> str | None:
     """Why ``topic`` is not a fully qualified ROS topic name, in rclpy's words; None if it is."""
     try:

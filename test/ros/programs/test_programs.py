@@ -33,6 +33,7 @@ from swazure_ros.ros.plumbing.runtime import SwarmNode
 from swazure_ros.sim.world import WorldSpec
 
 from ...conftest import REPO, SHARED
+from ...domains import configured_domains, held_domain
 from ...waits import PATIENCE, wait_until
 from ..helpers import ECHO_LATCHED, long_lease_environment
 
@@ -350,6 +351,45 @@ def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(
     # Each process's output is labelled with its node's name (launch appends its own count).
     assert "[fls_0-" in out and "[fls_2-" in out and "[coordinator-" in out, out
     assert "[fls-" not in out, out
+
+
+def test_ros2_launch_per_fls_takes_the_swarm_files_params_and_domain_id(
+    ros2_tools, domain, monkeypatch, tmp_path
+):
+    # The swarm's ROS parameter file, its parameters over it, and its domain: the file's.
+    (tmp_path / "params.yaml").write_text(
+        "/**:\n  ros__parameters:\n    publish_period: 2.0\n    republish_period: 3.0\n"
+        "/**/coordinator:\n  ros__parameters:\n    round_timeout: 7.5\n"
+    )
+    swarm = tmp_path / "swarm.yaml"
+    swarm.write_text(
+        f"fileversion: 1\nswarm:\n  cloud: {REPO / 'config/track/trio.xyz'}\n  scale: 1\n"
+        f"  radius: 0.5\n  params: params.yaml\n  domain_id: {domain}\n"
+        "  parameters:\n    publish_period: 0.5\n"
+    )
+    # ros2 launch itself on another domain of its own: only the file brings the swarm here.
+    with held_domain(configured_domains()) as elsewhere:
+        monkeypatch.setenv("ROS_DOMAIN_ID", str(elsewhere))
+        launch = start("launch", "swazure_ros", "swarm.launch.py", f"swarm:={swarm}",
+                       "mode:=per_fls", cwd=tmp_path)  # fmt: skip
+        monkeypatch.setenv("ROS_DOMAIN_ID", str(domain))
+        try:
+            wanted = {"/swarm/fls_0", "/swarm/fls_1", "/swarm/fls_2", "/swarm/coordinator"}
+            listed = until(nodes, lambda names: wanted <= set(names))
+            assert wanted <= set(listed), listed
+
+            def value(node: str, name: str) -> str:
+                command = ("param", "get", "--no-daemon", "--spin-time", "3", node, name)
+                got = until(lambda: ros2(*command), lambda result: "value is" in result.stdout)
+                return got.stdout.strip()
+
+            assert value("/swarm/coordinator", "round_timeout") == "Double value is: 7.5"
+            assert value("/swarm/fls_1", "republish_period") == "Double value is: 3.0"
+            # The swarm file's own parameters win over its parameter file's.
+            assert value("/swarm/fls_1", "publish_period") == "Double value is: 0.5"
+        finally:
+            out = stop(launch)
+    assert launch.returncode == 0, out
 
 
 class Lines:
