@@ -77,7 +77,7 @@ def rate(text: str) -> float:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure replay``."""
-    from ..ros.plumbing.runtime import init_context
+    from ..ros.plumbing.process import init_context
     from ..ros.recording.bag import Player, bag_info, read_recording, recorded_channels
 
     if args.info:

@@ -86,10 +86,8 @@ from ..plumbing.names import (
     fls_id_of,
     node_name,
 )
+from ..plumbing.node import SwarmNode
 from ..plumbing.parameters import ParameterSpec, seconds
-from ..plumbing.runtime import (
-    SwarmNode,
-)
 from ..security.auth import SwarmKey, signed_at
 from ..security.guard import Guard, check
 from .pose_service import PoseService

@@ -25,7 +25,7 @@ from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.ros.plumbing.names import ROUND_QOS
-from swazure_ros.ros.plumbing.runtime import SwarmNode
+from swazure_ros.ros.plumbing.node import SwarmNode
 from swazure_ros.ros.recording.bag import (
     bag_info,
     message_definition,
