@@ -34,7 +34,7 @@ from ..ros.nodes.view import ViewNode
 from ..ros.nodes.world_node import SimulatedCameras
 from ..ros.plumbing.process import Context
 from ..ros.programs.host import SwarmHost
-from ..ros.recording.bag import Recorder
+from ..ros.recording.recorder import Recorder
 from ..ros.security.auth import SwarmKey, new_key
 from ..sim.world import World
 from ..view.scene import Scene, evaluation_scene, ranges_scene
