@@ -32,7 +32,8 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import Detections, MarkerDetection
 
-from ...camera.aruco import MAX_IMAGE_PX, Camera, Detector, intrinsics_problem
+from ...camera.aruco import Camera, Detector
+from ...camera.camera_file import MAX_IMAGE_PX, intrinsics_problem
 from ...core.errors import SwazureError
 from ...files.reading import config_dir
 from ...files.sensors import load_camera
