@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 from swazure_ros.core.paths import FEWEST_HOPS
 from swazure_ros.protocol.rounds import RoundClock
 from swazure_ros.protocol.run_queue import RunQueue
@@ -44,15 +46,21 @@ def test_only_the_running_run_is_found_by_its_id():
     assert runs.running(machine.run_id + 1) is None
 
 
-def test_run_ids_start_afresh_from_the_clock_so_a_restarted_coordinator_takes_new_ones():
-    earlier: RunQueue[None] = RunQueue()
-    earlier.add(clock, None)
-    old = earlier.begin_next(Traffic()).run_id
-    later: RunQueue[None] = RunQueue()
-    later.add(clock, None)
-    new = later.begin_next(Traffic()).run_id
-    assert 0 < old < 2**31 and 0 < new < 2**31
-    assert new >= old  # milliseconds of the wall clock, not 1 again
+def wall_clock_run_id() -> int:
+    """A run id from the wall clock now: milliseconds, in uint32 (as RunQueue takes it)."""
+    return time.time_ns() // 1_000_000 % 2**31 + 1
+
+
+def test_run_ids_start_from_the_wall_clock_so_a_restarted_coordinator_takes_new_ones():
+    # A coordinator started later begins above the run ids of one before it: the
+    # leftovers of the earlier one's runs are never taken for the new one's.
+    before = wall_clock_run_id()
+    runs: RunQueue[None] = RunQueue()
+    after = wall_clock_run_id()
+    runs.add(clock, None)
+    run_id = runs.begin_next(Traffic()).run_id
+    assert 0 < run_id < 2**31
+    assert before <= run_id <= after or after < before  # (or the count wrapped meanwhile)
 
 
 def test_a_run_keeps_the_traffic_as_it_began_not_what_came_after():
