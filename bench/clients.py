@@ -20,7 +20,8 @@ def pose_client(
     from diagnostic_msgs.msg import DiagnosticArray
     from swazure_interfaces.srv import ComputePose
 
-    from swazure_ros.ros.plumbing.runtime import SwarmNode, init_context
+    from swazure_ros.ros.plumbing.node import SwarmNode
+    from swazure_ros.ros.plumbing.process import init_context
 
     context = init_context(domain)
     node = SwarmNode(name, context=context)

@@ -54,7 +54,7 @@ UP_TIMEOUT = 300.0
 END_TIMEOUT = 120.0
 #: Seconds between two looks at whether a process has ended.
 POLL = 0.02
-#: What a watchdog prints: the teardown's (runtime.TEARDOWN_WATCH), a stop's (faulthandler).
+#: What a watchdog prints: the teardown's (process.TEARDOWN_WATCH), a stop's (faulthandler).
 WATCHDOG_LINES = ("did not end in", "Timeout (")
 #: What an FLS logs once it is on the swarm's radio (ros.programs.fls_program).
 JOINED = "on the swarm's radio"

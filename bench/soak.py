@@ -108,7 +108,8 @@ def soak_client(domain: int) -> tuple[Any, Any, Any, Any]:
     import rclpy.executors
     from swazure_interfaces.srv import ComputePose
 
-    from swazure_ros.ros.plumbing.runtime import SwarmNode, init_context
+    from swazure_ros.ros.plumbing.node import SwarmNode
+    from swazure_ros.ros.plumbing.process import init_context
 
     context = init_context(domain)
     node = SwarmNode("bench_soak", context=context)

@@ -26,7 +26,8 @@ def message_rate(
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
     from swazure_interfaces.msg import Measurements
 
-    from swazure_ros.ros.plumbing.runtime import SwarmNode, init_context
+    from swazure_ros.ros.plumbing.node import SwarmNode
+    from swazure_ros.ros.plumbing.process import init_context
 
     params = Path(tempfile.mkstemp(suffix=".yaml")[1])
     # A swarm at rest sends nothing: the heartbeat makes every FLS send every period.

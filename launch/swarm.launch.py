@@ -51,11 +51,8 @@ from swazure_ros.app.discovery_server import (
 from swazure_ros.app.per_fls import FLS_ENVIRONMENT, STOP_GRACE, parameter_file
 from swazure_ros.files.swarm_file import example_swarms, find_swarm_file
 from swazure_ros.ros.nodes import world_node
-from swazure_ros.ros.plumbing.runtime import (
-    SWARM_STOP_VARIABLE,
-    description_parameters,
-    startup_arguments,
-)
+from swazure_ros.ros.plumbing.process import SWARM_STOP_VARIABLE
+from swazure_ros.ros.plumbing.startup import description_parameters, startup_arguments
 from swazure_ros.ros.programs import coordinator_program, fls_program
 from swazure_ros.ros.security.auth import INSTANCE_BYTES
 from swazure_ros.ros.security.keys import new_key, write_key
@@ -117,7 +114,7 @@ def _per_fls(path: Path, servers: tuple) -> list:
     if config.domain_id is not None:  # the file's domain_id, as swazure spawn takes it
         swarm_env["ROS_DOMAIN_ID"] = str(config.domain_id)
     # ros2 launch would send SIGTERM after 5 s: a process given longer says where it hung
-    # (runtime.STOP_LIMIT) rather than die of a signal, as under swazure spawn.
+    # (process.STOP_LIMIT) rather than die of a signal, as under swazure spawn.
     stopping = {"sigterm_timeout": str(STOP_GRACE)}
     # One parameter file for every FLS, in the launch's folder (removed with it): launch_ros
     # would write one per FLS of a parameters dict into /tmp, and leave them there.

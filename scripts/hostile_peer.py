@@ -38,7 +38,7 @@ from swazure_interfaces.msg import (
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from swazure_ros.ros.plumbing import names
-from swazure_ros.ros.plumbing.runtime import init_context
+from swazure_ros.ros.plumbing.process import init_context
 from swazure_ros.ros.security.auth import SwarmKey, new_key
 from test.ros.fuzz import message, well_formed_offer
 

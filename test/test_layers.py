@@ -203,10 +203,10 @@ def test_an_added_import_between_rooms_of_ros_is_caught(graph: dict[str, set[str
     """A client reaching into a node, or the plumbing into a program, fails the check."""
     broken = {module: set(names) for module, names in graph.items()}
     broken["swazure_ros.ros.clients.query"].add("swazure_ros.ros.nodes.coordinator")
-    broken["swazure_ros.ros.plumbing.runtime"].add("swazure_ros.ros.programs.host")
+    broken["swazure_ros.ros.plumbing.node"].add("swazure_ros.ros.programs.host")
     assert ros_room_imports(broken) == [
         "swazure_ros.ros.clients.query -> swazure_ros.ros.nodes.coordinator",
-        "swazure_ros.ros.plumbing.runtime -> swazure_ros.ros.programs.host",
+        "swazure_ros.ros.plumbing.node -> swazure_ros.ros.programs.host",
     ]
 
 

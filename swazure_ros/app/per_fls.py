@@ -8,7 +8,7 @@ parameter file, and writes its output to a log file of its own
 (``fls_<id>.log``). A process that ends early is reported with its exit code
 and the last line it wrote; :meth:`FlsProcesses.stop` asks every process to
 stop with the swarm (SIGINT: it leaves without telling its peers, as nobody is
-left to hear it; ``runtime.SWARM_STOP_VARIABLE``), kills (SIGKILL) what has
+left to hear it; ``process.SWARM_STOP_VARIABLE``), kills (SIGKILL) what has
 not ended by the deadline, so that nothing is left running, and removes the
 swarm's key from the log folder.
 """
@@ -32,11 +32,8 @@ from ..core.errors import SwazureError
 from ..files.description import SwarmDescription
 from ..files.results import atomic_write
 from ..ros.plumbing.names import node_name
-from ..ros.plumbing.runtime import (
-    SWARM_STOP_VARIABLE,
-    description_parameters,
-    startup_arguments,
-)
+from ..ros.plumbing.process import SWARM_STOP_VARIABLE
+from ..ros.plumbing.startup import description_parameters, startup_arguments
 from ..ros.programs import fls_program
 from ..ros.security.auth import SwarmKey
 from ..ros.security.keys import write_key
@@ -79,7 +76,7 @@ FLS_ENVIRONMENT = {"FASTDDS_BUILTIN_TRANSPORTS": "UDPv4", "NUMBA_DISABLE_JIT": "
 #: same unicast port).
 START_INTERVAL = 0.2
 #: Seconds a process has to end after SIGINT before it is killed: beyond its own limits
-#: (runtime.STOP_LIMIT, then runtime.PROGRAM_TEARDOWN_LIMIT), so that one that hangs says
+#: (process.STOP_LIMIT, then process.PROGRAM_TEARDOWN_LIMIT), so that one that hangs says
 #: where in its log. When every process tore its participant down at once, one took more
 #: than 10 s on 2 cores under a test run; stopped with the swarm, none tears it down now.
 STOP_GRACE = 20.0

@@ -18,9 +18,9 @@ from ..core.errors import RunError, SwazureError
 from ..core.geometry import Swarm
 from ..core.partition import kd_split
 from ..ros.nodes.instance import await_instance
-from ..ros.plumbing import runtime
+from ..ros.plumbing import process
 from ..ros.plumbing.names import host_name
-from ..ros.plumbing.runtime import Context
+from ..ros.plumbing.process import Context
 from ..ros.programs.host import HostConfig, SwarmHost
 from ..ros.security.auth import SwarmKey
 from .config import SwarmConfig
@@ -40,7 +40,7 @@ def init_context(config: SwarmConfig) -> Context:
         # Read by Fast DDS when the context's participant is made, and by nothing else;
         # a super client, as this process waits until it sees every FLS.
         os.environ.update(client_environment(config.discovery_servers, super_client=True))
-    return runtime.init_context(config.domain_id, config.params_file)
+    return process.init_context(config.domain_id, config.params_file)
 
 
 def unreached_text(unreached: list[int], shown: int = 10) -> str:
@@ -132,4 +132,4 @@ def host_share(
         # Every report reaches the launcher before the process ends.
         reports.close()
         reports.join_thread()
-        runtime.exit_process(code)
+        process.exit_process(code)

@@ -32,9 +32,9 @@ from ..protocol.runs import DiscoveryResult, MoveResult, merged, source_blocks, 
 from ..ros.nodes.coordinator import Coordinator, Future
 from ..ros.nodes.view import ViewNode
 from ..ros.nodes.world_node import SimulatedCameras
-from ..ros.plumbing.runtime import Context
+from ..ros.plumbing.process import Context
 from ..ros.programs.host import SwarmHost
-from ..ros.recording.bag import Recorder
+from ..ros.recording.recorder import Recorder
 from ..ros.security.auth import SwarmKey, new_key
 from ..sim.world import World
 from ..view.scene import Scene, evaluation_scene, ranges_scene
@@ -73,7 +73,7 @@ class RunningSwarm:
     ) -> None:
         self.config = config
         # A process that ends right after the swarm leaves its own nodes to
-        # runtime.exit_process: far faster than destroying them one by one.
+        # process.exit_process: far faster than destroying them one by one.
         self._leave_nodes = leave_nodes
         self._on_created = on_created or (lambda created, total: None)
         #: Up and discovered (wait_until_ready).

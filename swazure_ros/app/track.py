@@ -34,7 +34,7 @@ from ..files.description import SwarmDescription
 from ..ros.clients.track_client import SwarmStalledError, TrackClient
 from ..ros.nodes.clock import SimClock
 from ..ros.nodes.world_node import SimulatedCameras
-from ..ros.plumbing.runtime import Context, init_context
+from ..ros.plumbing.process import Context, init_context
 from ..ros.programs.host import HostConfig, SwarmHost
 from ..ros.security.auth import SwarmKey
 from ..sim.world import World

@@ -219,7 +219,7 @@ def recording(text: str) -> Path:
     """A recording to read: a bag folder (with metadata.yaml), or an MCAP file.
 
     A folder of MCAP files without metadata.yaml is a recording that a full
-    disk cut short (``ros.recording.bag.Recorder``): read as far as it was written.
+    disk cut short (``ros.recording.recorder.Recorder``): read as far as it was written.
     """
     path = Path(text)
     if path.is_dir() and not (path / "metadata.yaml").is_file() and not any(path.glob("*.mcap")):

@@ -100,7 +100,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     code = _run(args)
     if getattr(args, "exit_process", False):
         # rclpy loads only for the verbs that use it: `swazure evaluate` starts faster.
-        from ..ros.plumbing.runtime import exit_process
+        from ..ros.plumbing.process import exit_process
 
         exit_process(code)
     return code

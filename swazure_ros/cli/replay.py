@@ -14,15 +14,17 @@ import argparse
 import sys
 import time
 from collections import Counter
+from collections.abc import Sequence
 from datetime import datetime, timezone
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..core.errors import SwazureError
 from .arguments import number, recording, seconds
 from .options import add_domain_argument
 
 if TYPE_CHECKING:
-    from ..ros.recording.bag import BagInfo
+    from ..ros.recording.metadata import OfferedProfile
+    from ..ros.recording.reader import BagInfo
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -77,8 +79,9 @@ def rate(text: str) -> float:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure replay``."""
-    from ..ros.plumbing.runtime import init_context
-    from ..ros.recording.bag import Player, bag_info, read_recording, recorded_channels
+    from ..ros.plumbing.process import init_context
+    from ..ros.recording.player import Player
+    from ..ros.recording.reader import bag_info, read_recording, recorded_channels
 
     if args.info:
         sys.stdout.write(info_text(bag_info(args.recording)))
@@ -152,7 +155,7 @@ def info_text(info: BagInfo) -> str:
     return "".join(f"{label:<{_LABEL}}{value}\n" for label, value in lines)
 
 
-def offered_qos_text(profiles: list[dict[str, Any]]) -> str:
+def offered_qos_text(profiles: Sequence[OfferedProfile]) -> str:
     """Publishers' QoS profiles in a few words: reliability and durability, with how many
     publishers offer each (``reliable, transient_local x60``); "-" when none is recorded."""
     offers = Counter(

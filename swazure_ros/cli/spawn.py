@@ -73,7 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     # --compute-all prints a summary: its rows are explained as evaluate's are.
     parser.epilog = SUMMARY_TERMS
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
-    # The launcher leaves its nodes to the process's end (ros.plumbing.runtime.exit_process).
+    # The launcher leaves its nodes to the process's end (ros.plumbing.process.exit_process).
     parser.set_defaults(exit_process=True)
     add_swarm_arguments(parser)
     add_policy_argument(parser)

@@ -39,7 +39,7 @@ def default_sensor_path() -> Path:
 def load_camera(path: str | Path) -> Camera:
     """Read a camera YAML file (``config/cameras/*.yaml``)."""
     # Here, not above: a process that reads a sensor file loads OpenCV only for a camera.
-    from ..camera.aruco import camera_from_dict
+    from ..camera.camera_file import camera_from_dict
 
     path = Path(path)
     return camera_from_dict(read_yaml(path, "camera", SensorError), str(path))

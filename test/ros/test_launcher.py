@@ -392,7 +392,7 @@ def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(
 def test_a_stopped_swarm_tells_its_peers_that_every_process_nodes_left(
     context, fast_params, tmp_path
 ):
-    # Each process deletes its DDS participant as it exits (ros.plumbing.runtime.exit_process), so
+    # Each process deletes its DDS participant as it exits (ros.plumbing.process.exit_process), so
     # a peer drops its nodes then, not when the participant's lease runs out: an hour here.
     spawn = swazure(
         "spawn", "--cloud", "helix:100", "--beta", "0.5", "--processes", "2",

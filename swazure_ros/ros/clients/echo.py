@@ -19,7 +19,8 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 
 from ...core.errors import RunError, SwazureError
 from ..plumbing.interfaces import message_class
-from ..plumbing.runtime import SwarmNode, init_context
+from ..plumbing.node import SwarmNode
+from ..plumbing.process import init_context
 
 
 def message_to_dict(message: Any) -> Any:

@@ -22,7 +22,8 @@ from ..plumbing.names import (
     node_name,
     policy_code,
 )
-from ..plumbing.runtime import SwarmNode, init_context
+from ..plumbing.node import SwarmNode
+from ..plumbing.process import init_context
 
 #: Seconds after which a query that sees no node of the swarm at all gives up, whatever
 #: its timeout: a swarm that is coming up shows its nodes long before its coordinator.

@@ -23,7 +23,7 @@ from ..plumbing.names import (
     TRACK_STATE_NAMES,
     node_name,
 )
-from ..plumbing.runtime import SwarmNode
+from ..plumbing.node import SwarmNode
 from ..security.guard import Guard
 
 #: Spins until a condition holds or a timeout in wall seconds passes; whether it holds.

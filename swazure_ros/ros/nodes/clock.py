@@ -12,7 +12,7 @@ from rclpy.time import Time
 from rosgraph_msgs.msg import Clock
 
 from ..plumbing.names import CLOCK_QOS, CLOCK_TOPIC
-from ..plumbing.runtime import SwarmNode
+from ..plumbing.node import SwarmNode
 
 
 class SimClock(SwarmNode):

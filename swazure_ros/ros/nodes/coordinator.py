@@ -12,21 +12,21 @@ Its service ``coordinator/compute_pose`` (:class:`~.pose_service.PoseService`)
 runs one source's search for one target on demand. The coordinator only
 clocks; labels travel from FLS to FLS, and only FLSs sum vectors.
 
-The node wires parts of one job each: :class:`RunQueue` (runs wait their
-turn), :class:`Outbox` (what it publishes, counted), :class:`Membership`
-(who takes part: departed, gone, back, and the radios to hear) and
-:class:`Positions` (where each FLS is, by the world's revisions).
+The node wires parts of one job each: :class:`Outbox` (what it publishes,
+counted) and, pure logic in ``protocol/``,
+:class:`~swazure_ros.protocol.run_queue.RunQueue` (runs wait their turn),
+:class:`~swazure_ros.protocol.membership.Membership` (who takes part:
+departed, gone, back, and the radios to hear) and
+:class:`~swazure_ros.protocol.positions.Positions` (where each FLS is, by the
+world's revisions).
 """
 
 from __future__ import annotations
 
 import time
-from collections import deque
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
 from functools import partial
 
-import numpy as np
 from builtin_interfaces.msg import Time
 from rclpy.context import Context
 from rclpy.publisher import Publisher
@@ -45,15 +45,17 @@ from swazure_interfaces.msg import (
     WorldState,
 )
 
-from ...core.arrays import FloatArray, IntArray
 from ...core.evaluate import Evaluation, Neighbourhood
 from ...core.fit import PATH, fit_layers
 from ...core.paths import check_policy
 from ...protocol.discovery.messages import Control
 from ...protocol.discovery.search import bucket_width
+from ...protocol.membership import Membership
 from ...protocol.moves import Move, MoveRun, Walk
 from ...protocol.plausible import implausible_estimates
+from ...protocol.positions import Positions
 from ...protocol.rounds import RoundClock, RoundTimes, StallClock
+from ...protocol.run_queue import Job, Machine, RunQueue
 from ...protocol.runs import DiscoveryResult, MoveResult, Traffic
 from ..convert.discovery import (
     alive_from_message,
@@ -86,10 +88,8 @@ from ..plumbing.names import (
     fls_id_of,
     node_name,
 )
+from ..plumbing.node import SwarmNode
 from ..plumbing.parameters import ParameterSpec, seconds
-from ..plumbing.runtime import (
-    SwarmNode,
-)
 from ..security.auth import SwarmKey, signed_at
 from ..security.guard import Guard, check
 from .pose_service import PoseService
@@ -101,7 +101,6 @@ TICK = 0.05
 #: A tick this much later than due means the process was busy, not that FLSs were silent.
 STALL = 0.5
 
-Machine = RoundClock | MoveRun
 Action = Control | Move | Walk
 
 
@@ -124,64 +123,6 @@ LIVENESS_GRACE_SPEC = ParameterSpec(
 )
 #: The parameters the coordinator declares.
 PARAMETERS = (ROUND_TIMEOUT, LIVENESS_PERIOD, LIVENESS_GRACE_SPEC)
-
-
-@dataclass
-class _Job:
-    """A run waiting for its turn, then running: how to start it and who waits for it."""
-
-    begin: Callable[[int], Machine]  # run id -> the run's machine
-    future: Future
-    queued: float = field(default_factory=time.monotonic)  # monotonic s
-    machine: Machine | None = None
-    began: float = 0.0
-    traffic: Traffic = field(default_factory=Traffic)
-
-
-class RunQueue:
-    """The runs asked of the coordinator: they wait their turn, in order, and one runs."""
-
-    def __init__(self) -> None:
-        self._waiting: deque[_Job] = deque()
-        self.job: _Job | None = None  # the running one
-        # Run ids differ from a coordinator that ran before this one (a restart): its
-        # runs' leftovers can never be taken for ours. Milliseconds, in uint32.
-        self._next_run = (time.time_ns() // 1_000_000) % 2**31 + 1
-
-    def add(self, begin: Callable[[int], Machine]) -> Future:
-        """A run that ``begin(run_id)`` starts, queued; the future of its result."""
-        job = _Job(begin, Future())
-        self._waiting.append(job)
-        return job.future
-
-    def next_waited(self) -> float | None:
-        """Seconds the next run has waited while none runs; None: none is to start."""
-        if self.job is not None or not self._waiting:
-            return None
-        return time.monotonic() - self._waiting[0].queued
-
-    def begin_next(self, traffic: Traffic) -> Machine:
-        """Start the next run (with ``traffic`` as it is now); its machine."""
-        job = self._waiting.popleft()
-        job.machine = job.begin(self._next_run)
-        self._next_run += 1
-        job.began, job.traffic = time.perf_counter(), traffic.copy()
-        self.job = job
-        return job.machine
-
-    def running(self, run_id: int | None = None) -> Machine | None:
-        """The running machine (of run ``run_id``, if given)."""
-        machine = self.job.machine if self.job is not None else None
-        if machine is None or (run_id is not None and machine.run_id != run_id):
-            return None
-        return machine
-
-    def finish(self) -> _Job:
-        """The running run, done: none runs now."""
-        job = self.job
-        assert job is not None
-        self.job = None
-        return job
 
 
 class Outbox:
@@ -219,114 +160,6 @@ class Outbox:
         publisher.publish(data)
 
 
-class Membership:
-    """Who takes part in the next run: the FLSs departed or gone, and the radios to hear.
-
-    ``departed``: FLSs the runs go on without; ``gone``: those of them whose
-    nodes left the graph. An FLS in a process of its own is its own radio
-    (named as its node): its leaving and coming back change ``hosts``.
-    """
-
-    def __init__(self, hosts: int) -> None:
-        self.hosts = hosts
-        self.departed: set[int] = set()
-        self.gone: set[int] = set()
-        self.radios: set[str] = set()  # node names of the processes' radios (acks' writers)
-        self._radios_gone: set[str] = set()  # of departed FLSs that were their own radio
-        # Who speaks through each radio (its acks' senders), and when each departed FLS
-        # was known gone (wall-clock ns): a signed ack made later says it is back.
-        self._voices: dict[str, set[int]] = {}
-        self._departed_at: dict[int, int] = {}
-        self._back_in_run: set[int] = set()
-
-    def lose(self, newly: set[int]) -> int:
-        """FLSs ``newly`` gone from the graph: departed. How many radios went with them."""
-        self.gone |= newly
-        self._note_departed(newly)
-        self.departed |= newly
-        radios = {node_name(fls_id) for fls_id in newly} & self.radios
-        self.radios -= radios
-        self._radios_gone |= radios
-        self.hosts -= len(radios)
-        return len(radios)
-
-    def settle(self, departed: Iterable[int]) -> None:
-        """A discovery run's departed, at its end: the swarm's, but for those back meanwhile."""
-        departed = set(departed)
-        self._note_departed(departed - self.departed - self._back_in_run)
-        self.departed = departed - self._back_in_run
-        self._back_in_run.clear()
-
-    def hear(self, host: str, senders: Iterable[int]) -> None:
-        """FLSs ``senders`` spoke through radio ``host``."""
-        self._voices.setdefault(host, set()).update(senders)
-
-    def voices(self, host: str) -> set[int]:
-        """The FLSs radio ``host`` speaks for: those heard through it, and the FLS it is."""
-        own = fls_id_of(host)
-        return self._voices.get(host, set()) | ({own} if own is not None else set())
-
-    def back_by(self, ack: RoundAck) -> set[int]:
-        """Departed FLSs of radio ``ack.host`` that its signed ack says are back."""
-        voices = self._voices.get(ack.host, set())
-        own = fls_id_of(ack.host)
-        if own is not None:
-            voices = voices | {own}
-        signed = signed_at(ack)
-        return {
-            fls_id
-            for fls_id in (voices & self.departed) - self.gone
-            if self._departed_at.get(fls_id, signed) < signed
-        }
-
-    def take_back(self, back: set[int], in_run: bool) -> None:
-        """FLSs departed and back: they take part again from the next run on.
-
-        A run under way (``in_run``) keeps its departed (its rounds and labels
-        were made without them); the next starts with them, and every pair of
-        theirs is searched again.
-        """
-        self.gone -= back
-        self.departed -= back
-        if in_run:
-            self._back_in_run |= back
-        for fls_id in back:
-            self._departed_at.pop(fls_id, None)
-        radios = {node_name(fls_id) for fls_id in back} & self._radios_gone
-        self._radios_gone -= radios
-        self.hosts += len(radios)
-
-    def _note_departed(self, newly: set[int]) -> None:
-        now = time.time_ns()
-        self._departed_at.update(dict.fromkeys(newly, now))
-
-
-class Positions:
-    """Where each FLS is: its assigned point, then the world's revisions as heard.
-
-    Under --no-key, what a report is checked against.
-    """
-
-    def __init__(self, shape: Neighbourhood, fls_ids: Iterable[int]) -> None:
-        self.ids = np.array(sorted(fls_ids), dtype=np.int64)
-        order = np.argsort(shape.swarm.cloud_index)
-        self._points = np.array(shape.swarm.points[order], dtype=np.float64)
-        self.revision = 0  # the newest world revision seen
-        self.asked_revision = 0  # the revision our last group of moves makes
-
-    def hear(self, state: WorldState) -> None:
-        """A world revision: its positions, when it is the newest."""
-        check(state.revision < 2**63, f"revision {state.revision} out of range")
-        if state.revision >= self.revision:
-            ids, points = world_positions(state, self.ids, WORLD_REACH)
-            self._points[np.searchsorted(self.ids, ids)] = points
-        self.revision = max(self.revision, int(state.revision))
-
-    def where(self, ids: IntArray) -> FloatArray:
-        """Where FLSs ``ids`` (M,) are, (M, 3), cm, by the newest world revision heard."""
-        return np.asarray(self._points[np.searchsorted(self.ids, ids)])
-
-
 class Coordinator(SwarmNode):
     """Clocks discovery runs and makes heuristics' moves over the FLS nodes of a swarm."""
 
@@ -359,9 +192,9 @@ class Coordinator(SwarmNode):
         self.key = self.guard.key
         self.traffic = Traffic()
         self.outbox = Outbox(self, self.key, self.traffic)
-        self.membership = Membership(hosts)
-        self.positions = Positions(shape, self.fls_ids)
-        self.runs = RunQueue()
+        self.membership = Membership(hosts, own_radio=node_name, radio_fls=fls_id_of)
+        self.positions = Positions(shape.swarm, self.fls_ids)
+        self.runs: RunQueue[Future] = RunQueue()
         # Deadlines stand still while this process is too busy to hear anything, and
         # follow how long the swarm's rounds take (every run's rounds measured).
         self._deadlines = StallClock(TICK, STALL, time.monotonic())
@@ -472,7 +305,8 @@ class Coordinator(SwarmNode):
         return self._enqueue(begin)
 
     def _enqueue(self, begin: Callable[[int], Machine]) -> Future:
-        future = self.runs.add(begin)
+        future = Future()
+        self.runs.add(begin, future)
         self._start_next()
         return future
 
@@ -504,7 +338,7 @@ class Coordinator(SwarmNode):
             job.future.set_result(self._result(job, machine))
             self._start_next()
 
-    def _result(self, job: _Job, machine: Machine) -> DiscoveryResult | MoveResult:
+    def _result(self, job: Job[Future], machine: Machine) -> DiscoveryResult | MoveResult:
         seconds = time.perf_counter() - job.began
         traffic = self.traffic.since(job.traffic)
         if isinstance(machine, RoundClock):
@@ -597,7 +431,12 @@ class Coordinator(SwarmNode):
         check(0 < len(ack.host) <= MAX_NAME, "a host name of no or too many characters")
         # Only a signed ack says who speaks: without a key, anyone could write it.
         signed = self.key.active
-        if signed and self.membership.departed and (back := self.membership.back_by(ack)):
+        membership = self.membership
+        if (
+            signed
+            and membership.departed
+            and (back := membership.back_by(ack.host, signed_at(ack)))
+        ):
             self._take_back(back, "speaking again")
         clock = self.runs.running(ack.run_id)
         if isinstance(clock, RoundClock):
@@ -655,7 +494,11 @@ class Coordinator(SwarmNode):
             self._act(machine.on_estimates(source, estimates, self._now()))
 
     def _on_world(self, state: WorldState) -> None:
-        self.positions.hear(state)
+        check(state.revision < 2**63, f"revision {state.revision} out of range")
+        revision = int(state.revision)
+        if self.positions.takes(revision):  # an older revision's positions are not read
+            ids, points = world_positions(state, self.positions.ids, WORLD_REACH)
+            self.positions.hear(revision, ids, points)
         machine = self.runs.running()
         if isinstance(machine, MoveRun):
             self._act(machine.on_revision(self.positions.revision, self._now()))

@@ -23,7 +23,6 @@ detector on the FLS's own host, beside its driver.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 from geometry_msgs.msg import PoseWithCovariance
@@ -33,21 +32,16 @@ from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import Detections, MarkerDetection
 
-from ...camera.aruco import MAX_IMAGE_PX, Camera, Detector, intrinsics_problem
+from ...camera.aruco import Camera, Detector
+from ...camera.camera_file import MAX_IMAGE_PX, intrinsics_problem
 from ...core.errors import SwazureError
 from ...files.reading import config_dir
 from ...files.sensors import load_camera
 from ..plumbing.names import DETECTIONS_QOS
-from ..plumbing.parameters import ParameterSpec
-from ..plumbing.runtime import (
-    KEY_FILE,
-    NAMESPACE,
-    SWARM_INSTANCE,
-    ParameterError,
-    SwarmNode,
-    program_help,
-    run_process,
-)
+from ..plumbing.node import SwarmNode
+from ..plumbing.parameters import ParameterError, ParameterSpec
+from ..plumbing.process import run_process
+from ..plumbing.startup import KEY_FILE, NAMESPACE, SWARM_INSTANCE, StartupValues, program_help
 from ..security.auth import SwarmKey
 from ..security.guard import Guard, check
 from .instance import program_key
@@ -150,7 +144,7 @@ class ArucoDetectorNode(SwarmNode):
         self._detections.publish(self.guard.key.serialize(message))
 
 
-def build_detector(context: Context, values: dict[str, Any]) -> list[Node]:
+def build_detector(context: Context, values: StartupValues) -> list[Node]:
     """The detector's process: one node; ``values``: STARTUP's."""
     return [ArucoDetectorNode(context=context, key=program_key(context, values))]
 

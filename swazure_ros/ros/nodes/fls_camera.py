@@ -31,7 +31,7 @@ from ..plumbing.names import (
     MOVE_TOPIC,
     WORLD_REACH,
 )
-from ..plumbing.runtime import SwarmNode
+from ..plumbing.node import SwarmNode
 from ..security.auth import SwarmKey
 from ..security.guard import Guard, check
 

@@ -71,7 +71,8 @@ from ..plumbing.names import (
     ROUND_QOS,
     node_name,
 )
-from ..plumbing.runtime import ParameterError, SwarmNode
+from ..plumbing.node import SwarmNode
+from ..plumbing.parameters import ParameterError
 from ..security.auth import SwarmKey
 from . import fls_parameters
 from .fls_camera import CameraView, DetectedSensing, Eyes

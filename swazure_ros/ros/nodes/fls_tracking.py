@@ -46,7 +46,8 @@ from ..plumbing.names import (
     TRACK_SAMPLES_TOPIC,
     TRACK_SERVICE,
 )
-from ..plumbing.runtime import ParameterError, SwarmNode
+from ..plumbing.node import SwarmNode
+from ..plumbing.parameters import ParameterError
 from ..security.guard import check
 from . import fls_parameters
 from .fls_parameters import REPORT_PROGRESS, TRACK_SERVICE_FLAG, TRACK_SETTINGS_SPECS

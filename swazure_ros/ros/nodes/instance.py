@@ -22,7 +22,8 @@ from swazure_interfaces.msg import SwarmInstance
 from ...core.errors import MessageError, RunError
 from ..convert.units import stamp_nanoseconds
 from ..plumbing.names import INSTANCE_QOS, INSTANCE_TOPIC
-from ..plumbing.runtime import Context
+from ..plumbing.process import Context
+from ..plumbing.startup import StartupValues
 from ..security.auth import ANNOUNCEMENT, INSTANCE_BYTES, Freshness, SwarmKey
 from ..security.keys import key_from
 
@@ -111,7 +112,7 @@ def await_instance(
     return found[-1]
 
 
-def program_key(context: Context, values: dict[str, object], *, world: bool = False) -> SwarmKey:
+def program_key(context: Context, values: StartupValues, *, world: bool = False) -> SwarmKey:
     """The SwarmKey of a program from its ``key_file`` and ``swarm_instance`` parameters.
 
     Without a given instance, the world's program makes a fresh one and every
@@ -121,7 +122,7 @@ def program_key(context: Context, values: dict[str, object], *, world: bool = Fa
     text = str(values["swarm_instance"])
     instance = None
     if text:
-        # Read by runtime.SWARM_INSTANCE's rule: 2 * INSTANCE_BYTES hexadecimal digits.
+        # Read by startup.SWARM_INSTANCE's rule: 2 * INSTANCE_BYTES hexadecimal digits.
         instance = bytes.fromhex(text)
     elif key is not None and not world:
         instance = await_instance(context, str(values["namespace"]), key, PROGRAM_WAIT)

@@ -19,7 +19,7 @@ from ...protocol.runs import DiscoveryResult
 from ..convert.discovery import pose_estimate_message
 from ..plumbing.deferred import Reply, create_deferred_service
 from ..plumbing.names import COMPUTE_POSE_SERVICE, ESTIMATOR_NAMES, POLICY_NAMES
-from ..plumbing.runtime import SwarmNode
+from ..plumbing.node import SwarmNode
 
 #: discover(policy, sources, targets, estimator): a future of the run's DiscoveryResult.
 Discover = Callable[[str, list[int], list[int], str], Future]

@@ -17,7 +17,7 @@ from ...view.scene import Scene, placed
 from ..convert.markers import scene_markers
 from ..convert.sensing import world_positions
 from ..plumbing.names import SCENE_QOS, SCENE_TOPIC, WORLD_QOS, WORLD_REACH, WORLD_TOPIC
-from ..plumbing.runtime import SwarmNode
+from ..plumbing.node import SwarmNode
 from ..security.auth import SwarmKey
 from ..security.guard import Guard
 

@@ -12,7 +12,6 @@ One world node runs per swarm, in the launcher's process.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 from rclpy.context import Context
 from rclpy.node import Node
@@ -40,17 +39,18 @@ from ..plumbing.names import (
     WORLD_TOPIC,
     node_name,
 )
+from ..plumbing.node import SwarmNode
 from ..plumbing.parameters import ParameterSpec
-from ..plumbing.runtime import (
+from ..plumbing.process import run_process
+from ..plumbing.startup import (
     DESCRIPTION_PARAMETERS,
     KEY_FILE,
     NAMESPACE,
     SWARM_INSTANCE,
-    SwarmNode,
+    StartupValues,
     declare_startup,
     description_from,
     program_help,
-    run_process,
 )
 from ..security.auth import SwarmKey
 from ..security.guard import Guard, check
@@ -172,7 +172,7 @@ which publishes the FLS's ArUco detections on /NAMESPACE/fls_<id>/camera/detecti
 )
 
 
-def build_world(context: Context, values: dict[str, Any]) -> list[Node]:
+def build_world(context: Context, values: StartupValues) -> list[Node]:
     """The simulator's process: the world node, and the cameras of FLSs in their own processes.
 
     ``values`` (STARTUP): the swarm's description (``cloud``, ``beta`` or ``radius``,

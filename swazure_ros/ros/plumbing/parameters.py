@@ -12,6 +12,13 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from string import hexdigits
 
+from ...core.errors import SwazureError
+
+
+class ParameterError(SwazureError):
+    """A node parameter with a value the node cannot run with."""
+
+
 #: A parameter's value, as ROS 2 parameters hold them here.
 Value = bool | int | float | str
 #: Why a value is refused (None: accepted).

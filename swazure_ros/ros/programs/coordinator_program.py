@@ -5,8 +5,6 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 from rclpy.context import Context
 from rclpy.node import Node
 
@@ -15,15 +13,16 @@ from ..nodes import coordinator
 from ..nodes.coordinator import Coordinator
 from ..nodes.instance import program_key
 from ..plumbing.parameters import ParameterSpec, at_least
-from ..plumbing.runtime import (
+from ..plumbing.process import run_process
+from ..plumbing.startup import (
     DESCRIPTION_PARAMETERS,
     KEY_FILE,
     NAMESPACE,
     SWARM_INSTANCE,
+    StartupValues,
     declare_startup,
     description_from,
     program_help,
-    run_process,
 )
 
 HOSTS = ParameterSpec(
@@ -47,7 +46,7 @@ FLS has it.
 )
 
 
-def build_coordinator(context: Context, values: dict[str, Any]) -> list[Node]:
+def build_coordinator(context: Context, values: StartupValues) -> list[Node]:
     """The coordinator's process, for a swarm whose FLSs run one to a process.
 
     ``values`` (STARTUP): the swarm's description (``cloud``, ``beta`` or ``radius``,

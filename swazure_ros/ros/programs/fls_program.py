@@ -15,7 +15,6 @@ import stat
 import sys
 import time
 from functools import partial
-from typing import Any
 
 from rclpy.context import Context
 from rclpy.node import Node
@@ -33,17 +32,17 @@ from ..nodes.instance import program_key
 from ..nodes.radio import Radio
 from ..plumbing.lease import participant_lease
 from ..plumbing.names import DETECTIONS_TOPIC
-from ..plumbing.parameters import ParameterSpec
-from ..plumbing.runtime import (
+from ..plumbing.parameters import ParameterError, ParameterSpec
+from ..plumbing.process import run_process
+from ..plumbing.startup import (
     DESCRIPTION_PARAMETERS,
     KEY_FILE,
     NAMESPACE,
     SWARM_INSTANCE,
-    ParameterError,
+    StartupValues,
     declare_startup,
     description_from,
     program_help,
-    run_process,
 )
 
 #: Seconds between two looks of a standalone FLS at whether every FLS hears it yet.
@@ -198,7 +197,7 @@ def close_on_exec_all_but_pipes() -> None:
                 os.set_inheritable(fd, False)
 
 
-def build_fls(context: Context, values: dict[str, Any]) -> list[Node]:
+def build_fls(context: Context, values: StartupValues) -> list[Node]:
     """One FLS in its own process: it senses by its camera's detections, radio of its own.
 
     ``values`` (STARTUP): ``fls_id``, the swarm's description (``cloud``,

@@ -45,7 +45,8 @@ from ..plumbing.names import (
     WORLD_TOPIC,
     fls_id_of,
 )
-from ..plumbing.runtime import ParameterError, SwarmNode
+from ..plumbing.node import SwarmNode
+from ..plumbing.parameters import ParameterError
 from ..security.auth import SwarmKey
 from ..security.guard import Guard, check
 

@@ -12,7 +12,7 @@ from std_msgs.msg import String
 
 from swazure_ros.ros.clients.echo import WAIT_NOTICE_AFTER
 from swazure_ros.ros.plumbing.names import MEASUREMENTS_QOS
-from swazure_ros.ros.plumbing.runtime import SwarmNode
+from swazure_ros.ros.plumbing.node import SwarmNode
 
 from ...waits import PATIENCE, wait_until
 

@@ -18,7 +18,7 @@ from swazure_ros.files.sensors import load_camera
 from swazure_ros.ros.convert.sensing import camera_info_message, image_message
 from swazure_ros.ros.nodes.detector_node import ArucoDetectorNode
 from swazure_ros.ros.plumbing.names import DETECTIONS_QOS
-from swazure_ros.ros.plumbing.runtime import SwarmNode
+from swazure_ros.ros.plumbing.node import SwarmNode
 
 from ...waits import PATIENCE, wait_until
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from swazure_ros.files.description import SwarmDescription
 from swazure_ros.protocol.senses import DetectedSenses
 from swazure_ros.ros.nodes.radio import Radio
-from swazure_ros.ros.plumbing.runtime import SwarmNode
+from swazure_ros.ros.plumbing.node import SwarmNode
 
 from ...conftest import REPO
 from ...waits import PATIENCE, wait_until

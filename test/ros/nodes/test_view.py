@@ -18,7 +18,7 @@ from swazure_ros.app.config import SwarmConfig, ViewConfig
 from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.frames import METRES_PER_CM
 from swazure_ros.ros.plumbing.names import MOVE_QOS, SCENE_QOS
-from swazure_ros.ros.plumbing.runtime import SwarmNode
+from swazure_ros.ros.plumbing.node import SwarmNode
 from swazure_ros.sim.world import WorldSpec
 from swazure_ros.view.scene import MOVE_COLOUR
 

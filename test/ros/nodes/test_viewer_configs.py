@@ -21,7 +21,7 @@ from swazure_ros.core.frames import SWARM_FRAME
 from swazure_ros.ros.convert.markers import scene_markers
 from swazure_ros.ros.nodes.view import ViewNode
 from swazure_ros.ros.plumbing import names
-from swazure_ros.ros.plumbing.runtime import SwarmNode
+from swazure_ros.ros.plumbing.node import SwarmNode
 from swazure_ros.view.scene import Polyline, Scene
 
 from ...conftest import REPO

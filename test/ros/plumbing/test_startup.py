@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 
 import pytest
 import rclpy
@@ -11,13 +13,12 @@ from rclpy.parameter import Parameter
 from rclpy.utilities import remove_ros_args
 
 from swazure_ros.core.errors import SwazureError
-from swazure_ros.ros.nodes import detector_node, world_node
-from swazure_ros.ros.plumbing.parameters import ParameterSpec
-from swazure_ros.ros.plumbing.runtime import (
+from swazure_ros.ros.nodes import detector_node, fls_node, world_node
+from swazure_ros.ros.plumbing.node import SwarmNode
+from swazure_ros.ros.plumbing.parameters import ParameterError, ParameterSpec
+from swazure_ros.ros.plumbing.startup import (
     DESCRIPTION_PARAMETERS,
     SWARM_INSTANCE,
-    ParameterError,
-    SwarmNode,
     declare_startup,
     program_startup,
     refuse_startup_as_parameter,
@@ -26,6 +27,8 @@ from swazure_ros.ros.plumbing.runtime import (
 )
 from swazure_ros.ros.programs import coordinator_program, fls_program
 from swazure_ros.ros.security.auth import INSTANCE_BYTES
+
+from ...waits import PATIENCE
 
 FLS_ID = ParameterSpec("fls_id", -1, "id")
 BETA = ParameterSpec("beta", 0.0, "beta")
@@ -181,3 +184,26 @@ def test_a_malformed_swarm_instance_is_refused_as_its_argument_is_read(text):
     assert str(refused.value) == (
         f"argument --swarm-instance must be 32 hexadecimal digits (or '' for none), got {text!r}"
     )
+
+
+def test_a_program_answers_help_with_its_parameters_and_starts_no_node():
+    run = subprocess.run(
+        [sys.executable, "-c", "import sys; from swazure_ros.ros.programs.fls_program import "
+         "main; sys.exit(main(sys.argv))", "--help"],
+        capture_output=True, text=True, timeout=PATIENCE,
+    )  # fmt: skip
+    assert run.returncode == 0 and run.stderr == "", run
+    assert run.stdout.startswith("usage: ros2 run swazure_ros fls")
+    for spec in fls_program.STARTUP:
+        assert f"  {spec.option} ({spec.type_name}, " in run.stdout, spec.name
+    for spec in (*fls_node.PARAMETERS, fls_program.JOIN_TIMEOUT):
+        assert f"  {spec.name} ({spec.type_name}, " in run.stdout, spec.name
+    assert "publish_period (double, 1.0)" in run.stdout
+    assert "ready" not in run.stdout + run.stderr  # no node was made
+    other = subprocess.run(
+        [sys.executable, "-c", "import sys; from swazure_ros.ros.programs."
+         "coordinator_program import main; sys.exit(main(sys.argv))", "--bogus"],
+        capture_output=True, text=True, timeout=PATIENCE,
+    )  # fmt: skip
+    assert other.returncode == 2 and "unknown argument '--bogus'" in other.stderr
+    assert other.stderr.count("\n") == 1

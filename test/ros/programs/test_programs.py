@@ -29,7 +29,7 @@ from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_camera
 from swazure_ros.ros.convert.sensing import camera_info_message, image_message
 from swazure_ros.ros.plumbing.names import DETECTIONS_QOS
-from swazure_ros.ros.plumbing.runtime import SwarmNode
+from swazure_ros.ros.plumbing.node import SwarmNode
 from swazure_ros.sim.world import WorldSpec
 
 from ...conftest import REPO, SHARED

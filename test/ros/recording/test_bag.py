@@ -25,14 +25,9 @@ from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.ros.plumbing.names import ROUND_QOS
-from swazure_ros.ros.plumbing.runtime import SwarmNode
-from swazure_ros.ros.recording.bag import (
-    bag_info,
-    message_definition,
-    read_recording,
-    recorded_channels,
-    type_hash,
-)
+from swazure_ros.ros.plumbing.node import SwarmNode
+from swazure_ros.ros.recording.metadata import message_definition, type_hash
+from swazure_ros.ros.recording.reader import bag_info, read_recording, recorded_channels
 from swazure_ros.sim.world import WorldSpec
 
 from ...conftest import REPO

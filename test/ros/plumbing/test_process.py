@@ -1,4 +1,4 @@
-"""How a process of the swarm (``ros.plumbing.runtime.run_process``) ends when it is asked to."""
+"""How a process of the swarm (``ros.plumbing.process.run_process``) ends when it is asked to."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import pytest
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from swazure_ros.ros.plumbing.runtime import SWARM_STOP_VARIABLE
+from swazure_ros.ros.plumbing.process import SWARM_STOP_VARIABLE
 
 from ...waits import PATIENCE, wait_until
 from ..helpers import long_lease_environment
@@ -19,13 +19,14 @@ from ..helpers import long_lease_environment
 #: A process whose one node is stuck in a callback: it cannot end when asked.
 STUCK = """
 import sys, time
-from swazure_ros.ros.plumbing import runtime
+from swazure_ros.ros.plumbing import process
+from swazure_ros.ros.plumbing.node import SwarmNode
 
-runtime.STOP_LIMIT = 2.0  # the watchdog's limit, short for the test
+process.STOP_LIMIT = 2.0  # the watchdog's limit, short for the test
 
 
 def build(context, values):
-    node = runtime.SwarmNode("stuck", context=context)
+    node = SwarmNode("stuck", context=context)
 
     def stuck_in_a_callback():
         print("stuck", flush=True)
@@ -35,7 +36,7 @@ def build(context, values):
     return [node]
 
 
-sys.exit(runtime.run_process(build, []))
+sys.exit(process.run_process(build, []))
 """
 
 
@@ -59,13 +60,13 @@ def test_a_process_that_hangs_when_asked_to_stop_prints_where_and_exits_1(domain
 #: did in a deadlock of its own threads (eProsima/Fast-DDS#6502).
 HANGING_TEARDOWN = """
 import ctypes
-from swazure_ros.ros.plumbing import runtime
+from swazure_ros.ros.plumbing import process
 
 libc = ctypes.CDLL(None)
 # pause(): a C exit handler that never returns (Python has ended by then).
 libc["__cxa_atexit"](ctypes.cast(libc.pause, ctypes.c_void_p), None, None)
 print("exiting", flush=True)
-runtime.exit_process(3, limit=1.0)
+process.exit_process(3, limit=1.0)
 """
 
 
@@ -82,18 +83,19 @@ def test_a_teardown_that_hangs_is_ended_by_its_watchdog_saying_so():
 #: A process of many nodes that ends by exit_process, with its exit handlers.
 ENDING = """
 import atexit, sys, time
-from swazure_ros.ros.plumbing import runtime
+from swazure_ros.ros.plumbing import process
+from swazure_ros.ros.plumbing.node import SwarmNode
 from std_msgs.msg import String
 
-context = runtime.init_context()
-nodes = [runtime.SwarmNode(f"ending_{index}", context=context) for index in range(200)]
+context = process.init_context()
+nodes = [SwarmNode(f"ending_{index}", context=context) for index in range(200)]
 for node in nodes:
     for topic in range(5):
         node.create_publisher(String, f"topic_{topic}", 10)
 atexit.register(lambda: print("exit handler ran", flush=True))
 print("up", flush=True)
 sys.stdin.readline()
-runtime.exit_process(3)
+process.exit_process(3)
 """
 
 
@@ -136,14 +138,15 @@ def test_a_process_ended_by_exit_process_tells_its_peers_it_left_and_exits_with_
 #: A process of the swarm with one node, as the fls, world and coordinator programs are.
 LEAVING = """
 import sys
-from swazure_ros.ros.plumbing import runtime
+from swazure_ros.ros.plumbing import process
+from swazure_ros.ros.plumbing.node import SwarmNode
 
 
 def build(context, values):
-    return [runtime.SwarmNode("leaving", context=context)]
+    return [SwarmNode("leaving", context=context)]
 
 
-sys.exit(runtime.run_process(build, []))
+sys.exit(process.run_process(build, []))
 """
 
 
@@ -221,132 +224,3 @@ def seen_by_a_new_participant(domain: int, name: str) -> bool:
 
 
 #: A process whose node fails in a timer callback, again and again, while another serves.
-FAILING = """
-import os, signal, sys
-from swazure_ros.ros.plumbing import runtime
-
-
-def build(context, values):
-    node = runtime.SwarmNode("failing", context=context)
-    ticks = []
-
-    def fail():
-        raise ZeroDivisionError("the callback's own bug")
-
-    def serve():
-        ticks.append(1)
-        if len(ticks) == 10:
-            print(f"served {len(ticks)}, failed {node.failures['timer fail']}", flush=True)
-            os.kill(os.getpid(), signal.SIGINT)
-
-    node.create_timer(0.05, fail)
-    node.create_timer(0.1, serve)
-    return [node]
-
-
-sys.exit(runtime.run_process(build, []))
-"""
-
-
-def test_a_timer_callback_that_fails_is_counted_and_logged_and_the_process_serves_on(domain):
-    # A publish that DDS refuses raises in a timer: it must not end a process of
-    # hundreds of FLS nodes (docs/security.md).
-    process = subprocess.run(
-        [sys.executable, "-c", FAILING], capture_output=True, text=True, timeout=PATIENCE
-    )
-    assert process.returncode == 0, process.stderr
-    served, failed = process.stdout.split("served ")[1].split(", failed ")
-    assert int(served) == 10 and int(failed) >= 10, process.stdout
-    # Logged once in the run (every FAILURE_LOG_EVERY s at most), with what failed.
-    logged = [line for line in process.stderr.splitlines() if "timer fail failed" in line]
-    assert len(logged) == 1 and "ZeroDivisionError: the callback's own bug" in logged[0]
-    assert "Traceback" not in process.stderr, process.stderr
-
-
-def test_a_service_handler_that_fails_answers_why_and_the_node_serves_on(context):
-    from rclpy.executors import SingleThreadedExecutor
-    from swazure_interfaces.srv import GetNeighbours
-
-    from swazure_ros.ros.plumbing.runtime import SwarmNode
-
-    node = SwarmNode("serving", context=context)
-    calls = []
-
-    def handle(request, response):
-        calls.append(request.fls_id)
-        if request.fls_id == 7:
-            raise RuntimeError("failed to publish")  # as an RCLError would
-        response.success = True
-        return response
-
-    node.create_service(GetNeighbours, "neighbours", handle)
-    client = node.create_client(GetNeighbours, "neighbours")
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    try:
-        assert client.wait_for_service(timeout_sec=PATIENCE)
-        answers = []
-        for fls_id in (7, 3):
-            future = client.call_async(GetNeighbours.Request(fls_id=fls_id))
-            executor.spin_until_future_complete(future, timeout_sec=PATIENCE)
-            answers.append(future.result())
-        assert calls == [7, 3]
-        assert not answers[0].success
-        assert answers[0].message == "internal error: RuntimeError: failed to publish"
-        assert answers[1].success
-        assert node.failures == {"service neighbours": 1}
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-
-
-def test_a_value_set_while_running_is_checked_by_the_declared_rule_and_applied(context):
-    from rclpy.parameter import Parameter
-
-    from swazure_ros.ros.plumbing.parameters import ParameterSpec, seconds
-    from swazure_ros.ros.plumbing.runtime import SwarmNode
-
-    node = SwarmNode("settable", context=context)
-    applied = []
-    try:
-        period = ParameterSpec("period", 1.0, "s", seconds())
-        assert node.declare(period, applied.append) == 1.0
-        assert node.declare(ParameterSpec("shape", "torus", "fixed")) == "torus"
-        for bad in (-1.0, 0.0, float("nan"), float("inf")):
-            [result] = node.set_parameters([Parameter("period", value=bad)])
-            assert not result.successful and "period must be a positive number" in result.reason
-        assert node.get_parameter("period").value == 1.0 and applied == []
-        [result] = node.set_parameters([Parameter("period", value=0.25)])
-        assert result.successful and applied == [0.25]
-        assert node.get_parameter("period").value == 0.25
-        # Declared without a way to apply a new value: read-only once running.
-        [result] = node.set_parameters([Parameter("shape", value="cube")])
-        assert not result.successful and "read-only" in result.reason
-    finally:
-        node.destroy_node()
-
-
-def test_a_program_answers_help_with_its_parameters_and_starts_no_node():
-    from swazure_ros.ros.nodes import fls_node
-    from swazure_ros.ros.programs import fls_program
-
-    run = subprocess.run(
-        [sys.executable, "-c", "import sys; from swazure_ros.ros.programs.fls_program import "
-         "main; sys.exit(main(sys.argv))", "--help"],
-        capture_output=True, text=True, timeout=PATIENCE,
-    )  # fmt: skip
-    assert run.returncode == 0 and run.stderr == "", run
-    assert run.stdout.startswith("usage: ros2 run swazure_ros fls")
-    for spec in fls_program.STARTUP:
-        assert f"  {spec.option} ({spec.type_name}, " in run.stdout, spec.name
-    for spec in (*fls_node.PARAMETERS, fls_program.JOIN_TIMEOUT):
-        assert f"  {spec.name} ({spec.type_name}, " in run.stdout, spec.name
-    assert "publish_period (double, 1.0)" in run.stdout
-    assert "ready" not in run.stdout + run.stderr  # no node was made
-    other = subprocess.run(
-        [sys.executable, "-c", "import sys; from swazure_ros.ros.programs."
-         "coordinator_program import main; sys.exit(main(sys.argv))", "--bogus"],
-        capture_output=True, text=True, timeout=PATIENCE,
-    )  # fmt: skip
-    assert other.returncode == 2 and "unknown argument '--bogus'" in other.stderr
-    assert other.stderr.count("\n") == 1

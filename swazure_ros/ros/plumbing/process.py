@@ -1,0 +1,250 @@
+"""A process's life: its rclpy context, its nodes spun until it is asked to stop, its end.
+
+A process of a swarm owns one :class:`~rclpy.context.Context`
+(:func:`init_context`), never the global one, so that tests and tools can
+run several swarms side by side. A program (one FLS, the world, the
+coordinator) is :func:`run_process`: its startup arguments read, its nodes
+built and spun until SIGINT or SIGTERM. A process ends by
+:func:`exit_process` (its DDS participant deleted whole, its peers told at
+once) or, stopped with its whole swarm, by :func:`leave_quietly`.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import faulthandler
+import gc
+import os
+import signal
+import subprocess
+import sys
+import threading
+import traceback
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import NoReturn
+
+import rclpy
+
+# The context every process owns; app/ names it through this module, not through rclpy.
+from rclpy.context import Context as Context
+from rclpy.executors import Executor, ExternalShutdownException
+from rclpy.experimental.events_executor import EventsExecutor
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+
+from ...core.errors import SwazureError
+from .parameters import ParameterSpec
+from .startup import StartupValues, check_params_file, program_startup
+
+
+def init_context(domain_id: int | None = None, params_file: str | None = None) -> Context:
+    """A fresh rclpy context on ``domain_id``, with a ROS 2 parameter file if given.
+
+    Signals are left to the caller: a swarm stops between spins, not inside a callback.
+    """
+    args = []
+    if params_file is not None:
+        # Checked here so that a bad file gives our one line, not rcl's log lines too.
+        check_params_file(Path(params_file))
+        args = ["--ros-args", "--params-file", params_file]
+    context = Context()
+    try:
+        rclpy.init(
+            args=args,
+            context=context,
+            domain_id=domain_id,
+            signal_handler_options=SignalHandlerOptions.NO,
+        )
+    except Exception as err:  # rclpy reports a bad parameter file as a bare RCLError
+        if params_file is None:
+            raise SwazureError(f"cannot start ROS 2 here: {err}") from err
+        raise SwazureError(f"{params_file}: not a valid ROS 2 parameter file") from err
+    return context
+
+
+#: Seconds a process's DDS teardown (:func:`exit_process`) may take before its watchdog
+#: ends it (SIGKILL, a line in its log).
+TEARDOWN_LIMIT = 30.0
+#: The same for a :func:`run_process` program: one FLS, the world or the coordinator,
+#: whose teardown takes about a second.
+PROGRAM_TEARDOWN_LIMIT = 5.0
+#: Seconds a :func:`run_process` program may take to reach its teardown once asked to
+#: end before its watchdog ends it (exit code 1, every thread's stack in its log); with
+#: the teardown's limit, under the launcher's grace (app.per_fls.STOP_GRACE), which
+#: would kill it without a word.
+STOP_LIMIT = 12.0
+
+
+#: The watchdog of a process's teardown (:func:`exit_process`), a process of its own: it
+#: waits ``limit`` s for the end of file of a pipe that only the ending process holds
+#: open, and ends that process if it is still there.
+TEARDOWN_WATCH = """
+import os, select, signal, sys
+pipe, pid, limit = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
+if not select.select([pipe], [], [], limit)[0]:
+    print(f"the DDS teardown did not end in {limit:g} s (a known Fast DDS deadlock): "
+          "leaving without it", file=sys.stderr, flush=True)
+    os.kill(pid, signal.SIGKILL)
+"""
+
+
+def exit_process(code: int, limit: float = TEARDOWN_LIMIT) -> NoReturn:
+    """End the process now, leaving its nodes to DDS's own teardown; never returns.
+
+    Destroying nodes one by one costs in proportion to the square of a
+    process's endpoints: rmw_fastrtps republishes the participant's whole
+    entity list after every endpoint it removes (docs/swarm.md, teardown).
+    Python's own exit ends in the C library's exit, whose static teardown of
+    Fast DDS deletes the participant whole and tells its peers so at once;
+    Python's exit handlers run, but its finalizers, which would destroy each
+    node, do not: every object alive now is held by a thread that never
+    ends, whose references Python's exit leaves as they are. Call it last,
+    when every output is written; it raises SystemExit(``code``).
+
+    Fast DDS 2.14's teardown can deadlock (eProsima/Fast-DDS#6502: its event
+    and receive threads, while peers leave at the same time; docs/swarm.md,
+    "Stopping"). A process still there ``limit`` s later is ended by its
+    watchdog (TEARDOWN_WATCH: one line, then SIGKILL); its peers drop it when
+    its DDS lease runs out.
+    """
+    # Python's handlers do not run once its exit has begun: a second SIGINT or
+    # SIGTERM must end the process then.
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, signal.SIG_DFL)
+    _flush()
+    # Only this process holds the writing end, open to its death: the watchdog's end of file.
+    watched, _ = os.pipe()
+    subprocess.Popen(
+        [sys.executable, "-I", "-S", "-c", TEARDOWN_WATCH, str(watched), str(os.getpid()),
+         str(limit)],
+        pass_fds=(watched,),
+        stdin=subprocess.DEVNULL,
+    )  # fmt: skip
+    os.close(watched)
+    alive = gc.get_objects()
+    threading.Thread(target=_hold, args=(alive,), daemon=True).start()
+    del alive
+    raise SystemExit(code)
+
+
+def _flush() -> None:
+    """Flush Python's standard streams before the process ends."""
+    for stream in (sys.stdout, sys.stderr):
+        # A reader gone or a stream closed: nothing is left to save.
+        with contextlib.suppress(OSError, ValueError):
+            stream.flush()
+
+
+def _hold(alive: list[object]) -> None:
+    """Hold ``alive`` until the process ends."""
+    threading.Event().wait()
+
+
+#: Set to "1" by a launcher that starts a whole swarm (``swazure spawn --per-fls``,
+#: ``ros2 launch swazure_ros swarm.launch.py mode:=per_fls``) in the environment of each
+#: process it starts: a SIGINT to such a process is the whole swarm stopping (the
+#: launcher's own, or a terminal's Ctrl-C, which reaches every process of the launch at
+#: once), and the process leaves without telling its peers (:func:`leave_quietly`). A
+#: SIGTERM stops it alone, and it tells them (:func:`exit_process`).
+SWARM_STOP_VARIABLE = "SWAZURE_SWARM_STOPS_ON_SIGINT"
+
+
+def stops_with_swarm(signum: int) -> bool:
+    """Whether signal ``signum`` stops this process with its whole swarm (SWARM_STOP_VARIABLE)."""
+    return signum == signal.SIGINT and os.environ.get(SWARM_STOP_VARIABLE) == "1"
+
+
+def leave_quietly(code: int) -> NoReturn:
+    """End the process now with ``code``, without DDS's teardown; never returns.
+
+    For a process whose whole swarm stops with it: no peer needs to hear that
+    it leaves, and telling them is what goes wrong. Fast DDS 2.14 deadlocks
+    in a process that hears peers leave while it deletes its own participant
+    (eProsima/Fast-DDS#6502), and its static teardown has crashed (SIGSEGV)
+    after a process's work was done; neither can happen in a process that
+    tears nothing down, and the process cannot hang. Participants that live on
+    (a `ros2` daemon, a recorder) list its nodes until its lease runs out
+    (20 s, docs/swarm.md, "Stopping"); a participant made later never hears of
+    them. Call it last, when every output is written: Python's exit handlers
+    do not run; its own streams are flushed.
+    """
+    _flush()
+    os._exit(code)
+
+
+def seconds_since_start() -> float:
+    """Seconds since this process started (Linux: /proc), interpreter start-up included."""
+    ticks = os.sysconf("SC_CLK_TCK")
+    # Field 22 of /proc/self/stat, after the command name (which may hold spaces).
+    started = int(Path("/proc/self/stat").read_text().rsplit(")", 1)[1].split()[19]) / ticks
+    return float(Path("/proc/uptime").read_text().split()[0]) - started
+
+
+def run_process(
+    build: Callable[[Context, StartupValues], list[Node]],
+    args: list[str] | None = None,
+    *,
+    usage: str = "",
+    startup: Sequence[ParameterSpec] = (),
+) -> NoReturn:
+    """Start rclpy, build a process's nodes and spin them until SIGINT or SIGTERM; then exit.
+
+    ``build`` takes the context and the ``startup`` parameters' values, given
+    as program arguments (:func:`program_startup`). ``--help`` prints
+    ``usage`` and exits 0 without a node. Errors in building
+    give one line and exit code 2, never a traceback; any other exception (a
+    bug) one line, its stack and exit code 1. Stopped with its whole swarm (a
+    SIGINT where SWARM_STOP_VARIABLE is set), the process leaves without
+    telling its peers (:func:`leave_quietly`); else it ends with
+    :func:`exit_process`: its DDS participant is deleted whole, not endpoint by
+    endpoint, and its peers drop its nodes at once (docs/swarm.md, "Stopping").
+    """
+    values = program_startup(args, usage, startup)
+    context = Context()
+    rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
+    stop: list[int] = []
+
+    def on_stop(number: int, frame: object) -> None:
+        stop.append(number)
+        # A process that has not ended this long after being asked prints every
+        # thread's stack (to its log) and exits 1: a stop that hangs says where.
+        faulthandler.dump_traceback_later(STOP_LIMIT, exit=True)
+
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, on_stop)
+    executor: Executor | None = None
+    code = 0
+    try:
+        nodes = build(context, values)
+        executor = EventsExecutor(context=context)
+        for node in nodes:
+            executor.add_node(node)
+        if nodes:
+            nodes[0].get_logger().info(f"ready, {seconds_since_start():.2f} s after the start")
+        # Not executor.spin(): the EventsExecutor's spin neither returns when a signal
+        # shuts the context down nor rests between events (measured: a core each).
+        while context.ok() and not stop:
+            executor.spin_once(timeout_sec=0.5)
+    except SwazureError as err:
+        print(f"error: {err}", file=sys.stderr)
+        code = 2
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    except Exception as err:
+        # A bug, not bad input: the stack is what a report needs. The process still
+        # ends by exit_process, as any other: left to Python's teardown, its nodes
+        # would be destroyed endpoint by endpoint (and can deadlock; see below).
+        print(f"error: {type(err).__name__}: {err} (a bug; its stack follows)", file=sys.stderr)
+        traceback.print_exc()
+        code = 1
+    if stop and stops_with_swarm(stop[0]):
+        # The whole swarm stops: nobody is left to tell (docs/swarm.md, "Stopping").
+        leave_quietly(code)
+    # The executor first: its shutdown unregisters the callbacks of every
+    # subscription, service and timer it tracks, which must be alive then.
+    if executor is not None:
+        executor.shutdown()
+    # Not node by node: each endpoint destroyed makes every peer remove it, and
+    # Fast DDS 2.14 can deadlock a peer doing so (eProsima/Fast-DDS#6502).
+    exit_process(code, limit=PROGRAM_TEARDOWN_LIMIT)
