@@ -8,7 +8,10 @@ Modules, each holding one idea of ``docs`` / the spec:
 - :mod:`.geometry`: radius, dmin, collision removal, tracking distance;
 - :mod:`.neighbours`: neighbour pairs and their range classes;
 - :mod:`.sight`: line of sight and obstructing FLSs;
-- :mod:`.paths`: neighbour graphs and path policies;
+- :mod:`.graph`: neighbour graphs in CSR form;
+- :mod:`.path_arrays`: many paths in one record, their hops and sums;
+- :mod:`.search`: one search from one source (the kernels under :mod:`.paths`);
+- :mod:`.paths`: the path policies over many pairs at once;
 - :mod:`.metrics`: error metrics of estimates;
 - :mod:`.evaluate`: the batch evaluation of every ordered blind pair.
 """

@@ -20,6 +20,7 @@ from .. import __version__
 from . import csr, jit
 from .arrays import FloatArray, IntArray
 from .geometry import Swarm
+from .graph import Graph, make_graph
 from .metrics import NO_VALUES, Stats, pose_errors
 from .neighbours import (
     NeighbourCounts,
@@ -28,7 +29,8 @@ from .neighbours import (
     ordered_blind_pairs,
     pairs_of,
 )
-from .paths import Graph, Paths, check_policy, make_graph, path_hops, shortest_paths
+from .path_arrays import Paths, merge_paths, path_hops
+from .paths import check_policy, shortest_paths
 from .sensor import DECAYING, SWEET, Sensor, expected_error, hop_error, measured_vectors
 from .sight import Grid, build_grid, obstructed, obstructers, segments_near
 from .summary import FitFacts, FusionFacts, HeuristicFacts, PairStatistics, Parameters, Summary
@@ -275,51 +277,6 @@ class Evaluation:
     policy: str
     pairs: PairResults
     summary: Summary
-
-
-def merge_paths(first: Paths, second: Paths, use_second: NDArray[np.bool_]) -> Paths:
-    """Paths taking pair m from ``second`` where use_second[m], else from ``first``.
-
-    ``second`` holds only the pairs where ``use_second`` holds, in order.
-    """
-    if len(second.found) != int(use_second.sum()) or len(second.offsets) != len(second.found) + 1:
-        raise ValueError("`second` must hold exactly the pairs where `use_second` holds")
-    found = first.found.copy()
-    hops = first.hops.copy()
-    length = first.length.copy()
-    found[use_second] = second.found
-    hops[use_second] = second.hops
-    length[use_second] = second.length
-    counts = np.where(found, hops + 1, 0)
-    offsets = csr.offsets(counts)
-    nodes = np.empty(offsets[-1], dtype=np.int64)
-    row_in_second = np.cumsum(use_second) - 1
-    _merge_nodes(
-        first.offsets, first.nodes, second.offsets, second.nodes, use_second, row_in_second,
-        offsets, nodes,
-    )  # fmt: skip
-    return Paths(found, hops, length, offsets, nodes)
-
-
-@jit.kernel(cache=True, parallel=True)
-def _merge_nodes(
-    first_offsets: IntArray,
-    first_nodes: IntArray,
-    second_offsets: IntArray,
-    second_nodes: IntArray,
-    use_second: NDArray[np.bool_],
-    row_in_second: IntArray,
-    offsets: IntArray,
-    nodes: IntArray,
-) -> None:
-    for pair in jit.prange(len(use_second)):
-        if use_second[pair]:
-            row = row_in_second[pair]
-            begin, source = second_offsets[row], second_nodes
-        else:
-            begin, source = first_offsets[pair], first_nodes
-        for slot in range(offsets[pair + 1] - offsets[pair]):
-            nodes[offsets[pair] + slot] = source[begin + slot]
 
 
 @dataclass(frozen=True)

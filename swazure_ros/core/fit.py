@@ -40,7 +40,7 @@ from .measurement_graph import (
 )
 from .metrics import describe
 from .observe import Observations
-from .paths import Paths, path_hops
+from .path_arrays import Paths, path_hops
 from .sensor import (
     BLIND,
     DECAYING,

@@ -26,7 +26,8 @@ from . import csr
 from .arrays import FloatArray, IntArray
 from .evaluate import SWEET_PATH, Evaluation, estimates, summarise, summed_hop_errors
 from .metrics import describe
-from .paths import Paths, avoiding_paths
+from .path_arrays import Paths
+from .paths import avoiding_paths
 from .sensor import Sensor
 from .summary import FusionFacts
 

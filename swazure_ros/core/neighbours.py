@@ -255,7 +255,7 @@ def ordered_blind_pairs(pairs: NeighbourPairs) -> tuple[IntArray, IntArray]:
 
 def ordered_rows(size: int, first: IntArray, second: IntArray) -> tuple[IntArray, IntArray]:
     """Unordered pairs (M,) as both orders, CSR over ``size`` FLSs: rows (size + 1,), targets."""
-    from .paths import make_graph  # the graph's rows are the ordered pairs, sorted
+    from .graph import make_graph  # the graph's rows are the ordered pairs, sorted
 
     graph = make_graph(size, first, second, np.zeros(len(first)))
     return graph.indptr, graph.indices

@@ -7,15 +7,9 @@ from dataclasses import replace
 import numpy as np
 
 from .. import csr
-from ..evaluate import (
-    NO_PATH,
-    SWEET_PATH,
-    Evaluation,
-    merge_paths,
-    summarise,
-)
+from ..evaluate import NO_PATH, SWEET_PATH, Evaluation, summarise
 from ..metrics import describe, pose_errors
-from ..paths import Paths
+from ..path_arrays import Paths, merge_paths
 from ..summary import HeuristicFacts
 from .compat import TEXT, Compat
 from .obstructing import move_obstructing

@@ -32,7 +32,8 @@ from ..evaluate import (
     Evaluation,
     estimates,
 )
-from ..paths import Paths, path_hops, paths_from_rows, shortest_paths
+from ..path_arrays import Paths, path_hops, paths_from_rows
+from ..paths import shortest_paths
 from ..sight import obstructers
 
 if TYPE_CHECKING:

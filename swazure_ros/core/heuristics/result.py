@@ -14,7 +14,7 @@ from ..evaluate import (
     SWEET_PATH,
     Evaluation,
 )
-from ..paths import Paths
+from ..path_arrays import Paths
 from .compat import TEXT, Compat
 
 PLAIN = "plain"

@@ -20,7 +20,7 @@ from .. import csr, jit
 from ..evaluate import (
     Evaluation,
 )
-from ..paths import paths_from_rows
+from ..path_arrays import paths_from_rows
 from ..sensor import measured_vectors
 from ..sight import Grid, any_within, scan_between
 from .compat import TEXT, Compat

@@ -31,7 +31,7 @@ from ...core.evaluate import (
 )
 from ...core.fit import PATH, SWARM_ESTIMATORS, consistency
 from ...core.neighbours import ordered_blind_pairs
-from ...core.paths import Paths
+from ...core.path_arrays import Paths
 from ...core.sensor import (
     Sensor,
     expected_error,
