@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from bench.common import fit_facts
-from swazure_ros.core.evaluate import DECAYING_PATH, NO_PATH, SWEET_PATH, evaluate
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import DECAYING_PATH, NO_PATH, SWEET_PATH
 from swazure_ros.core.fit import (
     CHI2_95_3DOF,
     fit_pairs,

@@ -21,7 +21,8 @@ from typing import Any
 import numpy as np
 
 from bench.common import fit_facts
-from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import NO_PATH, SWEET_PATH
 from swazure_ros.core.fit import (
     LEAST_SQUARES,
     SWARM_FIT,

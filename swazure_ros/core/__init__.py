@@ -13,6 +13,11 @@ Modules, each holding one idea of ``docs`` / the spec:
 - :mod:`.search`: one search from one source (the kernels under :mod:`.paths`);
 - :mod:`.paths`: the path policies over many pairs at once;
 - :mod:`.metrics`: error metrics of estimates;
+- :mod:`.progress`: how a long stage tells its progress;
+- :mod:`.neighbourhood`: what every pair evaluation of a swarm shares: pairs, sight, graphs;
+- :mod:`.hops`: what the hops of many paths measure;
+- :mod:`.evaluation`: each blind pair's results and the run's evaluation;
+- :mod:`.pair_statistics`: the run's metrics, gathered block by block;
 - :mod:`.evaluate`: the batch evaluation of every ordered blind pair.
 """
 

@@ -26,7 +26,7 @@ from . import csr
 from .arrays import FloatArray, IntArray
 from .draws import standard_normals, uniforms
 from .errors import SwazureError
-from .evaluate import NO_PATH, SWEET_PATH, Evaluation, Neighbourhood, PairResults, summarise
+from .evaluation import NO_PATH, SWEET_PATH, Evaluation, PairResults
 from .frames import through_metres
 from .geometry import tracking_distance
 from .heuristics.result import PLAIN
@@ -39,7 +39,9 @@ from .measurement_graph import (
     robust_weights,
 )
 from .metrics import describe
+from .neighbourhood import Neighbourhood
 from .observe import Observations
+from .pair_statistics import summarise
 from .path_arrays import Paths, path_hops
 from .sensor import (
     BLIND,

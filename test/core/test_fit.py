@@ -5,7 +5,8 @@ from functools import partial
 import numpy as np
 import pytest
 
-from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate, neighbourhood
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import NO_PATH, SWEET_PATH
 from swazure_ros.core.fit import (
     CHI2_95_3DOF,
     LEAST_SQUARES,
@@ -21,6 +22,7 @@ from swazure_ros.core.fit import (
     with_outliers,
 )
 from swazure_ros.core.geometry import make_swarm
+from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.neighbours import ordered_blind_pairs
 from swazure_ros.core.observe import observations
 from swazure_ros.core.sensor import BLIND, DECAYING, SWEET, Sensor, SensorNoise

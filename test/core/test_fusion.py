@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from swazure_ros.core.evaluate import SWEET_PATH, evaluate
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import SWEET_PATH
 from swazure_ros.core.fusion import combine, fuse, inner_nodes
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.graph import make_graph

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate, neighbourhood
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import NO_PATH, SWEET_PATH
 from swazure_ros.core.fit import (
     LEAST_SQUARES,
     SWARM_FIT,
@@ -13,6 +14,7 @@ from swazure_ros.core.fit import (
     solve,
     with_outliers,
 )
+from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.neighbours import ordered_blind_pairs
 from swazure_ros.core.swarm_fit import (
     edges_of,

@@ -7,8 +7,9 @@ from dataclasses import replace
 import numpy as np
 
 from .. import csr
-from ..evaluate import NO_PATH, SWEET_PATH, Evaluation, summarise
+from ..evaluation import NO_PATH, SWEET_PATH, Evaluation
 from ..metrics import describe, pose_errors
+from ..pair_statistics import summarise
 from ..path_arrays import Paths, merge_paths
 from ..summary import HeuristicFacts
 from .compat import TEXT, Compat

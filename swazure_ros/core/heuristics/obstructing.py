@@ -28,10 +28,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import csr
-from ..evaluate import (
-    Evaluation,
-    estimates,
-)
+from ..evaluation import Evaluation
+from ..hops import estimates
 from ..path_arrays import Paths, path_hops, paths_from_rows
 from ..paths import shortest_paths
 from ..sight import obstructers

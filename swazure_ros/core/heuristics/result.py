@@ -9,11 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...core.arrays import FloatArray, IntArray
-from ..evaluate import (
-    REASON_BLOCKED,
-    SWEET_PATH,
-    Evaluation,
-)
+from ..evaluation import REASON_BLOCKED, SWEET_PATH, Evaluation
 from ..path_arrays import Paths
 from .compat import TEXT, Compat
 

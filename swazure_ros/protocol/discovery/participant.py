@@ -15,12 +15,7 @@ from dataclasses import replace
 import numpy as np
 
 from ...core.arrays import FloatArray, IntArray
-from ...core.evaluate import (
-    ABORTED,
-    DECAYING_PATH,
-    REASON_COORDINATOR_LOST,
-    SWEET_PATH,
-)
+from ...core.evaluation import ABORTED, DECAYING_PATH, REASON_COORDINATOR_LOST, SWEET_PATH
 from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, Heard, fit_layers, window_fit
 from ...core.observe import LocalView
 from ...core.sensor import (

@@ -46,8 +46,9 @@ from swazure_interfaces.msg import (
 )
 
 from ...core.arrays import FloatArray, IntArray
-from ...core.evaluate import Evaluation, Neighbourhood
+from ...core.evaluation import Evaluation
 from ...core.fit import PATH, fit_layers
+from ...core.neighbourhood import Neighbourhood
 from ...core.paths import check_policy
 from ...protocol.discovery.messages import Control
 from ...protocol.discovery.search import bucket_width

@@ -10,7 +10,7 @@ from typing import Any
 from rclpy.context import Context
 from rclpy.node import Node
 
-from ...core.evaluate import neighbourhood
+from ...core.neighbourhood import neighbourhood
 from ..nodes import coordinator
 from ..nodes.coordinator import Coordinator
 from ..nodes.instance import program_key
