@@ -10,8 +10,7 @@ computes the whole swarm's; :func:`neighbourhood_of` the pairs of some FLSs;
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
-from functools import cached_property
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -29,12 +28,32 @@ if TYPE_CHECKING:
     from scipy.spatial import cKDTree
 
 
+@dataclass
+class NeighbourGraphs:
+    """The graphs of one :class:`Neighbourhood` built so far: a record of their own.
+
+    Mutable, and declared so: each graph is built the first time its
+    neighbourhood is asked for it, then kept here, so that it is built once
+    however many evaluations share the neighbourhood, and never where none
+    asks (a simulated world that only senses; a revision of a heuristic's
+    moves). A neighbourhood made from another (``dataclasses.replace``,
+    :func:`without`) starts with none, since its pairs or the pairs its
+    paths may use differ. No lock: the engine asks from one thread.
+    """
+
+    sweet_all: Graph | None = None  # S_all: sweet pairs, line of sight ignored
+    sweet_visible: Graph | None = None  # S_vis: sweet pairs in line of sight
+    any_visible: Graph | None = None  # SD_vis: sweet or decaying pairs in line of sight
+    sweet_components: IntArray | None = None  # (N,), connected component of each FLS in S_all
+
+
 @dataclass(frozen=True)
 class Neighbourhood:
     """What every pair evaluation of one swarm shares: pairs, line of sight, graphs.
 
-    The graphs are built when first used: a simulated world that only senses
-    (a revision of a heuristic's moves) never needs them.
+    The data are frozen; the graphs S_all, S_vis and SD_vis are built from
+    them when first asked for and kept in :attr:`graphs`, the record's one
+    mutable part (:class:`NeighbourGraphs`).
     """
 
     swarm: Swarm
@@ -45,18 +64,49 @@ class Neighbourhood:
     usable: NDArray[np.bool_]  # (len(pairs),), pairs the graphs may hold (see without())
     # The whole swarm's counts when ``pairs`` holds only the pairs paths may use (core.blocks).
     kept_counts: NeighbourCounts | None = None
+    # The graphs built so far: not an argument, so that every new neighbourhood (a copy
+    # by dataclasses.replace included) starts with none.
+    graphs: NeighbourGraphs = field(
+        default_factory=NeighbourGraphs, init=False, repr=False, compare=False
+    )
 
     @property
     def counts(self) -> NeighbourCounts:
         """How many neighbour pairs of each kind the swarm has."""
         return self.kept_counts or NeighbourCounts.of(self.pairs)
 
-    @cached_property
+    @property
     def sweet_components(self) -> IntArray:
         """Connected-component label of every FLS in S_all: (N,)."""
-        return self.sweet_all.components()
+        if self.graphs.sweet_components is None:
+            self.graphs.sweet_components = self.sweet_all.components()
+        return self.graphs.sweet_components
+
+    @property
+    def sweet_all(self) -> Graph:
+        """S_all: sweet pairs, line of sight ignored."""
+        if self.graphs.sweet_all is None:
+            self.graphs.sweet_all = self._graph(self.pairs.range_class == SWEET)
+        return self.graphs.sweet_all
+
+    @property
+    def sweet_visible(self) -> Graph:
+        """S_vis: sweet pairs in line of sight."""
+        if self.graphs.sweet_visible is None:
+            sweet = self.pairs.range_class == SWEET
+            self.graphs.sweet_visible = self._graph(sweet & self.visible)
+        return self.graphs.sweet_visible
+
+    @property
+    def any_visible(self) -> Graph:
+        """SD_vis: sweet or decaying pairs in line of sight."""
+        if self.graphs.any_visible is None:
+            reach = (self.pairs.range_class == SWEET) | (self.pairs.range_class == DECAYING)
+            self.graphs.any_visible = self._graph(reach & self.visible)
+        return self.graphs.any_visible
 
     def _graph(self, mask: NDArray[np.bool_]) -> Graph:
+        """The graph of the usable pairs where ``mask`` (len(pairs),) holds, with their costs."""
         index = np.flatnonzero(mask & self.usable)
         pairs = self.pairs
         tracking = pairs.tracking[index]
@@ -64,22 +114,6 @@ class Neighbourhood:
         return make_graph(
             self.swarm.size, pairs.first[index], pairs.second[index], tracking, index, costs
         )
-
-    @cached_property
-    def sweet_all(self) -> Graph:
-        """S_all: sweet pairs, line of sight ignored."""
-        return self._graph(self.pairs.range_class == SWEET)
-
-    @cached_property
-    def sweet_visible(self) -> Graph:
-        """S_vis: sweet pairs in line of sight."""
-        return self._graph((self.pairs.range_class == SWEET) & self.visible)
-
-    @cached_property
-    def any_visible(self) -> Graph:
-        """SD_vis: sweet or decaying pairs in line of sight."""
-        reach = (self.pairs.range_class == SWEET) | (self.pairs.range_class == DECAYING)
-        return self._graph(reach & self.visible)
 
 
 def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None) -> Neighbourhood:

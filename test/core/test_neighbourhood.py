@@ -1,6 +1,6 @@
 """A swarm's neighbourhood: pairs, line of sight and graphs, whole, moved or without some FLSs."""
 
-from dataclasses import replace
+from dataclasses import FrozenInstanceError, replace
 
 import numpy as np
 import pytest
@@ -12,7 +12,12 @@ from swazure_ros.core.evaluation import (
     REASON_BLOCKED,
     REASON_NO_SWEET_PATH,
 )
-from swazure_ros.core.neighbourhood import moved_neighbourhood, neighbourhood, without
+from swazure_ros.core.neighbourhood import (
+    NeighbourGraphs,
+    moved_neighbourhood,
+    neighbourhood,
+    without,
+)
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import A, B, C, D, K, scene
@@ -59,3 +64,44 @@ def test_a_moved_neighbourhood_equals_the_one_computed_from_scratch(shape):
         changed += int((full.visible[: len(hood.visible)] != hood.visible).any())
         swarm, hood = new, quick  # moves pile up, as a heuristic's revisions do
     assert changed > 5  # the moves did change lines of sight
+
+
+def test_each_graph_is_built_when_first_asked_for_and_then_kept(sensor):
+    hood = neighbourhood(scene(A, B, C, K, D), sensor)
+    assert hood.graphs == NeighbourGraphs()  # nothing built by the neighbourhood itself
+    sweet = hood.sweet_visible
+    assert hood.graphs.sweet_visible is sweet
+    assert (hood.graphs.sweet_all, hood.graphs.any_visible) == (None, None)
+    assert hood.sweet_visible is sweet  # not built again
+    evaluate_pairs(hood, "fewest-hops")
+    built = (hood.graphs.sweet_all, hood.graphs.any_visible, hood.graphs.sweet_components)
+    assert all(graph is not None for graph in built)
+    assert (hood.sweet_all, hood.any_visible, hood.sweet_components) == built
+
+
+def test_a_world_that_only_senses_builds_no_graph(sensor):
+    from swazure_ros.core.observe import observations
+
+    hood = neighbourhood(scene(A, B, C, K, D), sensor)
+    observations(hood)
+    assert hood.graphs == NeighbourGraphs()
+
+
+def test_a_neighbourhood_made_from_another_builds_its_own_graphs(sensor):
+    hood = neighbourhood(scene(A, B, C, K, D), sensor)
+    whole = hood.any_visible
+    assert replace(hood, kept_counts=hood.counts).graphs == NeighbourGraphs()
+    gone = without(hood, np.array([D]))
+    assert gone.graphs == NeighbourGraphs()
+    degree = np.diff(whole.indptr)[D]
+    assert degree > 0 and np.diff(gone.any_visible.indptr)[D] == 0  # D's pairs left out
+    assert gone.any_visible.edges == whole.edges - degree
+    assert hood.any_visible is whole
+
+
+def test_a_neighbourhood_s_data_are_frozen(sensor):
+    hood = neighbourhood(scene(A, B, C), sensor)
+    with pytest.raises(FrozenInstanceError):
+        hood.visible = hood.visible  # type: ignore[misc]
+    with pytest.raises(FrozenInstanceError):
+        hood.graphs = NeighbourGraphs()  # type: ignore[misc]
