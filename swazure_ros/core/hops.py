@@ -42,7 +42,44 @@ class HopTable:
 
 
 def hop_table(hood: Neighbourhood, paths: Paths) -> HopTable:
-    """The hops of ``paths``, each with its pair in ``hood.pairs``."""
+    """Every hop of M paths, each with its pair in the neighbourhood.
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The neighbourhood the paths run in.
+    paths : Paths
+        M paths whose every hop joins two FLSs within reach (a pair of ``hood.pairs``).
+
+    Returns
+    -------
+    HopTable
+        H hops, path after path, each path's from its source on; ``slot`` is
+        the hop's place in SD_vis, -1 for a hop out of sight.
+
+    Raises
+    ------
+    ValueError
+        A path hops between FLSs out of each other's reach.
+
+    Examples
+    --------
+
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.neighbourhood import neighbourhood
+    >>> from swazure_ros.core.path_arrays import paths_from_rows
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [1, 3.5, 0]]), radius=0.5)
+    >>> hood = neighbourhood(swarm, sensor)
+    >>> paths = paths_from_rows(2, {0: [0, 1, 2]})  # A-B-C; pair 1 has no path
+    >>> hops = hop_table(hood, paths)
+    >>> hops.path.tolist(), hops.start.tolist(), hops.end.tolist()
+    ([0, 0], [0, 1], [1, 2])
+    >>> hops.slot.tolist()  # the fourth FLS blocks A-B: not an edge of SD_vis
+    [-1, 0]
+    """
     path, start, end = path_hops(paths)
     # Nearly every hop is an edge of SD_vis, whose rows are shorter than those of all pairs.
     graph = hood.any_visible
@@ -58,9 +95,41 @@ def hop_table(hood: Neighbourhood, paths: Paths) -> HopTable:
 
 
 def hop_vectors(hood: Neighbourhood, hops: HopTable) -> tuple[FloatArray, IntArray]:
-    """Measured vectors (K, 3), cm, and the row of each hop (H,) among them.
+    """The measured vector of every hop, each directed edge of SD_vis measured once.
 
-    Each directed edge of SD_vis is measured once, however many paths cross it.
+    However many paths cross an edge of SD_vis, it is measured once; a hop
+    out of sight is measured on its own. A pair's two directions are two
+    measurements (a noisy sensor draws per direction).
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The neighbourhood the paths run in.
+    hops : HopTable
+        H hops of M paths (:func:`hop_table`).
+
+    Returns
+    -------
+    vectors : (K, 3) ndarray of float, cm
+        The distinct measurements, each from the hop's start to its end.
+    rows : (H,) ndarray of int
+        The row of ``vectors`` of each hop.
+
+    Examples
+    --------
+
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.neighbourhood import neighbourhood
+    >>> from swazure_ros.core.path_arrays import paths_from_rows
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [1, 3.5, 0]]), radius=0.5)
+    >>> hood = neighbourhood(swarm, sensor)
+    >>> paths = paths_from_rows(2, {0: [0, 1, 2]})  # A-B-C; pair 1 has no path
+    >>> vectors, rows = hop_vectors(hood, hop_table(hood, paths))
+    >>> vectors.shape, rows.tolist()
+    ((2, 3), [1, 0])
     """
     swarm, sensor, graph = hood.swarm, hood.sensor, hood.any_visible
     on_graph = hops.slot >= 0
@@ -99,9 +168,44 @@ def _path_vector_sums(hop_offsets: IntArray, rows: IntArray, vectors: FloatArray
 def estimates(
     hood: Neighbourhood, paths: Paths, hops: HopTable | None = None
 ) -> tuple[FloatArray, IntArray, IntArray]:
-    """Summed measured hop vectors of each path (M, 3), cm, and its sweet and decaying hops.
+    """Each path's estimate: its measured hop vectors summed from the source outwards.
 
-    ``hops``: ``hop_table(hood, paths)``, when the caller has it.
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The neighbourhood the paths run in.
+    paths : Paths
+        M paths whose every hop joins two FLSs within reach (a pair of ``hood.pairs``).
+    hops : HopTable, optional
+        ``hop_table(hood, paths)``, when the caller has it.
+
+    Returns
+    -------
+    estimate : (M, 3) ndarray of float, cm
+        From the path's source to its target; NaN without a path.
+    sweet_hops, decaying_hops : (M,) ndarray of int
+        The path's sweet and decaying hops.
+
+    Raises
+    ------
+    ValueError
+        A path hops between FLSs out of each other's reach.
+
+    Examples
+    --------
+
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.neighbourhood import neighbourhood
+    >>> from swazure_ros.core.path_arrays import paths_from_rows
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [1, 3.5, 0]]), radius=0.5)
+    >>> hood = neighbourhood(swarm, sensor)
+    >>> paths = paths_from_rows(2, {0: [0, 1, 2]})  # A-B-C; pair 1 has no path
+    >>> estimate, sweet, decaying = estimates(hood, paths)
+    >>> np.round(estimate, 1).tolist(), sweet.tolist(), decaying.tolist()
+    ([[4.0, 0.0, 0.0], [nan, nan, nan]], [2, 0], [0, 0])
     """
     hops = hops or hop_table(hood, paths)
     vectors, rows = hop_vectors(hood, hops)
@@ -115,7 +219,42 @@ def estimates(
 def summed_hop_errors(
     hood: Neighbourhood, paths: Paths, hops: HopTable | None = None
 ) -> FloatArray:
-    """Sum of :func:`~.sensor.hop_error` over each path's hops: (M,); nan without a path."""
+    """Each path's sum of its hops' expected errors (:func:`~.sensor.hop_error`).
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The neighbourhood the paths run in.
+    paths : Paths
+        M paths whose every hop joins two FLSs within reach (a pair of ``hood.pairs``).
+    hops : HopTable, optional
+        ``hop_table(hood, paths)``, when the caller has it.
+
+    Returns
+    -------
+    (M,) ndarray of float, cm
+        NaN without a path.
+
+    Raises
+    ------
+    ValueError
+        A path hops between FLSs out of each other's reach.
+
+    Examples
+    --------
+
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.neighbourhood import neighbourhood
+    >>> from swazure_ros.core.path_arrays import paths_from_rows
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [1, 3.5, 0]]), radius=0.5)
+    >>> hood = neighbourhood(swarm, sensor)
+    >>> paths = paths_from_rows(2, {0: [0, 1, 2]})  # A-B-C; pair 1 has no path
+    >>> np.round(summed_hop_errors(hood, paths), 3).tolist()
+    [0.175, nan]
+    """
     hops = hops or hop_table(hood, paths)
     costs = hop_error(hood.sensor, hood.pairs.tracking[hops.pair], hood.swarm.radius)
     return np.where(paths.found, hops.sums(costs), np.nan)
@@ -124,7 +263,42 @@ def summed_hop_errors(
 def hop_classes(
     hood: Neighbourhood, paths: Paths, hops: HopTable | None = None
 ) -> tuple[IntArray, IntArray]:
-    """Sweet and decaying hops of each path: (M,) each."""
+    """The sweet and the decaying hops of each path.
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The neighbourhood the paths run in.
+    paths : Paths
+        M paths whose every hop joins two FLSs within reach (a pair of ``hood.pairs``).
+    hops : HopTable, optional
+        ``hop_table(hood, paths)``, when the caller has it.
+
+    Returns
+    -------
+    sweet_hops, decaying_hops : (M,) ndarray of int
+        0 and 0 without a path.
+
+    Raises
+    ------
+    ValueError
+        A path hops between FLSs out of each other's reach.
+
+    Examples
+    --------
+
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.neighbourhood import neighbourhood
+    >>> from swazure_ros.core.path_arrays import paths_from_rows
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [1, 3.5, 0]]), radius=0.5)
+    >>> hood = neighbourhood(swarm, sensor)
+    >>> paths = paths_from_rows(2, {0: [0, 1, 2]})  # A-B-C; pair 1 has no path
+    >>> [counts.tolist() for counts in hop_classes(hood, paths)]
+    [[2, 0], [0, 0]]
+    """
     hops = hops or hop_table(hood, paths)
     size = len(paths.found)
     hop_class = hood.pairs.range_class[hops.pair]
@@ -169,10 +343,54 @@ def _distinct_per_path(
 def path_obstruction(
     hood: Neighbourhood, graph: Graph, paths: Paths
 ) -> tuple[NDArray[np.bool_], IntArray]:
-    """Whether each path in ``graph`` has an obstructed hop, and its distinct obstructing FLSs."""
+    """Whether each path has a hop out of sight, and how many FLSs obstruct its hops.
+
+    Each obstructed pair's obstructing FLSs are found once, however many
+    paths cross it; an FLS that obstructs two hops of a path counts once.
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The neighbourhood the paths run in.
+    graph : Graph
+        A graph of ``hood`` whose edges hold every hop of ``paths`` (S_all for
+        the policy's sweet paths).
+    paths : Paths
+        M paths in ``graph``.
+
+    Returns
+    -------
+    obstructed : (M,) ndarray of bool
+        The path has a hop out of sight.
+    obstructing_flss : (M,) ndarray of int
+        The distinct FLSs that obstruct its hops.
+
+    Raises
+    ------
+    ValueError
+        A path hops between FLSs that ``graph`` does not join.
+
+    Examples
+    --------
+
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.neighbourhood import neighbourhood
+    >>> from swazure_ros.core.path_arrays import paths_from_rows
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [1, 3.5, 0]]), radius=0.5)
+    >>> hood = neighbourhood(swarm, sensor)
+    >>> paths = paths_from_rows(2, {0: [0, 1, 2]})  # A-B-C; pair 1 has no path
+    >>> blocked, obstructing = path_obstruction(hood, hood.sweet_all, paths)
+    >>> blocked.tolist(), obstructing.tolist()
+    ([True, False], [1, 0])
+    """
     size = len(paths.found)
     pair, start, end = path_hops(paths)
     hop_pair = graph.edge_labels(start, end)
+    if np.any(hop_pair < 0):
+        raise ValueError("a path hops between FLSs that `graph` does not join")
     blocked = ~hood.visible[hop_pair]
     has_obstruction = np.bincount(pair[blocked], minlength=size) > 0
     # Each blocked pair's obstructers are found once, however many paths cross it.

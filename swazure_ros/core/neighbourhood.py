@@ -14,7 +14,7 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from .arrays import IntArray
 from .geometry import Swarm
@@ -117,7 +117,42 @@ class Neighbourhood:
 
 
 def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None) -> Neighbourhood:
-    """Neighbour pairs, their line of sight, and the graphs S_all, S_vis and SD_vis."""
+    """The whole swarm's neighbour pairs, their line of sight, and its graphs when asked for.
+
+    Parameters
+    ----------
+    swarm : Swarm
+        N FLSs: points (N, 3), cm, and radius r, cm.
+    sensor : Sensor
+        Its ranges classify each pair by tracking distance, cm.
+    progress : Progress, optional
+        Told of the line-of-sight stage.
+
+    Returns
+    -------
+    Neighbourhood
+        Every unordered pair within the sensor's reach (blind, sweet or
+        decaying), sorted, with the line of sight of each sweet and decaying
+        pair; the graphs S_all, S_vis and SD_vis are built when first asked for.
+
+    Examples
+    --------
+    Three FLSs in a V, A-B and B-C sweet and A-C blind, and a fourth FLS on
+    the segment A-B, which blocks it:
+
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [1, 3.5, 0]]), radius=0.5)
+    >>> hood = neighbourhood(swarm, sensor)
+    >>> hood.pairs.first.tolist(), hood.pairs.second.tolist()
+    ([0, 0, 0, 1, 1, 2], [1, 2, 3, 2, 3, 3])
+    >>> hood.visible.tolist()  # A-B blocked by the fourth FLS, B-C in sight, the rest blind
+    [False, False, False, True, False, False]
+    >>> hood.sweet_all.edges, hood.sweet_visible.edges
+    (2, 1)
+    """
     progress = progress or SILENT
     pairs = neighbour_pairs(swarm, sensor)
     edge = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)
@@ -134,18 +169,51 @@ def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None
 def neighbourhood_of(
     swarm: Swarm,
     sensor: Sensor,
-    flss: IntArray,
+    flss: ArrayLike,
     grid: Grid | None = None,
     tree: cKDTree | None = None,
 ) -> Neighbourhood:
-    """The pairs that involve the FLSs at indices ``flss`` (K,), with their line of sight.
+    """The pairs that involve some FLSs, with their line of sight: a part of :func:`neighbourhood`.
 
-    Each of these FLSs' pairs equal those of ``neighbourhood(swarm, sensor)``;
-    the pairs between other FLSs are left out. ``grid`` (``build_grid``'s)
-    and ``tree`` (a cKDTree of the points) are the swarm's, when the caller
-    keeps them.
+    Each of these FLSs' pairs equals that of ``neighbourhood(swarm, sensor)``;
+    the pairs between other FLSs are left out.
+
+    Parameters
+    ----------
+    swarm : Swarm
+        N FLSs.
+    sensor : Sensor
+        The sensor whose ranges classify the pairs.
+    flss : (K,) array_like of int
+        Swarm indices, in any order, repeats allowed.
+    grid : Grid, optional
+        ``build_grid(swarm.points, swarm.radius)``, when the caller keeps it.
+    tree : cKDTree, optional
+        A cKDTree of ``swarm.points``, when the caller keeps it.
+
+    Returns
+    -------
+    Neighbourhood
+        The pairs of which one FLS or both are among ``flss``, sorted.
+
+    Raises
+    ------
+    ValueError
+        An index of ``flss`` is not an FLS of ``swarm``.
+
+    Examples
+    --------
+
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [1, 3.5, 0]]), radius=0.5)
+    >>> part = neighbourhood_of(swarm, sensor, [2])
+    >>> list(zip(part.pairs.first.tolist(), part.pairs.second.tolist()))
+    [(0, 2), (1, 2), (2, 3)]
     """
-    flss = np.unique(np.asarray(flss, dtype=np.int64))
+    flss = _indices(flss, "flss", swarm.size)
     pairs = pairs_of(swarm, sensor, flss, tree)
     edge = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)
     grid = grid or build_grid(swarm.points, swarm.radius)
@@ -156,16 +224,52 @@ def neighbourhood_of(
     return Neighbourhood(swarm, sensor, pairs, visible, grid, np.ones(len(pairs), dtype=bool))
 
 
-def moved_neighbourhood(hood: Neighbourhood, swarm: Swarm, moved: IntArray) -> Neighbourhood:
-    """``hood`` of ``swarm``, where only the FLSs at indices ``moved`` (K,) have new positions.
+def moved_neighbourhood(hood: Neighbourhood, swarm: Swarm, moved: ArrayLike) -> Neighbourhood:
+    """``hood`` again after some FLSs moved, at a cost in proportion to what moved.
 
-    Equal to ``neighbourhood(swarm, hood.sensor)`` at a cost in proportion to
-    what moved: the pairs of the moved FLSs are found anew, and line of sight
-    is judged again only for those pairs and for the segments that pass
-    within r of a moved FLS's old or new place (an FLS obstructs a segment
-    within r of its centre); every other pair keeps its line of sight.
+    Equal to ``neighbourhood(swarm, hood.sensor)``: the pairs of the moved
+    FLSs are found anew, and line of sight is judged again only for those
+    pairs and for the segments that pass within r of a moved FLS's old or new
+    place (an FLS obstructs a segment within r of its centre); every other
+    pair keeps its line of sight.
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The neighbourhood before the moves.
+    swarm : Swarm
+        The same N FLSs, where those at ``moved`` have new points, cm.
+    moved : (K,) array_like of int
+        Swarm indices of the FLSs that moved.
+
+    Returns
+    -------
+    Neighbourhood
+        The neighbourhood of ``swarm``; ``hood`` itself when nothing moved.
+
+    Raises
+    ------
+    ValueError
+        ``swarm`` has another number of FLSs than ``hood``'s, or an index of
+        ``moved`` is not an FLS of it.
+
+    Examples
+    --------
+    The FLS on the segment A-B steps aside, and A sees B:
+
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [1, 3.5, 0]]), radius=0.5)
+    >>> from dataclasses import replace
+    >>> aside = replace(swarm, points=swarm.points + [[0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 3]])
+    >>> bool(moved_neighbourhood(neighbourhood(swarm, sensor), aside, [3]).visible[0])  # A-B
+    True
     """
-    moved = np.unique(np.asarray(moved, dtype=np.int64))
+    if swarm.size != hood.swarm.size:
+        raise ValueError(f"`swarm` must have the {hood.swarm.size} FLSs of `hood`: {swarm.size}")
+    moved = _indices(moved, "moved", swarm.size)
     sensor, old = hood.sensor, hood.pairs
     if len(moved) == 0:
         return hood
@@ -200,12 +304,50 @@ def moved_neighbourhood(hood: Neighbourhood, swarm: Swarm, moved: IntArray) -> N
     return Neighbourhood(swarm, sensor, pairs, visible, grid, np.ones(len(pairs), dtype=bool))
 
 
-def without(hood: Neighbourhood, gone: IntArray) -> Neighbourhood:
-    """``hood`` with no path through the FLSs at indices ``gone`` (K,); their bodies still block.
+def without(hood: Neighbourhood, gone: ArrayLike) -> Neighbourhood:
+    """``hood`` with no path through some FLSs, whose bodies still block: they stopped answering.
 
-    What the swarm offers once these FLSs stop answering: line of sight is
-    unchanged, since a stopped FLS has not left its place.
+    Line of sight is unchanged, since a stopped FLS has not left its place;
+    the graphs leave out every pair of the stopped FLSs.
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The swarm's neighbourhood.
+    gone : (K,) array_like of int
+        Swarm indices of the stopped FLSs.
+
+    Returns
+    -------
+    Neighbourhood
+        ``hood``'s pairs and sight, with its own graphs.
+
+    Raises
+    ------
+    ValueError
+        An index of ``gone`` is not an FLS of ``hood``'s swarm.
+
+    Examples
+    --------
+
+    >>> import numpy as np
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [1, 3.5, 0]]), radius=0.5)
+    >>> hood = neighbourhood(swarm, sensor)
+    >>> hood.sweet_all.edges, without(hood, [1]).sweet_all.edges
+    (2, 0)
     """
+    gone = _indices(gone, "gone", hood.swarm.size)
     pairs = hood.pairs
     usable = ~(np.isin(pairs.first, gone) | np.isin(pairs.second, gone))
     return replace(hood, usable=usable)
+
+
+def _indices(indices: ArrayLike, name: str, size: int) -> IntArray:
+    """``indices``, sorted without repeats, once checked to be FLSs of a swarm of ``size``."""
+    unique = np.unique(np.asarray(indices, dtype=np.int64))
+    if unique.ndim != 1 or (len(unique) and (unique[0] < 0 or unique[-1] >= size)):
+        raise ValueError(f"`{name}` must be swarm indices of FLSs, 0 to {size - 1}")
+    return unique

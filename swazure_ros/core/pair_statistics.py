@@ -149,8 +149,40 @@ def summarise(
     fusion: FusionFacts | None = None,
     fit: FitFacts | None = None,
 ) -> Summary:
-    """The run's metrics (spec, section 6), from its pairs or their tally; ``seconds``, s,
-    and a heuristic's, fusion's or fit's facts as the stage that made the pairs gives them."""
+    """The run's metrics (spec, section 6), from its pairs or their tally.
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The swarm's neighbourhood: its FLSs, radius and neighbour counts.
+    policy : {'fewest-hops', 'shortest-length', 'least-error'}
+        The path policy the pairs took.
+    pairs : PairResults or PairTally
+        Every ordered blind pair of the run, or their tally, block by block.
+    seconds : float, optional
+        What the run took, s.
+    heuristic, fusion, fit : HeuristicFacts, FusionFacts, FitFacts, optional
+        A later stage's facts, as the stage that made the pairs gives them.
+
+    Returns
+    -------
+    Summary
+        The run's summary.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.evaluate import evaluate_pairs
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.neighbourhood import neighbourhood
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0]]), radius=0.5)
+    >>> hood = neighbourhood(swarm, sensor)
+    >>> summary = summarise(hood, "fewest-hops", evaluate_pairs(hood, "fewest-hops"))
+    >>> summary.flss, summary.sweet_neighbour_pairs, summary.pairs.hops.mean
+    (3, 2, 2.0)
+    """
     if isinstance(pairs, PairResults):
         tally = PairTally()
         tally.add(pairs)

@@ -72,3 +72,9 @@ def test_path_obstruction_counts_each_path_s_distinct_obstructing_flss(sensor):
     blocked, obstructing = path_obstruction(hood, hood.sweet_all, paths)
     assert blocked.tolist() == [True, False, True]
     assert obstructing.tolist() == [1, 0, 1]  # K alone
+
+
+def test_path_obstruction_refuses_a_hop_its_graph_does_not_hold(sensor):
+    hood = neighbourhood(scene(A, B, C, K, D), sensor)
+    with pytest.raises(ValueError, match="does not join"):
+        path_obstruction(hood, hood.sweet_all, paths_from_rows(1, {0: [A, D, C]}))

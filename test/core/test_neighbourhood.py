@@ -16,6 +16,7 @@ from swazure_ros.core.neighbourhood import (
     NeighbourGraphs,
     moved_neighbourhood,
     neighbourhood,
+    neighbourhood_of,
     without,
 )
 from swazure_ros.sim.world import WorldSpec
@@ -105,3 +106,16 @@ def test_a_neighbourhood_s_data_are_frozen(sensor):
         hood.visible = hood.visible  # type: ignore[misc]
     with pytest.raises(FrozenInstanceError):
         hood.graphs = NeighbourGraphs()  # type: ignore[misc]
+
+
+def test_indices_that_are_no_fls_of_the_swarm_are_refused(sensor):
+    swarm = scene(A, B, C)
+    hood = neighbourhood(swarm, sensor)
+    with pytest.raises(ValueError, match="`flss` must be swarm indices of FLSs, 0 to 2"):
+        neighbourhood_of(swarm, sensor, [3])
+    with pytest.raises(ValueError, match="`moved` must be swarm indices"):
+        moved_neighbourhood(hood, swarm, [-1])
+    with pytest.raises(ValueError, match="`gone` must be swarm indices"):
+        without(hood, [5])
+    with pytest.raises(ValueError, match="must have the 3 FLSs of `hood`: 5"):
+        moved_neighbourhood(hood, scene(A, B, C, K, D), [0])
