@@ -18,7 +18,12 @@ Modules, each holding one idea of ``docs`` / the spec:
 - :mod:`.hops`: what the hops of many paths measure;
 - :mod:`.evaluation`: each blind pair's results and the run's evaluation;
 - :mod:`.pair_statistics`: the run's metrics, gathered block by block;
-- :mod:`.evaluate`: the batch evaluation of every ordered blind pair.
+- :mod:`.evaluate`: the batch evaluation of every ordered blind pair;
+- :mod:`.least_squares`: the weighted least-squares solve of positions from measurements;
+- :mod:`.fit_measurements`: which measurements a fit takes;
+- :mod:`.window_fit`: a source's own fit over what it hears;
+- :mod:`.pair_fits`: the engine's least-squares estimates of many pairs;
+- :mod:`.fit`: the estimators, and an evaluation refined by a fit.
 """
 
 from .errors import SwazureError

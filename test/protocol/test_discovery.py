@@ -31,7 +31,7 @@ from swazure_ros.protocol.runs import source_blocks
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import A, B, C, D, K, scene
-from ..core.test_fit import stochastic_sensor
+from ..core.fits import stochastic_sensor
 
 
 def run(hood, policy, **options):

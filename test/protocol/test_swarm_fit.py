@@ -26,7 +26,7 @@ from swazure_ros.protocol.loops import RunOptions, discover
 from swazure_ros.protocol.swarm_fit import FitSchedule, FitTally, process_sums
 from swazure_ros.sim.world import WorldSpec
 
-from ..core.test_fit import stochastic_sensor
+from ..core.fits import stochastic_sensor
 
 
 def run(hood, kept=None, **options):

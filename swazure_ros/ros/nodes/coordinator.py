@@ -47,7 +47,8 @@ from swazure_interfaces.msg import (
 
 from ...core.arrays import FloatArray, IntArray
 from ...core.evaluation import Evaluation
-from ...core.fit import PATH, fit_layers
+from ...core.fit import PATH
+from ...core.fit_measurements import fit_layers
 from ...core.neighbourhood import Neighbourhood
 from ...core.paths import check_policy
 from ...protocol.discovery.messages import Control
