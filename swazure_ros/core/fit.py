@@ -14,6 +14,7 @@ decaying hops join the sweet parts and the robust loss.
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -23,16 +24,12 @@ from .evaluation import NO_PATH, SWEET_PATH, Evaluation, PairResults
 from .fit_measurements import Corruption
 from .geometry import tracking_distance
 from .heuristics.result import PLAIN
-from .metrics import describe
+from .metrics import Stats, describe
 from .neighbourhood import Neighbourhood
-from .pair_fits import fit_pairs_estimates, local_estimates
+from .pair_fits import PairFit, fit_pairs_estimates, local_estimates
 from .pair_statistics import summarise
 from .path_arrays import Paths, path_hops
-from .sensor import (
-    hop_covariance,
-    measured_vectors,
-    unbiased_vectors,
-)
+from .sensor import hop_covariance, measured_vectors, unbiased_vectors
 from .summary import Consistency, FitFacts
 
 #: The estimators of a pair's pose: the paper's sum along the policy's path; the fit over
@@ -44,8 +41,30 @@ ESTIMATORS = (PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES, SWARM_FIT)
 
 
 def check_plain_estimator(estimator: str, technique: str = PLAIN, fuse: int = 1) -> None:
-    """A fit estimates plain Swazure's pairs alone: SwazureError naming the options
-    (``--fuse``, ``--technique``) that ask for fused paths or a heuristic's moves too."""
+    """Check that a fit is asked of plain Swazure's pairs alone.
+
+    Parameters
+    ----------
+    estimator : str
+        One of :data:`ESTIMATORS`.
+    technique : str, optional
+        The heuristic run on blocked pairs (``core.heuristics.result.TECHNIQUES``).
+    fuse : int, optional
+        The paths fused per pair.
+
+    Raises
+    ------
+    SwazureError
+        A fit with fused paths or a heuristic's moves; the message names the
+        options (``--fuse``, ``--technique``) to leave out.
+
+    Examples
+    --------
+    >>> check_plain_estimator("least-squares", fuse=3)
+    Traceback (most recent call last):
+    ...
+    swazure_ros.core.errors.SwazureError: --estimator least-squares ...: leave out --fuse
+    """
     if estimator == PATH:
         return
     asked = [
@@ -67,12 +86,39 @@ CHI2_95_3DOF = 7.8147
 
 
 def path_estimates(hood: Neighbourhood, pairs: PairResults) -> tuple[FloatArray, FloatArray]:
-    """Each pair's path sum with the bias removed (M, 3), cm, and its covariance (M, 3, 3), cm^2.
+    """Each pair's path sum with the sensor's known bias removed, and its covariance.
 
     What a source whose window does not reach its target falls back on: the
     measured hops of the policy's path, each without the sensor's known bias
     (:func:`~.sensor.unbiased_vectors`), and the sum of their covariances
-    (independent hops). Nan without a path.
+    (independent hops).
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The swarm's neighbourhood.
+    pairs : PairResults
+        M pairs and their paths.
+
+    Returns
+    -------
+    estimate : (M, 3) ndarray of float, cm
+        NaN without a path.
+    covariance : (M, 3, 3) ndarray of float, cm^2
+        NaN without a path.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.evaluate import evaluate
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [2, -10, 0]]), radius=0.5)
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> run = evaluate(swarm, sensor, "shortest-length")
+    >>> estimate, covariance = path_estimates(run.hood, run.pairs)
+    >>> estimate.shape, covariance.shape, bool(np.isfinite(covariance).all())
+    ((2, 3), (2, 3, 3), True)
     """
     swarm, sensor = hood.swarm, hood.sensor
     paths = Paths(pairs.status != NO_PATH, pairs.hops, pairs.path_length, pairs.offsets,
@@ -94,7 +140,29 @@ def path_estimates(hood: Neighbourhood, pairs: PairResults) -> tuple[FloatArray,
 
 
 def normalized_errors(error: FloatArray, covariance: FloatArray) -> FloatArray:
-    """Normalized estimation error squared e^T C^-1 e: errors (M, 3), cm; covariances (M, 3, 3)."""
+    """The normalized estimation error squared (NEES) e^T C^-1 e of each estimate.
+
+    Near 3 on average for 3-D errors whose covariance is honest.
+
+    Parameters
+    ----------
+    error : (M, 3) ndarray of float, cm
+        Each estimate less the truth.
+    covariance : (M, 3, 3) ndarray of float, cm^2
+        Each estimate's covariance.
+
+    Returns
+    -------
+    (M,) ndarray of float
+        NaN where the error or its covariance is unknown.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> error = np.array([[0.2, 0.0, 0.0], [np.nan, 0, 0]])
+    >>> normalized_errors(error, np.tile(0.01 * np.eye(3), (2, 1, 1))).round(9).tolist()
+    [4.0, nan]
+    """
     known = np.isfinite(error).all(axis=1) & np.isfinite(covariance).all(axis=(1, 2))
     out = np.full(len(error), np.nan)
     if known.any():
@@ -104,7 +172,41 @@ def normalized_errors(error: FloatArray, covariance: FloatArray) -> FloatArray:
 
 
 def consistency(pairs: PairResults) -> Consistency:
-    """How honest ``pairs``' covariances are: their NEES, and how often it is within chi2 95 %."""
+    """How honest the pairs' covariances are: their NEES, and how often it is within chi2 95 %.
+
+    Parameters
+    ----------
+    pairs : PairResults
+        Pairs with a covariance (a fit's, :func:`refine`).
+
+    Returns
+    -------
+    Consistency
+        The NEES's statistics (:func:`normalized_errors`) over the pairs
+        with an estimate, and the share of them within :data:`CHI2_95_3DOF`, %.
+
+    Raises
+    ------
+    ValueError
+        The pairs' estimator gives no covariance (the path sum).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.evaluate import evaluate
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [2, -10, 0]]), radius=0.5)
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> run = evaluate(swarm, sensor, "shortest-length")
+    >>> consistency(run.pairs)
+    Traceback (most recent call last):
+    ...
+    ValueError: these pairs' estimator gives no covariance
+    >>> fitted = refine(run)
+    >>> consistency(fitted.pairs) == fitted.summary.fit.consistency
+    True
+    """
     if pairs.covariance is None:
         raise ValueError("these pairs' estimator gives no covariance")
     nees = normalized_errors(pairs.estimate - pairs.truth, pairs.covariance)
@@ -123,36 +225,59 @@ def refine(
     robust: bool = True,
     corrupt: Corruption | None = None,
 ) -> Evaluation:
-    """``evaluation`` with every estimate from a least-squares ``estimator``, and its covariance.
+    """An evaluation with every estimate from a least-squares estimator, and its covariance.
 
-    Statuses, reasons and the reported paths stay the policy's (which pairs
-    a sweet or a decaying hop joins); estimates, errors and predicted errors
-    (the square root of the covariance's trace) are the fit's. The summary
-    gains ``estimator`` and ``fit``: the measurements, the down-weighted ones,
-    the normalized estimation error squared (NEES) and how often it is
-    within the chi-square bound that 95 % of errors fall under; the swarm's
-    fit its iterations too.
+    Statuses, reasons and the reported paths stay the policy's; estimates,
+    errors and predicted errors (the square root of the covariance's trace)
+    are the fit's. The summary gains ``estimator`` and ``fit``: the
+    measurements, the down-weighted ones, the NEES and how often it is
+    within the chi-square bound that 95 % of errors fall under.
+
+    Parameters
+    ----------
+    evaluation : Evaluation
+        Plain Swazure's evaluation (:func:`~.evaluate.evaluate`).
+    estimator : {'least-squares', 'local-least-squares', 'swarm-fit'}, optional
+        The whole swarm's fit, each source's own, or the first as the swarm
+        solves it (:mod:`.pair_fits`).
+    robust : bool, optional
+        Whether to reweight and reject outliers (:func:`~.least_squares.solve`).
+    corrupt : callable, optional
+        Alters the measurements first (a test's or a benchmark's outliers).
+
+    Returns
+    -------
+    Evaluation
+        The same pairs with the fit's estimates, and their summary.
+
+    Raises
+    ------
+    ValueError
+        ``estimator`` is not a least-squares estimator.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.evaluate import evaluate
+    >>> from swazure_ros.core.geometry import make_swarm
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> swarm = make_swarm(np.array([[0.0, 0, 0], [2, 7, 0], [4, 0, 0], [2, -10, 0]]), radius=0.5)
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))
+    >>> run = evaluate(swarm, sensor, "shortest-length")
+    >>> fitted = refine(run)
+    >>> fitted.summary.fit.estimator, fitted.pairs.covariance.shape
+    ('least-squares', (2, 3, 3))
     """
     if estimator not in (LEAST_SQUARES, LOCAL_LEAST_SQUARES, SWARM_FIT):
         raise ValueError(f"{estimator!r} is not a least-squares estimator")
-    local = estimator == LOCAL_LEAST_SQUARES
     pairs = evaluation.pairs
     has_path = pairs.status != NO_PATH
-    arguments = (evaluation.hood, pairs.source, pairs.target, pairs.status == SWEET_PATH)
-    window_flss = window_ms = None
-    fallback_pairs = None
-    if local:
-        result, seconds, sizes = local_estimates(*arguments, robust, corrupt)
-        # A target the window does not join to its source gets its path's sum.
-        beyond = has_path & np.isnan(result.estimate).any(axis=1)
-        if beyond.any():
-            fallback, fallback_cov = path_estimates(evaluation.hood, pairs)
-            result.estimate[beyond] = fallback[beyond]
-            result.covariance[beyond] = fallback_cov[beyond]
-        window_flss, window_ms = describe(sizes.astype(np.float64)), describe(1000.0 * seconds)
-        fallback_pairs = int(beyond.sum())
+    if estimator == LOCAL_LEAST_SQUARES:
+        result, windows = _own_fits(evaluation, robust, corrupt)
     else:
+        arguments = (evaluation.hood, pairs.source, pairs.target, pairs.status == SWEET_PATH)
         result = fit_pairs_estimates(*arguments, robust, corrupt, swarm=estimator == SWARM_FIT)
+        windows = _Windows()
     estimate = np.where(has_path[:, None], result.estimate, np.nan)
     covariance = np.where(has_path[:, None, None], result.covariance, np.nan)
     predicted = np.sqrt(np.trace(covariance, axis1=1, axis2=2))
@@ -160,9 +285,9 @@ def refine(
     fit = FitFacts(
         estimator,
         consistency(updated),
-        window_flss=window_flss,
-        window_ms=window_ms,
-        path_fallback_pairs=fallback_pairs,
+        window_flss=windows.flss,
+        window_ms=windows.ms,
+        path_fallback_pairs=windows.fallback_pairs,
         iterations=tuple(result.iterations) if estimator == SWARM_FIT else None,
         robust=robust,
         measurements=result.measurements,
@@ -172,3 +297,32 @@ def refine(
     took = (evaluation.summary.seconds or 0.0) + result.seconds
     summary = summarise(evaluation.hood, evaluation.policy, updated, took, fit=fit)
     return replace(evaluation, pairs=updated, summary=summary)
+
+
+class _Windows(NamedTuple):
+    """What the sources' own fits report: their windows' FLSs, their times, ms, and the pairs
+    beyond a window that took their path's sum; None for the other estimators."""
+
+    flss: Stats | None = None
+    ms: Stats | None = None
+    fallback_pairs: int | None = None
+
+
+def _own_fits(
+    evaluation: Evaluation, robust: bool, corrupt: Corruption | None
+) -> tuple[PairFit, _Windows]:
+    """Each source's own fit of its pairs, a pair beyond its window taking its path's sum."""
+    pairs = evaluation.pairs
+    has_path = pairs.status != NO_PATH
+    arguments = (evaluation.hood, pairs.source, pairs.target, pairs.status == SWEET_PATH)
+    result, seconds, sizes = local_estimates(*arguments, robust, corrupt)
+    # A target the window does not join to its source gets its path's sum.
+    beyond = has_path & np.isnan(result.estimate).any(axis=1)
+    if beyond.any():
+        fallback, fallback_cov = path_estimates(evaluation.hood, pairs)
+        result.estimate[beyond] = fallback[beyond]
+        result.covariance[beyond] = fallback_cov[beyond]
+    windows = _Windows(
+        describe(sizes.astype(np.float64)), describe(1000.0 * seconds), int(beyond.sum())
+    )
+    return result, windows

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from .arrays import FloatArray, IntArray
+from .arrays import BoolArray, FloatArray, IntArray
 from .measurement_graph import (
     CONVERGED_CM,
     ROBUST_ROUNDS,
@@ -104,7 +104,7 @@ def _scatter(size: int, measured: Measurements, flow: FloatArray) -> FloatArray:
 
 
 def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
-    """The weighted least-squares positions of ``size`` FLSs from ``measured``; see the module.
+    """The weighted least-squares positions of N FLSs from measured vectors between them.
 
     The gauge: in each connected part, the FLS of the smallest index is the
     origin. With ``robust``, iteratively reweighted least squares with
@@ -113,13 +113,69 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
     once that has settled, the measurements beyond ``OUTLIER_THRESHOLD`` are
     rejected (a convex start, then a redescending step), until the rejected
     set repeats. A reweighted system is factored anew when many weights
-    changed (``REFACTOR_SHARE``), else solved by conjugate gradients
+    changed (:data:`REFACTOR_SHARE`), else solved by conjugate gradients
     preconditioned with the last factors; the final one exactly, by its own.
     The covariance is the inverse of the final normal matrix, per part.
+
+    Parameters
+    ----------
+    size : int
+        N, the FLSs (indices 0 to N - 1).
+    measured : Measurements
+        M measured vectors, cm, from ``first`` to ``second``, with their
+        covariances, cm^2, and information matrices, cm^-2.
+    robust : bool, optional
+        Whether to reweight and reject outliers; else one weighted solve.
+
+    Returns
+    -------
+    Fit
+        Each FLS's position, cm, from its part's anchor (NaN for an FLS in
+        no measurement), its part, and the covariance of each part.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        A part's normal matrix is singular (a covariance without inverse).
+
+    Examples
+    --------
+    A triangle measured around once, and one side back:
+
+    >>> import numpy as np
+    >>> from swazure_ros.core.measurement_graph import Measurements
+    >>> eye = np.broadcast_to(np.eye(3), (4, 3, 3))
+    >>> vectors = np.array([[7.0, 0, 0], [-7, 7, 0], [0, -7, 0], [-7, 0, 0]])
+    >>> first, second = np.array([0, 1, 2, 1]), np.array([1, 2, 0, 0])
+    >>> fit = solve(3, Measurements(first, second, vectors, eye, eye))
+    >>> fit.positions.round(9).tolist()
+    [[0.0, 0.0, 0.0], [7.0, 0.0, 0.0], [0.0, 7.0, 0.0]]
+    >>> estimate, covariance = fit.relative(np.array([1]), np.array([2]))
+    >>> estimate.round(9).tolist(), covariance.shape
+    ([[-7.0, 7.0, 0.0]], (1, 3, 3))
     """
     part = parts_of(size, measured)
+    members, free, blocks = _gauge(size, part)
+    solution, factors, weights, rounds = _reweighted(size, measured, free, blocks, robust)
+    positions = np.zeros(3 * size)
+    positions[free] = solution
+    slot = np.zeros(size, dtype=np.int64)
+    covariance = []
+    for group, factor in zip(members, factors, strict=True):
+        slot[group] = np.arange(len(group))
+        covariance.append(_part_covariance(factor))
+    points = positions.reshape(size, 3)
+    points[part < 0] = np.nan
+    return Fit(points, part, covariance, slot, int((weights < 1.0).sum()), rounds)
+
+
+def _gauge(size: int, part: IntArray) -> tuple[list[IntArray], BoolArray, list[IntArray]]:
+    """Each part's FLSs, the free unknowns (3N,), and each part's unknowns among those.
+
+    Each part's FLSs in index order; the first is its anchor, the origin of
+    the gauge, and has no unknowns.
+    """
     parts = int(part.max()) + 1 if len(part) else 0
-    # Each part's FLSs in index order; the first is its anchor, the origin of the gauge.
     order = np.lexsort((np.arange(size), part))
     order = order[part[order] >= 0]
     members = np.split(order, np.searchsorted(part[order], np.arange(1, parts))) if parts else []
@@ -128,7 +184,17 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
     free = np.repeat(unknown, 3)
     # The unknowns of each part, as positions among the free unknowns.
     slot_of = np.cumsum(free) - 1
-    blocks = [slot_of[_axes(group[1:])] for group in members]
+    return members, free, [slot_of[_axes(group[1:])] for group in members]
+
+
+def _reweighted(
+    size: int, measured: Measurements, free: BoolArray, blocks: list[IntArray], robust: bool
+) -> tuple[FloatArray, list[FloatArray], FloatArray, int]:
+    """The free unknowns' solution, each part's factors, the final weights and the rounds.
+
+    One weighted solve, then (``robust``) the rounds of :func:`solve`'s
+    reweighting; the final system factored by its own weights.
+    """
     information = measured.information
     matrix, rhs = _information(size, measured, information)
     normal = matrix[free][:, free].tocsr()
@@ -164,16 +230,7 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
     if not np.array_equal(weights, factored):
         factors = _factors(normal, blocks)
         solution = _solve(factors, blocks, rhs[free])
-    positions = np.zeros(3 * size)
-    positions[free] = solution
-    slot = np.zeros(size, dtype=np.int64)
-    covariance = []
-    for group, factor in zip(members, factors, strict=True):
-        slot[group] = np.arange(len(group))
-        covariance.append(_part_covariance(factor))
-    points = positions.reshape(size, 3)
-    points[part < 0] = np.nan
-    return Fit(points, part, covariance, slot, int((weights < 1.0).sum()), rounds)
+    return solution, factors, weights, rounds
 
 
 def _axes(flss: IntArray) -> IntArray:

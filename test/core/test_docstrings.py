@@ -11,15 +11,20 @@ import pytest
 from swazure_ros.core import (
     evaluate,
     evaluation,
+    fit,
+    fit_measurements,
     graph,
     hops,
     jit,
+    least_squares,
     neighbourhood,
+    pair_fits,
     pair_statistics,
     path_arrays,
     paths,
     progress,
     search,
+    window_fit,
 )
 
 #: The modules whose every public function documents its parameters, returns and errors.
@@ -34,6 +39,11 @@ DOCUMENTED: tuple[ModuleType, ...] = (
     evaluation,
     pair_statistics,
     evaluate,
+    least_squares,
+    fit_measurements,
+    window_fit,
+    pair_fits,
+    fit,
 )
 
 

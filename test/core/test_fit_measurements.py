@@ -4,11 +4,11 @@ from functools import partial
 
 import numpy as np
 
-from swazure_ros.core.fit_measurements import fit_pairs, with_outliers
+from swazure_ros.core.fit_measurements import fit_groups, fit_pairs, with_outliers
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.sensor import SWEET, Sensor
 
-from .fits import exact, torus_swarm
+from .fits import exact, stochastic_sensor, torus_swarm
 
 
 def test_the_fit_uses_the_sweet_hops_and_only_the_decaying_hops_that_join_parts():
@@ -30,3 +30,14 @@ def test_with_outliers_repeats_and_turns_by_the_angle_asked():
     moved = (first.vectors != measured.vectors).any(axis=1)
     cosine = (first.vectors[moved] @ [1.0, 0, 0]) / 7.0
     np.testing.assert_allclose(cosine, np.cos(np.radians(30.0)))
+
+
+def test_a_deterministic_sensor_s_pairs_take_two_fits_a_stochastic_one_s_one():
+    sweet, rows, linked = np.array([True, False]), np.array([True, False]), np.array([True, True])
+    deterministic = fit_groups(Sensor(6.0, 8.0, 8.0, 30.0), sweet, rows, linked)
+    assert [(p.tolist(), r.tolist()) for p, r in deterministic] == [
+        ([True, False], [True, False]),
+        ([False, True], [True, True]),
+    ]
+    (pairs, taken), *more = fit_groups(stochastic_sensor(), sweet, rows, linked)
+    assert more == [] and pairs.tolist() == [True, True] and taken.tolist() == [True, True]

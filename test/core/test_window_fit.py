@@ -1,11 +1,12 @@
 """A source's own fit: what it hears in its window, and the fit over it."""
 
 import numpy as np
+import pytest
 
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.observe import observations
 from swazure_ros.core.sensor import BLIND, DECAYING, SWEET, Sensor
-from swazure_ros.core.window_fit import heard_in_window, window_fit
+from swazure_ros.core.window_fit import Heard, heard_in_window, window_fit
 
 from .fits import torus_swarm
 
@@ -51,3 +52,13 @@ def test_a_source_s_window_fit_of_exact_readings_gives_its_blind_neighbours_trut
             estimate[joined], points[targets[joined]] - points[source], atol=1e-7
         )
         assert np.isfinite(covariance[joined]).all() and np.isnan(covariance[~joined]).all()
+
+
+def test_a_reading_of_an_fls_out_of_the_window_is_refused():
+    heard = Heard(
+        np.array([10]), np.array([99]), np.array([SWEET], dtype=np.int8), np.array([6.5]),
+        np.array([[7.0, 0.0, 0.0]]),
+    )  # fmt: skip
+    with pytest.raises(ValueError, match="FLS 99, which is not in the window"):
+        window_fit(Sensor(6.0, 8.0, 8.0, 30.0), 0.5, np.array([10, 11]), heard, np.array([11]),
+                   np.array([True]))  # fmt: skip
