@@ -108,7 +108,8 @@ def stopped_row(running: Any) -> str:
     """A discovery with 5 % of the FLS nodes stopped once it is under way: its table row."""
     import numpy as np
 
-    from swazure_ros.core.evaluate import evaluate_pairs, without
+    from swazure_ros.core.evaluate import evaluate_pairs
+    from swazure_ros.core.neighbourhood import without
 
     running.wait_until_ready()
     world = running.world
@@ -139,7 +140,8 @@ def stopped_row(running: Any) -> str:
 
 def lost_coordinator_row(running: Any) -> str:
     """The coordinator lost mid-run: how long until every source has a status; its row."""
-    from swazure_ros.core.evaluate import ABORTED, evaluate_pairs
+    from swazure_ros.core.evaluate import evaluate_pairs
+    from swazure_ros.core.evaluation import ABORTED
     from swazure_ros.ros.nodes.coordinator import Coordinator
 
     running.wait_until_ready()

@@ -190,7 +190,8 @@ def least_squares_outliers(rows: list[dict[str, Any]]) -> list[str]:
     lines = [
         "",
         "Outliers, wide calibrated sensor at beta 0.5: 10 % of the measurements turned by",
-        "20 degrees about a random axis (`core.fit.with_outliers`), every pair with a path.",
+        "20 degrees about a random axis (`core.fit_measurements.with_outliers`), every pair",
+        "with a path.",
         "",
         "| shape | clean mean / p95 % | turned mean / p95 % | turned / clean (mean) | "
         "the same, pairs of FLSs in 2+ measured pairs | down-weighted |",

@@ -19,19 +19,12 @@ from typing import Any
 import numpy as np
 
 from bench.common import fit_facts
-from swazure_ros.core.evaluate import DECAYING_PATH, NO_PATH, SWEET_PATH, evaluate
-from swazure_ros.core.fit import (
-    CHI2_95_3DOF,
-    fit_pairs,
-    fit_pairs_estimates,
-    local_estimates,
-    measurements,
-    normalized_errors,
-    path_estimates,
-    refine,
-    with_outliers,
-)
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import DECAYING_PATH, NO_PATH, SWEET_PATH
+from swazure_ros.core.fit import CHI2_95_3DOF, normalized_errors, path_estimates, refine
+from swazure_ros.core.fit_measurements import fit_pairs, measurements, with_outliers
 from swazure_ros.core.geometry import make_swarm
+from swazure_ros.core.pair_fits import fit_pairs_estimates, local_estimates
 from swazure_ros.core.sensor import SWEET, measured_vectors
 from swazure_ros.files.cloud_files import load_cloud
 from swazure_ros.files.sensors import load_sensor

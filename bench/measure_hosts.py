@@ -129,7 +129,9 @@ def available_mb() -> float:
 
 def compare_without(world: Any, result: Any, gone_ids: set[int]) -> dict[str, object]:
     """The swarm's estimates beside the engine's on the shape without ``gone_ids``."""
-    from swazure_ros.core.evaluate import NO_PATH, evaluate_pairs, without
+    from swazure_ros.core.evaluate import evaluate_pairs
+    from swazure_ros.core.evaluation import NO_PATH
+    from swazure_ros.core.neighbourhood import without
 
     ids = world.ids
     gone_index = np.flatnonzero(np.isin(ids, sorted(gone_ids)))

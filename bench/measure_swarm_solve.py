@@ -21,15 +21,10 @@ from typing import Any
 import numpy as np
 
 from bench.common import fit_facts
-from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate
-from swazure_ros.core.fit import (
-    LEAST_SQUARES,
-    SWARM_FIT,
-    fit_pairs,
-    measurements,
-    refine,
-    with_outliers,
-)
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import NO_PATH, SWEET_PATH
+from swazure_ros.core.fit import LEAST_SQUARES, SWARM_FIT, refine
+from swazure_ros.core.fit_measurements import fit_pairs, measurements, with_outliers
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.measurement_graph import Measurements
 from swazure_ros.core.swarm_fit import (

@@ -74,8 +74,9 @@ def scale_identity(
 ) -> list[tuple[str, bool, bool]]:
     """Each published shape: pairs.csv (and .parquet) in blocks, byte for byte the whole path's."""
     from swazure_ros.core.blocks import Budget, evaluate_blocked
-    from swazure_ros.core.evaluate import SILENT, evaluate
+    from swazure_ros.core.evaluate import evaluate
     from swazure_ros.core.geometry import make_swarm
+    from swazure_ros.core.progress import SILENT
     from swazure_ros.files.cloud_files import load_cloud
     from swazure_ros.files.results import write_evaluation, write_pair_blocks
     from swazure_ros.files.sensors import load_sensor

@@ -44,7 +44,7 @@ def soak_run(
     """
     import numpy as np
 
-    from swazure_ros.core.evaluate import neighbourhood
+    from swazure_ros.core.neighbourhood import neighbourhood
     from swazure_ros.core.sensor import BLIND
     from swazure_ros.sim.world import WorldSpec
 

@@ -196,8 +196,8 @@ def swarm_solve_outliers(rows: list[dict[str, Any]]) -> list[str]:
     lines = [
         "",
         "Outliers, wide calibrated sensor at beta 0.5: 10 % of the measurements turned by 20",
-        "degrees (`core.fit.with_outliers`, seed 1); mean distance error, %, of every pair with",
-        "a path and of the pairs of FLSs in two or more measured pairs.",
+        "degrees (`core.fit_measurements.with_outliers`, seed 1); mean distance error, %, of",
+        "every pair with a path and of the pairs of FLSs in two or more measured pairs.",
         "",
         "| shape | LS clean -> turned | SW clean -> turned | SW, 2+ pairs: clean -> turned "
         "(ratio) | down-weighted LS / SW |",

@@ -169,7 +169,7 @@ class SwarmClient:
         Returns
         -------
         Estimate
-            ``status`` and ``reason`` (codes of ``core.evaluate.STATUS_NAMES``
+            ``status`` and ``reason`` (codes of ``core.evaluation.STATUS_NAMES``
             and ``REASON_NAMES``), ``path`` (FLS ids), ``hops``, ``vector``
             (3,) cm in ``source``'s frame, ``length`` cm, and with a fit its
             ``covariance`` (3, 3) cm^2.

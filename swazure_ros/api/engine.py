@@ -28,8 +28,8 @@ from numpy.typing import ArrayLike
 from ..core.blocks import DEFAULT_MEMORY, Budget, evaluate_blocked, whole_swarm_bytes
 from ..core.clouds import Cloud, validate_points
 from ..core.errors import CloudError, OptionError, SwazureError
-from ..core.evaluate import SILENT, Evaluation, Neighbourhood, PairResults, Progress
 from ..core.evaluate import evaluate as evaluate_swarm
+from ..core.evaluation import Evaluation, PairResults
 from ..core.fit import ESTIMATORS, PATH, check_plain_estimator, refine
 from ..core.fusion import fuse as fuse_paths
 from ..core.geometry import Swarm, make_swarm
@@ -43,7 +43,9 @@ from ..core.heuristics.result import (
     TECHNIQUES,
     HeuristicResult,
 )
+from ..core.neighbourhood import Neighbourhood
 from ..core.paths import POLICIES, SHORTEST_LENGTH
+from ..core.progress import SILENT, Progress
 from ..core.sensor import Sensor
 from ..core.summary import Summary, with_source
 from ..files.cloud_files import load_cloud
@@ -287,7 +289,7 @@ def evaluate(
     memory : int, default 2 GiB
         Bytes a block of plain Swazure's pairs may hold.
     progress : Progress, optional
-        Told each stage's start and advance (``core.evaluate.Progress``).
+        Told each stage's start and advance (``core.progress.Progress``).
 
     Returns
     -------
@@ -454,7 +456,7 @@ def run_blocked(
     Examples
     --------
     >>> from swazure_ros import api
-    >>> from swazure_ros.core.evaluate import SILENT
+    >>> from swazure_ros.core.progress import SILENT
     >>> setup = api.build_swarm("torus:120", scale=5, beta=0.5)
     >>> count = lambda hood, blocks, blind_pairs: sum(len(pairs) for pairs in blocks)
     >>> record, pairs = api.engine.run_blocked(setup, "fewest-hops", 2**30, SILENT, count)
@@ -487,7 +489,7 @@ def run_whole(
     Returns
     -------
     evaluation : Evaluation
-        Every ordered blind pair (``core.evaluate.PairResults``, swarm
+        Every ordered blind pair (``core.evaluation.PairResults``, swarm
         indices) and the summary, with where the swarm came from.
     heuristic : HeuristicResult or None
         The heuristic's moves, with a technique.

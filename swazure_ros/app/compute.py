@@ -13,7 +13,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..core.evaluate import Evaluation, evaluate
+from ..core.evaluate import evaluate
+from ..core.evaluation import Evaluation
 from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, check_plain_estimator, refine
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, HeuristicResult

@@ -25,7 +25,8 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import RunError, SwazureError
-from ..core.evaluate import Evaluation, evaluate
+from ..core.evaluate import evaluate
+from ..core.evaluation import Evaluation
 from ..core.fit import PATH
 from ..files.results import BringUp
 from ..protocol.runs import DiscoveryResult, MoveResult, merged, source_blocks, sources_per_run

@@ -17,9 +17,11 @@ from typing import Any
 
 from ..api.engine import RunOptions, SwarmSetup, run_blocked, run_whole
 from ..core.blocks import DEFAULT_MEMORY
-from ..core.evaluate import SILENT, Neighbourhood, PairResults, Progress
+from ..core.evaluation import PairResults
 from ..core.fit import ESTIMATORS, PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
+from ..core.neighbourhood import Neighbourhood
+from ..core.progress import SILENT, Progress
 from ..files.results import (
     SUMMARY_FILE,
     write_json,

@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 
-from ..core.evaluate import REASON_NAMES, STATUS_NAMES
+from ..core.evaluation import REASON_NAMES, STATUS_NAMES
 from ..protocol.discovery.estimate import Estimate
 from .arguments import fls_id, ros_namespace, seconds
 from .options import add_domain_argument, add_policy_argument, add_swarm_estimator_argument

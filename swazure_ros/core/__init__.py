@@ -8,9 +8,22 @@ Modules, each holding one idea of ``docs`` / the spec:
 - :mod:`.geometry`: radius, dmin, collision removal, tracking distance;
 - :mod:`.neighbours`: neighbour pairs and their range classes;
 - :mod:`.sight`: line of sight and obstructing FLSs;
-- :mod:`.paths`: neighbour graphs and path policies;
+- :mod:`.graph`: neighbour graphs in CSR form;
+- :mod:`.path_arrays`: many paths in one record, their hops and sums;
+- :mod:`.search`: one search from one source (the kernels under :mod:`.paths`);
+- :mod:`.paths`: the path policies over many pairs at once;
 - :mod:`.metrics`: error metrics of estimates;
-- :mod:`.evaluate`: the batch evaluation of every ordered blind pair.
+- :mod:`.progress`: how a long stage tells its progress;
+- :mod:`.neighbourhood`: what every pair evaluation of a swarm shares: pairs, sight, graphs;
+- :mod:`.hops`: what the hops of many paths measure;
+- :mod:`.evaluation`: each blind pair's results and the run's evaluation;
+- :mod:`.pair_statistics`: the run's metrics, gathered block by block;
+- :mod:`.evaluate`: the batch evaluation of every ordered blind pair;
+- :mod:`.least_squares`: the weighted least-squares solve of positions from measurements;
+- :mod:`.fit_measurements`: which measurements a fit takes;
+- :mod:`.window_fit`: a source's own fit over what it hears;
+- :mod:`.pair_fits`: the engine's least-squares estimates of many pairs;
+- :mod:`.fit`: the estimators, and an evaluation refined by a fit.
 """
 
 from .errors import SwazureError

@@ -14,7 +14,7 @@ pair's result at once: 1.6 GB for the race car, about 26 GB for a display of
    sources, evaluated by :func:`.evaluate.evaluate_pairs` on the whole
    swarm's graphs, so each pair's path, estimate and errors are the ones
    :func:`.evaluate.evaluate` gives, and the blocks come in its order; the
-   summary is tallied block by block (:class:`.evaluate.PairTally`).
+   summary is tallied block by block (:class:`.pair_statistics.PairTally`).
 
 A block's memory is bounded by a :class:`Budget`; the lean neighbourhood is
 held whole (docs/core.md, "The engine at display scale").
@@ -30,16 +30,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .arrays import IntArray
-from .evaluate import (
-    SWEET_PATH,
-    Neighbourhood,
-    PairResults,
-    PairTally,
-    Progress,
-    evaluate_pairs,
-    summarise,
-)
+from .evaluate import evaluate_pairs
+from .evaluation import SWEET_PATH, PairResults
 from .geometry import Swarm
+from .neighbourhood import Neighbourhood
 from .neighbours import (
     NeighbourCounts,
     NeighbourPairs,
@@ -48,7 +42,9 @@ from .neighbours import (
     ordered_rows,
     pair_counts,
 )
+from .pair_statistics import PairTally, summarise
 from .paths import check_policy
+from .progress import Progress
 from .sensor import BLIND, DECAYING, SWEET, Sensor
 from .sight import Grid, build_grid, grid_of, obstructed
 from .summary import Summary

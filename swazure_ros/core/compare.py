@@ -41,7 +41,7 @@ ErrorUnit = Literal["cm", "%"]
 #: about 1e-6 of each other).
 TIE = 1e-4
 #: The pairs' classes: every pair, then a pair's ``reason`` in the per-pair table
-#: (core.evaluate.REASON_NAMES, in its order): a sweet path in sight; every sweet path
+#: (core.evaluation.REASON_NAMES, in its order): a sweet path in sight; every sweet path
 #: blocked by an FLS (a decaying path or none: the pairs a heuristic tries); the sweet
 #: graph does not join them at all; a distributed run's pairs lost with their coordinator.
 ALL_PAIRS = "all pairs"

@@ -24,9 +24,12 @@ import numpy as np
 
 from . import csr
 from .arrays import FloatArray, IntArray
-from .evaluate import SWEET_PATH, Evaluation, estimates, summarise, summed_hop_errors
+from .evaluation import SWEET_PATH, Evaluation
+from .hops import estimates, summed_hop_errors
 from .metrics import describe
-from .paths import Paths, avoiding_paths
+from .pair_statistics import summarise
+from .path_arrays import Paths
+from .paths import avoiding_paths
 from .sensor import Sensor
 from .summary import FusionFacts
 

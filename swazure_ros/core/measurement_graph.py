@@ -1,6 +1,6 @@
 """The measurement graph a fit solves: measured vectors with their weights, and the robust loss.
 
-The central fit (:mod:`.fit`) and the swarm's own (:mod:`.swarm_fit`) solve
+The central fit (:mod:`.least_squares`) and the swarm's own (:mod:`.swarm_fit`) solve
 the same weighted least-squares problem; what they share lives here.
 """
 

@@ -10,13 +10,16 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .arrays import FloatArray, IntArray
 from .errors import SwazureError
+
+if TYPE_CHECKING:
+    from scipy.interpolate import CubicSpline
 
 
 class TrajectoryError(SwazureError):
@@ -115,28 +118,63 @@ class Waypoints:
     """Timed waypoints (displacements from home), joined by a clamped cubic spline.
 
     The FLS is at rest at the first and last waypoint (zero velocity there),
-    and holds the first before its time and the last after it.
+    and holds the first before its time and the last after it. Made by
+    :meth:`through`, which checks the times and fits the spline once.
     """
 
     times: FloatArray  # (K,), s, strictly increasing
     points: FloatArray  # (K, 3), cm
+    spline: CubicSpline  # the clamped cubic spline through them, (K, 3) values
 
-    def __post_init__(self) -> None:
-        if len(self.times) < 2 or np.any(np.diff(self.times) <= 0):
+    @classmethod
+    def through(cls, times: ArrayLike, points: ArrayLike) -> Waypoints:
+        """The waypoints ``points`` at ``times``, and the spline through them, fitted once.
+
+        Parameters
+        ----------
+        times : (K,) array_like of float, s
+            Two or more, strictly increasing.
+        points : (K, 3) array_like of float, cm
+            The displacement from home at each time.
+
+        Returns
+        -------
+        Waypoints
+            The trajectory through them.
+
+        Raises
+        ------
+        TrajectoryError
+            Fewer than two times, times not strictly increasing, or not one
+            point (x, y, z) per time.
+
+        Examples
+        --------
+        >>> from swazure_ros.core.motion import Waypoints
+        >>> there = Waypoints.through([0.0, 2.0], [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
+        >>> there.displacement([1.0, 5.0]).tolist()
+        [[1.0, 0.0, 0.0], [2.0, 0.0, 0.0]]
+        """
+        times = np.asarray(times, dtype=np.float64)
+        points = np.asarray(points, dtype=np.float64)
+        if times.ndim != 1 or len(times) < 2 or np.any(np.diff(times) <= 0):
             raise TrajectoryError("waypoint times must be at least two, strictly increasing")
+        if points.shape != (len(times), 3):
+            raise TrajectoryError(
+                f"waypoints need one point (x, y, z) per time: {len(times)} times, "
+                f"points of shape {points.shape}"
+            )
         from scipy.interpolate import (
             CubicSpline,  # here, not at import: an FLS alone never calls it
         )
 
-        object.__setattr__(
-            self, "_spline", CubicSpline(self.times, self.points, bc_type="clamped")
-        )
+        return cls(times, points, CubicSpline(times, points, bc_type="clamped"))
 
     def _eval(self, t: ArrayLike, order: int) -> FloatArray:
         times = _times(t)
         inside = (times >= self.times[0]) & (times <= self.times[-1])
         clipped = np.clip(times, self.times[0], self.times[-1])
-        values = np.asarray(self.__dict__["_spline"](clipped, order), dtype=np.float64)
+        values = np.asarray(self.spline(clipped, order), dtype=np.float64)
         return values if order == 0 else values * inside[:, None]
 
     def displacement(self, t: ArrayLike) -> FloatArray:

@@ -458,7 +458,7 @@ def ordered_rows(size: int, first: IntArray, second: IntArray) -> tuple[IntArray
     >>> rows.tolist(), targets.tolist()
     ([0, 1, 3, 4, 4], [1, 0, 2, 1])
     """
-    from .paths import make_graph  # the graph's rows are the ordered pairs, sorted
+    from .graph import make_graph  # the graph's rows are the ordered pairs, sorted
 
     graph = make_graph(size, first, second, np.zeros(len(first)))
     return graph.indptr, graph.indices

@@ -5,7 +5,7 @@ range and in line of sight; the measured vector follows the sensor's error
 model. Radio tells ``i`` which FLSs are in its blind, sweet and decaying
 ranges and how far they are (the tracking distance t, which the path policies
 weigh hops by), line of sight ignored. Both are views of one
-:class:`~.evaluate.Neighbourhood`, laid out per FLS (CSR) so that a node can
+:class:`~.neighbourhood.Neighbourhood`, laid out per FLS (CSR) so that a node can
 take its own slice.
 """
 
@@ -17,8 +17,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .arrays import FloatArray, IntArray
-from .evaluate import Neighbourhood
 from .geometry import Swarm, centre_distance
+from .neighbourhood import Neighbourhood
 from .sensor import BLIND, DECAYING, SWEET, Sensor, measured_vectors
 from .sight import Grid, obstructed
 

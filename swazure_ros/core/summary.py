@@ -1,7 +1,7 @@
 """A run's summary (spec, section 6) as typed, frozen records, and its ``summary.json`` document.
 
 :class:`Summary` is built once where the run's pairs are tallied
-(:func:`.evaluate.summarise`); a later stage (a heuristic, fusion, a fit,
+(:func:`.pair_statistics.summarise`); a later stage (a heuristic, fusion, a fit,
 where the swarm came from) makes a new one, never changes it. Its
 :meth:`Summary.as_document` is exactly what ``summary.json`` holds, key for
 key and in order; :meth:`Summary.from_document` reads it back.

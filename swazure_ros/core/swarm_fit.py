@@ -1,6 +1,6 @@
 """The swarm's own least-squares fit: every FLS's position from messages with its neighbours only.
 
-:func:`~.fit.solve` finds every position from every measurement at once, in
+:func:`~.least_squares.solve` finds every position from every measurement at once, in
 one place. Here the same weighted normal equations ``H x = b`` are solved
 by the swarm: each FLS holds its own three unknowns, the rows of ``H`` and
 ``b`` its own measured pairs give, and per iteration exchanges one vector
@@ -8,7 +8,7 @@ with the FLSs it measures and adds two numbers to a sum over the swarm.
 The method is conjugate gradients preconditioned by each FLS's own 3 x 3
 block (block Jacobi) in Chronopoulos and Gear's form, which needs one
 exchange and one sum per iteration; the robust loss reweights between
-solves as :func:`~.fit.solve` does, each solve starting where the last
+solves as :func:`~.least_squares.solve` does, each solve starting where the last
 ended. docs/core.md ("The swarm's fit") says why conjugate gradients and
 not Gaussian belief propagation, and how it converges.
 
@@ -638,7 +638,7 @@ def robust_decision(
 ) -> int | None:
     """The weights of the next solve (HUBER or REJECTING), or None: the fit is done.
 
-    :func:`~.fit.solve`'s schedule: Huber's weights until they repeat, then
+    :func:`~.least_squares.solve`'s schedule: Huber's weights until they repeat, then
     rejection until the rejected set repeats, at most ``ROBUST_ROUNDS``
     reweightings. ``*_same``: whether each mode's weights at the last
     solution equal the weights it was solved with (over the swarm, every FLS's

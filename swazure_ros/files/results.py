@@ -37,8 +37,9 @@ from typing import Any, BinaryIO
 import numpy as np
 
 from ..core.errors import OutputError, SwazureError
-from ..core.evaluate import REASON_NAMES, STATUS_NAMES, Evaluation, Neighbourhood, PairResults
+from ..core.evaluation import REASON_NAMES, STATUS_NAMES, Evaluation, PairResults
 from ..core.heuristics.result import HeuristicResult
+from ..core.neighbourhood import Neighbourhood
 from ..core.summary import Document, Summary
 from ..core.traffic import TopicCounts
 from .reading import CONFIG_BYTES, read_text, regular_file

@@ -29,7 +29,7 @@ from ..core.compare import (
     compare,
 )
 from ..core.errors import SwazureError
-from ..core.evaluate import REASON_NAMES
+from ..core.evaluation import REASON_NAMES
 from ..core.summary import Summary
 from .reading import CONFIG_BYTES, read_text
 from .results import PAIRS_FILE, PAIRS_PARQUET_FILE, SUMMARY_FILE, atomic_write, write_json

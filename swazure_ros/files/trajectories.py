@@ -38,7 +38,7 @@ def read_waypoints(path: str | Path) -> Waypoints:
     table = np.array(values)
     if np.any(np.diff(table[:, 0]) <= 0):
         raise TrajectoryError(f"{path}: waypoint times must increase strictly")
-    return Waypoints(table[:, 0], table[:, 1:])
+    return Waypoints.through(table[:, 0], table[:, 1:])
 
 
 def parse_trajectory(text: str) -> Trajectory:

@@ -21,7 +21,8 @@ from functools import partial
 import numpy as np
 
 from ..core.arrays import FloatArray, IntArray
-from ..core.fit import PATH, fit_layers
+from ..core.fit import PATH
+from ..core.fit_measurements import fit_layers
 from ..core.frames import through_metres
 from ..core.motion import Motion
 from ..core.observe import Observations, local_view

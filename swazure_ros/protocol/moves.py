@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.arrays import FloatArray, IntArray
-from ..core.evaluate import NO_PATH, REASON_BLOCKED, SWEET_PATH, Evaluation
+from ..core.evaluation import NO_PATH, REASON_BLOCKED, SWEET_PATH, Evaluation
 from ..core.heuristics.folding import apply
 from ..core.heuristics.obstructing import move_obstructing
 from ..core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE, HeuristicResult

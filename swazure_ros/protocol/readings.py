@@ -1,6 +1,6 @@
 """What an FLS hears of its neighbours' cameras: the readings their measurements carry.
 
-A source's least-squares fit (:func:`~swazure_ros.core.fit.window_fit`) needs
+A source's least-squares fit (:func:`~swazure_ros.core.window_fit.window_fit`) needs
 the readings of every FLS in its radio window. Each FLS publishes its own
 (the ``measurements`` topic, latched); a process keeps the newest of each
 FLS in one :class:`ReadingsBook`, and each of its FLSs takes its window's
@@ -16,9 +16,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.arrays import FloatArray, IntArray
-from ..core.fit import Heard
 from ..core.observe import LocalView
 from ..core.sensor import DECAYING, SWEET
+from ..core.window_fit import Heard
 
 
 @dataclass(frozen=True)

@@ -209,7 +209,7 @@ class RoundClock:
     one per source) restrict the run to those pairs, else every FLS searches
     for every blind neighbour. ``estimator``: how sources make their
     estimates (``core.fit.SWARM_ESTIMATORS``); a swarm-fit run solves its
-    ``fit_layers`` (``core.fit.fit_layers`` of the swarm's sensor) in the FIT
+    ``fit_layers`` (``core.fit_measurements.fit_layers`` of the swarm's sensor) in the FIT
     phase after discovery's. :attr:`times`: the round times its deadlines
     follow and it adds its own to (a coordinator sets its own, which every
     one of its runs shares).

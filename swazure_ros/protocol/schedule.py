@@ -14,7 +14,7 @@ import numpy as np
 
 from ..core import jit
 from ..core.arrays import FloatArray, IntArray
-from ..core.evaluate import Evaluation
+from ..core.evaluation import Evaluation
 from ..core.geometry import near_any_segment
 from ..core.heuristics.obstructing import TOUCH
 from ..core.heuristics.result import HeuristicResult

@@ -13,7 +13,7 @@ Stages, each one round:
 
 - LABELS: each FLS passes on the smallest id of its sweet part that it has
   heard of, until none changes (the parts decide which decaying hops join
-  the fit; ``core.fit.joining``); the first round also carries its readings
+  the fit; ``core.fit_measurements.joining``); the first round also carries its readings
   of the FLSs it measures, so that both ends of a pair hold both rows.
 - POSITIONS: each FLS sends its position (before a solve, and after one,
   for the robust loss).
@@ -40,7 +40,7 @@ import numpy as np
 
 from ..core import csr
 from ..core.arrays import FloatArray, IntArray
-from ..core.fit import fit_layers
+from ..core.fit_measurements import fit_layers
 from ..core.measurement_graph import CONVERGED_CM, Measurements, measured_rows
 from ..core.observe import LocalView
 from ..core.sensor import DECAYING, SWEET, Sensor
@@ -117,7 +117,7 @@ class FitSchedule:
     """The coordinator's part of the FIT phase: which stage follows which, from the sums.
 
     As :func:`~swazure_ros.core.swarm_fit.swarm_solve` goes, per fit of
-    ``layers`` (``core.fit.fit_layers``): a solve with unit weights, the
+    ``layers`` (``core.fit_measurements.fit_layers``): a solve with unit weights, the
     robust loss's reweighted solves (:func:`~swazure_ros.core.swarm_fit.robust_decision`),
     then the covariance's solve with ``samples`` right sides; SHARE last.
     """

@@ -19,13 +19,13 @@ from numpy.typing import ArrayLike, NDArray
 from ..core.arrays import FloatArray, IntArray
 from ..core.clouds import Cloud
 from ..core.errors import UnknownFlsError
-from ..core.evaluate import (
+from ..core.geometry import Swarm, make_swarm
+from ..core.neighbourhood import (
     Neighbourhood,
     moved_neighbourhood,
     neighbourhood,
     neighbourhood_of,
 )
-from ..core.geometry import Swarm, make_swarm
 from ..core.observe import (
     LocalView,
     Measurement,

@@ -15,9 +15,10 @@ from numpy.typing import NDArray
 
 from ..core.arrays import FloatArray
 from ..core.errors import SwazureError, UnknownFlsError
-from ..core.evaluate import SWEET_PATH, Evaluation, Neighbourhood
+from ..core.evaluation import SWEET_PATH, Evaluation
 from ..core.frames import SWARM_FRAME
 from ..core.heuristics.result import HeuristicResult
+from ..core.neighbourhood import Neighbourhood
 from ..core.sensor import BLIND, DECAYING, SWEET
 
 #: The frame the viewers draw the scene in.

@@ -12,7 +12,8 @@ pytest.importorskip("rclpy", reason="rclpy (ROS 2 Jazzy wheels) is not installed
 
 from swazure_ros import api
 from swazure_ros.core.errors import OptionError, RunError, SwazureError
-from swazure_ros.core.evaluate import STATUS_NAMES, evaluate_pairs
+from swazure_ros.core.evaluate import evaluate_pairs
+from swazure_ros.core.evaluation import STATUS_NAMES
 
 from ..waits import PATIENCE
 

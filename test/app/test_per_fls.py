@@ -311,7 +311,8 @@ def test_an_fls_process_killed_mid_run_departs_and_the_living_get_the_engines_pa
 ):
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.swarm import RunningSwarm
-    from swazure_ros.core.evaluate import evaluate_pairs, without
+    from swazure_ros.core.evaluate import evaluate_pairs
+    from swazure_ros.core.neighbourhood import without
     from swazure_ros.sim.world import WorldSpec
 
     policy = "shortest-length"
@@ -542,7 +543,8 @@ def test_offers_every_fls_drops_as_implausible_change_no_pair_of_a_swarm_without
     1 -> 5 went from SWEET over 1 12 5 to a longer path, DECAYING or NO_PATH."""
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.swarm import RunningSwarm
-    from swazure_ros.core.evaluate import SWEET_PATH, evaluate_pairs
+    from swazure_ros.core.evaluate import evaluate_pairs
+    from swazure_ros.core.evaluation import SWEET_PATH
     from swazure_ros.sim.world import WorldSpec
 
     policy = "shortest-length"

@@ -22,7 +22,7 @@ from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING
 from swazure_ros.files.cloud_files import load_cloud
 
 from ..conftest import REPO
-from ..core.test_fit import stochastic_sensor
+from ..core.fits import stochastic_sensor
 from ..waits import PATIENCE
 
 #: A "-" that stands for a value: at the start of a value or of one of its parts.

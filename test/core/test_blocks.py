@@ -15,8 +15,11 @@ from swazure_ros.core.blocks import (
     ranges,
     with_decaying,
 )
-from swazure_ros.core.evaluate import SILENT, PairResults, PairTally, evaluate
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import PairResults
 from swazure_ros.core.geometry import make_swarm
+from swazure_ros.core.pair_statistics import PairTally
+from swazure_ros.core.progress import SILENT
 from swazure_ros.files.cloud_files import load_cloud
 
 from ..conftest import A, B, C, D, K, scene

@@ -1,5 +1,7 @@
 """Trajectories: analytic positions and derivatives, and the specs that name them."""
 
+from dataclasses import FrozenInstanceError
+
 import numpy as np
 import pytest
 
@@ -8,6 +10,7 @@ from swazure_ros.core.motion import (
     ConstantVelocity,
     Motion,
     TrajectoryError,
+    Waypoints,
     trajectory_from_spec,
 )
 
@@ -66,3 +69,29 @@ def test_motion_moves_only_the_listed_flss_and_gives_relative_truth():
     assert np.allclose(position, [[10.0, -8.0, 0.0]])
     assert np.allclose(velocity, [[0.0, 1.0, 0.0]])
     assert np.allclose(acceleration, 0.0)
+
+
+def test_waypoints_hold_the_spline_through_them_fitted_once():
+    there = Waypoints.through([0.0, 2.0, 4.0], [[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [2.0, 2.0, 0.0]])
+    np.testing.assert_allclose(there.spline([0.0, 2.0, 4.0]), there.points, atol=1e-12)
+    np.testing.assert_allclose(
+        there.displacement([-1.0, 2.0, 9.0])[[0, 2]], [[0, 0, 0], [2, 2, 0]]
+    )
+    np.testing.assert_allclose(there.velocity([0.0, 4.0, 9.0]), 0.0, atol=1e-12)
+    with pytest.raises(FrozenInstanceError):
+        there.spline = None  # type: ignore[misc]
+
+
+@pytest.mark.parametrize(
+    ("times", "points", "message"),
+    [
+        ([0.0], [[0.0, 0.0, 0.0]], "at least two"),
+        ([0.0, 0.0], [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], "strictly increasing"),
+        ([0.0, 1.0], [[0.0, 0.0], [1.0, 0.0]], "one point"),
+    ],
+)
+def test_waypoints_refuse_times_that_do_not_increase_or_points_that_do_not_fit(
+    times, points, message
+):
+    with pytest.raises(TrajectoryError, match=message):
+        Waypoints.through(times, points)

@@ -1,7 +1,9 @@
 import numpy as np
 import pytest
 
-from swazure_ros.core.paths import make_graph, path_hops, shortest_paths
+from swazure_ros.core.graph import make_graph
+from swazure_ros.core.path_arrays import path_hops
+from swazure_ros.core.paths import avoiding_paths, shortest_paths
 
 
 def graph(edges):
@@ -164,18 +166,34 @@ def test_zero_cost_edges_are_searched_with_a_heap():
     assert shortest_paths(free, [0], [3], "least-error").path(0) == [0, 1, 3]
 
 
-def test_a_graph_is_the_same_from_sorted_pairs_and_from_edges_in_any_order():
-    rng = np.random.default_rng(3)
-    first, second = rng.integers(0, 60, size=(2, 400))
-    keep = first < second
-    pairs = np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
-    weight = rng.uniform(1, 2, size=len(pairs))
-    cost = rng.uniform(0, 1, size=len(pairs))
-    ordered = make_graph(60, pairs[:, 0], pairs[:, 1], weight, costs=cost)
-    shuffle = rng.permutation(len(pairs))
-    flipped = rng.random(len(pairs)) < 0.5
-    one = np.where(flipped, pairs[:, 1], pairs[:, 0])[shuffle]
-    other = np.where(flipped, pairs[:, 0], pairs[:, 1])[shuffle]
-    anyhow = make_graph(60, one, other, weight[shuffle], shuffle, cost[shuffle])
-    for field in ("indptr", "indices", "weights", "labels", "costs"):
-        np.testing.assert_array_equal(getattr(ordered, field), getattr(anyhow, field))
+def test_pairs_must_be_nodes_of_the_graph():
+    with pytest.raises(ValueError, match="must be nodes of the graph"):
+        shortest_paths(graph([(0, 1, 1.0)]), [0], [-1], "fewest-hops")
+    with pytest.raises(ValueError, match="must be nodes of the graph"):
+        shortest_paths(graph([(0, 1, 1.0)]), [0], [2], "fewest-hops")
+
+
+def test_a_path_avoiding_a_node_goes_round_it():
+    square = make_graph(4, [0, 1, 2, 0], [1, 2, 3, 3], [1.0, 1.0, 1.0, 5.0])
+    paths = avoiding_paths(
+        square, [0, 0, 0], [2, 2, 2], "shortest-length", [0, 0, 1, 3], [1, 1, 3]
+    )
+    assert paths.path(0) == [0, 1, 2]
+    assert paths.path(1) == [0, 3, 2]
+    assert paths.length[1] == 6.0
+    assert not paths.found[2]  # every way round is avoided
+
+
+@pytest.mark.parametrize(
+    ("offsets", "avoid", "match"),
+    [
+        ([0], [], "must hold 2 offsets"),
+        ([0, 2], [1], "rise from 0 to the length"),
+        ([1, 0], [1], "rise from 0 to the length"),
+        ([0, 1], [4], "nodes of the graph"),
+    ],
+)
+def test_avoided_nodes_must_be_rows_of_nodes(offsets, avoid, match):
+    square = make_graph(4, [0, 1, 2, 0], [1, 2, 3, 3], [1.0, 1.0, 1.0, 5.0])
+    with pytest.raises(ValueError, match=match):
+        avoiding_paths(square, [0], [2], "shortest-length", offsets, avoid)

@@ -3,16 +3,12 @@
 import numpy as np
 import pytest
 
-from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate, neighbourhood
-from swazure_ros.core.fit import (
-    LEAST_SQUARES,
-    SWARM_FIT,
-    fit_pairs,
-    measurements,
-    refine,
-    solve,
-    with_outliers,
-)
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import NO_PATH, SWEET_PATH
+from swazure_ros.core.fit import LEAST_SQUARES, SWARM_FIT, refine
+from swazure_ros.core.fit_measurements import fit_pairs, measurements, with_outliers
+from swazure_ros.core.least_squares import solve
+from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.neighbours import ordered_blind_pairs
 from swazure_ros.core.swarm_fit import (
     edges_of,
@@ -21,7 +17,7 @@ from swazure_ros.core.swarm_fit import (
     swarm_sum,
 )
 
-from .test_fit import exact, stochastic_sensor, torus_swarm
+from .fits import exact, stochastic_sensor, torus_swarm
 
 
 def test_a_consistent_triangle_is_solved_to_the_central_fit_s_positions():

@@ -187,8 +187,9 @@ def test_pairs_written_block_by_block_are_the_bytes_of_the_pairs_written_at_once
     tmp_path, monkeypatch, sensor, pairs_format
 ):
     from swazure_ros.core.blocks import Budget, evaluate_blocked
-    from swazure_ros.core.evaluate import SILENT, evaluate
+    from swazure_ros.core.evaluate import evaluate
     from swazure_ros.core.geometry import make_swarm
+    from swazure_ros.core.progress import SILENT
     from swazure_ros.files import results
     from swazure_ros.files.cloud_files import load_cloud
     from swazure_ros.files.results import write_evaluation, write_pair_blocks

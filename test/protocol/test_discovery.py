@@ -7,18 +7,16 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from swazure_ros.core.evaluate import (
+from swazure_ros.core.evaluate import evaluate, evaluate_pairs
+from swazure_ros.core.evaluation import (
     DECAYING_PATH,
     NO_PATH,
     REASON_BLOCKED,
     REASON_NO_SWEET_PATH,
     SWEET_PATH,
-    evaluate,
-    evaluate_pairs,
-    neighbourhood,
-    without,
 )
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
+from swazure_ros.core.neighbourhood import neighbourhood, without
 from swazure_ros.core.observe import local_view, observations
 from swazure_ros.core.paths import POLICIES
 from swazure_ros.core.sensor import hop_error, measured_vectors
@@ -33,7 +31,7 @@ from swazure_ros.protocol.runs import source_blocks
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import A, B, C, D, K, scene
-from ..core.test_fit import stochastic_sensor
+from ..core.fits import stochastic_sensor
 
 
 def run(hood, policy, **options):

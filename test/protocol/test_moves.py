@@ -7,7 +7,8 @@ from collections import Counter, deque
 import numpy as np
 import pytest
 
-from swazure_ros.core.evaluate import NO_PATH, SWEET_PATH, evaluate
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import NO_PATH, SWEET_PATH
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.observe import Measurement
 from swazure_ros.core.sensor import DECAYING, SWEET

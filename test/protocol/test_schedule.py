@@ -4,7 +4,8 @@ that replace the engine's estimates."""
 import numpy as np
 import pytest
 
-from swazure_ros.core.evaluate import SWEET_PATH, evaluate
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import SWEET_PATH
 from swazure_ros.core.heuristics.folding import apply
 from swazure_ros.core.heuristics.obstructing import move_obstructing
 from swazure_ros.core.heuristics.source import move_source

@@ -5,16 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from swazure_ros.core.evaluate import (
-    NO_PATH,
-    Evaluation,
-    evaluate,
-    evaluate_pairs,
-    summarise,
-    without,
-)
+from swazure_ros.core.evaluate import evaluate, evaluate_pairs
+from swazure_ros.core.evaluation import NO_PATH, Evaluation
 from swazure_ros.core.fit import SWARM_FIT, refine
+from swazure_ros.core.neighbourhood import without
 from swazure_ros.core.observe import observations
+from swazure_ros.core.pair_statistics import summarise
 from swazure_ros.core.swarm_fit import HUBER, REJECTING
 from swazure_ros.protocol.discovery.messages import (
     LABELS,
@@ -30,7 +26,7 @@ from swazure_ros.protocol.loops import RunOptions, discover
 from swazure_ros.protocol.swarm_fit import FitSchedule, FitTally, process_sums
 from swazure_ros.sim.world import WorldSpec
 
-from ..core.test_fit import stochastic_sensor
+from ..core.fits import stochastic_sensor
 
 
 def run(hood, kept=None, **options):

@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from swazure_ros.core.evaluate import neighbourhood
 from swazure_ros.core.frames import to_centimetres
+from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.sensor import BLIND, DECAYING, SWEET, measured_vectors
 
 from ..waits import PATIENCE, wait_until

@@ -16,11 +16,13 @@ from swazure_interfaces.srv import ComputePose
 
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
-from swazure_ros.core.evaluate import NO_PATH, evaluate, evaluate_pairs, without
+from swazure_ros.core.evaluate import evaluate, evaluate_pairs
+from swazure_ros.core.evaluation import NO_PATH
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.core.frames import fls_frame, to_metres
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
+from swazure_ros.core.neighbourhood import without
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.results import RECORD_FILE, read_pairs, read_record
 from swazure_ros.protocol.discovery.estimate import Estimate, evaluation_of
@@ -262,7 +264,7 @@ def test_nodes_stopped_mid_run_are_known_gone_at_once_not_after_a_round_timeout(
 def test_a_lost_coordinator_aborts_every_source_and_a_new_one_runs_again(domain, params):
     from swazure_interfaces.msg import PoseEstimates
 
-    from swazure_ros.core.evaluate import ABORTED, REASON_COORDINATOR_LOST
+    from swazure_ros.core.evaluation import ABORTED, REASON_COORDINATOR_LOST
     from swazure_ros.ros.nodes.coordinator import Coordinator
     from swazure_ros.ros.plumbing.names import ROUND_QOS
 

@@ -33,7 +33,8 @@ from swazure_interfaces.msg import (
 
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
-from swazure_ros.core.evaluate import SWEET_PATH, evaluate, evaluate_pairs
+from swazure_ros.core.evaluate import evaluate, evaluate_pairs
+from swazure_ros.core.evaluation import SWEET_PATH
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
 from swazure_ros.protocol.cells import BANDS, band_of, radio_cells
 from swazure_ros.ros.convert.discovery import pose_estimate_from_message

@@ -7,7 +7,8 @@ import pytest
 
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
-from swazure_ros.core.evaluate import NO_PATH, evaluate
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import NO_PATH
 from swazure_ros.core.fit import SWARM_FIT, refine
 from swazure_ros.files.reading import config_dir
 from swazure_ros.protocol.discovery.estimate import evaluation_of

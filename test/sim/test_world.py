@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.errors import UnknownFlsError
-from swazure_ros.core.evaluate import neighbourhood
+from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.observe import local_view, neighbour_sets, observations
 from swazure_ros.sim.world import WorldSpec
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.errors import SwazureError, UnknownFlsError
-from swazure_ros.core.evaluate import SWEET_PATH, evaluate
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import SWEET_PATH
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.files.cloud_files import load_cloud

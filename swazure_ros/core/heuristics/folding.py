@@ -7,15 +7,10 @@ from dataclasses import replace
 import numpy as np
 
 from .. import csr
-from ..evaluate import (
-    NO_PATH,
-    SWEET_PATH,
-    Evaluation,
-    merge_paths,
-    summarise,
-)
+from ..evaluation import NO_PATH, SWEET_PATH, Evaluation
 from ..metrics import describe, pose_errors
-from ..paths import Paths
+from ..pair_statistics import summarise
+from ..path_arrays import Paths, merge_paths
 from ..summary import HeuristicFacts
 from .compat import TEXT, Compat
 from .obstructing import move_obstructing

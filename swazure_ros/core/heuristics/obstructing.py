@@ -28,11 +28,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import csr
-from ..evaluate import (
-    Evaluation,
-    estimates,
-)
-from ..paths import Paths, path_hops, paths_from_rows, shortest_paths
+from ..evaluation import Evaluation
+from ..hops import estimates
+from ..path_arrays import Paths, path_hops, paths_from_rows
+from ..paths import shortest_paths
 from ..sight import obstructers
 
 if TYPE_CHECKING:

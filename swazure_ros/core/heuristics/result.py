@@ -9,12 +9,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...core.arrays import FloatArray, IntArray
-from ..evaluate import (
-    REASON_BLOCKED,
-    SWEET_PATH,
-    Evaluation,
-)
-from ..paths import Paths
+from ..evaluation import REASON_BLOCKED, SWEET_PATH, Evaluation
+from ..path_arrays import Paths
 from .compat import TEXT, Compat
 
 PLAIN = "plain"

@@ -17,10 +17,8 @@ import numpy as np
 
 from ...core.arrays import FloatArray, IntArray
 from .. import csr, jit
-from ..evaluate import (
-    Evaluation,
-)
-from ..paths import paths_from_rows
+from ..evaluation import Evaluation
+from ..path_arrays import paths_from_rows
 from ..sensor import measured_vectors
 from ..sight import Grid, any_within, scan_between
 from .compat import TEXT, Compat

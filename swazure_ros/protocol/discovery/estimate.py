@@ -17,7 +17,8 @@ from numpy.typing import NDArray
 
 from ...core import csr
 from ...core.arrays import FloatArray, IntArray
-from ...core.evaluate import (
+from ...core.evaluate import pair_results
+from ...core.evaluation import (
     DECAYING_PATH,
     NO_PATH,
     REASON_BLOCKED,
@@ -25,13 +26,12 @@ from ...core.evaluate import (
     REASON_NONE,
     SWEET_PATH,
     Evaluation,
-    Neighbourhood,
-    pair_results,
-    summarise,
 )
 from ...core.fit import PATH, SWARM_ESTIMATORS, consistency
+from ...core.neighbourhood import Neighbourhood
 from ...core.neighbours import ordered_blind_pairs
-from ...core.paths import Paths
+from ...core.pair_statistics import summarise
+from ...core.path_arrays import Paths
 from ...core.sensor import (
     Sensor,
     expected_error,

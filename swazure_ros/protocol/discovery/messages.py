@@ -55,7 +55,7 @@ class FitStep:
     """What a control of the FIT phase tells the FLSs: the stage, the fit, how, the sums."""
 
     stage: int = LABELS
-    layer: int = 0  # which of core.fit.fit_layers
+    layer: int = 0  # which of core.fit_measurements.fit_layers
     mode: int = UNIT  # RESIDUAL: the weights (UNIT, HUBER, REJECTING) or SAMPLES
     sums: tuple[float, ...] = ()  # STEP: the swarm's sums, (r, u) then (H u, u), per column
     ended: int = 0  # the round after a solve: SETTLED, or STALLED (each FLS takes its best)

@@ -15,18 +15,15 @@ from dataclasses import replace
 import numpy as np
 
 from ...core.arrays import FloatArray, IntArray
-from ...core.evaluate import (
-    ABORTED,
-    DECAYING_PATH,
-    REASON_COORDINATOR_LOST,
-    SWEET_PATH,
-)
-from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, Heard, fit_layers, window_fit
+from ...core.evaluation import ABORTED, DECAYING_PATH, REASON_COORDINATOR_LOST, SWEET_PATH
+from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
+from ...core.fit_measurements import fit_layers
 from ...core.observe import LocalView
 from ...core.sensor import (
     Sensor,
     hop_error,
 )
+from ...core.window_fit import Heard, window_fit
 from ..readings import ReadingsBook
 from ..swarm_fit import FitPart
 from .estimate import Estimate, Estimates, Results, estimates_of
@@ -185,7 +182,7 @@ class FlsRun:
         """The estimates with each pair's vector from this source's fit of ``heard``.
 
         As the engine's ``--estimator local-least-squares`` makes them
-        (:func:`~swazure_ros.core.fit.window_fit`): the window is the source
+        (:func:`~swazure_ros.core.window_fit.window_fit`): the window is the source
         and its radio neighbours; a target that the window does not join to
         the source keeps its path, summed less the known bias.
         """

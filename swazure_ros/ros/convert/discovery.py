@@ -21,7 +21,7 @@ from swazure_interfaces.msg import (
 )
 
 from ...core.arrays import FloatArray, IntArray
-from ...core.evaluate import REASON_NAMES, STATUS_NAMES
+from ...core.evaluation import REASON_NAMES, STATUS_NAMES
 from ...core.fit import PATH, SWARM_ESTIMATORS
 from ...core.frames import CM_PER_METRE, fls_frame, to_metres
 from ...protocol.discovery.estimate import Estimate, Estimates

@@ -45,8 +45,10 @@ from swazure_interfaces.msg import (
     WorldState,
 )
 
-from ...core.evaluate import Evaluation, Neighbourhood
-from ...core.fit import PATH, fit_layers
+from ...core.evaluation import Evaluation
+from ...core.fit import PATH
+from ...core.fit_measurements import fit_layers
+from ...core.neighbourhood import Neighbourhood
 from ...core.paths import check_policy
 from ...protocol.discovery.messages import Control
 from ...protocol.discovery.search import bucket_width

@@ -13,7 +13,7 @@ from rclpy.task import Future
 from swazure_interfaces.msg import PoseEstimate
 from swazure_interfaces.srv import ComputePose
 
-from ...core.evaluate import Neighbourhood
+from ...core.neighbourhood import Neighbourhood
 from ...protocol.discovery.search import refusal
 from ...protocol.runs import DiscoveryResult
 from ..convert.discovery import pose_estimate_message

@@ -8,7 +8,7 @@ from __future__ import annotations
 from rclpy.context import Context
 from rclpy.node import Node
 
-from ...core.evaluate import neighbourhood
+from ...core.neighbourhood import neighbourhood
 from ..nodes import coordinator
 from ..nodes.coordinator import Coordinator
 from ..nodes.instance import program_key

@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
 from swazure_interfaces.msg import Measurements, MoveCommands, PathOffer, PoseEstimates, WorldState
 
-from swazure_ros.core.evaluate import neighbourhood
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
+from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.observe import Measurement
 from swazure_ros.core.sensor import DECAYING, SWEET
 from swazure_ros.core.tracking import RELAY_OK, TRACKING, MotionEstimate, TrackState

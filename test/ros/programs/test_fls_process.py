@@ -51,7 +51,7 @@ def test_the_packed_host_still_brings_the_simulator():
 
 
 def test_the_coordinator_plans_without_the_simulator():
-    # It plans on the shape's assigned points (core.evaluate.neighbourhood), what the
+    # It plans on the shape's assigned points (core.neighbourhood.neighbourhood), what the
     # swarm knows; the simulator's world is the world node's alone.
     loaded = imported_by("swazure_ros.ros.nodes.coordinator")
     assert not [name for name in loaded if name.startswith("swazure_ros.sim")]

@@ -23,7 +23,8 @@ from sensor_msgs.msg import CameraInfo, Image
 from swazure_interfaces.msg import Detections
 
 from swazure_ros.camera.aruco import Detector, MarkerPose, full_image, render
-from swazure_ros.core.evaluate import SWEET_PATH, evaluate
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import SWEET_PATH
 from swazure_ros.core.frames import to_metres
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_camera

@@ -1,0 +1,183 @@
+"""Neighbour graphs: undirected graphs over FLS indices in CSR form (spec, section 4).
+
+A :class:`Graph`'s edge length is the tracking distance of its pair, cm, and
+each edge may carry a cost (its expected error, for the least-error policy)
+and a label (the caller's index of its pair). :func:`make_graph` builds one
+from edge lists; :mod:`.paths` searches it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from . import csr, jit
+from .arrays import FloatArray, IntArray
+
+
+@dataclass(frozen=True)
+class Graph:
+    """An undirected graph in CSR form: neighbours of node v are indices[indptr[v]:indptr[v+1]]."""
+
+    indptr: IntArray  # (N + 1,)
+    indices: IntArray  # (2E,), sorted within each row
+    weights: FloatArray  # (2E,), tracking distance of each edge, cm
+    labels: IntArray  # (2E,), caller's label of each edge (e.g. its pair index)
+    costs: FloatArray | None = None  # (2E,), expected error of each edge (least-error)
+
+    @property
+    def size(self) -> int:
+        """Number of nodes."""
+        return len(self.indptr) - 1
+
+    @property
+    def edges(self) -> int:
+        """Number of undirected edges."""
+        return len(self.indices) // 2
+
+    def edge_positions(self, first: ArrayLike, second: ArrayLike) -> IntArray:
+        """Position in ``indices`` of the edge first[m]-second[m] for each m: (M,); -1 if none."""
+        return np.asarray(
+            _edge_positions(
+                self.indptr,
+                self.indices,
+                np.asarray(first, dtype=np.int64),
+                np.asarray(second, dtype=np.int64),
+            )
+        )
+
+    def edge_labels(self, first: ArrayLike, second: ArrayLike) -> IntArray:
+        """Label of the edge first[m]-second[m] for each m: (M,); -1 where there is none."""
+        position = self.edge_positions(first, second)
+        return np.where(position >= 0, self.labels[position], -1)
+
+    def components(self) -> IntArray:
+        """Connected-component label of every node: (N,)."""
+        from scipy.sparse import csr_matrix  # here, not at import: an FLS alone never calls it
+        from scipy.sparse.csgraph import connected_components
+
+        matrix = csr_matrix(
+            (np.ones(len(self.indices)), self.indices, self.indptr), shape=(self.size,) * 2
+        )
+        _, labels = connected_components(matrix, directed=False)
+        return np.asarray(labels, dtype=np.int64)
+
+
+def make_graph(
+    size: int,
+    first: ArrayLike,
+    second: ArrayLike,
+    weights: ArrayLike,
+    labels: ArrayLike | None = None,
+    costs: ArrayLike | None = None,
+) -> Graph:
+    """Undirected graph on ``size`` nodes from edge lists, each edge entered once.
+
+    Parameters
+    ----------
+    size : int
+        N, the number of nodes (FLS indices 0 to N - 1).
+    first, second : (E,) array_like of int
+        The two ends of each edge, in any order; no edge joins a node to itself.
+    weights : (E,) array_like of float, cm
+        Each edge's length: its pair's tracking distance.
+    labels : (E,) array_like of int, optional
+        The caller's tag of each edge (its pair's index); default, its position
+        in the lists.
+    costs : (E,) array_like of float, cm, optional
+        Each edge's expected error (:func:`~.sensor.hop_error`), which the
+        least-error policy sums.
+
+    Returns
+    -------
+    Graph
+        Both directions of every edge, each row sorted by neighbour; the
+        ``weights``, ``labels`` and ``costs`` (2E,) follow the entries.
+
+    Raises
+    ------
+    ValueError
+        The lists differ in length, an end is not a node, or an edge joins a
+        node to itself.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.graph import make_graph
+    >>> graph = make_graph(3, [0, 1], [1, 2], [1.5, 2.0])
+    >>> graph.indptr.tolist(), graph.indices.tolist(), graph.weights.tolist()
+    ([0, 1, 3, 4], [1, 0, 2, 1], [1.5, 1.5, 2.0, 2.0])
+    >>> graph.edge_labels([2], [1]).tolist()
+    [1]
+    """
+    first = np.asarray(first, dtype=np.int64)
+    second = np.asarray(second, dtype=np.int64)
+    weights = np.asarray(weights, dtype=np.float64)
+    labels = np.arange(len(first)) if labels is None else np.asarray(labels, dtype=np.int64)
+    if not first.shape == second.shape == weights.shape == labels.shape:
+        raise ValueError("`first`, `second`, `weights` and `labels` must have one length")
+    if len(first) and (
+        min(first.min(), second.min()) < 0 or max(first.max(), second.max()) >= size
+    ):
+        raise ValueError(f"`first` and `second` must be nodes of the graph, 0 to {size - 1}")
+    if np.any(first == second):
+        raise ValueError("a graph edge cannot join a node to itself")
+    keys = np.minimum(first, second) * size + np.maximum(first, second)
+    if np.all(first < second) and np.all(keys[1:] > keys[:-1]):
+        # Edges listed as neighbour pairs are: (first, second) sorted, first < second.
+        indptr, indices, edge = _symmetric_rows(size, first, second)
+    else:
+        tail = np.concatenate([first, second])
+        head = np.concatenate([second, first])
+        order = np.lexsort((head, tail))
+        indptr = csr.offsets(np.bincount(tail, minlength=size))
+        indices, edge = head[order], order % max(len(first), 1)
+    edge_costs = None
+    if costs is not None:
+        costs = np.asarray(costs, dtype=np.float64)
+        if costs.shape != weights.shape:
+            raise ValueError("`costs` must have one value per edge")
+        edge_costs = costs[edge]
+    return Graph(indptr.astype(np.int64), indices, weights[edge], labels[edge], edge_costs)
+
+
+@jit.kernel(cache=True, nogil=True)
+def _symmetric_rows(
+    size: int, first: IntArray, second: IntArray
+) -> tuple[IntArray, IntArray, IntArray]:
+    """CSR rows (sorted) of the undirected edges first[e] < second[e], given sorted by
+    (first, second): indptr, indices, and the edge e of each entry."""
+    indptr = np.zeros(size + 1, dtype=np.int64)
+    for e in range(len(first)):
+        indptr[first[e] + 1] += 1
+        indptr[second[e] + 1] += 1
+    for node in range(size):
+        indptr[node + 1] += indptr[node]
+    cursor = indptr[:-1].copy()
+    indices = np.empty(2 * len(first), dtype=np.int64)
+    edge = np.empty(2 * len(first), dtype=np.int64)
+    # Row v holds its smaller neighbours (edges where v is second, in order of first),
+    # then its larger ones (where v is first, already in order of second).
+    for e in range(len(first)):
+        slot = cursor[second[e]]
+        indices[slot], edge[slot] = first[e], e
+        cursor[second[e]] += 1
+    for e in range(len(first)):
+        slot = cursor[first[e]]
+        indices[slot], edge[slot] = second[e], e
+        cursor[first[e]] += 1
+    return indptr, indices, edge
+
+
+@jit.kernel(cache=True, parallel=True)
+def _edge_positions(
+    indptr: IntArray, indices: IntArray, first: IntArray, second: IntArray
+) -> IntArray:
+    out = np.full(len(first), -1, dtype=np.int64)
+    for m in jit.prange(len(first)):
+        row = indices[indptr[first[m]] : indptr[first[m] + 1]]
+        position = np.searchsorted(row, second[m])
+        if position < len(row) and row[position] == second[m]:
+            out[m] = indptr[first[m]] + position
+    return out

@@ -1,0 +1,357 @@
+"""One search from one source: the labels, the heap and Dinitz's buckets (numba kernels).
+
+The workhorse under :mod:`.paths`, whose functions run it from many sources
+at once. A search settles nodes in order of their (primary, secondary) cost
+(hops then length for fewest-hops; length or error then hops otherwise) and
+keeps, for each node, the predecessor of the smallest FLS index among those
+that reach it at its cost (the tie-break of :mod:`.paths`). :func:`search_from`
+leaves its labels in a :class:`Labels`, which :func:`walk_back` reads a
+path from and :func:`reset_labels` unsets for the next search.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from . import jit
+from .arrays import FloatArray, IntArray
+
+
+class Search(NamedTuple):
+    """A graph and a policy's weights as the search kernels take them: one argument.
+
+    A named tuple, so that numba passes it whole (as :class:`~.sight.Grid`).
+    """
+
+    indptr: IntArray  # (N + 1,)
+    indices: IntArray  # (2E,)
+    weights: FloatArray  # (2E,), the weights the policy sums
+    component: IntArray  # (N,), connected-component label of each node
+    fewest_hops: bool  # hops are the primary cost, weights the secondary
+    bucket_width: float  # width of a bucket of Dinitz's search (see paths._buckets)
+    slots: int  # buckets kept in turn; 0 for a heap search
+
+
+class Labels(NamedTuple):
+    """The labels of one search over N nodes, reused search after search (:func:`reset_labels`)."""
+
+    primary: FloatArray  # (N,), primary cost; inf where unreached
+    secondary: FloatArray  # (N,), secondary cost; inf where unreached
+    pred: IntArray  # (N,), predecessor; -1 where unreached
+    settled: NDArray[np.bool_]  # (N,)
+    wanted: NDArray[np.bool_]  # (N,), the search's targets
+    touched: IntArray  # (N,), the nodes labelled, in order
+    order: IntArray  # (N,), the nodes settled, in order (bucket search)
+
+
+@jit.kernel(cache=True, nogil=True)
+def fresh_labels(size: int) -> Labels:
+    """Unset labels of a search over ``size`` nodes, for search after search.
+
+    Parameters
+    ----------
+    size : int
+        N, the graph's nodes.
+
+    Returns
+    -------
+    Labels
+        Costs infinite, no predecessor (-1), nothing settled or wanted.
+    """
+    return Labels(
+        np.full(size, np.inf),
+        np.full(size, np.inf),
+        np.full(size, -1, dtype=np.int64),
+        np.zeros(size, dtype=np.bool_),
+        np.zeros(size, dtype=np.bool_),
+        np.empty(size, dtype=np.int64),
+        np.empty(size, dtype=np.int64),
+    )
+
+
+@jit.kernel(cache=True, nogil=True)
+def reset_labels(labels: Labels, count: int) -> None:
+    """Unset what a search labelled, for the next search: a cost in proportion to what it touched.
+
+    Parameters
+    ----------
+    labels : Labels
+        As :func:`search_from` left them.
+    count : int
+        The nodes it touched, as it returned.
+    """
+    primary, secondary, pred, settled, _, touched, _ = labels
+    for node in touched[:count]:
+        primary[node], secondary[node], pred[node] = np.inf, np.inf, -1
+        settled[node] = False
+
+
+@jit.kernel(cache=True, nogil=True)
+def search_from(search: Search, source: int, targets: IntArray, labels: Labels) -> int:
+    """Search from ``source`` until every target it can reach is settled.
+
+    With ``search.slots`` > 0, Dinitz's buckets (:func:`_search_buckets`);
+    else a binary heap (:func:`_search_heap`). Both settle the same labels.
+
+    Parameters
+    ----------
+    search : Search
+        The graph and the policy's weights.
+    source : int
+        The node the search starts from.
+    targets : (K,) ndarray of int
+        The nodes wanted; the search ends once the last of those in the
+        source's component is settled.
+    labels : Labels
+        Unset (:func:`fresh_labels`, :func:`reset_labels`); gets each touched
+        node's costs in ``primary`` and ``secondary``, its predecessor in
+        ``pred``, and ``settled``. The caller unsets ``wanted[targets]``.
+
+    Returns
+    -------
+    int
+        The nodes touched: the first entries of ``labels.touched``, to reset.
+    """
+    if search.slots > 0:
+        return _search_buckets(search, source, targets, labels)
+    return _search_heap(search, source, targets, labels)
+
+
+@jit.kernel(cache=True, nogil=True)
+def walk_back(pred: IntArray, target: int, steps: int, out: IntArray) -> None:
+    """Write the path of ``steps`` hops that a search found to ``target`` into ``out``.
+
+    Parameters
+    ----------
+    pred : (N,) ndarray of int
+        The search's predecessors (``Labels.pred``).
+    target : int
+        The path's last node, settled by the search.
+    steps : int
+        The path's hops.
+    out : (steps + 1,) or longer ndarray of int
+        Gets the path's nodes, source first, in ``out[0 : steps + 1]``.
+    """
+    node = target
+    for back in range(steps, -1, -1):
+        out[back] = node
+        node = pred[node]
+
+
+@jit.kernel(cache=True, nogil=True)
+def _mark_targets(
+    source: int, targets: IntArray, component: IntArray, wanted: NDArray[np.bool_]
+) -> int:
+    """Mark the targets in the source's component as wanted; return how many were marked."""
+    remaining = 0
+    for target in targets:
+        if component[target] == component[source] and not wanted[target]:
+            wanted[target] = True
+            remaining += 1
+    return remaining
+
+
+@jit.kernel(cache=True, nogil=True)
+def _start(source: int, labels: Labels) -> None:
+    """Label ``source`` as reached at cost (0, 0), the first node touched."""
+    labels.primary[source] = 0.0
+    labels.secondary[source] = 0.0
+    labels.pred[source] = source
+    labels.touched[0] = source
+
+
+@jit.kernel(cache=True, nogil=True)
+def _settle_bucket(
+    labels: Labels, entry: int, entry_node: IntArray, entry_next: IntArray, done: int
+) -> tuple[int, int, int]:
+    """Settle the nodes of the bucket list from ``entry``, appending them to ``labels.order``
+    at ``done``; return the new ``done``, the entries listed and the wanted nodes settled."""
+    listed = reached = 0
+    while entry >= 0:
+        listed += 1
+        node = entry_node[entry]
+        entry = entry_next[entry]
+        # A node listed twice (its label improved within the bucket) settles once.
+        if not labels.settled[node]:
+            labels.settled[node] = True
+            labels.order[done] = node
+            done += 1
+            if labels.wanted[node]:
+                reached += 1
+    return done, listed, reached
+
+
+@jit.kernel(cache=True, nogil=True)
+def _doubled(array: IntArray, used: int) -> IntArray:
+    """A copy of ``array`` twice as long, of which the first ``used`` entries are set."""
+    grown = np.empty(2 * len(array), dtype=np.int64)
+    grown[:used] = array[:used]
+    return grown
+
+
+@jit.kernel(cache=True, nogil=True)
+def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labels) -> int:
+    """Dinitz's algorithm: settle a whole bucket of labels at once, then relax its edges.
+
+    Bucket k holds the labels in [k * bucket_width, (k + 1) * bucket_width), and the width is
+    at most the smallest edge: no label of bucket k can be improved through
+    a node of bucket k or later, so all of bucket k is final once the
+    buckets before it have relaxed their edges. Every node through which a
+    label is reached at its cost lies in an earlier bucket, so the
+    predecessor rule sees them all. The search stops as soon as the last
+    target's bucket is reached, without relaxing it.
+    """
+    indptr, indices, weights, component, fewest_hops, bucket_width, slots = search
+    primary, secondary, pred, settled, wanted, touched, order = labels
+    remaining = _mark_targets(source, targets, component, wanted)
+    entry_node = np.empty(1024, dtype=np.int64)
+    entry_next = np.empty(1024, dtype=np.int64)
+    head = np.full(slots, -1, dtype=np.int64)
+    _start(source, labels)
+    count = 1
+    entry_node[0], entry_next[0], head[0] = source, -1, 0
+    used, pending, bucket, done = 1, 1, 0, 0
+    while pending > 0 and remaining > 0:
+        slot = bucket % slots
+        first = done
+        done, listed, reached = _settle_bucket(labels, head[slot], entry_node, entry_next, done)
+        head[slot] = -1
+        pending -= listed
+        remaining -= reached
+        bucket += 1
+        if remaining == 0:
+            break
+        for position in range(first, done):
+            node = order[position]
+            k1, k2 = primary[node], secondary[node]
+            for edge in range(indptr[node], indptr[node + 1]):
+                neighbour = indices[edge]
+                n1 = k1 + 1.0 if fewest_hops else k1 + weights[edge]
+                p1 = primary[neighbour]
+                # Most edges of a dense graph lead nowhere better: decide on the first key.
+                if n1 > p1 or settled[neighbour]:
+                    continue
+                n2 = k2 + weights[edge] if fewest_hops else k2 + 1.0
+                p2 = secondary[neighbour]
+                if p1 == np.inf:
+                    touched[count] = neighbour
+                    count += 1
+                if n1 < p1 or n2 < p2:
+                    primary[neighbour] = n1
+                    secondary[neighbour] = n2
+                    pred[neighbour] = node
+                    # The next bucket at least: a label never returns to a bucket relaxed.
+                    target_bucket = max(int(n1 / bucket_width), bucket)
+                    if p1 < np.inf and target_bucket == max(int(p1 / bucket_width), bucket):
+                        continue  # listed in that bucket already
+                    if used == len(entry_node):
+                        entry_node = _doubled(entry_node, used)
+                        entry_next = _doubled(entry_next, used)
+                    target_slot = target_bucket % slots
+                    entry_node[used], entry_next[used] = neighbour, head[target_slot]
+                    head[target_slot] = used
+                    used += 1
+                    pending += 1
+                elif n2 == p2 and node < pred[neighbour]:
+                    pred[neighbour] = node
+    return count
+
+
+@jit.kernel(cache=True, nogil=True)
+def _search_heap(search: Search, source: int, targets: IntArray, labels: Labels) -> int:
+    """Dijkstra with a binary heap, for edges too unequal for buckets; see :func:`search_from`."""
+    indptr, indices, weights, component, fewest_hops, _, _ = search
+    primary, secondary, pred, settled, wanted, touched, _ = labels
+    remaining = _mark_targets(source, targets, component, wanted)
+    capacity = 64
+    heap1 = np.empty(capacity)
+    heap2 = np.empty(capacity)
+    heap_item = np.empty(capacity, dtype=np.int64)
+    _start(source, labels)
+    count = 1
+    size = _heap_push(heap1, heap2, heap_item, 0, 0.0, 0.0, source)
+    while size > 0 and remaining > 0:
+        k1, k2, node = heap1[0], heap2[0], heap_item[0]
+        size = _heap_pop(heap1, heap2, heap_item, size)
+        if settled[node] or k1 != primary[node] or k2 != secondary[node]:
+            continue
+        settled[node] = True
+        if wanted[node]:
+            remaining -= 1
+        for slot in range(indptr[node], indptr[node + 1]):
+            neighbour = indices[slot]
+            if settled[neighbour]:
+                continue
+            if fewest_hops:
+                n1, n2 = k1 + 1.0, k2 + weights[slot]
+            else:
+                n1, n2 = k1 + weights[slot], k2 + 1.0
+            p1, p2 = primary[neighbour], secondary[neighbour]
+            if p1 == np.inf:
+                touched[count] = neighbour
+                count += 1
+            if n1 < p1 or (n1 == p1 and n2 < p2):
+                primary[neighbour] = n1
+                secondary[neighbour] = n2
+                pred[neighbour] = node
+                if size == capacity:
+                    capacity *= 2
+                    grown1 = np.empty(capacity)
+                    grown2 = np.empty(capacity)
+                    grown_item = np.empty(capacity, dtype=np.int64)
+                    grown1[:size], grown2[:size], grown_item[:size] = (
+                        heap1[:size],
+                        heap2[:size],
+                        heap_item[:size],
+                    )
+                    heap1, heap2, heap_item = grown1, grown2, grown_item
+                size = _heap_push(heap1, heap2, heap_item, size, n1, n2, neighbour)
+            elif n1 == p1 and n2 == p2 and node < pred[neighbour]:
+                pred[neighbour] = node
+    return count
+
+
+@jit.kernel(cache=True, nogil=True)
+def _heap_push(
+    key1: FloatArray,
+    key2: FloatArray,
+    item: IntArray,
+    size: int,
+    k1: float,
+    k2: float,
+    node: int,
+) -> int:
+    position = size
+    while position > 0:
+        parent = (position - 1) >> 1
+        if key1[parent] < k1 or (key1[parent] == k1 and key2[parent] <= k2):
+            break
+        key1[position], key2[position], item[position] = key1[parent], key2[parent], item[parent]
+        position = parent
+    key1[position], key2[position], item[position] = k1, k2, node
+    return size + 1
+
+
+@jit.kernel(cache=True, nogil=True)
+def _heap_pop(key1: FloatArray, key2: FloatArray, item: IntArray, size: int) -> int:
+    size -= 1
+    k1, k2, node = key1[size], key2[size], item[size]
+    position = 0
+    while True:
+        child = 2 * position + 1
+        if child >= size:
+            break
+        if child + 1 < size and (
+            key1[child + 1] < key1[child]
+            or (key1[child + 1] == key1[child] and key2[child + 1] < key2[child])
+        ):
+            child += 1
+        if key1[child] > k1 or (key1[child] == k1 and key2[child] >= k2):
+            break
+        key1[position], key2[position], item[position] = key1[child], key2[child], item[child]
+        position = child
+    key1[position], key2[position], item[position] = k1, k2, node
+    return size

@@ -1,0 +1,49 @@
+import numpy as np
+import pytest
+
+from swazure_ros.core.graph import make_graph
+
+
+def test_a_graph_is_the_same_from_sorted_pairs_and_from_edges_in_any_order():
+    rng = np.random.default_rng(3)
+    first, second = rng.integers(0, 60, size=(2, 400))
+    keep = first < second
+    pairs = np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
+    weight = rng.uniform(1, 2, size=len(pairs))
+    cost = rng.uniform(0, 1, size=len(pairs))
+    ordered = make_graph(60, pairs[:, 0], pairs[:, 1], weight, costs=cost)
+    shuffle = rng.permutation(len(pairs))
+    flipped = rng.random(len(pairs)) < 0.5
+    one = np.where(flipped, pairs[:, 1], pairs[:, 0])[shuffle]
+    other = np.where(flipped, pairs[:, 0], pairs[:, 1])[shuffle]
+    anyhow = make_graph(60, one, other, weight[shuffle], shuffle, cost[shuffle])
+    for field in ("indptr", "indices", "weights", "labels", "costs"):
+        np.testing.assert_array_equal(getattr(ordered, field), getattr(anyhow, field))
+
+
+def test_a_graph_holds_both_directions_of_each_edge_with_its_length_and_label():
+    graph = make_graph(3, [1, 0], [2, 1], [2.0, 1.5], labels=[7, 9])
+    assert graph.size == 3 and graph.edges == 2
+    assert graph.edge_positions([0, 1, 2, 0], [1, 0, 1, 2]).tolist() == [0, 1, 3, -1]
+    assert graph.edge_labels([2, 0], [1, 2]).tolist() == [7, -1]
+    assert graph.weights[graph.edge_positions([1], [2])].tolist() == [2.0]
+    assert graph.components().tolist() == [0, 0, 0]
+
+
+@pytest.mark.parametrize(
+    ("first", "second", "weights", "match"),
+    [
+        ([0, 1], [1], [1.0, 1.0], "must have one length"),
+        ([0], [3], [1.0], "must be nodes of the graph, 0 to 2"),
+        ([-1], [1], [1.0], "must be nodes of the graph, 0 to 2"),
+        ([1], [1], [1.0], "cannot join a node to itself"),
+    ],
+)
+def test_bad_edges_are_refused(first, second, weights, match):
+    with pytest.raises(ValueError, match=match):
+        make_graph(3, first, second, weights)
+
+
+def test_costs_need_one_value_per_edge():
+    with pytest.raises(ValueError, match="one value per edge"):
+        make_graph(3, [0, 1], [1, 2], [1.0, 1.0], costs=[0.5])
