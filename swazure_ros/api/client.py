@@ -301,7 +301,7 @@ class SwarmClient:
         SwarmComputation
             ``evaluation`` (what the swarm found), ``engine`` (the engine's
             evaluation of the same work), ``heuristic``, and ``record``
-            (``files.results.RunRecord``: summaries, traffic, and ``identical``,
+            (``files.record.RunRecord``: summaries, traffic, and ``identical``,
             "yes" when every pair is the engine's).
 
         Raises

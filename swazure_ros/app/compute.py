@@ -18,7 +18,7 @@ from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, check_plain_estimat
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, HeuristicResult
 from ..core.summary import with_source
-from ..files.results import Distributed, MovesMade, RunRecord
+from ..files.record import Distributed, MovesMade, RunRecord
 from ..protocol.discovery.estimate import evaluation_of
 from ..protocol.runs import DiscoveryResult, MoveResult
 from ..sim.world import World

@@ -27,7 +27,7 @@ from typing import Any
 from ..core.errors import RunError, SwazureError
 from ..core.evaluate import Evaluation, evaluate
 from ..core.fit import PATH
-from ..files.results import BringUp
+from ..files.record import BringUp
 from ..protocol.runs import DiscoveryResult, MoveResult, merged, source_blocks, sources_per_run
 from ..ros.nodes.coordinator import Coordinator, Future
 from ..ros.nodes.view import ViewNode

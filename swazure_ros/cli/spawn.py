@@ -64,7 +64,7 @@ from .swarm_file import add_swarm_file_argument, apply_swarm_file
 if TYPE_CHECKING:
     from ..app.config import SwarmConfig
     from ..app.swarm import RunningSwarm
-    from ..files.results import BringUp
+    from ..files.record import BringUp
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -471,7 +471,7 @@ def main(args: argparse.Namespace) -> int:
             bring_up = swarm.wait_until_ready()
             if args.out is not None and not args.compute_all:
                 # A served swarm's run is its bring-up: what a script reads of it.
-                from ..files.results import RunRecord, write_record
+                from ..files.record import RunRecord, write_record
 
                 write_record(
                     args.out, RunRecord("spawn", bring_up.seconds, None, bring_up=bring_up)

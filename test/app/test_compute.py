@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from swazure_ros.app.compute import run_failure
-from swazure_ros.files.results import Distributed, RunRecord
+from swazure_ros.files.record import Distributed, RunRecord
 
 
 def record(identical: str, departed: list[int] | None = None, incomplete: bool = False):

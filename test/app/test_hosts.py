@@ -15,7 +15,7 @@ import sys
 import pytest
 
 from swazure_ros.app.share import shares
-from swazure_ros.files.results import RECORD_FILE, read_record
+from swazure_ros.files.record import RECORD_FILE, read_record
 from swazure_ros.ros.security.keys import new_key, write_key
 from swazure_ros.sim.world import WorldSpec
 

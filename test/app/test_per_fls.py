@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from swazure_ros.files.results import RECORD_FILE, read_record
+from swazure_ros.files.record import RECORD_FILE, read_record
 
 from ..conftest import REPO
 from ..waits import PATIENCE, wait_until

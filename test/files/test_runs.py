@@ -12,7 +12,8 @@ import pytest
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.core.evaluate import REASON_NAMES, evaluate
 from swazure_ros.core.summary import Source
-from swazure_ros.files.results import COMPACT_PAIRS, SUMMARY_FILE, write_evaluation, write_json
+from swazure_ros.files.atomic import write_json
+from swazure_ros.files.results import COMPACT_PAIRS, SUMMARY_FILE, write_evaluation
 from swazure_ros.files.runs import (
     COMPARISON_CSV,
     COMPARISON_JSON,

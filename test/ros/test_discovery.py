@@ -22,7 +22,8 @@ from swazure_ros.core.frames import fls_frame, to_metres
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
 from swazure_ros.files.reading import config_dir
-from swazure_ros.files.results import RECORD_FILE, read_pairs, read_record
+from swazure_ros.files.record import RECORD_FILE, read_record
+from swazure_ros.files.results import read_pairs
 from swazure_ros.protocol.discovery.estimate import Estimate, evaluation_of
 from swazure_ros.ros.convert.discovery import pose_estimate_from_message
 from swazure_ros.ros.plumbing.names import ESTIMATOR_CODES, policy_code

@@ -23,7 +23,7 @@ from swazure_ros.cli.main import build_parser
 from swazure_ros.cli.spawn import config_from_args
 from swazure_ros.cli.swarm_file import apply_swarm_file
 from swazure_ros.files.reading import config_dir
-from swazure_ros.files.results import RECORD_FILE, read_record
+from swazure_ros.files.record import RECORD_FILE, read_record
 from swazure_ros.ros.security.keys import new_key
 from swazure_ros.sim.world import WorldSpec
 

@@ -49,8 +49,8 @@ from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from ...core.errors import SwazureError
+from ...files.atomic import atomic_folder
 from ...files.reading import read_yaml, regular_file
-from ...files.results import atomic_folder
 from ..plumbing.interfaces import message_class
 
 #: Seconds between looks at the graph for new topics to record.

@@ -1,0 +1,145 @@
+"""One run as typed data: :class:`RunRecord`, and its ``record.json``.
+
+A run record holds the evaluation's summary and the run's own facts (its
+seconds, a swarm's bring-up and traffic, the engine's time and summary for the
+same work, whether the two agree). It is built once where the run happens;
+the command line only renders it, and scripts and tests read its
+``record.json`` (with a ``fileversion``), never printed text.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+
+from ..core.errors import SwazureError
+from ..core.summary import Document, Summary
+from ..core.traffic import TopicCounts
+from .atomic import write_json
+from .reading import CONFIG_BYTES, read_text
+
+RECORD_FILE = "record.json"
+#: The version of record.json's layout: raised whenever a field changes meaning or goes.
+RECORD_VERSION = 1
+
+
+@dataclass(frozen=True)
+class BringUp:
+    """What bringing a swarm up took."""
+
+    flss: int
+    processes: int
+    seconds: float  # launcher start to every process discovered
+    peak_rss_mb: list[float] = field(default_factory=list)  # per process
+
+    @property
+    def total_peak_mb(self) -> float:
+        """Sum of the processes' peak resident memory, MB."""
+        return float(sum(self.peak_rss_mb))
+
+
+@dataclass(frozen=True)
+class MovesMade(TopicCounts):
+    """A heuristic's moves made by the swarm: time, batches, commands and traffic."""
+
+    seconds: float
+    batches: int
+    move_commands: int  # returns included
+    path_walks: int
+    timeouts: int  # waits that ended at their deadline
+    messages: dict[str, int]  # per topic
+    bytes: dict[str, int]  # per topic, serialised payloads
+
+
+@dataclass(frozen=True)
+class Distributed(TopicCounts):
+    """A discovery run made by the swarm, and the moves after it, if any."""
+
+    seconds: float
+    rounds: int
+    restarts: int
+    departed: list[int]
+    messages: dict[str, int]  # per topic
+    bytes: dict[str, int]  # per topic
+    repairs: int = 0  # a lossy radio's repair requests and resends
+    incomplete: bool = False  # deliveries lost for good: no estimates
+    moves: MovesMade | None = None
+
+    @property
+    def total_messages(self) -> int:
+        """Messages on every topic, discovery's and the moves'."""
+        moved = self.moves.total_messages if self.moves is not None else 0
+        return super().total_messages + moved
+
+    @property
+    def total_bytes(self) -> int:
+        """Bytes on every topic, discovery's and the moves'."""
+        moved = self.moves.total_bytes if self.moves is not None else 0
+        return super().total_bytes + moved
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """One run: its evaluation's summary and the run's facts (``record.json``)."""
+
+    command: str  # the swazure verb that ran: "evaluate" or "spawn"
+    seconds: float  # the run's computation, s (a swarm's: discovery and moves)
+    summary: Summary | None  # the evaluation's (None: a swarm brought up, no run)
+    engine: Summary | None = None  # the core engine's summary of the same work
+    engine_seconds: float | None = None
+    identical: str | None = None  # "yes", or "no: " and what differs from the engine
+    bring_up: BringUp | None = None
+    distributed: Distributed | None = None
+    # The per-pair output (PAIRS_OUTPUTS): "none" says no per-pair file was written;
+    # None for a swarm only brought up.
+    pairs: str | None = None
+    fileversion: int = RECORD_VERSION
+
+    def as_document(self) -> Document:
+        """What record.json holds: each summary as summary.json holds it."""
+        document: Document = {one.name: getattr(self, one.name) for one in fields(self)}
+        # A swarm only brought up has no run: its record's summary is empty.
+        document["summary"] = {} if self.summary is None else self.summary.as_document()
+        document["engine"] = None if self.engine is None else self.engine.as_document()
+        for name in ("bring_up", "distributed"):
+            if document[name] is not None:
+                document[name] = asdict(document[name])
+        return document
+
+
+def write_record(directory: Path, record: RunRecord) -> Path:
+    """Write ``record`` as ``directory/record.json``, atomically; return its path."""
+    path = directory / RECORD_FILE
+    write_json(path, record.as_document())
+    return path
+
+
+def read_record(path: Path) -> RunRecord:
+    """The run record in ``path``; SwazureError if it is not one of this version."""
+    text = read_text(path, "run record", CONFIG_BYTES, SwazureError)
+    try:
+        document = json.loads(text)
+    except ValueError as err:
+        raise SwazureError(f"{path}: not a run record ({err})") from err
+    version = document.get("fileversion") if isinstance(document, dict) else None
+    if version != RECORD_VERSION:
+        raise SwazureError(f"{path}: record fileversion {version}, this is {RECORD_VERSION}")
+    try:
+        bring_up, distributed = document.pop("bring_up"), document.pop("distributed")
+        summary, engine = document.pop("summary"), document.pop("engine")
+        if distributed is not None:
+            moves = distributed.pop("moves")
+            distributed = Distributed(
+                **distributed, moves=None if moves is None else MovesMade(**moves)
+            )
+        return RunRecord(
+            **document,
+            summary=Summary.from_document(summary) if summary else None,
+            engine=None if engine is None else Summary.from_document(engine),
+            bring_up=None if bring_up is None else BringUp(**bring_up),
+            distributed=distributed,
+        )
+    except (AttributeError, KeyError, TypeError) as err:
+        # A field missing, unknown or of the wrong kind: the file is not what this reads.
+        raise SwazureError(f"{path}: not a run record ({type(err).__name__}: {err})") from err
