@@ -18,41 +18,12 @@ from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, check_plain_estimat
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, HeuristicResult
 from ..core.summary import with_source
-from ..files.record import Distributed, MovesMade, RunRecord
+from ..files.record import Distributed, RunRecord
 from ..protocol.discovery.estimate import evaluation_of
-from ..protocol.runs import DiscoveryResult, MoveResult
+from ..protocol.runs import DiscoveryResult
 from ..sim.world import World
 from ..view.scene import evaluation_scene
 from .swarm import RunningSwarm
-
-
-def distributed(discovery: DiscoveryResult, moves: MoveResult | None) -> Distributed:
-    """What the swarm's runs took, as the run record holds it: time, rounds, messages and
-    bytes per topic."""
-    made = None
-    if moves is not None:
-        moved = moves.outcome
-        made = MovesMade(
-            moves.seconds,
-            moved.batches,
-            moved.moved,
-            moved.walks,
-            moved.timeouts,
-            dict(moves.traffic.messages),
-            dict(moves.traffic.bytes),
-        )
-    found = discovery.outcome
-    return Distributed(
-        discovery.seconds,
-        found.rounds,
-        found.restarts,
-        sorted(found.departed),
-        dict(discovery.traffic.messages),
-        dict(discovery.traffic.bytes),
-        found.repairs,
-        found.incomplete,
-        made,
-    )
 
 
 @dataclass(frozen=True)
@@ -124,7 +95,7 @@ def compute_all(
         engine_seconds=engine_seconds,
         identical=same_results(evaluation, engine),
         bring_up=swarm.bring_up,
-        distributed=distributed(result, moved),
+        distributed=Distributed.of(result, moved),
     )
     return SwarmComputation(evaluation, heuristic, engine, record)
 

@@ -12,12 +12,17 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..core.errors import SwazureError
 from ..core.summary import Document, Summary
 from ..core.traffic import TopicCounts
 from .atomic import write_json
 from .reading import CONFIG_BYTES, read_text
+
+if TYPE_CHECKING:
+    # Named for the types only: `swazure evaluate` loads no protocol.
+    from ..protocol.runs import DiscoveryResult, MoveResult
 
 RECORD_FILE = "record.json"
 #: The version of record.json's layout: raised whenever a field changes meaning or goes.
@@ -51,10 +56,28 @@ class MovesMade(TopicCounts):
     messages: dict[str, int]  # per topic
     bytes: dict[str, int]  # per topic, serialised payloads
 
+    @classmethod
+    def of(cls, moves: MoveResult) -> MovesMade:
+        """What the swarm's move run took, from its result."""
+        outcome = moves.outcome
+        return cls(
+            seconds=moves.seconds,
+            batches=outcome.batches,
+            move_commands=outcome.moved,
+            path_walks=outcome.walks,
+            timeouts=outcome.timeouts,
+            messages=dict(moves.traffic.messages),
+            bytes=dict(moves.traffic.bytes),
+        )
+
 
 @dataclass(frozen=True)
 class Distributed(TopicCounts):
-    """A discovery run made by the swarm, and the moves after it, if any."""
+    """A discovery run made by the swarm, and the moves after it, if any.
+
+    Built from the runs' results (:meth:`of`) or read back from record.json:
+    what each run took, without its estimates or evaluation.
+    """
 
     seconds: float
     rounds: int
@@ -65,6 +88,22 @@ class Distributed(TopicCounts):
     repairs: int = 0  # a lossy radio's repair requests and resends
     incomplete: bool = False  # deliveries lost for good: no estimates
     moves: MovesMade | None = None
+
+    @classmethod
+    def of(cls, discovery: DiscoveryResult, moves: MoveResult | None = None) -> Distributed:
+        """What the swarm's discovery run, and its move run if any, took, from their results."""
+        found = discovery.outcome
+        return cls(
+            seconds=discovery.seconds,
+            rounds=found.rounds,
+            restarts=found.restarts,
+            departed=sorted(found.departed),
+            messages=dict(discovery.traffic.messages),
+            bytes=dict(discovery.traffic.bytes),
+            repairs=found.repairs,
+            incomplete=found.incomplete,
+            moves=None if moves is None else MovesMade.of(moves),
+        )
 
     @property
     def total_messages(self) -> int:
