@@ -244,7 +244,7 @@ def compute_all(
         "messages": distributed.total_messages,
         "bytes": distributed.total_bytes,
         "engine": record.engine_seconds,
-        "identical": record.identical,
+        "identical": "-" if record.comparison is None else record.comparison.describe(),
     }
 
 

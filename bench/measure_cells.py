@@ -102,7 +102,7 @@ def main() -> int:
             "rounds": distributed.rounds,
             "source_runs": len(blocks),
             "engine_s": record.engine_seconds,
-            "identical": record.identical,
+            "identical": "-" if record.comparison is None else record.comparison.describe(),
             "radio_messages": distributed.messages.get(RADIO_TOPIC, 0),
             "radio_bytes": distributed.bytes.get(RADIO_TOPIC, 0),
             "radio_topics": len(radio),

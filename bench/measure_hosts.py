@@ -394,7 +394,7 @@ def computed_record(swarm: Any) -> dict[str, object]:
     from swazure_ros.app.compute import compute_all
 
     computed = compute_all(swarm, POLICY)
-    distributed = computed.record.distributed
+    distributed, comparison = computed.record.distributed, computed.record.comparison
     assert distributed is not None  # a run of the swarm's
     return {
         "discovery_s": distributed.seconds,
@@ -402,7 +402,7 @@ def computed_record(swarm: Any) -> dict[str, object]:
         "restarts": distributed.restarts,
         "engine_s": computed.record.engine_seconds,
         "pairs": len(computed.engine.pairs),
-        "identical": computed.record.identical,
+        "identical": "-" if comparison is None else comparison.describe(),
     }
 
 

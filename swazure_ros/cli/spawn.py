@@ -382,7 +382,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
             + (f", {moved.timeouts} waits timed out" if moved.timeouts else "")
         )
     assert record.summary is not None and record.engine is not None
-    assert record.engine_seconds is not None
+    assert record.engine_seconds is not None and record.comparison is not None
     print(f"engine: {record.engine_seconds:.2f} s for the same work")
     print(summary_table(record.summary, ("engine", record.engine), heading="distributed"))
     # Warned as the swarm came up (warn_spacing): here the line under the summary.
@@ -390,7 +390,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     print(
         "pairs identical to the engine's (status, path, estimate to 1e-9"
         + (", covariance" if args.estimator != PATH else "")
-        + f"): {record.identical}"
+        + f"): {record.comparison.describe()}"
     )
     if args.out is not None:
         warn_of_large_pairs("spawn", record.summary.pairs.blind_pairs, args.pairs)

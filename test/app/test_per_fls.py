@@ -85,7 +85,7 @@ def test_a_swarm_of_one_process_per_fls_computes_what_the_engine_computes(domain
     out, err = spawn.communicate(timeout=600)
     assert spawn.returncode == 0, err
     assert "25 FLS nodes in 25 processes of one FLS each" in out, out
-    assert read_record(tmp_path / "d" / RECORD_FILE).identical == "yes", out
+    assert read_record(tmp_path / "d" / RECORD_FILE).comparison.identical, out
     evaluate = subprocess.run(
         [sys.executable, "-m", "swazure_ros.cli.main", "evaluate",
          "--cloud", str(GRID.with_suffix(".xyz")), "--scale", "1", "--radius", "0.5",
@@ -112,7 +112,7 @@ def test_a_swarm_of_one_process_per_fls_solves_its_fit_as_the_engine_does(domain
     out, err = spawn.communicate(timeout=600)
     assert spawn.returncode == 0, err
     record = read_record(tmp_path / "d" / RECORD_FILE)
-    assert record.identical == "yes", out
+    assert record.comparison.identical, out
     assert record.summary.fit.estimator == "swarm-fit"
     assert "25 FLS processes stopped, every one cleanly (exit code 0)" in err, err
 
@@ -126,7 +126,7 @@ def test_each_fls_process_fits_what_it_hears_as_the_engine_does(domain, tmp_path
     out, err = spawn.communicate(timeout=600)
     assert spawn.returncode == 0, err
     record = read_record(tmp_path / "d" / RECORD_FILE)
-    assert record.identical == "yes", out
+    assert record.comparison.identical, out
     assert record.summary.fit.estimator == "local-least-squares"
     header = (tmp_path / "d" / "pairs.csv").read_text().splitlines()[0]
     assert "covariance_xx" in header and "covariance_zz" in header
@@ -145,7 +145,7 @@ def test_move_source_made_by_fls_processes_is_the_engines(domain, tmp_path):
     record = read_record(tmp_path / "d" / RECORD_FILE)
     assert record.distributed.moves is not None and record.distributed.moves.path_walks == 7
     # The detections carry metres (REP-103), so estimates are the engine's to 1e-9 cm.
-    assert record.identical == "yes", out
+    assert record.comparison.identical, out
     assert "25 FLS processes stopped, every one cleanly (exit code 0)" in err, err
 
 
@@ -214,7 +214,7 @@ def test_a_swarm_stopped_by_ctrl_c_and_started_again_at_once_computes_the_engine
             again.kill()
     assert again.returncode == 0, out + err
     record = read_record(tmp_path / "d" / RECORD_FILE)
-    assert record.identical == "yes" and not record.distributed.departed, out
+    assert record.comparison.identical and not record.distributed.departed, out
 
 
 def test_an_fls_process_that_died_leaves_its_logs_to_read_and_no_key(domain):

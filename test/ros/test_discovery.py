@@ -484,7 +484,7 @@ def test_spawn_compute_all_writes_what_evaluate_writes(
         out, err = spawn.communicate(timeout=300)
         assert spawn.returncode == 0, err
         record = read_record(tmp_path / "d" / RECORD_FILE)
-        assert record.identical == "yes", out
+        assert record.comparison.identical, out
         assert record.distributed is not None and record.distributed.rounds > 0
         assert (
             record.engine is not None
