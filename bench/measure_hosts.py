@@ -221,7 +221,7 @@ def arguments() -> argparse.Namespace:
 
 def main() -> int:
     from swazure_ros.app.discovery_server import parse_servers
-    from swazure_ros.app.swarm import RunningSwarm
+    from swazure_ros.app.swarm import RunningSwarm, Starting
     from swazure_ros.ros.security.keys import new_key, write_key
 
     args = arguments()
@@ -241,14 +241,16 @@ def main() -> int:
     sent_before = sent(args.hosts)
     began = time.monotonic()
     followers = start_followers(args, root, key_file, bool(servers))
+
+    def failed(swarm: Starting, err: Exception) -> None:
+        """The record says where the bring-up stopped, measured before the swarm stops."""
+        record["stopped"] = f"bring-up: {err}"
+        record.update(stopped_record(swarm, root, args.hosts, sent_before))
+
     try:
-        with RunningSwarm(leader_config(args, root, key, servers)) as swarm:
-            try:
-                bring_up = swarm.wait_until_ready()
-            except Exception as err:  # the record says where it stopped
-                record["stopped"] = f"bring-up: {err}"
-                record.update(stopped_record(swarm, root, args.hosts, sent_before))
-                raise
+        config = leader_config(args, root, key, servers)
+        with RunningSwarm.start(config, on_failed=failed) as swarm:
+            bring_up = swarm.bring_up
             record["bring_up_s"] = time.monotonic() - began
             record.update(up_record(swarm, root, args, sent_before, bring_up.peak_rss_mb[0]))
             print(f"bench_hosts: {args.flss} FLSs, {args.discovery}: up in "

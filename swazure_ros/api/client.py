@@ -450,9 +450,8 @@ def spawn(
         domain_id=domain_id,
         discovery_timeout=_seconds("bring_up_timeout", bring_up_timeout),
     )
-    running = RunningSwarm(config).__enter__()
+    running = RunningSwarm.start(config)
     try:
-        running.wait_until_ready()
         return SwarmClient(config.namespace, domain_id, timeout, running)
     except BaseException:
         running.close()

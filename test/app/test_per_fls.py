@@ -318,8 +318,7 @@ def test_an_fls_process_killed_mid_run_departs_and_the_living_get_the_engines_pa
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
     lost = []
-    with RunningSwarm(config, on_lost=lost.append) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config, on_lost=lost.append) as swarm:
         # FLS 12, the grid's centre, relays many paths: killed (no goodbye) as the run starts.
         swarm.processes.fls.processes[12].kill()
         result = swarm.discover(policy, timeout=PATIENCE)
@@ -365,8 +364,7 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
     policy = "shortest-length"
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         swarm.coordinator.round_timeout = 3.0  # silent for 3 s: departed
         pid = swarm.processes.fls.processes[12].pid
         os.kill(pid, signal.SIGSTOP)
@@ -422,8 +420,7 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
     policy = "shortest-length"
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         context = make_context(domain)
         node = Node("forger", namespace="swarm", context=context)
         counts: dict[str, int] = {}
@@ -549,8 +546,7 @@ def test_offers_every_fls_drops_as_implausible_change_no_pair_of_a_swarm_without
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE,
                          authenticate=False)  # fmt: skip
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         with false_offer_forger(domain, swarm.world) as forger:
             wait_until(
                 lambda: (
@@ -620,8 +616,7 @@ def test_an_fls_process_stopped_past_its_lease_starts_afresh_and_is_taken_back(
     policy = "shortest-length"
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         coordinator = swarm.coordinator
         pid = swarm.processes.fls.processes[12].pid
         os.kill(pid, signal.SIGSTOP)
@@ -662,8 +657,7 @@ def test_a_killed_fls_process_started_again_with_its_id_rejoins_with_the_engines
     policy = "shortest-length"
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         first = swarm.processes.fls.processes[12]
         first.kill()
         assert wait_until(
@@ -704,8 +698,8 @@ def test_a_swarm_of_one_process_per_fls_beside_busy_loops_loses_no_fls(domain, t
         subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(BUSY_LOOPS)
     ]
     try:
-        with RunningSwarm(config) as swarm:
-            bring_up = swarm.wait_until_ready()
+        with RunningSwarm.start(config) as swarm:
+            bring_up = swarm.bring_up
             result = swarm.discover(policy, timeout=300)
             load = os.getloadavg()[0]
     finally:
