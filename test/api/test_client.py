@@ -127,7 +127,7 @@ def test_a_swarm_spawned_here_is_served_while_its_client_asks_and_stopped_when_i
         assert computed.record.comparison.identical
         assert computed.record.summary.pairs.blind_pairs == len(engine)
     # Closed: the swarm's nodes and context are gone with the client's.
-    assert running.host is None and running.context is None
+    assert not running.context.ok() and not running.host.nodes
 
 
 def test_compute_all_is_swazure_spawn_compute_all_and_equals_the_engine(domain):
