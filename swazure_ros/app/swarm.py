@@ -164,11 +164,14 @@ class RunningSwarm:
             coordinator, view = _create_nodes(plan, starting, progress)
             bring_up = _wait_until_ready(plan, starting, coordinator, progress, began)
         except BaseException as err:
-            if isinstance(err, Exception) and starting is not None and on_failed is not None:
-                on_failed(starting, err)
-            _stop(plan, context, host, recorder, leave_nodes)
-            if isinstance(err, KeyboardInterrupt):
-                _discard_logs(plan)
+            try:
+                if isinstance(err, Exception) and starting is not None and on_failed is not None:
+                    on_failed(starting, err)
+            finally:
+                # What came up stops, also when the one told of the failure fails.
+                _stop(plan, context, host, recorder, leave_nodes)
+                if isinstance(err, KeyboardInterrupt):
+                    _discard_logs(plan)
             raise
         return cls(plan, starting, coordinator, view, bring_up, leave_nodes)
 
