@@ -2,8 +2,8 @@
 
 A run record holds the evaluation's summary and the run's own facts (its
 seconds, a swarm's bring-up and traffic, the engine's time and summary for the
-same work, whether the two agree). It is built once where the run happens;
-the command line only renders it, and scripts and tests read its
+same work, its pairs compared with the engine's). It is built once where the
+run happens; the command line only renders it, and scripts and tests read its
 ``record.json`` (with a ``fileversion``), never printed text.
 """
 
@@ -246,7 +246,7 @@ def read_record(path: Path) -> RunRecord:
 
     A record of version 1 comes back as this version's record: its comparison
     with the engine, text, as an :class:`EngineComparison`
-    (:func:`comparison_of_text`).
+    (:func:`_comparison_of_text`).
     """
     text = read_text(path, "run record", CONFIG_BYTES, SwazureError)
     try:
@@ -261,10 +261,10 @@ def read_record(path: Path) -> RunRecord:
         )
     try:
         bring_up, distributed = document.pop("bring_up"), document.pop("distributed")
-        summary = Summary.from_document(found) if (found := document.pop("summary")) else None
-        engine = (
-            None if (known := document.pop("engine")) is None else Summary.from_document(known)
-        )
+        found, known = document.pop("summary"), document.pop("engine")
+        # A swarm only brought up has no run: its summary is empty.
+        summary = Summary.from_document(found) if found else None
+        engine = None if known is None else Summary.from_document(known)
         if version == 1:
             said = document.pop("identical")
             comparison = None if said is None else _comparison_of_text(said, summary, engine)
