@@ -160,7 +160,7 @@ def cells_figure(records: list[dict[str, Any]], path: Path) -> None:
     """Share of the other processes' offers heard, and CPU per FLS and round, against FLSs."""
     from matplotlib.figure import Figure
 
-    from swazure_ros.files.results import atomic_write
+    from swazure_ros.files.atomic import atomic_write
 
     def heard(record: dict[str, Any]) -> float:
         rounds = max(record["rounds"], 1)

@@ -131,7 +131,7 @@ def hostile_figure(
     """The swarm's memory over a soak, as a PNG."""
     from matplotlib.figure import Figure
 
-    from swazure_ros.files.results import atomic_write
+    from swazure_ros.files.atomic import atomic_write
 
     figure = Figure(figsize=(6.5, 3.6), layout="constrained")
     axes = figure.subplots()

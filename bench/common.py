@@ -219,7 +219,7 @@ def compute_all(
             where = said[-1].split(": ", 1)[1] if said else "bringing the swarm up"
             return {"failed": f"stopped after {limit / 60:.0f} min at {where}"}
     seconds = time.perf_counter() - began
-    from swazure_ros.files.results import RECORD_FILE, read_record
+    from swazure_ros.files.record import RECORD_FILE, read_record
 
     # Exit 1 with a record: the run finished but is not the engine's (its row says how).
     if process.returncode != 0 and not (process.returncode == 1 and (out / RECORD_FILE).exists()):
@@ -244,7 +244,7 @@ def compute_all(
         "messages": distributed.total_messages,
         "bytes": distributed.total_bytes,
         "engine": record.engine_seconds,
-        "identical": record.identical,
+        "identical": "-" if record.comparison is None else record.comparison.describe(),
     }
 
 

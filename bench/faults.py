@@ -67,7 +67,7 @@ def faulty_swarm(
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(params)
     world = WorldSpec(cloud, beta=beta)
-    return RunningSwarm(SwarmConfig(world, domain_id=domain, params_file=str(path)))
+    return RunningSwarm.start(SwarmConfig(world, domain_id=domain, params_file=str(path)))
 
 
 def same(world: Any, result: Any, engine: Any, gone_index: Any = None) -> str:
@@ -92,7 +92,6 @@ def radio_row(running: Any, label: str) -> str:
     """One discovery under the swarm's radio: its table row."""
     from swazure_ros.core.evaluate import evaluate_pairs
 
-    running.wait_until_ready()
     engine = evaluate_pairs(running.world.hood, POLICY)
     began = time.monotonic()
     result = running.discover(POLICY, timeout=1800)
@@ -111,7 +110,6 @@ def stopped_row(running: Any) -> str:
     from swazure_ros.core.evaluate import evaluate_pairs
     from swazure_ros.core.neighbourhood import without
 
-    running.wait_until_ready()
     world = running.world
     gone_index = np.sort(
         np.random.default_rng(5).choice(len(world.ids), len(world.ids) // 20, replace=False)
@@ -144,7 +142,6 @@ def lost_coordinator_row(running: Any) -> str:
     from swazure_ros.core.evaluation import ABORTED
     from swazure_ros.ros.nodes.coordinator import Coordinator
 
-    running.wait_until_ready()
     world = running.world
     pairs = len(evaluate_pairs(world.hood, POLICY))
     running.coordinator.discover(POLICY)

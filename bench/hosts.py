@@ -186,7 +186,7 @@ def hosts_figures(records: list[dict[str, Any]], folder: Path) -> None:
     """
     from matplotlib.figure import Figure
 
-    from swazure_ros.files.results import atomic_write
+    from swazure_ros.files.atomic import atomic_write
 
     def deadline(record: dict[str, Any]) -> float | None:
         found = re.search(r"after ([0-9.]+) s", record.get("stopped", ""))

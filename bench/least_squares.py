@@ -249,7 +249,7 @@ def least_squares_figure(rows: list[dict[str, Any]], folder: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from swazure_ros.files.results import atomic_write
+    from swazure_ros.files.atomic import atomic_write
 
     figure, axes = plt.subplots(2, 2, figsize=(12, 8), constrained_layout=True)
     for column, sensor in enumerate(FIT_SENSORS):

@@ -74,8 +74,8 @@ def main() -> int:
     print(
         f"bench_cells: bringing up {args.cloud} over {args.processes}", file=sys.stderr, flush=True
     )
-    with RunningSwarm(config) as swarm:
-        bring_up = swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
+        bring_up = swarm.bring_up
         up = time.perf_counter() - began
         blocks = swarm.source_blocks()
         print(f"bench_cells: up in {up:.0f} s; discovering in {len(blocks)} run(s)",
@@ -102,7 +102,7 @@ def main() -> int:
             "rounds": distributed.rounds,
             "source_runs": len(blocks),
             "engine_s": record.engine_seconds,
-            "identical": record.identical,
+            "identical": "-" if record.comparison is None else record.comparison.describe(),
             "radio_messages": distributed.messages.get(RADIO_TOPIC, 0),
             "radio_bytes": distributed.bytes.get(RADIO_TOPIC, 0),
             "radio_topics": len(radio),

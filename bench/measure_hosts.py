@@ -223,7 +223,7 @@ def arguments() -> argparse.Namespace:
 
 def main() -> int:
     from swazure_ros.app.discovery_server import parse_servers
-    from swazure_ros.app.swarm import RunningSwarm
+    from swazure_ros.app.swarm import RunningSwarm, Starting
     from swazure_ros.ros.security.keys import new_key, write_key
 
     args = arguments()
@@ -243,14 +243,16 @@ def main() -> int:
     sent_before = sent(args.hosts)
     began = time.monotonic()
     followers = start_followers(args, root, key_file, bool(servers))
+
+    def failed(swarm: Starting, err: Exception) -> None:
+        """The record says where the bring-up stopped, measured before the swarm stops."""
+        record["stopped"] = f"bring-up: {err}"
+        record.update(stopped_record(swarm, root, args.hosts, sent_before))
+
     try:
-        with RunningSwarm(leader_config(args, root, key, servers)) as swarm:
-            try:
-                bring_up = swarm.wait_until_ready()
-            except Exception as err:  # the record says where it stopped
-                record["stopped"] = f"bring-up: {err}"
-                record.update(stopped_record(swarm, root, args.hosts, sent_before))
-                raise
+        config = leader_config(args, root, key, servers)
+        with RunningSwarm.start(config, on_failed=failed) as swarm:
+            bring_up = swarm.bring_up
             record["bring_up_s"] = time.monotonic() - began
             record.update(up_record(swarm, root, args, sent_before, bring_up.peak_rss_mb[0]))
             print(f"bench_hosts: {args.flss} FLSs, {args.discovery}: up in "
@@ -396,7 +398,7 @@ def computed_record(swarm: Any) -> dict[str, object]:
     from swazure_ros.app.compute import compute_all
 
     computed = compute_all(swarm, POLICY)
-    distributed = computed.record.distributed
+    distributed, comparison = computed.record.distributed, computed.record.comparison
     assert distributed is not None  # a run of the swarm's
     return {
         "discovery_s": distributed.seconds,
@@ -404,7 +406,7 @@ def computed_record(swarm: Any) -> dict[str, object]:
         "restarts": distributed.restarts,
         "engine_s": computed.record.engine_seconds,
         "pairs": len(computed.engine.pairs),
-        "identical": computed.record.identical,
+        "identical": "-" if comparison is None else comparison.describe(),
     }
 
 

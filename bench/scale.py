@@ -202,7 +202,7 @@ def scale_figure(rows: list[dict[str, Any]], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from swazure_ros.files.results import atomic_write
+    from swazure_ros.files.atomic import atomic_write
 
     figure, axes = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
     for memory, style in (("default", "-o"), (SCALE_FIXED_MEMORY, "--s")):

@@ -192,7 +192,7 @@ def soak_figure(samples: list[dict[str, float]], path: Path) -> None:
     """Memory and answered queries over the soak, as a PNG."""
     from matplotlib.figure import Figure
 
-    from swazure_ros.files.results import atomic_write
+    from swazure_ros.files.atomic import atomic_write
 
     minutes = [row["minute"] for row in samples]
     figure = Figure(figsize=(9.0, 3.8), layout="constrained")

@@ -107,7 +107,7 @@ def served(cloud: str, processes: int, domain: int, window: float = 20.0) -> dic
             )
             return row
         row["wall_up"] = time.monotonic() - began
-        from swazure_ros.files.results import RECORD_FILE, read_record
+        from swazure_ros.files.record import RECORD_FILE, read_record
 
         bring_up = read_record(out / RECORD_FILE).bring_up
         assert bring_up is not None

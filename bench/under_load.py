@@ -132,7 +132,7 @@ def grid_swarm(grid: Path, domain: int, logs: str) -> Any:
 
     spec = WorldSpec(cloud=str(grid), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=logs, discovery_timeout=600, domain_id=domain)
-    return RunningSwarm(config)
+    return RunningSwarm.start(config)
 
 
 def grid_row(grid: Path, loops: int, domain: int) -> str:
@@ -140,7 +140,7 @@ def grid_row(grid: Path, loops: int, domain: int) -> str:
     from swazure_ros.core.evaluate import evaluate_pairs
 
     with tempfile.TemporaryDirectory() as logs, grid_swarm(grid, domain, logs) as swarm:
-        up = swarm.wait_until_ready()
+        up = swarm.bring_up
         result = swarm.discover(POLICY, timeout=1800)
         load = os.getloadavg()[0]
         run = result.outcome
@@ -164,7 +164,6 @@ def come_back_row(
         os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(lease)
     try:
         with tempfile.TemporaryDirectory() as logs, grid_swarm(grid, domain, logs) as swarm:
-            swarm.wait_until_ready()
             gone_after, began = stop_or_kill(swarm, fls, stopped)
             runs: list[Any] = []
             while not runs or (runs[-1].outcome.departed and time.monotonic() < began + 300):

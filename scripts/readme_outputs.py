@@ -316,7 +316,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"README.md: {len(chosen)} outputs match fresh runs")
         return 0
     sys.path.insert(0, str(REPO))
-    from swazure_ros.files.results import atomic_write
+    from swazure_ros.files.atomic import atomic_write
 
     new = "\n".join(lines) + "\n"
     atomic_write(args.readme, lambda tmp: tmp.write_text(new))
@@ -335,7 +335,7 @@ def write_times(readme: Path) -> int:
     measured = fresh_clone_times()
     lines[first:end] = measured
     sys.path.insert(0, str(REPO))
-    from swazure_ros.files.results import atomic_write
+    from swazure_ros.files.atomic import atomic_write
 
     new = "\n".join(lines) + "\n"
     atomic_write(readme, lambda tmp: tmp.write_text(new))

@@ -25,8 +25,9 @@ ROOT = Path(__file__).resolve().parents[1] / PACKAGE
 ALLOWED: dict[str, frozenset[str]] = {
     "core": frozenset(),
     "camera": frozenset({"core"}),
-    "files": frozenset({"core", "camera"}),
     "protocol": frozenset({"core"}),
+    # A run record is built from the protocol's results (files.record).
+    "files": frozenset({"core", "camera", "protocol"}),
     "sim": frozenset({"core", "camera", "files"}),
     "view": frozenset({"core", "files"}),
     "study": frozenset({"core", "camera", "files", "view"}),

@@ -301,8 +301,8 @@ class SwarmClient:
         SwarmComputation
             ``evaluation`` (what the swarm found), ``engine`` (the engine's
             evaluation of the same work), ``heuristic``, and ``record``
-            (``files.results.RunRecord``: summaries, traffic, and ``identical``,
-            "yes" when every pair is the engine's).
+            (``files.record.RunRecord``: summaries, traffic, and ``comparison``,
+            whose ``identical`` is True when every pair is the engine's).
 
         Raises
         ------
@@ -315,8 +315,8 @@ class SwarmClient:
         Examples
         --------
         >>> with spawn(WorldSpec("torus:120", scale=2.5, beta=0.5)) as swarm:  # doctest: +SKIP
-        ...     swarm.compute_all().record.identical
-        'yes'
+        ...     swarm.compute_all().record.comparison.identical
+        True
         """
         from ..app.compute import compute_all as run_all
 
@@ -450,9 +450,8 @@ def spawn(
         domain_id=domain_id,
         discovery_timeout=_seconds("bring_up_timeout", bring_up_timeout),
     )
-    running = RunningSwarm(config).__enter__()
+    running = RunningSwarm.start(config)
     try:
-        running.wait_until_ready()
         return SwarmClient(config.namespace, domain_id, timeout, running)
     except BaseException:
         running.close()
@@ -513,8 +512,8 @@ def compute_all(
     >>> from swazure_ros import api
     >>> spec = api.WorldSpec("torus:120", scale=5, beta=0.5)
     >>> computed = api.compute_all(spec, domain_id=201)  # doctest: +SKIP
-    >>> computed.record.identical  # doctest: +SKIP
-    'yes'
+    >>> computed.record.comparison.identical  # doctest: +SKIP
+    True
     """
     with spawn(world, namespace, domain_id, bring_up_timeout=timeout) as swarm:
         return swarm.compute_all(

@@ -4,7 +4,7 @@
 built-in shape or a published cloud's name); :func:`evaluate` runs plain
 Swazure, a heuristic, fusion or a least-squares estimator over it and returns
 a :class:`Result`: the run's typed records (``core.summary.Summary``,
-``files.results.RunRecord``) and its pairs as a ``pyarrow.Table``.
+``files.record.RunRecord``) and its pairs as a ``pyarrow.Table``.
 :func:`move_obstructing` and :func:`move_source` name the two heuristics.
 
 ``swazure evaluate`` runs through the same two workhorses,
@@ -50,7 +50,8 @@ from ..core.sensor import Sensor
 from ..core.summary import Summary, with_source
 from ..files.cloud_files import load_cloud
 from ..files.reading import available_memory
-from ..files.results import RunRecord, pairs_table
+from ..files.record import RunRecord
+from ..files.results import pairs_table
 from ..files.sensors import load_sensor
 
 T = TypeVar("T")
@@ -295,7 +296,7 @@ def evaluate(
     -------
     Result
         ``summary`` (``core.summary.Summary``), ``record``
-        (``files.results.RunRecord``), ``pairs`` (a ``pyarrow.Table``, one row
+        (``files.record.RunRecord``), ``pairs`` (a ``pyarrow.Table``, one row
         per ordered blind pair; FLS ids are the cloud's row numbers; distances
         cm, angles degrees, errors %).
 

@@ -19,41 +19,12 @@ from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, check_plain_estimat
 from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import PLAIN, HeuristicResult
 from ..core.summary import with_source
-from ..files.results import Distributed, MovesMade, RunRecord
+from ..files.record import Distributed, EngineComparison, RunRecord
 from ..protocol.discovery.estimate import evaluation_of
-from ..protocol.runs import DiscoveryResult, MoveResult
+from ..protocol.runs import DiscoveryResult
 from ..sim.world import World
 from ..view.scene import evaluation_scene
 from .swarm import RunningSwarm
-
-
-def distributed(discovery: DiscoveryResult, moves: MoveResult | None) -> Distributed:
-    """What the swarm's runs took, as the run record holds it: time, rounds, messages and
-    bytes per topic."""
-    made = None
-    if moves is not None:
-        moved = moves.outcome
-        made = MovesMade(
-            moves.seconds,
-            moved.batches,
-            moved.moved,
-            moved.walks,
-            moved.timeouts,
-            dict(moves.traffic.messages),
-            dict(moves.traffic.bytes),
-        )
-    found = discovery.outcome
-    return Distributed(
-        discovery.seconds,
-        found.rounds,
-        found.restarts,
-        sorted(found.departed),
-        dict(discovery.traffic.messages),
-        dict(discovery.traffic.bytes),
-        found.repairs,
-        found.incomplete,
-        made,
-    )
 
 
 @dataclass(frozen=True)
@@ -123,9 +94,9 @@ def compute_all(
         summary,
         engine=engine.summary,
         engine_seconds=engine_seconds,
-        identical=same_results(evaluation, engine),
+        comparison=same_results(evaluation, engine),
         bring_up=swarm.bring_up,
-        distributed=distributed(result, moved),
+        distributed=Distributed.of(result, moved),
     )
     return SwarmComputation(evaluation, heuristic, engine, record)
 
@@ -140,16 +111,19 @@ def run_failure(record: RunRecord) -> str | None:
         reasons.append(f"{len(gone)} FLSs did not take part to the end ({shown})")
     if distributed is not None and distributed.incomplete:
         reasons.append("radio deliveries were lost for good")
-    if record.identical is not None and record.identical != "yes":
-        reasons.append(f"the pairs are not the engine's ({record.identical})")
+    comparison = record.comparison
+    if comparison is not None and not comparison.identical:
+        reasons.append(f"the pairs are not the engine's ({comparison.describe()})")
     return "; ".join(reasons) or None
 
 
-def same_results(ours: Evaluation, engine: Evaluation) -> str:
-    """ "yes" when every pair has the engine's status, path and estimate (to 1e-9 cm)."""
+def same_results(ours: Evaluation, engine: Evaluation) -> EngineComparison:
+    """Every pair of ``ours`` beside the engine's: how many differ in status, path and
+    estimate (to 1e-9 cm; a fit's covariance to 1e-9 of its largest entry)."""
     mine, theirs = ours.pairs, engine.pairs
     if len(mine) != len(theirs):
-        return f"no: {len(mine)} pairs reported, the engine has {len(theirs)}"
+        # Not the same pairs: none of them is compared.
+        return EngineComparison(len(mine), len(theirs), None, None, None)
     status = int((mine.status != theirs.status).sum())
     paths = not np.array_equal(mine.nodes, theirs.nodes)
     with np.errstate(invalid="ignore"):
@@ -159,6 +133,4 @@ def same_results(ours: Evaluation, engine: Evaluation) -> str:
             scale = np.abs(theirs.covariance).max(axis=(1, 2))
             apart = np.abs(mine.covariance - theirs.covariance).max(axis=(1, 2))
             far += int((apart > 1e-9 * scale).sum())
-    if status or paths or far:
-        return f"no: {status} statuses, {far} estimates differ; paths differ: {paths}"
-    return "yes"
+    return EngineComparison(len(mine), len(theirs), status, far, paths)

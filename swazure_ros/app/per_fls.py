@@ -29,8 +29,8 @@ from typing import IO
 import yaml
 
 from ..core.errors import SwazureError
+from ..files.atomic import atomic_write
 from ..files.description import SwarmDescription
-from ..files.results import atomic_write
 from ..ros.plumbing.names import node_name
 from ..ros.plumbing.process import SWARM_STOP_VARIABLE
 from ..ros.plumbing.startup import description_parameters, startup_arguments

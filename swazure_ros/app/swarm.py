@@ -7,9 +7,10 @@ the other FLSs run in further processes, packed in shares or one per FLS
 share senses (the race car's whole swarm's observations are 650 MB). The
 swarm is up when every process sees every FLS node's endpoints.
 
+:meth:`RunningSwarm.start` brings a swarm up and gives it back running;
 :meth:`RunningSwarm.discover` and :meth:`RunningSwarm.make_moves` run the
-coordinator's protocols over the swarm (:mod:`.compute` sets a whole swarm's
-run beside the engine's).
+coordinator's protocols over it (:mod:`.compute` sets a whole swarm's run
+beside the engine's).
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ import signal
 import tempfile
 import time
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -28,13 +29,13 @@ from ..core.errors import RunError, SwazureError
 from ..core.evaluate import evaluate
 from ..core.evaluation import Evaluation
 from ..core.fit import PATH
-from ..files.results import BringUp
+from ..files.record import BringUp
 from ..protocol.runs import DiscoveryResult, MoveResult, merged, source_blocks, sources_per_run
 from ..ros.nodes.coordinator import Coordinator, Future
 from ..ros.nodes.view import ViewNode
 from ..ros.nodes.world_node import SimulatedCameras
 from ..ros.plumbing.process import Context
-from ..ros.programs.host import SwarmHost
+from ..ros.programs.host import HostConfig, SwarmHost
 from ..ros.recording.recorder import Recorder
 from ..ros.security.auth import SwarmKey, new_key
 from ..sim.world import World
@@ -56,145 +57,133 @@ from .share import (
 PROGRESS_PERIOD = 10.0
 
 
-class RunningSwarm:
-    """A running swarm: the launcher's own share and the further processes.
+@dataclass(frozen=True)
+class _Plan:
+    """A swarm about to start: its world, key, processes and log folder; nothing runs yet."""
 
-    Use as a context manager; leaving it stops every process and destroys
-    every node. A log folder made here (no ``config.log_dir``) is removed when
-    the swarm is left without an error (Ctrl-C included) and every FLS process
-    ended with code 0; else it stays, for its logs to be read.
+    config: SwarmConfig
+    size: int  # FLSs
+    key: SwarmKey
+    world: World
+    processes: SwarmProcesses
+    discovery_servers: DiscoveryServers
+    temporary_logs: Path | None  # the log folder, if made here: removed once ended well
+
+
+@dataclass(frozen=True)
+class Starting:
+    """A swarm while it comes up, for the one who starts it (:meth:`RunningSwarm.start`):
+    this process's host (a signal handler stops between its spins), the world, the
+    processes and the recording: what a failed bring-up is measured by, and what is
+    reported once the swarm has stopped."""
+
+    world: World
+    processes: SwarmProcesses  # once stopped, how one FLS's processes ended (ProcessPerFls)
+    discovery_servers: DiscoveryServers
+    context: Context
+    host: SwarmHost
+    recorder: Recorder | None  # the leader's, when the swarm is recorded; closed once stopped
+
+
+class RunningSwarm:
+    """A running swarm, up and discovered: the launcher's own share and the further processes.
+
+    :meth:`start` brings one up. It is a context manager; leaving it (or
+    :meth:`close`) stops every process and destroys every node. A log folder
+    made here (no ``config.log_dir``) is removed when the swarm is left
+    without an error (Ctrl-C included) and every FLS process ended with code
+    0; else it stays, for its logs to be read.
     """
 
     def __init__(
         self,
+        plan: _Plan,
+        starting: Starting,
+        coordinator: Coordinator | None,
+        view: ViewNode | None,
+        bring_up: BringUp,
+        leave_nodes: bool,
+    ) -> None:
+        self.config = plan.config
+        self.size = plan.size
+        self.key = plan.key
+        #: Each process lays out what its own FLSs sense; the coordinator's planning and
+        #: the engine's comparison need the neighbourhood, not that.
+        self.world = plan.world
+        self.processes = plan.processes
+        self.discovery_servers = plan.discovery_servers
+        self.context = starting.context
+        self.host = starting.host
+        #: None on a further host of a swarm over several (share > 0): share 0 runs it.
+        self.coordinator = coordinator
+        self.recorder = starting.recorder  # the leader's, when the swarm is recorded
+        self.view = view  # the leader's, when the swarm is shown
+        self.bring_up = bring_up  # launcher start to every process discovered
+        self._plan, self._leave_nodes = plan, leave_nodes
+        self._closed = False
+
+    @classmethod
+    def start(
+        cls,
         config: SwarmConfig,
         on_created: Callable[[int, int], None] | None = None,
+        *,
         leave_nodes: bool = False,
         on_lost: Callable[[Ended], None] | None = None,
-    ) -> None:
-        self.config = config
-        # A process that ends right after the swarm leaves its own nodes to
-        # process.exit_process: far faster than destroying them one by one.
-        self._leave_nodes = leave_nodes
-        self._on_created = on_created or (lambda created, total: None)
-        #: Up and discovered (wait_until_ready).
-        self.ready = False
-        self._began = time.perf_counter()
-        assigned = config.world.assigned()
-        fls_ids = assigned.cloud_index
-        self.size = len(fls_ids)
-        parts = max(config.processes, config.hosts)
-        if parts > self.size:
-            raise SwazureError(f"{parts} shares for {self.size} FLSs: too many")
-        strangers = sorted(set(config.fls_parameters) - set(fls_ids.tolist()))
-        if strangers:
-            raise SwazureError(
-                f"parameters for FLS {strangers[0]}: no such FLS in this swarm of {self.size} "
-                f"(ids {fls_ids[0]}..{fls_ids[-1]})"
+        on_starting: Callable[[Starting], None] | None = None,
+        on_failed: Callable[[Starting, Exception], None] | None = None,
+    ) -> RunningSwarm:
+        """Bring the swarm ``config`` describes up; return it once every process has
+        discovered the whole swarm.
+
+        ``on_created(created, total)`` hears how many FLS nodes are up across every
+        process while it comes up; ``on_lost`` hears of an FLS process that ends
+        while the swarm runs. ``on_starting`` gets the swarm as it comes up
+        (:class:`Starting`) once this process's host is made, before its nodes;
+        ``on_failed`` gets it with the error when the bring-up then fails, before
+        anything is stopped. With ``leave_nodes``, stopping leaves this process's
+        nodes to its end (``process.exit_process``: far faster than destroying
+        them one by one). SwazureError for a swarm that cannot be split as asked,
+        RunError for one not discovered in ``config.discovery_timeout`` s or a
+        process that failed.
+        """
+        began = time.perf_counter()
+        plan = _plan(config, on_lost or _ignore)
+        context = host = recorder = starting = None
+        try:
+            plan.discovery_servers.start()
+            plan.processes.start()
+            context = init_context(config)
+            host = SwarmHost(plan.world, _own_config(plan), context=context)
+            recorder = _recorder(plan, context, host)
+            starting = Starting(
+                plan.world, plan.processes, plan.discovery_servers, context, host, recorder
             )
-        own_shares = shares(assigned, parts)
-        if config.hosts > 1:
-            # Only this host's share here; the others run on their own hosts.
-            own_shares = [own_shares[config.share]]
-        self.key = SwarmKey(*_swarm_key(config))
-        # A folder for the logs of the processes started here, if any are.
-        started = config.per_fls or bool(config.discovery_servers)
-        log_dir = Path(config.log_dir or (tempfile.mkdtemp(prefix="swazure-") if started else "."))
-        #: The log folder, if made here: removed once the swarm has ended well (__exit__).
-        self.temporary_logs = log_dir if started and config.log_dir is None else None
-        self.discovery_servers = DiscoveryServers(config.discovery_servers, log_dir)
-        self.processes: SwarmProcesses
-        if config.per_fls:
-            # This host's FLS processes; share 0 also simulates every FLS's camera.
-            self.processes = ProcessPerFls(
-                config, self.key, own_shares[0], self.size, log_dir, on_lost or _ignore
-            )
-        else:
-            self.processes = PackedShares(config, self.key, own_shares)
-        # Each process lays out what its own FLSs sense; the coordinator's
-        # planning and the engine's comparison need the neighbourhood, not that.
-        self.world = config.world.build(hosted_ids=self.processes.laid_out)
-        self._own_created = 0
-        self.context: Context | None = None
-        self.host: SwarmHost | None = None
-        self.coordinator: Coordinator | None = None
-        self.recorder: Recorder | None = None
-        self.view: ViewNode | None = None
-        self.bring_up: BringUp | None = None  # once every process is ready
+            if on_starting is not None:
+                on_starting(starting)
+            progress = _Creation(plan, host, on_created)
+            coordinator, view = _create_nodes(plan, starting, progress)
+            bring_up = _wait_until_ready(plan, starting, coordinator, progress, began)
+        except BaseException as err:
+            try:
+                if isinstance(err, Exception) and starting is not None and on_failed is not None:
+                    on_failed(starting, err)
+            finally:
+                # What came up stops, also when the one told of the failure fails.
+                _stop(plan, context, host, recorder, leave_nodes)
+                if isinstance(err, KeyboardInterrupt):
+                    _discard_logs(plan)
+            raise
+        return cls(plan, starting, coordinator, view, bring_up, leave_nodes)
 
     def __enter__(self) -> RunningSwarm:
-        try:
-            self._start()
-        except BaseException:
-            self.close()
-            raise
         return self
 
     def __exit__(self, kind: type[BaseException] | None, *exc_info: object) -> None:
         self.close()
         # Ctrl-C (KeyboardInterrupt) is how a served swarm ends: not an error.
         if kind is None or issubclass(kind, KeyboardInterrupt):
-            self._discard_logs()
-
-    def _discard_logs(self) -> None:
-        """Remove the log folder made here, unless an FLS process ended unclean."""
-        ended = self.processes.ended if isinstance(self.processes, ProcessPerFls) else []
-        if self.temporary_logs is not None and all(one.code == 0 for one in ended):
-            shutil.rmtree(self.temporary_logs, ignore_errors=True)
-            self.temporary_logs = None
-
-    def _start(self) -> None:
-        self.discovery_servers.start()
-        self.processes.start()
-        self.context = init_context(self.config)
-        leader = self.config.share == 0
-        own = host_config(
-            self.config, self.processes.own_share, self.config.share, self.size, self.key, leader
-        )
-        self.host = SwarmHost(self.world, own, context=self.context)
-
-        def created(count: int) -> None:
-            self._own_created = count
-            self._watch()
-            self._tell_created()
-
-        if leader and self.config.record is not None:
-            # Before the nodes: it hears every topic from its first publisher on.
-            self.recorder = Recorder(
-                Path(self.config.record), self.config.namespace, context=self.context
-            )
-            self.host.add(self.recorder)
-        self.host.create_fls_nodes(created)
-        if self.processes.simulates_cameras and leader:
-            cameras = SimulatedCameras(
-                self.host.replica,
-                self.world.ids.tolist(),
-                namespace=self.config.namespace,
-                context=self.context,
-                key=self.key,
-            )
-            self.host.add(cameras)
-        if leader:
-            self.coordinator = Coordinator(
-                self.world.ids.tolist(),
-                hosts=self.processes.radios,
-                shape=self.world.home_hood,
-                namespace=self.config.namespace,
-                context=self.context,
-                key=self.key,
-                # One node: ros2 param reaches it in every mode, at six services' cost.
-                parameter_services=True,
-            )
-            self.host.add(self.coordinator)
-            if self.config.view is not None:
-                self.view = ViewNode(
-                    first_scene(self.world, self.config.view),
-                    namespace=self.config.namespace,
-                    context=self.context,
-                    port=self.config.view.port,
-                    key=self.key,
-                )
-                self.host.add(self.view)
+            _discard_logs(self._plan)
 
     @property
     def process_ids(self) -> list[int]:
@@ -203,51 +192,15 @@ class RunningSwarm:
 
     def _watch(self) -> None:
         """Take the other processes' news; SwazureError for one that failed."""
-        self.processes.watch(self.ready)
-
-    def _tell_created(self) -> None:
-        """Tell ``on_created`` how many FLS nodes are up, while the swarm comes up."""
-        if self.host is not None and not self.ready:
-            self._on_created(self.processes.created(self._own_created, self.host), self.size)
-
-    def wait_until_ready(self) -> BringUp:
-        """Spin until every process has discovered the whole swarm; return the bring-up."""
-        deadline = time.monotonic() + self.config.discovery_timeout
-        discovered = False
-        while time.monotonic() < deadline:
-            self._watch()
-            self._tell_created()
-            if not discovered:
-                discovered = self._host.is_discovered()
-            # Seeing every node is not enough: a host whose radio has not matched the
-            # coordinator's controls yet would miss a run's START (shares on other hosts).
-            matched = self.coordinator is None or self.coordinator.hosts_matched()
-            # A recording starts with everything the run publishes.
-            matched = matched and (self.recorder is None or self.recorder.caught_up())
-            if discovered and matched and self.processes.ready():
-                seconds = time.perf_counter() - self._began
-                peaks = [peak_rss_mb(), *self.processes.peak_rss_mb()]
-                self.ready = True
-                self.bring_up = BringUp(self.size, len(peaks), seconds, peaks)
-                return self.bring_up
-            self._host.spin_for(0.05)
-        publishers, services = self._host.discovered()
-        raise RunError(
-            f"swarm not discovered after {self.config.discovery_timeout:g} s: "
-            f"{publishers} of {self.size} FLS publishers and {services} services visible"
-            + unreached_text(self._host.unreached())
-        )
-
-    @property
-    def _host(self) -> SwarmHost:
-        if self.host is None:
-            raise SwazureError("the swarm is not running")
-        return self.host
+        self.processes.watch(True)
 
     @property
     def _coordinator(self) -> Coordinator:
         if self.coordinator is None:
-            raise SwazureError("the swarm is not running")
+            raise SwazureError(
+                f"share {self.config.share} of a swarm over {self.config.hosts} hosts runs "
+                "no coordinator: share 0 runs it"
+            )
         return self.coordinator
 
     def run(
@@ -280,7 +233,7 @@ class RunningSwarm:
             if now - watched > 0.25:
                 self._watch()
                 watched = now
-            self._host.spin_once(0.02)
+            self.host.spin_once(0.02)
         return run.result()
 
     def discover(
@@ -336,29 +289,207 @@ class RunningSwarm:
         deadline = None if seconds is None else time.monotonic() + seconds
         while deadline is None or time.monotonic() < deadline:
             self._watch()
-            self._host.spin_for(0.1)
+            self.host.spin_for(0.1)
 
     def close(self) -> None:
-        """Stop every process and destroy every node; Ctrl-C waits until this is done."""
-        stopping = {signal.SIGINT, signal.SIGTERM}
-        signal.pthread_sigmask(signal.SIG_BLOCK, stopping)
-        try:
-            self._close()
-        finally:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, stopping)
+        """Stop every process and destroy every node; Ctrl-C waits until this is done.
+        Closing again does nothing."""
+        if self._closed:
+            return
+        self._closed = True
+        _stop(self._plan, self.context, self.host, self.recorder, self._leave_nodes)
 
-    def _close(self) -> None:
-        self.coordinator = None  # its host destroys it
-        if self.recorder is not None:
-            self.recorder.close()
-        self.processes.stop()
-        self.discovery_servers.stop()
-        if self.host is not None and not self._leave_nodes:
-            self.host.close()
-            self.host = None
-        if self.context is not None and not self._leave_nodes:
-            self.context.try_shutdown()
-            self.context = None
+
+def _plan(config: SwarmConfig, on_lost: Callable[[Ended], None]) -> _Plan:
+    """What starting the swarm ``config`` describes takes; SwazureError when it cannot be
+    split as asked."""
+    assigned = config.world.assigned()
+    fls_ids = assigned.cloud_index
+    size = len(fls_ids)
+    parts = max(config.processes, config.hosts)
+    if parts > size:
+        raise SwazureError(f"{parts} shares for {size} FLSs: too many")
+    strangers = sorted(set(config.fls_parameters) - set(fls_ids.tolist()))
+    if strangers:
+        raise SwazureError(
+            f"parameters for FLS {strangers[0]}: no such FLS in this swarm of {size} "
+            f"(ids {fls_ids[0]}..{fls_ids[-1]})"
+        )
+    own_shares = shares(assigned, parts)
+    if config.hosts > 1:
+        # Only this host's share here; the others run on their own hosts.
+        own_shares = [own_shares[config.share]]
+    key = SwarmKey(*_swarm_key(config))
+    # A folder for the logs of the processes started here, if any are.
+    started = config.per_fls or bool(config.discovery_servers)
+    log_dir = Path(config.log_dir or (tempfile.mkdtemp(prefix="swazure-") if started else "."))
+    processes: SwarmProcesses
+    if config.per_fls:
+        # This host's FLS processes; share 0 also simulates every FLS's camera.
+        processes = ProcessPerFls(config, key, own_shares[0], size, log_dir, on_lost)
+    else:
+        processes = PackedShares(config, key, own_shares)
+    return _Plan(
+        config,
+        size,
+        key,
+        config.world.build(hosted_ids=processes.laid_out),
+        processes,
+        DiscoveryServers(config.discovery_servers, log_dir),
+        log_dir if started and config.log_dir is None else None,
+    )
+
+
+def _own_config(plan: _Plan) -> HostConfig:
+    """What this process hosts: its share of FLSs, and the world node on the leader."""
+    config = plan.config
+    own = plan.processes.own_share
+    return host_config(config, own, config.share, plan.size, plan.key, config.share == 0)
+
+
+def _recorder(plan: _Plan, context: Context, host: SwarmHost) -> Recorder | None:
+    """The leader's recorder of every topic, when the swarm is recorded; made before the
+    nodes, it hears every topic from its first publisher on."""
+    config = plan.config
+    if config.share != 0 or config.record is None:
+        return None
+    recorder = Recorder(Path(config.record), config.namespace, context=context)
+    host.add(recorder)
+    return recorder
+
+
+class _Creation:
+    """Tells ``on_created`` how many FLS nodes are up across every process, while the swarm
+    comes up."""
+
+    def __init__(
+        self, plan: _Plan, host: SwarmHost, on_created: Callable[[int, int], None] | None
+    ) -> None:
+        self._plan, self._host = plan, host
+        self._on_created = on_created or (lambda created, total: None)
+        self._own = 0  # FLS nodes created in this process
+
+    def created(self, count: int) -> None:
+        """``count`` FLS nodes of this process are up."""
+        self._own = count
+        self._plan.processes.watch(False)
+        self.tell()
+
+    def tell(self) -> None:
+        """Tell how many FLS nodes are up in every process."""
+        self._on_created(self._plan.processes.created(self._own, self._host), self._plan.size)
+
+
+def _create_nodes(
+    plan: _Plan, starting: Starting, progress: _Creation
+) -> tuple[Coordinator | None, ViewNode | None]:
+    """Create this process's FLS nodes and, on the leader (share 0), the simulated cameras
+    where no FLS process renders its own, the coordinator and the view (when shown)."""
+    config, world, context, host = plan.config, plan.world, starting.context, starting.host
+    leader = config.share == 0
+    host.create_fls_nodes(progress.created)
+    if plan.processes.simulates_cameras and leader:
+        cameras = SimulatedCameras(
+            host.replica,
+            world.ids.tolist(),
+            namespace=config.namespace,
+            context=context,
+            key=plan.key,
+        )
+        host.add(cameras)
+    if not leader:
+        return None, None
+    coordinator = Coordinator(
+        world.ids.tolist(),
+        hosts=plan.processes.radios,
+        shape=world.home_hood,
+        namespace=config.namespace,
+        context=context,
+        key=plan.key,
+        # One node: ros2 param reaches it in every mode, at six services' cost.
+        parameter_services=True,
+    )
+    host.add(coordinator)
+    view = None
+    if config.view is not None:
+        view = ViewNode(
+            first_scene(world, config.view),
+            namespace=config.namespace,
+            context=context,
+            port=config.view.port,
+            key=plan.key,
+        )
+        host.add(view)
+    return coordinator, view
+
+
+def _wait_until_ready(
+    plan: _Plan,
+    starting: Starting,
+    coordinator: Coordinator | None,
+    progress: _Creation,
+    began: float,
+) -> BringUp:
+    """Spin until every process has discovered the whole swarm; the bring-up since
+    ``began`` (perf_counter). RunError after ``config.discovery_timeout`` s."""
+    config, host, recorder = plan.config, starting.host, starting.recorder
+    deadline = time.monotonic() + config.discovery_timeout
+    discovered = False
+    while time.monotonic() < deadline:
+        plan.processes.watch(False)
+        progress.tell()
+        if not discovered:
+            discovered = host.is_discovered()
+        # Seeing every node is not enough: a host whose radio has not matched the
+        # coordinator's controls yet would miss a run's START (shares on other hosts).
+        matched = coordinator is None or coordinator.hosts_matched()
+        # A recording starts with everything the run publishes.
+        matched = matched and (recorder is None or recorder.caught_up())
+        if discovered and matched and plan.processes.ready():
+            seconds = time.perf_counter() - began
+            peaks = [peak_rss_mb(), *plan.processes.peak_rss_mb()]
+            return BringUp(plan.size, len(peaks), seconds, peaks)
+        host.spin_for(0.05)
+    publishers, services = host.discovered()
+    raise RunError(
+        f"swarm not discovered after {config.discovery_timeout:g} s: "
+        f"{publishers} of {plan.size} FLS publishers and {services} services visible"
+        + unreached_text(host.unreached())
+    )
+
+
+def _stop(
+    plan: _Plan,
+    context: Context | None,
+    host: SwarmHost | None,
+    recorder: Recorder | None,
+    leave_nodes: bool,
+) -> None:
+    """Stop every process and destroy every node made so far (None: not made);
+    Ctrl-C waits until this is done."""
+    stopping = {signal.SIGINT, signal.SIGTERM}
+    signal.pthread_sigmask(signal.SIG_BLOCK, stopping)
+    try:
+        if recorder is not None:
+            recorder.close()
+        plan.processes.stop()
+        plan.discovery_servers.stop()
+        if leave_nodes:
+            return
+        if host is not None:
+            host.close()  # the coordinator and the view with it
+        if context is not None:
+            context.try_shutdown()
+    finally:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, stopping)
+
+
+def _discard_logs(plan: _Plan) -> None:
+    """Remove the log folder made here, unless an FLS process ended unclean."""
+    processes = plan.processes
+    ended = processes.ended if isinstance(processes, ProcessPerFls) else []
+    if plan.temporary_logs is not None and all(one.code == 0 for one in ended):
+        shutil.rmtree(plan.temporary_logs, ignore_errors=True)
 
 
 def _swarm_key(config: SwarmConfig) -> tuple[bytes | None, bytes | None]:

@@ -39,7 +39,7 @@ from ..camera.calibration import (
 )
 from ..core.errors import SensorError
 from ..core.sensor import SENSOR_FILE_VERSION, Sensor
-from ..files.results import atomic_write
+from ..files.atomic import atomic_write
 from ..files.sensors import load_camera, load_measured
 from .arguments import (
     count,

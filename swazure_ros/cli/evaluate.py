@@ -22,13 +22,9 @@ from ..core.fit import ESTIMATORS, PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
 from ..core.neighbourhood import Neighbourhood
 from ..core.progress import SILENT, Progress
-from ..files.results import (
-    SUMMARY_FILE,
-    write_json,
-    write_pair_blocks,
-    write_record,
-    write_run,
-)
+from ..files.atomic import write_json
+from ..files.record import write_record
+from ..files.results import SUMMARY_FILE, write_pair_blocks, write_run
 from .arguments import (
     count,
     memory_size,

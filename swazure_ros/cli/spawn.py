@@ -26,7 +26,7 @@ import time
 from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ..core.errors import SwazureError
 from ..core.fit import PATH, check_plain_estimator
@@ -61,9 +61,15 @@ from .options import (
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
 
 if TYPE_CHECKING:
+    # Named for the types only: importing them would load rclpy before the verb runs.
+    from tqdm import tqdm
+
     from ..app.config import SwarmConfig
-    from ..app.swarm import RunningSwarm
-    from ..files.results import BringUp
+    from ..app.per_fls import Ended
+    from ..app.swarm import RunningSwarm, Starting
+    from ..files.record import BringUp
+    from ..protocol.runs import DiscoveryResult
+    from ..sim.world import World
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -257,7 +263,7 @@ class CreationBar:
 
     def __init__(self, quiet: bool) -> None:
         self._quiet = quiet
-        self._bar: Any = None
+        self._bar: tqdm[None] | None = None  # made at the first count: it knows the total
 
     def __call__(self, created: int, total: int) -> None:
         if self._quiet:
@@ -329,7 +335,7 @@ def config_from_args(args: argparse.Namespace) -> SwarmConfig:
     )
 
 
-def compute_all(swarm: Any, args: argparse.Namespace) -> int:
+def compute_all(swarm: RunningSwarm, args: argparse.Namespace) -> int:
     """Run discovery over the whole swarm, report it beside the engine, write --out."""
     from ..app.compute import compute_all as run
     from ..app.compute import run_failure
@@ -341,7 +347,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     beta = world.swarm.beta
     size = f"radius {world.swarm.radius:.4g} cm" if beta is None else f"beta {beta:.4g}"
 
-    def discovered(result: Any) -> None:
+    def discovered(result: DiscoveryResult) -> None:
         traffic, outcome = result.traffic, result.outcome
         print(
             f"{world.cloud.name}: {size}, {args.policy}: discovery "
@@ -381,7 +387,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
             + (f", {moved.timeouts} waits timed out" if moved.timeouts else "")
         )
     assert record.summary is not None and record.engine is not None
-    assert record.engine_seconds is not None
+    assert record.engine_seconds is not None and record.comparison is not None
     print(f"engine: {record.engine_seconds:.2f} s for the same work")
     print(summary_table(record.summary, ("engine", record.engine), heading="distributed"))
     # Warned as the swarm came up (warn_spacing): here the line under the summary.
@@ -389,7 +395,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     print(
         "pairs identical to the engine's (status, path, estimate to 1e-9"
         + (", covariance" if args.estimator != PATH else "")
-        + f"): {record.identical}"
+        + f"): {record.comparison.describe()}"
     )
     if args.out is not None:
         warn_of_large_pairs("spawn", record.summary.pairs.blind_pairs, args.pairs)
@@ -403,7 +409,7 @@ def compute_all(swarm: Any, args: argparse.Namespace) -> int:
     return 0
 
 
-def warn_spacing(world: Any) -> None:
+def warn_spacing(world: World) -> None:
     """Warn on stderr, once the swarm is up, when no pair of its FLSs is a hop the sensor
     measures (every blind pair has no path), naming the --scale that would fit."""
     from ..core.spacing import spacing_advice
@@ -412,12 +418,12 @@ def warn_spacing(world: Any) -> None:
     warn("spawn", spacing_advice(world.home, world.sensor), world.cloud.scale)
 
 
-def report_lost(ended: Any) -> None:
+def report_lost(ended: Ended) -> None:
     """One line when an FLS process of a running swarm ends: the swarm goes on without it."""
     print(f"{ended.describe()}; the swarm goes on without it", file=sys.stderr, flush=True)
 
 
-def report_ended(ended: list[Any], log_dir: Path) -> None:
+def report_ended(ended: list[Ended], log_dir: Path) -> None:
     """One line on how the FLS processes ended: all cleanly, or which did not and where
     their logs are."""
     unclean = [one for one in ended if one.code != 0]
@@ -436,11 +442,12 @@ def _interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
-def _stopper(swarm: Any) -> Callable[[int, object], None]:
-    """A handler for Ctrl-C and SIGTERM that stops ``swarm`` between spins, not in a callback."""
+def _stopper(started: list[Starting]) -> Callable[[int, object], None]:
+    """A handler for Ctrl-C and SIGTERM that stops the swarm between spins, not in a callback;
+    ``started`` holds the swarm as it comes up, once its host is made."""
 
     def stop(signum: int, frame: object) -> None:
-        if swarm.host is not None and swarm.host.defer_stop():
+        if any(swarm.host.defer_stop() for swarm in started):
             return
         raise KeyboardInterrupt
 
@@ -450,7 +457,6 @@ def _stopper(swarm: Any) -> Callable[[int, object], None]:
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure spawn``."""
     # rclpy loads only for the verbs that use it: `swazure evaluate` starts faster.
-    from ..app.processes import ProcessPerFls
     from ..app.swarm import RunningSwarm
 
     # Stop cleanly on Ctrl-C and on SIGTERM (a supervisor, a test), also when a shell
@@ -461,16 +467,19 @@ def main(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     bar = CreationBar(args.quiet)
     ready = False
-    swarm = None
+    # The swarm as it comes up, once its host is made: Ctrl-C stops between the host's
+    # spins, and how its processes and recording ended is said once it has stopped.
+    started: list[Starting] = []
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, _stopper(started))
     try:
-        swarm = RunningSwarm(config, bar, leave_nodes=True, on_lost=report_lost)
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(signum, _stopper(swarm))
-        with swarm:
-            bring_up = swarm.wait_until_ready()
+        with RunningSwarm.start(
+            config, bar, leave_nodes=True, on_lost=report_lost, on_starting=started.append
+        ) as swarm:
+            bring_up = swarm.bring_up
             if args.out is not None and not args.compute_all:
                 # A served swarm's run is its bring-up: what a script reads of it.
-                from ..files.results import RunRecord, write_record
+                from ..files.record import RunRecord, write_record
 
                 write_record(
                     args.out, RunRecord("spawn", bring_up.seconds, None, bring_up=bring_up)
@@ -495,10 +504,8 @@ def main(args: argparse.Namespace) -> int:
         print("stopping the swarm", file=sys.stderr, flush=True)
     finally:
         bar.close()
-        if swarm is not None and isinstance(swarm.processes, ProcessPerFls):
-            report_ended(swarm.processes.ended, swarm.processes.fls.log_dir)
-        if swarm is not None:
-            _report_recording(swarm)
+        for swarm_start in started:
+            _report_stopped(swarm_start)
     return 0
 
 
@@ -537,8 +544,14 @@ def _print_up(swarm: RunningSwarm, config: SwarmConfig, bring_up: BringUp) -> No
         )
 
 
-def _report_recording(swarm: RunningSwarm) -> None:
-    """Say where the swarm's recording went, once it is written; or why it stopped."""
+def _report_stopped(swarm: Starting) -> None:
+    """Once the swarm has stopped: say how its FLS processes ended, and where its recording
+    went (or why it stopped)."""
+    from ..app.processes import ProcessPerFls
+
+    processes = swarm.processes
+    if isinstance(processes, ProcessPerFls):
+        report_ended(processes.ended, processes.fls.log_dir)
     recorder = swarm.recorder
     if recorder is None or not recorder.closed:
         return

@@ -33,7 +33,7 @@ from ..core.tracking import (
     track_errors,
     track_series,
 )
-from ..files.results import atomic_write
+from ..files.atomic import atomic_write
 from ..files.trajectories import parse_move, parse_trajectory
 from .arguments import fls_id, output_file, png_file, seconds
 from .options import add_domain_argument, add_swarm_arguments, world_from_args

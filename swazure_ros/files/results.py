@@ -1,35 +1,21 @@
-"""Writing a run to disk: ``summary.json``, ``pairs.csv`` and ``record.json``, atomically.
+"""A run's results on disk: ``summary.json`` and the per-pair file, written and read.
 
 The per-pair file is ``pairs.csv`` (the default), ``pairs.parquet`` (typed,
 a fraction of the size) or none at all (``--pairs csv|parquet|none``);
 :func:`read_pairs` reads either back as one table, and :func:`pairs_size_warning`
-says beforehand when one would be large.
-
-Every file is written to a temporary name in the same folder and renamed into
-place, so a killed run never leaves a half-written result.
-
-:class:`RunRecord` is one run as typed data: the evaluation's summary and the
-run's own facts (its seconds, a swarm's bring-up and traffic, the engine's
-time and summary for the same work, whether the two agree). It is built once
-where the run happens; the command line only renders it, and scripts and
-tests read its ``record.json`` (with a ``fileversion``), never printed text.
+says beforehand when one would be large. :func:`write_run` writes a run's
+files with its ``record.json`` (:mod:`.record`). Every file is written
+atomically (:mod:`.atomic`): a killed run never leaves a half-written result.
 """
 
 from __future__ import annotations
 
-import contextlib
-import glob
 import itertools
 import json
-import math
 import os
-import shutil
-import tempfile
 from collections import deque
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
-from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field, fields
 from functools import partial
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -40,16 +26,13 @@ from ..core.errors import OutputError, SwazureError
 from ..core.evaluation import REASON_NAMES, STATUS_NAMES, Evaluation, PairResults
 from ..core.heuristics.result import HeuristicResult
 from ..core.neighbourhood import Neighbourhood
-from ..core.summary import Document, Summary
-from ..core.traffic import TopicCounts
+from .atomic import atomic_output, atomic_write, write_json
 from .reading import CONFIG_BYTES, read_text, regular_file
+from .record import RECORD_FILE, RunRecord, write_record
 
 PAIRS_FILE = "pairs.csv"
 PAIRS_PARQUET_FILE = "pairs.parquet"
 SUMMARY_FILE = "summary.json"
-RECORD_FILE = "record.json"
-#: The version of record.json's layout: raised whenever a field changes meaning or goes.
-RECORD_VERSION = 1
 PAIRS_FORMATS = ("csv", "parquet")
 #: The per-pair output a run may choose: a file of either format, or none.
 NO_PAIRS = "none"
@@ -73,117 +56,6 @@ COVARIANCE_ENTRIES = {
     "covariance_xx": (0, 0), "covariance_xy": (0, 1), "covariance_xz": (0, 2),
     "covariance_yy": (1, 1), "covariance_yz": (1, 2), "covariance_zz": (2, 2),
 }  # fmt: skip
-
-
-def atomic_write(path: Path, write: Callable[[Path], object]) -> None:
-    """Call ``write(temporary_path)`` and put the result at ``path`` in one rename.
-
-    The temporary file is hidden beside ``path`` and stamped with the writer's
-    pid; one left by a killed writer is removed by the next write of ``path``.
-    Any failure is an :class:`OutputError`.
-    """
-    with atomic_output(path) as temporary:
-        write(temporary)
-
-
-@contextmanager
-def atomic_folder(path: Path) -> Iterator[Path]:
-    """A hidden folder beside ``path`` to fill; it becomes ``path`` when the block ends well.
-
-    ``path`` must not exist (as ``ros2 bag record -o`` refuses one); nothing is
-    left there when the block raises, and a process that dies leaves only the
-    hidden folder.
-    """
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        folder = Path(tempfile.mkdtemp(prefix=f".{path.name}.", dir=path.parent))
-    except OSError as err:
-        raise OutputError(f"{path}: cannot write ({err.strerror or err})") from err
-    try:
-        yield folder
-        os.rename(folder, path)
-    except OSError as err:
-        shutil.rmtree(folder, ignore_errors=True)
-        raise OutputError(f"{path}: cannot write ({err.strerror or err})") from err
-    except BaseException:
-        shutil.rmtree(folder, ignore_errors=True)
-        raise
-
-
-@contextmanager
-def atomic_output(path: Path) -> Iterator[Path]:
-    """A path to write ``path``'s content to; it becomes ``path`` when the block ends well.
-
-    :func:`atomic_write` for a writer that runs as long as the block (a
-    recording): nothing is left at ``path`` when the block raises, and what a
-    killed writer leaves is removed by the next write of ``path``.
-    """
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        _remove_stale(path)
-        # In the target's folder, so that the rename stays on one file system.
-        handle, name = tempfile.mkstemp(
-            prefix=f".{path.name}.{os.getpid()}.", suffix=".tmp", dir=path.parent
-        )
-        temporary = Path(name)
-        try:
-            # mkstemp makes the file private; give it the mode a plain open() would,
-            # before the writer, which may make it private again (a key file).
-            try:
-                os.fchmod(handle, 0o666 & ~_umask())
-            finally:
-                os.close(handle)
-            yield temporary
-            os.replace(temporary, path)
-        except BaseException:
-            temporary.unlink(missing_ok=True)
-            raise
-    except OSError as err:
-        raise OutputError(f"{path}: cannot write ({err.strerror or err})") from err
-
-
-def _umask() -> int:
-    """The process's umask, read without setting it (``os.umask`` sets it, for every thread)."""
-    with contextlib.suppress(OSError):
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("Umask:"):
-                return int(line.split()[1], 8)
-    return 0o022
-
-
-def _remove_stale(path: Path) -> None:
-    """Remove the temporaries of ``path`` whose writers were killed (their pid is gone)."""
-    for stale in path.parent.glob(f".{glob.escape(path.name)}.*.tmp"):
-        pid = stale.name[len(path.name) + 2 :].partition(".")[0]
-        if pid.isdigit() and not _alive(int(pid)):
-            stale.unlink(missing_ok=True)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    return True
-
-
-def finite_json(value: Any) -> Any:
-    """``value`` with every NaN or infinite float as None: JSON has no such numbers."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {key: finite_json(item) for key, item in value.items()}
-    if isinstance(value, list | tuple):
-        return [finite_json(item) for item in value]
-    return value
-
-
-def write_json(path: Path, document: Document) -> None:
-    """Write ``document`` as indented JSON (non-finite numbers as null), atomically."""
-    text = json.dumps(finite_json(document), indent=2, allow_nan=False) + "\n"
-    atomic_write(path, lambda tmp: tmp.write_text(text))
 
 
 def _id_lists(offsets: Any, ids: Any, as_text: bool) -> Any:
@@ -625,97 +497,6 @@ def _size(size: int) -> str:
     return f"{size / 1e9:.1f} GB" if size >= 10**9 else f"{size / 1e6:.0f} MB"
 
 
-@dataclass(frozen=True)
-class BringUp:
-    """What bringing a swarm up took."""
-
-    flss: int
-    processes: int
-    seconds: float  # launcher start to every process discovered
-    peak_rss_mb: list[float] = field(default_factory=list)  # per process
-
-    @property
-    def total_peak_mb(self) -> float:
-        """Sum of the processes' peak resident memory, MB."""
-        return float(sum(self.peak_rss_mb))
-
-
-@dataclass(frozen=True)
-class MovesMade(TopicCounts):
-    """A heuristic's moves made by the swarm: time, batches, commands and traffic."""
-
-    seconds: float
-    batches: int
-    move_commands: int  # returns included
-    path_walks: int
-    timeouts: int  # waits that ended at their deadline
-    messages: dict[str, int]  # per topic
-    bytes: dict[str, int]  # per topic, serialised payloads
-
-
-@dataclass(frozen=True)
-class Distributed(TopicCounts):
-    """A discovery run made by the swarm, and the moves after it, if any."""
-
-    seconds: float
-    rounds: int
-    restarts: int
-    departed: list[int]
-    messages: dict[str, int]  # per topic
-    bytes: dict[str, int]  # per topic
-    repairs: int = 0  # a lossy radio's repair requests and resends
-    incomplete: bool = False  # deliveries lost for good: no estimates
-    moves: MovesMade | None = None
-
-    @property
-    def total_messages(self) -> int:
-        """Messages on every topic, discovery's and the moves'."""
-        moved = self.moves.total_messages if self.moves is not None else 0
-        return super().total_messages + moved
-
-    @property
-    def total_bytes(self) -> int:
-        """Bytes on every topic, discovery's and the moves'."""
-        moved = self.moves.total_bytes if self.moves is not None else 0
-        return super().total_bytes + moved
-
-
-@dataclass(frozen=True)
-class RunRecord:
-    """One run: its evaluation's summary and the run's facts (``record.json``)."""
-
-    command: str  # the swazure verb that ran: "evaluate" or "spawn"
-    seconds: float  # the run's computation, s (a swarm's: discovery and moves)
-    summary: Summary | None  # the evaluation's (None: a swarm brought up, no run)
-    engine: Summary | None = None  # the core engine's summary of the same work
-    engine_seconds: float | None = None
-    identical: str | None = None  # "yes", or "no: " and what differs from the engine
-    bring_up: BringUp | None = None
-    distributed: Distributed | None = None
-    # The per-pair output (PAIRS_OUTPUTS): "none" says no per-pair file was written;
-    # None for a swarm only brought up.
-    pairs: str | None = None
-    fileversion: int = RECORD_VERSION
-
-    def as_document(self) -> Document:
-        """What record.json holds: each summary as summary.json holds it."""
-        document: Document = {one.name: getattr(self, one.name) for one in fields(self)}
-        # A swarm only brought up has no run: its record's summary is empty.
-        document["summary"] = {} if self.summary is None else self.summary.as_document()
-        document["engine"] = None if self.engine is None else self.engine.as_document()
-        for name in ("bring_up", "distributed"):
-            if document[name] is not None:
-                document[name] = asdict(document[name])
-        return document
-
-
-def write_record(directory: Path, record: RunRecord) -> Path:
-    """Write ``record`` as ``directory/record.json``, atomically; return its path."""
-    path = directory / RECORD_FILE
-    write_json(path, record.as_document())
-    return path
-
-
 def write_run(
     directory: Path,
     evaluation: Evaluation,
@@ -735,33 +516,3 @@ def write_run(
         raise
     except OSError as err:
         raise OutputError(f"{directory}: cannot write results ({err.strerror or err})") from err
-
-
-def read_record(path: Path) -> RunRecord:
-    """The run record in ``path``; SwazureError if it is not one of this version."""
-    text = read_text(path, "run record", CONFIG_BYTES, SwazureError)
-    try:
-        document = json.loads(text)
-    except ValueError as err:
-        raise SwazureError(f"{path}: not a run record ({err})") from err
-    version = document.get("fileversion") if isinstance(document, dict) else None
-    if version != RECORD_VERSION:
-        raise SwazureError(f"{path}: record fileversion {version}, this is {RECORD_VERSION}")
-    try:
-        bring_up, distributed = document.pop("bring_up"), document.pop("distributed")
-        summary, engine = document.pop("summary"), document.pop("engine")
-        if distributed is not None:
-            moves = distributed.pop("moves")
-            distributed = Distributed(
-                **distributed, moves=None if moves is None else MovesMade(**moves)
-            )
-        return RunRecord(
-            **document,
-            summary=Summary.from_document(summary) if summary else None,
-            engine=None if engine is None else Summary.from_document(engine),
-            bring_up=None if bring_up is None else BringUp(**bring_up),
-            distributed=distributed,
-        )
-    except (AttributeError, KeyError, TypeError) as err:
-        # A field missing, unknown or of the wrong kind: the file is not what this reads.
-        raise SwazureError(f"{path}: not a run record ({type(err).__name__}: {err})") from err

@@ -31,8 +31,9 @@ from ..core.compare import (
 from ..core.errors import SwazureError
 from ..core.evaluation import REASON_NAMES
 from ..core.summary import Summary
+from .atomic import atomic_write, write_json
 from .reading import CONFIG_BYTES, read_text
-from .results import PAIRS_FILE, PAIRS_PARQUET_FILE, SUMMARY_FILE, atomic_write, write_json
+from .results import PAIRS_FILE, PAIRS_PARQUET_FILE, SUMMARY_FILE
 
 COMPARISON_JSON = "comparison.json"
 COMPARISON_CSV = "comparison.csv"

@@ -20,8 +20,9 @@ from ..core.errors import SwazureError
 from ..core.evaluate import evaluate
 from ..core.geometry import make_swarm
 from ..core.summary import Document
+from ..files.atomic import atomic_write
 from ..files.reading import CONFIG_BYTES, read_text
-from ..files.results import atomic_write, read_pairs
+from ..files.results import read_pairs
 from ..view.png import save
 from ..view.scene import evaluation_scene
 from ..view.snapshot import write_snapshot

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 from ..core.heuristics.compat import PUBLISHED, Compat
-from ..files.results import atomic_write
+from ..files.atomic import atomic_write
 from .plan import StudyPlan
 from .sweep import SweepResult
 from .tables import Table

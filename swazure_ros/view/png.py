@@ -6,7 +6,7 @@ from pathlib import Path
 
 from matplotlib.figure import Figure
 
-from ..files.results import atomic_write
+from ..files.atomic import atomic_write
 
 #: Dots per inch of every PNG the project writes.
 DPI = 120

@@ -14,7 +14,8 @@ import pytest
 
 from swazure_ros import api
 from swazure_ros.core.errors import CloudError, OptionError, SwazureError
-from swazure_ros.files.results import finite_json, write_csv
+from swazure_ros.files.atomic import finite_json
+from swazure_ros.files.results import write_csv
 
 from ..conftest import dataset
 

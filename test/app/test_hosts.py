@@ -15,7 +15,7 @@ import sys
 import pytest
 
 from swazure_ros.app.share import shares
-from swazure_ros.files.results import RECORD_FILE, read_record
+from swazure_ros.files.record import RECORD_FILE, read_record
 from swazure_ros.ros.security.keys import new_key, write_key
 from swazure_ros.sim.world import WorldSpec
 
@@ -59,7 +59,7 @@ def test_fls_processes_on_two_hosts_through_a_discovery_server_compute_the_engin
     assert leader.returncode == 0, leader.stdout + leader.stderr
     assert "13 processes of one FLS each, share 0 of 2" in leader.stdout, leader.stdout
     assert "12 processes of one FLS each, share 1 of 2" in out, out + err
-    assert read_record(tmp_path / "d" / RECORD_FILE).identical == "yes", leader.stdout
+    assert read_record(tmp_path / "d" / RECORD_FILE).comparison.identical, leader.stdout
     evaluate = subprocess.run(
         [*SWAZURE, "evaluate", "--cloud", str(GRID.with_suffix(".xyz")), "--scale", "1",
          "--radius", "0.5", "--out", str(tmp_path / "e")],

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from swazure_ros.files.results import RECORD_FILE, read_record
+from swazure_ros.files.record import RECORD_FILE, read_record
 
 from ..conftest import REPO
 from ..waits import PATIENCE, wait_until
@@ -85,7 +85,7 @@ def test_a_swarm_of_one_process_per_fls_computes_what_the_engine_computes(domain
     out, err = spawn.communicate(timeout=600)
     assert spawn.returncode == 0, err
     assert "25 FLS nodes in 25 processes of one FLS each" in out, out
-    assert read_record(tmp_path / "d" / RECORD_FILE).identical == "yes", out
+    assert read_record(tmp_path / "d" / RECORD_FILE).comparison.identical, out
     evaluate = subprocess.run(
         [sys.executable, "-m", "swazure_ros.cli.main", "evaluate",
          "--cloud", str(GRID.with_suffix(".xyz")), "--scale", "1", "--radius", "0.5",
@@ -112,7 +112,7 @@ def test_a_swarm_of_one_process_per_fls_solves_its_fit_as_the_engine_does(domain
     out, err = spawn.communicate(timeout=600)
     assert spawn.returncode == 0, err
     record = read_record(tmp_path / "d" / RECORD_FILE)
-    assert record.identical == "yes", out
+    assert record.comparison.identical, out
     assert record.summary.fit.estimator == "swarm-fit"
     assert "25 FLS processes stopped, every one cleanly (exit code 0)" in err, err
 
@@ -126,7 +126,7 @@ def test_each_fls_process_fits_what_it_hears_as_the_engine_does(domain, tmp_path
     out, err = spawn.communicate(timeout=600)
     assert spawn.returncode == 0, err
     record = read_record(tmp_path / "d" / RECORD_FILE)
-    assert record.identical == "yes", out
+    assert record.comparison.identical, out
     assert record.summary.fit.estimator == "local-least-squares"
     header = (tmp_path / "d" / "pairs.csv").read_text().splitlines()[0]
     assert "covariance_xx" in header and "covariance_zz" in header
@@ -145,7 +145,7 @@ def test_move_source_made_by_fls_processes_is_the_engines(domain, tmp_path):
     record = read_record(tmp_path / "d" / RECORD_FILE)
     assert record.distributed.moves is not None and record.distributed.moves.path_walks == 7
     # The detections carry metres (REP-103), so estimates are the engine's to 1e-9 cm.
-    assert record.identical == "yes", out
+    assert record.comparison.identical, out
     assert "25 FLS processes stopped, every one cleanly (exit code 0)" in err, err
 
 
@@ -214,7 +214,7 @@ def test_a_swarm_stopped_by_ctrl_c_and_started_again_at_once_computes_the_engine
             again.kill()
     assert again.returncode == 0, out + err
     record = read_record(tmp_path / "d" / RECORD_FILE)
-    assert record.identical == "yes" and not record.distributed.departed, out
+    assert record.comparison.identical and not record.distributed.departed, out
 
 
 def test_an_fls_process_that_died_leaves_its_logs_to_read_and_no_key(domain):
@@ -319,8 +319,7 @@ def test_an_fls_process_killed_mid_run_departs_and_the_living_get_the_engines_pa
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
     lost = []
-    with RunningSwarm(config, on_lost=lost.append) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config, on_lost=lost.append) as swarm:
         # FLS 12, the grid's centre, relays many paths: killed (no goodbye) as the run starts.
         swarm.processes.fls.processes[12].kill()
         result = swarm.discover(policy, timeout=PATIENCE)
@@ -366,8 +365,7 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
     policy = "shortest-length"
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         swarm.coordinator.round_timeout = 3.0  # silent for 3 s: departed
         pid = swarm.processes.fls.processes[12].pid
         os.kill(pid, signal.SIGSTOP)
@@ -423,8 +421,7 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
     policy = "shortest-length"
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         context = make_context(domain)
         node = Node("forger", namespace="swarm", context=context)
         counts: dict[str, int] = {}
@@ -551,8 +548,7 @@ def test_offers_every_fls_drops_as_implausible_change_no_pair_of_a_swarm_without
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE,
                          authenticate=False)  # fmt: skip
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         with false_offer_forger(domain, swarm.world) as forger:
             wait_until(
                 lambda: (
@@ -622,8 +618,7 @@ def test_an_fls_process_stopped_past_its_lease_starts_afresh_and_is_taken_back(
     policy = "shortest-length"
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         coordinator = swarm.coordinator
         pid = swarm.processes.fls.processes[12].pid
         os.kill(pid, signal.SIGSTOP)
@@ -664,8 +659,7 @@ def test_a_killed_fls_process_started_again_with_its_id_rejoins_with_the_engines
     policy = "shortest-length"
     spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         first = swarm.processes.fls.processes[12]
         first.kill()
         assert wait_until(
@@ -706,8 +700,8 @@ def test_a_swarm_of_one_process_per_fls_beside_busy_loops_loses_no_fls(domain, t
         subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(BUSY_LOOPS)
     ]
     try:
-        with RunningSwarm(config) as swarm:
-            bring_up = swarm.wait_until_ready()
+        with RunningSwarm.start(config) as swarm:
+            bring_up = swarm.bring_up
             result = swarm.discover(policy, timeout=300)
             load = os.getloadavg()[0]
     finally:

@@ -10,13 +10,8 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.errors import SwazureError
-from swazure_ros.files.results import (
-    RECORD_FILE,
-    RECORD_VERSION,
-    pairs_size_warning,
-    read_pairs,
-    read_record,
-)
+from swazure_ros.files.record import RECORD_FILE, RECORD_VERSION, read_record
+from swazure_ros.files.results import pairs_size_warning, read_pairs
 
 from ..files.test_results import same_table
 

@@ -13,7 +13,8 @@ from swazure_ros.core.errors import SwazureError
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.evaluation import REASON_NAMES
 from swazure_ros.core.summary import Source
-from swazure_ros.files.results import COMPACT_PAIRS, SUMMARY_FILE, write_evaluation, write_json
+from swazure_ros.files.atomic import write_json
+from swazure_ros.files.results import COMPACT_PAIRS, SUMMARY_FILE, write_evaluation
 from swazure_ros.files.runs import (
     COMPARISON_CSV,
     COMPARISON_JSON,

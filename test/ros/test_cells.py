@@ -87,8 +87,7 @@ def test_two_processes_hear_only_their_cells_offers_yet_equal_the_engine(domain,
     # The shape is wide enough that neither share hears every cell that carries offers.
     assert all(sent - topics for topics in heard)
     config = SwarmConfig(WORLD, processes=2, domain_id=domain, params_file=str(params))
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         result = swarm.discover(POLICY)
         world = swarm.world
         engine = evaluate_pairs(world.hood, POLICY)
@@ -121,8 +120,7 @@ def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, 
     assert 0 < len(inside) < len(assigned.cloud_index)
     topic = f"/swarm/{radio_topic(SWEET_BAND, cell)}"
     config = SwarmConfig(spec, domain_id=domain, params_file=str(params), authenticate=False)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         # A person watching one cell: its offers cross DDS because someone now reads them.
         echo = start("topic", "echo", topic, "swazure_interfaces/msg/PathOffer",
                      "--field", "sender_id")  # fmt: skip
@@ -161,8 +159,7 @@ def test_moves_that_cross_cells_made_by_two_processes_equal_the_engine(domain, p
     for cells in radio_cells(world.sensor, world.swarm.radius).values():
         assert (cells.of(plan.move_from) != cells.of(plan.move_to)).any(axis=1).sum() > 50
     config = SwarmConfig(world_spec, processes=2, domain_id=domain, params_file=str(params))
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         plain = swarm.discover(POLICY)
         found = evaluation_of(swarm.world.hood, POLICY, plain.outcome.estimates)
         moved = swarm.make_moves(found, technique, threshold=10, timeout=300)

@@ -69,8 +69,7 @@ def test_generated_messages_stop_nothing_and_change_no_later_answer(domain, tmp_
     )
     spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
     config = SwarmConfig(spec, domain_id=domain, params_file=str(params), authenticate=False)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         host, coordinator = swarm.host, swarm.coordinator
         radio, ids = host.radio, fls_ids(swarm.world)
         # A run under way, so that messages naming it reach the coordinator's clock.
@@ -137,8 +136,7 @@ def test_generated_messages_stop_nothing_and_change_no_later_answer(domain, tmp_
 def test_generated_world_and_move_messages_stop_nothing(domain, tmp_path):
     """The world's own topics: a revision or a batch of moves is taken whole or not at all."""
     spec = WorldSpec("torus:60", beta=0.5)
-    with RunningSwarm(SwarmConfig(spec, domain_id=domain, authenticate=False)) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(SwarmConfig(spec, domain_id=domain, authenticate=False)) as swarm:
         host = swarm.host
         world_node = next(node for node in host.nodes if node.get_name() == "world")
         ids = fls_ids(swarm.world)

@@ -178,8 +178,7 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
     # Two processes: the source's hears the target's radio cell (where the forger sends),
     # as offers between FLSs of one process never cross DDS.
     config = SwarmConfig(world_spec, domain_id=domain, authenticate=authenticate, processes=2)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world, swarm.host.fls_ids)
         if forger_key is None:  # the swarm's own key, as an earlier swarm of one key file had
             forger_key = SwarmKey(swarm.key.material[0])
@@ -243,8 +242,7 @@ def test_forged_measurements_change_no_fit(domain, authenticate, forger_key, dro
     # latched, so that the source's radio hears them the moment it subscribes.
     world_spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
     config = SwarmConfig(world_spec, domain_id=domain, authenticate=authenticate)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         world = swarm.world
         source, target, _, _ = blind_pair_with_a_sweet_path(world)
         neighbour = int(world.neighbours(source).sweet[0])
@@ -296,8 +294,7 @@ def test_an_earlier_swarms_messages_and_replayed_controls_change_nothing(domain)
     earlier = SwarmKey(key)
     world_spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
     config = SwarmConfig(world_spec, domain_id=domain, key=key, processes=2)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         assert swarm.key.instance != earlier.instance
         world = swarm.host.replica.world
         revision, before = world.revision, world.swarm.points.copy()
@@ -370,8 +367,7 @@ def test_an_earlier_swarms_messages_and_replayed_controls_change_nothing(domain)
 def test_without_a_key_a_forged_report_is_implausible_and_changes_no_answer(domain):
     world_spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
     config = SwarmConfig(world_spec, domain_id=domain, authenticate=False)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world)
         with Forger(domain, swarm.world, source, target, SwarmKey(), forge_reports=True) as forger:
             wait_until(
@@ -409,8 +405,7 @@ def test_without_a_key_forged_starts_evict_nobody_for_good_and_forged_acks_resto
     took them all back."""
     world_spec = WorldSpec("helix", beta=0.5)
     config = SwarmConfig(world_spec, domain_id=domain, authenticate=False)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         coordinator, world = swarm.coordinator, swarm.world
         assert len(world.ids) == 300
         node = Node("forger", namespace="swarm", context=context)

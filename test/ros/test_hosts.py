@@ -12,7 +12,7 @@ import sys
 
 import pytest
 
-from swazure_ros.files.results import RECORD_FILE, read_record
+from swazure_ros.files.record import RECORD_FILE, read_record
 
 from ..netns import SCRIPT, hosts_unavailable, netns_hosts, on_host
 from ..waits import PATIENCE

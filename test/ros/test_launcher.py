@@ -23,7 +23,7 @@ from swazure_ros.cli.main import build_parser
 from swazure_ros.cli.spawn import config_from_args
 from swazure_ros.cli.swarm_file import apply_swarm_file
 from swazure_ros.files.reading import config_dir
-from swazure_ros.files.results import RECORD_FILE, read_record
+from swazure_ros.files.record import RECORD_FILE, read_record
 from swazure_ros.ros.security.keys import new_key
 from swazure_ros.sim.world import WorldSpec
 
@@ -76,8 +76,8 @@ def test_swarm_split_over_two_processes_gives_the_same_measurements(context, dom
         Measurements, "/swarm/measurements", lambda m: latest.__setitem__(m.source_id, m), LATCHED
     )
     try:
-        with RunningSwarm(config) as swarm:
-            bring_up = swarm.wait_until_ready()
+        with RunningSwarm.start(config) as swarm:
+            bring_up = swarm.bring_up
             assert bring_up.processes == 2 and len(bring_up.peak_rss_mb) == 2
             world = swarm.world
 
@@ -141,8 +141,7 @@ def test_a_swarm_from_a_swarm_file_gives_every_fls_and_one_fls_their_parameters(
     argv = ["spawn", str(swarm_file), "--domain-id", str(domain), "--processes", "2"]
     config = config_from_args(apply_swarm_file(build_parser().parse_args(argv)))
     assert config.processes == 2 and config.world.cloud == "torus:120"
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         nodes = swarm.host.fls_by_id
         # Shares are regions of the shape (a k-d split): FLS 0 lies in the second one.
         assert 0 not in nodes and len(nodes) == 60

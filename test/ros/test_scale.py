@@ -35,8 +35,8 @@ def test_a_thousand_node_swarm_comes_up_latches_and_computes_the_engines_poses(
     domain, params, context
 ):
     config = SwarmConfig(WORLD, domain_id=domain, params_file=str(params))
-    with RunningSwarm(config) as swarm:
-        bring_up = swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
+        bring_up = swarm.bring_up
         world = swarm.world
         assert bring_up.flss == len(world.ids) >= 1000
         # A reader that joins now gets every FLS's latched measurement.

@@ -30,8 +30,7 @@ def test_a_swarm_solves_its_fit_by_messages_as_the_engine_does(domain, params):
     # by the robust loss, then the covariance's 64 sampled right sides.
     world = WorldSpec("torus:120", scale=2.0, beta=0.5, sensor_file=CALIBRATED)
     config = SwarmConfig(world, domain_id=domain, params_file=str(params))
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         built = swarm.world
         result = swarm.discover("shortest-length", timeout=300, estimator=SWARM_FIT)
     engine = refine(evaluate(built.swarm, built.sensor, "shortest-length"), SWARM_FIT)

@@ -23,7 +23,7 @@ from rclpy.event_handler import QoSSubscriptionMatchedInfo, SubscriptionEventCal
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-from ...files.results import atomic_folder
+from ...files.atomic import atomic_folder
 from ..plumbing.interfaces import message_class
 from .metadata import (
     METADATA_FILE,

@@ -9,8 +9,8 @@ import sys
 from pathlib import Path
 
 from ...core.errors import SwazureError
+from ...files.atomic import atomic_write
 from ...files.reading import read_bytes
-from ...files.results import atomic_write
 
 #: Bytes of a key.
 KEY_BYTES = 32

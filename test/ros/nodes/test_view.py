@@ -66,11 +66,10 @@ def foxglove_scene(port, topic, timeout=PATIENCE):
 def test_a_viewed_swarm_shows_its_flss_in_rviz_and_foxglove_and_follows_a_move(domain):
     config = SwarmConfig(WORLD, domain_id=domain, view=ViewConfig(port=0, seen_from=5))
     received = []
-    with RunningSwarm(config) as swarm:
+    with RunningSwarm.start(config) as swarm:
         probe = SwarmNode("probe", context=swarm.context)
         probe.create_subscription(MarkerArray, "/swarm/scene", received.append, SCENE_QOS)
         swarm.host.add(probe)
-        swarm.wait_until_ready()
         world, scene = swarm.world, swarm.view.scene
 
         def until(condition, seconds=30.0):

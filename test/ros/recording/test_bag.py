@@ -102,10 +102,9 @@ def recorded_run(domain, tmp_path):
     """A helix swarm's discovery, recorded; with what a probe heard and the run's traffic."""
     path = tmp_path / "run"
     config = SwarmConfig(WORLD, domain_id=domain, record=str(path))
-    with RunningSwarm(config) as swarm:
+    with RunningSwarm.start(config) as swarm:
         probe = Probe(swarm.context, [(topic, PathOffer, ROUND_QOS) for topic in RADIO])
         swarm.host.add(probe.node)
-        swarm.wait_until_ready()
         assert wait_until(probe.matched, PATIENCE, lambda: swarm.spin(0.05))
         result = swarm.discover("shortest-length", timeout=PATIENCE)
         # The run's last messages reach every reader, and every FLS's latched measurement

@@ -113,8 +113,7 @@ def test_a_flood_of_track_requests_with_made_up_auths_leaves_compute_pose_answer
     into no answer within 120 s."""
     world_spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
     config = SwarmConfig(world_spec, domain_id=domain, authenticate=False)
-    with RunningSwarm(config) as swarm:
-        swarm.wait_until_ready()
+    with RunningSwarm.start(config) as swarm:
         node = Node("flooder", namespace="swarm", context=context)
         requests = node.create_publisher(TrackRequest, TRACK_REQUESTS_TOPIC, ROUND_QOS)
         wait_until(
