@@ -60,7 +60,7 @@ def test_three_hosts_discover_as_the_engine_does(hosts, tmp_path):
     assert leader.returncode == 0, leader.stderr
     assert "120 FLS nodes in 3 hosts (this is share 0)" in leader.stdout
     record = read_record(tmp_path / "d" / RECORD_FILE)
-    assert record.identical == "yes", leader.stdout + leader.stderr
+    assert record.comparison.identical, leader.stdout + leader.stderr
     for index, (stdout, _) in zip((1, 2), outputs, strict=True):
         assert f"120 FLS nodes in 3 hosts (this is share {index})" in stdout
 
