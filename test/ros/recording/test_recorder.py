@@ -1,0 +1,180 @@
+"""Recording a swarm run as a rosbag2 bag: every message the run sent, in a bag others read."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+import yaml
+from mcap.reader import make_reader
+from rclpy.serialization import deserialize_message
+from rosbags.highlevel import AnyReader
+from swazure_interfaces.msg import Measurements, PoseEstimates
+
+from swazure_ros.ros.recording.metadata import type_hash
+from swazure_ros.ros.recording.reader import read_recording, recorded_channels
+
+from ...conftest import REPO
+from ...waits import PATIENCE
+from ..helpers import joined
+from .conftest import RADIO, RUN_TOPICS, recorded_messages
+
+
+def test_a_recorded_discovery_reads_back_every_message_the_run_sent(recorded_run, tmp_path):
+    path, heard, result, world = recorded_run
+    # Written whole at the path, a bag folder as ros2 bag writes it; nothing else beside it.
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
+    assert sorted(p.name for p in path.iterdir()) == ["metadata.yaml", "run_0.mcap"]
+    channels = {channel.topic: channel for channel in recorded_channels(path)}
+    recorded = recorded_messages(path)
+    for topic in RUN_TOPICS:
+        assert len(recorded[f"/swarm/{topic}"]) == result.traffic.messages[topic] > 0, topic
+    offers = joined(recorded, RADIO)
+    assert len(offers) == result.traffic.messages["radio"] > 0
+    assert sorted(offers) == sorted(joined(heard, RADIO))
+    # Every FLS's latched measurement, as the QoS it was offered with.
+    sources = {
+        deserialize_message(data, Measurements).source_id
+        for data in recorded["/swarm/measurements"]
+    }
+    assert sources == set(world.ids.tolist())
+    assert channels["/swarm/measurements"].metadata["durability"] == "transient_local"
+    # rosbag2's own metadata: every FLS's publisher offered reliable and latched.
+    offers = yaml.safe_load(channels["/swarm/measurements"].metadata["offered_qos_profiles"])
+    assert len(offers) == len(world.ids)
+    # (The graph tells no publisher's history or depth: as in rosbag2's own recordings.)
+    assert {(o["reliability"], o["durability"]) for o in offers} == {
+        ("reliable", "transient_local")
+    }
+    for topic in RADIO:
+        radio = yaml.safe_load(channels[topic].metadata["offered_qos_profiles"])
+        assert {(o["reliability"], o["durability"]) for o in radio} == {("reliable", "volatile")}
+        assert channels[topic].type_name == "swazure_interfaces/msg/PathOffer"
+
+
+def test_a_recording_is_a_bag_that_an_independent_rosbag2_reader_opens(recorded_run):
+    path, _, result, world = recorded_run
+    recorded = recorded_messages(path)
+    channels = {channel.topic: channel for channel in recorded_channels(path)}
+    with AnyReader([path]) as bag:
+        connections = {connection.topic: connection for connection in bag.connections}
+        # Every topic, with its type, type hash, message count and publishers' QoS.
+        # (A topic that sent nothing during the run is in the bag with no message.)
+        assert set(connections) == set(channels) >= set(recorded)
+        for topic, connection in connections.items():
+            assert connection.msgtype == channels[topic].type_name
+            assert connection.msgcount == len(recorded.get(topic, [])), topic
+            assert connection.digest == type_hash(connection.msgtype)
+            assert connection.digest.startswith("RIHS01_")
+            assert connection.ext.serialization_format == "cdr"
+            assert connection.ext.offered_qos_profiles, topic
+        for topic in RADIO:
+            radio = connections[topic].ext.offered_qos_profiles
+            assert {(qos.reliability.name, qos.durability.name) for qos in radio} == {
+                ("RELIABLE", "VOLATILE")
+            }
+        latched = connections["/swarm/measurements"].ext.offered_qos_profiles
+        assert len(latched) == len(world.ids)
+        assert {qos.durability.name for qos in latched} == {"TRANSIENT_LOCAL"}
+        count = sum(len(v) for v in recorded.values())
+        assert bag.message_count == count
+        # The bytes as recorded, and decoded by rosbags from the bag's own schemas. (Not the
+        # radio's offers: rmw_fastrtps's serialize_message pads some of them past their CDR
+        # end with stray bytes, which rosbags refuses and every ROS 2 reader ignores.)
+        cells = [connections[topic] for topic in RADIO]
+        offers = [data for _, _, data in bag.messages(connections=cells)]
+        assert sorted(offers) == sorted(joined(recorded, RADIO))
+        reports = bag.messages(connections=[connections["/swarm/estimates"]])
+        sources = {
+            bag.deserialize(data, "swazure_interfaces/msg/PoseEstimates").source_id
+            for _, _, data in reports
+        }
+        assert sources == set(world.ids.tolist())
+    assert len(joined(recorded, RADIO)) == result.traffic.messages["radio"]
+    # The MCAP file alone is a recording too, with the same messages (our first form).
+    assert recorded_messages(path / "run_0.mcap") == recorded
+    with (path / "run_0.mcap").open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+        metadata = dict(next(make_reader(stream).iter_metadata()).metadata)
+    # rosbag2's MCAP storage reads the bag's metadata from the file, and MCAP's statistics.
+    assert yaml.safe_load(metadata["serialized_metadata"])["message_count"] == count
+    assert summary.statistics.message_count == count
+
+
+def readme_block(heading):
+    """The first ```python block of README.md's section ``heading``, as written there."""
+    text = (REPO / "README.md").read_text()
+    section = text[text.index(f"\n{heading}\n") :]
+    return section.split("```python\n", 1)[1].split("\n```", 1)[0] + "\n"
+
+
+def test_the_readmes_rosbags_block_decodes_a_recording_by_its_own_definitions(
+    recorded_run, tmp_path
+):
+    path, _, _, world = recorded_run
+    # The block reads results/run: the recorded bag, there.
+    (tmp_path / "results").mkdir()
+    (tmp_path / "results" / "run").symlink_to(path)
+    script = tmp_path / "block.py"
+    script.write_text(readme_block("### Read a bag in Python (rosbags)"))
+    run = subprocess.run(
+        [sys.executable, str(script)], cwd=tmp_path, capture_output=True, text=True,
+        timeout=PATIENCE,
+    )  # fmt: skip
+    assert run.returncode == 0 and run.stderr == "", run.stderr
+    # One line per source's report, as rclpy decodes the recorded bytes.
+    reports = [
+        (message.log_time, deserialize_message(message.data, PoseEstimates))
+        for message in read_recording(path)
+        if message.topic == "/swarm/estimates"
+    ]
+    expected = [f"{at} {r.source_id} {len(r.target_ids)} targets" for at, r in reports]
+    assert run.stdout.splitlines() == expected
+    assert {r.source_id for _, r in reports} == set(world.ids.tolist())
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 300 KiB file system (tmpfs), full long before a run's recording is done."""
+    where = tmp_path / "disk"
+    where.mkdir()
+    mounted = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=300k", "tmpfs", str(where)],
+        capture_output=True, text=True,
+    )  # fmt: skip
+    if mounted.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here ({mounted.stderr.strip()}): needs root")
+    try:
+        yield where
+    finally:
+        subprocess.run(["umount", str(where)], check=False)
+
+
+def test_a_full_disk_while_recording_keeps_the_results_and_what_was_written(
+    small_disk, tmp_path, domain
+):
+    bag = small_disk / "bag"
+    run = subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", "spawn", "--cloud", "torus:120",
+         "--scale", "1.6", "--beta", "0.5", "--quiet", "--domain-id", str(domain),
+         "--record", str(bag), "--compute-all", "--out", str(tmp_path / "d")],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert run.returncode == 0 and "Traceback" not in run.stderr, run.stderr
+    # The run's results, on another disk, are whole.
+    assert "pairs identical to the engine's (status, path, estimate to 1e-9): yes" in run.stdout
+    assert (tmp_path / "d" / "summary.json").is_file()
+    # One line says where the recording stopped.
+    (said,) = [line for line in run.stderr.splitlines() if line.startswith("swazure spawn:")]
+    assert "recording stopped after" in said and "No space left on device" in said, said
+    kept = int(said.split("recording stopped after ")[1].split(" ")[0])
+    # What was written is at the bag's path, and replays to where it was cut.
+    replay = subprocess.run(
+        [sys.executable, "-m", "swazure_ros.cli.main", "replay", str(bag), "--delay", "0.01",
+         "--rate", "1000", "--domain-id", str(domain)],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert "Traceback" not in replay.stderr, replay.stderr
+    played = int(replay.stderr.split("cut short after message ")[1].split(";")[0])
+    assert 0 < played <= kept, (played, kept)
