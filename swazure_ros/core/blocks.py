@@ -73,9 +73,12 @@ DEFAULT_MEMORY = 2 * 2**30
 
 @dataclass(frozen=True)
 class Budget:
-    """How much memory, bytes, a block of work may hold."""
+    """How much memory, bytes, a block of work may hold; and, for a run that holds every
+    pair at once instead (core.pipeline), how much the machine has free (None: unknown,
+    not checked)."""
 
     memory: int = DEFAULT_MEMORY
+    free: int | None = None
 
     def __post_init__(self) -> None:
         if self.memory < 2**20:
