@@ -269,8 +269,10 @@ def _with_source(run: EngineRun, source: Source | None) -> EngineRun:
 
 def _check_room(swarm: Swarm, sensor: Sensor, budget: Budget, source: Source | None) -> None:
     """SwazureError when every pair of ``swarm`` held at once needs more than ``budget.free``."""
-    need = whole_swarm_bytes(swarm, sensor)
-    if budget.free is None or need <= budget.free:
+    if budget.free is None:
+        return
+    need = whole_swarm_bytes(swarm, sensor)  # a counting pass over the candidate pairs
+    if need <= budget.free:
         return
     name = "the swarm" if source is None else source.cloud
     raise SwazureError(
