@@ -346,22 +346,12 @@ def _run(
 ) -> tuple[EngineRun, Any]:
     """The engine's run of ``setup``, and its pairs in one pyarrow Table."""
     tables: list[Any] = []
-
-    def take(
-        hood: Neighbourhood,
-        blocks: Iterator[PairResults],
-        heuristic: HeuristicResult | None,
-        blind_pairs: int,
-    ) -> None:
-        tables.append(_table(hood, blocks, heuristic))
-
-    budget = Budget(memory, available_memory())
     run = run_engine(
         setup.swarm,
         setup.sensor,
         options,
-        take=take,
-        budget=budget,
+        take=lambda hood, blocks, heuristic, _: tables.append(_table(hood, blocks, heuristic)),
+        budget=Budget(memory, available_memory()),
         source=setup.source,
         progress=progress,
     )
