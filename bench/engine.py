@@ -6,13 +6,19 @@ The `engine` section of BENCHMARKS.md (`python -m bench --sections engine`).
 from __future__ import annotations
 
 import argparse
-import json
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from bench.common import HEURISTICS, POLICIES, SHAPES, SWAZURE, run, swarm_cloud
+from swazure_ros.core.summary import Summary
+from swazure_ros.files.results import SUMMARY_FILE
+from swazure_ros.files.runs import read_summary
+
+#: A policy's run: shape, policy, its summary, wall s and peak MB.
+PolicyRow = tuple[str, str, Summary, float, float]
+#: A heuristic's run: shape, technique, threshold, its summary, wall s and peak MB.
+HeuristicRow = tuple[str, str, int | None, Summary, float, float]
 
 
 def engine_section(
@@ -22,8 +28,8 @@ def engine_section(
     heuristics: Sequence[tuple[str, int | None]] = HEURISTICS,
 ) -> list[str]:
     """Core engine and heuristics on the six shapes."""
-    rows = []
-    heuristic_rows = []
+    rows: list[PolicyRow] = []
+    heuristic_rows: list[HeuristicRow] = []
     with tempfile.TemporaryDirectory() as scratch:
         for shape in shapes:
             for policy in policies:
@@ -45,7 +51,7 @@ def engine_section(
 
 def timed_evaluate(
     scratch: Path, shape: str, beta: float, *options: str
-) -> tuple[dict[str, Any], float, float]:
+) -> tuple[Summary, float, float]:
     """One `swazure evaluate` of ``shape``: its summary.json, wall s and peak MB."""
     out = scratch / "-".join([shape, *options]).replace("--", "").replace(":", "")
     seconds, memory, code = run(
@@ -54,13 +60,13 @@ def timed_evaluate(
     )  # fmt: skip
     if code != 0:
         raise SystemExit(f"bench: {shape} {options} failed with exit code {code}")
-    summary = json.loads((out / "summary.json").read_text())
+    summary = read_summary(out / SUMMARY_FILE)
     print(f"{shape:16} {' '.join(options):45} {seconds:7.2f} s {memory:7.0f} MB", flush=True)
     return summary, seconds, memory
 
 
 def engine_lines(
-    beta: float, rows: list[tuple[Any, ...]], heuristic_rows: list[tuple[Any, ...]]
+    beta: float, rows: list[PolicyRow], heuristic_rows: list[HeuristicRow]
 ) -> list[str]:
     """The engine's and the heuristics' tables from their runs."""
     lines = [
@@ -75,10 +81,11 @@ def engine_lines(
         "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
     for shape, policy, summary, seconds, memory in rows:
+        pairs = summary.pairs
         lines.append(
-            f"| {shape} | {policy} | {summary['flss']} | {summary['blind_pairs']:,} "
-            f"| {summary['sweet_pct']:.3f} | {summary['decaying_pct']:.3f} "
-            f"| {summary['no_path_pct']:.3f} | {seconds:.1f} | {summary['seconds']:.1f} "
+            f"| {shape} | {policy} | {summary.flss} | {pairs.blind_pairs:,} "
+            f"| {pairs.sweet_pct:.3f} | {pairs.decaying_pct:.3f} "
+            f"| {pairs.no_path_pct:.3f} | {seconds:.1f} | {summary.seconds or 0.0:.1f} "
             f"| {memory:.0f} |"
         )
     lines += [
@@ -96,13 +103,16 @@ def engine_lines(
         "| ---: |",
     ]
     for shape, technique, threshold, summary, seconds, memory in heuristic_rows:
-        moved = summary["moved_distance"]
-        flown = summary.get("flown_distance", {}).get("mean")
+        facts, pairs = summary.heuristic, summary.pairs
+        if facts is None:
+            raise SystemExit(f"bench: {shape} {technique}: its summary has no heuristic")
+        moved = facts.moved_distance
+        flown = None if facts.flown_distance is None else facts.flown_distance.mean
         lines.append(
-            f"| {shape} | {technique} | {threshold or '-'} | {summary['tried_pairs']:,} "
-            f"| {summary['resolved_pairs']:,} | {summary['no_path_pct']:.3f} "
-            f"| {summary['decaying_pct']:.3f} | {moved['count']:,} "
-            f"| {moved['mean'] or 0:.3f} | {moved['max'] or 0:.3f} "
+            f"| {shape} | {technique} | {threshold or '-'} | {facts.tried_pairs:,} "
+            f"| {facts.resolved_pairs:,} | {pairs.no_path_pct:.3f} "
+            f"| {pairs.decaying_pct:.3f} | {moved.count:,} "
+            f"| {moved.mean or 0:.3f} | {moved.max or 0:.3f} "
             f"| {'-' if flown is None else f'{flown:.2f}'} | {seconds:.1f} | {memory:.0f} |"
         )
     lines += [

@@ -9,10 +9,10 @@ import argparse
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from bench.common import SHAPES
 from bench.policies import POLICY_SENSORS, evaluated
+from swazure_ros.core.summary import Summary
 
 # One search per pair and path: the kangaroo's K = 3 takes about 4 minutes, the larger
 # shapes far longer (the dragon, skateboard and race car are left to a longer run).
@@ -55,23 +55,21 @@ def fusion_section(
     return lines
 
 
-def fusion_row(
-    shape: str, sensor_name: str, policy: str, paths: int, summary: dict[str, Any]
-) -> str:
+def fusion_row(shape: str, sensor_name: str, policy: str, paths: int, summary: Summary) -> str:
     """One row: the fusion of up to ``paths`` paths from its summary.json."""
-    within = summary["within_predicted_pct"]
-    fusion = summary.get("fusion")
+    within = summary.pairs.within_predicted_pct
+    fusion = summary.fusion
     if fusion is None:
         cells = ["-", "-", "-"]
         seconds = "-"
     else:
-        one = fusion["distance_error_pct_one_path"]["mean"]
-        fused = fusion["distance_error_pct_fused"]["mean"]
+        one = fusion.distance_error_pct_one_path.mean or 0.0
+        fused = fusion.distance_error_pct_fused.mean or 0.0
         cut = 100 * (1 - fused / one) if one else float("nan")
-        cells = [f"{fusion['pairs_fused']:,}", f"{one:.3f} -> {fused:.3f}", f"{cut:.1f}"]
-        seconds = f"{fusion['seconds']:.1f}"
+        cells = [f"{fusion.pairs_fused:,}", f"{one:.3f} -> {fused:.3f}", f"{cut:.1f}"]
+        seconds = f"{fusion.seconds:.1f}"
     return (
         f"| {shape} | {sensor_name} | {policy} | {paths} | "
-        f"{' | '.join(cells)} | {within:.1f} | {summary['seconds']:.2f} | "
+        f"{' | '.join(cells)} | {within:.1f} | {summary.seconds or 0.0:.2f} | "
         f"{seconds} |"
     )

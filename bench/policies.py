@@ -6,13 +6,14 @@ The `policies` section of BENCHMARKS.md (`python -m bench --sections policies`).
 from __future__ import annotations
 
 import argparse
-import json
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from bench.common import REPO, SHAPES, SWAZURE, run, swarm_cloud
+from swazure_ros.core.summary import Summary
+from swazure_ros.files.results import SUMMARY_FILE
+from swazure_ros.files.runs import read_summary
 
 POLICY_SENSORS = {
     "published": REPO / "config" / "sensor.yaml",
@@ -23,7 +24,7 @@ POLICY_SENSORS = {
 POLICY_BETAS = (0.3, 0.4, 0.5)
 
 
-def evaluated(out: Path, shape: str, beta: float, sensor: Path, *options: str) -> dict[str, Any]:
+def evaluated(out: Path, shape: str, beta: float, sensor: Path, *options: str) -> Summary:
     """summary.json of `swazure evaluate` of a published shape into ``out``; exits on failure."""
     code = run(
         [*SWAZURE, "evaluate", "--cloud", swarm_cloud(shape), "--beta", str(beta),
@@ -31,8 +32,7 @@ def evaluated(out: Path, shape: str, beta: float, sensor: Path, *options: str) -
     )[2]  # fmt: skip
     if code != 0:
         raise SystemExit(f"bench: evaluate {shape} {beta} {' '.join(options)} failed ({code})")
-    summary: dict[str, Any] = json.loads((out / "summary.json").read_text())
-    return summary
+    return read_summary(out / SUMMARY_FILE)
 
 
 def policies_section(
@@ -58,7 +58,7 @@ def policies_section(
         for shape in shapes:
             for beta in betas:
                 for sensor_name, sensor in sensors.items():
-                    found: dict[str, dict[str, Any]] = {}
+                    found: dict[str, Summary] = {}
                     for policy in ("fewest-hops", "shortest-length", "least-error"):
                         out = Path(scratch) / f"{shape}-{beta}-{policy}-{len(found)}"
                         found[policy] = evaluated(out, shape, beta, sensor, "--policy", policy)
@@ -68,13 +68,11 @@ def policies_section(
     return lines
 
 
-def policies_row(
-    shape: str, beta: float, sensor_name: str, found: dict[str, dict[str, Any]]
-) -> str:
+def policies_row(shape: str, beta: float, sensor_name: str, found: dict[str, Summary]) -> str:
     """One row: the three policies' errors and engine times from their summary.json."""
-    error = {p: one["distance_error_pct"]["mean"] for p, one in found.items()}
-    alpha = {p: one["alpha_deg"]["mean"] for p, one in found.items()}
-    seconds = {p: one["seconds"] for p, one in found.items()}
+    error = {p: one.pairs.distance_error_pct.mean or 0.0 for p, one in found.items()}
+    alpha = {p: one.pairs.alpha_deg.mean or 0.0 for p, one in found.items()}
+    seconds = {p: one.seconds or 0.0 for p, one in found.items()}
     sl, le = "shortest-length", "least-error"
     return (
         f"| {shape} | {beta:g} | {sensor_name} | "

@@ -13,6 +13,8 @@ from pathlib import Path
 from typing import Any
 
 from bench.common import DATASETS, REPO, SECTIONS_DIR, SHAPES, SWAZURE, run_output
+from swazure_ros.files.results import SUMMARY_FILE
+from swazure_ros.files.runs import read_summary
 
 #: The scale table's clouds: the published race car, tori of growing size, display-size
 #: shapes, and the race car resampled to a display's 65,536 FLSs at the paper's spacing.
@@ -59,12 +61,13 @@ def scale_run(name: str, memory: str | None, scratch_dir: Path = SECTIONS_DIR) -
         )  # fmt: skip
         if code != 0:
             raise SystemExit(f"bench: evaluate {name} {options} failed with exit code {code}")
-        summary = json.loads((Path(scratch) / "summary.json").read_text())
+        summary = read_summary(Path(scratch) / SUMMARY_FILE)
         csv_bytes = (Path(scratch) / "pairs.csv").stat().st_size
+    pairs = summary.pairs
     row = {"cloud": name, "memory": memory or "default", "wall": wall, "peak": peak,
-           "engine": summary["seconds"], "flss": summary["flss"],
-           "pairs": summary["blind_pairs"], "sweet_pct": summary["sweet_pct"],
-           "quantiles": summary["quantiles"], "csv_bytes": csv_bytes}  # fmt: skip
+           "engine": summary.seconds, "flss": summary.flss,
+           "pairs": pairs.blind_pairs, "sweet_pct": pairs.sweet_pct,
+           "quantiles": pairs.as_document()["quantiles"], "csv_bytes": csv_bytes}  # fmt: skip
     print(f"bench: scale {name} {row['memory']}: {wall:.1f} s, {peak:.0f} MB", flush=True)
     return row
 

@@ -6,12 +6,13 @@ The `study` section of BENCHMARKS.md (`python -m bench --sections study`).
 from __future__ import annotations
 
 import argparse
-import json
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
 from bench.common import SWAZURE, du_mb, run
+from swazure_ros.files.results import SUMMARY_FILE
+from swazure_ros.files.runs import read_summary
 
 
 def study_section(
@@ -45,17 +46,11 @@ def study_section(
             seconds, memory, code = run(command)
             if code != 0:
                 raise SystemExit(f"bench: study ({case}) failed with exit code {code}")
-            computed = json.loads(
-                (
-                    out
-                    / "runs"
-                    / shape
-                    / "beta-0.5"
-                    / "shortest-length"
-                    / "plain"
-                    / "summary.json"
-                ).read_text()
-            )["study"]["key"] and (runs if case == "cold" else 0)
+            plain = out / "runs" / shape / "beta-0.5" / "shortest-length" / "plain"
+            # The study wrote the shape's run under its cache key.
+            if read_summary(plain / SUMMARY_FILE).study is None:
+                raise SystemExit(f"bench: study ({case}): {plain} has no cache key")
+            computed = runs if case == "cold" else 0
             print(f"study {case}: {seconds:.1f} s, {memory:.0f} MB", flush=True)
             lines.append(
                 f"| {case} | {computed} | {seconds:.1f} | {memory:.0f} | {du_mb(out):,.0f} |"

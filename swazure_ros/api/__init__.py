@@ -16,11 +16,11 @@ Importing this module loads no rclpy: the client loads it when it connects.
 """
 
 from ..core.errors import CloudError, OptionError, RunError, SensorError, SwazureError
+from ..core.pipeline import RunOptions
 from ..sim.world import WorldSpec
 from .client import SwarmClient, compute_all, connect, spawn
 from .engine import (
     Result,
-    RunOptions,
     SwarmSetup,
     build_swarm,
     cloud_of,

@@ -4,57 +4,44 @@
 built-in shape or a published cloud's name); :func:`evaluate` runs plain
 Swazure, a heuristic, fusion or a least-squares estimator over it and returns
 a :class:`Result`: the run's typed records (``core.summary.Summary``,
-``files.record.RunRecord``) and its pairs as a ``pyarrow.Table``.
+``files.results.RunRecord``) and its pairs as a ``pyarrow.Table``.
 :func:`move_obstructing` and :func:`move_source` name the two heuristics.
 
-``swazure evaluate`` runs through the same two workhorses,
-:func:`run_blocked` (plain Swazure, a block of pairs at a time) and
-:func:`run_whole` (every pair held at once), so a script and the command line
+``swazure evaluate`` and :func:`evaluate` run through the same pipeline,
+``core.pipeline.run_engine``, which runs plain Swazure a block of pairs at a
+time or holds every pair, as the run needs, so a script and the command line
 get the same numbers and the same pairs.
 """
 
 from __future__ import annotations
 
 import math
-import time
-from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass, replace
+from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..core.blocks import DEFAULT_MEMORY, Budget, evaluate_blocked, whole_swarm_bytes
+from ..core.blocks import DEFAULT_MEMORY, Budget
 from ..core.clouds import Cloud, validate_points
 from ..core.errors import CloudError, OptionError, SwazureError
-from ..core.evaluate import evaluate as evaluate_swarm
 from ..core.evaluation import Evaluation, PairResults
-from ..core.fit import ESTIMATORS, PATH, check_plain_estimator, refine
-from ..core.fusion import fuse as fuse_paths
+from ..core.fit import PATH
 from ..core.geometry import Swarm, make_swarm
-from ..core.heuristics.compat import COMPAT_MODES
-from ..core.heuristics.folding import run_technique
-from ..core.heuristics.result import (
-    MAX_THRESHOLD,
-    MOVE_OBSTRUCTING,
-    MOVE_SOURCE,
-    PLAIN,
-    TECHNIQUES,
-    HeuristicResult,
-)
+from ..core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN, HeuristicResult
 from ..core.neighbourhood import Neighbourhood
-from ..core.paths import POLICIES, SHORTEST_LENGTH
-from ..core.progress import SILENT, Progress
+from ..core.paths import SHORTEST_LENGTH
+from ..core.pipeline import EngineRun, RunOptions, run_engine
+from ..core.progress import Progress
 from ..core.sensor import Sensor
-from ..core.summary import Summary, with_source
+from ..core.summary import Source, Summary
 from ..files.cloud_files import load_cloud
 from ..files.reading import available_memory
 from ..files.record import RunRecord
 from ..files.results import pairs_table
 from ..files.sensors import load_sensor
-
-T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -71,50 +58,10 @@ class SwarmSetup:
     seed: int  # of the choice of colliding FLSs removed
     sensor_file: str | Path | None  # None: config/sensor.yaml
 
-
-@dataclass(frozen=True)
-class RunOptions:
-    """What a run is asked for: ``swazure evaluate``'s options of the same names."""
-
-    policy: str = SHORTEST_LENGTH
-    technique: str = PLAIN
-    threshold: int = 10  # Move Source: steps of r probed per direction
-    compat: str = "text"  # the heuristics as the paper's text ("text") or code ("published")
-    fuse: int = 1  # sweet paths fused per pair
-    estimator: str = PATH
-
-    def check(self) -> None:
-        """OptionError for a value that is none of its choices; SwazureError for options that
-        do not go together (the command line's messages)."""
-        for name, choices in (
-            ("policy", POLICIES),
-            ("technique", TECHNIQUES),
-            ("compat", tuple(COMPAT_MODES)),
-            ("estimator", ESTIMATORS),
-        ):
-            value = getattr(self, name)
-            if value not in choices:
-                raise OptionError(f"{name} {value!r}: expected one of {', '.join(choices)}")
-        _whole_number("threshold", self.threshold, 1, MAX_THRESHOLD)
-        _whole_number("fuse", self.fuse, 1, None)
-        if self.fuse > 1 and self.technique != PLAIN:
-            raise SwazureError("--fuse combines plain Swazure's paths; drop --technique")
-        check_plain_estimator(self.estimator, self.technique, self.fuse)
-        if self.compat != "text" and self.technique == PLAIN:
-            raise SwazureError(f"--compat {self.compat} changes the heuristics; add --technique")
-
     @property
-    def blocked(self) -> bool:
-        """Whether the run is plain Swazure alone, which runs a block of pairs at a time."""
-        return self.technique == PLAIN and self.fuse == 1 and self.estimator == PATH
-
-
-def _whole_number(name: str, value: object, low: int, high: int | None) -> None:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer):
-        raise OptionError(f"{name} must be a whole number, got {value!r}")
-    if value < low or (high is not None and value > high):
-        top = f" to {high}" if high is not None else " or more"
-        raise OptionError(f"{name} {value}: must be {low}{top}")
+    def source(self) -> Source:
+        """Where the swarm came from, as a run's summary names it."""
+        return Source.of(self.cloud, self.seed, self.sensor_file)
 
 
 @dataclass(frozen=True)
@@ -290,13 +237,13 @@ def evaluate(
     memory : int, default 2 GiB
         Bytes a block of plain Swazure's pairs may hold.
     progress : Progress, optional
-        Told each stage's start and advance (``core.progress.Progress``).
+        Told each stage's start and advance (``core.evaluate.Progress``).
 
     Returns
     -------
     Result
         ``summary`` (``core.summary.Summary``), ``record``
-        (``files.record.RunRecord``), ``pairs`` (a ``pyarrow.Table``, one row
+        (``files.results.RunRecord``), ``pairs`` (a ``pyarrow.Table``, one row
         per ordered blind pair; FLS ids are the cloud's row numbers; distances
         cm, angles degrees, errors %).
 
@@ -320,13 +267,9 @@ def evaluate(
         kind = type(swarm).__name__
         raise OptionError(f"swarm must be a SwarmSetup (build_swarm(cloud, beta=...)), got {kind}")
     options = RunOptions(policy, technique, threshold, compat, fuse, estimator)
-    options.check()
-    if options.blocked:
-        record, tables = run_blocked(swarm, policy, memory, progress or SILENT, _tables)
-        return Result(swarm, options, record, tables)
-    evaluation, heuristic, record = run_whole(swarm, options, progress)
-    table = pairs_table(evaluation.hood, evaluation.pairs, heuristic, as_text=False)
-    return Result(swarm, options, record, table, evaluation, heuristic)
+    run, table = _run(swarm, options, memory, progress)
+    record = RunRecord("evaluate", run.summary.seconds or 0.0, run.summary)
+    return Result(swarm, options, record, table, run.evaluation, run.heuristic)
 
 
 def move_obstructing(
@@ -401,11 +344,30 @@ def move_source(
     return evaluate(swarm, policy, technique=MOVE_SOURCE, threshold=threshold, compat=compat)
 
 
-def _tables(hood: Neighbourhood, blocks: Iterable[PairResults], blind_pairs: int) -> Any:
+def _run(
+    setup: SwarmSetup, options: RunOptions, memory: int, progress: Progress | None
+) -> tuple[EngineRun, Any]:
+    """The engine's run of ``setup``, and its pairs in one pyarrow Table."""
+    tables: list[Any] = []
+    run = run_engine(
+        setup.swarm,
+        setup.sensor,
+        options,
+        take=lambda hood, blocks, heuristic, _: tables.append(_table(hood, blocks, heuristic)),
+        budget=Budget(memory, available_memory()),
+        source=setup.source,
+        progress=progress,
+    )
+    return run, tables[0]
+
+
+def _table(
+    hood: Neighbourhood, blocks: Iterator[PairResults], heuristic: HeuristicResult | None
+) -> Any:
     """Every block's pairs in one pyarrow Table (paths as lists of FLS ids)."""
     import pyarrow as pa
 
-    tables = [pairs_table(hood, pairs, None, as_text=False) for pairs in blocks]
+    tables = [pairs_table(hood, pairs, heuristic, as_text=False) for pairs in blocks]
     if not tables:  # no blind pair: the columns still
         none = np.empty(0, dtype=np.int64)
         from ..core.evaluate import evaluate_pairs
@@ -413,129 +375,3 @@ def _tables(hood: Neighbourhood, blocks: Iterable[PairResults], blind_pairs: int
         empty = evaluate_pairs(hood, SHORTEST_LENGTH, blind=(none, none))
         tables = [pairs_table(hood, empty, None, as_text=False)]
     return pa.concat_tables(tables)
-
-
-def run_blocked(
-    setup: SwarmSetup,
-    policy: str,
-    memory: int,
-    progress: Progress,
-    take: Callable[[Neighbourhood, Iterator[PairResults], int], T],
-) -> tuple[RunRecord, T]:
-    """Plain Swazure a block of pairs at a time: ``take`` gets every block.
-
-    The workhorse of :func:`evaluate` and ``swazure evaluate`` for plain Swazure.
-
-    Parameters
-    ----------
-    setup : SwarmSetup
-        From :func:`build_swarm`.
-    policy : str
-        The path policy, one of ``core.paths.POLICIES``.
-    memory : int
-        Bytes a block of pairs may hold (``core.blocks.Budget``).
-    progress : Progress
-        Told each stage's start and advance.
-    take : callable
-        ``take(hood, blocks, blind_pairs)``: must go through ``blocks`` (write
-        them, join them); FLS ids are ``hood.swarm.cloud_index[...]`` of the
-        pairs' indices; ``blind_pairs`` is how many pairs the blocks will hold
-        (known before the first block: a writer can say how much it will write).
-
-    Returns
-    -------
-    record : RunRecord
-        The run's record; its summary is the run's, with where the swarm came from.
-    taken : object
-        What ``take`` returned.
-
-    Raises
-    ------
-    RuntimeError
-        ``take`` left blocks unmade: the summary needs every pair tallied.
-
-    Examples
-    --------
-    >>> from swazure_ros import api
-    >>> from swazure_ros.core.progress import SILENT
-    >>> setup = api.build_swarm("torus:120", scale=5, beta=0.5)
-    >>> count = lambda hood, blocks, blind_pairs: sum(len(pairs) for pairs in blocks)
-    >>> record, pairs = api.engine.run_blocked(setup, "fewest-hops", 2**30, SILENT, count)
-    >>> record.summary.pairs.blind_pairs == pairs
-    True
-    """
-    run = evaluate_blocked(setup.swarm, setup.sensor, policy, Budget(memory), progress)
-    taken = take(run.hood, run.blocks(progress), len(run.lean.blind))
-    summary = with_source(run.summary(), setup.cloud, setup.seed, setup.sensor_file)
-    return RunRecord("evaluate", run.seconds, summary), taken
-
-
-def run_whole(
-    setup: SwarmSetup, options: RunOptions, progress: Progress | None
-) -> tuple[Evaluation, HeuristicResult | None, RunRecord]:
-    """A heuristic, fusion or a fit: every pair of the swarm held at once.
-
-    The workhorse of :func:`evaluate` and ``swazure evaluate`` for all but plain
-    Swazure.
-
-    Parameters
-    ----------
-    setup : SwarmSetup
-        From :func:`build_swarm`.
-    options : RunOptions
-        What to run, checked (:meth:`RunOptions.check`).
-    progress : Progress, optional
-        Told each stage's start and advance.
-
-    Returns
-    -------
-    evaluation : Evaluation
-        Every ordered blind pair (``core.evaluation.PairResults``, swarm
-        indices) and the summary, with where the swarm came from.
-    heuristic : HeuristicResult or None
-        The heuristic's moves, with a technique.
-    record : RunRecord
-        The run's record (``record.json``).
-
-    Raises
-    ------
-    SwazureError
-        This machine lacks the memory to hold every pair.
-
-    Examples
-    --------
-    >>> from swazure_ros import api
-    >>> setup = api.build_swarm("torus:120", scale=5, beta=0.5)
-    >>> options = api.RunOptions(estimator="least-squares")
-    >>> evaluation, _, record = api.engine.run_whole(setup, options, None)
-    >>> record.summary.fit.estimator
-    'least-squares'
-    """
-    swarm, sensor = setup.swarm, setup.sensor
-    need, have = whole_swarm_bytes(swarm, sensor), available_memory()
-    if need > have:
-        raise SwazureError(
-            f"{setup.cloud.name}: --technique, --fuse, --estimator and --snapshot hold every "
-            f"pair of the swarm at once, about {need / 2**30:.1f} GB for {swarm.size} FLSs; "
-            f"this machine has {have / 2**30:.1f} GB free (plain Swazure runs in blocks)"
-        )
-    heuristic: HeuristicResult | None = None
-    evaluation = evaluate_swarm(swarm, sensor, options.policy, progress)
-    if options.technique != PLAIN:
-        began = time.perf_counter()
-        if progress is not None:
-            progress.start(options.technique, 1)
-        evaluation, heuristic = run_technique(
-            evaluation, options.technique, options.threshold, COMPAT_MODES[options.compat]
-        )
-        seconds = (evaluation.summary.seconds or 0.0) + time.perf_counter() - began
-        evaluation = replace(evaluation, summary=replace(evaluation.summary, seconds=seconds))
-    if options.fuse > 1:
-        evaluation = fuse_paths(evaluation, options.fuse)
-    if options.estimator != PATH:
-        if progress is not None:
-            progress.start(options.estimator, 1)
-        evaluation = refine(evaluation, options.estimator)
-    summary = with_source(evaluation.summary, setup.cloud, setup.seed, setup.sensor_file)
-    evaluation = replace(evaluation, summary=summary)
-    return evaluation, heuristic, RunRecord("evaluate", summary.seconds or 0.0, summary)

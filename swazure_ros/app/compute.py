@@ -7,17 +7,15 @@ the same work, pair by pair (:func:`same_results`).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..core.evaluate import evaluate
 from ..core.evaluation import Evaluation
-from ..core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT, check_plain_estimator, refine
-from ..core.heuristics.folding import run_technique
+from ..core.fit import PATH, check_plain_estimator
 from ..core.heuristics.result import PLAIN, HeuristicResult
+from ..core.pipeline import RunOptions, run_engine
 from ..core.summary import with_source
 from ..files.record import Distributed, EngineComparison, RunRecord
 from ..protocol.discovery.estimate import evaluation_of
@@ -54,7 +52,7 @@ def compute_all(
     ``on_progress`` how far each run is, every PROGRESS_PERIOD s. With the
     ``estimator`` local-least-squares each source fits what it hears, with
     swarm-fit the swarm solves its fit, and the engine does the same
-    (``core.fit.refine(..., estimator)``). ``per_run``: the
+    (``core.pipeline.run_engine``, every pair held). ``per_run``: the
     most sources one discovery run searches for (``RunningSwarm.discover``).
     """
     check_plain_estimator(estimator, technique)
@@ -77,12 +75,8 @@ def compute_all(
             title = f"{world.cloud.name}, {policy}, {technique}: after the swarm's moves"
             scene = evaluation_scene(evaluation, title, heuristic=heuristic, pairs=pairs)
             swarm.view.show(scene)
-    began = time.perf_counter()
-    engine = evaluate(world.swarm, world.sensor, policy)
-    engine, _ = run_technique(engine, technique, threshold)
-    if estimator in (LOCAL_LEAST_SQUARES, SWARM_FIT):
-        engine = refine(engine, estimator)
-    engine_seconds = time.perf_counter() - began
+    options = RunOptions(policy, technique, threshold, estimator=estimator)
+    engine = run_engine(world.swarm, world.sensor, options, hold=True)
     seconds = result.seconds + (moved.seconds if moved is not None else 0.0)
     spec = swarm.config.world
     found = replace(evaluation.summary, seconds=seconds)
@@ -93,12 +87,12 @@ def compute_all(
         seconds,
         summary,
         engine=engine.summary,
-        engine_seconds=engine_seconds,
-        comparison=same_results(evaluation, engine),
+        engine_seconds=engine.seconds,
+        comparison=same_results(evaluation, engine.held),
         bring_up=swarm.bring_up,
         distributed=Distributed.of(result, moved),
     )
-    return SwarmComputation(evaluation, heuristic, engine, record)
+    return SwarmComputation(evaluation, heuristic, engine.held, record)
 
 
 def run_failure(record: RunRecord) -> str | None:

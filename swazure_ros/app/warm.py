@@ -14,11 +14,10 @@ from __future__ import annotations
 import sys
 import time
 
-from ..core.evaluate import evaluate
-from ..core.heuristics.folding import run_technique
 from ..core.heuristics.result import TECHNIQUES
 from ..core.observe import observations
 from ..core.paths import POLICIES
+from ..core.pipeline import RunOptions, run_engine
 from ..protocol.loops import discover
 from ..sim.world import WorldSpec
 
@@ -33,16 +32,16 @@ def warm_kernels() -> None:
     """
     world = SHAPE.build()
     for policy in POLICIES:
-        evaluation = evaluate(world.swarm, world.sensor, policy)
+        plain = run_engine(world.swarm, world.sensor, RunOptions(policy), hold=True)
         discover(
-            observations(evaluation.hood),
+            observations(plain.held.hood),
             world.swarm.cloud_index,
             world.sensor,
             world.swarm.radius,
             policy,
         )
     for technique in TECHNIQUES:
-        run_technique(evaluation, technique)
+        run_engine(world.swarm, world.sensor, RunOptions(policy, technique), plain=plain)
 
 
 def main() -> int:

@@ -11,20 +11,21 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Iterator
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from ..api.engine import RunOptions, SwarmSetup, run_blocked, run_whole
-from ..core.blocks import DEFAULT_MEMORY
+from ..api.engine import SwarmSetup
+from ..core.blocks import DEFAULT_MEMORY, Budget
 from ..core.evaluation import PairResults
 from ..core.fit import ESTIMATORS, PATH
-from ..core.heuristics.result import PLAIN, TECHNIQUES
+from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
 from ..core.neighbourhood import Neighbourhood
-from ..core.progress import SILENT, Progress
+from ..core.pipeline import EngineRun, RunOptions, run_engine
+from ..core.progress import Progress
 from ..files.atomic import write_json
-from ..files.record import write_record
-from ..files.results import SUMMARY_FILE, write_pair_blocks, write_run
+from ..files.reading import available_memory
+from ..files.record import RunRecord, write_record
+from ..files.results import SUMMARY_FILE, write_pair_blocks
 from .arguments import (
     count,
     memory_size,
@@ -150,14 +151,45 @@ def main(args: argparse.Namespace) -> int:
     options = RunOptions(
         args.policy, args.technique, args.threshold, args.compat, args.fuse, args.estimator
     )
-    options.check()
+    written: list[Path | None] = []  # the per-pair file, once written
+
+    def take(
+        hood: Neighbourhood,
+        blocks: Iterator[PairResults],
+        heuristic: HeuristicResult | None,
+        blind_pairs: int,
+    ) -> None:
+        warn_of_large_pairs("evaluate", blind_pairs, args.pairs)
+        written.append(
+            write_pair_blocks(args.out, hood, args.policy, blocks, args.pairs, heuristic=heuristic)
+        )
+
     try:
-        if options.blocked and args.snapshot is None:
-            return _evaluate_in_blocks(args, setup, progress)
-        return _evaluate_whole(args, setup, options, progress)
+        run = run_engine(
+            setup.swarm,
+            setup.sensor,
+            options,
+            hold=args.snapshot is not None,  # a snapshot draws every pair
+            take=None if args.out is None else take,
+            budget=Budget(args.memory, available_memory()),
+            source=setup.source,
+            progress=progress,
+        )
     finally:
         if isinstance(progress, TqdmProgress):
             progress.close()
+    summary = run.summary
+    record = RunRecord("evaluate", summary.seconds or 0.0, summary, pairs=args.pairs)
+    print(_headline(args, setup, record.seconds))
+    print(summary_table(summary))
+    explain_run("evaluate", summary, setup.swarm, setup.sensor, setup.cloud.scale)
+    if args.out is not None:
+        summary_path = args.out / SUMMARY_FILE
+        write_json(summary_path, summary.as_document())
+        print(wrote(summary_path, written[0], write_record(args.out, record)))
+    if args.snapshot is not None:
+        _snapshot(args, setup, run)
+    return 0
 
 
 def _headline(args: argparse.Namespace, setup: SwarmSetup, seconds: float) -> str:
@@ -170,56 +202,13 @@ def _headline(args: argparse.Namespace, setup: SwarmSetup, seconds: float) -> st
     )
 
 
-def _evaluate_in_blocks(
-    args: argparse.Namespace, setup: SwarmSetup, progress: Progress | None
-) -> int:
-    """Plain Swazure a block of pairs at a time: pairs written as they are made."""
+def _snapshot(args: argparse.Namespace, setup: SwarmSetup, run: EngineRun) -> None:
+    """Draw the swarm of a run that held every pair: FLSs, example paths, a heuristic's moves."""
+    from ..view.scene import evaluation_scene
+    from ..view.snapshot import write_snapshot
 
-    def take(hood: Neighbourhood, blocks: Iterator[PairResults], blind_pairs: int) -> Path | None:
-        if args.out is None:
-            for _ in blocks:
-                pass
-            return None
-        warn_of_large_pairs("evaluate", blind_pairs, args.pairs)
-        return write_pair_blocks(args.out, hood, args.policy, blocks, args.pairs)
-
-    record, pairs_path = run_blocked(setup, args.policy, args.memory, progress or SILENT, take)
-    record = replace(record, pairs=args.pairs)
-    summary = record.summary
-    assert summary is not None  # an evaluation's record has its summary
-    print(_headline(args, setup, record.seconds))
-    print(summary_table(summary))
-    explain_run("evaluate", summary, setup.swarm, setup.sensor, setup.cloud.scale)
-    if args.out is not None:
-        summary_path = args.out / SUMMARY_FILE
-        write_json(summary_path, summary.as_document())
-        record_path = write_record(args.out, record)
-        print(wrote(summary_path, pairs_path, record_path))
-    return 0
-
-
-def _evaluate_whole(
-    args: argparse.Namespace, setup: SwarmSetup, options: RunOptions, progress: Progress | None
-) -> int:
-    """A heuristic, fusion, a fit or a snapshot: every pair of the swarm held at once."""
-    evaluation, heuristic, record = run_whole(setup, options, progress)
-    if isinstance(progress, TqdmProgress):
-        progress.close()
-    record = replace(record, pairs=args.pairs)
-    print(_headline(args, setup, record.seconds))
-    print(summary_table(evaluation.summary))
-    explain_run("evaluate", evaluation.summary, setup.swarm, setup.sensor, setup.cloud.scale)
-    if args.out is not None:
-        warn_of_large_pairs("evaluate", evaluation.summary.pairs.blind_pairs, args.pairs)
-        print(wrote(*write_run(args.out, evaluation, record, heuristic)))
-    if args.snapshot is not None:
-        from ..view.scene import evaluation_scene
-        from ..view.snapshot import write_snapshot
-
-        swarm = setup.swarm
-        title = f"{setup.cloud.name}, beta {cell(swarm.beta)}, {args.policy}, {args.technique}"
-        scene = evaluation_scene(
-            evaluation, title, args.colour_by, args.seen_from, heuristic=heuristic
-        )
-        print(f"wrote {write_snapshot(scene, args.snapshot)}")
-    return 0
+    title = f"{setup.cloud.name}, beta {cell(setup.swarm.beta)}, {args.policy}, {args.technique}"
+    scene = evaluation_scene(
+        run.held, title, args.colour_by, args.seen_from, heuristic=run.heuristic
+    )
+    print(f"wrote {write_snapshot(scene, args.snapshot)}")

@@ -69,9 +69,12 @@ DEFAULT_MEMORY = 2 * 2**30
 
 @dataclass(frozen=True)
 class Budget:
-    """How much memory, bytes, a block of work may hold."""
+    """How much memory, bytes, a block of work may hold; and, for a run that holds every
+    pair at once instead (core.pipeline), how much the machine has free (None: unknown,
+    not checked)."""
 
     memory: int = DEFAULT_MEMORY
+    free: int | None = None
 
     def __post_init__(self) -> None:
         if self.memory < 2**20:
@@ -370,7 +373,7 @@ def evaluate_blocked(
     --------
     >>> from swazure_ros.core.blocks import Budget, evaluate_blocked
     >>> from swazure_ros.core.clouds import builtin_points
-    >>> from swazure_ros.core.evaluate import SILENT
+    >>> from swazure_ros.core.progress import SILENT
     >>> from swazure_ros.core.geometry import make_swarm
     >>> from swazure_ros.core.sensor import Sensor
     >>> published = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755))

@@ -111,6 +111,14 @@ class Source:
     seed: int
     sensor_file: str
 
+    @classmethod
+    def of(cls, cloud: Cloud, seed: int, sensor_file: str | Path | None) -> Source:
+        """The source of a swarm made of ``cloud`` with ``seed``, its sensor read from
+        ``sensor_file`` (None: the default, config/sensor.yaml)."""
+        return cls(
+            cloud.name, cloud.source, cloud.scale, seed, str(sensor_file or "config/sensor.yaml")
+        )
+
 
 @dataclass(frozen=True)
 class Parameters:
@@ -371,7 +379,5 @@ def with_source(
     Summary
         A copy whose ``parameters.source`` says all that.
     """
-    source = Source(
-        cloud.name, cloud.source, cloud.scale, seed, str(sensor_file or "config/sensor.yaml")
-    )
+    source = Source.of(cloud, seed, sensor_file)
     return replace(summary, parameters=replace(summary.parameters, source=source))

@@ -260,12 +260,14 @@ def write_pair_blocks(
     blocks: Iterable[PairResults],
     pairs_format: str = "csv",
     columns: str = FULL_PAIRS,
+    heuristic: HeuristicResult | None = None,
 ) -> Path | None:
     """Write the per-pair file of a run made block by block (core.blocks), as blocks come.
 
     The same bytes as :func:`write_evaluation` gives for the pairs of all
     blocks at once; only one block's table is held at a time. Returns its
     path; with ``pairs_format="none"`` the blocks are only made, and None.
+    A heuristic's run comes as one block, with its moves (``heuristic``).
     """
     import pyarrow.parquet as pq
 
@@ -280,10 +282,10 @@ def write_pair_blocks(
         if pairs_format == "csv":
             with open(temporary, "wb") as out:
                 for number, pairs in enumerate(blocks):
-                    table = pairs_table(hood, pairs, None, True, columns)
+                    table = pairs_table(hood, pairs, heuristic, True, columns)
                     write_csv(table, out, header=number == 0)
         else:
-            tables = (pairs_table(hood, pairs, None, False, columns) for pairs in blocks)
+            tables = (pairs_table(hood, pairs, heuristic, False, columns) for pairs in blocks)
             first = next(tables)
             with pq.ParquetWriter(str(temporary), first.schema, compression="zstd") as writer:
                 for group in _row_groups(itertools.chain([first], tables), PARQUET_ROWS):

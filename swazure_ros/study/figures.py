@@ -19,7 +19,7 @@ from matplotlib.figure import Figure
 from ..core.errors import SwazureError
 from ..core.evaluate import evaluate
 from ..core.geometry import make_swarm
-from ..core.summary import Document
+from ..core.summary import Summary
 from ..files.atomic import atomic_write
 from ..files.reading import CONFIG_BYTES, read_text
 from ..files.results import read_pairs
@@ -78,7 +78,7 @@ def _legend(figure: Figure, axes: Sequence[Axes]) -> None:
 def metric_vs_beta(
     plan: StudyPlan,
     result: SweepResult,
-    value: Callable[[Document], float | None],
+    value: Callable[[Summary], float | None],
     title: str,
     ylabel: str,
     log: bool = False,
@@ -183,7 +183,7 @@ def obstructing_boxplot(plan: StudyPlan, result: SweepResult) -> Figure:
                 box = (
                     None
                     if summary is None
-                    else box_stats(summary["obstructing_flss_histogram"], f"{beta:g}")
+                    else box_stats(summary.pairs.obstructing_flss_histogram, f"{beta:g}")
                 )
                 if box is not None:
                     stats.append(box)
@@ -262,8 +262,8 @@ def study_figures(plan: StudyPlan, result: SweepResult, out: Path) -> dict[str, 
     """Draw and write every figure of the study into ``out/figures``; return name -> path."""
     folder = out / "figures"
 
-    def stat(key: str, name: str) -> Callable[[Document], float | None]:
-        return lambda summary: summary[key][name]
+    def stat(key: str, name: str) -> Callable[[Summary], float | None]:
+        return lambda summary: getattr(getattr(summary.pairs, key), name)
 
     figures = {
         "distance_error_mean": metric_vs_beta(
@@ -294,7 +294,7 @@ def study_figures(plan: StudyPlan, result: SweepResult, out: Path) -> dict[str, 
         "obstructed_paths": metric_vs_beta(
             plan,
             result,
-            lambda summary: summary["obstructed_path_pct"],
+            lambda summary: summary.pairs.obstructed_path_pct,
             "Pairs whose policy-shortest sweet path has an obstructed hop",
             "obstructed sweet paths (% of pairs with an S_all path)",
         ),

@@ -20,6 +20,7 @@ from ..core.fit import LEAST_SQUARES
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN
 from ..core.paths import POLICIES
+from ..core.pipeline import RunOptions
 from ..core.sensor import Sensor
 from ..files.results import COMPACT_PAIRS, NO_PAIRS, PAIR_COLUMNS
 
@@ -68,6 +69,14 @@ class Technique:
         else:
             title = names[self.name]
         return title if self.compat == "text" else f"{title} ({self.compat} code)"
+
+    def options(self, policy: str) -> RunOptions:
+        """What the engine's pipeline runs for this technique under ``policy``."""
+        if self.name == FUSED:
+            return RunOptions(policy, fuse=self.threshold or 1)
+        if self.name == FIT:
+            return RunOptions(policy, estimator=FIT)
+        return RunOptions(policy, self.name, self.threshold or 10, self.compat)
 
     @classmethod
     def parse(cls, text: str) -> Technique:

@@ -14,7 +14,6 @@ plain evaluation, so they are computed together as one task.
 
 from __future__ import annotations
 
-import json
 import multiprocessing
 import os
 import signal
@@ -25,15 +24,10 @@ from pathlib import Path
 
 from ..core.clouds import Cloud
 from ..core.errors import SwazureError
-from ..core.evaluate import evaluate
-from ..core.fit import refine
-from ..core.fusion import fuse
 from ..core.geometry import make_swarm
-from ..core.heuristics.compat import COMPAT_MODES
-from ..core.heuristics.folding import run_technique
+from ..core.pipeline import RunOptions, run_engine
 from ..core.sensor import Sensor
-from ..core.summary import Document, StudyRun, with_source
-from ..files.reading import CONFIG_BYTES, read_text
+from ..core.summary import Source, StudyRun, Summary
 from ..files.results import (
     COMPACT_PAIRS,
     FULL_PAIRS,
@@ -42,28 +36,28 @@ from ..files.results import (
     SUMMARY_FILE,
     write_evaluation,
 )
-from .plan import FIT, FUSED, PLAIN_TECHNIQUE, RUNS_DIR, RunSpec, StudyPlan, Technique
+from ..files.runs import read_summary as read_run_summary
+from .plan import PLAIN_TECHNIQUE, RUNS_DIR, RunSpec, StudyPlan, Technique
 
 
-def read_summary(out: Path, spec: RunSpec, pairs: str) -> Document | None:
+def read_summary(out: Path, spec: RunSpec, pairs: str) -> Summary | None:
     """The run's summary if its folder holds complete results under its key, else None.
 
     Results whose per-pair file keeps other columns than ``pairs`` asks are not
-    done; a run that keeps none (``pairs`` "none") is done whatever it kept.
+    done; a run that keeps none (``pairs`` "none") is done whatever it kept. A
+    summary that cannot be read (cut short, or of another version) is not done.
     """
     folder = out / spec.folder
     try:
-        summary: Document = json.loads(
-            read_text(folder / SUMMARY_FILE, "summary", CONFIG_BYTES, SwazureError)
-        )
-    except (SwazureError, ValueError):
+        summary = read_run_summary(folder / SUMMARY_FILE)
+    except SwazureError:
         return None
-    study = summary.get("study", {})
-    if study.get("key") != spec.key:
+    study = summary.study
+    if study is None or study.key != spec.key:
         return None
     if pairs == NO_PAIRS:
         return summary
-    if study.get("pairs", FULL_PAIRS) != pairs or not (folder / PAIRS_PARQUET_FILE).is_file():
+    if study.pairs != pairs or not (folder / PAIRS_PARQUET_FILE).is_file():
         return None
     return summary
 
@@ -89,37 +83,29 @@ class Task:
 
 
 def run_task(task: Task) -> list[tuple[RunSpec, float]]:
-    """Compute and write every run of ``task``; return each run with its seconds."""
+    """Compute and write every run of ``task``; return each run with its seconds.
+
+    The runs share one plain evaluation; a run's seconds are the plain
+    evaluation's and its own (``core.pipeline.EngineRun.seconds``).
+    """
     swarm = make_swarm(task.cloud.points, beta=task.beta, seed=task.seed)
-    began = time.perf_counter()
-    plain = evaluate(swarm, task.sensor, task.policy)
-    plain_seconds = time.perf_counter() - began
+    source = Source.of(task.cloud, task.seed, task.sensor_file)
+    plain = run_engine(swarm, task.sensor, RunOptions(task.policy), hold=True, source=source)
     done = []
     for spec in task.runs:
-        began = time.perf_counter()
-        technique = spec.technique
-        if technique.name == FUSED:
-            result, heuristic = fuse(plain, technique.threshold or 1), None
-        elif technique.name == FIT:
-            result, heuristic = refine(plain), None
-        else:
-            result, heuristic = run_technique(
-                plain, technique.name, technique.threshold or 10, COMPAT_MODES[technique.compat]
-            )
-        seconds = plain_seconds + time.perf_counter() - began
+        options = spec.technique.options(task.policy)
+        run = run_engine(swarm, task.sensor, options, plain=plain, source=source)
         kept = task.pairs[spec]
         study = StudyRun(spec.key, spec.folder.as_posix(), kept)
-        timed = replace(result.summary, seconds=seconds, study=study)
-        summary = with_source(timed, task.cloud, task.seed, task.sensor_file)
-        result = replace(result, summary=summary)
+        summary = replace(run.summary, seconds=run.seconds, study=study)
         write_evaluation(
             task.out / spec.folder,
-            result,
-            heuristic,
+            replace(run.held, summary=summary),
+            run.heuristic,
             pairs_format=NO_PAIRS if kept == NO_PAIRS else "parquet",
             columns=FULL_PAIRS if kept == FULL_PAIRS else COMPACT_PAIRS,
         )
-        done.append((spec, seconds))
+        done.append((spec, run.seconds))
     return done
 
 
@@ -193,7 +179,7 @@ def execute(tasks: Sequence[Task], jobs: int, on_done: Callable[[RunSpec, float]
 class SweepResult:
     """Summaries of every run of a plan, and what this call had to compute."""
 
-    summaries: dict[RunSpec, Document]
+    summaries: dict[RunSpec, Summary]
     computed: int
     cached: int
     compute_seconds: float
@@ -213,7 +199,7 @@ class SweepResult:
 
     def find(
         self, cloud: str, beta: float, policy: str, technique: Technique = PLAIN_TECHNIQUE
-    ) -> Document | None:
+    ) -> Summary | None:
         """The summary of one run, or None when the plan has no such run."""
         spec = self.spec(cloud, beta, policy, technique)
         return None if spec is None else self.summaries[spec]
@@ -244,7 +230,7 @@ def sweep(
     progress = progress or SweepProgress()
     remove_partial_files(out)
     specs = plan.runs()
-    summaries: dict[RunSpec, Document | None] = {
+    summaries: dict[RunSpec, Summary | None] = {
         spec: read_summary(out, spec, plan.pairs_kept(spec)) for spec in specs
     }
     missing = [spec for spec, summary in summaries.items() if summary is None]
@@ -261,7 +247,7 @@ def sweep(
         execute(plan_tasks(plan, out, missing), jobs, on_done)
     finally:
         progress.close()
-    complete: dict[RunSpec, Document] = {}
+    complete: dict[RunSpec, Summary] = {}
     for spec in specs:
         summary = summaries[spec] or read_summary(out, spec, plan.pairs_kept(spec))
         if summary is None:

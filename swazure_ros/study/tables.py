@@ -14,8 +14,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
+from ..core.errors import SwazureError
 from ..core.heuristics.result import MOVE_SOURCE
-from ..core.summary import Document
+from ..core.metrics import Stats
+from ..core.summary import HeuristicFacts, Summary
 from .plan import PLAIN_TECHNIQUE, StudyPlan, Technique
 from .sweep import SweepResult
 
@@ -59,6 +61,20 @@ def _fmt(value: Any, digits: int = 2) -> str:
     return "-" if value is None else f"{value:.{digits}f}"
 
 
+def _of(stats: Stats | None, name: str) -> float | int | None:
+    """Statistic ``name`` (mean, max, count) of ``stats``; None (an empty cell) without any."""
+    return None if stats is None else getattr(stats, name)
+
+
+def _facts(summary: Summary) -> HeuristicFacts:
+    """A heuristic run's facts: tried, resolved, moved."""
+    if summary.heuristic is None:
+        raise SwazureError(
+            f"{summary.study and summary.study.run}: a heuristic's run without facts"
+        )
+    return summary.heuristic
+
+
 def _table_betas(wanted: Sequence[float], available: Sequence[float]) -> list[float]:
     """The published betas the study has, or all it has when none of them."""
     chosen = [beta for beta in wanted if beta in available]
@@ -82,7 +98,7 @@ def paths_table(plan: StudyPlan, result: SweepResult, technique: Technique) -> T
         for key, betas in (("no_path_pct", no_path_betas), ("decaying_pct", decaying_betas)):
             for beta in betas:
                 summary = result.find(cloud.name, beta, policy, technique)
-                row.append(None if summary is None else summary[key])
+                row.append(None if summary is None else getattr(summary.pairs, key))
         rows.append(row)
         display_rows.append([cloud.name, str(len(cloud.points))] + [_fmt(v) for v in row[2:]])
     return Table(
@@ -120,20 +136,23 @@ def moved_table(plan: StudyPlan, result: SweepResult) -> Table:
         row: list[Any] = [cloud.name, len(cloud.points)]
         cells = [cloud.name, str(len(cloud.points))]
         for technique in plan.techniques:
-            summary = result.find(cloud.name, beta, policy, technique) or {}
-            moved = summary.get("moved_distance", {})
-            row += [summary.get("tried_pairs"), summary.get("resolved_pairs"), moved.get("count")]
-            row += [moved.get("mean"), moved.get("max")]
-            per_pair = summary.get("moved_per_resolved_pair", {})
-            failed = summary.get("failed_moved_distance", {})
-            row += [per_pair.get("mean"), per_pair.get("max"), failed.get("count")]
-            row += [failed.get("mean")]
-            cells.append(f"{_fmt(moved.get('mean'), 3)} ({_fmt(moved.get('max'), 3)})")
-            cells.append(f"{_fmt(per_pair.get('mean'), 3)} ({_fmt(per_pair.get('max'), 3)})")
+            summary = result.find(cloud.name, beta, policy, technique)
+            facts = None if summary is None else _facts(summary)
+            moved = None if facts is None else facts.moved_distance
+            per_pair = None if facts is None else facts.moved_per_resolved_pair
+            failed = None if facts is None else facts.failed_moved_distance
+            flown = None if facts is None else facts.flown_distance
+            tried, resolved = (
+                (None, None) if facts is None else (facts.tried_pairs, facts.resolved_pairs)
+            )
+            row += [tried, resolved, _of(moved, "count"), _of(moved, "mean"), _of(moved, "max")]
+            row += [_of(per_pair, "mean"), _of(per_pair, "max")]
+            row += [_of(failed, "count"), _of(failed, "mean")]
+            cells.append(f"{_fmt(_of(moved, 'mean'), 3)} ({_fmt(_of(moved, 'max'), 3)})")
+            cells.append(f"{_fmt(_of(per_pair, 'mean'), 3)} ({_fmt(_of(per_pair, 'max'), 3)})")
             if technique.name == MOVE_SOURCE:
-                flown = summary.get("flown_distance", {})
-                row += [flown.get("mean"), flown.get("max")]
-                cells.append(f"{_fmt(flown.get('mean'), 3)} ({_fmt(flown.get('max'), 3)})")
+                row += [_of(flown, "mean"), _of(flown, "max")]
+                cells.append(f"{_fmt(_of(flown, 'mean'), 3)} ({_fmt(_of(flown, 'max'), 3)})")
         rows.append(row)
         display_rows.append(cells)
     return Table(
@@ -191,30 +210,31 @@ def errors_table(plan: StudyPlan, result: SweepResult) -> Table:
                 summary = result.find(cloud.name, beta, policy, technique)
                 if summary is None:
                     continue
-                error, alpha = summary["distance_error_pct"], summary["alpha_deg"]
+                pairs = summary.pairs
+                error, alpha = pairs.distance_error_pct, pairs.alpha_deg
                 row = [
                     cloud.name,
                     beta,
                     label,
-                    summary["blind_pairs"],
-                    summary["sweet_pct"],
-                    summary["decaying_pct"],
-                    summary["no_path_pct"],
-                    error["mean"],
-                    error["max"],
-                    alpha["mean"],
-                    alpha["max"],
-                    summary["obstructed_path_pct"],
-                    summary["obstructing_flss_per_path"]["mean"],
+                    pairs.blind_pairs,
+                    pairs.sweet_pct,
+                    pairs.decaying_pct,
+                    pairs.no_path_pct,
+                    error.mean,
+                    error.max,
+                    alpha.mean,
+                    alpha.max,
+                    pairs.obstructed_path_pct,
+                    pairs.obstructing_flss_per_path.mean,
                 ]
                 rows.append(row)
                 display_rows.append(
                     [cloud.name, f"{beta:g}", policy, str(row[3])]
                     + [_fmt(value) for value in row[4:7]]
                     + [
-                        f"{_fmt(error['mean'], 3)} ({_fmt(error['max'])})",
-                        f"{_fmt(alpha['mean'], 3)} ({_fmt(alpha['max'])})",
-                        _fmt(summary["obstructed_path_pct"], 1),
+                        f"{_fmt(error.mean, 3)} ({_fmt(error.max)})",
+                        f"{_fmt(alpha.mean, 3)} ({_fmt(alpha.max)})",
+                        _fmt(pairs.obstructed_path_pct, 1),
                     ]
                 )
     return Table(
@@ -233,19 +253,19 @@ def compat_table(plan: StudyPlan, result: SweepResult) -> Table:
     """Each heuristic as the text describes it beside the published code, per shape and beta."""
     policy = plan.heuristic_policy
     texts = [technique for technique in plan.techniques if technique.compat == "text"]
-    metrics: tuple[tuple[str, str, Callable[[Document], Any]], ...] = (
-        ("no_path_pct", "no path %", lambda summary: summary.get("no_path_pct")),
-        ("decaying_pct", "decaying %", lambda summary: summary.get("decaying_pct")),
-        ("resolved", "resolved", lambda summary: summary.get("resolved_pairs")),
+    metrics: tuple[tuple[str, str, Callable[[Summary], Any]], ...] = (
+        ("no_path_pct", "no path %", lambda summary: summary.pairs.no_path_pct),
+        ("decaying_pct", "decaying %", lambda summary: summary.pairs.decaying_pct),
+        ("resolved", "resolved", lambda summary: _facts(summary).resolved_pairs),
         (
             "per_pair_mean_cm",
             "moved per resolved pair, cm",
-            lambda summary: summary.get("moved_per_resolved_pair", {}).get("mean"),
+            lambda summary: _facts(summary).moved_per_resolved_pair.mean,
         ),
         (
             "flown_mean_cm",
             "Move Source flown per tried pair, cm",
-            lambda summary: summary.get("flown_distance", {}).get("mean"),
+            lambda summary: _of(_facts(summary).flown_distance, "mean"),
         ),
     )
     columns = ["shape", "beta", "technique"]
@@ -257,15 +277,14 @@ def compat_table(plan: StudyPlan, result: SweepResult) -> Table:
     for cloud in plan.clouds:
         for beta in plan.heuristic_betas:
             for technique in texts:
-                text = result.find(cloud.name, beta, policy, technique) or {}
-                published = (
-                    result.find(cloud.name, beta, policy, replace(technique, compat="published"))
-                    or {}
+                text = result.find(cloud.name, beta, policy, technique)
+                published = result.find(
+                    cloud.name, beta, policy, replace(technique, compat="published")
                 )
                 row: list[Any] = [cloud.name, beta, technique.title]
                 cells = [cloud.name, f"{beta:g}", technique.title]
                 for key, _, value in metrics:
-                    pair = (value(text), value(published))
+                    pair = tuple(None if run is None else value(run) for run in (text, published))
                     row += list(pair)
                     digits = 0 if key == "resolved" else 3 if key.endswith("cm") else 2
                     cells.append(" / ".join(_fmt(v, digits) for v in pair))

@@ -18,7 +18,6 @@ def public_functions():
     found = {
         name: getattr(api, name) for name in api.__all__ if inspect.isfunction(getattr(api, name))
     }
-    found |= {"engine.run_blocked": engine.run_blocked, "engine.run_whole": engine.run_whole}
     for name, member in vars(api.SwarmClient).items():
         if inspect.isfunction(member) and not name.startswith("_") and name != "close":
             found[f"SwarmClient.{name}"] = member

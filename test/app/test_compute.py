@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from swazure_ros.app.compute import run_failure, same_results
-from swazure_ros.core.evaluate import Evaluation, evaluate
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluation import Evaluation
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.files.record import Distributed, EngineComparison, RunRecord
 

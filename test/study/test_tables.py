@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.clouds import Cloud
+from swazure_ros.core.metrics import NO_VALUES, Stats
+from swazure_ros.core.summary import HeuristicFacts, PairStatistics, Parameters, Summary
 from swazure_ros.study.figures import box_stats
 from swazure_ros.study.plan import PLAIN_TECHNIQUE, StudyPlan, Technique
 from swazure_ros.study.sweep import SweepResult
@@ -17,28 +19,41 @@ MS2 = Technique("move-source", 2)
 TECHNIQUE_CODE = {PLAIN_TECHNIQUE: 0, MO: 1, MS2: 2}
 
 
+def stats(mean=None, max=None, count=0):
+    return Stats(mean, max, None, None, None, count)
+
+
 def fake_summary(shape_code, beta, technique):
     """Values that spell out where they came from: shape, beta and technique."""
     code = TECHNIQUE_CODE[technique]
-    summary = {
-        "no_path_pct": 100 * shape_code + 10 * beta + code,
-        "decaying_pct": 1000 * shape_code + 10 * beta + code,
-        "blind_pairs": 7,
-        "sweet_pct": 50.0,
-        "distance_error_pct": {"mean": beta, "max": 2 * beta},
-        "alpha_deg": {"mean": 3 * beta, "max": 4 * beta},
-        "obstructed_path_pct": 90.0,
-        "obstructing_flss_per_path": {"mean": 2.5},
-    }
+    pairs = PairStatistics(
+        blind_pairs=7, sweet_pairs=0, decaying_pairs=0, no_path_pairs=0, sweet_pct=50.0,
+        decaying_pct=1000 * shape_code + 10 * beta + code,
+        no_path_pct=100 * shape_code + 10 * beta + code,
+        blocked_pairs=0, no_sweet_path_pairs=0,
+        distance_error_pct=stats(beta, 2 * beta),
+        distance_error_pct_sweet_paths=NO_VALUES, distance_error_pct_decaying_paths=NO_VALUES,
+        alpha_deg=stats(3 * beta, 4 * beta), theta_deg=NO_VALUES, phi_deg=NO_VALUES,
+        hops=NO_VALUES, hops_sweet_paths=NO_VALUES, hops_decaying_paths=NO_VALUES,
+        sweet_connected_pairs=0, obstructed_path_pct=90.0,
+        obstructing_flss_per_path=stats(2.5), predicted_error_cm=NO_VALUES,
+        within_predicted_pct=0.0, obstructing_flss_histogram=(), quantiles="exact",
+    )  # fmt: skip
+    heuristic = None
     if technique != PLAIN_TECHNIQUE:
-        summary.update(
-            tried_pairs=20,
-            resolved_pairs=10 + code,
-            moved_distance={"mean": 0.1 * code, "max": 0.2 * code, "count": 5},
-        )
-    if technique.name == "move-source":
-        summary["flown_distance"] = {"mean": 1.5, "max": 3.0}
-    return summary
+        source = technique.name == "move-source"
+        heuristic = HeuristicFacts(
+            technique.name, technique.threshold, tried_pairs=20, resolved_pairs=10 + code,
+            moved_distance=stats(0.1 * code, 0.2 * code, 5), failed_moved_distance=NO_VALUES,
+            moved_per_resolved_pair=NO_VALUES, compat=(),
+            flown_distance=stats(1.5, 3.0) if source else None,
+        )  # fmt: skip
+    parameters = Parameters("shortest-length", beta, 1.0, {}, False)
+    return Summary(
+        flss=2, cloud_points=2, removed=0, radius=1.0, dmin=2.0, beta=beta, kissing_pairs=0,
+        sweet_neighbour_pairs=0, decaying_neighbour_pairs=0, pairs=pairs,
+        parameters=parameters, version="test", heuristic=heuristic,
+    )  # fmt: skip
 
 
 @pytest.fixture
