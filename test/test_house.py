@@ -1,4 +1,4 @@
-"""House rules read from the source: no long functions, no long argument lists, no ctypes.
+"""House rules read from the source: short functions and modules, one home each, no ctypes.
 
 No function of ``swazure_ros`` or ``bench`` is longer than 80 lines, its
 docstring aside (numpydoc's sections document the code, they are not code to
@@ -126,3 +126,110 @@ def test_the_ctypes_scan_sees_a_module_that_loads_libc(tmp_path: Path) -> None:
     (tmp_path / "exit.py").write_text("import ctypes\nctypes.CDLL(None).exit(0)\n")
     (tmp_path / "clean.py").write_text("import os\n")
     assert ctypes_users(tmp_path) == [f"{tmp_path.name}/exit.py"]
+
+
+# The fourth floor (issue 70): rooms of one job, one home for the array types and
+# for the engine's pipeline, typed documents, the core documented like scipy.
+
+#: No module of the package is longer than this: a longer one holds two jobs.
+MOST_MODULE_LINES = 600
+#: ``dict[str, Any]`` is a document whose shape nobody wrote down: a few are
+#: honest (JSON from outside, rclpy's parameter maps), most had a type.
+MOST_ANY_DICTS = 20
+#: The engine's steps after plain Swazure; a module that calls them builds the pipeline.
+PIPELINE_STEPS = frozenset({"run_technique", "fuse_paths", "fuse", "refine"})
+
+
+def long_modules(root: Path = ROOT, most: int = MOST_MODULE_LINES) -> list[str]:
+    """Each module under ``root`` longer than ``most`` lines, as "file: lines"."""
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        lines = len(path.read_text().splitlines())
+        if lines > most:
+            found.append(f"{path.relative_to(root.parent).as_posix()}: {lines}")
+    return found
+
+
+def array_alias_definitions(roots: tuple[Path, ...] = SCANNED) -> list[str]:
+    """Each module-level ``NameArray = NDArray[...]``, as "file:line: name"."""
+    found = []
+    for root in roots:
+        for path in sorted(root.rglob("*.py")):
+            for node in ast.parse(path.read_text(), str(path)).body:
+                target = node.target if isinstance(node, ast.AnnAssign) else None
+                if isinstance(node, ast.Assign) and len(node.targets) == 1:
+                    target = node.targets[0]
+                value = node.value if isinstance(node, ast.Assign | ast.AnnAssign) else None
+                if (
+                    isinstance(target, ast.Name)
+                    and target.id.endswith("Array")
+                    and value is not None
+                    and ast.unparse(value).startswith("NDArray[")
+                ):
+                    where = path.relative_to(root.parent).as_posix()
+                    found.append(f"{where}:{node.lineno}: {target.id}")
+    return found
+
+
+def any_dicts(root: Path = ROOT) -> list[str]:
+    """Each ``dict[str, Any]`` written in a module under ``root``, as "file:line"."""
+    return [
+        f"{path.relative_to(root.parent).as_posix()}:{number}"
+        for path in sorted(root.rglob("*.py"))
+        for number, line in enumerate(path.read_text().splitlines(), 1)
+        for _ in range(line.count("dict[str, Any]"))
+    ]
+
+
+def pipeline_builders(root: Path = ROOT) -> list[str]:
+    """Each module outside ``core/`` that calls an engine step after plain Swazure."""
+    found = set()
+    for path in sorted(root.rglob("*.py")):
+        if path.relative_to(root).parts[0] == "core":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Call):
+                called = node.func
+                name = called.attr if isinstance(called, ast.Attribute) else None
+                name = called.id if isinstance(called, ast.Name) else name
+                if name in PIPELINE_STEPS:
+                    found.add(path.relative_to(root.parent).as_posix())
+    return sorted(found)
+
+
+def test_no_module_of_the_package_is_over_600_lines() -> None:
+    assert long_modules() == []
+
+
+def test_the_array_types_are_defined_once() -> None:
+    assert [line.split(": ")[-1] for line in array_alias_definitions()] == [
+        "FloatArray",
+        "IntArray",
+        "BoolArray",
+    ]
+
+
+def test_at_most_20_documents_are_typed_dict_of_str_to_any() -> None:
+    found = any_dicts()
+    assert len(found) <= MOST_ANY_DICTS, found
+
+
+def test_the_engine_pipeline_is_built_in_at_most_one_module_outside_core() -> None:
+    found = pipeline_builders()
+    assert len(found) <= 1, found
+
+
+def test_the_module_scans_see_what_they_look_for(tmp_path: Path) -> None:
+    package = tmp_path / "package"
+    (package / "core").mkdir(parents=True)
+    (package / "core" / "engine.py").write_text("def plain(x):\n    return refine(x)\n")
+    (package / "cli.py").write_text(
+        "from numpy.typing import NDArray\nFloatArray = NDArray[np.float64]\n"
+        "def run(doc: dict[str, Any]) -> dict[str, Any]:\n    return fuse(run_technique(doc))\n"
+        + "\n"
+        * 600
+    )
+    assert long_modules(package) == ["package/cli.py: 604"]
+    assert array_alias_definitions((package,)) == ["package/cli.py:2: FloatArray"]
+    assert any_dicts(package) == ["package/cli.py:3", "package/cli.py:3"]
+    assert pipeline_builders(package) == ["package/cli.py"]
