@@ -24,8 +24,9 @@ from swazure_ros.core.evaluation import DECAYING_PATH, NO_PATH, SWEET_PATH
 from swazure_ros.core.fit import CHI2_95_3DOF, normalized_errors, path_estimates, refine
 from swazure_ros.core.fit_measurements import fit_pairs, measurements, with_outliers
 from swazure_ros.core.geometry import make_swarm
+from swazure_ros.core.hop_errors import measured_vectors
 from swazure_ros.core.pair_fits import fit_pairs_estimates, local_estimates
-from swazure_ros.core.sensor import SWEET, measured_vectors
+from swazure_ros.core.sensor import SWEET
 from swazure_ros.files.cloud_files import load_cloud
 from swazure_ros.files.sensors import load_sensor
 

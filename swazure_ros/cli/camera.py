@@ -38,7 +38,8 @@ from ..camera.calibration import (
     sweep,
 )
 from ..core.errors import SensorError
-from ..core.sensor import SENSOR_FILE_VERSION, Sensor
+from ..core.sensor import Sensor
+from ..core.sensor_file import SENSOR_FILE_VERSION
 from ..files.atomic import atomic_write
 from ..files.sensors import load_camera, load_measured
 from .arguments import (

@@ -4,9 +4,12 @@ Modules, each holding one idea of ``docs`` / the spec:
 
 - :mod:`.clouds`: built-in shapes, validating and resampling point clouds;
 - :mod:`.sensor`: sensor ranges and error model;
+- :mod:`.sensor_file`: a sensor file's mapping as a sensor;
+- :mod:`.hop_errors`: measured hop vectors and their expected errors;
 - :mod:`.draws`: counter-based random draws;
 - :mod:`.geometry`: radius, dmin, collision removal, tracking distance;
 - :mod:`.neighbours`: neighbour pairs and their range classes;
+- :mod:`.grid`: the uniform grid of points and the scan of a segment;
 - :mod:`.sight`: line of sight and obstructing FLSs;
 - :mod:`.graph`: neighbour graphs in CSR form;
 - :mod:`.path_arrays`: many paths in one record, their hops and sums;

@@ -33,6 +33,7 @@ from .arrays import IntArray
 from .evaluate import evaluate_pairs
 from .evaluation import SWEET_PATH, PairResults
 from .geometry import Swarm
+from .grid import Grid, build_grid, grid_of
 from .neighbourhood import Neighbourhood
 from .neighbours import (
     NeighbourCounts,
@@ -46,7 +47,7 @@ from .pair_statistics import PairTally, summarise
 from .paths import check_policy
 from .progress import Progress
 from .sensor import BLIND, DECAYING, SWEET, Sensor
-from .sight import Grid, build_grid, grid_of, obstructed
+from .sight import obstructed
 from .summary import Summary
 
 #: Bytes a block holds per ordered blind pair at its peak: paths, hop tables,

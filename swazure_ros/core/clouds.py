@@ -17,7 +17,7 @@ import numpy as np
 from . import jit
 from .arrays import BoolArray, FloatArray, IntArray
 from .errors import CloudError
-from .sight import Grid, grid_of
+from .grid import Grid, grid_of
 
 #: Mean nearest-neighbour distance of the published shapes, cm (spec, section 10).
 PUBLISHED_DENSITY = 0.65

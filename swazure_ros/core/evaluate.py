@@ -26,6 +26,7 @@ from .evaluation import (
     PairResults,
 )
 from .geometry import Swarm
+from .hop_errors import expected_error
 from .hops import HopTable, estimates, hop_classes, hop_table, path_obstruction, summed_hop_errors
 from .metrics import pose_errors
 from .neighbourhood import Neighbourhood, neighbourhood
@@ -34,7 +35,7 @@ from .pair_statistics import summarise
 from .path_arrays import Paths, merge_paths
 from .paths import check_policy, shortest_paths
 from .progress import SILENT, Progress
-from .sensor import Sensor, expected_error
+from .sensor import Sensor
 
 
 def evaluate_pairs(

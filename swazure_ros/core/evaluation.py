@@ -53,7 +53,7 @@ class PairResults:
     sweet_connected: NDArray[np.bool_]  # an S_all path exists
     sweet_obstructed: NDArray[np.bool_]  # the policy's S_all path has an obstructed hop
     obstructing_flss: IntArray  # distinct obstructing FLSs on that path
-    # Predicted error of the estimate, cm (core.sensor.expected_error); nan if unknown.
+    # Predicted error of the estimate, cm (core.hop_errors.expected_error); nan if unknown.
     predicted_error: FloatArray
     fused_paths: IntArray  # paths the estimate combines: 1, more when fused, 0 without a path
     # (M, 3, 3), cm^2: the estimate's covariance, where the estimator gives one (core.fit).

@@ -24,12 +24,12 @@ from .evaluation import NO_PATH, SWEET_PATH, Evaluation, PairResults
 from .fit_measurements import Corruption
 from .geometry import tracking_distance
 from .heuristics.result import PLAIN
+from .hop_errors import hop_covariance, measured_vectors, unbiased_vectors
 from .metrics import Stats, describe
 from .neighbourhood import Neighbourhood
 from .pair_fits import PairFit, fit_pairs_estimates, local_estimates
 from .pair_statistics import summarise
 from .path_arrays import Paths, path_hops
-from .sensor import hop_covariance, measured_vectors, unbiased_vectors
 from .summary import Consistency, FitFacts
 
 #: The estimators of a pair's pose: the paper's sum along the policy's path; the fit over
@@ -90,7 +90,7 @@ def path_estimates(hood: Neighbourhood, pairs: PairResults) -> tuple[FloatArray,
 
     What a source whose window does not reach its target falls back on: the
     measured hops of the policy's path, each without the sensor's known bias
-    (:func:`~.sensor.unbiased_vectors`), and the sum of their covariances
+    (:func:`~.hop_errors.unbiased_vectors`), and the sum of their covariances
     (independent hops).
 
     Parameters

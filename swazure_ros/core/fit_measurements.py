@@ -18,9 +18,10 @@ from numpy.typing import NDArray
 
 from .arrays import IntArray
 from .draws import standard_normals, uniforms
+from .hop_errors import measured_vectors
 from .measurement_graph import Measurements, measured_rows
 from .neighbourhood import Neighbourhood
-from .sensor import DECAYING, SWEET, Sensor, measured_vectors
+from .sensor import DECAYING, SWEET, Sensor
 
 Corruption = Callable[[Measurements], Measurements]
 

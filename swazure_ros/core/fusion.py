@@ -8,7 +8,7 @@ paths are found greedily: the policy's path first, then the policy's path
 that avoids the inner FLSs of those before, up to ``count`` paths.
 
 Each path's weight comes from the sum of its hops' expected errors
-(:func:`~.sensor.hop_error`): a variance V under a stochastic sensor, so
+(:func:`~.hop_errors.hop_error`): a variance V under a stochastic sensor, so
 the fused estimate is sum(x_k / V_k) / sum(1 / V_k) with variance
 1 / sum(1 / V_k); a bound B under the deterministic one, weighted as
 1 / B^2, whose fused error is bounded by sum(B_k / B_k^2) / sum(1 / B_k^2).
@@ -88,7 +88,7 @@ def combine(
     vectors : (K, M, 3) array of float, cm
         Each path's estimate of each pair.
     summed : (K, M) array of float
-        Each path's summed :func:`~.sensor.hop_error` (cm^2 stochastic, cm
+        Each path's summed :func:`~.hop_errors.hop_error` (cm^2 stochastic, cm
         deterministic); NaN where the pair has no k-th path. Every pair has
         at least one.
 

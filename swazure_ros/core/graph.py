@@ -87,7 +87,7 @@ def make_graph(
         The caller's tag of each edge (its pair's index); default, its position
         in the lists.
     costs : (E,) array_like of float, cm, optional
-        Each edge's expected error (:func:`~.sensor.hop_error`), which the
+        Each edge's expected error (:func:`~.hop_errors.hop_error`), which the
         least-error policy sums.
 
     Returns

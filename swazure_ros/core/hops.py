@@ -18,9 +18,10 @@ from numpy.typing import NDArray
 from . import csr, jit
 from .arrays import FloatArray, IntArray
 from .graph import Graph
+from .hop_errors import hop_error, measured_vectors
 from .neighbourhood import Neighbourhood
 from .path_arrays import Paths, path_hops
-from .sensor import DECAYING, SWEET, hop_error, measured_vectors
+from .sensor import DECAYING, SWEET
 from .sight import obstructers
 
 
@@ -219,7 +220,7 @@ def estimates(
 def summed_hop_errors(
     hood: Neighbourhood, paths: Paths, hops: HopTable | None = None
 ) -> FloatArray:
-    """Each path's sum of its hops' expected errors (:func:`~.sensor.hop_error`).
+    """Each path's sum of its hops' expected errors (:func:`~.hop_errors.hop_error`).
 
     Parameters
     ----------

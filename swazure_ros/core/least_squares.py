@@ -4,7 +4,7 @@ A weighted least-squares fit over the measurement graph (Barooah and
 Hespanha, "Estimation on graphs from relative measurements", 2007) finds
 the positions x that best explain every measured vector v_ij ~ x_j - x_i,
 each weighted by the inverse of its covariance
-(:func:`~.sensor.hop_covariance`); :func:`solve` returns them as a
+(:func:`~.hop_errors.hop_covariance`); :func:`solve` returns them as a
 :class:`Fit`, one gauge per connected part, with their covariance, and a
 pair's relative position x_target - x_source with its own. docs/core.md
 ("The least-squares fit") derives the weights, the gauge and the robust loss.

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .arrays import FloatArray, IntArray
-from .sensor import Sensor, hop_covariance, unbiased_vectors
+from .hop_errors import hop_covariance, unbiased_vectors
+from .sensor import Sensor
 
 #: Huber's threshold on a measurement's Mahalanobis residual: the 99th percentile of a
 #: chi distribution with 3 degrees of freedom, so a clean measurement is rarely down-weighted.

@@ -19,10 +19,12 @@ from numpy.typing import ArrayLike, NDArray
 from .arrays import IntArray
 from .geometry import Swarm
 from .graph import Graph, make_graph
+from .grid import Grid, build_grid
+from .hop_errors import hop_error
 from .neighbours import NeighbourCounts, NeighbourPairs, neighbour_pairs, pairs_of
 from .progress import SILENT, Progress
-from .sensor import DECAYING, SWEET, Sensor, hop_error
-from .sight import Grid, build_grid, obstructed, segments_near
+from .sensor import DECAYING, SWEET, Sensor
+from .sight import obstructed, segments_near
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree

@@ -12,8 +12,8 @@ from numpy.typing import ArrayLike, NDArray
 from . import csr, jit
 from .arrays import FloatArray, IntArray
 from .geometry import KISSING_TOLERANCE, Swarm, centre_distance
+from .grid import Grid, grid_of
 from .sensor import BLIND, DECAYING, SWEET, Sensor
-from .sight import Grid, grid_of
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
@@ -242,7 +242,7 @@ def neighbour_pairs(
         Only the pairs whose ``first`` is in [start, stop) (default: every
         FLS): a block of the whole swarm's list, found in a block's memory.
     grid : Grid, optional
-        ``sight.grid_of`` the swarm's points at :func:`candidate_reach`, when
+        ``grid.grid_of`` the swarm's points at :func:`candidate_reach`, when
         the caller keeps it.
 
     Returns
@@ -292,7 +292,7 @@ def pair_counts(swarm: Swarm, sensor: Sensor, grid: Grid | None = None) -> IntAr
     swarm : Swarm
     sensor : Sensor
     grid : Grid, optional
-        ``sight.grid_of`` the swarm's points at :func:`candidate_reach`.
+        ``grid.grid_of`` the swarm's points at :func:`candidate_reach`.
 
     Returns
     -------

@@ -18,9 +18,11 @@ from numpy.typing import ArrayLike, NDArray
 
 from .arrays import FloatArray, IntArray
 from .geometry import Swarm, centre_distance
+from .grid import Grid
+from .hop_errors import measured_vectors
 from .neighbourhood import Neighbourhood
-from .sensor import BLIND, DECAYING, SWEET, Sensor, measured_vectors
-from .sight import Grid, obstructed
+from .sensor import BLIND, DECAYING, SWEET, Sensor
+from .sight import obstructed
 
 
 @dataclass(frozen=True)
@@ -168,7 +170,7 @@ def readings_of(
     others : (K,) array_like of int
         The FLSs it looks at; repeats and ``owner`` itself are dropped.
     grid : Grid, optional
-        ``sight.build_grid`` of the swarm, when the caller keeps it.
+        ``grid.build_grid`` of the swarm, when the caller keeps it.
 
     Returns
     -------
@@ -216,7 +218,7 @@ def camera_readings(
     Returns
     -------
     vector : (M, 3) array of float, cm
-        :func:`~.sensor.measured_vectors`; NaN where a rendering camera did
+        :func:`~.hop_errors.measured_vectors`; NaN where a rendering camera did
         not detect the marker.
     tracking : (M,) array of float, cm
         The measured t': the error model's, or the vector's length less 2r

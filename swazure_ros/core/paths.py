@@ -7,7 +7,7 @@
 - ``shortest-length``: smallest sum of tracking distances; among those, the
   fewest edges;
 - ``least-error``: smallest sum of the edges' expected errors
-  (:attr:`~.graph.Graph.costs`, from :func:`~.sensor.hop_error`); among
+  (:attr:`~.graph.Graph.costs`, from :func:`~.hop_errors.hop_error`); among
   those, the fewest edges. Derived in docs/core.md ("Least-error paths").
 
 Remaining ties are broken by predecessor: the predecessor of a node on the

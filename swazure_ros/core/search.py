@@ -23,7 +23,7 @@ from .arrays import FloatArray, IntArray
 class Search(NamedTuple):
     """A graph and a policy's weights as the search kernels take them: one argument.
 
-    A named tuple, so that numba passes it whole (as :class:`~.sight.Grid`).
+    A named tuple, so that numba passes it whole (as :class:`~.grid.Grid`).
     """
 
     indptr: IntArray  # (N + 1,)

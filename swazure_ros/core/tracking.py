@@ -30,8 +30,9 @@ from numpy.typing import ArrayLike, NDArray
 from .arrays import FloatArray
 from .errors import SwazureError, UnknownFlsError
 from .geometry import tracking_distance
+from .hop_errors import measured_vectors
 from .motion import Motion
-from .sensor import DECAYING, SWEET, Sensor, measured_vectors
+from .sensor import DECAYING, SWEET, Sensor
 from .sight import obstructed
 
 CONSTANT_VELOCITY = "constant-velocity"

@@ -1,7 +1,7 @@
 """Reading sensor, camera and measured-camera files into the model's objects.
 
 A sensor file (``config/sensor.yaml``) is parsed by
-:func:`swazure_ros.core.sensor.sensor_from_dict`; a ``camera`` kind names a
+:func:`swazure_ros.core.sensor_file.sensor_from_dict`; a ``camera`` kind names a
 camera file (``config/cameras/*.yaml``) beside it, read here.
 """
 
@@ -15,7 +15,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.errors import SensorError
-from ..core.sensor import Sensor, sensor_from_dict
+from ..core.sensor import Sensor
+from ..core.sensor_file import sensor_from_dict
 from .reading import TABLE_BYTES, config_dir, read_text, read_yaml
 
 if TYPE_CHECKING:

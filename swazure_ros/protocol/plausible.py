@@ -21,7 +21,8 @@ from numpy.typing import NDArray
 from ..core import csr
 from ..core.arrays import FloatArray, IntArray
 from ..core.fit import PATH, SWARM_ESTIMATORS
-from ..core.sensor import DECAYING, SWEET, Sensor, hop_error
+from ..core.hop_errors import hop_error
+from ..core.sensor import DECAYING, SWEET, Sensor
 from .discovery.estimate import Estimates
 from .discovery.messages import ANY_VISIBLE, Offer, RoundOffers
 from .readings import Readings

@@ -20,6 +20,7 @@ from ..core.arrays import FloatArray, IntArray
 from ..core.clouds import Cloud
 from ..core.errors import UnknownFlsError
 from ..core.geometry import Swarm, make_swarm
+from ..core.grid import Grid, build_grid
 from ..core.neighbourhood import (
     Neighbourhood,
     moved_neighbourhood,
@@ -37,7 +38,6 @@ from ..core.observe import (
     readings_of,
 )
 from ..core.sensor import Sensor
-from ..core.sight import Grid, build_grid
 from ..files.cloud_files import load_cloud
 from ..files.description import SwarmDescription
 

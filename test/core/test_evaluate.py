@@ -12,7 +12,7 @@ from swazure_ros.core.evaluation import (
     REASON_NONE,
     SWEET_PATH,
 )
-from swazure_ros.core.sensor import measured_vectors
+from swazure_ros.core.hop_errors import measured_vectors
 
 from ..conftest import A, B, C, D, K, scene
 

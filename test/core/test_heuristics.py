@@ -14,7 +14,7 @@ from swazure_ros.core.heuristics.folding import apply, heuristic_facts, run_tech
 from swazure_ros.core.heuristics.obstructing import move_obstructing
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
 from swazure_ros.core.heuristics.source import DIRECTIONS, move_source
-from swazure_ros.core.sensor import measured_vectors
+from swazure_ros.core.hop_errors import measured_vectors
 from swazure_ros.files.cloud_files import load_cloud
 from swazure_ros.files.sensors import load_sensor
 

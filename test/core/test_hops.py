@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.geometry import make_swarm
+from swazure_ros.core.hop_errors import hop_error, measured_vectors
 from swazure_ros.core.hops import (
     estimates,
     hop_classes,
@@ -13,7 +14,6 @@ from swazure_ros.core.hops import (
 )
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.path_arrays import paths_from_rows
-from swazure_ros.core.sensor import hop_error, measured_vectors
 
 from ..conftest import SCENE, A, B, C, D, K, scene
 

@@ -8,8 +8,8 @@ range; r = 0.5 cm, so tracking distances are centre distances minus 1 cm.
 import numpy as np
 import pytest
 
+from swazure_ros.core.hop_errors import measured_vectors
 from swazure_ros.core.motion import Motion
-from swazure_ros.core.sensor import measured_vectors
 from swazure_ros.core.tracking import (
     CONSTANT_ACCELERATION,
     CONSTANT_VELOCITY,

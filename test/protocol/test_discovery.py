@@ -16,10 +16,10 @@ from swazure_ros.core.evaluation import (
     SWEET_PATH,
 )
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
+from swazure_ros.core.hop_errors import hop_error, measured_vectors
 from swazure_ros.core.neighbourhood import neighbourhood, without
 from swazure_ros.core.observe import local_view, observations
 from swazure_ros.core.paths import POLICIES
-from swazure_ros.core.sensor import hop_error, measured_vectors
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_sensor
 from swazure_ros.protocol.discovery.estimate import Found, estimate, evaluation_of

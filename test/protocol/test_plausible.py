@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from swazure_ros.core.sensor import hop_error
+from swazure_ros.core.hop_errors import hop_error
 from swazure_ros.protocol.discovery.messages import (
     ANY_VISIBLE,
     SWEET_ALL,

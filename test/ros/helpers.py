@@ -8,8 +8,9 @@ import numpy as np
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from swazure_ros.core.frames import to_centimetres
+from swazure_ros.core.hop_errors import measured_vectors
 from swazure_ros.core.neighbourhood import neighbourhood
-from swazure_ros.core.sensor import BLIND, DECAYING, SWEET, measured_vectors
+from swazure_ros.core.sensor import BLIND, DECAYING, SWEET
 
 from ..waits import PATIENCE, wait_until
 

@@ -8,7 +8,8 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-from swazure_ros.core.sensor import SWEET, measured_vectors
+from swazure_ros.core.hop_errors import measured_vectors
+from swazure_ros.core.sensor import SWEET
 
 from ..conftest import A, B, scene
 from ..waits import PATIENCE, wait_until

@@ -18,9 +18,10 @@ import numpy as np
 from ...core.arrays import FloatArray, IntArray
 from .. import csr, jit
 from ..evaluation import Evaluation
+from ..grid import Grid, scan_between
+from ..hop_errors import measured_vectors
 from ..path_arrays import paths_from_rows
-from ..sensor import measured_vectors
-from ..sight import Grid, any_within, scan_between
+from ..sight import any_within
 from .compat import TEXT, Compat
 from .result import MAX_THRESHOLD, MOVE_SOURCE, HeuristicResult, PairFindings, blocked_pairs
 

@@ -28,14 +28,12 @@ from ...core.evaluation import (
     Evaluation,
 )
 from ...core.fit import PATH, SWARM_ESTIMATORS, consistency
+from ...core.hop_errors import expected_error
 from ...core.neighbourhood import Neighbourhood
 from ...core.neighbours import ordered_blind_pairs
 from ...core.pair_statistics import summarise
 from ...core.path_arrays import Paths
-from ...core.sensor import (
-    Sensor,
-    expected_error,
-)
+from ...core.sensor import Sensor
 from ...core.summary import FitFacts
 
 
@@ -46,7 +44,7 @@ class Found:
     path: tuple[int, ...]
     length: float
     vector: FloatArray
-    error: float = float("nan")  # the hops' expected errors summed (core.sensor.hop_error)
+    error: float = float("nan")  # the hops' expected errors summed (core.hop_errors.hop_error)
     unbiased: FloatArray | None = None  # (3,), cm: the hops less their known bias, summed
     covariance: FloatArray | None = None  # (3, 3), cm^2: the hops' covariances summed
 
@@ -67,7 +65,7 @@ class Estimate:
     length: float = float("nan")  # cm
     vector: FloatArray = field(default_factory=lambda: np.full(3, np.nan))  # cm
     radio_path: tuple[int, ...] = ()  # the policy's S_all path (obstruction statistics)
-    predicted_error: float = float("nan")  # cm (core.sensor.expected_error); nan without path
+    predicted_error: float = float("nan")  # cm (core.hop_errors.expected_error); nan without path
     estimator: str = PATH  # what made ``vector``: one of core.fit.SWARM_ESTIMATORS
     covariance: FloatArray | None = None  # (3, 3), cm^2, of ``vector``: a fit's only
 

@@ -82,7 +82,7 @@ class Offer:
     source_ids: IntArray  # (L,)
     hops: IntArray  # (L,)
     lengths: FloatArray  # (L,), cm
-    errors: FloatArray  # (L,), expected error summed over the hops (core.sensor.hop_error)
+    errors: FloatArray  # (L,), expected error summed over the hops (core.hop_errors.hop_error)
     vectors: FloatArray  # (L, 3), cm, summed from the source to the sender
     path_offsets: IntArray  # (L + 1,)
     path_ids: IntArray

@@ -18,11 +18,9 @@ from ...core.arrays import FloatArray, IntArray
 from ...core.evaluation import ABORTED, DECAYING_PATH, REASON_COORDINATOR_LOST, SWEET_PATH
 from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
 from ...core.fit_measurements import fit_layers
+from ...core.hop_errors import hop_error
 from ...core.observe import LocalView
-from ...core.sensor import (
-    Sensor,
-    hop_error,
-)
+from ...core.sensor import Sensor
 from ...core.window_fit import Heard, window_fit
 from ..readings import ReadingsBook
 from ..swarm_fit import FitPart

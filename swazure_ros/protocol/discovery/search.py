@@ -25,18 +25,10 @@ from numpy.typing import NDArray
 
 from ...core import csr, jit
 from ...core.arrays import FloatArray, IntArray
+from ...core.hop_errors import hop_covariance, hop_error, smallest_hop_error, unbiased_vectors
 from ...core.observe import LocalView
 from ...core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
-from ...core.sensor import (
-    BLIND,
-    DECAYING,
-    SWEET,
-    Sensor,
-    hop_covariance,
-    hop_error,
-    smallest_hop_error,
-    unbiased_vectors,
-)
+from ...core.sensor import BLIND, DECAYING, SWEET, Sensor
 from .estimate import Results
 from .messages import ANY_VISIBLE, SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers, sender_rows
 
@@ -74,7 +66,7 @@ def bucket_width(sensor: Sensor, radius: float, policy: str) -> float:
     """Cost per round: the smallest cost a hop can add under ``policy``, a little lowered.
 
     One hop for fewest-hops; just under ``sweet_min`` cm for shortest-length;
-    :func:`~..core.sensor.smallest_hop_error` for least-error.
+    :func:`~..core.hop_errors.smallest_hop_error` for least-error.
     """
     if check_policy(policy) == FEWEST_HOPS:
         return 1.0
@@ -259,7 +251,7 @@ class PathSearch:
     ``targets`` makes this FLS a source that searches for them; ``departed``
     FLSs are not relayed from.
     ``options.hop_errors`` (K,) is the expected error of the hop to each neighbour of
-    ``view`` (core.sensor.hop_error), which labels sum as they sum lengths.
+    ``view`` (core.hop_errors.hop_error), which labels sum as they sum lengths.
     ``options.fit`` (the sensor and the FLSs' radius, cm), given in a fitting run,
     makes labels also sum each hop less its known bias, and its covariance.
     With ``options.both_ends``, a hop sender -> this FLS is the sender's own reading,
