@@ -21,18 +21,15 @@ from typing import Any
 import numpy as np
 
 from bench.common import fit_facts
+from swazure_ros.core.conjugate_gradients import system_of
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.evaluation import NO_PATH, SWEET_PATH
 from swazure_ros.core.fit import LEAST_SQUARES, SWARM_FIT, refine
 from swazure_ros.core.fit_measurements import fit_pairs, measurements, with_outliers
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.measurement_graph import Measurements
-from swazure_ros.core.swarm_fit import (
-    COVARIANCE_SAMPLES,
-    edges_of,
-    swarm_solve,
-    system_of,
-)
+from swazure_ros.core.swarm_edges import edges_of
+from swazure_ros.core.swarm_fit import COVARIANCE_SAMPLES, swarm_solve
 from swazure_ros.files.cloud_files import load_cloud
 from swazure_ros.files.sensors import load_sensor
 

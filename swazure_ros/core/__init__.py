@@ -8,6 +8,8 @@ Modules, each holding one idea of ``docs`` / the spec:
 - :mod:`.hop_errors`: measured hop vectors and their expected errors;
 - :mod:`.draws`: counter-based random draws;
 - :mod:`.geometry`: radius, dmin, collision removal, tracking distance;
+- :mod:`.circles`: circles in space, free of blocking spheres, crossing a sphere;
+- :mod:`.segments`: points and segments, distances to segments;
 - :mod:`.neighbours`: neighbour pairs and their range classes;
 - :mod:`.grid`: the uniform grid of points and the scan of a segment;
 - :mod:`.sight`: line of sight and obstructing FLSs;
@@ -25,6 +27,9 @@ Modules, each holding one idea of ``docs`` / the spec:
 - :mod:`.least_squares`: the weighted least-squares solve of positions from measurements;
 - :mod:`.fit_measurements`: which measurements a fit takes;
 - :mod:`.window_fit`: a source's own fit over what it hears;
+- :mod:`.swarm_edges`: the swarm's fit's measured pairs as directed edges;
+- :mod:`.conjugate_gradients`: the swarm's conjugate gradients, by exchanges and exact sums;
+- :mod:`.swarm_fit`: the swarm's own fit, its robust schedule and covariance;
 - :mod:`.pair_fits`: the engine's least-squares estimates of many pairs;
 - :mod:`.fit`: the estimators, and an evaluation refined by a fit.
 """

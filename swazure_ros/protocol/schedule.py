@@ -15,9 +15,9 @@ import numpy as np
 from ..core import jit
 from ..core.arrays import FloatArray, IntArray
 from ..core.evaluation import Evaluation
-from ..core.geometry import near_any_segment
 from ..core.heuristics.obstructing import TOUCH
 from ..core.heuristics.result import HeuristicResult
+from ..core.segments import near_any_segment
 
 
 @jit.kernel(cache=True, nogil=True)

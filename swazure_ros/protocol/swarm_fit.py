@@ -40,28 +40,28 @@ import numpy as np
 
 from ..core import csr
 from ..core.arrays import FloatArray, IntArray
+from ..core.conjugate_gradients import (
+    Floor,
+    Iterate,
+    System,
+    advance,
+    partial_dot,
+    scalars,
+    settled,
+    system_of,
+)
 from ..core.fit_measurements import fit_layers
 from ..core.measurement_graph import CONVERGED_CM, Measurements, measured_rows
 from ..core.observe import LocalView
 from ..core.sensor import DECAYING, SWEET, Sensor
+from ..core.swarm_edges import blocks_times, edges_of, weighted
 from ..core.swarm_fit import (
     COVARIANCE_SAMPLES,
     HUBER,
     REJECTING,
     UNIT,
-    Floor,
-    Iterate,
-    System,
-    advance,
-    blocks_times,
-    edges_of,
     noise_flows,
-    partial_dot,
     robust_decision,
-    scalars,
-    settled,
-    system_of,
-    weighted,
     weights_for,
 )
 from .discovery.messages import (

@@ -64,7 +64,8 @@ def test_the_core_has_public_functions_to_check():
 # The modules a first-time user calls first: each shows how in examples that run.
 WITH_EXAMPLES = {
     "clouds", "geometry", "sensor", "neighbours", "sight", "metrics", "fusion", "spacing",
-    "swarm_fit", "heuristics.folding", "heuristics.obstructing", "heuristics.source",
+    "swarm_fit", "swarm_edges", "conjugate_gradients", "circles", "segments",
+    "heuristics.folding", "heuristics.obstructing", "heuristics.source",
 }  # fmt: skip
 
 

@@ -6,9 +6,10 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from swazure_ros.core.circles import circle_sphere_crossings, free_circle_point
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.evaluation import NO_PATH, REASON_BLOCKED, SWEET_PATH
-from swazure_ros.core.geometry import circle_sphere_crossings, free_circle_point, make_swarm
+from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.heuristics.compat import PUBLISHED, Compat
 from swazure_ros.core.heuristics.folding import apply, heuristic_facts, run_technique
 from swazure_ros.core.heuristics.obstructing import move_obstructing

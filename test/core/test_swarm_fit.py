@@ -1,7 +1,6 @@
 """The swarm's own fit: the central fit's positions from neighbour messages, honest covariances."""
 
 import numpy as np
-import pytest
 
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.evaluation import NO_PATH, SWEET_PATH
@@ -10,12 +9,7 @@ from swazure_ros.core.fit_measurements import fit_pairs, measurements, with_outl
 from swazure_ros.core.least_squares import solve
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.neighbours import ordered_blind_pairs
-from swazure_ros.core.swarm_fit import (
-    edges_of,
-    partial_dot,
-    swarm_solve,
-    swarm_sum,
-)
+from swazure_ros.core.swarm_fit import swarm_solve
 
 from .fits import exact, stochastic_sensor, torus_swarm
 
@@ -48,19 +42,6 @@ def test_each_connected_part_has_the_central_fit_s_gauge_and_no_estimate_crosses
     estimate, covariance = swarm.relative(np.array([0, 0, 2]), np.array([1, 2, 3]))
     np.testing.assert_allclose(estimate[[0, 2]], [[7, 0, 0], [0, 7, 0]], atol=1e-9)
     assert np.isnan(estimate[1]).all() and np.isnan(covariance[1]).all()
-
-
-def test_a_pair_measured_from_one_end_only_is_refused():
-    with pytest.raises(ValueError, match="both ends"):
-        edges_of(2, exact([0], [1], [[7.0, 0, 0]]))
-
-
-def test_the_swarm_s_sums_are_the_same_in_any_order():
-    rng = np.random.default_rng(4)
-    one, other = rng.normal(size=(500, 3, 2)) * 1e6, rng.normal(size=(500, 3, 2))
-    shares = partial_dot(one, other)
-    shuffled = shares[rng.permutation(500)]
-    assert swarm_sum(shares).tolist() == swarm_sum(shuffled).tolist()
 
 
 def test_the_swarm_s_fit_of_a_torus_is_the_central_fit_s_and_its_covariance_is_honest():

@@ -13,6 +13,7 @@ commands.
 - :mod:`.source`: Move Source and its probe;
 - :mod:`.folding`: a result folded into the plain run (:func:`~.folding.run_technique`).
 
-The circle and sphere geometry they use lives in :mod:`..geometry`; the
-order in which a swarm makes the moves in :mod:`swazure_ros.protocol.schedule`.
+The circle and sphere geometry they use lives in :mod:`..circles` and
+:mod:`..segments`; the order in which a swarm makes the moves in
+:mod:`swazure_ros.protocol.schedule`.
 """

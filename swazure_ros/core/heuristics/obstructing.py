@@ -38,14 +38,8 @@ if TYPE_CHECKING:
     from scipy.spatial import cKDTree
 
 from ...core.arrays import FloatArray, IntArray
-from ..geometry import (
-    circle_sphere_crossings,
-    closest_on_segment,
-    free_circle_point,
-    near_any_segment,
-    near_segment,
-    segment_gap,
-)
+from ..circles import circle_sphere_crossings, free_circle_point
+from ..segments import closest_on_segment, near_any_segment, near_segment, segment_gap
 from .compat import TEXT, Compat
 from .result import MOVE_OBSTRUCTING, HeuristicResult, PairFindings, blocked_pairs
 

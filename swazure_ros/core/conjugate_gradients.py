@@ -1,0 +1,362 @@
+"""The swarm's conjugate gradients: ``H X = B`` solved by neighbour exchanges and sums.
+
+Each FLS holds its own rows of the weighted normal equations (:class:`System`,
+from the edges of :mod:`.swarm_edges`); an iteration in Chronopoulos and Gear's
+form takes one exchange with the FLSs it measures and two sums over the swarm
+(:func:`shares`, :func:`swarm_sum`, :func:`scalars`, :func:`advance`),
+preconditioned by each FLS's own 3 x 3 block (block Jacobi). The sums are
+:func:`math.fsum`, exact, so the order in which processes add them changes
+nothing. docs/core.md ("The swarm's fit") says how a solve converges.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from .arrays import FloatArray
+from .swarm_edges import Edges, blocks_times, sums_into
+
+#: A solve has settled when each column's residual, in the preconditioner's norm, is this
+#: small against its right side's: (r, M r) <= SETTLED^2 (b, M b). Both are sums the
+#: swarm makes anyway. Not a step's size: on the published sensor's ill-conditioned system
+#: (exact directions, weights whose axes differ by 1e6) steps shrink long before the
+#: error does, and a solve stopped at steps of 1e-6 cm was 1e-3 cm off.
+SETTLED = 1e-10
+#: Iterations of one solve, at most (the race car needs a few hundred; docs/core.md).
+MAX_ITERATIONS = 5000
+#: Iterations without any column's residual halving after which a solve has stalled.
+STALL_ITERATIONS = 500
+
+
+@dataclass(frozen=True)
+class System:
+    """Each FLS's rows of ``H X = B`` for K right sides: its diagonal block, its B, its edges."""
+
+    edges: Edges
+    matrix: Any  # scipy.sparse CSR (3N, 3N), cm^-2: H, each row's columns ascending
+    preconditioner: FloatArray  # (N, 3, 3), cm^2: each diagonal block's inverse
+    right: FloatArray  # (N, 3, K), cm^-1: B, the flows into the FLS
+
+
+def system_of(edges: Edges, edge_flows: FloatArray | None = None) -> System:
+    """The normal equations' rows held by each FLS of ``edges``.
+
+    An FLS in no pair keeps the identity for its block, so that its unknowns
+    stay put.
+
+    Parameters
+    ----------
+    edges : Edges
+        Weighted edges of N FLSs.
+    edge_flows : (2E, 3, K) array of float, optional, cm^-1
+        The right sides' flows; by default the measurements' own (K = 1).
+
+    Returns
+    -------
+    System
+        ``H`` (3N, 3N) sparse, cm^-2; each diagonal block's inverse, cm^2;
+        the right sides ``B`` (N, 3, K), cm^-1.
+    """
+    from scipy.sparse import coo_matrix
+
+    diagonal = sums_into(edges.information, edges.starts)
+    alone = np.diff(edges.starts) == 0
+    diagonal[alone] = np.eye(3)
+    size = edges.size
+    axes = np.arange(3)
+    fls = np.arange(size)
+    rows = np.concatenate([3 * fls[:, None, None] + axes[None, :, None],
+                           3 * edges.receiver[:, None, None] + axes[None, :, None]])  # fmt: skip
+    columns = np.concatenate([3 * fls[:, None, None] + axes[None, None, :],
+                              3 * edges.sender[:, None, None] + axes[None, None, :]])  # fmt: skip
+    values = np.concatenate([diagonal, -edges.information])
+    rows, columns = np.broadcast_arrays(rows, columns)
+    matrix = coo_matrix(
+        (values.ravel(), (rows.ravel(), columns.ravel())), shape=(3 * size, 3 * size)
+    ).tocsr()
+    matrix.sort_indices()
+    edge_flows = edges.flow[:, :, None] if edge_flows is None else edge_flows
+    right = sums_into(edge_flows, edges.starts)
+    return System(edges, matrix, np.asarray(np.linalg.inv(diagonal), dtype=np.float64), right)
+
+
+def product(system: System, vector: FloatArray) -> FloatArray:
+    """``H`` times ``vector``: each FLS's rows, from its and its neighbours' values.
+
+    Parameters
+    ----------
+    system : System
+    vector : (N, 3, K) array of float, cm
+
+    Returns
+    -------
+    (N, 3, K) array of float, cm^-1
+    """
+    size, _, count = vector.shape
+    flat = system.matrix @ vector.reshape(3 * size, count)
+    return np.asarray(flat, dtype=np.float64).reshape(size, 3, count)
+
+
+def preconditioned(system: System, residual: FloatArray) -> FloatArray:
+    """Each FLS's residual through its own block's inverse (block Jacobi).
+
+    Parameters
+    ----------
+    system : System
+    residual : (N, 3, K) array of float, cm^-1
+
+    Returns
+    -------
+    (N, 3, K) array of float, cm
+    """
+    return blocks_times(system.preconditioner, residual)
+
+
+def partial_dot(one: FloatArray, other: FloatArray) -> FloatArray:
+    """Each FLS's share of the K dot products of two vectors of the swarm.
+
+    Parameters
+    ----------
+    one, other : (N, 3, K) array of float
+
+    Returns
+    -------
+    (N, K) array of float
+        :func:`swarm_sum` adds them up.
+    """
+    return np.asarray((one * other).sum(axis=1), dtype=np.float64)
+
+
+def swarm_sum(partials: FloatArray) -> FloatArray:
+    """The sums over the swarm of every FLS's shares: exact, so in any order.
+
+    ``math.fsum``, correctly rounded: a process's exact sum, rounded once,
+    is what the engine gets over every FLS at once.
+
+    Parameters
+    ----------
+    partials : (N, K) array of float
+
+    Returns
+    -------
+    (K,) array of float
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.conjugate_gradients import swarm_sum
+    >>> swarm_sum(np.array([[1e16, 1.0], [1.0, 2.0], [-1e16, 3.0]]))  # no 1.0 lost
+    array([1., 6.])
+    """
+    return np.array([math.fsum(column) for column in partials.T.tolist()], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Iterate:
+    """What every FLS holds between iterations of one solve, and the swarm's scalars."""
+
+    position: FloatArray  # (N, 3, K), cm: X
+    residual: FloatArray  # (N, 3, K), cm^-1: R = B - H X
+    search: FloatArray  # (N, 3, K), cm: P
+    image: FloatArray  # (N, 3, K), cm^-1: S = H P
+    gamma: FloatArray  # (K,): (r, M r) of the last iteration; zero before the first
+    alpha: FloatArray  # (K,): its step length
+
+
+def shares(system: System, residual: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """U = M R and W = H U (an exchange of U), and every FLS's shares of (R, U) and (W, U).
+
+    The one exchange and the two sums of an iteration in Chronopoulos and
+    Gear's form.
+
+    Parameters
+    ----------
+    system : System
+    residual : (N, 3, K) array of float, cm^-1
+        R.
+
+    Returns
+    -------
+    scaled : (N, 3, K) array of float, cm
+        U.
+    image : (N, 3, K) array of float, cm^-1
+        W.
+    partial : (N, 2, K) array of float
+        Each FLS's shares of (R, U) and (W, U).
+    """
+    scaled = preconditioned(system, residual)
+    image = product(system, scaled)
+    partial = np.stack([partial_dot(residual, scaled), partial_dot(image, scaled)], axis=1)
+    return scaled, image, partial
+
+
+def scalars(
+    iterate: Iterate, gamma: FloatArray, delta: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """The steps alpha and conjugations beta from the swarm's sums (Chronopoulos and Gear).
+
+    A column already exact (gamma zero) stays where it is.
+
+    Parameters
+    ----------
+    iterate : Iterate
+        The last iteration's gamma and alpha.
+    gamma, delta : (K,) array of float
+        This iteration's sums (R, U) and (W, U).
+
+    Returns
+    -------
+    alpha, beta : (K,) array of float
+    """
+    first = iterate.gamma == 0.0
+    safe_gamma = np.where(first, 1.0, iterate.gamma)
+    safe_alpha = np.where(iterate.alpha == 0.0, 1.0, iterate.alpha)
+    beta = np.where(first, 0.0, gamma / safe_gamma)
+    divisor = delta - beta * gamma / safe_alpha
+    alpha = np.divide(gamma, divisor, out=np.zeros_like(gamma), where=divisor != 0.0)
+    return alpha, beta
+
+
+def advance(
+    iterate: Iterate,
+    scaled: FloatArray,
+    image: FloatArray,
+    gamma: FloatArray,
+    alpha: FloatArray,
+    beta: FloatArray,
+) -> Iterate:
+    """One iteration at every FLS from its U, W and the swarm's scalars.
+
+    Parameters
+    ----------
+    iterate : Iterate
+    scaled : (N, 3, K) array of float, cm
+        U (:func:`shares`).
+    image : (N, 3, K) array of float, cm^-1
+        W.
+    gamma, alpha, beta : (K,) array of float
+        The swarm's sum (R, U) and :func:`scalars`.
+
+    Returns
+    -------
+    Iterate
+    """
+    search = scaled + beta * iterate.search
+    product_image = image + beta * iterate.image
+    return Iterate(
+        iterate.position + alpha * search,
+        iterate.residual - alpha * product_image,
+        search,
+        product_image,
+        gamma,
+        alpha,
+    )
+
+
+def start_iterate(system: System, position: FloatArray) -> Iterate:
+    """The iterate at ``position``, after an exchange of positions.
+
+    Parameters
+    ----------
+    system : System
+    position : (N, 3, K) array of float, cm
+
+    Returns
+    -------
+    Iterate
+        Residual ``B - H X``; no search direction yet.
+    """
+    zeros = np.zeros_like(position)
+    columns = np.zeros(position.shape[2])
+    return Iterate(position, system.right - product(system, position), zeros, zeros, columns,
+                   columns)  # fmt: skip
+
+
+def solved(
+    system: System, position: FloatArray, limit: int = MAX_ITERATIONS
+) -> tuple[FloatArray, int]:
+    """``H X = B`` by the swarm's iterations from ``position`` (N, 3, K); X and the iterations.
+
+    The first exchange also sums (B, M B), the scale the residuals settle
+    against. A solve that stalls (:class:`Floor`) ends at its best iterate.
+
+    Parameters
+    ----------
+    system : System
+    position : (N, 3, K) array of float, cm
+        Where the solve starts.
+    limit : int, default MAX_ITERATIONS
+        Iterations, at most.
+
+    Returns
+    -------
+    position : (N, 3, K) array of float, cm
+        X; not yet gauged (:func:`~.swarm_fit.gauged`).
+    iterations : int
+        Each one exchange and one sum over the swarm.
+    """
+    iterate = start_iterate(system, position)
+    scale = swarm_sum(partial_dot(system.right, preconditioned(system, system.right)))
+    floor = Floor.start(position)
+    for iteration in range(1, limit + 1):
+        scaled, image, partial = shares(system, iterate.residual)
+        gamma, delta = swarm_sum(partial[:, 0]), swarm_sum(partial[:, 1])
+        if settled(gamma, scale):
+            return iterate.position, iteration - 1
+        floor = floor.after(gamma, iterate.position)
+        if floor.stalled:
+            return floor.position, iteration - 1
+        alpha, beta = scalars(iterate, gamma, delta)
+        iterate = advance(iterate, scaled, image, gamma, alpha, beta)
+    return iterate.position, limit
+
+
+@dataclass(frozen=True)
+class Floor:
+    """Each column's lowest residual so far, the position that had it, and the iterations since
+    any column's last halved: a solve whose residual stops falling has reached the floor
+    that rounding puts under an ill-conditioned system (the published sensor's, whose weights'
+    axes differ by up to 1e10), where (r, M r) wanders while the positions no longer move."""
+
+    gamma: FloatArray  # (K,), the lowest (r, M r) of each column
+    position: FloatArray  # (N, 3, K) or one FLS's (1, 3, K), cm, where each column had it
+    since: int = 0
+
+    @classmethod
+    def start(cls, position: FloatArray) -> Floor:
+        return cls(np.full(position.shape[2], np.inf), position.copy())
+
+    @property
+    def stalled(self) -> bool:
+        return self.since >= STALL_ITERATIONS
+
+    def after(self, gamma: FloatArray, position: FloatArray) -> Floor:
+        """The floor once an iteration at ``position`` has had residuals ``gamma`` (K,)."""
+        halved = gamma <= 0.5 * self.gamma
+        if not halved.any():
+            return replace(self, since=self.since + 1)
+        best = self.position.copy()
+        best[:, :, halved] = position[:, :, halved]
+        return Floor(np.where(halved, gamma, self.gamma), best, 0)
+
+
+def settled(gamma: FloatArray, scale: FloatArray) -> bool:
+    """Whether every column's residual is small against its right side's.
+
+    Parameters
+    ----------
+    gamma : (K,) array of float
+        Each column's (r, M r).
+    scale : (K,) array of float
+        Each column's (b, M b).
+
+    Returns
+    -------
+    bool
+        ``gamma <= SETTLED**2 * scale`` for every column.
+    """
+    return bool((gamma <= SETTLED**2 * scale).all())
