@@ -23,7 +23,13 @@ Modules, each holding one idea of ``docs`` / the spec:
 - :mod:`.fit_measurements`: which measurements a fit takes;
 - :mod:`.window_fit`: a source's own fit over what it hears;
 - :mod:`.pair_fits`: the engine's least-squares estimates of many pairs;
-- :mod:`.fit`: the estimators, and an evaluation refined by a fit.
+- :mod:`.fit`: the estimators, and an evaluation refined by a fit;
+- :mod:`.relay`: tracking's relay choice and relayed samples;
+- :mod:`.estimators`: a tracked target's motion from relayed samples;
+- :mod:`.tracking`: a source's track of a relayed stream, and its errors;
+- :mod:`.metric_rows`: a comparison's rows of the summaries' numbers;
+- :mod:`.pair_classes`: a comparison by class of pairs;
+- :mod:`.compare`: runs compared side by side.
 """
 
 from .errors import SwazureError
