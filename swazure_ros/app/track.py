@@ -23,13 +23,7 @@ import numpy as np
 
 from ..core.frames import to_metres
 from ..core.motion import Motion
-from ..core.tracking import (
-    TRACK_SETTINGS,
-    TrackConfig,
-    TrackRun,
-    arrival,
-    nanoseconds,
-)
+from ..core.tracking import TRACK_SETTINGS, TrackConfig, TrackRun, arrival, nanoseconds
 from ..files.description import SwarmDescription
 from ..ros.clients.track_client import SwarmStalledError, TrackClient
 from ..ros.nodes.clock import SimClock

@@ -12,7 +12,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..core.compare import Comparison, MetricRow
+from ..core.compare import Comparison
+from ..core.metric_rows import MetricRow
 from ..files.runs import compare_runs, write_comparison
 from ..view.compare import write_error_figure
 from .arguments import output_folder

@@ -22,10 +22,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..core.errors import SwazureError
+from ..core.estimators import MODELS
 from ..core.motion import Motion, Trajectory, TrajectoryError
 from ..core.tracking import (
     ESTIMATORS,
-    MODELS,
     TRACK_SETTINGS,
     TrackConfig,
     TrackRun,

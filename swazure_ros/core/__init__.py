@@ -31,7 +31,13 @@ Modules, each holding one idea of ``docs`` / the spec:
 - :mod:`.conjugate_gradients`: the swarm's conjugate gradients, by exchanges and exact sums;
 - :mod:`.swarm_fit`: the swarm's own fit, its robust schedule and covariance;
 - :mod:`.pair_fits`: the engine's least-squares estimates of many pairs;
-- :mod:`.fit`: the estimators, and an evaluation refined by a fit.
+- :mod:`.fit`: the estimators, and an evaluation refined by a fit;
+- :mod:`.relay`: tracking's relay choice and relayed samples;
+- :mod:`.estimators`: a tracked target's motion from relayed samples;
+- :mod:`.tracking`: a source's track of a relayed stream, and its errors;
+- :mod:`.metric_rows`: a comparison's rows of the summaries' numbers;
+- :mod:`.pair_classes`: a comparison by class of pairs;
+- :mod:`.compare`: runs compared side by side.
 """
 
 from .errors import SwazureError

@@ -19,17 +19,11 @@ from typing import Any
 
 import numpy as np
 
-from ..core.compare import (
-    Comparison,
-    ErrorUnit,
-    MetricRow,
-    PairErrors,
-    check_one_cloud,
-    cloud_of,
-    compare,
-)
+from ..core.compare import Comparison, check_one_cloud, cloud_of, compare
 from ..core.errors import SwazureError
 from ..core.evaluation import REASON_NAMES
+from ..core.metric_rows import MetricRow
+from ..core.pair_classes import ErrorUnit, PairErrors
 from ..core.summary import Summary
 from .atomic import atomic_write, write_json
 from .reading import CONFIG_BYTES, read_text

@@ -21,22 +21,15 @@ from functools import partial
 import numpy as np
 
 from ..core.arrays import FloatArray, IntArray
+from ..core.estimators import TrackingError
 from ..core.fit import PATH
 from ..core.fit_measurements import fit_layers
 from ..core.frames import through_metres
 from ..core.motion import Motion
 from ..core.observe import Observations, local_view
+from ..core.relay import moving_senses
 from ..core.sensor import Sensor
-from ..core.tracking import (
-    ENDED,
-    TIMED_OUT,
-    TrackConfig,
-    TrackingError,
-    TrackRun,
-    arrival,
-    moving_senses,
-    nanoseconds,
-)
+from ..core.tracking import ENDED, TIMED_OUT, TrackConfig, TrackRun, arrival, nanoseconds
 from .discovery.messages import END, ROUND, Broadcast, Control, Report
 from .discovery.participant import Participant
 from .radio import RadioHub

@@ -25,16 +25,14 @@ from functools import partial
 import numpy as np
 
 from ..core.arrays import FloatArray
+from ..core.estimators import TrackingError
+from ..core.relay import RELAY_MESSAGES, RELAY_OK, RelaySenses
 from ..core.tracking import (
     ENDED,
-    RELAY_MESSAGES,
-    RELAY_OK,
     TIMED_OUT,
     MotionEstimate,
-    RelaySenses,
     Track,
     TrackConfig,
-    TrackingError,
     arrival,
     nanoseconds,
 )

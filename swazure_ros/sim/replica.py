@@ -18,8 +18,8 @@ from numpy.typing import NDArray
 from ..core.arrays import FloatArray, IntArray
 from ..core.motion import Motion
 from ..core.observe import LocalView, Measurement, NeighbourSets
+from ..core.relay import RelaySenses, moving_senses
 from ..core.sensor import Sensor
-from ..core.tracking import RelaySenses, moving_senses
 from ..files.reading import config_dir
 from .world import World
 

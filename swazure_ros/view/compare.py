@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from ..core.compare import CDF_LEVELS, PAIR_CLASSES, Comparison, cloud_of
+from ..core.compare import Comparison, cloud_of
+from ..core.pair_classes import CDF_LEVELS, PAIR_CLASSES
 from .png import save
 
 #: One panel's size, inches; the legend below the panels takes LEGEND_HEIGHT per row.

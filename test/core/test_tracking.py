@@ -1,4 +1,4 @@
-"""Relayed samples, central differences and the Kalman tracker (spec, section 9).
+"""The Kalman tracker and a source's track of a relayed stream (spec, section 9).
 
 The swarm of every test: source 0 at the origin, relay 1 in its sweet range
 on the x axis, and target 2, blind to the source and in the relay's sweet
@@ -8,23 +8,14 @@ range; r = 0.5 cm, so tracking distances are centre distances minus 1 cm.
 import numpy as np
 import pytest
 
-from swazure_ros.core.hop_errors import measured_vectors
-from swazure_ros.core.motion import Motion
-from swazure_ros.core.tracking import (
+from swazure_ros.core.estimators import (
     CONSTANT_ACCELERATION,
     CONSTANT_VELOCITY,
-    ENDED,
-    RELAY_OK,
-    TIMED_OUT,
-    TRACKING,
     KalmanTracker,
-    Track,
-    TrackConfig,
     TrackingError,
-    central_differences,
-    choose_relay,
-    relay_sample,
 )
+from swazure_ros.core.motion import Motion
+from swazure_ros.core.tracking import ENDED, TIMED_OUT, TRACKING, Track, TrackConfig
 from swazure_ros.files.sensors import load_sensor
 from swazure_ros.files.trajectories import parse_trajectory
 from swazure_ros.protocol.loops import simulate_track
@@ -51,33 +42,6 @@ def run(sensor, trajectory, config, duration=8.0):
 
 def kalman(result, field):
     return np.array([getattr(estimate.kalman, field) for estimate in result.estimates])
-
-
-def test_the_relay_is_the_sweet_neighbour_that_sees_the_target(sensor):
-    assert choose_relay(sensor, HOME, RADIUS, 0, 2) == 1
-    # Without a relay in between, nobody sees the target for the source.
-    assert choose_relay(sensor, HOME[[0, 2]], RADIUS, 0, 1) is None
-
-
-def test_a_relayed_sample_is_the_sum_of_the_two_measured_hops(sensor):
-    status, vector = relay_sample(sensor, HOME, RADIUS, 0, 1, 2)
-    hops = measured_vectors(sensor, HOME, RADIUS, [0, 1], [1, 2])
-    assert status == RELAY_OK
-    assert np.allclose(vector, hops.sum(axis=0))
-    status, vector = relay_sample(sensor.error_free(), HOME, RADIUS, 0, 1, 2)
-    assert np.allclose(vector, HOME[2] - HOME[0])
-
-
-def test_central_differences_are_exact_for_a_parabola():
-    times = np.arange(10) * 0.1
-    positions = np.outer(times**2, [1.0, 0.0, -2.0]) + np.outer(times, [0.0, 3.0, 0.0])
-    differences = central_differences(times, positions)
-    assert np.allclose(differences.velocity_times, times[1:-1])
-    assert np.allclose(
-        differences.velocity, np.outer(2 * times[1:-1], [1, 0, -2]) + np.array([0, 3, 0])
-    )
-    assert np.allclose(differences.acceleration_times, times[2:-2])
-    assert np.allclose(differences.acceleration, [2.0, 0.0, -4.0])
 
 
 @pytest.mark.parametrize("model", [CONSTANT_VELOCITY, CONSTANT_ACCELERATION])

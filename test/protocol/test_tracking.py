@@ -5,15 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from swazure_ros.core.tracking import (
-    ENDED,
-    RELAY_OK,
-    RELAY_TARGET_LOST,
-    TIMED_OUT,
-    TRACKING,
-    TrackConfig,
-    TrackingError,
-)
+from swazure_ros.core.estimators import TrackingError
+from swazure_ros.core.relay import RELAY_OK, RELAY_TARGET_LOST
+from swazure_ros.core.tracking import ENDED, TIMED_OUT, TRACKING, TrackConfig
 from swazure_ros.protocol.tracking import (
     START_RELAY,
     STOP_RELAY,

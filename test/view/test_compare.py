@@ -4,8 +4,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from swazure_ros.core.compare import PairErrors, compare
+from swazure_ros.core.compare import compare
 from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.pair_classes import PairErrors
 from swazure_ros.core.summary import Source
 from swazure_ros.view.compare import error_figure, figure_size, grid, write_error_figure
 from swazure_ros.view.png import DPI

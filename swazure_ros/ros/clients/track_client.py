@@ -10,7 +10,8 @@ from swazure_interfaces.srv import TrackTarget
 
 from ...core.arrays import IntArray
 from ...core.errors import RunError
-from ...core.tracking import ENDED, TIMED_OUT, MotionEstimate, TrackingError
+from ...core.estimators import TrackingError
+from ...core.tracking import ENDED, TIMED_OUT, MotionEstimate
 from ...protocol.tracking import TrackProgressReport
 from ..convert.tracking import motion_estimate, track_progress_from_message
 from ..plumbing.names import (

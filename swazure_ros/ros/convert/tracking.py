@@ -14,8 +14,10 @@ from swazure_interfaces.msg import (
 )
 
 from ...core.arrays import FloatArray, IntArray
+from ...core.estimators import TrackState
 from ...core.frames import fls_frame, to_metres
-from ...core.tracking import RELAY_MESSAGES, RELAY_OK, MotionEstimate, TrackState
+from ...core.relay import RELAY_MESSAGES, RELAY_OK
+from ...core.tracking import MotionEstimate
 from ...protocol.tracking import (
     START_RELAY,
     STOP_RELAY,

@@ -55,7 +55,7 @@ from swazure_interfaces.srv import GetNeighbours
 
 from ...core.fit import PATH
 from ...core.observe import Measurement, NeighbourSets
-from ...core.tracking import RelaySenses
+from ...core.relay import RelaySenses
 from ...protocol.discovery.messages import START, Broadcast, Control, Report, RoundOffers
 from ...protocol.discovery.participant import Participant
 from ...protocol.moves import WALKING, Walk, next_hop, step_walk, walk_estimate

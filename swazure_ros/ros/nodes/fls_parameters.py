@@ -12,7 +12,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any, cast
 
-from ...core.tracking import TRACK_SETTINGS, TrackConfig, TrackingError
+from ...core.estimators import TrackingError
+from ...core.tracking import TRACK_SETTINGS, TrackConfig
 from ...files.swarm_file import NodeParameters, ParameterValue
 from ..plumbing.parameters import ParameterSpec, at_least, seconds
 

@@ -21,7 +21,9 @@ from swazure_interfaces.srv import TrackTarget
 
 from ...core.arrays import FloatArray
 from ...core.errors import SwazureError
-from ...core.tracking import RelaySenses, TrackConfig, TrackingError
+from ...core.estimators import TrackingError
+from ...core.relay import RelaySenses
+from ...core.tracking import TrackConfig
 from ...protocol.tracking import (
     STOP_RELAY,
     RelayRequest,

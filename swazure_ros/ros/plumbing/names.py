@@ -18,16 +18,10 @@ from rclpy.validate_namespace import validate_namespace
 from swazure_interfaces.msg import DiscoveryControl, TrackEstimate
 
 from ...core.arrays import IntArray
+from ...core.estimators import CONSTANT_ACCELERATION, CONSTANT_VELOCITY
 from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
 from ...core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
-from ...core.tracking import (
-    CONSTANT_ACCELERATION,
-    CONSTANT_VELOCITY,
-    ENDED,
-    TIMED_OUT,
-    TRACKING,
-    WAITING,
-)
+from ...core.tracking import ENDED, TIMED_OUT, TRACKING, WAITING
 from ...protocol.cells import cell_name
 
 # Topics, shared by every FLS: a reader filters on the FLS id in the message.

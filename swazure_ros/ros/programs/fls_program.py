@@ -21,7 +21,7 @@ from rclpy.node import Node
 from rclpy.timer import Timer
 
 from ...core.errors import SwazureError
-from ...core.tracking import RelaySenses, moving_senses
+from ...core.relay import RelaySenses, moving_senses
 from ...files.trajectories import parse_motion
 from ...protocol.senses import DetectedSenses
 from ..nodes import fls_parameters

@@ -13,11 +13,13 @@ from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
 from swazure_interfaces.msg import Measurements, MoveCommands, PathOffer, PoseEstimates, WorldState
 
+from swazure_ros.core.estimators import TrackState
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.observe import Measurement
+from swazure_ros.core.relay import RELAY_OK
 from swazure_ros.core.sensor import DECAYING, SWEET
-from swazure_ros.core.tracking import RELAY_OK, TRACKING, MotionEstimate, TrackState
+from swazure_ros.core.tracking import TRACKING, MotionEstimate
 from swazure_ros.files.sensors import load_sensor
 from swazure_ros.protocol.discovery.estimate import Estimate
 from swazure_ros.protocol.discovery.messages import (

@@ -11,16 +11,10 @@ from swazure_interfaces.srv import TrackTarget
 
 from swazure_ros.app.track import TrackSession, run_track, same_run
 from swazure_ros.core.clouds import Cloud
+from swazure_ros.core.estimators import CONSTANT_ACCELERATION, TrackingError
 from swazure_ros.core.frames import to_metres
 from swazure_ros.core.motion import Motion
-from swazure_ros.core.tracking import (
-    CONSTANT_ACCELERATION,
-    TIMED_OUT,
-    TRACKING,
-    TrackConfig,
-    TrackingError,
-    nanoseconds,
-)
+from swazure_ros.core.tracking import TIMED_OUT, TRACKING, TrackConfig, nanoseconds
 from swazure_ros.files.sensors import load_sensor
 from swazure_ros.files.trajectories import parse_trajectory
 from swazure_ros.protocol.loops import simulate_track
@@ -231,7 +225,8 @@ def test_on_the_wall_clock_an_fls_with_nothing_to_relay_or_track_stops_its_frame
 
 
 def test_an_estimate_survives_the_message_round_trip(world):
-    from swazure_ros.core.tracking import KalmanTracker, Track
+    from swazure_ros.core.estimators import KalmanTracker
+    from swazure_ros.core.tracking import Track
     from swazure_ros.protocol.tracking import TrackReport
     from swazure_ros.ros.convert.tracking import track_estimate_message
 

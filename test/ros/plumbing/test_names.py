@@ -15,7 +15,8 @@ from swazure_interfaces.msg import (
 )
 from swazure_interfaces.srv import ComputePose
 
-from swazure_ros.core import tracking
+from swazure_ros.core import estimators
+from swazure_ros.core import relay as core_relay
 from swazure_ros.core.paths import POLICIES
 from swazure_ros.protocol import moves
 from swazure_ros.protocol import tracking as relay
@@ -40,9 +41,9 @@ from swazure_ros.ros.plumbing import names
         (moves.FAILED, PathWalk.STATE_FAILED),
         (relay.START_RELAY, TrackRequest.COMMAND_START),
         (relay.STOP_RELAY, TrackRequest.COMMAND_STOP),
-        (tracking.RELAY_OK, TrackSample.STATUS_OK),
-        (tracking.RELAY_TARGET_LOST, TrackSample.STATUS_TARGET_LOST),
-        (tracking.RELAY_SOURCE_LOST, TrackSample.STATUS_SOURCE_LOST),
+        (core_relay.RELAY_OK, TrackSample.STATUS_OK),
+        (core_relay.RELAY_TARGET_LOST, TrackSample.STATUS_TARGET_LOST),
+        (core_relay.RELAY_SOURCE_LOST, TrackSample.STATUS_SOURCE_LOST),
     ],
 )
 def test_protocol_codes_equal_the_message_constants(ours, theirs):
@@ -56,7 +57,7 @@ def test_every_name_table_maps_both_ways():
         (names.TRACK_STATE_CODES, names.TRACK_STATE_NAMES),
     ):
         assert {code: name for name, code in codes.items()} == names_
-    assert set(names.TRACK_MODEL_NAMES.values()) == set(tracking.MODELS)
+    assert set(names.TRACK_MODEL_NAMES.values()) == set(estimators.MODELS)
     assert set(names.POLICY_NAMES.values()) == set(POLICIES)  # every policy goes on the wire
 
 
