@@ -252,6 +252,16 @@ def test_out_that_is_a_file_is_refused(tmp_path):
     assert target.read_text() == "keep me"
 
 
+def ctrl_c_as_at_a_terminal() -> None:
+    """In the child before it starts: SIGINT's default, which Python makes Ctrl-C.
+
+    A suite started in the background by a script (`make test &`, as the side-by-side
+    runs are) ignores SIGINT, and so would the study it starts: it would not stop at
+    Ctrl-C but run the whole study (two minutes), and the test would pass slowly.
+    """
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_without_the_published_clouds_the_study_says_it_falls_back_and_why(tmp_path):
     # `make study` (swazure study --out study) with no published clouds where it looks.
     empty = tmp_path / "no-clouds"
@@ -261,6 +271,7 @@ def test_without_the_published_clouds_the_study_says_it_falls_back_and_why(tmp_p
          str(tmp_path / "study")],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
         env=os.environ | {"SWAZURE_DATASETS": str(empty)},
+        preexec_fn=ctrl_c_as_at_a_terminal,
     ) as process:  # fmt: skip
         lines: list[str] = []
         reader = threading.Thread(target=lambda: lines.extend(process.stderr), daemon=True)
@@ -271,6 +282,8 @@ def test_without_the_published_clouds_the_study_says_it_falls_back_and_why(tmp_p
         process.wait(PATIENCE)
         reader.join(PATIENCE)
     assert said
+    # Stopped by Ctrl-C, before any run: not a study run to its end.
+    assert process.returncode == 130 and "swazure study: interrupted\n" in lines, lines
     first = lines[0]
     assert first.startswith(
         "swazure study: the six published clouds are not on this machine, so it studies the "

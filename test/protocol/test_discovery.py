@@ -210,7 +210,7 @@ def test_each_source_s_own_fit_equals_the_engine_s_window_fit(noisy):
     policy = "shortest-length"
     engine = refine(evaluate(world.swarm, sensor, policy), LOCAL_LEAST_SQUARES)
     hood = engine.hood
-    found, _ = run(hood, policy, estimator=LOCAL_LEAST_SQUARES)
+    found, outcome = run(hood, policy, estimator=LOCAL_LEAST_SQUARES)
     assert engine.summary.fit.path_fallback_pairs > 0
     pairs, ids = engine.pairs, world.ids
     assert len(found) == len(pairs)
@@ -223,7 +223,7 @@ def test_each_source_s_own_fit_equals_the_engine_s_window_fit(noisy):
         assert one.estimator == LOCAL_LEAST_SQUARES
         np.testing.assert_allclose(one.vector, pairs.estimate[pair], rtol=0, atol=1e-9)
         np.testing.assert_allclose(one.covariance, pairs.covariance[pair], rtol=1e-9, atol=1e-12)
-    _, outcome = run(hood, policy, estimator=LOCAL_LEAST_SQUARES)
+    # The same run's estimates, evaluated as the engine evaluates its own.
     distributed = evaluation_of(hood, policy, outcome.estimates)
     np.testing.assert_allclose(distributed.pairs.covariance, pairs.covariance, rtol=1e-9)
     np.testing.assert_allclose(distributed.pairs.predicted_error, pairs.predicted_error, rtol=1e-9)

@@ -109,31 +109,35 @@ def test_whole_swarm_discovery_equals_the_engine(domain, params, beta):
             assert result.traffic.messages["estimates"] == len(world.ids)
 
 
-# Each technique at one beta, both betas covered: a run takes about 45 s over DDS. The
-# same move machine runs both techniques in memory (test/protocol/test_moves.py).
-@pytest.mark.parametrize(("technique", "beta"), [(MOVE_OBSTRUCTING, 0.5), (MOVE_SOURCE, 0.3)])
-def test_moves_made_by_the_swarm_equal_the_engine(domain, params, technique, beta):
+# Each technique at one beta and one policy, both betas and both policies covered: a
+# technique's run (plain, moves, plain again) takes about 45 s over DDS. The same move
+# machine runs both techniques in memory (test/protocol/test_moves.py), and two processes
+# make both over DDS (test/ros/test_cells.py).
+@pytest.mark.parametrize(
+    ("technique", "beta", "policy"),
+    [(MOVE_OBSTRUCTING, 0.5, "fewest-hops"), (MOVE_SOURCE, 0.3, "shortest-length")],
+)
+def test_moves_made_by_the_swarm_equal_the_engine(domain, params, technique, beta, policy):
     with swarm_of(domain, params, beta) as swarm:
         world = swarm.world
-        for policy in POLICIES:
-            plain = swarm.discover(policy, timeout=300)
-            found = evaluation_of(world.hood, policy, plain.outcome.estimates)
-            moved = swarm.make_moves(found, technique, threshold=10, timeout=300)
-            engine, plan = run_technique(
-                evaluate(world.swarm, world.sensor, policy), technique, threshold=10
-            )
-            assert plan.resolved.sum() > 500
-            assert (
-                moved.outcome.walks == plan.resolved.sum()
-                and moved.outcome.batches < moved.outcome.walks / 5
-            )
-            assert_moves_match_engine(moved, engine, plan)
-            # Every FLS is back at its point: the next run is the plain run again.
-            assert (swarm.host.replica.world.swarm.points == world.swarm.points).all()
-            before = by_pair(plain.outcome.estimates)
-            again = by_pair(swarm.discover(policy, timeout=300).outcome.estimates)
-            assert again.keys() == before.keys()
-            assert all(one.path == before[key].path for key, one in again.items())
+        plain = swarm.discover(policy, timeout=300)
+        found = evaluation_of(world.hood, policy, plain.outcome.estimates)
+        moved = swarm.make_moves(found, technique, threshold=10, timeout=300)
+        engine, plan = run_technique(
+            evaluate(world.swarm, world.sensor, policy), technique, threshold=10
+        )
+        assert plan.resolved.sum() > 500
+        assert (
+            moved.outcome.walks == plan.resolved.sum()
+            and moved.outcome.batches < moved.outcome.walks / 5
+        )
+        assert_moves_match_engine(moved, engine, plan)
+        # Every FLS is back at its point: the next run is the plain run again.
+        assert (swarm.host.replica.world.swarm.points == world.swarm.points).all()
+        before = by_pair(plain.outcome.estimates)
+        again = by_pair(swarm.discover(policy, timeout=300).outcome.estimates)
+        assert again.keys() == before.keys()
+        assert all(one.path == before[key].path for key, one in again.items())
 
 
 def test_a_node_stopped_mid_run_departs_and_paths_avoid_it(domain, params):
