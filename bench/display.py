@@ -1,4 +1,4 @@
-"""Every shape at display scale: plain Swazure, the heuristics, fusion and the fit, 3,720 to 65,536 FLSs.
+"""Every shape at display scale: plain Swazure, heuristics, fusion, the fit; 3,720-65,536 FLSs.
 
 The `display` section of BENCHMARKS.md (`python -m bench --sections display`):
 each run is one `swazure evaluate` process under an address-space cap, timed from
@@ -46,7 +46,7 @@ RUN_LIMIT_S = 3600.0
 
 @dataclass(frozen=True)
 class DisplayRow:
-    """One run of the section: what ran, how long, how much memory, and whether it equals the held run."""
+    """One run: what ran, how long, how much memory, and whether it equals the held run."""
 
     shape: str
     size: int
@@ -75,7 +75,7 @@ def _capped() -> None:
 
 
 def _timed(arguments: list[str], limit: float) -> tuple[float, float, int]:
-    """Run under the address cap; wall seconds, peak RSS MB, exit code (-9 when stopped at ``limit``)."""
+    """Run under the address cap: wall s, peak RSS MB, exit code (-9: stopped at ``limit``)."""
     import os
     import threading
 
@@ -102,7 +102,7 @@ def _digest(path: Path) -> str:
 
 
 def _untimed(document: object) -> object:
-    """A JSON document without its "seconds", at any depth: what two runs of the same work share."""
+    """A JSON document without its "seconds", at any depth: what two runs of one work share."""
     if isinstance(document, dict):
         return {key: _untimed(value) for key, value in document.items() if key != "seconds"}
     return document
@@ -183,10 +183,10 @@ def display_lines(rows: Sequence[DisplayRow]) -> list[str]:
         "## Every shape at display scale: plain Swazure, heuristics, fusion and the fit",
         "",
         "`swazure evaluate --beta 0.5 --out DIR` (pairs.csv and summary.json written),",
-        f"default `--memory`, under a {ADDRESS_CAP // 2**30} GB address-space cap; wall time and peak",
-        "resident memory of the process. The race car at 3,720 FLSs is the published cloud,",
+        f"default `--memory`, under a {ADDRESS_CAP // 2**30} GB address-space cap; wall time and",
+        "peak resident memory of the process. The race car at 3,720 FLSs is the published cloud,",
         "at other sizes `--cloud racecar --resample N`. Identical: pairs.csv and summary.json",
-        f"(without timing) byte for byte those of the same run with every pair held at once",
+        "(without timing) byte for byte those of the same run with every pair held at once",
         f"(`--snapshot`, the path every run took before blocks), made up to {HELD_UP_TO:,} FLSs.",
         "",
         "| shape | FLSs | run | wall s | peak MB | ordered blind pairs | identical to held |",

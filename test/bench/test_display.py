@@ -15,7 +15,7 @@ def test_the_display_section_times_each_run_and_finds_it_identical_to_the_held_o
     # Above the held size no reference is made, and the row says so.
     assert display_run("torus", 200, "plain", tmp_path, held_up_to=100).identical == "-"
     lines = display_lines(rows)
-    [(header, table)] = check_shape(lines)
+    [(_header, table)] = check_shape(lines)
     assert len(table) == 2 and table[0][:3] == ["torus", "200", "plain"]
     assert sum(line.startswith("- ") and "not measured" in line for line in lines) == 3
     display_figure(rows, tmp_path / "display-scale.png")
