@@ -1,0 +1,28 @@
+"""bench.display: a small swarm's runs timed, compared with the held run, tabled and plotted."""
+
+from bench.display import display_cloud, display_figure, display_lines, display_run
+
+from .tables import check_shape
+
+
+def test_the_display_section_times_each_run_and_finds_it_identical_to_the_held_one(tmp_path):
+    # Two of the section's runs (each is a process and its held twin): plain and a heuristic.
+    rows = [display_run("torus", 200, run, tmp_path) for run in ("plain", "move-obstructing")]
+    assert all(row.exit_code == 0 and row.flss == 200 and row.pairs > 0 for row in rows)
+    # Each run made in blocks equals the same run with every pair held at once.
+    assert [row.identical for row in rows] == ["yes", "yes"]
+    assert rows[0].pairs_sha != rows[1].pairs_sha  # the heuristic moved FLSs
+    # Above the held size no reference is made, and the row says so.
+    assert display_run("torus", 200, "plain", tmp_path, held_up_to=100).identical == "-"
+    lines = display_lines(rows)
+    [(_header, table)] = check_shape(lines)
+    assert len(table) == 2 and table[0][:3] == ["torus", "200", "plain"]
+    assert sum(line.startswith("- ") and "not measured" in line for line in lines) == 3
+    display_figure(rows, tmp_path / "display-scale.png")
+    assert (tmp_path / "display-scale.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_the_race_car_is_the_published_cloud_at_its_size_and_resampled_at_the_others():
+    assert display_cloud("racecar", 3720) == ("--cloud", "racecar")
+    assert display_cloud("racecar", 65536) == ("--cloud", "racecar", "--resample", "65536")
+    assert display_cloud("torus", 30000) == ("--cloud", "torus:30000")
