@@ -9,7 +9,7 @@ the neighbourhood, the policy, every ordered blind pair and the summary.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,9 +18,6 @@ from .arrays import FloatArray, IntArray
 from .metrics import pose_errors
 from .neighbourhood import Neighbourhood
 from .summary import Summary
-
-if TYPE_CHECKING:
-    from .heuristics.result import HeuristicResult
 
 # Statuses and reasons; the values equal the constants of swazure_interfaces/PoseEstimate.
 SWEET_PATH, DECAYING_PATH, NO_PATH = 0, 1, 2
@@ -61,9 +58,6 @@ class PairResults:
     fused_paths: IntArray  # paths the estimate combines: 1, more when fused, 0 without a path
     # (M, 3, 3), cm^2: the estimate's covariance, where the estimator gives one (core.fit).
     covariance: FloatArray | None = None
-    # A heuristic's record of these M pairs (tried, resolved, moves) in a run made block by
-    # block (core.heuristics.regions); a run held whole gives its record beside its pairs.
-    heuristic: HeuristicResult | None = None
 
     def __len__(self) -> int:
         return len(self.source)

@@ -44,7 +44,7 @@ from .summary import Source, Summary
 #: It must go through ``blocks`` (write them, join them): the summary needs every pair
 #: tallied. FLS ids are ``hood.swarm.cloud_index[...]`` of the pairs' indices;
 #: ``heuristic`` is the moves of a heuristic's run held whole (None otherwise: a run
-#: made in blocks brings each block's in its pairs, ``PairResults.heuristic``);
+#: made in blocks brings each block's in its pairs, ``heuristics.result.MovedPairs``);
 #: ``blind_pairs`` is how many pairs the blocks hold, known before the first block.
 Take = Callable[[Neighbourhood, Iterator[PairResults], HeuristicResult | None, int], None]
 
@@ -219,7 +219,7 @@ def _in_blocks(
     progress: Progress,
 ) -> EngineRun:
     """Plain Swazure a block of pairs at a time, then a heuristic on each block: each block
-    to ``take`` as it is made (a heuristic's moves in its pairs, ``PairResults.heuristic``)."""
+    to ``take`` as it is made (a heuristic's moves in its pairs: ``MovedPairs``)."""
     plain = evaluate_blocked(swarm, sensor, options.policy, budget, progress)
     run: BlockedEvaluation | TechniqueBlocks = plain
     if options.technique != PLAIN:

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..core.errors import OutputError, SwazureError
 from ..core.evaluation import REASON_NAMES, STATUS_NAMES, Evaluation, PairResults
-from ..core.heuristics.result import HeuristicResult
+from ..core.heuristics.result import HeuristicResult, MovedPairs
 from ..core.neighbourhood import Neighbourhood
 from .atomic import atomic_output, atomic_write, write_json
 from .reading import CONFIG_BYTES, read_text, regular_file
@@ -79,7 +79,7 @@ def pairs_table(
 ) -> Any:
     """Per ordered blind pair results as a pyarrow Table; FLS ids are cloud row numbers.
 
-    With ``heuristic`` (or ``pairs.heuristic``), columns for its moves: tried,
+    With ``heuristic`` (or a MovedPairs' own), columns for its moves: tried,
     resolved, number of moves, the FLSs moved, the largest single move, and
     for Move Source the distance flown and the net displacement of the
     source (cm). Paths and
@@ -121,7 +121,8 @@ def pairs_table(
         # The covariance's six distinct entries, cm^2 (core.fit): x, y, z in the swarm's frame.
         for name, (row, column) in COVARIANCE_ENTRIES.items():
             table[name] = pairs.covariance[:, row, column]
-    heuristic = pairs.heuristic if heuristic is None else heuristic  # a block's own, if any
+    if heuristic is None and isinstance(pairs, MovedPairs):
+        heuristic = pairs.heuristic  # a block of a heuristic's run made block by block
     if heuristic is not None:
         counts = np.diff(heuristic.move_offsets)
         moved_ids = _id_lists(heuristic.move_offsets, ids[heuristic.move_fls], as_text)
@@ -270,7 +271,7 @@ def write_pair_blocks(
     blocks at once; only one block's table is held at a time. Returns its
     path; with ``pairs_format="none"`` the blocks are only made, and None.
     A heuristic's run held whole comes as one block, with its moves (``heuristic``); one
-    made block by block brings each block's moves in its pairs (``PairResults.heuristic``).
+    made block by block brings each block's moves in its pairs (``MovedPairs``).
     """
     import pyarrow.parquet as pq
 

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 from ..blocks import BlockedEvaluation
 from ..evaluation import PairResults
@@ -25,7 +25,7 @@ from ..progress import Progress
 from ..summary import Summary
 from .compat import TEXT, Compat
 from .folding import FactsTally, applied, try_technique
-from .result import MOVE_SOURCE, PairBlock
+from .result import MOVE_SOURCE, MovedPairs, PairBlock
 
 
 @dataclass
@@ -34,7 +34,7 @@ class TechniqueBlocks:
     :meth:`summary`, as for the plain run it wraps.
 
     Each block's pairs come with the heuristic's record of them
-    (``PairResults.heuristic``); the carried state between blocks is the
+    (:class:`~.result.MovedPairs`); the carried state between blocks is the
     tallies and the count of pairs resolved so far (Move Source measures the
     k-th resolved pair's probe as FLS N + k).
     """
@@ -67,7 +67,7 @@ class TechniqueBlocks:
             heuristic = try_technique(
                 block, self.technique, self.threshold, self.compat, self.facts.resolved
             )
-            moved = replace(applied(pairs, heuristic), heuristic=heuristic)
+            moved = MovedPairs.of(applied(pairs, heuristic), heuristic)
             self.tally.add(moved)
             self.facts.add(heuristic)
             self.own_seconds += time.perf_counter() - began

@@ -61,6 +61,20 @@ class PairBlock:
 
 
 @dataclass(frozen=True)
+class MovedPairs(PairResults):
+    """A block of a run's pairs after a heuristic, with the heuristic's record of them (tried,
+    resolved, moves): what a run made block by block gives ``take`` (:mod:`.regions`)."""
+
+    heuristic: HeuristicResult | None = None
+
+    @classmethod
+    def of(cls, pairs: PairResults, heuristic: HeuristicResult) -> MovedPairs:
+        """``pairs`` (after the heuristic) with its record ``heuristic``."""
+        values = {name: getattr(pairs, name) for name in PairResults.__dataclass_fields__}
+        return cls(**values, heuristic=heuristic)
+
+
+@dataclass(frozen=True)
 class HeuristicResult:
     """Outcome of a heuristic for M ordered blind pairs; moves as a CSR over pairs."""
 
