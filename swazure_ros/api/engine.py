@@ -72,8 +72,8 @@ class Result:
     columns of ``pairs.csv`` (docs/core.md) with paths and moved FLSs as lists
     of FLS ids; ``pairs.to_pandas()`` gives a DataFrame where pandas is
     installed. ``evaluation`` and ``heuristic`` are the core's own results of a
-    run that held every pair at once (a heuristic, fusion or a fit); a plain
-    run, made a block at a time, has None.
+    run that held every pair at once (fusion or a fit); a plain run or a
+    heuristic's, made a block at a time, has None (its moves are in ``pairs``).
     """
 
     setup: SwarmSetup

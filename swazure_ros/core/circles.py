@@ -165,10 +165,7 @@ def circle_sphere_crossings(
         meet the surface or the sphere's centre lies on the circle's axis.
     """
     normal = normal / np.linalg.norm(normal)
-    axis = np.zeros(3)
-    axis[np.argmin(np.abs(normal))] = 1.0
-    first = np.cross(normal, axis)
-    first /= np.linalg.norm(first)
+    first = fixed_axis(normal)
     second = np.cross(normal, first)
     # |c + r (cos θ e1 + sin θ e2) - s|² = R²  <=>  a cos θ + b sin θ = m.
     relative = centre - sphere
@@ -182,3 +179,32 @@ def circle_sphere_crossings(
     return np.asarray(
         centre + radius * (np.cos(theta)[:, None] * first + np.sin(theta)[:, None] * second)
     )
+
+
+def fixed_axis(normal: FloatArray) -> FloatArray:
+    """A fixed unit vector in the plane perpendicular to ``normal``: ``normal`` crossed with
+    the coordinate axis least along it. Where a circle's points are all as near (a point on
+    its axis), the one this direction reaches is taken.
+
+    Parameters
+    ----------
+    normal : (3,) array of float
+        The normal of the plane, unit length.
+
+    Returns
+    -------
+    (3,) array of float
+        Unit length, perpendicular to ``normal``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.circles import fixed_axis
+    >>> fixed_axis(np.array([1.0, 0.0, 0.0]))
+    array([0., 0., 1.])
+    """
+    axis = np.zeros(3)
+    axis[np.argmin(np.abs(normal))] = 1.0
+    first = np.cross(normal, axis)
+    first /= np.linalg.norm(first)
+    return np.asarray(first)

@@ -6,12 +6,13 @@ comparison, and the warm-up of the kernels. Its stages, in order::
 
     plain Swazure -> a heuristic -> fusion -> a fit -> where the swarm came from
 
-Plain Swazure alone, for a caller that does not need every pair held, runs a
-block of pairs at a time within ``budget.memory`` (:mod:`.blocks`); a
-heuristic, fusion, a fit, or a caller that asks to ``hold`` the pairs (a
-snapshot, the study, a swarm's comparison) holds every pair at once
-(:func:`.evaluate.evaluate`). Both give the same numbers and the same pairs,
-in the same order. The caller says what it needs; the pipeline decides how.
+Plain Swazure, and a heuristic after it, for a caller that does not need
+every pair held, run a block of pairs at a time within ``budget.memory``
+(:mod:`.blocks`, :mod:`.heuristics.regions`); fusion, a fit, or a caller that
+asks to ``hold`` the pairs (a snapshot, the study, a swarm's comparison)
+holds every pair at once (:func:`.evaluate.evaluate`). Both give the same
+numbers and the same pairs, in the same order. The caller says what it
+needs; the pipeline decides how.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .blocks import Budget, evaluate_blocked, whole_swarm_bytes
+from .blocks import BlockedEvaluation, Budget, evaluate_blocked, whole_swarm_bytes
 from .errors import OptionError, SwazureError
 from .evaluate import evaluate
 from .evaluation import Evaluation, PairResults
@@ -31,6 +32,7 @@ from .fusion import fuse
 from .geometry import Swarm
 from .heuristics.compat import COMPAT_MODES
 from .heuristics.folding import run_technique
+from .heuristics.regions import TechniqueBlocks
 from .heuristics.result import MAX_THRESHOLD, PLAIN, TECHNIQUES, HeuristicResult
 from .neighbourhood import Neighbourhood
 from .paths import POLICIES, SHORTEST_LENGTH
@@ -41,8 +43,9 @@ from .summary import Source, Summary
 #: Where a run's pairs go as they are made: ``take(hood, blocks, heuristic, blind_pairs)``.
 #: It must go through ``blocks`` (write them, join them): the summary needs every pair
 #: tallied. FLS ids are ``hood.swarm.cloud_index[...]`` of the pairs' indices;
-#: ``heuristic`` is the moves of a heuristic's run (None otherwise); ``blind_pairs``
-#: is how many pairs the blocks hold, known before the first block.
+#: ``heuristic`` is the moves of a heuristic's run held whole (None otherwise: a run
+#: made in blocks brings each block's in its pairs, ``heuristics.result.MovedPairs``);
+#: ``blind_pairs`` is how many pairs the blocks hold, known before the first block.
 Take = Callable[[Neighbourhood, Iterator[PairResults], HeuristicResult | None, int], None]
 
 
@@ -108,7 +111,7 @@ class EngineRun:
     summary: Summary
     seconds: float
     evaluation: Evaluation | None = None  # every pair; None for a run made block by block
-    heuristic: HeuristicResult | None = None  # a heuristic's moves
+    heuristic: HeuristicResult | None = None  # a heuristic's moves, when held
 
     def __post_init__(self) -> None:
         if self.evaluation is not None and self.evaluation.summary is not self.summary:
@@ -151,7 +154,8 @@ def run_engine(
         in this run's.
     hold : bool, default False
         The caller needs every pair held at once (``EngineRun.held``): a
-        snapshot, a comparison. Without it, plain Swazure runs in blocks.
+        snapshot, a comparison. Without it, plain Swazure and a heuristic run
+        in blocks.
     take : Take, optional
         Where the pairs go as they are made (:data:`Take`): block by block, or
         once for a run that holds them. Without it, blocks are let go.
@@ -167,7 +171,8 @@ def run_engine(
     -------
     EngineRun
         The summary (``core.summary.Summary``), the seconds, and for a run that
-        holds its pairs the evaluation and a heuristic's moves.
+        holds its pairs the evaluation and a heuristic's moves (a run in
+        blocks gives them to ``take``).
 
     Raises
     ------
@@ -191,8 +196,8 @@ def run_engine(
     """
     options.check()
     budget = budget or Budget()
-    if plain is None and options.plain and not hold:
-        return _in_blocks(swarm, sensor, options.policy, take, budget, source, progress or SILENT)
+    if plain is None and options.fuse == 1 and options.estimator == PATH and not hold:
+        return _in_blocks(swarm, sensor, options, take, budget, source, progress or SILENT)
     if plain is None:
         _check_room(swarm, sensor, budget, source)
         plain = _held_plain(swarm, sensor, options.policy, progress)
@@ -207,20 +212,25 @@ def run_engine(
 def _in_blocks(
     swarm: Swarm,
     sensor: Sensor,
-    policy: str,
+    options: RunOptions,
     take: Take | None,
     budget: Budget,
     source: Source | None,
     progress: Progress,
 ) -> EngineRun:
-    """Plain Swazure a block of pairs at a time: each block to ``take`` as it is made."""
-    run = evaluate_blocked(swarm, sensor, policy, budget, progress)
+    """Plain Swazure a block of pairs at a time, then a heuristic on each block: each block
+    to ``take`` as it is made (a heuristic's moves in its pairs: ``MovedPairs``)."""
+    plain = evaluate_blocked(swarm, sensor, options.policy, budget, progress)
+    run: BlockedEvaluation | TechniqueBlocks = plain
+    if options.technique != PLAIN:
+        compat = COMPAT_MODES[options.compat]
+        run = TechniqueBlocks(plain, options.technique, options.threshold, compat)
     blocks = run.blocks(progress)
     if take is None:
         for _ in blocks:
             pass
     else:
-        take(run.hood, blocks, None, len(run.lean.blind))
+        take(plain.hood, blocks, None, len(plain.lean.blind))
     # RuntimeError when ``take`` left blocks unmade: the summary needs every pair.
     return _with_source(EngineRun(run.summary(), run.seconds), source)
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..core.errors import OutputError, SwazureError
 from ..core.evaluation import REASON_NAMES, STATUS_NAMES, Evaluation, PairResults
-from ..core.heuristics.result import HeuristicResult
+from ..core.heuristics.result import HeuristicResult, MovedPairs
 from ..core.neighbourhood import Neighbourhood
 from .atomic import atomic_output, atomic_write, write_json
 from .reading import CONFIG_BYTES, read_text, regular_file
@@ -79,9 +79,10 @@ def pairs_table(
 ) -> Any:
     """Per ordered blind pair results as a pyarrow Table; FLS ids are cloud row numbers.
 
-    With ``heuristic``, columns for its moves: tried, resolved, number of
-    moves, the FLSs moved, the largest single move, and for Move Source the
-    distance flown and the net displacement of the source (cm). Paths and
+    With ``heuristic`` (or a MovedPairs' own), columns for its moves: tried,
+    resolved, number of moves, the FLSs moved, the largest single move, and
+    for Move Source the distance flown and the net displacement of the
+    source (cm). Paths and
     moved FLSs are uint32 lists, or with ``as_text`` ids joined by spaces (CSV
     has no lists). ``columns="compact"`` leaves out the DERIVED_COLUMNS.
     """
@@ -120,6 +121,8 @@ def pairs_table(
         # The covariance's six distinct entries, cm^2 (core.fit): x, y, z in the swarm's frame.
         for name, (row, column) in COVARIANCE_ENTRIES.items():
             table[name] = pairs.covariance[:, row, column]
+    if heuristic is None and isinstance(pairs, MovedPairs):
+        heuristic = pairs.heuristic  # a block of a heuristic's run made block by block
     if heuristic is not None:
         counts = np.diff(heuristic.move_offsets)
         moved_ids = _id_lists(heuristic.move_offsets, ids[heuristic.move_fls], as_text)
@@ -267,7 +270,8 @@ def write_pair_blocks(
     The same bytes as :func:`write_evaluation` gives for the pairs of all
     blocks at once; only one block's table is held at a time. Returns its
     path; with ``pairs_format="none"`` the blocks are only made, and None.
-    A heuristic's run comes as one block, with its moves (``heuristic``).
+    A heuristic's run held whole comes as one block, with its moves (``heuristic``); one
+    made block by block brings each block's moves in its pairs (``MovedPairs``).
     """
     import pyarrow.parquet as pq
 

@@ -6,7 +6,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from swazure_ros.core.circles import circle_sphere_crossings, free_circle_point
+from swazure_ros.core.circles import circle_sphere_crossings, fixed_axis, free_circle_point
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.evaluation import NO_PATH, REASON_BLOCKED, SWEET_PATH
 from swazure_ros.core.geometry import make_swarm
@@ -465,3 +465,17 @@ def test_a_folded_run_keeps_each_resolved_pairs_path_and_the_others_plain(techni
     for m in range(len(resolved)):
         expected = heuristic.paths.path(m) if resolved[m] else evaluation.pairs.path(m)
         assert folded.pairs.path(m) == expected
+
+
+def test_an_obstructer_centred_on_its_hop_steps_r_aside_in_the_fixed_direction(sensor):
+    # Every point of its circle is as near: the text and the published code take the same
+    # fixed one, where the reference divides by zero (cube:64 at scale 4, beta 0.4, had one).
+    evaluation = evaluate(blocked_scene(MIDPOINT), sensor, "shortest-length")
+    m = pair_index(evaluation, 0, 2)
+    aside = fixed_axis((B - A) / np.linalg.norm(B - A))
+    for compat, reach in ((PUBLISHED, R), (Compat(), R * (1 + 1e-9))):
+        result = move_obstructing(evaluation, compat)
+        [(fls, start, end)] = result.moves(m)
+        assert fls == 3 and result.resolved[m]
+        np.testing.assert_array_equal(start, MIDPOINT)
+        np.testing.assert_allclose(end, MIDPOINT + reach * aside, atol=1e-12)

@@ -97,7 +97,7 @@ def test_plain_swazure_runs_in_blocks_unless_the_caller_holds_the_pairs(swarm, s
 def test_each_stage_gives_what_the_core_gives_by_hand(swarm, sensor, options, by_hand):
     want = by_hand(evaluate(swarm, sensor, "shortest-length"))
     kept = Blocks()
-    run = run_engine(swarm, sensor, options, take=kept)
+    run = run_engine(swarm, sensor, options, hold=True, take=kept)  # in blocks: test_regions
     assert_same_pairs(run.held.pairs, want.pairs)
     same_document(run.summary, want.summary)
     # A run that holds its pairs gives them to ``take`` once, with the heuristic's moves.
@@ -137,19 +137,25 @@ def test_the_source_is_in_the_summary_held_or_in_blocks(swarm, sensor):
         run = run_engine(swarm, sensor, RunOptions(), hold=hold, source=source)
         assert run.summary.parameters.source == source
         assert run.summary.as_document()["parameters"]["seed"] == 7
-    run = run_engine(swarm, sensor, RunOptions(technique="move-source"), source=source)
-    assert run.held.summary is run.summary and run.summary.parameters.source == source
+    for hold in (False, True):
+        run = run_engine(
+            swarm, sensor, RunOptions(technique="move-source"), hold=hold, source=source
+        )
+        assert run.summary.parameters.source == source
+    assert run.held.summary is run.summary
     assert run_engine(swarm, sensor, RunOptions(), hold=True).summary.parameters.source is None
 
 
 def test_a_run_holding_every_pair_refuses_a_swarm_larger_than_the_memory_free(swarm, sensor):
     tight = Budget(free=1)
     with pytest.raises(SwazureError, match="hold every pair of the swarm at once, about"):
-        run_engine(swarm, sensor, RunOptions(technique="move-source"), budget=tight)
+        run_engine(swarm, sensor, RunOptions(technique="move-source"), hold=True, budget=tight)
     with pytest.raises(SwazureError, match="plain Swazure runs in blocks"):
         run_engine(swarm, sensor, RunOptions(), hold=True, budget=tight)
-    # In blocks, plain Swazure needs no more than a block.
+    # In blocks, plain Swazure and a heuristic need no more than a block.
     assert run_engine(swarm, sensor, RunOptions(), budget=tight).summary.pairs.blind_pairs
+    moved = run_engine(swarm, sensor, RunOptions(technique="move-source"), budget=tight)
+    assert moved.summary.heuristic is not None and moved.summary.heuristic.resolved_pairs
 
 
 def test_a_take_that_leaves_blocks_unmade_gets_no_summary(swarm, sensor):

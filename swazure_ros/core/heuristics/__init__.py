@@ -11,7 +11,8 @@ commands.
 - :mod:`.result`: the techniques' names and what a heuristic returns;
 - :mod:`.obstructing`: Move Obstructing, as the text and as published;
 - :mod:`.source`: Move Source and its probe;
-- :mod:`.folding`: a result folded into the plain run (:func:`~.folding.run_technique`).
+- :mod:`.folding`: a result folded into the plain run (:func:`~.folding.run_technique`);
+- :mod:`.regions`: a heuristic on a run made block by block (:class:`~.regions.TechniqueBlocks`).
 
 The circle and sphere geometry they use lives in :mod:`..circles` and
 :mod:`..segments`; the order in which a swarm makes the moves in

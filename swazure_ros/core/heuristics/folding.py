@@ -2,19 +2,27 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from .. import csr
-from ..evaluation import NO_PATH, SWEET_PATH, Evaluation
-from ..metrics import describe, pose_errors
-from ..pair_statistics import summarise
+from ..evaluation import NO_PATH, SWEET_PATH, Evaluation, PairResults
+from ..metrics import NO_VALUES, Stats, pose_errors
+from ..pair_statistics import EXACT_VALUES, summarise
 from ..path_arrays import Paths, merge_paths
 from ..summary import HeuristicFacts
+from ..tally import RealTally
 from .compat import TEXT, Compat
 from .obstructing import move_obstructing
-from .result import MOVE_OBSTRUCTING, MOVE_SOURCE, PLAIN, HeuristicResult, check_technique
+from .result import (
+    MOVE_OBSTRUCTING,
+    MOVE_SOURCE,
+    PLAIN,
+    HeuristicResult,
+    PlainPairs,
+    check_technique,
+)
 from .source import move_source
 
 
@@ -35,9 +43,35 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
     Returns
     -------
     Evaluation
-        The pairs updated, the summary recomputed with :func:`heuristic_facts`.
+        The pairs updated (:func:`applied`), the summary recomputed with
+        :func:`heuristic_facts`.
     """
-    pairs = evaluation.pairs
+    updated = applied(evaluation.pairs, heuristic)
+    summary = summarise(
+        evaluation.hood,
+        evaluation.policy,
+        updated,
+        evaluation.summary.seconds,
+        heuristic=heuristic_facts(heuristic),
+    )
+    return replace(evaluation, pairs=updated, summary=summary)
+
+
+def applied(pairs: PairResults, heuristic: HeuristicResult) -> PairResults:
+    """Plain ``pairs`` with the heuristic's resolved ones made SWEET (as :func:`apply`).
+
+    Parameters
+    ----------
+    pairs : PairResults
+        A plain run's pairs, or a block of them.
+    heuristic : HeuristicResult
+        Its result over the same pairs.
+
+    Returns
+    -------
+    PairResults
+        The pairs after the heuristic.
+    """
     resolved = heuristic.resolved
     status = pairs.status.copy()
     status[resolved] = SWEET_PATH
@@ -67,7 +101,7 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
     length = pairs.path_length.copy()
     length[resolved] = np.nan
     errors = pose_errors(estimate, truth)
-    updated = replace(
+    updated: PairResults = replace(
         pairs,
         status=status,
         hops=hops,
@@ -86,14 +120,7 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
         predicted_error=np.where(resolved, np.nan, pairs.predicted_error),
         fused_paths=np.where(paths.found, 1, 0).astype(np.int64),
     )
-    summary = summarise(
-        evaluation.hood,
-        evaluation.policy,
-        updated,
-        evaluation.summary.seconds,
-        heuristic=heuristic_facts(heuristic),
-    )
-    return replace(evaluation, pairs=updated, summary=summary)
+    return updated
 
 
 def run_technique(
@@ -147,11 +174,39 @@ def run_technique(
     """
     if check_technique(technique) == PLAIN:
         return evaluation, None
-    if technique == MOVE_OBSTRUCTING:
-        heuristic = move_obstructing(evaluation, compat)
-    else:
-        heuristic = move_source(evaluation, threshold, compat)
+    heuristic = try_technique(evaluation, technique, threshold, compat)
     return apply(evaluation, heuristic), heuristic
+
+
+def try_technique(
+    evaluation: PlainPairs,
+    technique: str,
+    threshold: int = 10,
+    compat: Compat = TEXT,
+    first_probe: int = 0,
+) -> HeuristicResult:
+    """Move Obstructing or Move Source on the BLOCKED pairs of a plain run, or of a block of it.
+
+    Parameters
+    ----------
+    evaluation : PlainPairs
+        A plain run, or a block of its pairs (:class:`~.result.PairBlock`).
+    technique : {'move-obstructing', 'move-source'}
+    threshold : int, default 10
+        Move Source's T.
+    compat : Compat, default TEXT
+    first_probe : int, default 0
+        Move Source: the pairs resolved in the blocks before this one
+        (:func:`~.source.move_source`).
+
+    Returns
+    -------
+    HeuristicResult
+        Over ``evaluation.pairs``.
+    """
+    if technique == MOVE_OBSTRUCTING:
+        return move_obstructing(evaluation, compat)
+    return move_source(evaluation, threshold, compat, first_probe)
 
 
 def heuristic_facts(heuristic: HeuristicResult) -> HeuristicFacts:
@@ -184,22 +239,58 @@ def heuristic_facts(heuristic: HeuristicResult) -> HeuristicFacts:
     >>> facts.resolved_pairs, round(facts.moved_distance.max, 6)  # at most T r = 2 cm
     (237, 2.0)
     """
-    moved = heuristic.move_distance
-    pairs = len(heuristic.resolved)
-    owner = csr.run_of(heuristic.move_offsets)  # pair of each move
-    of_resolved = heuristic.resolved[owner]
-    resolved = np.flatnonzero(heuristic.resolved)
-    totals = np.bincount(owner, weights=moved, minlength=pairs)[resolved]
-    source = heuristic.technique == MOVE_SOURCE
-    return HeuristicFacts(
-        technique=heuristic.technique,
-        threshold=heuristic.threshold,
-        tried_pairs=int(heuristic.tried.sum()),
-        resolved_pairs=len(resolved),
-        moved_distance=describe(moved[of_resolved]),
-        failed_moved_distance=describe(moved[~of_resolved]),
-        moved_per_resolved_pair=describe(totals),
-        compat=tuple(heuristic.compat.switches_on()),
-        flown_distance=describe(heuristic.flown[heuristic.tried]) if source else None,
-        displacement=describe(moved[of_resolved]) if source else None,
-    )
+    tally = FactsTally(heuristic.technique, heuristic.threshold, heuristic.compat)
+    tally.add(heuristic)
+    return tally.facts()
+
+
+@dataclass
+class FactsTally:
+    """A heuristic's summary facts (:func:`heuristic_facts`), gathered a block of pairs at a time.
+
+    Counts are exact; each distance's statistics are exact while its values fit
+    ``exact_values``, then sketched (:class:`..tally.RealTally`).
+    """
+
+    technique: str
+    threshold: int | None
+    compat: Compat
+    exact_values: int = EXACT_VALUES
+    tried: int = 0
+    resolved: int = 0
+    reals: dict[str, RealTally] = field(default_factory=dict)
+
+    def add(self, heuristic: HeuristicResult) -> None:
+        """Gather the facts of ``heuristic``, the result of a block of the run's pairs."""
+        moved = heuristic.move_distance
+        owner = csr.run_of(heuristic.move_offsets)  # pair of each move
+        of_resolved = heuristic.resolved[owner]
+        resolved = np.flatnonzero(heuristic.resolved)
+        totals = np.bincount(owner, weights=moved, minlength=len(heuristic.resolved))[resolved]
+        self.tried += int(heuristic.tried.sum())
+        self.resolved += len(resolved)
+        values = {"moved": moved[of_resolved], "failed": moved[~of_resolved], "totals": totals}
+        if heuristic.technique == MOVE_SOURCE:
+            values["flown"] = heuristic.flown[heuristic.tried]
+        for name, these in values.items():
+            self.reals.setdefault(name, RealTally(self.exact_values)).add(these)
+
+    def _stats(self, name: str) -> Stats:
+        tally = self.reals.get(name)
+        return NO_VALUES if tally is None else tally.describe()
+
+    def facts(self) -> HeuristicFacts:
+        """The facts of every block added."""
+        source = self.technique == MOVE_SOURCE
+        return HeuristicFacts(
+            technique=self.technique,
+            threshold=self.threshold,
+            tried_pairs=self.tried,
+            resolved_pairs=self.resolved,
+            moved_distance=self._stats("moved"),
+            failed_moved_distance=self._stats("failed"),
+            moved_per_resolved_pair=self._stats("totals"),
+            compat=tuple(self.compat.switches_on()),
+            flown_distance=self._stats("flown") if source else None,
+            displacement=self._stats("moved") if source else None,
+        )

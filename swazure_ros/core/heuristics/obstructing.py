@@ -28,7 +28,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import csr
-from ..evaluation import Evaluation
 from ..hops import estimates
 from ..path_arrays import Paths, path_hops, paths_from_rows
 from ..paths import shortest_paths
@@ -38,10 +37,10 @@ if TYPE_CHECKING:
     from scipy.spatial import cKDTree
 
 from ...core.arrays import FloatArray, IntArray
-from ..circles import circle_sphere_crossings, free_circle_point
+from ..circles import circle_sphere_crossings, fixed_axis, free_circle_point
 from ..segments import closest_on_segment, near_any_segment, near_segment, segment_gap
 from .compat import TEXT, Compat
-from .result import MOVE_OBSTRUCTING, HeuristicResult, PairFindings, blocked_pairs
+from .result import MOVE_OBSTRUCTING, HeuristicResult, PairFindings, PlainPairs, blocked_pairs
 
 #: Slack when deciding that an FLS on the obstruction-free circle clears a line of sight, cm.
 TOUCH = 1e-9
@@ -64,7 +63,13 @@ def _published_destination(
     position = points[fls]
     centre = closest_on_segment(start, end, position)
     offset = position - centre
-    ideal = position + (radius / np.linalg.norm(offset) - 1.0) * offset
+    if offset.any():
+        ideal = position + (radius / np.linalg.norm(offset) - 1.0) * offset
+    else:
+        # A centre on the hop itself: every point of the circle is as near; the text's
+        # fixed one (circles.free_circle_point), where the reference divides by zero.
+        hop = end - start
+        ideal = centre + radius * fixed_axis(hop / np.linalg.norm(hop))
     # The reference looks for a collision of the ideal move among the FLSs whose
     # tracking distance from `fls` is at most |fls - ideal|, with the FLS's index
     # standing for its position; reproduced so that its tables are.
@@ -98,7 +103,7 @@ def _published_destination(
 
 
 def _blocked_hops(
-    evaluation: Evaluation,
+    evaluation: PlainPairs,
 ) -> tuple[IntArray, Paths, IntArray, IntArray, IntArray, IntArray]:
     """The BLOCKED pairs, their S_all paths, and the obstructers of each hop's edge.
 
@@ -125,7 +130,7 @@ def _blocked_hops(
 
 
 def _obstructing_result(
-    evaluation: Evaluation,
+    evaluation: PlainPairs,
     blocked: IntArray,
     new_paths: dict[int, list[int]],
     move_counts: IntArray,
@@ -160,7 +165,7 @@ def _obstructing_result(
     )
 
 
-def move_obstructing(evaluation: Evaluation, compat: Compat = TEXT) -> HeuristicResult:
+def move_obstructing(evaluation: PlainPairs, compat: Compat = TEXT) -> HeuristicResult:
     """Move Obstructing (section 7) on every BLOCKED pair of a plain evaluation.
 
     As the text (:func:`obstructing_text`) unless ``compat`` moves obstructers
@@ -171,8 +176,8 @@ def move_obstructing(evaluation: Evaluation, compat: Compat = TEXT) -> Heuristic
 
     Parameters
     ----------
-    evaluation : Evaluation
-        A plain run.
+    evaluation : PlainPairs
+        A plain run, or a block of its pairs.
     compat : Compat, default TEXT
 
     Returns
@@ -204,7 +209,7 @@ def move_obstructing(evaluation: Evaluation, compat: Compat = TEXT) -> Heuristic
     return obstructing_text(evaluation)
 
 
-def obstructing_text(evaluation: Evaluation) -> HeuristicResult:
+def obstructing_text(evaluation: PlainPairs) -> HeuristicResult:
     """Move Obstructing as the text has it (spec, section 7).
 
     A pair's obstructers move in sequence, each collision check seeing the
@@ -213,8 +218,8 @@ def obstructing_text(evaluation: Evaluation) -> HeuristicResult:
 
     Parameters
     ----------
-    evaluation : Evaluation
-        A plain run.
+    evaluation : PlainPairs
+        A plain run, or a block of its pairs.
 
     Returns
     -------
@@ -316,7 +321,7 @@ def _aside(
     )
 
 
-def obstructing_published(evaluation: Evaluation, compat: Compat) -> HeuristicResult:
+def obstructing_published(evaluation: PlainPairs, compat: Compat) -> HeuristicResult:
     """Move Obstructing as the reference code does it, to reproduce the published tables.
 
     Each obstructer's destination is found in the original shape, under
@@ -325,8 +330,8 @@ def obstructing_published(evaluation: Evaluation, compat: Compat) -> HeuristicRe
 
     Parameters
     ----------
-    evaluation : Evaluation
-        A plain run.
+    evaluation : PlainPairs
+        A plain run, or a block of its pairs.
     compat : Compat
         With ``independent_moves`` on (:data:`~.compat.PUBLISHED`, or some of
         its switches).

@@ -4,12 +4,14 @@ estimate, and every individual move (:class:`HeuristicResult`)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ...core.arrays import FloatArray, IntArray
-from ..evaluation import REASON_BLOCKED, SWEET_PATH, Evaluation
+from ..evaluation import REASON_BLOCKED, SWEET_PATH, PairResults
+from ..neighbourhood import Neighbourhood
 from ..path_arrays import Paths
 from .compat import TEXT, Compat
 
@@ -28,6 +30,48 @@ TECHNIQUES = (PLAIN, MOVE_OBSTRUCTING, MOVE_SOURCE)
 #: Move Source's threshold T, at most: 26 probes a step, and the published study's
 #: largest T is 10; beyond this the source would fly a thousand radii from its point.
 MAX_THRESHOLD = 1000
+
+
+class PlainPairs(Protocol):
+    """What a heuristic reads of a plain run: its neighbourhood, policy and pairs.
+
+    An :class:`~..evaluation.Evaluation` (every pair), or a :class:`PairBlock`
+    (a block of them, :mod:`.regions`): a pair's outcome depends on nothing
+    but the swarm's original shape and its own plain result (docs/core.md,
+    "Move Obstructing and Move Source in blocks").
+    """
+
+    @property
+    def hood(self) -> Neighbourhood: ...
+
+    @property
+    def policy(self) -> str: ...
+
+    @property
+    def pairs(self) -> PairResults: ...
+
+
+@dataclass(frozen=True)
+class PairBlock:
+    """A block of a plain run's pairs, with the run's neighbourhood and policy."""
+
+    hood: Neighbourhood
+    policy: str
+    pairs: PairResults
+
+
+@dataclass(frozen=True)
+class MovedPairs(PairResults):
+    """A block of a run's pairs after a heuristic, with the heuristic's record of them (tried,
+    resolved, moves): what a run made block by block gives ``take`` (:mod:`.regions`)."""
+
+    heuristic: HeuristicResult | None = None
+
+    @classmethod
+    def of(cls, pairs: PairResults, heuristic: HeuristicResult) -> MovedPairs:
+        """``pairs`` (after the heuristic) with its record ``heuristic``."""
+        values = {name: getattr(pairs, name) for name in PairResults.__dataclass_fields__}
+        return cls(**values, heuristic=heuristic)
 
 
 @dataclass(frozen=True)
@@ -102,13 +146,13 @@ def check_technique(technique: str) -> str:
     return technique
 
 
-def blocked_pairs(evaluation: Evaluation) -> IntArray:
+def blocked_pairs(evaluation: PlainPairs) -> IntArray:
     """The pairs a heuristic tries: BLOCKED (``S_all`` joins them) and with no sweet path.
 
     Parameters
     ----------
-    evaluation : Evaluation
-        A plain run.
+    evaluation : PlainPairs
+        A plain run, or a block of its pairs.
 
     Returns
     -------

@@ -17,13 +17,19 @@ import numpy as np
 
 from ...core.arrays import FloatArray, IntArray
 from .. import csr, jit
-from ..evaluation import Evaluation
 from ..grid import Grid, scan_between
 from ..hop_errors import measured_vectors
 from ..path_arrays import paths_from_rows
 from ..sight import any_within
 from .compat import TEXT, Compat
-from .result import MAX_THRESHOLD, MOVE_SOURCE, HeuristicResult, PairFindings, blocked_pairs
+from .result import (
+    MAX_THRESHOLD,
+    MOVE_SOURCE,
+    HeuristicResult,
+    PairFindings,
+    PlainPairs,
+    blocked_pairs,
+)
 
 #: The 26 probe directions of Move Source, unit vectors in lexicographic offset order.
 DIRECTIONS = np.array(
@@ -224,7 +230,9 @@ def _nearest_first(points: FloatArray, indptr: IntArray, indices: IntArray) -> I
     return np.asarray(indices[np.lexsort((indices, distance, rows))], dtype=np.int64)
 
 
-def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -> HeuristicResult:
+def move_source(
+    evaluation: PlainPairs, threshold: int, compat: Compat = TEXT, first_probe: int = 0
+) -> HeuristicResult:
     """Move Source (section 8) with probe steps delta = 1..``threshold`` on every BLOCKED pair.
 
     The source probes the 26 directions at ``delta * r`` for delta = 1 ..
@@ -234,11 +242,16 @@ def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -
 
     Parameters
     ----------
-    evaluation : Evaluation
-        A plain run.
+    evaluation : PlainPairs
+        A plain run, or a block of its pairs.
     threshold : int
         T, from 1 to ``MAX_THRESHOLD`` (the published settings are 2 and 10).
     compat : Compat, default TEXT
+    first_probe : int, default 0
+        The pairs the run resolved before these (blocks before this one): a
+        resolved pair's source at its probe is measured as FLS ``N +
+        first_probe + k``, k its rank among these, which a noisy sensor's
+        seeded draw depends on.
 
     Returns
     -------
@@ -302,9 +315,12 @@ def move_source(evaluation: Evaluation, threshold: int, compat: Compat = TEXT) -
     found.resolved[resolved_pairs] = True
     flown = np.zeros(size)
     flown[blocked] = flown_blocked
-    # Hops q -> h -> j, measured with the source at its probe position q.
-    extended = np.vstack([swarm.points, probe[success]])
-    moved_source = swarm.size + np.arange(len(resolved_pairs))
+    # Hops q -> h -> j, measured with the source at its probe position q: the k-th resolved
+    # pair of the run's as FLS N + k (the rows between, earlier blocks' probes, never read).
+    moved_source = swarm.size + first_probe + np.arange(len(resolved_pairs))
+    extended = np.empty((swarm.size + first_probe + len(resolved_pairs), 3))
+    extended[: swarm.size] = swarm.points
+    extended[moved_source] = probe[success]
     middle = helper[success]
     first_hop = measured_vectors(sensor, extended, swarm.radius, moved_source, middle)
     second_hop = measured_vectors(
