@@ -70,8 +70,9 @@ def nearest_neighbours(points: FloatArray) -> tuple[FloatArray, IntArray]:
     The distance is rounded as scipy's ``cKDTree.query`` rounds it,
     sqrt((dx^2 + dy^2) + dz^2), so that :func:`build_grid`'s cell is the bits
     it was when a tree measured it; a tie goes to the lower index. A grid
-    search in rings of cells (scipy.spatial is 0.2-0.3 s of a run's start,
-    BENCHMARKS.md "Speed targets").
+    search in rings of cells, so that a run need not import scipy.spatial
+    (BENCHMARKS.md "Speed targets"); with kernels run as Python
+    (``NUMBA_DISABLE_JIT``), scipy's tree, whose ties may go either way.
 
     Parameters
     ----------
@@ -94,6 +95,13 @@ def nearest_neighbours(points: FloatArray) -> tuple[FloatArray, IntArray]:
     ([3.0, 3.0, 4.0], [1, 0, 1])
     """
     points = np.ascontiguousarray(points, dtype=np.float64)
+    if jit.INTERPRET:
+        # Kernels run as Python here (an FLS's own process): the ring search would
+        # take seconds, the tree's query is compiled. The same distances.
+        from scipy.spatial import cKDTree
+
+        distances, indices = cKDTree(points).query(points, k=2)
+        return distances[:, 1], np.asarray(indices[:, 1], dtype=np.int64)
     extent = float(np.ptp(points, axis=0).max())
     # About one point per cell for a surface of points (a display): a few rings each.
     grid = grid_of(points, extent / np.sqrt(len(points)))
