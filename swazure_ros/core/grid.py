@@ -108,15 +108,16 @@ def nearest_neighbours(points: FloatArray) -> tuple[FloatArray, IntArray]:
     return _nearest_kernel(points, grid)
 
 
-@jit.kernel(cache=True, parallel=True)
+# Serial: a parallel kernel takes longer to load from the cache than this takes to run.
+@jit.kernel(cache=True, nogil=True)
 def _nearest_kernel(points: FloatArray, grid: Grid) -> tuple[FloatArray, IntArray]:
     origin, cell, shape, cell_start, members = grid
     count = len(points)
     distance = np.empty(count)
     index = np.empty(count, dtype=np.int64)
     widest = max(shape[0], max(shape[1], shape[2]))
-    for i in jit.prange(count):
-        centre = np.empty(3, dtype=np.int64)
+    centre = np.empty(3, dtype=np.int64)
+    for i in range(count):
         for axis in range(3):
             at = int(np.floor((points[i, axis] - origin[axis]) / cell))
             centre[axis] = min(max(at, 0), shape[axis] - 1)
