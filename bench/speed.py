@@ -1,4 +1,5 @@
-"""Issue 34's command-line targets: the engine's wall on two shapes, and start-up.
+"""Issues 34 and 68's command-line targets: the engine's wall on two shapes with its
+outputs, where that wall goes, and start-up.
 
 The `speed` section of BENCHMARKS.md (`python -m bench --sections speed`).
 """
@@ -6,11 +7,13 @@ The `speed` section of BENCHMARKS.md (`python -m bench --sections speed`).
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 
-from bench.common import run, swarm_cloud
+from bench.common import run, run_output, swarm_cloud
 
 
 def median_wall(arguments: list[str], times: int) -> tuple[float, float, float]:
@@ -42,17 +45,20 @@ def speed_section(
     ``times`` runs of each command when given, else each command's own count.
     """
     swazure = [str(Path(sys.executable).parent / "swazure")]
-    rows = []
-    for shape, runs, target in shapes:
-        rows.append(
-            speed_row(
-                f"`swazure evaluate` {shape}, beta {args.beta}, shortest-length",
-                target,
-                [*swazure, "evaluate", "--cloud", swarm_cloud(shape),
-                 "--beta", str(args.beta), "--quiet"],
-                times or runs,
+    rows, phases = [], []
+    with tempfile.TemporaryDirectory(prefix="bench-speed-") as out:
+        for shape, runs, target in shapes:
+            arguments = ["evaluate", "--cloud", swarm_cloud(shape), "--beta", str(args.beta),
+                         "--quiet", "--out", out]  # fmt: skip
+            rows.append(
+                speed_row(
+                    f"`swazure evaluate --out` {shape}, beta {args.beta}, shortest-length",
+                    target,
+                    [*swazure, *arguments],
+                    times or runs,
+                )
             )
-        )  # fmt: skip
+            phases.append(phase_row(shape, arguments))
     rows.append(speed_row("`swazure --version`", "0.3 s", [*swazure, "--version"], times or 5))
     for verb in verbs:
         target = "0.5 s" if verb == "evaluate" else "0.5 s (evaluate's target)"
@@ -60,19 +66,47 @@ def speed_section(
             speed_row(f"`swazure {verb} --help`", target, [*swazure, verb, "--help"], times or 3)
         )
     return [
-        "## Speed targets (issue 34): the engine's wall and the command line's start-up",
+        "## Speed targets (issues 34, 68): the engine's wall and the command line's start-up",
         "",
         "Wall time of the whole installed `swazure` command, timed from outside, process",
-        "start included; the median of several runs (range beside it). `evaluate` here",
-        "writes no files (with `--out` the race car's 2.07 M-row pairs.csv adds 2-3 s:",
-        "the engine table). The packed swarm's bring-up is in the `swazure spawn` section,",
-        "and the distributed runs beside the engine in the `--compute-all` section.",
+        "start included; the median of several runs (range beside it). `evaluate` writes",
+        "its outputs (`--out`: pairs.csv, summary.json, record.json; the race car's",
+        "pairs.csv is 2.07 M rows, 581 MB). The packed swarm's bring-up is in the",
+        "`swazure spawn` section, and the distributed runs beside the engine in the",
+        "`--compute-all` section.",
         "",
         "| command | runs | median s | range s | target | met |",
         "| --- | ---: | ---: | --- | --- | --- |",
         *rows,
         "",
+        "Where one run's wall goes (`python -m bench.phases`, one run each, seconds):",
+        "start-up is the interpreter's own start and exit (the wall from outside less the",
+        "rest); imports, the command line's and the verb's; kernels, numba's import and",
+        "each kernel's first dispatch from its cache on disk; tables, the pairs' pyarrow",
+        "tables; pairs.csv, its text formatted and written on the writer thread, partly",
+        "beside the engine, whose figure is the rest of the run less it (a lower bound).",
+        "",
+        "| shape | wall s | start-up | imports | kernels | engine | tables | pairs.csv |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+        *phases,
+        "",
     ]
+
+
+def phase_row(shape: str, arguments: list[str]) -> str:
+    """One run of ``swazure`` with ``arguments`` in ``bench.phases``: its wall per phase."""
+    seconds, _, code, output = run_output([sys.executable, "-m", "bench.phases", *arguments])
+    if code != 0:
+        raise SystemExit(f"bench: bench.phases {' '.join(arguments)} failed with exit code {code}")
+    phase = json.loads(output.strip().splitlines()[-1])
+    start = seconds - phase["imports"] - phase["run"]
+    print(f"phases {shape}: {seconds:.2f} s {phase}", flush=True)
+    cells = [phase[name] for name in ("imports", "kernels", "engine", "tables", "csv")]
+    return (
+        f"| {shape} | {seconds:.2f} | {start:.2f} | "
+        + " | ".join(f"{c:.2f}" for c in cells)
+        + " |"
+    )
 
 
 def speed_row(what: str, target: str, arguments: list[str], times: int) -> str:

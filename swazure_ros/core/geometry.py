@@ -19,6 +19,7 @@ from . import jit
 from .arrays import FloatArray, IntArray
 from .clouds import validate_points
 from .errors import CloudError
+from .grid import nearest_neighbours
 
 #: Two FLSs touch (a kissing pair) when their tracking distance is within this, cm.
 KISSING_TOLERANCE = 1e-3
@@ -151,7 +152,8 @@ def min_distance(points: ArrayLike) -> float:
     """dmin: the smallest centre-to-centre distance between two points, cm.
 
     Clouds up to :data:`SMALL_CLOUD` points are searched pair by pair (no
-    scipy import), larger ones with a k-d tree; both give the same distance.
+    kernel to compile), larger ones on a grid (:func:`.grid.nearest_neighbours`);
+    both give the same distance.
 
     Parameters
     ----------
@@ -183,10 +185,8 @@ def min_distance(points: ArrayLike) -> float:
                 if len(first)
             )
         )
-    from scipy.spatial import cKDTree  # here: a small cloud needs no tree (SMALL_CLOUD)
-
-    _, nearest = cKDTree(points).query(points, k=2)
-    return float(centre_distance(points, np.arange(len(points)), nearest[:, 1]).min())
+    _, nearest = nearest_neighbours(points)
+    return float(centre_distance(points, np.arange(len(points)), nearest).min())
 
 
 def colliding_pairs(points: FloatArray, radius: float) -> IntArray:

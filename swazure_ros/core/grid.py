@@ -57,13 +57,102 @@ def build_grid(points: FloatArray, radius: float) -> Grid:
         (coarser past :data:`MAX_CELLS` cells).
     """
     extent = np.ptp(points, axis=0)
-    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
-
-    spacing, _ = cKDTree(points).query(points, k=2)
+    spacing, _ = nearest_neighbours(points)
     # Cells near the point spacing keep few points per cell and few cells per
     # segment, whatever r is.
-    cell = max(float(np.median(spacing[:, 1])), radius, float(extent.max()) * 1e-9, 1e-12)
+    cell = max(float(np.median(spacing)), radius, float(extent.max()) * 1e-9, 1e-12)
     return grid_of(points, cell)
+
+
+def nearest_neighbours(points: FloatArray) -> tuple[FloatArray, IntArray]:
+    """Each point's nearest other point and the distance to it, with no k-d tree.
+
+    The distance is rounded as scipy's ``cKDTree.query`` rounds it,
+    sqrt((dx^2 + dy^2) + dz^2), so that :func:`build_grid`'s cell is the bits
+    it was when a tree measured it; a tie goes to the lower index. A grid
+    search in rings of cells, so that a run need not import scipy.spatial
+    (BENCHMARKS.md "Speed targets"); with kernels run as Python
+    (``NUMBA_DISABLE_JIT``), scipy's tree, whose ties may go either way.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+        N >= 2.
+
+    Returns
+    -------
+    distance : (N,) array of float, cm
+        0 where another point coincides.
+    index : (N,) array of int
+        The nearest other point.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.grid import nearest_neighbours
+    >>> distance, index = nearest_neighbours(np.array([[0.0, 0, 0], [3, 0, 0], [3, 4, 0]]))
+    >>> distance.tolist(), index.tolist()
+    ([3.0, 3.0, 4.0], [1, 0, 1])
+    """
+    points = np.ascontiguousarray(points, dtype=np.float64)
+    if jit.INTERPRET:
+        # Kernels run as Python here (an FLS's own process): the ring search would
+        # take seconds, the tree's query is compiled. The same distances.
+        from scipy.spatial import cKDTree
+
+        distances, indices = cKDTree(points).query(points, k=2)
+        return distances[:, 1], np.asarray(indices[:, 1], dtype=np.int64)
+    extent = float(np.ptp(points, axis=0).max())
+    # About one point per cell for a surface of points (a display): a few rings each.
+    grid = grid_of(points, extent / np.sqrt(len(points)))
+    return _nearest_kernel(points, grid)
+
+
+# Serial: a parallel kernel takes longer to load from the cache than this takes to run.
+@jit.kernel(cache=True, nogil=True)
+def _nearest_kernel(points: FloatArray, grid: Grid) -> tuple[FloatArray, IntArray]:
+    origin, cell, shape, cell_start, members = grid
+    count = len(points)
+    distance = np.empty(count)
+    index = np.empty(count, dtype=np.int64)
+    widest = max(shape[0], max(shape[1], shape[2]))
+    centre = np.empty(3, dtype=np.int64)
+    for i in range(count):
+        for axis in range(3):
+            at = int(np.floor((points[i, axis] - origin[axis]) / cell))
+            centre[axis] = min(max(at, 0), shape[axis] - 1)
+        best, best_index, ring = np.inf, -1, 0
+        while True:
+            for ix in range(max(centre[0] - ring, 0), min(centre[0] + ring, shape[0] - 1) + 1):
+                for iy in range(max(centre[1] - ring, 0), min(centre[1] + ring, shape[1] - 1) + 1):
+                    for iz in range(
+                        max(centre[2] - ring, 0), min(centre[2] + ring, shape[2] - 1) + 1
+                    ):
+                        away = max(
+                            abs(ix - centre[0]), max(abs(iy - centre[1]), abs(iz - centre[2]))
+                        )
+                        if away != ring:
+                            continue  # an inner ring's cell, searched already
+                        key = (ix * shape[1] + iy) * shape[2] + iz
+                        for slot in range(cell_start[key], cell_start[key + 1]):
+                            j = members[slot]
+                            if j == i:
+                                continue
+                            # cKDTree's rounding: a sum from 0 in axis order.
+                            squared = 0.0
+                            for axis in range(3):
+                                step = points[i, axis] - points[j, axis]
+                                squared += step * step
+                            if squared < best or (squared == best and j < best_index):
+                                best, best_index = squared, j
+            # A point of a cell beyond this ring is more than (ring) cells away along one
+            # axis; one cell of slack covers a point rounded into its neighbour cell.
+            if ring >= widest or (best_index >= 0 and np.sqrt(best) <= (ring - 1) * cell):
+                break
+            ring += 1
+        distance[i] = np.sqrt(best)
+        index[i] = best_index
+    return distance, index
 
 
 def grid_of(points: FloatArray, cell: float) -> Grid:

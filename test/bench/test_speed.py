@@ -1,4 +1,4 @@
-"""bench.speed: the installed command's wall, timed on a small torus and one verb's help."""
+"""bench.speed: the command's wall with outputs on a small torus, its phases, one help."""
 
 import sys
 from argparse import Namespace
@@ -17,10 +17,17 @@ def test_the_speed_section_times_evaluate_the_version_and_a_help_against_their_t
     lines = speed_section(
         Namespace(beta=0.5), shapes=(("torus:60", 1, "10 s"),), verbs=("key",), times=1
     )
-    [(header, rows)] = check_shape(lines)
+    [(header, rows), (phase_header, phases)] = check_shape(lines)
     assert header == ["command", "runs", "median s", "range s", "target", "met"]
     assert [row[0] for row in rows] == [
-        "`swazure evaluate` torus:60, beta 0.5, shortest-length", "`swazure --version`",
+        "`swazure evaluate --out` torus:60, beta 0.5, shortest-length", "`swazure --version`",
         "`swazure key --help`",
     ]  # fmt: skip
     assert all(row[1] == "1" and float(row[2]) > 0 and row[5] in ("yes", "no") for row in rows)
+    # One run's phases: each took some time, and the ones inside the run fit in its wall.
+    assert phase_header[:2] == ["shape", "wall s"]
+    [phase] = phases
+    assert phase[0] == "torus:60"
+    wall, start, imports, kernels, engine, tables, csv = map(float, phase[1:])
+    assert min(imports, kernels, tables, csv) > 0
+    assert start + imports + kernels + engine + tables + csv == pytest.approx(wall, abs=0.05)

@@ -47,3 +47,18 @@ def test_bad_edges_are_refused(first, second, weights, match):
 def test_costs_need_one_value_per_edge():
     with pytest.raises(ValueError, match="one value per edge"):
         make_graph(3, [0, 1], [1, 2], [1.0, 1.0], costs=[0.5])
+
+
+@pytest.mark.parametrize("size", [1, 2, 60, 2000])
+@pytest.mark.parametrize("density", [0.0, 0.4, 1.0, 3.0])
+def test_components_are_numbered_as_scipy_numbers_them(size, density):
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    rng = np.random.default_rng(size)
+    first, second = rng.integers(0, size, (2, int(size * density)))
+    keep = first != second
+    graph = make_graph(size, first[keep], second[keep], np.ones(keep.sum()))
+    matrix = csr_matrix((np.ones(len(graph.indices)), graph.indices, graph.indptr), (size, size))
+    _, expected = connected_components(matrix, directed=False)
+    assert graph.components().tolist() == expected.tolist()

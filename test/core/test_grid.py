@@ -1,0 +1,43 @@
+"""The grid's nearest-neighbour search: the bits scipy's k-d tree gave, on awkward clouds."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+RNG = np.random.default_rng(7)
+#: Clouds where a ring search could go wrong: ties (a lattice), duplicates, gaps that
+#: grow along a line, a flat sheet, two far points, a dense clump beside a sparse shell.
+CLOUDS = {
+    "lattice": np.stack(np.meshgrid(*[np.arange(9.0)] * 3), -1).reshape(-1, 3) * 0.37,
+    "duplicates": np.repeat(RNG.normal(size=(150, 3)), 2, axis=0),
+    "growing gaps": np.c_[np.arange(400.0) ** 1.5, np.zeros(400), np.zeros(400)],
+    "sheet": np.c_[RNG.random((900, 2)) * 40, np.zeros(900)],
+    "two": np.array([[0.0, 0.0, 0.0], [1e-7, 2.0, 3.0]]),
+    "clump and shell": np.concatenate(
+        [RNG.normal(size=(500, 3)) * 1e-3, RNG.normal(size=(300, 3)) * 1e3]
+    ),
+    "random": RNG.normal(size=(3000, 3)) * 7,
+}
+
+
+@pytest.mark.parametrize("name", sorted(CLOUDS))
+def test_nearest_neighbours_are_the_k_d_trees_distances_bit_for_bit(name):
+    from scipy.spatial import cKDTree
+
+    from swazure_ros.core.grid import nearest_neighbours
+
+    points = CLOUDS[name]
+    distance, index = nearest_neighbours(points)
+    expected, _ = cKDTree(points).query(points, k=2)
+    assert distance.tobytes() == expected[:, 1].tobytes()
+    # The index is a point at that distance, never the point itself.
+    assert not np.any(index == np.arange(len(points)))
+    np.testing.assert_array_equal(np.linalg.norm(points - points[index], axis=1) > 0, distance > 0)
+
+
+def test_a_tie_goes_to_the_lower_index():
+    from swazure_ros.core.grid import nearest_neighbours
+
+    _, index = nearest_neighbours(np.array([[0.0, 0, 0], [1, 0, 0], [-1, 0, 0], [0, 5, 0]]))
+    assert index.tolist() == [1, 0, 0, 0]
