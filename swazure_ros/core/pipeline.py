@@ -22,12 +22,20 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .blocks import Budget, evaluate_blocked, whole_swarm_bytes
+from .blocks import BlockedEvaluation, Budget, evaluate_blocked, whole_swarm_bytes, with_decaying
 from .errors import OptionError, SwazureError
 from .evaluate import evaluate
 from .evaluation import Evaluation, PairResults
-from .fit import ESTIMATORS, PATH, check_plain_estimator, refine
-from .fusion import fuse
+from .fit import (
+    BLOCKED_ESTIMATORS,
+    ESTIMATORS,
+    PATH,
+    WholeFitEstimates,
+    check_plain_estimator,
+    needs_decaying,
+    refine,
+)
+from .fusion import Fusion, fuse
 from .geometry import Swarm
 from .heuristics.compat import COMPAT_MODES
 from .heuristics.folding import run_technique
@@ -81,6 +89,14 @@ class RunOptions:
     def plain(self) -> bool:
         """Whether the run is plain Swazure alone: no heuristic, fusion or fit."""
         return self.technique == PLAIN and self.fuse == 1 and self.estimator == PATH
+
+    @property
+    def in_blocks(self) -> bool:
+        """Whether the run can be made a block of pairs at a time: plain Swazure, fusion
+        or a fit of the whole swarm (each pair's estimate its own: :mod:`.fusion`,
+        :class:`.fit.WholeFitEstimates`); no heuristic, no source's own fit."""
+        fit = self.estimator == PATH or self.estimator in BLOCKED_ESTIMATORS
+        return self.technique == PLAIN and fit
 
 
 def _whole_number(name: str, value: object, low: int, high: int | None) -> None:
@@ -191,8 +207,8 @@ def run_engine(
     """
     options.check()
     budget = budget or Budget()
-    if plain is None and options.plain and not hold:
-        return _in_blocks(swarm, sensor, options.policy, take, budget, source, progress or SILENT)
+    if plain is None and options.in_blocks and not hold:
+        return _in_blocks(swarm, sensor, options, take, budget, source, progress or SILENT)
     if plain is None:
         _check_room(swarm, sensor, budget, source)
         plain = _held_plain(swarm, sensor, options.policy, progress)
@@ -207,14 +223,16 @@ def run_engine(
 def _in_blocks(
     swarm: Swarm,
     sensor: Sensor,
-    policy: str,
+    options: RunOptions,
     take: Take | None,
     budget: Budget,
     source: Source | None,
     progress: Progress,
 ) -> EngineRun:
-    """Plain Swazure a block of pairs at a time: each block to ``take`` as it is made."""
-    run = evaluate_blocked(swarm, sensor, policy, budget, progress)
+    """Plain Swazure a block of pairs at a time, fused or fitted per block: each block to
+    ``take`` as it is made."""
+    run = evaluate_blocked(swarm, sensor, options.policy, budget, progress)
+    stage = _block_stage(run, options, budget, progress)
     blocks = run.blocks(progress)
     if take is None:
         for _ in blocks:
@@ -222,7 +240,61 @@ def _in_blocks(
     else:
         take(run.hood, blocks, None, len(run.lean.blind))
     # RuntimeError when ``take`` left blocks unmade: the summary needs every pair.
-    return _with_source(EngineRun(run.summary(), run.seconds), source)
+    summary = run.summary()
+    if stage is None:
+        return _with_source(EngineRun(summary, run.seconds), source)
+    return _with_source(stage.run(summary, run.seconds), source)
+
+
+@dataclass
+class _BlockStage:
+    """Fusion or a fit made per block of a :class:`.blocks.BlockedEvaluation`, timed."""
+
+    fusion: Fusion | None
+    fit: WholeFitEstimates | None
+    seconds: float = 0.0  # spent within the blocks, whose time the run counts too
+
+    def __call__(self, hood: Neighbourhood, pairs: PairResults) -> PairResults:
+        began = time.perf_counter()
+        if self.fusion is not None:
+            pairs = self.fusion.block(hood, pairs)
+        if self.fit is not None:
+            pairs = self.fit.block(pairs)
+        self.seconds += time.perf_counter() - began
+        return pairs
+
+    def run(self, summary: Summary, seconds: float) -> EngineRun:
+        """The run's summary with the stage's facts, and times as :func:`_stages` gives them."""
+        plain = seconds - self.seconds
+        if self.fusion is not None:
+            facts = self.fusion.facts()
+            summary = replace(summary, seconds=plain, fusion=facts)
+            return EngineRun(summary, plain + facts.seconds)
+        assert self.fit is not None  # a stage is fusion or a fit
+        fit = self.fit.facts()
+        took = plain + (fit.seconds or 0.0)
+        return EngineRun(replace(summary, seconds=took, fit=fit), took)
+
+
+def _block_stage(
+    run: BlockedEvaluation, options: RunOptions, budget: Budget, progress: Progress
+) -> _BlockStage | None:
+    """The stage each block of ``run`` goes through before its tally: fusion, a fit or none.
+
+    A fit's measurements are the whole swarm's, taken before the first block;
+    its decaying pairs in sight are judged first where one may join two parts
+    of ``S_vis`` (:func:`.fit.needs_decaying`)."""
+    if options.fuse > 1:
+        run.stage = _BlockStage(Fusion(options.fuse, options.policy, budget.exact_values), None)
+    elif options.estimator != PATH:
+        if run.lean.whole is None and needs_decaying(run.lean.sweet):
+            run.lean = with_decaying(run.lean, progress)
+        progress.start(options.estimator, 1)
+        fit = WholeFitEstimates(
+            run.hood, options.estimator, exact_values=budget.exact_values, free=budget.free
+        )
+        run.stage = _BlockStage(None, fit)
+    return run.stage if isinstance(run.stage, _BlockStage) else None
 
 
 def _held_plain(swarm: Swarm, sensor: Sensor, policy: str, progress: Progress | None) -> EngineRun:
