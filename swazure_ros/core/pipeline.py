@@ -6,12 +6,14 @@ comparison, and the warm-up of the kernels. Its stages, in order::
 
     plain Swazure -> a heuristic -> fusion -> a fit -> where the swarm came from
 
-Plain Swazure alone, for a caller that does not need every pair held, runs a
-block of pairs at a time within ``budget.memory`` (:mod:`.blocks`); a
-heuristic, fusion, a fit, or a caller that asks to ``hold`` the pairs (a
-snapshot, the study, a swarm's comparison) holds every pair at once
-(:func:`.evaluate.evaluate`). Both give the same numbers and the same pairs,
-in the same order. The caller says what it needs; the pipeline decides how.
+Plain Swazure, fused or fitted by the whole swarm's fit, for a caller that
+does not need every pair held, runs a block of pairs at a time within
+``budget.memory`` (:mod:`.blocks`), each block through fusion or the fit
+before it is tallied; a heuristic, each source's own fit, or a caller that
+asks to ``hold`` the pairs (a snapshot, the study, a swarm's comparison)
+holds every pair at once (:func:`.evaluate.evaluate`). Both give the same
+numbers and the same pairs, in the same order. The caller says what it
+needs; the pipeline decides how.
 """
 
 from __future__ import annotations
@@ -351,9 +353,10 @@ def _check_room(swarm: Swarm, sensor: Sensor, budget: Budget, source: Source | N
         return
     name = "the swarm" if source is None else source.cloud
     raise SwazureError(
-        f"{name}: --technique, --fuse, --estimator and --snapshot hold every "
+        f"{name}: --technique, --estimator local-least-squares and --snapshot hold every "
         f"pair of the swarm at once, about {need / 2**30:.1f} GB for {swarm.size} FLSs; "
-        f"this machine has {budget.free / 2**30:.1f} GB free (plain Swazure runs in blocks)"
+        f"this machine has {budget.free / 2**30:.1f} GB free (plain Swazure runs in blocks, "
+        f"and so do --fuse, --estimator least-squares and swarm-fit)"
     )
 
 
