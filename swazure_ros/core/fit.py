@@ -388,6 +388,16 @@ def needs_decaying(hood: Neighbourhood) -> bool:
     pairs in sight (:func:`~.fit_measurements.joining`): with every FLS in one
     part, the sweet pairs alone give the fit's rows, and a neighbourhood
     without the decaying pairs (``blocks.LeanNeighbourhood.sweet``) serves.
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The swarm's neighbourhood (its sweet pairs at least).
+
+    Returns
+    -------
+    bool
+        True when ``S_vis`` has more than one part.
     """
     components = hood.sweet_visible.components()
     return bool(len(components) and components.max() > 0)
