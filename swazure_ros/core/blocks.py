@@ -23,7 +23,7 @@ held whole (docs/core.md, "The engine at display scale").
 from __future__ import annotations
 
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -301,6 +301,8 @@ class BlockedEvaluation:
     lean: LeanNeighbourhood
     policy: str
     seconds: float = 0.0  # computing so far: the neighbourhood's and the blocks'
+    # A later stage made per block (fusion, a fit: core.pipeline), before the tally.
+    stage: Callable[[Neighbourhood, PairResults], PairResults] | None = None
     tally: PairTally = field(init=False)
 
     def __post_init__(self) -> None:
@@ -329,6 +331,8 @@ class BlockedEvaluation:
                 pairs = evaluate_pairs(self.hood, self.policy, blind=blind)
                 progress.start("pairs", total)
                 progress.advance(done)
+            if self.stage is not None:
+                pairs = self.stage(self.hood, pairs)
             self.tally.add(pairs)
             self.seconds += time.perf_counter() - began
             done += len(pairs)

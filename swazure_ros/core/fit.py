@@ -27,10 +27,11 @@ from .heuristics.result import PLAIN
 from .hop_errors import hop_covariance, measured_vectors, unbiased_vectors
 from .metrics import Stats, describe
 from .neighbourhood import Neighbourhood
-from .pair_fits import PairFit, fit_pairs_estimates, local_estimates
-from .pair_statistics import summarise
+from .pair_fits import PairFit, WholeFits, local_estimates
+from .pair_statistics import EXACT_VALUES, summarise
 from .path_arrays import Paths, path_hops
 from .summary import Consistency, FitFacts
+from .tally import RealTally
 
 #: The estimators of a pair's pose: the paper's sum along the policy's path; the fit over
 #: the whole swarm's measurements; each source's own fit over what it hears by radio; the
@@ -38,6 +39,10 @@ from .summary import Consistency, FitFacts
 PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES = "path", "least-squares", "local-least-squares"
 SWARM_FIT = "swarm-fit"
 ESTIMATORS = (PATH, LEAST_SQUARES, LOCAL_LEAST_SQUARES, SWARM_FIT)
+#: The fits of the whole swarm, read off one solve pair by pair: a run of them is made in
+#: blocks (:class:`WholeFitEstimates`). Each source's own fit lays out its window from
+#: every FLS's radio neighbours, the blind pairs a neighbourhood made in blocks does not hold.
+BLOCKED_ESTIMATORS = (LEAST_SQUARES, SWARM_FIT)
 
 
 def check_plain_estimator(estimator: str, technique: str = PLAIN, fuse: int = 1) -> None:
@@ -270,33 +275,132 @@ def refine(
     """
     if estimator not in (LEAST_SQUARES, LOCAL_LEAST_SQUARES, SWARM_FIT):
         raise ValueError(f"{estimator!r} is not a least-squares estimator")
-    pairs = evaluation.pairs
-    has_path = pairs.status != NO_PATH
-    if estimator == LOCAL_LEAST_SQUARES:
-        result, windows = _own_fits(evaluation, robust, corrupt)
+    if estimator != LOCAL_LEAST_SQUARES:
+        whole = WholeFitEstimates(evaluation.hood, estimator, robust, corrupt)
+        updated = whole.block(evaluation.pairs)
+        fit = whole.facts()
     else:
-        arguments = (evaluation.hood, pairs.source, pairs.target, pairs.status == SWEET_PATH)
-        result = fit_pairs_estimates(*arguments, robust, corrupt, swarm=estimator == SWARM_FIT)
-        windows = _Windows()
-    estimate = np.where(has_path[:, None], result.estimate, np.nan)
-    covariance = np.where(has_path[:, None, None], result.covariance, np.nan)
-    predicted = np.sqrt(np.trace(covariance, axis1=1, axis2=2))
-    updated = pairs.with_estimates(estimate, predicted_error=predicted, covariance=covariance)
-    fit = FitFacts(
-        estimator,
-        consistency(updated),
-        window_flss=windows.flss,
-        window_ms=windows.ms,
-        path_fallback_pairs=windows.fallback_pairs,
-        iterations=tuple(result.iterations) if estimator == SWARM_FIT else None,
-        robust=robust,
-        measurements=result.measurements,
-        downweighted=result.downweighted,
-        seconds=result.seconds,
-    )
-    took = (evaluation.summary.seconds or 0.0) + result.seconds
+        result, windows = _own_fits(evaluation, robust, corrupt)
+        updated = _with_fit(evaluation.pairs, result.estimate, result.covariance)
+        fit = FitFacts(
+            estimator,
+            consistency(updated),
+            window_flss=windows.flss,
+            window_ms=windows.ms,
+            path_fallback_pairs=windows.fallback_pairs,
+            robust=robust,
+            measurements=result.measurements,
+            downweighted=result.downweighted,
+            seconds=result.seconds,
+        )
+    took = (evaluation.summary.seconds or 0.0) + (fit.seconds or 0.0)
     summary = summarise(evaluation.hood, evaluation.policy, updated, took, fit=fit)
     return replace(evaluation, pairs=updated, summary=summary)
+
+
+def _with_fit(pairs: PairResults, estimate: FloatArray, covariance: FloatArray) -> PairResults:
+    """``pairs`` with a fit's estimates and covariances (NaN without a path); predicted errors
+    the square roots of the covariances' traces."""
+    has_path = pairs.status != NO_PATH
+    estimate = np.where(has_path[:, None], estimate, np.nan)
+    covariance = np.where(has_path[:, None, None], covariance, np.nan)
+    predicted = np.sqrt(np.trace(covariance, axis1=1, axis2=2))
+    return pairs.with_estimates(estimate, predicted_error=predicted, covariance=covariance)
+
+
+class WholeFitEstimates:
+    """A fit of the whole swarm's measurements given to a run's pairs, one block at a time.
+
+    The fit is solved once (:class:`~.pair_fits.WholeFits`); each pair's
+    estimate and covariance are read off it and its NEES tallied, so a run
+    made in blocks (:mod:`.blocks`) gets the pairs and the facts that
+    :func:`refine` gives all pairs at once (the NEES's quantiles exact while
+    they fit ``exact_values``, :class:`~.tally.RealTally`).
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The swarm's neighbourhood; with the decaying pairs in sight when a
+        decaying pair may join two parts of ``S_vis`` (:func:`needs_decaying`).
+    estimator : {'least-squares', 'swarm-fit'}
+    robust : bool, optional
+    corrupt : callable, optional
+        As for :func:`refine`.
+    exact_values : int, optional
+        NEES values kept for exact quantiles.
+    free : int, optional
+        Bytes of memory free: a least-squares fit whose dense inverse would
+        not fit is solved sparse, its covariance sampled
+        (:class:`~.pair_fits.WholeFits`); None: dense, as :func:`refine`.
+    """
+
+    def __init__(
+        self,
+        hood: Neighbourhood,
+        estimator: str,
+        robust: bool = True,
+        corrupt: Corruption | None = None,
+        exact_values: int = EXACT_VALUES,
+        free: int | None = None,
+    ) -> None:
+        if estimator not in BLOCKED_ESTIMATORS:
+            raise ValueError(f"{estimator!r} is not a fit of the whole swarm")
+        self.estimator, self.robust = estimator, robust
+        self.fits = WholeFits(hood, robust, corrupt, swarm=estimator == SWARM_FIT, free=free)
+        self.nees = RealTally(exact_values)
+        self.within = 0
+
+    def block(self, pairs: PairResults) -> PairResults:
+        """``pairs`` (a block of the run's) with the fit's estimates and covariances."""
+        estimate, covariance = self.fits.estimates(
+            pairs.source, pairs.target, pairs.status == SWEET_PATH
+        )
+        updated = _with_fit(pairs, estimate, covariance)
+        # NaN for a pair without a path: its estimate is NaN.
+        nees = normalized_errors(updated.estimate - updated.truth, covariance)
+        known = nees[np.isfinite(nees)]
+        self.nees.add(known)
+        self.within += int((known <= CHI2_95_3DOF).sum())
+        return updated
+
+    def facts(self) -> FitFacts:
+        """The summary's ``fit``: of every block given so far."""
+        result = self.fits.result(np.zeros((0, 3)), np.zeros((0, 3, 3)))
+        count = self.nees.count
+        return FitFacts(
+            self.estimator,
+            Consistency(
+                nees=self.nees.describe(),
+                within_chi2_95_pct=float(100.0 * (self.within / count)) if count else float("nan"),
+            ),
+            iterations=result.iterations if self.estimator == SWARM_FIT else None,
+            robust=self.robust,
+            measurements=result.measurements,
+            downweighted=result.downweighted,
+            seconds=result.seconds,
+        )
+
+
+def needs_decaying(hood: Neighbourhood) -> bool:
+    """Whether a fit of ``hood`` may take a decaying pair: ``S_vis`` leaves FLSs apart.
+
+    A fit takes a decaying pair only where it joins two parts of the sweet
+    pairs in sight (:func:`~.fit_measurements.joining`): with every FLS in one
+    part, the sweet pairs alone give the fit's rows, and a neighbourhood
+    without the decaying pairs (``blocks.LeanNeighbourhood.sweet``) serves.
+
+    Parameters
+    ----------
+    hood : Neighbourhood
+        The swarm's neighbourhood (its sweet pairs at least).
+
+    Returns
+    -------
+    bool
+        True when ``S_vis`` has more than one part.
+    """
+    components = hood.sweet_visible.components()
+    return bool(len(components) and components.max() > 0)
 
 
 class _Windows(NamedTuple):

@@ -18,20 +18,22 @@ docs/core.md ("Predicted errors and multi-path fusion") derives both.
 from __future__ import annotations
 
 import time
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from . import csr
 from .arrays import FloatArray, IntArray
-from .evaluation import SWEET_PATH, Evaluation
+from .evaluation import SWEET_PATH, Evaluation, PairResults
+from .graph import Graph
 from .hops import estimates, summed_hop_errors
-from .metrics import describe
-from .pair_statistics import summarise
+from .neighbourhood import Neighbourhood
+from .pair_statistics import EXACT_VALUES, summarise
 from .path_arrays import Paths
 from .paths import avoiding_paths
 from .sensor import Sensor
 from .summary import FusionFacts
+from .tally import RealTally
 
 
 def inner_nodes(paths: Paths) -> tuple[IntArray, IntArray]:
@@ -133,7 +135,8 @@ def fuse(evaluation: Evaluation, count: int) -> Evaluation:
     disjoint paths share no measurement, so their errors are independent
     under a stochastic sensor (docs/core.md, "Predicted errors and
     multi-path fusion"). The reported path stays the policy's;
-    ``fused_paths`` says how many were combined.
+    ``fused_paths`` says how many were combined. The same as
+    :class:`Fusion` of the pairs in one block.
 
     Parameters
     ----------
@@ -167,56 +170,102 @@ def fuse(evaluation: Evaluation, count: int) -> Evaluation:
     >>> fused.summary.fusion.paths_per_pair  # sweet pairs by paths fused: 0, 1, 2, 3
     (0, 0, 0, 3378)
     """
-    if count < 1:
-        raise ValueError(f"fusion needs at least one path per pair, got {count}")
-    began = time.perf_counter()
-    hood, pairs = evaluation.hood, evaluation.pairs
-    sweet = np.flatnonzero(pairs.status == SWEET_PATH)
-    counts = np.diff(pairs.offsets)
-    first = Paths(
-        np.ones(len(sweet), dtype=bool),
-        pairs.hops[sweet],
-        pairs.path_length[sweet],
-        csr.offsets(counts[sweet]),
-        pairs.nodes[np.repeat(pairs.status == SWEET_PATH, counts)],
-    )
-    graph = hood.sweet_visible
-    components = graph.components()
-    found_paths = [first]
-    avoid = inner_nodes(first)
-    for _ in range(count - 1):
-        more = avoiding_paths(
-            graph, pairs.source[sweet], pairs.target[sweet], evaluation.policy, *avoid,
-            components=components,
-        )  # fmt: skip
-        if not more.found.any():
-            break
-        found_paths.append(more)
-        avoid = _joined(avoid, inner_nodes(more))
-    vectors = np.stack([estimates(hood, paths)[0] for paths in found_paths])
-    summed = np.stack([summed_hop_errors(hood, paths) for paths in found_paths])
-    fused, predicted = combine(hood.sensor, vectors, summed)
-    used = np.isfinite(summed).sum(axis=0)
-
-    estimate = pairs.estimate.copy()
-    estimate[sweet] = fused
-    predicted_error = pairs.predicted_error.copy()
-    predicted_error[sweet] = predicted
-    fused_paths = pairs.fused_paths.copy()
-    fused_paths[sweet] = used
-    updated = pairs.with_estimates(
-        estimate, predicted_error=predicted_error, fused_paths=fused_paths
-    )
-    several = fused_paths >= 2
-    fusion = FusionFacts(
-        paths=count,
-        pairs_fused=int(several.sum()),
-        paths_per_pair=tuple(np.bincount(fused_paths[sweet], minlength=count + 1).tolist()),
-        distance_error_pct_one_path=describe(pairs.distance_error[several]),
-        distance_error_pct_fused=describe(updated.distance_error[several]),
-        seconds=time.perf_counter() - began,
-    )
+    fusion = Fusion(count, evaluation.policy)
+    updated = fusion.block(evaluation.hood, evaluation.pairs)
     summary = summarise(
-        hood, evaluation.policy, updated, evaluation.summary.seconds, fusion=fusion
-    )
+        evaluation.hood, evaluation.policy, updated, evaluation.summary.seconds,
+        fusion=fusion.facts(),
+    )  # fmt: skip
     return replace(evaluation, pairs=updated, summary=summary)
+
+
+@dataclass
+class Fusion:
+    """Fusion of a run's pairs, one block at a time, and its facts gathered as it goes.
+
+    Each pair's fused estimate depends on its own paths only (one search per
+    pair), so the blocks of a run made in blocks (:mod:`.blocks`) give the
+    pairs of :func:`fuse` of the whole; the facts' statistics are tallied
+    (exact while their values fit ``exact_values``, :class:`~.tally.RealTally`).
+    """
+
+    count: int  # paths per pair, at most
+    policy: str
+    exact_values: int = EXACT_VALUES
+    pairs_fused: int = 0
+    paths_per_pair: IntArray = field(init=False)
+    one_path: RealTally = field(init=False)  # the fused pairs' distance errors, % ...
+    fused: RealTally = field(init=False)  # ... before and after
+    seconds: float = 0.0
+    _components: tuple[Graph, IntArray] | None = field(default=None, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.count < 1:
+            raise ValueError(f"fusion needs at least one path per pair, got {self.count}")
+        self.paths_per_pair = np.zeros(self.count + 1, dtype=np.int64)
+        self.one_path = RealTally(self.exact_values)
+        self.fused = RealTally(self.exact_values)
+
+    def _graph(self, hood: Neighbourhood) -> tuple[Graph, IntArray]:
+        """``S_vis`` of ``hood`` and its components, found once per graph."""
+        graph = hood.sweet_visible
+        if self._components is None or self._components[0] is not graph:
+            self._components = (graph, graph.components())
+        return self._components
+
+    def block(self, hood: Neighbourhood, pairs: PairResults) -> PairResults:
+        """``pairs`` (a block of the run's) with their sweet pairs' estimates fused."""
+        began = time.perf_counter()
+        sweet = np.flatnonzero(pairs.status == SWEET_PATH)
+        counts = np.diff(pairs.offsets)
+        first = Paths(
+            np.ones(len(sweet), dtype=bool),
+            pairs.hops[sweet],
+            pairs.path_length[sweet],
+            csr.offsets(counts[sweet]),
+            pairs.nodes[np.repeat(pairs.status == SWEET_PATH, counts)],
+        )
+        graph, components = self._graph(hood)
+        found_paths = [first]
+        avoid = inner_nodes(first)
+        for _ in range(self.count - 1):
+            more = avoiding_paths(
+                graph, pairs.source[sweet], pairs.target[sweet], self.policy, *avoid,
+                components=components,
+            )  # fmt: skip
+            if not more.found.any():
+                break
+            found_paths.append(more)
+            avoid = _joined(avoid, inner_nodes(more))
+        vectors = np.stack([estimates(hood, paths)[0] for paths in found_paths])
+        summed = np.stack([summed_hop_errors(hood, paths) for paths in found_paths])
+        fused, predicted = combine(hood.sensor, vectors, summed)
+        used = np.isfinite(summed).sum(axis=0)
+
+        estimate = pairs.estimate.copy()
+        estimate[sweet] = fused
+        predicted_error = pairs.predicted_error.copy()
+        predicted_error[sweet] = predicted
+        fused_paths = pairs.fused_paths.copy()
+        fused_paths[sweet] = used
+        updated = pairs.with_estimates(
+            estimate, predicted_error=predicted_error, fused_paths=fused_paths
+        )
+        several = fused_paths >= 2
+        self.pairs_fused += int(several.sum())
+        self.paths_per_pair += np.bincount(fused_paths[sweet], minlength=self.count + 1)
+        self.one_path.add(pairs.distance_error[several])
+        self.fused.add(updated.distance_error[several])
+        self.seconds += time.perf_counter() - began
+        return updated
+
+    def facts(self) -> FusionFacts:
+        """The summary's ``fusion``: of every block fused so far."""
+        return FusionFacts(
+            paths=self.count,
+            pairs_fused=self.pairs_fused,
+            paths_per_pair=tuple(self.paths_per_pair.tolist()),
+            distance_error_pct_one_path=self.one_path.describe(),
+            distance_error_pct_fused=self.fused.describe(),
+            seconds=self.seconds,
+        )

@@ -12,8 +12,9 @@ pair's relative position x_target - x_source with its own. docs/core.md
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
@@ -25,6 +26,7 @@ from .measurement_graph import (
     parts_of,
     robust_weights,
 )
+from .swarm_fit import COVARIANCE_SAMPLES, SwarmFit, measurement_noise
 
 #: A round factors its normal matrix anew when more than this share of the weights
 #: differ from those of the last factors; otherwise conjugate gradients, preconditioned
@@ -156,12 +158,16 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
     """
     part = parts_of(size, measured)
     members, free, blocks = _gauge(size, part)
-    solution, factors, weights, rounds = _reweighted(size, measured, free, blocks, robust)
+
+    def factorise(normal: Any) -> _DenseFactors:
+        return _DenseFactors(_factors(normal, blocks), blocks)
+
+    solution, dense, weights, rounds = _reweighted(size, measured, free, factorise, robust)
     positions = np.zeros(3 * size)
     positions[free] = solution
     slot = np.zeros(size, dtype=np.int64)
     covariance = []
-    for group, factor in zip(members, factors, strict=True):
+    for group, factor in zip(members, dense.factors, strict=True):
         slot[group] = np.arange(len(group))
         covariance.append(_part_covariance(factor))
     points = positions.reshape(size, 3)
@@ -187,10 +193,34 @@ def _gauge(size: int, part: IntArray) -> tuple[list[IntArray], BoolArray, list[I
     return members, free, [slot_of[_axes(group[1:])] for group in members]
 
 
+class _Factor(Protocol):
+    """A factored normal matrix: the solution of its system for a right side (or several)."""
+
+    def __call__(self, rhs: FloatArray) -> FloatArray: ...
+
+
+_F = TypeVar("_F", bound=_Factor)
+
+
+@dataclass(frozen=True)
+class _DenseFactors:
+    """The lower Cholesky factors of each part's dense block (:func:`_factors`)."""
+
+    factors: list[FloatArray]
+    blocks: list[IntArray]
+
+    def __call__(self, rhs: FloatArray) -> FloatArray:
+        return _solve(self.factors, self.blocks, rhs)
+
+
 def _reweighted(
-    size: int, measured: Measurements, free: BoolArray, blocks: list[IntArray], robust: bool
-) -> tuple[FloatArray, list[FloatArray], FloatArray, int]:
-    """The free unknowns' solution, each part's factors, the final weights and the rounds.
+    size: int,
+    measured: Measurements,
+    free: BoolArray,
+    factorise: Callable[[Any], _F],
+    robust: bool,
+) -> tuple[FloatArray, _F, FloatArray, int]:
+    """The free unknowns' solution, the final factors, the final weights and the rounds.
 
     One weighted solve, then (``robust``) the rounds of :func:`solve`'s
     reweighting; the final system factored by its own weights.
@@ -198,8 +228,8 @@ def _reweighted(
     information = measured.information
     matrix, rhs = _information(size, measured, information)
     normal = matrix[free][:, free].tocsr()
-    factors = _factors(normal, blocks)
-    solution = _solve(factors, blocks, rhs[free])
+    factors = factorise(normal)
+    solution = factors(rhs[free])
     weights = factored = np.ones(len(measured))
     rounds = 0
     rejecting = False
@@ -219,17 +249,17 @@ def _reweighted(
         matrix, rhs = _information(size, measured, information * weights[:, None, None])
         normal = matrix[free][:, free].tocsr()
         if np.mean(weights != factored) > REFACTOR_SHARE:
-            factors, factored = _factors(normal, blocks), weights
-            solution = _solve(factors, blocks, rhs[free])
+            factors, factored = factorise(normal), weights
+            solution = factors(rhs[free])
         else:
-            solution = _preconditioned(normal, rhs[free], factors, blocks, previous)
+            solution = _preconditioned(normal, rhs[free], factors, previous)
         settled = np.abs(solution - previous).max(initial=0.0) <= CONVERGED_CM
         if settled:
             # Huber's loss has settled: from here on, measurements far out are rejected.
             rejecting = True
     if not np.array_equal(weights, factored):
-        factors = _factors(normal, blocks)
-        solution = _solve(factors, blocks, rhs[free])
+        factors = factorise(normal)
+        solution = factors(rhs[free])
     return solution, factors, weights, rounds
 
 
@@ -266,19 +296,13 @@ def _solve(factors: list[FloatArray], blocks: list[IntArray], rhs: FloatArray) -
 
 
 def _preconditioned(
-    normal: Any,
-    rhs: FloatArray,
-    factors: list[FloatArray],
-    blocks: list[IntArray],
-    start: FloatArray,
+    normal: Any, rhs: FloatArray, factors: _Factor, start: FloatArray
 ) -> FloatArray:
     """``normal`` x = ``rhs`` by conjugate gradients from ``start``; ``factors`` precondition."""
     from scipy.sparse.linalg import LinearOperator, cg
 
     count = normal.shape[0]
-    preconditioner = LinearOperator(
-        (count, count), matvec=lambda r: _solve(factors, blocks, r), dtype=np.float64
-    )
+    preconditioner = LinearOperator((count, count), matvec=factors, dtype=np.float64)
     solution, _ = cg(normal, rhs, x0=start, rtol=1e-12, atol=0.0, M=preconditioner)
     return np.asarray(solution, dtype=np.float64)
 
@@ -298,3 +322,134 @@ def _part_covariance(factor: FloatArray) -> FloatArray:
     if info != 0:
         raise np.linalg.LinAlgError(f"the fit's normal matrix is singular ({info})")
     return np.asarray(inverse, dtype=np.float64)
+
+
+#: Rows of measurements whose noise a sparse fit draws at once (memory: 3 x 64 draws a row).
+NOISE_ROWS = 100_000
+
+
+def dense_bytes(size: int, measured: Measurements) -> int:
+    """Bytes :func:`solve` holds for its parts' dense factors and covariances, at the least.
+
+    Parameters
+    ----------
+    size : int
+        N, the FLSs.
+    measured : Measurements
+
+    Returns
+    -------
+    int, bytes
+        8 bytes per entry of each part's (3K - 3) x (3K - 3) normal matrix.
+    """
+    part = parts_of(size, measured)
+    members = np.bincount(part[part >= 0])
+    return int((8 * (3 * members - 3) ** 2).sum())
+
+
+def solve_sparse(
+    size: int,
+    measured: Measurements,
+    robust: bool = True,
+    samples: int = COVARIANCE_SAMPLES,
+    ids: IntArray | None = None,
+) -> SwarmFit:
+    """:func:`solve`'s fit by a sparse factor of the whole graph, its covariance by samples.
+
+    For a swarm whose parts' dense factors do not fit in memory
+    (:func:`dense_bytes`): the same gauge, weights and robust schedule, the
+    normal matrix of every part factored at once by SuperLU (minimum degree
+    ordering of H, no pivoting: H is positive definite), so the positions
+    are :func:`solve`'s to the solvers' rounding. The dense inverse is out
+    of reach, so the covariance is the swarm fit's: the spread of the
+    solutions of ``samples`` draws of every measurement's noise
+    (:func:`~.swarm_fit.measurement_noise`, the same draws).
+
+    Parameters
+    ----------
+    size : int
+        N, the FLSs.
+    measured : Measurements
+    robust : bool, optional
+        As for :func:`solve`.
+    samples : int, default 64
+        The covariance's draws.
+    ids : (N,) array of int, optional
+        The FLS ids the draws are keyed by; the indices by default.
+
+    Returns
+    -------
+    SwarmFit
+        Positions as :func:`solve` gives them (the anchor of each part at the
+        origin), the draws' solutions; ``iterations`` empty.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.measurement_graph import Measurements
+    >>> eye = np.broadcast_to(np.eye(3), (4, 3, 3))
+    >>> vectors = np.array([[7.0, 0, 0], [-7, 7, 0], [0, -7, 0], [-7, 0, 0]])
+    >>> first, second = np.array([0, 1, 2, 1]), np.array([1, 2, 0, 0])
+    >>> fit = solve_sparse(3, Measurements(first, second, vectors, eye, eye))
+    >>> fit.positions.round(9).tolist()
+    [[0.0, 0.0, 0.0], [7.0, 0.0, 0.0], [0.0, 7.0, 0.0]]
+    """
+    ids = np.arange(size, dtype=np.int64) if ids is None else ids
+    part = parts_of(size, measured)
+    _, free, _ = _gauge(size, part)
+    solution, factor, weights, _ = _reweighted(size, measured, free, _SparseFactor, robust)
+    positions = np.zeros(3 * size)
+    positions[free] = solution
+    points = positions.reshape(size, 3)
+    points[part < 0] = np.nan
+    drawn = np.zeros((3 * size, samples))
+    if samples and free.any():
+        right = _noise_right_sides(size, measured, weights, samples, ids)
+        drawn[free] = factor(right[free])
+    return SwarmFit(points, part, [], int((weights < 1.0).sum()), drawn.reshape(size, 3, samples))
+
+
+class _SparseFactor:
+    """SuperLU's factors of a positive definite sparse matrix (minimum degree on H + H^T)."""
+
+    def __init__(self, normal: Any) -> None:
+        from scipy.sparse.linalg import splu
+
+        self.factor = splu(
+            normal.tocsc(),
+            permc_spec="MMD_AT_PLUS_A",
+            diag_pivot_thresh=0.0,
+            options={"SymmetricMode": True},
+        )
+
+    def __call__(self, rhs: FloatArray) -> FloatArray:
+        return np.asarray(self.factor.solve(rhs), dtype=np.float64)
+
+
+def _noise_right_sides(
+    size: int, measured: Measurements, weights: FloatArray, samples: int, ids: IntArray
+) -> FloatArray:
+    """A^T W n (3N, K), cm^-1, of K draws n of every measurement's noise, a block of rows at
+    a time."""
+    from scipy.sparse import coo_matrix
+
+    total = np.zeros((size, 3 * samples))
+    for start in range(0, len(measured), NOISE_ROWS):
+        rows = slice(start, start + NOISE_ROWS)
+        chunk = Measurements(
+            measured.first[rows], measured.second[rows], measured.vectors[rows],
+            measured.covariance[rows], measured.information[rows],
+        )  # fmt: skip
+        noise = measurement_noise(chunk, weights[rows], samples, ids)
+        flow = np.einsum("mab,mbk->mak", chunk.information * weights[rows, None, None], noise)
+        count = len(chunk)
+        # +flow at the measured FLS, -flow at the measuring, as _scatter.
+        incidence = coo_matrix(
+            (
+                np.concatenate([np.ones(count), -np.ones(count)]),
+                (np.concatenate([chunk.second, chunk.first]), np.tile(np.arange(count), 2)),
+            ),
+            shape=(size, count),
+        ).tocsr()
+        total += incidence @ flow.reshape(count, 3 * samples)
+    return total.reshape(3 * size, samples)

@@ -16,15 +16,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from . import csr
-from .arrays import FloatArray, IntArray
+from .arrays import BoolArray, FloatArray, IntArray
 from .fit_measurements import Corruption, fit_groups, fit_pairs, measurements, select_rows
 from .frames import through_metres
-from .least_squares import solve
+from .least_squares import Fit, dense_bytes, solve, solve_sparse
 from .measurement_graph import Measurements
 from .neighbourhood import Neighbourhood
 from .observe import Observations
 from .sensor import SWEET
-from .swarm_fit import swarm_solve
+from .swarm_fit import SwarmFit, swarm_solve
 from .window_fit import heard_in_window, window_fit
 
 
@@ -94,28 +94,104 @@ def fit_pairs_estimates(
     >>> fit_pairs_estimates(hood, source, target, sweet).estimate.round(9).tolist()
     [[4.0, 0.0, 0.0], [-4.0, 0.0, 0.0]]
     """
-    began = time.perf_counter()
-    every, sweet_rows = _measured_once(hood, corrupt)
-    groups = fit_groups(hood.sensor, sweet, sweet_rows, np.ones(len(every), dtype=bool))
-    estimate, covariance = _unknown(len(source))
-    used = downweighted = 0
-    iterations: list[tuple[int, ...]] = []
-    for rows, chosen in groups:
-        # The swarm solves every fit: no FLS knows that no pair of the swarm needs one.
-        if not rows.any() and not swarm:
-            continue
-        measured = select_rows(every, chosen)
+    fits = WholeFits(hood, robust, corrupt, swarm)
+    estimate, covariance = fits.estimates(source, target, sweet)
+    return fits.result(estimate, covariance)
+
+
+#: A fit is solved densely (:func:`~.least_squares.solve`) when this many times its parts'
+#: dense matrices (:func:`~.least_squares.dense_bytes`) fit the memory free: the factor, and
+#: the working copies of its making.
+DENSE_COPIES = 2
+
+
+class WholeFits:
+    """The whole swarm's fits, each solved once when first needed, read a block of pairs at a time.
+
+    Every pair's estimate and covariance are read off the fit
+    (``relative``), whatever other pairs are read with it: a run made in
+    blocks (:mod:`.blocks`) gets the numbers :func:`fit_pairs_estimates`
+    gives all pairs at once. Under a deterministic sensor the fit with the
+    joining decaying hops is solved only when a pair without a sweet path
+    asks (the swarm solves every fit, at once). With ``free`` bytes known
+    and a dense fit larger (:data:`DENSE_COPIES`), the least-squares fit is
+    :func:`~.least_squares.solve_sparse`'s: the same positions to the
+    solvers' rounding, a sampled covariance.
+    """
+
+    def __init__(
+        self,
+        hood: Neighbourhood,
+        robust: bool = True,
+        corrupt: Corruption | None = None,
+        swarm: bool = False,
+        free: int | None = None,
+    ) -> None:
+        began = time.perf_counter()
+        self.hood, self.robust, self.swarm, self.free = hood, robust, swarm, free
+        self.every, self.sweet_rows = _measured_once(hood, corrupt)
+        self.solved: dict[int, Fit | SwarmFit] = {}
+        self.measurements = self.downweighted = 0
+        self.seconds = time.perf_counter() - began
         if swarm:
-            solved = swarm_solve(hood.swarm.size, measured, robust, ids=hood.swarm.cloud_index)
-            estimate[rows], covariance[rows] = solved.relative(source[rows], target[rows])
-            iterations.append(tuple(solved.iterations))
-        else:
-            fit = solve(hood.swarm.size, measured, robust)
+            # The swarm solves every fit: no FLS knows that no pair of the swarm needs one.
+            for layer, (_, chosen) in enumerate(self._groups(np.ones(1, dtype=bool))):
+                self._solve(layer, chosen)
+
+    def _groups(self, sweet: NDArray[np.bool_]) -> list[tuple[BoolArray, BoolArray]]:
+        """Each fit's pairs among those of ``sweet`` (M,), and its rows (fit_groups)."""
+        linked = np.ones(len(self.every), dtype=bool)
+        return fit_groups(self.hood.sensor, sweet, self.sweet_rows, linked)
+
+    def _solve(self, layer: int, chosen: NDArray[np.bool_]) -> Fit | SwarmFit:
+        """Fit ``layer`` of :func:`~.fit_measurements.fit_layers`, solved once."""
+        if layer not in self.solved:
+            began = time.perf_counter()
+            measured = select_rows(self.every, chosen)
+            size = self.hood.swarm.size
+            ids = self.hood.swarm.cloud_index
+            if self.swarm:
+                solved: Fit | SwarmFit = swarm_solve(size, measured, self.robust, ids=ids)
+            elif self.free is None or DENSE_COPIES * dense_bytes(size, measured) <= self.free:
+                solved = solve(size, measured, self.robust)
+            else:
+                # The dense inverse would not fit: a sparse factor, a sampled covariance.
+                solved = solve_sparse(size, measured, self.robust, ids=ids)
+            self.solved[layer] = solved
+            self.measurements += len(measured)
+            self.downweighted += solved.downweighted
+            self.seconds += time.perf_counter() - began
+        return self.solved[layer]
+
+    def estimates(
+        self, source: IntArray, target: IntArray, sweet: NDArray[np.bool_]
+    ) -> tuple[FloatArray, FloatArray]:
+        """Estimates (M, 3), cm, and covariances (M, 3, 3), cm^2, of some pairs; NaN where no
+        fit joins a pair's FLSs. ``sweet`` (M,): the pairs with a sweet path."""
+        began = time.perf_counter()
+        estimate, covariance = _unknown(len(source))
+        for layer, (rows, chosen) in enumerate(self._groups(sweet)):
+            if not rows.any():
+                continue
+            fit = self._solve(layer, chosen)
             estimate[rows], covariance[rows] = fit.relative(source[rows], target[rows])
-        used += len(measured)
-        downweighted += solved.downweighted if swarm else fit.downweighted
-    seconds = time.perf_counter() - began
-    return PairFit(estimate, covariance, used, downweighted, seconds, tuple(iterations))
+        self.seconds += time.perf_counter() - began
+        return estimate, covariance
+
+    @property
+    def iterations(self) -> tuple[tuple[int, ...], ...]:
+        """The swarm's fits: per fit, in order, the iterations of each solve; () otherwise."""
+        if not self.swarm:
+            return ()
+        solved = [self.solved[layer] for layer in sorted(self.solved)]
+        return tuple(tuple(fit.iterations) for fit in solved if isinstance(fit, SwarmFit))
+
+    def result(self, estimate: FloatArray, covariance: FloatArray) -> PairFit:
+        """A :class:`PairFit` of these estimates, with what the fits took so far."""
+        return PairFit(
+            estimate, covariance, self.measurements, self.downweighted, self.seconds,
+            self.iterations,
+        )  # fmt: skip
 
 
 def _measured_once(

@@ -6,9 +6,11 @@ comparison, and the warm-up of the kernels. Its stages, in order::
 
     plain Swazure -> a heuristic -> fusion -> a fit -> where the swarm came from
 
-Plain Swazure, and a heuristic after it, for a caller that does not need
-every pair held, run a block of pairs at a time within ``budget.memory``
-(:mod:`.blocks`, :mod:`.heuristics.regions`); fusion, a fit, or a caller that
+Plain Swazure, a heuristic after it, fused or fitted by the whole swarm's fit,
+for a caller that does not need every pair held, runs a block of pairs at a
+time within ``budget.memory`` (:mod:`.blocks`, :mod:`.heuristics.regions`),
+each block through the heuristic, fusion or the fit before it is tallied;
+each source's own fit, or a caller that
 asks to ``hold`` the pairs (a snapshot, the study, a swarm's comparison)
 holds every pair at once (:func:`.evaluate.evaluate`). Both give the same
 numbers and the same pairs, in the same order. The caller says what it
@@ -23,12 +25,20 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .blocks import BlockedEvaluation, Budget, evaluate_blocked, whole_swarm_bytes
+from .blocks import BlockedEvaluation, Budget, evaluate_blocked, whole_swarm_bytes, with_decaying
 from .errors import OptionError, SwazureError
 from .evaluate import evaluate
 from .evaluation import Evaluation, PairResults
-from .fit import ESTIMATORS, PATH, check_plain_estimator, refine
-from .fusion import fuse
+from .fit import (
+    BLOCKED_ESTIMATORS,
+    ESTIMATORS,
+    PATH,
+    WholeFitEstimates,
+    check_plain_estimator,
+    needs_decaying,
+    refine,
+)
+from .fusion import Fusion, fuse
 from .geometry import Swarm
 from .heuristics.compat import COMPAT_MODES
 from .heuristics.folding import run_technique
@@ -84,6 +94,14 @@ class RunOptions:
     def plain(self) -> bool:
         """Whether the run is plain Swazure alone: no heuristic, fusion or fit."""
         return self.technique == PLAIN and self.fuse == 1 and self.estimator == PATH
+
+    @property
+    def in_blocks(self) -> bool:
+        """Whether the run can be made a block of pairs at a time: plain Swazure, a
+        heuristic (:mod:`.heuristics.regions`), fusion or a fit of the whole swarm (each
+        pair's estimate its own: :mod:`.fusion`, :class:`.fit.WholeFitEstimates`); not each
+        source's own fit."""
+        return self.estimator == PATH or self.estimator in BLOCKED_ESTIMATORS
 
 
 def _whole_number(name: str, value: object, low: int, high: int | None) -> None:
@@ -196,7 +214,7 @@ def run_engine(
     """
     options.check()
     budget = budget or Budget()
-    if plain is None and options.fuse == 1 and options.estimator == PATH and not hold:
+    if plain is None and options.in_blocks and not hold:
         return _in_blocks(swarm, sensor, options, take, budget, source, progress or SILENT)
     if plain is None:
         _check_room(swarm, sensor, budget, source)
@@ -218,9 +236,11 @@ def _in_blocks(
     source: Source | None,
     progress: Progress,
 ) -> EngineRun:
-    """Plain Swazure a block of pairs at a time, then a heuristic on each block: each block
-    to ``take`` as it is made (a heuristic's moves in its pairs: ``MovedPairs``)."""
+    """Plain Swazure a block of pairs at a time, then a heuristic, fusion or a fit on each
+    block: each block to ``take`` as it is made (a heuristic's moves in its pairs:
+    ``MovedPairs``)."""
     plain = evaluate_blocked(swarm, sensor, options.policy, budget, progress)
+    stage = _block_stage(plain, options, budget, progress)
     run: BlockedEvaluation | TechniqueBlocks = plain
     if options.technique != PLAIN:
         compat = COMPAT_MODES[options.compat]
@@ -232,7 +252,61 @@ def _in_blocks(
     else:
         take(plain.hood, blocks, None, len(plain.lean.blind))
     # RuntimeError when ``take`` left blocks unmade: the summary needs every pair.
-    return _with_source(EngineRun(run.summary(), run.seconds), source)
+    summary = run.summary()
+    if stage is None:
+        return _with_source(EngineRun(summary, run.seconds), source)
+    return _with_source(stage.run(summary, run.seconds), source)
+
+
+@dataclass
+class _BlockStage:
+    """Fusion or a fit made per block of a :class:`.blocks.BlockedEvaluation`, timed."""
+
+    fusion: Fusion | None
+    fit: WholeFitEstimates | None
+    seconds: float = 0.0  # spent within the blocks, whose time the run counts too
+
+    def __call__(self, hood: Neighbourhood, pairs: PairResults) -> PairResults:
+        began = time.perf_counter()
+        if self.fusion is not None:
+            pairs = self.fusion.block(hood, pairs)
+        if self.fit is not None:
+            pairs = self.fit.block(pairs)
+        self.seconds += time.perf_counter() - began
+        return pairs
+
+    def run(self, summary: Summary, seconds: float) -> EngineRun:
+        """The run's summary with the stage's facts, and times as :func:`_stages` gives them."""
+        plain = seconds - self.seconds
+        if self.fusion is not None:
+            facts = self.fusion.facts()
+            summary = replace(summary, seconds=plain, fusion=facts)
+            return EngineRun(summary, plain + facts.seconds)
+        assert self.fit is not None  # a stage is fusion or a fit
+        fit = self.fit.facts()
+        took = plain + (fit.seconds or 0.0)
+        return EngineRun(replace(summary, seconds=took, fit=fit), took)
+
+
+def _block_stage(
+    run: BlockedEvaluation, options: RunOptions, budget: Budget, progress: Progress
+) -> _BlockStage | None:
+    """The stage each block of ``run`` goes through before its tally: fusion, a fit or none.
+
+    A fit's measurements are the whole swarm's, taken before the first block;
+    its decaying pairs in sight are judged first where one may join two parts
+    of ``S_vis`` (:func:`.fit.needs_decaying`)."""
+    if options.fuse > 1:
+        run.stage = _BlockStage(Fusion(options.fuse, options.policy, budget.exact_values), None)
+    elif options.estimator != PATH:
+        if run.lean.whole is None and needs_decaying(run.lean.sweet):
+            run.lean = with_decaying(run.lean, progress)
+        progress.start(options.estimator, 1)
+        fit = WholeFitEstimates(
+            run.hood, options.estimator, exact_values=budget.exact_values, free=budget.free
+        )
+        run.stage = _BlockStage(None, fit)
+    return run.stage if isinstance(run.stage, _BlockStage) else None
 
 
 def _held_plain(swarm: Swarm, sensor: Sensor, policy: str, progress: Progress | None) -> EngineRun:
@@ -289,9 +363,10 @@ def _check_room(swarm: Swarm, sensor: Sensor, budget: Budget, source: Source | N
         return
     name = "the swarm" if source is None else source.cloud
     raise SwazureError(
-        f"{name}: --technique, --fuse, --estimator and --snapshot hold every "
+        f"{name}: --technique, --estimator local-least-squares and --snapshot hold every "
         f"pair of the swarm at once, about {need / 2**30:.1f} GB for {swarm.size} FLSs; "
-        f"this machine has {budget.free / 2**30:.1f} GB free (plain Swazure runs in blocks)"
+        f"this machine has {budget.free / 2**30:.1f} GB free (plain Swazure runs in blocks, "
+        f"and so do --fuse, --estimator least-squares and swarm-fit)"
     )
 
 

@@ -280,15 +280,41 @@ def noise_flows(
     -------
     (2E, 3, K) array of float, cm^-1
     """
+    noise = measurement_noise(measured, weights, samples, ids)
+    information = measured.information[edges.rows] * weights[edges.rows][:, :, None, None]
+    return flows(edges, measured, information, noise)
+
+
+def measurement_noise(
+    measured: Measurements, weights: FloatArray, samples: int, ids: IntArray
+) -> FloatArray:
+    """K draws (M, 3, K), cm, of each measurement's noise, N(0, C_m / w_m).
+
+    Each row's draws are fixed by ``SAMPLE_SEED`` and its two FLS ids, so the
+    rows drawn a few at a time draw what they draw all at once.
+
+    Parameters
+    ----------
+    measured : Measurements
+        M rows.
+    weights : (M,) array of float
+        Their final robust weights.
+    samples : int
+        Draws, K.
+    ids : (N,) array of int
+        The FLS id of each index.
+
+    Returns
+    -------
+    (M, 3, K) array of float, cm
+    """
     values, axes = np.linalg.eigh(measured.covariance)
     root = blocks_times(
         axes * np.sqrt(np.maximum(values, 0.0))[:, None, :], np.swapaxes(axes, 1, 2)
     )
     keys = [ids[measured.first], ids[measured.second]]
     normals = standard_normals(SAMPLE_SEED, keys, 3 * samples)
-    noise = blocks_times(root, normals.reshape(-1, 3, samples)) / np.sqrt(weights)[:, None, None]
-    information = measured.information[edges.rows] * weights[edges.rows][:, :, None, None]
-    return flows(edges, measured, information, noise)
+    return blocks_times(root, normals.reshape(-1, 3, samples)) / np.sqrt(weights)[:, None, None]
 
 
 def gauged(position: FloatArray, part: IntArray) -> FloatArray:

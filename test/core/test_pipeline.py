@@ -97,7 +97,7 @@ def test_plain_swazure_runs_in_blocks_unless_the_caller_holds_the_pairs(swarm, s
 def test_each_stage_gives_what_the_core_gives_by_hand(swarm, sensor, options, by_hand):
     want = by_hand(evaluate(swarm, sensor, "shortest-length"))
     kept = Blocks()
-    run = run_engine(swarm, sensor, options, hold=True, take=kept)  # in blocks: test_regions
+    run = run_engine(swarm, sensor, options, hold=True, take=kept)  # blocks: test_regions, below
     assert_same_pairs(run.held.pairs, want.pairs)
     same_document(run.summary, want.summary)
     # A run that holds its pairs gives them to ``take`` once, with the heuristic's moves.
@@ -212,3 +212,32 @@ def test_blocks_and_held_pairs_have_the_same_estimates(swarm, sensor):
     run_engine(swarm, sensor, RunOptions(policy="least-error"), take=kept, budget=SMALL)
     held = run_engine(swarm, sensor, RunOptions(policy="least-error"), hold=True)
     np.testing.assert_array_equal(joined(kept.blocks).estimate, held.held.pairs.estimate)
+
+
+@pytest.mark.parametrize(
+    "options",
+    [RunOptions(fuse=3), RunOptions(estimator="least-squares"), RunOptions(estimator="swarm-fit")],
+    ids=["fuse-3", "least-squares", "swarm-fit"],
+)
+def test_fusion_and_the_whole_swarms_fits_run_in_blocks_as_held(swarm, sensor, options):
+    kept = Blocks()
+    blocked = run_engine(swarm, sensor, options, take=kept, budget=SMALL)
+    held = run_engine(swarm, sensor, options, hold=True)
+    assert blocked.evaluation is None and len(kept.blocks) > 3
+    assert_same_pairs(joined(kept.blocks), held.held.pairs)
+    same_document(blocked.summary, held.summary)
+    assert blocked.summary.pairs.quantiles == "exact"
+
+
+def test_a_fit_whose_dense_inverse_does_not_fit_is_solved_sparse(swarm, sensor):
+    # Too little memory free for the dense inverse: the same estimates to the solvers'
+    # rounding, a covariance sampled as the swarm's fit samples it.
+    options = RunOptions(estimator="least-squares")
+    kept = Blocks()
+    run_engine(swarm, sensor, options, take=kept, budget=Budget(SMALL.memory, free=1))
+    held = run_engine(swarm, sensor, options, hold=True).held.pairs
+    swarms = run_engine(swarm, sensor, RunOptions(estimator="swarm-fit"), hold=True).held.pairs
+    sparse = joined(kept.blocks)
+    np.testing.assert_allclose(sparse.estimate, held.estimate, rtol=0, atol=1e-7)
+    assert not np.array_equal(sparse.covariance, held.covariance, equal_nan=True)
+    np.testing.assert_allclose(sparse.covariance, swarms.covariance, rtol=1e-4, atol=1e-12)
