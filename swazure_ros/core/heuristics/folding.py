@@ -97,7 +97,11 @@ def apply(evaluation: Evaluation, heuristic: HeuristicResult) -> Evaluation:
 
 
 def run_technique(
-    evaluation: Evaluation, technique: str, threshold: int = 10, compat: Compat = TEXT
+    evaluation: Evaluation,
+    technique: str,
+    threshold: int = 10,
+    compat: Compat = TEXT,
+    source_body: bool = False,
 ) -> tuple[Evaluation, HeuristicResult | None]:
     """Apply ``technique`` to a plain evaluation; plain returns it unchanged, with no result.
 
@@ -114,6 +118,10 @@ def run_technique(
         are 2 and 10); unused by the others.
     compat : Compat, default TEXT
         The text's behaviour or the published code's (:data:`~.compat.PUBLISHED`).
+    source_body : bool, default False
+        Move Source: check that the source's own body at its probe point leaves
+        the helper's view of the target clear, as the swarm flies it (the spec
+        does not); unused by the others.
 
     Returns
     -------
@@ -150,7 +158,7 @@ def run_technique(
     if technique == MOVE_OBSTRUCTING:
         heuristic = move_obstructing(evaluation, compat)
     else:
-        heuristic = move_source(evaluation, threshold, compat)
+        heuristic = move_source(evaluation, threshold, compat, source_body)
     return apply(evaluation, heuristic), heuristic
 
 
@@ -202,4 +210,5 @@ def heuristic_facts(heuristic: HeuristicResult) -> HeuristicFacts:
         compat=tuple(heuristic.compat.switches_on()),
         flown_distance=describe(heuristic.flown[heuristic.tried]) if source else None,
         displacement=describe(moved[of_resolved]) if source else None,
+        source_body=True if heuristic.source_body else None,
     )
