@@ -285,11 +285,8 @@ class CreationBar:
 
 def config_from_args(args: argparse.Namespace, folder: Path | None = None) -> SwarmConfig:
     """The swarm the options describe (a swarm file's, with the flags given over them:
-    cli.swarm_file.apply_swarm_file), as a :class:`~swazure_ros.app.config.SwarmConfig`.
-
-    A resampled cloud (``--resample``) is resampled once, here, and written into
-    ``folder``, from which every process of the swarm reads it.
-    """
+    cli.swarm_file.apply_swarm_file), as a :class:`~swazure_ros.app.config.SwarmConfig`;
+    a resampled cloud written into ``folder``, where every process reads it."""
     from ..app.config import SwarmConfig, ViewConfig, params_file
     from ..core.pipeline import RunOptions
     from ..ros.security.keys import key_from
@@ -299,8 +296,7 @@ def config_from_args(args: argparse.Namespace, folder: Path | None = None) -> Sw
         args.technique != PLAIN or args.estimator != PATH or args.sources_per_run is not None
     ):
         raise SwazureError("--technique, --estimator and --sources-per-run go with --compute-all")
-    # The engine's rules of what goes together: the swarm's run is compared with its run.
-    RunOptions(
+    RunOptions(  # the engine's rules of what goes together: the swarm is compared with it
         args.policy,
         args.technique,
         args.threshold,
