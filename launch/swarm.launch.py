@@ -90,11 +90,12 @@ def _packed(path: Path, servers: tuple) -> list:
 def _per_fls(path: Path, servers: tuple) -> list:
     # The swarm file's swarm, as swazure spawn FILE brings it up (app.config).
     config = config_from_file(load_swarm_file(path))
-    description, namespace = config.world, config.namespace
     folder = Path(tempfile.mkdtemp(prefix="swazure-launch-"))
     # When this launch ends (its last act, after every process has ended, whatever their
-    # codes): each process read the key at its start.
+    # codes): each process read the key, and a resampled cloud, at its start.
     atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    # The file's resample: (its cloud at another size) made once, here, read by every process.
+    description, namespace = config.world.written(folder), config.namespace
     key_file = folder / "swarm.key"
     write_key(key_file, new_key())
     shared = {

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
 
+from swazure_ros.core.arrays import FloatArray
 from swazure_ros.core.geometry import Swarm, make_swarm
 from swazure_ros.core.sensor import Sensor
 
@@ -164,3 +165,22 @@ def dataset(name: str) -> Path:
     if not path.exists():
         pytest.skip(f"published data set {path} is absent (../shared is not beside the repo)")
     return path
+
+
+def source_body_scene() -> FloatArray:
+    """Move Source's source 0 with its body in the way: (4, 3) points, cm, for r = 0.5.
+
+    Pair (0, 2) is BLOCKED: 0's sweet neighbour 1 is hidden by 3 at the middle of
+    0-1, and 2 is blind to 0. The source's first successful probe is 3 r along
+    the first direction, (-1, -1, -1) / sqrt(3), with helper 1; that probe lies on
+    the segment from 1 to 2, 7.2 cm from 1 and 1.3 cm from 2, so the source's own
+    body there hides 2 from 1. The next direction, (-1, -1, 0) / sqrt(2), at 3 r
+    leaves that view clear.
+    """
+    first = -np.ones(3) / np.sqrt(3)
+    probe = 1.5 * first
+    # The helper 8 cm from the source (sweet to it by distance) and 7.2 cm from the probe.
+    along = (64.0 - 1.5**2 - 7.2**2) / (2 * 7.2 * 1.5)
+    way = along * first + np.sqrt(1 - along**2) * np.array([1.0, -1.0, 0.0]) / np.sqrt(2)
+    helper, target = probe + 7.2 * way, probe - 1.3 * way
+    return np.array([np.zeros(3), helper, target, helper / 2])

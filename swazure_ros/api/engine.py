@@ -37,7 +37,7 @@ from ..core.pipeline import EngineRun, RunOptions, run_engine
 from ..core.progress import Progress
 from ..core.sensor import Sensor
 from ..core.summary import Source, Summary
-from ..files.cloud_files import load_cloud
+from ..files.cloud_files import load_cloud, resampled_cloud
 from ..files.reading import available_memory
 from ..files.record import RunRecord
 from ..files.results import pairs_table
@@ -100,6 +100,7 @@ def build_swarm(
     sensor: Sensor | str | Path | None = None,
     accurate: bool = False,
     seed: int = 0,
+    resample: int | None = None,
 ) -> SwarmSetup:
     """A swarm of FLSs at the points of ``cloud``, as ``swazure evaluate --cloud`` makes it.
 
@@ -123,7 +124,11 @@ def build_swarm(
     accurate : bool, default False
         Measure without error.
     seed : int, default 0
-        Seed of the choice of colliding FLSs to remove.
+        Seed of the choice of colliding FLSs to remove, and of ``resample``.
+    resample : int, optional
+        Resample the cloud to this many points at its own mean spacing
+        (``files.cloud_files.resampled_cloud``, seeded by ``seed``), from 8 to
+        100,000: a display-size version of it.
 
     Returns
     -------
@@ -134,7 +139,8 @@ def build_swarm(
     ------
     CloudError
         ``cloud`` is no known shape or readable file, not of shape (N, 3),
-        not finite; both or neither of ``beta`` and ``radius``; a bad scale.
+        not finite; both or neither of ``beta`` and ``radius``; a bad scale;
+        ``resample`` out of range.
     SensorError
         The sensor file does not parse.
 
@@ -156,6 +162,8 @@ def build_swarm(
     if accurate:
         found = found.error_free()
     points = cloud_of(cloud, scale)
+    if resample is not None:
+        points = resampled_cloud(points, resample, seed)
     swarm = make_swarm(points.points, beta=beta, radius=radius, seed=seed)
     return SwarmSetup(points, swarm, found, seed, sensor_file)
 
@@ -209,6 +217,7 @@ def evaluate(
     estimator: str = PATH,
     memory: int = DEFAULT_MEMORY,
     progress: Progress | None = None,
+    source_body: bool = False,
 ) -> Result:
     """Every ordered blind pair of ``swarm``, as ``swazure evaluate`` computes it.
 
@@ -238,6 +247,10 @@ def evaluate(
         Bytes a block of plain Swazure's pairs may hold.
     progress : Progress, optional
         Told each stage's start and advance (``core.evaluate.Progress``).
+    source_body : bool, default False
+        Move Source: take a helper only when the source's own body at its
+        probe point leaves the helper's view of the target clear, as a swarm
+        flies it (``--source-body``); the spec's rule does not check it.
 
     Returns
     -------
@@ -266,7 +279,7 @@ def evaluate(
     if not isinstance(swarm, SwarmSetup):
         kind = type(swarm).__name__
         raise OptionError(f"swarm must be a SwarmSetup (build_swarm(cloud, beta=...)), got {kind}")
-    options = RunOptions(policy, technique, threshold, compat, fuse, estimator)
+    options = RunOptions(policy, technique, threshold, compat, fuse, estimator, source_body)
     run, table = _run(swarm, options, memory, progress)
     record = RunRecord("evaluate", run.summary.seconds or 0.0, run.summary)
     return Result(swarm, options, record, table, run.evaluation, run.heuristic)
@@ -308,7 +321,11 @@ def move_obstructing(
 
 
 def move_source(
-    swarm: SwarmSetup, policy: str = SHORTEST_LENGTH, threshold: int = 10, compat: str = "text"
+    swarm: SwarmSetup,
+    policy: str = SHORTEST_LENGTH,
+    threshold: int = 10,
+    compat: str = "text",
+    source_body: bool = False,
 ) -> Result:
     """Move Source on ``swarm``'s BLOCKED pairs: :func:`evaluate` with that technique.
 
@@ -322,6 +339,9 @@ def move_source(
         Probe up to this many steps of r per direction, 1 to 1000.
     compat : {"text", "published"}
         The heuristic as the paper's text describes it, or as its code runs.
+    source_body : bool, default False
+        Check that the source's own body at its probe point leaves the
+        helper's view of the target clear, as a swarm flies it.
 
     Returns
     -------
@@ -341,7 +361,14 @@ def move_source(
     >>> moved.summary.heuristic.threshold
     5
     """
-    return evaluate(swarm, policy, technique=MOVE_SOURCE, threshold=threshold, compat=compat)
+    return evaluate(
+        swarm,
+        policy,
+        technique=MOVE_SOURCE,
+        threshold=threshold,
+        compat=compat,
+        source_body=source_body,
+    )
 
 
 def _run(

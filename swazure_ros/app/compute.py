@@ -14,8 +14,9 @@ import numpy as np
 
 from ..core.evaluation import Evaluation
 from ..core.fit import PATH, check_plain_estimator
-from ..core.heuristics.result import PLAIN, HeuristicResult
-from ..core.pipeline import RunOptions, run_engine
+from ..core.heuristics.result import MOVE_SOURCE, PLAIN, HeuristicResult
+from ..core.heuristics.source import source_body_in_the_way
+from ..core.pipeline import EngineRun, RunOptions, run_engine
 from ..core.summary import with_source
 from ..files.record import Distributed, EngineComparison, RunRecord
 from ..protocol.discovery.estimate import evaluation_of
@@ -44,6 +45,7 @@ def compute_all(
     on_progress: Callable[[str], None] | None = None,
     estimator: str = PATH,
     per_run: int | None = None,
+    source_body: bool = False,
 ) -> SwarmComputation:
     """Every FLS's pose relative to every blind neighbour, by the swarm, and by the engine.
 
@@ -54,6 +56,8 @@ def compute_all(
     swarm-fit the swarm solves its fit, and the engine does the same
     (``core.pipeline.run_engine``, every pair held). ``per_run``: the
     most sources one discovery run searches for (``RunningSwarm.discover``).
+    ``source_body``: Move Source, by the swarm and the engine, takes a helper only
+    where the source's body at its probe point leaves its view of the target clear.
     """
     check_plain_estimator(estimator, technique)
     world: World = swarm.world
@@ -69,13 +73,17 @@ def compute_all(
     if technique != PLAIN:
         if on_progress is not None:
             on_progress(f"planning {technique}")
-        moved = swarm.make_moves(evaluation, technique, threshold, on_progress=on_progress)
+        moved = swarm.make_moves(
+            evaluation, technique, threshold, on_progress=on_progress, source_body=source_body
+        )
         evaluation, heuristic = moved.outcome.evaluation, moved.outcome.heuristic
         if swarm.view is not None:
             title = f"{world.cloud.name}, {policy}, {technique}: after the swarm's moves"
             scene = evaluation_scene(evaluation, title, heuristic=heuristic, pairs=pairs)
             swarm.view.show(scene)
-    options = RunOptions(policy, technique, threshold, estimator=estimator)
+    options = RunOptions(
+        policy, technique, threshold, estimator=estimator, source_body=source_body
+    )
     engine = run_engine(world.swarm, world.sensor, options, hold=True)
     seconds = result.seconds + (moved.seconds if moved is not None else 0.0)
     spec = swarm.config.world
@@ -88,11 +96,21 @@ def compute_all(
         summary,
         engine=engine.summary,
         engine_seconds=engine.seconds,
-        comparison=same_results(evaluation, engine.held),
+        comparison=_compared(evaluation, engine, world),
         bring_up=swarm.bring_up,
         distributed=Distributed.of(result, moved),
     )
     return SwarmComputation(evaluation, heuristic, engine.held, record)
+
+
+def _compared(ours: Evaluation, engine: EngineRun, world: World) -> EngineComparison:
+    """The swarm's pairs beside the engine's; for Move Source, how many of the engine's
+    the source's body at its probe point blocks (what the swarm cannot fly)."""
+    comparison = same_results(ours, engine.held)
+    if engine.heuristic is None or engine.heuristic.technique != MOVE_SOURCE:
+        return comparison
+    blocked = source_body_in_the_way(engine.heuristic, world.swarm)
+    return replace(comparison, source_body=len(blocked))
 
 
 def run_failure(record: RunRecord) -> str | None:

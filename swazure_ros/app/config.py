@@ -169,6 +169,7 @@ def config_from_file(swarm: SwarmFile) -> SwarmConfig:
         sensor_file=None if swarm.sensor is None else str(swarm.sensor),
         accurate=_given(swarm.accurate, WorldSpec.accurate),
         seed=_given(swarm.seed, WorldSpec.seed),
+        resample=swarm.resample,
     )
     return SwarmConfig(
         world,

@@ -277,10 +277,12 @@ class RunningSwarm:
         threshold: int = 10,
         timeout: float | None = None,
         on_progress: Callable[[str], None] | None = None,
+        source_body: bool = False,
     ) -> MoveResult:
         """A heuristic on the BLOCKED pairs of a whole-swarm run (``plain``, the evaluation of
-        its estimates), its moves made by the swarm."""
-        moves = self._coordinator.make_moves(plain, technique, threshold)
+        its estimates), its moves made by the swarm (``source_body``: Move Source planned
+        with the source's body at its probe point checked)."""
+        moves = self._coordinator.make_moves(plain, technique, threshold, source_body)
         result: MoveResult = self.run(moves, timeout, on_progress=on_progress)
         return result
 

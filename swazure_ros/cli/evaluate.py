@@ -37,11 +37,13 @@ from .options import (
     add_compat_argument,
     add_pairs_argument,
     add_policy_argument,
+    add_source_body_argument,
     add_swarm_arguments,
     add_threshold_argument,
     pairs_output,
     swarm_setup_from_args,
     warn_of_large_pairs,
+    written_cloud,
     wrote,
 )
 from .summary import SUMMARY_TERMS, cell, explain_run, summary_table
@@ -61,6 +63,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="plain Swazure, or a heuristic tried on BLOCKED pairs (default: plain)",
     )
     add_threshold_argument(parser)
+    add_source_body_argument(parser)
     add_compat_argument(parser)
     parser.add_argument(
         "--fuse",
@@ -146,10 +149,16 @@ def main(args: argparse.Namespace) -> int:
     """Run ``swazure evaluate``."""
     args = apply_swarm_file(args)
     args.pairs = pairs_output(args, args.out is not None)
-    setup = swarm_setup_from_args(args)
+    setup = written_cloud(swarm_setup_from_args(args), args.out)
     progress: Progress | None = None if args.quiet else TqdmProgress()
     options = RunOptions(
-        args.policy, args.technique, args.threshold, args.compat, args.fuse, args.estimator
+        args.policy,
+        args.technique,
+        args.threshold,
+        args.compat,
+        args.fuse,
+        args.estimator,
+        args.source_body,
     )
     written: list[Path | None] = []  # the per-pair file, once written
 

@@ -6,14 +6,17 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..api.engine import SwarmSetup, build_swarm
+from ..core.clouds import MAX_POINTS, MIN_RESAMPLE
 from ..core.errors import SwazureError
 from ..core.fit import PATH, SWARM_ESTIMATORS
 from ..core.heuristics.compat import COMPAT_MODES
 from ..core.paths import POLICIES
+from ..files.cloud_files import write_cloud
 from ..files.description import DEFAULT_CLOUD
 from ..files.results import (
     NO_PAIRS,
@@ -27,6 +30,7 @@ from .arguments import (
     domain_id,
     fls_id,
     input_file,
+    resample_count,
     seed,
     threshold,
 )
@@ -63,7 +67,22 @@ def add_swarm_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--accurate", action="store_true", help="measure without error")
     parser.add_argument(
-        "--seed", type=seed, default=0, help="seed of the choice of colliding FLSs to remove"
+        "--seed",
+        type=seed,
+        default=0,
+        help="seed of the choice of colliding FLSs to remove, and of --resample",
+    )
+    parser.add_argument(
+        "--resample",
+        type=resample_count,
+        default=None,
+        metavar="N",
+        help=f"a display-size version of the cloud: N points ({MIN_RESAMPLE} to {MAX_POINTS:,}) "
+        "over its shape at its own mean spacing (core.clouds.resample: chords' midpoints, "
+        "then Poisson-disk thinning in an order seeded by --seed, ties broken by index; the "
+        "same N and seed give the same points). Written beside the outputs (--out DIR; "
+        "spawn without --out: a temporary folder) as NAME_resampled_N in the cloud's "
+        "format, in cm: --cloud that file gives the same swarm",
     )
 
 
@@ -107,6 +126,17 @@ def add_threshold_argument(parser: argparse.ArgumentParser) -> None:
         default=10,
         metavar="T",
         help="Move Source: probe up to T steps of r per direction (default 10)",
+    )
+
+
+def add_source_body_argument(parser: argparse.ArgumentParser) -> None:
+    """Move Source's body rule, shared by the verbs that run the heuristics."""
+    parser.add_argument(
+        "--source-body",
+        action="store_true",
+        help="Move Source: take a helper only when the source's own body at its probe point "
+        "leaves the helper's view of the target clear, as a swarm flies it (default: the "
+        "spec's rule, which does not check it; docs/protocol.md)",
     )
 
 
@@ -165,8 +195,34 @@ def swarm_setup_from_args(args: argparse.Namespace) -> SwarmSetup:
     """The swarm that the swarm options describe: its cloud, FLSs and sensor."""
     check_beta_or_radius(args.beta, args.radius)  # refused in the command line's words
     return build_swarm(
-        args.cloud, args.scale, args.beta, args.radius, args.sensor, args.accurate, args.seed
+        args.cloud,
+        args.scale,
+        args.beta,
+        args.radius,
+        args.sensor,
+        args.accurate,
+        args.seed,
+        args.resample,
     )
+
+
+def written_cloud(setup: SwarmSetup, out: Path | None) -> SwarmSetup:
+    """``setup`` with its resampled cloud written into ``out`` (files.cloud_files.write_cloud)
+    and named as its source; said on stdout. Unchanged for a cloud not resampled, or no --out."""
+    cloud = setup.cloud
+    if cloud.resampled is None:
+        return setup
+    origin = cloud.resampled
+    said = (
+        f"resampled {origin.cloud} ({origin.points:,} points) to {origin.count:,} at its mean "
+        f"spacing, seed {origin.seed}"
+    )
+    if out is None:
+        print(f"{said} (add --out DIR to write it)", flush=True)
+        return setup
+    path = write_cloud(out, cloud)
+    print(f"{said}: wrote {path} (--cloud {path} gives the same swarm)", flush=True)
+    return replace(setup, cloud=replace(cloud, source=str(path)))
 
 
 def add_colour_arguments(parser: argparse.ArgumentParser, default: str, what: str) -> None:
@@ -199,4 +255,5 @@ def world_from_args(args: argparse.Namespace) -> WorldSpec:
         sensor_file=None if args.sensor is None else str(args.sensor),
         accurate=args.accurate,
         seed=args.seed,
+        resample=args.resample,
     )

@@ -20,8 +20,10 @@ beside the core engine's, writes --out like `swazure evaluate`, and exits.
 from __future__ import annotations
 
 import argparse
+import shutil
 import signal
 import sys
+import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -29,7 +31,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..core.errors import SwazureError
-from ..core.fit import PATH, check_plain_estimator
+from ..core.fit import PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
 from ..ros.security.keys import KEY_FILE_VARIABLE
 from .arguments import (
@@ -50,6 +52,7 @@ from .options import (
     add_domain_argument,
     add_pairs_argument,
     add_policy_argument,
+    add_source_body_argument,
     add_swarm_arguments,
     add_swarm_estimator_argument,
     add_threshold_argument,
@@ -153,6 +156,7 @@ def _add_compute_arguments(parser: argparse.ArgumentParser) -> None:
         "with the moves made by the swarm (default: plain)",
     )
     add_threshold_argument(parser)
+    add_source_body_argument(parser)
     add_swarm_estimator_argument(parser, "with --compute-all: ")
     parser.add_argument(
         "--sources-per-run",
@@ -279,10 +283,12 @@ class CreationBar:
             self._bar.close()
 
 
-def config_from_args(args: argparse.Namespace) -> SwarmConfig:
+def config_from_args(args: argparse.Namespace, folder: Path | None = None) -> SwarmConfig:
     """The swarm the options describe (a swarm file's, with the flags given over them:
-    cli.swarm_file.apply_swarm_file), as a :class:`~swazure_ros.app.config.SwarmConfig`."""
+    cli.swarm_file.apply_swarm_file), as a :class:`~swazure_ros.app.config.SwarmConfig`;
+    a resampled cloud written into ``folder``, where every process reads it."""
     from ..app.config import SwarmConfig, ViewConfig, params_file
+    from ..core.pipeline import RunOptions
     from ..ros.security.keys import key_from
 
     check_beta_or_radius(args.beta, args.radius)
@@ -290,7 +296,13 @@ def config_from_args(args: argparse.Namespace) -> SwarmConfig:
         args.technique != PLAIN or args.estimator != PATH or args.sources_per_run is not None
     ):
         raise SwazureError("--technique, --estimator and --sources-per-run go with --compute-all")
-    check_plain_estimator(args.estimator, args.technique)
+    RunOptions(  # the engine's rules of what goes together: the swarm is compared with it
+        args.policy,
+        args.technique,
+        args.threshold,
+        estimator=args.estimator,
+        source_body=args.source_body,
+    ).check()
     args.pairs = pairs_output(
         args, args.compute_all and args.out is not None, "--compute-all and --out DIR"
     )
@@ -302,6 +314,11 @@ def config_from_args(args: argparse.Namespace) -> SwarmConfig:
     if args.log_dir is not None and not (args.per_fls or args.discovery_server):
         raise SwazureError("--log-dir goes with --per-fls or --discovery-server")
     world = world_from_args(args)
+    if world.resample is not None:
+        if folder is None:
+            raise SwazureError("--resample: the swarm's cloud needs a folder to be written to")
+        world = world.written(folder)
+        print(f"resampled cloud: {world.resampled_file} (--cloud it for the same swarm)")
     if args.compute_all:
         # Before any node comes up, not after: the swarm could not search this way.
         from ..protocol.discovery.search import refusal
@@ -376,6 +393,7 @@ def compute_all(swarm: RunningSwarm, args: argparse.Namespace) -> int:
         progress,
         args.estimator,
         args.sources_per_run,
+        args.source_body,
     )
     record = computed.record
     moved = record.distributed.moves if record.distributed is not None else None
@@ -456,15 +474,27 @@ def _stopper(started: list[Starting]) -> Callable[[int, object], None]:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure spawn``."""
-    # rclpy loads only for the verbs that use it: `swazure evaluate` starts faster.
-    from ..app.swarm import RunningSwarm
-
     # Stop cleanly on Ctrl-C and on SIGTERM (a supervisor, a test), also when a shell
     # that started us in the background made us ignore SIGINT.
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, _interrupt)
     args = apply_swarm_file(args)
-    config = config_from_args(args)
+    # A resampled cloud is written beside the outputs, else for the swarm's life only.
+    temporary = None
+    if args.resample is not None and args.out is None:
+        temporary = Path(tempfile.mkdtemp(prefix="swazure-resampled-"))
+    try:
+        return _spawn(args, config_from_args(args, args.out or temporary))
+    finally:
+        if temporary is not None:
+            shutil.rmtree(temporary, ignore_errors=True)
+
+
+def _spawn(args: argparse.Namespace, config: SwarmConfig) -> int:
+    """Bring the swarm of ``config`` up and serve it, or run ``--compute-all``."""
+    # rclpy loads only for the verbs that use it: `swazure evaluate` starts faster.
+    from ..app.swarm import RunningSwarm
+
     bar = CreationBar(args.quiet)
     ready = False
     # The swarm as it comes up, once its host is made: Ctrl-C stops between the host's

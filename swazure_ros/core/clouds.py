@@ -37,6 +37,22 @@ MAX_POINTS = 100_000
 #: cm from the origin that a point may lie, at most: a display is metres across, and
 #: coordinates far beyond overflow the geometry's squares.
 MAX_EXTENT = 1e6
+#: Points of a resampled cloud, at least: as of a built-in shape.
+MIN_RESAMPLE = 8
+#: Points a cloud needs to be resampled: each point and its six nearest neighbours.
+RESAMPLE_NEIGHBOURS = 7
+
+
+@dataclass(frozen=True)
+class Resampled:
+    """Where a resampled cloud came from: the cloud, and the resampling asked of it."""
+
+    cloud: str  # the original's name
+    cloud_source: str  # its file, or "builtin"
+    scale: float  # its scale (to cm), before resampling
+    points: int  # its points
+    count: int  # the resampled cloud's points
+    seed: int  # of resample()'s thinning and choice
 
 
 @dataclass(frozen=True)
@@ -47,6 +63,7 @@ class Cloud:
     points: FloatArray  # (N, 3), cm
     scale: float
     source: str  # file path or "builtin"
+    resampled: Resampled | None = None  # what it was resampled from (--resample)
 
 
 def validate_points(points: object, where: str = "points") -> FloatArray:
@@ -192,6 +209,21 @@ def resample(points: FloatArray, count: int, seed: int = 0) -> FloatArray:
     (count, 3) array of float, cm
         Its mean nearest-neighbour distance is that of ``points``.
 
+    Raises
+    ------
+    CloudError
+        ``count`` under :data:`MIN_RESAMPLE` or over :data:`MAX_POINTS`, or
+        fewer than seven ``points``.
+
+    Notes
+    -----
+    Ties are broken by order, so the result depends on ``seed`` alone:
+    nearest neighbours at equal distances as scipy's cKDTree returns them;
+    each chord once, the chords in ascending order of their two point
+    indices; a point kept when no point earlier in the seeded order is
+    closer than the spacing; the ``count`` points in their order in the
+    dense cloud (the original points first, then each round's midpoints).
+
     Examples
     --------
     >>> from swazure_ros.core.clouds import builtin_points, mean_spacing, resample
@@ -202,6 +234,13 @@ def resample(points: FloatArray, count: int, seed: int = 0) -> FloatArray:
     from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
 
     original = np.asarray(points, dtype=np.float64)
+    if not MIN_RESAMPLE <= count <= MAX_POINTS:
+        raise CloudError(f"resample to {count} points: give {MIN_RESAMPLE} to {MAX_POINTS} points")
+    if len(original) < RESAMPLE_NEIGHBOURS:
+        raise CloudError(
+            f"a cloud of {len(original)} points cannot be resampled: it needs "
+            f"{RESAMPLE_NEIGHBOURS} (each point and its six nearest neighbours)"
+        )
     dense = original
     while len(dense) < 4 * count:
         _, near = cKDTree(dense).query(dense, k=7)

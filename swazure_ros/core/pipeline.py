@@ -43,7 +43,7 @@ from .geometry import Swarm
 from .heuristics.compat import COMPAT_MODES
 from .heuristics.folding import run_technique
 from .heuristics.regions import TechniqueBlocks
-from .heuristics.result import MAX_THRESHOLD, PLAIN, TECHNIQUES, HeuristicResult
+from .heuristics.result import MAX_THRESHOLD, MOVE_SOURCE, PLAIN, TECHNIQUES, HeuristicResult
 from .neighbourhood import Neighbourhood
 from .paths import POLICIES, SHORTEST_LENGTH
 from .progress import SILENT, Progress
@@ -69,6 +69,9 @@ class RunOptions:
     compat: str = "text"  # the heuristics as the paper's text ("text") or code ("published")
     fuse: int = 1  # sweet paths fused per pair
     estimator: str = PATH
+    # Move Source: the source's own body at its probe point may block the helper's view of
+    # the target, as the swarm flies it (--source-body); False: the spec's rule.
+    source_body: bool = False
 
     def check(self) -> None:
         """OptionError for a value that is none of its choices; SwazureError for options that
@@ -89,6 +92,8 @@ class RunOptions:
         check_plain_estimator(self.estimator, self.technique, self.fuse)
         if self.compat != "text" and self.technique == PLAIN:
             raise SwazureError(f"--compat {self.compat} changes the heuristics; add --technique")
+        if self.source_body and self.technique != MOVE_SOURCE:
+            raise SwazureError("--source-body changes Move Source: add --technique move-source")
 
     @property
     def plain(self) -> bool:
@@ -244,7 +249,9 @@ def _in_blocks(
     run: BlockedEvaluation | TechniqueBlocks = plain
     if options.technique != PLAIN:
         compat = COMPAT_MODES[options.compat]
-        run = TechniqueBlocks(plain, options.technique, options.threshold, compat)
+        run = TechniqueBlocks(
+            plain, options.technique, options.threshold, compat, options.source_body
+        )
     blocks = run.blocks(progress)
     if take is None:
         for _ in blocks:
@@ -325,7 +332,11 @@ def _stages(plain: EngineRun, options: RunOptions, progress: Progress | None) ->
         if progress is not None:
             progress.start(options.technique, 1)
         evaluation, heuristic = run_technique(
-            evaluation, options.technique, options.threshold, COMPAT_MODES[options.compat]
+            evaluation,
+            options.technique,
+            options.threshold,
+            COMPAT_MODES[options.compat],
+            options.source_body,
         )
         took = time.perf_counter() - began
         seconds += took

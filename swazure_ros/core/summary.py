@@ -13,7 +13,7 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Literal
 
-from .clouds import Cloud
+from .clouds import Cloud, Resampled
 from .metrics import Stats
 from .tally import SKETCH_RELATIVE_ERROR
 
@@ -110,14 +110,37 @@ class Source:
     scale: float
     seed: int
     sensor_file: str
+    # A resampled cloud's original and the resampling (summary.json's resampled_from).
+    resampled: Resampled | None = None
 
     @classmethod
     def of(cls, cloud: Cloud, seed: int, sensor_file: str | Path | None) -> Source:
         """The source of a swarm made of ``cloud`` with ``seed``, its sensor read from
         ``sensor_file`` (None: the default, config/sensor.yaml)."""
         return cls(
-            cloud.name, cloud.source, cloud.scale, seed, str(sensor_file or "config/sensor.yaml")
+            cloud.name,
+            cloud.source,
+            cloud.scale,
+            seed,
+            str(sensor_file or "config/sensor.yaml"),
+            cloud.resampled,
         )
+
+    def as_document(self) -> Document:
+        """Its fields as summary.json's parameters hold them; ``resampled_from`` only
+        for a resampled cloud."""
+        document = _documents(self)
+        resampled = document.pop("resampled")
+        if resampled is not None:
+            document["resampled_from"] = _documents(resampled)
+        return document
+
+    @classmethod
+    def from_document(cls, document: Document) -> Source:
+        """The source that summary.json's parameters hold (KeyError if none)."""
+        named = {one.name: document[one.name] for one in fields(cls) if one.name != "resampled"}
+        resampled = document.get("resampled_from")
+        return cls(**named, resampled=None if resampled is None else Resampled(**resampled))
 
 
 @dataclass(frozen=True)
@@ -153,6 +176,8 @@ class HeuristicFacts:
     compat: tuple[str, ...]
     flown_distance: Stats | None = None
     displacement: Stats | None = None
+    # Move Source with --source-body: True; None (not in summary.json) for the spec's rule.
+    source_body: bool | None = None
 
     @classmethod
     def from_document(cls, document: Document) -> HeuristicFacts:
@@ -168,6 +193,7 @@ class HeuristicFacts:
             compat=tuple(document["compat"]),
             flown_distance=_stats(document.get("flown_distance")),
             displacement=_stats(document.get("displacement")),
+            source_body=document.get("source_body"),
         )
 
 
@@ -318,12 +344,14 @@ class Summary:
         if self.heuristic is not None:
             document["technique"] = self.heuristic.technique
             document["threshold"] = self.heuristic.threshold
+            if self.heuristic.source_body:
+                document["source_body"] = True
         if self.fusion is not None:
             document["fuse"] = self.fusion.paths
         if self.fit is not None:
             document["estimator"] = self.fit.estimator
         if asked.source is not None:
-            document |= _documents(asked.source)
+            document |= asked.source.as_document()
         return document
 
     @classmethod
@@ -332,7 +360,7 @@ class Summary:
         asked = document["parameters"]
         source = None
         if "cloud" in asked:
-            source = Source(**{one.name: asked[one.name] for one in fields(Source)})
+            source = Source.from_document(asked)
         parameters = Parameters(
             asked["policy"], asked["beta"], asked["radius"], asked["sensor"], asked["accurate"],
             source,

@@ -2,7 +2,10 @@
 
 Every loader returns an ``(N, 3)`` float array in centimetres (file
 coordinates times ``scale``) and raises :class:`CloudError` with a one-line
-message naming the file when the input cannot be used.
+message naming the file when the input cannot be used. A cloud resampled to
+another size (``--resample``: :func:`resampled_cloud`) is written by
+:func:`write_cloud` in its original's format, exactly, to be read back with
+``--cloud FILE``.
 """
 
 from __future__ import annotations
@@ -18,10 +21,14 @@ from ..core.clouds import (
     BUILTIN_SHAPES,
     PUBLISHED_SCALES,
     Cloud,
+    Resampled,
     builtin_points,
+    mean_spacing,
+    resample,
     validate_points,
 )
 from ..core.errors import CloudError
+from .atomic import atomic_write
 from .reading import regular_file
 
 SUFFIXES = (".xyz", ".txt", ".csv", ".npy", ".ply")
@@ -225,3 +232,115 @@ def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
             raise CloudError(f"scale must be a positive number, got {scale}")
         points = validate_points(points * scale, f"{text} at scale {scale:g}")
     return Cloud(text.replace(":", "_"), points, 1.0 if scale is None else scale, "builtin")
+
+
+def resampled_cloud(cloud: Cloud, count: int, seed: int = 0) -> Cloud:
+    """``cloud`` resampled to ``count`` points at its own mean spacing
+    (:func:`~swazure_ros.core.clouds.resample`, seeded): a display-size version.
+
+    Parameters
+    ----------
+    cloud : Cloud
+        The original, in cm.
+    count : int
+        Points wanted, ``core.clouds.MIN_RESAMPLE`` to ``MAX_POINTS``.
+    seed : int, default 0
+        Seed of the resampling's thinning order and choice of points.
+
+    Returns
+    -------
+    Cloud
+        Named ``NAME_resampled_COUNT``, in cm (scale 1), its ``resampled``
+        saying what it came from; its source is the original's until
+        :func:`write_cloud` writes it.
+
+    Raises
+    ------
+    CloudError
+        ``count`` out of range, or an original of fewer than seven points.
+    """
+    return _resampled(cloud, resample(cloud.points, count, seed), seed, cloud.source)
+
+
+def read_resampled(cloud: Cloud, count: int, seed: int, path: Path) -> Cloud:
+    """``cloud`` resampled as :func:`resampled_cloud` makes it, read from ``path``, where
+    :func:`write_cloud` wrote it; CloudError when the file holds another number of points."""
+    points = read_points(path)
+    if len(points) != count:
+        raise CloudError(f"{path}: {len(points)} points, the cloud resampled has {count}")
+    return _resampled(cloud, points, seed, str(path))
+
+
+def _resampled(cloud: Cloud, points: FloatArray, seed: int, source: str) -> Cloud:
+    """The Cloud of ``cloud`` resampled to ``points`` (cm) with ``seed``, from ``source``."""
+    count = len(points)
+    origin = Resampled(cloud.name, cloud.source, cloud.scale, len(cloud.points), count, seed)
+    return Cloud(f"{cloud.name}_resampled_{count}", points, 1.0, source, origin)
+
+
+def cloud_file_suffix(source: str) -> str:
+    """The suffix a resampled cloud is written with: its original file's, else .xyz."""
+    suffix = Path(source).suffix.lower()
+    return suffix if suffix in SUFFIXES else ".xyz"
+
+
+def write_cloud(folder: Path, cloud: Cloud) -> Path:
+    """Write a resampled ``cloud`` into ``folder`` as ``NAME.SUFFIX``, atomically, exactly.
+
+    The format is the original file's (.xyz, .txt, .csv, .npy or .ply; a
+    built-in shape's is .xyz), in cm, so that ``--cloud`` that file (scale 1)
+    gives the same points to the last bit: text holds 17 significant digits.
+
+    Parameters
+    ----------
+    folder : Path
+        Made when absent.
+    cloud : Cloud
+        From :func:`resampled_cloud`.
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    OutputError
+        The file cannot be written.
+    """
+    if cloud.resampled is None:
+        raise ValueError(f"{cloud.name} is no resampled cloud")
+    suffix = cloud_file_suffix(cloud.resampled.cloud_source)
+    path = folder / f"{cloud.name}{suffix}"
+    origin = cloud.resampled
+    about = (
+        f"{origin.cloud} ({origin.points} points, {origin.cloud_source}, scale "
+        f"{origin.scale:g}) resampled to {origin.count} points at its mean spacing "
+        f"{mean_spacing(cloud.points):.6g} cm, seed {origin.seed} (swazure --resample); cm"
+    )
+    atomic_write(path, lambda temporary: _write_points(temporary, suffix, cloud.points, about))
+    return path
+
+
+def _write_points(path: Path, suffix: str, points: FloatArray, about: str) -> None:
+    """``points`` (N, 3), cm, in the format of ``suffix``, with ``about`` where it has room."""
+    with path.open("wb") as out:
+        if suffix == ".npy":
+            np.save(out, points, allow_pickle=False)
+        elif suffix == ".ply":
+            from plyfile import PlyData, PlyElement  # local: only PLY users pay for the import
+
+            vertex = np.empty(len(points), dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
+            vertex["x"], vertex["y"], vertex["z"] = points.T
+            PlyData([PlyElement.describe(vertex, "vertex")], comments=[about]).write(out)
+        else:
+            # %.17g: every float64 read back as itself.
+            comma = suffix == ".csv"
+            np.savetxt(
+                out,
+                points,
+                fmt="%.17g",
+                delimiter="," if comma else " ",
+                header=f"# {about}\nx,y,z" if comma else f"# {about}",
+                comments="",
+            )

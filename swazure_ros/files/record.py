@@ -131,6 +131,11 @@ class EngineComparison:
     estimate to 1e-9 cm; a fit's covariance too, to 1e-9 of its largest
     entry). The pairs are compared one by one only when the swarm reported as
     many as the engine has; else what differs is None: not compared.
+
+    ``source_body`` counts, for Move Source, the pairs the engine resolved where
+    the source's own body at its probe point blocks the helper's view of the
+    target: the spec's rule takes them, the swarm's walk cannot (0 with
+    ``--source-body``; None for another technique).
     """
 
     pairs: int  # ordered blind pairs the swarm reported
@@ -138,6 +143,7 @@ class EngineComparison:
     statuses: int | None = 0  # pairs whose status differs
     estimates: int | None = 0  # pairs whose estimate (or covariance) differs
     paths: bool | None = False  # whether any pair's path differs
+    source_body: int | None = None  # Move Source: the engine's pairs the source's body blocks
 
     @property
     def identical(self) -> bool:
@@ -156,11 +162,20 @@ class EngineComparison:
         if self.pairs != self.engine_pairs:
             return f"no: {self.pairs} pairs reported, the engine has {self.engine_pairs}"
         differ = f"{self.statuses} statuses, {self.estimates} estimates differ"
-        return f"no: {differ}; paths differ: {self.paths}"
+        body = (
+            f"; the source's body at its probe blocks the helper's view in {self.source_body} "
+            "of the engine's pairs (--source-body checks it)"
+            if self.source_body
+            else ""
+        )
+        return f"no: {differ}; paths differ: {self.paths}{body}"
 
     def as_document(self) -> Document:
         """What record.json holds: whether the pairs are identical, then each count."""
-        return {"identical": self.identical, **asdict(self)}
+        counts = asdict(self)
+        if self.source_body is None:
+            del counts["source_body"]  # not Move Source: records as they were
+        return {"identical": self.identical, **counts}
 
     @classmethod
     def from_document(cls, document: Document) -> EngineComparison:

@@ -76,6 +76,7 @@ _RULES: dict[str, Callable[[str], object]] = {
     "sensor": values.input_file,
     "accurate": _flag,
     "seed": values.seed,
+    "resample": values.resample_count,
     "policy": _policy,
     "processes": values.count,
     "params": values.input_file,
@@ -108,6 +109,7 @@ class SwarmFile:
     sensor: Path | None = None
     accurate: bool | None = None
     seed: int | None = None
+    resample: int | None = None
     policy: str | None = None
     processes: int | None = None
     params: Path | None = None
@@ -164,6 +166,7 @@ def read_swarm_file(path: Path) -> SwarmFile:
         sensor=_typed(options, "sensor", Path),
         accurate=_typed(options, "accurate", bool),
         seed=_typed(options, "seed", int),
+        resample=_typed(options, "resample", int),
         policy=_typed(options, "policy", str),
         processes=_typed(options, "processes", int),
         params=_typed(options, "params", Path),

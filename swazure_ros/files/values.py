@@ -13,6 +13,7 @@ import math
 import os
 from pathlib import Path
 
+from ..core.clouds import MAX_POINTS, MIN_RESAMPLE
 from ..core.errors import SwazureError
 from .reading import regular_file
 
@@ -51,6 +52,14 @@ def count(text: str) -> int:
     value = whole_number(text)
     if value < 1:
         raise ValueError(f"{value}: must be at least 1")
+    return value
+
+
+def resample_count(text: str) -> int:
+    """Points of a resampled cloud: a whole number, MIN_RESAMPLE to MAX_POINTS."""
+    value = whole_number(text)
+    if not MIN_RESAMPLE <= value <= MAX_POINTS:
+        raise ValueError(f"{value}: a resampled cloud has {MIN_RESAMPLE} to {MAX_POINTS} points")
     return value
 
 

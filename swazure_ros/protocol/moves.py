@@ -154,8 +154,9 @@ class MoveOutcome:
 class MoveRun:
     """Makes ``technique``'s moves for every BLOCKED pair of ``evaluation`` (the plain run).
 
-    ``threshold`` bounds Move Source's probes (steps of r). ``revision`` is the
-    newest world revision seen when the run starts.
+    ``threshold`` bounds Move Source's probes (steps of r); ``source_body`` plans them
+    with the source's own body at its probe point checked (``move_source``'s).
+    ``revision`` is the newest world revision seen when the run starts.
     """
 
     def __init__(
@@ -166,11 +167,13 @@ class MoveRun:
         threshold: int,
         revision: int,
         timeout: float,
+        source_body: bool = False,
     ) -> None:
         if technique == MOVE_OBSTRUCTING:
             self.plan, self.kind = move_obstructing(evaluation), STEP_ASIDE
         elif technique == MOVE_SOURCE:
-            self.plan, self.kind = move_source(evaluation, threshold), PROBE
+            self.plan = move_source(evaluation, threshold, source_body=source_body)
+            self.kind = PROBE
         else:
             raise ValueError(f"no moves to make for technique {technique!r}")
         self.run_id = run_id

@@ -38,7 +38,6 @@ from ..core.observe import (
     readings_of,
 )
 from ..core.sensor import Sensor
-from ..files.cloud_files import load_cloud
 from ..files.description import SwarmDescription
 
 if TYPE_CHECKING:
@@ -284,7 +283,7 @@ class WorldSpec(SwarmDescription):
     def build(self, hosted_ids: Sequence[int] | None = None) -> World:
         """Load the cloud and sensor and make the world at revision 0 (see :func:`make_world`)."""
         return make_world(
-            load_cloud(self.cloud, self.scale),
+            self.cloud_of(),
             self.sensor(),
             beta=self.beta,
             radius=self.radius,

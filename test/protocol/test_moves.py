@@ -7,6 +7,7 @@ from collections import Counter, deque
 import numpy as np
 import pytest
 
+from swazure_ros.core.clouds import Cloud
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.evaluation import NO_PATH, SWEET_PATH
 from swazure_ros.core.heuristics.folding import run_technique
@@ -28,7 +29,9 @@ from swazure_ros.protocol.moves import (
     step_walk,
     walk_estimate,
 )
-from swazure_ros.sim.world import WorldSpec
+from swazure_ros.sim.world import WorldSpec, make_world
+
+from ..conftest import source_body_scene
 
 
 def camera(ids, range_class, vectors):
@@ -55,9 +58,9 @@ def test_a_walk_fails_where_the_next_hop_is_not_a_sweet_measurement():
     assert walk_estimate(walk).status == NO_PATH
 
 
-def make_moves(world, plain, technique):
+def make_moves(world, plain, technique, source_body=False):
     """Drive a MoveRun over ``world``: moves make revisions, walks go FLS to FLS."""
-    run = MoveRun(1, plain, technique, 10, world.revision, timeout=10.0)
+    run = MoveRun(1, plain, technique, 10, world.revision, 10.0, source_body)
     kinds: Counter[int] = Counter()
     pending = deque(run.start(0.0))
     group: dict[int, np.ndarray] = {}
@@ -121,3 +124,28 @@ def test_a_lost_walk_costs_its_pair_and_the_run_goes_on_after_the_deadline():
     assert returns and all(move.kind == RETURN for move in returns)
     assert "no result of the path walks" in run.warnings[0]
     assert run.timeouts == 1
+
+
+@pytest.mark.parametrize("source_body", [False, True], ids=["spec-rule", "source-body"])
+def test_the_source_s_body_at_its_probe_fails_the_walk_unless_the_plan_checked_it(
+    sensor, source_body
+):
+    world = make_world(Cloud("scene", source_body_scene(), 1.0, "array"), sensor, radius=0.5)
+    policy = "shortest-length"
+    found = discover(world.seen, world.ids, world.sensor, world.swarm.radius, policy)
+    plain = evaluation_of(world.hood, policy, found.estimates)
+    outcome, _, _ = make_moves(world, plain, "move-source", source_body)
+    engine, plan = run_technique(
+        evaluate(world.swarm, world.sensor, policy), "move-source", 10, source_body=source_body
+    )
+    pairs = engine.pairs
+    m = int(np.flatnonzero((pairs.source == 0) & (pairs.target == 2))[0])
+    assert plan.resolved[m] and outcome.walks == plan.resolved.sum()
+    differ = np.flatnonzero(outcome.evaluation.pairs.status != pairs.status).tolist()
+    # The spec's plan has the source stand between the helper and the target: the
+    # helper's walk fails there. Planned with the body checked, the swarm is the engine.
+    assert differ == ([] if source_body else [m])
+    assert outcome.heuristic.resolved[m] == source_body
+    if source_body:
+        np.testing.assert_array_equal(outcome.evaluation.pairs.nodes, pairs.nodes)
+        np.testing.assert_allclose(outcome.evaluation.pairs.estimate, pairs.estimate, atol=1e-9)

@@ -31,6 +31,7 @@ from swazure_ros.ros.convert.discovery import pose_estimate_from_message
 from swazure_ros.ros.plumbing.names import ESTIMATOR_CODES, policy_code
 from swazure_ros.sim.world import WorldSpec
 
+from ..conftest import source_body_scene
 from ..waits import PATIENCE, wait_until
 from .conftest import make_context
 
@@ -41,6 +42,7 @@ POLICIES = ("fewest-hops", "shortest-length")
 DISCOVERY_POLICIES = (*POLICIES, "least-error")
 CALIBRATED = str(config_dir() / "cameras" / "sensor-wide-calibrated.yaml")
 LOCAL_LEAST_SQUARES_CODE = ESTIMATOR_CODES[LOCAL_LEAST_SQUARES]
+SPAWN_TIMEOUT = 600  # s: a whole swarm's bring-up, run and teardown on a busy machine
 
 
 @pytest.fixture
@@ -632,3 +634,58 @@ def test_each_source_s_own_fit_by_the_swarm_equals_the_engine(domain, params, co
         np.testing.assert_allclose(covariance * 1e4, pairs.covariance[pair], rtol=1e-9)
         answered = pose_estimate_from_message(response.estimate)
         np.testing.assert_allclose(answered.vector, pairs.estimate[pair], rtol=0, atol=1e-9)
+
+
+def test_spawn_resample_brings_up_the_resampled_swarm_in_every_process(domain, params, tmp_path):
+    shape = ["--cloud", "torus:60", "--scale", "5", "--beta", "0.5", "--quiet"]
+    spawn = swazure(
+        "spawn", *shape, "--resample", "90", "--processes", "2", "--params", str(params),
+        "--compute-all", "--out", str(tmp_path / "d"),
+    )  # fmt: skip
+    out, err = spawn.communicate(timeout=SPAWN_TIMEOUT)
+    assert spawn.returncode == 0, err
+    written = tmp_path / "d" / "torus_60_resampled_90.xyz"
+    assert f"resampled cloud: {written}" in out
+    record = read_record(tmp_path / "d" / RECORD_FILE)
+    assert record.bring_up is not None and record.bring_up.flss == 90
+    assert record.comparison is not None and record.comparison.identical, out
+    source = record.summary.parameters.source
+    assert source is not None and source.cloud_source == str(written)
+    assert source.resampled is not None
+    assert (source.resampled.cloud, source.resampled.points, source.resampled.count) == (
+        "torus_60", 60, 90,
+    )  # fmt: skip
+    # The file fed back is the swarm that ran: the engine's pairs are the swarm's.
+    evaluate = swazure("evaluate", "--cloud", str(written), "--beta", "0.5", "--quiet",
+                       "--out", str(tmp_path / "e"))  # fmt: skip
+    _, err = evaluate.communicate(timeout=SPAWN_TIMEOUT)
+    assert evaluate.returncode == 0, err
+    assert (tmp_path / "d" / "pairs.csv").read_bytes() == (
+        tmp_path / "e" / "pairs.csv"
+    ).read_bytes()
+
+
+@pytest.mark.parametrize("source_body", [False, True], ids=["spec-rule", "source-body"])
+def test_spawn_move_source_is_the_engine_s_with_the_body_rule_and_counts_the_body_without(
+    domain, params, tmp_path, source_body
+):
+    cloud = tmp_path / "scene.xyz"
+    np.savetxt(cloud, source_body_scene(), fmt="%.17g")
+    spawn = swazure(
+        "spawn", "--cloud", str(cloud), "--radius", "0.5", "--quiet", "--params", str(params),
+        "--compute-all", "--technique", "move-source", "--out", str(tmp_path / "d"),
+        *(["--source-body"] if source_body else []),
+    )  # fmt: skip
+    out, err = spawn.communicate(timeout=SPAWN_TIMEOUT)
+    record = read_record(tmp_path / "d" / RECORD_FILE)
+    comparison = record.comparison
+    assert comparison is not None
+    if source_body:
+        assert spawn.returncode == 0, err
+        assert comparison.identical and comparison.source_body == 0, out
+    else:
+        # The engine's plan puts the source between the helper and the target: that one
+        # pair stays BLOCKED in the swarm, and the comparison says why.
+        assert spawn.returncode == 1, err
+        assert (comparison.statuses, comparison.source_body) == (1, 1), out
+        assert "the source's body at its probe blocks the helper's view in 1" in err

@@ -124,7 +124,11 @@ def applied(pairs: PairResults, heuristic: HeuristicResult) -> PairResults:
 
 
 def run_technique(
-    evaluation: Evaluation, technique: str, threshold: int = 10, compat: Compat = TEXT
+    evaluation: Evaluation,
+    technique: str,
+    threshold: int = 10,
+    compat: Compat = TEXT,
+    source_body: bool = False,
 ) -> tuple[Evaluation, HeuristicResult | None]:
     """Apply ``technique`` to a plain evaluation; plain returns it unchanged, with no result.
 
@@ -141,6 +145,10 @@ def run_technique(
         are 2 and 10); unused by the others.
     compat : Compat, default TEXT
         The text's behaviour or the published code's (:data:`~.compat.PUBLISHED`).
+    source_body : bool, default False
+        Move Source: check that the source's own body at its probe point leaves
+        the helper's view of the target clear, as the swarm flies it (the spec
+        does not); unused by the others.
 
     Returns
     -------
@@ -174,7 +182,7 @@ def run_technique(
     """
     if check_technique(technique) == PLAIN:
         return evaluation, None
-    heuristic = try_technique(evaluation, technique, threshold, compat)
+    heuristic = try_technique(evaluation, technique, threshold, compat, source_body=source_body)
     return apply(evaluation, heuristic), heuristic
 
 
@@ -184,6 +192,7 @@ def try_technique(
     threshold: int = 10,
     compat: Compat = TEXT,
     first_probe: int = 0,
+    source_body: bool = False,
 ) -> HeuristicResult:
     """Move Obstructing or Move Source on the BLOCKED pairs of a plain run, or of a block of it.
 
@@ -198,6 +207,9 @@ def try_technique(
     first_probe : int, default 0
         Move Source: the pairs resolved in the blocks before this one
         (:func:`~.source.move_source`).
+    source_body : bool, default False
+        Move Source: the source's own body at its probe point checked
+        (``--source-body``, :func:`~.source.move_source`).
 
     Returns
     -------
@@ -206,7 +218,7 @@ def try_technique(
     """
     if technique == MOVE_OBSTRUCTING:
         return move_obstructing(evaluation, compat)
-    return move_source(evaluation, threshold, compat, first_probe)
+    return move_source(evaluation, threshold, compat, first_probe, source_body)
 
 
 def heuristic_facts(heuristic: HeuristicResult) -> HeuristicFacts:
@@ -239,7 +251,12 @@ def heuristic_facts(heuristic: HeuristicResult) -> HeuristicFacts:
     >>> facts.resolved_pairs, round(facts.moved_distance.max, 6)  # at most T r = 2 cm
     (237, 2.0)
     """
-    tally = FactsTally(heuristic.technique, heuristic.threshold, heuristic.compat)
+    tally = FactsTally(
+        heuristic.technique,
+        heuristic.threshold,
+        heuristic.compat,
+        source_body=heuristic.source_body,
+    )
     tally.add(heuristic)
     return tally.facts()
 
@@ -256,6 +273,7 @@ class FactsTally:
     threshold: int | None
     compat: Compat
     exact_values: int = EXACT_VALUES
+    source_body: bool = False  # Move Source: the source's body at q checked
     tried: int = 0
     resolved: int = 0
     reals: dict[str, RealTally] = field(default_factory=dict)
@@ -293,4 +311,5 @@ class FactsTally:
             compat=tuple(self.compat.switches_on()),
             flown_distance=self._stats("flown") if source else None,
             displacement=self._stats("moved") if source else None,
+            source_body=True if self.source_body else None,
         )

@@ -43,6 +43,7 @@ class TechniqueBlocks:
     technique: str  # MOVE_OBSTRUCTING or MOVE_SOURCE
     threshold: int = 10  # Move Source's T
     compat: Compat = TEXT
+    source_body: bool = False  # Move Source: the source's body at its probe checked
     own_seconds: float = 0.0  # the heuristic's computing so far
     tally: PairTally = field(init=False)
     facts: FactsTally = field(init=False)
@@ -51,7 +52,7 @@ class TechniqueBlocks:
         exact = self.plain.lean.budget.exact_values
         self.tally = PairTally(exact)
         threshold = self.threshold if self.technique == MOVE_SOURCE else None
-        self.facts = FactsTally(self.technique, threshold, self.compat, exact)
+        self.facts = FactsTally(self.technique, threshold, self.compat, exact, self.source_body)
 
     @property
     def seconds(self) -> float:
@@ -65,7 +66,12 @@ class TechniqueBlocks:
             began = time.perf_counter()
             block = PairBlock(self.plain.hood, self.plain.policy, pairs)
             heuristic = try_technique(
-                block, self.technique, self.threshold, self.compat, self.facts.resolved
+                block,
+                self.technique,
+                self.threshold,
+                self.compat,
+                self.facts.resolved,
+                self.source_body,
             )
             moved = MovedPairs.of(applied(pairs, heuristic), heuristic)
             self.tally.add(moved)

@@ -91,6 +91,7 @@ class HeuristicResult:
     move_to: FloatArray  # (K, 3), cm
     flown: FloatArray = field(default_factory=lambda: np.zeros(0))  # (M,), Move Source
     compat: Compat = TEXT
+    source_body: bool = False  # Move Source: the source's body at q checked (--source-body)
 
     def moves(self, pair: int) -> list[tuple[int, FloatArray, FloatArray]]:
         """The moves made for pair ``pair``, in order.

@@ -5,7 +5,10 @@ grid offsets (-1, -1, -1), (-1, -1, 0), ..., (1, 1, 1); among the target's
 visible sweet neighbours that succeed at one probe it takes the one with the
 smallest path length t(q, h) + t(h, j), then the smallest index. The text's
 and the published behaviours differ in the rules of one probe
-(:class:`ProbeRules`, from :class:`~.compat.Compat`).
+(:class:`ProbeRules`, from :class:`~.compat.Compat`). The spec's probe does not
+check that the source's own body at its probe point q leaves the helper's
+view of the target clear; with ``source_body`` it does, as the swarm flies it
+(docs/protocol.md, "The heuristics, made by the swarm").
 """
 
 from __future__ import annotations
@@ -17,7 +20,8 @@ import numpy as np
 
 from ...core.arrays import FloatArray, IntArray
 from .. import csr, jit
-from ..grid import Grid, scan_between
+from ..geometry import Swarm
+from ..grid import Grid, blocks, scan_between
 from ..hop_errors import measured_vectors
 from ..path_arrays import paths_from_rows
 from ..sight import any_within
@@ -52,9 +56,10 @@ class ProbeRules(NamedTuple):
     sweet_max_inclusive: bool  # Compat.sweet_max_inclusive
     first_helper: bool  # Compat.first_helper
     published_flown: bool  # Compat.published_flown
+    source_body: bool  # the source's body at q may block the helper's view of the target
 
 
-def probe_rules(compat: Compat, collision_reach: float) -> ProbeRules:
+def probe_rules(compat: Compat, collision_reach: float, source_body: bool = False) -> ProbeRules:
     """The probe rules of ``compat``'s Move Source switches.
 
     Parameters
@@ -63,6 +68,9 @@ def probe_rules(compat: Compat, collision_reach: float) -> ProbeRules:
     collision_reach : float, cm
         How far from the source's original position another FLS counts for a
         probe's collision; inf for every FLS (the text).
+    source_body : bool, default False
+        A helper counts only when the source's body at the probe point leaves
+        its view of the target clear (the spec does not check it).
 
     Returns
     -------
@@ -75,6 +83,7 @@ def probe_rules(compat: Compat, collision_reach: float) -> ProbeRules:
         compat.sweet_max_inclusive,
         compat.first_helper,
         compat.published_flown,
+        source_body,
     )
 
 
@@ -195,6 +204,8 @@ def _best_helper(
         total = (0.0 + tracking) + hop
         if total >= best_length:
             continue
+        if rules.source_body and _blocks_at(points, radius, qx, qy, qz, h, j):
+            continue  # the source, standing at q, hides the target from h
         near_origin = rules.occlusion_near_origin
         at, to = (qx, qy, qz), (hx, hy, hz)
         hits = scan_between(points, radius, at, to, i, h, grid, found, not near_origin)
@@ -208,6 +219,26 @@ def _best_helper(
             if rules.first_helper:
                 break
     return best
+
+
+@jit.kernel(cache=True, nogil=True)
+def _blocks_at(
+    points: FloatArray, radius: float, qx: float, qy: float, qz: float, h: int, j: int
+) -> bool:
+    """Whether a body at q, cm, is in the way of h's view of j: the world's own test.
+
+    The segment runs from h towards j, as the helper measures the target
+    (``core.observe.readings_of``), and :func:`~swazure_ros.core.grid.blocks` judges it.
+    """
+    at = np.empty((1, 3))
+    at[0, 0], at[0, 1], at[0, 2] = qx, qy, qz
+    ax, ay, az = points[h, 0], points[h, 1], points[h, 2]
+    dx, dy, dz = points[j, 0] - ax, points[j, 1] - ay, points[j, 2] - az
+    length = np.sqrt(dx * dx + dy * dy + dz * dz)
+    if length == 0.0:
+        return False
+    ux, uy, uz = dx / length, dy / length, dz / length
+    return blocks(at, 0, ax, ay, az, ux, uy, uz, length, radius * radius)
 
 
 @jit.kernel(cache=True, nogil=True)
@@ -231,7 +262,11 @@ def _nearest_first(points: FloatArray, indptr: IntArray, indices: IntArray) -> I
 
 
 def move_source(
-    evaluation: PlainPairs, threshold: int, compat: Compat = TEXT, first_probe: int = 0
+    evaluation: PlainPairs,
+    threshold: int,
+    compat: Compat = TEXT,
+    first_probe: int = 0,
+    source_body: bool = False,
 ) -> HeuristicResult:
     """Move Source (section 8) with probe steps delta = 1..``threshold`` on every BLOCKED pair.
 
@@ -252,6 +287,10 @@ def move_source(
         resolved pair's source at its probe is measured as FLS ``N +
         first_probe + k``, k its rank among these, which a noisy sensor's
         seeded draw depends on.
+    source_body : bool, default False
+        Take a helper only when the source's own body at the probe point
+        leaves the helper's view of the target clear, as the swarm flies it
+        (``--source-body``); the spec (section 8) does not check it.
 
     Returns
     -------
@@ -308,7 +347,7 @@ def move_source(
         pairs.target[blocked],
         GRID_STEPS if compat.grid_steps else DIRECTIONS,
         int(threshold),
-        probe_rules(compat, float(reach)),
+        probe_rules(compat, float(reach), source_body),
     )
     success = helper >= 0
     resolved_pairs = blocked[success]
@@ -348,4 +387,34 @@ def move_source(
         move_to=probe[success].reshape(-1, 3),
         flown=flown,
         compat=compat,
+        source_body=source_body,
     )
+
+
+def source_body_in_the_way(result: HeuristicResult, swarm: Swarm) -> IntArray:
+    """The resolved pairs of Move Source whose helper's view of the target the source's
+    own body at its probe point blocks: those the swarm cannot fly as planned.
+
+    The spec's rule (``source_body`` False) resolves them; the swarm's walk
+    finds the helper blind to the target there (docs/protocol.md). With
+    ``source_body`` True there are none.
+
+    Parameters
+    ----------
+    result : HeuristicResult
+        Move Source's, on ``swarm``.
+    swarm : Swarm
+        The swarm it ran on, every FLS at its point.
+
+    Returns
+    -------
+    (K,) array of int
+        Indices of those pairs, ascending.
+    """
+    in_the_way = [
+        pair
+        for pair in np.flatnonzero(result.resolved)
+        for _, _, at in result.moves(int(pair))
+        if _blocks_at(swarm.points, swarm.radius, *at, *result.paths.path(int(pair))[1:])
+    ]
+    return np.asarray(in_the_way, dtype=np.int64)

@@ -288,15 +288,22 @@ class Coordinator(SwarmNode):
 
         return self._enqueue(begin)
 
-    def make_moves(self, evaluation: Evaluation, technique: str, threshold: int = 10) -> Future:
+    def make_moves(
+        self,
+        evaluation: Evaluation,
+        technique: str,
+        threshold: int = 10,
+        source_body: bool = False,
+    ) -> Future:
         """A heuristic on every BLOCKED pair of a whole-swarm run, its moves made for real.
 
         ``evaluation`` is the run's (``protocol.discovery.estimate.evaluation_of``);
         ``technique`` is Move Obstructing or Move Source (probing up to
-        ``threshold`` steps of r). Returns a future of the :class:`MoveResult`.
+        ``threshold`` steps of r; ``source_body``: planned with the source's body at its
+        probe point checked). Returns a future of the :class:`MoveResult`.
         """
         # Planned now, so that a bad technique fails here and not inside a callback.
-        planned = MoveRun(0, evaluation, technique, threshold, 0, self.round_timeout)
+        planned = MoveRun(0, evaluation, technique, threshold, 0, self.round_timeout, source_body)
 
         def begin(run_id: int) -> Machine:
             planned.run_id = run_id

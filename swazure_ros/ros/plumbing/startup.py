@@ -231,10 +231,17 @@ def description_from(values: Mapping[str, Value]) -> SwarmDescription:
 
 
 def description_parameters(description: SwarmDescription) -> StartupValues:
-    """The DESCRIPTION_PARAMETERS values of ``description``: what description_from reads."""
+    """The DESCRIPTION_PARAMETERS values of ``description``: what description_from reads.
+
+    A resampled cloud is given as the file the launcher wrote it to
+    (``SwarmDescription.written``), in cm: every process reads the same points.
+    """
+    if description.resample is not None and description.resampled_file is None:
+        raise ValueError("a resampled cloud is given to a process once written: written(folder)")
+    resampled = description.resampled_file
     return {
-        "cloud": description.cloud,
-        "scale": float(description.scale or 0.0),
+        "cloud": description.cloud if resampled is None else resampled,
+        "scale": float(description.scale or 0.0) if resampled is None else 1.0,
         "beta": float(description.beta or 0.0),
         "radius": float(description.radius or 0.0),
         "sensor": description.sensor_file or "",
