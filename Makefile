@@ -12,6 +12,7 @@ PKG_STAMP := $(VENV)/.stamp-package
 KERNELS_STAMP := $(VENV)/.stamp-kernels
 KERNEL_MODULES := $(shell grep -rl --include=*.py "jit.kernel" swazure_ros)
 INTERFACE_FILES := msg_defs/CMakeLists.txt msg_defs/package.xml msg_defs/drop-missing-includes.cmake \
+	msg_defs/c-type-supports-only.cmake \
 	$(wildcard msg_defs/msg/*.msg) $(wildcard msg_defs/srv/*.srv) \
 	$(wildcard msg_defs/tf2_msgs/*.* msg_defs/tf2_msgs/msg/*.msg)
 PYTEST_ARGS ?=
@@ -77,7 +78,8 @@ endif
 	@touch $@
 
 $(LAUNCH_STAMP): $(ROS2CLI_STAMP) $(LAUNCH_WHEELS) scripts/install_launch.sh \
-		scripts/build_interfaces.sh
+		scripts/build_interfaces.sh scripts/c-type-supports-only-project.cmake \
+		msg_defs/c-type-supports-only.cmake
 ifneq ($(LAUNCH_WHEELS),)
 	scripts/install_launch.sh $(VENV) $(LAUNCH_WHEELS_DIR)
 endif
