@@ -96,11 +96,6 @@ class RunOptions:
             raise SwazureError("--source-body changes Move Source: add --technique move-source")
 
     @property
-    def plain(self) -> bool:
-        """Whether the run is plain Swazure alone: no heuristic, fusion or fit."""
-        return self.technique == PLAIN and self.fuse == 1 and self.estimator == PATH
-
-    @property
     def in_blocks(self) -> bool:
         """Whether the run can be made a block of pairs at a time: plain Swazure, a
         heuristic (:mod:`.heuristics.regions`), fusion or a fit of the whole swarm (each
