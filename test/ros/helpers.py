@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
+import subprocess
+import threading
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -130,3 +136,66 @@ def radio_topics(world_spec) -> list[str]:
 def joined(by_topic, topics) -> list:
     """The messages of ``topics`` in ``by_topic`` (topic -> list), in one list."""
     return [message for topic in topics for message in by_topic.get(topic, [])]
+
+
+def echo_first(
+    command: list[str],
+    environment: dict[str, str],
+    timeout: float = PATIENCE,
+    step: Callable[[], object] | None = None,
+) -> str:
+    """The first message a real ``ros2 topic echo`` prints, up to its ``---`` line.
+
+    ``command`` is the whole echo command (with ``--once``); ``step()`` is called while
+    nothing is printed yet (send a request that makes the message, say). The echo is
+    stopped once the message is out rather than waited for: `ros2 topic echo --once`
+    printed its message and then hung for over 300 s tearing its node down, on a loaded
+    CI machine (2026-11-29). What the swarm sent is what our tests assert; how the ros2
+    CLI's own node winds down is ros2cli's and Fast DDS's.
+
+    Raises
+    ------
+    AssertionError
+        When nothing was printed within ``timeout`` s; the message has what echo said.
+    """
+    echo = subprocess.Popen(
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=environment,
+        start_new_session=True,
+    )
+    lines: list[str] = []
+    errors: list[str] = []
+    readers = [
+        threading.Thread(target=lambda: lines.extend(echo.stdout), daemon=True),
+        threading.Thread(target=lambda: errors.extend(echo.stderr), daemon=True),
+    ]
+    for reader in readers:
+        reader.start()
+
+    def printed() -> bool:
+        return "---\n" in list(lines)
+
+    def wait_a_little() -> None:
+        if step is not None:
+            step()
+        wait_until(printed, 5.0)
+
+    try:
+        wait_until(printed, timeout, wait_a_little)
+    finally:
+        if echo.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(echo.pid, signal.SIGINT)
+            try:
+                echo.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                os.killpg(echo.pid, signal.SIGKILL)
+                echo.wait()
+        for reader in readers:
+            reader.join(timeout=10)
+    taken = list(lines)
+    assert "---\n" in taken, f"ros2 topic echo printed no message: {''.join(errors)[-2000:]}"
+    return "".join(taken[: taken.index("---\n") + 1])

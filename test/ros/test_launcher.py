@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shutil
 import signal
@@ -33,6 +32,7 @@ from .helpers import (
     ECHO_LATCHED,
     LATCHED,
     assert_matches,
+    echo_first,
     engine_expectations,
     long_lease_environment,
     matches,
@@ -285,10 +285,14 @@ def ros2_cli():
         pytest.skip(f"{ROS2} is not installed (make setup installs it from ../shared)")
 
 
+def ros2_environment():
+    """This test's environment, with the venv as the ament prefix the ros2 CLI looks in."""
+    return dict(os.environ, AMENT_PREFIX_PATH=str(Path(sys.executable).parents[1]))
+
+
 def ros2(*args, timeout=PATIENCE):
-    env = dict(os.environ, AMENT_PREFIX_PATH=str(Path(sys.executable).parents[1]))
     return subprocess.run(
-        [str(ROS2), *args], capture_output=True, text=True, timeout=timeout, env=env
+        [str(ROS2), *args], capture_output=True, text=True, timeout=timeout, env=ros2_environment()
     )
 
 
@@ -300,28 +304,29 @@ def test_real_ros2_cli_sees_nodes_topic_and_service(ros2_cli, running_swarm):
             break
     assert "/swarm/fls_0" in nodes.stdout.split(), nodes.stdout + nodes.stderr
     # The latched messages arrive in any order, and an FLS at the helix's end may see nobody.
-    echo = ros2(
-        "topic",
-        "echo",
-        *ECHO_LATCHED,
-        "--once",
-        "--filter",
-        "len(m.poses) > 0",
-        "/swarm/measurements",
-        "swazure_interfaces/msg/Measurements",
+    echoed = echo_first(
+        [
+            str(ROS2),
+            "topic",
+            "echo",
+            *ECHO_LATCHED,
+            "--once",
+            "--filter",
+            "len(m.poses) > 0",
+            "/swarm/measurements",
+            "swazure_interfaces/msg/Measurements",
+        ],
+        ros2_environment(),
     )
-    assert echo.returncode == 0, echo.stderr
-    assert "source_id:" in echo.stdout and "vector:" in echo.stdout
+    assert "source_id:" in echoed and "vector:" in echoed, echoed
     # In metres (REP-103), in the measuring FLS's frame: the helix's neighbours are
     # centimetres apart, so every tracking distance is a small fraction of a metre.
     distances = [
-        float(line.split(":")[1])
-        for line in echo.stdout.splitlines()
-        if "tracking_distance:" in line
+        float(line.split(":")[1]) for line in echoed.splitlines() if "tracking_distance:" in line
     ]
-    assert distances and all(0 < distance < 0.5 for distance in distances), echo.stdout
-    source = next(line for line in echo.stdout.splitlines() if line.startswith("source_id:"))
-    assert f"frame_id: fls_{source.split(':')[1].strip()}" in echo.stdout, echo.stdout
+    assert distances and all(0 < distance < 0.5 for distance in distances), echoed
+    source = next(line for line in echoed.splitlines() if line.startswith("source_id:"))
+    assert f"frame_id: fls_{source.split(':')[1].strip()}" in echoed, echoed
     call = ros2(
         "service",
         "call",
@@ -342,50 +347,31 @@ def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(
     engine = evaluate_pairs(world.hood, "shortest-length")
     pair = int(np.flatnonzero(engine.hops >= 2)[0])
     source, target = int(world.ids[engine.source[pair]]), int(world.ids[engine.target[pair]])
-    env = dict(os.environ, AMENT_PREFIX_PATH=str(Path(sys.executable).parents[1]))
-    echo = subprocess.Popen(
-        [
-            str(ROS2),
-            "topic",
-            "echo",
-            "--once",
-            "/swarm/estimates",
-            "swazure_interfaces/msg/PoseEstimates",
-        ],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=env,
-    )
-    try:
-        # Each call's run publishes its estimates once, and the echo may not be matched
-        # yet: call again until the echo has printed one.
-        path = ", ".join(str(int(world.ids[k])) for k in engine.path(pair))
+    # Each call's run publishes its estimates once, and the echo may not be matched
+    # yet: call again until the echo has printed one.
+    path = ", ".join(str(int(world.ids[k])) for k in engine.path(pair))
 
-        def call_and_listen() -> None:
-            call = ros2(
-                "service",
-                "call",
-                "/swarm/coordinator/compute_pose",
-                "swazure_interfaces/srv/ComputePose",
-                f"{{source_id: {source}, target_id: {target}, policy: 1}}",
-            )
-            assert call.returncode == 0, call.stderr
-            assert "success=True" in call.stdout, call.stdout
-            assert (
-                f"path=[{path}]" in call.stdout or f"path=array('I', [{path}])" in call.stdout
-            ), call.stdout
-            with contextlib.suppress(subprocess.TimeoutExpired):
-                echo.wait(timeout=5)
+    def call() -> None:
+        answer = ros2(
+            "service",
+            "call",
+            "/swarm/coordinator/compute_pose",
+            "swazure_interfaces/srv/ComputePose",
+            f"{{source_id: {source}, target_id: {target}, policy: 1}}",
+        )
+        assert answer.returncode == 0, answer.stderr
+        assert "success=True" in answer.stdout, answer.stdout
+        assert (
+            f"path=[{path}]" in answer.stdout or f"path=array('I', [{path}])" in answer.stdout
+        ), answer.stdout
 
-        wait_until(lambda: echo.poll() is not None, PATIENCE, call_and_listen)
-        out, err = echo.communicate(timeout=PATIENCE)
-        assert echo.returncode == 0, err
-        assert f"source_id: {source}" in out and f"target_ids:\n- {target}\n" in out, out
-    finally:
-        if echo.poll() is None:
-            echo.kill()
-            echo.communicate()
+    echoed = echo_first(
+        [str(ROS2), "topic", "echo", "--once", "/swarm/estimates",
+         "swazure_interfaces/msg/PoseEstimates"],
+        ros2_environment(),
+        step=call,
+    )  # fmt: skip
+    assert f"source_id: {source}" in echoed and f"target_ids:\n- {target}\n" in echoed, echoed
 
 
 def test_a_stopped_swarm_tells_its_peers_that_every_process_nodes_left(

@@ -36,7 +36,7 @@ from swazure_ros.sim.world import WorldSpec
 from ...conftest import REPO, SHARED
 from ...domains import configured_domains, held_domain
 from ...waits import PATIENCE, wait_until
-from ..helpers import ECHO_LATCHED, long_lease_environment
+from ..helpers import ECHO_LATCHED, echo_first, long_lease_environment
 
 VENV = Path(sys.executable).parents[1]
 ROS2 = VENV / "bin" / "ros2"
@@ -326,11 +326,11 @@ def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(
         listed = until(nodes, lambda names: wanted <= set(names))
         assert wanted <= set(listed), listed
         # A measurement in metres, in the measuring FLS's frame: FLS 1 is 8 cm from FLS 0.
-        echo = ros2("topic", "echo", *ECHO_LATCHED, "--once",
-                    "--filter", "m.source_id == 0 and len(m.poses) > 0",
-                    "/swarm/measurements", "swazure_interfaces/msg/Measurements")  # fmt: skip
-        assert echo.returncode == 0, echo
-        assert "frame_id: fls_0" in echo.stdout and "x: 0.08" in echo.stdout, echo.stdout
+        echoed = echo_first([str(ROS2), "topic", "echo", *ECHO_LATCHED, "--once",
+                             "--filter", "m.source_id == 0 and len(m.poses) > 0",
+                             "/swarm/measurements", "swazure_interfaces/msg/Measurements"],
+                            environment())  # fmt: skip
+        assert "frame_id: fls_0" in echoed and "x: 0.08" in echoed, echoed
         # Discovery by messages between three processes, each an FLS alone.
         call = compute_pose(0, 2)
         assert "success=True" in call.stdout, call
@@ -518,11 +518,10 @@ def test_ros2_launch_of_the_default_example_swarm_sees_and_answers(ros2_tools, d
         sources = {int(line) for line in out.split() if line.isdigit()}
         assert sources == set(range(120)), sorted(set(range(120)) - sources)
         # tf2's frames: one per FLS in the swarm's fixed frame, metres.
-        frames = ros2("topic", "echo", *ECHO_LATCHED, "--once", "/tf_static",
-                      "tf2_msgs/msg/TFMessage")  # fmt: skip
-        assert frames.returncode == 0, frames
-        assert frames.stdout.count("child_frame_id: fls_") == 120, frames.stdout[:2000]
-        assert "frame_id: swarm" in frames.stdout
+        frames = echo_first([str(ROS2), "topic", "echo", *ECHO_LATCHED, "--once", "/tf_static",
+                             "tf2_msgs/msg/TFMessage"], environment())  # fmt: skip
+        assert frames.count("child_frame_id: fls_") == 120, frames[:2000]
+        assert "frame_id: swarm" in frames
         # A blind pair that the engine reaches by a sweet path: the swarm answers it so.
         spec = WorldSpec("torus:120", scale=5.0, beta=0.5)
         pairs = evaluate(spec.build().swarm, spec.sensor(), policy="shortest-length").pairs
