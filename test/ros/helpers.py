@@ -158,22 +158,8 @@ def echo_first(
     AssertionError
         When nothing was printed within ``timeout`` s; the message has what echo said.
     """
-    echo = subprocess.Popen(
-        command,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=environment,
-        start_new_session=True,
-    )
     lines: list[str] = []
     errors: list[str] = []
-    readers = [
-        threading.Thread(target=lambda: lines.extend(echo.stdout), daemon=True),
-        threading.Thread(target=lambda: errors.extend(echo.stderr), daemon=True),
-    ]
-    for reader in readers:
-        reader.start()
 
     def printed() -> bool:
         return "---\n" in list(lines)
@@ -183,19 +169,33 @@ def echo_first(
             step()
         wait_until(printed, 5.0)
 
-    try:
-        wait_until(printed, timeout, wait_a_little)
-    finally:
-        if echo.poll() is None:
-            with contextlib.suppress(ProcessLookupError):
-                os.killpg(echo.pid, signal.SIGINT)
-            try:
-                echo.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                os.killpg(echo.pid, signal.SIGKILL)
-                echo.wait()
+    with subprocess.Popen(
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=environment,
+        start_new_session=True,
+    ) as echo:
+        readers = [
+            threading.Thread(target=lambda: lines.extend(echo.stdout), daemon=True),
+            threading.Thread(target=lambda: errors.extend(echo.stderr), daemon=True),
+        ]
         for reader in readers:
-            reader.join(timeout=10)
+            reader.start()
+        try:
+            wait_until(printed, timeout, wait_a_little)
+        finally:
+            if echo.poll() is None:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(echo.pid, signal.SIGINT)
+                try:
+                    echo.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    os.killpg(echo.pid, signal.SIGKILL)
+                    echo.wait()
+            for reader in readers:
+                reader.join(timeout=10)
     taken = list(lines)
     assert "---\n" in taken, f"ros2 topic echo printed no message: {''.join(errors)[-2000:]}"
     return "".join(taken[: taken.index("---\n") + 1])
