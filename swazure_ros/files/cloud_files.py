@@ -190,9 +190,21 @@ def read_points(path: str | Path, scale: float = 1.0) -> FloatArray:
     return validate_points(validate_points(raw, str(path)) * scale, f"{path} at scale {scale:g}")
 
 
+def _names_a_cloud(spec: str) -> bool:
+    """True when ``spec`` is a published cloud's name or a built-in shape's."""
+    return published_stem(spec) is not None or spec.partition(":")[0] in BUILTIN_SHAPES
+
+
 def is_cloud_path(spec: str) -> bool:
-    """True when ``spec`` names a file rather than a built-in shape."""
-    return "/" in spec or Path(spec).suffix.lower() in SUFFIXES or Path(spec).exists()
+    """True when ``spec`` names a file rather than a built-in shape or a published cloud.
+
+    A folder does not hide a cloud's name: ``--out chess`` makes a folder ``chess``,
+    and ``--cloud chess`` run there again must still read the chess piece.
+    """
+    path = Path(spec)
+    if "/" in spec or path.suffix.lower() in SUFFIXES or path.is_file():
+        return True
+    return path.exists() and not _names_a_cloud(spec)
 
 
 def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
@@ -207,8 +219,9 @@ def load_cloud(spec: str | Path, scale: float | None = None) -> Cloud:
     """
     text = str(spec)
     stem = published_stem(text)
-    # A bare name that is no file here (dragon, dragon_1147.xyz) is a published cloud's.
-    by_name = stem is not None and "/" not in text and not Path(text).exists()
+    # A bare name that is no file here (dragon, dragon_1147.xyz) is a published cloud's,
+    # even where a folder of that name is (an earlier run's --out dragon).
+    by_name = stem is not None and "/" not in text and not Path(text).is_file()
     if not by_name and (isinstance(spec, Path) or is_cloud_path(text)):
         path = Path(text)
         if scale is None:
