@@ -32,8 +32,9 @@ def _number(
         raise SensorError(f"{where}: missing key '{key}'")
     value: Any = mapping.get(key, default)
     try:
-        number = float(value) if not isinstance(value, bool | str) else math.nan
-    except (TypeError, OverflowError):  # not a number, or an int beyond any float
+        # YAML's !!binary gives bytes, which float() parses when they spell a number.
+        number = float(value) if not isinstance(value, bool | str | bytes) else math.nan
+    except (TypeError, ValueError, OverflowError):  # not a number, or an int beyond any float
         number = math.nan
     if not math.isfinite(number):
         raise SensorError(f"{where}.{key} must be a finite number, got {value!r}")

@@ -45,3 +45,18 @@ def test_a_camera_file_whose_intrinsics_give_no_finite_pose_is_refused(key, valu
     with pytest.raises(SensorError) as refused:
         camera_from_dict(document, "intrinsics.yaml")
     assert str(refused.value).startswith(f"intrinsics.yaml: {message}"), refused.value
+
+
+@pytest.mark.parametrize("value", ["!!binary AAEC", "!!binary MS41", "[1, 2]", "{a: 1}"])
+def test_a_camera_value_of_another_yaml_type_is_one_line_naming_the_key(tmp_path, value):
+    # !!binary is bytes: AAEC is no number, and MS41 spells "1.5", which is still not one.
+    text = (CAMERAS / "rpi-camera-module-3-wide.yaml").read_text()
+    document = yaml.safe_load(text)
+    document["camera"]["image"]["fx"] = "SWAP"
+    path = tmp_path / "odd.yaml"
+    path.write_text(yaml.safe_dump(document).replace("SWAP", value))
+    with pytest.raises(
+        SensorError, match=r"camera.image.fx must be a finite number, got "
+    ) as refused:
+        load_camera(path)
+    assert "\n" not in str(refused.value)
