@@ -108,7 +108,8 @@ def host_share(
     context = host = None
     code = 1
     try:
-        world = config.world.build(hosted_ids=fls_ids)
+        # Its FLSs' pairs only: the launcher's process holds the whole swarm's.
+        world = config.world.build(hosted_ids=fls_ids, only_hosted_pairs=True)
         context = init_context(config)
         own = host_config(config, fls_ids, index, swarm_size, SwarmKey(*key))
         host = SwarmHost(world, own, context=context)

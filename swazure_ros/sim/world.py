@@ -85,13 +85,16 @@ class World:
     # The FLSs (sorted indices) whose observations this world lays out; None: every
     # FLS. A process hosting a share holds its FLSs' rows, asked of others on demand.
     hosted: IntArray | None = None
+    # True: the neighbourhoods hold the hosted FLSs' pairs only (and a moved FLS's).
+    only_hosted_pairs: bool = False
 
     # Worked out on demand, per revision: `replace` gives the next revision an empty one.
     _worked: WorkedOut = field(default_factory=WorkedOut, init=False, repr=False, compare=False)
 
     @property
     def hood(self) -> Neighbourhood:
-        """Every pair within sensor reach, with line of sight."""
+        """Every pair within sensor reach, with line of sight; in a world made with
+        ``only_hosted_pairs``, the hosted FLSs' pairs (and those of FLSs that moved)."""
         if self._worked.hood is None:
             self._worked.hood = moved_neighbourhood(self.known, self.swarm, self.moved_since)
         return self._worked.hood
@@ -256,14 +259,18 @@ def make_world(
     radius: float | None = None,
     seed: int = 0,
     hosted_ids: Sequence[int] | None = None,
+    only_hosted_pairs: bool = False,
 ) -> World:
     """The world of ``cloud`` at revision 0: FLSs at their points, colliding ones removed.
 
     ``hosted_ids`` (FLS ids) are the FLSs whose observations it lays out (every
-    FLS's when None); any other FLS's are worked out when asked.
+    FLS's when None); any other FLS's are worked out when asked. With
+    ``only_hosted_pairs``, its neighbourhood holds only the pairs of the hosted
+    FLSs (:func:`~swazure_ros.core.neighbourhood.neighbourhood_of`), each as the
+    whole swarm's neighbourhood has it: what a process hosting a share needs, not
+    the whole swarm's pairs.
     """
     swarm = make_swarm(cloud.points, beta=beta, radius=radius, seed=seed)
-    hood = neighbourhood(swarm, sensor)
     hosted = None
     if hosted_ids is not None:
         hosted = np.unique(np.asarray(hosted_ids, dtype=np.int64))
@@ -271,16 +278,23 @@ def make_world(
         if len(hosted) and not np.array_equal(swarm.cloud_index[rows], hosted):
             raise UnknownFlsError(f"hosted FLSs not in this swarm of {swarm.size} FLSs")
         hosted = rows if len(hosted) < swarm.size else None
+    if only_hosted_pairs and hosted is not None:
+        hood = neighbourhood_of(swarm, sensor, hosted)
+    else:
+        hood = neighbourhood(swarm, sensor)
     seen = observations(hood, hosted)
     no_moves = np.zeros(0, dtype=np.int64)
-    return World(cloud, sensor, swarm, swarm, 0, hood, seen, hood, no_moves, hosted)
+    lean = only_hosted_pairs and hosted is not None
+    return World(cloud, sensor, swarm, swarm, 0, hood, seen, hood, no_moves, hosted, lean)
 
 
 @dataclass(frozen=True)
 class WorldSpec(SwarmDescription):
     """A swarm's description, from which every process builds the same ground truth."""
 
-    def build(self, hosted_ids: Sequence[int] | None = None) -> World:
+    def build(
+        self, hosted_ids: Sequence[int] | None = None, only_hosted_pairs: bool = False
+    ) -> World:
         """Load the cloud and sensor and make the world at revision 0 (see :func:`make_world`)."""
         return make_world(
             self.cloud_of(),
@@ -289,4 +303,5 @@ class WorldSpec(SwarmDescription):
             radius=self.radius,
             seed=self.seed,
             hosted_ids=hosted_ids,
+            only_hosted_pairs=only_hosted_pairs,
         )

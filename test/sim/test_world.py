@@ -25,13 +25,14 @@ def every_third(spec: WorldSpec) -> list[int]:
     return spec.fls_ids()[::3].tolist()
 
 
-@pytest.mark.parametrize("share", [False, True], ids=["whole", "share"])
+@pytest.mark.parametrize("share", ["whole", "share", "share's pairs only"])
 @pytest.mark.parametrize("sensor_file", [None, str(CALIBRATED)], ids=["published", "stochastic"])
 def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gives(
     sensor_file, share
 ):
     spec = WorldSpec("torus:120", scale=1.6, beta=0.5, sensor_file=sensor_file)
-    world = spec.build(hosted_ids=every_third(spec) if share else None)
+    hosted_ids = every_third(spec) if share != "whole" else None
+    world = spec.build(hosted_ids=hosted_ids, only_hosted_pairs=share == "share's pairs only")
     rng = np.random.default_rng(11)
     compared = changed = asked_few = 0
     for step in range(12):
@@ -114,6 +115,26 @@ def test_a_share_world_lays_out_its_own_flss_rows_only_and_they_equal_the_whole_
             assert share_rows.start == share_rows.stop
         fls = int(whole.ids[index])
         np.testing.assert_array_equal(share.measurement(fls).vector, whole.measurement(fls).vector)
+
+
+def test_a_share_world_of_its_own_pairs_holds_those_alone_and_its_rows_are_the_whole_worlds():
+    # What a further process of a swarm builds: no pair between two FLSs it does not host.
+    spec = WorldSpec("torus:400", scale=1.6, beta=0.5)
+    whole, hosted_ids = spec.build(), every_third(spec)
+    lean = spec.build(hosted_ids=hosted_ids, only_hosted_pairs=True)
+    hosted = np.zeros(whole.swarm.size, dtype=bool)
+    hosted[whole.indices(hosted_ids)] = True
+    pairs, kept = whole.hood.pairs, hosted[whole.hood.pairs.first] | hosted[whole.hood.pairs.second]
+    # Counted: exactly the whole world's pairs that touch a hosted FLS, and far fewer.
+    assert len(lean.hood.pairs) == int(kept.sum()) < 0.7 * len(pairs)
+    for name in ("first", "second", "distance", "tracking", "range_class"):
+        np.testing.assert_array_equal(getattr(lean.hood.pairs, name), getattr(pairs, name)[kept])
+    np.testing.assert_array_equal(lean.hood.visible, whole.hood.visible[kept])
+    for name in ("other", "range_class", "visible", "vector", "tracking", "distance"):
+        np.testing.assert_array_equal(
+            getattr(lean.seen, name), getattr(spec.build(hosted_ids=hosted_ids).seen, name)
+        )
+    assert lean.only_hosted_pairs and not spec.build(hosted_ids=hosted_ids).only_hosted_pairs
 
 
 def test_a_share_of_ids_the_swarm_does_not_hold_is_refused():
