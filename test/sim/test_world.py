@@ -124,7 +124,8 @@ def test_a_share_world_of_its_own_pairs_holds_those_alone_and_its_rows_are_the_w
     lean = spec.build(hosted_ids=hosted_ids, only_hosted_pairs=True)
     hosted = np.zeros(whole.swarm.size, dtype=bool)
     hosted[whole.indices(hosted_ids)] = True
-    pairs, kept = whole.hood.pairs, hosted[whole.hood.pairs.first] | hosted[whole.hood.pairs.second]
+    pairs = whole.hood.pairs
+    kept = hosted[pairs.first] | hosted[pairs.second]
     # Counted: exactly the whole world's pairs that touch a hosted FLS, and far fewer.
     assert len(lean.hood.pairs) == int(kept.sum()) < 0.7 * len(pairs)
     for name in ("first", "second", "distance", "tracking", "range_class"):
