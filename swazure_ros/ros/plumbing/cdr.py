@@ -23,8 +23,8 @@ bytes by the type's field definitions; alignment counts from the end of the
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
-from typing import Any, Literal
+import struct
+from typing import Any, NamedTuple
 
 from rclpy.serialization import serialize_message
 
@@ -43,23 +43,22 @@ PRIMITIVE_BYTES = {
 }  # fmt: skip
 #: A sequence's length and a string's length are uint32s.
 LENGTH_BYTES = 4
-#: The byte order of a CDR message, from its encapsulation header.
-Order = Literal["little", "big"]
+#: A length in CDR of each byte order (the encapsulation header's).
+_LENGTH = {"little": struct.Struct("<I"), "big": struct.Struct(">I")}
 #: More zeros than any padding has (at most 7 bytes, before an 8-byte value).
 _ZEROS = bytes(8)
 
 
-@dataclass(frozen=True)
-class _Field:
+class _Field(NamedTuple):
     """How one field lies in CDR: a primitive, a string or a nested message, alone or many.
 
-    ``count`` is None for one value, -1 for a sequence (its length first),
+    ``repeat`` is None for one value, -1 for a sequence (its length first),
     or a fixed array's length. ``size`` is a primitive's bytes (0 for a
     string), ``nested`` a message's fields.
     """
 
     size: int
-    count: int | None
+    repeat: int | None
     nested: tuple[_Field, ...] | None = None
 
 
@@ -76,52 +75,48 @@ def serialize(message: Any) -> bytes:
         The encapsulation header and the message, the same bytes for the same message.
     """
     data = serialize_message(message)
-    end, padding = _layout(data, type(message))
-    exact = bytearray(memoryview(data)[:end])
-    for start, stop in padding:
-        exact[start:stop] = _ZEROS[: stop - start]
-    return bytes(exact)
-
-
-def _layout(data: bytes, kind: Any) -> tuple[int, list[tuple[int, int]]]:
-    """(end, padding): the end of the message in ``data``, and its padding's (start, stop)s."""
-    order: Order = "little" if data[1:2] == b"\x01" else "big"  # the representation id's low byte
-    padding: list[tuple[int, int]] = []
-    end = _walk(data, ENCAPSULATION, _fields(kind), order, padding)
+    kind: Any = type(message)
+    # The message after its header, with positions counted from there as CDR aligns them.
+    body = bytearray(memoryview(data)[ENCAPSULATION:])
+    length = _LENGTH["little" if data[1:2] == b"\x01" else "big"]  # the header's byte order
+    try:
+        end = _walk(body, 0, _fields(kind), length)
+    except struct.error as err:
+        raise SwazureError(f"CDR bytes end inside their {kind.__name__}") from err
     # The walk only moves on: a length read past the end leaves it past the end too.
-    if end > len(data):
+    if end > len(body):
         raise SwazureError(f"CDR bytes end inside their {kind.__name__}")
-    return end, padding
+    del body[end:]
+    return data[:ENCAPSULATION] + body
 
 
-def _walk(
-    data: bytes, at: int, fields: tuple[_Field, ...], order: Order, padding: list[tuple[int, int]]
-) -> int:
-    """The index after ``fields`` written from ``at`` in ``data``; padding noted on the way."""
-    for field in fields:
-        count = 1 if field.count is None else field.count
-        if count < 0:
-            at = _align(at, LENGTH_BYTES, padding)
-            count = int.from_bytes(data[at : at + LENGTH_BYTES], order)
-            at += LENGTH_BYTES
-        if field.nested is not None:
+def _walk(body: bytearray, at: int, fields: tuple[_Field, ...], length: struct.Struct) -> int:
+    """The index after ``fields`` written from ``at`` in ``body``, its padding zeroed."""
+    for size, count, nested in fields:
+        if count is None:
+            count = 1
+        elif count < 0:  # a sequence: its length first
+            skip = -at % LENGTH_BYTES
+            if skip:
+                body[at : at + skip] = _ZEROS[:skip]
+            (count,) = length.unpack_from(body, at + skip)
+            at += skip + LENGTH_BYTES
+        if nested is not None:
             for _ in range(count):
-                at = _walk(data, at, field.nested, order, padding)
-        elif field.size == 0:  # strings, each its length (with its NUL) and its bytes
+                at = _walk(body, at, nested, length)
+        elif not size:  # strings, each its length (with its NUL) and its bytes
             for _ in range(count):
-                at = _align(at, LENGTH_BYTES, padding)
-                at += LENGTH_BYTES + int.from_bytes(data[at : at + LENGTH_BYTES], order)
+                skip = -at % LENGTH_BYTES
+                if skip:
+                    body[at : at + skip] = _ZEROS[:skip]
+                at += skip
+                at += LENGTH_BYTES + length.unpack_from(body, at)[0]
         elif count:  # Fast CDR aligns an array of primitives once, and not when empty
-            at = _align(at, field.size, padding) + count * field.size
+            skip = -at % size  # size is at most 8, CDR's largest alignment
+            if skip:
+                body[at : at + skip] = _ZEROS[:skip]
+            at += skip + count * size
     return at
-
-
-def _align(at: int, size: int, padding: list[tuple[int, int]]) -> int:
-    """``at`` moved on to the next multiple of ``size`` (at most 8) after the header."""
-    skip = -(at - ENCAPSULATION) % (size if size < 8 else 8)
-    if skip:
-        padding.append((at, at + skip))
-    return at + skip
 
 
 @functools.cache
@@ -130,7 +125,7 @@ def _fields(kind: Any) -> tuple[_Field, ...]:
     fields: list[_Field] = []
     for text in kind.get_fields_and_field_types().values():
         field = _field(text, kind)
-        if field.nested is not None and field.count is None:
+        if field.nested is not None and field.repeat is None:
             fields += field.nested  # one nested message lies as its fields would, inline
         else:
             fields.append(field)
