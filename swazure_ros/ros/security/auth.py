@@ -8,10 +8,12 @@ HMAC-SHA256 tag, under a 32-byte key every process of the swarm holds, of
 every other field. A peer on the domain without the key can publish
 whatever it likes: no process takes it.
 
-The tag covers the fields' values, not the serialised bytes: CDR leaves its
-alignment padding uninitialised, so one message serialises to different
-bytes each time. :func:`content` writes each field in order, with its type and
-length, into the MAC.
+The tag covers the fields' values, not the serialised bytes: CDR says
+nothing of what its alignment padding holds (rclpy's serialize_message leaves
+heap bytes there; the swarm's senders zero them, :mod:`..plumbing.cdr`), so
+one message may come as different bytes from different writers.
+:func:`content` writes each field in order, with its type and length, into
+the MAC.
 
 A tag is bound to one life of the swarm: the MAC also covers the swarm
 instance, 16 random bytes made when the swarm starts and never sent, so a
@@ -37,9 +39,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
-from rclpy.serialization import deserialize_message, serialize_message
+from rclpy.serialization import deserialize_message
 
 from ...core.errors import MessageError, SwazureError
+from ..plumbing.cdr import serialize
 from ..plumbing.interfaces import message_class
 from .keys import KEY_BYTES, new_key, read_key
 
@@ -229,8 +232,8 @@ class SwarmKey:
         return message
 
     def serialize(self, message: Any) -> bytes:
-        """``message`` signed and serialised."""
-        return bytes(serialize_message(self.sign(message)))
+        """``message`` signed and serialised: its CDR bytes exactly (:func:`.cdr.serialize`)."""
+        return serialize(self.sign(message))
 
     def deserialize(self, data: bytes, kind: type[T]) -> T:
         """The message of type ``kind`` in ``data``; MessageError if not one, or not signed.
