@@ -168,6 +168,10 @@ def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None
     return Neighbourhood(swarm, sensor, pairs, visible, grid, np.ones(len(pairs), dtype=bool))
 
 
+#: neighbourhood_of finds the pairs of at least one FLS in this many by the whole list's pass.
+MANY_FLSS = 8
+
+
 def neighbourhood_of(
     swarm: Swarm,
     sensor: Sensor,
@@ -216,7 +220,16 @@ def neighbourhood_of(
     [(0, 2), (1, 2), (2, 3)]
     """
     flss = _indices(flss, "flss", swarm.size)
-    pairs = pairs_of(swarm, sensor, flss, tree)
+    if len(flss) * MANY_FLSS >= swarm.size:
+        # A share of a swarm: the whole list's compiled pass costs less than a tree's
+        # Python lists of that many FLSs' neighbours; line of sight, the most of it, is
+        # still judged for these FLSs' pairs alone.
+        mine = np.zeros(swarm.size, dtype=bool)
+        mine[flss] = True
+        pairs = neighbour_pairs(swarm, sensor)
+        pairs = pairs.select(mine[pairs.first] | mine[pairs.second])
+    else:
+        pairs = pairs_of(swarm, sensor, flss, tree)
     edge = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)
     grid = grid or build_grid(swarm.points, swarm.radius)
     visible = np.zeros(len(pairs), dtype=bool)
