@@ -79,7 +79,8 @@ def speed_section(
         "| --- | ---: | ---: | --- | --- | --- |",
         *rows,
         "",
-        "Where one run's wall goes (`python -m bench.phases`, one run each, seconds):",
+        "Where one run's wall goes (`python -m bench.phases`, one run each, seconds to the",
+        "millisecond: a small shape's pairs.csv takes a few):",
         "start-up is the interpreter's own start and exit (the wall from outside less the",
         "rest); imports, the command line's and the verb's; kernels, numba's import and",
         "each kernel's first dispatch from its cache on disk; tables, the pairs' pyarrow",
@@ -103,8 +104,8 @@ def phase_row(shape: str, arguments: list[str]) -> str:
     print(f"phases {shape}: {seconds:.2f} s {phase}", flush=True)
     cells = [phase[name] for name in ("imports", "kernels", "engine", "tables", "csv")]
     return (
-        f"| {shape} | {seconds:.2f} | {start:.2f} | "
-        + " | ".join(f"{c:.2f}" for c in cells)
+        f"| {shape} | {seconds:.3f} | {start:.3f} | "
+        + " | ".join(f"{c:.3f}" for c in cells)
         + " |"
     )
 

@@ -24,10 +24,13 @@ def test_the_speed_section_times_evaluate_the_version_and_a_help_against_their_t
         "`swazure key --help`",
     ]  # fmt: skip
     assert all(row[1] == "1" and float(row[2]) > 0 and row[5] in ("yes", "no") for row in rows)
-    # One run's phases: each took some time, and the ones inside the run fit in its wall.
+    # One run's phases, to the millisecond: the imports and the kernels' first dispatch
+    # take tenths; the tables and torus:60's pairs.csv take a few milliseconds, which
+    # a busy machine's clock may round to none, so they are only never negative.
     assert phase_header[:2] == ["shape", "wall s"]
     [phase] = phases
     assert phase[0] == "torus:60"
     wall, start, imports, kernels, engine, tables, csv = map(float, phase[1:])
-    assert min(imports, kernels, tables, csv) > 0
-    assert start + imports + kernels + engine + tables + csv == pytest.approx(wall, abs=0.05)
+    assert min(imports, kernels) > 0 and min(tables, csv) >= 0
+    assert all(len(cell.split(".")[1]) == 3 for cell in phase[1:])
+    assert start + imports + kernels + engine + tables + csv == pytest.approx(wall, abs=0.01)
