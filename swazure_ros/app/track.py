@@ -103,6 +103,7 @@ class TrackSession:
                     **track_parameters(config),
                     "track.motion": per_fls.motion,
                     "track.report_progress": True,
+                    "track.peers": len(self.fls_ids),
                 },
             )
         own = HostConfig(
@@ -158,9 +159,11 @@ class TrackSession:
             return False
         if self.processes is None:
             return True
-        # Each FLS's radio is up (at its camera's first frame) and its track publishers
-        # are matched here: nothing they send is lost.
-        return self.client.hears(len(self.fls_ids))
+        # Each FLS's radio is up (at its camera's first frame), its track publishers are
+        # matched here, and it has reported: it reports first once its requests and
+        # samples reach every other FLS's radio (track.peers), so nothing it sends is lost.
+        count = len(self.fls_ids)
+        return self.client.hears(count) and len(self.client.progress) >= count
 
     def track(self, source: int, target: int, model: str, timeout: float = ANSWER_TIMEOUT) -> int:
         """Ask FLS ``source`` to track ``target``; return the relay, or raise TrackingError."""

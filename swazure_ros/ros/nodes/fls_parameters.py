@@ -48,13 +48,20 @@ REPORT_PROGRESS = ParameterSpec(
     "publish track_progress after each track event: for a driver of a simulated clock "
     "across processes (swazure track --per-fls)",
 )
+TRACK_PEERS = ParameterSpec(
+    "track.peers",
+    0,
+    "with track.report_progress: FLS processes taking part in the run, this one included; "
+    "its first report waits until its track publishers have matched that many readers",
+    at_least(0),
+)
 #: track.<name>, defaulting to TrackConfig's (TrackConfig checks them together).
 TRACK_SETTINGS_SPECS = tuple(
     ParameterSpec(f"track.{name}", getattr(TrackConfig(), name), description)
     for name, description in TRACK_SETTINGS.items()
 )
 #: The parameters an FLS node's tracking declares.
-TRACKING = (TRACK_SERVICE_FLAG, REPORT_PROGRESS, *TRACK_SETTINGS_SPECS)
+TRACKING = (TRACK_SERVICE_FLAG, REPORT_PROGRESS, TRACK_PEERS, *TRACK_SETTINGS_SPECS)
 
 JOIN_TIMEOUT = ParameterSpec(
     "join_timeout",

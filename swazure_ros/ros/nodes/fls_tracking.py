@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Callable
 
-from rclpy.clock import JumpHandle, JumpThreshold
+from rclpy.clock import Clock, ClockType, JumpHandle, JumpThreshold
 from rclpy.duration import Duration
 from rclpy.publisher import Publisher
 from rclpy.timer import Timer
@@ -52,7 +52,10 @@ from ..plumbing.node import SwarmNode
 from ..plumbing.parameters import ParameterError
 from ..security.guard import check
 from . import fls_parameters
-from .fls_parameters import REPORT_PROGRESS, TRACK_SERVICE_FLAG, TRACK_SETTINGS_SPECS
+from .fls_parameters import REPORT_PROGRESS, TRACK_PEERS, TRACK_SERVICE_FLAG, TRACK_SETTINGS_SPECS
+
+#: Wall s between looks at whether the track publishers have matched their readers.
+MATCH_POLL = 0.1
 
 #: The topics a track run publishes on, and their message types.
 TRACK_TOPICS: dict[str, type] = {
@@ -115,9 +118,20 @@ class FlsTracking:
         # every endpoint costs discovery time. Under a driver of the clock in another
         # process, at once: a message sent before its readers have matched is lost.
         self._publishers: dict[str, Publisher] = {}
+        self.peers = node.declare(TRACK_PEERS)
+        self._matching: Timer | None = None
         if self.report_progress:
             for topic, kind in TRACK_TOPICS.items():
                 self._publishers[topic] = node.create_publisher(kind, topic, ROUND_QOS)
+            # The driver starts once every FLS has reported, and each reports first when its
+            # requests and samples reach every peer's radio: the driver seeing a reader on
+            # its graph does not make it matched to another process's writer, and a message
+            # sent before its reader matched is lost for good (a loaded machine's track
+            # waited for ever on a relay request sent too soon, 2026-11-29). On the wall
+            # clock: the simulated one stands still until the driver starts.
+            self._matching = node.create_timer(
+                MATCH_POLL, self._report_when_matched, clock=Clock(clock_type=ClockType.STEADY_TIME)
+            )
         # Relay frames and track timeouts run on the node's clock. On simulated
         # time they follow /clock itself: the EventsExecutor's timers do not
         # support a simulated clock (ros2/rclcpp#2457) and skip periods.
@@ -224,6 +238,25 @@ class FlsTracking:
         if idle and isinstance(self._ticks, Timer):
             self.node.destroy_timer(self._ticks)
             self._ticks = None
+
+    def readers(self, topic: str) -> int:
+        """Readers matched to this FLS's track publisher on ``topic`` (0 before it has one)."""
+        publisher = self._publishers.get(topic)
+        return 0 if publisher is None else publisher.get_subscription_count()
+
+    def matched(self) -> bool:
+        """Whether its requests and samples reach ``track.peers`` radios, the rest a driver."""
+        wanted = {TRACK_REQUESTS_TOPIC: self.peers, TRACK_SAMPLES_TOPIC: self.peers}
+        return all(self.readers(topic) >= wanted.get(topic, 1) for topic in TRACK_TOPICS)
+
+    def _report_when_matched(self) -> None:
+        if self._matching is not None and self.matched():
+            self.node.destroy_timer(self._matching)
+            self._matching = None
+            # Reported once, it follows the driver's clock: its report at each tick tells
+            # the driver it has caught up, or the driver would wait for it at the next.
+            self._start_ticks()
+            self._report_progress()
 
     def _report_progress(self) -> None:
         if self.report_progress:

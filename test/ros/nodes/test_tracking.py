@@ -224,6 +224,48 @@ def test_on_the_wall_clock_an_fls_with_nothing_to_relay_or_track_stops_its_frame
         assert len(relay.tracking.relay) == 0 and not source.tracking.tracker.tracks
 
 
+def test_an_fls_reporting_progress_reports_first_once_every_peer_hears_its_requests(world, context):
+    # Under a driver of the clock in another process (swazure track --per-fls): a
+    # request sent before a peer's reader matched is lost, so the FLS's first report,
+    # which the driver starts on, waits for track.peers readers of its requests.
+    from rclpy.node import Node
+    from swazure_interfaces.msg import TrackRequest, TrackSample
+
+    from swazure_ros.ros.clients.track_client import TrackClient
+    from swazure_ros.ros.plumbing.names import (
+        ROUND_QOS,
+        TRACK_REQUESTS_TOPIC,
+        TRACK_SAMPLES_TOPIC,
+    )
+    from swazure_ros.ros.programs.host import HostConfig, SwarmHost
+
+    track = {"track.report_progress": True, "track.peers": 2, "use_sim_time": True}
+    with SwarmHost(world, HostConfig((0,), parameters=track), context=context) as host:
+        host.create_fls_nodes()
+        [fls] = host.fls_nodes
+        client = TrackClient(namespace="swarm", context=context, ids=world.ids, guard=host.guard)
+        host.add(client)
+
+        def spin_until(condition) -> bool:
+            return wait_until(condition, PATIENCE, lambda: host.spin_once(0.05))
+
+        # One peer's radio (this process's) and the driver hear it: one reader short.
+        assert spin_until(lambda: client.hears(1))
+        assert spin_until(lambda: fls.tracking.readers(TRACK_REQUESTS_TOPIC) == 1)
+        wait_until(lambda: False, 1.0, lambda: host.spin_once(0.05))
+        assert not fls.tracking.matched() and client.progress == {}
+        # The second peer's radio comes up: the report follows, at time 0, nothing sent.
+        peer = Node("peer_radio", namespace="swarm", context=context)
+        host.add(peer)
+        peer.create_subscription(TrackRequest, TRACK_REQUESTS_TOPIC, lambda _: None, ROUND_QOS)
+        peer.create_subscription(TrackSample, TRACK_SAMPLES_TOPIC, lambda _: None, ROUND_QOS)
+        assert spin_until(lambda: 0 in client.progress)
+        report = client.progress[0]
+        assert report.time == 0 and not report.due
+        assert report.traffic["requests_sent"] == report.traffic["samples_sent"] == 0
+        assert fls.tracking.matched() and fls.tracking.ticking
+
+
 def test_an_estimate_survives_the_message_round_trip(world):
     from swazure_ros.core.estimators import KalmanTracker
     from swazure_ros.core.tracking import Track
