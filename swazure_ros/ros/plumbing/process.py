@@ -16,6 +16,7 @@ import faulthandler
 import gc
 import os
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -181,6 +182,47 @@ def seconds_since_start() -> float:
     return float(Path("/proc/uptime").read_text().split()[0]) - started
 
 
+#: The signals that ask a program to end.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def catch_stops(limit: float) -> list[int]:
+    """The stop signals this process gets from now on, in a list that fills as they come.
+
+    At the first, a watchdog is armed: a process that has not ended ``limit`` s
+    later prints every thread's stack (to its log) and exits 1, so that a stop
+    that hangs says where. The watchdog is armed by a thread of its own,
+    woken through Python's signal wakeup fd, which the C handler writes from
+    whatever thread the kernel hands the signal to: Python's own handler runs
+    only in the main thread and only between bytecodes, so a main thread stuck
+    in a callback, in C or with the signals blocked would never arm it (a
+    stuck process ignored its SIGINT for 300 s on a loaded machine,
+    2026-11-28). A mask inherited from the parent that blocks them is lifted:
+    a program must hear its stop. Call it from the main thread, before any
+    thread of its own is started.
+    """
+    stop: list[int] = []
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, STOP_SIGNALS)
+    woken, wake = socket.socketpair()
+    wake.setblocking(False)
+    signal.set_wakeup_fd(wake.fileno(), warn_on_full_buffer=False)
+    for signum in STOP_SIGNALS:
+        # Python's C handler then writes the number to the wakeup fd; the watcher acts.
+        signal.signal(signum, lambda number, frame: None)
+
+    def watch(woken: socket.socket, wake: socket.socket) -> None:
+        # Holds both ends: the writing one must live as long as the wakeup fd names it.
+        while numbers := woken.recv(64):
+            for number in numbers:
+                if number in STOP_SIGNALS:
+                    if not stop:
+                        faulthandler.dump_traceback_later(limit, exit=True)
+                    stop.append(number)
+
+    threading.Thread(target=watch, args=(woken, wake), name="stop-watch", daemon=True).start()
+    return stop
+
+
 def run_process(
     build: Callable[[Context, StartupValues], list[Node]],
     args: list[str] | None = None,
@@ -201,18 +243,9 @@ def run_process(
     endpoint, and its peers drop its nodes at once (docs/swarm.md, "Stopping").
     """
     values = program_startup(args, usage, startup)
+    stop = catch_stops(STOP_LIMIT)
     context = Context()
     rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
-    stop: list[int] = []
-
-    def on_stop(number: int, frame: object) -> None:
-        stop.append(number)
-        # A process that has not ended this long after being asked prints every
-        # thread's stack (to its log) and exits 1: a stop that hangs says where.
-        faulthandler.dump_traceback_later(STOP_LIMIT, exit=True)
-
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, on_stop)
     executor: Executor | None = None
     code = 0
     try:

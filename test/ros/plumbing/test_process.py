@@ -29,6 +29,9 @@ def build(context, values):
     node = SwarmNode("stuck", context=context)
 
     def stuck_in_a_callback():
+        if "--main-blocks-stops" in sys.argv:
+            # As a main thread stuck in C may be: the signals go to another thread.
+            process.signal.pthread_sigmask(process.signal.SIG_BLOCK, process.STOP_SIGNALS)
         print("stuck", flush=True)
         time.sleep(3600)
 
@@ -40,9 +43,23 @@ sys.exit(process.run_process(build, []))
 """
 
 
-def test_a_process_that_hangs_when_asked_to_stop_prints_where_and_exits_1(domain):
+def _block_stops() -> None:
+    signal.pthread_sigmask(signal.SIG_BLOCK, (signal.SIGINT, signal.SIGTERM))
+
+
+@pytest.mark.parametrize(
+    "how",
+    ["plain", "main-blocks-stops", "started-with-stops-blocked"],
+)
+def test_a_process_that_hangs_when_asked_to_stop_prints_where_and_exits_1(domain, how):
+    # Its SIGINT arms the watchdog whichever thread the kernel hands it to, and also
+    # when the process started with the stop signals blocked (a parent's mask is inherited).
     process = subprocess.Popen(
-        [sys.executable, "-c", STUCK], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        [sys.executable, "-c", STUCK, f"--{how}"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=_block_stops if how == "started-with-stops-blocked" else None,
     )
     try:
         assert process.stdout is not None
