@@ -138,6 +138,38 @@ def joined(by_topic, topics) -> list:
     return [message for topic in topics for message in by_topic.get(topic, [])]
 
 
+#: Wall s one ros2 CLI command may take: seconds as a rule, tens on a loaded machine.
+ROS2_CALL_TIMEOUT = 120.0
+
+
+def run_ros2(
+    command: list[str], environment: dict[str, str], timeout: float = ROS2_CALL_TIMEOUT
+) -> subprocess.CompletedProcess[str]:
+    """Run a ros2 CLI ``command`` to its end, or kill it at ``timeout`` s; what it printed.
+
+    A ros2 command can print all it has to say and then hang tearing its own node
+    down (Fast DDS 2.14, eProsima/Fast-DDS#6502: `ros2 topic echo --once` did for over
+    300 s on a loaded CI machine, 2026-11-29; see :func:`echo_first`). Killed, it
+    returns its output with return code -9 (SIGKILL), for the caller to judge: a
+    retried call (``until``) takes an answer it printed before it hung.
+    """
+    with subprocess.Popen(
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=environment,
+        start_new_session=True,
+    ) as process:
+        try:
+            out, err = process.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(process.pid, signal.SIGKILL)
+            out, err = process.communicate()
+    return subprocess.CompletedProcess(command, process.returncode, out, err)
+
+
 def echo_first(
     command: list[str],
     environment: dict[str, str],

@@ -31,11 +31,13 @@ from ..waits import PATIENCE, wait_until
 from .helpers import (
     ECHO_LATCHED,
     LATCHED,
+    ROS2_CALL_TIMEOUT,
     assert_matches,
     echo_first,
     engine_expectations,
     long_lease_environment,
     matches,
+    run_ros2,
 )
 
 WORLD = WorldSpec("helix:100", beta=0.5)
@@ -290,10 +292,8 @@ def ros2_environment():
     return dict(os.environ, AMENT_PREFIX_PATH=str(Path(sys.executable).parents[1]))
 
 
-def ros2(*args, timeout=PATIENCE):
-    return subprocess.run(
-        [str(ROS2), *args], capture_output=True, text=True, timeout=timeout, env=ros2_environment()
-    )
+def ros2(*args, timeout=ROS2_CALL_TIMEOUT):
+    return run_ros2([str(ROS2), *args], ros2_environment(), timeout)
 
 
 def test_real_ros2_cli_sees_nodes_topic_and_service(ros2_cli, running_swarm):

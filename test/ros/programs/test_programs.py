@@ -36,7 +36,13 @@ from swazure_ros.sim.world import WorldSpec
 from ...conftest import REPO, SHARED
 from ...domains import configured_domains, held_domain
 from ...waits import PATIENCE, wait_until
-from ..helpers import ECHO_LATCHED, echo_first, long_lease_environment
+from ..helpers import (
+    ECHO_LATCHED,
+    ROS2_CALL_TIMEOUT,
+    echo_first,
+    long_lease_environment,
+    run_ros2,
+)
 
 VENV = Path(sys.executable).parents[1]
 ROS2 = VENV / "bin" / "ros2"
@@ -62,11 +68,9 @@ def environment() -> dict[str, str]:
     return dict(os.environ, AMENT_PREFIX_PATH=str(VENV), PYTHONUNBUFFERED="1")
 
 
-def ros2(*args: str, timeout: float = PATIENCE) -> subprocess.CompletedProcess[str]:
-    """Run a ros2 command to its end."""
-    return subprocess.run(
-        [str(ROS2), *args], capture_output=True, text=True, timeout=timeout, env=environment()
-    )
+def ros2(*args: str, timeout: float = ROS2_CALL_TIMEOUT) -> subprocess.CompletedProcess[str]:
+    """Run a ros2 command to its end, or kill it at ``timeout`` (helpers.run_ros2)."""
+    return run_ros2([str(ROS2), *args], environment(), timeout)
 
 
 def start(*args: str, cwd: Path | None = None) -> subprocess.Popen[str]:
@@ -488,11 +492,9 @@ def test_ros2_launch_removes_its_key_when_a_process_of_it_has_died(ros2_tools, d
 
 def echoed(*args: str, seconds: float) -> str:
     """What ``ros2 topic echo ARGS`` prints in ``seconds``, as a person watching it would see."""
-    try:
-        ros2("topic", "echo", *args, timeout=seconds)
-    except subprocess.TimeoutExpired as watched:
-        return (watched.stdout or b"").decode()  # type: ignore[union-attr]
-    raise AssertionError("ros2 topic echo ended by itself")
+    watched = ros2("topic", "echo", *args, timeout=seconds)
+    assert watched.returncode == -signal.SIGKILL, f"ros2 topic echo ended by itself: {watched}"
+    return watched.stdout
 
 
 def test_ros2_launch_of_the_default_example_swarm_sees_and_answers(ros2_tools, domain, tmp_path):
