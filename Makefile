@@ -92,8 +92,9 @@ lint: setup
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/mypy
 
+# The bench sections' whole-section smoke tests run with make bench, before its sections.
 test: lint
-	$(VENV)/bin/pytest -n $(PYTEST_WORKERS) --dist worksteal $(PYTEST_ARGS)
+	$(VENV)/bin/pytest -n $(PYTEST_WORKERS) --dist worksteal -m "not bench_section" $(PYTEST_ARGS)
 
 demo: setup
 	$(VENV)/bin/swazure evaluate --cloud torus --beta 0.5 --policy shortest-length
@@ -104,6 +105,7 @@ demo: setup
 		--communication-delay 0.3 --every 1
 
 bench: setup
+	$(VENV)/bin/pytest -n $(PYTEST_WORKERS) --dist worksteal -m bench_section test/bench
 	$(PY) -m bench $(if $(SECTIONS),--sections $(SECTIONS))
 
 study: setup

@@ -11,6 +11,7 @@ from .tables import check_shape
 pytest.importorskip("cv2", reason="OpenCV (the camera's detector) is not installed")
 
 
+@pytest.mark.bench_section
 def test_the_camera_section_times_a_frame_runs_the_tools_and_a_study(tmp_path):
     published = {"published": CAMERA_STUDY_SENSORS["published"]}
     lines = camera_section(

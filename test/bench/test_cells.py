@@ -2,11 +2,14 @@
 
 from argparse import Namespace
 
+import pytest
+
 from bench.cells import cells_lines, cells_section
 
 from .tables import check_shape
 
 
+@pytest.mark.bench_section
 def test_the_cells_section_measures_a_small_torus_over_two_processes(domain, tmp_path):
     lines = cells_section(
         Namespace(beta=0.5), runs=(("torus:120", 2),), domain=domain, figures=tmp_path,

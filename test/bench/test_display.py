@@ -1,10 +1,13 @@
 """bench.display: a small swarm's runs timed, compared with the held run, tabled and plotted."""
 
+import pytest
+
 from bench.display import display_cloud, display_figure, display_lines, display_run
 
 from .tables import check_shape
 
 
+@pytest.mark.bench_section
 def test_the_display_section_times_each_run_and_finds_it_identical_to_the_held_one(tmp_path):
     # Two of the section's runs (each is a process and its held twin): plain and a heuristic.
     rows = [display_run("torus", 200, run, tmp_path) for run in ("plain", "move-obstructing")]

@@ -3,6 +3,8 @@ each process ended, and how long a live peer listed the stopped swarm's nodes.""
 
 from argparse import Namespace
 
+import pytest
+
 from bench.exits import (
     KINDS,
     LAUNCH,
@@ -18,6 +20,7 @@ from bench.exits import (
 from .tables import check_shape
 
 
+@pytest.mark.bench_section
 def test_the_exits_section_tables_how_every_process_of_each_launcher_ended(domain):
     # One run under each launcher: the table's sums over runs are test_..._sum_every_run's.
     lines = exits_section(Namespace(beta=0.5), runs=1, linger_runs=1, domain=domain)

@@ -2,11 +2,14 @@
 
 from argparse import Namespace
 
+import pytest
+
 from bench.faults import faults_section
 
 from .tables import check_shape
 
 
+@pytest.mark.bench_section
 def test_the_faults_section_gives_a_row_per_case_and_the_perfect_radio_matches_the_engine(
     domain, tmp_path
 ):

@@ -11,6 +11,7 @@ from bench.fls_process import fls_process_section
 from .tables import check_shape
 
 
+@pytest.mark.bench_section
 def test_the_fls_process_section_times_and_measures_each_fls_of_the_trio(domain):
     if not (Path(sys.executable).parents[1] / "lib" / "swazure_ros" / "fls").exists():
         pytest.skip("the swarm's programs are absent (make setup installs them in the venv)")

@@ -26,6 +26,7 @@ def test_the_hosts_section_gives_cpu_per_fls_process_and_draws_three_figures(tmp
     assert all((tmp_path / name).read_bytes().startswith(b"\x89PNG") for name in names)
 
 
+@pytest.mark.bench_section
 def test_the_hosts_section_counts_the_fls_processes_of_a_tiny_torus_over_two_hosts(tmp_path):
     reason = hosts_unavailable()
     if reason is not None:

@@ -2,11 +2,14 @@
 
 from argparse import Namespace
 
+import pytest
+
 from bench.least_squares import FIT_SENSORS, least_squares_section
 
 from .tables import check_shape, tables
 
 
+@pytest.mark.bench_section
 def test_the_least_squares_section_measures_a_small_torus_globally_and_locally(tmp_path):
     wide = {"wide, calibrated": FIT_SENSORS["wide, calibrated"]}
     lines = least_squares_section(

@@ -2,11 +2,14 @@
 
 from argparse import Namespace
 
+import pytest
+
 from bench.policies import POLICY_SENSORS, policies_section
 
 from .tables import check_shape
 
 
+@pytest.mark.bench_section
 def test_the_policies_section_sets_least_error_beside_the_papers_two_policies():
     published = {"published": POLICY_SENSORS["published"]}
     lines = policies_section(

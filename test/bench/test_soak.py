@@ -2,11 +2,14 @@
 
 from argparse import Namespace
 
+import pytest
+
 from bench.soak import soak_section
 
 from .tables import check_shape
 
 
+@pytest.mark.bench_section
 def test_the_soak_section_answers_queries_and_samples_the_swarm_at_both_ends(domain, tmp_path):
     lines = soak_section(
         Namespace(beta=0.5), shape="torus:60", domain=domain, seconds=3.0, figures=tmp_path

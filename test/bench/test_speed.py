@@ -11,6 +11,7 @@ from bench.speed import speed_section
 from .tables import check_shape
 
 
+@pytest.mark.bench_section
 def test_the_speed_section_times_evaluate_the_version_and_a_help_against_their_targets():
     if not (Path(sys.executable).parent / "swazure").exists():
         pytest.skip("the installed swazure command is absent (make setup installs it)")

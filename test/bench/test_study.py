@@ -2,11 +2,14 @@
 
 from argparse import Namespace
 
+import pytest
+
 from bench.study import study_section
 
 from .tables import check_shape
 
 
+@pytest.mark.bench_section
 def test_the_study_section_times_a_study_cold_and_then_with_nothing_changed():
     narrow = ["--clouds", "torus:200", "--betas", "0.5", "--policies", "shortest-length",
               "--heuristic-betas", "0.5", "--techniques", "move-source:2"]  # fmt: skip

@@ -2,11 +2,14 @@
 
 from argparse import Namespace
 
+import pytest
+
 from bench.swarm import served_row, swarm_section
 
 from .tables import cells, check_shape
 
 
+@pytest.mark.bench_section
 def test_the_swarm_section_serves_a_small_torus_and_counts_its_messages(domain):
     lines = swarm_section(
         Namespace(beta=0.5), sizes={"torus:60": 60}, domain=domain, processes=(1,), window=2.0

@@ -2,12 +2,15 @@
 
 from argparse import Namespace
 
+import pytest
+
 from bench.under_load import SHORT_LEASE, under_load_section
 
 from ..conftest import REPO
 from .tables import check_shape
 
 
+@pytest.mark.bench_section
 def test_the_under_load_section_loses_no_fls_and_takes_every_fls_back(domain):
     lines = under_load_section(
         Namespace(beta=0.5),

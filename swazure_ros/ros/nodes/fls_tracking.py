@@ -12,7 +12,8 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Callable
 
-from rclpy.clock import Clock, ClockType, JumpHandle, JumpThreshold
+from rclpy.clock import Clock, JumpHandle, JumpThreshold
+from rclpy.clock_type import ClockType
 from rclpy.duration import Duration
 from rclpy.publisher import Publisher
 from rclpy.timer import Timer
@@ -130,7 +131,9 @@ class FlsTracking:
             # waited for ever on a relay request sent too soon, 2026-11-29). On the wall
             # clock: the simulated one stands still until the driver starts.
             self._matching = node.create_timer(
-                MATCH_POLL, self._report_when_matched, clock=Clock(clock_type=ClockType.STEADY_TIME)
+                MATCH_POLL,
+                self._report_when_matched,
+                clock=Clock(clock_type=ClockType.STEADY_TIME),
             )
         # Relay frames and track timeouts run on the node's clock. On simulated
         # time they follow /clock itself: the EventsExecutor's timers do not

@@ -224,7 +224,9 @@ def test_on_the_wall_clock_an_fls_with_nothing_to_relay_or_track_stops_its_frame
         assert len(relay.tracking.relay) == 0 and not source.tracking.tracker.tracks
 
 
-def test_an_fls_reporting_progress_reports_first_once_every_peer_hears_its_requests(world, context):
+def test_an_fls_reporting_progress_reports_first_once_every_peer_hears_its_requests(
+    world, context
+):
     # Under a driver of the clock in another process (swazure track --per-fls): a
     # request sent before a peer's reader matched is lost, so the FLS's first report,
     # which the driver starts on, waits for track.peers readers of its requests.
