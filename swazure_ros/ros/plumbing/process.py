@@ -197,7 +197,7 @@ def catch_stops(limit: float) -> list[int]:
     only in the main thread and only between bytecodes, so a main thread stuck
     in a callback, in C or with the signals blocked would never arm it (a
     stuck process ignored its SIGINT for 300 s on a loaded machine,
-    2026-11-28). A mask inherited from the parent that blocks them is lifted:
+    2026-11-29). A mask inherited from the parent that blocks them is lifted:
     a program must hear its stop. Call it from the main thread, before any
     thread of its own is started.
     """
