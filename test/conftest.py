@@ -89,24 +89,27 @@ def pytest_configure(config: pytest.Config) -> None:
     os.environ.pop("ROS_DOMAIN_ID", None)
 
 
-#: The files whose tests take half a minute or more each (the durations of a whole
-#: suite on this machine, 2026-11-29), longest test first. pytest-xdist's worksteal hands
-#: each worker half of the collection and lets an idle worker take the end of the other's
-#: queue: a minute-long test left at the end runs alone while the other worker idles. Run
-#: first, these end while the short tests after them balance the two workers.
+#: The files whose tests take a minute or more each (the durations of `make test`,
+#: 2026-11-29), longest first. pytest-xdist's worksteal hands each worker half of the
+#: collection and lets an idle worker take the end of the other's queue: a minute-long
+#: test left at the end runs alone while the other worker idles. Run first, these end
+#: while the short tests after them balance the two workers. Not simply the longest
+#: first: ordered so, the two workers started on 25-process swarms at once (load 29),
+#: and a fresh clone's suite took 29.3 min against 20-23 in this order (2026-11-29).
 SLOW_FILES = (
-    "test/app/test_per_fls.py",
+    "test/protocol/test_discovery.py",
+    "test/cli/test_study_cli.py",
+    "test/ros/test_hosts.py",
+    "test/ros/test_discovery.py",
+    "test/core/test_fit.py",
     "test/ros/programs/test_programs.py",
     "test/ros/test_scale.py",
-    "test/protocol/test_swarm_fit.py",
-    "test/core/test_fit.py",
-    "test/ros/test_cells.py",
-    "test/cli/test_study_cli.py",
-    "test/ros/test_discovery.py",
     "test/app/test_hosts.py",
-    "test/ros/test_hostile_peers.py",
-    "test/protocol/test_discovery.py",
-    "test/cli/test_evaluate_cli.py",
+    "test/protocol/test_swarm_fit.py",
+    "test/app/test_per_fls.py",
+    "test/ros/test_cells.py",
+    "test/core/test_summary.py",
+    "test/files/test_hostile_files.py",
 )
 
 
