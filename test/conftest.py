@@ -94,8 +94,8 @@ def pytest_configure(config: pytest.Config) -> None:
 #: collection and lets an idle worker take the end of the other's queue: a minute-long
 #: test left at the end runs alone while the other worker idles. Run first, these end
 #: while the short tests after them balance the two workers. Not simply the longest
-#: first: ordered so, the two workers started on 25-process swarms at once (load 29),
-#: and a fresh clone's suite took 29.3 min against 20-23 in this order (2026-11-29).
+#: first: ordered so, the two workers started on 25-process swarms at once (load 29 in a
+#: fresh clone's suite, 2026-11-29); CI ran this order's suite in 20 min.
 SLOW_FILES = (
     "test/protocol/test_discovery.py",
     "test/cli/test_study_cli.py",
