@@ -138,6 +138,18 @@ def joined(by_topic, topics) -> list:
     return [message for topic in topics for message in by_topic.get(topic, [])]
 
 
+def start_ros2(command: list[str], environment: dict[str, str]) -> subprocess.Popen[str]:
+    """Start a ros2 CLI ``command``, its output piped, in a process group to stop it by."""
+    return subprocess.Popen(
+        command,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=environment,
+        start_new_session=True,
+    )
+
+
 #: Wall s one ros2 CLI command may take: seconds as a rule, tens on a loaded machine.
 ROS2_CALL_TIMEOUT = 120.0
 
@@ -153,14 +165,7 @@ def run_ros2(
     returns its output with return code -9 (SIGKILL), for the caller to judge: a
     retried call (``until``) takes an answer it printed before it hung.
     """
-    with subprocess.Popen(
-        command,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=environment,
-        start_new_session=True,
-    ) as process:
+    with start_ros2(command, environment) as process:
         try:
             out, err = process.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:
@@ -201,14 +206,7 @@ def echo_first(
             step()
         wait_until(printed, 5.0)
 
-    with subprocess.Popen(
-        command,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=environment,
-        start_new_session=True,
-    ) as echo:
+    with start_ros2(command, environment) as echo:
         readers = [
             threading.Thread(target=lambda: lines.extend(echo.stdout), daemon=True),
             threading.Thread(target=lambda: errors.extend(echo.stderr), daemon=True),
