@@ -8,12 +8,18 @@ between two looks, and the CPU time the process used in between. A look
 late by more than a whole period says the process is behind (its radio
 tells the coordinator, which then waits longer for it); a look late by
 more than a lease's silence (:meth:`Beat.stalled`) with the process nearly
-idle meanwhile says that its DDS participant was silent that long too, so
-that peers may have dropped it (the process then joins again: an FLS's
-program starts afresh, a packed process announces itself again).
+idle meanwhile, and not for want of a CPU, says that it was stopped, its DDS
+participant silent that long too, so that peers may have dropped it (the
+process then joins again: an FLS's program starts afresh, a packed process
+announces itself again). A process starved of CPU (:attr:`Beat.starved`:
+its executor spent the time waiting to run) is slow, not stopped: DDS's
+threads still had their turns and announced it.
 
 Times in seconds: ``now`` on any monotonic clock, ``cpu`` the process's
-CPU time (``time.process_time``: every thread's, DDS's own included).
+CPU time (``time.process_time``: every thread's, DDS's own included),
+``waited`` the time the executor's thread has spent runnable but waiting
+for a CPU (Linux's run delay, ``/proc/thread-self/schedstat``; 0 where the
+system does not say).
 """
 
 from __future__ import annotations
@@ -30,6 +36,12 @@ STALLED_AFTER = 4.0
 #: nice 10) a few per cent; one busy in a long callback uses a whole core, and its
 #: DDS threads announced it meanwhile.
 IDLE_SHARE = 0.25
+#: Of a late look's lateness, the share the executor spent runnable but waiting for a
+#: CPU beyond which it was starved, not stopped. Measured at nice 10 beside 60 busy loops
+#: on 2 cores, on the EventsExecutor (2026-11-29): looks 52.1 s, 3.8 s and 1.3 s late
+#: had waited 49.4 s, 4.8 s and 2.2 s (the wait also counts the look's own period); one
+#: 9.8 s late after a 10 s ``kill -STOP`` had waited 0.0 s.
+STARVED_SHARE = 0.5
 
 
 @dataclass(frozen=True)
@@ -38,6 +50,7 @@ class Beat:
 
     late: float  # s the look came later than its period (0 within the tolerance)
     idle: bool  # the process used at most IDLE_SHARE of a core meanwhile
+    starved: bool = False  # the executor waited for a CPU for most of the lateness
 
     @property
     def behind(self) -> bool:
@@ -45,10 +58,10 @@ class Beat:
         return self.late > 0.0
 
     def stalled(self, after: float = STALLED_AFTER) -> bool:
-        """Late by more than ``after`` s with the process nearly idle: stopped or starved, its
-        DDS threads too, for long enough that a peer with a lease of ``after`` s plus one
-        announcement period may have dropped it."""
-        return self.idle and self.late > after
+        """Late by more than ``after`` s with the process nearly idle and not starved: stopped
+        (``kill -STOP``, the machine paused), its DDS threads too, for long enough that a
+        peer with a lease of ``after`` s plus one announcement period may have dropped it."""
+        return self.idle and not self.starved and self.late > after
 
 
 class Pulse:
@@ -58,7 +71,9 @@ class Pulse:
     look a little late (a busy moment) is on time.
     """
 
-    def __init__(self, period: float, now: float, cpu: float, tolerance: float = 0.0) -> None:
+    def __init__(
+        self, period: float, now: float, cpu: float, tolerance: float = 0.0, waited: float = 0.0
+    ) -> None:
         if not (math.isfinite(period) and period > 0.0):
             raise ValueError(f"period must be a positive number of seconds, got {period}")
         if not (math.isfinite(tolerance) and tolerance >= 0.0):
@@ -67,14 +82,18 @@ class Pulse:
         self.tolerance = tolerance
         self._now = now
         self._cpu = cpu
+        self._waited = waited
 
-    def look(self, now: float, cpu: float) -> Beat:
-        """A look at monotonic time ``now`` with the process's CPU time ``cpu``: how late it is."""
+    def look(self, now: float, cpu: float, waited: float = 0.0) -> Beat:
+        """A look at monotonic time ``now`` with the process's CPU time ``cpu`` and its
+        executor's wait for a CPU ``waited``: how late it is, and why."""
         since = now - self._now
         used = cpu - self._cpu
-        self._now, self._cpu = now, cpu
+        queued = waited - self._waited
+        self._now, self._cpu, self._waited = now, cpu, waited
         late = since - self.period
-        return Beat(late if late > self.tolerance else 0.0, used < IDLE_SHARE * since)
+        late = late if late > self.tolerance else 0.0
+        return Beat(late, used < IDLE_SHARE * since, late > 0.0 and queued >= STARVED_SHARE * late)
 
 
 @dataclass(frozen=True)

@@ -26,14 +26,27 @@ def test_a_process_stopped_past_a_lease_is_stalled():
     pulse = Pulse(1.0, now=100.0, cpu=3.0)
     beat = pulse.look(100.0 + 1.0 + STALLED_AFTER + 20.0, 3.0)  # kill -STOP for 25 s
     assert beat.behind and beat.stalled()
-    # Starved, not stopped: a few per cent of a core is idle all the same.
-    starved = Pulse(1.0, now=0.0, cpu=0.0).look(12.0, 0.4)
-    assert starved.stalled()
+    # Stopped with the whole machine (nothing ran, nothing waited to run): stalled too.
+    paused = Pulse(1.0, now=0.0, cpu=0.0, waited=2.0).look(12.0, 0.0, waited=2.0)
+    assert paused.stalled() and not paused.starved
     # Stopped for less than a lease can lapse: behind only.
     short = Pulse(1.0, now=0.0, cpu=0.0).look(1.0 + STALLED_AFTER - 0.5, 0.0)
     assert short.behind and not short.stalled()
     # Under Fast DDS's default lease (20 s, announced every 3 s) only past 17 s.
     assert not beat.stalled(after=30.0) and beat.stalled(after=17.0)
+
+
+def test_a_process_starved_of_cpu_is_behind_but_not_stalled():
+    # At nice 10 beside 60 busy loops (pulse.STARVED_SHARE): 52 s late, 0.4 s of CPU used,
+    # 49 s of it runnable and waiting for a CPU. Its DDS threads had their turns too.
+    pulse = Pulse(0.5, now=0.0, cpu=0.0, waited=1.0)
+    starved = pulse.look(52.6, 0.43, waited=50.4)
+    assert starved.idle and starved.starved and starved.behind and not starved.stalled()
+    # The same lateness with a wait of a few seconds: stopped for most of it.
+    stopped = Pulse(0.5, now=0.0, cpu=0.0).look(52.6, 0.43, waited=3.0)
+    assert not stopped.starved and stopped.stalled()
+    # A look on time is never starved, however long it waited.
+    assert not Pulse(0.5, now=0.0, cpu=0.0).look(0.5, 0.0, waited=0.4).starved
 
 
 def test_a_pulse_refuses_periods_that_are_no_time():

@@ -26,6 +26,22 @@ from ..security.auth import SwarmKey
 PULSE_PERIOD = 0.5
 #: Seconds a look may come late and still be on time: a whole second behind is news.
 BEHIND_AFTER = 1.0
+#: The calling thread's scheduler statistics: time on a CPU, time waiting for one (ns), slices.
+SCHEDSTAT = "/proc/thread-self/schedstat"
+
+
+def waited_for_cpu() -> float:
+    """Seconds the calling thread has spent runnable but waiting for a CPU since it began
+    (Linux's run delay, ``/proc/thread-self/schedstat``); 0.0 where the system does not say.
+
+    A starved thread's wait grows with the time it is kept from running; a
+    stopped one's (``kill -STOP``) and a sleeping one's does not.
+    """
+    try:
+        with open(SCHEDSTAT, "rb") as schedstat:
+            return int(schedstat.read().split()[1]) / 1e9
+    except (OSError, IndexError, ValueError):
+        return 0.0
 
 
 class Heartbeats:
@@ -55,7 +71,11 @@ class Heartbeats:
         self._newest = newest
         self._writer = node.create_publisher(Heartbeat, HEARTBEAT_TOPIC, HEARTBEAT_QOS)
         self._pulse = Pulse(
-            PULSE_PERIOD, time.monotonic(), time.process_time(), tolerance=BEHIND_AFTER
+            PULSE_PERIOD,
+            time.monotonic(),
+            time.process_time(),
+            tolerance=BEHIND_AFTER,
+            waited=waited_for_cpu(),
         )
         self.hears_controls = False  # as the last beat said
         self.beats = 0  # heartbeats sent
@@ -65,17 +85,23 @@ class Heartbeats:
         node.create_timer(PULSE_PERIOD, self.look)
 
     def when_stalled(self, after: float, act: Callable[[float], None]) -> None:
-        """After a stall of more than ``after`` s with the CPU idle, ``act(late)`` instead of
-        :meth:`announce_again` (an FLS's program starts afresh past its lease)."""
+        """After a stop of more than ``after`` s (late, the CPU idle, not starved),
+        ``act(late)`` instead of :meth:`announce_again` (an FLS's program starts afresh past
+        its lease)."""
         self._stall_after = after
         self._on_stall = act
 
     def look(self) -> None:
         """The executor's regular look: beat if there is news."""
-        beat = self._pulse.look(time.monotonic(), time.process_time())
+        beat = self._pulse.look(time.monotonic(), time.process_time(), waited_for_cpu())
         stalled = beat.stalled(self._stall_after)
         if stalled:
             self._on_stall(beat.late)
+        elif beat.starved and beat.late > self._stall_after:
+            # Slow, not stopped: DDS's threads had their turns and announced the process,
+            # so its peers most likely kept it. Should one have dropped it all the same, a
+            # new writer shows its nodes again; starting afresh would lose its state.
+            self.announce_again(beat.late, starved=True)
         hears = self._hears()
         if hears != self.hears_controls or beat.behind or stalled:
             self.hears_controls = hears
@@ -89,7 +115,7 @@ class Heartbeats:
         self._writer.publish(self._key.serialize(heartbeat_message(alive, stamp)))
         self.beats += 1
 
-    def announce_again(self, late: float) -> None:
+    def announce_again(self, late: float, starved: bool = False) -> None:
         """Make the heartbeats' writer anew: peers that dropped this participant see it again.
 
         A process stopped or starved past its peers' lease is dropped by them
@@ -109,7 +135,8 @@ class Heartbeats:
         self._node.destroy_publisher(self._writer)
         self._writer = self._node.create_publisher(Heartbeat, HEARTBEAT_TOPIC, HEARTBEAT_QOS)
         self.announced_again += 1
+        why = "waiting for a CPU" if starved else "its CPU idle"
         self._node.get_logger().info(
-            f"its executor stood still for {late:.1f} s, its CPU idle: peers may have dropped "
+            f"its executor stood still for {late:.1f} s, {why}: peers may have dropped "
             "this process; announced it again"
         )

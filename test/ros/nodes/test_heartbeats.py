@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import time
 
+import pytest
+
 from swazure_ros.ros.nodes.heartbeats import BEHIND_AFTER
 from swazure_ros.ros.plumbing.names import (
     CONTROL_TOPIC,
@@ -107,3 +109,38 @@ def test_the_coordinator_keeps_no_more_radios_than_the_swarm_can_have(context):
         assert "made_up_0" not in coordinator._hearing
     finally:
         coordinator.destroy_node()
+
+
+def test_a_thread_kept_from_a_cpu_counts_its_wait_and_a_sleeping_one_does_not(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    from swazure_ros.ros.nodes.heartbeats import waited_for_cpu
+
+    if not os.path.exists("/proc/thread-self/schedstat"):
+        pytest.skip("this kernel keeps no scheduler statistics (/proc/thread-self/schedstat)")
+    cpu = min(os.sched_getaffinity(0))
+    # A busy process on this thread's one CPU, at this thread's priority: the CPU is shared.
+    busy = subprocess.Popen(
+        [sys.executable, "-c", f"import os; os.sched_setaffinity(0, {{{cpu}}})\nwhile True: pass"]
+    )
+    before_affinity = os.sched_getaffinity(0)
+    try:
+        os.sched_setaffinity(0, {cpu})
+        time.sleep(0.5)  # the busy process is pinned and spinning
+        start = waited_for_cpu()
+        time.sleep(1.0)
+        slept = waited_for_cpu() - start
+        start, until = waited_for_cpu(), time.monotonic() + 1.0
+        while time.monotonic() < until:
+            pass
+        spun = waited_for_cpu() - start
+    finally:
+        os.sched_setaffinity(0, before_affinity)
+        busy.kill()
+        busy.wait()
+    # Spinning for 1 s beside another spinner, it waited for about half of it.
+    assert spun > 0.2
+    # Asleep, it waited to run only for the moment it woke.
+    assert slept < 0.1
