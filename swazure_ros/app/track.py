@@ -34,10 +34,12 @@ from ..ros.security.auth import SwarmKey
 from ..sim.world import World
 from .per_fls import FlsProcesses
 
-#: Wall seconds the swarm has to answer one step of a session (a track's start, a
-#: frame of the simulated clock) before it counts as stalled. A step takes
-#: milliseconds; an FLS process of its own on a busy 2-core machine has taken over 10 s,
-#: and two test suites side by side stretch that further: a slow swarm is not a stalled one.
+#: Wall seconds the swarm may go without progress in one step of a session (its
+#: discovery, a track's start, a frame of the simulated clock) before it counts as
+#: stalled. A step takes milliseconds; an FLS process of its own on a busy 2-core machine
+#: has taken over 10 s, and two test suites side by side stretch that further. Any news
+#: (a reader matched, a report, a message counted) starts the wait afresh
+#: (:meth:`TrackSession.progress`): a slow swarm is not a stalled one.
 ANSWER_TIMEOUT = 120.0
 
 
@@ -139,13 +141,27 @@ class TrackSession:
         self._departed_traffic: Counter[str] = Counter()
 
     def start(self, discovery_timeout: float = 60.0) -> None:
-        """Create the FLS nodes at simulated time 0 and wait until they are discovered."""
+        """Create the FLS nodes at simulated time 0 and wait until they are discovered, for
+        as long as discovery makes progress and ``discovery_timeout`` s past the last."""
         self.clock.set(0)
         self.host.create_fls_nodes()
         if self.processes is not None:
             self.processes.start()
-        if not self.spin_until(self._ready, discovery_timeout):
-            raise SwarmStalledError(f"the FLS nodes were not discovered in {discovery_timeout} s")
+        if not self.spin_until(self._ready, discovery_timeout, self.progress):
+            raise SwarmStalledError(
+                f"the FLS nodes were not discovered: no progress in {discovery_timeout} s"
+            )
+
+    def progress(self) -> tuple[int, ...]:
+        """Counts that only grow while the swarm comes up and works: a change is progress.
+
+        The FLS processes' endpoints this session sees, the progress reports
+        and estimates it heard, and the track messages of the FLS nodes in
+        this process.
+        """
+        own = sum(sum(node.tracking.traffic.values()) for node in self.host.fls_nodes)
+        heard = (self.client.reports_heard, len(self.client.estimate_messages), own)
+        return (*self.client.matched(), *heard, len(self.host.fls_nodes))
 
     def _check_processes(self) -> None:
         """SwarmStalledError when an FLS process has ended."""
@@ -168,27 +184,29 @@ class TrackSession:
     def track(self, source: int, target: int, model: str, timeout: float = ANSWER_TIMEOUT) -> int:
         """Ask FLS ``source`` to track ``target``; return the relay, or raise TrackingError."""
         relay = self.client.track(source, target, model, self.spin_until, timeout)
-        if not self.spin_until(self.delivered, timeout):
-            raise SwarmStalledError(f"relay FLS {relay} did not start in {timeout} s")
+        if not self.spin_until(self.delivered, timeout, self.progress):
+            raise SwarmStalledError(f"relay FLS {relay} did not start: no progress in {timeout} s")
         return relay
 
     def advance(self, nanoseconds: int, timeout: float = ANSWER_TIMEOUT) -> None:
         """Set the clock to ``nanoseconds`` and spin until everything due is :meth:`delivered`."""
         self.clock.set(nanoseconds)
-        deadline = time.monotonic() + timeout
         republish = time.monotonic() + 0.1
-        while not self.delivered():
+
+        def delivered() -> bool:
             self._check_processes()
-            if time.monotonic() > deadline:
-                raise SwarmStalledError(
-                    f"the swarm did not answer in {timeout} s of wall time at simulated "
-                    f"{nanoseconds / 1e9:.3f} s"
-                )
+            nonlocal republish
             if time.monotonic() > republish:
                 # /clock is best effort: a lost tick would leave a node behind for ever.
                 self.clock.set(nanoseconds)
                 republish = time.monotonic() + 0.1
-            self.host.spin_once(0.01)
+            return self.delivered()
+
+        if not self.spin_until(delivered, timeout, self.progress):
+            raise SwarmStalledError(
+                f"the swarm did not answer: no progress in {timeout} s of wall time at "
+                f"simulated {nanoseconds / 1e9:.3f} s"
+            )
 
     def delivered(self) -> bool:
         """True when every track message due by now in this process has been sent and heard.
@@ -223,10 +241,22 @@ class TrackSession:
         self._departed_traffic.update(self.host.fls_by_id[fls_id].tracking.traffic)
         self.host.stop_fls(fls_id)
 
-    def spin_until(self, condition: Callable[[], bool], timeout: float) -> bool:
-        """Spin until ``condition()`` or ``timeout`` wall s; return whether it holds."""
+    def spin_until(
+        self,
+        condition: Callable[[], bool],
+        timeout: float,
+        progress: Callable[[], object] | None = None,
+    ) -> bool:
+        """Spin until ``condition()``; return whether it holds.
+
+        It gives up after ``timeout`` wall s in all, or, with ``progress``,
+        after ``timeout`` wall s in which ``progress()`` did not change.
+        """
         deadline = time.monotonic() + timeout
+        mark = None if progress is None else progress()
         while not condition():
+            if progress is not None and (now := progress()) != mark:
+                mark, deadline = now, time.monotonic() + timeout
             if time.monotonic() > deadline:
                 return False
             self.host.spin_once(0.01)

@@ -52,6 +52,8 @@ class TrackClient(SwarmNode):
         self.estimate_messages: list[TrackEstimate] = []
         #: Each FLS process's last progress report, by FLS id.
         self.progress: dict[int, TrackProgressReport] = {}
+        #: Progress reports heard in all: each is news of work done.
+        self.reports_heard = 0
         self._estimates = self.create_subscription(
             TrackEstimate, TRACK_ESTIMATES_TOPIC, self.estimate_messages.append, ROUND_QOS
         )
@@ -65,15 +67,19 @@ class TrackClient(SwarmNode):
         # One publisher per FLS, reliable: its reports arrive in order, the last is current.
         report = track_progress_from_message(message, self._ids)
         self.progress[report.fls_id] = report
+        self.reports_heard += 1
 
     def hears(self, count: int) -> bool:
         """Whether ``count`` FLSs' track requests, estimates and progress reach this node."""
-        requests = f"/{self._namespace}/{TRACK_REQUESTS_TOPIC}"
-        return (
-            self.count_subscribers(requests) >= count
-            and self._estimates.get_publisher_count() >= count
-            and (self._progress is None or self._progress.get_publisher_count() >= count)
-        )
+        return min(self.matched()) >= count
+
+    def matched(self) -> tuple[int, int, int]:
+        """How many FLSs' track request readers, estimate writers and progress writers
+        this node sees (progress: as many as estimates where it hears no progress)."""
+        requests = self.count_subscribers(f"/{self._namespace}/{TRACK_REQUESTS_TOPIC}")
+        estimates = self._estimates.get_publisher_count()
+        progress = estimates if self._progress is None else self._progress.get_publisher_count()
+        return requests, estimates, progress
 
     def track(
         self, source: int, target: int, model: str, spin_until: SpinUntil, timeout: float

@@ -96,6 +96,32 @@ def test_when_the_relay_stops_the_stream_times_out_and_ends(world, context):
         session.close()
 
 
+def test_a_session_waits_while_the_swarm_makes_progress_and_gives_up_after_silence(world, context):
+    import time
+
+    session = TrackSession(world, CIRCLE, [0, 1, 2], TrackConfig(), context=context)
+    try:
+        session.start()
+        before = session.progress()
+        assert session.track(0, 2, CONSTANT_ACCELERATION) == 1
+        tick_until(session, 0.5, nanoseconds(TrackConfig().frame_period))
+        # The swarm's work shows: counts that only grow, and some grew.
+        after = session.progress()
+        assert after != before and all(a >= b for a, b in zip(after, before, strict=True))
+        # News keeps the wait going past its timeout: 1 s of it, then 0.3 s of silence.
+        began = time.monotonic()
+        news = iter(range(1_000_000))
+        moving = lambda: next(news) if time.monotonic() - began < 1.0 else -1  # noqa: E731
+        assert not session.spin_until(lambda: False, 0.3, moving)
+        assert time.monotonic() - began >= 1.3
+        # Without news, the timeout is the whole wait.
+        began = time.monotonic()
+        assert not session.spin_until(lambda: False, 0.3, lambda: 0)
+        assert time.monotonic() - began >= 0.3
+    finally:
+        session.close()
+
+
 def test_requests_it_cannot_serve_get_an_error_and_the_node_keeps_serving(world, context):
     session = TrackSession(world, CIRCLE, [0, 1, 2], TrackConfig(), context=context)
     try:
