@@ -37,6 +37,7 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from ...core.errors import SwazureError
+from . import shared_memory
 from .parameters import ParameterSpec
 from .startup import StartupValues, check_params_file, program_startup
 
@@ -139,6 +140,7 @@ def exit_process(code: int, limit: float = TEARDOWN_LIMIT) -> NoReturn:
         file=sys.stderr,
     )
     _flush()
+    shared_memory.remove(shared_memory.own_segments())
     os._exit(code)
 
 
@@ -176,9 +178,11 @@ def leave_quietly(code: int) -> NoReturn:
     (a `ros2` daemon, a recorder) list its nodes until its lease runs out
     (20 s, docs/swarm.md, "Stopping"); a participant made later never hears of
     them. Call it last, when every output is written: Python's exit handlers
-    do not run; its own streams are flushed.
+    do not run; its own streams are flushed, and its own shared-memory
+    segments removed (:mod:`.shared_memory`), which DDS's teardown would have.
     """
     _flush()
+    shared_memory.remove(shared_memory.own_segments())
     os._exit(code)
 
 

@@ -6,6 +6,7 @@ import os
 import signal
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from rclpy.executors import SingleThreadedExecutor
@@ -78,25 +79,60 @@ def test_a_process_that_hangs_when_asked_to_stop_prints_where_and_exits_1(domain
 HANGING_TEARDOWN = """
 import ctypes
 from swazure_ros.ros.plumbing import process
+from swazure_ros.ros.plumbing.node import SwarmNode
+from swazure_ros.ros.plumbing.shared_memory import own_segments
 
+node = SwarmNode("hanging", context=process.init_context())
 libc = ctypes.CDLL(None)
-# pause(): a C exit handler that never returns (Python has ended by then).
+# pause(): a C exit handler that never returns, run before Fast DDS's own teardown.
 libc["__cxa_atexit"](ctypes.cast(libc.pause, ctypes.c_void_p), None, None)
-print("exiting", flush=True)
+print(*own_segments(), flush=True)
 process.exit_process(3, limit=1.0)
 """
 
 
+def with_shared_memory(environment):
+    """``environment`` with Fast DDS's default transports, shared memory among them."""
+    return {k: v for k, v in environment.items() if k != "FASTDDS_BUILTIN_TRANSPORTS"}
+
+
 def test_a_teardown_that_hangs_is_left_saying_so_with_the_process_s_own_exit_code():
     # The hanging handler never returns: the process leaves without it, its work done,
-    # with its own code (3), not killed (a launcher or a script reads 137 as a failure).
+    # with its own code (3), not killed (a launcher or a script reads 137 as a failure),
+    # and it removes its own shared-memory segment, as DDS's teardown would have.
     process = subprocess.run(
-        [sys.executable, "-c", HANGING_TEARDOWN], capture_output=True, text=True, timeout=PATIENCE
-    )
-    assert process.stdout.strip() == "exiting"
+        [sys.executable, "-c", HANGING_TEARDOWN], capture_output=True, text=True,
+        timeout=PATIENCE, env=with_shared_memory(os.environ),
+    )  # fmt: skip
     assert process.returncode == 3, process.stderr
     assert "the DDS teardown did not end in 1 s" in process.stderr, process.stderr
     assert "killed" not in process.stderr, process.stderr
+    segments = [Path(name) for name in process.stdout.split()]
+    assert segments and not any(path.exists() for path in segments), segments
+
+
+#: A process that leaves without DDS's teardown, as one stopped with its whole swarm.
+QUIET = """
+from swazure_ros.ros.plumbing import process
+from swazure_ros.ros.plumbing.node import SwarmNode
+from swazure_ros.ros.plumbing.shared_memory import own_segments
+
+node = SwarmNode("quiet", context=process.init_context())
+print(*own_segments(), flush=True)
+process.leave_quietly(0)
+"""
+
+
+def test_a_process_that_leaves_quietly_leaves_no_shared_memory_of_its_own():
+    process = subprocess.run(
+        [sys.executable, "-c", QUIET], capture_output=True, text=True, timeout=PATIENCE,
+        env=with_shared_memory(os.environ),
+    )  # fmt: skip
+    assert process.returncode == 0, process.stderr
+    # Its segment and the segment's lock, made by Fast DDS for its participant.
+    segments = [Path(name) for name in process.stdout.split()]
+    assert len(segments) == 2 and segments[1].name == segments[0].name + "_el", segments
+    assert not any(path.exists() for path in segments), segments
 
 
 #: A process of many nodes that ends by exit_process, with its exit handlers.

@@ -1,0 +1,32 @@
+"""A process's own Fast DDS shared-memory segments: found by the locks it holds, removed."""
+
+from __future__ import annotations
+
+import os
+
+from swazure_ros.ros.plumbing.shared_memory import SHARED_MEMORY, own_segments, remove
+
+
+def test_a_process_holding_a_segment_lock_owns_that_segment_and_no_other(tmp_path):
+    # Fast DDS's names, in the folder it uses; this test's own files, removed after.
+    name = f"fastrtps_{os.getpid():016x}"
+    segment, lock = SHARED_MEMORY / name, SHARED_MEMORY / f"{name}_el"
+    port_lock = SHARED_MEMORY / f"fastrtps_port{os.getpid()}_el"  # a port's: shared
+    for path in (segment, lock, port_lock):
+        path.write_bytes(b"")
+    try:
+        assert segment not in own_segments()
+        with lock.open("rb"), port_lock.open("rb"):
+            assert {segment, lock} <= set(own_segments())
+            assert port_lock not in own_segments()
+        assert segment not in own_segments()
+        remove([segment, lock])
+        assert not segment.exists() and not lock.exists()
+        remove([segment, lock])  # gone already: nothing to do
+    finally:
+        for path in (segment, lock, port_lock):
+            path.unlink(missing_ok=True)
+
+
+def test_a_process_that_is_not_there_owns_nothing():
+    assert own_segments(2**22 + 7) == []
