@@ -34,6 +34,7 @@ from pathlib import Path
 from typing import IO
 
 from ..core.errors import SwazureError
+from ..ros.plumbing import shared_memory
 
 #: The port a server listens on unless told otherwise (Fast DDS's default).
 DEFAULT_PORT = 11811
@@ -166,7 +167,6 @@ class DiscoveryServers:
             try:
                 process.wait(timeout=5)
             except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
+                shared_memory.kill(process)
         for log in self._logs.values():
             log.close()

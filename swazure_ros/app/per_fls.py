@@ -31,6 +31,7 @@ import yaml
 from ..core.errors import SwazureError
 from ..files.atomic import atomic_write
 from ..files.description import SwarmDescription
+from ..ros.plumbing import shared_memory
 from ..ros.plumbing.names import node_name
 from ..ros.plumbing.process import SWARM_STOP_VARIABLE
 from ..ros.plumbing.startup import description_parameters, startup_arguments
@@ -279,8 +280,7 @@ class FlsProcesses:
             try:
                 process.wait(timeout=max(deadline - time.monotonic(), 0.0))
             except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait()
+                shared_memory.kill(process)
         for log in self._logs.values():
             log.close()
         for end in self._pipe:

@@ -17,6 +17,7 @@ from swazure_ros.core.frames import to_centimetres
 from swazure_ros.core.hop_errors import measured_vectors
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.sensor import BLIND, DECAYING, SWEET
+from swazure_ros.ros.plumbing import shared_memory
 
 from ..waits import PATIENCE, wait_until
 
@@ -169,9 +170,11 @@ def run_ros2(
         try:
             out, err = process.communicate(timeout=timeout)
         except subprocess.TimeoutExpired:
+            owned = shared_memory.own_segments(process.pid)
             with contextlib.suppress(ProcessLookupError):
                 os.killpg(process.pid, signal.SIGKILL)
             out, err = process.communicate()
+            shared_memory.remove(owned)  # its DDS teardown never will
     return subprocess.CompletedProcess(command, process.returncode, out, err)
 
 
@@ -222,8 +225,7 @@ def echo_first(
                 try:
                     echo.wait(timeout=10)
                 except subprocess.TimeoutExpired:
-                    os.killpg(echo.pid, signal.SIGKILL)
-                    echo.wait()
+                    shared_memory.kill(echo, group=True)
             for reader in readers:
                 reader.join(timeout=10)
     taken = list(lines)

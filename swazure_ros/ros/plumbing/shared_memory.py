@@ -18,6 +18,8 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import signal
+import subprocess
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -49,3 +51,16 @@ def remove(paths: Iterable[Path]) -> None:
     for path in paths:
         with contextlib.suppress(FileNotFoundError):
             path.unlink()
+
+
+def kill(process: subprocess.Popen[bytes] | subprocess.Popen[str], group: bool = False) -> None:
+    """Kill ``process`` (SIGKILL; with ``group``, its process group), wait for it, and remove
+    the shared-memory segments it owned, which its DDS teardown never will."""
+    owned = own_segments(process.pid)
+    with contextlib.suppress(ProcessLookupError):
+        if group:
+            os.killpg(process.pid, signal.SIGKILL)
+        else:
+            process.kill()
+    process.wait()
+    remove(owned)

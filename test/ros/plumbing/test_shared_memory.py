@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 
-from swazure_ros.ros.plumbing.shared_memory import SHARED_MEMORY, own_segments, remove
+from swazure_ros.ros.plumbing.shared_memory import SHARED_MEMORY, kill, own_segments, remove
 
 
 def test_a_process_holding_a_segment_lock_owns_that_segment_and_no_other(tmp_path):
@@ -30,3 +32,31 @@ def test_a_process_holding_a_segment_lock_owns_that_segment_and_no_other(tmp_pat
 
 def test_a_process_that_is_not_there_owns_nothing():
     assert own_segments(2**22 + 7) == []
+
+
+#: A process with a DDS participant, over shared memory too, that waits to be killed.
+WAITING = """
+import time
+from swazure_ros.ros.plumbing import process
+from swazure_ros.ros.plumbing.node import SwarmNode
+from swazure_ros.ros.plumbing.shared_memory import own_segments
+
+node = SwarmNode("waiting", context=process.init_context())
+print(*own_segments(), flush=True)
+time.sleep(600)
+"""
+
+
+def test_a_process_killed_by_kill_leaves_no_segment_of_its_own():
+    environment = {k: v for k, v in os.environ.items() if k != "FASTDDS_BUILTIN_TRANSPORTS"}
+    with subprocess.Popen(
+        [sys.executable, "-c", WAITING], stdout=subprocess.PIPE, text=True, env=environment
+    ) as waiting:
+        try:
+            assert waiting.stdout is not None
+            segments = [SHARED_MEMORY / name for name in waiting.stdout.readline().split()]
+            assert len(segments) == 2 and all(path.exists() for path in segments), segments
+        finally:
+            kill(waiting)
+    assert waiting.returncode == -9
+    assert not any(path.exists() for path in segments), segments
