@@ -374,6 +374,60 @@ def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(
     assert f"source_id: {source}" in echoed and f"target_ids:\n- {target}\n" in echoed, echoed
 
 
+def further_processes(launcher: int) -> list[int]:
+    """Process ids of the running further processes of swarm launcher ``launcher``: its
+    children that multiprocessing started to host a share."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit() and running(int(entry.name)):
+            try:
+                status = dict(
+                    line.split(":", 1) for line in (entry / "status").read_text().splitlines()
+                )
+                if (
+                    int(status["PPid"]) == launcher
+                    and b"spawn_main" in (entry / "cmdline").read_bytes()
+                ):
+                    found.append(int(entry.name))
+            except (OSError, KeyError, ValueError):
+                pass  # ended meanwhile
+    return found
+
+
+def running(pid: int) -> bool:
+    """Whether process ``pid`` is there and has not ended (a zombie has ended)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state not in ("Z", "X")
+
+
+def test_a_launcher_killed_outright_leaves_no_further_process_behind(domain, fast_params):
+    # SIGKILL (or the kernel's out-of-memory killer) gives the launcher no time to stop its
+    # further processes: each learns of its death from multiprocessing's sentinel and ends.
+    spawn = swazure(
+        "spawn", "--cloud", "helix:100", "--beta", "0.5", "--processes", "2",
+        "--params", str(fast_params), "--quiet",
+    )  # fmt: skip
+    further: list[int] = []
+    try:
+        line = spawn.stdout.readline()
+        assert "swarm up: 100 FLS nodes in 2 process" in line, line + spawn.stderr.read()
+        further = further_processes(spawn.pid)
+        assert len(further) == 1, further
+        spawn.kill()
+        spawn.communicate(timeout=PATIENCE)
+        ended = wait_until(lambda: not running(further[0]), PATIENCE)
+    finally:
+        if spawn.poll() is None:
+            spawn.kill()
+        for pid in further:
+            if running(pid):
+                os.kill(pid, signal.SIGKILL)
+    assert ended, f"further process {further[0]} still running {PATIENCE} s after its launcher"
+
+
 def test_a_stopped_swarm_tells_its_peers_that_every_process_nodes_left(
     context, fast_params, tmp_path
 ):
