@@ -11,17 +11,15 @@ once) or, stopped with its whole swarm, by :func:`leave_quietly`.
 
 from __future__ import annotations
 
-import atexit
 import contextlib
-import ctypes
 import faulthandler
+import gc
 import os
 import signal
 import socket
 import subprocess
 import sys
 import threading
-import time
 import traceback
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -67,12 +65,9 @@ def init_context(domain_id: int | None = None, params_file: str | None = None) -
     return context
 
 
-#: Seconds a process's DDS teardown (:func:`exit_process`) may take before the process
-#: leaves without it (a line in its log, its own exit code).
+#: Seconds a process's DDS teardown (:func:`exit_process`) may take before its watchdog
+#: ends it (SIGKILL, a line in its log).
 TEARDOWN_LIMIT = 30.0
-#: Seconds past that limit after which a process still there is killed (SIGKILL) by a
-#: watchdog of its own: the last resort, should not even its main thread run any more.
-TEARDOWN_BACKSTOP = 10.0
 #: The same for a :func:`run_process` program: one FLS, the world or the coordinator,
 #: whose teardown takes about a second.
 PROGRAM_TEARDOWN_LIMIT = 5.0
@@ -83,16 +78,22 @@ PROGRAM_TEARDOWN_LIMIT = 5.0
 STOP_LIMIT = 12.0
 
 
-#: The last-resort watchdog of a process's teardown (:func:`exit_process`), a process of
-#: its own: it waits ``limit`` s for the end of file of a pipe that only the ending
-#: process holds open, and kills that process if it is still there.
+#: The watchdog of a process's teardown (:func:`exit_process`), a process of its own: it
+#: waits ``limit`` s for the end of file of a pipe that only the ending process holds
+#: open, and ends that process if it is still there, then removes the shared-memory
+#: files it is given (the process's own segments, which its teardown never removed).
 TEARDOWN_WATCH = """
 import os, select, signal, sys
 pipe, pid, limit = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
 if not select.select([pipe], [], [], limit)[0]:
-    print(f"the process did not end {limit:g} s into its DDS teardown: killed",
-          file=sys.stderr, flush=True)
+    print(f"the DDS teardown did not end in {limit:g} s (a known Fast DDS deadlock): "
+          "leaving without it", file=sys.stderr, flush=True)
     os.kill(pid, signal.SIGKILL)
+    for path in sys.argv[4:]:
+        try:
+            os.unlink(path)
+        except OSError:
+            pass
 """
 
 
@@ -102,46 +103,37 @@ def exit_process(code: int, limit: float = TEARDOWN_LIMIT) -> NoReturn:
     Destroying nodes one by one costs in proportion to the square of a
     process's endpoints: rmw_fastrtps republishes the participant's whole
     entity list after every endpoint it removes (docs/swarm.md, teardown).
-    The C library's exit runs the static teardown of Fast DDS, which deletes
-    the participant whole and tells its peers so at once. So Python's exit
-    handlers run, then a thread calls the C library's exit with ``code``;
-    Python's finalizers, which would destroy each node, never run. Call it
-    last, when every output is written.
+    Python's own exit ends in the C library's exit, whose static teardown of
+    Fast DDS deletes the participant whole and tells its peers so at once;
+    Python's exit handlers run, but its finalizers, which would destroy each
+    node, do not: every object alive now is held by a thread that never
+    ends, whose references Python's exit leaves as they are. Call it last,
+    when every output is written; it raises SystemExit(``code``).
 
     Fast DDS 2.14's teardown can deadlock (eProsima/Fast-DDS#6502: its event
     and receive threads, while peers leave at the same time; docs/swarm.md,
-    "Stopping"). The main thread waits for it ``limit`` s, then says so in
-    one line and leaves without it, with ``code`` all the same: a swarm whose
-    work was done ends as it should, whatever DDS's teardown did. Its peers
-    drop it when its DDS lease runs out. Should not even the main thread run
-    any more, a watchdog process kills it ``TEARDOWN_BACKSTOP`` s later.
+    "Stopping"). A process still there ``limit`` s later is ended by its
+    watchdog (TEARDOWN_WATCH: one line, then SIGKILL, then its shared-memory
+    segments removed); its peers drop it when its DDS lease runs out.
     """
     # Python's handlers do not run once its exit has begun: a second SIGINT or
     # SIGTERM must end the process then.
-    for signum in STOP_SIGNALS:
+    for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, signal.SIG_DFL)
-    atexit._run_exitfuncs()
     _flush()
     # Only this process holds the writing end, open to its death: the watchdog's end of file.
     watched, _ = os.pipe()
     subprocess.Popen(
         [sys.executable, "-I", "-S", "-c", TEARDOWN_WATCH, str(watched), str(os.getpid()),
-         str(limit + TEARDOWN_BACKSTOP)],
+         str(limit), *map(str, shared_memory.own_segments())],
         pass_fds=(watched,),
         stdin=subprocess.DEVNULL,
     )  # fmt: skip
     os.close(watched)
-    # ctypes lets go of the GIL around a C call: this thread goes on while that one exits.
-    threading.Thread(target=ctypes.CDLL(None).exit, args=(code,), daemon=True).start()
-    time.sleep(limit)
-    print(
-        f"the DDS teardown did not end in {limit:g} s (a known Fast DDS deadlock): "
-        "leaving without it",
-        file=sys.stderr,
-    )
-    _flush()
-    shared_memory.remove(shared_memory.own_segments())
-    os._exit(code)
+    alive = gc.get_objects()
+    threading.Thread(target=_hold, args=(alive,), daemon=True).start()
+    del alive
+    raise SystemExit(code)
 
 
 def _flush() -> None:
@@ -150,6 +142,11 @@ def _flush() -> None:
         # A reader gone or a stream closed: nothing is left to save.
         with contextlib.suppress(OSError, ValueError):
             stream.flush()
+
+
+def _hold(alive: list[object]) -> None:
+    """Hold ``alive`` until the process ends."""
+    threading.Event().wait()
 
 
 #: Set to "1" by a launcher that starts a whole swarm (``swazure spawn --per-fls``,
