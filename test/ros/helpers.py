@@ -39,6 +39,11 @@ LONG_LEASE = """<?xml version="1.0" encoding="UTF-8"?>
 """
 
 
+def with_shared_memory(environment: dict[str, str]) -> dict[str, str]:
+    """``environment`` with Fast DDS's default transports, shared memory among them."""
+    return {k: v for k, v in environment.items() if k != "FASTDDS_BUILTIN_TRANSPORTS"}
+
+
 def long_lease_environment(folder: Path, environment: dict[str, str]) -> dict[str, str]:
     """``environment`` with every participant of its processes on an hour's lease."""
     profile = folder / "long-lease.xml"

@@ -142,5 +142,6 @@ def test_a_thread_kept_from_a_cpu_counts_its_wait_and_a_sleeping_one_does_not(tm
         busy.wait()
     # Spinning for 1 s beside another spinner, it waited for about half of it.
     assert spun > 0.2
-    # Asleep, it waited to run only for the moment it woke.
-    assert slept < 0.1
+    # Asleep, it waited to run only for the moment it woke: a small part of that, however
+    # busy the machine (a bound in seconds would assume a quiet one).
+    assert slept < spun / 4

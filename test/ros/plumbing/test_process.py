@@ -15,7 +15,7 @@ from rclpy.node import Node
 from swazure_ros.ros.plumbing.process import SWARM_STOP_VARIABLE
 
 from ...waits import PATIENCE, wait_until
-from ..helpers import long_lease_environment
+from ..helpers import long_lease_environment, with_shared_memory
 
 #: A process whose one node is stuck in a callback: it cannot end when asked.
 STUCK = """
@@ -89,11 +89,6 @@ libc["__cxa_atexit"](ctypes.cast(libc.pause, ctypes.c_void_p), None, None)
 print(*own_segments(), flush=True)
 process.exit_process(3, limit=1.0)
 """
-
-
-def with_shared_memory(environment):
-    """``environment`` with Fast DDS's default transports, shared memory among them."""
-    return {k: v for k, v in environment.items() if k != "FASTDDS_BUILTIN_TRANSPORTS"}
 
 
 def test_a_teardown_that_hangs_is_ended_by_its_watchdog_saying_so():

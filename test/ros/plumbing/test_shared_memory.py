@@ -8,6 +8,8 @@ import sys
 
 from swazure_ros.ros.plumbing.shared_memory import SHARED_MEMORY, kill, own_segments, remove
 
+from ..helpers import with_shared_memory
+
 
 def test_a_process_holding_a_segment_lock_owns_that_segment_and_no_other(tmp_path):
     # Fast DDS's names, in the folder it uses; this test's own files, removed after.
@@ -48,7 +50,7 @@ time.sleep(600)
 
 
 def test_a_process_killed_by_kill_leaves_no_segment_of_its_own():
-    environment = {k: v for k, v in os.environ.items() if k != "FASTDDS_BUILTIN_TRANSPORTS"}
+    environment = with_shared_memory(dict(os.environ))
     with subprocess.Popen(
         [sys.executable, "-c", WAITING], stdout=subprocess.PIPE, text=True, env=environment
     ) as waiting:
