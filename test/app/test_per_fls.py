@@ -19,6 +19,9 @@ from ..conftest import REPO
 from ..waits import PATIENCE, wait_until
 
 GRID = REPO / "config" / "swarms" / "grid25.yaml"
+#: The tests' smaller grid (16 FLS processes, not 25), where a test is not of grid25 itself.
+GRID16 = Path(__file__).parent / "data" / "grid16.xyz"
+GRID16_SWARM = GRID16.with_suffix(".yaml")
 BLOCKED = Path(__file__).parent / "data" / "blocked25.xyz"
 TRIO = REPO / "config" / "swarms" / "trio.yaml"
 
@@ -105,8 +108,8 @@ def test_a_swarm_of_one_process_per_fls_computes_what_the_engine_computes(domain
 
 def test_a_swarm_of_one_process_per_fls_solves_its_fit_as_the_engine_does(domain, tmp_path):
     # The grid under the published sensor: two fits (the sweet hops alone, and with the
-    # joining decaying hops), each solved by the 25 processes' messages.
-    spawn = swazure("spawn", str(GRID), "--per-fls", "--log-dir", str(tmp_path / "logs"),
+    # joining decaying hops), each solved by the 16 processes' messages.
+    spawn = swazure("spawn", str(GRID16_SWARM), "--per-fls", "--log-dir", str(tmp_path / "logs"),
                     "--quiet", "--discovery-timeout", "300", "--compute-all",
                     "--estimator", "swarm-fit", "--out", str(tmp_path / "d"))  # fmt: skip
     out, err = spawn.communicate(timeout=600)
@@ -114,12 +117,12 @@ def test_a_swarm_of_one_process_per_fls_solves_its_fit_as_the_engine_does(domain
     record = read_record(tmp_path / "d" / RECORD_FILE)
     assert record.comparison.identical, out
     assert record.summary.fit.estimator == "swarm-fit"
-    assert "25 FLS processes stopped, every one cleanly (exit code 0)" in err, err
+    assert "16 FLS processes stopped, every one cleanly (exit code 0)" in err, err
 
 
 def test_each_fls_process_fits_what_it_hears_as_the_engine_does(domain, tmp_path):
     # Each process hears the others' signed measurements over DDS: its own radio's book.
-    spawn = swazure("spawn", str(GRID), "--per-fls", "--log-dir", str(tmp_path / "logs"),
+    spawn = swazure("spawn", str(GRID16_SWARM), "--per-fls", "--log-dir", str(tmp_path / "logs"),
                     "--quiet", "--discovery-timeout", "300", "--compute-all",
                     "--estimator", "local-least-squares",
                     "--out", str(tmp_path / "d"))  # fmt: skip
@@ -316,21 +319,21 @@ def test_an_fls_process_killed_mid_run_departs_and_the_living_get_the_engines_pa
     from swazure_ros.sim.world import WorldSpec
 
     policy = "shortest-length"
-    spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
+    spec = WorldSpec(cloud=str(GRID16), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
     lost = []
     with RunningSwarm.start(config, on_lost=lost.append) as swarm:
-        # FLS 12, the grid's centre, relays many paths: killed (no goodbye) as the run starts.
-        swarm.processes.fls.processes[12].kill()
+        # FLS 10 relays many paths (1 10 4 among them): killed (no goodbye) as the run starts.
+        swarm.processes.fls.processes[10].kill()
         result = swarm.discover(policy, timeout=PATIENCE)
-        assert result.outcome.departed == frozenset({12})
-        assert [(one.fls_id, one.code) for one in lost] == [(12, -9)]
+        assert result.outcome.departed == frozenset({10})
+        assert [(one.fls_id, one.code) for one in lost] == [(10, -9)]
         world = swarm.world
-        expected = evaluate_pairs(without(world.hood, np.array([12])), policy)
+        expected = evaluate_pairs(without(world.hood, np.array([10])), policy)
         found = {
             (s, one.target): one for s, some in result.outcome.estimates.items() for one in some
         }
-        keep = (expected.source != 12) & (expected.target != 12)
+        keep = (expected.source != 10) & (expected.target != 10)
         assert len(found) == int(keep.sum())
         for pair in np.flatnonzero(keep).tolist():
             one = found[(int(expected.source[pair]), int(expected.target[pair]))]
@@ -338,10 +341,10 @@ def test_an_fls_process_killed_mid_run_departs_and_the_living_get_the_engines_pa
             assert one.path == tuple(expected.path(pair))
         # It mattered: the whole grid's paths go through it (ids are the grid's rows).
         whole = evaluate_pairs(world.hood, policy)
-        assert any(12 in whole.path(pair) for pair in range(len(whole)))
+        assert any(10 in whole.path(pair) for pair in range(len(whole)))
         # The next run needs no restart: no round waits for the dead FLS's radio.
         again = swarm.discover(policy, timeout=PATIENCE)
-        assert again.outcome.restarts == 0 and again.outcome.departed == frozenset({12})
+        assert again.outcome.restarts == 0 and again.outcome.departed == frozenset({10})
 
 
 #: Seconds an FLS process is stopped: longer than a round's timeout, shorter than a
@@ -363,11 +366,11 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
     from swazure_ros.sim.world import WorldSpec
 
     policy = "shortest-length"
-    spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
+    spec = WorldSpec(cloud=str(GRID16), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
     with RunningSwarm.start(config) as swarm:
         swarm.coordinator.round_timeout = 3.0  # silent for 3 s: departed
-        pid = swarm.processes.fls.processes[12].pid
+        pid = swarm.processes.fls.processes[10].pid
         os.kill(pid, signal.SIGSTOP)
         stopped, resumed = time.monotonic(), []
 
@@ -385,7 +388,7 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
                 os.kill(pid, signal.SIGCONT)
                 resumed.append(time.monotonic())
         resumed = resumed[0]
-        assert 12 in missed.outcome.departed
+        assert 10 in missed.outcome.departed
         runs = runs_until_every_fls_is_back(swarm, policy, timeout=PATIENCE)
         recovered = time.monotonic()
         print(
@@ -396,14 +399,14 @@ def test_an_fls_process_stopped_for_a_while_departs_and_is_taken_back_when_it_sp
         assert runs[-1].outcome.departed == frozenset(), [run.outcome.departed for run in runs]
         assert_every_pair_is_the_engines(swarm.world, runs[-1], policy)
         # Queries to it are answered again.
-        assert 12 not in swarm.coordinator.departed_so_far()
+        assert 10 not in swarm.coordinator.departed_so_far()
 
 
 def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_topic(
     domain, tmp_path
 ):
-    """A peer publishes FLS 12's camera readings: none (its paths would detour), and readings
-    signed with another key. FLS 12's guard drops both; 1 -> 5 still goes 1 12 5."""
+    """A peer publishes FLS 10's camera readings: none (its paths would detour), and readings
+    signed with another key. FLS 10's guard drops both; 1 -> 4 still goes 1 10 4."""
     from diagnostic_msgs.msg import DiagnosticArray
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
@@ -419,7 +422,7 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
     from ..ros.conftest import make_context
 
     policy = "shortest-length"
-    spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
+    spec = WorldSpec(cloud=str(GRID16), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
     with RunningSwarm.start(config) as swarm:
         context = make_context(domain)
@@ -428,11 +431,11 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
 
         def on_diagnostics(array: DiagnosticArray) -> None:
             for status in array.status:
-                if status.hardware_id == "/swarm/fls_12":
+                if status.hardware_id == "/swarm/fls_10":
                     counts.update({one.key: int(one.value) for one in status.values})
 
         node.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 10)
-        forged = node.create_publisher(Detections, f"fls_12/{DETECTIONS_TOPIC}", DETECTIONS_QOS)
+        forged = node.create_publisher(Detections, f"fls_10/{DETECTIONS_TOPIC}", DETECTIONS_QOS)
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(node)
         keys = [SwarmKey(), SwarmKey(new_key())]
@@ -440,7 +443,7 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
         def forge() -> None:
             for key in keys:
                 message = Detections(revision=swarm.world.revision)
-                message.header.frame_id = "fls_12"
+                message.header.frame_id = "fls_10"
                 forged.publish(key.serialize(message))
             executor.spin_once(timeout_sec=0.01)
 
@@ -455,7 +458,7 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
             wait_until(
                 lambda: forged.get_subscription_count() >= 1, PATIENCE, lambda: swarm.spin(0.05)
             )
-            result = swarm.run(swarm.coordinator.discover(policy, [1], [5]), PATIENCE, step=forge)
+            result = swarm.run(swarm.coordinator.discover(policy, [1], [4]), PATIENCE, step=forge)
             wait_until(lambda: refused() >= 2, PATIENCE, lambda: (swarm.spin(0.1), forge()))
         finally:
             executor.shutdown()
@@ -463,9 +466,9 @@ def test_forged_detections_of_an_fls_change_no_answer_and_are_counted_on_its_top
             context.try_shutdown()
         assert refused() >= 2, counts
         expected = evaluate_pairs(swarm.world.hood, policy)
-        row = int(np.flatnonzero((expected.source == 1) & (expected.target == 5))[0])
+        row = int(np.flatnonzero((expected.source == 1) & (expected.target == 4))[0])
         (answer,) = result.outcome.estimates[1]
-        assert answer.path == tuple(expected.path(row)) == (1, 12, 5)
+        assert answer.path == tuple(expected.path(row)) == (1, 10, 4)
 
 
 def false_offer_forger(domain: int, world):
@@ -533,11 +536,11 @@ def false_offer_forger(domain: int, world):
 def test_offers_every_fls_drops_as_implausible_change_no_pair_of_a_swarm_without_a_key(
     domain, tmp_path
 ):
-    """Per-FLS grid25 under --no-key: each FLS's offer forged, false, first, twice a round.
+    """Per-FLS grid16 under --no-key: each FLS's offer forged, false, first, twice a round.
 
     Before, a process counted a forged offer for its sender and acknowledged the
     round without the real one, or kept the forgeries and ignored the real one:
-    1 -> 5 went from SWEET over 1 12 5 to a longer path, DECAYING or NO_PATH."""
+    1 -> 4 went from SWEET over 1 10 4 to a longer path, DECAYING or NO_PATH."""
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.swarm import RunningSwarm
     from swazure_ros.core.evaluate import evaluate_pairs
@@ -545,7 +548,7 @@ def test_offers_every_fls_drops_as_implausible_change_no_pair_of_a_swarm_without
     from swazure_ros.sim.world import WorldSpec
 
     policy = "shortest-length"
-    spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
+    spec = WorldSpec(cloud=str(GRID16), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE,
                          authenticate=False)  # fmt: skip
     with RunningSwarm.start(config) as swarm:
@@ -562,16 +565,16 @@ def test_offers_every_fls_drops_as_implausible_change_no_pair_of_a_swarm_without
             wait_until(
                 lambda: forger.dropped_as_implausible() >= 1, PATIENCE, lambda: swarm.spin(0.05)
             )
-        assert forger.sent >= 2 * 25 and forger.dropped_as_implausible() >= 1, forger.diagnostics
+        assert forger.sent >= 2 * 16 and forger.dropped_as_implausible() >= 1, forger.diagnostics
         expected = evaluate_pairs(swarm.world.hood, policy)
         found = {
             (s, one.target): one for s, some in result.outcome.estimates.items() for one in some
         }
-        assert len(found) == len(expected) == 144
+        assert len(found) == len(expected) == 84
         for pair in range(len(expected)):
             one = found[(int(expected.source[pair]), int(expected.target[pair]))]
             assert (one.status, one.path) == (expected.status[pair], tuple(expected.path(pair)))
-        assert (found[(1, 5)].status, found[(1, 5)].path) == (SWEET_PATH, (1, 12, 5))
+        assert (found[(1, 4)].status, found[(1, 4)].path) == (SWEET_PATH, (1, 10, 4))
 
 
 def assert_every_pair_is_the_engines(world, result, policy: str) -> None:
@@ -616,17 +619,17 @@ def test_an_fls_process_stopped_past_its_lease_starts_afresh_and_is_taken_back(
 
     monkeypatch.setenv("FASTRTPS_DEFAULT_PROFILES_FILE", str(SHORT_LEASE))
     policy = "shortest-length"
-    spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
+    spec = WorldSpec(cloud=str(GRID16), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
     with RunningSwarm.start(config) as swarm:
         coordinator = swarm.coordinator
-        pid = swarm.processes.fls.processes[12].pid
+        pid = swarm.processes.fls.processes[10].pid
         os.kill(pid, signal.SIGSTOP)
         stopped = time.monotonic()
         try:
             # Its lease runs out: the graph shows it gone (a peer dropped its participant).
             gone = wait_until(
-                lambda: 12 in coordinator.membership.gone, PATIENCE, lambda: swarm.spin(0.2)
+                lambda: 10 in coordinator.membership.gone, PATIENCE, lambda: swarm.spin(0.2)
             )
             wait_until(
                 lambda: time.monotonic() > stopped + STOPPED_PAST_LEASE,
@@ -636,7 +639,7 @@ def test_an_fls_process_stopped_past_its_lease_starts_afresh_and_is_taken_back(
         finally:
             os.kill(pid, signal.SIGCONT)
         resumed = time.monotonic()
-        assert gone, "FLS 12's lease never ran out"
+        assert gone, "FLS 10's lease never ran out"
         runs = runs_until_every_fls_is_back(swarm, policy, timeout=PATIENCE)
         print(
             f"stopped {resumed - stopped:.1f} s; back and every pair the engine's "
@@ -644,9 +647,9 @@ def test_an_fls_process_stopped_past_its_lease_starts_afresh_and_is_taken_back(
         )
         assert runs[-1].outcome.departed == frozenset(), [run.outcome.departed for run in runs]
         assert_every_pair_is_the_engines(swarm.world, runs[-1], policy)
-        process = swarm.processes.fls.processes[12]
+        process = swarm.processes.fls.processes[10]
         assert process.pid == pid and process.poll() is None
-        assert "starting afresh (1 so far)" in (tmp_path / "fls_12.log").read_text()
+        assert "starting afresh (1 so far)" in (tmp_path / "fls_10.log").read_text()
 
 
 def test_a_killed_fls_process_started_again_with_its_id_rejoins_with_the_engines_pairs(
@@ -657,19 +660,19 @@ def test_a_killed_fls_process_started_again_with_its_id_rejoins_with_the_engines
     from swazure_ros.sim.world import WorldSpec
 
     policy = "shortest-length"
-    spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
+    spec = WorldSpec(cloud=str(GRID16), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=PATIENCE)
     with RunningSwarm.start(config) as swarm:
-        first = swarm.processes.fls.processes[12]
+        first = swarm.processes.fls.processes[10]
         first.kill()
         assert wait_until(
-            lambda: 12 in swarm.coordinator.membership.gone, PATIENCE, lambda: swarm.spin(0.2)
+            lambda: 10 in swarm.coordinator.membership.gone, PATIENCE, lambda: swarm.spin(0.2)
         )
         without = swarm.discover(policy, timeout=PATIENCE)
-        assert without.outcome.departed == frozenset({12})
+        assert without.outcome.departed == frozenset({10})
         # Started again as a person would: the same id and arguments, a new process.
-        swarm.processes.restart(12)
-        again = swarm.processes.fls.processes[12]
+        swarm.processes.restart(10)
+        again = swarm.processes.fls.processes[10]
         assert again.pid != first.pid and again.poll() is None
         started = time.monotonic()
         runs = runs_until_every_fls_is_back(swarm, policy, timeout=PATIENCE)
@@ -679,7 +682,7 @@ def test_a_killed_fls_process_started_again_with_its_id_rejoins_with_the_engines
         )
         assert runs[-1].outcome.departed == frozenset(), [run.outcome.departed for run in runs]
         assert_every_pair_is_the_engines(swarm.world, runs[-1], policy)
-        assert (tmp_path / "fls_12.log").read_text().count("ready, ") == 2  # both lives
+        assert (tmp_path / "fls_10.log").read_text().count("ready, ") == 2  # both lives
 
 
 #: Busy loops beside the swarm: with the test run's own, a load of 6 or more on 2 cores.
@@ -687,14 +690,14 @@ BUSY_LOOPS = 4
 
 
 def test_a_swarm_of_one_process_per_fls_beside_busy_loops_loses_no_fls(domain, tmp_path):
-    """Slow is not dead: 25 FLS processes (at nice 10) beside busy loops come up, discover
+    """Slow is not dead: 16 FLS processes (at nice 10) beside busy loops come up, discover
     every blind pair with none departed, and find the engine's pairs."""
     from swazure_ros.app.config import SwarmConfig
     from swazure_ros.app.swarm import RunningSwarm
     from swazure_ros.sim.world import WorldSpec
 
     policy = "shortest-length"
-    spec = WorldSpec(cloud=str(GRID.with_suffix(".xyz")), scale=1.0, radius=0.5)
+    spec = WorldSpec(cloud=str(GRID16), scale=1.0, radius=0.5)
     config = SwarmConfig(spec, per_fls=True, log_dir=str(tmp_path), discovery_timeout=300)
     busy = [
         subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(BUSY_LOOPS)
