@@ -253,6 +253,8 @@ class RoundClock:
         self._finished: set[int] = set()
         self._collecting: frozenset[int] = frozenset()
         self._collected: dict[int, Sequence[Estimate]] = {}
+        # The sources of _collecting not heard yet: one look per report, not one per source.
+        self._uncollected: set[int] = set()
         self._deadline = float("inf")
         self._progress_at = 0.0  # when the wait last moved on (deadlines' clock, s)
         self._opened_at = 0.0  # when the open round opened
@@ -323,8 +325,9 @@ class RoundClock:
         if source not in self._collecting or self.done:
             return []
         self._collected[source] = estimates
+        self._uncollected.discard(source)
         self._moved_on(now)
-        if self._collecting <= set(self._collected):
+        if not self._uncollected:
             self._finish()
         return []
 
@@ -349,7 +352,8 @@ class RoundClock:
             return self._start_phase(now)
         if self._collecting:
             self._collecting -= newly
-            if self._collecting <= set(self._collected):
+            self._uncollected -= newly
+            if not self._uncollected:
                 self._finish()
         return []
 
@@ -386,7 +390,7 @@ class RoundClock:
             theirs = not fls_ids or not fls_ids <= self.departed
             unacked = theirs and host not in tally.acks and len(tally.acks) < tally.hosts
             return unacked or bool(fls_ids & tally.silent)
-        return bool(fls_ids & (self._collecting - set(self._collected)))
+        return bool(fls_ids & self._uncollected)
 
     def on_tick(self, now: float) -> list[Control]:
         """The time is ``now``: end a wait whose deadline has passed."""
@@ -394,7 +398,7 @@ class RoundClock:
             return []
         if self._tally is not None:
             return self._close_round(now, timed_out=True)
-        gone = self._collecting - set(self._collected)
+        gone = frozenset(self._uncollected)
         self.departed |= gone
         self.warnings.append(f"run {self.run_id}: no estimates from FLS {sorted(gone)}")
         self._finish()
@@ -465,6 +469,7 @@ class RoundClock:
                 )
                 self.incomplete = True
                 self._collecting = frozenset()
+                self._uncollected = set()
                 end = self._control(END, now)
                 self._finish()
                 return [end]
@@ -491,6 +496,7 @@ class RoundClock:
         live = self.live
         self._collecting = frozenset(self.sources) & live if self.sources else live
         self._collected = {}
+        self._uncollected = set(self._collecting)
         end = self._control(END, now)
         if not self._collecting:
             self._finish()
