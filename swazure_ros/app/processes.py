@@ -70,9 +70,11 @@ class PackedShares:
         self.own_share = shares[0]
         self.laid_out: list[int] | None = shares[0]
         self.radios = max(config.processes, config.hosts)
-        self._shares = shares
+        #: The FLS ids of each process's share, the launcher's first.
+        self.shares = shares
         self._created = [0] * len(shares)
         self._peaks: dict[int, float] = {}
+        self._pairs: dict[int, int] = {}
         mp = multiprocessing.get_context("spawn")
         self._reports = mp.Queue()
         self._stop = mp.Event()
@@ -103,8 +105,8 @@ class PackedShares:
             if kind == CREATED:
                 self._created[index] = value
             elif kind == READY:
-                self._created[index] = len(self._shares[index])
-                self._peaks[index] = value
+                self._created[index] = len(self.shares[index])
+                self._peaks[index], self._pairs[index] = value
         for child in self._children:
             if child.exitcode is not None and child.exitcode != 0:
                 raise RunError(f"{child.name} exited with code {child.exitcode}")
@@ -116,7 +118,15 @@ class PackedShares:
         return len(self._peaks) == len(self._children)
 
     def peak_rss_mb(self) -> list[float]:
-        return [self._peaks[index] for index in range(1, len(self._shares))]
+        return [self._peaks[index] for index in range(1, len(self.shares))]
+
+    def pairs_held(self) -> list[int]:
+        """Neighbour pairs (``world.hood.pairs``) in each further process's world, once up.
+
+        Its own FLSs' pairs alone (``WorldSpec.build(only_hosted_pairs=True)``), where the
+        launcher's world holds the whole swarm's.
+        """
+        return [self._pairs[index] for index in range(1, len(self.shares))]
 
     def process_ids(self) -> list[int]:
         return [child.pid for child in self._children if child.pid is not None]

@@ -2,8 +2,8 @@
 
 A further process builds the same world from the swarm's :class:`~.config.SwarmConfig`,
 hosts its share of FLS nodes, and reports to the launcher over a queue: nodes
-created (CREATED), discovery complete with its peak memory (READY), or one
-error line (FAILED).
+created (CREATED), discovery complete with its peak memory and the pairs its world
+holds (READY), or one error line (FAILED).
 """
 
 from __future__ import annotations
@@ -149,7 +149,7 @@ def host_share(
                 f"({published} of {swarm_size} FLS publishers, {services} services)"
                 + unreached_text(host.unreached())
             )
-        reports.put((READY, index, peak_rss_mb()))
+        reports.put((READY, index, (peak_rss_mb(), len(world.hood.pairs))))
         while not stop.is_set():
             host.spin_for(0.1)
         code = 0

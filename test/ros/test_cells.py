@@ -114,6 +114,29 @@ def test_two_processes_hear_only_their_cells_offers_yet_equal_the_engine(domain,
         assert 0 < radio.offers_heard < sent - radio.offers_here
 
 
+def test_a_further_process_holds_only_its_own_flss_pairs_yet_the_run_equals_the_engine(
+    domain,
+    params,  # noqa: F811
+):
+    config = SwarmConfig(WORLD, processes=3, domain_id=domain, params_file=str(params))
+    with RunningSwarm.start(config) as swarm:
+        result = swarm.discover(POLICY)
+        world = swarm.world  # the launcher's: the whole swarm's pairs
+        assert_matches_engine(
+            world, by_pair(result.outcome.estimates), evaluate_pairs(world.hood, POLICY)
+        )
+        further = swarm.processes.shares[1:]
+        held = swarm.processes.pairs_held()
+    pairs = world.hood.pairs
+    assert len(held) == len(further) == 2
+    for share, count in zip(further, held, strict=True):
+        hosted = np.zeros(world.swarm.size, dtype=bool)
+        hosted[world.indices(share)] = True
+        # Counted: exactly the whole's pairs that have an FLS of the share at one end.
+        touching = int((hosted[pairs.first] | hosted[pairs.second]).sum())
+        assert count == touching < 0.8 * len(pairs), (count, touching, len(pairs))
+
+
 def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, params):  # noqa: F811
     spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
     assigned = spec.assigned()
