@@ -16,8 +16,10 @@ INTERFACE_FILES := msg_defs/CMakeLists.txt msg_defs/package.xml msg_defs/drop-mi
 	$(wildcard msg_defs/msg/*.msg) $(wildcard msg_defs/srv/*.srv) \
 	$(wildcard msg_defs/tf2_msgs/*.* msg_defs/tf2_msgs/msg/*.msg)
 PYTEST_ARGS ?=
-# Two workers (pytest-xdist) on this 2-core machine: much of a ROS test is waiting.
-PYTEST_WORKERS ?= 2
+# Three workers (pytest-xdist) on this 2-core machine: much of a ROS test is waiting. Two
+# kept 1.4 of the 2 cores busy (27 CPU-min in 19 min of pytest); three ran the suite in
+# 13.3 min (2026-11-29, commit 259db8d). `make bench`'s section tests, whole swarms each, run on two.
+PYTEST_WORKERS ?= 3
 # The real `ros2` command line exists only as wheels beside the repo (../shared);
 # tests that drive it skip where it is absent.
 ROS2CLI_WHEELS := $(wildcard ../shared/wheels/ros2cli-jazzy/*.whl)
@@ -105,7 +107,7 @@ demo: setup
 		--communication-delay 0.3 --every 1
 
 bench: setup
-	$(VENV)/bin/pytest -n $(PYTEST_WORKERS) --dist worksteal -m bench_section test/bench
+	$(VENV)/bin/pytest -n 2 --dist worksteal -m bench_section test/bench
 	$(PY) -m bench $(if $(SECTIONS),--sections $(SECTIONS))
 
 study: setup

@@ -93,7 +93,7 @@ def pytest_configure(config: pytest.Config) -> None:
 #: 2026-11-29), longest first. pytest-xdist's worksteal hands each worker half of the
 #: collection and lets an idle worker take the end of the other's queue: a minute-long
 #: test left at the end runs alone while the other worker idles. Run first, these end
-#: while the short tests after them balance the two workers. Not simply the longest
+#: while the short tests after them balance the workers. Not simply the longest
 #: first: ordered so, the two workers started on 25-process swarms at once (load 29 in a
 #: fresh clone's suite, 2026-11-29); CI ran this order's suite in 20 min.
 SLOW_FILES = (
