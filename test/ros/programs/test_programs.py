@@ -112,6 +112,19 @@ def nodes() -> list[str]:
     return ros2("node", "list", "--no-daemon", "--spin-time", "2").stdout.split()
 
 
+def param(
+    node: str, name: str, verb: str = "get", *value: str
+) -> subprocess.CompletedProcess[str]:
+    """`ros2 param <verb>` of one node's parameter, asked again while the node is not found.
+
+    Each `ros2 --no-daemon` call discovers the graph anew, and waits ``--timeout`` seconds
+    (1 by default) for the node; on a loaded machine that can miss a node `ros2 node list`
+    has just shown ("Node not found"). The call waits 10 s, and a person asks again.
+    """
+    command = ("param", verb, "--no-daemon", "--timeout", "10", node, name, *value)
+    return until(lambda: ros2(*command), lambda result: "Node not found" not in result.stderr)
+
+
 def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2_tools, domain):
     # As a person starts real FLS hardware: the simulator, the coordinator, an FLS each.
     programs = [
@@ -138,32 +151,23 @@ def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2
         listed = until(nodes, lambda names: wanted <= set(names))
         assert wanted <= set(listed), listed
 
-        # Each `ros2 --no-daemon` call discovers the graph anew within its spin time; on a
-        # loaded machine one may miss the node ("Node not found"), and a person asks again.
-        def param(name, verb="get", *value):
-            command = ["param", verb, "--no-daemon", "--spin-time", "2", "/swarm/fls_1", name]
-            return until(
-                lambda: ros2(*command, *value),
-                lambda result: "Node not found" not in result.stderr,
-            )
-
-        got = param("publish_period")
+        got = param("/swarm/fls_1", "publish_period")
         assert got.returncode == 0 and "Double value is: 0.25" in got.stdout, got
-        described = param("cloud")
+        described = param("/swarm/fls_1", "cloud")
         assert "trio.xyz" in described.stdout, described
         # A bad value is refused with its reason and the node keeps its own; a good one
         # is taken; what was set at the start cannot be changed. One bad value through the
         # command line (YAML's .nan is NaN): the rule's every bad value, -1, 0, NaN and
         # infinity, is refused in test/ros/plumbing/test_node.py.
-        refused = param("publish_period", "set", ".nan")
+        refused = param("/swarm/fls_1", "publish_period", "set", ".nan")
         said = refused.stdout + refused.stderr
         assert "Setting parameter failed" in said, refused
         assert "must be a positive number of seconds" in said, refused
-        assert "Double value is: 0.25" in param("publish_period").stdout
-        taken = param("publish_period", "set", "0.5")
+        assert "Double value is: 0.25" in param("/swarm/fls_1", "publish_period").stdout
+        taken = param("/swarm/fls_1", "publish_period", "set", "0.5")
         assert "Set parameter successful" in taken.stdout, taken
-        assert "Double value is: 0.5" in param("publish_period").stdout
-        fixed = param("cloud", "set", "torus")
+        assert "Double value is: 0.5" in param("/swarm/fls_1", "publish_period").stdout
+        fixed = param("/swarm/fls_1", "cloud", "set", "torus")
         said = fixed.stdout + fixed.stderr
         assert "Setting parameter failed" in said and "read-only" in said, fixed
         # Each program's --help lists every parameter its node answers ros2 param for:
@@ -217,7 +221,7 @@ def test_ros2_as_a_super_client_sees_fls_processes_that_discover_through_a_serve
 
         info = until(publishers, lambda out: "Publisher count: 3" in out)
         assert "Publisher count: 3" in info, info
-        got = ros2("param", "get", "--no-daemon", "--spin-time", "2", "/swarm/fls_2", "fls_id")
+        got = param("/swarm/fls_2", "fls_id")
         assert "Integer value is: 2" in got.stdout, got
         # Simple discovery finds nothing of a swarm that discovers through a server.
         monkeypatch.delenv("ROS_DISCOVERY_SERVER")
@@ -385,9 +389,7 @@ def test_ros2_launch_per_fls_takes_the_swarm_files_params_and_domain_id(
             assert wanted <= set(listed), listed
 
             def value(node: str, name: str) -> str:
-                command = ("param", "get", "--no-daemon", "--spin-time", "3", node, name)
-                got = until(lambda: ros2(*command), lambda result: "value is" in result.stdout)
-                return got.stdout.strip()
+                return param(node, name).stdout.strip()
 
             assert value("/swarm/coordinator", "round_timeout") == "Double value is: 7.5"
             assert value("/swarm/fls_1", "republish_period") == "Double value is: 3.0"
@@ -504,13 +506,11 @@ def test_ros2_launch_of_the_default_example_swarm_sees_and_answers(ros2_tools, d
         expected = {"/swarm/fls_0", "/swarm/fls_119", "/swarm/coordinator"}
         listed = until(nodes, lambda names: expected <= set(names))
         assert expected <= set(listed), listed
-        got = ros2("param", "get", "--no-daemon", "--spin-time", "3", "/swarm/fls_7",
-                   "publish_period")  # fmt: skip
+        got = param("/swarm/fls_7", "publish_period")
         # The swarm file's parameters: every FLS 0.5 s, FLS 0 0.1 s.
         assert "Double value is: 0.5" in got.stdout, got
         # The packed coordinator answers ros2 param too.
-        got = ros2("param", "get", "--no-daemon", "--spin-time", "3", "/swarm/coordinator",
-                   "round_timeout")  # fmt: skip
+        got = param("/swarm/coordinator", "round_timeout")
         assert "Double value is: 10.0" in got.stdout, got
         helped = ros2("run", "swazure_ros", "aruco_detector", "--help")
         assert helped.returncode == 0 and "camera_file (string, " in helped.stdout, helped
