@@ -14,40 +14,78 @@ from __future__ import annotations
 import sys
 import time
 
-from ..core.heuristics.result import TECHNIQUES
+import numpy as np
+
+from ..core.blocks import Budget
+from ..core.clouds import resample
+from ..core.geometry import COMPILED_PAIRS, centre_distance
+from ..core.heuristics.result import MOVE_SOURCE, PLAIN, TECHNIQUES
 from ..core.observe import observations
 from ..core.paths import POLICIES
 from ..core.pipeline import RunOptions, run_engine
 from ..protocol.loops import discover
+from ..protocol.schedule import move_batches
 from ..sim.world import WorldSpec
 
-#: A shape small enough to run in a moment and big enough to reach every kernel.
-SHAPE = WorldSpec("torus", beta=0.5)
+#: Shapes small enough to run in a moment that between them reach every kernel: a torus
+#: whose pairs are all sweet (the swarm's search), the torus spread out (decaying paths)
+#: and a lattice whose FLSs block one another's sight (both heuristics' moves).
+SHAPES = (
+    WorldSpec("torus", beta=0.5),
+    WorldSpec("torus", scale=12.0, beta=0.5),
+    WorldSpec("cube:125", scale=8.0, beta=0.5),
+)
 
 
 def warm_kernels() -> None:
-    """Run every kernel once on a small shape: each policy, the swarm's search, each technique.
+    """Run every kernel once, with the argument types the programs give it.
 
-    The fits (core.fit) are scipy's, with no kernel of their own.
+    Each shape runs each policy (held, and in blocks of a small budget, as
+    ``--memory`` runs), the swarm's search, and each heuristic in both
+    compatibility modes and as the swarm schedules its moves, fusion, and a world
+    whose FLS moved; then a resample
+    and a distance batch big enough for its compiled path. The fits
+    (core.fit) are scipy's, with no kernel of their own. What this leaves
+    out, each process that needs it compiles at its first call (and numba
+    caches): ``make test`` measured 15 kernels compiled by its workers when
+    only the first shape ran.
     """
-    world = SHAPE.build()
-    for policy in POLICIES:
-        plain = run_engine(world.swarm, world.sensor, RunOptions(policy), hold=True)
-        discover(
-            observations(plain.held.hood),
-            world.swarm.cloud_index,
-            world.sensor,
-            world.swarm.radius,
-            policy,
-        )
-    for technique in TECHNIQUES:
-        run_engine(world.swarm, world.sensor, RunOptions(policy, technique), plain=plain)
+    for spec in SHAPES:
+        world = spec.build()
+        for policy in POLICIES:
+            plain = run_engine(world.swarm, world.sensor, RunOptions(policy), hold=True)
+            run_engine(world.swarm, world.sensor, RunOptions(policy), budget=Budget(2**20))
+            discover(
+                observations(plain.held.hood),
+                world.swarm.cloud_index,
+                world.sensor,
+                world.swarm.radius,
+                policy,
+            )
+        for technique in TECHNIQUES:
+            if technique == PLAIN:
+                continue
+            for compat in ("text", "published"):
+                options = RunOptions(policy, technique, compat=compat)
+                moved = run_engine(world.swarm, world.sensor, options, plain=plain, hold=True)
+                if moved.heuristic is not None and moved.evaluation is not None:
+                    move_batches(moved.evaluation, moved.heuristic)
+        options = RunOptions(policy, MOVE_SOURCE, source_body=True)
+        run_engine(world.swarm, world.sensor, options, plain=plain)
+        run_engine(world.swarm, world.sensor, RunOptions(policy, fuse=3), plain=plain)
+        # An FLS steps aside, as the swarm's moves make the world's next revision.
+        first = int(world.ids[0])
+        _ = world.moved({first: world.position(first) + world.swarm.radius}).hood
+    resample(world.swarm.points, 2 * world.swarm.size)
+    # Indices into the few points held, as many as a display's neighbourhood has.
+    many = np.arange(COMPILED_PAIRS, dtype=np.int64) % world.swarm.size
+    centre_distance(world.swarm.points, many, many[::-1].copy())
 
 
 def main() -> int:
     """Compile, saying so first: it is the one long wait of a fresh machine."""
     print(
-        "compiling the engine's numba kernels, once for this machine (up to a minute)...",
+        "compiling the engine's numba kernels, once for this machine (a minute or so)...",
         flush=True,
     )
     began = time.perf_counter()

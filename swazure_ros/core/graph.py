@@ -124,7 +124,10 @@ def make_graph(
     keys = np.minimum(first, second) * size + np.maximum(first, second)
     if np.all(first < second) and np.all(keys[1:] > keys[:-1]):
         # Edges listed as neighbour pairs are: (first, second) sorted, first < second.
-        indptr, indices, edge = _symmetric_rows(size, first, second)
+        # Contiguous, so that one compiled signature serves every caller.
+        indptr, indices, edge = _symmetric_rows(
+            size, np.ascontiguousarray(first), np.ascontiguousarray(second)
+        )
     else:
         tail = np.concatenate([first, second])
         head = np.concatenate([second, first])
