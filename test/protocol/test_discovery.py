@@ -23,9 +23,14 @@ from swazure_ros.core.paths import POLICIES
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_sensor
 from swazure_ros.protocol.discovery.estimate import Found, estimate, evaluation_of
-from swazure_ros.protocol.discovery.messages import SWEET_VISIBLE
+from swazure_ros.protocol.discovery.messages import SWEET_VISIBLE, RoundOffers
 from swazure_ros.protocol.discovery.participant import source_range
-from swazure_ros.protocol.discovery.search import PathSearch, SearchOptions, bucket_width
+from swazure_ros.protocol.discovery.search import (
+    PathSearch,
+    SearchOptions,
+    bucket_width,
+    hear_together,
+)
 from swazure_ros.protocol.loops import RunOptions, discover
 from swazure_ros.protocol.runs import source_blocks
 from swazure_ros.sim.world import WorldSpec
@@ -200,6 +205,36 @@ def test_an_fls_keeps_labels_for_the_run_s_sources_only():
     search = PathSearch(view, SWEET_VISIBLE, options)
     assert len(search.hops) == end - first
     assert source_range((), 120) == (0, 120)
+
+
+def test_flss_heard_together_end_as_each_hearing_alone_would():
+    # Every FLS of a small torus a source, by the rounds of a phase: one set hears each
+    # round's offers together (as a process steps its FLSs), the other one by one.
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    seen, ids = observations(world.hood), world.ids
+    width = bucket_width(world.sensor, world.swarm.radius, "shortest-length")
+    options = SearchOptions("shortest-length", width, int(ids[-1]) + 1)
+
+    def searches() -> list[PathSearch]:
+        views = [local_view(seen, ids, row) for row in range(len(ids))]
+        return [PathSearch(view, SWEET_VISIBLE, options, view.blind) for view in views]
+
+    together, alone = searches(), searches()
+    for round_ in range(12):
+        offers = [one.offer(round_) for one in together]
+        assert [offer.source_ids.tolist() for offer in offers] == [
+            one.offer(round_).source_ids.tolist() for one in alone
+        ]
+        heard = RoundOffers.of(list(zip(ids.tolist(), offers, strict=True)))
+        hear_together(together, heard)
+        for one in alone:
+            one.hear(heard)
+    assert sum(len(one.results) for one in together) > 0
+    for mine, theirs in zip(together, alone, strict=True):
+        for name in ("hops", "length", "pred", "vector", "sent", "via_offers", "via_label"):
+            np.testing.assert_array_equal(getattr(mine, name), getattr(theirs, name))
+        for name, values in mine.results.table.items():
+            np.testing.assert_array_equal(values, theirs.results.table[name])
 
 
 @pytest.mark.parametrize("noisy", [False, True], ids=["published", "stochastic"])

@@ -44,6 +44,7 @@ from .search import (
     PathSearch,
     SearchOptions,
     bucket_width,
+    hear_together,
     phase_targets,
     radio_window,
     reads_both_ends,
@@ -370,6 +371,29 @@ class Participant:
             source_range(control.source_ids, self.id_space),
             control.estimator,
         )
+
+
+def hear_round(
+    participants: Sequence[Participant], control: Control, heard: RoundOffers | None
+) -> None:
+    """The offers ``heard`` before ``control``, heard at once by every one of
+    ``participants`` that searches in its run (:func:`.search.hear_together`).
+
+    A process calls this before it hands ``control`` to each of its FLSs,
+    whose :meth:`Participant.on_control` then finds the offers heard; the FIT
+    phase's rounds hear their offers there.
+    """
+    if heard is None or control.command not in (ROUND, END):
+        return
+    if control.command == ROUND and control.phase == FIT:
+        return
+    searches = []
+    for participant in participants:
+        run = participant.runs.get(control.run_id)
+        if run is not None and run.search is not None:
+            searches.append(run.search)
+    if searches:
+        hear_together(searches, heard)
 
 
 def source_range(source_ids: Sequence[int], id_space: int) -> tuple[int, int]:

@@ -17,6 +17,7 @@ the label whose sender has the smallest FLS id: the predecessor rule of
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -228,6 +229,62 @@ def _relax(
     return changed[:count]
 
 
+@jit.kernel(cache=True, nogil=True)
+def _relax_each(
+    mes: IntArray,
+    order: int,
+    first: int,
+    link_starts: IntArray,
+    links: Links,
+    heard: HeardLabels,
+    sent: NDArray[np.bool_],
+    hops: FloatArray,
+    length: FloatArray,
+    error: FloatArray,
+    pred: IntArray,
+) -> tuple[IntArray, IntArray, IntArray, IntArray]:
+    """:func:`_relax` for F FLSs in one call: FLS ``mes[f]`` has row f of the (F, S) labels
+    and the links ``link_starts[f]:link_starts[f + 1]`` of ``links``.
+
+    Returns (starts (F + 1,), slots, labels, links): FLS f's changed slots are
+    ``slots[starts[f]:starts[f + 1]]``, each with its winning label and its link
+    (an index into the FLS's own links), as :func:`_relax` leaves them.
+    """
+    count, slot_count = hops.shape
+    won_label = np.full(slot_count, -1, dtype=np.int64)
+    won_link = np.zeros(slot_count, dtype=np.int64)
+    starts = np.zeros(count + 1, dtype=np.int64)
+    capacity = max(16, count)
+    slots = np.empty(capacity, dtype=np.int64)
+    labels = np.empty(capacity, dtype=np.int64)
+    through = np.empty(capacity, dtype=np.int64)
+    filled = 0
+    for row in range(count):
+        low, high = link_starts[row], link_starts[row + 1]
+        own = Links(links.ids[low:high], links.weights[low:high], links.errors[low:high])
+        labelled = SlotLabels(sent[row], hops[row], length[row], error[row], pred[row])
+        changed = _relax(mes[row], order, first, own, heard, labelled, won_label, won_link)
+        if filled + len(changed) > capacity:
+            capacity = 2 * (filled + len(changed))
+            slots = _grown(slots, capacity)
+            labels = _grown(labels, capacity)
+            through = _grown(through, capacity)
+        for slot in changed:
+            slots[filled], labels[filled], through[filled] = slot, won_label[slot], won_link[slot]
+            won_label[slot] = -1  # as given to the next FLS's _relax
+            filled += 1
+        starts[row + 1] = filled
+    return starts, slots[:filled], labels[:filled], through[:filled]
+
+
+@jit.kernel(cache=True, nogil=True)
+def _grown(values: IntArray, capacity: int) -> IntArray:
+    """``values`` copied into an array of ``capacity`` (the rest unset)."""
+    bigger = np.empty(capacity, dtype=values.dtype)
+    bigger[: len(values)] = values
+    return bigger
+
+
 @dataclass(frozen=True)
 class SearchOptions:
     """How one FLS searches in each phase of a discovery run (see :class:`PathSearch`)."""
@@ -294,6 +351,8 @@ class PathSearch:
         self.via_label = np.full(slots, -1, dtype=np.int64)
         self._heard: dict[int, RoundOffers] = {}
         self._heard_count = 0
+        self._last_heard: RoundOffers | None = None  # the offers this search heard last
+        self._shared: _SharedLabels | None = None  # its labels' home when heard together
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
         self._wanted = np.array(sorted(self.targets), dtype=np.int64)
         self._found = np.zeros(options.id_space, dtype=bool)
@@ -438,12 +497,36 @@ class PathSearch:
         (a heard label plus the hop from its sender) under the order
         (primary cost, secondary cost, sender id). That order is total, so the
         outcome is the one of hearing the offers one by one, in any order.
+        Offers already heard with the other FLSs of a process
+        (:func:`hear_together`) are not heard again.
         """
+        if self._last_heard is heard:
+            return
+        self._hear_first(heard)
+        won_label = np.full(len(self.hops), -1, dtype=np.int64)
+        won_link = np.zeros(len(self.hops), dtype=np.int64)
+        changed = _relax(
+            self.fls_id,
+            self.order,
+            self.first_source,
+            Links(self.link_ids, self.link_weights, self.link_errors),
+            _heard_labels(heard),
+            SlotLabels(self.sent, self.hops, self.length, self.error, self.pred),
+            won_label,
+            won_link,
+        )
+        self._take_changes(heard, changed, won_label[changed], won_link[changed])
+
+    def _hear_first(self, heard: RoundOffers) -> None:
+        """What hearing ``heard`` takes before the relaxation: results and readings."""
+        self._last_heard = heard
         missing = self._wanted[~self._found[self._wanted]]
         if len(missing):
             # A target's label of this source: its result (a sender offers a label once).
             mine = _labels_for(self.fls_id, missing, heard.senders, heard.starts, heard.source_ids)
             self._take_results(heard, mine)
+        if not len(heard.read_ids):
+            return
         senders, readings = heard.readings_of(self.fls_id)
         if len(senders):
             # The senders' own readings of the hops to this FLS.
@@ -452,28 +535,14 @@ class PathSearch:
                 self.link_ids[np.minimum(rows, len(self.link_ids) - 1)] == senders
             )
             self.link_vectors[rows[known]] = readings[known]
-        won_label = np.full(len(self.hops), -1, dtype=np.int64)
-        won_link = np.zeros(len(self.hops), dtype=np.int64)
-        changed = _relax(
-            self.fls_id,
-            self.order,
-            self.first_source,
-            Links(self.link_ids, self.link_weights, self.link_errors),
-            HeardLabels(
-                heard.senders,
-                heard.starts,
-                heard.source_ids,
-                heard.hops,
-                heard.lengths,
-                heard.errors,
-            ),
-            SlotLabels(self.sent, self.hops, self.length, self.error, self.pred),
-            won_label,
-            won_link,
-        )
+
+    def _take_changes(
+        self, heard: RoundOffers, changed: IntArray, labels: IntArray, links: IntArray
+    ) -> None:
+        """Labels of slots ``changed`` were bettered by ``labels`` of ``heard`` through
+        ``links`` (:func:`_relax`'s winners): their vectors and paths follow."""
         if not len(changed):
             return
-        labels, links = won_label[changed], won_link[changed]
         hop = self.link_vectors[links]
         self.vector[changed] = heard.vectors[labels] + hop
         if self.fit is not None:
@@ -486,6 +555,80 @@ class PathSearch:
         self._heard[key] = heard
         self.via_offers[changed] = key
         self.via_label[changed] = labels
+
+
+def _heard_labels(heard: RoundOffers) -> HeardLabels:
+    return HeardLabels(
+        heard.senders, heard.starts, heard.source_ids, heard.hops, heard.lengths, heard.errors
+    )
+
+
+class _SharedLabels:
+    """The labels of F PathSearches of one run and phase, in (F, S) arrays whose rows the
+    searches hold as their own: one kernel argument for all (:func:`hear_together`)."""
+
+    def __init__(self, searches: Sequence[PathSearch]) -> None:
+        self.searches = list(searches)
+        self.mes = np.array([one.fls_id for one in searches], dtype=np.int64)
+        self.link_starts = csr.offsets(np.array([len(one.link_ids) for one in searches]))
+        self.links = Links(
+            np.concatenate([one.link_ids for one in searches]),
+            np.concatenate([one.link_weights for one in searches]),
+            np.concatenate([one.link_errors for one in searches]),
+        )
+        self.sent = np.stack([one.sent for one in searches])
+        self.hops = np.stack([one.hops for one in searches])
+        self.length = np.stack([one.length for one in searches])
+        self.error = np.stack([one.error for one in searches])
+        self.pred = np.stack([one.pred for one in searches])
+        for row, one in enumerate(searches):
+            # From now on each search's labels are its row: what it writes, the kernel reads.
+            one.sent, one.hops, one.length = self.sent[row], self.hops[row], self.length[row]
+            one.error, one.pred = self.error[row], self.pred[row]
+            one._shared = self
+
+    def holds(self, searches: Sequence[PathSearch]) -> bool:
+        """Whether these are the searches whose rows this holds, in this order."""
+        return len(searches) == len(self.searches) and all(
+            one is mine for one, mine in zip(searches, self.searches, strict=True)
+        )
+
+
+def hear_together(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
+    """Every one of ``searches`` hears ``heard`` (:meth:`PathSearch.hear`), their labels
+    relaxed in one compiled call: a process steps its FLSs together.
+
+    The searches of one run and phase (one slot range and policy) share their
+    label arrays from their first round heard together on; each keeps its
+    own labels, results and paths, and ends as hearing alone would leave it.
+    Searches that differ in their runs are heard one by one.
+    """
+    searches = [one for one in searches if one._last_heard is not heard]
+    if len({(one.first_source, len(one.hops), one.order) for one in searches}) != 1:
+        for one in searches:
+            one.hear(heard)
+        return
+    shared = searches[0]._shared
+    if shared is None or not shared.holds(searches):
+        shared = _SharedLabels(searches)
+    for one in searches:
+        one._hear_first(heard)
+    starts, changed, labels, links = _relax_each(
+        shared.mes,
+        searches[0].order,
+        searches[0].first_source,
+        shared.link_starts,
+        shared.links,
+        _heard_labels(heard),
+        shared.sent,
+        shared.hops,
+        shared.length,
+        shared.error,
+        shared.pred,
+    )
+    for row in np.flatnonzero(np.diff(starts)).tolist():
+        rows = slice(starts[row], starts[row + 1])
+        searches[row]._take_changes(heard, changed[rows], labels[rows], links[rows])
 
 
 def phase_targets(phase: int, blind: IntArray, sweet_results: Results) -> IntArray:
