@@ -31,7 +31,7 @@ from ..core.relay import moving_senses
 from ..core.sensor import Sensor
 from ..core.tracking import ENDED, TIMED_OUT, TrackConfig, TrackRun, arrival, nanoseconds
 from .discovery.messages import END, ROUND, Broadcast, Control, Report
-from .discovery.participant import Participant, hear_round
+from .discovery.participant import Participant, step_together
 from .radio import RadioHub
 from .readings import ReadingsBook, readings_of
 from .rounds import Outcome, RoundClock
@@ -132,7 +132,7 @@ def _run_rounds(clock: RoundClock, hub: RadioHub, participants: dict[int, Partic
         control = controls.popleft()
         recipients, ack, heard = hub.on_control(control)
         broadcasts: list[Broadcast] = []
-        hear_round([participants[fls_id] for fls_id in recipients], control, heard)
+        step_together([participants[fls_id] for fls_id in recipients], control, heard)
         for fls_id in recipients:
             out = participants[fls_id].on_control(control, heard)
             if isinstance(out, Broadcast):

@@ -30,6 +30,7 @@ from swazure_ros.protocol.discovery.search import (
     SearchOptions,
     bucket_width,
     hear_together,
+    pick_together,
 )
 from swazure_ros.protocol.loops import RunOptions, discover
 from swazure_ros.protocol.runs import source_blocks
@@ -207,9 +208,10 @@ def test_an_fls_keeps_labels_for_the_run_s_sources_only():
     assert source_range((), 120) == (0, 120)
 
 
-def test_flss_heard_together_end_as_each_hearing_alone_would():
-    # Every FLS of a small torus a source, by the rounds of a phase: one set hears each
-    # round's offers together (as a process steps its FLSs), the other one by one.
+def test_flss_stepped_together_offer_and_end_as_each_stepping_alone_would():
+    # Every FLS of a small torus a source, by the rounds of a phase: one set picks its
+    # labels and hears each round's offers together (as a process steps its FLSs), the
+    # other one by one.
     world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
     seen, ids = observations(world.hood), world.ids
     width = bucket_width(world.sensor, world.swarm.radius, "shortest-length")
@@ -221,10 +223,12 @@ def test_flss_heard_together_end_as_each_hearing_alone_would():
 
     together, alone = searches(), searches()
     for round_ in range(12):
+        pick_together(together, round_, np.zeros(0, dtype=np.int64))
         offers = [one.offer(round_) for one in together]
-        assert [offer.source_ids.tolist() for offer in offers] == [
-            one.offer(round_).source_ids.tolist() for one in alone
-        ]
+        for offer, theirs in zip(offers, [one.offer(round_) for one in alone], strict=True):
+            assert offer.pending == theirs.pending
+            for name in ("source_ids", "lengths", "vectors", "path_offsets", "path_ids"):
+                np.testing.assert_array_equal(getattr(offer, name), getattr(theirs, name))
         heard = RoundOffers.of(list(zip(ids.tolist(), offers, strict=True)))
         hear_together(together, heard)
         for one in alone:

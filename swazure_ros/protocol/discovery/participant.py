@@ -46,6 +46,7 @@ from .search import (
     bucket_width,
     hear_together,
     phase_targets,
+    pick_together,
     radio_window,
     reads_both_ends,
 )
@@ -373,27 +374,32 @@ class Participant:
         )
 
 
-def hear_round(
+def step_together(
     participants: Sequence[Participant], control: Control, heard: RoundOffers | None
 ) -> None:
-    """The offers ``heard`` before ``control``, heard at once by every one of
-    ``participants`` that searches in its run (:func:`.search.hear_together`).
+    """What each of ``participants`` does first with ``control``, done for all at once: hear
+    the offers ``heard`` (:func:`.search.hear_together`), and in a ROUND close the
+    finished sources and pick the labels due (:func:`.search.pick_together`).
 
-    A process calls this before it hands ``control`` to each of its FLSs,
-    whose :meth:`Participant.on_control` then finds the offers heard; the FIT
-    phase's rounds hear their offers there.
+    A process calls this before it hands ``control`` to each of its FLSs, whose
+    :meth:`Participant.on_control` then finds this done; the FIT phase's rounds
+    are their own.
     """
-    if heard is None or control.command not in (ROUND, END):
+    if control.command not in (ROUND, END):
         return
     if control.command == ROUND and control.phase == FIT:
         return
-    searches = []
+    searches: dict[int, list[PathSearch]] = {}  # by the round of the phase
     for participant in participants:
         run = participant.runs.get(control.run_id)
         if run is not None and run.search is not None:
-            searches.append(run.search)
-    if searches:
-        hear_together(searches, heard)
+            round_ = control.round - participant._first_round.get(control.run_id, 0)
+            searches.setdefault(round_, []).append(run.search)
+    for round_, group in searches.items():
+        if heard is not None:
+            hear_together(group, heard)
+        if control.command == ROUND:
+            pick_together(group, round_, np.asarray(control.finished_ids, dtype=np.int64))
 
 
 def source_range(source_ids: Sequence[int], id_space: int) -> tuple[int, int]:

@@ -353,6 +353,8 @@ class PathSearch:
         self._heard_count = 0
         self._last_heard: RoundOffers | None = None  # the offers this search heard last
         self._shared: _SharedLabels | None = None  # its labels' home when heard together
+        # (round, due slots, unsent labels) picked with the other FLSs of its process.
+        self._picked: tuple[int, IntArray, int] | None = None
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
         self._wanted = np.array(sorted(self.targets), dtype=np.int64)
         self._found = np.zeros(options.id_space, dtype=bool)
@@ -407,10 +409,19 @@ class PathSearch:
         self.closed[slots[(slots >= 0) & (slots < len(self.closed))]] = True
 
     def offer(self, round_: int) -> Offer:
-        """The labels due in round ``round_`` (each is final); they count as sent."""
-        labelled = np.flatnonzero(np.isfinite(self.hops) & ~self.sent & ~self.closed)
-        due = labelled[self._buckets(labelled) <= round_]
-        self.sent[due] = True
+        """The labels due in round ``round_`` (each is final); they count as sent.
+
+        Picked here, or with the other FLSs of a process (:func:`pick_together`).
+        """
+        picked = self._picked
+        self._picked = None
+        if picked is not None and picked[0] == round_:
+            _, due, labelled = picked
+        else:
+            unsent = np.flatnonzero(np.isfinite(self.hops) & ~self.sent & ~self.closed)
+            due = unsent[self._buckets(unsent) <= round_]
+            self.sent[due] = True
+            labelled = len(unsent)
         path_offsets, path_ids = self._paths_of(due)
         reading_ids, reading_vectors = self._first_readings()
         return Offer(
@@ -421,7 +432,7 @@ class PathSearch:
             vectors=self.vector[due],
             path_offsets=path_offsets,
             path_ids=path_ids,
-            pending=len(due) < len(labelled),
+            pending=len(due) < labelled,
             finished=self.finished,
             unbiased=self.unbiased[due] if self.fits else None,
             covariances=self.covariance[due] if self.fits else None,
@@ -581,10 +592,11 @@ class _SharedLabels:
         self.length = np.stack([one.length for one in searches])
         self.error = np.stack([one.error for one in searches])
         self.pred = np.stack([one.pred for one in searches])
+        self.closed = np.stack([one.closed for one in searches])
         for row, one in enumerate(searches):
             # From now on each search's labels are its row: what it writes, the kernel reads.
             one.sent, one.hops, one.length = self.sent[row], self.hops[row], self.length[row]
-            one.error, one.pred = self.error[row], self.pred[row]
+            one.error, one.pred, one.closed = self.error[row], self.pred[row], self.closed[row]
             one._shared = self
 
     def holds(self, searches: Sequence[PathSearch]) -> bool:
@@ -592,6 +604,39 @@ class _SharedLabels:
         return len(searches) == len(self.searches) and all(
             one is mine for one, mine in zip(searches, self.searches, strict=True)
         )
+
+
+def _shared_labels(searches: Sequence[PathSearch]) -> _SharedLabels | None:
+    """The shared labels of ``searches``, made if need be; None when their runs differ."""
+    if len({(one.first_source, len(one.hops), one.order, one.width) for one in searches}) != 1:
+        return None
+    shared = searches[0]._shared
+    if shared is None or not shared.holds(searches):
+        shared = _SharedLabels(searches)
+    return shared
+
+
+def pick_together(searches: Sequence[PathSearch], round_: int, closed: IntArray) -> None:
+    """Close the sources ``closed`` (ids) and pick the labels each of ``searches`` offers in
+    round ``round_``, for all at once; :meth:`PathSearch.offer` then sends them.
+
+    Searches that differ in their runs pick their own when they offer.
+    """
+    shared = _shared_labels(searches)
+    if shared is None:
+        return
+    first = searches[0]
+    slots = np.asarray(closed, dtype=np.int64) - first.first_source
+    shared.closed[:, slots[(slots >= 0) & (slots < shared.closed.shape[1])]] = True
+    primary = (shared.hops, shared.length, shared.error)[first.order]
+    unsent = np.isfinite(shared.hops) & ~shared.sent & ~shared.closed
+    due = unsent & (np.floor(primary / first.width) <= round_)
+    rows, slots = np.nonzero(due)  # row by row, each row's slots in order
+    shared.sent[rows, slots] = True
+    starts = csr.offsets(np.bincount(rows, minlength=len(searches)))
+    counts = unsent.sum(axis=1).tolist()
+    for row, one in enumerate(searches):
+        one._picked = (round_, slots[starts[row] : starts[row + 1]], counts[row])
 
 
 def hear_together(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
@@ -604,13 +649,11 @@ def hear_together(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
     Searches that differ in their runs are heard one by one.
     """
     searches = [one for one in searches if one._last_heard is not heard]
-    if len({(one.first_source, len(one.hops), one.order) for one in searches}) != 1:
+    shared = _shared_labels(searches) if searches else None
+    if shared is None:
         for one in searches:
             one.hear(heard)
         return
-    shared = searches[0]._shared
-    if shared is None or not shared.holds(searches):
-        shared = _SharedLabels(searches)
     for one in searches:
         one._hear_first(heard)
     starts, changed, labels, links = _relax_each(

@@ -31,7 +31,7 @@ from ...core.arrays import IntArray
 from ...core.fit import PATH
 from ...protocol.cells import BANDS, DECAYING_BAND, band_of, radio_cells
 from ...protocol.discovery.messages import END, ROUND, START, Broadcast
-from ...protocol.discovery.participant import hear_round
+from ...protocol.discovery.participant import step_together
 from ...protocol.moves import Walk
 from ...protocol.plausible import (
     implausible_readings,
@@ -411,8 +411,8 @@ class Radio:
             self._hear_readings()
         recipients, ack, heard = self._hub.on_control(control)
         self._count_rejected()
-        # This process's FLSs hear the round's offers together, in one compiled pass.
-        hear_round([self._fls[fls_id].discovery for fls_id in recipients], control, heard)
+        # This process's FLSs hear the round's offers and pick their labels together.
+        step_together([self._fls[fls_id].discovery for fls_id in recipients], control, heard)
         for fls_id in recipients:
             self._fls[fls_id].on_control(control, heard)
             if control.command == END and self._fls[fls_id].discovery.waiting:
