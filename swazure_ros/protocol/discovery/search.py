@@ -353,6 +353,7 @@ class PathSearch:
         self._heard_count = 0
         self._last_heard: RoundOffers | None = None  # the offers this search heard last
         self._shared: _SharedLabels | None = None  # its labels' home when heard together
+        self._row = -1  # and its row there
         # (round, due slots, unsent labels) picked with the other FLSs of its process.
         self._picked: tuple[int, IntArray, int] | None = None
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
@@ -579,7 +580,9 @@ class _SharedLabels:
     searches hold as their own: one kernel argument for all (:func:`hear_together`)."""
 
     def __init__(self, searches: Sequence[PathSearch]) -> None:
-        self.searches = list(searches)
+        # No reference to the searches: a phase's labels go with its searches, not when
+        # the garbage collector finds a cycle.
+        self.size = len(searches)
         self.mes = np.array([one.fls_id for one in searches], dtype=np.int64)
         self.link_starts = csr.offsets(np.array([len(one.link_ids) for one in searches]))
         self.links = Links(
@@ -597,12 +600,12 @@ class _SharedLabels:
             # From now on each search's labels are its row: what it writes, the kernel reads.
             one.sent, one.hops, one.length = self.sent[row], self.hops[row], self.length[row]
             one.error, one.pred, one.closed = self.error[row], self.pred[row], self.closed[row]
-            one._shared = self
+            one._shared, one._row = self, row
 
     def holds(self, searches: Sequence[PathSearch]) -> bool:
         """Whether these are the searches whose rows this holds, in this order."""
-        return len(searches) == len(self.searches) and all(
-            one is mine for one, mine in zip(searches, self.searches, strict=True)
+        return len(searches) == self.size and all(
+            one._shared is self and one._row == row for row, one in enumerate(searches)
         )
 
 
