@@ -29,9 +29,8 @@ from swazure_ros.protocol.discovery.search import (
     PathSearch,
     SearchOptions,
     bucket_width,
-    hear_together,
-    pick_together,
 )
+from swazure_ros.protocol.discovery.together import hear_together, pick_together
 from swazure_ros.protocol.loops import RunOptions, discover
 from swazure_ros.protocol.runs import source_blocks
 from swazure_ros.sim.world import WorldSpec

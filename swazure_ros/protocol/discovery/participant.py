@@ -44,12 +44,11 @@ from .search import (
     PathSearch,
     SearchOptions,
     bucket_width,
-    hear_together,
     phase_targets,
-    pick_together,
     radio_window,
     reads_both_ends,
 )
+from .together import hear_together, pick_together
 
 #: Discovery runs an FLS takes part in at once, at most: its coordinator runs one at a
 #: time, and a run id that a peer made up must not hold memory for ever.
