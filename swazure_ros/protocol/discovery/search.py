@@ -344,14 +344,9 @@ class PathSearch:
         """True when this FLS, as a source, has a result for every target."""
         return bool(self.targets) and len(self.results) == len(self.targets)
 
-    def _buckets(self, slots: IntArray) -> FloatArray:
-        primary = (self.hops, self.length, self.error)[self.order][slots]
-        return np.asarray(np.floor(primary / self.width))
-
     def close(self, sources: IntArray) -> None:
         """Stop relaying the labels of ``sources`` (their searches ended)."""
-        slots = np.asarray(sources, dtype=np.int64) - self.first_source
-        self.closed[slots[(slots >= 0) & (slots < len(self.closed))]] = True
+        self.closed[source_slots(sources, self.first_source, len(self.hops))] = True
 
     def offer(self, round_: int) -> Offer:
         """The labels due in round ``round_`` (each is final); they count as sent.
@@ -363,10 +358,11 @@ class PathSearch:
         if picked is not None and picked[0] == round_:
             _, due, labelled = picked
         else:
-            unsent = np.flatnonzero(np.isfinite(self.hops) & ~self.sent & ~self.closed)
-            due = unsent[self._buckets(unsent) <= round_]
+            labels = SlotLabels(self.sent, self.hops, self.length, self.error, self.pred)
+            unsent, due_now = labels_due(labels, self.closed, self.order, self.width, round_)
+            due = np.flatnonzero(due_now)
             self.sent[due] = True
-            labelled = len(unsent)
+            labelled = int(unsent.sum())
         path_offsets, path_ids = self._paths_of(due)
         reading_ids, reading_vectors = self._first_readings()
         return Offer(
@@ -511,6 +507,25 @@ class PathSearch:
         self._heard[key] = heard
         self.via_offers[changed] = key
         self.via_label[changed] = labels
+
+
+def source_slots(sources: IntArray, first: int, slots: int) -> IntArray:
+    """The slots of those of ``sources`` (ids) that a run of sources ``first`` to
+    ``first + slots - 1`` keeps labels for."""
+    found = np.asarray(sources, dtype=np.int64) - first
+    return found[(found >= 0) & (found < slots)]
+
+
+def labels_due(
+    labels: SlotLabels, closed: NDArray[np.bool_], order: int, width: float, round_: int
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Which ``labels`` are unsent (found, not sent, their source not ``closed``), and which
+    of those are due in round ``round_``: their bucket, the primary cost (``order``) over
+    ``width``, rounded down, is reached. Masks of the labels' shape: one FLS's (S,), or
+    a process's (F, S) (:mod:`.together`)."""
+    primary = (labels.hops, labels.length, labels.error)[order]
+    unsent = np.isfinite(labels.hops) & ~labels.sent & ~closed
+    return unsent, unsent & (np.floor(primary / width) <= round_)
 
 
 def heard_labels(heard: RoundOffers) -> HeardLabels:

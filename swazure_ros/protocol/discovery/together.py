@@ -19,7 +19,16 @@ from numpy.typing import NDArray
 from ...core import csr, jit
 from ...core.arrays import FloatArray, IntArray
 from .messages import RoundOffers
-from .search import HeardLabels, Links, PathSearch, SlotLabels, _relax, heard_labels
+from .search import (
+    HeardLabels,
+    Links,
+    PathSearch,
+    SlotLabels,
+    _relax,
+    heard_labels,
+    labels_due,
+    source_slots,
+)
 
 
 @jit.kernel(cache=True, nogil=True)
@@ -132,11 +141,9 @@ def pick_together(searches: Sequence[PathSearch], round_: int, closed: IntArray)
     if shared is None:
         return
     first = searches[0]
-    slots = np.asarray(closed, dtype=np.int64) - first.first_source
-    shared.closed[:, slots[(slots >= 0) & (slots < shared.closed.shape[1])]] = True
-    primary = (shared.hops, shared.length, shared.error)[first.order]
-    unsent = np.isfinite(shared.hops) & ~shared.sent & ~shared.closed
-    due = unsent & (np.floor(primary / first.width) <= round_)
+    shared.closed[:, source_slots(closed, first.first_source, shared.hops.shape[1])] = True
+    labels = SlotLabels(shared.sent, shared.hops, shared.length, shared.error, shared.pred)
+    unsent, due = labels_due(labels, shared.closed, first.order, first.width, round_)
     rows, slots = np.nonzero(due)  # row by row, each row's slots in order
     shared.sent[rows, slots] = True
     starts = csr.offsets(np.bincount(rows, minlength=len(searches)))
