@@ -65,12 +65,16 @@ def init_context(domain_id: int | None = None, params_file: str | None = None) -
     return context
 
 
-#: Seconds a process's DDS teardown (:func:`exit_process`) may take before its watchdog
-#: ends it (SIGKILL, a line in its log).
+#: Seconds a process's DDS teardown (:func:`exit_process`) may stand still, using no CPU,
+#: before its watchdog ends it (SIGKILL, a line in its log): a teardown that works, however
+#: slowly on a busy machine, goes on, up to TEARDOWN_CAP times this.
 TEARDOWN_LIMIT = 30.0
 #: The same for a :func:`run_process` program: one FLS, the world or the coordinator,
 #: whose teardown takes about a second.
 PROGRAM_TEARDOWN_LIMIT = 5.0
+#: A teardown that keeps using CPU is ended at this many times its limit: a deadlock that
+#: spins is a deadlock too.
+TEARDOWN_CAP = 6
 #: Seconds a :func:`run_process` program may take to reach its teardown once asked to
 #: end before its watchdog ends it (exit code 1, every thread's stack in its log); with
 #: the teardown's limit, under the launcher's grace (app.per_fls.STOP_GRACE), which
@@ -79,21 +83,42 @@ STOP_LIMIT = 12.0
 
 
 #: The watchdog of a process's teardown (:func:`exit_process`), a process of its own: it
-#: waits ``limit`` s for the end of file of a pipe that only the ending process holds
-#: open, and ends that process if it is still there, then removes the shared-memory
-#: files it is given (the process's own segments, which its teardown never removed).
+#: waits for the end of file of a pipe that only the ending process holds open, and ends
+#: that process (SIGKILL) once its CPU time has stood still for ``limit`` s (threads that
+#: wait on each other: Fast-DDS#6502), or at ``cap`` times ``limit`` in all; then it
+#: removes the shared-memory files it is given (the process's own segments, which its
+#: teardown never removed). A teardown slowed by a busy machine still uses CPU: it is not
+#: taken for dead. Where /proc cannot be read, the CPU time counts as standing still.
 TEARDOWN_WATCH = """
-import os, select, signal, sys
-pipe, pid, limit = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3])
-if not select.select([pipe], [], [], limit)[0]:
-    print(f"the DDS teardown did not end in {limit:g} s (a known Fast DDS deadlock): "
-          "leaving without it", file=sys.stderr, flush=True)
-    os.kill(pid, signal.SIGKILL)
-    for path in sys.argv[4:]:
-        try:
-            os.unlink(path)
-        except OSError:
-            pass
+import os, select, signal, sys, time
+pipe, pid, limit, cap = int(sys.argv[1]), int(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4])
+
+def cpu_ticks():
+    try:
+        with open(f"/proc/{pid}/stat") as stat:
+            fields = stat.read().rsplit(")", 1)[1].split()
+        return int(fields[11]) + int(fields[12])  # utime + stime
+    except (OSError, IndexError, ValueError):
+        return None
+
+began = still_since = time.monotonic()
+last = cpu_ticks()
+while not select.select([pipe], [], [], min(0.25, limit))[0]:
+    now, ticks = time.monotonic(), cpu_ticks()
+    if ticks is not None and ticks != last:
+        last, still_since = ticks, now
+    if now - still_since >= limit or now - began >= cap * limit:
+        waited = f"{limit:g} s without using CPU" if now - still_since >= limit else (
+            f"{cap * limit:g} s")
+        print(f"the DDS teardown did not end in {waited} (a known Fast DDS deadlock): "
+              "leaving without it", file=sys.stderr, flush=True)
+        os.kill(pid, signal.SIGKILL)
+        for path in sys.argv[5:]:
+            try:
+                os.unlink(path)
+            except OSError:
+                pass
+        break
 """
 
 
@@ -112,9 +137,10 @@ def exit_process(code: int, limit: float = TEARDOWN_LIMIT) -> NoReturn:
 
     Fast DDS 2.14's teardown can deadlock (eProsima/Fast-DDS#6502: its event
     and receive threads, while peers leave at the same time; docs/swarm.md,
-    "Stopping"). A process still there ``limit`` s later is ended by its
-    watchdog (TEARDOWN_WATCH: one line, then SIGKILL, then its shared-memory
-    segments removed); its peers drop it when its DDS lease runs out.
+    "Stopping"). A process whose teardown has used no CPU for ``limit`` s (or
+    still runs at TEARDOWN_CAP times it) is ended by its watchdog
+    (TEARDOWN_WATCH: one line, then SIGKILL, then its shared-memory segments
+    removed); its peers drop it when its DDS lease runs out.
     """
     # Python's handlers do not run once its exit has begun: a second SIGINT or
     # SIGTERM must end the process then.
@@ -125,7 +151,7 @@ def exit_process(code: int, limit: float = TEARDOWN_LIMIT) -> NoReturn:
     watched, _ = os.pipe()
     subprocess.Popen(
         [sys.executable, "-I", "-S", "-c", TEARDOWN_WATCH, str(watched), str(os.getpid()),
-         str(limit), *map(str, shared_memory.own_segments())],
+         str(limit), str(TEARDOWN_CAP), *map(str, shared_memory.own_segments())],
         pass_fds=(watched,),
         stdin=subprocess.DEVNULL,
     )  # fmt: skip

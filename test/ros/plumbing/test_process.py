@@ -104,6 +104,34 @@ def test_a_teardown_that_hangs_is_ended_by_its_watchdog_saying_so():
     assert segments and not any(path.exists() for path in segments), segments
 
 
+#: A process whose exit works for 3 s (an exit handler at work, as a teardown slowed by a
+#: busy machine), with a watchdog limit of 1 s.
+SLOW_TEARDOWN = """
+import atexit, time
+from swazure_ros.ros.plumbing import process
+from swazure_ros.ros.plumbing.node import SwarmNode
+
+node = SwarmNode("slow", context=process.init_context())
+
+def working():
+    end = time.monotonic() + 3.0
+    while time.monotonic() < end:
+        pass
+
+atexit.register(working)
+process.exit_process(3, limit=1.0)
+"""
+
+
+def test_a_teardown_that_is_slow_but_working_is_not_taken_for_dead():
+    process = subprocess.run(
+        [sys.executable, "-c", SLOW_TEARDOWN], capture_output=True, text=True,
+        timeout=PATIENCE, env=with_shared_memory(os.environ),
+    )  # fmt: skip
+    assert process.returncode == 3, process.stderr
+    assert "did not end" not in process.stderr, process.stderr
+
+
 #: A process that leaves without DDS's teardown, as one stopped with its whole swarm.
 QUIET = """
 from swazure_ros.ros.plumbing import process
