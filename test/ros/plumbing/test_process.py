@@ -44,6 +44,14 @@ sys.exit(process.run_process(build, []))
 """
 
 
+def run_script(source: str) -> subprocess.CompletedProcess[str]:
+    """Run ``source`` in a Python process of its own, its shared memory named to it."""
+    return subprocess.run(
+        [sys.executable, "-c", source], capture_output=True, text=True,
+        timeout=PATIENCE, env=with_shared_memory(os.environ),
+    )  # fmt: skip
+
+
 def _block_stops() -> None:
     signal.pthread_sigmask(signal.SIG_BLOCK, (signal.SIGINT, signal.SIGTERM))
 
@@ -94,10 +102,7 @@ process.exit_process(3, limit=1.0)
 def test_a_teardown_that_hangs_is_ended_by_its_watchdog_saying_so():
     # The hanging handler never returns: only the watchdog can end the process, and it
     # removes the process's own shared-memory segment, which the teardown never did.
-    process = subprocess.run(
-        [sys.executable, "-c", HANGING_TEARDOWN], capture_output=True, text=True,
-        timeout=PATIENCE, env=with_shared_memory(os.environ),
-    )  # fmt: skip
+    process = run_script(HANGING_TEARDOWN)
     assert process.returncode == -signal.SIGKILL, process.stderr
     assert "the DDS teardown did not end in 1 s" in process.stderr, process.stderr
     segments = [Path(name) for name in process.stdout.split()]
@@ -124,10 +129,7 @@ process.exit_process(3, limit=1.0)
 
 
 def test_a_teardown_that_is_slow_but_working_is_not_taken_for_dead():
-    process = subprocess.run(
-        [sys.executable, "-c", SLOW_TEARDOWN], capture_output=True, text=True,
-        timeout=PATIENCE, env=with_shared_memory(os.environ),
-    )  # fmt: skip
+    process = run_script(SLOW_TEARDOWN)
     assert process.returncode == 3, process.stderr
     assert "did not end" not in process.stderr, process.stderr
 
@@ -145,10 +147,7 @@ process.leave_quietly(0)
 
 
 def test_a_process_that_leaves_quietly_leaves_no_shared_memory_of_its_own():
-    process = subprocess.run(
-        [sys.executable, "-c", QUIET], capture_output=True, text=True, timeout=PATIENCE,
-        env=with_shared_memory(os.environ),
-    )  # fmt: skip
+    process = run_script(QUIET)
     assert process.returncode == 0, process.stderr
     # Its segment and the segment's lock, made by Fast DDS for its participant.
     segments = [Path(name) for name in process.stdout.split()]
