@@ -23,7 +23,7 @@ from swazure_ros.core.paths import POLICIES
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_sensor
 from swazure_ros.protocol.discovery.estimate import Found, estimate, evaluation_of
-from swazure_ros.protocol.discovery.messages import SWEET_VISIBLE, RoundOffers
+from swazure_ros.protocol.discovery.messages import SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers
 from swazure_ros.protocol.discovery.participant import source_range
 from swazure_ros.protocol.discovery.search import (
     PathSearch,
@@ -202,9 +202,51 @@ def test_an_fls_keeps_labels_for_the_run_s_sources_only():
     first, end = source_range((int(ids[10]), int(ids[19])), int(ids[-1]) + 1)
     assert (first, end) == (int(ids[10]), int(ids[19]) + 1)
     options = SearchOptions("shortest-length", 1.0, int(ids[-1]) + 1, sources=(first, end))
-    search = PathSearch(view, SWEET_VISIBLE, options)
-    assert len(search.hops) == end - first
+    search = PathSearch(view, SWEET_ALL, options)
+    # A neighbour it relays from offers labels of sources inside and outside the run.
+    sender = int(search.link_ids[0])
+    offered = np.array([int(ids[0]), first, int(ids[12]), end - 1, int(ids[40])])
+    offer = Offer(
+        source_ids=offered,
+        hops=np.ones(5, dtype=np.int64),
+        lengths=np.full(5, 7.0),
+        errors=np.zeros(5),
+        vectors=np.zeros((5, 3)),
+        path_offsets=np.arange(0, 11, 2),
+        path_ids=np.stack([offered, np.full(5, sender)], axis=1).ravel(),
+    )
+    search.hear(RoundOffers.of([(sender, offer)]))
+    assert search.sources.tolist() == [first, int(ids[12]), end - 1]
     assert source_range((), 120) == (0, 120)
+
+
+def test_an_fls_keeps_labels_only_for_the_sources_whose_search_reached_it():
+    # One source of a spread-out torus, two rounds: its label has gone two hops, and no
+    # FLS beyond them holds a label at all (none holds a slot per source of the swarm).
+    world = WorldSpec("torus:400", scale=4.0, beta=0.5).build()
+    seen, ids = observations(world.hood), world.ids
+    width = bucket_width(world.sensor, world.swarm.radius, "shortest-length")
+    options = SearchOptions("shortest-length", width, int(ids[-1]) + 1)
+    views = [local_view(seen, ids, row) for row in range(len(ids))]
+    source = 0
+    searches = [
+        PathSearch(view, SWEET_VISIBLE, options, view.blind if row == source else None)
+        for row, view in enumerate(views)
+    ]
+    for round_ in range(2):
+        pick_together(searches, round_, np.zeros(0, dtype=np.int64))
+        offers = [one.offer(round_) for one in searches]
+        hear_together(searches, RoundOffers.of(list(zip(ids.tolist(), offers, strict=True))))
+    held = np.array([len(one.sources) for one in searches])
+    assert set(held.tolist()) == {0, 1}  # one label at most: the one source's
+    reached = np.flatnonzero(held)
+    assert 1 < len(reached) < len(ids) // 2
+    longest_hop = max(one.link_weights.max() for one in searches if len(one.link_weights))
+    apart = np.linalg.norm(world.swarm.points[reached] - world.swarm.points[source], axis=1)
+    assert apart.max() <= 2 * longest_hop + 1e-9
+    # The process's one table holds no more; a row holds a few places, not one per FLS.
+    table = searches[0].table
+    assert table.occupied.sum() == held.sum() and table.width < len(ids) // 4
 
 
 def test_flss_stepped_together_offer_and_end_as_each_stepping_alone_would():
@@ -234,8 +276,10 @@ def test_flss_stepped_together_offer_and_end_as_each_stepping_alone_would():
             one.hear(heard)
     assert sum(len(one.results) for one in together) > 0
     for mine, theirs in zip(together, alone, strict=True):
-        for name in ("hops", "length", "pred", "vector", "sent", "via_offers", "via_label"):
-            np.testing.assert_array_equal(getattr(mine, name), getattr(theirs, name))
+        np.testing.assert_array_equal(mine.sources, theirs.sources)
+        for name in ("hops", "length", "pred", "vector", "sent", "via_offers"):
+            np.testing.assert_array_equal(mine.label(name), theirs.label(name))
+        np.testing.assert_array_equal(mine.label("via_label"), theirs.label("via_label"))
         for name, values in mine.results.table.items():
             np.testing.assert_array_equal(values, theirs.results.table[name])
 

@@ -18,7 +18,6 @@ the label whose sender has the smallest FLS id: the predecessor rule of
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,6 +29,7 @@ from ...core.observe import LocalView
 from ...core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
 from ...core.sensor import BLIND, DECAYING, SWEET, Sensor
 from .estimate import Results
+from .labels import ERROR_FIRST, HOPS_FIRST, LENGTH_FIRST, HeardLabels, LabelTable, Links
 from .messages import ANY_VISIBLE, SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers, sender_rows
 
 #: Rounds that one sweet hop may cost in a least-error run, at most: the calibrated
@@ -46,11 +46,7 @@ _BUCKET_MARGIN = 1e-9
 _HEARD_KEPT = 8
 
 
-#: The order of a label's costs in each policy: (primary, secondary), as _relax reads them.
-_HOPS_FIRST, _LENGTH_FIRST, _ERROR_FIRST = 0, 1, 2
-
-
-_COST_ORDER = {FEWEST_HOPS: _HOPS_FIRST, SHORTEST_LENGTH: _LENGTH_FIRST, LEAST_ERROR: _ERROR_FIRST}
+_COST_ORDER = {FEWEST_HOPS: HOPS_FIRST, SHORTEST_LENGTH: LENGTH_FIRST, LEAST_ERROR: ERROR_FIRST}
 
 
 def refusal(sensor: Sensor, radius: float, policy: str) -> str | None:
@@ -141,93 +137,6 @@ def _labels_for(
     return found[:count]
 
 
-class Links(NamedTuple):
-    """The hops an FLS relays from, sorted by sender id: one kernel argument."""
-
-    ids: IntArray  # (K,), the senders
-    weights: FloatArray  # (K,), tracking distance of each hop, cm
-    errors: FloatArray  # (K,), expected error of each hop
-
-
-class HeardLabels(NamedTuple):
-    """The labels of a :class:`RoundOffers`, L in all, grouped by sender: one kernel argument."""
-
-    senders: IntArray  # (S,) sorted sender ids
-    starts: IntArray  # (S + 1,) sender k's labels are starts[k]:starts[k + 1]
-    source_ids: IntArray  # (L,)
-    hops: IntArray  # (L,)
-    lengths: FloatArray  # (L,), cm
-    errors: FloatArray  # (L,)
-
-
-class SlotLabels(NamedTuple):
-    """An FLS's own labels, one slot per source: one kernel argument."""
-
-    sent: NDArray[np.bool_]  # (S,)
-    hops: FloatArray  # (S,)
-    length: FloatArray  # (S,), cm
-    error: FloatArray  # (S,)
-    pred: IntArray  # (S,), the sender of each label
-
-
-@jit.kernel(cache=True, nogil=True)
-def _relax(
-    me: int,
-    order: int,
-    first: int,
-    links: Links,
-    heard: HeardLabels,
-    labels: SlotLabels,
-    won_label: IntArray,
-    won_link: IntArray,
-) -> IntArray:
-    """Relax the ``labels`` through the hops ``links`` from the senders of ``heard``.
-
-    Each candidate (a heard label plus the hop from its sender) replaces the
-    label of its source when it is better under the total order (primary
-    cost, secondary cost, sender id), so the outcome does not depend on the
-    order of hearing. The winning label and hop are left in ``won_label``
-    and ``won_link`` (given all -1); returns the changed slots. Source ``s``'s label
-    is in slot ``s - first``; sources outside the S slots are not this run's.
-    """
-    link_ids, link_weights, link_errors = links
-    senders, starts, source_ids, label_hops, label_lengths, label_errors = heard
-    sent, hops, length, error, pred = labels
-    changed = np.empty(len(hops), dtype=np.int64)
-    count = 0
-    rows = sender_rows(link_ids, senders)
-    for link in range(len(link_ids)):
-        row = rows[link]
-        if row < 0:
-            continue
-        sender = link_ids[link]
-        weight, link_error = link_weights[link], link_errors[link]
-        for label in range(starts[row], starts[row + 1]):
-            slot = source_ids[label] - first
-            if slot < 0 or slot >= len(sent) or sent[slot] or source_ids[label] == me:
-                continue
-            # Sums in path order, as the engine sums them: cost so far plus this hop.
-            new_hops = label_hops[label] + 1.0
-            new_length = label_lengths[label] + weight
-            new_error = label_errors[label] + link_error
-            if order == _HOPS_FIRST:
-                new1, new2, old1, old2 = new_hops, new_length, hops[slot], length[slot]
-            elif order == _LENGTH_FIRST:
-                new1, new2, old1, old2 = new_length, new_hops, length[slot], hops[slot]
-            else:
-                new1, new2, old1, old2 = new_error, new_hops, error[slot], hops[slot]
-            if new1 < old1 or (
-                new1 == old1 and (new2 < old2 or (new2 == old2 and sender < pred[slot]))
-            ):
-                if won_label[slot] < 0:
-                    changed[count] = slot
-                    count += 1
-                hops[slot], length[slot], error[slot] = new_hops, new_length, new_error
-                pred[slot] = sender
-                won_label[slot], won_link[slot] = label, link
-    return changed[:count]
-
-
 @dataclass(frozen=True)
 class SearchOptions:
     """How one FLS searches in each phase of a discovery run (see :class:`PathSearch`)."""
@@ -245,9 +154,10 @@ class PathSearch:
     """One FLS's labels in one phase of a discovery run.
 
     ``options.id_space`` bounds the FLS ids (ids are below it);
-    ``options.sources`` (first, end) the ids of the run's sources, whose
-    labels this FLS keeps, one slot each (all ids by default: a run of a few
-    sources needs no more memory).
+    ``options.sources`` (first, end) the ids of the run's sources (all ids by
+    default). The FLS keeps a label only for a source whose search reached
+    it (:mod:`.labels`): its memory grows with the searches through it, not
+    with the swarm.
     ``targets`` makes this FLS a source that searches for them; ``departed``
     FLSs are not relayed from.
     ``options.hop_errors`` (K,) is the expected error of the hop to each neighbour of
@@ -269,40 +179,32 @@ class PathSearch:
     ) -> None:
         self.fls_id = view.fls_id
         first, end = (0, options.id_space) if options.sources is None else options.sources
-        self.first_source = first
-        slots = max(end - first, 0)
+        self.span = (first, max(end, first))
         self.order = _COST_ORDER[check_policy(options.policy)]
         self.width = options.width
         self._relay_from(view, phase, departed, options)
         self.fit = options.fit
         self.fits = options.fit is not None
-        if options.fit is not None:
-            self.unbiased = np.full((slots, 3), np.nan)
-            self.covariance = np.full((slots, 3, 3), np.nan)
-        # Labels by slot: source id - first_source.
-        self.hops = np.full(slots, np.inf)
-        self.length = np.full(slots, np.inf)
-        self.error = np.full(slots, np.inf)
-        self.pred = np.full(slots, np.iinfo(np.int64).max, dtype=np.int64)
-        self.vector = np.full((slots, 3), np.nan)
-        self.sent = np.zeros(slots, dtype=bool)
-        self.closed = np.zeros(slots, dtype=bool)  # sources whose search has ended
-        # A label's path is its sender's (label via_label of the offers heard as
-        # via_offers) plus this FLS; it is copied out only when the label is sent,
-        # since most labels are bettered before they are.
-        self.via_offers = np.full(slots, -1, dtype=np.int64)  # -1: this FLS is the source
-        self.via_label = np.full(slots, -1, dtype=np.int64)
+        links = Links(self.link_ids, self.link_weights, self.link_errors)
+        # Its labels: row 0 of a table of its own, until its process steps it with
+        # others (.together), when its records move to a row of theirs.
+        self.table = LabelTable(
+            np.array([self.fls_id]),
+            np.array([0, len(self.link_ids)]),
+            links,
+            self.span,
+            options.id_space,
+            self.fits,
+        )
+        self.row = 0
         self._heard: dict[int, RoundOffers] = {}
         self._heard_count = 0
         self._last_heard: RoundOffers | None = None  # the offers this search heard last
-        # Where its labels live when heard together (a together.SharedLabels), and its row.
-        self._shared: object | None = None
-        self._row = -1
-        # (round, due slots, unsent labels) picked with the other FLSs of its process.
+        # (round, due records, unsent labels) picked with the other FLSs of its process.
         self._picked: tuple[int, IntArray, int] | None = None
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
         self._wanted = np.array(sorted(self.targets), dtype=np.int64)
-        self._found = np.zeros(options.id_space, dtype=bool)
+        self._found = np.zeros(len(self._wanted), dtype=bool)  # by target, as _wanted
         self.results = Results()
         if targets is not None:
             self._label_self(options.sources)
@@ -330,14 +232,29 @@ class PathSearch:
 
     def _label_self(self, sources: tuple[int, int] | None) -> None:
         """Label this FLS, a source, as reached from itself at no cost."""
-        me = self.fls_id - self.first_source
-        if not 0 <= me < len(self.hops):
+        if not self.span[0] <= self.fls_id < self.span[1]:
             raise ValueError(f"FLS {self.fls_id} is a source outside the run's {sources}")
-        self.hops[me], self.length[me], self.error[me] = 0.0, 0.0, 0.0
-        self.pred[me] = self.fls_id
-        self.vector[me] = 0.0
+        table, row = self.table, self.row
+        me = table.add(row, self.fls_id)
+        table.hops[row, me], table.length[row, me], table.error[row, me] = 0.0, 0.0, 0.0
+        table.pred[row, me] = self.fls_id
+        table.vector[row, me] = 0.0
         if self.fits:
-            self.unbiased[me], self.covariance[me] = 0.0, 0.0
+            table.unbiased[row, me], table.covariance[row, me] = 0.0, 0.0
+
+    def move_to(self, table: LabelTable, row: int) -> None:
+        """Its labels are now row ``row`` of ``table`` (:mod:`.together`)."""
+        self.table, self.row = table, row
+
+    @property
+    def sources(self) -> IntArray:
+        """The sources it holds a label of, sorted: those whose search reached it."""
+        return self.table.sources_of(self.row, self.table.places(self.row))
+
+    def label(self, name: str) -> NDArray[np.generic]:
+        """Column ``name`` of its labels (``hops``, ``length``, ``pred``, ``vector``,
+        ``sent``, ...) by source (:class:`.labels.LabelTable`)."""
+        return np.asarray(getattr(self.table, name)[self.row, self.table.places(self.row)])
 
     @property
     def finished(self) -> bool:
@@ -346,7 +263,7 @@ class PathSearch:
 
     def close(self, sources: IntArray) -> None:
         """Stop relaying the labels of ``sources`` (their searches ended)."""
-        self.closed[source_slots(sources, self.first_source, len(self.hops))] = True
+        self.table.close(sources)
 
     def offer(self, round_: int) -> Offer:
         """The labels due in round ``round_`` (each is final); they count as sent.
@@ -355,28 +272,30 @@ class PathSearch:
         """
         picked = self._picked
         self._picked = None
+        table, row = self.table, self.row
         if picked is not None and picked[0] == round_:
             _, due, labelled = picked
         else:
-            labels = SlotLabels(self.sent, self.hops, self.length, self.error, self.pred)
-            unsent, due_now = labels_due(labels, self.closed, self.order, self.width, round_)
+            unsent, due_now = table.due(row, self.order, self.width, round_)
             due = np.flatnonzero(due_now)
-            self.sent[due] = True
+            if not table.direct:  # by source, as sent
+                due = due[np.argsort(table.keys[row, due], kind="stable")]
+            table.sent[row, due] = True
             labelled = int(unsent.sum())
         path_offsets, path_ids = self._paths_of(due)
         reading_ids, reading_vectors = self._first_readings()
         return Offer(
-            source_ids=due.astype(np.int64) + self.first_source,
-            hops=self.hops[due].astype(np.int64),
-            lengths=self.length[due],
-            errors=self.error[due],
-            vectors=self.vector[due],
+            source_ids=table.sources_of(row, due),
+            hops=table.hops[row, due].astype(np.int64),
+            lengths=table.length[row, due],
+            errors=table.error[row, due],
+            vectors=table.vector[row, due],
             path_offsets=path_offsets,
             path_ids=path_ids,
             pending=len(due) < labelled,
             finished=self.finished,
-            unbiased=self.unbiased[due] if self.fits else None,
-            covariances=self.covariance[due] if self.fits else None,
+            unbiased=table.unbiased[row, due] if self.fits else None,
+            covariances=table.covariance[row, due] if self.fits else None,
             reading_ids=reading_ids,
             reading_vectors=reading_vectors,
         )
@@ -389,15 +308,16 @@ class PathSearch:
         self._readings = None
         return ids, vectors
 
-    def _paths_of(self, slots: IntArray) -> tuple[IntArray, IntArray]:
-        """The paths of the labels in ``slots``, as (offsets (L + 1,), ids), FLS ids."""
-        if not len(slots):  # nothing due this round
+    def _paths_of(self, places: IntArray) -> tuple[IntArray, IntArray]:
+        """The paths of the labels at ``places``, as (offsets (L + 1,), ids), FLS ids."""
+        if not len(places):  # nothing due this round
             self._forget_heard()
             return np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
-        via, label = self.via_offers[slots], self.via_label[slots]
+        via = self.table.via_offers[self.row, places]
+        label = self.table.via_label[self.row, places]
         # Each label's sender path: where it starts in its offers and how long it is.
-        start = np.zeros(len(slots), dtype=np.int64)
-        length = np.zeros(len(slots), dtype=np.int64)
+        start = np.zeros(len(places), dtype=np.int64)
+        length = np.zeros(len(places), dtype=np.int64)
         groups = []
         for key in np.unique(via[via >= 0]).tolist():
             rows = np.flatnonzero(via == key)
@@ -422,7 +342,9 @@ class PathSearch:
         Looked for only once more than a few rounds' offers are kept.
         """
         if len(self._heard) > _HEARD_KEPT:
-            pending = self.via_offers[~self.sent & (self.via_offers >= 0)]
+            table, row = self.table, self.row
+            via = table.via_offers[row]
+            pending = via[~table.sent[row] & (via >= 0)]
             for key in set(self._heard) - set(np.unique(pending).tolist()):
                 del self._heard[key]
 
@@ -431,7 +353,7 @@ class PathSearch:
         if not len(labels):
             return
         targets = heard.sender_ids[labels]
-        self._found[targets] = True
+        self._found[np.searchsorted(self._wanted, targets)] = True
         self.results.add(
             targets,
             heard.lengths[labels],
@@ -455,24 +377,13 @@ class PathSearch:
         if self._last_heard is heard:
             return
         self._hear_first(heard)
-        won_label = np.full(len(self.hops), -1, dtype=np.int64)
-        won_link = np.zeros(len(self.hops), dtype=np.int64)
-        changed = _relax(
-            self.fls_id,
-            self.order,
-            self.first_source,
-            Links(self.link_ids, self.link_weights, self.link_errors),
-            heard_labels(heard),
-            SlotLabels(self.sent, self.hops, self.length, self.error, self.pred),
-            won_label,
-            won_link,
-        )
-        self._take_changes(heard, changed, won_label[changed], won_link[changed])
+        _, changes = self.table.relax(np.array([self.row]), self.order, heard_labels(heard))
+        self._take_changes(heard, changes.places, changes.labels, changes.links)
 
     def _hear_first(self, heard: RoundOffers) -> None:
         """What hearing ``heard`` takes before the relaxation: results and readings."""
         self._last_heard = heard
-        missing = self._wanted[~self._found[self._wanted]]
+        missing = self._wanted[~self._found]
         if len(missing):
             # A target's label of this source: its result (a sender offers a label once).
             mine = _labels_for(self.fls_id, missing, heard.senders, heard.starts, heard.source_ids)
@@ -491,45 +402,27 @@ class PathSearch:
     def _take_changes(
         self, heard: RoundOffers, changed: IntArray, labels: IntArray, links: IntArray
     ) -> None:
-        """Labels of slots ``changed`` were bettered by ``labels`` of ``heard`` through
-        ``links`` (:func:`_relax`'s winners): their vectors and paths follow."""
+        """Labels at places ``changed`` were bettered by ``labels`` of ``heard`` through
+        ``links`` (the relaxation's winners): their vectors and paths follow."""
         if not len(changed):
             return
+        table, row = self.table, self.row
         hop = self.link_vectors[links]
-        self.vector[changed] = heard.vectors[labels] + hop
+        table.vector[row, changed] = heard.vectors[labels] + hop
         if self.fit is not None:
             sensor, radius = self.fit
             unbiased, covariance = hop_fit(sensor, radius, hop, self.link_weights[links])
-            self.unbiased[changed] = heard.unbiased[labels] + unbiased
-            self.covariance[changed] = heard.covariances[labels] + covariance
+            table.unbiased[row, changed] = heard.unbiased[labels] + unbiased
+            table.covariance[row, changed] = heard.covariances[labels] + covariance
         key = self._heard_count
         self._heard_count += 1
         self._heard[key] = heard
-        self.via_offers[changed] = key
-        self.via_label[changed] = labels
-
-
-def source_slots(sources: IntArray, first: int, slots: int) -> IntArray:
-    """The slots of those of ``sources`` (ids) that a run of sources ``first`` to
-    ``first + slots - 1`` keeps labels for."""
-    found = np.asarray(sources, dtype=np.int64) - first
-    return found[(found >= 0) & (found < slots)]
-
-
-def labels_due(
-    labels: SlotLabels, closed: NDArray[np.bool_], order: int, width: float, round_: int
-) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
-    """Which ``labels`` are unsent (found, not sent, their source not ``closed``), and which
-    of those are due in round ``round_``: their bucket, the primary cost (``order``) over
-    ``width``, rounded down, is reached. Masks of the labels' shape: one FLS's (S,), or
-    a process's (F, S) (:mod:`.together`)."""
-    primary = (labels.hops, labels.length, labels.error)[order]
-    unsent = np.isfinite(labels.hops) & ~labels.sent & ~closed
-    return unsent, unsent & (np.floor(primary / width) <= round_)
+        table.via_offers[row, changed] = key
+        table.via_label[row, changed] = labels
 
 
 def heard_labels(heard: RoundOffers) -> HeardLabels:
-    """The labels of ``heard`` as :func:`_relax` reads them."""
+    """The labels of ``heard`` as the relaxation reads them (:mod:`.labels`)."""
     return HeardLabels(
         heard.senders, heard.starts, heard.source_ids, heard.hops, heard.lengths, heard.errors
     )

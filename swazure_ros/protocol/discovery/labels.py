@@ -1,0 +1,513 @@
+"""The labels of one phase of a discovery run: one place per FLS and source that reached it.
+
+An FLS keeps a label only for a source whose search has reached it (heard
+from a neighbour it relays from), so its memory and its work each round
+grow with the searches that pass through it, not with the swarm: a source's
+search reaches the FLSs within a few sweet hops of it, however many FLSs
+fly (issue 67). A :class:`LabelTable` holds the labels of one FLS (a search
+stepped alone) or of every FLS a process steps together: row f of its
+(F, R) arrays is FLS f's, a row's R places an open-addressing hash of
+source ids, each FLS's labels side by side in memory as the relaxation
+reads them. R grows as a row fills; once it would reach the run's number of
+sources, a source's place is simply its slot (source - first), the layout
+of a swarm whose every search reaches every FLS (the published shapes).
+
+The relaxation (:func:`LabelTable.relax`) is the same compiled pass for one
+row and for thousands: each candidate (a heard label plus the hop from its
+sender) replaces its source's label when it is better under the total order
+(primary cost, secondary cost, sender id).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...core import csr, jit
+from ...core.arrays import FloatArray, IntArray
+from .messages import sender_rows
+
+#: The order of a label's costs in each policy: (primary, secondary), as the relaxation reads them.
+HOPS_FIRST, LENGTH_FIRST, ERROR_FIRST = 0, 1, 2
+
+#: An empty place of the hash.
+_EMPTY = -1
+
+#: Source ids are below 2**32, so an id times this odd constant stays below 2**62:
+#: no overflow, compiled or interpreted (the ``fls`` program runs kernels as Python).
+_MIX = 0x2545F491
+
+#: A pred that no sender id reaches: a label not found yet loses every tie.
+NO_PRED = np.iinfo(np.int64).max
+
+
+class Links(NamedTuple):
+    """The hops FLSs relay from, each FLS's sorted by sender id: one kernel argument."""
+
+    ids: IntArray  # (K,), the senders
+    weights: FloatArray  # (K,), tracking distance of each hop, cm
+    errors: FloatArray  # (K,), expected error of each hop
+
+
+class HeardLabels(NamedTuple):
+    """The labels of a :class:`~.messages.RoundOffers`, L in all, grouped by sender."""
+
+    senders: IntArray  # (S,) sorted sender ids
+    starts: IntArray  # (S + 1,) sender k's labels are starts[k]:starts[k + 1]
+    source_ids: IntArray  # (L,)
+    hops: IntArray  # (L,)
+    lengths: FloatArray  # (L,), cm
+    errors: FloatArray  # (L,)
+
+
+class Columns(NamedTuple):
+    """What the relaxation reads and writes of a :class:`LabelTable`: one kernel argument."""
+
+    keys: IntArray  # (F, R) the source of each place, -1 where empty
+    sent: NDArray[np.bool_]  # (F, R)
+    hops: FloatArray  # (F, R)
+    length: FloatArray  # (F, R), cm
+    error: FloatArray  # (F, R)
+    pred: IntArray  # (F, R), the sender of each label
+    occupied: IntArray  # (F,) places taken in each row (kept while the rows hash)
+
+
+class Changes(NamedTuple):
+    """Labels bettered in one relaxation, row by row: one kernel argument."""
+
+    places: IntArray  # (M,) each in its row
+    labels: IntArray  # (M,) the heard label that won each
+    links: IntArray  # (M,) and the link it came by, an index into its FLS's links
+
+
+@jit.kernel(cache=True, nogil=True)
+def _place(keys: IntArray, source: int, first: int, direct: bool) -> int:
+    """The place of ``source`` in a row whose sources are ``keys`` (R,): where it is, or
+    the empty place it goes; its slot (source - first) when the row is ``direct``."""
+    if direct:
+        return source - first
+    mask = len(keys) - 1
+    at = ((source * _MIX) >> 15) & mask
+    while keys[at] != _EMPTY and keys[at] != source:
+        at = (at + 1) & mask
+    return at
+
+
+@jit.kernel(cache=True, nogil=True)
+def _insert(
+    keys: IntArray, rows: IntArray, sources: IntArray, first: int, direct: bool
+) -> IntArray:
+    """Put ``sources`` (M,) in rows ``rows`` (M,) of ``keys`` (F, R); their places."""
+    places = np.empty(len(rows), dtype=np.int64)
+    for k in range(len(rows)):
+        if direct:  # the slot; a direct table keeps no keys
+            places[k] = sources[k] - first
+            continue
+        place = _place(keys[rows[k]], sources[k], first, direct)
+        keys[rows[k], place] = sources[k]
+        places[k] = place
+    return places
+
+
+@jit.kernel(cache=True, nogil=True)
+def _relax_rows(
+    rows: IntArray,
+    begin: int,
+    mes: IntArray,
+    order: int,
+    span: IntArray,
+    direct: bool,
+    link_starts: IntArray,
+    links: Links,
+    heard: HeardLabels,
+    closed: NDArray[np.bool_],
+    columns: Columns,
+    changes: Changes,
+    filled: int,
+    change_starts: IntArray,
+) -> tuple[int, int, int]:
+    """Relax the labels of table rows ``rows[begin:]`` (FLS ``mes[row]``, its links
+    ``link_starts[row]:link_starts[row + 1]``) through the labels ``heard``.
+
+    ``span`` is (first, end): sources outside first..end - 1 are not this
+    run's; ``closed`` (id_space,) marks the sources whose search ended (empty:
+    none), whose labels are neither kept nor relaxed. A source first heard
+    takes an empty place. Row ``rows[k]``'s bettered places go to
+    ``changes[change_starts[k]:change_starts[k + 1]]``, from ``filled`` on.
+
+    Returns (next, filled, need): ``next`` is ``len(rows)`` when every row is
+    done. Else row ``rows[next]`` was left untouched: it needs ``need`` places
+    at most half full (``need`` 0: more room in ``changes``), and the caller
+    makes room and goes on.
+    """
+    first, end = span[0], span[1]
+    link_ids, link_weights, link_errors = links
+    senders, starts, source_ids, label_hops, label_lengths, label_errors = heard
+    keys, sent, hops, length, error, pred, occupied = columns
+    width = hops.shape[1]
+    won_label = np.full(width, -1, dtype=np.int64)
+    won_link = np.zeros(width, dtype=np.int64)
+    newly = np.empty(width, dtype=np.int64)  # places a row took this call
+    for at in range(begin, len(rows)):
+        row = rows[at]
+        low, high = link_starts[row], link_starts[row + 1]
+        found = sender_rows(link_ids[low:high], senders)
+        room = 0
+        for k in range(high - low):
+            if found[k] >= 0:
+                room += starts[found[k] + 1] - starts[found[k]]
+        if filled + min(room, width) > len(changes.places):
+            return at, filled, 0
+        me = mes[row]
+        row_filled = filled
+        # The row's own labels, side by side: what its candidates read and write.
+        row_keys, row_sent, row_pred = keys[row], sent[row], pred[row]
+        row_hops, row_length, row_error = hops[row], length[row], error[row]
+        if not direct:
+            # The sources new to this row take their places first, while it stays at most
+            # half full; else they are given back, and the row waits for a wider table.
+            taken = 0
+            for k in range(high - low):
+                if found[k] < 0:
+                    continue
+                for label in range(starts[found[k]], starts[found[k] + 1]):
+                    source = source_ids[label]
+                    if source < first or source >= end or source == me:
+                        continue
+                    if len(closed) and closed[source]:
+                        continue
+                    place = _place(row_keys, source, first, direct)
+                    if row_keys[place] != _EMPTY:
+                        continue
+                    if 2 * (occupied[row] + 1) > width:
+                        # Taken last, given back first: the earlier keys' probes never
+                        # passed these places, so they are found as before.
+                        for back in range(taken - 1, -1, -1):
+                            row_keys[newly[back]] = _EMPTY
+                        occupied[row] -= taken
+                        return at, filled, occupied[row] + taken + 1
+                    row_keys[place] = source  # its costs are the empty place's: none yet
+                    occupied[row] += 1
+                    newly[taken] = place
+                    taken += 1
+        for k in range(high - low):
+            if found[k] < 0:
+                continue
+            sender = link_ids[low + k]
+            weight, link_error = link_weights[low + k], link_errors[low + k]
+            for label in range(starts[found[k]], starts[found[k] + 1]):
+                source = source_ids[label]
+                if source < first or source >= end or source == me:
+                    continue
+                if len(closed) and closed[source]:
+                    continue
+                # Direct: a slot is taken when its label is found (its hops finite).
+                place = _place(row_keys, source, first, direct)
+                if row_sent[place]:
+                    continue
+                # Sums in path order, as the engine sums them: cost so far plus this hop.
+                new_hops = label_hops[label] + 1.0
+                new_length = label_lengths[label] + weight
+                new_error = label_errors[label] + link_error
+                if order == HOPS_FIRST:
+                    new1, new2 = new_hops, new_length
+                    old1, old2 = row_hops[place], row_length[place]
+                elif order == LENGTH_FIRST:
+                    new1, new2 = new_length, new_hops
+                    old1, old2 = row_length[place], row_hops[place]
+                else:
+                    new1, new2 = new_error, new_hops
+                    old1, old2 = row_error[place], row_hops[place]
+                if new1 < old1 or (
+                    new1 == old1 and (new2 < old2 or (new2 == old2 and sender < row_pred[place]))
+                ):
+                    if won_label[place] < 0:
+                        changes.places[filled] = place
+                        filled += 1
+                    row_hops[place], row_length[place] = new_hops, new_length
+                    row_error[place], row_pred[place] = new_error, sender
+                    won_label[place], won_link[place] = label, k
+        for change in range(row_filled, filled):
+            place = changes.places[change]
+            changes.labels[change], changes.links[change] = won_label[place], won_link[place]
+            won_label[place] = -1
+        change_starts[at + 1] = filled
+    return len(rows), filled, 0
+
+
+def labels_due(
+    primary: FloatArray,
+    found: NDArray[np.bool_],
+    sent: NDArray[np.bool_],
+    closed: NDArray[np.bool_],
+    width: float,
+    round_: int,
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """Which labels are unsent (``found``, not ``sent``, not ``closed``), and which of
+    those are due in round ``round_``: their bucket, ``primary`` cost over ``width``
+    rounded down, is reached. Masks of the labels' shape."""
+    unsent = found & ~sent & ~closed
+    return unsent, unsent & (np.floor(primary / width) <= round_)
+
+
+#: Each column of a table: the value of an empty place, and its shape past (F, R).
+_COLUMNS: dict[str, tuple[object, tuple[int, ...], type]] = {
+    "keys": (_EMPTY, (), np.int64),
+    "sent": (False, (), np.bool_),
+    "hops": (np.inf, (), np.float64),
+    "length": (np.inf, (), np.float64),
+    "error": (np.inf, (), np.float64),
+    "pred": (NO_PRED, (), np.int64),
+    "vector": (np.nan, (3,), np.float64),
+    # A label's path is its sender's (label via_label of the offers its FLS heard as
+    # via_offers) plus its FLS: -1 where the FLS is the source.
+    "via_offers": (-1, (), np.int64),
+    "via_label": (-1, (), np.int64),
+}
+_FIT_COLUMNS: dict[str, tuple[object, tuple[int, ...], type]] = {
+    "unbiased": (np.nan, (3,), np.float64),
+    "covariance": (np.nan, (3, 3), np.float64),
+}
+
+
+class LabelTable:
+    """The labels of F FLSs (rows) in one phase of one run, a place per source heard.
+
+    ``mes`` (F,) are the FLSs' ids, ``link_starts`` (F + 1,) and ``links``
+    their hops relayed from; ``span`` (first, end) the run's sources and
+    ``id_space`` a bound on ids; ``fits``: labels also sum unbiased hops and
+    their covariances (``unbiased``, ``covariance``). Each column
+    (``keys``, the source of each place, ``sent``, ``hops``, ``length``,
+    ``error``, ``pred``, ``vector``, ``via_offers``, ``via_label``) is (F, R, ...).
+    """
+
+    # The columns, (F, R, ...) each: made by _allocate, from _COLUMNS and _FIT_COLUMNS.
+    keys: IntArray
+    sent: NDArray[np.bool_]
+    hops: FloatArray
+    length: FloatArray
+    error: FloatArray
+    pred: IntArray
+    vector: FloatArray
+    via_offers: IntArray
+    via_label: IntArray
+    unbiased: FloatArray
+    covariance: FloatArray
+
+    def __init__(
+        self,
+        mes: IntArray,
+        link_starts: IntArray,
+        links: Links,
+        span: tuple[int, int],
+        id_space: int,
+        fits: bool,
+        need: int = 1,
+    ) -> None:
+        self.mes = np.asarray(mes, dtype=np.int64)
+        self.link_starts, self.links = link_starts, links
+        self.span, self.id_space, self.fits = span, id_space, fits
+        self._span = np.array(span, dtype=np.int64)
+        self.closed = np.zeros(0, dtype=bool)  # (id_space,) once a source is closed
+        self._changes_last = 0
+        self.occupied = np.zeros(len(self.mes), dtype=np.int64)
+        self.direct, width = self._width_for(need)
+        self._allocate(width)
+
+    def _width_for(self, need: int) -> tuple[bool, int]:
+        """(direct, R) for rows of ``need`` labels: a hash at most half full, or a slot per
+        source once that is no larger."""
+        sources = self.span[1] - self.span[0]
+        width = 1 << max(3, int(2 * need - 1).bit_length())
+        # A hash half the slots' size saves too little for its probes and its moves.
+        return (True, sources) if 2 * width >= sources else (False, width)
+
+    def _allocate(self, width: int) -> None:
+        columns = {**_COLUMNS, **(_FIT_COLUMNS if self.fits else {})}
+        for name, (empty, shape, dtype) in columns.items():
+            # A direct table's places are its sources' slots: it keeps no keys.
+            wide = 0 if name == "keys" and self.direct else width
+            setattr(self, name, np.full((len(self.mes), wide, *shape), empty, dtype=dtype))
+
+    @property
+    def size(self) -> int:
+        """How many FLSs (rows) it holds."""
+        return len(self.mes)
+
+    @property
+    def width(self) -> int:
+        """R, the places of each row."""
+        return int(self.hops.shape[1])
+
+    def found(self, row: int | None = None) -> NDArray[np.bool_]:
+        """Which places of row ``row`` (R,), or of every row (F, R), hold a label."""
+        at = slice(None) if row is None else row
+        # A label is found at its first candidate, so its hops are finite.
+        return np.isfinite(self.hops[at]) if self.direct else self.keys[at] != _EMPTY
+
+    def sources_of(self, rows: IntArray | int, places: IntArray) -> IntArray:
+        """The sources of the labels at ``places`` of ``rows``."""
+        if self.direct:
+            return np.asarray(places, dtype=np.int64) + self.span[0]
+        return np.asarray(self.keys[rows, places], dtype=np.int64)
+
+    def _columns(self) -> Columns:
+        return Columns(
+            self.keys, self.sent, self.hops, self.length, self.error, self.pred, self.occupied
+        )
+
+    def places(self, row: int) -> IntArray:
+        """The taken places of row ``row``, by source."""
+        taken = np.flatnonzero(self.found(row))
+        return taken if self.direct else taken[np.argsort(self.keys[row, taken], kind="stable")]
+
+    def add(self, row: int, source: int) -> int:
+        """Row ``row``'s place for ``source`` (its label not found yet), taken."""
+        if 2 * (self.occupied[row] + 1) > self.width and not self.direct:
+            self._widen(int(self.occupied[row]) + 1)
+        place = int(
+            _insert(self.keys, np.array([row]), np.array([source]), self.span[0], self.direct)[0]
+        )
+        self.occupied[row] += 1
+        return place
+
+    def _widen(self, need: int) -> None:
+        """Rows of ``need`` labels at most half full: every label moves to its new place.
+
+        At least four times as wide each time: a few moves while a search spreads.
+        """
+        rows, places = np.nonzero(self.found())
+        sources = self.sources_of(rows, places)
+        old = {name: getattr(self, name)[rows, places] for name in self._names()}
+        self.direct, width = self._width_for(max(need, 2 * self.width))
+        self._allocate(width)
+        moved = _insert(self.keys, rows, sources, self.span[0], self.direct)
+        for name, values in old.items():
+            getattr(self, name)[rows, moved] = values
+
+    def _names(self) -> list[str]:
+        """The columns besides ``keys``."""
+        return [
+            name for name in (*_COLUMNS, *(_FIT_COLUMNS if self.fits else {})) if name != "keys"
+        ]
+
+    def close(self, sources: IntArray) -> None:
+        """Stop relaying and keeping the labels of ``sources`` (ids: their searches ended)."""
+        sources = np.asarray(sources, dtype=np.int64)
+        sources = sources[(sources >= self.span[0]) & (sources < self.span[1])]
+        if not len(sources):
+            return
+        if not len(self.closed):
+            self.closed = np.zeros(self.id_space, dtype=bool)
+        self.closed[sources] = True
+
+    def relax(self, rows: IntArray, order: int, heard: HeardLabels) -> tuple[IntArray, Changes]:
+        """Relax ``rows`` (table rows, in order) through ``heard`` in one compiled pass.
+
+        Returns (starts, changes): row ``rows[k]``'s bettered places are
+        ``changes[starts[k]:starts[k + 1]]``.
+        """
+        rows = np.asarray(rows, dtype=np.int64)
+        change_starts = np.zeros(len(rows) + 1, dtype=np.int64)
+        # Room for as many changes as the last call's, which the next round's resemble.
+        size = max(64, 2 * len(rows), self._changes_last)
+        changes = Changes(*(np.empty(size, dtype=np.int64) for _ in range(3)))
+        done, filled = 0, 0
+        while done < len(rows):
+            done, filled, need = _relax_rows(
+                rows,
+                done,
+                self.mes,
+                order,
+                self._span,
+                self.direct,
+                self.link_starts,
+                self.links,
+                heard,
+                self.closed,
+                self._columns(),
+                changes,
+                filled,
+                change_starts,
+            )
+            if done < len(rows) and need:
+                # The rows done keep their changes: each goes to its label's new place.
+                changed_rows = np.repeat(rows[:done], np.diff(change_starts[: done + 1]))
+                sources = self.sources_of(changed_rows, changes.places[:filled])
+                self._widen(need)
+                changes.places[:filled] = _insert(
+                    self.keys, changed_rows, sources, self.span[0], self.direct
+                )
+            elif done < len(rows):
+                size = 2 * size + self.width
+                changes = Changes(*(_grown(one, size) for one in changes))
+        self._changes_last = filled
+        return change_starts, Changes(*(one[:filled] for one in changes))
+
+    def due(
+        self, row: int | None, order: int, width: float, round_: int
+    ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+        """:func:`labels_due` of row ``row``'s places (R,), or of every row's (F, R) when None."""
+        at = slice(None) if row is None else row
+        found = self.found(row)
+        if not len(self.closed):
+            closed = np.zeros(self.width, dtype=bool)
+        elif self.direct:  # a place is its source's slot, the same in every row
+            closed = self.closed[self.span[0] : self.span[1]]
+        else:
+            closed = self.closed[np.where(found, self.keys[at], 0)] & found
+        primary = (self.hops, self.length, self.error)[order][at]
+        return labels_due(primary, found, self.sent[at], closed, width, round_)
+
+    @classmethod
+    def merged(cls, parts: Sequence[tuple[LabelTable, int]]) -> LabelTable:
+        """One table of ``parts`` (table, row): part k's labels become row k."""
+        first = parts[0][0]
+        pieces = [
+            [field[table.link_starts[row] : table.link_starts[row + 1]] for field in table.links]
+            for table, row in parts
+        ]
+        links = Links(*(np.concatenate(field) for field in zip(*pieces, strict=True)))
+        link_counts = np.array([len(piece[0]) for piece in pieces], dtype=np.int64)
+        taken = [table.places(row) for table, row in parts]
+        counts = np.array([len(at) for at in taken], dtype=np.int64)
+        merged = cls(
+            np.array([table.mes[row] for table, row in parts], dtype=np.int64),
+            csr.offsets(link_counts),
+            links,
+            first.span,
+            first.id_space,
+            first.fits,
+            need=int(counts.max(initial=1)),
+        )
+        rows = np.repeat(np.arange(len(parts), dtype=np.int64), counts)
+        values = {
+            name: np.concatenate(
+                [
+                    getattr(table, name)[row, at]
+                    for (table, row), at in zip(parts, taken, strict=True)
+                ]
+            )
+            for name in merged._names()
+        }
+        sources = np.concatenate(
+            [table.sources_of(row, at) for (table, row), at in zip(parts, taken, strict=True)]
+        )
+        places = _insert(merged.keys, rows, sources, first.span[0], merged.direct)
+        for name, column in values.items():
+            getattr(merged, name)[rows, places] = column
+        merged.occupied[:] = counts
+        closed = [table.closed for table, _ in parts if len(table.closed)]
+        if closed:
+            merged.closed = np.logical_or.reduce(closed)
+        return merged
+
+
+def _grown(values: IntArray, size: int) -> IntArray:
+    """``values`` in an array of ``size``, the rest unset."""
+    bigger = np.empty(size, dtype=values.dtype)
+    bigger[: len(values)] = values
+    return bigger
