@@ -68,7 +68,9 @@ class MoveResult:
 
 
 #: What one label costs an FLS in a discovery run, bytes: its costs, vector, path
-#: link, sent and closed flags and the relaxation's scratch (protocol.discovery.search).
+#: link, sent flag and hash key (protocol.discovery.labels). A run's blocks are sized
+#: as if every FLS held every source's label: at the paper's density a search reaches
+#: the FLSs within about the sensor's reach, two thirds of torus:10000.
 LABEL_BYTES = 100
 #: The labels that a whole-swarm discovery keeps at once, all processes together,
 #: bytes: a swarm whose every FLS would hold every source's label runs its
