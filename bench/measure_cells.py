@@ -28,6 +28,7 @@ from swazure_ros.app.share import shares
 from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.observe import observations
+from swazure_ros.files.atomic import atomic_write
 from swazure_ros.protocol.loops import discover
 from swazure_ros.ros.plumbing.names import RADIO_TOPIC, host_name
 from swazure_ros.sim.world import WorldSpec
@@ -57,8 +58,12 @@ def arguments() -> argparse.Namespace:
     parser.add_argument("--beta", type=float, default=0.5)
     parser.add_argument("--processes", type=int, default=1)
     parser.add_argument("--domain-id", type=int, default=93)
-    parser.add_argument("--out", type=Path, required=True)
-    return parser.parse_args()
+    parser.add_argument("--out", type=Path, required=True, help="the record's JSON file")
+    args = parser.parse_args()
+    # Said before the bring-up, not after twenty minutes of it.
+    if args.out.is_dir():
+        parser.error(f"--out {args.out} is a folder; give the JSON file to write")
+    return args
 
 
 def main() -> int:
@@ -120,7 +125,7 @@ def main() -> int:
         assert swarm.host is not None and swarm.host.radio is not None
         out["per_process"][0]["offers_here"] = swarm.host.radio.offers_here
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    args.out.write_text(json.dumps(out, indent=1))
+    atomic_write(args.out, lambda path: path.write_text(json.dumps(out, indent=1)))
     print(json.dumps(out))
     return 0
 
