@@ -38,6 +38,7 @@ from bench.fls_process import fls_process_section
 from bench.fusion import fusion_section
 from bench.hostile import hostile_section
 from bench.hosts import hosts_section
+from bench.labels import labels_section
 from bench.least_squares import least_squares_section
 from bench.policies import policies_section
 from bench.replay import replay_section
@@ -75,6 +76,7 @@ SECTIONS: dict[str, Callable[..., list[str]]] = {
     "swarm_fit": swarm_fit_section,
     "swarm_solve": swarm_solve_section,
     "cells": cells_section,
+    "labels": labels_section,
     "tags": tags_section,
     "scale": scale_section,
     "display": display_section,
