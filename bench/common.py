@@ -5,6 +5,7 @@ And the merge of a run's sections into BENCHMARKS.md.
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import errno
 import os
@@ -338,3 +339,9 @@ def fit_facts(summary: Summary) -> FitFacts:
     if summary.fit is None:
         raise ValueError("the summary is of no fit")
     return summary.fit
+
+
+def record_file(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse ``args.out`` when it is a folder, before a measure's long run, not after."""
+    if args.out.is_dir():
+        parser.error(f"--out {args.out} is a folder; give the JSON file to write")

@@ -22,6 +22,7 @@ from pathlib import Path
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 
+from bench.common import record_file
 from swazure_ros.app.compute import compute_all
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.share import shares
@@ -60,9 +61,7 @@ def arguments() -> argparse.Namespace:
     parser.add_argument("--domain-id", type=int, default=93)
     parser.add_argument("--out", type=Path, required=True, help="the record's JSON file")
     args = parser.parse_args()
-    # Said before the bring-up, not after twenty minutes of it.
-    if args.out.is_dir():
-        parser.error(f"--out {args.out} is a folder; give the JSON file to write")
+    record_file(parser, args)
     return args
 
 

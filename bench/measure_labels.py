@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from bench.common import record_file
 from swazure_ros.core.evaluate import evaluate_pairs
 from swazure_ros.core.evaluation import NO_PATH
 from swazure_ros.core.observe import observations
@@ -38,8 +39,7 @@ def arguments() -> argparse.Namespace:
     parser.add_argument("--beta", type=float, default=0.5)
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
-    if args.out.is_dir():
-        parser.error(f"--out {args.out} is a folder; give the JSON file to write")
+    record_file(parser, args)
     return args
 
 

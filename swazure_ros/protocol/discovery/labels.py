@@ -128,6 +128,8 @@ def _relax_rows(
     changes: Changes,
     filled: int,
     change_starts: IntArray,
+    won: Changes,
+    resume: IntArray,
 ) -> tuple[int, int, int]:
     """Relax the labels of table rows ``rows[begin:]`` (FLS ``mes[row]``, its links
     ``link_starts[row]:link_starts[row + 1]``) through the labels ``heard``.
@@ -137,76 +139,60 @@ def _relax_rows(
     none), whose labels are neither kept nor relaxed. A source first heard
     takes an empty place. Row ``rows[k]``'s bettered places go to
     ``changes[change_starts[k]:change_starts[k + 1]]``, from ``filled`` on.
+    ``won`` (R,) are the winning label and link of each place of the row in
+    hand, -1 where it has not changed (as the call leaves them).
 
     Returns (next, filled, need): ``next`` is ``len(rows)`` when every row is
-    done. Else row ``rows[next]`` was left untouched: it needs ``need`` places
-    at most half full (``need`` 0: more room in ``changes``), and the caller
-    makes room and goes on.
+    done. Else row ``rows[next]`` stopped: with ``need`` 0 before it began, for
+    more room in ``changes``; else before its hash would be over half full,
+    to go on at ``resume`` (link, label) once its places are ``need`` at most
+    half full, ``won`` and its changes so far moved to their new places.
     """
-    first, end = span[0], span[1]
+    first, end, has_closed = span[0], span[1], len(closed) > 0
     link_ids, link_weights, link_errors = links
     senders, starts, source_ids, label_hops, label_lengths, label_errors = heard
     keys, sent, hops, length, error, pred, occupied = columns
     width = hops.shape[1]
-    won_label = np.full(width, -1, dtype=np.int64)
-    won_link = np.zeros(width, dtype=np.int64)
-    newly = np.empty(width, dtype=np.int64)  # places a row took this call
     for at in range(begin, len(rows)):
         row = rows[at]
         low, high = link_starts[row], link_starts[row + 1]
         found = sender_rows(link_ids[low:high], senders)
-        room = 0
-        for k in range(high - low):
-            if found[k] >= 0:
-                room += starts[found[k] + 1] - starts[found[k]]
-        if filled + min(room, width) > len(changes.places):
-            return at, filled, 0
+        resumed = at == begin and resume[0] >= 0
+        first_link, first_label = (resume[0], resume[1]) if resumed else (0, -1)
+        if not resumed:
+            room = 0  # a change at most per candidate
+            for k in range(high - low):
+                if found[k] >= 0:
+                    room += starts[found[k] + 1] - starts[found[k]]
+            if filled + room > len(changes.places):
+                return at, filled, 0
+        resume[0], resume[1] = -1, -1
         me = mes[row]
-        row_filled = filled
         # The row's own labels, side by side: what its candidates read and write.
         row_keys, row_sent, row_pred = keys[row], sent[row], pred[row]
         row_hops, row_length, row_error = hops[row], length[row], error[row]
-        if not direct:
-            # The sources new to this row take their places first, while it stays at most
-            # half full; else they are given back, and the row waits for a wider table.
-            taken = 0
-            for k in range(high - low):
-                if found[k] < 0:
-                    continue
-                for label in range(starts[found[k]], starts[found[k] + 1]):
-                    source = source_ids[label]
-                    if source < first or source >= end or source == me:
-                        continue
-                    if len(closed) and closed[source]:
-                        continue
-                    place = _place(row_keys, source, first, direct)
-                    if row_keys[place] != _EMPTY:
-                        continue
-                    if 2 * (occupied[row] + 1) > width:
-                        # Taken last, given back first: the earlier keys' probes never
-                        # passed these places, so they are found as before.
-                        for back in range(taken - 1, -1, -1):
-                            row_keys[newly[back]] = _EMPTY
-                        occupied[row] -= taken
-                        return at, filled, occupied[row] + taken + 1
-                    row_keys[place] = source  # its costs are the empty place's: none yet
-                    occupied[row] += 1
-                    newly[taken] = place
-                    taken += 1
-        for k in range(high - low):
+        for k in range(first_link, high - low):
             if found[k] < 0:
                 continue
             sender = link_ids[low + k]
             weight, link_error = link_weights[low + k], link_errors[low + k]
-            for label in range(starts[found[k]], starts[found[k] + 1]):
+            label_from = first_label if k == first_link and first_label >= 0 else starts[found[k]]
+            for label in range(label_from, starts[found[k] + 1]):
                 source = source_ids[label]
                 if source < first or source >= end or source == me:
                     continue
-                if len(closed) and closed[source]:
+                if has_closed and closed[source]:
                     continue
-                # Direct: a slot is taken when its label is found (its hops finite).
-                place = _place(row_keys, source, first, direct)
-                if row_sent[place]:
+                # Direct: a slot is taken when its label is found (its hops finite). The
+                # slot is worked out here, not by _place: a call per candidate cost 4x.
+                place = source - first if direct else _place(row_keys, source, first, direct)
+                if not direct and row_keys[place] == _EMPTY:
+                    if 2 * (occupied[row] + 1) > width:
+                        resume[0], resume[1] = k, label
+                        return at, filled, occupied[row] + 1
+                    row_keys[place] = source  # its costs are the empty place's: none yet
+                    occupied[row] += 1
+                elif row_sent[place]:
                     continue
                 # Sums in path order, as the engine sums them: cost so far plus this hop.
                 new_hops = label_hops[label] + 1.0
@@ -224,16 +210,16 @@ def _relax_rows(
                 if new1 < old1 or (
                     new1 == old1 and (new2 < old2 or (new2 == old2 and sender < row_pred[place]))
                 ):
-                    if won_label[place] < 0:
+                    if won.labels[place] < 0:
                         changes.places[filled] = place
                         filled += 1
                     row_hops[place], row_length[place] = new_hops, new_length
                     row_error[place], row_pred[place] = new_error, sender
-                    won_label[place], won_link[place] = label, k
-        for change in range(row_filled, filled):
+                    won.labels[place], won.links[place] = label, k
+        for change in range(change_starts[at], filled):
             place = changes.places[change]
-            changes.labels[change], changes.links[change] = won_label[place], won_link[place]
-            won_label[place] = -1
+            changes.labels[change], changes.links[change] = won.labels[place], won.links[place]
+            won.labels[place] = -1
         change_starts[at + 1] = filled
     return len(rows), filled, 0
 
@@ -415,6 +401,8 @@ class LabelTable:
         # Room for as many changes as the last call's, which the next round's resemble.
         size = max(64, 2 * len(rows), self._changes_last)
         changes = Changes(*(np.empty(size, dtype=np.int64) for _ in range(3)))
+        won = self._won()
+        resume = np.full(2, -1, dtype=np.int64)
         done, filled = 0, 0
         while done < len(rows):
             done, filled, need = _relax_rows(
@@ -432,20 +420,53 @@ class LabelTable:
                 changes,
                 filled,
                 change_starts,
+                won,
+                resume,
             )
             if done < len(rows) and need:
-                # The rows done keep their changes: each goes to its label's new place.
-                changed_rows = np.repeat(rows[:done], np.diff(change_starts[: done + 1]))
-                sources = self.sources_of(changed_rows, changes.places[:filled])
-                self._widen(need)
-                changes.places[:filled] = _insert(
-                    self.keys, changed_rows, sources, self.span[0], self.direct
-                )
+                won = self._widened(need, rows, done, change_starts, changes, filled, won)
             elif done < len(rows):
                 size = 2 * size + self.width
                 changes = Changes(*(_grown(one, size) for one in changes))
         self._changes_last = filled
         return change_starts, Changes(*(one[:filled] for one in changes))
+
+    def _won(self) -> Changes:
+        """The relaxation's record of the row in hand, by place: none yet."""
+        width = self.width
+        return Changes(np.zeros(0, dtype=np.int64), np.full(width, -1), np.zeros(width, int))
+
+    def _widened(
+        self,
+        need: int,
+        rows: IntArray,
+        done: int,
+        change_starts: IntArray,
+        changes: Changes,
+        filled: int,
+        won: Changes,
+    ) -> Changes:
+        """Widen for ``need`` in the middle of a relaxation: the changes so far (rows
+        ``rows[:done]``, and ``rows[done]``'s from ``change_starts[done]``) and the row in
+        hand's winners move to their labels' new places; its winners, returned."""
+        counts = np.diff(change_starts[: done + 1])
+        changed_rows = np.concatenate(
+            [np.repeat(rows[:done], counts), np.full(filled - change_starts[done], rows[done])]
+        )
+        sources = self.sources_of(changed_rows, changes.places[:filled])
+        in_hand = np.flatnonzero(won.labels >= 0)
+        in_hand_sources = self.sources_of(rows[done], in_hand)
+        self._widen(need)
+        changes.places[:filled] = _insert(
+            self.keys, changed_rows, sources, self.span[0], self.direct
+        )
+        moved = _insert(
+            self.keys, np.full(len(in_hand), rows[done]), in_hand_sources, self.span[0],
+            self.direct,
+        )  # fmt: skip
+        widened = self._won()
+        widened.labels[moved], widened.links[moved] = won.labels[in_hand], won.links[in_hand]
+        return widened
 
     def due(
         self, row: int | None, order: int, width: float, round_: int
