@@ -266,7 +266,7 @@ class LabelTable:
     their hops relayed from; ``span`` (first, end) the run's sources and
     ``id_space`` a bound on ids; ``fits``: labels also sum unbiased hops and
     their covariances (``unbiased``, ``covariance``). Each column
-    (``keys``, the source of each place, ``sent``, ``hops``, ``length``,
+    (``keys``, the source of each place, none in a direct table, ``sent``, ``hops``, ``length``,
     ``error``, ``pred``, ``vector``, ``via_offers``, ``via_label``) is (F, R, ...).
     """
 
@@ -305,7 +305,7 @@ class LabelTable:
 
     def _width_for(self, need: int) -> tuple[bool, int]:
         """(direct, R) for rows of ``need`` labels: a hash at most half full, or a slot per
-        source once that is no larger."""
+        source once such a hash would be half as wide as the slots or more."""
         sources = self.span[1] - self.span[0]
         width = 1 << max(3, int(2 * need - 1).bit_length())
         # A hash half the slots' size saves too little for its probes and its moves.
