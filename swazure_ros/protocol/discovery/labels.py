@@ -154,22 +154,15 @@ def _relax_rows(
     keys, sent, hops, length, error, pred, occupied = columns
     width = hops.shape[1]
     for at in range(begin, len(rows)):
-        row = rows[at]
-        low, high = link_starts[row], link_starts[row + 1]
+        row, low, high = rows[at], link_starts[rows[at]], link_starts[rows[at] + 1]
         found = sender_rows(link_ids[low:high], senders)
         resumed = at == begin and resume[0] >= 0
         first_link, first_label = (resume[0], resume[1]) if resumed else (0, -1)
-        if not resumed:
-            room = 0  # a change at most per candidate
-            for k in range(high - low):
-                if found[k] >= 0:
-                    room += starts[found[k] + 1] - starts[found[k]]
-            if filled + room > len(changes.places):
-                return at, filled, 0
+        if not resumed and filled + _candidates(found, starts) > len(changes.places):
+            return at, filled, 0
         resume[0], resume[1] = -1, -1
-        me = mes[row]
         # The row's own labels, side by side: what its candidates read and write.
-        row_keys, row_sent, row_pred = keys[row], sent[row], pred[row]
+        me, row_keys, row_sent, row_pred = mes[row], keys[row], sent[row], pred[row]
         row_hops, row_length, row_error = hops[row], length[row], error[row]
         for k in range(first_link, high - low):
             if found[k] < 0:
@@ -183,8 +176,7 @@ def _relax_rows(
                     continue
                 if has_closed and closed[source]:
                     continue
-                # Direct: a slot is taken when its label is found (its hops finite). The
-                # slot is worked out here, not by _place: a call per candidate cost 4x.
+                # The slot inline, not by _place: a call per candidate cost 4x (direct).
                 place = source - first if direct else _place(row_keys, source, first, direct)
                 if not direct and row_keys[place] == _EMPTY:
                     if 2 * (occupied[row] + 1) > width:
@@ -198,15 +190,13 @@ def _relax_rows(
                 new_hops = label_hops[label] + 1.0
                 new_length = label_lengths[label] + weight
                 new_error = label_errors[label] + link_error
+                old_hops, old_length = row_hops[place], row_length[place]
                 if order == HOPS_FIRST:
-                    new1, new2 = new_hops, new_length
-                    old1, old2 = row_hops[place], row_length[place]
+                    new1, new2, old1, old2 = new_hops, new_length, old_hops, old_length
                 elif order == LENGTH_FIRST:
-                    new1, new2 = new_length, new_hops
-                    old1, old2 = row_length[place], row_hops[place]
+                    new1, new2, old1, old2 = new_length, new_hops, old_length, old_hops
                 else:
-                    new1, new2 = new_error, new_hops
-                    old1, old2 = row_error[place], row_hops[place]
+                    new1, new2, old1, old2 = new_error, new_hops, row_error[place], old_hops
                 if new1 < old1 or (
                     new1 == old1 and (new2 < old2 or (new2 == old2 and sender < row_pred[place]))
                 ):
@@ -216,12 +206,29 @@ def _relax_rows(
                     row_hops[place], row_length[place] = new_hops, new_length
                     row_error[place], row_pred[place] = new_error, sender
                     won.labels[place], won.links[place] = label, k
-        for change in range(change_starts[at], filled):
-            place = changes.places[change]
-            changes.labels[change], changes.links[change] = won.labels[place], won.links[place]
-            won.labels[place] = -1
+        _take_winners(changes, change_starts[at], filled, won)
         change_starts[at + 1] = filled
     return len(rows), filled, 0
+
+
+@jit.kernel(cache=True, nogil=True)
+def _candidates(found: IntArray, starts: IntArray) -> int:
+    """How many labels the senders at rows ``found`` (-1: not heard) of ``starts`` offer."""
+    count = 0
+    for row in found:
+        if row >= 0:
+            count += starts[row + 1] - starts[row]
+    return count
+
+
+@jit.kernel(cache=True, nogil=True)
+def _take_winners(changes: Changes, begin: int, end: int, won: Changes) -> None:
+    """Give ``changes[begin:end]`` (one row's) their winning labels and links from
+    ``won``, which is left with none for the next row."""
+    for change in range(begin, end):
+        place = changes.places[change]
+        changes.labels[change], changes.links[change] = won.labels[place], won.links[place]
+        won.labels[place] = -1
 
 
 def labels_due(
