@@ -84,11 +84,9 @@ class Changes(NamedTuple):
 
 
 @jit.kernel(cache=True, nogil=True)
-def _place(keys: IntArray, source: int, first: int, direct: bool) -> int:
-    """The place of ``source`` in a row whose sources are ``keys`` (R,): where it is, or
-    the empty place it goes; its slot (source - first) when the row is ``direct``."""
-    if direct:
-        return source - first
+def _place(keys: IntArray, source: int) -> int:
+    """The place of ``source`` in a hashed row whose sources are ``keys`` (R,): where it
+    is, or the empty place it goes (a direct row's place is its slot, source - first)."""
     mask = len(keys) - 1
     at = ((source * _MIX) >> 15) & mask
     while keys[at] != _EMPTY and keys[at] != source:
@@ -106,7 +104,7 @@ def _insert(
         if direct:  # the slot; a direct table keeps no keys
             places[k] = sources[k] - first
             continue
-        place = _place(keys[rows[k]], sources[k], first, direct)
+        place = _place(keys[rows[k]], sources[k])
         keys[rows[k], place] = sources[k]
         places[k] = place
     return places
@@ -177,7 +175,7 @@ def _relax_rows(
                 if has_closed and closed[source]:
                     continue
                 # The slot inline, not by _place: a call per candidate cost 4x (direct).
-                place = source - first if direct else _place(row_keys, source, first, direct)
+                place = source - first if direct else _place(row_keys, source)
                 if not direct and row_keys[place] == _EMPTY:
                     if 2 * (occupied[row] + 1) > width:
                         resume[0], resume[1] = k, label
