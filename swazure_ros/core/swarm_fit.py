@@ -82,8 +82,25 @@ class SwarmFit:
         count = self.samples.shape[2]
         if count:
             spread = self.samples[target[same]] - self.samples[source[same]]
-            covariance[same] = np.matmul(spread, np.swapaxes(spread, 1, 2)) / count
+            covariance[same] = sample_covariance(spread)
         return estimate, covariance
+
+
+def sample_covariance(spread: FloatArray) -> FloatArray:
+    """The sample covariance of each pair's K sampled differences.
+
+    Parameters
+    ----------
+    spread : (M, 3, K) array of float, cm
+        Each pair's samples, target's less source's.
+
+    Returns
+    -------
+    (M, 3, 3) array of float, cm^2
+        Zero without samples (K = 0).
+    """
+    count = spread.shape[2]
+    return np.asarray(np.matmul(spread, np.swapaxes(spread, 1, 2)) / max(count, 1))
 
 
 #: How a solve weighs the measurements: all alike, by Huber's loss, or rejecting those far out.

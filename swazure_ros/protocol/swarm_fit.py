@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -79,6 +79,9 @@ from .discovery.messages import (
     FitStep,
     RoundOffers,
 )
+
+if TYPE_CHECKING:
+    from .fit_together import Solve
 
 
 @dataclass
@@ -205,7 +208,7 @@ class FitSchedule:
 
 
 @dataclass
-class _Layer:
+class FitLayer:
     """One FLS's rows of one fit: its pairs' measurements over its local ids, and its solve."""
 
     ids: IntArray  # (L,), itself and the FLSs it measures in this fit, ascending
@@ -264,18 +267,27 @@ class FitPart:
         self._heard_ids = np.zeros(0, dtype=np.int64)
         self._heard_block = np.zeros((0, 3, 1))
         self._start = start
-        self.layers: list[_Layer | None] = [None] * len(self.layers_links)
+        self.layers: list[FitLayer | None] = [None] * len(self.layers_links)
         self._first = True
-        self._solving: _Layer | None = None  # the layer whose solve is under way
+        self.solving: FitLayer | None = None  # the layer whose solve is under way
+        # A round done for the process's FLSs at once (protocol.fit_together): its step and
+        # this FLS's offer; and the solve it is stepped in, which holds its state meanwhile.
+        self.said: tuple[FitStep, FitOffer] | None = None
+        self.together: Solve | None = None
 
     # -- rounds -------------------------------------------------------------------------
 
     def on_round(self, step: FitStep, heard: RoundOffers | None) -> FitOffer:
         """This FLS's offer in the round of ``step``, after taking ``heard`` (a RoundOffers)."""
+        said, self.said = self.said, None
+        if said is not None and said[0] is step:
+            return said[1]  # made with the process's other FLSs, heard included
+        if self.together is not None:
+            self.together.settle()
         self._take(heard)
-        if step.ended == STALLED and self._solving is not None:
+        if step.ended == STALLED and self.solving is not None:
             # The solve stalled at rounding's floor: every FLS takes its best iterate.
-            self._take_best(self._solving)
+            self._take_best(self.solving)
         if step.stage == LABELS:
             return self._labels_round()
         layer = self._layer(step.layer)
@@ -290,6 +302,11 @@ class FitPart:
         if step.stage == STEP:
             return self._step(layer, np.asarray(step.sums, dtype=np.float64))
         return FitOffer(values=self.shared())
+
+    @property
+    def measured_ids(self) -> IntArray:
+        """(M,) the FLSs it measures, ascending: the neighbours whose offers it hears."""
+        return self.view.other[self._measured]
 
     def shared(self) -> FloatArray:
         """Per fit: its settled position (3,) and its samples (3, K), flat."""
@@ -310,21 +327,31 @@ class FitPart:
         labelled = bool((heard.fit_labels >= 0).any())
         if not labelled and not len(heard.fit_values):
             return  # a round whose offers say nothing to neighbours (WEIGH, SUMS)
-        wanted = self.view.other[self._measured]
+        wanted = self.measured_ids
         labels, offsets, values = heard.fit_of(wanted)
         if labelled:
             for fls, label in zip(wanted.tolist(), labels.tolist(), strict=True):
                 if label >= 0:
                     self._labels[fls] = label
+        if not len(heard.fit_values):
+            return  # a LABELS round: the vectors heard before stay
+        # A round's vectors replace those of the last: a neighbour not heard counts as 0.
         counts = np.diff(offsets)
-        if (counts > 0).any():
-            # Every sender of a round sends as many values, one (3, K) block each; a sender
-            # that sent another number (a forgery the key let through) is not heard.
-            size = int(np.bincount(counts[counts > 0]).argmax())
-            sent = counts == size
-            rows = csr.ragged_indices(offsets[:-1][sent], counts[sent])
-            self._heard_ids = wanted[sent]
-            self._heard_block = values[rows].reshape(int(sent.sum()), 3, size // 3)
+        if not (counts > 0).any():
+            self.forget_heard()
+            return
+        # Every sender of a round sends as many values, one (3, K) block each; a sender
+        # that sent another number (a forgery the key let through) is not heard.
+        size = int(np.bincount(counts[counts > 0]).argmax())
+        sent = counts == size
+        rows = csr.ragged_indices(offsets[:-1][sent], counts[sent])
+        self._heard_ids = wanted[sent]
+        self._heard_block = values[rows].reshape(int(sent.sum()), 3, size // 3)
+
+    def forget_heard(self) -> None:
+        """Drop the vectors heard in the last round that carried any."""
+        self._heard_ids = np.zeros(0, dtype=np.int64)
+        self._heard_block = np.zeros((0, 3, 1))
 
     def _labels_round(self) -> FitOffer:
         sweet = self.view.other[self._sweet]
@@ -341,13 +368,13 @@ class FitPart:
 
     # -- one fit --------------------------------------------------------------------------
 
-    def _layer(self, index: int) -> _Layer:
+    def _layer(self, index: int) -> FitLayer:
         layer = self.layers[index]
         if layer is None:
             layer = self.layers[index] = self._build(index)
         return layer
 
-    def _build(self, index: int) -> _Layer:
+    def _build(self, index: int) -> FitLayer:
         """This FLS's rows of fit ``index``: its pairs, both rows each, in local indices."""
         view, rows = self.view, self._measured
         chosen = view.range_class[rows] == SWEET
@@ -377,9 +404,9 @@ class FitPart:
         position = np.zeros((3, 1))
         if self._start is not None and index < len(self._start):
             position[:, 0] = np.nan_to_num(self._start[index])
-        return _Layer(ids, slot, measured, np.ones(2 * count), position, np.zeros((3, 0)))
+        return FitLayer(ids, slot, measured, np.ones(2 * count), position, np.zeros((3, 0)))
 
-    def _local(self, layer: _Layer, own: FloatArray) -> FloatArray:
+    def _local(self, layer: FitLayer, own: FloatArray) -> FloatArray:
         """The vector (L, 3, K) over the local ids: its own ``own`` (3, K), the heard ones."""
         columns = own.shape[1]
         local = np.zeros((len(layer.ids), 3, columns))
@@ -391,7 +418,7 @@ class FitPart:
         local[layer.slot] = own
         return local
 
-    def _weigh(self, layer: _Layer) -> FitOffer:
+    def _weigh(self, layer: FitLayer) -> FitOffer:
         positions = self._local(layer, layer.position)[:, :, 0]
         layer.candidates = {
             mode: weights_for(layer.measured, positions, mode) for mode in (HUBER, REJECTING)
@@ -403,7 +430,7 @@ class FitPart:
         moved = float(np.abs(layer.position - layer.before).max(initial=0.0))
         return FitOffer(moved=moved, same=same)
 
-    def _residual(self, layer: _Layer, mode: int) -> FitOffer:
+    def _residual(self, layer: FitLayer, mode: int) -> FitOffer:
         count = len(layer.ids)
         edges = edges_of(count, layer.measured)
         if mode in (HUBER, REJECTING):
@@ -423,7 +450,7 @@ class FitPart:
         layer.rows = system.matrix[3 * layer.slot : 3 * layer.slot + 3]
         layer.before = start.copy()
         layer.floor = Floor.start(start[None])
-        self._solving = layer
+        self.solving = layer
         right = system.right[layer.slot]
         # Every FLS starts the covariance's solve at zero: its residual is its right side.
         residual = right.copy() if layer.sampling else (
@@ -438,18 +465,18 @@ class FitPart:
         )
         return self._send_scaled(layer, partials=scale[0])
 
-    def _own_product(self, layer: _Layer, local: FloatArray) -> FloatArray:
+    def _own_product(self, layer: FitLayer, local: FloatArray) -> FloatArray:
         """Its three rows of H times the local vector (L, 3, K): (3, K)."""
         count, _, columns = local.shape
         return np.asarray(layer.rows @ local.reshape(3 * count, columns), dtype=np.float64)
 
-    def _send_scaled(self, layer: _Layer, partials: FloatArray) -> FitOffer:
+    def _send_scaled(self, layer: FitLayer, partials: FloatArray) -> FitOffer:
         assert layer.system is not None and layer.iterate is not None
         block = layer.system.preconditioner[layer.slot]
         layer.scaled = blocks_times(block, layer.iterate.residual[0])
         return FitOffer(values=layer.scaled.ravel().copy(), partials=partials)
 
-    def _take_best(self, layer: _Layer) -> None:
+    def _take_best(self, layer: FitLayer) -> None:
         assert layer.floor is not None
         best = layer.floor.position[0]
         if layer.sampling:
@@ -457,7 +484,7 @@ class FitPart:
         else:
             layer.position = best
 
-    def _sums(self, layer: _Layer) -> FitOffer:
+    def _sums(self, layer: FitLayer) -> FitOffer:
         assert layer.iterate is not None
         image = self._own_product(layer, self._local(layer, layer.scaled))
         layer.image = image
@@ -467,7 +494,7 @@ class FitPart:
         )
         return FitOffer(partials=shares)
 
-    def _step(self, layer: _Layer, sums: FloatArray) -> FitOffer:
+    def _step(self, layer: FitLayer, sums: FloatArray) -> FitOffer:
         assert layer.iterate is not None
         count = len(sums) // 2
         gamma, delta = sums[:count], sums[count:]

@@ -176,3 +176,25 @@ def test_a_neighbour_s_vector_of_another_length_is_not_heard():
     np.testing.assert_array_equal(
         part._heard_block[:, :, 0], [[f] * 3 for f in sorted(neighbours[:2])]
     )
+
+
+def test_a_round_s_vectors_replace_the_last_round_s_even_when_no_neighbour_s_came():
+    from swazure_ros.core.observe import local_view
+    from swazure_ros.protocol.discovery.messages import FitOffer, RoundOffers
+    from swazure_ros.protocol.discovery.participant import fit_offer
+    from swazure_ros.protocol.swarm_fit import FitPart
+
+    world = WorldSpec("torus:120", scale=1.6, beta=0.3).build()
+    hood = evaluate(world.swarm, stochastic_sensor(), "shortest-length").hood
+    view = local_view(observations(hood), world.ids, 0)
+    part = FitPart(view, hood.sensor, hood.swarm.radius, frozenset())
+    neighbours = part.measured_ids[:2].tolist()
+    stranger = int(np.setdiff1d(world.ids, [*part.measured_ids, part.fls_id])[0])
+    part._take(
+        RoundOffers.of([(fls, fit_offer(FitOffer(values=np.ones(3)))) for fls in neighbours])
+    )
+    assert part._heard_ids.tolist() == neighbours
+    # The next round's vectors come from an FLS it does not measure only: its neighbours'
+    # are lost, and count as zero rather than as last round's (stepped together or alone).
+    part._take(RoundOffers.of([(stranger, fit_offer(FitOffer(values=np.ones(3))))]))
+    assert part._heard_ids.tolist() == []

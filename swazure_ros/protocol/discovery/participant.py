@@ -16,12 +16,14 @@ import numpy as np
 
 from ...core.arrays import FloatArray, IntArray
 from ...core.evaluation import ABORTED, DECAYING_PATH, REASON_COORDINATOR_LOST, SWEET_PATH
-from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
+from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_ESTIMATORS, SWARM_FIT
 from ...core.fit_measurements import fit_layers
 from ...core.hop_errors import hop_error
 from ...core.observe import LocalView
 from ...core.sensor import Sensor
+from ...core.swarm_fit import sample_covariance
 from ...core.window_fit import Heard, window_fit
+from ..fit_together import fit_together
 from ..readings import ReadingsBook
 from ..swarm_fit import FitPart
 from .estimate import Estimate, Estimates, Results, estimates_of
@@ -113,41 +115,39 @@ class FlsRun:
         with a sweet path from the fit of the sweet hops alone. A target
         whose share was not heard keeps its path.
         """
-        estimates = list(self.estimates(sensor))
+        estimates = self.estimates(sensor)
         part = self.fit_part
-        if part is None or heard is None:
-            return Estimates.of(estimates)
-        targets = np.array(sorted(one.target for one in estimates), dtype=np.int64)
-        _, offsets, values = heard.fit_of(targets)
-        shares = {
-            int(target): values[low:high]
-            for target, low, high in zip(targets, offsets[:-1], offsets[1:], strict=True)
-            if high > low
-        }
+        if part is None or heard is None or not len(estimates):
+            return estimates
+        _, offsets, values = heard.fit_of(estimates.targets)
         own = part.shared()
+        # A share of another length than this FLS's own is not one it can read: not heard.
+        fitted = np.flatnonzero(
+            np.isin(estimates.status, (SWEET_PATH, DECAYING_PATH)) & (np.diff(offsets) == len(own))
+        )
+        if not len(fitted):
+            return estimates
         layers = len(fit_layers(sensor))
-        out = []
-        for one in estimates:
-            share = shares.get(one.target)
-            if one.status not in (SWEET_PATH, DECAYING_PATH) or share is None:
-                out.append(one)
-                continue
-            layer = 0 if layers == 1 or one.status == SWEET_PATH else 1
-            position, samples = _shared_at(share, layer, layers)
-            own_position, own_samples = _shared_at(own, layer, layers)
-            spread = (samples - own_samples)[None]
-            count = spread.shape[2]
-            covariance = (np.matmul(spread, np.swapaxes(spread, 1, 2)) / max(count, 1))[0]
-            out.append(
-                replace(
-                    one,
-                    vector=position - own_position,
-                    covariance=covariance,
-                    predicted_error=float(np.sqrt(np.trace(covariance))),
-                    estimator=SWARM_FIT,
-                )
-            )
-        return Estimates.of(out)
+        per_layer = len(own) // layers
+        # Each target's fit: the sweet hops' alone (the first) for a pair with a sweet path.
+        layer = np.where((layers == 1) | (estimates.status[fitted] == SWEET_PATH), 0, 1)
+        at = layer[:, None] * per_layer + np.arange(per_layer)
+        theirs = values[offsets[fitted][:, None] + at]
+        mine = own[at]
+        spread = (theirs[:, 3:] - mine[:, 3:]).reshape(len(fitted), 3, -1)
+        vector, covariance = estimates.vector.copy(), estimates.covariance.copy()
+        error, estimator = estimates.predicted_error.copy(), estimates.estimator.copy()
+        vector[fitted] = theirs[:, :3] - mine[:, :3]
+        covariance[fitted] = sample_covariance(spread)
+        error[fitted] = np.sqrt(np.trace(covariance[fitted], axis1=1, axis2=2))
+        estimator[fitted] = SWARM_ESTIMATORS.index(SWARM_FIT)
+        return replace(
+            estimates,
+            vector=vector,
+            covariance=covariance,
+            predicted_error=error,
+            estimator=estimator,
+        )
 
     def start(self, phase: int, departed: frozenset[int]) -> PathSearch:
         """Begin (or restart) ``phase``; its earlier results are dropped."""
@@ -378,12 +378,20 @@ def step_together(
 ) -> None:
     """What each of ``participants`` does first with ``control``, done for all at once: hear
     the offers ``heard`` (:func:`.search.hear_together`), and in a ROUND close the
-    finished sources and pick the labels due (:func:`.search.pick_together`).
+    finished sources and pick the labels due (:func:`.search.pick_together`); in the FIT
+    phase, step the solve's rounds (:func:`..fit_together.fit_together`).
 
     A process calls this before it hands ``control`` to each of its FLSs, whose
-    :meth:`Participant.on_control` then finds this done; the FIT phase's rounds
-    are their own.
+    :meth:`Participant.on_control` then finds this done.
     """
+    fitting = [
+        run.fit_part
+        for run in (participant.runs.get(control.run_id) for participant in participants)
+        if run is not None and run.fit_part is not None
+    ]
+    if fitting:
+        fit_round = control.command == ROUND and control.phase == FIT
+        fit_together(fitting, control.fit if fit_round else None, heard)
     if control.command not in (ROUND, END):
         return
     if control.command == ROUND and control.phase == FIT:
@@ -429,10 +437,3 @@ def fit_offer(said: FitOffer) -> Offer:
         reading_vectors=vectors,
         fit=said,
     )
-
-
-def _shared_at(values: FloatArray, layer: int, layers: int) -> tuple[FloatArray, FloatArray]:
-    """Fit ``layer``'s position (3,) and samples (3, K) in an FLS's SHARE (of ``layers`` fits)."""
-    per_layer = len(values) // layers
-    piece = values[layer * per_layer : (layer + 1) * per_layer]
-    return piece[:3], piece[3:].reshape(3, -1)

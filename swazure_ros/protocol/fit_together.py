@@ -1,0 +1,218 @@
+"""A process's FLSs solving together: the FIT phase's SUMS and STEP rounds in one pass.
+
+A solve of the swarm's fit (:mod:`.swarm_fit`) is hundreds of rounds that
+alternate SUMS (each FLS's row of ``H u`` from its neighbours' ``u``, and its
+shares of two dot products) and STEP (each FLS's conjugate-gradient step from
+the swarm's sums). Stepped one FLS at a time, each round costs a process a
+Python call per FLS. :func:`fit_together` does the round for a process's FLSs
+at once: their rows of ``H`` stacked in one sparse matrix over the values
+heard, their iterates stacked as the engine stacks the swarm's
+(:mod:`~swazure_ros.core.conjugate_gradients`). Each FLS still sends its own
+offer, and what it sends is, bit for bit, what stepping it alone gives: the
+same entries of ``H`` summed in the same order, and the same elementwise
+arithmetic (``core.swarm_edges.blocks_times`` gives one block's bits for a
+stack too).
+
+While a solve is stepped together its state lives in one :class:`Solve`; the
+FLSs' own records (:class:`~.swarm_fit.FitPart`) get it back when a round
+of another stage comes, or the process's FLSs change (:func:`settle`).
+Anything unusual (an offer of another size, an FLS that heard no neighbour, a
+round whose offers carry labels or readings) is left to each FLS alone.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..core.arrays import FloatArray, IntArray
+from ..core.conjugate_gradients import Floor, Iterate, advance, partial_dot, scalars
+from ..core.swarm_edges import blocks_times
+from .discovery.messages import STEP, SUMS, FitOffer, FitStep, RoundOffers
+from .swarm_fit import FitLayer, FitPart
+
+
+@dataclass
+class Solve:
+    """The solve under way at F FLSs of one process, stacked in their order.
+
+    ``matrix`` holds their rows of ``H`` (3F rows) over the values an
+    iteration reads: the U ids ``others`` (what was heard from each), then
+    each FLS's own value (column block U + f), so that an FLS whose own offer
+    the process did not hear still reads its own.
+    """
+
+    parts: list[FitPart]
+    layers: list[FitLayer]
+    matrix: Any  # scipy.sparse CSR (3F, 3(U + F))
+    others: IntArray  # (U,), sorted
+    preconditioner: FloatArray  # (F, 3, 3), cm^2
+    iterate: Iterate  # (F, 3, K) each
+    scaled: FloatArray  # (F, 3, K), cm: u
+    image: FloatArray  # (F, 3, K), cm^-1: H u
+    floor: Floor
+
+    def settle(self) -> None:
+        """Give each FLS its state back (its record then steps alone), and leave them."""
+        it, floor = self.iterate, self.floor
+        for row, (part, layer) in enumerate(zip(self.parts, self.layers, strict=True)):
+            at = slice(row, row + 1)
+            layer.iterate = Iterate(it.position[at], it.residual[at], it.search[at],
+                                    it.image[at], it.gamma, it.alpha)  # fmt: skip
+            layer.scaled = self.scaled[row]
+            layer.image = self.image[row]
+            layer.floor = Floor(floor.gamma, floor.position[at], floor.since)
+            if layer.sampling:
+                layer.samples = it.position[row]
+            else:
+                layer.position = it.position[row]
+            part.together = None
+            part.said = None
+
+
+def fit_together(
+    parts: Sequence[FitPart], step: FitStep | None, heard: RoundOffers | None
+) -> None:
+    """Step ``parts`` (one process's FLSs, in one run) through the round of ``step`` at once.
+
+    Each FLS then finds its offer made (:meth:`FitPart.on_round` sends it).
+    ``step`` None, or a stage other than SUMS and STEP: the solve's state
+    goes back to each FLS, which steps on alone.
+    """
+    if step is None or step.stage not in (SUMS, STEP) or step.ended:
+        settle(parts)
+        return
+    solve = _solve_of(parts)
+    if solve is None:
+        return
+    if step.stage == SUMS:
+        offers = _sums(solve, heard)
+    else:
+        offers = _step(solve, np.asarray(step.sums, dtype=np.float64), heard)
+    if offers is None:  # a round each FLS takes alone
+        settle(parts)
+        return
+    for part, offer in zip(solve.parts, offers, strict=True):
+        part.said = (step, offer)
+
+
+def settle(parts: Sequence[FitPart]) -> None:
+    """Give every solve that any of ``parts`` takes part in back to its FLSs' records."""
+    for solve in {id(part.together): part.together for part in parts if part.together}.values():
+        solve.settle()
+
+
+def _solve_of(parts: Sequence[FitPart]) -> Solve | None:
+    """The solve ``parts`` step together: kept from the last round, or gathered anew."""
+    first = parts[0].together if parts else None
+    if (
+        first is not None
+        and len(first.parts) == len(parts)
+        and all(one is two for one, two in zip(first.parts, parts, strict=True))
+        and all(part.solving is layer for part, layer in zip(parts, first.layers, strict=True))
+    ):
+        return first
+    settle(parts)
+    layers = [part.solving for part in parts]
+    if not layers or any(layer is None or layer.iterate is None for layer in layers):
+        return None
+    kept = [layer for layer in layers if layer is not None]
+    if len({(layer.sampling, layer.scaled.shape[1]) for layer in kept}) != 1:
+        return None
+    solve = _gathered(list(parts), kept)
+    for part in parts:
+        part.together = solve
+    return solve
+
+
+def _gathered(parts: list[FitPart], layers: list[FitLayer]) -> Solve:
+    """A solve stacked from each FLS's record of it."""
+    from scipy.sparse import csr_matrix
+
+    others = np.unique(np.concatenate([layer.ids for layer in layers]))
+    columns, data, counts = [], [], []
+    for row, layer in enumerate(layers):
+        rows = layer.rows
+        local, axis = np.divmod(rows.indices, 3)
+        block = np.searchsorted(others, layer.ids[local])
+        block[local == layer.slot] = len(others) + row
+        columns.append(3 * block + axis)
+        data.append(rows.data)
+        counts.append(np.diff(rows.indptr))
+    indptr = np.concatenate([[0], np.cumsum(np.concatenate(counts))])
+    matrix = csr_matrix(
+        (np.concatenate(data), np.concatenate(columns), indptr),
+        shape=(3 * len(layers), 3 * (len(others) + len(layers))),
+    )
+    iterates, floors, blocks = [], [], []
+    for layer in layers:
+        assert layer.iterate is not None and layer.floor is not None and layer.system
+        iterates.append(layer.iterate)
+        floors.append(layer.floor)
+        blocks.append(layer.system.preconditioner[layer.slot])
+    first = iterates[0]
+    return Solve(
+        parts,
+        layers,
+        matrix,
+        others,
+        np.stack(blocks),
+        Iterate(
+            np.concatenate([one.position for one in iterates]),
+            np.concatenate([one.residual for one in iterates]),
+            np.concatenate([one.search for one in iterates]),
+            np.concatenate([one.image for one in iterates]),
+            first.gamma,
+            first.alpha,
+        ),
+        np.stack([layer.scaled for layer in layers]),
+        np.stack([layer.image for layer in layers]),
+        Floor(floors[0].gamma, np.concatenate([one.position for one in floors]), floors[0].since),
+    )
+
+
+def _quiet(heard: RoundOffers | None) -> bool:
+    """Whether ``heard`` carries nothing an FLS keeps but the stage's vectors."""
+    return heard is None or (not len(heard.read_ids) and not (heard.fit_labels >= 0).any())
+
+
+def _sums(solve: Solve, heard: RoundOffers | None) -> list[FitOffer] | None:
+    """Each FLS's row of ``H u`` from the u heard and its own, and its shares of the sums."""
+    if heard is None or not _quiet(heard) or not len(heard.fit_values):
+        return None
+    count, _, columns = solve.scaled.shape
+    if not np.isin(np.diff(heard.fit_offsets), (0, 3 * columns)).all():
+        return None  # an offer of another size: each FLS judges its own (the odd one out)
+    _, offsets, values = heard.fit_of(solve.others)
+    sizes = np.diff(offsets)
+    vector = np.zeros((len(solve.others) + count, 3, columns))
+    heard_from = len(solve.others)
+    vector[:heard_from][sizes > 0] = values.reshape(-1, 3, columns)
+    vector[heard_from:] = solve.scaled
+    image = np.asarray(solve.matrix @ vector.reshape(-1, columns), dtype=np.float64)
+    solve.image = image.reshape(count, 3, columns)
+    shares = np.concatenate(
+        [partial_dot(solve.iterate.residual, solve.scaled),
+         partial_dot(solve.image, solve.scaled)], axis=1,
+    )  # fmt: skip
+    for part in solve.parts:
+        part.forget_heard()  # as alone: nothing reads this round's u again
+    return [FitOffer(partials=row) for row in shares]
+
+
+def _step(solve: Solve, sums: FloatArray, heard: RoundOffers | None) -> list[FitOffer] | None:
+    """Each FLS's conjugate-gradient step from the swarm's ``sums``, and its next u."""
+    if not _quiet(heard) or (heard is not None and len(heard.fit_values)):
+        return None
+    half = len(sums) // 2
+    gamma, delta = sums[:half], sums[half:]
+    solve.floor = solve.floor.after(gamma, solve.iterate.position)
+    alpha, beta = scalars(solve.iterate, gamma, delta)
+    solve.iterate = advance(solve.iterate, solve.scaled, solve.image, gamma, alpha, beta)
+    solve.scaled = blocks_times(solve.preconditioner, solve.iterate.residual)
+    flat = solve.scaled.reshape(len(solve.parts), -1)
+    nothing = np.zeros(0)
+    return [FitOffer(values=row, partials=nothing) for row in flat]

@@ -1,0 +1,76 @@
+"""A process's FLSs solving the swarm's fit together send and end as each solving alone."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.fit import SWARM_ESTIMATORS, SWARM_FIT
+from swazure_ros.core.observe import observations
+from swazure_ros.protocol import loops
+from swazure_ros.protocol.discovery import participant
+from swazure_ros.protocol.loops import RunOptions, discover
+from swazure_ros.protocol.swarm_fit import FitPart
+from swazure_ros.sim.world import WorldSpec
+
+from ..core.fits import stochastic_sensor
+
+
+def one_per_process(participants, control, heard):
+    """Each FLS stepped in a process of its own, as the single-FLS program steps it."""
+    for one in participants:
+        participant.step_together([one], control, heard)
+
+
+def not_together(parts, step, heard):
+    """No round stepped together: each FLS's record does every round itself."""
+
+
+@pytest.fixture(scope="module")
+def hood():
+    # torus:120 at beta 0.3 has sweet and decaying pairs, and the stochastic sensor a
+    # covariance's solve with 64 columns besides the fits' one.
+    world = WorldSpec("torus:120", scale=1.6, beta=0.3).build()
+    return evaluate(world.swarm, stochastic_sensor(mean_error=0.03), "shortest-length").hood
+
+
+@pytest.mark.parametrize("apart", ["one FLS per process", "each alone"])
+def test_flss_solving_together_send_and_end_as_each_solving_alone(hood, monkeypatch, apart):
+    made_alone = {"SUMS": 0, "STEP": 0}
+    for stage, method in (("SUMS", "_sums"), ("STEP", "_step")):
+        original = getattr(FitPart, method)
+
+        def counted(self, *args, _stage=stage, _original=original):
+            made_alone[_stage] += 1
+            return _original(self, *args)
+
+        monkeypatch.setattr(FitPart, method, counted)
+
+    def run():
+        return discover(observations(hood), hood.swarm.cloud_index, hood.sensor,
+                        hood.swarm.radius, "shortest-length",
+                        RunOptions(estimator=SWARM_FIT))  # fmt: skip
+
+    together = run()
+    # Every SUMS and STEP round of every solve was made for the process's FLSs at once.
+    assert made_alone == {"SUMS": 0, "STEP": 0}
+    with monkeypatch.context() as patch:
+        if apart == "one FLS per process":
+            patch.setattr(loops, "step_together", one_per_process)
+        else:
+            patch.setattr(participant, "fit_together", not_together)
+        alone = run()
+    if apart == "each alone":
+        assert made_alone["SUMS"] > 1000 and made_alone["STEP"] > 1000
+    assert together.rounds == alone.rounds
+    assert together.fit_iterations == alone.fit_iterations
+    assert sum(map(sum, together.fit_iterations)) > 50
+    assert together.estimates.keys() == alone.estimates.keys()
+    fitted = 0
+    for source, mine in together.estimates.items():
+        theirs = alone.estimates[source]
+        for name in ("targets", "status", "vector", "covariance", "predicted_error", "estimator"):
+            np.testing.assert_array_equal(getattr(mine, name), getattr(theirs, name))
+        fitted += int((mine.estimator == SWARM_ESTIMATORS.index(SWARM_FIT)).sum())
+    assert fitted > 1000
