@@ -200,7 +200,8 @@ def _sums(solve: Solve, heard: RoundOffers | None) -> list[FitOffer] | None:
     )  # fmt: skip
     for part in solve.parts:
         part.forget_heard()  # as alone: nothing reads this round's u again
-    return [FitOffer(partials=row) for row in shares]
+    nothing = np.zeros(0)
+    return [FitOffer(values=nothing, partials=row) for row in shares]
 
 
 def _step(solve: Solve, sums: FloatArray, heard: RoundOffers | None) -> list[FitOffer] | None:

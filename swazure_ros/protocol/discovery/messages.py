@@ -151,7 +151,10 @@ class RoundOffers:
         def joined(arrays: list[NDArray[Any]], empty: NDArray[Any]) -> NDArray[Any]:
             return np.concatenate(arrays) if arrays else empty
 
-        path_lengths = joined([np.diff(offer.path_offsets) for offer in offers], np.zeros(0, int))
+        # Each offer's path offsets start at 0: the steps within an offer are its paths'
+        # lengths, one diff over all of them less the steps from one offer to the next.
+        steps = np.diff(joined([offer.path_offsets for offer in offers], np.zeros(0, int)))
+        path_lengths = np.delete(steps, np.cumsum(counts + 1)[:-1] - 1)
 
         def carried(name: str, shape: tuple[int, ...]) -> FloatArray:
             """A fitting run's sums, NaN where an offer had none (read-only if none had)."""

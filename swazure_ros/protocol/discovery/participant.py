@@ -11,8 +11,10 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ...core.arrays import FloatArray, IntArray
 from ...core.evaluation import ABORTED, DECAYING_PATH, REASON_COORDINATOR_LOST, SWEET_PATH
@@ -420,18 +422,30 @@ def source_range(source_ids: Sequence[int], id_space: int) -> tuple[int, int]:
     return max(min(source_ids), 0), min(max(source_ids) + 1, id_space)
 
 
+def _read_only(array: NDArray[Any]) -> NDArray[Any]:
+    array.flags.writeable = False
+    return array
+
+
+# A FIT round's offer carries no label: every one shares these empty fields (read-only),
+# rather than making seven arrays per FLS and round.
+_NO_IDS = _read_only(np.zeros(0, dtype=np.int64))
+_NO_VALUES = _read_only(np.zeros(0))
+_NO_VECTORS = _read_only(np.zeros((0, 3)))
+_NO_PATHS = _read_only(np.zeros(1, dtype=np.int64))
+
+
 def fit_offer(said: FitOffer) -> Offer:
     """The offer of a round of the FIT phase: no label; its readings in its first."""
-    ids, vectors = said.readings or (np.zeros(0, dtype=np.int64), np.zeros((0, 3)))
-    no_label = np.zeros(0, dtype=np.int64)
+    ids, vectors = said.readings or (_NO_IDS, _NO_VECTORS)
     return Offer(
-        no_label,
-        no_label,
-        np.zeros(0),
-        np.zeros(0),
-        np.zeros((0, 3)),
-        np.zeros(1, dtype=np.int64),
-        no_label,
+        _NO_IDS,
+        _NO_IDS,
+        _NO_VALUES,
+        _NO_VALUES,
+        _NO_VECTORS,
+        _NO_PATHS,
+        _NO_IDS,
         pending=said.changed,
         reading_ids=ids,
         reading_vectors=vectors,
