@@ -447,7 +447,9 @@ class RadioHub:
             return None
         if round_ < self._first_round[run_id] or sender in self.departed(run_id):
             return None  # from before a restart of the phase, or of an FLS gone
-        heard = self._heard.setdefault((run_id, round_), _RoundHeard())
+        heard = self._heard.get((run_id, round_))
+        if heard is None:  # not setdefault: a record made per offer cost the race car 4 s
+            heard = self._heard[(run_id, round_)] = _RoundHeard()
         local = sender in self._local
         if heard.senders[sender] >= OFFERS_PER_SENDER and not local:
             self._settle(heard)  # a forgery among them must not keep the real one out

@@ -84,6 +84,12 @@ if TYPE_CHECKING:
     from .fit_together import Solve
 
 
+#: The vectors of a round in which none of an FLS's neighbours was heard (read-only, shared).
+_NOTHING_HEARD = (np.zeros(0, dtype=np.int64), np.zeros((0, 3, 1)))
+for _empty in _NOTHING_HEARD:
+    _empty.flags.writeable = False
+
+
 @dataclass
 class FitTally:
     """What a round's FLSs told the coordinator: shares of the sums, the robust loss's say."""
@@ -264,8 +270,7 @@ class FitPart:
         self._their_readings: dict[int, FloatArray] = {}  # neighbour -> its reading of me
         # The FLSs it measures that sent a vector in the last round that had any (their
         # positions, or their u), sorted, and those vectors (S, 3, K).
-        self._heard_ids = np.zeros(0, dtype=np.int64)
-        self._heard_block = np.zeros((0, 3, 1))
+        self._heard_ids, self._heard_block = _NOTHING_HEARD
         self._start = start
         self.layers: list[FitLayer | None] = [None] * len(self.layers_links)
         self._first = True
@@ -350,8 +355,7 @@ class FitPart:
 
     def forget_heard(self) -> None:
         """Drop the vectors heard in the last round that carried any."""
-        self._heard_ids = np.zeros(0, dtype=np.int64)
-        self._heard_block = np.zeros((0, 3, 1))
+        self._heard_ids, self._heard_block = _NOTHING_HEARD
 
     def _labels_round(self) -> FitOffer:
         sweet = self.view.other[self._sweet]
