@@ -160,16 +160,6 @@ def _in_sight(
     return chosen, visible
 
 
-def _joined(parts: list[NeighbourPairs]) -> NeighbourPairs:
-    """Pair lists as one, in the order given (blocks in order give a sorted list)."""
-    return NeighbourPairs(
-        *(np.concatenate([getattr(part, name) for part in parts]) for name in _PAIR_FIELDS)
-    )
-
-
-_PAIR_FIELDS = ("first", "second", "distance", "tracking", "range_class")
-
-
 @dataclass(frozen=True)
 class LeanNeighbourhood:
     """A swarm's neighbourhood as its paths use it, found and kept a block of FLSs at a time.
@@ -241,7 +231,7 @@ def lean_neighbourhood(
     rows, targets = ordered_rows(
         swarm.size, np.concatenate(blind_first), np.concatenate(blind_second)
     )
-    sweet_pairs = _joined(sweet)
+    sweet_pairs = NeighbourPairs.joined(sweet)
     sweet_hood = Neighbourhood(
         swarm, sensor, sweet_pairs, np.concatenate(sweet_sight), sight_grid,
         np.ones(len(sweet_pairs), dtype=bool), kept_counts=counts,
@@ -249,13 +239,13 @@ def lean_neighbourhood(
     lean = LeanNeighbourhood(
         swarm, sensor, budget, blocks, sweet_hood, BlindRows(rows, targets), None
     )
-    return replace(lean, whole=_whole(lean, _joined(seen))) if at_once else lean
+    return replace(lean, whole=_whole(lean, NeighbourPairs.joined(seen))) if at_once else lean
 
 
 def _whole(lean: LeanNeighbourhood, seen: NeighbourPairs) -> Neighbourhood:
     """``lean.sweet`` with the decaying pairs in sight ``seen`` joined to its pairs, in order."""
     sweet, size = lean.sweet, lean.swarm.size
-    joined = _joined([sweet.pairs, seen])
+    joined = NeighbourPairs.joined([sweet.pairs, seen])
     order = np.argsort(joined.first * size + joined.second)  # unique keys
     visible = np.concatenate([sweet.visible, np.ones(len(seen), dtype=bool)])
     return replace(
@@ -291,7 +281,7 @@ def with_decaying(lean: LeanNeighbourhood, progress: Progress) -> LeanNeighbourh
         part, visible = _in_sight(swarm, pairs, DECAYING, lean.sweet.grid)
         seen.append(part.select(visible))
         progress.advance(len(part))
-    return replace(lean, whole=_whole(lean, _joined(seen)))
+    return replace(lean, whole=_whole(lean, NeighbourPairs.joined(seen)))
 
 
 @dataclass

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from typing import TYPE_CHECKING
@@ -50,6 +51,12 @@ class NeighbourPairs:
             self.tracking[mask],
             self.range_class[mask],
         )
+
+    @classmethod
+    def joined(cls, parts: Sequence[NeighbourPairs]) -> NeighbourPairs:
+        """Pair lists as one, in the order given (blocks in order give a sorted list)."""
+        names = ("first", "second", "distance", "tracking", "range_class")
+        return cls(*(np.concatenate([getattr(part, name) for part in parts]) for name in names))
 
     def count(self, range_class: int) -> int:
         """Number of unordered pairs of one range class.
