@@ -109,7 +109,7 @@ def _solve_of(parts: Sequence[FitPart]) -> Solve | None:
     """The solve ``parts`` step together: kept from the last round, or gathered anew."""
     first = parts[0].together if parts else None
     if (
-        first is not None
+        isinstance(first, Solve)
         and len(first.parts) == len(parts)
         and all(one is two for one, two in zip(first.parts, parts, strict=True))
         and all(part.solving is layer for part, layer in zip(parts, first.layers, strict=True))

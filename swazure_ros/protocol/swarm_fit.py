@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -80,8 +80,12 @@ from .discovery.messages import (
     RoundOffers,
 )
 
-if TYPE_CHECKING:
-    from .fit_together import Solve
+
+class Settles(Protocol):
+    """A solve stepped for several FLSs at once (:class:`..fit_together.Solve`)."""
+
+    def settle(self) -> None:
+        """Give each FLS its state back; they step alone from then on."""
 
 
 #: The vectors of a round in which none of an FLS's neighbours was heard (read-only, shared).
@@ -278,7 +282,7 @@ class FitPart:
         # A round done for the process's FLSs at once (protocol.fit_together): its step and
         # this FLS's offer; and the solve it is stepped in, which holds its state meanwhile.
         self.said: tuple[FitStep, FitOffer] | None = None
-        self.together: Solve | None = None
+        self.together: Settles | None = None
 
     # -- rounds -------------------------------------------------------------------------
 
