@@ -198,8 +198,8 @@ def _sums(solve: Solve, heard: RoundOffers | None) -> list[FitOffer] | None:
         [partial_dot(solve.iterate.residual, solve.scaled),
          partial_dot(solve.image, solve.scaled)], axis=1,
     )  # fmt: skip
-    for part in solve.parts:
-        part.forget_heard()  # as alone: nothing reads this round's u again
+    # Each FLS's record keeps the vectors it heard before this round: no stage reads them
+    # before a round with vectors replaces them, so they are not copied out FLS by FLS.
     nothing = np.zeros(0)
     return [FitOffer(values=nothing, partials=row) for row in shares]
 
