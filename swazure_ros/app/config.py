@@ -24,6 +24,15 @@ from .discovery_server import ServerAddress
 T = TypeVar("T")
 
 
+#: Who answers an FLS's get_neighbours (SwarmConfig.neighbour_services).
+AUTO, FLS, HOSTS = "auto", "fls", "hosts"
+NEIGHBOUR_SERVICES = (AUTO, FLS, HOSTS)
+#: The largest swarm whose FLSs each offer get_neighbours under AUTO: the published shapes
+#: (the race car has 3,720 FLSs). Measured 2026-11-30, 5,000 FLS nodes created in one process:
+#: 5.8 s with a publisher each, 102 s with a get_neighbours service too (the last thousand 40 s).
+FLS_SERVICES_UP_TO = 4_000
+
+
 @dataclass(frozen=True)
 class SwarmConfig:
     """How to bring a swarm up."""
@@ -66,6 +75,9 @@ class SwarmConfig:
     #: Discover through these Fast DDS Discovery Servers instead of simple discovery
     #: (app.discovery_server); those whose address is this host's are started here.
     discovery_servers: tuple[ServerAddress, ...] = ()
+    #: Who answers an FLS's ``get_neighbours``: ``fls``, each FLS itself; ``hosts``, its
+    #: process's host node only; ``auto``, as :meth:`fls_services` says.
+    neighbour_services: str = AUTO
 
     def __post_init__(self) -> None:
         # The one check of how a swarm's processes are laid out: the command line
@@ -78,6 +90,29 @@ class SwarmConfig:
             raise SwazureError(f"--share {self.share}/{self.hosts}: no such share")
         if self.per_fls and self.processes > 1:
             raise SwazureError("--per-fls runs one process per FLS: leave out --processes")
+        if self.neighbour_services not in NEIGHBOUR_SERVICES:
+            raise SwazureError(
+                f"--neighbour-services must be one of {', '.join(NEIGHBOUR_SERVICES)}, "
+                f"got {self.neighbour_services!r}"
+            )
+        if self.per_fls and self.neighbour_services == HOSTS:
+            raise SwazureError(
+                "--neighbour-services hosts: an FLS of --per-fls is alone in its process "
+                "and answers for itself"
+            )
+
+    def fls_services(self, swarm_size: int) -> bool:
+        """Whether each FLS of a swarm of ``swarm_size`` offers ``get_neighbours`` itself.
+
+        ``auto``: up to :data:`FLS_SERVICES_UP_TO` FLSs (every published shape),
+        and always one FLS to a process (``per_fls``). Above, hosts answer: a
+        service is two endpoints, and Fast DDS pairs each new endpoint with every
+        one its participant has, so a process's bring-up grows with the square of
+        its FLSs' services (docs/swarm.md).
+        """
+        if self.neighbour_services == AUTO:
+            return self.per_fls or swarm_size <= FLS_SERVICES_UP_TO
+        return self.neighbour_services == FLS
 
 
 @dataclass(frozen=True)

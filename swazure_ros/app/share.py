@@ -94,6 +94,7 @@ def host_config(
         fls_parameters=config.fls_parameters,
         key=key,
         parameter_services=config.parameter_services,
+        fls_services=config.fls_services(swarm_size),
     )
 
 
@@ -143,11 +144,9 @@ def host_share(
         host = SwarmHost(world, own, context=context)
         host.create_fls_nodes(lambda count: reports.put((CREATED, index, count)))
         if not host.spin_until_discovered(config.discovery_timeout):
-            published, services = host.discovered()
             raise RunError(
                 f"process {index}: discovery incomplete after {config.discovery_timeout:g} s "
-                f"({published} of {swarm_size} FLS publishers, {services} services)"
-                + unreached_text(host.unreached())
+                f"({host.discovery_text()})" + unreached_text(host.unreached())
             )
         reports.put((READY, index, (peak_rss_mb(), len(world.hood.pairs))))
         while not stop.is_set():

@@ -452,11 +452,9 @@ def _wait_until_ready(
             peaks = [peak_rss_mb(), *plan.processes.peak_rss_mb()]
             return BringUp(plan.size, len(peaks), seconds, peaks)
         host.spin_for(0.05)
-    publishers, services = host.discovered()
     raise RunError(
         f"swarm not discovered after {config.discovery_timeout:g} s: "
-        f"{publishers} of {plan.size} FLS publishers and {services} services visible"
-        + unreached_text(host.unreached())
+        f"{host.discovery_text()} visible" + unreached_text(host.unreached())
     )
 
 

@@ -30,6 +30,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..app.config import AUTO, FLS_SERVICES_UP_TO, NEIGHBOUR_SERVICES
 from ..core.errors import SwazureError
 from ..core.fit import PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
@@ -61,12 +62,11 @@ from .options import (
     world_from_args,
     wrote,
 )
+from .progress import CreationBar
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
 
 if TYPE_CHECKING:
     # Named for the types only: importing them would load rclpy before the verb runs.
-    from tqdm import tqdm
-
     from ..app.config import SwarmConfig
     from ..app.per_fls import Ended
     from ..app.swarm import RunningSwarm, Starting
@@ -236,6 +236,16 @@ def _add_fls_process_arguments(parser: argparse.ArgumentParser) -> None:
         "bring-up of a large swarm; BENCHMARKS.md)",
     )
     parser.add_argument(
+        "--neighbour-services",
+        choices=NEIGHBOUR_SERVICES,
+        default=AUTO,
+        help="who answers an FLS's get_neighbours: fls, each FLS at "
+        "/NAMESPACE/fls_<id>/get_neighbours; hosts, only its process's host node at "
+        "/NAMESPACE/host_<k>/get_neighbours (fls_id names the FLS), which spares two "
+        f"endpoints an FLS; auto: fls up to {FLS_SERVICES_UP_TO:,} FLSs and with --per-fls, "
+        "hosts above (default; host nodes answer in every mode)",
+    )
+    parser.add_argument(
         "--per-fls",
         action="store_true",
         help="run every FLS in an OS process of its own (the standalone FLS program), as "
@@ -260,27 +270,6 @@ def _add_fls_process_arguments(parser: argparse.ArgumentParser) -> None:
         "two or more for redundancy) instead of simple discovery: a server whose address "
         "is this host's is started here; give every host the same list (docs/swarm.md)",
     )
-
-
-class CreationBar:
-    """A tqdm bar of nodes created across every process, on stderr."""
-
-    def __init__(self, quiet: bool) -> None:
-        self._quiet = quiet
-        self._bar: tqdm[None] | None = None  # made at the first count: it knows the total
-
-    def __call__(self, created: int, total: int) -> None:
-        if self._quiet:
-            return
-        if self._bar is None:
-            from tqdm import tqdm
-
-            self._bar = tqdm(total=total, desc="FLS nodes", unit="node", file=sys.stderr)
-        self._bar.update(created - self._bar.n)
-
-    def close(self) -> None:
-        if self._bar is not None:
-            self._bar.close()
 
 
 def config_from_args(args: argparse.Namespace, folder: Path | None = None) -> SwarmConfig:
@@ -342,6 +331,7 @@ def config_from_args(args: argparse.Namespace, folder: Path | None = None) -> Sw
         authenticate=not args.no_key,
         parameter_services=args.parameter_services,
         per_fls=args.per_fls,
+        neighbour_services=args.neighbour_services,
         log_dir=None if args.log_dir is None else str(args.log_dir),
         discovery_servers=args.discovery_server,
         view=ViewConfig(

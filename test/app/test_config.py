@@ -3,7 +3,12 @@ a swarm file is checked by what runs it, and describes a config alone."""
 
 import pytest
 
-from swazure_ros.app.config import SwarmConfig, config_from_file, load_swarm_file
+from swazure_ros.app.config import (
+    FLS_SERVICES_UP_TO,
+    SwarmConfig,
+    config_from_file,
+    load_swarm_file,
+)
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.files.reading import config_dir
 from swazure_ros.sim.world import WorldSpec
@@ -18,6 +23,8 @@ WORLD = WorldSpec("torus", beta=0.5)
         ({"processes": 2, "hosts": 2}, "--share runs one process per host"),
         ({"share": 3, "hosts": 2}, "--share 3/2: no such share"),
         ({"processes": 2, "per_fls": True}, "--per-fls runs one process per FLS"),
+        ({"neighbour_services": "some"}, "--neighbour-services must be one of auto, fls, hosts"),
+        ({"neighbour_services": "hosts", "per_fls": True}, "alone in its process"),
     ],
 )
 def test_a_layout_that_cannot_run_is_refused(layout, message):
@@ -28,6 +35,16 @@ def test_a_layout_that_cannot_run_is_refused(layout, message):
 def test_a_layout_that_can_run_is_kept():
     config = SwarmConfig(WORLD, processes=2)
     assert (config.processes, config.share, config.hosts) == (2, 0, 1)
+
+
+def test_each_fls_answers_for_itself_up_to_the_published_shapes_size_and_hosts_above():
+    assert FLS_SERVICES_UP_TO >= 3_720  # the race car, the largest published shape
+    auto = SwarmConfig(WORLD)
+    assert auto.fls_services(FLS_SERVICES_UP_TO) and not auto.fls_services(FLS_SERVICES_UP_TO + 1)
+    # One FLS to a process: it answers for itself, whatever the swarm's size.
+    assert SwarmConfig(WORLD, per_fls=True).fls_services(100_000)
+    assert SwarmConfig(WORLD, neighbour_services="fls").fls_services(100_000)
+    assert not SwarmConfig(WORLD, neighbour_services="hosts").fls_services(10)
 
 
 NOT_AN_FLS_PARAMETER = (

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -15,6 +16,7 @@ from geometry_msgs.msg import Vector3
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from swazure_interfaces.msg import Measurements, MoveCommand, MoveCommands
+from swazure_interfaces.srv import GetNeighbours
 
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
@@ -23,6 +25,7 @@ from swazure_ros.cli.spawn import config_from_args
 from swazure_ros.cli.swarm_file import apply_swarm_file
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.record import RECORD_FILE, read_record
+from swazure_ros.ros.clients.query import SwarmQueries
 from swazure_ros.ros.security.keys import new_key
 from swazure_ros.sim.world import WorldSpec
 
@@ -120,6 +123,50 @@ def test_swarm_split_over_two_processes_gives_the_same_measurements(context, dom
     finally:
         executor.shutdown()
         probe.destroy_node()
+
+
+def test_where_hosts_answer_for_their_flss_no_fls_has_a_service_and_each_host_answers_as_it(
+    domain, fast_params
+):
+    config = SwarmConfig(
+        WorldSpec("helix:40", beta=0.5),
+        processes=2,
+        domain_id=domain,
+        params_file=str(fast_params),
+        neighbour_services="hosts",
+    )
+    with RunningSwarm.start(config) as swarm:
+        world, node = swarm.world, swarm.host.host_node
+        remote = next(int(i) for i in world.ids if int(i) not in swarm.host.fls_ids)
+        hosts = {"/swarm/host_0/get_neighbours", "/swarm/host_1/get_neighbours"}
+
+        def services():
+            return {name for name, _ in node.get_service_names_and_types()}
+
+        assert wait_until(lambda: hosts <= services(), PATIENCE, lambda: swarm.spin(0.05))
+        assert not [name for name in services() if re.fullmatch(r"/swarm/fls_\d+/.*", name)]
+        _, expected = engine_expectations(world)
+        with SwarmQueries("swarm", domain, step=lambda: swarm.spin(0.01)) as queries:
+            # host_0 is asked first: it answers for its own FLSs, and says it does not host
+            # the others, whom host_1 answers for.
+            sample = world.ids[1::4].tolist()  # none a process's first FLS
+            assert {fls_id in swarm.host.fls_ids for fls_id in sample} == {True, False}
+            for fls_id in sample:
+                known, sets = queries.neighbours(fls_id, PATIENCE), expected[fls_id]
+                assert known.blind == tuple(sorted(sets["blind"]))
+                assert known.sweet == tuple(sorted(sets["sweet"]))
+                assert known.visible_sweet == tuple(sorted(sets["visible_sweet"]))
+                assert known.decaying == tuple(sorted(sets["decaying"]))
+            client = queries.node.create_client(GetNeighbours, "/swarm/host_0/get_neighbours")
+
+            def spin_both():
+                queries.executor.spin_once(timeout_sec=0.01)
+                swarm.spin(0.01)
+
+            for asked, words in ((remote, f"does not host FLS {remote}"), (-1, "name one")):
+                future = client.call_async(GetNeighbours.Request(fls_id=asked))
+                assert wait_until(future.done, PATIENCE, spin_both)
+                assert not future.result().success and words in future.result().message
 
 
 def test_spawn_until_ready_prints_bring_up_writes_its_record_and_exits_0(domain, tmp_path):
@@ -336,6 +383,21 @@ def test_real_ros2_cli_sees_nodes_topic_and_service(ros2_cli, running_swarm):
     )
     assert call.returncode == 0, call.stderr
     assert "success=True" in call.stdout
+    # Its process's host node answers for it too, with the same response.
+    hosted = ros2(
+        "service",
+        "call",
+        "/swarm/host_0/get_neighbours",
+        "swazure_interfaces/srv/GetNeighbours",
+        "{fls_id: 0}",
+    )
+    assert hosted.returncode == 0, hosted.stderr
+    assert response_line(hosted.stdout) == response_line(call.stdout), hosted.stdout
+
+
+def response_line(output):
+    """The response a `ros2 service call` prints, as one line."""
+    return next(line for line in output.splitlines() if "Response(" in line)
 
 
 def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(

@@ -1,8 +1,10 @@
 """Ask a running swarm: its coordinator for one source FLS's pose relative to a target, an
-FLS for its neighbours."""
+FLS for its neighbours (the FLS itself, or the host node of its process where hosts answer
+for their FLSs: ``spawn --neighbour-services``)."""
 
 from __future__ import annotations
 
+import re
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -97,26 +99,34 @@ class SwarmQueries:
         client = self._clients.get(service)
         if client is None:
             client = self._clients[service] = self.node.create_client(kind, service)
-        began = time.monotonic()
-        deadline = began + timeout
-        while not client.service_is_ready():
-            now = time.monotonic()
-            if now > deadline or (
-                now > began + min(timeout, NOTHING_THERE)
-                and not _swarm_nodes(self.node, self.namespace)
-            ):
-                raise RunError(
-                    f"no {who} on domain {self.context.get_domain_id()}, namespace "
-                    f"/{self.namespace} (no {service} in {now - began:.0f} s): is a swarm up? "
-                    "(swazure spawn, or ros2 launch swazure_ros swarm.launch.py)"
-                )
-            self._spin()
+        deadline = time.monotonic() + timeout
+        self._wait(client.service_is_ready, who, service, timeout)
         future: Any = client.call_async(request)
         while not future.done():
             if time.monotonic() > deadline:
                 raise RunError(f"{service}: no answer within {timeout:g} s")
             self._spin()
         return future.result()
+
+    def _wait(self, ready: Callable[[], object], who: str, what: str, timeout: float) -> None:
+        """Spin until ``ready()``; RunError naming ``who`` and ``what`` after ``timeout`` s.
+
+        Gives up early, whatever the timeout, when no node of the swarm shows at all
+        (NOTHING_THERE).
+        """
+        began = time.monotonic()
+        while not ready():
+            now = time.monotonic()
+            if now > began + timeout or (
+                now > began + min(timeout, NOTHING_THERE)
+                and not _swarm_nodes(self.node, self.namespace)
+            ):
+                raise RunError(
+                    f"no {who} on domain {self.context.get_domain_id()}, namespace "
+                    f"/{self.namespace} (no {what} in {now - began:.0f} s): is a swarm up? "
+                    "(swazure spawn, or ros2 launch swazure_ros swarm.launch.py)"
+                )
+            self._spin()
 
     def _spin(self) -> None:
         if self.step is None:
@@ -145,17 +155,57 @@ class SwarmQueries:
         return pose_estimate_from_message(response.estimate)
 
     def neighbours(self, fls_id: int, timeout: float) -> Neighbours:
-        """FLS ``fls_id``'s answer to GetNeighbours in ``timeout`` s; SwazureError otherwise."""
-        service = f"/{self.namespace}/{node_name(fls_id)}/{NEIGHBOURS_SERVICE}"
+        """FLS ``fls_id``'s answer to GetNeighbours in ``timeout`` s; SwazureError otherwise.
+
+        Asked of the FLS's own service where it has one, else of each host node's in
+        name order until the one that hosts it answers (the same answer).
+        """
+        deadline = time.monotonic() + timeout
+        own = f"/{self.namespace}/{node_name(fls_id)}/{NEIGHBOURS_SERVICE}"
+        hosts = re.compile(rf"^/{re.escape(self.namespace)}/host_\d+/{NEIGHBOURS_SERVICE}$")
         request = GetNeighbours.Request(fls_id=fls_id)
-        response = self._call(GetNeighbours, service, f"FLS {fls_id}", request, timeout)
-        if not response.success:
-            raise SwazureError(f"{service}: {response.message}")
+        who = f"FLS {fls_id}"
+        asked: set[str] = set()
+        unasked: list[str] = []
+
+        def more() -> bool:
+            # Hosts come onto the graph one by one: one not seen yet may host it.
+            names = {name for name, _ in self.node.get_service_names_and_types()}
+            unasked[:] = [own] if own in names else sorted(set(filter(hosts.match, names)) - asked)
+            return bool(unasked)
+
+        response = None
+        while response is None:
+            left = deadline - time.monotonic()
+            self._wait(more, who, f"{own}, nor a host node that hosts it", left)
+            response = self._first_answer(unasked, own, request, who, deadline)
+            asked.update(unasked)
         ids = {
             name: tuple(int(one) for one in getattr(response, f"{name}_ids"))
             for name in ("blind", "sweet", "visible_sweet", "decaying", "gone")
         }
         return Neighbours(fls_id, **ids)
+
+    def _first_answer(
+        self,
+        services: list[str],
+        own: str,
+        request: GetNeighbours.Request,
+        who: str,
+        deadline: float,
+    ) -> GetNeighbours.Response | None:
+        """The first of ``services``' answers that succeeds; None if none does.
+
+        SwazureError where the FLS's own service (``own``) refuses: it speaks for itself.
+        """
+        for service in services:
+            left = max(deadline - time.monotonic(), 0.0)
+            response = self._call(GetNeighbours, service, who, request, left)
+            if response.success:
+                return response
+            if service == own:
+                raise SwazureError(f"{service}: {response.message}")
+        return None
 
 
 def compute_pose(

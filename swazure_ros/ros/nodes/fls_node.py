@@ -9,7 +9,9 @@ names and QoS in :mod:`.names`):
   ``republish_period`` seconds if set; the last message of each FLS is
   latched for readers who come later;
 - ``fls_<id>/get_neighbours`` (swazure_interfaces/GetNeighbours): its blind,
-  sweet and decaying neighbours as it knows them;
+  sweet and decaying neighbours as it knows them, where it offers the service
+  (:meth:`FlsNode.offer_neighbours_service`); its process's host node answers
+  for it too (``host_<k>/get_neighbours``, :meth:`FlsNode.answer_neighbours`);
 - ``radio/<band>/c<i>_<j>_<k>`` (its radio cell's, through its process's
   radio) and ``estimates``, shared: its path labels, one broadcast per round
   of a discovery run, and its estimates when a run ends or a path walk comes
@@ -138,6 +140,10 @@ class FlsNode(SwarmNode):
     :class:`~..protocol.discovery.participant.Participant`, through ``link``)
     and its tracking's (:class:`~.fls_tracking.FlsTracking`: ``relay_senses``
     chooses relays and takes relayed samples, where the senses can).
+    It answers ``~/get_neighbours`` once :meth:`offer_neighbours_service` is
+    called; its host may answer for it instead (:meth:`answer_neighbours`): a
+    service's two endpoints are what a process's bring-up grows with, as the
+    square of their number (docs/swarm.md).
     """
 
     def __init__(
@@ -192,7 +198,6 @@ class FlsNode(SwarmNode):
             MEASUREMENTS_QOS,
             event_callbacks=PublisherEventCallbacks(matched=self._on_reader_matched),
         )
-        self.create_service(GetNeighbours, f"~/{NEIGHBOURS_SERVICE}", self._on_get_neighbours)
         # Frames run only while there may be something to send: at rest, thousands
         # of FLSs would otherwise wake a process thousands of times a second.
         self._frames = self.create_timer(self.publish_period, self._on_frame)
@@ -316,6 +321,10 @@ class FlsNode(SwarmNode):
         message = measurements_message(self.fls_id, self._published, stamp, view.distance[rows])
         self._publisher.publish(self.transmitter.key.serialize(message))
 
+    def offer_neighbours_service(self) -> None:
+        """Answer ``~/get_neighbours`` (swazure_interfaces/GetNeighbours) for itself."""
+        self.create_service(GetNeighbours, f"~/{NEIGHBOURS_SERVICE}", self._on_get_neighbours)
+
     def elsewhere(self, fls_id: int, service: str, does: str = "answers for itself") -> str:
         """Where FLS ``fls_id`` answers ``service`` for itself."""
         return (
@@ -334,6 +343,10 @@ class FlsNode(SwarmNode):
                 else f"fls_id {request.fls_id}: an FLS id, or THIS_FLS (-1, the default)"
             )
             return response
+        return self.answer_neighbours(response)
+
+    def answer_neighbours(self, response: GetNeighbours.Response) -> GetNeighbours.Response:
+        """``response`` filled with this FLS's neighbours as it knows them, and success."""
         known = self.known_neighbours
         for name, ids in neighbour_fields(known).items():
             setattr(response, name, ids)

@@ -240,6 +240,7 @@ def build_fls(context: Context, values: StartupValues) -> list[Node]:
         parameter_services=True,
     )
     assert node.detected is not None  # it senses by its camera's detections
+    node.offer_neighbours_service()  # alone in its process: no host answers for it
     RadioJoin(node, node.detected)
     declare_startup(node, values)
     return [node]

@@ -23,6 +23,7 @@ from rclpy.parameter import Parameter
 from swazure_interfaces.msg import (
     WorldState,
 )
+from swazure_interfaces.srv import GetNeighbours
 
 from ...core.motion import Motion
 from ...protocol.radio import RadioLoss
@@ -62,7 +63,10 @@ class HostConfig:
     over any parameter file (use_sim_time for a simulated clock, a track run's
     track.* settings); ``fls_parameters`` to one FLS, over those. With
     ``parameter_services`` every FLS node answers ``ros2 param``: six services
-    more a node.
+    more a node. With ``fls_services`` False no FLS node offers
+    ``get_neighbours``: the host node's answers for each (its two endpoints
+    instead of two an FLS, whose discovery grows with the square of their
+    number in a process; docs/swarm.md).
     """
 
     fls_ids: tuple[int, ...]
@@ -74,6 +78,7 @@ class HostConfig:
     fls_parameters: Mapping[int, Mapping[str, object]] = field(default_factory=dict)
     key: SwarmKey | None = None
     parameter_services: bool = False
+    fls_services: bool = True
 
 
 class SwarmHost:
@@ -134,6 +139,10 @@ class SwarmHost:
         # One /parameter_events writer for the process's FLS nodes (SwarmNode).
         self._parameter_events = self.host_node.create_parameter_events_publisher()
         self._add(self.host_node)
+        if self.fls_ids:
+            self.host_node.create_service(
+                GetNeighbours, f"~/{NEIGHBOURS_SERVICE}", self._on_get_neighbours
+            )
         #: The world node, on the host that holds the world.
         self.world_node: WorldNode | None = None
         if config.with_world_node:
@@ -205,6 +214,22 @@ class SwarmHost:
             for node in self.fls_nodes:
                 node.sense()
 
+    def _on_get_neighbours(
+        self, request: GetNeighbours.Request, response: GetNeighbours.Response
+    ) -> GetNeighbours.Response:
+        # Any FLS of this process, as the FLS's own service answers (FlsNode.answer_neighbours).
+        node = self.fls_by_id.get(request.fls_id)
+        if node is not None:
+            return node.answer_neighbours(response)
+        response.success = False
+        name = self.host_node.get_fully_qualified_name()
+        response.message = (
+            f"{name} answers for the FLSs of its process: name one (fls_id)"
+            if request.fls_id == GetNeighbours.Request.THIS_FLS
+            else f"{name} does not host FLS {request.fls_id}: another host does, if it exists"
+        )
+        return response
+
     def _on_world(self, message: WorldState) -> None:
         # Another swarm's world node on this ROS domain, or a forgery: dropped by the guard.
         world = self.replica.world
@@ -237,6 +262,8 @@ class SwarmHost:
                 parameter_services=self.parameter_services,
                 parameter_events=self._parameter_events,
             )
+            if self.config.fls_services:
+                node.offer_neighbours_service()
             self.fls_nodes.append(node)
             self.fls_by_id[fls_id] = node
             self._liveness.seen.add(fls_id)  # on this participant's graph from now on
@@ -271,29 +298,49 @@ class SwarmHost:
         self.executor.create_task(destroy)
 
     def unreached(self) -> list[int]:
-        """The FLSs of the swarm whose neighbour service this process does not see, by id."""
-        seen = {
-            fls_id
-            for name, _ in self.host_node.get_service_names_and_types()
-            if self._service_pattern.match(name)
-            and (fls_id := fls_id_of(name.rsplit("/", 2)[-2])) is not None
-        }
+        """The FLSs of the swarm whose endpoints this process does not all see, by id.
+
+        Their neighbour services, or where hosts answer for them (``fls_services``
+        False), their measurement publishers.
+        """
+        if self.config.fls_services:
+            names = [name.rsplit("/", 2)[-2] for name in self._fls_service_names()]
+        else:
+            infos = self.host_node.get_publishers_info_by_topic(self._measurements_topic)
+            names = [info.node_name for info in infos]
+        seen = {fls_id for name in names if (fls_id := fls_id_of(name)) is not None}
         return [int(fls_id) for fls_id in self.replica.ids.tolist() if fls_id not in seen]
 
-    def discovered(self) -> tuple[int, int]:
-        """(measurement publishers, neighbour services) of the swarm this process sees."""
-        publishers = self.host_node.count_publishers(self._measurements_topic)
-        services = sum(
-            1
+    def _fls_service_names(self) -> list[str]:
+        return [
+            name
             for name, _ in self.host_node.get_service_names_and_types()
             if self._service_pattern.match(name)
-        )
+        ]
+
+    def discovered(self) -> tuple[int, int]:
+        """(measurement publishers, neighbour services) of the swarm this process sees.
+
+        The services are the FLSs' own; 0 where hosts answer for them (none to see).
+        """
+        publishers = self.host_node.count_publishers(self._measurements_topic)
+        services = len(self._fls_service_names()) if self.config.fls_services else 0
         return publishers, services
 
     def is_discovered(self) -> bool:
         """True when every FLS node of the whole swarm is visible from this process."""
+        return self._complete(*self.discovered())
+
+    def _complete(self, publishers: int, services: int) -> bool:
+        return publishers >= self.swarm_size and (
+            services >= self.swarm_size or not self.config.fls_services
+        )
+
+    def discovery_text(self) -> str:
+        """What this process sees of the swarm, for a message: ``3 of 5 FLS publishers ...``."""
         publishers, services = self.discovered()
-        return publishers >= self.swarm_size and services >= self.swarm_size
+        seen = f"{publishers} of {self.swarm_size} FLS publishers"
+        return f"{seen} and {services} services" if self.config.fls_services else seen
 
     def spin_until_discovered(
         self, timeout: float, poll: float = 0.25, on_poll: Callable[[int, int], None] | None = None
@@ -306,7 +353,7 @@ class SwarmHost:
                 publishers, services = self.discovered()
                 if on_poll is not None:
                     on_poll(publishers, services)
-                if publishers >= self.swarm_size and services >= self.swarm_size:
+                if self._complete(publishers, services):
                     return True
                 next_poll = time.monotonic() + poll
             self.spin_once(min(poll, 0.05))

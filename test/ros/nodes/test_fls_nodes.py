@@ -173,6 +173,7 @@ def test_an_fls_offers_the_track_service_only_where_its_parameter_asks(context):
         FlsNode(tracker, replica, context=context, parameter_overrides=[TRACK_SERVICE_ON]),
         FlsNode(plain, replica, context=context),
     ]
+    nodes[1].offer_neighbours_service()
     probe = Node("probe", context=context, start_parameter_services=False, enable_rosout=False)
     executor = SingleThreadedExecutor(context=context)
     for node in (*nodes, probe):
