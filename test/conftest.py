@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -15,6 +16,7 @@ from hypothesis import HealthCheck, settings
 from swazure_ros.core.arrays import FloatArray
 from swazure_ros.core.geometry import Swarm, make_swarm
 from swazure_ros.core.sensor import Sensor
+from swazure_ros.ros.plumbing import shared_memory
 
 from .domains import configured_domains, held_domain
 
@@ -62,15 +64,47 @@ def ros2_daemons(domain: int) -> set[int]:
     return found
 
 
+#: Seconds a ros2 daemon has to end after SIGTERM before it is killed. Its DDS teardown can
+#: hang, spinning a core in DomainParticipant::set_listener (Fast-DDS#6502): one ignored its
+#: SIGTERM and spun through the rest of a suite and after it (2026-11-30, gdb).
+DAEMON_TEARDOWN = 5.0
+
+
 def stop_ros2_daemons(domain: int) -> None:
     """Stop the daemons that the ros2 commands of a test on ``domain`` started.
 
     By domain, not at the end of the session: with tests on two workers
-    (pytest-xdist), another worker's test may be using its own daemon.
+    (pytest-xdist), another worker's test may be using its own daemon. One still
+    there DAEMON_TEARDOWN s after SIGTERM is killed, and its shared memory removed.
     """
-    for pid in ros2_daemons(domain):
+    daemons = ros2_daemons(domain)
+    for pid in daemons:
         with contextlib.suppress(ProcessLookupError):
             os.kill(pid, signal.SIGTERM)
+    daemons = _ended(daemons, DAEMON_TEARDOWN)
+    for pid in daemons:
+        owned = shared_memory.own_segments(pid)
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(pid, signal.SIGKILL)
+        shared_memory.remove(owned)
+    _ended(daemons, DAEMON_TEARDOWN)
+
+
+def _ended(pids: set[int], seconds: float) -> set[int]:
+    """Wait up to ``seconds`` for processes ``pids`` to end; those still running."""
+    deadline = time.monotonic() + seconds
+    while pids and time.monotonic() < deadline:
+        time.sleep(0.05)
+        pids = {pid for pid in pids if running(pid)}
+    return pids
+
+
+def running(pid: int) -> bool:
+    """Whether process ``pid`` is there and not a zombie (a daemon is nobody's child here)."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False
 
 
 def pytest_configure(config: pytest.Config) -> None:
