@@ -12,6 +12,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..core.errors import SwazureError
 from ..core.evaluation import Evaluation
 from ..core.fit import PATH, check_plain_estimator
 from ..core.heuristics.result import MOVE_SOURCE, PLAIN, HeuristicResult
@@ -60,6 +61,10 @@ def compute_all(
     where the source's body at its probe point leaves its view of the target clear.
     """
     check_plain_estimator(estimator, technique)
+    if not swarm.config.whole_world:
+        raise SwazureError(
+            "every pose by the swarm needs the whole world: SwarmConfig.whole_world"
+        )
     world: World = swarm.world
     result = swarm.discover(policy, on_progress=on_progress, estimator=estimator, per_run=per_run)
     if on_discovered is not None:

@@ -78,6 +78,10 @@ class SwarmConfig:
     #: Who answers an FLS's ``get_neighbours``: ``fls``, each FLS itself; ``hosts``, its
     #: process's host node only; ``auto``, as :meth:`fls_services` says.
     neighbour_services: str = AUTO
+    #: The launching process's world holds every pair of the swarm, as the engine's
+    #: comparison (``--compute-all``) and the view need; False: only its own FLSs' pairs,
+    #: as a further process's world.
+    whole_world: bool = True
 
     def __post_init__(self) -> None:
         # The one check of how a swarm's processes are laid out: the command line

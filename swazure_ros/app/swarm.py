@@ -155,7 +155,9 @@ class RunningSwarm:
             plan.processes.start()
             # Built while the further processes build theirs, each from the same spec: on
             # torus:10000 over 2 the further process started 27 s later, after this world.
-            world = config.world.build(hosted_ids=plan.processes.laid_out)
+            world = config.world.build(
+                hosted_ids=plan.processes.laid_out, only_hosted_pairs=not config.whole_world
+            )
             context = init_context(config)
             host = SwarmHost(world, _own_config(plan), context=context)
             recorder = _recorder(plan, context, host)

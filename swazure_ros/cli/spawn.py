@@ -332,6 +332,8 @@ def config_from_args(args: argparse.Namespace, folder: Path | None = None) -> Sw
         parameter_services=args.parameter_services,
         per_fls=args.per_fls,
         neighbour_services=args.neighbour_services,
+        # Only these look at pairs of other processes' FLSs: the engine's and the view's.
+        whole_world=args.compute_all or args.view,
         log_dir=None if args.log_dir is None else str(args.log_dir),
         discovery_servers=args.discovery_server,
         view=ViewConfig(

@@ -125,18 +125,27 @@ def test_swarm_split_over_two_processes_gives_the_same_measurements(context, dom
         probe.destroy_node()
 
 
-def test_where_hosts_answer_for_their_flss_no_fls_has_a_service_and_each_host_answers_as_it(
+def test_a_display_s_launcher_holds_its_own_flss_pairs_and_its_hosts_answer_as_the_flss_would(
     domain, fast_params
 ):
+    spec = WorldSpec("helix:40", beta=0.5)
     config = SwarmConfig(
-        WorldSpec("helix:40", beta=0.5),
+        spec,
         processes=2,
         domain_id=domain,
         params_file=str(fast_params),
         neighbour_services="hosts",
+        whole_world=False,
     )
     with RunningSwarm.start(config) as swarm:
-        world, node = swarm.world, swarm.host.host_node
+        node = swarm.host.host_node
+        world = spec.build()  # the whole, for the expected answers
+        # The launcher's world: the pairs of its own FLSs, every one of them.
+        own = np.isin(world.ids[world.hood.pairs.first], swarm.host.fls_ids) | np.isin(
+            world.ids[world.hood.pairs.second], swarm.host.fls_ids
+        )
+        held = swarm.world.hood.pairs
+        assert 0 < len(held.first) == int(own.sum()) < len(world.hood.pairs.first)
         remote = next(int(i) for i in world.ids if int(i) not in swarm.host.fls_ids)
         hosts = {"/swarm/host_0/get_neighbours", "/swarm/host_1/get_neighbours"}
 
