@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import csr, jit
-from .arrays import FloatArray, IntArray
+from .arrays import BoolArray, FloatArray, IntArray
 from .geometry import KISSING_TOLERANCE, Swarm, centre_distance
 from .grid import Grid, grid_of
 from .sensor import BLIND, DECAYING, SWEET, Sensor
@@ -134,8 +134,16 @@ def _pair_index(rows: IntArray, second: IntArray, one: IntArray, other: IntArray
 
 
 @jit.kernel(cache=True, nogil=True)
-def _within(points: FloatArray, node: int, reach: float, grid: Grid, out: IntArray) -> int:
-    """Points after ``node`` within ``reach`` of it, into ``out`` unless it is empty; how many."""
+def _within(
+    points: FloatArray, node: int, reach: float, grid: Grid, out: IntArray, involving: BoolArray
+) -> int:
+    """Points after ``node`` within ``reach`` of it, into ``out`` unless it is empty; how many.
+
+    With ``involving`` (N,) (empty: every pair), only those of pairs that involve an FLS
+    True there.
+    """
+    # Every pair of the node's is one to keep where no mask is given or the mask holds it.
+    every = len(involving) == 0 or involving[node]
     origin, cell, shape, cell_start, members = grid
     x, y, z = points[node, 0], points[node, 1], points[node, 2]
     cx = min(int((x - origin[0]) / cell), shape[0] - 1)
@@ -149,7 +157,7 @@ def _within(points: FloatArray, node: int, reach: float, grid: Grid, out: IntArr
                 key = (ix * shape[1] + iy) * shape[2] + iz
                 for slot in range(cell_start[key], cell_start[key + 1]):
                     other = members[slot]
-                    if other <= node:
+                    if other <= node or not (every or involving[other]):
                         continue
                     dx = points[other, 0] - x
                     dy = points[other, 1] - y
@@ -163,20 +171,21 @@ def _within(points: FloatArray, node: int, reach: float, grid: Grid, out: IntArr
 
 @jit.kernel(cache=True, parallel=True)
 def _pairs_within(
-    points: FloatArray, reach: float, grid: Grid, start: int, stop: int
+    points: FloatArray, reach: float, grid: Grid, start: int, stop: int, involving: BoolArray
 ) -> tuple[IntArray, IntArray]:
-    """Pairs i < j within ``reach``, i in [start, stop), as CSR: row i - start, sorted."""
+    """Pairs i < j within ``reach``, i in [start, stop), as CSR: row i - start, sorted; with
+    ``involving`` (N,), only the pairs of which i or j is True there."""
     size = stop - start
     counts = np.zeros(size, dtype=np.int64)
     nothing = np.empty(0, dtype=np.int64)
     for row in jit.prange(size):
-        counts[row] = _within(points, start + row, reach, grid, nothing)
+        counts[row] = _within(points, start + row, reach, grid, nothing, involving)
     rows = np.zeros(size + 1, dtype=np.int64)
     rows[1:] = np.cumsum(counts)
     second = np.empty(rows[-1], dtype=np.int64)
     for row in jit.prange(size):
         out = second[rows[row] : rows[row + 1]]
-        _within(points, start + row, reach, grid, out)
+        _within(points, start + row, reach, grid, out, involving)
         out.sort()
     return rows, second
 
@@ -234,6 +243,7 @@ def neighbour_pairs(
     start: int = 0,
     stop: int | None = None,
     grid: Grid | None = None,
+    involving: BoolArray | None = None,
 ) -> NeighbourPairs:
     """Every unordered pair with tracking distance below ``sensor.decaying_max``, classified.
 
@@ -251,6 +261,9 @@ def neighbour_pairs(
     grid : Grid, optional
         ``grid.grid_of`` the swarm's points at :func:`candidate_reach`, when
         the caller keeps it.
+    involving : (N,) array of bool, optional
+        Only the pairs with an FLS True here: the whole list's selection of
+        them, found without the whole list.
 
     Returns
     -------
@@ -274,7 +287,11 @@ def neighbour_pairs(
     reach = candidate_reach(sensor, swarm.radius)
     points = np.ascontiguousarray(swarm.points, dtype=np.float64)
     grid = grid if grid is not None else grid_of(points, reach)
-    rows, second = _pairs_within(points, reach, grid, start, stop)
+    if involving is None:
+        involving = np.empty(0, dtype=np.bool_)
+    elif involving.shape != (swarm.size,):
+        raise ValueError(f"`involving` must be ({swarm.size},) bools, got {involving.shape}")
+    rows, second = _pairs_within(points, reach, grid, start, stop, involving)
     first = np.repeat(np.arange(start, stop, dtype=np.int64), np.diff(rows))
     distance = centre_distance(swarm.points, first, second)
     tracking = distance - 2.0 * swarm.radius
@@ -326,8 +343,9 @@ def pair_counts(swarm: Swarm, sensor: Sensor, grid: Grid | None = None) -> IntAr
 def _pair_counts(points: FloatArray, reach: float, grid: Grid) -> IntArray:
     counts = np.zeros(len(points), dtype=np.int64)
     nothing = np.empty(0, dtype=np.int64)
+    everyone = np.empty(0, dtype=np.bool_)
     for node in jit.prange(len(points)):
-        counts[node] = _within(points, node, reach, grid, nothing)
+        counts[node] = _within(points, node, reach, grid, nothing, everyone)
     return counts
 
 

@@ -36,3 +36,25 @@ def test_index_finds_a_pair_in_either_order_and_minus_one_for_none(sensor):
     )
     assert (pairs.index(np.zeros(len(far), int), far) == -1).all()
     assert pairs.index([4], [4]).tolist() == [-1]
+
+
+def test_the_pairs_involving_some_flss_are_the_whole_list_s_selection_of_them(sensor):
+    swarm = random_swarm(4)
+    whole = neighbour_pairs(swarm, sensor)
+    involving = np.zeros(swarm.size, dtype=bool)
+    involving[::3] = True  # every third FLS: pairs with one, both or neither of them
+    part = neighbour_pairs(swarm, sensor, involving=involving)
+    chosen = involving[whole.first] | involving[whole.second]
+    assert 0 < chosen.sum() < len(whole)
+    for field in ("first", "second", "distance", "tracking", "range_class"):
+        np.testing.assert_array_equal(getattr(part, field), getattr(whole, field)[chosen])
+    # And within a block of first FLSs, as the engine asks for one.
+    block = neighbour_pairs(swarm, sensor, 100, 250, involving=involving)
+    inside = chosen & (whole.first >= 100) & (whole.first < 250)
+    np.testing.assert_array_equal(block.second, whole.second[inside])
+
+
+def test_a_mask_of_another_length_is_refused(sensor):
+    swarm = random_swarm(5, count=20)
+    with pytest.raises(ValueError, match=r"`involving` must be \(20,\) bools"):
+        neighbour_pairs(swarm, sensor, involving=np.ones(19, dtype=bool))
