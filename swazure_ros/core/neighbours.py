@@ -270,6 +270,11 @@ def neighbour_pairs(
     NeighbourPairs
         M pairs, first < second; contact pairs (t <= 0) included.
 
+    Raises
+    ------
+    ValueError
+        ``involving`` is not one bool per FLS.
+
     Examples
     --------
     >>> from swazure_ros.core.neighbours import neighbour_pairs

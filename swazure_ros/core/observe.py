@@ -53,29 +53,58 @@ class Observations:
     """Every FLS's neighbours within sensor reach, grouped by FLS (swarm indices).
 
     Rows ``indptr[i]:indptr[i+1]`` belong to FLS ``i``, sorted by ``other``.
-    ``vector`` and ``tracking`` are the camera's measurement (cm) where
-    ``measured`` holds, NaN elsewhere.
+    The camera's readings are held for the rows it looks at (sweet or
+    decaying, in line of sight) only, row ``reading[e]`` of ``readings_vector``
+    and ``readings_tracking`` (-1: none): most rows of a display are out of
+    sight, and a reading is 32 bytes. :meth:`vector_at` and :meth:`tracking_at`
+    give them by row, NaN where the camera reads nothing.
     """
 
     indptr: IntArray  # (N + 1,)
     other: IntArray  # (E,)
     range_class: NDArray[np.int8]  # (E,), BLIND, SWEET or DECAYING
     visible: NDArray[np.bool_]  # (E,), line of sight
-    vector: FloatArray  # (E, 3), measured vector owner -> other, cm
-    tracking: FloatArray  # (E,), measured tracking distance t', cm
     distance: FloatArray  # (E,), tracking distance t as radio ranging reports it, cm
+    reading: NDArray[np.int32]  # (E,), the row's reading; -1 where the camera does not look
+    readings_vector: FloatArray  # (R, 3), measured vector owner -> other, cm; NaN: undetected
+    readings_tracking: FloatArray  # (R,), measured tracking distance t', cm
+
+    @property
+    def vector(self) -> FloatArray:
+        """(E, 3) every row's measured vector, cm, NaN without a reading: made whole."""
+        return self.vector_at(slice(None))
+
+    @property
+    def tracking(self) -> FloatArray:
+        """(E,) every row's measured t', cm, NaN without a reading: made whole."""
+        return self.tracking_at(slice(None))
+
+    def vector_at(self, rows: slice | IntArray) -> FloatArray:
+        """(K, 3) the measured vectors of rows ``rows``, cm; NaN where there is no reading."""
+        reading = self.reading[rows]
+        out = np.full((len(reading), 3), np.nan)
+        looked = reading >= 0
+        out[looked] = self.readings_vector[reading[looked]]
+        return out
+
+    def tracking_at(self, rows: slice | IntArray) -> FloatArray:
+        """(K,) the measured t' of rows ``rows``, cm; NaN where there is no reading."""
+        reading = self.reading[rows]
+        out = np.full(len(reading), np.nan)
+        looked = reading >= 0
+        out[looked] = self.readings_tracking[reading[looked]]
+        return out
 
     @property
     def measured(self) -> NDArray[np.bool_]:
         """(E,) the camera measures the pair: sweet or decaying, in line of sight."""
         return self.measured_in(slice(None))
 
-    def measured_in(self, rows: slice) -> NDArray[np.bool_]:
+    def measured_in(self, rows: slice | IntArray) -> NDArray[np.bool_]:
         """``measured`` for the rows ``rows`` only (one FLS's, from :meth:`rows`)."""
-        range_class = self.range_class[rows]
-        camera_range = (range_class == SWEET) | (range_class == DECAYING)
-        read = np.isfinite(self.vector[rows, 0])  # a rendering camera may not detect
-        return np.asarray(self.visible[rows] & camera_range & read, dtype=np.bool_)
+        # A row with a reading is sweet or decaying and in sight; a rendering camera may
+        # still not have detected the marker (NaN).
+        return np.asarray(np.isfinite(self.vector_at(rows)[:, 0]), dtype=np.bool_)
 
     def rows(self, fls: int) -> slice:
         """The rows of FLS ``fls`` (a swarm index)."""
@@ -114,6 +143,11 @@ def observations(hood: Neighbourhood, owners: IntArray | None = None) -> Observa
         E rows (each pair once from each owner's side), grouped by owner,
         sorted by the other FLS; vectors and t' in cm, NaN where the camera
         reads nothing.
+
+    Raises
+    ------
+    ValueError
+        More camera readings than a row's int32 index holds (2^31 - 1).
     """
     # Column by column, each laid out and its temporaries gone before the next: the rows
     # of torus:10000 (31.5 M pairs) held 2.9 GB, and building them all at once peaked at 5.4.
@@ -138,23 +172,28 @@ def observations(hood: Neighbourhood, owners: IntArray | None = None) -> Observa
     del order, forward, backward
     indptr = np.zeros(size + 1, dtype=np.int64)
     np.cumsum(np.bincount(owner, minlength=size), out=indptr[1:])
-    measured = np.flatnonzero(visible & ((range_class == SWEET) | (range_class == DECAYING)))
+    looked = visible & ((range_class == SWEET) | (range_class == DECAYING))
+    measured = np.flatnonzero(looked)
     measured_owner = owner[measured]
     del owner
-    vector = np.full((len(other), 3), np.nan)
-    tracking = np.full(len(other), np.nan)
+    if len(measured) > np.iinfo(np.int32).max:
+        raise ValueError(f"{len(measured)} camera readings: more than a row index holds")
+    reading = np.full(len(other), -1, dtype=np.int32)
+    reading[measured] = np.arange(len(measured), dtype=np.int32)
+    del looked
+    vector = np.empty((len(measured), 3))
+    tracking = np.empty(len(measured))
     # The readings in blocks: each pair's is its own (its own seeded draw), and a block's
     # temporaries stay small.
     for start in range(0, len(measured), CAMERA_BLOCK):
-        rows = measured[start : start + CAMERA_BLOCK]
-        vector[rows], tracking[rows] = camera_readings(
-            hood.swarm,
-            hood.sensor,
-            measured_owner[start : start + CAMERA_BLOCK],
-            other[rows],
-            true_tracking[rows],
+        block = slice(start, start + CAMERA_BLOCK)
+        rows = measured[block]
+        vector[block], tracking[block] = camera_readings(
+            hood.swarm, hood.sensor, measured_owner[block], other[rows], true_tracking[rows]
         )
-    return Observations(indptr, other, range_class, visible, vector, tracking, true_tracking)
+    return Observations(
+        indptr, other, range_class, visible, true_tracking, reading, vector, tracking
+    )
 
 
 def _laid_out(
@@ -296,7 +335,7 @@ def local_view(seen: Observations, ids: IntArray, fls: int) -> LocalView:
         range_class=seen.range_class[rows],
         visible=seen.visible[rows],
         distance=seen.distance[rows],
-        vector=seen.vector[rows],
+        vector=seen.vector_at(rows),
     )
 
 

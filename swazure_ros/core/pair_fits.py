@@ -297,14 +297,16 @@ def _readings_as_sent(hood: Neighbourhood, corrupt: Corruption | None) -> Observ
     # A fit weighs readings whose axes differ by 1e10: the last bit of a reading
     # moves an estimate by up to 1e-9 cm, so the engine reads what the wire carries.
     seen = replace(
-        seen, vector=through_metres(seen.vector), distance=through_metres(seen.distance)
+        seen,
+        readings_vector=through_metres(seen.readings_vector),
+        distance=through_metres(seen.distance),
     )
     if corrupt is not None:
         rows = np.flatnonzero(seen.measured)
         owner = csr.run_of(seen.indptr)[rows]
         unused = np.zeros((len(rows), 3, 3))
-        readings = Measurements(owner, seen.other[rows], seen.vector[rows], unused, unused)
-        vector = seen.vector.copy()
-        vector[rows] = corrupt(readings).vectors
-        seen = replace(seen, vector=vector)
+        readings = Measurements(owner, seen.other[rows], seen.vector_at(rows), unused, unused)
+        vector = seen.readings_vector.copy()
+        vector[seen.reading[rows]] = corrupt(readings).vectors
+        seen = replace(seen, readings_vector=vector)
     return seen

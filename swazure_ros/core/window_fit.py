@@ -93,7 +93,7 @@ def heard_in_window(seen: Observations, ids: IntArray, source: int) -> tuple[Int
         ids[seen.other[rows]],
         seen.range_class[rows],
         seen.distance[rows],
-        seen.vector[rows],
+        seen.vector_at(rows),
     )
     return ids[members], heard
 

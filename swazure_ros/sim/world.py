@@ -196,8 +196,8 @@ class World:
         return Measurement(
             self.ids[seen.other[rows][measured]],
             seen.range_class[rows][measured],
-            seen.vector[rows][measured],
-            seen.tracking[rows][measured],
+            seen.vector_at(rows)[measured],
+            seen.tracking_at(rows)[measured],
         )
 
     def position(self, fls_id: int) -> FloatArray:
