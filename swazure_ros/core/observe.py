@@ -104,7 +104,10 @@ class Observations:
         """``measured`` for the rows ``rows`` only (one FLS's, from :meth:`rows`)."""
         # A row with a reading is sweet or decaying and in sight; a rendering camera may
         # still not have detected the marker (NaN).
-        return np.asarray(np.isfinite(self.vector_at(rows)[:, 0]), dtype=np.bool_)
+        reading = self.reading[rows]
+        measured = reading >= 0
+        measured[measured] = np.isfinite(self.readings_vector[reading[measured], 0])
+        return measured
 
     def rows(self, fls: int) -> slice:
         """The rows of FLS ``fls`` (a swarm index)."""
