@@ -37,6 +37,7 @@ def arguments() -> argparse.Namespace:
     parser.add_argument("--cloud", required=True)
     parser.add_argument("--scale", type=float, default=None)
     parser.add_argument("--beta", type=float, default=0.5)
+    parser.add_argument("--resample", type=int, default=None, help="points, as --resample")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
     record_file(parser, args)
@@ -60,7 +61,7 @@ def main() -> int:
     small = WorldSpec("torus:120", scale=1.6, beta=args.beta).build()  # kernels loaded
     discover(observations(small.hood), small.ids, small.sensor, small.swarm.radius, POLICY)
     held.update(widest=0, most_in_a_row=0, at_once=0)
-    world = WorldSpec(args.cloud, scale=args.scale, beta=args.beta).build()
+    world = WorldSpec(args.cloud, scale=args.scale, beta=args.beta, resample=args.resample).build()
     began = time.perf_counter()
     engine = evaluate_pairs(world.hood, POLICY)
     engine_s = time.perf_counter() - began
@@ -84,6 +85,7 @@ def main() -> int:
     record = {
         "cloud": args.cloud,
         "scale": args.scale,
+        "resample": args.resample,
         "flss": len(ids),
         "pairs": len(engine),
         "engine_s": engine_s,

@@ -136,6 +136,9 @@ class Sent:
     fit_sums: tuple[float, ...] = ()
     fit_moved: float = 0.0
     fit_same: tuple[bool, bool] = (True, True)
+    # Sources whose labels they hold beyond the pass's reach (search.reach_rounds), ascending.
+    beyond: tuple[int, ...] = ()
+    searching: tuple[int, ...] = ()  # those that search as sources: their own label offered
 
 
 @dataclass(frozen=True)
@@ -247,6 +250,10 @@ class RadioHub:
         self._sent: dict[tuple[int, int], dict[int, tuple[int, bool, bool, int]]] = {}
         # (run, round) -> what the local FLSs said to the coordinator in the FIT phase.
         self._fit_sent: dict[tuple[int, int], dict[int, FitOffer]] = {}
+        # The sources its FLSs' offers of a round held beyond the reach, and those of its
+        # FLSs that offered their own label (searching sources), by (run, round).
+        self._beyond_sent: dict[tuple[int, int], list[IntArray]] = {}
+        self._searching_sent: dict[tuple[int, int], set[int]] = {}
         # (run, round) -> the offers kept of that round, until a later control hands them over.
         self._heard: dict[tuple[int, int], _RoundHeard] = {}
         #: run -> (round, command) of its last control, for the newest CONTROLS_KEPT runs.
@@ -264,6 +271,8 @@ class RadioHub:
         self._heard.clear()
         self._sent.clear()
         self._fit_sent.clear()
+        self._beyond_sent.clear()
+        self._searching_sent.clear()
         self._early.clear()
 
     def departed(self, run_id: int) -> frozenset[int]:
@@ -354,6 +363,10 @@ class RadioHub:
         sent.setdefault(sender, (len(offer), bool(offer.pending), bool(offer.finished), size))
         if offer.fit is not None:
             self._fit_sent.setdefault((run_id, round_), {}).setdefault(sender, offer.fit)
+        if len(offer.beyond_ids):
+            self._beyond_sent.setdefault((run_id, round_), []).append(offer.beyond_ids)
+        if len(offer) and np.any(offer.source_ids == sender):  # its own label: it searches
+            self._searching_sent.setdefault((run_id, round_), set()).add(sender)
 
     def take_sent(self, run_id: int, round_: int) -> Sent:
         """What the local FLSs broadcast in round ``round_``, for the coordinator's tally.
@@ -366,6 +379,7 @@ class RadioHub:
         senders = tuple(sorted(sent))
         fits = self._fit_sent.pop((run_id, round_), {})
         said = [fits[sender] for sender in senders if sender in fits]
+        beyond = self._beyond_sent.pop((run_id, round_), [])
         return Sent(
             senders,
             sum(sent[sender][0] for sender in senders),
@@ -375,6 +389,8 @@ class RadioHub:
             process_sums([one.partials for one in said if len(one.partials)]),
             max((one.moved for one in said), default=0.0),
             (all(one.same[0] for one in said), all(one.same[1] for one in said)),
+            tuple(np.unique(np.concatenate(beyond)).tolist()) if beyond else (),
+            tuple(sorted(self._searching_sent.pop((run_id, round_), ()))),
         )
 
     def _settle(self, heard: _RoundHeard, fallback: int | None = None) -> None:
@@ -519,5 +535,7 @@ class RadioHub:
         self._heard = {key: heard for key, heard in self._heard.items() if key[0] != run_id}
         self._sent = {key: o for key, o in self._sent.items() if key[0] != run_id}
         self._fit_sent = {key: o for key, o in self._fit_sent.items() if key[0] != run_id}
+        self._beyond_sent = {k: o for k, o in self._beyond_sent.items() if k[0] != run_id}
+        self._searching_sent = {k: o for k, o in self._searching_sent.items() if k[0] != run_id}
         if rounds:
             self._rounds = {key: c for key, c in self._rounds.items() if key[0] != run_id}

@@ -62,6 +62,8 @@ class RoundTally:
     acks: set[str] = field(default_factory=set)
     lost: int = 0  # deliveries lost for good, as the processes acknowledged
     fit: FitTally = field(default_factory=FitTally)  # the FIT phase's sums and say
+    beyond: set[int] = field(default_factory=set)  # sources cut short by the pass's reach
+    searching: set[int] = field(default_factory=set)  # sources that searched in the pass
 
     def hear(self, sender: int, labels: int, pending: bool, finished: bool) -> None:
         """Count one FLS's broadcast of this round."""
@@ -251,6 +253,11 @@ class RoundClock:
         self._phase = 0  # index into _phases; len(_phases) while collecting estimates
         self._tally: RoundTally | None = None
         self._finished: set[int] = set()
+        # The phase's pass (search.reach_rounds), the sources it has cut short so far, and
+        # those that searched in it.
+        self._pass = 0
+        self._beyond: set[int] = set()
+        self._searching: set[int] = set()
         self._collecting: frozenset[int] = frozenset()
         self._collected: dict[int, Sequence[Estimate]] = {}
         # The sources of _collecting not heard yet: one look per report, not one per source.
@@ -302,6 +309,8 @@ class RoundClock:
         if new:
             tally.labels += sent.labels
             tally.fit.add(sent.fit_sums, sent.fit_moved, sent.fit_same)
+            tally.beyond.update(sent.beyond)
+            tally.searching.update(sent.searching)
         self._moved_on(now)
         return self._close_round(now, timed_out=False) if tally.complete else []
 
@@ -427,11 +436,24 @@ class RoundClock:
             **fields,  # type: ignore[arg-type]
         )
 
-    def _start_phase(self, now: float) -> list[Control]:
-        self._finished = set()
+    def _start_phase(self, now: float, reach_pass: int = 0) -> list[Control]:
+        """START pass ``reach_pass`` of the phase: the first (as after a restart), or the
+        next, told whose searches the pass before ran to their end (searched, none of their
+        labels beyond its reach, not closed once finished)."""
+        exhausted = self._searching - self._beyond - self._finished if reach_pass else set()
+        self._pass, self._beyond = reach_pass, set()
+        if not reach_pass:  # a later pass goes on with the searches, those closed stay so
+            self._searching, self._finished = set(), set()
         if self._fit is not None and self._phases[self._phase] == FIT:
             self._fit.first()
-        start = self._control(START, now, source_ids=self.sources, target_ids=self.targets)
+        start = self._control(
+            START,
+            now,
+            source_ids=self.sources,
+            target_ids=self.targets,
+            reach_pass=reach_pass,
+            exhausted_ids=tuple(sorted(exhausted)),
+        )
         return [start, self._open_round(now, finished=())]
 
     def _open_round(self, now: float, finished: tuple[int, ...]) -> Control:
@@ -485,11 +507,15 @@ class RoundClock:
             return self._start_phase(now)
         newly = tuple(sorted(tally.finished - self._finished))
         self._finished |= tally.finished
+        self._beyond |= tally.beyond
+        self._searching |= tally.searching
         if self._fit is not None and self._phases[self._phase] == FIT:
             if self._fit.after(tally.fit, tally.quiet) is not None:
                 return [self._open_round(now, newly)]
         elif not tally.quiet:
             return [self._open_round(now, newly)]
+        elif self._beyond:  # searches cut short by the reach: a pass twice as far
+            return self._start_phase(now, self._pass + 1)
         self._phase += 1
         if self._phase < len(self._phases):
             return self._start_phase(now)

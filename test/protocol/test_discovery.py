@@ -249,32 +249,96 @@ def test_an_fls_keeps_labels_only_for_the_sources_whose_search_reached_it():
     assert table.occupied.sum() == held.sum() and table.width < len(ids) // 4
 
 
-def test_flss_stepped_together_offer_and_end_as_each_stepping_alone_would():
+def test_a_search_relays_nothing_beyond_its_pass_s_reach_and_names_its_source_cut_short():
+    # One source of a spread-out torus, a pass that reaches two rounds: its labels go two
+    # rounds' worth of hops; an FLS that holds one beyond does not send it but says so, and
+    # the pass ends (nothing pending) with the source's targets, two sweet hops away, unfound.
+    # The next pass, reaching twice as far, resumes the search from there and finds them.
+    world = WorldSpec("torus:400", scale=4.0, beta=0.5).build()
+    seen, ids = observations(world.hood), world.ids
+    width = bucket_width(world.sensor, world.swarm.radius, "shortest-length")
+    reach = 2
+    options = SearchOptions("shortest-length", width, int(ids[-1]) + 1, reach=reach)
+    views = [local_view(seen, ids, row) for row in range(len(ids))]
+    source = 0
+    searches = [
+        PathSearch(view, SWEET_ALL, options, view.blind if row == source else None)
+        for row, view in enumerate(views)
+    ]
+    said_beyond = np.zeros(len(ids), dtype=np.int64)
+
+    for round_ in range(reach + 1):
+        offers = [one.offer(round_) for one in searches]
+        for row, offer in enumerate(offers):
+            assert len(offer) == 0 or round_ < reach
+            assert offer.beyond_ids.tolist() in ([], [int(ids[source])])
+            assert len(offer.beyond_ids) == 0 or round_ == reach
+            said_beyond[row] += len(offer.beyond_ids)
+        hear_together(searches, RoundOffers.of(list(zip(ids.tolist(), offers, strict=True))))
+    assert not any(offer.pending for offer in offers)
+    assert 0 < said_beyond.sum() < len(ids) // 2
+    assert len(searches[source].targets) > 0 and not searches[source].finished
+    longest_hop = max(one.link_weights.max() for one in searches if len(one.link_weights))
+    for row, one in enumerate(searches):
+        if len(one.sources):  # sent below the reach, or held beyond it (said so)
+            (length,) = one.label("length")
+            assert (length >= reach * width) == bool(said_beyond[row])
+            assert length < reach * width + longest_hop
+    # The next pass: the search goes on where it paused, as one never paused would.
+    for one in searches:
+        one.resume(2 * reach, frozenset())
+    unpaused = [
+        PathSearch(
+            view,
+            SWEET_ALL,
+            replace(options, reach=2 * reach),
+            view.blind if row == source else None,
+        )
+        for row, view in enumerate(views)
+    ]
+    for round_ in range(2 * reach + 1):
+        for group in (searches, unpaused):
+            at = round_ - reach if group is searches else round_
+            if at < 0:
+                continue
+            offers = [one.offer(at) for one in group]
+            hear_together(group, RoundOffers.of(list(zip(ids.tolist(), offers, strict=True))))
+    assert len(searches[source].results) > 0
+    for name, values in unpaused[source].results.table.items():
+        np.testing.assert_array_equal(searches[source].results.table[name], values)
+
+
+@pytest.mark.parametrize("reach", [np.inf, 3], ids=["unbounded", "three rounds"])
+def test_flss_stepped_together_offer_and_end_as_each_stepping_alone_would(reach):
     # Every FLS of a small torus a source, by the rounds of a phase: one set picks its
     # labels and hears each round's offers together (as a process steps its FLSs), the
     # other one by one.
     world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
     seen, ids = observations(world.hood), world.ids
     width = bucket_width(world.sensor, world.swarm.radius, "shortest-length")
-    options = SearchOptions("shortest-length", width, int(ids[-1]) + 1)
+    options = SearchOptions("shortest-length", width, int(ids[-1]) + 1, reach=reach)
 
     def searches() -> list[PathSearch]:
         views = [local_view(seen, ids, row) for row in range(len(ids))]
         return [PathSearch(view, SWEET_VISIBLE, options, view.blind) for view in views]
 
     together, alone = searches(), searches()
+    cut_short = 0
     for round_ in range(12):
         pick_together(together, round_, np.zeros(0, dtype=np.int64))
         offers = [one.offer(round_) for one in together]
         for offer, theirs in zip(offers, [one.offer(round_) for one in alone], strict=True):
             assert offer.pending == theirs.pending
-            for name in ("source_ids", "lengths", "vectors", "path_offsets", "path_ids"):
+            for name in ("source_ids", "lengths", "vectors", "path_offsets", "path_ids",
+                         "beyond_ids"):  # fmt: skip
                 np.testing.assert_array_equal(getattr(offer, name), getattr(theirs, name))
+        cut_short += sum(len(offer.beyond_ids) for offer in offers)
         heard = RoundOffers.of(list(zip(ids.tolist(), offers, strict=True)))
         hear_together(together, heard)
         for one in alone:
             one.hear(heard)
     assert sum(len(one.results) for one in together) > 0
+    assert (cut_short > 0) == np.isfinite(reach)
     for mine, theirs in zip(together, alone, strict=True):
         np.testing.assert_array_equal(mine.sources, theirs.sources)
         for name in ("hops", "length", "pred", "vector", "sent", "via_offers"):

@@ -77,6 +77,46 @@ def test_finished_sources_are_named_in_the_next_round_once():
     assert third.finished_ids == ()
 
 
+def test_a_pass_that_cut_searches_short_is_followed_by_one_reaching_farther():
+    # Round 0: every FLS searches, FLS 1 finishes; round 1: FLSs 0 and 2 hold labels of
+    # source 2 beyond the reach. The quiet round after starts the same phase's next pass:
+    # of the three searches only source 0's ran to its end (2 was cut short, 1 closed early).
+    # A pass that cuts nothing short ends the phase.
+    run = clock()
+    start, _ = run.start(0.0)
+    assert (start.reach_pass, start.exhausted_ids) == (0, ())
+    run.on_sent(0, Sent(FLSS, 3, (), (1,), searching=FLSS), 0.0)
+    run.on_ack(0, "host_0", 0.0)
+    run.on_sent(1, Sent((0, 2), 1, (), (), beyond=(2,)), 0.0)
+    run.on_sent(1, Sent((1,), 0, (), ()), 0.0)
+    run.on_ack(1, "host_0", 0.0)
+    every_offer(run, 2)
+    start, first = run.on_ack(2, "host_0", 0.0)
+    assert (start.command, start.phase, start.round, first.round) == (START, SWEET_VISIBLE, 3, 3)
+    assert (start.reach_pass, start.exhausted_ids) == (1, (0,))
+    run.on_sent(3, Sent(FLSS, 1, (), (), searching=(2,)), 0.0)
+    run.on_ack(3, "host_0", 0.0)
+    every_offer(run, 4)
+    start, _ = run.on_ack(4, "host_0", 0.0)
+    assert (start.command, start.phase, start.reach_pass, start.exhausted_ids) == (
+        START,
+        SWEET_ALL,
+        0,
+        (),
+    )
+
+
+def test_a_phase_restarted_in_a_later_pass_starts_again_from_its_first():
+    run = clock()
+    run.start(0.0)
+    run.on_sent(0, Sent(FLSS, 0, (), (), beyond=(0,)), 0.0)
+    (start, _) = run.on_ack(0, "host_0", 0.0)
+    assert start.reach_pass == 1
+    every_offer(run, 1, labels=1)
+    start, _ = run.on_ack(1, "host_0", 0.0, lost=1)  # a delivery lost for good
+    assert (start.phase, start.reach_pass, start.exhausted_ids) == (SWEET_VISIBLE, 0, ())
+
+
 def test_an_fls_silent_past_the_deadline_departs_and_the_phase_restarts_without_it():
     run = clock()
     run.start(0.0)

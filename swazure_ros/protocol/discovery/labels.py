@@ -235,13 +235,16 @@ def labels_due(
     sent: NDArray[np.bool_],
     closed: NDArray[np.bool_],
     width: float,
-    round_: int,
+    round_: float,
+    reach: float = np.inf,
 ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """Which labels are unsent (``found``, not ``sent``, not ``closed``), and which of
     those are due in round ``round_``: their bucket, ``primary`` cost over ``width``
-    rounded down, is reached. Masks of the labels' shape."""
+    rounded down, is reached and below ``reach`` (a pass's rounds). Masks of the
+    labels' shape."""
     unsent = found & ~sent & ~closed
-    return unsent, unsent & (np.floor(primary / width) <= round_)
+    bucket = np.floor(primary / width)
+    return unsent, unsent & (bucket <= round_) & (bucket < reach)
 
 
 #: Each column of a table: the value of an empty place, and its shape past (F, R).
@@ -474,7 +477,7 @@ class LabelTable:
         return widened
 
     def due(
-        self, row: int | None, order: int, width: float, round_: int
+        self, row: int | None, order: int, width: float, round_: float, reach: float = np.inf
     ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
         """:func:`labels_due` of row ``row``'s places (R,), or of every row's (F, R) when None."""
         at = slice(None) if row is None else row
@@ -486,7 +489,7 @@ class LabelTable:
         else:
             closed = self.closed[np.where(found, self.keys[at], 0)] & found
         primary = (self.hops, self.length, self.error)[order][at]
-        return labels_due(primary, found, self.sent[at], closed, width, round_)
+        return labels_due(primary, found, self.sent[at], closed, width, round_, reach)
 
     @classmethod
     def merged(cls, parts: Sequence[tuple[LabelTable, int]]) -> LabelTable:

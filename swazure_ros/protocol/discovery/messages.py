@@ -98,6 +98,9 @@ class Offer:
     reading_vectors: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))  # (K, 3), cm
     # A round of the FIT phase: what the sender says to its neighbours and the coordinator.
     fit: FitOffer | None = None
+    # Sources whose labels the sender holds beyond the pass's reach, unsent (not on the
+    # wire: its process tells the coordinator, whose next pass reaches twice as far).
+    beyond_ids: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def __len__(self) -> int:
         return len(self.source_ids)
@@ -270,6 +273,11 @@ class Control:
     departed_ids: tuple[int, ...] = ()  # FLSs declared gone: nobody relays through them
     estimator: str = PATH  # START: one of core.fit.SWARM_ESTIMATORS
     fit: FitStep = field(default_factory=lambda: FitStep())  # the FIT phase's ROUND
+    # START: the phase's pass; pass k's searches reach 2**k times as far (search.reach_rounds).
+    reach_pass: int = 0
+    # START of a pass after the first: the sources whose search in the pass before ran out
+    # of FLSs to label (it searched, nothing beyond its reach, not closed once finished).
+    exhausted_ids: tuple[int, ...] = ()
 
 
 @dataclass(frozen=True)

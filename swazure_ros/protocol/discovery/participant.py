@@ -9,6 +9,7 @@ each, and ends in the source's estimates, fitted when the run fits.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from typing import Any
@@ -50,6 +51,7 @@ from .search import (
     bucket_width,
     phase_targets,
     radio_window,
+    reach_rounds,
     reads_both_ends,
 )
 from .together import hear_together, pick_together
@@ -151,9 +153,25 @@ class FlsRun:
             estimator=estimator,
         )
 
-    def start(self, phase: int, departed: frozenset[int]) -> PathSearch:
-        """Begin (or restart) ``phase``; its earlier results are dropped."""
+    def start(
+        self,
+        phase: int,
+        departed: frozenset[int],
+        reach: float = math.inf,
+        reach_pass: int = 0,
+        exhausted: frozenset[int] = frozenset(),
+    ) -> PathSearch:
+        """Begin (or restart) pass ``reach_pass`` of ``phase``, relaying ``reach`` rounds.
+
+        A first pass drops the phase's earlier results and labels. A later
+        pass resumes the searches where the last paused (``exhausted``: the
+        sources whose search it ran to the end; :meth:`.search.PathSearch.resume`).
+        """
         self.departed = departed
+        last = self.search
+        if reach_pass > 0 and last is not None and last.results is self.results[phase]:
+            last.resume(reach, exhausted)
+            return last
         targets = None
         if self.targets is not None:
             wanted = phase_targets(phase, self.targets, self.results[SWEET_VISIBLE])
@@ -167,6 +185,7 @@ class FlsRun:
             self.fit,
             self.both_ends,
             self.sources,
+            reach,
         )
         self.search = PathSearch(self.view, phase, options, targets, departed)
         self.results[phase] = self.search.results
@@ -269,7 +288,9 @@ class Participant:
             if control.phase == FIT:
                 run.start_fit(self.sensor, self.radius, departed, self.fit_positions)
             else:
-                run.start(control.phase, departed)
+                reach = reach_rounds(self.sensor, self.radius, control.policy, control.reach_pass)
+                exhausted = frozenset(control.exhausted_ids)
+                run.start(control.phase, departed, reach, control.reach_pass, exhausted)
             self._first_round[run_id] = control.round
             return None
         if control.command == ROUND:

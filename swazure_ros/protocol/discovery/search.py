@@ -17,6 +17,7 @@ the label whose sender has the smallest FLS id: the predecessor rule of
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -42,9 +43,17 @@ MAX_ROUNDS_PER_HOP = 1000
 _BUCKET_MARGIN = 1e-9
 
 
+#: A pass's first reach: the rounds that this many of the phase's costliest hops take.
+#: A source's targets are its blind neighbours, a few sweet hops away: most searches end
+#: within it, and the few cut short search again twice as far (docs/protocol.md).
+REACH_HOPS = 3
+
 #: How many rounds' offers a PathSearch keeps before it drops those no label needs.
 _HEARD_KEPT = 8
 
+
+#: No place of a table: an offer with nothing beyond its reach.
+_NOWHERE = np.zeros(0, dtype=np.int64)
 
 _COST_ORDER = {FEWEST_HOPS: HOPS_FIRST, SHORTEST_LENGTH: LENGTH_FIRST, LEAST_ERROR: ERROR_FIRST}
 
@@ -87,6 +96,29 @@ def bucket_width(sensor: Sensor, radius: float, policy: str) -> float:
         return smallest
     # A Sensor's sweet_min is above 0 (core.sensor.Sensor refuses any other).
     return sensor.sweet_min * (1.0 - _BUCKET_MARGIN)
+
+
+def reach_rounds(sensor: Sensor, radius: float, policy: str, reach_pass: int) -> float:
+    """The rounds of a phase in which its pass ``reach_pass`` relays labels: its reach.
+
+    Pass 0 reaches as far as :data:`REACH_HOPS` of the costliest sweet hops,
+    in every phase (an SD_vis path too is mostly sweet hops); each later pass
+    twice as far as the one before. A label of a later bucket is kept but
+    not sent, and its source counted as cut short: its search may go on in
+    the next pass. Infinite (no bound) where a hop's cost has none.
+    """
+    width = bucket_width(sensor, radius, policy)
+    longest = sensor.sweet_max
+    if policy == FEWEST_HOPS:
+        costliest = 1.0
+    elif policy == LEAST_ERROR:
+        shortest = sensor.sweet_min
+        costliest = float(hop_error(sensor, np.linspace(shortest, longest, 1001), radius).max())
+    else:
+        costliest = longest
+    if not np.isfinite(costliest):
+        return math.inf
+    return float(math.ceil(REACH_HOPS * costliest / width) * 2**reach_pass)
 
 
 def hop_mask(view: LocalView, phase: int) -> NDArray[np.bool_]:
@@ -148,6 +180,7 @@ class SearchOptions:
     fit: tuple[Sensor, float] | None = None  # the sensor and the FLSs' radius, cm
     both_ends: bool = False
     sources: tuple[int, int] | None = None  # (first, end) ids of the run's sources
+    reach: float = math.inf  # the pass's rounds (reach_rounds): later labels are not sent
 
 
 class PathSearch:
@@ -182,6 +215,8 @@ class PathSearch:
         self.span = (first, max(end, first))
         self.order = _COST_ORDER[check_policy(options.policy)]
         self.width = options.width
+        # Buckets this pass relays: from where the pass before paused, below its reach.
+        self.resumed, self.reach = 0.0, options.reach
         self._relay_from(view, phase, departed, options)
         self.fit = options.fit
         self.fits = options.fit is not None
@@ -200,11 +235,13 @@ class PathSearch:
         self._heard: dict[int, RoundOffers] = {}
         self._heard_count = 0
         self._last_heard: RoundOffers | None = None  # the offers this search heard last
-        # (round, due records, unsent labels) picked with the other FLSs of its process.
-        self._picked: tuple[int, IntArray, int] | None = None
+        # (round, due records, unsent labels, records beyond the reach) picked with the
+        # other FLSs of its process.
+        self._picked: tuple[int, IntArray, int, IntArray] | None = None
         self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
         self._wanted = np.array(sorted(self.targets), dtype=np.int64)
         self._found = np.zeros(len(self._wanted), dtype=bool)  # by target, as _wanted
+        self._out_of_reach = np.zeros(len(self._wanted), dtype=bool)  # shown by a pass (resume)
         self.results = Results()
         if targets is not None:
             self._label_self(options.sources)
@@ -259,7 +296,26 @@ class PathSearch:
     @property
     def finished(self) -> bool:
         """True when this FLS, as a source, has a result for every target."""
-        return bool(self.targets) and len(self.results) == len(self.targets)
+        return bool(self.targets) and bool((self._found | self._out_of_reach).all())
+
+    def resume(self, reach: float, exhausted: frozenset[int]) -> None:
+        """Go on in the phase's next pass, from the bucket where this pass paused up to
+        ``reach``; its labels stay. ``exhausted`` are the sources whose search labelled
+        every FLS it could reach in the pass that ended.
+
+        As a source, it searches no more for a target shown out of reach (it
+        then counts as :attr:`finished`, and its search is closed): every
+        target, when its own search is one of those; a target whose search is,
+        without its label having reached this FLS, as hops join FLSs both ways.
+        """
+        self.resumed, self.reach = self.reach, reach
+        missing = ~(self._found | self._out_of_reach)
+        if self.fls_id in exhausted:
+            self._out_of_reach |= missing
+        elif missing.any():
+            wanted = self._wanted
+            unreached = np.isin(wanted, list(exhausted)) & ~np.isin(wanted, self.sources)
+            self._out_of_reach |= missing & unreached
 
     def close(self, sources: IntArray) -> None:
         """Stop relaying the labels of ``sources`` (their searches ended)."""
@@ -274,14 +330,18 @@ class PathSearch:
         self._picked = None
         table, row = self.table, self.row
         if picked is not None and picked[0] == round_:
-            _, due, labelled = picked
+            _, due, labelled, beyond = picked
         else:
-            unsent, due_now = table.due(row, self.order, self.width, round_)
+            bucket = self.resumed + round_
+            unsent, due_now = table.due(row, self.order, self.width, bucket, self.reach)
             due = np.flatnonzero(due_now)
+            # Once every label below the reach is sent, those left are beyond it: held,
+            # for the next pass, not pending in this one.
+            beyond = np.flatnonzero(unsent) if bucket >= self.reach else _NOWHERE
             if not table.direct:  # by source, as sent
                 due = due[np.argsort(table.keys[row, due], kind="stable")]
             table.sent[row, due] = True
-            labelled = int(unsent.sum())
+            labelled = int(unsent.sum()) - len(beyond)
         path_offsets, path_ids = self._paths_of(due)
         reading_ids, reading_vectors = self._first_readings()
         return Offer(
@@ -298,6 +358,7 @@ class PathSearch:
             covariances=table.covariance[row, due] if self.fits else None,
             reading_ids=reading_ids,
             reading_vectors=reading_vectors,
+            beyond_ids=np.sort(table.sources_of(row, beyond)),
         )
 
     def _first_readings(self) -> tuple[IntArray, FloatArray]:

@@ -25,7 +25,10 @@ from .search import PathSearch, heard_labels
 def _shared_table(searches: Sequence[PathSearch]) -> LabelTable | None:
     """The one table whose rows 0, 1, ... are ``searches``, made if need be (their
     records move to it); None when their runs differ."""
-    runs = {(one.span, one.order, one.width, one.table.id_space, one.fits) for one in searches}
+    runs = {
+        (one.span, one.order, one.width, one.resumed, one.reach, one.table.id_space, one.fits)
+        for one in searches
+    }
     if len(runs) != 1:
         return None
     table = searches[0].table
@@ -50,16 +53,26 @@ def pick_together(searches: Sequence[PathSearch], round_: int, closed: IntArray)
         return
     first = searches[0]
     table.close(closed)
-    unsent, due = table.due(None, first.order, first.width, round_)
+    bucket = first.resumed + round_
+    unsent, due = table.due(None, first.order, first.width, bucket, first.reach)
     rows, places = np.nonzero(due)  # row by row
     if not table.direct:  # each row's labels by source: the order an FLS offers them in
         order = np.lexsort((table.keys[rows, places], rows))
         rows, places = rows[order], places[order]
     table.sent[rows, places] = True
     starts = csr.offsets(np.bincount(rows, minlength=table.size))
-    counts = unsent.sum(axis=1).tolist()
+    # Beyond the reach once every label below it is sent (PathSearch.offer).
+    beyond = unsent if bucket >= first.reach else np.zeros_like(due)
+    beyond_rows, beyond_places = np.nonzero(beyond)
+    beyond_starts = csr.offsets(np.bincount(beyond_rows, minlength=table.size))
+    counts = (unsent.sum(axis=1) - beyond.sum(axis=1)).tolist()
     for row, one in enumerate(searches):
-        one._picked = (round_, places[starts[row] : starts[row + 1]], counts[row])
+        one._picked = (
+            round_,
+            places[starts[row] : starts[row + 1]],
+            counts[row],
+            beyond_places[beyond_starts[row] : beyond_starts[row + 1]],
+        )
 
 
 def hear_together(searches: Sequence[PathSearch], heard: RoundOffers) -> None:

@@ -339,6 +339,8 @@ def control_message(control: Control, stamp: Time) -> DiscoveryControl:
         fit_layer=control.fit.layer,
         fit_mode=control.fit.mode,
         fit_ended=control.fit.ended,
+        reach_pass=control.reach_pass,
+        exhausted_ids=list(control.exhausted_ids),
     )
     message.fit_sums = packed(np.asarray(control.fit.sums, dtype=np.float64), np.float64)
     message.header.stamp = stamp
@@ -357,7 +359,7 @@ def control_from_message(message: DiscoveryControl, swarm: IntArray) -> Control:
     check(message.estimator in ESTIMATOR_NAMES, f"unknown estimator {message.estimator}")
     check(message.expected <= len(swarm), f"expects {message.expected} FLSs, more than the swarm")
     lists = {}
-    for name in ("source_ids", "target_ids", "finished_ids", "departed_ids"):
+    for name in ("source_ids", "target_ids", "finished_ids", "departed_ids", "exhausted_ids"):
         values = getattr(message, name)
         check_size(values, len(swarm), name)
         lists[name] = tuple(check_ids(values, swarm, name).tolist())
@@ -378,6 +380,8 @@ def control_from_message(message: DiscoveryControl, swarm: IntArray) -> Control:
         departed_ids=lists["departed_ids"],
         estimator=ESTIMATOR_NAMES[message.estimator],
         fit=_fit_step(message),
+        reach_pass=int(message.reach_pass),
+        exhausted_ids=lists["exhausted_ids"],
     )
 
 
@@ -454,6 +458,8 @@ def sent_message(control: Control, sent: Sent, host: str, stamp: Time) -> RoundA
         fit_moved=sent.fit_moved,
         fit_huber_same=sent.fit_same[0],
         fit_rejecting_same=sent.fit_same[1],
+        beyond_ids=list(sent.beyond),
+        searching_ids=list(sent.searching),
     )
     message.fit_sums = packed(np.asarray(sent.fit_sums, dtype=np.float64), np.float64)
     message.host = host
@@ -464,14 +470,16 @@ def sent_message(control: Control, sent: Sent, host: str, stamp: Time) -> RoundA
 def sent_from_message(message: RoundAck, swarm: IntArray) -> Sent:
     """What a RoundAck says FLSs of ``swarm`` (sorted ids) sent; MessageError if it cannot be."""
     lists = {}
-    for name in ("sender_ids", "pending_ids", "finished_ids"):
+    for name in ("sender_ids", "pending_ids", "finished_ids", "beyond_ids", "searching_ids"):
         values = getattr(message, name)
         check_size(values, len(swarm), name)
         lists[name] = tuple(check_ids(values, swarm, name).tolist())
     senders = set(lists["sender_ids"])
     check(
-        set(lists["pending_ids"]) <= senders and set(lists["finished_ids"]) <= senders,
-        "pending or finished FLSs that did not send",
+        set(lists["pending_ids"]) <= senders
+        and set(lists["finished_ids"]) <= senders
+        and set(lists["searching_ids"]) <= senders,
+        "pending, finished or searching FLSs that did not send",
     )
     check_size(message.fit_sums, FIT_VALUES, "fit_sums")
     moved = float(check_finite([message.fit_moved], "fit_moved")[0])
@@ -485,6 +493,8 @@ def sent_from_message(message: RoundAck, swarm: IntArray) -> Sent:
         tuple(check_finite(message.fit_sums, "fit_sums").tolist()),
         moved,
         (bool(message.fit_huber_same), bool(message.fit_rejecting_same)),
+        lists["beyond_ids"],
+        lists["searching_ids"],
     )
 
 
