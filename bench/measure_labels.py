@@ -37,6 +37,7 @@ def arguments() -> argparse.Namespace:
     parser.add_argument("--cloud", required=True)
     parser.add_argument("--scale", type=float, default=None)
     parser.add_argument("--beta", type=float, default=0.5)
+    parser.add_argument("--radius", type=float, default=None, help="cm, instead of --beta")
     parser.add_argument("--resample", type=int, default=None, help="points, as --resample")
     parser.add_argument("--out", type=Path, required=True)
     args = parser.parse_args()
@@ -61,7 +62,10 @@ def main() -> int:
     small = WorldSpec("torus:120", scale=1.6, beta=args.beta).build()  # kernels loaded
     discover(observations(small.hood), small.ids, small.sensor, small.swarm.radius, POLICY)
     held.update(widest=0, most_in_a_row=0, at_once=0)
-    world = WorldSpec(args.cloud, scale=args.scale, beta=args.beta, resample=args.resample).build()
+    beta = None if args.radius is not None else args.beta
+    world = WorldSpec(
+        args.cloud, scale=args.scale, beta=beta, radius=args.radius, resample=args.resample
+    ).build()
     began = time.perf_counter()
     engine = evaluate_pairs(world.hood, POLICY)
     engine_s = time.perf_counter() - began
@@ -86,6 +90,7 @@ def main() -> int:
         "cloud": args.cloud,
         "scale": args.scale,
         "resample": args.resample,
+        "radius": args.radius,
         "flss": len(ids),
         "pairs": len(engine),
         "engine_s": engine_s,

@@ -46,7 +46,7 @@ _BUCKET_MARGIN = 1e-9
 #: A pass's first reach: the rounds that this many of the phase's costliest hops take.
 #: A source's targets are its blind neighbours, a few sweet hops away: most searches end
 #: within it, and the few cut short search again twice as far (docs/protocol.md).
-REACH_HOPS = 3
+REACH_HOPS = 8
 
 #: How many rounds' offers a PathSearch keeps before it drops those no label needs.
 _HEARD_KEPT = 8
