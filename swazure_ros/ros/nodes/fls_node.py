@@ -78,7 +78,7 @@ from ..plumbing.parameters import ParameterError
 from ..security.auth import SwarmKey
 from . import fls_parameters
 from .fls_camera import CameraView, DetectedSensing, Eyes
-from .fls_parameters import CAMERA_VIEW, PUBLISH_PERIOD, REPUBLISH_PERIOD
+from .fls_parameters import PUBLISH_PERIOD, REPUBLISH_PERIOD
 from .fls_tracking import FlsTracking
 
 
@@ -171,14 +171,17 @@ class FlsNode(SwarmNode):
         self.fls_id = fls_id
         self._senses = senses
         link = link or RadioLink()
-        self.publish_period = self.declare(PUBLISH_PERIOD, self._set_publish_period)
-        self.republish_period = self.declare(
-            REPUBLISH_PERIOD, partial(setattr, self, "republish_period")
+        self.publish_period, self.republish_period, camera_view = self.declare_all(
+            PARAMETERS,
+            {
+                PUBLISH_PERIOD.name: self._set_publish_period,
+                REPUBLISH_PERIOD.name: partial(setattr, self, "republish_period"),
+            },
         )
         # Its track service, the streams it relays and the targets it tracks.
         self.tracking = FlsTracking(self, fls_id, relay_senses, self.publish, self.elsewhere)
         #: What its camera shows a person (camera_view), if anything.
-        self.view = self._camera_view(camera)
+        self.view = self._camera_view(camera, camera_view)
         # (world revision, what the FLS senses in it)
         self._sensed: tuple[int, Measurement, NeighbourSets] | None = None
         self._published: Measurement | None = None  # the last measurement sent
@@ -222,9 +225,8 @@ class FlsNode(SwarmNode):
         if self.view is not None:
             self.view.set_period(seconds)
 
-    def _camera_view(self, camera: Eyes | DetectedSenses | None) -> CameraView | None:
-        """The camera_view part: declared here, made if the parameter names a neighbour."""
-        value: int = self.declare(CAMERA_VIEW)
+    def _camera_view(self, camera: Eyes | DetectedSenses | None, value: int) -> CameraView | None:
+        """The camera_view part, made if the parameter (``value``) names a neighbour."""
         if value < 0:
             return None
         if value == self.fls_id:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Callable
+from typing import Any
 
 from rclpy.clock import Clock, JumpHandle, JumpThreshold
 from rclpy.clock_type import ClockType
@@ -53,7 +54,7 @@ from ..plumbing.node import SwarmNode
 from ..plumbing.parameters import ParameterError
 from ..security.guard import check
 from . import fls_parameters
-from .fls_parameters import REPORT_PROGRESS, TRACK_PEERS, TRACK_SERVICE_FLAG, TRACK_SETTINGS_SPECS
+from .fls_parameters import TRACK_SETTINGS_SPECS
 
 #: Wall s between looks at whether the track publishers have matched their readers.
 MATCH_POLL = 0.1
@@ -99,11 +100,10 @@ class FlsTracking:
         self._send = publish
         self._elsewhere = elsewhere
         self._relay_senses = relay_senses or _no_relay_senses
-        self.config = self._declare_config()
         # Off unless asked: a swarm's services are what its bring-up time grows
         # with, as the square of their number in a process (docs/swarm.md).
-        self.service = node.declare(TRACK_SERVICE_FLAG)
-        self.report_progress = node.declare(REPORT_PROGRESS)
+        self.service, self.report_progress, self.peers, *settings = node.declare_all(PARAMETERS)
+        self.config = self._config_of(settings)
         self.relay = RelayStreams(fls_id, self._sense_for_relay, self.config)
         self.tracker = TrackSource(
             fls_id,
@@ -119,7 +119,6 @@ class FlsTracking:
         # every endpoint costs discovery time. Under a driver of the clock in another
         # process, at once: a message sent before its readers have matched is lost.
         self._publishers: dict[str, Publisher] = {}
-        self.peers = node.declare(TRACK_PEERS)
         self._matching: Timer | None = None
         if self.report_progress:
             for topic, kind in TRACK_TOPICS.items():
@@ -142,10 +141,11 @@ class FlsTracking:
         # Sent and heard, so that whoever drives a simulated clock knows when all is delivered.
         self.traffic: Counter[str] = Counter()
 
-    def _declare_config(self) -> TrackConfig:
+    def _config_of(self, settings: list[Any]) -> TrackConfig:
+        """The track settings declared (TRACK_SETTINGS_SPECS' values, in order) as a config."""
         values = {
-            spec.name.removeprefix("track."): self.node.declare(spec)
-            for spec in TRACK_SETTINGS_SPECS
+            spec.name.removeprefix("track."): value
+            for spec, value in zip(TRACK_SETTINGS_SPECS, settings, strict=True)
         }
         try:
             return TrackConfig(**values)

@@ -11,7 +11,7 @@ by the spec's rule, at the start and when set while it runs.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 from rcl_interfaces.msg import (
@@ -149,24 +149,67 @@ class SwarmNode(Node):
         checked by the spec's rule, refused with its reason, or handed to
         ``apply``; without, the parameter is read-only once declared.
         """
-        descriptor = ParameterDescriptor(
-            description=spec.description, read_only=apply is None, type=_TYPES[type(spec.default)]
-        )
-        try:
-            value = self.declare_parameter(spec.name, spec.default, descriptor).value
-        except ParameterException as err:
-            raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
-        reason = spec.refuses(value)
-        if reason is not None:
-            raise ParameterError(
-                f"{self.get_fully_qualified_name()}: parameter {spec.name} {reason}"
-            )
-        if apply is not None:
-            if not self._live:
-                self.add_on_set_parameters_callback(self._check_set)
-                self.add_post_set_parameters_callback(self._apply_set)
-            self._live[spec.name] = (spec, apply)
+        (value,) = self.declare_all([spec], {spec.name: apply} if apply is not None else None)
         return value
+
+    def declare_all(
+        self,
+        specs: Sequence[ParameterSpec],
+        apply: Mapping[str, Callable[[Any], None]] | None = None,
+    ) -> list[Any]:
+        """Declare the parameters of ``specs`` at once and return their values, in order.
+
+        As :meth:`declare` each, ``apply`` giving what applies a parameter's
+        new value by its name, but with one ParameterEvent for them all:
+        rclpy's ``declare_parameters`` publishes one per parameter, and those
+        were most of what a packed process spent making its FLS nodes (18
+        parameters each). A value of the wrong type is refused as
+        ``declare_parameter`` refuses it. ParameterError if one is refused.
+        """
+        apply = apply or {}
+        descriptors = {
+            spec.name: ParameterDescriptor(
+                description=spec.description,
+                read_only=spec.name not in apply,
+                type=_TYPES[type(spec.default)],
+            )
+            for spec in specs
+        }
+        overrides = self._parameter_overrides
+        wanted = [
+            Parameter(spec.name, value=overrides[spec.name].value)
+            if spec.name in overrides
+            else Parameter(spec.name, value=spec.default)
+            for spec in specs
+        ]
+        declared = [spec.name for spec in specs if self.has_parameter(spec.name)]
+        result = None
+        if not declared:
+            # rclpy's own declare (Node._declare_parameter_common) in one call for all.
+            result = self._set_parameters_atomically_common(
+                wanted, descriptors, allow_not_set_type=True
+            )
+        if result is None or not result.successful:
+            # Declared one by one, for rclpy's own account of the one refused (rclpy
+            # takes the override itself, and the type from the default).
+            for spec in specs:
+                try:
+                    self.declare_parameter(spec.name, spec.default, descriptors[spec.name])
+                except ParameterException as err:
+                    raise ParameterError(f"{self.get_fully_qualified_name()}: {err}") from err
+        values = [self._parameters[spec.name].value for spec in specs]
+        for spec, value in zip(specs, values, strict=True):
+            reason = spec.refuses(value)
+            if reason is not None:
+                raise ParameterError(
+                    f"{self.get_fully_qualified_name()}: parameter {spec.name} {reason}"
+                )
+            if spec.name in apply:
+                if not self._live:
+                    self.add_on_set_parameters_callback(self._check_set)
+                    self.add_post_set_parameters_callback(self._apply_set)
+                self._live[spec.name] = (spec, apply[spec.name])
+        return values
 
     def _check_set(self, parameters: list[Parameter]) -> SetParametersResult:
         """Refuse a value set while the node runs that its spec's rule refuses, saying why."""

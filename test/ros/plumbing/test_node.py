@@ -6,14 +6,19 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+from rcl_interfaces.msg import ParameterEvent
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.parameter import Parameter
+from rclpy.qos import qos_profile_parameter_events
 from swazure_interfaces.srv import GetNeighbours
 
 from swazure_ros.ros.plumbing.node import SwarmNode
-from swazure_ros.ros.plumbing.parameters import ParameterSpec, seconds
+from swazure_ros.ros.plumbing.parameters import ParameterError, ParameterSpec, seconds
 
 from ...waits import PATIENCE
+from ..conftest import make_context
+from ..helpers import spin_until
 
 #: A process whose node has a timer that fails every time, beside one that serves.
 FAILING = """
@@ -111,3 +116,55 @@ def test_a_value_set_while_running_is_checked_by_the_declared_rule_and_applied(c
         assert not result.successful and "read-only" in result.reason
     finally:
         node.destroy_node()
+
+
+def test_parameters_declared_together_are_one_event_and_a_wrong_type_is_refused_in_one_line(
+    domain,
+):
+    # rclpy declares parameters an event each; a node's are declared at once, as its
+    # overrides give them, and a value of the wrong type is refused naming the parameter.
+    context = make_context(domain, ["--ros-args", "-p", "count:=3"])
+    wrong = make_context(domain, ["--ros-args", "-p", "period:=fast"])
+    probe = SwarmNode("probe", context=context)
+    events: list[ParameterEvent] = []
+    probe.create_subscription(
+        ParameterEvent, "/parameter_events", events.append, qos_profile_parameter_events
+    )
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(probe)
+    specs = [
+        ParameterSpec("count", 1, "how many"),
+        ParameterSpec("period", 0.5, "s", seconds()),
+        ParameterSpec("shape", "torus", "which"),
+    ]
+    nodes = []
+    try:
+        nodes.append(SwarmNode("together", context=context))
+        assert spin_until(executor, lambda: probe.count_publishers("/parameter_events") > 1)
+        assert nodes[0].declare_all(specs, {"period": print}) == [3, 0.5, "torus"]
+        declared = {spec.name for spec in specs}
+
+        def ours() -> list[ParameterEvent]:
+            """The events that declared any of ``specs`` (the node's making declares others)."""
+            return [
+                event
+                for event in events
+                if event.node == "/together" and {p.name for p in event.new_parameters} & declared
+            ]
+
+        assert spin_until(executor, ours)
+        executor.spin_once(timeout_sec=0.5)  # a second event, were there one, comes now
+        [event] = ours()
+        assert [one.name for one in event.new_parameters] == ["count", "period", "shape"]
+        [result] = nodes[0].set_parameters([Parameter("shape", value="cube")])
+        assert not result.successful and "read-only" in result.reason
+        nodes.append(SwarmNode("wrong", context=wrong))
+        with pytest.raises(ParameterError, match="'period' to 'fast'") as refused:
+            nodes[1].declare_all(specs)
+        assert "/wrong" in str(refused.value) and "\n" not in str(refused.value)
+    finally:
+        executor.shutdown()
+        for node in (*nodes, probe):
+            node.destroy_node()
+        context.try_shutdown()
+        wrong.try_shutdown()
