@@ -171,10 +171,11 @@ def labels_figure(records: list[dict[str, Any]], path: Path) -> None:
         time_axes.plot(flss, [1e3 * r["cpu_s"] / r["flss"] for r in runs], marker="o",
                        color=colour, label=name)  # fmt: skip
     labels_axes.set_ylabel("labels an FLS holds in a phase")
+    labels_axes.set_yscale("log")  # the torus's thousands beside the grid's tens
     time_axes.set_ylabel("discovery CPU ms per FLS")
+    time_axes.set_ylim(bottom=0)
     for axes in (labels_axes, time_axes):
         axes.set_xlabel("FLSs")
-        axes.set_ylim(bottom=0)
         axes.grid(alpha=0.3)
         axes.legend(fontsize=8)
     figure.suptitle("Labels by the search's reach: one in-memory discovery, every FLS a source")
