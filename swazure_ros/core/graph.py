@@ -11,9 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
-from . import csr, jit
+from . import jit
 from .arrays import FloatArray, IntArray
 
 
@@ -121,19 +121,7 @@ def make_graph(
         raise ValueError(f"`first` and `second` must be nodes of the graph, 0 to {size - 1}")
     if np.any(first == second):
         raise ValueError("a graph edge cannot join a node to itself")
-    keys = np.minimum(first, second) * size + np.maximum(first, second)
-    if np.all(first < second) and np.all(keys[1:] > keys[:-1]):
-        # Edges listed as neighbour pairs are: (first, second) sorted, first < second.
-        # Contiguous, so that one compiled signature serves every caller.
-        indptr, indices, edge = _symmetric_rows(
-            size, np.ascontiguousarray(first), np.ascontiguousarray(second)
-        )
-    else:
-        tail = np.concatenate([first, second])
-        head = np.concatenate([second, first])
-        order = np.lexsort((head, tail))
-        indptr = csr.offsets(np.bincount(tail, minlength=size))
-        indices, edge = head[order], order % max(len(first), 1)
+    indptr, indices, edge = symmetric_rows(size, first, second)
     edge_costs = None
     if costs is not None:
         costs = np.asarray(costs, dtype=np.float64)
@@ -168,31 +156,90 @@ def _component_labels(indptr: IntArray, indices: IntArray) -> IntArray:
     return labels
 
 
+def symmetric_rows(
+    size: int, first: ArrayLike, second: ArrayLike, rows: NDArray[np.bool_] | None = None
+) -> tuple[IntArray, IntArray, IntArray]:
+    """Compressed sparse rows of undirected pairs, each pair entered from both of its ends.
+
+    In linear time when the pairs come as neighbour pairs do (first < second,
+    sorted by first then second); sorted first otherwise.
+
+    Parameters
+    ----------
+    size : int
+        N, the number of nodes.
+    first, second : (E,) array_like of int
+        The two ends of each pair, each pair once, no node paired with itself.
+    rows : (N,) array of bool, optional
+        Lay out only these nodes' rows; the others are empty. Default: every row.
+
+    Returns
+    -------
+    indptr : (N + 1,) ndarray of int
+        Row v's entries are ``indptr[v]:indptr[v + 1]``.
+    indices : (R,) ndarray of int
+        Each entry's other end; each row sorted.
+    edge : (R,) ndarray of int
+        The pair (index into ``first``) of each entry.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.graph import symmetric_rows
+    >>> indptr, indices, edge = symmetric_rows(3, [0, 1], [1, 2])
+    >>> indptr.tolist(), indices.tolist(), edge.tolist()
+    ([0, 1, 3, 4], [1, 0, 2, 1], [0, 0, 1, 1])
+    """
+    first = np.asarray(first, dtype=np.int64)
+    second = np.asarray(second, dtype=np.int64)
+    order = None
+    ordered = bool(np.all(first < second))
+    if ordered:
+        keys = first * size + second
+        ordered = bool(np.all(keys[1:] > keys[:-1]))
+        del keys
+    if not ordered:  # not as neighbour pairs come: sorted first, low end first
+        low, high = np.minimum(first, second), np.maximum(first, second)
+        order = np.argsort(low * size + high, kind="stable")
+        first, second = low[order], high[order]
+        del low, high
+    laid = np.ones(size, dtype=bool) if rows is None else np.asarray(rows, dtype=bool)
+    # Contiguous, so that one compiled signature serves every caller.
+    indptr, indices, edge = _symmetric_rows(
+        size, np.ascontiguousarray(first), np.ascontiguousarray(second), laid
+    )
+    return indptr, indices, (edge if order is None else order[edge])
+
+
 @jit.kernel(cache=True, nogil=True)
 def _symmetric_rows(
-    size: int, first: IntArray, second: IntArray
+    size: int, first: IntArray, second: IntArray, rows: NDArray[np.bool_]
 ) -> tuple[IntArray, IntArray, IntArray]:
     """CSR rows (sorted) of the undirected edges first[e] < second[e], given sorted by
-    (first, second): indptr, indices, and the edge e of each entry."""
+    (first, second), of the nodes ``rows`` marks: indptr, indices, and the edge e of each
+    entry."""
     indptr = np.zeros(size + 1, dtype=np.int64)
     for e in range(len(first)):
-        indptr[first[e] + 1] += 1
-        indptr[second[e] + 1] += 1
+        if rows[first[e]]:
+            indptr[first[e] + 1] += 1
+        if rows[second[e]]:
+            indptr[second[e] + 1] += 1
     for node in range(size):
         indptr[node + 1] += indptr[node]
     cursor = indptr[:-1].copy()
-    indices = np.empty(2 * len(first), dtype=np.int64)
-    edge = np.empty(2 * len(first), dtype=np.int64)
+    indices = np.empty(indptr[size], dtype=np.int64)
+    edge = np.empty(indptr[size], dtype=np.int64)
     # Row v holds its smaller neighbours (edges where v is second, in order of first),
     # then its larger ones (where v is first, already in order of second).
     for e in range(len(first)):
-        slot = cursor[second[e]]
-        indices[slot], edge[slot] = first[e], e
-        cursor[second[e]] += 1
+        if rows[second[e]]:
+            slot = cursor[second[e]]
+            indices[slot], edge[slot] = first[e], e
+            cursor[second[e]] += 1
     for e in range(len(first)):
-        slot = cursor[first[e]]
-        indices[slot], edge[slot] = second[e], e
-        cursor[first[e]] += 1
+        if rows[first[e]]:
+            slot = cursor[first[e]]
+            indices[slot], edge[slot] = second[e], e
+            cursor[first[e]] += 1
     return indptr, indices, edge
 
 
