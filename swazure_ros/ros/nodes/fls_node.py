@@ -76,7 +76,7 @@ from ..plumbing.names import (
 from ..plumbing.node import SwarmNode
 from ..plumbing.parameters import ParameterError
 from ..security.auth import SwarmKey
-from . import fls_parameters
+from . import fls_parameters, fls_tracking
 from .fls_camera import CameraView, DetectedSensing, Eyes
 from .fls_parameters import PUBLISH_PERIOD, REPUBLISH_PERIOD
 from .fls_tracking import FlsTracking
@@ -171,15 +171,18 @@ class FlsNode(SwarmNode):
         self.fls_id = fls_id
         self._senses = senses
         link = link or RadioLink()
-        self.publish_period, self.republish_period, camera_view = self.declare_all(
-            PARAMETERS,
+        # Its parameters and its tracking's at once: one ParameterEvent (declare_all).
+        self.publish_period, self.republish_period, camera_view, *tracking = self.declare_all(
+            (*PARAMETERS, *fls_tracking.PARAMETERS),
             {
                 PUBLISH_PERIOD.name: self._set_publish_period,
                 REPUBLISH_PERIOD.name: partial(setattr, self, "republish_period"),
             },
         )
         # Its track service, the streams it relays and the targets it tracks.
-        self.tracking = FlsTracking(self, fls_id, relay_senses, self.publish, self.elsewhere)
+        self.tracking = FlsTracking(
+            self, fls_id, relay_senses, self.publish, self.elsewhere, tracking
+        )
         #: What its camera shows a person (camera_view), if anything.
         self.view = self._camera_view(camera, camera_view)
         # (world revision, what the FLS senses in it)

@@ -10,7 +10,7 @@ time, and publishes what they return.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from rclpy.clock import Clock, JumpHandle, JumpThreshold
@@ -85,6 +85,8 @@ class FlsTracking:
     relayed samples, where the FLS's senses can (the simulator). ``publish``
     sends a message as the node sends all of its own (signed and counted);
     ``elsewhere(fls_id, service, does)`` tells a caller where another FLS answers.
+    ``declared`` are the values of :data:`PARAMETERS`, in order, which the node
+    declares with its own (one ParameterEvent for all).
     """
 
     def __init__(
@@ -94,6 +96,7 @@ class FlsTracking:
         relay_senses: Callable[[], RelaySenses] | None,
         publish: Callable[[Publisher, object], None],
         elsewhere: Callable[[int, str, str], str],
+        declared: Sequence[Any],
     ) -> None:
         self.node = node
         self.fls_id = fls_id
@@ -102,7 +105,7 @@ class FlsTracking:
         self._relay_senses = relay_senses or _no_relay_senses
         # Off unless asked: a swarm's services are what its bring-up time grows
         # with, as the square of their number in a process (docs/swarm.md).
-        self.service, self.report_progress, self.peers, *settings = node.declare_all(PARAMETERS)
+        self.service, self.report_progress, self.peers, *settings = declared
         self.config = self._config_of(settings)
         self.relay = RelayStreams(fls_id, self._sense_for_relay, self.config)
         self.tracker = TrackSource(
