@@ -16,6 +16,7 @@ from swazure_ros.core.evaluation import (
     SWEET_PATH,
 )
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, refine
+from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.hop_errors import hop_error, measured_vectors
 from swazure_ros.core.neighbourhood import neighbourhood, without
 from swazure_ros.core.observe import local_view, observations
@@ -286,7 +287,7 @@ def test_a_search_relays_nothing_beyond_its_pass_s_reach_and_names_its_source_cu
             assert length < reach * width + longest_hop
     # The next pass: the search goes on where it paused, as one never paused would.
     for one in searches:
-        one.resume(2 * reach, frozenset())
+        one.resume(2 * reach, np.zeros(0, dtype=np.int64))
     unpaused = [
         PathSearch(
             view,
@@ -306,6 +307,40 @@ def test_a_search_relays_nothing_beyond_its_pass_s_reach_and_names_its_source_cu
     assert len(searches[source].results) > 0
     for name, values in unpaused[source].results.table.items():
         np.testing.assert_array_equal(searches[source].results.table[name], values)
+
+
+def test_a_source_shows_a_target_out_of_reach_once_either_search_has_run_to_its_end(sensor):
+    # A 5 x 5 grid 7 cm apart (sweet to its four neighbours at radius 0.5 cm) and a pendant
+    # 6 cm above its middle FLS: blind to it, decaying to every other FLS, no sweet hop.
+    # Their searches for each other in a pass of two rounds: the pendant's ends at once,
+    # never reaching the middle FLS; the middle FLS's is cut short by the reach.
+    grid = [[7.0 * x, 7.0 * y, 0.0] for x in range(5) for y in range(5)]
+    swarm = make_swarm([*grid, [14.0, 14.0, 6.0]], radius=0.5)
+    seen, ids = observations(neighbourhood(swarm, sensor)), np.arange(26)
+    middle, pendant = 12, 25
+    options = SearchOptions("shortest-length", bucket_width(sensor, 0.5, "shortest-length"), 26,
+                            reach=2)  # fmt: skip
+    views = [local_view(seen, ids, row) for row in range(26)]
+    assert views[pendant].blind.tolist() == [middle] and views[middle].blind.tolist() == [pendant]
+
+    def pass_zero() -> tuple[list[PathSearch], set[int]]:
+        searches = [PathSearch(view, SWEET_ALL, options, view.blind) for view in views]
+        cut_short = set()
+        for round_ in range(3):
+            offers = [one.offer(round_) for one in searches]
+            cut_short.update(int(source) for offer in offers for source in offer.beyond_ids)
+            hear_together(searches, RoundOffers.of(list(zip(ids.tolist(), offers, strict=True))))
+        return searches, cut_short
+
+    searches, cut_short = pass_zero()
+    assert middle in cut_short and pendant not in cut_short
+    assert not searches[middle].finished
+    searches[middle].resume(4, np.array(sorted(set(range(26)) - cut_short)))
+    assert searches[middle].finished  # the pendant's search ran to its end without it
+    # Told of no search that ran to its end, the middle FLS searches on for the pendant.
+    searches, _ = pass_zero()
+    searches[middle].resume(4, np.zeros(0, dtype=np.int64))
+    assert not searches[middle].finished
 
 
 @pytest.mark.parametrize("reach", [np.inf, 3], ids=["unbounded", "three rounds"])

@@ -11,6 +11,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -278,6 +279,12 @@ class Control:
     # START of a pass after the first: the sources whose search in the pass before ran out
     # of FLSs to label (it searched, nothing beyond its reach, not closed once finished).
     exhausted_ids: tuple[int, ...] = ()
+
+    @cached_property
+    def exhausted(self) -> IntArray:
+        """``exhausted_ids``, sorted: made once for all the FLSs of a process that read it
+        (as many ids as sources, and a packed process steps thousands of FLSs)."""
+        return np.unique(np.asarray(self.exhausted_ids, dtype=np.int64))
 
 
 @dataclass(frozen=True)

@@ -159,7 +159,7 @@ class FlsRun:
         departed: frozenset[int],
         reach: float = math.inf,
         reach_pass: int = 0,
-        exhausted: frozenset[int] = frozenset(),
+        exhausted: IntArray | None = None,
     ) -> PathSearch:
         """Begin (or restart) pass ``reach_pass`` of ``phase``, relaying ``reach`` rounds.
 
@@ -170,7 +170,7 @@ class FlsRun:
         self.departed = departed
         last = self.search
         if reach_pass > 0 and last is not None and last.results is self.results[phase]:
-            last.resume(reach, exhausted)
+            last.resume(reach, np.zeros(0, dtype=np.int64) if exhausted is None else exhausted)
             return last
         targets = None
         if self.targets is not None:
@@ -289,8 +289,7 @@ class Participant:
                 run.start_fit(self.sensor, self.radius, departed, self.fit_positions)
             else:
                 reach = reach_rounds(self.sensor, self.radius, control.policy, control.reach_pass)
-                exhausted = frozenset(control.exhausted_ids)
-                run.start(control.phase, departed, reach, control.reach_pass, exhausted)
+                run.start(control.phase, departed, reach, control.reach_pass, control.exhausted)
             self._first_round[run_id] = control.round
             return None
         if control.command == ROUND:

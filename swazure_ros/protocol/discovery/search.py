@@ -298,10 +298,10 @@ class PathSearch:
         """True when this FLS, as a source, has a result for every target."""
         return bool(self.targets) and bool((self._found | self._out_of_reach).all())
 
-    def resume(self, reach: float, exhausted: frozenset[int]) -> None:
+    def resume(self, reach: float, exhausted: IntArray) -> None:
         """Go on in the phase's next pass, from the bucket where this pass paused up to
-        ``reach``; its labels stay. ``exhausted`` are the sources whose search labelled
-        every FLS it could reach in the pass that ended.
+        ``reach``; its labels stay. ``exhausted`` (sorted ids) are the sources whose search
+        labelled every FLS it could reach in the pass that ended.
 
         As a source, it searches no more for a target shown out of reach (it
         then counts as :attr:`finished`, and its search is closed): every
@@ -310,11 +310,14 @@ class PathSearch:
         """
         self.resumed, self.reach = self.reach, reach
         missing = ~(self._found | self._out_of_reach)
-        if self.fls_id in exhausted:
+        exhausted = np.asarray(exhausted, dtype=np.int64)
+        if sender_rows(np.array([self.fls_id]), exhausted)[0] >= 0:
             self._out_of_reach |= missing
         elif missing.any():
-            wanted = self._wanted
-            unreached = np.isin(wanted, list(exhausted)) & ~np.isin(wanted, self.sources)
+            wanted = self._wanted  # sorted, as the sources held
+            unreached = (sender_rows(wanted, exhausted) >= 0) & (
+                sender_rows(wanted, self.sources) < 0
+            )
             self._out_of_reach |= missing & unreached
 
     def close(self, sources: IntArray) -> None:
