@@ -43,7 +43,7 @@ MAX_ROUNDS_PER_HOP = 1000
 _BUCKET_MARGIN = 1e-9
 
 
-#: A pass's first reach: the rounds that this many of the phase's costliest hops take.
+#: A phase's first reach: the rounds that this many of the costliest sweet hops take.
 #: A source's targets are its blind neighbours, a few sweet hops away: most searches end
 #: within it, and the few cut short search again twice as far (docs/protocol.md).
 REACH_HOPS = 8
