@@ -61,11 +61,13 @@ def pick_together(searches: Sequence[PathSearch], round_: int, closed: IntArray)
         rows, places = rows[order], places[order]
     table.sent[rows, places] = True
     starts = csr.offsets(np.bincount(rows, minlength=table.size))
-    # Beyond the reach once every label below it is sent (PathSearch.offer).
-    beyond = unsent if bucket >= first.reach else np.zeros_like(due)
-    beyond_rows, beyond_places = np.nonzero(beyond)
+    counts = unsent.sum(axis=1)
+    beyond_rows = beyond_places = np.zeros(0, dtype=np.int64)
+    if bucket >= first.reach:  # beyond the reach, every label below it sent (PathSearch.offer)
+        beyond_rows, beyond_places = np.nonzero(unsent)
+        counts = np.zeros_like(counts)
     beyond_starts = csr.offsets(np.bincount(beyond_rows, minlength=table.size))
-    counts = (unsent.sum(axis=1) - beyond.sum(axis=1)).tolist()
+    counts = counts.tolist()
     for row, one in enumerate(searches):
         one._picked = (
             round_,
