@@ -81,9 +81,9 @@ def main() -> int:
     with RunningSwarm.start(config) as swarm:
         bring_up = swarm.bring_up
         up = time.perf_counter() - began
-        blocks = swarm.source_blocks()
-        print(f"bench_cells: up in {up:.0f} s; discovering in {len(blocks)} run(s)",
-              file=sys.stderr, flush=True)  # fmt: skip
+        first, live = swarm.first_block()
+        print(f"bench_cells: up in {up:.0f} s; discovering, {len(first)} of {len(live)} "
+              "sources in the first run", file=sys.stderr, flush=True)  # fmt: skip
         heard = heard_offers(swarm)
         pids = swarm.process_ids
         cpu_before = [cpu_seconds(pid) for pid in pids]
@@ -104,7 +104,7 @@ def main() -> int:
             "peak_mb": bring_up.total_peak_mb,
             "discovery_s": distributed.seconds,
             "rounds": distributed.rounds,
-            "source_runs": len(blocks),
+            "source_runs": distributed.runs,
             "engine_s": record.engine_seconds,
             "identical": "-" if record.comparison is None else record.comparison.describe(),
             "radio_messages": distributed.messages.get(RADIO_TOPIC, 0),

@@ -30,7 +30,15 @@ from ..core.evaluate import evaluate
 from ..core.evaluation import Evaluation
 from ..core.fit import PATH
 from ..files.record import BringUp
-from ..protocol.runs import DiscoveryResult, MoveResult, merged, source_blocks, sources_per_run
+from ..protocol.runs import (
+    LABEL_MEMORY,
+    DiscoveryResult,
+    MoveResult,
+    merged,
+    next_block,
+    next_block_size,
+    sources_per_run,
+)
 from ..ros.nodes.coordinator import Coordinator, Future
 from ..ros.nodes.view import ViewNode
 from ..ros.nodes.world_node import SimulatedCameras
@@ -248,32 +256,43 @@ class RunningSwarm:
         on_progress: Callable[[str], None] | None = None,
         estimator: str = PATH,
         per_run: int | None = None,
+        label_memory: int = LABEL_MEMORY,
     ) -> DiscoveryResult:
         """Run discovery for every FLS and blind neighbour; sources estimate by ``estimator``.
 
-        The sources search in runs of ``per_run`` at most (default: as many as
-        the labels' memory allows, ``protocol.runs.sources_per_run``); the
-        result is theirs together.
+        The sources search in runs of ``per_run`` at most; by default, the
+        first run's as many as ``label_memory`` allows were every FLS to hold
+        every source's label (:meth:`first_block`), and each later run's as
+        many as the memory the run before took allows
+        (``protocol.runs.next_block_size``). The result is theirs together.
         """
         coordinator = self._coordinator
-        blocks = self.source_blocks(per_run)
+        first, left_ids = self.first_block(per_run, label_memory)
+        size, whole = len(first), len(left_ids)
         deadline = None if timeout is None else time.monotonic() + timeout
         results: list[DiscoveryResult] = []
-        for number, block in enumerate(blocks, 1):
-            sources = list(block) if len(blocks) > 1 else None
+        while left_ids or not results:
+            block, rest = next_block(left_ids, size) if left_ids else ((), ())
+            alone = not results and len(block) == whole
             told = on_progress
-            if on_progress is not None and len(blocks) > 1:
-                told = _block_progress(on_progress, number, len(blocks))
+            if on_progress is not None and not alone:
+                told = _block_progress(on_progress, len(results) + 1, whole - len(left_ids), whole)
             left = None if deadline is None else max(deadline - time.monotonic(), 0.0)
-            run = coordinator.discover(policy, sources, estimator=estimator)
+            run = coordinator.discover(policy, None if alone else list(block), estimator=estimator)
             results.append(self.run(run, left, on_progress=told))
+            left_ids = rest
+            if per_run is None:
+                size = next_block_size(len(block), results[-1].outcome.label_bytes, label_memory)
         return merged(results)
 
-    def source_blocks(self, per_run: int | None = None) -> list[tuple[int, ...]]:
-        """The live FLSs in the blocks that :meth:`discover` runs one after the other."""
+    def first_block(
+        self, per_run: int | None = None, label_memory: int = LABEL_MEMORY
+    ) -> tuple[tuple[int, ...], tuple[int, ...]]:
+        """(the sources of :meth:`discover`'s first run, every live FLS's id), ascending."""
         coordinator = self._coordinator
-        live = coordinator.fls_ids - coordinator.departed_next()
-        return source_blocks(live, per_run or sources_per_run(len(coordinator.fls_ids)))
+        live = tuple(sorted(coordinator.fls_ids - coordinator.departed_next()))
+        size = per_run or sources_per_run(len(coordinator.fls_ids), label_memory)
+        return (next_block(live, size)[0] if live else ()), live
 
     def make_moves(
         self,
@@ -513,10 +532,11 @@ def _ignore(ended: Ended) -> None:
 
 
 def _block_progress(
-    tell: Callable[[str], None], number: int, blocks: int
+    tell: Callable[[str], None], number: int, searched: int, sources: int
 ) -> Callable[[str], None]:
-    """``tell``, with which block of sources the run is on."""
-    return lambda progress: tell(f"sources block {number}/{blocks}: {progress}")
+    """``tell``, with which block of sources the run is on and how many searched before it."""
+    done = f"{searched:,} of {sources:,} sources searched"
+    return lambda progress: tell(f"sources block {number} ({done}): {progress}")
 
 
 def first_scene(world: World, view: ViewConfig) -> Scene:

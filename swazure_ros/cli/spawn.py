@@ -165,7 +165,9 @@ def _add_compute_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="with --compute-all: search for at most N sources' targets in one discovery run, "
         "in runs one after the other; each FLS keeps labels for a run's sources only "
-        "(default: as many as 2 GiB of labels hold, all of a published shape's)",
+        "(default: as many as 2 GiB of labels hold, all of a published shape's; for a "
+        "larger swarm, the first run's as if every FLS held every source's label, each "
+        "later run's by the memory the labels of the run before took)",
     )
     parser.add_argument(
         "--out",
@@ -360,8 +362,11 @@ def compute_all(swarm: RunningSwarm, args: argparse.Namespace) -> int:
         traffic, outcome = result.traffic, result.outcome
         print(
             f"{world.cloud.name}: {size}, {args.policy}: discovery "
-            f"{result.seconds:.2f} s, {outcome.rounds} rounds, {traffic.total_messages} "
-            f"messages, {traffic.total_bytes / 1e6:.1f} MB"
+            f"{result.seconds:.2f} s, "
+            + (f"{result.runs} runs, " if result.runs > 1 else "")
+            + f"{outcome.rounds} rounds, {traffic.total_messages} "
+            f"messages, {traffic.total_bytes / 1e6:.1f} MB; labels held "
+            f"{outcome.label_bytes / 1e6:.1f} MB at most"
             + (f", {outcome.repairs} radio repairs" if outcome.repairs else "")
             + (" - INCOMPLETE: radio deliveries lost for good" if outcome.incomplete else ""),
             flush=True,
@@ -373,8 +378,12 @@ def compute_all(swarm: RunningSwarm, args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"  {time.monotonic() - began:.0f} s: {text}", file=sys.stderr, flush=True)
 
-    blocks = swarm.source_blocks(args.sources_per_run)
-    runs = f", in {len(blocks)} runs of {len(blocks[-1])} sources" if len(blocks) > 1 else ""
+    first, live = swarm.first_block(args.sources_per_run)
+    runs = ""
+    if len(first) < len(live):
+        runs = f", in runs of {len(first):,} sources" + (
+            "" if args.sources_per_run else " first, then as many as the labels' memory allows"
+        )
     print(f"discovery: every FLS for every blind neighbour, {args.policy}{runs}", flush=True)
     computed = run(
         swarm,

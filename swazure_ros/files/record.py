@@ -93,6 +93,9 @@ class Distributed(TopicCounts):
     repairs: int = 0  # a lossy radio's repair requests and resends
     incomplete: bool = False  # deliveries lost for good: no estimates
     moves: MovesMade | None = None
+    # The most memory the labels took in a round, every process's together, bytes.
+    label_bytes: int = 0
+    runs: int = 1  # the runs of its source blocks, one after the other
 
     @classmethod
     def of(cls, discovery: DiscoveryResult, moves: MoveResult | None = None) -> Distributed:
@@ -108,6 +111,8 @@ class Distributed(TopicCounts):
             repairs=found.repairs,
             incomplete=found.incomplete,
             moves=None if moves is None else MovesMade.of(moves),
+            label_bytes=found.label_bytes,
+            runs=discovery.runs,
         )
 
     @property

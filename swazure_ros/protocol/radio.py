@@ -139,6 +139,7 @@ class Sent:
     # Sources whose labels they hold beyond the pass's reach (search.reach_rounds), ascending.
     beyond: tuple[int, ...] = ()
     searching: tuple[int, ...] = ()  # those that search as sources: their own label offered
+    label_bytes: int = 0  # the memory their labels take, summed (LabelTable.row_bytes)
 
 
 @dataclass(frozen=True)
@@ -247,7 +248,7 @@ class RadioHub:
         self._rounds: dict[tuple[int, int], tuple[Control, int]] = {}
         # (run, round) -> what the local FLSs broadcast: sender -> (labels, pending,
         # finished, bytes)
-        self._sent: dict[tuple[int, int], dict[int, tuple[int, bool, bool, int]]] = {}
+        self._sent: dict[tuple[int, int], dict[int, tuple[int, bool, bool, int, int]]] = {}
         # (run, round) -> what the local FLSs said to the coordinator in the FIT phase.
         self._fit_sent: dict[tuple[int, int], dict[int, FitOffer]] = {}
         # The sources its FLSs' offers of a round held beyond the reach, and those of its
@@ -360,7 +361,10 @@ class RadioHub:
         See :meth:`take_sent`.
         """
         sent = self._sent.setdefault((run_id, round_), {})
-        sent.setdefault(sender, (len(offer), bool(offer.pending), bool(offer.finished), size))
+        sent.setdefault(
+            sender,
+            (len(offer), bool(offer.pending), bool(offer.finished), size, offer.label_bytes),
+        )
         if offer.fit is not None:
             self._fit_sent.setdefault((run_id, round_), {}).setdefault(sender, offer.fit)
         if len(offer.beyond_ids):
@@ -391,6 +395,7 @@ class RadioHub:
             (all(one.same[0] for one in said), all(one.same[1] for one in said)),
             tuple(np.unique(np.concatenate(beyond)).tolist()) if beyond else (),
             tuple(sorted(self._searching_sent.pop((run_id, round_), ()))),
+            sum(sent[sender][4] for sender in senders),
         )
 
     def _settle(self, heard: _RoundHeard, fallback: int | None = None) -> None:

@@ -64,6 +64,7 @@ class RoundTally:
     fit: FitTally = field(default_factory=FitTally)  # the FIT phase's sums and say
     beyond: set[int] = field(default_factory=set)  # sources cut short by the pass's reach
     searching: set[int] = field(default_factory=set)  # sources that searched in the pass
+    label_bytes: int = 0  # the memory the senders' labels take, summed
 
     def hear(self, sender: int, labels: int, pending: bool, finished: bool) -> None:
         """Count one FLS's broadcast of this round."""
@@ -202,6 +203,8 @@ class Outcome:
     incomplete: bool = False  # deliveries kept being lost; the estimates are left out
     # A swarm-fit run: per fit, the iterations of each solve, the covariance's last.
     fit_iterations: tuple[tuple[int, ...], ...] = ()
+    # The most memory the swarm's labels took in a round, all processes together, bytes.
+    label_bytes: int = 0
 
 
 class RoundClock:
@@ -237,6 +240,7 @@ class RoundClock:
         self.fls_ids = frozenset(fls_ids)
         self.hosts = hosts
         self.repairs = 0
+        self.label_bytes = 0  # the most the labels took in a round (Outcome.label_bytes)
         self.loss_restarts = 0
         self.incomplete = False
         self.round_timeout = round_timeout
@@ -311,6 +315,7 @@ class RoundClock:
             tally.fit.add(sent.fit_sums, sent.fit_moved, sent.fit_same)
             tally.beyond.update(sent.beyond)
             tally.searching.update(sent.searching)
+            tally.label_bytes += sent.label_bytes
         self._moved_on(now)
         return self._close_round(now, timed_out=False) if tally.complete else []
 
@@ -509,6 +514,7 @@ class RoundClock:
         self._finished |= tally.finished
         self._beyond |= tally.beyond
         self._searching |= tally.searching
+        self.label_bytes = max(self.label_bytes, tally.label_bytes)
         if self._fit is not None and self._phases[self._phase] == FIT:
             if self._fit.after(tally.fit, tally.quiet) is not None:
                 return [self._open_round(now, newly)]
@@ -539,4 +545,5 @@ class RoundClock:
             self.repairs,
             self.incomplete,
             tuple(tuple(one) for one in self._fit.iterations) if self._fit is not None else (),
+            self.label_bytes,
         )

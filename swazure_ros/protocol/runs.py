@@ -54,6 +54,7 @@ class DiscoveryResult:
     outcome: Outcome
     seconds: float
     traffic: Traffic
+    runs: int = 1  # the runs of its source blocks (merged), one after the other
 
 
 @dataclass(frozen=True)
@@ -68,9 +69,9 @@ class MoveResult:
 
 
 #: What one label costs an FLS in a discovery run, bytes: its costs, vector, path
-#: link, sent flag and hash key (protocol.discovery.labels). A run's blocks are sized
-#: as if every FLS held every source's label: at the paper's density a search reaches
-#: the FLSs within about the sensor's reach, two thirds of torus:10000.
+#: link, sent flag and hash key (protocol.discovery.labels). A swarm's first run is
+#: sized as if every FLS held every source's label; the runs after it by the memory
+#: the labels of the one before took (:func:`next_block_size`).
 LABEL_BYTES = 100
 #: The labels that a whole-swarm discovery keeps at once, all processes together,
 #: bytes: a swarm whose every FLS would hold every source's label runs its
@@ -79,23 +80,53 @@ LABEL_MEMORY = 2 * 1024**3
 
 
 def sources_per_run(fls_count: int, label_memory: int = LABEL_MEMORY) -> int:
-    """How many sources one discovery run may search for, so that its labels fit."""
+    """How many sources one discovery run may search for, so that its labels fit
+    even if every FLS held every source's label: the first block's size."""
     return max(1, label_memory // (max(fls_count, 1) * LABEL_BYTES))
 
 
-def source_blocks(fls_ids: Iterable[int], per_run: int) -> list[tuple[int, ...]]:
-    """``fls_ids`` in blocks of at most ``per_run`` consecutive ids, as even as they go.
+def next_block_size(sources: int, label_bytes: int, label_memory: int = LABEL_MEMORY) -> int:
+    """How many sources the next run may search for, after a run of ``sources`` whose labels
+    took ``label_bytes`` at most (``Outcome.label_bytes``), so that its labels fit.
 
-    Each block is one run's sources: every FLS keeps labels for the ids the
-    block spans (``protocol.discovery.participant.source_range``), and every
-    source's search is its own, so the blocks' results are the one run's.
+    A search leaves labels at the FLSs it reaches, not at every FLS: at display
+    scale a block sized as if it did (:func:`sources_per_run`) fills a small part
+    of the memory. Taking the next block's searches to reach as far as the last
+    block's did, a block k times as large gives each FLS at most k times the
+    labels, and a row at most 2k times as wide (a hash at most half full,
+    rounded up to a power of two): the next block is as large as keeps twice
+    ``label_bytes`` times k within ``label_memory``, and never smaller than the
+    last.
+    """
+    if label_bytes <= 0:
+        return sources
+    return max(sources, sources * label_memory // (2 * label_bytes))
+
+
+def source_blocks(fls_ids: Iterable[int], per_run: int) -> list[tuple[int, ...]]:
+    """``fls_ids`` in blocks of at most ``per_run``, as even as they go: of C blocks, block k
+    holds every C-th id from the k-th, ascending.
+
+    Each block is one run's sources, and every source's search is its own, so
+    the blocks' results are the one run's. Spread, not consecutive: ids are
+    often laid out in space (a torus ring by ring, a cloud in scan order), and
+    a block of neighbouring ids would leave many labels at the FLSs near them
+    and none elsewhere, while a process's label table gives every FLS a row as
+    wide as its fullest (``protocol.discovery.labels.LabelTable``).
     """
     ids = sorted(set(fls_ids))
     if per_run < 1:
         raise ValueError(f"sources per run must be at least 1, got {per_run}")
     count = -(-len(ids) // per_run) if ids else 1
-    bounds = [len(ids) * k // count for k in range(count + 1)]
-    return [tuple(ids[a:b]) for a, b in itertools.pairwise(bounds)]
+    return [tuple(ids[first::count]) for first in range(count)]
+
+
+def next_block(fls_ids: Sequence[int], per_run: int) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """(the first of ``fls_ids``' :func:`source_blocks` of ``per_run``, the ids left), both
+    ascending: for runs whose sizes follow what the runs before took."""
+    block = source_blocks(fls_ids, per_run)[0]
+    taken = set(block)
+    return block, tuple(fls for fls in sorted(set(fls_ids)) if fls not in taken)
 
 
 def merged(results: Sequence[DiscoveryResult]) -> DiscoveryResult:
@@ -116,6 +147,8 @@ def merged(results: Sequence[DiscoveryResult]) -> DiscoveryResult:
         sum(one.repairs for one in outcomes),
         any(one.incomplete for one in outcomes),
         tuple(itertools.chain.from_iterable(one.fit_iterations for one in outcomes)),
+        max(one.label_bytes for one in outcomes),  # one run after the other
     )
     seconds = sum(result.seconds for result in results)
-    return DiscoveryResult(first.run_id, first.policy, outcome, seconds, traffic)
+    runs = sum(result.runs for result in results)
+    return DiscoveryResult(first.run_id, first.policy, outcome, seconds, traffic, runs)

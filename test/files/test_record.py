@@ -194,14 +194,16 @@ def test_a_swarm_runs_record_is_built_from_the_runs_results_as_record_json_held_
     plain = evaluate(make_swarm(np.array(SCENE), radius=0.5), sensor, "shortest-length")
     moved, heuristic = run_technique(plain, "move-obstructing")
     assert heuristic is not None
-    found = Outcome({}, frozenset({7, 3}), rounds=9, restarts=1, repairs=2, incomplete=True)
-    discovery = DiscoveryResult(
-        1, "shortest-length", found, 2.75, Traffic({"radio": 40, "estimates": 5}, {"radio": 4000})
+    found = Outcome(
+        {}, frozenset({7, 3}), rounds=9, restarts=1, repairs=2, incomplete=True, label_bytes=5000
     )
+    traffic = Traffic({"radio": 40, "estimates": 5}, {"radio": 4000})
+    discovery = DiscoveryResult(1, "shortest-length", found, 2.75, traffic, runs=3)
     made = MoveOutcome(moved, heuristic, batches=3, moved=12, walks=4, timeouts=1)
     moves = MoveResult(2, made, 1.5, Traffic({"move_commands": 3}, {"move_commands": 900}))
     distributed = Distributed.of(discovery, moves)
-    # The layout record.json has held since its first version, in its order.
+    # The layout record.json has held since its first version, in its order; what came
+    # later (the labels' memory, the runs of source blocks) after it.
     assert json.dumps(asdict(distributed)) == json.dumps(
         {
             "seconds": 2.75, "rounds": 9, "restarts": 1, "departed": [3, 7],
@@ -212,6 +214,7 @@ def test_a_swarm_runs_record_is_built_from_the_runs_results_as_record_json_held_
                 "timeouts": 1, "messages": {"move_commands": 3},
                 "bytes": {"move_commands": 900},
             },
+            "label_bytes": 5000, "runs": 3,
         }
     )  # fmt: skip
     assert Distributed.of(discovery).moves is None

@@ -25,15 +25,15 @@ from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_sensor
 from swazure_ros.protocol.discovery.estimate import Found, estimate, evaluation_of
 from swazure_ros.protocol.discovery.messages import SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers
-from swazure_ros.protocol.discovery.participant import source_range
 from swazure_ros.protocol.discovery.search import (
     PathSearch,
     SearchOptions,
     bucket_width,
+    source_range,
 )
 from swazure_ros.protocol.discovery.together import hear_together, pick_together
 from swazure_ros.protocol.loops import RunOptions, discover
-from swazure_ros.protocol.runs import source_blocks
+from swazure_ros.protocol.runs import next_block_size, source_blocks
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import A, B, C, D, K, scene
@@ -196,29 +196,55 @@ def test_runs_of_source_blocks_together_equal_the_engine(policy):
     assert_pairs_equal(found, engine, world.ids)
 
 
-def test_an_fls_keeps_labels_for_the_run_s_sources_only():
+def test_a_run_tells_the_memory_its_labels_took_and_the_next_block_sized_by_it_fits():
+    # A spread-out torus: a search reaches a part of the swarm. A run of 20 sources
+    # tells what its labels took at most; a block sized by it stays within the memory.
+    world = WorldSpec("torus:400", scale=4.0, beta=0.5).build()
+    ids = world.ids.tolist()
+    engine = evaluate_pairs(world.hood, "shortest-length")
+    first, outcome = run(world.hood, "shortest-length", sources=ids[:20])
+    assert outcome.label_bytes > 0
+    memory = 10 * outcome.label_bytes
+    size = next_block_size(20, outcome.label_bytes, label_memory=memory)
+    assert size == 100
+    second, after = run(world.hood, "shortest-length", sources=ids[20 : 20 + size])
+    assert outcome.label_bytes < after.label_bytes <= memory
+    rest, _ = run(world.hood, "shortest-length", sources=ids[20 + size :])
+    assert_pairs_equal({**first, **second, **rest}, engine, world.ids)
+
+
+@pytest.mark.parametrize("every", [1, 3])
+def test_an_fls_keeps_labels_for_the_run_s_sources_only(every):
+    # A block of consecutive ids (every 1) or spread over them (every 3rd id).
     world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
     ids = world.ids
     view = local_view(observations(world.hood), ids, 5)
-    first, end = source_range((int(ids[10]), int(ids[19])), int(ids[-1]) + 1)
-    assert (first, end) == (int(ids[10]), int(ids[19]) + 1)
-    options = SearchOptions("shortest-length", 1.0, int(ids[-1]) + 1, sources=(first, end))
+    sources = ids[10 : 10 + 10 * every : every]
+    first, end = source_range(sources, int(ids[-1]) + 1)
+    assert (first, end) == (int(sources[0]), int(sources[-1]) + 1)
+    options = SearchOptions("shortest-length", 1.0, int(ids[-1]) + 1, sources=sources)
     search = PathSearch(view, SWEET_ALL, options)
-    # A neighbour it relays from offers labels of sources inside and outside the run.
+    # A neighbour it relays from offers labels of sources inside and outside the run,
+    # one of them inside its span (every 3rd id: not the run's).
     sender = int(search.link_ids[0])
-    offered = np.array([int(ids[0]), first, int(ids[12]), end - 1, int(ids[40])])
+    offered = np.array([int(ids[0]), first, int(ids[11]), int(ids[13]), end - 1, int(ids[60])])
     offer = Offer(
         source_ids=offered,
-        hops=np.ones(5, dtype=np.int64),
-        lengths=np.full(5, 7.0),
-        errors=np.zeros(5),
-        vectors=np.zeros((5, 3)),
-        path_offsets=np.arange(0, 11, 2),
-        path_ids=np.stack([offered, np.full(5, sender)], axis=1).ravel(),
+        hops=np.ones(6, dtype=np.int64),
+        lengths=np.full(6, 7.0),
+        errors=np.zeros(6),
+        vectors=np.zeros((6, 3)),
+        path_offsets=np.arange(0, 13, 2),
+        path_ids=np.stack([offered, np.full(6, sender)], axis=1).ravel(),
     )
     search.hear(RoundOffers.of([(sender, offer)]))
-    assert search.sources.tolist() == [first, int(ids[12]), end - 1]
-    assert source_range((), 120) == (0, 120)
+    kept = (
+        [first, int(ids[11]), int(ids[13]), end - 1]
+        if every == 1
+        else [first, int(ids[13]), end - 1]
+    )
+    assert search.sources.tolist() == kept
+    assert source_range(None, 120) == (0, 120)
 
 
 def test_an_fls_keeps_labels_only_for_the_sources_whose_search_reached_it():

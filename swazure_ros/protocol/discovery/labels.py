@@ -9,7 +9,8 @@ stepped alone) or of every FLS a process steps together: row f of its
 (F, R) arrays is FLS f's, a row's R places an open-addressing hash of
 source ids, each FLS's labels side by side in memory as the relaxation
 reads them. R grows as a row fills; once it would reach the run's number of
-sources, a source's place is simply its slot (source - first), the layout
+sources, a source's place is simply its slot: its rank among the run's
+sources (source - first when they are every id of their span), the layout
 of a swarm whose every search reaches every FLS (the published shapes).
 
 The relaxation (:func:`LabelTable.relax`) is the same compiled pass for one
@@ -42,6 +43,9 @@ _MIX = 0x2545F491
 
 #: A pred that no sender id reaches: a label not found yet loses every tie.
 NO_PRED = np.iinfo(np.int64).max
+
+#: No ids: a table's run_ids when its run's sources are every id of their span.
+_NO_IDS = np.zeros(0, dtype=np.int64)
 
 
 class Links(NamedTuple):
@@ -95,14 +99,24 @@ def _place(keys: IntArray, source: int) -> int:
 
 
 @jit.kernel(cache=True, nogil=True)
+def _slot(run_ids: IntArray, first: int, source: int) -> int:
+    """The slot of ``source`` in a direct row: its rank in ``run_ids`` (the run's sources,
+    sorted; empty: every id from ``first`` on is one), -1 if it is not one of them."""
+    if not len(run_ids):
+        return source - first
+    at = np.searchsorted(run_ids, source)
+    return int(at) if at < len(run_ids) and run_ids[at] == source else -1
+
+
+@jit.kernel(cache=True, nogil=True)
 def _insert(
-    keys: IntArray, rows: IntArray, sources: IntArray, first: int, direct: bool
+    keys: IntArray, rows: IntArray, sources: IntArray, first: int, direct: bool, run_ids: IntArray
 ) -> IntArray:
     """Put ``sources`` (M,) in rows ``rows`` (M,) of ``keys`` (F, R); their places."""
     places = np.empty(len(rows), dtype=np.int64)
     for k in range(len(rows)):
         if direct:  # the slot; a direct table keeps no keys
-            places[k] = sources[k] - first
+            places[k] = _slot(run_ids, first, sources[k])
             continue
         place = _place(keys[rows[k]], sources[k])
         keys[rows[k], place] = sources[k]
@@ -117,7 +131,7 @@ def _relax_rows(
     mes: IntArray,
     order: int,
     span: IntArray,
-    direct: bool,
+    run_ids: IntArray,
     link_starts: IntArray,
     links: Links,
     heard: HeardLabels,
@@ -132,25 +146,25 @@ def _relax_rows(
     """Relax the labels of table rows ``rows[begin:]`` (FLS ``mes[row]``, its links
     ``link_starts[row]:link_starts[row + 1]``) through the labels ``heard``.
 
-    ``span`` is (first, end): sources outside first..end - 1 are not this
-    run's; ``closed`` (id_space,) marks the sources whose search ended (empty:
-    none), whose labels are neither kept nor relaxed. A source first heard
-    takes an empty place. Row ``rows[k]``'s bettered places go to
-    ``changes[change_starts[k]:change_starts[k + 1]]``, from ``filled`` on.
-    ``won`` (R,) are the winning label and link of each place of the row in
-    hand, -1 where it has not changed (as the call leaves them).
+    ``span`` is (first, end): sources outside first..end - 1 are not this run's, nor,
+    when ``run_ids`` (sorted) names its sources, ids it does not name; ``closed``
+    (id_space,) marks the sources whose search ended (empty: none), neither kept nor
+    relaxed. A source first heard takes an empty place. Row ``rows[k]``'s bettered
+    places go to ``changes[change_starts[k]:change_starts[k + 1]]``, from ``filled`` on.
+    ``won`` (R,) are the winning label and link of each place of the row in hand, -1
+    where it has not changed (as the call leaves them).
 
-    Returns (next, filled, need): ``next`` is ``len(rows)`` when every row is
-    done. Else row ``rows[next]`` stopped: with ``need`` 0 before it began, for
-    more room in ``changes``; else before its hash would be over half full,
-    to go on at ``resume`` (link, label) once its places are ``need`` at most
-    half full, ``won`` and its changes so far moved to their new places.
+    Returns (next, filled, need): ``next`` is ``len(rows)`` when every row is done. Else
+    row ``rows[next]`` stopped: with ``need`` 0 before it began, for more room in
+    ``changes``; else before its hash would be over half full, to go on at ``resume``
+    (link, label) once its places are ``need`` at most half full, ``won`` and its
+    changes so far moved to their new places.
     """
     first, end, has_closed = span[0], span[1], len(closed) > 0
     link_ids, link_weights, link_errors = links
     senders, starts, source_ids, label_hops, label_lengths, label_errors = heard
     keys, sent, hops, length, error, pred, occupied = columns
-    width = hops.shape[1]
+    width, direct = hops.shape[1], keys.shape[1] == 0  # a direct table keeps no keys
     for at in range(begin, len(rows)):
         row, low, high = rows[at], link_starts[rows[at]], link_starts[rows[at] + 1]
         found = sender_rows(link_ids[low:high], senders)
@@ -170,12 +184,13 @@ def _relax_rows(
             label_from = first_label if k == first_link and first_label >= 0 else starts[found[k]]
             for label in range(label_from, starts[found[k] + 1]):
                 source = source_ids[label]
-                if source < first or source >= end or source == me:
+                rank = _slot(run_ids, first, source) if len(run_ids) else source - first
+                if rank < 0 or source >= end or source == me:  # not this run's, or its own
                     continue
                 if has_closed and closed[source]:
                     continue
                 # The slot inline, not by _place: a call per candidate cost 4x (direct).
-                place = source - first if direct else _place(row_keys, source)
+                place = rank if direct else _place(row_keys, source)
                 if not direct and row_keys[place] == _EMPTY:
                     if 2 * (occupied[row] + 1) > width:
                         resume[0], resume[1] = k, label
@@ -271,7 +286,8 @@ class LabelTable:
     """The labels of F FLSs (rows) in one phase of one run, a place per source heard.
 
     ``mes`` (F,) are the FLSs' ids, ``link_starts`` (F + 1,) and ``links``
-    their hops relayed from; ``span`` (first, end) the run's sources and
+    their hops relayed from; ``span`` (first, end) the run's sources (``sources``,
+    sorted, when they are not every id of it) and
     ``id_space`` a bound on ids; ``fits``: labels also sum unbiased hops and
     their covariances (``unbiased``, ``covariance``). Each column
     (``keys``, the source of each place, none in a direct table, ``sent``, ``hops``, ``length``,
@@ -300,11 +316,16 @@ class LabelTable:
         id_space: int,
         fits: bool,
         need: int = 1,
+        sources: IntArray | None = None,
     ) -> None:
         self.mes = np.asarray(mes, dtype=np.int64)
         self.link_starts, self.links = link_starts, links
         self.span, self.id_space, self.fits = span, id_space, fits
         self._span = np.array(span, dtype=np.int64)
+        # The run's sources by slot; empty when they are every id of the span (slot:
+        # id - first). Shared by every table of a run, not copied.
+        spread = sources is not None and len(sources) < span[1] - span[0]
+        self.run_ids: IntArray = sources if sources is not None and spread else _NO_IDS
         self.closed = np.zeros(0, dtype=bool)  # (id_space,) once a source is closed
         self._changes_last = 0
         self.occupied = np.zeros(len(self.mes), dtype=np.int64)
@@ -314,7 +335,7 @@ class LabelTable:
     def _width_for(self, need: int) -> tuple[bool, int]:
         """(direct, R) for rows of ``need`` labels: a hash at most half full, or a slot per
         source once such a hash would be half as wide as the slots or more."""
-        sources = self.span[1] - self.span[0]
+        sources = len(self.run_ids) or self.span[1] - self.span[0]
         width = 1 << max(3, int(2 * need - 1).bit_length())
         # A hash half the slots' size saves too little for its probes and its moves.
         return (True, sources) if 2 * width >= sources else (False, width)
@@ -336,6 +357,17 @@ class LabelTable:
         """R, the places of each row."""
         return int(self.hops.shape[1])
 
+    @property
+    def row_bytes(self) -> int:
+        """The memory one row's places take, bytes: every column's (R places each).
+
+        What a run's blocks are sized by (``protocol.runs.next_block_size``): a
+        process's tables hold a row per FLS, as wide as the fullest row needs.
+        """
+        names = (*_COLUMNS, *(_FIT_COLUMNS if self.fits else {}))
+        total = sum(int(getattr(self, name).nbytes) for name in names)
+        return total // max(self.size, 1)
+
     def found(self, row: int | None = None) -> NDArray[np.bool_]:
         """Which places of row ``row`` (R,), or of every row (F, R), hold a label."""
         at = slice(None) if row is None else row
@@ -344,6 +376,8 @@ class LabelTable:
 
     def sources_of(self, rows: IntArray | int, places: IntArray) -> IntArray:
         """The sources of the labels at ``places`` of ``rows``."""
+        if self.direct and len(self.run_ids):
+            return self.run_ids[np.asarray(places, dtype=np.int64)]
         if self.direct:
             return np.asarray(places, dtype=np.int64) + self.span[0]
         return np.asarray(self.keys[rows, places], dtype=np.int64)
@@ -363,7 +397,14 @@ class LabelTable:
         if 2 * (self.occupied[row] + 1) > self.width and not self.direct:
             self._widen(int(self.occupied[row]) + 1)
         place = int(
-            _insert(self.keys, np.array([row]), np.array([source]), self.span[0], self.direct)[0]
+            _insert(
+                self.keys,
+                np.array([row]),
+                np.array([source]),
+                self.span[0],
+                self.direct,
+                self.run_ids,
+            )[0]
         )
         self.occupied[row] += 1
         return place
@@ -378,7 +419,7 @@ class LabelTable:
         old = {name: getattr(self, name)[rows, places] for name in self._names()}
         self.direct, width = self._width_for(max(need, 2 * self.width))
         self._allocate(width)
-        moved = _insert(self.keys, rows, sources, self.span[0], self.direct)
+        moved = _insert(self.keys, rows, sources, self.span[0], self.direct, self.run_ids)
         for name, values in old.items():
             getattr(self, name)[rows, moved] = values
 
@@ -419,7 +460,7 @@ class LabelTable:
                 self.mes,
                 order,
                 self._span,
-                self.direct,
+                self.run_ids,
                 self.link_starts,
                 self.links,
                 heard,
@@ -466,11 +507,11 @@ class LabelTable:
         in_hand_sources = self.sources_of(rows[done], in_hand)
         self._widen(need)
         changes.places[:filled] = _insert(
-            self.keys, changed_rows, sources, self.span[0], self.direct
+            self.keys, changed_rows, sources, self.span[0], self.direct, self.run_ids
         )
         moved = _insert(
             self.keys, np.full(len(in_hand), rows[done]), in_hand_sources, self.span[0],
-            self.direct,
+            self.direct, self.run_ids,
         )  # fmt: skip
         widened = self._won()
         widened.labels[moved], widened.links[moved] = won.labels[in_hand], won.links[in_hand]
@@ -484,7 +525,9 @@ class LabelTable:
         found = self.found(row)
         if not len(self.closed):
             closed = np.zeros(self.width, dtype=bool)
-        elif self.direct:  # a place is its source's slot, the same in every row
+        elif self.direct and len(self.run_ids):  # a place is its source's slot in every row
+            closed = self.closed[self.run_ids]
+        elif self.direct:
             closed = self.closed[self.span[0] : self.span[1]]
         else:
             closed = self.closed[np.where(found, self.keys[at], 0)] & found
@@ -511,6 +554,7 @@ class LabelTable:
             first.id_space,
             first.fits,
             need=int(counts.max(initial=1)),
+            sources=first.run_ids if len(first.run_ids) else None,
         )
         rows = np.repeat(np.arange(len(parts), dtype=np.int64), counts)
         values = {
@@ -525,7 +569,7 @@ class LabelTable:
         sources = np.concatenate(
             [table.sources_of(row, at) for (table, row), at in zip(parts, taken, strict=True)]
         )
-        places = _insert(merged.keys, rows, sources, first.span[0], merged.direct)
+        places = _insert(merged.keys, rows, sources, first.span[0], merged.direct, merged.run_ids)
         for name, column in values.items():
             getattr(merged, name)[rows, places] = column
         merged.occupied[:] = counts

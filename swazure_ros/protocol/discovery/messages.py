@@ -102,6 +102,9 @@ class Offer:
     # Sources whose labels the sender holds beyond the pass's reach, unsent (not on the
     # wire: its process tells the coordinator, whose next pass reaches twice as far).
     beyond_ids: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    # The memory the sender's labels take, bytes (LabelTable.row_bytes; not on the wire:
+    # its process tells the coordinator, which sizes the next run's block by it).
+    label_bytes: int = 0
 
     def __len__(self) -> int:
         return len(self.source_ids)
@@ -279,6 +282,12 @@ class Control:
     # START of a pass after the first: the sources whose search in the pass before ran out
     # of FLSs to label (it searched, nothing beyond its reach, not closed once finished).
     exhausted_ids: tuple[int, ...] = ()
+
+    @cached_property
+    def sources(self) -> IntArray:
+        """``source_ids``, sorted, each once: one array for every FLS of a process that
+        searches in the run (each keeps its labels by it, :class:`.labels.LabelTable`)."""
+        return np.unique(np.asarray(self.source_ids, dtype=np.int64))
 
     @cached_property
     def exhausted(self) -> IntArray:

@@ -79,7 +79,7 @@ class FlsRun:
         hop_errors: FloatArray | None = None,
         fit: tuple[Sensor, float] | None = None,
         both_ends: bool = False,
-        sources: tuple[int, int] | None = None,
+        sources: IntArray | None = None,
         estimator: str | None = None,
     ) -> None:
         self.view = view
@@ -369,12 +369,13 @@ class Participant:
         view = self._view()
         targets: IntArray | None = view.blind
         if control.source_ids:
-            sources = np.asarray(control.source_ids, dtype=np.int64)
-            mine = sources == self.fls_id
-            if not mine.any():
+            sources = control.sources  # one sorted array for the process's every FLS
+            at = np.searchsorted(sources, self.fls_id)
+            if at == len(sources) or sources[at] != self.fls_id:
                 targets = None
             elif control.target_ids:
                 # On demand, a source answers for its blind neighbours only.
+                mine = np.asarray(control.source_ids, dtype=np.int64) == self.fls_id
                 asked = np.asarray(control.target_ids, dtype=np.int64)[mine]
                 targets = asked[np.isin(asked, view.blind)]
         width = bucket_width(self.sensor, self.radius, control.policy)
@@ -390,7 +391,7 @@ class Participant:
             hop_errors,
             fit,
             both_ends,
-            source_range(control.source_ids, self.id_space),
+            control.sources if control.source_ids else None,
             control.estimator,
         )
 
@@ -429,17 +430,6 @@ def step_together(
             hear_together(group, heard)
         if control.command == ROUND:
             pick_together(group, round_, np.asarray(control.finished_ids, dtype=np.int64))
-
-
-def source_range(source_ids: Sequence[int], id_space: int) -> tuple[int, int]:
-    """(first, end): the ids that an FLS keeps labels for in a run of ``source_ids``.
-
-    Every id when the run names no source; else the span of the named ones, so
-    that a run of a block of sources costs each FLS memory for that block only.
-    """
-    if not source_ids:
-        return 0, id_space
-    return max(min(source_ids), 0), min(max(source_ids) + 1, id_space)
 
 
 def _read_only(array: NDArray[Any]) -> NDArray[Any]:

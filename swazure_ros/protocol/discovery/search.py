@@ -169,6 +169,19 @@ def _labels_for(
     return found[:count]
 
 
+def source_range(sources: IntArray | None, id_space: int) -> tuple[int, int]:
+    """(first, end): the ids that an FLS keeps labels for in a run of ``sources`` (sorted).
+
+    Every id when the run names no source (None); else the span of the named
+    ones, whose labels a hash by source keeps, or a slot per source once a row
+    would be as wide (:class:`.labels.LabelTable`): a run of a block of
+    sources costs each FLS memory for that block only.
+    """
+    if sources is None or not len(sources):
+        return 0, id_space
+    return max(int(sources[0]), 0), min(int(sources[-1]) + 1, id_space)
+
+
 @dataclass(frozen=True)
 class SearchOptions:
     """How one FLS searches in each phase of a discovery run (see :class:`PathSearch`)."""
@@ -179,7 +192,7 @@ class SearchOptions:
     hop_errors: FloatArray | None = None  # (K,), expected error of the hop to each neighbour
     fit: tuple[Sensor, float] | None = None  # the sensor and the FLSs' radius, cm
     both_ends: bool = False
-    sources: tuple[int, int] | None = None  # (first, end) ids of the run's sources
+    sources: IntArray | None = None  # (S,) the run's sources, sorted ids; None: every FLS
     reach: float = math.inf  # the pass's rounds (reach_rounds): later labels are not sent
 
 
@@ -187,10 +200,10 @@ class PathSearch:
     """One FLS's labels in one phase of a discovery run.
 
     ``options.id_space`` bounds the FLS ids (ids are below it);
-    ``options.sources`` (first, end) the ids of the run's sources (all ids by
-    default). The FLS keeps a label only for a source whose search reached
-    it (:mod:`.labels`): its memory grows with the searches through it, not
-    with the swarm.
+    ``options.sources`` the ids of the run's sources, sorted (all ids by
+    default; one array for every FLS of a run, not copied). The FLS keeps a
+    label only for a source whose search reached it (:mod:`.labels`): its
+    memory grows with the searches through it, not with the swarm.
     ``targets`` makes this FLS a source that searches for them; ``departed``
     FLSs are not relayed from.
     ``options.hop_errors`` (K,) is the expected error of the hop to each neighbour of
@@ -211,8 +224,8 @@ class PathSearch:
         departed: frozenset[int] = frozenset(),
     ) -> None:
         self.fls_id = view.fls_id
-        first, end = (0, options.id_space) if options.sources is None else options.sources
-        self.span = (first, max(end, first))
+        self.run_sources = options.sources
+        self.span = source_range(options.sources, options.id_space)
         self.order = _COST_ORDER[check_policy(options.policy)]
         self.width = options.width
         # Buckets this pass relays: from where the pass before paused, below its reach.
@@ -230,6 +243,7 @@ class PathSearch:
             self.span,
             options.id_space,
             self.fits,
+            sources=options.sources,
         )
         self.row = 0
         self._heard: dict[int, RoundOffers] = {}
@@ -267,10 +281,13 @@ class PathSearch:
             (self.link_ids[read], own[read]) if options.both_ends else None
         )
 
-    def _label_self(self, sources: tuple[int, int] | None) -> None:
+    def _label_self(self, sources: IntArray | None) -> None:
         """Label this FLS, a source, as reached from itself at no cost."""
-        if not self.span[0] <= self.fls_id < self.span[1]:
-            raise ValueError(f"FLS {self.fls_id} is a source outside the run's {sources}")
+        outside = not self.span[0] <= self.fls_id < self.span[1]
+        if sources is not None and not outside:
+            outside = sources[np.searchsorted(sources, self.fls_id)] != self.fls_id
+        if outside:
+            raise ValueError(f"FLS {self.fls_id} is a source that is not one of the run's")
         table, row = self.table, self.row
         me = table.add(row, self.fls_id)
         table.hops[row, me], table.length[row, me], table.error[row, me] = 0.0, 0.0, 0.0
@@ -362,6 +379,7 @@ class PathSearch:
             reading_ids=reading_ids,
             reading_vectors=reading_vectors,
             beyond_ids=np.sort(table.sources_of(row, beyond)),
+            label_bytes=table.row_bytes,
         )
 
     def _first_readings(self) -> tuple[IntArray, FloatArray]:

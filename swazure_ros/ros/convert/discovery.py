@@ -460,6 +460,7 @@ def sent_message(control: Control, sent: Sent, host: str, stamp: Time) -> RoundA
         fit_rejecting_same=sent.fit_same[1],
         beyond_ids=list(sent.beyond),
         searching_ids=list(sent.searching),
+        label_bytes=sent.label_bytes,
     )
     message.fit_sums = packed(np.asarray(sent.fit_sums, dtype=np.float64), np.float64)
     message.host = host
@@ -495,6 +496,7 @@ def sent_from_message(message: RoundAck, swarm: IntArray) -> Sent:
         (bool(message.fit_huber_same), bool(message.fit_rejecting_same)),
         lists["beyond_ids"],
         lists["searching_ids"],
+        int(message.label_bytes),
     )
 
 
