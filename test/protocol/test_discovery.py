@@ -33,7 +33,7 @@ from swazure_ros.protocol.discovery.search import (
 )
 from swazure_ros.protocol.discovery.together import hear_together, pick_together
 from swazure_ros.protocol.loops import RunOptions, discover
-from swazure_ros.protocol.runs import next_block_size, source_blocks
+from swazure_ros.protocol.runs import next_block, next_block_size, source_blocks
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import A, B, C, D, K, scene
@@ -197,19 +197,21 @@ def test_runs_of_source_blocks_together_equal_the_engine(policy):
 
 
 def test_a_run_tells_the_memory_its_labels_took_and_the_next_block_sized_by_it_fits():
-    # A spread-out torus: a search reaches a part of the swarm. A run of 20 sources
-    # tells what its labels took at most; a block sized by it stays within the memory.
+    # A spread-out torus: a search reaches a part of the swarm. A run of 20 sources spread
+    # over the ids tells what its labels took at most; a block sized by it stays within
+    # the memory, and the blocks' pairs are the engine's.
     world = WorldSpec("torus:400", scale=4.0, beta=0.5).build()
-    ids = world.ids.tolist()
     engine = evaluate_pairs(world.hood, "shortest-length")
-    first, outcome = run(world.hood, "shortest-length", sources=ids[:20])
+    block, left = next_block(world.ids.tolist(), 20)
+    first, outcome = run(world.hood, "shortest-length", sources=block)
     assert outcome.label_bytes > 0
     memory = 10 * outcome.label_bytes
     size = next_block_size(20, outcome.label_bytes, label_memory=memory)
     assert size == 100
-    second, after = run(world.hood, "shortest-length", sources=ids[20 : 20 + size])
+    block, left = next_block(left, size)
+    second, after = run(world.hood, "shortest-length", sources=block)
     assert outcome.label_bytes < after.label_bytes <= memory
-    rest, _ = run(world.hood, "shortest-length", sources=ids[20 + size :])
+    rest, _ = run(world.hood, "shortest-length", sources=left)
     assert_pairs_equal({**first, **second, **rest}, engine, world.ids)
 
 
