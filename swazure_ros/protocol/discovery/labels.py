@@ -346,6 +346,9 @@ class LabelTable:
             # A direct table's places are its sources' slots: it keeps no keys.
             wide = 0 if name == "keys" and self.direct else width
             setattr(self, name, np.full((len(self.mes), wide, *shape), empty, dtype=dtype))
+        # Read by every offer (Offer.label_bytes): worked out once per layout.
+        total = sum(int(getattr(self, name).nbytes) for name in columns)
+        self._row_bytes = total // max(len(self.mes), 1)
 
     @property
     def size(self) -> int:
@@ -364,9 +367,7 @@ class LabelTable:
         What a run's blocks are sized by (``protocol.runs.next_block_size``): a
         process's tables hold a row per FLS, as wide as the fullest row needs.
         """
-        names = (*_COLUMNS, *(_FIT_COLUMNS if self.fits else {}))
-        total = sum(int(getattr(self, name).nbytes) for name in names)
-        return total // max(self.size, 1)
+        return self._row_bytes
 
     def found(self, row: int | None = None) -> NDArray[np.bool_]:
         """Which places of row ``row`` (R,), or of every row (F, R), hold a label."""

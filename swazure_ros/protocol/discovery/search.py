@@ -224,7 +224,6 @@ class PathSearch:
         departed: frozenset[int] = frozenset(),
     ) -> None:
         self.fls_id = view.fls_id
-        self.run_sources = options.sources
         self.span = source_range(options.sources, options.id_space)
         self.order = _COST_ORDER[check_policy(options.policy)]
         self.width = options.width
