@@ -183,6 +183,26 @@ def run_ros2(
     return subprocess.CompletedProcess(command, process.returncode, out, err)
 
 
+def interrupt_ros2(process: subprocess.Popen[str], patience: float = 30.0) -> None:
+    """Stop a ros2 CLI process as a person would: Ctrl-C (SIGINT to its group), and Ctrl-C
+    again when the first goes unheeded for ``patience`` s; killed if neither ends it.
+
+    Seen once (2026-11-30, make test from a fresh clone): a `ros2 topic echo` sat in
+    rcl_wait for over 300 s after the first SIGINT, and a second one ended it at once.
+    How the ros2 CLI's own node winds down is ros2cli's and Fast DDS's (see
+    :func:`run_ros2`), not what a test of the swarm asserts.
+    """
+    for _ in range(2):
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(process.pid, signal.SIGINT)
+        try:
+            process.wait(timeout=patience)
+            return
+        except subprocess.TimeoutExpired:
+            continue
+    shared_memory.kill(process, group=True)
+
+
 def echo_first(
     command: list[str],
     environment: dict[str, str],

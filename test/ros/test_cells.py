@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import signal
 import threading
 
 import numpy as np
@@ -21,6 +19,7 @@ from swazure_ros.ros.plumbing.names import RADIO_TOPIC, WALKS_TOPIC, host_name, 
 from swazure_ros.sim.world import WorldSpec
 
 from ..waits import PATIENCE, wait_until
+from .helpers import interrupt_ros2
 from .programs.test_programs import ros2_tools, start  # noqa: F401
 from .test_discovery import (  # noqa: F401
     assert_matches_engine,
@@ -184,8 +183,7 @@ def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, 
                 if wait_until(lambda: inside <= set(senders()), 30.0, lambda: swarm.spin(0.1)):
                     break
         finally:
-            os.killpg(echo.pid, signal.SIGINT)  # as Ctrl-C would: the echo must end by itself
-            echo.wait(timeout=PATIENCE)
+            interrupt_ros2(echo)  # as Ctrl-C would
             reader.join(timeout=PATIENCE)
             echo.stdout.close()
     assert set(senders()) == inside, "".join(printed)[-2000:]
