@@ -131,7 +131,7 @@ def _relax_rows(
     mes: IntArray,
     order: int,
     span: IntArray,
-    run_ids: IntArray,
+    run_ids: IntArray | None,
     link_starts: IntArray,
     links: Links,
     heard: HeardLabels,
@@ -184,12 +184,12 @@ def _relax_rows(
             label_from = first_label if k == first_link and first_label >= 0 else starts[found[k]]
             for label in range(label_from, starts[found[k] + 1]):
                 source = source_ids[label]
-                rank = _slot(run_ids, first, source) if len(run_ids) else source - first
-                if rank < 0 or source >= end or source == me:  # not this run's, or its own
-                    continue
-                if has_closed and closed[source]:
+                if source < first or source >= end or source == me:  # not this run's, or its own
                     continue
                 # The slot inline, not by _place: a call per candidate cost 4x (direct).
+                rank = source - first if run_ids is None else _slot(run_ids, first, source)
+                if rank < 0 or (has_closed and closed[source]):  # not a spread run's, or ended
+                    continue
                 place = rank if direct else _place(row_keys, source)
                 if not direct and row_keys[place] == _EMPTY:
                     if 2 * (occupied[row] + 1) > width:
@@ -461,7 +461,9 @@ class LabelTable:
                 self.mes,
                 order,
                 self._span,
-                self.run_ids,
+                # None, not empty, when every id of the span is one: numba then compiles
+                # the relaxation without the search of the ids, as it was before spread runs.
+                self.run_ids if len(self.run_ids) else None,
                 self.link_starts,
                 self.links,
                 heard,
