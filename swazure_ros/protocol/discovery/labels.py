@@ -147,7 +147,7 @@ def _relax_rows(
     ``link_starts[row]:link_starts[row + 1]``) through the labels ``heard``.
 
     ``span`` is (first, end): sources outside first..end - 1 are not this run's, nor,
-    when ``run_ids`` (sorted) names its sources, ids it does not name; ``closed``
+    when ``run_ids`` (sorted; None: all) names its sources, ids it names not; ``closed``
     (id_space,) marks the sources whose search ended (empty: none), neither kept nor
     relaxed. A source first heard takes an empty place. Row ``rows[k]``'s bettered
     places go to ``changes[change_starts[k]:change_starts[k + 1]]``, from ``filled`` on.
