@@ -50,7 +50,8 @@ class Measurement:
 
 @dataclass(frozen=True)
 class Observations:
-    """Every FLS's neighbours within sensor reach, grouped by FLS (swarm indices).
+    """Every FLS's neighbours within sensor reach, decaying ones in sight only, grouped by
+    FLS (swarm indices).
 
     Rows ``indptr[i]:indptr[i+1]`` belong to FLS ``i``, sorted by ``other``.
     The camera's readings are held for the rows it looks at (sweet or
@@ -125,11 +126,14 @@ class NeighbourSets:
 
 
 def observations(hood: Neighbourhood, owners: IntArray | None = None) -> Observations:
-    """Lay out the blind, sweet and decaying pairs of ``hood`` per FLS, both directions.
+    """Lay out the blind, sweet and decaying-in-sight pairs of ``hood`` per FLS, both directions.
 
-    What every FLS senses: its blind, sweet and decaying neighbours by radio
-    (the tracking distance t, line of sight ignored) and, for the sweet and
-    decaying ones in sight, its camera's reading.
+    What every FLS senses that the protocol uses: its blind and sweet neighbours
+    by radio (the tracking distance t, line of sight ignored), its decaying
+    neighbours in sight, and, for the sweet and decaying ones in sight, its
+    camera's reading. A decaying neighbour out of sight is no row: no hop, no
+    reading and no neighbour set takes it, and at display scale it is half of
+    what a process would hold (docs/swarm.md).
 
     Parameters
     ----------
@@ -155,7 +159,11 @@ def observations(hood: Neighbourhood, owners: IntArray | None = None) -> Observa
     # Column by column, each laid out and its temporaries gone before the next: the rows
     # of torus:10000 (31.5 M pairs) held 2.9 GB, and building them all at once peaked at 5.4.
     pairs, size = hood.pairs, hood.swarm.size
-    keep = np.flatnonzero(np.isin(pairs.range_class, (BLIND, SWEET, DECAYING)))
+    # A decaying neighbour out of sight is nobody's hop, reading or neighbour set (radio
+    # neighbours are blind and sweet ones): half a display's rows, not laid out.
+    in_sight = (pairs.range_class == DECAYING) & hood.visible
+    keep = np.flatnonzero(np.isin(pairs.range_class, (BLIND, SWEET)) | in_sight)
+    del in_sight
     hosted = None
     if owners is not None:
         hosted = np.zeros(size, dtype=bool)
