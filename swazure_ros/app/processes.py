@@ -20,6 +20,7 @@ from typing import Protocol
 from ..core.errors import RunError, SwazureError
 from ..ros.programs.host import SwarmHost
 from ..ros.security.auth import SwarmKey
+from ..sim.world import Held
 from .config import SwarmConfig
 from .per_fls import Ended, FlsProcesses
 from .share import CREATED, FAILED, READY, host_share
@@ -74,7 +75,7 @@ class PackedShares:
         self.shares = shares
         self._created = [0] * len(shares)
         self._peaks: dict[int, float] = {}
-        self._pairs: dict[int, int] = {}
+        self._held: dict[int, Held] = {}
         mp = multiprocessing.get_context("spawn")
         self._reports = mp.Queue()
         self._stop = mp.Event()
@@ -106,7 +107,7 @@ class PackedShares:
                 self._created[index] = value
             elif kind == READY:
                 self._created[index] = len(self.shares[index])
-                self._peaks[index], self._pairs[index] = value
+                self._peaks[index], self._held[index] = value
         for child in self._children:
             if child.exitcode is not None and child.exitcode != 0:
                 raise RunError(f"{child.name} exited with code {child.exitcode}")
@@ -120,13 +121,13 @@ class PackedShares:
     def peak_rss_mb(self) -> list[float]:
         return [self._peaks[index] for index in range(1, len(self.shares))]
 
-    def pairs_held(self) -> list[int]:
-        """Neighbour pairs (``world.hood.pairs``) in each further process's world, once up.
+    def held(self) -> list[Held]:
+        """What each further process's world holds once up: pairs and observation rows.
 
-        Its own FLSs' pairs alone (``WorldSpec.build(only_hosted_pairs=True)``), where the
-        launcher's world holds the whole swarm's.
+        Its own FLSs' pairs and rows alone (``WorldSpec.build(hosted_ids,
+        only_hosted_pairs=True)``), where the launcher's world holds the whole swarm's pairs.
         """
-        return [self._pairs[index] for index in range(1, len(self.shares))]
+        return [self._held[index] for index in range(1, len(self.shares))]
 
     def process_ids(self) -> list[int]:
         return [child.pid for child in self._children if child.pid is not None]

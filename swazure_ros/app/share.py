@@ -148,7 +148,7 @@ def host_share(
                 f"process {index}: discovery incomplete after {config.discovery_timeout:g} s "
                 f"({host.discovery_text()})" + unreached_text(host.unreached())
             )
-        reports.put((READY, index, (peak_rss_mb(), len(world.hood.pairs))))
+        reports.put((READY, index, (peak_rss_mb(), world.held())))
         while not stop.is_set():
             host.spin_for(0.1)
         code = 0

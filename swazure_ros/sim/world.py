@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -42,6 +42,14 @@ from ..files.description import SwarmDescription
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
+
+
+class Held(NamedTuple):
+    """What a world holds of its swarm, counted: what hosting a share costs a process."""
+
+    pairs: int  # neighbour pairs (``World.hood``)
+    rows: int  # observation rows laid out (``World.seen``), each its owner FLS's
+    owners: int  # FLSs with rows laid out
 
 
 @dataclass
@@ -171,6 +179,12 @@ class World:
         """What FLS ``fls_id`` knows of its neighbours, for path discovery."""
         index = self.index(fls_id)
         return local_view(self._observed(index), self.ids, index)
+
+    def held(self) -> Held:
+        """What this world holds at its revision, counted (:class:`Held`)."""
+        seen = self.seen
+        owners = int(np.count_nonzero(np.diff(seen.indptr)))
+        return Held(len(self.hood.pairs), len(seen.other), owners)
 
     @property
     def id_space(self) -> int:

@@ -13,6 +13,7 @@ from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import evaluate, evaluate_pairs
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
+from swazure_ros.core.observe import observations
 from swazure_ros.protocol.cells import BANDS, DECAYING_BAND, SWEET_BAND, radio_cells
 from swazure_ros.protocol.discovery.estimate import evaluation_of
 from swazure_ros.ros.plumbing.names import RADIO_TOPIC, WALKS_TOPIC, host_name, radio_topic
@@ -113,7 +114,7 @@ def test_two_processes_hear_only_their_cells_offers_yet_equal_the_engine(domain,
         assert 0 < radio.offers_heard < sent - radio.offers_here
 
 
-def test_a_further_process_holds_only_its_own_flss_pairs_yet_the_run_equals_the_engine(
+def test_a_further_process_holds_only_its_own_flss_pairs_and_rows_yet_equals_the_engine(
     domain,
     params,  # noqa: F811
 ):
@@ -125,15 +126,22 @@ def test_a_further_process_holds_only_its_own_flss_pairs_yet_the_run_equals_the_
             world, by_pair(result.outcome.estimates), evaluate_pairs(world.hood, POLICY)
         )
         further = swarm.processes.shares[1:]
-        held = swarm.processes.pairs_held()
+        held = swarm.processes.held()
     pairs = world.hood.pairs
+    rows_of = np.diff(observations(world.hood).indptr)  # each FLS's rows in the whole swarm
     assert len(held) == len(further) == 2
     for share, count in zip(further, held, strict=True):
+        mine = world.indices(share)
         hosted = np.zeros(world.swarm.size, dtype=bool)
-        hosted[world.indices(share)] = True
+        hosted[mine] = True
         # Counted: exactly the whole's pairs that have an FLS of the share at one end.
         touching = int((hosted[pairs.first] | hosted[pairs.second]).sum())
-        assert count == touching < 0.8 * len(pairs), (count, touching, len(pairs))
+        assert count.pairs == touching < 0.8 * len(pairs), (count, touching, len(pairs))
+        # And exactly its own FLSs' observation rows, as the whole swarm's have them: no
+        # other FLS's (a share of a third holds under half the rows).
+        own_rows = int(rows_of[mine].sum())
+        assert count.rows == own_rows < 0.5 * rows_of.sum(), (count, own_rows, rows_of.sum())
+        assert count.owners == np.count_nonzero(rows_of[mine])
 
 
 def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, params):  # noqa: F811
