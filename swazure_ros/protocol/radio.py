@@ -25,6 +25,7 @@ from __future__ import annotations
 from collections import Counter, deque
 from collections.abc import Callable, Collection
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -155,6 +156,16 @@ class Ack:
     latency: float = 0.0  # s the round's deliveries took: the ack goes out that late
 
 
+class _Said(NamedTuple):
+    """What one local FLS's broadcast of a round tells the coordinator's tally."""
+
+    labels: int
+    pending: bool
+    finished: bool
+    size: int  # bytes on the wire
+    label_bytes: int  # its label row's memory (Offer.label_bytes)
+
+
 @dataclass(eq=False)
 class _Kept:
     """One offer a process keeps for a round, until the round's next control hands it over."""
@@ -246,9 +257,8 @@ class RadioHub:
         self._first_round: dict[int, int] = {}
         # (run, round) -> its ROUND, and the offers it brings this process, until acked.
         self._rounds: dict[tuple[int, int], tuple[Control, int]] = {}
-        # (run, round) -> what the local FLSs broadcast: sender -> (labels, pending,
-        # finished, bytes)
-        self._sent: dict[tuple[int, int], dict[int, tuple[int, bool, bool, int, int]]] = {}
+        # (run, round) -> what the local FLSs broadcast, by sender.
+        self._sent: dict[tuple[int, int], dict[int, _Said]] = {}
         # (run, round) -> what the local FLSs said to the coordinator in the FIT phase.
         self._fit_sent: dict[tuple[int, int], dict[int, FitOffer]] = {}
         # The sources its FLSs' offers of a round held beyond the reach, and those of its
@@ -363,7 +373,7 @@ class RadioHub:
         sent = self._sent.setdefault((run_id, round_), {})
         sent.setdefault(
             sender,
-            (len(offer), bool(offer.pending), bool(offer.finished), size, offer.label_bytes),
+            _Said(len(offer), bool(offer.pending), bool(offer.finished), size, offer.label_bytes),
         )
         if offer.fit is not None:
             self._fit_sent.setdefault((run_id, round_), {}).setdefault(sender, offer.fit)
@@ -381,21 +391,22 @@ class RadioHub:
         """
         sent = self._sent.pop((run_id, round_), {})
         senders = tuple(sorted(sent))
+        told = [sent[sender] for sender in senders]
         fits = self._fit_sent.pop((run_id, round_), {})
         said = [fits[sender] for sender in senders if sender in fits]
         beyond = self._beyond_sent.pop((run_id, round_), [])
         return Sent(
             senders,
-            sum(sent[sender][0] for sender in senders),
-            tuple(sender for sender in senders if sent[sender][1]),
-            tuple(sender for sender in senders if sent[sender][2]),
-            sum(sent[sender][3] for sender in senders),
+            sum(one.labels for one in told),
+            tuple(sender for sender, one in zip(senders, told, strict=True) if one.pending),
+            tuple(sender for sender, one in zip(senders, told, strict=True) if one.finished),
+            sum(one.size for one in told),
             process_sums([one.partials for one in said if len(one.partials)]),
             max((one.moved for one in said), default=0.0),
             (all(one.same[0] for one in said), all(one.same[1] for one in said)),
             tuple(np.unique(np.concatenate(beyond)).tolist()) if beyond else (),
             tuple(sorted(self._searching_sent.pop((run_id, round_), ()))),
-            sum(sent[sender][4] for sender in senders),
+            sum(one.label_bytes for one in told),
         )
 
     def _settle(self, heard: _RoundHeard, fallback: int | None = None) -> None:
