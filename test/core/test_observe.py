@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from swazure_ros.core import observe
+from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.observe import observations
+from swazure_ros.core.sensor import DECAYING, Sensor
 from swazure_ros.sim.world import WorldSpec
 
 from .fits import stochastic_sensor
@@ -31,3 +33,21 @@ def test_camera_readings_made_block_by_block_are_those_made_at_once(monkeypatch,
     if hosted is not None:  # only the hosted FLSs' rows
         rows = np.diff(whole.indptr)
         assert rows[hosted].sum() == len(whole.other) and rows.sum() == len(whole.other)
+
+
+def test_a_decaying_neighbour_out_of_sight_is_no_row_and_one_in_sight_is():
+    # A, B, C on a line 7 cm apart, D 14 cm from A across: A-C and A-D are decaying, and
+    # B stands between A and C. Sensor: blind below 6 cm, sweet to 8, decaying to 30.
+    swarm = make_swarm(np.array([[0.0, 0, 0], [7, 0, 0], [14, 0, 0], [0, 14, 0]]), radius=0.5)
+    hood = neighbourhood(swarm, Sensor(6.0, 8.0, 8.0, 30.0))
+    pairs = hood.pairs
+    a_c = np.flatnonzero((pairs.first == 0) & (pairs.second == 2))
+    a_d = np.flatnonzero((pairs.first == 0) & (pairs.second == 3))
+    assert pairs.range_class[a_c].tolist() == pairs.range_class[a_d].tolist() == [DECAYING]
+    assert not hood.visible[a_c].any() and hood.visible[a_d].all()  # the pairs keep both
+    seen = observations(hood)
+    # A senses B (sweet) and D (decaying, in sight); C neither by radio nor by camera.
+    assert seen.other[seen.rows(0)].tolist() == [1, 3]
+    assert seen.other[seen.rows(2)].tolist() == [1, 3]
+    assert seen.other[seen.rows(1)].tolist() == [0, 2, 3]
+    assert seen.visible.all()
