@@ -18,7 +18,7 @@ def table_of(mes, link_ids, weight, span):
     return LabelTable(
         np.array(mes),
         np.concatenate([[0], np.cumsum([len(own) for own in link_ids])]).astype(np.int64),
-        Links(links, np.full(len(links), weight), np.zeros(len(links))),
+        Links(links, np.full(len(links), weight), np.zeros(len(links)), np.zeros((len(links), 3))),
         span,
         id_space=span[1],
         fits=False,

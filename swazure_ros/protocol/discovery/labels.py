@@ -51,6 +51,7 @@ class Links(NamedTuple):
     ids: IntArray  # (K,), the senders
     weights: FloatArray  # (K,), tracking distance of each hop, cm
     errors: FloatArray  # (K,), expected error of each hop
+    vectors: FloatArray  # (K, 3), cm, each hop sender -> FLS as its labels sum it; NaN unread
 
 
 class HeardLabels(NamedTuple):
@@ -163,7 +164,7 @@ def _relax_rows(
     changes so far moved to their new places.
     """
     first, end, has_closed = span[0], span[1], len(closed) > 0
-    link_ids, link_weights, link_errors = links
+    link_ids, link_weights, link_errors = links.ids, links.weights, links.errors
     senders, starts, source_ids, label_hops, label_lengths, label_errors = heard
     keys, sent, hops, length, error, pred, occupied = columns
     width, direct = hops.shape[1], keys.shape[1] == 0  # a direct table keeps no keys

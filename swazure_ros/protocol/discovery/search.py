@@ -30,7 +30,16 @@ from ...core.observe import LocalView
 from ...core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
 from ...core.sensor import BLIND, DECAYING, SWEET, Sensor
 from .estimate import Results
-from .labels import ERROR_FIRST, HOPS_FIRST, LENGTH_FIRST, HeardLabels, LabelTable, Links
+from .heard import OffersHeard, offers_of
+from .labels import (
+    ERROR_FIRST,
+    HOPS_FIRST,
+    LENGTH_FIRST,
+    Changes,
+    HeardLabels,
+    LabelTable,
+    Links,
+)
 from .messages import ANY_VISIBLE, SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers, sender_rows
 
 #: Rounds that one sweet hop may cost in a least-error run, at most: the calibrated
@@ -47,10 +56,6 @@ _BUCKET_MARGIN = 1e-9
 #: A source's targets are its blind neighbours, a few sweet hops away: most searches end
 #: within it, and the few cut short search again twice as far (docs/protocol.md).
 REACH_HOPS = 8
-
-#: How many rounds' offers a PathSearch keeps before it drops those no label needs.
-_HEARD_KEPT = 8
-
 
 #: No place of a table: an offer with nothing beyond its reach.
 _NOWHERE = np.zeros(0, dtype=np.int64)
@@ -232,7 +237,7 @@ class PathSearch:
         self._relay_from(view, phase, departed, options)
         self.fit = options.fit
         self.fits = options.fit is not None
-        links = Links(self.link_ids, self.link_weights, self.link_errors)
+        links = Links(self.link_ids, self.link_weights, self.link_errors, self.link_vectors)
         # Its labels: row 0 of a table of its own, until its process steps it with
         # others (.together), when its records move to a row of theirs.
         self.table = LabelTable(
@@ -245,14 +250,13 @@ class PathSearch:
             sources=options.sources,
         )
         self.row = 0
-        self._heard: dict[int, RoundOffers] = {}
-        self._heard_count = 0
+        self.book = OffersHeard()  # the offers its labels came through, as its table's rows'
         self._last_heard: RoundOffers | None = None  # the offers this search heard last
-        # (round, due records, unsent labels, records beyond the reach) picked with the
-        # other FLSs of its process.
-        self._picked: tuple[int, IntArray, int, IntArray] | None = None
-        self.targets = frozenset(int(t) for t in targets) if targets is not None else frozenset()
-        self._wanted = np.array(sorted(self.targets), dtype=np.int64)
+        # (round, its offer) picked with the other FLSs of its process.
+        self._picked: tuple[int, Offer] | None = None
+        wanted = np.unique(np.asarray(targets if targets is not None else (), dtype=np.int64))
+        self.targets = frozenset(wanted.tolist())
+        self._wanted = wanted  # sorted
         self._found = np.zeros(len(self._wanted), dtype=bool)  # by target, as _wanted
         self._out_of_reach = np.zeros(len(self._wanted), dtype=bool)  # shown by a pass (resume)
         self.results = Results()
@@ -295,9 +299,12 @@ class PathSearch:
         if self.fits:
             table.unbiased[row, me], table.covariance[row, me] = 0.0, 0.0
 
-    def move_to(self, table: LabelTable, row: int) -> None:
-        """Its labels are now row ``row`` of ``table`` (:mod:`.together`)."""
-        self.table, self.row = table, row
+    def move_to(self, table: LabelTable, row: int, book: OffersHeard) -> None:
+        """Its labels are now row ``row`` of ``table``, whose offers heard are ``book``
+        (:mod:`.together`); its links, the table's row ``row``'s."""
+        self.table, self.row, self.book = table, row, book
+        mine = slice(table.link_starts[row], table.link_starts[row + 1])
+        self.link_weights, self.link_vectors = table.links.weights[mine], table.links.vectors[mine]
 
     @property
     def sources(self) -> IntArray:
@@ -345,41 +352,30 @@ class PathSearch:
 
         Picked here, or with the other FLSs of a process (:func:`.together.pick_together`).
         """
-        picked = self._picked
-        self._picked = None
+        picked, self._picked = self._picked, None
+        offer = picked[1] if picked is not None and picked[0] == round_ else self._pick(round_)
+        offer.finished = self.finished
+        offer.reading_ids, offer.reading_vectors = self._first_readings()
+        return offer
+
+    def _pick(self, round_: int) -> Offer:
+        """Its offer of round ``round_``, picked alone."""
         table, row = self.table, self.row
-        if picked is not None and picked[0] == round_:
-            _, due, labelled, beyond = picked
-        else:
-            bucket = self.resumed + round_
-            unsent, due_now = table.due(row, self.order, self.width, bucket, self.reach)
-            due = np.flatnonzero(due_now)
-            # Once every label below the reach is sent, those left are beyond it: held,
-            # for the next pass, not pending in this one.
-            beyond = np.flatnonzero(unsent) if bucket >= self.reach else _NOWHERE
-            if not table.direct:  # by source, as sent
-                due = due[np.argsort(table.keys[row, due], kind="stable")]
-            table.sent[row, due] = True
-            labelled = int(unsent.sum()) - len(beyond)
-        path_offsets, path_ids = self._paths_of(due)
-        reading_ids, reading_vectors = self._first_readings()
-        return Offer(
-            source_ids=table.sources_of(row, due),
-            hops=table.hops[row, due].astype(np.int64),
-            lengths=table.length[row, due],
-            errors=table.error[row, due],
-            vectors=table.vector[row, due],
-            path_offsets=path_offsets,
-            path_ids=path_ids,
-            pending=len(due) < labelled,
-            finished=self.finished,
-            unbiased=table.unbiased[row, due] if self.fits else None,
-            covariances=table.covariance[row, due] if self.fits else None,
-            reading_ids=reading_ids,
-            reading_vectors=reading_vectors,
-            beyond_ids=np.sort(table.sources_of(row, beyond)),
-            label_bytes=table.row_bytes,
-        )
+        bucket = self.resumed + round_
+        unsent, due_now = table.due(row, self.order, self.width, bucket, self.reach)
+        due = np.flatnonzero(due_now)
+        # Once every label below the reach is sent, those left are beyond it: held,
+        # for the next pass, not pending in this one.
+        beyond = np.flatnonzero(unsent) if bucket >= self.reach else _NOWHERE
+        if not table.direct:  # by source, as sent
+            due = due[np.argsort(table.keys[row, due], kind="stable")]
+        table.sent[row, due] = True
+        mine = np.full(len(due), row, dtype=np.int64)
+        pending = len(due) < int(unsent.sum()) - len(beyond)
+        beyond_rows = np.full(len(beyond), row, dtype=np.int64)
+        return offers_of(
+            table, self.book, np.array([row]), (mine, due), (beyond_rows, beyond), [pending]
+        )[0]
 
     def _first_readings(self) -> tuple[IntArray, FloatArray]:
         """This FLS's readings, for its first offer of the phase only; none after."""
@@ -388,46 +384,6 @@ class PathSearch:
         ids, vectors = self._readings
         self._readings = None
         return ids, vectors
-
-    def _paths_of(self, places: IntArray) -> tuple[IntArray, IntArray]:
-        """The paths of the labels at ``places``, as (offsets (L + 1,), ids), FLS ids."""
-        if not len(places):  # nothing due this round
-            self._forget_heard()
-            return np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64)
-        via = self.table.via_offers[self.row, places]
-        label = self.table.via_label[self.row, places]
-        # Each label's sender path: where it starts in its offers and how long it is.
-        start = np.zeros(len(places), dtype=np.int64)
-        length = np.zeros(len(places), dtype=np.int64)
-        groups = []
-        for key in np.unique(via[via >= 0]).tolist():
-            rows = np.flatnonzero(via == key)
-            offsets = self._heard[key].path_offsets
-            start[rows] = offsets[label[rows]]
-            length[rows] = offsets[label[rows] + 1] - start[rows]
-            groups.append((self._heard[key].path_ids, rows))
-        path_offsets = csr.offsets(length + 1)
-        path_ids = np.full(int(path_offsets[-1]), self.fls_id, dtype=np.int64)  # ends each
-        for heard_ids, rows in groups:
-            counts = length[rows]
-            path_ids[csr.ragged_indices(path_offsets[rows], counts)] = heard_ids[
-                csr.ragged_indices(start[rows], counts)
-            ]
-        # Only now: the labels just sent count as sent, and their offers may go.
-        self._forget_heard()
-        return path_offsets, path_ids
-
-    def _forget_heard(self) -> None:
-        """Drop the offers heard that no unsent label still comes through.
-
-        Looked for only once more than a few rounds' offers are kept.
-        """
-        if len(self._heard) > _HEARD_KEPT:
-            table, row = self.table, self.row
-            via = table.via_offers[row]
-            pending = via[~table.sent[row] & (via >= 0)]
-            for key in set(self._heard) - set(np.unique(pending).tolist()):
-                del self._heard[key]
 
     def _take_results(self, heard: RoundOffers, labels: IntArray) -> None:
         """Record the results that ``labels`` of ``heard`` (this source's, from targets) bring."""
@@ -458,8 +414,9 @@ class PathSearch:
         if self._last_heard is heard:
             return
         self._hear_first(heard)
-        _, changes = self.table.relax(np.array([self.row]), self.order, heard_labels(heard))
-        self._take_changes(heard, changes.places, changes.labels, changes.links)
+        rows = np.array([self.row])
+        starts, changes = self.table.relax(rows, self.order, heard_labels(heard))
+        take_changes(self.table, self.book, self.fit, heard, rows, starts, changes)
 
     def _hear_first(self, heard: RoundOffers) -> None:
         """What hearing ``heard`` takes before the relaxation: results and readings."""
@@ -480,26 +437,54 @@ class PathSearch:
             )
             self.link_vectors[rows[known]] = readings[known]
 
-    def _take_changes(
-        self, heard: RoundOffers, changed: IntArray, labels: IntArray, links: IntArray
-    ) -> None:
-        """Labels at places ``changed`` were bettered by ``labels`` of ``heard`` through
-        ``links`` (the relaxation's winners): their vectors and paths follow."""
-        if not len(changed):
-            return
-        table, row = self.table, self.row
-        hop = self.link_vectors[links]
-        table.vector[row, changed] = heard.vectors[labels] + hop
-        if self.fit is not None:
-            sensor, radius = self.fit
-            unbiased, covariance = hop_fit(sensor, radius, hop, self.link_weights[links])
-            table.unbiased[row, changed] = heard.unbiased[labels] + unbiased
-            table.covariance[row, changed] = heard.covariances[labels] + covariance
-        key = self._heard_count
-        self._heard_count += 1
-        self._heard[key] = heard
-        table.via_offers[row, changed] = key
-        table.via_label[row, changed] = labels
+
+def take_changes(
+    table: LabelTable,
+    book: OffersHeard,
+    fit: tuple[Sensor, float] | None,
+    heard: RoundOffers,
+    rows: IntArray,
+    starts: IntArray,
+    changes: Changes,
+) -> None:
+    """Labels of ``table`` bettered by ``heard`` (the relaxation of ``rows`` gave ``starts``
+    and ``changes``): their vectors follow the winners, and their paths are named.
+
+    ``fit`` (the sensor and the FLSs' radius, cm) in a fitting run: the labels'
+    unbiased sums and covariances follow too.
+    """
+    if not len(changes.places):
+        return
+    changed = np.repeat(rows, np.diff(starts))
+    links = table.link_starts[changed] + changes.links  # into the table's links
+    _follow(
+        changed, changes.places, changes.labels, links, heard.vectors, table.links.vectors,
+        book.key(heard), table.vector, table.via_offers, table.via_label,
+    )  # fmt: skip
+    if fit is not None:
+        sensor, radius = fit
+        hop = table.links.vectors[links]
+        unbiased, covariance = hop_fit(sensor, radius, hop, table.links.weights[links])
+        table.unbiased[changed, changes.places] = heard.unbiased[changes.labels] + unbiased
+        table.covariance[changed, changes.places] = heard.covariances[changes.labels] + covariance
+
+
+@jit.kernel(cache=True, nogil=True)
+def _follow(
+    rows: IntArray, places: IntArray, labels: IntArray, links: IntArray,
+    heard_vectors: FloatArray, link_vectors: FloatArray, key: int,
+    vector: FloatArray, via_offers: IntArray, via_label: IntArray,
+) -> None:  # fmt: skip
+    """The labels at (``rows``, ``places``) of a table (its columns ``vector``,
+    ``via_offers``, ``via_label``) won through heard ``labels`` (vectors ``heard_vectors``)
+    and ``links`` (``link_vectors``): their vectors, the heard vector plus the hop's, and
+    the offers (``key``) and labels their paths are read from. One compiled pass: numpy
+    scatters millions of changes a round into (F, R, 3) columns several times slower."""
+    for change in range(len(places)):
+        row, place, label, link = rows[change], places[change], labels[change], links[change]
+        for axis in range(3):
+            vector[row, place, axis] = heard_vectors[label, axis] + link_vectors[link, axis]
+        via_offers[row, place], via_label[row, place] = key, label
 
 
 def heard_labels(heard: RoundOffers) -> HeardLabels:

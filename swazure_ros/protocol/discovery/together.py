@@ -15,11 +15,11 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ...core import csr
 from ...core.arrays import IntArray
+from .heard import OffersHeard, offers_of
 from .labels import LabelTable
 from .messages import RoundOffers
-from .search import PathSearch, heard_labels
+from .search import PathSearch, heard_labels, take_changes
 
 
 def _shared_table(searches: Sequence[PathSearch]) -> LabelTable | None:
@@ -37,8 +37,11 @@ def _shared_table(searches: Sequence[PathSearch]) -> LabelTable | None:
     ):
         return table
     table = LabelTable.merged([(one.table, one.row) for one in searches])
+    # Each row's labels name the offers they came through by its old book's keys.
+    book, bases = OffersHeard.merged([one.book for one in searches])
+    table.via_offers += np.where(table.via_offers >= 0, bases[:, None], 0)
     for row, one in enumerate(searches):
-        one.move_to(table, row)
+        one.move_to(table, row, book)
     return table
 
 
@@ -60,21 +63,17 @@ def pick_together(searches: Sequence[PathSearch], round_: int, closed: IntArray)
         order = np.lexsort((table.keys[rows, places], rows))
         rows, places = rows[order], places[order]
     table.sent[rows, places] = True
-    starts = csr.offsets(np.bincount(rows, minlength=table.size))
-    counts = unsent.sum(axis=1)
+    pending = np.bincount(rows, minlength=table.size) < unsent.sum(axis=1)
     beyond_rows = beyond_places = np.zeros(0, dtype=np.int64)
     if bucket >= first.reach:  # beyond the reach, every label below it sent (PathSearch.offer)
         beyond_rows, beyond_places = np.nonzero(unsent)
-        counts = np.zeros_like(counts)
-    beyond_starts = csr.offsets(np.bincount(beyond_rows, minlength=table.size))
-    counts = counts.tolist()
-    for row, one in enumerate(searches):
-        one._picked = (
-            round_,
-            places[starts[row] : starts[row + 1]],
-            counts[row],
-            beyond_places[beyond_starts[row] : beyond_starts[row + 1]],
-        )
+        pending[:] = False
+    members = np.arange(table.size, dtype=np.int64)
+    offers = offers_of(
+        table, first.book, members, (rows, places), (beyond_rows, beyond_places), pending.tolist()
+    )
+    for one, offer in zip(searches, offers, strict=True):
+        one._picked = (round_, offer)
 
 
 def hear_together(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
@@ -95,9 +94,6 @@ def hear_together(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
     for one in searches:
         one._hear_first(heard)
     rows = np.arange(len(searches), dtype=np.int64)
-    starts, changes = table.relax(rows, searches[0].order, heard_labels(heard))
-    for row in np.flatnonzero(np.diff(starts)).tolist():
-        at = slice(starts[row], starts[row + 1])
-        searches[row]._take_changes(
-            heard, changes.places[at], changes.labels[at], changes.links[at]
-        )
+    first = searches[0]
+    starts, changes = table.relax(rows, first.order, heard_labels(heard))
+    take_changes(table, first.book, first.fit, heard, rows, starts, changes)

@@ -1,0 +1,187 @@
+"""The offers that labels came through, and the offers made of labels in one pass.
+
+A label holds no path of its own. It names the offers that bettered it last
+(a key of an :class:`OffersHeard`, ``LabelTable.via_offers``) and its label
+there (``via_label``): its path is its sender's path there, then its own FLS.
+A search stepped alone keeps a book of its own; the searches a process steps
+together share one, as they share their table (:mod:`.together`), so that
+:func:`offers_of` reads the labels and paths of every FLS that the process
+speaks for in a round at once, and each FLS's offer is a view of them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from ...core import csr, jit
+from ...core.arrays import IntArray
+from .labels import LabelTable
+from .messages import Offer, RoundOffers
+
+#: How many rounds' offers a book keeps before it drops those no unsent label needs.
+KEPT = 8
+
+
+class OffersHeard:
+    """The offers heard that some label of a table came through, by key (``offers``)."""
+
+    def __init__(self) -> None:
+        self.offers: dict[int, RoundOffers] = {}
+        self._next = 0
+
+    def key(self, heard: RoundOffers) -> int:
+        """The key of ``heard``, kept from now on; the key given last when it was ``heard``
+        too (the rows of a table bettered by one round's offers share it)."""
+        last = self._next - 1
+        if last in self.offers and self.offers[last] is heard:
+            return last
+        self.offers[self._next] = heard
+        self._next += 1
+        return self._next - 1
+
+    def paths(self, via: IntArray, label: IntArray, ends: IntArray) -> tuple[IntArray, IntArray]:
+        """The paths of L labels, each its sender's path then its own FLS.
+
+        Parameters
+        ----------
+        via, label : (L,) array of int
+            The key of the offers that bettered each label (-1: its FLS is the
+            source, whose path is itself) and its label there.
+        ends : (L,) array of int
+            The id of each label's FLS.
+
+        Returns
+        -------
+        offsets : (L + 1,) array of int
+        ids : array of int
+            FLS ids, source first.
+        """
+        start = np.zeros(len(via), dtype=np.int64)
+        length = np.zeros(len(via), dtype=np.int64)
+        groups = []
+        for key in np.unique(via[via >= 0]).tolist():
+            rows = np.flatnonzero(via == key)
+            offsets = self.offers[key].path_offsets
+            start[rows] = offsets[label[rows]]
+            length[rows] = offsets[label[rows] + 1] - start[rows]
+            groups.append((self.offers[key].path_ids, rows))
+        path_offsets = csr.offsets(length + 1)
+        path_ids = np.empty(int(path_offsets[-1]), dtype=np.int64)
+        path_ids[path_offsets[1:] - 1] = ends
+        for heard_ids, rows in groups:
+            _copy_runs(heard_ids, start, length, rows, path_offsets, path_ids)
+        return path_offsets, path_ids
+
+    def forget(self, table: LabelTable) -> None:
+        """Drop the offers that no unsent label of ``table`` comes through, looked for only
+        once more than :data:`KEPT` are kept."""
+        if len(self.offers) > KEPT:
+            via = table.via_offers
+            needed = np.zeros(self._next, dtype=bool)
+            needed[via[~table.sent & (via >= 0)]] = True
+            for key in [key for key in self.offers if not needed[key]]:
+                del self.offers[key]
+
+    @classmethod
+    def merged(cls, books: Sequence[OffersHeard]) -> tuple[OffersHeard, IntArray]:
+        """One book of ``books`` (one per row of a merged table, shared ones given again),
+        and what to add to each row's keys (B,) to find their offers in it."""
+        book = cls()
+        bases: dict[int, int] = {}
+        for one in books:
+            if id(one) not in bases:
+                bases[id(one)] = book._next
+                book.offers.update({book._next + key: heard for key, heard in one.offers.items()})
+                book._next += one._next
+        return book, np.array([bases[id(one)] for one in books], dtype=np.int64)
+
+
+@jit.kernel(cache=True, nogil=True)
+def _copy_runs(
+    values: IntArray, starts: IntArray, counts: IntArray, runs: IntArray,
+    out_starts: IntArray, out: IntArray,
+) -> None:  # fmt: skip
+    """Copy run k of ``values`` (``counts[k]`` from ``starts[k]``) to ``out`` from
+    ``out_starts[k]`` on, for each k of ``runs``: a path's ids, one at a time (a numpy
+    gather of millions of ids builds two index arrays as long first)."""
+    for k in runs:
+        source, target = starts[k], out_starts[k]
+        for step in range(counts[k]):
+            out[target + step] = values[source + step]
+
+
+def offers_of(
+    table: LabelTable,
+    book: OffersHeard,
+    members: IntArray,
+    due: tuple[IntArray, IntArray],
+    beyond: tuple[IntArray, IntArray],
+    pending: Sequence[bool],
+) -> list[Offer]:
+    """The offers of rows ``members`` (sorted) of ``table``, read in one pass.
+
+    Parameters
+    ----------
+    table, book : LabelTable, OffersHeard
+        The labels and the offers they came through.
+    members : (M,) array of int
+        Rows that offer, one :class:`.messages.Offer` each, in this order.
+    due : ((L,), (L,)) arrays of int
+        Rows and places of the labels sent, by row, each row's in the order
+        its FLS sends them (by source).
+    beyond : ((B,), (B,)) arrays of int
+        Rows and places of the labels held beyond the pass's reach.
+    pending : (M,) bools
+        Whether each offering FLS holds labels still to send in this pass.
+
+    Returns
+    -------
+    list of Offer
+        Their fields are views of arrays shared by the M offers; ``finished``
+        and the readings are the caller's to set.
+    """
+    rows, places = due
+    path_offsets, path_ids = book.paths(
+        table.via_offers[rows, places], table.via_label[rows, places], table.mes[rows]
+    )
+    book.forget(table)
+    sources = table.sources_of(rows, places)
+    hops = table.hops[rows, places].astype(np.int64)
+    lengths, errors = table.length[rows, places], table.error[rows, places]
+    vectors = table.vector[rows, places]
+    unbiased = table.unbiased[rows, places] if table.fits else None
+    covariances = table.covariance[rows, places] if table.fits else None
+    beyond_ids = table.sources_of(*beyond)
+    order = np.lexsort((beyond_ids, beyond[0]))
+    beyond_rows, beyond_ids = beyond[0][order], beyond_ids[order]
+    bounds = zip(
+        np.searchsorted(rows, members).tolist(),
+        np.searchsorted(rows, members, side="right").tolist(),
+        np.searchsorted(beyond_rows, members).tolist(),
+        np.searchsorted(beyond_rows, members, side="right").tolist(),
+        pending,
+        strict=True,
+    )
+    offers = []
+    for first, end, first_beyond, end_beyond, more in bounds:
+        offsets = path_offsets[first : end + 1]
+        labels = slice(first, end)
+        offers.append(
+            Offer(
+                source_ids=sources[labels],
+                hops=hops[labels],
+                lengths=lengths[labels],
+                errors=errors[labels],
+                vectors=vectors[labels],
+                path_offsets=offsets - offsets[0],
+                path_ids=path_ids[offsets[0] : offsets[-1]],
+                pending=bool(more),
+                unbiased=None if unbiased is None else unbiased[labels],
+                covariances=None if covariances is None else covariances[labels],
+                beyond_ids=beyond_ids[first_beyond:end_beyond],
+                label_bytes=table.row_bytes,
+            )
+        )
+    return offers
