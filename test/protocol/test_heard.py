@@ -1,0 +1,78 @@
+"""The offers labels came through: keys, paths read from them, books merged and pruned."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from swazure_ros.protocol.discovery.heard import KEPT, OffersHeard
+from swazure_ros.protocol.discovery.labels import LabelTable, Links
+from swazure_ros.protocol.discovery.messages import Offer, RoundOffers
+
+
+def offers_from(sender, paths):
+    """One round's offers: ``sender``'s labels, one per path (FLS ids, source first)."""
+    count = len(paths)
+    offer = Offer(
+        source_ids=np.array([path[0] for path in paths], dtype=np.int64),
+        hops=np.array([len(path) - 1 for path in paths], dtype=np.int64),
+        lengths=np.ones(count),
+        errors=np.zeros(count),
+        vectors=np.zeros((count, 3)),
+        path_offsets=np.concatenate([[0], np.cumsum([len(p) for p in paths])]).astype(np.int64),
+        path_ids=np.array([fls for path in paths for fls in path], dtype=np.int64),
+    )
+    return RoundOffers.of([(sender, offer)])
+
+
+def test_a_label_s_path_is_its_sender_s_path_there_then_its_own_fls():
+    book = OffersHeard()
+    first = book.key(offers_from(5, [(1, 5), (2, 7, 5)]))
+    second = book.key(offers_from(6, [(3, 6)]))
+    offsets, ids = book.paths(
+        np.array([first, second, -1, first]), np.array([1, 0, -1, 0]), np.array([9, 9, 4, 8])
+    )
+    paths = [ids[offsets[k] : offsets[k + 1]].tolist() for k in range(4)]
+    # A label with no offers behind it is its FLS's own: the source itself.
+    assert paths == [[2, 7, 5, 9], [3, 6, 9], [4], [1, 5, 8]]
+
+
+def test_one_round_s_offers_keep_one_key_for_every_row_they_better():
+    book = OffersHeard()
+    heard, later = offers_from(5, [(1, 5)]), offers_from(5, [(2, 5)])
+    assert book.key(heard) == book.key(heard) == 0
+    assert book.key(later) == 1
+    assert book.offers == {0: heard, 1: later}
+
+
+def test_books_merged_give_each_row_the_keys_of_its_own_book():
+    one, other = OffersHeard(), OffersHeard()
+    a, b, c = (offers_from(5, [(k, 5)]) for k in (1, 2, 3))
+    one.key(a), one.key(b), other.key(c)
+    book, bases = OffersHeard.merged([one, other, one])
+    assert bases.tolist() == [0, 2, 0]
+    assert book.offers == {0: a, 1: b, 2: c}
+    # The next offers heard together take a key of their own.
+    assert book.key(offers_from(5, [(4, 5)])) == 3
+
+
+def test_offers_no_unsent_label_comes_through_are_dropped_once_more_than_kept():
+    table = LabelTable(
+        np.array([0]),
+        np.array([0, 0]),
+        Links(np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros((0, 3))),
+        (0, 4),
+        4,
+        fits=False,
+    )
+    book = OffersHeard()
+    heard = [offers_from(5, [(k, 5)]) for k in range(KEPT + 2)]
+    for offers in heard[:KEPT]:
+        book.key(offers)
+    table.via_offers[0] = [3, KEPT - 1, KEPT - 1, -1]
+    table.sent[0] = [False, True, False, False]
+    book.forget(table)
+    assert len(book.offers) == KEPT  # not more than kept: none looked for
+    book.key(heard[KEPT])
+    book.forget(table)
+    # Place 0 (unsent) comes through 3, place 2 (unsent) through KEPT - 1; place 1 is sent.
+    assert sorted(book.offers) == [3, KEPT - 1]
