@@ -526,6 +526,14 @@ class LabelTable:
         self, row: int | None, order: int, width: float, round_: float, reach: float = np.inf
     ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
         """:func:`labels_due` of row ``row``'s places (R,), or of every row's (F, R) when None."""
+        primary, found, sent, closed = self.due_inputs(row, order)
+        return labels_due(primary, found, sent, closed, width, round_, reach)
+
+    def due_inputs(
+        self, row: int | None, order: int
+    ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
+        """What :func:`labels_due` reads of row ``row``, or of every row: the ``order``'s
+        primary costs, found, sent, and closed (by place, (R,) where every row shares it)."""
         at = slice(None) if row is None else row
         found = self.found(row)
         if not len(self.closed):
@@ -537,7 +545,7 @@ class LabelTable:
         else:
             closed = self.closed[np.where(found, self.keys[at], 0)] & found
         primary = (self.hops, self.length, self.error)[order][at]
-        return labels_due(primary, found, self.sent[at], closed, width, round_, reach)
+        return primary, found, self.sent[at], closed
 
     @classmethod
     def merged(cls, parts: Sequence[tuple[LabelTable, int]]) -> LabelTable:
