@@ -4,7 +4,7 @@
 FLS a source, the nodes' state machines without DDS (``protocol.loops.discover``), each
 process's FLSs stepped together as on ROS; beside it the engine's pairs, compared pair
 for pair. The labels held are read from each table after every relaxation (a probe
-wrapped around ``LabelTable.relax``, this script's own).
+wrapped around ``LabelTable.relax`` and ``together.relax_together``, this script's own).
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ from swazure_ros.core.evaluate import evaluate_pairs
 from swazure_ros.core.evaluation import NO_PATH
 from swazure_ros.core.observe import observations
 from swazure_ros.files.atomic import atomic_write
+from swazure_ros.protocol.discovery import together
 from swazure_ros.protocol.discovery.labels import LabelTable
 from swazure_ros.protocol.loops import discover
 from swazure_ros.sim.world import WorldSpec
@@ -48,17 +49,27 @@ def arguments() -> argparse.Namespace:
 def main() -> int:
     args = arguments()
     held = {"widest": 0, "most_in_a_row": 0, "at_once": 0}
-    relax = LabelTable.relax
+    relax, relax_shared = LabelTable.relax, together.relax_together
 
-    def probed(table: LabelTable, *relaxed: Any) -> Any:
-        out = relax(table, *relaxed)
+    def count(table: LabelTable) -> None:
         counts = table.found().sum(axis=1)
         held["widest"] = max(held["widest"], table.width)
         held["most_in_a_row"] = max(held["most_in_a_row"], int(counts.max(initial=0)))
         held["at_once"] = max(held["at_once"], int(counts.sum()))
+
+    def probed(table: LabelTable, *relaxed: Any) -> Any:
+        out = relax(table, *relaxed)
+        count(table)
+        return out
+
+    def probed_shared(table: LabelTable, *relaxed: Any) -> Any:
+        # A process's direct table is relaxed on its cores, not by LabelTable.relax.
+        out = relax_shared(table, *relaxed)
+        count(table)
         return out
 
     LabelTable.relax = probed  # type: ignore[method-assign, assignment]
+    together.relax_together = probed_shared  # type: ignore[assignment]
     small = WorldSpec("torus:120", scale=1.6, beta=args.beta).build()  # kernels loaded
     discover(observations(small.hood), small.ids, small.sensor, small.swarm.radius, POLICY)
     held.update(widest=0, most_in_a_row=0, at_once=0)

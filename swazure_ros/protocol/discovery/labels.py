@@ -128,7 +128,7 @@ def _insert(
 
 
 @jit.kernel(cache=True, nogil=True)
-def _relax_rows(
+def relax_rows(
     rows: IntArray,
     begin: int,
     mes: IntArray,
@@ -173,11 +173,11 @@ def _relax_rows(
         found = sender_rows(link_ids[low:high], senders)
         resumed = at == begin and resume[0] >= 0
         first_link, first_label = (resume[0], resume[1]) if resumed else (0, -1)
-        if not resumed and filled + _candidates(found, starts) > len(changes.places):
+        room = candidates(found, starts, width if direct else -1)
+        if not resumed and filled + room > len(changes.places):
             return at, filled, 0
         resume[0], resume[1] = -1, -1
-        # The row's own labels, side by side: what its candidates read and write.
-        me, row_keys, row_sent, row_pred = mes[row], keys[row], sent[row], pred[row]
+        me, row_keys, row_sent, row_pred = mes[row], keys[row], sent[row], pred[row]  # its own
         row_hops, row_length, row_error = hops[row], length[row], error[row]
         for k in range(first_link, high - low):
             if found[k] < 0:
@@ -228,13 +228,14 @@ def _relax_rows(
 
 
 @jit.kernel(cache=True, nogil=True)
-def _candidates(found: IntArray, starts: IntArray) -> int:
-    """How many labels the senders at rows ``found`` (-1: not heard) of ``starts`` offer."""
+def candidates(found: IntArray, starts: IntArray, most: int) -> int:
+    """The labels the senders at rows ``found`` (-1: none) of ``starts`` offer, or ``most``
+    if fewer (-1: no bound): a direct row's changes, a place each at most."""
     count = 0
     for row in found:
         if row >= 0:
             count += starts[row + 1] - starts[row]
-    return count
+    return count if most < 0 else min(count, most)
 
 
 @jit.kernel(cache=True, nogil=True)
@@ -324,10 +325,9 @@ class LabelTable:
         self.mes = np.asarray(mes, dtype=np.int64)
         self.link_starts, self.links = link_starts, links
         self.span, self.id_space, self.fits = span, id_space, fits
-        self._span = np.array(span, dtype=np.int64)
-        # The run's sources by slot; None when they are every id of the span (slot:
-        # id - first), and numba then compiles the relaxation without their search
-        # (36-39 s of the race car's against 31 s). Shared by every table of a run.
+        self.span_array = np.array(span, dtype=np.int64)
+        # The run's sources by slot; None when they are every id of the span (slot: id -
+        # first): numba then compiles the relaxation without their search (31 s, not 36-39).
         spread = sources is not None and len(sources) < span[1] - span[0]
         self.run_ids: IntArray | None = sources if sources is not None and spread else None
         self.closed = np.zeros(0, dtype=bool)  # (id_space,) once a source is closed
@@ -387,7 +387,7 @@ class LabelTable:
             return np.asarray(places, dtype=np.int64) + self.span[0]
         return np.asarray(self.keys[rows, places], dtype=np.int64)
 
-    def _columns(self) -> Columns:
+    def columns(self) -> Columns:
         return Columns(
             self.keys, self.sent, self.hops, self.length, self.error, self.pred, self.occupied
         )
@@ -459,18 +459,18 @@ class LabelTable:
         resume = np.full(2, -1, dtype=np.int64)
         done, filled = 0, 0
         while done < len(rows):
-            done, filled, need = _relax_rows(
+            done, filled, need = relax_rows(
                 rows,
                 done,
                 self.mes,
                 order,
-                self._span,
+                self.span_array,
                 self.run_ids,
                 self.link_starts,
                 self.links,
                 heard,
                 self.closed,
-                self._columns(),
+                self.columns(),
                 changes,
                 filled,
                 change_starts,

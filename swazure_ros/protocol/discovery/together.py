@@ -19,8 +19,8 @@ from numpy.typing import NDArray
 from ...core import jit
 from ...core.arrays import FloatArray, IntArray
 from .heard import OffersHeard, offers_of
-from .labels import LabelTable
-from .messages import RoundOffers
+from .labels import Changes, Columns, HeardLabels, LabelTable, Links, candidates, relax_rows
+from .messages import RoundOffers, sender_rows
 from .search import PathSearch, heard_labels, take_changes
 
 
@@ -137,5 +137,123 @@ def hear_together(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
         one._hear_first(heard)
     rows = np.arange(len(searches), dtype=np.int64)
     first = searches[0]
-    starts, changes = table.relax(rows, first.order, heard_labels(heard))
+    starts, changes = relax_together(table, rows, first.order, heard_labels(heard))
     take_changes(table, first.book, first.fit, heard, rows, starts, changes)
+
+
+#: Rows from which a direct table's relaxation is shared among the cores.
+PARALLEL_ROWS = 64
+#: The most changes one wave of a shared relaxation has room for (three int64 each).
+_WAVE = 1 << 22
+
+
+def relax_together(
+    table: LabelTable, rows: IntArray, order: int, heard: HeardLabels
+) -> tuple[IntArray, Changes]:
+    """``table.relax(rows, order, heard)``, the rows of a direct table shared among the cores.
+
+    Each row's labels are its own, so each core relaxes a share of the rows
+    (:func:`.labels.relax_rows`, in :func:`_relax_chunks`) with room for the
+    most changes its rows can take (a place each), and the changes come back
+    row by row: what one call gives. Rows go in waves of :data:`_WAVE` changes
+    at most, so the room stays bounded. A hashed table (its rows widen as
+    they go) and a few rows are relaxed in one call.
+    """
+    if not table.direct or len(rows) < PARALLEL_ROWS:
+        return table.relax(rows, order, heard)
+    chunks = 2 * jit.get_num_threads()
+    room = _rooms(
+        rows, table.link_starts, table.links.ids, heard.senders, heard.starts, table.width
+    )
+    ends = np.cumsum(room)
+    starts, parts, begin, before = [np.zeros(1, dtype=np.int64)], [], 0, 0
+    while begin < len(rows):
+        end = max(
+            begin + 1, int(np.searchsorted(ends, ends[begin] - room[begin] + _WAVE, "right"))
+        )
+        wave_starts, wave = _relax_wave(
+            table, rows[begin:end], room[begin:end], order, heard, chunks
+        )
+        starts.append(wave_starts[1:] + before)
+        parts.append(wave)
+        begin, before = end, before + int(wave_starts[-1])
+    return np.concatenate(starts), Changes(*(np.concatenate(one) for one in zip(*parts)))
+
+
+def _relax_wave(
+    table: LabelTable, rows: IntArray, room: IntArray, order: int, heard: HeardLabels, chunks: int
+) -> tuple[IntArray, Changes]:
+    """:func:`relax_together` of ``rows`` (their ``room``) in ``chunks`` shares at once."""
+    ends = np.cumsum(room)
+    cuts = np.searchsorted(ends, np.linspace(0, ends[-1], chunks + 1)[1:-1], "right")
+    row_bounds = np.concatenate([[0], cuts, [len(rows)]]).astype(np.int64)
+    room_bounds = np.concatenate([[0], ends])[row_bounds].astype(np.int64)
+    buffers = Changes(*(np.empty(int(room_bounds[-1]), dtype=np.int64) for _ in range(3)))
+    change_starts = np.zeros(len(rows) + chunks, dtype=np.int64)
+    won = np.full((2, chunks, table.width), -1, dtype=np.int64)
+    filled = np.zeros(chunks, dtype=np.int64)
+    _relax_chunks(
+        row_bounds, room_bounds, rows, table.mes, order, table.span_array, table.run_ids,
+        table.link_starts, table.links, heard, table.closed, table.columns(), buffers,
+        change_starts, won, filled,
+    )  # fmt: skip
+    starts, parts, before = [np.zeros(1, dtype=np.int64)], [], 0
+    for chunk in range(chunks):
+        low, high = row_bounds[chunk], row_bounds[chunk + 1]
+        starts.append(change_starts[low + chunk + 1 : high + chunk + 1] + before)
+        at = slice(room_bounds[chunk], room_bounds[chunk] + filled[chunk])
+        parts.append(Changes(*(one[at] for one in buffers)))
+        before += int(filled[chunk])
+    return np.concatenate(starts), Changes(*(np.concatenate(one) for one in zip(*parts)))
+
+
+@jit.kernel(cache=True, nogil=True)
+def _rooms(
+    rows: IntArray, link_starts: IntArray, link_ids: IntArray, senders: IntArray,
+    starts: IntArray, width: int,
+) -> IntArray:  # fmt: skip
+    """The most changes each of ``rows`` of a direct table (``width`` places) can take."""
+    room = np.empty(len(rows), dtype=np.int64)
+    for at in range(len(rows)):
+        low, high = link_starts[rows[at]], link_starts[rows[at] + 1]
+        room[at] = candidates(sender_rows(link_ids[low:high], senders), starts, width)
+    return room
+
+
+@jit.kernel(cache=True, nogil=True, parallel=True)
+def _relax_chunks(
+    row_bounds: IntArray, room_bounds: IntArray, rows: IntArray, mes: IntArray, order: int,
+    span: IntArray, run_ids: IntArray | None, link_starts: IntArray, links: Links,
+    heard: HeardLabels, closed: NDArray[np.bool_], columns: Columns, buffers: Changes,
+    change_starts: IntArray, won: IntArray, filled: IntArray,
+) -> None:  # fmt: skip
+    """:func:`.labels.relax_rows` of each share of ``rows`` (``row_bounds``) on a core of its
+    own, into its room of ``buffers`` (``room_bounds``, enough for every change); share k's
+    rows' change offsets go to ``change_starts[row_bounds[k] + k:]``, its count to
+    ``filled[k]``; ``won`` (2, K, R) is each share's record of the row in hand."""
+    for chunk in jit.prange(len(row_bounds) - 1):
+        low, high = row_bounds[chunk], row_bounds[chunk + 1]
+        first, end = room_bounds[chunk], room_bounds[chunk + 1]
+        mine = Changes(
+            buffers.places[first:end], buffers.labels[first:end], buffers.links[first:end]
+        )
+        record = Changes(buffers.places[:0], won[0, chunk], won[1, chunk])
+        resume = np.full(2, -1, dtype=np.int64)
+        _, filled[chunk], _ = relax_rows(
+            rows[low:high],
+            0,
+            mes,
+            order,
+            span,
+            run_ids,
+            link_starts,
+            links,
+            heard,
+            closed,
+            columns,
+            mine,
+            0,
+            change_starts[low + chunk : high + chunk + 1],
+            record,
+            resume,
+        )
