@@ -1,0 +1,61 @@
+"""A process's FLSs stepped together: its rows relaxed on its cores as in one call."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from swazure_ros.protocol.discovery.labels import LENGTH_FIRST, HeardLabels, LabelTable, Links
+from swazure_ros.protocol.discovery.together import PARALLEL_ROWS, relax_together
+
+SOURCES = 40  # the run's sources are ids 0..39; the FLSs are 1000.., the senders 2000..
+
+
+def direct_table(flss):
+    """FLS 1000 + k relays from senders 2000 + k % 10 and 2000 + 3k % 10, hop 5 + (k % 7) / 2."""
+    own = [sorted({2000 + k % 10, 2000 + 3 * k % 10}) for k in range(flss)]
+    ids = np.array([sender for one in own for sender in one], dtype=np.int64)
+    weights = np.concatenate([np.full(len(one), 5 + (k % 7) / 2) for k, one in enumerate(own)])
+    return LabelTable(
+        np.arange(1000, 1000 + flss),
+        np.concatenate([[0], np.cumsum([len(one) for one in own])]).astype(np.int64),
+        Links(ids, weights, np.zeros(len(ids)), np.zeros((len(ids), 3))),
+        (0, SOURCES),
+        SOURCES,
+        fits=False,
+        need=SOURCES,
+    )
+
+
+def offers(shift):
+    """Sender 2000 + j offers 20 sources from 8 (j % 5) on, each (j + shift) % 3 + 1 cm long:
+    equal costs through several senders, which the smallest sender id wins."""
+    senders = np.arange(2000, 2010)
+    sources = [np.arange(8 * (j % 5), min(8 * (j % 5) + 20, SOURCES)) for j in range(10)]
+    lengths = [np.full(len(one), (j + shift) % 3 + 1.0) for j, one in enumerate(sources)]
+    total = sum(len(one) for one in sources)
+    return HeardLabels(
+        senders,
+        np.concatenate([[0], np.cumsum([len(one) for one in sources])]).astype(np.int64),
+        np.concatenate(sources),
+        np.ones(total, dtype=np.int64),
+        np.concatenate(lengths),
+        np.zeros(total),
+    )
+
+
+def test_a_process_s_rows_relaxed_on_its_cores_change_as_one_call_changes_them():
+    flss = 3 * PARALLEL_ROWS
+    shared, alone = direct_table(flss), direct_table(flss)
+    assert shared.direct  # a slot per source: the layout relaxed on the cores
+    rows = np.arange(flss, dtype=np.int64)
+    changed = 0
+    for shift in range(3):  # later rounds better some labels and leave the rest
+        starts, changes = relax_together(shared, rows, LENGTH_FIRST, offers(shift))
+        expected_starts, expected = alone.relax(rows, LENGTH_FIRST, offers(shift))
+        np.testing.assert_array_equal(starts, expected_starts)
+        for mine, theirs in zip(changes, expected, strict=True):
+            np.testing.assert_array_equal(mine, theirs)
+        changed += len(changes.places)
+    assert changed > flss  # every row changed, some more than once
+    for name in ("hops", "length", "pred"):
+        np.testing.assert_array_equal(getattr(shared, name), getattr(alone, name))
