@@ -248,24 +248,6 @@ def _take_winners(changes: Changes, begin: int, end: int, won: Changes) -> None:
         won.labels[place] = -1
 
 
-def labels_due(
-    primary: FloatArray,
-    found: NDArray[np.bool_],
-    sent: NDArray[np.bool_],
-    closed: NDArray[np.bool_],
-    width: float,
-    round_: float,
-    reach: float = np.inf,
-) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
-    """Which labels are unsent (``found``, not ``sent``, not ``closed``), and which of
-    those are due in round ``round_``: their bucket, ``primary`` cost over ``width``
-    rounded down, is reached and below ``reach`` (a pass's rounds). Masks of the
-    labels' shape."""
-    unsent = found & ~sent & ~closed
-    bucket = np.floor(primary / width)
-    return unsent, unsent & (bucket <= round_) & (bucket < reach)
-
-
 #: Each column of a table: the value of an empty place, and its shape past (F, R).
 _COLUMNS: dict[str, tuple[object, tuple[int, ...], type]] = {
     "keys": (_EMPTY, (), np.int64),
@@ -522,17 +504,10 @@ class LabelTable:
         widened.labels[moved], widened.links[moved] = won.labels[in_hand], won.links[in_hand]
         return widened
 
-    def due(
-        self, row: int | None, order: int, width: float, round_: float, reach: float = np.inf
-    ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
-        """:func:`labels_due` of row ``row``'s places (R,), or of every row's (F, R) when None."""
-        primary, found, sent, closed = self.due_inputs(row, order)
-        return labels_due(primary, found, sent, closed, width, round_, reach)
-
     def due_inputs(
         self, row: int | None, order: int
     ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_], NDArray[np.bool_]]:
-        """What :func:`labels_due` reads of row ``row``, or of every row: the ``order``'s
+        """What :func:`.due.due_places` reads of row ``row``, or of every row: the ``order``'s
         primary costs, found, sent, and closed (by place, (R,) where every row shares it)."""
         at = slice(None) if row is None else row
         found = self.found(row)

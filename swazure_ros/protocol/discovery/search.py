@@ -29,6 +29,7 @@ from ...core.hop_errors import hop_covariance, hop_error, smallest_hop_error, un
 from ...core.observe import LocalView
 from ...core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
 from ...core.sensor import BLIND, DECAYING, SWEET, Sensor
+from .due import due_places
 from .estimate import Results
 from .heard import OffersHeard, offers_of
 from .labels import (
@@ -56,9 +57,6 @@ _BUCKET_MARGIN = 1e-9
 #: A source's targets are its blind neighbours, a few sweet hops away: most searches end
 #: within it, and the few cut short search again twice as far (docs/protocol.md).
 REACH_HOPS = 8
-
-#: No place of a table: an offer with nothing beyond its reach.
-_NOWHERE = np.zeros(0, dtype=np.int64)
 
 _COST_ORDER = {FEWEST_HOPS: HOPS_FIRST, SHORTEST_LENGTH: LENGTH_FIRST, LEAST_ERROR: ERROR_FIRST}
 
@@ -362,17 +360,14 @@ class PathSearch:
         """Its offer of round ``round_``, picked alone."""
         table, row = self.table, self.row
         bucket = self.resumed + round_
-        unsent, due_now = table.due(row, self.order, self.width, bucket, self.reach)
-        due = np.flatnonzero(due_now)
-        # Once every label below the reach is sent, those left are beyond it: held,
-        # for the next pass, not pending in this one.
-        beyond = np.flatnonzero(unsent) if bucket >= self.reach else _NOWHERE
+        mine, due, unsent, beyond_rows, beyond = due_places(
+            table, row, self.order, self.width, bucket, self.reach
+        )
         if not table.direct:  # by source, as sent
             due = due[np.argsort(table.keys[row, due], kind="stable")]
         table.sent[row, due] = True
-        mine = np.full(len(due), row, dtype=np.int64)
-        pending = len(due) < int(unsent.sum()) - len(beyond)
-        beyond_rows = np.full(len(beyond), row, dtype=np.int64)
+        # Beyond the reach, every label below it sent, the unsent are held, none pending.
+        pending = len(due) < unsent[0] and bucket < self.reach
         return offers_of(
             table, self.book, np.array([row]), (mine, due), (beyond_rows, beyond), [pending]
         )[0]

@@ -17,7 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...core import jit
-from ...core.arrays import FloatArray, IntArray
+from ...core.arrays import IntArray
+from .due import due_places
 from .heard import OffersHeard, offers_of
 from .labels import Changes, Columns, HeardLabels, LabelTable, Links, candidates, relax_rows
 from .messages import RoundOffers, sender_rows
@@ -59,63 +60,21 @@ def pick_together(searches: Sequence[PathSearch], round_: int, closed: IntArray)
     first = searches[0]
     table.close(closed)
     bucket = first.resumed + round_
-    # Beyond the reach, every label below it sent, the unsent are held (PathSearch.offer).
-    beyond = bucket >= first.reach
-    primary, found, sent, ended = table.due_inputs(None, first.order)
-    rows, places, unsent, beyond_rows, beyond_places = _due_places(
-        primary, found, sent, np.atleast_2d(ended), first.width, bucket, first.reach, beyond
+    rows, places, unsent, beyond_rows, beyond_places = due_places(
+        table, None, first.order, first.width, bucket, first.reach
     )
     if not table.direct:  # each row's labels by source: the order an FLS offers them in
         order = np.lexsort((table.keys[rows, places], rows))
         rows, places = rows[order], places[order]
     table.sent[rows, places] = True
-    pending = np.bincount(rows, minlength=table.size) < unsent
-    if beyond:
-        pending[:] = False
+    # Beyond the reach, every label below it sent, the unsent are held, none pending.
+    pending = (np.bincount(rows, minlength=table.size) < unsent) & (bucket < first.reach)
     members = np.arange(table.size, dtype=np.int64)
     offers = offers_of(
         table, first.book, members, (rows, places), (beyond_rows, beyond_places), pending.tolist()
     )
     for one, offer in zip(searches, offers, strict=True):
         one._picked = (round_, offer)
-
-
-@jit.kernel(cache=True, nogil=True)
-def _due_places(
-    primary: FloatArray, found: NDArray[np.bool_], sent: NDArray[np.bool_],
-    closed: NDArray[np.bool_], width: float, round_: float, reach: float, beyond: bool,
-) -> tuple[IntArray, IntArray, IntArray, IntArray, IntArray]:  # fmt: skip
-    """:func:`.labels.labels_due` of every row (F, R) in two passes, as places: the rows and
-    places of the labels due (row by row), each row's unsent labels (F,), and with
-    ``beyond`` the rows and places of every unsent one. ``closed`` is (F, R), or (1, R)
-    when every row shares it. numpy made eight (F, R) arrays a round for this."""
-    rows_count, width_count = primary.shape
-    shared = closed.shape[0] == 1
-    unsent = np.zeros(rows_count, dtype=np.int64)
-    due = 0
-    for row in range(rows_count):
-        for place in range(width_count):
-            if not found[row, place] or sent[row, place] or closed[0 if shared else row, place]:
-                continue
-            unsent[row] += 1
-            bucket = np.floor(primary[row, place] / width)
-            due += bucket <= round_ and bucket < reach
-    due_rows, due_places = np.empty(due, np.int64), np.empty(due, np.int64)
-    held = unsent.sum() if beyond else 0
-    held_rows, held_places = np.empty(held, np.int64), np.empty(held, np.int64)
-    due, held = 0, 0
-    for row in range(rows_count):
-        for place in range(width_count):
-            if not found[row, place] or sent[row, place] or closed[0 if shared else row, place]:
-                continue
-            bucket = np.floor(primary[row, place] / width)
-            if bucket <= round_ and bucket < reach:
-                due_rows[due], due_places[due] = row, place
-                due += 1
-            if beyond:
-                held_rows[held], held_places[held] = row, place
-                held += 1
-    return due_rows, due_places, unsent, held_rows, held_places
 
 
 def hear_together(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
