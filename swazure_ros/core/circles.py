@@ -59,7 +59,7 @@ def free_circle_point(
     ...                   np.empty((0, 3)), 1.0)
     array([1., 0., 0.])
     """
-    point: FloatArray = _free_circle_kernel(
+    point: FloatArray = free_circle_kernel(
         np.asarray(centre, dtype=np.float64),
         np.asarray(normal, dtype=np.float64),
         np.asarray(toward, dtype=np.float64),
@@ -76,7 +76,7 @@ def _wrap(angle: float) -> float:
 
 
 @jit.kernel(cache=True)
-def _free_circle_kernel(
+def free_circle_kernel(
     centre: FloatArray,
     normal: FloatArray,
     toward: FloatArray,
@@ -84,7 +84,22 @@ def _free_circle_kernel(
     blockers: FloatArray,
     block_radius: float,
 ) -> FloatArray:
-    """free_circle_point's work; a nan point means nothing of the circle is free."""
+    """:func:`free_circle_point` compiled, for kernels: a NaN point where nothing is free.
+
+    Parameters
+    ----------
+    centre, normal, toward : (3,) array of float
+        As :func:`free_circle_point`'s, float64.
+    radius : float, cm
+    blockers : (B, 3) array of float, cm
+        Contiguous, float64; B may be 0.
+    block_radius : float, cm
+
+    Returns
+    -------
+    (3,) array of float, cm
+        The free point nearest ``toward``; NaN where nothing of the circle is free.
+    """
     normal = normal / np.sqrt(normal @ normal)
     offset = toward - centre
     offset = offset - (offset @ normal) * normal

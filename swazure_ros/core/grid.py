@@ -195,6 +195,50 @@ def grid_of(points: FloatArray, cell: float) -> Grid:
 
 
 @jit.kernel(cache=True, nogil=True)
+def scan_ball(
+    points: FloatArray, grid: Grid, x: float, y: float, z: float, reach: float, out: IntArray
+) -> int:
+    """Write the points within ``reach`` (inclusive) of (x, y, z) into ``out``; how many.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+    grid : Grid
+        The points' grid.
+    x, y, z : float, cm
+        The ball's centre, any position.
+    reach : float, cm
+        The ball's radius.
+    out : (N,) array of int
+        Filled from the start with the points found, cell by cell.
+
+    Returns
+    -------
+    int
+    """
+    origin, cell, shape, cell_start, members = grid
+    lo0 = max(int(np.floor((x - reach - origin[0]) / cell)), 0)
+    lo1 = max(int(np.floor((y - reach - origin[1]) / cell)), 0)
+    lo2 = max(int(np.floor((z - reach - origin[2]) / cell)), 0)
+    hi0 = min(int(np.floor((x + reach - origin[0]) / cell)), shape[0] - 1)
+    hi1 = min(int(np.floor((y + reach - origin[1]) / cell)), shape[1] - 1)
+    hi2 = min(int(np.floor((z + reach - origin[2]) / cell)), shape[2] - 1)
+    limit = reach * reach
+    count = 0
+    for c0 in range(lo0, hi0 + 1):
+        for c1 in range(lo1, hi1 + 1):
+            for c2 in range(lo2, hi2 + 1):
+                key = (c0 * shape[1] + c1) * shape[2] + c2
+                for slot in range(cell_start[key], cell_start[key + 1]):
+                    k = members[slot]
+                    dx, dy, dz = points[k, 0] - x, points[k, 1] - y, points[k, 2] - z
+                    if dx * dx + dy * dy + dz * dz <= limit:
+                        out[count] = k
+                        count += 1
+    return count
+
+
+@jit.kernel(cache=True, nogil=True)
 def scan_segment(
     points: FloatArray,
     radius: float,

@@ -15,8 +15,9 @@ from . import jit
 from .arrays import FloatArray
 
 
+@jit.kernel(cache=True, nogil=True)
 def closest_on_segment(start: FloatArray, end: FloatArray, point: FloatArray) -> FloatArray:
-    """The point of the segment start-end nearest ``point``, cm.
+    """The point of the segment start-end nearest ``point``, cm (compiled).
 
     Parameters
     ----------
@@ -38,7 +39,7 @@ def closest_on_segment(start: FloatArray, end: FloatArray, point: FloatArray) ->
     """
     direction = end - start
     along = float((point - start) @ direction / (direction @ direction))
-    return np.asarray(start + min(max(along, 0.0), 1.0) * direction)
+    return start + min(max(along, 0.0), 1.0) * direction
 
 
 @jit.kernel(cache=True, nogil=True, error_model="numpy")

@@ -41,3 +41,19 @@ def test_a_tie_goes_to_the_lower_index():
 
     _, index = nearest_neighbours(np.array([[0.0, 0, 0], [1, 0, 0], [-1, 0, 0], [0, 5, 0]]))
     assert index.tolist() == [1, 0, 0, 0]
+
+
+@pytest.mark.parametrize("name", ["lattice", "sheet", "random"])
+def test_a_balls_points_are_those_within_its_reach_boundary_included(name):
+    from swazure_ros.core.grid import build_grid, scan_ball
+
+    points = CLOUDS[name]
+    grid = build_grid(points, 0.1)
+    out = np.empty(len(points), dtype=np.int64)
+    # Centres on points (a lattice's neighbours lie exactly at the reach) and between them.
+    for centre in [points[0], points[len(points) // 2], points[:3].mean(axis=0)]:
+        for reach in (0.37, 1.0, 5.0):
+            count = scan_ball(points, grid, *centre.tolist(), reach, out)
+            gaps = points - centre
+            expected = np.flatnonzero((gaps * gaps).sum(axis=1) <= reach * reach)
+            assert sorted(out[:count].tolist()) == expected.tolist()

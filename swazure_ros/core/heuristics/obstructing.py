@@ -22,12 +22,12 @@ Conventions beyond the spec:
 
 from __future__ import annotations
 
-import itertools
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
-from .. import csr
+from .. import csr, jit
 from ..hops import estimates
 from ..path_arrays import Paths, path_hops, paths_from_rows
 from ..paths import shortest_paths
@@ -37,8 +37,9 @@ if TYPE_CHECKING:
     from scipy.spatial import cKDTree
 
 from ...core.arrays import FloatArray, IntArray
-from ..circles import circle_sphere_crossings, fixed_axis, free_circle_point
-from ..segments import closest_on_segment, near_any_segment, near_segment, segment_gap
+from ..circles import circle_sphere_crossings, fixed_axis, free_circle_kernel
+from ..grid import Grid, scan_ball
+from ..segments import closest_on_segment, near_any_segment, segment_gap
 from .compat import TEXT, Compat
 from .result import MOVE_OBSTRUCTING, HeuristicResult, PairFindings, PlainPairs, blocked_pairs
 
@@ -229,96 +230,240 @@ def obstructing_text(evaluation: PlainPairs) -> HeuristicResult:
     points, radius = evaluation.hood.swarm.points, evaluation.hood.swarm.radius
     size = len(evaluation.pairs)
     blocked, sweet_paths, edge, edges, offsets, ids = _blocked_hops(evaluation)
-    original = {
-        int(e): ids[offsets[k] : offsets[k + 1]].tolist() for k, e in enumerate(edges.tolist())
-    }
-    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
-
-    tree = cKDTree(points)
-    new_paths: dict[int, list[int]] = {}
+    found, counts, move_fls, move_from, move_to = _text_moves_in_parts(
+        points, float(radius), evaluation.hood.grid, sweet_paths, edge, edges, offsets, ids
+    )
     move_counts = np.zeros(size, dtype=np.int64)
-    move_fls: list[int] = []
-    move_from: list[FloatArray] = []
-    move_to: list[FloatArray] = []
-    for slot, pair in enumerate(blocked.tolist()):
-        path = sweet_paths.path(slot)
-        moved: dict[int, FloatArray] = {}
-        moves: list[tuple[int, FloatArray, FloatArray]] = []
-        ok = True
-        # Every blocked pair has an S_all path, so path `slot` has hops from here on.
-        first_hop = int(sweet_paths.offsets[slot]) - slot
-        for hop, (a, b) in enumerate(itertools.pairwise(path)):
-            here = original[int(edge[first_hop + hop])]
-            current = [o for o in here if o not in moved]
-            if moved:
-                where = np.array(list(moved.values())).reshape(-1, 3)
-                near = near_segment(where, points[a], points[b], radius - TOUCH)
-                current += [o for o, close in zip(moved, near.tolist(), strict=True) if close]
-            for o in sorted(set(current)):
-                if o in path:
+    move_counts[blocked] = counts
+    new_paths = {
+        int(pair): sweet_paths.path(slot)
+        for slot, pair in enumerate(blocked.tolist())
+        if found[slot]
+    }
+    return _obstructing_result(
+        evaluation, blocked, new_paths, move_counts, move_fls, move_from, move_to, TEXT
+    )
+
+
+#: Pairs below which Move Obstructing's moves are not split between threads.
+_PAIRS_PER_PART = 256
+
+
+def _text_moves_in_parts(
+    points: FloatArray,
+    radius: float,
+    grid: Grid,
+    paths: Paths,
+    edge: IntArray,
+    edges: IntArray,
+    offsets: IntArray,
+    ids: IntArray,
+) -> tuple[NDArray[np.bool_], IntArray, IntArray, FloatArray, FloatArray]:
+    """:func:`_text_moves` of ``paths``' pairs, in parts on threads of their own, joined in order.
+
+    Each pair starts from the original shape, so the parts are independent;
+    the kernel grows its outputs as it goes and leaves the GIL.
+    """
+    pairs = len(paths.found)
+    hop_starts = paths.offsets[:-1] - np.arange(pairs)  # every path has its hops
+    parts = max(1, min(jit.get_num_threads(), pairs // _PAIRS_PER_PART))
+    bounds = np.linspace(0, pairs, parts + 1).astype(np.int64)
+
+    def part(index: int) -> tuple[NDArray[np.bool_], IntArray, IntArray, FloatArray, FloatArray]:
+        lo, hi = bounds[index], bounds[index + 1]
+        return _text_moves(
+            points,
+            radius,
+            grid,
+            paths.offsets[lo : hi + 1],
+            paths.nodes,
+            hop_starts[lo:hi],
+            edge,
+            edges,
+            offsets,
+            ids,
+        )
+
+    if parts == 1:
+        return part(0)
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(parts) as pool:
+        results = list(pool.map(part, range(parts)))
+    return (
+        np.concatenate([result[0] for result in results]),
+        np.concatenate([result[1] for result in results]),
+        np.concatenate([result[2] for result in results]),
+        np.concatenate([result[3] for result in results]).reshape(-1, 3),
+        np.concatenate([result[4] for result in results]).reshape(-1, 3),
+    )
+
+
+@jit.kernel(cache=True, nogil=True)
+def _text_moves(
+    points: FloatArray,
+    radius: float,
+    grid: Grid,
+    path_offsets: IntArray,
+    path_nodes: IntArray,
+    hop_starts: IntArray,
+    edge: IntArray,
+    edges: IntArray,
+    obstructer_offsets: IntArray,
+    obstructer_ids: IntArray,
+) -> tuple[NDArray[np.bool_], IntArray, IntArray, FloatArray, FloatArray]:
+    """Move Obstructing as the text has it, pair after pair, compiled (see obstructing_text).
+
+    Each pair (path p is ``path_nodes[path_offsets[p]:path_offsets[p + 1]]``, its
+    hops' edge labels ``edge[hop_starts[p]:]``) starts from the original shape.
+    Returns whether each pair's path is clear after its moves, each pair's
+    number of moves, and every move (FLS, from, to, cm) in order.
+    """
+    pairs = len(path_offsets) - 1
+    clear = np.zeros(pairs, dtype=np.bool_)
+    counts = np.zeros(pairs, dtype=np.int64)
+    move_fls = np.empty(1024, dtype=np.int64)
+    move_from = np.empty((1024, 3))
+    move_to = np.empty((1024, 3))
+    total = 0
+    moved_ids = np.empty(64, dtype=np.int64)
+    moved_at = np.empty((64, 3))
+    near = np.empty(len(points), dtype=np.int64)
+    reach = radius - TOUCH
+    for slot in range(pairs):
+        path = path_nodes[path_offsets[slot] : path_offsets[slot + 1]]
+        first_hop = hop_starts[slot]
+        moved, began, ok = 0, total, True
+        for hop in range(len(path) - 1):
+            a, b = path[hop], path[hop + 1]
+            row = np.searchsorted(edges, edge[first_hop + hop])
+            here = obstructer_ids[obstructer_offsets[row] : obstructer_offsets[row + 1]]
+            current = _current_obstructers(points, here, moved_ids, moved_at, moved, a, b, reach)
+            for o in current:
+                if _holds(path, o):
                     ok = False
                     break
-                position = moved.get(o, points[o])
-                target = _aside(points, radius, tree, moved, o, a, b)
-                if target is None:
+                at = _find(moved_ids, moved, o)
+                position = moved_at[at].copy() if at >= 0 else points[o].copy()
+                centre = closest_on_segment(points[a], points[b], position)
+                blockers = _blockers(
+                    points, grid, centre, 5.0 * radius, o, moved_ids, moved_at, moved, near
+                )
+                target = free_circle_kernel(
+                    centre,
+                    points[b] - points[a],
+                    position,
+                    radius * (1.0 + _ASIDE),
+                    blockers,
+                    2.0 * radius,
+                )
+                if np.isnan(target[0]):
                     ok = False
                     break
-                moves.append((o, position, target))
-                moved[o] = target
+                if total == len(move_fls):
+                    move_fls, move_from, move_to = _grown(move_fls, move_from, move_to, total)
+                move_fls[total], move_from[total], move_to[total] = o, position, target
+                total += 1
+                if at < 0:
+                    if moved == len(moved_ids):
+                        moved_ids, moved_at, _ = _grown(moved_ids, moved_at, moved_at, moved)
+                    at, moved = moved, moved + 1
+                    moved_ids[at] = o
+                moved_at[at] = target
             if not ok:
                 break
         if ok and moved:
-            hops = points[np.asarray(path, dtype=np.int64)]
-            where = np.array(list(moved.values())).reshape(-1, 3)
-            ok = not near_any_segment(where, hops[:-1], hops[1:], radius - TOUCH)
-        for o, old, new in moves:
-            move_fls.append(o)
-            move_from.append(old)
-            move_to.append(new)
-        move_counts[pair] = len(moves)
-        if ok:
-            new_paths[pair] = path
-    return _obstructing_result(
-        evaluation,
-        blocked,
-        new_paths,
-        move_counts,
-        np.array(move_fls, dtype=np.int64),
-        np.array(move_from, dtype=float).reshape(-1, 3),
-        np.array(move_to, dtype=float).reshape(-1, 3),
-        TEXT,
-    )
+            hops = points[path]
+            ok = not near_any_segment(moved_at[:moved], hops[:-1], hops[1:], reach)
+        clear[slot], counts[slot] = ok, total - began
+    return clear, counts, move_fls[:total].copy(), move_from[:total].copy(), move_to[:total].copy()
 
 
-def _aside(
+@jit.kernel(cache=True, nogil=True)
+def _current_obstructers(
     points: FloatArray,
-    radius: float,
-    tree: cKDTree,
-    moved: dict[int, FloatArray],
-    o: int,
+    here: IntArray,
+    moved_ids: IntArray,
+    moved_at: FloatArray,
+    moved: int,
     a: int,
     b: int,
-) -> FloatArray | None:
-    """Where obstructer o goes, off the hop a-b, from where it is now (``moved`` or its point);
-    None where no place is free of the others (as they are after the ``moved``), cm."""
-    position = moved.get(o, points[o])
-    centre = closest_on_segment(points[a], points[b], position)
-    near = tree.query_ball_point(centre, 5.0 * radius)
-    others = [k for k in near if k != o and k not in moved]
-    blockers = np.concatenate(
-        [
-            points[others].reshape(-1, 3),
-            np.array([p for k, p in moved.items() if k != o]).reshape(-1, 3),
-        ]
-    )
-    return free_circle_point(
-        centre,
-        points[b] - points[a],
-        position,
-        radius * (1.0 + _ASIDE),
-        blockers,
-        2.0 * radius,
-    )
+    reach: float,
+) -> IntArray:
+    """The obstructers of hop a-b now, ascending: its original ones that have not moved, and
+    those moved closer than ``reach`` to it."""
+    current = np.empty(len(here) + moved, dtype=np.int64)
+    count = 0
+    for o in here:
+        if _find(moved_ids, moved, o) < 0:
+            current[count] = o
+            count += 1
+    for k in range(moved):
+        if segment_gap(moved_at[k], points[a], points[b]) < reach:
+            current[count] = moved_ids[k]
+            count += 1
+    return np.sort(current[:count])
+
+
+@jit.kernel(cache=True, nogil=True)
+def _blockers(
+    points: FloatArray,
+    grid: Grid,
+    centre: FloatArray,
+    reach: float,
+    o: int,
+    moved_ids: IntArray,
+    moved_at: FloatArray,
+    moved: int,
+    near: IntArray,
+) -> FloatArray:
+    """Where the FLSs other than ``o`` stand within ``reach`` of ``centre`` after the moves,
+    (B, 3) cm: ``reach`` covers every sphere that can take part of o's circle (within 3r)."""
+    count = scan_ball(points, grid, centre[0], centre[1], centre[2], reach, near)
+    blockers = np.empty((count + moved, 3))
+    kept = 0
+    for slot in range(count):
+        k = near[slot]
+        if k != o and _find(moved_ids, moved, k) < 0:
+            blockers[kept] = points[k]
+            kept += 1
+    for slot in range(moved):
+        if moved_ids[slot] != o:
+            blockers[kept] = moved_at[slot]
+            kept += 1
+    return blockers[:kept]
+
+
+@jit.kernel(cache=True, nogil=True)
+def _find(ids: IntArray, count: int, fls: int) -> int:
+    """The slot of ``fls`` among the first ``count`` of ``ids``; -1 if none."""
+    for slot in range(count):
+        if ids[slot] == fls:
+            return slot
+    return -1
+
+
+@jit.kernel(cache=True, nogil=True)
+def _holds(path: IntArray, fls: int) -> bool:
+    """Whether ``fls`` is a node of ``path``."""
+    for node in path:  # noqa: SIM110 (numba: a plain loop)
+        if node == fls:
+            return True
+    return False
+
+
+@jit.kernel(cache=True, nogil=True)
+def _grown(
+    ids: IntArray, first: FloatArray, second: FloatArray, used: int
+) -> tuple[IntArray, FloatArray, FloatArray]:
+    """``ids``, ``first`` and ``second`` twice as long, their first ``used`` rows kept."""
+    grown_ids = np.empty(2 * len(ids), dtype=np.int64)
+    grown_first = np.empty((2 * len(ids), 3))
+    grown_second = np.empty((2 * len(ids), 3))
+    grown_ids[:used] = ids[:used]
+    grown_first[:used] = first[:used]
+    grown_second[:used] = second[:used]
+    return grown_ids, grown_first, grown_second
 
 
 def obstructing_published(evaluation: PlainPairs, compat: Compat) -> HeuristicResult:
