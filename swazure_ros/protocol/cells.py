@@ -18,7 +18,7 @@ published sensor the first are 3.5 times smaller along each axis.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
@@ -83,3 +83,95 @@ def radio_cells(sensor: Sensor, radius: float) -> dict[str, Cells]:
 def cell_name(cell: Sequence[int] | IntArray) -> str:
     """A cell as a name token: (3, -1, 0) -> ``c3_m1_0`` (no sign, no leading digit)."""
     return "c" + "_".join(f"m{-int(i)}" if i < 0 else str(int(i)) for i in cell)
+
+
+#: A radio cell of one band: (band, i, j, k).
+Cell = tuple[str | int, ...]
+
+
+#: Cell indices as one int64 key each (:func:`_keys`): each index shifted by this and
+#: given 21 bits, which holds cells of any swarm within 10 km of the origin.
+_SHIFT = 1 << 20
+
+
+def _keys(cells: IntArray) -> IntArray:
+    """(K,) an int64 key of each cell (K, 3), ordered as the cells are lexicographically."""
+    shifted = np.asarray(cells, dtype=np.int64) + _SHIFT
+    return (shifted[:, 0] << 42) | (shifted[:, 1] << 21) | shifted[:, 2]
+
+
+#: The keys of AROUND's offsets: a cell's key plus one is the key of that neighbour
+#: (each index is a field of its own, well inside its bits).
+_OFFSET_KEYS = _keys(AROUND) - _keys(np.zeros((1, 3), dtype=np.int64))
+
+
+def _cells_of_keys(band: str, keys: IntArray) -> set[Cell]:
+    """The cells (band, i, j, k) of ``keys``."""
+    mask = (1 << 21) - 1
+    indices = np.stack([keys >> 42, (keys >> 21) & mask, keys & mask], axis=1) - _SHIFT
+    return {(band, *cell) for cell in indices.tolist()}
+
+
+@dataclass(frozen=True)
+class Tuning:
+    """What a process's radio hears and sends on, its FLSs and the others where they are."""
+
+    mine: frozenset[Cell]  # the cells its FLSs are in: it sends on them
+    heard: frozenset[Cell]  # the cells around its FLSs that hold another process's FLS
+    audible: dict[str, IntArray]  # per band, the ids of the FLSs in the cells around its own
+    local: IntArray  # (L,) its FLSs' ids, sorted
+    placed: dict[str, IntArray]  # per band, (L, 3) the cell of each of its FLSs
+
+    def cell_of(self, band: str, fls_id: int) -> Cell | None:
+        """The cell of ``band`` that holds its FLS ``fls_id``; None if not one of its FLSs."""
+        row = int(np.searchsorted(self.local, fls_id))
+        if row == len(self.local) or self.local[row] != fls_id:
+            return None
+        return (band, *self.placed[band][row].tolist())
+
+
+@dataclass
+class Tuner:
+    """A process's radio cells, worked out anew only when some FLS has changed cell.
+
+    ``local``: the ids of the FLSs the process hosts. A heuristic's batch moves
+    FLSs by less than r, two world revisions a batch, so most revisions change
+    no FLS's cell; those that do are worked out in array operations over cell
+    keys, since a display has thousands of FLSs to place.
+    """
+
+    cells: dict[str, Cells]
+    local: IntArray
+    _placed: dict[str, IntArray] | None = field(default=None, init=False, repr=False)
+
+    def tune(self, ids: IntArray, points: FloatArray) -> Tuning | None:
+        """The tuning for the FLSs ``ids`` (N,, sorted) at ``points`` (N, 3), cm; None when
+        every FLS is in the cell it was in at the last tuning."""
+        placed = {band: cells.of(points) for band, cells in self.cells.items()}
+        if self._placed is not None and all(
+            np.array_equal(placed[band], self._placed[band]) for band in placed
+        ):
+            return None
+        self._placed = placed
+        here = np.isin(ids, self.local)
+        mine: set[Cell] = set()
+        heard: set[Cell] = set()
+        audible: dict[str, IntArray] = {}
+        for band in self.cells:
+            every = _keys(placed[band])
+            own = np.unique(every[here])
+            # The 27 cells around each of its FLSs' (AROUND's keys are offsets of keys).
+            around = np.unique(own[:, None] + _OFFSET_KEYS[None, :])
+            mine |= _cells_of_keys(band, own)
+            audible[band] = ids[np.isin(every, around)]
+            # Offers between this process's FLSs never cross DDS (broadcast): a cell
+            # that holds none of another process's FLSs needs no subscription.
+            heard |= _cells_of_keys(band, np.intersect1d(around, every[~here]))
+        local = ids[here]
+        return Tuning(
+            frozenset(mine),
+            frozenset(heard),
+            audible,
+            local,
+            {b: c[here] for b, c in placed.items()},
+        )

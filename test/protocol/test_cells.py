@@ -12,6 +12,7 @@ from swazure_ros.protocol.cells import (
     DECAYING_BAND,
     SWEET_BAND,
     Cells,
+    Tuner,
     band_of,
     cell_name,
     radio_cells,
@@ -71,3 +72,67 @@ def test_every_sweet_pair_is_heard_through_the_sweet_cells(sensor):
 
 def test_the_sweet_phases_travel_in_sweet_cells_the_last_in_decaying_ones():
     assert [band_of(phase) for phase in PHASES] == [SWEET_BAND, SWEET_BAND, DECAYING_BAND]
+
+
+def _tuner() -> Tuner:
+    # Cells of 10 cm in one band; this process hosts FLSs 1 and 2, another FLSs 5 and 7.
+    return Tuner({SWEET_BAND: Cells(10.0)}, np.array([1, 2]))
+
+
+IDS = np.array([1, 2, 5, 7])
+POINTS = np.array([[1.0, 1, 1], [2, 2, 2], [15, 1, 1], [35, 1, 1]])  # cells x = 0, 0, 1, 3
+
+
+def test_a_tuning_hears_the_cells_around_its_flss_that_hold_another_processs():
+    tuning = _tuner().tune(IDS, POINTS)
+    assert tuning is not None
+    assert tuning.mine == {(SWEET_BAND, 0, 0, 0)}
+    assert tuning.heard == {(SWEET_BAND, 1, 0, 0)}  # FLS 5's; FLS 7's cell is 3 away
+    assert tuning.audible[SWEET_BAND].tolist() == [1, 2, 5]
+    assert tuning.cell_of(SWEET_BAND, 2) == (SWEET_BAND, 0, 0, 0)
+    assert tuning.cell_of(SWEET_BAND, 5) is None  # another process's
+
+
+def test_moves_within_cells_change_no_tuning_and_a_move_across_one_does():
+    tuner = _tuner()
+    first = tuner.tune(IDS, POINTS)
+    within = POINTS + np.array([0.5, 0.5, 0.5])  # every FLS stays in its cell
+    assert tuner.tune(IDS, within) is None
+    across = within.copy()
+    across[3] = [25.0, 1, 1]  # FLS 7 comes to cell x = 2: worked out anew, still unheard
+    again = tuner.tune(IDS, across)
+    assert first is not None and again is not None
+    assert (again.mine, again.heard) == (first.mine, first.heard)
+    assert again.audible[SWEET_BAND].tolist() == [1, 2, 5]
+    across[1] = [11.0, 1, 1]  # this process's FLS 2 moves to cell x = 1
+    tuning = tuner.tune(IDS, across)
+    assert tuning is not None
+    assert tuning.mine == {(SWEET_BAND, 0, 0, 0), (SWEET_BAND, 1, 0, 0)}
+    assert tuning.heard == {(SWEET_BAND, 1, 0, 0), (SWEET_BAND, 2, 0, 0)}
+    assert tuning.audible[SWEET_BAND].tolist() == [1, 2, 5, 7]
+    assert tuning.cell_of(SWEET_BAND, 2) == (SWEET_BAND, 1, 0, 0)
+
+
+def test_a_tuning_of_a_share_is_what_its_flss_cells_and_the_others_say_one_by_one():
+    rng = np.random.default_rng(3)
+    points = rng.uniform(-60.0, 60.0, (400, 3))
+    ids = np.arange(400) * 3  # ids are not rows
+    local = ids[rng.random(400) < 0.3]
+    cells = {SWEET_BAND: Cells(8.6), DECAYING_BAND: Cells(31.0)}
+    tuning = Tuner(cells, local).tune(ids, points)
+    assert tuning is not None
+    here = np.isin(ids, local)
+    for band, band_cells in cells.items():
+        placed = band_cells.of(points)
+        own = {tuple(cell) for cell in placed[here].tolist()}
+        near = [
+            any(np.abs(np.array(cell) - np.array(other)).max() <= 1 for other in own)
+            for cell in placed.tolist()
+        ]
+        assert tuning.audible[band].tolist() == ids[near].tolist()
+        assert {cell[1:] for cell in tuning.mine if cell[0] == band} == own
+        others = {tuple(cell) for cell, yes in zip(placed.tolist(), near) if yes}
+        others &= {tuple(cell) for cell in placed[~here].tolist()}
+        assert {cell[1:] for cell in tuning.heard if cell[0] == band} == others
+        row = int(np.flatnonzero(here)[0])
+        assert tuning.cell_of(band, int(ids[row])) == (band, *placed[row].tolist())

@@ -29,7 +29,7 @@ from swazure_interfaces.msg import (
 
 from ...core.arrays import IntArray
 from ...core.fit import PATH
-from ...protocol.cells import BANDS, DECAYING_BAND, band_of, radio_cells
+from ...protocol.cells import BANDS, DECAYING_BAND, Cell, Tuner, Tuning, band_of, radio_cells
 from ...protocol.discovery.messages import END, ROUND, START, Broadcast
 from ...protocol.discovery.participant import step_together
 from ...protocol.moves import Walk
@@ -88,8 +88,6 @@ ECHOES_PER_FLS = 8
 #: Only a window still missing a reading waits: 1 s was too short for 25 FLS processes
 #: on a loaded 2-core machine (CI: a fit of what was heard, 5 estimates not the engine's).
 READINGS_WAIT = 3.0
-#: A radio cell: its band, then its three indices.
-Cell = tuple[str | int, ...]
 
 
 class Echoes:
@@ -157,7 +155,8 @@ class Radio:
         self._walks_sent: dict[Cell, Publisher] = {}
         # Per band: the FLSs in the cells heard, and of each cell sent on, its readers.
         self._audible = {band: np.zeros(0, dtype=np.int64) for band in BANDS}
-        self._cell_of: dict[tuple[str, int], Cell] = {}  # (band, local FLS) -> its cell
+        self._tuning: Tuning | None = None  # where its FLSs are, cell by cell (tune())
+        self._tuner = Tuner(self._cells, self._local)
         self._local_set = frozenset(self._local.tolist())
         # The offers sent lately, to know them when a shared cell brings them back.
         self._echoes = Echoes(ECHOES_PER_FLS * max(len(self._local), 1))
@@ -218,26 +217,11 @@ class Radio:
         the runs that use them, so that they have matched their readers by then.
         """
         senses = self._senses
-        points = senses.positions(self._local) if len(self._local) else np.zeros((0, 3))
-        everyone = senses.positions(senses.ids)
-        elsewhere = ~np.isin(senses.ids, self._local)  # FLSs of other processes
-        mine: set[Cell] = set()
-        heard: set[Cell] = set()
-        self._cell_of.clear()
-        for band, cells in self._cells.items():
-            own = cells.of(points)
-            mine |= {(band, *cell) for cell in own.tolist()}
-            self._cell_of.update(
-                ((band, fls), (band, *cell))
-                for fls, cell in zip(self._local.tolist(), own.tolist(), strict=True)
-            )
-            around = {(band, *cell) for cell in cells.around(own).tolist()} if len(own) else set()
-            all_cells = [(band, *cell) for cell in cells.of(everyone).tolist()]
-            self._audible[band] = senses.ids[[cell in around for cell in all_cells]]
-            # Offers between this process's FLSs never cross DDS (broadcast): a cell
-            # that holds none of another process's FLSs needs no subscription.
-            remote = {cell for cell, other in zip(all_cells, elsewhere.tolist()) if other}
-            heard |= around & remote
+        tuning = self._tuner.tune(senses.ids, senses.positions(senses.ids))
+        if tuning is None:
+            return  # no FLS changed cell: every cell heard or sent on, and who is heard, stays
+        self._tuning, self._audible = tuning, tuning.audible
+        heard, mine = set(tuning.heard), set(tuning.mine)
         self._retune(
             self._listening, heard, lambda cell: self._hear(PathOffer, cell, self._on_offer)
         )
@@ -303,7 +287,7 @@ class Radio:
 
     def _cell(self, band: str, fls_id: int) -> Cell:
         """The cell of ``band`` that holds local FLS ``fls_id`` now."""
-        cell = self._cell_of.get((band, fls_id))
+        cell = None if self._tuning is None else self._tuning.cell_of(band, fls_id)
         if cell is None:  # an FLS not hosted here at the start
             where = self._cells[band].of(self._senses.positions(np.array([fls_id])))[0]
             cell = (band, *where.tolist())
