@@ -23,7 +23,7 @@ from ...protocol.senses import carried_markers
 from ...sim.replica import WorldReplica
 from ...sim.world import WorldSpec
 from ..convert.discovery import moves_from_message
-from ..convert.sensing import detections_message, frames_message, world_message
+from ..convert.sensing import FlsFrames, detections_message, world_message
 from ..convert.units import stamp_nanoseconds
 from ..plumbing.names import (
     CAMERAS,
@@ -76,6 +76,7 @@ class WorldNode(SwarmNode):
         self._publisher = self.create_publisher(WorldState, WORLD_TOPIC, WORLD_QOS)
         # Where every FLS is, for RViz, Foxglove and tf2 listeners: a frame per FLS.
         self._frames = self.create_publisher(TFMessage, TF_STATIC_TOPIC, TF_STATIC_QOS)
+        self._frame_message = FlsFrames(replica.world.ids)
         self.guard = Guard(self, key)
         self._last_stamp = 0  # ns, of the newest batch of moves taken
         self.guard.subscribe(MoveCommands, MOVE_TOPIC, self._on_moves, MOVE_QOS)
@@ -90,7 +91,7 @@ class WorldNode(SwarmNode):
         stamp = self.get_clock().now().to_msg()
         message = world_message(world.revision, world.ids, world.swarm.points, stamp)
         self._publisher.publish(self.guard.key.serialize(message))
-        self._frames.publish(frames_message(world.ids, world.swarm.points, stamp))
+        self._frames.publish(self._frame_message.message(world.swarm.points, stamp))
 
     def _on_moves(self, message: MoveCommands) -> None:
         world = self._replica.world

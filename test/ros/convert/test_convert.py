@@ -560,3 +560,24 @@ def test_the_fit_phase_s_control_offer_and_sums_read_back_and_bad_ones_are_refus
     negative = wire(sent_message(control, replace(sent, fit_moved=-1.0), "host_1", Time()))
     with pytest.raises(MessageError, match="negative move"):
         sent_from_message(negative, SWARM)
+
+
+def test_the_fls_frames_of_each_revision_are_where_the_flss_are_now_in_metres():
+    from swazure_ros.ros.convert.sensing import FlsFrames
+
+    frames = FlsFrames(np.array([3, 7]))
+    first = serialize_message(frames.message(np.array([[100.0, 0, 0], [0, 50, 0]]), Time(sec=1)))
+    # FLS 7 moves; the message is set anew in place and says so.
+    message = frames.message(np.array([[100.0, 0, 0], [0, 50, 25]]), Time(sec=2))
+    seen = {one.child_frame_id: one for one in message.transforms}
+    assert sorted(seen) == ["fls_3", "fls_7"]
+    for name, where in (("fls_3", (1.0, 0.0, 0.0)), ("fls_7", (0.0, 0.5, 0.25))):
+        frame = seen[name]
+        t, r = frame.transform.translation, frame.transform.rotation
+        assert (t.x, t.y, t.z) == where
+        assert (r.x, r.y, r.z, r.w) == (0.0, 0.0, 0.0, 1.0)
+        assert (frame.header.frame_id, frame.header.stamp.sec) == ("swarm", 2)
+    # The first revision's bytes were sent as they were then.
+    earlier = deserialize_message(first, type(message))
+    assert earlier.transforms[1].transform.translation.z == 0.0
+    assert earlier.transforms[1].header.stamp.sec == 1
