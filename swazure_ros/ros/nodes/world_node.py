@@ -91,7 +91,7 @@ class WorldNode(SwarmNode):
         stamp = self.get_clock().now().to_msg()
         message = world_message(world.revision, world.ids, world.swarm.points, stamp)
         self._publisher.publish(self.guard.key.serialize(message))
-        self._frames.publish(self._frame_message.message(world.swarm.points, stamp))
+        self._frames.publish(self._frame_message.serialized(world.swarm.points, stamp))
 
     def _on_moves(self, message: MoveCommands) -> None:
         world = self._replica.world

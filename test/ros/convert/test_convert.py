@@ -563,21 +563,33 @@ def test_the_fit_phase_s_control_offer_and_sums_read_back_and_bad_ones_are_refus
 
 
 def test_the_fls_frames_of_each_revision_are_where_the_flss_are_now_in_metres():
-    from swazure_ros.ros.convert.sensing import FlsFrames
+    from geometry_msgs.msg import TransformStamped
+    from tf2_msgs.msg import TFMessage
 
-    frames = FlsFrames(np.array([3, 7]))
-    first = serialize_message(frames.message(np.array([[100.0, 0, 0], [0, 50, 0]]), Time(sec=1)))
-    # FLS 7 moves; the message is set anew in place and says so.
-    message = frames.message(np.array([[100.0, 0, 0], [0, 50, 25]]), Time(sec=2))
-    seen = {one.child_frame_id: one for one in message.transforms}
-    assert sorted(seen) == ["fls_3", "fls_7"]
-    for name, where in (("fls_3", (1.0, 0.0, 0.0)), ("fls_7", (0.0, 0.5, 0.25))):
-        frame = seen[name]
-        t, r = frame.transform.translation, frame.transform.rotation
-        assert (t.x, t.y, t.z) == where
-        assert (r.x, r.y, r.z, r.w) == (0.0, 0.0, 0.0, 1.0)
-        assert (frame.header.frame_id, frame.header.stamp.sec) == ("swarm", 2)
-    # The first revision's bytes were sent as they were then.
-    earlier = deserialize_message(first, type(message))
-    assert earlier.transforms[1].transform.translation.z == 0.0
-    assert earlier.transforms[1].header.stamp.sec == 1
+    from swazure_ros.ros.convert.sensing import FlsFrames
+    from swazure_ros.ros.plumbing.cdr import serialize
+
+    def by_hand(ids, metres, stamp):
+        message = TFMessage()
+        for fls_id, (x, y, z) in zip(ids, metres, strict=True):
+            frame = TransformStamped(child_frame_id=f"fls_{fls_id}")
+            frame.header.frame_id, frame.header.stamp = "swarm", stamp
+            translation = frame.transform.translation
+            translation.x, translation.y, translation.z = x, y, z
+            frame.transform.rotation.w = 1.0
+            message.transforms.append(frame)
+        return serialize(message)
+
+    # Names of several lengths, so that the frames' fields lie unevenly aligned.
+    ids = [3, 7, 12, 4096, 100000]
+    frames = FlsFrames(np.array(ids))
+    points = np.array([[100.0, 0, 0], [0, 50, 0], [-3, 2.5, 1e-3], [7, 8, 9], [0, 0, 0]])
+    stamp = Time(sec=1, nanosec=2**31 + 5)  # above int32's range
+    assert frames.serialized(points, stamp) == by_hand(ids, (points / 100).tolist(), stamp)
+    points[1] = [0, 50, 25]  # FLS 7 moves: the next revision's bytes say so
+    later = Time(sec=2, nanosec=5)
+    sent = frames.serialized(points, later)
+    assert sent == by_hand(ids, (points / 100).tolist(), later)
+    frame = deserialize_message(sent, TFMessage).transforms[1]
+    t = frame.transform.translation
+    assert (frame.child_frame_id, t.x, t.y, t.z) == ("fls_7", 0.0, 0.5, 0.25)
