@@ -9,7 +9,6 @@ reach of them.
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
 from . import jit
 from .arrays import FloatArray
@@ -97,27 +96,3 @@ def near_any_segment(
             if segment_gap(points[k], starts[s], ends[s]) < reach:
                 return True
     return False
-
-
-@jit.kernel(cache=True, nogil=True)
-def near_segment(
-    points: FloatArray, start: FloatArray, end: FloatArray, reach: float
-) -> NDArray[np.bool_]:
-    """Whether each point is closer than ``reach`` to the segment start-end (compiled).
-
-    Parameters
-    ----------
-    points : (K, 3) array of float, cm
-    start, end : (3,) array of float, cm
-        The segment's ends.
-    reach : float, cm
-
-    Returns
-    -------
-    (K,) array of bool
-        True where the point is strictly closer than ``reach``.
-    """
-    near = np.zeros(len(points), dtype=np.bool_)
-    for k in range(len(points)):
-        near[k] = segment_gap(points[k], start, end) < reach
-    return near
