@@ -15,6 +15,7 @@ from swazure_interfaces.msg import Measurements
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.swarm import RunningSwarm
 from swazure_ros.core.evaluate import evaluate
+from swazure_ros.ros.convert.measurements import read_measurements
 from swazure_ros.sim.world import WorldSpec
 
 from ..waits import PATIENCE, wait_until
@@ -42,8 +43,14 @@ def test_a_thousand_node_swarm_comes_up_latches_and_computes_the_engines_poses(
         # A reader that joins now gets every FLS's latched measurement.
         probe = Node("probe", context=context, start_parameter_services=False)
         heard = set()
+        # Read as bytes, as the swarm's own radios do: rclpy makes a message object of
+        # hundreds of poses in 0.1 s, minutes for a thousand.
         probe.create_subscription(
-            Measurements, "/swarm/measurements", lambda m: heard.add(m.source_id), LATCHED
+            Measurements,
+            "/swarm/measurements",
+            lambda data: heard.add(read_measurements(data).source_id),
+            LATCHED,
+            raw=True,
         )
         executor = SingleThreadedExecutor(context=context)
         executor.add_node(probe)

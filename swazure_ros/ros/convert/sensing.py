@@ -8,15 +8,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import Point, PoseWithCovariance, TransformStamped, Vector3
+from geometry_msgs.msg import Point, PoseWithCovariance, TransformStamped
 from numpy.typing import NDArray
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import Header
 from swazure_interfaces.msg import (
     Detections,
     MarkerDetection,
-    Measurements,
-    RelativePose,
     WorldState,
 )
 from tf2_msgs.msg import TFMessage
@@ -24,73 +22,13 @@ from tf2_msgs.msg import TFMessage
 from ...core.arrays import FloatArray, IntArray
 from ...core.frames import SWARM_FRAME, fls_frame, to_centimetres, to_metres
 from ...core.observe import Measurement, NeighbourSets
-from ...core.sensor import DECAYING, SWEET, Sensor
-from ...protocol.readings import Readings
+from ...core.sensor import Sensor
 from ..plumbing.cdr import ENCAPSULATION, serialize
 from ..plumbing.names import WORLD_REACH
 from ..security.guard import check, check_finite, check_ids, check_size
 
 if TYPE_CHECKING:
     from ...camera.aruco import Camera
-
-
-def measurements_message(
-    fls_id: int, measurement: Measurement, stamp: Time, radio_distance: FloatArray | None = None
-) -> Measurements:
-    """One FLS's camera measurements as a Measurements message, in metres in the FLS's frame.
-
-    ``radio_distance`` (K,), cm: each measured pair's distance by radio
-    ranging (NaN where not given).
-    """
-    message = Measurements(source_id=fls_id)
-    message.header.stamp = stamp
-    message.header.frame_id = fls_frame(fls_id)
-    count = len(measurement.target_ids)
-    radio = np.full(count, np.nan) if radio_distance is None else radio_distance
-    for target, range_class, vector, tracking, ranged in zip(
-        measurement.target_ids.tolist(),
-        measurement.range_class.tolist(),
-        to_metres(measurement.vector).tolist(),
-        to_metres(measurement.tracking).tolist(),
-        to_metres(radio).tolist(),
-        strict=True,
-    ):
-        pose = RelativePose(
-            source_id=fls_id,
-            target_id=target,
-            range_class=range_class,
-            line_of_sight=True,
-            vector=Vector3(x=vector[0], y=vector[1], z=vector[2]),
-            tracking_distance=tracking,
-            radio_distance=ranged,
-        )
-        pose.header = message.header
-        message.poses.append(pose)
-    return message
-
-
-def readings_from_message(message: Measurements, swarm: IntArray) -> Readings:
-    """The camera readings (cm) of a Measurements message from an FLS of ``swarm`` (sorted ids).
-
-    MessageError unless every pose is the source's, of an FLS of the swarm
-    once, in sweet or decaying range, with a finite vector and radio
-    distance.
-    """
-    poses = message.poses
-    check_size(poses, len(swarm), "poses")
-    source = int(message.source_id)
-    check(all(pose.source_id == source for pose in poses), "a pose of another FLS")
-    other = check_ids([source] + [pose.target_id for pose in poses], swarm, "poses")[1:]
-    check(len(np.unique(other)) == len(other), "an FLS measured twice")
-    check(source not in other, "an FLS measures itself")
-    range_class = np.array([pose.range_class for pose in poses], dtype=np.int8)
-    check(bool(np.isin(range_class, (SWEET, DECAYING)).all()), "a reading out of camera range")
-    numbers = [(p.vector.x, p.vector.y, p.vector.z, p.radio_distance) for p in poses]
-    values = to_centimetres(check_finite(numbers, "poses").reshape(-1, 4))
-    order = np.argsort(other, kind="stable")
-    return Readings(
-        source, other[order], range_class[order], values[order, 3], values[order, :3].copy()
-    )
 
 
 #: Readings a Detections message may hold: a camera reads a few dozen markers at most.

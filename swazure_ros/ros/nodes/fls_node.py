@@ -64,7 +64,8 @@ from ...protocol.moves import WALKING, Walk, next_hop, step_walk, walk_estimate
 from ...protocol.readings import ReadingsBook
 from ...protocol.senses import DetectedSenses, Senses
 from ..convert.discovery import estimates_message
-from ..convert.sensing import measurements_message, neighbour_fields
+from ..convert.measurements import measurements_bytes
+from ..convert.sensing import neighbour_fields
 from ..plumbing.names import (
     ESTIMATES_TOPIC,
     MEASUREMENTS_QOS,
@@ -323,8 +324,10 @@ class FlsNode(SwarmNode):
         # Each reading's radio distance: what a source's fit weighs the reading by.
         view = self._senses.view(self.fls_id)
         rows = np.searchsorted(view.other, self._published.target_ids)
-        message = measurements_message(self.fls_id, self._published, stamp, view.distance[rows])
-        self._publisher.publish(self.transmitter.key.serialize(message))
+        key, radio = self.transmitter.key, view.distance[rows]
+        self._publisher.publish(
+            measurements_bytes(self.fls_id, self._published, stamp, key, radio)
+        )
 
     def offer_neighbours_service(self) -> None:
         """Answer ``~/get_neighbours`` (swazure_interfaces/GetNeighbours) for itself."""

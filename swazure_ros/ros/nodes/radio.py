@@ -51,7 +51,7 @@ from ..convert.discovery import (
     walk_from_message,
     walk_message,
 )
-from ..convert.sensing import readings_from_message
+from ..convert.measurements import MeasurementsBytes, read_measurements, readings_of
 from ..convert.tracking import relay_request_from_message, sample_from_message
 from ..plumbing.names import (
     ACK_TOPIC,
@@ -422,10 +422,14 @@ class Radio:
         # Only once a run fits: thousands of measurements are work nobody else needs.
         if not self._hears_readings:
             self._hears_readings = True
-            self._subscribe(Measurements, MEASUREMENTS_TOPIC, self._on_measurements, READINGS_QOS)
+            # Read as bytes: rclpy makes a message object of hundreds of poses in 0.1 s.
+            read = self.guard.record_reader(read_measurements)
+            self.guard.subscribe(
+                Measurements, MEASUREMENTS_TOPIC, self._on_measurements, READINGS_QOS, read=read
+            )
 
-    def _on_measurements(self, message: Measurements) -> None:
-        readings = readings_from_message(message, self._swarm)
+    def _on_measurements(self, message: MeasurementsBytes) -> None:
+        readings = readings_of(message, self._swarm)
         senses = self._senses
         why = implausible_readings(readings, senses.positions, senses.sensor, senses.radius)
         if why is not None:

@@ -207,29 +207,45 @@ class SwarmKey:
 
     def tag(self, message: Any, header: bytes) -> bytes:
         """HMAC-SHA256 of the instance, ``header`` (sender, counter) and :func:`content`."""
-        assert self._key is not None
-        return hmac.digest(self._key, self.instance + header + content(message), "sha256")
+        return self._mac(header, content(message))
 
     def sign(self, message: T) -> T:
         """``message`` with ``auth`` set: sender, next counter, tag (empty without a key)."""
         if self._key is not None:
-            # Wall-clock nanoseconds, so that a receiver's window is a span of time.
-            self._counter = max(self._counter + 1, time.time_ns())
-            header = _HEADER.pack(self.sender, self._counter)
-            setattr(message, AUTH_FIELD, header + self.tag(message, header))
+            setattr(message, AUTH_FIELD, self.auth(content(message)))
         return message
+
+    def auth(self, covered: bytes) -> bytes:
+        """The ``auth`` field of a message whose :func:`content` is ``covered``: sender, next
+        counter, tag; empty without a key (for messages written as bytes)."""
+        if self._key is None:
+            return b""
+        # Wall-clock nanoseconds, so that a receiver's window is a span of time.
+        self._counter = max(self._counter + 1, time.time_ns())
+        header = _HEADER.pack(self.sender, self._counter)
+        return header + self._mac(header, covered)
+
+    def _mac(self, header: bytes, covered: bytes) -> bytes:
+        assert self._key is not None
+        return hmac.digest(self._key, self.instance + header + covered, "sha256")
 
     def verify(self, message: T) -> T:
         """``message`` if this swarm signed it (or there is no key); MessageError if not."""
         if self._key is None:
             return message
-        auth = bytes(getattr(message, AUTH_FIELD))
+        self.verify_content(bytes(getattr(message, AUTH_FIELD)), content(message))
+        return message
+
+    def verify_content(self, auth: bytes, covered: bytes) -> None:
+        """MessageError unless ``auth`` is this swarm's tag of a message whose :func:`content`
+        is ``covered`` (for messages read as bytes); nothing to check without a key."""
+        if self._key is None:
+            return
         header = auth[: _HEADER.size]
         if len(auth) != AUTH_BYTES or not hmac.compare_digest(
-            auth[_HEADER.size :], self.tag(message, header)
+            auth[_HEADER.size :], self._mac(header, covered)
         ):
             raise MessageError("not signed with this swarm's key and instance")
-        return message
 
     def serialize(self, message: Any) -> bytes:
         """``message`` signed and serialised: its CDR bytes exactly (:func:`.cdr.serialize`)."""

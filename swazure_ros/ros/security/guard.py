@@ -20,7 +20,7 @@ import time
 from collections import Counter
 from collections.abc import Callable, Sized
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -41,6 +41,19 @@ WARN_EVERY = 5.0
 INTERNAL = "internal"
 
 T = TypeVar("T")
+
+
+class Signed(Protocol):
+    """A message read as bytes: its ``auth`` field and what the tag covers."""
+
+    @property
+    def auth(self) -> bytes: ...
+
+    @property
+    def content(self) -> bytes: ...
+
+
+R = TypeVar("R", bound=Signed)
 _NUMBERS = re.compile(r"[-+]?\d[\d.e+-]*")
 
 
@@ -157,6 +170,7 @@ class Guard:
         node: Node | None = None,
         echoes: Callable[[bytes], bool] | None = None,
         rate: RateLimit | None = None,
+        read: Callable[[bytes], T] | None = None,
     ) -> Subscription:
         """Subscribe ``node`` (the guard's own by default) to ``topic``, guarded and key-checked.
 
@@ -164,9 +178,12 @@ class Guard:
         signs; every other is dropped and counted. ``echoes(data)``: the
         process's own message come back, passed over uncounted. ``rate``: a
         sender's messages beyond it are dropped and counted, before any work
-        (without a key, the topic's: :class:`Buckets`).
+        (without a key, the topic's: :class:`Buckets`). ``read``: what makes the
+        callback's argument of the bytes, checked (:meth:`record_reader`); the
+        message of type ``kind`` by default (:meth:`reader`).
         """
-        read = self.reader(kind)
+        if read is None:
+            read = self.reader(kind)
         buckets = Buckets(rate, keyed=self.key.active) if rate is not None else None
 
         def limited(message: T) -> T:
@@ -197,6 +214,24 @@ class Guard:
             if self.key.active:
                 freshness.take(message)
             return message
+
+        return read
+
+    def record_reader(self, parse: Callable[[bytes], R]) -> Callable[[bytes], R]:
+        """A function of one subscription's bytes: ``parse(data)``, if signed and fresh.
+
+        For a message read as bytes: ``parse`` gives a record with the
+        message's ``auth`` and the ``content`` its tag covers (MessageError
+        when the bytes are not one).
+        """
+        freshness = Freshness()
+
+        def read(data: bytes) -> R:
+            record = parse(data)
+            if self.key.active:
+                self.key.verify_content(record.auth, record.content)
+                freshness.take(record)
+            return record
 
         return read
 

@@ -11,7 +11,7 @@ from builtin_interfaces.msg import Time
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message, serialize_message
-from swazure_interfaces.msg import Measurements, MoveCommands, PathOffer, PoseEstimates, WorldState
+from swazure_interfaces.msg import MoveCommands, PathOffer, PoseEstimates, WorldState
 
 from swazure_ros.core.estimators import TrackState
 from swazure_ros.core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
@@ -72,9 +72,7 @@ from swazure_ros.ros.convert.sensing import (
     detections_from_message,
     detections_message,
     image_message,
-    measurements_message,
     neighbour_fields,
-    readings_from_message,
     world_message,
     world_positions,
 )
@@ -320,26 +318,6 @@ def test_an_offer_of_a_fitting_run_carries_its_sums_and_one_without_carries_none
     message.covariances = message.covariances[:-1]
     with pytest.raises(MessageError, match="9 covariance values per label"):
         offer_from_message(message, swarm)
-
-
-def test_measurements_read_back_as_the_readings_a_fit_takes():
-    measurement = Measurement(
-        np.array([9, 5]),
-        np.array([SWEET, DECAYING], dtype=np.int8),
-        np.array([[7.3, -6.1, 0.25], [1.0, 2.0, 3.0]]),
-        np.array([6.5, 9.0]),
-    )
-    sent = measurements_message(3, measurement, Time(sec=1), np.array([6.4, 9.1]))
-    got = deserialize_message(serialize_message(sent), Measurements)
-    readings = readings_from_message(got, np.array([3, 5, 9]))
-    # Sorted by the measured FLS, in cm, as the engine lays a window's readings out.
-    np.testing.assert_array_equal(readings.other, [5, 9])
-    np.testing.assert_array_equal(readings.range_class, [DECAYING, SWEET])
-    np.testing.assert_allclose(readings.vector, [[1.0, 2.0, 3.0], [7.3, -6.1, 0.25]], rtol=1e-15)
-    np.testing.assert_allclose(readings.distance, [9.1, 6.4], rtol=1e-15)
-    got.poses[0].range_class = got.poses[0].RANGE_BLIND
-    with pytest.raises(MessageError, match="out of camera range"):
-        readings_from_message(got, np.array([3, 5, 9]))
 
 
 # Every other converter, both ways through the wire: sent, serialised, read back.
