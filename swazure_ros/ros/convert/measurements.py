@@ -26,13 +26,14 @@ from ...core.frames import fls_frame, to_centimetres, to_metres
 from ...core.observe import Measurement
 from ...core.sensor import DECAYING, SWEET
 from ...protocol.readings import Readings
+from ..plumbing.cdr import aligned
 from ..security.auth import SwarmKey
 from ..security.guard import check, check_finite, check_ids, check_size
 
 __all__ = ["MeasurementsBytes", "measurements_bytes", "read_measurements", "readings_of"]
 
 #: CDR (XCDR1) little-endian, no options: the encapsulation header rmw_fastrtps writes.
-ENCAPSULATION = b"\x00\x01\x00\x00"
+LITTLE_ENDIAN = b"\x00\x01\x00\x00"
 #: The header: its stamp (int32 sec, uint32 nanosec) and its frame id's length with the NUL.
 _HEAD = struct.Struct("<iII")
 _WORD = struct.Struct("<I")
@@ -140,10 +141,9 @@ def measurements_bytes(
     auth = key.auth(_content(stamp.sec, stamp.nanosec, fls_id, frame, covered))
     # The message: its header, source id and the poses' count, the poses, the tag.
     head = _HEAD.pack(stamp.sec, stamp.nanosec, len(frame) + 1) + frame + b"\0"
-    start = _aligned(len(head), 4)
-    layouts = _layouts(start + 8, frame, count)
-    end = layouts[-1][1] + layouts[-1][2] * layouts[-1][0].itemsize if count else start + 8
-    at = _aligned(end, 4)
+    start = aligned(len(head), 4)
+    layouts, end = _layouts(start + 8, frame, count)
+    at = aligned(end, 4)
     body = np.zeros(at + 4 + len(auth), dtype=np.uint8)
     body[: len(head)] = np.frombuffer(head, dtype=np.uint8)
     body[start : start + 8] = np.frombuffer(_WORD.pack(fls_id) + _WORD.pack(count), np.uint8)
@@ -157,7 +157,7 @@ def measurements_bytes(
                 poses[name] = value[first : first + rows] if np.ndim(value) else value
         first += rows
     body[at:] = np.frombuffer(_WORD.pack(len(auth)) + auth, dtype=np.uint8)
-    return ENCAPSULATION + body.tobytes()
+    return LITTLE_ENDIAN + body.tobytes()
 
 
 def read_measurements(data: bytes) -> MeasurementsBytes:
@@ -167,18 +167,17 @@ def read_measurements(data: bytes) -> MeasurementsBytes:
     whose every pose carries the message's header (as every FLS sends them).
     """
     view = memoryview(data)
-    if bytes(view[:2]) != ENCAPSULATION[:2] or len(view) < 4 + _HEAD.size:
+    if bytes(view[:2]) != LITTLE_ENDIAN[:2] or len(view) < 4 + _HEAD.size:
         raise MessageError("not a Measurements message in little-endian CDR")
     body = view[4:]
     try:
         sec, nanosec, length = _HEAD.unpack_from(body, 0)
         frame = bytes(body[_HEAD.size : _HEAD.size + length]).rstrip(b"\0")
-        start = _aligned(_HEAD.size + length, 4)
+        start = aligned(_HEAD.size + length, 4)
         source_id, count = struct.unpack_from("<II", body, start)
-        layouts = _layouts(start + 8, frame, count)
+        layouts, end = _layouts(start + 8, frame, count)
         parts = [np.ndarray((n,), dtype, buffer=body, offset=at) for dtype, at, n in layouts]
-        end = layouts[-1][1] + layouts[-1][2] * layouts[-1][0].itemsize if count else start + 8
-        at = _aligned(end, 4)
+        at = aligned(end, 4)
         (size,) = _WORD.unpack_from(body, at)
         auth = bytes(body[at + 4 : at + 4 + size])
     except (struct.error, TypeError, ValueError) as err:
@@ -257,21 +256,17 @@ def _content(sec: int, nanosec: int, source_id: int, frame: bytes, covered: np.n
     )
 
 
-def _aligned(at: int, size: int) -> int:
-    """``at`` moved on to a multiple of ``size``."""
-    return -(-at // size) * size
-
-
-def _layouts(start: int, frame: bytes, count: int) -> list[tuple[np.dtype, int, int]]:
+def _layouts(start: int, frame: bytes, count: int) -> tuple[list[tuple[np.dtype, int, int]], int]:
     """(record dtype, offset, rows) of ``count`` poses from ``start`` (after the
-    encapsulation): the first alone, the rest alike from where it ends, 8-aligned."""
+    encapsulation): the first alone, the rest alike from where it ends, 8-aligned; and
+    where the poses end."""
     if count == 0:
-        return []
+        return [], start
     first, end = _pose_dtype(start, frame)
     if count == 1:
-        return [(first, start, 1)]
+        return [(first, start, 1)], end
     rest, _ = _pose_dtype(end, frame)
-    return [(first, start, 1), (rest, end, count - 1)]
+    return [(first, start, 1), (rest, end, count - 1)], end + (count - 1) * rest.itemsize
 
 
 def _pose_dtype(start: int, frame: bytes) -> tuple[np.dtype, int]:
@@ -281,8 +276,8 @@ def _pose_dtype(start: int, frame: bytes) -> tuple[np.dtype, int]:
     ids and classes (4-aligned), the five float64s (8-aligned).
     """
     text = 8 + 4 + len(frame) + 1
-    ids = _aligned(start + text, 4) - start
-    numbers = _aligned(start + ids + 10, 8) - start
+    ids = aligned(start + text, 4) - start
+    numbers = aligned(start + ids + 10, 8) - start
     dtype = np.dtype(
         {
             "names": ["stamp", "frame", "source_id", "target_id", "range_class",

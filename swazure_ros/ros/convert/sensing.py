@@ -23,7 +23,7 @@ from ...core.arrays import FloatArray, IntArray
 from ...core.frames import SWARM_FRAME, fls_frame, to_centimetres, to_metres
 from ...core.observe import Measurement, NeighbourSets
 from ...core.sensor import Sensor
-from ..plumbing.cdr import ENCAPSULATION, serialize
+from ..plumbing.cdr import ENCAPSULATION, aligned, serialize
 from ..plumbing.names import WORLD_REACH
 from ..security.guard import check, check_finite, check_ids, check_size
 
@@ -140,12 +140,12 @@ class FlsFrames:
         # NUL), the translation (aligned to 8) and the rotation (7 float64s in all).
         stamps, places, at = [], [], 4
         for frame in message.transforms:
-            at = _aligned(at, 4)
+            at = aligned(at, 4)
             stamps.append(at // 4)
             at += 8
             for name in (frame.header.frame_id, frame.child_frame_id):
-                at = _aligned(at, 4) + 4 + len(name.encode()) + 1
-            at = _aligned(at, 8)
+                at = aligned(at, 4) + 4 + len(name.encode()) + 1
+            at = aligned(at, 8)
             places.append(at // 8)
             at += 7 * 8
         self._stamps = np.array(stamps, dtype=np.int64)
@@ -162,11 +162,6 @@ class FlsFrames:
         self._words[self._stamps] = stamp.sec
         self._words[self._stamps + 1] = np.uint32(stamp.nanosec).view(np.int32)
         return bytes(self._bytes)
-
-
-def _aligned(at: int, size: int) -> int:
-    """``at`` moved on to a multiple of ``size``."""
-    return -(-at // size) * size
 
 
 def world_positions(

@@ -31,7 +31,7 @@ from rclpy.serialization import serialize_message
 from ...core.errors import SwazureError
 from .interfaces import message_class
 
-__all__ = ["serialize"]
+__all__ = ["aligned", "serialize"]
 
 #: Bytes of the CDR encapsulation header (representation id, options) before the message.
 ENCAPSULATION = 4
@@ -60,6 +60,11 @@ class _Field(NamedTuple):
     size: int
     repeat: int | None
     nested: tuple[_Field, ...] | None = None
+
+
+def aligned(at: int, size: int) -> int:
+    """``at`` moved on to a multiple of ``size``: where a CDR value of ``size`` bytes starts."""
+    return -(-at // size) * size
 
 
 def serialize(message: Any) -> bytes:
