@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -39,6 +40,11 @@ _HEAD = struct.Struct("<iII")
 _WORD = struct.Struct("<I")
 #: A length in what the tag covers (:func:`..security.auth.content`): 8 bytes.
 _LENGTH = struct.Struct("<Q")
+#: The fields a pose has of its own (not its header's), by name in both records.
+_POSE_FIELDS = (
+    "source_id", "target_id", "range_class", "line_of_sight", "vector",
+    "tracking_distance", "radio_distance",
+)  # fmt: skip
 #: One pose's primitives as the tag covers them, packed, then its frame id (the length as
 #: 8 bytes and the characters, which the caller appends).
 _COVERED_POSE = [
@@ -124,9 +130,7 @@ def measurements_bytes(
     count = len(measurement.target_ids)
     frame = fls_frame(fls_id).encode()
     radio = np.full(count, np.nan) if radio_distance is None else np.asarray(radio_distance)
-    fields = {
-        "sec": stamp.sec,
-        "nanosec": stamp.nanosec,
+    fields: dict[str, Any] = {
         "source_id": fls_id,
         "target_id": measurement.target_ids,
         "range_class": measurement.range_class,
@@ -135,10 +139,7 @@ def measurements_bytes(
         "tracking_distance": to_metres(measurement.tracking),
         "radio_distance": to_metres(radio),
     }
-    covered = _covered(frame, count)
-    for name, value in fields.items():
-        covered[name] = value
-    auth = key.auth(_content(stamp.sec, stamp.nanosec, fls_id, frame, covered))
+    auth = key.auth(_content(stamp.sec, stamp.nanosec, fls_id, frame, fields, count))
     # The message: its header, source id and the poses' count, the poses, the tag.
     head = _HEAD.pack(stamp.sec, stamp.nanosec, len(frame) + 1) + frame + b"\0"
     start = aligned(len(head), 4)
@@ -151,10 +152,9 @@ def measurements_bytes(
     for dtype, offset, rows in layouts:
         poses = np.ndarray((rows,), dtype=dtype, buffer=body, offset=offset)
         poses["stamp"] = (stamp.sec, stamp.nanosec)
-        poses["frame"] = np.void(_WORD.pack(len(frame) + 1) + frame + b"\0")
+        poses["frame"] = _cdr_string(frame)
         for name, value in fields.items():
-            if name not in ("sec", "nanosec"):
-                poses[name] = value[first : first + rows] if np.ndim(value) else value
+            poses[name] = value[first : first + rows] if np.ndim(value) else value
         first += rows
     body[at:] = np.frombuffer(_WORD.pack(len(auth)) + auth, dtype=np.uint8)
     return LITTLE_ENDIAN + body.tobytes()
@@ -188,14 +188,10 @@ def read_measurements(data: bytes) -> MeasurementsBytes:
     poses = np.concatenate([part.astype(parts[-1].dtype) for part in parts]) if parts else None
     if poses is None:
         poses = np.zeros(0, dtype=_pose_dtype(0, frame)[0])
-    own = np.void(_WORD.pack(len(frame) + 1) + frame + b"\0")
-    if not (np.all(poses["frame"] == own) and np.all(poses["stamp"] == (sec, nanosec))):
+    if not (
+        np.all(poses["frame"] == _cdr_string(frame)) and np.all(poses["stamp"] == (sec, nanosec))
+    ):
         raise MessageError("a pose's header is not its message's")
-    covered = _covered(frame, count)
-    for name in ("source_id", "target_id", "range_class", "line_of_sight", "vector",
-                 "tracking_distance", "radio_distance"):  # fmt: skip
-        covered[name] = poses[name]
-    covered["sec"], covered["nanosec"] = sec, nanosec
     return MeasurementsBytes(
         source_id=int(source_id),
         stamp=(int(sec), int(nanosec)),
@@ -207,7 +203,7 @@ def read_measurements(data: bytes) -> MeasurementsBytes:
         radio_distance=to_centimetres(poses["radio_distance"].astype(np.float64)),
         line_of_sight=poses["line_of_sight"] != 0,
         auth=auth,
-        content=_content(sec, nanosec, source_id, frame, covered),
+        content=_content(sec, nanosec, source_id, frame, poses, count),
     )
 
 
@@ -237,23 +233,30 @@ def readings_of(message: MeasurementsBytes, swarm: IntArray) -> Readings:
     )
 
 
-def _covered(frame: bytes, count: int) -> np.ndarray:
-    """``count`` poses as the tag covers them, zero, their frame id ``frame`` set."""
+def _content(
+    sec: int, nanosec: int, source_id: int, frame: bytes, poses: Any, count: int
+) -> bytes:
+    """What the tag covers (auth.content) of a message whose ``count`` poses' fields
+    (:data:`_POSE_FIELDS`, a record array's or arrays by name) are ``poses``: the
+    primitives, the frame id, then each pose's primitives and frame id."""
     covered = np.zeros(count, dtype=[*_COVERED_POSE, ("frame", f"V{8 + len(frame)}")])
+    for name in _POSE_FIELDS:
+        covered[name] = poses[name]
+    covered["sec"], covered["nanosec"] = sec, nanosec
     covered["frame"] = np.void(_LENGTH.pack(len(frame)) + frame)
-    return covered
-
-
-def _content(sec: int, nanosec: int, source_id: int, frame: bytes, covered: np.ndarray) -> bytes:
-    """What the tag covers (auth.content): the primitives, the frame id, the poses."""
     return b"".join(
         (
             struct.pack("<iII", sec, nanosec, source_id),
             _LENGTH.pack(len(frame)) + frame,
-            _LENGTH.pack(len(covered)),
+            _LENGTH.pack(count),
             covered.tobytes(),
         )
     )
+
+
+def _cdr_string(text: bytes) -> np.void:
+    """``text`` as CDR writes a string: its length with the NUL, the characters, the NUL."""
+    return np.void(_WORD.pack(len(text) + 1) + text + b"\0")
 
 
 def _layouts(start: int, frame: bytes, count: int) -> tuple[list[tuple[np.dtype, int, int]], int]:
