@@ -283,10 +283,11 @@ def test_without_the_published_clouds_the_study_says_it_falls_back_and_why(tmp_p
         reader.join(PATIENCE)
     assert said
     # Stopped by Ctrl-C, before any run: not a study run to its end. The CLI returns 130,
-    # but a Ctrl-C that lands in code a C extension runs with PyRun_* while the study
-    # imports sets CPython's _Py_UnhandledKeyboardInterrupt, which nothing clears when the
-    # CLI catches it, and CPython then ends by SIGINT (seen once, in a suite run of
-    # 2026-12-01, with "interrupted" said). A shell reports either as 130.
+    # yet once (a suite run of 2026-12-01) the study said "interrupted" and ended by
+    # SIGINT. CPython does so when a KeyboardInterrupt ended code run by PyRun_* (it sets
+    # _Py_UnhandledKeyboardInterrupt, and nothing clears it when the CLI catches the
+    # exception later): likely a C extension's, during the study's imports. A shell
+    # reports either as 130.
     assert process.returncode in (130, -signal.SIGINT), lines
     assert "swazure study: interrupted\n" in lines, lines
     first = lines[0]
