@@ -115,11 +115,24 @@ def _run(args: argparse.Namespace) -> int:
         return RUN_FAILED if isinstance(err, RunError) else USAGE
     except KeyboardInterrupt:
         print(f"swazure {args.verb}: interrupted", file=sys.stderr)
+        _forget_interrupt()
         return 130
     except BrokenPipeError:
         # The reader went away (`swazure ... | head`): stop quietly, as cat does.
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
+
+
+def _forget_interrupt() -> None:
+    """Clear CPython's note that a KeyboardInterrupt went unhandled; the exit code stands.
+
+    CPython notes it whenever a KeyboardInterrupt ends code that ``exec`` runs from a
+    string (dataclasses and namedtuple make their methods so: any import may be
+    in it), though the interrupt is caught later, and a process started as ``python -m``
+    then ends by SIGINT instead of with 130 (a study stopped while it imported did so
+    once in the suite). CPython clears the note each time it starts code from a string.
+    """
+    exec("")  # nothing runs: starting it is what clears the note
 
 
 if __name__ == "__main__":

@@ -74,5 +74,23 @@ def test_a_run_that_failed_exits_1_and_an_unusable_command_line_2(capsys, error,
     assert capsys.readouterr().err == f"swazure evaluate: error: {error}\n"
 
 
+def test_ctrl_c_in_code_run_from_a_string_still_exits_130(tmp_path):
+    # As a study stopped while its imports make dataclasses: the KeyboardInterrupt ends
+    # code that exec runs from a string, and the command line catches it. Started as
+    # `python -m`, as the tests start the command line.
+    (tmp_path / "interrupted_in_exec.py").write_text(
+        "import argparse, sys\n"
+        "from swazure_ros.cli.main import _run\n"
+        "def handler(args):\n"
+        "    exec('raise KeyboardInterrupt')\n"
+        "sys.exit(_run(argparse.Namespace(verb='study', handler=handler)))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-m", "interrupted_in_exec"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=PATIENCE,
+    )  # fmt: skip
+    assert (done.returncode, done.stderr) == (130, "swazure study: interrupted\n")
+
+
 def test_the_help_lists_the_exit_codes():
     assert EXIT_CODES in build_parser([]).format_help()
