@@ -26,5 +26,6 @@ def _threads_per_worker() -> int:
 # which read them when they are loaded. Only in a worker: the controller's environment
 # is the workers', and it does not know their count.
 if "PYTEST_XDIST_WORKER" in os.environ:
+    _share = str(_threads_per_worker())
     for variable in THREAD_VARIABLES:
-        os.environ.setdefault(variable, str(_threads_per_worker()))
+        os.environ.setdefault(variable, _share)
