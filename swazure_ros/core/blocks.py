@@ -45,7 +45,7 @@ from .neighbours import (
 )
 from .pair_statistics import PairTally, summarise
 from .paths import check_policy
-from .progress import Progress
+from .progress import Progress, Started
 from .sensor import BLIND, DECAYING, SWEET, Sensor
 from .sight import obstructed
 from .summary import Summary
@@ -291,8 +291,9 @@ class BlockedEvaluation:
     lean: LeanNeighbourhood
     policy: str
     seconds: float = 0.0  # computing so far: the neighbourhood's and the blocks'
-    # A later stage made per block (fusion, a fit: core.pipeline), before the tally.
-    stage: Callable[[Neighbourhood, PairResults], PairResults] | None = None
+    # A later stage made per block (fusion, a fit: core.pipeline), before the tally; it may
+    # show stages of its own on the progress it is lent.
+    stage: Callable[[Neighbourhood, PairResults, Progress], PairResults] | None = None
     tally: PairTally = field(init=False)
 
     def __post_init__(self) -> None:
@@ -322,7 +323,12 @@ class BlockedEvaluation:
                 progress.start("pairs", total)
                 progress.advance(done)
             if self.stage is not None:
-                pairs = self.stage(self.hood, pairs)
+                lent = Started(progress)
+                pairs = self.stage(self.hood, pairs, lent)
+                if lent.started:
+                    # The stage showed stages of its own (a fit solved for its first block).
+                    progress.start("pairs", total)
+                    progress.advance(done)
             self.tally.add(pairs)
             self.seconds += time.perf_counter() - began
             done += len(pairs)

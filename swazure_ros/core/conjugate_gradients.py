@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from .arrays import FloatArray
+from .progress import SILENT, Progress, Share
 from .swarm_edges import Edges, blocks_times, sums_into
 
 #: A solve has settled when each column's residual, in the preconditioner's norm, is this
@@ -277,7 +278,11 @@ def start_iterate(system: System, position: FloatArray) -> Iterate:
 
 
 def solved(
-    system: System, position: FloatArray, limit: int = MAX_ITERATIONS
+    system: System,
+    position: FloatArray,
+    limit: int = MAX_ITERATIONS,
+    progress: Progress = SILENT,
+    stage: str = "conjugate gradients",
 ) -> tuple[FloatArray, int]:
     """``H X = B`` by the swarm's iterations from ``position`` (N, 3, K); X and the iterations.
 
@@ -291,6 +296,11 @@ def solved(
         Where the solve starts.
     limit : int, default MAX_ITERATIONS
         Iterations, at most.
+    progress : Progress, optional
+        Told of ``stage``, in hundredths of the way from the first residual to
+        the settled one (:func:`settled_share`).
+    stage : str, optional
+        The stage's name.
 
     Returns
     -------
@@ -302,11 +312,14 @@ def solved(
     iterate = start_iterate(system, position)
     scale = swarm_sum(partial_dot(system.right, preconditioned(system, system.right)))
     floor = Floor.start(position)
+    shown = Share(progress, stage)
     for iteration in range(1, limit + 1):
         scaled, image, partial = shares(system, iterate.residual)
         gamma, delta = swarm_sum(partial[:, 0]), swarm_sum(partial[:, 1])
         if settled(gamma, scale):
+            shown.reach(1.0)
             return iterate.position, iteration - 1
+        shown.reach(settled_share(gamma, scale))
         floor = floor.after(gamma, iterate.position)
         if floor.stalled:
             return floor.position, iteration - 1
@@ -342,6 +355,35 @@ class Floor:
         best = self.position.copy()
         best[:, :, halved] = position[:, :, halved]
         return Floor(np.where(halved, gamma, self.gamma), best, 0)
+
+
+def settled_share(gamma: FloatArray, scale: FloatArray) -> float:
+    """How far a solve has come to :func:`settled`, 0 to 1: of the digits its residual must
+    lose, the share lost by its worst column so far.
+
+    Parameters
+    ----------
+    gamma : (K,) array of float
+        Each column's (r, M r).
+    scale : (K,) array of float
+        Each column's (b, M b).
+
+    Returns
+    -------
+    float
+        ``log(max gamma / scale) / log(SETTLED**2)``, within [0, 1]; 1 when
+        every column with a right side has a zero residual.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> settled_share(np.array([1e-5, 1e-10]), np.array([1.0, 1.0]))
+    0.25
+    """
+    ratio = np.divide(gamma, scale, out=np.zeros_like(gamma), where=scale > 0).max(initial=0.0)
+    if ratio <= 0.0:
+        return 1.0
+    return float(min(1.0, max(0.0, math.log(ratio) / math.log(SETTLED**2))))
 
 
 def settled(gamma: FloatArray, scale: FloatArray) -> bool:

@@ -30,6 +30,7 @@ from .neighbourhood import Neighbourhood
 from .pair_fits import PairFit, WholeFits, local_estimates
 from .pair_statistics import EXACT_VALUES, summarise
 from .path_arrays import Paths, path_hops
+from .progress import SILENT, Progress
 from .summary import Consistency, FitFacts
 from .tally import RealTally
 
@@ -332,6 +333,8 @@ class WholeFitEstimates:
         Bytes of memory free: a least-squares fit whose dense inverse would
         not fit is solved sparse, its covariance sampled
         (:class:`~.pair_fits.WholeFits`); None: dense, as :func:`refine`.
+    progress : Progress, optional
+        Told of the solves of a swarm fit, which are made at once.
     """
 
     def __init__(
@@ -342,18 +345,21 @@ class WholeFitEstimates:
         corrupt: Corruption | None = None,
         exact_values: int = EXACT_VALUES,
         free: int | None = None,
+        progress: Progress = SILENT,
     ) -> None:
         if estimator not in BLOCKED_ESTIMATORS:
             raise ValueError(f"{estimator!r} is not a fit of the whole swarm")
         self.estimator, self.robust = estimator, robust
-        self.fits = WholeFits(hood, robust, corrupt, swarm=estimator == SWARM_FIT, free=free)
+        swarm = estimator == SWARM_FIT
+        self.fits = WholeFits(hood, robust, corrupt, swarm=swarm, free=free, progress=progress)
         self.nees = RealTally(exact_values)
         self.within = 0
 
-    def block(self, pairs: PairResults) -> PairResults:
-        """``pairs`` (a block of the run's) with the fit's estimates and covariances."""
+    def block(self, pairs: PairResults, progress: Progress = SILENT) -> PairResults:
+        """``pairs`` (a block of the run's) with the fit's estimates and covariances; a fit
+        that the block is the first to need is solved, shown on ``progress``."""
         estimate, covariance = self.fits.estimates(
-            pairs.source, pairs.target, pairs.status == SWEET_PATH
+            pairs.source, pairs.target, pairs.status == SWEET_PATH, progress
         )
         updated = _with_fit(pairs, estimate, covariance)
         # NaN for a pair without a path: its estimate is NaN.

@@ -26,6 +26,7 @@ from .measurement_graph import (
     parts_of,
     robust_weights,
 )
+from .progress import SILENT, Progress
 from .swarm_fit import COVARIANCE_SAMPLES, SwarmFit, measurement_noise
 
 #: A round factors its normal matrix anew when more than this share of the weights
@@ -105,7 +106,9 @@ def _scatter(size: int, measured: Measurements, flow: FloatArray) -> FloatArray:
     return total.ravel()
 
 
-def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
+def solve(
+    size: int, measured: Measurements, robust: bool = True, progress: Progress = SILENT
+) -> Fit:
     """The weighted least-squares positions of N FLSs from measured vectors between them.
 
     The gauge: in each connected part, the FLS of the smallest index is the
@@ -128,6 +131,8 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
         covariances, cm^2, and information matrices, cm^-2.
     robust : bool, optional
         Whether to reweight and reject outliers; else one weighted solve.
+    progress : Progress, optional
+        Told of each factoring as a stage.
 
     Returns
     -------
@@ -162,7 +167,9 @@ def solve(size: int, measured: Measurements, robust: bool = True) -> Fit:
     def factorise(normal: Any) -> _DenseFactors:
         return _DenseFactors(_factors(normal, blocks), blocks)
 
-    solution, dense, weights, rounds = _reweighted(size, measured, free, factorise, robust)
+    solution, dense, weights, rounds = _reweighted(
+        size, measured, free, factorise, robust, progress
+    )
     positions = np.zeros(3 * size)
     positions[free] = solution
     slot = np.zeros(size, dtype=np.int64)
@@ -213,18 +220,34 @@ class _DenseFactors:
         return _solve(self.factors, self.blocks, rhs)
 
 
+def _shown(factorise: Callable[[Any], _F], progress: Progress) -> Callable[[Any], _F]:
+    """``factorise``, each call shown as a stage of one unit: a factor is one call into
+    LAPACK or SuperLU, which says nothing until it returns."""
+
+    def shown(normal: Any) -> _F:
+        progress.start(f"fit: factoring {normal.shape[0]:,} unknowns", 1)
+        factors = factorise(normal)
+        progress.advance(1)
+        return factors
+
+    return shown
+
+
 def _reweighted(
     size: int,
     measured: Measurements,
     free: BoolArray,
     factorise: Callable[[Any], _F],
     robust: bool,
+    progress: Progress = SILENT,
 ) -> tuple[FloatArray, _F, FloatArray, int]:
     """The free unknowns' solution, the final factors, the final weights and the rounds.
 
     One weighted solve, then (``robust``) the rounds of :func:`solve`'s
-    reweighting; the final system factored by its own weights.
+    reweighting; the final system factored by its own weights. Each factoring
+    is a stage of ``progress``.
     """
+    factorise = _shown(factorise, progress)
     information = measured.information
     matrix, rhs = _information(size, measured, information)
     normal = matrix[free][:, free].tocsr()
@@ -353,6 +376,7 @@ def solve_sparse(
     robust: bool = True,
     samples: int = COVARIANCE_SAMPLES,
     ids: IntArray | None = None,
+    progress: Progress = SILENT,
 ) -> SwarmFit:
     """:func:`solve`'s fit by a sparse factor of the whole graph, its covariance by samples.
 
@@ -376,6 +400,8 @@ def solve_sparse(
         The covariance's draws.
     ids : (N,) array of int, optional
         The FLS ids the draws are keyed by; the indices by default.
+    progress : Progress, optional
+        Told of each factoring, and of the draws' solve, as a stage.
 
     Returns
     -------
@@ -397,7 +423,9 @@ def solve_sparse(
     ids = np.arange(size, dtype=np.int64) if ids is None else ids
     part = parts_of(size, measured)
     _, free, _ = _gauge(size, part)
-    solution, factor, weights, _ = _reweighted(size, measured, free, _SparseFactor, robust)
+    solution, factor, weights, _ = _reweighted(
+        size, measured, free, _SparseFactor, robust, progress
+    )
     positions = np.zeros(3 * size)
     positions[free] = solution
     points = positions.reshape(size, 3)
@@ -405,7 +433,9 @@ def solve_sparse(
     drawn = np.zeros((3 * size, samples))
     if samples and free.any():
         right = _noise_right_sides(size, measured, weights, samples, ids)
+        progress.start(f"fit: covariance, {samples} draws", 1)
         drawn[free] = factor(right[free])
+        progress.advance(1)
     return SwarmFit(points, part, [], int((weights < 1.0).sum()), drawn.reshape(size, 3, samples))
 
 

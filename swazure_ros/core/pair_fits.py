@@ -23,6 +23,7 @@ from .least_squares import Fit, dense_bytes, solve, solve_sparse
 from .measurement_graph import Measurements
 from .neighbourhood import Neighbourhood
 from .observe import Observations
+from .progress import SILENT, Progress
 from .sensor import SWEET
 from .swarm_fit import SwarmFit, swarm_solve
 from .window_fit import heard_in_window, window_fit
@@ -126,6 +127,7 @@ class WholeFits:
         corrupt: Corruption | None = None,
         swarm: bool = False,
         free: int | None = None,
+        progress: Progress = SILENT,
     ) -> None:
         began = time.perf_counter()
         self.hood, self.robust, self.swarm, self.free = hood, robust, swarm, free
@@ -136,27 +138,30 @@ class WholeFits:
         if swarm:
             # The swarm solves every fit: no FLS knows that no pair of the swarm needs one.
             for layer, (_, chosen) in enumerate(self._groups(np.ones(1, dtype=bool))):
-                self._solve(layer, chosen)
+                self._solve(layer, chosen, progress)
 
     def _groups(self, sweet: NDArray[np.bool_]) -> list[tuple[BoolArray, BoolArray]]:
         """Each fit's pairs among those of ``sweet`` (M,), and its rows (fit_groups)."""
         linked = np.ones(len(self.every), dtype=bool)
         return fit_groups(self.hood.sensor, sweet, self.sweet_rows, linked)
 
-    def _solve(self, layer: int, chosen: NDArray[np.bool_]) -> Fit | SwarmFit:
-        """Fit ``layer`` of :func:`~.fit_measurements.fit_layers`, solved once."""
+    def _solve(self, layer: int, chosen: NDArray[np.bool_], progress: Progress) -> Fit | SwarmFit:
+        """Fit ``layer`` of :func:`~.fit_measurements.fit_layers`, solved once, its solves shown
+        as stages of ``progress``."""
         if layer not in self.solved:
             began = time.perf_counter()
             measured = select_rows(self.every, chosen)
             size = self.hood.swarm.size
             ids = self.hood.swarm.cloud_index
             if self.swarm:
-                solved: Fit | SwarmFit = swarm_solve(size, measured, self.robust, ids=ids)
+                solved: Fit | SwarmFit = swarm_solve(
+                    size, measured, self.robust, ids=ids, progress=progress
+                )
             elif self.free is None or DENSE_COPIES * dense_bytes(size, measured) <= self.free:
-                solved = solve(size, measured, self.robust)
+                solved = solve(size, measured, self.robust, progress)
             else:
                 # The dense inverse would not fit: a sparse factor, a sampled covariance.
-                solved = solve_sparse(size, measured, self.robust, ids=ids)
+                solved = solve_sparse(size, measured, self.robust, ids=ids, progress=progress)
             self.solved[layer] = solved
             self.measurements += len(measured)
             self.downweighted += solved.downweighted
@@ -164,16 +169,21 @@ class WholeFits:
         return self.solved[layer]
 
     def estimates(
-        self, source: IntArray, target: IntArray, sweet: NDArray[np.bool_]
+        self,
+        source: IntArray,
+        target: IntArray,
+        sweet: NDArray[np.bool_],
+        progress: Progress = SILENT,
     ) -> tuple[FloatArray, FloatArray]:
         """Estimates (M, 3), cm, and covariances (M, 3, 3), cm^2, of some pairs; NaN where no
-        fit joins a pair's FLSs. ``sweet`` (M,): the pairs with a sweet path."""
+        fit joins a pair's FLSs. ``sweet`` (M,): the pairs with a sweet path. A fit these
+        pairs are the first to need is solved now, its solves shown on ``progress``."""
         began = time.perf_counter()
         estimate, covariance = _unknown(len(source))
         for layer, (rows, chosen) in enumerate(self._groups(sweet)):
             if not rows.any():
                 continue
-            fit = self._solve(layer, chosen)
+            fit = self._solve(layer, chosen, progress)
             estimate[rows], covariance[rows] = fit.relative(source[rows], target[rows])
         self.seconds += time.perf_counter() - began
         return estimate, covariance

@@ -268,12 +268,12 @@ class _BlockStage:
     fit: WholeFitEstimates | None
     seconds: float = 0.0  # spent within the blocks, whose time the run counts too
 
-    def __call__(self, hood: Neighbourhood, pairs: PairResults) -> PairResults:
+    def __call__(self, hood: Neighbourhood, pairs: PairResults, progress: Progress) -> PairResults:
         began = time.perf_counter()
         if self.fusion is not None:
             pairs = self.fusion.block(hood, pairs)
         if self.fit is not None:
-            pairs = self.fit.block(pairs)
+            pairs = self.fit.block(pairs, progress)
         self.seconds += time.perf_counter() - began
         return pairs
 
@@ -303,10 +303,10 @@ def _block_stage(
     elif options.estimator != PATH:
         if run.lean.whole is None and needs_decaying(run.lean.sweet):
             run.lean = with_decaying(run.lean, progress)
-        progress.start(options.estimator, 1)
         fit = WholeFitEstimates(
-            run.hood, options.estimator, exact_values=budget.exact_values, free=budget.free
-        )
+            run.hood, options.estimator, exact_values=budget.exact_values, free=budget.free,
+            progress=progress,
+        )  # fmt: skip
         run.stage = _BlockStage(None, fit)
     return run.stage if isinstance(run.stage, _BlockStage) else None
 

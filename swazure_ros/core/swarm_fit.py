@@ -36,6 +36,7 @@ from .measurement_graph import (
     parts_of,
     robust_weights,
 )
+from .progress import SILENT, Progress
 from .swarm_edges import Edges, blocks_times, edges_of, flows, weighted
 
 #: Right sides of the covariance's solve: each a draw of every measurement's noise. The
@@ -178,6 +179,7 @@ def swarm_solve(
     start: FloatArray | None = None,
     samples: int = COVARIANCE_SAMPLES,
     ids: IntArray | None = None,
+    progress: Progress = SILENT,
 ) -> SwarmFit:
     """The fit of ``size`` FLSs from ``measured`` by the swarm's iterations; see the module.
 
@@ -202,6 +204,9 @@ def swarm_solve(
         Right sides of the covariance's solve; 0 for none.
     ids : (N,) array of int, optional
         The FLS ids the draws are keyed by; the indices by default.
+    progress : Progress, optional
+        Told of each solve as a stage of its own, in hundredths of the way to
+        settled (:func:`~.conjugate_gradients.solved`).
 
     Returns
     -------
@@ -237,7 +242,7 @@ def swarm_solve(
     position = np.zeros((size, 3, 1))
     if start is not None:
         position[:, :, 0] = np.nan_to_num(start)
-    position, spent = solved(system_of(edges), position)
+    position, spent = solved(system_of(edges), position, progress=progress, stage="fit: solve 1")
     iterations = [spent]
     weights = weights_for(measured, position[:, :, 0], UNIT)
     rejecting = False
@@ -255,7 +260,10 @@ def swarm_solve(
         rejecting = mode == REJECTING
         weights = candidates[mode]
         before = position
-        position, spent = solved(system_of(weighted(edges, measured, weights)), position)
+        system = system_of(weighted(edges, measured, weights))
+        loss = "Huber's" if mode == HUBER else "rejecting"
+        stage = f"fit: solve {len(iterations) + 1}, {loss} weights"
+        position, spent = solved(system, position, progress=progress, stage=stage)
         iterations.append(spent)
         if np.abs(position - before).max(initial=0.0) <= CONVERGED_CM:
             # Huber's loss has settled: from here on, measurements far out are rejected.
@@ -266,7 +274,8 @@ def swarm_solve(
     if samples:
         final = weighted(edges, measured, weights)
         system = system_of(final, noise_flows(final, measured, weights, samples, ids))
-        drawn, spent = solved(system, np.zeros((size, 3, samples)))
+        stage = f"fit: covariance, {samples} draws"
+        drawn, spent = solved(system, np.zeros((size, 3, samples)), progress=progress, stage=stage)
         iterations.append(spent)
     return SwarmFit(positions, part, iterations, int((weights < 1.0).sum()), drawn)
 

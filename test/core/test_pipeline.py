@@ -229,6 +229,50 @@ def test_fusion_and_the_whole_swarms_fits_run_in_blocks_as_held(swarm, sensor, o
     assert blocked.summary.pairs.quantiles == "exact"
 
 
+class Stages:
+    """A progress that keeps each stage it is told of, with the units it has advanced."""
+
+    def __init__(self):
+        self.stages = []  # [name, total, advanced]
+
+    def start(self, stage, total):
+        self.stages.append([stage, total, 0])
+
+    def advance(self, units):
+        self.stages[-1][2] += units
+
+    def named(self, prefix):
+        return [stage for stage in self.stages if stage[0].startswith(prefix)]
+
+
+@pytest.mark.parametrize(
+    ("estimator", "free", "solves"),
+    [
+        ("least-squares", None, ["fit: factoring"]),
+        ("least-squares", 1, ["fit: factoring", "fit: covariance"]),
+        ("swarm-fit", None, ["fit: solve 1", "fit: covariance, 64 draws"]),
+    ],
+    ids=["dense", "sparse", "swarm"],
+)
+def test_a_fit_shows_its_solves_and_the_pairs_go_on_where_they_were(
+    swarm, sensor, estimator, free, solves
+):
+    shown = Stages()
+    kept = Blocks()
+    budget = Budget(SMALL.memory, free=free)
+    options = RunOptions(estimator=estimator)
+    run_engine(swarm, sensor, options, take=kept, budget=budget, progress=shown)
+    for prefix in solves:
+        named = shown.named(prefix)
+        assert named and all(advanced == total for _, total, advanced in named), shown.stages
+    # Every pair counted once, on "pairs" stages that each resume where the last stopped.
+    pairs = [stage for stage in shown.stages if stage[0] == "pairs"]
+    total = sum(len(block) for block in kept.blocks)
+    assert pairs[-1][1] == total and pairs[-1][2] == total
+    assert all(stage[1] == total and stage[2] <= total for stage in pairs)
+    assert shown.stages[-1][0] == "pairs"
+
+
 def test_a_fit_whose_dense_inverse_does_not_fit_is_solved_sparse(swarm, sensor):
     # Too little memory free for the dense inverse: the same estimates to the solvers'
     # rounding, a covariance sampled as the swarm's fit samples it.
