@@ -133,6 +133,7 @@ class WholeFits:
         self.hood, self.robust, self.swarm, self.free = hood, robust, swarm, free
         self.every, self.sweet_rows = _measured_once(hood, corrupt)
         self.solved: dict[int, Fit | SwarmFit] = {}
+        self.rows: dict[int, NDArray[np.bool_]] = {}  # each solved layer's rows of ``every``
         self.measurements = self.downweighted = 0
         self.seconds = time.perf_counter() - began
         if swarm:
@@ -150,23 +151,27 @@ class WholeFits:
         as stages of ``progress``."""
         if layer not in self.solved:
             began = time.perf_counter()
-            measured = select_rows(self.every, chosen)
-            size = self.hood.swarm.size
-            ids = self.hood.swarm.cloud_index
-            if self.swarm:
-                solved: Fit | SwarmFit = swarm_solve(
-                    size, measured, self.robust, ids=ids, progress=progress
-                )
-            elif self.free is None or DENSE_COPIES * dense_bytes(size, measured) <= self.free:
-                solved = solve(size, measured, self.robust, progress)
-            else:
-                # The dense inverse would not fit: a sparse factor, a sampled covariance.
-                solved = solve_sparse(size, measured, self.robust, ids=ids, progress=progress)
-            self.solved[layer] = solved
-            self.measurements += len(measured)
+            same = [other for other, rows in self.rows.items() if np.array_equal(rows, chosen)]
+            # No decaying hop joins the sweet fit's parts (a surface; a shape within the
+            # sweet range): the same rows, the same fit to the bit, solved once. Its facts
+            # count once a layer, as the swarm's do, which solves each layer.
+            solved = self.solved[same[0]] if same else self._solved(chosen, progress)
+            self.solved[layer], self.rows[layer] = solved, chosen
+            self.measurements += int(chosen.sum())
             self.downweighted += solved.downweighted
             self.seconds += time.perf_counter() - began
         return self.solved[layer]
+
+    def _solved(self, chosen: NDArray[np.bool_], progress: Progress) -> Fit | SwarmFit:
+        """The fit of the rows ``chosen`` of every measurement, solved now."""
+        measured = select_rows(self.every, chosen)
+        size, ids = self.hood.swarm.size, self.hood.swarm.cloud_index
+        if self.swarm:
+            return swarm_solve(size, measured, self.robust, ids=ids, progress=progress)
+        if self.free is None or DENSE_COPIES * dense_bytes(size, measured) <= self.free:
+            return solve(size, measured, self.robust, progress)
+        # The dense inverse would not fit: a sparse factor, a sampled covariance.
+        return solve_sparse(size, measured, self.robust, ids=ids, progress=progress)
 
     def estimates(
         self,

@@ -2,11 +2,12 @@
 
 import numpy as np
 
-from swazure_ros.core.fit_measurements import fit_pairs
+from swazure_ros.core.fit_measurements import fit_pairs, select_rows
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.neighbours import ordered_blind_pairs
-from swazure_ros.core.pair_fits import fit_pairs_estimates, local_estimates
+from swazure_ros.core.pair_fits import WholeFits, fit_pairs_estimates, local_estimates
 from swazure_ros.core.sensor import Sensor
+from swazure_ros.core.swarm_fit import swarm_solve
 
 from .fits import stochastic_sensor, torus_swarm
 
@@ -47,3 +48,21 @@ def test_each_source_s_own_fit_reports_its_window_and_its_time():
     np.testing.assert_allclose(
         fit.estimate[joined], points[target[joined]] - points[source[joined]], atol=1e-7
     )
+
+
+def test_a_fit_whose_rows_another_fit_took_is_that_fit_solved_once():
+    # A deterministic sensor has two fits: the sweet hops alone, and with the decaying hops
+    # that join the sweet fit's parts. On a torus none joins: both take the same rows.
+    hood = neighbourhood(torus_swarm(0.5, "torus:200"), Sensor(6.0, 8.0, 8.0, 30.0))
+    fits = WholeFits(hood, swarm=True)
+    assert set(fits.rows) == {0, 1} and np.array_equal(fits.rows[0], fits.rows[1])
+    assert fits.solved[1] is fits.solved[0]
+    # The swarm solves each layer; counted as it counts them.
+    assert fits.measurements == 2 * int(fits.rows[0].sum())
+    assert fits.iterations[0] == fits.iterations[1]
+    # And it is the fit a solve of the second layer's rows gives, to the bit.
+    alone = swarm_solve(
+        hood.swarm.size, select_rows(fits.every, fits.rows[1]), ids=hood.swarm.cloud_index
+    )
+    assert np.array_equal(alone.positions, fits.solved[1].positions, equal_nan=True)
+    assert np.array_equal(alone.samples, fits.solved[1].samples)
