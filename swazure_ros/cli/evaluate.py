@@ -21,7 +21,7 @@ from ..core.fit import ESTIMATORS, PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
 from ..core.neighbourhood import Neighbourhood
 from ..core.pipeline import EngineRun, RunOptions, run_engine
-from ..core.progress import Progress
+from ..core.progress import HUNDREDTHS, Progress
 from ..files.atomic import write_json
 from ..files.reading import available_memory
 from ..files.record import RunRecord, write_record
@@ -121,6 +121,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+#: The bar of a stage counted in hundredths of its way (core.progress.Share).
+SHARE_BAR = "{desc}: {percentage:3.0f}%|{bar}| [{elapsed}<{remaining}]"
+
+
 class TqdmProgress:
     """Progress bars on stderr, one per stage, shown only for stages longer than 2 s."""
 
@@ -131,9 +135,12 @@ class TqdmProgress:
         from tqdm import tqdm
 
         self.close()
+        # A stage in hundredths of its way (a solve) has no count of things to show.
+        shares = {"bar_format": SHARE_BAR} if total == HUNDREDTHS else {}
         self._bar = tqdm(
-            total=total, desc=stage, unit="pair", delay=2.0, file=sys.stderr, leave=False
-        )
+            total=total, desc=stage, unit="pair", delay=2.0, file=sys.stderr, leave=False,
+            **shares,
+        )  # fmt: skip
 
     def advance(self, units: int) -> None:
         if self._bar is not None:

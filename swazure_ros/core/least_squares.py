@@ -27,7 +27,6 @@ from .measurement_graph import (
     robust_weights,
 )
 from .progress import SILENT, Progress
-from .swarm_fit import COVARIANCE_SAMPLES, SwarmFit, measurement_noise
 
 #: A round factors its normal matrix anew when more than this share of the weights
 #: differ from those of the last factors; otherwise conjugate gradients, preconditioned
@@ -222,7 +221,7 @@ class _DenseFactors:
 
 def _shown(factorise: Callable[[Any], _F], progress: Progress) -> Callable[[Any], _F]:
     """``factorise``, each call shown as a stage of one unit: a factor is one call into
-    LAPACK or SuperLU, which says nothing until it returns."""
+    LAPACK, which says nothing until it returns."""
 
     def shown(normal: Any) -> _F:
         progress.start(f"fit: factoring {normal.shape[0]:,} unknowns", 1)
@@ -347,10 +346,6 @@ def _part_covariance(factor: FloatArray) -> FloatArray:
     return np.asarray(inverse, dtype=np.float64)
 
 
-#: Rows of measurements whose noise a sparse fit draws at once (memory: 3 x 64 draws a row).
-NOISE_ROWS = 100_000
-
-
 def dense_bytes(size: int, measured: Measurements) -> int:
     """Bytes :func:`solve` holds for its parts' dense factors and covariances, at the least.
 
@@ -368,118 +363,3 @@ def dense_bytes(size: int, measured: Measurements) -> int:
     part = parts_of(size, measured)
     members = np.bincount(part[part >= 0])
     return int((8 * (3 * members - 3) ** 2).sum())
-
-
-def solve_sparse(
-    size: int,
-    measured: Measurements,
-    robust: bool = True,
-    samples: int = COVARIANCE_SAMPLES,
-    ids: IntArray | None = None,
-    progress: Progress = SILENT,
-) -> SwarmFit:
-    """:func:`solve`'s fit by a sparse factor of the whole graph, its covariance by samples.
-
-    For a swarm whose parts' dense factors do not fit in memory
-    (:func:`dense_bytes`): the same gauge, weights and robust schedule, the
-    normal matrix of every part factored at once by SuperLU (minimum degree
-    ordering of H, no pivoting: H is positive definite), so the positions
-    are :func:`solve`'s to the solvers' rounding. The dense inverse is out
-    of reach, so the covariance is the swarm fit's: the spread of the
-    solutions of ``samples`` draws of every measurement's noise
-    (:func:`~.swarm_fit.measurement_noise`, the same draws).
-
-    Parameters
-    ----------
-    size : int
-        N, the FLSs.
-    measured : Measurements
-    robust : bool, optional
-        As for :func:`solve`.
-    samples : int, default 64
-        The covariance's draws.
-    ids : (N,) array of int, optional
-        The FLS ids the draws are keyed by; the indices by default.
-    progress : Progress, optional
-        Told of each factoring, and of the draws' solve, as a stage.
-
-    Returns
-    -------
-    SwarmFit
-        Positions as :func:`solve` gives them (the anchor of each part at the
-        origin), the draws' solutions; ``iterations`` empty.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from swazure_ros.core.measurement_graph import Measurements
-    >>> eye = np.broadcast_to(np.eye(3), (4, 3, 3))
-    >>> vectors = np.array([[7.0, 0, 0], [-7, 7, 0], [0, -7, 0], [-7, 0, 0]])
-    >>> first, second = np.array([0, 1, 2, 1]), np.array([1, 2, 0, 0])
-    >>> fit = solve_sparse(3, Measurements(first, second, vectors, eye, eye))
-    >>> fit.positions.round(9).tolist()
-    [[0.0, 0.0, 0.0], [7.0, 0.0, 0.0], [0.0, 7.0, 0.0]]
-    """
-    ids = np.arange(size, dtype=np.int64) if ids is None else ids
-    part = parts_of(size, measured)
-    _, free, _ = _gauge(size, part)
-    solution, factor, weights, _ = _reweighted(
-        size, measured, free, _SparseFactor, robust, progress
-    )
-    positions = np.zeros(3 * size)
-    positions[free] = solution
-    points = positions.reshape(size, 3)
-    points[part < 0] = np.nan
-    drawn = np.zeros((3 * size, samples))
-    if samples and free.any():
-        right = _noise_right_sides(size, measured, weights, samples, ids)
-        progress.start(f"fit: covariance, {samples} draws", 1)
-        drawn[free] = factor(right[free])
-        progress.advance(1)
-    return SwarmFit(points, part, [], int((weights < 1.0).sum()), drawn.reshape(size, 3, samples))
-
-
-class _SparseFactor:
-    """SuperLU's factors of a positive definite sparse matrix (minimum degree on H + H^T)."""
-
-    def __init__(self, normal: Any) -> None:
-        from scipy.sparse.linalg import splu
-
-        self.factor = splu(
-            normal.tocsc(),
-            permc_spec="MMD_AT_PLUS_A",
-            diag_pivot_thresh=0.0,
-            options={"SymmetricMode": True},
-        )
-
-    def __call__(self, rhs: FloatArray) -> FloatArray:
-        return np.asarray(self.factor.solve(rhs), dtype=np.float64)
-
-
-def _noise_right_sides(
-    size: int, measured: Measurements, weights: FloatArray, samples: int, ids: IntArray
-) -> FloatArray:
-    """A^T W n (3N, K), cm^-1, of K draws n of every measurement's noise, a block of rows at
-    a time."""
-    from scipy.sparse import coo_matrix
-
-    total = np.zeros((size, 3 * samples))
-    for start in range(0, len(measured), NOISE_ROWS):
-        rows = slice(start, start + NOISE_ROWS)
-        chunk = Measurements(
-            measured.first[rows], measured.second[rows], measured.vectors[rows],
-            measured.covariance[rows], measured.information[rows],
-        )  # fmt: skip
-        noise = measurement_noise(chunk, weights[rows], samples, ids)
-        flow = np.einsum("mab,mbk->mak", chunk.information * weights[rows, None, None], noise)
-        count = len(chunk)
-        # +flow at the measured FLS, -flow at the measuring, as _scatter.
-        incidence = coo_matrix(
-            (
-                np.concatenate([np.ones(count), -np.ones(count)]),
-                (np.concatenate([chunk.second, chunk.first]), np.tile(np.arange(count), 2)),
-            ),
-            shape=(size, count),
-        ).tocsr()
-        total += incidence @ flow.reshape(count, 3 * samples)
-    return total.reshape(3 * size, samples)

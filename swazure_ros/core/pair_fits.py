@@ -19,7 +19,7 @@ from . import csr
 from .arrays import BoolArray, FloatArray, IntArray
 from .fit_measurements import Corruption, fit_groups, fit_pairs, measurements, select_rows
 from .frames import through_metres
-from .least_squares import Fit, dense_bytes, solve, solve_sparse
+from .least_squares import Fit, dense_bytes, solve
 from .measurement_graph import Measurements
 from .neighbourhood import Neighbourhood
 from .observe import Observations
@@ -116,8 +116,9 @@ class WholeFits:
     joining decaying hops is solved only when a pair without a sweet path
     asks (the swarm solves every fit, at once). With ``free`` bytes known
     and a dense fit larger (:data:`DENSE_COPIES`), the least-squares fit is
-    :func:`~.least_squares.solve_sparse`'s: the same positions to the
-    solvers' rounding, a sampled covariance.
+    solved as the swarm solves it (:func:`~.swarm_fit.swarm_solve`): the
+    same positions to the conjugate gradients' tolerance, a sampled
+    covariance.
     """
 
     def __init__(
@@ -166,12 +167,13 @@ class WholeFits:
         """The fit of the rows ``chosen`` of every measurement, solved now."""
         measured = select_rows(self.every, chosen)
         size, ids = self.hood.swarm.size, self.hood.swarm.cloud_index
-        if self.swarm:
-            return swarm_solve(size, measured, self.robust, ids=ids, progress=progress)
-        if self.free is None or DENSE_COPIES * dense_bytes(size, measured) <= self.free:
+        dense = self.free is None or DENSE_COPIES * dense_bytes(size, measured) <= self.free
+        if dense and not self.swarm:
             return solve(size, measured, self.robust, progress)
-        # The dense inverse would not fit: a sparse factor, a sampled covariance.
-        return solve_sparse(size, measured, self.robust, ids=ids, progress=progress)
+        # The swarm's fit, or a dense inverse that would not fit: the same normal equations
+        # by conjugate gradients, without a factor (SuperLU's fill took over 10 min for
+        # torus:30000's first factor), the covariance sampled.
+        return swarm_solve(size, measured, self.robust, ids=ids, progress=progress)
 
     def estimates(
         self,
