@@ -1,5 +1,7 @@
 """The engine's fits of every pair: the whole swarm's, and each source's own."""
 
+import time
+
 import numpy as np
 
 from swazure_ros.core.fit_measurements import fit_pairs, select_rows
@@ -66,3 +68,14 @@ def test_a_fit_whose_rows_another_fit_took_is_that_fit_solved_once():
     )
     assert np.array_equal(alone.positions, fits.solved[1].positions, equal_nan=True)
     assert np.array_equal(alone.samples, fits.solved[1].samples)
+
+
+def test_a_fit_solved_when_its_first_pairs_ask_counts_each_second_once():
+    hood = neighbourhood(torus_swarm(0.5, "torus:200"), Sensor(6.0, 8.0, 8.0, 30.0))
+    source, target = ordered_blind_pairs(hood.pairs)
+    began = time.perf_counter()
+    fits = WholeFits(hood)
+    assert not fits.solved  # a least-squares fit waits for its pairs
+    fits.estimates(source, target, np.ones(len(source), dtype=bool))
+    wall = time.perf_counter() - began
+    assert fits.solved and 0.0 < fits.seconds <= wall
