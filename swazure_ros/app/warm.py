@@ -18,6 +18,7 @@ import numpy as np
 
 from ..core.blocks import Budget
 from ..core.clouds import resample
+from ..core.conjugate_gradients import swarm_sum
 from ..core.geometry import COMPILED_PAIRS, centre_distance
 from ..core.heuristics.result import MOVE_SOURCE, PLAIN, TECHNIQUES
 from ..core.observe import observations
@@ -44,8 +45,8 @@ def warm_kernels() -> None:
     ``--memory`` runs), the first the swarm's search, and each heuristic in both
     compatibility modes and as the swarm schedules its moves, fusion, and a world
     whose FLS moved; then a resample
-    and a distance batch big enough for its compiled path. The fits
-    (core.fit) are scipy's, with no kernel of their own. What this leaves
+    and a distance batch big enough for its compiled path, and the swarm fit's
+    exact sums (the fits are otherwise scipy's). What this leaves
     out, each process that needs it compiles at its first call (and numba
     caches): ``make test`` measured 15 kernels compiled by its workers when
     only the first shape ran.
@@ -81,6 +82,7 @@ def warm_kernels() -> None:
     # Indices into the few points held, as many as a display's neighbourhood has.
     many = np.arange(COMPILED_PAIRS, dtype=np.int64) % world.swarm.size
     centre_distance(world.swarm.points, many, many[::-1].copy())
+    swarm_sum(np.ones((2, 1)))
 
 
 def main() -> int:

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from . import jit
 from .arrays import FloatArray
 from .progress import SILENT, Progress, Share
 from .swarm_edges import Edges, blocks_times, sums_into
@@ -153,7 +154,78 @@ def swarm_sum(partials: FloatArray) -> FloatArray:
     >>> swarm_sum(np.array([[1e16, 1.0], [1.0, 2.0], [-1e16, 3.0]]))  # no 1.0 lost
     array([1., 6.])
     """
-    return np.array([math.fsum(column) for column in partials.T.tolist()], dtype=np.float64)
+    columns = np.ascontiguousarray(partials.T, dtype=np.float64)
+    if not jit.INTERPRET and np.isfinite(columns).all():
+        sums = _exact_sums(columns)
+        if np.isfinite(sums).all():
+            return sums
+    # Interpreted, or at the edges (inf, NaN, an overflow on the way): CPython's own.
+    return np.array([math.fsum(column) for column in columns.tolist()], dtype=np.float64)
+
+
+#: Room for partials an exact sum starts with (non-overlapping, they cover at most the
+#: 2,098 bits from the smallest subnormal to the largest double); it grows if need be.
+_PARTIALS = 64
+
+
+@jit.kernel(cache=True)
+def _exact_sums(columns: FloatArray) -> FloatArray:  # pragma: no cover - compiled
+    """``math.fsum`` of each row of ``columns`` (K, N), finite, compiled: CPython's algorithm
+    (Shewchuk's non-overlapping partials, then its half-even rounding across them), so the
+    same correctly rounded sum, to the bit, at 0.1 of its time (the values' lists)."""
+    out = np.empty(columns.shape[0])
+    partials = np.empty(_PARTIALS)
+    for row in range(columns.shape[0]):
+        used = 0
+        for value in columns[row]:
+            x = value
+            kept = 0
+            for place in range(used):
+                y = partials[place]
+                if abs(x) < abs(y):
+                    x, y = y, x
+                high = x + y
+                low = y - (high - x)
+                if low != 0.0:
+                    partials[kept] = low
+                    kept += 1
+                x = high
+            used = kept
+            if x != 0.0:
+                if used == len(partials):
+                    partials = np.concatenate((partials, np.empty(len(partials))))
+                partials[used] = x
+                used += 1
+        out[row] = _rounded(partials, used)
+    return out
+
+
+@jit.kernel(cache=True)
+def _rounded(partials: FloatArray, used: int) -> float:  # pragma: no cover - compiled
+    """The sum of ``partials[:used]``, rounded once, half to even: CPython's fsum's ending."""
+    high = 0.0
+    count = used
+    if count == 0:
+        return high
+    count -= 1
+    high = partials[count]
+    low = 0.0
+    while count > 0:
+        x = high
+        count -= 1
+        y = partials[count]
+        high = x + y
+        low = y - (high - x)
+        if low != 0.0:
+            break
+    if count > 0 and (
+        (low < 0.0 and partials[count - 1] < 0.0) or (low > 0.0 and partials[count - 1] > 0.0)
+    ):
+        y = low * 2.0
+        x = high + y
+        if y == x - high:
+            high = x
+    return float(high)
 
 
 @dataclass(frozen=True)
