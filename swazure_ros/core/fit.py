@@ -331,10 +331,12 @@ class WholeFitEstimates:
         NEES values kept for exact quantiles.
     free : int, optional
         Bytes of memory free: a least-squares fit whose dense inverse would
-        not fit is solved sparse, its covariance sampled
+        not fit is solved by conjugate gradients, its covariance sampled
         (:class:`~.pair_fits.WholeFits`); None: dense, as :func:`refine`.
     progress : Progress, optional
-        Told of the solves of a swarm fit, which are made at once.
+        Told of the solves of a swarm fit, which are made at once (a
+        least-squares fit's, made for the first block that needs it, are told
+        to the progress :meth:`block` is lent).
     """
 
     def __init__(
