@@ -435,10 +435,8 @@ def settled_share(gamma: FloatArray, scale: FloatArray) -> float:
 
     Parameters
     ----------
-    gamma : (K,) array of float
-        Each column's (r, M r).
-    scale : (K,) array of float
-        Each column's (b, M b).
+    gamma, scale : (K,) array of float
+        As for :func:`settled`.
 
     Returns
     -------
