@@ -90,9 +90,10 @@ endif
 
 # Setup's steps run side by side where they can: numba compiles the kernels on one core
 # (two and a half minutes from nothing) while cmake builds the interfaces and, for
-# `make test`, ruff and mypy lint. Each step's lines are printed whole.
+# `make test`, ruff and mypy lint. Output is not synchronised: make would hold a step's
+# lines until its command ended, and the kernels' "compiling..." line is their progress.
 JOBS ?= $(shell nproc 2>/dev/null || echo 2)
-SIDE_BY_SIDE := $(MAKE) --no-print-directory -j$(JOBS) --output-sync=line
+SIDE_BY_SIDE := $(MAKE) --no-print-directory -j$(JOBS)
 SETUP_STEPS := $(MSGS_STAMP) $(PKG_STAMP) $(KERNELS_STAMP) $(ROS2CLI_STAMP) $(LAUNCH_STAMP)
 
 setup:
