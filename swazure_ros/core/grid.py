@@ -195,6 +195,36 @@ def grid_of(points: FloatArray, cell: float) -> Grid:
 
 
 @jit.kernel(cache=True, nogil=True)
+def ball_cells(grid: Grid, x: float, y: float, z: float, reach: float) -> tuple[int, ...]:
+    """The box of cells that holds every point within ``reach`` of (x, y, z), clipped to the grid.
+
+    Parameters
+    ----------
+    grid : Grid
+    x, y, z : float, cm
+        The ball's centre, any position.
+    reach : float, cm
+        The ball's radius.
+
+    Returns
+    -------
+    tuple of int
+        ``(lo0, lo1, lo2, hi0, hi1, hi2)``: the first and last cell on each
+        axis, both included; empty on an axis where ``lo > hi`` (the ball
+        misses the grid there).
+    """
+    origin, cell, shape, _, _ = grid
+    return (
+        max(int(np.floor((x - reach - origin[0]) / cell)), 0),
+        max(int(np.floor((y - reach - origin[1]) / cell)), 0),
+        max(int(np.floor((z - reach - origin[2]) / cell)), 0),
+        min(int(np.floor((x + reach - origin[0]) / cell)), shape[0] - 1),
+        min(int(np.floor((y + reach - origin[1]) / cell)), shape[1] - 1),
+        min(int(np.floor((z + reach - origin[2]) / cell)), shape[2] - 1),
+    )
+
+
+@jit.kernel(cache=True, nogil=True)
 def scan_ball(
     points: FloatArray, grid: Grid, x: float, y: float, z: float, reach: float, out: IntArray
 ) -> int:
@@ -216,13 +246,8 @@ def scan_ball(
     -------
     int
     """
-    origin, cell, shape, cell_start, members = grid
-    lo0 = max(int(np.floor((x - reach - origin[0]) / cell)), 0)
-    lo1 = max(int(np.floor((y - reach - origin[1]) / cell)), 0)
-    lo2 = max(int(np.floor((z - reach - origin[2]) / cell)), 0)
-    hi0 = min(int(np.floor((x + reach - origin[0]) / cell)), shape[0] - 1)
-    hi1 = min(int(np.floor((y + reach - origin[1]) / cell)), shape[1] - 1)
-    hi2 = min(int(np.floor((z + reach - origin[2]) / cell)), shape[2] - 1)
+    _, _, shape, cell_start, members = grid
+    lo0, lo1, lo2, hi0, hi1, hi2 = ball_cells(grid, x, y, z, reach)
     limit = reach * reach
     count = 0
     for c0 in range(lo0, hi0 + 1):

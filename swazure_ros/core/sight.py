@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import csr, jit
 from .arrays import FloatArray, IntArray
-from .grid import Grid, blocks, build_grid, scan_segment
+from .grid import Grid, ball_cells, blocks, build_grid, scan_segment
 
 
 @jit.kernel(cache=True, parallel=True)
@@ -93,13 +93,8 @@ def any_within(
     -------
     bool
     """
-    origin, cell, shape, cell_start, members = grid
-    lo0 = max(int(np.floor((x - distance - origin[0]) / cell)), 0)
-    lo1 = max(int(np.floor((y - distance - origin[1]) / cell)), 0)
-    lo2 = max(int(np.floor((z - distance - origin[2]) / cell)), 0)
-    hi0 = min(int(np.floor((x + distance - origin[0]) / cell)), shape[0] - 1)
-    hi1 = min(int(np.floor((y + distance - origin[1]) / cell)), shape[1] - 1)
-    hi2 = min(int(np.floor((z + distance - origin[2]) / cell)), shape[2] - 1)
+    _, _, shape, cell_start, members = grid
+    lo0, lo1, lo2, hi0, hi1, hi2 = ball_cells(grid, x, y, z, distance)
     limit = distance * distance
     for c0 in range(lo0, hi0 + 1):
         for c1 in range(lo1, hi1 + 1):

@@ -57,3 +57,16 @@ def test_a_balls_points_are_those_within_its_reach_boundary_included(name):
             gaps = points - centre
             expected = np.flatnonzero((gaps * gaps).sum(axis=1) <= reach * reach)
             assert sorted(out[:count].tolist()) == expected.tolist()
+
+
+def test_a_balls_cells_are_clipped_to_the_grid_and_empty_where_the_ball_misses_it():
+    from swazure_ros.core.grid import ball_cells, grid_of
+
+    # Cells of 1 cm from the lower point: the points span cells 0..3 on x, 0 on y and z.
+    grid = grid_of(np.array([[0.0, 0.0, 0.0], [3.5, 0.0, 0.0]]), 1.0)
+    assert grid.shape.tolist() == [4, 1, 1]
+    # A ball at 2.0 of reach 0.6 spans x 1.4..2.6: cells 1 and 2; y and z clip to cell 0.
+    assert ball_cells(grid, 2.0, 0.0, 0.0, 0.6) == (1, 0, 0, 2, 0, 0)
+    # Past the last cell on x, the box is empty there (its first cell after its last).
+    lo0, _, _, hi0, _, _ = ball_cells(grid, 9.0, 0.0, 0.0, 1.0)
+    assert lo0 > hi0
