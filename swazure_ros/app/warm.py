@@ -19,6 +19,7 @@ import numpy as np
 from ..core.blocks import Budget
 from ..core.clouds import resample
 from ..core.conjugate_gradients import swarm_sum
+from ..core.draws import uniforms
 from ..core.geometry import COMPILED_PAIRS, centre_distance
 from ..core.heuristics.result import MOVE_SOURCE, PLAIN, TECHNIQUES
 from ..core.observe import observations
@@ -46,7 +47,7 @@ def warm_kernels() -> None:
     compatibility modes and as the swarm schedules its moves, fusion, and a world
     whose FLS moved; then a resample
     and a distance batch big enough for its compiled path, and the swarm fit's
-    exact sums (the fits are otherwise scipy's). What this leaves
+    exact sums and counter-based draws (the fits are otherwise scipy's). What this leaves
     out, each process that needs it compiles at its first call (and numba
     caches): ``make test`` measured 15 kernels compiled by its workers when
     only the first shape ran.
@@ -83,6 +84,7 @@ def warm_kernels() -> None:
     many = np.arange(COMPILED_PAIRS, dtype=np.int64) % world.swarm.size
     centre_distance(world.swarm.points, many, many[::-1].copy())
     swarm_sum(np.ones((2, 1)))
+    uniforms(0, [np.zeros(1, dtype=np.int64)], 1)
 
 
 def main() -> int:

