@@ -128,7 +128,16 @@ def standard_normals(seed: int, keys: Sequence[ArrayLike], count: int) -> FloatA
     """
     pairs = (count + 1) // 2
     uniform = uniforms(seed, keys, 2 * pairs)
-    radius = np.sqrt(-2.0 * np.log(uniform[:, 0::2]))
-    angle = 2.0 * np.pi * uniform[:, 1::2]
-    normals = np.concatenate([radius * np.cos(angle), radius * np.sin(angle)], axis=1)
-    return np.asarray(normals[:, :count], dtype=np.float64)
+    # sqrt(-2 log u) cos(2 pi v) and its sin, each step in place: the same bits as
+    # the expressions, with the swarm fit's (M, 192) draws held about three times, not six.
+    radius = np.log(uniform[:, 0::2])
+    radius *= -2.0
+    np.sqrt(radius, out=radius)
+    angle = np.multiply(uniform[:, 1::2], 2.0 * np.pi)
+    del uniform
+    normals = np.empty((len(radius), 2 * pairs), dtype=np.float64)
+    np.cos(angle, out=normals[:, :pairs])
+    np.sin(angle, out=normals[:, pairs:])
+    normals[:, :pairs] *= radius
+    normals[:, pairs:] *= radius
+    return normals[:, :count] if count < 2 * pairs else normals

@@ -340,7 +340,10 @@ def measurement_noise(
     )
     keys = [ids[measured.first], ids[measured.second]]
     normals = standard_normals(SAMPLE_SEED, keys, 3 * samples)
-    return blocks_times(root, normals.reshape(-1, 3, samples)) / np.sqrt(weights)[:, None, None]
+    noise = blocks_times(root, normals.reshape(-1, 3, samples))
+    del normals
+    noise /= np.sqrt(weights)[:, None, None]
+    return noise
 
 
 def gauged(position: FloatArray, part: IntArray) -> FloatArray:
