@@ -37,7 +37,7 @@ from .measurement_graph import (
     robust_weights,
 )
 from .progress import SILENT, Progress
-from .swarm_edges import Edges, blocks_times, edges_of, flows, weighted
+from .swarm_edges import FLOW_CHUNK, Edges, blocks_times, edges_of, flows, weighted
 
 #: Right sides of the covariance's solve: each a draw of every measurement's noise. The
 #: sample covariance of K solutions is the fit's covariance to about sqrt(2 / K); a NEES
@@ -338,11 +338,15 @@ def measurement_noise(
     root = blocks_times(
         axes * np.sqrt(np.maximum(values, 0.0))[:, None, :], np.swapaxes(axes, 1, 2)
     )
-    keys = [ids[measured.first], ids[measured.second]]
-    normals = standard_normals(SAMPLE_SEED, keys, 3 * samples)
-    noise = blocks_times(root, normals.reshape(-1, 3, samples))
-    del normals
-    noise /= np.sqrt(weights)[:, None, None]
+    first, second = ids[measured.first], ids[measured.second]
+    noise = np.empty((len(root), 3, samples), dtype=np.float64)
+    # Rows a chunk at a time: each row's draws are its own, so the bits are those of all
+    # rows at once, and the normals' temporaries are held for one chunk.
+    for start in range(0, len(root), FLOW_CHUNK):
+        part = slice(start, start + FLOW_CHUNK)
+        normals = standard_normals(SAMPLE_SEED, [first[part], second[part]], 3 * samples)
+        noise[part] = blocks_times(root[part], normals.reshape(-1, 3, samples))
+        noise[part] /= np.sqrt(weights[part])[:, None, None]
     return noise
 
 

@@ -92,3 +92,21 @@ def test_a_warm_start_from_the_last_fit_settles_in_fewer_iterations():
     warm = swarm_solve(size, measured, robust=False, samples=0, start=cold.positions)
     assert warm.iterations[0] < cold.iterations[0] // 2
     np.testing.assert_allclose(warm.positions, cold.positions, atol=1e-6)
+
+
+def test_noise_drawn_and_its_flows_formed_a_few_rows_at_a_time_are_the_same_bits(monkeypatch):
+    from swazure_ros.core import swarm_edges, swarm_fit
+    from swazure_ros.core.swarm_edges import edges_of, weighted
+
+    hood = neighbourhood(torus_swarm(0.3), stochastic_sensor())
+    measured = measurements(hood, fit_pairs(hood))
+    size, ids = hood.swarm.size, np.arange(hood.swarm.size)
+    weights = np.linspace(0.5, 1.0, len(measured.first))
+    edges = weighted(edges_of(size, measured), measured, weights)
+    whole = swarm_fit.noise_flows(edges, measured, weights, 8, ids)
+    assert len(measured.first) > 40 and len(edges.rows) > 40  # more than one chunk of 7
+    for module in (swarm_edges, swarm_fit):
+        monkeypatch.setattr(module, "FLOW_CHUNK", 7)
+    chunked = swarm_fit.noise_flows(edges, measured, weights, 8, ids)
+    assert chunked.tobytes() == whole.tobytes()
+    assert np.abs(whole).max() > 0  # flows of real draws, not of nothing
