@@ -89,9 +89,9 @@ def uniforms(seed: int, keys: Sequence[ArrayLike], count: int) -> FloatArray:
 def _compiled_uniforms(base: NDArray[np.uint64], count: int) -> FloatArray:
     """:func:`uniforms`' numbers from each row's mixed keys, in one pass (the same bits).
 
-    numpy's passes over (M, count) arrays made the swarm fit's noise draws
-    take 1.1 s for 19.2 M numbers (measured 2026-12-01; this takes 0.15 s); every step here is an
-    integer one or exact (a 53-bit integer, plus 0.5, over 2^53).
+    numpy's passes over (M, count) arrays took 1.1 s for 19.2 M numbers, this
+    0.15 s (measured 2026-12-01). Every step is an integer one or exact (a 53-bit
+    integer, plus 0.5, over 2^53).
     """
     rows = base.shape[0]
     out = np.empty((rows, count), dtype=np.float64)
