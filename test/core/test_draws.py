@@ -37,11 +37,11 @@ def splitmix64(seed, keys, count):
 
 def interpreted(draw, *args):
     """``draw(*args)`` as a process that runs its kernels as Python (the fls program) does."""
-    jit.INTERPRET = True
+    was, jit.INTERPRET = jit.INTERPRET, True
     try:
         return draw(*args)
     finally:
-        jit.INTERPRET = False
+        jit.INTERPRET = was
 
 
 int64s = st.integers(-(1 << 63), (1 << 63) - 1)
