@@ -11,6 +11,7 @@ nothing. docs/core.md ("The swarm's fit") says how a solve converges.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 from typing import Any
@@ -19,6 +20,8 @@ import numpy as np
 
 from . import jit
 from .arrays import FloatArray
+from .conjugate_steps import advance_in_place, dots_into, image_with_shares, scaled_with_shares
+from .exact_sums import swarm_sum
 from .progress import SILENT, Progress, Share
 from .swarm_edges import Edges, blocks_times, sums_into
 
@@ -130,102 +133,12 @@ def partial_dot(one: FloatArray, other: FloatArray) -> FloatArray:
     (N, K) array of float
         :func:`swarm_sum` adds them up.
     """
+    if not jit.INTERPRET and one.shape == other.shape and one.ndim == 3:
+        out = np.empty((one.shape[0], one.shape[2]))
+        flat = functools.partial(np.ascontiguousarray, dtype=np.float64)
+        dots_into(flat(one), flat(other), out)
+        return out
     return np.asarray((one * other).sum(axis=1), dtype=np.float64)
-
-
-def swarm_sum(partials: FloatArray) -> FloatArray:
-    """The sums over the swarm of every FLS's shares: exact, so in any order.
-
-    ``math.fsum``, correctly rounded: a process's exact sum, rounded once,
-    is what the engine gets over every FLS at once.
-
-    Parameters
-    ----------
-    partials : (N, K) array of float
-
-    Returns
-    -------
-    (K,) array of float
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from swazure_ros.core.conjugate_gradients import swarm_sum
-    >>> swarm_sum(np.array([[1e16, 1.0], [1.0, 2.0], [-1e16, 3.0]]))  # no 1.0 lost
-    array([1., 6.])
-    """
-    columns = np.ascontiguousarray(partials.T, dtype=np.float64)
-    if not jit.INTERPRET and np.isfinite(columns).all():
-        sums = _exact_sums(columns)
-        if np.isfinite(sums).all():
-            return sums
-    # Interpreted, or at the edges (inf, NaN, an overflow on the way): CPython's own.
-    return np.array([math.fsum(column) for column in columns.tolist()], dtype=np.float64)
-
-
-#: Room for partials an exact sum starts with (non-overlapping, they cover at most the
-#: 2,098 bits from the smallest subnormal to the largest double); it grows if need be.
-_PARTIALS = 64
-
-
-@jit.kernel(cache=True)
-def _exact_sums(columns: FloatArray) -> FloatArray:  # pragma: no cover - compiled
-    """``math.fsum`` of each row of ``columns`` (K, N), finite, compiled: CPython's algorithm
-    (Shewchuk's non-overlapping partials, then its half-even rounding across them), so the
-    same correctly rounded sum, to the bit, in under half its time (BENCHMARKS.md)."""
-    out = np.empty(columns.shape[0])
-    partials = np.empty(_PARTIALS)
-    for row in range(columns.shape[0]):
-        used = 0
-        for value in columns[row]:
-            x = value
-            kept = 0
-            for place in range(used):
-                y = partials[place]
-                if abs(x) < abs(y):
-                    x, y = y, x
-                high = x + y
-                low = y - (high - x)
-                if low != 0.0:
-                    partials[kept] = low
-                    kept += 1
-                x = high
-            used = kept
-            if x != 0.0:
-                if used == len(partials):
-                    partials = np.concatenate((partials, np.empty(len(partials))))
-                partials[used] = x
-                used += 1
-        out[row] = _rounded(partials, used)
-    return out
-
-
-@jit.kernel(cache=True)
-def _rounded(partials: FloatArray, used: int) -> float:  # pragma: no cover - compiled
-    """The sum of ``partials[:used]``, rounded once, half to even: CPython's fsum's ending."""
-    high = 0.0
-    count = used
-    if count == 0:
-        return high
-    count -= 1
-    high = partials[count]
-    low = 0.0
-    while count > 0:
-        x = high
-        count -= 1
-        y = partials[count]
-        high = x + y
-        low = y - (high - x)
-        if low != 0.0:
-            break
-    if count > 0 and (
-        (low < 0.0 and partials[count - 1] < 0.0) or (low > 0.0 and partials[count - 1] > 0.0)
-    ):
-        y = low * 2.0
-        x = high + y
-        if y == x - high:
-            high = x
-    return float(high)
 
 
 @dataclass(frozen=True)
@@ -318,6 +231,15 @@ def advance(
     -------
     Iterate
     """
+    if not jit.INTERPRET and scaled.ndim == 3:
+        # The next vectors overwrite copies: the iterate given stays as it was.
+        owned = functools.partial(np.array, dtype=np.float64, order="C")
+        flat = functools.partial(np.ascontiguousarray, dtype=np.float64)
+        moved = Iterate(owned(iterate.position), owned(iterate.residual), owned(iterate.search),
+                        owned(iterate.image), gamma, alpha)  # fmt: skip
+        advance_in_place(moved.position, moved.residual, moved.search, moved.image,
+                         flat(scaled), flat(image), flat(alpha), flat(beta))  # fmt: skip
+        return moved
     search = scaled + beta * iterate.search
     product_image = image + beta * iterate.image
     return Iterate(
@@ -385,9 +307,11 @@ def solved(
     scale = swarm_sum(partial_dot(system.right, preconditioned(system, system.right)))
     floor = Floor.start(position)
     shown = Share(progress, stage)
+    steps = _Fresh(system) if jit.INTERPRET else _InPlace(system, position.shape)
+    iterate = steps.own(iterate)
     for iteration in range(1, limit + 1):
-        scaled, image, partial = shares(system, iterate.residual)
-        gamma, delta = swarm_sum(partial[:, 0]), swarm_sum(partial[:, 1])
+        scaled, image, gamma_shares, delta_shares = steps.shares(iterate.residual)
+        gamma, delta = swarm_sum(gamma_shares), swarm_sum(delta_shares)
         if settled(gamma, scale):
             shown.reach(1.0)
             return iterate.position, iteration - 1
@@ -396,8 +320,83 @@ def solved(
         if floor.stalled:
             return floor.position, iteration - 1
         alpha, beta = scalars(iterate, gamma, delta)
-        iterate = advance(iterate, scaled, image, gamma, alpha, beta)
+        iterate = steps.advance(iterate, scaled, image, gamma, alpha, beta)
     return iterate.position, limit
+
+
+class _Fresh:
+    """An iteration's vectors by :func:`shares` and :func:`advance`, each a new array."""
+
+    def __init__(self, system: System) -> None:
+        self.system = system
+
+    def own(self, iterate: Iterate) -> Iterate:
+        return iterate
+
+    def shares(
+        self, residual: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        """U, W, and each FLS's shares of (R, U) and (W, U)."""
+        scaled, image, partial = shares(self.system, residual)
+        return scaled, image, partial[:, 0], partial[:, 1]
+
+    def advance(
+        self,
+        iterate: Iterate,
+        scaled: FloatArray,
+        image: FloatArray,
+        gamma: FloatArray,
+        alpha: FloatArray,
+        beta: FloatArray,
+    ) -> Iterate:
+        """The next iterate (:func:`advance`)."""
+        return advance(iterate, scaled, image, gamma, alpha, beta)
+
+
+class _InPlace(_Fresh):
+    """The same iteration compiled into arrays held for the whole solve
+    (:mod:`.conjugate_steps`): the same bits, without a new 100 MB array per vector and
+    step at a display's size."""
+
+    def __init__(self, system: System, shape: tuple[int, ...]) -> None:
+        super().__init__(system)
+        matrix = system.matrix
+        self.matrix = (matrix.indptr, matrix.indices, np.ascontiguousarray(matrix.data))
+        self.blocks = np.ascontiguousarray(system.preconditioner, dtype=np.float64)
+        self.scaled, self.image = np.empty(shape), np.empty(shape)
+        self.gamma_shares, self.delta_shares = (
+            np.empty((shape[0], shape[2])),
+            np.empty((shape[0], shape[2])),
+        )
+
+    def own(self, iterate: Iterate) -> Iterate:
+        """The iterate in arrays of the solve's own, which its steps overwrite."""
+        owned = functools.partial(np.array, dtype=np.float64, order="C")
+        return Iterate(owned(iterate.position), owned(iterate.residual), owned(iterate.search),
+                       owned(iterate.image), iterate.gamma, iterate.alpha)  # fmt: skip
+
+    def shares(
+        self, residual: FloatArray
+    ) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+        scaled_with_shares(self.blocks, residual, self.scaled, self.gamma_shares)
+        flat = self.scaled.reshape(-1, self.scaled.shape[2])
+        image = self.image.reshape(flat.shape)
+        image_with_shares(*self.matrix, flat, image, self.delta_shares)
+        return self.scaled, self.image, self.gamma_shares, self.delta_shares
+
+    def advance(
+        self,
+        iterate: Iterate,
+        scaled: FloatArray,
+        image: FloatArray,
+        gamma: FloatArray,
+        alpha: FloatArray,
+        beta: FloatArray,
+    ) -> Iterate:
+        """The next iterate, its vectors overwriting this one's."""
+        advance_in_place(iterate.position, iterate.residual, iterate.search, iterate.image,
+                         scaled, image, alpha, beta)  # fmt: skip
+        return replace(iterate, gamma=gamma, alpha=alpha)
 
 
 @dataclass(frozen=True)
@@ -424,8 +423,7 @@ class Floor:
         halved = gamma <= 0.5 * self.gamma
         if not halved.any():
             return replace(self, since=self.since + 1)
-        best = self.position.copy()
-        best[:, :, halved] = position[:, :, halved]
+        best = np.where(halved, position, self.position)
         return Floor(np.where(halved, gamma, self.gamma), best, 0)
 
 

@@ -1,12 +1,11 @@
-"""The swarm's conjugate gradients: sums over the swarm, exact in any order."""
-
-import math
+"""The swarm's conjugate gradients: its sums in any order, its steps compiled or not."""
 
 import numpy as np
-from hypothesis import given, settings
-from hypothesis import strategies as st
 
-from swazure_ros.core.conjugate_gradients import partial_dot, swarm_sum
+from swazure_ros.core.conjugate_gradients import Iterate, advance, partial_dot
+from swazure_ros.core.exact_sums import swarm_sum
+
+from .interpreting import interpreted
 
 
 def test_the_swarm_s_sums_are_the_same_in_any_order():
@@ -17,31 +16,22 @@ def test_the_swarm_s_sums_are_the_same_in_any_order():
     assert swarm_sum(shares).tolist() == swarm_sum(shuffled).tolist()
 
 
-def fsum_bits(columns):
-    """CPython's math.fsum of each column, as the bits of its double."""
-    return np.array([math.fsum(column) for column in columns.T.tolist()]).view(np.int64)
+def test_an_iteration_s_dots_and_steps_are_the_same_bits_compiled_and_interpreted():
+    # A process of FLSs steps them together compiled; an FLS of its own, interpreted.
+    rng = np.random.default_rng(8)
 
+    def vector():
+        return rng.normal(size=(30, 3, 4)) * 10.0 ** rng.integers(-6, 6, size=(30, 3, 4))
 
-# Any finite doubles, subnormals and signed zeros among them, and cancelling runs.
-doubles = st.floats(allow_nan=False, allow_infinity=False, width=64)
-
-
-@settings(max_examples=300, deadline=None)
-@given(st.lists(st.tuples(doubles, doubles), max_size=60), st.booleans())
-def test_a_swarm_sum_is_math_fsum_to_the_bit(rows, cancelled):
-    shares = np.array(rows, dtype=np.float64).reshape(-1, 2)
-    if cancelled:
-        shares = np.concatenate([shares, -shares[::-1], shares[:1] * 1e-300])
-    try:
-        want = fsum_bits(shares)
-    except OverflowError:
-        return  # CPython's own fsum says so; swarm_sum hands such sums to it
-    assert swarm_sum(shares).view(np.int64).tolist() == want.tolist()
-
-
-def test_a_swarm_sum_of_doubles_over_every_exponent_is_math_fsum_to_the_bit():
-    # Many non-overlapping partials at once: more than the room an exact sum starts with.
-    rng = np.random.default_rng(0)
-    exponents = rng.permutation(np.arange(-1074, 1000, 7)).astype(float)
-    shares = np.stack([2.0**exponents, -(2.0 ** exponents[::-1]) * 3.0], axis=1)
-    assert swarm_sum(shares).view(np.int64).tolist() == fsum_bits(shares).tolist()
+    iterate = Iterate(vector(), vector(), vector(), vector(), rng.random(4), rng.random(4))
+    scaled, image = vector(), vector()
+    gamma, alpha, beta = rng.random(4), rng.random(4), rng.random(4)
+    for one, other in ((scaled, image), (iterate.residual[::-1], scaled)):
+        assert partial_dot(one, other).tobytes() == (
+            interpreted(partial_dot, one, other).tobytes()
+        )
+    compiled = advance(iterate, scaled, image, gamma, alpha, beta)
+    python = interpreted(advance, iterate, scaled, image, gamma, alpha, beta)
+    for name in ("position", "residual", "search", "image"):
+        assert getattr(compiled, name).tobytes() == getattr(python, name).tobytes(), name
+    assert compiled.search[2, 1, 3] == scaled[2, 1, 3] + beta[3] * iterate.search[2, 1, 3]

@@ -4,8 +4,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from swazure_ros.core import jit
 from swazure_ros.core.draws import standard_normals, uniforms
+
+from .interpreting import interpreted
 
 BITS = (1 << 64) - 1
 #: splitmix64's and the key mixing's constants, written out again as the oracle's.
@@ -33,15 +34,6 @@ def splitmix64(seed, keys, count):
         z ^= z >> 31
         row.append(((z >> 11) + 0.5) / 2.0**53)
     return row
-
-
-def interpreted(draw, *args):
-    """``draw(*args)`` as a process that runs its kernels as Python (the fls program) does."""
-    was, jit.INTERPRET = jit.INTERPRET, True
-    try:
-        return draw(*args)
-    finally:
-        jit.INTERPRET = was
 
 
 int64s = st.integers(-(1 << 63), (1 << 63) - 1)

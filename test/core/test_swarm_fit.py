@@ -2,6 +2,7 @@
 
 import numpy as np
 
+from swazure_ros.core import swarm_fit as swarm_fit_module
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.evaluation import NO_PATH, SWEET_PATH
 from swazure_ros.core.fit import LEAST_SQUARES, SWARM_FIT, refine
@@ -110,3 +111,26 @@ def test_noise_drawn_and_its_flows_formed_a_few_rows_at_a_time_are_the_same_bits
     chunked = swarm_fit.noise_flows(edges, measured, weights, 8, ids)
     assert chunked.tobytes() == whole.tobytes()
     assert np.abs(whole).max() > 0  # flows of real draws, not of nothing
+
+
+def test_the_engine_s_solve_in_place_is_the_same_bits_as_an_fls_s_steps():
+    from swazure_ros.core.conjugate_gradients import solved, system_of
+    from swazure_ros.core.swarm_edges import edges_of
+
+    from .interpreting import interpreted
+
+    hood = neighbourhood(torus_swarm(0.3), stochastic_sensor())
+    measured = measurements(hood, fit_pairs(hood))
+    size = hood.swarm.size
+    edges = edges_of(size, measured)
+    flows = swarm_fit_module.noise_flows(edges, measured, np.ones(len(measured.first)), 4,
+                                         np.arange(size))  # fmt: skip
+    system = system_of(edges, flows)
+    start = np.linspace(-1.0, 1.0, size * 3 * 4).reshape(size, 3, 4)
+    kept = start.copy()
+    in_place, iterations = solved(system, start)
+    assert start.tobytes() == kept.tobytes()  # the caller's start is not overwritten
+    stepped, stepped_iterations = interpreted(solved, system, start)
+    assert iterations == stepped_iterations > 10
+    assert in_place.tobytes() == stepped.tobytes()
+
