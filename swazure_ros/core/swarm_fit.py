@@ -80,10 +80,15 @@ class SwarmFit:
         estimate = np.full((len(source), 3), np.nan)
         estimate[same] = self.positions[target[same]] - self.positions[source[same]]
         covariance = np.full((len(source), 3, 3), np.nan)
-        count = self.samples.shape[2]
-        if count:
-            spread = self.samples[target[same]] - self.samples[source[same]]
-            covariance[same] = sample_covariance(spread)
+        if self.samples.shape[2]:
+            rows = np.flatnonzero(same)
+            # A chunk of pairs at a time: each pair's K differences gathered whole would be
+            # 1.5 KB a pair at K = 64, gigabytes a block at a display's size; each pair's
+            # covariance is its own product, so the bits are those of all at once.
+            for start in range(0, len(rows), FLOW_CHUNK):
+                chunk = rows[start : start + FLOW_CHUNK]
+                spread = self.samples[target[chunk]] - self.samples[source[chunk]]
+                covariance[chunk] = sample_covariance(spread)
         return estimate, covariance
 
 

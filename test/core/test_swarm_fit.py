@@ -134,3 +134,17 @@ def test_the_engine_s_solve_in_place_is_the_same_bits_as_an_fls_s_steps():
     assert iterations == stepped_iterations > 10
     assert in_place.tobytes() == stepped.tobytes()
 
+
+def test_the_pairs_covariances_read_a_few_at_a_time_are_the_same_bits(monkeypatch):
+    hood = neighbourhood(torus_swarm(0.3), stochastic_sensor())
+    measured = measurements(hood, fit_pairs(hood))
+    fit = swarm_solve(hood.swarm.size, measured, samples=8)
+    source, target = ordered_blind_pairs(hood.pairs)
+    assert len(source) > 40  # more than one chunk of 7
+    whole = fit.relative(source, target)
+    monkeypatch.setattr(swarm_fit_module, "FLOW_CHUNK", 7)
+    chunked = fit.relative(source, target)
+    for one, other in zip(whole, chunked, strict=True):
+        assert one.tobytes() == other.tobytes()
+    trace = np.trace(whole[1], axis1=1, axis2=2)
+    assert (trace[np.isfinite(trace)] > 0).sum() > 40  # sampled covariances, not nothing
