@@ -61,7 +61,7 @@ def scaled_with_shares(
     dots_into(residual, scaled, shares)
 
 
-@jit.kernel(cache=True)
+@jit.kernel(cache=True, parallel=True)
 def image_with_shares(
     starts: IntArray,
     columns: IntArray,
@@ -88,7 +88,8 @@ def image_with_shares(
         Filled with ``partial_dot(W, U)``.
     """
     count = scaled.shape[1]
-    for row in range(scaled.shape[0]):
+    # Rows on every thread: each row is its own sum, so the bits are the same.
+    for row in jit.prange(scaled.shape[0]):
         for column in range(count):
             image[row, column] = 0.0
         for entry in range(starts[row], starts[row + 1]):
@@ -100,7 +101,7 @@ def image_with_shares(
     dots_into(image.reshape(shape), scaled.reshape(shape), shares)
 
 
-@jit.kernel(cache=True)
+@jit.kernel(cache=True, parallel=True)
 def advance_in_place(
     position: FloatArray,
     residual: FloatArray,
@@ -126,7 +127,7 @@ def advance_in_place(
         The step lengths and conjugations.
     """
     count, _, columns = scaled.shape
-    for fls in range(count):
+    for fls in jit.prange(count):
         for axis in range(3):
             for column in range(columns):
                 step, turn = alpha[column], beta[column]
