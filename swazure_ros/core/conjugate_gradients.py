@@ -364,10 +364,7 @@ class _InPlace(_Fresh):
         self.matrix = (matrix.indptr, matrix.indices, np.ascontiguousarray(matrix.data))
         self.blocks = np.ascontiguousarray(system.preconditioner, dtype=np.float64)
         self.scaled, self.image = np.empty(shape), np.empty(shape)
-        self.gamma_shares, self.delta_shares = (
-            np.empty((shape[0], shape[2])),
-            np.empty((shape[0], shape[2])),
-        )
+        self.gamma_shares, self.delta_shares = np.empty((2, shape[0], shape[2]))
 
     def own(self, iterate: Iterate) -> Iterate:
         """The iterate in arrays of the solve's own, which its steps overwrite."""
