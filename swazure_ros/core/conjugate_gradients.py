@@ -233,10 +233,8 @@ def advance(
     """
     if not jit.INTERPRET and scaled.ndim == 3:
         # The next vectors overwrite copies: the iterate given stays as it was.
-        owned = functools.partial(np.array, dtype=np.float64, order="C")
         flat = functools.partial(np.ascontiguousarray, dtype=np.float64)
-        moved = Iterate(owned(iterate.position), owned(iterate.residual), owned(iterate.search),
-                        owned(iterate.image), gamma, alpha)  # fmt: skip
+        moved = replace(_copied(iterate), gamma=gamma, alpha=alpha)
         advance_in_place(moved.position, moved.residual, moved.search, moved.image,
                          flat(scaled), flat(image), flat(alpha), flat(beta))  # fmt: skip
         return moved
@@ -324,6 +322,13 @@ def solved(
     return iterate.position, limit
 
 
+def _copied(iterate: Iterate) -> Iterate:
+    """``iterate`` with its four vectors copied, each C-contiguous: arrays to overwrite."""
+    owned = functools.partial(np.array, dtype=np.float64, order="C")
+    return Iterate(owned(iterate.position), owned(iterate.residual), owned(iterate.search),
+                   owned(iterate.image), iterate.gamma, iterate.alpha)  # fmt: skip
+
+
 class _Fresh:
     """An iteration's vectors by :func:`shares` and :func:`advance`, each a new array."""
 
@@ -368,9 +373,7 @@ class _InPlace(_Fresh):
 
     def own(self, iterate: Iterate) -> Iterate:
         """The iterate in arrays of the solve's own, which its steps overwrite."""
-        owned = functools.partial(np.array, dtype=np.float64, order="C")
-        return Iterate(owned(iterate.position), owned(iterate.residual), owned(iterate.search),
-                       owned(iterate.image), iterate.gamma, iterate.alpha)  # fmt: skip
+        return _copied(iterate)
 
     def shares(
         self, residual: FloatArray
