@@ -18,16 +18,14 @@ import numpy as np
 
 from ..core.blocks import Budget
 from ..core.clouds import resample
-from ..core.conjugate_gradients import Iterate, advance, partial_dot
+from ..core.conjugate_gradients import Iterate, advance
 from ..core.draws import uniforms
-from ..core.exact_sums import swarm_sum
 from ..core.geometry import COMPILED_PAIRS, centre_distance
 from ..core.heuristics.result import MOVE_SOURCE, PLAIN, TECHNIQUES
 from ..core.measurement_graph import Measurements
 from ..core.observe import observations
 from ..core.paths import POLICIES
 from ..core.pipeline import RunOptions, run_engine
-from ..core.swarm_edges import blocks_times
 from ..core.swarm_fit import swarm_solve
 from ..protocol.loops import discover
 from ..protocol.schedule import move_batches
@@ -87,16 +85,15 @@ def warm_kernels() -> None:
     # Indices into the few points held, as many as a display's neighbourhood has.
     many = np.arange(COMPILED_PAIRS, dtype=np.int64) % world.swarm.size
     centre_distance(world.swarm.points, many, many[::-1].copy())
-    swarm_sum(np.ones((2, 1)))
-    # The swarm fit of a triangle measured from both ends, the engine's in-place iterations,
-    # then an iteration on one FLS's rows, as a process of the swarm steps its FLSs.
+    # The swarm fit of a triangle measured from both ends (its draws, blocks, dots, exact
+    # sums and the engine's in-place iterations), then an iteration on one FLS's rows, as a
+    # process of the swarm steps its FLSs.
     points = np.array([[0.0, 0, 0], [7, 0, 0], [0, 7, 0]])
     measuring, measured = np.array([0, 1, 2, 1, 0, 2]), np.array([1, 2, 0, 0, 2, 1])
     eye = np.broadcast_to(np.eye(3), (6, 3, 3))
     triangle = Measurements(measuring, measured, points[measured] - points[measuring], eye, eye)
     swarm_solve(3, triangle, samples=2)
     ones, column = np.ones((1, 3, 1)), np.ones(1)
-    partial_dot(blocks_times(np.ones((1, 3, 3)), ones), ones)
     advance(Iterate(ones, ones, ones, ones, column, column), ones, ones, column, column, column)
     uniforms(0, [np.zeros(1, dtype=np.int64)], 1)
 

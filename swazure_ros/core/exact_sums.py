@@ -42,7 +42,8 @@ def swarm_sum(partials: FloatArray) -> FloatArray:
     array([1., 6.])
     """
     shares = np.ascontiguousarray(partials, dtype=np.float64)
-    if not jit.INTERPRET and np.isfinite(shares).all():
+    if not jit.INTERPRET:
+        # inf and NaN have the largest exponent: the compiled sum leaves them too.
         sums = _exact_sums(shares.view(np.int64), _CARRY_EVERY)
         if np.isfinite(sums).all():
             return sums
@@ -68,7 +69,7 @@ _PARTIALS = 2 * _PLACES
 
 @jit.kernel(cache=True)
 def _exact_sums(bits: IntArray, carry_every: int) -> FloatArray:  # pragma: no cover - compiled
-    """``math.fsum`` of each column of ``bits`` (N, K), finite doubles seen as int64, compiled.
+    """``math.fsum`` of each column of ``bits`` (N, K), doubles seen as int64, compiled.
 
     Each share's integer is added exactly, in pieces of :data:`_PLACE_BITS`, to
     its column's fixed-point accumulator spanning every double (Kulisch's long
@@ -76,7 +77,7 @@ def _exact_sums(bits: IntArray, carry_every: int) -> FloatArray:  # pragma: no c
     summed as CPython's fsum sums (Shewchuk's non-overlapping partials, then
     its half-even rounding). The exact sum rounded once is what fsum
     returns, to the bit, in a fraction of its time (BENCHMARKS.md). A column
-    with a share of 2^960 or more is NaN: the caller hands it to CPython.
+    with a share of 2^960 or more, inf or NaN is NaN: the caller hands it to CPython.
     """
     count = bits.shape[1]
     places = np.zeros((count, _PLACES), dtype=np.int64)

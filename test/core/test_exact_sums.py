@@ -61,3 +61,11 @@ def test_a_compiled_sum_over_every_exponent_it_takes_is_math_fsum_to_the_bit():
     shares = np.stack([2.0**exponents * 1.75, -(2.0 ** exponents[::-1]) * 1.5], axis=1)
     shares = np.concatenate([shares, shares * -0.999999])
     assert swarm_sum(shares).view(np.int64).tolist() == fsum_bits(shares).tolist()
+
+
+def test_a_sum_with_an_inf_or_a_nan_among_its_shares_is_math_fsum_s():
+    shares = np.array([[np.inf, np.nan, 1.0], [2.0, 3.0, 2.0**-1074], [1.0, 4.0, -1.0]])
+    want = [math.fsum(column) for column in shares.T.tolist()]
+    got = swarm_sum(shares).tolist()
+    assert got[0] == want[0] == np.inf and got[2] == want[2] == 2.0**-1074
+    assert np.isnan(got[1]) and np.isnan(want[1])
