@@ -159,6 +159,7 @@ def exit_process(code: int, limit: float = TEARDOWN_LIMIT) -> NoReturn:
     alive = gc.get_objects()
     threading.Thread(target=_hold, args=(alive,), daemon=True).start()
     del alive
+    gc.freeze()  # see cli.main.main: Python's last collection would walk them all
     raise SystemExit(code)
 
 
