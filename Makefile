@@ -45,8 +45,11 @@ help:
 $(PY):
 	$(PYTHON) -m venv $(VENV)
 
+# pip compiles what it installs one file at a time on one core; compileall compiles the
+# same files on every core (113 s became 78 + 18 s, the same 6,152 .pyc files: 2026-12-01).
 $(DEPS_STAMP): requirements.lock | $(PY)
-	$(PY) -m pip install --disable-pip-version-check --quiet -r requirements.lock
+	$(PY) -m pip install --disable-pip-version-check --quiet --no-compile -r requirements.lock
+	$(PY) -m compileall -q -j 0 $(VENV)/lib
 	@touch $@
 
 # swazure_interfaces, and tf2_msgs (/tf's TFMessage), which PyPI has no wheel of.
