@@ -330,8 +330,10 @@ def test_swazure_echo_shows_a_measurement_of_a_running_swarm(running_swarm):
     assert len(sources) == 100, sorted(sources)
     code, _, err = stop(running_swarm)
     assert code == 0, err
-    # A stop is not a failure: no callback reports an exception on the way out.
-    assert err.strip() == "stopping the swarm", err
+    # A stop is not a failure: no callback reports an exception on the way out. A process
+    # whose executor a busy machine held back says so, and that is no failure either.
+    said = [line for line in err.strip().splitlines() if not line.endswith("announced it again")]
+    assert said == ["stopping the swarm"], err
 
 
 @pytest.fixture
