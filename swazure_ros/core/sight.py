@@ -137,7 +137,7 @@ def _obstructed_segments(
             dx, dy, dz = points[b, 0] - ax, points[b, 1] - ay, points[b, 2] - az
             length = np.sqrt(dx * dx + dy * dy + dz * dz)
             hit = False
-            if length > 0.0:
+            if length > 0.0 and len(close_offsets) > 0:
                 # The FLSs close to either end block most directions out of it: try
                 # them first with the scan's own test, and scan only if none blocks.
                 ux, uy, uz = dx / length, dy / length, dz / length
@@ -268,9 +268,10 @@ def obstructed(
     if len(first) == 0:
         return np.zeros(0, dtype=bool)
     if len(first) < SERIAL_SEGMENTS:  # too few segments to pay for lists of close FLSs
-        no_offsets, none = np.zeros(len(points) + 1, dtype=np.int64), np.zeros(0, np.int64)
+        # No lists at all, not empty ones: a path walk's one hop must not cost O(N).
+        none = np.zeros(0, dtype=np.int64)
         return np.asarray(
-            _obstructed_serial(points, float(radius), first, second, grid, no_offsets, none)
+            _obstructed_serial(points, float(radius), first, second, grid, none, none)
         )
     # An FLS at distance d from an end blocks the directions within asin(r / d) of its own.
     offsets, ids = _close_points(points, grid, CLOSE * radius)

@@ -1,6 +1,6 @@
 import numpy as np
 
-from swazure_ros.core.sight import obstructed, obstructers
+from swazure_ros.core.sight import SERIAL_SEGMENTS, obstructed, obstructers
 
 
 def segment_with(offset: float) -> np.ndarray:
@@ -38,22 +38,49 @@ def test_obstructers_lists_every_obstructing_fls_sorted():
     assert ids[offsets[0] : offsets[1]].tolist() == [2, 3]
 
 
-def test_grid_search_matches_brute_force_on_random_swarms():
-    rng = np.random.default_rng(11)
-    points = rng.uniform(0, 20, size=(300, 3))
-    radius = 0.4
-    first, second = rng.integers(0, 300, size=(2, 2000))
-    keep = first != second
-    first, second = first[keep], second[keep]
-    result = obstructed(points, radius, first, second)
-    for a, b, got in zip(first, second, result):
+def brute_force(points, radius, first, second):
+    """Whether each segment is obstructed, from every FLS's distance to it."""
+    judged = []
+    for a, b in zip(first, second):
         direction = points[b] - points[a]
         length = np.linalg.norm(direction)
         offset = points - points[a]
         along = np.clip(offset @ direction / length, 0, length)
         distance = np.linalg.norm(offset - along[:, None] * direction / length, axis=1)
         distance[[a, b]] = np.inf
-        assert got == bool((distance <= radius).any())
+        judged.append(bool((distance <= radius).any()))
+    return judged
+
+
+def random_segments(seed):
+    """300 FLSs in a 20 cm cube, r = 0.4 cm, and 2,000 segments between them."""
+    rng = np.random.default_rng(seed)
+    points = rng.uniform(0, 20, size=(300, 3))
+    first, second = rng.integers(0, 300, size=(2, 2000))
+    keep = first != second
+    return points, 0.4, first[keep], second[keep]
+
+
+def test_grid_search_matches_brute_force_on_random_swarms():
+    points, radius, first, second = random_segments(11)
+    result = obstructed(points, radius, first, second)
+    assert result.tolist() == brute_force(points, radius, first, second)
+
+
+def test_a_few_segments_judged_on_the_calling_thread_match_brute_force():
+    # Fewer than SERIAL_SEGMENTS a call: no lists of the FLSs close to the ends.
+    points, radius, first, second = random_segments(13)
+    few = SERIAL_SEGMENTS // 10
+    result = [
+        judged
+        for start in range(0, len(first), few)
+        for judged in obstructed(
+            points, radius, first[start : start + few], second[start : start + few]
+        ).tolist()
+    ]
+    expected = brute_force(points, radius, first, second)
+    assert result == expected
+    assert 0.05 < np.mean(expected) < 0.95
 
 
 def test_every_pair_of_a_dense_cloud_is_judged_as_its_obstructers_say():
