@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 from .arrays import IntArray
 from .evaluate import evaluate_pairs
 from .evaluation import SWEET_PATH, PairResults
+from .fans import obstructed_fans
 from .geometry import Swarm
 from .grid import Grid, build_grid, grid_of
 from .neighbourhood import Neighbourhood
@@ -152,11 +153,15 @@ class BlindRows:
 
 
 def _in_sight(
-    swarm: Swarm, pairs: NeighbourPairs, range_class: int, grid: Grid
+    swarm: Swarm, pairs: NeighbourPairs, range_class: int, grid: Grid, fans: bool = False
 ) -> tuple[NeighbourPairs, NDArray[np.bool_]]:
-    """The pairs of one range class, and whether each is in line of sight."""
+    """The pairs of one range class, and whether each is in line of sight; with ``fans``,
+    judged a first FLS at a time (:mod:`.fans`: the same judgements)."""
     chosen = pairs.select(pairs.range_class == range_class)
-    visible = ~obstructed(swarm.points, swarm.radius, chosen.first, chosen.second, grid)
+    if fans:
+        visible = ~obstructed_fans(swarm.points, swarm.radius, chosen.first, chosen.second)
+    else:
+        visible = ~obstructed(swarm.points, swarm.radius, chosen.first, chosen.second, grid)
     return chosen, visible
 
 
@@ -278,7 +283,9 @@ def with_decaying(lean: LeanNeighbourhood, progress: Progress) -> LeanNeighbourh
     seen = []
     for start, stop in lean.blocks:
         pairs = neighbour_pairs(swarm, sensor, start, stop, reach_grid)
-        part, visible = _in_sight(swarm, pairs, DECAYING, lean.sweet.grid)
+        # Thousands of long segments from each FLS, few blocked close to it: judged by fans
+        # (BENCHMARKS.md, "Line of sight by fans").
+        part, visible = _in_sight(swarm, pairs, DECAYING, lean.sweet.grid, fans=True)
         seen.append(part.select(visible))
         progress.advance(len(part))
     return replace(lean, whole=_whole(lean, NeighbourPairs.joined(seen)))

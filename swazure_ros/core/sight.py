@@ -200,9 +200,28 @@ def _obstructers_kernel(
     return offsets, ids[: offsets[-1]].copy()
 
 
-def _coerce_pairs(
+def coerce_pairs(
     points: ArrayLike, first: ArrayLike, second: ArrayLike
 ) -> tuple[FloatArray, IntArray, IntArray]:
+    """Points and segment ends as the line-of-sight kernels take them, checked.
+
+    Parameters
+    ----------
+    points : (N, 3) array_like, cm
+    first, second : (M,) array_like of int
+        Indices of the segment ends.
+
+    Returns
+    -------
+    points : (N, 3) ndarray of float, C-contiguous
+    first, second : (M,) ndarray of int64
+
+    Raises
+    ------
+    ValueError
+        ``points`` is not (N, 3), ``first`` and ``second`` differ in length,
+        or an index is outside ``points``.
+    """
     points = np.ascontiguousarray(points, dtype=np.float64)
     if points.ndim != 2 or points.shape[1] != 3:
         raise ValueError(f"Expected `points` to have shape (N, 3), got {points.shape}")
@@ -263,7 +282,7 @@ def obstructed(
     >>> obstructed(points, 0.5, [0, 0, 1], [2, 3, 3])  # FLS 1 is 0.4 cm off 0-2
     array([ True, False, False])
     """
-    points, first, second = _coerce_pairs(points, first, second)
+    points, first, second = coerce_pairs(points, first, second)
     grid = grid if grid is not None else build_grid(points, radius)
     if len(first) == 0:
         return np.zeros(0, dtype=bool)
@@ -321,7 +340,7 @@ def obstructers(
     >>> offsets.tolist(), ids.tolist()
     ([0, 1, 1], [1])
     """
-    points, first, second = _coerce_pairs(points, first, second)
+    points, first, second = coerce_pairs(points, first, second)
     grid = grid if grid is not None else build_grid(points, radius)
     # The kernel grows its output as it goes, so parts run on threads of their own.
     parts = max(1, min(jit.get_num_threads(), len(first) // SERIAL_SEGMENTS))
@@ -400,7 +419,7 @@ def segments_near(
     >>> segments_near(points, [0, 0], [2, 3], [[5, 2, 0]], 1.0)
     array([False,  True])
     """
-    points, first, second = _coerce_pairs(points, first, second)
+    points, first, second = coerce_pairs(points, first, second)
     probes = np.ascontiguousarray(probes, dtype=np.float64).reshape(-1, 3)
     if len(first) == 0 or len(probes) == 0:
         return np.zeros(len(first), dtype=bool)
