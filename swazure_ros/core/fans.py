@@ -18,7 +18,7 @@ the segments of each A together:
 
 Each FLS tried is judged by :func:`~.grid.blocks`, the one test every scan
 uses, and every FLS that could block a segment is tried, so each judgement is
-:func:`~.sight.obstructed`'s, bit for bit (docs/core.md, "Line of sight").
+:func:`~.sight.obstructed`'s (docs/core.md, "Why it is fast").
 """
 
 from __future__ import annotations
