@@ -23,14 +23,14 @@ uses, and every FLS that could block a segment is tried, so each judgement is
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import jit
 from .arrays import FloatArray, IntArray
-from .grid import Grid, ball_cells, blocks, grid_of
+from .grid import Grid, blocks, grid_of, scan_ball
 from .sight import coerce_pairs
 
 #: The FLSs within this many r of the shared end are tried first, against every segment.
@@ -45,10 +45,10 @@ SHELLS = 64
 class _Scratch(NamedTuple):
     """One thread's working arrays, grown as needed and kept from one shared end to the next."""
 
-    around: IntArray  # the FLSs within reach of A ...
-    distance: FloatArray  # ... their distances from A, cm
-    shell: IntArray  # ... and shells
-    order: IntArray  # positions into ``around``, by shell
+    around: IntArray  # (N,), the FLSs within reach of A ...
+    distance: FloatArray  # (N,), ... their distances from A, cm
+    shell: IntArray  # (N,), ... and shells
+    order: IntArray  # (N,), positions into ``around``, by shell
     shell_start: IntArray  # (SHELLS + 1,)
     cell_end: IntArray  # (cells,), end of each direction cell's entries; 0 when empty
     cell_start: IntArray  # (cells,)
@@ -148,12 +148,13 @@ def _fans_kernel(
 ) -> None:
     """Judge the segments of each run [starts[g], starts[g + 1]), all from FLS shared[g]."""
     cells = _direction_cells() ** 3
+    size = len(points)
     for chunk in jit.prange(chunks):
         scratch = _Scratch(
-            np.empty(1024, dtype=np.int64),
-            np.empty(1024),
-            np.empty(1024, dtype=np.int64),
-            np.empty(1024, dtype=np.int64),
+            np.empty(size, dtype=np.int64),
+            np.empty(size),
+            np.empty(size, dtype=np.int64),
+            np.empty(size, dtype=np.int64),
             np.zeros(SHELLS + 1, dtype=np.int64),
             np.zeros(cells, dtype=np.int64),
             np.zeros(cells, dtype=np.int64),
@@ -173,17 +174,9 @@ def _fans_kernel(
 
 
 @jit.kernel(cache=True, nogil=True)
-def _grown(array: IntArray, used: int) -> IntArray:
-    """A copy of ``array`` twice as long, of which the first ``used`` entries are set."""
+def _grown(array: NDArray[Any], used: int) -> NDArray[Any]:
+    """A copy of ``array`` (ints or reals) twice as long, of which the first ``used`` are set."""
     grown = np.empty(2 * len(array), dtype=array.dtype)
-    grown[:used] = array[:used]
-    return grown
-
-
-@jit.kernel(cache=True, nogil=True)
-def _grown_real(array: FloatArray, used: int) -> FloatArray:
-    """As :func:`_grown`, for reals."""
-    grown = np.empty(2 * len(array))
     grown[:used] = array[:used]
     return grown
 
@@ -199,7 +192,7 @@ def _fan(
     out: NDArray[np.bool_],
 ) -> _Scratch:
     """Judge the segments from FLS ``a`` to each of ``ends`` into ``out``; the scratch, grown."""
-    scratch, count, reach = _gather(points, radius, a, ends, around, scratch)
+    count, reach = _gather(points, radius, a, ends, around, scratch)
     scratch = _by_shell(scratch, count)
     near = NEAR * radius
     scratch, touched = _map_directions(points, radius, a, scratch, count, near)
@@ -258,9 +251,9 @@ def _gather(
     ends: IntArray,
     around: Grid,
     scratch: _Scratch,
-) -> tuple[_Scratch, int, float]:
+) -> tuple[int, float]:
     """The FLSs within reach of ``a`` (its longest segment and r) into ``scratch``, with their
-    distances and shells; the scratch, how many, and the reach."""
+    distances and shells (its arrays hold N); how many, and the reach."""
     ax, ay, az = points[a, 0], points[a, 1], points[a, 2]
     longest = 0.0
     for b in ends:
@@ -269,33 +262,19 @@ def _gather(
     # A margin far above rounding: an FLS within r of a segment is within its length and r.
     reach = (longest + radius) * (1.0 + 1e-9) + 1e-9
     shell_width = reach / SHELLS
-    _, _, shape, cell_start, members = around
-    lo0, lo1, lo2, hi0, hi1, hi2 = ball_cells(around, ax, ay, az, reach)
-    fls_of, distance_of, shell_of = scratch.around, scratch.distance, scratch.shell
+    # Compacted in place: the FLSs found, less A, each with its distance and shell.
+    found = scan_ball(points, around, ax, ay, az, reach, scratch.around)
     count = 0
-    for c0 in range(lo0, hi0 + 1):
-        for c1 in range(lo1, hi1 + 1):
-            for c2 in range(lo2, hi2 + 1):
-                key = (c0 * shape[1] + c1) * shape[2] + c2
-                for slot in range(cell_start[key], cell_start[key + 1]):
-                    k = members[slot]
-                    wx, wy, wz = points[k, 0] - ax, points[k, 1] - ay, points[k, 2] - az
-                    squared = wx * wx + wy * wy + wz * wz
-                    if k == a or squared > reach * reach:
-                        continue
-                    if count == len(fls_of):
-                        fls_of = _grown(fls_of, count)
-                        distance_of = _grown_real(distance_of, count)
-                        shell_of = _grown(shell_of, count)
-                    distance = np.sqrt(squared)
-                    fls_of[count], distance_of[count] = k, distance
-                    shell_of[count] = min(int(distance / shell_width), SHELLS - 1)
-                    count += 1
-    order = scratch.order if len(scratch.order) >= count else np.empty(len(fls_of), np.int64)
-    grown = _Scratch(
-        fls_of, distance_of, shell_of, order, *scratch[4:],
-    )  # fmt: skip
-    return grown, count, reach
+    for position in range(found):
+        k = scratch.around[position]
+        if k == a:
+            continue
+        wx, wy, wz = points[k, 0] - ax, points[k, 1] - ay, points[k, 2] - az
+        distance = np.sqrt(wx * wx + wy * wy + wz * wz)
+        scratch.around[count], scratch.distance[count] = k, distance
+        scratch.shell[count] = min(int(distance / shell_width), SHELLS - 1)
+        count += 1
+    return count, reach
 
 
 @jit.kernel(cache=True, nogil=True)
@@ -353,7 +332,7 @@ def _map_directions(
                     if used == len(entry_cell):
                         entry_cell = _grown(entry_cell, used)
                         entry_fls = _grown(entry_fls, used)
-                        entry_distance = _grown_real(entry_distance, used)
+                        entry_distance = _grown(entry_distance, used)
                     entry_cell[used] = (i0 * cells + i1) * cells + i2
                     entry_fls[used], entry_distance[used] = fls, distance
                     used += 1
