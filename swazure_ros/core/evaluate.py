@@ -94,13 +94,25 @@ def evaluate_pairs(
     progress = progress or SILENT
     source, target = blind if blind is not None else ordered_blind_pairs(hood.pairs)
     progress.start("sweet paths", len(source))
-    sweet = shortest_paths(hood.sweet_visible, source, target, policy, progress=progress.advance)
+    sweet = shortest_paths(
+        hood.sweet_visible,
+        source,
+        target,
+        policy,
+        components=hood.sweet_visible_components,
+        progress=progress.advance,
+    )
     sweet_labels = hood.sweet_components
     connected = sweet_labels[source] == sweet_labels[target]
     fallback = ~sweet.found
     progress.start("decaying paths", int(fallback.sum()))
     decaying = shortest_paths(
-        hood.any_visible, source[fallback], target[fallback], policy, progress=progress.advance
+        hood.any_visible,
+        source[fallback],
+        target[fallback],
+        policy,
+        components=hood.any_visible_components,
+        progress=progress.advance,
     )
     paths = merge_paths(sweet, decaying, fallback)
     status, reason = _statuses(sweet.found, paths.found, connected)

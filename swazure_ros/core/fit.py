@@ -407,7 +407,7 @@ def needs_decaying(hood: Neighbourhood) -> bool:
     bool
         True when ``S_vis`` has more than one part.
     """
-    components = hood.sweet_visible.components()
+    components = hood.sweet_visible_components
     return bool(len(components) and components.max() > 0)
 
 

@@ -25,7 +25,6 @@ import numpy as np
 from . import csr
 from .arrays import FloatArray, IntArray
 from .evaluation import SWEET_PATH, Evaluation, PairResults
-from .graph import Graph
 from .hops import estimates, summed_hop_errors
 from .neighbourhood import Neighbourhood
 from .pair_statistics import EXACT_VALUES, summarise
@@ -197,7 +196,6 @@ class Fusion:
     one_path: RealTally = field(init=False)  # the fused pairs' distance errors, % ...
     fused: RealTally = field(init=False)  # ... before and after
     seconds: float = 0.0
-    _components: tuple[Graph, IntArray] | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if self.count < 1:
@@ -205,13 +203,6 @@ class Fusion:
         self.paths_per_pair = np.zeros(self.count + 1, dtype=np.int64)
         self.one_path = RealTally(self.exact_values)
         self.fused = RealTally(self.exact_values)
-
-    def _graph(self, hood: Neighbourhood) -> tuple[Graph, IntArray]:
-        """``S_vis`` of ``hood`` and its components, found once per graph."""
-        graph = hood.sweet_visible
-        if self._components is None or self._components[0] is not graph:
-            self._components = (graph, graph.components())
-        return self._components
 
     def block(self, hood: Neighbourhood, pairs: PairResults) -> PairResults:
         """``pairs`` (a block of the run's) with their sweet pairs' estimates fused."""
@@ -225,7 +216,7 @@ class Fusion:
             csr.offsets(counts[sweet]),
             pairs.nodes[np.repeat(pairs.status == SWEET_PATH, counts)],
         )
-        graph, components = self._graph(hood)
+        graph, components = hood.sweet_visible, hood.sweet_visible_components
         found_paths = [first]
         avoid = inner_nodes(first)
         for _ in range(self.count - 1):

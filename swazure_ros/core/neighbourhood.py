@@ -47,6 +47,9 @@ class NeighbourGraphs:
     sweet_visible: Graph | None = None  # S_vis: sweet pairs in line of sight
     any_visible: Graph | None = None  # SD_vis: sweet or decaying pairs in line of sight
     sweet_components: IntArray | None = None  # (N,), connected component of each FLS in S_all
+    # (N,) each, the components of S_vis and SD_vis: every block of pairs searches them.
+    sweet_visible_components: IntArray | None = None
+    any_visible_components: IntArray | None = None
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,20 @@ class Neighbourhood:
         if self.graphs.sweet_components is None:
             self.graphs.sweet_components = self.sweet_all.components()
         return self.graphs.sweet_components
+
+    @property
+    def sweet_visible_components(self) -> IntArray:
+        """Connected-component label of every FLS in S_vis: (N,)."""
+        if self.graphs.sweet_visible_components is None:
+            self.graphs.sweet_visible_components = self.sweet_visible.components()
+        return self.graphs.sweet_visible_components
+
+    @property
+    def any_visible_components(self) -> IntArray:
+        """Connected-component label of every FLS in SD_vis: (N,)."""
+        if self.graphs.any_visible_components is None:
+            self.graphs.any_visible_components = self.any_visible.components()
+        return self.graphs.any_visible_components
 
     @property
     def sweet_all(self) -> Graph:

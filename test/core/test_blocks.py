@@ -18,6 +18,7 @@ from swazure_ros.core.blocks import (
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.evaluation import PairResults
 from swazure_ros.core.geometry import make_swarm
+from swazure_ros.core.graph import Graph
 from swazure_ros.core.pair_statistics import PairTally
 from swazure_ros.core.progress import SILENT
 from swazure_ros.files.cloud_files import load_cloud
@@ -91,6 +92,19 @@ def test_a_blocked_pair_falls_back_to_its_decaying_path_as_the_whole_evaluation_
     run = deferred(evaluate_blocked(swarm, sensor, "fewest-hops", SMALL, SILENT))
     assert_same_pairs(joined(list(run.blocks(SILENT))), whole.pairs)
     assert run.lean.whole is not None  # the blocked pair (A, C) searched the decaying pairs
+
+
+def test_the_blocks_find_each_graph_s_components_once(sensor, monkeypatch):
+    # Every block searches S_vis and SD_vis; their components are the run's, not the block's.
+    found = []
+    components = Graph.components
+    monkeypatch.setattr(
+        Graph, "components", lambda graph: found.append(graph) or components(graph)
+    )
+    swarm = shape("cube:125")
+    run = at_once(evaluate_blocked(swarm, sensor, "fewest-hops", about_blocks(4000, 6), SILENT))
+    assert len(list(run.blocks(SILENT))) >= 4
+    assert len(found) == len({id(graph) for graph in found}) <= 3  # S_all, S_vis, SD_vis
 
 
 def test_a_swarm_whose_sweet_paths_are_all_in_sight_never_judges_its_decaying_pairs(sensor):
