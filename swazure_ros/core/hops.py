@@ -135,18 +135,16 @@ def hop_vectors(hood: Neighbourhood, hops: HopTable) -> tuple[FloatArray, IntArr
     swarm, sensor, graph = hood.swarm, hood.sensor, hood.any_visible
     on_graph = hops.slot >= 0
     # A pair's two directions are two measurements (a noisy sensor draws per direction).
-    measured = np.zeros(len(graph.indices), dtype=bool)
-    measured[hops.slot[on_graph]] = True
-    slots = np.flatnonzero(measured)
-    row_of_slot = np.zeros(len(measured), dtype=np.int64)
-    row_of_slot[slots] = np.arange(len(slots))
-    leaves = csr.run_of(graph.indptr)[slots]
+    # In the hops' own size: a block of a display's pairs crosses a sliver of SD_vis, whose
+    # slots (47 M at 30,000 FLSs) laid out again for each block took most of its time.
+    slots = np.unique(hops.slot[on_graph])
+    leaves = np.searchsorted(graph.indptr, slots, side="right") - 1
     once = measured_vectors(sensor, swarm.points, swarm.radius, leaves, graph.indices[slots])
     if on_graph.all():
-        return once, row_of_slot[hops.slot]
+        return once, np.searchsorted(slots, hops.slot)
     off = np.flatnonzero(~on_graph)
     rows = np.empty(len(hops.slot), dtype=np.int64)
-    rows[on_graph] = row_of_slot[hops.slot[on_graph]]
+    rows[on_graph] = np.searchsorted(slots, hops.slot[on_graph])
     rows[off] = len(once) + np.arange(len(off))
     others = measured_vectors(sensor, swarm.points, swarm.radius, hops.start[off], hops.end[off])
     return np.concatenate([once, others]), rows
@@ -394,13 +392,10 @@ def path_obstruction(
         raise ValueError("a path hops between FLSs that `graph` does not join")
     blocked = ~hood.visible[hop_pair]
     has_obstruction = np.bincount(pair[blocked], minlength=size) > 0
-    # Each blocked pair's obstructers are found once, however many paths cross it.
-    crossed = np.zeros(len(hood.pairs), dtype=bool)
-    crossed[hop_pair[blocked]] = True
-    edges = np.flatnonzero(crossed)
-    edge_number = np.zeros(len(crossed), dtype=np.int64)
-    edge_number[edges] = np.arange(len(edges))
-    edge_of_blocked_hop = edge_number[hop_pair[blocked]]
+    # Each blocked pair's obstructers are found once, however many paths cross it (found in
+    # the hops' own size, not the swarm's pairs': a display's block crosses a sliver of them).
+    edges = np.unique(hop_pair[blocked])
+    edge_of_blocked_hop = np.searchsorted(edges, hop_pair[blocked])
     swarm = hood.swarm
     offsets, ids = obstructers(
         swarm.points, swarm.radius, hood.pairs.first[edges], hood.pairs.second[edges], hood.grid
