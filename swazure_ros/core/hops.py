@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from . import csr, jit
 from .arrays import FloatArray, IntArray
+from .distinct import distinct_ranks
 from .graph import Graph
 from .hop_errors import hop_error, measured_vectors
 from .neighbourhood import Neighbourhood
@@ -135,16 +136,16 @@ def hop_vectors(hood: Neighbourhood, hops: HopTable) -> tuple[FloatArray, IntArr
     swarm, sensor, graph = hood.swarm, hood.sensor, hood.any_visible
     on_graph = hops.slot >= 0
     # A pair's two directions are two measurements (a noisy sensor draws per direction).
-    # In the hops' own size: a block of a display's pairs crosses a sliver of SD_vis, whose
-    # slots (47 M at 30,000 FLSs) laid out again for each block took most of its time.
-    slots = np.unique(hops.slot[on_graph])
+    # A block of a display's pairs crosses a sliver of SD_vis's slots (47 M at 30,000 FLSs),
+    # a whole swarm's block most of them: distinct_ranks decides how to find them.
+    slots, slot_rows = distinct_ranks(hops.slot[on_graph], len(graph.indices))
     leaves = np.searchsorted(graph.indptr, slots, side="right") - 1
     once = measured_vectors(sensor, swarm.points, swarm.radius, leaves, graph.indices[slots])
     if on_graph.all():
-        return once, np.searchsorted(slots, hops.slot)
+        return once, slot_rows
     off = np.flatnonzero(~on_graph)
     rows = np.empty(len(hops.slot), dtype=np.int64)
-    rows[on_graph] = np.searchsorted(slots, hops.slot[on_graph])
+    rows[on_graph] = slot_rows
     rows[off] = len(once) + np.arange(len(off))
     others = measured_vectors(sensor, swarm.points, swarm.radius, hops.start[off], hops.end[off])
     return np.concatenate([once, others]), rows
@@ -392,10 +393,8 @@ def path_obstruction(
         raise ValueError("a path hops between FLSs that `graph` does not join")
     blocked = ~hood.visible[hop_pair]
     has_obstruction = np.bincount(pair[blocked], minlength=size) > 0
-    # Each blocked pair's obstructers are found once, however many paths cross it (found in
-    # the hops' own size, not the swarm's pairs': a display's block crosses a sliver of them).
-    edges = np.unique(hop_pair[blocked])
-    edge_of_blocked_hop = np.searchsorted(edges, hop_pair[blocked])
+    # Each blocked pair's obstructers are found once, however many paths cross it.
+    edges, edge_of_blocked_hop = distinct_ranks(hop_pair[blocked], len(hood.pairs))
     swarm = hood.swarm
     offsets, ids = obstructers(
         swarm.points, swarm.radius, hood.pairs.first[edges], hood.pairs.second[edges], hood.grid
