@@ -25,11 +25,12 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from .arrays import IntArray
+from .arrays import BoolArray, IntArray
 from .evaluate import evaluate_pairs
 from .evaluation import SWEET_PATH, PairResults
 from .fans import obstructed_fans
@@ -37,6 +38,7 @@ from .geometry import Swarm
 from .grid import Grid, build_grid, grid_of
 from .neighbourhood import Neighbourhood
 from .neighbours import (
+    FIELDS,
     NeighbourCounts,
     NeighbourPairs,
     candidate_reach,
@@ -216,7 +218,7 @@ def lean_neighbourhood(
     progress.start("neighbours and line of sight", int(candidates.sum()))
     sweet: list[NeighbourPairs] = []
     sweet_sight: list[NDArray[np.bool_]] = []
-    seen: list[NeighbourPairs] = []
+    seen: dict[str, list[NDArray[Any]]] = {name: [] for name in FIELDS}
     blind_first: list[IntArray] = []
     blind_second: list[IntArray] = []
     counts = NeighbourCounts(0, 0, 0)
@@ -230,8 +232,7 @@ def lean_neighbourhood(
         sweet.append(part)
         sweet_sight.append(visible)
         if at_once:
-            part, visible = _in_sight(swarm, pairs, DECAYING, sight_grid)
-            seen.append(part.select(visible))
+            _keep(seen, *_in_sight(swarm, pairs, DECAYING, sight_grid))
         progress.advance(int(candidates[start:stop].sum()))
     rows, targets = ordered_rows(
         swarm.size, np.concatenate(blind_first), np.concatenate(blind_second)
@@ -244,21 +245,29 @@ def lean_neighbourhood(
     lean = LeanNeighbourhood(
         swarm, sensor, budget, blocks, sweet_hood, BlindRows(rows, targets), None
     )
-    return replace(lean, whole=_whole(lean, NeighbourPairs.joined(seen))) if at_once else lean
+    return replace(lean, whole=_whole(lean, seen)) if at_once else lean
 
 
-def _whole(lean: LeanNeighbourhood, seen: NeighbourPairs) -> Neighbourhood:
-    """``lean.sweet`` with the decaying pairs in sight ``seen`` joined to its pairs, in order."""
-    sweet, size = lean.sweet, lean.swarm.size
-    joined = NeighbourPairs.joined([sweet.pairs, seen])
-    order = np.argsort(joined.first * size + joined.second)  # unique keys
-    visible = np.concatenate([sweet.visible, np.ones(len(seen), dtype=bool)])
-    return replace(
-        sweet,
-        pairs=joined.select(order),
-        visible=visible[order],
-        usable=np.ones(len(joined), dtype=bool),
-    )
+def _keep(seen: dict[str, list[NDArray[Any]]], pairs: NeighbourPairs, visible: BoolArray) -> None:
+    """Add the ``pairs`` in sight to ``seen``, field by field (for :func:`_whole`)."""
+    kept = np.flatnonzero(visible)
+    for name in FIELDS:
+        seen[name].append(getattr(pairs, name)[kept])
+
+
+def _whole(lean: LeanNeighbourhood, seen: dict[str, list[NDArray[Any]]]) -> Neighbourhood:
+    """``lean.sweet`` with the decaying pairs in sight joined to its pairs, in order.
+
+    ``seen`` holds their fields in pieces (:meth:`.NeighbourPairs.merged`), and is
+    emptied; the sweet neighbourhood's own graphs are let go, since the whole one
+    builds its own over the same pairs.
+    """
+    sweet = lean.sweet
+    pairs, decaying = sweet.pairs.merged(seen, lean.swarm.size)
+    visible = np.ones(len(pairs), dtype=bool)
+    visible[~decaying] = sweet.visible
+    sweet.forget_graphs()
+    return replace(sweet, pairs=pairs, visible=visible, usable=np.ones(len(pairs), dtype=bool))
 
 
 def with_decaying(lean: LeanNeighbourhood, progress: Progress) -> LeanNeighbourhood:
@@ -280,15 +289,15 @@ def with_decaying(lean: LeanNeighbourhood, progress: Progress) -> LeanNeighbourh
     swarm, sensor = lean.swarm, lean.sensor
     reach_grid = grid_of(np.ascontiguousarray(swarm.points), candidate_reach(sensor, swarm.radius))
     progress.start("decaying pairs in line of sight", lean.sweet.counts.decaying)
-    seen = []
+    seen: dict[str, list[NDArray[Any]]] = {name: [] for name in FIELDS}
     for start, stop in lean.blocks:
         pairs = neighbour_pairs(swarm, sensor, start, stop, reach_grid)
         # Thousands of long segments from each FLS, few blocked close to it: judged by fans
         # (BENCHMARKS.md, "Line of sight by fans").
         part, visible = _in_sight(swarm, pairs, DECAYING, lean.sweet.grid, fans=True)
-        seen.append(part.select(visible))
+        _keep(seen, part, visible)
         progress.advance(len(part))
-    return replace(lean, whole=_whole(lean, NeighbourPairs.joined(seen)))
+    return replace(lean, whole=_whole(lean, seen))
 
 
 @dataclass

@@ -8,7 +8,8 @@ from edge lists; :mod:`.paths` searches it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -19,13 +20,38 @@ from .arrays import FloatArray, IntArray
 
 @dataclass(frozen=True)
 class Graph:
-    """An undirected graph in CSR form: neighbours of node v are indices[indptr[v]:indptr[v+1]]."""
+    """An undirected graph in CSR form: neighbours of node v are indices[indptr[v]:indptr[v+1]].
+
+    An edge's cost (its expected error, which the least-error policy sums) is
+    given, or computed from its weight by ``cost_of`` when first asked for
+    (:meth:`edge_costs`): a display's graphs hold tens of millions of entries,
+    and only that policy reads them.
+    """
 
     indptr: IntArray  # (N + 1,)
     indices: IntArray  # (2E,), sorted within each row
     weights: FloatArray  # (2E,), tracking distance of each edge, cm
     labels: IntArray  # (2E,), caller's label of each edge (e.g. its pair index)
     costs: FloatArray | None = None  # (2E,), expected error of each edge (least-error)
+    # Elementwise from weights to costs (2E,) -> (2E,), for costs not given.
+    cost_of: Callable[[FloatArray], FloatArray] | None = field(default=None, compare=False)
+    _computed: dict[str, FloatArray] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
+
+    def edge_costs(self) -> FloatArray | None:
+        """Each entry's cost (2E,), cm or cm^2: given, or ``cost_of(weights)`` computed once.
+
+        Returns
+        -------
+        (2E,) ndarray of float, or None
+            None when the graph was made without costs.
+        """
+        if self.costs is not None or self.cost_of is None:
+            return self.costs
+        if "costs" not in self._computed:
+            self._computed["costs"] = np.asarray(self.cost_of(self.weights), dtype=np.float64)
+        return self._computed["costs"]
 
     @property
     def size(self) -> int:
@@ -70,6 +96,7 @@ def make_graph(
     weights: ArrayLike,
     labels: ArrayLike | None = None,
     costs: ArrayLike | None = None,
+    cost_of: Callable[[FloatArray], FloatArray] | None = None,
 ) -> Graph:
     """Undirected graph on ``size`` nodes from edge lists, each edge entered once.
 
@@ -87,6 +114,9 @@ def make_graph(
     costs : (E,) array_like of float, cm, optional
         Each edge's expected error (:func:`~.hop_errors.hop_error`), which the
         least-error policy sums.
+    cost_of : callable, optional
+        Instead of ``costs``: each entry's cost from its weight, elementwise,
+        computed when the policy first asks (:meth:`Graph.edge_costs`).
 
     Returns
     -------
@@ -128,7 +158,11 @@ def make_graph(
         if costs.shape != weights.shape:
             raise ValueError("`costs` must have one value per edge")
         edge_costs = costs[edge]
-    return Graph(indptr.astype(np.int64), indices, weights[edge], labels[edge], edge_costs)
+    if edge_costs is not None and cost_of is not None:
+        raise ValueError("give `costs` or `cost_of`, not both")
+    return Graph(
+        indptr.astype(np.int64), indices, weights[edge], labels[edge], edge_costs, cost_of
+    )
 
 
 @jit.kernel(cache=True, nogil=True)

@@ -10,13 +10,14 @@ computes the whole swarm's; :func:`neighbourhood_of` the pairs of some FLSs;
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .arrays import IntArray
+from .arrays import FloatArray, IntArray
 from .geometry import Swarm
 from .graph import Graph, make_graph
 from .grid import Grid, build_grid
@@ -75,6 +76,16 @@ class Neighbourhood:
         default_factory=NeighbourGraphs, init=False, repr=False, compare=False
     )
 
+    def forget_graphs(self) -> None:
+        """Let go of the graphs built so far; each is built again if asked for.
+
+        For a neighbourhood another has taken over from (a display's sweet pairs,
+        once its decaying pairs in sight join them: :mod:`.blocks`), whose graphs
+        would otherwise be held as long as anything refers to it.
+        """
+        for name in fields(self.graphs):
+            setattr(self.graphs, name.name, None)
+
     @property
     def counts(self) -> NeighbourCounts:
         """How many neighbour pairs of each kind the swarm has."""
@@ -128,11 +139,21 @@ class Neighbourhood:
         """The graph of the usable pairs where ``mask`` (len(pairs),) holds, with their costs."""
         index = np.flatnonzero(mask & self.usable)
         pairs = self.pairs
-        tracking = pairs.tracking[index]
-        costs = hop_error(self.sensor, tracking, self.swarm.radius)
+        # The costs only when the least-error policy asks: 16 bytes an edge (both entries).
+        costs = partial(_hop_costs, self.sensor, self.swarm.radius)
         return make_graph(
-            self.swarm.size, pairs.first[index], pairs.second[index], tracking, index, costs
+            self.swarm.size,
+            pairs.first[index],
+            pairs.second[index],
+            pairs.tracking[index],
+            index,
+            cost_of=costs,
         )
+
+
+def _hop_costs(sensor: Sensor, radius: float, tracking: FloatArray) -> FloatArray:
+    """:func:`.hop_errors.hop_error` with the tracking distances last (for ``partial``)."""
+    return hop_error(sensor, tracking, radius)
 
 
 def neighbourhood(swarm: Swarm, sensor: Sensor, progress: Progress | None = None) -> Neighbourhood:

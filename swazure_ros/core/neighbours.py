@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -18,6 +18,15 @@ from .sensor import BLIND, DECAYING, SWEET, Sensor
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
+
+
+def _pieces(pieces: list[NDArray[Any]], like: NDArray[Any]) -> NDArray[Any]:
+    """``pieces`` as one array; with none, an empty array of ``like``'s type."""
+    return np.concatenate(pieces) if pieces else like[:0].copy()
+
+
+#: The fields of :class:`NeighbourPairs`, in order.
+FIELDS = ("first", "second", "distance", "tracking", "range_class")
 
 
 @dataclass(frozen=True)
@@ -55,8 +64,51 @@ class NeighbourPairs:
     @classmethod
     def joined(cls, parts: Sequence[NeighbourPairs]) -> NeighbourPairs:
         """Pair lists as one, in the order given (blocks in order give a sorted list)."""
-        names = ("first", "second", "distance", "tracking", "range_class")
-        return cls(*(np.concatenate([getattr(part, name) for part in parts]) for name in names))
+        return cls(*(np.concatenate([getattr(part, name) for part in parts]) for name in FIELDS))
+
+    def merged(
+        self, columns: dict[str, list[NDArray[Any]]], size: int
+    ) -> tuple[NeighbourPairs, BoolArray]:
+        """These pairs and others given field by field, as one list sorted by (first, second).
+
+        Both lists are sorted and share no pair (a neighbourhood's sweet pairs,
+        and its decaying pairs in sight block by block), so the result is a
+        merge: no sort, and one field built at a time. ``columns`` is emptied
+        as it is read, so that each field's pieces are let go once placed: a
+        display's decaying pairs in sight are tens of millions.
+
+        Parameters
+        ----------
+        columns : dict of str to list of arrays
+            For each name of :data:`FIELDS`, the other pairs' values in pieces
+            (concatenated in order, a sorted list of pairs, none of them here).
+        size : int
+            N, more than any FLS index of either.
+
+        Returns
+        -------
+        merged : NeighbourPairs
+            Every pair of both, sorted.
+        from_columns : (len(merged),) ndarray of bool
+            Where a pair came from ``columns``.
+        """
+        other_keys = _pieces(columns["first"], self.first) * size
+        other_keys += _pieces(columns["second"], self.second)
+        # The other pairs' places among all: how many of these come before each, plus its rank.
+        places = np.searchsorted(self.first * size + self.second, other_keys)
+        del other_keys
+        places += np.arange(len(places))
+        from_columns = np.zeros(len(self) + len(places), dtype=bool)
+        from_columns[places] = True
+        del places
+        fields = []
+        for name in FIELDS:
+            mine = getattr(self, name)
+            merged_field = np.empty(len(from_columns), dtype=mine.dtype)
+            merged_field[from_columns] = _pieces(columns.pop(name), mine)
+            merged_field[~from_columns] = mine
+            fields.append(merged_field)
+        return NeighbourPairs(*fields), from_columns
 
     def count(self, range_class: int) -> int:
         """Number of unordered pairs of one range class.

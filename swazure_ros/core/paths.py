@@ -7,7 +7,7 @@
 - ``shortest-length``: smallest sum of tracking distances; among those, the
   fewest edges;
 - ``least-error``: smallest sum of the edges' expected errors
-  (:attr:`~.graph.Graph.costs`, from :func:`~.hop_errors.hop_error`); among
+  (:meth:`~.graph.Graph.edge_costs`, from :func:`~.hop_errors.hop_error`); among
   those, the fewest edges. Derived in docs/core.md ("Least-error paths").
 
 Remaining ties are broken by predecessor: the predecessor of a node on the
@@ -108,7 +108,7 @@ def shortest_paths(
         sources ascending).
     policy : {'fewest-hops', 'shortest-length', 'least-error'}
         The path policy (the module's text); least-error needs
-        ``graph.costs``.
+        ``graph.edge_costs()``.
     components : (N,) ndarray of int, optional
         ``graph.components()``, when the caller has it already.
     progress : callable, optional
@@ -269,9 +269,10 @@ def _policy_weights(graph: Graph, policy: str) -> tuple[FloatArray, bool]:
     """The edge weights a search sums under ``policy`` (2E,), and whether hops come first."""
     # Least-error is shortest-length over the edges' costs instead of their lengths.
     if check_policy(policy) == LEAST_ERROR:
-        if graph.costs is None:
+        costs = graph.edge_costs()
+        if costs is None:
             raise ValueError("the least-error policy needs a graph with edge costs")
-        return graph.costs, False
+        return costs, False
     return graph.weights, policy == FEWEST_HOPS
 
 

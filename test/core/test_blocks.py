@@ -15,10 +15,11 @@ from swazure_ros.core.blocks import (
     ranges,
     with_decaying,
 )
-from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.evaluate import evaluate, evaluate_pairs
 from swazure_ros.core.evaluation import PairResults
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.graph import Graph
+from swazure_ros.core.neighbourhood import NeighbourGraphs
 from swazure_ros.core.pair_statistics import PairTally
 from swazure_ros.core.progress import SILENT
 from swazure_ros.files.cloud_files import load_cloud
@@ -92,6 +93,24 @@ def test_a_blocked_pair_falls_back_to_its_decaying_path_as_the_whole_evaluation_
     run = deferred(evaluate_blocked(swarm, sensor, "fewest-hops", SMALL, SILENT))
     assert_same_pairs(joined(list(run.blocks(SILENT))), whole.pairs)
     assert run.lean.whole is not None  # the blocked pair (A, C) searched the decaying pairs
+
+
+def test_the_sweet_neighbourhood_lets_its_graphs_go_once_the_decaying_pairs_join(sensor):
+    swarm = scene(A, B, C, K, D)
+    run = deferred(evaluate_blocked(swarm, sensor, "fewest-hops", SMALL, SILENT))
+    sweet = run.hood  # what a writer of the blocks holds (its swarm's ids)
+    evaluate_pairs(sweet, "fewest-hops")
+    assert sweet.graphs.sweet_visible is not None
+    for _ in run.blocks(SILENT):
+        pass
+    assert run.hood is run.lean.whole is not sweet
+    left = [
+        kept.name
+        for kept in fields(NeighbourGraphs)
+        if getattr(sweet.graphs, kept.name) is not None
+    ]
+    assert left == []  # the whole neighbourhood builds its own over the same pairs
+    assert run.hood.graphs.sweet_visible is not None
 
 
 def test_the_blocks_find_each_graph_s_components_once(sensor, monkeypatch):

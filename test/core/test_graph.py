@@ -62,3 +62,25 @@ def test_components_are_numbered_as_scipy_numbers_them(size, density):
     matrix = csr_matrix((np.ones(len(graph.indices)), graph.indices, graph.indptr), (size, size))
     _, expected = connected_components(matrix, directed=False)
     assert graph.components().tolist() == expected.tolist()
+
+
+def test_costs_from_weights_are_computed_once_when_first_asked_and_equal_given_costs():
+    calls = []
+
+    def squared(weights):
+        calls.append(len(weights))
+        return weights**2
+
+    weights = np.array([1.5, 2.0, 3.0])
+    lazy = make_graph(4, [0, 1, 2], [1, 2, 3], weights, cost_of=squared)
+    given = make_graph(4, [0, 1, 2], [1, 2, 3], weights, costs=weights**2)
+    assert calls == [] and lazy.costs is None
+    np.testing.assert_array_equal(lazy.edge_costs(), given.edge_costs())
+    np.testing.assert_array_equal(lazy.edge_costs(), given.costs)
+    assert calls == [6]  # both entries of each edge, once
+    assert make_graph(4, [0], [1], [1.0]).edge_costs() is None
+
+
+def test_costs_are_given_or_computed_not_both():
+    with pytest.raises(ValueError, match="`costs` or `cost_of`, not both"):
+        make_graph(3, [0], [1], [1.0], costs=[0.5], cost_of=np.sqrt)

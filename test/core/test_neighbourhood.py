@@ -80,6 +80,19 @@ def test_each_graph_is_built_when_first_asked_for_and_then_kept(sensor):
     assert (hood.sweet_all, hood.any_visible, hood.sweet_components) == built
 
 
+def test_forgotten_graphs_are_let_go_and_built_again_the_same_when_asked_for(sensor):
+    hood = neighbourhood(scene(A, B, C, K, D), sensor)
+    evaluate_pairs(hood, "fewest-hops")
+    before = hood.any_visible
+    hood.forget_graphs()
+    assert hood.graphs == NeighbourGraphs()
+    again = hood.any_visible
+    assert again is not before
+    for name in ("indptr", "indices", "weights", "labels"):
+        np.testing.assert_array_equal(getattr(again, name), getattr(before, name))
+    np.testing.assert_array_equal(again.edge_costs(), before.edge_costs())
+
+
 def test_a_world_that_only_senses_builds_no_graph(sensor):
     from swazure_ros.core.observe import observations
 

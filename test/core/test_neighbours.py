@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.geometry import centre_distance, make_swarm
-from swazure_ros.core.neighbours import neighbour_pairs
+from swazure_ros.core.neighbours import FIELDS, neighbour_pairs
+from swazure_ros.core.sensor import DECAYING, SWEET
 
 
 def random_swarm(seed, count=400, extent=60.0):
@@ -58,3 +59,25 @@ def test_a_mask_of_another_length_is_refused(sensor):
     swarm = random_swarm(5, count=20)
     with pytest.raises(ValueError, match=r"`involving` must be \(20,\) bools"):
         neighbour_pairs(swarm, sensor, involving=np.ones(19, dtype=bool))
+
+
+def test_pairs_merged_with_pairs_given_in_pieces_are_the_sorted_union(sensor):
+    # The sweet pairs, and the decaying pairs in pieces (a display's blocks): one sorted list.
+    pairs = neighbour_pairs(random_swarm(4), sensor)
+    sweet = pairs.select(pairs.range_class == SWEET)
+    decaying = np.flatnonzero(pairs.range_class == DECAYING)
+    pieces = np.array_split(decaying, 3)
+    columns = {name: [getattr(pairs, name)[piece] for piece in pieces] for name in FIELDS}
+    merged, from_columns = sweet.merged(columns, 400)
+    both = np.sort(np.concatenate([np.flatnonzero(pairs.range_class == SWEET), decaying]))
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(merged, name), getattr(pairs, name)[both])
+    assert from_columns.tolist() == (pairs.range_class[both] == DECAYING).tolist()
+    assert columns == {}  # each field's pieces let go once placed
+    assert 0 < len(sweet) < len(merged)
+
+
+def test_pairs_merged_with_no_pieces_are_themselves(sensor):
+    pairs = neighbour_pairs(random_swarm(5), sensor)
+    merged, from_columns = pairs.merged({name: [] for name in FIELDS}, 400)
+    assert merged.first.tolist() == pairs.first.tolist() and not from_columns.any()
