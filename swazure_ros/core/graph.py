@@ -97,6 +97,7 @@ def make_graph(
     labels: ArrayLike | None = None,
     costs: ArrayLike | None = None,
     cost_of: Callable[[FloatArray], FloatArray] | None = None,
+    keep: NDArray[np.bool_] | None = None,
 ) -> Graph:
     """Undirected graph on ``size`` nodes from edge lists, each edge entered once.
 
@@ -117,6 +118,9 @@ def make_graph(
     cost_of : callable, optional
         Instead of ``costs``: each entry's cost from its weight, elementwise,
         computed when the policy first asks (:meth:`Graph.edge_costs`).
+    keep : (E,) array of bool, optional
+        Only these edges (labelled by their position in the full lists by
+        default), with no copy of the lists (:func:`symmetric_rows`).
 
     Returns
     -------
@@ -142,16 +146,9 @@ def make_graph(
     first = np.asarray(first, dtype=np.int64)
     second = np.asarray(second, dtype=np.int64)
     weights = np.asarray(weights, dtype=np.float64)
-    labels = np.arange(len(first)) if labels is None else np.asarray(labels, dtype=np.int64)
-    if not first.shape == second.shape == weights.shape == labels.shape:
-        raise ValueError("`first`, `second`, `weights` and `labels` must have one length")
-    if len(first) and (
-        min(first.min(), second.min()) < 0 or max(first.max(), second.max()) >= size
-    ):
-        raise ValueError(f"`first` and `second` must be nodes of the graph, 0 to {size - 1}")
-    if np.any(first == second):
-        raise ValueError("a graph edge cannot join a node to itself")
-    indptr, indices, edge = symmetric_rows(size, first, second)
+    labels = None if labels is None else np.asarray(labels, dtype=np.int64)
+    _check_edges(size, first, second, weights, labels, keep)
+    indptr, indices, edge = symmetric_rows(size, first, second, keep=keep)
     edge_costs = None
     if costs is not None:
         costs = np.asarray(costs, dtype=np.float64)
@@ -160,9 +157,33 @@ def make_graph(
         edge_costs = costs[edge]
     if edge_costs is not None and cost_of is not None:
         raise ValueError("give `costs` or `cost_of`, not both")
+    # Labelled by position, the entries' edges are their labels: no list of them made.
+    entry_labels = edge if labels is None else labels[edge]
     return Graph(
-        indptr.astype(np.int64), indices, weights[edge], labels[edge], edge_costs, cost_of
+        indptr.astype(np.int64), indices, weights[edge], entry_labels, edge_costs, cost_of
     )
+
+
+def _check_edges(
+    size: int,
+    first: IntArray,
+    second: IntArray,
+    weights: FloatArray,
+    labels: IntArray | None,
+    keep: NDArray[np.bool_] | None,
+) -> None:
+    """Raise :func:`make_graph`'s ValueError for edge lists it cannot take."""
+    shapes = {first.shape, second.shape, weights.shape}
+    shapes |= set() if labels is None else {labels.shape}
+    shapes |= set() if keep is None else {np.shape(keep)}
+    if len(shapes) > 1:
+        raise ValueError("`first`, `second`, `weights` and `labels` must have one length")
+    if len(first) and (
+        min(first.min(), second.min()) < 0 or max(first.max(), second.max()) >= size
+    ):
+        raise ValueError(f"`first` and `second` must be nodes of the graph, 0 to {size - 1}")
+    if np.any(first == second):
+        raise ValueError("a graph edge cannot join a node to itself")
 
 
 @jit.kernel(cache=True, nogil=True)
@@ -191,7 +212,11 @@ def _component_labels(indptr: IntArray, indices: IntArray) -> IntArray:
 
 
 def symmetric_rows(
-    size: int, first: ArrayLike, second: ArrayLike, rows: NDArray[np.bool_] | None = None
+    size: int,
+    first: ArrayLike,
+    second: ArrayLike,
+    rows: NDArray[np.bool_] | None = None,
+    keep: NDArray[np.bool_] | None = None,
 ) -> tuple[IntArray, IntArray, IntArray]:
     """Compressed sparse rows of undirected pairs, each pair entered from both of its ends.
 
@@ -206,6 +231,10 @@ def symmetric_rows(
         The two ends of each pair, each pair once, no node paired with itself.
     rows : (N,) array of bool, optional
         Lay out only these nodes' rows; the others are empty. Default: every row.
+    keep : (E,) array of bool, optional
+        Enter only these pairs; the rest are left out as if not given, without
+        a copy of the kept ones (a display's graph of tens of millions of
+        entries out of a longer list). Default: every pair.
 
     Returns
     -------
@@ -214,7 +243,7 @@ def symmetric_rows(
     indices : (R,) ndarray of int
         Each entry's other end; each row sorted.
     edge : (R,) ndarray of int
-        The pair (index into ``first``) of each entry.
+        The pair (index into ``first``, kept or not) of each entry.
 
     Examples
     --------
@@ -223,36 +252,46 @@ def symmetric_rows(
     >>> indptr.tolist(), indices.tolist(), edge.tolist()
     ([0, 1, 3, 4], [1, 0, 2, 1], [0, 0, 1, 1])
     """
-    first = np.asarray(first, dtype=np.int64)
-    second = np.asarray(second, dtype=np.int64)
-    order = None
-    ordered = bool(np.all(first < second))
-    if ordered:
-        keys = first * size + second
-        ordered = bool(np.all(keys[1:] > keys[:-1]))
-        del keys
-    if not ordered:  # not as neighbour pairs come: sorted first, low end first
-        low, high = np.minimum(first, second), np.maximum(first, second)
-        order = np.argsort(low * size + high, kind="stable")
-        first, second = low[order], high[order]
-        del low, high
-    laid = np.ones(size, dtype=bool) if rows is None else np.asarray(rows, dtype=bool)
     # Contiguous, so that one compiled signature serves every caller.
-    indptr, indices, edge = _symmetric_rows(
-        size, np.ascontiguousarray(first), np.ascontiguousarray(second), laid
-    )
-    return indptr, indices, (edge if order is None else order[edge])
+    first = np.ascontiguousarray(first, dtype=np.int64)
+    second = np.ascontiguousarray(second, dtype=np.int64)
+    laid = np.ones(size, dtype=bool) if rows is None else np.asarray(rows, dtype=bool)
+    if _ordered(first, second):
+        entered = np.ones(len(first), dtype=bool) if keep is None else np.asarray(keep, bool)
+        return _symmetric_rows(size, first, second, laid, entered)
+    # Not as neighbour pairs come: the kept pairs sorted first, low end first.
+    kept = np.arange(len(first)) if keep is None else np.flatnonzero(keep)
+    low, high = np.minimum(first[kept], second[kept]), np.maximum(first[kept], second[kept])
+    order = np.argsort(low * size + high, kind="stable")
+    low, high = np.ascontiguousarray(low[order]), np.ascontiguousarray(high[order])
+    indptr, indices, edge = _symmetric_rows(size, low, high, laid, np.ones(len(low), bool))
+    return indptr, indices, kept[order[edge]]
+
+
+@jit.kernel(cache=True, nogil=True)
+def _ordered(first: IntArray, second: IntArray) -> bool:
+    """Whether every pair has first < second and the pairs rise by (first, second)."""
+    for e in range(len(first)):
+        if first[e] >= second[e]:
+            return False
+        if e and (
+            first[e] < first[e - 1] or (first[e] == first[e - 1] and second[e] <= second[e - 1])
+        ):
+            return False
+    return True
 
 
 @jit.kernel(cache=True, nogil=True)
 def _symmetric_rows(
-    size: int, first: IntArray, second: IntArray, rows: NDArray[np.bool_]
+    size: int, first: IntArray, second: IntArray, rows: NDArray[np.bool_], keep: NDArray[np.bool_]
 ) -> tuple[IntArray, IntArray, IntArray]:
-    """CSR rows (sorted) of the undirected edges first[e] < second[e], given sorted by
-    (first, second), of the nodes ``rows`` marks: indptr, indices, and the edge e of each
-    entry."""
+    """CSR rows (sorted) of the undirected edges first[e] < second[e] that ``keep`` marks,
+    given sorted by (first, second), of the nodes ``rows`` marks: indptr, indices, and the
+    edge e of each entry."""
     indptr = np.zeros(size + 1, dtype=np.int64)
     for e in range(len(first)):
+        if not keep[e]:
+            continue
         if rows[first[e]]:
             indptr[first[e] + 1] += 1
         if rows[second[e]]:
@@ -265,12 +304,12 @@ def _symmetric_rows(
     # Row v holds its smaller neighbours (edges where v is second, in order of first),
     # then its larger ones (where v is first, already in order of second).
     for e in range(len(first)):
-        if rows[second[e]]:
+        if keep[e] and rows[second[e]]:
             slot = cursor[second[e]]
             indices[slot], edge[slot] = first[e], e
             cursor[second[e]] += 1
     for e in range(len(first)):
-        if rows[first[e]]:
+        if keep[e] and rows[first[e]]:
             slot = cursor[first[e]]
             indices[slot], edge[slot] = second[e], e
             cursor[first[e]] += 1

@@ -137,17 +137,17 @@ class Neighbourhood:
 
     def _graph(self, mask: NDArray[np.bool_]) -> Graph:
         """The graph of the usable pairs where ``mask`` (len(pairs),) holds, with their costs."""
-        index = np.flatnonzero(mask & self.usable)
         pairs = self.pairs
-        # The costs only when the least-error policy asks: 16 bytes an edge (both entries).
+        # The pairs picked out, not copied, and the costs only when the least-error policy
+        # asks: at display scale a graph is tens of millions of entries.
         costs = partial(_hop_costs, self.sensor, self.swarm.radius)
         return make_graph(
             self.swarm.size,
-            pairs.first[index],
-            pairs.second[index],
-            pairs.tracking[index],
-            index,
+            pairs.first,
+            pairs.second,
+            pairs.tracking,
             cost_of=costs,
+            keep=mask & self.usable,
         )
 
 

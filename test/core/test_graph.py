@@ -84,3 +84,20 @@ def test_costs_from_weights_are_computed_once_when_first_asked_and_equal_given_c
 def test_costs_are_given_or_computed_not_both():
     with pytest.raises(ValueError, match="`costs` or `cost_of`, not both"):
         make_graph(3, [0], [1], [1.0], costs=[0.5], cost_of=np.sqrt)
+
+
+@pytest.mark.parametrize("shuffled", [False, True], ids=["sorted-pairs", "pairs-in-any-order"])
+def test_a_graph_of_the_kept_pairs_is_the_graph_of_those_pairs_labelled_by_position(shuffled):
+    rng = np.random.default_rng(8)
+    first, second = rng.integers(0, 40, size=(2, 300))
+    pairs = np.unique(np.column_stack([first, second])[first < second], axis=0)
+    if shuffled:
+        pairs = pairs[rng.permutation(len(pairs))]
+    weight = rng.uniform(1, 2, size=len(pairs))
+    keep = rng.random(len(pairs)) < 0.4
+    kept = make_graph(40, pairs[:, 0], pairs[:, 1], weight, keep=keep)
+    index = np.flatnonzero(keep)
+    chosen = make_graph(40, pairs[index, 0], pairs[index, 1], weight[index], labels=index)
+    for field in ("indptr", "indices", "weights", "labels"):
+        np.testing.assert_array_equal(getattr(kept, field), getattr(chosen, field))
+    assert 0 < kept.edges < len(pairs)
