@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 
 from .arrays import BoolArray, IntArray
 from .evaluate import evaluate_pairs
-from .evaluation import SWEET_PATH, PairResults
+from .evaluation import PairResults
 from .fans import obstructed_fans
 from .geometry import Swarm
 from .grid import Grid, build_grid, grid_of
@@ -300,6 +300,13 @@ def with_decaying(lean: LeanNeighbourhood, progress: Progress) -> LeanNeighbourh
     return replace(lean, whole=_whole(lean, seen))
 
 
+def _apart_in_sight(sweet: Neighbourhood, source: IntArray, target: IntArray) -> bool:
+    """Whether a pair (source[m], target[m]) has no sweet path in sight: its ends lie in
+    two parts of S_vis. Known from the parts alone, before any search of the block."""
+    components = sweet.sweet_visible_components
+    return bool(np.any(components[source] != components[target]))
+
+
 @dataclass
 class BlockedEvaluation:
     """A run evaluated block by block: iterate :meth:`blocks`, then read :meth:`summary`."""
@@ -331,13 +338,12 @@ class BlockedEvaluation:
         for start, stop in self.sources():
             began = time.perf_counter()
             blind = self.lean.blind.block(start, stop)
-            pairs = evaluate_pairs(self.hood, self.policy, blind=blind)
-            if self.lean.whole is None and np.any(pairs.status != SWEET_PATH):
+            if self.lean.whole is None and _apart_in_sight(self.lean.sweet, *blind):
                 # A pair without a sweet path in sight searches the decaying pairs too.
                 self.lean = with_decaying(self.lean, progress)
-                pairs = evaluate_pairs(self.hood, self.policy, blind=blind)
                 progress.start("pairs", total)
                 progress.advance(done)
+            pairs = evaluate_pairs(self.hood, self.policy, blind=blind)
             if self.stage is not None:
                 lent = Started(progress)
                 pairs = self.stage(self.hood, pairs, lent)

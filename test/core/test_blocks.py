@@ -95,6 +95,24 @@ def test_a_blocked_pair_falls_back_to_its_decaying_path_as_the_whole_evaluation_
     assert run.lean.whole is not None  # the blocked pair (A, C) searched the decaying pairs
 
 
+def test_each_block_is_evaluated_once_the_first_to_need_decaying_pairs_too(sensor, monkeypatch):
+    # Whether a block needs them is known from the parts of S_vis, before its searches.
+    import swazure_ros.core.blocks as blocks
+
+    evaluated = []
+    monkeypatch.setattr(
+        blocks,
+        "evaluate_pairs",
+        lambda hood, *a, **k: evaluated.append(hood) or evaluate_pairs(hood, *a, **k),
+    )
+    swarm = scene(A, B, C, K, D)
+    whole = evaluate(swarm, sensor, "fewest-hops")
+    run = deferred(evaluate_blocked(swarm, sensor, "fewest-hops", SMALL, SILENT))
+    made = list(run.blocks(SILENT))
+    assert_same_pairs(joined(made), whole.pairs)
+    assert len(evaluated) == len(made) and evaluated[-1] is run.lean.whole
+
+
 def test_the_sweet_neighbourhood_lets_its_graphs_go_once_the_decaying_pairs_join(sensor):
     swarm = scene(A, B, C, K, D)
     run = deferred(evaluate_blocked(swarm, sensor, "fewest-hops", SMALL, SILENT))
