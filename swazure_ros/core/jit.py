@@ -40,16 +40,20 @@ class Kernel(Generic[Params, Result]):
         functools.update_wrapper(self, function)
         self.function = function
         self.options = options
+        # The module files of the kernels it calls, however deep (known once compiled).
+        self.sources: tuple[str, ...] = ()
         self._compiled: Callable[Params, Result] | None = None
 
     def compiled(self) -> Callable[Params, Result]:
         """The compiled function (the plain one, interpreted), made at the first ask."""
         if self._compiled is None:
             resolved = _with_kernels_resolved(self.function, self)
+            self.sources = getattr(resolved, "_kernel_sources", ())
             if INTERPRET:
                 self._compiled = resolved
             else:
                 numba = importlib.import_module("numba")
+                _stamp_caches_with_callees(numba)
                 self._compiled = numba.njit(**self.options)(resolved)
         return self._compiled
 
@@ -93,10 +97,12 @@ def _with_kernels_resolved(function: Callable[..., Any], own: Kernel[Any, Any]) 
     numba's cache on disk (keyed by file, line and bytecode) finds it.
     """
     namespace = dict(function.__globals__)
+    sources: set[str] = set()
     for name in _names_read(function.__code__):
         value = namespace.get(name)
         if isinstance(value, Kernel) and value is not own:
             namespace[name] = value.compiled()
+            sources |= {value.function.__code__.co_filename, *value.sources}
     copy = types.FunctionType(
         function.__code__,
         namespace,
@@ -107,7 +113,31 @@ def _with_kernels_resolved(function: Callable[..., Any], own: Kernel[Any, Any]) 
     copy.__kwdefaults__ = function.__kwdefaults__
     copy.__qualname__ = function.__qualname__
     copy.__doc__ = function.__doc__
+    # Read by kernel_cache's locators: the callees' code is compiled into this kernel's.
+    copy._kernel_sources = tuple(sorted(sources))  # type: ignore[attr-defined]
     return copy
+
+
+def _stamp_caches_with_callees(numba: Any) -> None:
+    """Have numba stamp our kernels' caches with their callees' sources too (kernel_cache)."""
+    from . import kernel_cache
+
+    config = numba.config
+    if config.CACHE_LOCATOR_CLASSES.startswith(kernel_cache.LOCATORS[0]):
+        return
+    # numba's own locators after ours, or the ones the user named in its place.
+    theirs = config.CACHE_LOCATOR_CLASSES or ",".join(_NUMBA_LOCATORS)
+    config.CACHE_LOCATOR_CLASSES = ",".join((*kernel_cache.LOCATORS, theirs))
+
+
+#: numba's own cache locators, in its order (numba.core.caching._CacheImpl).
+_NUMBA_LOCATORS = (
+    "UserProvidedCacheLocator",
+    "InTreeCacheLocator",
+    "UserWideCacheLocator",
+    "IPythonCacheLocator",
+    "ZipCacheLocator",
+)
 
 
 def _names_read(code: types.CodeType) -> set[str]:
