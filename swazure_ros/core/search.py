@@ -94,7 +94,10 @@ def search_from(search: Search, source: int, targets: IntArray, labels: Labels) 
     """Search from ``source`` until every target it can reach is settled.
 
     With ``search.slots`` > 0, Dinitz's buckets (:func:`_search_buckets`);
-    else a binary heap (:func:`_search_heap`). Both settle the same labels.
+    else a binary heap (:func:`_search_heap`). Both give the targets, and every
+    node of the paths to them, the same labels and predecessors; the buckets
+    leave out offers dearer than every target still wanted, so a node off
+    those paths may keep a dearer label than the heap gives it, or none.
 
     Parameters
     ----------
@@ -185,6 +188,22 @@ def _settle_bucket(
 
 
 @jit.kernel(cache=True, nogil=True)
+def _target_bound(
+    targets: IntArray, primary: FloatArray, settled: NDArray[np.bool_], wanted: NDArray[np.bool_]
+) -> float:
+    """The largest first cost of the targets still wanted: inf while one has none.
+
+    Labels only fall, so each such target's final cost is at most this, and an
+    offer above it can improve no target, nor any node of a target's path.
+    """
+    bound = 0.0
+    for target in targets:
+        if wanted[target] and not settled[target] and primary[target] > bound:
+            bound = primary[target]
+    return bound
+
+
+@jit.kernel(cache=True, nogil=True)
 def _doubled(array: IntArray, used: int) -> IntArray:
     """A copy of ``array`` twice as long, of which the first ``used`` entries are set."""
     grown = np.empty(2 * len(array), dtype=np.int64)
@@ -224,12 +243,20 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
         bucket += 1
         if remaining == 0:
             break
+        # No label above the dearest wanted target's can lead to a target or lie on its
+        # path: such offers are left out before their node is looked up (on a display's
+        # decaying pairs, most of a search's offers; docs/core.md, "Why it is fast").
+        bound = _target_bound(targets, primary, settled, wanted)
         for position in range(first, done):
             node = order[position]
             k1, k2 = primary[node], secondary[node]
+            if fewest_hops and k1 + 1.0 > bound:
+                continue
             for edge in range(indptr[node], indptr[node + 1]):
-                neighbour = indices[edge]
                 n1 = k1 + 1.0 if fewest_hops else k1 + weights[edge]
+                if n1 > bound:
+                    continue
+                neighbour = indices[edge]
                 p1 = primary[neighbour]
                 # Most edges of a dense graph lead nowhere better: decide on the first key.
                 if n1 > p1 or settled[neighbour]:

@@ -149,6 +149,16 @@ def test_buckets_and_a_heap_pick_the_same_paths_ties_included(monkeypatch, polic
     np.testing.assert_array_equal(buckets.length, heap.length)
 
 
+def test_a_target_labelled_early_still_takes_the_smaller_predecessor_at_its_cost():
+    # T = 7 is labelled 6 through FLS 5 (bucket 1) before FLS 3 (label 4, bucket 2) offers
+    # it 6 as well: the offer equals the dearest target's label and must still be heard,
+    # so the tie goes to the smaller FLS as the heap gives it; a dearer offer (FLS 6: 7)
+    # is left out.
+    g = make_graph(8, [0, 5, 0, 3, 0, 6], [5, 7, 3, 7, 6, 7], [2.0, 4.0, 4.0, 2.0, 4.0, 3.0])
+    paths = shortest_paths(g, [0], [7], "shortest-length")
+    assert paths.path(0) == [0, 3, 7] and paths.length[0] == 6.0
+
+
 def test_zero_cost_edges_are_searched_with_a_heap():
     from swazure_ros.core.paths import _buckets
 
