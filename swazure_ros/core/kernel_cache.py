@@ -21,7 +21,11 @@ import hashlib
 import os
 from typing import Any
 
-from numba.core.caching import InTreeCacheLocator, UserProvidedCacheLocator
+from numba.core.caching import (
+    InTreeCacheLocator,
+    UserProvidedCacheLocator,
+    UserWideCacheLocator,
+)
 
 #: The attribute :mod:`.jit` sets on a kernel body it compiles: the module files of every
 #: kernel it calls, however deep.
@@ -83,9 +87,14 @@ class KernelCacheDirLocator(_Stamped, UserProvidedCacheLocator):
     """The same, in ``NUMBA_CACHE_DIR`` when the user names one (numba's order)."""
 
 
+class KernelUserCacheLocator(_Stamped, UserWideCacheLocator):
+    """The same, in the user's cache folder when the package's own is not writable."""
+
+
 #: What ``numba.config.CACHE_LOCATOR_CLASSES`` names, before numba's own: the user's
 #: cache folder first, as numba orders its own.
 LOCATORS = (
     f"{__name__}.KernelCacheDirLocator",
     f"{__name__}.KernelCacheLocator",
+    f"{__name__}.KernelUserCacheLocator",
 )
