@@ -16,7 +16,7 @@ from .arrays import IntArray
 # Up to this many possible values per index given, a mark per possible value and
 # their running count beat a sort: 0.03 against 0.12 s for 2 M indices into 2 M, and
 # 0.34 against 0.8 s for 5 M into 10 M; 1 M into 10 M is 0.14 against 0.04 s
-# (BENCHMARKS.md, "Distinct indices by marks or by a sort").
+# (BENCHMARKS.md, "The decaying pairs in sight held smaller").
 DENSE_SPREAD = 4
 
 
@@ -62,7 +62,7 @@ def distinct_ranks(values: ArrayLike, bound: int) -> tuple[IntArray, IntArray]:
     if int(values.min()) < 0 or int(values.max()) >= bound:
         raise ValueError(f"indices must lie in [0, {bound})")
     if bound > DENSE_SPREAD * len(values):
-        # np.unique(values) alone hashes (numpy 2.3 on): 5 s for 5 M values here, and
+        # np.unique(values) alone hashes (numpy 2.4 here): 5 s for 5 M values, and
         # a search of each in the result as long again; its inverse sorts instead.
         distinct, ranks = np.unique(values, return_inverse=True)
         return distinct.astype(np.int64, copy=False), ranks.astype(np.int64, copy=False)
