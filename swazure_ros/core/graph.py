@@ -148,6 +148,8 @@ def make_graph(
     weights = np.asarray(weights, dtype=np.float64)
     labels = None if labels is None else np.asarray(labels, dtype=np.int64)
     _check_edges(size, first, second, weights, labels, keep)
+    if costs is not None and cost_of is not None:
+        raise ValueError("give `costs` or `cost_of`, not both")
     indptr, indices, edge = symmetric_rows(size, first, second, keep=keep)
     edge_costs = None
     if costs is not None:
@@ -155,8 +157,6 @@ def make_graph(
         if costs.shape != weights.shape:
             raise ValueError("`costs` must have one value per edge")
         edge_costs = costs[edge]
-    if edge_costs is not None and cost_of is not None:
-        raise ValueError("give `costs` or `cost_of`, not both")
     # Labelled by position, the entries' edges are their labels: no list of them made.
     entry_labels = edge if labels is None else labels[edge]
     return Graph(
