@@ -96,6 +96,13 @@ def main() -> int:
         default=list(SECTIONS),
         help="run these sections; the others keep their last results (build/bench/)",
     )
+    parser.add_argument(
+        "--display-sizes",
+        nargs="+",
+        type=int,
+        metavar="FLSS",
+        help="the display section's sizes (default: every size, which takes hours)",
+    )
     args = parser.parse_args()
     if not DATASETS.is_dir():
         print(

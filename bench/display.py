@@ -21,6 +21,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from bench.common import REPO, SECTIONS_DIR, SWAZURE
+from swazure_ros.files.atomic import write_json
 from swazure_ros.files.results import SUMMARY_FILE
 
 #: The display's sizes, FLSs: the published race car's, and three display sizes.
@@ -158,14 +159,19 @@ def display_section(
     records_dir: Path = SECTIONS_DIR,
     held_up_to: int = HELD_UP_TO,
 ) -> list[str]:
-    """Every shape at display scale: the table, its targets and its figure."""
-    rows = [
-        display_run(shape, size, run, records_dir, held_up_to)
-        for shape in shapes
-        for size in sizes
-        for run in runs
-    ]
-    (records_dir / "display.json").write_text(json.dumps([asdict(row) for row in rows], indent=1))
+    """Every shape at display scale: the table, its targets and its figure.
+
+    ``args.display_sizes``, where given, takes the place of ``sizes`` (a run of every size
+    takes hours). The rows are recorded in display.json as each is made, so that a run
+    stopped part way keeps what it measured.
+    """
+    sizes = getattr(args, "display_sizes", None) or sizes
+    rows: list[DisplayRow] = []
+    for size in sizes:
+        for shape in shapes:
+            for run in runs:
+                rows.append(display_run(shape, size, run, records_dir, held_up_to))
+                write_json(records_dir / "display.json", [asdict(row) for row in rows])
     display_figure(rows, figures / "display-scale.png")
     return display_lines(rows)
 

@@ -1,8 +1,17 @@
 """bench.display: a small swarm's runs timed, compared with the held run, tabled and plotted."""
 
+import argparse
+import json
+
 import pytest
 
-from bench.display import display_cloud, display_figure, display_lines, display_run
+from bench.display import (
+    display_cloud,
+    display_figure,
+    display_lines,
+    display_run,
+    display_section,
+)
 
 from .tables import check_shape
 
@@ -29,3 +38,19 @@ def test_the_race_car_is_the_published_cloud_at_its_size_and_resampled_at_the_ot
     assert display_cloud("racecar", 3720) == ("--cloud", "racecar")
     assert display_cloud("racecar", 65536) == ("--cloud", "racecar", "--resample", "65536")
     assert display_cloud("torus", 30000) == ("--cloud", "torus:30000")
+
+
+@pytest.mark.bench_section
+def test_the_section_runs_the_sizes_asked_for_and_records_each_row_as_it_is_made(tmp_path):
+    args = argparse.Namespace(beta=0.5, display_sizes=[150, 200])
+    lines = display_section(args, shapes=("torus",), runs=("plain",), figures=tmp_path,
+                            records_dir=tmp_path, held_up_to=0)  # fmt: skip
+    records = json.loads((tmp_path / "display.json").read_text())
+    assert [(row["shape"], row["size"], row["run"]) for row in records] == [
+        ("torus", 150, "plain"),
+        ("torus", 200, "plain"),
+    ]
+    [(_header, table)] = check_shape(lines)
+    # A torus of about the size asked for: the table gives the FLSs it has.
+    assert [row[1] for row in table] == [str(row["flss"]) for row in records] == ["147", "200"]
+    assert (tmp_path / "display-scale.png").read_bytes().startswith(b"\x89PNG")
