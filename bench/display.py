@@ -21,7 +21,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from bench.common import REPO, SECTIONS_DIR, SWAZURE
-from swazure_ros.files.atomic import write_json
+from swazure_ros.files.atomic import atomic_write
 from swazure_ros.files.results import SUMMARY_FILE
 
 #: The display's sizes, FLSs: the published race car's, and three display sizes.
@@ -171,9 +171,15 @@ def display_section(
         for shape in shapes:
             for run in runs:
                 rows.append(display_run(shape, size, run, records_dir, held_up_to))
-                write_json(records_dir / "display.json", [asdict(row) for row in rows])
+                _record(rows, records_dir / "display.json")
     display_figure(rows, figures / "display-scale.png")
     return display_lines(rows)
+
+
+def _record(rows: Sequence[DisplayRow], path: Path) -> None:
+    """Write the rows made so far to ``path`` as JSON, atomically."""
+    text = json.dumps([asdict(row) for row in rows], indent=1)
+    atomic_write(path, lambda tmp: tmp.write_text(text))
 
 
 def _cell(row: DisplayRow) -> list[str]:
@@ -240,8 +246,6 @@ def display_figure(rows: Sequence[DisplayRow], path: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from swazure_ros.files.atomic import atomic_write
 
     figure, axes = plt.subplots(1, 2, figsize=(12, 4.8), constrained_layout=True)
     colours = dict(
