@@ -4,12 +4,19 @@ A :class:`Graph`'s edge length is the tracking distance of its pair, cm, and
 each edge may carry a cost (its expected error, for the least-error policy)
 and a label (the caller's index of its pair). :func:`make_graph` builds one
 from edge lists; :mod:`.paths` searches it.
+
+A graph whose edges range from near to far (SD_vis: 6 to 30 cm under the
+published sensor) may lay each row out in bands of length, shortest first,
+each band sorted by neighbour: a search bounded by its targets' cost then
+skips the bands it cannot afford instead of reading every entry of a row
+(docs/core.md, "Why it is fast").
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -22,6 +29,10 @@ from .arrays import FloatArray, IntArray
 class Graph:
     """An undirected graph in CSR form: neighbours of node v are indices[indptr[v]:indptr[v+1]].
 
+    A row is laid out in B bands of edge length, shortest first, and each band
+    is sorted by neighbour: entries ``bands[v, b]:bands[v, b + 1]`` of row v
+    are its band b. Most graphs have one band, the row.
+
     An edge's cost (its expected error, which the least-error policy sums) is
     given, or computed from its weight by ``cost_of`` when first asked for
     (:meth:`edge_costs`): a display's graphs hold tens of millions of entries,
@@ -29,15 +40,48 @@ class Graph:
     """
 
     indptr: IntArray  # (N + 1,)
-    indices: IntArray  # (2E,), sorted within each row
+    indices: IntArray  # (2E,), sorted within each band of a row
     weights: FloatArray  # (2E,), tracking distance of each edge, cm
     labels: IntArray  # (2E,), caller's label of each edge (e.g. its pair index)
     costs: FloatArray | None = None  # (2E,), expected error of each edge (least-error)
     # Elementwise from weights to costs (2E,) -> (2E,), for costs not given.
     cost_of: Callable[[FloatArray], FloatArray] | None = field(default=None, compare=False)
-    _computed: dict[str, FloatArray] = field(
+    # (N, B + 1): where each band of each row begins, and the row's end; None: one band.
+    bands: IntArray | None = field(default=None, compare=False)
+    _computed: dict[str, NDArray[Any]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
+
+    def row_bands(self) -> IntArray:
+        """Where each band of each row begins, and the row's end: (N, B + 1).
+
+        Band b of row v is ``indices[row_bands()[v, b] : row_bands()[v, b + 1]]``;
+        a graph of one band gives ``indptr`` as its two columns.
+        """
+        if self.bands is not None:
+            return self.bands
+        if "bands" not in self._computed:
+            self._computed["bands"] = np.stack([self.indptr[:-1], self.indptr[1:]], axis=1)
+        return self._computed["bands"]
+
+    def band_floors(self, costs: bool = False) -> FloatArray:
+        """The least length (or, with ``costs``, cost) of an entry in each band: (B,).
+
+        A search that cannot afford a band's floor skips the band. An empty
+        band's floor is inf; computed once.
+
+        Raises
+        ------
+        ValueError
+            ``costs`` asked of a graph made without them.
+        """
+        key = "floors of costs" if costs else "floors of weights"
+        if key not in self._computed:
+            weights = self.edge_costs() if costs else self.weights
+            if weights is None:
+                raise ValueError("the graph was made without edge costs")
+            self._computed[key] = _band_floors(self.row_bands(), weights)
+        return self._computed[key]
 
     def edge_costs(self) -> FloatArray | None:
         """Each entry's cost (2E,), cm or cm^2: given, or ``cost_of(weights)`` computed once.
@@ -67,7 +111,7 @@ class Graph:
         """Position in ``indices`` of the edge first[m]-second[m] for each m: (M,); -1 if none."""
         return np.asarray(
             _edge_positions(
-                self.indptr,
+                self.row_bands(),
                 self.indices,
                 np.asarray(first, dtype=np.int64),
                 np.asarray(second, dtype=np.int64),
@@ -98,6 +142,7 @@ def make_graph(
     costs: ArrayLike | None = None,
     cost_of: Callable[[FloatArray], FloatArray] | None = None,
     keep: NDArray[np.bool_] | None = None,
+    bands: int = 1,
 ) -> Graph:
     """Undirected graph on ``size`` nodes from edge lists, each edge entered once.
 
@@ -121,18 +166,22 @@ def make_graph(
     keep : (E,) array of bool, optional
         Only these edges (labelled by their position in the full lists by
         default), with no copy of the lists (:func:`symmetric_rows`).
+    bands : int, optional
+        Lay each row out in this many bands of equal width between the
+        shortest and the longest edge's weight, shortest first
+        (:attr:`Graph.bands`); default one, the row.
 
     Returns
     -------
     Graph
-        Both directions of every edge, each row sorted by neighbour; the
-        ``weights``, ``labels`` and ``costs`` (2E,) follow the entries.
+        Both directions of every edge, each band of a row sorted by neighbour;
+        the ``weights``, ``labels`` and ``costs`` (2E,) follow the entries.
 
     Raises
     ------
     ValueError
-        The lists differ in length, an end is not a node, or an edge joins a
-        node to itself.
+        The lists differ in length, an end is not a node, an edge joins a
+        node to itself, or ``bands`` is below one.
 
     Examples
     --------
@@ -150,7 +199,11 @@ def make_graph(
     _check_edges(size, first, second, weights, labels, keep)
     if costs is not None and cost_of is not None:
         raise ValueError("give `costs` or `cost_of`, not both")
+    if bands < 1:
+        raise ValueError(f"a graph's rows need one band at least, got {bands}")
     indptr, indices, edge = symmetric_rows(size, first, second, keep=keep)
+    indptr = indptr.astype(np.int64)
+    band_starts = _banded_rows(indptr, indices, edge, weights, bands) if bands > 1 else None
     edge_costs = None
     if costs is not None:
         costs = np.asarray(costs, dtype=np.float64)
@@ -159,9 +212,7 @@ def make_graph(
         edge_costs = costs[edge]
     # Labelled by position, the entries' edges are their labels: no list of them made.
     entry_labels = edge if labels is None else labels[edge]
-    return Graph(
-        indptr.astype(np.int64), indices, weights[edge], entry_labels, edge_costs, cost_of
-    )
+    return Graph(indptr, indices, weights[edge], entry_labels, edge_costs, cost_of, band_starts)
 
 
 def _check_edges(
@@ -318,12 +369,73 @@ def _symmetric_rows(
 
 @jit.kernel(cache=True, parallel=True)
 def _edge_positions(
-    indptr: IntArray, indices: IntArray, first: IntArray, second: IntArray
+    bands: IntArray, indices: IntArray, first: IntArray, second: IntArray
 ) -> IntArray:
     out = np.full(len(first), -1, dtype=np.int64)
     for m in jit.prange(len(first)):
-        row = indices[indptr[first[m]] : indptr[first[m] + 1]]
-        position = np.searchsorted(row, second[m])
-        if position < len(row) and row[position] == second[m]:
-            out[m] = indptr[first[m]] + position
+        # Each band of the row is sorted by neighbour: a bisection in each.
+        for band in range(bands.shape[1] - 1):
+            start = bands[first[m], band]
+            row = indices[start : bands[first[m], band + 1]]
+            position = np.searchsorted(row, second[m])
+            if position < len(row) and row[position] == second[m]:
+                out[m] = start + position
+                break
     return out
+
+
+@jit.kernel(cache=True, nogil=True)
+def _banded_rows(
+    indptr: IntArray, indices: IntArray, edge: IntArray, weights: FloatArray, bands: int
+) -> IntArray:
+    """Lay each row of ``indices`` and ``edge`` (sorted by neighbour) out in ``bands`` bands
+    of equal width of ``weights[edge]``, in place, each band in neighbour order; return
+    where each band of each row begins, and the row's end: (N, bands + 1)."""
+    size = len(indptr) - 1
+    shortest, longest = np.inf, -np.inf
+    for entry in range(len(edge)):
+        shortest = min(shortest, weights[edge[entry]])
+        longest = max(longest, weights[edge[entry]])
+    width = (longest - shortest) / bands
+    starts = np.empty((size, bands + 1), dtype=np.int64)
+    widest = 0
+    for node in range(size):
+        widest = max(widest, indptr[node + 1] - indptr[node])
+    row_indices = np.empty(widest, dtype=indices.dtype)
+    row_edge = np.empty(widest, dtype=np.int64)
+    row_band = np.empty(widest, dtype=np.int64)
+    cursor = np.empty(bands, dtype=np.int64)
+    for node in range(size):
+        begin, end = indptr[node], indptr[node + 1]
+        cursor[:] = 0
+        for entry in range(begin, end):
+            band = 0
+            if width > 0:
+                band = min(int((weights[edge[entry]] - shortest) / width), bands - 1)
+            row_indices[entry - begin] = indices[entry]
+            row_edge[entry - begin] = edge[entry]
+            row_band[entry - begin] = band
+            cursor[band] += 1
+        # Counts to starts, then each entry to the next place of its band: stable.
+        place = begin
+        for band in range(bands):
+            starts[node, band] = place
+            place, cursor[band] = place + cursor[band], place
+        starts[node, bands] = end
+        for offset in range(end - begin):
+            band = row_band[offset]
+            indices[cursor[band]] = row_indices[offset]
+            edge[cursor[band]] = row_edge[offset]
+            cursor[band] += 1
+    return starts
+
+
+@jit.kernel(cache=True, nogil=True)
+def _band_floors(bands: IntArray, weights: FloatArray) -> FloatArray:
+    """The least of ``weights`` in each band of every row: (B,), inf where none."""
+    floors = np.full(bands.shape[1] - 1, np.inf)
+    for node in range(bands.shape[0]):
+        for band in range(bands.shape[1] - 1):
+            for entry in range(bands[node, band], bands[node, band + 1]):
+                floors[band] = min(floors[band], weights[entry])
+    return floors

@@ -30,6 +30,13 @@ from .sight import obstructed, segments_near
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
 
+#: Bands of length in each row of SD_vis: its edges run from the sweet range's start to the
+#: decaying range's end (6 to 30 cm published), and a search bounded by its targets' cost
+#: reads only the bands it can afford (docs/core.md, "Why it is fast"). S_all and S_vis
+#: hold sweet edges alone (6 to 8 cm): one band, the row, sorted by neighbour, which
+#: Move Source's helpers are taken in the order of.
+ANY_VISIBLE_BANDS = 8
+
 
 @dataclass
 class NeighbourGraphs:
@@ -132,11 +139,12 @@ class Neighbourhood:
         """SD_vis: sweet or decaying pairs in line of sight."""
         if self.graphs.any_visible is None:
             reach = (self.pairs.range_class == SWEET) | (self.pairs.range_class == DECAYING)
-            self.graphs.any_visible = self._graph(reach & self.visible)
+            self.graphs.any_visible = self._graph(reach & self.visible, ANY_VISIBLE_BANDS)
         return self.graphs.any_visible
 
-    def _graph(self, mask: NDArray[np.bool_]) -> Graph:
-        """The graph of the usable pairs where ``mask`` (len(pairs),) holds, with their costs."""
+    def _graph(self, mask: NDArray[np.bool_], bands: int = 1) -> Graph:
+        """The graph of the usable pairs where ``mask`` (len(pairs),) holds, with their costs,
+        its rows in ``bands`` bands of length."""
         pairs = self.pairs
         # The pairs picked out, not copied, and the costs only when the least-error policy
         # asks: at display scale a graph is tens of millions of entries.
@@ -148,6 +156,7 @@ class Neighbourhood:
             pairs.tracking,
             cost_of=costs,
             keep=mask & self.usable,
+            bands=bands,
         )
 
 

@@ -300,6 +300,14 @@ def _search_of(graph: Graph, policy: str, components: IntArray | None) -> Search
     weights, fewest_hops = _policy_weights(graph, policy)
     if components is None:
         components = graph.components()
+    # A band is skipped where its least weight is beyond a search's bound. Hops are
+    # bounded on their own, so a fewest-hops search reads each row whole, as one band
+    # (the order of a node's offers changes no label, nor any tie: search.py).
+    bands = np.stack([graph.indptr[:-1], graph.indptr[1:]], axis=1)
+    floors = np.zeros(1)
+    if graph.bands is not None and not fewest_hops:
+        bands = graph.bands
+        floors = graph.band_floors(costs=check_policy(policy) == LEAST_ERROR)
     return Search(
         graph.indptr,
         graph.indices,
@@ -307,6 +315,8 @@ def _search_of(graph: Graph, policy: str, components: IntArray | None) -> Search
         components,
         fewest_hops,
         *_buckets(weights, fewest_hops),
+        bands,
+        floors,
     )
 
 

@@ -33,6 +33,8 @@ class Search(NamedTuple):
     fewest_hops: bool  # hops are the primary cost, weights the secondary
     bucket_width: float  # width of a bucket of Dinitz's search (see paths._buckets)
     slots: int  # buckets kept in turn; 0 for a heap search
+    bands: IntArray  # (N, B + 1), where each band a search reads begins (B = 1: the rows)
+    floors: FloatArray  # (B,), the least weight of each band; 0 where it is not to be skipped
 
 
 class Labels(NamedTuple):
@@ -222,8 +224,14 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
     label is reached at its cost lies in an earlier bucket, so the
     predecessor rule sees them all. The search stops as soon as the last
     target's bucket is reached, without relaxing it.
+
+    A row laid out in bands of weight (``search.bands``) is read band by band,
+    and a band whose least weight the node cannot afford within the bound is
+    skipped whole: the offers left out are those the bound leaves out one by
+    one. The order in which a node's offers come changes no label and no tie
+    (the least costs win, and at equal costs the smallest predecessor).
     """
-    indptr, indices, weights, component, fewest_hops, bucket_width, slots = search
+    _, indices, weights, component, fewest_hops, bucket_width, slots, bands, floors = search
     primary, secondary, pred, settled, wanted, touched, order = labels
     remaining = _mark_targets(source, targets, component, wanted)
     entry_node = np.empty(1024, dtype=np.int64)
@@ -252,45 +260,49 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
             k1, k2 = primary[node], secondary[node]
             if fewest_hops and k1 + 1.0 > bound:
                 continue
-            for edge in range(indptr[node], indptr[node + 1]):
-                n1 = k1 + 1.0 if fewest_hops else k1 + weights[edge]
-                if n1 > bound:
+            for band in range(len(floors)):
+                # A band whose least weight is beyond the bound has no offer to hear.
+                if k1 + floors[band] > bound:
                     continue
-                neighbour = indices[edge]
-                p1 = primary[neighbour]
-                # Most edges of a dense graph lead nowhere better: decide on the first key.
-                if n1 > p1 or settled[neighbour]:
-                    continue
-                n2 = k2 + weights[edge] if fewest_hops else k2 + 1.0
-                p2 = secondary[neighbour]
-                if p1 == np.inf:
-                    touched[count] = neighbour
-                    count += 1
-                if n1 < p1 or n2 < p2:
-                    primary[neighbour] = n1
-                    secondary[neighbour] = n2
-                    pred[neighbour] = node
-                    # The next bucket at least: a label never returns to a bucket relaxed.
-                    target_bucket = max(int(n1 / bucket_width), bucket)
-                    if p1 < np.inf and target_bucket == max(int(p1 / bucket_width), bucket):
-                        continue  # listed in that bucket already
-                    if used == len(entry_node):
-                        entry_node = _doubled(entry_node, used)
-                        entry_next = _doubled(entry_next, used)
-                    target_slot = target_bucket % slots
-                    entry_node[used], entry_next[used] = neighbour, head[target_slot]
-                    head[target_slot] = used
-                    used += 1
-                    pending += 1
-                elif n2 == p2 and node < pred[neighbour]:
-                    pred[neighbour] = node
+                for edge in range(bands[node, band], bands[node, band + 1]):
+                    n1 = k1 + 1.0 if fewest_hops else k1 + weights[edge]
+                    if n1 > bound:
+                        continue
+                    neighbour = indices[edge]
+                    p1 = primary[neighbour]
+                    # Most edges of a dense graph lead nowhere better: decide on the first key.
+                    if n1 > p1 or settled[neighbour]:
+                        continue
+                    n2 = k2 + weights[edge] if fewest_hops else k2 + 1.0
+                    p2 = secondary[neighbour]
+                    if p1 == np.inf:
+                        touched[count] = neighbour
+                        count += 1
+                    if n1 < p1 or n2 < p2:
+                        primary[neighbour] = n1
+                        secondary[neighbour] = n2
+                        pred[neighbour] = node
+                        # The next bucket at least: a label never returns to a bucket relaxed.
+                        target_bucket = max(int(n1 / bucket_width), bucket)
+                        if p1 < np.inf and target_bucket == max(int(p1 / bucket_width), bucket):
+                            continue  # listed in that bucket already
+                        if used == len(entry_node):
+                            entry_node = _doubled(entry_node, used)
+                            entry_next = _doubled(entry_next, used)
+                        target_slot = target_bucket % slots
+                        entry_node[used], entry_next[used] = neighbour, head[target_slot]
+                        head[target_slot] = used
+                        used += 1
+                        pending += 1
+                    elif n2 == p2 and node < pred[neighbour]:
+                        pred[neighbour] = node
     return count
 
 
 @jit.kernel(cache=True, nogil=True)
 def _search_heap(search: Search, source: int, targets: IntArray, labels: Labels) -> int:
     """Dijkstra with a binary heap, for edges too unequal for buckets; see :func:`search_from`."""
-    indptr, indices, weights, component, fewest_hops, _, _ = search
+    indptr, indices, weights, component, fewest_hops, _, _, _, _ = search
     primary, secondary, pred, settled, wanted, touched, _ = labels
     remaining = _mark_targets(source, targets, component, wanted)
     capacity = 64

@@ -101,3 +101,54 @@ def test_a_graph_of_the_kept_pairs_is_the_graph_of_those_pairs_labelled_by_posit
     for field in ("indptr", "indices", "weights", "labels"):
         np.testing.assert_array_equal(getattr(kept, field), getattr(chosen, field))
     assert 0 < kept.edges < len(pairs)
+
+
+def test_a_banded_graph_holds_each_row_s_entries_shortest_band_first_each_band_by_neighbour():
+    rng = np.random.default_rng(5)
+    first, second = rng.integers(0, 40, size=(2, 500))
+    keep = first < second
+    pairs = np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
+    weight = rng.uniform(6.0, 30.0, size=len(pairs))
+    plain = make_graph(40, pairs[:, 0], pairs[:, 1], weight)
+    banded = make_graph(40, pairs[:, 0], pairs[:, 1], weight, bands=4)
+    assert plain.bands is None and banded.bands is not None and banded.bands.shape == (40, 5)
+    np.testing.assert_array_equal(banded.indptr, plain.indptr)
+    np.testing.assert_array_equal(banded.bands[:, 0], plain.indptr[:-1])
+    np.testing.assert_array_equal(banded.bands[:, -1], plain.indptr[1:])
+    # Bands of 6 cm each (the weights span 6 to 30 cm): each band's entries fall in it.
+    shortest, width = weight.min(), (weight.max() - weight.min()) / 4
+    for node in range(40):
+        starts = banded.bands[node]
+        for band in range(4):
+            entries = slice(starts[band], starts[band + 1])
+            inside = banded.weights[entries]
+            assert ((inside >= shortest + band * width - 1e-9) | (band == 0)).all()
+            assert ((inside <= shortest + (band + 1) * width + 1e-9) | (band == 3)).all()
+            assert (np.diff(banded.indices[entries]) > 0).all()
+        # The row holds the same entries as the plain graph's, each with its weight and label.
+        row = slice(plain.indptr[node], plain.indptr[node + 1])
+        order = np.argsort(banded.indices[row])
+        np.testing.assert_array_equal(banded.indices[row][order], plain.indices[row])
+        np.testing.assert_array_equal(banded.weights[row][order], plain.weights[row])
+        np.testing.assert_array_equal(banded.labels[row][order], plain.labels[row])
+    # Every edge is found in its band, with its label, and a non-edge in none.
+    ends = rng.integers(0, 40, size=(2, 300))
+    np.testing.assert_array_equal(banded.edge_labels(*ends), plain.edge_labels(*ends))
+    found = banded.edge_positions(pairs[:, 1], pairs[:, 0])
+    assert (found >= 0).all() and (banded.labels[found] == np.arange(len(pairs))).all()
+    # A band's floor is the least weight among its entries.
+    floors = banded.band_floors()
+    for band in range(4):
+        least = min(
+            banded.weights[banded.bands[node, band] : banded.bands[node, band + 1]].min(
+                initial=np.inf
+            )
+            for node in range(40)
+        )
+        assert floors[band] == least
+    assert floors.tolist() == sorted(floors.tolist()) and floors[0] == weight.min()
+
+
+def test_a_graph_needs_a_band_at_least():
+    with pytest.raises(ValueError, match="one band at least, got 0"):
+        make_graph(3, [0], [1], [1.0], bands=0)

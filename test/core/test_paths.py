@@ -149,6 +149,29 @@ def test_buckets_and_a_heap_pick_the_same_paths_ties_included(monkeypatch, polic
     np.testing.assert_array_equal(buckets.length, heap.length)
 
 
+@pytest.mark.parametrize("policy", ["fewest-hops", "shortest-length", "least-error"])
+def test_rows_in_bands_of_length_give_the_paths_of_rows_in_neighbour_order(policy):
+    # A search skips the bands it cannot afford; the labels, ties and paths are the same.
+    rng = np.random.default_rng(11)
+    size = 200
+    first, second = rng.integers(0, size, size=(2, 2400))
+    keep = first < second
+    pairs = np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
+    # Whole numbers from 6 to 30: equal costs abound, so the predecessor rule decides.
+    weight = rng.integers(6, 31, size=len(pairs)).astype(float)
+    cost = rng.integers(1, 9, size=len(pairs)).astype(float)
+    plain = make_graph(size, pairs[:, 0], pairs[:, 1], weight, costs=cost)
+    banded = make_graph(size, pairs[:, 0], pairs[:, 1], weight, costs=cost, bands=6)
+    sources = np.repeat(np.arange(size), 4)
+    targets = rng.integers(0, size, size=len(sources))
+    expected = shortest_paths(plain, sources, targets, policy)
+    found = shortest_paths(banded, sources, targets, policy)
+    assert expected.found.sum() > 0.8 * len(sources) and expected.hops.max() >= 3
+    for field in ("found", "hops", "offsets", "nodes"):
+        np.testing.assert_array_equal(getattr(found, field), getattr(expected, field))
+    np.testing.assert_array_equal(found.length, expected.length)
+
+
 def test_a_target_labelled_early_still_takes_the_smaller_predecessor_at_its_cost():
     # T = 7 is labelled 6 through FLS 5 (bucket 1) before FLS 3 (label 4, bucket 2) offers
     # it 6 as well: the offer equals the dearest target's label and must still be heard,
