@@ -13,6 +13,7 @@ arguments and a swarm file's paths (``files.values.input_file``) take the same c
 from __future__ import annotations
 
 import os
+import resource
 import stat
 import sys
 from pathlib import Path
@@ -169,6 +170,29 @@ def total_memory() -> int:
 
 
 def available_memory() -> int:
-    """Memory this machine has free for a run, bytes (MemAvailable, else all of it)."""
+    """Memory free for a run of this process, bytes.
+
+    The machine's free memory (MemAvailable, else all of it), but no more than
+    the address space this process may still take under its limit (``ulimit
+    -v``, RLIMIT_AS): past it an allocation fails, and a BLAS or a compiled
+    kernel that meets the failure ends the process with SIGSEGV rather than
+    an error.
+    """
     available = _meminfo("MemAvailable")
-    return available if available is not None else total_memory()
+    free = available if available is not None else total_memory()
+    limit, _ = resource.getrlimit(resource.RLIMIT_AS)
+    if limit != resource.RLIM_INFINITY:
+        free = min(free, max(0, limit - _address_space()))
+    return free
+
+
+def _address_space() -> int:
+    """The address space this process takes now, bytes (VmSize; 0 where unknown)."""
+    try:
+        with open("/proc/self/status") as status:
+            for line in status:
+                if line.startswith("VmSize:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError):
+        pass
+    return 0
