@@ -102,16 +102,23 @@ def _digest(path: Path) -> str:
     return digest.hexdigest()
 
 
-def _untimed(document: object) -> object:
-    """A JSON document without its "seconds", at any depth: what two runs of one work share."""
+def _comparable(document: object) -> object:
+    """A JSON document as two runs of one work share it: without its "seconds", at any
+    depth, and with the resampled cloud each run writes into its own folder named by its
+    file name alone."""
     if isinstance(document, dict):
-        return {key: _untimed(value) for key, value in document.items() if key != "seconds"}
+        return {
+            key: Path(value).name if key == "cloud_source" and isinstance(value, str)
+            else _comparable(value)
+            for key, value in document.items()
+            if key != "seconds"
+        }  # fmt: skip
     return document
 
 
-def _summary_without_time(path: Path) -> object:
-    """summary.json without its timing."""
-    return _untimed(json.loads(path.read_text()))
+def summary_to_compare(path: Path) -> object:
+    """summary.json as two runs of one work share it (:func:`_comparable`)."""
+    return _comparable(json.loads(path.read_text()))
 
 
 def display_run(
@@ -139,8 +146,7 @@ def display_run(
             same = (
                 held_code == 0
                 and _digest(held / "pairs.csv") == sha
-                and _summary_without_time(held / SUMMARY_FILE)
-                == _summary_without_time(summary_path)
+                and summary_to_compare(held / SUMMARY_FILE) == summary_to_compare(summary_path)
             )
             identical = "yes" if same else "NO"
     row = DisplayRow(shape, size, run, int(summary["flss"]), int(summary["blind_pairs"]), wall,

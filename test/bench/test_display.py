@@ -54,3 +54,18 @@ def test_the_section_runs_the_sizes_asked_for_and_records_each_row_as_it_is_made
     # A torus of about the size asked for: the table gives the FLSs it has.
     assert [row[1] for row in table] == [str(row["flss"]) for row in records] == ["147", "200"]
     assert (tmp_path / "display-scale.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_two_runs_compare_their_summaries_without_time_or_the_folder_of_their_cloud(tmp_path):
+    from bench.display import summary_to_compare
+
+    def summary(folder, seconds, pairs):
+        cloud = f"/{folder}/racecar_3720_resampled_10000.xyz"
+        document = {"seconds": seconds, "parameters": {"cloud_source": cloud}, "pairs": pairs}
+        path = tmp_path / f"{folder}-{seconds}-{pairs}.json"
+        path.write_text(json.dumps(document))
+        return summary_to_compare(path)
+
+    # Each run writes the resampled cloud into its own --out: the same cloud, the same run.
+    assert summary("blocks", 1.0, 7) == summary("held", 2.5, 7)
+    assert summary("blocks", 1.0, 7) != summary("held", 1.0, 8)
