@@ -4,11 +4,16 @@ import pytest
 from swazure_ros.core.graph import make_graph
 
 
+def random_pairs(rng, size, draws):
+    """Distinct pairs (first < second) of ``size`` nodes, from ``draws`` random draws."""
+    first, second = rng.integers(0, size, size=(2, draws))
+    keep = first < second
+    return np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
+
+
 def test_a_graph_is_the_same_from_sorted_pairs_and_from_edges_in_any_order():
     rng = np.random.default_rng(3)
-    first, second = rng.integers(0, 60, size=(2, 400))
-    keep = first < second
-    pairs = np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
+    pairs = random_pairs(rng, 60, 400)
     weight = rng.uniform(1, 2, size=len(pairs))
     cost = rng.uniform(0, 1, size=len(pairs))
     ordered = make_graph(60, pairs[:, 0], pairs[:, 1], weight, costs=cost)
@@ -105,9 +110,7 @@ def test_a_graph_of_the_kept_pairs_is_the_graph_of_those_pairs_labelled_by_posit
 
 def test_a_banded_graph_holds_each_row_s_entries_shortest_band_first_each_band_by_neighbour():
     rng = np.random.default_rng(5)
-    first, second = rng.integers(0, 40, size=(2, 500))
-    keep = first < second
-    pairs = np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
+    pairs = random_pairs(rng, 40, 500)
     weight = rng.uniform(6.0, 30.0, size=len(pairs))
     plain = make_graph(40, pairs[:, 0], pairs[:, 1], weight)
     banded = make_graph(40, pairs[:, 0], pairs[:, 1], weight, bands=4)

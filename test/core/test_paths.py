@@ -11,6 +11,18 @@ def graph(edges):
     return make_graph(max(max(first), max(second)) + 1, first, second, weight)
 
 
+def random_pairs(rng, size, draws):
+    """Distinct pairs (first < second) of ``size`` nodes, from ``draws`` random draws."""
+    first, second = rng.integers(0, size, size=(2, draws))
+    keep = first < second
+    return np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
+
+
+def assert_same_paths(found, expected):
+    for field in ("found", "hops", "offsets", "nodes", "length"):
+        np.testing.assert_array_equal(getattr(found, field), getattr(expected, field))
+
+
 # 0-1-3 is two hops of 5 (length 10); 0-2-4-3 is three hops of 1 (length 3).
 TWO_LONG_OR_THREE_SHORT = [(0, 1, 5.0), (1, 3, 5.0), (0, 2, 1.0), (2, 4, 1.0), (4, 3, 1.0)]
 
@@ -130,9 +142,7 @@ def test_buckets_and_a_heap_pick_the_same_paths_ties_included(monkeypatch, polic
 
     rng = np.random.default_rng(7)
     size = 150
-    first, second = rng.integers(0, size, size=(2, 900))
-    keep = first < second
-    pairs = np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
+    pairs = random_pairs(rng, size, 900)
     # Whole numbers from 2 to 5: many paths of equal cost, so the predecessor rule decides.
     weight = rng.integers(2, 6, size=len(pairs)).astype(float)
     cost = rng.integers(1, 4, size=len(pairs)).astype(float)
@@ -144,9 +154,7 @@ def test_buckets_and_a_heap_pick_the_same_paths_ties_included(monkeypatch, polic
     monkeypatch.setattr(paths_module, "_MOST_BUCKETS", 0)  # every search takes the heap
     heap = shortest_paths(g, sources, targets, policy)
     assert buckets.found.sum() > 0.8 * len(sources)
-    for field in ("found", "hops", "offsets", "nodes"):
-        np.testing.assert_array_equal(getattr(buckets, field), getattr(heap, field))
-    np.testing.assert_array_equal(buckets.length, heap.length)
+    assert_same_paths(buckets, heap)
 
 
 @pytest.mark.parametrize("policy", ["fewest-hops", "shortest-length", "least-error"])
@@ -154,9 +162,7 @@ def test_rows_in_bands_of_length_give_the_paths_of_rows_in_neighbour_order(polic
     # A search skips the bands it cannot afford; the labels, ties and paths are the same.
     rng = np.random.default_rng(11)
     size = 200
-    first, second = rng.integers(0, size, size=(2, 2400))
-    keep = first < second
-    pairs = np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
+    pairs = random_pairs(rng, size, 2400)
     # Whole numbers from 6 to 30: equal costs abound, so the predecessor rule decides.
     weight = rng.integers(6, 31, size=len(pairs)).astype(float)
     cost = rng.integers(1, 9, size=len(pairs)).astype(float)
@@ -167,9 +173,7 @@ def test_rows_in_bands_of_length_give_the_paths_of_rows_in_neighbour_order(polic
     expected = shortest_paths(plain, sources, targets, policy)
     found = shortest_paths(banded, sources, targets, policy)
     assert expected.found.sum() > 0.8 * len(sources) and expected.hops.max() >= 3
-    for field in ("found", "hops", "offsets", "nodes"):
-        np.testing.assert_array_equal(getattr(found, field), getattr(expected, field))
-    np.testing.assert_array_equal(found.length, expected.length)
+    assert_same_paths(found, expected)
 
 
 def test_a_target_labelled_early_still_takes_the_smaller_predecessor_at_its_cost():
