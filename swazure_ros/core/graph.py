@@ -56,13 +56,15 @@ class Graph:
         """Where each band of each row begins, and the row's end: (N, B + 1).
 
         Band b of row v is ``indices[row_bands()[v, b] : row_bands()[v, b + 1]]``;
-        a graph of one band gives ``indptr`` as its two columns.
+        a graph of one band gives :meth:`whole_rows`.
         """
-        if self.bands is not None:
-            return self.bands
-        if "bands" not in self._computed:
-            self._computed["bands"] = np.stack([self.indptr[:-1], self.indptr[1:]], axis=1)
-        return self._computed["bands"]
+        return self.bands if self.bands is not None else self.whole_rows()
+
+    def whole_rows(self) -> IntArray:
+        """Each row as one band, whatever its layout: (N, 2), ``indptr``'s two columns."""
+        if "whole rows" not in self._computed:
+            self._computed["whole rows"] = np.stack([self.indptr[:-1], self.indptr[1:]], axis=1)
+        return self._computed["whole rows"]
 
     def band_floors(self, costs: bool = False) -> FloatArray:
         """The least length (or, with ``costs``, cost) of an entry in each band: (B,).

@@ -303,7 +303,7 @@ def _search_of(graph: Graph, policy: str, components: IntArray | None) -> Search
     # A band is skipped where its least weight is beyond a search's bound. Hops are
     # bounded on their own, so a fewest-hops search reads each row whole, as one band
     # (the order of a node's offers changes no label, nor any tie: search.py).
-    bands = np.stack([graph.indptr[:-1], graph.indptr[1:]], axis=1)
+    bands = graph.whole_rows()
     floors = np.zeros(1)
     if graph.bands is not None and not fewest_hops:
         bands = graph.bands
