@@ -18,6 +18,15 @@ def random_pairs(rng, size, draws):
     return np.unique(np.column_stack([first[keep], second[keep]]), axis=0)
 
 
+def tied_edges(rng, size, draws, lengths, costs):
+    """Random pairs with whole-number lengths and costs drawn from the ranges [low, high):
+    many paths of equal cost, so the predecessor rule decides."""
+    pairs = random_pairs(rng, size, draws)
+    weight = rng.integers(*lengths, size=len(pairs)).astype(float)
+    cost = rng.integers(*costs, size=len(pairs)).astype(float)
+    return pairs, weight, cost
+
+
 def assert_same_paths(found, expected):
     for field in ("found", "hops", "offsets", "nodes", "length"):
         np.testing.assert_array_equal(getattr(found, field), getattr(expected, field))
@@ -142,10 +151,7 @@ def test_buckets_and_a_heap_pick_the_same_paths_ties_included(monkeypatch, polic
 
     rng = np.random.default_rng(7)
     size = 150
-    pairs = random_pairs(rng, size, 900)
-    # Whole numbers from 2 to 5: many paths of equal cost, so the predecessor rule decides.
-    weight = rng.integers(2, 6, size=len(pairs)).astype(float)
-    cost = rng.integers(1, 4, size=len(pairs)).astype(float)
+    pairs, weight, cost = tied_edges(rng, size, 900, (2, 6), (1, 4))
     g = make_graph(size, pairs[:, 0], pairs[:, 1], weight, costs=cost)
     sources = np.repeat(np.arange(size), 6)
     targets = rng.integers(0, size, size=len(sources))
@@ -162,10 +168,7 @@ def test_rows_in_bands_of_length_give_the_paths_of_rows_in_neighbour_order(polic
     # A search skips the bands it cannot afford; the labels, ties and paths are the same.
     rng = np.random.default_rng(11)
     size = 200
-    pairs = random_pairs(rng, size, 2400)
-    # Whole numbers from 6 to 30: equal costs abound, so the predecessor rule decides.
-    weight = rng.integers(6, 31, size=len(pairs)).astype(float)
-    cost = rng.integers(1, 9, size=len(pairs)).astype(float)
+    pairs, weight, cost = tied_edges(rng, size, 2400, (6, 31), (1, 9))
     plain = make_graph(size, pairs[:, 0], pairs[:, 1], weight, costs=cost)
     banded = make_graph(size, pairs[:, 0], pairs[:, 1], weight, costs=cost, bands=6)
     sources = np.repeat(np.arange(size), 4)
