@@ -48,6 +48,9 @@ class Graph:
     cost_of: Callable[[FloatArray], FloatArray] | None = field(default=None, compare=False)
     # (N, B + 1): where each band of each row begins, and the row's end; None: one band.
     bands: IntArray | None = field(default=None, compare=False)
+    # (N, 3): each node's place, cm, so that a search can skip the nodes too far from its
+    # targets (:meth:`reach_ratio`); None: places unknown.
+    positions: FloatArray | None = field(default=None, compare=False)
     _computed: dict[str, NDArray[Any]] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
@@ -84,6 +87,42 @@ class Graph:
                 raise ValueError("the graph was made without edge costs")
             self._computed[key] = _band_floors(self.row_bands(), weights)
         return self._computed[key]
+
+    def reach_ratio(self, costs: bool = False, hops: bool = False) -> float:
+        """The least length (cost, or hop) an entry has per cm of straight line between its ends.
+
+        A path's summed lengths (costs, hops) are at least this times the
+        distance between its ends, so a search can leave out a node whose cost
+        plus this times its distance to the targets exceeds its bound. Zero
+        for a graph without :attr:`positions` (nothing left out). Computed
+        once for each kind.
+
+        Parameters
+        ----------
+        costs : bool, optional
+            Of the entries' costs (the least-error policy) instead of their lengths.
+        hops : bool, optional
+            Of their hops, one each (the fewest-hops policy).
+
+        Raises
+        ------
+        ValueError
+            ``costs`` asked of a graph made without them.
+        """
+        if self.positions is None:
+            return 0.0
+        key = "reach of hops" if hops else "reach of costs" if costs else "reach of weights"
+        if key not in self._computed:
+            weights = self.weights if hops else self.edge_costs() if costs else self.weights
+            if weights is None:
+                raise ValueError("the graph was made without edge costs")
+            ratios = _least_per_length(self.indptr, self.indices, weights, self.positions, hops)
+            least = float(ratios.min()) if len(ratios) else np.inf
+            # Rounding of the ratio and of the distances a search computes is far below
+            # 1e-9; a weight of 0 or less bounds nothing.
+            useful = np.isfinite(least) and least > 0.0
+            self._computed[key] = np.array(least * (1.0 - 1e-9) if useful else 0.0)
+        return float(self._computed[key])
 
     def edge_costs(self) -> FloatArray | None:
         """Each entry's cost (2E,), cm or cm^2: given, or ``cost_of(weights)`` computed once.
@@ -145,6 +184,7 @@ def make_graph(
     cost_of: Callable[[FloatArray], FloatArray] | None = None,
     keep: NDArray[np.bool_] | None = None,
     bands: int = 1,
+    positions: ArrayLike | None = None,
 ) -> Graph:
     """Undirected graph on ``size`` nodes from edge lists, each edge entered once.
 
@@ -172,6 +212,9 @@ def make_graph(
         Lay each row out in this many bands of equal width between the
         shortest and the longest edge's weight, shortest first
         (:attr:`Graph.bands`); default one, the row.
+    positions : (N, 3) array_like of float, cm, optional
+        Each node's place, when an edge's weight grows with the distance
+        between its ends' places (:meth:`Graph.reach_ratio`).
 
     Returns
     -------
@@ -183,7 +226,7 @@ def make_graph(
     ------
     ValueError
         The lists differ in length, an end is not a node, an edge joins a
-        node to itself, or ``bands`` is below one.
+        node to itself, ``bands`` is below one, or ``positions`` is not (N, 3).
 
     Examples
     --------
@@ -203,6 +246,10 @@ def make_graph(
         raise ValueError("give `costs` or `cost_of`, not both")
     if bands < 1:
         raise ValueError(f"a graph's rows need one band at least, got {bands}")
+    if positions is not None:
+        positions = np.asarray(positions, dtype=np.float64)
+        if positions.shape != (size, 3):
+            raise ValueError(f"`positions` must be ({size}, 3), got {positions.shape}")
     indptr, indices, edge = symmetric_rows(size, first, second, keep=keep)
     indptr = indptr.astype(np.int64)
     band_starts = _banded_rows(indptr, indices, edge, weights, bands) if bands > 1 else None
@@ -214,7 +261,9 @@ def make_graph(
         edge_costs = costs[edge]
     # Labelled by position, the entries' edges are their labels: no list of them made.
     entry_labels = edge if labels is None else labels[edge]
-    return Graph(indptr, indices, weights[edge], entry_labels, edge_costs, cost_of, band_starts)
+    return Graph(
+        indptr, indices, weights[edge], entry_labels, edge_costs, cost_of, band_starts, positions
+    )
 
 
 def _check_edges(
@@ -237,6 +286,27 @@ def _check_edges(
         raise ValueError(f"`first` and `second` must be nodes of the graph, 0 to {size - 1}")
     if np.any(first == second):
         raise ValueError("a graph edge cannot join a node to itself")
+
+
+@jit.kernel(cache=True, parallel=True)
+def _least_per_length(
+    indptr: IntArray, indices: IntArray, weights: FloatArray, positions: FloatArray, hops: bool
+) -> FloatArray:
+    """Each row's least weight (or, with ``hops``, 1) per unit of its entries' straight
+    lengths: (N,); inf for a row without an entry of positive length."""
+    size = len(indptr) - 1
+    least = np.full(size, np.inf)
+    for node in jit.prange(size):
+        for entry in range(indptr[node], indptr[node + 1]):
+            other = indices[entry]
+            dx = positions[node, 0] - positions[other, 0]
+            dy = positions[node, 1] - positions[other, 1]
+            dz = positions[node, 2] - positions[other, 2]
+            length = np.sqrt(dx * dx + dy * dy + dz * dz)
+            if length > 0.0:
+                weight = 1.0 if hops else weights[entry]
+                least[node] = min(least[node], weight / length)
+    return least
 
 
 @jit.kernel(cache=True, nogil=True)
@@ -373,17 +443,39 @@ def _symmetric_rows(
 def _edge_positions(
     bands: IntArray, indices: IntArray, first: IntArray, second: IntArray
 ) -> IntArray:
-    out = np.full(len(first), -1, dtype=np.int64)
+    out = np.empty(len(first), dtype=np.int64)
     for m in jit.prange(len(first)):
-        # Each band of the row is sorted by neighbour: a bisection in each.
-        for band in range(bands.shape[1] - 1):
-            start = bands[first[m], band]
-            row = indices[start : bands[first[m], band + 1]]
-            position = np.searchsorted(row, second[m])
-            if position < len(row) and row[position] == second[m]:
-                out[m] = start + position
-                break
+        out[m] = entry_of(bands, indices, first[m], second[m])
     return out
+
+
+@jit.kernel(cache=True, nogil=True)
+def entry_of(bands: IntArray, indices: IntArray, node: int, other: int) -> int:
+    """Where in ``indices`` row ``node`` holds ``other``: -1 where it does not.
+
+    Each band of a row is sorted by neighbour (:class:`Graph`): a bisection in each.
+
+    Parameters
+    ----------
+    bands : (N, B + 1) ndarray of int
+        Where each band of each row begins, and the row's end (:meth:`Graph.row_bands`).
+    indices : (2E,) ndarray of int
+        The graph's entries.
+    node, other : int
+        The row, and the neighbour looked for in it.
+
+    Returns
+    -------
+    int
+        The entry's position, or -1.
+    """
+    for band in range(bands.shape[1] - 1):
+        start = bands[node, band]
+        row = indices[start : bands[node, band + 1]]
+        position = np.searchsorted(row, other)
+        if position < len(row) and row[position] == other:
+            return int(start + position)
+    return -1
 
 
 @jit.kernel(cache=True, nogil=True)

@@ -157,6 +157,7 @@ class Neighbourhood:
             cost_of=costs,
             keep=mask & self.usable,
             bands=bands,
+            positions=self.swarm.points,
         )
 
 

@@ -305,9 +305,11 @@ def _search_of(graph: Graph, policy: str, components: IntArray | None) -> Search
     # (the order of a node's offers changes no label, nor any tie: search.py).
     bands = graph.whole_rows()
     floors = np.zeros(1)
+    least_error = check_policy(policy) == LEAST_ERROR
     if graph.bands is not None and not fewest_hops:
         bands = graph.bands
-        floors = graph.band_floors(costs=check_policy(policy) == LEAST_ERROR)
+        floors = graph.band_floors(costs=least_error)
+    positions = graph.positions if graph.positions is not None else np.empty((0, 3))
     return Search(
         graph.indptr,
         graph.indices,
@@ -317,6 +319,8 @@ def _search_of(graph: Graph, policy: str, components: IntArray | None) -> Search
         *_buckets(weights, fewest_hops),
         bands,
         floors,
+        positions,
+        graph.reach_ratio(costs=least_error, hops=fewest_hops),
     )
 
 

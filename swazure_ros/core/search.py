@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from . import jit
 from .arrays import FloatArray, IntArray
+from .graph import entry_of
 
 
 class Search(NamedTuple):
@@ -35,6 +36,8 @@ class Search(NamedTuple):
     slots: int  # buckets kept in turn; 0 for a heap search
     bands: IntArray  # (N, B + 1), where each band a search reads begins (B = 1: the rows)
     floors: FloatArray  # (B,), the least weight of each band; 0 where it is not to be skipped
+    positions: FloatArray  # (N, 3), each node's place, cm; (0, 3) where unknown
+    reach: float  # the least primary cost a path has per cm of its ends' distance; 0: unknown
 
 
 class Labels(NamedTuple):
@@ -206,6 +209,50 @@ def _target_bound(
 
 
 @jit.kernel(cache=True, nogil=True)
+def _nearest_first(
+    nodes: IntArray, positions: FloatArray, ball: tuple[float, float, float, float]
+) -> None:
+    """Sort ``nodes`` in place by their distance to ``ball``'s centre, nearest first."""
+    distance = np.empty(len(nodes))
+    for position in range(len(nodes)):
+        distance[position] = _distance(positions[nodes[position]], ball[0], ball[1], ball[2])
+    nodes[:] = nodes[np.argsort(distance)]
+
+
+@jit.kernel(cache=True, nogil=True)
+def _targets_ball(
+    positions: FloatArray, source: int, targets: IntArray
+) -> tuple[float, float, float, float]:
+    """A ball that holds every target, cm: its centre (x, y, z) and radius.
+
+    One target is its own centre; several lie within the farthest's distance
+    of the source.
+    """
+    if len(targets) == 1:
+        place = positions[targets[0]]
+        return place[0], place[1], place[2], 0.0
+    place = positions[source]
+    radius = 0.0
+    for target in targets:
+        radius = max(radius, _distance(positions[target], place[0], place[1], place[2]))
+    return place[0], place[1], place[2], radius
+
+
+@jit.kernel(cache=True, nogil=True)
+def _distance(place: FloatArray, x: float, y: float, z: float) -> float:
+    """Distance from ``place`` (3,) to (x, y, z), cm."""
+    dx, dy, dz = place[0] - x, place[1] - y, place[2] - z
+    return float(np.sqrt(dx * dx + dy * dy + dz * dz))
+
+
+@jit.kernel(cache=True, nogil=True)
+def _beyond(positions: FloatArray, node: int, ball: tuple[float, float, float, float]) -> float:
+    """How far ``node`` lies outside ``ball`` (:func:`_targets_ball`), cm: 0 within it."""
+    x, y, z, radius = ball
+    return max(0.0, _distance(positions[node], x, y, z) - radius)
+
+
+@jit.kernel(cache=True, nogil=True)
 def _doubled(array: IntArray, used: int) -> IntArray:
     """A copy of ``array`` twice as long, of which the first ``used`` entries are set."""
     grown = np.empty(2 * len(array), dtype=np.int64)
@@ -230,14 +277,33 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
     skipped whole: the offers left out are those the bound leaves out one by
     one. The order in which a node's offers come changes no label and no tie
     (the least costs win, and at equal costs the smallest predecessor).
+
+    With places (``search.reach`` > 0), a node is left out, unlabelled or
+    unrelaxed, when its cost plus ``reach`` times its distance to the
+    targets' ball exceeds the bound: no path to a target within the bound
+    runs through it. Every node through which a target is reached at its
+    cost lies on such a path, so no target's label, nor any tie, changes.
+    A search for one target takes as its bound, as soon as a neighbour of
+    the target has a label, that label plus their edge: the cost of a path
+    to the target, which the neighbour will offer it a bucket later. Until a
+    bound comes, it relaxes a bucket's nodes nearest the target first, so
+    that it comes soonest; the order changes no label (as the bands').
     """
-    _, indices, weights, component, fewest_hops, bucket_width, slots, bands, floors = search
+    indices, weights, component, fewest_hops = search[1:5]
+    bucket_width, slots, bands, floors, positions, reach = search[5:]
     primary, secondary, pred, settled, wanted, touched, order = labels
     remaining = _mark_targets(source, targets, component, wanted)
+    ball = _targets_ball(positions, source, targets) if reach > 0.0 else (0.0, 0.0, 0.0, 0.0)
     entry_node = np.empty(1024, dtype=np.int64)
     entry_next = np.empty(1024, dtype=np.int64)
     head = np.full(slots, -1, dtype=np.int64)
     _start(source, labels)
+    # The bound falls from inf once every target has a label: then, not a bucket later.
+    unlabelled = remaining - (1 if wanted[source] else 0)
+    # One target's label is at most any neighbour's label plus their edge, known as soon
+    # as the neighbour has a label: a bound a bucket before the target has one.
+    lone = targets[0] if len(targets) == 1 and remaining == 1 else -1
+    upper = np.inf
     count = 1
     entry_node[0], entry_next[0], head[0] = source, -1, 0
     used, pending, bucket, done = 1, 1, 0, 0
@@ -254,11 +320,19 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
         # No label above the dearest wanted target's can lead to a target or lie on its
         # path: such offers are left out before their node is looked up (on a display's
         # decaying pairs, most of a search's offers; docs/core.md, "Why it is fast").
-        bound = _target_bound(targets, primary, settled, wanted)
+        bound = min(_target_bound(targets, primary, settled, wanted), upper)
+        # Labels and distances round far below 1e-9 of the bound (Graph.reach_ratio).
+        far = reach > 0.0 and bound < np.inf
+        limit = bound * (1.0 + 1e-9)
+        if lone >= 0 and reach > 0.0 and bound == np.inf:
+            # Nodes nearest the target first: the first bound comes soonest.
+            _nearest_first(order[first:done], positions, ball)
         for position in range(first, done):
             node = order[position]
             k1, k2 = primary[node], secondary[node]
             if fewest_hops and k1 + 1.0 > bound:
+                continue
+            if far and k1 + reach * _beyond(positions, node, ball) > limit:
                 continue
             for band in range(len(floors)):
                 # A band whose least weight is beyond the bound has no offer to hear.
@@ -276,12 +350,30 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
                     n2 = k2 + weights[edge] if fewest_hops else k2 + 1.0
                     p2 = secondary[neighbour]
                     if p1 == np.inf:
+                        if far and n1 + reach * _beyond(positions, neighbour, ball) > limit:
+                            continue
                         touched[count] = neighbour
                         count += 1
                     if n1 < p1 or n2 < p2:
                         primary[neighbour] = n1
                         secondary[neighbour] = n2
                         pred[neighbour] = node
+                        if wanted[neighbour] and n1 < p1:
+                            unlabelled -= 1 if p1 == np.inf else 0
+                            if unlabelled == 0:
+                                dearest = _target_bound(targets, primary, settled, wanted)
+                                bound = min(dearest, upper)
+                                far = reach > 0.0
+                                limit = bound * (1.0 + 1e-9)
+                        elif lone >= 0 and n1 < p1:
+                            # A path to the target through this neighbour: its cost bounds
+                            # the target's, as the neighbour's offer will.
+                            entry = entry_of(bands, indices, lone, neighbour)
+                            if entry >= 0:
+                                upper = min(upper, n1 + (1.0 if fewest_hops else weights[entry]))
+                                bound = min(bound, upper)
+                                far = reach > 0.0
+                                limit = bound * (1.0 + 1e-9)
                         # The next bucket at least: a label never returns to a bucket relaxed.
                         target_bucket = max(int(n1 / bucket_width), bucket)
                         if p1 < np.inf and target_bucket == max(int(p1 / bucket_width), bucket):
@@ -302,13 +394,10 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
 @jit.kernel(cache=True, nogil=True)
 def _search_heap(search: Search, source: int, targets: IntArray, labels: Labels) -> int:
     """Dijkstra with a binary heap, for edges too unequal for buckets; see :func:`search_from`."""
-    indptr, indices, weights, component, fewest_hops, _, _, _, _ = search
+    indptr, indices, weights, component, fewest_hops = search[:5]
     primary, secondary, pred, settled, wanted, touched, _ = labels
     remaining = _mark_targets(source, targets, component, wanted)
-    capacity = 64
-    heap1 = np.empty(capacity)
-    heap2 = np.empty(capacity)
-    heap_item = np.empty(capacity, dtype=np.int64)
+    heap1, heap2, heap_item = np.empty(64), np.empty(64), np.empty(64, dtype=np.int64)
     _start(source, labels)
     count = 1
     size = _heap_push(heap1, heap2, heap_item, 0, 0.0, 0.0, source)
@@ -336,21 +425,24 @@ def _search_heap(search: Search, source: int, targets: IntArray, labels: Labels)
                 primary[neighbour] = n1
                 secondary[neighbour] = n2
                 pred[neighbour] = node
-                if size == capacity:
-                    capacity *= 2
-                    grown1 = np.empty(capacity)
-                    grown2 = np.empty(capacity)
-                    grown_item = np.empty(capacity, dtype=np.int64)
-                    grown1[:size], grown2[:size], grown_item[:size] = (
-                        heap1[:size],
-                        heap2[:size],
-                        heap_item[:size],
-                    )
-                    heap1, heap2, heap_item = grown1, grown2, grown_item
+                heap1, heap2, heap_item = _heap_room(heap1, heap2, heap_item, size)
                 size = _heap_push(heap1, heap2, heap_item, size, n1, n2, neighbour)
             elif n1 == p1 and n2 == p2 and node < pred[neighbour]:
                 pred[neighbour] = node
     return count
+
+
+@jit.kernel(cache=True, nogil=True)
+def _heap_room(
+    key1: FloatArray, key2: FloatArray, item: IntArray, size: int
+) -> tuple[FloatArray, FloatArray, IntArray]:
+    """The heap's arrays, twice as long when ``size`` entries fill them: room for one more."""
+    if size < len(item):
+        return key1, key2, item
+    grown1, grown2 = np.empty(2 * size), np.empty(2 * size)
+    grown_item = np.empty(2 * size, dtype=np.int64)
+    grown1[:size], grown2[:size], grown_item[:size] = key1[:size], key2[:size], item[:size]
+    return grown1, grown2, grown_item
 
 
 @jit.kernel(cache=True, nogil=True)

@@ -155,3 +155,26 @@ def test_a_banded_graph_holds_each_row_s_entries_shortest_band_first_each_band_b
 def test_a_graph_needs_a_band_at_least():
     with pytest.raises(ValueError, match="one band at least, got 0"):
         make_graph(3, [0], [1], [1.0], bands=0)
+
+
+def test_the_reach_ratio_is_the_least_weight_per_cm_of_straight_line():
+    # Three FLSs on a line 3 and 4 cm apart, and a fourth where the other two stand: its
+    # edge has no straight length and bounds nothing.
+    places = [[0.0, 0.0, 0.0], [3.0, 0.0, 0.0], [7.0, 0.0, 0.0], [3.0, 0.0, 0.0]]
+    lengths, costs = [2.7, 3.8, 1.0], [6.0, 2.0, 0.5]
+    placed = make_graph(4, [0, 1, 1], [1, 2, 3], lengths, costs=costs, positions=places)
+    margin = 1.0 - 1e-9
+    assert placed.reach_ratio() == pytest.approx(0.9 * margin, rel=1e-15)  # 2.7 / 3
+    assert placed.reach_ratio(costs=True) == pytest.approx(0.5 * margin, rel=1e-15)  # 2 / 4
+    assert placed.reach_ratio(hops=True) == pytest.approx(0.25 * margin, rel=1e-15)  # 1 / 4
+    assert placed.reach_ratio() < 0.9  # below every edge's own ratio
+    # Without places, or where no weight above 0 bounds a path, nothing is left out.
+    assert make_graph(4, [0, 1], [1, 2], [2.7, 3.8]).reach_ratio() == 0.0
+    assert make_graph(2, [0], [1], [-1.0], positions=places[:2]).reach_ratio() == 0.0
+    with pytest.raises(ValueError, match="without edge costs"):
+        make_graph(2, [0], [1], [1.0], positions=places[:2]).reach_ratio(costs=True)
+
+
+def test_places_are_one_point_a_node():
+    with pytest.raises(ValueError, match=r"`positions` must be \(3, 3\), got \(2, 3\)"):
+        make_graph(3, [0], [1], [1.0], positions=np.zeros((2, 3)))

@@ -237,3 +237,46 @@ def test_avoided_nodes_must_be_rows_of_nodes(offsets, avoid, match):
     square = make_graph(4, [0, 1, 2, 0], [1, 2, 3, 3], [1.0, 1.0, 1.0, 5.0])
     with pytest.raises(ValueError, match=match):
         avoiding_paths(square, [0], [2], "shortest-length", offsets, avoid)
+
+
+def placed_edges(rng, size, radius):
+    """FLSs at whole-number places and the pairs 6 to 8 apart, each edge its distance less
+    2 ``radius``: a sweet graph whose many equal lengths leave ties to the predecessor rule."""
+    places = np.unique(rng.integers(0, 24, size=(size, 3)), axis=0).astype(float)
+    gaps = np.linalg.norm(places[:, None] - places[None], axis=2)
+    first, second = np.nonzero(np.triu((gaps >= 6.0) & (gaps <= 8.0)))
+    tracking = gaps[first, second] - 2.0 * radius
+    return places, first, second, tracking
+
+
+@pytest.mark.parametrize("policy", ["fewest-hops", "shortest-length", "least-error"])
+def test_places_give_the_paths_of_a_graph_without_them(policy):
+    # With places a search leaves out the nodes too far from its targets; the labels of
+    # the targets' paths, their ties and the paths are the same. The pairs are blind
+    # (closer than an edge): a source's many targets, then each alone, then each avoiding
+    # its path's first hop (as fusion asks).
+    rng = np.random.default_rng(13)
+    places, first, second, tracking = placed_edges(rng, 700, 0.25)
+    costs = (tracking + 0.5) ** 2  # whole numbers: ties of cost too
+    plain = make_graph(len(places), first, second, tracking, costs=costs)
+    placed = make_graph(len(places), first, second, tracking, costs=costs, positions=places)
+    gaps = np.linalg.norm(places[:, None] - places[None], axis=2)
+    sources, targets = np.nonzero((gaps > 0) & (gaps < 6.0))
+    expected = shortest_paths(plain, sources, targets, policy)
+    assert expected.found.sum() > 0.9 * len(sources) and expected.hops.max() >= 3
+    assert_same_paths(shortest_paths(placed, sources, targets, policy), expected)
+
+    _, alone = np.unique(sources, return_index=True)  # one target a source
+    assert_same_paths(
+        shortest_paths(placed, sources[alone], targets[alone], policy),
+        shortest_paths(plain, sources[alone], targets[alone], policy),
+    )
+
+    found = expected.found
+    avoid_offsets = np.concatenate([[0], np.cumsum(found)])
+    avoid = expected.nodes[expected.offsets[:-1][found] + 1]
+    around = avoiding_paths(plain, sources, targets, policy, avoid_offsets, avoid)
+    assert around.found.sum() > 0.8 * len(sources)
+    assert_same_paths(
+        avoiding_paths(placed, sources, targets, policy, avoid_offsets, avoid), around
+    )
