@@ -303,7 +303,7 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
     # One target's label is at most any neighbour's label plus their edge, known as soon
     # as the neighbour has a label: a bound a bucket before the target has one.
     lone = targets[0] if len(targets) == 1 and remaining == 1 else -1
-    upper = np.inf
+    upper = dearest = np.inf
     count = 1
     entry_node[0], entry_next[0], head[0] = source, -1, 0
     used, pending, bucket, done = 1, 1, 0, 0
@@ -320,7 +320,8 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
         # No label above the dearest wanted target's can lead to a target or lie on its
         # path: such offers are left out before their node is looked up (on a display's
         # decaying pairs, most of a search's offers; docs/core.md, "Why it is fast").
-        bound = min(_target_bound(targets, primary, settled, wanted), upper)
+        dearest = _target_bound(targets, primary, settled, wanted)
+        bound = min(dearest, upper)
         # Labels and distances round far below 1e-9 of the bound (Graph.reach_ratio).
         far = reach > 0.0 and bound < np.inf
         limit = bound * (1.0 + 1e-9)
@@ -360,7 +361,9 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
                         pred[neighbour] = node
                         if wanted[neighbour] and n1 < p1:
                             unlabelled -= 1 if p1 == np.inf else 0
-                            if unlabelled == 0:
+                            # Found again only when the dearest target's label falls: a
+                            # sweet search has hundreds of targets, whose labels fall often.
+                            if unlabelled == 0 and p1 >= dearest:
                                 dearest = _target_bound(targets, primary, settled, wanted)
                                 bound = min(dearest, upper)
                                 far = reach > 0.0
