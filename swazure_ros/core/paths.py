@@ -419,7 +419,7 @@ def _search_kernel(
     width = buffer.shape[1]
     for chunk in jit.prange(chunks):
         labels = fresh_labels(size)
-        primary, secondary, pred, settled, wanted, _, _ = labels
+        primary, secondary, pred, settled, wanted, _, _, _ = labels
         for position in range(chunk, len(sources), chunks):
             source = sources[position]
             mine = targets[target_ptr[position] : target_ptr[position + 1]]
@@ -482,7 +482,7 @@ def _avoiding_kernel(
     buffer = np.full((pairs, width), -1, dtype=np.int64)
     for chunk in jit.prange(chunks):
         labels = fresh_labels(size)
-        primary, secondary, pred, settled, wanted, _, _ = labels
+        primary, secondary, pred, settled, wanted, _, _, _ = labels
         one = np.empty(1, dtype=np.int64)
         for pair in range(chunk, pairs, chunks):
             source, target = sources[pair], targets[pair]

@@ -18,7 +18,6 @@ from numpy.typing import NDArray
 
 from . import jit
 from .arrays import FloatArray, IntArray
-from .graph import entry_of
 
 
 class Search(NamedTuple):
@@ -50,6 +49,7 @@ class Labels(NamedTuple):
     wanted: NDArray[np.bool_]  # (N,), the search's targets
     touched: IntArray  # (N,), the nodes labelled, in order
     order: IntArray  # (N,), the nodes settled, in order (bucket search)
+    near: FloatArray  # (N,), a lone target's neighbours' edges to it; inf elsewhere
 
 
 @jit.kernel(cache=True, nogil=True)
@@ -74,6 +74,7 @@ def fresh_labels(size: int) -> Labels:
         np.zeros(size, dtype=np.bool_),
         np.empty(size, dtype=np.int64),
         np.empty(size, dtype=np.int64),
+        np.full(size, np.inf),
     )
 
 
@@ -88,7 +89,7 @@ def reset_labels(labels: Labels, count: int) -> None:
     count : int
         The nodes it touched, as it returned.
     """
-    primary, secondary, pred, settled, _, touched, _ = labels
+    primary, secondary, pred, settled, _, touched, _, _ = labels
     for node in touched[:count]:
         primary[node], secondary[node], pred[node] = np.inf, np.inf, -1
         settled[node] = False
@@ -209,17 +210,6 @@ def _target_bound(
 
 
 @jit.kernel(cache=True, nogil=True)
-def _nearest_first(
-    nodes: IntArray, positions: FloatArray, ball: tuple[float, float, float, float]
-) -> None:
-    """Sort ``nodes`` in place by their distance to ``ball``'s centre, nearest first."""
-    distance = np.empty(len(nodes))
-    for position in range(len(nodes)):
-        distance[position] = _distance(positions[nodes[position]], ball[0], ball[1], ball[2])
-    nodes[:] = nodes[np.argsort(distance)]
-
-
-@jit.kernel(cache=True, nogil=True)
 def _targets_ball(
     positions: FloatArray, source: int, targets: IntArray
 ) -> tuple[float, float, float, float]:
@@ -284,14 +274,13 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
     runs through it. Every node through which a target is reached at its
     cost lies on such a path, so no target's label, nor any tie, changes.
     A search for one target takes as its bound, as soon as a neighbour of
-    the target has a label, that label plus their edge: the cost of a path
-    to the target, which the neighbour will offer it a bucket later. Until a
-    bound comes, it relaxes a bucket's nodes nearest the target first, so
-    that it comes soonest; the order changes no label (as the bands').
+    the target has a label, that label plus their edge (``labels.near``,
+    set for the search): the cost of a path to the target, which the
+    neighbour will offer it a bucket later.
     """
     indices, weights, component, fewest_hops = search[1:5]
     bucket_width, slots, bands, floors, positions, reach = search[5:]
-    primary, secondary, pred, settled, wanted, touched, order = labels
+    primary, secondary, pred, settled, wanted, touched, order, near = labels
     remaining = _mark_targets(source, targets, component, wanted)
     ball = _targets_ball(positions, source, targets) if reach > 0.0 else (0.0, 0.0, 0.0, 0.0)
     entry_node = np.empty(1024, dtype=np.int64)
@@ -304,6 +293,8 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
     # as the neighbour has a label: a bound a bucket before the target has one.
     lone = targets[0] if len(targets) == 1 and remaining == 1 else -1
     upper = dearest = np.inf
+    if lone >= 0:
+        _mark_near(search, lone, near, True)
     count = 1
     entry_node[0], entry_next[0], head[0] = source, -1, 0
     used, pending, bucket, done = 1, 1, 0, 0
@@ -325,9 +316,6 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
         # Labels and distances round far below 1e-9 of the bound (Graph.reach_ratio).
         far = reach > 0.0 and bound < np.inf
         limit = bound * (1.0 + 1e-9)
-        if lone >= 0 and reach > 0.0 and bound == np.inf:
-            # Nodes nearest the target first: the first bound comes soonest.
-            _nearest_first(order[first:done], positions, ball)
         for position in range(first, done):
             node = order[position]
             k1, k2 = primary[node], secondary[node]
@@ -368,15 +356,13 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
                                 bound = min(dearest, upper)
                                 far = reach > 0.0
                                 limit = bound * (1.0 + 1e-9)
-                        elif lone >= 0 and n1 < p1:
-                            # A path to the target through this neighbour: its cost bounds
-                            # the target's, as the neighbour's offer will.
-                            entry = entry_of(bands, indices, lone, neighbour)
-                            if entry >= 0:
-                                upper = min(upper, n1 + (1.0 if fewest_hops else weights[entry]))
-                                bound = min(bound, upper)
-                                far = reach > 0.0
-                                limit = bound * (1.0 + 1e-9)
+                        elif n1 + near[neighbour] < upper:
+                            # A path to the lone target through this neighbour: its cost
+                            # bounds the target's, as the neighbour's offer will.
+                            upper = n1 + near[neighbour]
+                            bound = min(bound, upper)
+                            far = reach > 0.0
+                            limit = bound * (1.0 + 1e-9)
                         # The next bucket at least: a label never returns to a bucket relaxed.
                         target_bucket = max(int(n1 / bucket_width), bucket)
                         if p1 < np.inf and target_bucket == max(int(p1 / bucket_width), bucket):
@@ -391,14 +377,25 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
                         pending += 1
                     elif n2 == p2 and node < pred[neighbour]:
                         pred[neighbour] = node
+    if lone >= 0:
+        _mark_near(search, lone, near, False)
     return count
+
+
+@jit.kernel(cache=True, nogil=True)
+def _mark_near(search: Search, target: int, near: FloatArray, marked: bool) -> None:
+    """Set ``near`` of each neighbour of ``target`` to the cost of its edge to the target
+    (fewest-hops: 1), or, not ``marked``, back to inf."""
+    for entry in range(search.indptr[target], search.indptr[target + 1]):
+        cost = 1.0 if search.fewest_hops else search.weights[entry]
+        near[search.indices[entry]] = cost if marked else np.inf
 
 
 @jit.kernel(cache=True, nogil=True)
 def _search_heap(search: Search, source: int, targets: IntArray, labels: Labels) -> int:
     """Dijkstra with a binary heap, for edges too unequal for buckets; see :func:`search_from`."""
     indptr, indices, weights, component, fewest_hops = search[:5]
-    primary, secondary, pred, settled, wanted, touched, _ = labels
+    primary, secondary, pred, settled, wanted, touched, _, _ = labels
     remaining = _mark_targets(source, targets, component, wanted)
     heap1, heap2, heap_item = np.empty(64), np.empty(64), np.empty(64, dtype=np.int64)
     _start(source, labels)
