@@ -283,14 +283,11 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
     primary, secondary, pred, settled, wanted, touched, order, near = labels
     remaining = _mark_targets(source, targets, component, wanted)
     ball = _targets_ball(positions, source, targets) if reach > 0.0 else (0.0, 0.0, 0.0, 0.0)
-    entry_node = np.empty(1024, dtype=np.int64)
-    entry_next = np.empty(1024, dtype=np.int64)
+    entry_node, entry_next = np.empty(1024, dtype=np.int64), np.empty(1024, dtype=np.int64)
     head = np.full(slots, -1, dtype=np.int64)
     _start(source, labels)
-    # The bound falls from inf once every target has a label: then, not a bucket later.
+    # The bound's parts, as they fall within a bucket (:func:`_bound_parts`).
     unlabelled = remaining - (1 if wanted[source] else 0)
-    # One target's label is at most any neighbour's label plus their edge, known as soon
-    # as the neighbour has a label: a bound a bucket before the target has one.
     lone = targets[0] if len(targets) == 1 and remaining == 1 else -1
     upper = dearest = np.inf
     if lone >= 0:
@@ -299,23 +296,17 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
     entry_node[0], entry_next[0], head[0] = source, -1, 0
     used, pending, bucket, done = 1, 1, 0, 0
     while pending > 0 and remaining > 0:
-        slot = bucket % slots
-        first = done
+        first, slot = done, bucket % slots
         done, listed, reached = _settle_bucket(labels, head[slot], entry_node, entry_next, done)
         head[slot] = -1
-        pending -= listed
-        remaining -= reached
+        pending, remaining = pending - listed, remaining - reached
         bucket += 1
         if remaining == 0:
             break
-        # No label above the dearest wanted target's can lead to a target or lie on its
-        # path: such offers are left out before their node is looked up (on a display's
-        # decaying pairs, most of a search's offers; docs/core.md, "Why it is fast").
+        # No label above the dearest wanted target's can lead to a target or lie on its path:
+        # such offers are left out before their node is looked up (docs/core.md).
         dearest = _target_bound(targets, primary, settled, wanted)
-        bound = min(dearest, upper)
-        # Labels and distances round far below 1e-9 of the bound (Graph.reach_ratio).
-        far = reach > 0.0 and bound < np.inf
-        limit = bound * (1.0 + 1e-9)
+        bound, far, limit = _limits(min(dearest, upper), reach)
         for position in range(first, done):
             node = order[position]
             k1, k2 = primary[node], secondary[node]
@@ -347,39 +338,71 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
                         primary[neighbour] = n1
                         secondary[neighbour] = n2
                         pred[neighbour] = node
-                        if wanted[neighbour] and n1 < p1:
-                            unlabelled -= 1 if p1 == np.inf else 0
-                            # Found again only when the dearest target's label falls: a
-                            # sweet search has hundreds of targets, whose labels fall often.
-                            if unlabelled == 0 and p1 >= dearest:
-                                dearest = _target_bound(targets, primary, settled, wanted)
-                                bound = min(dearest, upper)
-                                far = reach > 0.0
-                                limit = bound * (1.0 + 1e-9)
-                        elif n1 + near[neighbour] < upper:
-                            # A path to the lone target through this neighbour: its cost
-                            # bounds the target's, as the neighbour's offer will.
-                            upper = n1 + near[neighbour]
-                            bound = min(bound, upper)
-                            far = reach > 0.0
-                            limit = bound * (1.0 + 1e-9)
+                        if n1 < p1:
+                            unlabelled, dearest, upper = _bound_parts(
+                                labels, targets, neighbour, n1, p1, unlabelled, dearest, upper
+                            )
+                            bound, far, limit = _limits(min(dearest, upper), reach)
                         # The next bucket at least: a label never returns to a bucket relaxed.
                         target_bucket = max(int(n1 / bucket_width), bucket)
                         if p1 < np.inf and target_bucket == max(int(p1 / bucket_width), bucket):
                             continue  # listed in that bucket already
-                        if used == len(entry_node):
-                            entry_node = _doubled(entry_node, used)
-                            entry_next = _doubled(entry_next, used)
-                        target_slot = target_bucket % slots
-                        entry_node[used], entry_next[used] = neighbour, head[target_slot]
-                        head[target_slot] = used
-                        used += 1
+                        entry_node, entry_next, used = _listed(
+                            entry_node, entry_next, head, used, neighbour, target_bucket % slots
+                        )
                         pending += 1
                     elif n2 == p2 and node < pred[neighbour]:
                         pred[neighbour] = node
     if lone >= 0:
         _mark_near(search, lone, near, False)
     return count
+
+
+@jit.kernel(cache=True, nogil=True)
+def _bound_parts(
+    labels: Labels,
+    targets: IntArray,
+    node: int,
+    n1: float,
+    p1: float,
+    unlabelled: int,
+    dearest: float,
+    upper: float,
+) -> tuple[int, float, float]:
+    """The parts of a search's bound once ``node``'s first cost has fallen from p1 to n1.
+
+    The targets still without a label; the dearest wanted target's label (inf
+    while one has none), found again only when that label falls (a sweet
+    search has hundreds of targets, whose labels fall often); and a lone
+    target's label at most, the node's label plus its edge to the target
+    (``labels.near``), known as soon as the node has a label: a bound a
+    bucket before the target has one. The bound is the least of the two.
+    """
+    if labels.wanted[node]:
+        unlabelled -= 1 if p1 == np.inf else 0
+        if unlabelled == 0 and p1 >= dearest:
+            dearest = _target_bound(targets, labels.primary, labels.settled, labels.wanted)
+    return unlabelled, dearest, min(upper, n1 + labels.near[node])
+
+
+@jit.kernel(cache=True, nogil=True)
+def _limits(bound: float, reach: float) -> tuple[float, bool, float]:
+    """A search's bound, whether places bound it, and its limit for them: labels and
+    distances round far below 1e-9 of the bound (:meth:`~.graph.Graph.reach_ratio`)."""
+    return bound, reach > 0.0 and bound < np.inf, bound * (1.0 + 1e-9)
+
+
+@jit.kernel(cache=True, nogil=True)
+def _listed(
+    entry_node: IntArray, entry_next: IntArray, head: IntArray, used: int, node: int, slot: int
+) -> tuple[IntArray, IntArray, int]:
+    """The bucket lists with ``node`` listed first in bucket ``slot``: the entries' arrays
+    (grown when full) and the entries used."""
+    if used == len(entry_node):
+        entry_node, entry_next = _doubled(entry_node, used), _doubled(entry_next, used)
+    entry_node[used], entry_next[used] = node, head[slot]
+    head[slot] = used
+    return entry_node, entry_next, used + 1
 
 
 @jit.kernel(cache=True, nogil=True)
