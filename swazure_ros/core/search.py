@@ -278,23 +278,16 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
     set for the search): the cost of a path to the target, which the
     neighbour will offer it a bucket later.
     """
-    indices, weights, component, fewest_hops = search[1:5]
+    indices, weights, _, fewest_hops = search[1:5]
     bucket_width, slots, bands, floors, positions, reach = search[5:]
     primary, secondary, pred, settled, wanted, touched, order, near = labels
-    remaining = _mark_targets(source, targets, component, wanted)
-    ball = _targets_ball(positions, source, targets) if reach > 0.0 else (0.0, 0.0, 0.0, 0.0)
+    remaining, unlabelled, lone, ball = _begin(search, source, targets, labels)
     entry_node, entry_next = np.empty(1024, dtype=np.int64), np.empty(1024, dtype=np.int64)
     head = np.full(slots, -1, dtype=np.int64)
-    _start(source, labels)
-    # The bound's parts, as they fall within a bucket (:func:`_bound_parts`).
-    unlabelled = remaining - (1 if wanted[source] else 0)
-    lone = targets[0] if len(targets) == 1 and remaining == 1 else -1
-    upper = dearest = np.inf
-    if lone >= 0:
-        _mark_near(search, lone, near, True)
-    count = 1
     entry_node[0], entry_next[0], head[0] = source, -1, 0
-    used, pending, bucket, done = 1, 1, 0, 0
+    # The bound's parts: the dearest wanted target's label and a lone target's bound.
+    upper = dearest = np.inf
+    count, used, pending, bucket, done = 1, 1, 1, 0, 0
     while pending > 0 and remaining > 0:
         first, slot = done, bucket % slots
         done, listed, reached = _settle_bucket(labels, head[slot], entry_node, entry_next, done)
@@ -306,7 +299,9 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
         # No label above the dearest wanted target's can lead to a target or lie on its path:
         # such offers are left out before their node is looked up (docs/core.md).
         dearest = _target_bound(targets, primary, settled, wanted)
-        bound, far, limit = _limits(min(dearest, upper), reach)
+        bound = min(dearest, upper)
+        # Labels and distances round far below 1e-9 of the bound (Graph.reach_ratio).
+        far, limit = reach > 0.0 and bound < np.inf, bound * (1.0 + 1e-9)
         for position in range(first, done):
             node = order[position]
             k1, k2 = primary[node], secondary[node]
@@ -335,80 +330,61 @@ def _search_buckets(search: Search, source: int, targets: IntArray, labels: Labe
                         touched[count] = neighbour
                         count += 1
                     if n1 < p1 or n2 < p2:
-                        primary[neighbour] = n1
-                        secondary[neighbour] = n2
-                        pred[neighbour] = node
-                        if n1 < p1:
-                            unlabelled, dearest, upper = _bound_parts(
-                                labels, targets, neighbour, n1, p1, unlabelled, dearest, upper
-                            )
-                            bound, far, limit = _limits(min(dearest, upper), reach)
+                        primary[neighbour], secondary[neighbour], pred[neighbour] = n1, n2, node
+                        # Inline: a call at every fallen label costs the searches 2-3x.
+                        if wanted[neighbour] and n1 < p1:
+                            unlabelled -= 1 if p1 == np.inf else 0
+                            # Only when the dearest falls: a sweet search's hundreds often do.
+                            if unlabelled == 0 and p1 >= dearest:
+                                dearest = _target_bound(targets, primary, settled, wanted)
+                        # A path to the lone target through this neighbour bounds its cost.
+                        upper = min(upper, n1 + near[neighbour])
+                        bound = min(dearest, upper)
+                        far, limit = reach > 0.0 and bound < np.inf, bound * (1.0 + 1e-9)
                         # The next bucket at least: a label never returns to a bucket relaxed.
                         target_bucket = max(int(n1 / bucket_width), bucket)
                         if p1 < np.inf and target_bucket == max(int(p1 / bucket_width), bucket):
                             continue  # listed in that bucket already
-                        entry_node, entry_next, used = _listed(
-                            entry_node, entry_next, head, used, neighbour, target_bucket % slots
-                        )
+                        if used == len(entry_node):
+                            entry_node = _doubled(entry_node, used)
+                            entry_next = _doubled(entry_next, used)
+                        target_slot = target_bucket % slots
+                        entry_node[used], entry_next[used] = neighbour, head[target_slot]
+                        head[target_slot] = used
+                        used += 1
                         pending += 1
                     elif n2 == p2 and node < pred[neighbour]:
                         pred[neighbour] = node
-    if lone >= 0:
-        _mark_near(search, lone, near, False)
+    _mark_near(search, lone, near, False)
     return count
 
 
 @jit.kernel(cache=True, nogil=True)
-def _bound_parts(
-    labels: Labels,
-    targets: IntArray,
-    node: int,
-    n1: float,
-    p1: float,
-    unlabelled: int,
-    dearest: float,
-    upper: float,
-) -> tuple[int, float, float]:
-    """The parts of a search's bound once ``node``'s first cost has fallen from p1 to n1.
+def _begin(
+    search: Search, source: int, targets: IntArray, labels: Labels
+) -> tuple[int, int, int, tuple[float, float, float, float]]:
+    """A bucket search's start: the source labelled, the targets marked (a lone target's
+    neighbours' edges too, :func:`_mark_near`), and the ball that holds them.
 
-    The targets still without a label; the dearest wanted target's label (inf
-    while one has none), found again only when that label falls (a sweet
-    search has hundreds of targets, whose labels fall often); and a lone
-    target's label at most, the node's label plus its edge to the target
-    (``labels.near``), known as soon as the node has a label: a bound a
-    bucket before the target has one. The bound is the least of the two.
+    Returns the targets marked, those of them without a label yet, the lone
+    target (-1 unless one) and the ball (:func:`_targets_ball`; zeros without places).
     """
-    if labels.wanted[node]:
-        unlabelled -= 1 if p1 == np.inf else 0
-        if unlabelled == 0 and p1 >= dearest:
-            dearest = _target_bound(targets, labels.primary, labels.settled, labels.wanted)
-    return unlabelled, dearest, min(upper, n1 + labels.near[node])
-
-
-@jit.kernel(cache=True, nogil=True)
-def _limits(bound: float, reach: float) -> tuple[float, bool, float]:
-    """A search's bound, whether places bound it, and its limit for them: labels and
-    distances round far below 1e-9 of the bound (:meth:`~.graph.Graph.reach_ratio`)."""
-    return bound, reach > 0.0 and bound < np.inf, bound * (1.0 + 1e-9)
-
-
-@jit.kernel(cache=True, nogil=True)
-def _listed(
-    entry_node: IntArray, entry_next: IntArray, head: IntArray, used: int, node: int, slot: int
-) -> tuple[IntArray, IntArray, int]:
-    """The bucket lists with ``node`` listed first in bucket ``slot``: the entries' arrays
-    (grown when full) and the entries used."""
-    if used == len(entry_node):
-        entry_node, entry_next = _doubled(entry_node, used), _doubled(entry_next, used)
-    entry_node[used], entry_next[used] = node, head[slot]
-    head[slot] = used
-    return entry_node, entry_next, used + 1
+    remaining = _mark_targets(source, targets, search.component, labels.wanted)
+    _start(source, labels)
+    unlabelled = remaining - (1 if labels.wanted[source] else 0)
+    lone = targets[0] if len(targets) == 1 and remaining == 1 else -1
+    _mark_near(search, lone, labels.near, True)
+    if search.reach > 0.0:
+        return remaining, unlabelled, lone, _targets_ball(search.positions, source, targets)
+    return remaining, unlabelled, lone, (0.0, 0.0, 0.0, 0.0)
 
 
 @jit.kernel(cache=True, nogil=True)
 def _mark_near(search: Search, target: int, near: FloatArray, marked: bool) -> None:
     """Set ``near`` of each neighbour of ``target`` to the cost of its edge to the target
-    (fewest-hops: 1), or, not ``marked``, back to inf."""
+    (fewest-hops: 1), or, not ``marked``, back to inf; no target (-1), none."""
+    if target < 0:
+        return
     for entry in range(search.indptr[target], search.indptr[target + 1]):
         cost = 1.0 if search.fewest_hops else search.weights[entry]
         near[search.indices[entry]] = cost if marked else np.inf
