@@ -154,8 +154,8 @@ class Graph:
             _edge_positions(
                 self.row_bands(),
                 self.indices,
-                np.asarray(first, dtype=np.int64),
-                np.asarray(second, dtype=np.int64),
+                np.ascontiguousarray(first, dtype=np.int64),
+                np.ascontiguousarray(second, dtype=np.int64),
             )
         )
 
@@ -247,7 +247,7 @@ def make_graph(
     if bands < 1:
         raise ValueError(f"a graph's rows need one band at least, got {bands}")
     if positions is not None:
-        positions = np.asarray(positions, dtype=np.float64)
+        positions = np.ascontiguousarray(positions, dtype=np.float64)
         if positions.shape != (size, 3):
             raise ValueError(f"`positions` must be ({size}, 3), got {positions.shape}")
     indptr, indices, edge = symmetric_rows(size, first, second, keep=keep)

@@ -144,8 +144,9 @@ def shortest_paths(
     >>> paths.path(0), paths.path(1), paths.length.tolist()
     ([0, 1, 2], [0, 1, 2, 3], [2.0, 3.0])
     """
-    sources = np.asarray(sources, dtype=np.int64)
-    targets = np.asarray(targets, dtype=np.int64)
+    # Contiguous: a strided list (np.nonzero's of a matrix) would compile the kernels anew.
+    sources = np.ascontiguousarray(sources, dtype=np.int64)
+    targets = np.ascontiguousarray(targets, dtype=np.int64)
     search = _search_of(graph, policy, components)
     _check_pairs(graph, sources, targets)
     found, hops, length, buffer = _search_batches(search, sources, targets, progress, batch)
@@ -214,10 +215,10 @@ def avoiding_paths(
     [0, 3, 2]
     """
     search = _search_of(graph, policy, components)
-    sources = np.asarray(sources, dtype=np.int64)
-    targets = np.asarray(targets, dtype=np.int64)
-    avoid_offsets = np.asarray(avoid_offsets, dtype=np.int64)
-    avoid = np.asarray(avoid, dtype=np.int64)
+    sources = np.ascontiguousarray(sources, dtype=np.int64)
+    targets = np.ascontiguousarray(targets, dtype=np.int64)
+    avoid_offsets = np.ascontiguousarray(avoid_offsets, dtype=np.int64)
+    avoid = np.ascontiguousarray(avoid, dtype=np.int64)
     _check_nodes(graph, sources, targets)
     _check_avoided(graph, len(sources), avoid_offsets, avoid)
     found, hops, buffer = _avoiding_kernel(

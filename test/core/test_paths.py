@@ -1,6 +1,9 @@
 import numpy as np
 import pytest
 
+from swazure_ros.core import graph as graph_module
+from swazure_ros.core import jit
+from swazure_ros.core import paths as paths_module
 from swazure_ros.core.graph import make_graph
 from swazure_ros.core.path_arrays import path_hops
 from swazure_ros.core.paths import avoiding_paths, shortest_paths
@@ -280,3 +283,29 @@ def test_places_give_the_paths_of_a_graph_without_them(policy):
     assert_same_paths(
         avoiding_paths(placed, sources, targets, policy, avoid_offsets, avoid), around
     )
+
+
+@pytest.mark.skipif(jit.INTERPRET, reason="the kernels run as Python: no compiled forms")
+def test_pairs_given_strided_reach_the_kernels_as_contiguous_arrays():
+    # np.nonzero of a matrix gives strided lists: to numba a type of their own, for which
+    # each kernel would be compiled anew (20-60 s in the suite, a user's first call too).
+    square = make_graph(4, [0, 1, 2, 0], [1, 2, 3, 3], [1.0, 1.0, 1.0, 5.0])
+    sources, targets = np.nonzero(
+        np.array([[0, 0, 1, 0], [0, 0, 0, 1], [1, 0, 0, 0], [0, 0, 0, 0]])
+    )
+    assert not sources.flags.c_contiguous  # the case at hand
+    assert shortest_paths(square, sources, targets, "shortest-length").path(0) == [0, 1, 2]
+    _, avoid = np.nonzero(np.array([[0, 1], [0, 1], [0, 1]]))  # node 1, strided
+    around = avoiding_paths(square, sources, targets, "shortest-length", [0, 1, 2, 3], avoid)
+    assert around.path(0) == [0, 3, 2]
+    assert square.edge_positions(sources, targets).tolist() == [-1, -1, -1]
+    numba = pytest.importorskip("numba")
+    kernels = (paths_module._search_kernel, paths_module._avoiding_kernel)
+    for kernel in (*kernels, graph_module._edge_positions):
+        layouts = {
+            argument.layout
+            for signature in kernel.compiled().signatures
+            for argument in signature
+            if isinstance(argument, numba.types.Array)
+        }
+        assert layouts == {"C"}, kernel.__name__
