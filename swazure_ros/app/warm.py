@@ -27,6 +27,7 @@ from ..core.observe import observations
 from ..core.paths import POLICIES
 from ..core.pipeline import RunOptions, run_engine
 from ..core.swarm_fit import swarm_solve
+from ..protocol.loops import RunOptions as DiscoveryOptions
 from ..protocol.loops import discover
 from ..protocol.schedule import move_batches
 from ..sim.world import WorldSpec
@@ -59,13 +60,12 @@ def warm_kernels() -> None:
         for policy in POLICIES:
             plain = run_engine(world.swarm, world.sensor, RunOptions(policy), hold=True)
             if number == 0:  # the search's kernels take no shape-dependent path
-                discover(
-                    observations(plain.held.hood),
-                    world.swarm.cloud_index,
-                    world.sensor,
-                    world.swarm.radius,
-                    policy,
-                )
+                seen, ids = observations(plain.held.hood), world.swarm.cloud_index
+                discover(seen, ids, world.sensor, world.swarm.radius, policy)
+                # A run of some sources only: its tables name them (run_ids), which the
+                # relaxation is compiled for apart.
+                spread = DiscoveryOptions(sources=[int(fls) for fls in ids[::2]])
+                discover(seen, ids, world.sensor, world.swarm.radius, policy, spread)
         run_engine(world.swarm, world.sensor, RunOptions(policy), budget=Budget(2**20))
         for technique in TECHNIQUES:
             if technique == PLAIN:

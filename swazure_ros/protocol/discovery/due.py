@@ -42,9 +42,10 @@ def due_places(
         pass); none before.
     """
     primary, found, sent, closed = table.due_inputs(row, order)
+    # Floats, as the kernel is compiled for: a whole-number round would compile it again.
     rows, places, unsent, held_rows, held_places = _due_places(
         np.atleast_2d(primary), np.atleast_2d(found), np.atleast_2d(sent),
-        np.atleast_2d(closed), width, round_, reach, round_ >= reach,
+        np.atleast_2d(closed), float(width), float(round_), float(reach), round_ >= reach,
     )  # fmt: skip
     if row is not None:
         rows, held_rows = rows + row, held_rows + row

@@ -311,7 +311,12 @@ class LabelTable:
         # The run's sources by slot; None when they are every id of the span (slot: id -
         # first): numba then compiles the relaxation without their search (31 s, not 36-39).
         spread = sources is not None and len(sources) < span[1] - span[0]
-        self.run_ids: IntArray | None = sources if sources is not None and spread else None
+        # Contiguous: a strided array is a type of its own to the kernels (compiled again).
+        self.run_ids: IntArray | None = (
+            np.ascontiguousarray(sources, dtype=np.int64)
+            if sources is not None and spread
+            else None
+        )
         self.closed = np.zeros(0, dtype=bool)  # (id_space,) once a source is closed
         self._changes_last = 0
         self.occupied = np.zeros(len(self.mes), dtype=np.int64)
@@ -406,7 +411,9 @@ class LabelTable:
         old = {name: getattr(self, name)[rows, places] for name in self._names()}
         self.direct, width = self._width_for(max(need, 2 * self.width))
         self._allocate(width)
-        moved = _insert(self.keys, rows, sources, self.span[0], self.direct, self.run_ids)
+        moved = _insert(
+            self.keys, np.ascontiguousarray(rows), sources, self.span[0], self.direct, self.run_ids
+        )
         for name, values in old.items():
             getattr(self, name)[rows, moved] = values
 
