@@ -119,6 +119,12 @@ def _run(args: argparse.Namespace) -> int:
     except SwazureError as err:
         print(f"swazure {args.verb}: error: {err}", file=sys.stderr)
         return RUN_FAILED if isinstance(err, RunError) else USAGE
+    except MemoryError as err:
+        # numpy's says what it could not allocate (a run past its address-space cap, or
+        # the machine's memory); outputs are written atomically, so none is left half-made.
+        detail = f": {err}" if str(err) else ""
+        print(f"swazure {args.verb}: error: out of memory{detail}", file=sys.stderr)
+        return RUN_FAILED
     except KeyboardInterrupt:
         print(f"swazure {args.verb}: interrupted", file=sys.stderr)
         _forget_interrupt()

@@ -6,6 +6,7 @@ import argparse
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from swazure_ros.cli.main import (
@@ -72,6 +73,16 @@ def test_a_run_that_failed_exits_1_and_an_unusable_command_line_2(capsys, error,
 
     assert _run(argparse.Namespace(verb="evaluate", handler=handler)) == code
     assert capsys.readouterr().err == f"swazure evaluate: error: {error}\n"
+
+
+def test_a_run_out_of_memory_exits_1_with_one_line_that_says_so(capsys):
+    def handler(args):
+        return len(np.empty(2**59))  # 4 EiB: no machine has it
+
+    assert _run(argparse.Namespace(verb="evaluate", handler=handler)) == RUN_FAILED
+    error = capsys.readouterr().err
+    assert error.startswith("swazure evaluate: error: out of memory: Unable to allocate")
+    assert error.count("\n") == 1
 
 
 def test_ctrl_c_in_code_run_from_a_string_still_exits_130(tmp_path):
