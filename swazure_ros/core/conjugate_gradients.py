@@ -47,7 +47,9 @@ class System:
     right: FloatArray  # (N, 3, K), cm^-1: B, the flows into the FLS
 
 
-def system_of(edges: Edges, edge_flows: FloatArray | None = None) -> System:
+def system_of(
+    edges: Edges, edge_flows: FloatArray | None = None, right: FloatArray | None = None
+) -> System:
     """The normal equations' rows held by each FLS of ``edges``.
 
     An FLS in no pair keeps the identity for its block, so that its unknowns
@@ -59,6 +61,9 @@ def system_of(edges: Edges, edge_flows: FloatArray | None = None) -> System:
         Weighted edges of N FLSs.
     edge_flows : (2E, 3, K) array of float, optional, cm^-1
         The right sides' flows; by default the measurements' own (K = 1).
+    right : (N, 3, K) array of float, optional, cm^-1
+        The right sides themselves, each FLS's flows summed
+        (:func:`~.swarm_edges.summed_flows`), instead of ``edge_flows``.
 
     Returns
     -------
@@ -84,8 +89,9 @@ def system_of(edges: Edges, edge_flows: FloatArray | None = None) -> System:
         (values.ravel(), (rows.ravel(), columns.ravel())), shape=(3 * size, 3 * size)
     ).tocsr()
     matrix.sort_indices()
-    edge_flows = edges.flow[:, :, None] if edge_flows is None else edge_flows
-    right = sums_into(edge_flows, edges.starts)
+    if right is None:
+        edge_flows = edges.flow[:, :, None] if edge_flows is None else edge_flows
+        right = sums_into(edge_flows, edges.starts)
     return System(edges, matrix, np.asarray(np.linalg.inv(diagonal), dtype=np.float64), right)
 
 

@@ -37,7 +37,7 @@ from .measurement_graph import (
     robust_weights,
 )
 from .progress import SILENT, Progress
-from .swarm_edges import FLOW_CHUNK, Edges, blocks_times, edges_of, flows, weighted
+from .swarm_edges import FLOW_CHUNK, Edges, blocks_times, edges_of, flows, summed_flows, weighted
 
 #: Right sides of the covariance's solve: each a draw of every measurement's noise. The
 #: sample covariance of K solutions is the fit's covariance to about sqrt(2 / K); a NEES
@@ -278,7 +278,7 @@ def swarm_solve(
     drawn = np.zeros((size, 3, 0))
     if samples:
         final = weighted(edges, measured, weights)
-        system = system_of(final, noise_flows(final, measured, weights, samples, ids))
+        system = system_of(final, right=noise_sides(final, measured, weights, samples, ids))
         stage = f"fit: covariance, {samples} draws"
         drawn, spent = solved(system, np.zeros((size, 3, samples)), progress=progress, stage=stage)
         iterations.append(spent)
@@ -311,9 +311,27 @@ def noise_flows(
     -------
     (2E, 3, K) array of float, cm^-1
     """
-    noise = measurement_noise(measured, weights, samples, ids)
+    return flows(edges, measured, *_noise_parts(edges, measured, weights, samples, ids))
+
+
+def noise_sides(
+    edges: Edges, measured: Measurements, weights: FloatArray, samples: int, ids: IntArray
+) -> FloatArray:
+    """The right sides (N, 3, K), cm^-1, of :func:`noise_flows`: each FLS's flows summed.
+
+    The same bits as ``sums_into(noise_flows(...), edges.starts)``, without every
+    edge's K columns at once (:func:`~.swarm_edges.summed_flows`).
+    """
+    return summed_flows(edges, measured, *_noise_parts(edges, measured, weights, samples, ids))
+
+
+def _noise_parts(
+    edges: Edges, measured: Measurements, weights: FloatArray, samples: int, ids: IntArray
+) -> tuple[FloatArray, FloatArray]:
+    """Each edge's two rows' weighted information (2E, 2, 3, 3) and the rows' noise draws
+    (M, 3, K): what an edge's flow of noise is formed from."""
     information = measured.information[edges.rows] * weights[edges.rows][:, :, None, None]
-    return flows(edges, measured, information, noise)
+    return information, measurement_noise(measured, weights, samples, ids)
 
 
 def measurement_noise(

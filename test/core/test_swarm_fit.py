@@ -113,6 +113,27 @@ def test_noise_drawn_and_its_flows_formed_a_few_rows_at_a_time_are_the_same_bits
     assert np.abs(whole).max() > 0  # flows of real draws, not of nothing
 
 
+def test_each_fls_s_noise_flows_summed_a_few_flss_at_a_time_are_the_whole_flows_sums(
+    monkeypatch,
+):
+    from swazure_ros.core import swarm_edges, swarm_fit
+    from swazure_ros.core.swarm_edges import edges_of, sums_into, weighted
+
+    hood = neighbourhood(torus_swarm(0.3), stochastic_sensor())
+    measured = measurements(hood, fit_pairs(hood))
+    size, ids = hood.swarm.size, np.arange(hood.swarm.size)
+    weights = np.linspace(0.5, 1.0, len(measured.first))
+    edges = weighted(edges_of(size, measured), measured, weights)
+    expected = sums_into(swarm_fit.noise_flows(edges, measured, weights, 8, ids), edges.starts)
+    assert swarm_fit.noise_sides(edges, measured, weights, 8, ids).tobytes() == expected.tobytes()
+    for module in (swarm_edges, swarm_fit):
+        monkeypatch.setattr(module, "FLOW_CHUNK", 7)  # FLSs of more edges than a chunk too
+    assert np.diff(edges.starts).max() > 7 and size > 20
+    chunked = swarm_fit.noise_sides(edges, measured, weights, 8, ids)
+    assert chunked.tobytes() == expected.tobytes()
+    assert np.abs(expected).max() > 0
+
+
 def test_the_engine_s_solve_in_place_is_the_same_bits_as_an_fls_s_steps():
     from swazure_ros.core.conjugate_gradients import solved, system_of
     from swazure_ros.core.swarm_edges import edges_of
