@@ -317,10 +317,26 @@ def noise_flows(
 def noise_sides(
     edges: Edges, measured: Measurements, weights: FloatArray, samples: int, ids: IntArray
 ) -> FloatArray:
-    """The right sides (N, 3, K), cm^-1, of :func:`noise_flows`: each FLS's flows summed.
+    """The right sides of :func:`noise_flows`: each FLS's flows of the noise, summed.
 
     The same bits as ``sums_into(noise_flows(...), edges.starts)``, without every
     edge's K columns at once (:func:`~.swarm_edges.summed_flows`).
+
+    Parameters
+    ----------
+    edges : Edges
+    measured : Measurements
+        M rows.
+    weights : (M,) array of float
+        The final robust weights.
+    samples : int
+        Draws, K.
+    ids : (N,) array of int
+        The FLS id of each index.
+
+    Returns
+    -------
+    (N, 3, K) array of float, cm^-1
     """
     return summed_flows(edges, measured, *_noise_parts(edges, measured, weights, samples, ids))
 
