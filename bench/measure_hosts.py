@@ -399,13 +399,14 @@ def computed_record(swarm: Any) -> dict[str, object]:
 
     computed = compute_all(swarm, POLICY)
     distributed, comparison = computed.record.distributed, computed.record.comparison
-    assert distributed is not None  # a run of the swarm's
+    engine = computed.record.engine
+    assert distributed is not None and engine is not None  # a run of the swarm's
     return {
         "discovery_s": distributed.seconds,
         "rounds": distributed.rounds,
         "restarts": distributed.restarts,
         "engine_s": computed.record.engine_seconds,
-        "pairs": len(computed.engine.pairs),
+        "pairs": engine.pairs.blind_pairs,
         "identical": "-" if comparison is None else comparison.describe(),
     }
 

@@ -2,25 +2,32 @@
 
 :func:`compute_all` runs the whole swarm's discovery (and a heuristic) over a
 :class:`~.swarm.RunningSwarm` and sets it beside the engine's evaluation of
-the same work, pair by pair (:func:`same_results`).
+the same work, pair by pair (:func:`same_pairs`). A launcher whose world holds
+only its own FLSs' pairs compares plain Swazure a block of sources at a time,
+beside the engine's blocks (``core.blocks``): no process then holds every
+pair's results, nor the whole swarm's neighbourhood.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..core.blocks import BlockedEvaluation, Budget, evaluate_blocked, with_decaying
 from ..core.errors import SwazureError
-from ..core.evaluation import Evaluation
+from ..core.evaluation import Evaluation, PairResults
 from ..core.fit import PATH, check_plain_estimator
 from ..core.heuristics.result import MOVE_SOURCE, PLAIN, HeuristicResult
 from ..core.heuristics.source import source_body_in_the_way
-from ..core.pipeline import EngineRun, RunOptions, run_engine
-from ..core.summary import with_source
+from ..core.pair_statistics import PairTally, summarise
+from ..core.pipeline import EngineRun, RunOptions, Take, run_engine
+from ..core.progress import SILENT
+from ..core.summary import Summary, with_source
 from ..files.record import Distributed, EngineComparison, RunRecord
-from ..protocol.discovery.estimate import evaluation_of
+from ..protocol.discovery.estimate import ReportedPairs, evaluation_of
 from ..protocol.runs import DiscoveryResult
 from ..sim.world import World
 from ..view.scene import evaluation_scene
@@ -31,9 +38,11 @@ from .swarm import RunningSwarm
 class SwarmComputation:
     """The whole swarm's computation beside the engine's evaluation of the same work."""
 
-    evaluation: Evaluation  # what the swarm computed (its summary is the record's)
+    #: What the swarm computed (its summary is the record's); None when compared block by
+    #: block, its pairs given to ``take`` as they were read.
+    evaluation: Evaluation | None
     heuristic: HeuristicResult | None  # the moves made, with a technique
-    engine: Evaluation  # the core engine's, for the same work
+    engine: Evaluation | None  # the core engine's, for the same work; None as evaluation
     record: RunRecord  # the run as data: summary, traffic, the engine's, identity
 
 
@@ -47,6 +56,7 @@ def compute_all(
     estimator: str = PATH,
     per_run: int | None = None,
     source_body: bool = False,
+    take: Take | None = None,
 ) -> SwarmComputation:
     """Every FLS's pose relative to every blind neighbour, by the swarm, and by the engine.
 
@@ -59,16 +69,26 @@ def compute_all(
     most sources one discovery run searches for (``RunningSwarm.discover``).
     ``source_body``: Move Source, by the swarm and the engine, takes a helper only
     where the source's body at its probe point leaves its view of the target clear.
+    ``take`` gets the swarm's pairs (:data:`core.pipeline.Take`): a run's
+    held whole as one block, a run compared block by block as it is read.
+
+    Where the launcher's world holds only its own FLSs' pairs
+    (``SwarmConfig.whole_world`` False), plain Swazure's path estimates are
+    compared block by block (:func:`compare_in_blocks`), and the result holds
+    no evaluation; a heuristic or a fit then is a SwazureError.
     """
     check_plain_estimator(estimator, technique)
-    if not swarm.config.whole_world:
+    if not swarm.config.whole_world and (technique != PLAIN or estimator != PATH):
         raise SwazureError(
-            "every pose by the swarm needs the whole world: SwarmConfig.whole_world"
+            f"the swarm's {technique if technique != PLAIN else estimator} needs every pair "
+            "at once: SwarmConfig.whole_world"
         )
     world: World = swarm.world
     result = swarm.discover(policy, on_progress=on_progress, estimator=estimator, per_run=per_run)
     if on_discovered is not None:
         on_discovered(result)
+    if not swarm.config.whole_world:
+        return _in_blocks(swarm, result, policy, take, on_progress)
     evaluation = evaluation_of(world.hood, policy, result.outcome.estimates)
     if swarm.view is not None:
         title = f"{world.cloud.name}, {policy}: poses found by the swarm"
@@ -91,10 +111,10 @@ def compute_all(
     )
     engine = run_engine(world.swarm, world.sensor, options, hold=True)
     seconds = result.seconds + (moved.seconds if moved is not None else 0.0)
-    spec = swarm.config.world
-    found = replace(evaluation.summary, seconds=seconds)
-    summary = with_source(found, world.cloud, spec.seed, spec.sensor_file)
+    summary = _sourced(swarm, replace(evaluation.summary, seconds=seconds))
     evaluation = replace(evaluation, summary=summary)
+    if take is not None:
+        take(world.hood, iter([evaluation.pairs]), heuristic, len(evaluation.pairs))
     record = RunRecord(
         "spawn",
         seconds,
@@ -108,10 +128,86 @@ def compute_all(
     return SwarmComputation(evaluation, heuristic, engine.held, record)
 
 
+def _sourced(swarm: RunningSwarm, summary: Summary) -> Summary:
+    """``summary`` with where the swarm came from: its cloud, seed and sensor file."""
+    spec = swarm.config.world
+    return with_source(summary, swarm.world.cloud, spec.seed, spec.sensor_file)
+
+
+def _in_blocks(
+    swarm: RunningSwarm,
+    result: DiscoveryResult,
+    policy: str,
+    take: Take | None,
+    on_progress: Callable[[str], None] | None,
+) -> SwarmComputation:
+    """Plain Swazure's discovery ``result`` beside the engine's, block by block."""
+    world = swarm.world
+    if on_progress is not None:
+        on_progress("comparing the pairs with the engine's, block by block")
+    reported = ReportedPairs(world.swarm.cloud_index, result.outcome.estimates)
+    engine = evaluate_blocked(world.swarm, world.sensor, policy, Budget(), SILENT)
+    summary, comparison = compare_in_blocks(reported, engine, result.seconds, take)
+    record = RunRecord(
+        "spawn",
+        result.seconds,
+        _sourced(swarm, summary),
+        engine=engine.summary(),
+        engine_seconds=engine.seconds,
+        comparison=comparison,
+        bring_up=swarm.bring_up,
+        distributed=Distributed.of(result, None),
+    )
+    return SwarmComputation(None, None, None, record)
+
+
+def compare_in_blocks(
+    reported: ReportedPairs,
+    engine: BlockedEvaluation,
+    seconds: float,
+    take: Take | None = None,
+) -> tuple[Summary, EngineComparison]:
+    """The swarm's ``reported`` pairs beside each of ``engine``'s blocks, read and tallied
+    a block at a time: the swarm's summary (``seconds`` its time) and the comparison.
+
+    ``take`` gets the swarm's blocks as they are read; every block is made.
+    """
+    tally = PairTally(engine.lean.budget.exact_values)
+    parts: list[EngineComparison] = []
+
+    def ours() -> Iterator[PairResults]:
+        for theirs in engine.blocks(SILENT):
+            mine = _reported_block(reported, engine, theirs)
+            parts.append(same_pairs(mine, theirs))
+            tally.add(mine)
+            yield mine
+
+    if take is None:
+        deque(ours(), maxlen=0)
+    else:
+        take(engine.hood, ours(), None, len(engine.lean.blind))
+    return summarise(engine.hood, engine.policy, tally, seconds), joined_comparison(parts)
+
+
+def _reported_block(
+    reported: ReportedPairs, engine: BlockedEvaluation, theirs: PairResults
+) -> PairResults:
+    """The swarm's pairs of the engine's block ``theirs``. A reported path over a decaying
+    hop the engine's neighbourhood does not hold yet (its sweet pairs alone: no pair of
+    its blocks so far needed more) brings the decaying pairs in."""
+    try:
+        return reported.pairs(engine.hood, theirs.source, theirs.target)
+    except ValueError:
+        if engine.lean.whole is not None:
+            raise
+        engine.lean = with_decaying(engine.lean, SILENT)
+        return reported.pairs(engine.hood, theirs.source, theirs.target)
+
+
 def _compared(ours: Evaluation, engine: EngineRun, world: World) -> EngineComparison:
     """The swarm's pairs beside the engine's; for Move Source, how many of the engine's
     the source's body at its probe point blocks (what the swarm cannot fly)."""
-    comparison = same_results(ours, engine.held)
+    comparison = same_pairs(ours.pairs, engine.held.pairs)
     if engine.heuristic is None or engine.heuristic.technique != MOVE_SOURCE:
         return comparison
     blocked = source_body_in_the_way(engine.heuristic, world.swarm)
@@ -134,10 +230,9 @@ def run_failure(record: RunRecord) -> str | None:
     return "; ".join(reasons) or None
 
 
-def same_results(ours: Evaluation, engine: Evaluation) -> EngineComparison:
-    """Every pair of ``ours`` beside the engine's: how many differ in status, path and
-    estimate (to 1e-9 cm; a fit's covariance to 1e-9 of its largest entry)."""
-    mine, theirs = ours.pairs, engine.pairs
+def same_pairs(mine: PairResults, theirs: PairResults) -> EngineComparison:
+    """Every pair of ``mine`` beside the engine's ``theirs``: how many differ in status,
+    path and estimate (to 1e-9 cm; a fit's covariance to 1e-9 of its largest entry)."""
     if len(mine) != len(theirs):
         # Not the same pairs: none of them is compared.
         return EngineComparison(len(mine), len(theirs), None, None, None)
@@ -151,3 +246,19 @@ def same_results(ours: Evaluation, engine: Evaluation) -> EngineComparison:
             apart = np.abs(mine.covariance - theirs.covariance).max(axis=(1, 2))
             far += int((apart > 1e-9 * scale).sum())
     return EngineComparison(len(mine), len(theirs), status, far, paths)
+
+
+def joined_comparison(parts: Sequence[EngineComparison]) -> EngineComparison:
+    """The comparison of blocks' pairs taken together (:func:`same_pairs` of each): their
+    counts summed; where some block's pairs were not compared, none are."""
+    pairs = sum(part.pairs for part in parts)
+    engine_pairs = sum(part.engine_pairs for part in parts)
+    if any(part.statuses is None or part.estimates is None for part in parts):
+        return EngineComparison(pairs, engine_pairs, None, None, None)
+    return EngineComparison(
+        pairs,
+        engine_pairs,
+        sum(part.statuses or 0 for part in parts),
+        sum(part.estimates or 0 for part in parts),
+        any(bool(part.paths) for part in parts),
+    )

@@ -78,9 +78,9 @@ class SwarmConfig:
     #: Who answers an FLS's ``get_neighbours``: ``fls``, each FLS itself; ``hosts``, its
     #: process's host node only; ``auto``, as :meth:`fls_services` says.
     neighbour_services: str = AUTO
-    #: The launching process's world holds every pair of the swarm, as the engine's
-    #: comparison (``--compute-all``) and the view need; False: only its own FLSs' pairs,
-    #: as a further process's world.
+    #: The launching process's world holds every pair of the swarm, as the view and the
+    #: swarm's heuristics and fits need; False: only its own FLSs' pairs, as a further
+    #: process's world (``--compute-all`` of plain Swazure then compares block by block).
     whole_world: bool = True
 
     def __post_init__(self) -> None:

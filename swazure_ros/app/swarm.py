@@ -115,8 +115,9 @@ class RunningSwarm:
         self.config = plan.config
         self.size = plan.size
         self.key = plan.key
-        #: Each process lays out what its own FLSs sense; the engine's comparison needs the
-        #: whole neighbourhood, which this world holds where ``config.whole_world`` says so.
+        #: Each process lays out what its own FLSs sense; the view and the swarm's heuristics
+        #: need the whole neighbourhood, which this world holds where ``config.whole_world``
+        #: says so.
         self.world = starting.world
         self.processes = plan.processes
         self.discovery_servers = plan.discovery_servers

@@ -24,9 +24,7 @@ import shutil
 import signal
 import sys
 import tempfile
-import time
 from collections.abc import Callable
-from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -58,9 +56,7 @@ from .options import (
     add_swarm_estimator_argument,
     add_threshold_argument,
     pairs_output,
-    warn_of_large_pairs,
     world_from_args,
-    wrote,
 )
 from .progress import CreationBar
 from .swarm_file import add_swarm_file_argument, apply_swarm_file
@@ -71,7 +67,6 @@ if TYPE_CHECKING:
     from ..app.per_fls import Ended
     from ..app.swarm import RunningSwarm, Starting
     from ..files.record import BringUp
-    from ..protocol.runs import DiscoveryResult
     from ..sim.world import World
 
 
@@ -334,8 +329,10 @@ def config_from_args(args: argparse.Namespace, folder: Path | None = None) -> Sw
         parameter_services=args.parameter_services,
         per_fls=args.per_fls,
         neighbour_services=args.neighbour_services,
-        # Only these look at pairs of other processes' FLSs: the engine's and the view's.
-        whole_world=args.compute_all or args.view,
+        # Only the view and the swarm's heuristics and fits look at every pair at once; the
+        # engine's comparison of plain Swazure goes block by block (app.compute).
+        whole_world=args.view
+        or (args.compute_all and (args.technique != PLAIN or args.estimator != PATH)),
         log_dir=None if args.log_dir is None else str(args.log_dir),
         discovery_servers=args.discovery_server,
         view=ViewConfig(
@@ -344,88 +341,6 @@ def config_from_args(args: argparse.Namespace, folder: Path | None = None) -> Sw
         if args.view
         else None,
     )
-
-
-def compute_all(swarm: RunningSwarm, args: argparse.Namespace) -> int:
-    """Run discovery over the whole swarm, report it beside the engine, write --out."""
-    from ..app.compute import compute_all as run
-    from ..app.compute import run_failure
-    from ..files.results import write_run
-    from .summary import explain_run, summary_table
-
-    world = swarm.world
-
-    beta = world.swarm.beta
-    size = f"radius {world.swarm.radius:.4g} cm" if beta is None else f"beta {beta:.4g}"
-
-    def discovered(result: DiscoveryResult) -> None:
-        traffic, outcome = result.traffic, result.outcome
-        print(
-            f"{world.cloud.name}: {size}, {args.policy}: discovery "
-            f"{result.seconds:.2f} s, "
-            + (f"{result.runs} runs, " if result.runs > 1 else "")
-            + f"{outcome.rounds} rounds, {traffic.total_messages} "
-            f"messages, {traffic.total_bytes / 1e6:.1f} MB; labels held "
-            f"{outcome.label_bytes / 1e6:.1f} MB at most"
-            + (f", {outcome.repairs} radio repairs" if outcome.repairs else "")
-            + (" - INCOMPLETE: radio deliveries lost for good" if outcome.incomplete else ""),
-            flush=True,
-        )
-
-    began = time.monotonic()
-
-    def progress(text: str) -> None:
-        if not args.quiet:
-            print(f"  {time.monotonic() - began:.0f} s: {text}", file=sys.stderr, flush=True)
-
-    first, live = swarm.first_block(args.sources_per_run)
-    runs = ""
-    if len(first) < len(live):
-        runs = f", in runs of {len(first):,} sources" + (
-            "" if args.sources_per_run else " first, then as many as the labels' memory allows"
-        )
-    print(f"discovery: every FLS for every blind neighbour, {args.policy}{runs}", flush=True)
-    computed = run(
-        swarm,
-        args.policy,
-        args.technique,
-        args.threshold,
-        discovered,
-        progress,
-        args.estimator,
-        args.sources_per_run,
-        args.source_body,
-    )
-    record = computed.record
-    moved = record.distributed.moves if record.distributed is not None else None
-    if moved is not None:
-        print(
-            f"{args.technique}: {moved.seconds:.2f} s, {moved.batches} batches, "
-            f"{moved.move_commands} move commands, {moved.path_walks} path walks, "
-            f"{moved.total_messages} messages, {moved.total_bytes / 1e6:.1f} MB"
-            + (f", {moved.timeouts} waits timed out" if moved.timeouts else "")
-        )
-    assert record.summary is not None and record.engine is not None
-    assert record.engine_seconds is not None and record.comparison is not None
-    print(f"engine: {record.engine_seconds:.2f} s for the same work")
-    print(summary_table(record.summary, ("engine", record.engine), heading="distributed"))
-    # Warned as the swarm came up (warn_spacing): here the line under the summary.
-    explain_run("spawn", record.engine, world.home, world.sensor, world.cloud.scale, warned=True)
-    print(
-        "pairs identical to the engine's (status, path, estimate to 1e-9"
-        + (", covariance" if args.estimator != PATH else "")
-        + f"): {record.comparison.describe()}"
-    )
-    if args.out is not None:
-        warn_of_large_pairs("spawn", record.summary.pairs.blind_pairs, args.pairs)
-        record = replace(record, pairs=args.pairs)
-        print(wrote(*write_run(args.out, computed.evaluation, record, computed.heuristic)))
-    # The outputs stay written (they show what went wrong); the exit code says it.
-    failure = run_failure(record)
-    if failure is not None:
-        print(f"swazure spawn: error: {failure}", file=sys.stderr)
-        return 1
-    return 0
 
 
 def warn_spacing(world: World) -> None:
@@ -522,6 +437,8 @@ def _spawn(args: argparse.Namespace, config: SwarmConfig) -> int:
             if args.until_ready:
                 return 0
             if args.compute_all:
+                from .compute_all import compute_all
+
                 return compute_all(swarm, args)
             print(
                 f"measurements on /{config.namespace}/measurements; Ctrl-C stops the swarm",

@@ -7,6 +7,7 @@ import threading
 import numpy as np
 import pytest
 
+from swazure_ros.app.compute import compute_all
 from swazure_ros.app.config import SwarmConfig
 from swazure_ros.app.share import shares
 from swazure_ros.app.swarm import RunningSwarm
@@ -114,23 +115,27 @@ def test_two_processes_hear_only_their_cells_offers_yet_equal_the_engine(domain,
         assert 0 < radio.offers_heard < sent - radio.offers_here
 
 
-def test_a_further_process_holds_only_its_own_flss_pairs_and_rows_yet_equals_the_engine(
+def test_every_process_holds_only_its_own_flss_pairs_and_rows_yet_the_run_equals_the_engine(
     domain,
     params,  # noqa: F811
 ):
-    config = SwarmConfig(WORLD, processes=3, domain_id=domain, params_file=str(params))
+    # The launcher too: plain Swazure's comparison with the engine goes block by block.
+    config = SwarmConfig(
+        WORLD, processes=3, domain_id=domain, params_file=str(params), whole_world=False
+    )
     with RunningSwarm.start(config) as swarm:
-        result = swarm.discover(POLICY)
-        world = swarm.world  # the launcher's: the whole swarm's pairs
-        assert_matches_engine(
-            world, by_pair(result.outcome.estimates), evaluate_pairs(world.hood, POLICY)
-        )
-        further = swarm.processes.shares[1:]
-        held = swarm.processes.held()
+        computed = compute_all(swarm, POLICY)
+        shares_ids = swarm.processes.shares
+        held = [swarm.world.held(), *swarm.processes.held()]
+    assert computed.record.comparison is not None and computed.record.comparison.identical
+    assert computed.evaluation is None  # no process held every pair's results
+    world = WORLD.build()  # the whole swarm's, built here to count against
+    engine = evaluate(world.swarm, world.sensor, POLICY).summary
+    assert computed.record.summary.pairs.blind_pairs == engine.pairs.blind_pairs > 1_000
     pairs = world.hood.pairs
     rows_of = np.diff(observations(world.hood).indptr)  # each FLS's rows in the whole swarm
-    assert len(held) == len(further) == 2
-    for share, count in zip(further, held, strict=True):
+    assert len(held) == len(shares_ids) == 3
+    for share, count in zip(shares_ids, held, strict=True):
         mine = world.indices(share)
         hosted = np.zeros(world.swarm.size, dtype=bool)
         hosted[mine] = True
