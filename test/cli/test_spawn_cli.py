@@ -6,6 +6,12 @@ import subprocess
 import sys
 import threading
 
+import pytest
+
+from swazure_ros.cli.main import build_parser
+from swazure_ros.cli.spawn import config_from_args
+from swazure_ros.cli.swarm_file import apply_swarm_file
+
 from ..waits import PATIENCE, wait_until
 
 WARNING = "swazure spawn: warning: no pair of FLSs is a hop the sensor measures"
@@ -62,3 +68,21 @@ def test_a_computed_torus_without_its_scale_says_why_under_its_summary(domain):
     assert [line for line in run.stderr.splitlines() if "warning" in line] == [
         f"swazure spawn: warning: {why.removeprefix('why: ')}"
     ]
+
+
+@pytest.mark.parametrize(
+    ("flags", "whole"),
+    [
+        (["--compute-all"], False),  # compared with the engine block by block
+        ([], False),
+        (["--view"], True),  # the view draws every pair
+        (["--compute-all", "--technique", "move-source"], True),  # the swarm's moves
+        (["--compute-all", "--estimator", "swarm-fit"], True),  # the swarm's fit
+    ],
+)
+def test_the_launcher_holds_every_pair_only_for_the_view_and_the_swarms_moves_and_fits(
+    flags, whole
+):
+    argv = ["spawn", "--cloud", "torus:120", "--scale", "1.6", "--beta", "0.5", *flags]
+    args = apply_swarm_file(build_parser().parse_args(argv))
+    assert config_from_args(args).whole_world is whole
