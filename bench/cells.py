@@ -19,9 +19,9 @@ from bench.common import REPO, SECTIONS_DIR, swarm_cloud, table_cell
 
 #: (shape, processes) of the cells section: the built-in torus at the paper's density and
 #: the race car, packed over 1, 2 and 4 processes; the other published shapes in one process
-#: (discovery against the engine on every published shape); torus:10000 over one and two
-#: (each process holds the whole world: four would need about 28 GB, this machine has 24),
-#: and torus:30000 over two, to see what breaks first.
+#: (discovery against the engine on every published shape); then issue 67's display sizes:
+#: torus:10000 over one and two, torus:30000 and torus:65536 over four (each process holds
+#: its own FLSs' observations and pairs, the launcher's comparison goes block by block).
 CELL_RUNS = (
     [(shape, 1) for shape in ("chess_408", "palm_725", "kangaroo_972", "dragon_1147")]
     + [("skateboard_1372", 1)]
@@ -30,12 +30,16 @@ CELL_RUNS = (
         for shape in ("torus:400", "torus:1000", "torus:3720", "racecar_3720")
         for processes in (1, 2, 4)
     ]
-    + [("torus:10000", 1), ("torus:10000", 2), ("torus:30000", 2)]
+    + [("torus:10000", 1), ("torus:10000", 2), ("torus:30000", 4), ("torus:65536", 4)]
 )
 
 
-#: The longest a cells run may take, s: its row then says it was stopped.
+#: The longest a cells run may take, s: its row then says it was stopped; a display-size
+#: swarm's (30,000 FLSs and more) may take longer.
 CELL_LIMIT = 1800
+DISPLAY_LIMIT = 4 * 3600
+#: FLSs from which a swarm is of display size.
+DISPLAY_FLSS = 30_000
 
 
 def cells_section(
@@ -64,7 +68,9 @@ def cell_record(
                "--processes", str(processes), "--beta", str(beta),
                "--domain-id", str(domain), "--out", str(out)]  # fmt: skip
     try:
-        done = subprocess.run(command, timeout=CELL_LIMIT, capture_output=True, text=True)
+        size = int(shape.split(":")[1]) if shape.startswith("torus:") else 0
+        limit = DISPLAY_LIMIT if size >= DISPLAY_FLSS else CELL_LIMIT
+        done = subprocess.run(command, timeout=limit, capture_output=True, text=True)
         if done.returncode != 0:
             said = [line for line in done.stderr.splitlines() if "bench_cells:" in line]
             where = said[-1].split("bench_cells: ", 1)[-1] if said else "before bring-up"
