@@ -6,21 +6,17 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..core.fit import PATH
 from ..files.record import RunRecord
-from .options import warn_of_large_pairs, wrote
+from .options import pairs_writer, wrote
 
 if TYPE_CHECKING:
     from ..app.swarm import RunningSwarm
-    from ..core.evaluation import PairResults
-    from ..core.heuristics.result import HeuristicResult
-    from ..core.neighbourhood import Neighbourhood
-    from ..core.pipeline import Take
     from ..protocol.runs import DiscoveryResult
     from ..sim.world import World
 
@@ -54,7 +50,7 @@ def compute_all(swarm: RunningSwarm, args: argparse.Namespace) -> int:
         args.estimator,
         args.sources_per_run,
         args.source_body,
-        None if args.out is None else _pairs_writer(args, written),
+        None if args.out is None else pairs_writer("spawn", args, written),
     )
     record = computed.record
     _report(record, swarm.world, args)
@@ -96,24 +92,6 @@ def _discovered(world: World, policy: str) -> Callable[[DiscoveryResult], None]:
         )
 
     return discovered
-
-
-def _pairs_writer(args: argparse.Namespace, written: list[Path | None]) -> Take:
-    """What writes the swarm's pairs into --out as they come; their file into ``written``."""
-    from ..files.results import write_pair_blocks
-
-    def take(
-        hood: Neighbourhood,
-        blocks: Iterator[PairResults],
-        heuristic: HeuristicResult | None,
-        blind_pairs: int,
-    ) -> None:
-        warn_of_large_pairs("spawn", blind_pairs, args.pairs)
-        written.append(
-            write_pair_blocks(args.out, hood, args.policy, blocks, args.pairs, heuristic=heuristic)
-        )
-
-    return take
 
 
 def _report(record: RunRecord, world: World, args: argparse.Namespace) -> None:

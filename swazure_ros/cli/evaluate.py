@@ -10,22 +10,19 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 from ..api.engine import SwarmSetup
 from ..core.blocks import DEFAULT_MEMORY, Budget
-from ..core.evaluation import PairResults
 from ..core.fit import ESTIMATORS, PATH
-from ..core.heuristics.result import PLAIN, TECHNIQUES, HeuristicResult
-from ..core.neighbourhood import Neighbourhood
+from ..core.heuristics.result import PLAIN, TECHNIQUES
 from ..core.pipeline import EngineRun, RunOptions, run_engine
 from ..core.progress import HUNDREDTHS, Progress
 from ..files.atomic import write_json
 from ..files.reading import available_memory
 from ..files.record import RunRecord, write_record
-from ..files.results import SUMMARY_FILE, write_pair_blocks
+from ..files.results import SUMMARY_FILE
 from .arguments import (
     count,
     memory_size,
@@ -41,8 +38,8 @@ from .options import (
     add_swarm_arguments,
     add_threshold_argument,
     pairs_output,
+    pairs_writer,
     swarm_setup_from_args,
-    warn_of_large_pairs,
     written_cloud,
     wrote,
 )
@@ -169,24 +166,13 @@ def main(args: argparse.Namespace) -> int:
     )
     written: list[Path | None] = []  # the per-pair file, once written
 
-    def take(
-        hood: Neighbourhood,
-        blocks: Iterator[PairResults],
-        heuristic: HeuristicResult | None,
-        blind_pairs: int,
-    ) -> None:
-        warn_of_large_pairs("evaluate", blind_pairs, args.pairs)
-        written.append(
-            write_pair_blocks(args.out, hood, args.policy, blocks, args.pairs, heuristic=heuristic)
-        )
-
     try:
         run = run_engine(
             setup.swarm,
             setup.sensor,
             options,
             hold=args.snapshot is not None,  # a snapshot draws every pair
-            take=None if args.out is None else take,
+            take=None if args.out is None else pairs_writer("evaluate", args, written),
             budget=Budget(args.memory, available_memory()),
             source=setup.source,
             progress=progress,

@@ -23,6 +23,7 @@ from ..files.results import (
     PAIRS_OUTPUTS,
     large_pairs_limit,
     pairs_size_warning,
+    write_pair_blocks,
 )
 from ..files.values import MAX_DOMAIN_ID
 from .arguments import (
@@ -36,6 +37,12 @@ from .arguments import (
 )
 
 if TYPE_CHECKING:
+    from collections.abc import Iterator
+
+    from ..core.evaluation import PairResults
+    from ..core.heuristics.result import HeuristicResult
+    from ..core.neighbourhood import Neighbourhood
+    from ..core.pipeline import Take
     from ..sim.world import WorldSpec
 
 
@@ -182,6 +189,24 @@ def warn_of_large_pairs(verb: str, pairs: int, pairs_format: str) -> None:
     warning = pairs_size_warning(pairs, pairs_format, large_pairs_limit())
     if warning is not None:
         print(f"swazure {verb}: {warning}", file=sys.stderr, flush=True)
+
+
+def pairs_writer(verb: str, args: argparse.Namespace, written: list[Path | None]) -> Take:
+    """What writes a run's pairs into ``args.out`` as they come (``--pairs`` says how),
+    warning first of a large file; the file goes into ``written`` (None: none)."""
+
+    def take(
+        hood: Neighbourhood,
+        blocks: Iterator[PairResults],
+        heuristic: HeuristicResult | None,
+        blind_pairs: int,
+    ) -> None:
+        warn_of_large_pairs(verb, blind_pairs, args.pairs)
+        written.append(
+            write_pair_blocks(args.out, hood, args.policy, blocks, args.pairs, heuristic=heuristic)
+        )
+
+    return take
 
 
 def wrote(summary: Path, pairs: Path | None, record: Path) -> str:
