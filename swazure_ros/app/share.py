@@ -137,8 +137,11 @@ def host_share(
     context = host = None
     code = 1
     try:
-        # Its FLSs' pairs only: the launcher's process holds the whole swarm's.
-        world = config.world.build(hosted_ids=fls_ids, only_hosted_pairs=True)
+        # Its FLSs' pairs only, let go once its observations are laid out: only a move asks
+        # for them again (at torus:30000 over 4, 1.3 GB a process).
+        world = config.world.build(
+            hosted_ids=fls_ids, only_hosted_pairs=True, pairs_on_demand=True
+        )
         context = init_context(config)
         own = host_config(config, fls_ids, index, swarm_size, SwarmKey(*key))
         host = SwarmHost(world, own, context=context)

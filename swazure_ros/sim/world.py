@@ -9,8 +9,9 @@ FLSs' row numbers in the point cloud, the ids of ``pairs.csv``.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
@@ -52,6 +53,31 @@ class Held(NamedTuple):
     owners: int  # FLSs with rows laid out
 
 
+class HomeNeighbourhood:
+    """Revision 0's neighbourhood of a world: held, or let go once the observations are laid
+    out and made again the first time something asks for it (``pairs_on_demand``).
+
+    A further process of a packed swarm lays out its FLSs' observations from its pairs and
+    then, in plain discovery, never asks for them again: at torus:30000 over 4 they are
+    1.3 GB a process (41 M pairs). A move asks for them; they are made anew from revision
+    0's places, the same pairs.
+    """
+
+    def __init__(
+        self, hood: Neighbourhood, make: Callable[[], Neighbourhood] | None = None
+    ) -> None:
+        self.pairs = len(hood.pairs)  # counted while held, for :meth:`World.held`
+        self._make = make
+        self.held: Neighbourhood | None = hood if make is None else None
+
+    def get(self) -> Neighbourhood:
+        """The neighbourhood, made again if it was let go."""
+        if self.held is None:
+            assert self._make is not None  # let go only where it can be made again
+            self.held = self._make()
+        return self.held
+
+
 @dataclass
 class WorkedOut:
     """What a :class:`World` worked out of its revision so far; None: not yet.
@@ -84,11 +110,11 @@ class World:
     swarm: Swarm  # the FLSs where they are now
     revision: int
     # Revision 0's, kept because a heuristic returns every FLS home after each batch.
-    home_hood: Neighbourhood
+    home_neighbourhood: HomeNeighbourhood
     home_seen: Observations
-    # The neighbourhood of this revision or an earlier one, and the FLSs (indices)
-    # whose places differ from it.
-    known: Neighbourhood
+    # The neighbourhood of this revision or an earlier one (None: revision 0's), and the
+    # FLSs (indices) whose places differ from it.
+    known: Neighbourhood | None
     moved_since: IntArray
     # The FLSs (sorted indices) whose observations this world lays out; None: every
     # FLS. A process hosting a share holds its FLSs' rows, asked of others on demand.
@@ -100,21 +126,34 @@ class World:
     _worked: WorkedOut = field(default_factory=WorkedOut, init=False, repr=False, compare=False)
 
     @property
+    def home_hood(self) -> Neighbourhood:
+        """Revision 0's neighbourhood (made again if it was let go: ``pairs_on_demand``)."""
+        return self.home_neighbourhood.get()
+
+    @property
+    def _at_home(self) -> bool:
+        """Whether this revision's places are revision 0's, as far as is known."""
+        return self.known is None and not len(self.moved_since)
+
+    @property
     def hood(self) -> Neighbourhood:
         """Every pair within sensor reach, with line of sight; in a world made with
         ``only_hosted_pairs``, the hosted FLSs' pairs (and those of FLSs that moved)."""
         if self._worked.hood is None:
-            self._worked.hood = moved_neighbourhood(self.known, self.swarm, self.moved_since)
+            known = self.home_hood if self.known is None else self.known
+            self._worked.hood = moved_neighbourhood(known, self.swarm, self.moved_since)
         return self._worked.hood
 
     @property
     def seen(self) -> Observations:
         """Every hosted FLS's observations (every FLS's when ``hosted`` is None)."""
         if self._worked.seen is None:
-            hood = self.hood
-            self._worked.seen = (
-                self.home_seen if hood is self.home_hood else observations(hood, self.hosted)
-            )
+            # At home the observations are revision 0's, without asking for its pairs.
+            hood = None if self._at_home else self.hood
+            if hood is None or hood is self.home_neighbourhood.held:
+                self._worked.seen = self.home_seen
+            else:
+                self._worked.seen = observations(hood, self.hosted)
         return self._worked.seen
 
     @property
@@ -184,7 +223,8 @@ class World:
         """What this world holds at its revision, counted (:class:`Held`)."""
         seen = self.seen
         owners = int(np.count_nonzero(np.diff(seen.indptr)))
-        return Held(len(self.hood.pairs), len(seen.other), owners)
+        pairs = self.home_neighbourhood.pairs if self._at_home else len(self.hood.pairs)
+        return Held(pairs, len(seen.other), owners)
 
     @property
     def id_space(self) -> int:
@@ -251,12 +291,13 @@ class World:
                 self,
                 swarm=self.home,
                 revision=next_revision,
-                known=self.home_hood,
+                known=None,
                 moved_since=np.zeros(0, dtype=np.int64),
             )
         # From the newest neighbourhood worked out: only what moved since is sensed anew.
         known = self.known if self._worked.hood is None else self._worked.hood
-        moved_since = np.flatnonzero((points != known.swarm.points).any(axis=1))
+        before = self.home if known is None else known.swarm
+        moved_since = np.flatnonzero((points != before.points).any(axis=1))
         return replace(
             self,
             swarm=replace(self.swarm, points=points),
@@ -274,6 +315,7 @@ def make_world(
     seed: int = 0,
     hosted_ids: Sequence[int] | None = None,
     only_hosted_pairs: bool = False,
+    pairs_on_demand: bool = False,
 ) -> World:
     """The world of ``cloud`` at revision 0: FLSs at their points, colliding ones removed.
 
@@ -282,7 +324,9 @@ def make_world(
     ``only_hosted_pairs``, its neighbourhood holds only the pairs of the hosted
     FLSs (:func:`~swazure_ros.core.neighbourhood.neighbourhood_of`), each as the
     whole swarm's neighbourhood has it: what a process hosting a share needs, not
-    the whole swarm's pairs.
+    the whole swarm's pairs. With ``pairs_on_demand`` too, those pairs are let go
+    once the observations are laid out, and made again when something asks for
+    them (:class:`HomeNeighbourhood`).
     """
     swarm = make_swarm(cloud.points, beta=beta, radius=radius, seed=seed)
     hosted = None
@@ -292,14 +336,17 @@ def make_world(
         if len(hosted) and not np.array_equal(swarm.cloud_index[rows], hosted):
             raise UnknownFlsError(f"hosted FLSs not in this swarm of {swarm.size} FLSs")
         hosted = rows if len(hosted) < swarm.size else None
+    lean = only_hosted_pairs and hosted is not None
+    make = None
     if only_hosted_pairs and hosted is not None:
-        hood = neighbourhood_of(swarm, sensor, hosted)
+        make = partial(neighbourhood_of, swarm, sensor, hosted)
+        hood = make()
     else:
         hood = neighbourhood(swarm, sensor)
     seen = observations(hood, hosted)
+    home = HomeNeighbourhood(hood, make if pairs_on_demand else None)
     no_moves = np.zeros(0, dtype=np.int64)
-    lean = only_hosted_pairs and hosted is not None
-    return World(cloud, sensor, swarm, swarm, 0, hood, seen, hood, no_moves, hosted, lean)
+    return World(cloud, sensor, swarm, swarm, 0, home, seen, None, no_moves, hosted, lean)
 
 
 @dataclass(frozen=True)
@@ -307,7 +354,10 @@ class WorldSpec(SwarmDescription):
     """A swarm's description, from which every process builds the same ground truth."""
 
     def build(
-        self, hosted_ids: Sequence[int] | None = None, only_hosted_pairs: bool = False
+        self,
+        hosted_ids: Sequence[int] | None = None,
+        only_hosted_pairs: bool = False,
+        pairs_on_demand: bool = False,
     ) -> World:
         """Load the cloud and sensor and make the world at revision 0 (see :func:`make_world`)."""
         return make_world(
@@ -318,4 +368,5 @@ class WorldSpec(SwarmDescription):
             seed=self.seed,
             hosted_ids=hosted_ids,
             only_hosted_pairs=only_hosted_pairs,
+            pairs_on_demand=pairs_on_demand,
         )

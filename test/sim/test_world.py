@@ -138,6 +138,38 @@ def test_a_share_world_of_its_own_pairs_holds_those_alone_and_its_rows_are_the_w
     assert lean.only_hosted_pairs and not spec.build(hosted_ids=hosted_ids).only_hosted_pairs
 
 
+def test_a_share_world_lets_its_pairs_go_and_makes_the_same_again_when_an_fls_moves():
+    # What a further process of a packed swarm builds: in plain discovery nothing asks for
+    # its pairs once its FLSs' observations are laid out.
+    spec = WorldSpec("torus:400", scale=1.6, beta=0.5)
+    hosted_ids = every_third(spec)
+    held = spec.build(hosted_ids=hosted_ids, only_hosted_pairs=True)
+    lean = spec.build(hosted_ids=hosted_ids, only_hosted_pairs=True, pairs_on_demand=True)
+    assert lean.home_neighbourhood.held is None
+    fls = hosted_ids[5]
+    # Its FLSs' senses and its counts come without the pairs.
+    assert lean.held() == held.held()
+    np.testing.assert_array_equal(lean.measurement(fls).vector, held.measurement(fls).vector)
+    mine, theirs = vars(lean.neighbours(fls)), vars(held.neighbours(fls))
+    for name in theirs:
+        np.testing.assert_array_equal(mine[name], theirs[name])
+    assert lean.home_neighbourhood.held is None
+    # A move asks for them: made again, the same pairs, and the same senses after it.
+    aside = {fls: held.position(fls) + np.array([0.0, 0.0, 0.4])}
+    moved, moved_held = lean.moved(aside), held.moved(aside)
+    for name in ("first", "second", "distance", "tracking", "range_class"):
+        np.testing.assert_array_equal(
+            getattr(moved.hood.pairs, name), getattr(moved_held.hood.pairs, name)
+        )
+    assert lean.home_neighbourhood.held is not None
+    np.testing.assert_array_equal(moved.seen.other, moved_held.seen.other)
+    np.testing.assert_array_equal(
+        moved.measurement(fls).vector, moved_held.measurement(fls).vector
+    )
+    back = moved.moved({fls: held.position(fls)})
+    assert back.seen is lean.home_seen and back.hood is lean.home_hood
+
+
 def test_a_share_of_ids_the_swarm_does_not_hold_is_refused():
     spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
     with pytest.raises(UnknownFlsError, match="hosted FLSs not in this swarm"):
