@@ -82,11 +82,7 @@ class Observations:
 
     def vector_at(self, rows: slice | IntArray) -> FloatArray:
         """(K, 3) the measured vectors of rows ``rows``, cm; NaN where there is no reading."""
-        reading = self.reading[rows]
-        out = np.full((len(reading), 3), np.nan)
-        looked = reading >= 0
-        out[looked] = self.readings_vector[reading[looked]]
-        return out
+        return _vectors(self.reading[rows], self.readings_vector)
 
     def tracking_at(self, rows: slice | IntArray) -> FloatArray:
         """(K,) the measured t' of rows ``rows``, cm; NaN where there is no reading."""
@@ -291,32 +287,68 @@ def camera_readings(
     return vector, np.linalg.norm(vector, axis=1) - 2.0 * swarm.radius
 
 
+def _vectors(reading: NDArray[np.int32], readings_vector: FloatArray) -> FloatArray:
+    """(K, 3) rows' measured vectors, cm: row ``reading[k]`` of ``readings_vector``, NaN
+    where ``reading[k]`` is -1 (no reading)."""
+    out = np.full((len(reading), 3), np.nan)
+    looked = reading >= 0
+    out[looked] = readings_vector[reading[looked]]
+    return out
+
+
 @dataclass(frozen=True)
 class LocalView:
-    """What one FLS knows of its neighbours (K of them), as FLS ids."""
+    """What one FLS knows of its neighbours (K of them), as FLS ids.
+
+    Its camera's readings are kept as :class:`Observations` keeps them: row
+    ``reading[k]`` of ``readings_vector`` (-1: none). A view of a world's rows
+    (:func:`local_view`) thus holds them in place: every FLS of a process keeps
+    its view for a whole run, and a share of a display has thousands of rows per FLS.
+    """
 
     fls_id: int
     other: IntArray  # (K,), FLS ids
     range_class: NDArray[np.int8]  # (K,), BLIND, SWEET or DECAYING
     visible: NDArray[np.bool_]  # (K,), camera line of sight
     distance: FloatArray  # (K,), tracking distance by radio, cm
-    vector: FloatArray  # (K, 3), measured vector to the neighbour, cm; NaN without a reading
+    reading: NDArray[np.int32]  # (K,), the row's reading; -1 where the camera does not look
+    readings_vector: FloatArray  # (R, 3), measured vector to the neighbour, cm; NaN: undetected
 
     @property
     def blind(self) -> IntArray:
         """(B,) ids of the blind neighbours."""
         return np.asarray(self.other[self.range_class == BLIND], dtype=np.int64)
 
+    @property
+    def vector(self) -> FloatArray:
+        """(K, 3) the measured vector to each neighbour, cm, NaN without a reading: made
+        anew at each call (take :meth:`vector_at` of the rows wanted)."""
+        return self.vector_at(slice(None))
+
+    def vector_at(self, rows: slice | NDArray[np.bool_] | IntArray) -> FloatArray:
+        """(M, 3) the measured vectors of rows ``rows``, cm; NaN where there is no reading."""
+        return _vectors(self.reading[rows], self.readings_vector)
+
+    @property
+    def read(self) -> NDArray[np.bool_]:
+        """(K,) the camera read the neighbour: sweet or decaying, in sight, detected."""
+        read = self.reading >= 0
+        read[read] = np.isfinite(self.readings_vector[self.reading[read]]).all(axis=1)
+        return read
+
 
 def local_view(seen: Observations, ids: IntArray, fls: int) -> LocalView:
     """The view of the FLS at swarm index ``fls``, with neighbours as FLS ids.
+
+    It holds ``seen``'s rows in place, not copies; so do its neighbours' ids where
+    ``ids`` are the swarm indices themselves (a cloud none of whose points was removed).
 
     Parameters
     ----------
     seen : Observations
         With ``fls``'s rows laid out.
     ids : (N,) array of int
-        The FLS id of each swarm index.
+        The FLS id of each swarm index, ascending (as a swarm's are).
     fls : int
         A swarm index.
 
@@ -324,16 +356,20 @@ def local_view(seen: Observations, ids: IntArray, fls: int) -> LocalView:
     -------
     LocalView
         Its neighbours by id, with range class, line of sight, radio
-        distance (cm) and camera vector (cm, NaN without a reading).
+        distance (cm) and camera readings (cm).
     """
     rows = seen.rows(fls)
+    other = seen.other[rows]
+    # Ascending ids from 0 to N - 1 are 0, 1, ..., N - 1: the swarm index is the id.
+    identity = len(ids) > 0 and ids[0] == 0 and ids[-1] == len(ids) - 1
     return LocalView(
         fls_id=int(ids[fls]),
-        other=ids[seen.other[rows]],
+        other=other if identity and other.dtype == ids.dtype else ids[other],
         range_class=seen.range_class[rows],
         visible=seen.visible[rows],
         distance=seen.distance[rows],
-        vector=seen.vector_at(rows),
+        reading=seen.reading[rows],
+        readings_vector=seen.readings_vector,
     )
 
 

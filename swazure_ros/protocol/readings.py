@@ -35,13 +35,13 @@ class Readings:
 def readings_of(view: LocalView) -> Readings:
     """What ``view``'s FLS measures: its neighbours in camera range, in sight, read."""
     camera = (view.range_class == SWEET) | (view.range_class == DECAYING)
-    read = view.visible & camera & np.isfinite(view.vector).all(axis=1)
+    read = view.visible & camera & view.read
     return Readings(
         view.fls_id,
         view.other[read],
         view.range_class[read],
         view.distance[read],
-        view.vector[read],
+        view.vector_at(read),
     )
 
 

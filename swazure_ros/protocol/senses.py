@@ -283,7 +283,9 @@ class DetectedSenses:
             range_class=self._range_class,
             visible=self._read(),
             distance=self._distance,
-            vector=self._vector.copy(),
+            # Row k's reading is row k of its frame's vectors (NaN: not detected).
+            reading=np.arange(len(self._near), dtype=np.int32),
+            readings_vector=self._vector.copy(),
         )
 
     def positions(self, fls_ids: IntArray) -> FloatArray:

@@ -264,7 +264,7 @@ class FitPart:
         measured = (
             view.visible
             & ((view.range_class == SWEET) | (view.range_class == DECAYING))
-            & np.isfinite(view.vector).all(axis=1)
+            & view.read
             & ~np.isin(view.other, list(departed))
         )
         self._measured = np.flatnonzero(measured)  # rows of the view: whom it measures
@@ -371,7 +371,7 @@ class FitPart:
         if self._first:
             self._first = False
             own = self.view.other[self._measured].astype(np.int64)
-            readings = (own, self.view.vector[self._measured])
+            readings = (own, self.view.vector_at(self._measured))
         return FitOffer(label=label, changed=changed, readings=readings)
 
     # -- one fit --------------------------------------------------------------------------
@@ -406,7 +406,7 @@ class FitPart:
         theirs = np.array([self._their_readings[int(fls)] for fls in others]).reshape(count, 3)
         first = np.concatenate([mine, local])
         second = np.concatenate([local, mine])
-        raw = np.concatenate([view.vector[rows], theirs])
+        raw = np.concatenate([view.vector_at(rows), theirs])
         tracking = np.tile(view.distance[rows], 2)
         measured = measured_rows(self.sensor, self.radius, first, second, raw, tracking)
         position = np.zeros((3, 1))

@@ -51,3 +51,29 @@ def test_a_decaying_neighbour_out_of_sight_is_no_row_and_one_in_sight_is():
     assert seen.other[seen.rows(2)].tolist() == [1, 3]
     assert seen.other[seen.rows(1)].tolist() == [0, 2, 3]
     assert seen.visible.all()
+
+
+@pytest.mark.parametrize("a_point_removed", [False, True])
+def test_an_fls_s_view_holds_the_world_s_rows_in_place_and_reads_as_they_do(a_point_removed):
+    # Every FLS of a process keeps its view for a whole run: a copy of its rows would be
+    # 32 B a row, over a gigabyte for a share of a display. A, B, C, D as above; with a
+    # point 0.01 cm from D first, one of the two is removed and the ids are not the indices.
+    points = [[0.0, 0, 0], [7, 0, 0], [14, 0, 0], [0, 14, 0]]
+    swarm = make_swarm(np.array([[0, 14.01, 0]] * a_point_removed + points), radius=0.5)
+    ids = swarm.cloud_index
+    assert swarm.size == 4 and np.array_equal(ids, np.arange(4)) != a_point_removed
+    seen = observations(neighbourhood(swarm, Sensor(6.0, 8.0, 8.0, 30.0)))
+    assert seen.measured.sum() == 10  # A-B, B-C, A-D, B-D, C-D, both ways
+    for fls in range(swarm.size):
+        view = observe.local_view(seen, ids, fls)
+        rows = seen.rows(fls)
+        assert view.fls_id == ids[fls]
+        assert view.other.tolist() == ids[seen.other[rows]].tolist()
+        np.testing.assert_array_equal(view.vector, seen.vector_at(rows))
+        np.testing.assert_array_equal(view.read, seen.measured_in(rows))
+        assert np.isfinite(view.vector_at(view.read)).all()
+        for name in ("range_class", "visible", "distance", "reading"):
+            assert np.shares_memory(getattr(view, name), getattr(seen, name)), name
+        assert view.readings_vector is seen.readings_vector
+        # The neighbours' ids are the world's own rows where the ids are the indices.
+        assert np.shares_memory(view.other, seen.other) != a_point_removed

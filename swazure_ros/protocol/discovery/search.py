@@ -274,7 +274,7 @@ class PathSearch:
         hop_errors = options.hop_errors
         errors = np.zeros(len(view.other)) if hop_errors is None else hop_errors
         self.link_errors = np.asarray(errors[hop][order], dtype=np.float64)
-        own = np.asarray(view.vector[hop][order], dtype=np.float64)
+        own = view.vector_at(np.flatnonzero(hop)[order])
         self.link_vectors = np.full_like(own, np.nan) if options.both_ends else -own
         # This FLS's readings of the neighbours it relays to, sent once when both ends read.
         read = np.isfinite(own).all(axis=1)
