@@ -156,7 +156,8 @@ def lost_coordinator_row(running: Any) -> str:
     running.coordinator = Coordinator(
         world.ids.tolist(),
         hosts=1,
-        shape=world.home_hood,
+        shape=world.swarm,
+        sensor=world.sensor,
         namespace="swarm",
         context=running.context,
         key=running.key,

@@ -165,7 +165,9 @@ class RunningSwarm:
             # Built while the further processes build theirs, each from the same spec: on
             # torus:10000 over 2 the further process started 27 s later, after this world.
             world = config.world.build(
-                hosted_ids=plan.processes.laid_out, only_hosted_pairs=not config.whole_world
+                hosted_ids=plan.processes.laid_out,
+                only_hosted_pairs=not config.whole_world,
+                pairs_on_demand=not config.whole_world,
             )
             context = init_context(config)
             host = SwarmHost(world, _own_config(plan), context=context)
@@ -428,7 +430,8 @@ def _create_nodes(
     coordinator = Coordinator(
         world.ids.tolist(),
         hosts=plan.processes.radios,
-        shape=world.home_hood,
+        shape=world.swarm,
+        sensor=world.sensor,
         namespace=config.namespace,
         context=context,
         key=plan.key,

@@ -48,8 +48,9 @@ from swazure_interfaces.msg import (
 from ...core.evaluation import Evaluation
 from ...core.fit import PATH
 from ...core.fit_measurements import fit_layers
-from ...core.neighbourhood import Neighbourhood
+from ...core.geometry import Swarm
 from ...core.paths import check_policy
+from ...core.sensor import Sensor
 from ...protocol.discovery.messages import Control
 from ...protocol.discovery.search import bucket_width
 from ...protocol.membership import Membership
@@ -170,7 +171,8 @@ class Coordinator(SwarmNode):
         fls_ids: Iterable[int],
         hosts: int,
         *,
-        shape: Neighbourhood,
+        shape: Swarm,
+        sensor: Sensor,
         namespace: str = "swarm",
         context: Context | None = None,
         key: SwarmKey | None = None,
@@ -186,16 +188,18 @@ class Coordinator(SwarmNode):
         self.round_timeout = self.declare(ROUND_TIMEOUT, partial(setattr, self, "round_timeout"))
         self.liveness_period = self.declare(LIVENESS_PERIOD)
         self.liveness_grace = self.declare(LIVENESS_GRACE_SPEC)
-        # The display's shape, every FLS at its assigned point: what the swarm knows
-        # (the points and the sensor are common knowledge), and what moves are planned on.
+        # The display's shape, every FLS at its assigned point, and the sensor: what the
+        # swarm knows (common knowledge), and what moves are planned on. Not the pairs: a
+        # display's are gigabytes, and each FLS's process has its own.
         self.shape = shape
+        self.sensor = sensor
         self.fls_ids = frozenset(int(fls_id) for fls_id in fls_ids)
         self.guard = Guard(self, key)
         self.key = self.guard.key
         self.traffic = Traffic()
         self.outbox = Outbox(self, self.key, self.traffic)
         self.membership = Membership(hosts, own_radio=node_name, radio_fls=fls_id_of)
-        self.positions = Positions(shape.swarm, self.fls_ids)
+        self.positions = Positions(shape, self.fls_ids)
         self.runs: RunQueue[Future] = RunQueue()
         # Deadlines stand still while this process is too busy to hear anything, and
         # follow how long the swarm's rounds take (every run's rounds measured).
@@ -223,7 +227,7 @@ class Coordinator(SwarmNode):
         self.guard.subscribe(Heartbeat, HEARTBEAT_TOPIC, self._on_heartbeat, HEARTBEATS_READ_QOS)
         # One source's search for one target, on demand (swazure query).
         self.pose_service = PoseService(
-            self, shape, self.fls_ids, self.departed_next, self.discover
+            self, sensor, shape.radius, self.fls_ids, self.departed_next, self.discover
         )
         # Liveness: an FLS whose node leaves the graph is gone at once, not after a round's
         # timeout. The graph is DDS's own liveliness: a stopped node is removed at once, a
@@ -268,7 +272,7 @@ class Coordinator(SwarmNode):
         Returns a future of the :class:`DiscoveryResult`. ValueError for a
         policy that this swarm's sensor cannot run (least-error without error).
         """
-        bucket_width(self.shape.sensor, self.shape.swarm.radius, check_policy(policy))
+        bucket_width(self.sensor, self.shape.radius, check_policy(policy))
 
         def begin(run_id: int) -> Machine:
             clock = RoundClock(
@@ -281,7 +285,7 @@ class Coordinator(SwarmNode):
                 sources=sources or (),
                 targets=targets or (),
                 estimator=estimator,
-                fit_layers=fit_layers(self.shape.sensor),
+                fit_layers=fit_layers(self.sensor),
             )
             clock.times = self.round_times
             return clock
@@ -494,9 +498,8 @@ class Coordinator(SwarmNode):
         if not self.key.active:
             # Signed, a report is the swarm's own; unsigned, it may be anyone's: checked
             # whether or not its run is still on, so that a forgery is seen whenever it comes.
-            shape = self.shape
             why = implausible_estimates(
-                estimates, source, self.positions.where, shape.sensor, shape.swarm.radius
+                estimates, source, self.positions.where, self.sensor, self.shape.radius
             )
             check(why is None, f"implausible: {why}")
         if machine is not None:

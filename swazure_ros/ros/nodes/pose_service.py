@@ -13,7 +13,7 @@ from rclpy.task import Future
 from swazure_interfaces.msg import PoseEstimate
 from swazure_interfaces.srv import ComputePose
 
-from ...core.neighbourhood import Neighbourhood
+from ...core.sensor import Sensor
 from ...protocol.discovery.search import refusal
 from ...protocol.runs import DiscoveryResult
 from ..convert.discovery import pose_estimate_message
@@ -35,20 +35,22 @@ def refused(message: str) -> ComputePose.Response:
 class PoseService:
     """Answers ComputePose for ``node`` by one discovery run of ``discover``.
 
-    ``shape`` tells which policies the swarm's sensor can run; ``fls_ids`` are
-    the swarm's FLSs, ``departed()`` those known gone.
+    ``sensor`` and the FLSs' ``radius`` (cm) tell which policies the swarm can run;
+    ``fls_ids`` are the swarm's FLSs, ``departed()`` those known gone.
     """
 
     def __init__(
         self,
         node: SwarmNode,
-        shape: Neighbourhood,
+        sensor: Sensor,
+        radius: float,
         fls_ids: frozenset[int],
         departed: Callable[[], frozenset[int]],
         discover: Discover,
     ) -> None:
         self.node = node
-        self.shape = shape
+        self.sensor = sensor
+        self.radius = radius
         self.fls_ids = fls_ids
         self.departed = departed
         self.discover = discover
@@ -84,7 +86,7 @@ class PoseService:
 
     def _unusable(self, policy: str) -> str | None:
         """Why this swarm's FLSs cannot search by ``policy``; None when they can."""
-        return refusal(self.shape.sensor, self.shape.swarm.radius, policy)
+        return refusal(self.sensor, self.radius, policy)
 
     def _pose_answer(
         self, result: DiscoveryResult, source: int, target: int

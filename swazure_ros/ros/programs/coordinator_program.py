@@ -8,7 +8,6 @@ from __future__ import annotations
 from rclpy.context import Context
 from rclpy.node import Node
 
-from ...core.neighbourhood import neighbourhood
 from ..nodes import coordinator
 from ..nodes.coordinator import Coordinator
 from ..nodes.instance import program_key
@@ -55,13 +54,15 @@ def build_coordinator(context: Context, values: StartupValues) -> list[Node]:
     It plans heuristics' moves on the description's shape, as the packed one does.
     """
     description = description_from(values)
-    shape = neighbourhood(description.assigned(), description.sensor())
-    ids = shape.swarm.cloud_index
+    # The shape and the sensor: the pairs are each FLS's process's own.
+    shape = description.assigned()
+    ids = shape.cloud_index
     hosts = int(values["hosts"]) or len(ids)
     node = Coordinator(
         ids.tolist(),
         hosts,
         shape=shape,
+        sensor=description.sensor(),
         namespace=str(values["namespace"]),
         context=context,
         key=program_key(context, values),

@@ -94,7 +94,9 @@ def test_the_coordinator_keeps_no_more_radios_than_the_swarm_can_have(context):
     from swazure_ros.sim.world import WorldSpec
 
     world = WorldSpec(cloud=str(REPO / "config/track/trio.xyz"), scale=1.0, radius=0.5).build()
-    coordinator = Coordinator(world.ids.tolist(), 3, shape=world.home_hood, context=context)
+    coordinator = Coordinator(
+        world.ids.tolist(), 3, shape=world.swarm, sensor=world.sensor, context=context
+    )
     try:
         for name in [f"made_up_{k}" for k in range(20)] + ["fls_0"]:
             beat = Heartbeat(host=name, hears_controls=True)
