@@ -21,10 +21,17 @@ from swazure_ros.core.hop_errors import hop_error, measured_vectors
 from swazure_ros.core.neighbourhood import neighbourhood, without
 from swazure_ros.core.observe import local_view, observations
 from swazure_ros.core.paths import POLICIES
+from swazure_ros.core.sensor import DECAYING, SWEET
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_sensor
 from swazure_ros.protocol.discovery.estimate import Found, estimate, evaluation_of
-from swazure_ros.protocol.discovery.messages import SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers
+from swazure_ros.protocol.discovery.messages import (
+    ANY_VISIBLE,
+    SWEET_ALL,
+    SWEET_VISIBLE,
+    Offer,
+    RoundOffers,
+)
 from swazure_ros.protocol.discovery.search import (
     PathSearch,
     SearchOptions,
@@ -276,6 +283,39 @@ def test_an_fls_keeps_labels_only_for_the_sources_whose_search_reached_it():
     # The process's one table holds no more; a row holds a few places, not one per FLS.
     table = searches[0].table
     assert table.occupied.sum() == held.sum() and table.width < len(ids) // 4
+
+
+def test_a_process_makes_the_hops_its_flss_relay_from_only_once_a_label_comes():
+    # SD_vis on a torus: with no source searching, no label comes and no FLS holds a hop
+    # (on a display's share, tens of millions). Once one source searches, the process's
+    # FLSs hold theirs: each one's sweet and decaying neighbours in sight, by id.
+    world = WorldSpec("torus:120", scale=2.5, beta=0.5).build()
+    seen, ids = observations(world.hood), world.ids
+    width = bucket_width(world.sensor, world.swarm.radius, "shortest-length")
+    options = SearchOptions("shortest-length", width, int(ids[-1]) + 1)
+    views = [local_view(seen, ids, row) for row in range(len(ids))]
+    for source in (None, 0):
+        searches = [
+            PathSearch(view, ANY_VISIBLE, options, view.blind if row == source else None)
+            for row, view in enumerate(views)
+        ]
+        for round_ in range(2):
+            pick_together(searches, round_, np.zeros(0, dtype=np.int64))
+            offers = [one.offer(round_) for one in searches]
+            hear_together(searches, RoundOffers.of(list(zip(ids.tolist(), offers, strict=True))))
+        table = searches[0].table
+        assert all(one.table is table for one in searches)
+        assert table.links_made == (source is not None)
+    assert sum(len(one.sources) for one in searches) > 1  # the source's labels went out
+    decaying = 0
+    for view, one in zip(views, searches, strict=True):
+        kind = view.range_class
+        rows = np.flatnonzero(view.visible & ((kind == SWEET) | (kind == DECAYING)))
+        assert one.link_ids.tolist() == view.other[rows].tolist()
+        np.testing.assert_array_equal(one.link_weights, view.distance[rows])
+        np.testing.assert_array_equal(one.links.vectors, -view.vector_at(rows))
+        decaying += int(np.count_nonzero(kind[rows] == DECAYING))
+    assert decaying > 0
 
 
 def test_a_search_relays_nothing_beyond_its_pass_s_reach_and_names_its_source_cut_short():

@@ -22,7 +22,7 @@ sender) replaces its source's label when it is better under the total order
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -52,6 +52,33 @@ class Links(NamedTuple):
     weights: FloatArray  # (K,), tracking distance of each hop, cm
     errors: FloatArray  # (K,), expected error of each hop
     vectors: FloatArray  # (K, 3), cm, each hop sender -> FLS as its labels sum it; NaN unread
+
+
+class RowHops(Protocol):
+    """How one FLS's :class:`Links` are made, when its table first needs them."""
+
+    def count(self) -> int:
+        """How many hops the FLS relays from."""
+        ...
+
+    def fill(self, links: Links, start: int) -> None:
+        """Write its hops into ``links`` from ``start`` on (``count()`` of them)."""
+        ...
+
+
+def made_links(hops: Sequence[RowHops]) -> tuple[IntArray, Links]:
+    """(link_starts (F + 1,), links) of the FLSs ``hops``, each written in place once."""
+    link_starts = csr.offsets(np.array([one.count() for one in hops], dtype=np.int64))
+    size = int(link_starts[-1])
+    links = Links(
+        np.empty(size, dtype=np.int64),
+        np.empty(size, dtype=np.float64),
+        np.empty(size, dtype=np.float64),
+        np.empty((size, 3), dtype=np.float64),
+    )
+    for one, start in zip(hops, link_starts[:-1].tolist(), strict=True):
+        one.fill(links, start)
+    return link_starts, links
 
 
 class HeardLabels(NamedTuple):
@@ -272,8 +299,10 @@ class LabelTable:
     """The labels of F FLSs (rows) in one phase of one run, a place per source heard.
 
     ``mes`` (F,) are the FLSs' ids, ``link_starts`` (F + 1,) and ``links``
-    their hops relayed from; ``span`` (first, end) the run's sources (``sources``,
-    sorted, when they are not every id of it) and
+    their hops relayed from, or ``row_hops`` that make them when the table first needs
+    them: a relay that hears no offer in a phase never holds its hops (in a
+    display's SD_vis phase, tens of millions per process); ``span`` (first, end)
+    the run's sources (``sources``, sorted, when they are not every id of it) and
     ``id_space`` a bound on ids; ``fits``: labels also sum unbiased hops and
     their covariances (``unbiased``, ``covariance``). Each column
     (``keys``, the source of each place, none in a direct table, ``sent``, ``hops``, ``length``,
@@ -296,16 +325,20 @@ class LabelTable:
     def __init__(
         self,
         mes: IntArray,
-        link_starts: IntArray,
-        links: Links,
+        link_starts: IntArray | None,
+        links: Links | None,
         span: tuple[int, int],
         id_space: int,
         fits: bool,
         need: int = 1,
         sources: IntArray | None = None,
+        row_hops: Sequence[RowHops] | None = None,
     ) -> None:
         self.mes = np.asarray(mes, dtype=np.int64)
-        self.link_starts, self.links = link_starts, links
+        if (links is None) == (row_hops is None) or (links is None) != (link_starts is None):
+            raise ValueError("give a table link_starts and links, or row_hops to make them")
+        self._link_starts, self._links = link_starts, links
+        self.row_hops = row_hops
         self.span, self.id_space, self.fits = span, id_space, fits
         self.span_array = np.array(span, dtype=np.int64)
         # The run's sources by slot; None when they are every id of the span (slot: id -
@@ -322,6 +355,32 @@ class LabelTable:
         self.occupied = np.zeros(len(self.mes), dtype=np.int64)
         self.direct, width = self._width_for(need)
         self._allocate(width)
+
+    @property
+    def links_made(self) -> bool:
+        """True once the rows' links are held (made from ``hops`` at the first need)."""
+        return self._links is not None
+
+    @property
+    def link_starts(self) -> IntArray:
+        """(F + 1,) where each row's links start in :attr:`links`."""
+        if self._link_starts is None:
+            self._make_links()
+        assert self._link_starts is not None
+        return self._link_starts
+
+    @property
+    def links(self) -> Links:
+        """The hops the rows relay from, row f's at ``link_starts[f]:link_starts[f + 1]``."""
+        if self._links is None:
+            self._make_links()
+        assert self._links is not None
+        return self._links
+
+    def _make_links(self) -> None:
+        assert self.row_hops is not None
+        self._link_starts, self._links = made_links(self.row_hops)
+        self.row_hops = None
 
     def _width_for(self, need: int) -> tuple[bool, int]:
         """(direct, R) for rows of ``need`` labels: a hash at most half full, or a slot per
@@ -533,23 +592,34 @@ class LabelTable:
     def merged(cls, parts: Sequence[tuple[LabelTable, int]]) -> LabelTable:
         """One table of ``parts`` (table, row): part k's labels become row k."""
         first = parts[0][0]
-        pieces = [
-            [field[table.link_starts[row] : table.link_starts[row + 1]] for field in table.links]
-            for table, row in parts
-        ]
-        links = Links(*(np.concatenate(field) for field in zip(*pieces, strict=True)))
-        link_counts = np.array([len(piece[0]) for piece in pieces], dtype=np.int64)
+        row_hops: list[RowHops] | None = None
+        link_starts: IntArray | None = None
+        links: Links | None = None
+        if any(table.links_made for table, _ in parts):
+            pieces = [
+                [
+                    field[table.link_starts[row] : table.link_starts[row + 1]]
+                    for field in table.links
+                ]
+                for table, row in parts
+            ]
+            links = Links(*(np.concatenate(field) for field in zip(*pieces, strict=True)))
+            link_counts = np.array([len(piece[0]) for piece in pieces], dtype=np.int64)
+            link_starts = csr.offsets(link_counts)
+        else:  # made for all rows at once when first needed, no row's alone before
+            row_hops = [_row_hops(table, row) for table, row in parts]
         taken = [table.places(row) for table, row in parts]
         counts = np.array([len(at) for at in taken], dtype=np.int64)
         merged = cls(
             np.array([table.mes[row] for table, row in parts], dtype=np.int64),
-            csr.offsets(link_counts),
+            link_starts,
             links,
             first.span,
             first.id_space,
             first.fits,
             need=int(counts.max(initial=1)),
             sources=first.run_ids,
+            row_hops=row_hops,
         )
         rows = np.repeat(np.arange(len(parts), dtype=np.int64), counts)
         values = {
@@ -572,6 +642,12 @@ class LabelTable:
         if closed:
             merged.closed = np.logical_or.reduce(closed)
         return merged
+
+
+def _row_hops(table: LabelTable, row: int) -> RowHops:
+    """How row ``row`` of ``table`` (whose links are not made) makes its links."""
+    assert table.row_hops is not None
+    return table.row_hops[row]
 
 
 def _grown(values: IntArray, size: int) -> IntArray:

@@ -199,6 +199,53 @@ class SearchOptions:
     reach: float = math.inf  # the pass's rounds (reach_rounds): later labels are not sent
 
 
+class RelayHops:
+    """The hops one FLS relays from in ``phase``, not from the ``departed``, and its
+    readings of them: made when its labels' table needs them (:class:`.labels.RowHops`).
+
+    The neighbours relayed from are sorted by id (a view lists them so), each with
+    the hop sender -> FLS, which the FLS's camera measures the other way round.
+    """
+
+    def __init__(
+        self, view: LocalView, phase: int, departed: frozenset[int], options: SearchOptions
+    ) -> None:
+        # The view holds the world's rows in place: keeping it costs nothing.
+        self.view, self.phase, self.departed, self.options = view, phase, departed, options
+        self._count = int(np.count_nonzero(self._mask()))
+
+    def _mask(self) -> NDArray[np.bool_]:
+        view = self.view
+        return hop_mask(view, self.phase) & ~np.isin(view.other, list(self.departed))
+
+    def _rows(self) -> IntArray:
+        rows = np.flatnonzero(self._mask())
+        return rows[np.argsort(self.view.other[rows], kind="stable")]
+
+    def count(self) -> int:
+        """How many hops it relays from."""
+        return self._count
+
+    def fill(self, links: Links, start: int) -> None:
+        """Write its hops into ``links`` from ``start`` on."""
+        view, rows, end = self.view, self._rows(), start + self._count
+        links.ids[start:end] = view.other[rows]
+        links.weights[start:end] = view.distance[rows]
+        errors = self.options.hop_errors
+        links.errors[start:end] = 0.0 if errors is None else errors[rows]
+        if self.options.both_ends:  # the sender's own reading comes with its first offer
+            links.vectors[start:end] = np.nan
+        else:
+            links.vectors[start:end] = -view.vector_at(rows)
+
+    def readings(self) -> tuple[IntArray, FloatArray]:
+        """The FLS's readings of the neighbours it relays from: (ids, vectors, cm)."""
+        rows = self._rows()
+        own = self.view.vector_at(rows)
+        read = np.isfinite(own).all(axis=1)
+        return np.asarray(self.view.other[rows][read], dtype=np.int64), own[read]
+
+
 class PathSearch:
     """One FLS's labels in one phase of a discovery run.
 
@@ -232,20 +279,23 @@ class PathSearch:
         self.width = options.width
         # Buckets this pass relays: from where the pass before paused, below its reach.
         self.resumed, self.reach = 0.0, options.reach
-        self._relay_from(view, phase, departed, options)
+        hops = RelayHops(view, phase, departed, options)
+        # This FLS's readings of the neighbours it relays to, sent once when both ends read.
+        self._readings = hops.readings() if options.both_ends else None
         self.fit = options.fit
         self.fits = options.fit is not None
-        links = Links(self.link_ids, self.link_weights, self.link_errors, self.link_vectors)
         # Its labels: row 0 of a table of its own, until its process steps it with
-        # others (.together), when its records move to a row of theirs.
+        # others (.together), when its records move to a row of theirs. Its hops are
+        # made when the table first needs them.
         self.table = LabelTable(
             np.array([self.fls_id]),
-            np.array([0, len(self.link_ids)]),
-            links,
+            None,
+            None,
             self.span,
             options.id_space,
             self.fits,
             sources=options.sources,
+            row_hops=[hops],
         )
         self.row = 0
         self.book = OffersHeard()  # the offers its labels came through, as its table's rows'
@@ -260,27 +310,6 @@ class PathSearch:
         self.results = Results()
         if targets is not None:
             self._label_self(options.sources)
-
-    def _relay_from(
-        self, view: LocalView, phase: int, departed: frozenset[int], options: SearchOptions
-    ) -> None:
-        """Set the hops this FLS relays from in ``phase`` (its links) and its readings of them."""
-        hop = hop_mask(view, phase) & ~np.isin(view.other, list(departed))
-        # The neighbours relayed from, sorted by id (a view lists them so), with the
-        # hop sender -> self, which this FLS's camera measures the other way round.
-        order = np.argsort(view.other[hop], kind="stable")
-        self.link_ids = np.asarray(view.other[hop][order], dtype=np.int64)
-        self.link_weights = np.asarray(view.distance[hop][order], dtype=np.float64)
-        hop_errors = options.hop_errors
-        errors = np.zeros(len(view.other)) if hop_errors is None else hop_errors
-        self.link_errors = np.asarray(errors[hop][order], dtype=np.float64)
-        own = view.vector_at(np.flatnonzero(hop)[order])
-        self.link_vectors = np.full_like(own, np.nan) if options.both_ends else -own
-        # This FLS's readings of the neighbours it relays to, sent once when both ends read.
-        read = np.isfinite(own).all(axis=1)
-        self._readings: tuple[IntArray, FloatArray] | None = (
-            (self.link_ids[read], own[read]) if options.both_ends else None
-        )
 
     def _label_self(self, sources: IntArray | None) -> None:
         """Label this FLS, a source, as reached from itself at no cost."""
@@ -301,8 +330,24 @@ class PathSearch:
         """Its labels are now row ``row`` of ``table``, whose offers heard are ``book``
         (:mod:`.together`); its links, the table's row ``row``'s."""
         self.table, self.row, self.book = table, row, book
+
+    @property
+    def links(self) -> Links:
+        """The hops it relays from, sorted by sender id (made now if not yet)."""
+        table, row = self.table, self.row
         mine = slice(table.link_starts[row], table.link_starts[row + 1])
-        self.link_weights, self.link_vectors = table.links.weights[mine], table.links.vectors[mine]
+        links = table.links
+        return Links(links.ids[mine], links.weights[mine], links.errors[mine], links.vectors[mine])
+
+    @property
+    def link_ids(self) -> IntArray:
+        """(K,) the senders it relays from, sorted."""
+        return self.links.ids
+
+    @property
+    def link_weights(self) -> FloatArray:
+        """(K,) the tracking distance of each hop it relays from, cm."""
+        return self.links.weights
 
     @property
     def sources(self) -> IntArray:
@@ -409,6 +454,8 @@ class PathSearch:
         if self._last_heard is heard:
             return
         self._hear_first(heard)
+        if not len(heard.source_ids):  # no label to relax: its hops need not be made
+            return
         rows = np.array([self.row])
         starts, changes = self.table.relax(rows, self.order, heard_labels(heard))
         take_changes(self.table, self.book, self.fit, heard, rows, starts, changes)
@@ -426,11 +473,12 @@ class PathSearch:
         senders, readings = heard.readings_of(self.fls_id)
         if len(senders):
             # The senders' own readings of the hops to this FLS.
-            rows = np.searchsorted(self.link_ids, senders)
-            known = (rows < len(self.link_ids)) & (
-                self.link_ids[np.minimum(rows, len(self.link_ids) - 1)] == senders
+            links = self.links
+            rows = np.searchsorted(links.ids, senders)
+            known = (rows < len(links.ids)) & (
+                links.ids[np.minimum(rows, len(links.ids) - 1)] == senders
             )
-            self.link_vectors[rows[known]] = readings[known]
+            links.vectors[rows[known]] = readings[known]
 
 
 def take_changes(

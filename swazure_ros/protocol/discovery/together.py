@@ -94,6 +94,8 @@ def hear_together(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
         return
     for one in searches:
         one._hear_first(heard)
+    if not len(heard.source_ids):  # no label to relax: their hops need not be made
+        return
     rows = np.arange(len(searches), dtype=np.int64)
     first = searches[0]
     starts, changes = relax_together(table, rows, first.order, heard_labels(heard))
