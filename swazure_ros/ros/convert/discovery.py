@@ -260,7 +260,12 @@ def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> Estimates
     covariances = covariances.reshape(count, 3, 3)
     # A fit's covariance is whole or absent: NaN stands for none.
     partial = np.asarray(np.isnan(covariances).any(axis=(1, 2)), dtype=bool)
-    covariances = np.where(partial[:, None, None], np.nan, covariances)
+    if partial.all():
+        # A path's estimates have none: one NaN read T times, not 72 B each, for the
+        # coordinator holds every source's report to its run's end (9 M on torus:30000).
+        covariances = np.broadcast_to(np.float64(np.nan), (count, 3, 3))
+    else:
+        covariances = np.where(partial[:, None, None], np.nan, covariances)
     return Estimates(
         np.asarray(message.target_ids, dtype=np.int64),
         statuses.astype(np.int8),

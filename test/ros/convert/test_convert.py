@@ -227,6 +227,23 @@ def test_every_estimate_of_a_report_reads_back_in_order():
     assert [one.radio_path for one in back] == [(3, 9), (3, 5, 7), ()]
     assert [one.hops for one in back] == [2, 0, 0]
     assert np.isnan(back[1].vector).all() and np.isnan(back[2].length)
+    assert all(one.covariance is None for one in back)
+
+
+def test_a_report_without_covariances_holds_one_nan_for_all_and_with_one_each_its_own():
+    # A coordinator holds every source's report until its run ends: millions of
+    # estimates on a display, each with no covariance unless a fit made it.
+    message = wire(estimates_message(_report(), Time(sec=1)))
+    held = estimates_from_message(message, np.array([3, 5, 7, 8, 9])).covariance
+    assert held.shape == (3, 3, 3) and np.isnan(held).all()
+    assert held.strides == (0, 0, 0)  # one value, whatever the count
+    fitted = replace(_found(), covariance=np.diag([1.0, 2.0, 3.0]))
+    report = Report(run_id=4, source=3, estimates=[fitted, *_report().estimates[1:]])
+    message = wire(estimates_message(report, Time(sec=1)))
+    back = estimates_from_message(message, np.array([3, 5, 7, 8, 9]))
+    assert back.covariance.strides != (0, 0, 0)
+    np.testing.assert_allclose(back[0].covariance, np.diag([1.0, 2.0, 3.0]))
+    assert back[1].covariance is None and back[2].covariance is None
 
 
 def test_an_empty_report_reads_back_empty():
