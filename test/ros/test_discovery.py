@@ -5,6 +5,7 @@ from __future__ import annotations
 import signal
 import subprocess
 import sys
+import threading
 import time
 
 import numpy as np
@@ -476,6 +477,11 @@ def test_spawn_compute_all_writes_what_evaluate_writes(
     # A person watches the move commands while the swarm computes: the watch is
     # up (its subscription in the graph) before the swarm starts, as a person's is.
     watch = swazure("echo", "/swarm/move_commands", "swazure_interfaces/msg/MoveCommands")
+    # Read as it prints: a pipe holds 64 KiB, about ten messages of moves, and an echo
+    # blocked on a full pipe prints no more (the test once counted what fitted).
+    printed: list[str] = []
+    reader = threading.Thread(target=lambda: printed.extend(watch.stdout), daemon=True)
+    reader.start()
     assert watching_topic(domain, "/swarm/move_commands", watch), watch.stderr.read()
     spawn = swazure(
         "spawn", *shape, *runs, "--params", str(params), "--compute-all",
@@ -501,20 +507,31 @@ def test_spawn_compute_all_writes_what_evaluate_writes(
         distributed = (tmp_path / "d" / f"pairs.{pairs}").read_bytes()
         assert distributed == (tmp_path / "e" / f"pairs.{pairs}").read_bytes()
         assert read_pairs(tmp_path / "d").num_rows > 10_000
+        moved = record.distributed.moves
+        commands = 0 if moved is None else moved.move_commands
+        # The person sees every move command the swarm gave, returns included.
+        wait_until(lambda: "".join(printed).count("fls_id:") >= commands)
     finally:
         # Still watching when the run is over: it neither failed nor gave up.
         watching = watch.poll() is None
         watch.terminate()
-        watched, watch_err = watch.communicate(timeout=PATIENCE)
+        watch.wait(timeout=PATIENCE)
+        reader.join(timeout=PATIENCE)
+        watch_err = watch.stderr.read()
+        watch.stdout.close()
+        watch.stderr.close()
     assert watching and watch.returncode == -signal.SIGTERM, watch_err
     assert "Traceback" not in watch_err, watch_err
+    watched = "".join(printed)
     if technique != "plain":
         assert f"{technique}: " in out and "path walks" in out, out
         kind = "kind: 0" if technique == "move-obstructing" else "kind: 1"
+        assert commands > 200 and watched.count("fls_id:") == commands, watched[-2000:]
+        assert watched.count(kind) + watched.count("kind: 2") == commands, watched[:2000]
         assert watched.count(kind) > 100 and watched.count("kind: 2") > 100, watched[:2000]
         assert "commands:" in watched and "displacement:" in watched
     else:
-        assert watched == ""
+        assert commands == 0 and watched == ""
 
 
 def test_swazure_query_with_no_swarm_says_so_without_waiting_out_its_timeout(domain):
