@@ -305,7 +305,7 @@ def test_a_process_makes_the_hops_its_flss_relay_from_only_once_a_label_comes():
             hear_together(searches, RoundOffers.of(list(zip(ids.tolist(), offers, strict=True))))
         table = searches[0].table
         assert all(one.table is table for one in searches)
-        assert table.links_made == (source is not None)
+        assert table.rows_links.made == (source is not None)
     assert sum(len(one.sources) for one in searches) > 1  # the source's labels went out
     decaying = 0
     for view, one in zip(views, searches, strict=True):

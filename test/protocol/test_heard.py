@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from swazure_ros.protocol.discovery.heard import KEPT, OffersHeard
-from swazure_ros.protocol.discovery.labels import LabelTable, Links
+from swazure_ros.protocol.discovery.labels import LabelTable
+from swazure_ros.protocol.discovery.links import Links
 from swazure_ros.protocol.discovery.messages import Offer, RoundOffers
 
 

@@ -4,12 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from swazure_ros.protocol.discovery.labels import (
-    LENGTH_FIRST,
-    HeardLabels,
-    LabelTable,
-    Links,
-)
+from swazure_ros.protocol.discovery.labels import LENGTH_FIRST, HeardLabels, LabelTable
+from swazure_ros.protocol.discovery.links import Links
 
 
 def table_of(mes, link_ids, weight, span):

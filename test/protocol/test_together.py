@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from swazure_ros.protocol.discovery.labels import LENGTH_FIRST, HeardLabels, LabelTable, Links
+from swazure_ros.protocol.discovery.labels import LENGTH_FIRST, HeardLabels, LabelTable
+from swazure_ros.protocol.discovery.links import Links
 from swazure_ros.protocol.discovery.together import PARALLEL_ROWS, relax_together
 
 SOURCES = 40  # the run's sources are ids 0..39; the FLSs are 1000.., the senders 2000..

@@ -22,13 +22,14 @@ sender) replaces its source's label when it is better under the total order
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import NamedTuple, Protocol
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
-from ...core import csr, jit
+from ...core import jit
 from ...core.arrays import FloatArray, IntArray
+from .links import Links, RowHops, RowsLinks, joined_links
 from .messages import sender_rows
 
 #: The order of a label's costs in each policy: (primary, secondary), as the relaxation reads them.
@@ -43,42 +44,6 @@ _MIX = 0x2545F491
 
 #: A pred that no sender id reaches: a label not found yet loses every tie.
 NO_PRED = np.iinfo(np.int64).max
-
-
-class Links(NamedTuple):
-    """The hops FLSs relay from, each FLS's sorted by sender id: one kernel argument."""
-
-    ids: IntArray  # (K,), the senders
-    weights: FloatArray  # (K,), tracking distance of each hop, cm
-    errors: FloatArray  # (K,), expected error of each hop
-    vectors: FloatArray  # (K, 3), cm, each hop sender -> FLS as its labels sum it; NaN unread
-
-
-class RowHops(Protocol):
-    """How one FLS's :class:`Links` are made, when its table first needs them."""
-
-    def count(self) -> int:
-        """How many hops the FLS relays from."""
-        ...
-
-    def fill(self, links: Links, start: int) -> None:
-        """Write its hops into ``links`` from ``start`` on (``count()`` of them)."""
-        ...
-
-
-def made_links(hops: Sequence[RowHops]) -> tuple[IntArray, Links]:
-    """(link_starts (F + 1,), links) of the FLSs ``hops``, each written in place once."""
-    link_starts = csr.offsets(np.array([one.count() for one in hops], dtype=np.int64))
-    size = int(link_starts[-1])
-    links = Links(
-        np.empty(size, dtype=np.int64),
-        np.empty(size, dtype=np.float64),
-        np.empty(size, dtype=np.float64),
-        np.empty((size, 3), dtype=np.float64),
-    )
-    for one, start in zip(hops, link_starts[:-1].tolist(), strict=True):
-        one.fill(links, start)
-    return link_starts, links
 
 
 class HeardLabels(NamedTuple):
@@ -335,10 +300,7 @@ class LabelTable:
         row_hops: Sequence[RowHops] | None = None,
     ) -> None:
         self.mes = np.asarray(mes, dtype=np.int64)
-        if (links is None) == (row_hops is None) or (links is None) != (link_starts is None):
-            raise ValueError("give a table link_starts and links, or row_hops to make them")
-        self._link_starts, self._links = link_starts, links
-        self.row_hops = row_hops
+        self.rows_links = RowsLinks(link_starts, links, row_hops)
         self.span, self.id_space, self.fits = span, id_space, fits
         self.span_array = np.array(span, dtype=np.int64)
         # The run's sources by slot; None when they are every id of the span (slot: id -
@@ -357,30 +319,14 @@ class LabelTable:
         self._allocate(width)
 
     @property
-    def links_made(self) -> bool:
-        """True once the rows' links are held (made from ``hops`` at the first need)."""
-        return self._links is not None
-
-    @property
     def link_starts(self) -> IntArray:
-        """(F + 1,) where each row's links start in :attr:`links`."""
-        if self._link_starts is None:
-            self._make_links()
-        assert self._link_starts is not None
-        return self._link_starts
+        """(F + 1,) where each row's links start in :attr:`links` (made if need be)."""
+        return self.rows_links.starts
 
     @property
     def links(self) -> Links:
-        """The hops the rows relay from, row f's at ``link_starts[f]:link_starts[f + 1]``."""
-        if self._links is None:
-            self._make_links()
-        assert self._links is not None
-        return self._links
-
-    def _make_links(self) -> None:
-        assert self.row_hops is not None
-        self._link_starts, self._links = made_links(self.row_hops)
-        self.row_hops = None
+        """The hops the rows relay from (made if need be: :class:`.links.RowsLinks`)."""
+        return self.rows_links.links
 
     def _width_for(self, need: int) -> tuple[bool, int]:
         """(direct, R) for rows of ``need`` labels: a hash at most half full, or a slot per
@@ -595,19 +541,10 @@ class LabelTable:
         row_hops: list[RowHops] | None = None
         link_starts: IntArray | None = None
         links: Links | None = None
-        if any(table.links_made for table, _ in parts):
-            pieces = [
-                [
-                    field[table.link_starts[row] : table.link_starts[row + 1]]
-                    for field in table.links
-                ]
-                for table, row in parts
-            ]
-            links = Links(*(np.concatenate(field) for field in zip(*pieces, strict=True)))
-            link_counts = np.array([len(piece[0]) for piece in pieces], dtype=np.int64)
-            link_starts = csr.offsets(link_counts)
+        if any(table.rows_links.made for table, _ in parts):
+            link_starts, links = joined_links([table.rows_links.row(row) for table, row in parts])
         else:  # made for all rows at once when first needed, no row's alone before
-            row_hops = [_row_hops(table, row) for table, row in parts]
+            row_hops = [table.rows_links.hops(row) for table, row in parts]
         taken = [table.places(row) for table, row in parts]
         counts = np.array([len(at) for at in taken], dtype=np.int64)
         merged = cls(
@@ -642,12 +579,6 @@ class LabelTable:
         if closed:
             merged.closed = np.logical_or.reduce(closed)
         return merged
-
-
-def _row_hops(table: LabelTable, row: int) -> RowHops:
-    """How row ``row`` of ``table`` (whose links are not made) makes its links."""
-    assert table.row_hops is not None
-    return table.row_hops[row]
 
 
 def _grown(values: IntArray, size: int) -> IntArray:

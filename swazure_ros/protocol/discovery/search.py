@@ -39,8 +39,8 @@ from .labels import (
     Changes,
     HeardLabels,
     LabelTable,
-    Links,
 )
+from .links import Links
 from .messages import ANY_VISIBLE, SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers, sender_rows
 
 #: Rounds that one sweet hop may cost in a least-error run, at most: the calibrated
@@ -334,10 +334,7 @@ class PathSearch:
     @property
     def links(self) -> Links:
         """The hops it relays from, sorted by sender id (made now if not yet)."""
-        table, row = self.table, self.row
-        mine = slice(table.link_starts[row], table.link_starts[row + 1])
-        links = table.links
-        return Links(links.ids[mine], links.weights[mine], links.errors[mine], links.vectors[mine])
+        return self.table.rows_links.row(self.row)
 
     @property
     def link_ids(self) -> IntArray:

@@ -20,7 +20,8 @@ from ...core import jit
 from ...core.arrays import IntArray
 from .due import due_places
 from .heard import OffersHeard, offers_of
-from .labels import Changes, Columns, HeardLabels, LabelTable, Links, candidates, relax_rows
+from .labels import Changes, Columns, HeardLabels, LabelTable, candidates, relax_rows
+from .links import Links
 from .messages import RoundOffers, sender_rows
 from .search import PathSearch, heard_labels, take_changes
 
