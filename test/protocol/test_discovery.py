@@ -235,7 +235,7 @@ def test_an_fls_keeps_labels_for_the_run_s_sources_only(every):
     search = PathSearch(view, SWEET_ALL, options)
     # A neighbour it relays from offers labels of sources inside and outside the run,
     # one of them inside its span (every 3rd id: not the run's).
-    sender = int(search.link_ids[0])
+    sender = int(search.links.ids[0])
     offered = np.array([int(ids[0]), first, int(ids[11]), int(ids[13]), end - 1, int(ids[60])])
     offer = Offer(
         source_ids=offered,
@@ -277,7 +277,7 @@ def test_an_fls_keeps_labels_only_for_the_sources_whose_search_reached_it():
     assert set(held.tolist()) == {0, 1}  # one label at most: the one source's
     reached = np.flatnonzero(held)
     assert 1 < len(reached) < len(ids) // 2
-    longest_hop = max(one.link_weights.max() for one in searches if len(one.link_weights))
+    longest_hop = max(one.links.weights.max() for one in searches if len(one.links.weights))
     apart = np.linalg.norm(world.swarm.points[reached] - world.swarm.points[source], axis=1)
     assert apart.max() <= 2 * longest_hop + 1e-9
     # The process's one table holds no more; a row holds a few places, not one per FLS.
@@ -311,8 +311,8 @@ def test_a_process_makes_the_hops_its_flss_relay_from_only_once_a_label_comes():
     for view, one in zip(views, searches, strict=True):
         kind = view.range_class
         rows = np.flatnonzero(view.visible & ((kind == SWEET) | (kind == DECAYING)))
-        assert one.link_ids.tolist() == view.other[rows].tolist()
-        np.testing.assert_array_equal(one.link_weights, view.distance[rows])
+        assert one.links.ids.tolist() == view.other[rows].tolist()
+        np.testing.assert_array_equal(one.links.weights, view.distance[rows])
         np.testing.assert_array_equal(one.links.vectors, -view.vector_at(rows))
         decaying += int(np.count_nonzero(kind[rows] == DECAYING))
     assert decaying > 0
@@ -347,7 +347,7 @@ def test_a_search_relays_nothing_beyond_its_pass_s_reach_and_names_its_source_cu
     assert not any(offer.pending for offer in offers)
     assert 0 < said_beyond.sum() < len(ids) // 2
     assert len(searches[source].targets) > 0 and not searches[source].finished
-    longest_hop = max(one.link_weights.max() for one in searches if len(one.link_weights))
+    longest_hop = max(one.links.weights.max() for one in searches if len(one.links.weights))
     for row, one in enumerate(searches):
         if len(one.sources):  # sent below the reach, or held beyond it (said so)
             (length,) = one.label("length")

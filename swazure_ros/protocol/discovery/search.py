@@ -337,16 +337,6 @@ class PathSearch:
         return self.table.rows_links.row(self.row)
 
     @property
-    def link_ids(self) -> IntArray:
-        """(K,) the senders it relays from, sorted."""
-        return self.links.ids
-
-    @property
-    def link_weights(self) -> FloatArray:
-        """(K,) the tracking distance of each hop it relays from, cm."""
-        return self.links.weights
-
-    @property
     def sources(self) -> IntArray:
         """The sources it holds a label of, sorted: those whose search reached it."""
         return self.table.sources_of(self.row, self.table.places(self.row))
