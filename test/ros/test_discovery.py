@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import signal
 import subprocess
 import sys
@@ -34,7 +35,6 @@ from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import source_body_scene
 from ..waits import PATIENCE, wait_until
-from .conftest import make_context
 
 # torus:120 at 1.6 x has sweet, blocked and unreachable pairs at both betas.
 SHAPE = ("torus:120", 1.6)
@@ -120,12 +120,26 @@ def test_whole_swarm_discovery_equals_the_engine(domain, params, beta):
     ("technique", "beta", "policy"),
     [(MOVE_OBSTRUCTING, 0.5, "fewest-hops"), (MOVE_SOURCE, 0.3, "shortest-length")],
 )
-def test_moves_made_by_the_swarm_equal_the_engine(domain, params, technique, beta, policy):
+def test_moves_made_by_the_swarm_equal_the_engine_and_a_watching_person_sees_each(
+    domain, params, technique, beta, policy
+):
     with swarm_of(domain, params, beta) as swarm:
         world = swarm.world
         plain = swarm.discover(policy, timeout=300)
         found = evaluation_of(world.hood, policy, plain.outcome.estimates)
-        moved = swarm.make_moves(found, technique, threshold=10, timeout=300)
+        with watching_moves(swarm) as printed:
+            moved = swarm.make_moves(found, technique, threshold=10, timeout=300)
+            commands = moved.outcome.moved
+            # Reliable, and matched before the first move: every command reaches the
+            # watch; the echo prints far slower than the swarm moves.
+            wait_until(lambda: printed.text.count("fls_id:") >= commands, PATIENCE)
+        watched = printed.text
+        assert commands > 200 and watched.count("fls_id:") == commands, printed.err
+        # Moves of the technique's kind and returns, each command once.
+        kind = "kind: 0" if technique == MOVE_OBSTRUCTING else "kind: 1"
+        assert watched.count(kind) + watched.count("kind: 2") == commands, watched[:2000]
+        assert watched.count(kind) > 0 and watched.count("kind: 2") > 0, watched[:2000]
+        assert "commands:" in watched and "displacement:" in watched
         engine, plan = run_technique(
             evaluate(world.swarm, world.sensor, policy), technique, threshold=10
         )
@@ -449,31 +463,57 @@ def swazure(*args):
     )
 
 
-def _settled(count, enough, quiet):
-    """A condition: ``count()`` has reached ``enough``, or not changed for ``quiet`` s."""
-    last = [-1, time.monotonic()]
+class Printed:
+    """What a watching ``swazure echo`` printed so far (``text``), and its stderr once
+    it ended (``err``)."""
 
-    def settled():
-        now, value = time.monotonic(), count()
-        if value != last[0]:
-            last[:] = [value, now]
-        return value >= enough or now - last[1] >= quiet
+    def __init__(self) -> None:
+        self.parts: list[str] = []
+        self.err = ""
 
-    return settled
+    @property
+    def text(self) -> str:
+        return "".join(self.parts)
 
 
-def watching_topic(domain, topic, process, timeout=PATIENCE):
-    """Whether a subscription to ``topic`` shows in the graph while ``process`` runs."""
-    ctx = make_context(domain)
-    probe = Node("watch_probe", context=ctx, start_parameter_services=False, enable_rosout=False)
+@contextlib.contextmanager
+def watching_moves(swarm):
+    """A person's ``swazure echo /swarm/move_commands`` while ``swarm`` runs, its output.
+
+    The watch counts as up once the coordinator's move publisher has matched its
+    reader: commands are reliable and kept until every matched reader has them, so
+    each one sent after that reaches the watch, however late its half of the
+    discovery ends. (Started alongside a whole `spawn --compute-all` instead, the
+    watch saw nothing in some loaded runs: the run's moves were over before the two
+    processes had found each other.) On leaving, the watch must still be running
+    (it neither failed nor gave up), and end by SIGTERM without a traceback.
+    """
+    moves = swarm.coordinator.outbox.moves
+    own = moves.get_subscription_count()  # the swarm's own readers: world and cameras
+    watch = swazure("echo", "/swarm/move_commands")
+    printed = Printed()
+    # Read as it prints: an echo blocked on a full pipe (64 KiB, about ten messages
+    # of moves) prints no more.
+    reader = threading.Thread(target=lambda: printed.parts.extend(watch.stdout), daemon=True)
+    reader.start()
     try:
-        seen = wait_until(
-            lambda: probe.count_subscribers(topic) > 0 or process.poll() is not None, timeout
+        matched = wait_until(
+            lambda: moves.get_subscription_count() > own or watch.poll() is not None,
+            PATIENCE,
+            lambda: swarm.spin(0.1),
         )
-        return seen and probe.count_subscribers(topic) > 0
+        assert matched and watch.poll() is None, "the watch never matched the coordinator"
+        yield printed
     finally:
-        probe.destroy_node()
-        ctx.try_shutdown()
+        watching = watch.poll() is None
+        watch.terminate()
+        watch.wait(timeout=PATIENCE)
+        reader.join(timeout=PATIENCE)
+        printed.err = watch.stderr.read()
+        watch.stdout.close()
+        watch.stderr.close()
+    assert watching and watch.returncode == -signal.SIGTERM, printed.err
+    assert "Traceback" not in printed.err, printed.err
 
 
 @pytest.mark.parametrize(
@@ -487,15 +527,6 @@ def test_spawn_compute_all_writes_what_evaluate_writes(
 ):
     shape = ["--cloud", SHAPE[0], "--scale", str(SHAPE[1]), "--beta", "0.5", "--quiet"]
     shape += ["--technique", technique] + ([] if pairs == "csv" else ["--pairs", pairs])
-    # A person watches the move commands while the swarm computes: the watch is
-    # up (its subscription in the graph) before the swarm starts, as a person's is.
-    watch = swazure("echo", "/swarm/move_commands", "swazure_interfaces/msg/MoveCommands")
-    # Read as it prints: a pipe holds 64 KiB, about ten messages of moves, and an echo
-    # blocked on a full pipe prints no more (the test once counted what fitted).
-    printed: list[str] = []
-    reader = threading.Thread(target=lambda: printed.extend(watch.stdout), daemon=True)
-    reader.start()
-    assert watching_topic(domain, "/swarm/move_commands", watch), watch.stderr.read()
     spawn = swazure(
         "spawn", *shape, *runs, "--params", str(params), "--compute-all",
         "--out", str(tmp_path / "d"),
@@ -522,33 +553,16 @@ def test_spawn_compute_all_writes_what_evaluate_writes(
         assert read_pairs(tmp_path / "d").num_rows > 10_000
         moved = record.distributed.moves
         commands = 0 if moved is None else moved.move_commands
-        # The watch prints what reached it; what was still on its way when the swarm's
-        # process ended is lost with its writer (the echo prints far slower than the
-        # swarm moves), so wait until it has all, or has printed nothing new for 10 s.
-        wait_until(_settled(lambda: "".join(printed).count("fls_id:"), commands, 10.0))
     finally:
-        # Still watching when the run is over: it neither failed nor gave up.
-        watching = watch.poll() is None
-        watch.terminate()
-        watch.wait(timeout=PATIENCE)
-        reader.join(timeout=PATIENCE)
-        watch_err = watch.stderr.read()
-        watch.stdout.close()
-        watch.stderr.close()
-    assert watching and watch.returncode == -signal.SIGTERM, watch_err
-    assert "Traceback" not in watch_err, watch_err
-    watched = "".join(printed)
+        for process in (spawn, evaluate):
+            if process.poll() is None:
+                process.kill()
+                process.wait()
     if technique != "plain":
         assert f"{technique}: " in out and "path walks" in out, out
-        kind = "kind: 0" if technique == "move-obstructing" else "kind: 1"
-        seen = watched.count("fls_id:")
-        assert commands > 200 and 0 < seen <= commands, watched[-2000:] + watch_err
-        # Moves of the technique's kind and returns, nothing else, each of both seen.
-        assert watched.count(kind) + watched.count("kind: 2") == seen, watched[:2000]
-        assert watched.count(kind) > 0 and watched.count("kind: 2") > 0, watched[:2000]
-        assert "commands:" in watched and "displacement:" in watched
+        assert commands > 200, out
     else:
-        assert commands == 0 and watched == ""
+        assert commands == 0
 
 
 def test_swazure_query_with_no_swarm_says_so_without_waiting_out_its_timeout(domain):

@@ -135,7 +135,7 @@ class Outbox:
         self.key = key
         self.traffic = traffic
         self.control = node.create_publisher(DiscoveryControl, CONTROL_TOPIC, ROUND_QOS)
-        self._moves = node.create_publisher(MoveCommands, MOVE_TOPIC, MOVE_QOS)
+        self.moves = node.create_publisher(MoveCommands, MOVE_TOPIC, MOVE_QOS)
         self._walks = node.create_publisher(PathWalk, WALKS_TOPIC, ROUND_QOS)
         self._gone = node.create_publisher(Departed, DEPARTED_TOPIC, DEPARTED_QOS)
 
@@ -150,7 +150,7 @@ class Outbox:
             else:
                 self._publish(self._walks, WALKS_TOPIC, walk_message(action, stamp))
         for moves in groups.values():
-            self._publish(self._moves, MOVE_TOPIC, moves_message(moves, stamp))
+            self._publish(self.moves, MOVE_TOPIC, moves_message(moves, stamp))
 
     def send_gone(self, gone: set[int], stamp: Time) -> None:
         """The list of the gone, latched on /swarm/departed, as it is now."""
