@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -85,6 +87,53 @@ def test_a_round_table_gives_each_sender_s_labels():
     assert table.labels_of(np.array([4, 7])).tolist() == [2]
     assert table.labels_of(np.array([2, 4, 9])).tolist() == [0, 1, 2]
     assert table.labels_of(np.array([], dtype=np.int64)).tolist() == []
+
+
+def slices(whole, counts):
+    """``whole``'s offer cut into offers of ``counts`` labels, each a view of it, in order
+    (as a process's offers are, read in one pass)."""
+    cuts = np.cumsum([0, *counts])
+    offers = []
+    for start, end in itertools.pairwise(cuts):
+        paths = whole.path_offsets[start : end + 1]
+        offers.append(
+            Offer(
+                source_ids=whole.source_ids[start:end],
+                hops=whole.hops[start:end],
+                lengths=whole.lengths[start:end],
+                errors=whole.errors[start:end],
+                vectors=whole.vectors[start:end],
+                path_offsets=paths - paths[0],
+                path_ids=whole.path_ids[paths[0] : paths[-1]],
+            )
+        )
+    return offers
+
+
+def copy_of(one):
+    """``one`` with every label field a copy of its own."""
+    fields = ("source_ids", "hops", "lengths", "errors", "vectors", "path_offsets", "path_ids")
+    return Offer(*(np.copy(getattr(one, name)) for name in fields))
+
+
+def test_a_process_s_own_offers_join_into_its_round_table_without_a_copy():
+    whole = offer(1, 3, 5, 6, 8)
+    viewed = list(zip([2, 4, 7, 9], slices(whole, [2, 0, 1, 2]), strict=True))
+    copied = [(sender, copy_of(one)) for sender, one in viewed]
+    table, again = RoundOffers.of(viewed), RoundOffers.of(copied)
+    for name in ("senders", "starts", "sender_ids", "source_ids", "hops", "lengths", "vectors"):
+        assert np.array_equal(getattr(table, name), getattr(again, name)), name
+    assert table.paths(np.arange(5)) == again.paths(np.arange(5)) == [
+        (1, 9), (3, 9), (5, 9), (6, 9), (8, 9)
+    ]  # fmt: skip
+    # The labels' fields are the offers' own memory: no copy of a round's labels.
+    assert np.shares_memory(table.lengths, whole.lengths)
+    assert np.shares_memory(table.vectors, whole.vectors)
+    assert not np.shares_memory(again.lengths, whole.lengths)
+    # Offers out of order, or of different arrays, are copied as before.
+    reversed_ = RoundOffers.of([(9 - sender, one) for sender, one in viewed])
+    assert reversed_.source_ids.tolist() == [6, 8, 5, 1, 3]
+    assert not np.shares_memory(reversed_.lengths, whole.lengths)
 
 
 def test_a_lossless_radio_needs_no_repairs():
