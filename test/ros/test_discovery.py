@@ -480,12 +480,13 @@ class Printed:
 def watching_moves(swarm):
     """A person's ``swazure echo /swarm/move_commands`` while ``swarm`` runs, its output.
 
-    The watch counts as up once the coordinator's move publisher has matched its
-    reader: commands are reliable and kept until every matched reader has them, so
-    each one sent after that reaches the watch, however late its half of the
-    discovery ends. (Started alongside a whole `spawn --compute-all` instead, the
-    watch saw nothing in some loaded runs: the run's moves were over before the two
-    processes had found each other.) On leaving, the watch must still be running
+    The watch counts as up once the coordinator's graph lists its reader and the
+    coordinator's move publisher has matched one reader more than the swarm's own:
+    commands are reliable and kept until every matched reader has them, so each one
+    sent after that reaches the watch, however late its half of the discovery ends.
+    (Started alongside a whole `spawn --compute-all` instead, the watch saw nothing in
+    some loaded runs: the run's moves were over before the two processes had found
+    each other.) On leaving, the watch must still be running
     (it neither failed nor gave up), and end by SIGTERM without a traceback.
     """
     moves = swarm.coordinator.outbox.moves
@@ -497,10 +498,15 @@ def watching_moves(swarm):
     reader = threading.Thread(target=lambda: printed.parts.extend(watch.stdout), daemon=True)
     reader.start()
     try:
+        coordinator = swarm.coordinator
+
+        def watch_matched():
+            readers = coordinator.get_subscriptions_info_by_topic("/swarm/move_commands")
+            listed = any(reader.node_name == "swazure_echo" for reader in readers)
+            return listed and moves.get_subscription_count() > own
+
         matched = wait_until(
-            lambda: moves.get_subscription_count() > own or watch.poll() is not None,
-            PATIENCE,
-            lambda: swarm.spin(0.1),
+            lambda: watch_matched() or watch.poll() is not None, PATIENCE, lambda: swarm.spin(0.1)
         )
         assert matched and watch.poll() is None, "the watch never matched the coordinator"
         yield printed
