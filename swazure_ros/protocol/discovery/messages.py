@@ -326,6 +326,12 @@ class Control:
         return np.unique(np.asarray(self.source_ids, dtype=np.int64))
 
     @cached_property
+    def finished(self) -> IntArray:
+        """``finished_ids`` as one array, made once for all the FLSs of a process that close
+        those searches (one each a ROUND, thousands in a packed process)."""
+        return np.asarray(self.finished_ids, dtype=np.int64)
+
+    @cached_property
     def exhausted(self) -> IntArray:
         """``exhausted_ids``, sorted: made once for all the FLSs of a process that read it
         (as many ids as sources, and a packed process steps thousands of FLSs)."""

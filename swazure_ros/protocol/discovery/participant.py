@@ -303,7 +303,7 @@ class Participant:
                 return None
             if heard is not None:
                 run.search.hear(heard)
-            run.search.close(np.asarray(control.finished_ids, dtype=np.int64))
+            run.search.close(control.finished)
             offer = run.search.offer(control.round - self._first_round.get(run_id, 0))
             return Broadcast(run_id, control.phase, control.round, self.fls_id, offer)
         if control.command == END:
@@ -429,7 +429,7 @@ def step_together(
         if heard is not None:
             hear_together(group, heard)
         if control.command == ROUND:
-            pick_together(group, round_, np.asarray(control.finished_ids, dtype=np.int64))
+            pick_together(group, round_, control.finished)
 
 
 def _read_only(array: NDArray[Any]) -> NDArray[Any]:
