@@ -58,6 +58,10 @@ _BUCKET_MARGIN = 1e-9
 #: within it, and the few cut short search again twice as far (docs/protocol.md).
 REACH_HOPS = 8
 
+# What an FLS that is no source searches for: one read-only array for all of them.
+_NO_TARGETS = np.zeros(0, dtype=np.int64)
+_NO_TARGETS.flags.writeable = False
+
 _COST_ORDER = {FEWEST_HOPS: HOPS_FIRST, SHORTEST_LENGTH: LENGTH_FIRST, LEAST_ERROR: ERROR_FIRST}
 
 
@@ -212,11 +216,13 @@ class RelayHops:
     ) -> None:
         # The view holds the world's rows in place: keeping it costs nothing.
         self.view, self.phase, self.departed, self.options = view, phase, departed, options
-        self._count = int(np.count_nonzero(self._mask()))
+        # Counted when the table first needs it: an FLS that no label reaches in a phase
+        # (a torus's in SD_vis, where every pair has a sweet path in sight) never does.
+        self._count: int | None = None
 
     def _mask(self) -> NDArray[np.bool_]:
-        view = self.view
-        return hop_mask(view, self.phase) & ~np.isin(view.other, list(self.departed))
+        view, mask = self.view, hop_mask(self.view, self.phase)
+        return mask & ~np.isin(view.other, list(self.departed)) if self.departed else mask
 
     def _rows(self) -> IntArray:
         rows = np.flatnonzero(self._mask())
@@ -224,11 +230,13 @@ class RelayHops:
 
     def count(self) -> int:
         """How many hops it relays from."""
+        if self._count is None:
+            self._count = int(np.count_nonzero(self._mask()))
         return self._count
 
     def fill(self, links: Links, start: int) -> None:
         """Write its hops into ``links`` from ``start`` on."""
-        view, rows, end = self.view, self._rows(), start + self._count
+        view, rows, end = self.view, self._rows(), start + self.count()
         links.ids[start:end] = view.other[rows]
         links.weights[start:end] = view.distance[rows]
         errors = self.options.hop_errors
@@ -302,7 +310,7 @@ class PathSearch:
         self._last_heard: RoundOffers | None = None  # the offers this search heard last
         # (round, its offer) picked with the other FLSs of its process.
         self._picked: tuple[int, Offer] | None = None
-        wanted = np.unique(np.asarray(targets if targets is not None else (), dtype=np.int64))
+        wanted = _NO_TARGETS if targets is None else np.unique(np.asarray(targets, np.int64))
         self.targets = frozenset(wanted.tolist())
         self._wanted = wanted  # sorted
         self._found = np.zeros(len(self._wanted), dtype=bool)  # by target, as _wanted
