@@ -502,7 +502,7 @@ def watching_moves(swarm):
 
         def watch_matched():
             readers = coordinator.get_subscriptions_info_by_topic("/swarm/move_commands")
-            listed = any(reader.node_name == "swazure_echo" for reader in readers)
+            listed = any(one.node_name == "swazure_echo" for one in readers)
             return listed and moves.get_subscription_count() > own
 
         matched = wait_until(
