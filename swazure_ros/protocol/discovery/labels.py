@@ -313,6 +313,7 @@ class LabelTable:
             else None
         )
         self.closed = np.zeros(0, dtype=bool)  # (id_space,) once a source is closed
+        self._last_closed: object = None  # the ids :meth:`close` took last, as given
         self._changes_last = 0
         self.occupied = np.zeros(len(self.mes), dtype=np.int64)
         self.direct, width = self._width_for(need)
@@ -429,7 +430,14 @@ class LabelTable:
         ]
 
     def close(self, sources: IntArray) -> None:
-        """Stop relaying and keeping the labels of ``sources`` (ids: their searches ended)."""
+        """Stop relaying and keeping the labels of ``sources`` (ids: their searches ended).
+
+        Closing stays closed, so the same array again (a control's ``finished``, which
+        a packed process closes for its shared table and then for each FLS) does nothing.
+        """
+        if sources is self._last_closed:
+            return
+        self._last_closed = sources
         sources = np.asarray(sources, dtype=np.int64)
         sources = sources[(sources >= self.span[0]) & (sources < self.span[1])]
         if not len(sources):
