@@ -170,6 +170,14 @@ def test_block_by_block_a_pair_not_reported_and_an_estimate_off_are_found(discov
     assert (comparison.statuses, comparison.estimates, comparison.paths) == (0, 1, False)
 
 
+def test_block_by_block_a_swarm_that_reported_nothing_differs_in_every_pair(discovered):
+    world, _ = discovered
+    engine = blocked(world)
+    _, comparison = compare_in_blocks(ReportedPairs(world.ids, {}), engine, 1.0)
+    assert comparison.pairs == 0 and comparison.engine_pairs == engine.summary().pairs.blind_pairs
+    assert not comparison.identical
+
+
 def test_a_reported_decaying_hop_brings_the_decaying_pairs_into_the_blocks(discovered):
     # A swarm that is not the engine may report a path over a decaying hop where the
     # engine's blocks need none: it is read, and counted as differing.

@@ -485,7 +485,10 @@ class ReportedPairs:
         sorted_keys = keys[order]
         wanted = np.asarray(source, dtype=np.int64) * size + target
         at = np.searchsorted(sorted_keys, wanted, side="right") - 1
-        keep = (at >= 0) & (sorted_keys[np.maximum(at, 0)] == wanted)
+        # A block none of whose sources reported holds no keys: no pair is kept.
+        keep = (at >= 0) & (
+            sorted_keys[np.maximum(at, 0)] == wanted if len(sorted_keys) else False
+        )
         source, target = source[keep], target[keep]
         kept = order[at[keep]]
 
