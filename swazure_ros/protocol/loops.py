@@ -131,10 +131,11 @@ def _run_rounds(clock: RoundClock, hub: RadioHub, participants: dict[int, Partic
             continue
         control = controls.popleft()
         recipients, ack, heard = hub.on_control(control)
+        # The FLSs whose offers were made together are done with a ROUND.
+        stepped = step_together([participants[fls_id] for fls_id in recipients], control, heard)
         broadcasts: list[Broadcast] = []
-        step_together([participants[fls_id] for fls_id in recipients], control, heard)
         for fls_id in recipients:
-            out = participants[fls_id].on_control(control, heard)
+            out = stepped.get(fls_id) or participants[fls_id].on_control(control, heard)
             if isinstance(out, Broadcast):
                 broadcasts.append(out)
             elif isinstance(out, Report):
@@ -153,8 +154,8 @@ def _run_rounds(clock: RoundClock, hub: RadioHub, participants: dict[int, Partic
         if control.command == ROUND:
             sent = hub.take_sent(control.run_id, control.round)
             controls.extend(clock.on_sent(control.round, sent, 0.0))
-        for out in broadcasts:
-            ack = hub.on_offer(out.run_id, out.round, out.sender, out.offer)
+        if broadcasts:
+            ack = hub.on_offers(control.run_id, control.round, broadcasts)
             if ack is not None:
                 controls.extend(clock.on_ack(ack.round, _HOST, 0.0))
     assert clock.outcome is not None

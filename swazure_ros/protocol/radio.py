@@ -23,7 +23,7 @@ in, nor take the place of that offer.
 from __future__ import annotations
 
 from collections import Counter, deque
-from collections.abc import Callable, Collection
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
@@ -33,7 +33,16 @@ from numpy.typing import NDArray
 from ..core.arrays import IntArray
 from ..core.draws import uniforms
 from ..core.errors import MessageError
-from .discovery.messages import END, ROUND, START, Control, FitOffer, Offer, RoundOffers
+from .discovery.messages import (
+    END,
+    ROUND,
+    START,
+    Broadcast,
+    Control,
+    FitOffer,
+    Offer,
+    RoundOffers,
+)
 from .discovery.participant import RUNS_KEPT
 from .plausible import REASONS
 from .swarm_fit import process_sums
@@ -474,11 +483,25 @@ class RadioHub:
         was quicker) wait, at most :data:`EARLY_OFFERS` of them: what a forged
         run id can hold is bounded.
         """
+        if not self._keep(run_id, round_, sender, offer, phase):
+            return None
+        return self._acknowledge(run_id, round_)
+
+    def on_offers(self, run_id: int, round_: int, offers: Sequence[Broadcast]) -> Ack | None:
+        """Hear ``offers`` of round ``round_`` at once (:meth:`on_offer` of each): a process's
+        own FLSs' offers of a round. The ack if the round is then heard."""
+        kept = [self._keep(run_id, round_, out.sender, out.offer, out.phase) for out in offers]
+        return self._acknowledge(run_id, round_) if any(kept) else None
+
+    def _keep(
+        self, run_id: int, round_: int, sender: int, offer: Offer, phase: int | None
+    ) -> bool:
+        """:meth:`on_offer` but for its ack: whether the offer was kept for the round."""
         if run_id not in self._first_round:
             self._early.append((run_id, round_, sender, offer, phase))
-            return None
+            return False
         if round_ < self._first_round[run_id] or sender in self.departed(run_id):
-            return None  # from before a restart of the phase, or of an FLS gone
+            return False  # from before a restart of the phase, or of an FLS gone
         heard = self._heard.get((run_id, round_))
         if heard is None:  # not setdefault: a record made per offer cost the race car 4 s
             heard = self._heard[(run_id, round_)] = _RoundHeard()
@@ -486,9 +509,9 @@ class RadioHub:
         if heard.senders[sender] >= OFFERS_PER_SENDER and not local:
             self._settle(heard)  # a forgery among them must not keep the real one out
         if heard.senders[sender] >= OFFERS_PER_SENDER:
-            return None
+            return False
         heard.keep(_Kept(sender, offer, phase, trusted=local))
-        return self._acknowledge(run_id, round_)
+        return True
 
     def _take_early(self, run_id: int) -> None:
         """Hear the offers of run ``run_id`` that came before its START."""

@@ -19,8 +19,10 @@ from ..core.fits import stochastic_sensor
 
 def one_per_process(participants, control, heard):
     """Each FLS stepped in a process of its own, as the single-FLS program steps it."""
+    offers = {}
     for one in participants:
-        participant.step_together([one], control, heard)
+        offers.update(participant.step_together([one], control, heard))
+    return offers
 
 
 def not_together(parts, step, heard):

@@ -13,11 +13,10 @@ from swazure_ros.protocol.discovery.messages import (
     ANY_VISIBLE,
     SWEET_ALL,
     SWEET_VISIBLE,
-    Broadcast,
     Offer,
 )
-from swazure_ros.protocol.discovery.participant import Participant
 from swazure_ros.protocol.plausible import implausible, offer_readings_check
+from swazure_ros.protocol.radio import RadioHub
 from swazure_ros.sim.world import WorldSpec
 
 from ..conftest import SCENE, A, B, C, D
@@ -96,15 +95,15 @@ def test_every_label_of_an_honest_run_is_plausible(monkeypatch, sensor_file, pol
     world = WorldSpec("torus:120", scale=1.6, beta=0.5, sensor_file=sensor_file).build()
     points = world.swarm.points
     phases = Counter()
-    take = Participant.on_control
+    take = RadioHub.on_offers
     readings = offer_readings_check(
         lambda ids: points[world.indices(ids)], world.sensor, world.swarm.radius
     )
     read = Counter()
 
-    def checking(participant, control, heard=None):
-        out = take(participant, control, heard)
-        if isinstance(out, Broadcast):
+    def checking(hub, run_id, round_, offers):
+        # Every offer the run makes is heard by its process's radio, in one call a round.
+        for out in offers:
             why = implausible(
                 out.offer,
                 out.phase,
@@ -117,9 +116,9 @@ def test_every_label_of_an_honest_run_is_plausible(monkeypatch, sensor_file, pol
             if len(out.offer.reading_ids):
                 assert readings(out.sender, out.offer) is None, out.sender
                 read[out.phase] += len(out.offer.reading_ids)
-        return out
+        return take(hub, run_id, round_, offers)
 
-    monkeypatch.setattr(Participant, "on_control", checking)
+    monkeypatch.setattr(RadioHub, "on_offers", checking)
     run(world.hood, policy)
     assert all(phases[phase] > 100 for phase in (SWEET_VISIBLE, SWEET_ALL, ANY_VISIBLE)), phases
     # Only where a pair's two ends read it differently do offers carry readings.

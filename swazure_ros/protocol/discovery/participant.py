@@ -398,14 +398,15 @@ class Participant:
 
 def step_together(
     participants: Sequence[Participant], control: Control, heard: RoundOffers | None
-) -> None:
+) -> dict[int, Broadcast]:
     """What each of ``participants`` does first with ``control``, done for all at once: hear
-    the offers ``heard`` (:func:`.search.hear_together`), and in a ROUND close the
-    finished sources and pick the labels due (:func:`.search.pick_together`); in the FIT
-    phase, step the solve's rounds (:func:`..fit_together.fit_together`).
+    the offers ``heard`` (:func:`.together.hear_together`), and in a ROUND close the
+    finished sources, pick the labels due (:func:`.together.pick_together`) and make each
+    FLS's offer; in the FIT phase, step the solve's rounds (:func:`..fit_together.fit_together`).
 
-    A process calls this before it hands ``control`` to each of its FLSs, whose
-    :meth:`Participant.on_control` then finds this done.
+    Returns the ROUND's broadcasts made here, by FLS id: those FLSs are done with
+    ``control``. A process hands ``control`` to each of its other FLSs
+    (:meth:`Participant.on_control`), which then finds the rest done.
     """
     fitting = [
         run.fit_part
@@ -415,21 +416,32 @@ def step_together(
     if fitting:
         fit_round = control.command == ROUND and control.phase == FIT
         fit_together(fitting, control.fit if fit_round else None, heard)
+    offers: dict[int, Broadcast] = {}
     if control.command not in (ROUND, END):
-        return
+        return offers
     if control.command == ROUND and control.phase == FIT:
-        return
-    searches: dict[int, list[PathSearch]] = {}  # by the round of the phase
+        return offers
+    # By the round of the phase: each FLS with its search.
+    searches: dict[int, list[tuple[Participant, PathSearch]]] = {}
     for participant in participants:
         run = participant.runs.get(control.run_id)
         if run is not None and run.search is not None:
             round_ = control.round - participant._first_round.get(control.run_id, 0)
-            searches.setdefault(round_, []).append(run.search)
+            searches.setdefault(round_, []).append((participant, run.search))
     for round_, group in searches.items():
+        together = [search for _, search in group]
         if heard is not None:
-            hear_together(group, heard)
-        if control.command == ROUND:
-            pick_together(group, round_, control.finished)
+            hear_together(together, heard)
+        if control.command == ROUND and pick_together(together, round_, control.finished):
+            for participant, search in group:
+                offers[participant.fls_id] = Broadcast(
+                    control.run_id,
+                    control.phase,
+                    control.round,
+                    participant.fls_id,
+                    search.offer(round_),
+                )
+    return offers
 
 
 def _read_only(array: NDArray[Any]) -> NDArray[Any]:

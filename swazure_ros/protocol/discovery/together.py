@@ -49,15 +49,16 @@ def _shared_table(searches: Sequence[PathSearch]) -> LabelTable | None:
     return table
 
 
-def pick_together(searches: Sequence[PathSearch], round_: int, closed: IntArray) -> None:
+def pick_together(searches: Sequence[PathSearch], round_: int, closed: IntArray) -> bool:
     """Close the sources ``closed`` (ids) and pick the labels each of ``searches`` offers in
     round ``round_``, for all at once; :meth:`PathSearch.offer` then sends them.
 
-    Searches that differ in their runs pick their own when they offer.
+    Returns False, picking nothing, when the searches differ in their runs:
+    each then picks its own when it offers.
     """
     table = _shared_table(searches)
     if table is None:
-        return
+        return False
     first = searches[0]
     table.close(closed)
     bucket = first.resumed + round_
@@ -76,6 +77,7 @@ def pick_together(searches: Sequence[PathSearch], round_: int, closed: IntArray)
     )
     for one, offer in zip(searches, offers, strict=True):
         one._picked = (round_, offer)
+    return True
 
 
 def hear_together(searches: Sequence[PathSearch], heard: RoundOffers) -> None:

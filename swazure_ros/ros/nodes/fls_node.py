@@ -96,20 +96,14 @@ class Transmitter:
     def __init__(self, node: Node, key: SwarmKey | None = None) -> None:
         self._node = node
         self.key = key or SwarmKey()
-        #: The process's radio's broadcast, once it has one: it sends the offers.
-        self.broadcast: Callable[[Broadcast], int] | None = None
         self._estimates = node.create_publisher(PoseEstimates, ESTIMATES_TOPIC, ROUND_QOS)
 
     def readers(self) -> int:
         """Readers matched to the estimates (the coordinator's): who would hear a report now."""
         return self._estimates.get_subscription_count()
 
-    def send(self, out: Broadcast | Report) -> int:
-        """Send an offer on its radio cell or a report on ``estimates``; the bytes sent."""
-        if isinstance(out, Broadcast):
-            if self.broadcast is None:
-                raise RuntimeError("an offer to send before this process has a radio")
-            return self.broadcast(out)
+    def send(self, out: Report) -> int:
+        """Send a report on ``estimates``; the bytes sent."""
         stamp = self._node.get_clock().now().to_msg()
         data = self.key.serialize(estimates_message(out, stamp))
         self._estimates.publish(data)
@@ -365,15 +359,26 @@ class FlsNode(SwarmNode):
 
     # Discovery ---------------------------------------------------------------
 
-    def on_control(self, control: Control, heard: RoundOffers | None) -> None:
-        """Follow the round clock, taking the offers heard since the last control."""
+    def on_control(self, control: Control, heard: RoundOffers | None) -> Broadcast | None:
+        """Follow the round clock, taking the offers heard since the last control.
+
+        A report is sent here; an offer is returned for the process's radio,
+        which sends its FLSs' offers of a round together (:meth:`count_sent`).
+        """
         if control.command == START and control.estimator != PATH and self._published is None:
             # The sources of a fitting run read this FLS's measurement (its radio has just
             # subscribed): sent now, latched, not a frame period later.
             self.publish_measurements()
         out = self.discovery.on_control(control, heard)
-        if out is not None:
+        if isinstance(out, Report):
             self._publish_discovery(out)
+            return None
+        return out
+
+    def count_sent(self, size: int) -> None:
+        """Count an offer of this FLS's that its radio sent (``size`` bytes)."""
+        self.bytes_sent += size
+        self.messages_sent += 1
 
     def report_waiting(self, at_deadline: bool = False) -> bool:
         """Report the fits whose windows are heard (all ``at_deadline``); True when none wait."""
@@ -396,9 +401,8 @@ class FlsNode(SwarmNode):
             self._publish_discovery(report)
         return sum(len(report.estimates) for report in reports)
 
-    def _publish_discovery(self, out: Broadcast | Report) -> None:
-        self.bytes_sent += self.transmitter.send(out)
-        self.messages_sent += 1
+    def _publish_discovery(self, out: Report) -> None:
+        self.count_sent(self.transmitter.send(out))
 
     def publish(self, publisher: Publisher, message: object) -> None:
         """Sign, serialise and publish ``message``, counting the bytes sent."""

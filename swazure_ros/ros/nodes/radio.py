@@ -293,30 +293,38 @@ class Radio:
             cell = (band, *where.tolist())
         return cell
 
-    def broadcast(self, out: Broadcast) -> int:
-        """Local FLS ``out.sender``'s offer: heard here at once, and sent on its cell's topic.
+    def broadcast(self, offers: Sequence[Broadcast]) -> list[int]:
+        """Local FLSs' ``offers`` of one round: heard here at once, sent on their cells' topics.
 
-        It crosses DDS only when someone else reads that cell (another
-        process, a recorder, ``ros2 topic echo``): the bytes sent, 0 when no
-        one does.
+        An offer crosses DDS only when someone else reads its cell (another
+        process, a recorder, ``ros2 topic echo``), asked once a cell: the
+        bytes sent of each, 0 when no one reads it.
         """
-        cell = self._cell(band_of(out.phase), out.sender)
-        publisher = self._sending.get(cell)
-        if publisher is None:  # an FLS not hosted here at the start: made on demand
-            publisher = self._sending[cell] = self._send_on(PathOffer, cell)
-        size = 0
-        if publisher.get_subscription_count():
-            stamp = self._node.get_clock().now().to_msg()
-            data = self.guard.key.serialize(offer_message(out, stamp))
-            self._echoes.add(data)
-            publisher.publish(data)
-            size = len(data)
-        self._hub.sent(out.run_id, out.round, out.sender, out.offer, size)
-        self.offers_here += 1
+        sizes: list[int] = []
+        read: dict[Cell, bool] = {}  # whether anyone else reads a cell
+        stamp = None
         hub = self._hub
-        self._acknowledge(hub.on_offer(out.run_id, out.round, out.sender, out.offer, out.phase))
-        self._count_rejected()
-        return size
+        for out in offers:
+            cell = self._cell(band_of(out.phase), out.sender)
+            publisher = self._sending.get(cell)
+            if publisher is None:  # an FLS not hosted here at the start: made on demand
+                publisher = self._sending[cell] = self._send_on(PathOffer, cell)
+            if cell not in read:
+                read[cell] = publisher.get_subscription_count() > 0
+            size = 0
+            if read[cell]:
+                stamp = stamp or self._node.get_clock().now().to_msg()
+                data = self.guard.key.serialize(offer_message(out, stamp))
+                self._echoes.add(data)
+                publisher.publish(data)
+                size = len(data)
+            hub.sent(out.run_id, out.round, out.sender, out.offer, size)
+            sizes.append(size)
+        self.offers_here += len(offers)
+        if offers:
+            self._acknowledge(hub.on_offers(offers[0].run_id, offers[0].round, offers))
+            self._count_rejected()
+        return sizes
 
     def listen(self) -> None:
         """Hear the coordinator's controls: from now on the swarm's rounds count on this radio."""
@@ -395,12 +403,20 @@ class Radio:
             self._hear_readings()
         recipients, ack, heard = self._hub.on_control(control)
         self._count_rejected()
-        # This process's FLSs hear the round's offers and pick their labels together.
-        step_together([self._fls[fls_id].discovery for fls_id in recipients], control, heard)
-        for fls_id in recipients:
-            self._fls[fls_id].on_control(control, heard)
-            if control.command == END and self._fls[fls_id].discovery.waiting:
-                self._waiting.add(fls_id)
+        # This process's FLSs hear the round's offers, pick their labels and offer together;
+        # those that did are done with a ROUND.
+        local = [self._fls[fls_id] for fls_id in recipients]
+        stepped = step_together([node.discovery for node in local], control, heard)
+        offers, senders = [], []
+        for node in local:
+            out = stepped.get(node.fls_id) or node.on_control(control, heard)
+            if out is not None:
+                offers.append(out)
+                senders.append(node)
+            if control.command == END and node.discovery.waiting:
+                self._waiting.add(node.fls_id)
+        for node, size in zip(senders, self.broadcast(offers), strict=True):
+            node.count_sent(size)
         if control.command == ROUND:
             # Who of this process's FLSs spoke, at once: the coordinator hears no offer.
             sent = self._hub.take_sent(control.run_id, control.round)

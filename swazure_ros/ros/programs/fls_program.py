@@ -116,7 +116,6 @@ class RadioJoin:
             listen=False,
             readings=node.discovery.readings,
         )
-        node.transmitter.broadcast = self.radio.broadcast
         # Stalled for longer than its peers wait for its announcements, it starts afresh.
         silence = participant_lease().silence
         self.radio.heartbeats.when_stalled(silence, partial(start_afresh, node))

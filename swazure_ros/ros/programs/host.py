@@ -132,8 +132,6 @@ class SwarmHost:
         self._controls_at_loss = 0
         self.host_node.create_timer(COORDINATOR_WATCH_PERIOD, self._watch_graph)
         self.transmitter = Transmitter(self.host_node, self.guard.key)
-        if self.radio is not None:
-            self.transmitter.broadcast = self.radio.broadcast
         # What every FLS node here sends by and hears through: the process's radio.
         self._link = RadioLink(self.transmitter, self.readings, self.guard.key)
         # One /parameter_events writer for the process's FLS nodes (SwarmNode).
