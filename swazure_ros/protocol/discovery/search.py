@@ -18,6 +18,7 @@ the label whose sender has the smallest FLS id: the predecessor rule of
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -176,6 +177,55 @@ def _labels_for(
     return found[:count]
 
 
+@jit.kernel(cache=True, nogil=True)
+def _labels_for_each(
+    sources: IntArray,
+    wanted_offsets: IntArray,
+    senders_wanted: IntArray,
+    senders: IntArray,
+    starts: IntArray,
+    source_ids: IntArray,
+) -> tuple[IntArray, IntArray]:
+    """:func:`_labels_for` of each of ``sources`` (S,) at once, its senders wanted
+    ``senders_wanted[wanted_offsets[k]:wanted_offsets[k + 1]]``: (offsets (S + 1,), labels)."""
+    offsets = np.zeros(len(sources) + 1, dtype=np.int64)
+    found = np.empty(len(senders_wanted), dtype=np.int64)
+    count = 0
+    for at in range(len(sources)):
+        low, high = wanted_offsets[at], wanted_offsets[at + 1]
+        mine = _labels_for(sources[at], senders_wanted[low:high], senders, starts, source_ids)
+        found[count : count + len(mine)] = mine
+        count += len(mine)
+        offsets[at + 1] = count
+    return offsets, found[:count]
+
+
+def hear_first(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
+    """What each of ``searches`` takes from ``heard`` before its relaxation, for all at once:
+    its results (the labels of its source from its targets, found in one compiled pass)
+    and its readings. :meth:`PathSearch.hear` of one search does the same."""
+    wanting = []
+    for one in searches:
+        one._last_heard = heard
+        if one._unfound:
+            wanting.append(one)
+    if wanting and len(heard.source_ids):
+        missing = [one._wanted[~one._found] for one in wanting]
+        offsets, labels = _labels_for_each(
+            np.array([one.fls_id for one in wanting], dtype=np.int64),
+            csr.offsets(np.array([len(ids) for ids in missing], dtype=np.int64)),
+            np.concatenate(missing),
+            heard.senders,
+            heard.starts,
+            heard.source_ids,
+        )
+        for at in np.flatnonzero(np.diff(offsets)).tolist():
+            wanting[at]._take_results(heard, labels[offsets[at] : offsets[at + 1]])
+    if len(heard.read_ids):
+        for one in searches:
+            one._take_readings(heard)
+
+
 def source_range(sources: IntArray | None, id_space: int) -> tuple[int, int]:
     """(first, end): the ids that an FLS keeps labels for in a run of ``sources`` (sorted).
 
@@ -314,6 +364,7 @@ class PathSearch:
         self.targets = frozenset(wanted.tolist())
         self._wanted = wanted  # sorted
         self._found = np.zeros(len(self._wanted), dtype=bool)  # by target, as _wanted
+        self._unfound = len(self._wanted)  # targets whose result has not come
         self._out_of_reach = np.zeros(len(self._wanted), dtype=bool)  # shown by a pass (resume)
         self.results = Results()
         if targets is not None:
@@ -426,6 +477,7 @@ class PathSearch:
             return
         targets = heard.sender_ids[labels]
         self._found[np.searchsorted(self._wanted, targets)] = True
+        self._unfound -= len(labels)
         self.results.add(
             targets,
             heard.lengths[labels],
@@ -458,13 +510,16 @@ class PathSearch:
     def _hear_first(self, heard: RoundOffers) -> None:
         """What hearing ``heard`` takes before the relaxation: results and readings."""
         self._last_heard = heard
-        missing = self._wanted[~self._found]
-        if len(missing):
+        if self._unfound:
             # A target's label of this source: its result (a sender offers a label once).
+            missing = self._wanted[~self._found]
             mine = _labels_for(self.fls_id, missing, heard.senders, heard.starts, heard.source_ids)
             self._take_results(heard, mine)
-        if not len(heard.read_ids):
-            return
+        if len(heard.read_ids):
+            self._take_readings(heard)
+
+    def _take_readings(self, heard: RoundOffers) -> None:
+        """The readings ``heard`` brings of the hops to this FLS, from their senders."""
         senders, readings = heard.readings_of(self.fls_id)
         if len(senders):
             # The senders' own readings of the hops to this FLS.

@@ -23,7 +23,7 @@ from .heard import OffersHeard, offers_of
 from .labels import Changes, Columns, HeardLabels, LabelTable, candidates, relax_rows
 from .links import Links
 from .messages import RoundOffers, sender_rows
-from .search import PathSearch, heard_labels, take_changes
+from .search import PathSearch, hear_first, heard_labels, take_changes
 
 
 def _shared_table(searches: Sequence[PathSearch]) -> LabelTable | None:
@@ -95,8 +95,7 @@ def hear_together(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
         for one in searches:
             one.hear(heard)
         return
-    for one in searches:
-        one._hear_first(heard)
+    hear_first(searches, heard)
     if not len(heard.source_ids):  # no label to relax: their hops need not be made
         return
     rows = np.arange(len(searches), dtype=np.int64)
