@@ -24,7 +24,14 @@ from swazure_ros.core.paths import POLICIES
 from swazure_ros.core.sensor import DECAYING, SWEET
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_sensor
-from swazure_ros.protocol.discovery.estimate import Found, estimate, evaluation_of
+from swazure_ros.protocol.discovery.estimate import (
+    Found,
+    Results,
+    estimate,
+    estimates_of,
+    estimates_of_sources,
+    evaluation_of,
+)
 from swazure_ros.protocol.discovery.messages import (
     ANY_VISIBLE,
     SWEET_ALL,
@@ -449,6 +456,22 @@ def test_flss_stepped_together_offer_and_end_as_each_stepping_alone_would(reach)
         np.testing.assert_array_equal(mine.label("via_label"), theirs.label("via_label"))
         for name, values in mine.results.table.items():
             np.testing.assert_array_equal(values, theirs.results.table[name])
+    # Their estimates made at once are those each source makes alone, found as sweet
+    # (one phase's results), or as decaying with a radio path (another's).
+    none = Results()
+    targets = [np.array(sorted(one.targets), dtype=np.int64) for one in together]
+    for phases in ((0, None, None), (None, 0, 0)):
+        results = [tuple(none if at is None else one.results for at in phases)
+                   for one in together]  # fmt: skip
+        at_once = estimates_of_sources(targets, results, options.id_space, world.sensor)
+        for mine, wanted, (sweet, radio, decaying) in zip(at_once, targets, results, strict=True):
+            assert len(mine) == len(wanted)
+            theirs = estimates_of(wanted, sweet, radio, decaying, world.sensor)
+            for name in ("targets", "status", "reason", "path_offsets", "path_ids", "length",
+                         "vector", "radio_offsets", "radio_ids", "predicted_error"):  # fmt: skip
+                np.testing.assert_array_equal(getattr(mine, name), getattr(theirs, name))
+        statuses = np.concatenate([mine.status for mine in at_once])
+        assert len(np.unique(statuses)) == 2  # found and not found
 
 
 @pytest.mark.parametrize("noisy", [False, True], ids=["published", "stochastic"])

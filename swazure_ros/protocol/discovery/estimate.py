@@ -10,7 +10,7 @@ evaluation, so that the swarm's results compare with the engine's;
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, overload
 
 import numpy as np
@@ -153,6 +153,26 @@ class Results:
             self._table = table
         return self._table
 
+    @classmethod
+    def keyed(cls, parts: Sequence[Results], id_space: int) -> Results:
+        """The results of several sources as one: part k's targets keyed ``k * id_space +
+        target``, so that the joined table stays sorted (:func:`estimates_of_sources`)."""
+        tables = [part.table for part in parts]
+        table = {
+            name: np.concatenate([one[name] for one in tables])
+            for name in tables[0]
+            if name not in ("targets", "path_offsets", "path_ids")
+        }
+        table["targets"] = np.concatenate(
+            [one["targets"] + k * id_space for k, one in enumerate(tables)]
+        )
+        table["path_offsets"], table["path_ids"] = csr.join(
+            [(one["path_offsets"], one["path_ids"]) for one in tables], np.zeros(0, np.int64)
+        )
+        keyed = cls()
+        keyed._rounds, keyed._count, keyed._table = [table], len(table["targets"]), table
+        return keyed
+
     def rows(self, targets: IntArray) -> IntArray:
         """(T,) the row of each of ``targets`` in :attr:`table`; -1 where not found."""
         found = self.table["targets"]
@@ -263,6 +283,30 @@ class Estimates(Sequence[Estimate]):
             column("estimator", np.zeros(0, np.int8)),
             column("covariance", np.zeros((0, 3, 3))),
         )
+
+    def split(self, bounds: IntArray) -> list[Estimates]:
+        """The tables of rows ``bounds[k]:bounds[k + 1]``, one after the other (K + 1 bounds)."""
+        parts = []
+        for low, high in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+            first, last = self.path_offsets[low], self.path_offsets[high]
+            radio_first, radio_last = self.radio_offsets[low], self.radio_offsets[high]
+            parts.append(
+                Estimates(
+                    self.targets[low:high],
+                    self.status[low:high],
+                    self.reason[low:high],
+                    self.path_offsets[low : high + 1] - first,
+                    self.path_ids[first:last],
+                    self.length[low:high],
+                    self.vector[low:high],
+                    self.radio_offsets[low : high + 1] - radio_first,
+                    self.radio_ids[radio_first:radio_last],
+                    self.predicted_error[low:high],
+                    self.estimator[low:high],
+                    self.covariance[low:high],
+                )
+            )
+        return parts
 
     @classmethod
     def of(cls, estimates: Sequence[Estimate]) -> Estimates:
@@ -375,6 +419,32 @@ def estimates_of(
         np.zeros(count, dtype=np.int8),
         np.full((count, 3, 3), np.nan),
     )
+
+
+def estimates_of_sources(
+    targets: Sequence[IntArray],
+    phases: Sequence[tuple[Results, Results, Results]],
+    id_space: int,
+    sensor: Sensor | None = None,
+) -> list[Estimates]:
+    """:func:`estimates_of` of several sources at once: source k's ``targets[k]`` from its
+    phases' results ``phases[k]`` (S_vis, S_all, SD_vis); each table what its own call gives.
+
+    The sources' results are keyed apart (:meth:`Results.keyed`; FLS ids are
+    below ``id_space``), so that one call decides every pair of them.
+    """
+    if not len(targets):
+        return []
+    keys = [np.asarray(mine, dtype=np.int64) + k * id_space for k, mine in enumerate(targets)]
+    sweet, radio, decaying = (
+        Results.keyed([mine[phase] for mine in phases], id_space) for phase in range(3)
+    )
+    whole = estimates_of(np.concatenate(keys), sweet, radio, decaying, sensor)
+    parts = whole.split(csr.offsets([len(mine) for mine in keys]))
+    return [
+        replace(part, targets=np.asarray(mine, dtype=np.int64))
+        for part, mine in zip(parts, targets, strict=True)
+    ]
 
 
 def estimate(

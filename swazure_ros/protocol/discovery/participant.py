@@ -29,7 +29,7 @@ from ...core.window_fit import Heard, window_fit
 from ..fit_together import fit_together
 from ..readings import ReadingsBook
 from ..swarm_fit import FitPart
-from .estimate import Estimate, Estimates, Results, estimates_of
+from .estimate import Estimate, Estimates, Results, estimates_of, estimates_of_sources
 from .messages import (
     ANY_VISIBLE,
     END,
@@ -97,6 +97,8 @@ class FlsRun:
         self.results: dict[int, Results] = {phase: Results() for phase in PHASES}
         self.search: PathSearch | None = None
         self.departed: frozenset[int] = frozenset()
+        # Its estimates at END, made with the other FLSs of its process (and the sensor).
+        self._made: tuple[Sensor | None, Estimates] | None = None
 
     def start_fit(
         self, sensor: Sensor, radius: float, departed: frozenset[int], warm: Sequence[FloatArray]
@@ -191,12 +193,19 @@ class FlsRun:
         self.results[phase] = self.search.results
         return self.search
 
-    def estimates(self, sensor: Sensor | None = None) -> Estimates:
-        """The estimate for every target that has not departed, in target order."""
+    def live_targets(self) -> IntArray:
+        """Its targets that have not departed, in target order."""
         targets = np.zeros(0, dtype=np.int64) if self.targets is None else self.targets
-        targets = targets[~np.isin(targets, list(self.departed))]
+        return targets[~np.isin(targets, list(self.departed))]
+
+    def estimates(self, sensor: Sensor | None = None) -> Estimates:
+        """The estimate for every target that has not departed, in target order: those
+        made with the other FLSs of its process (:func:`step_together`), or made here."""
+        made, self._made = self._made, None
+        if made is not None and made[0] is sensor:
+            return made[1]
         sweet, radio, decaying = (self.results[phase] for phase in PHASES)
-        return estimates_of(targets, sweet, radio, decaying, sensor)
+        return estimates_of(self.live_targets(), sweet, radio, decaying, sensor)
 
     def fitted(self, sensor: Sensor, radius: float, heard: Heard) -> Estimates:
         """The estimates with each pair's vector from this source's fit of ``heard``.
@@ -432,6 +441,8 @@ def step_together(
         together = [search for _, search in group]
         if heard is not None:
             hear_together(together, heard)
+        if control.command == END:
+            _estimate_together([participant for participant, _ in group], control.run_id)
         if control.command == ROUND and pick_together(together, round_, control.finished):
             for participant, search in group:
                 offers[participant.fls_id] = Broadcast(
@@ -442,6 +453,29 @@ def step_together(
                     search.offer(round_),
                 )
     return offers
+
+
+def _estimate_together(participants: Sequence[Participant], run_id: int) -> None:
+    """The sources among ``participants`` make their estimates of run ``run_id`` at once
+    (:func:`.estimate.estimates_of_sources`), for :meth:`FlsRun.estimates` to return."""
+    sources = [
+        (participant, run)
+        for participant in participants
+        if (run := participant.runs.get(run_id)) is not None and run.targets is not None
+    ]
+    sensors = {id(participant.sensor) for participant, _ in sources}
+    if len(sources) < 2 or len(sensors) != 1:
+        return  # one source, or FLSs whose sensors differ: each makes its own
+    sensor = sources[0][0].sensor
+    sweet, radio, decaying = PHASES
+    made = estimates_of_sources(
+        [run.live_targets() for _, run in sources],
+        [(run.results[sweet], run.results[radio], run.results[decaying]) for _, run in sources],
+        max(participant.id_space for participant, _ in sources),
+        sensor,
+    )
+    for (_, run), estimates in zip(sources, made, strict=True):
+        run._made = (sensor, estimates)
 
 
 def _read_only(array: NDArray[Any]) -> NDArray[Any]:
