@@ -85,7 +85,7 @@ class Results:
     """
 
     def __init__(self) -> None:
-        self._rounds: list[dict[str, NDArray[Any]]] = []
+        self._rounds: list[dict[str, Any]] = []
         self._count = 0
         self._table: dict[str, NDArray[Any]] | None = None
 
@@ -112,12 +112,11 @@ class Results:
                 "vectors": np.asarray(vectors, dtype=np.float64).reshape(count, 3),
                 "path_offsets": np.asarray(paths[0], dtype=np.int64),
                 "path_ids": np.asarray(paths[1], dtype=np.int64),
-                "unbiased": np.full((count, 3), np.nan) if unbiased is None else unbiased,
-                "covariances": (
-                    np.full((count, 3, 3), np.nan) if covariances is None else covariances
-                ),
+                # Without a fitting run's sums, NaN: filled in when the rounds are joined.
+                "unbiased": unbiased,
+                "covariances": covariances,
                 # Whether the sums came with the labels (a fitting run's), NaN or not.
-                "carried": np.full(count, unbiased is not None and covariances is not None),
+                "carried": np.bool_(unbiased is not None and covariances is not None),
             }
         )
         self._count += count
@@ -132,7 +131,7 @@ class Results:
         if self._table is None:
             rounds = self._rounds
             joined: dict[str, NDArray[Any]] = {
-                name: np.concatenate([one[name] for one in rounds]) if rounds else empty
+                name: np.concatenate([_filled(one, name) for one in rounds]) if rounds else empty
                 for name, empty in (
                     ("targets", np.zeros(0, np.int64)),
                     ("lengths", np.zeros(0)),
@@ -198,6 +197,17 @@ class Results:
             table["unbiased"][row] if carried else None,
             table["covariances"][row] if carried else None,
         )
+
+
+def _filled(added: dict[str, Any], name: str) -> NDArray[Any]:
+    """Column ``name`` of a round :meth:`Results.add` took, its sums NaN where it had none."""
+    value = added[name]
+    count = len(added["targets"])
+    if name == "carried":
+        return np.full(count, value, dtype=bool)
+    if value is None:
+        return np.full((count, 3) if name == "unbiased" else (count, 3, 3), np.nan)
+    return np.asarray(value)
 
 
 @dataclass(frozen=True, eq=False)

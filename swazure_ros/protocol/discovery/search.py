@@ -365,6 +365,7 @@ class PathSearch:
         self._wanted = wanted  # sorted
         self._found = np.zeros(len(self._wanted), dtype=bool)  # by target, as _wanted
         self._unfound = len(self._wanted)  # targets whose result has not come
+        self._open = len(self._wanted)  # of those, the ones not shown out of reach either
         self._out_of_reach = np.zeros(len(self._wanted), dtype=bool)  # shown by a pass (resume)
         self.results = Results()
         if targets is not None:
@@ -408,7 +409,7 @@ class PathSearch:
     @property
     def finished(self) -> bool:
         """True when this FLS, as a source, has a result for every target."""
-        return bool(self.targets) and bool((self._found | self._out_of_reach).all())
+        return bool(self.targets) and not self._open
 
     def resume(self, reach: float, exhausted: IntArray) -> None:
         """Go on in the phase's next pass, from the bucket where this pass paused up to
@@ -431,6 +432,7 @@ class PathSearch:
                 sender_rows(wanted, self.sources) < 0
             )
             self._out_of_reach |= missing & unreached
+        self._open = int(np.count_nonzero(~(self._found | self._out_of_reach)))
 
     def close(self, sources: IntArray) -> None:
         """Stop relaying the labels of ``sources`` (their searches ended)."""
@@ -476,8 +478,10 @@ class PathSearch:
         if not len(labels):
             return
         targets = heard.sender_ids[labels]
-        self._found[np.searchsorted(self._wanted, targets)] = True
+        rows = np.searchsorted(self._wanted, targets)
+        self._found[rows] = True
         self._unfound -= len(labels)
+        self._open -= int(np.count_nonzero(~self._out_of_reach[rows]))
         self.results.add(
             targets,
             heard.lengths[labels],
