@@ -24,6 +24,7 @@ from swazure_ros.core.paths import POLICIES
 from swazure_ros.core.sensor import DECAYING, SWEET
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_sensor
+from swazure_ros.protocol.discovery import participant
 from swazure_ros.protocol.discovery.estimate import (
     Found,
     Results,
@@ -130,6 +131,24 @@ def test_every_pair_matches_the_engine(policy, beta):
     found, outcome = run(world.hood, policy)
     assert outcome.restarts == 0 and outcome.departed == frozenset()
     assert_pairs_equal(found, engine, world.ids)
+
+
+def test_sources_estimating_a_few_at_a_time_match_the_engine(monkeypatch):
+    # A process's sources make their estimates in blocks of so many targets at most.
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    monkeypatch.setattr(participant, "TARGETS_AT_ONCE", 1000)
+    made = []
+    original = participant.estimates_of_sources
+
+    def counted(targets, *args):
+        made.append(sum(len(mine) for mine in targets))
+        return original(targets, *args)
+
+    monkeypatch.setattr(participant, "estimates_of_sources", counted)
+    found, _ = run(world.hood, "shortest-length")
+    assert_pairs_equal(found, evaluate_pairs(world.hood, "shortest-length"), world.ids)
+    assert len(made) > 5 and sum(made) == len(found)
+    assert all(1000 <= count < 1000 + len(world.ids) for count in made[:-1])
 
 
 @pytest.mark.parametrize("policy", POLICIES)
