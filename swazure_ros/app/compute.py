@@ -27,7 +27,7 @@ from ..core.pipeline import EngineRun, RunOptions, Take, run_engine
 from ..core.progress import SILENT
 from ..core.summary import Summary, with_source
 from ..files.record import Distributed, EngineComparison, RunRecord
-from ..protocol.discovery.estimate import ReportedPairs, evaluation_of
+from ..protocol.discovery.reported import ReportedPairs, evaluation_of
 from ..protocol.runs import DiscoveryResult
 from ..sim.world import World
 from ..view.scene import evaluation_scene

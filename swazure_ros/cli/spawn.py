@@ -307,7 +307,7 @@ def config_from_args(args: argparse.Namespace, folder: Path | None = None) -> Sw
         print(f"resampled cloud: {world.resampled_file} (--cloud it for the same swarm)")
     if args.compute_all:
         # Before any node comes up, not after: the swarm could not search this way.
-        from ..protocol.discovery.search import refusal
+        from ..protocol.discovery.buckets import refusal
 
         refused = refusal(world.sensor(), world.assigned().radius, args.policy)
         if refused is not None:

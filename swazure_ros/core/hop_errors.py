@@ -260,7 +260,7 @@ def smallest_hop_error(sensor: Sensor, radius: float) -> float:
     Sampled every 10 um and at the noise table's rows, then lowered by 1 %:
     both error models are smooth or piecewise linear between the samples, so
     no hop falls below it. Distributed least-error discovery sizes its cost
-    buckets by it (protocol.discovery.search.bucket_width).
+    buckets by it (protocol.discovery.buckets.bucket_width).
 
     Parameters
     ----------

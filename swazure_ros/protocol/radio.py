@@ -146,7 +146,7 @@ class Sent:
     fit_sums: tuple[float, ...] = ()
     fit_moved: float = 0.0
     fit_same: tuple[bool, bool] = (True, True)
-    # Sources whose labels they hold beyond the pass's reach (search.reach_rounds), ascending.
+    # Sources whose labels they hold beyond the pass's reach (buckets.reach_rounds), ascending.
     beyond: tuple[int, ...] = ()
     searching: tuple[int, ...] = ()  # those that search as sources: their own label offered
     label_bytes: int = 0  # the memory their labels take, summed (LabelTable.row_bytes)

@@ -257,7 +257,7 @@ class RoundClock:
         self._phase = 0  # index into _phases; len(_phases) while collecting estimates
         self._tally: RoundTally | None = None
         self._finished: set[int] = set()
-        # The phase's pass (search.reach_rounds), the sources it has cut short so far, and
+        # The phase's pass (buckets.reach_rounds), the sources it has cut short so far, and
         # those that searched in it.
         self._pass = 0
         self._beyond: set[int] = set()

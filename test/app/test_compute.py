@@ -23,7 +23,8 @@ from swazure_ros.core.progress import SILENT
 from swazure_ros.core.sensor import DECAYING
 from swazure_ros.files.record import Distributed, EngineComparison, RunRecord
 from swazure_ros.files.results import write_evaluation, write_pair_blocks
-from swazure_ros.protocol.discovery.estimate import Estimates, ReportedPairs, evaluation_of
+from swazure_ros.protocol.discovery.estimate import Estimates
+from swazure_ros.protocol.discovery.reported import ReportedPairs, evaluation_of
 from swazure_ros.protocol.loops import RunOptions, discover
 from swazure_ros.sim.world import WorldSpec
 

@@ -10,7 +10,7 @@ import sys
 RUN = """
 import json, sys
 from swazure_ros.core.evaluate import evaluate
-from swazure_ros.protocol.discovery.estimate import evaluation_of
+from swazure_ros.protocol.discovery.reported import evaluation_of
 from swazure_ros.protocol.loops import discover
 from swazure_ros.sim.world import WorldSpec
 

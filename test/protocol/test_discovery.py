@@ -25,13 +25,13 @@ from swazure_ros.core.sensor import DECAYING, SWEET
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_sensor
 from swazure_ros.protocol.discovery import participant
+from swazure_ros.protocol.discovery.buckets import bucket_width
 from swazure_ros.protocol.discovery.estimate import (
     Found,
     Results,
     estimate,
     estimates_of,
     estimates_of_sources,
-    evaluation_of,
 )
 from swazure_ros.protocol.discovery.messages import (
     ANY_VISIBLE,
@@ -40,12 +40,8 @@ from swazure_ros.protocol.discovery.messages import (
     Offer,
     RoundOffers,
 )
-from swazure_ros.protocol.discovery.search import (
-    PathSearch,
-    SearchOptions,
-    bucket_width,
-    source_range,
-)
+from swazure_ros.protocol.discovery.reported import evaluation_of
+from swazure_ros.protocol.discovery.search import PathSearch, SearchOptions, source_range
 from swazure_ros.protocol.discovery.together import hear_together, pick_together
 from swazure_ros.protocol.loops import RunOptions, discover
 from swazure_ros.protocol.runs import next_block, next_block_size, source_blocks

@@ -13,7 +13,7 @@ from swazure_ros.core.evaluation import NO_PATH, SWEET_PATH
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.observe import Measurement
 from swazure_ros.core.sensor import DECAYING, SWEET
-from swazure_ros.protocol.discovery.estimate import evaluation_of
+from swazure_ros.protocol.discovery.reported import evaluation_of
 from swazure_ros.protocol.loops import discover
 from swazure_ros.protocol.moves import (
     ARRIVED,

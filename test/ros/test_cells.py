@@ -16,7 +16,7 @@ from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
 from swazure_ros.core.observe import observations
 from swazure_ros.protocol.cells import BANDS, DECAYING_BAND, SWEET_BAND, radio_cells
-from swazure_ros.protocol.discovery.estimate import evaluation_of
+from swazure_ros.protocol.discovery.reported import evaluation_of
 from swazure_ros.ros.plumbing.names import RADIO_TOPIC, WALKS_TOPIC, host_name, radio_topic
 from swazure_ros.sim.world import WorldSpec
 

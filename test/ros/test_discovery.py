@@ -28,7 +28,8 @@ from swazure_ros.core.neighbourhood import without
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.record import RECORD_FILE, read_record
 from swazure_ros.files.results import read_pairs
-from swazure_ros.protocol.discovery.estimate import Estimate, evaluation_of
+from swazure_ros.protocol.discovery.estimate import Estimate
+from swazure_ros.protocol.discovery.reported import evaluation_of
 from swazure_ros.ros.convert.discovery import pose_estimate_from_message
 from swazure_ros.ros.plumbing.names import ESTIMATOR_CODES, policy_code
 from swazure_ros.sim.world import WorldSpec

@@ -11,7 +11,7 @@ from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.evaluation import NO_PATH
 from swazure_ros.core.fit import SWARM_FIT, refine
 from swazure_ros.files.reading import config_dir
-from swazure_ros.protocol.discovery.estimate import evaluation_of
+from swazure_ros.protocol.discovery.reported import evaluation_of
 from swazure_ros.sim.world import WorldSpec
 
 CALIBRATED = str(config_dir() / "cameras" / "sensor-wide-calibrated.yaml")

@@ -313,7 +313,7 @@ class Control:
     departed_ids: tuple[int, ...] = ()  # FLSs declared gone: nobody relays through them
     estimator: str = PATH  # START: one of core.fit.SWARM_ESTIMATORS
     fit: FitStep = field(default_factory=lambda: FitStep())  # the FIT phase's ROUND
-    # START: the phase's pass; pass k's searches reach 2**k times as far (search.reach_rounds).
+    # START: the phase's pass; pass k's searches reach 2**k times as far (buckets.reach_rounds).
     reach_pass: int = 0
     # START of a pass after the first: the sources whose search in the pass before ran out
     # of FLSs to label (it searched, nothing beyond its reach, not closed once finished).

@@ -29,6 +29,7 @@ from ...core.window_fit import Heard, window_fit
 from ..fit_together import fit_together
 from ..readings import ReadingsBook
 from ..swarm_fit import FitPart
+from .buckets import bucket_width, reach_rounds
 from .estimate import Estimate, Estimates, Results, estimates_of, estimates_of_sources
 from .messages import (
     ANY_VISIBLE,
@@ -45,15 +46,7 @@ from .messages import (
     Report,
     RoundOffers,
 )
-from .search import (
-    PathSearch,
-    SearchOptions,
-    bucket_width,
-    phase_targets,
-    radio_window,
-    reach_rounds,
-    reads_both_ends,
-)
+from .search import PathSearch, SearchOptions, phase_targets, radio_window, reads_both_ends
 from .together import hear_together, pick_together
 
 #: Discovery runs an FLS takes part in at once, at most: its coordinator runs one at a

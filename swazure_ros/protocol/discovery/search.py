@@ -4,7 +4,7 @@ Every FLS runs a :class:`PathSearch` per phase of a discovery run. It holds
 the FLS's best path label for each source: the path from the source to this
 FLS, its hop count and length, and the measured hop vectors summed from the
 source. In round k of a phase an FLS broadcasts the labels whose bucket is k
-(:func:`bucket_width`); its neighbours relax them through their own hop.
+(:func:`.buckets.bucket_width`); its neighbours relax them through their own hop.
 
 Buckets make every broadcast label final. Every hop adds one hop, at least
 ``sweet_min`` of length and at least the sensor's smallest hop error (the
@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 
 from ...core import csr, jit
 from ...core.arrays import FloatArray, IntArray
-from ...core.hop_errors import hop_covariance, hop_error, smallest_hop_error, unbiased_vectors
+from ...core.hop_errors import hop_covariance, unbiased_vectors
 from ...core.observe import LocalView
 from ...core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
 from ...core.sensor import BLIND, DECAYING, SWEET, Sensor
@@ -44,89 +44,11 @@ from .labels import (
 from .links import Links
 from .messages import ANY_VISIBLE, SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers, sender_rows
 
-#: Rounds that one sweet hop may cost in a least-error run, at most: the calibrated
-#: sensors' cost 24 and 88; a sensor whose error crosses zero in its range, tens of thousands.
-MAX_ROUNDS_PER_HOP = 1000
-
-
-#: Bucket widths sit this fraction below the shortest hop, so that rounding in
-#: a sum of lengths never puts a label in the bucket of the label it extends.
-_BUCKET_MARGIN = 1e-9
-
-
-#: A phase's first reach: the rounds that this many of the costliest sweet hops take.
-#: A source's targets are its blind neighbours, a few sweet hops away: most searches end
-#: within it, and the few cut short search again twice as far (docs/protocol.md).
-REACH_HOPS = 8
-
 # What an FLS that is no source searches for: one read-only array for all of them.
 _NO_TARGETS = np.zeros(0, dtype=np.int64)
 _NO_TARGETS.flags.writeable = False
 
 _COST_ORDER = {FEWEST_HOPS: HOPS_FIRST, SHORTEST_LENGTH: LENGTH_FIRST, LEAST_ERROR: ERROR_FIRST}
-
-
-def refusal(sensor: Sensor, radius: float, policy: str) -> str | None:
-    """Why FLSs with ``sensor`` and ``radius`` (cm) cannot search by ``policy``; or None."""
-    try:
-        bucket_width(sensor, radius, policy)
-    except ValueError as err:
-        return str(err)
-    return None
-
-
-def bucket_width(sensor: Sensor, radius: float, policy: str) -> float:
-    """Cost per round: the smallest cost a hop can add under ``policy``, a little lowered.
-
-    One hop for fewest-hops; just under ``sweet_min`` cm for shortest-length;
-    :func:`~..core.hop_errors.smallest_hop_error` for least-error.
-    """
-    if check_policy(policy) == FEWEST_HOPS:
-        return 1.0
-    if policy == LEAST_ERROR:
-        smallest = smallest_hop_error(sensor, radius)
-        if not smallest > 0:
-            raise ValueError(
-                f"least-error needs a sensor whose every hop errs; {sensor.name} has hops "
-                "without error (an accurate sensor has no least-error path)"
-            )
-        # A sweet hop's cost in buckets is what one hop costs in rounds: where the
-        # error nearly vanishes inside the range, a run would take rounds without end.
-        sweet = np.linspace(sensor.sweet_min, sensor.sweet_max, 1001)
-        rounds = float(hop_error(sensor, sweet, radius).max() / smallest)
-        if rounds > MAX_ROUNDS_PER_HOP:
-            raise ValueError(
-                f"least-error over {sensor.name or 'this sensor'} would take about "
-                f"{rounds:,.0f} rounds a hop (its hop error falls to {smallest:.3g} inside the "
-                f"camera's range; at most {MAX_ROUNDS_PER_HOP:,} are allowed): use "
-                "shortest-length or fewest-hops"
-            )
-        return smallest
-    # A Sensor's sweet_min is above 0 (core.sensor.Sensor refuses any other).
-    return sensor.sweet_min * (1.0 - _BUCKET_MARGIN)
-
-
-def reach_rounds(sensor: Sensor, radius: float, policy: str, reach_pass: int) -> float:
-    """The rounds of a phase in which its pass ``reach_pass`` relays labels: its reach.
-
-    Pass 0 reaches as far as :data:`REACH_HOPS` of the costliest sweet hops,
-    in every phase (an SD_vis path too is mostly sweet hops); each later pass
-    twice as far as the one before. A label of a later bucket is kept but
-    not sent, and its source counted as cut short: its search may go on in
-    the next pass. Infinite (no bound) where a hop's cost has none.
-    """
-    width = bucket_width(sensor, radius, policy)
-    longest = sensor.sweet_max
-    if policy == FEWEST_HOPS:
-        costliest = 1.0
-    elif policy == LEAST_ERROR:
-        shortest = sensor.sweet_min
-        costliest = float(hop_error(sensor, np.linspace(shortest, longest, 1001), radius).max())
-    else:
-        costliest = longest
-    if not np.isfinite(costliest):
-        return math.inf
-    return float(math.ceil(REACH_HOPS * costliest / width) * 2**reach_pass)
 
 
 def hop_mask(view: LocalView, phase: int) -> NDArray[np.bool_]:
@@ -244,13 +166,13 @@ class SearchOptions:
     """How one FLS searches in each phase of a discovery run (see :class:`PathSearch`)."""
 
     policy: str
-    width: float  # cost per round (bucket_width)
+    width: float  # cost per round (buckets.bucket_width)
     id_space: int  # FLS ids are below it
     hop_errors: FloatArray | None = None  # (K,), expected error of the hop to each neighbour
     fit: tuple[Sensor, float] | None = None  # the sensor and the FLSs' radius, cm
     both_ends: bool = False
     sources: IntArray | None = None  # (S,) the run's sources, sorted ids; None: every FLS
-    reach: float = math.inf  # the pass's rounds (reach_rounds): later labels are not sent
+    reach: float = math.inf  # the pass's rounds (buckets.reach_rounds): later labels are not sent
 
 
 class RelayHops:

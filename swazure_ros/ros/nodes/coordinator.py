@@ -51,8 +51,8 @@ from ...core.fit_measurements import fit_layers
 from ...core.geometry import Swarm
 from ...core.paths import check_policy
 from ...core.sensor import Sensor
+from ...protocol.discovery.buckets import bucket_width
 from ...protocol.discovery.messages import Control
-from ...protocol.discovery.search import bucket_width
 from ...protocol.membership import Membership
 from ...protocol.moves import Move, MoveRun, Walk
 from ...protocol.plausible import implausible_estimates
@@ -301,7 +301,7 @@ class Coordinator(SwarmNode):
     ) -> Future:
         """A heuristic on every BLOCKED pair of a whole-swarm run, its moves made for real.
 
-        ``evaluation`` is the run's (``protocol.discovery.estimate.evaluation_of``);
+        ``evaluation`` is the run's (``protocol.discovery.reported.evaluation_of``);
         ``technique`` is Move Obstructing or Move Source (probing up to
         ``threshold`` steps of r; ``source_body``: planned with the source's body at its
         probe point checked). Returns a future of the :class:`MoveResult`.

@@ -14,7 +14,7 @@ from swazure_interfaces.msg import PoseEstimate
 from swazure_interfaces.srv import ComputePose
 
 from ...core.sensor import Sensor
-from ...protocol.discovery.search import refusal
+from ...protocol.discovery.buckets import refusal
 from ...protocol.runs import DiscoveryResult
 from ..convert.discovery import pose_estimate_message
 from ..plumbing.deferred import Reply, create_deferred_service
