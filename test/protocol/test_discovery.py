@@ -103,6 +103,42 @@ def test_estimate_orders_the_phases():
     assert estimate(2, None, None, None).reason == REASON_NO_SWEET_PATH
 
 
+def test_results_hold_a_fit_s_sums_only_where_a_round_carried_them():
+    def found(results, target, sums=None):
+        unbiased, covariances = (None, None) if sums is None else sums
+        results.add(
+            np.array([target]),
+            np.array([6.0]),
+            np.array([0.1]),
+            np.ones((1, 3)),
+            (np.array([0, 2]), np.array([0, target])),
+            unbiased,
+            covariances,
+        )
+
+    plain = Results()
+    found(plain, 5)
+    found(plain, 3)
+    # A run without a fit: no column of NaN for every result.
+    assert sorted(plain.table) == [
+        "errors",
+        "lengths",
+        "path_ids",
+        "path_offsets",
+        "targets",
+        "vectors",
+    ]
+    assert plain.get(3).path == (0, 3) and plain.get(3).unbiased is None
+
+    # Sums that come after a table was joined without them: the earlier results carry none.
+    found(plain, 4, (np.full((1, 3), 2.0), np.eye(3)[None]))
+    assert plain.table["targets"].tolist() == [3, 4, 5]
+    assert plain.table["carried"].tolist() == [False, True, False]
+    assert plain.get(5).covariance is None
+    np.testing.assert_array_equal(plain.get(4).unbiased, [2.0, 2.0, 2.0])
+    np.testing.assert_array_equal(plain.get(4).covariance, np.eye(3))
+
+
 def assert_pairs_equal(found, engine, ids):
     """Every engine pair was found with the engine's status, reason, path and estimate."""
     assert len(found) == len(engine)

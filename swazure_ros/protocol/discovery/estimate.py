@@ -118,20 +118,29 @@ class Results:
 
     @property
     def table(self) -> dict[str, NDArray[Any]]:
-        """Every result, sorted by target: the arrays :meth:`add` takes, joined."""
+        """Every result, sorted by target: the arrays :meth:`add` takes, joined.
+
+        A fitting run's sums ("unbiased", "covariances", "carried") are columns only
+        where some round carried them: a run without a fit holds no NaN for them.
+        """
         if self._table is None:
             rounds = self._rounds
-            joined: dict[str, NDArray[Any]] = {
-                name: np.concatenate([_filled(one, name) for one in rounds]) if rounds else empty
-                for name, empty in (
-                    ("targets", np.zeros(0, np.int64)),
-                    ("lengths", np.zeros(0)),
-                    ("errors", np.zeros(0)),
-                    ("vectors", np.zeros((0, 3))),
+            columns = [
+                ("targets", np.zeros(0, np.int64)),
+                ("lengths", np.zeros(0)),
+                ("errors", np.zeros(0)),
+                ("vectors", np.zeros((0, 3))),
+            ]
+            # A joined table is a round too, its "carried" a column (or none).
+            if any(np.any(one.get("carried", False)) for one in rounds):
+                columns += [
                     ("unbiased", np.zeros((0, 3))),
                     ("covariances", np.zeros((0, 3, 3))),
                     ("carried", np.zeros(0, dtype=bool)),
-                )
+                ]
+            joined: dict[str, NDArray[Any]] = {
+                name: np.concatenate([_filled(one, name) for one in rounds]) if rounds else empty
+                for name, empty in columns
             }
             bounds, ids = csr.join(
                 [(one["path_offsets"], one["path_ids"]) for one in rounds], np.zeros(0, np.int64)
@@ -182,7 +191,7 @@ class Results:
             return None
         table = self.table
         path = table["path_ids"][table["path_offsets"][row] : table["path_offsets"][row + 1]]
-        carried = bool(table["carried"][row])
+        carried = "carried" in table and bool(table["carried"][row])
         return Found(
             tuple(path.tolist()),
             float(table["lengths"][row]),
@@ -195,10 +204,10 @@ class Results:
 
 def _filled(added: dict[str, Any], name: str) -> NDArray[Any]:
     """Column ``name`` of a round :meth:`Results.add` took, its sums NaN where it had none."""
-    value = added[name]
+    value = added.get(name)  # a table joined without sums has no such column
     count = len(added["targets"])
     if name == "carried":
-        return np.full(count, value, dtype=bool)
+        return np.full(count, False if value is None else value, dtype=bool)
     if value is None:
         return np.full((count, 3) if name == "unbiased" else (count, 3, 3), np.nan)
     return np.asarray(value)
