@@ -149,8 +149,7 @@ def _run_rounds(clock: RoundClock, hub: RadioHub, participants: dict[int, Partic
             controls.extend(clock.on_ack(ack.round, _HOST, 0.0))
         # As on ROS: the process tells the clock who of its FLSs spoke (the clock hears
         # no offer itself), then its radio hears them.
-        for out in broadcasts:
-            hub.sent(out.run_id, out.round, out.sender, out.offer)
+        hub.sent_all(broadcasts)
         if control.command == ROUND:
             sent = hub.take_sent(control.run_id, control.round)
             controls.extend(clock.on_sent(control.round, sent, 0.0))

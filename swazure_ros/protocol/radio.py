@@ -31,7 +31,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.arrays import IntArray
-from ..core.draws import uniforms
 from ..core.errors import MessageError
 from .discovery.messages import (
     END,
@@ -45,6 +44,7 @@ from .discovery.messages import (
 )
 from .discovery.participant import RUNS_KEPT
 from .plausible import REASONS
+from .radio_loss import Delivery, RadioLoss
 from .swarm_fit import process_sums
 
 #: Offers of one sender in one round that a process keeps, none of them known false (the
@@ -55,81 +55,6 @@ CONTROLS_KEPT = 64
 #: Offers a process keeps for runs it has not started: a round of the largest
 #: published shape is 3,720 offers.
 EARLY_OFFERS = 16_384
-
-
-@dataclass(frozen=True)
-class Delivery:
-    """What the radio made of one round's deliveries to one process."""
-
-    repairs: int = 0  # repair requests and resends sent
-    lost: int = 0  # deliveries lost on every try
-    latency: float = 0.0  # s from the round's start until its last delivery arrived
-
-
-@dataclass(frozen=True)
-class RadioLoss:
-    """A lossy, slow radio: each message is lost with ``probability`` and late by up to ``delay``.
-
-    Every FLS broadcasts in every round, so a receiver knows whom it did not
-    hear: it asks that neighbour again (a repair request) and the neighbour
-    sends its offer again, each of the two lost with the same probability,
-    up to ``attempts`` tries in all. Each message takes a delay drawn
-    uniformly from [0, ``delay``] s. A receiver takes a broadcast for lost
-    once ``delay`` has passed, and a repair once twice that has passed since
-    its request, so try k >= 1 starts at ``(2k - 1) delay`` and every
-    delivery that arrives does so within ``(2 attempts - 1) delay``. The fate
-    and delay of every message are counter-based draws of (seed, run, round,
-    sender, receiver, try): seeded, and the same in any process. A delivery
-    lost on every try is lost for good: the round's acknowledgement says so,
-    and the coordinator restarts the phase.
-    """
-
-    probability: float = 0.0
-    seed: int = 0
-    attempts: int = 12
-    delay: float = 0.0  # s, the longest one-way delay of a radio message
-
-    def __post_init__(self) -> None:
-        if not 0.0 <= self.probability < 1.0:
-            raise ValueError(f"radio loss must be in [0, 1), got {self.probability}")
-        if self.attempts < 1:
-            raise ValueError(f"radio attempts must be at least 1, got {self.attempts}")
-        if not 0.0 <= self.delay < float("inf"):
-            raise ValueError(f"radio delay must be a number of seconds >= 0, got {self.delay}")
-
-    @property
-    def active(self) -> bool:
-        """True when the radio loses or delays anything."""
-        return self.probability > 0.0 or self.delay > 0.0
-
-    def deliver(
-        self, run_id: int, round_: int, senders: IntArray, receivers: IntArray
-    ) -> Delivery:
-        """What became of the deliveries sender -> receiver (M each) in round ``round_``."""
-        if not self.active or senders.size == 0:
-            return Delivery()
-        keys = [np.full(senders.size, run_id), np.full(senders.size, round_), senders, receivers]
-        # Columns 0 .. 2 attempts - 2: the broadcast, then per repair the request and the
-        # resend; the next as many columns: each of those messages' delay.
-        messages = 2 * self.attempts - 1
-        draws = uniforms(self.seed, keys, 2 * messages)
-        arrived = draws[:, :messages] >= self.probability
-        late = self.delay * draws[:, messages:]
-        delivered = arrived[:, 0].copy()
-        arrival = np.where(delivered, late[:, 0], np.inf)
-        repairs = 0
-        for attempt in range(1, self.attempts):
-            waiting = ~delivered
-            if not waiting.any():
-                break
-            asked = waiting & arrived[:, 2 * attempt - 1]
-            repairs += int(waiting.sum()) + int(asked.sum())  # requests, then resends
-            now = asked & arrived[:, 2 * attempt]
-            start = (2 * attempt - 1) * self.delay
-            arrival[now] = start + late[now, 2 * attempt - 1] + late[now, 2 * attempt]
-            delivered |= now
-        latency = float(arrival[delivered].max()) if delivered.any() else 0.0
-        return Delivery(repairs, int((~delivered).sum()), latency)
 
 
 @dataclass(frozen=True)
@@ -374,22 +299,34 @@ class RadioHub:
         countable = frozenset(self._audible(control.phase).tolist()) - departed
         return len(countable), countable
 
-    def sent(self, run_id: int, round_: int, sender: int, offer: Offer, size: int = 0) -> None:
-        """Local FLS ``sender`` broadcast ``offer`` (``size`` bytes) in round ``round_``.
+    def sent_all(self, offers: Sequence[Broadcast], sizes: Sequence[int] | None = None) -> None:
+        """Local FLSs broadcast ``offers`` (``sizes`` bytes each, 0 by default): what each
+        tells the coordinator's tally, recorded in one pass. See :meth:`take_sent`.
 
-        See :meth:`take_sent`.
+        A sender's first offer of a round counts for it; its fit and the sources it holds
+        beyond the pass's reach are kept from each.
         """
-        sent = self._sent.setdefault((run_id, round_), {})
-        sent.setdefault(
-            sender,
-            _Said(len(offer), bool(offer.pending), bool(offer.finished), size, offer.label_bytes),
-        )
-        if offer.fit is not None:
-            self._fit_sent.setdefault((run_id, round_), {}).setdefault(sender, offer.fit)
-        if len(offer.beyond_ids):
-            self._beyond_sent.setdefault((run_id, round_), []).append(offer.beyond_ids)
-        if len(offer) and np.any(offer.source_ids == sender):  # its own label: it searches
-            self._searching_sent.setdefault((run_id, round_), set()).add(sender)
+        if not offers:
+            return
+        key = (offers[0].run_id, offers[0].round)
+        said = self._sent.setdefault(key, {})
+        for index, out in enumerate(offers):
+            sender, offer = out.sender, out.offer
+            if (out.run_id, out.round) != key:
+                key = (out.run_id, out.round)
+                said = self._sent.setdefault(key, {})
+            if sender not in said:
+                size = 0 if sizes is None else sizes[index]
+                labels = len(offer.source_ids)
+                said[sender] = _Said(
+                    labels, bool(offer.pending), bool(offer.finished), size, offer.label_bytes
+                )
+            if offer.fit is not None:
+                self._fit_sent.setdefault(key, {}).setdefault(sender, offer.fit)
+            if len(offer.beyond_ids):
+                self._beyond_sent.setdefault(key, []).append(offer.beyond_ids)
+            if len(offer) and np.any(offer.source_ids == sender):  # its own label: it searches
+                self._searching_sent.setdefault(key, set()).add(sender)
 
     def take_sent(self, run_id: int, round_: int) -> Sent:
         """What the local FLSs broadcast in round ``round_``, for the coordinator's tally.
@@ -490,8 +427,24 @@ class RadioHub:
     def on_offers(self, run_id: int, round_: int, offers: Sequence[Broadcast]) -> Ack | None:
         """Hear ``offers`` of round ``round_`` at once (:meth:`on_offer` of each): a process's
         own FLSs' offers of a round. The ack if the round is then heard."""
-        kept = [self._keep(run_id, round_, out.sender, out.offer, out.phase) for out in offers]
-        return self._acknowledge(run_id, round_) if any(kept) else None
+        heard = self._heard.get((run_id, round_))
+        if heard is None or round_ < self._first_round.get(run_id, round_ + 1):
+            kept = [self._keep(run_id, round_, out.sender, out.offer, out.phase) for out in offers]
+            return self._acknowledge(run_id, round_) if any(kept) else None
+        # A round under way: its local offers kept in one pass, as _keep keeps each (the
+        # fit's hundreds of rounds make a call per FLS most of a process's time).
+        departed, local, senders = self.departed(run_id), self._local, heard.senders
+        kept_any = False
+        for out in offers:
+            sender = out.sender
+            if sender in departed:
+                continue
+            if sender not in local:
+                kept_any |= self._keep(run_id, round_, sender, out.offer, out.phase)
+            elif senders[sender] < OFFERS_PER_SENDER:
+                heard.keep(_Kept(sender, out.offer, out.phase, trusted=True))
+                kept_any = True
+        return self._acknowledge(run_id, round_) if kept_any else None
 
     def _keep(
         self, run_id: int, round_: int, sender: int, offer: Offer, phase: int | None

@@ -50,6 +50,7 @@ from ..core.conjugate_gradients import (
     settled,
     system_of,
 )
+from ..core.exact_sums import swarm_sum
 from ..core.fit_measurements import fit_layers
 from ..core.measurement_graph import CONVERGED_CM, Measurements, measured_rows
 from ..core.observe import LocalView
@@ -122,8 +123,7 @@ def process_sums(partials: Sequence[FloatArray]) -> tuple[float, ...]:
     """One process's sums of its FLSs' shares (each (P,)), exact per column."""
     if not partials:
         return ()
-    stacked = np.stack(partials)
-    return tuple(math.fsum(column) for column in stacked.T.tolist())
+    return tuple(swarm_sum(np.stack(partials)).tolist())
 
 
 class FitSchedule:
@@ -286,11 +286,17 @@ class FitPart:
 
     # -- rounds -------------------------------------------------------------------------
 
+    def take_said(self, step: FitStep) -> FitOffer | None:
+        """This FLS's offer in the round of ``step`` made with the process's other FLSs
+        (:mod:`.fit_together`), heard included; None when it was not. Taken once."""
+        said, self.said = self.said, None
+        return said[1] if said is not None and said[0] is step else None
+
     def on_round(self, step: FitStep, heard: RoundOffers | None) -> FitOffer:
         """This FLS's offer in the round of ``step``, after taking ``heard`` (a RoundOffers)."""
-        said, self.said = self.said, None
-        if said is not None and said[0] is step:
-            return said[1]  # made with the process's other FLSs, heard included
+        said = self.take_said(step)
+        if said is not None:
+            return said
         if self.together is not None:
             self.together.settle()
         self._take(heard)

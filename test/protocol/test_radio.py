@@ -17,7 +17,8 @@ from swazure_ros.protocol.discovery.messages import (
     Offer,
     RoundOffers,
 )
-from swazure_ros.protocol.radio import Ack, Delivery, RadioHub, RadioLoss
+from swazure_ros.protocol.radio import Ack, RadioHub
+from swazure_ros.protocol.radio_loss import Delivery, RadioLoss
 
 
 def offer(*sources):

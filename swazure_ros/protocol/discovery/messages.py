@@ -188,21 +188,24 @@ class RoundOffers:
         unique, first = np.unique(senders, return_index=True)
         starts = csr.offsets(counts)
 
+        # A round of the FIT phase carries no label: nothing to join, offer by offer.
+        labelled = bool(counts.any())
+
         def joined(arrays: list[NDArray[Any]], empty: NDArray[Any]) -> NDArray[Any]:
-            if not arrays:
+            if not arrays or not labelled:
                 return empty
             spanned = _spanned(arrays)
             return np.concatenate(arrays) if spanned is None else spanned
 
         # Each offer's path offsets start at 0: the steps within an offer are its paths'
         # lengths, one diff over all of them less the steps from one offer to the next.
-        steps = np.diff(joined([offer.path_offsets for offer in offers], np.zeros(0, int)))
-        path_lengths = np.delete(steps, np.cumsum(counts + 1)[:-1] - 1)
+        steps = np.diff(joined([offer.path_offsets for offer in offers], np.zeros(1, int)))
+        path_lengths = np.delete(steps, np.cumsum(counts + 1)[:-1] - 1) if labelled else steps
 
         def carried(name: str, shape: tuple[int, ...]) -> FloatArray:
             """A fitting run's sums, NaN where an offer had none (read-only if none had)."""
             values = [getattr(offer, name) for offer in offers]
-            if all(value is None for value in values):
+            if not labelled or all(value is None for value in values):
                 return np.broadcast_to(np.nan, (int(counts.sum()), *shape))
             return joined(
                 [

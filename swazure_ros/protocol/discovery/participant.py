@@ -411,17 +411,25 @@ def step_together(
     (:meth:`Participant.on_control`), which then finds the rest done.
     """
     fitting = [
-        run.fit_part
-        for run in (participant.runs.get(control.run_id) for participant in participants)
-        if run is not None and run.fit_part is not None
+        (participant.fls_id, run.fit_part)
+        for participant in participants
+        if (run := participant.runs.get(control.run_id)) is not None and run.fit_part is not None
     ]
+    fit_round = control.command == ROUND and control.phase == FIT
     if fitting:
-        fit_round = control.command == ROUND and control.phase == FIT
-        fit_together(fitting, control.fit if fit_round else None, heard)
+        fit_together([part for _, part in fitting], control.fit if fit_round else None, heard)
     offers: dict[int, Broadcast] = {}
     if control.command not in (ROUND, END):
         return offers
-    if control.command == ROUND and control.phase == FIT:
+    if fit_round:
+        # The offers made together go out from here: a Python call per FLS and round is
+        # most of what a process spends in the fit's hundreds of rounds.
+        for fls_id, part in fitting:
+            said = part.take_said(control.fit)
+            if said is not None:
+                offers[fls_id] = Broadcast(
+                    control.run_id, control.phase, control.round, fls_id, fit_offer(said)
+                )
         return offers
     # By the round of the phase: each FLS with its search.
     searches: dict[int, list[tuple[Participant, PathSearch]]] = {}
@@ -512,4 +520,5 @@ def fit_offer(said: FitOffer) -> Offer:
         reading_ids=ids,
         reading_vectors=vectors,
         fit=said,
+        beyond_ids=_NO_IDS,
     )

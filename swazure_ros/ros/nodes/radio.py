@@ -38,7 +38,8 @@ from ...protocol.plausible import (
     offer_readings_check,
     round_labels_check,
 )
-from ...protocol.radio import Ack, RadioHub, RadioLoss
+from ...protocol.radio import Ack, RadioHub
+from ...protocol.radio_loss import RadioLoss
 from ...protocol.readings import ReadingsBook
 from ...protocol.senses import Senses
 from ...protocol.tracking import STOP_RELAY, Stream, StreamBound
@@ -318,8 +319,8 @@ class Radio:
                 self._echoes.add(data)
                 publisher.publish(data)
                 size = len(data)
-            hub.sent(out.run_id, out.round, out.sender, out.offer, size)
             sizes.append(size)
+        hub.sent_all(offers, sizes)
         self.offers_here += len(offers)
         if offers:
             self._acknowledge(hub.on_offers(offers[0].run_id, offers[0].round, offers))

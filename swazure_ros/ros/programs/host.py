@@ -26,7 +26,7 @@ from swazure_interfaces.msg import (
 from swazure_interfaces.srv import GetNeighbours
 
 from ...core.motion import Motion
-from ...protocol.radio import RadioLoss
+from ...protocol.radio_loss import RadioLoss
 from ...protocol.readings import ReadingsBook
 from ...protocol.rounds import Absences
 from ...sim.replica import WorldReplica
