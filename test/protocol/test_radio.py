@@ -13,6 +13,7 @@ from swazure_ros.protocol.discovery.messages import (
     ROUND,
     START,
     SWEET_VISIBLE,
+    Broadcast,
     Control,
     Offer,
     RoundOffers,
@@ -80,6 +81,44 @@ def test_departed_flss_are_neither_handed_controls_nor_heard_and_stale_rounds_ar
     radio.on_offer(1, 3, 3, offer(5))
     _, _, heard = radio.on_control(Control(1, ROUND, round=4, expected=3))
     assert heard.senders.tolist() == [3]
+
+
+def test_a_process_s_own_offers_heard_at_once_are_kept_as_heard_one_by_one():
+    # FLS 0 speaks three times (two slots: the third is not kept), 1 has departed, 2 speaks
+    # once; 5 is another process's FLS.
+    said = [(0, (5,)), (1, (6,)), (0, (7, 8)), (2, (9,)), (0, (4,)), (5, (3,))]
+    offers = [Broadcast(1, SWEET_VISIBLE, 0, sender, offer(*sources)) for sender, sources in said]
+    radios = [RadioHub({0, 1, 2}), RadioHub({0, 1, 2})]
+    for radio in radios:
+        radio.on_control(Control(1, START, expected=4, departed_ids=(1,)))
+        radio.on_control(Control(1, ROUND, round=0, expected=3))
+    at_once = radios[0].on_offers(1, 0, offers[:-1])
+    one_by_one = [radios[1].on_offer(1, 0, out.sender, out.offer) for out in offers[:-1]]
+    assert at_once is None and one_by_one == [None] * 5  # 5 has not spoken yet
+    assert radios[0].on_offers(1, 0, offers[-1:]) == radios[1].on_offer(1, 0, 5, offers[-1].offer)
+    # The same offers kept for the round: FLS 0's first two (its slots), not its third.
+    kept = [[(one.sender, id(one.offer)) for one in radio._heard[(1, 0)].kept] for radio in radios]
+    assert kept[0] == kept[1] and [sender for sender, _ in kept[0]] == [0, 0, 2, 5]
+    assert radios[0].on_offers(1, 0, offers[-1:]) is None  # acknowledged once
+    tables = [radio.on_control(Control(1, ROUND, round=1, expected=3))[2] for radio in radios]
+    assert tables[0].senders.tolist() == tables[1].senders.tolist() == [0, 2, 5]
+    assert tables[0].source_ids.tolist() == tables[1].source_ids.tolist() == [5, 9, 3]
+
+
+def test_the_tally_of_a_round_counts_each_local_sender_s_first_offer():
+    radio = RadioHub({0, 2})
+    radio.on_control(Control(1, START, expected=2))
+    radio.on_control(Control(1, ROUND, round=0, expected=2))
+    offers = [
+        Broadcast(1, SWEET_VISIBLE, 0, 2, offer(2, 5)),
+        Broadcast(1, SWEET_VISIBLE, 0, 0, offer()),
+    ]
+    again = Broadcast(1, SWEET_VISIBLE, 0, 2, offer(6))
+    radio.sent_all([*offers, again], [100, 40, 7])
+    sent = radio.take_sent(1, 0)
+    assert sent.senders == (0, 2) and sent.labels == 2 and sent.bytes == 140
+    assert sent.searching == (2,)  # its own label: 2 searches as a source
+    assert radio.take_sent(1, 0).senders == ()  # taken once
 
 
 def test_a_round_table_gives_each_sender_s_labels():
