@@ -39,12 +39,30 @@ from . import shared_memory
 from .parameters import ParameterSpec
 from .startup import StartupValues, check_params_file, program_startup
 
+#: Container objects a process may allocate, net of those freed, before CPython's cyclic
+#: collector looks at its youngest objects (CPython's default is 700). A packed process
+#: makes and drops thousands of small records a round (offers, their table, the tally);
+#: at 700 the collector ran 8,456 times in the dragon's swarm fit, its older passes
+#: walking every object the process holds: 3.3 s of 26 s (BENCHMARKS.md, "The fit's
+#: rounds made together"). Reference counting frees nearly all of them; what cycles are
+#: left wait a little longer.
+COLLECT_AFTER = 10_000
+
+
+def collect_rarely() -> None:
+    """Set this process's cyclic collector to :data:`COLLECT_AFTER` (the older generations'
+    thresholds as they are): a process that runs swarm nodes calls it as it starts."""
+    _, older, oldest = gc.get_threshold()
+    gc.set_threshold(COLLECT_AFTER, older, oldest)
+
 
 def init_context(domain_id: int | None = None, params_file: str | None = None) -> Context:
-    """A fresh rclpy context on ``domain_id``, with a ROS 2 parameter file if given.
+    """A fresh rclpy context on ``domain_id``, with a ROS 2 parameter file if given, in a
+    process whose collector runs rarely (:func:`collect_rarely`).
 
     Signals are left to the caller: a swarm stops between spins, not inside a callback.
     """
+    collect_rarely()
     args = []
     if params_file is not None:
         # Checked here so that a bad file gives our one line, not rcl's log lines too.
@@ -280,6 +298,7 @@ def run_process(
     """
     values = program_startup(args, usage, startup)
     stop = catch_stops(STOP_LIMIT)
+    collect_rarely()
     context = Context()
     rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
     executor: Executor | None = None

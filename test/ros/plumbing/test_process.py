@@ -12,7 +12,7 @@ import pytest
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
-from swazure_ros.ros.plumbing.process import SWARM_STOP_VARIABLE
+from swazure_ros.ros.plumbing.process import COLLECT_AFTER, SWARM_STOP_VARIABLE
 
 from ...waits import PATIENCE, wait_until
 from ..helpers import long_lease_environment, with_shared_memory
@@ -299,3 +299,22 @@ def seen_by_a_new_participant(domain: int, name: str) -> bool:
 
 
 #: A process whose node fails in a timer callback, again and again, while another serves.
+
+
+#: A process that starts ROS as every swarm process does, and says how its collector runs.
+COLLECTOR = """
+import gc
+from swazure_ros.ros.plumbing import process
+before = gc.get_threshold()
+context = process.init_context()
+print(*before, *gc.get_threshold(), flush=True)
+process.leave_quietly(0)
+"""
+
+
+def test_a_swarm_process_collects_its_youngest_objects_rarely():
+    process = run_script(COLLECTOR)
+    assert process.returncode == 0, process.stderr
+    young, older, oldest, *after = (int(value) for value in process.stdout.split())
+    assert young == 700  # CPython's own
+    assert after == [COLLECT_AFTER, older, oldest]
