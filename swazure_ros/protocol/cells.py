@@ -124,10 +124,16 @@ class Tuning:
 
     def cell_of(self, band: str, fls_id: int) -> Cell | None:
         """The cell of ``band`` that holds its FLS ``fls_id``; None if not one of its FLSs."""
-        row = int(np.searchsorted(self.local, fls_id))
-        if row == len(self.local) or self.local[row] != fls_id:
-            return None
-        return (band, *self.placed[band][row].tolist())
+        return self.cells_of(band, np.array([fls_id], dtype=np.int64))[0]
+
+    def cells_of(self, band: str, fls_ids: IntArray) -> list[Cell | None]:
+        """:meth:`cell_of` of each of ``fls_ids`` (M,), at once: a round's offers."""
+        rows = np.minimum(np.searchsorted(self.local, fls_ids), max(len(self.local) - 1, 0))
+        found = (self.local[rows] == fls_ids) if len(self.local) else np.zeros(len(rows), bool)
+        placed = self.placed[band][rows].tolist() if len(self.local) else [()] * len(rows)
+        return [
+            (band, *cell) if ok else None for cell, ok in zip(placed, found.tolist(), strict=True)
+        ]
 
 
 @dataclass

@@ -91,6 +91,11 @@ def test_a_tuning_hears_the_cells_around_its_flss_that_hold_another_processs():
     assert tuning.audible[SWEET_BAND].tolist() == [1, 2, 5]
     assert tuning.cell_of(SWEET_BAND, 2) == (SWEET_BAND, 0, 0, 0)
     assert tuning.cell_of(SWEET_BAND, 5) is None  # another process's
+    # A round's senders at once: ids past its own, before them, and between.
+    asked = np.array([2, 9, 1, 5, 0], dtype=np.int64)
+    assert tuning.cells_of(SWEET_BAND, asked) == [
+        (SWEET_BAND, 0, 0, 0), None, (SWEET_BAND, 0, 0, 0), None, None
+    ]  # fmt: skip
 
 
 def test_moves_within_cells_change_no_tuning_and_a_move_across_one_does():

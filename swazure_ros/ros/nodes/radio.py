@@ -288,11 +288,23 @@ class Radio:
 
     def _cell(self, band: str, fls_id: int) -> Cell:
         """The cell of ``band`` that holds local FLS ``fls_id`` now."""
-        cell = None if self._tuning is None else self._tuning.cell_of(band, fls_id)
-        if cell is None:  # an FLS not hosted here at the start
-            where = self._cells[band].of(self._senses.positions(np.array([fls_id])))[0]
-            cell = (band, *where.tolist())
-        return cell
+        return self._cells_of([(band, fls_id)])[0]
+
+    def _cells_of(self, wanted: Sequence[tuple[str, int]]) -> list[Cell]:
+        """:meth:`_cell` of each (band, local FLS id) of ``wanted``, looked up together."""
+        cells: list[Cell | None] = [None] * len(wanted)
+        if self._tuning is not None:
+            for band in {band for band, _ in wanted}:
+                at = [k for k, (of, _) in enumerate(wanted) if of == band]
+                ids = np.array([wanted[k][1] for k in at], dtype=np.int64)
+                for k, cell in zip(at, self._tuning.cells_of(band, ids), strict=True):
+                    cells[k] = cell
+        for k, cell in enumerate(cells):
+            if cell is None:  # an FLS not hosted here at the start
+                band, fls_id = wanted[k]
+                where = self._cells[band].of(self._senses.positions(np.array([fls_id])))[0]
+                cells[k] = (band, *where.tolist())
+        return [cell for cell in cells if cell is not None]
 
     def broadcast(self, offers: Sequence[Broadcast]) -> list[int]:
         """Local FLSs' ``offers`` of one round: heard here at once, sent on their cells' topics.
@@ -305,8 +317,8 @@ class Radio:
         read: dict[Cell, bool] = {}  # whether anyone else reads a cell
         stamp = None
         hub = self._hub
-        for out in offers:
-            cell = self._cell(band_of(out.phase), out.sender)
+        cells = self._cells_of([(band_of(out.phase), out.sender) for out in offers])
+        for out, cell in zip(offers, cells, strict=True):
             publisher = self._sending.get(cell)
             if publisher is None:  # an FLS not hosted here at the start: made on demand
                 publisher = self._sending[cell] = self._send_on(PathOffer, cell)
