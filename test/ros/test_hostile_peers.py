@@ -182,15 +182,20 @@ def test_a_forged_offer_changes_no_answer(domain, authenticate, forger_key, drop
         source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world, swarm.host.fls_ids)
         if forger_key is None:  # the swarm's own key, as an earlier swarm of one key file had
             forger_key = SwarmKey(swarm.key.material[0])
+        control = swarm.coordinator.outbox.control
+        readers = control.get_subscription_count()
         with Forger(domain, swarm.world, source, target, forger_key) as forger:
-            # The forger hears the coordinator's controls (matched, not only in the graph)
-            # and the swarm's radio hears the forger before the run.
-            wait_until(
+            # The forger hears the coordinator's controls (matched, not only in the graph:
+            # the coordinator's writer has matched the forger's reader, which on a busy
+            # machine can come well after the forger sees the writer) and the swarm's radio
+            # hears the forger before the run.
+            assert wait_until(
                 lambda: (
                     all(p.get_subscription_count() >= 1 for p in forger.offers.values())
                     and forger.controls.get_publisher_count() >= 1
+                    and control.get_subscription_count() > readers
                 ),
-                30,
+                PATIENCE,
                 lambda: swarm.spin(0.05),
             )
             result = swarm.run(
@@ -369,13 +374,18 @@ def test_without_a_key_a_forged_report_is_implausible_and_changes_no_answer(doma
     config = SwarmConfig(world_spec, domain_id=domain, authenticate=False)
     with RunningSwarm.start(config) as swarm:
         source, target, engine, row = blind_pair_with_a_sweet_path(swarm.world)
+        # The forger hears the run only once the coordinator's writer has matched its
+        # reader, which on a busy machine can come well after the forger sees the writer.
+        control = swarm.coordinator.outbox.control
+        readers = control.get_subscription_count()
         with Forger(domain, swarm.world, source, target, SwarmKey(), forge_reports=True) as forger:
-            wait_until(
+            assert wait_until(
                 lambda: (
                     forger.reports.get_subscription_count() >= 1
                     and forger.controls.get_publisher_count() >= 1
+                    and control.get_subscription_count() > readers
                 ),
-                30,
+                PATIENCE,
                 lambda: swarm.spin(0.05),
             )
             result = swarm.run(swarm.coordinator.discover(POLICY, [source], [target]), 120)
