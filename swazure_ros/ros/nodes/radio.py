@@ -299,12 +299,16 @@ class Radio:
                 ids = np.array([wanted[k][1] for k in at], dtype=np.int64)
                 for k, cell in zip(at, self._tuning.cells_of(band, ids), strict=True):
                     cells[k] = cell
-        for k, cell in enumerate(cells):
-            if cell is None:  # an FLS not hosted here at the start
-                band, fls_id = wanted[k]
-                where = self._cells[band].of(self._senses.positions(np.array([fls_id])))[0]
-                cells[k] = (band, *where.tolist())
-        return [cell for cell in cells if cell is not None]
+        return [
+            self._cell_now(band, fls_id) if cell is None else cell
+            for cell, (band, fls_id) in zip(cells, wanted, strict=True)
+        ]
+
+    def _cell_now(self, band: str, fls_id: int) -> Cell:
+        """The cell of ``band`` where FLS ``fls_id`` is now, from its place: an FLS not
+        hosted here at the start, which the tuning does not place."""
+        where = self._cells[band].of(self._senses.positions(np.array([fls_id])))[0]
+        return (band, *where.tolist())
 
     def broadcast(self, offers: Sequence[Broadcast]) -> list[int]:
         """Local FLSs' ``offers`` of one round: heard here at once, sent on their cells' topics.

@@ -42,10 +42,10 @@ from .startup import StartupValues, check_params_file, program_startup
 #: Container objects a process may allocate, net of those freed, before CPython's cyclic
 #: collector looks at its youngest objects (CPython's default is 700). A packed process
 #: makes and drops thousands of small records a round (offers, their table, the tally);
-#: at 700 the collector ran 8,456 times in the dragon's swarm fit, its older passes
+#: at 700 the collector ran 8,453 times in the dragon's swarm fit, its older passes
 #: walking every object the process holds: 3.3 s of 26 s (BENCHMARKS.md, "The fit's
-#: rounds made together"). Reference counting frees nearly all of them; what cycles are
-#: left wait a little longer.
+#: rounds made together, and a process's collector"). Reference counting frees nearly
+#: all of them; what cycles are left wait a little longer.
 COLLECT_AFTER = 10_000
 
 
