@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import contextlib
+import faulthandler
 import os
+import select
 import signal
 import time
 from collections.abc import Iterator
@@ -46,22 +48,37 @@ SCENE = np.array(
 )
 
 
-def ros2_daemons(domain: int) -> set[int]:
-    """Process ids of the ros2 CLI's daemons on this machine that serve ROS domain ``domain``."""
-    found = set()
+def ros2_daemons(domain: int) -> dict[int, int]:
+    """The ros2 CLI's daemons on this machine that serve ROS domain ``domain``: a pidfd of
+    each (os.pidfd_open) by process id, to be closed by the caller.
+
+    A pidfd names the process, not its number: this machine's process ids wrap at
+    32,768, and a suite starts thousands of processes, so a number read now may
+    name another process by the time it is signalled.
+    """
+    found = {}
     wanted = f"ROS_DOMAIN_ID={domain}".encode()
     for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                command = (entry / "cmdline").read_bytes()
-                if b"ros2cli.daemon.daemonize" not in command:
-                    continue
-                environment = (entry / "environ").read_bytes().split(b"\0")
-            except OSError:
-                continue
-            if wanted in environment:
-                found.add(int(entry.name))
+        if entry.name.isdigit() and _is_daemon(entry, wanted):
+            with contextlib.suppress(OSError):  # ended meanwhile
+                pidfd = os.pidfd_open(int(entry.name))
+                # Read again with the process held: the number named a daemon when opened.
+                if _is_daemon(entry, wanted):
+                    found[int(entry.name)] = pidfd
+                else:
+                    os.close(pidfd)
     return found
+
+
+def _is_daemon(entry: Path, wanted: bytes) -> bool:
+    """Whether process folder ``entry`` is a ros2 daemon whose environment holds ``wanted``."""
+    try:
+        command = (entry / "cmdline").read_bytes()
+        if b"ros2cli.daemon.daemonize" not in command:
+            return False
+        return wanted in (entry / "environ").read_bytes().split(b"\0")
+    except OSError:
+        return False
 
 
 #: Seconds a ros2 daemon has to end after SIGTERM before it is killed. Its DDS teardown can
@@ -76,35 +93,50 @@ def stop_ros2_daemons(domain: int) -> None:
     By domain, not at the end of the session: with tests on two workers
     (pytest-xdist), another worker's test may be using its own daemon. One still
     there DAEMON_TEARDOWN s after SIGTERM is killed, and its shared memory removed.
+    Signalled through pidfds (:func:`ros2_daemons`): a daemon that ended is never
+    mistaken for a process that took its number since.
     """
     daemons = ros2_daemons(domain)
-    for pid in daemons:
-        with contextlib.suppress(ProcessLookupError):
-            os.kill(pid, signal.SIGTERM)
-    daemons = _ended(daemons, DAEMON_TEARDOWN)
-    for pid in daemons:
-        owned = shared_memory.own_segments(pid)
-        with contextlib.suppress(ProcessLookupError):
-            os.kill(pid, signal.SIGKILL)
-        shared_memory.remove(owned)
-    _ended(daemons, DAEMON_TEARDOWN)
+    try:
+        for pidfd in daemons.values():
+            with contextlib.suppress(ProcessLookupError):
+                signal.pidfd_send_signal(pidfd, signal.SIGTERM)
+        left = _ended(daemons, DAEMON_TEARDOWN)
+        for pid, pidfd in left.items():
+            owned = shared_memory.own_segments(pid)
+            with contextlib.suppress(ProcessLookupError):
+                signal.pidfd_send_signal(pidfd, signal.SIGKILL)
+            shared_memory.remove(owned)
+        _ended(left, DAEMON_TEARDOWN)
+    finally:
+        for pidfd in daemons.values():
+            os.close(pidfd)
 
 
-def _ended(pids: set[int], seconds: float) -> set[int]:
-    """Wait up to ``seconds`` for processes ``pids`` to end; those still running."""
+def _ended(pidfds: dict[int, int], seconds: float) -> dict[int, int]:
+    """Wait up to ``seconds`` for the processes of ``pidfds`` to end; those still running.
+
+    A pidfd turns readable when its process ends (a daemon is nobody's child
+    here, and init reaps it).
+    """
     deadline = time.monotonic() + seconds
-    while pids and time.monotonic() < deadline:
-        time.sleep(0.05)
-        pids = {pid for pid in pids if running(pid)}
-    return pids
+    left = dict(pidfds)
+    while left:
+        wait = max(deadline - time.monotonic(), 0.0)
+        ready, _, _ = select.select(list(left.values()), [], [], wait)
+        left = {pid: pidfd for pid, pidfd in left.items() if pidfd not in ready}
+        if time.monotonic() >= deadline:
+            break
+    return left
 
 
 def running(pid: int) -> bool:
-    """Whether process ``pid`` is there and not a zombie (a daemon is nobody's child here)."""
+    """Whether process ``pid`` is there and has not ended (a zombie has ended)."""
     try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
     except (OSError, IndexError):
         return False
+    return state not in ("Z", "X")
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -121,6 +153,12 @@ def pytest_configure(config: pytest.Config) -> None:
         raise pytest.UsageError(str(error)) from None
     os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "OFF"
     os.environ.pop("ROS_DOMAIN_ID", None)
+    # A worker ended by SIGTERM dies without Python's fault report, and pytest-xdist says
+    # only that it crashed: this prints every thread's stack first, then ends it as before.
+    # To a copy of the terminal's stderr (faulthandler holds it): a test's own is captured
+    # into a file, and so is this conftest's import; pytest's capture pauses here.
+    terminal = os.fdopen(os.dup(2), "w")
+    faulthandler.register(signal.SIGTERM, file=terminal, all_threads=True, chain=True)
 
 
 #: The files whose tests take a minute or more each (the durations of `make test`,

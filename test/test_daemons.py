@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import time
@@ -25,7 +26,10 @@ def test_a_daemon_that_ignores_sigterm_is_killed_once_its_teardown_time_is_up(do
     ) as hung:
         try:
             assert hung.stdout.readline() == "ignoring SIGTERM\n"
-            assert ros2_daemons(domain) == {hung.pid}
+            found = ros2_daemons(domain)
+            for pidfd in found.values():
+                os.close(pidfd)
+            assert list(found) == [hung.pid]
             began = time.monotonic()
             stop_ros2_daemons(domain)
             assert not running(hung.pid)

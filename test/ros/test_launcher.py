@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
+import select
 import shutil
 import signal
 import subprocess
@@ -29,7 +31,7 @@ from swazure_ros.ros.clients.query import SwarmQueries
 from swazure_ros.ros.security.keys import new_key
 from swazure_ros.sim.world import WorldSpec
 
-from ..conftest import SHARED
+from ..conftest import SHARED, running
 from ..waits import PATIENCE, wait_until
 from .helpers import (
     ECHO_LATCHED,
@@ -467,15 +469,6 @@ def further_processes(launcher: int) -> list[int]:
     return found
 
 
-def running(pid: int) -> bool:
-    """Whether process ``pid`` is there and has not ended (a zombie has ended)."""
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state not in ("Z", "X")
-
-
 def test_a_launcher_killed_outright_leaves_no_further_process_behind(domain, fast_params):
     # SIGKILL (or the kernel's out-of-memory killer) gives the launcher no time to stop its
     # further processes: each learns of its death from multiprocessing's sentinel and ends.
@@ -484,20 +477,24 @@ def test_a_launcher_killed_outright_leaves_no_further_process_behind(domain, fas
         "--params", str(fast_params), "--quiet",
     )  # fmt: skip
     further: list[int] = []
+    held = -1  # a pidfd of the further process: its number may be another's once it ends
     try:
         line = spawn.stdout.readline()
         assert "swarm up: 100 FLS nodes in 2 process" in line, line + spawn.stderr.read()
         further = further_processes(spawn.pid)
         assert len(further) == 1, further
+        held = os.pidfd_open(further[0])
         spawn.kill()
         spawn.communicate(timeout=PATIENCE)
-        ended = wait_until(lambda: not running(further[0]), PATIENCE)
+        # A pidfd turns readable when its process ends.
+        ended = bool(select.select([held], [], [], PATIENCE)[0])
     finally:
         if spawn.poll() is None:
             spawn.kill()
-        for pid in further:
-            if running(pid):
-                os.kill(pid, signal.SIGKILL)
+        if held >= 0:
+            with contextlib.suppress(ProcessLookupError):
+                signal.pidfd_send_signal(held, signal.SIGKILL)
+            os.close(held)
     assert ended, f"further process {further[0]} still running {PATIENCE} s after its launcher"
 
 
