@@ -45,6 +45,23 @@ class Membership:
         self._departed_at: dict[int, int] = {}
         self._back_in_run: set[int] = set()
 
+    def see_radios(self, names: Iterable[str]) -> None:
+        """Radios ``names`` are there: the acks' writers on the graph, or radios whose signed
+        heartbeats say they hear the controls.
+
+        Counted in their order until every host's radio is known, and never the radio of an
+        FLS gone: an FLS that dies leaves with its radio only if its radio
+        was known (:meth:`lose`). One killed as its swarm came up, before the
+        graph's look listed its radio, left its radio counted among the hosts,
+        and every later round waited for its acknowledgement until the run
+        ended incomplete (2026-12-04, under a full suite's load).
+        """
+        for name in names:
+            if len(self.radios) >= self.hosts:
+                return
+            if self._radio_fls(name) not in self.gone:
+                self.radios.add(name)
+
     def lose(self, newly: set[int]) -> int:
         """FLSs ``newly`` gone from the graph: departed. How many radios went with them."""
         self.gone |= newly

@@ -74,3 +74,14 @@ def test_flss_back_during_a_run_stay_out_of_its_departed_when_it_settles():
     # The next run's end is its own.
     membership.settle([4])
     assert membership.departed == {4}
+
+
+def test_radios_seen_are_counted_up_to_the_hosts_and_never_a_gone_fls_s():
+    membership = members(2, set())
+    membership.lose({7})
+    membership.see_radios(["fls_7", "fls_3"])
+    assert membership.radios == {"fls_3"}
+    membership.see_radios(["host_0", "host_1"])
+    assert len(membership.radios) == 2 and "fls_3" in membership.radios
+    # Known, an FLS's own radio leaves with it.
+    assert membership.lose({3}) == 1 and membership.hosts == 1

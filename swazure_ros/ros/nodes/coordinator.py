@@ -84,6 +84,7 @@ from ..plumbing.names import (
     MOVE_TOPIC,
     RADIO_TOPIC,
     ROUND_QOS,
+    UNKNOWN_NODE,
     WALKS_TOPIC,
     WORLD_QOS,
     WORLD_REACH,
@@ -412,7 +413,11 @@ class Coordinator(SwarmNode):
             # The radios, by the names of their nodes, while they are on the graph: the
             # acks' writers (an FLS may die before its radio ever acknowledged a round).
             writers = self.get_publishers_info_by_topic(self._acks.topic_name)
-            membership.radios |= {info.node_name for info in writers}
+            # A writer whose participant's node names have not arrived yet is named
+            # UNKNOWN_NODE: no radio's name, and it would take a radio's place in the count.
+            membership.see_radios(
+                info.node_name for info in writers if info.node_name != UNKNOWN_NODE
+            )
         if not newly:
             return
         radios = membership.lose(newly)
@@ -480,6 +485,9 @@ class Coordinator(SwarmNode):
             known = alive.host in self._hearing
             check(known or len(self._hearing) < self._radios_at_most, "more radios than FLSs")
             self._hearing.add(alive.host)
+            # Known before the swarm is called up (hosts_matched counts these): a radio
+            # killed right after still leaves the hosts with its FLS.
+            self.membership.see_radios((alive.host,))
         else:
             self._hearing.discard(alive.host)
         clock = self.runs.running()

@@ -82,6 +82,11 @@ def walks_topic(cell: Sequence[int] | IntArray) -> str:
     return f"{WALKS_TOPIC}/{cell_name(cell)}"
 
 
+#: The node name the ROS graph gives an endpoint whose participant's node names have not
+#: arrived yet (rmw_dds_common's graph cache).
+UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
+
+
 def node_name(fls_id: int) -> str:
     """The node name of FLS ``fls_id``."""
     return f"fls_{fls_id}"

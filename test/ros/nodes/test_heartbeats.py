@@ -147,3 +147,32 @@ def test_a_thread_kept_from_a_cpu_counts_its_wait_and_a_sleeping_one_does_not(tm
     # Asleep, it waited to run only for the moment it woke: a small part of that, however
     # busy the machine (a bound in seconds would assume a quiet one).
     assert slept < spun / 4
+
+
+def test_a_radio_heard_by_its_heartbeat_leaves_the_hosts_with_its_fls(context):
+    """Each FLS its own process (3 radios): the radios whose heartbeats say they hear the
+    controls are known before any graph look, so an FLS killed as its swarm came up takes
+    its radio from the hosts a round waits for (it once held every later round)."""
+    from swazure_interfaces.msg import Heartbeat
+
+    from swazure_ros.ros.nodes.coordinator import Coordinator
+    from swazure_ros.ros.plumbing.names import HEARTBEAT_TOPIC
+    from swazure_ros.sim.world import WorldSpec
+
+    world = WorldSpec(cloud=str(REPO / "config/track/trio.xyz"), scale=1.0, radius=0.5).build()
+    coordinator = Coordinator(
+        world.ids.tolist(), 3, shape=world.swarm, sensor=world.sensor, context=context
+    )
+    try:
+        for name in ("fls_0", "fls_1", "fls_2"):
+            beat = Heartbeat(host=name, hears_controls=True)
+            coordinator.guard.call(HEARTBEAT_TOPIC, coordinator._on_heartbeat, beat)
+        assert coordinator.membership.radios == {"fls_0", "fls_1", "fls_2"}
+        assert coordinator.membership.lose({1}) == 1
+        assert coordinator.membership.hosts == 2
+        # Its heartbeat, late, does not count it again.
+        beat = Heartbeat(host="fls_1", hears_controls=True)
+        coordinator.guard.call(HEARTBEAT_TOPIC, coordinator._on_heartbeat, beat)
+        assert coordinator.membership.radios == {"fls_0", "fls_2"}
+    finally:
+        coordinator.destroy_node()
