@@ -1,4 +1,4 @@
-"""A process's FLSs solving together: the FIT phase's SUMS and STEP rounds in one pass.
+"""A process's FLSs solving together: the FIT phase's RESIDUAL, SUMS and STEP rounds at once.
 
 A solve of the swarm's fit (:mod:`.swarm_fit`) is hundreds of rounds that
 alternate SUMS (each FLS's row of ``H u`` from its neighbours' ``u``, and its
@@ -11,7 +11,9 @@ heard, their iterates stacked as the engine stacks the swarm's
 offer, and what it sends is, bit for bit, what stepping it alone gives: the
 same entries of ``H`` summed in the same order, and the same elementwise
 arithmetic (``core.swarm_edges.blocks_times`` gives one block's bits for a
-stack too).
+stack too). A RESIDUAL round, where each FLS makes its own rows of its local
+system and starts its solve, makes every FLS's system in one block-diagonal
+pass (:func:`~.fit_rows.own_rows`), with the same bits.
 
 While a solve is stepped together its state lives in one :class:`Solve`; the
 FLSs' own records (:class:`~.swarm_fit.FitPart`) get it back when a round
@@ -31,7 +33,8 @@ import numpy as np
 from ..core.arrays import FloatArray, IntArray
 from ..core.conjugate_gradients import Floor, Iterate, advance, partial_dot, scalars
 from ..core.swarm_edges import blocks_times
-from .discovery.messages import STEP, SUMS, FitOffer, FitStep, RoundOffers
+from .discovery.messages import RESIDUAL, STEP, SUMS, FitOffer, FitStep, RoundOffers
+from .fit_rows import own_rows, weigh
 from .swarm_fit import FitLayer, FitPart
 
 
@@ -79,9 +82,14 @@ def fit_together(
     """Step ``parts`` (one process's FLSs, in one run) through the round of ``step`` at once.
 
     Each FLS then finds its offer made (:meth:`FitPart.on_round` sends it).
-    ``step`` None, or a stage other than SUMS and STEP: the solve's state
-    goes back to each FLS, which steps on alone.
+    A RESIDUAL starts every FLS's solve from rows made in one pass
+    (:func:`_residuals`). ``step`` None, or another stage than SUMS, STEP
+    and RESIDUAL: the solve's state goes back to each FLS, which steps on alone.
     """
+    if step is not None and step.stage == RESIDUAL and not step.ended and parts:
+        settle(parts)
+        _residuals(parts, step, heard)
+        return
     if step is None or step.stage not in (SUMS, STEP) or step.ended:
         settle(parts)
         return
@@ -97,6 +105,24 @@ def fit_together(
         return
     for part, offer in zip(solve.parts, offers, strict=True):
         part.said = (step, offer)
+
+
+def _residuals(parts: Sequence[FitPart], step: FitStep, heard: RoundOffers | None) -> None:
+    """A RESIDUAL round for ``parts`` at once: each FLS hears ``heard`` and weighs its
+    layer, then every FLS's own rows come from one pass (:func:`.fit_rows.own_rows`)
+    and each starts its solve from them, as :meth:`FitPart.on_round` does alone."""
+    samples = {part.samples_count for part in parts}
+    if len(samples) != 1:
+        return  # FLSs that draw differently (never in one swarm): each starts alone
+    layers = []
+    for part in parts:
+        part._take(heard)
+        layer = part._layer(step.layer)
+        weigh(layer, step.mode)
+        layers.append(layer)
+    made = own_rows(layers, samples.pop())
+    for part, layer, own in zip(parts, layers, made, strict=True):
+        part.said = (step, part.start_solve(layer, own))
 
 
 def settle(parts: Sequence[FitPart]) -> None:
@@ -149,10 +175,11 @@ def _gathered(parts: list[FitPart], layers: list[FitLayer]) -> Solve:
     )
     iterates, floors, blocks = [], [], []
     for layer in layers:
-        assert layer.iterate is not None and layer.floor is not None and layer.system
+        assert layer.iterate is not None and layer.floor is not None
+        assert layer.preconditioner is not None
         iterates.append(layer.iterate)
         floors.append(layer.floor)
-        blocks.append(layer.system.preconditioner[layer.slot])
+        blocks.append(layer.preconditioner)
     first = iterates[0]
     return Solve(
         parts,

@@ -43,25 +43,22 @@ from ..core.arrays import FloatArray, IntArray
 from ..core.conjugate_gradients import (
     Floor,
     Iterate,
-    System,
     advance,
     partial_dot,
     scalars,
     settled,
-    system_of,
 )
 from ..core.exact_sums import swarm_sum
 from ..core.fit_measurements import fit_layers
 from ..core.measurement_graph import CONVERGED_CM, Measurements, measured_rows
 from ..core.observe import LocalView
 from ..core.sensor import DECAYING, SWEET, Sensor
-from ..core.swarm_edges import blocks_times, edges_of, weighted
+from ..core.swarm_edges import blocks_times
 from ..core.swarm_fit import (
     COVARIANCE_SAMPLES,
     HUBER,
     REJECTING,
     UNIT,
-    noise_flows,
     robust_decision,
     weights_for,
 )
@@ -80,6 +77,7 @@ from .discovery.messages import (
     FitStep,
     RoundOffers,
 )
+from .fit_rows import OwnRows, own_rows, weigh
 
 
 class Settles(Protocol):
@@ -228,8 +226,8 @@ class FitLayer:
     position: FloatArray  # (3, 1), cm, its own x
     samples: FloatArray  # (3, K), cm, its own covariance samples
     sampling: bool = False  # the solve under way is the covariance's
-    system: System | None = None
     rows: Any = None  # its three rows of H (scipy.sparse CSR over the local columns)
+    preconditioner: FloatArray | None = None  # (3, 3), cm^2: its diagonal block's inverse
     iterate: Iterate | None = None
     scaled: FloatArray = field(default_factory=lambda: np.zeros((3, 1)))  # u, its own
     image: FloatArray = field(default_factory=lambda: np.zeros((3, 1)))  # its row of H u
@@ -445,27 +443,21 @@ class FitPart:
         return FitOffer(moved=moved, same=same)
 
     def _residual(self, layer: FitLayer, mode: int) -> FitOffer:
-        count = len(layer.ids)
-        edges = edges_of(count, layer.measured)
-        if mode in (HUBER, REJECTING):
-            layer.weights = layer.candidates[mode]
-        final = weighted(edges, layer.measured, layer.weights)
-        layer.sampling = mode == SAMPLES
+        weigh(layer, mode)
+        return self.start_solve(layer, own_rows([layer], self.samples_count)[0])
+
+    def start_solve(self, layer: FitLayer, own: OwnRows) -> FitOffer:
+        """Start the solve of ``layer`` (weighed for it: :func:`weigh`) from its rows
+        ``own``: its RESIDUAL round's offer."""
+        layer.rows, layer.preconditioner = own.rows, own.preconditioner
         if layer.sampling:
-            flows = noise_flows(
-                final, layer.measured, layer.weights, self.samples_count, layer.ids
-            )
-            system = system_of(final, flows)
             start = layer.samples = np.zeros((3, self.samples_count))
         else:
-            system = system_of(final)
             start = layer.position
-        layer.system = system
-        layer.rows = system.matrix[3 * layer.slot : 3 * layer.slot + 3]
         layer.before = start.copy()
         layer.floor = Floor.start(start[None])
         self.solving = layer
-        right = system.right[layer.slot]
+        right = own.right
         # Every FLS starts the covariance's solve at zero: its residual is its right side.
         residual = right.copy() if layer.sampling else (
             right - self._own_product(layer, self._local(layer, start))
@@ -474,9 +466,7 @@ class FitPart:
         zeros = np.zeros((1, 3, columns))
         layer.iterate = Iterate(start[None].copy(), residual[None], zeros, zeros,
                                 np.zeros(columns), np.zeros(columns))  # fmt: skip
-        scale = partial_dot(
-            right[None], blocks_times(system.preconditioner[layer.slot], right)[None]
-        )
+        scale = partial_dot(right[None], blocks_times(own.preconditioner, right)[None])
         return self._send_scaled(layer, partials=scale[0])
 
     def _own_product(self, layer: FitLayer, local: FloatArray) -> FloatArray:
@@ -485,8 +475,8 @@ class FitPart:
         return np.asarray(layer.rows @ local.reshape(3 * count, columns), dtype=np.float64)
 
     def _send_scaled(self, layer: FitLayer, partials: FloatArray) -> FitOffer:
-        assert layer.system is not None and layer.iterate is not None
-        block = layer.system.preconditioner[layer.slot]
+        assert layer.preconditioner is not None and layer.iterate is not None
+        block = layer.preconditioner
         layer.scaled = blocks_times(block, layer.iterate.residual[0])
         return FitOffer(values=layer.scaled.ravel().copy(), partials=partials)
 

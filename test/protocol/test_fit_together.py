@@ -39,8 +39,8 @@ def hood():
 
 @pytest.mark.parametrize("apart", ["one FLS per process", "each alone"])
 def test_flss_solving_together_send_and_end_as_each_solving_alone(hood, monkeypatch, apart):
-    made_alone = {"SUMS": 0, "STEP": 0}
-    for stage, method in (("SUMS", "_sums"), ("STEP", "_step")):
+    made_alone = {"RESIDUAL": 0, "SUMS": 0, "STEP": 0}
+    for stage, method in (("RESIDUAL", "_residual"), ("SUMS", "_sums"), ("STEP", "_step")):
         original = getattr(FitPart, method)
 
         def counted(self, *args, _stage=stage, _original=original):
@@ -55,8 +55,9 @@ def test_flss_solving_together_send_and_end_as_each_solving_alone(hood, monkeypa
                         RunOptions(estimator=SWARM_FIT))  # fmt: skip
 
     together = run()
-    # Every SUMS and STEP round of every solve was made for the process's FLSs at once.
-    assert made_alone == {"SUMS": 0, "STEP": 0}
+    # Every RESIDUAL, SUMS and STEP round of every solve was made for the process's FLSs
+    # at once.
+    assert made_alone == {"RESIDUAL": 0, "SUMS": 0, "STEP": 0}
     with monkeypatch.context() as patch:
         if apart == "one FLS per process":
             patch.setattr(loops, "step_together", one_per_process)
@@ -65,6 +66,8 @@ def test_flss_solving_together_send_and_end_as_each_solving_alone(hood, monkeypa
         alone = run()
     if apart == "each alone":
         assert made_alone["SUMS"] > 1000 and made_alone["STEP"] > 1000
+        # Each of the 120 FLSs starts a solve of each fit and of the covariance alone.
+        assert made_alone["RESIDUAL"] >= 3 * 120
     assert together.rounds == alone.rounds
     assert together.fit_iterations == alone.fit_iterations
     assert sum(map(sum, together.fit_iterations)) > 50
