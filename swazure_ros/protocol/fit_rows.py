@@ -56,11 +56,11 @@ def own_rows(layers: Sequence[FitLayer], samples: int) -> list[OwnRows]:
     Each FLS's system is its own, over its local ids; the layers' systems are
     made as block-diagonal systems (each layer's indices offset past the
     last's), :data:`ROWS_AT_ONCE` measured rows a pass, and each FLS takes
-    its rows from its pass's. Every step is row by row or block by block (edges sorted within a
-    block, flows and noise edge by edge, sums per FLS in edge order, 3 x 3
-    inverses one by one), so an FLS's rows are, bit for bit, those of its
-    system made alone: a process's FLSs made together (:mod:`.fit_together`)
-    send what each sends alone.
+    its rows from its pass's. Every step is row by row or block by block
+    (edges sorted within a block, flows and noise edge by edge, sums per FLS
+    in edge order, 3 x 3 inverses one by one), so an FLS's rows are, bit for
+    bit, those of its system made alone: a process's FLSs made together
+    (:mod:`.fit_together`) send what each sends alone.
 
     Parameters
     ----------

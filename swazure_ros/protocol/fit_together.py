@@ -34,7 +34,7 @@ from ..core.arrays import FloatArray, IntArray
 from ..core.conjugate_gradients import Floor, Iterate, advance, partial_dot, scalars
 from ..core.swarm_edges import blocks_times
 from .discovery.messages import RESIDUAL, STEP, SUMS, FitOffer, FitStep, RoundOffers
-from .fit_rows import own_rows, weigh
+from .fit_rows import own_rows
 from .swarm_fit import FitLayer, FitPart
 
 
@@ -116,10 +116,8 @@ def _residuals(parts: Sequence[FitPart], step: FitStep, heard: RoundOffers | Non
         return  # FLSs that draw differently (never in one swarm): each starts alone
     layers = []
     for part in parts:
-        part._take(heard)
-        layer = part._layer(step.layer)
-        weigh(layer, step.mode)
-        layers.append(layer)
+        part.take(heard)
+        layers.append(part.weighed(step))
     made = own_rows(layers, samples.pop())
     for part, layer, own in zip(parts, layers, made, strict=True):
         part.said = (step, part.start_solve(layer, own))

@@ -49,12 +49,12 @@ class Membership:
         """Radios ``names`` are there: the acks' writers on the graph, or radios whose signed
         heartbeats say they hear the controls.
 
-        Counted in their order until every host's radio is known, and never the radio of an
-        FLS gone: an FLS that dies leaves with its radio only if its radio
-        was known (:meth:`lose`). One killed as its swarm came up, before the
-        graph's look listed its radio, left its radio counted among the hosts,
-        and every later round waited for its acknowledgement until the run
-        ended incomplete (2026-12-04, under a full suite's load).
+        Counted in their order until every host's radio is known, and never
+        the radio of an FLS gone: an FLS that dies leaves with its radio only
+        if its radio was known (:meth:`lose`). One killed as its swarm came
+        up, before the graph's look listed its radio, left its radio counted
+        among the hosts, and every later round waited for its acknowledgement
+        until the run ended incomplete (2026-12-04, under a full suite's load).
         """
         for name in names:
             if len(self.radios) >= self.hosts:

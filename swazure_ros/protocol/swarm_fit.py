@@ -297,7 +297,7 @@ class FitPart:
             return said
         if self.together is not None:
             self.together.settle()
-        self._take(heard)
+        self.take(heard)
         if step.ended == STALLED and self.solving is not None:
             # The solve stalled at rounding's floor: every FLS takes its best iterate.
             self._take_best(self.solving)
@@ -329,7 +329,7 @@ class FitPart:
             pieces += [layer.position.ravel(), layer.samples.ravel()]
         return np.concatenate(pieces)
 
-    def _take(self, heard: RoundOffers | None) -> None:
+    def take(self, heard: RoundOffers | None) -> None:
         """Keep what ``heard`` says of the FLSs this one measures: labels, readings, vectors."""
         if heard is None:
             return
@@ -445,6 +445,12 @@ class FitPart:
     def _residual(self, layer: FitLayer, mode: int) -> FitOffer:
         weigh(layer, mode)
         return self.start_solve(layer, own_rows([layer], self.samples_count)[0])
+
+    def weighed(self, step: FitStep) -> FitLayer:
+        """The layer of RESIDUAL ``step``, weighed for its solve (:func:`.fit_rows.weigh`)."""
+        layer = self._layer(step.layer)
+        weigh(layer, step.mode)
+        return layer
 
     def start_solve(self, layer: FitLayer, own: OwnRows) -> FitOffer:
         """Start the solve of ``layer`` (weighed for it: :func:`weigh`) from its rows

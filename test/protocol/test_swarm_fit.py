@@ -171,7 +171,7 @@ def test_a_neighbour_s_vector_of_another_length_is_not_heard():
     neighbours = part.view.other[part._measured][:3].tolist()
     good = [(fls, fit_offer(FitOffer(values=np.full(3, float(fls))))) for fls in neighbours[:2]]
     forged = (neighbours[2], fit_offer(FitOffer(values=np.zeros(5 * 3))))
-    part._take(RoundOffers.of([*good, forged]))
+    part.take(RoundOffers.of([*good, forged]))
     assert part._heard_ids.tolist() == sorted(neighbours[:2])
     np.testing.assert_array_equal(
         part._heard_block[:, :, 0], [[f] * 3 for f in sorted(neighbours[:2])]
@@ -190,11 +190,11 @@ def test_a_round_s_vectors_replace_the_last_round_s_even_when_no_neighbour_s_cam
     part = FitPart(view, hood.sensor, hood.swarm.radius, frozenset())
     neighbours = part.measured_ids[:2].tolist()
     stranger = int(np.setdiff1d(world.ids, [*part.measured_ids, part.fls_id])[0])
-    part._take(
+    part.take(
         RoundOffers.of([(fls, fit_offer(FitOffer(values=np.ones(3)))) for fls in neighbours])
     )
     assert part._heard_ids.tolist() == neighbours
     # The next round's vectors come from an FLS it does not measure only: its neighbours'
     # are lost, and count as zero rather than as last round's (stepped together or alone).
-    part._take(RoundOffers.of([(stranger, fit_offer(FitOffer(values=np.ones(3))))]))
+    part.take(RoundOffers.of([(stranger, fit_offer(FitOffer(values=np.ones(3))))]))
     assert part._heard_ids.tolist() == []
