@@ -1,30 +1,49 @@
-"""An FLS's own rows of its part of the swarm's fit, made for many FLSs in one pass.
+"""An FLS's rows of its part of the swarm's fit, and its own rows made for many FLSs at once.
 
 A RESIDUAL round of the FIT phase (:mod:`.swarm_fit`) has each FLS weigh its
 pairs for the coming solve and make its own rows of its local system: its
 three rows of ``H``, its diagonal block's inverse and its right sides (its
-measurements' flows, or the covariance's draws of their noise).
-:func:`own_rows` makes them for one FLS alone or for a process's FLSs at
-once (:mod:`.fit_together`), with the same bits.
+measurements' flows, or the covariance's draws of their noise), from its
+record of the fit, a :class:`FitLayer`. :func:`own_rows` makes them for one
+FLS alone or for a process's FLSs at once (:mod:`.fit_together`), with the
+same bits.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from ..core.arrays import FloatArray
-from ..core.conjugate_gradients import system_of
+from ..core.arrays import FloatArray, IntArray
+from ..core.conjugate_gradients import Floor, Iterate, system_of
 from ..core.measurement_graph import Measurements
 from ..core.swarm_edges import edges_of, weighted
 from ..core.swarm_fit import HUBER, REJECTING, noise_flows
 from .discovery.messages import SAMPLES
 
-if TYPE_CHECKING:
-    from .swarm_fit import FitLayer
+
+@dataclass
+class FitLayer:
+    """One FLS's rows of one fit: its pairs' measurements over its local ids, and its solve."""
+
+    ids: IntArray  # (L,), itself and the FLSs it measures in this fit, ascending
+    slot: int  # its own place among them
+    measured: Measurements  # both rows of each of its pairs, over local indices
+    weights: FloatArray  # (2 x pairs,), the weights its last solve had
+    position: FloatArray  # (3, 1), cm, its own x
+    samples: FloatArray  # (3, K), cm, its own covariance samples
+    sampling: bool = False  # the solve under way is the covariance's
+    rows: Any = None  # its three rows of H (scipy.sparse CSR over the local columns)
+    preconditioner: FloatArray | None = None  # (3, 3), cm^2: its diagonal block's inverse
+    iterate: Iterate | None = None
+    scaled: FloatArray = field(default_factory=lambda: np.zeros((3, 1)))  # u, its own
+    image: FloatArray = field(default_factory=lambda: np.zeros((3, 1)))  # its row of H u
+    floor: Floor | None = None  # the solve's lowest residuals, and its own x at them
+    before: FloatArray = field(default_factory=lambda: np.zeros((3, 1)))  # x before the solve
+    candidates: dict[int, FloatArray] = field(default_factory=dict)
 
 
 #: The measured rows of the FLSs whose systems :func:`own_rows` makes in one pass. The

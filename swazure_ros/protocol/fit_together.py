@@ -34,8 +34,8 @@ from ..core.arrays import FloatArray, IntArray
 from ..core.conjugate_gradients import Floor, Iterate, advance, partial_dot, scalars
 from ..core.swarm_edges import blocks_times
 from .discovery.messages import RESIDUAL, STEP, SUMS, FitOffer, FitStep, RoundOffers
-from .fit_rows import own_rows
-from .swarm_fit import FitLayer, FitPart
+from .fit_rows import FitLayer, own_rows
+from .swarm_fit import FitPart
 
 
 @dataclass

@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -50,7 +50,7 @@ from ..core.conjugate_gradients import (
 )
 from ..core.exact_sums import swarm_sum
 from ..core.fit_measurements import fit_layers
-from ..core.measurement_graph import CONVERGED_CM, Measurements, measured_rows
+from ..core.measurement_graph import CONVERGED_CM, measured_rows
 from ..core.observe import LocalView
 from ..core.sensor import DECAYING, SWEET, Sensor
 from ..core.swarm_edges import blocks_times
@@ -77,7 +77,7 @@ from .discovery.messages import (
     FitStep,
     RoundOffers,
 )
-from .fit_rows import OwnRows, own_rows, weigh
+from .fit_rows import FitLayer, OwnRows, own_rows, weigh
 
 
 class Settles(Protocol):
@@ -213,27 +213,6 @@ class FitSchedule:
         if layer + 1 < len(self.layers):
             return FitStep(POSITIONS, layer + 1)
         return FitStep(SHARE, layer)
-
-
-@dataclass
-class FitLayer:
-    """One FLS's rows of one fit: its pairs' measurements over its local ids, and its solve."""
-
-    ids: IntArray  # (L,), itself and the FLSs it measures in this fit, ascending
-    slot: int  # its own place among them
-    measured: Measurements  # both rows of each of its pairs, over local indices
-    weights: FloatArray  # (2 x pairs,), the weights its last solve had
-    position: FloatArray  # (3, 1), cm, its own x
-    samples: FloatArray  # (3, K), cm, its own covariance samples
-    sampling: bool = False  # the solve under way is the covariance's
-    rows: Any = None  # its three rows of H (scipy.sparse CSR over the local columns)
-    preconditioner: FloatArray | None = None  # (3, 3), cm^2: its diagonal block's inverse
-    iterate: Iterate | None = None
-    scaled: FloatArray = field(default_factory=lambda: np.zeros((3, 1)))  # u, its own
-    image: FloatArray = field(default_factory=lambda: np.zeros((3, 1)))  # its row of H u
-    floor: Floor | None = None  # the solve's lowest residuals, and its own x at them
-    before: FloatArray = field(default_factory=lambda: np.zeros((3, 1)))  # x before the solve
-    candidates: dict[int, FloatArray] = field(default_factory=dict)
 
 
 class FitPart:

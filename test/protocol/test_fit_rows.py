@@ -11,8 +11,7 @@ from swazure_ros.core.swarm_edges import edges_of, weighted
 from swazure_ros.core.swarm_fit import HUBER, UNIT, noise_flows
 from swazure_ros.protocol import fit_rows
 from swazure_ros.protocol.discovery.messages import SAMPLES
-from swazure_ros.protocol.fit_rows import own_rows, weigh
-from swazure_ros.protocol.swarm_fit import FitLayer
+from swazure_ros.protocol.fit_rows import FitLayer, own_rows, weigh
 
 
 def star(fls_id: int, neighbours: list[int], seed: int) -> FitLayer:
