@@ -101,23 +101,23 @@ def stop_ros2_daemons(domain: int) -> None:
         for pidfd in daemons.values():
             with contextlib.suppress(ProcessLookupError):
                 signal.pidfd_send_signal(pidfd, signal.SIGTERM)
-        left = _ended(daemons, DAEMON_TEARDOWN)
+        left = still_running(daemons, DAEMON_TEARDOWN)
         for pid, pidfd in left.items():
             owned = shared_memory.own_segments(pid)
             with contextlib.suppress(ProcessLookupError):
                 signal.pidfd_send_signal(pidfd, signal.SIGKILL)
             shared_memory.remove(owned)
-        _ended(left, DAEMON_TEARDOWN)
+        still_running(left, DAEMON_TEARDOWN)
     finally:
         for pidfd in daemons.values():
             os.close(pidfd)
 
 
-def _ended(pidfds: dict[int, int], seconds: float) -> dict[int, int]:
+def still_running(pidfds: dict[int, int], seconds: float) -> dict[int, int]:
     """Wait up to ``seconds`` for the processes of ``pidfds`` to end; those still running.
 
-    A pidfd turns readable when its process ends (a daemon is nobody's child
-    here, and init reaps it).
+    A pidfd turns readable when its process ends, whoever reaps it; its number
+    may name another process by then, the pidfd never does.
     """
     deadline = time.monotonic() + seconds
     left = dict(pidfds)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import contextlib
 import os
 import re
-import select
 import shutil
 import signal
 import subprocess
@@ -31,7 +30,7 @@ from swazure_ros.ros.clients.query import SwarmQueries
 from swazure_ros.ros.security.keys import new_key
 from swazure_ros.sim.world import WorldSpec
 
-from ..conftest import SHARED, running
+from ..conftest import SHARED, running, still_running
 from ..waits import PATIENCE, wait_until
 from .helpers import (
     ECHO_LATCHED,
@@ -486,8 +485,7 @@ def test_a_launcher_killed_outright_leaves_no_further_process_behind(domain, fas
         held = os.pidfd_open(further[0])
         spawn.kill()
         spawn.communicate(timeout=PATIENCE)
-        # A pidfd turns readable when its process ends.
-        ended = bool(select.select([held], [], [], PATIENCE)[0])
+        ended = not still_running({further[0]: held}, PATIENCE)
     finally:
         if spawn.poll() is None:
             spawn.kill()
