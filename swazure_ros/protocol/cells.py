@@ -126,6 +126,30 @@ class Tuning:
         """The cell of ``band`` that holds its FLS ``fls_id``; None if not one of its FLSs."""
         return self.cells_of(band, np.array([fls_id], dtype=np.int64))[0]
 
+    def rows_by_cell(
+        self, band: str, fls_ids: IntArray
+    ) -> tuple[list[tuple[Cell, IntArray]], IntArray]:
+        """The rows of ``fls_ids`` (M,) by the cell of ``band`` that holds each, as
+        (cell, rows) in the cells' order, and the rows of ids that are not its FLSs.
+
+        :meth:`cells_of` for a block of FLSs, in array operations: a packed
+        process's FLSs make one block of offers a round, in a few dozen cells.
+        """
+        rows = np.minimum(np.searchsorted(self.local, fls_ids), max(len(self.local) - 1, 0))
+        found = (self.local[rows] == fls_ids) if len(self.local) else np.zeros(len(rows), bool)
+        placed_rows = np.flatnonzero(found)
+        if not len(placed_rows):
+            return [], np.flatnonzero(~found)
+        cells = self.placed[band][rows[placed_rows]]
+        _, first, inverse = np.unique(_keys(cells), return_index=True, return_inverse=True)
+        order = np.argsort(inverse, kind="stable")
+        bounds = np.cumsum(np.bincount(inverse, minlength=len(first)))[:-1]
+        groups = [
+            ((band, *cell), placed_rows[at])
+            for cell, at in zip(cells[first].tolist(), np.split(order, bounds), strict=True)
+        ]
+        return groups, np.flatnonzero(~found)
+
     def cells_of(self, band: str, fls_ids: IntArray) -> list[Cell | None]:
         """:meth:`cell_of` of each of ``fls_ids`` (M,), at once: a round's offers."""
         rows = np.minimum(np.searchsorted(self.local, fls_ids), max(len(self.local) - 1, 0))

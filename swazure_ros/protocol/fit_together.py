@@ -7,8 +7,9 @@ the swarm's sums). Stepped one FLS at a time, each round costs a process a
 Python call per FLS. :func:`fit_together` does the round for a process's FLSs
 at once: their rows of ``H`` stacked in one sparse matrix over the values
 heard, their iterates stacked as the engine stacks the swarm's
-(:mod:`~swazure_ros.core.conjugate_gradients`). Each FLS still sends its own
-offer, and what it sends is, bit for bit, what stepping it alone gives: the
+(:mod:`~swazure_ros.core.conjugate_gradients`). Each FLS's offer is a row
+of what the round returns (:class:`FitRows`, which the process's radio keeps
+as one block), and it is, bit for bit, what stepping it alone gives: the
 same entries of ``H`` summed in the same order, and the same elementwise
 arithmetic (``core.swarm_edges.blocks_times`` gives one block's bits for a
 stack too). A RESIDUAL round, where each FLS makes its own rows of its local
@@ -26,14 +27,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from ..core.arrays import FloatArray, IntArray
 from ..core.conjugate_gradients import Floor, Iterate, advance, partial_dot, scalars
 from ..core.swarm_edges import blocks_times
-from .discovery.messages import RESIDUAL, STEP, SUMS, FitOffer, FitStep, RoundOffers
+from .discovery.messages import RESIDUAL, STEP, SUMS, FitStep, RoundOffers
 from .fit_rows import FitLayer, own_rows
 from .swarm_fit import FitPart
 
@@ -76,35 +77,43 @@ class Solve:
             part.said = None
 
 
+class FitRows(NamedTuple):
+    """A SUMS or STEP round's offers of F FLSs made together, a row each (FitOffer's fields)."""
+
+    values: FloatArray  # (F, V): each FLS's vector, flat (V = 0 in SUMS)
+    partials: FloatArray  # (F, P): each FLS's shares of the swarm's sums (P = 0 in STEP)
+
+
 def fit_together(
     parts: Sequence[FitPart], step: FitStep | None, heard: RoundOffers | None
-) -> None:
+) -> FitRows | None:
     """Step ``parts`` (one process's FLSs, in one run) through the round of ``step`` at once.
 
-    Each FLS then finds its offer made (:meth:`FitPart.on_round` sends it).
-    A RESIDUAL starts every FLS's solve from rows made in one pass
-    (:func:`_residuals`). ``step`` None, or another stage than SUMS, STEP
-    and RESIDUAL: the solve's state goes back to each FLS, which steps on alone.
+    Returns a SUMS or STEP round's offers, a row per FLS of ``parts`` in their
+    order: what each FLS stepping alone would offer (``discovery.messages.FitBlock``
+    carries them). A RESIDUAL starts every FLS's solve from rows made in one
+    pass (:func:`_residuals`), and each FLS then finds its offer made
+    (:meth:`FitPart.on_round` sends it): None. ``step`` None, or another stage
+    than SUMS, STEP and RESIDUAL: the solve's state goes back to each FLS, which
+    steps on alone; None.
     """
     if step is not None and step.stage == RESIDUAL and not step.ended and parts:
         settle(parts)
         _residuals(parts, step, heard)
-        return
+        return None
     if step is None or step.stage not in (SUMS, STEP) or step.ended:
         settle(parts)
-        return
+        return None
     solve = _solve_of(parts)
     if solve is None:
-        return
+        return None
     if step.stage == SUMS:
-        offers = _sums(solve, heard)
+        made = _sums(solve, heard)
     else:
-        offers = _step(solve, np.asarray(step.sums, dtype=np.float64), heard)
-    if offers is None:  # a round each FLS takes alone
+        made = _step(solve, np.asarray(step.sums, dtype=np.float64), heard)
+    if made is None:  # a round each FLS takes alone
         settle(parts)
-        return
-    for part, offer in zip(solve.parts, offers, strict=True):
-        part.said = (step, offer)
+    return made
 
 
 def _residuals(parts: Sequence[FitPart], step: FitStep, heard: RoundOffers | None) -> None:
@@ -204,7 +213,7 @@ def _quiet(heard: RoundOffers | None) -> bool:
     return heard is None or (not len(heard.read_ids) and not (heard.fit_labels >= 0).any())
 
 
-def _sums(solve: Solve, heard: RoundOffers | None) -> list[FitOffer] | None:
+def _sums(solve: Solve, heard: RoundOffers | None) -> FitRows | None:
     """Each FLS's row of ``H u`` from the u heard and its own, and its shares of the sums."""
     if heard is None or not _quiet(heard) or not len(heard.fit_values):
         return None
@@ -225,11 +234,10 @@ def _sums(solve: Solve, heard: RoundOffers | None) -> list[FitOffer] | None:
     )  # fmt: skip
     # Each FLS's record keeps the vectors it heard before this round: no stage reads them
     # before a round with vectors replaces them, so they are not copied out FLS by FLS.
-    nothing = np.zeros(0)
-    return [FitOffer(values=nothing, partials=row) for row in shares]
+    return FitRows(np.zeros((count, 0)), shares)
 
 
-def _step(solve: Solve, sums: FloatArray, heard: RoundOffers | None) -> list[FitOffer] | None:
+def _step(solve: Solve, sums: FloatArray, heard: RoundOffers | None) -> FitRows | None:
     """Each FLS's conjugate-gradient step from the swarm's ``sums``, and its next u."""
     if not _quiet(heard) or (heard is not None and len(heard.fit_values)):
         return None
@@ -240,5 +248,4 @@ def _step(solve: Solve, sums: FloatArray, heard: RoundOffers | None) -> list[Fit
     solve.iterate = advance(solve.iterate, solve.scaled, solve.image, gamma, alpha, beta)
     solve.scaled = blocks_times(solve.preconditioner, solve.iterate.residual)
     flat = solve.scaled.reshape(len(solve.parts), -1)
-    nothing = np.zeros(0)
-    return [FitOffer(values=row, partials=nothing) for row in flat]
+    return FitRows(flat, np.zeros((len(solve.parts), 0)))

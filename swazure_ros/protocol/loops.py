@@ -133,9 +133,13 @@ def _run_rounds(clock: RoundClock, hub: RadioHub, participants: dict[int, Partic
         recipients, ack, heard = hub.on_control(control)
         # The FLSs whose offers were made together are done with a ROUND.
         stepped = step_together([participants[fls_id] for fls_id in recipients], control, heard)
+        block, made = stepped.block, stepped.broadcasts
+        in_block = set() if block is None else set(block.senders.tolist())
         broadcasts: list[Broadcast] = []
         for fls_id in recipients:
-            out = stepped.get(fls_id) or participants[fls_id].on_control(control, heard)
+            if fls_id in in_block:
+                continue
+            out = made.get(fls_id) or participants[fls_id].on_control(control, heard)
             if isinstance(out, Broadcast):
                 broadcasts.append(out)
             elif isinstance(out, Report):
@@ -150,11 +154,15 @@ def _run_rounds(clock: RoundClock, hub: RadioHub, participants: dict[int, Partic
         # As on ROS: the process tells the clock who of its FLSs spoke (the clock hears
         # no offer itself), then its radio hears them.
         hub.sent_all(broadcasts)
+        if block is not None:
+            hub.sent_block(block)
         if control.command == ROUND:
             sent = hub.take_sent(control.run_id, control.round)
             controls.extend(clock.on_sent(control.round, sent, 0.0))
-        if broadcasts:
-            ack = hub.on_offers(control.run_id, control.round, broadcasts)
+        for ack in (
+            hub.on_offers(control.run_id, control.round, broadcasts) if broadcasts else None,
+            hub.on_block(block) if block is not None else None,
+        ):
             if ack is not None:
                 controls.extend(clock.on_ack(ack.round, _HOST, 0.0))
     assert clock.outcome is not None

@@ -38,6 +38,7 @@ from .discovery.messages import (
     START,
     Broadcast,
     Control,
+    FitBlock,
     FitOffer,
     Offer,
     RoundOffers,
@@ -115,6 +116,9 @@ class _RoundHeard:
     """The offers of one round that a process keeps, and the senders they count for."""
 
     kept: list[_Kept] = field(default_factory=list)
+    # Local FIT offers kept whole, a row a sender; their senders have no entry in ``kept``
+    # when the block comes (RadioHub.on_block).
+    blocks: list[FitBlock] = field(default_factory=list)
     senders: Counter[int] = field(default_factory=Counter)  # sender -> offers kept
     phase: int | None = None  # the round's, once its ROUND control came
     # The senders whose offer completes the round here (None: any), once its ROUND came.
@@ -131,6 +135,16 @@ class _RoundHeard:
         self.senders[entry.sender] += 1
         if self.senders[entry.sender] == 1 and self.counts(entry.sender):
             self.counted += 1
+
+    def keep_block(self, block: FitBlock) -> None:
+        """Keep ``block``, none of whose senders has an offer kept: each counts from now."""
+        self.blocks.append(block)
+        senders = block.senders.tolist()
+        self.senders.update(senders)
+        if self.countable is None:
+            self.counted += len(senders)
+        else:
+            self.counted += len(self.countable.intersection(senders))
 
     def discard(self, false: list[_Kept]) -> None:
         """Forget the offers ``false``: their senders count only by offers still kept."""
@@ -153,6 +167,10 @@ class _RoundHeard:
         first: dict[int, Offer] = {}
         for entry in self.kept:
             first.setdefault(entry.sender, entry.offer)
+        if first and self.blocks:  # a block's senders offered first: a later one is second
+            for block in self.blocks:
+                for sender in block.senders.tolist():
+                    first.pop(sender, None)
         return list(first.items())
 
 
@@ -195,6 +213,8 @@ class RadioHub:
         self._sent: dict[tuple[int, int], dict[int, _Said]] = {}
         # (run, round) -> what the local FLSs said to the coordinator in the FIT phase.
         self._fit_sent: dict[tuple[int, int], dict[int, FitOffer]] = {}
+        # (run, round) -> the blocks of FIT offers the local FLSs made together, and bytes.
+        self._blocks_sent: dict[tuple[int, int], list[tuple[FitBlock, int]]] = {}
         # The sources its FLSs' offers of a round held beyond the reach, and those of its
         # FLSs that offered their own label (searching sources), by (run, round).
         self._beyond_sent: dict[tuple[int, int], list[IntArray]] = {}
@@ -216,6 +236,7 @@ class RadioHub:
         self._heard.clear()
         self._sent.clear()
         self._fit_sent.clear()
+        self._blocks_sent.clear()
         self._beyond_sent.clear()
         self._searching_sent.clear()
         self._early.clear()
@@ -263,12 +284,13 @@ class RadioHub:
         else:
             # Each sender's first offer of each round that may be true; normally all there are.
             done = sorted(key for key in self._heard if key[0] == run and key[1] < control.round)
-            entries = []
+            entries, blocks = [], []
             for key in done:
                 round_heard = self._heard.pop(key)
                 self._settle(round_heard, control.phase)
                 entries += round_heard.first_offers()
-            heard = RoundOffers.of(entries)
+                blocks += round_heard.blocks
+            heard = RoundOffers.of(entries, blocks)
         departed = self.departed(run)
         recipients = [fls_id for fls_id in self._local if fls_id not in departed]
         ack = None
@@ -328,6 +350,11 @@ class RadioHub:
             if len(offer) and np.any(offer.source_ids == sender):  # its own label: it searches
                 self._searching_sent.setdefault(key, set()).add(sender)
 
+    def sent_block(self, block: FitBlock, size: int = 0) -> None:
+        """Local FLSs broadcast the offers of ``block`` (``size`` bytes in all on the wire):
+        :meth:`sent_all` of its rows, in one. Its senders have no other offer of the round."""
+        self._blocks_sent.setdefault((block.run_id, block.round), []).append((block, size))
+
     def take_sent(self, run_id: int, round_: int) -> Sent:
         """What the local FLSs broadcast in round ``round_``, for the coordinator's tally.
 
@@ -336,18 +363,27 @@ class RadioHub:
         an FLS silent elsewhere must not hide who spoke here.
         """
         sent = self._sent.pop((run_id, round_), {})
-        senders = tuple(sorted(sent))
-        told = [sent[sender] for sender in senders]
+        alone = sorted(sent)
+        told = [sent[sender] for sender in alone]
         fits = self._fit_sent.pop((run_id, round_), {})
-        said = [fits[sender] for sender in senders if sender in fits]
+        said = [fits[sender] for sender in alone if sender in fits]
+        blocks = self._blocks_sent.pop((run_id, round_), [])
+        senders = tuple(alone)
+        if blocks:  # a block's rows are offers as :meth:`sent_all` records them: no label
+            together = [block.senders for block, _ in blocks]
+            senders = tuple(
+                np.union1d(np.asarray(alone, dtype=np.int64), np.concatenate(together)).tolist()
+            )
+        partials = [one.partials for one in said if len(one.partials)]
+        partials += [block.partials for block, _ in blocks if block.partials.size]
         beyond = self._beyond_sent.pop((run_id, round_), [])
         return Sent(
             senders,
             sum(one.labels for one in told),
-            tuple(sender for sender, one in zip(senders, told, strict=True) if one.pending),
-            tuple(sender for sender, one in zip(senders, told, strict=True) if one.finished),
-            sum(one.size for one in told),
-            process_sums([one.partials for one in said if len(one.partials)]),
+            tuple(sender for sender, one in zip(alone, told, strict=True) if one.pending),
+            tuple(sender for sender, one in zip(alone, told, strict=True) if one.finished),
+            sum(one.size for one in told) + sum(size for _, size in blocks),
+            process_sums(partials),
             max((one.moved for one in said), default=0.0),
             (all(one.same[0] for one in said), all(one.same[1] for one in said)),
             tuple(np.unique(np.concatenate(beyond)).tolist()) if beyond else (),
@@ -446,6 +482,30 @@ class RadioHub:
                 kept_any = True
         return self._acknowledge(run_id, round_) if kept_any else None
 
+    def on_block(self, block: FitBlock) -> Ack | None:
+        """Hear the offers of ``block``, made together by local FLSs, as :meth:`on_offers`
+        hears each of them. The ack if the round is then heard."""
+        run_id, round_ = block.run_id, block.round
+        heard = self._heard.get((run_id, round_))
+        if heard is None or round_ < self._first_round.get(run_id, round_ + 1):
+            return self.on_offers(run_id, round_, block.broadcasts())
+        senders = block.senders.tolist()
+        departed = self.departed(run_id)
+        # A sender gone, or with an offer kept already (never, unless forged): kept as
+        # :meth:`_keep` keeps each offer, and the block keeps the rest.
+        odd = (departed.union(heard.senders) if departed else heard.senders.keys()) & set(senders)
+        kept_any = False
+        if odd:
+            rows = np.isin(block.senders, np.fromiter(odd, dtype=np.int64, count=len(odd)))
+            for row in np.flatnonzero(rows).tolist():
+                out = block.broadcast(row)
+                kept_any |= self._keep(run_id, round_, out.sender, out.offer, out.phase)
+            block = block.rows(~rows)
+        if len(block):
+            heard.keep_block(block)
+            kept_any = True
+        return self._acknowledge(run_id, round_) if kept_any else None
+
     def _keep(
         self, run_id: int, round_: int, sender: int, offer: Offer, phase: int | None
     ) -> bool:
@@ -527,6 +587,7 @@ class RadioHub:
         self._heard = {key: heard for key, heard in self._heard.items() if key[0] != run_id}
         self._sent = {key: o for key, o in self._sent.items() if key[0] != run_id}
         self._fit_sent = {key: o for key, o in self._fit_sent.items() if key[0] != run_id}
+        self._blocks_sent = {key: o for key, o in self._blocks_sent.items() if key[0] != run_id}
         self._beyond_sent = {k: o for k, o in self._beyond_sent.items() if k[0] != run_id}
         self._searching_sent = {k: o for k, o in self._searching_sent.items() if k[0] != run_id}
         if rounds:

@@ -118,10 +118,11 @@ class FitTally:
 
 
 def process_sums(partials: Sequence[FloatArray]) -> tuple[float, ...]:
-    """One process's sums of its FLSs' shares (each (P,)), exact per column."""
+    """One process's sums of its FLSs' shares, exact per column: each of ``partials`` is
+    one FLS's (P,), or a block of FLSs' (k, P)."""
     if not partials:
         return ()
-    return tuple(swarm_sum(np.stack(partials)).tolist())
+    return tuple(swarm_sum(np.concatenate([np.atleast_2d(one) for one in partials])).tolist())
 
 
 class FitSchedule:

@@ -98,6 +98,23 @@ def test_a_tuning_hears_the_cells_around_its_flss_that_hold_another_processs():
     ]  # fmt: skip
 
 
+def test_a_block_of_senders_is_grouped_by_cell_as_each_is_placed_alone():
+    # Three of the process's FLSs in two cells, and two ids not its own.
+    cells = {SWEET_BAND: Cells(10.0)}
+    ids = np.array([1, 2, 3, 5], dtype=np.int64)
+    tuning = Tuner(cells, np.array([1, 2, 3])).tune(ids, POINTS[[0, 2, 1, 3]])
+    assert tuning is not None
+    asked = np.array([3, 9, 2, 1, 5], dtype=np.int64)
+    groups, unplaced = tuning.rows_by_cell(SWEET_BAND, asked)
+    alone = tuning.cells_of(SWEET_BAND, asked)
+    assert [(cell, rows.tolist()) for cell, rows in groups] == [
+        ((SWEET_BAND, 0, 0, 0), [0, 3]), ((SWEET_BAND, 1, 0, 0), [2])
+    ]  # fmt: skip
+    assert all(alone[row] == cell for cell, rows in groups for row in rows.tolist())
+    assert unplaced.tolist() == [1, 4] and alone[1] is None and alone[4] is None
+    assert tuning.rows_by_cell(SWEET_BAND, np.array([9], dtype=np.int64))[0] == []
+
+
 def test_moves_within_cells_change_no_tuning_and_a_move_across_one_does():
     tuner = _tuner()
     first = tuner.tune(IDS, POINTS)

@@ -11,6 +11,7 @@ from swazure_ros.core.observe import observations
 from swazure_ros.protocol import loops
 from swazure_ros.protocol.discovery import participant
 from swazure_ros.protocol.loops import RunOptions, discover
+from swazure_ros.protocol.radio import RadioHub
 from swazure_ros.protocol.swarm_fit import FitPart
 from swazure_ros.sim.world import WorldSpec
 
@@ -18,11 +19,15 @@ from ..core.fits import stochastic_sensor
 
 
 def one_per_process(participants, control, heard):
-    """Each FLS stepped in a process of its own, as the single-FLS program steps it."""
+    """Each FLS stepped in a process of its own, as the single-FLS program steps it, its
+    offers as Broadcasts of their own."""
     offers = {}
     for one in participants:
-        offers.update(participant.step_together([one], control, heard))
-    return offers
+        stepped = participant.step_together([one], control, heard)
+        offers.update(stepped.broadcasts)
+        if stepped.block is not None:
+            offers.update((out.sender, out) for out in stepped.block.broadcasts())
+    return participant.Stepped(offers)
 
 
 def not_together(parts, step, heard):
@@ -54,10 +59,22 @@ def test_flss_solving_together_send_and_end_as_each_solving_alone(hood, monkeypa
                         hood.swarm.radius, "shortest-length",
                         RunOptions(estimator=SWARM_FIT))  # fmt: skip
 
-    together = run()
+    blocks = []
+    original_on_block = RadioHub.on_block
+
+    def on_block(self, block):
+        blocks.append(len(block))
+        return original_on_block(self, block)
+
+    with monkeypatch.context() as patch:
+        patch.setattr(RadioHub, "on_block", on_block)
+        together = run()
     # Every RESIDUAL, SUMS and STEP round of every solve was made for the process's FLSs
-    # at once.
+    # at once, and every SUMS and STEP round's offers went to the radio as one block.
     assert made_alone == {"RESIDUAL": 0, "SUMS": 0, "STEP": 0}
+    # Each iteration is a SUMS and a STEP round; a solve's first SUMS comes before any.
+    assert len(blocks) >= 2 * sum(map(sum, together.fit_iterations))
+    assert set(blocks) == {120}
     with monkeypatch.context() as patch:
         if apart == "one FLS per process":
             patch.setattr(loops, "step_together", one_per_process)

@@ -10,13 +10,17 @@ import pytest
 from swazure_ros.protocol.discovery.messages import (
     ANY_VISIBLE,
     END,
+    FIT,
     ROUND,
     START,
     SWEET_VISIBLE,
     Broadcast,
     Control,
+    FitBlock,
+    FitOffer,
     Offer,
     RoundOffers,
+    fit_offer,
 )
 from swazure_ros.protocol.radio import Ack, RadioHub
 from swazure_ros.protocol.radio_loss import Delivery, RadioLoss
@@ -284,3 +288,63 @@ def test_offers_of_departed_flss_or_of_another_phase_count_for_nobody():
     assert radio.on_offer(1, 0, 3, offer(5), ANY_VISIBLE) is None  # says another phase
     assert radio.rejected == [(3, "an offer of another phase than its round's")]
     assert radio.on_offer(1, 0, 3, offer(5), SWEET_VISIBLE) == Ack(1, SWEET_VISIBLE, 0, 2)
+
+
+def fit_block(senders, values=None, partials=None, round_=0):
+    """A block of FIT offers of ``senders``: values and partials one row each."""
+    count = len(senders)
+    return FitBlock(
+        1,
+        round_,
+        np.array(senders, dtype=np.int64),
+        np.zeros((count, 0)) if values is None else np.asarray(values, dtype=float),
+        np.zeros((count, 0)) if partials is None else np.asarray(partials, dtype=float),
+    )
+
+
+def fit_round(radio, round_=0, departed=()):
+    radio.on_control(Control(1, START, phase=FIT, expected=5, departed_ids=departed))
+    return radio.on_control(Control(1, ROUND, phase=FIT, round=round_, expected=4))
+
+
+def test_a_block_of_fit_offers_is_heard_and_tallied_as_each_of_its_rows_alone():
+    # FLSs 0-3 of this process offer together; 1 has departed; 7 is another process's.
+    block = fit_block([0, 1, 2, 3], partials=[[1e16, 1.0], [5.0, 5.0], [1.0, 2.0], [-1e16, 3.0]])
+    radios = [RadioHub({0, 1, 2, 3}), RadioHub({0, 1, 2, 3})]
+    for radio in radios:
+        fit_round(radio, departed=(1,))
+        radio.on_offer(1, 0, 7, fit_offer(FitOffer(partials=np.array([0.5, 0.5]))))
+    radios[0].sent_block(block, size=300)
+    radios[1].sent_all(block.broadcasts(), [100, 100, 50, 50])
+    sent = [radio.take_sent(1, 0) for radio in radios]
+    assert sent[0] == sent[1]
+    assert sent[0].senders == (0, 1, 2, 3) and sent[0].bytes == 300
+    # Summed exactly, every row sent: 1.0 and 5.0 survive 1e16 - 1e16.
+    assert sent[0].fit_sums == (6.0, 11.0)
+    # Heard: the departed FLS's row is not kept, and the round is complete (0, 2, 3, 7).
+    acks = [radios[0].on_block(block), radios[1].on_offers(1, 0, block.broadcasts())]
+    assert acks[0] == acks[1] == Ack(1, FIT, 0, 4)
+    tables = [radio.on_control(Control(1, ROUND, phase=FIT, round=1))[2] for radio in radios]
+    assert tables[0].senders.tolist() == tables[1].senders.tolist() == [0, 2, 3, 7]
+
+
+def test_a_round_table_joins_blocks_of_fit_offers_with_the_offers_heard_by_sender():
+    heard = [
+        (5, fit_offer(FitOffer(label=2, values=np.array([5.0, 5.5])))),
+        (2, offer(1, 3)),
+    ]
+    blocks = [fit_block([1, 6], values=[[1.0, 1.5], [6.0, 6.5]]), fit_block([3], [[3.0, 3.5]])]
+    table = RoundOffers.of(heard, blocks)
+    rows = [(sender, fit_offer(block.said(row))) for block in blocks
+            for row, sender in enumerate(block.senders.tolist())]  # fmt: skip
+    alone = RoundOffers.of(heard + rows)
+    assert table.senders.tolist() == [1, 2, 3, 5, 6]
+    for name in ("senders", "starts", "source_ids", "path_offsets", "fit_labels",
+                 "fit_offsets", "fit_values"):  # fmt: skip
+        np.testing.assert_array_equal(getattr(table, name), getattr(alone, name), err_msg=name)
+    labels, _, values = table.fit_of(np.array([3, 5, 6]))
+    assert labels.tolist() == [-1, 2, -1] and values.tolist() == [3.0, 3.5, 5.0, 5.5, 6.0, 6.5]
+    assert table.labels_of(np.array([1, 2, 3])).tolist() == [0, 1]
+    # One block alone, a process's own: its values are read in place.
+    own = RoundOffers.of([], blocks[:1])
+    assert np.shares_memory(own.fit_values, blocks[0].values)

@@ -25,14 +25,19 @@ def params(tmp_path):
     return path
 
 
-def test_a_swarm_solves_its_fit_by_messages_as_the_engine_does(domain, params):
+@pytest.mark.parametrize("processes", [1, 2])
+def test_a_swarm_solves_its_fit_by_messages_as_the_engine_does(domain, params, processes):
     # The calibrated stochastic sensor: one fit with the joining decaying hops, reweighted
-    # by the robust loss, then the covariance's 64 sampled right sides.
+    # by the robust loss, then the covariance's 64 sampled right sides. Over two processes
+    # each hears the other's offers over DDS beside its own FLSs' block of each round.
     world = WorldSpec("torus:120", scale=2.0, beta=0.5, sensor_file=CALIBRATED)
-    config = SwarmConfig(world, domain_id=domain, params_file=str(params))
+    config = SwarmConfig(world, processes=processes, domain_id=domain, params_file=str(params))
     with RunningSwarm.start(config) as swarm:
         built = swarm.world
         result = swarm.discover("shortest-length", timeout=300, estimator=SWARM_FIT)
+        heard_over_dds = swarm.host.radio.offers_heard
+    if processes == 2:
+        assert heard_over_dds > 0
     engine = refine(evaluate(built.swarm, built.sensor, "shortest-length"), SWARM_FIT)
     assert result.outcome.departed == frozenset() and result.outcome.restarts == 0
     found = {(s, one.target): one for s, ones in result.outcome.estimates.items() for one in ones}

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
@@ -179,8 +179,46 @@ class RoundOffers:
     fit_values: FloatArray  # flat
 
     @classmethod
-    def of(cls, heard: Sequence[tuple[int, Offer]]) -> RoundOffers:
-        """The offers ``heard``, as (sender, offer), in one table."""
+    def of(
+        cls, heard: Sequence[tuple[int, Offer]], blocks: Sequence[FitBlock] = ()
+    ) -> RoundOffers:
+        """The offers ``heard``, as (sender, offer), and the rows of ``blocks``, in one table.
+
+        A sender of a block has no offer in ``heard`` nor in another block.
+        """
+        table = cls._of(heard)
+        blocks = [block for block in blocks if len(block)]
+        return table._with_blocks(blocks) if blocks else table
+
+    def _with_blocks(self, blocks: Sequence[FitBlock]) -> RoundOffers:
+        """This table and the FIT offers of ``blocks`` (no label, no reading), by sender."""
+        rows = sum(len(block) for block in blocks)
+        senders = np.concatenate([self.senders, *(block.senders for block in blocks)])
+        order = np.argsort(senders, kind="stable")
+        sizes = np.concatenate(
+            [np.diff(self.fit_offsets)]
+            + [np.full(len(block), block.values.shape[1], dtype=np.int64) for block in blocks]
+        )
+        if not len(self.senders) and len(blocks) == 1:
+            values = blocks[0].values.reshape(-1)  # one process's own: a view, in order
+        else:
+            flat = np.concatenate(
+                [self.fit_values, *(block.values.reshape(-1) for block in blocks)]
+            )
+            values = flat[csr.ragged_indices(csr.offsets(sizes)[:-1][order], sizes[order])]
+        labels = np.concatenate([np.diff(self.starts), np.zeros(rows, dtype=np.int64)])
+        fit_labels = np.concatenate([self.fit_labels, np.full(rows, -1, dtype=np.int64)])
+        return replace(
+            self,
+            senders=senders[order],
+            starts=csr.offsets(labels[order]).astype(np.int64),
+            fit_labels=fit_labels[order],
+            fit_offsets=csr.offsets(sizes[order]).astype(np.int64),
+            fit_values=values,
+        )
+
+    @classmethod
+    def _of(cls, heard: Sequence[tuple[int, Offer]]) -> RoundOffers:
         heard = sorted(heard, key=lambda entry: entry[0])
         offers = [offer for _, offer in heard]
         counts = np.array([len(offer) for offer in offers], dtype=np.int64)
@@ -350,6 +388,85 @@ class Broadcast:
     round: int
     sender: int
     offer: Offer
+
+
+@dataclass(frozen=True)
+class FitBlock:
+    """The offers of one FIT round that S FLSs of one process made together, a row each.
+
+    What S :class:`Broadcast` of :func:`fit_offer` would carry, in columns: a
+    SUMS or STEP round's offer has no label, no reading and no move, only a
+    vector (``values``) or the sender's shares of the swarm's sums
+    (``partials``). A process's radio keeps and tallies the block whole, and
+    puts a row on the wire as a PathOffer of its own (:meth:`broadcast`) only
+    where someone else reads the sender's cell: a Python object per FLS and
+    round was most of what a packed process spent in the fit's hundreds of
+    rounds.
+    """
+
+    run_id: int
+    round: int
+    senders: IntArray  # (S,) FLS ids, ascending
+    values: FloatArray  # (S, V): each sender's vector, flat (V may be 0)
+    partials: FloatArray  # (S, P): each sender's shares of the swarm's sums (P may be 0)
+    phase: int = FIT
+
+    def __len__(self) -> int:
+        return len(self.senders)
+
+    def rows(self, which: NDArray[np.bool_]) -> FitBlock:
+        """The block of the rows ``which`` (S,) picks."""
+        return replace(
+            self,
+            senders=self.senders[which],
+            values=self.values[which],
+            partials=self.partials[which],
+        )
+
+    def said(self, row: int) -> FitOffer:
+        """The FitOffer of row ``row``, as its sender stepping alone makes it."""
+        return FitOffer(values=self.values[row], partials=self.partials[row])
+
+    def broadcast(self, row: int) -> Broadcast:
+        """Row ``row`` as its sender's own Broadcast (a PathOffer on the wire)."""
+        sender = int(self.senders[row])
+        return Broadcast(self.run_id, self.phase, self.round, sender, fit_offer(self.said(row)))
+
+    def broadcasts(self) -> list[Broadcast]:
+        """Every row as its sender's own Broadcast."""
+        return [self.broadcast(row) for row in range(len(self))]
+
+
+def _read_only(array: NDArray[Any]) -> NDArray[Any]:
+    array.flags.writeable = False
+    return array
+
+
+# A FIT round's offer carries no label: every one shares these empty fields (read-only),
+# rather than making seven arrays per FLS and round.
+_NO_IDS = _read_only(np.zeros(0, dtype=np.int64))
+_NO_VALUES = _read_only(np.zeros(0))
+_NO_VECTORS = _read_only(np.zeros((0, 3)))
+_NO_PATHS = _read_only(np.zeros(1, dtype=np.int64))
+
+
+def fit_offer(said: FitOffer) -> Offer:
+    """The offer of a round of the FIT phase: no label; its readings in its first."""
+    ids, vectors = said.readings or (_NO_IDS, _NO_VECTORS)
+    return Offer(
+        _NO_IDS,
+        _NO_IDS,
+        _NO_VALUES,
+        _NO_VALUES,
+        _NO_VECTORS,
+        _NO_PATHS,
+        _NO_IDS,
+        pending=said.changed,
+        reading_ids=ids,
+        reading_vectors=vectors,
+        fit=said,
+        beyond_ids=_NO_IDS,
+    )
 
 
 @dataclass(frozen=True)

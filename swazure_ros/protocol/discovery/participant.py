@@ -11,11 +11,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import replace
-from typing import Any
+from dataclasses import dataclass, field, replace
 
 import numpy as np
-from numpy.typing import NDArray
 
 from ...core.arrays import FloatArray, IntArray
 from ...core.evaluation import ABORTED, DECAYING_PATH, REASON_COORDINATOR_LOST, SWEET_PATH
@@ -26,7 +24,7 @@ from ...core.observe import LocalView
 from ...core.sensor import Sensor
 from ...core.swarm_fit import sample_covariance
 from ...core.window_fit import Heard, window_fit
-from ..fit_together import fit_together
+from ..fit_together import FitRows, fit_together
 from ..readings import ReadingsBook
 from ..swarm_fit import FitPart
 from .buckets import bucket_width, reach_rounds
@@ -41,10 +39,10 @@ from .messages import (
     SWEET_VISIBLE,
     Broadcast,
     Control,
-    FitOffer,
-    Offer,
+    FitBlock,
     Report,
     RoundOffers,
+    fit_offer,
 )
 from .search import PathSearch, SearchOptions, phase_targets, radio_window, reads_both_ends
 from .together import hear_together, pick_together
@@ -398,15 +396,35 @@ class Participant:
         )
 
 
+@dataclass
+class Stepped:
+    """What a process's FLSs did together with one control (:func:`step_together`).
+
+    ``broadcasts``: offers made FLS by FLS, by FLS id; ``block``: a FIT
+    round's offers made in one, whose senders have none in ``broadcasts``.
+    The FLSs of either are done with the control.
+    """
+
+    broadcasts: dict[int, Broadcast] = field(default_factory=dict)
+    block: FitBlock | None = None
+
+    def done(self) -> set[int]:
+        """The ids of the FLSs done with the control: their offers are made."""
+        done = set(self.broadcasts)
+        if self.block is not None:
+            done.update(self.block.senders.tolist())
+        return done
+
+
 def step_together(
     participants: Sequence[Participant], control: Control, heard: RoundOffers | None
-) -> dict[int, Broadcast]:
+) -> Stepped:
     """What each of ``participants`` does first with ``control``, done for all at once: hear
     the offers ``heard`` (:func:`.together.hear_together`), and in a ROUND close the
     finished sources, pick the labels due (:func:`.together.pick_together`) and make each
     FLS's offer; in the FIT phase, step the solve's rounds (:func:`..fit_together.fit_together`).
 
-    Returns the ROUND's broadcasts made here, by FLS id: those FLSs are done with
+    Returns the offers made here: the FLSs that made them are done with
     ``control``. A process hands ``control`` to each of its other FLSs
     (:meth:`Participant.on_control`), which then finds the rest done.
     """
@@ -416,21 +434,27 @@ def step_together(
         if (run := participant.runs.get(control.run_id)) is not None and run.fit_part is not None
     ]
     fit_round = control.command == ROUND and control.phase == FIT
+    made = None
     if fitting:
-        fit_together([part for _, part in fitting], control.fit if fit_round else None, heard)
-    offers: dict[int, Broadcast] = {}
+        made = fit_together(
+            [part for _, part in fitting], control.fit if fit_round else None, heard
+        )
+    stepped = Stepped()
     if control.command not in (ROUND, END):
-        return offers
+        return stepped
     if fit_round:
         # The offers made together go out from here: a Python call per FLS and round is
         # most of what a process spends in the fit's hundreds of rounds.
+        if made is not None:
+            stepped.block = _fit_block(control, [fls_id for fls_id, _ in fitting], made)
+            return stepped
         for fls_id, part in fitting:
             said = part.take_said(control.fit)
             if said is not None:
-                offers[fls_id] = Broadcast(
+                stepped.broadcasts[fls_id] = Broadcast(
                     control.run_id, control.phase, control.round, fls_id, fit_offer(said)
                 )
-        return offers
+        return stepped
     # By the round of the phase: each FLS with its search.
     searches: dict[int, list[tuple[Participant, PathSearch]]] = {}
     for participant in participants:
@@ -446,14 +470,24 @@ def step_together(
             _estimate_together([participant for participant, _ in group], control.run_id)
         if control.command == ROUND and pick_together(together, round_, control.finished):
             for participant, search in group:
-                offers[participant.fls_id] = Broadcast(
+                stepped.broadcasts[participant.fls_id] = Broadcast(
                     control.run_id,
                     control.phase,
                     control.round,
                     participant.fls_id,
                     search.offer(round_),
                 )
-    return offers
+    return stepped
+
+
+def _fit_block(control: Control, senders: list[int], made: FitRows) -> FitBlock:
+    """The offers ``made`` by ``senders`` (FLS ids, a row each) in ``control``'s round."""
+    ids = np.asarray(senders, dtype=np.int64)
+    values, partials = made
+    if len(ids) > 1 and not (ids[1:] > ids[:-1]).all():
+        order = np.argsort(ids, kind="stable")
+        ids, values, partials = ids[order], values[order], partials[order]
+    return FitBlock(control.run_id, control.round, ids, values, partials)
 
 
 #: The most targets that a process's sources estimate in one call: the call joins their
@@ -490,35 +524,3 @@ def _estimate_together(participants: Sequence[Participant], run_id: int) -> None
         for (run, _), estimates in zip(block, made, strict=True):
             run._made = (sensor, estimates)
         first, held = end, 0
-
-
-def _read_only(array: NDArray[Any]) -> NDArray[Any]:
-    array.flags.writeable = False
-    return array
-
-
-# A FIT round's offer carries no label: every one shares these empty fields (read-only),
-# rather than making seven arrays per FLS and round.
-_NO_IDS = _read_only(np.zeros(0, dtype=np.int64))
-_NO_VALUES = _read_only(np.zeros(0))
-_NO_VECTORS = _read_only(np.zeros((0, 3)))
-_NO_PATHS = _read_only(np.zeros(1, dtype=np.int64))
-
-
-def fit_offer(said: FitOffer) -> Offer:
-    """The offer of a round of the FIT phase: no label; its readings in its first."""
-    ids, vectors = said.readings or (_NO_IDS, _NO_VECTORS)
-    return Offer(
-        _NO_IDS,
-        _NO_IDS,
-        _NO_VALUES,
-        _NO_VALUES,
-        _NO_VECTORS,
-        _NO_PATHS,
-        _NO_IDS,
-        pending=said.changed,
-        reading_ids=ids,
-        reading_vectors=vectors,
-        fit=said,
-        beyond_ids=_NO_IDS,
-    )

@@ -30,7 +30,7 @@ from swazure_interfaces.msg import (
 from ...core.arrays import IntArray
 from ...core.fit import PATH
 from ...protocol.cells import BANDS, DECAYING_BAND, Cell, Tuner, Tuning, band_of, radio_cells
-from ...protocol.discovery.messages import END, ROUND, START, Broadcast
+from ...protocol.discovery.messages import END, ROUND, START, Broadcast, FitBlock
 from ...protocol.discovery.participant import step_together
 from ...protocol.moves import Walk
 from ...protocol.plausible import (
@@ -343,6 +343,41 @@ class Radio:
             self._count_rejected()
         return sizes
 
+    def broadcast_block(self, block: FitBlock) -> list[int]:
+        """Local FLSs' offers of ``block``, as :meth:`broadcast` sends each: heard here at once,
+        and on the wire, a PathOffer a row, only in the cells that someone else reads.
+
+        Returns the bytes sent of each row.
+        """
+        sizes = [0] * len(block)
+        stamp = None
+        for cell, rows in self._rows_by_cell(band_of(block.phase), block.senders):
+            publisher = self._sending.get(cell)
+            if publisher is None:  # an FLS not hosted here at the start: made on demand
+                publisher = self._sending[cell] = self._send_on(PathOffer, cell)
+            if publisher.get_subscription_count() > 0:
+                stamp = stamp or self._node.get_clock().now().to_msg()
+                for row in rows.tolist():
+                    data = self.guard.key.serialize(offer_message(block.broadcast(row), stamp))
+                    self._echoes.add(data)
+                    publisher.publish(data)
+                    sizes[row] = len(data)
+        self._hub.sent_block(block, sum(sizes))
+        self.offers_here += len(block)
+        self._acknowledge(self._hub.on_block(block))
+        self._count_rejected()
+        return sizes
+
+    def _rows_by_cell(self, band: str, ids: IntArray) -> list[tuple[Cell, IntArray]]:
+        """The rows of local FLSs ``ids`` by the cell of ``band`` that holds each now."""
+        groups: list[tuple[Cell, IntArray]] = []
+        unplaced = np.arange(len(ids))
+        if self._tuning is not None:
+            groups, unplaced = self._tuning.rows_by_cell(band, ids)
+        for row in unplaced.tolist():
+            groups.append((self._cell_now(band, int(ids[row])), np.array([row])))
+        return groups
+
     def listen(self) -> None:
         """Hear the coordinator's controls: from now on the swarm's rounds count on this radio."""
         if not self.listening:
@@ -424,9 +459,13 @@ class Radio:
         # those that did are done with a ROUND.
         local = [self._fls[fls_id] for fls_id in recipients]
         stepped = step_together([node.discovery for node in local], control, heard)
+        block, made = stepped.block, stepped.broadcasts
+        in_block = set() if block is None else set(block.senders.tolist())
         offers, senders = [], []
         for node in local:
-            out = stepped.get(node.fls_id) or node.on_control(control, heard)
+            if node.fls_id in in_block:
+                continue
+            out = made.get(node.fls_id) or node.on_control(control, heard)
             if out is not None:
                 offers.append(out)
                 senders.append(node)
@@ -434,6 +473,10 @@ class Radio:
                 self._waiting.add(node.fls_id)
         for node, size in zip(senders, self.broadcast(offers), strict=True):
             node.count_sent(size)
+        if block is not None:
+            fls = self._fls
+            for fls_id, size in zip(block.senders.tolist(), self.broadcast_block(block)):
+                fls[fls_id].count_sent(size)
         if control.command == ROUND:
             # Who of this process's FLSs spoke, at once: the coordinator hears no offer.
             sent = self._hub.take_sent(control.run_id, control.round)
