@@ -25,8 +25,10 @@ round whose offers carry labels or readings) is left to each FLS alone.
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Sequence
 from dataclasses import dataclass
+from operator import attrgetter
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -144,8 +146,9 @@ def _solve_of(parts: Sequence[FitPart]) -> Solve | None:
     if (
         isinstance(first, Solve)
         and len(first.parts) == len(parts)
-        and all(one is two for one, two in zip(first.parts, parts, strict=True))
-        and all(part.solving is layer for part, layer in zip(parts, first.layers, strict=True))
+        # The same FLSs, each still in the same solve: looked at in C, once per round.
+        and all(map(operator.is_, first.parts, parts))
+        and all(map(operator.is_, map(attrgetter("solving"), parts), first.layers))
     ):
         return first
     settle(parts)

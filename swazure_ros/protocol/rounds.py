@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 
 from ..core.fit import PATH, SWARM_FIT
@@ -66,15 +66,17 @@ class RoundTally:
     searching: set[int] = field(default_factory=set)  # sources that searched in the pass
     label_bytes: int = 0  # the memory the senders' labels take, summed
 
-    def hear(self, sender: int, labels: int, pending: bool, finished: bool) -> None:
-        """Count one FLS's broadcast of this round."""
-        if sender not in self.expected or sender in self.senders:
-            return
-        self.senders.add(sender)
-        self.labels += labels
-        self.pending |= pending
-        if finished:
-            self.finished.add(sender)
+    def hear(
+        self, senders: Collection[int], pending: Collection[int], finished: Collection[int]
+    ) -> frozenset[int]:
+        """Count the broadcasts of ``senders`` in this round, of which ``pending`` hold labels
+        due later and ``finished`` ended their search; returns those counted now: the
+        FLSs the round expects, once each (a late or repeated report adds nothing)."""
+        new = self.expected.intersection(senders) - self.senders
+        self.senders |= new
+        self.pending |= not new.isdisjoint(pending)
+        self.finished |= new.intersection(finished)
+        return new
 
     def ack(self, host: str) -> None:
         """Count one process's acknowledgement that it delivered every broadcast."""
@@ -305,12 +307,7 @@ class RoundClock:
         tally = self._tally
         if tally is None or round_ != self.round:
             return []
-        pending, finished = set(sent.pending), set(sent.finished)
-        # Only FLSs the round expects, once each: a late or repeated report adds nothing.
-        new = [s for s in sent.senders if s in tally.expected and s not in tally.senders]
-        for sender in new:
-            tally.hear(sender, 0, sender in pending, sender in finished)
-        if new:
+        if tally.hear(sent.senders, sent.pending, sent.finished):
             tally.labels += sent.labels
             tally.fit.add(sent.fit_sums, sent.fit_moved, sent.fit_same)
             tally.beyond.update(sent.beyond)
