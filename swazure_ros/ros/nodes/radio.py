@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 from collections import Counter, deque
 from collections.abc import Callable, Sequence
+from operator import attrgetter
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -112,6 +113,9 @@ class Echoes:
     def __call__(self, data: bytes) -> bool:
         """True if ``data`` is one of the messages sent lately."""
         return data in self._held
+
+
+_DISCOVERY = attrgetter("discovery")
 
 
 class Radio:
@@ -457,14 +461,20 @@ class Radio:
         self._count_rejected()
         # This process's FLSs hear the round's offers, pick their labels and offer together;
         # those that did are done with a ROUND.
-        local = [self._fls[fls_id] for fls_id in recipients]
-        stepped = step_together([node.discovery for node in local], control, heard)
+        # Lists of thousands a round: made by map, not by a Python loop.
+        local = list(map(self._fls.__getitem__, recipients))
+        stepped = step_together(list(map(_DISCOVERY, local)), control, heard)
         block, made = stepped.block, stepped.broadcasts
-        in_block = set() if block is None else set(block.senders.tolist())
+        rest = local
+        if block is not None:  # its senders are local FLSs done with the control
+            in_block = set(block.senders.tolist())
+            rest = (
+                []
+                if len(in_block) == len(local)
+                else [node for node in local if node.fls_id not in in_block]
+            )
         offers, senders = [], []
-        for node in local:
-            if node.fls_id in in_block:
-                continue
+        for node in rest:
             out = made.get(node.fls_id) or node.on_control(control, heard)
             if out is not None:
                 offers.append(out)
