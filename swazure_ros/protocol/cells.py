@@ -126,6 +126,12 @@ class Tuning:
         """The cell of ``band`` that holds its FLS ``fls_id``; None if not one of its FLSs."""
         return self.cells_of(band, np.array([fls_id], dtype=np.int64))[0]
 
+    def _rows_of(self, fls_ids: IntArray) -> tuple[IntArray, NDArray[np.bool_]]:
+        """(M,) the row of each of ``fls_ids`` in :attr:`local`, and whether it is there."""
+        rows = np.minimum(np.searchsorted(self.local, fls_ids), max(len(self.local) - 1, 0))
+        found = (self.local[rows] == fls_ids) if len(self.local) else np.zeros(len(rows), bool)
+        return rows, found
+
     def rows_by_cell(
         self, band: str, fls_ids: IntArray
     ) -> tuple[list[tuple[Cell, IntArray]], IntArray]:
@@ -135,8 +141,7 @@ class Tuning:
         :meth:`cells_of` for a block of FLSs, in array operations: a packed
         process's FLSs make one block of offers a round, in a few dozen cells.
         """
-        rows = np.minimum(np.searchsorted(self.local, fls_ids), max(len(self.local) - 1, 0))
-        found = (self.local[rows] == fls_ids) if len(self.local) else np.zeros(len(rows), bool)
+        rows, found = self._rows_of(fls_ids)
         placed_rows = np.flatnonzero(found)
         if not len(placed_rows):
             return [], np.flatnonzero(~found)
@@ -152,8 +157,7 @@ class Tuning:
 
     def cells_of(self, band: str, fls_ids: IntArray) -> list[Cell | None]:
         """:meth:`cell_of` of each of ``fls_ids`` (M,), at once: a round's offers."""
-        rows = np.minimum(np.searchsorted(self.local, fls_ids), max(len(self.local) - 1, 0))
-        found = (self.local[rows] == fls_ids) if len(self.local) else np.zeros(len(rows), bool)
+        rows, found = self._rows_of(fls_ids)
         placed = self.placed[band][rows].tolist() if len(self.local) else [()] * len(rows)
         return [
             (band, *cell) if ok else None for cell, ok in zip(placed, found.tolist(), strict=True)

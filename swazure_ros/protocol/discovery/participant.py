@@ -408,13 +408,6 @@ class Stepped:
     broadcasts: dict[int, Broadcast] = field(default_factory=dict)
     block: FitBlock | None = None
 
-    def done(self) -> set[int]:
-        """The ids of the FLSs done with the control: their offers are made."""
-        done = set(self.broadcasts)
-        if self.block is not None:
-            done.update(self.block.senders.tolist())
-        return done
-
 
 def step_together(
     participants: Sequence[Participant], control: Control, heard: RoundOffers | None

@@ -327,18 +327,13 @@ class Radio:
         hub = self._hub
         cells = self._cells_of([(band_of(out.phase), out.sender) for out in offers])
         for out, cell in zip(offers, cells, strict=True):
-            publisher = self._sending.get(cell)
-            if publisher is None:  # an FLS not hosted here at the start: made on demand
-                publisher = self._sending[cell] = self._send_on(PathOffer, cell)
+            publisher = self._offers_publisher(cell)
             if cell not in read:
                 read[cell] = publisher.get_subscription_count() > 0
             size = 0
             if read[cell]:
                 stamp = stamp or self._node.get_clock().now().to_msg()
-                data = self.guard.key.serialize(offer_message(out, stamp))
-                self._echoes.add(data)
-                publisher.publish(data)
-                size = len(data)
+                size = self._send_offer(publisher, out, stamp)
             sizes.append(size)
         hub.sent_all(offers, sizes)
         self.offers_here += len(offers)
@@ -356,21 +351,31 @@ class Radio:
         sizes = [0] * len(block)
         stamp = None
         for cell, rows in self._rows_by_cell(band_of(block.phase), block.senders):
-            publisher = self._sending.get(cell)
-            if publisher is None:  # an FLS not hosted here at the start: made on demand
-                publisher = self._sending[cell] = self._send_on(PathOffer, cell)
+            publisher = self._offers_publisher(cell)
             if publisher.get_subscription_count() > 0:
                 stamp = stamp or self._node.get_clock().now().to_msg()
                 for row in rows.tolist():
-                    data = self.guard.key.serialize(offer_message(block.broadcast(row), stamp))
-                    self._echoes.add(data)
-                    publisher.publish(data)
-                    sizes[row] = len(data)
+                    sizes[row] = self._send_offer(publisher, block.broadcast(row), stamp)
         self._hub.sent_block(block, sum(sizes))
         self.offers_here += len(block)
         self._acknowledge(self._hub.on_block(block))
         self._count_rejected()
         return sizes
+
+    def _offers_publisher(self, cell: Cell) -> Publisher:
+        """The offers' publisher of ``cell`` (made on demand for an FLS that was not hosted
+        here at the start)."""
+        publisher = self._sending.get(cell)
+        if publisher is None:
+            publisher = self._sending[cell] = self._send_on(PathOffer, cell)
+        return publisher
+
+    def _send_offer(self, publisher: Publisher, out: Broadcast, stamp: Any) -> int:
+        """Sign and publish ``out`` as a PathOffer stamped ``stamp``: the bytes sent."""
+        data = self.guard.key.serialize(offer_message(out, stamp))
+        self._echoes.add(data)
+        publisher.publish(data)
+        return len(data)
 
     def _rows_by_cell(self, band: str, ids: IntArray) -> list[tuple[Cell, IntArray]]:
         """The rows of local FLSs ``ids`` by the cell of ``band`` that holds each now."""
