@@ -7,7 +7,7 @@ in its own process (:func:`.fls_program.build_fls`) hosts itself behind one.
 from __future__ import annotations
 
 import time
-from collections import Counter, deque
+from collections import deque
 from collections.abc import Callable, Sequence
 from operator import attrgetter
 from typing import TYPE_CHECKING, Any
@@ -55,6 +55,7 @@ from ..convert.discovery import (
 )
 from ..convert.measurements import MeasurementsBytes, read_measurements, readings_of
 from ..convert.tracking import relay_request_from_message, sample_from_message
+from ..plumbing.echoes import Echoes
 from ..plumbing.names import (
     ACK_TOPIC,
     CONTROL_TOPIC,
@@ -90,29 +91,6 @@ ECHOES_PER_FLS = 8
 #: Only a window still missing a reading waits: 1 s was too short for 25 FLS processes
 #: on a loaded 2-core machine (CI: a fit of what was heard, 5 estimates not the engine's).
 READINGS_WAIT = 3.0
-
-
-class Echoes:
-    """The last ``size`` messages sent, by their bytes: DDS brings a process its own back."""
-
-    def __init__(self, size: int) -> None:
-        self._order: deque[bytes] = deque()
-        self._held: Counter[bytes] = Counter()
-        self._size = size
-
-    def add(self, data: bytes) -> None:
-        """Remember ``data``, forgetting the oldest beyond the size."""
-        self._order.append(data)
-        self._held[data] += 1
-        while len(self._order) > self._size:
-            old = self._order.popleft()
-            self._held[old] -= 1
-            if not self._held[old]:
-                del self._held[old]
-
-    def __call__(self, data: bytes) -> bool:
-        """True if ``data`` is one of the messages sent lately."""
-        return data in self._held
 
 
 _DISCOVERY = attrgetter("discovery")
