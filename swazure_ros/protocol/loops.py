@@ -134,11 +134,8 @@ def _run_rounds(clock: RoundClock, hub: RadioHub, participants: dict[int, Partic
         # The FLSs whose offers were made together are done with a ROUND.
         stepped = step_together([participants[fls_id] for fls_id in recipients], control, heard)
         block, made = stepped.block, stepped.broadcasts
-        in_block = set() if block is None else set(block.senders.tolist())
         broadcasts: list[Broadcast] = []
-        for fls_id in recipients:
-            if fls_id in in_block:
-                continue
+        for fls_id in stepped.left(recipients):
             out = made.get(fls_id) or participants[fls_id].on_control(control, heard)
             if isinstance(out, Broadcast):
                 broadcasts.append(out)

@@ -10,6 +10,7 @@ from swazure_ros.core.fit import SWARM_ESTIMATORS, SWARM_FIT
 from swazure_ros.core.observe import observations
 from swazure_ros.protocol import loops
 from swazure_ros.protocol.discovery import participant
+from swazure_ros.protocol.discovery.messages import FitBlock
 from swazure_ros.protocol.loops import RunOptions, discover
 from swazure_ros.protocol.radio import RadioHub
 from swazure_ros.protocol.swarm_fit import FitPart
@@ -96,3 +97,10 @@ def test_flss_solving_together_send_and_end_as_each_solving_alone(hood, monkeypa
             np.testing.assert_array_equal(getattr(mine, name), getattr(theirs, name))
         fitted += int((mine.estimator == SWARM_ESTIMATORS.index(SWARM_FIT)).sum())
     assert fitted > 1000
+
+
+def test_the_flss_left_to_take_a_control_alone_are_those_without_a_row_in_the_block():
+    block = FitBlock(1, 4, np.array([2, 5, 9]), np.zeros((3, 0)), np.zeros((3, 0)))
+    assert participant.Stepped(block=block).left([9, 3, 2, 5, 7]) == [3, 7]
+    assert participant.Stepped(block=block).left([5, 2, 9]) == []
+    assert participant.Stepped().left([9, 3]) == [9, 3]  # no block: every FLS

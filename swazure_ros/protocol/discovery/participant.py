@@ -408,6 +408,16 @@ class Stepped:
     broadcasts: dict[int, Broadcast] = field(default_factory=dict)
     block: FitBlock | None = None
 
+    def left(self, recipients: list[int]) -> list[int]:
+        """Those of ``recipients`` (the FLS ids stepped) with no row in the block: each is
+        handed the control itself (a broadcast made here it finds made)."""
+        if self.block is None:
+            return recipients
+        made = set(self.block.senders.tolist())
+        if made.issuperset(recipients):  # a packed process's every FLS, each round
+            return []
+        return [fls_id for fls_id in recipients if fls_id not in made]
+
 
 def step_together(
     participants: Sequence[Participant], control: Control, heard: RoundOffers | None

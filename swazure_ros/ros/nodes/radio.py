@@ -448,14 +448,9 @@ class Radio:
         local = list(map(self._fls.__getitem__, recipients))
         stepped = step_together(list(map(_DISCOVERY, local)), control, heard)
         block, made = stepped.block, stepped.broadcasts
-        rest = local
-        if block is not None:  # its senders are local FLSs done with the control
-            in_block = set(block.senders.tolist())
-            rest = (
-                []
-                if len(in_block) == len(local)
-                else [node for node in local if node.fls_id not in in_block]
-            )
+        rest = (
+            local if block is None else list(map(self._fls.__getitem__, stepped.left(recipients)))
+        )
         offers, senders = [], []
         for node in rest:
             out = made.get(node.fls_id) or node.on_control(control, heard)
