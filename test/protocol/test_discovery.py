@@ -24,7 +24,8 @@ from swazure_ros.core.paths import POLICIES
 from swazure_ros.core.sensor import DECAYING, SWEET
 from swazure_ros.files.reading import config_dir
 from swazure_ros.files.sensors import load_sensor
-from swazure_ros.protocol.discovery import participant
+from swazure_ros.protocol import loops
+from swazure_ros.protocol.discovery import participant, together
 from swazure_ros.protocol.discovery.buckets import bucket_width
 from swazure_ros.protocol.discovery.estimate import (
     Found,
@@ -33,6 +34,7 @@ from swazure_ros.protocol.discovery.estimate import (
     estimates_of,
     estimates_of_sources,
 )
+from swazure_ros.protocol.discovery.labels import LabelTable
 from swazure_ros.protocol.discovery.messages import (
     ANY_VISIBLE,
     SWEET_ALL,
@@ -523,6 +525,45 @@ def test_flss_stepped_together_offer_and_end_as_each_stepping_alone_would(reach)
                 np.testing.assert_array_equal(getattr(mine, name), getattr(theirs, name))
         statuses = np.concatenate([mine.status for mine in at_once])
         assert len(np.unique(statuses)) == 2  # found and not found
+
+
+@pytest.mark.parametrize("stepped", ["together", "alone"])
+def test_the_sources_a_round_closes_are_closed_before_its_offers_are_relaxed(monkeypatch, stepped):
+    # A ROUND names the sources finished by the offers its FLSs hear with it. No FLS
+    # sends a label of those again, so relaxing the offers' labels of them would be work
+    # for nothing: every table is closed to them before it relaxes, and the run still
+    # equals the engine. (On the tori most searches end with their phase; on the helix
+    # many end while the others go on, and the rounds that name them carry their labels.)
+    world = WorldSpec("helix:150", beta=0.5).build()
+    closing: list[np.ndarray | None] = [None]  # the sources the control in hand closes
+    closings, relaxed, closed_heard = [0], [0], [0]
+
+    def step(recipients, control, heard):
+        closing[0] = None
+        if control.command == participant.ROUND and len(control.finished) and heard:
+            closed_heard[0] += int(np.isin(heard.source_ids, control.finished).sum())
+            closing[0], closings[0] = control.finished, closings[0] + 1
+        if stepped == "together":
+            return step_together(recipients, control, heard)
+        return participant.Stepped()  # each FLS on its own, as in a process of its own
+
+    def relax_checked(relax):
+        def checked(table, *args):
+            if closing[0] is not None:
+                assert len(table.closed) and table.closed[closing[0]].all()
+                relaxed[0] += 1
+            return relax(table, *args)
+
+        return checked
+
+    step_together = participant.step_together
+    monkeypatch.setattr(loops, "step_together", step)
+    monkeypatch.setattr(together, "relax_together", relax_checked(together.relax_together))
+    monkeypatch.setattr(LabelTable, "relax", relax_checked(LabelTable.relax))
+    found, outcome = run(world.hood, "shortest-length")
+    assert closings[0] >= 2 and closed_heard[0] > 100 and relaxed[0] > 0
+    assert outcome.departed == frozenset()
+    assert_pairs_equal(found, evaluate_pairs(world.hood, "shortest-length"), world.ids)
 
 
 @pytest.mark.parametrize("noisy", [False, True], ids=["published", "stochastic"])

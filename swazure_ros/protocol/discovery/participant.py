@@ -45,7 +45,7 @@ from .messages import (
     fit_offer,
 )
 from .search import PathSearch, SearchOptions, phase_targets, radio_window, reads_both_ends
-from .together import hear_together, pick_together
+from .together import close_together, hear_together, pick_together
 
 #: Discovery runs an FLS takes part in at once, at most: its coordinator runs one at a
 #: time, and a run id that a peer made up must not hold memory for ever.
@@ -301,9 +301,11 @@ class Participant:
                 )
             if run is None or run.search is None:
                 return None
+            # Closed first: a label of a finished source is never sent, so relaxing
+            # the round's labels of it would be work for nothing.
+            run.search.close(control.finished)
             if heard is not None:
                 run.search.hear(heard)
-            run.search.close(control.finished)
             offer = run.search.offer(control.round - self._first_round.get(run_id, 0))
             return Broadcast(run_id, control.phase, control.round, self.fls_id, offer)
         if control.command == END:
@@ -467,6 +469,8 @@ def step_together(
             searches.setdefault(round_, []).append((participant, run.search))
     for round_, group in searches.items():
         together = [search for _, search in group]
+        if control.command == ROUND:  # as an FLS alone closes them: before it hears
+            close_together(together, control.finished)
         if heard is not None:
             hear_together(together, heard)
         if control.command == END:

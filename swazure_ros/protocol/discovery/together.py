@@ -49,6 +49,13 @@ def _shared_table(searches: Sequence[PathSearch]) -> LabelTable | None:
     return table
 
 
+def close_together(searches: Sequence[PathSearch], closed: IntArray) -> None:
+    """Close the sources ``closed`` (ids) in every one of ``searches``, each table once:
+    before a round is heard, so that no label of a finished source is relaxed."""
+    for table in {id(one.table): one.table for one in searches}.values():
+        table.close(closed)
+
+
 def pick_together(searches: Sequence[PathSearch], round_: int, closed: IntArray) -> bool:
     """Close the sources ``closed`` (ids) and pick the labels each of ``searches`` offers in
     round ``round_``, for all at once; :meth:`PathSearch.offer` then sends them.
