@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from swazure_ros.protocol.discovery.labels import LENGTH_FIRST, HeardLabels, LabelTable
 from swazure_ros.protocol.discovery.links import Links
-from swazure_ros.protocol.discovery.together import PARALLEL_ROWS, relax_together
+from swazure_ros.protocol.discovery.together import PARALLEL_ROWS, open_labels, relax_together
 
 SOURCES = 40  # the run's sources are ids 0..39; the FLSs are 1000.., the senders 2000..
 
@@ -44,9 +45,14 @@ def offers(shift):
     )
 
 
-def test_a_process_s_rows_relaxed_on_its_cores_change_as_one_call_changes_them():
-    flss = 3 * PARALLEL_ROWS
+@pytest.mark.parametrize("closed", [[], [0, 9, 17, 39]], ids=["open", "four closed"])
+@pytest.mark.parametrize("flss", [3, 3 * PARALLEL_ROWS], ids=["few", "many"])
+def test_a_process_s_rows_relaxed_on_its_cores_change_as_one_call_changes_them(flss, closed):
+    # With sources closed, their labels are dropped before the rows are relaxed
+    # (open_labels), and each change still names its label among those heard.
     shared, alone = direct_table(flss), direct_table(flss)
+    for table in (shared, alone):
+        table.close(np.array(closed, dtype=np.int64))
     assert shared.direct  # a slot per source: the layout relaxed on the cores
     rows = np.arange(flss, dtype=np.int64)
     changed = 0
@@ -58,5 +64,23 @@ def test_a_process_s_rows_relaxed_on_its_cores_change_as_one_call_changes_them()
             np.testing.assert_array_equal(mine, theirs)
         changed += len(changes.places)
     assert changed > flss  # every row changed, some more than once
+    assert not shared.found()[:, closed].any()  # a direct row: a source's place is its id
     for name in ("hops", "length", "pred"):
         np.testing.assert_array_equal(getattr(shared, name), getattr(alone, name))
+
+
+def test_the_labels_of_closed_sources_are_dropped_and_the_rest_keep_their_senders():
+    heard = offers(0)
+    kept_heard, kept = open_labels(heard, np.zeros(0, dtype=bool))
+    assert kept_heard is heard and kept is None  # nothing closed: the labels themselves
+    closed = np.zeros(SOURCES, dtype=bool)
+    closed[8:16] = True  # sender 2000's labels are sources 0..19, sender 2005's too
+    kept_heard, kept = open_labels(heard, closed)
+    np.testing.assert_array_equal(kept_heard.source_ids, heard.source_ids[kept])
+    assert not closed[kept_heard.source_ids].any()
+    assert len(kept) == len(heard.source_ids) - closed[heard.source_ids].sum()
+    for sender in range(len(heard.senders)):
+        mine = slice(kept_heard.starts[sender], kept_heard.starts[sender + 1])
+        theirs = heard.source_ids[heard.starts[sender] : heard.starts[sender + 1]]
+        np.testing.assert_array_equal(kept_heard.source_ids[mine], theirs[~closed[theirs]])
+        np.testing.assert_array_equal(kept_heard.lengths[mine], heard.lengths[kept[mine]])

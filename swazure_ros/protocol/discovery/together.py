@@ -127,8 +127,52 @@ def relax_together(
     most changes its rows can take (a place each), and the changes come back
     row by row: what one call gives. Rows go in waves of :data:`_WAVE` changes
     at most, so the room stays bounded. A hashed table (its rows widen as
-    they go) and a few rows are relaxed in one call.
+    they go) and a few rows are relaxed in one call. The labels of closed
+    sources are dropped first (:func:`open_labels`).
     """
+    heard, kept = open_labels(heard, table.closed)
+    starts, changes = _relax_open(table, rows, order, heard)
+    if kept is not None:  # each change names its label in the labels heard
+        changes = changes._replace(labels=kept[changes.labels])
+    return starts, changes
+
+
+def open_labels(
+    heard: HeardLabels, closed: NDArray[np.bool_]
+) -> tuple[HeardLabels, IntArray | None]:
+    """``heard`` without the labels of the ``closed`` sources (by id; empty: none), and
+    where each label kept is in ``heard`` (None: all are kept, ``heard`` itself).
+
+    The relaxation skips a closed source's label anyway, but it reads it once for
+    each row that hears its sender (hundreds on the published shapes): dropped
+    here, it is read once.
+    """
+    ids = heard.source_ids
+    if not len(closed) or not len(ids):
+        return heard, None
+    known = (ids >= 0) & (ids < len(closed))
+    shut = np.zeros(len(ids), dtype=bool)
+    shut[known] = closed[ids[known]]
+    if not shut.any():
+        return heard, None
+    kept = np.flatnonzero(~shut)
+    before = np.zeros(len(ids) + 1, dtype=np.int64)
+    np.cumsum(~shut, out=before[1:])
+    _, _, source_ids, hops, lengths, errors = heard
+    return HeardLabels(
+        heard.senders,
+        before[heard.starts],
+        source_ids[kept],
+        hops[kept],
+        lengths[kept],
+        errors[kept],
+    ), kept
+
+
+def _relax_open(
+    table: LabelTable, rows: IntArray, order: int, heard: HeardLabels
+) -> tuple[IntArray, Changes]:
+    """:func:`relax_together` of labels ``heard`` of open sources."""
     if not table.direct or len(rows) < PARALLEL_ROWS:
         return table.relax(rows, order, heard)
     chunks = 2 * jit.get_num_threads()
