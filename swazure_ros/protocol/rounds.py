@@ -22,7 +22,7 @@ controls to send come out; the coordinator node and the in-memory loop
 from __future__ import annotations
 
 import math
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 
@@ -272,6 +272,9 @@ class RoundClock:
         self._progress_at = 0.0  # when the wait last moved on (deadlines' clock, s)
         self._opened_at = 0.0  # when the open round opened
         self._stretched: set[str] = set()  # processes given more time in this wait
+        # The waits each process was given more time in, this run: said once, counted at
+        # the end (one process of a large shape is behind in every START and END).
+        self._behind: Counter[str] = Counter()
 
     @property
     def done(self) -> bool:
@@ -387,10 +390,13 @@ class RoundClock:
             self._deadline = min(max(self._deadline, now + patience), limit)
             if host not in self._stretched:
                 self._stretched.add(host)
-                self.warnings.append(
-                    f"run {self.run_id}: {host} is behind, alive: round {self.round} waits "
-                    f"for it up to {self._deadline - self._progress_at:.3g} s"
-                )
+                self._behind[host] += 1
+                if self._behind[host] == 1:
+                    self.warnings.append(
+                        f"run {self.run_id}: {host} is behind, alive: round {self.round} "
+                        f"waits for it up to {self._deadline - self._progress_at:.3g} s "
+                        "(said once a run)"
+                    )
         return []
 
     def _waits_on(self, host: str, fls_ids: frozenset[int]) -> bool:
@@ -533,6 +539,12 @@ class RoundClock:
 
     def _finish(self) -> None:
         self._deadline = float("inf")
+        for host, waits in sorted(self._behind.items()):
+            if waits > 1:
+                self.warnings.append(
+                    f"run {self.run_id}: {host} was behind, alive, in {waits} waits, "
+                    "each given more time"
+                )
         self.outcome = Outcome(
             {} if self.incomplete else self._collected,
             frozenset(self.departed),

@@ -354,6 +354,24 @@ def test_a_process_alive_but_behind_is_given_more_time_not_departed():
     assert 1.0 + MAX_STRETCH * TIMEOUT <= now <= 1.5 + MAX_STRETCH * TIMEOUT
 
 
+def test_a_process_behind_in_many_waits_is_named_once_and_counted_at_the_end():
+    # One process of a large shape is behind in every round it works long in: the
+    # coordinator says so the first time, and how often at the run's end.
+    run = clock(sources=(0,), targets=(2,))
+    run.start(0.0)
+    for round_ in range(3):
+        every_offer(run, round_, now=round_)
+        run.on_alive("host_0", FLSS, round_ + 0.5)
+        run.on_alive("host_0", FLSS, round_ + 0.6)  # the same wait: counted once
+        run.on_ack(round_, "host_0", round_ + 0.7)
+    run.on_estimates(0, [], 3.0)
+    assert run.done
+    behind = [warning for warning in run.outcome.warnings if "behind" in warning]
+    assert len(behind) == 2
+    assert "host_0 is behind, alive: round 0 waits" in behind[0]
+    assert behind[1] == "run 7: host_0 was behind, alive, in 3 waits, each given more time"
+
+
 def test_a_process_the_wait_does_not_wait_on_changes_no_deadline():
     run = RoundClock(7, "fewest-hops", FLSS, 2, TIMEOUT)
     run.start(0.0)
