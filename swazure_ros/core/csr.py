@@ -119,6 +119,39 @@ def take(
     return offsets(counts), values[ragged_indices(starts, counts)]
 
 
+def span(
+    bounds: IntArray, values: NDArray[Any], low: int, high: int
+) -> tuple[IntArray, NDArray[Any]]:
+    """Runs ``low`` .. ``high - 1`` of a ragged table, as a ragged table of their own.
+
+    Parameters
+    ----------
+    bounds : (N + 1,) array of int
+        The table's offsets.
+    values : (bounds[-1], ...) array
+        The table's items.
+    low, high : int
+        0 <= low <= high <= N.
+
+    Returns
+    -------
+    offsets : (high - low + 1,) array of int
+        From 0.
+    values : array
+        A view of the runs' items.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.csr import span
+    >>> rows, items = span(np.array([0, 2, 2, 5]), np.array([7, 8, 9, 10, 11]), 1, 3)
+    >>> rows.tolist(), items.tolist()
+    ([0, 0, 3], [9, 10, 11])
+    """
+    at = bounds[low : high + 1]
+    return at - at[0], values[at[0] : at[-1]]
+
+
 def join(
     tables: list[tuple[IntArray, NDArray[Any]]], empty: NDArray[Any]
 ) -> tuple[IntArray, NDArray[Any]]:

@@ -166,7 +166,7 @@ def offers_of(
     )
     offers = []
     for first, end, first_beyond, end_beyond, more in bounds:
-        offsets = path_offsets[first : end + 1]
+        offsets, ids = csr.span(path_offsets, path_ids, first, end)
         labels = slice(first, end)
         offers.append(
             Offer(
@@ -175,8 +175,8 @@ def offers_of(
                 lengths=lengths[labels],
                 errors=errors[labels],
                 vectors=vectors[labels],
-                path_offsets=offsets - offsets[0],
-                path_ids=path_ids[offsets[0] : offsets[-1]],
+                path_offsets=offsets,
+                path_ids=ids,
                 pending=bool(more),
                 unbiased=None if unbiased is None else unbiased[labels],
                 covariances=None if covariances is None else covariances[labels],

@@ -141,8 +141,12 @@ def hear_first(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
             heard.starts,
             heard.source_ids,
         )
+        # Their paths at once: a call per source cost the dragon's run 0.5 of its 8 s.
+        path_offsets, path_ids = csr.take(heard.path_offsets, heard.path_ids, labels)
         for at in np.flatnonzero(np.diff(offsets)).tolist():
-            wanting[at]._take_results(heard, labels[offsets[at] : offsets[at + 1]])
+            low, high = int(offsets[at]), int(offsets[at + 1])
+            paths = csr.span(path_offsets, path_ids, low, high)
+            wanting[at]._take_results(heard, labels[low:high], paths)
     if len(heard.read_ids):
         for one in searches:
             one._take_readings(heard)
@@ -395,8 +399,14 @@ class PathSearch:
         self._readings = None
         return ids, vectors
 
-    def _take_results(self, heard: RoundOffers, labels: IntArray) -> None:
-        """Record the results that ``labels`` of ``heard`` (this source's, from targets) bring."""
+    def _take_results(
+        self,
+        heard: RoundOffers,
+        labels: IntArray,
+        paths: tuple[IntArray, IntArray] | None = None,
+    ) -> None:
+        """Record the results that ``labels`` of ``heard`` (this source's, from targets) bring;
+        ``paths``: their paths (offsets, ids), taken already, or None."""
         if not len(labels):
             return
         targets = heard.sender_ids[labels]
@@ -409,7 +419,7 @@ class PathSearch:
             heard.lengths[labels],
             heard.errors[labels],
             heard.vectors[labels],
-            csr.take(heard.path_offsets, heard.path_ids, labels),
+            csr.take(heard.path_offsets, heard.path_ids, labels) if paths is None else paths,
             heard.unbiased[labels] if self.fits else None,
             heard.covariances[labels] if self.fits else None,
         )
