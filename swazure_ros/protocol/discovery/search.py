@@ -400,15 +400,10 @@ class PathSearch:
         return ids, vectors
 
     def _take_results(
-        self,
-        heard: RoundOffers,
-        labels: IntArray,
-        paths: tuple[IntArray, IntArray] | None = None,
+        self, heard: RoundOffers, labels: IntArray, paths: tuple[IntArray, IntArray]
     ) -> None:
-        """Record the results that ``labels`` of ``heard`` (this source's, from targets) bring;
-        ``paths``: their paths (offsets, ids), taken already, or None."""
-        if not len(labels):
-            return
+        """Record the results that ``labels`` of ``heard`` (this source's, from targets) bring,
+        with their ``paths`` (offsets, ids); ``labels`` are one or more."""
         targets = heard.sender_ids[labels]
         rows = np.searchsorted(self._wanted, targets)
         self._found[rows] = True
@@ -419,7 +414,7 @@ class PathSearch:
             heard.lengths[labels],
             heard.errors[labels],
             heard.vectors[labels],
-            csr.take(heard.path_offsets, heard.path_ids, labels) if paths is None else paths,
+            paths,
             heard.unbiased[labels] if self.fits else None,
             heard.covariances[labels] if self.fits else None,
         )
@@ -450,7 +445,9 @@ class PathSearch:
             # A target's label of this source: its result (a sender offers a label once).
             missing = self._wanted[~self._found]
             mine = _labels_for(self.fls_id, missing, heard.senders, heard.starts, heard.source_ids)
-            self._take_results(heard, mine)
+            if len(mine):
+                paths = csr.take(heard.path_offsets, heard.path_ids, mine)
+                self._take_results(heard, mine, paths)
         if len(heard.read_ids):
             self._take_readings(heard)
 
