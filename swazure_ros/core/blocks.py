@@ -30,12 +30,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from . import csr
 from .arrays import BoolArray, IntArray
 from .evaluate import evaluate_pairs
 from .evaluation import PairResults
 from .fans import obstructed_fans
 from .geometry import Swarm
 from .grid import Grid, build_grid, grid_of
+from .local_paths import LocalPaths, least_cost_per_cm, local_decaying_paths
 from .neighbourhood import Neighbourhood
 from .neighbours import (
     FIELDS,
@@ -47,6 +49,7 @@ from .neighbours import (
     pair_counts,
 )
 from .pair_statistics import PairTally, summarise
+from .path_arrays import Paths
 from .paths import check_policy
 from .progress import Progress, Started
 from .sensor import BLIND, DECAYING, SWEET, Sensor
@@ -186,6 +189,7 @@ class LeanNeighbourhood:
     blocks: list[tuple[int, int]]  # ranges of FLSs [start, stop) whose pairs a block finds
     sweet: Neighbourhood
     blind: BlindRows
+    candidates: IntArray  # (N,), each FLS's candidate pairs as first (neighbours.pair_counts)
     whole: Neighbourhood | None
 
 
@@ -243,7 +247,7 @@ def lean_neighbourhood(
         np.ones(len(sweet_pairs), dtype=bool), kept_counts=counts,
     )  # fmt: skip
     lean = LeanNeighbourhood(
-        swarm, sensor, budget, blocks, sweet_hood, BlindRows(rows, targets), None
+        swarm, sensor, budget, blocks, sweet_hood, BlindRows(rows, targets), candidates, None
     )
     return replace(lean, whole=_whole(lean, seen)) if at_once else lean
 
@@ -300,11 +304,49 @@ def with_decaying(lean: LeanNeighbourhood, progress: Progress) -> LeanNeighbourh
     return replace(lean, whole=_whole(lean, seen))
 
 
-def _apart_in_sight(sweet: Neighbourhood, source: IntArray, target: IntArray) -> bool:
-    """Whether a pair (source[m], target[m]) has no sweet path in sight: its ends lie in
-    two parts of S_vis. Known from the parts alone, before any search of the block."""
-    components = sweet.sweet_visible_components
-    return bool(np.any(components[source] != components[target]))
+def _apart_in_sight(hood: Neighbourhood, source: IntArray, target: IntArray) -> BoolArray:
+    """Which pairs (source[m], target[m]) have no sweet path in sight: their ends lie in two
+    parts of S_vis. Known from the parts alone, before any search of the block."""
+    components = hood.sweet_visible_components
+    return np.asarray(components[source] != components[target])
+
+
+@dataclass
+class NearDecaying:
+    """The SD_vis paths of a run's pairs without a sweet path in sight, searched near them
+    (:mod:`.local_paths`) once for the run and handed to its blocks in order."""
+
+    hood: Neighbourhood  # the sweet pairs, and the decaying pairs the paths hop over
+    found: LocalPaths
+    taken: int = 0  # the paths handed out so far
+
+    def next(self, count: int) -> Paths:
+        """The next ``count`` pairs' paths: a block's pairs without a sweet path in sight."""
+        paths, low, high = self.found.paths, self.taken, self.taken + count
+        offsets, nodes = csr.span(paths.offsets, paths.nodes, low, high)
+        self.taken = high
+        return Paths(paths.found[low:high], paths.hops[low:high], paths.length[low:high],
+                     offsets, nodes)  # fmt: skip
+
+
+def _near_decaying(
+    lean: LeanNeighbourhood, policy: str, sources: list[tuple[int, int]], progress: Progress
+) -> NearDecaying:
+    """The SD_vis paths of every ordered blind pair without a sweet path in sight, searched
+    near each pair in regions of ``lean.budget``'s candidate pairs; the sweet neighbourhood
+    joined by the decaying pairs they hop over (its own graphs let go)."""
+    source, target = [], []
+    for start, stop in sources:
+        block_source, block_target = lean.blind.block(start, stop)
+        apart = _apart_in_sight(lean.sweet, block_source, block_target)
+        source.append(block_source[apart])
+        target.append(block_target[apart])
+    found = local_decaying_paths(
+        lean.sweet, policy, np.concatenate(source), np.concatenate(target), lean.candidates,
+        lean.budget.block_candidates, progress,
+    )  # fmt: skip
+    seen = {name: [getattr(found.hopped, name)] for name in FIELDS}
+    return NearDecaying(_whole(lean, seen), found)
 
 
 @dataclass
@@ -314,10 +356,14 @@ class BlockedEvaluation:
     lean: LeanNeighbourhood
     policy: str
     seconds: float = 0.0  # computing so far: the neighbourhood's and the blocks'
+    # Search the decaying paths near their pairs when the decaying pairs are not held: for
+    # plain Swazure, whose tally reads no decaying pair but those the paths hop over.
+    near_pairs: bool = False
     # A later stage made per block (fusion, a fit: core.pipeline), before the tally; it may
     # show stages of its own on the progress it is lent.
     stage: Callable[[Neighbourhood, PairResults, Progress], PairResults] | None = None
     tally: PairTally = field(init=False)
+    near: NearDecaying | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
         self.tally = PairTally(self.lean.budget.exact_values)
@@ -325,6 +371,8 @@ class BlockedEvaluation:
     @property
     def hood(self) -> Neighbourhood:
         """The neighbourhood the blocks search now (its swarm, sensor and counts are the run's)."""
+        if self.lean.whole is None and self.near is not None:
+            return self.near.hood
         return self.lean.whole or self.lean.sweet
 
     def sources(self) -> list[tuple[int, int]]:
@@ -338,12 +386,25 @@ class BlockedEvaluation:
         for start, stop in self.sources():
             began = time.perf_counter()
             blind = self.lean.blind.block(start, stop)
-            if self.lean.whole is None and _apart_in_sight(self.lean.sweet, *blind):
-                # A pair without a sweet path in sight searches the decaying pairs too.
-                self.lean = with_decaying(self.lean, progress)
-                progress.start("pairs", total)
-                progress.advance(done)
-            pairs = evaluate_pairs(self.hood, self.policy, blind=blind)
+            decaying = None
+            if self.lean.whole is None:
+                apart = _apart_in_sight(self.hood, *blind)
+                if self.near is None and apart.any():
+                    # A pair without a sweet path in sight searches the decaying pairs too:
+                    # near each such pair, or in SD_vis held whole.
+                    if self.near_pairs and least_cost_per_cm(
+                        self.lean.sensor, self.lean.swarm.radius, self.policy
+                    ):
+                        self.near = _near_decaying(
+                            self.lean, self.policy, self.sources(), progress
+                        )
+                    else:
+                        self.lean = with_decaying(self.lean, progress)
+                    progress.start("pairs", total)
+                    progress.advance(done)
+                if self.near is not None:
+                    decaying = self.near.next(int(apart.sum()))
+            pairs = evaluate_pairs(self.hood, self.policy, blind=blind, decaying=decaying)
             if self.stage is not None:
                 lent = Started(progress)
                 pairs = self.stage(self.hood, pairs, lent)
@@ -365,7 +426,12 @@ class BlockedEvaluation:
 
 
 def evaluate_blocked(
-    swarm: Swarm, sensor: Sensor, policy: str, budget: Budget, progress: Progress
+    swarm: Swarm,
+    sensor: Sensor,
+    policy: str,
+    budget: Budget,
+    progress: Progress,
+    near_pairs: bool = False,
 ) -> BlockedEvaluation:
     """The lean neighbourhood of ``swarm``, ready to evaluate its pairs block by block.
 
@@ -381,6 +447,11 @@ def evaluate_blocked(
         Bytes a block may hold, at least 1 MiB.
     progress : Progress
         Told of each stage (``evaluate.SILENT`` shows nothing).
+    near_pairs : bool, default False
+        Search the decaying paths near their pairs (:mod:`.local_paths`), not
+        in SD_vis held whole, where the swarm's decaying pairs do not fit the
+        budget at once (the fewest-hops and shortest-length policies): the
+        same pairs, for a run whose later stages read no other decaying pair.
 
     Returns
     -------
@@ -408,7 +479,9 @@ def evaluate_blocked(
     check_policy(policy)
     began = time.perf_counter()
     lean = lean_neighbourhood(swarm, sensor, budget, progress)
-    return BlockedEvaluation(lean, policy, seconds=time.perf_counter() - began)
+    return BlockedEvaluation(
+        lean, policy, seconds=time.perf_counter() - began, near_pairs=near_pairs
+    )
 
 
 def whole_swarm_bytes(swarm: Swarm, sensor: Sensor) -> int:

@@ -43,6 +43,7 @@ def evaluate_pairs(
     policy: str,
     progress: Progress | None = None,
     blind: tuple[IntArray, IntArray] | None = None,
+    decaying: Paths | None = None,
 ) -> PairResults:
     """Status, path, estimate and errors of every ordered blind pair (spec, section 5).
 
@@ -62,6 +63,10 @@ def evaluate_pairs(
     blind : tuple of two (M,) ndarray of int, optional
         The ordered blind pairs (source, target) to evaluate, sorted by source,
         when not all of ``hood``'s (a block of them, :mod:`.blocks`).
+    decaying : Paths, optional
+        The SD_vis paths of the pairs without a sweet path in sight, in order,
+        searched already (near their pairs, :mod:`.local_paths`); ``hood``
+        then needs in SD_vis only the decaying pairs they hop over.
 
     Returns
     -------
@@ -72,8 +77,9 @@ def evaluate_pairs(
     Raises
     ------
     ValueError
-        An unknown policy, or ``blind`` pairs that are not FLSs of the swarm
-        or not sorted by source.
+        An unknown policy, ``blind`` pairs that are not FLSs of the swarm
+        or not sorted by source, or ``decaying`` not one path per pair without
+        a sweet path in sight.
 
     Examples
     --------
@@ -105,15 +111,18 @@ def evaluate_pairs(
     sweet_labels = hood.sweet_components
     connected = sweet_labels[source] == sweet_labels[target]
     fallback = ~sweet.found
-    progress.start("decaying paths", int(fallback.sum()))
-    decaying = shortest_paths(
-        hood.any_visible,
-        source[fallback],
-        target[fallback],
-        policy,
-        components=hood.any_visible_components,
-        progress=progress.advance,
-    )
+    if decaying is None:
+        progress.start("decaying paths", int(fallback.sum()))
+        decaying = shortest_paths(
+            hood.any_visible,
+            source[fallback],
+            target[fallback],
+            policy,
+            components=hood.any_visible_components,
+            progress=progress.advance,
+        )
+    elif len(decaying.found) != int(fallback.sum()):
+        raise ValueError("`decaying` must hold one path per pair without a sweet path in sight")
     paths = merge_paths(sweet, decaying, fallback)
     status, reason = _statuses(sweet.found, paths.found, connected)
     hops = hop_table(hood, paths)

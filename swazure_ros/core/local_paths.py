@@ -1,0 +1,314 @@
+"""Decaying paths searched near their pairs: SD_vis in regions, never held whole.
+
+A pair without a sweet path in sight takes the policy's path in SD_vis, the
+sweet and decaying pairs in sight (:func:`.evaluate.evaluate_pairs`). At
+display scale SD_vis is the largest thing a run holds (the race car at
+65,536 FLSs: 3.4 GB, most of its peak). Here each such pair is searched in
+the SD_vis of a region around its source instead, regions a few at a time
+within a budget, and only the decaying pairs its path hops over are kept.
+
+Why a region gives the whole graph's path. Every edge of SD_vis costs at
+least ``ratio`` per cm between its ends (:func:`least_cost_per_cm`: a
+tracking distance at least ``sweet_min``, or one hop at most the sensor's
+reach), so every node of every path of cost c or less from s to t lies in
+the ellipsoid ``|v - s| + |v - t| <= c / ratio``, inside the ball of radius
+``(c / ratio + |s - t|) / 2`` about s. A region holds every edge with both
+ends in it. Its search finds a cost c' no less than SD_vis's; when that ball
+for c' lies in the region, the whole graph's path of least cost lies in it
+too, and so does every predecessor the tie-break weighs (each lies on a path
+of least cost), with the same sums in the same order: the same cost, hops and
+nodes (:mod:`.search`'s labels do not depend on the order of a node's
+offers). A pair the region does not join is proven apart when its source's
+part of the region stays a sensor's reach from the region's border, where no
+edge can leave it. Any other pair is searched again in a region whose margin
+its found path needs, or twice as wide: a region that holds every FLS is the
+whole graph.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import csr
+from .arrays import BoolArray, FloatArray, IntArray
+from .fans import obstructed_fans
+from .grid import Grid, grid_of
+from .neighbourhood import Neighbourhood
+from .neighbours import NeighbourPairs, candidate_reach, neighbour_pairs
+from .partition import kd_split
+from .path_arrays import Paths, path_hops
+from .paths import FEWEST_HOPS, LEAST_ERROR, check_policy, shortest_paths
+from .progress import Progress
+from .sensor import DECAYING, SWEET, Sensor
+
+
+def least_cost_per_cm(sensor: Sensor, radius: float, policy: str) -> float:
+    """The least cost an edge of SD_vis has per cm between its FLSs' centres, under ``policy``.
+
+    A sweet or decaying pair's tracking distance t is at least ``sweet_min``
+    (below it a pair is blind) and below the larger of ``sweet_max`` and
+    ``decaying_max``; its centres are ``t + 2r`` apart. Shortest-length sums
+    t, so an edge costs at least ``sweet_min / (sweet_min + 2r)`` a cm;
+    fewest-hops counts hops, one per at most ``reach + 2r`` cm.
+
+    Parameters
+    ----------
+    sensor : Sensor
+    radius : float
+        The FLS radius r, cm.
+    policy : {'fewest-hops', 'shortest-length', 'least-error'}
+
+    Returns
+    -------
+    float
+        Cost per cm, a hair below the bound (1e-9 of it) so that rounding
+        never makes it too large; 0 for least-error, whose edge costs (a
+        sensor's error model) have no bound here.
+
+    Examples
+    --------
+    >>> from swazure_ros.core.sensor import Sensor
+    >>> sensor = Sensor(6.0, 8.0, 8.0, 30.0)
+    >>> round(least_cost_per_cm(sensor, 0.5, "shortest-length"), 6)  # 6 / 7
+    0.857143
+    >>> round(1 / least_cost_per_cm(sensor, 0.5, "fewest-hops"), 6)  # a hop spans under 31 cm
+    31.0
+    """
+    policy = check_policy(policy)
+    if policy == LEAST_ERROR:
+        return 0.0
+    if policy == FEWEST_HOPS:
+        least = 1.0 / (max(sensor.sweet_max, sensor.decaying_max) + 2.0 * radius)
+    else:
+        least = sensor.sweet_min / (sensor.sweet_min + 2.0 * radius)
+    return least * (1.0 - 1e-9)
+
+
+@dataclass(frozen=True)
+class LocalPaths:
+    """The SD_vis paths of M pairs, searched in regions (:func:`local_decaying_paths`)."""
+
+    paths: Paths  # one per pair, in the pairs' order
+    hopped: NeighbourPairs  # the decaying pairs the paths hop over, sorted, each once
+    rounds: int  # passes over the pairs not yet proven, each with a wider margin
+    regions: int  # regions searched in all rounds
+    judged: int  # decaying pairs whose line of sight the regions judged, repeats counted
+
+
+def local_decaying_paths(
+    sweet: Neighbourhood,
+    policy: str,
+    source: IntArray,
+    target: IntArray,
+    candidates: IntArray,
+    limit: int,
+    progress: Progress,
+) -> LocalPaths:
+    """Each pair's path in SD_vis, as the whole graph gives it, searched near the pair.
+
+    Parameters
+    ----------
+    sweet : Neighbourhood
+        The swarm's sweet pairs and their line of sight (a lean
+        neighbourhood's, :mod:`.blocks`): its swarm, sensor and grid.
+    policy : {'fewest-hops', 'shortest-length'}
+        Least-error has no bound of its cost per cm (:func:`least_cost_per_cm`).
+    source, target : (M,) ndarray of int
+        The pairs, sorted by source.
+    candidates : (N,) ndarray of int
+        Each FLS's candidate pairs (:func:`.neighbours.pair_counts`): a region's weight.
+    limit : int
+        The candidate pairs a region's FLSs may have, summed; a region of one
+        source may have more.
+    progress : Progress
+        Told of the stage "decaying paths near their pairs", in pairs.
+
+    Returns
+    -------
+    LocalPaths
+
+    Raises
+    ------
+    ValueError
+        The least-error policy, or pairs not sorted by source.
+    """
+    ratio = least_cost_per_cm(sweet.sensor, sweet.swarm.radius, policy)
+    if ratio <= 0.0:
+        raise ValueError(f"the {policy} policy's paths cannot be searched near their pairs")
+    if np.any(np.diff(source) < 0):
+        raise ValueError("the pairs must be sorted by source")
+    swarm, sensor = sweet.swarm, sweet.sensor
+    points = swarm.points
+    # The longest edge's span, and a first margin: what a path of two sweet hops between
+    # two blind FLSs needs.
+    reach = max(sensor.sweet_max, sensor.decaying_max) + 2.0 * swarm.radius
+    two_hops = 2.0 if policy == FEWEST_HOPS else 2.0 * sensor.sweet_max
+    margin = (two_hops / ratio + sensor.sweet_min + 2.0 * swarm.radius) / 2.0
+    reach_grid = grid_of(np.ascontiguousarray(points), candidate_reach(sensor, swarm.radius))
+    progress.start("decaying paths near their pairs", len(source))
+    pending = np.arange(len(source), dtype=np.int64)
+    kept: list[tuple[IntArray, Paths]] = []
+    hopped: list[NeighbourPairs] = []
+    rounds = regions = judged = 0
+    while len(pending):
+        rounds += 1
+        wider, settled = [np.empty(0)], [np.empty(0, dtype=np.int64)]
+        for tile, low, high in _tiles(points, source[pending], margin, candidates, limit):
+            regions += 1
+            rows = pending[np.isin(source[pending], tile)]
+            inside = np.all((points >= low - margin) & (points <= high + margin), axis=1)
+            hood, count = _region(sweet, inside, reach_grid)
+            judged += count
+            paths = shortest_paths(
+                hood.any_visible, source[rows], target[rows], policy,
+                components=hood.any_visible_components,
+            )  # fmt: skip
+            cost = paths.hops if policy == FEWEST_HOPS else paths.length
+            spread = np.linalg.norm(points[target[rows]] - points[source[rows]], axis=1)
+            needed = np.where(paths.found, (cost / ratio + spread) / 2.0, 2.0 * margin)
+            proven = paths.found & (needed <= margin)
+            apart = ~paths.found & _closed(hood, inside, source[rows], low, high, margin - reach)
+            proven |= apart | inside.all()
+            if proven.any():
+                done = np.flatnonzero(proven)
+                kept.append((rows[done], _taken(paths, done)))
+                hopped.append(_hopped(hood, kept[-1][1]))
+                progress.advance(len(done))
+            wider.append(needed[~proven])
+            settled.append(rows[proven])
+        pending = np.setdiff1d(pending, np.concatenate(settled), assume_unique=True)
+        if len(pending):
+            margin = max(float(np.concatenate(wider).max()), margin * (1.0 + 1e-9))
+    return LocalPaths(_in_order(len(source), kept), _sorted_once(hopped), rounds, regions, judged)
+
+
+#: A group of sources is cut in two only where the halves' regions weigh at most this
+#: many times the whole group's: where the sensor's reach spans the shape, halves hold
+#: nearly the whole region each, and cutting would judge its sight again for nothing.
+MOST_OVERLAP = 1.5
+
+
+def _tiles(
+    points: FloatArray, sources: IntArray, margin: float, candidates: IntArray, limit: int
+) -> list[tuple[IntArray, FloatArray, FloatArray]]:
+    """The distinct ``sources`` in compact groups whose regions (their bounding box widened
+    by ``margin``) weigh at most ``limit`` candidates where cutting them smaller pays:
+    (sources, box low, box high) each, in k-d order."""
+    groups, todo = [], [np.unique(sources)]
+    while todo:
+        group = todo.pop()
+        low, high, weight = _box(points, group, margin, candidates)
+        if len(group) > 1 and weight > limit:
+            halves = [group[half] for half in kd_split(points[group], 2)]
+            if sum(_box(points, half, margin, candidates)[2] for half in halves) <= (
+                MOST_OVERLAP * weight
+            ):
+                todo.extend(reversed(halves))  # the first half is searched first
+                continue
+        groups.append((group, low, high))
+    return groups
+
+
+def _box(
+    points: FloatArray, group: IntArray, margin: float, candidates: IntArray
+) -> tuple[FloatArray, FloatArray, int]:
+    """The bounding box of the FLSs ``group`` (low, high), and the candidate pairs of the
+    FLSs within ``margin`` of it."""
+    low, high = points[group].min(axis=0), points[group].max(axis=0)
+    inside = np.all((points >= low - margin) & (points <= high + margin), axis=1)
+    return low, high, int(candidates[inside].sum())
+
+
+def _region(
+    sweet: Neighbourhood, inside: BoolArray, reach_grid: Grid
+) -> tuple[Neighbourhood, int]:
+    """The sweet and decaying pairs with both FLSs ``inside``, their sight, as a neighbourhood;
+    and the decaying pairs whose sight was judged."""
+    swarm = sweet.swarm
+    pairs = neighbour_pairs(swarm, sweet.sensor, grid=reach_grid, involving=inside)
+    edge = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)
+    pairs = pairs.select(edge & inside[pairs.first] & inside[pairs.second])
+    visible = np.zeros(len(pairs), dtype=bool)
+    is_sweet = pairs.range_class == SWEET
+    # The sweet pairs' sight is known; the decaying pairs' is judged as the whole graph's is.
+    visible[is_sweet] = sweet.visible[
+        sweet.pairs.index(pairs.first[is_sweet], pairs.second[is_sweet])
+    ]
+    decaying = ~is_sweet
+    visible[decaying] = ~obstructed_fans(
+        swarm.points, swarm.radius, pairs.first[decaying], pairs.second[decaying]
+    )
+    usable = np.ones(len(pairs), dtype=bool)
+    return Neighbourhood(swarm, sweet.sensor, pairs, visible, sweet.grid, usable), int(
+        decaying.sum()
+    )
+
+
+def _closed(
+    hood: Neighbourhood,
+    inside: BoolArray,
+    sources: IntArray,
+    low: FloatArray,
+    high: FloatArray,
+    clearance: float,
+) -> BoolArray:
+    """Whether each source's part of the region's SD_vis lies within the box widened by
+    ``clearance``: no edge of SD_vis can then leave it, so it is the source's whole part."""
+    if clearance < 0.0:
+        return np.zeros(len(sources), dtype=bool)
+    parts = hood.any_visible_components
+    members = np.flatnonzero(inside)
+    points = hood.swarm.points[members]
+    labels = parts[members]
+    size = int(labels.max()) + 1 if len(labels) else 0
+    lowest = np.full((size, 3), np.inf)
+    highest = np.full((size, 3), -np.inf)
+    np.minimum.at(lowest, labels, points)
+    np.maximum.at(highest, labels, points)
+    mine = parts[sources]
+    within = (lowest[mine] >= low - clearance) & (highest[mine] <= high + clearance)
+    return np.asarray(within.all(axis=1))
+
+
+def _taken(paths: Paths, rows: IntArray) -> Paths:
+    """Paths ``rows`` of ``paths``, in that order."""
+    offsets, nodes = csr.take(paths.offsets, paths.nodes, rows)
+    return Paths(paths.found[rows], paths.hops[rows], paths.length[rows], offsets, nodes)
+
+
+def _hopped(hood: Neighbourhood, paths: Paths) -> NeighbourPairs:
+    """The decaying pairs of ``hood`` that ``paths`` hop over (repeats kept)."""
+    _, start, end = path_hops(paths)
+    records = hood.pairs.select(hood.pairs.index(start, end))
+    return records.select(records.range_class == DECAYING)
+
+
+def _in_order(size: int, kept: list[tuple[IntArray, Paths]]) -> Paths:
+    """The ``size`` pairs' paths, each taken from the part of ``kept`` that proved it."""
+    if not kept:
+        none = np.zeros(0, dtype=np.int64)
+        return Paths(np.zeros(0, dtype=bool), none, np.zeros(0), np.zeros(1, dtype=np.int64), none)
+    rows = np.concatenate([part for part, _ in kept])
+    if len(rows) != size or len(np.unique(rows)) != size:
+        raise RuntimeError("every pair is proven once")
+    counts = np.concatenate([np.diff(paths.offsets) for _, paths in kept])
+    nodes = np.concatenate([paths.nodes for _, paths in kept])
+    order = np.argsort(rows, kind="stable")
+    offsets, nodes = csr.take(csr.offsets(counts), nodes, order)
+    found = np.concatenate([paths.found for _, paths in kept])[order]
+    hops = np.concatenate([paths.hops for _, paths in kept])[order]
+    length = np.concatenate([paths.length for _, paths in kept])[order]
+    return Paths(found, hops, length, offsets, nodes)
+
+
+def _sorted_once(parts: list[NeighbourPairs]) -> NeighbourPairs:
+    """The pairs of ``parts`` sorted by (first, second), each once."""
+    if not parts:
+        ints, reals = np.zeros(0, dtype=np.int64), np.zeros(0)
+        return NeighbourPairs(ints, ints, reals, reals, np.zeros(0, dtype=np.int8))
+    joined = NeighbourPairs.joined(parts)
+    size = int(max(joined.first.max(initial=0), joined.second.max(initial=0))) + 1
+    _, once = np.unique(joined.first * size + joined.second, return_index=True)
+    return joined.select(once)

@@ -1,0 +1,152 @@
+"""Decaying paths searched near their pairs are the paths SD_vis held whole gives."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.blocks import BlockedEvaluation, Budget, evaluate_blocked
+from swazure_ros.core.evaluate import evaluate
+from swazure_ros.core.geometry import make_swarm
+from swazure_ros.core.local_paths import least_cost_per_cm, local_decaying_paths
+from swazure_ros.core.neighbourhood import neighbourhood
+from swazure_ros.core.neighbours import ordered_blind_pairs, pair_counts
+from swazure_ros.core.pair_statistics import PairTally
+from swazure_ros.core.path_arrays import Paths
+from swazure_ros.core.paths import shortest_paths
+from swazure_ros.core.progress import SILENT
+from swazure_ros.core.sensor import DECAYING
+
+from ..conftest import SCENE
+from .test_blocks import assert_same_pairs, joined
+
+POLICIES = ["shortest-length", "fewest-hops"]
+
+
+def plane(side=40, spacing=4.0, seed=7):
+    """A jittered square grid ``side`` FLSs a side, 4 cm apart (156 cm wide, five sensor
+    reaches): some blind pairs have no sweet path in sight, and a region near a pair is a
+    part of the plane, not all of it. Seeded."""
+    rng = np.random.default_rng(seed)
+    x, y = np.meshgrid(np.arange(side) * spacing, np.arange(side) * spacing)
+    points = np.column_stack([x.ravel(), y.ravel(), np.zeros(side * side)])
+    points[:, :2] += rng.uniform(-1.2, 1.2, size=(side * side, 2))
+    return make_swarm(points, radius=0.5)
+
+
+def apart_in_sight(hood):
+    """The ordered blind pairs whose ends lie in two parts of S_vis."""
+    source, target = ordered_blind_pairs(hood.pairs)
+    parts = hood.sweet_visible_components
+    apart = parts[source] != parts[target]
+    return source[apart], target[apart]
+
+
+def assert_same_paths(got: Paths, want: Paths):
+    for name in ("found", "hops", "offsets", "nodes"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(want, name), err_msg=name)
+    np.testing.assert_array_equal(got.length, want.length, err_msg="length")  # NaN as NaN
+
+
+@pytest.mark.parametrize("policy", POLICIES)
+def test_no_edge_of_sd_vis_costs_less_a_cm_than_the_bound(sensor, policy):
+    hood = neighbourhood(plane(), sensor)
+    graph = hood.any_visible
+    least = graph.reach_ratio(hops=policy == "fewest-hops")
+    assert 0 < least_cost_per_cm(sensor, hood.swarm.radius, policy) <= least
+
+
+def test_least_error_has_no_bound_and_is_not_searched_near_its_pairs(sensor):
+    swarm = plane(side=6)
+    assert least_cost_per_cm(sensor, swarm.radius, "least-error") == 0.0
+    hood = neighbourhood(swarm, sensor)
+    none = np.zeros(0, dtype=np.int64)
+    counts = pair_counts(swarm, sensor)
+    with pytest.raises(ValueError, match="least-error"):
+        local_decaying_paths(hood, "least-error", none, none, counts, 10**9, SILENT)
+
+
+@pytest.mark.parametrize("policy", POLICIES)
+def test_paths_searched_near_their_pairs_are_those_of_sd_vis_held_whole(sensor, policy):
+    swarm = plane()
+    hood = neighbourhood(swarm, sensor)
+    source, target = apart_in_sight(hood)
+    assert len(source) > 20  # the premise: pairs that need a decaying path
+    want = shortest_paths(hood.any_visible, source, target, policy)
+    # Regions of a few hundred FLSs' candidates: many regions, each a part of the plane.
+    counts = pair_counts(swarm, sensor)
+    near = local_decaying_paths(hood, policy, source, target, counts, 40 * 200, SILENT)
+    assert near.regions > 4
+    assert near.judged < 2 * hood.pairs.count(DECAYING)
+    assert_same_paths(near.paths, want)
+    # Every decaying pair a path hops over is kept, once, and no other.
+    first, second = near.hopped.first, near.hopped.second
+    assert (near.hopped.range_class == DECAYING).all()
+    assert len(np.unique(first * swarm.size + second)) == len(first)
+    hops = {
+        tuple(sorted(pair))
+        for m in np.flatnonzero(want.found)
+        for pair in zip(want.path(m)[:-1], want.path(m)[1:], strict=True)
+    }
+    ends = np.array(sorted(hops))
+    classes = hood.pairs.range_class[hood.pairs.index(ends[:, 0], ends[:, 1])]
+    decaying = {tuple(pair) for pair in ends[classes == DECAYING].tolist()}
+    assert set(zip(first.tolist(), second.tolist(), strict=True)) == decaying
+
+
+def test_a_path_its_first_region_cannot_prove_is_searched_again_wider(sensor):
+    swarm = plane()
+    hood = neighbourhood(swarm, sensor)
+    source, target = apart_in_sight(hood)
+    want = shortest_paths(hood.any_visible, source, target, "shortest-length")
+    # The first margin is what two sweet hops need; a path with a decaying hop costs more.
+    counts = pair_counts(swarm, sensor)
+    near = local_decaying_paths(hood, "shortest-length", source, target, counts, 8000, SILENT)
+    assert near.rounds >= 2 and (want.length > 16.0).any()
+    assert_same_paths(near.paths, want)
+
+
+def test_a_pair_the_swarm_does_not_join_is_proven_apart_near_it(sensor):
+    # A and C are blind to each other, alone; a second swarm 500 cm off keeps the regions
+    # from holding every FLS, so only the proof that A's part is closed ends the search.
+    far = plane(side=8).points + np.array([500.0, 0.0, 0.0])
+    swarm = make_swarm(np.vstack([SCENE[[0, 2]], far]), radius=0.5)
+    hood = neighbourhood(swarm, sensor)
+    source, target = np.array([0, 1]), np.array([1, 0])
+    want = shortest_paths(hood.any_visible, source, target, "shortest-length")
+    counts = pair_counts(swarm, sensor)
+    near = local_decaying_paths(hood, "shortest-length", source, target, counts, 10**9, SILENT)
+    assert not near.paths.found.any()
+    assert near.rounds >= 2  # the first margin is within a reach of A: nothing proven
+    assert_same_paths(near.paths, want)
+
+
+@pytest.mark.parametrize("policy", POLICIES)
+def test_blocks_searching_near_their_pairs_never_hold_sd_vis_and_give_the_whole_run(
+    sensor, policy
+):
+    swarm = plane()
+    whole = evaluate(swarm, sensor, policy)
+    run = evaluate_blocked(swarm, sensor, policy, Budget(2**20), SILENT, near_pairs=True)
+    assert run.lean.whole is None  # the decaying pairs do not fit the budget at once
+    run.tally = PairTally()  # exact quantiles, whatever the budget
+    blocks = list(run.blocks(SILENT))
+    assert len(blocks) > 2
+    assert_same_pairs(joined(blocks), whole.pairs)
+    assert run.lean.whole is None and run.near is not None
+    # What the run held of SD_vis: the decaying pairs the paths hop over, counted.
+    held = run.hood.pairs.count(DECAYING)
+    assert held == len(run.near.found.hopped) < whole.hood.pairs.count(DECAYING) // 10
+    summary = replace(run.summary(), seconds=None).as_document()
+    assert summary == replace(whole.summary, seconds=None).as_document()
+
+
+def test_a_run_that_reads_more_of_sd_vis_holds_it_whole(sensor):
+    swarm = plane()
+    run = evaluate_blocked(swarm, sensor, "least-error", Budget(2**20), SILENT, near_pairs=True)
+    list(run.blocks(SILENT))
+    assert run.near is None and run.lean.whole is not None
+    plain = evaluate_blocked(swarm, sensor, "fewest-hops", Budget(2**20), SILENT)
+    assert isinstance(plain, BlockedEvaluation) and not plain.near_pairs
+    list(plain.blocks(SILENT))
+    assert plain.near is None and plain.lean.whole is not None
