@@ -27,16 +27,15 @@ whole graph.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from . import csr
 from .arrays import BoolArray, FloatArray, IntArray
 from .fans import obstructed_fans
-from .grid import Grid, grid_of
 from .neighbourhood import Neighbourhood
-from .neighbours import NeighbourPairs, candidate_reach, neighbour_pairs
+from .neighbours import NeighbourPairs, neighbour_pairs
 from .partition import kd_split
 from .path_arrays import Paths, path_hops
 from .paths import FEWEST_HOPS, LEAST_ERROR, check_policy, shortest_paths
@@ -146,7 +145,6 @@ def local_decaying_paths(
     reach = max(sensor.sweet_max, sensor.decaying_max) + 2.0 * swarm.radius
     two_hops = 2.0 if policy == FEWEST_HOPS else 2.0 * sensor.sweet_max
     margin = (two_hops / ratio + sensor.sweet_min + 2.0 * swarm.radius) / 2.0
-    reach_grid = grid_of(np.ascontiguousarray(points), candidate_reach(sensor, swarm.radius))
     progress.start("decaying paths near their pairs", len(source))
     pending = np.arange(len(source), dtype=np.int64)
     kept: list[tuple[IntArray, Paths]] = []
@@ -159,7 +157,7 @@ def local_decaying_paths(
             regions += 1
             rows = pending[np.isin(source[pending], tile)]
             inside = np.all((points >= low - margin) & (points <= high + margin), axis=1)
-            hood, count = _region(sweet, inside, reach_grid)
+            hood, count = _region(sweet, inside)
             judged += count
             paths = shortest_paths(
                 hood.any_visible, source[rows], target[rows], policy,
@@ -221,29 +219,29 @@ def _box(
     return low, high, int(candidates[inside].sum())
 
 
-def _region(
-    sweet: Neighbourhood, inside: BoolArray, reach_grid: Grid
-) -> tuple[Neighbourhood, int]:
+def _region(sweet: Neighbourhood, inside: BoolArray) -> tuple[Neighbourhood, int]:
     """The sweet and decaying pairs with both FLSs ``inside``, their sight, as a neighbourhood;
     and the decaying pairs whose sight was judged."""
-    swarm = sweet.swarm
-    pairs = neighbour_pairs(swarm, sweet.sensor, grid=reach_grid, involving=inside)
-    edge = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)
-    pairs = pairs.select(edge & inside[pairs.first] & inside[pairs.second])
+    swarm, sensor = sweet.swarm, sweet.sensor
+    # The region's FLSs as a swarm of their own: its pairs are the whole list's pairs between
+    # them, each distance from the same two points, found without the pairs that leave it.
+    members = np.flatnonzero(inside)
+    part = replace(swarm, points=swarm.points[members], cloud_index=swarm.cloud_index[members])
+    found = neighbour_pairs(part, sensor)
+    found = found.select((found.range_class == SWEET) | (found.range_class == DECAYING))
+    pairs = replace(found, first=members[found.first], second=members[found.second])
     visible = np.zeros(len(pairs), dtype=bool)
     is_sweet = pairs.range_class == SWEET
     # The sweet pairs' sight is known; the decaying pairs' is judged as the whole graph's is.
-    visible[is_sweet] = sweet.visible[
-        sweet.pairs.index(pairs.first[is_sweet], pairs.second[is_sweet])
-    ]
+    known = sweet.pairs.index(pairs.first[is_sweet], pairs.second[is_sweet])
+    visible[is_sweet] = sweet.visible[known]
     decaying = ~is_sweet
     visible[decaying] = ~obstructed_fans(
         swarm.points, swarm.radius, pairs.first[decaying], pairs.second[decaying]
     )
     usable = np.ones(len(pairs), dtype=bool)
-    return Neighbourhood(swarm, sweet.sensor, pairs, visible, sweet.grid, usable), int(
-        decaying.sum()
-    )
+    hood = Neighbourhood(swarm, sensor, pairs, visible, sweet.grid, usable)
+    return hood, int(decaying.sum())
 
 
 def _closed(
