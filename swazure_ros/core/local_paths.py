@@ -18,11 +18,12 @@ for c' lies in the region, the whole graph's path of least cost lies in it
 too, and so does every predecessor the tie-break weighs (each lies on a path
 of least cost), with the same sums in the same order: the same cost, hops and
 nodes (:mod:`.search`'s labels do not depend on the order of a node's
-offers). A pair the region does not join is proven apart when its source's
-part of the region stays a sensor's reach from the region's border, where no
-edge can leave it. Any other pair is searched again in a region whose margin
-its found path needs, or twice as wide: a region that holds every FLS is the
-whole graph.
+offers). A region is every FLS within its radius of one of its sources, so
+it holds that ball about each. A pair the region does not join is proven
+apart when every FLS of its source's part of the region lies within the
+radius less a sensor's reach of a source, where no edge can leave it. Any
+other pair is searched again in a region whose radius its found path needs,
+or twice as wide: a region that holds every FLS is the whole graph.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from . import csr
 from .arrays import BoolArray, FloatArray, IntArray
@@ -144,7 +146,7 @@ def local_decaying_paths(
     # two blind FLSs needs.
     reach = max(sensor.sweet_max, sensor.decaying_max) + 2.0 * swarm.radius
     two_hops = 2.0 if policy == FEWEST_HOPS else 2.0 * sensor.sweet_max
-    margin = (two_hops / ratio + sensor.sweet_min + 2.0 * swarm.radius) / 2.0
+    margins = np.full(len(source), (two_hops / ratio + sensor.sweet_min + 2.0 * swarm.radius) / 2)
     progress.start("decaying paths near their pairs", len(source))
     pending = np.arange(len(source), dtype=np.int64)
     kept: list[tuple[IntArray, Paths]] = []
@@ -152,11 +154,13 @@ def local_decaying_paths(
     rounds = regions = judged = 0
     while len(pending):
         rounds += 1
-        wider, settled = [np.empty(0)], [np.empty(0, dtype=np.int64)]
-        for tile, low, high in _tiles(points, source[pending], margin, candidates, limit):
+        settled = [np.empty(0, dtype=np.int64)]
+        for tile in _tiles(points, source[pending], margins[pending], candidates, limit):
             regions += 1
             rows = pending[np.isin(source[pending], tile)]
-            inside = np.all((points >= low - margin) & (points <= high + margin), axis=1)
+            radius = float(margins[rows].max())
+            nearest = _nearest(points, tile, radius)
+            inside = nearest <= radius
             hood, count = _region(sweet, inside)
             judged += count
             paths = shortest_paths(
@@ -165,20 +169,18 @@ def local_decaying_paths(
             )  # fmt: skip
             cost = paths.hops if policy == FEWEST_HOPS else paths.length
             spread = np.linalg.norm(points[target[rows]] - points[source[rows]], axis=1)
-            needed = np.where(paths.found, (cost / ratio + spread) / 2.0, 2.0 * margin)
-            proven = paths.found & (needed <= margin)
-            apart = ~paths.found & _closed(hood, inside, source[rows], low, high, margin - reach)
+            needed = np.where(paths.found, (cost / ratio + spread) / 2.0, 2.0 * radius)
+            proven = paths.found & (needed <= radius)
+            apart = ~paths.found & _closed(hood, inside, nearest, source[rows], radius - reach)
             proven |= apart | inside.all()
             if proven.any():
                 done = np.flatnonzero(proven)
                 kept.append((rows[done], _taken(paths, done)))
                 hopped.append(_hopped(hood, kept[-1][1]))
                 progress.advance(len(done))
-            wider.append(needed[~proven])
+            margins[rows] = np.maximum(needed, radius * (1.0 + 1e-9))
             settled.append(rows[proven])
         pending = np.setdiff1d(pending, np.concatenate(settled), assume_unique=True)
-        if len(pending):
-            margin = max(float(np.concatenate(wider).max()), margin * (1.0 + 1e-9))
     return LocalPaths(_in_order(len(source), kept), _sorted_once(hopped), rounds, regions, judged)
 
 
@@ -189,34 +191,39 @@ MOST_OVERLAP = 1.5
 
 
 def _tiles(
-    points: FloatArray, sources: IntArray, margin: float, candidates: IntArray, limit: int
-) -> list[tuple[IntArray, FloatArray, FloatArray]]:
-    """The distinct ``sources`` in compact groups whose regions (their bounding box widened
-    by ``margin``) weigh at most ``limit`` candidates where cutting them smaller pays:
-    (sources, box low, box high) each, in k-d order."""
-    groups, todo = [], [np.unique(sources)]
+    points: FloatArray, sources: IntArray, margins: FloatArray, candidates: IntArray, limit: int
+) -> list[IntArray]:
+    """The distinct ``sources`` in compact groups whose regions weigh at most ``limit``
+    candidates where cutting them smaller pays, in k-d order.
+
+    A group's region is every FLS within its radius of one of its sources: the largest
+    of ``margins`` (one per entry of ``sources``) among them.
+    """
+    distinct, which = np.unique(sources, return_inverse=True)
+    radius_of = np.zeros(len(distinct))
+    np.maximum.at(radius_of, which, margins)
+
+    def weight(group: IntArray) -> int:
+        radius = float(radius_of[group].max())
+        return int(candidates[_nearest(points, distinct[group], radius) <= radius].sum())
+
+    groups, todo = [], [np.arange(len(distinct))]
     while todo:
         group = todo.pop()
-        low, high, weight = _box(points, group, margin, candidates)
-        if len(group) > 1 and weight > limit:
-            halves = [group[half] for half in kd_split(points[group], 2)]
-            if sum(_box(points, half, margin, candidates)[2] for half in halves) <= (
-                MOST_OVERLAP * weight
-            ):
+        whole = weight(group)
+        if len(group) > 1 and whole > limit:
+            halves = [group[half] for half in kd_split(points[distinct[group]], 2)]
+            if sum(weight(half) for half in halves) <= MOST_OVERLAP * whole:
                 todo.extend(reversed(halves))  # the first half is searched first
                 continue
-        groups.append((group, low, high))
+        groups.append(distinct[group])
     return groups
 
 
-def _box(
-    points: FloatArray, group: IntArray, margin: float, candidates: IntArray
-) -> tuple[FloatArray, FloatArray, int]:
-    """The bounding box of the FLSs ``group`` (low, high), and the candidate pairs of the
-    FLSs within ``margin`` of it."""
-    low, high = points[group].min(axis=0), points[group].max(axis=0)
-    inside = np.all((points >= low - margin) & (points <= high + margin), axis=1)
-    return low, high, int(candidates[inside].sum())
+def _nearest(points: FloatArray, centres: IntArray, radius: float) -> FloatArray:
+    """Each FLS's distance to the nearest of the FLSs ``centres``, cm; inf beyond ``radius``."""
+    distance, _ = cKDTree(points[centres]).query(points, distance_upper_bound=radius * 1.000001)
+    return np.asarray(distance, dtype=np.float64)
 
 
 def _region(sweet: Neighbourhood, inside: BoolArray) -> tuple[Neighbourhood, int]:
@@ -247,27 +254,21 @@ def _region(sweet: Neighbourhood, inside: BoolArray) -> tuple[Neighbourhood, int
 def _closed(
     hood: Neighbourhood,
     inside: BoolArray,
+    nearest: FloatArray,
     sources: IntArray,
-    low: FloatArray,
-    high: FloatArray,
     clearance: float,
 ) -> BoolArray:
-    """Whether each source's part of the region's SD_vis lies within the box widened by
-    ``clearance``: no edge of SD_vis can then leave it, so it is the source's whole part."""
+    """Whether each source's part of the region's SD_vis lies within ``clearance`` of the
+    region's sources (``nearest``: each FLS's distance to the closest): no edge of SD_vis
+    can then leave the region, so the part is the source's whole part."""
     if clearance < 0.0:
         return np.zeros(len(sources), dtype=bool)
     parts = hood.any_visible_components
     members = np.flatnonzero(inside)
-    points = hood.swarm.points[members]
     labels = parts[members]
-    size = int(labels.max()) + 1 if len(labels) else 0
-    lowest = np.full((size, 3), np.inf)
-    highest = np.full((size, 3), -np.inf)
-    np.minimum.at(lowest, labels, points)
-    np.maximum.at(highest, labels, points)
-    mine = parts[sources]
-    within = (lowest[mine] >= low - clearance) & (highest[mine] <= high + clearance)
-    return np.asarray(within.all(axis=1))
+    farthest = np.zeros(int(labels.max()) + 1 if len(labels) else 0)
+    np.maximum.at(farthest, labels, nearest[members])
+    return np.asarray(farthest[parts[sources]] <= clearance)
 
 
 def _taken(paths: Paths, rows: IntArray) -> Paths:

@@ -76,7 +76,7 @@ def test_paths_searched_near_their_pairs_are_those_of_sd_vis_held_whole(sensor, 
     # Regions of a few hundred FLSs' candidates: many regions, each a part of the plane.
     counts = pair_counts(swarm, sensor)
     near = local_decaying_paths(hood, policy, source, target, counts, 40 * 200, SILENT)
-    assert near.regions > 4
+    assert near.regions >= 3
     assert near.judged < 2 * hood.pairs.count(DECAYING)
     assert_same_paths(near.paths, want)
     # Every decaying pair a path hops over is kept, once, and no other.
