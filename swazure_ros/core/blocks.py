@@ -357,7 +357,7 @@ class BlockedEvaluation:
     policy: str
     seconds: float = 0.0  # computing so far: the neighbourhood's and the blocks'
     # Search the decaying paths near their pairs when the decaying pairs are not held: for
-    # plain Swazure, whose tally reads no decaying pair but those the paths hop over.
+    # plain Swazure or a heuristic, which read no decaying pair but those the paths hop over.
     near_pairs: bool = False
     # A later stage made per block (fusion, a fit: core.pipeline), before the tally; it may
     # show stages of its own on the progress it is lent.
@@ -451,7 +451,8 @@ def evaluate_blocked(
         Search the decaying paths near their pairs (:mod:`.local_paths`), not
         in SD_vis held whole, where the swarm's decaying pairs do not fit the
         budget at once (the fewest-hops and shortest-length policies): the
-        same pairs, for a run whose later stages read no other decaying pair.
+        same pairs, for a run whose later stages (a heuristic) read no other
+        decaying pair.
 
     Returns
     -------

@@ -239,9 +239,9 @@ def _in_blocks(
     """Plain Swazure a block of pairs at a time, then a heuristic, fusion or a fit on each
     block: each block to ``take`` as it is made (a heuristic's moves in its pairs:
     ``MovedPairs``)."""
-    # Plain Swazure reads no decaying pair but those its paths hop over: its decaying paths
-    # may be searched near their pairs. A heuristic, fusion or a fit reads the graphs whole.
-    near = options.technique == PLAIN and options.fuse <= 1 and options.estimator == PATH
+    # Plain Swazure and the heuristics read no decaying pair but those the paths hop over:
+    # the decaying paths may be searched near their pairs. Fusion and the fits read SD_vis.
+    near = options.fuse <= 1 and options.estimator == PATH
     plain = evaluate_blocked(swarm, sensor, options.policy, budget, progress, near_pairs=near)
     stage = _block_stage(plain, options, budget, progress)
     run: BlockedEvaluation | TechniqueBlocks = plain

@@ -8,6 +8,9 @@ import pytest
 from swazure_ros.core.blocks import BlockedEvaluation, Budget, evaluate_blocked
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.geometry import make_swarm
+from swazure_ros.core.heuristics.compat import COMPAT_MODES
+from swazure_ros.core.heuristics.folding import run_technique
+from swazure_ros.core.heuristics.regions import TechniqueBlocks
 from swazure_ros.core.local_paths import least_cost_per_cm, local_decaying_paths
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.neighbours import ordered_blind_pairs, pair_counts
@@ -16,9 +19,11 @@ from swazure_ros.core.path_arrays import Paths
 from swazure_ros.core.paths import shortest_paths
 from swazure_ros.core.progress import SILENT
 from swazure_ros.core.sensor import DECAYING
+from swazure_ros.files.results import write_evaluation, write_pair_blocks
 
 from ..conftest import SCENE
 from .test_blocks import assert_same_pairs, joined
+from .test_regions import CASES, assert_same_pairs_but_moves, untimed
 
 POLICIES = ["shortest-length", "fewest-hops"]
 
@@ -150,3 +155,24 @@ def test_a_run_that_reads_more_of_sd_vis_holds_it_whole(sensor):
     assert isinstance(plain, BlockedEvaluation) and not plain.near_pairs
     list(plain.blocks(SILENT))
     assert plain.near is None and plain.lean.whole is not None
+
+
+@pytest.mark.parametrize(("technique", "threshold", "compat"), CASES)
+def test_a_heuristic_on_blocks_that_searched_near_their_pairs_gives_the_held_run(
+    tmp_path, sensor, technique, threshold, compat
+):
+    # A heuristic reads the sweet graphs and the plain pairs' own paths, not SD_vis.
+    swarm = plane()
+    whole = evaluate(swarm, sensor, "shortest-length")
+    held, moves = run_technique(whole, technique, threshold, COMPAT_MODES[compat])
+    plain = evaluate_blocked(swarm, sensor, "shortest-length", Budget(2**20), SILENT, True)
+    run = TechniqueBlocks(plain, technique, threshold, COMPAT_MODES[compat])
+    run.tally = PairTally()  # exact quantiles, whatever the budget
+    blocks = list(run.blocks(SILENT))
+    assert plain.near is not None and plain.lean.whole is None
+    assert sum(block.heuristic.resolved.any() for block in blocks) >= 2
+    assert_same_pairs_but_moves(blocks, held.pairs)
+    assert untimed(run.summary()) == untimed(held.summary)
+    _, want = write_evaluation(tmp_path, held, moves)
+    got = write_pair_blocks(tmp_path / "blocks", plain.hood, "shortest-length", iter(blocks))
+    assert want is not None and got is not None and got.read_bytes() == want.read_bytes()
