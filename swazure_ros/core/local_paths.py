@@ -36,6 +36,7 @@ from scipy.spatial import cKDTree
 from . import csr
 from .arrays import BoolArray, FloatArray, IntArray
 from .fans import obstructed_fans
+from .geometry import Swarm
 from .neighbourhood import Neighbourhood
 from .neighbours import NeighbourPairs, neighbour_pairs
 from .partition import kd_split
@@ -95,7 +96,7 @@ class LocalPaths:
     hopped: NeighbourPairs  # the decaying pairs the paths hop over, sorted, each once
     rounds: int  # passes over the pairs not yet proven, each with a wider margin
     regions: int  # regions searched in all rounds
-    judged: int  # decaying pairs whose line of sight the regions judged, repeats counted
+    judged: int  # decaying pairs whose line of sight the regions judged, each once
 
 
 def local_decaying_paths(
@@ -151,7 +152,8 @@ def local_decaying_paths(
     pending = np.arange(len(source), dtype=np.int64)
     kept: list[tuple[IntArray, Paths]] = []
     hopped: list[NeighbourPairs] = []
-    rounds = regions = judged = 0
+    rounds = regions = 0
+    sight = _Sight(swarm.size)
     while len(pending):
         rounds += 1
         settled = [np.empty(0, dtype=np.int64)]
@@ -161,8 +163,7 @@ def local_decaying_paths(
             radius = float(margins[rows].max())
             nearest = _nearest(points, tile, radius)
             inside = nearest <= radius
-            hood, count = _region(sweet, inside)
-            judged += count
+            hood = _region(sweet, inside, sight)
             paths = shortest_paths(
                 hood.any_visible, source[rows], target[rows], policy,
                 components=hood.any_visible_components,
@@ -181,7 +182,8 @@ def local_decaying_paths(
             margins[rows] = np.maximum(needed, radius * (1.0 + 1e-9))
             settled.append(rows[proven])
         pending = np.setdiff1d(pending, np.concatenate(settled), assume_unique=True)
-    return LocalPaths(_in_order(len(source), kept), _sorted_once(hopped), rounds, regions, judged)
+    paths = _in_order(len(source), kept)
+    return LocalPaths(paths, _sorted_once(hopped), rounds, regions, sight.judged)
 
 
 #: A group of sources is cut in two only where the halves' regions weigh at most this
@@ -226,9 +228,57 @@ def _nearest(points: FloatArray, centres: IntArray, radius: float) -> FloatArray
     return np.asarray(distance, dtype=np.float64)
 
 
-def _region(sweet: Neighbourhood, inside: BoolArray) -> tuple[Neighbourhood, int]:
-    """The sweet and decaying pairs with both FLSs ``inside``, their sight, as a neighbourhood;
-    and the decaying pairs whose sight was judged."""
+class _Sight:
+    """The decaying pairs' line of sight as the regions judged it, each pair judged once.
+
+    A pair is judged in the first region that holds both its FLSs, and its sight read
+    back there in every later one: regions overlap, and sight is most of their work.
+    Each FLS keeps a bit per region that held it; each region keeps the keys
+    (``first * N + second``) of the pairs it judged in sight, sorted.
+    """
+
+    def __init__(self, size: int) -> None:
+        self.size = size
+        self.held_by = np.zeros((size, 1), dtype=np.uint64)  # bit t of word t // 64: region t
+        self.in_sight: list[IntArray] = []  # region t's pairs judged in sight, keys sorted
+        self.judged = 0  # pairs judged so far
+
+    def of(self, swarm: Swarm, inside: BoolArray, first: IntArray, second: IntArray) -> BoolArray:
+        """Whether each decaying pair first[m]-second[m], both FLSs ``inside``, is in sight;
+        the region is the next one (it is recorded)."""
+        keys = first * self.size + second
+        shared = self.held_by[first] & self.held_by[second]
+        known = shared.any(axis=1)
+        visible = np.zeros(len(first), dtype=bool)
+        word = np.argmax(shared[known] != 0, axis=1)
+        bits = shared[known][np.arange(len(word)), word]
+        # The lowest bit set: the first region that held both FLSs, where it was judged.
+        region = word * 64 + np.log2(bits & (~bits + np.uint64(1))).astype(np.int64)
+        at = np.flatnonzero(known)
+        for judged_in in np.unique(region):
+            rows = at[region == judged_in]
+            sorted_keys = self.in_sight[judged_in]
+            place = np.searchsorted(sorted_keys, keys[rows])
+            place[place == len(sorted_keys)] = 0
+            visible[rows] = sorted_keys[place] == keys[rows] if len(sorted_keys) else False
+        new = np.flatnonzero(~known)
+        self.judged += len(new)
+        visible[new] = ~obstructed_fans(swarm.points, swarm.radius, first[new], second[new])
+        self._record(inside, np.sort(keys[new][visible[new]]))
+        return visible
+
+    def _record(self, inside: BoolArray, in_sight: IntArray) -> None:
+        region = len(self.in_sight)
+        word, bit = divmod(region, 64)
+        if word == self.held_by.shape[1]:
+            self.held_by = np.hstack([self.held_by, np.zeros((self.size, 1), dtype=np.uint64)])
+        self.held_by[inside, word] |= np.uint64(1) << np.uint64(bit)
+        self.in_sight.append(in_sight)
+
+
+def _region(sweet: Neighbourhood, inside: BoolArray, sight: _Sight) -> Neighbourhood:
+    """The sweet and decaying pairs with both FLSs ``inside`` and their sight, as a
+    neighbourhood: the next region of ``sight``."""
     swarm, sensor = sweet.swarm, sweet.sensor
     # The region's FLSs as a swarm of their own: its pairs are the whole list's pairs between
     # them, each distance from the same two points, found without the pairs that leave it.
@@ -243,12 +293,9 @@ def _region(sweet: Neighbourhood, inside: BoolArray) -> tuple[Neighbourhood, int
     known = sweet.pairs.index(pairs.first[is_sweet], pairs.second[is_sweet])
     visible[is_sweet] = sweet.visible[known]
     decaying = ~is_sweet
-    visible[decaying] = ~obstructed_fans(
-        swarm.points, swarm.radius, pairs.first[decaying], pairs.second[decaying]
-    )
+    visible[decaying] = sight.of(swarm, inside, pairs.first[decaying], pairs.second[decaying])
     usable = np.ones(len(pairs), dtype=bool)
-    hood = Neighbourhood(swarm, sensor, pairs, visible, sweet.grid, usable)
-    return hood, int(decaying.sum())
+    return Neighbourhood(swarm, sensor, pairs, visible, sweet.grid, usable)
 
 
 def _closed(

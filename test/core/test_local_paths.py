@@ -82,7 +82,7 @@ def test_paths_searched_near_their_pairs_are_those_of_sd_vis_held_whole(sensor, 
     counts = pair_counts(swarm, sensor)
     near = local_decaying_paths(hood, policy, source, target, counts, 40 * 200, SILENT)
     assert near.regions >= 3
-    assert near.judged < 2 * hood.pairs.count(DECAYING)
+    assert near.judged <= hood.pairs.count(DECAYING)  # each pair judged once at most
     assert_same_paths(near.paths, want)
     # Every decaying pair a path hops over is kept, once, and no other.
     first, second = near.hopped.first, near.hopped.second
