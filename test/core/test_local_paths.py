@@ -5,7 +5,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from swazure_ros.core.blocks import BlockedEvaluation, Budget, evaluate_blocked
+from swazure_ros.core.blocks import BlockedEvaluation, Budget, evaluate_blocked, with_decaying
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.heuristics.compat import COMPAT_MODES
@@ -17,6 +17,7 @@ from swazure_ros.core.neighbours import ordered_blind_pairs, pair_counts
 from swazure_ros.core.pair_statistics import PairTally
 from swazure_ros.core.path_arrays import Paths
 from swazure_ros.core.paths import shortest_paths
+from swazure_ros.core.pipeline import RunOptions, run_engine
 from swazure_ros.core.progress import SILENT
 from swazure_ros.core.sensor import DECAYING
 from swazure_ros.files.results import write_evaluation, write_pair_blocks
@@ -176,3 +177,40 @@ def test_a_heuristic_on_blocks_that_searched_near_their_pairs_gives_the_held_run
     _, want = write_evaluation(tmp_path, held, moves)
     got = write_pair_blocks(tmp_path / "blocks", plain.hood, "shortest-length", iter(blocks))
     assert want is not None and got is not None and got.read_bytes() == want.read_bytes()
+
+
+@pytest.mark.parametrize(
+    ("options", "holds_sd_vis"),
+    [
+        (RunOptions(), False),
+        (RunOptions(technique="move-obstructing"), False),
+        (RunOptions(fuse=2), True),
+        (RunOptions(policy="least-error"), True),
+    ],
+    ids=["plain", "move-obstructing", "fuse", "least-error"],
+)
+def test_run_engine_holds_sd_vis_only_for_a_run_that_reads_it(
+    sensor, monkeypatch, options, holds_sd_vis
+):
+    import swazure_ros.core.blocks as blocks
+
+    whole = []
+    monkeypatch.setattr(
+        blocks,
+        "with_decaying",
+        lambda lean, progress: whole.append(lean) or with_decaying(lean, progress),
+    )
+    swarm = plane()
+    run = run_engine(swarm, sensor, options, budget=Budget(8 * 2**20))  # not at once
+    held = run_engine(swarm, sensor, options, hold=True)
+    assert bool(whole) == holds_sd_vis
+    assert without_seconds(run.summary.as_document()) == without_seconds(
+        held.summary.as_document()
+    )
+
+
+def without_seconds(document):
+    """A summary's document without the times of its stages, at any depth."""
+    if isinstance(document, dict):
+        return {key: without_seconds(value) for key, value in document.items() if key != "seconds"}
+    return document
