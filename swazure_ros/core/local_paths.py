@@ -160,9 +160,12 @@ def local_decaying_paths(
         for tile in _tiles(points, source[pending], margins[pending], candidates, limit):
             regions += 1
             rows = pending[np.isin(source[pending], tile)]
-            radius = float(margins[rows].max())
-            nearest = _nearest(points, tile, radius)
-            inside = nearest <= radius
+            # Each source's radius: the widest its pairs need, one of a few steps.
+            radius = _stepped(margins[rows])
+            radius_of = np.zeros(swarm.size)
+            np.maximum.at(radius_of, source[rows], radius)
+            slack = _slack(points, tile, radius_of[tile])
+            inside = slack >= 0.0
             hood = _region(sweet, inside, sight)
             paths = shortest_paths(
                 hood.any_visible, source[rows], target[rows], policy,
@@ -170,16 +173,17 @@ def local_decaying_paths(
             )  # fmt: skip
             cost = paths.hops if policy == FEWEST_HOPS else paths.length
             spread = np.linalg.norm(points[target[rows]] - points[source[rows]], axis=1)
-            needed = np.where(paths.found, (cost / ratio + spread) / 2.0, 2.0 * radius)
-            proven = paths.found & (needed <= radius)
-            apart = ~paths.found & _closed(hood, inside, nearest, source[rows], radius - reach)
+            mine = radius_of[source[rows]]
+            needed = np.where(paths.found, (cost / ratio + spread) / 2.0, 2.0 * mine)
+            proven = paths.found & (needed <= mine)
+            apart = ~paths.found & _closed(hood, inside, slack, source[rows], reach)
             proven |= apart | inside.all()
             if proven.any():
                 done = np.flatnonzero(proven)
                 kept.append((rows[done], _taken(paths, done)))
                 hopped.append(_hopped(hood, kept[-1][1]))
                 progress.advance(len(done))
-            margins[rows] = np.maximum(needed, radius * (1.0 + 1e-9))
+            margins[rows] = np.maximum(needed, mine * (1.0 + 1e-9))
             settled.append(rows[proven])
         pending = np.setdiff1d(pending, np.concatenate(settled), assume_unique=True)
     paths = _in_order(len(source), kept)
@@ -187,9 +191,18 @@ def local_decaying_paths(
 
 
 #: A group of sources is cut in two only where the halves' regions weigh at most this
-#: many times the whole group's: where the sensor's reach spans the shape, halves hold
-#: nearly the whole region each, and cutting would judge its sight again for nothing.
+#: many times the group's: where the sensor's reach spans the shape, each half holds
+#: nearly the whole region, and cutting would build its pairs again for nothing.
 MOST_OVERLAP = 1.5
+#: A source's radius is rounded up to a step of this ratio: a region is found by one
+#: query of the FLSs per step, not per source.
+RADIUS_STEP = 1.1
+
+
+def _stepped(radii: FloatArray) -> FloatArray:
+    """``radii``, cm, each rounded up to the next power of RADIUS_STEP."""
+    steps = np.ceil(np.log(radii) / np.log(RADIUS_STEP) - 1e-9)
+    return np.asarray(np.maximum(np.power(RADIUS_STEP, steps), radii), dtype=np.float64)
 
 
 def _tiles(
@@ -198,16 +211,19 @@ def _tiles(
     """The distinct ``sources`` in compact groups whose regions weigh at most ``limit``
     candidates where cutting them smaller pays, in k-d order.
 
-    A group's region is every FLS within its radius of one of its sources: the largest
-    of ``margins`` (one per entry of ``sources``) among them.
+    A group's region is every FLS within its source's radius of one of its sources: the
+    largest of ``margins`` (one per entry of ``sources``) among that source's, stepped.
     """
     distinct, which = np.unique(sources, return_inverse=True)
     radius_of = np.zeros(len(distinct))
-    np.maximum.at(radius_of, which, margins)
+    np.maximum.at(radius_of, which, _stepped(margins))
+    # A region's weight: its FLSs at the swarm's mean candidates per FLS. (An FLS's own
+    # count is of the pairs it is first of, which depends on the order of the indices.)
+    per_fls = 2.0 * float(candidates.sum()) / max(len(points), 1)
 
-    def weight(group: IntArray) -> int:
-        radius = float(radius_of[group].max())
-        return int(candidates[_nearest(points, distinct[group], radius) <= radius].sum())
+    def weight(group: IntArray) -> float:
+        inside = _slack(points, distinct[group], radius_of[group]) >= 0.0
+        return per_fls * float(np.count_nonzero(inside))
 
     groups, todo = [], [np.arange(len(distinct))]
     while todo:
@@ -222,10 +238,15 @@ def _tiles(
     return groups
 
 
-def _nearest(points: FloatArray, centres: IntArray, radius: float) -> FloatArray:
-    """Each FLS's distance to the nearest of the FLSs ``centres``, cm; inf beyond ``radius``."""
-    distance, _ = cKDTree(points[centres]).query(points, distance_upper_bound=radius * 1.000001)
-    return np.asarray(distance, dtype=np.float64)
+def _slack(points: FloatArray, centres: IntArray, radii: FloatArray) -> FloatArray:
+    """How far inside the balls about the FLSs ``centres`` (their ``radii``, cm) each FLS
+    lies: the largest radius less distance, cm; -inf where it is in none."""
+    slack = np.full(len(points), -np.inf)
+    for radius in np.unique(radii):
+        tree = cKDTree(points[centres[radii == radius]])
+        distance, _ = tree.query(points, distance_upper_bound=radius * 1.000001)
+        np.maximum(slack, radius - distance, out=slack)
+    return slack
 
 
 class _Sight:
@@ -299,23 +320,17 @@ def _region(sweet: Neighbourhood, inside: BoolArray, sight: _Sight) -> Neighbour
 
 
 def _closed(
-    hood: Neighbourhood,
-    inside: BoolArray,
-    nearest: FloatArray,
-    sources: IntArray,
-    clearance: float,
+    hood: Neighbourhood, inside: BoolArray, slack: FloatArray, sources: IntArray, reach: float
 ) -> BoolArray:
-    """Whether each source's part of the region's SD_vis lies within ``clearance`` of the
-    region's sources (``nearest``: each FLS's distance to the closest): no edge of SD_vis
-    can then leave the region, so the part is the source's whole part."""
-    if clearance < 0.0:
-        return np.zeros(len(sources), dtype=bool)
+    """Whether each source's part of the region's SD_vis lies ``reach`` inside the balls
+    that make the region (``slack``, :func:`_slack`): no edge of SD_vis can then leave
+    it, so the part is the source's whole part."""
     parts = hood.any_visible_components
     members = np.flatnonzero(inside)
     labels = parts[members]
-    farthest = np.zeros(int(labels.max()) + 1 if len(labels) else 0)
-    np.maximum.at(farthest, labels, nearest[members])
-    return np.asarray(farthest[parts[sources]] <= clearance)
+    least = np.full(int(labels.max()) + 1 if len(labels) else 0, np.inf)
+    np.minimum.at(least, labels, slack[members])
+    return np.asarray(least[parts[sources]] >= reach)
 
 
 def _taken(paths: Paths, rows: IntArray) -> Paths:
