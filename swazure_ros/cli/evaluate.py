@@ -17,7 +17,7 @@ from ..api.engine import SwarmSetup
 from ..core.blocks import DEFAULT_MEMORY, Budget
 from ..core.fit import ESTIMATORS, PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
-from ..core.pipeline import EngineRun, RunOptions, run_engine
+from ..core.pipeline import DECAYING_SEARCHES, HELD, EngineRun, RunOptions, run_engine
 from ..core.progress import HUNDREDTHS, Progress
 from ..files.atomic import write_json
 from ..files.reading import available_memory
@@ -109,6 +109,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "a block at a time, so a display of 65,536 FLSs fits; the swarm's lean "
         "neighbourhood is held whole besides (docs/core.md, 'The engine at display scale')",
     )
+    parser.add_argument(
+        "--decaying",
+        choices=DECAYING_SEARCHES,
+        default=HELD,
+        help="where a run in blocks searches the paths of pairs without a sweet path in "
+        "sight: in the swarm's decaying pairs in sight held whole (held, the default: fastest "
+        "where they fit), or each in a region around its pair (near: less memory on a "
+        "display several sensor reaches wide, often slower); the same paths either way "
+        "(docs/core.md, 'Decaying paths near their pairs')",
+    )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_swarm_file_argument(
         parser,
@@ -163,6 +173,7 @@ def main(args: argparse.Namespace) -> int:
         args.fuse,
         args.estimator,
         args.source_body,
+        args.decaying,
     )
     written: list[Path | None] = []  # the per-pair file, once written
 

@@ -45,7 +45,7 @@ from .heuristics.folding import run_technique
 from .heuristics.regions import TechniqueBlocks
 from .heuristics.result import MAX_THRESHOLD, MOVE_SOURCE, PLAIN, TECHNIQUES, HeuristicResult
 from .neighbourhood import Neighbourhood
-from .paths import POLICIES, SHORTEST_LENGTH
+from .paths import LEAST_ERROR, POLICIES, SHORTEST_LENGTH
 from .progress import SILENT, Progress
 from .sensor import Sensor
 from .summary import Source, Summary
@@ -57,6 +57,11 @@ from .summary import Source, Summary
 #: made in blocks brings each block's in its pairs, ``heuristics.result.MovedPairs``);
 #: ``blind_pairs`` is how many pairs the blocks hold, known before the first block.
 Take = Callable[[Neighbourhood, Iterator[PairResults], HeuristicResult | None, int], None]
+
+
+#: Where a run in blocks searches its decaying paths: SD_vis held whole, or near each pair.
+HELD, NEAR = "held", "near"
+DECAYING_SEARCHES = (HELD, NEAR)
 
 
 @dataclass(frozen=True)
@@ -72,6 +77,9 @@ class RunOptions:
     # Move Source: the source's own body at its probe point may block the helper's view of
     # the target, as the swarm flies it (--source-body); False: the spec's rule.
     source_body: bool = False
+    # Where a run in blocks searches its decaying paths (--decaying): in SD_vis held whole
+    # (HELD), or each pair's in a region around it (NEAR, core.local_paths): the same paths.
+    decaying: str = HELD
 
     def check(self) -> None:
         """OptionError for a value that is none of its choices; SwazureError for options that
@@ -81,6 +89,7 @@ class RunOptions:
             ("technique", TECHNIQUES),
             ("compat", tuple(COMPAT_MODES)),
             ("estimator", ESTIMATORS),
+            ("decaying", DECAYING_SEARCHES),
         ):
             value = getattr(self, name)
             if value not in choices:
@@ -94,6 +103,13 @@ class RunOptions:
             raise SwazureError(f"--compat {self.compat} changes the heuristics; add --technique")
         if self.source_body and self.technique != MOVE_SOURCE:
             raise SwazureError("--source-body changes Move Source: add --technique move-source")
+        if self.decaying == NEAR and (self.fuse > 1 or self.estimator != PATH):
+            raise SwazureError(
+                "--decaying near is for paths: fusion and the fits read SD_vis whole"
+            )
+        if self.decaying == NEAR and self.policy == LEAST_ERROR:
+            raise SwazureError("--decaying near needs a policy whose costs are bounded per cm: "
+                               "fewest-hops or shortest-length")  # fmt: skip
 
     @property
     def in_blocks(self) -> bool:
@@ -240,8 +256,8 @@ def _in_blocks(
     block: each block to ``take`` as it is made (a heuristic's moves in its pairs:
     ``MovedPairs``)."""
     # Plain Swazure and the heuristics read no decaying pair but those the paths hop over:
-    # the decaying paths may be searched near their pairs. Fusion and the fits read SD_vis.
-    near = options.fuse <= 1 and options.estimator == PATH
+    # their decaying paths may be searched near their pairs (checked: not fusion, not a fit).
+    near = options.decaying == NEAR
     plain = evaluate_blocked(swarm, sensor, options.policy, budget, progress, near_pairs=near)
     stage = _block_stage(plain, options, budget, progress)
     run: BlockedEvaluation | TechniqueBlocks = plain

@@ -403,3 +403,54 @@ def test_a_published_cloud_that_is_not_here_says_where_to_get_it(tmp_path, argum
         "machine: download it from https://github.com/flyinglightspeck/Swazure/tree/HEAD/src/"
         f"assets into {tmp_path} (the folder SWAZURE_DATASETS names)\n"
     )
+
+
+def test_decaying_paths_searched_near_their_pairs_write_the_same_files(tmp_path):
+    # A jittered plane of 10,000 FLSs 4 cm apart, r = 0.5 cm: its candidate pairs are past
+    # what 64M holds at once, and some blind pairs need a decaying path.
+    from ..core.test_local_paths import plane
+
+    cloud = tmp_path / "plane.xyz"
+    np.savetxt(cloud, plane(side=100).points)
+    files = {}
+    for decaying in ("held", "near"):
+        out = tmp_path / decaying
+        run = swazure(
+            "evaluate", "--cloud", str(cloud), "--radius", "0.5", "--memory", "64M",
+            "--decaying", decaying, "--out", str(out), "--quiet",
+        )  # fmt: skip
+        assert run.returncode == 0, run.stderr
+        summary = json.loads((out / "summary.json").read_text())
+        summary.pop("seconds")
+        files[decaying] = (out / "pairs.csv").read_bytes(), summary
+    assert files["held"][1]["decaying_pairs"] > 0
+    assert files["near"] == files["held"]
+    refused = swazure("evaluate", "--cloud", str(cloud), "--radius", "0.5", "--fuse", "2",
+                      "--decaying", "near")  # fmt: skip
+    assert refused.returncode != 0 and "fusion and the fits" in refused.stderr
+    assert len(refused.stderr.strip().splitlines()) == 1, refused.stderr
+
+
+@pytest.mark.parametrize("decaying", ["held", "near"])
+def test_evaluate_decaying_chooses_where_the_decaying_paths_are_searched(
+    tmp_path, monkeypatch, capsys, decaying
+):
+    import swazure_ros.core.blocks as blocks
+    import swazure_ros.core.local_paths as local_paths
+    from swazure_ros.cli.main import main
+
+    from ..core.test_local_paths import plane
+
+    searched = []
+    with_decaying, near = blocks.with_decaying, local_paths.local_decaying_paths
+    monkeypatch.setattr(
+        blocks, "with_decaying", lambda *a: searched.append("held") or with_decaying(*a)
+    )
+    monkeypatch.setattr(
+        blocks, "local_decaying_paths", lambda *a: searched.append("near") or near(*a)
+    )
+    cloud = tmp_path / "plane.xyz"
+    np.savetxt(cloud, plane(side=100).points)
+    args = ["evaluate", "--cloud", str(cloud), "--radius", "0.5", "--memory", "64M"]
+    assert main([*args, "--decaying", decaying, "--quiet"]) == 0
+    assert searched == [decaying]

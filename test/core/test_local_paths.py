@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.blocks import BlockedEvaluation, Budget, evaluate_blocked, with_decaying
+from swazure_ros.core.errors import SwazureError
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.heuristics.compat import COMPAT_MODES
@@ -182,14 +183,14 @@ def test_a_heuristic_on_blocks_that_searched_near_their_pairs_gives_the_held_run
 @pytest.mark.parametrize(
     ("options", "holds_sd_vis"),
     [
-        (RunOptions(), False),
-        (RunOptions(technique="move-obstructing"), False),
+        (RunOptions(), True),
+        (RunOptions(decaying="near"), False),
+        (RunOptions(technique="move-obstructing", decaying="near"), False),
         (RunOptions(fuse=2), True),
-        (RunOptions(policy="least-error"), True),
     ],
-    ids=["plain", "move-obstructing", "fuse", "least-error"],
+    ids=["plain", "plain-near", "move-obstructing-near", "fuse"],
 )
-def test_run_engine_holds_sd_vis_only_for_a_run_that_reads_it(
+def test_run_engine_holds_sd_vis_unless_asked_to_search_near_the_pairs(
     sensor, monkeypatch, options, holds_sd_vis
 ):
     import swazure_ros.core.blocks as blocks
@@ -207,6 +208,20 @@ def test_run_engine_holds_sd_vis_only_for_a_run_that_reads_it(
     assert without_seconds(run.summary.as_document()) == without_seconds(
         held.summary.as_document()
     )
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (RunOptions(fuse=2, decaying="near"), "fusion and the fits"),
+        (RunOptions(estimator="least-squares", decaying="near"), "fusion and the fits"),
+        (RunOptions(policy="least-error", decaying="near"), "fewest-hops or shortest-length"),
+        (RunOptions(decaying="nearby"), "decaying 'nearby'"),
+    ],
+)
+def test_a_search_near_the_pairs_is_refused_where_it_cannot_be_proven(sensor, options, message):
+    with pytest.raises(SwazureError, match=message):
+        options.check()
 
 
 def without_seconds(document):
