@@ -120,10 +120,11 @@ def local_decaying_paths(
     source, target : (M,) ndarray of int
         The pairs, sorted by source.
     candidates : (N,) ndarray of int
-        Each FLS's candidate pairs (:func:`.neighbours.pair_counts`): a region's weight.
+        Each FLS's candidate pairs as first (:func:`.neighbours.pair_counts`):
+        a region weighs its FLSs times the swarm's mean candidate pairs per FLS.
     limit : int
-        The candidate pairs a region's FLSs may have, summed; a region of one
-        source may have more.
+        The weight a region may have where cutting its sources in two pays
+        (:data:`MOST_OVERLAP`); a region of one source may weigh more.
     progress : Progress
         Told of the stage "decaying paths near their pairs", in pairs.
 
