@@ -30,7 +30,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from . import csr
 from .arrays import BoolArray, IntArray
 from .evaluate import evaluate_pairs
 from .evaluation import PairResults
@@ -322,11 +321,8 @@ class NearDecaying:
 
     def next(self, count: int) -> Paths:
         """The next ``count`` pairs' paths: a block's pairs without a sweet path in sight."""
-        paths, low, high = self.found.paths, self.taken, self.taken + count
-        offsets, nodes = csr.span(paths.offsets, paths.nodes, low, high)
-        self.taken = high
-        return Paths(paths.found[low:high], paths.hops[low:high], paths.length[low:high],
-                     offsets, nodes)  # fmt: skip
+        low, self.taken = self.taken, self.taken + count
+        return self.found.paths.span(low, self.taken)
 
 
 def _near_decaying(
@@ -392,9 +388,7 @@ class BlockedEvaluation:
                 if self.near is None and apart.any():
                     # A pair without a sweet path in sight searches the decaying pairs too:
                     # near each such pair, or in SD_vis held whole.
-                    if self.near_pairs and least_cost_per_cm(
-                        self.lean.sensor, self.lean.swarm.radius, self.policy
-                    ):
+                    if self.near_pairs:
                         self.near = _near_decaying(
                             self.lean, self.policy, self.sources(), progress
                         )
@@ -480,6 +474,8 @@ def evaluate_blocked(
     check_policy(policy)
     began = time.perf_counter()
     lean = lean_neighbourhood(swarm, sensor, budget, progress)
+    # Least-error's costs have no bound per cm: its decaying paths are searched held whole.
+    near_pairs = near_pairs and least_cost_per_cm(sensor, swarm.radius, policy) > 0.0
     return BlockedEvaluation(
         lean, policy, seconds=time.perf_counter() - began, near_pairs=near_pairs
     )

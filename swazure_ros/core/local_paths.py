@@ -181,7 +181,7 @@ def local_decaying_paths(
             proven |= apart | inside.all()
             if proven.any():
                 done = np.flatnonzero(proven)
-                kept.append((rows[done], _taken(paths, done)))
+                kept.append((rows[done], paths.take(done)))
                 hopped.append(_hopped(hood, kept[-1][1]))
                 progress.advance(len(done))
             margins[rows] = np.maximum(needed, mine * (1.0 + 1e-9))
@@ -332,12 +332,6 @@ def _closed(
     least = np.full(int(labels.max()) + 1 if len(labels) else 0, np.inf)
     np.minimum.at(least, labels, slack[members])
     return np.asarray(least[parts[sources]] >= reach)
-
-
-def _taken(paths: Paths, rows: IntArray) -> Paths:
-    """Paths ``rows`` of ``paths``, in that order."""
-    offsets, nodes = csr.take(paths.offsets, paths.nodes, rows)
-    return Paths(paths.found[rows], paths.hops[rows], paths.length[rows], offsets, nodes)
 
 
 def _hopped(hood: Neighbourhood, paths: Paths) -> NeighbourPairs:

@@ -35,6 +35,18 @@ class Paths:
         """Nodes of path ``pair`` from source to target; [] where none was found."""
         return [int(node) for node in self.nodes[self.offsets[pair] : self.offsets[pair + 1]]]
 
+    def take(self, pairs: IntArray) -> Paths:
+        """The paths of ``pairs`` (K,), indices in any order, as a record of their own."""
+        offsets, nodes = csr.take(self.offsets, self.nodes, pairs)
+        return Paths(self.found[pairs], self.hops[pairs], self.length[pairs], offsets, nodes)
+
+    def span(self, low: int, high: int) -> Paths:
+        """The paths of pairs ``low`` .. ``high - 1``: views, not copies."""
+        offsets, nodes = csr.span(self.offsets, self.nodes, low, high)
+        return Paths(
+            self.found[low:high], self.hops[low:high], self.length[low:high], offsets, nodes
+        )
+
 
 def paths_from_rows(
     size: int, rows: dict[int, list[int]], lengths: dict[int, float] | None = None

@@ -44,3 +44,13 @@ def test_merging_needs_one_path_of_the_second_record_per_pair_it_replaces():
         merge_paths(first, paths_from_rows(2, {}), np.array([False, True]))
     with pytest.raises(ValueError, match="one value per pair"):
         merge_paths(first, paths_from_rows(1, {}), np.array([True]))
+
+
+def test_paths_taken_or_spanned_are_the_pairs_asked_for():
+    paths = paths_from_rows(4, {0: [0, 1], 2: [2, 3, 4], 3: [5, 6]})
+    taken = paths.take(np.array([3, 1, 2]))
+    assert [taken.path(m) for m in range(3)] == [[5, 6], [], [2, 3, 4]]
+    assert taken.found.tolist() == [True, False, True] and taken.hops.tolist() == [1, 0, 2]
+    spanned = paths.span(1, 3)
+    assert [spanned.path(m) for m in range(2)] == [[], [2, 3, 4]]
+    assert spanned.found.tolist() == [False, True]
