@@ -24,6 +24,14 @@ apart when every FLS of its source's part of the region lies within the
 radius less a sensor's reach of a source, where no edge can leave it. Any
 other pair is searched again in a region whose radius its found path needs,
 or twice as wide: a region that holds every FLS is the whole graph.
+
+Nor does a region hold every decaying pair between its FLSs. An edge on such
+a path leaves the rest of the path less of the ball the longer it is
+(:func:`longest_edge`): where a region's radius is a few sweet hops, only the
+decaying pairs a little beyond the sweet range can be on its paths, and only
+their sight is judged. A region without the longer pairs proves no pair
+apart: a pair it does not join is searched again, wider, until its region
+holds every decaying pair.
 """
 
 from __future__ import annotations
@@ -31,9 +39,10 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
-from . import csr
+from . import csr, jit
 from .arrays import BoolArray, FloatArray, IntArray
 from .fans import obstructed_fans
 from .geometry import Swarm
@@ -86,6 +95,49 @@ def least_cost_per_cm(sensor: Sensor, radius: float, policy: str) -> float:
     else:
         least = sensor.sweet_min / (sensor.sweet_min + 2.0 * radius)
     return least * (1.0 - 1e-9)
+
+
+def longest_edge(policy: str, ratio: float, radius: float, region_radius: float) -> float:
+    """The longest tracking distance, cm, of an SD_vis edge on any path a region must hold.
+
+    A path of cost c from s to t that hops from u to v over an edge of cost w
+    spends at least ``ratio`` a cm on the rest, so
+    ``|s - u| + |s - v| + w / ratio <= c / ratio + |s - t| = 2R``, R the
+    radius of the ball its nodes lie in (:func:`local_decaying_paths`). The
+    edge's ends are at least its tracking distance and 2r apart: an edge of
+    shortest-length cost w spans at most ``(2R - 2r) / (1 + 1 / ratio)`` of
+    tracking distance, one of fewest-hops ``2R - 1 / ratio - 2r``. At display
+    scale most decaying pairs are far longer than a blind pair's path needs.
+
+    Parameters
+    ----------
+    policy : {'fewest-hops', 'shortest-length'}
+    ratio : float
+        :func:`least_cost_per_cm`'s, positive.
+    radius : float
+        The FLS radius r, cm.
+    region_radius : float
+        The widest R among the region's sources, cm.
+
+    Returns
+    -------
+    float
+        Tracking distance, cm, a hair above the bound (1e-9 of it); edges as
+        long or longer lie on no such path.
+
+    Examples
+    --------
+    >>> round(longest_edge("shortest-length", 0.75, 0.5, 8.0), 6)  # (16 - 1) / (1 + 4 / 3)
+    6.428571
+    >>> round(longest_edge("fewest-hops", 1 / 31, 0.5, 40.0), 6)  # 80 - 31 - 1
+    48.0
+    """
+    policy = check_policy(policy)
+    if policy == FEWEST_HOPS:
+        longest = 2.0 * region_radius - 1.0 / ratio - 2.0 * radius
+    else:
+        longest = (2.0 * region_radius - 2.0 * radius) / (1.0 + 1.0 / ratio)
+    return longest * (1.0 + 1e-9)
 
 
 @dataclass(frozen=True)
@@ -167,7 +219,10 @@ def local_decaying_paths(
             np.maximum.at(radius_of, source[rows], radius)
             slack = _slack(points, tile, radius_of[tile])
             inside = slack >= 0.0
-            hood = _region(sweet, inside, sight)
+            longest = longest_edge(policy, ratio, swarm.radius, float(radius.max()))
+            hood = _region(sweet, inside, sight, longest)
+            # A graph without the longer decaying pairs proves no pair apart.
+            whole = longest >= sensor.decaying_max
             paths = shortest_paths(
                 hood.any_visible, source[rows], target[rows], policy,
                 components=hood.any_visible_components,
@@ -175,10 +230,11 @@ def local_decaying_paths(
             cost = paths.hops if policy == FEWEST_HOPS else paths.length
             spread = np.linalg.norm(points[target[rows]] - points[source[rows]], axis=1)
             mine = radius_of[source[rows]]
-            needed = np.where(paths.found, (cost / ratio + spread) / 2.0, 2.0 * mine)
+            needed = np.where(paths.found, (cost / ratio + spread) / 2.0, WIDER * mine)
             proven = paths.found & (needed <= mine)
-            apart = ~paths.found & _closed(hood, inside, slack, source[rows], reach)
-            proven |= apart | inside.all()
+            if whole:
+                apart = ~paths.found & _closed(hood, inside, slack, source[rows], reach)
+                proven |= apart | inside.all()
             if proven.any():
                 done = np.flatnonzero(proven)
                 kept.append((rows[done], paths.take(done)))
@@ -196,8 +252,13 @@ def local_decaying_paths(
 #: nearly the whole region, and cutting would build its pairs again for nothing.
 MOST_OVERLAP = 1.5
 #: A source's radius is rounded up to a step of this ratio: a region is found by one
-#: query of the FLSs per step, not per source.
+#: query of the FLSs per step, not per source, and holds the sources of one step.
 RADIUS_STEP = 1.1
+#: A pair its region did not join is searched again in a region this many times as wide.
+#: Its path, if any, hops over a decaying pair longer than the region held, or its
+#: ends lie apart; the first is the usual case, and needs a little more, where twice as
+#: wide would hold nearly every decaying pair of the FLSs around it.
+WIDER = 1.5
 
 
 def _stepped(radii: FloatArray) -> FloatArray:
@@ -226,7 +287,13 @@ def _tiles(
         inside = _slack(points, distinct[group], radius_of[group]) >= 0.0
         return per_fls * float(np.count_nonzero(inside))
 
-    groups, todo = [], [np.arange(len(distinct))]
+    # Sources of one radius together: a region holds the decaying pairs its widest
+    # source's paths may hop over (:func:`longest_edge`), so narrower ones would judge
+    # longer pairs than they need.
+    groups, todo = (
+        [],
+        [np.flatnonzero(radius_of == radius) for radius in np.unique(radius_of)[::-1]],
+    )
     while todo:
         group = todo.pop()
         whole = weight(group)
@@ -253,60 +320,106 @@ def _slack(points: FloatArray, centres: IntArray, radii: FloatArray) -> FloatArr
 class _Sight:
     """The decaying pairs' line of sight as the regions judged it, each pair judged once.
 
-    A pair is judged in the first region that holds both its FLSs, and its sight read
-    back there in every later one: regions overlap, and sight is most of their work.
-    Each FLS keeps a bit per region that held it; each region keeps the keys
-    (``first * N + second``) of the pairs it judged in sight, sorted.
+    A pair is judged in the first region that holds both its FLSs and pairs as long, and
+    its sight read back there in every later one: regions overlap, and sight is most of
+    their work. Each FLS keeps a bit per region that held it; each region keeps the
+    longest tracking distance it judged below, and the keys (``first * N + second``) of
+    the pairs it judged in sight, sorted, in one buffer.
     """
 
     def __init__(self, size: int) -> None:
         self.size = size
         self.held_by = np.zeros((size, 1), dtype=np.uint64)  # bit t of word t // 64: region t
-        self.in_sight: list[IntArray] = []  # region t's pairs judged in sight, keys sorted
+        self.longest = np.zeros(0)  # region t judged the pairs shorter than this, cm
+        self.key_start = np.zeros(1, dtype=np.int64)  # region t's keys: [start[t], start[t+1])
+        self.keys = np.zeros(1024, dtype=np.int64)  # the regions' keys in sight, and room
         self.judged = 0  # pairs judged so far
 
-    def of(self, swarm: Swarm, inside: BoolArray, first: IntArray, second: IntArray) -> BoolArray:
-        """Whether each decaying pair first[m]-second[m], both FLSs ``inside``, is in sight;
-        the region is the next one (it is recorded)."""
+    def of(
+        self,
+        swarm: Swarm,
+        inside: BoolArray,
+        first: IntArray,
+        second: IntArray,
+        tracking: FloatArray,
+        longest: float,
+    ) -> BoolArray:
+        """Whether each decaying pair first[m]-second[m], both FLSs ``inside`` and each
+        shorter than ``longest`` (tracking distance, cm), is in sight; the region is the
+        next one (it is recorded)."""
         keys = first * self.size + second
-        shared = self.held_by[first] & self.held_by[second]
-        known = shared.any(axis=1)
-        visible = np.zeros(len(first), dtype=bool)
-        word = np.argmax(shared[known] != 0, axis=1)
-        bits = shared[known][np.arange(len(word)), word]
-        # The lowest bit set: the first region that held both FLSs, where it was judged.
-        region = word * 64 + np.log2(bits & (~bits + np.uint64(1))).astype(np.int64)
-        at = np.flatnonzero(known)
-        for judged_in in np.unique(region):
-            rows = at[region == judged_in]
-            sorted_keys = self.in_sight[judged_in]
-            place = np.searchsorted(sorted_keys, keys[rows])
-            place[place == len(sorted_keys)] = 0
-            visible[rows] = sorted_keys[place] == keys[rows] if len(sorted_keys) else False
-        new = np.flatnonzero(~known)
+        state = np.empty(len(first), dtype=np.int8)
+        _read_back(self.held_by, self.longest, self.key_start, self.keys, first, second,
+                   tracking, keys, state)  # fmt: skip
+        visible = state > 0
+        new = np.flatnonzero(state < 0)
         self.judged += len(new)
         visible[new] = ~obstructed_fans(swarm.points, swarm.radius, first[new], second[new])
-        self._record(inside, np.sort(keys[new][visible[new]]))
+        self._record(inside, np.sort(keys[new][visible[new]]), longest)
         return visible
 
-    def _record(self, inside: BoolArray, in_sight: IntArray) -> None:
-        region = len(self.in_sight)
+    def _record(self, inside: BoolArray, in_sight: IntArray, longest: float) -> None:
+        region = len(self.longest)
+        self.longest = np.append(self.longest, longest)
         word, bit = divmod(region, 64)
         if word == self.held_by.shape[1]:
             self.held_by = np.hstack([self.held_by, np.zeros((self.size, 1), dtype=np.uint64)])
         self.held_by[inside, word] |= np.uint64(1) << np.uint64(bit)
-        self.in_sight.append(in_sight)
+        start = int(self.key_start[-1])
+        stop = start + len(in_sight)
+        if stop > len(self.keys):  # room doubled: each key is copied a few times at most
+            grown = np.empty(max(stop, 2 * len(self.keys)), dtype=np.int64)
+            grown[:start] = self.keys[:start]
+            self.keys = grown
+        self.keys[start:stop] = in_sight
+        self.key_start = np.append(self.key_start, stop)
 
 
-def _region(sweet: Neighbourhood, inside: BoolArray, sight: _Sight) -> Neighbourhood:
-    """The sweet and decaying pairs with both FLSs ``inside`` and their sight, as a
-    neighbourhood: the next region of ``sight``."""
+@jit.kernel(cache=True, parallel=True)
+def _read_back(
+    held_by: NDArray[np.uint64],
+    longest: FloatArray,
+    key_start: IntArray,
+    keys: IntArray,
+    first: IntArray,
+    second: IntArray,
+    tracking: FloatArray,
+    pair_keys: IntArray,
+    state: NDArray[np.int8],
+) -> None:
+    """Each pair's sight where a region judged it: ``state`` 1 in sight, 0 not, -1 not
+    judged yet. The region is the first that held both FLSs and pairs as long."""
+    for m in jit.prange(len(first)):
+        state[m] = -1
+        for word in range(held_by.shape[1]):
+            shared = held_by[first[m], word] & held_by[second[m], word]
+            bit = 0
+            while shared != 0 and state[m] < 0:
+                if shared & np.uint64(1):
+                    region = word * 64 + bit
+                    if longest[region] > tracking[m]:
+                        lo, hi = key_start[region], key_start[region + 1]
+                        at = lo + np.searchsorted(keys[lo:hi], pair_keys[m])
+                        state[m] = 1 if at < hi and keys[at] == pair_keys[m] else 0
+                shared >>= np.uint64(1)
+                bit += 1
+            if state[m] >= 0:
+                break
+
+
+def _region(
+    sweet: Neighbourhood, inside: BoolArray, sight: _Sight, longest: float
+) -> Neighbourhood:
+    """The sweet pairs and the decaying pairs shorter than ``longest`` (tracking distance,
+    cm) with both FLSs ``inside``, and their sight, as a neighbourhood: the next region of
+    ``sight``."""
     swarm, sensor = sweet.swarm, sweet.sensor
     # The region's FLSs as a swarm of their own: its pairs are the whole list's pairs between
     # them, each distance from the same two points, found without the pairs that leave it.
     members = np.flatnonzero(inside)
     part = replace(swarm, points=swarm.points[members], cloud_index=swarm.cloud_index[members])
-    found = neighbour_pairs(part, sensor)
+    # Every sweet pair, whose sight is known, however short the decaying pairs are cut.
+    found = neighbour_pairs(part, sensor, longest=max(longest, sensor.sweet_max))
     found = found.select((found.range_class == SWEET) | (found.range_class == DECAYING))
     pairs = replace(found, first=members[found.first], second=members[found.second])
     visible = np.zeros(len(pairs), dtype=bool)
@@ -315,7 +428,10 @@ def _region(sweet: Neighbourhood, inside: BoolArray, sight: _Sight) -> Neighbour
     known = sweet.pairs.index(pairs.first[is_sweet], pairs.second[is_sweet])
     visible[is_sweet] = sweet.visible[known]
     decaying = ~is_sweet
-    visible[decaying] = sight.of(swarm, inside, pairs.first[decaying], pairs.second[decaying])
+    visible[decaying] = sight.of(
+        swarm, inside, pairs.first[decaying], pairs.second[decaying], pairs.tracking[decaying],
+        longest,
+    )  # fmt: skip
     usable = np.ones(len(pairs), dtype=bool)
     return Neighbourhood(swarm, sensor, pairs, visible, sweet.grid, usable)
 

@@ -242,7 +242,7 @@ def _pairs_within(
     return rows, second
 
 
-def sensor_reach(sensor: Sensor, radius: float) -> float:
+def sensor_reach(sensor: Sensor, radius: float, longest: float | None = None) -> float:
     """The centre distance (cm) below which two FLSs of ``radius`` cm may be neighbours.
 
     ``decaying_max + 2r``, and at least a kissing pair's distance.
@@ -252,6 +252,9 @@ def sensor_reach(sensor: Sensor, radius: float) -> float:
     sensor : Sensor
     radius : float, cm
         The FLS radius r.
+    longest : float, optional
+        A tracking distance, cm, below which pairs are asked for, when shorter
+        than ``sensor.decaying_max``.
 
     Returns
     -------
@@ -264,11 +267,11 @@ def sensor_reach(sensor: Sensor, radius: float) -> float:
     >>> sensor_reach(Sensor(6.0, 8.0, 8.0, 30.0), 0.5)
     31.0
     """
-    reach = sensor.decaying_max + 2.0 * radius
-    return max(reach, 2.0 * radius + 2 * KISSING_TOLERANCE)
+    farthest = sensor.decaying_max if longest is None else min(longest, sensor.decaying_max)
+    return max(farthest + 2.0 * radius, 2.0 * radius + 2 * KISSING_TOLERANCE)
 
 
-def candidate_reach(sensor: Sensor, radius: float) -> float:
+def candidate_reach(sensor: Sensor, radius: float, longest: float | None = None) -> float:
     """The reach of candidate pairs, cm: a rounding margin over :func:`sensor_reach`.
 
     The grid search finds candidates a little beyond the reach, and
@@ -279,6 +282,8 @@ def candidate_reach(sensor: Sensor, radius: float) -> float:
     sensor : Sensor
     radius : float, cm
         The FLS radius r.
+    longest : float, optional
+        As :func:`sensor_reach`'s.
 
     Returns
     -------
@@ -286,7 +291,7 @@ def candidate_reach(sensor: Sensor, radius: float) -> float:
         :func:`sensor_reach` times (1 + 1e-9).
     """
     # The distances that decide are centre_distance's, not the grid search's.
-    return sensor_reach(sensor, radius) * (1.0 + 1e-9)
+    return sensor_reach(sensor, radius, longest) * (1.0 + 1e-9)
 
 
 def neighbour_pairs(
@@ -296,6 +301,7 @@ def neighbour_pairs(
     stop: int | None = None,
     grid: Grid | None = None,
     involving: BoolArray | None = None,
+    longest: float | None = None,
 ) -> NeighbourPairs:
     """Every unordered pair with tracking distance below ``sensor.decaying_max``, classified.
 
@@ -316,6 +322,10 @@ def neighbour_pairs(
     involving : (N,) array of bool, optional
         Only the pairs with an FLS True here: the whole list's selection of
         them, found without the whole list.
+    longest : float, optional
+        Only the pairs with tracking distance below this, cm, when it is
+        below ``sensor.decaying_max``: a grid of smaller cells, and fewer
+        pairs measured. ``grid``, if given, must be of at least this reach.
 
     Returns
     -------
@@ -341,7 +351,8 @@ def neighbour_pairs(
     [1, 3, 2, 3]
     """
     stop = swarm.size if stop is None else stop
-    reach = candidate_reach(sensor, swarm.radius)
+    farthest = sensor.decaying_max if longest is None else min(longest, sensor.decaying_max)
+    reach = candidate_reach(sensor, swarm.radius, farthest)
     points = np.ascontiguousarray(swarm.points, dtype=np.float64)
     grid = grid if grid is not None else grid_of(points, reach)
     if involving is None:
@@ -352,7 +363,7 @@ def neighbour_pairs(
     first = np.repeat(np.arange(start, stop, dtype=np.int64), np.diff(rows))
     distance = centre_distance(swarm.points, first, second)
     tracking = distance - 2.0 * swarm.radius
-    keep = tracking < sensor.decaying_max
+    keep = tracking < farthest
     # Candidates come from the sensor's reach plus a rounding margin, so nearly always
     # every one is kept: copying four arrays of 6.8 M pairs for nothing took 0.25 s.
     if not keep.all():

@@ -12,7 +12,7 @@ from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.heuristics.compat import COMPAT_MODES
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.regions import TechniqueBlocks
-from swazure_ros.core.local_paths import least_cost_per_cm, local_decaying_paths
+from swazure_ros.core.local_paths import least_cost_per_cm, local_decaying_paths, longest_edge
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.neighbours import ordered_blind_pairs, pair_counts
 from swazure_ros.core.pair_statistics import PairTally
@@ -63,6 +63,31 @@ def test_no_edge_of_sd_vis_costs_less_a_cm_than_the_bound(sensor, policy):
     assert 0 < least_cost_per_cm(sensor, hood.swarm.radius, policy) <= least
 
 
+@pytest.mark.parametrize("policy", POLICIES)
+def test_no_hop_of_a_path_is_longer_than_its_ball_allows(sensor, policy):
+    swarm = plane()
+    hood = neighbourhood(swarm, sensor)
+    source, target = apart_in_sight(hood)
+    paths = shortest_paths(hood.any_visible, source, target, policy)
+    ratio = least_cost_per_cm(sensor, swarm.radius, policy)
+    cost = paths.hops if policy == "fewest-hops" else paths.length
+    spread = np.linalg.norm(swarm.points[target] - swarm.points[source], axis=1)
+    ball = (cost / ratio + spread) / 2  # the radius about the source its nodes lie in
+    longest = np.zeros(len(source))
+    for m in np.flatnonzero(paths.found):
+        nodes = paths.path(m)
+        hops = hood.pairs.index(
+            np.minimum(nodes[:-1], nodes[1:]), np.maximum(nodes[:-1], nodes[1:])
+        )
+        longest[m] = hood.pairs.tracking[hops].max()
+    bound = np.array([longest_edge(policy, ratio, swarm.radius, radius) for radius in ball])
+    assert paths.found.sum() > 20 and (longest < bound).all()
+    if policy == "shortest-length":
+        # Tight enough to matter: the first region's bound leaves out most decaying pairs.
+        assert (longest > 0.8 * bound)[paths.found].any()
+        assert bound.min() < sensor.decaying_max / 2
+
+
 def test_least_error_has_no_bound_and_is_not_searched_near_its_pairs(sensor):
     swarm = plane(side=6)
     assert least_cost_per_cm(sensor, swarm.radius, "least-error") == 0.0
@@ -84,7 +109,8 @@ def test_paths_searched_near_their_pairs_are_those_of_sd_vis_held_whole(sensor, 
     counts = pair_counts(swarm, sensor)
     near = local_decaying_paths(hood, policy, source, target, counts, 40 * 200, SILENT)
     assert near.regions >= 3
-    assert near.judged <= hood.pairs.count(DECAYING)  # each pair judged once at most
+    # Each pair judged once at most, and only those short enough to be on a path.
+    assert near.judged <= hood.pairs.count(DECAYING) // (4 if policy == "shortest-length" else 1)
     assert_same_paths(near.paths, want)
     # Every decaying pair a path hops over is kept, once, and no other.
     first, second = near.hopped.first, near.hopped.second
