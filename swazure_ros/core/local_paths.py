@@ -23,7 +23,8 @@ it holds that ball about each. A pair the region does not join is proven
 apart when every FLS of its source's part of the region lies within the
 radius less a sensor's reach of a source, where no edge can leave it. Any
 other pair is searched again in a region whose radius its found path needs,
-or twice as wide: a region that holds every FLS is the whole graph.
+or a little wider (:data:`WIDER`): a region that holds every FLS and every
+decaying pair is the whole graph.
 
 Nor does a region hold every decaying pair between its FLSs. An edge on such
 a path leaves the rest of the path less of the ball the longer it is
@@ -47,7 +48,7 @@ from .arrays import BoolArray, FloatArray, IntArray
 from .fans import obstructed_fans
 from .geometry import Swarm
 from .neighbourhood import Neighbourhood
-from .neighbours import NeighbourPairs, neighbour_pairs
+from .neighbours import NeighbourPairs, neighbour_pairs, sensor_reach
 from .partition import kd_split
 from .path_arrays import Paths, path_hops
 from .paths import FEWEST_HOPS, LEAST_ERROR, check_policy, shortest_paths
@@ -207,10 +208,11 @@ def local_decaying_paths(
     hopped: list[NeighbourPairs] = []
     rounds = regions = 0
     sight = _Sight(swarm.size)
+    weights = _Weights(sweet, policy, ratio, candidates)
     while len(pending):
         rounds += 1
         settled = [np.empty(0, dtype=np.int64)]
-        for tile in _tiles(points, source[pending], margins[pending], candidates, limit):
+        for tile in _tiles(points, source[pending], margins[pending], weights, limit):
             regions += 1
             rows = pending[np.isin(source[pending], tile)]
             # Each source's radius: the widest its pairs need, one of a few steps.
@@ -251,6 +253,10 @@ def local_decaying_paths(
 #: many times the group's: where the sensor's reach spans the shape, each half holds
 #: nearly the whole region, and cutting would build its pairs again for nothing.
 MOST_OVERLAP = 1.5
+#: A region weighing this many times the budget is cut however much its halves overlap,
+#: if each half weighs less: sources spread over the shape with wide balls (paths of
+#: 20 cm and more, the race car at 65,536 points) made regions of half the swarm.
+OVERLOADED = 2.0
 #: A source's radius is rounded up to a step of this ratio: a region is found by one
 #: query of the FLSs per step, not per source, and holds the sources of one step.
 RADIUS_STEP = 1.1
@@ -258,7 +264,7 @@ RADIUS_STEP = 1.1
 #: Its path, if any, hops over a decaying pair longer than the region held, or its
 #: ends lie apart; the first is the usual case, and needs a little more, where twice as
 #: wide would hold nearly every decaying pair of the FLSs around it.
-WIDER = 1.5
+WIDER = 1.2
 
 
 def _stepped(radii: FloatArray) -> FloatArray:
@@ -267,8 +273,40 @@ def _stepped(radii: FloatArray) -> FloatArray:
     return np.asarray(np.maximum(np.power(RADIUS_STEP, steps), radii), dtype=np.float64)
 
 
+class _Weights:
+    """Candidate pairs per FLS of a region, by the radius of its widest source: the
+    swarm's mean, times the share of an FLS's pairs short enough for the region
+    (:func:`longest_edge`), counted round a seeded sample of the FLSs."""
+
+    SAMPLE = 1000  # FLSs counted round
+
+    def __init__(
+        self, sweet: Neighbourhood, policy: str, ratio: float, candidates: IntArray
+    ) -> None:
+        swarm, self.sensor = sweet.swarm, sweet.sensor
+        self.policy, self.ratio, self.fls_radius = policy, ratio, swarm.radius
+        # (An FLS's own count is of the pairs it is first of, which depends on the order
+        # of the indices: the mean, both ways, does not.)
+        self.mean = 2.0 * float(candidates.sum()) / max(swarm.size, 1)
+        self.tree = cKDTree(swarm.points)
+        rows = np.random.default_rng(0).permutation(swarm.size)[: self.SAMPLE]
+        self.sample = swarm.points[np.sort(rows)]
+        self.every = self._within(sensor_reach(self.sensor, swarm.radius))
+        self.known: dict[float, float] = {}
+
+    def _within(self, reach: float) -> int:
+        return int(self.tree.query_ball_point(self.sample, reach, return_length=True).sum())
+
+    def __call__(self, radius: float) -> float:
+        if radius not in self.known:
+            longest = longest_edge(self.policy, self.ratio, self.fls_radius, radius)
+            within = self._within(sensor_reach(self.sensor, self.fls_radius, longest))
+            self.known[radius] = self.mean * within / max(self.every, 1)
+        return self.known[radius]
+
+
 def _tiles(
-    points: FloatArray, sources: IntArray, margins: FloatArray, candidates: IntArray, limit: int
+    points: FloatArray, sources: IntArray, margins: FloatArray, weights: _Weights, limit: int
 ) -> list[IntArray]:
     """The distinct ``sources`` in compact groups whose regions weigh at most ``limit``
     candidates where cutting them smaller pays, in k-d order.
@@ -279,13 +317,11 @@ def _tiles(
     distinct, which = np.unique(sources, return_inverse=True)
     radius_of = np.zeros(len(distinct))
     np.maximum.at(radius_of, which, _stepped(margins))
-    # A region's weight: its FLSs at the swarm's mean candidates per FLS. (An FLS's own
-    # count is of the pairs it is first of, which depends on the order of the indices.)
-    per_fls = 2.0 * float(candidates.sum()) / max(len(points), 1)
 
     def weight(group: IntArray) -> float:
+        """The group's region's FLSs at their candidates within its widest source's cut."""
         inside = _slack(points, distinct[group], radius_of[group]) >= 0.0
-        return per_fls * float(np.count_nonzero(inside))
+        return weights(float(radius_of[group].max())) * float(np.count_nonzero(inside))
 
     # Sources of one radius together: a region holds the decaying pairs its widest
     # source's paths may hop over (:func:`longest_edge`), so narrower ones would judge
@@ -299,7 +335,11 @@ def _tiles(
         whole = weight(group)
         if len(group) > 1 and whole > limit:
             halves = [group[half] for half in kd_split(points[distinct[group]], 2)]
-            if sum(weight(half) for half in halves) <= MOST_OVERLAP * whole:
+            parts = [weight(half) for half in halves]
+            # Cut where it pays, and where the region would hold far more than the budget
+            # and each half less: memory before time.
+            pays = sum(parts) <= MOST_OVERLAP * whole
+            if pays or (whole > OVERLOADED * limit and max(parts) < whole):
                 todo.extend(reversed(halves))  # the first half is searched first
                 continue
         groups.append(distinct[group])

@@ -209,14 +209,25 @@ def test_a_heuristic_on_blocks_that_searched_near_their_pairs_gives_the_held_run
 @pytest.mark.parametrize(
     ("options", "holds_sd_vis"),
     [
-        (RunOptions(), True),
+        (RunOptions(decaying="held"), True),
         (RunOptions(decaying="near"), False),
         (RunOptions(technique="move-obstructing", decaying="near"), False),
+        (RunOptions(), False),
+        (RunOptions(technique="move-source"), False),
         (RunOptions(fuse=2), True),
+        (RunOptions(policy="least-error"), True),
     ],
-    ids=["plain", "plain-near", "move-obstructing-near", "fuse"],
+    ids=[
+        "plain-held",
+        "plain-near",
+        "move-obstructing-near",
+        "plain",
+        "move-source",
+        "fuse",
+        "least-error",
+    ],
 )
-def test_run_engine_holds_sd_vis_unless_asked_to_search_near_the_pairs(
+def test_run_engine_holds_sd_vis_only_where_a_search_near_the_pairs_cannot_serve(
     sensor, monkeypatch, options, holds_sd_vis
 ):
     import swazure_ros.core.blocks as blocks
@@ -255,3 +266,26 @@ def without_seconds(document):
     if isinstance(document, dict):
         return {key: without_seconds(value) for key, value in document.items() if key != "seconds"}
     return document
+
+
+def test_regions_that_overlap_are_cut_only_when_far_over_the_budget(sensor):
+    from swazure_ros.core.local_paths import OVERLOADED, _tiles, _Weights
+
+    swarm = plane()
+    hood = neighbourhood(swarm, sensor)
+    counts = pair_counts(swarm, sensor)
+    weights = _Weights(
+        hood, "shortest-length", least_cost_per_cm(sensor, 0.5, "shortest-length"), counts
+    )
+    sources = np.arange(0, swarm.size, 67)  # spread over the plane
+    wide = np.full(len(sources), 70.0)  # balls of 70 cm on a plane 156 cm wide
+    # The balls hold every FLS, and pairs up to the sensor's reach: the swarm's candidates.
+    assert weights(70.0) == pytest.approx(2.0 * counts.sum() / swarm.size)
+    assert weights(12.0) < weights(70.0) / 2  # a narrow region holds the shorter pairs only
+    whole = weights(70.0) * swarm.size
+    # Halves as heavy as the whole together: not worth cutting within twice the budget ...
+    assert len(_tiles(swarm.points, sources, wide, weights, int(whole / OVERLOADED) + 1)) == 1
+    # ... and cut, each region lighter, when far over it.
+    groups = _tiles(swarm.points, sources, wide, weights, int(whole / (2 * OVERLOADED)))
+    assert len(groups) > 1
+    assert sorted(np.concatenate(groups).tolist()) == sources.tolist()
