@@ -17,7 +17,7 @@ from ..api.engine import SwarmSetup
 from ..core.blocks import DEFAULT_MEMORY, Budget
 from ..core.fit import ESTIMATORS, PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
-from ..core.pipeline import DECAYING_SEARCHES, HELD, EngineRun, RunOptions, run_engine
+from ..core.pipeline import AUTO, DECAYING_SEARCHES, EngineRun, RunOptions, run_engine
 from ..core.progress import HUNDREDTHS, Progress
 from ..files.atomic import write_json
 from ..files.reading import available_memory
@@ -112,12 +112,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--decaying",
         choices=DECAYING_SEARCHES,
-        default=HELD,
+        default=AUTO,
         help="where a run in blocks searches the paths of pairs without a sweet path in "
-        "sight: in the swarm's decaying pairs in sight held whole (held, the default: fastest "
-        "where they fit), or each in a region around its pair (near: less memory on a "
-        "display several sensor reaches wide, often slower); the same paths either way "
-        "(docs/core.md, 'Decaying paths near their pairs')",
+        "sight, when the swarm's decaying pairs do not fit its memory at once: in those "
+        "pairs in sight held whole (held), or each in a region around its pair (near: less "
+        "time and memory on a display several sensor reaches wide); auto, the default, is "
+        "near for plain Swazure and the heuristics by shortest-length or fewest-hops, held "
+        "for the rest; the same paths either way (docs/core.md, 'Decaying paths near their "
+        "pairs')",
     )
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_swarm_file_argument(

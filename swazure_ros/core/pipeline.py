@@ -59,9 +59,11 @@ from .summary import Source, Summary
 Take = Callable[[Neighbourhood, Iterator[PairResults], HeuristicResult | None, int], None]
 
 
-#: Where a run in blocks searches its decaying paths: SD_vis held whole, or near each pair.
-HELD, NEAR = "held", "near"
-DECAYING_SEARCHES = (HELD, NEAR)
+#: Where a run in blocks searches its decaying paths: SD_vis held whole, near each pair,
+#: or near each pair wherever that can be proven (AUTO: plain or a heuristic, by
+#: shortest-length or fewest-hops).
+AUTO, HELD, NEAR = "auto", "held", "near"
+DECAYING_SEARCHES = (AUTO, HELD, NEAR)
 
 
 @dataclass(frozen=True)
@@ -79,7 +81,8 @@ class RunOptions:
     source_body: bool = False
     # Where a run in blocks searches its decaying paths (--decaying): in SD_vis held whole
     # (HELD), or each pair's in a region around it (NEAR, core.local_paths): the same paths.
-    decaying: str = HELD
+    # AUTO: NEAR where it can be proven and the run reads only paths, else HELD.
+    decaying: str = AUTO
 
     def check(self) -> None:
         """OptionError for a value that is none of its choices; SwazureError for options that
@@ -110,6 +113,16 @@ class RunOptions:
         if self.decaying == NEAR and self.policy == LEAST_ERROR:
             raise SwazureError("--decaying near needs a policy whose costs are bounded per cm: "
                                "fewest-hops or shortest-length")  # fmt: skip
+
+    @property
+    def near_pairs(self) -> bool:
+        """Whether a run in blocks searches its decaying paths near their pairs
+        (:mod:`.local_paths`): asked, or by default where the run reads no decaying pair
+        but those its paths hop over (not fusion, not a fit) and the policy's costs are
+        bounded per cm (not least-error)."""
+        if self.decaying == AUTO:
+            return self.fuse == 1 and self.estimator == PATH and self.policy != LEAST_ERROR
+        return self.decaying == NEAR
 
     @property
     def in_blocks(self) -> bool:
@@ -257,7 +270,7 @@ def _in_blocks(
     ``MovedPairs``)."""
     # Plain Swazure and the heuristics read no decaying pair but those the paths hop over:
     # their decaying paths may be searched near their pairs (checked: not fusion, not a fit).
-    near = options.decaying == NEAR
+    near = options.near_pairs
     plain = evaluate_blocked(swarm, sensor, options.policy, budget, progress, near_pairs=near)
     stage = _block_stage(plain, options, budget, progress)
     run: BlockedEvaluation | TechniqueBlocks = plain

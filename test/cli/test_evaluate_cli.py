@@ -431,9 +431,18 @@ def test_decaying_paths_searched_near_their_pairs_write_the_same_files(tmp_path)
     assert len(refused.stderr.strip().splitlines()) == 1, refused.stderr
 
 
-@pytest.mark.parametrize("decaying", ["held", "near"])
+@pytest.mark.parametrize(
+    ("options", "decaying"),
+    [
+        (["--decaying", "held"], "held"),
+        (["--decaying", "near"], "near"),
+        ([], "near"),  # auto: plain Swazure by shortest-length
+        (["--fuse", "2"], "held"),  # auto: fusion reads SD_vis whole
+    ],
+    ids=["held", "near", "auto-plain", "auto-fuse"],
+)
 def test_evaluate_decaying_chooses_where_the_decaying_paths_are_searched(
-    tmp_path, monkeypatch, capsys, decaying
+    tmp_path, monkeypatch, capsys, options, decaying
 ):
     import swazure_ros.core.blocks as blocks
     import swazure_ros.core.local_paths as local_paths
@@ -452,5 +461,5 @@ def test_evaluate_decaying_chooses_where_the_decaying_paths_are_searched(
     cloud = tmp_path / "plane.xyz"
     np.savetxt(cloud, plane(side=100).points)
     args = ["evaluate", "--cloud", str(cloud), "--radius", "0.5", "--memory", "64M"]
-    assert main([*args, "--decaying", decaying, "--quiet"]) == 0
+    assert main([*args, *options, "--quiet"]) == 0
     assert searched == [decaying]
