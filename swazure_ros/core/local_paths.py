@@ -174,10 +174,12 @@ def local_decaying_paths(
         The pairs, sorted by source.
     candidates : (N,) ndarray of int
         Each FLS's candidate pairs as first (:func:`.neighbours.pair_counts`):
-        a region weighs its FLSs times the swarm's mean candidate pairs per FLS.
+        a region weighs its FLSs times the swarm's mean candidate pairs per FLS,
+        times the share of them within its cut (:func:`longest_edge`).
     limit : int
         The weight a region may have where cutting its sources in two pays
-        (:data:`MOST_OVERLAP`); a region of one source may weigh more.
+        (:data:`MOST_OVERLAP`), or :data:`OVERLOADED` times it where it does
+        not; a region of one source may weigh more.
     progress : Progress
         Told of the stage "decaying paths near their pairs", in pairs.
 
@@ -308,8 +310,9 @@ class _Weights:
 def _tiles(
     points: FloatArray, sources: IntArray, margins: FloatArray, weights: _Weights, limit: int
 ) -> list[IntArray]:
-    """The distinct ``sources`` in compact groups whose regions weigh at most ``limit``
-    candidates where cutting them smaller pays, in k-d order.
+    """The distinct ``sources`` in compact groups of one radius each, whose regions weigh
+    at most ``limit`` candidates where cutting them smaller pays (``OVERLOADED`` times
+    it where it does not), in k-d order.
 
     A group's region is every FLS within its source's radius of one of its sources: the
     largest of ``margins`` (one per entry of ``sources``) among that source's, stepped.
