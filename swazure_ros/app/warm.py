@@ -20,12 +20,14 @@ from ..core.blocks import Budget
 from ..core.clouds import resample
 from ..core.conjugate_gradients import Iterate, advance
 from ..core.draws import uniforms
+from ..core.fans import obstructed_fans
 from ..core.geometry import COMPILED_PAIRS, centre_distance
 from ..core.heuristics.result import MOVE_SOURCE, PLAIN, TECHNIQUES
 from ..core.measurement_graph import Measurements
 from ..core.observe import observations
-from ..core.paths import POLICIES
+from ..core.paths import POLICIES, SHORTEST_LENGTH
 from ..core.pipeline import RunOptions, run_engine
+from ..core.sensor import DECAYING
 from ..core.swarm_fit import swarm_solve
 from ..protocol.loops import RunOptions as DiscoveryOptions
 from ..protocol.loops import discover
@@ -66,7 +68,15 @@ def warm_kernels() -> None:
                 # relaxation is compiled for apart.
                 spread = DiscoveryOptions(sources=[int(fls) for fls in ids[::2]])
                 discover(seen, ids, world.sensor, world.swarm.radius, policy, spread)
+        # Its decaying paths both ways: SD_vis held whole, and near the pairs (a bounded
+        # policy's: the regions' sight read back).
         run_engine(world.swarm, world.sensor, RunOptions(policy), budget=Budget(2**20))
+        near = RunOptions(SHORTEST_LENGTH, decaying="near")
+        run_engine(world.swarm, world.sensor, near, budget=Budget(2**20))
+        # Fans, which a display's ends take (thousands of segments each; these have fewer).
+        hood = plain.held.hood
+        every = hood.pairs.select(hood.pairs.range_class == DECAYING)
+        obstructed_fans(world.swarm.points, world.swarm.radius, every.first, every.second, 1)
         for technique in TECHNIQUES:
             if technique == PLAIN:
                 continue
