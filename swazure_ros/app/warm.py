@@ -70,7 +70,8 @@ def warm_kernels() -> None:
                 discover(seen, ids, world.sensor, world.swarm.radius, policy, spread)
         # Its decaying paths both ways: SD_vis held whole, and near the pairs (a bounded
         # policy's: the regions' sight read back).
-        run_engine(world.swarm, world.sensor, RunOptions(policy), budget=Budget(2**20))
+        held = RunOptions(policy, decaying="held")
+        run_engine(world.swarm, world.sensor, held, budget=Budget(2**20))
         near = RunOptions(SHORTEST_LENGTH, decaying="near")
         run_engine(world.swarm, world.sensor, near, budget=Budget(2**20))
         # Fans, which a display's ends take (thousands of segments each; these have fewer).

@@ -224,9 +224,11 @@ def local_decaying_paths(
             slack = _slack(points, tile, radius_of[tile])
             inside = slack >= 0.0
             longest = longest_edge(policy, ratio, swarm.radius, float(radius.max()))
-            hood = _region(sweet, inside, sight, longest)
-            # A graph without the longer decaying pairs proves no pair apart.
+            # A graph without the longer decaying pairs, or without the pairs no path of
+            # its sources hops over, proves no pair apart.
             whole = longest >= sensor.decaying_max
+            on_paths = None if whole else _OnPaths(policy, ratio, slack)
+            hood = _region(sweet, inside, sight, longest, on_paths)
             paths = shortest_paths(
                 hood.any_visible, source[rows], target[rows], policy,
                 components=hood.any_visible_components,
@@ -363,11 +365,13 @@ def _slack(points: FloatArray, centres: IntArray, radii: FloatArray) -> FloatArr
 class _Sight:
     """The decaying pairs' line of sight as the regions judged it, each pair judged once.
 
-    A pair is judged in the first region that holds both its FLSs and pairs as long, and
-    its sight read back there in every later one: regions overlap, and sight is most of
-    their work. Each FLS keeps a bit per region that held it; each region keeps the
-    longest tracking distance it judged below, and the keys (``first * N + second``) of
-    the pairs it judged in sight, sorted, in one buffer.
+    A pair is judged in the first region that holds it, and its sight read back from
+    there in every later one: regions overlap, and sight is most of their work. Each FLS
+    keeps a bit per region that held it; each region keeps the longest tracking distance
+    it held pairs below, and the keys (``first * N + second``) of the pairs it judged,
+    twice over with their sight as the lowest bit, sorted, in one buffer. (A region that
+    held both FLSs and pairs as long need not have judged the pair: it keeps only the
+    pairs on its sources' paths, :class:`_OnPaths`.)
     """
 
     def __init__(self, size: int) -> None:
@@ -375,7 +379,7 @@ class _Sight:
         self.held_by = np.zeros((size, 1), dtype=np.uint64)  # bit t of word t // 64: region t
         self.longest = np.zeros(0)  # region t judged the pairs shorter than this, cm
         self.key_start = np.zeros(1, dtype=np.int64)  # region t's keys: [start[t], start[t+1])
-        self.keys = np.zeros(1024, dtype=np.int64)  # the regions' keys in sight, and room
+        self.keys = np.zeros(1024, dtype=np.int64)  # the regions' keys and sight, and room
         self.judged = 0  # pairs judged so far
 
     def of(
@@ -398,10 +402,10 @@ class _Sight:
         new = np.flatnonzero(state < 0)
         self.judged += len(new)
         visible[new] = ~obstructed_fans(swarm.points, swarm.radius, first[new], second[new])
-        self._record(inside, np.sort(keys[new][visible[new]]), longest)
+        self._record(inside, np.sort(2 * keys[new] + visible[new]), longest)
         return visible
 
-    def _record(self, inside: BoolArray, in_sight: IntArray, longest: float) -> None:
+    def _record(self, inside: BoolArray, judged: IntArray, longest: float) -> None:
         region = len(self.longest)
         self.longest = np.append(self.longest, longest)
         word, bit = divmod(region, 64)
@@ -409,12 +413,12 @@ class _Sight:
             self.held_by = np.hstack([self.held_by, np.zeros((self.size, 1), dtype=np.uint64)])
         self.held_by[inside, word] |= np.uint64(1) << np.uint64(bit)
         start = int(self.key_start[-1])
-        stop = start + len(in_sight)
+        stop = start + len(judged)
         if stop > len(self.keys):  # room doubled: each key is copied a few times at most
             grown = np.empty(max(stop, 2 * len(self.keys)), dtype=np.int64)
             grown[:start] = self.keys[:start]
             self.keys = grown
-        self.keys[start:stop] = in_sight
+        self.keys[start:stop] = judged
         self.key_start = np.append(self.key_start, stop)
 
 
@@ -431,7 +435,7 @@ def _read_back(
     state: NDArray[np.int8],
 ) -> None:
     """Each pair's sight where a region judged it: ``state`` 1 in sight, 0 not, -1 not
-    judged yet. The region is the first that held both FLSs and pairs as long."""
+    judged yet. Only a region that held both FLSs and pairs as long can have judged it."""
     for m in jit.prange(len(first)):
         state[m] = -1
         for word in range(held_by.shape[1]):
@@ -442,20 +446,49 @@ def _read_back(
                     region = word * 64 + bit
                     if longest[region] > tracking[m]:
                         lo, hi = key_start[region], key_start[region + 1]
-                        at = lo + np.searchsorted(keys[lo:hi], pair_keys[m])
-                        state[m] = 1 if at < hi and keys[at] == pair_keys[m] else 0
+                        at = lo + np.searchsorted(keys[lo:hi], 2 * pair_keys[m])
+                        if at < hi and keys[at] >> 1 == pair_keys[m]:
+                            state[m] = keys[at] & 1
                 shared >>= np.uint64(1)
                 bit += 1
             if state[m] >= 0:
                 break
 
 
+@dataclass(frozen=True)
+class _OnPaths:
+    """Which pairs of a region can be hops of its sources' paths (:func:`longest_edge`).
+
+    An edge u-v of cost w on a path from s that its region proves satisfies
+    ``|s - u| + |s - v| + w / ratio <= 2 R``, R the source's radius. With
+    ``slack`` each FLS's largest ``R - |s - u|`` over the region's sources
+    (:func:`_slack`), ``slack[u] + slack[v] >= w / ratio`` holds for every such
+    edge: pairs that fail it are on no path the region can prove. With one
+    source the test is exact; sources spread over the shape with wide balls
+    keep only the pairs near each of them.
+    """
+
+    policy: str
+    ratio: float
+    slack: FloatArray  # (N,) cm, -inf outside the region
+
+    def __call__(self, pairs: NeighbourPairs) -> BoolArray:
+        cost = np.ones(len(pairs)) if self.policy == FEWEST_HOPS else pairs.tracking
+        spare = self.slack[pairs.first] + self.slack[pairs.second]
+        # A hair of slack for rounding (``ratio`` is a hair low): keeping a pair more is safe.
+        return np.asarray(spare * (1.0 + 1e-7) + 1e-7 >= cost / self.ratio)
+
+
 def _region(
-    sweet: Neighbourhood, inside: BoolArray, sight: _Sight, longest: float
+    sweet: Neighbourhood,
+    inside: BoolArray,
+    sight: _Sight,
+    longest: float,
+    on_paths: _OnPaths | None,
 ) -> Neighbourhood:
     """The sweet pairs and the decaying pairs shorter than ``longest`` (tracking distance,
-    cm) with both FLSs ``inside``, and their sight, as a neighbourhood: the next region of
-    ``sight``."""
+    cm) with both FLSs ``inside``, those of them ``on_paths`` where given, and their sight,
+    as a neighbourhood: the next region of ``sight``."""
     swarm, sensor = sweet.swarm, sweet.sensor
     # The region's FLSs as a swarm of their own: its pairs are the whole list's pairs between
     # them, each distance from the same two points, found without the pairs that leave it.
@@ -465,6 +498,8 @@ def _region(
     found = neighbour_pairs(part, sensor, longest=max(longest, sensor.sweet_max))
     found = found.select((found.range_class == SWEET) | (found.range_class == DECAYING))
     pairs = replace(found, first=members[found.first], second=members[found.second])
+    if on_paths is not None:
+        pairs = pairs.select(on_paths(pairs))
     visible = np.zeros(len(pairs), dtype=bool)
     is_sweet = pairs.range_class == SWEET
     # The sweet pairs' sight is known; the decaying pairs' is judged as the whole graph's is.

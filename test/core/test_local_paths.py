@@ -12,7 +12,12 @@ from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.heuristics.compat import COMPAT_MODES
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.regions import TechniqueBlocks
-from swazure_ros.core.local_paths import least_cost_per_cm, local_decaying_paths, longest_edge
+from swazure_ros.core.local_paths import (
+    _OnPaths,
+    least_cost_per_cm,
+    local_decaying_paths,
+    longest_edge,
+)
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.neighbours import ordered_blind_pairs, pair_counts
 from swazure_ros.core.pair_statistics import PairTally
@@ -88,6 +93,33 @@ def test_no_hop_of_a_path_is_longer_than_its_ball_allows(sensor, policy):
         assert bound.min() < sensor.decaying_max / 2
 
 
+@pytest.mark.parametrize("policy", POLICIES)
+def test_every_hop_of_a_path_is_kept_by_its_sources_ball_and_some_barely(sensor, policy):
+    swarm = plane()
+    hood = neighbourhood(swarm, sensor)
+    source, target = apart_in_sight(hood)
+    paths = shortest_paths(hood.any_visible, source, target, policy)
+    ratio = least_cost_per_cm(sensor, swarm.radius, policy)
+    cost = paths.hops if policy == "fewest-hops" else paths.length
+    spread = np.linalg.norm(swarm.points[target] - swarm.points[source], axis=1)
+    ball = (cost / ratio + spread) / 2
+    spare = []
+    for m in np.flatnonzero(paths.found):
+        nodes = paths.path(m)
+        hops = hood.pairs.select(
+            hood.pairs.index(np.minimum(nodes[:-1], nodes[1:]), np.maximum(nodes[:-1], nodes[1:]))
+        )
+        # A region of this one source, as wide as its path needs.
+        slack = ball[m] - np.linalg.norm(swarm.points - swarm.points[source[m]], axis=1)
+        assert _OnPaths(policy, ratio, slack)(hops).all()
+        weight = np.ones(len(hops)) if policy == "fewest-hops" else hops.tracking
+        spare.append(np.min(slack[hops.first] + slack[hops.second] - weight / ratio) / ball[m])
+    assert len(spare) > 20
+    if policy == "shortest-length":
+        # Tight: some path has a hop within 1 % of what its ball leaves.
+        assert min(spare) < 0.01
+
+
 def test_least_error_has_no_bound_and_is_not_searched_near_its_pairs(sensor):
     swarm = plane(side=6)
     assert least_cost_per_cm(sensor, swarm.radius, "least-error") == 0.0
@@ -109,8 +141,9 @@ def test_paths_searched_near_their_pairs_are_those_of_sd_vis_held_whole(sensor, 
     counts = pair_counts(swarm, sensor)
     near = local_decaying_paths(hood, policy, source, target, counts, 40 * 200, SILENT)
     assert near.regions >= 3
-    # Each pair judged once at most, and only those short enough to be on a path.
-    assert near.judged <= hood.pairs.count(DECAYING) // (4 if policy == "shortest-length" else 1)
+    # Each pair judged once at most, and only those short and near enough to be on a path
+    # (fewest-hops' regions are as wide as the sensor's reach: whole).
+    assert near.judged <= hood.pairs.count(DECAYING) // (100 if policy == "shortest-length" else 1)
     assert_same_paths(near.paths, want)
     # Every decaying pair a path hops over is kept, once, and no other.
     first, second = near.hopped.first, near.hopped.second
