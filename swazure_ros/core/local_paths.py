@@ -48,7 +48,7 @@ from .arrays import BoolArray, FloatArray, IntArray
 from .fans import obstructed_fans
 from .geometry import Swarm
 from .neighbourhood import Neighbourhood
-from .neighbours import NeighbourPairs, neighbour_pairs, sensor_reach
+from .neighbours import EVERY_PAIR, Affordable, NeighbourPairs, neighbour_pairs, sensor_reach
 from .partition import kd_split
 from .path_arrays import Paths, path_hops
 from .paths import FEWEST_HOPS, LEAST_ERROR, check_policy, shortest_paths
@@ -227,7 +227,7 @@ def local_decaying_paths(
             # A graph without the longer decaying pairs, or without the pairs no path of
             # its sources hops over, proves no pair apart.
             whole = longest >= sensor.decaying_max
-            on_paths = None if whole else _OnPaths(policy, ratio, slack)
+            on_paths = None if whole else _OnPaths(policy, ratio, slack, swarm.radius)
             hood = _region(sweet, inside, sight, longest, on_paths)
             paths = shortest_paths(
                 hood.any_visible, source[rows], target[rows], policy,
@@ -471,12 +471,17 @@ class _OnPaths:
     policy: str
     ratio: float
     slack: FloatArray  # (N,) cm, -inf outside the region
+    fls_radius: float  # r, cm
 
-    def __call__(self, pairs: NeighbourPairs) -> BoolArray:
-        cost = np.ones(len(pairs)) if self.policy == FEWEST_HOPS else pairs.tracking
-        spare = self.slack[pairs.first] + self.slack[pairs.second]
-        # A hair of slack for rounding (``ratio`` is a hair low): keeping a pair more is safe.
-        return np.asarray(spare * (1.0 + 1e-7) + 1e-7 >= cost / self.ratio)
+    def affordable(self, members: IntArray) -> Affordable:
+        """The test for the swarm of the FLSs ``members``, as :func:`.neighbours.neighbour_pairs`
+        takes it: a pair's cost over ``ratio`` against its ends' slack."""
+        # A hair more slack for rounding (``ratio`` is a hair low): keeping a pair more is safe.
+        spare = self.slack[members] * (1.0 + 1e-7) + 1e-7
+        if self.policy == FEWEST_HOPS:
+            return Affordable(spare, 0.0, 1.0 / self.ratio)
+        # Shortest-length: the tracking distance, d - 2r.
+        return Affordable(spare, 1.0 / self.ratio, -2.0 * self.fls_radius / self.ratio)
 
 
 def _region(
@@ -495,11 +500,12 @@ def _region(
     members = np.flatnonzero(inside)
     part = replace(swarm, points=swarm.points[members], cloud_index=swarm.cloud_index[members])
     # Every sweet pair, whose sight is known, however short the decaying pairs are cut.
-    found = neighbour_pairs(part, sensor, longest=max(longest, sensor.sweet_max))
+    affordable = EVERY_PAIR if on_paths is None else on_paths.affordable(members)
+    found = neighbour_pairs(
+        part, sensor, longest=max(longest, sensor.sweet_max), affordable=affordable
+    )
     found = found.select((found.range_class == SWEET) | (found.range_class == DECAYING))
     pairs = replace(found, first=members[found.first], second=members[found.second])
-    if on_paths is not None:
-        pairs = pairs.select(on_paths(pairs))
     visible = np.zeros(len(pairs), dtype=bool)
     is_sweet = pairs.range_class == SWEET
     # The sweet pairs' sight is known; the decaying pairs' is judged as the whole graph's is.

@@ -30,6 +30,25 @@ FIELDS = ("first", "second", "distance", "tracking", "range_class")
 
 
 @dataclass(frozen=True)
+class Affordable:
+    """The pairs whose two FLSs together spare what the pair costs.
+
+    Pair i-j, centre distance d (cm), is affordable when
+    ``spare[i] + spare[j] >= per_cm * d + fixed``: a search's budget that
+    its ends leave an edge (:class:`.local_paths` keeps only the edges its
+    sources' paths may hop over, and never finds the others).
+    """
+
+    spare: FloatArray  # (N,), in the cost's units; -inf spares nothing
+    per_cm: float  # cost per cm of centre distance
+    fixed: float  # cost per pair
+
+
+#: No pair is left out: every pair is affordable.
+EVERY_PAIR = Affordable(np.empty(0), 0.0, 0.0)
+
+
+@dataclass(frozen=True)
 class NeighbourPairs:
     """Unordered pairs (first < second) within sensor reach, with their range class."""
 
@@ -187,15 +206,25 @@ def _pair_index(rows: IntArray, second: IntArray, one: IntArray, other: IntArray
 
 @jit.kernel(cache=True, nogil=True)
 def _within(
-    points: FloatArray, node: int, reach: float, grid: Grid, out: IntArray, involving: BoolArray
+    points: FloatArray,
+    node: int,
+    reach: float,
+    grid: Grid,
+    out: IntArray,
+    involving: BoolArray,
+    spare: FloatArray,
+    per_cm: float,
+    fixed: float,
 ) -> int:
     """Points after ``node`` within ``reach`` of it, into ``out`` unless it is empty; how many.
 
     With ``involving`` (N,) (empty: every pair), only those of pairs that involve an FLS
-    True there.
+    True there; with ``spare`` (N,) (empty: every pair), only the affordable pairs
+    (:class:`Affordable`).
     """
     # Every pair of the node's is one to keep where no mask is given or the mask holds it.
     every = len(involving) == 0 or involving[node]
+    priced = len(spare) > 0
     origin, cell, shape, cell_start, members = grid
     x, y, z = points[node, 0], points[node, 1], points[node, 2]
     cx = min(int((x - origin[0]) / cell), shape[0] - 1)
@@ -214,7 +243,11 @@ def _within(
                     dx = points[other, 0] - x
                     dy = points[other, 1] - y
                     dz = points[other, 2] - z
-                    if dx * dx + dy * dy + dz * dz <= limit:
+                    squared = dx * dx + dy * dy + dz * dz
+                    if squared <= limit and (
+                        not priced
+                        or spare[node] + spare[other] >= per_cm * np.sqrt(squared) + fixed
+                    ):
                         if len(out):
                             out[count] = other
                         count += 1
@@ -223,21 +256,31 @@ def _within(
 
 @jit.kernel(cache=True, parallel=True)
 def _pairs_within(
-    points: FloatArray, reach: float, grid: Grid, start: int, stop: int, involving: BoolArray
+    points: FloatArray,
+    reach: float,
+    grid: Grid,
+    start: int,
+    stop: int,
+    involving: BoolArray,
+    spare: FloatArray,
+    per_cm: float,
+    fixed: float,
 ) -> tuple[IntArray, IntArray]:
     """Pairs i < j within ``reach``, i in [start, stop), as CSR: row i - start, sorted; with
-    ``involving`` (N,), only the pairs of which i or j is True there."""
+    ``involving`` (N,), only the pairs of which i or j is True there; with ``spare`` (N,),
+    only the affordable ones."""
     size = stop - start
     counts = np.zeros(size, dtype=np.int64)
     nothing = np.empty(0, dtype=np.int64)
     for row in jit.prange(size):
-        counts[row] = _within(points, start + row, reach, grid, nothing, involving)
+        node = start + row
+        counts[row] = _within(points, node, reach, grid, nothing, involving, spare, per_cm, fixed)
     rows = np.zeros(size + 1, dtype=np.int64)
     rows[1:] = np.cumsum(counts)
     second = np.empty(rows[-1], dtype=np.int64)
     for row in jit.prange(size):
         out = second[rows[row] : rows[row + 1]]
-        _within(points, start + row, reach, grid, out, involving)
+        _within(points, start + row, reach, grid, out, involving, spare, per_cm, fixed)
         out.sort()
     return rows, second
 
@@ -302,6 +345,7 @@ def neighbour_pairs(
     grid: Grid | None = None,
     involving: BoolArray | None = None,
     longest: float | None = None,
+    affordable: Affordable = EVERY_PAIR,
 ) -> NeighbourPairs:
     """Every unordered pair with tracking distance below ``sensor.decaying_max``, classified.
 
@@ -326,6 +370,9 @@ def neighbour_pairs(
         Only the pairs with tracking distance below this, cm, when it is
         below ``sensor.decaying_max``: a grid of smaller cells, and fewer
         pairs measured. ``grid``, if given, must be of at least this reach.
+    affordable : Affordable, optional
+        Only the pairs it affords (default: every pair), found without the
+        others: a search that can use few of the pairs within reach.
 
     Returns
     -------
@@ -335,7 +382,7 @@ def neighbour_pairs(
     Raises
     ------
     ValueError
-        ``involving`` is not one bool per FLS.
+        ``involving`` or ``affordable.spare`` is not one value per FLS.
 
     Examples
     --------
@@ -359,7 +406,12 @@ def neighbour_pairs(
         involving = np.empty(0, dtype=np.bool_)
     elif involving.shape != (swarm.size,):
         raise ValueError(f"`involving` must be ({swarm.size},) bools, got {involving.shape}")
-    rows, second = _pairs_within(points, reach, grid, start, stop, involving)
+    spare = np.ascontiguousarray(affordable.spare, dtype=np.float64)
+    if len(spare) and spare.shape != (swarm.size,):
+        raise ValueError(f"`affordable.spare` must be ({swarm.size},) values, got {spare.shape}")
+    rows, second = _pairs_within(
+        points, reach, grid, start, stop, involving, spare, affordable.per_cm, affordable.fixed
+    )
     first = np.repeat(np.arange(start, stop, dtype=np.int64), np.diff(rows))
     distance = centre_distance(swarm.points, first, second)
     tracking = distance - 2.0 * swarm.radius
@@ -412,8 +464,9 @@ def _pair_counts(points: FloatArray, reach: float, grid: Grid) -> IntArray:
     counts = np.zeros(len(points), dtype=np.int64)
     nothing = np.empty(0, dtype=np.int64)
     everyone = np.empty(0, dtype=np.bool_)
+    free = np.empty(0)
     for node in jit.prange(len(points)):
-        counts[node] = _within(points, node, reach, grid, nothing, everyone)
+        counts[node] = _within(points, node, reach, grid, nothing, everyone, free, 0.0, 0.0)
     return counts
 
 

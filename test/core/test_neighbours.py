@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.geometry import centre_distance, make_swarm
-from swazure_ros.core.neighbours import FIELDS, neighbour_pairs
+from swazure_ros.core.neighbours import FIELDS, Affordable, neighbour_pairs
 from swazure_ros.core.sensor import DECAYING, SWEET
 
 
@@ -55,10 +55,25 @@ def test_the_pairs_involving_some_flss_are_the_whole_list_s_selection_of_them(se
     np.testing.assert_array_equal(block.second, whole.second[inside])
 
 
+def test_the_affordable_pairs_are_those_whose_ends_spare_their_cost(sensor):
+    swarm = random_swarm(6)
+    whole = neighbour_pairs(swarm, sensor)
+    spare = np.random.default_rng(6).uniform(0.0, 20.0, swarm.size)
+    spare[::7] = -np.inf  # FLSs that spare nothing: none of their pairs
+    for per_cm, fixed in ((1.2, -1.0), (0.0, 15.0)):
+        part = neighbour_pairs(swarm, sensor, affordable=Affordable(spare, per_cm, fixed))
+        chosen = spare[whole.first] + spare[whole.second] >= per_cm * whole.distance + fixed
+        assert 0 < chosen.sum() < len(whole)
+        for field in FIELDS:
+            np.testing.assert_array_equal(getattr(part, field), getattr(whole, field)[chosen])
+
+
 def test_a_mask_of_another_length_is_refused(sensor):
     swarm = random_swarm(5, count=20)
     with pytest.raises(ValueError, match=r"`involving` must be \(20,\) bools"):
         neighbour_pairs(swarm, sensor, involving=np.ones(19, dtype=bool))
+    with pytest.raises(ValueError, match=r"`affordable.spare` must be \(20,\) values"):
+        neighbour_pairs(swarm, sensor, affordable=Affordable(np.zeros(19), 1.0, 0.0))
 
 
 def test_pairs_merged_with_pairs_given_in_pieces_are_the_sorted_union(sensor):
