@@ -35,14 +35,14 @@ from .evaluate import evaluate_pairs
 from .evaluation import PairResults
 from .fans import obstructed_fans
 from .geometry import Swarm
-from .grid import Grid, build_grid, grid_of
+from .grid import Grid, build_grid
 from .local_paths import LocalPaths, least_cost_per_cm, local_decaying_paths
 from .neighbourhood import Neighbourhood
 from .neighbours import (
     FIELDS,
     NeighbourCounts,
     NeighbourPairs,
-    candidate_reach,
+    neighbour_grid,
     neighbour_pairs,
     ordered_rows,
     pair_counts,
@@ -213,7 +213,7 @@ def lean_neighbourhood(
         ``whole`` None when the decaying pairs are left for
         :func:`with_decaying`.
     """
-    reach_grid = grid_of(np.ascontiguousarray(swarm.points), candidate_reach(sensor, swarm.radius))
+    reach_grid = neighbour_grid(swarm, sensor)
     sight_grid = build_grid(swarm.points, swarm.radius)
     candidates = pair_counts(swarm, sensor, reach_grid)
     blocks = ranges(candidates, budget.block_candidates)
@@ -290,7 +290,7 @@ def with_decaying(lean: LeanNeighbourhood, progress: Progress) -> LeanNeighbourh
     if lean.whole is not None:
         return lean
     swarm, sensor = lean.swarm, lean.sensor
-    reach_grid = grid_of(np.ascontiguousarray(swarm.points), candidate_reach(sensor, swarm.radius))
+    reach_grid = neighbour_grid(swarm, sensor)
     progress.start("decaying pairs in line of sight", lean.sweet.counts.decaying)
     seen: dict[str, list[NDArray[Any]]] = {name: [] for name in FIELDS}
     for start, stop in lean.blocks:
