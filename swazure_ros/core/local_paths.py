@@ -246,7 +246,9 @@ def local_decaying_paths(
                 kept.append((rows[done], paths.take(done)))
                 hopped.append(_hopped(hood, kept[-1][1]))
                 progress.advance(len(done))
-            margins[rows] = np.maximum(needed, mine * (1.0 + 1e-9))
+            # A path found in a region is no shorter than SD_vis's, often far longer (it
+            # went round what the region lacked): a step wider, not the ball it needs.
+            margins[rows] = np.maximum(np.minimum(needed, WIDER * mine), mine * (1.0 + 1e-9))
             settled.append(rows[proven])
         pending = np.setdiff1d(pending, np.concatenate(settled), assume_unique=True)
     paths = _in_order(len(source), kept)
