@@ -150,6 +150,7 @@ class LocalPaths:
     rounds: int  # passes over the pairs not yet proven, each with a wider margin
     regions: int  # regions searched in all rounds
     judged: int  # decaying pairs whose line of sight the regions judged, each once
+    radius: FloatArray  # (M,) the radius about its source of the region that proved each, cm
 
 
 def local_decaying_paths(
@@ -209,6 +210,7 @@ def local_decaying_paths(
     kept: list[tuple[IntArray, Paths]] = []
     hopped: list[NeighbourPairs] = []
     rounds = regions = 0
+    proven_in = np.zeros(len(source))
     sight = _Sight(swarm.size)
     weights = _Weights(sweet, policy, ratio, candidates)
     while len(pending):
@@ -243,6 +245,7 @@ def local_decaying_paths(
                 proven |= apart | inside.all()
             if proven.any():
                 done = np.flatnonzero(proven)
+                proven_in[rows[done]] = mine[done]
                 kept.append((rows[done], paths.take(done)))
                 hopped.append(_hopped(hood, kept[-1][1]))
                 progress.advance(len(done))
@@ -252,7 +255,7 @@ def local_decaying_paths(
             settled.append(rows[proven])
         pending = np.setdiff1d(pending, np.concatenate(settled), assume_unique=True)
     paths = _in_order(len(source), kept)
-    return LocalPaths(paths, _sorted_once(hopped), rounds, regions, sight.judged)
+    return LocalPaths(paths, _sorted_once(hopped), rounds, regions, sight.judged, proven_in)
 
 
 #: A group of sources is cut in two only where the halves' regions weigh at most this

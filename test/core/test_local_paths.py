@@ -13,7 +13,9 @@ from swazure_ros.core.heuristics.compat import COMPAT_MODES
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.regions import TechniqueBlocks
 from swazure_ros.core.local_paths import (
+    WIDER,
     _OnPaths,
+    _stepped,
     least_cost_per_cm,
     local_decaying_paths,
     longest_edge,
@@ -166,8 +168,8 @@ def test_paths_searched_near_their_pairs_are_those_of_sd_vis_held_whole(sensor, 
     assert set(zip(first.tolist(), second.tolist(), strict=True)) == decaying
 
 
-def test_a_path_its_first_region_cannot_prove_is_searched_again_wider(sensor):
-    swarm = plane()
+def test_a_path_its_first_region_cannot_prove_is_searched_again_a_step_wider(sensor):
+    swarm = plane(seed=0)  # a plane where a narrow region's detours are long
     hood = neighbourhood(swarm, sensor)
     source, target = apart_in_sight(hood)
     want = shortest_paths(hood.any_visible, source, target, "shortest-length")
@@ -176,6 +178,16 @@ def test_a_path_its_first_region_cannot_prove_is_searched_again_wider(sensor):
     near = local_decaying_paths(hood, "shortest-length", source, target, counts, 8000, SILENT)
     assert near.rounds >= 2 and (want.length > 16.0).any()
     assert_same_paths(near.paths, want)
+    # Each pair is proven in the first region as wide as its path needs, or in one at
+    # most a step wider than the last that was not (a longer path a narrow region found
+    # is no measure of what SD_vis's needs).
+    ratio = least_cost_per_cm(sensor, swarm.radius, "shortest-length")
+    spread = np.linalg.norm(swarm.points[target] - swarm.points[source], axis=1)
+    needs = (want.length / ratio + spread) / 2
+    first = near.radius.min()
+    assert (near.radius > first).sum() > 10
+    assert (near.radius >= needs).all()
+    assert (near.radius[near.radius > first] <= _stepped(WIDER * needs)[near.radius > first]).all()
 
 
 def test_a_pair_the_swarm_does_not_join_is_proven_apart_near_it(sensor):
