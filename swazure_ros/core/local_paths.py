@@ -48,7 +48,8 @@ from .arrays import BoolArray, FloatArray, IntArray
 from .fans import obstructed_fans
 from .geometry import Swarm
 from .neighbourhood import Neighbourhood
-from .neighbours import EVERY_PAIR, Affordable, NeighbourPairs, neighbour_pairs, sensor_reach
+from .neighbours import NeighbourPairs, neighbour_pairs, sensor_reach
+from .pair_scan import EVERY_PAIR, Affordable
 from .partition import kd_split
 from .path_arrays import Paths, path_hops
 from .paths import FEWEST_HOPS, LEAST_ERROR, check_policy, shortest_paths

@@ -14,6 +14,7 @@ from . import csr, jit
 from .arrays import BoolArray, FloatArray, IntArray
 from .geometry import KISSING_TOLERANCE, Swarm, centre_distance
 from .grid import Grid, grid_of
+from .pair_scan import EVERY_PAIR, Affordable, counts_within, pairs_within
 from .sensor import BLIND, DECAYING, SWEET, Sensor
 
 if TYPE_CHECKING:
@@ -26,33 +27,14 @@ def _pieces(pieces: list[NDArray[Any]], like: NDArray[Any]) -> NDArray[Any]:
 
 
 #: A neighbour grid's cells per reach (:func:`neighbour_grid`): at 2 a search reads
-#: cells that cover about 3.4 times the ball of its reach, at 1 (27 cells) 6.4 times;
-#: counting a display's candidate pairs took 3.0 s against 6.9 s. Finer grids read more
-#: empty cells than they save.
+#: cells that cover about 3.4 times the ball of its reach, at 1 (27 cells) 6.4 times.
+#: The race car at 65,536 points: its candidate pairs counted in 1.5 s against 1.8 s, a
+#: block of 4,000 FLSs' 42.5 M pairs found in 1.7 s against 6.1 s; 3 saves little more.
 CELLS_PER_REACH = 2
 
 
 #: The fields of :class:`NeighbourPairs`, in order.
 FIELDS = ("first", "second", "distance", "tracking", "range_class")
-
-
-@dataclass(frozen=True)
-class Affordable:
-    """The pairs whose two FLSs together spare what the pair costs.
-
-    Pair i-j, centre distance d (cm), is affordable when
-    ``spare[i] + spare[j] >= per_cm * d + fixed``: a search's budget that
-    its ends leave an edge (:class:`.local_paths` keeps only the edges its
-    sources' paths may hop over, and never finds the others).
-    """
-
-    spare: FloatArray  # (N,), in the cost's units; -inf spares nothing
-    per_cm: float  # cost per cm of centre distance
-    fixed: float  # cost per pair
-
-
-#: No pair is left out: every pair is affordable.
-EVERY_PAIR = Affordable(np.empty(0), 0.0, 0.0)
 
 
 @dataclass(frozen=True)
@@ -211,97 +193,6 @@ def _pair_index(rows: IntArray, second: IntArray, one: IntArray, other: IntArray
     return out
 
 
-@jit.kernel(cache=True, nogil=True)
-def _within(
-    points: FloatArray,
-    node: int,
-    reach: float,
-    grid: Grid,
-    out: IntArray,
-    involving: BoolArray,
-    spare: FloatArray,
-    per_cm: float,
-    fixed: float,
-) -> int:
-    """Points after ``node`` within ``reach`` of it, into ``out`` unless it is empty; how many.
-
-    With ``involving`` (N,) (empty: every pair), only those of pairs that involve an FLS
-    True there; with ``spare`` (N,) (empty: every pair), only the affordable pairs
-    (:class:`Affordable`).
-    """
-    # Every pair of the node's is one to keep where no mask is given or the mask holds it.
-    every = len(involving) == 0 or involving[node]
-    priced = len(spare) > 0
-    origin, cell, shape, cell_start, members = grid
-    x, y, z = points[node, 0], points[node, 1], points[node, 2]
-    cx = min(int((x - origin[0]) / cell), shape[0] - 1)
-    cy = min(int((y - origin[1]) / cell), shape[1] - 1)
-    cz = min(int((z - origin[2]) / cell), shape[2] - 1)
-    limit = reach * reach
-    # Cells finer than the reach: the cells it spans each way, less those wholly beyond it
-    # (a grid one reach wide reads 27 cells, 6.4 times the ball's volume).
-    span = int(np.ceil(reach / cell))
-    count = 0
-    for ix in range(max(cx - span, 0), min(cx + span + 1, shape[0])):
-        gap_x = max(origin[0] + ix * cell - x, x - origin[0] - (ix + 1) * cell, 0.0)
-        for iy in range(max(cy - span, 0), min(cy + span + 1, shape[1])):
-            gap_y = max(origin[1] + iy * cell - y, y - origin[1] - (iy + 1) * cell, 0.0)
-            if gap_x * gap_x + gap_y * gap_y > limit:
-                continue
-            for iz in range(max(cz - span, 0), min(cz + span + 1, shape[2])):
-                gap_z = max(origin[2] + iz * cell - z, z - origin[2] - (iz + 1) * cell, 0.0)
-                if gap_x * gap_x + gap_y * gap_y + gap_z * gap_z > limit:
-                    continue
-                key = (ix * shape[1] + iy) * shape[2] + iz
-                for slot in range(cell_start[key], cell_start[key + 1]):
-                    other = members[slot]
-                    if other <= node or not (every or involving[other]):
-                        continue
-                    dx = points[other, 0] - x
-                    dy = points[other, 1] - y
-                    dz = points[other, 2] - z
-                    squared = dx * dx + dy * dy + dz * dz
-                    if squared <= limit and (
-                        not priced
-                        or spare[node] + spare[other] >= per_cm * np.sqrt(squared) + fixed
-                    ):
-                        if len(out):
-                            out[count] = other
-                        count += 1
-    return count
-
-
-@jit.kernel(cache=True, parallel=True)
-def _pairs_within(
-    points: FloatArray,
-    reach: float,
-    grid: Grid,
-    start: int,
-    stop: int,
-    involving: BoolArray,
-    spare: FloatArray,
-    per_cm: float,
-    fixed: float,
-) -> tuple[IntArray, IntArray]:
-    """Pairs i < j within ``reach``, i in [start, stop), as CSR: row i - start, sorted; with
-    ``involving`` (N,), only the pairs of which i or j is True there; with ``spare`` (N,),
-    only the affordable ones."""
-    size = stop - start
-    counts = np.zeros(size, dtype=np.int64)
-    nothing = np.empty(0, dtype=np.int64)
-    for row in jit.prange(size):
-        node = start + row
-        counts[row] = _within(points, node, reach, grid, nothing, involving, spare, per_cm, fixed)
-    rows = np.zeros(size + 1, dtype=np.int64)
-    rows[1:] = np.cumsum(counts)
-    second = np.empty(rows[-1], dtype=np.int64)
-    for row in jit.prange(size):
-        out = second[rows[row] : rows[row + 1]]
-        _within(points, start + row, reach, grid, out, involving, spare, per_cm, fixed)
-        out.sort()
-    return rows, second
-
-
 def neighbour_grid(swarm: Swarm, sensor: Sensor, longest: float | None = None) -> Grid:
     """The grid the neighbour searches read: cells of half :func:`candidate_reach`.
 
@@ -445,7 +336,7 @@ def neighbour_pairs(
     spare = np.ascontiguousarray(affordable.spare, dtype=np.float64)
     if len(spare) and spare.shape != (swarm.size,):
         raise ValueError(f"`affordable.spare` must be ({swarm.size},) values, got {spare.shape}")
-    rows, second = _pairs_within(
+    rows, second = pairs_within(
         points, reach, grid, start, stop, involving, spare, affordable.per_cm, affordable.fixed
     )
     first = np.repeat(np.arange(start, stop, dtype=np.int64), np.diff(rows))
@@ -492,18 +383,7 @@ def pair_counts(swarm: Swarm, sensor: Sensor, grid: Grid | None = None) -> IntAr
     reach = candidate_reach(sensor, swarm.radius)
     points = np.ascontiguousarray(swarm.points, dtype=np.float64)
     grid = grid if grid is not None else neighbour_grid(swarm, sensor)
-    return np.asarray(_pair_counts(points, reach, grid))
-
-
-@jit.kernel(cache=True, parallel=True)
-def _pair_counts(points: FloatArray, reach: float, grid: Grid) -> IntArray:
-    counts = np.zeros(len(points), dtype=np.int64)
-    nothing = np.empty(0, dtype=np.int64)
-    everyone = np.empty(0, dtype=np.bool_)
-    free = np.empty(0)
-    for node in jit.prange(len(points)):
-        counts[node] = _within(points, node, reach, grid, nothing, everyone, free, 0.0, 0.0)
-    return counts
+    return np.asarray(counts_within(points, reach, grid))
 
 
 def pairs_of(

@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.geometry import centre_distance, make_swarm
-from swazure_ros.core.neighbours import FIELDS, Affordable, neighbour_pairs
+from swazure_ros.core.neighbours import FIELDS, neighbour_pairs
+from swazure_ros.core.pair_scan import Affordable
 from swazure_ros.core.sensor import DECAYING, SWEET
 
 

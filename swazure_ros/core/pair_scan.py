@@ -1,0 +1,171 @@
+"""Pairs of points within reach of each other, scanned on a grid (compiled).
+
+The search under :func:`.neighbours.neighbour_pairs` and
+:func:`.neighbours.pair_counts`: each point reads the cells its reach touches
+and keeps the later points within it, or only the pairs a mask or a price
+allows (:class:`Affordable`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import jit
+from .arrays import BoolArray, FloatArray, IntArray
+from .grid import Grid, ball_cells
+
+
+@dataclass(frozen=True)
+class Affordable:
+    """The pairs whose two FLSs together spare what the pair costs.
+
+    Pair i-j, centre distance d (cm), is affordable when
+    ``spare[i] + spare[j] >= per_cm * d + fixed``: a search's budget that
+    its ends leave an edge (:class:`.local_paths` keeps only the edges its
+    sources' paths may hop over, and never finds the others).
+    """
+
+    spare: FloatArray  # (N,), in the cost's units; -inf spares nothing
+    per_cm: float  # cost per cm of centre distance
+    fixed: float  # cost per pair
+
+
+#: No pair is left out: every pair is affordable.
+EVERY_PAIR = Affordable(np.empty(0), 0.0, 0.0)
+
+
+@jit.kernel(cache=True, nogil=True)
+def _within(
+    points: FloatArray,
+    node: int,
+    reach: float,
+    grid: Grid,
+    out: IntArray,
+    involving: BoolArray,
+    spare: FloatArray,
+    per_cm: float,
+    fixed: float,
+) -> int:
+    """Points after ``node`` within ``reach`` of it, into ``out`` unless it is empty; how many.
+
+    With ``involving`` (N,) (empty: every pair), only those of pairs that involve an FLS
+    True there; with ``spare`` (N,) (empty: every pair), only the affordable pairs
+    (:class:`Affordable`).
+    """
+    # Every pair of the node's is one to keep where no mask is given or the mask holds it.
+    every = len(involving) == 0 or involving[node]
+    priced = len(spare) > 0
+    origin, cell, shape, cell_start, members = grid
+    x, y, z = points[node, 0], points[node, 1], points[node, 2]
+    limit = reach * reach
+    lo0, lo1, lo2, hi0, hi1, hi2 = ball_cells(grid, x, y, z, reach)
+    count = 0
+    # Cells finer than the reach: those wholly beyond it are skipped (27 cells one reach
+    # wide cover 6.4 times the ball's volume).
+    for ix in range(lo0, hi0 + 1):
+        gap_x = max(origin[0] + ix * cell - x, x - origin[0] - (ix + 1) * cell, 0.0)
+        for iy in range(lo1, hi1 + 1):
+            gap_y = max(origin[1] + iy * cell - y, y - origin[1] - (iy + 1) * cell, 0.0)
+            if gap_x * gap_x + gap_y * gap_y > limit:
+                continue
+            for iz in range(lo2, hi2 + 1):
+                gap_z = max(origin[2] + iz * cell - z, z - origin[2] - (iz + 1) * cell, 0.0)
+                if gap_x * gap_x + gap_y * gap_y + gap_z * gap_z > limit:
+                    continue
+                key = (ix * shape[1] + iy) * shape[2] + iz
+                for slot in range(cell_start[key], cell_start[key + 1]):
+                    other = members[slot]
+                    if other <= node or not (every or involving[other]):
+                        continue
+                    dx = points[other, 0] - x
+                    dy = points[other, 1] - y
+                    dz = points[other, 2] - z
+                    squared = dx * dx + dy * dy + dz * dz
+                    if squared <= limit and (
+                        not priced
+                        or spare[node] + spare[other] >= per_cm * np.sqrt(squared) + fixed
+                    ):
+                        if len(out):
+                            out[count] = other
+                        count += 1
+    return count
+
+
+@jit.kernel(cache=True, parallel=True)
+def pairs_within(
+    points: FloatArray,
+    reach: float,
+    grid: Grid,
+    start: int,
+    stop: int,
+    involving: BoolArray,
+    spare: FloatArray,
+    per_cm: float,
+    fixed: float,
+) -> tuple[IntArray, IntArray]:
+    """The pairs i < j of ``points`` within ``reach``, i in [start, stop), as CSR.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+    reach : float, cm
+        Centre distance, inclusive.
+    grid : Grid
+        The points' grid, cells of any size.
+    start, stop : int
+        The block of first points.
+    involving : (N,) array of bool, or empty
+        Only the pairs of which i or j is True here (empty: every pair).
+    spare, per_cm, fixed
+        :class:`Affordable`'s fields: only the pairs they afford (``spare``
+        empty: every pair).
+
+    Returns
+    -------
+    rows : (stop - start + 1,) array of int
+        Row i - start's pairs are ``second[rows[i - start]:rows[i - start + 1]]``.
+    second : (M,) array of int
+        Each row's j, sorted.
+    """
+    size = stop - start
+    counts = np.zeros(size, dtype=np.int64)
+    nothing = np.empty(0, dtype=np.int64)
+    for row in jit.prange(size):
+        node = start + row
+        counts[row] = _within(points, node, reach, grid, nothing, involving, spare, per_cm, fixed)
+    rows = np.zeros(size + 1, dtype=np.int64)
+    rows[1:] = np.cumsum(counts)
+    second = np.empty(rows[-1], dtype=np.int64)
+    for row in jit.prange(size):
+        out = second[rows[row] : rows[row + 1]]
+        _within(points, start + row, reach, grid, out, involving, spare, per_cm, fixed)
+        out.sort()
+    return rows, second
+
+
+@jit.kernel(cache=True, parallel=True)
+def counts_within(points: FloatArray, reach: float, grid: Grid) -> IntArray:
+    """How many later points lie within ``reach`` of each point, no pair stored.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+    reach : float, cm
+        Centre distance, inclusive.
+    grid : Grid
+        The points' grid, cells of any size.
+
+    Returns
+    -------
+    (N,) array of int
+        Per point i, the j > i within reach.
+    """
+    counts = np.zeros(len(points), dtype=np.int64)
+    nothing = np.empty(0, dtype=np.int64)
+    everyone = np.empty(0, dtype=np.bool_)
+    free = np.empty(0)
+    for node in jit.prange(len(points)):
+        counts[node] = _within(points, node, reach, grid, nothing, everyone, free, 0.0, 0.0)
+    return counts

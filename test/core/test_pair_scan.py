@@ -1,0 +1,24 @@
+"""Pairs within reach scanned on a grid are the pairs a brute force finds."""
+
+import numpy as np
+import pytest
+
+from swazure_ros.core.grid import grid_of
+from swazure_ros.core.pair_scan import counts_within, pairs_within
+
+
+@pytest.mark.parametrize("cells_per_reach", [0.5, 1.0, 2.0, 3.0])
+def test_pairs_within_reach_on_a_grid_of_any_cell_are_the_brute_force_pairs(cells_per_reach):
+    rng = np.random.default_rng(11)
+    points = rng.uniform(0.0, 60.0, size=(300, 3))
+    reach = 9.0
+    grid = grid_of(points, reach / cells_per_reach)
+    distance = np.linalg.norm(points[:, None] - points[None], axis=2)
+    want_first, want_second = np.nonzero(np.triu(distance <= reach, k=1))
+    nothing, free = np.empty(0, dtype=bool), np.empty(0)
+    rows, second = pairs_within(points, reach, grid, 0, len(points), nothing, free, 0.0, 0.0)
+    first = np.repeat(np.arange(len(points)), np.diff(rows))
+    np.testing.assert_array_equal(first, want_first)
+    np.testing.assert_array_equal(second, want_second)
+    assert counts_within(points, reach, grid).tolist() == np.diff(rows).tolist()
+    assert 200 < len(second) < 10_000  # some pairs, and far fewer than all of them
