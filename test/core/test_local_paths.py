@@ -56,6 +56,18 @@ def apart_in_sight(hood):
     return source[apart], target[apart]
 
 
+def sd_vis_balls(sensor, policy, swarm):
+    """SD_vis's paths between the pairs apart in S_vis of ``swarm``, and the radius about
+    its source that each path's nodes lie in (``(cost / ratio + spread) / 2``)."""
+    hood = neighbourhood(swarm, sensor)
+    source, target = apart_in_sight(hood)
+    paths = shortest_paths(hood.any_visible, source, target, policy)
+    ratio = least_cost_per_cm(sensor, swarm.radius, policy)
+    cost = paths.hops if policy == "fewest-hops" else paths.length
+    spread = np.linalg.norm(swarm.points[target] - swarm.points[source], axis=1)
+    return hood, source, target, paths, ratio, (cost / ratio + spread) / 2
+
+
 def assert_same_paths(got: Paths, want: Paths):
     for name in ("found", "hops", "offsets", "nodes"):
         np.testing.assert_array_equal(getattr(got, name), getattr(want, name), err_msg=name)
@@ -73,13 +85,7 @@ def test_no_edge_of_sd_vis_costs_less_a_cm_than_the_bound(sensor, policy):
 @pytest.mark.parametrize("policy", POLICIES)
 def test_no_hop_of_a_path_is_longer_than_its_ball_allows(sensor, policy):
     swarm = plane()
-    hood = neighbourhood(swarm, sensor)
-    source, target = apart_in_sight(hood)
-    paths = shortest_paths(hood.any_visible, source, target, policy)
-    ratio = least_cost_per_cm(sensor, swarm.radius, policy)
-    cost = paths.hops if policy == "fewest-hops" else paths.length
-    spread = np.linalg.norm(swarm.points[target] - swarm.points[source], axis=1)
-    ball = (cost / ratio + spread) / 2  # the radius about the source its nodes lie in
+    hood, source, _, paths, ratio, ball = sd_vis_balls(sensor, policy, swarm)
     longest = np.zeros(len(source))
     for m in np.flatnonzero(paths.found):
         nodes = paths.path(m)
@@ -98,13 +104,7 @@ def test_no_hop_of_a_path_is_longer_than_its_ball_allows(sensor, policy):
 @pytest.mark.parametrize("policy", POLICIES)
 def test_every_hop_of_a_path_is_found_in_its_sources_ball_and_some_barely(sensor, policy):
     swarm = plane()
-    hood = neighbourhood(swarm, sensor)
-    source, target = apart_in_sight(hood)
-    paths = shortest_paths(hood.any_visible, source, target, policy)
-    ratio = least_cost_per_cm(sensor, swarm.radius, policy)
-    cost = paths.hops if policy == "fewest-hops" else paths.length
-    spread = np.linalg.norm(swarm.points[target] - swarm.points[source], axis=1)
-    ball = (cost / ratio + spread) / 2
+    _, source, _, paths, ratio, ball = sd_vis_balls(sensor, policy, swarm)
     every, short = np.arange(swarm.size), 0
 
     def kept_pairs(slack):
@@ -170,9 +170,7 @@ def test_paths_searched_near_their_pairs_are_those_of_sd_vis_held_whole(sensor, 
 
 def test_a_path_its_first_region_cannot_prove_is_searched_again_a_step_wider(sensor):
     swarm = plane(seed=0)  # a plane where a narrow region's detours are long
-    hood = neighbourhood(swarm, sensor)
-    source, target = apart_in_sight(hood)
-    want = shortest_paths(hood.any_visible, source, target, "shortest-length")
+    hood, source, target, want, _, needs = sd_vis_balls(sensor, "shortest-length", swarm)
     # The first margin is what two sweet hops need; a path with a decaying hop costs more.
     counts = pair_counts(swarm, sensor)
     near = local_decaying_paths(hood, "shortest-length", source, target, counts, 8000, SILENT)
@@ -181,9 +179,6 @@ def test_a_path_its_first_region_cannot_prove_is_searched_again_a_step_wider(sen
     # Each pair is proven in the first region as wide as its path needs, or in one at
     # most a step wider than the last that was not (a longer path a narrow region found
     # is no measure of what SD_vis's needs).
-    ratio = least_cost_per_cm(sensor, swarm.radius, "shortest-length")
-    spread = np.linalg.norm(swarm.points[target] - swarm.points[source], axis=1)
-    needs = (want.length / ratio + spread) / 2
     first = near.radius.min()
     assert (near.radius > first).sum() > 10
     assert (near.radius >= needs).all()
