@@ -383,7 +383,7 @@ class _Sight:
     def __init__(self, size: int) -> None:
         self.size = size
         self.held_by = np.zeros((size, 1), dtype=np.uint64)  # bit t of word t // 64: region t
-        self.longest = np.zeros(0)  # region t judged the pairs shorter than this, cm
+        self.longest = np.zeros(0)  # region t held the pairs shorter than this, cm
         self.key_start = np.zeros(1, dtype=np.int64)  # region t's keys: [start[t], start[t+1])
         self.keys = np.zeros(1024, dtype=np.int64)  # the regions' keys and sight, and room
         self.judged = 0  # pairs judged so far
@@ -505,7 +505,8 @@ def _region(
     # them, each distance from the same two points, found without the pairs that leave it.
     members = np.flatnonzero(inside)
     part = replace(swarm, points=swarm.points[members], cloud_index=swarm.cloud_index[members])
-    # Every sweet pair, whose sight is known, however short the decaying pairs are cut.
+    # The sweet pairs too (their sight is known), however short the decaying pairs are cut;
+    # with ``on_paths``, sweet and decaying, only those near enough a source.
     affordable = EVERY_PAIR if on_paths is None else on_paths.affordable(members)
     found = neighbour_pairs(
         part, sensor, longest=max(longest, sensor.sweet_max), affordable=affordable
