@@ -329,16 +329,12 @@ def neighbour_pairs(
     reach = candidate_reach(sensor, swarm.radius, farthest)
     points = np.ascontiguousarray(swarm.points, dtype=np.float64)
     grid = grid if grid is not None else neighbour_grid(swarm, sensor, farthest)
-    if involving is None:
-        involving = np.empty(0, dtype=np.bool_)
-    elif involving.shape != (swarm.size,):
+    if involving is not None and involving.shape != (swarm.size,):
         raise ValueError(f"`involving` must be ({swarm.size},) bools, got {involving.shape}")
-    spare = np.ascontiguousarray(affordable.spare, dtype=np.float64)
-    if len(spare) and spare.shape != (swarm.size,):
-        raise ValueError(f"`affordable.spare` must be ({swarm.size},) values, got {spare.shape}")
-    rows, second = pairs_within(
-        points, reach, grid, start, stop, involving, spare, affordable.per_cm, affordable.fixed
-    )
+    spare = np.shape(affordable.spare)
+    if spare != (0,) and spare != (swarm.size,):
+        raise ValueError(f"`affordable.spare` must be ({swarm.size},) values, got {spare}")
+    rows, second = pairs_within(points, reach, grid, start, stop, involving, affordable)
     first = np.repeat(np.arange(start, stop, dtype=np.int64), np.diff(rows))
     distance = centre_distance(swarm.points, first, second)
     tracking = distance - 2.0 * swarm.radius

@@ -93,17 +93,14 @@ def _within(
     return count
 
 
-@jit.kernel(cache=True, parallel=True)
 def pairs_within(
     points: FloatArray,
     reach: float,
     grid: Grid,
-    start: int,
-    stop: int,
-    involving: BoolArray,
-    spare: FloatArray,
-    per_cm: float,
-    fixed: float,
+    start: int = 0,
+    stop: int | None = None,
+    involving: BoolArray | None = None,
+    affordable: Affordable = EVERY_PAIR,
 ) -> tuple[IntArray, IntArray]:
     """The pairs i < j of ``points`` within ``reach``, i in [start, stop), as CSR.
 
@@ -114,13 +111,12 @@ def pairs_within(
         Centre distance, inclusive.
     grid : Grid
         The points' grid, cells of any size.
-    start, stop : int
-        The block of first points.
-    involving : (N,) array of bool, or empty
-        Only the pairs of which i or j is True here (empty: every pair).
-    spare, per_cm, fixed
-        :class:`Affordable`'s fields: only the pairs they afford (``spare``
-        empty: every pair).
+    start, stop : int, optional
+        The block of first points (default: every point).
+    involving : (N,) array of bool, optional
+        Only the pairs of which i or j is True here (default: every pair).
+    affordable : Affordable, optional
+        Only the pairs it affords (default: every pair).
 
     Returns
     -------
@@ -129,24 +125,16 @@ def pairs_within(
     second : (M,) array of int
         Each row's j, sorted.
     """
-    size = stop - start
-    counts = np.zeros(size, dtype=np.int64)
-    nothing = np.empty(0, dtype=np.int64)
-    for row in jit.prange(size):
-        node = start + row
-        counts[row] = _within(points, node, reach, grid, nothing, involving, spare, per_cm, fixed)
-    rows = np.zeros(size + 1, dtype=np.int64)
+    scan = _scan(points, start, stop, involving, affordable)
+    counts = _counts(points, reach, grid, *scan)
+    rows = np.zeros(len(counts) + 1, dtype=np.int64)
     rows[1:] = np.cumsum(counts)
-    second = np.empty(rows[-1], dtype=np.int64)
-    for row in jit.prange(size):
-        out = second[rows[row] : rows[row + 1]]
-        _within(points, start + row, reach, grid, out, involving, spare, per_cm, fixed)
-        out.sort()
-    return rows, second
+    return rows, _fill(points, reach, grid, *scan, rows)
 
 
-@jit.kernel(cache=True, parallel=True)
-def counts_within(points: FloatArray, reach: float, grid: Grid) -> IntArray:
+def counts_within(
+    points: FloatArray, reach: float, grid: Grid, start: int = 0, stop: int | None = None
+) -> IntArray:
     """How many later points lie within ``reach`` of each point, no pair stored.
 
     Parameters
@@ -156,16 +144,69 @@ def counts_within(points: FloatArray, reach: float, grid: Grid) -> IntArray:
         Centre distance, inclusive.
     grid : Grid
         The points' grid, cells of any size.
+    start, stop : int, optional
+        The block of points counted for (default: every point).
 
     Returns
     -------
-    (N,) array of int
+    (stop - start,) array of int
         Per point i, the j > i within reach.
     """
-    counts = np.zeros(len(points), dtype=np.int64)
+    return np.asarray(_counts(points, reach, grid, *_scan(points, start, stop, None, EVERY_PAIR)))
+
+
+def _scan(
+    points: FloatArray,
+    start: int,
+    stop: int | None,
+    involving: BoolArray | None,
+    affordable: Affordable,
+) -> tuple[int, int, BoolArray, FloatArray, float, float]:
+    """The kernels' arguments after the grid: a block, a mask and a price (empty: none)."""
+    stop = len(points) if stop is None else stop
+    mask = np.empty(0, dtype=np.bool_) if involving is None else involving
+    spare = np.ascontiguousarray(affordable.spare, dtype=np.float64)
+    return start, stop, mask, spare, affordable.per_cm, affordable.fixed
+
+
+@jit.kernel(cache=True, parallel=True)
+def _counts(
+    points: FloatArray,
+    reach: float,
+    grid: Grid,
+    start: int,
+    stop: int,
+    involving: BoolArray,
+    spare: FloatArray,
+    per_cm: float,
+    fixed: float,
+) -> IntArray:
+    """Per point of [start, stop), how many pairs :func:`_within` finds for it."""
+    counts = np.zeros(stop - start, dtype=np.int64)
     nothing = np.empty(0, dtype=np.int64)
-    everyone = np.empty(0, dtype=np.bool_)
-    free = np.empty(0)
-    for node in jit.prange(len(points)):
-        counts[node] = _within(points, node, reach, grid, nothing, everyone, free, 0.0, 0.0)
+    for row in jit.prange(stop - start):
+        node = start + row
+        counts[row] = _within(points, node, reach, grid, nothing, involving, spare, per_cm, fixed)
     return counts
+
+
+@jit.kernel(cache=True, parallel=True)
+def _fill(
+    points: FloatArray,
+    reach: float,
+    grid: Grid,
+    start: int,
+    stop: int,
+    involving: BoolArray,
+    spare: FloatArray,
+    per_cm: float,
+    fixed: float,
+    rows: IntArray,
+) -> IntArray:
+    """The pairs :func:`_counts` counted, each row's sorted, at ``rows``."""
+    second = np.empty(rows[-1], dtype=np.int64)
+    for row in jit.prange(stop - start):
+        out = second[rows[row] : rows[row + 1]]
+        _within(points, start + row, reach, grid, out, involving, spare, per_cm, fixed)
+        out.sort()
+    return second
