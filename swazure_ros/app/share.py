@@ -138,9 +138,13 @@ def host_share(
     code = 1
     try:
         # Its FLSs' pairs only, let go once its observations are laid out: only a move asks
-        # for them again (at torus:30000 over 4, 1.3 GB a process).
+        # for them again (at torus:30000 over 4, 1.3 GB a process). Its blind and sweet
+        # rows only: the decaying ones when a decaying phase first relays.
         world = config.world.build(
-            hosted_ids=fls_ids, only_hosted_pairs=True, pairs_on_demand=True
+            hosted_ids=fls_ids,
+            only_hosted_pairs=True,
+            pairs_on_demand=True,
+            decaying_on_demand=True,
         )
         context = init_context(config)
         own = host_config(config, fls_ids, index, swarm_size, SwarmKey(*key))

@@ -168,6 +168,7 @@ class RunningSwarm:
                 hosted_ids=plan.processes.laid_out,
                 only_hosted_pairs=not config.whole_world,
                 pairs_on_demand=not config.whole_world,
+                decaying_on_demand=not config.whole_world,
             )
             context = init_context(config)
             host = SwarmHost(world, _own_config(plan), context=context)

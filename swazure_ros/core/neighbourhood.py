@@ -226,6 +226,7 @@ def neighbourhood_of(
     flss: ArrayLike,
     grid: Grid | None = None,
     tree: cKDTree | None = None,
+    longest: float | None = None,
 ) -> Neighbourhood:
     """The pairs that involve some FLSs, with their line of sight: a part of :func:`neighbourhood`.
 
@@ -244,6 +245,10 @@ def neighbourhood_of(
         ``build_grid(swarm.points, swarm.radius)``, when the caller keeps it.
     tree : cKDTree, optional
         A cKDTree of ``swarm.points``, when the caller keeps it.
+    longest : float, optional
+        Only the pairs with tracking distance below this, cm: with
+        ``sensor.sweet_max``, the blind and sweet pairs without the decaying
+        ones, which are most of a display's pairs and of its line of sight.
 
     Returns
     -------
@@ -268,14 +273,14 @@ def neighbourhood_of(
     [(0, 2), (1, 2), (2, 3)]
     """
     flss = _indices(flss, "flss", swarm.size)
-    if len(flss) * MANY_FLSS >= swarm.size:
+    if len(flss) * MANY_FLSS >= swarm.size or longest is not None:
         # A share of a swarm: the whole list's compiled pass costs less than a tree's
         # Python lists of that many FLSs' neighbours. It keeps these FLSs' pairs only,
         # never holding the whole list (126.7 M pairs at torus:30000), and line of sight,
         # the most of the work, is judged for them alone.
         mine = np.zeros(swarm.size, dtype=bool)
         mine[flss] = True
-        pairs = neighbour_pairs(swarm, sensor, involving=mine)
+        pairs = neighbour_pairs(swarm, sensor, involving=mine, longest=longest)
     else:
         pairs = pairs_of(swarm, sensor, flss, tree)
     edge = (pairs.range_class == SWEET) | (pairs.range_class == DECAYING)

@@ -72,6 +72,11 @@ class Senses(Protocol):
         """What FLS ``fls_id`` knows of its neighbours, for path discovery."""
         ...
 
+    def near_view(self, fls_id: int) -> LocalView:
+        """FLS ``fls_id``'s view with its blind and sweet neighbours at least (its decaying
+        ones too where they cost nothing more): what a run's sweet phases read."""
+        ...
+
     def positions(self, fls_ids: IntArray) -> FloatArray:
         """(K, 3) where FLSs ``fls_ids`` are as far as this process knows, cm."""
         ...
@@ -287,6 +292,10 @@ class DetectedSenses:
             reading=np.arange(len(self._near), dtype=np.int32),
             readings_vector=self._vector.copy(),
         )
+
+    def near_view(self, fls_id: int) -> LocalView:
+        """Its whole view: an FLS alone holds its own rows only, decaying ones included."""
+        return self.view(fls_id)
 
     def positions(self, fls_ids: IntArray) -> FloatArray:
         """(K, 3) where FLSs ``fls_ids`` are as the swarm knows it, cm."""

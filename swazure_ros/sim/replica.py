@@ -49,6 +49,10 @@ class WorldReplica:
         """What FLS ``fls_id`` knows of its neighbours in the current revision."""
         return self.world.view(fls_id)
 
+    def near_view(self, fls_id: int) -> LocalView:
+        """FLS ``fls_id``'s view with its blind and sweet neighbours at least."""
+        return self.world.near_view(fls_id)
+
     @property
     def sensor(self) -> Sensor:
         """The sensor every FLS measures with."""

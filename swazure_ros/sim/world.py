@@ -60,15 +60,24 @@ class HomeNeighbourhood:
     A further process of a packed swarm lays out its FLSs' observations from its pairs and
     then, in plain discovery, never asks for them again: at torus:30000 over 4 they are
     1.3 GB a process (41 M pairs). A move asks for them; they are made anew from revision
-    0's places, the same pairs.
+    0's places, the same pairs. A world whose decaying rows are laid out on demand keeps
+    them here once made (``full_seen``): revision 0's, whichever revision asks.
     """
 
     def __init__(
         self, hood: Neighbourhood, make: Callable[[], Neighbourhood] | None = None
     ) -> None:
-        self.pairs = len(hood.pairs)  # counted while held, for :meth:`World.held`
+        self._built_pairs = len(hood.pairs)  # counted while held, for :meth:`World.held`
         self._make = make
         self.held: Neighbourhood | None = hood if make is None else None
+        # Revision 0's rows with the decaying ones, where the world laid out its blind
+        # and sweet rows only (``decaying_on_demand``): made when first asked for.
+        self.full_seen: Observations | None = None
+
+    @property
+    def pairs(self) -> int:
+        """The pairs it holds, or held when it was built."""
+        return self._built_pairs if self.held is None else len(self.held.pairs)
 
     def get(self) -> Neighbourhood:
         """The neighbourhood, made again if it was let go."""
@@ -121,6 +130,9 @@ class World:
     hosted: IntArray | None = None
     # True: the neighbourhoods hold the hosted FLSs' pairs only (and a moved FLS's).
     only_hosted_pairs: bool = False
+    # True: revision 0's observations hold the blind and sweet rows only; an FLS's decaying
+    # rows are laid out when something asks for them (:meth:`view`).
+    decaying_on_demand: bool = False
 
     # Worked out on demand, per revision: `replace` gives the next revision an empty one.
     _worked: WorkedOut = field(default_factory=WorkedOut, init=False, repr=False, compare=False)
@@ -186,12 +198,32 @@ class World:
 
     def _worked_out(self, index: int) -> bool:
         """Whether FLS ``index``'s observations of this revision are at hand."""
-        return (self._seen_at_hand and self._laid_out[index]) or index in self._worked.one_seen
+        laid_out = self._seen_at_hand and self._laid_out[index]
+        if laid_out and self._seen_near:  # its decaying rows too, or a walk misses them
+            laid_out = self.home_neighbourhood.full_seen is not None
+        return laid_out or index in self._worked.one_seen
 
-    def _observed(self, index: int) -> Observations:
-        """Observations that hold FLS ``index``'s rows (the hosted FLSs', or its own)."""
+    @property
+    def _seen_near(self) -> bool:
+        """Whether :attr:`seen` lacks the decaying rows (revision 0's, laid out without)."""
+        return self.decaying_on_demand and self.seen is self.home_seen
+
+    def _observed(self, index: int, decaying: bool = True, whole: bool = False) -> Observations:
+        """Observations that hold FLS ``index``'s rows (the hosted FLSs', or its own).
+
+        ``decaying``: with its decaying rows in sight; else its blind and sweet rows
+        at least. ``whole``: where the decaying rows are laid out on demand, lay out
+        every hosted FLS's at once rather than this FLS's alone (a decaying phase
+        asks for all of them).
+        """
         if self._seen_at_hand and self._laid_out[index]:
-            return self.seen
+            if not decaying or not self._seen_near:
+                return self.seen
+            home = self.home_neighbourhood
+            if home.full_seen is None and whole:
+                home.full_seen = observations(self.home_hood, self.hosted)
+            if home.full_seen is not None:
+                return home.full_seen
         one = self._worked.one_seen.get(index)
         if one is not None:
             return one
@@ -215,16 +247,27 @@ class World:
         return NeighbourSets(*(self.ids[indices] for indices in vars(sets).values()))
 
     def view(self, fls_id: int) -> LocalView:
-        """What FLS ``fls_id`` knows of its neighbours, for path discovery."""
+        """What FLS ``fls_id`` knows of its neighbours, for path discovery: every row."""
         index = self.index(fls_id)
-        return local_view(self._observed(index), self.ids, index)
+        return local_view(self._observed(index, whole=True), self.ids, index)
+
+    def near_view(self, fls_id: int) -> LocalView:
+        """FLS ``fls_id``'s view with its blind and sweet rows at least: what the sweet
+        phases of a discovery relay over and search for. Without its decaying rows
+        where they are laid out on demand (most of a display's rows)."""
+        index = self.index(fls_id)
+        return local_view(self._observed(index, decaying=False), self.ids, index)
 
     def held(self) -> Held:
         """What this world holds at its revision, counted (:class:`Held`)."""
         seen = self.seen
+        full = self.home_neighbourhood.full_seen if self._seen_near else None
+        if full is not None:
+            seen = full  # the decaying rows laid out since: the blind and sweet ones again
         owners = int(np.count_nonzero(np.diff(seen.indptr)))
         pairs = self.home_neighbourhood.pairs if self._at_home else len(self.hood.pairs)
-        return Held(pairs, len(seen.other), owners)
+        rows = len(seen.other) + (len(self.seen.other) if full is not None else 0)
+        return Held(pairs, rows, owners)
 
     @property
     def id_space(self) -> int:
@@ -316,6 +359,7 @@ def make_world(
     hosted_ids: Sequence[int] | None = None,
     only_hosted_pairs: bool = False,
     pairs_on_demand: bool = False,
+    decaying_on_demand: bool = False,
 ) -> World:
     """The world of ``cloud`` at revision 0: FLSs at their points, colliding ones removed.
 
@@ -326,7 +370,11 @@ def make_world(
     whole swarm's neighbourhood has it: what a process hosting a share needs, not
     the whole swarm's pairs. With ``pairs_on_demand`` too, those pairs are let go
     once the observations are laid out, and made again when something asks for
-    them (:class:`HomeNeighbourhood`).
+    them (:class:`HomeNeighbourhood`). With ``decaying_on_demand``, it finds
+    and lays out the blind and sweet pairs only; the decaying ones (most of a
+    display's pairs, rows and line of sight) are found when something asks for
+    an FLS's every row (:meth:`World.view`), and every pair when something asks
+    for the neighbourhood.
     """
     swarm = make_swarm(cloud.points, beta=beta, radius=radius, seed=seed)
     hosted = None
@@ -337,16 +385,25 @@ def make_world(
             raise UnknownFlsError(f"hosted FLSs not in this swarm of {swarm.size} FLSs")
         hosted = rows if len(hosted) < swarm.size else None
     lean = only_hosted_pairs and hosted is not None
-    make = None
-    if only_hosted_pairs and hosted is not None:
-        make = partial(neighbourhood_of, swarm, sensor, hosted)
-        hood = make()
+    make: Callable[[], Neighbourhood] = (
+        partial(neighbourhood_of, swarm, sensor, hosted)
+        if lean
+        else partial(neighbourhood, swarm, sensor)
+    )
+    if decaying_on_demand:
+        # Pairs below the sweet range's end are blind or sweet: never decaying.
+        owners = np.arange(swarm.size) if hosted is None else hosted
+        hood = neighbourhood_of(swarm, sensor, owners, longest=sensor.sweet_max)
     else:
-        hood = neighbourhood(swarm, sensor)
+        hood = make()
     seen = observations(hood, hosted)
-    home = HomeNeighbourhood(hood, make if pairs_on_demand else None)
+    on_demand = pairs_on_demand or decaying_on_demand
+    home = HomeNeighbourhood(hood, make if on_demand else None)
     no_moves = np.zeros(0, dtype=np.int64)
-    return World(cloud, sensor, swarm, swarm, 0, home, seen, None, no_moves, hosted, lean)
+    return World(
+        cloud, sensor, swarm, swarm, 0, home, seen, None, no_moves, hosted, lean,
+        decaying_on_demand,
+    )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -358,6 +415,7 @@ class WorldSpec(SwarmDescription):
         hosted_ids: Sequence[int] | None = None,
         only_hosted_pairs: bool = False,
         pairs_on_demand: bool = False,
+        decaying_on_demand: bool = False,
     ) -> World:
         """Load the cloud and sensor and make the world at revision 0 (see :func:`make_world`)."""
         return make_world(
@@ -369,4 +427,5 @@ class WorldSpec(SwarmDescription):
             hosted_ids=hosted_ids,
             only_hosted_pairs=only_hosted_pairs,
             pairs_on_demand=pairs_on_demand,
+            decaying_on_demand=decaying_on_demand,
         )

@@ -15,6 +15,7 @@ from swazure_ros.core.evaluate import evaluate, evaluate_pairs
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.result import MOVE_OBSTRUCTING, MOVE_SOURCE
 from swazure_ros.core.observe import observations
+from swazure_ros.core.sensor import BLIND, SWEET
 from swazure_ros.protocol.cells import BANDS, DECAYING_BAND, SWEET_BAND, radio_cells
 from swazure_ros.protocol.discovery.reported import evaluation_of
 from swazure_ros.ros.plumbing.names import RADIO_TOPIC, WALKS_TOPIC, host_name, radio_topic
@@ -115,13 +116,21 @@ def test_two_processes_hear_only_their_cells_offers_yet_equal_the_engine(domain,
         assert 0 < radio.offers_heard < sent - radio.offers_here
 
 
+# Every pair of this torus has a sweet path in sight: its decaying phase relays nothing.
+ALL_SWEET_IN_SIGHT = WorldSpec("torus:400", scale=3, beta=0.5)
+
+
+@pytest.mark.parametrize(
+    "spec", [WORLD, ALL_SWEET_IN_SIGHT], ids=["decaying phase relays", "every pair sweet in sight"]
+)
 def test_every_process_holds_only_its_own_flss_pairs_and_rows_yet_the_run_equals_the_engine(
     domain,
     params,  # noqa: F811
+    spec,
 ):
     # The launcher too: plain Swazure's comparison with the engine goes block by block.
     config = SwarmConfig(
-        WORLD, processes=3, domain_id=domain, params_file=str(params), whole_world=False
+        spec, processes=3, domain_id=domain, params_file=str(params), whole_world=False
     )
     with RunningSwarm.start(config) as swarm:
         computed = compute_all(swarm, POLICY)
@@ -129,24 +138,41 @@ def test_every_process_holds_only_its_own_flss_pairs_and_rows_yet_the_run_equals
         held = [swarm.world.held(), *swarm.processes.held()]
     assert computed.record.comparison is not None and computed.record.comparison.identical
     assert computed.evaluation is None  # no process held every pair's results
-    world = WORLD.build()  # the whole swarm's, built here to count against
+    world = spec.build()  # the whole swarm's, built here to count against
     engine = evaluate(world.swarm, world.sensor, POLICY).summary
     assert computed.record.summary.pairs.blind_pairs == engine.pairs.blind_pairs > 1_000
+    # A decaying phase searches for the pairs without a sweet path in sight.
+    assert (engine.pairs.no_sweet_path_pairs > 0) == (spec is WORLD), engine.pairs
     pairs = world.hood.pairs
-    rows_of = np.diff(observations(world.hood).indptr)  # each FLS's rows in the whole swarm
+    near_pair = pairs.tracking < world.sensor.sweet_max
+    seen = observations(world.hood)
+    rows_of = np.diff(seen.indptr)  # each FLS's rows in the whole swarm
+    near_rows_of = np.bincount(  # and its blind and sweet ones
+        np.repeat(np.arange(world.swarm.size), rows_of),
+        weights=np.isin(seen.range_class, (BLIND, SWEET)),
+        minlength=world.swarm.size,
+    ).astype(int)
     assert len(held) == len(shares_ids) == 3
+    decaying_laid_out = []
     for share, count in zip(shares_ids, held, strict=True):
         mine = world.indices(share)
         hosted = np.zeros(world.swarm.size, dtype=bool)
         hosted[mine] = True
-        # Counted: exactly the whole's pairs that have an FLS of the share at one end.
-        touching = int((hosted[pairs.first] | hosted[pairs.second]).sum())
-        assert count.pairs == touching < 0.8 * len(pairs), (count, touching, len(pairs))
-        # And exactly its own FLSs' observation rows, as the whole swarm's have them: no
-        # other FLS's (a share of a third holds under half the rows).
-        own_rows = int(rows_of[mine].sum())
-        assert count.rows == own_rows < 0.5 * rows_of.sum(), (count, own_rows, rows_of.sum())
+        touching = hosted[pairs.first] | hosted[pairs.second]
+        own_rows, own_near_rows = int(rows_of[mine].sum()), int(near_rows_of[mine].sum())
         assert count.owners == np.count_nonzero(rows_of[mine])
+        # Counted: its own FLSs' rows as the whole swarm's have them, no other FLS's (a
+        # share of a third holds under half the rows): the blind and sweet ones, and the
+        # decaying ones once a label of the decaying phase reached one of its FLSs. And
+        # exactly the whole's pairs that have an FLS of the share at one end, the
+        # blind and sweet ones until the decaying ones were asked for.
+        laid_out = count.rows != own_near_rows
+        assert count.rows == own_near_rows + (own_rows if laid_out else 0), count
+        assert own_near_rows < own_rows < 0.5 * rows_of.sum()
+        assert count.pairs == int((touching if laid_out else touching & near_pair).sum())
+        decaying_laid_out.append(laid_out)
+    # Only where the decaying phase relays.
+    assert any(decaying_laid_out) == (spec is WORLD), decaying_laid_out
 
 
 def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, params):  # noqa: F811

@@ -15,6 +15,7 @@ import pytest
 from swazure_ros.core.errors import UnknownFlsError
 from swazure_ros.core.neighbourhood import neighbourhood
 from swazure_ros.core.observe import local_view, neighbour_sets, observations
+from swazure_ros.core.sensor import BLIND, SWEET
 from swazure_ros.sim.world import WorldSpec
 
 CALIBRATED = Path(__file__).parents[2] / "config" / "cameras" / "sensor-wide-calibrated.yaml"
@@ -168,6 +169,56 @@ def test_a_share_world_lets_its_pairs_go_and_makes_the_same_again_when_an_fls_mo
     )
     back = moved.moved({fls: held.position(fls)})
     assert back.seen is lean.home_seen and back.hood is lean.home_hood
+
+
+@pytest.mark.parametrize("hosting", ["every FLS", "a share"])
+def test_a_world_of_blind_and_sweet_rows_answers_as_the_whole_and_lays_out_the_rest_when_asked(
+    hosting,
+):
+    # What a process of a display lays out: most of its rows are decaying ones, which only
+    # a decaying phase's relays read.
+    spec = WorldSpec("torus:400", scale=1.6, beta=0.5)
+    hosted_ids = every_third(spec) if hosting == "a share" else None
+    whole = spec.build(hosted_ids=hosted_ids)
+    near = spec.build(
+        hosted_ids=hosted_ids,
+        only_hosted_pairs=True,
+        pairs_on_demand=True,
+        decaying_on_demand=True,
+    )
+    ids = spec.fls_ids() if hosted_ids is None else np.asarray(hosted_ids)
+    # Counted: its FLSs' blind and sweet rows alone, without their decaying rows in sight
+    # (a fifth of this small torus's; nine in ten at torus:30000, docs/swarm.md).
+    near_rows = int(np.isin(whole.seen.range_class, (BLIND, SWEET)).sum())
+    assert near.held().rows == len(near.seen.other) == near_rows
+    assert near_rows < 0.85 * len(whole.seen.other)
+    assert near.home_neighbourhood.held is None
+    for fls in ids[::7].tolist():
+        # The view a run starts from: the whole's blind and sweet rows, the same bits.
+        mine, theirs = near.near_view(fls), whole.view(fls)
+        kept = np.isin(theirs.range_class, (BLIND, SWEET))
+        np.testing.assert_array_equal(mine.other, theirs.other[kept])
+        np.testing.assert_array_equal(mine.range_class, theirs.range_class[kept])
+        np.testing.assert_array_equal(mine.visible, theirs.visible[kept])
+        np.testing.assert_array_equal(mine.distance, theirs.distance[kept])
+        np.testing.assert_array_equal(mine.vector, theirs.vector[kept])
+    # One FLS's answers, decaying neighbours included, without laying out the rest.
+    fls = int(ids[5])
+    sets, expected = vars(near.neighbours(fls)), vars(whole.neighbours(fls))
+    for name in expected:
+        np.testing.assert_array_equal(sets[name], expected[name])
+    assert len(expected["visible_decaying"])
+    assert near.measurement(fls).same_as(whole.measurement(fls))
+    walked = [int(expected["visible_decaying"][0])]  # a walk's next hop, a decaying one
+    assert near.measurement(fls, walked).same_as(whole.measurement(fls, walked))
+    assert len(near.measurement(fls, walked).target_ids) == 1
+    assert near.home_neighbourhood.full_seen is None
+    # A decaying phase's view: every hosted FLS's rows laid out at once, the whole's.
+    view, theirs = near.view(fls), whole.view(fls)
+    for name in ("other", "range_class", "visible", "distance", "vector"):
+        np.testing.assert_array_equal(getattr(view, name), getattr(theirs, name))
+    assert near.home_neighbourhood.full_seen is not None
+    assert near.held().rows == len(whole.seen.other) + near_rows
 
 
 def test_a_share_of_ids_the_swarm_does_not_hold_is_refused():

@@ -44,7 +44,14 @@ from .messages import (
     RoundOffers,
     fit_offer,
 )
-from .search import PathSearch, SearchOptions, phase_targets, radio_window, reads_both_ends
+from .search import (
+    PathSearch,
+    SearchOptions,
+    ViewOf,
+    phase_targets,
+    radio_window,
+    reads_both_ends,
+)
 from .together import close_together, hear_together, pick_together
 
 #: Discovery runs an FLS takes part in at once, at most: its coordinator runs one at a
@@ -57,7 +64,11 @@ class FlsRun:
 
     ``targets`` are the FLS's targets as a source: its blind neighbours by
     default, none when it is not a source of the run. ``hop_errors`` (K,) are
-    the expected errors of the hops to the view's neighbours.
+    the expected errors of the hops to the view's neighbours. ``view`` holds
+    the blind and sweet neighbours at least; ``whole``, if given, gives the
+    view with the decaying neighbours too, and its hop errors, when the
+    decaying phase first relays or the FIT phase starts (its rows are most of
+    a display's, laid out on demand).
     """
 
     def __init__(
@@ -72,8 +83,11 @@ class FlsRun:
         both_ends: bool = False,
         sources: IntArray | None = None,
         estimator: str | None = None,
+        whole: ViewOf | None = None,
     ) -> None:
         self.view = view
+        self._whole = whole
+        self._whole_taken: tuple[LocalView, FloatArray | None] | None = None
         self.sources = sources
         self.hop_errors = hop_errors
         self.fit = fit
@@ -100,8 +114,16 @@ class FlsRun:
         before = self.fit_part
         if before is not None:  # a restart: from where the solves had come
             warm = [layer.position[:, 0] for layer in before.layers if layer is not None]
-        self.fit_part = FitPart(self.view, sensor, radius, departed, warm or None)
+        self.fit_part = FitPart(self.whole_view()[0], sensor, radius, departed, warm or None)
         return self.fit_part
+
+    def whole_view(self) -> tuple[LocalView, FloatArray | None]:
+        """Its view with every neighbour, decaying ones too, and their hop errors (taken
+        once, when first asked for)."""
+        if self._whole_taken is None:
+            whole = self._whole
+            self._whole_taken = (self.view, self.hop_errors) if whole is None else whole()
+        return self._whole_taken
 
     def swarm_fitted(self, sensor: Sensor, heard: RoundOffers | None) -> Estimates:
         """The estimates with each pair's vector from the swarm's fit (its SHARE round).
@@ -180,7 +202,9 @@ class FlsRun:
             self.sources,
             reach,
         )
-        self.search = PathSearch(self.view, phase, options, targets, departed)
+        # The decaying phase relays over the decaying neighbours too, made when first needed.
+        view_of = self.whole_view if phase == ANY_VISIBLE and self._whole is not None else None
+        self.search = PathSearch(self.view, phase, options, targets, departed, view_of)
         self.results[phase] = self.search.results
         return self.search
 
@@ -237,6 +261,9 @@ class Participant:
     """One FLS's part of every discovery run: controls and offers in, broadcasts and reports out.
 
     ``view()`` tells what the FLS knows of its neighbours when a run starts;
+    ``near_view()``, if given, the same with its blind and sweet neighbours at
+    least: a run starts from it, and takes ``view()`` only when its decaying
+    phase first relays or its FIT phase starts;
     ``sensor`` and ``radius`` (cm) what each hop may cost (bucket widths, hop
     errors), and ``id_space`` bounds the FLS ids. ``readings`` holds what the
     FLS has heard of other FLSs' cameras: a source of a fitting run reports
@@ -251,9 +278,11 @@ class Participant:
         radius: float,
         id_space: int,
         readings: ReadingsBook | None = None,
+        near_view: Callable[[], LocalView] | None = None,
     ) -> None:
         self.fls_id = fls_id
         self._view = view
+        self._near_view = near_view
         self.sensor = sensor
         self.radius = radius
         self.id_space = id_space
@@ -368,7 +397,7 @@ class Participant:
         return reports
 
     def _new_run(self, control: Control) -> FlsRun:
-        view = self._view()
+        view = (self._near_view or self._view)()
         targets: IntArray | None = view.blind
         if control.source_ids:
             sources = control.sources  # one sorted array for the process's every FLS
@@ -395,7 +424,13 @@ class Participant:
             both_ends,
             control.sources if control.source_ids else None,
             control.estimator,
+            None if self._near_view is None else self._whole_view,
         )
+
+    def _whole_view(self) -> tuple[LocalView, FloatArray]:
+        """Its view with every neighbour, and the expected error of each hop."""
+        view = self._view()
+        return view, hop_error(self.sensor, view.distance, self.radius)
 
 
 @dataclass

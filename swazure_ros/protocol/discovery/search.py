@@ -18,7 +18,7 @@ the label whose sender has the smallest FLS id: the predecessor rule of
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -179,25 +179,53 @@ class SearchOptions:
     reach: float = math.inf  # the pass's rounds (buckets.reach_rounds): later labels are not sent
 
 
+#: Where the hops of a phase come from: a view and the expected error of the hop to each of
+#: its neighbours (None: none), made when first called.
+ViewOf = Callable[[], tuple[LocalView, FloatArray | None]]
+
+
 class RelayHops:
     """The hops one FLS relays from in ``phase``, not from the ``departed``, and its
     readings of them: made when its labels' table needs them (:class:`.labels.RowHops`).
 
     The neighbours relayed from are sorted by id (a view lists them so), each with
     the hop sender -> FLS, which the FLS's camera measures the other way round.
+    ``view_of``, if given, gives the view and its hop errors in place of ``view``
+    and ``options.hop_errors``, when the hops are first needed: a decaying phase's
+    rows, which a display's share lays out only when a label of the phase reaches
+    one of its FLSs.
     """
 
     def __init__(
-        self, view: LocalView, phase: int, departed: frozenset[int], options: SearchOptions
+        self,
+        view: LocalView,
+        phase: int,
+        departed: frozenset[int],
+        options: SearchOptions,
+        view_of: ViewOf | None = None,
     ) -> None:
         # The view holds the world's rows in place: keeping it costs nothing.
-        self.view, self.phase, self.departed, self.options = view, phase, departed, options
+        self.phase, self.departed, self.options = phase, departed, options
+        self._view_of = view_of
+        self._neighbours = None if view_of is not None else (view, options.hop_errors)
         # Counted when the table first needs it: an FLS that no label reaches in a phase
         # (a torus's in SD_vis, where every pair has a sweet path in sight) never does.
         self._count: int | None = None
 
+    @property
+    def view(self) -> LocalView:
+        """The view it relays over (taken now if it was left for later)."""
+        return self._taken()[0]
+
+    def _taken(self) -> tuple[LocalView, FloatArray | None]:
+        if self._neighbours is None:
+            assert self._view_of is not None
+            self._neighbours, self._view_of = self._view_of(), None
+        return self._neighbours
+
     def _mask(self) -> NDArray[np.bool_]:
-        view, mask = self.view, hop_mask(self.view, self.phase)
+        view = self.view
+        mask = hop_mask(view, self.phase)
         return mask & ~np.isin(view.other, list(self.departed)) if self.departed else mask
 
     def _rows(self) -> IntArray:
@@ -212,10 +240,9 @@ class RelayHops:
 
     def fill(self, links: Links, start: int) -> None:
         """Write its hops into ``links`` from ``start`` on."""
-        view, rows, end = self.view, self._rows(), start + self.count()
+        (view, errors), rows, end = self._taken(), self._rows(), start + self.count()
         links.ids[start:end] = view.other[rows]
         links.weights[start:end] = view.distance[rows]
-        errors = self.options.hop_errors
         links.errors[start:end] = 0.0 if errors is None else errors[rows]
         if self.options.both_ends:  # the sender's own reading comes with its first offer
             links.vectors[start:end] = np.nan
@@ -256,6 +283,7 @@ class PathSearch:
         options: SearchOptions,
         targets: IntArray | None = None,
         departed: frozenset[int] = frozenset(),
+        view_of: ViewOf | None = None,
     ) -> None:
         self.fls_id = view.fls_id
         self.span = source_range(options.sources, options.id_space)
@@ -263,9 +291,10 @@ class PathSearch:
         self.width = options.width
         # Buckets this pass relays: from where the pass before paused, below its reach.
         self.resumed, self.reach = 0.0, options.reach
-        hops = RelayHops(view, phase, departed, options)
-        # This FLS's readings of the neighbours it relays to, sent once when both ends read.
-        self._readings = hops.readings() if options.both_ends else None
+        hops = RelayHops(view, phase, departed, options, view_of)
+        # This FLS's readings of the neighbours it relays to, sent once when both ends read:
+        # with its first offer, if it makes one (an FLS no label reaches makes none).
+        self._readings: RelayHops | None = hops if options.both_ends else None
         self.fit = options.fit
         self.fits = options.fit is not None
         # Its labels: row 0 of a table of its own, until its process steps it with
@@ -395,9 +424,8 @@ class PathSearch:
         """This FLS's readings, for its first offer of the phase only; none after."""
         if self._readings is None:
             return np.zeros(0, dtype=np.int64), np.zeros((0, 3))
-        ids, vectors = self._readings
-        self._readings = None
-        return ids, vectors
+        hops, self._readings = self._readings, None
+        return hops.readings()
 
     def _take_results(
         self, heard: RoundOffers, labels: IntArray, paths: tuple[IntArray, IntArray]
