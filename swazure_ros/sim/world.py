@@ -385,11 +385,9 @@ def make_world(
             raise UnknownFlsError(f"hosted FLSs not in this swarm of {swarm.size} FLSs")
         hosted = rows if len(hosted) < swarm.size else None
     lean = only_hosted_pairs and hosted is not None
-    make: Callable[[], Neighbourhood] = (
-        partial(neighbourhood_of, swarm, sensor, hosted)
-        if lean
-        else partial(neighbourhood, swarm, sensor)
-    )
+    make: Callable[[], Neighbourhood] = partial(neighbourhood, swarm, sensor)
+    if only_hosted_pairs and hosted is not None:
+        make = partial(neighbourhood_of, swarm, sensor, hosted)
     if decaying_on_demand:
         # Pairs below the sweet range's end are blind or sweet: never decaying.
         owners = np.arange(swarm.size) if hosted is None else hosted

@@ -59,37 +59,47 @@ from .together import close_together, hear_together, pick_together
 RUNS_KEPT = 4
 
 
+@dataclass(frozen=True)
+class RunView:
+    """What one FLS's run knows of its neighbours.
+
+    ``view`` holds its blind and sweet neighbours at least, and ``hop_errors``
+    (K,) the expected error of the hop to each. ``whole``, if given, gives the
+    view with its decaying neighbours too and their hop errors, taken when the
+    decaying phase first relays or the FIT phase starts: on a display most
+    rows are decaying ones, which a share lays out on demand.
+    """
+
+    view: LocalView
+    hop_errors: FloatArray | None = None
+    whole: ViewOf | None = None
+
+
 class FlsRun:
     """One FLS's part of one discovery run, phase after phase.
 
     ``targets`` are the FLS's targets as a source: its blind neighbours by
-    default, none when it is not a source of the run. ``hop_errors`` (K,) are
-    the expected errors of the hops to the view's neighbours. ``view`` holds
-    the blind and sweet neighbours at least; ``whole``, if given, gives the
-    view with the decaying neighbours too, and its hop errors, when the
-    decaying phase first relays or the FIT phase starts (its rows are most of
-    a display's, laid out on demand).
+    default, none when it is not a source of the run. ``seen``: what it knows
+    of its neighbours (:class:`RunView`).
     """
 
     def __init__(
         self,
-        view: LocalView,
+        seen: RunView,
         policy: str,
         width: float,
         id_space: int,
         targets: IntArray | None,
-        hop_errors: FloatArray | None = None,
         fit: tuple[Sensor, float] | None = None,
         both_ends: bool = False,
         sources: IntArray | None = None,
         estimator: str | None = None,
-        whole: ViewOf | None = None,
     ) -> None:
-        self.view = view
-        self._whole = whole
+        self.view = seen.view
+        self._whole = seen.whole
         self._whole_taken: tuple[LocalView, FloatArray | None] | None = None
         self.sources = sources
-        self.hop_errors = hop_errors
+        self.hop_errors = seen.hop_errors
         self.fit = fit
         self.both_ends = both_ends
         self.estimator = estimator or (PATH if fit is None else LOCAL_LEAST_SQUARES)
@@ -413,18 +423,17 @@ class Participant:
         hop_errors = hop_error(self.sensor, view.distance, self.radius)
         fit = (self.sensor, self.radius) if control.estimator == LOCAL_LEAST_SQUARES else None
         both_ends = reads_both_ends(self.sensor)
+        whole = None if self._near_view is None else self._whole_view
         return FlsRun(
-            view,
+            RunView(view, hop_errors, whole),
             control.policy,
             width,
             self.id_space,
             targets,
-            hop_errors,
             fit,
             both_ends,
             control.sources if control.source_ids else None,
             control.estimator,
-            None if self._near_view is None else self._whole_view,
         )
 
     def _whole_view(self) -> tuple[LocalView, FloatArray]:
