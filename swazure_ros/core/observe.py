@@ -11,6 +11,7 @@ take its own slice.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -335,6 +336,11 @@ class LocalView:
         read = self.reading >= 0
         read[read] = np.isfinite(self.readings_vector[self.reading[read]]).all(axis=1)
         return read
+
+
+#: An FLS's view with its blind and sweet neighbours only, and how to take its whole view of
+#: the same moment (its decaying neighbours too), for a run that needs it later.
+NearView = tuple[LocalView, Callable[[], LocalView]]
 
 
 def local_view(seen: Observations, ids: IntArray, fls: int) -> LocalView:

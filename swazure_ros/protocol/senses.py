@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from ..core.arrays import FloatArray, IntArray
 from ..core.errors import UnknownFlsError
 from ..core.geometry import tracking_distance
-from ..core.observe import LocalView, Measurement, NeighbourSets
+from ..core.observe import LocalView, Measurement, NearView, NeighbourSets
 from ..core.sensor import BLIND, DECAYING, SWEET, Sensor
 
 
@@ -72,9 +72,9 @@ class Senses(Protocol):
         """What FLS ``fls_id`` knows of its neighbours, for path discovery."""
         ...
 
-    def near_view(self, fls_id: int) -> LocalView:
-        """FLS ``fls_id``'s view with its blind and sweet neighbours at least (its decaying
-        ones too where they cost nothing more): what a run's sweet phases read."""
+    def near_view(self, fls_id: int) -> NearView | None:
+        """FLS ``fls_id``'s view with its blind and sweet neighbours only, and how to take its
+        whole view of the same moment later; None where the whole view is at hand."""
         ...
 
     def positions(self, fls_ids: IntArray) -> FloatArray:
@@ -293,9 +293,10 @@ class DetectedSenses:
             readings_vector=self._vector.copy(),
         )
 
-    def near_view(self, fls_id: int) -> LocalView:
-        """Its whole view: an FLS alone holds its own rows only, decaying ones included."""
-        return self.view(fls_id)
+    def near_view(self, fls_id: int) -> NearView | None:
+        """None: an FLS alone holds its own rows only, its whole view at hand."""
+        self._own(fls_id)
+        return None
 
     def positions(self, fls_ids: IntArray) -> FloatArray:
         """(K, 3) where FLSs ``fls_ids`` are as the swarm knows it, cm."""

@@ -10,6 +10,7 @@ where the revision puts them, on the ROS clock (simulated time in a track run).
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -17,7 +18,7 @@ from numpy.typing import NDArray
 
 from ..core.arrays import FloatArray, IntArray
 from ..core.motion import Motion
-from ..core.observe import LocalView, Measurement, NeighbourSets
+from ..core.observe import LocalView, Measurement, NearView, NeighbourSets
 from ..core.relay import RelaySenses, moving_senses
 from ..core.sensor import Sensor
 from ..files.reading import config_dir
@@ -49,9 +50,12 @@ class WorldReplica:
         """What FLS ``fls_id`` knows of its neighbours in the current revision."""
         return self.world.view(fls_id)
 
-    def near_view(self, fls_id: int) -> LocalView:
-        """FLS ``fls_id``'s view with its blind and sweet neighbours at least."""
-        return self.world.near_view(fls_id)
+    def near_view(self, fls_id: int) -> NearView | None:
+        """FLS ``fls_id``'s view with its blind and sweet neighbours only, and its whole view
+        in this revision when asked for; None where the whole view is at hand."""
+        world = self.world  # this revision's, whenever the whole view is asked for
+        near = world.near_view(fls_id)
+        return None if near is None else (near, partial(world.view, fls_id))
 
     @property
     def sensor(self) -> Sensor:

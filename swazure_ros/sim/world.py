@@ -251,11 +251,14 @@ class World:
         index = self.index(fls_id)
         return local_view(self._observed(index, whole=True), self.ids, index)
 
-    def near_view(self, fls_id: int) -> LocalView:
-        """FLS ``fls_id``'s view with its blind and sweet rows at least: what the sweet
-        phases of a discovery relay over and search for. Without its decaying rows
-        where they are laid out on demand (most of a display's rows)."""
+    def near_view(self, fls_id: int) -> LocalView | None:
+        """FLS ``fls_id``'s view with its blind and sweet rows only, where the decaying ones
+        are laid out on demand and not yet (most of a display's rows): what the sweet
+        phases of a discovery relay over and search for. None where its whole
+        :meth:`view` is at hand."""
         index = self.index(fls_id)
+        if self._worked_out(index) or not (self._seen_at_hand and self._laid_out[index]):
+            return None
         return local_view(self._observed(index, decaying=False), self.ids, index)
 
     def held(self) -> Held:

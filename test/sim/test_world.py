@@ -219,6 +219,8 @@ def test_a_world_of_blind_and_sweet_rows_answers_as_the_whole_and_lays_out_the_r
         np.testing.assert_array_equal(getattr(view, name), getattr(theirs, name))
     assert near.home_neighbourhood.full_seen is not None
     assert near.held().rows == len(whole.seen.other) + near_rows
+    # Laid out, or worked out whole anyway: no view without them is offered.
+    assert near.near_view(fls) is None and whole.near_view(fls) is None
 
 
 def test_a_share_of_ids_the_swarm_does_not_hold_is_refused():

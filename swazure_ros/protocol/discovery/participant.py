@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 
@@ -20,7 +21,7 @@ from ...core.evaluation import ABORTED, DECAYING_PATH, REASON_COORDINATOR_LOST, 
 from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_ESTIMATORS, SWARM_FIT
 from ...core.fit_measurements import fit_layers
 from ...core.hop_errors import hop_error
-from ...core.observe import LocalView
+from ...core.observe import LocalView, NearView
 from ...core.sensor import Sensor
 from ...core.swarm_fit import sample_covariance
 from ...core.window_fit import Heard, window_fit
@@ -271,9 +272,10 @@ class Participant:
     """One FLS's part of every discovery run: controls and offers in, broadcasts and reports out.
 
     ``view()`` tells what the FLS knows of its neighbours when a run starts;
-    ``near_view()``, if given, the same with its blind and sweet neighbours at
-    least: a run starts from it, and takes ``view()`` only when its decaying
-    phase first relays or its FIT phase starts;
+    ``near_view()``, if given, the same with its blind and sweet neighbours
+    only, and how to take the whole view of the same moment (None: take
+    ``view()``): a run starts from it, and takes the whole view only when its
+    decaying phase first relays or its FIT phase starts;
     ``sensor`` and ``radius`` (cm) what each hop may cost (bucket widths, hop
     errors), and ``id_space`` bounds the FLS ids. ``readings`` holds what the
     FLS has heard of other FLSs' cameras: a source of a fitting run reports
@@ -288,7 +290,7 @@ class Participant:
         radius: float,
         id_space: int,
         readings: ReadingsBook | None = None,
-        near_view: Callable[[], LocalView] | None = None,
+        near_view: Callable[[], NearView | None] | None = None,
     ) -> None:
         self.fls_id = fls_id
         self._view = view
@@ -407,7 +409,8 @@ class Participant:
         return reports
 
     def _new_run(self, control: Control) -> FlsRun:
-        view = (self._near_view or self._view)()
+        near = None if self._near_view is None else self._near_view()
+        view, whole_view = (self._view(), None) if near is None else near
         targets: IntArray | None = view.blind
         if control.source_ids:
             sources = control.sources  # one sorted array for the process's every FLS
@@ -423,7 +426,7 @@ class Participant:
         hop_errors = hop_error(self.sensor, view.distance, self.radius)
         fit = (self.sensor, self.radius) if control.estimator == LOCAL_LEAST_SQUARES else None
         both_ends = reads_both_ends(self.sensor)
-        whole = None if self._near_view is None else self._whole_view
+        whole = None if whole_view is None else partial(self._whole_view, whole_view)
         return FlsRun(
             RunView(view, hop_errors, whole),
             control.policy,
@@ -436,9 +439,9 @@ class Participant:
             control.estimator,
         )
 
-    def _whole_view(self) -> tuple[LocalView, FloatArray]:
-        """Its view with every neighbour, and the expected error of each hop."""
-        view = self._view()
+    def _whole_view(self, taken: Callable[[], LocalView]) -> tuple[LocalView, FloatArray]:
+        """Its view with every neighbour (``taken()``), and the expected error of each hop."""
+        view = taken()
         return view, hop_error(self.sensor, view.distance, self.radius)
 
 
