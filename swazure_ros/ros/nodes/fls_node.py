@@ -52,6 +52,7 @@ from rclpy.event_handler import PublisherEventCallbacks, QoSPublisherMatchedInfo
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.publisher import Publisher
+from rclpy.timer import Timer
 from swazure_interfaces.msg import Measurements, PoseEstimates
 from swazure_interfaces.srv import GetNeighbours
 
@@ -76,6 +77,7 @@ from ..plumbing.names import (
 )
 from ..plumbing.node import SwarmNode
 from ..plumbing.parameters import ParameterError
+from ..plumbing.shared_timers import SharedTimer, SharedTimers
 from ..security.auth import SwarmKey
 from . import fls_parameters, fls_tracking
 from .fls_camera import CameraView, DetectedSensing, Eyes
@@ -113,11 +115,16 @@ class Transmitter:
 @dataclass(frozen=True)
 class RadioLink:
     """How an FLS node reaches the swarm's radio: its process's transmitter, and the book of
-    what that radio heard of the FLSs' cameras; None: its own (signing with ``key``)."""
+    what that radio heard of the FLSs' cameras; None: its own (signing with ``key``).
+
+    ``timers``: what its frames run on, its process's one timer for all its FLS nodes
+    (:mod:`..plumbing.shared_timers`); None: a timer of its own.
+    """
 
     transmitter: Transmitter | None = None
     readings: ReadingsBook | None = None
     key: SwarmKey | None = None
+    timers: SharedTimers | None = None
 
 
 #: The parameters every FLS node declares, besides its tracking's (FlsTracking's).
@@ -204,7 +211,11 @@ class FlsNode(SwarmNode):
         )
         # Frames run only while there may be something to send: at rest, thousands
         # of FLSs would otherwise wake a process thousands of times a second.
-        self._frames = self.create_timer(self.publish_period, self._on_frame)
+        self._frames: Timer | SharedTimer = (
+            self.create_timer(self.publish_period, self._on_frame)
+            if link.timers is None
+            else link.timers.create_timer(self.publish_period, self.guarded(self._on_frame))
+        )
         self._frames_stopped = False
         #: Its own camera's readings and move commands, when it senses by them.
         self.detected = (

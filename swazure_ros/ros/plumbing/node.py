@@ -98,6 +98,14 @@ class SwarmNode(Node):
         """Node's, with ``callback`` guarded: what it raises (a publish that DDS refuses, a
         defect of ours) is counted in :attr:`failures` and logged, never raised into the
         executor, which would end the process with every node in it."""
+        timer: Timer = super().create_timer(
+            timer_period_sec, self.guarded(callback), *args, **kwargs
+        )
+        return timer
+
+    def guarded(self, callback: Callable[[], Any]) -> Callable[[], None]:
+        """``callback`` as this node's timers call it: what it raises is counted in
+        :attr:`failures` and logged, never raised (a timer another node runs for it too)."""
         name = getattr(callback, "__name__", "timer")
 
         def guarded() -> None:
@@ -106,8 +114,7 @@ class SwarmNode(Node):
             except Exception as err:
                 self._failed(f"timer {name}", err)
 
-        timer: Timer = super().create_timer(timer_period_sec, guarded, *args, **kwargs)
-        return timer
+        return guarded
 
     def create_service(
         self, srv_type: Any, srv_name: str, callback: Callable[[Any, Any], Any], **kwargs: Any

@@ -48,6 +48,7 @@ from ..plumbing.names import (
 )
 from ..plumbing.node import SwarmNode
 from ..plumbing.parameters import ParameterError
+from ..plumbing.shared_timers import SharedTimers
 from ..security.auth import SwarmKey
 from ..security.guard import Guard, check
 
@@ -132,8 +133,12 @@ class SwarmHost:
         self._controls_at_loss = 0
         self.host_node.create_timer(COORDINATOR_WATCH_PERIOD, self._watch_graph)
         self.transmitter = Transmitter(self.host_node, self.guard.key)
-        # What every FLS node here sends by and hears through: the process's radio.
-        self._link = RadioLink(self.transmitter, self.readings, self.guard.key)
+        # What every FLS node here sends by and hears through: the process's radio. Their
+        # frames run on one timer of the host's node (shared_timers); on a simulated
+        # clock, which the host node does not follow, each on a timer of its own.
+        own_clocks = bool(config.parameters.get("use_sim_time", False))
+        self.frames = None if own_clocks else SharedTimers(self.host_node)
+        self._link = RadioLink(self.transmitter, self.readings, self.guard.key, self.frames)
         # One /parameter_events writer for the process's FLS nodes (SwarmNode).
         self._parameter_events = self.host_node.create_parameter_events_publisher()
         self._add(self.host_node)

@@ -1,0 +1,106 @@
+"""Many nodes' timers on one node's timer: each is called at its period, stops and starts
+again, and a packed process's FLS nodes start no thread each."""
+
+from __future__ import annotations
+
+import os
+import time
+
+from rclpy.experimental.events_executor import EventsExecutor
+
+from swazure_ros.ros.plumbing.node import SwarmNode
+from swazure_ros.ros.plumbing.shared_timers import SharedTimers
+from swazure_ros.ros.programs.host import HostConfig, SwarmHost
+from swazure_ros.sim.world import WorldSpec
+
+from ...waits import PATIENCE
+
+
+def spin_for(executor: EventsExecutor, seconds: float) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=0.01)
+
+
+def threads() -> int:
+    """This process's threads, native ones included (rclpy's own are no Python threads)."""
+    return len(os.listdir("/proc/self/task"))
+
+
+def test_shared_timers_call_each_at_its_period_and_stop_and_start_again(context):
+    node = SwarmNode("ticks", context=context)
+    executor = EventsExecutor(context=context)
+    executor.add_node(node)
+    try:
+        timers = SharedTimers(node)
+        calls = {"fast": 0, "slow": 0}
+        fast = timers.create_timer(0.05, lambda: calls.__setitem__("fast", calls["fast"] + 1))
+        slow = timers.create_timer(0.2, lambda: calls.__setitem__("slow", calls["slow"] + 1))
+        spin_for(executor, 1.0)
+        # A busy machine may run late, and a late tick calls once, not once per period
+        # missed: at most the periods that passed, and not far below.
+        assert 8 <= calls["fast"] <= 20 and 2 <= calls["slow"] <= 5, calls
+        assert calls["fast"] > 2 * calls["slow"]
+        fast.cancel()
+        assert fast.is_canceled() and not slow.is_canceled()
+        before = dict(calls)
+        spin_for(executor, 0.5)
+        assert calls["fast"] == before["fast"] and calls["slow"] > before["slow"]
+        slow.cancel()
+        assert timers.running == 0
+        before = dict(calls)
+        spin_for(executor, 0.3)
+        assert calls == before  # nothing runs, the shared timer neither
+        fast.timer_period_ns = round(0.1 * 1e9)
+        fast.reset()
+        spin_for(executor, 0.55)
+        assert 2 <= calls["fast"] - before["fast"] <= 6 and calls["slow"] == before["slow"]
+    finally:
+        executor.remove_node(node)
+        node.destroy_node()
+
+
+def test_a_timer_that_raises_is_counted_by_its_node_and_the_others_are_still_called(context):
+    host_node, fls_node = SwarmNode("host", context=context), SwarmNode("fls", context=context)
+    executor = EventsExecutor(context=context)
+    executor.add_node(host_node)
+    try:
+        timers = SharedTimers(host_node)
+        calls = []
+
+        def broken() -> None:
+            raise RuntimeError("a defect")
+
+        timers.create_timer(0.05, fls_node.guarded(broken))
+        timers.create_timer(0.05, lambda: calls.append(1))
+        deadline = time.monotonic() + PATIENCE
+        while (len(calls) < 3 or not fls_node.failures) and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        assert len(calls) >= 3
+        assert sum(fls_node.failures.values()) >= 1 and not host_node.failures
+    finally:
+        executor.remove_node(host_node)
+        host_node.destroy_node()
+        fls_node.destroy_node()
+
+
+def test_a_process_of_many_fls_nodes_starts_no_thread_for_each(context):
+    # rclpy's EventsExecutor keeps a thread for each clock that has a timer, and every
+    # node has a clock of its own: 16,384 FLS nodes in one process ran out of threads.
+    world = WorldSpec("torus:400", scale=1.6, beta=0.5).build()
+    host = SwarmHost(world, HostConfig(tuple(world.ids), fls_services=False), context=context)
+    try:
+        before = threads()
+        host.create_fls_nodes()
+        assert len(host.fls_nodes) == world.swarm.size > 300
+        assert threads() - before < 20, threads() - before
+        # Their frames still run, on the host's one timer: each FLS's first frame comes.
+        deadline = time.monotonic() + PATIENCE
+        while time.monotonic() < deadline and not all(
+            node.frames_taken for node in host.fls_nodes
+        ):
+            host.spin_once(0.05)
+        assert all(node.frames_taken for node in host.fls_nodes)
+        assert threads() - before < 20
+    finally:
+        host.close()
