@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from rclpy.timer import Timer
 
@@ -51,7 +52,13 @@ class SharedTimers:
     def __init__(self, node: Node, tick: float = TICK) -> None:
         self._node = node
         self._running: dict[int, SharedTimer] = {}
-        self._ticks: Timer = node.create_timer(tick, self._on_tick)
+        # The earliest a running timer is due, or earlier: a tick before it looks at none.
+        self._next_due = 0
+        # On a clock of its own: started and stopped often, on the node's clock it held
+        # back the node's other timers (its host's heartbeats came seconds late).
+        self._ticks: Timer = node.create_timer(
+            tick, self._on_tick, clock=Clock(clock_type=ClockType.STEADY_TIME)
+        )
         self._ticks.cancel()
 
     def create_timer(self, period: float, callback: Callable[[], None]) -> SharedTimer:
@@ -65,6 +72,8 @@ class SharedTimers:
         timer.due_ns = self._now() + timer.timer_period_ns
         if not self._running:
             self._ticks.reset()
+            self._next_due = timer.due_ns
+        self._next_due = min(self._next_due, timer.due_ns)
         self._running[id(timer)] = timer
 
     def stop(self, timer: SharedTimer) -> None:
@@ -87,6 +96,8 @@ class SharedTimers:
 
     def _on_tick(self) -> None:
         now = self._now()
+        if now < self._next_due:  # most ticks: thousands of FLSs' frames run, none is due
+            return
         for timer in list(self._running.values()):
             if timer.due_ns > now or not self.runs(timer):
                 continue
@@ -94,3 +105,4 @@ class SharedTimers:
             periods = (now - timer.due_ns) // max(timer.timer_period_ns, 1) + 1
             timer.due_ns += periods * timer.timer_period_ns
             timer.callback()
+        self._next_due = min((timer.due_ns for timer in self._running.values()), default=0)
