@@ -199,9 +199,7 @@ class FlsNode(SwarmNode):
             senses.radius,
             senses.id_space,
             link.readings,
-            # A run starts from its blind and sweet neighbours: a display's share lays out
-            # the decaying ones when the decaying phase first relays.
-            lambda: senses.near_view(fls_id),
+            lambda: senses.near_view(fls_id),  # the decaying rows when a run needs them
         )
         self._publisher = self.create_publisher(
             Measurements,
