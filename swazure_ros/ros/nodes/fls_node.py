@@ -281,6 +281,11 @@ class FlsNode(SwarmNode):
             self._frames_stopped = False
             self._frames.reset()
 
+    def destroy_node(self) -> None:
+        """Node's; its frames stop too, which its process's timer may run (``RadioLink``)."""
+        self._frames.cancel()
+        super().destroy_node()  # type: ignore[no-untyped-call]
+
     def _stop_frames(self) -> None:
         self._frames_stopped = True
         self._frames.cancel()

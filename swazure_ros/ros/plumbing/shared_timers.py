@@ -12,9 +12,12 @@ ticking while any of them runs, calls each when it is due.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 
-from rclpy.clock import Clock, ClockType
+from rclpy.clock import Clock
+from rclpy.clock_type import ClockType
+from rclpy.exceptions import InvalidHandle
 from rclpy.node import Node
 from rclpy.timer import Timer
 
@@ -80,7 +83,9 @@ class SharedTimers:
         """Stop ``timer``; the shared timer too once none runs."""
         self._running.pop(id(timer), None)
         if not self._running:
-            self._ticks.cancel()
+            # Its node may be gone already (a process closing): then nothing ticks.
+            with contextlib.suppress(InvalidHandle):
+                self._ticks.cancel()
 
     def runs(self, timer: SharedTimer) -> bool:
         """Whether ``timer`` runs."""

@@ -102,5 +102,16 @@ def test_a_process_of_many_fls_nodes_starts_no_thread_for_each(context):
             host.spin_once(0.05)
         assert all(node.frames_taken for node in host.fls_nodes)
         assert threads() - before < 20
+        # A stopped FLS's frames stop with it: the host's timer calls no destroyed node.
+        stopped = host.fls_nodes[0]
+        stopped._wake_frames()
+        host.stop_fls(stopped.fls_id)
+        host.spin_once(0.05)
+        assert host.frames is not None and host.frames.running < len(host.fls_nodes) + 1
+        taken = stopped.frames_taken
+        end = time.monotonic() + 2.5 * stopped.publish_period  # its frame was due by then
+        while time.monotonic() < end:
+            host.spin_once(0.05)
+        assert stopped.frames_taken == taken and not stopped.failures
     finally:
         host.close()
