@@ -14,6 +14,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ...core import csr, jit
 from ...core.arrays import IntArray
@@ -58,20 +59,21 @@ class OffersHeard:
         ids : array of int
             FLS ids, source first.
         """
+        # Compiled passes over the L labels, a few per round's offers kept: a numpy
+        # version made a dozen temporaries of L (a round's L reaches millions), and
+        # sorting ``via`` to list its keys cost more than the copying.
+        present = np.zeros(self._next, dtype=np.bool_)
+        _mark_keys(via, present)
         start = np.zeros(len(via), dtype=np.int64)
         length = np.zeros(len(via), dtype=np.int64)
-        groups = []
-        for key in np.unique(via[via >= 0]).tolist():
-            rows = np.flatnonzero(via == key)
-            offsets = self.offers[key].path_offsets
-            start[rows] = offsets[label[rows]]
-            length[rows] = offsets[label[rows] + 1] - start[rows]
-            groups.append((self.offers[key].path_ids, rows))
+        keys = np.flatnonzero(present).tolist()
+        for key in keys:
+            _spans(self.offers[key].path_offsets, via, label, key, start, length)
         path_offsets = csr.offsets(length + 1)
         path_ids = np.empty(int(path_offsets[-1]), dtype=np.int64)
-        path_ids[path_offsets[1:] - 1] = ends
-        for heard_ids, rows in groups:
-            _copy_runs(heard_ids, start, length, rows, path_offsets, path_ids)
+        for key in keys:
+            _copy_key(self.offers[key].path_ids, via, key, start, length, path_offsets, path_ids)
+        _place_ends(ends, path_offsets, path_ids)
         return path_offsets, path_ids
 
     def forget(self, table: LabelTable) -> None:
@@ -99,17 +101,46 @@ class OffersHeard:
 
 
 @jit.kernel(cache=True, nogil=True)
-def _copy_runs(
-    values: IntArray, starts: IntArray, counts: IntArray, runs: IntArray,
+def _mark_keys(via: IntArray, present: NDArray[np.bool_]) -> None:
+    """Mark the keys ``via`` names (-1, no key, is left out)."""
+    for key in via:
+        if key >= 0:
+            present[key] = True
+
+
+@jit.kernel(cache=True, nogil=True)
+def _spans(
+    offsets: IntArray, via: IntArray, label: IntArray, key: int,
+    start: IntArray, length: IntArray,
+) -> None:  # fmt: skip
+    """Where each label through offers ``key`` finds its sender's path in them (``offsets``
+    of those offers): its start and length."""
+    for row in range(len(via)):
+        if via[row] == key:
+            first = offsets[label[row]]
+            start[row] = first
+            length[row] = offsets[label[row] + 1] - first
+
+
+@jit.kernel(cache=True, nogil=True)
+def _copy_key(
+    values: IntArray, via: IntArray, key: int, starts: IntArray, counts: IntArray,
     out_starts: IntArray, out: IntArray,
 ) -> None:  # fmt: skip
-    """Copy run k of ``values`` (``counts[k]`` from ``starts[k]``) to ``out`` from
-    ``out_starts[k]`` on, for each k of ``runs``: a path's ids, one at a time (a numpy
-    gather of millions of ids builds two index arrays as long first)."""
-    for k in runs:
-        source, target = starts[k], out_starts[k]
-        for step in range(counts[k]):
-            out[target + step] = values[source + step]
+    """Copy the sender's path of each label through offers ``key`` (``counts[k]`` ids of
+    their ``values`` from ``starts[k]``) to ``out`` from ``out_starts[k]`` on."""
+    for row in range(len(via)):
+        if via[row] == key:
+            source, target = starts[row], out_starts[row]
+            for step in range(counts[row]):
+                out[target + step] = values[source + step]
+
+
+@jit.kernel(cache=True, nogil=True)
+def _place_ends(ends: IntArray, out_starts: IntArray, out: IntArray) -> None:
+    """End each path with its label's own FLS, ``ends[k]``: the last id before the next."""
+    for row in range(len(ends)):
+        out[out_starts[row + 1] - 1] = ends[row]
 
 
 def offers_of(
