@@ -19,7 +19,7 @@ import sys
 import time
 from pathlib import Path
 
-from diagnostic_msgs.msg import DiagnosticArray
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rclpy.node import Node
 
 from bench.common import record_file
@@ -119,6 +119,7 @@ def main() -> int:
                     "flss": sizes[index],
                     "cells": cells.get(host_name(index), 0),
                     "offers_over_dds": heard.get(host_name(index), {}).get("offers", 0),
+                    "bytes_over_dds": heard.get(host_name(index), {}).get("bytes", 0),
                     "cpu_s": cpu[index],
                     "peak_mb": peaks[index],
                 }
@@ -134,23 +135,27 @@ def main() -> int:
 
 
 def heard_offers(swarm: RunningSwarm) -> dict[str, dict[str, int]]:
-    """Offers each process accepted over DDS, by host name, kept up to date from /diagnostics."""
+    """Offers each process accepted over DDS and the bytes of those it heard, by host name,
+    kept up to date from /diagnostics."""
     heard: dict[str, dict[str, int]] = {}
 
     def on_diagnostics(array: DiagnosticArray) -> None:
         for status in array.status:
-            offers = sum(
-                int(value.value)
-                for value in status.values
-                if value.key.startswith(f"accepted {RADIO_TOPIC}/")
-            )
-            heard[status.hardware_id.rsplit("/", 1)[-1]] = {"offers": offers}
+            heard[status.hardware_id.rsplit("/", 1)[-1]] = {
+                "offers": _summed(status, f"accepted {RADIO_TOPIC}/"),
+                "bytes": _summed(status, f"heard bytes {RADIO_TOPIC}/"),
+            }
 
     assert swarm.host is not None
     probe = Node("bench_cells", context=swarm.context, enable_rosout=False)
     probe.create_subscription(DiagnosticArray, "/diagnostics", on_diagnostics, 100)
     swarm.host.add(probe)
     return heard
+
+
+def _summed(status: DiagnosticStatus, prefix: str) -> int:
+    """The sum of ``status``'s counts whose keys start with ``prefix``."""
+    return sum(int(one.value) for one in status.values if one.key.startswith(prefix))
 
 
 def radio_cells(swarm: RunningSwarm, namespace: str) -> tuple[list[str], dict[str, int]]:

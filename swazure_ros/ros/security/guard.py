@@ -143,6 +143,9 @@ class Guard:
         self.key = key or SwarmKey()
         self.dropped: Counter[tuple[str, str]] = Counter()  # (topic, reason) -> messages
         self.accepted: Counter[str] = Counter()  # topic -> messages taken
+        # topic -> bytes of the messages its subscriptions took in, echoes left out: what
+        # a process hears, as the bench's per-FLS traffic reads it (dropped ones too).
+        self.heard_bytes: Counter[str] = Counter()
         self._warned_at: dict[str, float] = {}
         self._reported = -1
         self._diagnostics = node.create_publisher(DiagnosticArray, "/diagnostics", 10)
@@ -197,6 +200,7 @@ class Guard:
         def take(data: bytes) -> None:
             if echoes is not None and echoes(data):
                 return
+            self.heard_bytes[topic] += len(data)
             self.call(topic, lambda: callback(limited(read(data))))
 
         return (node or self._node).create_subscription(kind, topic, take, qos, raw=True)
@@ -272,6 +276,10 @@ class Guard:
         self._reported = total
         values = [
             KeyValue(key=f"accepted {topic}", value=str(n)) for topic, n in self.accepted.items()
+        ]
+        values += [
+            KeyValue(key=f"heard bytes {topic}", value=str(n))
+            for topic, n in self.heard_bytes.items()
         ]
         values += [
             KeyValue(key=f"dropped {topic}: {reason}", value=str(n))

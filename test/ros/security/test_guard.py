@@ -168,3 +168,50 @@ def test_a_flood_of_track_requests_with_made_up_auths_leaves_compute_pose_answer
         result = swarm.discover("shortest-length", timeout=PATIENCE)
         engine = evaluate_pairs(swarm.world.hood, "shortest-length")
         assert_matches_engine(swarm.world, by_pair(result.outcome.estimates), engine)
+
+
+def test_the_guard_counts_the_bytes_its_subscriptions_hear_less_echoes_and_reports_them(context):
+    """Each message a guarded subscription takes in adds its bytes, taken or dropped; the
+    process's own echo adds none; /diagnostics says the sum."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.executors import SingleThreadedExecutor
+
+    from swazure_ros.ros.security.guard import Guard
+
+    node = Node("guarded", context=context)
+    key = SwarmKey(new_key())
+    guard = Guard(node, key)
+    taken: list[int] = []
+    wire = [key.serialize(PathOffer(run_id=run_id)) for run_id in (1, 22, 333)]
+    forged = SwarmKey(new_key()).serialize(PathOffer(run_id=4))  # heard, then dropped
+    echo = key.serialize(PathOffer(run_id=5))  # this process's own, come back
+    guard.subscribe(
+        PathOffer, "offers", lambda m: taken.append(m.run_id), ROUND_QOS, echoes=echo.__eq__
+    )
+    reports: list[dict[str, str]] = []
+    node.create_subscription(
+        DiagnosticArray,
+        "/diagnostics",
+        lambda array: reports.extend({v.key: v.value for v in s.values} for s in array.status),
+        10,
+    )
+    publisher = node.create_publisher(PathOffer, "offers", ROUND_QOS)
+    executor = SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    spin = lambda: executor.spin_once(timeout_sec=0.05)  # noqa: E731
+    assert wait_until(lambda: publisher.get_subscription_count() > 0, step=spin)
+    # The echo first: one writer's messages arrive in order, so it was heard by the end.
+    for data in [echo, *wire, forged]:
+        publisher.publish(data)
+    expected = sum(len(data) for data in [*wire, forged])
+    assert wait_until(
+        lambda: guard.heard_bytes["offers"] == expected and len(taken) == 3, step=spin
+    )
+    assert taken == [1, 22, 333] and guard.total_dropped == 1
+    guard.publish()
+    assert wait_until(lambda: any("heard bytes offers" in r for r in reports), step=spin)
+    assert [r["heard bytes offers"] for r in reports if "heard bytes offers" in r][-1] == str(
+        expected
+    )
+    executor.shutdown()
+    node.destroy_node()
