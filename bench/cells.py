@@ -1,12 +1,16 @@
 """Radio cells: per packed process and FLS, what one discovery run hears and spends.
 
-The `cells` section of BENCHMARKS.md (`python -m bench --sections cells`).
+The `cells` section of BENCHMARKS.md (`python -m bench --sections cells`). Runs measured
+one by one (``python -m bench.measure_cells``, hours each at display size) are put
+together with ``python -m bench.cells --figure PNG RECORD.json ...``: the section's table
+and figure of those records.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import re
 import signal
 import subprocess
@@ -105,9 +109,10 @@ def cells_lines(records: list[dict[str, Any]]) -> list[str]:
         "torus at the paper's density and the race car packed over 1, 2 and 4 processes",
         "(k-d regions). Per process: the FLSs it",
         "hosts, the radio cells it subscribes to (ROS graph), the offers it heard over DDS",
-        "(its /diagnostics counts; offers between its own FLSs never cross DDS) and its",
-        "CPU during discovery (/proc). Per FLS and round: those offers and that CPU over",
-        "the process's FLSs and the run's rounds (the busiest process). The coordinator",
+        "(its /diagnostics counts; offers between its own FLSs never cross DDS), the bytes",
+        "of the offers it heard, and its CPU during discovery (/proc). Per FLS and round:",
+        "those offers, bytes and CPU over the process's FLSs and the run's rounds (the",
+        "busiest process; bytes counted from e15b506 on, '-' before). The coordinator",
         "hears no offer. Peak MB: at bring-up (all processes); per process, the peak",
         "of the whole run (VmHWM; process 0's includes the engine's comparison).",
         "Source runs: the blocks of sources searched one run after the other, so that the",
@@ -117,23 +122,24 @@ def cells_lines(records: list[dict[str, Any]]) -> list[str]:
         "| shape | FLSs | processes | bring-up s | peak MB | discovery s | engine s | x engine "
         "| rounds | source runs | radio topics | cells heard per process "
         "| offers over DDS per process | share of the others' offers heard "
-        "| DDS offers per FLS-round | CPU ms per FLS-round "
+        "| DDS offers per FLS-round | DDS KB heard per FLS-round | CPU ms per FLS-round "
         "| radio MB | peak MB per process | identical |",
         "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | --- | --- "
-        "| --- | ---: | ---: | ---: | --- | --- |",
+        "| --- | ---: | ---: | ---: | ---: | --- | --- |",
     ]
     for record in records:
         if "stopped" in record:
             lines.append(
                 f"| {record['shape']} | - | {record['processes']} | stopped: "
-                f"{record['stopped']} |  |  |  |  |  |  |  |  |  |  |  |  |  |  |  |"
+                f"{record['stopped']} |  |  |  |  |  |  |  |  |  |  |  |  |  |  |  |  |"
             )
             continue
         per = record["per_process"]
         rounds = max(record["rounds"], 1)
-        busiest = max(per, key=lambda one: one["cpu_s"])
         dds = max(one["offers_over_dds"] / max(one["flss"], 1) / rounds for one in per)
-        cpu_ms = 1e3 * busiest["cpu_s"] / max(busiest["flss"], 1) / rounds
+        spent = per_fls_round(record)
+        cpu_ms, heard = spent["cpu_ms"], spent["heard_kb"]
+        heard_kb = f"{heard:.2f}" if math.isfinite(heard) else "-"
         # Every live FLS sends an offer each round: what the others sent, heard.
         shares = [
             one["offers_over_dds"] / max((record["flss"] - one["flss"]) * rounds, 1) for one in per
@@ -147,7 +153,7 @@ def cells_lines(records: list[dict[str, Any]]) -> list[str]:
             f"| {record['radio_topics']} | {' / '.join(str(one['cells']) for one in per)} "
             f"| {' / '.join(format(one['offers_over_dds'], ',') for one in per)} "
             f"| {' / '.join(f'{share:.0%}' for share in shares) if len(per) > 1 else '-'} "
-            f"| {dds:.2f} | {cpu_ms:.2f} | {record['radio_bytes'] / 1e6:.0f} "
+            f"| {dds:.2f} | {heard_kb} | {cpu_ms:.2f} | {record['radio_bytes'] / 1e6:.0f} "
             f"| {' / '.join(table_cell(one, 'peak_mb', '.0f') for one in per)} "
             f"| {record['identical']} |"
         )
@@ -156,34 +162,43 @@ def cells_lines(records: list[dict[str, Any]]) -> list[str]:
         "At the paper's density the sensor's reach (30.6 cm) spans most of these shapes,",
         "so a process still hears most of the other processes' offers; what each FLS",
         "costs per round grows with the swarm and with the processes sharing two cores.",
-        "Beyond them, memory is the wall: every process holds the whole world's",
-        'observations, so a run\'s row says where it stopped (docs/swarm.md, "Locality").',
+        "A process holds its own FLSs' observations and pairs (docs/swarm.md, \"A share of",
+        'the world per process"); a run that stops says where in its row.',
     ]
     return lines
 
 
+def per_fls_round(record: dict[str, Any]) -> dict[str, float]:
+    """What the busiest process of a cells run spent per FLS it hosts: heard over DDS per
+    round (KB; NaN in a record made before bytes were counted), CPU per round (ms), and
+    its peak memory (KB)."""
+    per = record["per_process"]
+    rounds = max(int(record["rounds"]), 1)
+
+    def busiest(field: str) -> float:
+        return float(max(one.get(field, math.nan) / max(one["flss"], 1) for one in per))
+
+    return {
+        "heard_kb": busiest("bytes_over_dds") / rounds / 1e3,
+        "cpu_ms": 1e3 * busiest("cpu_s") / rounds,
+        "peak_kb": 1e3 * busiest("peak_mb"),
+    }
+
+
 def cells_figure(records: list[dict[str, Any]], path: Path) -> None:
-    """Share of the other processes' offers heard, and CPU per FLS and round, against FLSs."""
+    """Per FLS of the busiest process, against the FLSs in the swarm: bytes heard and CPU
+    per round, and peak memory (issue 67: flat as the swarm grows)."""
     from matplotlib.figure import Figure
 
     from swazure_ros.files.atomic import atomic_write
 
-    def heard(record: dict[str, Any]) -> float:
-        rounds = max(record["rounds"], 1)
-        return 100 * float(
-            max(
-                one["offers_over_dds"] / max((record["flss"] - one["flss"]) * rounds, 1)
-                for one in record["per_process"]
-            )
-        )
-
-    def cpu(record: dict[str, Any]) -> float:
-        per = record["per_process"]
-        busiest = float(max(one["cpu_s"] / max(one["flss"], 1) for one in per))
-        return 1e3 * busiest / int(record["rounds"])
-
-    figure = Figure(figsize=(9.6, 4.0), layout="constrained")
-    heard_axes, cpu_axes = figure.subplots(1, 2)
+    panels = (
+        ("heard_kb", "Offers heard over DDS", "KB per FLS and round"),
+        ("cpu_ms", "CPU", "ms per FLS and round"),
+        ("peak_kb", "Peak memory", "KB per FLS hosted"),
+    )
+    figure = Figure(figsize=(13.2, 4.2), layout="constrained")
+    axes_of = dict(zip([name for name, *_ in panels], figure.subplots(1, 3), strict=True))
     for processes, marker, colour in ((1, "o", "C0"), (2, "s", "C1"), (4, "^", "C2")):
         done = [r for r in records if r.get("processes") == processes and "stopped" not in r]
         label = f"{processes} process{'es' if processes > 1 else ''}"
@@ -191,28 +206,51 @@ def cells_figure(records: list[dict[str, Any]], path: Path) -> None:
             mine = sorted(
                 (r for r in done if r["shape"].startswith(shapes)), key=lambda r: r["flss"]
             )
-            if not mine:
-                continue
-            flss = [r["flss"] for r in mine]
             face = colour if shapes == "torus" else "none"
             name = label if shapes == "torus" else f"race car, {label}"
-            if processes > 1:
-                heard_axes.plot(flss, [heard(r) for r in mine], marker=marker, color=colour,
-                                linestyle=style, markerfacecolor=face, label=name)  # fmt: skip
-            cpu_axes.plot(flss, [cpu(r) for r in mine], marker=marker, color=colour,
-                          linestyle=style, markerfacecolor=face, label=name)  # fmt: skip
-    heard_axes.set_ylabel("of the other processes' offers, % heard (busiest)")
-    heard_axes.set_ylim(0, 105)
-    cpu_axes.set_ylabel("CPU per FLS and round, ms (busiest process)")
-    cpu_axes.set_ylim(bottom=0)
-    for axes, corner in ((heard_axes, "lower left"), (cpu_axes, "upper left")):
+            for field, axes in axes_of.items():
+                points = [(r["flss"], per_fls_round(r)[field]) for r in mine]
+                points = [(x, y) for x, y in points if math.isfinite(y)]
+                if field == "heard_kb" and processes == 1:
+                    continue  # one process hears nothing over DDS
+                if points:
+                    axes.plot(*zip(*points, strict=True), marker=marker, color=colour,
+                              linestyle=style, markerfacecolor=face, label=name)  # fmt: skip
+    for field, title, unit in panels:
+        axes = axes_of[field]
+        axes.set_title(f"{title} (busiest process)", fontsize=10)
+        axes.set_ylabel(unit)
+        axes.set_ylim(bottom=0)
         axes.set_xscale("log")
-        axes.set_xlabel("FLSs in the swarm (torus at the paper's density; race car hollow)")
+        axes.set_xlabel("FLSs (torus at the paper's density; race car hollow)")
         axes.grid(True, alpha=0.3)
         if axes.get_legend_handles_labels()[0]:  # every run stopped: nothing to name
-            axes.legend(fontsize=8, loc=corner)
+            axes.legend(fontsize=8, loc="best")
     stopped = ", ".join(f"{r['shape']} stopped" for r in records if "stopped" in r)
-    figure.suptitle(
-        "Packed discovery with radio cells, 2 cores" + (f" ({stopped})" if stopped else "")
-    )
+    figure.suptitle("Packed discovery per FLS, 2 cores" + (f" ({stopped})" if stopped else ""))
     atomic_write(path, lambda tmp: figure.savefig(tmp, format="png", dpi=110))
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """The section's table (printed) and figure of bench.measure_cells records given by file."""
+    parser = argparse.ArgumentParser(description=main.__doc__)
+    parser.add_argument("records", nargs="+", type=Path, help="measure_cells records (JSON)")
+    parser.add_argument("--figure", type=Path, required=True, help="the PNG to write")
+    args = parser.parse_args(argv)
+    try:
+        records = [_named(json.loads(path.read_text())) for path in args.records]
+    except (OSError, ValueError, KeyError) as err:
+        parser.error(f"cannot read a record: {err}")
+    cells_figure(records, args.figure)
+    print("\n".join(cells_lines(records)))
+    return 0
+
+
+def _named(record: dict[str, Any]) -> dict[str, Any]:
+    """A measure_cells record with the shape the section names it by (its cloud's)."""
+    cloud = str(record["cloud"])
+    return {"shape": cloud if ":" in cloud else Path(cloud).stem, **record}
+
+
+if __name__ == "__main__":
+    sys.exit(main())
