@@ -227,3 +227,13 @@ def test_a_share_of_ids_the_swarm_does_not_hold_is_refused():
     spec = WorldSpec("torus:120", scale=1.6, beta=0.5)
     with pytest.raises(UnknownFlsError, match="hosted FLSs not in this swarm"):
         spec.build(hosted_ids=[0, 10**6])
+
+
+def test_every_revision_scans_line_of_sight_on_revision_0_s_cells():
+    # The readings are the same on any cells (the test above compares a moved world's
+    # with a neighbourhood worked out afresh); revision 0's spare measuring the spacing.
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    cell = neighbourhood(world.home, world.sensor).grid.cell
+    squeezed = world.placed(world.ids[:60], 0.5 * world.swarm.points[:60])
+    assert world.sight_cell == squeezed.sight_cell == cell > 0
+    assert neighbourhood(squeezed.swarm, world.sensor).grid.cell != cell  # its own differs
