@@ -246,14 +246,57 @@ def readings_of(
     """
     other = np.unique(np.asarray(others, dtype=np.int64))
     other = other[other != owner]
-    mine = np.full(len(other), owner, dtype=np.int64)
-    true_tracking = centre_distance(swarm.points, mine, other) - 2.0 * swarm.radius
-    range_class = sensor.classify(true_tracking)
-    seen = (range_class == SWEET) | (range_class == DECAYING)
-    seen[seen] = ~obstructed(swarm.points, swarm.radius, mine[seen], other[seen], grid)
-    vector, tracking = camera_readings(swarm, sensor, mine[seen], other[seen], true_tracking[seen])
-    read = np.isfinite(vector[:, 0])  # a rendering camera may not detect
-    return Readings(other[seen][read], range_class[seen][read], vector[read], tracking[read])
+    hop = pair_readings(swarm, sensor, np.full(len(other), owner, dtype=np.int64), other, grid)
+    return Readings(other[hop.read], hop.range_class[hop.read], hop.vector, hop.tracking)
+
+
+@dataclass(frozen=True)
+class PairReadings:
+    """What the camera of each pair's first FLS measures of its second (M pairs)."""
+
+    read: NDArray[np.bool_]  # (M,), sweet or decaying, in line of sight and detected
+    range_class: NDArray[np.int8]  # (M,), each pair's, read or not
+    vector: FloatArray  # (R, 3), cm, of the R pairs read, in order
+    tracking: FloatArray  # (R,), t', cm, of the pairs read
+
+
+def pair_readings(
+    swarm: Swarm, sensor: Sensor, owner: IntArray, other: IntArray, grid: Grid | None = None
+) -> PairReadings:
+    """What FLS ``owner[k]`` measures of FLS ``other[k]`` (swarm indices), pair by pair.
+
+    :func:`readings_of`'s work for pairs of many owners: the hops of path walks
+    through a process's FLSs, read at once. Each pair's reading is its own (a
+    stochastic sensor's draw is the pair's), so reading pairs together or one
+    by one gives the same bits.
+
+    Parameters
+    ----------
+    swarm : Swarm
+    sensor : Sensor
+    owner, other : (M,) array of int
+        The measuring and the measured FLS of each pair, swarm indices; a pair of
+        an FLS with itself is never read.
+    grid : Grid, optional
+        ``grid.build_grid`` of the swarm, or a grid of its points on other cells.
+
+    Returns
+    -------
+    PairReadings
+    """
+    owner = np.asarray(owner, dtype=np.int64)
+    other = np.asarray(other, dtype=np.int64)
+    true_tracking = centre_distance(swarm.points, owner, other) - 2.0 * swarm.radius
+    range_class = np.asarray(sensor.classify(true_tracking), dtype=np.int8)
+    seen = ((range_class == SWEET) | (range_class == DECAYING)) & (owner != other)
+    seen[seen] = ~obstructed(swarm.points, swarm.radius, owner[seen], other[seen], grid)
+    vector, tracking = camera_readings(
+        swarm, sensor, owner[seen], other[seen], true_tracking[seen]
+    )
+    detected = np.isfinite(vector[:, 0])  # a rendering camera may not detect
+    read = seen.copy()
+    read[seen] = detected
+    return PairReadings(read, range_class, vector[detected], tracking[detected])
 
 
 def camera_readings(

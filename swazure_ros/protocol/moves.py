@@ -17,7 +17,7 @@ that times out is logged and the run goes on, so a lost walk costs its pair
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Container, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
@@ -123,6 +123,25 @@ def step_walk(walk: Walk, seen: Camera) -> Walk:
     if len(where) == 0 or seen.range_class[where[0]] != SWEET:
         return replace(walk, state=FAILED, hop=0)
     return replace(walk, hop=walk.hop + 1, vector=walk.vector + seen.vector[where[0]])
+
+
+def hops_here(walk: Walk, here: Container[int]) -> tuple[list[int], list[int]]:
+    """The hops ``walk`` makes on its way out before it leaves the FLSs ``here`` (a
+    process's): the FLS of each, and the FLS it measures next (:func:`next_hop`), in order.
+
+    What a process's FLSs will measure of the walk, read at once; none once it has
+    turned back to its source.
+    """
+    fls_ids: list[int] = []
+    next_ids: list[int] = []
+    if walk.state != WALKING:
+        return fls_ids, next_ids
+    for hop in range(walk.hop, len(walk.path) - 1):
+        if walk.path[hop] not in here:
+            break
+        fls_ids.append(walk.path[hop])
+        next_ids.append(walk.path[hop + 1])
+    return fls_ids, next_ids
 
 
 def walk_estimate(walk: Walk) -> Estimate:

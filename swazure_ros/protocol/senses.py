@@ -64,6 +64,13 @@ class Senses(Protocol):
         """What FLS ``fls_id``'s camera measures now (of FLSs ``of`` only)."""
         ...
 
+    def hop_measurements(
+        self, fls_ids: Sequence[int], next_ids: Sequence[int]
+    ) -> list[Measurement]:
+        """``measurement(fls_ids[k], [next_ids[k]])`` for each k, read at once: a path
+        walk's hops through the FLSs of this process."""
+        ...
+
     def neighbours(self, fls_id: int) -> NeighbourSets:
         """FLS ``fls_id``'s neighbours as it knows them now, FLS ids."""
         ...
@@ -267,6 +274,14 @@ class DetectedSenses:
             vector,
             np.linalg.norm(vector, axis=1) - 2.0 * self._radius,
         )
+
+    def hop_measurements(
+        self, fls_ids: Sequence[int], next_ids: Sequence[int]
+    ) -> list[Measurement]:
+        """This FLS's last frame, of each hop's next FLS alone (one FLS: one hop at most)."""
+        return [
+            self.measurement(fls, [other]) for fls, other in zip(fls_ids, next_ids, strict=True)
+        ]
 
     def neighbours(self, fls_id: int) -> NeighbourSets:
         """This FLS's neighbours: by ranging, and those its camera read."""

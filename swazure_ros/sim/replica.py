@@ -42,6 +42,13 @@ class WorldReplica:
         """What FLS ``fls_id``'s camera measures in the current revision (of ``of`` only)."""
         return self.world.measurement(fls_id, of)
 
+    def hop_measurements(
+        self, fls_ids: Sequence[int], next_ids: Sequence[int]
+    ) -> list[Measurement]:
+        """What each FLS ``fls_ids[k]`` measures of ``next_ids[k]`` alone, in the current
+        revision, read at once."""
+        return self.world.hop_measurements(fls_ids, next_ids)
+
     def neighbours(self, fls_id: int) -> NeighbourSets:
         """FLS ``fls_id``'s neighbours in the current revision."""
         return self.world.neighbours(fls_id)

@@ -36,6 +36,7 @@ from ..core.observe import (
     local_view,
     neighbour_sets,
     observations,
+    pair_readings,
     readings_of,
 )
 from ..core.sensor import Sensor
@@ -309,6 +310,36 @@ class World:
             seen.vector_at(rows)[measured],
             seen.tracking_at(rows)[measured],
         )
+
+    def hop_measurements(
+        self, fls_ids: Sequence[int], next_ids: Sequence[int]
+    ) -> list[Measurement]:
+        """What FLS ``fls_ids[k]``'s camera measures now of FLS ``next_ids[k]`` alone, for each
+        k: ``measurement(fls_ids[k], [next_ids[k]])``, the hops of a path walk through the
+        FLSs a process hosts read at once."""
+        owners, others = self.indices(fls_ids), self.indices(next_ids)
+        # An FLS whose rows this revision holds reads them; the others' hops are judged
+        # together, pair by pair.
+        alone = np.array([not self._worked_out(int(index)) for index in owners], dtype=bool)
+        hops = pair_readings(self.swarm, self.sensor, owners[alone], others[alone], self._grid)
+        pair_of, row_of = np.cumsum(alone) - 1, np.cumsum(hops.read) - 1
+        out = []
+        for k, (fls, other) in enumerate(zip(fls_ids, next_ids, strict=True)):
+            if not alone[k]:
+                out.append(self.measurement(fls, [other]))
+                continue
+            pair = int(pair_of[k])
+            read = int(hops.read[pair])  # one row, or none
+            row = slice(row_of[pair], row_of[pair] + read)
+            out.append(
+                Measurement(
+                    self.ids[others[k : k + read]],
+                    hops.range_class[pair : pair + read],
+                    hops.vector[row],
+                    hops.tracking[row],
+                )
+            )
+        return out
 
     def position(self, fls_id: int) -> FloatArray:
         """(3,) where FLS ``fls_id`` is now, cm."""

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections import Counter, deque
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -25,6 +26,7 @@ from swazure_ros.protocol.moves import (
     Move,
     MoveRun,
     Walk,
+    hops_here,
     next_hop,
     step_walk,
     walk_estimate,
@@ -149,3 +151,13 @@ def test_the_source_s_body_at_its_probe_fails_the_walk_unless_the_plan_checked_i
     if source_body:
         np.testing.assert_array_equal(outcome.evaluation.pairs.nodes, pairs.nodes)
         np.testing.assert_allclose(outcome.evaluation.pairs.estimate, pairs.estimate, atol=1e-9)
+
+
+def test_a_walk_s_hops_here_are_those_out_to_the_first_fls_elsewhere_or_its_target():
+    walk = Walk(run_id=1, revision=0, path=(1, 2, 3, 4, 5), hop=1)
+    # FLSs 2 and 3 here measure 3 and 4; 4 is elsewhere, so the walk leaves with it.
+    assert hops_here(walk, {1, 2, 3, 5}) == ([2, 3], [3, 4])
+    # All here: every hop out to the target, which measures none.
+    assert hops_here(walk, {1, 2, 3, 4, 5}) == ([2, 3, 4], [3, 4, 5])
+    assert hops_here(walk, {1, 3, 4, 5}) == ([], [])  # its FLS is elsewhere
+    assert hops_here(replace(walk, state=ARRIVED, hop=0), {1, 2, 3, 4, 5}) == ([], [])

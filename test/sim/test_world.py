@@ -26,6 +26,34 @@ def every_third(spec: WorldSpec) -> list[int]:
     return spec.fls_ids()[::3].tolist()
 
 
+def assert_hops_read_at_once_as_one_by_one(world, truth, rng) -> int:
+    """A path walk's hops through many FLSs (a neighbour each can see, any FLS, itself),
+    read at once, equal the whole world worked out afresh; how many of them were read."""
+    owners = rng.choice(world.ids, size=24, replace=False).tolist()
+    others = []
+    for k, fls in enumerate(owners):
+        rows = truth.rows(world.index(fls))
+        seen = world.ids[truth.other[rows][truth.measured_in(rows)]]
+        if k % 8 == 0:
+            others.append(fls)  # itself: never read
+        elif k % 8 == 4 or not len(seen):
+            others.append(int(rng.choice(world.ids)))  # any FLS, most out of reach
+        else:
+            others.append(int(rng.choice(seen)))  # one it can see
+    read = 0
+    for fls, other, hop in zip(
+        owners, others, world.hop_measurements(owners, others), strict=True
+    ):
+        rows = truth.rows(world.index(fls))
+        asked = truth.measured_in(rows) & (world.ids[truth.other[rows]] == other)
+        np.testing.assert_array_equal(hop.target_ids, world.ids[truth.other[rows]][asked])
+        np.testing.assert_array_equal(hop.range_class, truth.range_class[rows][asked])
+        np.testing.assert_array_equal(hop.vector, truth.vector[rows][asked])
+        np.testing.assert_array_equal(hop.tracking, truth.tracking[rows][asked])
+        read += len(hop.target_ids)
+    return read
+
+
 @pytest.mark.parametrize("share", ["whole", "share", "share's pairs only"])
 @pytest.mark.parametrize("sensor_file", [None, str(CALIBRATED)], ids=["published", "stochastic"])
 def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gives(
@@ -35,7 +63,7 @@ def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gi
     hosted_ids = every_third(spec) if share != "whole" else None
     world = spec.build(hosted_ids=hosted_ids, only_hosted_pairs=share == "share's pairs only")
     rng = np.random.default_rng(11)
-    compared = changed = asked_few = 0
+    compared = changed = asked_few = hops_read = 0
     for step in range(12):
         moved = rng.choice(world.ids, size=int(rng.integers(1, 30)), replace=False)
         home = world.home.points
@@ -49,6 +77,9 @@ def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gi
         if step % 3 == 2:
             assert world.hood.swarm is world.swarm  # worked out whole now and then
         truth = observations(neighbourhood(world.swarm, world.sensor))
+        # A generator of its own: the draws below stay those the bounds were set for.
+        hops = np.random.default_rng(100 + step)
+        hops_read += assert_hops_read_at_once_as_one_by_one(world, truth, hops)
         for fls in rng.choice(world.ids, size=15, replace=False).tolist():
             index = world.index(fls)
             rows = truth.rows(index)
@@ -92,6 +123,7 @@ def test_one_fls_senses_in_a_moved_world_what_the_whole_world_computed_afresh_gi
             )
     assert compared == 12 * 15 and changed > 10  # the moves did change what FLSs see
     assert asked_few > 200  # measured pairs among those asked
+    assert hops_read > 50  # hops read together, not only hops out of sight
     # Back home, the world is revision 0's again.
     back = world.moved({int(fls): world.home.points[world.index(int(fls))] for fls in world.ids})
     assert back.hood is world.home_hood and back.seen is world.home_seen

@@ -403,10 +403,16 @@ class FlsNode(SwarmNode):
             self._publish_discovery(report)
         return not self.discovery.waiting
 
-    def on_walk(self, walk: Walk) -> Walk | None:
-        """Take a path walk addressed to this FLS; return the walk to send on, if any."""
+    def on_walk(self, walk: Walk, seen: Measurement | None = None) -> Walk | None:
+        """Take a path walk addressed to this FLS; return the walk to send on, if any.
+
+        ``seen``: this FLS's measurement of the walk's next hop, when its process read the
+        hops of its FLSs at once (``Senses.hop_measurements``); read here otherwise.
+        """
         if walk.state == WALKING:
-            return step_walk(walk, self._senses.measurement(self.fls_id, next_hop(walk)))
+            if seen is None:
+                seen = self._senses.measurement(self.fls_id, next_hop(walk))
+            return step_walk(walk, seen)
         # Back at the source: its result.
         self._publish_discovery(Report(walk.run_id, self.fls_id, [walk_estimate(walk)]))
         return None

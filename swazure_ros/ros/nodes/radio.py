@@ -30,10 +30,11 @@ from swazure_interfaces.msg import (
 
 from ...core.arrays import IntArray
 from ...core.fit import PATH
+from ...core.observe import Measurement
 from ...protocol.cells import BANDS, DECAYING_BAND, Cell, Tuner, Tuning, band_of, radio_cells
 from ...protocol.discovery.messages import END, ROUND, START, Broadcast, FitBlock
 from ...protocol.discovery.participant import step_together
-from ...protocol.moves import Walk
+from ...protocol.moves import WALKING, Walk, hops_here
 from ...protocol.plausible import (
     implausible_readings,
     offer_readings_check,
@@ -548,6 +549,7 @@ class Radio:
         self._take_walk(walk_from_message(message, self._swarm))
 
     def _take_walk(self, walk: Walk) -> None:
+        ahead: dict[int, Measurement] | None = None  # its hops out here, read at once, by hop
         while walk.at in self._local_set:
             node = self._fls.get(walk.at)
             if node is None:
@@ -555,7 +557,12 @@ class Radio:
             if walk.revision > self._senses.revision:
                 self._early_walks.append(walk)
                 return
-            onward = node.on_walk(walk)
+            if ahead is None:
+                fls_ids, next_ids = hops_here(walk, self._local_set)
+                readings = self._senses.hop_measurements(fls_ids, next_ids) if fls_ids else []
+                ahead = dict(zip(range(walk.hop, walk.hop + len(readings)), readings))
+            seen = ahead.pop(walk.hop, None) if walk.state == WALKING else None
+            onward = node.on_walk(walk, seen)
             if onward is None:
                 return
             if onward.at not in self._local_set:
