@@ -224,8 +224,10 @@ def cells_figure(records: list[dict[str, Any]], path: Path) -> None:
         axes.set_xscale("log")
         axes.set_xlabel("FLSs (torus at the paper's density; race car hollow)")
         axes.grid(True, alpha=0.3)
-        if axes.get_legend_handles_labels()[0]:  # every run stopped: nothing to name
+        if axes.get_legend_handles_labels()[0]:
             axes.legend(fontsize=8, loc="best")
+        else:  # every run stopped, or none counted this (bytes: from e15b506 on)
+            axes.text(0.5, 0.5, "not in these records", ha="center", transform=axes.transAxes)
     stopped = ", ".join(f"{r['shape']} stopped" for r in records if "stopped" in r)
     figure.suptitle("Packed discovery per FLS, 2 cores" + (f" ({stopped})" if stopped else ""))
     atomic_write(path, lambda tmp: figure.savefig(tmp, format="png", dpi=110))
