@@ -24,13 +24,13 @@ import tempfile
 import time
 from pathlib import Path
 
+from bench.measure_hosts import cpu_seconds
 from swazure_ros.app.discovery_server import DiscoveryServers, client_environment, parse_servers
 from swazure_ros.app.per_fls import FLS_NICENESS
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.files.atomic import atomic_write
 from swazure_ros.ros.plumbing import shared_memory
 
-TICKS = os.sysconf("SC_CLK_TCK")
 #: One bare ROS 2 process: a node that spins until its parent's pipe closes.
 NODE_PROGRAM = (
     # The pipe's end first: a process still making its participant ends with it too.
@@ -48,18 +48,6 @@ while True:
     names = probe.get_node_names_and_namespaces()
     print(sum(name.startswith("bare_") and name != "bare_probe" for name, _ in names), flush=True)
 """
-
-
-def cpu_seconds(pids: list[int]) -> float:
-    """User and system CPU seconds the processes ``pids`` have used (0 for one gone)."""
-    total = 0
-    for pid in pids:
-        try:
-            fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        total += int(fields[11]) + int(fields[12])
-    return total / TICKS
 
 
 def stop(children: list[subprocess.Popen[bytes]], patience: float = 30.0) -> int:
