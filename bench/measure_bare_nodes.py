@@ -1,9 +1,9 @@
 """What N bare rclpy processes on one host cost DDS: the floor under one process per FLS.
 
-Starts N processes that each make one rclpy node and spin, nothing else (no
-topic of ours, no numpy, no key), at the FLS processes' niceness
-(``app.per_fls.FLS_NICENESS``), and a probe process that watches the ROS
-graph: how long until it sees every node, and the CPU the N processes used
+Starts a probe process that watches the ROS graph, then N processes that each
+make one rclpy node and spin, nothing else (no topic of ours, no numpy, no
+key), at the FLS processes' niceness (``app.per_fls.FLS_NICENESS``): how long
+until the probe sees every node, and the CPU the N processes used
 until then and over the next ``--idle`` seconds. By simple discovery, or
 through a Fast DDS Discovery Server on this host (the probe a super client).
 Whatever one process per FLS costs beyond this is ours; this much is the
@@ -94,8 +94,17 @@ def measure(
     started = DiscoveryServers(servers, Path(logs.name))
     try:
         started.start()
+        # The probe first, as a launcher is up before its FLSs.
+        probe_environment = dict(environment)
         if servers:
+            probe_environment.update(client_environment(servers, super_client=True))
             environment.update(client_environment(servers, super_client=False))
+        probe = subprocess.Popen(
+            [sys.executable, "-c", PROBE_PROGRAM],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            env=probe_environment,
+        )
         start = time.monotonic()
         children = []
         for index in range(nodes):
@@ -111,15 +120,6 @@ def measure(
             )
             time.sleep(gap)
         pids = [child.pid for child in children]
-        probe_environment = dict(environment)
-        if servers:
-            probe_environment.update(client_environment(servers, super_client=True))
-        probe = subprocess.Popen(
-            [sys.executable, "-c", PROBE_PROGRAM],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.DEVNULL,
-            env=probe_environment,
-        )
         seen = watch(probe, nodes, start + deadline)
         up = time.monotonic() - start if seen >= nodes else None
         cpu_up = cpu_seconds(pids) if up is not None else None
