@@ -12,14 +12,16 @@ idle meanwhile, and not for want of a CPU, says that it was stopped, its DDS
 participant silent that long too, so that peers may have dropped it (the
 process then joins again: an FLS's program starts afresh, a packed process
 announces itself again). A process starved of CPU (:attr:`Beat.starved`:
-its executor spent the time waiting to run) is slow, not stopped: DDS's
-threads still had their turns and announced it.
+its threads spent the time waiting to run) is slow, not stopped: DDS's
+threads still had some turns and announced it.
 
 Times in seconds: ``now`` on any monotonic clock, ``cpu`` the process's
 CPU time (``time.process_time``: every thread's, DDS's own included),
-``waited`` the time the executor's thread has spent runnable but waiting
-for a CPU (Linux's run delay, ``/proc/thread-self/schedstat``; 0 where the
-system does not say).
+``waited`` the time the process's threads have spent runnable but waiting
+for a CPU, summed (Linux's run delay, ``/proc/self/task/*/schedstat``; 0
+where the system does not say). The executor's own wait is not enough: an
+executor blocked on a lock that a starved DDS thread holds is asleep, not
+waiting to run.
 """
 
 from __future__ import annotations
@@ -36,11 +38,13 @@ STALLED_AFTER = 4.0
 #: nice 10) a few per cent; one busy in a long callback uses a whole core, and its
 #: DDS threads announced it meanwhile.
 IDLE_SHARE = 0.25
-#: Of a late look's lateness, the share the executor spent runnable but waiting for a
-#: CPU beyond which it was starved, not stopped. Measured at nice 10 beside 60 busy loops
-#: on 2 cores, on the EventsExecutor (2026-11-29): looks 52.1 s, 3.8 s and 1.3 s late
-#: had waited 49.4 s, 4.8 s and 2.2 s (the wait also counts the look's own period); one
-#: 9.8 s late after a 10 s ``kill -STOP`` had waited 0.0 s.
+#: Of a late look's lateness, the share the process's threads spent runnable but waiting
+#: for a CPU (summed) beyond which it was starved, not stopped. The executor's own wait,
+#: measured at nice 10 beside 60 busy loops on 2 cores, on the EventsExecutor
+#: (2026-11-29): looks 52.1 s, 3.8 s and 1.3 s late had waited 49.4 s, 4.8 s and 2.2 s
+#: (the wait also counts the look's own period); every thread's sum is no less. One
+#: 9.8 s late after a 10 s ``kill -STOP`` had waited 0.0 s: a stopped thread waits for
+#: nothing, so every thread's sum stays as small.
 STARVED_SHARE = 0.5
 
 
@@ -50,7 +54,7 @@ class Beat:
 
     late: float  # s the look came later than its period (0 within the tolerance)
     idle: bool  # the process used at most IDLE_SHARE of a core meanwhile
-    starved: bool = False  # the executor waited for a CPU for most of the lateness
+    starved: bool = False  # its threads waited for a CPU for half the lateness or more
 
     @property
     def behind(self) -> bool:
@@ -86,7 +90,7 @@ class Pulse:
 
     def look(self, now: float, cpu: float, waited: float = 0.0) -> Beat:
         """A look at monotonic time ``now`` with the process's CPU time ``cpu`` and its
-        executor's wait for a CPU ``waited``: how late it is, and why."""
+        threads' wait for a CPU ``waited``: how late it is, and why."""
         since = now - self._now
         used = cpu - self._cpu
         queued = waited - self._waited

@@ -9,6 +9,7 @@ executor never runs), on ``heartbeats`` (swazure_interfaces/Heartbeat).
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 
@@ -26,22 +27,37 @@ from ..security.auth import SwarmKey
 PULSE_PERIOD = 0.5
 #: Seconds a look may come late and still be on time: a whole second behind is news.
 BEHIND_AFTER = 1.0
-#: The calling thread's scheduler statistics: time on a CPU, time waiting for one (ns), slices.
-SCHEDSTAT = "/proc/thread-self/schedstat"
+#: The process's threads, each with its scheduler statistics (``schedstat``: time on a
+#: CPU, time waiting for one (ns), slices).
+TASKS = "/proc/self/task"
 
 
 def waited_for_cpu() -> float:
-    """Seconds the calling thread has spent runnable but waiting for a CPU since it began
-    (Linux's run delay, ``/proc/thread-self/schedstat``); 0.0 where the system does not say.
+    """Seconds this process's threads have spent runnable but waiting for a CPU, summed
+    over the threads it has now (Linux's run delay, ``/proc/self/task/*/schedstat``); 0.0
+    where the system does not say.
 
     A starved thread's wait grows with the time it is kept from running; a
-    stopped one's (``kill -STOP``) and a sleeping one's does not.
+    stopped one's (``kill -STOP``) and a sleeping one's does not. Every thread
+    counts, not only the caller's: an executor blocked on a lock that a
+    starved DDS thread holds sleeps, and only that thread's wait says the
+    process was kept from a CPU (an FLS process at load 341 once stood
+    still so, its CPU idle, and was taken for stopped). A thread that ends
+    takes its wait with it, so the sum can fall between two looks.
     """
+    waited = 0
     try:
-        with open(SCHEDSTAT, "rb") as schedstat:
-            return int(schedstat.read().split()[1]) / 1e9
-    except (OSError, IndexError, ValueError):
+        threads = os.scandir(TASKS)
+    except OSError:
         return 0.0
+    with threads:
+        for thread in threads:
+            try:
+                with open(f"{thread.path}/schedstat", "rb") as schedstat:
+                    waited += int(schedstat.read().split()[1])
+            except (OSError, IndexError, ValueError):
+                continue  # the thread ended meanwhile, or no statistics kept
+    return waited / 1e9
 
 
 class Heartbeats:

@@ -158,11 +158,11 @@ class RadioJoin:
 def start_afresh(node: Node, late: float) -> None:
     """Start this program again in this process: a new DDS participant, as if started anew.
 
-    Its executor stood still for ``late`` s, its CPU idle (stopped, or
-    starved): longer than its peers wait for its announcements, so they have
-    dropped its participant. Going on with it, its peers' graph would not show
-    its node again, and some of its endpoints would not be matched again
-    (docs/protocol.md, "Coming back"). A process started afresh is a new
+    Its executor stood still for ``late`` s, its CPU idle and its threads not
+    waiting for a CPU (stopped: ``protocol.pulse``): longer than its peers wait for
+    its announcements, so they have dropped its participant. Going on with it, its
+    peers' graph would not show its node again, and some of its endpoints would not
+    be matched again (docs/protocol.md, "Coming back"). A process started afresh is a new
     participant (Fast DDS gives each a new random GUID prefix) that comes up
     as at bring-up and is taken back as an FLS started again is. It keeps its
     pid, its log and the launcher's pipe (``app.per_fls.FLS_PROGRAM``); the old
