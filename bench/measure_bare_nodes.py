@@ -156,12 +156,15 @@ def main() -> int:
     parser.add_argument("--gap", type=float, default=0.0, help="seconds between two starts")
     parser.add_argument("--out", type=Path, required=True, help="the record's JSON file")
     args = parser.parse_args()
+    if not args.out.parent.is_dir():
+        # Said before minutes of measuring, not after.
+        parser.error(f"--out {args.out}: no folder {args.out.parent}")
     try:
         record = measure(args.nodes, args.discovery, args.deadline, args.idle, args.gap)
-    except SwazureError as err:
+        atomic_write(args.out, lambda path: path.write_text(json.dumps(record, indent=1) + "\n"))
+    except (SwazureError, OSError) as err:
         print(f"measure_bare_nodes: error: {err}", file=sys.stderr)
         return 1
-    atomic_write(args.out, lambda path: path.write_text(json.dumps(record, indent=1) + "\n"))
     print(json.dumps(record))
     return 0
 
