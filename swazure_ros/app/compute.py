@@ -33,6 +33,13 @@ from ..sim.world import World
 from ..view.scene import evaluation_scene
 from .swarm import RunningSwarm
 
+#: Bytes a block of the engine's run may hold while the launcher compares with it: less
+#: than a run of its own may (``core.blocks.DEFAULT_MEMORY``), since the launcher holds
+#: its share of the world and every source's estimates beside it. torus:30000's engine
+#: alone peaked at 1,794 MB with 2 GiB blocks, at 930 MB with these, in the same time
+#: (45.2 s and 44.5 s; 256 MiB blocks: 775 MB and 50.6 s).
+COMPARISON_MEMORY = 512 * 2**20
+
 
 @dataclass(frozen=True)
 class SwarmComputation:
@@ -146,7 +153,7 @@ def _in_blocks(
     if on_progress is not None:
         on_progress("comparing the pairs with the engine's, block by block")
     reported = ReportedPairs(world.swarm.cloud_index, result.outcome.estimates)
-    engine = evaluate_blocked(world.swarm, world.sensor, policy, Budget(), SILENT)
+    engine = evaluate_blocked(world.swarm, world.sensor, policy, Budget(COMPARISON_MEMORY), SILENT)
     summary, comparison = compare_in_blocks(reported, engine, result.seconds, take)
     record = RunRecord(
         "spawn",
