@@ -41,22 +41,28 @@ def waited_for_cpu() -> float:
     stopped one's (``kill -STOP``) and a sleeping one's does not. Every thread
     counts, not only the caller's: an executor blocked on a lock that a
     starved DDS thread holds sleeps, and only that thread's wait says the
-    process was kept from a CPU (an FLS process at load 341 once stood
-    still so, its CPU idle, and was taken for stopped). A thread that ends
-    takes its wait with it, so the sum can fall between two looks.
+    process was kept from a CPU (FLS processes at load 341 stood still with
+    their CPU idle and their executor's own wait small, and were taken for
+    stopped). A thread that ends takes its wait with it, so the sum can fall
+    between two looks.
     """
     waited = 0
     try:
-        threads = os.scandir(TASKS)
+        threads = os.listdir(TASKS)
     except OSError:
         return 0.0
-    with threads:
-        for thread in threads:
-            try:
-                with open(f"{thread.path}/schedstat", "rb") as schedstat:
-                    waited += int(schedstat.read().split()[1])
-            except (OSError, IndexError, ValueError):
-                continue  # the thread ended meanwhile, or no statistics kept
+    # os.open and os.read: half the time of open(), every look at every thread of the process.
+    for thread in threads:
+        try:
+            schedstat = os.open(f"{TASKS}/{thread}/schedstat", os.O_RDONLY)
+        except OSError:
+            continue  # the thread ended meanwhile, or no statistics kept
+        try:
+            waited += int(os.read(schedstat, 128).split()[1])
+        except (OSError, IndexError, ValueError):
+            pass
+        finally:
+            os.close(schedstat)
     return waited / 1e9
 
 
