@@ -67,6 +67,15 @@ class Beat:
         peer with a lease of ``after`` s plus one announcement period may have dropped it."""
         return self.idle and not self.starved and self.late > after
 
+    def starved_past(self, after: float = STALLED_AFTER) -> bool:
+        """Late by more than ``after`` s with the process nearly idle for want of a CPU: slow,
+        not stopped, but its DDS threads may have been kept from announcing it as long, so
+        a peer may have dropped it. A busy process (more than IDLE_SHARE of a core) is not:
+        its threads had their turns, DDS's among them. Under load its threads' summed wait
+        passes half its lateness at many a late look, and a packed process that announced
+        itself again at each would republish its thousands of nodes to every peer."""
+        return self.idle and self.starved and self.late > after
+
 
 class Pulse:
     """The regular looks of a process's executor, every ``period`` s from ``now``.

@@ -49,6 +49,19 @@ def test_a_process_starved_of_cpu_is_behind_but_not_stalled():
     assert not Pulse(0.5, now=0.0, cpu=0.0).look(0.5, 0.0, waited=0.4).starved
 
 
+def test_only_a_process_idle_for_want_of_a_cpu_past_a_lease_may_have_been_dropped():
+    # Idle, waiting to run for most of 52 s: peers may have dropped it.
+    idle = Pulse(0.5, now=0.0, cpu=0.0).look(52.6, 0.43, waited=50.4)
+    assert idle.starved_past() and not idle.starved_past(after=60.0)
+    # Busy (a core's worth of CPU in 6 s) though its threads waited as long: they ran,
+    # DDS's among them.
+    busy = Pulse(0.5, now=0.0, cpu=0.0).look(6.5, 6.0, waited=5.0)
+    assert busy.starved and not busy.idle and not busy.starved_past()
+    # Stopped: not starved.
+    stopped = Pulse(0.5, now=0.0, cpu=0.0).look(52.6, 0.0, waited=0.0)
+    assert stopped.stalled() and not stopped.starved_past()
+
+
 def test_a_pulse_refuses_periods_that_are_no_time():
     with pytest.raises(ValueError, match="period"):
         Pulse(0.0, now=0.0, cpu=0.0)

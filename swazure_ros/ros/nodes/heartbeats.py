@@ -119,10 +119,9 @@ class Heartbeats:
         stalled = beat.stalled(self._stall_after)
         if stalled:
             self._on_stall(beat.late)
-        elif beat.starved and beat.late > self._stall_after:
-            # Slow, not stopped: DDS's threads had their turns and announced the process,
-            # so its peers most likely kept it. Should one have dropped it all the same, a
-            # new writer shows its nodes again; starting afresh would lose its state.
+        elif beat.starved_past(self._stall_after):
+            # Slow, not stopped: should a peer have dropped it, a new writer shows its
+            # nodes again; starting afresh would lose its state.
             self.announce_again(beat.late, starved=True)
         hears = self._hears()
         if hears != self.hears_controls or beat.behind or stalled:
