@@ -12,8 +12,9 @@ idle meanwhile, and not for want of a CPU, says that it was stopped, its DDS
 participant silent that long too, so that peers may have dropped it (the
 process then joins again: an FLS's program starts afresh, a packed process
 announces itself again). A process starved of CPU (:attr:`Beat.starved`:
-its threads spent the time waiting to run) is slow, not stopped: DDS's
-threads still had some turns and announced it.
+its threads spent the time waiting to run) is slow, not stopped: it keeps
+its state, and one that was idle meanwhile, whose DDS threads may not have
+announced it, announces itself again (:meth:`Beat.starved_past`).
 
 Times in seconds: ``now`` on any monotonic clock, ``cpu`` the process's
 CPU time (``time.process_time``: every thread's, DDS's own included),
