@@ -92,6 +92,8 @@ def measure(
     servers = parse_servers("127.0.0.1") if discovery == "server" else ()
     logs = tempfile.TemporaryDirectory(prefix="bare-nodes-")
     started = DiscoveryServers(servers, Path(logs.name))
+    probe: subprocess.Popen[bytes] | None = None
+    children: list[subprocess.Popen[bytes]] = []
     try:
         started.start()
         # The probe first, as a launcher is up before its FLSs.
@@ -106,7 +108,6 @@ def measure(
             env=probe_environment,
         )
         start = time.monotonic()
-        children = []
         for index in range(nodes):
             children.append(
                 subprocess.Popen(
@@ -131,7 +132,13 @@ def measure(
         time.sleep(idle)
         idle_cores = (cpu_seconds(pids) - before) / idle
         killed = stop(children)
+        children = []
     finally:
+        # Interrupted (Ctrl-C, an error): leave no probe and no bare process running.
+        if probe is not None and probe.poll() is None:
+            probe.kill()
+            probe.wait()
+        stop(children, patience=5.0)
         started.stop()
         logs.cleanup()
     return {
