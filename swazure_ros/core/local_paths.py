@@ -41,7 +41,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial import cKDTree
 
 from . import csr, jit
 from .arrays import BoolArray, FloatArray, IntArray
@@ -298,6 +297,9 @@ class _Weights:
         # (An FLS's own count is of the pairs it is first of, which depends on the order
         # of the indices: the mean, both ways, does not.)
         self.mean = 2.0 * float(candidates.sum()) / max(swarm.size, 1)
+        # Here, not at import: its 0.1 s is for the runs that search decaying paths by region.
+        from scipy.spatial import cKDTree
+
         self.tree = cKDTree(swarm.points)
         rows = np.random.default_rng(0).permutation(swarm.size)[: self.SAMPLE]
         self.sample = swarm.points[np.sort(rows)]
@@ -360,6 +362,8 @@ def _tiles(
 def _slack(points: FloatArray, centres: IntArray, radii: FloatArray) -> FloatArray:
     """How far inside the balls about the FLSs ``centres`` (their ``radii``, cm) each FLS
     lies: the largest radius less distance, cm; -inf where it is in none."""
+    from scipy.spatial import cKDTree  # here, as in _Weights
+
     slack = np.full(len(points), -np.inf)
     for radius in np.unique(radii):
         tree = cKDTree(points[centres[radii == radius]])

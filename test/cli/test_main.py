@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import subprocess
 import sys
 
@@ -57,6 +58,19 @@ def test_a_verb_loads_its_own_module_and_no_other():
     loaded = loaded_after("key", "--help")
     assert "swazure_ros.cli.key" in loaded
     assert not {f"swazure_ros.cli.{verb}" for verb in VERBS if verb != "key"} & loaded
+
+
+def test_evaluating_a_small_cloud_file_never_imports_scipy_spatial(tmp_path):
+    # A KD-tree is for shapes too big to scan by cells, and its import is a twentieth of
+    # a small run's wall (BENCHMARKS.md). 300 FLSs in a 30 cm cube: sweet and decaying paths.
+    cloud = tmp_path / "cube.xyz"
+    points = np.random.default_rng(0).uniform(0.0, 30.0, (300, 3))
+    cloud.write_text("".join(f"{x!r} {y!r} {z!r}\n" for x, y, z in points.tolist()))
+    out = tmp_path / "out"
+    loaded = loaded_after("evaluate", "--cloud", str(cloud), "--beta", "0.5", "--out", str(out))
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["sweet_pairs"] > 0 and summary["decaying_pairs"] > 0
+    assert "scipy.spatial" not in loaded
 
 
 @pytest.mark.parametrize(
