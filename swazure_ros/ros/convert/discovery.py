@@ -213,7 +213,10 @@ def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
     message.vectors = packed(found.vector, np.float64)
     message.path_lengths = packed(found.length, np.float64)
     message.predicted_errors = packed(found.predicted_error, np.float64)
-    message.covariances = packed(found.covariance, np.float64)
+    # A path's estimates have no covariance: none is sent, where nine NaNs each were 72 of
+    # a plain report's 170 bytes an estimate.
+    if not np.isnan(found.covariance).all():
+        message.covariances = packed(found.covariance, np.float64)
     return message
 
 
@@ -239,7 +242,10 @@ def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> Estimates
         "differ in length",
     )
     check(len(message.vectors) == 3 * count, "not 3 vector values per estimate")
-    check(len(message.covariances) == 9 * count, "not 9 covariance values per estimate")
+    check(
+        len(message.covariances) in (0, 9 * count),
+        "not 9 covariance values per estimate, nor none",
+    )
     paths = _ragged_from_message(message.path_offsets, message.path_ids, count, swarm, "path")
     radio_paths = _ragged_from_message(
         message.radio_path_offsets, message.radio_path_ids, count, swarm, "radio_path"
@@ -256,16 +262,7 @@ def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> Estimates
     vectors = check_finite(message.vectors, "vector", allow_nan=True).reshape(count, 3)
     lengths = check_finite(message.path_lengths, "path_lengths", allow_nan=True)
     predicted = check_finite(message.predicted_errors, "predicted_errors", allow_nan=True)
-    covariances = check_finite(message.covariances, "covariance", allow_nan=True)
-    covariances = covariances.reshape(count, 3, 3)
-    # A fit's covariance is whole or absent: NaN stands for none.
-    partial = np.asarray(np.isnan(covariances).any(axis=(1, 2)), dtype=bool)
-    if partial.all():
-        # A path's estimates have none: one NaN read T times, not 72 B each, for the
-        # coordinator holds every source's report to its run's end (9 M on torus:30000).
-        covariances = np.broadcast_to(np.float64(np.nan), (count, 3, 3))
-    else:
-        covariances = np.where(partial[:, None, None], np.nan, covariances)
+    covariances = _covariances(message.covariances, count)
     return Estimates(
         np.asarray(message.target_ids, dtype=np.int64),
         statuses.astype(np.int8),
@@ -280,6 +277,23 @@ def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> Estimates
         estimators,
         covariances,
     )
+
+
+def _covariances(values: Sequence[float], count: int) -> FloatArray:
+    """A report's ``count`` covariances (count, 3, 3), cm^2, NaN where an estimate has none.
+
+    A fit's covariance is whole or absent (NaN stands for none), and a report none of
+    whose estimates has one sends none. Then they are one NaN read ``count`` times, not
+    72 B each: the coordinator holds every source's report to its run's end (9 M
+    estimates on torus:30000).
+    """
+    if len(values) == 0:
+        return np.broadcast_to(np.float64(np.nan), (count, 3, 3))
+    covariances = check_finite(values, "covariance", allow_nan=True).reshape(count, 3, 3)
+    partial = np.asarray(np.isnan(covariances).any(axis=(1, 2)), dtype=bool)
+    if partial.all():
+        return np.broadcast_to(np.float64(np.nan), (count, 3, 3))
+    return np.where(partial[:, None, None], np.nan, covariances)
 
 
 def _checked_offsets(
