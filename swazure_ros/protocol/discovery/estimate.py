@@ -215,7 +215,11 @@ def _filled(added: dict[str, Any], name: str) -> NDArray[Any]:
 
 @dataclass(frozen=True, eq=False)
 class Estimates(Sequence[Estimate]):
-    """One source's estimates as arrays (T targets); each an :class:`Estimate` when read."""
+    """One source's estimates as arrays (T targets); each an :class:`Estimate` when read.
+
+    FLS ids (``targets``, ``path_ids``, ``radio_ids``) are int64, or uint32 as a report
+    arrives over the wire (``ros.convert.discovery``), which is what a coordinator holds.
+    """
 
     targets: IntArray  # (T,)
     status: NDArray[np.int8]  # (T,) SWEET_PATH, DECAYING_PATH, NO_PATH or ABORTED

@@ -263,16 +263,18 @@ def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> Estimates
     lengths = check_finite(message.path_lengths, "path_lengths", allow_nan=True)
     predicted = check_finite(message.predicted_errors, "predicted_errors", allow_nan=True)
     covariances = _covariances(message.covariances, count)
+    # Ids kept in the wire's 4 bytes, not 8: the coordinator holds every source's report to
+    # its run's end, about 10 ids an estimate (9.5 M estimates on torus:30000).
     return Estimates(
-        np.asarray(message.target_ids, dtype=np.int64),
+        np.asarray(message.target_ids, dtype=np.uint32),
         statuses.astype(np.int8),
         reasons.astype(np.int8),
         paths[0],
-        paths[1],
+        paths[1].astype(np.uint32),
         lengths,
         vectors,
         radio_paths[0],
-        radio_paths[1],
+        radio_paths[1].astype(np.uint32),
         predicted,
         estimators,
         covariances,

@@ -256,6 +256,15 @@ def test_a_report_without_covariances_holds_one_nan_for_all_and_with_one_each_it
     assert back[1].covariance is None and back[2].covariance is None
 
 
+def test_a_report_s_ids_are_held_in_the_wire_s_four_bytes():
+    # A coordinator holds every source's report until its run ends: about ten ids an
+    # estimate, millions of estimates on a display.
+    message = wire(estimates_message(_report(), Time(sec=1)))
+    held = estimates_from_message(message, np.array([3, 5, 7, 8, 9]))
+    assert {held.targets.dtype, held.path_ids.dtype, held.radio_ids.dtype} == {np.dtype(np.uint32)}
+    assert held.targets.tolist() == [9, 7, 8] and held.radio_ids.tolist() == [3, 9, 3, 5, 7]
+
+
 def test_an_empty_report_reads_back_empty():
     message = wire(estimates_message(Report(run_id=4, source=3, estimates=[]), Time(sec=1)))
     assert estimates_from_message(message, np.array([3])) == []
