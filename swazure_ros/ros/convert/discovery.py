@@ -213,8 +213,7 @@ def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
     message.vectors = packed(found.vector, np.float64)
     message.path_lengths = packed(found.length, np.float64)
     message.predicted_errors = packed(found.predicted_error, np.float64)
-    # A path's estimates have no covariance: none is sent, where nine NaNs each were 72 of
-    # a plain report's 170 bytes an estimate.
+    # A path's estimates have no covariance: none is sent (nine NaNs were 72 of 170 B each).
     if not np.isnan(found.covariance).all():
         message.covariances = packed(found.covariance, np.float64)
     return message
@@ -282,13 +281,9 @@ def estimates_from_message(message: PoseEstimates, swarm: IntArray) -> Estimates
 
 
 def _covariances(values: Sequence[float], count: int) -> FloatArray:
-    """A report's ``count`` covariances (count, 3, 3), cm^2, NaN where an estimate has none.
-
-    A fit's covariance is whole or absent (NaN stands for none), and a report none of
-    whose estimates has one sends none. Then they are one NaN read ``count`` times, not
-    72 B each: the coordinator holds every source's report to its run's end (9 M
-    estimates on torus:30000).
-    """
+    """A report's ``count`` covariances (count, 3, 3), cm^2, NaN where an estimate has none
+    (a fit's is whole or absent; a report without any sends none): where none has one, one
+    NaN read ``count`` times, for the coordinator holds every report to its run's end."""
     if len(values) == 0:
         return np.broadcast_to(np.float64(np.nan), (count, 3, 3))
     covariances = check_finite(values, "covariance", allow_nan=True).reshape(count, 3, 3)
