@@ -213,7 +213,7 @@ def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
     message.vectors = packed(found.vector, np.float64)
     message.path_lengths = packed(found.length, np.float64)
     message.predicted_errors = packed(found.predicted_error, np.float64)
-    # A path's estimates have no covariance: none is sent (nine NaNs were 72 of 170 B each).
+    # A path's estimates have no covariance: none is sent (nine NaNs were 72 of about 155 B each).
     if not np.isnan(found.covariance).all():
         message.covariances = packed(found.covariance, np.float64)
     return message
