@@ -10,6 +10,8 @@ setup(
     name=PACKAGE,
     version="0.2.0",
     packages=find_packages(include=[PACKAGE, f"{PACKAGE}.*"]),
+    # The Fast DDS profile every process of a swarm loads (ros/plumbing/participants.py).
+    package_data={f"{PACKAGE}.ros.plumbing": ["participants.xml"]},
     data_files=[
         ("share/ament_index/resource_index/packages", [f"resource/{PACKAGE}"]),
         (f"share/{PACKAGE}", ["package.xml"]),

@@ -7,7 +7,9 @@ until the probe sees every node, and the CPU the N processes used
 until then and over the next ``--idle`` seconds. By simple discovery, or
 through a Fast DDS Discovery Server on this host (the probe a super client).
 Whatever one process per FLS costs beyond this is ours; this much is the
-middleware's on this machine.
+middleware's on this machine. Every process takes the FLS processes' DDS
+settings (``app.per_fls.FLS_ENVIRONMENT``'s UDP transport, and the swarm's
+profile, ``ros.plumbing.participants``), unless the environment sets them.
 
     python -m bench.measure_bare_nodes --nodes 50 --discovery server --out record.json
 """
@@ -26,10 +28,11 @@ from pathlib import Path
 
 from bench.measure_hosts import cpu_seconds
 from swazure_ros.app.discovery_server import DiscoveryServers, client_environment, parse_servers
-from swazure_ros.app.per_fls import FLS_NICENESS
+from swazure_ros.app.per_fls import FLS_ENVIRONMENT, FLS_NICENESS
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.files.atomic import atomic_write
 from swazure_ros.ros.plumbing import shared_memory
+from swazure_ros.ros.plumbing.participants import profile_environment
 
 #: One bare ROS 2 process: a node that spins until its parent's pipe closes.
 NODE_PROGRAM = (
@@ -88,7 +91,7 @@ def measure(
 ) -> dict[str, object]:
     """One run: ``nodes`` bare processes, started ``gap`` s apart, and a probe; when the probe
     saw them all, and their CPU."""
-    environment = dict(os.environ)
+    environment = {**FLS_ENVIRONMENT, **os.environ, **profile_environment()}
     servers = parse_servers("127.0.0.1") if discovery == "server" else ()
     logs = tempfile.TemporaryDirectory(prefix="bare-nodes-")
     started = DiscoveryServers(servers, Path(logs.name))

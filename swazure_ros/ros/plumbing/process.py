@@ -37,6 +37,7 @@ from rclpy.signals import SignalHandlerOptions
 from ...core.errors import SwazureError
 from . import shared_memory
 from .parameters import ParameterSpec
+from .participants import load_with_swarm_profile
 from .startup import StartupValues, check_params_file, program_startup
 
 #: Container objects a process may allocate, net of those freed, before CPython's cyclic
@@ -58,7 +59,8 @@ def collect_rarely() -> None:
 
 def init_context(domain_id: int | None = None, params_file: str | None = None) -> Context:
     """A fresh rclpy context on ``domain_id``, with a ROS 2 parameter file if given, in a
-    process whose collector runs rarely (:func:`collect_rarely`).
+    process whose collector runs rarely (:func:`collect_rarely`) and whose participant
+    loads the swarm's Fast DDS profile unless the user names one (:mod:`.participants`).
 
     Signals are left to the caller: a swarm stops between spins, not inside a callback.
     """
@@ -68,6 +70,7 @@ def init_context(domain_id: int | None = None, params_file: str | None = None) -
         # Checked here so that a bad file gives our one line, not rcl's log lines too.
         check_params_file(Path(params_file))
         args = ["--ros-args", "--params-file", params_file]
+    load_with_swarm_profile()
     context = Context()
     try:
         rclpy.init(
@@ -299,6 +302,7 @@ def run_process(
     values = program_startup(args, usage, startup)
     stop = catch_stops(STOP_LIMIT)
     collect_rarely()
+    load_with_swarm_profile()
     context = Context()
     rclpy.init(args=args, context=context, signal_handler_options=SignalHandlerOptions.NO)
     executor: Executor | None = None
