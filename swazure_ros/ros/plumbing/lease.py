@@ -42,6 +42,13 @@ class Lease:
         return max(self.duration - self.announcement, 0.0)
 
 
+def profiles_file(environ: Mapping[str, str] = os.environ, folder: Path | None = None) -> Path:
+    """The XML profiles file Fast DDS 2.x loads: ``environ``'s PROFILES_VARIABLE, else
+    PROFILES_IN_FOLDER in ``folder`` (default the working folder), which may not exist."""
+    named = environ.get(PROFILES_VARIABLE)
+    return Path(named) if named else (folder or Path.cwd()) / PROFILES_IN_FOLDER
+
+
 def participant_lease(
     environ: Mapping[str, str] = os.environ, folder: Path | None = None
 ) -> Lease:
@@ -50,8 +57,7 @@ def participant_lease(
     A file that cannot be read or does not set them leaves Fast DDS's
     defaults (Fast DDS itself says what is wrong with a bad file).
     """
-    named = environ.get(PROFILES_VARIABLE)
-    path = Path(named) if named else (folder or Path.cwd()) / PROFILES_IN_FOLDER
+    path = profiles_file(environ, folder)
     try:
         root = ElementTree.parse(path).getroot()
     except (OSError, ElementTree.ParseError):

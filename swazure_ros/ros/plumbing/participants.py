@@ -18,7 +18,7 @@ import os
 from collections.abc import Mapping
 from pathlib import Path
 
-from .lease import PROFILES_IN_FOLDER, PROFILES_VARIABLE
+from .lease import PROFILES_VARIABLE, profiles_file
 
 #: The swarm's Fast DDS profile: more participant ids tried, nothing else changed.
 PROFILE = Path(__file__).with_name("participants.xml")
@@ -43,7 +43,9 @@ def profile_environment(
         profiles file or ``folder`` holds Fast DDS's default one: the user's
         profiles are loaded as they are.
     """
-    if environ.get(PROFILES_VARIABLE) or ((folder or Path.cwd()) / PROFILES_IN_FOLDER).exists():
+    if environ.get(PROFILES_VARIABLE) or profiles_file(environ, folder).exists():
+        return {}
+    if not PROFILE.exists():  # an installation without its package data: Fast DDS's defaults
         return {}
     return {PROFILES_VARIABLE: str(PROFILE)}
 
