@@ -54,7 +54,7 @@ def test_a_swarm_comes_up_on_a_host_where_a_hundred_and_one_participants_hold_it
     domain, tmp_path
 ):
     # Every metatraffic port Fast DDS would try by default is held (by this test, not by
-    # 101 processes): the launcher, the world and each FLS process must find one further on.
+    # 101 processes): the launcher (the world in it) and each FLS process must find one further on.
     start = PORT_BASE + DOMAIN_GAIN * domain + METATRAFFIC_UNICAST
     with ExitStack() as held:
         for participant in range(DEFAULT_IDS):
