@@ -37,6 +37,11 @@ MAX_POINTS = 100_000
 #: cm from the origin that a point may lie, at most: a display is metres across, and
 #: coordinates far beyond overflow the geometry's squares.
 MAX_EXTENT = 1e6
+#: Clouds of up to this many points have their spacing measured pair by pair
+#: (:func:`mean_spacing`), without scipy.spatial: importing it costs a process about
+#: 0.45 CPU-s and 35 MB, more than a small built-in shape's every pair, and every
+#: process of one FLS makes its swarm's built-in shape (``--per-fls``).
+PAIRWISE_SPACING_UP_TO = 4096
 #: Points of a resampled cloud, at least: as of a built-in shape.
 MIN_RESAMPLE = 8
 #: Points a cloud needs to be resampled: each point and its six nearest neighbours.
@@ -162,6 +167,10 @@ def _at_density(points: FloatArray, density: float) -> FloatArray:
 def mean_spacing(points: FloatArray) -> float:
     """Mean distance of each point to its nearest other point, cm.
 
+    Up to ``PAIRWISE_SPACING_UP_TO`` points every pair is compared (numpy
+    only), beyond that a k-d tree (scipy.spatial) finds the nearest; both
+    give the same distances to the last bit (:func:`nearest_distances`).
+
     Parameters
     ----------
     points : (N, 3) array of float, cm
@@ -178,10 +187,44 @@ def mean_spacing(points: FloatArray) -> float:
     >>> mean_spacing(np.array([[0.0, 0, 0], [1, 0, 0], [3, 0, 0]]))  # (1 + 1 + 2) / 3
     1.3333333333333333
     """
-    from scipy.spatial import cKDTree  # here, not at import: an FLS alone never calls it
+    points = np.asarray(points, dtype=float)
+    if len(points) <= PAIRWISE_SPACING_UP_TO:
+        return float(nearest_distances(points).mean())
+    from scipy.spatial import cKDTree  # here, not at import (PAIRWISE_SPACING_UP_TO)
 
     distances, _ = cKDTree(points).query(points, k=2)
     return float(distances[:, 1].mean())
+
+
+def nearest_distances(points: FloatArray, rows: int = 256) -> FloatArray:
+    """Each point's distance to its nearest other point, by comparing every pair, cm.
+
+    The squares are summed x, then y, then z, from zero, and the root taken
+    last: the order in which scipy.spatial's k-d tree sums them, so that the
+    two give the same bits. ``rows`` points at a time: memory is ``rows`` x N.
+
+    Parameters
+    ----------
+    points : (N, 3) array of float, cm
+        N >= 2; a point that another repeats is 0 from it.
+    rows : int, default 256
+        Points compared with all others at once.
+
+    Returns
+    -------
+    (N,) ndarray of float, cm
+    """
+    points = np.asarray(points, dtype=float)
+    nearest = np.empty(len(points))
+    for start in range(0, len(points), rows):
+        block = points[start : start + rows]
+        squares = np.zeros((len(block), len(points)))
+        for axis in range(3):
+            difference = block[:, None, axis] - points[None, :, axis]
+            squares += difference * difference
+        squares[np.arange(len(block)), np.arange(start, start + len(block))] = np.inf
+        nearest[start : start + len(block)] = np.sqrt(squares.min(axis=1))
+    return nearest
 
 
 def resample(points: FloatArray, count: int, seed: int = 0) -> FloatArray:
