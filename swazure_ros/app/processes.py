@@ -202,7 +202,7 @@ class ProcessPerFls:
         self._reported.discard(fls_id)
 
     def created(self, own: int, host: SwarmHost) -> int:
-        return min(host.discovered()[0], self.radios)
+        return min(host.publishers_seen(), self.radios)
 
     def ready(self) -> bool:
         return True
