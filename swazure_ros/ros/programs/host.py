@@ -325,22 +325,22 @@ class SwarmHost:
         """The swarm's measurement publishers this process sees (one per FLS node)."""
         return self.host_node.count_publishers(self._measurements_topic)
 
-    def discovered(self) -> tuple[int, int]:
-        """(measurement publishers, neighbour services) of the swarm this process sees.
+    def services_seen(self) -> int:
+        """The FLSs' own neighbour services this process sees; 0 where hosts answer for
+        them (none to see)."""
+        return len(self._fls_service_names()) if self.config.fls_services else 0
 
-        The services are the FLSs' own; 0 where hosts answer for them (none to see).
-        """
-        services = len(self._fls_service_names()) if self.config.fls_services else 0
-        return self.publishers_seen(), services
+    def discovered(self) -> tuple[int, int]:
+        """(measurement publishers, neighbour services) of the swarm this process sees."""
+        return self.publishers_seen(), self.services_seen()
 
     def is_discovered(self) -> bool:
         """True when every FLS node of the whole swarm is visible from this process."""
         # The publishers first: counting one topic's is cheap; listing the graph's every
         # service is not (a hundred FLS processes offer 700, each name taken apart at
         # each look), and the launcher looks 20 times a second while it waits.
-        if self.publishers_seen() < self.swarm_size:
-            return False
-        return self._complete(*self.discovered())
+        publishers = self.publishers_seen()
+        return publishers >= self.swarm_size and self._complete(publishers, self.services_seen())
 
     def _complete(self, publishers: int, services: int) -> bool:
         return publishers >= self.swarm_size and (
