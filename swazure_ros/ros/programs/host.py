@@ -353,18 +353,13 @@ class SwarmHost:
         seen = f"{publishers} of {self.swarm_size} FLS publishers"
         return f"{seen} and {services} services" if self.config.fls_services else seen
 
-    def spin_until_discovered(
-        self, timeout: float, poll: float = 0.25, on_poll: Callable[[int, int], None] | None = None
-    ) -> bool:
+    def spin_until_discovered(self, timeout: float, poll: float = 0.25) -> bool:
         """Spin until :meth:`is_discovered` or ``timeout`` seconds; return whether discovered."""
         deadline = time.monotonic() + timeout
         next_poll = 0.0
         while time.monotonic() < deadline:
             if time.monotonic() >= next_poll:
-                publishers, services = self.discovered()
-                if on_poll is not None:
-                    on_poll(publishers, services)
-                if self._complete(publishers, services):
+                if self.is_discovered():
                     return True
                 next_poll = time.monotonic() + poll
             self.spin_once(min(poll, 0.05))
