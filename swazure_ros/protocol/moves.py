@@ -108,17 +108,20 @@ def next_hop(walk: Walk) -> tuple[int, ...]:
     return walk.path[walk.hop + 1 : walk.hop + 2]
 
 
-def step_walk(walk: Walk, seen: Camera) -> Walk:
+def step_walk(walk: Walk, seen: Camera | None) -> Walk:
     """The walk after its FLS, ``walk.at``, took its turn with what its camera ``seen`` measures.
 
     On the way out each FLS adds its own measurement of the next hop
     (:func:`next_hop`; ``seen`` may hold that one alone), which must be sweet
     and in sight; the target turns the walk back to the source
-    (blind neighbours are within radio range). Sums run from the source
-    outwards, as the core engine sums.
+    (blind neighbours are within radio range) and measures nothing: its
+    ``seen`` may be None. Sums run from the source outwards, as the core
+    engine sums.
     """
     if walk.hop + 1 >= len(walk.path):
         return replace(walk, state=ARRIVED, hop=0)
+    if seen is None:
+        raise ValueError(f"FLS {walk.at} must measure its next hop, {walk.path[walk.hop + 1]}")
     where = np.flatnonzero(seen.target_ids == walk.path[walk.hop + 1])
     if len(where) == 0 or seen.range_class[where[0]] != SWEET:
         return replace(walk, state=FAILED, hop=0)

@@ -54,6 +54,15 @@ def test_a_walk_sums_each_fls_s_measured_hop_and_turns_back_at_the_target():
     assert (found.status, found.path, found.vector.tolist()) == (SWEET_PATH, (0, 4, 2), [1, 2, 0])
 
 
+def test_the_target_turns_a_walk_back_without_measuring_and_no_one_else_may():
+    at_target = Walk(3, 5, (0, 4, 2), hop=2)
+    assert next_hop(at_target) == ()
+    back = step_walk(at_target, None)
+    assert (back.state, back.at) == (ARRIVED, 0)
+    with pytest.raises(ValueError, match="FLS 4 must measure its next hop, 2"):
+        step_walk(Walk(3, 5, (0, 4, 2), hop=1), None)
+
+
 def test_a_walk_fails_where_the_next_hop_is_not_a_sweet_measurement():
     walk = step_walk(Walk(3, 5, (0, 4, 2)), camera([4], [DECAYING], [[1.0, 0, 0]]))
     assert (walk.state, walk.at) == (FAILED, 0)

@@ -410,8 +410,9 @@ class FlsNode(SwarmNode):
         hops of its FLSs at once (``Senses.hop_measurements``); read here otherwise.
         """
         if walk.state == WALKING:
-            if seen is None:
-                seen = self._senses.measurement(self.fls_id, next_hop(walk))
+            ahead = next_hop(walk)
+            if seen is None and ahead:  # the target has no hop to measure: it turns back
+                seen = self._senses.measurement(self.fls_id, ahead)
             return step_walk(walk, seen)
         # Back at the source: its result.
         self._publish_discovery(Report(walk.run_id, self.fls_id, [walk_estimate(walk)]))
