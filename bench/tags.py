@@ -22,7 +22,7 @@ def offer_of(labels: int, hops: int = 3) -> Any:
     from builtin_interfaces.msg import Time
 
     from swazure_ros.protocol.discovery.messages import Broadcast, Offer
-    from swazure_ros.ros.convert.discovery import offer_message
+    from swazure_ros.ros.convert.offers import offer_message
 
     rng = np.random.default_rng(7)
     sources = np.arange(labels, dtype=np.int64) + 10

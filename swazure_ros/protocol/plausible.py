@@ -74,7 +74,7 @@ def implausible_labels(
 
     The labels are an offer's or a round's (lengths, errors (L,), vectors
     (L, 3), cm, paths as offsets (L + 1,) into ``path_ids``), whose arrays
-    are known to agree (:func:`..ros.convert.offer_from_message`).
+    are known to agree (:func:`..ros.convert.offers.offer_from_message`).
     ``positions(ids)`` gives where FLSs ``ids`` (M,) are, (M, 3), cm.
     Without ``lengths`` or ``errors`` (a report's), those sums are not checked.
     """

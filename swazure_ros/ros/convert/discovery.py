@@ -13,7 +13,6 @@ from swazure_interfaces.msg import (
     Heartbeat,
     MoveCommand,
     MoveCommands,
-    PathOffer,
     PathWalk,
     PoseEstimate,
     PoseEstimates,
@@ -34,12 +33,8 @@ from ...protocol.discovery.messages import (
     STAGE_NAMES,
     STALLED,
     START,
-    SWEET_ALL,
-    Broadcast,
     Control,
-    FitOffer,
     FitStep,
-    Offer,
     Report,
 )
 from ...protocol.moves import ARRIVED, FAILED, WALKING, Move, Walk
@@ -52,125 +47,15 @@ from ..plumbing.names import (
     POLICY_NAMES,
     node_name,
 )
+from ..plumbing.records import packed
 from ..security.guard import check, check_finite, check_ids, check_size
-from .units import array3, packed, vector3
+from .units import array3, vector3
 
 #: Every phase a run may have: discovery's, then the swarm's fit.
 RUN_PHASES = (*PHASES, FIT)
 #: Values of the FIT phase's vectors and sums one message may carry: per fit (two at
 #: most), a position and the covariance's samples, 3 each (core.swarm_fit's 64, with room).
 FIT_VALUES = 2 * 3 * (1 + 1024)
-
-
-def offer_message(sent: Broadcast, stamp: Time) -> PathOffer:
-    """One FLS's labels of one round as a PathOffer message."""
-    offer, sender = sent.offer, sent.sender
-    message = PathOffer(
-        run_id=sent.run_id,
-        phase=sent.phase,
-        round=sent.round,
-        sender_id=sender,
-        pending=offer.pending,
-        finished=offer.finished,
-    )
-    message.header.stamp = stamp
-    message.header.frame_id = node_name(sender)
-    message.source_ids = packed(offer.source_ids, np.uint32)
-    message.hops = packed(offer.hops, np.uint32)
-    message.lengths = packed(offer.lengths, np.float64)
-    message.errors = packed(offer.errors, np.float64)
-    message.vectors = packed(offer.vectors, np.float64)
-    message.path_offsets = packed(offer.path_offsets, np.uint32)
-    message.path_ids = packed(offer.path_ids, np.uint32)
-    if offer.unbiased is not None and offer.covariances is not None:
-        message.unbiased_vectors = packed(offer.unbiased, np.float64)
-        message.covariances = packed(offer.covariances, np.float64)
-    message.reading_ids = packed(offer.reading_ids, np.uint32)
-    message.reading_vectors = packed(offer.reading_vectors, np.float64)
-    message.fit_label = -1 if offer.fit is None else offer.fit.label
-    if offer.fit is not None:
-        message.fit_values = packed(offer.fit.values, np.float64)
-    return message
-
-
-def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
-    """The labels of a PathOffer message from an FLS of ``swarm`` (sorted ids).
-
-    MessageError unless its arrays agree in length, every id is in the swarm,
-    every path runs from its label's source to the sender with ``hops`` hops,
-    and costs are finite and not negative (vectors may be NaN only in the
-    S_all phase, whose hops need no camera reading).
-    """
-    check(message.phase in RUN_PHASES, f"unknown phase {message.phase}")
-    count = len(message.source_ids)
-    check_size(message.source_ids, len(swarm), "source_ids")
-    check(
-        len(message.hops) == count == len(message.lengths) == len(message.errors),
-        "source_ids, hops, lengths and errors differ in length",
-    )
-    check(len(message.vectors) == 3 * count, "not 3 vector values per label")
-    fits = len(message.unbiased_vectors) > 0 or len(message.covariances) > 0
-    check_size(message.reading_ids, len(swarm), "reading_ids")
-    check(len(message.reading_vectors) == 3 * len(message.reading_ids), "not 3 values a reading")
-    reading_ids = check_ids(message.reading_ids, swarm, "reading_ids")
-    check(len(np.unique(reading_ids)) == len(reading_ids), "an FLS read twice")
-    reading_vectors = check_finite(message.reading_vectors, "reading_vectors").reshape(-1, 3)
-    check(
-        not fits
-        or (len(message.unbiased_vectors) == 3 * count and len(message.covariances) == 9 * count),
-        "not 3 unbiased vector and 9 covariance values per label",
-    )
-    sources = np.asarray(message.source_ids, dtype=np.int64)
-    # A sender offers its labels in source order, one a source (PathSearch.offer).
-    check(bool(np.all(np.diff(sources) > 0)), "sources not in increasing order, once each")
-    hops = np.asarray(message.hops, dtype=np.int64)
-    lengths = check_finite(message.lengths, "lengths")
-    errors = check_finite(message.errors, "errors")
-    check(bool(np.all(lengths >= 0) and np.all(errors >= 0)), "a negative cost")
-    vectors = check_finite(message.vectors, "vectors", allow_nan=message.phase == SWEET_ALL)
-    offsets = _checked_offsets(
-        message.path_offsets, message.path_ids, count, len(swarm), "path", "labels"
-    )
-    check(bool(np.all(np.diff(offsets) == hops + 1)), "a path is not hops + 1 FLSs long")
-    path_ids = np.asarray(message.path_ids, dtype=np.int64)
-    # One look-up for every id: the sender's, and those of the paths (sources included).
-    check_ids(np.append(path_ids, message.sender_id), swarm, "offer")
-    if count:
-        starts, ends = path_ids[offsets[:-1]], path_ids[offsets[1:] - 1]
-        check(bool(np.all(starts == sources)), "a path does not start at its source")
-        check(bool(np.all(ends == message.sender_id)), "a path does not end at the sender")
-    return Offer(
-        source_ids=sources,
-        hops=hops,
-        lengths=lengths,
-        errors=errors,
-        vectors=vectors.reshape(-1, 3),
-        path_offsets=offsets,
-        path_ids=path_ids,
-        pending=message.pending,
-        finished=message.finished,
-        unbiased=_fit_sums(message, "unbiased_vectors", (-1, 3)) if fits else None,
-        covariances=_fit_sums(message, "covariances", (-1, 3, 3)) if fits else None,
-        reading_ids=reading_ids,
-        reading_vectors=reading_vectors,
-        fit=_fit_from_message(message, swarm) if message.phase == FIT else None,
-    )
-
-
-def _fit_from_message(message: PathOffer, swarm: IntArray) -> FitOffer:
-    """The FIT phase's part of a PathOffer: a label of the swarm (or -1) and finite values."""
-    label = int(message.fit_label)
-    if label != -1:
-        check_ids([label], swarm, "fit_label")
-    check_size(message.fit_values, FIT_VALUES, "fit_values")
-    check(len(message.fit_values) % 3 == 0, "not 3 fit values a column")
-    return FitOffer(label=label, values=check_finite(message.fit_values, "fit_values"))
-
-
-def _fit_sums(message: PathOffer, name: str, shape: tuple[int, ...]) -> FloatArray:
-    """A fitting offer's sums of field ``name``, shaped (NaN only where vectors may be)."""
-    values = check_finite(getattr(message, name), name, allow_nan=message.phase == SWEET_ALL)
-    return values.reshape(shape)
 
 
 def pose_estimate_message(source: int, found: Estimate, stamp: Time) -> PoseEstimate:
@@ -293,7 +178,7 @@ def _covariances(values: Sequence[float], count: int) -> FloatArray:
     return np.where(partial[:, None, None], np.nan, covariances)
 
 
-def _checked_offsets(
+def checked_offsets(
     offsets: Sequence[int], ids: Sequence[int], count: int, longest: int, what: str, of: str
 ) -> IntArray:
     """The offsets (count + 1,) of ``count`` paths of at most ``longest`` FLSs into ``ids``.
@@ -313,7 +198,7 @@ def _ragged_from_message(
     offsets: Sequence[int], ids: Sequence[int], count: int, swarm: IntArray, what: str
 ) -> tuple[IntArray, IntArray]:
     """The ``count`` paths of a ragged (offsets, ids) pair, checked against ``swarm``."""
-    bounds = _checked_offsets(offsets, ids, count, len(swarm), what, "estimates")
+    bounds = checked_offsets(offsets, ids, count, len(swarm), what, "estimates")
     check(bool(np.all(np.diff(bounds) <= len(swarm))), "a path longer than the swarm")
     return bounds, check_ids(ids, swarm, f"estimates' {what}s")
 

@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-import array
-
 import numpy as np
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import Vector3
-from numpy.typing import ArrayLike
 
 from ...core.arrays import FloatArray
 from ...core.frames import to_centimetres
@@ -48,15 +45,3 @@ def nanoseconds_stamp(nanoseconds: int) -> Time:
 def stamp_nanoseconds(stamp: Time) -> int:
     """Whole nanoseconds of a builtin_interfaces Time."""
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
-
-
-def packed(values: ArrayLike, dtype: type[np.generic]) -> array.array:  # type: ignore[type-arg]
-    """``values`` as the array.array a message's sequence field of ``dtype`` keeps, flat.
-
-    Given a numpy array, rclpy's generated setters copy it element by element
-    (9 us for 100 ids); an array.array of the field's type code is taken in
-    one copy of its bytes (0.9 us). numpy's type characters for uint8,
-    uint32 and float64 are array's own codes.
-    """
-    data = np.ascontiguousarray(values, dtype=dtype).ravel()
-    return array.array(data.dtype.char, data.tobytes())

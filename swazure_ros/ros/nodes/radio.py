@@ -48,13 +48,12 @@ from ...protocol.tracking import STOP_RELAY, Stream, StreamBound
 from ..convert.discovery import (
     ack_message,
     control_from_message,
-    offer_from_message,
-    offer_message,
     sent_message,
     walk_from_message,
     walk_message,
 )
 from ..convert.measurements import MeasurementsBytes, read_measurements, readings_of
+from ..convert.offers import offer_fields, offer_from_message
 from ..convert.tracking import relay_request_from_message, sample_from_message
 from ..plumbing.echoes import Echoes
 from ..plumbing.names import (
@@ -70,6 +69,7 @@ from ..plumbing.names import (
     radio_topic,
     walks_topic,
 )
+from ..plumbing.records import record_parser, record_writer
 from ..security.guard import Guard, RateLimit, check
 from .heartbeats import Heartbeats
 
@@ -95,6 +95,10 @@ READINGS_WAIT = 3.0
 
 
 _DISCOVERY = attrgetter("discovery")
+#: An offer's fields from its bytes, and its bytes from its fields (:mod:`..plumbing.records`):
+#: a round brings an offer from every FLS heard, and sends one from every FLS here.
+_OFFER_RECORD = record_parser(PathOffer)
+_OFFER_BYTES = record_writer(PathOffer)
 
 
 class Radio:
@@ -232,8 +236,9 @@ class Radio:
             current[cell] = make(cell)
 
     def _hear(self, kind: type, cell: Cell, callback: Callable[[Any], None]) -> Subscription:
+        read = self.guard.record_reader(_OFFER_RECORD) if kind is PathOffer else None
         return self.guard.subscribe(
-            kind, self._topic(kind, cell), callback, ROUND_QOS, echoes=self._echoes
+            kind, self._topic(kind, cell), callback, ROUND_QOS, echoes=self._echoes, read=read
         )
 
     def _send_on(self, kind: type, cell: Cell) -> Publisher:
@@ -351,7 +356,7 @@ class Radio:
 
     def _send_offer(self, publisher: Publisher, out: Broadcast, stamp: Any) -> int:
         """Sign and publish ``out`` as a PathOffer stamped ``stamp``: the bytes sent."""
-        data = self.guard.key.serialize(offer_message(out, stamp))
+        data = _OFFER_BYTES(offer_fields(out, stamp), self.guard.key.auth)
         self._echoes.add(data)
         publisher.publish(data)
         return len(data)

@@ -35,7 +35,7 @@ import secrets
 import struct
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, TypeVar, cast
 
@@ -138,6 +138,31 @@ def content(message: Any) -> bytes:
     parts: list[bytes] = []
     _write(parts, message)
     return b"".join(parts)
+
+
+def content_of(kind: Any, scalars: Sequence[Any], others: Sequence[bytes]) -> bytes:
+    """:func:`content` of a message of type ``kind`` read as bytes, not as an object.
+
+    Parameters
+    ----------
+    kind : type
+        A message type without sequences of strings or of messages.
+    scalars : sequence
+        Its primitives, nested messages' inline, in the order of its fields.
+    others : sequence of bytes-like
+        Its strings (to their first NUL, UTF-8) and arrays of primitives (their
+        bytes, little-endian), in the order of its fields, ``auth`` left out:
+        each after its length in bytes, as 8 little-endian bytes of its own.
+
+    Returns
+    -------
+    bytes
+        What :func:`content` writes of the same message.
+    """
+    plan = _plan(kind)
+    if any(code in "ml" for _, code in plan.others) or len(others) != 2 * len(plan.others):
+        raise MessageError(f"{kind.__name__}: not one string or array a field")
+    return b"".join([plan.scalars.pack(*scalars), *others])
 
 
 def _write(parts: list[bytes], message: Any) -> None:

@@ -57,8 +57,6 @@ from swazure_ros.ros.convert.discovery import (
     heartbeat_message,
     moves_from_message,
     moves_message,
-    offer_from_message,
-    offer_message,
     pose_estimate_from_message,
     pose_estimate_message,
     sent_from_message,
@@ -67,6 +65,7 @@ from swazure_ros.ros.convert.discovery import (
     walk_message,
 )
 from swazure_ros.ros.convert.markers import scene_markers
+from swazure_ros.ros.convert.offers import offer_from_message, offer_message
 from swazure_ros.ros.convert.sensing import (
     camera_info_message,
     detections_from_message,
