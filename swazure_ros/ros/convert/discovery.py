@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from builtin_interfaces.msg import Time
@@ -47,9 +48,9 @@ from ..plumbing.names import (
     POLICY_NAMES,
     node_name,
 )
-from ..plumbing.records import packed
 from ..security.guard import check, check_finite, check_ids, check_size
-from .units import array3, vector3
+from ..security.records import Fields
+from .units import array3, message_of, packed, vector3
 
 #: Every phase a run may have: discovery's, then the swarm's fit.
 RUN_PHASES = (*PHASES, FIT)
@@ -81,26 +82,37 @@ def pose_estimate_message(source: int, found: Estimate, stamp: Time) -> PoseEsti
     return message
 
 
-def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
-    """Every estimate of one source as a PoseEstimates message: one array entry per target."""
+def estimates_fields(report: Report, stamp: Time) -> Fields:
+    """Every estimate of one source: a PoseEstimates message's fields by name, one array entry
+    per target (:mod:`..security.records`)."""
     source, found = report.source, Estimates.of(report.estimates)
-    message = PoseEstimates(run_id=report.run_id, source_id=source)
-    message.header.stamp = stamp
-    message.header.frame_id = node_name(source)
-    message.target_ids = packed(found.targets, np.uint32)
-    message.statuses = packed(found.status, np.uint8)
-    message.reasons = packed(found.reason, np.uint8)
-    message.estimators = packed(_ESTIMATOR_WIRE[found.estimator], np.uint8)
-    message.path_offsets = packed(found.path_offsets, np.uint32)
-    message.path_ids = packed(found.path_ids, np.uint32)
-    message.radio_path_offsets = packed(found.radio_offsets, np.uint32)
-    message.radio_path_ids = packed(found.radio_ids, np.uint32)
-    message.vectors = packed(found.vector, np.float64)
-    message.path_lengths = packed(found.length, np.float64)
-    message.predicted_errors = packed(found.predicted_error, np.float64)
+    fields: dict[str, Any] = {
+        "header.stamp.sec": stamp.sec,
+        "header.stamp.nanosec": stamp.nanosec,
+        "header.frame_id": node_name(source),
+        "run_id": report.run_id,
+        "source_id": source,
+        "target_ids": found.targets,
+        "statuses": found.status,
+        "reasons": found.reason,
+        "estimators": _ESTIMATOR_WIRE[found.estimator],
+        "path_offsets": found.path_offsets,
+        "path_ids": found.path_ids,
+        "radio_path_offsets": found.radio_offsets,
+        "radio_path_ids": found.radio_ids,
+        "vectors": found.vector,
+        "path_lengths": found.length,
+        "predicted_errors": found.predicted_error,
+    }
     # A path's estimates have no covariance: none is sent (nine NaNs were 72 of about 155 B each).
     if not np.isnan(found.covariance).all():
-        message.covariances = packed(found.covariance, np.float64)
+        fields["covariances"] = found.covariance
+    return fields
+
+
+def estimates_message(report: Report, stamp: Time) -> PoseEstimates:
+    """Every estimate of one source as a PoseEstimates message (:func:`estimates_fields`)."""
+    message: PoseEstimates = message_of(PoseEstimates, estimates_fields(report, stamp))
     return message
 
 
@@ -442,19 +454,27 @@ def moves_from_message(
     return ids, kinds, displacement
 
 
+def walk_fields(walk: Walk, stamp: Time) -> Fields:
+    """A path walk: a PathWalk message's fields by name (:mod:`..security.records`)."""
+    return {
+        "header.stamp.sec": stamp.sec,
+        "header.stamp.nanosec": stamp.nanosec,
+        "run_id": walk.run_id,
+        "revision": walk.revision,
+        "source_id": walk.source_id,
+        "target_id": walk.target_id,
+        "path": walk.path,
+        "hop": walk.hop,
+        "state": walk.state,
+        "vector.x": float(walk.vector[0]),
+        "vector.y": float(walk.vector[1]),
+        "vector.z": float(walk.vector[2]),
+    }
+
+
 def walk_message(walk: Walk, stamp: Time) -> PathWalk:
-    """A path walk as a PathWalk message."""
-    message = PathWalk(
-        run_id=walk.run_id,
-        revision=walk.revision,
-        source_id=walk.source_id,
-        target_id=walk.target_id,
-        path=list(walk.path),
-        hop=walk.hop,
-        state=walk.state,
-        vector=vector3(walk.vector),
-    )
-    message.header.stamp = stamp
+    """A path walk as a PathWalk message (:func:`walk_fields`)."""
+    message: PathWalk = message_of(PathWalk, walk_fields(walk, stamp))
     return message
 
 

@@ -2,7 +2,7 @@
 
 The messages a round brings most of: an offer from every FLS heard, and one
 from each FLS a process hosts. The radio writes and reads them as bytes
-(:mod:`..plumbing.records`); :func:`offer_fields` is what both the bytes and
+(:mod:`..security.records`); :func:`offer_fields` is what both the bytes and
 :func:`offer_message`'s object are made of.
 """
 
@@ -17,15 +17,16 @@ from swazure_interfaces.msg import PathOffer
 from ...core.arrays import FloatArray, IntArray
 from ...protocol.discovery.messages import FIT, SWEET_ALL, Broadcast, FitOffer, Offer
 from ..plumbing.names import node_name
-from ..plumbing.records import Fields, message_of
 from ..security.guard import check, check_finite, check_ids, check_size
+from ..security.records import Fields
 from .discovery import FIT_VALUES, RUN_PHASES, checked_offsets
+from .units import message_of
 
 __all__ = ["offer_fields", "offer_from_message", "offer_message"]
 
 
 def offer_fields(sent: Broadcast, stamp: Time) -> Fields:
-    """One FLS's labels of one round: a PathOffer's fields by name (:mod:`..plumbing.records`)."""
+    """One FLS's labels of one round: a PathOffer's fields by name (:mod:`..security.records`)."""
     offer, sender = sent.offer, sent.sender
     fields: dict[str, Any] = {
         "header.stamp.sec": stamp.sec,

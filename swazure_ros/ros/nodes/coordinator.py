@@ -66,7 +66,7 @@ from ..convert.discovery import (
     estimates_from_message,
     moves_message,
     sent_from_message,
-    walk_message,
+    walk_fields,
 )
 from ..convert.sensing import world_positions
 from ..plumbing.liveness import FlsLiveness
@@ -96,8 +96,11 @@ from ..plumbing.node import SwarmNode
 from ..plumbing.parameters import ParameterSpec, seconds
 from ..security.auth import SwarmKey, signed_at
 from ..security.guard import Guard, check
+from ..security.records import record_parser, record_writer
 from .pose_service import PoseService
 
+#: A walk's bytes from its fields (:mod:`..security.records`): a Move's batch sends one a pair.
+_WALK_BYTES = record_writer(PathWalk)
 #: Characters in a host node's name, at most (ROS names are far shorter).
 MAX_NAME = 255
 #: Seconds between the coordinator's looks at its deadlines.
@@ -149,7 +152,9 @@ class Outbox:
             elif isinstance(action, Move):
                 groups.setdefault(action.group, []).append(action)
             else:
-                self._publish(self._walks, WALKS_TOPIC, walk_message(action, stamp))
+                data = _WALK_BYTES(walk_fields(action, stamp), self.key.auth)
+                self.traffic.count(WALKS_TOPIC, len(data))
+                self._walks.publish(data)
         for moves in groups.values():
             self._publish(self.moves, MOVE_TOPIC, moves_message(moves, stamp))
 
@@ -211,7 +216,8 @@ class Coordinator(SwarmNode):
         self._hearing: set[str] = set()
         self._radios_at_most = len(self.fls_ids) + hosts
         self._read_ack = self.guard.reader(RoundAck)
-        self._read_estimates = self.guard.reader(PoseEstimates)
+        # A report a source, a walk a pair: read as bytes (ros.security.records).
+        self._read_estimates = self.guard.record_reader(record_parser(PoseEstimates))
         guard = self.guard.wrap
         self._acks = self.create_subscription(
             RoundAck, ACK_TOPIC, guard(ACK_TOPIC, self._on_ack), ROUND_QOS, raw=True

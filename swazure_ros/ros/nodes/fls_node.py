@@ -64,7 +64,7 @@ from ...protocol.discovery.participant import Participant
 from ...protocol.moves import WALKING, Walk, next_hop, step_walk, walk_estimate
 from ...protocol.readings import ReadingsBook
 from ...protocol.senses import DetectedSenses, Senses
-from ..convert.discovery import estimates_message
+from ..convert.discovery import estimates_fields
 from ..convert.measurements import measurements_bytes
 from ..convert.sensing import neighbour_fields
 from ..plumbing.names import (
@@ -79,6 +79,7 @@ from ..plumbing.node import SwarmNode
 from ..plumbing.parameters import ParameterError
 from ..plumbing.shared_timers import SharedTimer, SharedTimers
 from ..security.auth import SwarmKey
+from ..security.records import record_writer
 from . import fls_parameters, fls_tracking
 from .fls_camera import CameraView, DetectedSensing, Eyes
 from .fls_parameters import PUBLISH_PERIOD, REPUBLISH_PERIOD
@@ -107,7 +108,7 @@ class Transmitter:
     def send(self, out: Report) -> int:
         """Send a report on ``estimates``; the bytes sent."""
         stamp = self._node.get_clock().now().to_msg()
-        data = self.key.serialize(estimates_message(out, stamp))
+        data = _ESTIMATES_BYTES(estimates_fields(out, stamp), self.key.auth)
         self._estimates.publish(data)
         return len(data)
 
@@ -127,6 +128,8 @@ class RadioLink:
     timers: SharedTimers | None = None
 
 
+#: A report's bytes from its fields (:mod:`..security.records`): a Move's walk ends in one.
+_ESTIMATES_BYTES = record_writer(PoseEstimates)
 #: The parameters every FLS node declares, besides its tracking's (FlsTracking's).
 PARAMETERS = fls_parameters.NODE
 

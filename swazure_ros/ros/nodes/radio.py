@@ -49,8 +49,8 @@ from ..convert.discovery import (
     ack_message,
     control_from_message,
     sent_message,
+    walk_fields,
     walk_from_message,
-    walk_message,
 )
 from ..convert.measurements import MeasurementsBytes, read_measurements, readings_of
 from ..convert.offers import offer_fields, offer_from_message
@@ -69,8 +69,8 @@ from ..plumbing.names import (
     radio_topic,
     walks_topic,
 )
-from ..plumbing.records import record_parser, record_writer
 from ..security.guard import Guard, RateLimit, check
+from ..security.records import record_parser, record_writer
 from .heartbeats import Heartbeats
 
 if TYPE_CHECKING:
@@ -95,10 +95,11 @@ READINGS_WAIT = 3.0
 
 
 _DISCOVERY = attrgetter("discovery")
-#: An offer's fields from its bytes, and its bytes from its fields (:mod:`..plumbing.records`):
-#: a round brings an offer from every FLS heard, and sends one from every FLS here.
-_OFFER_RECORD = record_parser(PathOffer)
+#: The messages of rounds and walks, read and written as bytes (:mod:`..security.records`): a
+#: round brings an offer from every FLS heard and sends one from every FLS here.
+_RECORDS = {kind: record_parser(kind) for kind in (PathOffer, PathWalk)}
 _OFFER_BYTES = record_writer(PathOffer)
+_WALK_BYTES = record_writer(PathWalk)
 
 
 class Radio:
@@ -236,9 +237,9 @@ class Radio:
             current[cell] = make(cell)
 
     def _hear(self, kind: type, cell: Cell, callback: Callable[[Any], None]) -> Subscription:
-        read = self.guard.record_reader(_OFFER_RECORD) if kind is PathOffer else None
+        read, topic = self.guard.record_reader(_RECORDS[kind]), self._topic(kind, cell)
         return self.guard.subscribe(
-            kind, self._topic(kind, cell), callback, ROUND_QOS, echoes=self._echoes, read=read
+            kind, topic, callback, ROUND_QOS, echoes=self._echoes, read=read
         )
 
     def _send_on(self, kind: type, cell: Cell) -> Publisher:
@@ -397,7 +398,9 @@ class Radio:
     def _subscribe(
         self, kind: type, topic: str, callback: Callable[[Any], None], qos: QoSProfile = ROUND_QOS
     ) -> Subscription:
-        return self.guard.subscribe(kind, topic, callback, qos)
+        parse = _RECORDS.get(kind)
+        read = None if parse is None else self.guard.record_reader(parse)
+        return self.guard.subscribe(kind, topic, callback, qos, read=read)
 
     @property
     def _swarm(self) -> IntArray:
@@ -583,7 +586,7 @@ class Radio:
         if publisher is None:
             publisher = self._walks_sent[cell] = self._send_on(PathWalk, cell)
         stamp = self._node.get_clock().now().to_msg()
-        data = self.guard.key.serialize(walk_message(walk, stamp))
+        data = _WALK_BYTES(walk_fields(walk, stamp), self.guard.key.auth)
         self._echoes.add(data)
         publisher.publish(data)
         self.walks_sent += 1

@@ -3,17 +3,17 @@
 A packed process hears thousands of small messages a second (a round's
 offers, one per FLS of the other processes). rclpy makes a message object of
 each, a Python object per field, and the tag's check then walks those
-objects to write the bytes it covers (:func:`~..security.auth.content`).
+objects to write the bytes it covers (:func:`~.auth.content`).
 :func:`record_parser` reads the same fields straight from the CDR bytes: a
 primitive as a Python number, a string as text, a sequence of primitives as a
 read-only numpy view of the bytes (no copy), and nested messages (a header's
 stamp) as records of their own; and it writes the covered bytes in the same
 pass, so that the guard checks the tag without a message object
-(:meth:`~..security.guard.Guard.record_reader`). What a callback reads of a
+(:meth:`~.guard.Guard.record_reader`). What a callback reads of a
 record is what it would read of the message: a record has the message's
 field names, and the arrays their values. :func:`record_writer` is the
 other way: a message's fields, given by name, written as the CDR bytes that
-:func:`~.cdr.serialize` makes of the message, its tag made in the same pass.
+:func:`~..plumbing.cdr.serialize` makes of the message, its tag made in the same pass.
 
 Flat types only: fields of primitives, strings, arrays of primitives and
 nested messages of those. Little-endian CDR only, as every process of a swarm
@@ -22,7 +22,6 @@ writes it (on these machines); any other bytes are refused in one line.
 
 from __future__ import annotations
 
-import array
 import functools
 import struct
 from collections.abc import Callable, Mapping
@@ -30,14 +29,13 @@ from types import SimpleNamespace
 from typing import Any, NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from ...core.errors import MessageError
-from ..security.auth import AUTH_FIELD, content_of
-from .cdr import ENCAPSULATION, LENGTH_BYTES, PRIMITIVE_BYTES, aligned
-from .interfaces import message_class
+from ..plumbing.cdr import ENCAPSULATION, LENGTH_BYTES, PRIMITIVE_BYTES, aligned
+from ..plumbing.interfaces import message_class
+from .auth import AUTH_FIELD, content_of
 
-__all__ = ["Record", "message_of", "packed", "record_parser", "record_writer"]
+__all__ = ["Fields", "Record", "record_parser", "record_writer"]
 
 #: The encapsulation header of plain little-endian CDR (XCDR1), options zero.
 LITTLE_ENDIAN = b"\x00\x01"
@@ -265,11 +263,11 @@ def record_writer(kind: type) -> Callable[[Fields, Callable[[bytes], bytes]], by
     Returns
     -------
     callable
-        ``write(fields, auth)``: the bytes :func:`~.cdr.serialize` makes of the
+        ``write(fields, auth)``: the bytes :func:`~..plumbing.cdr.serialize` makes of the
         message whose fields are ``fields`` (a field not named is zero, empty
         or ""; arrays of any numeric type, cast to the field's), with ``auth``
         set to ``auth(covered)``, where ``covered`` is what its tag covers
-        (:meth:`~..security.auth.SwarmKey.auth`).
+        (:meth:`~.auth.SwarmKey.auth`).
 
     Raises
     ------
@@ -338,36 +336,3 @@ def _write(
         at += len(written)
         others += (len(raw).to_bytes(8, "little"), raw)
     return b"".join(parts)
-
-
-def message_of(kind: type, fields: Fields) -> Any:
-    """The message object of type ``kind`` whose fields are ``fields`` (:func:`record_writer`'s).
-
-    The same message that ``record_writer(kind)`` writes (its ``auth`` empty),
-    for whoever wants an object: a test, or code that sends few.
-    """
-    message = kind()
-    for step in _steps(kind):
-        value = fields.get(".".join(step.path))
-        if value is None:
-            continue
-        at = message
-        for name in step.path[:-1]:
-            at = getattr(at, name)
-        if step.kind in ("sequence", "array"):
-            dtype = _DTYPES[step.type_name].type
-            value = np.asarray(value, dtype) if step.kind == "array" else packed(value, dtype)
-        setattr(at, step.path[-1], value)
-    return message
-
-
-def packed(values: ArrayLike, dtype: type[np.generic]) -> array.array:  # type: ignore[type-arg]
-    """``values`` as the array.array a message's sequence field of ``dtype`` keeps, flat.
-
-    Given a numpy array, rclpy's generated setters copy it element by element
-    (9 us for 100 ids); an array.array of the field's type code is taken in
-    one copy of its bytes (0.9 us). numpy's type characters for uint8,
-    uint32 and float64 are array's own codes.
-    """
-    data = np.ascontiguousarray(values, dtype=dtype).ravel()
-    return array.array(data.dtype.char, data.tobytes())

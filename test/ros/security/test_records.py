@@ -16,10 +16,11 @@ from rclpy.serialization import deserialize_message
 from swazure_interfaces.msg import MoveCommands, PathOffer
 
 from swazure_ros.core.errors import MessageError
+from swazure_ros.ros.convert.units import message_of
 from swazure_ros.ros.plumbing.cdr import serialize
 from swazure_ros.ros.plumbing.interfaces import message_class
-from swazure_ros.ros.plumbing.records import message_of, record_parser, record_writer
 from swazure_ros.ros.security.auth import AUTH_BYTES, SwarmKey, content, new_key
+from swazure_ros.ros.security.records import record_parser, record_writer
 
 from ...conftest import FUZZ, REPO
 from ..fuzz import message
