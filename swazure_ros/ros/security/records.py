@@ -134,10 +134,13 @@ def _scalars(type_names: list[str]) -> _Scalars:
 def _program(kind: Any) -> tuple[tuple[_Scalars | _Array, ...], tuple[tuple[str, ...], ...]]:
     """How to read ``kind``: runs of primitives and arrays in CDR order, and the record's
     attribute of each value read (a run gives one value a primitive)."""
+    steps = _steps(kind)
+    if steps[-1:] != (_Step((AUTH_FIELD,), "sequence", "uint8", 0),):
+        raise MessageError(f"{kind.__name__}: its last field is not {AUTH_FIELD} (uint8[])")
     program: list[_Scalars | _Array] = []
     paths: list[tuple[str, ...]] = []
     run: list[str] = []
-    for step in _steps(kind):
+    for step in steps:
         if step.kind == "scalar":
             run.append(step.type_name)
         else:
@@ -172,9 +175,7 @@ def record_parser(kind: type) -> Callable[[bytes], Record]:
     MessageError
         ``kind`` has a field no record holds (a sequence of strings or of messages).
     """
-    steps = _steps(kind)
-    if not steps or steps[-1] != _Step((AUTH_FIELD,), "sequence", "uint8", 0):
-        raise MessageError(f"{kind.__name__}: its last field is not {AUTH_FIELD} (uint8[])")
+    _program(kind)  # refused here, not at the first message, if no record holds it
     name = kind.__name__
 
     def parse(data: bytes) -> Record:
@@ -274,8 +275,6 @@ def record_writer(kind: type) -> Callable[[Fields, Callable[[bytes], bytes]], by
     MessageError
         ``kind`` has a field no record holds (a sequence of strings or of messages).
     """
-    if _steps(kind)[-1:] != (_Step((AUTH_FIELD,), "sequence", "uint8", 0),):
-        raise MessageError(f"{kind.__name__}: its last field is not {AUTH_FIELD} (uint8[])")
     program, paths = _program(kind)
     names = [".".join(path) for path in paths]
 
