@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from swazure_ros.protocol.discovery.heard import KEPT, OffersHeard
+from swazure_ros.protocol.discovery.heard import KEPT, OffersHeard, offers_of
 from swazure_ros.protocol.discovery.labels import LabelTable
 from swazure_ros.protocol.discovery.links import Links
 from swazure_ros.protocol.discovery.messages import Offer, RoundOffers
@@ -77,3 +77,36 @@ def test_offers_no_unsent_label_comes_through_are_dropped_once_more_than_kept():
     book.forget(table)
     # Place 0 (unsent) comes through 3, place 2 (unsent) through KEPT - 1; place 1 is sent.
     assert sorted(book.offers) == [3, KEPT - 1]
+
+
+def test_offers_read_each_row_s_due_labels_at_their_places():
+    # Two rows of four places (sources 0-3); each label's columns say where it sits.
+    table = LabelTable(
+        np.array([7, 8]),
+        np.array([0, 0, 0]),
+        Links(np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros((0, 3))),
+        (0, 4),
+        4,
+        fits=False,
+    )
+    rows, places = np.array([0, 0, 1]), np.array([3, 1, 2])
+    for row, place in zip(rows, places, strict=True):
+        at = 10 * row + place
+        table.hops[row, place], table.length[row, place] = at + 1, at + 0.5
+        table.error[row, place], table.vector[row, place] = at + 0.25, [at, -at, 2 * at]
+    # Each came through FLS 5's offer of its source (label k of that offer: source k).
+    book = OffersHeard()
+    table.via_offers[rows, places] = book.key(offers_from(5, [(k, 5) for k in range(4)]))
+    table.via_label[rows, places] = places
+    no_labels = (np.zeros(0, np.int64), np.zeros(0, np.int64))
+    first, second = offers_of(
+        table, book, np.array([0, 1]), (rows, places), no_labels, [False, True]
+    )
+    assert first.source_ids.tolist() == [3, 1] and second.source_ids.tolist() == [2]
+    assert first.hops.tolist() == [4, 2] and second.hops.tolist() == [13]
+    assert first.hops.dtype == np.int64
+    assert first.lengths.tolist() == [3.5, 1.5] and second.errors.tolist() == [12.25]
+    assert first.vectors.tolist() == [[3, -3, 6], [1, -1, 2]]
+    assert second.vectors.tolist() == [[12, -12, 24]]
+    assert [first.path(0), first.path(1), second.path(0)] == [(3, 5, 7), (1, 5, 7), (2, 5, 8)]
+    assert (first.pending, second.pending) == (False, True)

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...core import csr, jit
-from ...core.arrays import IntArray
+from ...core.arrays import FloatArray, IntArray
 from .labels import LabelTable
 from .messages import Offer, RoundOffers
 
@@ -143,6 +143,37 @@ def _place_ends(ends: IntArray, out_starts: IntArray, out: IntArray) -> None:
         out[out_starts[row + 1] - 1] = ends[row]
 
 
+def _gathered(
+    table: LabelTable, rows: IntArray, places: IntArray
+) -> tuple[IntArray, IntArray, IntArray, FloatArray, FloatArray, FloatArray]:
+    """The labels at ``places`` of ``rows`` (L,): the offers' keys and labels they came
+    through, hops, lengths, errors and vectors (L, 3), in one pass over the table."""
+    size = len(rows)
+    via, via_label, hops = (np.empty(size, dtype=np.int64) for _ in range(3))
+    lengths, errors, vectors = np.empty(size), np.empty(size), np.empty((size, 3))
+    # One compiled pass: six numpy gathers each walked the L (row, place) pairs again.
+    _gather(rows, places, table.via_offers, table.via_label, table.hops, table.length,
+            table.error, table.vector, via, via_label, hops, lengths, errors, vectors)  # fmt: skip
+    return via, via_label, hops, lengths, errors, vectors
+
+
+@jit.kernel(cache=True, nogil=True)
+def _gather(
+    rows: IntArray, places: IntArray, via_offers: IntArray, via_labels: IntArray,
+    table_hops: FloatArray, table_lengths: FloatArray, table_errors: FloatArray,
+    table_vectors: FloatArray, via: IntArray, via_label: IntArray, hops: IntArray,
+    lengths: FloatArray, errors: FloatArray, vectors: FloatArray,
+) -> None:  # fmt: skip
+    """:func:`_gathered`'s pass: label k is place ``places[k]`` of row ``rows[k]``."""
+    for k in range(len(rows)):
+        row, place = rows[k], places[k]
+        via[k], via_label[k] = via_offers[row, place], via_labels[row, place]
+        hops[k] = np.int64(table_hops[row, place])
+        lengths[k], errors[k] = table_lengths[row, place], table_errors[row, place]
+        for axis in range(3):
+            vectors[k, axis] = table_vectors[row, place, axis]
+
+
 def offers_of(
     table: LabelTable,
     book: OffersHeard,
@@ -174,14 +205,10 @@ def offers_of(
         and the readings are the caller's to set.
     """
     rows, places = due
-    path_offsets, path_ids = book.paths(
-        table.via_offers[rows, places], table.via_label[rows, places], table.mes[rows]
-    )
+    via, via_label, hops, lengths, errors, vectors = _gathered(table, rows, places)
+    path_offsets, path_ids = book.paths(via, via_label, table.mes[rows])
     book.forget(table)
     sources = table.sources_of(rows, places)
-    hops = table.hops[rows, places].astype(np.int64)
-    lengths, errors = table.length[rows, places], table.error[rows, places]
-    vectors = table.vector[rows, places]
     unbiased = table.unbiased[rows, places] if table.fits else None
     covariances = table.covariance[rows, places] if table.fits else None
     beyond_ids = table.sources_of(*beyond)
