@@ -52,31 +52,43 @@ def due_places(
     return rows, places, unsent, held_rows, held_places
 
 
-@jit.kernel(cache=True, nogil=True)
+@jit.kernel(cache=True, nogil=True, parallel=True)
 def _due_places(
     primary: FloatArray, found: NDArray[np.bool_], sent: NDArray[np.bool_],
     closed: NDArray[np.bool_], width: float, round_: float, reach: float, beyond: bool,
 ) -> tuple[IntArray, IntArray, IntArray, IntArray, IntArray]:  # fmt: skip
-    """:func:`due_places` of rows (F, R) in two passes; ``closed`` is (F, R), or (1, R)
-    when every row shares it. numpy made eight (F, R) arrays a round for this."""
+    """:func:`due_places` of rows (F, R) in two passes, the rows shared among the cores;
+    ``closed`` is (F, R), or (1, R) when every row shares it. numpy made eight (F, R)
+    arrays a round for this."""
     rows_count, width_count = primary.shape
     shared = closed.shape[0] == 1
     unsent = np.zeros(rows_count, dtype=np.int64)
-    due = 0
-    for row in range(rows_count):
+    due_count = np.zeros(rows_count, dtype=np.int64)
+    for row in jit.prange(rows_count):
+        # As an int64 of its own: numba unifies a prange index with 0 to a float.
+        closed_row = np.int64(0) if shared else np.int64(row)
+        row_unsent, row_due = 0, 0
         for place in range(width_count):
-            if not found[row, place] or sent[row, place] or closed[0 if shared else row, place]:
+            if not found[row, place] or sent[row, place] or closed[closed_row, place]:
                 continue
-            unsent[row] += 1
+            row_unsent += 1
             bucket = np.floor(primary[row, place] / width)
-            due += bucket <= round_ and bucket < reach
-    due_rows, due_places = np.empty(due, np.int64), np.empty(due, np.int64)
-    held = unsent.sum() if beyond else 0
-    held_rows, held_places = np.empty(held, np.int64), np.empty(held, np.int64)
-    due, held = 0, 0
-    for row in range(rows_count):
+            row_due += bucket <= round_ and bucket < reach
+        unsent[row], due_count[row] = row_unsent, row_due
+    # Each row writes its labels from its own start: the same order as one pass row by row.
+    due_starts = np.zeros(rows_count + 1, dtype=np.int64)
+    held_starts = np.zeros(rows_count + 1, dtype=np.int64)
+    due_starts[1:] = np.cumsum(due_count)
+    if beyond:
+        held_starts[1:] = np.cumsum(unsent)
+    due_rows, due_places = np.empty(due_starts[-1], np.int64), np.empty(due_starts[-1], np.int64)
+    held_rows = np.empty(held_starts[-1], np.int64)
+    held_places = np.empty(held_starts[-1], np.int64)
+    for row in jit.prange(rows_count):
+        due, held = due_starts[row], held_starts[row]
+        closed_row = np.int64(0) if shared else np.int64(row)
         for place in range(width_count):
-            if not found[row, place] or sent[row, place] or closed[0 if shared else row, place]:
+            if not found[row, place] or sent[row, place] or closed[closed_row, place]:
                 continue
             bucket = np.floor(primary[row, place] / width)
             if bucket <= round_ and bucket < reach:
