@@ -163,7 +163,9 @@ def _in_sight(
     judged a first FLS at a time (:mod:`.fans`: the same judgements)."""
     chosen = pairs.select(pairs.range_class == range_class)
     if fans:
-        visible = ~obstructed_fans(swarm.points, swarm.radius, chosen.first, chosen.second)
+        visible = ~obstructed_fans(
+            swarm.points, swarm.radius, chosen.first, chosen.second, grid=grid
+        )
     else:
         visible = ~obstructed(swarm.points, swarm.radius, chosen.first, chosen.second, grid)
     return chosen, visible

@@ -70,6 +70,7 @@ def obstructed_fans(
     first: ArrayLike,
     second: ArrayLike,
     fewest: int = FEWEST_FANNED,
+    grid: Grid | None = None,
 ) -> NDArray[np.bool_]:
     """Whether each segment first[m]-second[m] is obstructed, judged a shared first end at a time.
 
@@ -88,6 +89,10 @@ def obstructed_fans(
     fewest : int, optional
         The fewest segments a first end's fan is worth mapping for
         (:data:`FEWEST_FANNED`); 1 fans every end.
+    grid : Grid, optional
+        ``grid.build_grid(points, radius)``, for the segments scanned: a caller
+        that judges many small sets keeps it (each would build it again: a
+        display's region by region, over half their time).
 
     Returns
     -------
@@ -119,7 +124,7 @@ def obstructed_fans(
     if not fanned.all():
         out = np.zeros(len(first), dtype=np.bool_)
         scanned = ~fanned
-        out[scanned] = obstructed(points, radius, first[scanned], second[scanned])
+        out[scanned] = obstructed(points, radius, first[scanned], second[scanned], grid)
         if fanned.any():
             out[fanned] = obstructed_fans(points, radius, first[fanned], second[fanned], 1)
         return out

@@ -46,6 +46,7 @@ from . import csr, jit
 from .arrays import BoolArray, FloatArray, IntArray
 from .fans import obstructed_fans
 from .geometry import Swarm
+from .grid import Grid
 from .neighbourhood import Neighbourhood
 from .neighbours import NeighbourPairs, neighbour_pairs, sensor_reach
 from .pair_scan import EVERY_PAIR, Affordable
@@ -395,6 +396,7 @@ class _Sight:
     def of(
         self,
         swarm: Swarm,
+        grid: Grid,
         inside: BoolArray,
         first: IntArray,
         second: IntArray,
@@ -403,7 +405,8 @@ class _Sight:
     ) -> BoolArray:
         """Whether each decaying pair first[m]-second[m], both FLSs ``inside`` and each
         shorter than ``longest`` (tracking distance, cm), is in sight; the region is the
-        next one (it is recorded)."""
+        next one (it is recorded). ``grid``: the swarm's line-of-sight grid
+        (:func:`.grid.build_grid`), built once for every region."""
         keys = first * self.size + second
         state = np.empty(len(first), dtype=np.int8)
         _read_back(self.held_by, self.longest, self.key_start, self.keys, first, second,
@@ -411,7 +414,9 @@ class _Sight:
         visible = state > 0
         new = np.flatnonzero(state < 0)
         self.judged += len(new)
-        visible[new] = ~obstructed_fans(swarm.points, swarm.radius, first[new], second[new])
+        visible[new] = ~obstructed_fans(
+            swarm.points, swarm.radius, first[new], second[new], grid=grid
+        )
         self._record(inside, np.sort(2 * keys[new] + visible[new]), longest)
         return visible
 
@@ -524,8 +529,8 @@ def _region(
     visible[is_sweet] = sweet.visible[known]
     decaying = ~is_sweet
     visible[decaying] = sight.of(
-        swarm, inside, pairs.first[decaying], pairs.second[decaying], pairs.tracking[decaying],
-        longest,
+        swarm, sweet.grid, inside, pairs.first[decaying], pairs.second[decaying],
+        pairs.tracking[decaying], longest,
     )  # fmt: skip
     usable = np.ones(len(pairs), dtype=bool)
     return Neighbourhood(swarm, sensor, pairs, visible, sweet.grid, usable)

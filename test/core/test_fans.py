@@ -3,7 +3,9 @@
 import numpy as np
 import pytest
 
+from swazure_ros.core import sight
 from swazure_ros.core.fans import DIRECTION_CELL, FEWEST_FANNED, NEAR, obstructed_fans
+from swazure_ros.core.grid import build_grid
 from swazure_ros.core.sight import obstructed
 
 from .test_sight import brute_force, random_segments
@@ -36,15 +38,19 @@ def test_fans_match_the_scan_where_each_fls_starts_many_long_segments():
     assert np.array_equal(result, expected)
 
 
-def test_ends_with_few_segments_are_scanned_and_judged_the_same():
-    # The first 60 FLSs of the shell start over a thousand segments each and are fanned;
-    # 20 more start a handful each, too few to pay for a map, and are scanned.
+def fanned_and_scanned():
+    """The first 60 FLSs of a shell start over a thousand segments each and are fanned;
+    20 more start a handful each, too few to pay for a map, and are scanned."""
     rng = np.random.default_rng(6)
     direction = rng.normal(size=(1500, 3))
     points = 12.0 * direction / np.linalg.norm(direction, axis=1)[:, None]
     first, second = np.nonzero(np.linalg.norm(points[:80, None] - points[None], axis=2) < 30.0)
     keep = (first != second) & ((first < 60) | (second % 200 == 0))
-    first, second = first[keep], second[keep]
+    return points, first[keep], second[keep]
+
+
+def test_ends_with_few_segments_are_scanned_and_judged_the_same():
+    points, first, second = fanned_and_scanned()
     counts = np.bincount(first)
     assert counts[:60].min() >= FEWEST_FANNED > counts[60:80].max() > 0
     expected = obstructed(points, 0.3, first, second)
@@ -86,3 +92,18 @@ def test_segments_not_grouped_by_their_first_end_are_refused():
 
 def test_no_segments_judge_nothing():
     assert obstructed_fans(np.zeros((2, 3)), 0.3, [], []).tolist() == []
+
+
+def test_the_scanned_ends_use_the_grid_given_and_build_none(monkeypatch):
+    # A display's regions judge thousands of small sets: the swarm's grid is built once.
+    points, first, second = fanned_and_scanned()
+    expected = obstructed(points, 0.3, first, second)
+    grid = build_grid(points, 0.3)
+
+    def refused(*_):
+        raise AssertionError("a grid was built though one was given")
+
+    monkeypatch.setattr(sight, "build_grid", refused)
+    assert np.array_equal(obstructed_fans(points, 0.3, first, second, grid=grid), expected)
+    with pytest.raises(AssertionError, match="a grid was built"):
+        obstructed_fans(points, 0.3, first, second)
