@@ -367,9 +367,15 @@ def _slack(points: FloatArray, centres: IntArray, radii: FloatArray) -> FloatArr
 
     slack = np.full(len(points), -np.inf)
     for radius in np.unique(radii):
-        tree = cKDTree(points[centres[radii == radius]])
-        distance, _ = tree.query(points, distance_upper_bound=radius * 1.000001)
-        np.maximum(slack, radius - distance, out=slack)
+        bound = radius * 1.000001
+        balls = points[centres[radii == radius]]
+        # Only the FLSs in the balls' box are asked: a region is a small part of a display,
+        # and a tree's query of every FLS cost most of a region's tiling (the same answers:
+        # an FLS outside the box is in no ball).
+        low, high = balls.min(axis=0) - bound, balls.max(axis=0) + bound
+        near = np.flatnonzero(np.all((points >= low) & (points <= high), axis=1))
+        distance, _ = cKDTree(balls).query(points[near], distance_upper_bound=bound)
+        slack[near] = np.maximum(slack[near], radius - distance)
     return slack
 
 

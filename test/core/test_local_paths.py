@@ -15,6 +15,7 @@ from swazure_ros.core.heuristics.regions import TechniqueBlocks
 from swazure_ros.core.local_paths import (
     WIDER,
     _OnPaths,
+    _slack,
     _stepped,
     least_cost_per_cm,
     local_decaying_paths,
@@ -335,3 +336,18 @@ def test_regions_that_overlap_are_cut_only_when_far_over_the_budget(sensor):
     groups = _tiles(swarm.points, sources, wide, weights, int(whole / (2 * OVERLOADED)))
     assert len(groups) > 1
     assert sorted(np.concatenate(groups).tolist()) == sources.tolist()
+
+
+def test_each_fls_lies_as_far_inside_its_deepest_ball_as_measured_and_outside_none():
+    # Balls of two radii about four FLSs of a plane; FLSs in no ball have no slack, those
+    # just at a ball's edge a slack of about 0 (the bound is a hair over the radius).
+    points = plane(side=20).points  # 76 cm wide
+    centres = np.array([0, 45, 210, 399])
+    radii = np.array([10.0, 10.0, 16.0, 4.0])
+    slack = _slack(points, centres, radii)
+    depth = radii[None, :] - np.linalg.norm(points[:, None] - points[centres][None], axis=2)
+    inside = depth >= -1e-6 * radii[None, :]
+    expected = np.where(inside.any(axis=1), np.where(inside, depth, -np.inf).max(axis=1), -np.inf)
+    assert np.isinf(slack).sum() == np.isinf(expected).sum() > 300  # most FLSs in no ball
+    assert np.allclose(slack[np.isfinite(expected)], expected[np.isfinite(expected)])
+    assert (slack[centres] == radii).all()
