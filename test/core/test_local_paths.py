@@ -15,6 +15,8 @@ from swazure_ros.core.heuristics.regions import TechniqueBlocks
 from swazure_ros.core.local_paths import (
     WIDER,
     _OnPaths,
+    _read_back,
+    _Sight,
     _slack,
     _stepped,
     least_cost_per_cm,
@@ -351,3 +353,24 @@ def test_each_fls_lies_as_far_inside_its_deepest_ball_as_measured_and_outside_no
     assert np.isinf(slack).sum() == np.isinf(expected).sum() > 300  # most FLSs in no ball
     assert np.allclose(slack[np.isfinite(expected)], expected[np.isfinite(expected)])
     assert (slack[centres] == radii).all()
+
+
+def test_a_pair_s_sight_is_read_back_from_the_first_region_that_judged_it_of_many():
+    # 130 regions of 10 FLSs (three words of bits). Region 99 holds FLSs 2 and 7 with pairs
+    # shorter than theirs only (its record of the pair is not to be read); 128 judged it in
+    # sight. Regions 63 and 64 sit at a word's last and first bit.
+    size, sight = 10, _Sight(10)
+    everyone = np.ones(size, dtype=bool)
+    judged = {63: [(0, 9, 1)], 64: [(1, 4, 0)], 99: [(2, 7, 0)], 128: [(2, 7, 1)]}
+    for region in range(130):
+        pairs = judged.get(region, [])
+        keys = np.sort([2 * (a * size + b) + seen for a, b, seen in pairs]).astype(np.int64)
+        sight._record(everyone, keys, 5.0 if region == 99 else 10.0)
+    first, second = np.array([2, 1, 5, 0]), np.array([7, 4, 6, 9])
+    state = np.empty(4, dtype=np.int8)
+    _read_back(
+        sight.held_by, sight.longest, sight.key_start, sight.keys, first, second,
+        np.full(4, 6.0), first * size + second, state,
+    )  # fmt: skip
+    assert sight.held_by.shape == (size, 3)
+    assert state.tolist() == [1, 0, -1, 1]
