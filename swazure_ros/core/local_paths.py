@@ -382,98 +382,80 @@ def _slack(points: FloatArray, centres: IntArray, radii: FloatArray) -> FloatArr
 class _Sight:
     """The decaying pairs' line of sight as the regions judged it, each pair judged once.
 
-    A pair is judged in the first region that holds it, and its sight read back from
-    there in every later one: regions overlap, and sight is most of their work. Each FLS
-    keeps a bit per region that held it; each region keeps the longest tracking distance
-    it held pairs below, and the keys (``first * N + second``) of the pairs it judged,
-    twice over with their sight as the lowest bit, sorted, in one buffer. (A region that
-    held both FLSs and pairs as long need not have judged the pair: it keeps only the
-    pairs on its sources' paths, :class:`_OnPaths`.)
+    A pair is judged in the first region that holds it, and its sight read back in every
+    later one: regions overlap, and sight is most of their work. A pair's sight is the
+    whole swarm's (every FLS may block it), so one record serves every region: an
+    open-addressing hash of the pairs' keys (``first * N + second``), twice over with
+    their sight as the lowest bit, at most three quarters full (11 to 21 bytes a pair).
     """
 
     def __init__(self, size: int) -> None:
         self.size = size
-        self.held_by = np.zeros((size, 1), dtype=np.uint64)  # bit t of word t // 64: region t
-        self.longest = np.zeros(0)  # region t held the pairs shorter than this, cm
-        self.key_start = np.zeros(1, dtype=np.int64)  # region t's keys: [start[t], start[t+1])
-        self.keys = np.zeros(1024, dtype=np.int64)  # the regions' keys and sight, and room
+        self.table = np.full(1024, _NO_PAIR, dtype=np.int64)
         self.judged = 0  # pairs judged so far
 
-    def of(
-        self,
-        swarm: Swarm,
-        grid: Grid,
-        inside: BoolArray,
-        first: IntArray,
-        second: IntArray,
-        tracking: FloatArray,
-        longest: float,
-    ) -> BoolArray:
-        """Whether each decaying pair first[m]-second[m], both FLSs ``inside`` and each
-        shorter than ``longest`` (tracking distance, cm), is in sight; the region is the
-        next one (it is recorded). ``grid``: the swarm's line-of-sight grid
+    def of(self, swarm: Swarm, grid: Grid, first: IntArray, second: IntArray) -> BoolArray:
+        """Whether each decaying pair first[m]-second[m] is in sight, judging those no
+        region judged before. ``grid``: the swarm's line-of-sight grid
         (:func:`.grid.build_grid`), built once for every region."""
         keys = first * self.size + second
         state = np.empty(len(first), dtype=np.int8)
-        _read_back(self.held_by, self.longest, self.key_start, self.keys, first, second,
-                   tracking, keys, state)  # fmt: skip
+        _read_back(self.table, _shift(self.table), keys, state)
         visible = state > 0
         new = np.flatnonzero(state < 0)
-        self.judged += len(new)
         visible[new] = ~obstructed_fans(
             swarm.points, swarm.radius, first[new], second[new], grid=grid
         )
-        self._record(inside, np.sort(2 * keys[new] + visible[new]), longest)
+        self.judged += len(new)
+        size = len(self.table)
+        while 4 * self.judged > 3 * size:  # doubled: each pair is entered a few times
+            size *= 2
+        if size > len(self.table):
+            wider = np.full(size, _NO_PAIR, dtype=np.int64)
+            _enter(wider, _shift(wider), self.table[self.table != _NO_PAIR])
+            self.table = wider
+        _enter(self.table, _shift(self.table), 2 * keys[new] + visible[new])
         return visible
 
-    def _record(self, inside: BoolArray, judged: IntArray, longest: float) -> None:
-        region = len(self.longest)
-        self.longest = np.append(self.longest, longest)
-        word, bit = divmod(region, 64)
-        if word == self.held_by.shape[1]:
-            self.held_by = np.hstack([self.held_by, np.zeros((self.size, 1), dtype=np.uint64)])
-        self.held_by[inside, word] |= np.uint64(1) << np.uint64(bit)
-        start = int(self.key_start[-1])
-        stop = start + len(judged)
-        if stop > len(self.keys):  # room doubled: each key is copied a few times at most
-            grown = np.empty(max(stop, 2 * len(self.keys)), dtype=np.int64)
-            grown[:start] = self.keys[:start]
-            self.keys = grown
-        self.keys[start:stop] = judged
-        self.key_start = np.append(self.key_start, stop)
+
+#: An empty place of :class:`_Sight`'s hash (a pair's key halved is never -1).
+_NO_PAIR = -1
+#: Fibonacci hashing's multiplier (2**64 over the golden ratio, odd): the keys of one
+#: FLS's pairs, consecutive, spread over the table.
+_FIBONACCI = np.uint64(0x9E3779B97F4A7C15)
+
+
+def _shift(table: IntArray) -> int:
+    """What a hash's product is shifted right by to place a key in ``table`` (2**k long)."""
+    return 64 - (len(table).bit_length() - 1)
+
+
+@jit.kernel(cache=True, nogil=True)
+def _home(table: IntArray, shift: int, key: int) -> int:
+    """Where a pair's ``key`` is in ``table``, or the empty place it goes: its hash's
+    place, then the next ones."""
+    # In uint64 throughout: numba's int64 and uint64 make a float64.
+    at = (np.uint64(key) * _FIBONACCI) >> np.uint64(shift)
+    mask = np.uint64(len(table) - 1)
+    while table[at] != _NO_PAIR and table[at] >> 1 != key:
+        at = (at + np.uint64(1)) & mask
+    return np.int64(at)
+
+
+@jit.kernel(cache=True, nogil=True)
+def _enter(table: IntArray, shift: int, values: IntArray) -> None:
+    """Enter ``values`` (a pair's key twice over plus its sight) in ``table``."""
+    for value in values:
+        table[_home(table, shift, value >> 1)] = value
 
 
 @jit.kernel(cache=True, parallel=True)
-def _read_back(
-    held_by: NDArray[np.uint64],
-    longest: FloatArray,
-    key_start: IntArray,
-    keys: IntArray,
-    first: IntArray,
-    second: IntArray,
-    tracking: FloatArray,
-    pair_keys: IntArray,
-    state: NDArray[np.int8],
-) -> None:
-    """Each pair's sight where a region judged it: ``state`` 1 in sight, 0 not, -1 not
-    judged yet. Only a region that held both FLSs and pairs as long can have judged it."""
-    for m in jit.prange(len(first)):
-        state[m] = -1
-        for word in range(held_by.shape[1]):
-            shared = held_by[first[m], word] & held_by[second[m], word]
-            bit = 0
-            while shared != 0 and state[m] < 0:
-                if shared & np.uint64(1):
-                    region = word * 64 + bit
-                    if longest[region] > tracking[m]:
-                        lo, hi = key_start[region], key_start[region + 1]
-                        at = lo + np.searchsorted(keys[lo:hi], 2 * pair_keys[m])
-                        if at < hi and keys[at] >> 1 == pair_keys[m]:
-                            state[m] = keys[at] & 1
-                shared >>= np.uint64(1)
-                bit += 1
-            if state[m] >= 0:
-                break
+def _read_back(table: IntArray, shift: int, keys: IntArray, state: NDArray[np.int8]) -> None:
+    """Each pair's sight as a region judged it: ``state`` 1 in sight, 0 not, -1 not
+    judged yet."""
+    for m in jit.prange(len(keys)):
+        value = table[_home(table, shift, keys[m])]
+        state[m] = -1 if value == _NO_PAIR else value & 1
 
 
 @dataclass(frozen=True)
@@ -513,8 +495,8 @@ def _region(
     on_paths: _OnPaths | None,
 ) -> Neighbourhood:
     """The sweet pairs and the decaying pairs shorter than ``longest`` (tracking distance,
-    cm) with both FLSs ``inside``, those of them ``on_paths`` where given, and their sight,
-    as a neighbourhood: the next region of ``sight``."""
+    cm) with both FLSs ``inside``, those of them ``on_paths`` where given, and their sight
+    (the decaying pairs' judged once, in ``sight``), as a neighbourhood."""
     swarm, sensor = sweet.swarm, sweet.sensor
     # The region's FLSs as a swarm of their own: its pairs are the whole list's pairs between
     # them, each distance from the same two points, found without the pairs that leave it.
@@ -534,10 +516,7 @@ def _region(
     known = sweet.pairs.index(pairs.first[is_sweet], pairs.second[is_sweet])
     visible[is_sweet] = sweet.visible[known]
     decaying = ~is_sweet
-    visible[decaying] = sight.of(
-        swarm, sweet.grid, inside, pairs.first[decaying], pairs.second[decaying],
-        pairs.tracking[decaying], longest,
-    )  # fmt: skip
+    visible[decaying] = sight.of(swarm, sweet.grid, pairs.first[decaying], pairs.second[decaying])
     usable = np.ones(len(pairs), dtype=bool)
     return Neighbourhood(swarm, sensor, pairs, visible, sweet.grid, usable)
 

@@ -5,17 +5,18 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from swazure_ros.core import local_paths
 from swazure_ros.core.blocks import BlockedEvaluation, Budget, evaluate_blocked, with_decaying
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.geometry import make_swarm
+from swazure_ros.core.grid import build_grid
 from swazure_ros.core.heuristics.compat import COMPAT_MODES
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.regions import TechniqueBlocks
 from swazure_ros.core.local_paths import (
     WIDER,
     _OnPaths,
-    _read_back,
     _Sight,
     _slack,
     _stepped,
@@ -31,6 +32,7 @@ from swazure_ros.core.paths import shortest_paths
 from swazure_ros.core.pipeline import RunOptions, run_engine
 from swazure_ros.core.progress import SILENT
 from swazure_ros.core.sensor import DECAYING
+from swazure_ros.core.sight import obstructed
 from swazure_ros.files.results import write_evaluation, write_pair_blocks
 
 from ..conftest import SCENE
@@ -355,22 +357,26 @@ def test_each_fls_lies_as_far_inside_its_deepest_ball_as_measured_and_outside_no
     assert (slack[centres] == radii).all()
 
 
-def test_a_pair_s_sight_is_read_back_from_the_first_region_that_judged_it_of_many():
-    # 130 regions of 10 FLSs (three words of bits). Region 99 holds FLSs 2 and 7 with pairs
-    # shorter than theirs only (its record of the pair is not to be read); 128 judged it in
-    # sight. Regions 63 and 64 sit at a word's last and first bit.
-    size, sight = 10, _Sight(10)
-    everyone = np.ones(size, dtype=bool)
-    judged = {63: [(0, 9, 1)], 64: [(1, 4, 0)], 99: [(2, 7, 0)], 128: [(2, 7, 1)]}
-    for region in range(130):
-        pairs = judged.get(region, [])
-        keys = np.sort([2 * (a * size + b) + seen for a, b, seen in pairs]).astype(np.int64)
-        sight._record(everyone, keys, 5.0 if region == 99 else 10.0)
-    first, second = np.array([2, 1, 5, 0]), np.array([7, 4, 6, 9])
-    state = np.empty(4, dtype=np.int8)
-    _read_back(
-        sight.held_by, sight.longest, sight.key_start, sight.keys, first, second,
-        np.full(4, 6.0), first * size + second, state,
-    )  # fmt: skip
-    assert sight.held_by.shape == (size, 3)
-    assert state.tolist() == [1, 0, -1, 1]
+def test_a_pair_s_sight_is_judged_once_and_read_back_in_later_regions(sensor, monkeypatch):
+    # 1,600 FLSs' decaying pairs asked in three overlapping sets, over 3,000 pairs in all:
+    # the hash is widened twice on the way and every answer is the scan's.
+    swarm = plane()
+    every = neighbour_pairs(swarm, sensor)
+    decaying = every.range_class == DECAYING
+    first, second = every.first[decaying], every.second[decaying]
+    expected = ~obstructed(swarm.points, swarm.radius, first, second)
+    asked = []
+    real = local_paths.obstructed_fans
+
+    def judged(points, radius, ends, others, **kwargs):
+        asked.extend(zip(ends.tolist(), others.tolist()))
+        return real(points, radius, ends, others, **kwargs)
+
+    monkeypatch.setattr(local_paths, "obstructed_fans", judged)
+    sight, grid = _Sight(swarm.size), build_grid(swarm.points, swarm.radius)
+    for part in (slice(0, 2000), slice(1000, 3500), slice(0, len(first))):
+        seen = sight.of(swarm, grid, first[part], second[part])
+        assert np.array_equal(seen, expected[part])
+    assert len(first) > 3000 and 0.05 < expected.mean() < 0.95
+    assert sight.judged == len(asked) == len(set(asked)) == len(first)
+    assert len(sight.table) >= 4096
