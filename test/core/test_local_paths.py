@@ -343,7 +343,7 @@ def test_regions_that_overlap_are_cut_only_when_far_over_the_budget(sensor):
 
 
 def test_each_fls_lies_as_far_inside_its_deepest_ball_as_measured_and_outside_none():
-    # Balls of two radii about four FLSs of a plane; FLSs in no ball have no slack, those
+    # Balls of three radii about four FLSs of a plane; FLSs in no ball have no slack, those
     # just at a ball's edge a slack of about 0 (the bound is a hair over the radius).
     points = plane(side=20).points  # 76 cm wide
     centres = np.array([0, 45, 210, 399])
@@ -359,7 +359,7 @@ def test_each_fls_lies_as_far_inside_its_deepest_ball_as_measured_and_outside_no
 
 def test_a_pair_s_sight_is_judged_once_and_read_back_in_later_regions(sensor, monkeypatch):
     # 1,600 FLSs' decaying pairs asked in three overlapping sets, over 3,000 pairs in all:
-    # the hash is widened twice on the way and every answer is the scan's.
+    # the hash is widened at least twice on the way and every answer is the scan's.
     swarm = plane()
     every = neighbour_pairs(swarm, sensor)
     decaying = every.range_class == DECAYING
