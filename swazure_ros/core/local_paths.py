@@ -431,7 +431,7 @@ def _shift(table: IntArray) -> int:
 
 
 @jit.kernel(cache=True, nogil=True)
-def _home(table: IntArray, shift: int, key: int) -> int:
+def _home(table: IntArray, shift: int, key: int) -> np.int64:
     """Where a pair's ``key`` is in ``table``, or the empty place it goes: its hash's
     place, then the next ones."""
     # In uint64 throughout: numba's int64 and uint64 make a float64.
