@@ -1,6 +1,7 @@
 import numpy as np
 
-from swazure_ros.core.sight import SERIAL_SEGMENTS, obstructed, obstructers
+from swazure_ros.core.grid import build_grid
+from swazure_ros.core.sight import CLOSE, SERIAL_SEGMENTS, _close_points, obstructed, obstructers
 
 
 def segment_with(offset: float) -> np.ndarray:
@@ -93,3 +94,19 @@ def test_every_pair_of_a_dense_cloud_is_judged_as_its_obstructers_say():
     offsets, _ = obstructers(points, 0.3, first, second)
     np.testing.assert_array_equal(judged, np.diff(offsets) > 0)
     assert 0.2 < judged.mean() < 0.95
+
+
+def test_the_flss_close_to_the_segments_ends_are_listed_for_those_ends_alone():
+    # Each judgement lists the FLSs close to its segments' ends, not to every FLS of the
+    # swarm: a display's regions judge a few thousand FLSs' segments at a time.
+    rng = np.random.default_rng(14)
+    points = rng.uniform(0, 8, size=(300, 3))
+    radius = 0.3
+    ends = np.array([3, 40, 41, 299])
+    offsets, ids = _close_points(points, build_grid(points, radius), CLOSE * radius, ends)
+    distance = np.linalg.norm(points[:, None] - points[None], axis=2)
+    for node in range(len(points)):
+        listed = sorted(ids[offsets[node] : offsets[node + 1]].tolist())
+        close = np.flatnonzero((distance[node] <= CLOSE * radius) & (np.arange(300) != node))
+        assert listed == (close.tolist() if node in ends else []), node
+    assert offsets[-1] > 0
