@@ -505,10 +505,17 @@ def _region(
     # The sweet pairs too (their sight is known), however short the decaying pairs are cut;
     # with ``on_paths``, sweet and decaying, only those near enough a source.
     affordable = EVERY_PAIR if on_paths is None else on_paths.affordable(members)
+    # No blind pair: none is a hop, and they were a quarter of those within reach.
     found = neighbour_pairs(
-        part, sensor, longest=max(longest, sensor.sweet_max), affordable=affordable
+        part,
+        sensor,
+        longest=max(longest, sensor.sweet_max),
+        affordable=affordable,
+        shortest=sensor.sweet_min,
     )
-    found = found.select((found.range_class == SWEET) | (found.range_class == DECAYING))
+    hops = (found.range_class == SWEET) | (found.range_class == DECAYING)
+    if not hops.all():  # a sensor's gap between sweet and decaying
+        found = found.select(hops)
     pairs = replace(found, first=members[found.first], second=members[found.second])
     visible = np.zeros(len(pairs), dtype=bool)
     is_sweet = pairs.range_class == SWEET

@@ -274,6 +274,7 @@ def neighbour_pairs(
     involving: BoolArray | None = None,
     longest: float | None = None,
     affordable: Affordable = EVERY_PAIR,
+    shortest: float | None = None,
 ) -> NeighbourPairs:
     """Every unordered pair with tracking distance below ``sensor.decaying_max``, classified.
 
@@ -300,6 +301,10 @@ def neighbour_pairs(
     affordable : Affordable, optional
         Only the pairs it affords (default: every pair), found without the
         others: a search that can use few of the pairs within reach.
+    shortest : float, optional
+        Only the pairs with tracking distance at least this, cm, found
+        without the nearer ones: ``sensor.sweet_min`` leaves out the blind
+        and contact pairs, which no path hops over.
 
     Returns
     -------
@@ -334,11 +339,17 @@ def neighbour_pairs(
     spare = np.shape(affordable.spare)
     if spare != (0,) and spare != (swarm.size,):
         raise ValueError(f"`affordable.spare` must be ({swarm.size},) values, got {spare}")
-    rows, second = pairs_within(points, reach, grid, start, stop, involving, affordable)
+    # A hair nearer than the shortest: the distances that decide are centre_distance's.
+    nearest = 0.0 if shortest is None else (shortest + 2.0 * swarm.radius) * (1.0 - 1e-9)
+    rows, second = pairs_within(
+        points, reach, grid, start, stop, involving, affordable, max(nearest, 0.0)
+    )
     first = np.repeat(np.arange(start, stop, dtype=np.int64), np.diff(rows))
     distance = centre_distance(swarm.points, first, second)
     tracking = distance - 2.0 * swarm.radius
     keep = tracking < farthest
+    if shortest is not None:
+        keep &= tracking >= shortest
     # Candidates come from the sensor's reach plus a rounding margin, so nearly always
     # every one is kept: copying four arrays of 6.8 M pairs for nothing took 0.25 s.
     if not keep.all():

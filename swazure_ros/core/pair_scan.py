@@ -2,8 +2,8 @@
 
 The search under :func:`.neighbours.neighbour_pairs` and
 :func:`.neighbours.pair_counts`: each point reads the cells its reach touches
-and keeps the later points within it, or only the pairs a mask or a price
-allows (:class:`Affordable`).
+and keeps the later points within it, or only those no nearer than a least
+distance, or only the pairs a mask or a price allows (:class:`Affordable`).
 """
 
 from __future__ import annotations
@@ -41,6 +41,7 @@ def _within(
     points: FloatArray,
     node: int,
     reach: float,
+    nearest: float,
     grid: Grid,
     out: IntArray,
     involving: BoolArray,
@@ -48,7 +49,8 @@ def _within(
     per_cm: float,
     fixed: float,
 ) -> int:
-    """Points after ``node`` within ``reach`` of it, into ``out`` unless it is empty; how many.
+    """Points after ``node`` within ``reach`` of it and ``nearest`` or farther, into ``out``
+    unless it is empty; how many.
 
     With ``involving`` (N,) (empty: every pair), only those of pairs that involve an FLS
     True there; with ``spare`` (N,) (empty: every pair), only the affordable pairs
@@ -59,7 +61,7 @@ def _within(
     priced = len(spare) > 0
     origin, cell, shape, cell_start, members = grid
     x, y, z = points[node, 0], points[node, 1], points[node, 2]
-    limit = reach * reach
+    limit, least = reach * reach, nearest * nearest
     lo0, lo1, lo2, hi0, hi1, hi2 = ball_cells(grid, x, y, z, reach)
     count = 0
     # Cells finer than the reach: those wholly beyond it are skipped (27 cells one reach
@@ -83,7 +85,7 @@ def _within(
                     dy = points[other, 1] - y
                     dz = points[other, 2] - z
                     squared = dx * dx + dy * dy + dz * dz
-                    if squared <= limit and (
+                    if least <= squared <= limit and (
                         not priced
                         or spare[node] + spare[other] >= per_cm * np.sqrt(squared) + fixed
                     ):
@@ -101,6 +103,7 @@ def pairs_within(
     stop: int | None = None,
     involving: BoolArray | None = None,
     affordable: Affordable = EVERY_PAIR,
+    nearest: float = 0.0,
 ) -> tuple[IntArray, IntArray]:
     """The pairs i < j of ``points`` within ``reach``, i in [start, stop), as CSR.
 
@@ -117,6 +120,9 @@ def pairs_within(
         Only the pairs of which i or j is True here (default: every pair).
     affordable : Affordable, optional
         Only the pairs it affords (default: every pair).
+    nearest : float, optional
+        Only the pairs at least this far apart, cm (default: every pair within
+        ``reach``): those nearer are neither stored nor counted.
 
     Returns
     -------
@@ -126,10 +132,10 @@ def pairs_within(
         Each row's j, sorted.
     """
     scan = _scan(points, start, stop, involving, affordable)
-    counts = _counts(points, reach, grid, *scan)
+    counts = _counts(points, reach, nearest, grid, *scan)
     rows = np.zeros(len(counts) + 1, dtype=np.int64)
     rows[1:] = np.cumsum(counts)
-    return rows, _fill(points, reach, grid, *scan, rows)
+    return rows, _fill(points, reach, nearest, grid, *scan, rows)
 
 
 def counts_within(
@@ -152,7 +158,8 @@ def counts_within(
     (stop - start,) array of int
         Per point i, the j > i within reach.
     """
-    return np.asarray(_counts(points, reach, grid, *_scan(points, start, stop, None, EVERY_PAIR)))
+    scan = _scan(points, start, stop, None, EVERY_PAIR)
+    return np.asarray(_counts(points, reach, 0.0, grid, *scan))
 
 
 def _scan(
@@ -173,6 +180,7 @@ def _scan(
 def _counts(
     points: FloatArray,
     reach: float,
+    nearest: float,
     grid: Grid,
     start: int,
     stop: int,
@@ -186,7 +194,9 @@ def _counts(
     nothing = np.empty(0, dtype=np.int64)
     for row in jit.prange(stop - start):
         node = start + row
-        counts[row] = _within(points, node, reach, grid, nothing, involving, spare, per_cm, fixed)
+        counts[row] = _within(
+            points, node, reach, nearest, grid, nothing, involving, spare, per_cm, fixed
+        )
     return counts
 
 
@@ -194,6 +204,7 @@ def _counts(
 def _fill(
     points: FloatArray,
     reach: float,
+    nearest: float,
     grid: Grid,
     start: int,
     stop: int,
@@ -207,6 +218,6 @@ def _fill(
     second = np.empty(rows[-1], dtype=np.int64)
     for row in jit.prange(stop - start):
         out = second[rows[row] : rows[row + 1]]
-        _within(points, start + row, reach, grid, out, involving, spare, per_cm, fixed)
+        _within(points, start + row, reach, nearest, grid, out, involving, spare, per_cm, fixed)
         out.sort()
     return second

@@ -69,6 +69,22 @@ def test_the_affordable_pairs_are_those_whose_ends_spare_their_cost(sensor):
             np.testing.assert_array_equal(getattr(part, field), getattr(whole, field)[chosen])
 
 
+def test_the_pairs_no_nearer_than_the_shortest_are_the_whole_list_s_selection_of_them(sensor):
+    # A region's search hops over no blind pair: found without them, the rest as the whole's.
+    swarm = random_swarm(7, count=600, extent=40.0)
+    whole = neighbour_pairs(swarm, sensor)
+    part = neighbour_pairs(swarm, sensor, shortest=sensor.sweet_min)
+    chosen = whole.tracking >= sensor.sweet_min
+    assert (~chosen).any() and chosen.any()
+    for field in FIELDS:
+        np.testing.assert_array_equal(getattr(part, field), getattr(whole, field)[chosen])
+    # A pair exactly at the shortest (tracking 7 - 2 * 0.5 = 6 cm) is kept; a hair beyond, not.
+    line = make_swarm([[0.0, 0, 0], [7.0, 0, 0], [3.0, 0, 0]], radius=0.5)
+    kept = neighbour_pairs(line, sensor, shortest=6.0)
+    assert (kept.first.tolist(), kept.second.tolist(), kept.tracking.tolist()) == ([0], [1], [6.0])
+    assert len(neighbour_pairs(line, sensor, shortest=float(np.nextafter(6.0, 7.0)))) == 0
+
+
 def test_a_mask_of_another_length_is_refused(sensor):
     swarm = random_swarm(5, count=20)
     with pytest.raises(ValueError, match=r"`involving` must be \(20,\) bools"):
