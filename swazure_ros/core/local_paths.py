@@ -286,7 +286,7 @@ def _stepped(radii: FloatArray) -> FloatArray:
 class _Weights:
     """Candidate pairs per FLS of a region, by the radius of its widest source: the
     swarm's mean, times the share of an FLS's pairs short enough for the region
-    (:func:`longest_edge`), counted round a seeded sample of the FLSs."""
+    (:func:`longest_edge`) and not blind, counted round a seeded sample of the FLSs."""
 
     SAMPLE = 1000  # FLSs counted round
 
@@ -305,6 +305,8 @@ class _Weights:
         rows = np.random.default_rng(0).permutation(swarm.size)[: self.SAMPLE]
         self.sample = swarm.points[np.sort(rows)]
         self.every = self._within(sensor_reach(self.sensor, swarm.radius))
+        # A region holds no blind pair (:func:`_region`): those weigh nothing.
+        self.blind = self._within(self.sensor.sweet_min + 2.0 * swarm.radius)
         self.known: dict[float, float] = {}
 
     def _within(self, reach: float) -> int:
@@ -314,7 +316,7 @@ class _Weights:
         if radius not in self.known:
             longest = longest_edge(self.policy, self.ratio, self.fls_radius, radius)
             within = self._within(sensor_reach(self.sensor, self.fls_radius, longest))
-            self.known[radius] = self.mean * within / max(self.every, 1)
+            self.known[radius] = self.mean * max(within - self.blind, 0) / max(self.every, 1)
         return self.known[radius]
 
 

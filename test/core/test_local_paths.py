@@ -330,8 +330,11 @@ def test_regions_that_overlap_are_cut_only_when_far_over_the_budget(sensor):
     )
     sources = np.arange(0, swarm.size, 67)  # spread over the plane
     wide = np.full(len(sources), 70.0)  # balls of 70 cm on a plane 156 cm wide
-    # The balls hold every FLS, and pairs up to the sensor's reach: the swarm's candidates.
-    assert weights(70.0) == pytest.approx(2.0 * counts.sum() / swarm.size)
+    # The balls hold every FLS, and pairs up to the sensor's reach but the blind ones, which
+    # no region holds: the swarm's candidates less its blind pairs (6 % of them here),
+    # weighed round a sample of the FLSs.
+    blind = np.count_nonzero(hood.pairs.tracking < sensor.sweet_min)
+    assert weights(70.0) == pytest.approx(2.0 * (counts.sum() - blind) / swarm.size, rel=0.02)
     assert weights(12.0) < weights(70.0) / 2  # a narrow region holds the shorter pairs only
     whole = weights(70.0) * swarm.size
     # Halves as heavy as the whole together: not worth cutting within twice the budget ...
