@@ -132,10 +132,29 @@ def pairs_within(
         Each row's j, sorted.
     """
     scan = _scan(points, start, stop, involving, affordable)
-    counts = _counts(points, reach, nearest, grid, *scan)
+    begin, end = scan[0], scan[1]
+    # One pass, its output grown as it fills (a count first measured every pair twice), so
+    # parts of the rows run on threads of their own; more parts than threads, to even them.
+    threads = jit.get_num_threads()
+    parts = max(1, min(4 * threads, (end - begin) // ROWS_PER_PART))
+    bounds = np.linspace(begin, end, parts + 1).astype(np.int64)
+
+    def part(index: int) -> tuple[IntArray, IntArray]:
+        low, high = int(bounds[index]), int(bounds[index + 1])
+        return _rows(points, reach, nearest, grid, low, high, *scan[2:])
+
+    if parts == 1:
+        counts, second = part(0)
+    else:
+        from concurrent.futures import ThreadPoolExecutor  # here: an FLS alone scans no rows
+
+        with ThreadPoolExecutor(threads) as pool:
+            results = list(pool.map(part, range(parts)))
+        counts = np.concatenate([one for one, _ in results])
+        second = np.concatenate([one for _, one in results])
     rows = np.zeros(len(counts) + 1, dtype=np.int64)
     rows[1:] = np.cumsum(counts)
-    return rows, _fill(points, reach, nearest, grid, *scan, rows)
+    return rows, np.asarray(second)
 
 
 def counts_within(
@@ -200,8 +219,12 @@ def _counts(
     return counts
 
 
-@jit.kernel(cache=True, parallel=True)
-def _fill(
+#: Rows a part of :func:`pairs_within` scans at least: fewer are not worth a thread.
+ROWS_PER_PART = 256
+
+
+@jit.kernel(cache=True, nogil=True)
+def _rows(
     points: FloatArray,
     reach: float,
     nearest: float,
@@ -212,12 +235,22 @@ def _fill(
     spare: FloatArray,
     per_cm: float,
     fixed: float,
-    rows: IntArray,
-) -> IntArray:
-    """The pairs :func:`_counts` counted, each row's sorted, at ``rows``."""
-    second = np.empty(rows[-1], dtype=np.int64)
-    for row in jit.prange(stop - start):
-        out = second[rows[row] : rows[row + 1]]
-        _within(points, start + row, reach, nearest, grid, out, involving, spare, per_cm, fixed)
-        out.sort()
-    return second
+) -> tuple[IntArray, IntArray]:
+    """The pairs :func:`_within` finds for each point of [start, stop), in one pass: each
+    row's count, and the rows' j one after the other, each row's sorted."""
+    counts = np.zeros(stop - start, dtype=np.int64)
+    second = np.empty(1024, dtype=np.int64)
+    filled = 0
+    for row in range(stop - start):
+        node = start + row
+        room = len(points) - node - 1  # a row's pairs are with later points
+        if filled + room > len(second):
+            grown = np.empty(max(2 * len(second), filled + room), dtype=np.int64)
+            grown[:filled] = second[:filled]
+            second = grown
+        out = second[filled : filled + room]
+        count = _within(points, node, reach, nearest, grid, out, involving, spare, per_cm, fixed)
+        out[:count].sort()
+        counts[row] = count
+        filled += count
+    return counts, second[:filled]
