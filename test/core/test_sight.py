@@ -1,5 +1,6 @@
 import numpy as np
 
+from swazure_ros.core import sight
 from swazure_ros.core.grid import build_grid
 from swazure_ros.core.sight import CLOSE, SERIAL_SEGMENTS, _close_points, obstructed, obstructers
 
@@ -96,7 +97,7 @@ def test_every_pair_of_a_dense_cloud_is_judged_as_its_obstructers_say():
     assert 0.2 < judged.mean() < 0.95
 
 
-def test_the_flss_close_to_the_segments_ends_are_listed_for_those_ends_alone():
+def test_the_flss_close_to_the_segments_ends_are_listed_for_those_ends_alone(monkeypatch):
     # Each judgement lists the FLSs close to its segments' ends, not to every FLS of the
     # swarm: a display's regions judge a few thousand FLSs' segments at a time.
     rng = np.random.default_rng(14)
@@ -110,3 +111,14 @@ def test_the_flss_close_to_the_segments_ends_are_listed_for_those_ends_alone():
         close = np.flatnonzero((distance[node] <= CLOSE * radius) & (np.arange(300) != node))
         assert listed == (close.tolist() if node in ends else []), node
     assert offsets[-1] > 0
+    # And a judgement asks for its segments' ends alone: here a third of the FLSs.
+    asked = []
+    monkeypatch.setattr(
+        sight, "_close_points", lambda *args: asked.append(args[3]) or _close_points(*args)
+    )
+    first, second = rng.integers(0, 100, size=(2, 2 * SERIAL_SEGMENTS))
+    first, second = first[first != second], second[first != second]
+    assert obstructed(points, radius, first, second).tolist() == brute_force(
+        points, radius, first, second
+    )
+    assert [one.tolist() for one in asked] == [np.unique([first, second]).tolist()]
