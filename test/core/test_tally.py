@@ -64,3 +64,20 @@ def test_real_tally_with_an_unknown_value_reports_unknown_statistics():
     got = tally.describe()
     assert got.count == 3
     assert all(math.isnan(getattr(got, name)) for name in ("mean", "max", "p50", "p90", "p99"))
+
+
+def test_a_sketch_counts_each_value_in_the_bucket_whose_range_holds_it():
+    # Bucket k holds the values in (gamma ** (k - 1), gamma ** k], block after block.
+    values = np.random.default_rng(6).lognormal(sigma=3.0, size=20_000)
+    values[:50] = 0.0  # counted apart, as zeros
+    tally = RealTally(exact_values=1)  # sketched from the first block on
+    for block in blocks_of(values, [3_000] * 7):
+        tally.add(block)
+    gamma = (1 + SKETCH_RELATIVE_ERROR) / (1 - SKETCH_RELATIVE_ERROR)
+    want: dict[int, int] = {}
+    for value in values[50:].tolist():
+        key = math.ceil(math.log(value) / math.log(gamma))
+        want[key] = want.get(key, 0) + 1
+    assert tally.zeros == 50
+    assert tally.buckets == want
+    assert 1_000 < len(want) < len(values)  # values spread over many buckets, some shared
