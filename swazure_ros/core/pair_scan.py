@@ -178,7 +178,7 @@ def counts_within(
         Per point i, the j > i within reach.
     """
     scan = _scan(points, start, stop, None, EVERY_PAIR)
-    return np.asarray(_counts(points, reach, 0.0, grid, *scan))
+    return np.asarray(_counts(points, reach, grid, *scan))
 
 
 def _scan(
@@ -199,7 +199,6 @@ def _scan(
 def _counts(
     points: FloatArray,
     reach: float,
-    nearest: float,
     grid: Grid,
     start: int,
     stop: int,
@@ -214,7 +213,7 @@ def _counts(
     for row in jit.prange(stop - start):
         node = start + row
         counts[row] = _within(
-            points, node, reach, nearest, grid, nothing, involving, spare, per_cm, fixed
+            points, node, reach, 0.0, grid, nothing, involving, spare, per_cm, fixed
         )
     return counts
 
