@@ -14,7 +14,7 @@ import itertools
 import json
 import os
 from collections import deque
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from functools import partial
 from pathlib import Path
@@ -268,10 +268,11 @@ def write_pair_blocks(
     """Write the per-pair file of a run made block by block (core.blocks), as blocks come.
 
     The same bytes as :func:`write_evaluation` gives for the pairs of all
-    blocks at once. CSV text is written on a thread of its own while the
-    next block is made (pyarrow formats without the GIL), so a block's table
-    is held while the next block is made, and no more. Returns its
-    path; with ``pairs_format="none"`` the blocks are only made, and None.
+    blocks at once. CSV's table and text are made and written on a thread of
+    its own while the next block is made (numpy and pyarrow without the
+    GIL), so a block's pairs and table are held while the next block is
+    made, and no more. Returns its path; with ``pairs_format="none"`` the
+    blocks are only made, and None.
     A heuristic's run held whole comes as one block, with its moves (``heuristic``); one
     made block by block brings each block's moves in its pairs (``MovedPairs``).
     """
@@ -286,7 +287,7 @@ def write_pair_blocks(
         if pairs_format == "csv":
             with open(temporary, "wb") as out:
                 _write_csv_blocks(
-                    (pairs_table(hood, pairs, heuristic, True, columns) for pairs in blocks), out
+                    blocks, partial(pairs_table, hood, heuristic=heuristic, columns=columns), out
                 )
         else:
             import pyarrow.parquet as pq  # here: 0.1 s of a run that writes CSV
@@ -300,20 +301,28 @@ def write_pair_blocks(
     return path
 
 
-def _write_csv_blocks(tables: Iterator[Any], out: BinaryIO) -> None:
-    """Write ``tables`` as one CSV to ``out``, each while the next is made.
+def _write_csv_blocks(
+    blocks: Iterable[PairResults], table_of: Callable[[PairResults], Any], out: BinaryIO
+) -> None:
+    """Write the tables ``table_of`` makes of ``blocks`` as one CSV to ``out``, each block's
+    while the next is made.
 
-    One writer thread: a table's text is formatted and written while the
-    caller's generator makes the next, and the next waits for it, so at most
-    two tables are held and the rows stay in order. An error of either side
-    is raised here.
+    One writer thread: a block's table is made, formatted and written while
+    the caller's generator makes the next block, and the next waits for it,
+    so at most two blocks are held and the rows stay in order. Making the
+    table there too takes its paths' text (most of its time) off the thread
+    that makes the blocks. An error of either side is raised here.
     """
+
+    def write(pairs: PairResults, header: bool) -> None:
+        write_csv(table_of(pairs), out, None, header)
+
     with ThreadPoolExecutor(1, thread_name_prefix="pairs-csv") as writer:
         writing: Future[None] | None = None
-        for number, table in enumerate(tables):
+        for number, pairs in enumerate(blocks):
             if writing is not None:
                 writing.result()
-            writing = writer.submit(write_csv, table, out, None, number == 0)
+            writing = writer.submit(write, pairs, number == 0)
         if writing is not None:
             writing.result()
 

@@ -81,6 +81,44 @@ def test_pairs_written_block_by_block_are_the_bytes_of_the_pairs_written_at_once
     assert not list(blocked.glob(".*"))  # no temporary file left behind
 
 
+def test_a_blocks_csv_table_is_made_on_the_writer_thread_not_the_one_making_blocks(
+    tmp_path, monkeypatch, sensor
+):
+    import threading
+
+    from swazure_ros.core.blocks import Budget, evaluate_blocked
+    from swazure_ros.core.geometry import make_swarm
+    from swazure_ros.core.progress import SILENT
+    from swazure_ros.files import results
+    from swazure_ros.files.cloud_files import load_cloud
+
+    made_on, blocks_on = [], []
+    real_table = results.pairs_table
+
+    def spy_table(*args, **kwargs):
+        made_on.append(threading.current_thread().name)
+        return real_table(*args, **kwargs)
+
+    def spy_blocks(blocks):
+        for pairs in blocks:
+            blocks_on.append(threading.current_thread().name)
+            yield pairs
+
+    monkeypatch.setattr(results, "pairs_table", spy_table)
+    run = evaluate_blocked(
+        make_swarm(load_cloud("helix:200").points, beta=0.5),
+        sensor,
+        "fewest-hops",
+        Budget(2**20),
+        SILENT,
+    )
+    results.write_pair_blocks(tmp_path, run.hood, run.policy, spy_blocks(run.blocks(SILENT)))
+    assert len(made_on) == len(blocks_on) == len(run.sources()) > 1
+    # The paths' text, most of a table's time, is not made between one block and the next.
+    assert set(blocks_on) == {threading.current_thread().name}
+    assert all(name.startswith("pairs-csv") for name in made_on)
+
+
 #: sha256 of torus:200's pairs.csv at beta 0.5, shortest-length, its real columns rounded
 #: to 6 decimals (_rounded), as main wrote it at 685ba2b. The whole file's hash was pinned
 #: at 36557f7 (b9f5309c...); on the machine of 2026-12-01 main's own 685ba2b wrote other
