@@ -85,6 +85,41 @@ def test_a_resampled_cloud_has_the_count_and_spacing_asked_for_and_is_the_same_e
     np.testing.assert_array_equal(resample(points, 1000, seed=3), grown)
 
 
+@pytest.mark.parametrize("shape", ["random", "lattice"])
+def test_thinning_over_listed_pairs_keeps_what_thinning_over_the_grid_keeps(shape):
+    from swazure_ros.core import clouds
+    from swazure_ros.core.grid import grid_of
+
+    rng = np.random.default_rng(7)
+    if shape == "random":
+        points = rng.uniform(0.0, 6.0, size=(2000, 3))
+    else:
+        # Whole-number places: many pairs exactly a spacing apart, a tie both must keep.
+        points = np.argwhere(np.ones((9, 9, 9))).astype(float)
+    order = rng.permutation(len(points))
+    earlier = clouds._earlier_within(points, order, 1.5)
+    kept = {}
+    for spacing in (0.3, 0.7, 1.0, 1.2, 1.49):
+        expected = clouds._apart(points, order, spacing, grid_of(points, spacing))
+        listed = np.empty(len(points), dtype=bool)
+        listed[order[::-1]] = clouds._apart_listed(earlier.points, *earlier.pairs, spacing)
+        np.testing.assert_array_equal(listed, expected)
+        kept[spacing] = int(expected.sum())
+    assert kept[1.49] < kept[1.2] < kept[0.3]
+    if shape == "lattice":
+        assert kept[1.0] == len(points)  # points exactly a spacing apart are apart
+
+
+def test_a_resampled_cloud_is_the_same_whether_its_close_points_are_listed_or_not(monkeypatch):
+    from swazure_ros.core import clouds
+
+    points = load_cloud("sphere:200").points
+    listed = clouds.resample(points, 1500, seed=5)
+    # A bracket never that close: every bisection thins over the grid.
+    monkeypatch.setattr(clouds, "LISTED_RATIO", 0.0)
+    np.testing.assert_array_equal(clouds.resample(points, 1500, seed=5), listed)
+
+
 def test_sphere_shell_is_the_sphere_by_the_name_display_studies_use():
     np.testing.assert_array_equal(
         load_cloud("sphere_shell:300").points, load_cloud("sphere:300").points
