@@ -6,6 +6,7 @@ functions are the only place the layout's arithmetic is written.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -184,3 +185,59 @@ def join(
         return np.zeros(1, dtype=np.int64), empty
     counts = np.concatenate([np.diff(bounds) for bounds, _ in tables])
     return offsets(counts), np.concatenate([values for _, values in tables])
+
+
+def made_in_parts(
+    make: Callable[[int, int], tuple[IntArray, NDArray[Any]]],
+    start: int,
+    stop: int,
+    parts: int,
+    threads: int,
+    empty: NDArray[Any],
+) -> tuple[IntArray, NDArray[Any]]:
+    """The ragged table of runs [start, stop), made in ``parts`` spans of runs on threads.
+
+    For kernels that release the GIL and grow their output as they go, so
+    that no one table can be laid out before them: each span's table is
+    ``make(low, high)``, its runs [low, high); with more than one span, they
+    are made on a pool of ``threads`` threads (more spans than threads even
+    out spans of unequal cost) and joined in order (:func:`join`).
+
+    Parameters
+    ----------
+    make : callable
+        ``make(low, high)`` -> (offsets (high - low + 1,), values).
+    start, stop : int
+        The runs to make.
+    parts : int
+        Spans of about equal runs, >= 1.
+    threads : int
+        Threads to make them on, >= 1.
+    empty : array
+        As :func:`join`.
+
+    Returns
+    -------
+    offsets : (stop - start + 1,) array of int
+    values : array
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.core.csr import made_in_parts
+    >>> def make(low, high):  # run k holds k copies of k
+    ...     counts = np.arange(low, high)
+    ...     return offsets(counts), np.repeat(counts, counts)
+    >>> rows, items = made_in_parts(make, 0, 4, 3, 2, np.zeros(0, dtype=np.int64))
+    >>> rows.tolist(), items.tolist()
+    ([0, 0, 1, 3, 6], [1, 2, 2, 3, 3, 3])
+    """
+    bounds = np.linspace(start, stop, parts + 1).astype(np.int64)
+    spans = list(zip(bounds[:-1].tolist(), bounds[1:].tolist()))
+    if len(spans) == 1:
+        return make(*spans[0])
+    from concurrent.futures import ThreadPoolExecutor  # here: an FLS alone makes one span
+
+    with ThreadPoolExecutor(threads) as pool:
+        tables = list(pool.map(lambda span: make(*span), spans))
+    return join(tables, empty)

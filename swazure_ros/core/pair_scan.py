@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import jit
+from . import csr, jit
 from .arrays import BoolArray, FloatArray, IntArray
 from .grid import Grid, ball_cells
 
@@ -137,24 +137,12 @@ def pairs_within(
     # parts of the rows run on threads of their own; more parts than threads, to even them.
     threads = jit.get_num_threads()
     parts = max(1, min(4 * threads, (end - begin) // ROWS_PER_PART))
-    bounds = np.linspace(begin, end, parts + 1).astype(np.int64)
 
-    def part(index: int) -> tuple[IntArray, IntArray]:
-        low, high = int(bounds[index]), int(bounds[index + 1])
-        return _rows(points, reach, nearest, grid, low, high, *scan[2:])
+    def part(low: int, high: int) -> tuple[IntArray, IntArray]:
+        counts, second = _rows(points, reach, nearest, grid, low, high, *scan[2:])
+        return csr.offsets(counts), np.asarray(second)
 
-    if parts == 1:
-        counts, second = part(0)
-    else:
-        from concurrent.futures import ThreadPoolExecutor  # here: an FLS alone scans no rows
-
-        with ThreadPoolExecutor(threads) as pool:
-            results = list(pool.map(part, range(parts)))
-        counts = np.concatenate([one for one, _ in results])
-        second = np.concatenate([one for _, one in results])
-    rows = np.zeros(len(counts) + 1, dtype=np.int64)
-    rows[1:] = np.cumsum(counts)
-    return rows, np.asarray(second)
+    return csr.made_in_parts(part, begin, end, parts, threads, np.zeros(0, dtype=np.int64))
 
 
 def counts_within(

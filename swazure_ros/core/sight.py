@@ -351,22 +351,16 @@ def obstructers(
     points, first, second = coerce_pairs(points, first, second)
     grid = grid if grid is not None else build_grid(points, radius)
     # The kernel grows its output as it goes, so parts run on threads of their own.
-    parts = max(1, min(jit.get_num_threads(), len(first) // SERIAL_SEGMENTS))
-    bounds = np.linspace(0, len(first), parts + 1).astype(np.int64)
+    threads = jit.get_num_threads()
+    parts = max(1, min(threads, len(first) // SERIAL_SEGMENTS))
 
-    def part(index: int) -> tuple[IntArray, IntArray]:
-        lo, hi = bounds[index], bounds[index + 1]
-        return _obstructers_kernel(points, float(radius), first[lo:hi], second[lo:hi], grid)
-
-    if parts == 1:
-        offsets, ids = part(0)
+    def part(low: int, high: int) -> tuple[IntArray, IntArray]:
+        offsets, ids = _obstructers_kernel(
+            points, float(radius), first[low:high], second[low:high], grid
+        )
         return np.asarray(offsets), np.asarray(ids)
-    from concurrent.futures import ThreadPoolExecutor
 
-    with ThreadPoolExecutor(parts) as pool:
-        results = list(pool.map(part, range(parts)))
-    counts = np.concatenate([np.diff(offsets) for offsets, _ in results])
-    return csr.offsets(counts), np.concatenate([ids for _, ids in results])
+    return csr.made_in_parts(part, 0, len(first), parts, threads, np.zeros(0, dtype=np.int64))
 
 
 @jit.kernel(cache=True, parallel=True)

@@ -26,3 +26,29 @@ def test_a_span_s_items_are_a_view_and_rows_of_several_values_stay_whole():
     vectors = np.arange(15.0).reshape(5, 3)
     offsets, rows = span(BOUNDS, vectors, 0, 1)
     assert offsets.tolist() == [0, 2] and rows.tolist() == [[0, 1, 2], [3, 4, 5]]
+
+
+def test_a_table_made_in_parts_on_threads_is_the_table_made_whole():
+    import threading
+
+    from swazure_ros.core.csr import made_in_parts, offsets
+
+    made_on = set()
+
+    def make(low, high):  # run k: the ids k, k + 1, ..., k + (k % 4) - 1
+        made_on.add(threading.current_thread().name)
+        counts = np.arange(low, high) % 4
+        starts = np.arange(low, high)
+        return offsets(counts), np.concatenate(
+            [np.arange(start, start + count) for start, count in zip(starts, counts)] + [[]]
+        ).astype(np.int64)
+
+    empty = np.zeros(0, dtype=np.int64)
+    whole_offsets, whole_ids = make(3, 40)
+    for parts in (1, 2, 5, 37):
+        made_on.clear()
+        rows, ids = made_in_parts(make, 3, 40, parts, 2, empty)
+        np.testing.assert_array_equal(rows, whole_offsets)
+        np.testing.assert_array_equal(ids, whole_ids)
+        # One part is made where it is asked for; several on the pool's threads.
+        assert (threading.current_thread().name in made_on) == (parts == 1)
