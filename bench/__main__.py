@@ -31,6 +31,7 @@ from bench.common import (
 from bench.compat import compat_section
 from bench.discovery import discovery_section
 from bench.display import display_section
+from bench.display_memory import display_memory_section
 from bench.engine import engine_section
 from bench.exits import exits_section
 from bench.faults import faults_section
@@ -80,6 +81,7 @@ SECTIONS: dict[str, Callable[..., list[str]]] = {
     "tags": tags_section,
     "scale": scale_section,
     "display": display_section,
+    "display_memory": display_memory_section,
     "exits": exits_section,
     "under_load": under_load_section,
 }

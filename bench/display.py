@@ -122,14 +122,21 @@ def summary_to_compare(path: Path) -> object:
 
 
 def display_run(
-    shape: str, size: int, run: str, scratch_dir: Path = SECTIONS_DIR, held_up_to: int = HELD_UP_TO
+    shape: str,
+    size: int,
+    run: str,
+    scratch_dir: Path = SECTIONS_DIR,
+    held_up_to: int = HELD_UP_TO,
+    options: Sequence[str] | None = None,
 ) -> DisplayRow:
-    """One row: ``swazure evaluate`` of ``shape`` at ``size`` FLSs, as ``run`` asks, beta 0.5;
-    held as well where ``size`` is at most ``held_up_to``, and the two compared."""
+    """One row: ``swazure evaluate`` of ``shape`` at ``size`` FLSs, as ``run`` asks (or
+    ``options``, where given), beta 0.5; held as well where ``size`` is at most
+    ``held_up_to``, and the two compared."""
+    options = DISPLAY_RUNS[run] if options is None else options
     with tempfile.TemporaryDirectory(dir=scratch_dir) as scratch:
         blocked, held = Path(scratch) / "blocks", Path(scratch) / "held"
         command = [*SWAZURE, "evaluate", *display_cloud(shape, size), "--beta", "0.5",
-                   *DISPLAY_RUNS[run], "--quiet"]  # fmt: skip
+                   *options, "--quiet"]  # fmt: skip
         print(f"bench: display {shape} {size} {run}", flush=True)
         wall, peak, code = _timed([*command, "--out", str(blocked)], RUN_LIMIT_S)
         summary_path = blocked / SUMMARY_FILE
