@@ -17,12 +17,19 @@ def test_neighbour_pairs_are_every_pair_within_reach_sorted(sensor, seed):
     swarm = random_swarm(seed)
     pairs = neighbour_pairs(swarm, sensor)
     first, second = np.triu_indices(swarm.size, k=1)
-    tracking = centre_distance(swarm.points, first, second) - 2 * swarm.radius
+    distance = centre_distance(swarm.points, first, second)
+    tracking = distance - 2 * swarm.radius
     within = tracking < sensor.decaying_max
     np.testing.assert_array_equal(pairs.first, first[within])
     np.testing.assert_array_equal(pairs.second, second[within])
+    np.testing.assert_array_equal(pairs.distance, distance[within])
     np.testing.assert_array_equal(pairs.tracking, tracking[within])
     np.testing.assert_array_equal(pairs.range_class, sensor.classify(tracking[within]))
+    # A block of first FLSs, within a shorter reach: the whole list's pairs of both.
+    block = neighbour_pairs(swarm, sensor, 100, 250, longest=sensor.sweet_max)
+    chosen = within & (first >= 100) & (first < 250) & (tracking < sensor.sweet_max)
+    for field, expected in (("first", first), ("second", second), ("distance", distance)):
+        np.testing.assert_array_equal(getattr(block, field), expected[chosen])
 
 
 def test_index_finds_a_pair_in_either_order_and_minus_one_for_none(sensor):
