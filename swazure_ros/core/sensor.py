@@ -28,8 +28,9 @@ SWEET = 2  # sweet_min <= t < sweet_max
 DECAYING = 3  # decaying_min <= t < decaying_max
 OUT_OF_RANGE = 4  # beyond, or in a gap between the sweet and decaying ranges
 
-#: Distances from which :meth:`Sensor.classify` runs compiled on every core: five masks
-#: over a region's 100 M candidates took 6 s of a display-size run (BENCHMARKS.md).
+#: Distances from which :meth:`Sensor.classify` runs compiled on every core: its five
+#: masks took 6 s of the race car at 65,536 FLSs, over every block's and region's
+#: candidates (docs/core.md, "Neighbours").
 COMPILED_CLASSES = 1 << 20
 RANGE_NAMES = ("contact", "blind", "sweet", "decaying", "out")
 
