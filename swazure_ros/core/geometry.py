@@ -86,35 +86,15 @@ def centre_distance(points: FloatArray, first: ArrayLike, second: ArrayLike) -> 
     return np.asarray(np.sqrt((dx * dx + dz * dz) + dy * dy), dtype=np.float64)
 
 
-@jit.kernel(cache=True, nogil=True)
-def pair_distance(points: FloatArray, one: int, other: int) -> float:
-    """|p_other - p_one|, cm, compiled: :func:`centre_distance`'s bits for one pair.
-
-    For kernels that measure pairs as they find them (:mod:`.neighbours`):
-    numpy's operations in numpy's order, so that both give the same bits.
-
-    Parameters
-    ----------
-    points : (N, 3) ndarray of float, cm
-        FLS centres.
-    one, other : int
-        Indices into ``points``.
-
-    Returns
-    -------
-    float, cm
-    """
-    dx = points[other, 0] - points[one, 0]
-    dy = points[other, 1] - points[one, 1]
-    dz = points[other, 2] - points[one, 2]
-    return float(np.sqrt((dx * dx + dz * dz) + dy * dy))
-
-
 @jit.kernel(cache=True, parallel=True)
 def _centre_distance(points: FloatArray, first: IntArray, second: IntArray) -> FloatArray:
+    # numpy's operations in numpy's order, so that both give the same bits.
     distance = np.empty(len(first))
     for m in jit.prange(len(first)):
-        distance[m] = pair_distance(points, first[m], second[m])
+        dx = points[second[m], 0] - points[first[m], 0]
+        dy = points[second[m], 1] - points[first[m], 1]
+        dz = points[second[m], 2] - points[first[m], 2]
+        distance[m] = np.sqrt((dx * dx + dz * dz) + dy * dy)
     return distance
 
 
