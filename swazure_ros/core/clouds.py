@@ -349,7 +349,7 @@ def _apart_listed(
 
     The same mask, in the reversed order: a point is kept when none of the
     kept points listed before it is within ``spacing``, their distance
-    computed as :func:`_apart` computes it, so that ties fall alike.
+    judged as :func:`_apart` judges it (:func:`_closer`), so that ties fall alike.
     """
     kept = np.zeros(len(backwards), dtype=np.bool_)
     limit = spacing * spacing
@@ -357,15 +357,20 @@ def _apart_listed(
         clear = True
         for slot in range(rows[node], rows[node + 1]):
             other = earlier[slot]
-            if kept[other]:
-                dx = backwards[other, 0] - backwards[node, 0]
-                dy = backwards[other, 1] - backwards[node, 1]
-                dz = backwards[other, 2] - backwards[node, 2]
-                if dx * dx + dy * dy + dz * dz < limit:
-                    clear = False
-                    break
+            if kept[other] and _closer(backwards, other, node, limit):
+                clear = False
+                break
         kept[node] = clear
     return kept
+
+
+@jit.kernel(cache=True, nogil=True)
+def _closer(points: FloatArray, other: int, node: int, limit: float) -> bool:
+    """Whether ``other`` lies nearer ``node`` than sqrt(``limit``): both thinnings' test."""
+    dx = points[other, 0] - points[node, 0]
+    dy = points[other, 1] - points[node, 1]
+    dz = points[other, 2] - points[node, 2]
+    return bool(dx * dx + dy * dy + dz * dz < limit)
 
 
 @jit.kernel(cache=True)
@@ -385,12 +390,8 @@ def _apart(points: FloatArray, order: IntArray, spacing: float, grid: Grid) -> B
                     key = (ix * shape[1] + iy) * shape[2] + iz
                     for slot in range(cell_start[key], cell_start[key + 1]):
                         other = members[slot]
-                        if kept[other]:
-                            dx = points[other, 0] - points[node, 0]
-                            dy = points[other, 1] - points[node, 1]
-                            dz = points[other, 2] - points[node, 2]
-                            if dx * dx + dy * dy + dz * dz < limit:
-                                clear = False
+                        if kept[other] and _closer(points, other, node, limit):
+                            clear = False
         kept[node] = clear
     return kept
 
