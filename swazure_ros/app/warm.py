@@ -27,7 +27,7 @@ from ..core.measurement_graph import Measurements
 from ..core.observe import observations
 from ..core.paths import POLICIES, SHORTEST_LENGTH
 from ..core.pipeline import RunOptions, run_engine
-from ..core.sensor import DECAYING
+from ..core.sensor import COMPILED_CLASSES, DECAYING
 from ..core.swarm_fit import swarm_solve
 from ..protocol.loops import RunOptions as DiscoveryOptions
 from ..protocol.loops import discover
@@ -50,8 +50,8 @@ def warm_kernels() -> None:
     Each shape runs each policy (and one in blocks of a small budget, as
     ``--memory`` runs), the first the swarm's search, and each heuristic in both
     compatibility modes and as the swarm schedules its moves, fusion, and a world
-    whose FLS moved; then a resample and a distance batch big enough for its
-    compiled path, and the swarm fit's exact sums, an iteration of its conjugate
+    whose FLS moved; then a resample, and distances and range classes of batches big
+    enough for their compiled paths, and the swarm fit's exact sums, an iteration of its conjugate
     gradients and counter-based draws (the fits are otherwise scipy's). What this leaves
     out, each process that needs it compiles at its first call (and numba
     caches): ``make test`` measured 15 kernels compiled by its workers when
@@ -96,6 +96,7 @@ def warm_kernels() -> None:
     # Indices into the few points held, as many as a display's neighbourhood has.
     many = np.arange(COMPILED_PAIRS, dtype=np.int64) % world.swarm.size
     centre_distance(world.swarm.points, many, many[::-1].copy())
+    world.sensor.classify(np.zeros(COMPILED_CLASSES))
     # The swarm fit of a triangle measured from both ends (its draws, blocks, dots, exact
     # sums and the engine's in-place iterations), then an iteration on one FLS's rows, as a
     # process of the swarm steps its FLSs.
