@@ -23,6 +23,7 @@ from ..files.atomic import write_json
 from ..files.reading import available_memory
 from ..files.record import RunRecord, write_record
 from ..files.results import SUMMARY_FILE
+from .allocator import keep_freed_memory
 from .arguments import (
     count,
     memory_size,
@@ -163,6 +164,7 @@ class TqdmProgress:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure evaluate``."""
+    keep_freed_memory()  # its blocks reuse what the last one freed
     args = apply_swarm_file(args)
     args.pairs = pairs_output(args, args.out is not None)
     setup = written_cloud(swarm_setup_from_args(args), args.out)

@@ -32,6 +32,7 @@ from ..study.plan import (
     Technique,
 )
 from ..study.sweep import SweepProgress
+from .allocator import keep_freed_memory
 from .arguments import count, input_file, output_folder, seed
 
 QUICK_BETAS = (0.4, 0.5)
@@ -242,6 +243,7 @@ def plan_from_args(args: argparse.Namespace) -> StudyPlan:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure study``."""
+    keep_freed_memory()  # its runs reuse what the last one freed
     plan = plan_from_args(args)
     notice = fallback_notice(args.clouds)
     if notice is not None:
