@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from ..api.engine import SwarmSetup
+from ..app.allocator import keep_freed_memory
 from ..core.blocks import DEFAULT_MEMORY, Budget
 from ..core.fit import ESTIMATORS, PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
@@ -23,7 +24,6 @@ from ..files.atomic import write_json
 from ..files.reading import available_memory
 from ..files.record import RunRecord, write_record
 from ..files.results import SUMMARY_FILE
-from .allocator import keep_freed_memory
 from .arguments import (
     count,
     memory_size,

@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ..app.allocator import keep_freed_memory
 from ..core.clouds import BUILTIN_SHAPES, Cloud
 from ..core.errors import CloudError, SwazureError
 from ..core.fit import LEAST_SQUARES, PATH
@@ -32,7 +33,6 @@ from ..study.plan import (
     Technique,
 )
 from ..study.sweep import SweepProgress
-from .allocator import keep_freed_memory
 from .arguments import count, input_file, output_folder, seed
 
 QUICK_BETAS = (0.4, 0.5)

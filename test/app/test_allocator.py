@@ -1,4 +1,4 @@
-"""A batch verb's process keeps the memory it frees (``cli.allocator``)."""
+"""A batch verb's process keeps the memory it frees (``app.allocator``)."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def _faults(setup: str) -> dict[str, object]:
 
 @glibc_only
 def test_memory_freed_is_reused_without_faulting_its_pages_again():
-    kept = _faults("from swazure_ros.cli.allocator import keep_freed_memory\n"
+    kept = _faults("from swazure_ros.app.allocator import keep_freed_memory\n"
                    "kept = keep_freed_memory()")  # fmt: skip
     assert kept["kept"] is True
     first, *again = kept["faults"]
@@ -61,6 +61,24 @@ def test_swazure_evaluate_keeps_its_freed_memory(tmp_path):
         "from swazure_ros.cli.main import main\n"
         f"assert main(['evaluate', '--cloud', 'torus:120', '--scale', '5', '--beta', '0.5', "
         f"'--quiet', '--out', {str(tmp_path)!r}]) == 0\n"
+        "kept = True"
+    )
+    measured = _faults(setup)
+    first, *again = measured["faults"]
+    assert all(count < max(first, 100) / 10 for count in again), measured
+
+
+@glibc_only
+def test_swazure_spawns_launcher_keeps_its_freed_memory(domain):
+    # The launcher hosts share 0 and runs the engine's comparison: after a whole
+    # `spawn --compute-all` of two processes, what it frees is kept (its further process
+    # makes the same call as it starts, app.share.host_share).
+    setup = (
+        "from swazure_ros.cli import spawn\n"
+        "from swazure_ros.cli.main import build_parser\n"
+        "args = build_parser(['spawn']).parse_args(['spawn', '--cloud', 'torus:120', "
+        "'--scale', '5', '--beta', '0.5', '--processes', '2', '--compute-all', '--quiet'])\n"
+        "assert spawn.main(args) == 0\n"
         "kept = True"
     )
     measured = _faults(setup)

@@ -1,17 +1,20 @@
-"""How a batch verb's process allocates: memory freed is kept for the next block.
+"""How a process of ours allocates: memory it frees is kept for its next block or round.
 
 A run in blocks (``swazure evaluate``, ``swazure study``) allocates arrays of hundreds
-of MB for each block and frees them after it. glibc's malloc serves each such array
-with a fresh ``mmap`` and gives it back to the kernel when it is freed, so every
+of MB for each block and frees them after it; a swarm's process does the same with each
+phase's label tables (1 GB a phase on the race car). glibc's malloc serves each such
+array with a fresh ``mmap`` and gives it back to the kernel when it is freed, so every
 block faults its pages in again. On a virtual machine that reports free pages to its
 host, a page faulted in again is one the host must back again: on this project's
 2-core machine a GiB first touched costs about 7 s, the same GiB reused 0.12 s
-(BENCHMARKS.md, "Memory kept for the next block"). The race car at 30,000 FLSs
-faulted 982,709 pages and ran 137 s; keeping freed memory, 278,959 pages and 121 s,
-the same pairs.csv and the same peak.
+(BENCHMARKS.md, "Memory kept for the next block"). Kept, the race car's discovery in
+memory took 42-43 s instead of 55-61 s, and the race car at 65,536 FLSs 311-333 s
+instead of 318-357 s, the same pairs.
 
-Long-lived processes (a swarm's) are left as glibc sets them: their memory should go
-back to the machine when a phase is over.
+So ``swazure evaluate``, ``swazure study``, ``swazure spawn``'s launcher and each of its
+further processes keep what they free: their peak is what it was, and each keeps it
+until it exits, to use again in its next run. A process of one FLS allocates little and
+is left as glibc comes.
 """
 
 from __future__ import annotations
