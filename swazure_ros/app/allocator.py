@@ -1,4 +1,4 @@
-"""How a process of ours allocates: memory it frees is kept for its next block or round.
+"""How our long runs allocate: memory a process frees is kept for its next block or round.
 
 A run in blocks (``swazure evaluate``, ``swazure study``) allocates arrays of hundreds
 of MB for each block and frees them after it; a swarm's process does the same with each
@@ -7,45 +7,83 @@ array with a fresh ``mmap`` and gives it back to the kernel when it is freed, so
 block faults its pages in again. On a virtual machine that reports free pages to its
 host, a page faulted in again is one the host must back again: on this project's
 2-core machine a GiB first touched costs about 7 s, the same GiB reused 0.12 s
-(BENCHMARKS.md, "Memory kept for the next block"). Kept, the race car's discovery in
-memory took 42-43 s instead of 55-61 s, and the race car at 65,536 FLSs 311-333 s
-instead of 318-357 s, the same pairs.
+(BENCHMARKS.md, "Memory kept for the next block"). Kept, the race car's discovery over
+ROS took 49-65 s instead of 60-77 s, and the race car at 65,536 FLSs 311-333 s instead
+of 318-357 s, the same pairs.
 
-So ``swazure evaluate``, ``swazure study``, ``swazure spawn``'s launcher and each of its
-further processes keep what they free: their peak is what it was, and each keeps it
-until it exits, to use again in its next run. A process of one FLS allocates little and
-is left as glibc comes.
+glibc reads its malloc settings once, as a program starts, from ``GLIBC_TUNABLES``
+(the glibc manual, "Tunables"): no ``mmap`` for large blocks (``glibc.malloc.mmap_max``
+0) and a heap that is never trimmed (``glibc.malloc.trim_threshold`` its largest). So
+:func:`keep_freed_memory` starts the program again with them, in the same process, before
+it imports anything of weight. The processes it starts inherit them: a swarm's further
+processes, and its processes of one FLS, which allocate little.
 """
 
 from __future__ import annotations
 
-import ctypes
+import os
 import platform
+import sys
+from collections.abc import Mapping
 
-#: glibc's ``mallopt`` parameters (malloc.h).
-M_TRIM_THRESHOLD = -1
-M_MMAP_MAX = -4
+#: Where glibc reads its tunables, as a program starts.
+TUNABLES = "GLIBC_TUNABLES"
+#: Large blocks from the heap, and the heap never given back (2**64 - 1: never trimmed).
+KEEP_FREED = ("glibc.malloc.mmap_max=0", f"glibc.malloc.trim_threshold={2**64 - 1}")
 
 
-def keep_freed_memory() -> bool:
-    """Make this process's malloc keep what it frees, for its own later allocations.
+def keeps_freed_memory(environ: Mapping[str, str]) -> bool:
+    """Whether a program started with ``environ`` keeps the memory it frees (glibc).
 
-    Large allocations come from the heap instead of ``mmap`` (``M_MMAP_MAX`` 0) and
-    the heap is never trimmed (``M_TRIM_THRESHOLD`` -1), as mallopt(3) documents both.
-    The process's peak is unchanged: memory is kept, not added. Call it once, early.
+    Parameters
+    ----------
+    environ : mapping of str to str
+        A process's environment (``os.environ``).
 
     Returns
     -------
     bool
-        True where the C library is glibc and took both settings; False elsewhere
-        (musl, macOS), where nothing changes.
+        True when its ``GLIBC_TUNABLES`` hold both settings of :data:`KEEP_FREED`.
     """
-    if platform.libc_ver()[0] != "glibc":
-        return False
+    given = environ.get(TUNABLES, "").split(":")
+    return all(setting in given for setting in KEEP_FREED)
+
+
+def with_freed_memory_kept(environ: Mapping[str, str]) -> dict[str, str]:
+    """``environ`` with :data:`KEEP_FREED` added to its ``GLIBC_TUNABLES``.
+
+    Parameters
+    ----------
+    environ : mapping of str to str
+        A process's environment; its settings of other tunables are kept, its own
+        settings of these two replaced.
+
+    Returns
+    -------
+    dict of str to str
+        A new environment; ``environ`` is not changed.
+    """
+    ours = {setting.split("=")[0] for setting in KEEP_FREED}
+    given = [item for item in environ.get(TUNABLES, "").split(":") if item]
+    kept = [item for item in given if item.split("=")[0] not in ours]
+    return {**environ, TUNABLES: ":".join([*KEEP_FREED, *kept])}
+
+
+def keep_freed_memory() -> None:
+    """Start this program again, as the same process, keeping the memory it frees.
+
+    Nothing happens where the program already keeps it, or where the C library is
+    not glibc (musl, macOS). Call it first thing in a program's ``main``: the program
+    starts over from its command line (``sys.orig_argv``, the interpreter's own
+    options included), with what it has imported and done so far lost. If the program
+    cannot be started again, it goes on as glibc comes.
+    """
+    if keeps_freed_memory(os.environ) or platform.libc_ver()[0] != "glibc":
+        return
+    arguments = [sys.executable, *sys.orig_argv[1:]]
+    sys.stdout.flush()
+    sys.stderr.flush()
     try:
-        mallopt = ctypes.CDLL(None).mallopt
-    except (OSError, AttributeError):
-        return False
-    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
-    # mallopt returns 1 on success.
-    return bool(mallopt(M_MMAP_MAX, 0) == 1 and mallopt(M_TRIM_THRESHOLD, -1) == 1)
+        os.execve(sys.executable, arguments, with_freed_memory_kept(os.environ))
+    except OSError:
+        return

@@ -27,7 +27,6 @@ from ..ros.plumbing.names import host_name
 from ..ros.plumbing.process import Context
 from ..ros.programs.host import HostConfig, SwarmHost
 from ..ros.security.auth import SwarmKey
-from .allocator import keep_freed_memory
 from .config import SwarmConfig
 from .discovery_server import client_environment
 
@@ -135,7 +134,6 @@ def host_share(
     # Ctrl-C reaches the whole process group; the launcher decides when we stop.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     leave_with_launcher(index)
-    keep_freed_memory()  # each discovery run's tables reuse the last one's memory
     context = host = None
     code = 1
     try:

@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any
 
 from ..api.engine import SwarmSetup
-from ..app.allocator import keep_freed_memory
 from ..core.blocks import DEFAULT_MEMORY, Budget
 from ..core.fit import ESTIMATORS, PATH
 from ..core.heuristics.result import PLAIN, TECHNIQUES
@@ -164,7 +163,6 @@ class TqdmProgress:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure evaluate``."""
-    keep_freed_memory()  # its blocks reuse what the last one freed
     args = apply_swarm_file(args)
     args.pairs = pairs_output(args, args.out is not None)
     setup = written_cloud(swarm_setup_from_args(args), args.out)

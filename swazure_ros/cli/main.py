@@ -11,6 +11,7 @@ from collections.abc import Iterable, Sequence
 from types import ModuleType
 
 from .. import __version__
+from ..app.allocator import keep_freed_memory
 from ..core.errors import RunError, SwazureError
 
 #: Exit codes: a run that failed; the command line or its files unusable (argparse's).
@@ -48,6 +49,11 @@ VERBS: dict[str, str] = {
     "compare": "Compare runs side by side: summaries, differences, error distributions, who did "
     "better where.",
 }
+
+
+#: The verbs whose program keeps the memory it frees (app.allocator): runs in blocks, and
+#: a swarm whose processes allocate each phase's tables anew.
+KEEPS_FREED_MEMORY = frozenset({"evaluate", "study", "spawn"})
 
 
 def verb_module(name: str) -> ModuleType:
@@ -93,6 +99,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     given = list(sys.argv[1:] if argv is None else argv)
     # Only the verb named is loaded (a verb is the first word that is not an option).
     named = next((word for word in given if not word.startswith("-")), None)
+    if argv is None and named in KEEPS_FREED_MEMORY:
+        keep_freed_memory()  # starts the program again, first, where it must
     parser = build_parser([named] if named in VERBS else [])
     args = parser.parse_args(given)
     if args.verb is None:

@@ -28,7 +28,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ..app.allocator import keep_freed_memory
 from ..app.config import AUTO, FLS_SERVICES_UP_TO, NEIGHBOUR_SERVICES
 from ..core.errors import SwazureError
 from ..core.fit import PATH
@@ -395,8 +394,6 @@ def main(args: argparse.Namespace) -> int:
     # that started us in the background made us ignore SIGINT.
     signal.signal(signal.SIGINT, signal.default_int_handler)
     signal.signal(signal.SIGTERM, _interrupt)
-    # The launcher hosts share 0 and runs the engine: each run reuses the last one's memory.
-    keep_freed_memory()
     args = apply_swarm_file(args)
     # A resampled cloud is written beside the outputs, else for the swarm's life only.
     temporary = None

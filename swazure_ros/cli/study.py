@@ -15,7 +15,6 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ..app.allocator import keep_freed_memory
 from ..core.clouds import BUILTIN_SHAPES, Cloud
 from ..core.errors import CloudError, SwazureError
 from ..core.fit import LEAST_SQUARES, PATH
@@ -243,7 +242,6 @@ def plan_from_args(args: argparse.Namespace) -> StudyPlan:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``swazure study``."""
-    keep_freed_memory()  # its runs reuse what the last one freed
     plan = plan_from_args(args)
     notice = fallback_notice(args.clouds)
     if notice is not None:
