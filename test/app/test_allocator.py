@@ -8,6 +8,7 @@ import platform
 import signal
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import pytest
@@ -122,9 +123,12 @@ def test_swazure_spawn_and_its_further_processes_keep_their_freed_memory(domain)
          "--scale", "5", "--beta", "0.5", "--processes", "2"],
         stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=_without_tunables(),
     ) as launcher:  # fmt: skip
+        output: list[str] = []
+        assert launcher.stdout is not None
+        reader = threading.Thread(target=lambda: output.extend(launcher.stdout), daemon=True)
+        reader.start()
         try:
-            assert launcher.stdout is not None
-            assert any("swarm up" in line for line in launcher.stdout)
+            assert wait_until(lambda: any("swarm up" in line for line in output), PATIENCE)
             # The launcher started again as the same process, and its further process
             # (multiprocessing's spawn: a new program) inherited the tunables.
             assert _started_keeping(launcher.pid)
@@ -136,5 +140,5 @@ def test_swazure_spawn_and_its_further_processes_keep_their_freed_memory(domain)
         finally:
             launcher.send_signal(signal.SIGTERM)
             launcher.wait(PATIENCE)
-    assert wait_until(lambda: launcher.returncode is not None, PATIENCE)
+            reader.join(PATIENCE)
     assert launcher.returncode == 0
