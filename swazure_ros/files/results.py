@@ -13,7 +13,6 @@ from __future__ import annotations
 import itertools
 import json
 import os
-from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from functools import partial
@@ -26,6 +25,7 @@ from ..core.errors import OutputError, SwazureError
 from ..core.evaluation import REASON_NAMES, STATUS_NAMES, Evaluation, PairResults
 from ..core.heuristics.result import HeuristicResult, MovedPairs
 from ..core.neighbourhood import Neighbourhood
+from ..core.threads import in_order
 from .atomic import atomic_output, atomic_write, write_json
 from .reading import CONFIG_BYTES, read_text, regular_file
 from .record import RECORD_FILE, RunRecord, write_record
@@ -188,15 +188,10 @@ def write_csv(
     if table.num_rows < THREADED_CSV_ROWS or threads == 1:
         pacsv.write_csv(table, out, pacsv.WriteOptions(include_header=header))
         return
+    starts = range(0, max(table.num_rows, 1), CSV_ROWS)  # an empty table has its header
     with ThreadPoolExecutor(threads) as pool:
-        pending: deque[Future[Any]] = deque()
-        # An empty table still has its header.
-        for start in range(0, max(table.num_rows, 1), CSV_ROWS):
-            pending.append(pool.submit(text, start))
-            if len(pending) > threads:
-                out.write(pending.popleft().result())
-        while pending:
-            out.write(pending.popleft().result())
+        for text_of_slice in in_order(pool, text, starts, threads + 1):
+            out.write(text_of_slice)
 
 
 def write_evaluation(
