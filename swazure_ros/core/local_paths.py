@@ -37,16 +37,16 @@ holds every decaying pair.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
+from functools import partial
+from typing import NamedTuple
 
 import numpy as np
-from numpy.typing import NDArray
 
-from . import csr, jit
+from . import csr
 from .arrays import BoolArray, FloatArray, IntArray
-from .fans import obstructed_fans
-from .geometry import Swarm
-from .grid import Grid
+from .judged_sight import JudgedSight
 from .neighbourhood import Neighbourhood
 from .neighbours import NeighbourPairs, neighbour_pairs, sensor_reach
 from .pair_scan import EVERY_PAIR, Affordable
@@ -55,6 +55,7 @@ from .path_arrays import Paths, path_hops
 from .paths import FEWEST_HOPS, LEAST_ERROR, check_policy, shortest_paths
 from .progress import Progress
 from .sensor import DECAYING, SWEET, Sensor
+from .threads import in_order
 
 
 def least_cost_per_cm(sensor: Sensor, radius: float, policy: str) -> float:
@@ -201,9 +202,7 @@ def local_decaying_paths(
         raise ValueError("the pairs must be sorted by source")
     swarm, sensor = sweet.swarm, sweet.sensor
     points = swarm.points
-    # The longest edge's span, and a first margin: what a path of two sweet hops between
-    # two blind FLSs needs.
-    reach = max(sensor.sweet_max, sensor.decaying_max) + 2.0 * swarm.radius
+    # A first margin: what a path of two sweet hops between two blind FLSs needs.
     two_hops = 2.0 if policy == FEWEST_HOPS else 2.0 * sensor.sweet_max
     margins = np.full(len(source), (two_hops / ratio + sensor.sweet_min + 2.0 * swarm.radius) / 2)
     progress.start("decaying paths near their pairs", len(source))
@@ -212,51 +211,92 @@ def local_decaying_paths(
     hopped: list[NeighbourPairs] = []
     rounds = regions = 0
     proven_in = np.zeros(len(source))
-    sight = _Sight(swarm.size)
+    sight = JudgedSight(swarm.size)
     weights = _Weights(sweet, policy, ratio, candidates)
-    while len(pending):
-        rounds += 1
-        settled = [np.empty(0, dtype=np.int64)]
-        for tile in _tiles(points, source[pending], margins[pending], weights, limit):
-            regions += 1
-            rows = pending[np.isin(source[pending], tile)]
-            # Each source's radius: the widest its pairs need, one of a few steps.
-            radius = _stepped(margins[rows])
-            radius_of = np.zeros(swarm.size)
-            np.maximum.at(radius_of, source[rows], radius)
-            slack = _slack(points, tile, radius_of[tile])
-            inside = slack >= 0.0
-            longest = longest_edge(policy, ratio, swarm.radius, float(radius.max()))
-            # A graph without the longer decaying pairs, or without the pairs no path of
-            # its sources hops over, proves no pair apart.
-            whole = longest >= sensor.decaying_max
-            on_paths = None if whole else _OnPaths(policy, ratio, slack, swarm.radius)
-            hood = _region(sweet, inside, sight, longest, on_paths)
-            paths = shortest_paths(
-                hood.any_visible, source[rows], target[rows], policy,
-                components=hood.any_visible_components,
-            )  # fmt: skip
-            cost = paths.hops if policy == FEWEST_HOPS else paths.length
-            spread = np.linalg.norm(points[target[rows]] - points[source[rows]], axis=1)
-            mine = radius_of[source[rows]]
-            needed = np.where(paths.found, (cost / ratio + spread) / 2.0, WIDER * mine)
-            proven = paths.found & (needed <= mine)
-            if whole:
-                apart = ~paths.found & _closed(hood, inside, slack, source[rows], reach)
-                proven |= apart | inside.all()
-            if proven.any():
-                done = np.flatnonzero(proven)
-                proven_in[rows[done]] = mine[done]
-                kept.append((rows[done], paths.take(done)))
-                hopped.append(_hopped(hood, kept[-1][1]))
-                progress.advance(len(done))
-            # A path found in a region is no shorter than SD_vis's, often far longer (it
-            # went round what the region lacked): a step wider, not the ball it needs.
-            margins[rows] = np.maximum(np.minimum(needed, WIDER * mine), mine * (1.0 + 1e-9))
-            settled.append(rows[proven])
-        pending = np.setdiff1d(pending, np.concatenate(settled), assume_unique=True)
+    with ThreadPoolExecutor(REGIONS_AT_ONCE, thread_name_prefix="region") as pool:
+        while len(pending):
+            rounds += 1
+            settled = [np.empty(0, dtype=np.int64)]
+            tiles = _tiles(points, source[pending], margins[pending], weights, limit)
+            regions_of = ((tile, pending[np.isin(source[pending], tile)]) for tile in tiles)
+            search = partial(
+                _searched_region, sweet, policy, ratio, source, target, margins, sight
+            )
+            for found in in_order(pool, search, regions_of, REGIONS_AT_ONCE):
+                regions += 1
+                rows, done = found.rows, np.flatnonzero(found.proven)
+                if len(done):
+                    proven_in[rows[done]] = found.radius[done]
+                    kept.append((rows[done], found.paths.take(done)))
+                    hopped.append(found.hopped)
+                    progress.advance(len(done))
+                settled.append(rows[done])
+            pending = np.setdiff1d(pending, np.concatenate(settled), assume_unique=True)
     paths = _in_order(len(source), kept)
     return LocalPaths(paths, _sorted_once(hopped), rounds, regions, sight.judged, proven_in)
+
+
+#: Regions searched at once, each on a thread of its own: a region's numpy work between
+#: its compiled kernels leaves a core idle much of its time, which another region fills.
+#: Their results are taken in order, so the run is the same with one at a time.
+REGIONS_AT_ONCE = 2
+
+
+class _Searched(NamedTuple):
+    """What one region found for its pairs (rows of the pairs searched)."""
+
+    rows: IntArray  # (R,)
+    paths: Paths  # (R,) each pair's path in the region
+    proven: BoolArray  # (R,) whether the region proves the pair's path SD_vis's
+    radius: FloatArray  # (R,) the radius about its source of the region, cm
+    hopped: NeighbourPairs  # the decaying pairs the proven paths hop over
+
+
+def _searched_region(
+    sweet: Neighbourhood,
+    policy: str,
+    ratio: float,
+    source: IntArray,
+    target: IntArray,
+    margins: FloatArray,
+    sight: JudgedSight,
+    region: tuple[IntArray, IntArray],
+) -> _Searched:
+    """Search the pairs ``rows`` of the sources ``tile`` (``region``) in the region of the
+    sources' balls (radii from ``margins``, which get each pair's next margin: a region's
+    rows are its own)."""
+    swarm, sensor, points = sweet.swarm, sweet.sensor, sweet.swarm.points
+    tile, rows = region
+    # Each source's radius: the widest its pairs need, one of a few steps.
+    radius = _stepped(margins[rows])
+    radius_of = np.zeros(swarm.size)
+    np.maximum.at(radius_of, source[rows], radius)
+    slack = _slack(points, tile, radius_of[tile])
+    inside = slack >= 0.0
+    longest = longest_edge(policy, ratio, swarm.radius, float(radius.max()))
+    # A graph without the longer decaying pairs, or without the pairs no path of its
+    # sources hops over, proves no pair apart.
+    whole = longest >= sensor.decaying_max
+    on_paths = None if whole else _OnPaths(policy, ratio, slack, swarm.radius)
+    hood = _region(sweet, inside, sight, longest, on_paths)
+    paths = shortest_paths(
+        hood.any_visible, source[rows], target[rows], policy,
+        components=hood.any_visible_components,
+    )  # fmt: skip
+    cost = paths.hops if policy == FEWEST_HOPS else paths.length
+    spread = np.linalg.norm(points[target[rows]] - points[source[rows]], axis=1)
+    mine = radius_of[source[rows]]
+    needed = np.where(paths.found, (cost / ratio + spread) / 2.0, WIDER * mine)
+    proven = paths.found & (needed <= mine)
+    if whole:
+        reach = max(sensor.sweet_max, sensor.decaying_max) + 2.0 * swarm.radius
+        apart = ~paths.found & _closed(hood, inside, slack, source[rows], reach)
+        proven |= apart | inside.all()
+    hopped = _hopped(hood, paths.take(np.flatnonzero(proven)))
+    # A path found in a region is no shorter than SD_vis's, often far longer (it went
+    # round what the region lacked): a step wider, not the ball it needs.
+    margins[rows] = np.maximum(np.minimum(needed, WIDER * mine), mine * (1.0 + 1e-9))
+    return _Searched(rows, paths, proven, mine, hopped)
 
 
 #: A group of sources is cut in two only where the halves' regions weigh at most this
@@ -381,85 +421,6 @@ def _slack(points: FloatArray, centres: IntArray, radii: FloatArray) -> FloatArr
     return slack
 
 
-class _Sight:
-    """The decaying pairs' line of sight as the regions judged it, each pair judged once.
-
-    A pair is judged in the first region that holds it, and its sight read back in every
-    later one: regions overlap, and sight is most of their work. A pair's sight is the
-    whole swarm's (every FLS may block it), so one record serves every region: an
-    open-addressing hash of the pairs' keys (``first * N + second``), twice over with
-    their sight as the lowest bit, at most three quarters full (11 to 21 bytes a pair).
-    """
-
-    def __init__(self, size: int) -> None:
-        self.size = size
-        self.table = np.full(1024, _NO_PAIR, dtype=np.int64)
-        self.judged = 0  # pairs judged so far
-
-    def of(self, swarm: Swarm, grid: Grid, first: IntArray, second: IntArray) -> BoolArray:
-        """Whether each decaying pair first[m]-second[m] is in sight, judging those no
-        region judged before. ``grid``: the swarm's line-of-sight grid
-        (:func:`.grid.build_grid`), built once for every region."""
-        keys = first * self.size + second
-        state = np.empty(len(first), dtype=np.int8)
-        _read_back(self.table, _shift(self.table), keys, state)
-        visible = state > 0
-        new = np.flatnonzero(state < 0)
-        visible[new] = ~obstructed_fans(
-            swarm.points, swarm.radius, first[new], second[new], grid=grid
-        )
-        self.judged += len(new)
-        size = len(self.table)
-        while 4 * self.judged > 3 * size:  # doubled: each pair is entered a few times
-            size *= 2
-        if size > len(self.table):
-            wider = np.full(size, _NO_PAIR, dtype=np.int64)
-            _enter(wider, _shift(wider), self.table[self.table != _NO_PAIR])
-            self.table = wider
-        _enter(self.table, _shift(self.table), 2 * keys[new] + visible[new])
-        return visible
-
-
-#: An empty place of :class:`_Sight`'s hash (a pair's key halved is never -1).
-_NO_PAIR = -1
-#: Fibonacci hashing's multiplier (2**64 over the golden ratio, odd): the keys of one
-#: FLS's pairs, consecutive, spread over the table.
-_FIBONACCI = np.uint64(0x9E3779B97F4A7C15)
-
-
-def _shift(table: IntArray) -> int:
-    """What a hash's product is shifted right by to place a key in ``table`` (2**k long)."""
-    return 64 - (len(table).bit_length() - 1)
-
-
-@jit.kernel(cache=True, nogil=True)
-def _home(table: IntArray, shift: int, key: int) -> np.int64:
-    """Where a pair's ``key`` is in ``table``, or the empty place it goes: its hash's
-    place, then the next ones."""
-    # In uint64 throughout: numba's int64 and uint64 make a float64.
-    at = (np.uint64(key) * _FIBONACCI) >> np.uint64(shift)
-    mask = np.uint64(len(table) - 1)
-    while table[at] != _NO_PAIR and table[at] >> 1 != key:
-        at = (at + np.uint64(1)) & mask
-    return np.int64(at)
-
-
-@jit.kernel(cache=True, nogil=True)
-def _enter(table: IntArray, shift: int, values: IntArray) -> None:
-    """Enter ``values`` (a pair's key twice over plus its sight) in ``table``."""
-    for value in values:
-        table[_home(table, shift, value >> 1)] = value
-
-
-@jit.kernel(cache=True, parallel=True)
-def _read_back(table: IntArray, shift: int, keys: IntArray, state: NDArray[np.int8]) -> None:
-    """Each pair's sight as a region judged it: ``state`` 1 in sight, 0 not, -1 not
-    judged yet."""
-    for m in jit.prange(len(keys)):
-        value = table[_home(table, shift, keys[m])]
-        state[m] = -1 if value == _NO_PAIR else value & 1
-
-
 @dataclass(frozen=True)
 class _OnPaths:
     """Which pairs of a region can be hops of its sources' paths (:func:`longest_edge`).
@@ -492,7 +453,7 @@ class _OnPaths:
 def _region(
     sweet: Neighbourhood,
     inside: BoolArray,
-    sight: _Sight,
+    sight: JudgedSight,
     longest: float,
     on_paths: _OnPaths | None,
 ) -> Neighbourhood:

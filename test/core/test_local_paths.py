@@ -10,14 +10,12 @@ from swazure_ros.core.blocks import BlockedEvaluation, Budget, evaluate_blocked,
 from swazure_ros.core.errors import SwazureError
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.geometry import make_swarm
-from swazure_ros.core.grid import build_grid
 from swazure_ros.core.heuristics.compat import COMPAT_MODES
 from swazure_ros.core.heuristics.folding import run_technique
 from swazure_ros.core.heuristics.regions import TechniqueBlocks
 from swazure_ros.core.local_paths import (
     WIDER,
     _OnPaths,
-    _Sight,
     _slack,
     _stepped,
     least_cost_per_cm,
@@ -32,7 +30,6 @@ from swazure_ros.core.paths import shortest_paths
 from swazure_ros.core.pipeline import RunOptions, run_engine
 from swazure_ros.core.progress import SILENT
 from swazure_ros.core.sensor import DECAYING
-from swazure_ros.core.sight import obstructed
 from swazure_ros.files.results import write_evaluation, write_pair_blocks
 
 from ..conftest import SCENE
@@ -171,6 +168,26 @@ def test_paths_searched_near_their_pairs_are_those_of_sd_vis_held_whole(sensor, 
     classes = hood.pairs.range_class[hood.pairs.index(ends[:, 0], ends[:, 1])]
     decaying = {tuple(pair) for pair in ends[classes == DECAYING].tolist()}
     assert set(zip(first.tolist(), second.tolist(), strict=True)) == decaying
+
+
+@pytest.mark.parametrize("policy", POLICIES)
+def test_regions_searched_side_by_side_give_what_one_at_a_time_gives(sensor, policy, monkeypatch):
+    swarm = plane()
+    hood = neighbourhood(swarm, sensor)
+    source, target = apart_in_sight(hood)
+    counts = pair_counts(swarm, sensor)
+    runs = []
+    for at_once in (1, 2, 3):
+        monkeypatch.setattr(local_paths, "REGIONS_AT_ONCE", at_once)
+        runs.append(local_decaying_paths(hood, policy, source, target, counts, 40 * 200, SILENT))
+    one = runs[0]
+    assert one.regions >= 3  # the premise: several regions, so some ran side by side
+    for other in runs[1:]:
+        assert_same_paths(other.paths, one.paths)
+        assert (other.rounds, other.regions, other.judged) == (one.rounds, one.regions, one.judged)
+        assert np.array_equal(other.radius, one.radius)
+        for name in ("first", "second", "distance", "range_class"):
+            assert np.array_equal(getattr(other.hopped, name), getattr(one.hopped, name))
 
 
 def test_a_path_its_first_region_cannot_prove_is_searched_again_a_step_wider(sensor):
@@ -358,28 +375,3 @@ def test_each_fls_lies_as_far_inside_its_deepest_ball_as_measured_and_outside_no
     assert np.isinf(slack).sum() == np.isinf(expected).sum() > 300  # most FLSs in no ball
     assert np.allclose(slack[np.isfinite(expected)], expected[np.isfinite(expected)])
     assert (slack[centres] == radii).all()
-
-
-def test_a_pair_s_sight_is_judged_once_and_read_back_in_later_regions(sensor, monkeypatch):
-    # 1,600 FLSs' decaying pairs asked in three overlapping sets, over 3,000 pairs in all:
-    # the hash is widened at least twice on the way and every answer is the scan's.
-    swarm = plane()
-    every = neighbour_pairs(swarm, sensor)
-    decaying = every.range_class == DECAYING
-    first, second = every.first[decaying], every.second[decaying]
-    expected = ~obstructed(swarm.points, swarm.radius, first, second)
-    asked = []
-    real = local_paths.obstructed_fans
-
-    def judged(points, radius, ends, others, **kwargs):
-        asked.extend(zip(ends.tolist(), others.tolist()))
-        return real(points, radius, ends, others, **kwargs)
-
-    monkeypatch.setattr(local_paths, "obstructed_fans", judged)
-    sight, grid = _Sight(swarm.size), build_grid(swarm.points, swarm.radius)
-    for part in (slice(0, 2000), slice(1000, 3500), slice(0, len(first))):
-        seen = sight.of(swarm, grid, first[part], second[part])
-        assert np.array_equal(seen, expected[part])
-    assert len(first) > 3000 and 0.05 < expected.mean() < 0.95
-    assert sight.judged == len(asked) == len(set(asked)) == len(first)
-    assert len(sight.table) >= 4096
