@@ -89,6 +89,31 @@ def kernel(
     return decorate
 
 
+#: numba's threading layers that parallel kernels may be started from several threads at
+#: once on; its own ``workqueue`` ends the process when two threads start one together.
+THREADSAFE_LAYERS = ("omp", "tbb")
+
+
+def concurrent_kernels() -> bool:
+    """Whether parallel kernels may run on several Python threads at once.
+
+    Returns
+    -------
+    bool
+        True when kernels are interpreted, or numba's threading layer, loaded
+        by a parallel kernel already, is one of :data:`THREADSAFE_LAYERS`;
+        False under ``workqueue`` or before any parallel kernel has run (the
+        layer is not chosen yet, and may be ``workqueue``).
+    """
+    if INTERPRET:
+        return True
+    numba = importlib.import_module("numba")
+    try:
+        return numba.threading_layer() in THREADSAFE_LAYERS
+    except ValueError:  # no parallel kernel has run: the layer is not loaded
+        return False
+
+
 def _with_kernels_resolved(function: Callable[..., Any], own: Kernel[Any, Any]) -> Any:
     """``function`` over a copy of its globals in which each other kernel is its compiled one.
 

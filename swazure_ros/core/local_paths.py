@@ -44,7 +44,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import csr
+from . import csr, jit
 from .arrays import BoolArray, FloatArray, IntArray
 from .judged_sight import JudgedSight
 from .neighbourhood import Neighbourhood
@@ -213,7 +213,8 @@ def local_decaying_paths(
     proven_in = np.zeros(len(source))
     sight = JudgedSight(swarm.size)
     weights = _Weights(sweet, policy, ratio, candidates)
-    with ThreadPoolExecutor(REGIONS_AT_ONCE, thread_name_prefix="region") as pool:
+    at_once = REGIONS_AT_ONCE if jit.concurrent_kernels() else 1
+    with ThreadPoolExecutor(at_once, thread_name_prefix="region") as pool:
         while len(pending):
             rounds += 1
             settled = [np.empty(0, dtype=np.int64)]
@@ -222,7 +223,7 @@ def local_decaying_paths(
             search = partial(
                 _searched_region, sweet, policy, ratio, source, target, margins, sight
             )
-            for found in in_order(pool, search, regions_of, REGIONS_AT_ONCE):
+            for found in in_order(pool, search, regions_of, at_once):
                 regions += 1
                 rows, done = found.rows, np.flatnonzero(found.proven)
                 if len(done):
@@ -238,7 +239,8 @@ def local_decaying_paths(
 
 #: Regions searched at once, each on a thread of its own: a region's numpy work between
 #: its compiled kernels leaves a core idle much of its time, which another region fills.
-#: Their results are taken in order, so the run is the same with one at a time.
+#: Their results are taken in order, so the run is the same with one at a time; one at a
+#: time where numba's threading layer is not threadsafe (:func:`.jit.concurrent_kernels`).
 REGIONS_AT_ONCE = 2
 
 

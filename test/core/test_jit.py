@@ -53,3 +53,44 @@ def test_a_kernel_keeps_its_compiled_function_and_leaves_its_module_alone():
     name, one = next(iter(kernels.items()))
     assert one.compiled() is one.compiled()
     assert getattr(geometry, name) is one
+
+
+#: Whether parallel kernels may run on two threads at once, before and after one ran.
+LAYER = """
+import numba
+from swazure_ros.core import jit
+
+before = jit.concurrent_kernels()
+
+
+@numba.njit(parallel=True)
+def total(n):
+    sum = 0.0
+    for i in numba.prange(n):
+        sum += i
+    return sum
+
+
+total(100)
+print(before, jit.concurrent_kernels(), numba.threading_layer())
+"""
+
+
+def concurrent(layer: str | None) -> list[str]:
+    environment = {k: v for k, v in os.environ.items() if k != "NUMBA_THREADING_LAYER"}
+    if layer is not None:
+        environment["NUMBA_THREADING_LAYER"] = layer
+    out = subprocess.run(
+        [sys.executable, "-c", LAYER],
+        capture_output=True, text=True, timeout=300, check=True, env=environment,
+    ).stdout  # fmt: skip
+    return out.split()
+
+
+def test_parallel_kernels_run_on_two_threads_only_on_a_threadsafe_layer_once_loaded():
+    # numba's workqueue ends the process when two threads start parallel kernels together.
+    assert concurrent("workqueue") == ["False", "False", "workqueue"]
+    # As this machine loads it: omp where an OpenMP runtime is found, else workqueue.
+    before, after, layer = concurrent(None)
+    assert before == "False"  # not loaded yet: it may be workqueue
+    assert after == str(layer in ("omp", "tbb"))

@@ -1,6 +1,10 @@
 """Decaying paths searched near their pairs are the paths SD_vis held whole gives."""
 
+import os
+import subprocess
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -375,3 +379,45 @@ def test_each_fls_lies_as_far_inside_its_deepest_ball_as_measured_and_outside_no
     assert np.isinf(slack).sum() == np.isinf(expected).sum() > 300  # most FLSs in no ball
     assert np.allclose(slack[np.isfinite(expected)], expected[np.isfinite(expected)])
     assert (slack[centres] == radii).all()
+
+
+#: Decaying paths near their pairs in a process of their own, numba's layer as its
+#: environment says; prints the regions searched.
+ON_A_LAYER = """
+import numpy as np
+from swazure_ros.core.local_paths import local_decaying_paths
+from swazure_ros.core.neighbourhood import neighbourhood
+from swazure_ros.core.neighbours import pair_counts
+from swazure_ros.core.progress import SILENT
+from swazure_ros.core.sensor import Sensor
+from test.core.test_local_paths import apart_in_sight, plane
+
+sensor = Sensor(6.0, 8.0, 8.0, 30.0, (0.00180987, -0.02756392, 0.11561755), "published")
+swarm = plane()
+hood = neighbourhood(swarm, sensor)
+source, target = apart_in_sight(hood)
+near = local_decaying_paths(
+    hood, "shortest-length", source, target, pair_counts(swarm, sensor), 40 * 200, SILENT
+)
+print(near.regions, int(near.paths.found.sum()))
+"""
+
+
+def test_regions_are_searched_one_at_a_time_where_numba_s_layer_is_not_threadsafe():
+    # Two regions at once would start parallel kernels on two threads, which numba's
+    # workqueue answers by ending the process (SIGABRT).
+    root = Path(__file__).resolve().parents[2]
+    runs = {}
+    for layer in ("workqueue", "omp"):
+        environment = {**os.environ, "NUMBA_THREADING_LAYER": layer}
+        done = subprocess.run(
+            [sys.executable, "-c", ON_A_LAYER],
+            capture_output=True, text=True, timeout=600, env=environment, cwd=root,
+        )  # fmt: skip
+        if layer == "omp" and "No threading layer could be loaded" in done.stderr:
+            continue  # no OpenMP runtime on this machine: workqueue alone is judged
+        assert done.returncode == 0, done.stderr[-2000:]
+        runs[layer] = done.stdout.split()
+    regions, found = (int(value) for value in runs["workqueue"])
+    assert regions >= 3 and found > 20
+    assert runs.get("omp", runs["workqueue"]) == runs["workqueue"]
