@@ -32,12 +32,14 @@ def public_functions() -> dict[str, object]:
 
 
 def expected_sections(function: object) -> list[str]:
-    """Parameters when it takes any, Returns when it returns something (numpydoc's rule),
-    Raises when its own code raises."""
+    """Parameters when it takes any, Returns when it returns something (numpydoc's rule;
+    Yields for a generator), Raises when its own code raises."""
     plain = function.function if isinstance(function, jit.Kernel) else function
     signature = inspect.signature(plain)
     sections = ["Parameters"] if signature.parameters else []
-    if signature.return_annotation not in ("None", None):
+    if inspect.isgeneratorfunction(plain):
+        sections.append("Yields")
+    elif signature.return_annotation not in ("None", None):
         sections.append("Returns")
     if "raise " in inspect.getsource(inspect.unwrap(plain)):
         sections.append("Raises")
