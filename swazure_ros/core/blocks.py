@@ -24,8 +24,10 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
-from typing import Any
+from functools import partial
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -54,6 +56,7 @@ from .progress import Progress, Started
 from .sensor import BLIND, DECAYING, SWEET, Sensor
 from .sight import obstructed
 from .summary import Summary
+from .threads import in_order, kernel_threads
 
 #: Bytes a block holds per ordered blind pair at its peak: paths, hop tables,
 #: estimates, errors and the table written from them (measured: the race car).
@@ -227,18 +230,18 @@ def lean_neighbourhood(
     blind_first: list[IntArray] = []
     blind_second: list[IntArray] = []
     counts = NeighbourCounts(0, 0, 0)
-    for start, stop in blocks:
-        pairs = neighbour_pairs(swarm, sensor, start, stop, reach_grid)
-        counts = counts + NeighbourCounts.of(pairs)
-        blind = pairs.range_class == BLIND
-        blind_first.append(pairs.first[blind])
-        blind_second.append(pairs.second[blind])
-        part, visible = _in_sight(swarm, pairs, SWEET, sight_grid)
-        sweet.append(part)
-        sweet_sight.append(visible)
-        if at_once:
-            _keep(seen, *_in_sight(swarm, pairs, DECAYING, sight_grid))
-        progress.advance(int(candidates[start:stop].sum()))
+    found = partial(_block_pairs, swarm, sensor, reach_grid, sight_grid, at_once)
+    threads = kernel_threads(BLOCKS_AT_ONCE)
+    with ThreadPoolExecutor(threads, thread_name_prefix="block") as pool:
+        for (start, stop), block in zip(blocks, in_order(pool, found, blocks, threads)):
+            counts = counts + block.counts
+            blind_first.append(block.blind_first)
+            blind_second.append(block.blind_second)
+            sweet.append(block.sweet)
+            sweet_sight.append(block.sweet_visible)
+            if block.decaying is not None:
+                _keep(seen, *block.decaying)
+            progress.advance(int(candidates[start:stop].sum()))
     rows, targets = ordered_rows(
         swarm.size, np.concatenate(blind_first), np.concatenate(blind_second)
     )
@@ -251,6 +254,40 @@ def lean_neighbourhood(
         swarm, sensor, budget, blocks, sweet_hood, BlindRows(rows, targets), candidates, None
     )
     return replace(lean, whole=_whole(lean, seen)) if at_once else lean
+
+
+#: Blocks of FLSs whose pairs are found and judged at once, each on a thread of its own:
+#: between its compiled kernels a block's numpy work leaves a core idle, which the next
+#: block fills. Taken in order, so the neighbourhood is the same with one at a time.
+BLOCKS_AT_ONCE = 2
+
+
+class _BlockPairs(NamedTuple):
+    """What :func:`lean_neighbourhood` keeps of a block of FLSs' candidate pairs."""
+
+    counts: NeighbourCounts
+    blind_first: IntArray
+    blind_second: IntArray
+    sweet: NeighbourPairs
+    sweet_visible: BoolArray
+    decaying: tuple[NeighbourPairs, BoolArray] | None  # with their sight, where kept
+
+
+def _block_pairs(
+    swarm: Swarm,
+    sensor: Sensor,
+    reach_grid: Grid,
+    sight_grid: Grid,
+    with_decaying: bool,
+    block: tuple[int, int],
+) -> _BlockPairs:
+    """The pairs of the FLSs ``block`` (start, stop) as first, sorted into what is kept."""
+    pairs = neighbour_pairs(swarm, sensor, *block, reach_grid)
+    blind = pairs.range_class == BLIND
+    sweet, visible = _in_sight(swarm, pairs, SWEET, sight_grid)
+    decaying = _in_sight(swarm, pairs, DECAYING, sight_grid) if with_decaying else None
+    counts = NeighbourCounts.of(pairs)
+    return _BlockPairs(counts, pairs.first[blind], pairs.second[blind], sweet, visible, decaying)
 
 
 def _keep(seen: dict[str, list[NDArray[Any]]], pairs: NeighbourPairs, visible: BoolArray) -> None:

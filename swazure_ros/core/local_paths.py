@@ -44,7 +44,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import csr, jit
+from . import csr
 from .arrays import BoolArray, FloatArray, IntArray
 from .judged_sight import JudgedSight
 from .neighbourhood import Neighbourhood
@@ -55,7 +55,7 @@ from .path_arrays import Paths, path_hops
 from .paths import FEWEST_HOPS, LEAST_ERROR, check_policy, shortest_paths
 from .progress import Progress
 from .sensor import DECAYING, SWEET, Sensor
-from .threads import in_order
+from .threads import in_order, kernel_threads
 
 
 def least_cost_per_cm(sensor: Sensor, radius: float, policy: str) -> float:
@@ -213,7 +213,7 @@ def local_decaying_paths(
     proven_in = np.zeros(len(source))
     sight = JudgedSight(swarm.size)
     weights = _Weights(sweet, policy, ratio, candidates)
-    at_once = REGIONS_AT_ONCE if jit.concurrent_kernels() else 1
+    at_once = kernel_threads(REGIONS_AT_ONCE)
     with ThreadPoolExecutor(at_once, thread_name_prefix="region") as pool:
         while len(pending):
             rounds += 1
@@ -240,7 +240,7 @@ def local_decaying_paths(
 #: Regions searched at once, each on a thread of its own: a region's numpy work between
 #: its compiled kernels leaves a core idle much of its time, which another region fills.
 #: Their results are taken in order, so the run is the same with one at a time; one at a
-#: time where numba's threading layer is not threadsafe (:func:`.jit.concurrent_kernels`).
+#: time where numba's threading layer is not threadsafe (:func:`.threads.kernel_threads`).
 REGIONS_AT_ONCE = 2
 
 

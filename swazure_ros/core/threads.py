@@ -15,6 +15,8 @@ from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Executor, Future
 from typing import TypeVar
 
+from . import jit
+
 Item = TypeVar("Item")
 Result = TypeVar("Result")
 
@@ -63,3 +65,20 @@ def in_order(
             yield running.popleft().result()
     while running:
         yield running.popleft().result()
+
+
+def kernel_threads(count: int) -> int:
+    """How many pieces of work that start parallel kernels may run at once.
+
+    Parameters
+    ----------
+    count : int
+        The pieces wanted at once.
+
+    Returns
+    -------
+    int
+        ``count`` where numba's threading layer lets several threads start
+        parallel kernels (:func:`.jit.concurrent_kernels`), else 1.
+    """
+    return count if jit.concurrent_kernels() else 1

@@ -6,6 +6,7 @@ from dataclasses import fields, replace
 import numpy as np
 import pytest
 
+from swazure_ros.core import blocks
 from swazure_ros.core.blocks import (
     PAIR_BYTES,
     BlockedEvaluation,
@@ -20,6 +21,7 @@ from swazure_ros.core.evaluation import PairResults
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.graph import Graph
 from swazure_ros.core.neighbourhood import NeighbourGraphs
+from swazure_ros.core.neighbours import pair_counts
 from swazure_ros.core.pair_statistics import PairTally
 from swazure_ros.core.progress import SILENT
 from swazure_ros.files.cloud_files import load_cloud
@@ -97,8 +99,6 @@ def test_a_blocked_pair_falls_back_to_its_decaying_path_as_the_whole_evaluation_
 
 def test_each_block_is_evaluated_once_the_first_to_need_decaying_pairs_too(sensor, monkeypatch):
     # Whether a block needs them is known from the parts of S_vis, before its searches.
-    import swazure_ros.core.blocks as blocks
-
     evaluated = []
     monkeypatch.setattr(
         blocks,
@@ -165,6 +165,30 @@ def test_the_lean_neighbourhood_keeps_sweet_pairs_and_decaying_pairs_in_sight(se
         )
     np.testing.assert_array_equal(lean.whole.visible, whole.visible[kept])
     assert lean.whole.counts == whole.counts
+
+
+@pytest.mark.parametrize("decaying", [False, True], ids=["sweet-only", "decaying-kept"])
+def test_blocks_found_side_by_side_give_the_neighbourhood_one_at_a_time_gives(
+    sensor, decaying, monkeypatch
+):
+    swarm = shape("helix:200")
+    # The smallest budget keeps no decaying pair; 100 bytes a candidate keeps them all.
+    budget = Budget(100 * int(pair_counts(swarm, sensor).sum())) if decaying else SMALL
+    runs = []
+    for at_once in (1, 2, 3):
+        monkeypatch.setattr(blocks, "BLOCKS_AT_ONCE", at_once)
+        runs.append(lean_neighbourhood(swarm, sensor, budget, SILENT))
+    one = runs[0]
+    assert len(one.blocks) > 1 and (one.whole is not None) == decaying
+    for other in runs[1:]:
+        hoods = [(other.sweet, one.sweet)] + ([(other.whole, one.whole)] if decaying else [])
+        for got, want in hoods:
+            for name in ("first", "second", "distance", "tracking", "range_class"):
+                np.testing.assert_array_equal(getattr(got.pairs, name), getattr(want.pairs, name))
+            np.testing.assert_array_equal(got.visible, want.visible)
+            assert got.counts == want.counts
+        np.testing.assert_array_equal(other.blind.rows, one.blind.rows)
+        np.testing.assert_array_equal(other.blind.targets, one.blind.targets)
 
 
 def test_the_summary_waits_for_every_block(sensor):

@@ -59,6 +59,7 @@ def test_a_kernel_keeps_its_compiled_function_and_leaves_its_module_alone():
 LAYER = """
 import numba
 from swazure_ros.core import jit
+from swazure_ros.core.threads import kernel_threads
 
 before = jit.concurrent_kernels()
 
@@ -72,7 +73,7 @@ def total(n):
 
 
 total(100)
-print(before, jit.concurrent_kernels(), numba.threading_layer())
+print(before, jit.concurrent_kernels(), numba.threading_layer(), kernel_threads(3))
 """
 
 
@@ -89,8 +90,10 @@ def concurrent(layer: str | None) -> list[str]:
 
 def test_parallel_kernels_run_on_two_threads_only_on_a_threadsafe_layer_once_loaded():
     # numba's workqueue ends the process when two threads start parallel kernels together.
-    assert concurrent("workqueue") == ["False", "False", "workqueue"]
+    # Work that starts them then runs one piece at a time (threads.kernel_threads).
+    assert concurrent("workqueue") == ["False", "False", "workqueue", "1"]
     # As this machine loads it: omp where an OpenMP runtime is found, else workqueue.
-    before, after, layer = concurrent(None)
+    before, after, layer, threads = concurrent(None)
     assert before == "False"  # not loaded yet: it may be workqueue
     assert after == str(layer in ("omp", "tbb"))
+    assert threads == ("3" if layer in ("omp", "tbb") else "1")
