@@ -13,7 +13,12 @@ of 318-357 s, the same pairs.
 
 glibc reads its malloc settings once, as a program starts, from ``GLIBC_TUNABLES``
 (the glibc manual, "Tunables"): no ``mmap`` for large blocks (``glibc.malloc.mmap_max``
-0) and a heap that is never trimmed (``glibc.malloc.trim_threshold`` its largest). So
+0), a heap that is never trimmed (``glibc.malloc.trim_threshold`` its largest), and one
+arena for every thread (``glibc.malloc.arena_max`` 1). A thread's own arena grows in
+heaps of 64 MB at most, so a larger block allocated on another thread (the engine's
+regions and blocks side by side, its CSV writer) was mapped afresh and unmapped when
+freed whatever ``mmap_max`` said: the race car at 65,536 FLSs faulted 1.47 M pages with
+two regions at once, against 0.28 M with one (BENCHMARKS.md, "Two regions at once"). So
 :func:`keep_freed_memory` starts the program again with them, in the same process, before
 it imports anything of weight. The processes it starts inherit them: a swarm's further
 processes, and its processes of one FLS, which allocate little.
@@ -28,8 +33,13 @@ from collections.abc import Mapping
 
 #: Where glibc reads its tunables, as a program starts.
 TUNABLES = "GLIBC_TUNABLES"
-#: Large blocks from the heap, and the heap never given back (2**64 - 1: never trimmed).
-KEEP_FREED = ("glibc.malloc.mmap_max=0", f"glibc.malloc.trim_threshold={2**64 - 1}")
+#: Large blocks from the heap, the heap never given back (2**64 - 1: never trimmed), and
+#: one heap for every thread.
+KEEP_FREED = (
+    "glibc.malloc.mmap_max=0",
+    f"glibc.malloc.trim_threshold={2**64 - 1}",
+    "glibc.malloc.arena_max=1",
+)
 
 
 def keeps_freed_memory(environ: Mapping[str, str]) -> bool:
@@ -43,7 +53,7 @@ def keeps_freed_memory(environ: Mapping[str, str]) -> bool:
     Returns
     -------
     bool
-        True when its ``GLIBC_TUNABLES`` hold both settings of :data:`KEEP_FREED`.
+        True when its ``GLIBC_TUNABLES`` hold every setting of :data:`KEEP_FREED`.
     """
     given = environ.get(TUNABLES, "").split(":")
     return all(setting in given for setting in KEEP_FREED)
@@ -56,7 +66,7 @@ def with_freed_memory_kept(environ: Mapping[str, str]) -> dict[str, str]:
     ----------
     environ : mapping of str to str
         A process's environment; its settings of other tunables are kept, its own
-        settings of these two replaced.
+        settings of these replaced.
 
     Returns
     -------
