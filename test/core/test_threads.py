@@ -8,6 +8,8 @@ import pytest
 
 from swazure_ros.core.threads import in_order
 
+from ..waits import PATIENCE
+
 
 def test_results_come_in_the_items_order_whichever_call_ends_first():
     # The first item's call is the slowest: later ones end before it.
@@ -22,12 +24,15 @@ def test_results_come_in_the_items_order_whichever_call_ends_first():
 @pytest.mark.parametrize("at_once", [1, 2, 3])
 def test_no_more_calls_run_than_asked_and_that_many_do(at_once):
     lock, running, most = threading.Lock(), [0], [0]
+    # The first calls wait for each other: they break the barrier unless that many run.
+    together = threading.Barrier(at_once, timeout=PATIENCE)
 
     def call(item):
         with lock:
             running[0] += 1
             most[0] = max(most[0], running[0])
-        time.sleep(0.05)
+        if item < at_once:
+            together.wait()
         with lock:
             running[0] -= 1
         return item
