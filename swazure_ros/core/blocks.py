@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Any, NamedTuple
@@ -56,7 +55,7 @@ from .progress import Progress, Started
 from .sensor import BLIND, DECAYING, SWEET, Sensor
 from .sight import obstructed
 from .summary import Summary
-from .threads import in_order, kernel_threads
+from .threads import side_by_side
 
 #: Bytes a block holds per ordered blind pair at its peak: paths, hop tables,
 #: estimates, errors and the table written from them (measured: the race car).
@@ -231,17 +230,15 @@ def lean_neighbourhood(
     blind_second: list[IntArray] = []
     counts = NeighbourCounts(0, 0, 0)
     found = partial(_block_pairs, swarm, sensor, reach_grid, sight_grid, at_once)
-    threads = kernel_threads(BLOCKS_AT_ONCE)
-    with ThreadPoolExecutor(threads, thread_name_prefix="block") as pool:
-        for (start, stop), block in zip(blocks, in_order(pool, found, blocks, threads)):
-            counts = counts + block.counts
-            blind_first.append(block.blind_first)
-            blind_second.append(block.blind_second)
-            sweet.append(block.sweet)
-            sweet_sight.append(block.sweet_visible)
-            if block.decaying is not None:
-                _keep(seen, *block.decaying)
-            progress.advance(int(candidates[start:stop].sum()))
+    for (start, stop), block in zip(blocks, side_by_side(found, blocks, BLOCKS_AT_ONCE, "block")):
+        counts = counts + block.counts
+        blind_first.append(block.blind_first)
+        blind_second.append(block.blind_second)
+        sweet.append(block.sweet)
+        sweet_sight.append(block.sweet_visible)
+        if block.decaying is not None:
+            _keep(seen, *block.decaying)
+        progress.advance(int(candidates[start:stop].sum()))
     rows, targets = ordered_rows(
         swarm.size, np.concatenate(blind_first), np.concatenate(blind_second)
     )

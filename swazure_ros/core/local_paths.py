@@ -37,7 +37,6 @@ holds every decaying pair.
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from functools import partial
 from typing import NamedTuple
@@ -55,7 +54,7 @@ from .path_arrays import Paths, path_hops
 from .paths import FEWEST_HOPS, LEAST_ERROR, check_policy, shortest_paths
 from .progress import Progress
 from .sensor import DECAYING, SWEET, Sensor
-from .threads import in_order, kernel_threads
+from .threads import side_by_side
 
 
 def least_cost_per_cm(sensor: Sensor, radius: float, policy: str) -> float:
@@ -213,26 +212,22 @@ def local_decaying_paths(
     proven_in = np.zeros(len(source))
     sight = JudgedSight(swarm.size)
     weights = _Weights(sweet, policy, ratio, candidates)
-    at_once = kernel_threads(REGIONS_AT_ONCE)
-    with ThreadPoolExecutor(at_once, thread_name_prefix="region") as pool:
-        while len(pending):
-            rounds += 1
-            settled = [np.empty(0, dtype=np.int64)]
-            tiles = _tiles(points, source[pending], margins[pending], weights, limit)
-            regions_of = ((tile, pending[np.isin(source[pending], tile)]) for tile in tiles)
-            search = partial(
-                _searched_region, sweet, policy, ratio, source, target, margins, sight
-            )
-            for found in in_order(pool, search, regions_of, at_once):
-                regions += 1
-                rows, done = found.rows, np.flatnonzero(found.proven)
-                if len(done):
-                    proven_in[rows[done]] = found.radius[done]
-                    kept.append((rows[done], found.paths.take(done)))
-                    hopped.append(found.hopped)
-                    progress.advance(len(done))
-                settled.append(rows[done])
-            pending = np.setdiff1d(pending, np.concatenate(settled), assume_unique=True)
+    while len(pending):
+        rounds += 1
+        settled = [np.empty(0, dtype=np.int64)]
+        tiles = _tiles(points, source[pending], margins[pending], weights, limit)
+        regions_of = ((tile, pending[np.isin(source[pending], tile)]) for tile in tiles)
+        search = partial(_searched_region, sweet, policy, ratio, source, target, margins, sight)
+        for found in side_by_side(search, regions_of, REGIONS_AT_ONCE, "region"):
+            regions += 1
+            rows, done = found.rows, np.flatnonzero(found.proven)
+            if len(done):
+                proven_in[rows[done]] = found.radius[done]
+                kept.append((rows[done], found.paths.take(done)))
+                hopped.append(found.hopped)
+                progress.advance(len(done))
+            settled.append(rows[done])
+        pending = np.setdiff1d(pending, np.concatenate(settled), assume_unique=True)
     paths = _in_order(len(source), kept)
     return LocalPaths(paths, _sorted_once(hopped), rounds, regions, sight.judged, proven_in)
 
@@ -240,7 +235,7 @@ def local_decaying_paths(
 #: Regions searched at once, each on a thread of its own: a region's numpy work between
 #: its compiled kernels leaves a core idle much of its time, which another region fills.
 #: Their results are taken in order, so the run is the same with one at a time; one at a
-#: time where numba's threading layer is not threadsafe (:func:`.threads.kernel_threads`).
+#: time where numba's threading layer is not threadsafe (:func:`.threads.side_by_side`).
 REGIONS_AT_ONCE = 2
 
 

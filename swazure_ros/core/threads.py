@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import Executor, Future
+from concurrent.futures import Executor, Future, ThreadPoolExecutor
 from typing import TypeVar
 
 from . import jit
@@ -82,3 +82,29 @@ def kernel_threads(count: int) -> int:
         parallel kernels (:func:`.jit.concurrent_kernels`), else 1.
     """
     return count if jit.concurrent_kernels() else 1
+
+
+def side_by_side(
+    function: Callable[[Item], Result], items: Iterable[Item], count: int, name: str
+) -> Iterator[Result]:
+    """:func:`in_order` on a pool of its own of :func:`kernel_threads` (``count``) threads.
+
+    Parameters
+    ----------
+    function : callable
+        Called once with each item; it may start parallel kernels.
+    items : iterable
+        Read as calls are needed.
+    count : int
+        The calls wanted at once, where numba's threading layer allows them.
+    name : str
+        The pool's threads' name prefix.
+
+    Yields
+    ------
+    object
+        ``function(item)`` for each item, in the order of ``items``.
+    """
+    threads = kernel_threads(count)
+    with ThreadPoolExecutor(threads, thread_name_prefix=name) as pool:
+        yield from in_order(pool, function, items, threads)
