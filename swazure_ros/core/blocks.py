@@ -142,10 +142,22 @@ def ranges(weights: IntArray, limit: int) -> list[tuple[int, int]]:
 
 @dataclass(frozen=True)
 class BlindRows:
-    """Every ordered blind pair as CSR rows: source s has targets[rows[s]:rows[s + 1]]."""
+    """Every ordered blind pair as CSR rows: source s has targets[rows[s]:rows[s + 1]].
+
+    The targets are kept as 32-bit FLS ids (:data:`TARGET_TYPE`): a display's 20 M
+    ordered blind pairs are held for the whole run, in 80 MB rather than 160.
+    """
 
     rows: IntArray  # (N + 1,)
-    targets: IntArray  # (M,), sorted within each row
+    targets: NDArray[np.int32]  # (M,), sorted within each row
+
+    @classmethod
+    def of(cls, size: int, first: IntArray, second: IntArray) -> BlindRows:
+        """The rows of the unordered blind pairs (first, second), each once."""
+        if size > np.iinfo(TARGET_TYPE).max:
+            raise ValueError(f"a swarm of {size} FLSs is more than blind rows can hold")
+        rows, targets = ordered_rows(size, first, second)
+        return cls(rows, targets.astype(TARGET_TYPE))
 
     def __len__(self) -> int:
         return len(self.targets)
@@ -155,7 +167,11 @@ class BlindRows:
         sources = np.repeat(
             np.arange(start, stop, dtype=np.int64), np.diff(self.rows[start : stop + 1])
         )
-        return sources, self.targets[self.rows[start] : self.rows[stop]]
+        return sources, self.targets[self.rows[start] : self.rows[stop]].astype(np.int64)
+
+
+#: How :class:`BlindRows` keeps its targets: every FLS id fits, up to 2**31 - 1 FLSs.
+TARGET_TYPE = np.int32
 
 
 def _in_sight(
@@ -223,7 +239,8 @@ def lean_neighbourhood(
     blocks = ranges(candidates, budget.block_candidates)
     at_once = int(candidates.sum()) * LEAN_PAIR_BYTES <= budget.memory
     progress.start("neighbours and line of sight", int(candidates.sum()))
-    sweet: list[NeighbourPairs] = []
+    # Pieces by field, each let go once joined: the pairs are held about once, not twice.
+    sweet: dict[str, list[NDArray[Any]]] = {name: [] for name in FIELDS}
     sweet_sight: list[NDArray[np.bool_]] = []
     seen: dict[str, list[NDArray[Any]]] = {name: [] for name in FIELDS}
     blind_first: list[IntArray] = []
@@ -234,22 +251,23 @@ def lean_neighbourhood(
         counts = counts + block.counts
         blind_first.append(block.blind_first)
         blind_second.append(block.blind_second)
-        sweet.append(block.sweet)
+        _keep(sweet, block.sweet)
         sweet_sight.append(block.sweet_visible)
         if block.decaying is not None:
             _keep(seen, *block.decaying)
         progress.advance(int(candidates[start:stop].sum()))
-    rows, targets = ordered_rows(
-        swarm.size, np.concatenate(blind_first), np.concatenate(blind_second)
-    )
-    sweet_pairs = NeighbourPairs.joined(sweet)
+    first = np.concatenate(blind_first)
+    blind_first.clear()
+    second = np.concatenate(blind_second)
+    blind_second.clear()
+    blind = BlindRows.of(swarm.size, first, second)
+    del first, second
+    sweet_pairs = NeighbourPairs.from_pieces(sweet)
     sweet_hood = Neighbourhood(
         swarm, sensor, sweet_pairs, np.concatenate(sweet_sight), sight_grid,
         np.ones(len(sweet_pairs), dtype=bool), kept_counts=counts,
     )  # fmt: skip
-    lean = LeanNeighbourhood(
-        swarm, sensor, budget, blocks, sweet_hood, BlindRows(rows, targets), candidates, None
-    )
+    lean = LeanNeighbourhood(swarm, sensor, budget, blocks, sweet_hood, blind, candidates, None)
     return replace(lean, whole=_whole(lean, seen)) if at_once else lean
 
 
@@ -287,9 +305,11 @@ def _block_pairs(
     return _BlockPairs(counts, pairs.first[blind], pairs.second[blind], sweet, visible, decaying)
 
 
-def _keep(seen: dict[str, list[NDArray[Any]]], pairs: NeighbourPairs, visible: BoolArray) -> None:
-    """Add the ``pairs`` in sight to ``seen``, field by field (for :func:`_whole`)."""
-    kept = np.flatnonzero(visible)
+def _keep(
+    seen: dict[str, list[NDArray[Any]]], pairs: NeighbourPairs, visible: BoolArray | None = None
+) -> None:
+    """Add the ``pairs`` (those in sight, given ``visible``) to ``seen``, field by field."""
+    kept = slice(None) if visible is None else np.flatnonzero(visible)
     for name in FIELDS:
         seen[name].append(getattr(pairs, name)[kept])
 

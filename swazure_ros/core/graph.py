@@ -340,6 +340,7 @@ def symmetric_rows(
     second: ArrayLike,
     rows: NDArray[np.bool_] | None = None,
     keep: NDArray[np.bool_] | None = None,
+    edges: bool = True,
 ) -> tuple[IntArray, IntArray, IntArray]:
     """Compressed sparse rows of undirected pairs, each pair entered from both of its ends.
 
@@ -358,6 +359,10 @@ def symmetric_rows(
         Enter only these pairs; the rest are left out as if not given, without
         a copy of the kept ones (a display's graph of tens of millions of
         entries out of a longer list). Default: every pair.
+    edges : bool, default True
+        Whether to find each entry's pair. Without, ``edge`` is empty and the rows
+        take a third less memory at their peak (a display's 20 M ordered blind
+        pairs: 160 MB less).
 
     Returns
     -------
@@ -366,7 +371,8 @@ def symmetric_rows(
     indices : (R,) ndarray of int
         Each entry's other end; each row sorted.
     edge : (R,) ndarray of int
-        The pair (index into ``first``, kept or not) of each entry.
+        The pair (index into ``first``, kept or not) of each entry; empty without
+        ``edges``.
 
     Examples
     --------
@@ -381,13 +387,13 @@ def symmetric_rows(
     laid = np.ones(size, dtype=bool) if rows is None else np.asarray(rows, dtype=bool)
     if _ordered(first, second):
         entered = np.ones(len(first), dtype=bool) if keep is None else np.asarray(keep, bool)
-        return _symmetric_rows(size, first, second, laid, entered)
+        return _symmetric_rows(size, first, second, laid, entered, edges)
     # Not as neighbour pairs come: the kept pairs sorted first, low end first.
     kept = np.arange(len(first)) if keep is None else np.flatnonzero(keep)
     low, high = np.minimum(first[kept], second[kept]), np.maximum(first[kept], second[kept])
     order = np.argsort(low * size + high, kind="stable")
     low, high = np.ascontiguousarray(low[order]), np.ascontiguousarray(high[order])
-    indptr, indices, edge = _symmetric_rows(size, low, high, laid, np.ones(len(low), bool))
+    indptr, indices, edge = _symmetric_rows(size, low, high, laid, np.ones(len(low), bool), edges)
     return indptr, indices, kept[order[edge]]
 
 
@@ -406,11 +412,16 @@ def _ordered(first: IntArray, second: IntArray) -> bool:
 
 @jit.kernel(cache=True, nogil=True)
 def _symmetric_rows(
-    size: int, first: IntArray, second: IntArray, rows: NDArray[np.bool_], keep: NDArray[np.bool_]
+    size: int,
+    first: IntArray,
+    second: IntArray,
+    rows: NDArray[np.bool_],
+    keep: NDArray[np.bool_],
+    edges: bool,
 ) -> tuple[IntArray, IntArray, IntArray]:
     """CSR rows (sorted) of the undirected edges first[e] < second[e] that ``keep`` marks,
-    given sorted by (first, second), of the nodes ``rows`` marks: indptr, indices, and the
-    edge e of each entry."""
+    given sorted by (first, second), of the nodes ``rows`` marks: indptr, indices, and,
+    with ``edges``, the edge e of each entry (else none)."""
     indptr = np.zeros(size + 1, dtype=np.int64)
     for e in range(len(first)):
         if not keep[e]:
@@ -423,18 +434,22 @@ def _symmetric_rows(
         indptr[node + 1] += indptr[node]
     cursor = indptr[:-1].copy()
     indices = np.empty(indptr[size], dtype=np.int64)
-    edge = np.empty(indptr[size], dtype=np.int64)
+    edge = np.empty(indptr[size] if edges else 0, dtype=np.int64)
     # Row v holds its smaller neighbours (edges where v is second, in order of first),
     # then its larger ones (where v is first, already in order of second).
     for e in range(len(first)):
         if keep[e] and rows[second[e]]:
             slot = cursor[second[e]]
-            indices[slot], edge[slot] = first[e], e
+            indices[slot] = first[e]
+            if edges:
+                edge[slot] = e
             cursor[second[e]] += 1
     for e in range(len(first)):
         if keep[e] and rows[first[e]]:
             slot = cursor[first[e]]
-            indices[slot], edge[slot] = second[e], e
+            indices[slot] = second[e]
+            if edges:
+                edge[slot] = e
             cursor[first[e]] += 1
     return indptr, indices, edge
 

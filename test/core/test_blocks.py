@@ -9,6 +9,7 @@ import pytest
 from swazure_ros.core import blocks
 from swazure_ros.core.blocks import (
     PAIR_BYTES,
+    BlindRows,
     BlockedEvaluation,
     Budget,
     evaluate_blocked,
@@ -21,7 +22,7 @@ from swazure_ros.core.evaluation import PairResults
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.graph import Graph
 from swazure_ros.core.neighbourhood import NeighbourGraphs
-from swazure_ros.core.neighbours import pair_counts
+from swazure_ros.core.neighbours import ordered_blind_pairs, pair_counts
 from swazure_ros.core.pair_statistics import PairTally
 from swazure_ros.core.progress import SILENT
 from swazure_ros.files.cloud_files import load_cloud
@@ -189,6 +190,25 @@ def test_blocks_found_side_by_side_give_the_neighbourhood_one_at_a_time_gives(
             assert got.counts == want.counts
         np.testing.assert_array_equal(other.blind.rows, one.blind.rows)
         np.testing.assert_array_equal(other.blind.targets, one.blind.targets)
+
+
+def test_the_blind_rows_hold_the_whole_evaluation_s_ordered_blind_pairs_in_32_bits(sensor):
+    swarm = shape("helix:200")
+    lean = lean_neighbourhood(swarm, sensor, SMALL, SILENT)
+    sources, targets = ordered_blind_pairs(evaluate(swarm, sensor, "fewest-hops").hood.pairs)
+    assert len(lean.blocks) > 1 and len(lean.blind) == len(targets) > 0
+    assert lean.blind.targets.dtype == np.int32
+    got = lean.blind.block(0, swarm.size)
+    assert [part.dtype for part in got] == [np.int64, np.int64]
+    np.testing.assert_array_equal(got[0], sources)
+    np.testing.assert_array_equal(got[1], targets)
+    middle = np.flatnonzero((sources >= 50) & (sources < 120))
+    np.testing.assert_array_equal(lean.blind.block(50, 120)[1], targets[middle])
+
+
+def test_blind_rows_refuse_a_swarm_too_large_for_32_bit_ids():
+    with pytest.raises(ValueError, match="more than blind rows can hold"):
+        BlindRows.of(2**31, np.array([0]), np.array([1]))
 
 
 def test_the_summary_waits_for_every_block(sensor):

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from swazure_ros.core.graph import make_graph
+from swazure_ros.core.graph import make_graph, symmetric_rows
 
 
 def random_pairs(rng, size, draws):
@@ -24,6 +24,20 @@ def test_a_graph_is_the_same_from_sorted_pairs_and_from_edges_in_any_order():
     anyhow = make_graph(60, one, other, weight[shuffle], shuffle, cost[shuffle])
     for field in ("indptr", "indices", "weights", "labels", "costs"):
         np.testing.assert_array_equal(getattr(ordered, field), getattr(anyhow, field))
+
+
+@pytest.mark.parametrize("shuffled", [False, True], ids=["as-neighbour-pairs-come", "any-order"])
+def test_rows_without_their_entries_pairs_are_the_same_rows(shuffled):
+    rng = np.random.default_rng(5)
+    pairs = random_pairs(rng, 50, 300)
+    if shuffled:
+        pairs = pairs[rng.permutation(len(pairs))][:, ::-1]
+    keep = rng.random(len(pairs)) < 0.7
+    indptr, indices, edge = symmetric_rows(50, pairs[:, 0], pairs[:, 1], keep=keep)
+    bare = symmetric_rows(50, pairs[:, 0], pairs[:, 1], keep=keep, edges=False)
+    np.testing.assert_array_equal(bare[0], indptr)
+    np.testing.assert_array_equal(bare[1], indices)
+    assert len(edge) == len(indices) > 0 and len(bare[2]) == 0
 
 
 def test_a_graph_holds_both_directions_of_each_edge_with_its_length_and_label():

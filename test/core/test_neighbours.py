@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from swazure_ros.core.geometry import centre_distance, make_swarm
-from swazure_ros.core.neighbours import FIELDS, neighbour_pairs
+from swazure_ros.core.neighbours import FIELDS, NeighbourPairs, neighbour_pairs
 from swazure_ros.core.pair_scan import Affordable
 from swazure_ros.core.sensor import DECAYING, SWEET
 
@@ -114,6 +114,16 @@ def test_pairs_merged_with_pairs_given_in_pieces_are_the_sorted_union(sensor):
     assert from_columns.tolist() == (pairs.range_class[both] == DECAYING).tolist()
     assert columns == {}  # each field's pieces let go once placed
     assert 0 < len(sweet) < len(merged)
+
+
+def test_pairs_from_pieces_are_the_pieces_joined_in_order_and_let_go(sensor):
+    pairs = neighbour_pairs(random_swarm(6), sensor)
+    pieces = np.array_split(np.arange(len(pairs)), 4)
+    columns = {name: [getattr(pairs, name)[piece] for piece in pieces] for name in FIELDS}
+    joined = NeighbourPairs.from_pieces(columns)
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(joined, name), getattr(pairs, name))
+    assert columns == {} and len(pairs) > 4
 
 
 def test_pairs_merged_with_no_pieces_are_themselves(sensor):
