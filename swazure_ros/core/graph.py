@@ -42,7 +42,7 @@ class Graph:
     indptr: IntArray  # (N + 1,)
     indices: IntArray  # (2E,), sorted within each band of a row
     weights: FloatArray  # (2E,), tracking distance of each edge, cm
-    labels: IntArray  # (2E,), caller's label of each edge (e.g. its pair index)
+    labels: IntArray  # (2E,), caller's label of each edge (e.g. its pair index), 32 bits if fit
     costs: FloatArray | None = None  # (2E,), expected error of each edge (least-error)
     # Elementwise from weights to costs (2E,) -> (2E,), for costs not given.
     cost_of: Callable[[FloatArray], FloatArray] | None = field(default=None, compare=False)
@@ -162,7 +162,7 @@ class Graph:
     def edge_labels(self, first: ArrayLike, second: ArrayLike) -> IntArray:
         """Label of the edge first[m]-second[m] for each m: (M,); -1 where there is none."""
         position = self.edge_positions(first, second)
-        return np.where(position >= 0, self.labels[position], -1)
+        return np.where(position >= 0, self.labels[position], -1).astype(np.int64, copy=False)
 
     def components(self) -> IntArray:
         """Connected-component label of every node: (N,).
@@ -220,7 +220,8 @@ def make_graph(
     -------
     Graph
         Both directions of every edge, each band of a row sorted by neighbour;
-        the ``weights``, ``labels`` and ``costs`` (2E,) follow the entries.
+        the ``weights``, ``labels`` and ``costs`` (2E,) follow the entries. The
+        labels are held in 32 bits where every one fits (:data:`LABEL_TYPE`).
 
     Raises
     ------
@@ -260,10 +261,23 @@ def make_graph(
             raise ValueError("`costs` must have one value per edge")
         edge_costs = costs[edge]
     # Labelled by position, the entries' edges are their labels: no list of them made.
-    entry_labels = edge if labels is None else labels[edge]
+    entry_labels = _narrowed(edge if labels is None else labels[edge])
     return Graph(
         indptr, indices, weights[edge], entry_labels, edge_costs, cost_of, band_starts, positions
     )
+
+
+#: How a graph keeps its entries' labels where every one fits: they are held as long as
+#: the graph, and a display's sweet graph in sight has 14 M entries (115 MB in 64 bits).
+LABEL_TYPE = np.int32
+
+
+def _narrowed(labels: IntArray) -> IntArray:
+    """``labels`` as :data:`LABEL_TYPE` where every one fits, else as they are."""
+    fits = np.iinfo(LABEL_TYPE)
+    if len(labels) and (labels.min() < fits.min or labels.max() > fits.max):
+        return labels
+    return labels.astype(LABEL_TYPE)
 
 
 def _check_edges(

@@ -40,6 +40,15 @@ def test_rows_without_their_entries_pairs_are_the_same_rows(shuffled):
     assert len(edge) == len(indices) > 0 and len(bare[2]) == 0
 
 
+def test_a_graph_keeps_its_labels_in_32_bits_where_they_fit_and_gives_them_in_64():
+    narrow = make_graph(3, [0, 1], [1, 2], [1.0, 2.0], labels=[2**31 - 1, 5])
+    wide = make_graph(3, [0, 1], [1, 2], [1.0, 2.0], labels=[2**31, 5])
+    assert narrow.labels.dtype == np.int32 and wide.labels.dtype == np.int64
+    assert narrow.edge_labels([1, 0], [0, 2]).tolist() == [2**31 - 1, -1]
+    assert wide.edge_labels([2], [1]).tolist() == [5]
+    assert narrow.edge_labels([1], [0]).dtype == wide.edge_labels([1], [0]).dtype == np.int64
+
+
 def test_a_graph_holds_both_directions_of_each_edge_with_its_length_and_label():
     graph = make_graph(3, [1, 0], [2, 1], [2.0, 1.5], labels=[7, 9])
     assert graph.size == 3 and graph.edges == 2
