@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .arrays import BoolArray, IntArray
+from .csr import narrowed
 from .evaluate import evaluate_pairs
 from .evaluation import PairResults
 from .fans import obstructed_fans
@@ -144,20 +145,18 @@ def ranges(weights: IntArray, limit: int) -> list[tuple[int, int]]:
 class BlindRows:
     """Every ordered blind pair as CSR rows: source s has targets[rows[s]:rows[s + 1]].
 
-    The targets are kept as 32-bit FLS ids (:data:`TARGET_TYPE`): a display's 20 M
-    ordered blind pairs are held for the whole run, in 80 MB rather than 160.
+    The targets are kept in 32 bits (:func:`.csr.narrowed`): a display's 20 M ordered
+    blind pairs are held for the whole run, in 80 MB rather than 160.
     """
 
     rows: IntArray  # (N + 1,)
-    targets: NDArray[np.int32]  # (M,), sorted within each row
+    targets: NDArray[np.int32] | IntArray  # (M,), sorted within each row
 
     @classmethod
     def of(cls, size: int, first: IntArray, second: IntArray) -> BlindRows:
         """The rows of the unordered blind pairs (first, second), each once."""
-        if size > np.iinfo(TARGET_TYPE).max:
-            raise ValueError(f"a swarm of {size} FLSs is more than blind rows can hold")
         rows, targets = ordered_rows(size, first, second)
-        return cls(rows, targets.astype(TARGET_TYPE))
+        return cls(rows, narrowed(targets))
 
     def __len__(self) -> int:
         return len(self.targets)
@@ -168,10 +167,6 @@ class BlindRows:
             np.arange(start, stop, dtype=np.int64), np.diff(self.rows[start : stop + 1])
         )
         return sources, self.targets[self.rows[start] : self.rows[stop]].astype(np.int64)
-
-
-#: How :class:`BlindRows` keeps its targets: every FLS id fits, up to 2**31 - 1 FLSs.
-TARGET_TYPE = np.int32
 
 
 def _in_sight(

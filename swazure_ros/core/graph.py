@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from . import jit
+from . import csr, jit
 from .arrays import FloatArray, IntArray
 
 
@@ -42,7 +42,7 @@ class Graph:
     indptr: IntArray  # (N + 1,)
     indices: IntArray  # (2E,), sorted within each band of a row
     weights: FloatArray  # (2E,), tracking distance of each edge, cm
-    labels: IntArray  # (2E,), caller's label of each edge (e.g. its pair index), 32 bits if fit
+    labels: NDArray[np.int32] | IntArray  # (2E,), each edge's label (its pair), 32 bits if all fit
     costs: FloatArray | None = None  # (2E,), expected error of each edge (least-error)
     # Elementwise from weights to costs (2E,) -> (2E,), for costs not given.
     cost_of: Callable[[FloatArray], FloatArray] | None = field(default=None, compare=False)
@@ -221,7 +221,7 @@ def make_graph(
     Graph
         Both directions of every edge, each band of a row sorted by neighbour;
         the ``weights``, ``labels`` and ``costs`` (2E,) follow the entries. The
-        labels are held in 32 bits where every one fits (:data:`LABEL_TYPE`).
+        labels are held in 32 bits where every one fits (:func:`.csr.narrowed`).
 
     Raises
     ------
@@ -261,23 +261,12 @@ def make_graph(
             raise ValueError("`costs` must have one value per edge")
         edge_costs = costs[edge]
     # Labelled by position, the entries' edges are their labels: no list of them made.
-    entry_labels = _narrowed(edge if labels is None else labels[edge])
+    # Held as long as the graph: in 32 bits where they fit (a display's graph in sight has
+    # 14 M entries, 115 MB of labels in 64 bits).
+    entry_labels = csr.narrowed(edge if labels is None else labels[edge])
     return Graph(
         indptr, indices, weights[edge], entry_labels, edge_costs, cost_of, band_starts, positions
     )
-
-
-#: How a graph keeps its entries' labels where every one fits: they are held as long as
-#: the graph, and a display's sweet graph in sight has 14 M entries (115 MB in 64 bits).
-LABEL_TYPE = np.int32
-
-
-def _narrowed(labels: IntArray) -> IntArray:
-    """``labels`` as :data:`LABEL_TYPE` where every one fits, else as they are."""
-    fits = np.iinfo(LABEL_TYPE)
-    if len(labels) and (labels.min() < fits.min or labels.max() > fits.max):
-        return labels
-    return labels.astype(LABEL_TYPE)
 
 
 def _check_edges(

@@ -9,7 +9,6 @@ import pytest
 from swazure_ros.core import blocks
 from swazure_ros.core.blocks import (
     PAIR_BYTES,
-    BlindRows,
     BlockedEvaluation,
     Budget,
     evaluate_blocked,
@@ -204,11 +203,6 @@ def test_the_blind_rows_hold_the_whole_evaluation_s_ordered_blind_pairs_in_32_bi
     np.testing.assert_array_equal(got[1], targets)
     middle = np.flatnonzero((sources >= 50) & (sources < 120))
     np.testing.assert_array_equal(lean.blind.block(50, 120)[1], targets[middle])
-
-
-def test_blind_rows_refuse_a_swarm_too_large_for_32_bit_ids():
-    with pytest.raises(ValueError, match="more than blind rows can hold"):
-        BlindRows.of(2**31, np.array([0]), np.array([1]))
 
 
 def test_the_summary_waits_for_every_block(sensor):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from swazure_ros.core.csr import span, take
+from swazure_ros.core.csr import narrowed, span, take
 
 # Three paths: (4, 5), (), (6, 7, 8).
 BOUNDS = np.array([0, 2, 2, 5])
@@ -52,3 +52,12 @@ def test_a_table_made_in_parts_on_threads_is_the_table_made_whole():
         np.testing.assert_array_equal(ids, whole_ids)
         # One part is made where it is asked for; several on the pool's threads.
         assert (threading.current_thread().name in made_on) == (parts == 1)
+
+
+def test_indices_that_fit_are_narrowed_to_32_bits_and_others_kept_as_they_are():
+    fitting = np.array([0, 5, 2**31 - 1, -(2**31)])
+    assert narrowed(fitting).dtype == np.int32
+    assert narrowed(fitting).tolist() == fitting.tolist()
+    for beyond in (np.array([3, 2**31]), np.array([-(2**31) - 1, 0])):
+        assert narrowed(beyond) is beyond
+    assert narrowed(np.array([], dtype=np.int64)).dtype == np.int32
