@@ -166,7 +166,8 @@ class BlindRows:
         sources = np.repeat(
             np.arange(start, stop, dtype=np.int64), np.diff(self.rows[start : stop + 1])
         )
-        return sources, self.targets[self.rows[start] : self.rows[stop]].astype(np.int64)
+        targets = self.targets[self.rows[start] : self.rows[stop]]
+        return sources, targets.astype(np.int64, copy=False)
 
 
 def _in_sight(
