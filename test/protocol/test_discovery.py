@@ -512,7 +512,7 @@ def test_flss_stepped_together_offer_and_end_as_each_stepping_alone_would(reach)
     # Their estimates made at once are those each source makes alone, found as sweet
     # (one phase's results), or as decaying with a radio path (another's).
     none = Results()
-    targets = [np.array(sorted(one.targets), dtype=np.int64) for one in together]
+    targets = [one.targets for one in together]
     for phases in ((0, None, None), (None, 0, 0)):
         results = [tuple(none if at is None else one.results for at in phases)
                    for one in together]  # fmt: skip
