@@ -85,3 +85,13 @@ def test_a_closed_source_is_neither_relaxed_nor_kept():
     table.close(np.array([7, 9, 600]))  # 600 is not this run's
     table.relax(np.array([0]), LENGTH_FIRST, heard({1: ([5, 7, 8, 9, 600], 7.0)}))
     assert sorted(labels_of(table, 0)) == [5, 8]
+
+
+def test_a_label_s_sender_is_kept_in_32_bits_up_to_the_largest_id_on_the_wire():
+    # Senders above int32's range, as uint32 ids on the wire may be: at equal cost the
+    # smaller id wins the tie, as the engine's smallest predecessor does.
+    low, high = 3_000_000_000, 4_294_967_294
+    table = table_of([3], [[high, low]], 7.0, (0, 4))
+    table.relax(np.array([0]), LENGTH_FIRST, heard({low: ([0, 1], 7.0), high: ([1, 2], 7.0)}))
+    assert labels_of(table, 0) == {0: (14.0, low), 1: (14.0, low), 2: (14.0, high)}
+    assert table.pred.itemsize == table.via_offers.itemsize == table.via_label.itemsize == 4

@@ -42,8 +42,9 @@ _EMPTY = -1
 #: no overflow, compiled or interpreted (the ``fls`` program runs kernels as Python).
 _MIX = 0x2545F491
 
-#: A pred that no sender id reaches: a label not found yet loses every tie.
-NO_PRED = np.iinfo(np.int64).max
+#: A pred that no sender id reaches: a label not found yet loses every tie. Ids are below
+#: 2**32 (uint32 on the wire), and a table keeps its preds in 32 bits (LabelTable).
+NO_PRED = np.iinfo(np.uint32).max
 
 
 class HeardLabels(NamedTuple):
@@ -247,12 +248,14 @@ _COLUMNS: dict[str, tuple[object, tuple[int, ...], type]] = {
     "hops": (np.inf, (), np.float64),
     "length": (np.inf, (), np.float64),
     "error": (np.inf, (), np.float64),
-    "pred": (NO_PRED, (), np.int64),
+    # 32 bits where a place's value fits: a race car's phase holds 13.8 M places.
+    "pred": (NO_PRED, (), np.uint32),
     "vector": (np.nan, (3,), np.float64),
     # A label's path is its sender's (label via_label of the offers its FLS heard as
-    # via_offers) plus its FLS: -1 where the FLS is the source.
-    "via_offers": (-1, (), np.int64),
-    "via_label": (-1, (), np.int64),
+    # via_offers) plus its FLS: -1 where the FLS is the source. A process keeps a few
+    # rounds' offers, and a round's offers hold millions of labels, not billions.
+    "via_offers": (-1, (), np.int32),
+    "via_label": (-1, (), np.int32),
 }
 _FIT_COLUMNS: dict[str, tuple[object, tuple[int, ...], type]] = {
     "unbiased": (np.nan, (3,), np.float64),
