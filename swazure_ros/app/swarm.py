@@ -28,7 +28,7 @@ from typing import Any
 from ..core.errors import RunError, SwazureError
 from ..core.evaluate import evaluate
 from ..core.evaluation import Evaluation
-from ..core.fit import PATH
+from ..core.fit import LOCAL_LEAST_SQUARES, PATH
 from ..files.record import BringUp
 from ..protocol.runs import (
     LABEL_MEMORY,
@@ -271,7 +271,7 @@ class RunningSwarm:
         (``protocol.runs.next_block_size``). The result is theirs together.
         """
         coordinator = self._coordinator
-        first, left_ids = self.first_block(per_run, label_memory)
+        first, left_ids = self.first_block(per_run, label_memory, estimator)
         size, whole = len(first), len(left_ids)
         deadline = None if timeout is None else time.monotonic() + timeout
         results: list[DiscoveryResult] = []
@@ -290,12 +290,14 @@ class RunningSwarm:
         return merged(results)
 
     def first_block(
-        self, per_run: int | None = None, label_memory: int = LABEL_MEMORY
+        self, per_run: int | None = None, label_memory: int = LABEL_MEMORY, estimator: str = PATH
     ) -> tuple[tuple[int, ...], tuple[int, ...]]:
         """(the sources of :meth:`discover`'s first run, every live FLS's id), ascending."""
         coordinator = self._coordinator
         live = tuple(sorted(coordinator.fls_ids - coordinator.departed_next()))
-        size = per_run or sources_per_run(len(coordinator.fls_ids), label_memory)
+        # A run whose sources estimate by local least squares sums fits in its labels too.
+        fits = estimator == LOCAL_LEAST_SQUARES
+        size = per_run or sources_per_run(len(coordinator.fls_ids), label_memory, fits)
         return (next_block(live, size)[0] if live else ()), live
 
     def make_moves(

@@ -32,7 +32,7 @@ def compute_all(swarm: RunningSwarm, args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"  {time.monotonic() - began:.0f} s: {text}", file=sys.stderr, flush=True)
 
-    first, live = swarm.first_block(args.sources_per_run)
+    first, live = swarm.first_block(args.sources_per_run, estimator=args.estimator)
     runs = ""
     if len(first) < len(live):
         runs = f", in runs of {len(first):,} sources" + (

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 from ..core.traffic import TopicCounts
 from .discovery.estimate import Estimate
+from .discovery.labels import place_bytes
 from .moves import MoveOutcome
 from .rounds import Outcome
 
@@ -68,21 +69,21 @@ class MoveResult:
     traffic: Traffic
 
 
-#: What one label costs an FLS in a discovery run, bytes: its costs, vector, path
-#: link, sent flag and hash key (protocol.discovery.labels). A swarm's first run is
-#: sized as if every FLS held every source's label; the runs after it by the memory
-#: the labels of the one before took (:func:`next_block_size`).
-LABEL_BYTES = 100
 #: The labels that a whole-swarm discovery keeps at once, all processes together,
 #: bytes: a swarm whose every FLS would hold every source's label runs its
 #: sources in blocks (:func:`source_blocks`).
 LABEL_MEMORY = 2 * 1024**3
 
 
-def sources_per_run(fls_count: int, label_memory: int = LABEL_MEMORY) -> int:
+def sources_per_run(fls_count: int, label_memory: int = LABEL_MEMORY, fits: bool = False) -> int:
     """How many sources one discovery run may search for, so that its labels fit
-    even if every FLS held every source's label: the first block's size."""
-    return max(1, label_memory // (max(fls_count, 1) * LABEL_BYTES))
+    even if every FLS held every source's label: the first block's size.
+
+    Such rows are a slot per source (``labels.place_bytes``: 61 bytes a label, 157
+    where labels ``fits``, as a fitting run's do); the runs after the first are sized
+    by the memory the labels of the one before took (:func:`next_block_size`).
+    """
+    return max(1, label_memory // (max(fls_count, 1) * place_bytes(direct=True, fits=fits)))
 
 
 def next_block_size(sources: int, label_bytes: int, label_memory: int = LABEL_MEMORY) -> int:

@@ -1,8 +1,10 @@
+import numpy as np
 import pytest
 
+from swazure_ros.protocol.discovery.labels import LabelTable
+from swazure_ros.protocol.discovery.links import Links
 from swazure_ros.protocol.rounds import Outcome
 from swazure_ros.protocol.runs import (
-    LABEL_BYTES,
     DiscoveryResult,
     Traffic,
     merged,
@@ -36,7 +38,18 @@ def test_a_block_holds_at_least_one_source():
 
 
 def test_sources_per_run_keeps_the_labels_within_the_memory_given():
-    assert sources_per_run(1000, label_memory=1000 * 250 * LABEL_BYTES) == 250
+    # 1,000 FLSs each holding a label of each of 250 sources: a slot per source a row,
+    # as the tables of a run lay them out, with and without a fitting run's columns.
+    for fits in (False, True):
+        no_hops = Links(
+            *(np.zeros(0, dtype=dtype) for dtype in (np.int64, float, float)), np.zeros((0, 3))
+        )
+        starts = np.zeros(1001, dtype=np.int64)
+        table = LabelTable(np.arange(1000), starts, no_hops, (0, 250), 250, fits, need=250)
+        assert table.direct and table.width == 250
+        memory = table.size * table.row_bytes
+        assert sources_per_run(1000, label_memory=memory, fits=fits) == 250
+        assert sources_per_run(1000, label_memory=memory - 1, fits=fits) == 249
     # A published shape's every source fits in one run; 10,000 FLSs need several.
     assert sources_per_run(3720) >= 3720
     assert sources_per_run(10_000) < 10_000

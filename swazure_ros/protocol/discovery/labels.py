@@ -263,6 +263,35 @@ _FIT_COLUMNS: dict[str, tuple[object, tuple[int, ...], type]] = {
 }
 
 
+def place_bytes(direct: bool = True, fits: bool = False) -> int:
+    """The memory one place of a :class:`LabelTable`'s row takes, bytes: every column's.
+
+    Parameters
+    ----------
+    direct : bool
+        A slot per source (True), or a hash, whose places keep their source's key too.
+    fits : bool
+        The labels also sum unbiased hops and covariances (a fitting run's).
+
+    Returns
+    -------
+    int
+        61 bytes a place of a slot per source, 69 in a hash; 96 more where labels fit.
+
+    Examples
+    --------
+    >>> from swazure_ros.protocol.discovery.labels import place_bytes
+    >>> place_bytes(), place_bytes(direct=False), place_bytes(fits=True)
+    (61, 69, 157)
+    """
+    columns = {**_COLUMNS, **(_FIT_COLUMNS if fits else {})}
+    return sum(
+        np.dtype(dtype).itemsize * int(np.prod(shape))
+        for name, (_, shape, dtype) in columns.items()
+        if not (name == "keys" and direct)  # a slot per source keeps no key
+    )
+
+
 class LabelTable:
     """The labels of F FLSs (rows) in one phase of one run, a place per source heard.
 
@@ -347,8 +376,7 @@ class LabelTable:
             wide = 0 if name == "keys" and self.direct else width
             setattr(self, name, np.full((len(self.mes), wide, *shape), empty, dtype=dtype))
         # Read by every offer (Offer.label_bytes): worked out once per layout.
-        total = sum(int(getattr(self, name).nbytes) for name in columns)
-        self._row_bytes = total // max(len(self.mes), 1)
+        self._row_bytes = width * place_bytes(self.direct, self.fits)
 
     @property
     def size(self) -> int:
