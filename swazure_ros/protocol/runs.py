@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 
 from ..core.traffic import TopicCounts
 from .discovery.estimate import Estimate
-from .discovery.labels import place_bytes
+from .discovery.places import place_bytes
 from .moves import MoveOutcome
 from .rounds import Outcome
 
@@ -79,7 +79,7 @@ def sources_per_run(fls_count: int, label_memory: int = LABEL_MEMORY, fits: bool
     """How many sources one discovery run may search for, so that its labels fit
     even if every FLS held every source's label: the first block's size.
 
-    Such rows are a slot per source (``labels.place_bytes``: 61 bytes a label, 157
+    Such rows are a slot per source (``places.place_bytes``: 61 bytes a label, 157
     where labels ``fits``, as a fitting run's do); the runs after the first are sized
     by the memory the labels of the one before took (:func:`next_block_size`).
     """

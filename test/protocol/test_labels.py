@@ -6,6 +6,7 @@ import numpy as np
 
 from swazure_ros.protocol.discovery.labels import LENGTH_FIRST, HeardLabels, LabelTable
 from swazure_ros.protocol.discovery.links import Links
+from swazure_ros.protocol.discovery.places import place_bytes, table_columns
 
 
 def table_of(mes, link_ids, weight, span):
@@ -95,3 +96,16 @@ def test_a_label_s_sender_is_kept_in_32_bits_up_to_the_largest_id_on_the_wire():
     table.relax(np.array([0]), LENGTH_FIRST, heard({low: ([0, 1], 7.0), high: ([1, 2], 7.0)}))
     assert labels_of(table, 0) == {0: (14.0, low), 1: (14.0, low), 2: (14.0, high)}
     assert table.pred.itemsize == table.via_offers.itemsize == table.via_label.itemsize == 4
+
+
+def test_a_place_takes_the_bytes_of_what_the_table_lays_out_for_it():
+    hops = table_of([3, 4], [[1], [1]], 7.0, (0, 8)).links
+    for fits in (False, True):
+        # A run of 8 sources: a slot each; of 1,000: a hash of 8 places a row, keys kept.
+        for sources, direct in ((8, True), (1000, False)):
+            starts = np.array([0, 1, 2])
+            table = LabelTable(np.array([3, 4]), starts, hops, (0, sources), sources, fits)
+            assert table.direct is direct and table.width == 8
+            laid_out = sum(getattr(table, name).nbytes for name in table_columns(fits))
+            places = table.size * table.width
+            assert laid_out == places * place_bytes(direct, fits) == table.size * table.row_bytes

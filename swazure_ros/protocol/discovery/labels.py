@@ -31,20 +31,14 @@ from ...core import jit
 from ...core.arrays import FloatArray, IntArray
 from .links import Links, RowHops, RowsLinks, joined_links
 from .messages import sender_rows
+from .places import EMPTY, place_bytes, table_columns
 
 #: The order of a label's costs in each policy: (primary, secondary), as the relaxation reads them.
 HOPS_FIRST, LENGTH_FIRST, ERROR_FIRST = 0, 1, 2
 
-#: An empty place of the hash.
-_EMPTY = -1
-
 #: Source ids are below 2**32, so an id times this odd constant stays below 2**62:
 #: no overflow, compiled or interpreted (the ``fls`` program runs kernels as Python).
 _MIX = 0x2545F491
-
-#: A pred that no sender id reaches: a label not found yet loses every tie. Ids are below
-#: 2**32 (uint32 on the wire), and a table keeps its preds in 32 bits (LabelTable).
-NO_PRED = np.iinfo(np.uint32).max
 
 
 class HeardLabels(NamedTuple):
@@ -84,7 +78,7 @@ def _place(keys: IntArray, source: int) -> int:
     is, or the empty place it goes (a direct row's place is its slot, source - first)."""
     mask = len(keys) - 1
     at = ((source * _MIX) >> 15) & mask
-    while keys[at] != _EMPTY and keys[at] != source:
+    while keys[at] != EMPTY and keys[at] != source:
         at = (at + 1) & mask
     return at
 
@@ -187,7 +181,7 @@ def relax_rows(
                 if rank < 0 or (has_closed and closed[source]):  # not a spread run's, or ended
                     continue
                 place = rank if direct else _place(row_keys, source)
-                if not direct and row_keys[place] == _EMPTY:
+                if not direct and row_keys[place] == EMPTY:
                     if 2 * (occupied[row] + 1) > width:
                         resume[0], resume[1] = k, label
                         return at, filled, occupied[row] + 1
@@ -241,57 +235,6 @@ def _take_winners(changes: Changes, begin: int, end: int, won: Changes) -> None:
         won.labels[place] = -1
 
 
-#: Each column of a table: the value of an empty place, and its shape past (F, R).
-_COLUMNS: dict[str, tuple[object, tuple[int, ...], type]] = {
-    "keys": (_EMPTY, (), np.int64),
-    "sent": (False, (), np.bool_),
-    "hops": (np.inf, (), np.float64),
-    "length": (np.inf, (), np.float64),
-    "error": (np.inf, (), np.float64),
-    # 32 bits where a place's value fits: a race car's phase holds 13.8 M places.
-    "pred": (NO_PRED, (), np.uint32),
-    "vector": (np.nan, (3,), np.float64),
-    # A label's path is its sender's (label via_label of the offers its FLS heard as
-    # via_offers) plus its FLS: -1 where the FLS is the source. A process keeps a few
-    # rounds' offers, and a round's offers hold millions of labels, not billions.
-    "via_offers": (-1, (), np.int32),
-    "via_label": (-1, (), np.int32),
-}
-_FIT_COLUMNS: dict[str, tuple[object, tuple[int, ...], type]] = {
-    "unbiased": (np.nan, (3,), np.float64),
-    "covariance": (np.nan, (3, 3), np.float64),
-}
-
-
-def place_bytes(direct: bool = True, fits: bool = False) -> int:
-    """The memory one place of a :class:`LabelTable`'s row takes, bytes: every column's.
-
-    Parameters
-    ----------
-    direct : bool
-        A slot per source (True), or a hash, whose places keep their source's key too.
-    fits : bool
-        The labels also sum unbiased hops and covariances (a fitting run's).
-
-    Returns
-    -------
-    int
-        61 bytes a place of a slot per source, 69 in a hash; 96 more where labels fit.
-
-    Examples
-    --------
-    >>> from swazure_ros.protocol.discovery.labels import place_bytes
-    >>> place_bytes(), place_bytes(direct=False), place_bytes(fits=True)
-    (61, 69, 157)
-    """
-    columns = {**_COLUMNS, **(_FIT_COLUMNS if fits else {})}
-    return sum(
-        np.dtype(dtype).itemsize * int(np.prod(shape))
-        for name, (_, shape, dtype) in columns.items()
-        if not (name == "keys" and direct)  # a slot per source keeps no key
-    )
-
-
 class LabelTable:
     """The labels of F FLSs (rows) in one phase of one run, a place per source heard.
 
@@ -306,7 +249,7 @@ class LabelTable:
     ``error``, ``pred``, ``vector``, ``via_offers``, ``via_label``) is (F, R, ...).
     """
 
-    # The columns, (F, R, ...) each: made by _allocate, from _COLUMNS and _FIT_COLUMNS.
+    # The columns, (F, R, ...) each: made by _allocate, as .places.table_columns lists them.
     keys: IntArray
     sent: NDArray[np.bool_]
     hops: FloatArray
@@ -370,8 +313,7 @@ class LabelTable:
         return (True, sources) if 2 * width >= sources else (False, width)
 
     def _allocate(self, width: int) -> None:
-        columns = {**_COLUMNS, **(_FIT_COLUMNS if self.fits else {})}
-        for name, (empty, shape, dtype) in columns.items():
+        for name, (empty, shape, dtype) in table_columns(self.fits).items():
             # A direct table's places are its sources' slots: it keeps no keys.
             wide = 0 if name == "keys" and self.direct else width
             setattr(self, name, np.full((len(self.mes), wide, *shape), empty, dtype=dtype))
@@ -401,7 +343,7 @@ class LabelTable:
         """Which places of row ``row`` (R,), or of every row (F, R), hold a label."""
         at = slice(None) if row is None else row
         # A label is found at its first candidate, so its hops are finite.
-        return np.isfinite(self.hops[at]) if self.direct else self.keys[at] != _EMPTY
+        return np.isfinite(self.hops[at]) if self.direct else self.keys[at] != EMPTY
 
     def sources_of(self, rows: IntArray | int, places: IntArray) -> IntArray:
         """The sources of the labels at ``places`` of ``rows``."""
@@ -456,9 +398,7 @@ class LabelTable:
 
     def _names(self) -> list[str]:
         """The columns besides ``keys``."""
-        return [
-            name for name in (*_COLUMNS, *(_FIT_COLUMNS if self.fits else {})) if name != "keys"
-        ]
+        return [name for name in table_columns(self.fits) if name != "keys"]
 
     def close(self, sources: IntArray) -> None:
         """Stop relaying and keeping the labels of ``sources`` (ids: their searches ended).

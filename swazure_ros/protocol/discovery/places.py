@@ -1,0 +1,75 @@
+"""What a place of a label table holds: its columns, their empty values, and its bytes.
+
+A :class:`~.labels.LabelTable` lays out each column as an (F, R, ...) array: F FLSs
+(rows), R places a row. A place holds one source's label at one FLS. What a place
+takes is what a discovery's blocks of sources are sized by (``protocol.runs``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: An empty place of a hashed row (its key).
+EMPTY = -1
+
+#: A pred that no sender id reaches: a label not found yet loses every tie. Ids are below
+#: 2**32 (uint32 on the wire), and a table keeps its preds in 32 bits.
+NO_PRED = np.iinfo(np.uint32).max
+
+Column = tuple[object, tuple[int, ...], type]
+
+#: Each column of a table: the value of an empty place, its shape past (F, R), its type.
+COLUMNS: dict[str, Column] = {
+    "keys": (EMPTY, (), np.int64),
+    "sent": (False, (), np.bool_),
+    "hops": (np.inf, (), np.float64),
+    "length": (np.inf, (), np.float64),
+    "error": (np.inf, (), np.float64),
+    # 32 bits where a place's value fits: a race car's phase holds 13.8 M places.
+    "pred": (NO_PRED, (), np.uint32),
+    "vector": (np.nan, (3,), np.float64),
+    # A label's path is its sender's (label via_label of the offers its FLS heard as
+    # via_offers) plus its FLS: -1 where the FLS is the source. A process keeps a few
+    # rounds' offers, and a round's offers hold millions of labels, not billions.
+    "via_offers": (-1, (), np.int32),
+    "via_label": (-1, (), np.int32),
+}
+#: The columns a fitting run's labels add: their hops summed less the known bias, and
+#: the hops' covariances (core.fit.path_estimates).
+FIT_COLUMNS: dict[str, Column] = {
+    "unbiased": (np.nan, (3,), np.float64),
+    "covariance": (np.nan, (3, 3), np.float64),
+}
+
+
+def table_columns(fits: bool) -> dict[str, Column]:
+    """The columns of a table whose labels sum fits too (``fits``), or not, in order."""
+    return {**COLUMNS, **(FIT_COLUMNS if fits else {})}
+
+
+def place_bytes(direct: bool = True, fits: bool = False) -> int:
+    """The memory one place of a :class:`~.labels.LabelTable`'s row takes, bytes.
+
+    Parameters
+    ----------
+    direct : bool
+        A slot per source (True), or a hash, whose places keep their source's key too.
+    fits : bool
+        The labels also sum unbiased hops and covariances (a fitting run's).
+
+    Returns
+    -------
+    int
+        61 bytes a place of a slot per source, 69 in a hash; 96 more where labels fit.
+
+    Examples
+    --------
+    >>> from swazure_ros.protocol.discovery.places import place_bytes
+    >>> place_bytes(), place_bytes(direct=False), place_bytes(fits=True)
+    (61, 69, 157)
+    """
+    return sum(
+        np.dtype(dtype).itemsize * int(np.prod(shape))
+        for name, (_, shape, dtype) in table_columns(fits).items()
+        if not (name == "keys" and direct)  # a slot per source keeps no key
+    )
