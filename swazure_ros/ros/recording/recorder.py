@@ -100,11 +100,15 @@ class Recorder(Node):
         return {topic: record.count for topic, record in self._topics.items()}
 
     def _look(self) -> None:
-        """Subscribe to the topics under the namespace that appeared since the last look."""
+        """Subscribe to the topics under the namespace whose publishers appeared since the last
+        look. A topic seen through its readers alone waits for a publisher: subscribed then,
+        it would get a best-effort, volatile reader for good, which loses messages under load
+        and every latched one sent before it matched."""
         for topic, types in self.get_topic_names_and_types():
             if not topic.startswith(self._prefix) or topic in self._topics or len(types) != 1:
                 continue
-            self._record(topic, types[0])
+            if self.count_publishers(topic) > 0:
+                self._record(topic, types[0])
 
     def _record(self, topic: str, type_name: str) -> None:
         qos = offered_qos(self, topic)

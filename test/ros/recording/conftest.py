@@ -66,16 +66,20 @@ def recorded_run(domain, tmp_path):
         recorder = swarm.recorder
         assert recorder is not None
 
-        def everything_arrived() -> bool:
+        def missing() -> dict[str, int]:
             offers = result.traffic.messages["radio"]
-            recorded = sum(recorder.counts.get(topic, 0) for topic in RADIO)
-            return (
-                len(joined(probe.received, RADIO)) >= offers
-                and recorded >= offers
-                and recorder.counts.get("/swarm/measurements", 0) >= len(swarm.world.ids)
-            )
+            return {
+                "offers the probe lacks": offers - len(joined(probe.received, RADIO)),
+                "offers the recorder lacks": offers
+                - sum(recorder.counts.get(topic, 0) for topic in RADIO),
+                "measurements the recorder lacks": len(swarm.world.ids)
+                - recorder.counts.get("/swarm/measurements", 0),
+            }
 
-        assert wait_until(everything_arrived, PATIENCE, lambda: swarm.spin(0.05))
+        arrived = wait_until(
+            lambda: max(missing().values()) <= 0, PATIENCE, lambda: swarm.spin(0.05)
+        )
+        assert arrived, f"after {PATIENCE:.0f} s: {missing()}"
         # Still recording: nothing is at the path until the swarm stops.
         assert not path.exists()
     return path, probe.received, result, swarm.world

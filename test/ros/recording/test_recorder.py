@@ -9,15 +9,19 @@ from collections import Counter
 import pytest
 import yaml
 from mcap.reader import make_reader
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rosbags.highlevel import AnyReader
-from swazure_interfaces.msg import Measurements, PathOffer, PoseEstimates
+from swazure_interfaces.msg import Heartbeat, Measurements, PathOffer, PoseEstimates
 
+from swazure_ros.ros.plumbing.node import SwarmNode
 from swazure_ros.ros.recording.metadata import type_hash
 from swazure_ros.ros.recording.reader import read_recording, recorded_channels
+from swazure_ros.ros.recording.recorder import Recorder
 
 from ...conftest import REPO
-from ...waits import PATIENCE
+from ...waits import PATIENCE, wait_until
 from ..helpers import joined
 from .conftest import RADIO, RUN_TOPICS, recorded_messages
 
@@ -189,3 +193,51 @@ def test_a_full_disk_while_recording_keeps_the_results_and_what_was_written(
     assert "Traceback" not in replay.stderr, replay.stderr
     played = int(replay.stderr.split("cut short after message ")[1].split(";")[0])
     assert 0 < played <= kept, (played, kept)
+
+
+def test_a_topic_seen_through_its_readers_first_is_recorded_as_its_publisher_offers(
+    context, tmp_path
+):
+    # A reader of /swarm/latched shows the topic on the graph before any publisher does;
+    # the recorder must wait for the publisher rather than take a best-effort, volatile
+    # reader for good (which lost offers under load, and latched messages sent before it).
+    latched = QoSProfile(
+        depth=1,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    )
+    executor = SingleThreadedExecutor(context=context)
+    reader = SwarmNode("early_reader", context=context)
+    reader.create_subscription(Heartbeat, "/swarm/latched", lambda _: None, latched)
+    recorder = Recorder(tmp_path / "bag", context=context)
+    for node in (reader, recorder):
+        executor.add_node(node)
+
+    def spin() -> None:
+        executor.spin_once(timeout_sec=0.05)
+
+    def seen_by_recorder() -> bool:
+        return "/swarm/latched" in dict(recorder.get_topic_names_and_types())
+
+    assert wait_until(seen_by_recorder, PATIENCE, spin)
+    for _ in range(10):  # a few of its looks at the graph with the reader alone
+        spin()
+    assert "/swarm/latched" not in recorder.counts
+    writer = SwarmNode("late_writer", context=context)
+    executor.add_node(writer)
+    writer.create_publisher(Heartbeat, "/swarm/latched", latched).publish(Heartbeat())
+
+    def recorded() -> bool:
+        return recorder.counts.get("/swarm/latched", 0) == 1
+
+    assert wait_until(recorded, PATIENCE, spin)
+    (mine,) = [
+        info
+        for info in reader.get_subscriptions_info_by_topic("/swarm/latched")
+        if info.node_name == "recorder"
+    ]
+    assert mine.qos_profile.reliability == ReliabilityPolicy.RELIABLE
+    assert mine.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+    recorder.close()
+    for node in (reader, recorder, writer):
+        node.destroy_node()
