@@ -79,7 +79,7 @@ def sources_per_run(fls_count: int, label_memory: int = LABEL_MEMORY, fits: bool
     """How many sources one discovery run may search for, so that its labels fit
     even if every FLS held every source's label: the first block's size.
 
-    Such rows are a slot per source (``places.place_bytes``: 61 bytes a label, 157
+    Such rows are a slot per source (``places.place_bytes``: 41 bytes a label, 137
     where labels ``fits``, as a fitting run's do); the runs after the first are sized
     by the memory the labels of the one before took (:func:`next_block_size`).
     """

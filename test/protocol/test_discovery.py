@@ -504,7 +504,7 @@ def test_flss_stepped_together_offer_and_end_as_each_stepping_alone_would(reach)
     assert (cut_short > 0) == np.isfinite(reach)
     for mine, theirs in zip(together, alone, strict=True):
         np.testing.assert_array_equal(mine.sources, theirs.sources)
-        for name in ("hops", "length", "pred", "vector", "sent", "via_offers"):
+        for name in ("hops", "length", "pred", "sent", "via_offers", "via_link"):
             np.testing.assert_array_equal(mine.label(name), theirs.label(name))
         np.testing.assert_array_equal(mine.label("via_label"), theirs.label("via_label"))
         for name, values in mine.results.table.items():

@@ -10,15 +10,16 @@ from swazure_ros.protocol.discovery.links import Links
 from swazure_ros.protocol.discovery.messages import Offer, RoundOffers
 
 
-def offers_from(sender, paths):
-    """One round's offers: ``sender``'s labels, one per path (FLS ids, source first)."""
+def offers_from(sender, paths, vectors=None):
+    """One round's offers: ``sender``'s labels, one per path (FLS ids, source first), their
+    vectors ``vectors`` (zeros if None)."""
     count = len(paths)
     offer = Offer(
         source_ids=np.array([path[0] for path in paths], dtype=np.int64),
         hops=np.array([len(path) - 1 for path in paths], dtype=np.int64),
         lengths=np.ones(count),
         errors=np.zeros(count),
-        vectors=np.zeros((count, 3)),
+        vectors=np.zeros((count, 3)) if vectors is None else np.array(vectors, dtype=float),
         path_offsets=np.concatenate([[0], np.cumsum([len(p) for p in paths])]).astype(np.int64),
         path_ids=np.array([fls for path in paths for fls in path], dtype=np.int64),
     )
@@ -80,33 +81,41 @@ def test_offers_no_unsent_label_comes_through_are_dropped_once_more_than_kept():
 
 
 def test_offers_read_each_row_s_due_labels_at_their_places():
-    # Two rows of four places (sources 0-3); each label's columns say where it sits.
+    # Two rows of nine places (sources 0-8); each label's columns say where it sits. Each
+    # row relays from FLSs 4 and 5; its hop from 5 reads (0.5, 0.5, 0.5) at FLS 7, (10, -10,
+    # 20) at FLS 8.
+    hop_vectors = [[9.0, 9.0, 9.0], [0.5, 0.5, 0.5], [9.0, 9.0, 9.0], [10.0, -10.0, 20.0]]
     table = LabelTable(
         np.array([7, 8]),
-        np.array([0, 0, 0]),
-        Links(np.zeros(0, np.int64), np.zeros(0), np.zeros(0), np.zeros((0, 3))),
-        (0, 4),
-        4,
+        np.array([0, 2, 4]),
+        Links(np.array([4, 5, 4, 5]), np.ones(4), np.zeros(4), np.array(hop_vectors)),
+        (0, 9),
+        9,
         fits=False,
     )
-    rows, places = np.array([0, 0, 1]), np.array([3, 1, 2])
+    rows, places = np.array([0, 0, 1, 1]), np.array([3, 1, 2, 8])
     for row, place in zip(rows, places, strict=True):
         at = 10 * row + place
         table.hops[row, place], table.length[row, place] = at + 1, at + 0.5
-        table.error[row, place], table.vector[row, place] = at + 0.25, [at, -at, 2 * at]
-    # Each came through FLS 5's offer of its source (label k of that offer: source k).
+        table.error[row, place] = at + 0.25
+    # Each came through FLS 5's offer of its source (label k of that offer: source k, its
+    # vector (k, -k, 2k)), by the row's second link; but FLS 8's own label.
     book = OffersHeard()
-    table.via_offers[rows, places] = book.key(offers_from(5, [(k, 5) for k in range(4)]))
-    table.via_label[rows, places] = places
+    key = book.key(offers_from(5, [(k, 5) for k in range(4)], [[k, -k, 2 * k] for k in range(4)]))
+    table.via_offers[rows, places] = [key, key, key, -1]
+    table.via_label[rows, places] = [3, 1, 2, -1]
+    table.via_link[rows, places] = [1, 1, 1, -1]
     no_labels = (np.zeros(0, np.int64), np.zeros(0, np.int64))
     first, second = offers_of(
         table, book, np.array([0, 1]), (rows, places), no_labels, [False, True]
     )
-    assert first.source_ids.tolist() == [3, 1] and second.source_ids.tolist() == [2]
-    assert first.hops.tolist() == [4, 2] and second.hops.tolist() == [13]
+    assert first.source_ids.tolist() == [3, 1] and second.source_ids.tolist() == [2, 8]
+    assert first.hops.tolist() == [4, 2] and second.hops.tolist() == [13, 19]
     assert first.hops.dtype == np.int64
-    assert first.lengths.tolist() == [3.5, 1.5] and second.errors.tolist() == [12.25]
-    assert first.vectors.tolist() == [[3, -3, 6], [1, -1, 2]]
-    assert second.vectors.tolist() == [[12, -12, 24]]
-    assert [first.path(0), first.path(1), second.path(0)] == [(3, 5, 7), (1, 5, 7), (2, 5, 8)]
+    assert first.lengths.tolist() == [3.5, 1.5] and second.errors.tolist() == [12.25, 18.25]
+    # A label's vector: its sender's there, then the hop it came through; a source's own, 0.
+    assert first.vectors.tolist() == [[3.5, -2.5, 6.5], [1.5, -0.5, 2.5]]
+    assert second.vectors.tolist() == [[12, -12, 24], [0, 0, 0]]
+    assert [first.path(0), first.path(1)] == [(3, 5, 7), (1, 5, 7)]
+    assert [second.path(0), second.path(1)] == [(2, 5, 8), (8,)]
     assert (first.pending, second.pending) == (False, True)

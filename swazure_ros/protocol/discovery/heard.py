@@ -76,6 +76,24 @@ class OffersHeard:
         _place_ends(ends, path_offsets, path_ids)
         return path_offsets, path_ids
 
+    def add_vectors(self, via: IntArray, label: IntArray, vectors: FloatArray) -> None:
+        """Add to L labels' hop vectors their senders' vectors in the offers they came
+        through: each label's vector, the one it won with.
+
+        Parameters
+        ----------
+        via, label : (L,) array of int
+            As :meth:`paths` takes them (-1: the label's FLS is the source, whose
+            vector stays as given, 0).
+        vectors : (L, 3) array of float
+            Each label's hop, sender to its FLS, cm; summed in place, the sender's first
+            (as the label's sum was made when it won).
+        """
+        present = np.zeros(self._next, dtype=np.bool_)
+        _mark_keys(via, present)
+        for key in np.flatnonzero(present).tolist():
+            _add_key_vectors(self.offers[key].vectors, via, label, key, vectors)
+
     def forget(self, table: LabelTable) -> None:
         """Drop the offers that no unsent label of ``table`` comes through, looked for only
         once more than :data:`KEPT` are kept."""
@@ -137,6 +155,17 @@ def _copy_key(
 
 
 @jit.kernel(cache=True, nogil=True)
+def _add_key_vectors(
+    values: FloatArray, via: IntArray, label: IntArray, key: int, vectors: FloatArray
+) -> None:
+    """Add to the vector of each label through offers ``key`` its sender's there."""
+    for row in range(len(via)):
+        if via[row] == key:
+            for axis in range(3):
+                vectors[row, axis] = values[label[row], axis] + vectors[row, axis]
+
+
+@jit.kernel(cache=True, nogil=True)
 def _place_ends(ends: IntArray, out_starts: IntArray, out: IntArray) -> None:
     """End each path with its label's own FLS, ``ends[k]``: the last id before the next."""
     for row in range(len(ends)):
@@ -147,22 +176,29 @@ def _gathered(
     table: LabelTable, rows: IntArray, places: IntArray
 ) -> tuple[IntArray, IntArray, IntArray, FloatArray, FloatArray, FloatArray]:
     """The labels at ``places`` of ``rows`` (L,): the offers' keys and labels they came
-    through, hops, lengths, errors and vectors (L, 3), in one pass over the table."""
+    through, hops, lengths, errors and the vectors (L, 3) of their last hops (0 for a
+    source's own label), in one pass over the table."""
     size = len(rows)
     via, via_label, hops = (np.empty(size, dtype=np.int64) for _ in range(3))
     lengths, errors, vectors = np.empty(size), np.empty(size), np.empty((size, 3))
+    # A table whose links were never made relaxed no label: every label is its source's.
+    made = table.rows_links.made
+    link_starts = table.link_starts if made else np.zeros(table.size + 1, dtype=np.int64)
+    link_vectors = table.links.vectors if made else np.zeros((0, 3))
     # One compiled pass: six numpy gathers each walked the L (row, place) pairs again.
-    _gather(rows, places, table.via_offers, table.via_label, table.hops, table.length,
-            table.error, table.vector, via, via_label, hops, lengths, errors, vectors)  # fmt: skip
+    _gather(rows, places, table.via_offers, table.via_label, table.via_link, table.hops,
+            table.length, table.error, link_starts, link_vectors, via, via_label, hops,
+            lengths, errors, vectors)  # fmt: skip
     return via, via_label, hops, lengths, errors, vectors
 
 
 @jit.kernel(cache=True, nogil=True)
 def _gather(
     rows: IntArray, places: IntArray, via_offers: IntArray, via_labels: IntArray,
-    table_hops: FloatArray, table_lengths: FloatArray, table_errors: FloatArray,
-    table_vectors: FloatArray, via: IntArray, via_label: IntArray, hops: IntArray,
-    lengths: FloatArray, errors: FloatArray, vectors: FloatArray,
+    via_links: IntArray, table_hops: FloatArray, table_lengths: FloatArray,
+    table_errors: FloatArray, link_starts: IntArray, link_vectors: FloatArray,
+    via: IntArray, via_label: IntArray, hops: IntArray, lengths: FloatArray,
+    errors: FloatArray, vectors: FloatArray,
 ) -> None:  # fmt: skip
     """:func:`_gathered`'s pass: label k is place ``places[k]`` of row ``rows[k]``."""
     for k in range(len(rows)):
@@ -170,8 +206,9 @@ def _gather(
         via[k], via_label[k] = via_offers[row, place], via_labels[row, place]
         hops[k] = np.int64(table_hops[row, place])
         lengths[k], errors[k] = table_lengths[row, place], table_errors[row, place]
+        link = link_starts[row] + via_links[row, place]
         for axis in range(3):
-            vectors[k, axis] = table_vectors[row, place, axis]
+            vectors[k, axis] = link_vectors[link, axis] if via[k] >= 0 else 0.0
 
 
 def offers_of(
@@ -206,6 +243,7 @@ def offers_of(
     """
     rows, places = due
     via, via_label, hops, lengths, errors, vectors = _gathered(table, rows, places)
+    book.add_vectors(via, via_label, vectors)
     path_offsets, path_ids = book.paths(via, via_label, table.mes[rows])
     book.forget(table)
     sources = table.sources_of(rows, places)

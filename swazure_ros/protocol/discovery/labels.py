@@ -246,7 +246,9 @@ class LabelTable:
     ``id_space`` a bound on ids; ``fits``: labels also sum unbiased hops and
     their covariances (``unbiased``, ``covariance``). Each column
     (``keys``, the source of each place, none in a direct table, ``sent``, ``hops``, ``length``,
-    ``error``, ``pred``, ``vector``, ``via_offers``, ``via_label``) is (F, R, ...).
+    ``error``, ``pred``, ``via_offers``, ``via_label``, ``via_link``) is (F, R, ...). A
+    label's path and vector are read from the offers and the link it won through
+    (:meth:`.heard.OffersHeard.paths`, :meth:`~.heard.OffersHeard.add_vectors`).
     """
 
     # The columns, (F, R, ...) each: made by _allocate, as .places.table_columns lists them.
@@ -256,9 +258,9 @@ class LabelTable:
     length: FloatArray
     error: FloatArray
     pred: IntArray
-    vector: FloatArray
     via_offers: IntArray
     via_label: IntArray
+    via_link: IntArray
     unbiased: FloatArray
     covariance: FloatArray
 

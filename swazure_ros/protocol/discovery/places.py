@@ -27,12 +27,14 @@ COLUMNS: dict[str, Column] = {
     "error": (np.inf, (), np.float64),
     # 32 bits where a place's value fits: a race car's phase holds 13.8 M places.
     "pred": (NO_PRED, (), np.uint32),
-    "vector": (np.nan, (3,), np.float64),
     # A label's path is its sender's (label via_label of the offers its FLS heard as
     # via_offers) plus its FLS: -1 where the FLS is the source. A process keeps a few
     # rounds' offers, and a round's offers hold millions of labels, not billions.
     "via_offers": (-1, (), np.int32),
     "via_label": (-1, (), np.int32),
+    # Its vector too is its sender's there plus the hop, the row's link via_link: summed
+    # when the label is sent (heard.offers_of), not kept, 24 bytes a place.
+    "via_link": (-1, (), np.int32),
 }
 #: The columns a fitting run's labels add: their hops summed less the known bias, and
 #: the hops' covariances (core.fit.path_estimates).
@@ -60,13 +62,13 @@ def place_bytes(direct: bool = True, fits: bool = False) -> int:
     Returns
     -------
     int
-        61 bytes a place of a slot per source, 69 in a hash; 96 more where labels fit.
+        41 bytes a place of a slot per source, 49 in a hash; 96 more where labels fit.
 
     Examples
     --------
     >>> from swazure_ros.protocol.discovery.places import place_bytes
     >>> place_bytes(), place_bytes(direct=False), place_bytes(fits=True)
-    (61, 69, 157)
+    (41, 49, 137)
     """
     return sum(
         np.dtype(dtype).itemsize * int(np.prod(shape))

@@ -336,8 +336,7 @@ class PathSearch:
         table, row = self.table, self.row
         me = table.add(row, self.fls_id)
         table.hops[row, me], table.length[row, me], table.error[row, me] = 0.0, 0.0, 0.0
-        table.pred[row, me] = self.fls_id
-        table.vector[row, me] = 0.0
+        table.pred[row, me] = self.fls_id  # no offers it came through: its vector is 0
         if self.fits:
             table.unbiased[row, me], table.covariance[row, me] = 0.0, 0.0
 
@@ -357,7 +356,7 @@ class PathSearch:
         return self.table.sources_of(self.row, self.table.places(self.row))
 
     def label(self, name: str) -> NDArray[np.generic]:
-        """Column ``name`` of its labels (``hops``, ``length``, ``pred``, ``vector``,
+        """Column ``name`` of its labels (``hops``, ``length``, ``pred``, ``via_link``,
         ``sent``, ...) by source (:class:`.labels.LabelTable`)."""
         return np.asarray(getattr(self.table, name)[self.row, self.table.places(self.row)])
 
@@ -501,7 +500,8 @@ def take_changes(
     changes: Changes,
 ) -> None:
     """Labels of ``table`` bettered by ``heard`` (the relaxation of ``rows`` gave ``starts``
-    and ``changes``): their vectors follow the winners, and their paths are named.
+    and ``changes``): the offers, labels and links their paths and vectors are read from
+    follow the winners.
 
     ``fit`` (the sensor and the FLSs' radius, cm) in a fitting run: the labels'
     unbiased sums and covariances follow too.
@@ -509,12 +509,12 @@ def take_changes(
     if not len(changes.places):
         return
     changed = np.repeat(rows, np.diff(starts))
-    links = table.link_starts[changed] + changes.links  # into the table's links
     _follow(
-        changed, changes.places, changes.labels, links, heard.vectors, table.links.vectors,
-        book.key(heard), table.vector, table.via_offers, table.via_label,
+        changed, changes.places, changes.labels, changes.links, book.key(heard),
+        table.via_offers, table.via_label, table.via_link,
     )  # fmt: skip
     if fit is not None:
+        links = table.link_starts[changed] + changes.links  # into the table's links
         sensor, radius = fit
         hop = table.links.vectors[links]
         unbiased, covariance = hop_fit(sensor, radius, hop, table.links.weights[links])
@@ -524,20 +524,18 @@ def take_changes(
 
 @jit.kernel(cache=True, nogil=True)
 def _follow(
-    rows: IntArray, places: IntArray, labels: IntArray, links: IntArray,
-    heard_vectors: FloatArray, link_vectors: FloatArray, key: int,
-    vector: FloatArray, via_offers: IntArray, via_label: IntArray,
+    rows: IntArray, places: IntArray, labels: IntArray, links: IntArray, key: int,
+    via_offers: IntArray, via_label: IntArray, via_link: IntArray,
 ) -> None:  # fmt: skip
-    """The labels at (``rows``, ``places``) of a table (its columns ``vector``,
-    ``via_offers``, ``via_label``) won through heard ``labels`` (vectors ``heard_vectors``)
-    and ``links`` (``link_vectors``): their vectors, the heard vector plus the hop's, and
-    the offers (``key``) and labels their paths are read from. One compiled pass: numpy
-    scatters millions of changes a round into (F, R, 3) columns several times slower."""
+    """The labels at (``rows``, ``places``) of a table (its columns ``via_offers``,
+    ``via_label``, ``via_link``) won through heard ``labels`` of the offers ``key`` and
+    their rows' ``links`` (each within its row): what their paths and vectors are read
+    from when they are sent (:func:`.heard.offers_of`). One compiled pass: numpy scatters
+    millions of changes a round into (F, R) columns several times slower."""
     for change in range(len(places)):
-        row, place, label, link = rows[change], places[change], labels[change], links[change]
-        for axis in range(3):
-            vector[row, place, axis] = heard_vectors[label, axis] + link_vectors[link, axis]
-        via_offers[row, place], via_label[row, place] = key, label
+        row, place = rows[change], places[change]
+        via_offers[row, place], via_label[row, place] = key, labels[change]
+        via_link[row, place] = links[change]
 
 
 def heard_labels(heard: RoundOffers) -> HeardLabels:
