@@ -131,6 +131,9 @@ def test_a_round_table_gives_each_sender_s_labels():
     assert table.labels_of(np.array([4, 7])).tolist() == [2]
     assert table.labels_of(np.array([2, 4, 9])).tolist() == [0, 1, 2]
     assert table.labels_of(np.array([], dtype=np.int64)).tolist() == []
+    # Each label's sender, the empty offers' (2 has none here) passed over.
+    table = RoundOffers.of([(4, offer(1)), (2, offer()), (3, offer(1, 3)), (9, offer(5))])
+    assert table.senders_of(np.array([0, 1, 2, 3])).tolist() == [3, 3, 4, 9]
 
 
 def slices(whole, counts):
@@ -165,7 +168,7 @@ def test_a_process_s_own_offers_join_into_its_round_table_without_a_copy():
     viewed = list(zip([2, 4, 7, 9], slices(whole, [2, 0, 1, 2]), strict=True))
     copied = [(sender, copy_of(one)) for sender, one in viewed]
     table, again = RoundOffers.of(viewed), RoundOffers.of(copied)
-    for name in ("senders", "starts", "sender_ids", "source_ids", "hops", "lengths", "vectors"):
+    for name in ("senders", "starts", "source_ids", "hops", "lengths", "vectors"):
         assert np.array_equal(getattr(table, name), getattr(again, name)), name
     assert table.paths(np.arange(5)) == again.paths(np.arange(5)) == [
         (1, 9), (3, 9), (5, 9), (6, 9), (8, 9)

@@ -159,7 +159,6 @@ class RoundOffers:
 
     senders: IntArray  # (S,) sorted sender ids
     starts: IntArray  # (S + 1,) sender k's labels are starts[k]:starts[k + 1]
-    sender_ids: IntArray  # (L,)
     source_ids: IntArray  # (L,)
     hops: IntArray  # (L,)
     lengths: FloatArray  # (L,), cm
@@ -256,7 +255,6 @@ class RoundOffers:
         return cls(
             senders=unique,
             starts=np.append(starts[first], starts[-1]).astype(np.int64),
-            sender_ids=np.repeat(senders, counts),
             source_ids=joined([offer.source_ids for offer in offers], np.zeros(0, np.int64)),
             hops=joined([offer.hops for offer in offers], np.zeros(0, np.int64)),
             lengths=joined([offer.lengths for offer in offers], np.zeros(0)),
@@ -296,6 +294,10 @@ class RoundOffers:
         """Rows into :attr:`senders` of those of ``senders`` that offered."""
         rows = sender_rows(np.asarray(senders, dtype=np.int64), self.senders)
         return rows[rows >= 0]
+
+    def senders_of(self, labels: IntArray) -> IntArray:
+        """(M,) the sender of each of ``labels`` (M,): looked up, not held (L ids a round)."""
+        return self.senders[np.searchsorted(self.starts, labels, side="right") - 1]
 
     def labels_of(self, senders: IntArray) -> IntArray:
         """(M,) the labels offered by ``senders`` (sorted ids), sender by sender."""

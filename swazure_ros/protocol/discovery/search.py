@@ -430,7 +430,7 @@ class PathSearch:
     ) -> None:
         """Record the results that ``labels`` of ``heard`` (this source's, from targets) bring,
         with their ``paths`` (offsets, ids); ``labels`` are one or more."""
-        targets = heard.sender_ids[labels]
+        targets = heard.senders_of(labels)
         rows = np.searchsorted(self.targets, targets)
         self._found[rows] = True
         self._unfound -= len(labels)
