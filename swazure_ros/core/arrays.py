@@ -1,7 +1,8 @@
 """The array types the package's signatures name, defined once.
 
 ``FloatArray`` holds positions, vectors and distances (cm unless a function
-says otherwise), ``IntArray`` indices and counts, ``BoolArray`` masks. They are
+says otherwise), ``IntArray`` indices and counts, ``IdArray`` FLS ids (int64, or
+uint32 as the wire carries them), ``BoolArray`` masks. They are
 aliases of :class:`numpy.typing.NDArray`, as scipy.spatial and numpy's own
 stubs spell their arrays: the shape lives in each function's docstring.
 """
@@ -13,6 +14,7 @@ from numpy.typing import NDArray
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+IdArray = NDArray[np.int64] | NDArray[np.uint32]
 BoolArray = NDArray[np.bool_]
 
-__all__ = ["BoolArray", "FloatArray", "IntArray"]
+__all__ = ["BoolArray", "FloatArray", "IdArray", "IntArray"]

@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core import csr
-from ..core.arrays import FloatArray, IntArray
+from ..core.arrays import FloatArray, IdArray, IntArray
 from ..core.fit import PATH, SWARM_ESTIMATORS
 from ..core.hop_errors import hop_error
 from ..core.sensor import DECAYING, SWEET, Sensor
@@ -64,7 +64,7 @@ def implausible_labels(
     errors: FloatArray | None,
     vectors: FloatArray,
     path_offsets: IntArray,
-    path_ids: IntArray,
+    path_ids: IdArray,
     phase: int,
     positions: Callable[[IntArray], FloatArray],
     sensor: Sensor,
@@ -82,7 +82,7 @@ def implausible_labels(
     why = np.zeros(count, dtype=np.int8)
     if not count:
         return why
-    points = positions(path_ids)
+    points = positions(path_ids.astype(np.int64, copy=False))  # uint32 as offers carry them
     # Hop k of the flat path list runs from path_ids[k] to path_ids[k + 1], unless
     # k + 1 starts the next path; it belongs to the label whose path holds k.
     offset = points[1:] - points[:-1]

@@ -112,6 +112,7 @@ def test_offers_read_each_row_s_due_labels_at_their_places():
     assert first.source_ids.tolist() == [3, 1] and second.source_ids.tolist() == [2, 8]
     assert first.hops.tolist() == [4, 2] and second.hops.tolist() == [13, 19]
     assert first.hops.dtype == np.int64
+    assert first.path_ids.dtype == np.uint32  # ids as the wire has them: paths in half
     assert first.lengths.tolist() == [3.5, 1.5] and second.errors.tolist() == [12.25, 18.25]
     # A label's vector: its sender's there, then the hop it came through; a source's own, 0.
     assert first.vectors.tolist() == [[3.5, -2.5, 6.5], [1.5, -0.5, 2.5]]

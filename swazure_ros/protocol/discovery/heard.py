@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...core import csr, jit
-from ...core.arrays import FloatArray, IntArray
+from ...core.arrays import FloatArray, IdArray, IntArray
 from .labels import LabelTable
 from .messages import Offer, RoundOffers
 
@@ -42,7 +42,7 @@ class OffersHeard:
         self._next += 1
         return self._next - 1
 
-    def paths(self, via: IntArray, label: IntArray, ends: IntArray) -> tuple[IntArray, IntArray]:
+    def paths(self, via: IntArray, label: IntArray, ends: IntArray) -> tuple[IntArray, IdArray]:
         """The paths of L labels, each its sender's path then its own FLS.
 
         Parameters
@@ -56,7 +56,7 @@ class OffersHeard:
         Returns
         -------
         offsets : (L + 1,) array of int
-        ids : array of int
+        ids : array of uint32
             FLS ids, source first.
         """
         # Compiled passes over the L labels, a few per round's offers kept: a numpy
@@ -70,7 +70,8 @@ class OffersHeard:
         for key in keys:
             _spans(self.offers[key].path_offsets, via, label, key, start, length)
         path_offsets = csr.offsets(length + 1)
-        path_ids = np.empty(int(path_offsets[-1]), dtype=np.int64)
+        # FLS ids are uint32 on the wire: a round's paths (tens of millions of ids) in half.
+        path_ids = np.empty(int(path_offsets[-1]), dtype=np.uint32)
         for key in keys:
             _copy_key(self.offers[key].path_ids, via, key, start, length, path_offsets, path_ids)
         _place_ends(ends, path_offsets, path_ids)
@@ -142,8 +143,8 @@ def _spans(
 
 @jit.kernel(cache=True, nogil=True)
 def _copy_key(
-    values: IntArray, via: IntArray, key: int, starts: IntArray, counts: IntArray,
-    out_starts: IntArray, out: IntArray,
+    values: IdArray, via: IntArray, key: int, starts: IntArray, counts: IntArray,
+    out_starts: IntArray, out: IdArray,
 ) -> None:  # fmt: skip
     """Copy the sender's path of each label through offers ``key`` (``counts[k]`` ids of
     their ``values`` from ``starts[k]``) to ``out`` from ``out_starts[k]`` on."""
@@ -166,7 +167,7 @@ def _add_key_vectors(
 
 
 @jit.kernel(cache=True, nogil=True)
-def _place_ends(ends: IntArray, out_starts: IntArray, out: IntArray) -> None:
+def _place_ends(ends: IntArray, out_starts: IntArray, out: IdArray) -> None:
     """End each path with its label's own FLS, ``ends[k]``: the last id before the next."""
     for row in range(len(ends)):
         out[out_starts[row + 1] - 1] = ends[row]

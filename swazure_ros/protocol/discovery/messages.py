@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...core import csr, jit
-from ...core.arrays import FloatArray, IntArray
+from ...core.arrays import FloatArray, IdArray, IntArray
 from ...core.fit import PATH
 from ...core.paths import FEWEST_HOPS
 from ...core.swarm_fit import UNIT
@@ -86,7 +86,7 @@ class Offer:
     errors: FloatArray  # (L,), expected error summed over the hops (core.hop_errors.hop_error)
     vectors: FloatArray  # (L, 3), cm, summed from the source to the sender
     path_offsets: IntArray  # (L + 1,)
-    path_ids: IntArray
+    path_ids: IdArray  # FLS ids, each path source first; uint32 as on the wire
     pending: bool = False
     finished: bool = False
     # A fitting run's labels also sum their hops less the known bias and the hops'
@@ -165,7 +165,7 @@ class RoundOffers:
     errors: FloatArray  # (L,)
     vectors: FloatArray  # (L, 3), cm
     path_offsets: IntArray  # (L + 1,)
-    path_ids: IntArray
+    path_ids: IdArray  # uint32 (Offer.path_ids)
     unbiased: FloatArray  # (L, 3), cm; NaN where an offer carried none
     covariances: FloatArray  # (L, 3, 3), cm^2; NaN where an offer carried none
     # Every reading the offers carried, sorted by the FLS read, then by the sender.
@@ -261,7 +261,7 @@ class RoundOffers:
             errors=joined([offer.errors for offer in offers], np.zeros(0)),
             vectors=joined([offer.vectors for offer in offers], np.zeros((0, 3))),
             path_offsets=csr.offsets(path_lengths),
-            path_ids=joined([offer.path_ids for offer in offers], np.zeros(0, np.int64)),
+            path_ids=joined([offer.path_ids for offer in offers], np.zeros(0, np.uint32)),
             unbiased=carried("unbiased", (3,)),
             covariances=carried("covariances", (3, 3)),
             **_readings_table(heard),

@@ -14,7 +14,7 @@ import numpy as np
 from builtin_interfaces.msg import Time
 from swazure_interfaces.msg import PathOffer
 
-from ...core.arrays import FloatArray, IntArray
+from ...core.arrays import FloatArray, IdArray, IntArray
 from ...protocol.discovery.messages import FIT, SWEET_ALL, Broadcast, FitOffer, Offer
 from ..plumbing.names import node_name
 from ..security.guard import check, check_finite, check_ids, check_size
@@ -99,7 +99,7 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
         sources, hops, lengths, errors, vectors, path_ids = _labels(message, offsets, swarm)
     else:  # a FIT round's offer, or a sender with nothing due: its sender is all to check
         check_ids([message.sender_id], swarm, "offer")
-        sources, hops, path_ids = _NO_IDS, _NO_IDS, _NO_IDS
+        sources, hops, path_ids = _NO_IDS, _NO_IDS, _NO_PATH_IDS
         lengths, errors, vectors = _NO_VALUES, _NO_VALUES, _NO_VECTORS
     return Offer(
         source_ids=sources,
@@ -121,6 +121,7 @@ def offer_from_message(message: PathOffer, swarm: IntArray) -> Offer:
 
 #: An offer's arrays when it has no label or no reading (read-only: shared by every offer).
 _NO_IDS = np.zeros(0, dtype=np.int64)
+_NO_PATH_IDS = np.zeros(0, dtype=np.uint32)
 _NO_VALUES = np.zeros(0, dtype=np.float64)
 _NO_VECTORS = np.zeros((0, 3), dtype=np.float64)
 for _empty in (_NO_IDS, _NO_VALUES, _NO_VECTORS):
@@ -129,7 +130,7 @@ for _empty in (_NO_IDS, _NO_VALUES, _NO_VECTORS):
 
 def _labels(
     message: PathOffer, offsets: IntArray, swarm: IntArray
-) -> tuple[IntArray, IntArray, FloatArray, FloatArray, FloatArray, IntArray]:
+) -> tuple[IntArray, IntArray, FloatArray, FloatArray, FloatArray, IdArray]:
     """An offer's labels, checked (:func:`offer_from_message`): sources, hops, lengths,
     errors, vectors (K, 3) and path ids."""
     sources = np.asarray(message.source_ids, dtype=np.int64)
@@ -141,7 +142,7 @@ def _labels(
     check(bool(np.all(lengths >= 0) and np.all(errors >= 0)), "a negative cost")
     vectors = check_finite(message.vectors, "vectors", allow_nan=message.phase == SWEET_ALL)
     check(bool(np.all(np.diff(offsets) == hops + 1)), "a path is not hops + 1 FLSs long")
-    path_ids = np.asarray(message.path_ids, dtype=np.int64)
+    path_ids = np.asarray(message.path_ids, dtype=np.uint32)  # as the wire's, as offers_of's
     # One look-up for every id: the sender's, and those of the paths (sources included).
     check_ids(np.append(path_ids, message.sender_id), swarm, "offer")
     starts, ends = path_ids[offsets[:-1]], path_ids[offsets[1:] - 1]

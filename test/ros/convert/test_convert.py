@@ -345,6 +345,8 @@ def test_an_offer_of_a_fitting_run_carries_its_sums_and_one_without_carries_none
         serialize_message(offer_message(Broadcast(1, 0, 2, 9, offer), Time())), PathOffer
     )
     back = offer_from_message(message, swarm)
+    # Its paths' ids as the wire has them, uint32, as a process's own offers hold them.
+    assert back.path_ids.tolist() == [3, 5, 9] and back.path_ids.dtype == np.uint32
     np.testing.assert_array_equal(back.unbiased, offer.unbiased)
     np.testing.assert_array_equal(back.covariances, offer.covariances)
     plain = offer_message(
