@@ -71,8 +71,11 @@ class MoveResult:
 
 #: The labels that a whole-swarm discovery keeps at once, all processes together,
 #: bytes: a swarm whose every FLS would hold every source's label runs its
-#: sources in blocks (:func:`source_blocks`).
-LABEL_MEMORY = 2 * 1024**3
+#: sources in blocks (:func:`source_blocks`). 1 GiB of places: a run's largest round
+#: also holds that round's offers and the last round's, kept for the labels not yet
+#: sent, about three times its tables' bytes more (BENCHMARKS.md, "A label's vector
+#: summed when it is sent").
+LABEL_MEMORY = 1024**3
 
 
 def sources_per_run(fls_count: int, label_memory: int = LABEL_MEMORY, fits: bool = False) -> int:
