@@ -205,6 +205,7 @@ def test_the_array_types_are_defined_once() -> None:
     assert [line.split(": ")[-1] for line in array_alias_definitions()] == [
         "FloatArray",
         "IntArray",
+        "IdArray",
         "BoolArray",
     ]
 
