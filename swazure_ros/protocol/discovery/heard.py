@@ -62,11 +62,9 @@ class OffersHeard:
         # Compiled passes over the L labels, a few per round's offers kept: a numpy
         # version made a dozen temporaries of L (a round's L reaches millions), and
         # sorting ``via`` to list its keys cost more than the copying.
-        present = np.zeros(self._next, dtype=np.bool_)
-        _mark_keys(via, present)
         start = np.zeros(len(via), dtype=np.int64)
         length = np.zeros(len(via), dtype=np.int64)
-        keys = np.flatnonzero(present).tolist()
+        keys = self._keys_in(via)
         for key in keys:
             _spans(self.offers[key].path_offsets, via, label, key, start, length)
         path_offsets = csr.offsets(length + 1)
@@ -90,10 +88,14 @@ class OffersHeard:
             Each label's hop, sender to its FLS, cm; summed in place, the sender's first
             (as the label's sum was made when it won).
         """
+        for key in self._keys_in(via):
+            _add_key_vectors(self.offers[key].vectors, via, label, key, vectors)
+
+    def _keys_in(self, via: IntArray) -> list[int]:
+        """The keys that ``via`` names (-1, no key, left out), each once, in order."""
         present = np.zeros(self._next, dtype=np.bool_)
         _mark_keys(via, present)
-        for key in np.flatnonzero(present).tolist():
-            _add_key_vectors(self.offers[key].vectors, via, label, key, vectors)
+        return np.flatnonzero(present).tolist()
 
     def forget(self, table: LabelTable) -> None:
         """Drop the offers that no unsent label of ``table`` comes through, looked for only
@@ -207,9 +209,12 @@ def _gather(
         via[k], via_label[k] = via_offers[row, place], via_labels[row, place]
         hops[k] = np.int64(table_hops[row, place])
         lengths[k], errors[k] = table_lengths[row, place], table_errors[row, place]
+        if via[k] < 0:  # a source's own label: no hop
+            vectors[k] = 0.0
+            continue
         link = link_starts[row] + via_links[row, place]
         for axis in range(3):
-            vectors[k, axis] = link_vectors[link, axis] if via[k] >= 0 else 0.0
+            vectors[k, axis] = link_vectors[link, axis]
 
 
 def offers_of(
