@@ -124,7 +124,7 @@ _NO_IDS = np.zeros(0, dtype=np.int64)
 _NO_PATH_IDS = np.zeros(0, dtype=np.uint32)
 _NO_VALUES = np.zeros(0, dtype=np.float64)
 _NO_VECTORS = np.zeros((0, 3), dtype=np.float64)
-for _empty in (_NO_IDS, _NO_VALUES, _NO_VECTORS):
+for _empty in (_NO_IDS, _NO_PATH_IDS, _NO_VALUES, _NO_VECTORS):
     _empty.flags.writeable = False
 
 
