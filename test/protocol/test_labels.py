@@ -81,6 +81,20 @@ def test_a_row_is_a_slot_per_source_once_a_hash_would_be_half_as_wide():
     assert labels_of(table, 0) == {s: (14.0, 1) for s in [100, 120, *range(130, 150), 163]}
 
 
+def test_a_sent_label_is_final_even_against_a_cheaper_offer():
+    # Sent labels are final (buckets), and the relaxation reads a label's cost before it
+    # reads `sent`: a cheaper offer of a sent source changes nothing, in a hash or a slot.
+    for span in ((0, 1000), (0, 4)):
+        table = table_of([3], [[1, 2]], 7.0, span)
+        table.relax(np.array([0]), LENGTH_FIRST, heard({1: ([0, 1, 2], 7.0)}))
+        assert table.direct is (span[1] == 4)
+        table.sent[0, table.places(0)[table.sources_of(0, table.places(0)) == 1]] = True
+        starts, changes = table.relax(np.array([0]), LENGTH_FIRST, heard({2: ([1, 2], 1.0)}))
+        assert table.sources_of(np.zeros(1, dtype=np.int64), changes.places[:1]).tolist() == [2]
+        assert np.diff(starts).tolist() == [1]
+        assert labels_of(table, 0) == {0: (14.0, 1), 1: (14.0, 1), 2: (8.0, 2)}
+
+
 def test_a_closed_source_is_neither_relaxed_nor_kept():
     table = table_of([3], [[1]], 7.0, (0, 500))
     table.close(np.array([7, 9, 600]))  # 600 is not this run's

@@ -187,19 +187,26 @@ def relax_rows(
                         return at, filled, occupied[row] + 1
                     row_keys[place] = source  # its costs are the empty place's: none yet
                     occupied[row] += 1
-                elif row_sent[place]:
-                    continue
                 # Sums in path order, as the engine sums them: cost so far plus this hop.
+                # The first key alone rejects nearly every candidate, sent labels among
+                # them (final, so never bettered): read before the rest, and before
+                # `sent`, whose branch the processor cannot guess (the pass took 1.7x).
+                if order == LENGTH_FIRST:
+                    new1, old1 = label_lengths[label] + weight, row_length[place]
+                elif order == HOPS_FIRST:
+                    new1, old1 = label_hops[label] + 1.0, row_hops[place]
+                else:
+                    new1, old1 = label_errors[label] + link_error, row_error[place]
+                if new1 > old1 or row_sent[place]:
+                    continue
                 new_hops = label_hops[label] + 1.0
                 new_length = label_lengths[label] + weight
                 new_error = label_errors[label] + link_error
                 old_hops, old_length = row_hops[place], row_length[place]
                 if order == HOPS_FIRST:
-                    new1, new2, old1, old2 = new_hops, new_length, old_hops, old_length
-                elif order == LENGTH_FIRST:
-                    new1, new2, old1, old2 = new_length, new_hops, old_length, old_hops
+                    new2, old2 = new_length, old_length
                 else:
-                    new1, new2, old1, old2 = new_error, new_hops, row_error[place], old_hops
+                    new2, old2 = new_hops, old_hops
                 if new1 < old1 or (
                     new1 == old1 and (new2 < old2 or (new2 == old2 and sender < row_pred[place]))
                 ):
