@@ -12,8 +12,9 @@ from swazure_ros.protocol.discovery.together import PARALLEL_ROWS, open_labels, 
 SOURCES = 40  # the run's sources are ids 0..39; the FLSs are 1000.., the senders 2000..
 
 
-def direct_table(flss):
-    """FLS 1000 + k relays from senders 2000 + k % 10 and 2000 + 3k % 10, hop 5 + (k % 7) / 2."""
+def direct_table(flss, sources=None):
+    """FLS 1000 + k relays from senders 2000 + k % 10 and 2000 + 3k % 10, hop 5 + (k % 7) / 2;
+    the run's sources are ``sources`` (sorted ids), or every id below SOURCES."""
     own = [sorted({2000 + k % 10, 2000 + 3 * k % 10}) for k in range(flss)]
     ids = np.array([sender for one in own for sender in one], dtype=np.int64)
     weights = np.concatenate([np.full(len(one), 5 + (k % 7) / 2) for k, one in enumerate(own)])
@@ -24,7 +25,8 @@ def direct_table(flss):
         (0, SOURCES),
         SOURCES,
         fits=False,
-        need=SOURCES,
+        need=SOURCES if sources is None else len(sources),
+        sources=sources,
     )
 
 
@@ -67,6 +69,23 @@ def test_a_process_s_rows_relaxed_on_its_cores_change_as_one_call_changes_them(f
     assert not shared.found()[:, closed].any()  # a direct row: a source's place is its id
     for name in ("hops", "length", "pred"):
         np.testing.assert_array_equal(getattr(shared, name), getattr(alone, name))
+
+
+@pytest.mark.parametrize("flss", [3, 3 * PARALLEL_ROWS], ids=["few", "many"])
+def test_a_spread_run_s_labels_are_the_whole_run_s_for_its_sources_in_their_slots(flss):
+    # Sources 1, 4, 7, ..., 37: each label goes to its source's rank among them, and a
+    # label of any other id is no label of the run's.
+    run = np.arange(1, SOURCES, 3)
+    spread, whole = direct_table(flss, run), direct_table(flss)
+    assert spread.direct and spread.width == len(run)
+    rows = np.arange(flss, dtype=np.int64)
+    for shift in range(3):
+        relax_together(spread, rows, LENGTH_FIRST, offers(shift))
+        relax_together(whole, rows, LENGTH_FIRST, offers(shift))
+    for name in ("hops", "length", "pred"):
+        np.testing.assert_array_equal(getattr(spread, name), getattr(whole, name)[:, run])
+    assert np.isfinite(spread.length).any(axis=0).all()  # every source of the run heard
+    np.testing.assert_array_equal(spread.sources_of(rows, np.arange(len(run))), run)
 
 
 def test_the_labels_of_closed_sources_are_dropped_and_the_rest_keep_their_senders():

@@ -31,7 +31,7 @@ from ...core import jit
 from ...core.arrays import FloatArray, IntArray
 from .links import Links, RowHops, RowsLinks, joined_links
 from .messages import sender_rows
-from .places import EMPTY, place_bytes, table_columns
+from .places import EMPTY, place_bytes, slot_map, slot_of, table_columns
 
 #: The order of a label's costs in each policy: (primary, secondary), as the relaxation reads them.
 HOPS_FIRST, LENGTH_FIRST, ERROR_FIRST = 0, 1, 2
@@ -84,16 +84,6 @@ def _place(keys: IntArray, source: int) -> int:
 
 
 @jit.kernel(cache=True, nogil=True)
-def _slot(run_ids: IntArray | None, first: int, source: int) -> int:
-    """The slot of ``source`` in a direct row: its rank in ``run_ids`` (the run's sources,
-    sorted; None: every id from ``first`` on is one), -1 if it is not one of them."""
-    if run_ids is None:
-        return source - first
-    at = np.searchsorted(run_ids, source)
-    return int(at) if at < len(run_ids) and run_ids[at] == source else -1
-
-
-@jit.kernel(cache=True, nogil=True)
 def _insert(
     keys: IntArray,
     rows: IntArray,
@@ -106,7 +96,7 @@ def _insert(
     places = np.empty(len(rows), dtype=np.int64)
     for k in range(len(rows)):
         if direct:  # the slot; a direct table keeps no keys
-            places[k] = _slot(run_ids, first, sources[k])
+            places[k] = slot_of(run_ids, first, sources[k])
             continue
         place = _place(keys[rows[k]], sources[k])
         keys[rows[k], place] = sources[k]
@@ -121,7 +111,7 @@ def relax_rows(
     mes: IntArray,
     order: int,
     span: IntArray,
-    run_ids: IntArray | None,
+    slots: NDArray[np.int32] | None,
     link_starts: IntArray,
     links: Links,
     heard: HeardLabels,
@@ -137,7 +127,9 @@ def relax_rows(
     ``link_starts[row]:link_starts[row + 1]``) through the labels ``heard``.
 
     ``span`` is (first, end): sources outside first..end - 1 are not this run's, nor,
-    when ``run_ids`` (sorted; None: all) names its sources, ids it names not; ``closed``
+    when ``slots`` (end - first,) gives each id's slot (-1: not one of the run's
+    sources; None: every id is, at slot id - first, :func:`.places.slot_map`), ids without
+    one; ``closed``
     (id_space,) marks the sources whose search ended (empty: none), neither kept nor
     relaxed. A source first heard takes an empty place. Row ``rows[k]``'s bettered
     places go to ``changes[change_starts[k]:change_starts[k + 1]]``, from ``filled`` on.
@@ -176,8 +168,9 @@ def relax_rows(
                 source = source_ids[label]
                 if source < first or source >= end or source == me:  # not this run's, or its own
                     continue
-                # The slot inline, not by _place: a call per candidate cost 4x (direct).
-                rank = source - first if run_ids is None else _slot(run_ids, first, source)
+                # The slot inline, not by _place: a call per candidate cost 4x (direct). Looked
+                # up, not searched for: a search per candidate took 15x the pass (spread).
+                rank = source - first if slots is None else np.int64(slots[source - first])
                 if rank < 0 or (has_closed and closed[source]):  # not a spread run's, or ended
                     continue
                 place = rank if direct else _place(row_keys, source)
@@ -296,6 +289,7 @@ class LabelTable:
             if sources is not None and spread
             else None
         )
+        self._slots: NDArray[np.int32] | None = None  # slot_map(run_ids), once relaxed
         self.closed = np.zeros(0, dtype=bool)  # (id_space,) once a source is closed
         self._last_closed: object = None  # the ids :meth:`close` took last, as given
         self._changes_last = 0
@@ -328,6 +322,15 @@ class LabelTable:
             setattr(self, name, np.full((len(self.mes), wide, *shape), empty, dtype=dtype))
         # Read by every offer (Offer.label_bytes): worked out once per layout.
         self._row_bytes = width * place_bytes(self.direct, self.fits)
+
+    @property
+    def slots(self) -> NDArray[np.int32] | None:
+        """Each id's slot among a spread run's sources (:func:`.places.slot_map`; None: every id of
+        the span is one), made when first needed: a table that never relaxes (a packed
+        FLS's own, before its process steps it with others) holds none."""
+        if self.run_ids is not None and self._slots is None:
+            self._slots = slot_map(self.run_ids, self.span)
+        return self._slots
 
     @property
     def size(self) -> int:
@@ -447,7 +450,7 @@ class LabelTable:
                 self.mes,
                 order,
                 self.span_array,
-                self.run_ids,
+                self.slots,
                 self.link_starts,
                 self.links,
                 heard,

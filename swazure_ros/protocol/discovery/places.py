@@ -8,6 +8,10 @@ takes is what a discovery's blocks of sources are sized by (``protocol.runs``).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
+
+from ...core import jit
+from ...core.arrays import IntArray
 
 #: An empty place of a hashed row (its key).
 EMPTY = -1
@@ -75,3 +79,42 @@ def place_bytes(direct: bool = True, fits: bool = False) -> int:
         for name, (_, shape, dtype) in table_columns(fits).items()
         if not (name == "keys" and direct)  # a slot per source keeps no key
     )
+
+
+@jit.kernel(cache=True, nogil=True)
+def slot_of(run_ids: IntArray | None, first: int, source: int) -> int:
+    """The slot of ``source`` in a direct row: its rank in ``run_ids`` (the run's sources,
+    sorted; None: every id from ``first`` on is one), -1 if it is not one of them."""
+    if run_ids is None:
+        return source - first
+    at = np.searchsorted(run_ids, source)
+    return int(at) if at < len(run_ids) and run_ids[at] == source else -1
+
+
+def slot_map(run_ids: IntArray, span: tuple[int, int]) -> NDArray[np.int32]:
+    """Each id's slot among a run's sources, over the run's span of ids.
+
+    Parameters
+    ----------
+    run_ids : (S,) array of int
+        The run's sources, sorted ids.
+    span : (int, int)
+        (first, end): the ids a source of the run may have.
+
+    Returns
+    -------
+    (end - first,) array of int32
+        Entry ``id - first`` is the rank of ``id`` in ``run_ids``, -1 where it is not one.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from swazure_ros.protocol.discovery.places import slot_map
+    >>> slot_map(np.array([3, 5, 8]), (3, 9)).tolist()
+    [0, -1, 1, -1, -1, 2]
+    """
+    first, end = span
+    slots = np.full(end - first, -1, dtype=np.int32)
+    inside = (run_ids >= first) & (run_ids < end)
+    slots[run_ids[inside] - first] = np.flatnonzero(inside)
+    return slots
