@@ -106,23 +106,11 @@ def _insert(
 
 @jit.kernel(cache=True, nogil=True)
 def relax_rows(
-    rows: IntArray,
-    begin: int,
-    mes: IntArray,
-    order: int,
-    span: IntArray,
-    slots: NDArray[np.int32] | None,
-    link_starts: IntArray,
-    links: Links,
-    heard: HeardLabels,
-    closed: NDArray[np.bool_],
-    columns: Columns,
-    changes: Changes,
-    filled: int,
-    change_starts: IntArray,
-    won: Changes,
-    resume: IntArray,
-) -> tuple[int, int, int]:
+    rows: IntArray, begin: int, mes: IntArray, order: int, span: IntArray,
+    slots: NDArray[np.int32] | None, link_starts: IntArray, links: Links, heard: HeardLabels,
+    closed: NDArray[np.bool_], columns: Columns, changes: Changes, filled: int,
+    change_starts: IntArray, won: Changes, resume: IntArray,
+) -> tuple[int, int, int]:  # fmt: skip
     """Relax the labels of table rows ``rows[begin:]`` (FLS ``mes[row]``, its links
     ``link_starts[row]:link_starts[row + 1]``) through the labels ``heard``.
 
