@@ -12,9 +12,10 @@ from swazure_ros.protocol.discovery.together import PARALLEL_ROWS, open_labels, 
 SOURCES = 40  # the run's sources are ids 0..39; the FLSs are 1000.., the senders 2000..
 
 
-def direct_table(flss, sources=None):
+def direct_table(flss, sources=None, need=None):
     """FLS 1000 + k relays from senders 2000 + k % 10 and 2000 + 3k % 10, hop 5 + (k % 7) / 2;
-    the run's sources are ``sources`` (sorted ids), or every id below SOURCES."""
+    the run's sources are ``sources`` (sorted ids), or every id below SOURCES; rows of
+    ``need`` labels (default: a slot per source)."""
     own = [sorted({2000 + k % 10, 2000 + 3 * k % 10}) for k in range(flss)]
     ids = np.array([sender for one in own for sender in one], dtype=np.int64)
     weights = np.concatenate([np.full(len(one), 5 + (k % 7) / 2) for k, one in enumerate(own)])
@@ -25,7 +26,7 @@ def direct_table(flss, sources=None):
         (0, SOURCES),
         SOURCES,
         fits=False,
-        need=SOURCES if sources is None else len(sources),
+        need=need or (SOURCES if sources is None else len(sources)),
         sources=sources,
     )
 
@@ -71,17 +72,21 @@ def test_a_process_s_rows_relaxed_on_its_cores_change_as_one_call_changes_them(f
         np.testing.assert_array_equal(getattr(shared, name), getattr(alone, name))
 
 
+@pytest.mark.parametrize("need", [None, 1], ids=["slots", "a hash widened"])
 @pytest.mark.parametrize("flss", [3, 3 * PARALLEL_ROWS], ids=["few", "many"])
-def test_a_spread_run_s_labels_are_the_whole_run_s_for_its_sources_in_their_slots(flss):
-    # Sources 1, 4, 7, ..., 37: each label goes to its source's rank among them, and a
-    # label of any other id is no label of the run's.
-    run = np.arange(1, SOURCES, 3)
-    spread, whole = direct_table(flss, run), direct_table(flss)
-    assert spread.direct and spread.width == len(run)
+def test_a_spread_run_s_labels_are_the_whole_run_s_for_its_sources_in_their_slots(flss, need):
+    # Sources 1, 3, 5, ..., 39: each label goes to its source's rank among them, and a
+    # label of any other id is no label of the run's; a hash (its rows widen to a slot per
+    # source as labels come) keeps the same labels.
+    run = np.arange(1, SOURCES, 2)
+    spread, whole = direct_table(flss, run, need), direct_table(flss)
+    assert spread.direct is (need is None)
+    assert (spread.slots is None) is (need is not None)  # a hash keeps no slot for every id
     rows = np.arange(flss, dtype=np.int64)
     for shift in range(3):
         relax_together(spread, rows, LENGTH_FIRST, offers(shift))
         relax_together(whole, rows, LENGTH_FIRST, offers(shift))
+    assert spread.direct and spread.width == len(run)
     for name in ("hops", "length", "pred"):
         np.testing.assert_array_equal(getattr(spread, name), getattr(whole, name)[:, run])
     assert np.isfinite(spread.length).any(axis=0).all()  # every source of the run heard

@@ -107,19 +107,19 @@ def _insert(
 @jit.kernel(cache=True, nogil=True)
 def relax_rows(
     rows: IntArray, begin: int, mes: IntArray, order: int, span: IntArray,
-    slots: NDArray[np.int32] | None, link_starts: IntArray, links: Links, heard: HeardLabels,
-    closed: NDArray[np.bool_], columns: Columns, changes: Changes, filled: int,
+    run_ids: IntArray | None, slots: NDArray[np.int32] | None, link_starts: IntArray,
+    links: Links, heard: HeardLabels, closed: NDArray[np.bool_], columns: Columns,
+    changes: Changes, filled: int,
     change_starts: IntArray, won: Changes, resume: IntArray,
 ) -> tuple[int, int, int]:  # fmt: skip
     """Relax the labels of table rows ``rows[begin:]`` (FLS ``mes[row]``, its links
     ``link_starts[row]:link_starts[row + 1]``) through the labels ``heard``.
 
     ``span`` is (first, end): sources outside first..end - 1 are not this run's, nor,
-    when ``slots`` (end - first,) gives each id's slot (-1: not one of the run's
-    sources; None: every id is, at slot id - first, :func:`.places.slot_map`), ids without
-    one; ``closed``
-    (id_space,) marks the sources whose search ended (empty: none), neither kept nor
-    relaxed. A source first heard takes an empty place. Row ``rows[k]``'s bettered
+    when ``run_ids`` (sorted; None: all) names its sources, ids it names not: a direct
+    table's ``slots`` (:func:`.places.slot_map`, None when ``run_ids`` is) give their
+    places. ``closed`` (id_space,) marks the sources whose search ended (empty: none),
+    neither kept nor relaxed. A source first heard takes an empty place. Row ``rows[k]``'s bettered
     places go to ``changes[change_starts[k]:change_starts[k + 1]]``, from ``filled`` on.
     ``won`` (R,) are the winning label and link of each place of the row in hand, -1
     where it has not changed (as the call leaves them).
@@ -156,9 +156,12 @@ def relax_rows(
                 source = source_ids[label]
                 if source < first or source >= end or source == me:  # not this run's, or its own
                     continue
-                # The slot inline, not by _place: a call per candidate cost 4x (direct). Looked
-                # up, not searched for: a search per candidate took 15x the pass (spread).
-                rank = source - first if slots is None else np.int64(slots[source - first])
+                # A slot per source is looked up, inline (a call a candidate cost 4x the pass,
+                # a search 15x); a hash, of a few labels a row, searches the run's sources.
+                if slots is not None:
+                    rank = int(slots[source - first])
+                else:
+                    rank = source - first if run_ids is None else slot_of(run_ids, first, source)
                 if rank < 0 or (has_closed and closed[source]):  # not a spread run's, or ended
                     continue
                 place = rank if direct else _place(row_keys, source)
@@ -313,10 +316,11 @@ class LabelTable:
 
     @property
     def slots(self) -> NDArray[np.int32] | None:
-        """Each id's slot among a spread run's sources (:func:`.places.slot_map`; None: every id of
-        the span is one), made when first needed: a table that never relaxes (a packed
-        FLS's own, before its process steps it with others) holds none."""
-        if self.run_ids is not None and self._slots is None:
+        """A direct table's slot for each id of a spread run's span (:func:`.places.slot_map`),
+        made when first needed; None for a hash, which searches the run's sources, and
+        where every id of the span is a source. A table that never relaxes (a packed FLS's
+        own, before its process steps it with others) holds none."""
+        if self.direct and self.run_ids is not None and self._slots is None:
             self._slots = slot_map(self.run_ids, self.span)
         return self._slots
 
@@ -438,6 +442,7 @@ class LabelTable:
                 self.mes,
                 order,
                 self.span_array,
+                self.run_ids,
                 self.slots,
                 self.link_starts,
                 self.links,

@@ -207,9 +207,9 @@ def _relax_wave(
     won = np.full((2, chunks, table.width), -1, dtype=np.int64)
     filled = np.zeros(chunks, dtype=np.int64)
     _relax_chunks(
-        row_bounds, room_bounds, rows, table.mes, order, table.span_array, table.slots,
-        table.link_starts, table.links, heard, table.closed, table.columns(), buffers,
-        change_starts, won, filled,
+        row_bounds, room_bounds, rows, table.mes, order, table.span_array, table.run_ids,
+        table.slots, table.link_starts, table.links, heard, table.closed, table.columns(),
+        buffers, change_starts, won, filled,
     )  # fmt: skip
     starts, parts, before = [np.zeros(1, dtype=np.int64)], [], 0
     for chunk in range(chunks):
@@ -237,7 +237,8 @@ def _rooms(
 @jit.kernel(cache=True, nogil=True, parallel=True)
 def _relax_chunks(
     row_bounds: IntArray, room_bounds: IntArray, rows: IntArray, mes: IntArray, order: int,
-    span: IntArray, slots: NDArray[np.int32] | None, link_starts: IntArray, links: Links,
+    span: IntArray, run_ids: IntArray | None, slots: NDArray[np.int32] | None,
+    link_starts: IntArray, links: Links,
     heard: HeardLabels, closed: NDArray[np.bool_], columns: Columns, buffers: Changes,
     change_starts: IntArray, won: IntArray, filled: IntArray,
 ) -> None:  # fmt: skip
@@ -259,6 +260,7 @@ def _relax_chunks(
             mes,
             order,
             span,
+            run_ids,
             slots,
             link_starts,
             links,
