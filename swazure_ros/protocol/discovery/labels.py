@@ -109,8 +109,7 @@ def relax_rows(
     rows: IntArray, begin: int, mes: IntArray, order: int, span: IntArray,
     run_ids: IntArray | None, slots: NDArray[np.int32] | None, link_starts: IntArray,
     links: Links, heard: HeardLabels, closed: NDArray[np.bool_], columns: Columns,
-    changes: Changes, filled: int,
-    change_starts: IntArray, won: Changes, resume: IntArray,
+    changes: Changes, filled: int, change_starts: IntArray, won: Changes, resume: IntArray,
 ) -> tuple[int, int, int]:  # fmt: skip
     """Relax the labels of table rows ``rows[begin:]`` (FLS ``mes[row]``, its links
     ``link_starts[row]:link_starts[row + 1]``) through the labels ``heard``.
@@ -119,8 +118,9 @@ def relax_rows(
     when ``run_ids`` (sorted; None: all) names its sources, ids it names not: a direct
     table's ``slots`` (:func:`.places.slot_map`, None when ``run_ids`` is) give their
     places. ``closed`` (id_space,) marks the sources whose search ended (empty: none),
-    neither kept nor relaxed. A source first heard takes an empty place. Row ``rows[k]``'s bettered
-    places go to ``changes[change_starts[k]:change_starts[k + 1]]``, from ``filled`` on.
+    neither kept nor relaxed. A source first heard takes an empty place. Row
+    ``rows[k]``'s bettered places go to ``changes[change_starts[k]:change_starts[k + 1]]``,
+    from ``filled`` on.
     ``won`` (R,) are the winning label and link of each place of the row in hand, -1
     where it has not changed (as the call leaves them).
 

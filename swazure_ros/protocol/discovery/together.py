@@ -238,9 +238,9 @@ def _rooms(
 def _relax_chunks(
     row_bounds: IntArray, room_bounds: IntArray, rows: IntArray, mes: IntArray, order: int,
     span: IntArray, run_ids: IntArray | None, slots: NDArray[np.int32] | None,
-    link_starts: IntArray, links: Links,
-    heard: HeardLabels, closed: NDArray[np.bool_], columns: Columns, buffers: Changes,
-    change_starts: IntArray, won: IntArray, filled: IntArray,
+    link_starts: IntArray, links: Links, heard: HeardLabels, closed: NDArray[np.bool_],
+    columns: Columns, buffers: Changes, change_starts: IntArray, won: IntArray,
+    filled: IntArray,
 ) -> None:  # fmt: skip
     """:func:`.labels.relax_rows` of each share of ``rows`` (``row_bounds``) on a core of its
     own, into its room of ``buffers`` (``room_bounds``, enough for every change); share k's
