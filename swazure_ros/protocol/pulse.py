@@ -12,7 +12,8 @@ idle meanwhile, and not for want of a CPU, says that it was stopped, its DDS
 participant silent that long too, so that peers may have dropped it (the
 process then joins again: an FLS's program starts afresh, a packed process
 announces itself again). A process starved of CPU (:attr:`Beat.starved`:
-its threads spent the time waiting to run) is slow, not stopped: it keeps
+its threads spent the time waiting to run, and it was not continued after a
+stop) is slow, not stopped: it keeps
 its state, and one that was idle meanwhile, whose DDS threads may not have
 announced it, announces itself again (:meth:`Beat.starved_past`).
 
@@ -22,7 +23,11 @@ CPU time (``time.process_time``: every thread's, DDS's own included),
 for a CPU, summed (Linux's run delay, ``/proc/self/task/*/schedstat``; 0
 where the system does not say). The executor's own wait is not enough: an
 executor blocked on a lock that a starved DDS thread holds is asleep, not
-waiting to run.
+waiting to run. ``continued``: the process was continued after a stop
+(``kill -CONT``) since the last look. When a stopped process goes on, its
+threads become runnable all at once, and on a loaded machine their summed
+wait for a CPU can pass half of a 12 s stop (the per-FLS lease test under the
+loaded suite, 2026-12-06); the stop, not the wait, made it late.
 """
 
 from __future__ import annotations
@@ -55,7 +60,7 @@ class Beat:
 
     late: float  # s the look came later than its period (0 within the tolerance)
     idle: bool  # the process used at most IDLE_SHARE of a core meanwhile
-    starved: bool = False  # its threads waited for a CPU for half the lateness or more
+    starved: bool = False  # its threads waited for a CPU for half the lateness or more, unstopped
 
     @property
     def behind(self) -> bool:
@@ -98,16 +103,18 @@ class Pulse:
         self._cpu = cpu
         self._waited = waited
 
-    def look(self, now: float, cpu: float, waited: float = 0.0) -> Beat:
-        """A look at monotonic time ``now`` with the process's CPU time ``cpu`` and its
-        threads' wait for a CPU ``waited``: how late it is, and why."""
+    def look(self, now: float, cpu: float, waited: float = 0.0, continued: bool = False) -> Beat:
+        """A look at monotonic time ``now`` with the process's CPU time ``cpu``, its
+        threads' wait for a CPU ``waited`` and whether it was ``continued`` after a stop
+        since the last look: how late it is, and why."""
         since = now - self._now
         used = cpu - self._cpu
         queued = waited - self._waited
         self._now, self._cpu, self._waited = now, cpu, waited
         late = since - self.period
         late = late if late > self.tolerance else 0.0
-        return Beat(late, used < IDLE_SHARE * since, late > 0.0 and queued >= STARVED_SHARE * late)
+        starved = late > 0.0 and not continued and queued >= STARVED_SHARE * late
+        return Beat(late, used < IDLE_SHARE * since, starved)
 
 
 @dataclass(frozen=True)

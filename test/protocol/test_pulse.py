@@ -45,6 +45,10 @@ def test_a_process_starved_of_cpu_is_behind_but_not_stalled():
     # The same lateness with a wait of a few seconds: stopped for most of it.
     stopped = Pulse(0.5, now=0.0, cpu=0.0).look(52.6, 0.43, waited=3.0)
     assert not stopped.starved and stopped.stalled()
+    # Continued after a stop (kill -CONT): its threads, runnable all at once when it went
+    # on, waited 7 s of a 12 s stop on a loaded machine. The stop made it late.
+    continued = Pulse(0.5, now=0.0, cpu=0.0).look(12.5, 0.1, waited=7.0, continued=True)
+    assert not continued.starved and continued.stalled()
     # A look on time is never starved, however long it waited.
     assert not Pulse(0.5, now=0.0, cpu=0.0).look(0.5, 0.0, waited=0.4).starved
 

@@ -104,18 +104,29 @@ class Heartbeats:
         self.announced_again = 0  # times the process announced itself again after a stall
         self._stall_after = STALLED_AFTER
         self._on_stall: Callable[[float], None] = self.announce_again
+        self._went_on: Callable[[], bool] | None = None
         node.create_timer(PULSE_PERIOD, self.look)
 
-    def when_stalled(self, after: float, act: Callable[[float], None]) -> None:
+    def when_stalled(
+        self,
+        after: float,
+        act: Callable[[float], None],
+        went_on: Callable[[], bool] | None = None,
+    ) -> None:
         """After a stop of more than ``after`` s (late, the CPU idle, not starved),
         ``act(late)`` instead of :meth:`announce_again` (an FLS's program starts afresh past
-        its lease)."""
+        its lease). ``went_on()``: whether the process went on after a stop since it was
+        last asked (``plumbing.process.catch_continues``, in a process whose main thread
+        makes the looks); a look that finds it did is not taken for starving, however long
+        its threads then waited for a CPU."""
         self._stall_after = after
         self._on_stall = act
+        self._went_on = went_on
 
     def look(self) -> None:
         """The executor's regular look: beat if there is news."""
-        beat = self._pulse.look(time.monotonic(), time.process_time(), waited_for_cpu())
+        went_on = self._went_on is not None and self._went_on()
+        beat = self._pulse.look(time.monotonic(), time.process_time(), waited_for_cpu(), went_on)
         stalled = beat.stalled(self._stall_after)
         if stalled:
             self._on_stall(beat.late)

@@ -280,6 +280,40 @@ def catch_stops(limit: float) -> list[int]:
     return stop
 
 
+class Continues:
+    """The times this process went on after a stop (``kill -STOP``, then ``kill -CONT``),
+    counted as they come: made by :func:`catch_continues`."""
+
+    def __init__(self) -> None:
+        self.count = 0  # SIGCONTs handled so far
+        self._seen = 0
+
+    def went_on(self) -> bool:
+        """Whether the process went on after a stop since the last call."""
+        went_on, self._seen = self.count > self._seen, self.count
+        return went_on
+
+    def _on_continue(self, number: int, frame: object) -> None:
+        self.count += 1
+
+
+def catch_continues() -> Continues:
+    """Count this process's SIGCONTs from now on, so that its heartbeats can tell a stop
+    from starving (``protocol.pulse``).
+
+    Python runs the handler in the main thread at its next bytecode; the kernel
+    hands the signal to the main thread first, at its return to user space after
+    the stop, so a look that the main thread's executor makes after the process
+    went on finds it counted. A handled SIGCONT still continues the process (the
+    kernel acts on it when it is sent). Calls that it interrupts in other threads
+    are restarted, as when it was ignored. Call it from the main thread.
+    """
+    continues = Continues()
+    signal.signal(signal.SIGCONT, continues._on_continue)
+    signal.siginterrupt(signal.SIGCONT, False)
+    return continues
+
+
 def run_process(
     build: Callable[[Context, StartupValues], list[Node]],
     args: list[str] | None = None,

@@ -33,7 +33,7 @@ from ..nodes.radio import Radio
 from ..plumbing.lease import participant_lease
 from ..plumbing.names import DETECTIONS_TOPIC
 from ..plumbing.parameters import ParameterError, ParameterSpec
-from ..plumbing.process import run_process
+from ..plumbing.process import Continues, catch_continues, run_process
 from ..plumbing.startup import (
     DESCRIPTION_PARAMETERS,
     KEY_FILE,
@@ -83,12 +83,14 @@ class RadioJoin:
     coordinator, before a round counts on it: a round sent to an FLS whose
     writers are not matched yet waits a round timeout for it. Only this FLS
     sees its own writers matched, so it listens once they are, or after
-    ``join_timeout`` seconds.
+    ``join_timeout`` seconds. ``continues``: the process's stops it went on from, which
+    tell its heartbeats a stop from starving.
     """
 
-    def __init__(self, node: FlsNode, sensing: DetectedSensing) -> None:
+    def __init__(self, node: FlsNode, sensing: DetectedSensing, continues: Continues) -> None:
         self.node = node
         self.sensing = sensing
+        self.continues = continues
         self.senses = sensing.senses
         self.radio: Radio | None = None
         self.made_at = float("nan")
@@ -118,7 +120,9 @@ class RadioJoin:
         )
         # Stalled for longer than its peers wait for its announcements, it starts afresh.
         silence = participant_lease().silence
-        self.radio.heartbeats.when_stalled(silence, partial(start_afresh, node))
+        self.radio.heartbeats.when_stalled(
+            silence, partial(start_afresh, node), self.continues.went_on
+        )
         self.made_at = time.monotonic()
         node.get_logger().info(  # type: ignore[no-untyped-call]
             "radio on: its camera's first frame is in; waiting to be heard by every FLS and "
@@ -240,7 +244,7 @@ def build_fls(context: Context, values: StartupValues) -> list[Node]:
     )
     assert node.detected is not None  # it senses by its camera's detections
     node.offer_neighbours_service()  # alone in its process: no host answers for it
-    RadioJoin(node, node.detected)
+    RadioJoin(node, node.detected, catch_continues())
     declare_startup(node, values)
     return [node]
 

@@ -298,9 +298,6 @@ def seen_by_a_new_participant(domain: int, name: str) -> bool:
         context.try_shutdown()
 
 
-#: A process whose node fails in a timer callback, again and again, while another serves.
-
-
 #: A process that starts ROS as every swarm process does, and says how its collector runs.
 COLLECTOR = """
 import gc
@@ -318,3 +315,46 @@ def test_a_swarm_process_collects_its_youngest_objects_rarely():
     young, older, oldest, *after = (int(value) for value in process.stdout.split())
     assert young == 700  # CPython's own
     assert after == [COLLECT_AFTER, older, oldest]
+
+
+#: A process that counts its SIGCONTs, then says at each line it reads whether it went on
+#: after a stop since it last looked (with threads of its own, as DDS's).
+CONTINUED = """
+import sys, threading
+from swazure_ros.ros.plumbing import process
+continues = process.catch_continues()
+threading.Thread(target=threading.Event().wait, daemon=True).start()
+print(continues.went_on(), flush=True)
+for line in sys.stdin:
+    print(continues.went_on(), flush=True)
+"""
+
+
+def test_a_process_tells_it_was_stopped_and_went_on_once_per_stop():
+    """kill -STOP, kill -CONT: the process goes on, and its next look (only that one) says it
+    went on after a stop; a stop is then not taken for starving, however long its threads
+    wait for a CPU afterwards (protocol.pulse)."""
+    with subprocess.Popen(
+        [sys.executable, "-c", CONTINUED], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+        text=True,
+    ) as child:  # fmt: skip
+        assert child.stdin is not None and child.stdout is not None
+        try:
+            assert child.stdout.readline().strip() == "False"
+            os.kill(child.pid, signal.SIGSTOP)
+            # Stopped in earnest before it goes on, as after a stop of seconds.
+            assert wait_until(lambda: process_state(child.pid) == "T", PATIENCE)
+            os.kill(child.pid, signal.SIGCONT)
+            looks = []
+            for _ in range(2):
+                child.stdin.write("look\n")
+                child.stdin.flush()
+                looks.append(child.stdout.readline().strip())
+            assert looks == ["True", "False"]
+        finally:
+            child.kill()
+
+
+def process_state(pid: int) -> str:
+    """Process ``pid``'s state letter (Linux: /proc; "T": stopped)."""
+    return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
