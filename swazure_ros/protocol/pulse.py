@@ -13,9 +13,9 @@ participant silent that long too, so that peers may have dropped it (the
 process then joins again: an FLS's program starts afresh, a packed process
 announces itself again). A process starved of CPU (:attr:`Beat.starved`:
 its threads spent the time waiting to run, and it was not continued after a
-stop) is slow, not stopped: it keeps
-its state, and one that was idle meanwhile, whose DDS threads may not have
-announced it, announces itself again (:meth:`Beat.starved_past`).
+stop) is slow, not stopped: it keeps its state, and one that was idle
+meanwhile, whose DDS threads may not have announced it, announces itself
+again (:meth:`Beat.starved_past`).
 
 Times in seconds: ``now`` on any monotonic clock, ``cpu`` the process's
 CPU time (``time.process_time``: every thread's, DDS's own included),
@@ -60,7 +60,8 @@ class Beat:
 
     late: float  # s the look came later than its period (0 within the tolerance)
     idle: bool  # the process used at most IDLE_SHARE of a core meanwhile
-    starved: bool = False  # its threads waited for a CPU for half the lateness or more, unstopped
+    # Its threads waited for a CPU for half the lateness or more, and it was not stopped.
+    starved: bool = False
 
     @property
     def behind(self) -> bool:
