@@ -92,7 +92,16 @@ class Forger:
         self.node.create_subscription(DiagnosticArray, "/diagnostics", self._on_diagnostics, 10)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
-        self._thread = threading.Thread(target=self.executor.spin, daemon=True)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+
+    def _spin(self) -> None:
+        # Until told to stop, then out of the executor before it is shut down: rclpy's
+        # shutdown destroys the executor's guard condition at once, and a spin in another
+        # thread that was gathering its waitables then fails on None (a fresh clone's
+        # suite, 2026-12-07: "'NoneType' object has no attribute 'handle'").
+        while not self._stop.is_set():
+            self.executor.spin_once(timeout_sec=0.1)
 
     def _on_diagnostics(self, array: DiagnosticArray) -> None:
         for status in array.status:
@@ -134,8 +143,9 @@ class Forger:
         return self
 
     def __exit__(self, *exc_info: object) -> None:
-        self.executor.shutdown()
+        self._stop.set()
         self._thread.join(timeout=PATIENCE)
+        self.executor.shutdown()
         self.node.destroy_node()
         self.context.try_shutdown()
 
