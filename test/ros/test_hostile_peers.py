@@ -98,8 +98,8 @@ class Forger:
     def _spin(self) -> None:
         # Until told to stop, then out of the executor before it is shut down: rclpy's
         # shutdown destroys the executor's guard condition at once, and a spin in another
-        # thread that was gathering its waitables then fails on None (a fresh clone's
-        # suite, 2026-12-07: "'NoneType' object has no attribute 'handle'").
+        # thread that was gathering its waitables then fails on None (ros2/rclpy#968, open;
+        # a fresh clone's suite, 2026-12-07: "'NoneType' object has no attribute 'handle'").
         while not self._stop.is_set():
             self.executor.spin_once(timeout_sec=0.1)
 
