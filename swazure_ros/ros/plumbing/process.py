@@ -304,7 +304,9 @@ def catch_continues() -> Continues:
     Python runs the handler in the main thread at its next bytecode; the kernel
     hands the signal to the main thread first, at its return to user space after
     the stop, so a look that the main thread's executor makes after the process
-    went on finds it counted. A handled SIGCONT still continues the process (the
+    went on finds it counted. (A main thread with another signal pending is passed
+    over, and a look may then come before the count: that look is judged by the
+    threads' wait alone, as before.) A handled SIGCONT still continues the process (the
     kernel acts on it when it is sent). Calls that it interrupts in other threads
     are restarted, as when it was ignored. Call it from the main thread.
     """
