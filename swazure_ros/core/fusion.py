@@ -24,12 +24,12 @@ import numpy as np
 
 from . import csr
 from .arrays import FloatArray, IntArray
+from .avoiding import avoiding_paths
 from .evaluation import SWEET_PATH, Evaluation, PairResults
 from .hops import estimates, summed_hop_errors
 from .neighbourhood import Neighbourhood
 from .pair_statistics import EXACT_VALUES, summarise
 from .path_arrays import Paths
-from .paths import avoiding_paths
 from .sensor import Sensor
 from .summary import FusionFacts
 from .tally import RealTally

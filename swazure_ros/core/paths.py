@@ -15,8 +15,8 @@ path is the neighbour with the smallest FLS index among those through which
 the node is reached at its optimal (primary, secondary) cost. The rule
 depends only on the cost labels, not on the order of exploration, so any
 correct search (a distributed one included) picks the same path.
-:func:`avoiding_paths` finds the policy's path that avoids given nodes.
-Both run the one-source search of :mod:`.search` from many sources in
+:func:`.avoiding.avoiding_paths` finds the policy's path that avoids given
+nodes. Both run the one-source search of :mod:`.search` from many sources in
 parallel and return :class:`~.path_arrays.Paths`.
 """
 
@@ -42,10 +42,6 @@ POLICIES = (FEWEST_HOPS, SHORTEST_LENGTH, LEAST_ERROR)
 
 #: Path nodes kept per pair in the parallel pass; longer paths take a second pass.
 _WIDTH = 8
-
-
-#: Longest path, in nodes, that :func:`avoiding_paths` returns.
-AVOIDING_WIDTH = 64
 
 
 #: Most buckets a search keeps in turn; edges more unequal than this are searched with a heap.
@@ -162,82 +158,6 @@ def shortest_paths(
     return paths
 
 
-def avoiding_paths(
-    graph: Graph,
-    sources: ArrayLike,
-    targets: ArrayLike,
-    policy: str,
-    avoid_offsets: ArrayLike,
-    avoid: ArrayLike,
-    components: IntArray | None = None,
-) -> Paths:
-    """The policy's path between each pair of FLSs that enters none of the pair's avoided nodes.
-
-    One search per pair, the pairs in any order: the family of
-    :func:`shortest_paths` for paths that must keep clear of given FLSs
-    (node-disjoint paths, :mod:`.fusion`).
-
-    Parameters
-    ----------
-    graph : Graph
-        The neighbour graph the paths run in.
-    sources, targets : (M,) array_like of int
-        Pairs of nodes.
-    policy : {'fewest-hops', 'shortest-length', 'least-error'}
-        The path policy (:func:`shortest_paths`).
-    avoid_offsets : (M + 1,) array_like of int
-        Pair m avoids ``avoid[avoid_offsets[m]:avoid_offsets[m + 1]]``.
-    avoid : (A,) array_like of int
-        The avoided nodes, pair after pair.
-    components : (N,) ndarray of int, optional
-        ``graph.components()``, when the caller has it already.
-
-    Returns
-    -------
-    Paths
-        The path of each pair, source first, with its tracking distance,
-        cm; a path longer than :data:`AVOIDING_WIDTH` nodes counts as not
-        found.
-
-    Raises
-    ------
-    ValueError
-        An unknown policy, least-error without edge costs, pairs of unequal
-        lengths or that are not nodes of ``graph``, or ``avoid_offsets`` that
-        do not split ``avoid`` into M rows of nodes.
-
-    Examples
-    --------
-    >>> from swazure_ros.core.graph import make_graph
-    >>> from swazure_ros.core.paths import avoiding_paths
-    >>> square = make_graph(4, [0, 1, 2, 0], [1, 2, 3, 3], [1.0, 1.0, 1.0, 5.0])
-    >>> avoiding_paths(square, [0], [2], "shortest-length", [0, 1], [1]).path(0)
-    [0, 3, 2]
-    """
-    search = _search_of(graph, policy, components)
-    sources = np.ascontiguousarray(sources, dtype=np.int64)
-    targets = np.ascontiguousarray(targets, dtype=np.int64)
-    avoid_offsets = np.ascontiguousarray(avoid_offsets, dtype=np.int64)
-    avoid = np.ascontiguousarray(avoid, dtype=np.int64)
-    _check_nodes(graph, sources, targets)
-    _check_avoided(graph, len(sources), avoid_offsets, avoid)
-    found, hops, buffer = _avoiding_kernel(
-        search,
-        sources,
-        targets,
-        avoid_offsets,
-        avoid,
-        AVOIDING_WIDTH,
-        max(1, min(len(sources), 4 * jit.get_num_threads())),
-    )
-    counts = np.where(found, hops + 1, 0)
-    offsets = csr.offsets(counts)
-    nodes = np.empty(offsets[-1], dtype=np.int64)
-    _compress(buffer, counts, offsets, nodes)
-    paths = Paths(found, hops, np.full(len(found), np.nan), offsets, nodes)
-    return replace(paths, length=path_sums(graph, paths, graph.weights))
-
-
 def _check_pairs(graph: Graph, sources: IntArray, targets: IntArray) -> None:
     """Raise ValueError unless the pairs (M,) are nodes of ``graph``, sorted by source."""
     _check_nodes(graph, sources, targets)
@@ -253,17 +173,6 @@ def _check_nodes(graph: Graph, sources: IntArray, targets: IntArray) -> None:
         min(sources.min(), targets.min()) < 0 or max(sources.max(), targets.max()) >= graph.size
     ):
         raise ValueError("`sources` and `targets` must be nodes of the graph")
-
-
-def _check_avoided(graph: Graph, pairs: int, avoid_offsets: IntArray, avoid: IntArray) -> None:
-    """Raise ValueError unless ``avoid_offsets`` split ``avoid`` into ``pairs`` rows of nodes."""
-    if avoid_offsets.shape != (pairs + 1,) or avoid.ndim != 1:
-        raise ValueError(f"`avoid_offsets` must hold {pairs + 1} offsets into `avoid`")
-    rising = np.all(np.diff(avoid_offsets) >= 0)
-    if avoid_offsets[0] != 0 or avoid_offsets[-1] != len(avoid) or not rising:
-        raise ValueError("`avoid_offsets` must rise from 0 to the length of `avoid`")
-    if len(avoid) and (avoid.min() < 0 or avoid.max() >= graph.size):
-        raise ValueError("`avoid` must hold nodes of the graph")
 
 
 def _policy_weights(graph: Graph, policy: str) -> tuple[FloatArray, bool]:
@@ -463,45 +372,6 @@ def _long_paths(
                 walk_back(labels.pred, targets[pair], hops[pair], nodes[offsets[pair] :])
         reset_labels(labels, count)
         labels.wanted[targets[start:stop]] = False
-
-
-@jit.kernel(cache=True, parallel=True)
-def _avoiding_kernel(
-    search: Search,
-    sources: IntArray,
-    targets: IntArray,
-    avoid_offsets: IntArray,
-    avoid: IntArray,
-    width: int,
-    chunks: int,
-) -> tuple[NDArray[np.bool_], IntArray, IntArray]:
-    fewest_hops = search.fewest_hops
-    size = len(search.indptr) - 1
-    pairs = len(targets)
-    found = np.zeros(pairs, dtype=np.bool_)
-    hops = np.zeros(pairs, dtype=np.int64)
-    buffer = np.full((pairs, width), -1, dtype=np.int64)
-    for chunk in jit.prange(chunks):
-        labels = fresh_labels(size)
-        primary, secondary, pred, settled, wanted, _, _, _ = labels
-        one = np.empty(1, dtype=np.int64)
-        for pair in range(chunk, pairs, chunks):
-            source, target = sources[pair], targets[pair]
-            # An avoided node counts as settled: the search never enters it.
-            blocked = avoid[avoid_offsets[pair] : avoid_offsets[pair + 1]]
-            settled[blocked] = True
-            one[0] = target
-            count = search_from(search, source, one, labels)
-            if target != source and primary[target] < np.inf and settled[target]:
-                steps = int(primary[target] if fewest_hops else secondary[target])
-                if steps + 1 <= width:
-                    found[pair] = True
-                    hops[pair] = steps
-                    walk_back(pred, target, steps, buffer[pair])
-            reset_labels(labels, count)
-            settled[blocked] = False
-            wanted[target] = False
-    return found, hops, buffer
 
 
 @jit.kernel(cache=True, parallel=True)

@@ -3,13 +3,13 @@
 import numpy as np
 import pytest
 
+from swazure_ros.core.avoiding import avoiding_paths
 from swazure_ros.core.evaluate import evaluate
 from swazure_ros.core.evaluation import SWEET_PATH
 from swazure_ros.core.fusion import combine, fuse, inner_nodes
 from swazure_ros.core.geometry import make_swarm
 from swazure_ros.core.graph import make_graph
 from swazure_ros.core.path_arrays import paths_from_rows
-from swazure_ros.core.paths import avoiding_paths
 from swazure_ros.core.sensor import Sensor, SensorNoise
 from swazure_ros.files.cloud_files import load_cloud
 

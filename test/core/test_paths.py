@@ -1,12 +1,14 @@
 import numpy as np
 import pytest
 
+from swazure_ros.core import avoiding as avoiding_module
 from swazure_ros.core import graph as graph_module
 from swazure_ros.core import jit
 from swazure_ros.core import paths as paths_module
+from swazure_ros.core.avoiding import avoiding_paths
 from swazure_ros.core.graph import make_graph
 from swazure_ros.core.path_arrays import path_hops
-from swazure_ros.core.paths import avoiding_paths, shortest_paths
+from swazure_ros.core.paths import shortest_paths
 
 
 def graph(edges):
@@ -216,32 +218,6 @@ def test_pairs_must_be_nodes_of_the_graph():
         shortest_paths(graph([(0, 1, 1.0)]), [0], [2], "fewest-hops")
 
 
-def test_a_path_avoiding_a_node_goes_round_it():
-    square = make_graph(4, [0, 1, 2, 0], [1, 2, 3, 3], [1.0, 1.0, 1.0, 5.0])
-    paths = avoiding_paths(
-        square, [0, 0, 0], [2, 2, 2], "shortest-length", [0, 0, 1, 3], [1, 1, 3]
-    )
-    assert paths.path(0) == [0, 1, 2]
-    assert paths.path(1) == [0, 3, 2]
-    assert paths.length[1] == 6.0
-    assert not paths.found[2]  # every way round is avoided
-
-
-@pytest.mark.parametrize(
-    ("offsets", "avoid", "match"),
-    [
-        ([0], [], "must hold 2 offsets"),
-        ([0, 2], [1], "rise from 0 to the length"),
-        ([1, 0], [1], "rise from 0 to the length"),
-        ([0, 1], [4], "nodes of the graph"),
-    ],
-)
-def test_avoided_nodes_must_be_rows_of_nodes(offsets, avoid, match):
-    square = make_graph(4, [0, 1, 2, 0], [1, 2, 3, 3], [1.0, 1.0, 1.0, 5.0])
-    with pytest.raises(ValueError, match=match):
-        avoiding_paths(square, [0], [2], "shortest-length", offsets, avoid)
-
-
 def placed_edges(rng, size, radius):
     """FLSs at whole-number places and the pairs 6 to 8 apart, each edge its distance less
     2 ``radius``: a sweet graph whose many equal lengths leave ties to the predecessor rule."""
@@ -300,7 +276,11 @@ def test_pairs_given_strided_reach_the_kernels_as_contiguous_arrays():
     assert around.path(0) == [0, 3, 2]
     assert square.edge_positions(sources, targets).tolist() == [-1, -1, -1]
     numba = pytest.importorskip("numba")
-    kernels = (paths_module._search_kernel, paths_module._avoiding_kernel)
+    kernels = (
+        paths_module._search_kernel,
+        avoiding_module._shared_kernel,
+        avoiding_module._alone_kernel,
+    )
     for kernel in (*kernels, graph_module._edge_positions):
         layouts = {
             argument.layout
