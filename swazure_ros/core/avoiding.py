@@ -187,13 +187,14 @@ def sharing(
     keys = np.full((len(sources), width), -1, dtype=np.int64)
     keys[rows, np.arange(len(rows)) - csr.offsets(near_counts)[rows]] = nodes
     taken = np.flatnonzero(~alone)
-    order = taken[np.lexsort((*keys[taken].T[::-1], sources[taken]))]
-    change = np.zeros(len(order), dtype=bool)
-    if len(order):
-        change[0] = True
-        change[1:] = (sources[order[1:]] != sources[order[:-1]]) | np.any(
-            keys[order[1:]] != keys[order[:-1]], axis=1
-        )
+    taken_keys = keys[taken]
+    by_key = np.lexsort((*taken_keys.T[::-1], sources[taken]))
+    order = taken[by_key]
+    change = np.ones(len(order), dtype=bool)
+    change[1:] = sources[order[1:]] != sources[order[:-1]]
+    for column in taken_keys.T:  # a column at a time: a fusion block's pairs are millions
+        ordered = column[by_key]
+        change[1:] |= ordered[1:] != ordered[:-1]
     firsts = np.flatnonzero(change)
     sizes = np.diff(np.append(firsts, len(order)))
     large = np.repeat(sizes >= least, sizes)
