@@ -72,7 +72,8 @@ def avoiding_paths(
     The pairs in any order: the family of :func:`.paths.shortest_paths` for
     paths that must keep clear of given FLSs (node-disjoint paths,
     :mod:`.fusion`). Pairs that avoid the same neighbours of one source share
-    a search (the module's text); the paths are those of a search per pair.
+    a search (the module's text; groups of :data:`SHARED_LEAST` or more); the
+    paths are those of a search per pair.
 
     Parameters
     ----------
@@ -122,6 +123,7 @@ def avoiding_paths(
     found = np.zeros(pairs, dtype=np.bool_)
     hops = np.zeros(pairs, dtype=np.int64)
     buffer = np.full((pairs, AVOIDING_WIDTH), -1, dtype=np.int64)
+    # The least group read here, not bound as a default: a test searches groups of one.
     groups = sharing(graph, sources, targets, avoid_offsets, avoid, SHARED_LEAST)
     threads = jit.get_num_threads()
     resolved = _shared_kernel(
