@@ -1,13 +1,25 @@
-"""A process's FLSs stepped together: its rows relaxed on its cores as in one call."""
+"""A process's FLSs stepped together: one table from their start, its rows relaxed on its
+cores as in one call."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
+from swazure_ros.core.observe import local_view, observations
+from swazure_ros.protocol.discovery.buckets import bucket_width
 from swazure_ros.protocol.discovery.labels import LENGTH_FIRST, HeardLabels, LabelTable
 from swazure_ros.protocol.discovery.links import Links
-from swazure_ros.protocol.discovery.together import PARALLEL_ROWS, open_labels, relax_together
+from swazure_ros.protocol.discovery.messages import SWEET_VISIBLE, RoundOffers
+from swazure_ros.protocol.discovery.search import PathSearch, SearchOptions
+from swazure_ros.protocol.discovery.together import (
+    PARALLEL_ROWS,
+    hear_together,
+    open_labels,
+    pick_together,
+    relax_together,
+)
+from swazure_ros.sim.world import WorldSpec
 
 SOURCES = 40  # the run's sources are ids 0..39; the FLSs are 1000.., the senders 2000..
 
@@ -108,3 +120,58 @@ def test_the_labels_of_closed_sources_are_dropped_and_the_rest_keep_their_sender
         theirs = heard.source_ids[heard.starts[sender] : heard.starts[sender + 1]]
         np.testing.assert_array_equal(kept_heard.source_ids[mine], theirs[~closed[theirs]])
         np.testing.assert_array_equal(kept_heard.lengths[mine], heard.lengths[kept[mine]])
+
+
+@pytest.mark.parametrize("fits", [False, True], ids=["paths", "fitting"])
+def test_flss_that_start_a_phase_together_share_one_table_and_label_as_alone(fits, monkeypatch):
+    # torus:120 spread out, every third FLS a source. Started together, the process's FLSs
+    # hold no table until their first step, then one, made for them (no table of their own
+    # merged): each source's row holds its own label at no cost, through itself. Four
+    # rounds on, every FLS's labels and every source's results are those of the same
+    # searches stepped one by one, each in a table of its own.
+    world = WorldSpec("torus:120", scale=1.6, beta=0.5).build()
+    seen, ids = observations(world.hood), world.ids
+    width = bucket_width(world.sensor, world.swarm.radius, "shortest-length")
+    fit = (world.sensor, world.swarm.radius) if fits else None
+    options = SearchOptions("shortest-length", width, int(ids[-1]) + 1, fit=fit)
+    views = [local_view(seen, ids, row) for row in range(len(ids))]
+
+    def started() -> list[PathSearch]:
+        return [
+            PathSearch(view, SWEET_VISIBLE, options, view.blind if row % 3 == 0 else None)
+            for row, view in enumerate(views)
+        ]
+
+    together_, alone = started(), started()
+    assert all(one.fresh for one in together_)
+    merges, merged = [], LabelTable.merged.__func__
+    counted = classmethod(lambda cls, parts: merges.append(len(parts)) or merged(cls, parts))
+    monkeypatch.setattr(LabelTable, "merged", counted)
+    for round_ in range(4):
+        pick_together(together_, round_, np.zeros(0, dtype=np.int64))
+        if round_ == 0:
+            table = together_[0].table
+            assert table.size == len(ids)
+            assert all(one.table is table and one.row == row for row, one in enumerate(together_))
+            for row, one in enumerate(together_):
+                assert one.sources.tolist() == ([int(ids[row])] if row % 3 == 0 else [])
+                if row % 3 == 0:
+                    assert one.label("length").tolist() == [0.0]
+                    assert one.label("pred").tolist() == [int(ids[row])]
+        for group in (together_, alone):
+            offers = [one.offer(round_) for one in group]
+            heard = RoundOffers.of(list(zip(ids.tolist(), offers, strict=True)))
+            if group is together_:
+                hear_together(group, heard)
+            else:
+                for one in group:
+                    one.hear(heard)
+    assert not merges  # the together run's one table was made whole, never merged
+    assert len({id(one.table) for one in alone}) == len(ids)
+    assert sum(len(one.results) for one in together_) > 0
+    for shared, own in zip(together_, alone, strict=True):
+        assert shared.sources.tolist() == own.sources.tolist()
+        for name in ("hops", "length", "error", "pred", "sent"):
+            np.testing.assert_array_equal(shared.label(name), own.label(name))
+        for name, values in own.results.table.items():
+            np.testing.assert_array_equal(shared.results.table[name], values)

@@ -367,22 +367,15 @@ class LabelTable:
         taken = np.flatnonzero(self.found(row))
         return taken if self.direct else taken[np.argsort(self.keys[row, taken], kind="stable")]
 
-    def add(self, row: int, source: int) -> int:
-        """Row ``row``'s place for ``source`` (its label not found yet), taken."""
-        if 2 * (self.occupied[row] + 1) > self.width and not self.direct:
-            self._widen(int(self.occupied[row]) + 1)
-        place = int(
-            _insert(
-                self.keys,
-                np.array([row]),
-                np.array([source]),
-                self.span[0],
-                self.direct,
-                self.run_ids,
-            )[0]
-        )
-        self.occupied[row] += 1
-        return place
+    def add_many(self, rows: IntArray, sources: IntArray) -> IntArray:
+        """The places of ``sources`` (M,) in ``rows`` (M,, distinct), taken: their labels
+        not found yet."""
+        need = int(self.occupied[rows].max(initial=0)) + 1
+        if 2 * need > self.width and not self.direct:
+            self._widen(need)
+        places = _insert(self.keys, rows, sources, self.span[0], self.direct, self.run_ids)
+        self.occupied[rows] += 1
+        return places
 
     def _widen(self, need: int) -> None:
         """Rows of ``need`` labels at most half full: every label moves to its new place.

@@ -17,6 +17,8 @@ import numpy as np
 
 from ...core import csr
 from ...core.arrays import FloatArray, IntArray
+from ...core.hop_errors import hop_covariance, unbiased_vectors
+from ...core.sensor import Sensor
 
 
 class Links(NamedTuple):
@@ -108,3 +110,18 @@ def joined_links(rows: Sequence[Links]) -> tuple[IntArray, Links]:
     """(starts, links) of ``rows`` (each one FLS's links), one after another."""
     starts = csr.offsets(np.array([len(row.ids) for row in rows], dtype=np.int64))
     return starts, Links(*(np.concatenate(field) for field in zip(*rows, strict=True)))
+
+
+def hop_fit(
+    sensor: Sensor, radius: float, hop: FloatArray, tracking: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """Hops (K, 3), cm, of tracking distance ``tracking`` (K,) less their known bias, and
+    their covariances (K, 3, 3), cm^2; NaN without a reading. Labels sum both."""
+    read = np.isfinite(hop).all(axis=1)
+    unbiased = np.full_like(hop, np.nan)
+    covariance = np.full((len(hop), 3, 3), np.nan)
+    if read.any():
+        unbiased[read] = unbiased_vectors(sensor, hop[read], tracking[read])
+        directions = hop[read] / np.linalg.norm(hop[read], axis=1, keepdims=True)
+        covariance[read] = hop_covariance(sensor, tracking[read], directions, radius)
+    return unbiased, covariance

@@ -201,7 +201,8 @@ class FlsRun:
         targets = None
         if self.targets is not None:
             wanted = phase_targets(phase, self.targets, self.results[SWEET_VISIBLE])
-            wanted = wanted[~np.isin(wanted, list(departed))]
+            if departed:  # most runs: none, and an isin of nothing costs as much
+                wanted = wanted[~np.isin(wanted, list(departed))]
             targets = wanted if len(wanted) else None
         options = SearchOptions(
             self.policy,
@@ -222,7 +223,7 @@ class FlsRun:
     def live_targets(self) -> IntArray:
         """Its targets that have not departed, in target order."""
         targets = np.zeros(0, dtype=np.int64) if self.targets is None else self.targets
-        return targets[~np.isin(targets, list(self.departed))]
+        return targets[~np.isin(targets, list(self.departed))] if self.departed else targets
 
     def estimates(self, sensor: Sensor | None = None) -> Estimates:
         """The estimate for every target that has not departed, in target order: those

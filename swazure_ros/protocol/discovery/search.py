@@ -26,7 +26,6 @@ from numpy.typing import NDArray
 
 from ...core import csr, jit
 from ...core.arrays import FloatArray, IntArray
-from ...core.hop_errors import hop_covariance, unbiased_vectors
 from ...core.observe import LocalView
 from ...core.paths import FEWEST_HOPS, LEAST_ERROR, SHORTEST_LENGTH, check_policy
 from ...core.sensor import BLIND, DECAYING, SWEET, Sensor
@@ -41,7 +40,7 @@ from .labels import (
     HeardLabels,
     LabelTable,
 )
-from .links import Links
+from .links import Links, hop_fit
 from .messages import ANY_VISIBLE, SWEET_ALL, SWEET_VISIBLE, Offer, RoundOffers, sender_rows
 
 # What an FLS that is no source searches for: one read-only array for all of them.
@@ -150,6 +149,43 @@ def hear_first(searches: Sequence[PathSearch], heard: RoundOffers) -> None:
     if len(heard.read_ids):
         for one in searches:
             one._take_readings(heard)
+
+
+def _runs_source(fls_id: int, span: tuple[int, int], sources: IntArray | None) -> bool:
+    """Whether FLS ``fls_id`` is one of a run's sources (``span``; ``sources``, sorted)."""
+    if not span[0] <= fls_id < span[1]:
+        return False
+    return sources is None or sources[np.searchsorted(sources, fls_id)] == fls_id
+
+
+def table_for(searches: Sequence[PathSearch]) -> LabelTable:
+    """One table whose row k holds the labels of ``searches[k]``, fresh searches of one run
+    and phase: empty but for each source's label of itself, at no cost (its path is
+    itself, its vector 0). Made once for a process's FLSs that start together, not a
+    table each to be merged when they first step together."""
+    first = searches[0]
+    table = LabelTable(
+        np.array([one.fls_id for one in searches], dtype=np.int64),
+        None,
+        None,
+        first.span,
+        first.id_space,
+        first.fits,
+        sources=first.run_sources,
+        row_hops=[one.hops for one in searches],
+    )
+    rows = np.array([row for row, one in enumerate(searches) if one.is_source], dtype=np.int64)
+    if len(rows):
+        ids = table.mes[rows]
+        places = table.add_many(rows, ids)
+        table.hops[rows, places], table.length[rows, places] = 0.0, 0.0
+        table.error[rows, places], table.pred[rows, places] = 0.0, ids
+        if table.fits:
+            table.unbiased[rows, places], table.covariance[rows, places] = 0.0, 0.0
+    book = OffersHeard()  # its rows' offers heard: none yet
+    for row, one in enumerate(searches):
+        one.move_to(table, row, book)
+    return table
 
 
 def source_range(sources: IntArray | None, id_space: int) -> tuple[int, int]:
@@ -297,25 +333,19 @@ class PathSearch:
         self._readings: RelayHops | None = hops if options.both_ends else None
         self.fit = options.fit
         self.fits = options.fit is not None
-        # Its labels: row 0 of a table of its own, until its process steps it with
-        # others (.together), when its records move to a row of theirs. Its hops are
-        # made when the table first needs them.
-        self.table = LabelTable(
-            np.array([self.fls_id]),
-            None,
-            None,
-            self.span,
-            options.id_space,
-            self.fits,
-            sources=options.sources,
-            row_hops=[hops],
-        )
+        self.id_space, self.run_sources, self.hops = options.id_space, options.sources, hops
+        # Its labels: a row of a table made when first needed, with the other FLSs of its
+        # process that start with it (.together), or of its own (row 0). Its hops are made
+        # when the table first needs them.
+        self._table: LabelTable | None = None
         self.row = 0
         self.book = OffersHeard()  # the offers its labels came through, as its table's rows'
         self._last_heard: RoundOffers | None = None  # the offers this search heard last
         # (round, its offer) picked with the other FLSs of its process.
         self._picked: tuple[int, Offer] | None = None
-        wanted = _NO_TARGETS if targets is None else np.unique(np.asarray(targets, np.int64))
+        wanted = _NO_TARGETS if targets is None else np.asarray(targets, dtype=np.int64)
+        if len(wanted) > 1 and not (wanted[1:] > wanted[:-1]).all():
+            wanted = np.unique(wanted)  # a view's blind neighbours come sorted already
         # Sorted ids, not a set: a race car's 3,720 sources held 2 M Python ints (169 MB).
         self.targets: IntArray = wanted
         self._found = np.zeros(len(self.targets), dtype=bool)  # by target, as targets
@@ -323,27 +353,26 @@ class PathSearch:
         self._open = len(self.targets)  # of those, the ones not shown out of reach either
         self._out_of_reach = np.zeros(len(self.targets), dtype=bool)  # shown by a pass (resume)
         self.results = Results()
-        if targets is not None:
-            self._label_self(options.sources)
-
-    def _label_self(self, sources: IntArray | None) -> None:
-        """Label this FLS, a source, as reached from itself at no cost."""
-        outside = not self.span[0] <= self.fls_id < self.span[1]
-        if sources is not None and not outside:
-            outside = sources[np.searchsorted(sources, self.fls_id)] != self.fls_id
-        if outside:
+        self.is_source = targets is not None
+        if self.is_source and not _runs_source(self.fls_id, self.span, options.sources):
             raise ValueError(f"FLS {self.fls_id} is a source that is not one of the run's")
-        table, row = self.table, self.row
-        me = table.add(row, self.fls_id)
-        table.hops[row, me], table.length[row, me], table.error[row, me] = 0.0, 0.0, 0.0
-        table.pred[row, me] = self.fls_id  # no offers it came through: its vector is 0
-        if self.fits:
-            table.unbiased[row, me], table.covariance[row, me] = 0.0, 0.0
+
+    @property
+    def table(self) -> LabelTable:
+        """The table that holds its labels, as row :attr:`row` (made now if not yet)."""
+        if self._table is None:
+            self._table = table_for([self])
+        return self._table
+
+    @property
+    def fresh(self) -> bool:
+        """True until its labels have a table: it has relaxed and sent nothing yet."""
+        return self._table is None
 
     def move_to(self, table: LabelTable, row: int, book: OffersHeard) -> None:
         """Its labels are now row ``row`` of ``table``, whose offers heard are ``book``
         (:mod:`.together`); its links, the table's row ``row``'s."""
-        self.table, self.row, self.book = table, row, book
+        self._table, self.row, self.book = table, row, book
 
     @property
     def links(self) -> Links:
@@ -557,18 +586,3 @@ def radio_window(view: LocalView) -> IntArray:
     """(W,) the FLSs an FLS hears: itself, then its radio neighbours (blind and sweet), ids."""
     radio = np.isin(view.range_class, (BLIND, SWEET))
     return np.concatenate([[view.fls_id], view.other[radio]]).astype(np.int64)
-
-
-def hop_fit(
-    sensor: Sensor, radius: float, hop: FloatArray, tracking: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """Hops (K, 3), cm, of tracking distance ``tracking`` (K,) less their known bias, and
-    their covariances (K, 3, 3), cm^2; NaN without a reading. Labels sum both."""
-    read = np.isfinite(hop).all(axis=1)
-    unbiased = np.full_like(hop, np.nan)
-    covariance = np.full((len(hop), 3, 3), np.nan)
-    if read.any():
-        unbiased[read] = unbiased_vectors(sensor, hop[read], tracking[read])
-        directions = hop[read] / np.linalg.norm(hop[read], axis=1, keepdims=True)
-        covariance[read] = hop_covariance(sensor, tracking[read], directions, radius)
-    return unbiased, covariance

@@ -11,6 +11,7 @@ paths and messages stay its own.
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Sequence
 
 import numpy as np
@@ -23,18 +24,19 @@ from .heard import OffersHeard, offers_of
 from .labels import Changes, Columns, HeardLabels, LabelTable, candidates, relax_rows
 from .links import Links
 from .messages import RoundOffers, sender_rows
-from .search import PathSearch, hear_first, heard_labels, take_changes
+from .search import PathSearch, hear_first, heard_labels, table_for, take_changes
+
+#: What searches that share a table have alike (a process's thousands are read in C).
+_RUN = operator.attrgetter("span", "order", "width", "resumed", "reach", "id_space", "fits")
 
 
 def _shared_table(searches: Sequence[PathSearch]) -> LabelTable | None:
-    """The one table whose rows 0, 1, ... are ``searches``, made if need be (their
-    records move to it); None when their runs differ."""
-    runs = {
-        (one.span, one.order, one.width, one.resumed, one.reach, one.table.id_space, one.fits)
-        for one in searches
-    }
-    if len(runs) != 1:
+    """The one table whose rows 0, 1, ... are ``searches``, made if need be (fresh searches
+    start in it, the others' records move to it); None when their runs differ."""
+    if len(set(map(_RUN, searches))) != 1:
         return None
+    if all(one.fresh for one in searches):  # a process's FLSs that start a phase together
+        return table_for(searches)
     table = searches[0].table
     if table.size == len(searches) and all(
         one.table is table and one.row == row for row, one in enumerate(searches)
@@ -52,7 +54,9 @@ def _shared_table(searches: Sequence[PathSearch]) -> LabelTable | None:
 def close_together(searches: Sequence[PathSearch], closed: IntArray) -> None:
     """Close the sources ``closed`` (ids) in every one of ``searches``, each table once:
     before a round is heard, so that no label of a finished source is relaxed."""
-    for table in {id(one.table): one.table for one in searches}.values():
+    shared = _shared_table(searches) if searches else None
+    tables = [shared] if shared is not None else [one.table for one in searches]
+    for table in {id(table): table for table in tables}.values():
         table.close(closed)
 
 
