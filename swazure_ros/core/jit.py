@@ -138,9 +138,20 @@ def _with_kernels_resolved(function: Callable[..., Any], own: Kernel[Any, Any]) 
     copy.__kwdefaults__ = function.__kwdefaults__
     copy.__qualname__ = function.__qualname__
     copy.__doc__ = function.__doc__
-    # Read by kernel_cache's locators: the callees' code is compiled into this kernel's.
+    # Read by kernel_cache's locators: the callees' code is compiled into this kernel's, and
+    # one source may be compiled with other options into another kernel, cached apart.
     copy._kernel_sources = tuple(sorted(sources))  # type: ignore[attr-defined]
+    copy._kernel_options = _options_tag(own.options)  # type: ignore[attr-defined]
     return copy
+
+
+def _options_tag(options: dict[str, Any]) -> str:
+    """:func:`.kernel_cache.options_tag`, without importing numba where kernels are Python."""
+    if INTERPRET:
+        return ""
+    from . import kernel_cache
+
+    return kernel_cache.options_tag(options)
 
 
 def _stamp_caches_with_callees(numba: Any) -> None:

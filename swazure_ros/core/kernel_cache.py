@@ -30,6 +30,8 @@ from numba.core.caching import (
 #: The attribute :mod:`.jit` sets on a kernel body it compiles: the module files of every
 #: kernel it calls, however deep.
 SOURCES = "_kernel_sources"
+#: And the kernel's ``numba.njit`` options, as :func:`options_tag` names them.
+OPTIONS = "_kernel_options"
 
 
 @functools.cache
@@ -60,14 +62,45 @@ def source_stamp(paths: tuple[str, ...]) -> str:
     return stamp.hexdigest()
 
 
+def options_tag(options: dict[str, Any]) -> str:
+    """A short name for a kernel's ``numba.njit`` options, ``cache`` aside.
+
+    Parameters
+    ----------
+    options : dict
+        The options (``parallel``, ``nogil``, ...).
+
+    Returns
+    -------
+    str
+        Eight hex digits of a sha256 over the sorted options; the same options, the
+        same tag.
+    """
+    named = sorted((key, repr(value)) for key, value in options.items() if key != "cache")
+    return hashlib.sha256(repr(named).encode()).hexdigest()[:8]
+
+
 class _Stamped:
-    """A locator mixin whose stamp covers the kernel's module and its callees' modules."""
+    """A locator mixin whose stamp covers the kernel's module and its callees' modules, and
+    whose cache files are named for the kernel's options too.
+
+    numba names a cache by the function's module, name and first line, and keys its
+    entries by signature and bytecode, not by ``parallel`` or ``nogil``: one source made
+    into a parallel and a serial kernel (``sight._obstructed_kernel`` and ``_serial``)
+    shared one entry, and the kernel compiled second loaded the first one's code
+    (numba issue 6845). Whichever a process ran first decided, for every later run,
+    whether the parallel kernel ran on one core.
+    """
 
     _py_file: str
     _sources: tuple[str, ...]
+    _options: str
 
     def get_source_stamp(self) -> str:
         return source_stamp((self._py_file, *self._sources))
+
+    def get_disambiguator(self) -> str:
+        return f"{super().get_disambiguator()}-{self._options}"  # type: ignore[misc]
 
     @classmethod
     def from_function(cls, py_func: Any, py_file: str) -> Any:
@@ -76,6 +109,7 @@ class _Stamped:
         locator = super().from_function(py_func, py_file)  # type: ignore[misc]
         if locator is not None:
             locator._sources = tuple(getattr(py_func, SOURCES))
+            locator._options = getattr(py_func, OPTIONS, "")
         return locator
 
 
