@@ -172,7 +172,7 @@ def table_for(searches: Sequence[PathSearch]) -> LabelTable:
         first.id_space,
         first.fits,
         sources=first.run_sources,
-        row_hops=[one.hops for one in searches],
+        row_hops=[one.relay_hops for one in searches],
     )
     rows = np.array([row for row, one in enumerate(searches) if one.is_source], dtype=np.int64)
     if len(rows):
@@ -333,7 +333,8 @@ class PathSearch:
         self._readings: RelayHops | None = hops if options.both_ends else None
         self.fit = options.fit
         self.fits = options.fit is not None
-        self.id_space, self.run_sources, self.hops = options.id_space, options.sources, hops
+        self.id_space, self.run_sources = options.id_space, options.sources
+        self.relay_hops = hops  # how its table makes its links, when it first needs them
         # Its labels: a row of a table made when first needed, with the other FLSs of its
         # process that start with it (.together), or of its own (row 0). Its hops are made
         # when the table first needs them.
