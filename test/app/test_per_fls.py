@@ -66,18 +66,27 @@ def last_log(logs: Path, fls_id: int) -> str:
     return (logs / f"fls_{fls_id}.log").read_text(errors="replace")
 
 
-def fls_processes(log_dir: Path) -> list[int]:
-    """Process ids of the FLS processes whose parameter file is in ``log_dir``."""
+def fls_processes(log_dir: Path, launcher: int | None = None) -> list[int]:
+    """Process ids of the FLS processes whose parameter file is in ``log_dir``; with
+    ``launcher``, only that process's children (what its report of their ends covers)."""
     marker = str(log_dir / "parameters.yaml").encode()
     found = []
     for entry in Path("/proc").iterdir():
         if entry.name.isdigit():
             try:
-                if marker in (entry / "cmdline").read_bytes():
+                if marker in (entry / "cmdline").read_bytes() and (
+                    launcher is None or parent(entry) == launcher
+                ):
                     found.append(int(entry.name))
             except OSError:
                 pass  # ended meanwhile
     return found
+
+
+def parent(process: Path) -> int:
+    """The parent's process id of ``process`` (its folder in /proc)."""
+    # The command, in parentheses, may hold spaces: the fields after its last ")".
+    return int((process / "stat").read_text().rsplit(")", 1)[1].split()[1])
 
 
 def test_a_swarm_of_one_process_per_fls_computes_what_the_engine_computes(domain, tmp_path):
@@ -225,8 +234,11 @@ def test_an_fls_process_that_died_leaves_its_logs_to_read_and_no_key(domain):
     logs = None
     try:
         logs = up(spawn)
-        os.kill(fls_processes(logs)[0], signal.SIGKILL)
-        assert wait_until(lambda: len(fls_processes(logs)) == 2, 300)
+        # The launcher's own child: only its end is the launcher's to report.
+        killed = fls_processes(logs, launcher=spawn.pid)[0]
+        os.kill(killed, signal.SIGKILL)
+        assert wait_until(lambda: killed not in fls_processes(logs, launcher=spawn.pid), 300)
+        assert len(fls_processes(logs, launcher=spawn.pid)) == 2
         os.killpg(spawn.pid, signal.SIGINT)
         _, err = spawn.communicate(timeout=300)
         assert spawn.returncode == 0, err
