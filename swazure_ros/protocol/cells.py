@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.arrays import FloatArray, IntArray
+from ..core.lookup import sorted_rows
 from ..core.neighbours import sensor_reach
 from ..core.sensor import Sensor
 from .discovery.messages import ANY_VISIBLE, FIT
@@ -128,9 +129,7 @@ class Tuning:
 
     def _rows_of(self, fls_ids: IntArray) -> tuple[IntArray, NDArray[np.bool_]]:
         """(M,) the row of each of ``fls_ids`` in :attr:`local`, and whether it is there."""
-        rows = np.minimum(np.searchsorted(self.local, fls_ids), max(len(self.local) - 1, 0))
-        found = (self.local[rows] == fls_ids) if len(self.local) else np.zeros(len(rows), bool)
-        return rows, found
+        return sorted_rows(self.local, fls_ids)
 
     def rows_by_cell(
         self, band: str, fls_ids: IntArray

@@ -23,6 +23,7 @@ from numpy.typing import NDArray
 from ..core.arrays import FloatArray, IntArray
 from ..core.errors import UnknownFlsError
 from ..core.geometry import tracking_distance
+from ..core.lookup import sorted_rows
 from ..core.observe import LocalView, Measurement, NearView, NeighbourSets
 from ..core.sensor import BLIND, DECAYING, SWEET, Sensor
 
@@ -316,9 +317,9 @@ class DetectedSenses:
     def positions(self, fls_ids: IntArray) -> FloatArray:
         """(K, 3) where FLSs ``fls_ids`` are as the swarm knows it, cm."""
         wanted = np.asarray(fls_ids, dtype=np.int64)
-        rows = np.minimum(np.searchsorted(self._ids, wanted), len(self._ids) - 1)
-        if not np.array_equal(self._ids[rows], wanted):
-            self._row(int(wanted[self._ids[rows] != wanted][0]))  # raises
+        rows, found = sorted_rows(self._ids, wanted)
+        if not found.all():
+            self._row(int(wanted.reshape(-1)[~found][0]))  # raises
         return self._points[rows]
 
     def home(self, fls_ids: IntArray) -> FloatArray:

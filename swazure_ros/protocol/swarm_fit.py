@@ -50,6 +50,7 @@ from ..core.conjugate_gradients import (
 )
 from ..core.exact_sums import swarm_sum
 from ..core.fit_measurements import fit_layers
+from ..core.lookup import sorted_rows
 from ..core.measurement_graph import CONVERGED_CM, measured_rows
 from ..core.observe import LocalView
 from ..core.sensor import DECAYING, SWEET, Sensor
@@ -404,8 +405,7 @@ class FitPart:
         local = np.zeros((len(layer.ids), 3, columns))
         heard_ids, block = self._heard_ids, self._heard_block
         if len(heard_ids) and block.shape[2] == columns:
-            rows = np.minimum(np.searchsorted(heard_ids, layer.ids), len(heard_ids) - 1)
-            found = heard_ids[rows] == layer.ids
+            rows, found = sorted_rows(heard_ids, layer.ids)
             local[found] = block[rows[found]]
         local[layer.slot] = own
         return local

@@ -22,6 +22,7 @@ from ..core.clouds import Cloud
 from ..core.errors import UnknownFlsError
 from ..core.geometry import Swarm, make_swarm
 from ..core.grid import Grid, build_grid, grid_of
+from ..core.lookup import sorted_rows
 from ..core.neighbourhood import (
     Neighbourhood,
     moved_neighbourhood,
@@ -347,9 +348,7 @@ class World:
 
     def lookup(self, fls_ids: ArrayLike) -> tuple[IntArray, NDArray[np.bool_]]:
         """Swarm indices (K,) of FLSs ``fls_ids`` (K,), and whether each is in the swarm."""
-        fls_ids = np.asarray(fls_ids, dtype=np.int64).reshape(-1)
-        rows = np.minimum(np.searchsorted(self.ids, fls_ids), len(self.ids) - 1)
-        return rows, self.ids[rows] == fls_ids
+        return sorted_rows(self.ids, fls_ids)
 
     def indices(self, fls_ids: ArrayLike) -> IntArray:
         """Swarm indices (K,) of FLSs ``fls_ids`` (K,); UnknownFlsError if one is not here."""
@@ -424,8 +423,8 @@ def make_world(
     hosted = None
     if hosted_ids is not None:
         hosted = np.unique(np.asarray(hosted_ids, dtype=np.int64))
-        rows = np.minimum(np.searchsorted(swarm.cloud_index, hosted), swarm.size - 1)
-        if len(hosted) and not np.array_equal(swarm.cloud_index[rows], hosted):
+        rows, found = sorted_rows(swarm.cloud_index, hosted)
+        if not found.all():
             raise UnknownFlsError(f"hosted FLSs not in this swarm of {swarm.size} FLSs")
         hosted = rows if len(hosted) < swarm.size else None
     lean = only_hosted_pairs and hosted is not None

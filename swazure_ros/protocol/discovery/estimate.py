@@ -27,6 +27,7 @@ from ...core.evaluation import (
 )
 from ...core.fit import PATH, SWARM_ESTIMATORS
 from ...core.hop_errors import expected_error
+from ...core.lookup import sorted_rows
 from ...core.sensor import Sensor
 
 
@@ -178,11 +179,8 @@ class Results:
     def rows(self, targets: IntArray) -> IntArray:
         """(T,) the row of each of ``targets`` in :attr:`table`; -1 where not found."""
         found = self.table["targets"]
-        wanted = np.asarray(targets, dtype=np.int64)
-        if not len(found):
-            return np.full(len(wanted), -1, dtype=np.int64)
-        rows = np.minimum(np.searchsorted(found, wanted), len(found) - 1)
-        return np.where(found[rows] == wanted, rows, -1).astype(np.int64)
+        rows, there = sorted_rows(found, targets)
+        return np.where(there, rows, -1).astype(np.int64)
 
     def get(self, target: int) -> Found | None:
         """Target ``target``'s result; None when it was not found."""

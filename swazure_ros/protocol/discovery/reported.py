@@ -16,6 +16,7 @@ from ...core.arrays import IntArray
 from ...core.evaluate import pair_results
 from ...core.evaluation import NO_PATH, Evaluation, PairResults
 from ...core.fit import SWARM_ESTIMATORS, consistency
+from ...core.lookup import sorted_rows
 from ...core.neighbourhood import Neighbourhood
 from ...core.neighbours import ordered_blind_pairs
 from ...core.pair_statistics import summarise
@@ -141,9 +142,9 @@ def _rows_of(ids: IntArray) -> Callable[[IntArray], IntArray]:
 
     def rows(fls_ids: IntArray) -> IntArray:
         wanted = np.asarray(fls_ids, dtype=np.int64)
-        at = np.minimum(np.searchsorted(ordered, wanted), max(len(ordered) - 1, 0))
-        if len(wanted) and not np.array_equal(ordered[at], wanted):
-            raise KeyError(int(wanted[ordered[at] != wanted][0]))
-        return np.asarray(order[at], dtype=np.int64)
+        at, found = sorted_rows(ordered, wanted)
+        if not found.all():
+            raise KeyError(int(wanted.reshape(-1)[~found][0]))
+        return np.asarray(order[at], dtype=np.int64).reshape(wanted.shape)
 
     return rows

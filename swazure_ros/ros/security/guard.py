@@ -31,6 +31,7 @@ from rclpy.subscription import Subscription
 
 from ...core.arrays import FloatArray, IntArray
 from ...core.errors import MessageError
+from ...core.lookup import sorted_rows
 from .auth import AUTH_BYTES, SENDERS_KEPT, Freshness, SwarmKey
 
 #: Seconds between a guard's reports on /diagnostics (sent only when its counts changed).
@@ -66,11 +67,7 @@ def check(condition: bool, reason: str) -> None:
 def check_ids(ids: ArrayLike, swarm: IntArray, what: str) -> IntArray:
     """``ids`` as int64 if every one is an FLS of ``swarm`` (sorted ids); MessageError if not."""
     wanted = np.asarray(ids, dtype=np.int64).reshape(-1)
-    if len(wanted) and len(swarm):
-        rows = np.minimum(np.searchsorted(swarm, wanted), len(swarm) - 1)
-        unknown = swarm[rows] != wanted
-    else:
-        unknown = np.ones(len(wanted), dtype=bool)
+    unknown = ~sorted_rows(swarm, wanted)[1]
     if unknown.any():
         raise MessageError(f"{what}: no FLS {int(wanted[unknown][0])} in this swarm")
     return wanted
