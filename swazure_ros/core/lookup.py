@@ -33,9 +33,10 @@ def sorted_rows(values: IntArray, wanted: ArrayLike) -> tuple[IntArray, BoolArra
     Returns
     -------
     rows : (M,) int64 array
-        Where each value of ``wanted`` is in ``values``, where it is there;
-        elsewhere the row where it would go, less one past the end (0 when
-        ``values`` is empty): ``values[rows]`` may be read whenever N > 0.
+        Each value's row in ``values`` where it is there; elsewhere the row
+        it would be inserted at, or the last row in place of one past the end
+        (0 when ``values`` is empty), so that ``values[rows]`` may always be
+        read when N > 0.
     found : (M,) bool array
         Whether each value of ``wanted`` is in ``values``.
 
