@@ -67,9 +67,20 @@ def test_flss_solving_together_send_and_end_as_each_solving_alone(hood, monkeypa
         blocks.append(len(block))
         return original_on_block(self, block)
 
+    fitted_for = []  # the sources of each call that made estimates from the fit's shares
+    original_fitted = participant.fitted_estimates
+
+    def fitted_estimates(made, shares, sensor, heard):
+        fitted_for.append(len(made))
+        return original_fitted(made, shares, sensor, heard)
+
+    monkeypatch.setattr(participant, "fitted_estimates", fitted_estimates)
     with monkeypatch.context() as patch:
         patch.setattr(RadioHub, "on_block", on_block)
         together = run()
+    # The SHARE round's estimates too: the 120 sources' in one call.
+    assert fitted_for == [120]
+    fitted_for.clear()
     # Every RESIDUAL, SUMS and STEP round of every solve was made for the process's FLSs
     # at once, and every SUMS and STEP round's offers went to the radio as one block.
     assert made_alone == {"RESIDUAL": 0, "SUMS": 0, "STEP": 0}
@@ -82,6 +93,8 @@ def test_flss_solving_together_send_and_end_as_each_solving_alone(hood, monkeypa
         else:
             patch.setattr(participant, "fit_together", not_together)
         alone = run()
+    if apart == "one FLS per process":
+        assert fitted_for == [1] * 120
     if apart == "each alone":
         assert made_alone["SUMS"] > 1000 and made_alone["STEP"] > 1000
         # Each of the 120 FLSs starts a solve of each fit and of the covariance alone.

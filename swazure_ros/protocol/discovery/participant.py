@@ -18,13 +18,12 @@ import numpy as np
 
 from ...core.arrays import FloatArray, IntArray
 from ...core.evaluation import ABORTED, DECAYING_PATH, REASON_COORDINATOR_LOST, SWEET_PATH
-from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_ESTIMATORS, SWARM_FIT
-from ...core.fit_measurements import fit_layers
+from ...core.fit import LOCAL_LEAST_SQUARES, PATH, SWARM_FIT
 from ...core.hop_errors import hop_error
 from ...core.observe import LocalView, NearView
 from ...core.sensor import Sensor
-from ...core.swarm_fit import sample_covariance
 from ...core.window_fit import Heard, window_fit
+from ..fit_shares import fitted_estimates
 from ..fit_together import FitRows, fit_together
 from ..readings import ReadingsBook
 from ..swarm_fit import FitPart
@@ -115,6 +114,8 @@ class FlsRun:
         self.departed: frozenset[int] = frozenset()
         # Its estimates at END, made with the other FLSs of its process (and the sensor).
         self._made: tuple[Sensor | None, Estimates] | None = None
+        # Its estimates from the swarm's fit, made so too.
+        self._fitted: tuple[Sensor, Estimates] | None = None
 
     def start_fit(
         self, sensor: Sensor, radius: float, departed: frozenset[int], warm: Sequence[FloatArray]
@@ -137,47 +138,18 @@ class FlsRun:
         return self._whole_taken
 
     def swarm_fitted(self, sensor: Sensor, heard: RoundOffers | None) -> Estimates:
-        """The estimates with each pair's vector from the swarm's fit (its SHARE round).
-
-        As the engine's ``--estimator swarm-fit`` makes them: the target's
-        settled position less this source's, and the covariance of the
-        difference of their samples; under a deterministic sensor a pair
-        with a sweet path from the fit of the sweet hops alone. A target
-        whose share was not heard keeps its path.
-        """
+        """The estimates with each pair's vector from the swarm's fit (its SHARE round):
+        made with the other FLSs of its process (:func:`step_together`), or made here
+        (:func:`..fit_shares.fitted_estimates`). A target whose share was not heard
+        keeps its path."""
+        made, self._fitted = self._fitted, None
+        if made is not None and made[0] is sensor:
+            return made[1]
         estimates = self.estimates(sensor)
         part = self.fit_part
         if part is None or heard is None or not len(estimates):
             return estimates
-        _, offsets, values = heard.fit_of(estimates.targets)
-        own = part.shared()
-        # A share of another length than this FLS's own is not one it can read: not heard.
-        fitted = np.flatnonzero(
-            np.isin(estimates.status, (SWEET_PATH, DECAYING_PATH)) & (np.diff(offsets) == len(own))
-        )
-        if not len(fitted):
-            return estimates
-        layers = len(fit_layers(sensor))
-        per_layer = len(own) // layers
-        # Each target's fit: the sweet hops' alone (the first) for a pair with a sweet path.
-        layer = np.where((layers == 1) | (estimates.status[fitted] == SWEET_PATH), 0, 1)
-        at = layer[:, None] * per_layer + np.arange(per_layer)
-        theirs = values[offsets[fitted][:, None] + at]
-        mine = own[at]
-        spread = (theirs[:, 3:] - mine[:, 3:]).reshape(len(fitted), 3, -1)
-        vector, covariance = estimates.vector.copy(), estimates.covariance.copy()
-        error, estimator = estimates.predicted_error.copy(), estimates.estimator.copy()
-        vector[fitted] = theirs[:, :3] - mine[:, :3]
-        covariance[fitted] = sample_covariance(spread)
-        error[fitted] = np.sqrt(np.trace(covariance[fitted], axis1=1, axis2=2))
-        estimator[fitted] = SWARM_ESTIMATORS.index(SWARM_FIT)
-        return replace(
-            estimates,
-            vector=vector,
-            covariance=covariance,
-            predicted_error=error,
-            estimator=estimator,
-        )
+        return fitted_estimates([estimates], [part.shared()], sensor, heard)[0]
 
     def start(
         self,
@@ -495,6 +467,8 @@ def step_together(
     stepped = Stepped()
     if control.command not in (ROUND, END):
         return stepped
+    if control.command == END and fitting:
+        _fitted_together(participants, control.run_id, heard)
     if fit_round:
         # The offers made together go out from here: a Python call per FLS and round is
         # most of what a process spends in the fit's hundreds of rounds.
@@ -543,6 +517,47 @@ def _fit_block(control: Control, senders: list[int], made: FitRows) -> FitBlock:
         order = np.argsort(ids, kind="stable")
         ids, values, partials = ids[order], values[order], partials[order]
     return FitBlock(control.run_id, control.round, ids, values, partials)
+
+
+def _fitted_together(
+    participants: Sequence[Participant], run_id: int, heard: RoundOffers | None
+) -> None:
+    """The sources among ``participants`` whose run ``run_id`` ends in the swarm's fit make
+    their estimates a block at a time (:func:`..fit_shares.fitted_estimates`), for
+    :meth:`FlsRun.swarm_fitted`."""
+    fitting = [
+        participant
+        for participant in participants
+        if (run := participant.runs.get(run_id)) is not None
+        and run.fit_part is not None
+        and run.estimator == SWARM_FIT
+        and run.targets is not None
+    ]
+    if heard is None or len(fitting) < 2 or len({id(one.sensor) for one in fitting}) != 1:
+        return  # one source, or FLSs whose sensors differ: each makes its own
+    _estimate_together(fitting, run_id)
+    sensor = fitting[0].sensor
+    runs = [participant.runs[run_id] for participant in fitting]
+    first, held = 0, 0
+    for end, run in enumerate(runs, start=1):
+        held += len(run.live_targets())
+        if held < FITTED_AT_ONCE and end < len(runs):
+            continue
+        block = runs[first:end]
+        made = fitted_estimates(
+            [run.estimates(sensor) for run in block],
+            [run.fit_part.shared() for run in block if run.fit_part is not None],
+            sensor,
+            heard,
+        )
+        for run, estimates in zip(block, made, strict=True):
+            run._fitted = (sensor, estimates)
+        first, held = end, 0
+
+
+#: The most targets whose estimates a process's sources fit in one call: each holds its
+#: target's share and the source's, two fits' positions and 64 samples (6.2 kB).
+FITTED_AT_ONCE = 1 << 14
 
 
 #: The most targets that a process's sources estimate in one call: the call joins their
