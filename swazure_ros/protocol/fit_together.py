@@ -33,12 +33,13 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ..core import csr
 from ..core.arrays import FloatArray, IntArray
 from ..core.conjugate_gradients import Floor, Iterate, advance, partial_dot, scalars
 from ..core.swarm_edges import blocks_times
 from .discovery.messages import RESIDUAL, STEP, SUMS, FitStep, RoundOffers
 from .fit_rows import FitLayer, own_rows
-from .swarm_fit import FitPart
+from .swarm_fit import NOTHING_HEARD, FitPart
 
 
 @dataclass
@@ -105,6 +106,8 @@ def fit_together(
         return None
     if step is None or step.stage not in (SUMS, STEP) or step.ended:
         settle(parts)
+        if step is not None:  # each FLS then steps alone, what it heard read already
+            take_together(parts, heard)
         return None
     solve = _solve_of(parts)
     if solve is None:
@@ -125,13 +128,55 @@ def _residuals(parts: Sequence[FitPart], step: FitStep, heard: RoundOffers | Non
     samples = {part.samples_count for part in parts}
     if len(samples) != 1:
         return  # FLSs that draw differently (never in one swarm): each starts alone
-    layers = []
-    for part in parts:
-        part.take(heard)
-        layers.append(part.weighed(step))
+    take_together(parts, heard)
+    layers = [part.weighed(step) for part in parts]
     made = own_rows(layers, samples.pop())
     for part, layer, own in zip(parts, layers, made, strict=True):
         part.said = (step, part.start_solve(layer, own))
+
+
+def take_together(parts: Sequence[FitPart], heard: RoundOffers | None) -> None:
+    """Each of ``parts`` keeps what ``heard`` says of the FLSs it measures, read for all at
+    once: the labels and vectors each would take alone (:meth:`FitPart.take`).
+
+    A round whose offers carry readings (the first LABELS round), or vectors of
+    more than one size (a forgery the key let through: each FLS judges its own
+    neighbours'), each FLS takes alone.
+    """
+    if heard is None or len(parts) < 2 or len(heard.read_ids):
+        for part in parts:
+            part.take(heard)
+        return
+    labelled = bool((heard.fit_labels >= 0).any())
+    vectors = bool(len(heard.fit_values))
+    if not labelled and not vectors:
+        return  # nothing an FLS keeps: each finds so itself, cheaply
+    wanted = [part.measured_ids for part in parts]
+    every = np.concatenate(wanted)
+    ids, row_of = np.unique(every, return_inverse=True)
+    labels, offsets, values = heard.fit_of(ids)
+    sizes = np.diff(offsets)
+    if len(np.unique(sizes[sizes > 0])) > 1:
+        for part in parts:
+            part.take(heard)
+        return
+    bounds = csr.offsets(np.array([len(one) for one in wanted], dtype=np.int64))
+    their_labels = labels[row_of] if labelled else None
+    if vectors:
+        # One copy of every FLS's vectors, each FLS's a slice: the heard ones, in its order.
+        sent = sizes[row_of] > 0
+        columns = int(sizes.max(initial=3)) // 3
+        block = values.reshape(-1, 3, columns)[(np.cumsum(sizes > 0) - 1)[row_of[sent]]]
+        heard_ids = every[sent]
+        sent_bounds = np.concatenate([[0], np.cumsum(sent)])[bounds]
+    for index, part in enumerate(parts):
+        low, high = bounds[index], bounds[index + 1]
+        said = None if their_labels is None else their_labels[low:high]
+        kept = None
+        if vectors:
+            first, last = sent_bounds[index], sent_bounds[index + 1]
+            kept = (heard_ids[first:last], block[first:last]) if last > first else NOTHING_HEARD
+        part.took(heard, said, kept)
 
 
 def settle(parts: Sequence[FitPart]) -> None:

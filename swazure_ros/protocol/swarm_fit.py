@@ -89,8 +89,8 @@ class Settles(Protocol):
 
 
 #: The vectors of a round in which none of an FLS's neighbours was heard (read-only, shared).
-_NOTHING_HEARD = (np.zeros(0, dtype=np.int64), np.zeros((0, 3, 1)))
-for _empty in _NOTHING_HEARD:
+NOTHING_HEARD = (np.zeros(0, dtype=np.int64), np.zeros((0, 3, 1)))
+for _empty in NOTHING_HEARD:
     _empty.flags.writeable = False
 
 
@@ -247,13 +247,17 @@ class FitPart:
             & ~np.isin(view.other, list(departed))
         )
         self._measured = np.flatnonzero(measured)  # rows of the view: whom it measures
-        self._sweet = self._measured[view.range_class[self._measured] == SWEET]
+        self._sweet_rows = np.flatnonzero(view.range_class[self._measured] == SWEET)
         self.label = self.fls_id
-        self._labels: dict[int, int] = {}
-        self._their_readings: dict[int, FloatArray] = {}  # neighbour -> its reading of me
+        # Per FLS it measures (measured_ids' order): the label it last said (-1: none), and
+        # its reading of this FLS (cm) where heard.
+        self._neighbour_labels = np.full(len(self._measured), -1, dtype=np.int64)
+        self._their_readings = np.zeros((len(self._measured), 3))
+        self._reading_heard = np.zeros(len(self._measured), dtype=bool)
+        self._taken: RoundOffers | None = None  # the offers last taken, not taken twice
         # The FLSs it measures that sent a vector in the last round that had any (their
         # positions, or their u), sorted, and those vectors (S, 3, K).
-        self._heard_ids, self._heard_block = _NOTHING_HEARD
+        self._heard_ids, self._heard_block = NOTHING_HEARD
         self._start = start
         self.layers: list[FitLayer | None] = [None] * len(self.layers_links)
         self._first = True
@@ -312,44 +316,57 @@ class FitPart:
 
     def take(self, heard: RoundOffers | None) -> None:
         """Keep what ``heard`` says of the FLSs this one measures: labels, readings, vectors."""
-        if heard is None:
+        if heard is None or heard is self._taken:
             return
         if len(heard.read_ids):
-            readers, vectors = heard.readings_of(self.fls_id)
-            for reader, vector in zip(readers.tolist(), vectors, strict=True):
-                self._their_readings[reader] = vector
+            self.took_readings(*heard.readings_of(self.fls_id))
         labelled = bool((heard.fit_labels >= 0).any())
         if not labelled and not len(heard.fit_values):
+            self._taken = heard
             return  # a round whose offers say nothing to neighbours (WEIGH, SUMS)
         wanted = self.measured_ids
         labels, offsets, values = heard.fit_of(wanted)
-        if labelled:
-            for fls, label in zip(wanted.tolist(), labels.tolist(), strict=True):
-                if label >= 0:
-                    self._labels[fls] = label
         if not len(heard.fit_values):
+            self.took(heard, labels if labelled else None, None)
             return  # a LABELS round: the vectors heard before stay
         # A round's vectors replace those of the last: a neighbour not heard counts as 0.
         counts = np.diff(offsets)
         if not (counts > 0).any():
-            self.forget_heard()
+            self.took(heard, labels if labelled else None, NOTHING_HEARD)
             return
         # Every sender of a round sends as many values, one (3, K) block each; a sender
         # that sent another number (a forgery the key let through) is not heard.
         size = int(np.bincount(counts[counts > 0]).argmax())
         sent = counts == size
         rows = csr.ragged_indices(offsets[:-1][sent], counts[sent])
-        self._heard_ids = wanted[sent]
-        self._heard_block = values[rows].reshape(int(sent.sum()), 3, size // 3)
+        block = values[rows].reshape(int(sent.sum()), 3, size // 3)
+        self.took(heard, labels if labelled else None, (wanted[sent], block))
 
-    def forget_heard(self) -> None:
-        """Drop the vectors heard in the last round that carried any."""
-        self._heard_ids, self._heard_block = _NOTHING_HEARD
+    def took_readings(self, readers: IntArray, vectors: FloatArray) -> None:
+        """Keep ``readers``' readings (R, 3), cm, of this FLS: those of FLSs it measures."""
+        rows, found = sorted_rows(self.measured_ids, np.asarray(readers, dtype=np.int64))
+        self._their_readings[rows[found]] = vectors[found]
+        self._reading_heard[rows[found]] = True
+
+    def took(
+        self,
+        heard: RoundOffers,
+        labels: IntArray | None,
+        vectors: tuple[IntArray, FloatArray] | None,
+    ) -> None:
+        """Keep what ``heard`` says to this FLS, read here (:meth:`take`) or for a process's
+        FLSs at once (:func:`..fit_together.take_together`): its neighbours' ``labels``
+        (M,), -1 where none; the ``vectors`` heard (their senders, sorted, and (S, 3, K)),
+        which replace those of the last round with any. None: the round had none."""
+        self._taken = heard
+        if labels is not None:
+            np.copyto(self._neighbour_labels, labels, where=labels >= 0)
+        if vectors is not None:
+            self._heard_ids, self._heard_block = vectors
 
     def _labels_round(self) -> FitOffer:
-        sweet = self.view.other[self._sweet]
-        heard = [self._labels[fls] for fls in sweet.tolist() if fls in self._labels]
-        label = min([self.label, *heard])
+        heard = self._neighbour_labels[self._sweet_rows]
+        label = min(self.label, int(heard[heard >= 0].min(initial=self.label)))
         changed = label != self.label or self._first
         self.label = label
         readings = None
@@ -373,22 +390,18 @@ class FitPart:
         chosen = view.range_class[rows] == SWEET
         if self.layers_links[index]:
             # A decaying hop joins the fit where it joins two sweet parts.
-            other_labels = np.array(
-                [self._labels.get(int(fls), -1) for fls in view.other[rows]], dtype=np.int64
-            )
-            chosen |= (view.range_class[rows] == DECAYING) & (other_labels != self.label)
+            joins = self._neighbour_labels != self.label
+            chosen |= (view.range_class[rows] == DECAYING) & joins
         # Both rows of a pair: only where the neighbour's reading of this FLS was heard.
-        heard = np.array(
-            [int(fls) in self._their_readings for fls in view.other[rows]], dtype=bool
-        )
-        rows = rows[chosen & heard]
+        kept = chosen & self._reading_heard
+        rows = rows[kept]
         others = view.other[rows].astype(np.int64)
         ids = np.sort(np.append(others, self.fls_id))
         slot = int(np.searchsorted(ids, self.fls_id))
         local = np.searchsorted(ids, others)
         count = len(rows)
         mine = np.full(count, slot, dtype=np.int64)
-        theirs = np.array([self._their_readings[int(fls)] for fls in others]).reshape(count, 3)
+        theirs = self._their_readings[kept]
         first = np.concatenate([mine, local])
         second = np.concatenate([local, mine])
         raw = np.concatenate([view.vector_at(rows), theirs])
