@@ -117,3 +117,53 @@ def test_the_flss_left_to_take_a_control_alone_are_those_without_a_row_in_the_bl
     assert participant.Stepped(block=block).left([9, 3, 2, 5, 7]) == [3, 7]
     assert participant.Stepped(block=block).left([5, 2, 9]) == []
     assert participant.Stepped().left([9, 3]) == [9, 3]  # no block: every FLS
+
+
+def test_what_a_process_s_flss_take_together_is_what_each_takes_alone(hood):
+    from swazure_ros.core.observe import local_view
+    from swazure_ros.protocol.discovery.messages import FitOffer, RoundOffers
+    from swazure_ros.protocol.fit_together import take_together
+
+    ids = hood.swarm.cloud_index
+    seen = observations(hood)
+
+    def parts():
+        return [FitPart(local_view(seen, ids, fls), hood.sensor, hood.swarm.radius,
+                        frozenset()) for fls in range(12)]  # fmt: skip
+
+    def offers(made):
+        return RoundOffers.of([(fls, participant.fit_offer(one)) for fls, one in made])
+
+    everyone = [int(fls) for fls in ids]
+    together, alone = parts(), parts()
+    forger = int(together[0].measured_ids[0])
+    rounds = {
+        "labels": offers([(fls, FitOffer(label=fls % 7, changed=True)) for fls in everyone]),
+        "vectors": offers([(fls, FitOffer(values=np.full(6, float(fls)))) for fls in everyone]),
+        # One sender's vector of another length: each FLS judges its own neighbours'.
+        "a forged length": offers(
+            [(fls, FitOffer(values=np.full(3 if fls == forger else 6, 1.0))) for fls in everyone]
+        ),
+        "a stranger's only": offers([(119, FitOffer(values=np.ones(6)))]),
+    }
+    for name, heard in rounds.items():
+        take_together(together, heard)
+        for part in alone:
+            part.take(heard)
+        for mine, theirs in zip(together, alone, strict=True):
+            np.testing.assert_array_equal(mine._neighbour_labels, theirs._neighbour_labels)
+            np.testing.assert_array_equal(mine._heard_ids, theirs._heard_ids, err_msg=name)
+            np.testing.assert_array_equal(mine._heard_block, theirs._heard_block, err_msg=name)
+            mine.take(heard)  # taken once: a second take of the same offers changes nothing
+            np.testing.assert_array_equal(mine._heard_ids, theirs._heard_ids, err_msg=name)
+        heard_ids = [part._heard_ids.tolist() for part in together]
+        # What each round said was kept: labels, vectors, all but the forger's, none.
+        if name == "labels":
+            assert all((part._neighbour_labels >= 0).all() for part in together)
+        if name == "vectors":
+            assert all(ids == part.measured_ids.tolist() for ids, part in zip(heard_ids, together))
+        if name == "a forged length":
+            assert all(ids == [fls for fls in part.measured_ids.tolist() if fls != forger]
+                       for ids, part in zip(heard_ids, together))  # fmt: skip
+        if name == "a stranger's only":
+            assert heard_ids == [[]] * len(together)
