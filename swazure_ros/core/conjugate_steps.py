@@ -62,6 +62,36 @@ def scaled_with_shares(
 
 
 @jit.kernel(cache=True, parallel=True)
+def product_into(
+    starts: IntArray, columns: IntArray, values: FloatArray, vector: FloatArray, image: FloatArray
+) -> None:  # pragma: no cover - compiled
+    """W = H V, H in CSR, into ``image``.
+
+    Each row of W is added up from zero over its columns in their order, as
+    scipy's CSR product adds it (``csr_matvecs``), so the same bits.
+
+    Parameters
+    ----------
+    starts, columns, values : arrays
+        H (R, C) in CSR: ``indptr``, ``indices`` and ``data``, cm^-2.
+    vector : (C, K) array of float, cm
+        V.
+    image : (R, K) array of float, cm^-1
+        Filled with W.
+    """
+    count = vector.shape[1]
+    # Rows on every thread: each row is its own sum, so the bits are the same.
+    for row in jit.prange(image.shape[0]):
+        for column in range(count):
+            image[row, column] = 0.0
+        for entry in range(starts[row], starts[row + 1]):
+            value = values[entry]
+            other = columns[entry]
+            for column in range(count):
+                image[row, column] += value * vector[other, column]
+
+
+@jit.kernel(cache=True)
 def image_with_shares(
     starts: IntArray,
     columns: IntArray,
@@ -70,10 +100,8 @@ def image_with_shares(
     image: FloatArray,
     shares: FloatArray,
 ) -> None:  # pragma: no cover - compiled
-    """W = H U, H in CSR, and each FLS's share of (W, U), into ``image`` and ``shares``.
-
-    Each row of W is added up from zero over its columns in their order, as
-    scipy's CSR product adds it (``csr_matvecs``), so the same bits.
+    """W = H U (:func:`product_into`) and each FLS's share of (W, U), into ``image`` and
+    ``shares``.
 
     Parameters
     ----------
@@ -87,17 +115,8 @@ def image_with_shares(
     shares : (N, K) array of float
         Filled with ``partial_dot(W, U)``.
     """
-    count = scaled.shape[1]
-    # Rows on every thread: each row is its own sum, so the bits are the same.
-    for row in jit.prange(scaled.shape[0]):
-        for column in range(count):
-            image[row, column] = 0.0
-        for entry in range(starts[row], starts[row + 1]):
-            value = values[entry]
-            other = columns[entry]
-            for column in range(count):
-                image[row, column] += value * scaled[other, column]
-    shape = (shares.shape[0], 3, count)
+    product_into(starts, columns, values, scaled, image)
+    shape = (shares.shape[0], 3, scaled.shape[1])
     dots_into(image.reshape(shape), scaled.reshape(shape), shares)
 
 

@@ -35,7 +35,14 @@ import numpy as np
 
 from ..core import csr
 from ..core.arrays import FloatArray, IntArray
-from ..core.conjugate_gradients import Floor, Iterate, advance, partial_dot, scalars
+from ..core.conjugate_gradients import (
+    Floor,
+    Iterate,
+    advance,
+    partial_dot,
+    scalars,
+    sparse_times,
+)
 from ..core.swarm_edges import blocks_times
 from .discovery.messages import RESIDUAL, STEP, SUMS, FitStep, RoundOffers
 from .fit_rows import FitLayer, own_rows
@@ -274,7 +281,7 @@ def _sums(solve: Solve, heard: RoundOffers | None) -> FitRows | None:
     heard_from = len(solve.others)
     vector[:heard_from][sizes > 0] = values.reshape(-1, 3, columns)
     vector[heard_from:] = solve.scaled
-    image = np.asarray(solve.matrix @ vector.reshape(-1, columns), dtype=np.float64)
+    image = sparse_times(solve.matrix, vector.reshape(-1, columns))
     solve.image = image.reshape(count, 3, columns)
     shares = np.concatenate(
         [partial_dot(solve.iterate.residual, solve.scaled),

@@ -35,3 +35,24 @@ def test_an_iteration_s_dots_and_steps_are_the_same_bits_compiled_and_interprete
     for name in ("position", "residual", "search", "image"):
         assert getattr(compiled, name).tobytes() == getattr(python, name).tobytes(), name
     assert compiled.search[2, 1, 3] == scaled[2, 1, 3] + beta[3] * iterate.search[2, 1, 3]
+
+
+def test_a_sparse_product_on_every_thread_is_scipy_s_to_the_bit():
+    from scipy.sparse import random as sparse_random
+
+    from swazure_ros.core.conjugate_gradients import sparse_times
+
+    rng = np.random.default_rng(11)
+    # Rectangular, as a process's rows of H over the values it heard; entries and values
+    # spread over twelve decades, so that any other order of the sums shows in the bits.
+    matrix = sparse_random(300, 420, density=0.05, format="csr", random_state=3)
+    matrix.data *= 10.0 ** rng.integers(-6, 6, size=matrix.nnz)
+    for columns in (1, 5):
+        vector = rng.normal(size=(420, columns)) * 10.0 ** rng.integers(-6, 6, (420, columns))
+        assert sparse_times(matrix, vector).tobytes() == np.asarray(matrix @ vector).tobytes()
+        wide = matrix.copy()
+        wide.indptr, wide.indices = wide.indptr.astype(np.int64), wide.indices.astype(np.int64)
+        assert sparse_times(wide, vector).tobytes() == np.asarray(matrix @ vector).tobytes()
+    # Rows of H with no entry (an FLS that heard none): zeros.
+    empty = matrix[:0].copy()
+    assert sparse_times(empty, vector).shape == (0, 5)
