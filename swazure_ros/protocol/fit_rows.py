@@ -103,10 +103,19 @@ def own_rows(layers: Sequence[FitLayer], samples: int) -> list[OwnRows]:
     return made
 
 
-def _own_rows_block(layers: Sequence[FitLayer], samples: int) -> list[OwnRows]:
-    """:func:`own_rows` of ``layers``, one block-diagonal system."""
-    from scipy.sparse import csr_matrix
+def stacked(layers: Sequence[FitLayer]) -> tuple[Measurements, IntArray, IntArray]:
+    """``layers``' measured rows as one block-diagonal set: each layer's local indices
+    offset past the last layer's ids.
 
+    Returns
+    -------
+    measured : Measurements
+        Every layer's rows, layer after layer.
+    bases : (F,) array of int
+        Where each layer's local indices start.
+    sizes : (F,) array of int
+        Each layer's local ids.
+    """
     sizes = np.array([len(layer.ids) for layer in layers], dtype=np.int64)
     bases = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
     counts = [len(layer.measured) for layer in layers]
@@ -118,6 +127,14 @@ def _own_rows_block(layers: Sequence[FitLayer], samples: int) -> list[OwnRows]:
         np.concatenate([layer.measured.covariance for layer in layers]),
         np.concatenate([layer.measured.information for layer in layers]),
     )
+    return measured, bases, sizes
+
+
+def _own_rows_block(layers: Sequence[FitLayer], samples: int) -> list[OwnRows]:
+    """:func:`own_rows` of ``layers``, one block-diagonal system."""
+    from scipy.sparse import csr_matrix
+
+    measured, bases, sizes = stacked(layers)
     weights = np.concatenate([layer.weights for layer in layers])
     edges = edges_of(int(sizes.sum()), measured)
     final = weighted(edges, measured, weights)

@@ -1,4 +1,4 @@
-"""A process's FLSs solving together: the FIT phase's RESIDUAL, SUMS and STEP rounds at once.
+"""A process's FLSs solving together: the FIT phase's rounds, each at once for all of them.
 
 A solve of the swarm's fit (:mod:`.swarm_fit`) is hundreds of rounds that
 alternate SUMS (each FLS's row of ``H u`` from its neighbours' ``u``, and its
@@ -14,7 +14,10 @@ same entries of ``H`` summed in the same order, and the same elementwise
 arithmetic (``core.swarm_edges.blocks_times`` gives one block's bits for a
 stack too). A RESIDUAL round, where each FLS makes its own rows of its local
 system and starts its solve, makes every FLS's system in one block-diagonal
-pass (:func:`~.fit_rows.own_rows`), with the same bits.
+pass (:func:`~.fit_rows.own_rows`), with the same bits; a WEIGH round weighs
+every FLS's pairs in one pass over their rows stacked. In the other rounds
+(LABELS, POSITIONS, SHARE) each FLS steps alone, from what the process read
+for all of them at once (:func:`take_together`).
 
 While a solve is stepped together its state lives in one :class:`Solve`; the
 FLSs' own records (:class:`~.swarm_fit.FitPart`) get it back when a round
@@ -44,9 +47,10 @@ from ..core.conjugate_gradients import (
     sparse_times,
 )
 from ..core.swarm_edges import blocks_times
-from .discovery.messages import RESIDUAL, STEP, SUMS, FitStep, RoundOffers
-from .fit_rows import FitLayer, own_rows
-from .swarm_fit import NOTHING_HEARD, FitPart
+from ..core.swarm_fit import weights_for
+from .discovery.messages import RESIDUAL, STEP, SUMS, WEIGH, FitStep, RoundOffers
+from .fit_rows import FitLayer, own_rows, stacked
+from .swarm_fit import NOTHING_HEARD, WEIGHED, FitPart
 
 
 @dataclass
@@ -102,14 +106,15 @@ def fit_together(
     Returns a SUMS or STEP round's offers, a row per FLS of ``parts`` in their
     order: what each FLS stepping alone would offer (``discovery.messages.FitBlock``
     carries them). A RESIDUAL starts every FLS's solve from rows made in one
-    pass (:func:`_residuals`), and each FLS then finds its offer made
-    (:meth:`FitPart.on_round` sends it): None. ``step`` None, or another stage
-    than SUMS, STEP and RESIDUAL: the solve's state goes back to each FLS, which
-    steps on alone; None.
+    pass (:func:`_residuals`), a WEIGH weighs every FLS's pairs in one
+    (:func:`_weighed`), and each FLS then finds its offer made
+    (:meth:`FitPart.on_round` sends it): None. ``step`` None, or another stage:
+    the solve's state goes back to each FLS, which steps on alone from what
+    was heard, read for all (:func:`take_together`); None.
     """
-    if step is not None and step.stage == RESIDUAL and not step.ended and parts:
+    if step is not None and step.stage in (RESIDUAL, WEIGH) and not step.ended and parts:
         settle(parts)
-        _residuals(parts, step, heard)
+        (_residuals if step.stage == RESIDUAL else _weighed)(parts, step, heard)
         return None
     if step is None or step.stage not in (SUMS, STEP) or step.ended:
         settle(parts)
@@ -140,6 +145,24 @@ def _residuals(parts: Sequence[FitPart], step: FitStep, heard: RoundOffers | Non
     made = own_rows(layers, samples.pop())
     for part, layer, own in zip(parts, layers, made, strict=True):
         part.said = (step, part.start_solve(layer, own))
+
+
+def _weighed(parts: Sequence[FitPart], step: FitStep, heard: RoundOffers | None) -> None:
+    """A WEIGH round for ``parts`` at once: each FLS hears ``heard``, then every FLS's pairs
+    are weighed in one pass over their rows stacked (each row's weight is its own: the
+    same bits), and each makes its offer from its own, as :meth:`FitPart.on_round` does."""
+    take_together(parts, heard)
+    layers = [part.layer_of(step) for part in parts]
+    measured = stacked(layers)[0]
+    positions = np.concatenate(
+        [part.weigh_positions(layer) for part, layer in zip(parts, layers, strict=True)]
+    )
+    weights = {mode: weights_for(measured, positions, mode) for mode in WEIGHED}
+    bounds = csr.offsets(np.array([len(layer.measured) for layer in layers], dtype=np.int64))
+    for index, (part, layer) in enumerate(zip(parts, layers, strict=True)):
+        rows = slice(bounds[index], bounds[index + 1])
+        own = {mode: weights[mode][rows].copy() for mode in WEIGHED}
+        part.said = (step, part.weighed_offer(layer, own))
 
 
 def take_together(parts: Sequence[FitPart], heard: RoundOffers | None) -> None:

@@ -80,6 +80,9 @@ from .discovery.messages import (
 )
 from .fit_rows import FitLayer, OwnRows, own_rows, weigh
 
+#: The robust modes whose weights a WEIGH round makes, for the coordinator to choose from.
+WEIGHED = (HUBER, REJECTING)
+
 
 class Settles(Protocol):
     """A solve stepped for several FLSs at once (:class:`..fit_together.Solve`)."""
@@ -424,10 +427,23 @@ class FitPart:
         return local
 
     def _weigh(self, layer: FitLayer) -> FitOffer:
-        positions = self._local(layer, layer.position)[:, :, 0]
-        layer.candidates = {
-            mode: weights_for(layer.measured, positions, mode) for mode in (HUBER, REJECTING)
-        }
+        positions = self.weigh_positions(layer)
+        candidates = {mode: weights_for(layer.measured, positions, mode) for mode in WEIGHED}
+        return self.weighed_offer(layer, candidates)
+
+    def layer_of(self, step: FitStep) -> FitLayer:
+        """The layer (the fit) that ``step`` works on, made at its first ask."""
+        return self._layer(step.layer)
+
+    def weigh_positions(self, layer: FitLayer) -> FloatArray:
+        """The positions (L, 3), cm, of ``layer``'s local ids that its weights are made at:
+        its own, and its neighbours' as heard."""
+        return self._local(layer, layer.position)[:, :, 0]
+
+    def weighed_offer(self, layer: FitLayer, candidates: dict[int, FloatArray]) -> FitOffer:
+        """Keep ``candidates``, ``layer``'s weights (2 x pairs,) per robust mode of
+        :data:`WEIGHED`; its WEIGH round's offer: whether they changed, how far it moved."""
+        layer.candidates = candidates
         same = (
             bool(np.array_equal(layer.candidates[HUBER], layer.weights)),
             bool(np.array_equal(layer.candidates[REJECTING], layer.weights)),

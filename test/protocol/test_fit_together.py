@@ -45,8 +45,9 @@ def hood():
 
 @pytest.mark.parametrize("apart", ["one FLS per process", "each alone"])
 def test_flss_solving_together_send_and_end_as_each_solving_alone(hood, monkeypatch, apart):
-    made_alone = {"RESIDUAL": 0, "SUMS": 0, "STEP": 0}
-    for stage, method in (("RESIDUAL", "_residual"), ("SUMS", "_sums"), ("STEP", "_step")):
+    made_alone = {"RESIDUAL": 0, "SUMS": 0, "STEP": 0, "WEIGH": 0}
+    for stage, method in (("RESIDUAL", "_residual"), ("SUMS", "_sums"), ("STEP", "_step"),
+                          ("WEIGH", "_weigh")):  # fmt: skip
         original = getattr(FitPart, method)
 
         def counted(self, *args, _stage=stage, _original=original):
@@ -81,9 +82,9 @@ def test_flss_solving_together_send_and_end_as_each_solving_alone(hood, monkeypa
     # The SHARE round's estimates too: the 120 sources' in one call.
     assert fitted_for == [120]
     fitted_for.clear()
-    # Every RESIDUAL, SUMS and STEP round of every solve was made for the process's FLSs
-    # at once, and every SUMS and STEP round's offers went to the radio as one block.
-    assert made_alone == {"RESIDUAL": 0, "SUMS": 0, "STEP": 0}
+    # Every RESIDUAL, SUMS, STEP and WEIGH round of every solve was made for the process's
+    # FLSs at once, and every SUMS and STEP round's offers went to the radio as one block.
+    assert made_alone == {"RESIDUAL": 0, "SUMS": 0, "STEP": 0, "WEIGH": 0}
     # Each iteration is a SUMS and a STEP round; a solve's first SUMS comes before any.
     assert len(blocks) >= 2 * sum(map(sum, together.fit_iterations))
     assert set(blocks) == {120}
@@ -97,8 +98,10 @@ def test_flss_solving_together_send_and_end_as_each_solving_alone(hood, monkeypa
         assert fitted_for == [1] * 120
     if apart == "each alone":
         assert made_alone["SUMS"] > 1000 and made_alone["STEP"] > 1000
-        # Each of the 120 FLSs starts a solve of each fit and of the covariance alone.
+        # Each of the 120 FLSs starts a solve of each fit and of the covariance alone,
+        # and weighs its pairs after each fit's first solve at least.
         assert made_alone["RESIDUAL"] >= 3 * 120
+        assert made_alone["WEIGH"] >= 2 * 120
     assert together.rounds == alone.rounds
     assert together.fit_iterations == alone.fit_iterations
     assert sum(map(sum, together.fit_iterations)) > 50
