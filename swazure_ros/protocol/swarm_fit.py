@@ -369,7 +369,7 @@ class FitPart:
 
     def _labels_round(self) -> FitOffer:
         heard = self._neighbour_labels[self._sweet_rows]
-        label = min(self.label, int(heard[heard >= 0].min(initial=self.label)))
+        label = int(heard[heard >= 0].min(initial=self.label))
         changed = label != self.label or self._first
         self.label = label
         readings = None
