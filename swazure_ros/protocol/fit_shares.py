@@ -59,19 +59,19 @@ def fitted_estimates(
             fitted_estimates([one], [share], sensor, heard)[0]
             for one, share in zip(made, shares, strict=True)
         ]
-    if not made or not sum(len(one) for one in made):
+    counts = [len(one) for one in made]
+    if not sum(counts):
         return list(made)
     owns = np.stack([np.asarray(share, dtype=np.float64) for share in shares])
     size = owns.shape[1]
     targets = np.concatenate([np.asarray(one.targets, dtype=np.int64) for one in made])
     status = np.concatenate([one.status for one in made])
-    source = np.repeat(np.arange(len(made)), [len(one) for one in made])
+    source = np.repeat(np.arange(len(made)), counts)
     # Each target's share read once, whichever sources estimate it.
     wanted, target_row = np.unique(targets, return_inverse=True)
     _, offsets, values = heard.fit_of(wanted)
-    fitted = np.flatnonzero(
-        np.isin(status, (SWEET_PATH, DECAYING_PATH)) & (np.diff(offsets)[target_row] == size)
-    )
+    readable = np.diff(offsets) == size
+    fitted = np.flatnonzero(np.isin(status, (SWEET_PATH, DECAYING_PATH)) & readable[target_row])
     if not len(fitted):
         return list(made)
     layers = len(fit_layers(sensor))
@@ -79,7 +79,6 @@ def fitted_estimates(
     # Each target's fit: the sweet hops' alone (the first) for a pair with a sweet path.
     layer = np.where((layers == 1) | (status[fitted] == SWEET_PATH), 0, 1)
     # The shares as (target, fit, value) blocks, so that a pair's are a row each to copy.
-    readable = np.diff(offsets) == size
     blocks = values[offsets[:-1][readable][:, None] + np.arange(size)]
     block_of = np.cumsum(readable) - 1
     theirs = blocks.reshape(-1, layers, per_layer)[block_of[target_row[fitted]], layer]
@@ -90,7 +89,7 @@ def fitted_estimates(
     error = np.sqrt(np.trace(covariance, axis1=1, axis2=2))
     # Back to each source: its pairs are a run of the stack, in its target order.
     bounds = np.searchsorted(source[fitted], np.arange(len(made) + 1))
-    starts = np.concatenate([[0], np.cumsum([len(one) for one in made])])
+    starts = np.concatenate([[0], np.cumsum(counts)])
     out = []
     for index, one in enumerate(made):
         low, high = bounds[index], bounds[index + 1]
