@@ -346,11 +346,19 @@ def test_a_process_tells_it_was_stopped_and_went_on_once_per_stop():
             assert wait_until(lambda: process_state(child.pid) == "T", PATIENCE)
             os.kill(child.pid, signal.SIGCONT)
             looks = []
-            for _ in range(2):
+
+            def look() -> str:
                 child.stdin.write("look\n")
                 child.stdin.flush()
                 looks.append(child.stdout.readline().strip())
-            assert looks == ["True", "False"]
+                return looks[-1]
+
+            # The count is the main thread's to make, at its next bytecode; where the kernel
+            # handed the signal to another thread first, a look may come before it
+            # (process.catch_continues says so), so a busy machine gets a few looks.
+            assert wait_until(lambda: look() == "True", PATIENCE), looks
+            assert look() == "False"
+            assert looks.count("True") == 1, looks
         finally:
             child.kill()
 
