@@ -21,6 +21,7 @@ from numpy.typing import NDArray
 from ..core import csr
 from ..core.arrays import FloatArray, IdArray, IntArray
 from ..core.fit import PATH, SWARM_ESTIMATORS
+from ..core.geometry import centre_distance
 from ..core.hop_errors import hop_error
 from ..core.sensor import DECAYING, SWEET, Sensor
 from .discovery.estimate import Estimates
@@ -83,40 +84,49 @@ def implausible_labels(
     if not count:
         return why
     points = positions(path_ids.astype(np.int64, copy=False))  # uint32 as offers carry them
-    # Hop k of the flat path list runs from path_ids[k] to path_ids[k + 1], unless
-    # k + 1 starts the next path; it belongs to the label whose path holds k.
-    offset = points[1:] - points[:-1]
-    step = np.sqrt(np.einsum("...k,...k->...", offset, offset))  # as core.geometry rounds it
-    real = np.ones(len(step), dtype=bool)
-    real[path_offsets[1:-1] - 1] = False
-    tracking = np.where(real, step - 2.0 * radius, 0.0)
-    label_of_hop = csr.run_of(path_offsets)[:-1]
+    # Hop k of the flat path list runs from path_ids[k] to path_ids[k + 1], unless k + 1
+    # starts the next path. The last place has no hop: every label's hops then lie in its
+    # own places, offsets[l] .. offsets[l + 1] - 1, its last one not a hop (held at 0).
+    places = np.arange(len(points), dtype=np.int64)
+    tracking = np.zeros(len(points), dtype=np.float64)
+    np.subtract(centre_distance(points, places[:-1], places[1:]), 2.0 * radius, out=tracking[:-1])
+    not_hops = path_offsets[1:] - 1
+    tracking[not_hops] = 0.0
     classes = sensor.classify(tracking)
-    in_range = (classes == SWEET) | ((classes == DECAYING) & (phase == ANY_VISIBLE))
-    why[np.unique(label_of_hop[real & ~in_range])] = _HOP
-
-    # Per label, the sum over its hops: positions offsets[k] .. offsets[k + 1] - 2.
-    def per_label(values: FloatArray) -> FloatArray:
-        summed = np.concatenate([[0.0], np.cumsum(np.where(real, values, 0.0))])
-        return np.asarray(summed[path_offsets[1:] - 1] - summed[path_offsets[:-1]])
+    in_range = classes == SWEET
+    if phase == ANY_VISIBLE:
+        in_range |= classes == DECAYING
+    in_range[not_hops] = True
+    out = np.flatnonzero(~in_range)  # few, or none: labels are mostly true
+    why[np.searchsorted(path_offsets, out, "right") - 1] = _HOP
+    hop_errors = hop_error(sensor, tracking, radius)
+    # The published sensor's bound is its hop error itself (|t e(t)|).
+    exact = sensor.noise is None and sensor.camera is None
+    bounds = hop_errors if exact else hop_bound(sensor, tracking, radius)
+    bounds[not_hops] = 0.0  # a camera's bound is not 0 at a tracking distance of 0
+    hop_errors[not_hops] = 0.0
+    starts = path_offsets[:-1]
 
     def mark(wrong: NDArray[np.bool_], code: int) -> None:
         why[(why == 0) & wrong] = code
 
     if lengths is not None:
-        mark(~_close(lengths, per_label(tracking)), _LENGTH)
-    hop_errors = hop_error(sensor, tracking, radius)
+        mark(~_close(lengths, _per_label(tracking, starts)), _LENGTH)
     if errors is not None:
-        mark(~_close(errors, per_label(hop_errors)), _ERROR)
-    # The published sensor's bound is its hop error itself (|t e(t)|).
-    exact = sensor.noise is None and sensor.camera is None
-    bound = per_label(hop_errors if exact else hop_bound(sensor, tracking, radius))
-    start, end = points[path_offsets[:-1]], points[path_offsets[1:] - 1]
+        mark(~_close(errors, _per_label(hop_errors, starts)), _ERROR)
+    start, end = np.take(points, starts, axis=0), np.take(points, not_hops, axis=0)
     miss = vectors - (end - start)
     off = np.sqrt(np.einsum("...k,...k->...", miss, miss))
     # NaN (an S_all label sums no camera readings) compares False: it may be.
+    bound = _per_label(bounds, starts)
     mark(off > bound * (1.0 + SUM_TOLERANCE) + SUM_TOLERANCE, _VECTOR)
     return why
+
+
+def _per_label(values: FloatArray, starts: IntArray) -> FloatArray:
+    """(L,) the sums of ``values`` (P,) over each label's places, from ``starts`` (L,) (every
+    path at least one place) to the next label's start, each summed in order."""
+    return np.asarray(np.add.reduceat(values, starts), dtype=np.float64)
 
 
 def implausible(

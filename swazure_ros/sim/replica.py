@@ -86,7 +86,8 @@ class WorldReplica:
 
     def positions(self, fls_ids: IntArray) -> FloatArray:
         """(K, 3) where FLSs ``fls_ids`` are in this process's revision, cm."""
-        return self.world.swarm.points[self.world.indices(fls_ids)]
+        # take, not fancy indexing: 3x quicker for the millions of a round's path ids.
+        return np.take(self.world.swarm.points, self.world.indices(fls_ids), axis=0)
 
     @property
     def id_space(self) -> int:

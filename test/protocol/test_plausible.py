@@ -15,7 +15,12 @@ from swazure_ros.protocol.discovery.messages import (
     SWEET_VISIBLE,
     Offer,
 )
-from swazure_ros.protocol.plausible import implausible, offer_readings_check
+from swazure_ros.protocol.plausible import (
+    REASONS,
+    implausible,
+    implausible_labels,
+    offer_readings_check,
+)
 from swazure_ros.protocol.radio import RadioHub
 from swazure_ros.sim.world import WorldSpec
 
@@ -84,6 +89,52 @@ def test_a_vector_within_the_bias_of_each_hop_passes_and_just_beyond_fails(senso
     outside = label(path, sensor, vector=true + np.array([0.0, 1.01 * bound, 0.0]))
     assert implausible(inside, SWEET_VISIBLE, positions, sensor, RADIUS) is None
     assert implausible(outside, SWEET_VISIBLE, positions, sensor, RADIUS) is not None
+
+
+@pytest.mark.parametrize("phase", [SWEET_VISIBLE, ANY_VISIBLE])
+def test_a_round_s_labels_each_get_their_own_verdict(sensor, phase):
+    """Checked as one round, each label is judged by its own hops and sums alone: a forged
+    label beside honest ones, and a source's own label (a path of one FLS, no hop), first,
+    between and last, neither pass nor fail for their neighbours in the flat arrays."""
+    own = label([B], sensor)  # a source's label of itself: no hop, nothing summed
+    labels = [
+        own,
+        label([A, B, C], sensor),
+        label([A, C], sensor, vector=[4.0, 0.0, 0.0], length=3.0, error=0.1),  # blind hop
+        own,
+        label([A, D, C], sensor),  # decaying hops: in range in the decaying phase only
+        label([C, B, A], sensor, length=20.0),
+        label([C, B, A], sensor, error=0.0),
+        label([A, B], sensor, vector=SCENE[B] - SCENE[A] + [0.0, 0.0, 1.0]),
+        own,
+    ]
+    offsets = np.cumsum([0] + [len(one.path_ids) for one in labels])
+    why = implausible_labels(
+        np.concatenate([one.lengths for one in labels]),
+        np.concatenate([one.errors for one in labels]),
+        np.concatenate([one.vectors for one in labels]),
+        offsets,
+        np.concatenate([one.path_ids for one in labels]).astype(np.uint32),
+        phase,
+        positions,
+        sensor,
+        RADIUS,
+    )
+    decaying = "" if phase == ANY_VISIBLE else "a hop of a path is not in range"
+    assert [REASONS[code] for code in why] == [
+        "",
+        "",
+        "a hop of a path is not in range",
+        "",
+        decaying,
+        "a length is not its path's",
+        "an expected error is not its path's",
+        "a vector is beyond the sensor's error bounds",
+        "",
+    ]
+    # Each alone says the same.
+    alone = [implausible(one, phase, positions, sensor, RADIUS) or "" for one in labels]
+    assert alone == [REASONS[code] for code in why]
 
 
 @pytest.mark.parametrize(
