@@ -62,6 +62,7 @@ def sorted_rows(values: IntArray, wanted: ArrayLike) -> tuple[IntArray, BoolArra
         return np.zeros(len(wanted), dtype=np.int64), np.zeros(len(wanted), dtype=bool)
     if values[0] == 0 and values[-1] == count - 1:
         # Distinct and sorted from 0 to N - 1: every value is its row.
-        return np.clip(wanted, 0, count - 1), (wanted >= 0) & (wanted < count)
+        # minimum and maximum, not clip: clip's checks cost 10 us, most of a message's ids'.
+        return np.minimum(np.maximum(wanted, 0), count - 1), (wanted >= 0) & (wanted < count)
     rows = np.minimum(np.searchsorted(values, wanted), count - 1)
     return rows, values[rows] == wanted

@@ -135,19 +135,19 @@ def _labels(
     errors, vectors (K, 3) and path ids."""
     sources = np.asarray(message.source_ids, dtype=np.int64)
     # A sender offers its labels in source order, one a source (PathSearch.offer).
-    check(bool(np.all(np.diff(sources) > 0)), "sources not in increasing order, once each")
+    check(bool((sources[1:] > sources[:-1]).all()), "sources not in increasing order, once each")
     hops = np.asarray(message.hops, dtype=np.int64)
     lengths = check_finite(message.lengths, "lengths")
     errors = check_finite(message.errors, "errors")
-    check(bool(np.all(lengths >= 0) and np.all(errors >= 0)), "a negative cost")
+    check(bool((lengths >= 0).all() and (errors >= 0).all()), "a negative cost")
     vectors = check_finite(message.vectors, "vectors", allow_nan=message.phase == SWEET_ALL)
-    check(bool(np.all(np.diff(offsets) == hops + 1)), "a path is not hops + 1 FLSs long")
+    check(bool((np.diff(offsets) == hops + 1).all()), "a path is not hops + 1 FLSs long")
     path_ids = np.asarray(message.path_ids, dtype=np.uint32)  # as the wire's, as offers_of's
     # One look-up for every id: the sender's, and those of the paths (sources included).
     check_ids(np.append(path_ids, message.sender_id), swarm, "offer")
     starts, ends = path_ids[offsets[:-1]], path_ids[offsets[1:] - 1]
-    check(bool(np.all(starts == sources)), "a path does not start at its source")
-    check(bool(np.all(ends == message.sender_id)), "a path does not end at the sender")
+    check(bool((starts == sources).all()), "a path does not start at its source")
+    check(bool((ends == message.sender_id).all()), "a path does not end at the sender")
     return sources, hops, lengths, errors, vectors.reshape(-1, 3), path_ids
 
 
