@@ -137,6 +137,36 @@ def test_a_round_s_labels_each_get_their_own_verdict(sensor, phase):
     assert alone == [REASONS[code] for code in why]
 
 
+def test_under_a_camera_a_vector_may_miss_by_each_hop_s_length_and_no_more(sensor):
+    """A rendering camera has no error model: a hop may be off by its centre distance
+    (t + 2r), and a path by the sum over its hops. The place that ends a path is not a hop
+    and lends no slack, though a camera's bound at a tracking distance of 0 is 2r."""
+    from swazure_ros.files.reading import config_dir
+    from swazure_ros.files.sensors import load_camera
+
+    camera = load_camera(config_dir() / "cameras" / "rpi-camera-module-3-wide.yaml")
+    under_camera = replace(sensor, camera=camera)
+    path = [A, B, C]
+    hops = np.linalg.norm(np.diff(SCENE[path], axis=0), axis=1) - 2 * RADIUS
+    slack = (hops + 2 * RADIUS).sum()
+    true = SCENE[C] - SCENE[A]
+
+    def verdict(path, vector):
+        return implausible(
+            label(path, under_camera, vector=vector),
+            SWEET_VISIBLE,
+            positions,
+            under_camera,
+            RADIUS,
+        )
+
+    assert verdict(path, true + np.array([0.0, 0.0, 0.99 * slack])) is None
+    # 2r more than the hops allow: what the path's last place would lend if it counted.
+    beyond = "a vector is beyond the sensor's error bounds"
+    assert verdict(path, true + np.array([0.0, 0.0, slack + RADIUS])) == beyond
+    assert verdict([B], [0.0, 0.0, RADIUS]) == beyond  # a source's own label: no hop at all
+
+
 @pytest.mark.parametrize(
     "sensor_file", ["config/sensor.yaml", "config/cameras/sensor-wide-calibrated.yaml"]
 )
