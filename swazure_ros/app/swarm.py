@@ -31,13 +31,13 @@ from ..core.evaluation import Evaluation
 from ..core.fit import LOCAL_LEAST_SQUARES, PATH
 from ..files.record import BringUp
 from ..protocol.runs import (
-    LABEL_MEMORY,
     DiscoveryResult,
     MoveResult,
     merged,
     next_block,
     next_block_size,
     sources_per_run,
+    swarm_label_memory,
 )
 from ..ros.nodes.coordinator import Coordinator, Future
 from ..ros.nodes.view import ViewNode
@@ -260,18 +260,20 @@ class RunningSwarm:
         on_progress: Callable[[str], None] | None = None,
         estimator: str = PATH,
         per_run: int | None = None,
-        label_memory: int = LABEL_MEMORY,
+        label_memory: int | None = None,
     ) -> DiscoveryResult:
         """Run discovery for every FLS and blind neighbour; sources estimate by ``estimator``.
 
         The sources search in runs of ``per_run`` at most; by default, the
-        first run's as many as ``label_memory`` allows were every FLS to hold
-        every source's label (:meth:`first_block`), and each later run's as
-        many as the memory the run before took allows
-        (``protocol.runs.next_block_size``). The result is theirs together.
+        first run's as many as ``label_memory`` (bytes; by default
+        :attr:`label_memory`) allows were every FLS to hold every source's
+        label (:meth:`first_block`), and each later run's as many as the memory
+        the run before took allows (``protocol.runs.next_block_size``). The
+        result is theirs together.
         """
         coordinator = self._coordinator
-        first, left_ids = self.first_block(per_run, label_memory, estimator)
+        memory = self.label_memory if label_memory is None else label_memory
+        first, left_ids = self.first_block(per_run, memory, estimator)
         size, whole = len(first), len(left_ids)
         deadline = None if timeout is None else time.monotonic() + timeout
         results: list[DiscoveryResult] = []
@@ -286,19 +288,26 @@ class RunningSwarm:
             results.append(self.run(run, left, on_progress=told))
             left_ids = rest
             if per_run is None:
-                size = next_block_size(len(block), results[-1].outcome.label_bytes, label_memory)
+                size = next_block_size(len(block), results[-1].outcome.label_bytes, memory)
         return merged(results)
 
     def first_block(
-        self, per_run: int | None = None, label_memory: int = LABEL_MEMORY, estimator: str = PATH
+        self, per_run: int | None = None, label_memory: int | None = None, estimator: str = PATH
     ) -> tuple[tuple[int, ...], tuple[int, ...]]:
         """(the sources of :meth:`discover`'s first run, every live FLS's id), ascending."""
         coordinator = self._coordinator
         live = tuple(sorted(coordinator.fls_ids - coordinator.departed_next()))
         # A run whose sources estimate by local least squares sums fits in its labels too.
         fits = estimator == LOCAL_LEAST_SQUARES
-        size = per_run or sources_per_run(len(coordinator.fls_ids), label_memory, fits)
+        memory = self.label_memory if label_memory is None else label_memory
+        size = per_run or sources_per_run(len(coordinator.fls_ids), memory, fits)
         return (next_block(live, size)[0] if live else ()), live
+
+    @property
+    def label_memory(self) -> int:
+        """The labels a whole-swarm discovery keeps at once by default, bytes, all shares
+        together (``protocol.runs.swarm_label_memory``)."""
+        return swarm_label_memory(max(self.config.processes, self.config.hosts))
 
     def make_moves(
         self,

@@ -160,9 +160,10 @@ def _add_compute_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="with --compute-all: search for at most N sources' targets in one discovery run, "
         "in runs one after the other; each FLS keeps labels for a run's sources only "
-        "(default: as many as 1 GiB of labels hold, all of a published shape's; for a "
-        "larger swarm, the first run's as if every FLS held every source's label, each "
-        "later run's by the memory the labels of the run before took)",
+        "(default: as many as 1 GiB of labels hold, or 512 MiB a process over three or "
+        "more processes or hosts, all of a published shape's; for a larger swarm, the "
+        "first run's as if every FLS held every source's label, each later run's by the "
+        "memory the labels of the run before took)",
     )
     parser.add_argument(
         "--out",

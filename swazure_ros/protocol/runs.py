@@ -76,6 +76,24 @@ class MoveResult:
 #: sent, about three times its tables' bytes more (BENCHMARKS.md, "A label's vector
 #: summed when it is sent").
 LABEL_MEMORY = 1024**3
+#: The labels each share of a swarm over three or more processes or hosts keeps at once,
+#: bytes (:func:`swarm_label_memory`): what each of two shares keeps of LABEL_MEMORY.
+#: torus:30000 over four so took 18 blocks, not 35, and a third less time, its shares
+#: at 2.4-2.6 GB, not 1.8-1.9, and its launcher at 3.95 GB, 3.90 before, in its comparison
+#: with the engine (BENCHMARKS.md, "Where a block's label memory goes").
+SHARE_LABEL_MEMORY = 512 * 1024**2
+
+
+def swarm_label_memory(shares: int) -> int:
+    """The labels a whole-swarm discovery over ``shares`` processes or hosts keeps at once, all
+    together, bytes: :data:`LABEL_MEMORY`, or :data:`SHARE_LABEL_MEMORY` a share where
+    that is more.
+
+    Each share holds the label rows of its own FLSs only, so a swarm spread over
+    more shares may hold more labels at once, in larger blocks of fewer rounds,
+    each share no more than one of two does.
+    """
+    return max(LABEL_MEMORY, max(shares, 1) * SHARE_LABEL_MEMORY)
 
 
 def sources_per_run(fls_count: int, label_memory: int = LABEL_MEMORY, fits: bool = False) -> int:

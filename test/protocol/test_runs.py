@@ -5,6 +5,8 @@ from swazure_ros.protocol.discovery.labels import LabelTable
 from swazure_ros.protocol.discovery.links import Links
 from swazure_ros.protocol.rounds import Outcome
 from swazure_ros.protocol.runs import (
+    LABEL_MEMORY,
+    SHARE_LABEL_MEMORY,
     DiscoveryResult,
     Traffic,
     merged,
@@ -12,6 +14,7 @@ from swazure_ros.protocol.runs import (
     next_block_size,
     source_blocks,
     sources_per_run,
+    swarm_label_memory,
 )
 
 
@@ -62,6 +65,17 @@ def test_the_next_block_grows_as_far_as_the_last_blocks_labels_leave_memory_for(
     # Never smaller than the last, and the last again when nothing was measured.
     assert next_block_size(100, 10**8, label_memory=16 * 10**6) == 100
     assert next_block_size(100, 0, label_memory=16 * 10**6) == 100
+
+
+def test_a_swarm_over_more_shares_keeps_more_labels_and_each_share_what_one_of_two_does():
+    # One process or two: the swarm's 1 GiB, half a share of two.
+    assert swarm_label_memory(1) == swarm_label_memory(2) == LABEL_MEMORY
+    assert LABEL_MEMORY == 2 * SHARE_LABEL_MEMORY
+    # Four shares of torus:30000 hold twice the labels at once, in blocks twice as large,
+    # each share as many labels as one of two holds.
+    assert swarm_label_memory(4) == 2 * LABEL_MEMORY
+    assert sources_per_run(30_000, swarm_label_memory(4)) // 2 == sources_per_run(30_000)
+    assert swarm_label_memory(0) == LABEL_MEMORY
 
 
 def _result(run_id, estimates, rounds, traffic, departed=(), incomplete=False, label_bytes=0):
