@@ -18,6 +18,7 @@ from swazure_ros.core.observe import observations
 from swazure_ros.core.sensor import BLIND, SWEET
 from swazure_ros.protocol.cells import BANDS, DECAYING_BAND, SWEET_BAND, radio_cells
 from swazure_ros.protocol.discovery.reported import evaluation_of
+from swazure_ros.protocol.runs import SHARE_LABEL_MEMORY
 from swazure_ros.ros.plumbing.names import RADIO_TOPIC, WALKS_TOPIC, host_name, radio_topic
 from swazure_ros.sim.world import WorldSpec
 
@@ -136,6 +137,8 @@ def test_every_process_holds_only_its_own_flss_pairs_and_rows_yet_the_run_equals
         computed = compute_all(swarm, POLICY)
         shares_ids = swarm.processes.shares
         held = [swarm.world.held(), *swarm.processes.held()]
+        # Each share holds its own FLSs' labels: three of them hold what each of two does.
+        assert swarm.label_memory == 3 * SHARE_LABEL_MEMORY
     assert computed.record.comparison is not None and computed.record.comparison.identical
     assert computed.evaluation is None  # no process held every pair's results
     world = spec.build()  # the whole swarm's, built here to count against
