@@ -93,7 +93,7 @@ def swarm_label_memory(shares: int) -> int:
     more shares may hold more labels at once, in larger blocks of fewer rounds,
     each share no more than one of two does.
     """
-    return max(LABEL_MEMORY, max(shares, 1) * SHARE_LABEL_MEMORY)
+    return max(LABEL_MEMORY, shares * SHARE_LABEL_MEMORY)
 
 
 def sources_per_run(fls_count: int, label_memory: int = LABEL_MEMORY, fits: bool = False) -> int:
