@@ -219,8 +219,9 @@ def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, 
             # The writer's side of the match is all the graph shows: the echo's side can
             # follow a few rounds later (its reader then starts at the writer's next
             # offer), and on a loaded machine the echo prints seconds behind. So the
-            # swarm runs until the echo has shown every FLS of the cell, a run at a time.
-            for _ in range(3):
+            # swarm runs until the echo has shown every FLS of the cell, a run at a time (a
+            # loaded clone's suite once saw three runs go by with one FLS of the cell unshown).
+            for _ in range(6):
                 sent += swarm.discover(POLICY).traffic.messages[RADIO_TOPIC]
                 if wait_until(lambda: inside <= set(senders()), 30.0, lambda: swarm.spin(0.1)):
                     break
