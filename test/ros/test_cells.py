@@ -196,7 +196,11 @@ def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, 
 
     with RunningSwarm.start(config) as swarm:
         # A person watching one cell: its offers cross DDS because someone now reads them.
+        # Every offer, as docs/protocol.md says to ask: echo's default (sensor_data) keeps
+        # the last 5, so an echo that prints behind a round's burst drops offers (with
+        # it, one FLS went unshown for three runs in a loaded clone's suite, 2026-12-07).
         echo = start("topic", "echo", topic, "swazure_interfaces/msg/PathOffer",
+                     "--qos-reliability", "reliable", "--qos-history", "keep_all",
                      "--field", "sender_id")  # fmt: skip
         reader = threading.Thread(target=lambda: printed.extend(echo.stdout), daemon=True)
         reader.start()
@@ -219,8 +223,7 @@ def test_ros2_topic_echo_of_a_cell_shows_what_its_flss_send(ros2_tools, domain, 
             # The writer's side of the match is all the graph shows: the echo's side can
             # follow a few rounds later (its reader then starts at the writer's next
             # offer), and on a loaded machine the echo prints seconds behind. So the
-            # swarm runs until the echo has shown every FLS of the cell, a run at a time (a
-            # loaded clone's suite once saw three runs go by with one FLS of the cell unshown).
+            # swarm runs until the echo has shown every FLS of the cell, a run at a time.
             for _ in range(6):
                 sent += swarm.discover(POLICY).traffic.messages[RADIO_TOPIC]
                 if wait_until(lambda: inside <= set(senders()), 30.0, lambda: swarm.spin(0.1)):
