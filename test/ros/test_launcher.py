@@ -36,6 +36,7 @@ from .helpers import (
     ECHO_LATCHED,
     LATCHED,
     ROS2_CALL_TIMEOUT,
+    ask_ros2,
     assert_matches,
     echo_first,
     engine_expectations,
@@ -386,23 +387,15 @@ def test_real_ros2_cli_sees_nodes_topic_and_service(ros2_cli, running_swarm):
     assert distances and all(0 < distance < 0.5 for distance in distances), echoed
     source = next(line for line in echoed.splitlines() if line.startswith("source_id:"))
     assert f"frame_id: fls_{source.split(':')[1].strip()}" in echoed, echoed
-    call = ros2(
-        "service",
-        "call",
-        "/swarm/fls_0/get_neighbours",
-        "swazure_interfaces/srv/GetNeighbours",
-        "{fls_id: 0}",
-    )
+    asked = ("service", "call", "/swarm/fls_0/get_neighbours",
+             "swazure_interfaces/srv/GetNeighbours", "{fls_id: 0}")  # fmt: skip
+    call = ask_ros2(lambda timeout: ros2(*asked, timeout=timeout))
     assert call.returncode == 0, call.stderr
     assert "success=True" in call.stdout
     # Its process's host node answers for it too, with the same response.
-    hosted = ros2(
-        "service",
-        "call",
-        "/swarm/host_0/get_neighbours",
-        "swazure_interfaces/srv/GetNeighbours",
-        "{fls_id: 0}",
-    )
+    hosted_asked = ("service", "call", "/swarm/host_0/get_neighbours",
+                    "swazure_interfaces/srv/GetNeighbours", "{fls_id: 0}")  # fmt: skip
+    hosted = ask_ros2(lambda timeout: ros2(*hosted_asked, timeout=timeout))
     assert hosted.returncode == 0, hosted.stderr
     assert response_line(hosted.stdout) == response_line(call.stdout), hosted.stdout
 
@@ -426,13 +419,10 @@ def test_real_ros2_service_call_computes_a_pose_and_echo_shows_the_estimates(
     path = ", ".join(str(int(world.ids[k])) for k in engine.path(pair))
 
     def call() -> None:
-        answer = ros2(
-            "service",
-            "call",
-            "/swarm/coordinator/compute_pose",
-            "swazure_interfaces/srv/ComputePose",
-            f"{{source_id: {source}, target_id: {target}, policy: 1}}",
-        )
+        asked = ("service", "call", "/swarm/coordinator/compute_pose",
+                 "swazure_interfaces/srv/ComputePose",
+                 f"{{source_id: {source}, target_id: {target}, policy: 1}}")  # fmt: skip
+        answer = ask_ros2(lambda timeout: ros2(*asked, timeout=timeout))
         assert answer.returncode == 0, answer.stderr
         assert "success=True" in answer.stdout, answer.stdout
         assert (

@@ -39,6 +39,7 @@ from ...waits import PATIENCE, wait_until
 from ..helpers import (
     ECHO_LATCHED,
     ROS2_CALL_TIMEOUT,
+    ask_ros2,
     echo_first,
     long_lease_environment,
     run_ros2,
@@ -48,9 +49,6 @@ VENV = Path(sys.executable).parents[1]
 ROS2 = VENV / "bin" / "ros2"
 TRIO = REPO / "config" / "swarms" / "trio.yaml"
 TRIO_ARGS = ["--cloud", str(REPO / "config/track/trio.xyz"), "--radius", "0.5"]
-#: How long one `ros2 param` call may take before it counts as hung (seconds): it starts,
-#: finds the node within its 10 s and answers in well under this on a loaded machine.
-PARAM_CALL_TIMEOUT = 60.0
 
 
 @pytest.fixture
@@ -108,7 +106,11 @@ def compute_pose(source: int, target: int, timeout: float = PATIENCE):
     request = f"{{source_id: {source}, target_id: {target}, policy: 1}}"
     command = ("service", "call", "/swarm/coordinator/compute_pose",
                "swazure_interfaces/srv/ComputePose", request)  # fmt: skip
-    return until(lambda: ros2(*command), lambda result: "success=True" in result.stdout, timeout)
+    return ask_ros2(
+        lambda call_timeout: ros2(*command, timeout=call_timeout),
+        lambda result: "success=True" in result.stdout,
+        timeout,
+    )
 
 
 def nodes() -> list[str]:
@@ -122,19 +124,14 @@ def param(
 
     Each `ros2 --no-daemon` call discovers the graph anew, and waits ``--timeout`` seconds
     (1 by default) for the node; on a loaded machine that can miss a node `ros2 node list`
-    has just shown ("Node not found"). The call waits 10 s, and a person asks again.
-    A person also presses Ctrl-C and asks again when the call hangs: ros2param spins
-    for the parameter service's response with no deadline, and a response lost while
-    the two ends still match (ros2/system_tests#420) leaves it waiting for good. CI saw
-    this once through a Discovery Server (2026-12-07): killed after 120 s, nothing said.
-    Asking again is safe: every call here gets, or sets a value already chosen.
+    has just shown ("Node not found"). The call waits 10 s, and a person asks again, as
+    when it hangs (helpers.ask_ros2).
     """
     command = ("param", verb, "--no-daemon", "--timeout", "10", node, name, *value)
-
-    def answered(result: subprocess.CompletedProcess[str]) -> bool:
-        return result.returncode != -signal.SIGKILL and "Node not found" not in result.stderr
-
-    return until(lambda: ros2(*command, timeout=PARAM_CALL_TIMEOUT), answered)
+    return ask_ros2(
+        lambda timeout: ros2(*command, timeout=timeout),
+        lambda result: "Node not found" not in result.stderr,
+    )
 
 
 def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2_tools, domain):
@@ -189,10 +186,10 @@ def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2
             helped = ros2("run", "swazure_ros", program, "--help")
             assert helped.returncode == 0, helped
             listing = ("param", "list", "--no-daemon", "--spin-time", "2", node)
-            listed = until(
-                lambda: ros2(*listing, timeout=PARAM_CALL_TIMEOUT).stdout.split(),  # noqa: B023
-                bool,
-            )
+            listed = ask_ros2(
+                lambda timeout: ros2(*listing, timeout=timeout),  # noqa: B023
+                lambda result: bool(result.stdout.split()),
+            ).stdout.split()
             ours = set(listed) - {"use_sim_time", "start_type_description_service"}
             arguments = {name: "--" + name.replace("_", "-").replace(".", "-") for name in ours}
             assert ours and all(
