@@ -4,6 +4,7 @@ for their FLSs: ``spawn --neighbour-services``)."""
 
 from __future__ import annotations
 
+import math
 import re
 import time
 from collections.abc import Callable
@@ -31,6 +32,12 @@ from ..plumbing.process import init_context
 #: its timeout: a swarm that is coming up shows its nodes long before its coordinator.
 #: Not less: a loaded 2-core machine took over 3 s to discover a running swarm's nodes.
 NOTHING_THERE = 10.0
+#: Seconds a question that is answered at once (GetNeighbours) waits before it asks
+#: again, doubled each time. A response can be lost while both ends still match: the
+#: server's reply waits a moment for the asker's reader and is dropped without it
+#: (ros2/system_tests#420; a loaded CI machine's `ros2 param get` waited for one for
+#: good). The answer is the same each time, so asking again costs a slow FLS little.
+ASK_AGAIN = 5.0
 
 
 def _swarm_nodes(node: SwarmNode, namespace: str) -> list[str]:
@@ -90,23 +97,46 @@ class SwarmQueries:
         self.node.destroy_node()  # type: ignore[no-untyped-call]
         self.context.try_shutdown()
 
-    def _call(self, kind: Any, service: str, who: str, request: Any, timeout: float) -> Any:
+    def _call(
+        self,
+        kind: Any,
+        service: str,
+        who: str,
+        request: Any,
+        timeout: float,
+        ask_again: float | None = None,
+    ) -> Any:
         """``request``'s response from ``service`` within ``timeout`` s; RunError otherwise.
 
         Gives up early, whatever the timeout, when no node of the swarm shows at all
-        (NOTHING_THERE): ``who`` names what did not answer.
+        (NOTHING_THERE): ``who`` names what did not answer. With ``ask_again`` (s), a
+        request not answered by then is sent again, then after twice as long, and so
+        on: the first answer to any of them is taken (for a request whose answer is the
+        same each time, and cheap: not a discovery run).
         """
         client = self._clients.get(service)
         if client is None:
             client = self._clients[service] = self.node.create_client(kind, service)
         deadline = time.monotonic() + timeout
         self._wait(client.service_is_ready, who, service, timeout)
-        future: Any = client.call_async(request)
-        while not future.done():
-            if time.monotonic() > deadline:
-                raise RunError(f"{service}: no answer within {timeout:g} s")
-            self._spin()
-        return future.result()
+        futures: list[Any] = [client.call_async(request)]
+        period = math.inf if ask_again is None else ask_again
+        again = time.monotonic() + period
+        try:
+            while not any(future.done() for future in futures):
+                now = time.monotonic()
+                if now > deadline:
+                    raise RunError(f"{service}: no answer within {timeout:g} s")
+                if now > again:
+                    futures.append(client.call_async(request))
+                    period *= 2
+                    again = now + period
+                self._spin()
+            return next(future for future in futures if future.done()).result()
+        finally:
+            for future in futures:
+                if not future.done():  # a late answer to it is dropped (rclpy)
+                    client.remove_pending_request(future)
 
     def _wait(self, ready: Callable[[], object], who: str, what: str, timeout: float) -> None:
         """Spin until ``ready()``; RunError naming ``who`` and ``what`` after ``timeout`` s.
@@ -200,7 +230,7 @@ class SwarmQueries:
         """
         for service in services:
             left = max(deadline - time.monotonic(), 0.0)
-            response = self._call(GetNeighbours, service, who, request, left)
+            response = self._call(GetNeighbours, service, who, request, left, ASK_AGAIN)
             if response.success:
                 return response
             if service == own:
