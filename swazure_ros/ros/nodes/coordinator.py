@@ -410,6 +410,8 @@ class Coordinator(SwarmNode):
             self._act(machine.on_tick(self._now()))
 
     def _on_liveness(self) -> None:
+        if not self._liveness.due():
+            return  # a large swarm's graph is looked at less often (liveness.LOOK_SHARE)
         membership = self.membership
         # On the deadlines' clock: an absence does not grow while this process stalls.
         newly = self._liveness.look(membership.gone, self._now())

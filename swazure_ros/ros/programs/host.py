@@ -188,8 +188,9 @@ class SwarmHost:
     def _watch_graph(self) -> None:
         """Liveness from the graph: FLS nodes gone (replica.gone), and the coordinator."""
         namespace = self._liveness.namespace
-        self.replica.gone |= self._liveness.look(self.replica.gone)
-        self.replica.gone -= self._liveness.back
+        if self._liveness.due():  # a large swarm's graph is looked at less often
+            self.replica.gone |= self._liveness.look(self.replica.gone)
+            self.replica.gone -= self._liveness.back
         nodes = self._liveness.nodes
         now = time.monotonic()
         if self.radio is None:

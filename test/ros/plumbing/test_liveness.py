@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
-from swazure_ros.ros.plumbing.liveness import FlsLiveness
+import pytest
+
+from swazure_ros.ros.plumbing import liveness as liveness_module
+from swazure_ros.ros.plumbing.liveness import LOOK_SHARE, FlsLiveness, look_interval
 
 from ...waits import PATIENCE, wait_until
 from ..conftest import make_context
@@ -33,3 +36,36 @@ def test_an_fls_node_off_the_graph_is_gone_after_the_grace_on_the_lookers_clock(
         looker.destroy_node()
         looker_context.try_shutdown()
         fls_context.try_shutdown()
+
+
+@pytest.mark.parametrize(
+    ("look_seconds", "grace", "interval"),
+    [
+        (0.0005, 2.0, 0.0005 / LOOK_SHARE),  # a small swarm: looked at as often as asked
+        (0.03, 2.0, 0.03 / LOOK_SHARE),  # torus:30000's graph: a look every 1.5 s
+        (0.1, 2.0, 2.0),  # never less often than the grace: a gone FLS is seen within 2x
+        (0.03, 0.0, 0.0),  # no grace: every tick looks
+    ],
+)
+def test_a_look_that_takes_longer_is_made_less_often_up_to_the_grace(
+    look_seconds, grace, interval
+):
+    assert look_interval(look_seconds, grace) == pytest.approx(interval)
+
+
+def test_a_look_is_not_due_again_until_its_interval_has_passed(domain, monkeypatch):
+    from rclpy.node import Node
+
+    # Every look as costly as can be: the next waits the whole grace (5 s).
+    monkeypatch.setattr(liveness_module, "LOOK_SHARE", 1e-12)
+    context = make_context(domain)
+    looker = Node("coordinator", namespace="swarm", context=context)
+    liveness = FlsLiveness(looker, "swarm", grace=5.0)
+    try:
+        assert liveness.due()  # never looked
+        liveness.look(set())
+        assert not liveness.due()
+        assert wait_until(liveness.due, PATIENCE)
+    finally:
+        looker.destroy_node()
+        context.try_shutdown()
