@@ -338,7 +338,7 @@ class Coordinator(SwarmNode):
             if not self.hosts_matched() and waited < self.round_timeout:
                 return  # the tick tries again
             # A run starts from what the graph shows now, not at the last look.
-            self._on_liveness()
+            self._look_at_graph()
             if not self.key.active:
                 self._retry_silent()
             machine = self.runs.begin_next(self.traffic)
@@ -410,8 +410,10 @@ class Coordinator(SwarmNode):
             self._act(machine.on_tick(self._now()))
 
     def _on_liveness(self) -> None:
-        if not self._liveness.due():
-            return  # a large swarm's graph is looked at less often (liveness.LOOK_SHARE)
+        if self._liveness.due():  # a large swarm's graph is looked at less often
+            self._look_at_graph()
+
+    def _look_at_graph(self) -> None:
         membership = self.membership
         # On the deadlines' clock: an absence does not grow while this process stalls.
         newly = self._liveness.look(membership.gone, self._now())
