@@ -20,7 +20,9 @@ LOOK_SHARE = 0.02
 def look_interval(look_seconds: float, grace: float) -> float:
     """The least time between two looks at the graph, s, after one that took ``look_seconds``
     of its thread's CPU: within :data:`LOOK_SHARE` of the thread, and never longer than
-    the ``grace`` an absence must last, so that an FLS gone is seen within twice that.
+    the ``grace`` an absence must last, so that an FLS gone is seen within the grace and
+    two such intervals (three times the grace at most; with looks half a second apart it
+    was the grace and a second).
 
     Examples
     --------
