@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import socket
 import subprocess
 import threading
 from collections.abc import Callable
@@ -154,6 +155,19 @@ def start_ros2(command: list[str], environment: dict[str, str]) -> subprocess.Po
         env=environment,
         start_new_session=True,
     )
+
+
+def free_udp_port() -> int:
+    """A UDP port that nothing on this machine holds now, for a test's Discovery Server.
+
+    The kernel's choice, from its ephemeral range (from 32768): above every port Fast DDS
+    derives for the suite's domains (1-100: 7400 + 250 x domain + a few hundred). A port
+    derived from the domain, as ``11811 + domain`` was, fell among the ports a test held
+    for the same domain's participants (domain 17: 11828, a fresh clone's suite, 2026-12-07).
+    """
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        probe.bind(("127.0.0.1", 0))
+        return int(probe.getsockname()[1])
 
 
 #: Wall s one ros2 CLI command may take: seconds as a rule, tens on a loaded machine.

@@ -20,6 +20,7 @@ from swazure_ros.ros.plumbing.participants import PROFILE, profile_environment
 
 from ...conftest import REPO
 from ...waits import PATIENCE
+from ..helpers import free_udp_port
 
 TRIO = REPO / "config" / "swarms" / "trio.yaml"
 #: Fast DDS's port mapping (RTPS 2.2, 9.6.1.1): a domain's ports begin at PB + DG * domain,
@@ -56,6 +57,7 @@ def test_a_swarm_comes_up_on_a_host_where_a_hundred_and_one_participants_hold_it
     # Every metatraffic port Fast DDS would try by default is held (by this test, not by
     # 101 processes): the launcher (the world in it) and each FLS process must find one further on.
     start = PORT_BASE + DOMAIN_GAIN * domain + METATRAFFIC_UNICAST
+    server_port = free_udp_port()  # not among the ports held below (11811 + 17 was)
     with ExitStack() as held:
         for participant in range(DEFAULT_IDS):
             port = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -66,7 +68,7 @@ def test_a_swarm_comes_up_on_a_host_where_a_hundred_and_one_participants_hold_it
         spawn = subprocess.run(
             [sys.executable, "-m", "swazure_ros.cli.main", "spawn", str(TRIO), "--per-fls",
              # Through a server: a participant without a metatraffic port hears nothing.
-             "--discovery-server", f"127.0.0.1:{11811 + domain}",
+             "--discovery-server", f"127.0.0.1:{server_port}",
              "--log-dir", str(tmp_path), "--until-ready", "--quiet",
              "--discovery-timeout", str(PATIENCE)],
             capture_output=True, text=True, timeout=PATIENCE + 120,

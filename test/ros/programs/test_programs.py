@@ -41,6 +41,7 @@ from ..helpers import (
     ROS2_CALL_TIMEOUT,
     ask_ros2,
     echo_first,
+    free_udp_port,
     long_lease_environment,
     run_ros2,
 )
@@ -212,7 +213,7 @@ def test_ros2_run_brings_up_a_swarm_that_ros2_param_and_ros2_service_answer(ros2
 def test_ros2_as_a_super_client_sees_fls_processes_that_discover_through_a_server(
     ros2_tools, domain, tmp_path, monkeypatch
 ):
-    server = f"127.0.0.1:{11811 + domain}"  # a port of this test's own
+    server = f"127.0.0.1:{free_udp_port()}"  # a port of this test's own
     spawn = subprocess.Popen(
         [sys.executable, "-m", "swazure_ros.cli.main", "spawn", str(TRIO), "--per-fls",
          "--discovery-server", server, "--log-dir", str(tmp_path), "--quiet"],
@@ -332,7 +333,7 @@ def test_ros2_run_refuses_a_startup_parameter_given_with_p_naming_its_argument(
 def test_ros2_launch_one_process_per_fls_computes_the_engines_pose(
     ros2_tools, domain, discovery, monkeypatch, tmp_path
 ):
-    server = f"127.0.0.1:{11811 + domain}"
+    server = f"127.0.0.1:{free_udp_port()}"
     through = [f"discovery_server:={server}"] if discovery == "server" else []
     # The example by its bare name, found in the installed share folder from any folder.
     launch = start("launch", "swazure_ros", "swarm.launch.py", "swarm:=trio", "mode:=per_fls",
